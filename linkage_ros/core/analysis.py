@@ -1,0 +1,220 @@
+"""Mobility and range analysis of planar linkages (pure numpy / math).
+
+Four-bar conventions as in :mod:`linkage_ros.core.fourbar`: ground l1 = |O2O4| with O2 at the
+origin and O4 at (l1, 0), input crank l2 = |O2A| at theta2, coupler l3 = |AB|, output rocker
+l4 = |O4B| at theta4.  Lengths in any consistent unit, angles in radians counter-clockwise
+from +x.
+
+Range results are exact (closed form).  The only geometry used: |A - O4| depends on theta2
+alone, |A - O4|^2 = l1^2 + l2^2 - 2 l1 l2 cos(theta2), and the dyad A-B-O4 closes iff
+|l3 - l4| <= |A - O4| <= l3 + l4.  The equalities are the toggle positions (coupler and rocker
+collinear).  The same holds for the output with |B - O2|^2 = l1^2 + l4^2 + 2 l1 l4 cos(theta4)
+and the band [|l2 - l3|, l2 + l3].
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .fourbar import TANGENCY_TOL, angle_opposite
+
+#: Relative tolerance (of the sum of the four lengths) for the Grashof equality s + l = p + q.
+GRASHOF_TOL = 1e-12
+
+_TWO_PI = 2.0 * math.pi
+
+
+def kutzbach_dof(n_links: int, n_lower_pairs: int, n_higher_pairs: int = 0) -> int:
+    """Kutzbach (Gruebler) mobility of a planar mechanism: 3(n - 1) - 2 j1 - j2.
+
+    ``n_links`` counts the ground link; ``n_lower_pairs`` are full joints (revolute or
+    prismatic, 2 constraints each); ``n_higher_pairs`` are half joints (1 constraint each).
+    """
+    return 3 * (int(n_links) - 1) - 2 * int(n_lower_pairs) - int(n_higher_pairs)
+
+
+@dataclass(frozen=True)
+class GrashofInfo:
+    """Grashof classification of a four-bar (see :func:`grashof_info`)."""
+
+    klass: str                   #: "crank-rocker", "double-crank", "grashof-double-rocker", "change-point" or "triple-rocker"
+    input_fully_rotates: bool    #: the input crank l2 turns 360 deg relative to the ground
+    output_fully_rotates: bool   #: the output link l4 turns 360 deg relative to the ground
+    s: float                     #: shortest length
+    l: float                     #: longest length
+    p: float                     #: the smaller of the two intermediate lengths
+    q: float                     #: the larger of the two intermediate lengths
+    assemblable: bool = True     #: l <= s + p + q (otherwise no configuration exists at all)
+
+
+def _rotates(g: float, c: float, m: float, n: float, tol: float) -> bool:
+    """Does link c (pinned to ground g) turn fully, with m, n the two links of the far dyad?
+
+    The distance from the far end of c to the far ground pivot sweeps [|g - c|, g + c]; the dyad
+    (m, n) spans it for every angle iff that sweep lies inside [|m - n|, m + n].
+    """
+    return (g + c <= m + n + tol) and (abs(g - c) >= abs(m - n) - tol)
+
+
+def grashof_info(l1: float, l2: float, l3: float, l4: float) -> GrashofInfo:
+    """Grashof classification of the four-bar with ground l1, input l2, coupler l3, output l4.
+
+    With s, l the shortest and longest links and p <= q the other two:
+
+    * s + l < p + q (Grashof): shortest is the ground -> "double-crank"; shortest is the input
+      or output (adjacent to the ground) -> "crank-rocker" (which one turns fully is in
+      ``input_fully_rotates`` / ``output_fully_rotates``); shortest is the coupler ->
+      "grashof-double-rocker".
+    * s + l = p + q within ``GRASHOF_TOL`` of the sum of the four lengths -> "change-point".
+    * s + l > p + q -> "triple-rocker" (non-Grashof: no link turns fully).
+
+    The rotation flags are computed from the exact reachability condition of each ground link
+    (see :func:`_rotates`), which agrees with the rule above and also settles the ties of the
+    change-point case (e.g. a parallelogram: both turn fully).
+    """
+    lengths = [float(l1), float(l2), float(l3), float(l4)]
+    if not all(math.isfinite(v) and v > 0 for v in lengths):
+        raise ValueError(f'four-bar lengths must be finite and > 0, got {lengths}')
+    s, p, q, lng = sorted(lengths)
+    tol = GRASHOF_TOL * sum(lengths)
+    excess = (s + lng) - (p + q)
+    if abs(excess) <= tol:
+        klass = 'change-point'
+    elif excess > 0:
+        klass = 'triple-rocker'
+    else:
+        # Grashof with a strict inequality: the shortest link is unique (two equal shortest
+        # links would need l < q), so index() is unambiguous.
+        shortest = lengths.index(s)
+        klass = {0: 'double-crank', 1: 'crank-rocker', 2: 'grashof-double-rocker',
+                 3: 'crank-rocker'}[shortest]
+    return GrashofInfo(
+        klass=klass,
+        input_fully_rotates=_rotates(lengths[0], lengths[1], lengths[2], lengths[3], tol),
+        output_fully_rotates=_rotates(lengths[0], lengths[3], lengths[1], lengths[2], tol),
+        s=s, l=lng, p=p, q=q,
+        assemblable=lng <= (s + p + q) + tol,
+    )
+
+
+def grashof_class(l1: float, l2: float, l3: float, l4: float) -> str:
+    """Grashof class string of the four-bar, see :func:`grashof_info`."""
+    return grashof_info(l1, l2, l3, l4).klass
+
+
+def _angle_intervals(g: float, c: float, m: float, n: float):
+    """Reachable angles phi [rad] of link c about its ground pivot, phi measured from the
+    direction towards the other ground pivot (distance g), when the far dyad is (m, n).
+
+    The far end of c is at distance D(phi), D^2 = g^2 + c^2 - 2 g c cos(phi), from the other
+    pivot; it must lie in [|m - n|, m + n].  D grows with |phi| on [0, pi], so the set is
+    symmetric: |phi| <= beta (upper limit binds), |phi| >= alpha (lower limit binds) or both.
+
+    Returns a list of (lo, hi) intervals with lo < hi, or None when every angle is reachable.
+    Raises ValueError when no angle is reachable.
+    """
+    lo_band, hi_band = abs(m - n), m + n
+    d_min, d_max = abs(g - c), g + c
+    # Same relative clamp as the position solver, so the range endpoints assemble.
+    tol = TANGENCY_TOL * max(g, c, m, n)
+    if max(d_min, lo_band) > min(d_max, hi_band) + tol:
+        raise ValueError(f'four-bar cannot be assembled: sides {g}, {c}, {m}, {n}')
+    upper = d_max > hi_band + tol
+    lower = d_min < lo_band - tol
+    if not upper and not lower:
+        return None
+    beta = float(angle_opposite(g, c, hi_band))
+    alpha = float(angle_opposite(g, c, lo_band))
+    if upper and not lower:
+        return [(-beta, beta)]
+    if lower and not upper:
+        return [(alpha, _TWO_PI - alpha)]
+    return [(alpha, beta), (-beta, -alpha)]
+
+
+def fourbar_input_intervals(l1: float, l2: float, l3: float, l4: float):
+    """All reachable input angles theta2 [rad] as a list of counter-clockwise intervals.
+
+    None when the input turns fully.  One interval (symmetric about 0 or pi) for a linkage whose
+    input rocks on a single circuit; two mirror-image intervals (upper and lower half-plane, one
+    per circuit) when the input rocks inside a Grashof linkage.
+    """
+    return _angle_intervals(float(l1), float(l2), float(l3), float(l4))
+
+
+def fourbar_output_intervals(l1: float, l2: float, l3: float, l4: float):
+    """All reachable output angles theta4 [rad], like :func:`fourbar_input_intervals`."""
+    # At O4 the direction towards O2 is theta4 = pi; phi = pi - theta4 maps the generic result.
+    ivs = _angle_intervals(float(l1), float(l4), float(l3), float(l2))
+    if ivs is None:
+        return None
+    return [(math.pi - hi, math.pi - lo) for lo, hi in ivs]
+
+
+def fourbar_input_range(l1: float, l2: float, l3: float, l4: float):
+    """Range of the input angle theta2 [rad] as (min, max), or None if the crank turns fully.
+
+    The range is the closed interval going counter-clockwise from ``min`` to ``max`` with
+    min < max; it may contain pi (e.g. (2.1, 4.2)) and ``max`` may exceed pi.  Its endpoints are
+    the toggle positions (coupler and rocker collinear, |A - O4| = l3 + l4 or |l3 - l4|).
+
+    * Non-Grashof (triple-rocker) linkages: one interval symmetric about theta2 = 0 or pi,
+      covering every assemblable input (both branches).
+    * Grashof linkages whose input rocks (double-rocker, or crank-rocker with the crank at the
+      output): the input moves in two mirror-image intervals, one per circuit; this returns the
+      one in the upper half-plane, 0 <= min < max <= pi (its mirror (-max, -min) is the other,
+      see :func:`fourbar_input_intervals`).
+
+    Raises ValueError if the linkage cannot be assembled at any input angle.
+    """
+    ivs = fourbar_input_intervals(l1, l2, l3, l4)
+    return None if ivs is None else ivs[0]
+
+
+def fourbar_output_range(l1: float, l2: float, l3: float, l4: float):
+    """Range of the output angle theta4 [rad] as (min, max), or None if it turns fully.
+
+    Same conventions as :func:`fourbar_input_range`; the limits are the positions where crank
+    and coupler are collinear (|B - O2| = l2 + l3 or |l2 - l3|).  For a non-Grashof linkage the
+    interval is symmetric about theta4 = 0 or pi; for a rocking output inside a Grashof linkage
+    the upper half-plane circuit is returned (0 <= min < max <= pi).
+    """
+    ivs = fourbar_output_intervals(l1, l2, l3, l4)
+    return None if ivs is None else ivs[0]
+
+
+def fourbar_toggle_angles(l1: float, l2: float, l3: float, l4: float) -> list[float]:
+    """Input angles theta2 [rad] in [0, 2 pi), sorted, at which coupler and rocker are collinear.
+
+    These solve |A - O4| = l3 + l4 (extended) or |l3 - l4| (folded), i.e.
+    cos(theta2) = (l1^2 + l2^2 - D^2) / (2 l1 l2), each D giving +-theta2.  A D that the crank
+    can only just reach (within the relative tangency clamp) gives theta2 = 0 or pi once.
+    """
+    l1, l2, l3, l4 = float(l1), float(l2), float(l3), float(l4)
+    tol = TANGENCY_TOL * max(l1, l2, l3, l4)
+    out: list[float] = []
+    for dist in (l3 + l4, abs(l3 - l4)):
+        if abs(l1 - l2) - tol <= dist <= l1 + l2 + tol:
+            gamma = float(angle_opposite(l1, l2, dist))
+            for ang in (gamma, (_TWO_PI - gamma) % _TWO_PI):
+                # a tangent D gives gamma = 0 or pi, where +-gamma coincide
+                if not any(abs(ang - a) <= 1e-15 for a in out):
+                    out.append(ang)
+    return sorted(out)
+
+
+def transmission_angle(l1, l2, l3, l4, theta2):
+    """Transmission angle mu [rad, 0..pi] between coupler and rocker at input angle theta2.
+
+    Cosine rule: cos(mu) = (l3^2 + l4^2 - |A - O4|^2) / (2 l3 l4), clipped to [-1, 1] (so an
+    input that cannot be assembled reports 0 or pi).  Evaluated as atan2(4*area, l3^2 + l4^2 -
+    D^2) with Kahan's triangle area, which equals the clipped cosine rule but keeps full accuracy
+    near mu = 0 and pi, where arccos loses half its digits.  Independent of the assembly branch.
+    Vectorised over all arguments.
+    """
+    l1, l2, l3, l4, t2 = (np.asarray(v, dtype=float) for v in (l1, l2, l3, l4, theta2))
+    # |A - O4|^2 written with sin^2(theta2/2) to avoid cancellation near theta2 = 0.
+    d2 = (l1 - l2) ** 2 + 4.0 * l1 * l2 * np.sin(0.5 * t2) ** 2
+    return angle_opposite(l3, l4, np.sqrt(d2))

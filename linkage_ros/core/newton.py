@@ -1,0 +1,327 @@
+"""Newton loop-closure solver with an analytic Jacobian.
+
+Unknowns: for every *free* link, its rotation phi from the reference pose and the world position
+c of its reference centroid o, so that world(p) = R(phi) (p - o) + c. Equations (all in metres;
+angle rows are multiplied by the mechanism's length scale so every row has the same unit):
+
+* revolute joint at P between links a, b:         w_a(P) - w_b(P) = 0                  (2 rows)
+* prismatic joint (guide G, slider S, point X):   n_G . (w_S(X) - w_G(X)) = 0,  phi_S - phi_G = 0
+* known angle spec:                               phi_L - phi_R - (value - offset) = 0
+* known slide spec:                               d_G . (w_S(X) - w_G(origin)) - value = 0
+* known point spec:                               w_L(X) - (x, y) = 0                  (2 rows)
+
+Convergence is judged on max|F| / length_scale (scale-free). Between steps the sign of det J is
+checked: a flip means a branch jump or a singularity crossed, so the step is bisected. Where Newton
+steps stop reducing the residual (near singularities) a Levenberg-Marquardt step takes over.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Sequence
+
+import numpy as np
+
+from .model import Mechanism
+from .plan import Poses, Spec
+
+
+@dataclass
+class SolveResult:
+    """Outcome of one Newton solve (configuration vector x over the free links)."""
+    x: np.ndarray
+    success: bool
+    iterations: int
+    residual: float              # max |F| / length scale
+    reason: str | None = None
+    cond: float = float('inf')   # condition number of the column-scaled Jacobian
+    det_sign: int = 0
+
+
+def _wrap(a: float) -> float:
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+class LoopSystem:
+    """The loop-closure equations of a mechanism restricted to a set of free links."""
+
+    def __init__(self, mech: Mechanism, specs: Sequence[Spec], free_links: Sequence[str] | None = None):
+        self.mech = mech
+        self.specs = list(specs)
+        self.L = mech.length_scale
+        free = list(free_links) if free_links is not None else mech.moving_links
+        self.free = free
+        self.index = {l: k for k, l in enumerate(free)}
+        self.n = 3 * len(free)
+        pts = mech.points
+        self.centroid = {n: np.mean([pts[p] for p in l.points], axis=0) for n, l in mech.links.items()}
+        self.rows: list[tuple] = []
+        m = 0
+        fr = set(free)
+        for rj in mech.revolutes:
+            if rj.parent in fr or rj.child in fr:
+                self.rows.append(('rev', rj.parent, rj.child, rj.point))
+                m += 2
+        for pj in mech.prismatics.values():
+            if pj.guide in fr or pj.slider in fr:
+                self.rows.append(('pri', pj))
+                m += 2
+        for i, s in enumerate(self.specs):
+            links = self._spec_links(s)
+            if any(l in fr for l in links):
+                self.rows.append(('spec', i))
+                m += s.size
+        self.m = m
+
+    def _spec_links(self, s: Spec) -> list[str]:
+        if s.kind == 'angle':
+            return [s.link, s.reference]
+        if s.kind == 'slide':
+            pj = self.mech.prismatics[s.joint]
+            return [pj.guide, pj.slider]
+        return [self.mech.links_of_point(s.point)[0]]
+
+    # -- conversions between poses and the variable vector -------------------------------------
+    def x_from_poses(self, poses: Poses, k: int = 0) -> np.ndarray:
+        x = np.empty(self.n)
+        for l, i in self.index.items():
+            phi = float(poses.phi[l][k])
+            c = self._rot(phi, self.centroid[l]) + poses.T[l][k]
+            x[3 * i:3 * i + 3] = (phi, c[0], c[1])
+        return x
+
+    def reference_x(self) -> np.ndarray:
+        x = np.zeros(self.n)
+        for l, i in self.index.items():
+            x[3 * i + 1:3 * i + 3] = self.centroid[l]
+        return x
+
+    def poses_from_x(self, x: np.ndarray, fixed: Poses | None = None) -> Poses:
+        poses = Poses()
+        if fixed is not None:
+            for l in fixed.phi:
+                poses.phi[l] = fixed.phi[l]
+                poses.T[l] = fixed.T[l]
+        for l, i in self.index.items():
+            phi = float(x[3 * i])
+            c = x[3 * i + 1:3 * i + 3]
+            poses.phi[l] = np.array([phi])
+            poses.T[l] = (c - self._rot(phi, self.centroid[l]))[None, :]
+        if self.mech.ground not in poses.phi:
+            poses.phi[self.mech.ground] = np.zeros(1)
+            poses.T[self.mech.ground] = np.zeros((1, 2))
+        return poses
+
+    @staticmethod
+    def _rot(phi: float, v) -> np.ndarray:
+        c, s = math.cos(phi), math.sin(phi)
+        return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+    # -- evaluation ---------------------------------------------------------------------------
+    def _pose(self, link, x, fixed):
+        """(phi, cos, sin, cx, cy, column or -1) of a link, free or fixed."""
+        i = self.index.get(link)
+        if i is not None:
+            phi, cx, cy = x[3 * i], x[3 * i + 1], x[3 * i + 2]
+            return phi, math.cos(phi), math.sin(phi), cx, cy, 3 * i
+        if fixed is not None and link in fixed.phi:
+            phi = float(fixed.phi[link][0])
+            c = self._rot(phi, self.centroid[link]) + fixed.T[link][0]
+            return phi, math.cos(phi), math.sin(phi), float(c[0]), float(c[1]), -1
+        if link == self.mech.ground:
+            o = self.centroid[link]
+            return 0.0, 1.0, 0.0, float(o[0]), float(o[1]), -1
+        raise KeyError(f'link {link!r} is neither free nor fixed')
+
+    def evaluate(self, x: np.ndarray, values: Sequence, fixed: Poses | None = None,
+                 jacobian: bool = True):
+        """Residual F (m,) and, if asked, the analytic Jacobian J (m, n)."""
+        mech, L = self.mech, self.L
+        F = np.empty(self.m)
+        J = np.zeros((self.m, self.n)) if jacobian else None
+        cache: dict[str, tuple] = {}
+
+        def pose(link):
+            p = cache.get(link)
+            if p is None:
+                p = cache[link] = self._pose(link, x, fixed)
+            return p
+
+        def world(link, p):
+            """world position and the lever R(p - o) (for d/dphi = perp(lever))."""
+            phi, c, s, cx, cy, col = pose(link)
+            o = self.centroid[link]
+            vx, vy = p[0] - o[0], p[1] - o[1]
+            rx, ry = c * vx - s * vy, s * vx + c * vy
+            return cx + rx, cy + ry, rx, ry, col
+
+        def add_point(row, link, p, sign):
+            """Add sign * d w_link(p) / dx into rows row, row+1."""
+            wx, wy, rx, ry, col = world(link, p)
+            if jacobian and col >= 0:
+                J[row, col] += sign * -ry
+                J[row + 1, col] += sign * rx
+                J[row, col + 1] += sign
+                J[row + 1, col + 2] += sign
+            return wx, wy
+
+        r = 0
+        pts = mech.points
+        for row in self.rows:
+            kind = row[0]
+            if kind == 'rev':
+                _, a, b, P = row
+                ax, ay = add_point(r, a, pts[P], 1.0)
+                bx, by = add_point(r, b, pts[P], -1.0)
+                F[r], F[r + 1] = ax - bx, ay - by
+                r += 2
+            elif kind == 'pri':
+                pj = row[1]
+                F[r], F[r + 1] = self._line_rows(r, J, pj, pj.point, pts[pj.point], world, pose, L,
+                                                 normal=True)
+                r += 2
+            else:
+                s = self.specs[row[1]]
+                v = values[row[1]]
+                if s.kind == 'angle':
+                    pl, pr = pose(s.link), pose(s.reference)
+                    F[r] = L * _wrap(pl[0] - pr[0] - (_wrap(float(v)) - s.offset))
+                    if jacobian:
+                        if pl[5] >= 0:
+                            J[r, pl[5]] += L
+                        if pr[5] >= 0:
+                            J[r, pr[5]] -= L
+                    r += 1
+                elif s.kind == 'slide':
+                    pj = mech.prismatics[s.joint]
+                    F[r] = self._line_rows(r, J, pj, pj.point, np.asarray(pj.origin), world, pose,
+                                           L, normal=False)[0] - float(v)
+                    r += 1
+                else:
+                    owner = mech.links_of_point(s.point)[0]
+                    wx, wy = add_point(r, owner, pts[s.point], 1.0)
+                    F[r], F[r + 1] = wx - float(v[0]), wy - float(v[1])
+                    r += 2
+        return F, J
+
+    def _line_rows(self, r, J, pj, xname, base_ref, world, pose, L, normal):
+        """Rows of a prismatic pair: the slider point's offset from the guide line (normal=True,
+        plus the orientation lock) or its signed distance along it from base_ref (normal=False)."""
+        G, S = pj.guide, pj.slider
+        phiG, cG, sG, _, _, colG = pose(G)
+        phiS, _, _, _, _, colS = pose(S)
+        d0 = pj.direction
+        if normal:
+            u0 = (-d0[1], d0[0])
+        else:
+            u0 = d0
+        ux, uy = cG * u0[0] - sG * u0[1], sG * u0[0] + cG * u0[1]
+        sx, sy, srx, sry, _ = world(S, self.mech.points[xname])
+        gx, gy, grx, gry, _ = world(G, base_ref)
+        dx, dy = sx - gx, sy - gy
+        f = ux * dx + uy * dy
+        if J is not None:
+            if colG >= 0:
+                # d u / dphi = perp(u); d w_G / dphi = perp(lever)
+                J[r, colG] += (-uy) * dx + ux * dy - (ux * (-gry) + uy * grx)
+                J[r, colG + 1] -= ux
+                J[r, colG + 2] -= uy
+            if colS >= 0:
+                J[r, colS] += ux * (-sry) + uy * srx
+                J[r, colS + 1] += ux
+                J[r, colS + 2] += uy
+        if not normal:
+            return f, 0.0
+        g = L * _wrap(phiS - phiG)
+        if J is not None:
+            if colS >= 0:
+                J[r + 1, colS] += L
+            if colG >= 0:
+                J[r + 1, colG] -= L
+        return f, g
+
+    # -- solving ------------------------------------------------------------------------------
+    def scaled_cond(self, J: np.ndarray) -> float:
+        if J.size == 0:
+            return 1.0
+        norms = np.linalg.norm(J, axis=0)
+        norms[norms == 0] = 1.0
+        try:
+            return float(np.linalg.cond(J / norms))
+        except np.linalg.LinAlgError:
+            return float('inf')
+
+    def det_sign(self, J: np.ndarray) -> int:
+        if J.shape[0] != J.shape[1] or J.size == 0:
+            return 0
+        sign, logdet = np.linalg.slogdet(J)
+        return int(sign) if np.isfinite(logdet) else 0
+
+    def solve(self, x0: np.ndarray, values: Sequence, fixed: Poses | None = None, *,
+              tol: float = 1e-12, max_iter: int = 50, keep_det_sign: bool = True) -> SolveResult:
+        """Newton iterations from x0; line-search bisection on det-sign flips; LM fallback."""
+        x = np.array(x0, float)
+        F, J = self.evaluate(x, values, fixed)
+        res = float(np.max(np.abs(F))) / self.L if F.size else 0.0
+        sign0 = self.det_sign(J) if keep_det_sign else 0
+        it = 0
+        mu = None
+        square = J.shape[0] == J.shape[1]
+        while res > tol and it < max_iter:
+            it += 1
+            fnorm = float(np.linalg.norm(F))
+            step = None
+            if mu is None:
+                try:
+                    dx = np.linalg.solve(J, -F) if square else np.linalg.lstsq(J, -F, rcond=None)[0]
+                    if np.all(np.isfinite(dx)):
+                        step = dx
+                except np.linalg.LinAlgError:
+                    step = None
+            accepted = False
+            if step is not None:
+                alpha = 1.0
+                for _ in range(10):
+                    xn = x + alpha * step
+                    Fn, Jn = self.evaluate(xn, values, fixed)
+                    if (np.linalg.norm(Fn) < (1.0 - 1e-4 * alpha) * fnorm
+                            and (sign0 == 0 or self.det_sign(Jn) == sign0)):
+                        x, F, J = xn, Fn, Jn
+                        accepted = True
+                        break
+                    alpha *= 0.5
+            if not accepted:
+                # Levenberg-Marquardt with Marquardt's column scaling
+                JtJ = J.T @ J
+                g = J.T @ F
+                D = np.diag(JtJ).copy()
+                D[D == 0] = 1.0
+                mu = mu or 1e-3
+                for _ in range(12):
+                    try:
+                        dx = np.linalg.solve(JtJ + mu * np.diag(D), -g)
+                    except np.linalg.LinAlgError:
+                        mu *= 10
+                        continue
+                    xn = x + dx
+                    Fn, Jn = self.evaluate(xn, values, fixed)
+                    if np.linalg.norm(Fn) < fnorm and (sign0 == 0 or self.det_sign(Jn) == sign0):
+                        x, F, J = xn, Fn, Jn
+                        mu = max(mu / 10, 1e-12)
+                        accepted = True
+                        break
+                    mu *= 10
+                if not accepted:
+                    break
+            res = float(np.max(np.abs(F))) / self.L if F.size else 0.0
+        cond = self.scaled_cond(J)
+        if res <= tol:
+            return SolveResult(x, True, it, res, None, cond, self.det_sign(J))
+        if it >= max_iter:
+            reason = (f'Newton reached its iteration cap ({max_iter}) with loop-closure residual '
+                      f'{res:.3g} of the length scale (tolerance {tol:g})')
+        else:
+            reason = (f'Newton stalled with loop-closure residual {res:.3g} of the length scale: '
+                      f'no assembly near the start (cond J = {cond:.3g}); the input may be beyond '
+                      'a limit or toggle position')
+        return SolveResult(x, False, it, res, reason, cond, self.det_sign(J))

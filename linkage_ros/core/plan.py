@@ -1,0 +1,693 @@
+"""Compile (mechanism, known quantities, wanted outputs) into a closed-form solve plan.
+
+Known quantities are *specs*: an actuator or joint value, a link's angle, or a point's (x, y).
+A known joint value between two links that share a point welds them into one rigid *body*
+(a crank at a known angle is welded to the ground; a cylinder at a known throw is one rigid
+strut). The plan then places bodies exactly as the graphical "tracing paper" method does:
+
+* ``two_points``   a body with two known points is placed (rigid transfer),
+* ``point_angle``  a body with a known point and a known orientation is placed,
+* ``circle_circle`` (RRR) a point shared by two bodies that each have one known point,
+* ``circle_line``   (RRP) a slider point on a known guide line and on a body with one known point,
+* ``line_through``  (RPR) a guide body pivoting on a known point whose line must pass a known point.
+
+Every branching step carries an explicit sign; the default is the sign seen in the reference pose.
+The plan is pruned backwards to the steps the wanted outputs depend on, and is cached by the
+caller per (mechanism, knowns, outputs). Execution is vectorised over a leading batch axis.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from . import dyads
+from .errors import PlanError
+from .model import Mechanism
+
+
+# ---- known-quantity specs --------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class Spec:
+    """One known (or wanted) quantity of a mechanism.
+
+    kind 'angle': phi[link] - phi[reference] = value - offset        (rad; 1 value)
+    kind 'slide': value of prismatic joint ``joint``                 (m;   1 value)
+    kind 'point': world position of ``point``                        (m;   2 values x, y)
+    """
+    name: str
+    kind: str
+    link: str | None = None
+    reference: str | None = None
+    offset: float = 0.0
+    joint: str | None = None
+    point: str | None = None
+    minimum: float | None = None
+    maximum: float | None = None
+
+    @property
+    def size(self) -> int:
+        return 2 if self.kind == 'point' else 1
+
+    @property
+    def unit(self) -> str:
+        return 'rad' if self.kind == 'angle' else 'm'
+
+
+def spec_for(mech: Mechanism, name: str) -> Spec:
+    """Resolve a user-facing name: actuator, then joint, then link (its angle), then point."""
+    if name in mech.actuators:
+        act = mech.actuators[name]
+        if act.kind == 'slide':
+            return Spec(name, 'slide', joint=act.joint, minimum=act.min, maximum=act.max)
+        link = mech.links[act.link]
+        v = mech.points[act.toward] - mech.points[act.pivot]
+        d0 = math.atan2(v[1], v[0])
+        ref_angle = 0.0 if act.reference == mech.ground else mech.links[act.reference].angle_ref
+        return Spec(name, 'angle', link=link.name, reference=act.reference, offset=d0 - ref_angle,
+                    minimum=act.min, maximum=act.max)
+    for rj in mech.revolutes:
+        if rj.name == name:
+            return Spec(name, 'angle', link=rj.child, reference=rj.parent, offset=0.0)
+    if name in mech.prismatics:
+        return Spec(name, 'slide', joint=name)
+    if name in mech.links:
+        if name == mech.ground:
+            raise PlanError(f'{name!r} is the ground link: its angle is fixed')
+        return Spec(name, 'angle', link=name, reference=mech.ground,
+                    offset=mech.links[name].angle_ref)
+    if name in mech.points:
+        return Spec(name, 'point', point=name)
+    raise PlanError(f'unknown name {name!r}: not an actuator, joint, link or point of '
+                    f'{mech.name!r}')
+
+
+def spec_value_at(mech: Mechanism, spec: Spec, poses: 'Poses') -> np.ndarray:
+    """Evaluate a spec on solved poses: (N,) for angle/slide, (N, 2) for a point."""
+    if spec.kind == 'angle':
+        d = poses.phi[spec.link] - poses.phi[spec.reference] + spec.offset
+        return _wrap_pi(d)
+    if spec.kind == 'slide':
+        pj = mech.prismatics[spec.joint]
+        x = poses.world(spec_point_link(mech, pj.point, pj.slider), pj.point, mech)
+        o = poses.apply(pj.guide, np.asarray(pj.origin))
+        dvec = dyads.rotate(np.asarray(pj.direction), poses.phi[pj.guide])
+        return np.sum((x - o) * dvec, axis=-1)
+    owner = mech.links_of_point(spec.point)
+    return poses.world(owner[0], spec.point, mech)
+
+
+def _wrap_pi(a):
+    """Wrap to (-pi, pi] using atan2 so that huge inputs keep full precision."""
+    return np.arctan2(np.sin(a), np.cos(a))
+
+
+def spec_point_link(mech: Mechanism, point: str, preferred: str) -> str:
+    return preferred if point in mech.links[preferred].points else mech.links_of_point(point)[0]
+
+
+# ---- poses -----------------------------------------------------------------------------------
+
+@dataclass
+class Poses:
+    """Link poses over a batch: world(p) = R(phi) p_ref + T, with p_ref the reference position."""
+    phi: dict[str, np.ndarray] = field(default_factory=dict)
+    T: dict[str, np.ndarray] = field(default_factory=dict)
+
+    def apply(self, link: str, p_ref: np.ndarray) -> np.ndarray:
+        return dyads.rotate(np.broadcast_to(p_ref, self.T[link].shape), self.phi[link]) + self.T[link]
+
+    def world(self, link: str, point: str, mech: Mechanism) -> np.ndarray:
+        return self.apply(link, mech.points[point])
+
+
+# ---- bodies ----------------------------------------------------------------------------------
+
+@dataclass
+class Weld:
+    """How member ``link`` is placed from ``via`` (already placed) in its body's weld tree."""
+    link: str
+    via: str
+    spec_index: int
+    kind: str          # 'angle' or 'slide'
+    shared_point: str | None = None
+
+
+@dataclass
+class Body:
+    index: int
+    root: str
+    links: list[str]
+    welds: list[Weld]
+    points: list[str]
+
+
+@dataclass
+class Step:
+    op: str
+    body: int | None = None
+    point: str | None = None
+    args: tuple = ()
+    sign: int = 0                 # branching steps: +1 / -1 from the reference pose
+    needs: tuple = ()
+    gives: tuple = ()
+
+    @property
+    def branching(self) -> bool:
+        return self.op in ('circle_circle', 'circle_line', 'line_through')
+
+    def describe(self, plan: 'Plan') -> str:
+        b = plan.bodies[self.body].links if self.body is not None else None
+        if self.op == 'ground':
+            return f'ground: place {"+".join(b)}'
+        if self.op == 'known_point':
+            return f'known point {self.point}'
+        if self.op == 'two_points':
+            return f'rigid transfer: place {"+".join(b)} from points {self.args[0]}, {self.args[1]}'
+        if self.op == 'point_angle':
+            return f'place {"+".join(b)} from point {self.args[0]} and its known angle'
+        if self.op == 'angle':
+            return f'orientation of {"+".join(b)} from {self.args[1]}'
+        if self.op == 'circle_circle':
+            return (f'RRR dyad: {self.point} from circles about {self.args[1]} '
+                    f'({"+".join(plan.bodies[self.args[0]].links)}) and {self.args[3]} '
+                    f'({"+".join(plan.bodies[self.args[2]].links)})')
+        if self.op == 'circle_line':
+            return (f'RRP dyad: {self.point} on slide {self.args[2]} and circle about '
+                    f'{self.args[1]}')
+        if self.op == 'line_through':
+            return (f'RPR dyad: orient {"+".join(b)} about {self.args[1]} so slide '
+                    f'{self.args[0]} passes {self.point}')
+        return self.op
+
+
+class Plan:
+    """A compiled closed-form plan for one set of known specs and wanted outputs."""
+
+    def __init__(self, mech: Mechanism, specs: Sequence[Spec], wanted_links: Iterable[str] | None,
+                 wanted_points: Iterable[str] | None = None):
+        self.mech = mech
+        self.specs = list(specs)
+        self._build_bodies()
+        self._compile()
+        self._prune(wanted_links, wanted_points)
+
+    # -- bodies -------------------------------------------------------------------------------
+    def _build_bodies(self):
+        mech = self.mech
+        parent = {n: n for n in mech.links}
+
+        def find(a):
+            while parent[a] != a:
+                parent[a] = parent[parent[a]]
+                a = parent[a]
+            return a
+
+        edges: list[tuple[str, str, int, str, str | None]] = []
+        self.relations: list[tuple[str, str, int | None]] = []   # angle-only relations
+        for i, s in enumerate(self.specs):
+            if s.kind == 'angle':
+                shared = set(mech.links[s.link].points) & set(mech.links[s.reference].points)
+                if shared:
+                    edges.append((s.reference, s.link, i, 'angle', sorted(shared)[0]))
+                else:
+                    self.relations.append((s.reference, s.link, i))
+            elif s.kind == 'slide':
+                pj = mech.prismatics[s.joint]
+                edges.append((pj.guide, pj.slider, i, 'slide', None))
+        for pj in mech.prismatics.values():
+            if not any(e[3] == 'slide' and self.specs[e[2]].joint == pj.name for e in edges):
+                self.relations.append((pj.guide, pj.slider, None))      # orientation lock
+        for a, b, i, kind, _ in edges:
+            ra, rb = find(a), find(b)
+            if ra == rb:
+                raise PlanError(f'known {self.specs[i].name!r} over-constrains links {a!r} and '
+                                f'{b!r}: they are already rigidly connected by other knowns')
+            parent[rb] = ra
+        groups: dict[str, list[str]] = {}
+        for n in mech.links:
+            groups.setdefault(find(n), []).append(n)
+        self.bodies: list[Body] = []
+        self.body_of: dict[str, int] = {}
+        for members in groups.values():
+            root = mech.ground if mech.ground in members else members[0]
+            placed, welds, todo = [root], [], [e for e in edges if find(e[0]) == find(root)]
+            while todo:
+                progressed = False
+                for e in list(todo):
+                    a, b, i, kind, sp = e
+                    if a in placed and b not in placed:
+                        welds.append(Weld(b, a, i, kind, sp)); placed.append(b)
+                    elif b in placed and a not in placed:
+                        welds.append(Weld(a, b, i, kind, sp)); placed.append(a)
+                    else:
+                        continue
+                    todo.remove(e); progressed = True
+                if not progressed:
+                    break
+            pts = []
+            for n in placed:
+                pts += [p for p in mech.links[n].points if p not in pts]
+            body = Body(len(self.bodies), root, placed, welds, pts)
+            self.bodies.append(body)
+            for n in placed:
+                self.body_of[n] = body.index
+
+    # -- compile ------------------------------------------------------------------------------
+    def _compile(self):
+        mech = self.mech
+        ref = mech.points
+        steps: list[Step] = []
+        known_pts: set[str] = set()
+        placed: set[int] = set()
+        angled: set[int] = set()
+        pt_bodies: dict[str, list[int]] = {}
+        for b in self.bodies:
+            for p in b.points:
+                pt_bodies.setdefault(p, []).append(b.index)
+
+        def place(step: Step, bi: int):
+            steps.append(step)
+            placed.add(bi); angled.add(bi)
+            known_pts.update(self.bodies[bi].points)
+
+        gb = self.body_of[mech.ground]
+        place(Step('ground', body=gb, gives=(('pose', gb),)), gb)
+        for i, s in enumerate(self.specs):
+            if s.kind == 'point':
+                if s.point in known_pts:
+                    raise PlanError(f'known point {s.point!r} is fixed by the ground; it cannot '
+                                    'be a target')
+                steps.append(Step('known_point', point=s.point, args=(i,),
+                                  gives=(('pt', s.point),)))
+                known_pts.add(s.point)
+
+        def known_of(bi):
+            return [p for p in self.bodies[bi].points if p in known_pts]
+
+        def point_needs(p):
+            return ('pt', p)
+
+        while len(placed) < len(self.bodies):
+            progress = False
+            # non-branching steps first
+            for b in self.bodies:
+                bi = b.index
+                if bi in placed:
+                    continue
+                kp = known_of(bi)
+                two = self._two_distinct(bi, kp)
+                if two:
+                    place(Step('two_points', body=bi, args=two,
+                               needs=(point_needs(two[0]), point_needs(two[1])),
+                               gives=(('pose', bi),)), bi)
+                    progress = True
+                    continue
+                if bi in angled and kp:
+                    place(Step('point_angle', body=bi, args=(kp[0],),
+                               needs=(point_needs(kp[0]), ('angle', bi)),
+                               gives=(('pose', bi),)), bi)
+                    progress = True
+                    continue
+                if bi not in angled:
+                    rel = self._angle_source(bi, angled)
+                    if rel is not None:
+                        src_body, link_here, link_there, spec_i = rel
+                        steps.append(Step('angle', body=bi, args=(link_here, link_there, spec_i),
+                                          needs=(('angle', src_body),), gives=(('angle', bi),)))
+                        angled.add(bi)
+                        progress = True
+            if progress:
+                continue
+            step = self._branching_step(placed, known_pts, pt_bodies, known_of)
+            if step is None:
+                break
+            steps.append(step)
+            if step.op == 'line_through':
+                placed.add(step.body); angled.add(step.body)
+                known_pts.update(self.bodies[step.body].points)
+            else:
+                known_pts.add(step.point)
+        self.steps_all = steps
+        self.placed_bodies = placed
+        self.known_points = known_pts
+
+    def _two_distinct(self, bi, kp):
+        ref = self.mech.points
+        for i in range(len(kp)):
+            for j in range(i + 1, len(kp)):
+                if np.hypot(*(self._local_ref(bi, kp[i]) - self._local_ref(bi, kp[j]))) > 0:
+                    return (kp[i], kp[j])
+        return None
+
+    def _local_ref(self, bi, p):
+        return self.mech.points[p]
+
+    def _angle_source(self, bi, angled):
+        for a, b, i in self.relations:
+            ba, bb = self.body_of[a], self.body_of[b]
+            if bb == bi and ba in angled:
+                return ba, b, a, i
+            if ba == bi and bb in angled:
+                return bb, a, b, i
+        return None
+
+    def _branching_step(self, placed, known_pts, pt_bodies, known_of):
+        mech = self.mech
+        ref = mech.points
+        # RRR: an unknown point shared by two unplaced bodies, each with one known point
+        for x, owners in pt_bodies.items():
+            if x in known_pts:
+                continue
+            cands = [bi for bi in owners if bi not in placed and known_of(bi)]
+            for i in range(len(cands)):
+                for j in range(i + 1, len(cands)):
+                    b1, b2 = cands[i], cands[j]
+                    p1, p2 = known_of(b1)[0], known_of(b2)[0]
+                    if p1 == p2 or np.hypot(*(ref[p1] - ref[p2])) == 0:
+                        continue                 # concentric circles: no dyad
+                    sign = _side(ref[p1], ref[p2], ref[x])
+                    return Step('circle_circle', point=x, args=(b1, p1, b2, p2), sign=sign,
+                                needs=(('pt', p1), ('pt', p2)), gives=(('pt', x),))
+        # RRP: slider point on a placed guide's line, also on a body with one known point
+        for pj in mech.prismatics.values():
+            x = pj.point
+            if x in known_pts:
+                continue
+            gb = self.body_of[pj.guide]
+            sb = self.body_of[pj.slider]
+            if gb not in placed or sb == gb:
+                continue
+            for bi in pt_bodies[x]:
+                if bi in placed or bi == sb or not known_of(bi):
+                    continue
+                p1 = known_of(bi)[0]
+                u = np.asarray(pj.direction)
+                sign = int(np.sign(np.dot(ref[x] - ref[p1], u))) or 1
+                return Step('circle_line', point=x, args=(bi, p1, pj.name), sign=sign,
+                            needs=(('pt', p1), ('pose', gb)), gives=(('pt', x),))
+        # RPR: a known slider point, the guide pivoting about one known point
+        for pj in mech.prismatics.values():
+            x = pj.point
+            gb = self.body_of[pj.guide]
+            if x not in known_pts or gb in placed or self.body_of[pj.slider] == gb:
+                continue
+            kp = [p for p in known_of(gb) if p != x]
+            if not kp:
+                continue
+            p = kp[0]
+            u = np.asarray(pj.direction)
+            sign = int(np.sign(np.dot(ref[x] - ref[p], u))) or 1
+            return Step('line_through', body=gb, point=x, args=(pj.name, p), sign=sign,
+                        needs=(('pt', x), ('pt', p)), gives=(('pose', gb),))
+        return None
+
+    # -- pruning ------------------------------------------------------------------------------
+    def _prune(self, wanted_links, wanted_points):
+        mech = self.mech
+        if wanted_links is None and wanted_points is None:
+            wanted_links = list(mech.links)
+        wanted_links = list(wanted_links or [])
+        wanted_points = list(wanted_points or [])
+        need: set = set()
+        for link in wanted_links:
+            need.add(('pose', self.body_of[link]))
+        for p in wanted_points:
+            need.add(('pt', p))
+        # a point is given by a step that gives it or by placing any body that carries it
+        keep = [False] * len(self.steps_all)
+        for k in range(len(self.steps_all) - 1, -1, -1):
+            st = self.steps_all[k]
+            gives = set(st.gives)
+            if st.op in ('ground', 'two_points', 'point_angle', 'line_through'):
+                gives |= {('pt', p) for p in self.bodies[st.body].points}
+            if st.op == 'line_through':
+                gives.add(('angle', st.body))
+            if st.op in ('ground', 'two_points', 'point_angle'):
+                gives.add(('angle', st.body))
+            hit = gives & need
+            if hit or st.op == 'ground':
+                keep[k] = True
+                need -= hit
+                need |= set(st.needs)
+        # anything still needed was never produced: the plan cannot give it
+        self.missing = sorted(need)
+        self.steps = [s for s, k in zip(self.steps_all, keep) if k]
+        self.complete = not self.missing
+        placed = {s.body for s in self.steps if s.op in
+                  ('ground', 'two_points', 'point_angle', 'line_through')}
+        self.placed_links = [l for b in sorted(placed) for l in self.bodies[b].links]
+        self.branch_steps = [s for s in self.steps if s.branching]
+
+    @property
+    def reference_signs(self) -> tuple[int, ...]:
+        return tuple(s.sign for s in self.branch_steps)
+
+    def describe(self) -> list[str]:
+        out = []
+        for s in self.steps:
+            text = s.describe(self)
+            if s.branching:
+                text += f' [branch {"+" if s.sign > 0 else "-"} in the reference pose]'
+            out.append(text)
+        return out
+
+    # -- execution ----------------------------------------------------------------------------
+    def body_local(self, bi: int, values: Sequence[np.ndarray], n: int) -> Poses:
+        """Poses of the body's member links with its root at the reference pose (identity)."""
+        mech = self.mech
+        body = self.bodies[bi]
+        loc = Poses()
+        loc.phi[body.root] = np.zeros(n)
+        loc.T[body.root] = np.zeros((n, 2))
+        for w in body.welds:
+            s = self.specs[w.spec_index]
+            v = values[w.spec_index]
+            if w.kind == 'angle':
+                rel = _wrap_pi(v) - s.offset          # phi[s.link] - phi[s.reference]
+                phi = loc.phi[w.via] + (rel if w.link == s.link else -rel)
+                loc.phi[w.link] = phi
+                p = mech.points[w.shared_point]
+                pw = loc.apply(w.via, p)
+                loc.T[w.link] = pw - dyads.rotate(np.broadcast_to(p, pw.shape), phi)
+            else:
+                pj = mech.prismatics[s.joint]
+                x_ref = mech.points[pj.point]
+                u = np.asarray(pj.direction)
+                x_on_guide = x_ref + (v - pj.ref_value)[..., None] * u    # guide reference coords
+                loc.phi[w.link] = loc.phi[w.via].copy()
+                if w.link == pj.slider:      # guide placed: put the slider point on its line
+                    xw = loc.apply(w.via, x_on_guide)
+                    loc.T[w.link] = xw - dyads.rotate(np.broadcast_to(x_ref, xw.shape),
+                                                      loc.phi[w.link])
+                else:                        # slider placed: hang the guide off it
+                    xw = loc.apply(w.via, x_ref)
+                    loc.T[w.link] = xw - dyads.rotate(x_on_guide, loc.phi[w.link])
+        return loc
+
+    def run(self, values: Sequence[np.ndarray], n: int, signs: Sequence[int] | None = None,
+            prefer: dict[str, np.ndarray] | None = None, tol: float = dyads.TANGENCY_TOL):
+        """Execute the plan over a batch of n.
+
+        ``values[i]`` is the value array of spec i ((n,) or (n, 2)). ``signs`` overrides the
+        branch signs (one per branching step). ``prefer`` maps a point name to its predicted
+        position (n, 2): the branch nearest it is taken (continuity), overriding ``signs``.
+        Returns (poses, points, info) where info has ok (n,), margin (n,), signs (n, k),
+        failure (step index or -1) and violation (n,).
+        """
+        mech = self.mech
+        signs = list(self.reference_signs if signs is None else signs)
+        poses = Poses()
+        pts: dict[str, np.ndarray] = {}
+        ok = np.ones(n, bool)
+        margin = np.ones(n)
+        violation = np.zeros(n)
+        fail_step = np.full(n, -1)
+        used_signs = np.zeros((n, len(self.branch_steps)), int)
+        locals_: dict[int, Poses] = {}
+        angles: dict[int, np.ndarray] = {}     # body root orientation when known before placing
+        bk = 0
+
+        def local(bi):
+            if bi not in locals_:
+                locals_[bi] = self.body_local(bi, values, n)
+            return locals_[bi]
+
+        def local_pt(bi, p):
+            loc = local(bi)
+            for l in self.bodies[bi].links:
+                if p in mech.links[l].points:
+                    return loc.world(l, p, mech)
+            raise KeyError(p)
+
+        def place_body(bi, phi, T):
+            loc = local(bi)
+            for l in self.bodies[bi].links:
+                poses.phi[l] = phi + loc.phi[l]
+                poses.T[l] = dyads.rotate(loc.T[l], phi) + T
+            for l in self.bodies[bi].links:
+                for p in mech.links[l].points:
+                    if p not in pts:
+                        pts[p] = poses.world(l, p, mech)
+
+        def fail(mask, k, viol):
+            nonlocal ok
+            newly = mask & ok
+            fail_step[newly] = k
+            violation[newly] = viol[newly] if np.ndim(viol) else viol
+            ok = ok & ~mask
+
+        for k, st in enumerate(self.steps):
+            if st.op == 'ground':
+                place_body(st.body, np.zeros(n), np.zeros((n, 2)))
+            elif st.op == 'known_point':
+                pts[st.point] = np.asarray(values[st.args[0]], float).reshape(n, 2)
+            elif st.op == 'two_points':
+                p, q = st.args
+                lp, lq = local_pt(st.body, p), local_pt(st.body, q)
+                phi = dyads.rotation_between(lq - lp, pts[q] - pts[p])
+                place_body(st.body, phi, pts[p] - dyads.rotate(lp, phi))
+            elif st.op == 'point_angle':
+                p = st.args[0]
+                phi = angles[st.body]
+                place_body(st.body, phi, pts[p] - dyads.rotate(local_pt(st.body, p), phi))
+            elif st.op == 'angle':
+                link_here, link_there, spec_i = st.args
+                src = poses.phi.get(link_there)
+                if src is None:
+                    sb = self.body_of[link_there]
+                    src = angles[sb] + local(sb).phi[link_there]
+                if spec_i is None:
+                    rel = np.zeros(n)                     # prismatic orientation lock
+                else:
+                    s = self.specs[spec_i]
+                    rel = _wrap_pi(values[spec_i]) - s.offset
+                    if link_here == s.reference:
+                        rel = -rel
+                angles[st.body] = src + rel - local(st.body).phi[link_here]
+            elif st.op == 'circle_circle':
+                b1, p1, b2, p2 = st.args
+                x = st.point
+                r1 = _norm(local_pt(b1, x) - local_pt(b1, p1))
+                r2 = _norm(local_pt(b2, x) - local_pt(b2, p2))
+                sgn = self._choose(signs[bk], prefer, x, n,
+                                   lambda s: dyads.circle_circle(pts[p1], r1, pts[p2], r2, s, tol)[0])
+                X, m, okk, viol = dyads.circle_circle(pts[p1], r1, pts[p2], r2, sgn, tol)
+                pts[x] = X
+                used_signs[:, bk] = sgn
+                margin = np.minimum(margin, m)
+                fail(~okk, k, viol)
+                bk += 1
+            elif st.op == 'circle_line':
+                b1, p1, jname = st.args
+                pj = mech.prismatics[jname]
+                x = st.point
+                r = _norm(local_pt(b1, x) - local_pt(b1, p1))
+                g = pj.guide
+                p0 = poses.apply(g, mech.points[x])
+                u = dyads.rotate(np.broadcast_to(np.asarray(pj.direction), (n, 2)), poses.phi[g])
+                sgn = self._choose(signs[bk], prefer, x, n,
+                                   lambda s: dyads.circle_line(pts[p1], r, p0, u, s, tol)[0])
+                X, m, okk, viol = dyads.circle_line(pts[p1], r, p0, u, sgn, tol)
+                pts[x] = X
+                used_signs[:, bk] = sgn
+                margin = np.minimum(margin, m)
+                fail(~okk, k, viol)
+                bk += 1
+            elif st.op == 'line_through':
+                jname, p = st.args
+                pj = mech.prismatics[jname]
+                x = st.point
+                bi = st.body
+                loc = local(bi)
+                lp = local_pt(bi, p)
+                # the guide line in body-local coordinates: through x_ref on the guide, dir u
+                u_loc = dyads.rotate(np.broadcast_to(np.asarray(pj.direction), (n, 2)),
+                                     loc.phi[pj.guide])
+                x_loc = loc.apply(pj.guide, mech.points[x])
+                e = dyads.cross2(u_loc, x_loc - lp)   # signed offset of the pivot from the line
+                psi0 = np.arctan2(u_loc[:, 1], u_loc[:, 0])
+
+                def solve_phi(s):
+                    psi, mm, okk, viol = dyads.line_through_point(pts[p], pts[x], e, s, tol)
+                    return psi - psi0, mm, okk, viol
+
+                sgn = np.full(n, signs[bk])
+                if prefer is not None and '@' + pj.guide in prefer:
+                    # continuity for an orientation: keep the guide direction nearest the last
+                    last = prefer['@' + pj.guide]
+                    c = [solve_phi(s)[0] for s in (1, -1)]
+                    d = [np.abs(_wrap_pi(ci - last)) for ci in c]
+                    sgn = np.where(d[0] <= d[1], 1, -1)
+                phi, m, okk, viol = solve_phi(sgn)
+                angles[bi] = phi
+                place_body(bi, phi, pts[p] - dyads.rotate(lp, phi))
+                used_signs[:, bk] = sgn
+                margin = np.minimum(margin, m)
+                fail(~okk, k, viol)
+                bk += 1
+        info = {'ok': ok, 'margin': margin, 'signs': used_signs, 'failure': fail_step,
+                'violation': violation}
+        return poses, pts, info
+
+    @staticmethod
+    def _choose(default_sign, prefer, x, n, candidate):
+        if prefer is None or x not in prefer:
+            return np.full(n, default_sign)
+        target = prefer[x]
+        cp, cm = candidate(np.ones(n)), candidate(-np.ones(n))
+        dp = _norm(cp - target)
+        dm = _norm(cm - target)
+        return np.where(dp <= dm, 1, -1)
+
+
+def _norm(v):
+    return np.hypot(v[..., 0], v[..., 1])
+
+
+def _side(p1, p2, x) -> int:
+    s = float(np.sign(dyads.cross2(p2 - p1, x - p1)))
+    return int(s) if s else 1
+
+
+def branch_geometry(plan: Plan, pts: dict[str, np.ndarray], poses: Poses):
+    """Branch signs (n, k) and dyad margins (n, k) read off a solved configuration.
+
+    This is how a Newton solution is told which assembly mode it is in: the same side tests the
+    closed-form plan uses, applied to the solved points.
+    """
+    mech = plan.mech
+    sig, mar = [], []
+    for st in plan.branch_steps:
+        x = pts[st.point]
+        if st.op == 'circle_circle':
+            _, p1, _, p2 = st.args
+            a, b = pts[p1], pts[p2]
+            side = dyads.cross2(b - a, x - a)
+            va, vb = x - a, x - b
+            m = np.abs(dyads.cross2(va, vb)) / np.maximum(_norm(va) * _norm(vb), 1e-300)
+        elif st.op == 'circle_line':
+            _, p1, jname = st.args
+            pj = mech.prismatics[jname]
+            u = dyads.rotate(np.broadcast_to(np.asarray(pj.direction), x.shape),
+                             poses.phi[pj.guide])
+            v = x - pts[p1]
+            side = np.sum(v * u, axis=-1)
+            m = np.abs(side) / np.maximum(_norm(v), 1e-300)
+        else:
+            jname, p = st.args
+            pj = mech.prismatics[jname]
+            u = dyads.rotate(np.broadcast_to(np.asarray(pj.direction), x.shape),
+                             poses.phi[pj.guide])
+            v = x - pts[p]
+            side = np.sum(v * u, axis=-1)
+            m = np.abs(side) / np.maximum(_norm(v), 1e-300)
+        sig.append(np.where(side >= 0, 1, -1))
+        mar.append(np.clip(m, 0.0, 1.0))
+    n = next(iter(pts.values())).shape[0] if pts else 1
+    if not sig:
+        return np.zeros((n, 0), int), np.ones((n, 0))
+    return np.stack(sig, axis=-1), np.stack(mar, axis=-1)

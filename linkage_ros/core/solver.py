@@ -1,0 +1,688 @@
+"""One entry point for forward and inverse position kinematics of a mechanism.
+
+``Solver(mech, knowns, outputs, method, tol, max_iter, branch)`` compiles once; ``solve`` answers
+one command, ``solve_batch`` a vector of commands. Every answer is a :class:`Result`: success or
+a reason, loop-closure residual (fraction of the length scale), iterations, solver used, branch and
+distance to singularity. A bad or unreachable command is a failed Result, never an exception and
+never a NaN.
+
+Methods: ``closed_form`` (the dyad plan; refused when the knowns have no closed-form plan),
+``newton`` (loop-closure Newton on every link), ``auto`` (the dyad plan places what it can and
+Newton places the rest).
+Branch: ``continuous`` (start in the reference pose's assembly mode, then keep the mode nearest
+the previous configuration), ``reference`` (the reference pose's signs, always) or an explicit sign
+string such as ``+-`` (one sign per branching dyad of the plan, in plan order).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping, Sequence
+
+import numpy as np
+
+from . import dyads
+from .errors import PlanError
+from .model import Mechanism
+from .newton import LoopSystem
+from .plan import Plan, Poses, Spec, branch_geometry, spec_for, spec_value_at
+
+#: below this dyad margin the two assembly modes are numerically indistinguishable
+BRANCH_UNDEFINED_MARGIN = 1e-8
+METHODS = ('auto', 'closed_form', 'newton')
+
+
+@dataclass
+class Result:
+    """One solved configuration (or the reason there is none)."""
+    success: bool
+    reason: str | None = None
+    inputs: dict[str, float] = field(default_factory=dict)
+    targets: dict[str, Any] = field(default_factory=dict)
+    joints: dict[str, float] = field(default_factory=dict)
+    links: dict[str, float] = field(default_factory=dict)
+    points: dict[str, tuple[float, float]] = field(default_factory=dict)
+    residual: float | None = None
+    iterations: int = 0
+    solver: str = ''
+    branch: str = ''
+    branch_defined: bool = True
+    margin: float | None = None
+    cond: float | None = None
+    all_branches: list['Result'] | None = None
+
+    def to_dict(self, mech: Mechanism | None = None) -> dict[str, Any]:
+        links = {}
+        for name, ang in self.links.items():
+            pts = list(mech.links[name].points) if mech is not None else []
+            links[name] = {'points': pts, 'angle': ang}
+        out = {
+            'status': 'ok' if self.success else 'error',
+            'reason': self.reason,
+            'inputs': dict(self.inputs),
+            'joints': dict(self.joints),
+            'links': links,
+            'points': {k: [v[0], v[1]] for k, v in self.points.items()},
+            'residual': self.residual,
+            'branch': self.branch,
+            'branch_defined': self.branch_defined,
+            'margin': self.margin,
+            'solver': self.solver,
+            'iterations': self.iterations,
+            'cond': self.cond,
+        }
+        if self.targets:
+            out['targets'] = dict(self.targets)
+        return out
+
+
+@dataclass
+class _State:
+    values: list
+    x_all: np.ndarray          # every moving link (phi, cx, cy): warm start for Newton
+    points: dict[str, np.ndarray]
+    phi: dict[str, float]
+    signs: tuple[int, ...]
+    det_sign: int
+
+
+class Solver:
+    """Compiled solver for one mechanism, one set of known names and wanted outputs."""
+
+    def __init__(self, mech: Mechanism, knowns: Sequence[str] | None = None,
+                 outputs: Sequence[str] | None = None, method: str | None = None,
+                 tol: float = 1e-12, max_iter: int = 50, branch: str = 'continuous'):
+        self.mech = mech
+        method = method or mech.solver
+        if method not in METHODS:
+            raise PlanError(f'unknown solver {method!r}; expected one of {list(METHODS)}')
+        if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
+            raise PlanError(f'tolerance must be a positive number (got {tol!r})')
+        if not (isinstance(max_iter, int) and max_iter > 0):
+            raise PlanError(f'max_iter must be a positive integer (got {max_iter!r})')
+        self.tol, self.max_iter = float(tol), max_iter
+        self.knowns = list(knowns) if knowns is not None else list(mech.actuators)
+        if len(set(self.knowns)) != len(self.knowns):
+            raise PlanError(f'a known is named twice: {self.knowns}')
+        self.specs = [spec_for(mech, n) for n in self.knowns]
+        n_values = sum(s.size for s in self.specs)
+        if n_values != mech.dof:
+            raise PlanError(f'{mech.name!r} has {mech.dof} degree(s) of freedom but the knowns '
+                            f'{self.knowns} give {n_values} value(s)')
+        self.actuator_specs = [spec_for(mech, a) for a in mech.actuators]
+        self.inverse = any(s.name not in mech.actuators for s in self.specs)
+        wanted_links, wanted_points = self._wanted(outputs)
+        self.plan = Plan(mech, self.specs, wanted_links, wanted_points)
+        self.full_plan = self.plan if wanted_links is None else Plan(mech, self.specs, None, None)
+        if method == 'closed_form' and not self.plan.complete:
+            raise PlanError(f'no closed-form dyad plan for knowns {self.knowns} of '
+                            f'{mech.name!r}; use solver newton or auto')
+        self.method = method
+        if method == 'newton':
+            self.mode = 'newton'
+        elif self.plan.complete:
+            self.mode = 'closed_form'
+        else:
+            self.mode = 'hybrid'
+        self.closed_links = ([] if self.mode == 'newton' else
+                             [l for l in self.full_plan.placed_links if l != mech.ground])
+        free = [l for l in mech.moving_links if l not in self.closed_links]
+        self.system = LoopSystem(mech, self.specs, free)
+        self.check_system = LoopSystem(mech, self.specs, mech.moving_links)
+        self.branch_mode, self.fixed_signs = self._parse_branch(branch)
+        self._ref_values = self._values_at_reference()
+        self.reset()
+
+    # -- set-up helpers ----------------------------------------------------------------------
+    def _wanted(self, outputs):
+        if outputs is None:
+            return None, None
+        mech = self.mech
+        links, pts = set(), set()
+        for name in outputs:
+            if name in mech.links:
+                links.add(name)
+            elif name in mech.points:
+                pts.add(name)
+            elif name in mech.prismatics:
+                pj = mech.prismatics[name]
+                links |= {pj.guide, pj.slider}
+            elif name in mech.actuators:
+                a = mech.actuators[name]
+                if a.kind == 'slide':
+                    pj = mech.prismatics[a.joint]
+                    links |= {pj.guide, pj.slider}
+                else:
+                    links |= {a.link, a.reference}
+            else:
+                rj = next((r for r in mech.revolutes if r.name == name), None)
+                if rj is None:
+                    raise PlanError(f'unknown output {name!r} of {mech.name!r}')
+                links |= {rj.parent, rj.child}
+        self.wanted_names = list(outputs)
+        return sorted(links), sorted(pts)
+
+    def _parse_branch(self, branch):
+        k = len(self.plan.branch_steps)
+        if branch in ('continuous', 'reference'):
+            return branch, None
+        if isinstance(branch, str) and set(branch) <= {'+', '-'}:
+            if len(branch) != k:
+                raise PlanError(f'branch {branch!r} has {len(branch)} sign(s) but this solve has '
+                                f'{k} branching dyad(s): '
+                                + '; '.join(s.describe(self.plan) for s in self.plan.branch_steps))
+            return 'explicit', tuple(1 if c == '+' else -1 for c in branch)
+        raise PlanError(f"branch must be 'continuous', 'reference' or a string of + and - "
+                        f'(got {branch!r})')
+
+    def _values_at_reference(self):
+        ref = Poses()
+        for l in self.mech.links:
+            ref.phi[l] = np.zeros(1)
+            ref.T[l] = np.zeros((1, 2))
+        return [spec_value_at(self.mech, s, ref)[0] for s in self.specs]
+
+    def reset(self):
+        """Forget the previous configuration (continuity restarts from the reference pose)."""
+        self._history: list[_State] = []
+
+    @property
+    def branch_count(self) -> int:
+        return len(self.plan.branch_steps)
+
+    # -- command validation ------------------------------------------------------------------
+    def parse(self, values: Mapping[str, Any]) -> list:
+        """Validate a {known name: value} command; raise ValueError naming what is wrong."""
+        if not isinstance(values, Mapping):
+            raise ValueError('a command must map known names to values')
+        unknown = [k for k in values if k not in self.knowns]
+        if unknown:
+            raise ValueError(f'unknown name(s) {unknown}; this solve takes {self.knowns}')
+        missing = [k for k in self.knowns if k not in values]
+        if missing:
+            raise ValueError(f'missing value(s) for {missing}')
+        out = []
+        for s in self.specs:
+            v = values[s.name]
+            if s.kind == 'point':
+                try:
+                    arr = np.asarray(v, float).reshape(-1)
+                except (TypeError, ValueError):
+                    raise ValueError(f'{s.name}: a point needs two numbers x, y (got {v!r})') from None
+                if arr.shape != (2,):
+                    raise ValueError(f'{s.name}: a point needs two numbers x, y (got {v!r})')
+                if not np.all(np.isfinite(arr)):
+                    raise ValueError(f'{s.name}: value must be finite (got {v!r})')
+                out.append(arr)
+            else:
+                if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+                    raise ValueError(f'{s.name}: value must be a number in {s.unit} (got {v!r})')
+                fv = float(v)
+                if not math.isfinite(fv):
+                    raise ValueError(f'{s.name}: value must be finite (got {v!r})')
+                out.append(fv)
+        return out
+
+    def limit_violation(self, spec: Spec, value: float) -> str | None:
+        lo, hi = spec.minimum, spec.maximum
+        if lo is None and hi is None:
+            return None
+        v = value
+        if spec.kind == 'angle' and lo is not None and hi is not None:
+            # angles compare on the circle: bring v into [lo, lo + 2 pi)
+            v = lo + (value - lo) % (2 * math.pi)
+            if v <= hi + 1e-12 * max(1.0, abs(hi)):
+                return None
+            over_hi = v - hi
+            under_lo = lo + 2 * math.pi - v
+            if under_lo < over_hi:
+                return (f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} '
+                        f'by {under_lo:.3g} {spec.unit}')
+            return (f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
+                    f'{over_hi:.3g} {spec.unit}')
+        if lo is not None and v < lo:
+            return (f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} by '
+                    f'{lo - v:.3g} {spec.unit}')
+        if hi is not None and v > hi:
+            return (f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
+                    f'{v - hi:.3g} {spec.unit}')
+        return None
+
+    # -- solving -----------------------------------------------------------------------------
+    def solve(self, values: Mapping[str, Any], commit: bool = True) -> Result:
+        """Solve one command. On success (and commit) the answer becomes the new 'previous
+        configuration' for continuity; on failure nothing changes."""
+        try:
+            vals = self.parse(values)
+        except ValueError as exc:
+            return Result(False, str(exc), solver=self.mode)
+        echo = self._echo(vals)
+        for s, v in zip(self.specs, vals):
+            if s.kind != 'point':
+                bad = self.limit_violation(s, v)
+                if bad:
+                    return self._fail(bad, echo)
+        if self.mode == 'closed_form':
+            res, state = self._solve_closed(vals)
+        else:
+            res, state = self._solve_newton(vals)
+        res.targets = {k: v for k, v in echo.items() if k not in self.mech.actuators}
+        if res.success and self.inverse:
+            for s in self.actuator_specs:
+                v = res.inputs.get(s.name)
+                if v is not None:
+                    bad = self.limit_violation(s, v)
+                    if bad:
+                        return self._fail(f'target needs {bad}', echo, solver=res.solver)
+        if res.success and commit and state is not None:
+            self._history = (self._history + [state])[-2:]
+        return res
+
+    def _echo(self, vals):
+        return {s.name: (list(map(float, v)) if s.kind == 'point' else float(v))
+                for s, v in zip(self.specs, vals)}
+
+    def _fail(self, reason, echo, solver=None):
+        return Result(False, reason, inputs={k: v for k, v in echo.items()
+                                             if k in self.mech.actuators},
+                      targets={k: v for k, v in echo.items() if k not in self.mech.actuators},
+                      solver=solver or self.mode)
+
+    def _prediction(self, vals):
+        """Predicted point positions / link angles for continuity (linear in the input step)."""
+        if self.branch_mode != 'continuous' or not self._history:
+            return None
+        last = self._history[-1]
+        pred = {p: v[None, :] for p, v in last.points.items()}
+        pred.update({'@' + l: np.array([a]) for l, a in last.phi.items()})
+        if len(self._history) == 2:
+            prev = self._history[-2]
+            d_now = self._value_delta(last.values, vals)
+            d_prev = self._value_delta(prev.values, last.values)
+            den = float(np.dot(d_prev, d_prev))
+            if den > 0:
+                ratio = float(np.clip(np.dot(d_now, d_prev) / den, 0.0, 1.5))
+                for p, v in last.points.items():
+                    if p in prev.points:
+                        pred[p] = (v + ratio * (v - prev.points[p]))[None, :]
+        return pred
+
+    def _value_delta(self, a, b):
+        out = []
+        for s, va, vb in zip(self.specs, a, b):
+            if s.kind == 'point':
+                out += list((np.asarray(vb) - np.asarray(va)) / self.mech.length_scale)
+            elif s.kind == 'angle':
+                out.append(math.atan2(math.sin(vb - va), math.cos(vb - va)))
+            else:
+                out.append((vb - va) / self.mech.length_scale)
+        return np.asarray(out)
+
+    def _signs(self):
+        if self.branch_mode == 'explicit':
+            return self.fixed_signs
+        if self.branch_mode == 'continuous' and self._history:
+            return self._history[-1].signs
+        return self.plan.reference_signs
+
+    def _batch_values(self, vals, n):
+        out = []
+        for s, v in zip(self.specs, vals):
+            a = np.asarray(v, float)
+            out.append(a.reshape(n, 2) if s.kind == 'point' else a.reshape(n))
+        return out
+
+    def _solve_closed(self, vals):
+        bv = self._batch_values(vals, 1)
+        poses, pts, info = self.plan.run(bv, 1, self._signs(), self._prediction(vals))
+        if not info['ok'][0]:
+            return self._fail(self._dyad_reason(int(info['failure'][0]), float(info['violation'][0])),
+                              self._echo(vals), 'closed_form'), None
+        signs = tuple(int(s) for s in info['signs'][0])
+        res = self._build(poses, pts, vals, solver='closed_form', iterations=0, signs=signs,
+                          margin=float(info['margin'][0]))
+        state = _State(vals, self.check_system.x_from_poses(poses) if res.success else None,
+                       {p: v[0] for p, v in pts.items()},
+                       {l: float(a[0]) for l, a in poses.phi.items()}, signs, 0)
+        return res, state
+
+    def _dyad_reason(self, k, violation):
+        st = self.plan.steps[k]
+        what = st.describe(self.plan)
+        return (f'cannot assemble: {what} does not close; the constraint misses by '
+                f'{violation:.6g} m ({violation / self.mech.length_scale:.3g} of the length scale)')
+
+    # Newton (alone, or for the links the dyad plan cannot place) with continuation
+    def _fixed_poses(self, vals):
+        """Run the closed-form part (hybrid mode); returns (poses, reason or None)."""
+        if self.mode != 'hybrid':
+            return None, None
+        bv = self._batch_values(vals, 1)
+        poses, pts, info = self.full_plan.run(bv, 1, None, None)
+        if not info['ok'][0]:
+            k = int(info['failure'][0])
+            st = self.full_plan.steps[k]
+            return None, (f'cannot assemble: {st.describe(self.full_plan)} does not close; misses '
+                          f'by {float(info["violation"][0]):.6g} m')
+        keep = Poses()
+        for l in self.closed_links + [self.mech.ground]:
+            keep.phi[l] = poses.phi[l]
+            keep.T[l] = poses.T[l]
+        return keep, None
+
+    def _newton_at(self, vals, x0):
+        fixed, reason = self._fixed_poses(vals)
+        if reason:
+            return None, reason, None
+        r = self.system.solve(x0, vals, fixed, tol=self.tol, max_iter=self.max_iter)
+        return r, None, fixed
+
+    def _start(self):
+        """Warm start: the previous solution, else the reference pose."""
+        if self._history and self._history[-1].x_all is not None:
+            last = self._history[-1]
+            return last.values, self._sub_x(last.x_all)
+        x_all = self.check_system.reference_x()
+        if self.branch_mode == 'explicit' and self.fixed_signs != self.plan.reference_signs \
+                and self.full_plan.complete:
+            # another assembly mode: start from the dyad plan's answer at the reference input
+            bv = self._batch_values(self._ref_values, 1)
+            poses, _, info = self.full_plan.run(bv, 1, self.fixed_signs, None)
+            if info['ok'][0]:
+                x_all = self.check_system.x_from_poses(poses)
+        return self._ref_values, self._sub_x(x_all)
+
+    def _sub_x(self, x_all):
+        idx = self.check_system.index
+        return np.concatenate([x_all[3 * idx[l]:3 * idx[l] + 3] for l in self.system.free]) \
+            if self.system.free else np.zeros(0)
+
+    def _interp(self, a, b, t):
+        out = []
+        for s, va, vb in zip(self.specs, a, b):
+            if s.kind == 'angle':
+                out.append(va + t * math.atan2(math.sin(vb - va), math.cos(vb - va)))
+            elif s.kind == 'point':
+                out.append(np.asarray(va) + t * (np.asarray(vb) - np.asarray(va)))
+            else:
+                out.append(va + t * (vb - va))
+        return out
+
+    def _solve_newton(self, vals):
+        v0, x0 = self._start()
+        total_iter = [0]
+
+        def walk(va, xa, vb, depth):
+            sign_a = self.system.det_sign(self.system.evaluate(xa, va, self._fixed_poses(va)[0])[1]) \
+                if self.system.n else 0
+            r, reason, fixed = self._newton_at(vb, xa)
+            if r is not None:
+                total_iter[0] += r.iterations
+                if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
+                    return r, None, fixed
+            if depth >= 10:
+                if r is None:
+                    return None, reason, None
+                why = r.reason or ('the sign of det J changed: a singularity (toggle or change '
+                                   'point) lies between the previous configuration and this input')
+                return None, why, None
+            vm = self._interp(va, vb, 0.5)
+            rm, why, fm = walk(va, xa, vm, depth + 1)
+            if rm is None:
+                return None, why, None
+            return walk(vm, rm.x, vb, depth + 1)
+
+        r, reason, fixed = walk(v0, x0, vals, 0)
+        if r is None:
+            return self._fail(reason, self._echo(vals), 'newton' if self.mode == 'newton'
+                              else 'hybrid'), None
+        poses = self.system.poses_from_x(r.x, fixed)
+        pts = {}
+        for l, link in self.mech.links.items():
+            for p in link.points:
+                if p not in pts:
+                    pts[p] = poses.world(l, p, self.mech)
+        signs, margins = branch_geometry(self.full_plan, pts, poses) if self.full_plan.complete \
+            else (np.zeros((1, 0), int), np.ones((1, 0)))
+        signs_t = tuple(int(s) for s in signs[0])
+        if self.branch_mode in ('explicit', 'reference') and self.full_plan.complete:
+            want = self._signs() if self.branch_mode == 'explicit' else self.plan.reference_signs
+            want_full = want if self.full_plan is self.plan else None
+            if want_full is not None and signs_t != tuple(want_full):
+                return self._fail(f'Newton converged to assembly mode {_sign_str(signs_t)}, not the '
+                                  f'requested {_sign_str(want_full)}: the input is not reachable '
+                                  'on that branch from the start configuration without crossing '
+                                  'a singularity', self._echo(vals), 'newton'), None
+        margin = float(np.min(margins)) if margins.size else 1.0 / max(r.cond, 1.0)
+        res = self._build(poses, pts, vals, solver='newton' if self.mode == 'newton' else 'hybrid',
+                          iterations=total_iter[0], signs=signs_t, margin=margin, cond=r.cond)
+        x_all = self.check_system.x_from_poses(poses)
+        state = _State(vals, x_all, {p: v[0] for p, v in pts.items()},
+                       {l: float(a[0]) for l, a in poses.phi.items()}, signs_t, r.det_sign)
+        return res, state
+
+    # -- result assembly ---------------------------------------------------------------------
+    def _build(self, poses: Poses, pts, vals, *, solver, iterations, signs, margin, cond=None):
+        mech = self.mech
+        have = set(poses.phi)
+        res = Result(True, solver=solver, iterations=iterations)
+        for a, s in zip(mech.actuators, self.actuator_specs):
+            if self._spec_links_in(s, have):
+                v = spec_value_at(mech, s, poses)[0]
+                res.inputs[a] = float(v)
+        # report commanded actuator values exactly as given
+        for s, v in zip(self.specs, vals):
+            if s.name in mech.actuators:
+                res.inputs[s.name] = float(v)
+        for rj in mech.revolutes:
+            if rj.parent in have and rj.child in have:
+                res.joints[rj.name] = float(_wrap(poses.phi[rj.child][0] - poses.phi[rj.parent][0]))
+        for pj in mech.prismatics.values():
+            if pj.guide in have and pj.slider in have:
+                res.joints[pj.name] = float(spec_value_at(mech, Spec(pj.name, 'slide', joint=pj.name),
+                                                          poses)[0])
+        for l, link in mech.links.items():
+            if l in have:
+                res.links[l] = float(_wrap(link.angle_ref + poses.phi[l][0]))
+        for p, v in pts.items():
+            res.points[p] = (float(v[0][0]), float(v[0][1]))
+        res.residual = self._residual(poses, vals)
+        res.branch = _sign_str(signs)
+        res.margin = float(margin)
+        res.branch_defined = bool(margin > BRANCH_UNDEFINED_MARGIN) if signs else True
+        res.cond = cond
+        if not all(math.isfinite(v) for v in list(res.joints.values()) + list(res.links.values())
+                   + [c for p in res.points.values() for c in p]):
+            return Result(False, 'internal error: non-finite value in the solution', solver=solver)
+        return res
+
+    def _spec_links_in(self, s: Spec, have) -> bool:
+        return all(l in have for l in self.check_system._spec_links(s))
+
+    def _residual(self, poses: Poses, vals) -> float:
+        """max |loop-closure| over the constraints whose links are all solved, / length scale."""
+        have = set(poses.phi)
+        if have >= set(self.mech.links):
+            x = self.check_system.x_from_poses(poses)
+            F, _ = self.check_system.evaluate(x, vals, None, jacobian=False)
+            return float(np.max(np.abs(F))) / self.mech.length_scale if F.size else 0.0
+        part = LoopSystem(self.mech, self.specs, [l for l in self.mech.moving_links if l in have])
+        x = part.x_from_poses(poses)
+        F, _ = part.evaluate(x, vals, poses, jacobian=False)
+        mask = [row for row in part.rows if all(
+            l in have for l in (row[1:3] if row[0] == 'rev' else
+                                ((row[1].guide, row[1].slider) if row[0] == 'pri'
+                                 else part._spec_links(self.specs[row[1]]))))]
+        if not mask:
+            return 0.0
+        # rows of constraints touching an unsolved link are meaningless: evaluate only the rest
+        sub = LoopSystem.__new__(LoopSystem)
+        sub.__dict__.update(part.__dict__)
+        sub.rows = mask
+        sub.m = sum(2 if r[0] in ('rev', 'pri') else self.specs[r[1]].size for r in mask)
+        F, _ = sub.evaluate(x, vals, poses, jacobian=False)
+        return float(np.max(np.abs(F))) / self.mech.length_scale if F.size else 0.0
+
+    # -- batches -----------------------------------------------------------------------------
+    def solve_batch(self, columns: Mapping[str, Any]) -> 'BatchResult':
+        """Vectorised closed-form solve of n commands with fixed branch signs (the explicit
+        ones, else the current/reference ones). Newton modes fall back to sequential warm-started
+        solves. ``columns`` maps each known name to an (n,) array ((n, 2) for points)."""
+        names = list(columns)
+        unknown = [k for k in names if k not in self.knowns]
+        missing = [k for k in self.knowns if k not in columns]
+        if unknown or missing:
+            raise ValueError(f'batch columns must be exactly {self.knowns}'
+                             f'{"; unknown " + str(unknown) if unknown else ""}'
+                             f'{"; missing " + str(missing) if missing else ""}')
+        arrays = []
+        n = None
+        for s in self.specs:
+            a = np.asarray(columns[s.name], float)
+            a = a.reshape(-1, 2) if s.kind == 'point' else a.reshape(-1)
+            if n is None:
+                n = a.shape[0]
+            elif a.shape[0] != n:
+                raise ValueError(f'batch column {s.name!r} has {a.shape[0]} rows, expected {n}')
+            arrays.append(a)
+        return BatchResult.solve(self, arrays, n or 0)
+
+
+class BatchResult:
+    """Results of n commands as arrays: ok (n,), reason list, points {name: (n, 2)},
+    joints / links / inputs {name: (n,)}, residual, margin, signs (n, k)."""
+
+    @classmethod
+    def solve(cls, solver: Solver, arrays: list[np.ndarray], n: int) -> 'BatchResult':
+        self = cls()
+        self.n = n
+        mech = solver.mech
+        finite = np.ones(n, bool)
+        for a in arrays:
+            finite &= np.all(np.isfinite(a.reshape(n, -1)), axis=1)
+        self.reason = [None] * n
+        for i in np.flatnonzero(~finite):
+            self.reason[i] = 'value must be finite (NaN or inf in the command)'
+        safe = [np.where(np.isfinite(a), a, 0.0) for a in arrays]
+        limit_bad = np.zeros(n, bool)
+        for s, a in zip(solver.specs, safe):
+            if s.kind != 'point' and (s.minimum is not None or s.maximum is not None):
+                for i in np.flatnonzero(finite & ~limit_bad):
+                    why = solver.limit_violation(s, float(a[i]))
+                    if why:
+                        limit_bad[i] = True
+                        self.reason[i] = why
+        if solver.mode != 'closed_form':
+            return cls._sequential(self, solver, arrays, n)
+        poses, pts, info = solver.plan.run(safe, n, solver._signs(), None)
+        ok = info['ok'] & finite & ~limit_bad
+        for i in np.flatnonzero(~info['ok'] & finite & ~limit_bad):
+            self.reason[i] = solver._dyad_reason(int(info['failure'][i]), float(info['violation'][i]))
+        self.points = {p: np.where(ok[:, None], v, 0.0) for p, v in pts.items()}
+        have = set(poses.phi)
+        self.links = {l: np.where(ok, np.arctan2(np.sin(mech.links[l].angle_ref + poses.phi[l]),
+                                                 np.cos(mech.links[l].angle_ref + poses.phi[l])), 0.0)
+                      for l in mech.links if l in have}
+        self.joints = {}
+        for rj in mech.revolutes:
+            if rj.parent in have and rj.child in have:
+                d = poses.phi[rj.child] - poses.phi[rj.parent]
+                self.joints[rj.name] = np.where(ok, np.arctan2(np.sin(d), np.cos(d)), 0.0)
+        for pj in mech.prismatics.values():
+            if pj.guide in have and pj.slider in have:
+                v = spec_value_at(mech, Spec(pj.name, 'slide', joint=pj.name), poses)
+                self.joints[pj.name] = np.where(ok, v, 0.0)
+        self.inputs = {}
+        for a, s in zip(mech.actuators, solver.actuator_specs):
+            if all(l in have for l in solver.check_system._spec_links(s)):
+                self.inputs[a] = np.where(ok, spec_value_at(mech, s, poses), 0.0)
+        for s, a in zip(solver.specs, arrays):
+            if s.name in mech.actuators:
+                self.inputs[s.name] = np.where(ok, a, a if False else np.where(finite, a, 0.0))
+        if solver.inverse:
+            for s in solver.actuator_specs:
+                if s.name in self.inputs and (s.minimum is not None or s.maximum is not None):
+                    for i in np.flatnonzero(ok):
+                        why = solver.limit_violation(s, float(self.inputs[s.name][i]))
+                        if why:
+                            ok[i] = False
+                            self.reason[i] = f'target needs {why}'
+        self.ok = ok
+        self.margin = np.where(ok, info['margin'], 0.0)
+        self.signs = info['signs']
+        self.residual = cls._residuals(solver, poses, safe, ok, n)
+        self.iterations = np.zeros(n, int)
+        self.solver = 'closed_form'
+        return self
+
+    @staticmethod
+    def _residuals(solver, poses, arrays, ok, n):
+        mech = solver.mech
+        if set(poses.phi) < set(mech.links):
+            return np.zeros(n)
+        # vectorised loop-closure check: every revolute and prismatic pair
+        worst = np.zeros(n)
+        for rj in mech.revolutes:
+            a = poses.world(rj.parent, rj.point, mech)
+            b = poses.world(rj.child, rj.point, mech)
+            worst = np.maximum(worst, np.max(np.abs(a - b), axis=-1))
+        for pj in mech.prismatics.values():
+            x = poses.world(pj.slider, pj.point, mech)
+            g = poses.apply(pj.guide, mech.points[pj.point])
+            nrm = dyads.rotate(np.broadcast_to(dyads.perp(np.asarray(pj.direction)), (n, 2)),
+                               poses.phi[pj.guide])
+            worst = np.maximum(worst, np.abs(np.sum((x - g) * nrm, axis=-1)))
+            worst = np.maximum(worst, mech.length_scale * np.abs(
+                np.arctan2(np.sin(poses.phi[pj.slider] - poses.phi[pj.guide]),
+                           np.cos(poses.phi[pj.slider] - poses.phi[pj.guide]))))
+        return np.where(ok, worst / mech.length_scale, 0.0)
+
+    @staticmethod
+    def _sequential(self, solver, arrays, n):
+        mech = solver.mech
+        rows = []
+        for i in range(n):
+            if self.reason[i] is not None:
+                rows.append(Result(False, self.reason[i]))
+                continue
+            cmd = {s.name: (arrays[k][i] if s.kind == 'point' else float(arrays[k][i]))
+                   for k, s in enumerate(solver.specs)}
+            rows.append(solver.solve(cmd))
+        self.ok = np.array([r.success for r in rows], bool)
+        self.reason = [r.reason for r in rows]
+        names_p = list(mech.points)
+        self.points = {p: np.array([r.points.get(p, (0.0, 0.0)) for r in rows]).reshape(n, 2)
+                       for p in names_p}
+        self.links = {l: np.array([r.links.get(l, 0.0) for r in rows]) for l in mech.links}
+        self.joints = {j: np.array([r.joints.get(j, 0.0) for r in rows]) for j in mech.joint_names}
+        self.inputs = {a: np.array([r.inputs.get(a, 0.0) for r in rows]) for a in mech.actuators}
+        self.margin = np.array([r.margin or 0.0 for r in rows])
+        self.residual = np.array([r.residual or 0.0 for r in rows])
+        self.iterations = np.array([r.iterations for r in rows])
+        self.signs = np.zeros((n, 0), int)
+        self.solver = solver.mode
+        self.rows = rows
+        return self
+
+    def row(self, i: int, solver: Solver) -> Result:
+        if getattr(self, 'rows', None) is not None:
+            return self.rows[i]
+        if not self.ok[i]:
+            return Result(False, self.reason[i], solver=self.solver)
+        sg = tuple(int(s) for s in self.signs[i])
+        return Result(True, None,
+                      inputs={k: float(v[i]) for k, v in self.inputs.items()},
+                      joints={k: float(v[i]) for k, v in self.joints.items()},
+                      links={k: float(v[i]) for k, v in self.links.items()},
+                      points={k: (float(v[i, 0]), float(v[i, 1])) for k, v in self.points.items()},
+                      residual=float(self.residual[i]), iterations=int(self.iterations[i]),
+                      solver=self.solver, branch=_sign_str(sg), margin=float(self.margin[i]),
+                      branch_defined=bool(self.margin[i] > BRANCH_UNDEFINED_MARGIN) if sg else True)
+
+
+def _sign_str(signs) -> str:
+    return ''.join('+' if s > 0 else '-' for s in signs)
+
+
+def _wrap(a: float) -> float:
+    return math.atan2(math.sin(a), math.cos(a))
