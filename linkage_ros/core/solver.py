@@ -278,6 +278,33 @@ class Solver:
             self._history = (self._history + [state])[-2:]
         return res
 
+    def solve_all(self, values: Mapping[str, Any]) -> list[Result]:
+        """Every assembly mode of one command (each sign combination of the dyad plan that
+        closes), without touching the continuity history. Newton-only solves have no enumerable
+        branches: the single answer nearest the current configuration is returned."""
+        import itertools
+        if self.mode != 'closed_form' or not self.branch_count:
+            return [self.solve(values, commit=False)]
+        out, seen = [], set()
+        saved = (self.branch_mode, self.fixed_signs)
+        try:
+            for combo in itertools.product((1, -1), repeat=self.branch_count):
+                self.branch_mode, self.fixed_signs = 'explicit', combo
+                r = self.solve(values, commit=False)
+                if not r.success:
+                    if not out and not seen:
+                        first_fail = r
+                    continue
+                key = tuple(round(c / self.mech.length_scale, 9) for p in sorted(r.points)
+                            for c in r.points[p])
+                if key in seen:          # coincident modes (at a toggle) are one answer
+                    continue
+                seen.add(key)
+                out.append(r)
+        finally:
+            self.branch_mode, self.fixed_signs = saved
+        return out or [self.solve(values, commit=False)]
+
     def _echo(self, vals):
         return {s.name: (list(map(float, v)) if s.kind == 'point' else float(v))
                 for s, v in zip(self.specs, vals)}
