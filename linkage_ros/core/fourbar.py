@@ -89,20 +89,22 @@ def _sign(s) -> np.ndarray:
     return np.where(_f(s) < 0, -1.0, 1.0)
 
 
-def _kahan_product(a, b, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Kahan's factored 16*area**2 for sides a, b, c (any order).
+def _kahan_4area(a, b, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """4 * area of the triangle with sides a, b, c (any order), by Kahan's formula.
 
-    Returns ``(prod, violation, scale)``: ``prod`` is the product with the single factor that can
-    turn negative left signed, ``violation = longest - (sum of the other two)`` (> 0 means no
-    triangle exists) and ``scale`` the longest side.
+    Returns ``(four_area, violation, scale)``: ``violation = longest - (sum of the other two)``
+    (> 0 means no triangle exists, and then ``four_area`` is 0) and ``scale`` the longest side.
     """
     sides = np.sort(np.stack(np.broadcast_arrays(_f(a), _f(b), _f(c)), axis=-1), axis=-1)
     big, mid, small = sides[..., 2], sides[..., 1], sides[..., 0]
     # The parenthesisation is the point: each factor is computed without cancellation when
     # big >= mid >= small (Kahan, "Miscalculating area and angles of a needle-like triangle").
     neg_factor = small - (big - mid)  # the only factor that can be negative
-    prod = (big + (mid + small)) * neg_factor * (small + (big - mid)) * (big + (mid - small))
-    return prod, -neg_factor, big
+    # Square roots taken factor by factor: the plain product under- or overflows for extreme
+    # side ratios (e.g. a side of 1e-200 next to sides of 1 squares to 0).
+    four_area = (np.sqrt(big + (mid + small)) * np.sqrt(np.maximum(neg_factor, 0.0))
+                 * np.sqrt(small + (big - mid)) * np.sqrt(big + (mid - small)))
+    return four_area, -neg_factor, big
 
 
 def triangle_area(a, b, c) -> np.ndarray:
@@ -112,8 +114,8 @@ def triangle_area(a, b, c) -> np.ndarray:
     must check the inequality themselves (:func:`circle_intersection` does).
     """
     with np.errstate(invalid='ignore', over='ignore'):
-        prod, _, _ = _kahan_product(a, b, c)
-        area = 0.25 * np.sqrt(np.where(prod > 0, prod, 0.0))
+        four_area, _, _ = _kahan_4area(a, b, c)
+        area = 0.25 * four_area
     return _out(np.where(np.isfinite(area), area, 0.0))
 
 
@@ -167,7 +169,7 @@ def circle_intersection(c1, r1, c2, r2, sign, tangency_tol: float = TANGENCY_TOL
         dx, dy, d, r1, r2, sgn = np.broadcast_arrays(dx, dy, d, r1, r2, sgn)
         finite = (np.isfinite(dx) & np.isfinite(dy) & np.isfinite(r1) & np.isfinite(r2)
                   & np.all(np.isfinite(c1), axis=-1) & np.all(np.isfinite(c2), axis=-1))
-        prod, violation, scale = _kahan_product(d, r1, r2)
+        four_area, violation, scale = _kahan_4area(d, r1, r2)
         ok = finite & (d > 0) & (r1 >= 0) & (r2 >= 0) & (violation <= tangency_tol * scale)
         dsafe = np.where(d > 0, d, 1.0)
         ux, uy = dx / dsafe, dy / dsafe
@@ -178,8 +180,8 @@ def circle_intersection(c1, r1, c2, r2, sign, tangency_tol: float = TANGENCY_TOL
         # +-r1 gives the point of circle 1 nearest to circle 2: a meaningful, finite fill.
         along = np.where(ok, along, np.clip(along, -np.abs(r1), np.abs(r1)))
         along = np.where(finite & (d > 0), along, 0.0)
-        # h = 2*area/d with area = sqrt(prod)/4; clamped tangency has prod <= 0 -> h = 0.
-        h = np.where(ok & (prod > 0), 0.5 * np.sqrt(np.where(prod > 0, prod, 0.0)) / dsafe, 0.0)
+        # h = 2*area/d; a clamped tangency has four_area = 0 -> h = 0.
+        h = np.where(ok, 0.5 * four_area / dsafe, 0.0)
         px = c1[..., 0] + along * ux - sgn * h * uy
         py = c1[..., 1] + along * uy + sgn * h * ux
         px = np.where(finite, px, 0.0)

@@ -42,8 +42,9 @@ class Link:
 
 @dataclass(frozen=True)
 class RevoluteJoint:
-    """Links ``parent`` and ``child`` share ``point``; the joint value is the child's rotation
-    relative to the parent, zero in the reference pose (rad)."""
+    """Links ``parent`` and ``child`` share ``point``; the joint value is the child's angle minus
+    the parent's angle (rad), each link's angle being the direction of its axis (first -> second
+    point), so a URDF with each link frame on its axis reproduces the pose."""
     name: str
     point: str
     parent: str

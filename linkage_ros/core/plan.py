@@ -71,7 +71,9 @@ def spec_for(mech: Mechanism, name: str) -> Spec:
                     minimum=act.min, maximum=act.max)
     for rj in mech.revolutes:
         if rj.name == name:
-            return Spec(name, 'angle', link=rj.child, reference=rj.parent, offset=0.0)
+            # joint value = child link angle - parent link angle (each along its axis)
+            return Spec(name, 'angle', link=rj.child, reference=rj.parent,
+                        offset=mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref)
     if name in mech.prismatics:
         return Spec(name, 'slide', joint=name)
     if name in mech.links:

@@ -190,6 +190,37 @@ class Solver:
     def branch_count(self) -> int:
         return len(self.plan.branch_steps)
 
+    def adopt(self, result: Result) -> bool:
+        """Make a solved configuration (from any solver of this mechanism) the 'previous
+        configuration' for continuity and warm starts. Returns False if the result is unusable."""
+        if not result.success or set(result.links) != set(self.mech.links):
+            return False
+        mech = self.mech
+        poses = Poses()
+        for l, link in mech.links.items():
+            phi = _wrap(result.links[l] - link.angle_ref)
+            p = link.points[0]
+            w = np.asarray(result.points[p], float)
+            poses.phi[l] = np.array([phi])
+            poses.T[l] = (w - dyads.rotate(mech.points[p], phi))[None, :]
+        vals = []
+        for s in self.specs:
+            v = spec_value_at(mech, s, poses)
+            vals.append(np.asarray(v[0], float) if s.kind == 'point' else float(v[0]))
+        pts = {p: np.asarray(v, float) for p, v in result.points.items()}
+        if self.full_plan.complete:
+            sg, _ = branch_geometry(self.plan, {p: v[None, :] for p, v in pts.items()}, poses)
+            signs = tuple(int(x) for x in sg[0])
+        else:
+            signs = self.plan.reference_signs
+        x_all = self.check_system.x_from_poses(poses)
+        J = self.system.evaluate(self._sub_x(x_all), vals, None if self.mode != 'hybrid' else
+                                 self._fixed_poses(vals)[0])[1] if self.system.n else None
+        det = self.system.det_sign(J) if J is not None else 0
+        state = _State(vals, x_all, pts, {l: float(a[0]) for l, a in poses.phi.items()}, signs, det)
+        self._history = [state]
+        return True
+
     # -- command validation ------------------------------------------------------------------
     def parse(self, values: Mapping[str, Any]) -> list:
         """Validate a {known name: value} command; raise ValueError naming what is wrong."""
@@ -503,7 +534,9 @@ class Solver:
                 res.inputs[s.name] = float(v)
         for rj in mech.revolutes:
             if rj.parent in have and rj.child in have:
-                res.joints[rj.name] = float(_wrap(poses.phi[rj.child][0] - poses.phi[rj.parent][0]))
+                res.joints[rj.name] = float(_wrap(
+                    mech.links[rj.child].angle_ref + poses.phi[rj.child][0]
+                    - mech.links[rj.parent].angle_ref - poses.phi[rj.parent][0]))
         for pj in mech.prismatics.values():
             if pj.guide in have and pj.slider in have:
                 res.joints[pj.name] = float(spec_value_at(mech, Spec(pj.name, 'slide', joint=pj.name),
@@ -613,7 +646,8 @@ class BatchResult:
         self.joints = {}
         for rj in mech.revolutes:
             if rj.parent in have and rj.child in have:
-                d = poses.phi[rj.child] - poses.phi[rj.parent]
+                d = (mech.links[rj.child].angle_ref + poses.phi[rj.child]
+                     - mech.links[rj.parent].angle_ref - poses.phi[rj.parent])
                 self.joints[rj.name] = np.where(ok, np.arctan2(np.sin(d), np.cos(d)), 0.0)
         for pj in mech.prismatics.values():
             if pj.guide in have and pj.slider in have:
