@@ -12,6 +12,8 @@ the dyad's own length scale so results are scale-invariant.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 #: Relative tolerance (of the dyad's length scale) within which a tangency still assembles.
@@ -125,3 +127,56 @@ def rotate(v, phi):
 def wrap_angle(a):
     """Wrap angles to [-pi, pi)."""
     return (np.asarray(a, float) + np.pi) % (2.0 * np.pi) - np.pi
+
+
+# ---- scalar forms (Python complex numbers) ---------------------------------------------------
+# One command at a time (the node's hot path) is ~20x faster in plain Python than in numpy on
+# length-1 arrays. Same formulas as above; both candidates come back so a continuity choice
+# costs one evaluation. test_solver_core checks these agree with the batched forms.
+
+def circle_circle_pair(c1: complex, r1: float, c2: complex, r2: float, tol: float = TANGENCY_TOL):
+    """RRR dyad on complex points: returns (foot, hvec, margin, ok, violation); the solutions are
+    foot + hvec (sign +1, left of c1 -> c2) and foot - hvec."""
+    dv = c2 - c1
+    d = abs(dv)
+    a, b, c = sorted((d, r1, r2), reverse=True)
+    violation = max(d - (r1 + r2), abs(r1 - r2) - d)
+    if not (d > 0 and r1 > 0 and r2 > 0 and violation <= tol * a):
+        return c1, 0j, 0.0, False, max(violation, 0.0)
+    prod = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c))
+    h = math.sqrt(prod) / (2.0 * d) if prod > 0 else 0.0
+    u = dv / d
+    along = min(max(0.5 * (d + (r1 - r2) * (r1 + r2) / d), -r1), r1)
+    margin = min(max(h * d / (r1 * r2), 0.0), 1.0)
+    return c1 + along * u, 1j * h * u, margin, True, max(violation, 0.0)
+
+
+def circle_line_pair(c: complex, r: float, p0: complex, u: complex, tol: float = TANGENCY_TOL):
+    """RRP dyad on complex points (|u| = 1): returns (foot, kvec, margin, ok, violation); the
+    solutions are foot + kvec (further along +u) and foot - kvec."""
+    w = c - p0
+    s0 = w.real * u.real + w.imag * u.imag
+    dist = abs(u.real * w.imag - u.imag * w.real)
+    violation = dist - r
+    scale = max(r, dist)
+    if not (r > 0 and violation <= tol * (scale if scale > 0 else 1.0)):
+        return p0, 0j, 0.0, False, max(violation, 0.0)
+    k2 = (r - dist) * (r + dist)
+    k = math.sqrt(k2) if k2 > 0 else 0.0
+    return p0 + s0 * u, k * u, min(max(k / r, 0.0), 1.0), True, max(violation, 0.0)
+
+
+def line_through_pair(p: complex, x: complex, offset: float, tol: float = TANGENCY_TOL):
+    """RPR dyad on complex points: returns (beta, along, margin, ok, violation); the line
+    direction is psi = beta - atan2(offset, sign * along) for sign = +1 / -1."""
+    w = x - p
+    rho = abs(w)
+    ae = abs(offset)
+    violation = ae - rho
+    scale = max(rho, ae)
+    if not (rho > 0 and violation <= tol * (scale if scale > 0 else 1.0)):
+        return 0.0, 1.0, 0.0, False, max(violation, 0.0)
+    a2 = (rho - ae) * (rho + ae)
+    along = math.sqrt(a2) if a2 > 0 else 0.0
+    return math.atan2(w.imag, w.real), along, min(max(along / rho, 0.0), 1.0), True, \
+        max(violation, 0.0)

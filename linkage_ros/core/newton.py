@@ -23,7 +23,7 @@ from typing import Sequence
 import numpy as np
 
 from .model import Mechanism
-from .plan import Poses, Spec
+from .plan import ScalarPoses, Spec
 
 
 @dataclass
@@ -82,12 +82,13 @@ class LoopSystem:
         return [self.mech.links_of_point(s.point)[0]]
 
     # -- conversions between poses and the variable vector -------------------------------------
-    def x_from_poses(self, poses: Poses, k: int = 0) -> np.ndarray:
+    def x_from_poses(self, poses: ScalarPoses) -> np.ndarray:
+        """Variable vector of the free links from a configuration."""
         x = np.empty(self.n)
         for l, i in self.index.items():
-            phi = float(poses.phi[l][k])
-            c = self._rot(phi, self.centroid[l]) + poses.T[l][k]
-            x[3 * i:3 * i + 3] = (phi, c[0], c[1])
+            o = self.centroid[l]
+            c = poses.rot[l] * complex(o[0], o[1]) + poses.T[l]
+            x[3 * i:3 * i + 3] = (poses.phi[l], c.real, c.imag)
         return x
 
     def reference_x(self) -> np.ndarray:
@@ -96,20 +97,20 @@ class LoopSystem:
             x[3 * i + 1:3 * i + 3] = self.centroid[l]
         return x
 
-    def poses_from_x(self, x: np.ndarray, fixed: Poses | None = None) -> Poses:
-        poses = Poses()
+    def poses_from_x(self, x: np.ndarray, fixed: ScalarPoses | None = None) -> ScalarPoses:
+        """Configuration of every link: free ones from x, the rest from ``fixed`` (ground at
+        the reference pose)."""
+        poses = ScalarPoses()
         if fixed is not None:
             for l in fixed.phi:
-                poses.phi[l] = fixed.phi[l]
-                poses.T[l] = fixed.T[l]
+                poses.set(l, fixed.phi[l], fixed.T[l], fixed.rot[l])
+        if self.mech.ground not in poses.phi:
+            poses.set(self.mech.ground, 0.0, 0j, 1 + 0j)
         for l, i in self.index.items():
             phi = float(x[3 * i])
-            c = x[3 * i + 1:3 * i + 3]
-            poses.phi[l] = np.array([phi])
-            poses.T[l] = (c - self._rot(phi, self.centroid[l]))[None, :]
-        if self.mech.ground not in poses.phi:
-            poses.phi[self.mech.ground] = np.zeros(1)
-            poses.T[self.mech.ground] = np.zeros((1, 2))
+            rot = complex(math.cos(phi), math.sin(phi))
+            o = self.centroid[l]
+            poses.set(l, phi, complex(x[3 * i + 1], x[3 * i + 2]) - rot * complex(o[0], o[1]), rot)
         return poses
 
     @staticmethod
@@ -125,15 +126,16 @@ class LoopSystem:
             phi, cx, cy = x[3 * i], x[3 * i + 1], x[3 * i + 2]
             return phi, math.cos(phi), math.sin(phi), cx, cy, 3 * i
         if fixed is not None and link in fixed.phi:
-            phi = float(fixed.phi[link][0])
-            c = self._rot(phi, self.centroid[link]) + fixed.T[link][0]
-            return phi, math.cos(phi), math.sin(phi), float(c[0]), float(c[1]), -1
+            phi, rot = fixed.phi[link], fixed.rot[link]
+            o = self.centroid[link]
+            c = rot * complex(o[0], o[1]) + fixed.T[link]
+            return phi, rot.real, rot.imag, c.real, c.imag, -1
         if link == self.mech.ground:
             o = self.centroid[link]
             return 0.0, 1.0, 0.0, float(o[0]), float(o[1]), -1
         raise KeyError(f'link {link!r} is neither free nor fixed')
 
-    def evaluate(self, x: np.ndarray, values: Sequence, fixed: Poses | None = None,
+    def evaluate(self, x: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None,
                  jacobian: bool = True):
         """Residual F (m,) and, if asked, the analytic Jacobian J (m, n)."""
         mech, L = self.mech, self.L
@@ -257,7 +259,7 @@ class LoopSystem:
         sign, logdet = np.linalg.slogdet(J)
         return int(sign) if np.isfinite(logdet) else 0
 
-    def solve(self, x0: np.ndarray, values: Sequence, fixed: Poses | None = None, *,
+    def solve(self, x0: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None, *,
               tol: float = 1e-12, max_iter: int = 50, keep_det_sign: bool = True) -> SolveResult:
         """Newton iterations from x0; line-search bisection on det-sign flips; LM fallback."""
         x = np.array(x0, float)

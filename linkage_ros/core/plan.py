@@ -655,41 +655,251 @@ def _side(p1, p2, x) -> int:
     return int(s) if s else 1
 
 
-def branch_geometry(plan: Plan, pts: dict[str, np.ndarray], poses: Poses):
-    """Branch signs (n, k) and dyad margins (n, k) read off a solved configuration.
 
-    This is how a Newton solution is told which assembly mode it is in: the same side tests the
-    closed-form plan uses, applied to the solved points.
-    """
+# ---- one command at a time (scalar, complex numbers) -----------------------------------------
+
+@dataclass
+class ScalarPoses:
+    """Link poses of one configuration: world(p) = rot * p_ref + T with rot = e^{i phi}."""
+    phi: dict[str, float] = field(default_factory=dict)
+    rot: dict[str, complex] = field(default_factory=dict)
+    T: dict[str, complex] = field(default_factory=dict)
+
+    def set(self, link: str, phi: float, T: complex, rot: complex | None = None):
+        self.phi[link] = phi
+        self.rot[link] = complex(math.cos(phi), math.sin(phi)) if rot is None else rot
+        self.T[link] = T
+
+    def world(self, link: str, p_ref: complex) -> complex:
+        return self.rot[link] * p_ref + self.T[link]
+
+
+def _c(v) -> complex:
+    return complex(float(v[0]), float(v[1]))
+
+
+def _wrap1(a: float) -> float:
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+@dataclass
+class ScalarRun:
+    ok: bool
+    poses: ScalarPoses
+    points: dict[str, complex]
+    margin: float = 1.0
+    signs: tuple[int, ...] = ()
+    failure: int = -1
+    violation: float = 0.0
+
+
+def _plan_scalar_setup(plan: Plan):
     mech = plan.mech
-    sig, mar = [], []
+    plan.pc = {p: _c(v) for p, v in mech.points.items()}
+    plan.point_link = {}       # (body, point) -> a member link carrying it
+    for b in plan.bodies:
+        for l in b.links:
+            for p in mech.links[l].points:
+                plan.point_link.setdefault((b.index, p), l)
+
+
+def _body_local_one(plan: Plan, bi: int, values) -> ScalarPoses:
+    mech = plan.mech
+    body = plan.bodies[bi]
+    loc = ScalarPoses()
+    loc.set(body.root, 0.0, 0j, 1 + 0j)
+    for w in body.welds:
+        s = plan.specs[w.spec_index]
+        v = float(values[w.spec_index])
+        if w.kind == 'angle':
+            rel = _wrap1(v) - s.offset
+            phi = loc.phi[w.via] + (rel if w.link == s.link else -rel)
+            p = plan.pc[w.shared_point]
+            rot = complex(math.cos(phi), math.sin(phi))
+            loc.set(w.link, phi, loc.world(w.via, p) - rot * p, rot)
+        else:
+            pj = mech.prismatics[s.joint]
+            x_ref = plan.pc[pj.point]
+            x_on_guide = x_ref + (v - pj.ref_value) * _c(pj.direction)
+            phi, rot = loc.phi[w.via], loc.rot[w.via]
+            if w.link == pj.slider:
+                loc.set(w.link, phi, loc.world(w.via, x_on_guide) - rot * x_ref, rot)
+            else:
+                loc.set(w.link, phi, loc.world(w.via, x_ref) - rot * x_on_guide, rot)
+    return loc
+
+
+def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
+            tol: float = dyads.TANGENCY_TOL) -> ScalarRun:
+    """Scalar twin of :meth:`Plan.run` for one command: ``values[i]`` a float (angle/slide) or an
+    (x, y) pair (point). ``prefer`` maps point names to predicted complex positions and '@link'
+    to predicted link angles: the branch nearest the prediction is taken (continuity)."""
+    if not hasattr(plan, 'pc'):
+        _plan_scalar_setup(plan)
+    mech, pc = plan.mech, plan.pc
+    signs = plan.reference_signs if signs is None else signs
+    poses = ScalarPoses()
+    pts: dict[str, complex] = {}
+    locals_: dict[int, ScalarPoses] = {}
+    angles: dict[int, float] = {}
+    used: list[int] = []
+    margin = 1.0
+
+    def local(bi):
+        loc = locals_.get(bi)
+        if loc is None:
+            loc = locals_[bi] = _body_local_one(plan, bi, values)
+        return loc
+
+    def local_pt(bi, p):
+        return local(bi).world(plan.point_link[(bi, p)], pc[p])
+
+    def place_body(bi, phi, Tb):
+        loc = local(bi)
+        rot = complex(math.cos(phi), math.sin(phi))
+        for l in plan.bodies[bi].links:
+            poses.set(l, phi + loc.phi[l], rot * loc.T[l] + Tb, rot * loc.rot[l])
+            for p in mech.links[l].points:
+                if p not in pts:
+                    pts[p] = poses.world(l, pc[p])
+
+    def pick(k_sign, x, cand_plus, cand_minus):
+        if prefer is not None and x in prefer:
+            target = prefer[x]
+            return 1 if abs(cand_plus - target) <= abs(cand_minus - target) else -1
+        return k_sign
+
+    def failed(k, viol):
+        return ScalarRun(False, poses, pts, 0.0, tuple(used), k, viol)
+
+    bk = 0
+    for k, st in enumerate(plan.steps):
+        op = st.op
+        if op == 'ground':
+            place_body(st.body, 0.0, 0j)
+        elif op == 'known_point':
+            pts[st.point] = _c(values[st.args[0]])
+        elif op == 'two_points':
+            p, q = st.args
+            lp, lq = local_pt(st.body, p), local_pt(st.body, q)
+            a, b = lq - lp, pts[q] - pts[p]
+            phi = math.atan2(a.real * b.imag - a.imag * b.real, a.real * b.real + a.imag * b.imag)
+            place_body(st.body, phi, pts[p] - complex(math.cos(phi), math.sin(phi)) * lp)
+        elif op == 'point_angle':
+            p = st.args[0]
+            phi = angles[st.body]
+            place_body(st.body, phi, pts[p] - complex(math.cos(phi), math.sin(phi))
+                       * local_pt(st.body, p))
+        elif op == 'angle':
+            link_here, link_there, spec_i = st.args
+            src = poses.phi.get(link_there)
+            if src is None:
+                sb = plan.body_of[link_there]
+                src = angles[sb] + local(sb).phi[link_there]
+            rel = 0.0
+            if spec_i is not None:
+                s = plan.specs[spec_i]
+                rel = _wrap1(float(values[spec_i])) - s.offset
+                if link_here == s.reference:
+                    rel = -rel
+            angles[st.body] = src + rel - local(st.body).phi[link_here]
+        elif op == 'circle_circle':
+            b1, p1, b2, p2 = st.args
+            x = st.point
+            r1 = abs(local_pt(b1, x) - local_pt(b1, p1))
+            r2 = abs(local_pt(b2, x) - local_pt(b2, p2))
+            foot, hv, m, ok, viol = dyads.circle_circle_pair(pts[p1], r1, pts[p2], r2, tol)
+            if not ok:
+                return failed(k, viol)
+            sg = pick(signs[bk], x, foot + hv, foot - hv)
+            pts[x] = foot + sg * hv
+            used.append(sg)
+            margin = min(margin, m)
+            bk += 1
+        elif op == 'circle_line':
+            b1, p1, jname = st.args
+            pj = mech.prismatics[jname]
+            x = st.point
+            r = abs(local_pt(b1, x) - local_pt(b1, p1))
+            g = pj.guide
+            p0 = poses.world(g, pc[x])
+            u = poses.rot[g] * _c(pj.direction)
+            foot, kv, m, ok, viol = dyads.circle_line_pair(pts[p1], r, p0, u, tol)
+            if not ok:
+                return failed(k, viol)
+            sg = pick(signs[bk], x, foot + kv, foot - kv)
+            pts[x] = foot + sg * kv
+            used.append(sg)
+            margin = min(margin, m)
+            bk += 1
+        elif op == 'line_through':
+            jname, p = st.args
+            pj = mech.prismatics[jname]
+            x = st.point
+            bi = st.body
+            loc = local(bi)
+            lp = local_pt(bi, p)
+            gl = pj.guide
+            u_loc = loc.rot[gl] * _c(pj.direction)
+            w = loc.world(gl, pc[x]) - lp
+            e = u_loc.real * w.imag - u_loc.imag * w.real   # signed offset of the pivot
+            psi0 = math.atan2(u_loc.imag, u_loc.real)
+            beta, along, m, ok, viol = dyads.line_through_pair(pts[p], pts[x], e, tol)
+            if not ok:
+                return failed(k, viol)
+            phi_p = beta - math.atan2(e, along) - psi0
+            phi_m = beta - math.atan2(e, -along) - psi0
+            sg = signs[bk]
+            if prefer is not None and '@' + gl in prefer:
+                last = prefer['@' + gl]
+                sg = 1 if abs(_wrap1(phi_p + loc.phi[gl] - last)) <= \
+                    abs(_wrap1(phi_m + loc.phi[gl] - last)) else -1
+            phi = phi_p if sg > 0 else phi_m
+            angles[bi] = phi
+            place_body(bi, phi, pts[p] - complex(math.cos(phi), math.sin(phi)) * lp)
+            used.append(sg)
+            margin = min(margin, m)
+            bk += 1
+    return ScalarRun(True, poses, pts, margin, tuple(used))
+
+
+def spec_value_one(mech: Mechanism, spec: Spec, poses: ScalarPoses):
+    """Evaluate a spec on one configuration: a float, or (x, y) for a point."""
+    if spec.kind == 'angle':
+        return _wrap1(poses.phi[spec.link] - poses.phi[spec.reference] + spec.offset)
+    if spec.kind == 'slide':
+        pj = mech.prismatics[spec.joint]
+        x = poses.world(spec_point_link(mech, pj.point, pj.slider), _c(mech.points[pj.point]))
+        o = poses.world(pj.guide, _c(pj.origin))
+        d = poses.rot[pj.guide] * _c(pj.direction)
+        v = x - o
+        return v.real * d.real + v.imag * d.imag
+    w = poses.world(mech.links_of_point(spec.point)[0], _c(mech.points[spec.point]))
+    return (w.real, w.imag)
+
+
+def branch_geometry_one(plan: Plan, pts: dict[str, complex], poses: ScalarPoses):
+    """Branch signs and dyad margins of the plan's branching steps read off one configuration
+    (how a Newton solution is told which assembly mode it is in)."""
+    mech = plan.mech
+    signs, margins = [], []
     for st in plan.branch_steps:
         x = pts[st.point]
         if st.op == 'circle_circle':
             _, p1, _, p2 = st.args
             a, b = pts[p1], pts[p2]
-            side = dyads.cross2(b - a, x - a)
+            ab, ax = b - a, x - a
+            side = ab.real * ax.imag - ab.imag * ax.real
             va, vb = x - a, x - b
-            m = np.abs(dyads.cross2(va, vb)) / np.maximum(_norm(va) * _norm(vb), 1e-300)
-        elif st.op == 'circle_line':
-            _, p1, jname = st.args
-            pj = mech.prismatics[jname]
-            u = dyads.rotate(np.broadcast_to(np.asarray(pj.direction), x.shape),
-                             poses.phi[pj.guide])
-            v = x - pts[p1]
-            side = np.sum(v * u, axis=-1)
-            m = np.abs(side) / np.maximum(_norm(v), 1e-300)
+            den = abs(va) * abs(vb)
+            m = abs(va.real * vb.imag - va.imag * vb.real) / den if den > 0 else 0.0
         else:
-            jname, p = st.args
-            pj = mech.prismatics[jname]
-            u = dyads.rotate(np.broadcast_to(np.asarray(pj.direction), x.shape),
-                             poses.phi[pj.guide])
-            v = x - pts[p]
-            side = np.sum(v * u, axis=-1)
-            m = np.abs(side) / np.maximum(_norm(v), 1e-300)
-        sig.append(np.where(side >= 0, 1, -1))
-        mar.append(np.clip(m, 0.0, 1.0))
-    n = next(iter(pts.values())).shape[0] if pts else 1
-    if not sig:
-        return np.zeros((n, 0), int), np.ones((n, 0))
-    return np.stack(sig, axis=-1), np.stack(mar, axis=-1)
+            pj = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
+            base = pts[st.args[1]]
+            u = poses.rot[pj.guide] * _c(pj.direction)
+            v = x - base
+            side = v.real * u.real + v.imag * u.imag
+            m = abs(side) / abs(v) if abs(v) > 0 else 0.0
+        signs.append(1 if side >= 0 else -1)
+        margins.append(min(max(m, 0.0), 1.0))
+    return tuple(signs), margins

@@ -25,7 +25,8 @@ from . import dyads
 from .errors import PlanError
 from .model import Mechanism
 from .newton import LoopSystem
-from .plan import Plan, Poses, Spec, branch_geometry, spec_for, spec_value_at
+from .plan import (Plan, ScalarPoses, Spec, branch_geometry_one, run_one, spec_for, spec_value_at,
+                   spec_value_one)
 
 #: below this dyad margin the two assembly modes are numerically indistinguishable
 BRANCH_UNDEFINED_MARGIN = 1e-8
@@ -78,10 +79,11 @@ class Result:
 
 @dataclass
 class _State:
+    """The previous configuration: continuity predictions and Newton warm starts start here."""
     values: list
-    x_all: np.ndarray          # every moving link (phi, cx, cy): warm start for Newton
-    points: dict[str, np.ndarray]
-    phi: dict[str, float]
+    x_all: np.ndarray | None   # every moving link (phi, cx, cy), for Newton warm starts
+    points: dict[str, complex]
+    poses: ScalarPoses
     signs: tuple[int, ...]
     det_sign: int
 
@@ -130,6 +132,7 @@ class Solver:
         self.system = LoopSystem(mech, self.specs, free)
         self.check_system = LoopSystem(mech, self.specs, mech.moving_links)
         self.branch_mode, self.fixed_signs = self._parse_branch(branch)
+        self._slide_specs = {n: Spec(n, 'slide', joint=n) for n in mech.prismatics}
         self._ref_values = self._values_at_reference()
         self.reset()
 
@@ -176,11 +179,11 @@ class Solver:
                         f'(got {branch!r})')
 
     def _values_at_reference(self):
-        ref = Poses()
+        ref = ScalarPoses()
         for l in self.mech.links:
-            ref.phi[l] = np.zeros(1)
-            ref.T[l] = np.zeros((1, 2))
-        return [spec_value_at(self.mech, s, ref)[0] for s in self.specs]
+            ref.set(l, 0.0, 0j, 1 + 0j)
+        return [np.asarray(v, float) if s.kind == 'point' else float(v)
+                for s, v in ((s, spec_value_one(self.mech, s, ref)) for s in self.specs)]
 
     def reset(self):
         """Forget the previous configuration (continuity restarts from the reference pose)."""
@@ -196,29 +199,21 @@ class Solver:
         if not result.success or set(result.links) != set(self.mech.links):
             return False
         mech = self.mech
-        poses = Poses()
+        poses = ScalarPoses()
         for l, link in mech.links.items():
             phi = _wrap(result.links[l] - link.angle_ref)
+            rot = complex(math.cos(phi), math.sin(phi))
             p = link.points[0]
-            w = np.asarray(result.points[p], float)
-            poses.phi[l] = np.array([phi])
-            poses.T[l] = (w - dyads.rotate(mech.points[p], phi))[None, :]
+            w = complex(*result.points[p])
+            poses.set(l, phi, w - rot * complex(*mech.points[p]), rot)
         vals = []
         for s in self.specs:
-            v = spec_value_at(mech, s, poses)
-            vals.append(np.asarray(v[0], float) if s.kind == 'point' else float(v[0]))
-        pts = {p: np.asarray(v, float) for p, v in result.points.items()}
-        if self.full_plan.complete:
-            sg, _ = branch_geometry(self.plan, {p: v[None, :] for p, v in pts.items()}, poses)
-            signs = tuple(int(x) for x in sg[0])
-        else:
-            signs = self.plan.reference_signs
-        x_all = self.check_system.x_from_poses(poses)
-        J = self.system.evaluate(self._sub_x(x_all), vals, None if self.mode != 'hybrid' else
-                                 self._fixed_poses(vals)[0])[1] if self.system.n else None
-        det = self.system.det_sign(J) if J is not None else 0
-        state = _State(vals, x_all, pts, {l: float(a[0]) for l, a in poses.phi.items()}, signs, det)
-        self._history = [state]
+            v = spec_value_one(mech, s, poses)
+            vals.append(np.asarray(v, float) if s.kind == 'point' else float(v))
+        pts = {p: complex(*v) for p, v in result.points.items()}
+        signs = (branch_geometry_one(self.plan, pts, poses)[0] if self.plan.complete
+                 else self.plan.reference_signs)
+        self._history = [self._state(vals, poses, pts, signs)]
         return True
 
     # -- command validation ------------------------------------------------------------------
@@ -347,12 +342,13 @@ class Solver:
                       solver=solver or self.mode)
 
     def _prediction(self, vals):
-        """Predicted point positions / link angles for continuity (linear in the input step)."""
+        """Predicted point positions (complex) and link angles ('@link') for continuity: the
+        previous configuration, extrapolated linearly in the input step after two commands."""
         if self.branch_mode != 'continuous' or not self._history:
             return None
         last = self._history[-1]
-        pred = {p: v[None, :] for p, v in last.points.items()}
-        pred.update({'@' + l: np.array([a]) for l, a in last.phi.items()})
+        pred: dict[str, Any] = dict(last.points)
+        pred.update({'@' + l: a for l, a in last.poses.phi.items()})
         if len(self._history) == 2:
             prev = self._history[-2]
             d_now = self._value_delta(last.values, vals)
@@ -362,7 +358,7 @@ class Solver:
                 ratio = float(np.clip(np.dot(d_now, d_prev) / den, 0.0, 1.5))
                 for p, v in last.points.items():
                     if p in prev.points:
-                        pred[p] = (v + ratio * (v - prev.points[p]))[None, :]
+                        pred[p] = v + ratio * (v - prev.points[p])
         return pred
 
     def _value_delta(self, a, b):
@@ -390,19 +386,19 @@ class Solver:
             out.append(a.reshape(n, 2) if s.kind == 'point' else a.reshape(n))
         return out
 
+    def _state(self, vals, poses: ScalarPoses, pts, signs, det_sign=0):
+        x_all = self.check_system.x_from_poses(poses) if self.mode != 'closed_form' and \
+            set(poses.phi) >= set(self.mech.links) else None
+        return _State(vals, x_all, pts, poses, tuple(signs), det_sign)
+
     def _solve_closed(self, vals):
-        bv = self._batch_values(vals, 1)
-        poses, pts, info = self.plan.run(bv, 1, self._signs(), self._prediction(vals))
-        if not info['ok'][0]:
-            return self._fail(self._dyad_reason(int(info['failure'][0]), float(info['violation'][0])),
-                              self._echo(vals), 'closed_form'), None
-        signs = tuple(int(s) for s in info['signs'][0])
-        res = self._build(poses, pts, vals, solver='closed_form', iterations=0, signs=signs,
-                          margin=float(info['margin'][0]))
-        state = _State(vals, self.check_system.x_from_poses(poses) if res.success else None,
-                       {p: v[0] for p, v in pts.items()},
-                       {l: float(a[0]) for l, a in poses.phi.items()}, signs, 0)
-        return res, state
+        run = run_one(self.plan, vals, self._signs(), self._prediction(vals))
+        if not run.ok:
+            return self._fail(self._dyad_reason(run.failure, run.violation), self._echo(vals),
+                              'closed_form'), None
+        res = self._build(run.poses, run.points, vals, solver='closed_form', iterations=0,
+                          signs=run.signs, margin=run.margin)
+        return res, self._state(vals, run.poses, run.points, run.signs)
 
     def _dyad_reason(self, k, violation):
         st = self.plan.steps[k]
@@ -415,17 +411,14 @@ class Solver:
         """Run the closed-form part (hybrid mode); returns (poses, reason or None)."""
         if self.mode != 'hybrid':
             return None, None
-        bv = self._batch_values(vals, 1)
-        poses, pts, info = self.full_plan.run(bv, 1, None, None)
-        if not info['ok'][0]:
-            k = int(info['failure'][0])
-            st = self.full_plan.steps[k]
+        run = run_one(self.full_plan, vals, None, None)
+        if not run.ok:
+            st = self.full_plan.steps[run.failure]
             return None, (f'cannot assemble: {st.describe(self.full_plan)} does not close; misses '
-                          f'by {float(info["violation"][0]):.6g} m')
-        keep = Poses()
+                          f'by {run.violation:.6g} m')
+        keep = ScalarPoses()
         for l in self.closed_links + [self.mech.ground]:
-            keep.phi[l] = poses.phi[l]
-            keep.T[l] = poses.T[l]
+            keep.set(l, run.poses.phi[l], run.poses.T[l], run.poses.rot[l])
         return keep, None
 
     def _newton_at(self, vals, x0):
@@ -444,10 +437,9 @@ class Solver:
         if self.branch_mode == 'explicit' and self.fixed_signs != self.plan.reference_signs \
                 and self.full_plan.complete:
             # another assembly mode: start from the dyad plan's answer at the reference input
-            bv = self._batch_values(self._ref_values, 1)
-            poses, _, info = self.full_plan.run(bv, 1, self.fixed_signs, None)
-            if info['ok'][0]:
-                x_all = self.check_system.x_from_poses(poses)
+            run = run_one(self.full_plan, self._ref_values, self.fixed_signs, None)
+            if run.ok:
+                x_all = self.check_system.x_from_poses(run.poses)
         return self._ref_values, self._sub_x(x_all)
 
     def _sub_x(self, x_all):
@@ -491,97 +483,99 @@ class Solver:
             return walk(vm, rm.x, vb, depth + 1)
 
         r, reason, fixed = walk(v0, x0, vals, 0)
+        solver_name = 'newton' if self.mode == 'newton' else 'hybrid'
         if r is None:
-            return self._fail(reason, self._echo(vals), 'newton' if self.mode == 'newton'
-                              else 'hybrid'), None
+            return self._fail(reason, self._echo(vals), solver_name), None
         poses = self.system.poses_from_x(r.x, fixed)
-        pts = {}
+        pts: dict[str, complex] = {}
         for l, link in self.mech.links.items():
             for p in link.points:
                 if p not in pts:
-                    pts[p] = poses.world(l, p, self.mech)
-        signs, margins = branch_geometry(self.full_plan, pts, poses) if self.full_plan.complete \
-            else (np.zeros((1, 0), int), np.ones((1, 0)))
-        signs_t = tuple(int(s) for s in signs[0])
-        if self.branch_mode in ('explicit', 'reference') and self.full_plan.complete:
-            want = self._signs() if self.branch_mode == 'explicit' else self.plan.reference_signs
-            want_full = want if self.full_plan is self.plan else None
-            if want_full is not None and signs_t != tuple(want_full):
+                    pts[p] = poses.world(l, complex(*self.mech.points[p]))
+        if self.full_plan.complete:
+            signs_t, margins = branch_geometry_one(self.full_plan, pts, poses)
+        else:
+            signs_t, margins = (), []
+        if self.branch_mode in ('explicit', 'reference') and self.full_plan.complete \
+                and self.full_plan is self.plan:
+            want = tuple(self._signs())
+            if signs_t != want:
                 return self._fail(f'Newton converged to assembly mode {_sign_str(signs_t)}, not the '
-                                  f'requested {_sign_str(want_full)}: the input is not reachable '
-                                  'on that branch from the start configuration without crossing '
-                                  'a singularity', self._echo(vals), 'newton'), None
-        margin = float(np.min(margins)) if margins.size else 1.0 / max(r.cond, 1.0)
-        res = self._build(poses, pts, vals, solver='newton' if self.mode == 'newton' else 'hybrid',
-                          iterations=total_iter[0], signs=signs_t, margin=margin, cond=r.cond)
-        x_all = self.check_system.x_from_poses(poses)
-        state = _State(vals, x_all, {p: v[0] for p, v in pts.items()},
-                       {l: float(a[0]) for l, a in poses.phi.items()}, signs_t, r.det_sign)
-        return res, state
+                                  f'requested {_sign_str(want)}: the input is not reachable on '
+                                  'that branch from the start configuration without crossing a '
+                                  'singularity', self._echo(vals), solver_name), None
+        margin = min(margins) if margins else 1.0 / max(r.cond, 1.0)
+        res = self._build(poses, pts, vals, solver=solver_name, iterations=total_iter[0],
+                          signs=signs_t, margin=margin, cond=r.cond)
+        return res, self._state(vals, poses, pts, signs_t, r.det_sign)
 
     # -- result assembly ---------------------------------------------------------------------
-    def _build(self, poses: Poses, pts, vals, *, solver, iterations, signs, margin, cond=None):
+    def _build(self, poses: ScalarPoses, pts: dict[str, complex], vals, *, solver, iterations,
+               signs, margin, cond=None):
         mech = self.mech
-        have = set(poses.phi)
+        have = poses.phi
         res = Result(True, solver=solver, iterations=iterations)
         for a, s in zip(mech.actuators, self.actuator_specs):
             if self._spec_links_in(s, have):
-                v = spec_value_at(mech, s, poses)[0]
-                res.inputs[a] = float(v)
-        # report commanded actuator values exactly as given
-        for s, v in zip(self.specs, vals):
+                res.inputs[a] = float(spec_value_one(mech, s, poses))
+        for s, v in zip(self.specs, vals):       # commanded actuator values exactly as given
             if s.name in mech.actuators:
                 res.inputs[s.name] = float(v)
+        links = mech.links
         for rj in mech.revolutes:
             if rj.parent in have and rj.child in have:
-                res.joints[rj.name] = float(_wrap(
-                    mech.links[rj.child].angle_ref + poses.phi[rj.child][0]
-                    - mech.links[rj.parent].angle_ref - poses.phi[rj.parent][0]))
+                res.joints[rj.name] = _wrap(links[rj.child].angle_ref + have[rj.child]
+                                            - links[rj.parent].angle_ref - have[rj.parent])
         for pj in mech.prismatics.values():
             if pj.guide in have and pj.slider in have:
-                res.joints[pj.name] = float(spec_value_at(mech, Spec(pj.name, 'slide', joint=pj.name),
-                                                          poses)[0])
-        for l, link in mech.links.items():
+                res.joints[pj.name] = float(spec_value_one(mech, self._slide_specs[pj.name], poses))
+        for l, link in links.items():
             if l in have:
-                res.links[l] = float(_wrap(link.angle_ref + poses.phi[l][0]))
+                res.links[l] = _wrap(link.angle_ref + have[l])
         for p, v in pts.items():
-            res.points[p] = (float(v[0][0]), float(v[0][1]))
+            res.points[p] = (v.real, v.imag)
         res.residual = self._residual(poses, vals)
         res.branch = _sign_str(signs)
         res.margin = float(margin)
         res.branch_defined = bool(margin > BRANCH_UNDEFINED_MARGIN) if signs else True
         res.cond = cond
         if not all(math.isfinite(v) for v in list(res.joints.values()) + list(res.links.values())
-                   + [c for p in res.points.values() for c in p]):
+                   + list(res.inputs.values()) + [c for p in res.points.values() for c in p]
+                   + [res.residual]):
             return Result(False, 'internal error: non-finite value in the solution', solver=solver)
         return res
 
     def _spec_links_in(self, s: Spec, have) -> bool:
         return all(l in have for l in self.check_system._spec_links(s))
 
-    def _residual(self, poses: Poses, vals) -> float:
-        """max |loop-closure| over the constraints whose links are all solved, / length scale."""
-        have = set(poses.phi)
-        if have >= set(self.mech.links):
-            x = self.check_system.x_from_poses(poses)
-            F, _ = self.check_system.evaluate(x, vals, None, jacobian=False)
-            return float(np.max(np.abs(F))) / self.mech.length_scale if F.size else 0.0
-        part = LoopSystem(self.mech, self.specs, [l for l in self.mech.moving_links if l in have])
-        x = part.x_from_poses(poses)
-        F, _ = part.evaluate(x, vals, poses, jacobian=False)
-        mask = [row for row in part.rows if all(
-            l in have for l in (row[1:3] if row[0] == 'rev' else
-                                ((row[1].guide, row[1].slider) if row[0] == 'pri'
-                                 else part._spec_links(self.specs[row[1]]))))]
-        if not mask:
-            return 0.0
-        # rows of constraints touching an unsolved link are meaningless: evaluate only the rest
-        sub = LoopSystem.__new__(LoopSystem)
-        sub.__dict__.update(part.__dict__)
-        sub.rows = mask
-        sub.m = sum(2 if r[0] in ('rev', 'pri') else self.specs[r[1]].size for r in mask)
-        F, _ = sub.evaluate(x, vals, poses, jacobian=False)
-        return float(np.max(np.abs(F))) / self.mech.length_scale if F.size else 0.0
+    def _residual(self, poses: ScalarPoses, vals) -> float:
+        """Largest loop-closure error over the joints and knowns whose links are all solved,
+        as a fraction of the length scale (rotation errors count as length-scale * angle)."""
+        mech, L = self.mech, self.mech.length_scale
+        have = poses.phi
+        worst = 0.0
+        for rj in mech.revolutes:
+            if rj.parent in have and rj.child in have:
+                p = complex(*mech.points[rj.point])
+                worst = max(worst, abs(poses.world(rj.parent, p) - poses.world(rj.child, p)))
+        for pj in mech.prismatics.values():
+            if pj.guide in have and pj.slider in have:
+                p = complex(*mech.points[pj.point])
+                off = poses.world(pj.slider, p) - poses.world(pj.guide, p)
+                n = poses.rot[pj.guide] * 1j * complex(*pj.direction)
+                worst = max(worst, abs(off.real * n.real + off.imag * n.imag),
+                            L * abs(_wrap(have[pj.slider] - have[pj.guide])))
+        for s, v in zip(self.specs, vals):
+            if not self._spec_links_in(s, have):
+                continue
+            got = spec_value_one(mech, s, poses)
+            if s.kind == 'point':
+                worst = max(worst, math.hypot(got[0] - v[0], got[1] - v[1]))
+            elif s.kind == 'angle':
+                worst = max(worst, L * abs(_wrap(got - v)))
+            else:
+                worst = max(worst, abs(got - v))
+        return worst / L
 
     # -- batches -----------------------------------------------------------------------------
     def solve_batch(self, columns: Mapping[str, Any]) -> 'BatchResult':
