@@ -12,7 +12,7 @@ def config_dir() -> Path:
             share = Path(get_package_share_directory('linkage_ros')) / 'config'
             if share.is_dir():
                 return share
-        except PackageNotFoundError:
+        except (PackageNotFoundError, OSError):   # OSError: AMENT_PREFIX_PATH unset
             pass
     except ImportError:          # no ROS on this machine: the source tree is the package
         pass

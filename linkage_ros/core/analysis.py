@@ -39,7 +39,8 @@ def kutzbach_dof(n_links: int, n_lower_pairs: int, n_higher_pairs: int = 0) -> i
 class GrashofInfo:
     """Grashof classification of a four-bar (see :func:`grashof_info`)."""
 
-    klass: str                   #: "crank-rocker", "double-crank", "grashof-double-rocker", "change-point" or "triple-rocker"
+    #: "crank-rocker", "double-crank", "grashof-double-rocker", "change-point", "triple-rocker"
+    klass: str
     input_fully_rotates: bool    #: the input crank l2 turns 360 deg relative to the ground
     output_fully_rotates: bool   #: the output link l4 turns 360 deg relative to the ground
     s: float                     #: shortest length
@@ -166,6 +167,9 @@ def fourbar_input_range(l1: float, l2: float, l3: float, l4: float):
       output): the input moves in two mirror-image intervals, one per circuit; this returns the
       one in the upper half-plane, 0 <= min < max <= pi (its mirror (-max, -min) is the other,
       see :func:`fourbar_input_intervals`).
+
+    A kite (l1 = l2, l3 = l4) has an isolated singular point inside its range, theta2 = 0, where
+    A lands on O4 and B is undetermined; the position solver reports ok False there only.
 
     Raises ValueError if the linkage cannot be assembled at any input angle.
     """

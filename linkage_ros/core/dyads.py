@@ -13,6 +13,7 @@ the dyad's own length scale so results are scale-invariant.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 
@@ -36,34 +37,81 @@ def _safe_unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / safe[..., None], n
 
 
-def circle_circle(c1, r1, c2, r2, sign, tol: float = TANGENCY_TOL):
+def kahan_four_area(a, b, c):
+    """Normalised Kahan area of the triangle with sides a, b, c (any order), batched.
+
+    The sides are divided by ``scale``, the power of two just above the longest side: an exact
+    operation (so the needle-triangle accuracy is kept) that makes every intermediate O(1), with
+    no overflow for lengths near 1e300. Returns ``(four_area_n, violation_n, longest_n, scale)``:
+    ``four_area_n = 4 * area / scale**2`` (0 when no triangle exists), ``violation_n`` =
+    (longest - sum of the other two) / scale (> 0: no triangle) and ``longest_n`` = longest /
+    scale, in [0.5, 1).
+    """
+    sides = np.sort(np.stack(np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float),
+                                                 np.asarray(c, float)), axis=-1), axis=-1)
+    _, expo = np.frexp(np.where(np.isfinite(sides[..., 2]), sides[..., 2], 1.0))
+    scale = np.ldexp(1.0, expo)
+    sides = sides / scale[..., None]
+    big, mid, small = sides[..., 2], sides[..., 1], sides[..., 0]
+    # The parenthesisation is the point: each factor is computed without cancellation when
+    # big >= mid >= small (Kahan, "Miscalculating area and angles of a needle-like triangle").
+    neg_factor = small - (big - mid)  # the only factor that can be negative
+    # Square roots taken factor by factor: the plain product underflows for needle triangles
+    # (a side of 1e-200 next to sides of 1 squares to 0).
+    four_area_n = (np.sqrt(big + (mid + small)) * np.sqrt(np.maximum(neg_factor, 0.0))
+                   * np.sqrt(small + (big - mid)) * np.sqrt(big + (mid - small)))
+    return four_area_n, -neg_factor, big, scale
+
+
+class DyadSolution(NamedTuple):
+    point: np.ndarray        # (..., 2) the solved point (finite fill where not ok)
+    margin: np.ndarray       # (...) distance to the dyad's singularity, 1 far .. 0 at it
+    ok: np.ndarray           # (...) bool, the dyad closes (within the tangency clamp)
+    violation: np.ndarray    # (...) by how much it misses (length units, 0 when ok)
+    height: np.ndarray       # (...) distance of the point from the centre line (length units)
+
+
+def circle_circle(c1, r1, c2, r2, sign, tol: float = TANGENCY_TOL) -> DyadSolution:
     """Intersection X of circle (c1, r1) and circle (c2, r2) -- the RRR dyad.
 
-    ``sign`` = +1 puts X to the left of the vector c1 -> c2 (counter-clockwise side), -1 to the right.
-    Returns ``(X, margin, ok, violation)`` where margin = |sin| of the angle at X between X-c1 and
-    X-c2 (the dyad's transmission angle; 0 at the toggle).
+    ``sign`` = +1 puts X to the left of the vector c1 -> c2 (counter-clockwise side), -1 to the
+    right. The margin is |sin| of the angle at X between X-c1 and X-c2 (the dyad's transmission
+    angle; 0 at the toggle). Where not ok the point is that of circle 1 nearest to circle 2 on
+    the centre line (c1 itself when the centres coincide, zeros for non-finite input).
     """
     c1 = np.asarray(c1, float)
     c2 = np.asarray(c2, float)
     r1 = np.asarray(r1, float)
     r2 = np.asarray(r2, float)
-    u, d = _safe_unit(c2 - c1)
-    # Kahan: sides sorted a >= b >= c, area = sqrt((a+(b+c))(c-(a-b))(c+(a-b))(a+(b-c)))/4
-    sides = np.sort(np.stack(np.broadcast_arrays(d, r1, r2), axis=-1), axis=-1)
-    a, b, c = sides[..., 2], sides[..., 1], sides[..., 0]
-    prod = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c))
-    scale = a
-    violation = np.maximum(d - (r1 + r2), np.abs(r1 - r2) - d)
-    ok = (d > 0) & (violation <= tol * scale) & (r1 > 0) & (r2 > 0)
-    dsafe = np.where(d > 0, d, 1.0)
-    h = np.where(ok, np.sqrt(np.maximum(prod, 0.0)) / (2.0 * dsafe), 0.0)
-    # distance from c1 to the foot of X on the centre line, written to avoid cancellation
-    along = 0.5 * (d + (r1 - r2) * (r1 + r2) / dsafe)
-    along = np.where(ok, np.clip(along, -r1, r1), 0.0)
-    x = c1 + along[..., None] * u + (np.asarray(sign, float) * h)[..., None] * perp(u)
-    denom = np.where(ok, r1 * r2, 1.0)
-    margin = np.where(ok, np.clip(h * d / denom, 0.0, 1.0), 0.0)
-    return x, margin, ok, np.maximum(violation, 0.0)
+    sgn = np.where(np.asarray(sign, float) < 0, -1.0, 1.0)
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        dx = c2[..., 0] - c1[..., 0]
+        dy = c2[..., 1] - c1[..., 1]
+        d = np.hypot(dx, dy)
+        dx, dy, d, r1, r2, sgn = np.broadcast_arrays(dx, dy, d, r1, r2, sgn)
+        finite = (np.isfinite(dx) & np.isfinite(dy) & np.isfinite(r1) & np.isfinite(r2)
+                  & np.all(np.isfinite(c1), axis=-1) & np.all(np.isfinite(c2), axis=-1))
+        four_area_n, violation_n, longest_n, scale = kahan_four_area(d, r1, r2)
+        dn = d / scale  # 0 only if d == 0 or d / scale underflows
+        ok = (finite & (dn > 0) & (r1 > 0) & (r2 > 0) & (violation_n <= tol * longest_n))
+        dsafe = np.where(d > 0, d, 1.0)
+        ux, uy = dx / dsafe, dy / dsafe
+        # foot of X on the centre line from c1; (r1 - r2)(r1 + r2) / d avoids the cancellation
+        # of r1**2 - r2**2 and cannot overflow (|r1 - r2| / d <= 1 where the circles meet)
+        along = 0.5 * (d + ((r1 - r2) / dsafe) * (r1 + r2))
+        along = np.clip(along, -np.abs(r1), np.abs(r1))
+        along = np.where(finite & (d > 0), along, 0.0)
+        # h = 2 * area / d = (scale / 2) * four_area_n / dn: no overflow
+        h = np.where(ok, 0.5 * scale * (four_area_n / np.where(dn > 0, dn, 1.0)), 0.0)
+        px = np.where(finite, c1[..., 0] + along * ux - sgn * h * uy, 0.0)
+        py = np.where(finite, c1[..., 1] + along * uy + sgn * h * ux, 0.0)
+        # margin = h d / (r1 r2) = |sin| of the angle at X, formed without overflow
+        margin = np.where(ok, (h / np.where(r1 > 0, r1, 1.0)) * (d / np.where(r2 > 0, r2, 1.0)),
+                          0.0)
+        violation = np.where(finite, np.maximum(violation_n * scale, 0.0), np.inf)
+    margin = np.clip(np.nan_to_num(margin), 0.0, 1.0)
+    violation = np.where(ok, 0.0, np.nan_to_num(violation, posinf=np.finfo(float).max))
+    return DyadSolution(np.stack([px, py], axis=-1), margin, ok, violation, h)
 
 
 def circle_line(c, r, p0, u, sign, tol: float = TANGENCY_TOL):
@@ -141,13 +189,19 @@ def circle_circle_pair(c1: complex, r1: float, c2: complex, r2: float, tol: floa
     d = abs(dv)
     a, b, c = sorted((d, r1, r2), reverse=True)
     violation = max(d - (r1 + r2), abs(r1 - r2) - d)
-    if not (d > 0 and r1 > 0 and r2 > 0 and violation <= tol * a):
-        return c1, 0j, 0.0, False, max(violation, 0.0)
-    prod = (a + (b + c)) * (c - (a - b)) * (c + (a - b)) * (a + (b - c))
-    h = math.sqrt(prod) / (2.0 * d) if prod > 0 else 0.0
+    if not (d > 0 and r1 > 0 and r2 > 0 and violation <= tol * a and math.isfinite(a)):
+        return c1, 0j, 0.0, False, max(violation, 0.0) if math.isfinite(violation) else 1e308
+    # sides scaled by a power of two (exact) so nothing overflows or underflows; roots taken
+    # factor by factor as in kahan_four_area
+    scale = math.ldexp(1.0, math.frexp(a)[1])
+    a, b, c = a / scale, b / scale, c / scale
+    neg = c - (a - b)
+    four_area_n = (math.sqrt(a + (b + c)) * math.sqrt(max(neg, 0.0)) * math.sqrt(c + (a - b))
+                   * math.sqrt(a + (b - c)))
+    h = 0.5 * scale * (four_area_n / (d / scale))
     u = dv / d
-    along = min(max(0.5 * (d + (r1 - r2) * (r1 + r2) / d), -r1), r1)
-    margin = min(max(h * d / (r1 * r2), 0.0), 1.0)
+    along = min(max(0.5 * (d + ((r1 - r2) / d) * (r1 + r2)), -r1), r1)
+    margin = min(max((h / r1) * (d / r2), 0.0), 1.0)
     return c1 + along * u, 1j * h * u, margin, True, max(violation, 0.0)
 
 

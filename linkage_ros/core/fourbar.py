@@ -27,8 +27,8 @@ from typing import NamedTuple
 
 import numpy as np
 
-#: Relative tolerance (of the triangle's longest side) within which a tangency still assembles.
-TANGENCY_TOL = 1e-12
+from .dyads import TANGENCY_TOL, circle_circle, kahan_four_area
+
 
 # Residual reported for non-finite inputs, where no misclosure can be measured: one full
 # link length, i.e. "completely wrong", while keeping every output finite.
@@ -41,7 +41,8 @@ class FourBarSolution(NamedTuple):
     theta3: np.ndarray           #: coupler angle [rad], in (-pi, pi]; 0 where not ok
     theta4: np.ndarray           #: rocker angle [rad], in (-pi, pi]; 0 where not ok
     ok: np.ndarray               #: bool, the linkage assembles at this input
-    transmission_sin: np.ndarray  #: |sin(mu)|, mu = angle at B between coupler and rocker; 0 where not ok
+    #: |sin(mu)|, mu = angle at B between coupler and rocker; 0 where not ok
+    transmission_sin: np.ndarray
     residual: np.ndarray         #: loop-closure error / longest link [-]
 
 
@@ -58,7 +59,8 @@ class FourBarInverseSolution(NamedTuple):
 class SliderCrankSolution(NamedTuple):
     """Result of :func:`slider_crank_forward`."""
 
-    x: np.ndarray                #: slider position B_x [length]; A_x (foot of A on the slide line) where not ok
+    #: slider position B_x [length]; A_x (foot of A on the slide line) where not ok
+    x: np.ndarray
     theta3: np.ndarray           #: rod angle [rad], in (-pi, pi]; 0 where not ok
     ok: np.ndarray               #: bool
     residual: np.ndarray         #: loop-closure error / max(r, l, |e|) [-]
@@ -89,24 +91,6 @@ def _sign(s) -> np.ndarray:
     return np.where(_f(s) < 0, -1.0, 1.0)
 
 
-def _kahan_4area(a, b, c) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """4 * area of the triangle with sides a, b, c (any order), by Kahan's formula.
-
-    Returns ``(four_area, violation, scale)``: ``violation = longest - (sum of the other two)``
-    (> 0 means no triangle exists, and then ``four_area`` is 0) and ``scale`` the longest side.
-    """
-    sides = np.sort(np.stack(np.broadcast_arrays(_f(a), _f(b), _f(c)), axis=-1), axis=-1)
-    big, mid, small = sides[..., 2], sides[..., 1], sides[..., 0]
-    # The parenthesisation is the point: each factor is computed without cancellation when
-    # big >= mid >= small (Kahan, "Miscalculating area and angles of a needle-like triangle").
-    neg_factor = small - (big - mid)  # the only factor that can be negative
-    # Square roots taken factor by factor: the plain product under- or overflows for extreme
-    # side ratios (e.g. a side of 1e-200 next to sides of 1 squares to 0).
-    four_area = (np.sqrt(big + (mid + small)) * np.sqrt(np.maximum(neg_factor, 0.0))
-                 * np.sqrt(small + (big - mid)) * np.sqrt(big + (mid - small)))
-    return four_area, -neg_factor, big
-
-
 def triangle_area(a, b, c) -> np.ndarray:
     """Area [length^2] of the triangle with sides a, b, c [length], by Kahan's stable formula.
 
@@ -114,21 +98,22 @@ def triangle_area(a, b, c) -> np.ndarray:
     must check the inequality themselves (:func:`circle_intersection` does).
     """
     with np.errstate(invalid='ignore', over='ignore'):
-        four_area, _, _ = _kahan_4area(a, b, c)
-        area = 0.25 * four_area
-    return _out(np.where(np.isfinite(area), area, 0.0))
+        four_area_n, _, _, scale = kahan_four_area(a, b, c)
+        return _out(0.25 * four_area_n * scale * scale)
 
 
 def angle_opposite(side_a, side_b, opposite) -> np.ndarray:
     """Angle [rad, 0..pi] between sides a and b of a triangle, opposite the third side.
 
-    Computed as atan2(4*area, a^2 + b^2 - opposite^2) (= the cosine rule, but accurate near 0 and
-    pi where arccos loses half of its digits).  Out-of-range sides give 0 or pi, i.e. the clipped
-    cosine rule.
+    Computed as atan2(4*area, a^2 + b^2 - opposite^2) on sides normalised by the longest (= the
+    cosine rule, but accurate near 0 and pi where arccos loses half of its digits).
+    Out-of-range sides give 0 or pi, i.e. the clipped cosine rule.
     """
-    a, b, c = _f(side_a), _f(side_b), _f(opposite)
-    area = triangle_area(a, b, c)
-    return _out(np.arctan2(4.0 * area, (a * a + b * b) - c * c))
+    a, b, c = np.broadcast_arrays(_f(side_a), _f(side_b), _f(opposite))
+    with np.errstate(invalid='ignore'):
+        four_area_n, _, _, scale = kahan_four_area(a, b, c)
+        an, bn, cn = a / scale, b / scale, c / scale
+        return _out(np.arctan2(four_area_n, (an * an + bn * bn) - cn * cn))
 
 
 # --------------------------------------------------------------------------- circle-circle
@@ -160,33 +145,8 @@ def circle_intersection(c1, r1, c2, r2, sign, tangency_tol: float = TANGENCY_TOL
         The circles intersect (within the tangency clamp).  d == 0 (concentric) is never ok: the
         intersection is then either empty or a whole circle.
     """
-    c1, c2, r1, r2 = _f(c1), _f(c2), _f(r1), _f(r2)
-    sgn = _sign(sign)
-    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
-        dx = c2[..., 0] - c1[..., 0]
-        dy = c2[..., 1] - c1[..., 1]
-        d = np.hypot(dx, dy)
-        dx, dy, d, r1, r2, sgn = np.broadcast_arrays(dx, dy, d, r1, r2, sgn)
-        finite = (np.isfinite(dx) & np.isfinite(dy) & np.isfinite(r1) & np.isfinite(r2)
-                  & np.all(np.isfinite(c1), axis=-1) & np.all(np.isfinite(c2), axis=-1))
-        four_area, violation, scale = _kahan_4area(d, r1, r2)
-        ok = finite & (d > 0) & (r1 >= 0) & (r2 >= 0) & (violation <= tangency_tol * scale)
-        dsafe = np.where(d > 0, d, 1.0)
-        ux, uy = dx / dsafe, dy / dsafe
-        # Foot of the point on the centre line, measured from c1; (r1-r2)(r1+r2) avoids the
-        # cancellation of r1**2 - r2**2 when the radii are close.
-        along = 0.5 * (d + (r1 - r2) * (r1 + r2) / dsafe)
-        # Where not ok |along| > r1 (one circle is outside or inside the other), so clipping to
-        # +-r1 gives the point of circle 1 nearest to circle 2: a meaningful, finite fill.
-        along = np.where(ok, along, np.clip(along, -np.abs(r1), np.abs(r1)))
-        along = np.where(finite & (d > 0), along, 0.0)
-        # h = 2*area/d; a clamped tangency has four_area = 0 -> h = 0.
-        h = np.where(ok, 0.5 * four_area / dsafe, 0.0)
-        px = c1[..., 0] + along * ux - sgn * h * uy
-        py = c1[..., 1] + along * uy + sgn * h * ux
-        px = np.where(finite, px, 0.0)
-        py = np.where(finite, py, 0.0)
-    return np.stack([px, py], axis=-1), _out(h), _out(ok)
+    sol = circle_circle(c1, r1, c2, r2, _sign(sign), tangency_tol)
+    return sol.point, _out(sol.height), _out(sol.ok)
 
 
 # --------------------------------------------------------------------------- four-bar
@@ -201,9 +161,11 @@ def _closure_residual(l1, l2, l3, l4, t2, t3, t4) -> np.ndarray:
 
 def _transmission_sin(ax, ay, bx, by, o4x, o4y, l3, l4) -> np.ndarray:
     """|sin| of the angle at B between B->A (coupler) and B->O4 (rocker)."""
-    cross = (ax - bx) * (o4y - by) - (ay - by) * (o4x - bx)
-    den = l3 * l4
-    return np.clip(np.abs(cross) / np.where(den > 0, den, 1.0), 0.0, 1.0)
+    # normalise before multiplying so huge lengths cannot overflow the cross product
+    s3 = np.where(l3 > 0, l3, 1.0)
+    s4 = np.where(l4 > 0, l4, 1.0)
+    cross = ((ax - bx) / s3) * ((o4y - by) / s4) - ((ay - by) / s3) * ((o4x - bx) / s4)
+    return np.clip(np.abs(cross), 0.0, 1.0)
 
 
 def _finish(values, ok, finite, residual):
@@ -224,8 +186,9 @@ def fourbar_forward(l1, l2, l3, l4, theta2, branch=1, tangency_tol: float = TANG
         Crank angle [rad].
     branch : array_like of +-1
         Assembly: B is the intersection of circle (A, l3) and circle (O4, l4) to the left (+1) or
-        right (-1) of the vector A -> O4.  For a crank above the ground line, +1 is the "open"
-        configuration with B above the line A-O4.
+        right (-1) of the vector A -> O4.  For 0 < theta2 < pi, +1 puts B and O2 on opposite
+        sides of the diagonal A-O4 (the usual "open" assembly).  A fixed branch follows one
+        circuit continuously as long as no toggle (coupler and rocker collinear) is crossed.
     tangency_tol : float
         Relative tangency clamp, see :func:`circle_intersection`.
 
@@ -330,7 +293,8 @@ def slider_crank_forward(r, l, e, theta2, branch=1, tangency_tol: float = TANGEN
         gap = l - ady  # > 0: the rod reaches the line; factored to avoid l**2 - dy**2 cancellation
         scale = np.maximum(np.maximum(np.abs(r), np.abs(l)), np.abs(e))
         ok = finite & (r >= 0) & (l >= 0) & (gap >= -tangency_tol * scale)
-        half = np.sqrt(np.where(ok & (gap > 0), gap * (l + ady), 0.0))
+        # |B_x - A_x| = sqrt((l - |dy|)(l + |dy|)), rooted factor by factor (no overflow)
+        half = np.where(ok & (gap > 0), np.sqrt(np.maximum(gap, 0.0)) * np.sqrt(l + ady), 0.0)
         x = np.where(ok, ax + br * half, ax)
         # closest approach when not ok: rod pointing straight at the line (angle +-pi/2)
         t3 = np.where(ok, np.arctan2(dy, br * half), np.arctan2(dy, 0.0))
@@ -383,7 +347,7 @@ def slider_crank_stroke(r: float, l: float, e: float) -> tuple[float, float]:
     Raises ValueError if no crank angle assembles (r + l < |e|) or a length is negative.
     """
     r, l, e = float(r), float(l), float(e)
-    if not (r >= 0 and l >= 0 and np.isfinite(e)):
+    if not (0 <= r < np.inf and 0 <= l < np.inf and np.isfinite(e)):
         raise ValueError(f'slider-crank lengths must be finite and >= 0 (r={r}, l={l}, e={e})')
     ae = abs(e)
     if ae + r <= l:
@@ -395,7 +359,7 @@ def slider_crank_stroke(r: float, l: float, e: float) -> tuple[float, float]:
     cands = []
     # Extended in line, |B| = l + r: B - A = l*B/|B|, so it is branch +1 iff x >= 0.
     cands.append(np.sqrt(((l + r) - ae) * ((l + r) + ae)))
-    # Folded in line, |B| = |l - r| >= |e|: branch +1 iff x >= 0 when l >= r, iff x <= 0 when r > l.
+    # Folded in line, |B| = |l - r| >= |e|: branch +1 iff x >= 0 when l >= r, x <= 0 when r > l.
     if abs(l - r) >= ae:
         xf = np.sqrt((abs(l - r) - ae) * (abs(l - r) + ae))
         cands.append(xf if l >= r else -xf)

@@ -231,6 +231,11 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
     if solver not in SOLVERS:
         ctx.fail('solver', f'must be one of {list(SOLVERS)}', solver)
     form = forms[0]
+    if form != 'points':
+        clash = [k for k in ('links', 'ground', 'sliders', 'cylinders', 'actuators') if k in data]
+        if clash:
+            ctx.fail(clash[0], f'is a general-form key; it cannot be combined with the {form} '
+                     'shortcut (use the general form instead)', has_value=False)
     shortcut: dict[str, Any] = {}
     if form == 'four_bar':
         general, shortcut = _four_bar_to_general(ctx, data)
@@ -238,6 +243,8 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
         general, shortcut = _slider_crank_to_general(ctx, data)
     else:
         general = dict(data)
+    if form != 'points' and 'outputs' in data:
+        general['outputs'] = data['outputs']        # a shortcut may name its published points
     name = ctx.name('name', data.get('name', Path(source).stem if source != '<scene>' else form))
     mech = _build_general(ctx, general, name=name, frame_id=frame_id, solver=solver)
     mech.form = form if form != 'points' else 'general'
@@ -520,7 +527,7 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
 
     def assemble(theta):
         a = o2 + l2 * np.array([math.cos(theta), math.sin(theta)])
-        b, _, ok, _ = circle_circle(a, l3, o4, l4, branch)
+        b, _, ok, _, _ = circle_circle(a, l3, o4, l4, branch)
         return a, b, bool(ok)
 
     if 'input' in fb:

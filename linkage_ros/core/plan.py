@@ -57,9 +57,39 @@ class Spec:
         return 'rad' if self.kind == 'angle' else 'm'
 
 
+KNOWN_KINDS = ('actuator', 'joint', 'link', 'point')
+
+
 def spec_for(mech: Mechanism, name: str) -> Spec:
-    """Resolve a user-facing name: actuator, then joint, then link (its angle), then point."""
-    if name in mech.actuators:
+    """Resolve a user-facing name: actuator, then joint, then link (its angle), then point.
+
+    A prefix picks the kind explicitly: ``point:D`` is the point D even where a joint is also
+    named D (every point shared by two links is), likewise ``joint:``, ``link:``, ``actuator:``.
+    The spec keeps the name exactly as given, so command dicts use the same key.
+    """
+    kind, _, bare = name.partition(':') if ':' in name else ('', '', name)
+    if kind:
+        if kind not in KNOWN_KINDS:
+            raise PlanError(f'unknown kind {kind!r} in {name!r}; use one of {list(KNOWN_KINDS)}')
+        found = _spec_of_kind(mech, kind, bare)
+        if found is None:
+            raise PlanError(f'{mech.name!r} has no {kind} named {bare!r}')
+        return _renamed(found, name)
+    for kind in KNOWN_KINDS:
+        found = _spec_of_kind(mech, kind, name)
+        if found is not None:
+            return found
+    raise PlanError(f'unknown name {name!r}: not an actuator, joint, link or point of '
+                    f'{mech.name!r}')
+
+
+def _renamed(spec: Spec, name: str) -> Spec:
+    return Spec(name, spec.kind, spec.link, spec.reference, spec.offset, spec.joint, spec.point,
+                spec.minimum, spec.maximum)
+
+
+def _spec_of_kind(mech: Mechanism, kind: str, name: str) -> Spec | None:
+    if kind == 'actuator' and name in mech.actuators:
         act = mech.actuators[name]
         if act.kind == 'slide':
             return Spec(name, 'slide', joint=act.joint, minimum=act.min, maximum=act.max)
@@ -69,22 +99,23 @@ def spec_for(mech: Mechanism, name: str) -> Spec:
         ref_angle = 0.0 if act.reference == mech.ground else mech.links[act.reference].angle_ref
         return Spec(name, 'angle', link=link.name, reference=act.reference, offset=d0 - ref_angle,
                     minimum=act.min, maximum=act.max)
-    for rj in mech.revolutes:
-        if rj.name == name:
-            # joint value = child link angle - parent link angle (each along its axis)
-            return Spec(name, 'angle', link=rj.child, reference=rj.parent,
-                        offset=mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref)
-    if name in mech.prismatics:
-        return Spec(name, 'slide', joint=name)
-    if name in mech.links:
+    if kind == 'joint':
+        for rj in mech.revolutes:
+            if rj.name == name:
+                # joint value = child link angle - parent link angle (each along its axis)
+                return Spec(name, 'angle', link=rj.child, reference=rj.parent,
+                            offset=mech.links[rj.child].angle_ref
+                            - mech.links[rj.parent].angle_ref)
+        if name in mech.prismatics:
+            return Spec(name, 'slide', joint=name)
+    if kind == 'link' and name in mech.links:
         if name == mech.ground:
             raise PlanError(f'{name!r} is the ground link: its angle is fixed')
         return Spec(name, 'angle', link=name, reference=mech.ground,
                     offset=mech.links[name].angle_ref)
-    if name in mech.points:
+    if kind == 'point' and name in mech.points:
         return Spec(name, 'point', point=name)
-    raise PlanError(f'unknown name {name!r}: not an actuator, joint, link or point of '
-                    f'{mech.name!r}')
+    return None
 
 
 def spec_value_at(mech: Mechanism, spec: Spec, poses: 'Poses') -> np.ndarray:
@@ -577,7 +608,7 @@ class Plan:
                 r2 = _norm(local_pt(b2, x) - local_pt(b2, p2))
                 sgn = self._choose(signs[bk], prefer, x, n,
                                    lambda s: dyads.circle_circle(pts[p1], r1, pts[p2], r2, s, tol)[0])
-                X, m, okk, viol = dyads.circle_circle(pts[p1], r1, pts[p2], r2, sgn, tol)
+                X, m, okk, viol, _ = dyads.circle_circle(pts[p1], r1, pts[p2], r2, sgn, tol)
                 pts[x] = X
                 used_signs[:, bk] = sgn
                 margin = np.minimum(margin, m)

@@ -485,7 +485,9 @@ class Solver:
         r, reason, fixed = walk(v0, x0, vals, 0)
         solver_name = 'newton' if self.mode == 'newton' else 'hybrid'
         if r is None:
-            return self._fail(reason, self._echo(vals), solver_name), None
+            res = self._fail(reason, self._echo(vals), solver_name)
+            res.iterations = total_iter[0]
+            return res, None
         poses = self.system.poses_from_x(r.x, fixed)
         pts: dict[str, complex] = {}
         for l, link in self.mech.links.items():

@@ -1,0 +1,418 @@
+"""Tests of the `linkage` command line (linkage_ros.cli).
+
+main(argv) runs in-process (stdout/stderr captured with capsys); one subprocess call proves the
+console script is installed. Numbers are checked against independent geometry written here
+(circle intersection, Freudenstein's equation, the toggle-angle cosine rule), never against the
+core's own formulas.
+"""
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from linkage_ros import cli
+from linkage_ros.cli import main
+
+# four-bar lengths (m): ground l1, crank l2, coupler l3, rocker l4
+CR = dict(l1=0.4, l2=0.1, l3=0.35, l4=0.3)        # Grashof crank-rocker (crank shortest)
+DR = dict(l1=0.4, l2=0.35, l3=0.1, l4=0.3)        # Grashof double-rocker (coupler shortest)
+CP = dict(distance=0.2, angle=0.5)                 # coupler point P of the crank-rocker
+
+FOUR_BAR = f"""\
+four_bar: {{ground: {CR['l1']}, crank: {CR['l2']}, coupler: {CR['l3']}, rocker: {CR['l4']},
+           coupler_point: {{distance: {CP['distance']}, angle: {CP['angle']}}}}}
+"""
+DOUBLE_ROCKER = f"""\
+four_bar: {{ground: {DR['l1']}, crank: {DR['l2']}, coupler: {DR['l3']}, rocker: {DR['l4']},
+           input: 0.8}}
+"""
+SLIDER_CRANK = "slider_crank: {crank: 0.1, rod: 0.3, offset: 0.02}\n"
+# 2-DOF five-bar; T is a tool point on link l2 (a point that is not a joint)
+FIVE_BAR = """\
+name: five_bar
+points: {O2: [0, 0], O5: [0.3, 0], A: [0.0, 0.15], P: [0.15, 0.3], B: [0.3, 0.15],
+         T: [0.1, 0.35]}
+links: {ground: [O2, O5], l1: [O2, A], l2: [A, P, T], l3: [P, B], l4: [O5, B]}
+actuators:
+  a1: {type: angle, link: l1, pivot: O2, toward: A}
+  a2: {type: angle, link: l4, pivot: O5, toward: B}
+"""
+# one actuator for a 2-DOF chain: the scene must not load
+FIVE_BAR_ONE_ACTUATOR = FIVE_BAR.split('actuators:')[0] + """actuators:
+  a1: {type: angle, link: l1, pivot: O2, toward: A}
+"""
+
+
+@pytest.fixture(scope='module')
+def scenes(tmp_path_factory):
+    d = tmp_path_factory.mktemp('scenes')
+    out = {}
+    for name, text in [('four_bar', FOUR_BAR), ('double_rocker', DOUBLE_ROCKER),
+                       ('slider_crank', SLIDER_CRANK), ('five_bar', FIVE_BAR),
+                       ('bad_dof', FIVE_BAR_ONE_ACTUATOR)]:
+        p = d / f'{name}.yaml'
+        p.write_text(text)
+        out[name] = str(p)
+    return out
+
+
+def _no_nan(text):
+    raise ValueError(f'non-finite number {text} in JSON output')
+
+
+def loads(text):
+    """json.loads that refuses NaN / Infinity."""
+    return json.loads(text, parse_constant=_no_nan)
+
+
+def run(capsys, *argv):
+    rc = main([str(a) for a in argv])
+    cap = capsys.readouterr()
+    return rc, cap.out, cap.err
+
+
+# ---- independent geometry ----------------------------------------------------------------------
+
+def circle_intersections(c1, r1, c2, r2):
+    """Both intersections of two circles (or [] when they miss)."""
+    dx, dy = c2[0] - c1[0], c2[1] - c1[1]
+    d = math.hypot(dx, dy)
+    a = (r1 * r1 - r2 * r2 + d * d) / (2 * d)
+    h2 = r1 * r1 - a * a
+    if h2 < 0:
+        return []
+    h = math.sqrt(h2)
+    mx, my = c1[0] + a * dx / d, c1[1] + a * dy / d
+    return [(mx - h * dy / d, my + h * dx / d), (mx + h * dy / d, my - h * dx / d)]
+
+
+def fourbar_B(theta2, l1, l2, l3, l4):
+    a = (l2 * math.cos(theta2), l2 * math.sin(theta2))
+    return a, circle_intersections(a, l3, (l1, 0.0), l4)
+
+
+def freudenstein_residual(theta2, theta4, l1, l2, l3, l4):
+    """K1 cos t4 - K2 cos t2 + K3 - cos(t2 - t4) = 0 for an assembled four-bar."""
+    k1, k2 = l1 / l2, l1 / l4
+    k3 = (l2 ** 2 - l3 ** 2 + l4 ** 2 + l1 ** 2) / (2 * l2 * l4)
+    return k1 * math.cos(theta4) - k2 * math.cos(theta2) + k3 - math.cos(theta2 - theta4)
+
+
+def cross(o, a, b):
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+
+def close(p, q, tol=1e-9):
+    return math.hypot(p[0] - q[0], p[1] - q[1]) < tol
+
+
+def wrap(a):
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+# ---- solve -------------------------------------------------------------------------------------
+
+SCHEMA_KEYS = {'status', 'reason', 'inputs', 'joints', 'links', 'points', 'residual', 'branch',
+               'branch_defined', 'margin', 'solver', 'iterations', 'cond'}
+
+
+def test_solve_json_schema_and_values_match_independent_fourbar(capsys, scenes):
+    theta2 = 0.5
+    rc, out, err = run(capsys, 'solve', scenes['four_bar'], '--set', f'crank={theta2}', '--json')
+    assert rc == 0 and err == ''
+    d = loads(out)                                    # exactly one JSON object
+    assert isinstance(d, dict) and SCHEMA_KEYS <= set(d)
+    assert d['status'] == 'ok' and d['reason'] is None
+    assert d['inputs'] == {'crank': theta2}
+    assert set(d['links']) == {'ground', 'crank', 'coupler', 'rocker'}
+    assert d['links']['coupler']['points'] == ['A', 'B', 'P']
+    assert set(d['points']) == {'O2', 'A', 'B', 'O4', 'P'}
+    assert d['residual'] < 1e-12 and d['branch'] == '+' and d['margin'] > 0
+    assert d['solver'] == 'closed_form'
+
+    l1, l2, l3, l4 = CR.values()
+    a, bs = fourbar_B(theta2, l1, l2, l3, l4)
+    assert close(d['points']['A'], a) and close(d['points']['O4'], (l1, 0.0))
+    b = d['points']['B']
+    assert any(close(b, c) for c in bs)
+    # default branch 'reference': the '+' assembly, B left of the line A -> O4 (the reference pose)
+    assert cross(a, (l1, 0.0), b) > 0
+    t4 = d['links']['rocker']['angle']
+    assert t4 == pytest.approx(math.atan2(b[1], b[0] - l1), abs=1e-12)
+    assert abs(freudenstein_residual(theta2, t4, l1, l2, l3, l4)) < 1e-12
+    t3 = math.atan2(b[1] - a[1], b[0] - a[0])
+    assert d['links']['coupler']['angle'] == pytest.approx(t3, abs=1e-12)
+    p = (a[0] + CP['distance'] * math.cos(t3 + CP['angle']),
+         a[1] + CP['distance'] * math.sin(t3 + CP['angle']))
+    assert close(d['points']['P'], p)
+    # revolute joint value = child angle - parent angle
+    assert d['joints']['O4'] == pytest.approx(t4, abs=1e-12)
+    assert d['joints']['B'] == pytest.approx(wrap(t4 - t3), abs=1e-12)
+
+
+def test_solve_table_output(capsys, scenes):
+    rc, out, err = run(capsys, 'solve', scenes['four_bar'], '--set', 'crank=30deg')
+    assert rc == 0
+    for word in ('status     ok', 'inputs', 'joints', 'links', 'points', 'residual', 'branch',
+                 'margin', 'solver', 'iterations', '30.00000 deg', '[A B P]'):
+        assert word in out
+    assert '0.523598776 rad' in out                    # 30deg was converted to radians
+
+
+def test_all_branches_gives_two_distinct_assemblies(capsys, scenes):
+    theta2 = 1.0
+    rc, out, _ = run(capsys, 'solve', scenes['four_bar'], '--set', f'crank={theta2}',
+                     '--all-branches', '--json')
+    assert rc == 0
+    modes = loads(out)
+    assert isinstance(modes, list) and len(modes) == 2
+    assert all(m['status'] == 'ok' for m in modes)
+    assert {m['branch'] for m in modes} == {'+', '-'}
+    _, bs = fourbar_B(theta2, *CR.values())
+    got = [m['points']['B'] for m in modes]
+    assert not close(got[0], got[1], 1e-6)
+    for c in bs:                                       # each exact assembly appears once
+        assert sum(close(g, c) for g in got) == 1
+
+
+def test_inverse_solve_target_rocker_reproduces_it(capsys, scenes):
+    l1, l2, l3, l4 = CR.values()
+    theta4 = 1.9
+    rc, out, _ = run(capsys, 'solve', scenes['four_bar'], '--target', f'rocker={theta4}', '--json')
+    assert rc == 0
+    d = loads(out)
+    assert d['status'] == 'ok' and d['targets'] == {'rocker': theta4}
+    theta2 = d['inputs']['crank']
+    # independent check: with this crank, |A B| = coupler where B is the rocker tip at theta4
+    a = (l2 * math.cos(theta2), l2 * math.sin(theta2))
+    b = (l1 + l4 * math.cos(theta4), l4 * math.sin(theta4))
+    assert math.hypot(b[0] - a[0], b[1] - a[1]) == pytest.approx(l3, abs=1e-12)
+    assert abs(freudenstein_residual(theta2, theta4, l1, l2, l3, l4)) < 1e-12
+    # and the forward solve at that crank (same branch) gives the rocker back
+    rc, out, _ = run(capsys, 'solve', scenes['four_bar'], '--set', f'crank={theta2!r}',
+                     '--branch', d['branch'], '--json')
+    assert rc == 0
+    assert loads(out)['links']['rocker']['angle'] == pytest.approx(theta4, abs=1e-9)
+
+
+def test_target_point_on_five_bar(capsys, scenes):
+    target = (0.12, 0.33)
+    rc, out, _ = run(capsys, 'solve', scenes['five_bar'], '--target-point',
+                     f'T={target[0]},{target[1]}', '--json')
+    assert rc == 0
+    d = loads(out)
+    assert d['status'] == 'ok' and d['targets'] == {'T': list(target)}
+    pts = d['points']
+    assert close(pts['T'], target)
+    # link lengths from the reference pose are preserved
+    ref = {'O2': (0, 0), 'O5': (0.3, 0), 'A': (0.0, 0.15), 'P': (0.15, 0.3), 'B': (0.3, 0.15),
+           'T': (0.1, 0.35)}
+    for u, v in [('O2', 'A'), ('A', 'P'), ('A', 'T'), ('P', 'T'), ('P', 'B'), ('O5', 'B')]:
+        assert math.dist(pts[u], pts[v]) == pytest.approx(math.dist(ref[u], ref[v]), abs=1e-12)
+    a1, a2 = d['inputs']['a1'], d['inputs']['a2']
+    assert a1 == pytest.approx(math.atan2(pts['A'][1], pts['A'][0]), abs=1e-12)
+    assert a2 == pytest.approx(math.atan2(pts['B'][1], pts['B'][0] - 0.3), abs=1e-12)
+    # forward solve with the actuator values found puts T on the target
+    rc, out, _ = run(capsys, 'solve', scenes['five_bar'], '--set', f'a1={a1!r}', '--set',
+                     f'a2={a2!r}', '--branch', d['branch'][1:], '--json')
+    assert rc == 0 and close(loads(out)['points']['T'], target)
+
+
+def test_unreachable_input_is_refused_without_nan(capsys, scenes):
+    rc, out, err = run(capsys, 'solve', scenes['double_rocker'], '--set', 'crank=2.0', '--json')
+    assert rc == 1
+    d = loads(out)                                      # raises on NaN / Infinity
+    assert d['status'] == 'error' and d['reason'] and 'assemble' in d['reason']
+    assert d['points'] == {} and d['inputs'] == {'crank': 2.0}
+    rc, out, _ = run(capsys, 'solve', scenes['double_rocker'], '--set', 'crank=2.0')
+    assert rc == 1 and 'status     error' in out and 'reason' in out and 'nan' not in out.lower()
+
+
+def test_unreachable_target_is_refused(capsys, scenes):
+    rc, out, _ = run(capsys, 'solve', scenes['four_bar'], '--target', 'rocker=0.2', '--json')
+    assert rc == 1
+    d = loads(out)
+    assert d['status'] == 'error' and d['reason'] and d['targets'] == {'rocker': 0.2}
+
+
+# ---- sweep -------------------------------------------------------------------------------------
+
+def _toggles(l1, l2, l3, l4):
+    """Input angles (upper half-plane) at which coupler and rocker are folded / extended."""
+    def opposite(d):
+        return math.acos((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2))
+    return opposite(abs(l3 - l4)), opposite(l3 + l4)
+
+
+def test_sweep_line_count_includes_error_lines(capsys, scenes):
+    rc, out, err = run(capsys, 'sweep', scenes['double_rocker'], '--set', 'crank=0:3:7', '--json')
+    assert rc == 0                                      # the sweep ran: errors are lines
+    lines = [loads(x) for x in out.splitlines()]
+    assert len(lines) == 7
+    lo, hi = _toggles(*DR.values())
+    for i, (line, theta) in enumerate(zip(lines, [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0])):
+        assert line['index'] == i and line['command'] == {'crank': pytest.approx(theta)}
+        assert line['status'] == ('ok' if lo < theta < hi else 'error')
+        if line['status'] == 'error':
+            assert line['reason']
+    assert '7 command(s), 1 ok, 6 error(s)' in err
+    # table form: same number of rows (+ a header), errors carry their reason
+    rc, out, _ = run(capsys, 'sweep', scenes['double_rocker'], '--set', 'crank=0:3:7')
+    rows = out.splitlines()
+    assert rc == 0 and len(rows) == 8 and rows[0].startswith('#')
+    assert sum('\terror\t' in r for r in rows) == 6
+    # --strict: any error line makes the exit status 1
+    rc, _, _ = run(capsys, 'sweep', scenes['double_rocker'], '--set', 'crank=0:3:7', '--strict')
+    assert rc == 1
+
+
+def test_sweep_grid_of_two_ranges_first_range_slowest(capsys, scenes):
+    rc, out, _ = run(capsys, 'sweep', scenes['five_bar'], '--set', 'a1=0.5:1.5:3',
+                     '--set', 'a2=1:2:4', '--json')
+    assert rc == 0
+    lines = [loads(x) for x in out.splitlines()]
+    assert len(lines) == 12
+    expect = [(a1, a2) for a1 in (0.5, 1.0, 1.5) for a2 in (1.0, 4 / 3, 5 / 3, 2.0)]
+    for line, (a1, a2) in zip(lines, expect):
+        assert line['command']['a1'] == pytest.approx(a1)
+        assert line['command']['a2'] == pytest.approx(a2)
+        assert line['status'] == 'ok'
+        assert line['inputs']['a1'] == pytest.approx(a1)
+        assert line['inputs']['a2'] == pytest.approx(a2)
+    # the grid axis order follows the command line
+    rc, out, _ = run(capsys, 'sweep', scenes['five_bar'], '--set', 'a2=1:2:4',
+                     '--set', 'a1=0.5:1.5:3', '--json')
+    first = [loads(x)['command'] for x in out.splitlines()[:3]]
+    assert [c['a2'] for c in first] == [1.0, 1.0, 1.0]
+
+
+def test_inverse_sweep_over_target_range(capsys, scenes):
+    rc, out, _ = run(capsys, 'sweep', scenes['four_bar'], '--target', 'rocker=1.8:2.0:3', '--json')
+    assert rc == 0
+    lines = [loads(x) for x in out.splitlines()]
+    assert len(lines) == 3
+    l1, l2, l3, l4 = CR.values()
+    for line in lines:
+        t4 = line['command']['rocker']
+        assert line['status'] == 'ok' and line['targets'] == {'rocker': t4}
+        assert abs(freudenstein_residual(line['inputs']['crank'], t4, l1, l2, l3, l4)) < 1e-12
+
+
+# ---- check -------------------------------------------------------------------------------------
+
+def test_check_crank_rocker(capsys, scenes):
+    rc, out, _ = run(capsys, 'check', scenes['four_bar'], '--json')
+    assert rc == 0
+    d = loads(out)
+    assert d['dof'] == 1 and d['n_links'] == 4 and d['n_joints'] == 4
+    assert d['dof_matches_actuators'] is True
+    assert d['inputs']['crank']['min'] is None and d['inputs']['crank']['max'] is None
+    assert d['grashof']['class'] == 'crank-rocker' and d['grashof']['input_fully_rotates']
+    assert d['links']['coupler'] == ['A', 'B', 'P']
+    assert d['joints']['B'] == {'type': 'revolute', 'point': 'B', 'parent': 'coupler',
+                                'child': 'rocker'}
+    plan = d['plan']
+    assert plan['mode'] == 'closed_form' and plan['newton_links'] == []
+    assert set(plan['closed_form_links']) == {'crank', 'coupler', 'rocker'}
+    assert any('RRR' in s for s in plan['closed_form_steps'])
+    rc, out, _ = run(capsys, 'check', scenes['four_bar'])
+    assert rc == 0
+    for word in ('Kutzbach', '1 DOF', 'crank-rocker', 'unlimited', 'placed by Newton'):
+        assert word in out
+
+
+def test_check_double_rocker_limits_are_the_toggle_angles(capsys, scenes):
+    rc, out, _ = run(capsys, 'check', scenes['double_rocker'], '--json')
+    assert rc == 0
+    d = loads(out)
+    assert d['grashof']['class'] == 'grashof-double-rocker'
+    lo, hi = _toggles(*DR.values())     # the reference pose (input 0.8) is on this circuit
+    assert d['inputs']['crank']['min'] == pytest.approx(lo, abs=1e-9)
+    assert d['inputs']['crank']['max'] == pytest.approx(hi, abs=1e-9)
+
+
+def test_check_five_bar_newton_plan_and_slider_crank(capsys, scenes):
+    rc, out, _ = run(capsys, 'check', scenes['five_bar'], '--solver', 'newton', '--json')
+    d = loads(out)
+    assert rc == 0 and d['dof'] == 2 and set(d['inputs']) == {'a1', 'a2'}
+    assert d['grashof'] is None
+    assert d['plan']['mode'] == 'newton'
+    assert set(d['plan']['newton_links']) == {'l1', 'l2', 'l3', 'l4'}
+    rc, out, _ = run(capsys, 'check', scenes['slider_crank'], '--json')
+    d = loads(out)
+    assert rc == 0 and d['joints']['slider']['type'] == 'prismatic'
+
+
+# ---- usage errors ------------------------------------------------------------------------------
+
+@pytest.mark.parametrize('argv,needle', [
+    (['solve', '{missing}', '--set', 'crank=1'], 'not found'),
+    (['solve', '{four_bar}', '--set', 'crank'], 'NAME=VALUE'),
+    (['solve', '{four_bar}', '--set', 'crank=abc'], "'abc' is not a number"),
+    (['solve', '{four_bar}', '--set', 'crank=nan'], 'finite'),
+    (['solve', '{four_bar}', '--set', 'cranky=1'], "'cranky' is not an actuator"),
+    (['solve', '{four_bar}', '--target', 'nosuch=1'], "unknown name 'nosuch'"),
+    (['solve', '{four_bar}', '--target-point', 'crank=1,2'], "'crank' is not a point"),
+    (['solve', '{four_bar}', '--set', 'crank=0:1:3'], 'sweep'),
+    (['solve', '{four_bar}', '--set', 'crank=1', '--set', 'crank=2'], 'given twice'),
+    (['solve', '{four_bar}'], 'nothing to solve'),
+    (['solve', '{five_bar}', '--set', 'a1=1'], 'missing --set for actuator(s) a2'),
+    (['solve', '{four_bar}', '--set', 'crank=1', '--branch', 'sideways'], 'branch'),
+    (['solve', '{four_bar}', '--set', 'crank=1', '--branch', '++'], 'branching dyad'),
+    (['solve', '{four_bar}', '--set', 'crank=1', '--tol', '-1'], 'tolerance'),
+    (['solve', '{four_bar}', '--set', 'crank=1', '--solver', 'magic'], 'invalid choice'),
+    (['sweep', '{four_bar}', '--set', 'crank=0:1:0'], 'COUNT must be >= 1'),
+    (['sweep', '{four_bar}', '--set', 'crank=0:1:x'], 'not an integer'),
+    (['check', '{bad_dof}'], 'degree(s) of freedom'),
+    (['solve'], 'SCENE'),
+    (['frobnicate'], 'invalid choice'),
+])
+def test_usage_errors_exit_2_with_one_line(capsys, scenes, tmp_path, argv, needle):
+    names = dict(scenes, missing=str(tmp_path / 'nope.yaml'))
+    rc, out, err = run(capsys, *[a.format(**names) for a in argv])
+    assert rc == 2
+    assert out == ''
+    assert err.count('\n') == 1 and err.startswith('linkage') and 'error' in err
+    assert needle in err
+    assert 'Traceback' not in err
+
+
+def test_help(capsys):
+    rc, out, _ = run(capsys, '--help')
+    assert rc == 0 and all(c in out for c in ('solve', 'sweep', 'check'))
+    for sub, word in (('solve', '--target-point'), ('sweep', 'slowest'), ('check', 'Kutzbach')):
+        rc, out, _ = run(capsys, sub, '--help')
+        assert rc == 0 and word in out
+
+
+# ---- plug-in subcommands -----------------------------------------------------------------------
+
+def test_external_commands_register_when_importable(capsys, tmp_path, monkeypatch):
+    (tmp_path / 'cli_plugin_ok.py').write_text(
+        '"""Say hello."""\n'
+        'def add_arguments(p):\n    p.add_argument("who")\n'
+        'def run(args):\n    print("hello", args.who)\n    return 0\n')
+    (tmp_path / 'cli_plugin_broken.py').write_text('import no_such_dependency_xyz\n')
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(cli, 'EXTERNAL_COMMANDS', {
+        'hello': 'cli_plugin_ok', 'broken': 'cli_plugin_broken', 'absent': 'cli_plugin_absent'})
+    rc, out, _ = run(capsys, 'hello', 'world')
+    assert rc == 0 and out == 'hello world\n'
+    rc, out, _ = run(capsys, '--help')
+    assert 'hello' in out and 'unavailable: broken' in out and 'absent' not in out
+    rc, out, err = run(capsys, 'broken')
+    assert rc == 2 and 'no_such_dependency_xyz' in err
+
+
+# ---- the installed console script -------------------------------------------------------------
+
+def test_console_script_is_installed(scenes):
+    exe = Path(sys.executable).parent / 'linkage'
+    assert exe.exists(), f'console script not installed next to {sys.executable}'
+    proc = subprocess.run([str(exe), 'solve', scenes['four_bar'], '--set', 'crank=0.5', '--json'],
+                          capture_output=True, text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    assert loads(proc.stdout)['status'] == 'ok'
