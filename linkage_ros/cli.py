@@ -181,13 +181,13 @@ def build_solve(mech, args, allow_range: bool):
             raise UsageError(f'--set {name}: {name!r} is not an actuator of {mech.name!r} '
                              f'(actuators: {", ".join(mech.actuators)}); use --target for joints, '
                              'links or points')
+        if option == '--target-point':
+            if name not in mech.points:
+                raise UsageError(f'--target-point {name}: {name!r} is not a point of '
+                                 f'{mech.name!r}')
+            name = f'point:{name}'          # a point may share its name with a joint
+            options[name] = option
         spec = spec_for(mech, name)          # PlanError for an unknown name
-        if option == '--target-point' and spec.kind != 'point':
-            if name in mech.points:
-                raise UsageError(f'--target-point {name}: the name {name!r} also names a joint, '
-                                 'and joint names take precedence, so this point cannot be a '
-                                 'target')
-            raise UsageError(f'--target-point {name}: {name!r} is not a point of {mech.name!r}')
         if option != '--target-point' and spec.kind == 'point':
             raise UsageError(f'{option} {name}: {name!r} is a point; use --target-point '
                              f'{name}=X,Y')

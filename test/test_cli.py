@@ -204,7 +204,7 @@ def test_target_point_on_five_bar(capsys, scenes):
                      f'T={target[0]},{target[1]}', '--json')
     assert rc == 0
     d = loads(out)
-    assert d['status'] == 'ok' and d['targets'] == {'T': list(target)}
+    assert d['status'] == 'ok' and d['targets'] == {'point:T': list(target)}
     pts = d['points']
     assert close(pts['T'], target)
     # link lengths from the reference pose are preserved
