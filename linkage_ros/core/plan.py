@@ -713,6 +713,12 @@ def _wrap1(a: float) -> float:
     return math.atan2(math.sin(a), math.cos(a))
 
 
+#: Below this dyad margin (|sin| of its transmission angle) continuity decides the branch by the
+#: predicted position; above it the previous sign is kept, because an assembly mode can only
+#: change by passing through the dyad's singular (tangent) configuration.
+CONTINUITY_MARGIN = 0.1
+
+
 @dataclass
 class ScalarRun:
     ok: bool
@@ -722,6 +728,7 @@ class ScalarRun:
     signs: tuple[int, ...] = ()
     failure: int = -1
     violation: float = 0.0
+    margins: tuple[float, ...] = ()
 
 
 def _plan_scalar_setup(plan: Plan):
@@ -761,10 +768,12 @@ def _body_local_one(plan: Plan, bi: int, values) -> ScalarPoses:
 
 
 def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
-            tol: float = dyads.TANGENCY_TOL) -> ScalarRun:
+            tol: float = dyads.TANGENCY_TOL, prev_margins=None) -> ScalarRun:
     """Scalar twin of :meth:`Plan.run` for one command: ``values[i]`` a float (angle/slide) or an
-    (x, y) pair (point). ``prefer`` maps point names to predicted complex positions and '@link'
-    to predicted link angles: the branch nearest the prediction is taken (continuity)."""
+    (x, y) pair (point). ``signs`` are the branch signs to keep. ``prefer`` maps point names to
+    predicted complex positions and '@link' to predicted link angles: where a dyad is near its
+    singularity (its margin now or in ``prev_margins`` below CONTINUITY_MARGIN) the branch
+    nearest the prediction is taken instead (continuity through tangent configurations)."""
     if not hasattr(plan, 'pc'):
         _plan_scalar_setup(plan)
     mech, pc = plan.mech, plan.pc
@@ -794,14 +803,20 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
                 if p not in pts:
                     pts[p] = poses.world(l, pc[p])
 
-    def pick(k_sign, x, cand_plus, cand_minus):
-        if prefer is not None and x in prefer:
+    margins: list[float] = []
+
+    def near_singular(m):
+        prev = prev_margins[len(used)] if prev_margins and len(used) < len(prev_margins) else 1.0
+        return min(m, prev) < CONTINUITY_MARGIN
+
+    def pick(k_sign, x, cand_plus, cand_minus, m):
+        if prefer is not None and x in prefer and near_singular(m):
             target = prefer[x]
             return 1 if abs(cand_plus - target) <= abs(cand_minus - target) else -1
         return k_sign
 
     def failed(k, viol):
-        return ScalarRun(False, poses, pts, 0.0, tuple(used), k, viol)
+        return ScalarRun(False, poses, pts, 0.0, tuple(used), k, viol, tuple(margins))
 
     bk = 0
     for k, st in enumerate(plan.steps):
@@ -842,9 +857,10 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             foot, hv, m, ok, viol = dyads.circle_circle_pair(pts[p1], r1, pts[p2], r2, tol)
             if not ok:
                 return failed(k, viol)
-            sg = pick(signs[bk], x, foot + hv, foot - hv)
+            sg = pick(signs[bk], x, foot + hv, foot - hv, m)
             pts[x] = foot + sg * hv
             used.append(sg)
+            margins.append(m)
             margin = min(margin, m)
             bk += 1
         elif op == 'circle_line':
@@ -858,9 +874,10 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             foot, kv, m, ok, viol = dyads.circle_line_pair(pts[p1], r, p0, u, tol)
             if not ok:
                 return failed(k, viol)
-            sg = pick(signs[bk], x, foot + kv, foot - kv)
+            sg = pick(signs[bk], x, foot + kv, foot - kv, m)
             pts[x] = foot + sg * kv
             used.append(sg)
+            margins.append(m)
             margin = min(margin, m)
             bk += 1
         elif op == 'line_through':
@@ -881,7 +898,7 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             phi_p = beta - math.atan2(e, along) - psi0
             phi_m = beta - math.atan2(e, -along) - psi0
             sg = signs[bk]
-            if prefer is not None and '@' + gl in prefer:
+            if prefer is not None and '@' + gl in prefer and near_singular(m):
                 last = prefer['@' + gl]
                 sg = 1 if abs(_wrap1(phi_p + loc.phi[gl] - last)) <= \
                     abs(_wrap1(phi_m + loc.phi[gl] - last)) else -1
@@ -889,9 +906,10 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             angles[bi] = phi
             place_body(bi, phi, pts[p] - complex(math.cos(phi), math.sin(phi)) * lp)
             used.append(sg)
+            margins.append(m)
             margin = min(margin, m)
             bk += 1
-    return ScalarRun(True, poses, pts, margin, tuple(used))
+    return ScalarRun(True, poses, pts, margin, tuple(used), margins=tuple(margins))
 
 
 def spec_value_one(mech: Mechanism, spec: Spec, poses: ScalarPoses):

@@ -25,7 +25,7 @@ from . import dyads
 from .errors import PlanError
 from .model import Mechanism
 from .newton import LoopSystem
-from .plan import (Plan, ScalarPoses, Spec, branch_geometry_one, run_one, spec_for, spec_value_at,
+from .plan import (CONTINUITY_MARGIN, Plan, ScalarPoses, Spec, branch_geometry_one, run_one, spec_for, spec_value_at,
                    spec_value_one)
 
 #: below this dyad margin the two assembly modes are numerically indistinguishable
@@ -86,6 +86,7 @@ class _State:
     poses: ScalarPoses
     signs: tuple[int, ...]
     det_sign: int
+    margins: tuple[float, ...] = ()
 
 
 class Solver:
@@ -211,9 +212,11 @@ class Solver:
             v = spec_value_one(mech, s, poses)
             vals.append(np.asarray(v, float) if s.kind == 'point' else float(v))
         pts = {p: complex(*v) for p, v in result.points.items()}
-        signs = (branch_geometry_one(self.plan, pts, poses)[0] if self.plan.complete
-                 else self.plan.reference_signs)
-        self._history = [self._state(vals, poses, pts, signs)]
+        if self.plan.complete:
+            signs, margins = branch_geometry_one(self.plan, pts, poses)
+        else:
+            signs, margins = self.plan.reference_signs, ()
+        self._history = [self._state(vals, poses, pts, signs, margins=margins)]
         return True
 
     # -- command validation ------------------------------------------------------------------
@@ -386,19 +389,20 @@ class Solver:
             out.append(a.reshape(n, 2) if s.kind == 'point' else a.reshape(n))
         return out
 
-    def _state(self, vals, poses: ScalarPoses, pts, signs, det_sign=0):
+    def _state(self, vals, poses: ScalarPoses, pts, signs, det_sign=0, margins=()):
         x_all = self.check_system.x_from_poses(poses) if self.mode != 'closed_form' and \
             set(poses.phi) >= set(self.mech.links) else None
-        return _State(vals, x_all, pts, poses, tuple(signs), det_sign)
+        return _State(vals, x_all, pts, poses, tuple(signs), det_sign, tuple(margins))
 
     def _solve_closed(self, vals):
-        run = run_one(self.plan, vals, self._signs(), self._prediction(vals))
+        prev = self._history[-1].margins if self._history else None
+        run = run_one(self.plan, vals, self._signs(), self._prediction(vals), prev_margins=prev)
         if not run.ok:
             return self._fail(self._dyad_reason(run.failure, run.violation), self._echo(vals),
                               'closed_form'), None
         res = self._build(run.poses, run.points, vals, solver='closed_form', iterations=0,
                           signs=run.signs, margin=run.margin)
-        return res, self._state(vals, run.poses, run.points, run.signs)
+        return res, self._state(vals, run.poses, run.points, run.signs, margins=run.margins)
 
     def _dyad_reason(self, k, violation):
         st = self.plan.steps[k]
@@ -447,6 +451,25 @@ class Solver:
         return np.concatenate([x_all[3 * idx[l]:3 * idx[l] + 3] for l in self.system.free]) \
             if self.system.free else np.zeros(0)
 
+    def _branch_of(self, x, fixed):
+        poses = self.system.poses_from_x(x, fixed)
+        pts = {}
+        for l, link in self.mech.links.items():
+            for p in link.points:
+                if p not in pts:
+                    pts[p] = poses.world(l, complex(*self.mech.points[p]))
+        return branch_geometry_one(self.full_plan, pts, poses)
+
+    def _branch_jump(self, xa, fixed_a, xb, fixed_b) -> bool:
+        """True when a dyad changed side between two configurations while far from its
+        singularity: only a jump (not a continuous motion) does that."""
+        if not self.full_plan.complete or not self.full_plan.branch_steps:
+            return False
+        sa, ma = self._branch_of(xa, fixed_a)
+        sb, mb = self._branch_of(xb, fixed_b)
+        return any(a != b and min(p, q) >= CONTINUITY_MARGIN
+                   for a, b, p, q in zip(sa, sb, ma, mb))
+
     def _interp(self, a, b, t):
         out = []
         for s, va, vb in zip(self.specs, a, b):
@@ -463,16 +486,25 @@ class Solver:
         total_iter = [0]
 
         def walk(va, xa, vb, depth):
-            sign_a = self.system.det_sign(self.system.evaluate(xa, va, self._fixed_poses(va)[0])[1]) \
+            fixed_a = self._fixed_poses(va)[0]
+            sign_a = self.system.det_sign(self.system.evaluate(xa, va, fixed_a)[1]) \
                 if self.system.n else 0
             r, reason, fixed = self._newton_at(vb, xa)
+            jumped = False
             if r is not None:
                 total_iter[0] += r.iterations
                 if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
-                    return r, None, fixed
+                    # det J keeps its sign when two dyads flip together: compare dyad sides too
+                    jumped = self._branch_jump(xa, fixed_a, r.x, fixed)
+                    if not jumped:
+                        return r, None, fixed
             if depth >= 10:
                 if r is None:
                     return None, reason, None
+                if jumped:
+                    return None, ('Newton could only reach this input in another assembly mode '
+                                  '(a branch jump): it is not reachable on the current branch '
+                                  'without crossing a singularity'), None
                 why = r.reason or ('the sign of det J changed: a singularity (toggle or change '
                                    'point) lies between the previous configuration and this input')
                 return None, why, None
