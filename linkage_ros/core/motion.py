@@ -296,8 +296,20 @@ class _Line:
         return abs(a - b) <= 1e-9 * self.scale
 
     # -- circuits
-    def circuit(self, x0: float) -> list[_Segment]:
-        """Follow the motion from ``x0`` in the reference assembly mode through every toggle."""
+    def within(self, v: float, limits) -> bool:
+        """Is ``v`` inside the actuator's limits ((lo, hi) with None sides for slides, a circular
+        (lo, hi) or None for angles)?"""
+        if limits is None:
+            return True
+        lo, hi = limits
+        if self.periodic:
+            return (v - lo) % TWO_PI <= (hi - lo) + 1e-12
+        tol = 1e-12 * self.scale
+        return (lo is None or v >= lo - tol) and (hi is None or v <= hi + tol)
+
+    def circuit(self, x0: float, limits=None) -> list[_Segment]:
+        """Follow the motion from ``x0`` in the reference assembly mode through every toggle
+        (only toggles inside ``limits``: the motion cannot reach the others)."""
         ref = tuple(self.plan.reference_signs)
         segs: list[_Segment] = []
         queue = [(ref, float(x0), None)]
@@ -318,7 +330,7 @@ class _Line:
             segs.append(_Segment(signs, lo, hi, lo_end, hi_end, seed, parent))
             me = len(segs) - 1
             for end, (kind, k) in ((lo, lo_end), (hi, hi_end)):
-                if kind == 'toggle' and k is not None:
+                if kind == 'toggle' and k is not None and self.within(end, limits):
                     flipped = list(signs)
                     flipped[k] = -flipped[k]
                     queue.append((tuple(flipped), end, me))
@@ -436,7 +448,8 @@ def _scan_circuit(mech: Mechanism, name: str, held: Mapping[str, Any], samples: 
     bracket = None if periodic else _slide_bracket(mech, name, x0)
     line = _Line(mech, name, held, samples, bracket)
     if line.closed:
-        return line, x0, line.circuit(x0), bracket
+        limits = _limit_interval(act, True) if periodic else (act.min, act.max)
+        return line, x0, line.circuit(x0, limits), bracket
     comp = _walk_range(mech, name, held, x0, periodic, bracket)
     if comp == 'empty':
         return None, x0, [], bracket
@@ -466,7 +479,7 @@ def actuator_range(mech: Mechanism, name: str, samples: int = 720,
     line, x0, segs, _ = _scan_circuit(mech, name, held, samples)
     out = {'name': name, 'kind': act.kind, 'unit': 'rad' if periodic else 'm',
            'reference': x0, 'min': None, 'max': None, 'min_source': None, 'max_source': None,
-           'full_turn': False, 'toggles': [], 'assembles': bool(segs)}
+           'full_turn': False, 'toggles': [], 'assembles': bool(segs), 'assembly': None}
     if not segs:
         return out
     full = any(s.full for s in segs)
@@ -508,24 +521,84 @@ def actuator_range(mech: Mechanism, name: str, samples: int = 720,
             out.update(min=a + shift, max=b + shift,
                        min_source='limit' if a_lim else lo_src,
                        max_source='limit' if b_lim else hi_src)
-        base = out['min'] if out['min'] is not None else x0 - math.pi
-        out['toggles'] = sorted({round(base + (t - base) % TWO_PI, 13) for t in toggles})
+        # toggles and the assembly's own range in one turn starting at the assembly's min
+        if full:
+            base = -math.pi
+            out['assembly'] = None
+        else:
+            base = lo - TWO_PI * math.floor((lo + math.pi) / TWO_PI)
+            out['assembly'] = [base, base + (hi - lo)]
+        out['toggles'] = _dedupe(sorted(base + (t - base) % TWO_PI for t in toggles),
+                                 True)
     else:
         out.update(min=lo if lo_src != 'bracket' else None,
                    max=hi if hi_src != 'bracket' else None,
                    min_source=lo_src if lo_src != 'bracket' else None,
                    max_source=hi_src if hi_src != 'bracket' else None)
-        out['toggles'] = sorted({round(t, 13) for t in toggles})
+        # the assembly's own ends (unknown beyond a scene limit: the scan stops there)
+        out['assembly'] = [lo if lo_src == 'toggle' else None,
+                           hi if hi_src == 'toggle' else None]
+        out['toggles'] = _dedupe(sorted(toggles), None)
     return out
+
+
+def _dedupe(values, periodic) -> list[float]:
+    res: list[float] = []
+    for v in values:
+        if not res or abs(v - res[-1]) > 1e-9:
+            res.append(float(v))
+    if periodic and len(res) > 1 and abs(res[0] + TWO_PI - res[-1]) <= 1e-9:
+        res.pop()
+    return res
 
 
 def _source(end):
     return {'toggle': 'toggle', 'limit': 'limit', 'bracket': 'bracket'}.get(end[0])
 
 
+def _golden_min(f, a: float, b: float, tol: float) -> tuple[float, float]:
+    """Golden-section minimum of a unimodal f on [a, b] (robust on the V-shaped margin at a
+    tangency, where parabolic steps stall at sqrt(eps))."""
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(200):
+        if abs(b - a) <= tol:
+            break
+        if fc <= fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = f(d)
+    return (c, fc) if fc <= fd else (d, fd)
+
+
+def _flat_centre(f, a: float, x: float, b: float, fx: float) -> float:
+    """Centre of the zone around x where f stays at its floor fx (a tangency's margin is
+    |linear| in the input but rounds to its floor over ~sqrt(eps): the centre is the toggle)."""
+    tau = fx + 1e-14
+
+    def edge(inside, outside):
+        for _ in range(200):
+            mid = 0.5 * (inside + outside)
+            if mid in (inside, outside):
+                break
+            if f(mid) <= tau:
+                inside = mid
+            else:
+                outside = mid
+        return inside
+
+    if f(a) <= tau or f(b) <= tau:
+        return x
+    return 0.5 * (edge(x, a) + edge(x, b))
+
+
 def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
     """Assembly-limited segment ends plus interior points where a dyad margin touches zero."""
-    from scipy.optimize import minimize_scalar
     out = []
     for s in segs:
         for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end)):
@@ -542,10 +615,9 @@ def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
                 v = line.margins([x], signs)[0]
                 return 1.0 if not np.isfinite(v) else float(v)
 
-            r = minimize_scalar(f, bounds=(xs[i - 1], xs[i + 1]), method='bounded',
-                                options={'xatol': 1e-13})
-            if r.fun < TOGGLE_MARGIN:
-                out.append(float(r.x))
+            x, fx = _golden_min(f, xs[i - 1], xs[i + 1], line.tol)
+            if fx < TOGGLE_MARGIN:
+                out.append(_flat_centre(f, xs[i - 1], x, xs[i + 1], fx))
     # dedupe
     res: list[float] = []
     for v in sorted(out):
@@ -554,15 +626,16 @@ def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
     return res
 
 
-def input_ranges(mech: Mechanism, samples: int = 720) -> dict[str, tuple[float | None, float | None]]:
+def input_ranges(mech: Mechanism,
+                 samples: int = 720) -> dict[str, tuple[float | None, float | None]]:
     """{actuator: (min or None, max or None)} with the other actuators held at their
     reference-pose values: the toggle positions where the assembly ends (refined to 1e-12 rad or
     1e-12 of the length scale), intersected with the actuator's own min / max.
 
     An angle that turns fully without limits gives (None, None); a reachable set spanning angle
     pi (or 0/2pi) is one interval min < max with max possibly > pi (see the module docstring).
-    A slide without a limit on a side whose assembly does not end within 256 length scales gives
-    None on that side.
+    A slide without a limit on a side where the assembly does not end within a bracket of
+    thousands of length scales around its reference value gives None on that side.
     """
     out = {}
     for name in mech.actuators:
@@ -927,8 +1000,8 @@ def reachable_region(mech: Mechanism, point: str, samples_per_actuator: int = 41
         if outside:
             method = 'concave_hull'
     if method == 'concave_hull':
-        pts = cloud if not arcs else np.concatenate([cloud] + [np.asarray(a['points']).reshape(-1, 2)
-                                                              for a in arcs])
+        pts = np.concatenate([cloud] + [np.asarray(a['points'], float).reshape(-1, 2)
+                                        for a in arcs])
         boundary = _concave_hull(pts, 2.5 * spacing)
         binputs = {}
         area = _polygon_area(boundary)
@@ -957,7 +1030,8 @@ def _grid_spacing(P: np.ndarray, ok: np.ndarray, n: int, k: int) -> float:
 
 # ---- tilt of a link about a held point --------------------------------------------------------
 
-def max_tilt(mech: Mechanism, lip: str, link: str, hold_point=None, start_angle: float | None = None,
+def max_tilt(mech: Mechanism, lip: str, link: str, hold_point=None,
+             start_angle: float | None = None,
              inputs: Mapping[str, float] | None = None, held: Sequence[str] | None = None,
              step: float = math.radians(1.0), max_rotation: float = math.pi, tol: float = 1e-12,
              method: str | None = None) -> dict:

@@ -186,6 +186,11 @@ class Solver:
         return [np.asarray(v, float) if s.kind == 'point' else float(v)
                 for s, v in ((s, spec_value_one(self.mech, s, ref)) for s in self.specs)]
 
+    def reference_values(self) -> dict[str, Any]:
+        """The known quantities' values in the scene's reference pose ({known name: value})."""
+        return {s.name: (tuple(float(c) for c in v) if s.kind == 'point' else float(v))
+                for s, v in zip(self.specs, self._ref_values)}
+
     def reset(self):
         """Forget the previous configuration (continuity restarts from the reference pose)."""
         self._history: list[_State] = []

@@ -1,0 +1,220 @@
+"""Message <-> plain-data helpers for the linkage node.
+
+Pure functions: no node, no clock, no maths beyond copying numbers between a core
+:class:`~linkage_ros.core.solver.Result` and standard ROS 2 messages
+(sensor_msgs/JointState, geometry_msgs/PointStamped, visualization_msgs/MarkerArray,
+diagnostic_msgs/DiagnosticStatus). Units are REP-103: radians and metres.
+"""
+from __future__ import annotations
+
+import math
+from typing import Any, Iterable, Mapping, Sequence
+
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
+from geometry_msgs.msg import Point, PointStamped
+from sensor_msgs.msg import JointState
+from std_msgs.msg import ColorRGBA, Header
+from visualization_msgs.msg import Marker, MarkerArray
+
+from .core.errors import CommandError
+from .core.model import Mechanism
+from .core.solver import Result
+
+__all__ = [
+    'joint_state_to_command', 'point_stamped_to_xy', 'is_zero_stamp', 'result_to_joint_state',
+    'result_to_points', 'result_to_status', 'error_status', 'result_to_markers', 'format_joints',
+]
+
+
+# ---- inbound -----------------------------------------------------------------------------------
+
+def joint_state_to_command(msg: JointState) -> dict[str, float]:
+    """``{name: position}`` from a JointState command or target.
+
+    Checks only the message's own shape: at least one name, as many positions as names, no
+    empty or repeated name. Whether the names and values make sense for the mechanism (unknown
+    or missing names, NaN, inf, limits, reachability) is the solver's call. ``velocity`` and
+    ``effort`` are ignored.
+    """
+    names = list(msg.name)
+    positions = list(msg.position)
+    if not names and not positions:
+        raise CommandError('empty JointState: name and position are both empty')
+    if len(names) != len(positions):
+        raise CommandError(f'JointState has {len(names)} name(s) {names} but {len(positions)} '
+                           f'position(s); they must pair up one to one')
+    empty = [i for i, n in enumerate(names) if not n]
+    if empty:
+        raise CommandError(f'JointState name[{empty[0]}] is an empty string')
+    seen: set[str] = set()
+    dups = [n for n in names if n in seen or seen.add(n)]
+    if dups:
+        raise CommandError(f'JointState names {sorted(set(dups))} more than once')
+    return {n: float(p) for n, p in zip(names, positions)}
+
+
+def point_stamped_to_xy(msg: PointStamped) -> tuple[float, float]:
+    """The planar (x, y) of a PointStamped (m). z is ignored: mechanisms live in the xy plane."""
+    return (float(msg.point.x), float(msg.point.y))
+
+
+def is_zero_stamp(stamp: Time) -> bool:
+    """True for the unset stamp (0 s, 0 ns)."""
+    return stamp.sec == 0 and stamp.nanosec == 0
+
+
+# ---- outbound ----------------------------------------------------------------------------------
+
+def result_to_joint_state(result: Result, joint_names: Sequence[str], stamp: Time,
+                          frame_id: str) -> JointState:
+    """Every joint of ``joint_names`` (active and passive, in that order) with its position.
+
+    Revolute: child link angle minus parent link angle (rad); prismatic: slide (m).
+    velocity and effort are left empty (position kinematics only).
+    """
+    msg = JointState()
+    msg.header = Header(stamp=stamp, frame_id=frame_id)
+    msg.name = list(joint_names)
+    msg.position = [float(result.joints[j]) for j in joint_names]
+    return msg
+
+
+def result_to_points(result: Result, names: Iterable[str], stamp: Time,
+                     frame_id: str) -> dict[str, PointStamped]:
+    """``{name: PointStamped}`` for each named point of a successful result (z = 0)."""
+    out = {}
+    for name in names:
+        x, y = result.points[name]
+        msg = PointStamped()
+        msg.header = Header(stamp=stamp, frame_id=frame_id)
+        msg.point = Point(x=float(x), y=float(y), z=0.0)
+        out[name] = msg
+    return out
+
+
+def _fmt(value: Any) -> str:
+    if value is None:
+        return ''
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else str(value)
+    return str(value)
+
+
+def _key_values(pairs: Mapping[str, Any]) -> list[KeyValue]:
+    return [KeyValue(key=k, value=_fmt(v)) for k, v in pairs.items()]
+
+
+def result_to_status(result: Result, name: str, request: str = 'command',
+                     hardware_id: str = '') -> DiagnosticStatus:
+    """One DiagnosticStatus answering one request.
+
+    Success: level OK, message 'ok', values residual (fraction of the length scale), branch,
+    branch_defined, margin, solver, iterations, cond (Newton only) and request.
+    Failure: level ERROR, message = the reason, values request.
+    """
+    if not result.success:
+        return error_status(result.reason or 'failed', name, request, hardware_id)
+    values = {
+        'residual': result.residual,
+        'branch': result.branch,
+        'branch_defined': result.branch_defined,
+        'margin': result.margin,
+        'solver': result.solver,
+        'iterations': result.iterations,
+    }
+    if result.cond is not None:
+        values['cond'] = result.cond
+    values['request'] = request
+    return DiagnosticStatus(level=DiagnosticStatus.OK, name=name, message='ok',
+                            hardware_id=hardware_id, values=_key_values(values))
+
+
+def error_status(reason: str, name: str, request: str = 'command',
+                 hardware_id: str = '') -> DiagnosticStatus:
+    """Level ERROR with ``reason`` as the message."""
+    return DiagnosticStatus(level=DiagnosticStatus.ERROR, name=name, message=str(reason),
+                            hardware_id=hardware_id, values=_key_values({'request': request}))
+
+
+_GROUND = ColorRGBA(r=0.55, g=0.55, b=0.55, a=1.0)
+_PALETTE = [ColorRGBA(r=r, g=g, b=b, a=1.0) for r, g, b in (
+    (0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.84, 0.15, 0.16),
+    (0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.89, 0.47, 0.76), (0.74, 0.74, 0.13),
+    (0.09, 0.75, 0.81))]
+_JOINT = ColorRGBA(r=0.1, g=0.1, b=0.1, a=1.0)
+_OUTPUT = ColorRGBA(r=0.0, g=0.8, b=0.2, a=1.0)
+
+
+def _xyz(xy) -> Point:
+    return Point(x=float(xy[0]), y=float(xy[1]), z=0.0)
+
+
+def result_to_markers(result: Result, mech: Mechanism, stamp: Time, frame_id: str,
+                      ns: str = 'linkage') -> MarkerArray:
+    """RViz markers of a solved configuration, with stable ids so each update replaces the last.
+
+    * one LINE_STRIP per link with two or more points (closed for plates of three or more),
+      ground grey, moving links coloured; namespace ``<ns>/links``, id = the link's index;
+    * one LINE_LIST per hydraulic cylinder, pin to pin, on its barrel link's id;
+    * one SPHERE_LIST of every joint centre (``<ns>/joints``, id 0);
+    * one SPHERE_LIST of the output points (``<ns>/outputs``, id 0), if there are any.
+
+    Line width and sphere size follow the mechanism's length scale.
+    """
+    header = Header(stamp=stamp, frame_id=frame_id)
+    width = 0.02 * mech.length_scale
+    out = MarkerArray()
+    cylinders = {pj.guide: pj for name, pj in mech.prismatics.items()
+                 if name in mech.actuators and mech.actuators[name].cylinder}
+    colour = 0
+    for idx, (lname, link) in enumerate(mech.links.items()):
+        m = Marker(header=header, ns=f'{ns}/links', id=idx, action=Marker.ADD)
+        m.pose.orientation.w = 1.0
+        m.scale.x = width
+        if lname == mech.ground:
+            m.color = _GROUND
+        else:
+            m.color = _PALETTE[colour % len(_PALETTE)]
+            colour += 1
+        if len(link.points) >= 2:
+            m.type = Marker.LINE_STRIP
+            pts = [_xyz(result.points[p]) for p in link.points]
+            if len(pts) >= 3:
+                pts.append(pts[0])
+            m.points = pts
+        elif lname in cylinders:
+            pj = cylinders[lname]
+            m.type = Marker.LINE_LIST
+            m.scale.x = 1.5 * width
+            m.points = [_xyz(result.points[link.points[0]]), _xyz(result.points[pj.point])]
+        else:
+            continue          # a slider block or cylinder rod: shown by its joint sphere
+        out.markers.append(m)
+    joints = Marker(header=header, ns=f'{ns}/joints', id=0, type=Marker.SPHERE_LIST,
+                    action=Marker.ADD, color=_JOINT)
+    joints.pose.orientation.w = 1.0
+    joints.scale.x = joints.scale.y = joints.scale.z = 2.5 * width
+    seen: list[str] = []
+    for rj in mech.revolutes:
+        if rj.point not in seen:
+            seen.append(rj.point)
+    joints.points = [_xyz(result.points[p]) for p in seen]
+    out.markers.append(joints)
+    if mech.outputs:
+        outs = Marker(header=header, ns=f'{ns}/outputs', id=0, type=Marker.SPHERE_LIST,
+                      action=Marker.ADD, color=_OUTPUT)
+        outs.pose.orientation.w = 1.0
+        outs.scale.x = outs.scale.y = outs.scale.z = 3.0 * width
+        outs.points = [_xyz(result.points[p]) for p in mech.outputs]
+        out.markers.append(outs)
+    return out
+
+
+def format_joints(result: Result, joint_names: Sequence[str], inputs: Sequence[str] = ()) -> str:
+    """A compact one-line summary, e.g. ``crank=+1.047 | O2=+1.047 A=-0.647 B=+0.866 O4=+1.219``."""
+    head = ' '.join(f'{a}={result.inputs[a]:+.3f}' for a in inputs if a in result.inputs)
+    body = ' '.join(f'{j}={result.joints[j]:+.3f}' for j in joint_names if j in result.joints)
+    return f'{head} | {body}' if head else body

@@ -1,0 +1,272 @@
+"""Motion limits: input ranges and toggles, reachable region of a point, tilt of a link, plots.
+
+    linkage range SCENE [--json] [--point NAME [--actuators A,B] [--samples N]]
+                        [--tilt LINK --lip POINT [--hold X,Y]] [--links]
+                        [--plot out.png] [--curves out.png --input NAME --output NAME]
+
+Input ranges are found with the other actuators held at their reference-pose values (each
+bound is a toggle of the assembly, refined to 1e-12, or the scene's limit). ``--point`` adds the
+region the point reaches while the actuators that move it run over their limits (the four
+extreme arcs for two actuators); ``--tilt LINK --lip POINT`` the largest rotation of LINK about
+POINT held at its reference position (or ``--hold X,Y``) within the actuator limits; ``--links``
+the oscillation range of every moving link; ``--plot`` draws the region (of ``--point``, else of
+the scene's first output point) and ``--curves`` an output versus an input with every assembly
+mode. Angles are radians (degrees in parentheses), lengths metres.
+
+JSON: {"scene", "inputs": {name: {"min", "max", "min_source", "max_source", "full_turn",
+"assembly", "reference", "unit"}}, "toggles": {name: [...]}, "region": {point: {"boundary":
+[[x, y], ...], "area", "method", "actuators", "limits", "hull_check"}}, "tilt": {...},
+"oscillation": {"input", "links": {link: {"min", "max", "full_turn"}}}, "plots": {...}}.
+
+Exit status: 0 ok; 1 a requested analysis was refused (the tilt's start pose does not solve);
+2 a usage error (bad option, unknown name, scene error).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from typing import Any, Sequence
+
+from .errors import LinkageError
+
+OK, REFUSED, USAGE_ERROR = 0, 1, 2
+PROG = 'linkage range'
+
+
+class _Usage(Exception):
+    pass
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.description = ('Motion limits of a scene: input ranges and toggle positions, the region a '
+                     'point reaches, the tilt of a link about a held point, and plots.')
+    p.epilog = __doc__.split('\n', 2)[2].rstrip() + '\n'
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+    p.add_argument('--json', action='store_true', help='machine-readable output')
+    p.add_argument('--point', metavar='NAME', help='reachable region of this point')
+    p.add_argument('--actuators', metavar='A,B',
+                   help='actuators that run for the region (default: those that move the point)')
+    p.add_argument('--samples', type=int, default=41, metavar='N',
+                   help='region grid samples per actuator (default 41)')
+    p.add_argument('--tilt', metavar='LINK', help='largest rotation of LINK about --lip held')
+    p.add_argument('--lip', metavar='POINT', help='point of the tilted link that is held')
+    p.add_argument('--hold', metavar='X,Y', help='where the lip is held (default: reference)')
+    p.add_argument('--links', action='store_true',
+                   help='oscillation range of every moving link (first actuator, or --input)')
+    p.add_argument('--plot', metavar='PNG', help='draw the reachable region to this PNG')
+    p.add_argument('--curves', metavar='PNG',
+                   help='draw --output versus --input, every assembly mode, to this PNG')
+    p.add_argument('--input', metavar='NAME', help='actuator for --curves / --links')
+    p.add_argument('--output', metavar='NAME',
+                   help='link (angle), joint, actuator or point coordinate P.x / P.y for --curves')
+
+
+def _load(scene: str):
+    from ..resources import scene_path
+    from .model import Scene
+    return Scene.from_yaml(scene_path(scene)).mechanism
+
+
+def _fmt(v, unit=''):
+    if v is None:
+        return 'none'
+    s = f'{v:.9g}'
+    if unit == 'rad':
+        s += f' rad ({math.degrees(v):.4g} deg)'
+    elif unit:
+        s += f' {unit}'
+    return s
+
+
+def _check(args, mech):
+    if (args.tilt is None) != (args.lip is None):
+        raise _Usage('--tilt LINK and --lip POINT go together')
+    if args.hold and args.tilt is None:
+        raise _Usage('--hold needs --tilt and --lip')
+    if args.curves and not args.output:
+        raise _Usage('--curves needs --output NAME (and --input NAME when there are several '
+                     'actuators)')
+    if args.input is not None and args.input not in mech.actuators:
+        raise _Usage(f'--input {args.input!r} is not an actuator of {mech.name!r} '
+                     f'({", ".join(mech.actuators)})')
+    if args.curves and args.input is None and len(mech.actuators) > 1:
+        raise _Usage(f'--curves needs --input NAME: {mech.name!r} has actuators '
+                     f'{", ".join(mech.actuators)}')
+    if args.point is not None and args.point not in mech.points:
+        raise _Usage(f'--point {args.point!r} is not a point of {mech.name!r} '
+                     f'({", ".join(mech.points)})')
+    if args.samples < 2:
+        raise _Usage('--samples must be at least 2')
+    acts = None
+    if args.actuators:
+        acts = [a.strip() for a in args.actuators.split(',') if a.strip()]
+        bad = [a for a in acts if a not in mech.actuators]
+        if bad:
+            raise _Usage(f'--actuators: {bad} not actuator(s) of {mech.name!r}')
+        if args.point is None and not args.plot:
+            raise _Usage('--actuators needs --point (or --plot)')
+    hold = None
+    if args.hold:
+        try:
+            hold = [float(v) for v in args.hold.split(',')]
+        except ValueError:
+            hold = []
+        if len(hold) != 2 or not all(math.isfinite(v) for v in hold):
+            raise _Usage(f'--hold must be X,Y (two numbers), got {args.hold!r}')
+    return acts, hold
+
+
+def analyse(args, mech) -> tuple[dict, int]:
+    """Run the requested analyses; returns (report dict of plain data, exit status)."""
+    from . import motion
+    acts, hold = _check(args, mech)
+    report: dict[str, Any] = {'scene': mech.name, 'dof': mech.dof,
+                              'actuators': list(mech.actuators), 'inputs': {}, 'toggles': {}}
+    status = OK
+    for name in mech.actuators:
+        info = motion.actuator_range(mech, name)
+        report['inputs'][name] = {k: info[k] for k in ('kind', 'unit', 'min', 'max', 'min_source',
+                                                       'max_source', 'full_turn', 'assembly',
+                                                       'reference')}
+        report['toggles'][name] = info['toggles']
+    region_point = args.point or (mech.outputs[0] if args.plot and mech.outputs else None)
+    if args.plot and region_point is None:
+        raise _Usage('--plot needs --point NAME (the scene names no output point)')
+    if region_point is not None:
+        reg = motion.reachable_region(mech, region_point, samples_per_actuator=args.samples,
+                                      actuators=acts)
+        report['region'] = {region_point: {k: reg[k] for k in (
+            'boundary', 'area', 'method', 'actuators', 'limits', 'held', 'hull_check')}}
+        region_full = reg
+    if args.tilt is not None:
+        try:
+            tilt = motion.max_tilt(mech, args.lip, args.tilt, hold_point=hold)
+        except ValueError as exc:
+            raise _Usage(str(exc)) from None
+        report['tilt'] = tilt
+        if not tilt.get('ok'):
+            status = REFUSED
+    if args.links:
+        inp = args.input or next(iter(mech.actuators))
+        osc = {}
+        cyl = {l for a in mech.actuators.values() if a.cylinder
+               for l in (mech.prismatics[a.joint].guide, mech.prismatics[a.joint].slider)}
+        for link in mech.moving_links:
+            if link in cyl or len(mech.links[link].points) < 2:
+                continue
+            lo, hi = motion.oscillation_range(mech, link, inp)
+            osc[link] = {'min': lo, 'max': hi, 'full_turn': lo is None}
+        report['oscillation'] = {'input': inp, 'links': osc}
+    plots = {}
+    if args.plot:
+        from ..plots import plot_region
+        plots['region'] = plot_region(mech, region_full, args.plot, tilt=report.get('tilt'))
+    if args.curves:
+        from ..plots import plot_output_vs_input
+        inp = args.input or next(iter(mech.actuators))
+        try:
+            d = plot_output_vs_input(mech, inp, args.output, args.curves)
+        except ValueError as exc:
+            raise _Usage(str(exc)) from None
+        plots['curves'] = d['path']
+    if plots:
+        report['plots'] = plots
+    return report, status
+
+
+def _print_human(r: dict, mech) -> None:
+    p = print
+    p(f'{r["scene"]}: {r["dof"]} DOF, actuators {", ".join(r["actuators"])}'
+      + (' (each range with the others held at the reference pose)' if r['dof'] > 1 else ''))
+    p('input ranges:')
+    for name, i in r['inputs'].items():
+        unit = i['unit']
+        if i['min'] is None and i['max'] is None:
+            text = 'full turn, no limits' if i['full_turn'] else 'no bound found'
+        else:
+            text = f'{_fmt(i["min"], unit)} .. {_fmt(i["max"], unit)}'
+            text += f'  [min: {i["min_source"] or "open"}, max: {i["max_source"] or "open"}]'
+        if i['full_turn'] and i['min'] is not None:
+            text += '  (the assembly turns fully)'
+        elif i['assembly'] and i['min_source'] == 'limit' and i['max_source'] == 'limit' \
+                and None not in i['assembly']:
+            a = i['assembly']
+            text += f'  (assembly {a[0]:.9g} .. {a[1]:.9g} {unit})'
+        p(f'  {name:<10} {i["kind"]:<6} {text}')
+    p('toggle positions:')
+    for name, t in r['toggles'].items():
+        unit = r['inputs'][name]['unit']
+        p(f'  {name:<10} ' + (', '.join(_fmt(v, unit) for v in t) if t else 'none'))
+    for pt, reg in (r.get('region') or {}).items():
+        b = reg['boundary']
+        xs = [v[0] for v in b] or [0.0]
+        ys = [v[1] for v in b] or [0.0]
+        p(f'region of {pt} ({", ".join(reg["actuators"]) or "no actuator moves it"}): '
+          f'{reg["method"]}, area {reg["area"]:.6g} m^2, {len(b)} boundary vertices, '
+          f'x {min(xs):.6g} .. {max(xs):.6g} m, y {min(ys):.6g} .. {max(ys):.6g} m')
+        for a, lim in reg['limits'].items():
+            p(f'  {a} over {lim[0]:.9g} .. {lim[1]:.9g}')
+        hc = reg['hull_check']
+        if reg['method'] == 'concave_hull' and hc.get('outside'):
+            p(f'  the extreme arcs do not enclose the samples ({hc["outside"]} outside by up to '
+              f'{hc["max_outside"]:.3g} m): the map folds; boundary from the samples')
+    t = r.get('tilt')
+    if t is not None:
+        hp = t['hold_point']
+        if not t.get('ok'):
+            p(f'tilt of {t["link"]} about {t["lip"]} held at ({hp[0]:.6g}, {hp[1]:.6g}): '
+              f'refused at the start: {t["reason"].get("start")}')
+        else:
+            p(f'tilt of {t["link"]} about {t["lip"]} held at ({hp[0]:.6g}, {hp[1]:.6g}), '
+              f'starting at {_fmt(t["start"], "rad")}:')
+            for key, word in (('max', 'up (counter-clockwise)'), ('min', 'down (clockwise)')):
+                amount = t['tilt_up'] if key == 'max' else t['tilt_down']
+                if t[key] is None:
+                    p(f'  {word}: no limit within half a turn')
+                else:
+                    p(f'  {word}: {_fmt(amount, "rad")} to {_fmt(t[key], "rad")}; '
+                      f'limited by: {t["reason"][key]}')
+    o = r.get('oscillation')
+    if o is not None:
+        p(f'link oscillation while {o["input"]} runs over its range:')
+        for link, v in o['links'].items():
+            text = 'turns fully' if v['full_turn'] else \
+                f'{_fmt(v["min"], "rad")} .. {_fmt(v["max"], "rad")} ' \
+                f'(swing {math.degrees(v["max"] - v["min"]):.4g} deg)'
+            p(f'  {link:<12} {text}')
+    for k, v in (r.get('plots') or {}).items():
+        p(f'wrote {k} plot: {v}')
+
+
+def run(args) -> int:
+    try:
+        mech = _load(args.scene)
+        report, status = analyse(args, mech)
+    except _Usage as exc:
+        print(f'{PROG}: error: {exc}', file=sys.stderr)
+        return USAGE_ERROR
+    except LinkageError as exc:
+        print(f'{PROG}: error: {exc}', file=sys.stderr)
+        return USAGE_ERROR
+    if args.json:
+        print(json.dumps(report, indent=2, allow_nan=False, default=float))
+    else:
+        _print_human(report, mech)
+    return status
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog=PROG)
+    add_arguments(parser)
+    try:
+        args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else USAGE_ERROR
+    return run(args)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

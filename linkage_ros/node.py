@@ -1,0 +1,540 @@
+"""``linkage_node``: planar-mechanism kinematics served over ROS 2 topics.
+
+A thin shell around the core (see docs/TOPICS.md for the full interface):
+
+* ``~/command``  sensor_msgs/JointState (actuator names, rad or m)   -> forward kinematics
+* ``~/target``   sensor_msgs/JointState (joint/link/actuator names)  -> inverse kinematics
+* ``~/target_point/<point>`` geometry_msgs/PointStamped              -> inverse kinematics
+* publishes ``joint_states``, ``~/points/<name>``, ``~/markers`` and one ``~/status`` per request.
+
+Each callback is message -> plain data (conversions) -> core Solver -> message. A bad request is
+answered by exactly one ERROR status and changes nothing; the node keeps the last good state.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+import traceback
+from collections import OrderedDict
+from dataclasses import dataclass
+from typing import Any, Callable, Mapping, Sequence
+
+import rclpy
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticStatus
+from geometry_msgs.msg import PointStamped
+from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.exceptions import InvalidParameterTypeException, ParameterException
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from visualization_msgs.msg import MarkerArray
+
+from .conversions import (error_status, format_joints, is_zero_stamp, joint_state_to_command,
+                          point_stamped_to_xy, result_to_joint_state, result_to_markers,
+                          result_to_points, result_to_status)
+from .core.errors import CommandError, LinkageError, PlanError, SceneError
+from .core.model import Mechanism, Scene
+from .core.solver import METHODS, Result, Solver
+from .resources import scene_path
+
+NODE_NAME = 'linkage_node'
+BRANCH_MODES = ('continuous', 'reference')
+#: IK solvers kept per node (one per set of target names); least recently used are dropped
+SOLVER_CACHE = 32
+
+
+class ConfigError(LinkageError):
+    """A node parameter is invalid (the message names the parameter and the value)."""
+
+
+# ---- configuration -----------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class ParamSpec:
+    name: str
+    default: Any            # a value, or 'string_array' for an empty string array
+    description: str
+    read_only: bool = True
+    constraints: str = ''
+
+
+PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec('scene', 'four_bar',
+              'Scene file: a path to a YAML scene, or the name of a packaged scene '
+              '(four_bar, slider_crank, ...; see docs/SCENES.md).'),
+    ParamSpec('solver', '', "Solve method: auto, closed_form or newton; '' = the scene's "
+              "`solver` key.", constraints="'' | auto | closed_form | newton"),
+    ParamSpec('tolerance', 1e-12, 'Newton tolerance on the loop-closure residual, as a fraction '
+              'of the mechanism length scale.', constraints='> 0'),
+    ParamSpec('max_iterations', 50, 'Newton iteration cap per solve.', constraints='> 0'),
+    ParamSpec('branch', 'continuous',
+              "Assembly mode: 'continuous' (start in the reference pose's mode, then stay nearest "
+              "the previous configuration), 'reference' (always the reference pose's signs) or "
+              "explicit signs such as '+-' (one per branching dyad of the forward plan).",
+              constraints="continuous | reference | [+-]+"),
+    ParamSpec('frame_id', '', "frame_id stamped on every output; '' = the scene's frame_id."),
+    ParamSpec('demo_sweep', False, 'Sweep the first actuator on a timer (through the command '
+              'path) so joint states flow without any command.', read_only=False),
+    ParamSpec('demo_rate', 20.0, 'Demo sweep rate (Hz).', read_only=False, constraints='> 0'),
+    ParamSpec('target_point_hold', 'string_array',
+              'Names (actuators, joints, links or points) held at their current value when a '
+              '~/target_point/<point> request arrives on a mechanism with more than 2 degrees of '
+              "freedom, e.g. ['bucket'] for an excavator (point + held values = DOF)."),
+)
+
+
+@dataclass(frozen=True)
+class NodeConfig:
+    """Validated node parameters (frozen; demo_sweep / demo_rate are replaced, not mutated)."""
+    scene: str = 'four_bar'
+    scene_path: str = ''
+    solver: str | None = None
+    tolerance: float = 1e-12
+    max_iterations: int = 50
+    branch: str = 'continuous'
+    frame_id: str = ''
+    demo_sweep: bool = False
+    demo_rate: float = 20.0
+    target_point_hold: tuple[str, ...] = ()
+
+
+def _fail(name: str, message: str, value: Any) -> None:
+    raise ConfigError(f'parameter {name!r}: {message} (got {value!r})')
+
+
+def check_demo_rate(value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not math.isfinite(value) or not value > 0:
+        _fail('demo_rate', 'must be a finite number of Hz > 0', value)
+    return float(value)
+
+
+def make_config(values: Mapping[str, Any]) -> NodeConfig:
+    """Validate raw parameter values (defaults for missing ones) into a :class:`NodeConfig`.
+
+    Pure: checks types and ranges and resolves the scene name to a path; it does not load the
+    scene (see :class:`Engine` for the checks that need the mechanism).
+    """
+    v = {p.name: ([] if p.default == 'string_array' else p.default) for p in PARAMETERS}
+    unknown = sorted(set(values) - set(v))
+    if unknown:
+        raise ConfigError(f'unknown parameter(s) {unknown}; expected {sorted(v)}')
+    v.update({k: x for k, x in values.items() if x is not None})
+    scene = v['scene']
+    if not isinstance(scene, str) or not scene.strip():
+        _fail('scene', 'must be a scene file path or a packaged scene name', scene)
+    solver = v['solver']
+    if solver not in ('',) + METHODS:
+        _fail('solver', f"must be '' (the scene's) or one of {list(METHODS)}", solver)
+    tol = v['tolerance']
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not math.isfinite(tol) \
+            or not tol > 0:
+        _fail('tolerance', 'must be a finite number > 0', tol)
+    it = v['max_iterations']
+    if isinstance(it, bool) or not isinstance(it, int) or it <= 0:
+        _fail('max_iterations', 'must be an integer > 0', it)
+    branch = v['branch']
+    if not isinstance(branch, str) or not (branch in BRANCH_MODES
+                                           or (branch and set(branch) <= {'+', '-'})):
+        _fail('branch', "must be 'continuous', 'reference' or a string of + and - signs", branch)
+    frame_id = v['frame_id']
+    if not isinstance(frame_id, str) or frame_id != frame_id.strip():
+        _fail('frame_id', "must be a frame name without spaces ('' = the scene's)", frame_id)
+    demo = v['demo_sweep']
+    if not isinstance(demo, bool):
+        _fail('demo_sweep', 'must be true or false', demo)
+    rate = check_demo_rate(v['demo_rate'])
+    hold = v['target_point_hold']
+    if isinstance(hold, str) or not all(isinstance(h, str) and h for h in hold):
+        _fail('target_point_hold', 'must be a list of names', hold)
+    if len(set(hold)) != len(hold):
+        _fail('target_point_hold', 'names something twice', list(hold))
+    path = scene_path(scene)
+    if not path.exists():
+        from .resources import config_dir
+        packaged = sorted(f.stem for f in config_dir().glob('*.yaml'))
+        _fail('scene', f'no such scene file, and no packaged scene of that name (packaged: '
+              f'{", ".join(packaged) or "none"})', scene)
+    return NodeConfig(scene=scene, scene_path=str(path), solver=solver or None,
+                      tolerance=float(tol), max_iterations=it, branch=branch, frame_id=frame_id,
+                      demo_sweep=demo, demo_rate=rate, target_point_hold=tuple(hold))
+
+
+# ---- the kinematics engine (no ROS) -------------------------------------------------------------
+
+def current_value(mech: Mechanism, result: Result, name: str) -> Any:
+    """The value of a known-able ``name`` in a solved result, resolved like the core resolves
+    knowns: actuator, joint, link angle, then point (x, y)."""
+    if name in mech.actuators:
+        return result.inputs[name]
+    if name in result.joints:
+        return result.joints[name]
+    if name in mech.links:
+        return result.links[name]
+    return result.points[name]
+
+
+class Engine:
+    """Solvers of one mechanism sharing one 'last good state'.
+
+    ``forward`` serves commands (knowns = the actuators). Inverse solvers are compiled on demand,
+    one per set of target names (an LRU cache), and brought up to the last good state before use,
+    so FK and IK continue from the same configuration. A failed request changes nothing.
+    """
+
+    def __init__(self, mech: Mechanism, config: NodeConfig):
+        self.mech = mech
+        self.config = config
+        try:
+            self.forward = self._new_solver(None)
+        except PlanError as exc:
+            name = 'branch' if 'branch' in str(exc) else 'solver'
+            raise ConfigError(f'parameter {name!r} does not fit scene {mech.name!r}: {exc}') \
+                from None
+        self._check_hold()
+        self._solvers: OrderedDict[frozenset, Solver | str] = OrderedDict()
+        #: known-set -> the state version that solver last saw (lazy adopt before use)
+        self._synced: dict[frozenset, int] = {}
+        self.version = 0
+        self.last: Result | None = None
+        # the reference pose is the first good state (held values, demo start) until a command
+        ref = self.forward.solve(self.forward.reference_values())
+        if ref.success:
+            self.last = ref
+        self._synced[frozenset(self.forward.knowns)] = self.version
+
+    def _new_solver(self, knowns: Sequence[str] | None) -> Solver:
+        c = self.config
+        return Solver(self.mech, knowns=knowns, method=c.solver, tol=c.tolerance,
+                      max_iter=c.max_iterations, branch=c.branch)
+
+    def _check_hold(self):
+        mech, hold = self.mech, self.config.target_point_hold
+        if not hold:
+            return
+        known = set(mech.actuators) | set(mech.joint_names) | set(mech.links) | set(mech.points)
+        bad = [h for h in hold if h not in known or h == mech.ground]
+        if bad:
+            _fail('target_point_hold', f'unknown name(s) {bad} in scene {mech.name!r}; '
+                  'expected actuator, joint, (moving) link or point names', list(hold))
+        size = sum(2 if (h in mech.points and h not in mech.actuators
+                         and h not in mech.joint_names and h not in mech.links) else 1
+                   for h in hold)
+        if 2 + size != mech.dof:
+            _fail('target_point_hold', f'a point target (2 values) plus these held names '
+                  f'({size} value(s)) must give the {mech.dof} degree(s) of freedom of '
+                  f'{mech.name!r}', list(hold))
+
+    def solver_for(self, knowns: Sequence[str]) -> Solver | str:
+        """The cached solver for this set of knowns, or the reason it cannot be built."""
+        key = frozenset(knowns)
+        if key == frozenset(self.forward.knowns):
+            return self.forward
+        hit = self._solvers.get(key)
+        if hit is None:
+            try:
+                hit = self._new_solver(list(knowns))
+            except PlanError as exc:
+                hit = str(exc)
+            self._solvers[key] = hit
+            while len(self._solvers) > SOLVER_CACHE:
+                old, _ = self._solvers.popitem(last=False)
+                self._synced.pop(old, None)
+        self._solvers.move_to_end(key)
+        return hit
+
+    def _solve(self, solver: Solver | str, values: Mapping[str, Any]) -> Result:
+        if isinstance(solver, str):
+            return Result(False, solver)
+        key = frozenset(solver.knowns)
+        if self._synced.get(key) != self.version and self.last is not None:
+            solver.adopt(self.last)
+        self._synced[key] = self.version
+        result = solver.solve(values)
+        if result.success:
+            self.last = result
+            self.version += 1
+            self._synced[key] = self.version      # the solver committed this state itself
+        return result
+
+    def command(self, values: Mapping[str, float]) -> Result:
+        """Forward kinematics: ``{actuator: value}``."""
+        return self._solve(self.forward, values)
+
+    def target(self, values: Mapping[str, float]) -> Result:
+        """Inverse kinematics: ``{joint/link/actuator name: value}`` (DOF values in all)."""
+        return self._solve(self.solver_for(list(values)), values)
+
+    def target_point(self, point: str, xy: tuple[float, float]) -> Result:
+        """Inverse kinematics: put ``point`` at ``xy``; target_point_hold names keep their value
+        in the last good state."""
+        key = f'point:{point}'            # explicit: a point may share its name with a joint
+        hold = [h for h in self.config.target_point_hold if h != point]
+        solver = self.solver_for([key] + hold)
+        if hold and not isinstance(solver, str):
+            if self.last is None:
+                return Result(False, 'no good state yet to take the held value(s) '
+                              f'{hold} from: send a command first')
+            values = {h: current_value(self.mech, self.last, h) for h in hold}
+        else:
+            values = {}
+        if isinstance(solver, str) and self.mech.dof > 2 and not hold:
+            solver += (f" (a point target fixes 2 of the {self.mech.dof} degrees of freedom: "
+                       "set the parameter target_point_hold)")
+        values[key] = xy
+        return self._solve(solver, values)
+
+
+def load_engine(config: NodeConfig) -> tuple[Scene, Engine]:
+    """Load the scene and compile the forward solver; SceneError / ConfigError on failure."""
+    scene = Scene.from_yaml(config.scene_path)
+    return scene, Engine(scene.mechanism, config)
+
+
+class DemoSweep:
+    """Values of the first actuator for the demo: ping-pong between its limits, else a full turn
+    (angle) or +-20 % of the length scale around the start (slide). A failed solve (a value the
+    mechanism cannot reach) reverses the direction."""
+
+    STEPS_FULL_TURN = 120
+    STEPS_PER_PASS = 60
+
+    def __init__(self, mech: Mechanism, actuator: str, start: float):
+        a = mech.actuators[actuator]
+        self.name = actuator
+        self.value = float(start)
+        self.lo, self.hi = a.min, a.max
+        self.wrap = False
+        if self.lo is not None and self.hi is not None:
+            self.value = min(max(self.value, self.lo), self.hi)
+        elif a.kind == 'angle':
+            self.wrap = True
+            self.step = 2 * math.pi / self.STEPS_FULL_TURN
+            return
+        else:
+            span = 0.2 * mech.length_scale
+            self.lo = self.value - span if self.lo is None else self.lo
+            self.hi = self.value + span if self.hi is None else self.hi
+        self.step = (self.hi - self.lo) / self.STEPS_PER_PASS
+
+    def next(self) -> float:
+        v = self.value + self.step
+        if self.wrap:
+            v = math.remainder(v, 2 * math.pi)
+        elif not self.lo <= v <= self.hi:
+            self.step = -self.step
+            v = min(max(self.value + self.step, self.lo), self.hi)
+        self.value = v
+        return v
+
+    def bounce(self, failed: float):
+        """The solve at ``failed`` did not close: go back the other way."""
+        self.step = -self.step
+        self.value = failed + self.step
+
+
+# ---- the ROS node --------------------------------------------------------------------------------
+
+#: reliable, keep last 10, volatile: commands and outputs alike
+QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10,
+                 durability=DurabilityPolicy.VOLATILE)
+
+
+class LinkageNode(Node):
+    """The ROS shell: parameters -> NodeConfig -> Engine; topics in, topics out."""
+
+    def __init__(self, **kwargs):
+        super().__init__(NODE_NAME, **kwargs)
+        try:
+            self._setup()
+        except BaseException:
+            self.destroy_node()
+            raise
+
+    # -- set-up ----------------------------------------------------------------------------------
+    def _declare_parameters(self) -> dict[str, Any]:
+        values = {}
+        for p in PARAMETERS:
+            desc = ParameterDescriptor(description=p.description, read_only=p.read_only,
+                                       additional_constraints=p.constraints)
+            default = Parameter.Type.STRING_ARRAY if p.default == 'string_array' else p.default
+            try:
+                param = self.declare_parameter(p.name, default, desc)
+            except InvalidParameterTypeException as exc:
+                kind = type(p.default).__name__ if p.default != 'string_array' else \
+                    'list of strings'
+                kind = {'float': 'double (write 1.0, not 1)', 'int': 'integer',
+                        'str': 'string', 'bool': 'bool'}.get(kind, kind)
+                raise ConfigError(f'parameter {p.name!r}: must be a {kind} ({exc})') from None
+            except ParameterException as exc:
+                raise ConfigError(f'parameter {p.name!r}: {exc}') from None
+            values[p.name] = param.value
+        return values
+
+    def _setup(self):
+        self.config = make_config(self._declare_parameters())
+        self.scene, self.engine = load_engine(self.config)
+        mech = self.mech = self.scene.mechanism
+        self.frame_id = self.config.frame_id or mech.frame_id
+        self.status_name = f'{NODE_NAME}: {mech.name}'
+        self.pub_joints = self.create_publisher(JointState, 'joint_states', QOS)
+        self.pub_points = {p: self.create_publisher(PointStamped, f'~/points/{p}', QOS)
+                           for p in mech.outputs}
+        self.pub_markers = self.create_publisher(MarkerArray, '~/markers', QOS)
+        self.pub_status = self.create_publisher(DiagnosticStatus, '~/status', QOS)
+        self.create_subscription(JointState, '~/command', self._on_command, QOS)
+        self.create_subscription(JointState, '~/target', self._on_target, QOS)
+        ground = set(mech.links[mech.ground].points)
+        self.target_points = [p for p in mech.points if p not in ground]
+        for p in self.target_points:
+            self.create_subscription(PointStamped, f'~/target_point/{p}',
+                                     lambda msg, p=p: self._on_target_point(p, msg), QOS)
+        self._demo_timer = None
+        self._demo: DemoSweep | None = None
+        self._demo_failures = 0
+        self.add_on_set_parameters_callback(self._on_set_parameters)
+        log = self.get_logger()
+        log.info(f'scene {mech.name!r} from {self.config.scene_path}: {mech.dof} DOF, '
+                 f'actuators {list(mech.actuators)}, joints {mech.joint_names}, outputs '
+                 f'{list(mech.outputs)}, frame {self.frame_id!r}, solver '
+                 f'{self.engine.forward.mode}, branch {self.config.branch}')
+        if mech.dof > 2 and not self.config.target_point_hold:
+            log.warning(f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '
+                     f'naming {mech.dof - 2} held value(s)')
+        log.info(f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
+                 f'{list(mech.actuators)}), publishing {self.resolve_topic_name("joint_states")}')
+        if self.config.demo_sweep:
+            self._start_demo()
+
+    # -- parameters at runtime -------------------------------------------------------------------
+    def _on_set_parameters(self, params):
+        cfg = self.config
+        try:
+            for p in params:
+                if p.name == 'demo_sweep':
+                    if not isinstance(p.value, bool):
+                        _fail('demo_sweep', 'must be true or false', p.value)
+                    cfg = dataclasses.replace(cfg, demo_sweep=p.value)
+                elif p.name == 'demo_rate':
+                    cfg = dataclasses.replace(cfg, demo_rate=check_demo_rate(p.value))
+        except ConfigError as exc:
+            return SetParametersResult(successful=False, reason=str(exc))
+        if cfg != self.config:
+            self.config = cfg
+            self._stop_demo()
+            if cfg.demo_sweep:
+                self._start_demo()
+        return SetParametersResult(successful=True)
+
+    # -- requests ----------------------------------------------------------------------------------
+    def _stamp(self, stamp):
+        return self.get_clock().now().to_msg() if is_zero_stamp(stamp) else stamp
+
+    def _answer(self, request: str, stamp, solve: Callable[[], Result]) -> Result:
+        """Run one request and publish its answer: on success joint_states, points, markers and
+        an OK status; on failure only an ERROR status. Never raises."""
+        try:
+            try:
+                result = solve()
+            except CommandError as exc:
+                result = Result(False, str(exc))
+            if result.success:
+                stamp = self._stamp(stamp)
+                self.pub_joints.publish(result_to_joint_state(result, self.mech.joint_names,
+                                                              stamp, self.frame_id))
+                for name, msg in result_to_points(result, self.pub_points, stamp,
+                                                  self.frame_id).items():
+                    self.pub_points[name].publish(msg)
+                self.pub_markers.publish(result_to_markers(result, self.mech, stamp,
+                                                           self.frame_id))
+            self.pub_status.publish(result_to_status(result, self.status_name, request))
+            return result
+        except Exception as exc:   # a bug must not take the node down: answer and keep going
+            self.get_logger().error(f'internal error on {request}: {exc!r}\n'
+                                    + traceback.format_exc())
+            self.pub_status.publish(error_status(f'internal error: {exc!r}', self.status_name,
+                                                 request))
+            return Result(False, f'internal error: {exc!r}')
+
+    def _on_command(self, msg):
+        self._answer('command', msg.header.stamp,
+                     lambda: self.engine.command(joint_state_to_command(msg)))
+
+    def _on_target(self, msg):
+        self._answer('target', msg.header.stamp,
+                     lambda: self.engine.target(joint_state_to_command(msg)))
+
+    def _on_target_point(self, point: str, msg):
+
+        def solve():
+            fid = msg.header.frame_id
+            if fid and fid != self.frame_id:
+                return Result(False, f'target point {point!r} is in frame {fid!r} but this node '
+                              f'works in {self.frame_id!r}; transform it first (or leave '
+                              'header.frame_id empty to mean the node frame)')
+            return self.engine.target_point(point, point_stamped_to_xy(msg))
+        self._answer(f'target_point/{point}', msg.header.stamp, solve)
+
+    # -- demo sweep --------------------------------------------------------------------------------
+    def _start_demo(self):
+        first = next(iter(self.mech.actuators))
+        start = self.engine.last.inputs[first] if self.engine.last else 0.0
+        self._demo = DemoSweep(self.mech, first, start)
+        self._demo_failures = 0
+        self._demo_timer = self.create_timer(1.0 / self.config.demo_rate, self._on_demo)
+        self.get_logger().info(f'demo sweep of {first!r} at {self.config.demo_rate:g} Hz')
+
+    def _stop_demo(self):
+        if self._demo_timer is not None:
+            self.destroy_timer(self._demo_timer)
+            self._demo_timer = None
+
+    def _on_demo(self):
+        demo = self._demo
+        last = self.engine.last
+        values = dict(last.inputs) if last else {a: 0.0 for a in self.mech.actuators}
+        values[demo.name] = demo.next()
+        result = self._answer('demo', Time(), lambda: self.engine.command(values))
+        if result.success:
+            self._demo_failures = 0
+            self.get_logger().info(format_joints(result, self.mech.joint_names,
+                                                 list(self.mech.actuators)),
+                                   throttle_duration_sec=0.5)
+        else:
+            self._demo_failures += 1
+            demo.bounce(values[demo.name])
+            if self._demo_failures >= 3:
+                self.get_logger().error(f'demo sweep stopped: {result.reason}')
+                self._stop_demo()
+
+
+def main(args: Sequence[str] | None = None) -> int:
+    """Entry point of ``linkage_node``. Returns the process exit code (0 clean, 1 bad
+    configuration)."""
+    try:
+        rclpy.init(args=args)
+    except Exception as exc:      # malformed --ros-args or parameter file: rcl says why
+        print(f'[FATAL] [{NODE_NAME}]: cannot start: {exc}', file=sys.stderr)
+        return 1
+    node = None
+    try:
+        node = LinkageNode()
+        rclpy.spin(node)
+    except (ConfigError, SceneError) as exc:
+        rclpy.logging.get_logger(NODE_NAME).fatal(f'cannot start: {exc}')
+        return 1
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
