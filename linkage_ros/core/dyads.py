@@ -130,7 +130,8 @@ def circle_line(c, r, p0, u, sign, tol: float = TANGENCY_TOL):
     violation = dist - r
     scale = np.maximum(r, dist)
     ok = (violation <= tol * np.where(scale > 0, scale, 1.0)) & (r > 0)
-    k = np.where(ok, np.sqrt(np.maximum((r - dist) * (r + dist), 0.0)), 0.0)
+    # roots factor by factor: the product underflows / overflows for lengths near 1e-300 / 1e300
+    k = np.where(ok, np.sqrt(np.maximum(r - dist, 0.0)) * np.sqrt(r + dist), 0.0)
     s = s0 + np.asarray(sign, float) * k
     x = p0 + s[..., None] * u
     margin = np.where(ok, np.clip(k / np.where(r > 0, r, 1.0), 0.0, 1.0), 0.0)
@@ -154,7 +155,7 @@ def line_through_point(p, x, offset, sign, tol: float = TANGENCY_TOL):
     violation = ae - rho
     scale = np.maximum(rho, ae)
     ok = (rho > 0) & (violation <= tol * np.where(scale > 0, scale, 1.0))
-    along = np.where(ok, np.sqrt(np.maximum((rho - ae) * (rho + ae), 0.0)), 1.0)
+    along = np.where(ok, np.sqrt(np.maximum(rho - ae, 0.0)) * np.sqrt(rho + ae), 1.0)
     beta = np.arctan2(w[..., 1], w[..., 0])
     psi = beta - np.arctan2(np.where(ok, e, 0.0), np.asarray(sign, float) * along)
     margin = np.where(ok, np.clip(along / np.where(rho > 0, rho, 1.0), 0.0, 1.0), 0.0)
@@ -163,7 +164,9 @@ def line_through_point(p, x, offset, sign, tol: float = TANGENCY_TOL):
 
 def rotation_between(v_ref, v_now):
     """Angle (rad) that rotates vector v_ref onto the direction of v_now (atan2 form)."""
-    return np.arctan2(cross2(v_ref, v_now), np.sum(v_ref * v_now, axis=-1))
+    a, _ = _safe_unit(np.asarray(v_ref, float))    # unit first: products of 1e-300 underflow
+    b, _ = _safe_unit(np.asarray(v_now, float))
+    return np.arctan2(cross2(a, b), np.sum(a * b, axis=-1))
 
 
 def rotate(v, phi):
@@ -215,8 +218,7 @@ def circle_line_pair(c: complex, r: float, p0: complex, u: complex, tol: float =
     scale = max(r, dist)
     if not (r > 0 and violation <= tol * (scale if scale > 0 else 1.0)):
         return p0, 0j, 0.0, False, max(violation, 0.0)
-    k2 = (r - dist) * (r + dist)
-    k = math.sqrt(k2) if k2 > 0 else 0.0
+    k = math.sqrt(max(r - dist, 0.0)) * math.sqrt(r + dist)   # no under/overflow at 1e+-300
     return p0 + s0 * u, k * u, min(max(k / r, 0.0), 1.0), True, max(violation, 0.0)
 
 
@@ -230,7 +232,6 @@ def line_through_pair(p: complex, x: complex, offset: float, tol: float = TANGEN
     scale = max(rho, ae)
     if not (rho > 0 and violation <= tol * (scale if scale > 0 else 1.0)):
         return 0.0, 1.0, 0.0, False, max(violation, 0.0)
-    a2 = (rho - ae) * (rho + ae)
-    along = math.sqrt(a2) if a2 > 0 else 0.0
+    along = math.sqrt(max(rho - ae, 0.0)) * math.sqrt(rho + ae)
     return math.atan2(w.imag, w.real), along, min(max(along / rho, 0.0), 1.0), True, \
         max(violation, 0.0)

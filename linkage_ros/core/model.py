@@ -152,7 +152,7 @@ class Scene:
         path = str(path)
         try:
             with open(path, encoding='utf-8') as fh:
-                data = yaml.safe_load(fh)
+                data = yaml.load(fh, Loader=_UniqueKeyLoader)
         except FileNotFoundError:
             raise SceneError('scene file not found', file=path) from None
         except OSError as exc:
@@ -167,6 +167,22 @@ class Scene:
     @classmethod
     def from_dict(cls, data: Mapping[str, Any], source: str = '<scene>') -> 'Scene':
         return cls(mechanism=build_mechanism(data, source=source), path=None)
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """safe_load that refuses a key given twice in one mapping (YAML's last-one-wins would build
+    a different mechanism than the file shows)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f'duplicate key {key!r} (first at line {seen[key] + 1})',
+                    key_node.start_mark)
+            seen[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep=deep)
 
 
 # ---- validation helpers ----------------------------------------------------------------------
@@ -593,10 +609,10 @@ def _slider_crank_to_general(ctx: _Ctx, data: Mapping[str, Any]):
     def assemble(theta):
         a = o2 + r * np.array([math.cos(theta), math.sin(theta)])
         dy = e - float(np.dot(a, n))
-        k2 = (rod - abs(dy)) * (rod + abs(dy))
-        if k2 < 0:
+        if rod - abs(dy) < 0:
             return a, None
-        x = float(np.dot(a, d)) + branch * math.sqrt(k2)
+        # roots factor by factor: the product underflows for lengths near 1e-300
+        x = float(np.dot(a, d)) + branch * math.sqrt(rod - abs(dy)) * math.sqrt(rod + abs(dy))
         return a, foot + x * d
 
     if 'input' in sc:

@@ -38,6 +38,13 @@ class SolveResult:
     det_sign: int = 0
 
 
+#: at convergence, a scaled cond(J) above this means a near-singular configuration: polish
+POLISH_COND = 1e6
+POLISH_STEPS = 40
+#: a scaled cond(J) above this is a singular configuration (rank-deficient to rounding)
+SINGULAR_COND = 1e10
+
+
 def _wrap(a: float) -> float:
     return math.atan2(math.sin(a), math.cos(a))
 
@@ -246,10 +253,13 @@ class LoopSystem:
     def scaled_cond(self, J: np.ndarray) -> float:
         if J.size == 0:
             return 1.0
-        norms = np.linalg.norm(J, axis=0)
+        peak = np.max(np.abs(J), axis=0)         # pre-scale: column norms of 1e300 overflow
+        peak[peak == 0] = 1.0
+        Jn = J / peak
+        norms = np.linalg.norm(Jn, axis=0)
         norms[norms == 0] = 1.0
         try:
-            return float(np.linalg.cond(J / norms))
+            return float(np.linalg.cond(Jn / norms))
         except np.linalg.LinAlgError:
             return float('inf')
 
@@ -259,13 +269,30 @@ class LoopSystem:
         sign, logdet = np.linalg.slogdet(J)
         return int(sign) if np.isfinite(logdet) else 0
 
+    def _same_side(self, sign0: int, J: np.ndarray) -> bool:
+        """The step stays on the start's side of det J = 0 (or lands on the singular set itself,
+        e.g. a toggle that is the answer, where the sign is rounding noise)."""
+        return (sign0 == 0 or self.det_sign(J) == sign0
+                or self.scaled_cond(J) > SINGULAR_COND)
+
+    def _scaled(self, x, values, fixed):
+        """F and J in scale-free units: rows / L and translations / L (so nothing overflows at
+        1e300 m, and the LM damping means the same at every scale). Steps come back as
+        dy, with dx = dy * self._step_scale."""
+        F, J = self.evaluate(x, values, fixed)
+        return F / self.L, J * self._col_scale
+
     def solve(self, x0: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None, *,
               tol: float = 1e-12, max_iter: int = 50, keep_det_sign: bool = True) -> SolveResult:
-        """Newton iterations from x0; line-search bisection on det-sign flips; LM fallback."""
+        """Newton iterations from x0; line-search bisection on det-sign flips; LM fallback.
+        Works in scale-free units (see _scaled); ``tol`` bounds max|F| / length scale."""
+        self._col_scale = np.tile([1.0 / self.L, 1.0, 1.0], len(self.free))
+        self._step_scale = np.tile([1.0, self.L, self.L], len(self.free))
         x = np.array(x0, float)
-        F, J = self.evaluate(x, values, fixed)
-        res = float(np.max(np.abs(F))) / self.L if F.size else 0.0
-        sign0 = self.det_sign(J) if keep_det_sign else 0
+        F, J = self._scaled(x, values, fixed)
+        res = float(np.max(np.abs(F))) if F.size else 0.0
+        # at a singular start (a change point) det J has no meaningful sign: do not track it
+        sign0 = self.det_sign(J) if keep_det_sign and self.scaled_cond(J) < SINGULAR_COND else 0
         it = 0
         mu = None
         square = J.shape[0] == J.shape[1]
@@ -277,7 +304,7 @@ class LoopSystem:
                 try:
                     dx = np.linalg.solve(J, -F) if square else np.linalg.lstsq(J, -F, rcond=None)[0]
                     if np.all(np.isfinite(dx)):
-                        step = dx
+                        step = dx * self._step_scale
                 except np.linalg.LinAlgError:
                     step = None
             accepted = False
@@ -285,9 +312,9 @@ class LoopSystem:
                 alpha = 1.0
                 for _ in range(10):
                     xn = x + alpha * step
-                    Fn, Jn = self.evaluate(xn, values, fixed)
+                    Fn, Jn = self._scaled(xn, values, fixed)
                     if (np.linalg.norm(Fn) < (1.0 - 1e-4 * alpha) * fnorm
-                            and (sign0 == 0 or self.det_sign(Jn) == sign0)):
+                            and self._same_side(sign0, Jn)):
                         x, F, J = xn, Fn, Jn
                         accepted = True
                         break
@@ -305,9 +332,9 @@ class LoopSystem:
                     except np.linalg.LinAlgError:
                         mu *= 10
                         continue
-                    xn = x + dx
-                    Fn, Jn = self.evaluate(xn, values, fixed)
-                    if np.linalg.norm(Fn) < fnorm and (sign0 == 0 or self.det_sign(Jn) == sign0):
+                    xn = x + dx * self._step_scale
+                    Fn, Jn = self._scaled(xn, values, fixed)
+                    if np.linalg.norm(Fn) < fnorm and self._same_side(sign0, Jn):
                         x, F, J = xn, Fn, Jn
                         mu = max(mu / 10, 1e-12)
                         accepted = True
@@ -315,8 +342,27 @@ class LoopSystem:
                     mu *= 10
                 if not accepted:
                     break
-            res = float(np.max(np.abs(F))) / self.L if F.size else 0.0
+            res = float(np.max(np.abs(F))) if F.size else 0.0
         cond = self.scaled_cond(J)
+        if res <= tol and cond > POLISH_COND:
+            # near a toggle Newton converges only linearly and the configuration error is
+            # ~sqrt(residual): polish while it still pays, so margins and branch signs read off
+            # the answer are as exact as floating point allows
+            for _ in range(POLISH_STEPS):
+                if res <= 1e-15:
+                    break
+                try:
+                    dx = np.linalg.solve(J, -F) if square else np.linalg.lstsq(J, -F, rcond=None)[0]
+                except np.linalg.LinAlgError:
+                    break
+                xn = x + dx * self._step_scale
+                Fn, Jn = self._scaled(xn, values, fixed)
+                rn = float(np.max(np.abs(Fn)))
+                if not (np.all(np.isfinite(xn)) and rn < 0.7 * res):
+                    break
+                x, F, J, res = xn, Fn, Jn, rn
+                it += 1
+            cond = self.scaled_cond(J)
         if res <= tol:
             return SolveResult(x, True, it, res, None, cond, self.det_sign(J))
         if it >= max_iter:

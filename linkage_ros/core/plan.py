@@ -682,7 +682,8 @@ def _norm(v):
 
 
 def _side(p1, p2, x) -> int:
-    s = float(np.sign(dyads.cross2(p2 - p1, x - p1)))
+    a, b = p2 - p1, x - p1
+    s = float(np.sign(dyads.cross2(a / (np.hypot(*a) or 1.0), b / (np.hypot(*b) or 1.0))))
     return int(s) if s else 1
 
 
@@ -829,6 +830,7 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             p, q = st.args
             lp, lq = local_pt(st.body, p), local_pt(st.body, q)
             a, b = lq - lp, pts[q] - pts[p]
+            a, b = a / abs(a), b / (abs(b) or 1.0)     # unit first: 1e-300 lengths would underflow
             phi = math.atan2(a.real * b.imag - a.imag * b.real, a.real * b.real + a.imag * b.imag)
             place_body(st.body, phi, pts[p] - complex(math.cos(phi), math.sin(phi)) * lp)
         elif op == 'point_angle':
@@ -854,7 +856,17 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             x = st.point
             r1 = abs(local_pt(b1, x) - local_pt(b1, p1))
             r2 = abs(local_pt(b2, x) - local_pt(b2, p2))
-            foot, hv, m, ok, viol = dyads.circle_circle_pair(pts[p1], r1, pts[p2], r2, tol)
+            big = max(r1, r2)
+            if abs(pts[p1] - pts[p2]) <= tol * big and abs(r1 - r2) <= tol * big:
+                # coincident circles (a change point: e.g. a rhombus folded flat): x may be
+                # anywhere on the circle; keep it where continuity predicts, else where the
+                # reference pose has it relative to p1. Branch identity is undefined (margin 0).
+                guess = prefer.get(x) if prefer else None
+                off = (guess - pts[p1]) if guess is not None else (pc[x] - pc[p1])
+                off = off / abs(off) if abs(off) > 0 else 1 + 0j
+                foot, hv, m, ok, viol = pts[p1] + r1 * off, 0j, 0.0, True, 0.0
+            else:
+                foot, hv, m, ok, viol = dyads.circle_circle_pair(pts[p1], r1, pts[p2], r2, tol)
             if not ok:
                 return failed(k, viol)
             sg = pick(signs[bk], x, foot + hv, foot - hv, m)
@@ -912,6 +924,11 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
     return ScalarRun(True, poses, pts, margin, tuple(used), margins=tuple(margins))
 
 
+def _unit(z: complex) -> complex:
+    a = abs(z)
+    return z / a if a > 0 else 0j
+
+
 def spec_value_one(mech: Mechanism, spec: Spec, poses: ScalarPoses):
     """Evaluate a spec on one configuration: a float, or (x, y) for a point."""
     if spec.kind == 'angle':
@@ -937,18 +954,17 @@ def branch_geometry_one(plan: Plan, pts: dict[str, complex], poses: ScalarPoses)
         if st.op == 'circle_circle':
             _, p1, _, p2 = st.args
             a, b = pts[p1], pts[p2]
-            ab, ax = b - a, x - a
+            ab, ax = _unit(b - a), _unit(x - a)          # units: products of 1e200 overflow
             side = ab.real * ax.imag - ab.imag * ax.real
-            va, vb = x - a, x - b
-            den = abs(va) * abs(vb)
-            m = abs(va.real * vb.imag - va.imag * vb.real) / den if den > 0 else 0.0
+            va, vb = _unit(x - a), _unit(x - b)
+            m = abs(va.real * vb.imag - va.imag * vb.real)
         else:
             pj = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
             base = pts[st.args[1]]
             u = poses.rot[pj.guide] * _c(pj.direction)
-            v = x - base
+            v = _unit(x - base)
             side = v.real * u.real + v.imag * u.imag
-            m = abs(side) / abs(v) if abs(v) > 0 else 0.0
+            m = abs(side)
         signs.append(1 if side >= 0 else -1)
         margins.append(min(max(m, 0.0), 1.0))
     return tuple(signs), margins

@@ -24,12 +24,14 @@ import numpy as np
 from . import dyads
 from .errors import PlanError
 from .model import Mechanism
-from .newton import LoopSystem
+from .newton import SINGULAR_COND, LoopSystem
 from .plan import (CONTINUITY_MARGIN, Plan, ScalarPoses, Spec, branch_geometry_one, run_one, spec_for, spec_value_at,
                    spec_value_one)
 
-#: below this dyad margin the two assembly modes are numerically indistinguishable
-BRANCH_UNDEFINED_MARGIN = 1e-8
+#: below this dyad margin the two assembly modes are numerically indistinguishable: rounding
+#: alone moves a dyad's height by ~sqrt(eps) = 1.5e-8 of its scale, and the margin grows like
+#: sqrt(distance to the toggle), so this is the float nearest a toggle and its neighbours
+BRANCH_UNDEFINED_MARGIN = 1e-7
 METHODS = ('auto', 'closed_form', 'newton')
 
 
@@ -375,7 +377,7 @@ class Solver:
             if s.kind == 'point':
                 out += list((np.asarray(vb) - np.asarray(va)) / self.mech.length_scale)
             elif s.kind == 'angle':
-                out.append(math.atan2(math.sin(vb - va), math.cos(vb - va)))
+                out.append(_wrap(_wrap(vb) - _wrap(va)))   # reduce first: vb - va may overflow
             else:
                 out.append((vb - va) / self.mech.length_scale)
         return np.asarray(out)
@@ -479,7 +481,7 @@ class Solver:
         out = []
         for s, va, vb in zip(self.specs, a, b):
             if s.kind == 'angle':
-                out.append(va + t * math.atan2(math.sin(vb - va), math.cos(vb - va)))
+                out.append(_wrap(va) + t * _wrap(_wrap(vb) - _wrap(va)))
             elif s.kind == 'point':
                 out.append(np.asarray(va) + t * (np.asarray(vb) - np.asarray(va)))
             else:
@@ -492,8 +494,11 @@ class Solver:
 
         def walk(va, xa, vb, depth):
             fixed_a = self._fixed_poses(va)[0]
-            sign_a = self.system.det_sign(self.system.evaluate(xa, va, fixed_a)[1]) \
-                if self.system.n else 0
+            sign_a = 0
+            if self.system.n:
+                Ja = self.system.evaluate(xa, va, fixed_a)[1]
+                if self.system.scaled_cond(Ja) < SINGULAR_COND:   # else no meaningful sign
+                    sign_a = self.system.det_sign(Ja)
             r, reason, fixed = self._newton_at(vb, xa)
             jumped = False
             if r is not None:
@@ -589,14 +594,17 @@ class Solver:
 
     def _residual(self, poses: ScalarPoses, vals) -> float:
         """Largest loop-closure error over the joints and knowns whose links are all solved,
-        as a fraction of the length scale (rotation errors count as length-scale * angle)."""
+        as a fraction of the length scale (rotation errors count as length-scale * angle). Same
+        metric as the Newton rows: the largest single component, so a Newton answer converged
+        to tolerance reports a residual within it."""
         mech, L = self.mech, self.mech.length_scale
         have = poses.phi
         worst = 0.0
         for rj in mech.revolutes:
             if rj.parent in have and rj.child in have:
                 p = complex(*mech.points[rj.point])
-                worst = max(worst, abs(poses.world(rj.parent, p) - poses.world(rj.child, p)))
+                d = poses.world(rj.parent, p) - poses.world(rj.child, p)
+                worst = max(worst, abs(d.real), abs(d.imag))
         for pj in mech.prismatics.values():
             if pj.guide in have and pj.slider in have:
                 p = complex(*mech.points[pj.point])
@@ -609,9 +617,9 @@ class Solver:
                 continue
             got = spec_value_one(mech, s, poses)
             if s.kind == 'point':
-                worst = max(worst, math.hypot(got[0] - v[0], got[1] - v[1]))
+                worst = max(worst, abs(got[0] - v[0]), abs(got[1] - v[1]))
             elif s.kind == 'angle':
-                worst = max(worst, L * abs(_wrap(got - v)))
+                worst = max(worst, L * abs(_wrap(got - _wrap(v))))   # reduce v exactly first
             else:
                 worst = max(worst, abs(got - v))
         return worst / L
