@@ -261,7 +261,9 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
         general = dict(data)
     if form != 'points' and 'outputs' in data:
         general['outputs'] = data['outputs']        # a shortcut may name its published points
-    name = ctx.name('name', data.get('name', Path(source).stem if source != '<scene>' else form))
+    default_name = Path(source).stem if source != '<scene>' else (
+        'mechanism' if form == 'points' else form)
+    name = ctx.name('name', data.get('name', default_name))
     mech = _build_general(ctx, general, name=name, frame_id=frame_id, solver=solver)
     mech.form = form if form != 'points' else 'general'
     mech.shortcut = shortcut

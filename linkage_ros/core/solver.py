@@ -489,6 +489,18 @@ class Solver:
         return out
 
     def _solve_newton(self, vals):
+        if self.full_plan.complete:
+            # an input the closed form cannot assemble on the current branch cannot be reached
+            # by continuation either: refuse at once (Newton would grind to its caps first)
+            run = run_one(self.full_plan, vals, self._signs() if self.full_plan is self.plan
+                          else None, None)
+            if not run.ok:
+                st = self.full_plan.steps[run.failure]
+                return self._fail(f'cannot assemble: {st.describe(self.full_plan)} does not '
+                                  f'close; the constraint misses by {run.violation:.6g} m '
+                                  f'({run.violation / self.mech.length_scale:.3g} of the length '
+                                  'scale)', self._echo(vals), 'newton' if self.mode == 'newton'
+                                  else 'hybrid'), None
         v0, x0 = self._start()
         total_iter = [0]
 
@@ -582,10 +594,10 @@ class Solver:
         res.branch = _sign_str(signs)
         res.margin = float(margin)
         res.branch_defined = bool(margin > BRANCH_UNDEFINED_MARGIN) if signs else True
-        res.cond = cond
+        res.cond = cond if cond is None or math.isfinite(cond) else None
         if not all(math.isfinite(v) for v in list(res.joints.values()) + list(res.links.values())
                    + list(res.inputs.values()) + [c for p in res.points.values() for c in p]
-                   + [res.residual]):
+                   + [res.residual, res.margin]):
             return Result(False, 'internal error: non-finite value in the solution', solver=solver)
         return res
 
