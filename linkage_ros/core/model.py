@@ -512,6 +512,35 @@ def _branch(ctx: _Ctx, key: str, value: object) -> int:
     return 1
 
 
+def _crank_actuator(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> dict[str, Any]:
+    """The shortcut forms' crank: the angle of O2 -> A, with optional crank_limits."""
+    crank = {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
+    if 'crank_limits' in spec:
+        lim = ctx.mapping(f'{key}.crank_limits', spec['crank_limits'])
+        ctx.only(f'{key}.crank_limits', lim, {'min', 'max'})
+        crank.update({k: lim[k] for k in ('min', 'max') if k in lim})
+    return crank
+
+
+def _reference_input(ctx: _Ctx, key: str, spec: Mapping[str, Any], start: float, assemble,
+                     lengths):
+    """The reference crank angle: ``input`` if given (it must assemble), else the assembling
+    angle nearest ``start`` (60 degrees above the ground line). ``assemble(theta)`` returns the
+    reference points or None."""
+    if 'input' in spec:
+        theta = ctx.number(f'{key}.input', spec['input'])
+        pts = assemble(theta)
+        if pts is None:
+            ctx.fail(f'{key}.input', 'the mechanism does not assemble at this crank angle', theta)
+        return pts
+    steps = np.repeat(np.linspace(0.01, np.pi, 315), 2) * np.tile([1, -1], 315)
+    for theta in start + np.concatenate([[0.0], steps]):
+        pts = assemble(float(theta))
+        if pts is not None:
+            return pts
+    ctx.fail(key, 'these lengths do not assemble at any crank angle', lengths)
+
+
 def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
     from .dyads import circle_circle
     fb = ctx.mapping('four_bar', data['four_bar'])
@@ -546,24 +575,9 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
     def assemble(theta):
         a = o2 + l2 * np.array([math.cos(theta), math.sin(theta)])
         b, _, ok, _, _ = circle_circle(a, l3, o4, l4, branch)
-        return a, b, bool(ok)
+        return (a, b) if ok and np.hypot(*(b - a)) > 0 else None
 
-    if 'input' in fb:
-        theta = ctx.number('four_bar.input', fb['input'])
-        a, b, ok = assemble(theta)
-        if not ok:
-            ctx.fail('four_bar.input', 'the linkage does not assemble at this crank angle', theta)
-    else:
-        # the reference pose: the reachable crank angle nearest 60 degrees above the ground line
-        cands = gang + np.pi / 3 + np.concatenate([[0.0], np.repeat(np.linspace(0.01, np.pi, 315), 2)
-                                                   * np.tile([1, -1], 315)])
-        for theta in cands:
-            a, b, ok = assemble(float(theta))
-            if ok and np.hypot(*(b - a)) > 0:
-                break
-        else:
-            ctx.fail('four_bar', 'these lengths do not assemble at any crank angle',
-                     [l1, l2, l3, l4])
+    a, b = _reference_input(ctx, 'four_bar', fb, gang + np.pi / 3, assemble, [l1, l2, l3, l4])
     points = {'O2': o2, 'A': a, 'B': b, 'O4': o4}
     coupler = ['A', 'B']
     cp = fb.get('coupler_point')
@@ -578,11 +592,7 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
         t3 = math.atan2(*(b - a)[::-1])
         points[pname] = a + dist * np.array([math.cos(t3 + ang), math.sin(t3 + ang)])
         coupler.append(pname)
-    crank = {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
-    if 'crank_limits' in fb:
-        lim = ctx.mapping('four_bar.crank_limits', fb['crank_limits'])
-        ctx.only('four_bar.crank_limits', lim, {'min', 'max'})
-        crank.update({k: lim[k] for k in ('min', 'max') if k in lim})
+    crank = _crank_actuator(ctx, 'four_bar', fb)
     general = {
         'points': {k: [float(v[0]), float(v[1])] for k, v in points.items()},
         'links': {'ground': ['O2', 'O4'], 'crank': ['O2', 'A'], 'coupler': coupler,
@@ -612,31 +622,13 @@ def _slider_crank_to_general(ctx: _Ctx, data: Mapping[str, Any]):
         a = o2 + r * np.array([math.cos(theta), math.sin(theta)])
         dy = e - float(np.dot(a, n))
         if rod - abs(dy) < 0:
-            return a, None
+            return None
         # roots factor by factor: the product underflows for lengths near 1e-300
         x = float(np.dot(a, d)) + branch * math.sqrt(rod - abs(dy)) * math.sqrt(rod + abs(dy))
         return a, foot + x * d
 
-    if 'input' in sc:
-        theta = ctx.number('slider_crank.input', sc['input'])
-        a, b = assemble(theta)
-        if b is None:
-            ctx.fail('slider_crank.input', 'the mechanism does not assemble at this crank angle',
-                     theta)
-    else:
-        for theta in dang + np.pi / 3 + np.concatenate(
-                [[0.0], np.repeat(np.linspace(0.01, np.pi, 315), 2) * np.tile([1, -1], 315)]):
-            a, b = assemble(float(theta))
-            if b is not None:
-                break
-        else:
-            ctx.fail('slider_crank', 'these lengths do not assemble at any crank angle',
-                     [r, rod, e])
-    crank = {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
-    if 'crank_limits' in sc:
-        lim = ctx.mapping('slider_crank.crank_limits', sc['crank_limits'])
-        ctx.only('slider_crank.crank_limits', lim, {'min', 'max'})
-        crank.update({k: lim[k] for k in ('min', 'max') if k in lim})
+    a, b = _reference_input(ctx, 'slider_crank', sc, dang + np.pi / 3, assemble, [r, rod, e])
+    crank = _crank_actuator(ctx, 'slider_crank', sc)
     general = {
         'points': {'O2': [0.0, 0.0], 'A': [float(a[0]), float(a[1])],
                    'B': [float(b[0]), float(b[1])]},

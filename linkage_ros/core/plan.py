@@ -819,6 +819,14 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
     def failed(k, viol):
         return ScalarRun(False, poses, pts, 0.0, tuple(used), k, viol, tuple(margins))
 
+    def took(sign, m):
+        """Record the branch taken at the current branching step and its margin."""
+        nonlocal margin, bk
+        used.append(sign)
+        margins.append(m)
+        margin = min(margin, m)
+        bk += 1
+
     bk = 0
     for k, st in enumerate(plan.steps):
         op = st.op
@@ -871,10 +879,7 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
                 return failed(k, viol)
             sg = pick(signs[bk], x, foot + hv, foot - hv, m)
             pts[x] = foot + sg * hv
-            used.append(sg)
-            margins.append(m)
-            margin = min(margin, m)
-            bk += 1
+            took(sg, m)
         elif op == 'circle_line':
             b1, p1, jname = st.args
             pj = mech.prismatics[jname]
@@ -888,10 +893,7 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
                 return failed(k, viol)
             sg = pick(signs[bk], x, foot + kv, foot - kv, m)
             pts[x] = foot + sg * kv
-            used.append(sg)
-            margins.append(m)
-            margin = min(margin, m)
-            bk += 1
+            took(sg, m)
         elif op == 'line_through':
             jname, p = st.args
             pj = mech.prismatics[jname]
@@ -917,10 +919,7 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             phi = phi_p if sg > 0 else phi_m
             angles[bi] = phi
             place_body(bi, phi, pts[p] - complex(math.cos(phi), math.sin(phi)) * lp)
-            used.append(sg)
-            margins.append(m)
-            margin = min(margin, m)
-            bk += 1
+            took(sg, m)
     return ScalarRun(True, poses, pts, margin, tuple(used), margins=tuple(margins))
 
 
