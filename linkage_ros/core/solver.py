@@ -33,6 +33,9 @@ from .plan import (CONTINUITY_MARGIN, Plan, ScalarPoses, Spec, branch_geometry_o
 #: sqrt(distance to the toggle), so this is the float nearest a toggle and its neighbours
 BRANCH_UNDEFINED_MARGIN = 1e-7
 METHODS = ('auto', 'closed_form', 'newton')
+#: a continuation walk gives up after this many times max_iter Newton iterations in all (an
+#: unreachable target would otherwise be bisected 10 levels deep before it is refused)
+WALK_BUDGET = 6
 
 
 @dataclass
@@ -192,6 +195,20 @@ class Solver:
         """The known quantities' values in the scene's reference pose ({known name: value})."""
         return {s.name: (tuple(float(c) for c in v) if s.kind == 'point' else float(v))
                 for s, v in zip(self.specs, self._ref_values)}
+
+    def snapshot(self) -> tuple:
+        """The continuity state (the previous configurations it predicts from), opaque: pass it
+        to restore() on a solver of the same mechanism and knowns to replay exactly."""
+        return tuple(self._history)
+
+    def restore(self, snapshot) -> None:
+        """Return to a state taken by snapshot() (of this solver or one with the same knowns)."""
+        self._history = list(snapshot)[-2:]
+
+    @property
+    def current_signs(self) -> tuple[int, ...]:
+        """The branch signs the next solve starts from (one per branching dyad of the plan)."""
+        return tuple(self._signs())
 
     def reset(self):
         """Forget the previous configuration (continuity restarts from the reference pose)."""
@@ -520,7 +537,7 @@ class Solver:
                     jumped = self._branch_jump(xa, fixed_a, r.x, fixed)
                     if not jumped:
                         return r, None, fixed
-            if depth >= 10:
+            if depth >= 10 or total_iter[0] > WALK_BUDGET * self.max_iter:
                 if r is None:
                     return None, reason, None
                 if jumped:

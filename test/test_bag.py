@@ -1,0 +1,709 @@
+"""Tests of ``linkage bag`` (linkage_ros/bag.py): offline solving of recorded commands.
+
+The bags are written here with ``rosbags`` in every storage the tool reads (sqlite3 folder, MCAP
+folder, a single .mcap file), with JointState commands for a four-bar written to tmp_path, NaN and
+malformed commands, unreachable targets, zero stamps, and messages serialised by rclpy exactly as a
+recorded ROS bag holds them. Oracles:
+
+* an independent four-bar solution (circle intersection written out below, never the core),
+  and loop-closure of the published geometry for inverse (target) rows;
+* the node itself: its kinematics engine in-process on long mixed streams, and the running
+  ``linkage_node`` over DDS on the same commands, compared to 1e-12;
+* a one-by-one run of the core Solver for the vectorised path (10^5 commands).
+"""
+from __future__ import annotations
+
+import csv
+import math
+import os
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from rosbags.rosbag2 import Reader, Writer
+from rosbags.rosbag2.enums import StoragePlugin
+from rosbags.typesys import Stores, get_typestore
+
+from linkage_ros import bag
+from linkage_ros.core.model import Scene
+from linkage_ros.core.solver import Solver
+
+TS = get_typestore(Stores.ROS2_JAZZY)
+JS = 'sensor_msgs/msg/JointState'
+SCENE_YAML = ('four_bar: {ground: 0.4, crank: 0.1, coupler: 0.35, rocker: 0.3, '
+              'coupler_point: {distance: 0.2, angle: 0.5}}\n')
+GROUND, CRANK, COUPLER, ROCKER, CP_DIST, CP_ANGLE = 0.4, 0.1, 0.35, 0.3, 0.2, 0.5
+TOL = 1e-12
+REPO = Path(__file__).resolve().parent.parent
+
+
+# ---- helpers -----------------------------------------------------------------------------------
+
+@pytest.fixture
+def scene(tmp_path) -> Path:
+    p = tmp_path / 'crank_rocker.yaml'
+    p.write_text(SCENE_YAML)
+    return p
+
+
+def wrap(a):
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+def four_bar(theta2: float) -> dict:
+    """The crank-rocker at crank angle theta2, written out directly (O2 at the origin, O4 on +x).
+
+    B is the intersection of the circles (A, coupler) and (O4, rocker) on the left of A -> O4:
+    the reference pose's assembly mode, which a Grashof crank-rocker keeps for every crank angle
+    (its transmission angle never reaches 0 or pi).
+    """
+    ax, ay = CRANK * math.cos(theta2), CRANK * math.sin(theta2)
+    dx, dy = GROUND - ax, -ay
+    d = math.hypot(dx, dy)
+    ux, uy = dx / d, dy / d
+    along = (COUPLER ** 2 - ROCKER ** 2 + d ** 2) / (2 * d)
+    h = math.sqrt(COUPLER ** 2 - along ** 2)
+    bx, by = ax + along * ux - h * uy, ay + along * uy + h * ux
+    t3 = math.atan2(by - ay, bx - ax)
+    t4 = math.atan2(by, bx - GROUND)
+    px = ax + CP_DIST * math.cos(t3 + CP_ANGLE)
+    py = ay + CP_DIST * math.sin(t3 + CP_ANGLE)
+    return {'joints': {'O2': wrap(theta2), 'A': wrap(t3 - theta2), 'B': wrap(t4 - t3),
+                       'O4': wrap(t4)},
+            'points': {'O2': (0.0, 0.0), 'A': (ax, ay), 'B': (bx, by), 'O4': (GROUND, 0.0),
+                       'P': (px, py)}}
+
+
+def joint_state(names, positions, sec=0, nanosec=0, velocity=()):
+    m = TS.types
+    return m[JS](header=m['std_msgs/msg/Header'](
+        stamp=m['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec), frame_id=''),
+        name=list(names), position=np.asarray(positions, float),
+        velocity=np.asarray(velocity, float), effort=np.zeros(0))
+
+
+def rclpy_bytes(names, positions, sec, nanosec) -> bytes:
+    """A JointState serialised by rclpy (Fast-CDR): the bytes a recorded ROS bag holds."""
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import JointState
+    msg = JointState()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
+    msg.name = list(names)
+    msg.position = [float(v) for v in positions]
+    return serialize_message(msg)
+
+
+def write_bag(path: Path, storage: str, messages, extra_topics=()):
+    """messages: (topic, bag time ns, message object or raw CDR bytes)."""
+    plugin = StoragePlugin.MCAP if storage == 'mcap' else StoragePlugin.SQLITE3
+    with Writer(path, version=9, storage_plugin=plugin) as w:
+        conns = {}
+        for topic, _, _ in messages:
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, JS, typestore=TS)
+        for topic, msgtype, msg in extra_topics:
+            c = w.add_connection(topic, msgtype, typestore=TS)
+            w.write(c, 1, TS.serialize_cdr(msg, msgtype))
+        for topic, t, msg in messages:
+            raw = msg if isinstance(msg, bytes) else TS.serialize_cdr(msg, JS)
+            w.write(conns[topic], t, raw)
+
+
+def run_bag(args, capsys=None):
+    code = bag.main([str(a) for a in args])
+    out = capsys.readouterr() if capsys is not None else None
+    return code, out
+
+
+def read_csv(path: Path):
+    with open(path, newline='') as fh:
+        rows = list(csv.DictReader(fh))
+    return rows
+
+
+def read_out_bag(path: Path):
+    out = {}
+    with Reader(path) as r:
+        for conn, t, raw in r.messages():
+            out.setdefault(conn.topic, []).append((t, TS.deserialize_cdr(raw, conn.msgtype)))
+        types = {c.topic: c.msgtype for c in r.connections}
+    return out, types
+
+
+def stamp_ns(msg) -> int:
+    return msg.header.stamp.sec * 10 ** 9 + msg.header.stamp.nanosec
+
+
+# ---- a command stream with every kind of row ---------------------------------------------------
+
+def mixed_stream():
+    """(topic, bag time, stamp (sec, ns), names, positions, kind) for the round-trip test."""
+    rows = []
+    t = 1_700_000_000 * 10 ** 9
+    for i in range(120):
+        theta = -3.0 + 0.11 * i                      # sweeps past +-pi (wrapping)
+        sec, ns = divmod(t + 7_000_000 * i, 10 ** 9)
+        names, pos, kind = ['crank'], [theta], 'ok'
+        if i % 17 == 5:
+            pos, kind = [float('nan')], 'nan'
+        elif i % 29 == 7:
+            names, pos, kind = ['wrench'], [0.3], 'name'
+        elif i == 40:
+            names, pos, kind = ['crank'], [0.1, 0.2], 'shape'
+        elif i in (50, 51):
+            sec, ns = 0, 0                           # zero stamp -> bag receive time
+        rows.append(('/cmd', t + 7_000_000 * i + 1000, (sec, ns), names, pos, kind))
+    # inverse kinematics on the rocker angle (joint O4): reachable, then unreachable
+    t2 = t + 7_000_000 * 120
+    for j, (o4, kind) in enumerate([(1.9, 'ik'), (1.95, 'ik'), (1.0, 'unreachable'),
+                                    (2.0, 'ik')]):
+        sec, ns = divmod(t2 + 5_000_000 * j, 10 ** 9)
+        rows.append(('/target', t2 + 5_000_000 * j + 1000, (sec, ns), ['O4'], [o4], kind))
+    t3 = t2 + 5_000_000 * 4
+    for k in range(10):                              # commands again: continuity after IK
+        sec, ns = divmod(t3 + 7_000_000 * k, 10 ** 9)
+        rows.append(('/cmd', t3 + 7_000_000 * k + 1000, (sec, ns), ['crank'], [0.5 + 0.2 * k],
+                     'ok'))
+    return rows
+
+
+def stream_messages(rows, rclpy_every=0):
+    msgs = []
+    for i, (topic, t, (sec, ns), names, pos, _) in enumerate(rows):
+        if rclpy_every and i % rclpy_every == 0:
+            msgs.append((topic, t, rclpy_bytes(names, pos, sec, ns)))
+        else:
+            msgs.append((topic, t, joint_state(names, pos, sec, ns, velocity=[0.0] * (i % 2))))
+    return msgs
+
+
+STORAGES = ['sqlite3', 'mcap', 'mcap-file']
+
+
+def make_input(tmp_path: Path, storage: str, messages) -> Path:
+    folder = tmp_path / f'in_{storage}'
+    write_bag(folder, 'mcap' if storage.startswith('mcap') else 'sqlite3', messages)
+    if storage == 'mcap-file':
+        return folder / f'{folder.name}.mcap'
+    return folder
+
+
+# ---- round trip: CSV and output bag ------------------------------------------------------------
+
+@pytest.mark.parametrize('storage', STORAGES)
+def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
+    rows = mixed_stream()
+    src = make_input(tmp_path, storage, stream_messages(rows, rclpy_every=3))
+    out_csv, out_bag = tmp_path / 'out.csv', tmp_path / 'out_bag'
+    code, out = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--target-topic',
+                         '/target', '--out', out_csv, '--out', out_bag, '--no-progress'], capsys)
+    assert code == 0, out.err
+    assert f'{len(rows)} message(s) read' in out.out and 'refused' in out.out
+
+    table = read_csv(out_csv)
+    assert len(table) == len(rows)                   # one row per command, refused ones included
+    header = list(table[0])
+    assert header[:4] == ['time', 'receive_time', 'topic', 'input.crank']
+    assert header[-5:] == ['residual', 'margin', 'branch', 'status', 'reason']
+    for p in ('O2', 'A', 'B', 'O4', 'P'):
+        assert f'{p}.x' in header and f'{p}.y' in header
+    refused = 0
+    for row, (topic, t, (sec, ns), names, pos, kind) in zip(table, rows):
+        assert row['topic'] == topic
+        assert row['receive_time'] == f'{t // 10 ** 9}.{t % 10 ** 9:09d}'
+        assert row['time'] == f'{sec}.{ns:09d}'
+        if kind in ('nan', 'name', 'shape', 'unreachable'):
+            refused += 1
+            assert row['status'] == 'error' and row['reason'], row
+            assert row['joint.O2'] == '' and row['P.x'] == ''
+            want = {'nan': 'must be finite', 'name': "unknown name(s) ['wrench']",
+                    'shape': 'JointState has 1 name(s)', 'unreachable': 'cannot assemble'}[kind]
+            assert want in row['reason']
+            assert row['input.crank'] == {'nan': 'nan', 'name': '', 'shape': '',
+                                          'unreachable': ''}[kind]
+            continue
+        assert row['status'] == 'ok' and row['reason'] == '' and row['branch'] == '+'
+        got_j = {j: float(row[f'joint.{j}']) for j in ('O2', 'A', 'B', 'O4')}
+        got_p = {p: (float(row[f'{p}.x']), float(row[f'{p}.y'])) for p in ('A', 'B', 'P')}
+        assert float(row['residual']) < 1e-12
+        if kind == 'ok':
+            want = four_bar(pos[0])
+            assert float(row['input.crank']) == pos[0]
+            for j, v in want['joints'].items():
+                assert abs(wrap(got_j[j] - v)) < TOL, (j, row)
+            for p in got_p:
+                assert np.allclose(got_p[p], want['points'][p], rtol=0, atol=TOL), (p, row)
+        else:                                        # IK: the target is met, the loop closes
+            assert abs(got_j['O4'] - pos[0]) < TOL
+            (ax, ay), (bx, by) = got_p['A'], got_p['B']
+            assert abs(math.hypot(ax, ay) - CRANK) < TOL
+            assert abs(math.hypot(bx - ax, by - ay) - COUPLER) < TOL
+            assert abs(math.hypot(bx - GROUND, by) - ROCKER) < TOL
+            assert abs(wrap(math.atan2(ay, ax) - float(row['input.crank']))) < TOL
+    assert refused == sum(1 for r in rows if r[5] in ('nan', 'name', 'shape', 'unreachable'))
+
+    msgs, types = read_out_bag(out_bag)
+    assert types == {'/joint_states': JS, '/points/P': 'geometry_msgs/msg/PointStamped',
+                     '/status': 'diagnostic_msgs/msg/DiagnosticStatus'}
+    ok_rows = [(r, c) for r, c in zip(table, rows) if r['status'] == 'ok']
+    assert len(msgs['/status']) == len(rows)
+    assert len(msgs['/joint_states']) == len(msgs['/points/P']) == len(ok_rows)
+    for (t, js), (tp, pt), (row, (topic, tr, (sec, ns), *_)) in zip(
+            msgs['/joint_states'], msgs['/points/P'], ok_rows):
+        want_stamp = sec * 10 ** 9 + ns if (sec or ns) else tr
+        assert t == tp == tr                          # logged at the command's bag time
+        assert stamp_ns(js) == stamp_ns(pt) == want_stamp
+        assert js.header.frame_id == pt.header.frame_id == 'world'
+        assert list(js.name) == ['O2', 'A', 'B', 'O4'] and len(js.velocity) == 0
+        assert list(js.position) == [float(row[f'joint.{j}']) for j in js.name]
+        assert (pt.point.x, pt.point.y, pt.point.z) == (float(row['P.x']), float(row['P.y']), 0)
+    for (t, st), row, (topic, tr, *_) in zip(msgs['/status'], table, rows):
+        assert t == tr
+        assert st.name == 'linkage_node: crank_rocker' and st.hardware_id == ''
+        kv = {v.key: v.value for v in st.values}
+        assert kv['request'] == ('command' if topic == '/cmd' else 'target')
+        if row['status'] == 'ok':
+            assert st.level == 0 and st.message == 'ok'
+            assert kv['branch'] == '+' and kv['solver'] == 'closed_form'
+            assert float(kv['residual']) == float(row['residual'])
+            assert float(kv['margin']) == float(row['margin'])
+        else:
+            assert st.level == 2 and st.message == row['reason']
+
+
+def test_sqlite3_output_and_zero_stamps(tmp_path, scene, capsys):
+    """--out-format sqlite3 writes a sqlite3 bag; zero stamps become the bag receive time."""
+    msgs = [('/cmd', 5_000_000_000 + i, joint_state(['crank'], [0.1 * i])) for i in range(40)]
+    src = make_input(tmp_path, 'mcap', msgs)
+    out = tmp_path / 'res'
+    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out', out,
+                         '--out-format', 'sqlite3', '--no-progress'], capsys)
+    assert code == 0, cap.err
+    assert list(out.glob('*.db3'))
+    got, _ = read_out_bag(out)
+    assert [stamp_ns(m) for _, m in got['/joint_states']] == [5_000_000_000 + i
+                                                              for i in range(40)]
+    for i, (_, m) in enumerate(got['/joint_states']):
+        want = four_bar(0.1 * i)['joints']
+        assert np.allclose(m.position, [want[j] for j in m.name], rtol=0, atol=TOL)
+
+
+# ---- the node's answers ------------------------------------------------------------------------
+
+def _node_engine(scene_file, **params):
+    """The node's kinematics engine (linkage_ros.node.Engine), in-process, for a scene file."""
+    if not (REPO / 'linkage_ros' / 'node.py').exists():
+        pytest.skip('linkage_ros/node.py does not exist yet: no node to compare with')
+    import linkage_ros.node as node
+    mech = Scene.from_yaml(scene_file).mechanism
+    return mech, node.Engine(mech, node.make_config({'scene': str(scene_file), **params}))
+
+
+def _compare_with_engine(table, rows, engine):
+    """Every CSV row equals the node engine's answer to the same request, in the same order."""
+    from linkage_ros.conversions import joint_state_to_command
+    from linkage_ros.core.errors import CommandError
+    from sensor_msgs.msg import JointState
+    for row, (topic, _, _, names, pos, *_) in zip(table, rows):
+        msg = JointState()
+        msg.name, msg.position = list(names), [float(v) for v in pos]
+        try:
+            cmd = joint_state_to_command(msg)
+            r = engine.command(cmd) if topic == '/cmd' else engine.target(cmd)
+        except CommandError as exc:
+            assert row['status'] == 'error' and row['reason'] == str(exc)
+            continue
+        assert row['status'] == ('ok' if r.success else 'error'), (row, r.reason)
+        if not r.success:
+            assert row['reason'] == r.reason
+            continue
+        assert row['branch'] == r.branch
+        for j, v in r.joints.items():
+            assert abs(float(row[f'joint.{j}']) - v) <= TOL
+        for p, (x, y) in r.points.items():
+            assert abs(float(row[f'{p}.x']) - x) <= TOL and abs(float(row[f'{p}.y']) - y) <= TOL
+        for a, v in r.inputs.items():
+            assert abs(float(row[f'input.{a}']) - v) <= TOL
+
+
+def _summary_count(text: str, what: str) -> int:
+    return int(text.split(f'{what} ')[1].split(',')[0].split()[0])
+
+
+@pytest.mark.parametrize('branch', ['continuous', 'reference'])
+def test_matches_node_engine_on_jumpy_mixed_stream(tmp_path, scene, branch, capsys):
+    """Long runs (vectorised), jumps of any size, IK in between, bad rows: the node's answers."""
+    _, engine = _node_engine(scene, branch=branch)
+    rng = np.random.default_rng(7)
+    rows, t = [], 10 ** 12
+    for seg in range(40):
+        kind = seg % 5
+        n = int(rng.integers(20, 400))
+        for i in range(n if kind != 3 else 3):
+            t += 1_000_000
+            if kind in (0, 4):
+                v = [0.7 * seg + 0.013 * i]                              # smooth
+            elif kind == 1:
+                v = [float(rng.uniform(-4, 4))]                          # any jump
+            elif kind == 2:
+                v = [float(rng.uniform(-1, 1)) + (seg % 2) * np.pi]      # jumps near +-pi
+            else:
+                v = [float('nan')]
+            rows.append(('/cmd', t, (0, 0), ['crank'], v, ''))
+        if seg % 4 == 1:
+            for o4 in (1.85, float(rng.uniform(0.5, 3.0)), 2.05):
+                t += 1_000_000
+                rows.append(('/target', t, (0, 0), ['O4'], [o4], ''))
+    src = make_input(tmp_path, 'mcap', stream_messages(rows))
+    out_csv = tmp_path / 'o.csv'
+    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--target-topic',
+                         '/target', '--branch', branch, '--out', out_csv, '--no-progress'],
+                        capsys)
+    assert code == 0, cap.err
+    assert _summary_count(cap.out, 'vectorised rows') > 0.8 * len(rows)
+    table = read_csv(out_csv)
+    assert len(table) == len(rows)
+    _compare_with_engine(table, rows, engine)
+
+
+@pytest.mark.parametrize('linkage', ['triple_rocker', 'parallelogram'])
+def test_matches_node_engine_through_toggles(tmp_path, linkage, capsys):
+    """Where a dyad passes near its singularity the node decides the branch by its prediction,
+    so those rows go one by one with the node's exact history.
+
+    triple rocker: driven into and back from its toggles (|crank| <= 1.2986) and jumping about.
+    parallelogram (a change-point linkage): turned smoothly through its flat positions, where the
+    parallelogram motion crosses to the other side of A -> O4: continuity follows it (the dyad's
+    branch sign flips, the rocker stays parallel to the crank), which a fixed-sign batch would not.
+    """
+    yaml_text = {
+        'triple_rocker': 'four_bar: {ground: 0.5, crank: 0.4, coupler: 0.25, rocker: 0.3, '
+                         'coupler_point: {distance: 0.1, angle: 0.3}}\n',
+        'parallelogram': 'four_bar: {ground: 0.4, crank: 0.1, coupler: 0.4, rocker: 0.1, '
+                         'coupler_point: {distance: 0.2, angle: 0.0}}\n'}[linkage]
+    path = tmp_path / f'{linkage}.yaml'
+    path.write_text(yaml_text)
+    _, engine = _node_engine(path)
+    rng = np.random.default_rng(5)
+    values = []
+    if linkage == 'triple_rocker':
+        for seg in range(9):
+            if seg % 3 == 0:
+                values += list(np.linspace(-1.45, 1.45, 300)) + list(np.linspace(1.45, -1.45, 300))
+            elif seg % 3 == 1:
+                values += list(rng.uniform(-1.4, 1.4, 200))
+            else:
+                values += list(1.2 + np.cumsum(rng.normal(0, 0.03, 200)))
+    else:
+        values = list(np.linspace(1.0, 1.0 + 6 * np.pi, 3000))
+    rows = [('/cmd', 10 ** 12 + 10 ** 6 * i, (0, 0), ['crank'], [float(v)], '')
+            for i, v in enumerate(values)]
+    src = make_input(tmp_path, 'sqlite3', stream_messages(rows))
+    out_csv = tmp_path / 't.csv'
+    code, cap = run_bag([src, '--scene', path, '--command-topic', '/cmd', '--out', out_csv,
+                         '--no-progress'], capsys)
+    assert code == 0, cap.err
+    assert _summary_count(cap.out, 'vectorised rows') > 0.9 * len(rows)
+    assert _summary_count(cap.out, 'one-by-one rows') > 0          # near the singularities
+    table = read_csv(out_csv)
+    if linkage == 'triple_rocker':
+        assert sum(r['status'] == 'error' for r in table) > 50      # beyond the toggles
+    else:
+        flips = sum(a['branch'] != b['branch'] for a, b in zip(table, table[1:]))
+        assert flips == 6                                            # 2 flat positions a turn
+        for r in table:
+            assert abs(wrap(float(r['joint.O4']) - float(r['joint.O2']))) < 1e-9
+    _compare_with_engine(table, rows, engine)
+
+
+def test_newton_solver_is_sequential_and_matches_node(tmp_path, scene, capsys):
+    mech, engine = _node_engine(scene, solver='newton')
+    from linkage_ros.conversions import result_to_status
+    rows = [('/cmd', 10 ** 9 + i, (1, i), ['crank'], [0.4 * i if i != 6 else float('nan')], '')
+            for i in range(25)]
+    src = make_input(tmp_path, 'sqlite3', stream_messages(rows))
+    out_csv, out_bag = tmp_path / 'o.csv', tmp_path / 'o_bag'
+    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--solver', 'newton',
+                         '--out', out_csv, '--out', out_bag, '--no-progress'], capsys)
+    assert code == 0, cap.err
+    assert 'one-by-one rows 25' in cap.out
+    table = read_csv(out_csv)
+    _compare_with_engine(table, rows, engine)
+    # the status messages are the node's (conversions.result_to_status), cond included
+    _, replay = _node_engine(scene, solver='newton')
+    got, _ = read_out_bag(out_bag)
+    for (_, st), r in zip(got['/status'], rows):
+        want = result_to_status(replay.command({'crank': r[4][0]}), st.name, 'command')
+        assert (st.level, st.message, st.name) == (want.level[0] if isinstance(
+            want.level, bytes) else want.level, want.message, f'linkage_node: {mech.name}')
+        assert [v.key for v in st.values] == [v.key for v in want.values]
+        for a, b in zip(st.values, want.values):
+            if a.key in ('residual', 'margin', 'cond'):
+                assert math.isclose(float(a.value), float(b.value), rel_tol=1e-9, abs_tol=1e-15)
+            else:
+                assert a.value == b.value
+    for row, r in zip(table, rows):
+        if row['status'] == 'ok':
+            want = four_bar(r[4][0])['joints']
+            assert all(abs(wrap(float(row[f'joint.{j}']) - v)) < 1e-9 for j, v in want.items())
+
+
+def test_matches_running_node_over_dds(tmp_path, scene):
+    """The bag's answers equal linkage_node's, over DDS, for the same commands (1e-12)."""
+    if not (REPO / 'linkage_ros' / 'node.py').exists():
+        pytest.skip('linkage_ros/node.py does not exist yet: no node to compare with')
+    from diagnostic_msgs.msg import DiagnosticStatus
+    from sensor_msgs.msg import JointState
+    from ros_harness import NodeProcess, RosHarness, random_domain_id
+
+    rows = [r for r in mixed_stream() if r[2] != (0, 0)]          # stamps identify answers
+    src = make_input(tmp_path, 'mcap', stream_messages(rows))
+    out_bag = tmp_path / 'answers'
+    assert bag.main([str(src), '--scene', str(scene), '--command-topic', '/cmd',
+                     '--target-topic', '/target', '--out', str(out_bag), '--no-progress']) == 0
+    offline, _ = read_out_bag(out_bag)
+
+    domain = random_domain_id()
+    node = NodeProcess(tmp_path / 'node', domain, params={'scene': str(scene)}).start()
+    ros = RosHarness(domain, name='bag_test')
+    try:
+        pubs = {'/cmd': ros.publisher(JointState, node.topic('~/command')),
+                '/target': ros.publisher(JointState, node.topic('~/target'))}
+        joints = ros.collector(JointState, node.topic('joint_states'))
+        status = ros.collector(DiagnosticStatus, node.topic('~/status'))
+        ros.wait_for_discovery(list(pubs.values()), [joints, status], timeout=30.0,
+                               process=node)
+        for topic, _, (sec, ns), names, pos, _ in rows:
+            msg = JointState()
+            msg.header.stamp.sec, msg.header.stamp.nanosec = sec, ns
+            msg.name, msg.position = list(names), [float(v) for v in pos]
+            before = len(status)
+            ros.publish(pubs[topic], msg)
+            assert ros.spin_until(lambda: len(status) > before, 15.0, node), \
+                f'no status for {topic} {names} {pos}'
+    finally:
+        ros.close()
+        node.stop()
+    assert len(status.messages) == len(offline['/status'])
+    for live, (_, off) in zip(status.messages, offline['/status']):
+        level = live.level[0] if isinstance(live.level, bytes) else int(live.level)
+        assert (level, live.message, live.name) == (off.level, off.message, off.name)
+        lkv = {v.key: v.value for v in live.values}
+        okv = {v.key: v.value for v in off.values}
+        assert lkv.keys() == okv.keys()
+        for k in lkv:
+            if k in ('residual', 'margin'):
+                assert abs(float(lkv[k]) - float(okv[k])) <= TOL
+            else:
+                assert lkv[k] == okv[k], k
+    assert len(joints.messages) == len(offline['/joint_states'])
+    for live, (_, off) in zip(joints.messages, offline['/joint_states']):
+        assert stamp_ns(live) == stamp_ns(off)
+        assert list(live.name) == list(off.name) and live.header.frame_id == off.header.frame_id
+        assert np.max(np.abs(np.asarray(live.position) - off.position)) <= TOL
+
+
+# ---- the vectorised path -----------------------------------------------------------------------
+
+def test_vectorised_path_matches_one_by_one_solver(tmp_path, scene, capsys):
+    n = 100_000
+    rng = np.random.default_rng(3)
+    theta = np.cumsum(rng.normal(0.0, 0.05, n))          # a random walk, many turns
+    theta[rng.choice(n, 300, replace=False)] = rng.uniform(-4, 4, 300)    # jumps
+    theta[::997] = np.nan
+    # serialise once, then patch stamp and value bytes (the fast way to make a big bag)
+    tmpl = bytes(TS.serialize_cdr(joint_state(['crank'], [0.123456789]), JS))
+    off = tmpl.index(np.float64(0.123456789).tobytes())   # where position[0] is
+    buf = np.tile(np.frombuffer(tmpl, np.uint8), (n, 1))
+    ns = 10 ** 9 + np.arange(n, dtype=np.int64) * 1_000_000
+    buf[:, 4:8] = (ns // 10 ** 9).astype('<i4').view(np.uint8).reshape(n, 4)
+    buf[:, 8:12] = (ns % 10 ** 9).astype('<u4').view(np.uint8).reshape(n, 4)
+    buf[:, off:off + 8] = theta.astype('<f8').view(np.uint8).reshape(n, 8)
+    folder = tmp_path / 'big'
+    with Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        c = w.add_connection('/cmd', JS, typestore=TS)
+        for i, t in enumerate(ns.tolist()):
+            w.write(c, t, buf[i].tobytes())
+    out_csv = tmp_path / 'big.csv'
+    t0 = time.perf_counter()
+    code, cap = run_bag([folder, '--scene', scene, '--command-topic', '/cmd', '--out', out_csv,
+                         '--no-progress'], capsys)
+    elapsed = time.perf_counter() - t0
+    assert code == 0, cap.err
+    assert _summary_count(cap.out, 'vectorised rows') >= 0.99 * n, cap.out
+    assert elapsed < 30.0, f'{n} commands took {elapsed:.1f} s'
+    with open(out_csv, newline='') as fh:
+        reader = csv.reader(fh)
+        header = next(reader)
+        table = list(reader)
+    assert len(table) == n
+    col = {name: k for k, name in enumerate(header)}
+    # one by one, as the node does: a continuous Solver that starts from the reference pose
+    mech = Scene.from_yaml(scene).mechanism
+    solver = Solver(mech)
+    assert solver.solve(solver.reference_values()).success
+    sample = set(rng.choice(n, 3000, replace=False).tolist())
+    checked = 0
+    for i in range(n):
+        if i not in sample and i % 50:
+            continue                     # continuity of a crank-rocker: a subsequence suffices
+        r = solver.solve({'crank': float(theta[i])})
+        row = table[i]
+        assert (row[col['status']] == 'ok') == r.success
+        if not r.success:
+            assert row[col['reason']] == r.reason
+            continue
+        for j in ('O2', 'A', 'B', 'O4'):
+            assert abs(float(row[col[f'joint.{j}']]) - r.joints[j]) <= TOL
+        for p in ('A', 'B', 'P'):
+            assert abs(float(row[col[f'{p}.x']]) - r.points[p][0]) <= TOL
+            assert abs(float(row[col[f'{p}.y']]) - r.points[p][1]) <= TOL
+        checked += 1
+    assert checked > 2000
+    assert sum(row[col['status']] == 'error' for row in table) == np.count_nonzero(np.isnan(theta))
+
+
+# ---- bad input ---------------------------------------------------------------------------------
+
+def _bad(args, capsys):
+    code = bag.main([str(a) for a in args])
+    err = capsys.readouterr().err.strip()
+    assert code == 2
+    assert err.count('\n') == 0 and err.startswith('linkage bag: error:'), err
+    return err
+
+
+def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
+    good = make_input(tmp_path, 'mcap', [('/cmd', 1000 + i, joint_state(['crank'], [0.1 * i]))
+                                         for i in range(200)])
+    common = ['--scene', scene, '--command-topic', '/cmd', '--out', tmp_path / 'x.csv']
+    # missing
+    assert 'no such file' in _bad([tmp_path / 'nothing_here', *common], capsys)
+    # not a bag: a text file, a folder without metadata and storage
+    text = tmp_path / 'notes.txt'
+    text.write_text('hello')
+    assert 'not a rosbag2' in _bad([text, *common], capsys)
+    empty = tmp_path / 'emptydir'
+    empty.mkdir()
+    assert 'not a rosbag2' in _bad([empty, *common], capsys)
+    # a .mcap that is not MCAP at all
+    fake = tmp_path / 'fake.mcap'
+    fake.write_bytes(b'not an mcap file' * 10)
+    assert 'cannot open' in _bad([fake, *common], capsys)
+    # missing topic: the topics that exist are listed
+    err = _bad([good, '--scene', scene, '--command-topic', '/nope', '--out', tmp_path / 'x.csv'],
+               capsys)
+    assert 'topic /nope is not in the bag' in err and '/cmd (sensor_msgs/msg/JointState)' in err
+    err = _bad([good, *common, '--target-topic', '/missing'], capsys)
+    assert '/missing' in err and '/cmd' in err
+    # wrong message type: expected and found named
+    typed = tmp_path / 'typed'
+    string = TS.types['std_msgs/msg/String'](data='x')
+    write_bag(typed, 'sqlite3', [('/cmd', 5, joint_state(['crank'], [0.2]))],
+              extra_topics=[('/words', 'std_msgs/msg/String', string)])
+    err = _bad([typed, '--scene', scene, '--command-topic', '/words', '--out',
+                tmp_path / 'x.csv'], capsys)
+    assert 'std_msgs/msg/String' in err and 'expected sensor_msgs/msg/JointState' in err
+    # truncated MCAP (folder and single file)
+    mcap = good / f'{good.name}.mcap'
+    cut = tmp_path / 'cut'
+    shutil.copytree(good, cut)
+    data = mcap.read_bytes()
+    (cut / mcap.name).write_bytes(data[:len(data) // 2])
+    assert 'truncated' in _bad([cut, *common], capsys)
+    cutfile = tmp_path / 'cut.mcap'
+    cutfile.write_bytes(data[:len(data) // 2])
+    err = _bad([cutfile, *common], capsys)
+    assert 'truncated' in err or 'corrupt' in err
+    # corrupt sqlite3 database
+    sq = tmp_path / 'sq'
+    write_bag(sq, 'sqlite3', [('/cmd', 1000 + i, joint_state(['crank'], [0.1 * i]))
+                              for i in range(200)])
+    db = next(sq.glob('*.db3'))
+    raw = bytearray(db.read_bytes())
+    raw[100:len(raw)] = os.urandom(len(raw) - 100)
+    db.write_bytes(bytes(raw))
+    err = _bad([sq, *common], capsys)
+    assert 'corrupt' in err or 'truncated' in err
+    # unreadable metadata: still one line
+    meta = tmp_path / 'meta'
+    shutil.copytree(good, meta)
+    (meta / 'metadata.yaml').write_text('rosbag2_bagfile_information: {version: [')
+    assert 'cannot open the bag' in _bad([meta, *common], capsys)
+    # a message whose CDR is cut short
+    short = tmp_path / 'short'
+    write_bag(short, 'mcap', [('/cmd', 7, bytes(TS.serialize_cdr(joint_state(['crank'], [0.3]),
+                                                                 JS))[:30])])
+    err = _bad([short, *common], capsys)
+    assert 'not a valid JointState' in err and 'corrupt' in err
+    # outputs: an existing output bag is not overwritten
+    exists = tmp_path / 'exists'
+    exists.mkdir()
+    assert 'exists already' in _bad([good, '--scene', scene, '--command-topic', '/cmd',
+                                     '--out', exists], capsys)
+    # a bad scene or branch is a usage error too
+    assert 'scene file not found' in _bad([good, '--scene', tmp_path / 'no.yaml',
+                                           '--command-topic', '/cmd', '--out',
+                                           tmp_path / 'x.csv'], capsys)
+    assert 'branch' in _bad([good, *common, '--branch', '+-+'], capsys)
+
+
+def test_nan_commands_are_refused_rows(tmp_path, scene, capsys):
+    msgs = [('/cmd', 100 + i, joint_state(['crank'], [float('nan') if i % 3 else 0.2 * i]))
+            for i in range(60)]
+    src = make_input(tmp_path, 'sqlite3', msgs)
+    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out',
+                         tmp_path / 'n.csv', '--no-progress'], capsys)
+    assert code == 0
+    table = read_csv(tmp_path / 'n.csv')
+    assert len(table) == 60
+    for i, row in enumerate(table):
+        if i % 3:
+            assert row['status'] == 'error' and row['input.crank'] == 'nan'
+            assert row['reason'] == 'crank: value must be finite (got nan)'
+        else:
+            assert row['status'] == 'ok'
+    assert '40 x crank: value must be finite (got nan)' in cap.out
+
+
+# ---- plot, progress, number text ---------------------------------------------------------------
+
+def test_plot_and_progress(tmp_path, scene, capsys, monkeypatch):
+    msgs = [('/cmd', 10 ** 9 + i * 10 ** 7, joint_state(['crank'], [0.05 * i],
+                                                        sec=1, nanosec=i * 10 ** 7))
+            for i in range(300)]
+    src = make_input(tmp_path, 'mcap', msgs)
+    png = tmp_path / 'run.png'
+    monkeypatch.setattr('sys.stderr.isatty', lambda: True, raising=False)
+    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out',
+                         tmp_path / 'p.csv', '--plot', png], capsys)
+    assert code == 0, cap.err
+    assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and png.stat().st_size > 10_000
+    assert 'solving' in cap.err and '100.0%' in cap.err       # the progress bar, on stderr
+    assert 'wrote' in cap.out and 'time' in cap.out
+
+
+def test_csv_numbers_round_trip_exactly():
+    rng = np.random.default_rng(11)
+    values = np.concatenate([
+        rng.uniform(-4, 4, 20000),
+        rng.normal(0, 1, 20000) * 10.0 ** rng.integers(-30, 20, 20000),
+        [0.0, -0.0, 1.0, 0.1, 0.5, 1e-5, 1e-4, np.pi, -np.pi, 1e16, 1e17, 2.5, 1 / 3, 5e-324,
+         1e300, -1e-300, 1.7976931348623157e308, np.inf, -np.inf, np.nan, 123456789.125]])
+    text = bag.format_floats(values, b'nan')
+    for v, row in zip(values.tolist(), text):
+        s = bytes(row[row != 0]).decode()
+        if math.isnan(v):
+            assert s == 'nan'
+        else:
+            assert float(s) == v and math.copysign(1, float(s)) == math.copysign(1, v), (v, s)
+    for const in ([0.4] * 5, [-0.0] * 3, [np.nan] * 4, [-0.0, 0.0, -0.0]):   # the shortcut
+        text = [bytes(r[r != 0]).decode() for r in bag.format_floats(np.array(const), b'nan')]
+        assert text == [repr(float(v)) for v in const] or all(
+            float(t) == v for t, v in zip(text, const) if v == v)
+        assert [math.copysign(1, float(t)) for t in text] == [math.copysign(1, v) for v in const]
+    ints = bag.format_ints(np.array([0, 7, -7, 10, 1234567890123, 2 ** 62]))
+    assert [bytes(r[r != 0]).decode() for r in ints] == ['0', '7', '-7', '10', '1234567890123',
+                                                         str(2 ** 62)]
