@@ -79,6 +79,31 @@ class LoopSystem:
                 self.rows.append(('spec', i))
                 m += s.size
         self.m = m
+        # revolute rows come first and are evaluated vectorised: for each, the two links (index
+        # into all links), their levers p - o (complex) and their variable columns (-1: fixed)
+        self.all_links = list(mech.links)
+        lidx = {l: i for i, l in enumerate(self.all_links)}
+        rev = [row for row in self.rows if row[0] == 'rev']
+        self.n_rev = len(rev)
+        self._rev_link = np.array([[lidx[a], lidx[b]] for _, a, b, _ in rev], int).reshape(-1, 2)
+        self._rev_lever = np.array(
+            [[complex(*(pts[P] - self.centroid[a])), complex(*(pts[P] - self.centroid[b]))]
+             for _, a, b, P in rev], complex).reshape(-1, 2)
+        self._rev_col = np.array([[3 * self.index[l] if l in self.index else -1 for l in (a, b)]
+                                  for _, a, b, _ in rev], int).reshape(-1, 2)
+        self._free_idx = np.array([lidx[l] for l in free], int)
+        # flat Jacobian positions of the revolute entries, per side (0: parent, 1: child):
+        # (row, d/dphi), (row+1, d/dphi), (row, d/dcx), (row+1, d/dcy) for free links only
+        self._rev_flat, self._rev_mask = [], []
+        for side in (0, 1):
+            col = self._rev_col[:, side] if self.n_rev else np.zeros(0, int)
+            m_ = col >= 0
+            rr, cc = 2 * np.arange(self.n_rev)[m_], col[m_]
+            n = self.n
+            self._rev_flat.append(np.concatenate([rr * n + cc, (rr + 1) * n + cc,
+                                                  rr * n + cc + 1, (rr + 1) * n + cc + 2]))
+            self._rev_mask.append(m_)
+        self._centroid_c = np.array([complex(*self.centroid[l]) for l in self.all_links])
 
     def _spec_links(self, s: Spec) -> list[str]:
         if s.kind == 'angle':
@@ -174,17 +199,13 @@ class LoopSystem:
                 J[row + 1, col + 2] += sign
             return wx, wy
 
-        r = 0
+        r = 2 * self.n_rev
+        if self.n_rev:
+            self._revolute_rows(x, fixed, F, J)
         pts = mech.points
-        for row in self.rows:
+        for row in self.rows[self.n_rev:]:
             kind = row[0]
-            if kind == 'rev':
-                _, a, b, P = row
-                ax, ay = add_point(r, a, pts[P], 1.0)
-                bx, by = add_point(r, b, pts[P], -1.0)
-                F[r], F[r + 1] = ax - bx, ay - by
-                r += 2
-            elif kind == 'pri':
+            if kind == 'pri':
                 pj = row[1]
                 F[r], F[r + 1] = self._line_rows(r, J, pj, pj.point, pts[pj.point], world, pose, L,
                                                  normal=True)
@@ -212,6 +233,35 @@ class LoopSystem:
                     F[r], F[r + 1] = wx - float(v[0]), wy - float(v[1])
                     r += 2
         return F, J
+
+    def _revolute_rows(self, x, fixed, F, J):
+        """Rows w_a(P) - w_b(P) of every revolute joint at once (complex arithmetic)."""
+        phi = np.zeros(len(self.all_links))
+        c = self._centroid_c.copy()            # ground and unknown-fixed: reference pose
+        if fixed is not None:
+            for i, l in enumerate(self.all_links):
+                if l in fixed.phi and l not in self.index:
+                    phi[i] = fixed.phi[l]
+                    c[i] = fixed.rot[l] * self._centroid_c[i] + fixed.T[l]
+        if len(self._free_idx):
+            phi[self._free_idx] = x[0::3]
+            c[self._free_idx] = x[1::3] + 1j * x[2::3]
+        rot = np.exp(1j * phi)
+        lever = rot[self._rev_link] * self._rev_lever          # (n_rev, 2)
+        w = c[self._rev_link] + lever
+        d = w[:, 0] - w[:, 1]
+        F[0:2 * self.n_rev:2] = d.real
+        F[1:2 * self.n_rev:2] = d.imag
+        if J is None:
+            return
+        vals = []
+        for side, sign in ((0, 1.0), (1, -1.0)):
+            lv = lever[self._rev_mask[side], side]
+            ones = np.full(len(lv), sign)
+            vals.append(np.concatenate([sign * -lv.imag, sign * lv.real, ones, ones]))  # i*lever
+        # one scatter for all entries (bincount sums the parent and child contributions)
+        J += np.bincount(np.concatenate(self._rev_flat), weights=np.concatenate(vals),
+                         minlength=J.size).reshape(J.shape)
 
     def _line_rows(self, r, J, pj, xname, base_ref, world, pose, L, normal):
         """Rows of a prismatic pair: the slider point's offset from the guide line (normal=True,
@@ -283,7 +333,8 @@ class LoopSystem:
         return F / self.L, J * self._col_scale
 
     def solve(self, x0: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None, *,
-              tol: float = 1e-12, max_iter: int = 50, keep_det_sign: bool = True) -> SolveResult:
+              tol: float = 1e-12, max_iter: int = 50, keep_det_sign: bool = True,
+              start_sign: int | None = None) -> SolveResult:
         """Newton iterations from x0; line-search bisection on det-sign flips; LM fallback.
         Works in scale-free units (see _scaled); ``tol`` bounds max|F| / length scale."""
         self._col_scale = np.tile([1.0 / self.L, 1.0, 1.0], len(self.free))
@@ -292,7 +343,12 @@ class LoopSystem:
         F, J = self._scaled(x, values, fixed)
         res = float(np.max(np.abs(F))) if F.size else 0.0
         # at a singular start (a change point) det J has no meaningful sign: do not track it
-        sign0 = self.det_sign(J) if keep_det_sign and self.scaled_cond(J) < SINGULAR_COND else 0
+        if not keep_det_sign:
+            sign0 = 0
+        elif start_sign is not None:          # known from the solve that produced x0
+            sign0 = start_sign
+        else:
+            sign0 = self.det_sign(J) if self.scaled_cond(J) < SINGULAR_COND else 0
         it = 0
         mu = None
         square = J.shape[0] == J.shape[1]
@@ -363,8 +419,9 @@ class LoopSystem:
                 x, F, J, res = xn, Fn, Jn, rn
                 it += 1
             cond = self.scaled_cond(J)
+        det = self.det_sign(J) if cond < SINGULAR_COND else 0     # 0: singular, no sign
         if res <= tol:
-            return SolveResult(x, True, it, res, None, cond, self.det_sign(J))
+            return SolveResult(x, True, it, res, None, cond, det)
         if it >= max_iter:
             reason = (f'Newton reached its iteration cap ({max_iter}) with loop-closure residual '
                       f'{res:.3g} of the length scale (tolerance {tol:g})')
@@ -372,4 +429,4 @@ class LoopSystem:
             reason = (f'Newton stalled with loop-closure residual {res:.3g} of the length scale: '
                       f'no assembly near the start (cond J = {cond:.3g}); the input may be beyond '
                       'a limit or toggle position')
-        return SolveResult(x, False, it, res, reason, cond, self.det_sign(J))
+        return SolveResult(x, False, it, res, reason, cond, det)

@@ -33,9 +33,11 @@ from .plan import (CONTINUITY_MARGIN, Plan, ScalarPoses, Spec, branch_geometry_o
 #: sqrt(distance to the toggle), so this is the float nearest a toggle and its neighbours
 BRANCH_UNDEFINED_MARGIN = 1e-7
 METHODS = ('auto', 'closed_form', 'newton')
-#: a continuation walk gives up after this many times max_iter Newton iterations in all (an
-#: unreachable target would otherwise be bisected 10 levels deep before it is refused)
+#: a continuation walk gives up after this many times max_iter Newton iterations without a
+#: successful substep (an unreachable target would otherwise be bisected 10 levels deep)
 WALK_BUDGET = 6
+#: without a dyad plan, a scaled cond(J) above this counts as near a singular configuration
+NEAR_SINGULAR_COND = 1e6
 
 
 @dataclass
@@ -449,11 +451,12 @@ class Solver:
             keep.set(l, run.poses.phi[l], run.poses.T[l], run.poses.rot[l])
         return keep, None
 
-    def _newton_at(self, vals, x0):
+    def _newton_at(self, vals, x0, start_sign=None):
         fixed, reason = self._fixed_poses(vals)
         if reason:
             return None, reason, None
-        r = self.system.solve(x0, vals, fixed, tol=self.tol, max_iter=self.max_iter)
+        r = self.system.solve(x0, vals, fixed, tol=self.tol, max_iter=self.max_iter,
+                              start_sign=start_sign)
         return r, None, fixed
 
     def _start(self):
@@ -483,6 +486,14 @@ class Solver:
                 if p not in pts:
                     pts[p] = poses.world(l, complex(*self.mech.points[p]))
         return branch_geometry_one(self.full_plan, pts, poses)
+
+    def _near_singular(self, x, fixed, values) -> bool:
+        """A dyad of the configuration is near its singular (tangent) position, or, without a
+        dyad plan to read that from, the Jacobian is ill-conditioned."""
+        if self.full_plan.complete and self.full_plan.branch_steps:
+            return min(self._branch_of(x, fixed)[1]) < CONTINUITY_MARGIN
+        J = self.system.evaluate(x, values, fixed)[1]
+        return self.system.scaled_cond(J) > NEAR_SINGULAR_COND
 
     def _branch_jump(self, xa, fixed_a, xb, fixed_b) -> bool:
         """True when a dyad changed side between two configurations while far from its
@@ -520,24 +531,36 @@ class Solver:
                                   else 'hybrid'), None
         v0, x0 = self._start()
         total_iter = [0]
+        since_progress = [0]        # iterations since the last substep that succeeded
 
-        def walk(va, xa, vb, depth):
+        def walk(va, xa, vb, depth, sign_a=None):
             fixed_a = self._fixed_poses(va)[0]
-            sign_a = 0
-            if self.system.n:
-                Ja = self.system.evaluate(xa, va, fixed_a)[1]
-                if self.system.scaled_cond(Ja) < SINGULAR_COND:   # else no meaningful sign
-                    sign_a = self.system.det_sign(Ja)
-            r, reason, fixed = self._newton_at(vb, xa)
+            if sign_a is None:        # det J sign at the start; 0 where it is singular
+                sign_a = 0
+                if self.system.n:
+                    Ja = self.system.evaluate(xa, va, fixed_a)[1]
+                    if self.system.scaled_cond(Ja) < SINGULAR_COND:
+                        sign_a = self.system.det_sign(Ja)
+            r, reason, fixed = self._newton_at(vb, xa, sign_a)
             jumped = False
             if r is not None:
                 total_iter[0] += r.iterations
+                since_progress[0] += r.iterations
                 if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
                     # det J keeps its sign when two dyads flip together: compare dyad sides too
                     jumped = self._branch_jump(xa, fixed_a, r.x, fixed)
                     if not jumped:
+                        since_progress[0] = 0
                         return r, None, fixed
-            if depth >= 10 or total_iter[0] > WALK_BUDGET * self.max_iter:
+                if sign_a != 0 and self._near_singular(xa, fixed_a, va):
+                    # det J may change sign only by passing a singular configuration, and one is
+                    # near: step without the sign guard, keep it if no dyad jumped sides
+                    r2, _, fixed2 = self._newton_at(vb, xa, 0)
+                    total_iter[0] += r2.iterations
+                    if r2.success and not self._branch_jump(xa, fixed_a, r2.x, fixed2):
+                        since_progress[0] = 0
+                        return r2, None, fixed2
+            if depth >= 10 or since_progress[0] > WALK_BUDGET * self.max_iter:
                 if r is None:
                     return None, reason, None
                 if jumped:
@@ -548,12 +571,15 @@ class Solver:
                                    'point) lies between the previous configuration and this input')
                 return None, why, None
             vm = self._interp(va, vb, 0.5)
-            rm, why, fm = walk(va, xa, vm, depth + 1)
+            rm, why, fm = walk(va, xa, vm, depth + 1, sign_a)
             if rm is None:
                 return None, why, None
-            return walk(vm, rm.x, vb, depth + 1)
+            return walk(vm, rm.x, vb, depth + 1, rm.det_sign)
 
-        r, reason, fixed = walk(v0, x0, vals, 0)
+        last = self._history[-1] if self._history else None
+        known = last.det_sign if last is not None and last.x_all is not None \
+            and last.det_sign != 0 else None
+        r, reason, fixed = walk(v0, x0, vals, 0, known)
         solver_name = 'newton' if self.mode == 'newton' else 'hybrid'
         if r is None:
             res = self._fail(reason, self._echo(vals), solver_name)
