@@ -138,14 +138,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Stand-alone entry point: ``python -m linkage_ros.bag ...``."""
-    parser = argparse.ArgumentParser(prog='linkage bag',
-                                     formatter_class=argparse.RawDescriptionHelpFormatter)
-    add_arguments(parser)
-    try:
-        args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
-    except SystemExit as exc:
-        return exc.code if isinstance(exc.code, int) else USAGE_ERROR
-    return run(args)
+    from .cli import standalone_main
+    return standalone_main('linkage bag', add_arguments, run, argv)
 
 
 def run(args: argparse.Namespace) -> int:

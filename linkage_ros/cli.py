@@ -35,7 +35,7 @@ from .core.errors import LinkageError
 #: subcommand -> module defining ``add_arguments(parser)`` and ``run(args) -> int``; a module that
 #: does not import is left out (the reason shows in ``linkage --help``).
 EXTERNAL_COMMANDS = {
-    'range': 'linkage_ros.core.motion_cli',
+    'range': 'linkage_ros.range_cli',
     'bag': 'linkage_ros.bag',
     'bench': 'linkage_ros.bench',
 }
@@ -589,6 +589,18 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
         mod.add_arguments(p)
         p.set_defaults(func=mod.run)
     return parser, broken
+
+
+def standalone_main(prog: str, add_arguments, run, argv: Sequence[str] | None = None) -> int:
+    """Run one subcommand module on its own (``python -m linkage_ros.bag ...``): its parser,
+    then run(args); argparse's usage errors become exit status 2 instead of SystemExit."""
+    parser = argparse.ArgumentParser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter)
+    add_arguments(parser)
+    try:
+        args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else 2
+    return run(args)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -292,7 +292,6 @@ class Plan:
     # -- compile ------------------------------------------------------------------------------
     def _compile(self):
         mech = self.mech
-        ref = mech.points
         steps: list[Step] = []
         known_pts: set[str] = set()
         placed: set[int] = set()
@@ -369,7 +368,6 @@ class Plan:
         self.known_points = known_pts
 
     def _two_distinct(self, bi, kp):
-        ref = self.mech.points
         for i in range(len(kp)):
             for j in range(i + 1, len(kp)):
                 if np.hypot(*(self._local_ref(bi, kp[i]) - self._local_ref(bi, kp[j]))) > 0:
@@ -522,14 +520,13 @@ class Plan:
         return loc
 
     def run(self, values: Sequence[np.ndarray], n: int, signs: Sequence[int] | None = None,
-            prefer: dict[str, np.ndarray] | None = None, tol: float = dyads.TANGENCY_TOL):
-        """Execute the plan over a batch of n.
+            tol: float = dyads.TANGENCY_TOL):
+        """Execute the plan over a batch of n with fixed branch signs (continuity is a
+        one-command-at-a-time rule: see run_one).
 
         ``values[i]`` is the value array of spec i ((n,) or (n, 2)). ``signs`` overrides the
-        branch signs (one per branching step). ``prefer`` maps a point name to its predicted
-        position (n, 2): the branch nearest it is taken (continuity), overriding ``signs``.
-        Returns (poses, points, info) where info has ok (n,), margin (n,), signs (n, k),
-        failure (step index or -1) and violation (n,).
+        branch signs (one per branching step). Returns (poses, points, info) where info has
+        ok (n,), margin (n,), signs (n, k), failure (step index or -1) and violation (n,).
         """
         mech = self.mech
         signs = list(self.reference_signs if signs is None else signs)
@@ -573,6 +570,14 @@ class Plan:
             violation[newly] = viol[newly] if np.ndim(viol) else viol
             ok = ok & ~mask
 
+        def took(k, m, okk, viol):
+            """Record a branching step: its sign column, margins and failures."""
+            nonlocal margin, bk
+            used_signs[:, bk] = signs[bk]
+            margin = np.minimum(margin, m)
+            fail(~okk, k, viol)
+            bk += 1
+
         for k, st in enumerate(self.steps):
             if st.op == 'ground':
                 place_body(st.body, np.zeros(n), np.zeros((n, 2)))
@@ -606,14 +611,9 @@ class Plan:
                 x = st.point
                 r1 = _norm(local_pt(b1, x) - local_pt(b1, p1))
                 r2 = _norm(local_pt(b2, x) - local_pt(b2, p2))
-                sgn = self._choose(signs[bk], prefer, x, n,
-                                   lambda s: dyads.circle_circle(pts[p1], r1, pts[p2], r2, s, tol)[0])
-                X, m, okk, viol, _ = dyads.circle_circle(pts[p1], r1, pts[p2], r2, sgn, tol)
+                X, m, okk, viol, _ = dyads.circle_circle(pts[p1], r1, pts[p2], r2, signs[bk], tol)
                 pts[x] = X
-                used_signs[:, bk] = sgn
-                margin = np.minimum(margin, m)
-                fail(~okk, k, viol)
-                bk += 1
+                took(k, m, okk, viol)
             elif st.op == 'circle_line':
                 b1, p1, jname = st.args
                 pj = mech.prismatics[jname]
@@ -622,14 +622,9 @@ class Plan:
                 g = pj.guide
                 p0 = poses.apply(g, mech.points[x])
                 u = dyads.rotate(np.broadcast_to(np.asarray(pj.direction), (n, 2)), poses.phi[g])
-                sgn = self._choose(signs[bk], prefer, x, n,
-                                   lambda s: dyads.circle_line(pts[p1], r, p0, u, s, tol)[0])
-                X, m, okk, viol = dyads.circle_line(pts[p1], r, p0, u, sgn, tol)
+                X, m, okk, viol = dyads.circle_line(pts[p1], r, p0, u, signs[bk], tol)
                 pts[x] = X
-                used_signs[:, bk] = sgn
-                margin = np.minimum(margin, m)
-                fail(~okk, k, viol)
-                bk += 1
+                took(k, m, okk, viol)
             elif st.op == 'line_through':
                 jname, p = st.args
                 pj = mech.prismatics[jname]
@@ -648,33 +643,13 @@ class Plan:
                     psi, mm, okk, viol = dyads.line_through_point(pts[p], pts[x], e, s, tol)
                     return psi - psi0, mm, okk, viol
 
-                sgn = np.full(n, signs[bk])
-                if prefer is not None and '@' + pj.guide in prefer:
-                    # continuity for an orientation: keep the guide direction nearest the last
-                    last = prefer['@' + pj.guide]
-                    c = [solve_phi(s)[0] for s in (1, -1)]
-                    d = [np.abs(_wrap_pi(ci - last)) for ci in c]
-                    sgn = np.where(d[0] <= d[1], 1, -1)
-                phi, m, okk, viol = solve_phi(sgn)
+                phi, m, okk, viol = solve_phi(signs[bk])
                 angles[bi] = phi
                 place_body(bi, phi, pts[p] - dyads.rotate(lp, phi))
-                used_signs[:, bk] = sgn
-                margin = np.minimum(margin, m)
-                fail(~okk, k, viol)
-                bk += 1
+                took(k, m, okk, viol)
         info = {'ok': ok, 'margin': margin, 'signs': used_signs, 'failure': fail_step,
                 'violation': violation}
         return poses, pts, info
-
-    @staticmethod
-    def _choose(default_sign, prefer, x, n, candidate):
-        if prefer is None or x not in prefer:
-            return np.full(n, default_sign)
-        target = prefer[x]
-        cp, cm = candidate(np.ones(n)), candidate(-np.ones(n))
-        dp = _norm(cp - target)
-        dm = _norm(cm - target)
-        return np.where(dp <= dm, 1, -1)
 
 
 def _norm(v):

@@ -347,8 +347,6 @@ class Solver:
                 self.branch_mode, self.fixed_signs = 'explicit', combo
                 r = self.solve(values, commit=False)
                 if not r.success:
-                    if not out and not seen:
-                        first_fail = r
                     continue
                 key = tuple(round(c / self.mech.length_scale, 9) for p in sorted(r.points)
                             for c in r.points[p])
@@ -730,7 +728,7 @@ class BatchResult:
                         self.reason[i] = why
         if solver.mode != 'closed_form':
             return cls._sequential(self, solver, arrays, n)
-        poses, pts, info = solver.plan.run(safe, n, solver._signs(), None)
+        poses, pts, info = solver.plan.run(safe, n, solver._signs())
         ok = info['ok'] & finite & ~limit_bad
         for i in np.flatnonzero(~info['ok'] & finite & ~limit_bad):
             self.reason[i] = solver._dyad_reason(int(info['failure'][i]), float(info['violation'][i]))

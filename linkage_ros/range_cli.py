@@ -29,7 +29,7 @@ import math
 import sys
 from typing import Any, Sequence
 
-from .errors import LinkageError
+from .core.errors import LinkageError
 
 OK, REFUSED, USAGE_ERROR = 0, 1, 2
 PROG = 'linkage range'
@@ -65,8 +65,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _load(scene: str):
-    from ..resources import scene_path
-    from .model import Scene
+    from .resources import scene_path
+    from .core.model import Scene
     return Scene.from_yaml(scene_path(scene)).mechanism
 
 
@@ -121,7 +121,7 @@ def _check(args, mech):
 
 def analyse(args, mech) -> tuple[dict, int]:
     """Run the requested analyses; returns (report dict of plain data, exit status)."""
-    from . import motion
+    from .core import motion
     acts, hold = _check(args, mech)
     report: dict[str, Any] = {'scene': mech.name, 'dof': mech.dof,
                               'actuators': list(mech.actuators), 'inputs': {}, 'toggles': {}}
@@ -162,10 +162,10 @@ def analyse(args, mech) -> tuple[dict, int]:
         report['oscillation'] = {'input': inp, 'links': osc}
     plots = {}
     if args.plot:
-        from ..plots import plot_region
+        from .plots import plot_region
         plots['region'] = plot_region(mech, region_full, args.plot, tilt=report.get('tilt'))
     if args.curves:
-        from ..plots import plot_output_vs_input
+        from .plots import plot_output_vs_input
         inp = args.input or next(iter(mech.actuators))
         try:
             d = plot_output_vs_input(mech, inp, args.output, args.curves)
@@ -259,13 +259,9 @@ def run(args) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog=PROG)
-    add_arguments(parser)
-    try:
-        args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
-    except SystemExit as exc:
-        return exc.code if isinstance(exc.code, int) else USAGE_ERROR
-    return run(args)
+    """Stand-alone entry point: ``python -m linkage_ros.range_cli ...``."""
+    from .cli import standalone_main
+    return standalone_main(PROG, add_arguments, run, argv)
 
 
 if __name__ == '__main__':
