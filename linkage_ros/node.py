@@ -446,12 +446,19 @@ class LinkageNode(Node):
                 stamp = self._stamp(stamp)
                 self.pub_joints.publish(result_to_joint_state(result, self.mech.joint_names,
                                                               stamp, self.frame_id))
-                for name, msg in result_to_points(result, self.pub_points, stamp,
-                                                  self.frame_id).items():
-                    self.pub_points[name].publish(msg)
-                self.pub_markers.publish(result_to_markers(result, self.mech, stamp,
-                                                           self.frame_id))
-            self.pub_status.publish(result_to_status(result, self.status_name, request))
+                # the rest only when someone listens: with volatile QoS an unread message is
+                # unobservable, and building markers costs more than the solve
+                listened = [n for n, pub in self.pub_points.items()
+                            if pub.get_subscription_count()]
+                if listened:
+                    msgs = result_to_points(result, self.pub_points, stamp, self.frame_id)
+                    for name in listened:
+                        self.pub_points[name].publish(msgs[name])
+                if self.pub_markers.get_subscription_count():
+                    self.pub_markers.publish(result_to_markers(result, self.mech, stamp,
+                                                               self.frame_id))
+            if self.pub_status.get_subscription_count():
+                self.pub_status.publish(result_to_status(result, self.status_name, request))
             return result
         except Exception as exc:   # a bug must not take the node down: answer and keep going
             self.get_logger().error(f'internal error on {request}: {exc!r}\n'

@@ -1,0 +1,197 @@
+"""Smoke test of the benchmark machinery (linkage_ros.bench) on tiny sizes.
+
+Never asserts a timing: only that every measurement runs, the report has its structure, the
+50-digit reference is right (checked against geometry written here) and ``--write`` keeps the
+hand-written introduction above the marker line.
+"""
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from linkage_ros import bench
+from linkage_ros.cli import main as cli_main
+
+INTRO = '# Benchmarks\n\nHand-written introduction that the tool must keep.\n'
+
+
+@pytest.fixture(scope='module')
+def quick_run(tmp_path_factory):
+    """`linkage bench --quick --no-node --write ... --json ...` once for the whole module."""
+    d = tmp_path_factory.mktemp('bench')
+    md = d / 'BENCHMARKS.md'
+    md.write_text(f'{INTRO}\n{bench.MARKER}\nold generated text\n')
+    js = d / 'raw.json'
+    code = cli_main(['bench', '--quick', '--no-node', '--write', str(md), '--json', str(js)])
+    return code, md, d / 'bench_tradeoff.png', json.loads(js.read_text())
+
+
+def test_cli_writes_report_below_the_marker(quick_run):
+    code, md, png, _ = quick_run
+    assert code == 0
+    text = md.read_text()
+    assert text.startswith(INTRO)
+    assert text.count(bench.MARKER) == 1
+    assert 'old generated text' not in text
+    for heading in ('## Run', '## Targets', '## Speed against accuracy',
+                    '## Newton vs scipy.optimize.root', '## Vectorised four-bar throughput',
+                    '## Cost against what the scene asks', '## Node latency',
+                    '## Interpretation'):
+        assert heading in text
+    assert '(bench_tradeoff.png)' in text
+    assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
+    # a second write replaces the generated part again and still keeps the introduction
+    bench.write_report(md, 'new body\n')
+    text = md.read_text()
+    assert text.startswith(INTRO) and text.rstrip().endswith('new body')
+    # a file without the marker is all introduction: kept, marker and report appended
+    bare = md.parent / 'bare.md'
+    bare.write_text(INTRO)
+    bench.write_report(bare, 'body\n')
+    assert bare.read_text() == f'{INTRO}\n{bench.MARKER}\n\nbody\n'
+
+
+def test_render_from_json(quick_run, tmp_path):
+    """--render re-renders an earlier run's JSON dump without measuring again."""
+    _, md, _, rep = quick_run
+    js = tmp_path / 'raw.json'
+    js.write_text(json.dumps(rep))
+    out = tmp_path / 'again.md'
+    assert cli_main(['bench', '--render', str(js), '--write', str(out)]) == 0
+    text = out.read_text()
+    assert bench.MARKER in text and '## Targets' in text
+    assert (tmp_path / 'bench_tradeoff.png').exists()
+    assert rep['command'] == f'linkage bench --quick --write {md} --no-node'
+
+
+def test_report_structure(quick_run):
+    _, _, _, rep = quick_run
+    assert set(rep['scenes']) == set(bench.SCENES)
+    for key in ('nproc', 'cpu', 'python', 'numpy'):
+        assert rep['machine'][key]
+    fams = {}
+    for r in rep['settings']:
+        fams.setdefault(r['scene'], set()).add((r['family'], r['tol']))
+        assert r['scalar_us'] is not None and r['scalar_us'] > 0
+        assert r['failures'] == 0, r
+    for scene in bench.SCENES:
+        want = {('dyad', None), ('kernel', 1e-12)} | {('newton', t) for t in bench.NEWTON_TOLS} \
+            | {('scipy', t) for t in bench.SCIPY_XTOLS}
+        if scene in ('four_bar', 'slider_crank'):
+            want.add(('direct', None))
+        assert fams[scene] == want
+    # accuracy (not speed): closed forms are exact to rounding, Newton meets its tolerance
+    for r in rep['settings']:
+        if r['family'] in ('direct', 'dyad'):
+            assert r['err_max'] < 1e-13 and r['batch_us'] > 0 and r['batch_err_max'] < 1e-13
+        if r['family'] == 'newton':
+            assert r['err_max'] < 100 * r['tol']
+    t = rep['throughput'][0]
+    assert set(t['rate']) == {'numpy baseline', 'fourbar_forward', 'Solver.solve_batch'}
+    assert t['all_ok'] and max(t['max_angle_diff_vs_baseline'].values()) < 1e-12
+    assert [o['outputs'] for o in rep['outputs']] == [['Z1_rod'], ['A'], ['L'], None]
+    assert rep['outputs'][0]['plan_steps'] < rep['outputs'][-1]['plan_steps']
+    assert rep['node'] == {'skipped': '--no-node given'}
+    names = [t['target'] for t in rep['targets']]
+    assert any('numpy baseline' in n for n in names)
+    assert sum('scipy' in n for n in names) == len(bench.SCENES)
+    assert all(t['met'] in (True, False, None) for t in rep['targets'])
+
+
+def _textbook_fourbar(l1, l2, l3, l4, theta, branch):
+    """Points of the four-bar from the cosine rule, written here (not the core's formula)."""
+    a = complex(l2 * math.cos(theta), l2 * math.sin(theta))
+    o4 = complex(l1, 0.0)
+    d = abs(o4 - a)
+    gamma = math.acos((l3 * l3 + d * d - l4 * l4) / (2 * l3 * d))
+    u = (o4 - a) / d
+    b = a + l3 * u * complex(math.cos(gamma), branch * math.sin(gamma))
+    return a, b
+
+
+def test_reference_is_independent_and_exact():
+    mech = bench.load_scene('four_bar')
+    sc = mech.shortcut
+    ref = bench.MpReference(mech)
+    assert ref.n == 6                       # A, B, P unknown; O2, O4 on the ground
+    for theta in (0.3, 1.0471975511965976, 2.5, -2.0):
+        a, b = _textbook_fourbar(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'], theta,
+                                 sc['branch'])
+        # start far (1e-3 of the length scale) from the answer: the reference must still land
+        # on it, i.e. it does not just echo its start
+        start = {p: tuple(np.asarray(v) + 3e-4) for p, v in mech.points.items()}
+        start['A'] = (a.real + 3e-4, a.imag - 2e-4)
+        start['B'] = (b.real - 3e-4, b.imag + 1e-4)
+        pts, res = ref.solve({'crank': theta}, start)
+        assert res < 1e-40
+        for p, z in (('A', a), ('B', b)):
+            xh, xl, yh, yl = pts[p]
+            assert abs(xh - z.real) < 1e-15 and abs(yh - z.imag) < 1e-15
+        # coupler point P keeps its reference distances to A and B
+        for q in ('A', 'B'):
+            d_now = math.hypot(pts['P'][0] - pts[q][0], pts['P'][2] - pts[q][2])
+            d_ref = float(np.hypot(*(mech.points['P'] - mech.points[q])))
+            assert abs(d_now - d_ref) < 1e-15
+
+
+def test_reference_covers_every_benchmark_scene():
+    for name in bench.SCENES:
+        mech = bench.load_scene(name)
+        ref = bench.MpReference(mech)
+        cmd = bench.sweep_inputs(mech, 4)[1]
+        from linkage_ros.core.solver import Solver
+        r = Solver(mech, method='closed_form').solve(cmd)
+        assert r.success
+        hi, lo, worst = bench.reference_points(ref, [cmd], [r.points])
+        assert worst < 1e-40
+        pts = np.array([[r.points[p] for p in mech.points]])
+        assert bench.point_errors(pts, hi, lo, mech.length_scale)[0] < 1e-14
+        # a point 1e-6 off shows as an error of 1e-6 / length scale
+        pts[0, 0, 0] += 1e-6
+        err = bench.point_errors(pts, hi, lo, mech.length_scale)[0]
+        assert err == pytest.approx(1e-6 / mech.length_scale, rel=1e-6)
+
+
+def test_numpy_baseline_matches_textbook():
+    theta = np.array([0.3, 1.0, 2.5, -2.0])
+    t3, t4 = bench.numpy_circle_baseline(0.3, 0.1, 0.25, 0.2, theta, 1.0)
+    for th, a3, a4 in zip(theta, t3, t4):
+        a, b = _textbook_fourbar(0.3, 0.1, 0.25, 0.2, th, 1)
+        assert math.isclose(math.atan2((b - a).imag, (b - a).real), a3, abs_tol=1e-12)
+        assert math.isclose(math.atan2(b.imag, b.real - 0.3), a4, abs_tol=1e-12)
+
+
+def test_sustained_rate():
+    runs = [{'rate': 200.0, 'lost': 0, 'achieved_rate': 200.0},
+            {'rate': 500.0, 'lost': 0, 'achieved_rate': 499.0},
+            {'rate': 1000.0, 'lost': 3, 'achieved_rate': 1000.0},
+            {'rate': 2000.0, 'lost': 0, 'achieved_rate': 1500.0}]   # the driver could not keep up
+    assert bench.sustained_rate(runs) == 500.0
+    assert bench.sustained_rate(runs[2:]) is None
+
+
+def test_node_benchmark_machinery():
+    """The relay and the node under the driver, tiny sizes: structure only."""
+    pytest.importorskip('rclpy')
+    pytest.importorskip('sensor_msgs.msg')
+    sizes = replace(bench.QUICK, node_rates=(100.0,), node_seconds=0.3, node_warmup=3,
+                    node_ping=5)
+    rep = bench.bench_node(sizes)
+    assert 'skipped' not in rep, rep
+    for label in ('relay', 'node'):
+        res = rep['targets'][label]
+        assert res['ok'], res
+        assert res['latency']['n'] + res['latency']['timeouts'] == 5
+        (run,) = res['runs']
+        assert run['rate'] == 100.0 and run['sent'] == 30
+        assert run['received'] + run['lost'] == run['sent']
+    md = bench.render_markdown({**_minimal_report(), 'node': rep}, 'linkage bench', None)
+    assert '| relay |' in md and '| node |' in md
+
+
+def _minimal_report():
+    return {'machine': bench.machine_info(), 'sizes': bench.QUICK.__dict__, 'date': 'now',
+            'seconds': 1.0, 'targets': [], 'settings': [], 'scenes': {}, 'throughput': [],
+            'outputs': []}
