@@ -834,40 +834,36 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
                 if link_here == s.reference:
                     rel = -rel
             angles[st.body] = src + rel - local(st.body).phi[link_here]
-        elif op == 'circle_circle':
-            b1, p1, b2, p2 = st.args
+        elif op in ('circle_circle', 'circle_line'):
             x = st.point
-            r1 = abs(local_pt(b1, x) - local_pt(b1, p1))
-            r2 = abs(local_pt(b2, x) - local_pt(b2, p2))
-            big = max(r1, r2)
-            if abs(pts[p1] - pts[p2]) <= tol * big and abs(r1 - r2) <= tol * big:
-                # coincident circles (a change point: e.g. a rhombus folded flat): x may be
-                # anywhere on the circle; keep it where continuity predicts, else where the
-                # reference pose has it relative to p1. Branch identity is undefined (margin 0).
-                guess = prefer.get(x) if prefer else None
-                off = (guess - pts[p1]) if guess is not None else (pc[x] - pc[p1])
-                off = off / abs(off) if abs(off) > 0 else 1 + 0j
-                foot, hv, m, ok, viol = pts[p1] + r1 * off, 0j, 0.0, True, 0.0
+            if op == 'circle_circle':
+                b1, p1, b2, p2 = st.args
+                r1 = abs(local_pt(b1, x) - local_pt(b1, p1))
+                r2 = abs(local_pt(b2, x) - local_pt(b2, p2))
+                big = max(r1, r2)
+                if abs(pts[p1] - pts[p2]) <= tol * big and abs(r1 - r2) <= tol * big:
+                    # coincident circles (a change point: e.g. a rhombus folded flat): x may be
+                    # anywhere on the circle; keep it where continuity predicts, else where the
+                    # reference pose has it relative to p1. Branch identity is undefined (margin 0).
+                    guess = prefer.get(x) if prefer else None
+                    off = (guess - pts[p1]) if guess is not None else (pc[x] - pc[p1])
+                    off = off / abs(off) if abs(off) > 0 else 1 + 0j
+                    foot, vec, m, ok, viol = pts[p1] + r1 * off, 0j, 0.0, True, 0.0
+                else:
+                    foot, vec, m, ok, viol = dyads.circle_circle_pair(pts[p1], r1, pts[p2], r2,
+                                                                      tol)
             else:
-                foot, hv, m, ok, viol = dyads.circle_circle_pair(pts[p1], r1, pts[p2], r2, tol)
+                b1, p1, jname = st.args
+                pj = mech.prismatics[jname]
+                r = abs(local_pt(b1, x) - local_pt(b1, p1))
+                g = pj.guide
+                foot, vec, m, ok, viol = dyads.circle_line_pair(
+                    pts[p1], r, poses.world(g, pc[x]), poses.rot[g] * _c(pj.direction), tol)
             if not ok:
                 return failed(k, viol)
-            sg = pick(signs[bk], x, foot + hv, foot - hv, m)
-            pts[x] = foot + sg * hv
-            took(sg, m)
-        elif op == 'circle_line':
-            b1, p1, jname = st.args
-            pj = mech.prismatics[jname]
-            x = st.point
-            r = abs(local_pt(b1, x) - local_pt(b1, p1))
-            g = pj.guide
-            p0 = poses.world(g, pc[x])
-            u = poses.rot[g] * _c(pj.direction)
-            foot, kv, m, ok, viol = dyads.circle_line_pair(pts[p1], r, p0, u, tol)
-            if not ok:
-                return failed(k, viol)
-            sg = pick(signs[bk], x, foot + kv, foot - kv, m)
-            pts[x] = foot + sg * kv
+            # the two solutions are foot +- vec: + is the dyad's positive branch
+            sg = pick(signs[bk], x, foot + vec, foot - vec, m)
+            pts[x] = foot + sg * vec
             took(sg, m)
         elif op == 'line_through':
             jname, p = st.args
