@@ -175,9 +175,10 @@ def rotate(v, phi):
     return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)
 
 
-def wrap_angle(a):
-    """Wrap angles to [-pi, pi)."""
-    return (np.asarray(a, float) + np.pi) % (2.0 * np.pi) - np.pi
+def wrap_angle(a: float) -> float:
+    """Wrap one angle to (-pi, pi] by atan2 of its sine and cosine: exact argument reduction,
+    so 1e6 rad or 1e300 rad keep full precision (a modulo by 2*pi would not)."""
+    return math.atan2(math.sin(a), math.cos(a))
 
 
 # ---- scalar forms (Python complex numbers) ---------------------------------------------------

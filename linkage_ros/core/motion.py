@@ -43,6 +43,7 @@ from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
 
+from .dyads import wrap_angle
 from .model import Mechanism
 from .plan import Poses, spec_for, spec_value_at
 from .solver import Result, Solver
@@ -101,10 +102,6 @@ def reference_value(mech: Mechanism, name: str):
     spec = spec_for(mech, name)
     v = spec_value_at(mech, spec, _identity_poses(mech))[0]
     return np.asarray(v, float).copy() if spec.kind == 'point' else float(v)
-
-
-def _wrap(a):
-    return math.atan2(math.sin(a), math.cos(a))
 
 
 def _limit_interval(act, periodic: bool):
@@ -292,7 +289,7 @@ class _Line:
 
     def _same(self, a, b):
         if self.periodic:
-            return abs(_wrap(a - b)) <= 1e-9
+            return abs(wrap_angle(a - b)) <= 1e-9
         return abs(a - b) <= 1e-9 * self.scale
 
     # -- circuits
@@ -706,7 +703,7 @@ def oscillation_range(mech: Mechanism, link: str, actuator: str | None = None,
                     if np.isfinite(va):
                         j = int(np.argmin(np.abs(xs - v)))
                         xs = np.append(xs, v)
-                        ang = np.append(ang, ang[j] + _wrap(va - ang[j]))
+                        ang = np.append(ang, ang[j] + wrap_angle(va - ang[j]))
                         keep = np.append(keep, True)
             xs, ang = xs[keep], ang[keep]
         elif not periodic:
@@ -738,7 +735,7 @@ def oscillation_range(mech: Mechanism, link: str, actuator: str | None = None,
                     v = line.link_angle([x], signs, link)[0]
                     if not np.isfinite(v):
                         return math.inf
-                    return -sign * (centre + _wrap(v - centre))
+                    return -sign * (centre + wrap_angle(v - centre))
 
                 r = minimize_scalar(f, bounds=(xs[i - 1], xs[i + 1]), method='bounded',
                                     options={'xatol': 1e-13})

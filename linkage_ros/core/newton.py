@@ -22,6 +22,7 @@ from typing import Sequence
 
 import numpy as np
 
+from .dyads import wrap_angle
 from .model import Mechanism
 from .plan import ScalarPoses, Spec
 
@@ -45,8 +46,6 @@ POLISH_STEPS = 40
 SINGULAR_COND = 1e10
 
 
-def _wrap(a: float) -> float:
-    return math.atan2(math.sin(a), math.cos(a))
 
 
 class LoopSystem:
@@ -215,7 +214,7 @@ class LoopSystem:
                 v = values[row[1]]
                 if s.kind == 'angle':
                     pl, pr = pose(s.link), pose(s.reference)
-                    F[r] = L * _wrap(pl[0] - pr[0] - (_wrap(float(v)) - s.offset))
+                    F[r] = L * wrap_angle(pl[0] - pr[0] - (wrap_angle(float(v)) - s.offset))
                     if jacobian:
                         if pl[5] >= 0:
                             J[r, pl[5]] += L
@@ -291,7 +290,7 @@ class LoopSystem:
                 J[r, colS + 2] += uy
         if not normal:
             return f, 0.0
-        g = L * _wrap(phiS - phiG)
+        g = L * wrap_angle(phiS - phiG)
         if J is not None:
             if colS >= 0:
                 J[r + 1, colS] += L

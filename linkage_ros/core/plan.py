@@ -364,18 +364,13 @@ class Plan:
             else:
                 known_pts.add(step.point)
         self.steps_all = steps
-        self.placed_bodies = placed
-        self.known_points = known_pts
 
     def _two_distinct(self, bi, kp):
         for i in range(len(kp)):
             for j in range(i + 1, len(kp)):
-                if np.hypot(*(self._local_ref(bi, kp[i]) - self._local_ref(bi, kp[j]))) > 0:
+                if np.hypot(*(self.mech.points[kp[i]] - self.mech.points[kp[j]])) > 0:
                     return (kp[i], kp[j])
         return None
-
-    def _local_ref(self, bi, p):
-        return self.mech.points[p]
 
     def _angle_source(self, bi, angled):
         for a, b, i in self.relations:
@@ -685,10 +680,6 @@ def _c(v) -> complex:
     return complex(float(v[0]), float(v[1]))
 
 
-def _wrap1(a: float) -> float:
-    return math.atan2(math.sin(a), math.cos(a))
-
-
 #: Below this dyad margin (|sin| of its transmission angle) continuity decides the branch by the
 #: predicted position; above it the previous sign is kept, because an assembly mode can only
 #: change by passing through the dyad's singular (tangent) configuration.
@@ -726,7 +717,7 @@ def _body_local_one(plan: Plan, bi: int, values) -> ScalarPoses:
         s = plan.specs[w.spec_index]
         v = float(values[w.spec_index])
         if w.kind == 'angle':
-            rel = _wrap1(v) - s.offset
+            rel = dyads.wrap_angle(v) - s.offset
             phi = loc.phi[w.via] + (rel if w.link == s.link else -rel)
             p = plan.pc[w.shared_point]
             rot = complex(math.cos(phi), math.sin(phi))
@@ -830,7 +821,7 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             rel = 0.0
             if spec_i is not None:
                 s = plan.specs[spec_i]
-                rel = _wrap1(float(values[spec_i])) - s.offset
+                rel = dyads.wrap_angle(float(values[spec_i])) - s.offset
                 if link_here == s.reference:
                     rel = -rel
             angles[st.body] = src + rel - local(st.body).phi[link_here]
@@ -885,8 +876,8 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             sg = signs[bk]
             if prefer is not None and '@' + gl in prefer and near_singular(m):
                 last = prefer['@' + gl]
-                sg = 1 if abs(_wrap1(phi_p + loc.phi[gl] - last)) <= \
-                    abs(_wrap1(phi_m + loc.phi[gl] - last)) else -1
+                sg = 1 if abs(dyads.wrap_angle(phi_p + loc.phi[gl] - last)) <= \
+                    abs(dyads.wrap_angle(phi_m + loc.phi[gl] - last)) else -1
             phi = phi_p if sg > 0 else phi_m
             angles[bi] = phi
             place_body(bi, phi, pts[p] - complex(math.cos(phi), math.sin(phi)) * lp)
@@ -902,7 +893,7 @@ def _unit(z: complex) -> complex:
 def spec_value_one(mech: Mechanism, spec: Spec, poses: ScalarPoses):
     """Evaluate a spec on one configuration: a float, or (x, y) for a point."""
     if spec.kind == 'angle':
-        return _wrap1(poses.phi[spec.link] - poses.phi[spec.reference] + spec.offset)
+        return dyads.wrap_angle(poses.phi[spec.link] - poses.phi[spec.reference] + spec.offset)
     if spec.kind == 'slide':
         pj = mech.prismatics[spec.joint]
         x = poses.world(spec_point_link(mech, pj.point, pj.slider), _c(mech.points[pj.point]))

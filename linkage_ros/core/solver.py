@@ -23,6 +23,7 @@ import numpy as np
 
 from . import dyads
 from .errors import PlanError
+from .dyads import wrap_angle
 from .model import Mechanism
 from .newton import SINGULAR_COND, LoopSystem
 from .plan import (CONTINUITY_MARGIN, Plan, ScalarPoses, Spec, branch_geometry_one, run_one, spec_for, spec_value_at,
@@ -228,7 +229,7 @@ class Solver:
         mech = self.mech
         poses = ScalarPoses()
         for l, link in mech.links.items():
-            phi = _wrap(result.links[l] - link.angle_ref)
+            phi = wrap_angle(result.links[l] - link.angle_ref)
             rot = complex(math.cos(phi), math.sin(phi))
             p = link.points[0]
             w = complex(*result.points[p])
@@ -394,7 +395,7 @@ class Solver:
             if s.kind == 'point':
                 out += list((np.asarray(vb) - np.asarray(va)) / self.mech.length_scale)
             elif s.kind == 'angle':
-                out.append(_wrap(_wrap(vb) - _wrap(va)))   # reduce first: vb - va may overflow
+                out.append(wrap_angle(wrap_angle(vb) - wrap_angle(va)))   # reduce first: vb - va may overflow
             else:
                 out.append((vb - va) / self.mech.length_scale)
         return np.asarray(out)
@@ -507,7 +508,7 @@ class Solver:
         out = []
         for s, va, vb in zip(self.specs, a, b):
             if s.kind == 'angle':
-                out.append(_wrap(va) + t * _wrap(_wrap(vb) - _wrap(va)))
+                out.append(wrap_angle(va) + t * wrap_angle(wrap_angle(vb) - wrap_angle(va)))
             elif s.kind == 'point':
                 out.append(np.asarray(va) + t * (np.asarray(vb) - np.asarray(va)))
             else:
@@ -621,14 +622,14 @@ class Solver:
         links = mech.links
         for rj in mech.revolutes:
             if rj.parent in have and rj.child in have:
-                res.joints[rj.name] = _wrap(links[rj.child].angle_ref + have[rj.child]
+                res.joints[rj.name] = wrap_angle(links[rj.child].angle_ref + have[rj.child]
                                             - links[rj.parent].angle_ref - have[rj.parent])
         for pj in mech.prismatics.values():
             if pj.guide in have and pj.slider in have:
                 res.joints[pj.name] = float(spec_value_one(mech, self._slide_specs[pj.name], poses))
         for l, link in links.items():
             if l in have:
-                res.links[l] = _wrap(link.angle_ref + have[l])
+                res.links[l] = wrap_angle(link.angle_ref + have[l])
         for p, v in pts.items():
             res.points[p] = (v.real, v.imag)
         res.residual = self._residual(poses, vals)
@@ -664,7 +665,7 @@ class Solver:
                 off = poses.world(pj.slider, p) - poses.world(pj.guide, p)
                 n = poses.rot[pj.guide] * 1j * complex(*pj.direction)
                 worst = max(worst, abs(off.real * n.real + off.imag * n.imag),
-                            L * abs(_wrap(have[pj.slider] - have[pj.guide])))
+                            L * abs(wrap_angle(have[pj.slider] - have[pj.guide])))
         for s, v in zip(self.specs, vals):
             if not self._spec_links_in(s, have):
                 continue
@@ -672,7 +673,7 @@ class Solver:
             if s.kind == 'point':
                 worst = max(worst, abs(got[0] - v[0]), abs(got[1] - v[1]))
             elif s.kind == 'angle':
-                worst = max(worst, L * abs(_wrap(got - _wrap(v))))   # reduce v exactly first
+                worst = max(worst, L * abs(wrap_angle(got - wrap_angle(v))))   # reduce v exactly first
             else:
                 worst = max(worst, abs(got - v))
         return worst / L
@@ -839,5 +840,3 @@ def _sign_str(signs) -> str:
     return ''.join('+' if s > 0 else '-' for s in signs)
 
 
-def _wrap(a: float) -> float:
-    return math.atan2(math.sin(a), math.cos(a))
