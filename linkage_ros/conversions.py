@@ -67,16 +67,23 @@ def is_zero_stamp(stamp: Time) -> bool:
 # ---- outbound ----------------------------------------------------------------------------------
 
 def result_to_joint_state(result: Result, joint_names: Sequence[str], stamp: Time,
-                          frame_id: str) -> JointState:
+                          frame_id: str, reuse: JointState | None = None) -> JointState:
     """Every joint of ``joint_names`` (active and passive, in that order) with its position.
 
     Revolute: child link angle minus parent link angle (rad); prismatic: slide (m).
     velocity and effort are left empty (position kinematics only).
+    ``reuse``: a message made by an earlier call with the same names and frame, refilled in
+    place (a publisher serialises on publish, so one message can carry every answer).
     """
+    positions = [float(result.joints[j]) for j in joint_names]
+    if reuse is not None:
+        reuse.header.stamp = stamp
+        reuse.position = positions
+        return reuse
     msg = JointState()
     msg.header = Header(stamp=stamp, frame_id=frame_id)
     msg.name = list(joint_names)
-    msg.position = [float(result.joints[j]) for j in joint_names]
+    msg.position = positions
     return msg
 
 

@@ -382,6 +382,7 @@ class LinkageNode(Node):
         self.frame_id = self.config.frame_id or mech.frame_id
         self.status_name = f'{NODE_NAME}: {mech.name}'
         self.pub_joints = self.create_publisher(JointState, 'joint_states', QOS)
+        self._joint_msg: JointState | None = None      # refilled for every answer
         self.pub_points = {p: self.create_publisher(PointStamped, f'~/points/{p}', QOS)
                            for p in mech.outputs}
         self.pub_markers = self.create_publisher(MarkerArray, '~/markers', QOS)
@@ -444,8 +445,9 @@ class LinkageNode(Node):
                 result = Result(False, str(exc))
             if result.success:
                 stamp = self._stamp(stamp)
-                self.pub_joints.publish(result_to_joint_state(result, self.mech.joint_names,
-                                                              stamp, self.frame_id))
+                self._joint_msg = result_to_joint_state(result, self.mech.joint_names, stamp,
+                                                        self.frame_id, self._joint_msg)
+                self.pub_joints.publish(self._joint_msg)
                 # the rest only when someone listens: with volatile QoS an unread message is
                 # unobservable, and building markers costs more than the solve
                 listened = [n for n, pub in self.pub_points.items()

@@ -671,3 +671,13 @@ def test_result_to_joint_state_keeps_order_and_stamp():
     assert list(msg.name) == ['a', 'b'] and list(msg.position) == [1.0, 2.0]
     assert stamp_of(msg) == (1, 2) and msg.header.frame_id == 'f'
     assert not msg.velocity and not msg.effort
+
+
+def test_result_to_joint_state_refills_a_reused_message():
+    first = result_to_joint_state(Result(True, joints={'a': 1.0, 'b': 2.0}), ['a', 'b'],
+                                  Time(sec=1, nanosec=2), 'f')
+    again = result_to_joint_state(Result(True, joints={'a': -3.0, 'b': 4.5}), ['a', 'b'],
+                                  Time(sec=7, nanosec=8), 'f', reuse=first)
+    assert again is first
+    assert list(again.name) == ['a', 'b'] and list(again.position) == [-3.0, 4.5]
+    assert stamp_of(again) == (7, 8) and again.header.frame_id == 'f'

@@ -706,6 +706,14 @@ def _plan_scalar_setup(plan: Plan):
         for l in b.links:
             for p in mech.links[l].points:
                 plan.point_link.setdefault((b.index, p), l)
+    # per body: its links and each link's points with their reference positions
+    plan.body_layout = {b.index: [(l, [(p, plan.pc[p]) for p in mech.links[l].points])
+                                  for l in b.links] for b in plan.bodies}
+    # a body without welds has the same local frame for every command: build it once
+    plan.static_local = {b.index: _body_local_one(plan, b.index, ()) for b in plan.bodies
+                         if not b.welds}
+    plan.static_local_pt = {(bi, p): plan.static_local[bi].world(l, plan.pc[p])
+                            for (bi, p), l in plan.point_link.items() if bi in plan.static_local}
 
 
 def _body_local_one(plan: Plan, bi: int, values) -> ScalarPoses:
@@ -747,7 +755,8 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
     signs = plan.reference_signs if signs is None else signs
     poses = ScalarPoses()
     pts: dict[str, complex] = {}
-    locals_: dict[int, ScalarPoses] = {}
+    locals_: dict[int, ScalarPoses] = dict(plan.static_local)
+    static_pt = plan.static_local_pt
     angles: dict[int, float] = {}
     used: list[int] = []
     margin = 1.0
@@ -759,16 +768,22 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
         return loc
 
     def local_pt(bi, p):
-        return local(bi).world(plan.point_link[(bi, p)], pc[p])
+        w = static_pt.get((bi, p))
+        return local(bi).world(plan.point_link[(bi, p)], pc[p]) if w is None else w
+
+    phi_d, rot_d, T_d = poses.phi, poses.rot, poses.T
+    layout = plan.body_layout
 
     def place_body(bi, phi, Tb):
         loc = local(bi)
+        lphi, lrot, lT = loc.phi, loc.rot, loc.T
         rot = complex(math.cos(phi), math.sin(phi))
-        for l in plan.bodies[bi].links:
-            poses.set(l, phi + loc.phi[l], rot * loc.T[l] + Tb, rot * loc.rot[l])
-            for p in mech.links[l].points:
+        for l, link_pts in layout[bi]:
+            r, t = rot * lrot[l], rot * lT[l] + Tb
+            phi_d[l], rot_d[l], T_d[l] = phi + lphi[l], r, t
+            for p, c in link_pts:
                 if p not in pts:
-                    pts[p] = poses.world(l, pc[p])
+                    pts[p] = r * c + t
 
     margins: list[float] = []
 
