@@ -13,6 +13,7 @@ answered by exactly one ERROR status and changes nothing; the node keeps the las
 from __future__ import annotations
 
 import dataclasses
+import gc
 import math
 import sys
 import traceback
@@ -532,6 +533,9 @@ def main(args: Sequence[str] | None = None) -> int:
     node = None
     try:
         node = LinkageNode()
+        # start-up objects (modules, the scene, compiled plans) live as long as the process:
+        # move them out of the collector's sight so a full collection does not stall a command
+        gc.freeze()
         rclpy.spin(node)
     except (ConfigError, SceneError) as exc:
         rclpy.logging.get_logger(NODE_NAME).fatal(f'cannot start: {exc}')

@@ -10,9 +10,19 @@ angle rows are multiplied by the mechanism's length scale so every row has the s
 * known slide spec:                               d_G . (w_S(X) - w_G(origin)) - value = 0
 * known point spec:                               w_L(X) - (x, y) = 0                  (2 rows)
 
-Convergence is judged on max|F| / length_scale (scale-free). Between steps the sign of det J is
-checked: a flip means a branch jump or a singularity crossed, so the step is bisected. Where Newton
-steps stop reducing the residual (near singularities) a Levenberg-Marquardt step takes over.
+Convergence is judged on max|F| / length_scale (scale-free). Linear algebra is one LU (LAPACK
+getrf) of the scale-free Jacobian per linearisation point: it gives the Newton step and the sign
+of det J (from the U diagonal and the pivots). At the answer LAPACK's 1-norm estimate of the
+condition number is taken; the exact one (an SVD) only where that estimate is large.
+
+Two paths. The *fast* path starts from a predicted guess (:meth:`LoopSystem.predict`: cubic
+Hermite extrapolation from the last two solutions and their tangents dx/dvalue): one Newton step,
+then chord steps reusing that factorisation, the Jacobian factorised again only at the answer; it
+is taken only if the guess and the answer have the start's det J sign and every step cuts max|F|
+tenfold. Otherwise the *careful* path runs from the previous solution: Newton steps with a
+backtracking line search, the sign of det J checked at every accepted point (a flip means a branch
+jump or a singularity crossed, so the step is shortened), and Levenberg-Marquardt where Newton
+steps stop reducing the residual (near singularities).
 """
 from __future__ import annotations
 
@@ -32,11 +42,14 @@ class SolveResult:
     """Outcome of one Newton solve (configuration vector x over the free links)."""
     x: np.ndarray
     success: bool
-    iterations: int
+    iterations: int              # steps taken (Newton, chord, line-search, LM and polish)
     residual: float              # max |F| / length scale
     reason: str | None = None
-    cond: float = float('inf')   # condition number of the column-scaled Jacobian
+    cond: float = float('inf')   # condition number of the scale-free Jacobian (see _cond)
     det_sign: int = 0
+    factor: tuple | None = None  # (lu, piv, det sign) of the scale-free J at x
+    jacobians: int = 0           # Jacobians evaluated and factorised
+    predicted: bool = False      # converged by the fast path from the predicted guess
 
 
 #: at convergence, a scaled cond(J) above this means a near-singular configuration: polish
@@ -44,8 +57,28 @@ POLISH_COND = 1e6
 POLISH_STEPS = 40
 #: a scaled cond(J) above this is a singular configuration (rank-deficient to rounding)
 SINGULAR_COND = 1e10
+#: LAPACK's 1-norm estimate of cond(J) above this: compute the exact (scaled_cond, an SVD). On the
+#: scenes the estimate is 1.5-7x the exact value, so the thresholds above are decided exactly
+COND_EXACT = 1e4
+#: the fast path: at most this many steps, each cutting max|F| at least by this factor, down to
+#: FAST_MARGIN * tol (not below FAST_FLOOR, about the rounding floor of max|F| / L) where they can
+FAST_STEPS = 4
+FAST_RATE = 0.1
+FAST_MARGIN = 1e-2
+FAST_FLOOR = 4e-15
+#: a prediction moving any unknown further than this (rad, or length scales) is not tried
+MAX_PREDICTION = 0.5
+
+_LAPACK = None
 
 
+def _lapack():
+    """(getrf, getrs, gecon) from scipy's LAPACK wrappers, imported on first use."""
+    global _LAPACK
+    if _LAPACK is None:
+        from scipy.linalg import lapack
+        _LAPACK = (lapack.dgetrf, lapack.dgetrs, lapack.dgecon)
+    return _LAPACK
 
 
 class LoopSystem:
@@ -78,31 +111,11 @@ class LoopSystem:
                 self.rows.append(('spec', i))
                 m += s.size
         self.m = m
-        # revolute rows come first and are evaluated vectorised: for each, the two links (index
-        # into all links), their levers p - o (complex) and their variable columns (-1: fixed)
-        self.all_links = list(mech.links)
-        lidx = {l: i for i, l in enumerate(self.all_links)}
-        rev = [row for row in self.rows if row[0] == 'rev']
-        self.n_rev = len(rev)
-        self._rev_link = np.array([[lidx[a], lidx[b]] for _, a, b, _ in rev], int).reshape(-1, 2)
-        self._rev_lever = np.array(
-            [[complex(*(pts[P] - self.centroid[a])), complex(*(pts[P] - self.centroid[b]))]
-             for _, a, b, P in rev], complex).reshape(-1, 2)
-        self._rev_col = np.array([[3 * self.index[l] if l in self.index else -1 for l in (a, b)]
-                                  for _, a, b, _ in rev], int).reshape(-1, 2)
-        self._free_idx = np.array([lidx[l] for l in free], int)
-        # flat Jacobian positions of the revolute entries, per side (0: parent, 1: child):
-        # (row, d/dphi), (row+1, d/dphi), (row, d/dcx), (row+1, d/dcy) for free links only
-        self._rev_flat, self._rev_mask = [], []
-        for side in (0, 1):
-            col = self._rev_col[:, side] if self.n_rev else np.zeros(0, int)
-            m_ = col >= 0
-            rr, cc = 2 * np.arange(self.n_rev)[m_], col[m_]
-            n = self.n
-            self._rev_flat.append(np.concatenate([rr * n + cc, (rr + 1) * n + cc,
-                                                  rr * n + cc + 1, (rr + 1) * n + cc + 2]))
-            self._rev_mask.append(m_)
-        self._centroid_c = np.array([complex(*self.centroid[l]) for l in self.all_links])
+        self._col_scale = np.tile([1.0 / self.L, 1.0, 1.0], len(free))
+        self._step_scale = np.tile([1.0, self.L, self.L], len(free))
+        self._step_list = self._step_scale.tolist()
+        self._inv_step_list = [1.0, 1.0 / self.L, 1.0 / self.L] * len(free)
+        self._compile()
 
     def _spec_links(self, s: Spec) -> list[str]:
         if s.kind == 'angle':
@@ -111,6 +124,108 @@ class LoopSystem:
             pj = self.mech.prismatics[s.joint]
             return [pj.guide, pj.slider]
         return [self.mech.links_of_point(s.point)[0]]
+
+    def _compile(self):
+        """Flat instruction tables for evaluate(): link slots (free links first, then the fixed
+        links the rows name), per-row constants, and the Jacobian as a template of its constant
+        entries plus the flat positions of the entries that vary (in evaluation order)."""
+        mech, L, n, m = self.mech, self.L, self.n, self.m
+        pts, cen = mech.points, self.centroid
+        slot = dict(self.index)
+        self._others: list[str] = []
+
+        def s_of(link):
+            if link not in slot:
+                slot[link] = len(self.free) + len(self._others)
+                self._others.append(link)
+            return slot[link]
+
+        dummy = m * n                  # varying entries of fixed links land here (dropped)
+        tpl = np.zeros(m * n + 1)
+        jpos: list[int] = []
+
+        def var(r, link, k=0):
+            i = self.index.get(link)
+            jpos.append(dummy if i is None else r * n + 3 * i + k)
+
+        def const(r, link, k, v):
+            i = self.index.get(link)
+            if i is not None:
+                tpl[r * n + 3 * i + k] += v
+
+        def lever(link, p):
+            v = np.asarray(p, float) - cen[link]
+            return float(v[0]), float(v[1])
+
+        self._revs, self._tail = [], []
+        self._val_rows: list[int] | None = []       # row of each value component
+        r = 0
+        for row in self.rows:
+            if row[0] != 'rev':
+                continue
+            _, a, b, P = row
+            self._revs.append((s_of(a), *lever(a, pts[P]), s_of(b), *lever(b, pts[P])))
+            var(r, a), var(r + 1, a), var(r, b), var(r + 1, b)
+            const(r, a, 1, 1.0), const(r + 1, a, 2, 1.0)
+            const(r, b, 1, -1.0), const(r + 1, b, 2, -1.0)
+            r += 2
+        self.n_rev = r // 2
+
+        def line(r, pj, u0, base, vi):
+            G, S = pj.guide, pj.slider
+            self._tail.append((0, s_of(G), s_of(S), float(u0[0]), float(u0[1]),
+                               *lever(S, pts[pj.point]), *lever(G, base), vi))
+            for link, k in ((G, 0), (G, 1), (G, 2), (S, 0), (S, 1), (S, 2)):
+                var(r, link, k)
+
+        def angle(r, a, b, vi, offset):
+            self._tail.append((1, s_of(a), s_of(b), vi, offset))
+            const(r, a, 0, L), const(r, b, 0, -L)
+
+        spec_rows = {}
+        for row in self.rows:
+            if row[0] == 'pri':
+                pj = row[1]
+                d0 = pj.direction
+                line(r, pj, (-d0[1], d0[0]), pts[pj.point], None)
+                angle(r + 1, pj.slider, pj.guide, None, 0.0)
+                r += 2
+            elif row[0] == 'spec':
+                i = row[1]
+                s = self.specs[i]
+                spec_rows[i] = r
+                if s.kind == 'angle':
+                    angle(r, s.link, s.reference, i, s.offset)
+                    r += 1
+                elif s.kind == 'slide':
+                    pj = mech.prismatics[s.joint]
+                    line(r, pj, pj.direction, pj.origin, i)
+                    r += 1
+                else:
+                    owner = mech.links_of_point(s.point)[0]
+                    self._tail.append((2, s_of(owner), *lever(owner, pts[s.point]), i))
+                    var(r, owner), var(r + 1, owner)
+                    const(r, owner, 1, 1.0), const(r + 1, owner, 2, 1.0)
+                    r += 2
+        for i, s in enumerate(self.specs):
+            if i not in spec_rows:
+                self._val_rows = None   # a value moves fixed links: no prediction
+                break
+            self._val_rows += [spec_rows[i]] if s.size == 1 else [spec_rows[i], spec_rows[i] + 1]
+        self._val_idx = np.array(self._val_rows or [], np.intp)
+        self._tpl = tpl
+        self._tpl_s = tpl * np.append(np.tile(self._col_scale, m), 1.0)
+        self._jpos = np.array(jpos, np.intp)
+        real = [p for p in jpos if p != dummy]
+        self._jpos_unique = len(set(real)) == len(real)
+        self._none_slots = None        # the fixed-link slots when no fixed poses are given
+        self._point_owner = []
+        seen = set()
+        for l, link in mech.links.items():
+            for p in link.points:
+                if p not in seen:
+                    seen.add(p)
+                    self._point_owner.append((p, l, complex(*map(float, pts[p]))))
 
     # -- conversions between poses and the variable vector -------------------------------------
     def x_from_poses(self, poses: ScalarPoses) -> np.ndarray:
@@ -144,162 +259,130 @@ class LoopSystem:
             poses.set(l, phi, complex(x[3 * i + 1], x[3 * i + 2]) - rot * complex(o[0], o[1]), rot)
         return poses
 
-    @staticmethod
-    def _rot(phi: float, v) -> np.ndarray:
-        c, s = math.cos(phi), math.sin(phi)
-        return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+    def configuration(self, x: np.ndarray, fixed: ScalarPoses | None = None):
+        """(poses, points): poses_from_x and every point's world position (complex), each read
+        off the first link that carries it."""
+        poses = self.poses_from_x(x, fixed)
+        rot, T = poses.rot, poses.T
+        return poses, {p: rot[l] * z + T[l] for p, l, z in self._point_owner}
 
     # -- evaluation ---------------------------------------------------------------------------
-    def _pose(self, link, x, fixed):
-        """(phi, cos, sin, cx, cy, column or -1) of a link, free or fixed."""
-        i = self.index.get(link)
-        if i is not None:
-            phi, cx, cy = x[3 * i], x[3 * i + 1], x[3 * i + 2]
-            return phi, math.cos(phi), math.sin(phi), cx, cy, 3 * i
-        if fixed is not None and link in fixed.phi:
-            phi, rot = fixed.phi[link], fixed.rot[link]
-            o = self.centroid[link]
-            c = rot * complex(o[0], o[1]) + fixed.T[link]
-            return phi, rot.real, rot.imag, c.real, c.imag, -1
-        if link == self.mech.ground:
-            o = self.centroid[link]
-            return 0.0, 1.0, 0.0, float(o[0]), float(o[1]), -1
-        raise KeyError(f'link {link!r} is neither free nor fixed')
+    def _fixed_slots(self, fixed):
+        """(cos, sin, cx, cy) and phi of the fixed links the rows name: from ``fixed``, else the
+        ground in its reference pose."""
+        P, phis = [], []
+        for l in self._others:
+            o = self.centroid[l]
+            if fixed is not None and l in fixed.phi:
+                rot = fixed.rot[l]
+                c = rot * complex(o[0], o[1]) + fixed.T[l]
+                P.append((rot.real, rot.imag, c.real, c.imag))
+                phis.append(fixed.phi[l])
+            elif l == self.mech.ground:
+                P.append((1.0, 0.0, float(o[0]), float(o[1])))
+                phis.append(0.0)
+            else:
+                raise KeyError(f'link {l!r} is neither free nor fixed')
+        return P, phis
 
     def evaluate(self, x: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None,
                  jacobian: bool = True):
         """Residual F (m,) and, if asked, the analytic Jacobian J (m, n)."""
-        mech, L = self.mech, self.L
-        F = np.empty(self.m)
-        J = np.zeros((self.m, self.n)) if jacobian else None
-        cache: dict[str, tuple] = {}
+        F, Jv = self._rows(x, values, fixed, jacobian, 1.0)
+        return np.array(F, float), (self._jacobian(Jv, self._tpl) if jacobian else None)
 
-        def pose(link):
-            p = cache.get(link)
-            if p is None:
-                p = cache[link] = self._pose(link, x, fixed)
-            return p
+    def _eval_s(self, x, values, fixed, jacobian=True):
+        """F / L, J * col_scale (translations / L) and max|F / L| (inf if not finite): the
+        scale-free units solve() works in, so nothing overflows at 1e300 m and the LM damping
+        means the same at every scale. Steps come back as dy, with dx = dy * self._step_scale."""
+        F, Jv, res = self._eval_rows_s(x, values, fixed, jacobian)
+        return F, self._jacobian(Jv, self._tpl_s) if jacobian else None, res
 
-        def world(link, p):
-            """world position and the lever R(p - o) (for d/dphi = perp(lever))."""
-            phi, c, s, cx, cy, col = pose(link)
-            o = self.centroid[link]
-            vx, vy = p[0] - o[0], p[1] - o[1]
-            rx, ry = c * vx - s * vy, s * vx + c * vy
-            return cx + rx, cy + ry, rx, ry, col
+    def _eval_rows_s(self, x, values, fixed, jacobian=True):
+        """_eval_s with J left as its varying entries (self._jacobian(Jv, self._tpl_s) builds
+        it), for points where it may not be needed."""
+        F, Jv = self._rows(x, values, fixed, jacobian, 1.0 / self.L)
+        res = max(map(abs, F), default=0.0)
+        total = sum(F)
+        if total - total != 0.0:         # a NaN or inf
+            res = math.inf
+        return np.array(F, float), Jv, res
 
-        def add_point(row, link, p, sign):
-            """Add sign * d w_link(p) / dx into rows row, row+1."""
-            wx, wy, rx, ry, col = world(link, p)
-            if jacobian and col >= 0:
-                J[row, col] += sign * -ry
-                J[row + 1, col] += sign * rx
-                J[row, col + 1] += sign
-                J[row + 1, col + 2] += sign
-            return wx, wy
-
-        r = 2 * self.n_rev
-        if self.n_rev:
-            self._revolute_rows(x, fixed, F, J)
-        pts = mech.points
-        for row in self.rows[self.n_rev:]:
-            kind = row[0]
-            if kind == 'pri':
-                pj = row[1]
-                F[r], F[r + 1] = self._line_rows(r, J, pj, pj.point, pts[pj.point], world, pose, L,
-                                                 normal=True)
-                r += 2
-            else:
-                s = self.specs[row[1]]
-                v = values[row[1]]
-                if s.kind == 'angle':
-                    pl, pr = pose(s.link), pose(s.reference)
-                    F[r] = L * wrap_angle(pl[0] - pr[0] - (wrap_angle(float(v)) - s.offset))
-                    if jacobian:
-                        if pl[5] >= 0:
-                            J[r, pl[5]] += L
-                        if pr[5] >= 0:
-                            J[r, pr[5]] -= L
-                    r += 1
-                elif s.kind == 'slide':
-                    pj = mech.prismatics[s.joint]
-                    F[r] = self._line_rows(r, J, pj, pj.point, np.asarray(pj.origin), world, pose,
-                                           L, normal=False)[0] - float(v)
-                    r += 1
-                else:
-                    owner = mech.links_of_point(s.point)[0]
-                    wx, wy = add_point(r, owner, pts[s.point], 1.0)
-                    F[r], F[r + 1] = wx - float(v[0]), wy - float(v[1])
-                    r += 2
-        return F, J
-
-    def _revolute_rows(self, x, fixed, F, J):
-        """Rows w_a(P) - w_b(P) of every revolute joint at once (complex arithmetic)."""
-        phi = np.zeros(len(self.all_links))
-        c = self._centroid_c.copy()            # ground and unknown-fixed: reference pose
-        if fixed is not None:
-            for i, l in enumerate(self.all_links):
-                if l in fixed.phi and l not in self.index:
-                    phi[i] = fixed.phi[l]
-                    c[i] = fixed.rot[l] * self._centroid_c[i] + fixed.T[l]
-        if len(self._free_idx):
-            phi[self._free_idx] = x[0::3]
-            c[self._free_idx] = x[1::3] + 1j * x[2::3]
-        rot = np.exp(1j * phi)
-        lever = rot[self._rev_link] * self._rev_lever          # (n_rev, 2)
-        w = c[self._rev_link] + lever
-        d = w[:, 0] - w[:, 1]
-        F[0:2 * self.n_rev:2] = d.real
-        F[1:2 * self.n_rev:2] = d.imag
-        if J is None:
-            return
-        vals = []
-        for side, sign in ((0, 1.0), (1, -1.0)):
-            lv = lever[self._rev_mask[side], side]
-            ones = np.full(len(lv), sign)
-            vals.append(np.concatenate([sign * -lv.imag, sign * lv.real, ones, ones]))  # i*lever
-        # one scatter for all entries (bincount sums the parent and child contributions)
-        J += np.bincount(np.concatenate(self._rev_flat), weights=np.concatenate(vals),
-                         minlength=J.size).reshape(J.shape)
-
-    def _line_rows(self, r, J, pj, xname, base_ref, world, pose, L, normal):
-        """Rows of a prismatic pair: the slider point's offset from the guide line (normal=True,
-        plus the orientation lock) or its signed distance along it from base_ref (normal=False)."""
-        G, S = pj.guide, pj.slider
-        phiG, cG, sG, _, _, colG = pose(G)
-        phiS, _, _, _, _, colS = pose(S)
-        d0 = pj.direction
-        if normal:
-            u0 = (-d0[1], d0[0])
+    def _jacobian(self, Jv, tpl):
+        Jf = tpl.copy()
+        if self._jpos_unique:
+            Jf[self._jpos] = Jv
         else:
-            u0 = d0
-        ux, uy = cG * u0[0] - sG * u0[1], sG * u0[0] + cG * u0[1]
-        sx, sy, srx, sry, _ = world(S, self.mech.points[xname])
-        gx, gy, grx, gry, _ = world(G, base_ref)
-        dx, dy = sx - gx, sy - gy
-        f = ux * dx + uy * dy
-        if J is not None:
-            if colG >= 0:
-                # d u / dphi = perp(u); d w_G / dphi = perp(lever)
-                J[r, colG] += (-uy) * dx + ux * dy - (ux * (-gry) + uy * grx)
-                J[r, colG + 1] -= ux
-                J[r, colG + 2] -= uy
-            if colS >= 0:
-                J[r, colS] += ux * (-sry) + uy * srx
-                J[r, colS + 1] += ux
-                J[r, colS + 2] += uy
-        if not normal:
-            return f, 0.0
-        g = L * wrap_angle(phiS - phiG)
-        if J is not None:
-            if colS >= 0:
-                J[r + 1, colS] += L
-            if colG >= 0:
-                J[r + 1, colG] -= L
-        return f, g
+            np.add.at(Jf, self._jpos, Jv)
+        return Jf[:-1].reshape(self.m, self.n)
 
-    # -- solving ------------------------------------------------------------------------------
+    def _rows(self, x, values, fixed, jac, k):
+        """The residual rows (a list) times k and, if jac, the varying Jacobian entries (a list
+        in _jpos order), those of rotation columns times k."""
+        xs = x.tolist() if isinstance(x, np.ndarray) else [float(v) for v in x]
+        cos, sin = math.cos, math.sin
+        phis = xs[0::3]
+        try:
+            P = [(cos(p), sin(p), cx, cy) for p, cx, cy in zip(phis, xs[1::3], xs[2::3])]
+        except ValueError:               # an infinite angle: NaN rows (callers reject them)
+            phis = [math.nan] * len(phis)
+            P = [(math.nan,) * 4] * len(phis)
+        if self._others:
+            if fixed is None:
+                if self._none_slots is None:
+                    self._none_slots = self._fixed_slots(None)
+                ext = self._none_slots
+            else:
+                ext = self._fixed_slots(fixed)
+            P += ext[0]
+            phis += ext[1]
+        F: list[float] = []
+        Jv: list[float] = []
+        for ia, lax, lay, ib, lbx, lby in self._revs:
+            c1, s1, x1, y1 = P[ia]
+            c2, s2, x2, y2 = P[ib]
+            rax, ray = c1 * lax - s1 * lay, s1 * lax + c1 * lay
+            rbx, rby = c2 * lbx - s2 * lby, s2 * lbx + c2 * lby
+            F.append(((x1 + rax) - (x2 + rbx)) * k)
+            F.append(((y1 + ray) - (y2 + rby)) * k)
+            if jac:                      # d/dphi of a world point is perp(lever)
+                Jv += (-ray * k, rax * k, rby * k, -rbx * k)
+        kL = self.L * k
+        for row in self._tail:
+            kind = row[0]
+            if kind == 0:                # line row: u . (w_S(X) - w_G(base)) [- value]
+                _, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, vi = row
+                cG, sG, xG, yG = P[iG]
+                cS, sS, xS, yS = P[iS]
+                ux, uy = cG * u0x - sG * u0y, sG * u0x + cG * u0y
+                srx, sry = cS * lsx - sS * lsy, sS * lsx + cS * lsy
+                grx, gry = cG * lgx - sG * lgy, sG * lgx + cG * lgy
+                dx, dy = (xS + srx) - (xG + grx), (yS + sry) - (yG + gry)
+                f = ux * dx + uy * dy
+                F.append((f if vi is None else f - float(values[vi])) * k)
+                if jac:                  # d u / dphi_G = perp(u)
+                    Jv += ((-uy * dx + ux * dy - (ux * -gry + uy * grx)) * k, -ux, -uy,
+                           (ux * -sry + uy * srx) * k, ux, uy)
+            elif kind == 1:              # angle row: L * wrap(phi_a - phi_b [- (value - offset)])
+                _, ia, ib, vi, off = row
+                a = phis[ia] - phis[ib]
+                if vi is not None:
+                    a -= wrap_angle(float(values[vi])) - off
+                F.append(kL * math.atan2(sin(a), cos(a)))
+            else:                        # point row: w(X) - (x, y)
+                _, i, lx, ly, vi = row
+                c, s, cx, cy = P[i]
+                rx, ry = c * lx - s * ly, s * lx + c * ly
+                v = values[vi]
+                F.append(((cx + rx) - float(v[0])) * k)
+                F.append(((cy + ry) - float(v[1])) * k)
+                if jac:
+                    Jv += (-ry * k, rx * k)
+        return F, Jv
+
+    # -- linear algebra -----------------------------------------------------------------------
     def scaled_cond(self, J: np.ndarray) -> float:
+        """Exact 2-norm condition number of J with unit-norm columns (an SVD)."""
         if J.size == 0:
             return 1.0
         peak = np.max(np.abs(J), axis=0)         # pre-scale: column norms of 1e300 overflow
@@ -313,66 +396,195 @@ class LoopSystem:
             return float('inf')
 
     def det_sign(self, J: np.ndarray) -> int:
+        """Sign of det J by slogdet (0: singular or not square)."""
         if J.shape[0] != J.shape[1] or J.size == 0:
             return 0
         sign, logdet = np.linalg.slogdet(J)
         return int(sign) if np.isfinite(logdet) else 0
 
-    def _same_side(self, sign0: int, J: np.ndarray) -> bool:
-        """The step stays on the start's side of det J = 0 (or lands on the singular set itself,
-        e.g. a toggle that is the answer, where the sign is rounding noise)."""
-        return (sign0 == 0 or self.det_sign(J) == sign0
-                or self.scaled_cond(J) > SINGULAR_COND)
+    def _factor(self, J: np.ndarray):
+        """LU of J: (lu, piv, det sign); None if J is singular to working precision (an
+        exactly zero pivot), not square or empty."""
+        if J.shape[0] != J.shape[1] or J.size == 0:
+            return None
+        lu, piv, info = _lapack()[0](J)
+        if info != 0:
+            return None
+        flips = sum(v < 0.0 for v in lu.diagonal().tolist())
+        flips += sum(p != i for i, p in enumerate(piv.tolist()))
+        return lu, piv, (-1 if flips % 2 else 1)
 
-    def _scaled(self, x, values, fixed):
-        """F and J in scale-free units: rows / L and translations / L (so nothing overflows at
-        1e300 m, and the LM damping means the same at every scale). Steps come back as
-        dy, with dx = dy * self._step_scale."""
-        F, J = self.evaluate(x, values, fixed)
-        return F / self.L, J * self._col_scale
+    @staticmethod
+    def _lu_step(fac, F):
+        """dy solving J dy = -F from a factorisation (None if not finite)."""
+        dy, info = _lapack()[1](fac[0], fac[1], -F)
+        return dy if info == 0 and math.isfinite(float(dy.sum())) else None
 
+    def _cond(self, J, fac) -> float:
+        """Condition number of the scale-free J: LAPACK's 1-norm estimate from its LU (1.5-7x
+        the exact value on the scenes), or the exact 2-norm one of J with unit-norm columns
+        (scaled_cond, an SVD) where the estimate exceeds COND_EXACT or there is no LU."""
+        if fac is not None:
+            rc, info = _lapack()[2](fac[0], float(abs(J).sum(axis=0).max()))
+            if info == 0 and rc * COND_EXACT >= 1.0:
+                return 1.0 / rc
+        return self.scaled_cond(J)
+
+    def _side_ok(self, sign0: int, J, fac) -> bool:
+        """The point is on the start's side of det J = 0 (or on the singular set itself, e.g. a
+        toggle that is the answer, where the sign is rounding noise)."""
+        if sign0 == 0 or (fac is not None and fac[2] == sign0):
+            return True
+        return self.scaled_cond(J) > SINGULAR_COND
+
+    def _sign_of(self, J, fac) -> int:
+        """det J sign for tracking, 0 where J is singular (cond above SINGULAR_COND)."""
+        if fac is None:
+            return 0
+        return fac[2] if self._cond(J, fac) < SINGULAR_COND else 0
+
+    def start_sign(self, x: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None) -> int:
+        """The det J sign a solve from x tracks (0 where J is singular there)."""
+        if not self.n:
+            return 0
+        J = self._eval_s(x, values, fixed)[1]
+        return self._sign_of(J, self._factor(J))
+
+    # -- continuation: predictor ----------------------------------------------------------------
+    def value_step(self, a: Sequence, b: Sequence) -> list[float]:
+        """b - a per value component in scale-free units (rad, length scales)."""
+        out, L = [], self.L
+        for s, va, vb in zip(self.specs, a, b):
+            if s.kind == 'angle':          # reduce first: vb - va may overflow
+                out.append(wrap_angle(wrap_angle(float(vb)) - wrap_angle(float(va))))
+            elif s.kind == 'slide':
+                out.append(float(vb) / L - float(va) / L)
+            else:
+                out += [float(vb[0]) / L - float(va[0]) / L, float(vb[1]) / L - float(va[1]) / L]
+        return out
+
+    def rate_factor(self, r: SolveResult) -> tuple | None:
+        """What predict() needs of a solution: its Jacobian's factorisation (dx/dvalue there is
+        its inverse applied to -dF/dvalue); None if it failed or a value has no row here. Only
+        meaningful where no fixed link moves with the values (the Solver: newton mode)."""
+        if not r.success or r.factor is None or self._val_rows is None:
+            return None
+        return r.factor
+
+    def predict(self, x_last: np.ndarray, lu_last: tuple, vals_last: Sequence, vals: Sequence,
+                x_prev: np.ndarray | None = None, vals_prev: Sequence | None = None,
+                lu_prev: tuple | None = None) -> np.ndarray | None:
+        """Predicted solution at ``vals`` from the solution x_last at vals_last and its
+        rate_factor ``lu_last`` (the tangent T = dx/dvalue is its inverse applied to -dF/dvalue).
+        h = value_step(vals_last, vals); alone: x_last + T h. Given the solution before (x_prev at
+        vals_prev, hp the step since, s = h.hp / hp.hp, w = h - s hp): along hp the cubic
+        Hermite extrapolation through both solutions and their tangents (with ``lu_prev``),
+        else the quadratic one (the curvature the tangent missed over hp, times s^2), plus
+        T w off that line. None if it moves an unknown by more than MAX_PREDICTION (rad, or
+        length scales)."""
+        getrs = _lapack()[1]
+        h = self.value_step(vals_last, vals)
+        c_last, c_prev, k_back = h, None, 0.0
+        if x_prev is not None and vals_prev is not None:
+            hp = self.value_step(vals_prev, vals_last)
+            den = sum(v * v for v in hp)
+            s = sum(u * v for u, v in zip(h, hp)) / den if den > 0 else math.inf
+            if lu_prev is not None and -1.0 <= s <= 1.5:
+                t = 1.0 + s                    # Hermite on t in [0, 1] from x_prev to x_last
+                t2, t3 = t * t, t * t * t
+                w = [u - s * v for u, v in zip(h, hp)]
+                k_back = 2 * t3 - 3 * t2 + 1
+                c_prev = [(t3 - 2 * t2 + t) * v - s * u for u, v in zip(w, hp)]
+                c_last = [(t3 - t2) * v + t * u for u, v in zip(w, hp)]
+            elif abs(s) <= 2.0:
+                k_back = s * s
+                c_last = [u + k_back * v for u, v in zip(h, hp)]
+
+        n, rows = self.n, self._val_rows
+
+        def tangent(lu, c):                 # T c, scale-free (a list)
+            rhs = [0.0] * n
+            for i, v in zip(rows, c):
+                rhs[i] = v                  # -dF/dvalue (scale-free) times c
+            y, info = getrs(lu[0], lu[1], np.array(rhs))
+            return y.tolist() if info == 0 else [math.nan] * n
+
+        # plain Python on these short vectors: a dozen numpy calls would cost more
+        dy = tangent(lu_last, c_last)
+        if c_prev is not None:
+            dy = [a + b for a, b in zip(dy, tangent(lu_prev, c_prev))]
+        xl = x_last.tolist()
+        if k_back:
+            back = [a - b for a, b in zip(x_prev.tolist(), xl)]
+            for j in range(0, n, 3):
+                if abs(back[j]) > math.pi:  # angles a turn apart
+                    back[j] = math.remainder(back[j], 2 * math.pi)
+            dy = [d + k_back * b * w for d, b, w in zip(dy, back, self._inv_step_list)]
+        if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
+            return None
+        return np.array([x + d * w for x, d, w in zip(xl, dy, self._step_list)])
+
+    # -- solving ------------------------------------------------------------------------------
     def solve(self, x0: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None, *,
               tol: float = 1e-12, max_iter: int = 50, keep_det_sign: bool = True,
-              start_sign: int | None = None) -> SolveResult:
-        """Newton iterations from x0; line-search bisection on det-sign flips; LM fallback.
-        Works in scale-free units (see _scaled); ``tol`` bounds max|F| / length scale."""
-        self._col_scale = np.tile([1.0 / self.L, 1.0, 1.0], len(self.free))
-        self._step_scale = np.tile([1.0, self.L, self.L], len(self.free))
+              start_sign: int | None = None, guess: np.ndarray | None = None) -> SolveResult:
+        """Solve from ``guess`` by the fast path if given and it qualifies (solve_from_guess),
+        else from x0 by Newton with a line search on det-sign flips and an LM fallback. Works in
+        scale-free units (see _eval_s); ``tol`` bounds max|F| / length scale. The det J sign
+        tracked is ``start_sign`` (known from the solve that produced x0), else read at x0."""
         x = np.array(x0, float)
-        F, J = self._scaled(x, values, fixed)
-        res = float(np.max(np.abs(F))) if F.size else 0.0
+        square = self.m == self.n
+        nj = 0
+        F = J = fac = None
         # at a singular start (a change point) det J has no meaningful sign: do not track it
-        if not keep_det_sign:
-            sign0 = 0
-        elif start_sign is not None:          # known from the solve that produced x0
-            sign0 = start_sign
-        else:
-            sign0 = self.det_sign(J) if self.scaled_cond(J) < SINGULAR_COND else 0
+        sign0 = 0 if not keep_det_sign else start_sign
+        if sign0 is None:
+            F, J, res = self._eval_s(x, values, fixed)
+            fac = self._factor(J)
+            nj += 1
+            sign0 = self._sign_of(J, fac)
+        spent = 0
+        if guess is not None:
+            r = self.solve_from_guess(guess, values, fixed, tol=tol, max_iter=max_iter,
+                                      start_sign=sign0)
+            r.jacobians += nj
+            if r.success:
+                return r
+            spent, nj = r.iterations, r.jacobians
+        if F is None:
+            F, J, res = self._eval_s(x, values, fixed)
+            fac = self._factor(J)
+            nj += 1
         it = 0
         mu = None
-        square = J.shape[0] == J.shape[1]
         while res > tol and it < max_iter:
             it += 1
-            fnorm = float(np.linalg.norm(F))
+            fnorm = math.sqrt(float(F @ F))
             step = None
             if mu is None:
-                try:
-                    dx = np.linalg.solve(J, -F) if square else np.linalg.lstsq(J, -F, rcond=None)[0]
-                    if np.all(np.isfinite(dx)):
-                        step = dx * self._step_scale
-                except np.linalg.LinAlgError:
-                    step = None
+                if square:
+                    dy = self._lu_step(fac, F) if fac is not None else None
+                else:
+                    dy = np.linalg.lstsq(J, -F, rcond=None)[0]
+                    dy = dy if np.all(np.isfinite(dy)) else None
+                if dy is not None:
+                    step = dy * self._step_scale
             accepted = False
             if step is not None:
                 alpha = 1.0
                 for _ in range(10):
                     xn = x + alpha * step
-                    Fn, Jn = self._scaled(xn, values, fixed)
-                    if (np.linalg.norm(Fn) < (1.0 - 1e-4 * alpha) * fnorm
-                            and self._same_side(sign0, Jn)):
-                        x, F, J = xn, Fn, Jn
-                        accepted = True
-                        break
+                    # the full step usually holds: evaluate J with it; shorter trials F alone
+                    Fn, Jn, rn = self._eval_s(xn, values, fixed, alpha == 1.0)
+                    if math.sqrt(float(Fn @ Fn)) < (1.0 - 1e-4 * alpha) * fnorm:
+                        if Jn is None:
+                            Jn = self._eval_s(xn, values, fixed)[1]
+                        facn = self._factor(Jn)
+                        nj += 1
+                        if self._side_ok(sign0, Jn, facn):
+                            x, F, J, fac, res = xn, Fn, Jn, facn, rn
+                            accepted = True
+                            break
                     alpha *= 0.5
             if not accepted:
                 # Levenberg-Marquardt with Marquardt's column scaling
@@ -383,49 +595,110 @@ class LoopSystem:
                 mu = mu or 1e-3
                 for _ in range(12):
                     try:
-                        dx = np.linalg.solve(JtJ + mu * np.diag(D), -g)
+                        dy = np.linalg.solve(JtJ + mu * np.diag(D), -g)
                     except np.linalg.LinAlgError:
                         mu *= 10
                         continue
-                    xn = x + dx * self._step_scale
-                    Fn, Jn = self._scaled(xn, values, fixed)
-                    if np.linalg.norm(Fn) < fnorm and self._same_side(sign0, Jn):
-                        x, F, J = xn, Fn, Jn
-                        mu = max(mu / 10, 1e-12)
-                        accepted = True
-                        break
+                    xn = x + dy * self._step_scale
+                    Fn, Jn, rn = self._eval_s(xn, values, fixed)
+                    if math.sqrt(float(Fn @ Fn)) < fnorm:
+                        facn = self._factor(Jn)
+                        nj += 1
+                        if self._side_ok(sign0, Jn, facn):
+                            x, F, J, fac, res = xn, Fn, Jn, facn, rn
+                            mu = max(mu / 10, 1e-12)
+                            accepted = True
+                            break
                     mu *= 10
                 if not accepted:
                     break
-            res = float(np.max(np.abs(F))) if F.size else 0.0
-        cond = self.scaled_cond(J)
-        if res <= tol and cond > POLISH_COND:
+        r = self._finish(x, F, J, fac, res, it, values, fixed, polish=res <= tol)
+        r.iterations += spent
+        r.jacobians += nj
+        if res <= tol:
+            return r
+        r.success = False
+        r.factor = None
+        if it >= max_iter:
+            r.reason = (f'Newton reached its iteration cap ({max_iter}) with loop-closure residual '
+                        f'{r.residual:.3g} of the length scale (tolerance {tol:g})')
+        else:
+            r.reason = (f'Newton stalled with loop-closure residual {r.residual:.3g} of the length '
+                        f'scale: no assembly near the start (cond J = {r.cond:.3g}); the input may '
+                        'be beyond a limit or toggle position')
+        return r
+
+    def solve_from_guess(self, guess: np.ndarray, values: Sequence,
+                         fixed: ScalarPoses | None = None, *, tol: float = 1e-12,
+                         max_iter: int = 50, start_sign: int = 0) -> SolveResult:
+        """The fast path: one Newton step from a predicted guess, then chord steps on its
+        factorisation, J factorised again at the answer. Steps go on to FAST_MARGIN * tol (or
+        FAST_FLOOR) while each cuts max|F| FAST_RATE-fold (an answer just inside ``tol`` would
+        leave angles read off its points off by ~tol / link length). Declines (success False,
+        the steps spent counted) unless J is regular at the guess and at the answer with det
+        sign ``start_sign`` (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
+        x = guess
+        F, J, res = self._eval_s(x, values, fixed)
+        fac = self._factor(J)
+        steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
+        Jv = None
+
+        def declined():
+            return SolveResult(guess, False, it, res, 'the predicted start did not qualify',
+                               jacobians=nj)
+        if fac is None or not math.isfinite(res) or (start_sign and fac[2] != start_sign):
+            return declined()
+        lin = fac
+        target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
+        while res > target:
+            dy = self._lu_step(lin, F) if it < steps else None
+            if dy is not None:
+                xn = x + dy * self._step_scale
+                Fn, Jvn, rn = self._eval_rows_s(xn, values, fixed)
+                it += 1
+            if dy is None or not rn <= FAST_RATE * res:
+                if res <= tol:          # converged; the rounding floor is above the margin
+                    break
+                return declined()
+            x, F, Jv, res, fac = xn, Fn, Jvn, rn, None
+        if fac is None:                 # J at the answer: its det sign, cond and factorisation
+            J = self._jacobian(Jv, self._tpl_s)
+            fac = self._factor(J)
+            nj += 1
+            if fac is None or (start_sign and fac[2] != start_sign):
+                return declined()
+        r = self._finish(x, F, J, fac, res, it, values, fixed)
+        r.jacobians += nj
+        r.predicted = True
+        return r
+
+    def _finish(self, x, F, J, fac, res, it, values, fixed, polish=True) -> SolveResult:
+        """The result at x (marked a success: the caller decides): condition number, det J
+        sign and, if ``polish`` (converged) and near a fold, polishing steps."""
+        square = self.m == self.n
+        cond = self._cond(J, fac)
+        nj = 0
+        if polish and cond > POLISH_COND:
             # near a toggle Newton converges only linearly and the configuration error is
             # ~sqrt(residual): polish while it still pays, so margins and branch signs read off
             # the answer are as exact as floating point allows
             for _ in range(POLISH_STEPS):
                 if res <= 1e-15:
                     break
-                try:
-                    dx = np.linalg.solve(J, -F) if square else np.linalg.lstsq(J, -F, rcond=None)[0]
-                except np.linalg.LinAlgError:
-                    break
-                xn = x + dx * self._step_scale
-                Fn, Jn = self._scaled(xn, values, fixed)
-                rn = float(np.max(np.abs(Fn)))
+                if square:
+                    dy = self._lu_step(fac, F) if fac is not None else None
+                    if dy is None:
+                        break
+                else:
+                    dy = np.linalg.lstsq(J, -F, rcond=None)[0]
+                xn = x + dy * self._step_scale
+                Fn, Jn, rn = self._eval_s(xn, values, fixed)
                 if not (np.all(np.isfinite(xn)) and rn < 0.7 * res):
                     break
                 x, F, J, res = xn, Fn, Jn, rn
+                fac = self._factor(J)
+                nj += 1
                 it += 1
-            cond = self.scaled_cond(J)
-        det = self.det_sign(J) if cond < SINGULAR_COND else 0     # 0: singular, no sign
-        if res <= tol:
-            return SolveResult(x, True, it, res, None, cond, det)
-        if it >= max_iter:
-            reason = (f'Newton reached its iteration cap ({max_iter}) with loop-closure residual '
-                      f'{res:.3g} of the length scale (tolerance {tol:g})')
-        else:
-            reason = (f'Newton stalled with loop-closure residual {res:.3g} of the length scale: '
-                      f'no assembly near the start (cond J = {cond:.3g}); the input may be beyond '
-                      'a limit or toggle position')
-        return SolveResult(x, False, it, res, reason, cond, det)
+            cond = self._cond(J, fac)
+        det = fac[2] if fac is not None and cond < SINGULAR_COND else 0     # 0: singular, no sign
+        return SolveResult(x, True, it, res, None, cond, det, fac, nj)

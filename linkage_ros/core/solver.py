@@ -15,6 +15,7 @@ string such as ``+-`` (one sign per branching dyad of the plan, in plan order).
 """
 from __future__ import annotations
 
+import collections.abc
 import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping, Sequence
@@ -25,7 +26,7 @@ from . import dyads
 from .errors import PlanError
 from .dyads import wrap_angle
 from .model import Mechanism
-from .newton import SINGULAR_COND, LoopSystem
+from .newton import LoopSystem
 from .plan import (CONTINUITY_MARGIN, Plan, ScalarPoses, Spec, branch_geometry_one, run_one, spec_for, spec_value_at,
                    spec_value_one)
 
@@ -95,6 +96,44 @@ class _State:
     signs: tuple[int, ...]
     det_sign: int
     margins: tuple[float, ...] = ()
+    x_lu: tuple | None = None   # Newton: LU of the Jacobian at x_all (for the predictor)
+
+
+class _Prediction(collections.abc.Mapping):
+    """Where continuity expects each point ({name: complex}) and link angle ({'@link': rad}):
+    the previous configuration, extrapolated along the previous step after two commands.
+    Computed per key on first use: the dyad plan asks only near a singular dyad, so most
+    solves never pay for it."""
+
+    def __init__(self, solver: 'Solver', vals):
+        self._last = solver._history[-1]
+        self._prev = solver._history[-2] if len(solver._history) == 2 else None
+        self._solver, self._vals = solver, vals
+        self._ratio: float | None = None
+
+    def __getitem__(self, key: str):
+        last = self._last
+        if key[:1] == '@':
+            return last.poses.phi[key[1:]]
+        v = last.points[key]
+        prev = self._prev
+        if prev is None or key not in prev.points:
+            return v
+        if self._ratio is None:
+            self._ratio = self._solver._step_ratio(prev.values, last.values, self._vals)
+        return v + self._ratio * (v - prev.points[key])
+
+    def __contains__(self, key) -> bool:
+        if isinstance(key, str) and key[:1] == '@':
+            return key[1:] in self._last.poses.phi
+        return key in self._last.points
+
+    def __iter__(self):
+        yield from self._last.points
+        yield from ('@' + l for l in self._last.poses.phi)
+
+    def __len__(self) -> int:
+        return len(self._last.points) + len(self._last.poses.phi)
 
 
 class Solver:
@@ -143,6 +182,7 @@ class Solver:
         self.branch_mode, self.fixed_signs = self._parse_branch(branch)
         self._slide_specs = {n: Spec(n, 'slide', joint=n) for n in mech.prismatics}
         self._ref_values = self._values_at_reference()
+        self._compile_tables()
         self.reset()
 
     # -- set-up helpers ----------------------------------------------------------------------
@@ -370,35 +410,34 @@ class Solver:
                       solver=solver or self.mode)
 
     def _prediction(self, vals):
-        """Predicted point positions (complex) and link angles ('@link') for continuity: the
-        previous configuration, extrapolated linearly in the input step after two commands."""
+        """Predicted point positions and link angles for continuity (see :class:`_Prediction`),
+        or None when there is no previous configuration to predict from."""
         if self.branch_mode != 'continuous' or not self._history:
             return None
-        last = self._history[-1]
-        pred: dict[str, Any] = dict(last.points)
-        pred.update({'@' + l: a for l, a in last.poses.phi.items()})
-        if len(self._history) == 2:
-            prev = self._history[-2]
-            d_now = self._value_delta(last.values, vals)
-            d_prev = self._value_delta(prev.values, last.values)
-            den = float(np.dot(d_prev, d_prev))
-            if den > 0:
-                ratio = float(np.clip(np.dot(d_now, d_prev) / den, 0.0, 1.5))
-                for p, v in last.points.items():
-                    if p in prev.points:
-                        pred[p] = v + ratio * (v - prev.points[p])
-        return pred
+        return _Prediction(self, vals)
 
-    def _value_delta(self, a, b):
-        out = []
-        for s, va, vb in zip(self.specs, a, b):
+    def _step_ratio(self, prev_vals, last_vals, vals) -> float:
+        """How far the new command goes along the previous step (d_now . d_prev / |d_prev|^2,
+        clipped to [0, 1.5]): the secant extrapolation factor; 0 when the last step was zero."""
+        num = den = 0.0
+        L = self.mech.length_scale
+        for s, a, b, c in zip(self.specs, prev_vals, last_vals, vals):
             if s.kind == 'point':
-                out += list((np.asarray(vb) - np.asarray(va)) / self.mech.length_scale)
-            elif s.kind == 'angle':
-                out.append(wrap_angle(wrap_angle(vb) - wrap_angle(va)))   # reduce first: vb - va may overflow
+                for k in (0, 1):
+                    dp, dn = (b[k] - a[k]) / L, (c[k] - b[k]) / L
+                    num += dn * dp
+                    den += dp * dp
+                continue
+            if s.kind == 'angle':     # reduce first: c - b may overflow
+                dp = wrap_angle(wrap_angle(b) - wrap_angle(a))
+                dn = wrap_angle(wrap_angle(c) - wrap_angle(b))
             else:
-                out.append((vb - va) / self.mech.length_scale)
-        return np.asarray(out)
+                dp, dn = (b - a) / L, (c - b) / L
+            num += dn * dp
+            den += dp * dp
+        if not den > 0:
+            return 0.0
+        return min(max(num / den, 0.0), 1.5)
 
     def _signs(self):
         if self.branch_mode == 'explicit':
@@ -414,10 +453,11 @@ class Solver:
             out.append(a.reshape(n, 2) if s.kind == 'point' else a.reshape(n))
         return out
 
-    def _state(self, vals, poses: ScalarPoses, pts, signs, det_sign=0, margins=()):
-        x_all = self.check_system.x_from_poses(poses) if self.mode != 'closed_form' and \
-            set(poses.phi) >= set(self.mech.links) else None
-        return _State(vals, x_all, pts, poses, tuple(signs), det_sign, tuple(margins))
+    def _state(self, vals, poses: ScalarPoses, pts, signs, det_sign=0, margins=(), x_all=None,
+               x_lu=None):
+        if x_all is None and self.mode != 'closed_form' and set(poses.phi) >= set(self.mech.links):
+            x_all = self.check_system.x_from_poses(poses)
+        return _State(vals, x_all, pts, poses, tuple(signs), det_sign, tuple(margins), x_lu)
 
     def _solve_closed(self, vals):
         prev = self._history[-1].margins if self._history else None
@@ -458,11 +498,18 @@ class Solver:
                               start_sign=start_sign)
         return r, None, fixed
 
-    def _start(self):
-        """Warm start: the previous solution, else the reference pose."""
+    def _start(self, vals):
+        """Warm start (values, x): the previous solution, else the reference pose; and the
+        predicted solution at ``vals`` (newton mode, after a Newton solve: LoopSystem.predict)."""
         if self._history and self._history[-1].x_all is not None:
             last = self._history[-1]
-            return last.values, self._sub_x(last.x_all)
+            guess = None
+            if last.x_lu is not None and self.mode == 'newton':
+                prev = self._history[-2] if len(self._history) == 2 else None
+                before = (prev.x_all, prev.values, prev.x_lu) if prev is not None and \
+                    prev.x_all is not None else ()
+                guess = self.system.predict(last.x_all, last.x_lu, last.values, vals, *before)
+            return last.values, self._sub_x(last.x_all), guess
         x_all = self.check_system.reference_x()
         if self.branch_mode == 'explicit' and self.fixed_signs != self.plan.reference_signs \
                 and self.full_plan.complete:
@@ -470,21 +517,19 @@ class Solver:
             run = run_one(self.full_plan, self._ref_values, self.fixed_signs, None)
             if run.ok:
                 x_all = self.check_system.x_from_poses(run.poses)
-        return self._ref_values, self._sub_x(x_all)
+        return self._ref_values, self._sub_x(x_all), None
 
     def _sub_x(self, x_all):
+        if self.mode == 'newton':           # every moving link is free, in the same order
+            return x_all
         idx = self.check_system.index
         return np.concatenate([x_all[3 * idx[l]:3 * idx[l] + 3] for l in self.system.free]) \
             if self.system.free else np.zeros(0)
 
     def _branch_of(self, x, fixed):
-        poses = self.system.poses_from_x(x, fixed)
-        pts = {}
-        for l, link in self.mech.links.items():
-            for p in link.points:
-                if p not in pts:
-                    pts[p] = poses.world(l, complex(*self.mech.points[p]))
-        return branch_geometry_one(self.full_plan, pts, poses)
+        """(signs, margins, poses, points) of configuration x: its dyads' sides and margins."""
+        poses, pts = self.system.configuration(x, fixed)
+        return (*branch_geometry_one(self.full_plan, pts, poses), poses, pts)
 
     def _near_singular(self, x, fixed, values) -> bool:
         """A dyad of the configuration is near its singular (tangent) position, or, without a
@@ -494,15 +539,11 @@ class Solver:
         J = self.system.evaluate(x, values, fixed)[1]
         return self.system.scaled_cond(J) > NEAR_SINGULAR_COND
 
-    def _branch_jump(self, xa, fixed_a, xb, fixed_b) -> bool:
-        """True when a dyad changed side between two configurations while far from its
-        singularity: only a jump (not a continuous motion) does that."""
-        if not self.full_plan.complete or not self.full_plan.branch_steps:
-            return False
-        sa, ma = self._branch_of(xa, fixed_a)
-        sb, mb = self._branch_of(xb, fixed_b)
+    def _branch_jump(self, ga, gb) -> bool:
+        """True when a dyad changed side between two configurations (their _branch_of) while
+        far from its singularity: only a jump (not a continuous motion) does that."""
         return any(a != b and min(p, q) >= CONTINUITY_MARGIN
-                   for a, b, p, q in zip(sa, sb, ma, mb))
+                   for a, b, p, q in zip(ga[0], gb[0], ga[1], gb[1]))
 
     def _interp(self, a, b, t):
         out = []
@@ -516,30 +557,51 @@ class Solver:
         return out
 
     def _solve_newton(self, vals):
-        if self.full_plan.complete:
-            # an input the closed form cannot assemble on the current branch cannot be reached
-            # by continuation either: refuse at once (Newton would grind to its caps first)
-            run = run_one(self.full_plan, vals, self._signs() if self.full_plan is self.plan
-                          else None, None)
-            if not run.ok:
-                st = self.full_plan.steps[run.failure]
-                return self._fail(f'cannot assemble: {st.describe(self.full_plan)} does not '
-                                  f'close; the constraint misses by {run.violation:.6g} m '
-                                  f'({run.violation / self.mech.length_scale:.3g} of the length '
-                                  'scale)', self._echo(vals), 'newton' if self.mode == 'newton'
-                                  else 'hybrid'), None
-        v0, x0 = self._start()
+        solver_name = 'newton' if self.mode == 'newton' else 'hybrid'
+        # the closed form's branch signs for the check below (reference ones without a history)
+        check_signs = self._signs() if self.full_plan is self.plan else None
+
+        def refusal():
+            """An input the closed form cannot assemble on the current branch cannot be reached
+            by continuation either: refuse at once (Newton would grind to its caps first)."""
+            if not self.full_plan.complete:
+                return None
+            run = run_one(self.full_plan, vals, check_signs, None)
+            if run.ok:
+                return None
+            st = self.full_plan.steps[run.failure]
+            return self._fail(f'cannot assemble: {st.describe(self.full_plan)} does not '
+                              f'close; the constraint misses by {run.violation:.6g} m '
+                              f'({run.violation / self.mech.length_scale:.3g} of the length '
+                              'scale)', self._echo(vals), solver_name)
+
+        v0, x0, guess = self._start(vals)
         total_iter = [0]
         since_progress = [0]        # iterations since the last substep that succeeded
+        branches = bool(self.full_plan.complete and self.full_plan.branch_steps)
+        seen: dict[int, tuple] = {}    # branch geometry of the configurations met in this solve
+        last = self._history[-1] if self._history else None
+        if branches and last is not None and last.x_all is not None:
+            # x0 is the previous answer: its points and poses are known, and a Newton answer
+            # (x_lu set) also left its dyads' sides and margins (full plan: see the end)
+            known_geo = (last.signs, last.margins) if last.x_lu is not None and \
+                len(last.margins) == len(self.full_plan.branch_steps) else \
+                branch_geometry_one(self.full_plan, last.points, last.poses)
+            seen[id(x0)] = (x0, (*known_geo, last.poses, last.points))
+
+        def geometry(x, fixed):
+            g = seen.get(id(x))
+            if g is None or g[0] is not x:
+                g = seen[id(x)] = (x, self._branch_of(x, fixed))
+            return g[1]
+
+        def jump(xa, fixed_a, xb, fixed_b):
+            return branches and self._branch_jump(geometry(xa, fixed_a), geometry(xb, fixed_b))
 
         def walk(va, xa, vb, depth, sign_a=None):
             fixed_a = self._fixed_poses(va)[0]
             if sign_a is None:        # det J sign at the start; 0 where it is singular
-                sign_a = 0
-                if self.system.n:
-                    Ja = self.system.evaluate(xa, va, fixed_a)[1]
-                    if self.system.scaled_cond(Ja) < SINGULAR_COND:
-                        sign_a = self.system.det_sign(Ja)
+                sign_a = self.system.start_sign(xa, va, fixed_a)
             r, reason, fixed = self._newton_at(vb, xa, sign_a)
             jumped = False
             if r is not None:
@@ -547,7 +609,7 @@ class Solver:
                 since_progress[0] += r.iterations
                 if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
                     # det J keeps its sign when two dyads flip together: compare dyad sides too
-                    jumped = self._branch_jump(xa, fixed_a, r.x, fixed)
+                    jumped = jump(xa, fixed_a, r.x, fixed)
                     if not jumped:
                         since_progress[0] = 0
                         return r, None, fixed
@@ -556,7 +618,7 @@ class Solver:
                     # near: step without the sign guard, keep it if no dyad jumped sides
                     r2, _, fixed2 = self._newton_at(vb, xa, 0)
                     total_iter[0] += r2.iterations
-                    if r2.success and not self._branch_jump(xa, fixed_a, r2.x, fixed2):
+                    if r2.success and not jump(xa, fixed_a, r2.x, fixed2):
                         since_progress[0] = 0
                         return r2, None, fixed2
             if depth >= 10 or since_progress[0] > WALK_BUDGET * self.max_iter:
@@ -575,25 +637,36 @@ class Solver:
                 return None, why, None
             return walk(vm, rm.x, vb, depth + 1, rm.det_sign)
 
-        last = self._history[-1] if self._history else None
         known = last.det_sign if last is not None and last.x_all is not None \
             and last.det_sign != 0 else None
-        r, reason, fixed = walk(v0, x0, vals, 0, known)
-        solver_name = 'newton' if self.mode == 'newton' else 'hybrid'
+        r = fixed = None
+        if guess is not None and known is not None:
+            # newton mode: the fast path from the predicted solution, kept if no dyad jumped sides
+            rf = self.system.solve_from_guess(guess, vals, None, tol=self.tol,
+                                              max_iter=self.max_iter, start_sign=known)
+            total_iter[0] += rf.iterations
+            if rf.success and not jump(x0, None, rf.x, None):
+                r = rf
+        # the closed-form check is skipped only where it must pass: the answer is on the
+        # check's branch and well-conditioned enough for its residual (cond^2 residual n small:
+        # Newton-Kantorovich) that an exact assembly on that branch lies next to it
+        if r is None or r.cond ** 2 * r.residual * self.system.n > 1e-2 or (branches and tuple(
+                geometry(r.x, None)[0]) != tuple(check_signs or self.full_plan.reference_signs)):
+            bad = refusal()
+            if bad is not None:
+                return bad, None
+        if r is None:
+            r, reason, fixed = walk(v0, x0, vals, 0, known)
         if r is None:
             res = self._fail(reason, self._echo(vals), solver_name)
             res.iterations = total_iter[0]
             return res, None
-        poses = self.system.poses_from_x(r.x, fixed)
-        pts: dict[str, complex] = {}
-        for l, link in self.mech.links.items():
-            for p in link.points:
-                if p not in pts:
-                    pts[p] = poses.world(l, complex(*self.mech.points[p]))
-        if self.full_plan.complete:
-            signs_t, margins = branch_geometry_one(self.full_plan, pts, poses)
+        if branches:
+            signs_t, margins, poses, pts = geometry(r.x, fixed)
         else:
-            signs_t, margins = (), []
+            poses, pts = self.system.configuration(r.x, fixed)
+            signs_t, margins = branch_geometry_one(self.full_plan, pts, poses) \
+                if self.full_plan.complete else ((), [])
         if self.branch_mode in ('explicit', 'reference') and self.full_plan.complete \
                 and self.full_plan is self.plan:
             want = tuple(self._signs())
@@ -605,46 +678,67 @@ class Solver:
         margin = min(margins) if margins else 1.0 / max(r.cond, 1.0)
         res = self._build(poses, pts, vals, solver=solver_name, iterations=total_iter[0],
                           signs=signs_t, margin=margin, cond=r.cond)
-        return res, self._state(vals, poses, pts, signs_t, r.det_sign)
+        newton = self.mode == 'newton'         # x is then x_all, and predicts the next solve
+        return res, self._state(vals, poses, pts, signs_t, r.det_sign, margins,
+                                x_all=r.x if newton else None,
+                                x_lu=self.system.rate_factor(r) if newton else None)
 
     # -- result assembly ---------------------------------------------------------------------
+    def _compile_tables(self):
+        """Per-solver tables for result assembly (the node's hot path: no per-solve lookups)."""
+        mech = self.mech
+        links = mech.links
+        self._rev_rows = [(rj.name, rj.parent, rj.child,
+                           links[rj.child].angle_ref - links[rj.parent].angle_ref,
+                           complex(*mech.points[rj.point])) for rj in mech.revolutes]
+        self._pri_rows = [(pj.name, pj.guide, pj.slider, complex(*mech.points[pj.point]),
+                           1j * complex(*pj.direction), self._slide_specs[pj.name])
+                          for pj in mech.prismatics.values()]
+        self._link_rows = [(l, link.angle_ref) for l, link in links.items()]
+        links_of = self.check_system._spec_links
+        commanded = {s.name: i for i, s in enumerate(self.specs)}
+        # (actuator, spec, links it needs, index of its commanded value or None)
+        self._actuator_rows = [(a, s, tuple(links_of(s)), commanded.get(a))
+                               for a, s in zip(mech.actuators, self.actuator_specs)]
+        self._known_rows = [(i, s, tuple(links_of(s))) for i, s in enumerate(self.specs)]
+
     def _build(self, poses: ScalarPoses, pts: dict[str, complex], vals, *, solver, iterations,
                signs, margin, cond=None):
         mech = self.mech
         have = poses.phi
         res = Result(True, solver=solver, iterations=iterations)
-        for a, s in zip(mech.actuators, self.actuator_specs):
-            if self._spec_links_in(s, have):
-                res.inputs[a] = float(spec_value_one(mech, s, poses))
-        for s, v in zip(self.specs, vals):       # commanded actuator values exactly as given
-            if s.name in mech.actuators:
-                res.inputs[s.name] = float(v)
-        links = mech.links
-        for rj in mech.revolutes:
-            if rj.parent in have and rj.child in have:
-                res.joints[rj.name] = wrap_angle(links[rj.child].angle_ref + have[rj.child]
-                                            - links[rj.parent].angle_ref - have[rj.parent])
-        for pj in mech.prismatics.values():
-            if pj.guide in have and pj.slider in have:
-                res.joints[pj.name] = float(spec_value_one(mech, self._slide_specs[pj.name], poses))
-        for l, link in links.items():
+        inputs, joints, links, points = res.inputs, res.joints, res.links, res.points
+        for a, s, needs, i in self._actuator_rows:
+            if i is not None:                    # commanded: the value exactly as given
+                inputs[a] = float(vals[i])
+            elif all(l in have for l in needs):
+                inputs[a] = float(spec_value_one(mech, s, poses))
+        for name, parent, child, offset, _ in self._rev_rows:
+            if parent in have and child in have:
+                joints[name] = wrap_angle(offset + have[child] - have[parent])
+        for name, guide, slider, _, _, spec in self._pri_rows:
+            if guide in have and slider in have:
+                joints[name] = float(spec_value_one(mech, spec, poses))
+        for l, angle_ref in self._link_rows:
             if l in have:
-                res.links[l] = wrap_angle(link.angle_ref + have[l])
+                links[l] = wrap_angle(angle_ref + have[l])
         for p, v in pts.items():
-            res.points[p] = (v.real, v.imag)
+            points[p] = (v.real, v.imag)
         res.residual = self._residual(poses, vals)
         res.branch = _sign_str(signs)
         res.margin = float(margin)
         res.branch_defined = bool(margin > BRANCH_UNDEFINED_MARGIN) if signs else True
         res.cond = cond if cond is None or math.isfinite(cond) else None
-        if not all(math.isfinite(v) for v in list(res.joints.values()) + list(res.links.values())
-                   + list(res.inputs.values()) + [c for p in res.points.values() for c in p]
-                   + [res.residual, res.margin]):
+        # one sum is finite when every term is (and may overflow only at ~1e308 scales, where
+        # the exact check below runs)
+        total = (sum(joints.values()) + sum(links.values()) + sum(inputs.values())
+                 + sum(v.real + v.imag for v in pts.values()) + res.residual + res.margin)
+        if not math.isfinite(total) and not all(
+                math.isfinite(v) for v in [*joints.values(), *links.values(), *inputs.values(),
+                                           *(c for p in points.values() for c in p),
+                                           res.residual, res.margin]):
             return Result(False, 'internal error: non-finite value in the solution', solver=solver)
         return res
-
-    def _spec_links_in(self, s: Spec, have) -> bool:
-        return all(l in have for l in self.check_system._spec_links(s))
 
     def _residual(self, poses: ScalarPoses, vals) -> float:
         """Largest loop-closure error over the joints and knowns whose links are all solved,
@@ -652,23 +746,22 @@ class Solver:
         metric as the Newton rows: the largest single component, so a Newton answer converged
         to tolerance reports a residual within it."""
         mech, L = self.mech, self.mech.length_scale
-        have = poses.phi
+        have, rot, T = poses.phi, poses.rot, poses.T
         worst = 0.0
-        for rj in mech.revolutes:
-            if rj.parent in have and rj.child in have:
-                p = complex(*mech.points[rj.point])
-                d = poses.world(rj.parent, p) - poses.world(rj.child, p)
+        for _, parent, child, _, p in self._rev_rows:
+            if parent in have and child in have:
+                d = (rot[parent] * p + T[parent]) - (rot[child] * p + T[child])
                 worst = max(worst, abs(d.real), abs(d.imag))
-        for pj in mech.prismatics.values():
-            if pj.guide in have and pj.slider in have:
-                p = complex(*mech.points[pj.point])
-                off = poses.world(pj.slider, p) - poses.world(pj.guide, p)
-                n = poses.rot[pj.guide] * 1j * complex(*pj.direction)
+        for _, guide, slider, p, normal, _ in self._pri_rows:
+            if guide in have and slider in have:
+                off = (rot[slider] * p + T[slider]) - (rot[guide] * p + T[guide])
+                n = rot[guide] * normal
                 worst = max(worst, abs(off.real * n.real + off.imag * n.imag),
-                            L * abs(wrap_angle(have[pj.slider] - have[pj.guide])))
-        for s, v in zip(self.specs, vals):
-            if not self._spec_links_in(s, have):
+                            L * abs(wrap_angle(have[slider] - have[guide])))
+        for i, s, needs in self._known_rows:
+            if not all(l in have for l in needs):
                 continue
+            v = vals[i]
             got = spec_value_one(mech, s, poses)
             if s.kind == 'point':
                 worst = max(worst, abs(got[0] - v[0]), abs(got[1] - v[1]))
