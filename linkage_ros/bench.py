@@ -426,7 +426,10 @@ class DirectStepper(Stepper):
 
 class KernelStepper(Stepper):
     """The Newton kernel alone (LoopSystem.solve): the like-for-like counterpart of
-    scipy.optimize.root (no continuation checks, no Result assembly)."""
+    scipy.optimize.root (no continuation checks, no Result assembly). Warm-started like the
+    Solver: from the previous solution, through the predicted one (LoopSystem.predict from the
+    last two solutions and their Jacobian factorisations), tracking the sign of det J; the
+    prediction is timed with the solve."""
 
     def __init__(self, mech, tol, n_inputs):
         from .core.solver import Solver
@@ -435,14 +438,23 @@ class KernelStepper(Stepper):
         self.system = self.solver.system
         self.tol = tol
         self.x = self.system.reference_x()
+        self.vals = self.rate = self.before = self.sign = None
 
     def step(self, i, cmd, record):
         vals = self.solver.parse(cmd)
+        system = self.system
         t0 = time.perf_counter_ns()
-        r = self.system.solve(self.x, vals, None, tol=self.tol, max_iter=50)
+        guess = None
+        if self.rate is not None:
+            guess = system.predict(self.x, self.rate, self.vals, vals, *(self.before or ()))
+        r = system.solve(self.x, vals, None, tol=self.tol, max_iter=50, start_sign=self.sign,
+                         guess=guess)
+        rate = system.rate_factor(r)
         self.ts.append(time.perf_counter_ns() - t0)
         if r.success:
-            self.x = r.x
+            self.before = (self.x, self.vals, self.rate) if self.vals is not None else None
+            self.x, self.vals, self.rate = r.x, vals, rate
+            self.sign = r.det_sign or None
         if record:
             self.fails += not r.success
             self.iters.append(r.iterations)
@@ -1176,17 +1188,18 @@ def _setting(report, scene, family, tol=None):
 
 def evaluate_targets(report: dict) -> list[dict]:
     out = []
-    # (a) vectorised four-bar at or above the numpy baseline (at the largest size)
-    if report.get('throughput'):
-        big = report['throughput'][-1]
-        for k in ('fourbar_forward', 'Solver.solve_batch'):
-            ratio = big['ratio_vs_baseline'][k]
-            out.append({'target': f'vectorised four-bar ({k}) at or above the numpy baseline '
-                                  f'(n = {big["n"]:,})',
-                        'measured': f'{ratio:.2f}x the baseline throughput '
-                                    f'({big["rate"][k] / 1e6:.2f} vs '
-                                    f'{big["rate"]["numpy baseline"] / 1e6:.2f} M inputs/s)',
-                        'met': ratio >= 1.0, 'value': ratio})
+    # (a) vectorised four-bar at or above the numpy baseline, at every size measured. The
+    # four-bar's vectorised solver is core.fourbar; Solver.solve_batch (any mechanism, every
+    # point and joint) is reported in the throughput table, not held to this target.
+    for row in report.get('throughput') or []:
+        k = 'fourbar_forward'
+        ratio = row['ratio_vs_baseline'][k]
+        out.append({'target': f'vectorised four-bar ({k}) at or above the numpy baseline '
+                              f'(n = {row["n"]:,})',
+                    'measured': f'{ratio:.2f}x the baseline throughput '
+                                f'({row["rate"][k] / 1e6:.2f} vs '
+                                f'{row["rate"]["numpy baseline"] / 1e6:.2f} M inputs/s)',
+                    'met': ratio >= 1.0, 'value': ratio})
     # (b) Newton 1e-12 >= 20x faster than scipy root per solve
     for scene in report['scenes']:
         nw = _setting(report, scene, 'newton', 1e-12)
@@ -1389,7 +1402,9 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
           '(stamp = send time, the four-bar crank stepping through a full turn) and records the '
           'arrival of each answer by its stamp (latency = arrival - stamp, one clock). Targets, '
           'each a separate process started by the benchmark: `linkage_node` (four_bar scene; '
-          'command -> solve -> joint_states + points + markers + status) and the bare rclpy '
+          'command -> parse and check -> closed-form solve with continuity and a full Result '
+          '-> joint_states; points, markers and status are built only while something '
+          'subscribes to them, and here nothing does) and the bare rclpy '
           'relay `bench/relay_node.py` (subscribe, publish the same message back). Reliable QoS '
           '(keep last 10 in both targets, as the node declares; 1000 on the driver), '
           f'ROS_DOMAIN_ID {node["domain_id"]}, localhost discovery, discovery and '
@@ -1478,17 +1493,33 @@ def interpretation(report: dict) -> str:
     if pairs:
         lo = min(pairs, key=lambda p: p[1]['scalar_us'] / p[0]['scalar_us'])
         hi = max(pairs, key=lambda p: p[1]['scalar_us'] / p[0]['scalar_us'])
+        kern = {r['scene']: r for r in pick('kernel', 1e-12)}
+        kr = [b['scalar_us'] / kern[a['scene']]['scalar_us'] for a, b in pairs
+              if a['scene'] in kern and kern[a['scene']]['scalar_us']]
         lines.append(
             f'- **Against scipy.optimize.root** (same residual, warm-started) the Newton solve at '
             f'1e-12 is {lo[1]["scalar_us"] / lo[0]["scalar_us"]:.1f}x ({lo[0]["scene"]}) to '
             f'{hi[1]["scalar_us"] / hi[0]["scalar_us"]:.1f}x ({hi[0]["scene"]}) as fast (>1: '
-            'faster). Both are bound by Python evaluations of the same residual: hybr spends '
-            'n + 1 of them on a finite-difference Jacobian (iter column: '
+            'faster)'
+            + (f', the kernel alone {min(kr):.1f}-{max(kr):.1f}x' if kr else '')
+            + '. A warm Newton solve predicts the answer from the last two (a secant step in the '
+            'inputs through the previous Jacobian factorisations), then takes '
+            + ', '.join(f'{a["scene"]} {a["iterations"]:.1f}' for a, _ in pairs)
+            + ' Newton steps on average, each with one residual + analytic Jacobian evaluation '
+            'and one LU factorisation (which also gives the det J sign for branch tracking). '
+            'hybr spends n + 1 evaluations of the same residual on a finite-difference Jacobian '
+            'and then iterates (evaluations per solve: '
             + ', '.join(f'{b["scene"]} {b["iterations"]:.0f}' for _, b in pairs)
-            + '), Newton about five residual + analytic Jacobian evaluations per solve plus its '
-            'det J and conditioning checks; so the analytic Jacobian only pays as the number of '
-            'unknowns grows. What the Newton path adds is the branch and singularity checks, '
-            'continuation and a full Result, not raw speed.')
+            + '). Making the residual cheaper speeds both alike, so the ratio is set by these '
+            'counts: 20x would need a whole Newton solve, branch checks included, to cost less '
+            'than one twentieth of scipy\'s evaluations ('
+            + ', '.join(f'{b["scene"]} {b["iterations"] / TARGET_NEWTON_VS_SCIPY:.1f}'
+                        for _, b in pairs)
+            + ' residual evaluations), while it needs at least two (one to check the prediction, '
+            'one to confirm the step). That is out of reach on the same residual wherever '
+            'scipy needs fewer than 40 evaluations. What the Newton path adds is the branch and singularity checks, '
+            'continuation and a full Result, at a speed comparable to scipy on small systems '
+            'and faster on large ones.')
         bad = [b for _, b in pairs if b['failures'] or (b['err_max'] or 0) > 1e-6]
         if bad:
             lines.append(
@@ -1520,10 +1551,10 @@ def interpretation(report: dict) -> str:
                 f'- **Node**: one command costs {nl["p50_ms"]:.2f} ms p50 end to end against '
                 f'{rl["p50_ms"]:.2f} ms for a bare relay ({nl["p50_ms"] - rl["p50_ms"]:+.2f} ms); '
                 f'the node stays loss-free up to {_hz(tg["node"].get("sustained_rate"))} (relay: '
-                f'{_hz(tg["relay"].get("sustained_rate"))}). Per command it solves, then builds '
-                'and publishes joint_states, one PointStamped per output point, a MarkerArray and '
-                'a DiagnosticStatus; the marker and message construction, not the solve, is most '
-                'of that cost, which sets the highest sustainable command rate.')
+                f'{_hz(tg["relay"].get("sustained_rate"))}). The difference is the node\'s '
+                'own work per command: parse and check the command, solve it (dyad plan, '
+                'continuity, residual, branch and margin) and fill joint_states. Subscribing to '
+                '~/markers, ~/points/<p> or ~/status adds their construction to every command.')
     return '\n'.join(lines) + '\n'
 
 

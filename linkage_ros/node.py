@@ -30,6 +30,7 @@ from rclpy.exceptions import InvalidParameterTypeException, ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
@@ -382,19 +383,26 @@ class LinkageNode(Node):
         mech = self.mech = self.scene.mechanism
         self.frame_id = self.config.frame_id or mech.frame_id
         self.status_name = f'{NODE_NAME}: {mech.name}'
-        self.pub_joints = self.create_publisher(JointState, 'joint_states', QOS)
+        # Each QoS-event handler is one more waitable that the executor polls on every wakeup,
+        # which costs the same order as the solve itself. The outputs and the per-point targets
+        # carry none: the other end (rclpy, rclcpp and RViz by default) reports an incompatible
+        # QoS or type on its side. ~/command and ~/target keep rclpy's default warnings.
+        quiet = {'event_callbacks': PublisherEventCallbacks(use_default_callbacks=False)}
+        self.pub_joints = self.create_publisher(JointState, 'joint_states', QOS, **quiet)
         self._joint_msg: JointState | None = None      # refilled for every answer
-        self.pub_points = {p: self.create_publisher(PointStamped, f'~/points/{p}', QOS)
+        self.pub_points = {p: self.create_publisher(PointStamped, f'~/points/{p}', QOS, **quiet)
                            for p in mech.outputs}
-        self.pub_markers = self.create_publisher(MarkerArray, '~/markers', QOS)
-        self.pub_status = self.create_publisher(DiagnosticStatus, '~/status', QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, '~/markers', QOS, **quiet)
+        self.pub_status = self.create_publisher(DiagnosticStatus, '~/status', QOS, **quiet)
         self.create_subscription(JointState, '~/command', self._on_command, QOS)
         self.create_subscription(JointState, '~/target', self._on_target, QOS)
         ground = set(mech.links[mech.ground].points)
         self.target_points = [p for p in mech.points if p not in ground]
+        quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
         for p in self.target_points:
             self.create_subscription(PointStamped, f'~/target_point/{p}',
-                                     lambda msg, p=p: self._on_target_point(p, msg), QOS)
+                                     lambda msg, p=p: self._on_target_point(p, msg), QOS,
+                                     event_callbacks=quiet_sub)
         self._demo_timer = None
         self._demo: DemoSweep | None = None
         self._demo_failures = 0

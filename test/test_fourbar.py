@@ -393,6 +393,55 @@ def test_vectorised_equals_scalar_calls():
         assert np.array_equal(row, fourbar_forward(*CRANK_ROCKER, t2[:50], b).theta4)
 
 
+@pytest.mark.parametrize('fn', [fourbar_forward, fourbar_inverse, slider_crank_forward,
+                                slider_crank_inverse])
+def test_extreme_inputs_inside_a_large_batch_are_solved_as_on_their_own(fn):
+    # Batches run through cache-sized blocks of a fast kernel; the elements it does not take
+    # (non-finite input, lengths outside 2**+-200, subnormal, zero or negative lengths) go to
+    # the general formulas.  Each element must come out as in a call of its own, finite and
+    # without floating-point warnings, whatever its neighbours.
+    rng = np.random.default_rng(17)
+    n = 40_000  # several blocks
+    base = CRANK_ROCKER if fn in (fourbar_forward, fourbar_inverse) else (1.0, 3.0, 0.5)
+    nl = len(base)
+    lengths = np.array(base)[:, None] * rng.uniform(0.8, 1.25, (nl, n))
+    x = rng.uniform(1.5, 4.5, n) if fn is slider_crank_inverse else rng.uniform(-4, 4, n)
+    branch = rng.choice([-1, 1], n)
+    special = [np.nan, np.inf, -np.inf, 0.0, -1.0, 1e-300, 5e-324, 1e300, 2.0 ** 201]
+    idx = rng.choice(n, 60, replace=False)
+    for j, i in enumerate(idx):
+        if j % 3 == 0:
+            x[i] = special[j % len(special)]
+        else:
+            lengths[j % nl, i] = special[j % len(special)]
+    with np.errstate(all='raise'):
+        sol = fn(*lengths, x, branch)
+    assert all(np.all(np.isfinite(v)) for v in sol)
+    assert 0.2 < sol.ok.mean() < 1.0  # mostly solvable, some not
+    for i in np.concatenate([idx, rng.choice(n, 300, replace=False)]):
+        one = fn(*lengths[:, i], x[i], branch[i])
+        assert bool(one.ok) == bool(sol.ok[i])
+        for k in range(len(one)):
+            assert abs(float(one[k]) - float(sol[k][i])) <= 1e-14 * (1 + abs(float(one[k])))
+
+
+@pytest.mark.parametrize('k', [1e-300, 2.0 ** -201, 2.0 ** -199, 2.0 ** 199, 2.0 ** 201, 1e300])
+def test_scale_invariance_inside_and_outside_the_fast_range(k):
+    # lengths within 2**+-200 take the fast kernel, beyond it the scaled general formulas
+    t2 = np.linspace(-np.pi, np.pi, 73)
+    for lengths in LINKAGES:
+        for branch in (1, -1):
+            base = fourbar_forward(*lengths, t2, branch)
+            scaled = fourbar_forward(*(k * np.array(lengths)), t2, branch)
+            well = base.ok & (base.transmission_sin > 1e-3)
+            assert np.array_equal(base.ok[well], scaled.ok[well])
+            assert np.max(np.abs(wrap(scaled.theta3 - base.theta3))[well]) <= 1e-12
+            assert np.max(np.abs(wrap(scaled.theta4 - base.theta4))[well]) <= 1e-12
+            assert np.allclose(scaled.transmission_sin[well], base.transmission_sin[well],
+                               atol=1e-12)
+            assert np.all(scaled.residual[scaled.ok] <= 1e-12)
+
+
 @pytest.mark.parametrize('k', [10.0 ** p for p in range(-6, 7)])
 def test_scaling_all_lengths_leaves_angles_invariant(k):
     t2 = np.linspace(-np.pi, np.pi, 73)

@@ -47,12 +47,14 @@ def kahan_four_area(a, b, c):
     (longest - sum of the other two) / scale (> 0: no triangle) and ``longest_n`` = longest /
     scale, in [0.5, 1).
     """
-    sides = np.sort(np.stack(np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float),
-                                                 np.asarray(c, float)), axis=-1), axis=-1)
-    _, expo = np.frexp(np.where(np.isfinite(sides[..., 2]), sides[..., 2], 1.0))
+    a, b, c = np.asarray(a, float), np.asarray(b, float), np.asarray(c, float)
+    # sorted by a min/max network (exact, and cheaper than stacking and np.sort)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    big, small = np.maximum(hi, c), np.minimum(lo, c)
+    mid = np.maximum(lo, np.minimum(hi, c))
+    _, expo = np.frexp(np.where(np.isfinite(big), big, 1.0))
     scale = np.ldexp(1.0, expo)
-    sides = sides / scale[..., None]
-    big, mid, small = sides[..., 2], sides[..., 1], sides[..., 0]
+    big, mid, small = big / scale, mid / scale, small / scale
     # The parenthesisation is the point: each factor is computed without cancellation when
     # big >= mid >= small (Kahan, "Miscalculating area and angles of a needle-like triangle").
     neg_factor = small - (big - mid)  # the only factor that can be negative
