@@ -681,3 +681,21 @@ def test_result_to_joint_state_refills_a_reused_message():
     assert again is first
     assert list(again.name) == ['a', 'b'] and list(again.position) == [-3.0, 4.5]
     assert stamp_of(again) == (7, 8) and again.header.frame_id == 'f'
+
+
+def test_only_command_and_target_carry_qos_event_handlers(ros):
+    """Each QoS-event handler is a waitable the executor polls on every message: outputs and
+    per-point targets carry none, ~/command and ~/target keep rclpy's incompatibility warnings."""
+    from linkage_ros.node import LinkageNode
+    node = LinkageNode(context=ros.context, parameter_overrides=[
+        Parameter('scene', Parameter.Type.STRING, 'four_bar')])
+    try:
+        ours = [p for p in node.publishers if 'parameter_events' not in p.topic_name]
+        assert {p.topic_name.rsplit('/', 1)[-1] for p in ours} >= {'joint_states', 'markers',
+                                                                   'status', 'P'}
+        assert all(p.event_handlers == [] for p in ours)
+        handled = {s.topic_name.rsplit('/', 1)[-1] for s in node.subscriptions if s.event_handlers}
+        assert handled == {'command', 'target'}
+        assert sum(1 for s in node.subscriptions if 'target_point' in s.topic_name) == 3
+    finally:
+        node.destroy_node()
