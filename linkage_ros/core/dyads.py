@@ -179,7 +179,10 @@ def rotate(v, phi):
 
 def wrap_angle(a: float) -> float:
     """Wrap one angle to (-pi, pi] by atan2 of its sine and cosine: exact argument reduction,
-    so 1e6 rad or 1e300 rad keep full precision (a modulo by 2*pi would not)."""
+    so 1e6 rad or 1e300 rad keep full precision (a modulo by 2*pi would not). An angle already
+    in range is returned as it is (exact, and the common case: three calls fewer)."""
+    if -math.pi < a <= math.pi:
+        return a
     return math.atan2(math.sin(a), math.cos(a))
 
 
