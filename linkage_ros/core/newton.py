@@ -395,13 +395,6 @@ class LoopSystem:
         except np.linalg.LinAlgError:
             return float('inf')
 
-    def det_sign(self, J: np.ndarray) -> int:
-        """Sign of det J by slogdet (0: singular or not square)."""
-        if J.shape[0] != J.shape[1] or J.size == 0:
-            return 0
-        sign, logdet = np.linalg.slogdet(J)
-        return int(sign) if np.isfinite(logdet) else 0
-
     def _factor(self, J: np.ndarray):
         """LU of J: (lu, piv, det sign); None if J is singular to working precision (an
         exactly zero pivot), not square or empty."""
@@ -637,7 +630,7 @@ class LoopSystem:
         leave angles read off its points off by ~tol / link length). Declines (success False,
         the steps spent counted) unless J is regular at the guess and at the answer with det
         sign ``start_sign`` (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
-        x = guess
+        x = guess = np.array(guess, float)      # the result never aliases the caller's array
         F, J, res = self._eval_s(x, values, fixed)
         fac = self._factor(J)
         steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
@@ -668,6 +661,8 @@ class LoopSystem:
             if fac is None or (start_sign and fac[2] != start_sign):
                 return declined()
         r = self._finish(x, F, J, fac, res, it, values, fixed)
+        if start_sign and r.det_sign not in (0, start_sign):
+            return declined()           # polishing near a fold crossed det J = 0
         r.jacobians += nj
         r.predicted = True
         return r

@@ -714,6 +714,7 @@ def _plan_scalar_setup(plan: Plan):
                          if not b.welds}
     plan.static_local_pt = {(bi, p): plan.static_local[bi].world(l, plan.pc[p])
                             for (bi, p), l in plan.point_link.items() if bi in plan.static_local}
+    plan.scalar_ready = True   # last: a plan is only used once all of the above exists
 
 
 def _body_local_one(plan: Plan, bi: int, values) -> ScalarPoses:
@@ -749,7 +750,7 @@ def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
     predicted complex positions and '@link' to predicted link angles: where a dyad is near its
     singularity (its margin now or in ``prev_margins`` below CONTINUITY_MARGIN) the branch
     nearest the prediction is taken instead (continuity through tangent configurations)."""
-    if not hasattr(plan, 'pc'):
+    if not getattr(plan, 'scalar_ready', False):
         _plan_scalar_setup(plan)
     mech, pc = plan.mech, plan.pc
     signs = plan.reference_signs if signs is None else signs

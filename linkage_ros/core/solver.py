@@ -650,7 +650,7 @@ class Solver:
         # the closed-form check is skipped only where it must pass: the answer is on the
         # check's branch and well-conditioned enough for its residual (cond^2 residual n small:
         # Newton-Kantorovich) that an exact assembly on that branch lies next to it
-        if r is None or r.cond ** 2 * r.residual * self.system.n > 1e-2 or (branches and tuple(
+        if r is None or not r.cond * r.cond * r.residual * self.system.n <= 1e-2 or (branches and tuple(
                 geometry(r.x, None)[0]) != tuple(check_signs or self.full_plan.reference_signs)):
             bad = refusal()
             if bad is not None:
