@@ -708,7 +708,11 @@ def bench_throughput(sizes: Sizes) -> list[dict]:
             'Solver.solve_batch': lambda: solver.solve_batch({'crank': theta}),
         }
         times = {k: [] for k in fns}
-        for _ in range(sizes.throughput_repeats):      # interleaved, so drift hits all alike
+        # interleaved, so drift hits all alike; small batches repeat more (the same inputs in
+        # all, ~1e6 per function per repeat at full size), or one disturbed call sways the median
+        repeats = max(sizes.throughput_repeats,
+                      min(50, math.ceil(sizes.throughput_repeats * 1e6 / n)))
+        for _ in range(repeats):
             for k, fn in fns.items():
                 t0 = time.perf_counter_ns()
                 fn()
@@ -723,7 +727,7 @@ def bench_throughput(sizes: Sizes) -> list[dict]:
         pa, pb = bb.points['A'], bb.points['B']
         t3s = np.arctan2(pb[:, 1] - pa[:, 1], pb[:, 0] - pa[:, 0])
         t4s = np.arctan2(pb[:, 1], pb[:, 0] - l1)
-        row = {'n': n,
+        row = {'n': n, 'repeats': repeats,
                'seconds': med,
                'rate': {k: n / v for k, v in med.items()},
                'ratio_vs_baseline': {k: med['numpy baseline'] / v for k, v in med.items()},
@@ -1357,7 +1361,9 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
     w('')
 
     w('## Vectorised four-bar throughput\n')
-    w('Random crank angles in [-pi, pi), all three over the same inputs, timed interleaved. '
+    w('Random crank angles in [-pi, pi), all three over the same inputs, timed interleaved '
+      '(median of ' + ', '.join(f'{t.get("repeats", "?")} at n = {t["n"]:,}'
+                                for t in report['throughput']) + ' repeats). '
       'The baseline is the textbook circle intersection in plain numpy '
       '(a = (d^2 + r1^2 - r2^2) / 2d, h = sqrt(r1^2 - a^2)) returning theta3, theta4 only; '
       '`fourbar_forward` also returns ok, the transmission angle and the closure residual '
