@@ -425,25 +425,10 @@ def test_extreme_inputs_inside_a_large_batch_are_solved_as_on_their_own(fn):
             assert abs(float(one[k]) - float(sol[k][i])) <= 1e-14 * (1 + abs(float(one[k])))
 
 
-@pytest.mark.parametrize('k', [1e-300, 2.0 ** -201, 2.0 ** -199, 2.0 ** 199, 2.0 ** 201, 1e300])
-def test_scale_invariance_inside_and_outside_the_fast_range(k):
-    # lengths within 2**+-200 take the fast kernel, beyond it the scaled general formulas
-    t2 = np.linspace(-np.pi, np.pi, 73)
-    for lengths in LINKAGES:
-        for branch in (1, -1):
-            base = fourbar_forward(*lengths, t2, branch)
-            scaled = fourbar_forward(*(k * np.array(lengths)), t2, branch)
-            well = base.ok & (base.transmission_sin > 1e-3)
-            assert np.array_equal(base.ok[well], scaled.ok[well])
-            assert np.max(np.abs(wrap(scaled.theta3 - base.theta3))[well]) <= 1e-12
-            assert np.max(np.abs(wrap(scaled.theta4 - base.theta4))[well]) <= 1e-12
-            assert np.allclose(scaled.transmission_sin[well], base.transmission_sin[well],
-                               atol=1e-12)
-            assert np.all(scaled.residual[scaled.ok] <= 1e-12)
-
-
-@pytest.mark.parametrize('k', [10.0 ** p for p in range(-6, 7)])
+@pytest.mark.parametrize('k', [10.0 ** p for p in range(-6, 7)]
+                         + [1e-300, 2.0 ** -201, 2.0 ** -199, 2.0 ** 199, 2.0 ** 201, 1e300])
 def test_scaling_all_lengths_leaves_angles_invariant(k):
+    # lengths within 2**+-200 take the fast kernel, beyond it the scaled general formulas
     t2 = np.linspace(-np.pi, np.pi, 73)
     for lengths in LINKAGES:
         for branch in (1, -1):
