@@ -419,25 +419,12 @@ class Solver:
     def _step_ratio(self, prev_vals, last_vals, vals) -> float:
         """How far the new command goes along the previous step (d_now . d_prev / |d_prev|^2,
         clipped to [0, 1.5]): the secant extrapolation factor; 0 when the last step was zero."""
-        num = den = 0.0
-        L = self.mech.length_scale
-        for s, a, b, c in zip(self.specs, prev_vals, last_vals, vals):
-            if s.kind == 'point':
-                for k in (0, 1):
-                    dp, dn = (b[k] - a[k]) / L, (c[k] - b[k]) / L
-                    num += dn * dp
-                    den += dp * dp
-                continue
-            if s.kind == 'angle':     # reduce first: c - b may overflow
-                dp = wrap_angle(wrap_angle(b) - wrap_angle(a))
-                dn = wrap_angle(wrap_angle(c) - wrap_angle(b))
-            else:
-                dp, dn = (b - a) / L, (c - b) / L
-            num += dn * dp
-            den += dp * dp
+        d_prev = self.check_system.value_step(prev_vals, last_vals)
+        d_now = self.check_system.value_step(last_vals, vals)
+        den = sum(d * d for d in d_prev)
         if not den > 0:
             return 0.0
-        return min(max(num / den, 0.0), 1.5)
+        return min(max(sum(n * d for n, d in zip(d_now, d_prev)) / den, 0.0), 1.5)
 
     def _signs(self):
         if self.branch_mode == 'explicit':
