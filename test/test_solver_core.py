@@ -832,3 +832,67 @@ def test_scene_error_duplicate_yaml_key_is_not_silently_dropped(tmp_path):
         Scene.from_yaml(path)
     msg = str(exc.value)
     assert str(path) in msg and 'A' in msg and 'duplicate' in msg.lower()
+
+
+# ---- the generated scalar code (plan.run_one, Solver result assembly) ----------------------------
+
+SHIPPED = sorted(p.stem for p in __import__('pathlib').Path(__file__).parent.parent.glob('config/*.yaml'))
+
+
+def _knowns_sets(mech):
+    """Forward, every set of dof joint/actuator names, and (2-DOF scenes) one point target each."""
+    import itertools
+    names = list(mech.actuators) + [j for j in mech.joint_names if j not in mech.actuators]
+    sets = [None] + [list(c) for c in itertools.combinations(names, mech.dof)]
+    if mech.dof == 2:
+        sets += [[f'point:{p}'] for p in mech.points]
+    return sets
+
+
+@pytest.mark.parametrize('scene', SHIPPED)
+def test_generated_scalar_code_agrees_with_the_batched_plan(scene):
+    """The scalar path is code generated per plan (the node's hot path); the batched path is
+    numpy over the same plan, written independently. For every knowns set a shipped scene
+    admits in closed form, with all outputs and pruned to one: they agree on success, points,
+    joints, links and inputs to 1e-12 of the length scale, and both close their loops."""
+    mech = Scene.from_yaml(f'config/{scene}.yaml').mechanism
+    L = mech.length_scale
+    rng = np.random.default_rng(7)
+    checked = 0
+    for knowns in _knowns_sets(mech):
+        for outputs in (None, list(mech.outputs)[:1]):
+            try:
+                s = Solver(mech, knowns=knowns, outputs=outputs, method='closed_form',
+                           branch='reference')
+            except PlanError:
+                continue
+            ref = s.reference_values()
+            cols = {}
+            for k, v in ref.items():
+                if isinstance(v, (list, tuple)):
+                    cols[k] = np.asarray(v, float) + rng.normal(0, 0.05 * L, (12, 2))
+                else:   # wide spread: some commands are beyond a limit or do not assemble
+                    cols[k] = v + rng.normal(0, 0.6, 12)
+            batch = s.solve_batch(cols)
+            for i in range(12):
+                cmd = {k: (c[i].tolist() if c.ndim == 2 else float(c[i])) for k, c in cols.items()}
+                r = s.solve(cmd)
+                assert r.success == bool(batch.ok[i]), (knowns, outputs, cmd, r.reason,
+                                                        batch.reason[i])
+                if not r.success:
+                    continue
+                checked += 1
+                assert r.residual <= TIGHT and batch.residual[i] <= TIGHT
+                assert set(r.points) == set(batch.points)
+                for p, xy in r.points.items():
+                    assert np.max(np.abs(np.asarray(xy) - batch.points[p][i])) <= TIGHT * L, p
+                for table, got in ((batch.joints, r.joints), (batch.links, r.links),
+                                   (batch.inputs, r.inputs)):
+                    assert set(got) == set(table)
+                    for name, v in got.items():
+                        d = v - table[name][i]
+                        if name in mech.joint_names and name in mech.prismatics:
+                            assert abs(d) <= TIGHT * L, name
+                        else:           # angles: compare on the circle
+                            assert abs(math.remainder(d, 2 * math.pi)) <= TIGHT, name
+    assert checked >= 6, f'{scene}: too few assembling commands to compare ({checked})'

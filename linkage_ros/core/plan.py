@@ -698,207 +698,277 @@ class ScalarRun:
     margins: tuple[float, ...] = ()
 
 
-def _plan_scalar_setup(plan: Plan):
-    mech = plan.mech
-    plan.pc = {p: _c(v) for p, v in mech.points.items()}
-    plan.point_link = {}       # (body, point) -> a member link carrying it
-    for b in plan.bodies:
-        for l in b.links:
-            for p in mech.links[l].points:
-                plan.point_link.setdefault((b.index, p), l)
-    # per body: its links and each link's points with their reference positions
-    plan.body_layout = {b.index: [(l, [(p, plan.pc[p]) for p in mech.links[l].points])
-                                  for l in b.links] for b in plan.bodies}
-    # a body without welds has the same local frame for every command: build it once
-    plan.static_local = {b.index: _body_local_one(plan, b.index, ()) for b in plan.bodies
-                         if not b.welds}
-    plan.static_local_pt = {(bi, p): plan.static_local[bi].world(l, plan.pc[p])
-                            for (bi, p), l in plan.point_link.items() if bi in plan.static_local}
-    plan.scalar_ready = True   # last: a plan is only used once all of the above exists
-
-
-def _body_local_one(plan: Plan, bi: int, values) -> ScalarPoses:
-    mech = plan.mech
-    body = plan.bodies[bi]
-    loc = ScalarPoses()
-    loc.set(body.root, 0.0, 0j, 1 + 0j)
-    for w in body.welds:
-        s = plan.specs[w.spec_index]
-        v = float(values[w.spec_index])
-        if w.kind == 'angle':
-            rel = dyads.wrap_angle(v) - s.offset
-            phi = loc.phi[w.via] + (rel if w.link == s.link else -rel)
-            p = plan.pc[w.shared_point]
-            rot = complex(math.cos(phi), math.sin(phi))
-            loc.set(w.link, phi, loc.world(w.via, p) - rot * p, rot)
-        else:
-            pj = mech.prismatics[s.joint]
-            x_ref = plan.pc[pj.point]
-            x_on_guide = x_ref + (v - pj.ref_value) * _c(pj.direction)
-            phi, rot = loc.phi[w.via], loc.rot[w.via]
-            if w.link == pj.slider:
-                loc.set(w.link, phi, loc.world(w.via, x_on_guide) - rot * x_ref, rot)
-            else:
-                loc.set(w.link, phi, loc.world(w.via, x_ref) - rot * x_on_guide, rot)
-    return loc
-
-
 def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
             tol: float = dyads.TANGENCY_TOL, prev_margins=None) -> ScalarRun:
     """Scalar twin of :meth:`Plan.run` for one command: ``values[i]`` a float (angle/slide) or an
     (x, y) pair (point). ``signs`` are the branch signs to keep. ``prefer`` maps point names to
     predicted complex positions and '@link' to predicted link angles: where a dyad is near its
     singularity (its margin now or in ``prev_margins`` below CONTINUITY_MARGIN) the branch
-    nearest the prediction is taken instead (continuity through tangent configurations)."""
-    if not getattr(plan, 'scalar_ready', False):
-        _plan_scalar_setup(plan)
-    mech, pc = plan.mech, plan.pc
-    signs = plan.reference_signs if signs is None else signs
-    poses = ScalarPoses()
-    pts: dict[str, complex] = {}
-    locals_: dict[int, ScalarPoses] = dict(plan.static_local)
-    static_pt = plan.static_local_pt
-    angles: dict[int, float] = {}
-    used: list[int] = []
-    margin = 1.0
+    nearest the prediction is taken instead (continuity through tangent configurations).
 
-    def local(bi):
-        loc = locals_.get(bi)
-        if loc is None:
-            loc = locals_[bi] = _body_local_one(plan, bi, values)
-        return loc
+    Runs the plan's straight-line Python (:func:`_compile_scalar`, made on first use)."""
+    fn = plan.__dict__.get('_scalar_fn')
+    if fn is None:
+        fn = plan._scalar_fn = _compile_scalar(plan)
+    return fn(values, plan.reference_signs if signs is None else signs, prefer, tol, prev_margins)
 
-    def local_pt(bi, p):
-        w = static_pt.get((bi, p))
-        return local(bi).world(plan.point_link[(bi, p)], pc[p]) if w is None else w
 
-    phi_d, rot_d, T_d = poses.phi, poses.rot, poses.T
-    layout = plan.body_layout
+class _ScalarCode:
+    """Source of one plan's scalar solve, emitted step by step (see _compile_scalar)."""
 
-    def place_body(bi, phi, Tb):
-        loc = local(bi)
-        lphi, lrot, lT = loc.phi, loc.rot, loc.T
-        rot = complex(math.cos(phi), math.sin(phi))
-        for l, link_pts in layout[bi]:
-            r, t = rot * lrot[l], rot * lT[l] + Tb
-            phi_d[l], rot_d[l], T_d[l] = phi + lphi[l], r, t
-            for p, c in link_pts:
-                if p not in pts:
-                    pts[p] = r * c + t
+    def __init__(self, plan: Plan):
+        self.plan = plan
+        self.mech = plan.mech
+        self.pc = {p: _c(v) for p, v in self.mech.points.items()}
+        self.lines: list[str] = []
+        self.ns = {'cos': math.cos, 'sin': math.sin, 'atan2': math.atan2,
+                   'wrap_angle': dyads.wrap_angle, 'circle_circle_pair': dyads.circle_circle_pair,
+                   'circle_line_pair': dyads.circle_line_pair,
+                   'line_through_pair': dyads.line_through_pair, 'ScalarRun': ScalarRun,
+                   'ScalarPoses': ScalarPoses, 'CONTINUITY_MARGIN': CONTINUITY_MARGIN}
+        self.link_id = {l: k for k, l in enumerate(self.mech.links)}
+        self.point_id = {p: k for k, p in enumerate(self.mech.points)}
+        self.placed_links: list[str] = []       # in placement order (the poses' dict order)
+        self.placed_points: list[str] = []
+        self.frames: dict[int, dict[str, tuple[str, str, str]]] = {}   # body local frames
+        self.point_link: dict[tuple[int, str], str] = {}
+        for b in plan.bodies:
+            for l in b.links:
+                for p in self.mech.links[l].points:
+                    self.point_link.setdefault((b.index, p), l)
+        self.branches = 0                         # branching steps emitted so far
 
-    margins: list[float] = []
+    def emit(self, line: str):
+        self.lines.append('    ' + line)
 
-    def near_singular(m):
-        prev = prev_margins[len(used)] if prev_margins and len(used) < len(prev_margins) else 1.0
-        return min(m, prev) < CONTINUITY_MARGIN
+    def const(self, value) -> str:
+        name = f'K{len(self.ns)}'
+        self.ns[name] = value
+        return name
 
-    def pick(k_sign, x, cand_plus, cand_minus, m):
-        if prefer is not None and x in prefer and near_singular(m):
-            target = prefer[x]
-            return 1 if abs(cand_plus - target) <= abs(cand_minus - target) else -1
-        return k_sign
+    def pt(self, p: str) -> str:
+        return f'p{self.point_id[p]}'
 
-    def failed(k, viol):
-        return ScalarRun(False, poses, pts, 0.0, tuple(used), k, viol, tuple(margins))
+    def link(self, l: str) -> str:
+        return str(self.link_id[l])
 
-    def took(sign, m):
-        """Record the branch taken at the current branching step and its margin."""
-        nonlocal margin, bk
-        used.append(sign)
-        margins.append(m)
-        margin = min(margin, m)
-        bk += 1
+    def frame(self, bi: int) -> dict[str, tuple[str, str, str]]:
+        """(phi, rot, T) expressions of each member link in the body's local frame. A body
+        without welds is its root alone at the identity; a welded body's frame depends on the
+        command's values, so its code is emitted here, before its first use."""
+        got = self.frames.get(bi)
+        if got is not None:
+            return got
+        body = self.plan.bodies[bi]
+        frame = {body.root: ('0.0', '(1+0j)', '0j')}
+        for w in body.welds:
+            s = self.plan.specs[w.spec_index]
+            tag = f'{bi}_{self.link(w.link)}'
+            vphi, vrot, vT = frame[w.via]
+            if w.kind == 'angle':
+                self.emit(f'rel = wrap_angle(float(values[{w.spec_index}])) - {self.const(s.offset)}')
+                self.emit(f'lph{tag} = {vphi} + {"rel" if w.link == s.link else "-rel"}')
+                p = self.const(self.pc[w.shared_point])
+                self.emit(f'lro{tag} = complex(cos(lph{tag}), sin(lph{tag}))')
+                self.emit(f'lT{tag} = ({vrot} * {p} + {vT}) - lro{tag} * {p}')
+            else:
+                pj = self.mech.prismatics[s.joint]
+                x_ref = self.const(self.pc[pj.point])
+                self.emit(f'along = {x_ref} + (float(values[{w.spec_index}]) - '
+                          f'{self.const(pj.ref_value)}) * {self.const(_c(pj.direction))}')
+                self.emit(f'lph{tag} = {vphi}')
+                self.emit(f'lro{tag} = {vrot}')
+                if w.link == pj.slider:
+                    self.emit(f'lT{tag} = ({vrot} * along + {vT}) - {vrot} * {x_ref}')
+                else:
+                    self.emit(f'lT{tag} = ({vrot} * {x_ref} + {vT}) - {vrot} * along')
+            frame[w.link] = (f'lph{tag}', f'lro{tag}', f'lT{tag}')
+        self.frames[bi] = frame
+        return frame
 
-    bk = 0
-    for k, st in enumerate(plan.steps):
+    def local_pt(self, bi: int, p: str) -> str:
+        """Expression of point p in body bi's local frame (a constant for an unwelded body)."""
+        l = self.point_link[(bi, p)]
+        if not self.plan.bodies[bi].welds:
+            return self.const((1 + 0j) * self.pc[p] + 0j)
+        _, rot, T = self.frame(bi)[l]
+        return f'({rot} * {self.const(self.pc[p])} + {T})'
+
+    def place_body(self, bi: int, phi: str, Tb: str):
+        """Every member link's world pose from the body's rotation phi (a variable) and
+        translation Tb (an expression), and the world position of their points not yet placed."""
+        frame = self.frame(bi)
+        self.emit(f'Tb = {Tb}')
+        self.emit(f'rot = complex(cos({phi}), sin({phi}))')
+        for l in self.plan.bodies[bi].links:
+            lphi, lrot, lT = frame[l]
+            k = self.link(l)
+            self.emit(f'ro{k} = rot * {lrot}')
+            self.emit(f'T{k} = rot * {lT} + Tb')
+            self.emit(f'ph{k} = {phi} + {lphi}')
+            self.placed_links.append(l)
+            for p in self.mech.links[l].points:
+                if p not in self.placed_points:
+                    self.emit(f'{self.pt(p)} = ro{k} * {self.const(self.pc[p])} + T{k}')
+                    self.placed_points.append(p)
+
+    def result(self, ok: bool, k: int = -1) -> str:
+        """The ScalarRun of everything placed so far."""
+        ids = [self.link(l) for l in self.placed_links]
+        poses = ('ScalarPoses({' + ', '.join(f'{l!r}: ph{k}' for l, k in zip(self.placed_links, ids))
+                 + '}, {' + ', '.join(f'{l!r}: ro{k}' for l, k in zip(self.placed_links, ids))
+                 + '}, {' + ', '.join(f'{l!r}: T{k}' for l, k in zip(self.placed_links, ids)) + '})')
+        pts = '{' + ', '.join(f'{p!r}: {self.pt(p)}' for p in self.placed_points) + '}'
+        used = '(' + ''.join(f'sg{b}, ' for b in range(self.branches)) + ')'
+        margins = '(' + ''.join(f'm{b}, ' for b in range(self.branches)) + ')'
+        if ok:
+            return f'ScalarRun(True, {poses}, {pts}, margin, {used}, margins={margins})'
+        return f'ScalarRun(False, {poses}, {pts}, 0.0, {used}, {k}, viol, {margins})'
+
+    def near_singular(self, then: list[str]):
+        """Code that runs ``then`` when the current branching step's dyad is near its
+        singularity now (margin m) or was at the previous solve (prev_margins)."""
+        b = self.branches
+        self.emit(f'    prev = prev_margins[{b}] if prev_margins and {b} < len(prev_margins) '
+                  'else 1.0')
+        self.emit('    if min(m, prev) < CONTINUITY_MARGIN:')
+        for line in then:
+            self.emit('        ' + line)
+
+    def took(self):
+        b = self.branches
+        self.emit(f'sg{b} = sg')
+        self.emit(f'm{b} = m')
+        self.emit(f'margin = min(margin, m)')
+        self.branches += 1
+
+    def step(self, k: int, st: Step):
         op = st.op
         if op == 'ground':
-            place_body(st.body, 0.0, 0j)
+            self.emit('phi = 0.0')
+            self.place_body(st.body, 'phi', '0j')
         elif op == 'known_point':
-            pts[st.point] = _c(values[st.args[0]])
+            self.emit(f'v = values[{st.args[0]}]')
+            self.emit(f'{self.pt(st.point)} = complex(float(v[0]), float(v[1]))')
+            self.placed_points.append(st.point)
         elif op == 'two_points':
             p, q = st.args
-            lp, lq = local_pt(st.body, p), local_pt(st.body, q)
-            a, b = lq - lp, pts[q] - pts[p]
-            a, b = a / abs(a), b / (abs(b) or 1.0)     # unit first: 1e-300 lengths would underflow
-            phi = math.atan2(a.real * b.imag - a.imag * b.real, a.real * b.real + a.imag * b.imag)
-            place_body(st.body, phi, pts[p] - complex(math.cos(phi), math.sin(phi)) * lp)
+            self.emit(f'lp = {self.local_pt(st.body, p)}')
+            self.emit(f'a = {self.local_pt(st.body, q)} - lp')
+            self.emit(f'b = {self.pt(q)} - {self.pt(p)}')
+            # unit first: 1e-300 lengths would underflow
+            self.emit('a, b = a / abs(a), b / (abs(b) or 1.0)')
+            self.emit('phi = atan2(a.real * b.imag - a.imag * b.real, '
+                      'a.real * b.real + a.imag * b.imag)')
+            self.place_body(st.body, 'phi', f'{self.pt(p)} - complex(cos(phi), sin(phi)) * lp')
         elif op == 'point_angle':
             p = st.args[0]
-            phi = angles[st.body]
-            place_body(st.body, phi, pts[p] - complex(math.cos(phi), math.sin(phi))
-                       * local_pt(st.body, p))
+            self.emit(f'phi = ang{st.body}')
+            self.place_body(st.body, 'phi', f'{self.pt(p)} - complex(cos(phi), sin(phi)) * '
+                            f'{self.local_pt(st.body, p)}')
         elif op == 'angle':
-            link_here, link_there, spec_i = st.args
-            src = poses.phi.get(link_there)
-            if src is None:
-                sb = plan.body_of[link_there]
-                src = angles[sb] + local(sb).phi[link_there]
-            rel = 0.0
+            here, there, spec_i = st.args
+            here_phi = self.frame(st.body)[here][0]    # any frame code first: it uses rel
+            if there in self.placed_links:
+                self.emit(f'src = ph{self.link(there)}')
+            else:
+                sb = self.plan.body_of[there]
+                there_phi = self.frame(sb)[there][0]
+                self.emit(f'src = ang{sb} + {there_phi}')
+            self.emit('rel = 0.0')
             if spec_i is not None:
-                s = plan.specs[spec_i]
-                rel = dyads.wrap_angle(float(values[spec_i])) - s.offset
-                if link_here == s.reference:
-                    rel = -rel
-            angles[st.body] = src + rel - local(st.body).phi[link_here]
+                s = self.plan.specs[spec_i]
+                self.emit(f'rel = wrap_angle(float(values[{spec_i}])) - {self.const(s.offset)}')
+                if here == s.reference:
+                    self.emit('rel = -rel')
+            self.emit(f'ang{st.body} = src + rel - {here_phi}')
         elif op in ('circle_circle', 'circle_line'):
             x = st.point
+            X = self.pt(x)
             if op == 'circle_circle':
                 b1, p1, b2, p2 = st.args
-                r1 = abs(local_pt(b1, x) - local_pt(b1, p1))
-                r2 = abs(local_pt(b2, x) - local_pt(b2, p2))
-                big = max(r1, r2)
-                if abs(pts[p1] - pts[p2]) <= tol * big and abs(r1 - r2) <= tol * big:
-                    # coincident circles (a change point: e.g. a rhombus folded flat): x may be
-                    # anywhere on the circle; keep it where continuity predicts, else where the
-                    # reference pose has it relative to p1. Branch identity is undefined (margin 0).
-                    guess = prefer.get(x) if prefer else None
-                    off = (guess - pts[p1]) if guess is not None else (pc[x] - pc[p1])
-                    off = off / abs(off) if abs(off) > 0 else 1 + 0j
-                    foot, vec, m, ok, viol = pts[p1] + r1 * off, 0j, 0.0, True, 0.0
-                else:
-                    foot, vec, m, ok, viol = dyads.circle_circle_pair(pts[p1], r1, pts[p2], r2,
-                                                                      tol)
+                P1, P2 = self.pt(p1), self.pt(p2)
+                self.emit(f'r1 = abs({self.local_pt(b1, x)} - {self.local_pt(b1, p1)})')
+                self.emit(f'r2 = abs({self.local_pt(b2, x)} - {self.local_pt(b2, p2)})')
+                self.emit('big = max(r1, r2)')
+                self.emit(f'if abs({P1} - {P2}) <= tol * big and abs(r1 - r2) <= tol * big:')
+                # coincident circles (a change point: e.g. a rhombus folded flat): x may be
+                # anywhere on the circle; keep it where continuity predicts, else where the
+                # reference pose has it relative to p1. Branch identity is undefined (margin 0).
+                self.emit(f'    guess = prefer.get({x!r}) if prefer else None')
+                self.emit(f'    off = (guess - {P1}) if guess is not None else '
+                          f'{self.const(self.pc[x] - self.pc[p1])}')
+                self.emit('    off = off / abs(off) if abs(off) > 0 else 1 + 0j')
+                self.emit(f'    foot, vec, m, ok, viol = {P1} + r1 * off, 0j, 0.0, True, 0.0')
+                self.emit('else:')
+                self.emit(f'    foot, vec, m, ok, viol = circle_circle_pair({P1}, r1, {P2}, r2, tol)')
             else:
                 b1, p1, jname = st.args
-                pj = mech.prismatics[jname]
-                r = abs(local_pt(b1, x) - local_pt(b1, p1))
-                g = pj.guide
-                foot, vec, m, ok, viol = dyads.circle_line_pair(
-                    pts[p1], r, poses.world(g, pc[x]), poses.rot[g] * _c(pj.direction), tol)
-            if not ok:
-                return failed(k, viol)
+                pj = self.mech.prismatics[jname]
+                g = self.link(pj.guide)
+                self.emit(f'r = abs({self.local_pt(b1, x)} - {self.local_pt(b1, p1)})')
+                self.emit(f'foot, vec, m, ok, viol = circle_line_pair({self.pt(p1)}, r, '
+                          f'ro{g} * {self.const(self.pc[x])} + T{g}, '
+                          f'ro{g} * {self.const(_c(pj.direction))}, tol)')
+            self.emit('if not ok:')
+            self.emit(f'    return {self.result(False, k)}')
             # the two solutions are foot +- vec: + is the dyad's positive branch
-            sg = pick(signs[bk], x, foot + vec, foot - vec, m)
-            pts[x] = foot + sg * vec
-            took(sg, m)
+            self.emit(f'sg = signs[{self.branches}]')
+            self.emit(f'if prefer is not None and {x!r} in prefer:')
+            self.near_singular([
+                f'target = prefer[{x!r}]',
+                'sg = 1 if abs((foot + vec) - target) <= abs((foot - vec) - target) else -1'])
+            self.emit(f'{X} = foot + sg * vec')
+            self.placed_points.append(x)
+            self.took()
         elif op == 'line_through':
             jname, p = st.args
-            pj = mech.prismatics[jname]
-            x = st.point
-            bi = st.body
-            loc = local(bi)
-            lp = local_pt(bi, p)
-            gl = pj.guide
-            u_loc = loc.rot[gl] * _c(pj.direction)
-            w = loc.world(gl, pc[x]) - lp
-            e = u_loc.real * w.imag - u_loc.imag * w.real   # signed offset of the pivot
-            psi0 = math.atan2(u_loc.imag, u_loc.real)
-            beta, along, m, ok, viol = dyads.line_through_pair(pts[p], pts[x], e, tol)
-            if not ok:
-                return failed(k, viol)
-            phi_p = beta - math.atan2(e, along) - psi0
-            phi_m = beta - math.atan2(e, -along) - psi0
-            sg = signs[bk]
-            if prefer is not None and '@' + gl in prefer and near_singular(m):
-                last = prefer['@' + gl]
-                sg = 1 if abs(dyads.wrap_angle(phi_p + loc.phi[gl] - last)) <= \
-                    abs(dyads.wrap_angle(phi_m + loc.phi[gl] - last)) else -1
-            phi = phi_p if sg > 0 else phi_m
-            angles[bi] = phi
-            place_body(bi, phi, pts[p] - complex(math.cos(phi), math.sin(phi)) * lp)
-            took(sg, m)
-    return ScalarRun(True, poses, pts, margin, tuple(used), margins=tuple(margins))
+            pj = self.mech.prismatics[jname]
+            x, bi = st.point, st.body
+            frame = self.frame(bi)
+            self.emit(f'lp = {self.local_pt(bi, p)}')
+            gphi, grot, gT = frame[pj.guide]
+            self.emit(f'u_loc = {grot} * {self.const(_c(pj.direction))}')
+            self.emit(f'w = ({grot} * {self.const(self.pc[x])} + {gT}) - lp')
+            self.emit('e = u_loc.real * w.imag - u_loc.imag * w.real')   # signed pivot offset
+            self.emit('psi0 = atan2(u_loc.imag, u_loc.real)')
+            self.emit(f'beta, along, m, ok, viol = line_through_pair({self.pt(p)}, {self.pt(x)}, '
+                      'e, tol)')
+            self.emit('if not ok:')
+            self.emit(f'    return {self.result(False, k)}')
+            self.emit('phi_p = beta - atan2(e, along) - psi0')
+            self.emit('phi_m = beta - atan2(e, -along) - psi0')
+            self.emit(f'sg = signs[{self.branches}]')
+            key = '@' + pj.guide
+            self.emit(f'if prefer is not None and {key!r} in prefer:')
+            self.near_singular([
+                f'last = prefer[{key!r}]',
+                f'sg = 1 if abs(wrap_angle(phi_p + {gphi} - last)) <= '
+                f'abs(wrap_angle(phi_m + {gphi} - last)) else -1'])
+            self.emit('phi = phi_p if sg > 0 else phi_m')
+            self.emit(f'ang{bi} = phi')
+            self.place_body(bi, 'phi', f'{self.pt(p)} - complex(cos(phi), sin(phi)) * lp')
+            self.took()
+        else:
+            raise PlanError(f'internal: unknown plan step {op!r}')
+
+
+def _compile_scalar(plan: Plan):
+    """The plan as one straight-line Python function (values, signs, prefer, tol,
+    prev_margins) -> ScalarRun: every lookup of the plan (bodies, local frames, reference
+    points, which link carries which point) is resolved here once, so a solve executes only
+    its arithmetic. This is the node's per-command path."""
+    code = _ScalarCode(plan)
+    code.emit('margin = 1.0')
+    for k, st in enumerate(plan.steps):
+        code.step(k, st)
+    code.emit(f'return {code.result(True)}')
+    src = 'def run(values, signs, prefer, tol, prev_margins):\n' + '\n'.join(code.lines) + '\n'
+    namespace = dict(code.ns)
+    exec(compile(src, f'<scalar plan of {plan.mech.name}>', 'exec'), namespace)
+    fn = namespace['run']
+    fn.source = src                      # the generated code, for debugging
+    return fn
 
 
 def _unit(z: complex) -> complex:

@@ -28,7 +28,7 @@ from .dyads import wrap_angle
 from .model import Mechanism
 from .newton import LoopSystem
 from .plan import (CONTINUITY_MARGIN, Plan, ScalarPoses, Spec, branch_geometry_one, run_one, spec_for, spec_value_at,
-                   spec_value_one)
+                   spec_point_link, spec_value_one)
 
 #: below this dyad margin the two assembly modes are numerically indistinguishable: rounding
 #: alone moves a dyad's height by ~sqrt(eps) = 1.5e-8 of its scale, and the margin grows like
@@ -182,7 +182,7 @@ class Solver:
         self.branch_mode, self.fixed_signs = self._parse_branch(branch)
         self._slide_specs = {n: Spec(n, 'slide', joint=n) for n in mech.prismatics}
         self._ref_values = self._values_at_reference()
-        self._compile_tables()
+        self._assemblers: dict[tuple, Any] = {}   # result assembly per set of placed links
         self.reset()
 
     # -- set-up helpers ----------------------------------------------------------------------
@@ -671,51 +671,25 @@ class Solver:
                                 x_lu=self.system.rate_factor(r) if newton else None)
 
     # -- result assembly ---------------------------------------------------------------------
-    def _compile_tables(self):
-        """Per-solver tables for result assembly (the node's hot path: no per-solve lookups)."""
-        mech = self.mech
-        links = mech.links
-        self._rev_rows = [(rj.name, rj.parent, rj.child,
-                           links[rj.child].angle_ref - links[rj.parent].angle_ref,
-                           complex(*mech.points[rj.point])) for rj in mech.revolutes]
-        self._pri_rows = [(pj.name, pj.guide, pj.slider, complex(*mech.points[pj.point]),
-                           1j * complex(*pj.direction), self._slide_specs[pj.name])
-                          for pj in mech.prismatics.values()]
-        self._link_rows = [(l, link.angle_ref) for l, link in links.items()]
-        links_of = self.check_system._spec_links
-        commanded = {s.name: i for i, s in enumerate(self.specs)}
-        # (actuator, spec, links it needs, index of its commanded value or None)
-        self._actuator_rows = [(a, s, tuple(links_of(s)), commanded.get(a))
-                               for a, s in zip(mech.actuators, self.actuator_specs)]
-        self._known_rows = [(i, s, tuple(links_of(s))) for i, s in enumerate(self.specs)]
+    def _assembler(self, poses: ScalarPoses):
+        """The result-assembly code for configurations that place exactly these links (one per
+        set: a dyad plan always places the same links, Newton all of them)."""
+        key = tuple(poses.phi)
+        fn = self._assemblers.get(key)
+        if fn is None:
+            fn = _compile_assembly(self, key)
+            if len(self._assemblers) < 16:      # a handful of sets occur; never grow unbounded
+                self._assemblers[key] = fn
+        return fn
 
     def _build(self, poses: ScalarPoses, pts: dict[str, complex], vals, *, solver, iterations,
                signs, margin, cond=None):
-        mech = self.mech
-        have = poses.phi
-        res = Result(True, solver=solver, iterations=iterations)
-        inputs, joints, links, points = res.inputs, res.joints, res.links, res.points
-        for a, s, needs, i in self._actuator_rows:
-            if i is not None:                    # commanded: the value exactly as given
-                inputs[a] = float(vals[i])
-            elif all(l in have for l in needs):
-                inputs[a] = float(spec_value_one(mech, s, poses))
-        for name, parent, child, offset, _ in self._rev_rows:
-            if parent in have and child in have:
-                joints[name] = wrap_angle(offset + have[child] - have[parent])
-        for name, guide, slider, _, _, spec in self._pri_rows:
-            if guide in have and slider in have:
-                joints[name] = float(spec_value_one(mech, spec, poses))
-        for l, angle_ref in self._link_rows:
-            if l in have:
-                links[l] = wrap_angle(angle_ref + have[l])
-        for p, v in pts.items():
-            points[p] = (v.real, v.imag)
-        res.residual = self._residual(poses, vals)
-        res.branch = _sign_str(signs)
-        res.margin = float(margin)
-        res.branch_defined = bool(margin > BRANCH_UNDEFINED_MARGIN) if signs else True
-        res.cond = cond if cond is None or math.isfinite(cond) else None
+        inputs, joints, links, residual = self._assembler(poses)(poses.phi, poses.rot, poses.T,
+                                                                 vals)
+        points = {p: (v.real, v.imag) for p, v in pts.items()}
+        res = Result(True, None, inputs, {}, joints, links, points, residual, iterations, solver,
+                     _sign_str(signs), bool(margin > BRANCH_UNDEFINED_MARGIN) if signs else True,
+                     float(margin), cond if cond is None or math.isfinite(cond) else None)
         # one sum is finite when every term is (and may overflow only at ~1e308 scales, where
         # the exact check below runs)
         total = (sum(joints.values()) + sum(links.values()) + sum(inputs.values())
@@ -732,31 +706,7 @@ class Solver:
         as a fraction of the length scale (rotation errors count as length-scale * angle). Same
         metric as the Newton rows: the largest single component, so a Newton answer converged
         to tolerance reports a residual within it."""
-        mech, L = self.mech, self.mech.length_scale
-        have, rot, T = poses.phi, poses.rot, poses.T
-        worst = 0.0
-        for _, parent, child, _, p in self._rev_rows:
-            if parent in have and child in have:
-                d = (rot[parent] * p + T[parent]) - (rot[child] * p + T[child])
-                worst = max(worst, abs(d.real), abs(d.imag))
-        for _, guide, slider, p, normal, _ in self._pri_rows:
-            if guide in have and slider in have:
-                off = (rot[slider] * p + T[slider]) - (rot[guide] * p + T[guide])
-                n = rot[guide] * normal
-                worst = max(worst, abs(off.real * n.real + off.imag * n.imag),
-                            L * abs(wrap_angle(have[slider] - have[guide])))
-        for i, s, needs in self._known_rows:
-            if not all(l in have for l in needs):
-                continue
-            v = vals[i]
-            got = spec_value_one(mech, s, poses)
-            if s.kind == 'point':
-                worst = max(worst, abs(got[0] - v[0]), abs(got[1] - v[1]))
-            elif s.kind == 'angle':
-                worst = max(worst, L * abs(wrap_angle(got - wrap_angle(v))))   # reduce v exactly first
-            else:
-                worst = max(worst, abs(got - v))
-        return worst / L
+        return self._assembler(poses)(poses.phi, poses.rot, poses.T, vals)[3]
 
     # -- batches -----------------------------------------------------------------------------
     def solve_batch(self, columns: Mapping[str, Any]) -> 'BatchResult':
@@ -914,6 +864,105 @@ class BatchResult:
                       residual=float(self.residual[i]), iterations=int(self.iterations[i]),
                       solver=self.solver, branch=_sign_str(sg), margin=float(self.margin[i]),
                       branch_defined=bool(self.margin[i] > BRANCH_UNDEFINED_MARGIN) if sg else True)
+
+
+def _compile_assembly(solver: Solver, have: tuple[str, ...]):
+    """Straight-line code (phi, rot, T, vals) -> (inputs, joints, links, residual) reading a
+    Result off the poses of the links in ``have``: every commanded actuator as given, every
+    other actuator, joint and link whose links are placed, and the loop-closure residual over
+    the joints and knowns whose links are placed (see Solver._residual). Which rows apply, the
+    reference points and offsets are all resolved here once: this runs on every command."""
+    mech, L = solver.mech, solver.mech.length_scale
+    placed = set(have)
+    ns = {'wrap_angle': wrap_angle, 'atan2': math.atan2, 'sin': math.sin, 'cos': math.cos}
+    lines: list[str] = []
+    var = {l: k for k, l in enumerate(have)}
+
+    def const(value) -> str:
+        name = f'K{len(ns)}'
+        ns[name] = value
+        return name
+
+    def emit(line: str):
+        lines.append('    ' + line)
+
+    def wrapped(target: str, expr: str):
+        """target = wrap_angle(expr), inlined (most angles are in range: no call at all)."""
+        emit(f'a = {expr}')
+        emit(f'{target} = a if {const(-math.pi)} < a <= {const(math.pi)} else '
+             'atan2(sin(a), cos(a))')
+
+    def world(link: str, p: complex) -> str:
+        k = var[link]
+        return f'(ro{k} * {const(p)} + T{k})'
+
+    def spec_value(s: Spec) -> str:
+        """Expression of the spec's value (spec_value_one), after any lines it needs."""
+        if s.kind == 'angle':
+            return f'wrap_angle(ph{var[s.link]} - ph{var[s.reference]} + {const(s.offset)})'
+        if s.kind == 'slide':
+            pj = mech.prismatics[s.joint]
+            g = var[pj.guide]
+            x = world(spec_point_link(mech, pj.point, pj.slider), complex(*mech.points[pj.point]))
+            emit(f'v = {x} - {world(pj.guide, complex(*pj.origin))}')
+            emit(f'd = ro{g} * {const(complex(*pj.direction))}')
+            return 'v.real * d.real + v.imag * d.imag'
+        emit(f'w = {world(mech.links_of_point(s.point)[0], complex(*mech.points[s.point]))}')
+        return '(w.real, w.imag)'
+
+    links_of = solver.check_system._spec_links
+    for l, k in var.items():
+        emit(f'ph{k} = phi[{l!r}]; ro{k} = rot[{l!r}]; T{k} = T[{l!r}]')
+    emit('inputs = {}')
+    commanded = {s.name: i for i, s in enumerate(solver.specs)}
+    for a, s in zip(mech.actuators, solver.actuator_specs):
+        if a in commanded:                        # commanded: the value exactly as given
+            emit(f'inputs[{a!r}] = float(vals[{commanded[a]}])')
+        elif all(l in placed for l in links_of(s)):
+            emit(f'inputs[{a!r}] = float({spec_value(s)})')
+    emit('joints = {}')
+    for rj in mech.revolutes:
+        if rj.parent in placed and rj.child in placed:
+            offset = mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref
+            wrapped(f'joints[{rj.name!r}]', f'{const(offset)} + ph{var[rj.child]} - ph{var[rj.parent]}')
+    for pj in mech.prismatics.values():
+        if pj.guide in placed and pj.slider in placed:
+            emit(f'joints[{pj.name!r}] = float({spec_value(solver._slide_specs[pj.name])})')
+    emit('links = {}')
+    for l, link in mech.links.items():
+        if l in placed:
+            wrapped(f'links[{l!r}]', f'{const(link.angle_ref)} + ph{var[l]}')
+    emit('worst = 0.0')
+    for rj in mech.revolutes:
+        if rj.parent in placed and rj.child in placed:
+            p = complex(*mech.points[rj.point])
+            emit(f'd = {world(rj.parent, p)} - {world(rj.child, p)}')
+            emit('worst = max(worst, abs(d.real), abs(d.imag))')
+    for pj in mech.prismatics.values():
+        if pj.guide in placed and pj.slider in placed:
+            p = complex(*mech.points[pj.point])
+            g, sl = var[pj.guide], var[pj.slider]
+            emit(f'off = {world(pj.slider, p)} - {world(pj.guide, p)}')
+            emit(f'n = ro{g} * {const(1j * complex(*pj.direction))}')
+            emit(f'worst = max(worst, abs(off.real * n.real + off.imag * n.imag), '
+                 f'{const(L)} * abs(wrap_angle(ph{sl} - ph{g})))')
+    for i, s in enumerate(solver.specs):
+        if not all(l in placed for l in links_of(s)):
+            continue
+        emit(f'got = {spec_value(s)}')
+        emit(f'v = vals[{i}]')
+        if s.kind == 'point':
+            emit('worst = max(worst, abs(got[0] - v[0]), abs(got[1] - v[1]))')
+        elif s.kind == 'angle':                   # reduce v exactly first
+            emit(f'worst = max(worst, {const(L)} * abs(wrap_angle(got - wrap_angle(v))))')
+        else:
+            emit('worst = max(worst, abs(got - v))')
+    emit(f'return inputs, joints, links, worst / {const(L)}')
+    src = 'def assemble(phi, rot, T, vals):\n' + '\n'.join(lines) + '\n'
+    exec(compile(src, f'<result assembly of {mech.name}>', 'exec'), ns)
+    fn = ns['assemble']
+    fn.source = src                      # the generated code, for debugging
+    return fn
 
 
 def _sign_str(signs) -> str:
