@@ -896,3 +896,92 @@ def test_generated_scalar_code_agrees_with_the_batched_plan(scene):
                         else:           # angles: compare on the circle
                             assert abs(math.remainder(d, 2 * math.pi)) <= TIGHT, name
     assert checked >= 6, f'{scene}: too few assembling commands to compare ({checked})'
+
+
+# ---- warm-started Newton over a batch of instances (Solver.solve_batch(start=)) ---------------
+
+def _instance_paths(mech, n, steps):
+    """n instances spread along a closed path through the actuator ranges, each moving one
+    small step per batch: columns for steps 0..steps."""
+    ref = Solver(mech, method='newton').reference_values()
+    out = []
+    for k in range(steps + 1):
+        cols = {}
+        for j, a in enumerate(mech.actuators):
+            act = mech.actuators[a]
+            phase = 2 * np.pi * (np.arange(n) / n) + 0.02 * k
+            if act.min is None or act.max is None:
+                cols[a] = ref[a] + phase
+            else:
+                mid, amp = 0.5 * (act.min + act.max), 0.3 * (act.max - act.min)
+                cols[a] = mid + amp * np.sin(phase * (j + 1))
+        out.append(cols)
+    return out
+
+
+@pytest.mark.parametrize('scene', ['four_bar', 'slider_crank', 'peaucellier', 'excavator'])
+def test_newton_batch_of_instances_matches_the_closed_form(scene):
+    """Each row is one mechanism advancing along its own path, warm-started from its previous
+    answer. Oracle: the dyad plan (a different method) at the same inputs on the reference
+    branch. The rows are answered mostly by the vectorised path, all close their loops."""
+    mech = Scene.from_yaml(f'config/{scene}.yaml').mechanism
+    L = mech.length_scale
+    newton = Solver(mech, method='newton')
+    closed = Solver(mech, method='closed_form', branch='reference')
+    paths = _instance_paths(mech, 40, 3)
+    batch = newton.solve_batch(paths[0])          # no start: the rows are solved as one path
+    assert batch.ok.all() and batch.x is not None
+    for cols in paths[1:]:
+        batch = newton.solve_batch(cols, start=batch)
+        want = closed.solve_batch(cols)
+        assert batch.ok.all() and want.ok.all()
+        assert np.sum(batch.careful) <= 4, np.sum(batch.careful)
+        assert np.max(batch.residual) <= TIGHT
+        for p in mech.points:
+            assert np.max(np.abs(batch.points[p] - want.points[p])) <= AGREE * L, p
+        assert np.array_equal(batch.signs, want.signs)
+        for j in mech.joint_names:
+            assert np.max(np.abs(np.remainder(batch.joints[j] - want.joints[j] + np.pi,
+                                              2 * np.pi) - np.pi)) <= AGREE * max(L, 1.0), j
+
+
+def test_newton_batch_rows_it_cannot_vouch_for_take_the_careful_path():
+    """Bad rows fail with a reason and leave the others alone; a big jump (no fast-path proof)
+    is solved by Solver.solve's careful path from that row's start, like the closed form; a row
+    whose start failed starts from the reference pose; an input past a toggle is refused."""
+    mech = four_bar(*TRIPLE_ROCKER)          # non-Grashof: the crank cannot turn fully
+    newton = Solver(mech, method='newton')
+    closed = Solver(mech, method='closed_form', branch='reference')
+    t0 = closed.reference_values()['crank']
+    start = newton.solve_batch({'crank': np.array([t0, t0 + 0.1, t0, t0 - 0.1, np.nan])})
+    assert list(start.ok) == [True, True, True, True, False]
+    cmd = np.array([t0 + 0.02, t0 + 0.12, np.nan, t0 + 0.9, t0 + 0.03])
+    before = newton.snapshot()
+    got = newton.solve_batch({'crank': cmd}, start=start)
+    assert newton.snapshot() == before           # the solver's own state is untouched
+    assert not got.ok[2] and 'finite' in got.reason[2]
+    assert got.careful[3] and got.careful[4] and not got.careful[0] and not got.careful[1]
+    want = closed.solve_batch({'crank': np.nan_to_num(cmd)})
+    for i in (0, 1, 3, 4):
+        assert got.ok[i] == want.ok[i], (i, got.reason[i], want.reason[i])
+        if got.ok[i]:
+            for p in mech.points:
+                assert np.max(np.abs(got.points[p][i] - want.points[p][i])) <= AGREE * 4.0
+    # crank at 0 rad: A = (3, 0) is 1 from O4 (4, 0), closer than coupler - rocker = 2.5
+    far = newton.solve_batch({'crank': np.zeros(5)}, start=got)
+    assert not far.ok.any(), 'a crank angle outside the input range was assembled'
+    assert all(far.reason)
+
+
+def test_newton_batch_start_is_checked():
+    mech = four_bar(*CRANK_ROCKER)
+    newton = Solver(mech, method='newton')
+    t = np.linspace(0.0, 1.0, 5)
+    start = newton.solve_batch({'crank': t})
+    with pytest.raises(ValueError, match='5 rows'):
+        newton.solve_batch({'crank': t[:3]}, start=start)
+    closed = Solver(mech, method='closed_form')
+    with pytest.raises(ValueError, match='newton'):
+        closed.solve_batch({'crank': t}, start=start)
+    with pytest.raises(ValueError, match='newton BatchResult'):
+        newton.solve_batch({'crank': t}, start=closed.solve_batch({'crank': t}))

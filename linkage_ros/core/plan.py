@@ -1015,3 +1015,31 @@ def branch_geometry_one(plan: Plan, pts: dict[str, complex], poses: ScalarPoses)
         signs.append(1 if side >= 0 else -1)
         margins.append(min(max(m, 0.0), 1.0))
     return tuple(signs), margins
+
+
+def branch_geometry_batch(plan: Plan, pts: dict[str, np.ndarray], poses: Poses):
+    """branch_geometry_one over a batch: points {name: (n, 2)} and batched poses -> signs (n, k)
+    (+1 / -1) and margins (n, k) of the plan's k branching steps."""
+    n = poses.phi[plan.mech.ground].shape[0]
+
+    def unit(v):                          # hypot: no overflow at 1e200; a zero vector stays 0
+        r = np.hypot(v[:, 0], v[:, 1])
+        return v / np.where(r > 0, r, 1.0)[:, None]
+    signs, margins = np.zeros((n, len(plan.branch_steps)), int), np.zeros((n, len(plan.branch_steps)))
+    for k, st in enumerate(plan.branch_steps):
+        x = pts[st.point]
+        if st.op == 'circle_circle':
+            _, p1, _, p2 = st.args
+            a, b = pts[p1], pts[p2]
+            side = dyads.cross2(unit(b - a), unit(x - a))
+            m = np.abs(dyads.cross2(unit(x - a), unit(x - b)))
+        else:
+            pj = plan.mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
+            u = dyads.rotate(np.broadcast_to(np.asarray(pj.direction, float), (n, 2)),
+                             poses.phi[pj.guide])
+            side = np.sum(unit(x - pts[st.args[1]]) * u, axis=-1)
+            m = np.abs(side)
+        signs[:, k] = np.where(side >= 0, 1, -1)
+        margins[:, k] = np.clip(m, 0.0, 1.0)
+    return signs, margins
+

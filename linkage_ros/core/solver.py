@@ -27,7 +27,8 @@ from .errors import PlanError
 from .dyads import wrap_angle
 from .model import Mechanism
 from .newton import LoopSystem
-from .plan import (CONTINUITY_MARGIN, Plan, ScalarPoses, Spec, branch_geometry_one, run_one, spec_for, spec_value_at,
+from .plan import (CONTINUITY_MARGIN, Plan, Poses, ScalarPoses, Spec, branch_geometry_batch,
+                   branch_geometry_one, run_one, spec_for, spec_value_at,
                    spec_point_link, spec_value_one)
 
 #: below this dyad margin the two assembly modes are numerically indistinguishable: rounding
@@ -709,10 +710,24 @@ class Solver:
         return self._assembler(poses)(poses.phi, poses.rot, poses.T, vals)[3]
 
     # -- batches -----------------------------------------------------------------------------
-    def solve_batch(self, columns: Mapping[str, Any]) -> 'BatchResult':
-        """Vectorised closed-form solve of n commands with fixed branch signs (the explicit
-        ones, else the current/reference ones). Newton modes fall back to sequential warm-started
-        solves. ``columns`` maps each known name to an (n,) array ((n, 2) for points)."""
+    def solve_batch(self, columns: Mapping[str, Any],
+                    start: 'BatchResult | None' = None) -> 'BatchResult':
+        """Solve n commands at once. ``columns`` maps each known name to an (n,) array ((n, 2)
+        for points).
+
+        closed_form: one vectorised dyad-plan run with fixed branch signs (the explicit ones,
+        else the current/reference ones).
+
+        newton / auto without ``start``: the rows are one path, solved one after another by
+        ``solve`` (warm-started and branch-tracked from the solver's state, which they update).
+
+        newton with ``start``: n independent instances advancing together (a fleet of
+        mechanisms, simulation environments), row i warm-started from row i of ``start``, an
+        earlier newton BatchResult of this solver with the same n. Vectorised Newton answers
+        every row it can prove is on the start's branch (det J keeps its sign, each step cuts
+        the residual tenfold, the dyads keep their sides, the answer is well conditioned); the
+        other rows take ``solve``'s careful path from their start, so the answers are those
+        ``solve`` would give from that start."""
         names = list(columns)
         unknown = [k for k in names if k not in self.knowns]
         missing = [k for k in self.knowns if k not in columns]
@@ -730,18 +745,35 @@ class Solver:
             elif a.shape[0] != n:
                 raise ValueError(f'batch column {s.name!r} has {a.shape[0]} rows, expected {n}')
             arrays.append(a)
-        return BatchResult.solve(self, arrays, n or 0)
+        if start is not None:
+            if self.mode != 'newton':
+                raise ValueError(f'start= warm-starts newton batches; this solver is {self.mode}')
+            if not isinstance(start, BatchResult) or start.x is None:
+                raise ValueError('start must be a newton BatchResult of this solver (a closed-form '
+                                 'batch carries no Newton state)')
+            if start.n != (n or 0):
+                raise ValueError(f'start has {start.n} rows but this batch has {n or 0}: row i '
+                                 'starts from row i')
+        return BatchResult.solve(self, arrays, n or 0, start)
 
 
 class BatchResult:
     """Results of n commands as arrays: ok (n,), reason list, points {name: (n, 2)},
-    joints / links / inputs {name: (n,)}, residual, margin, signs (n, k)."""
+    joints / links / inputs {name: (n,)}, residual, margin, iterations, signs (n, k); newton
+    batches also x (n, 3 * moving links: the Newton unknowns) and det_sign (n,), what the next
+    batch of the same instances starts from (Solver.solve_batch(start=...))."""
+
+    x: np.ndarray | None = None
+    det_sign: np.ndarray | None = None
+    careful: np.ndarray | None = None    # newton batches with start=: rows Solver.solve answered
+    rows: list[Result] | None = None
 
     @classmethod
-    def solve(cls, solver: Solver, arrays: list[np.ndarray], n: int) -> 'BatchResult':
+    def solve(cls, solver: Solver, arrays: list[np.ndarray], n: int,
+              start: 'BatchResult | None' = None) -> 'BatchResult':
         self = cls()
         self.n = n
-        mech = solver.mech
+        self.values = arrays                 # the command columns, in solver.specs order
         finite = np.ones(n, bool)
         for a in arrays:
             finite &= np.all(np.isfinite(a.reshape(n, -1)), axis=1)
@@ -758,11 +790,25 @@ class BatchResult:
                         limit_bad[i] = True
                         self.reason[i] = why
         if solver.mode != 'closed_form':
+            if start is not None:
+                return cls._newton(self, solver, arrays, safe, finite & ~limit_bad, start)
             return cls._sequential(self, solver, arrays, n)
         poses, pts, info = solver.plan.run(safe, n, solver._signs())
         ok = info['ok'] & finite & ~limit_bad
         for i in np.flatnonzero(~info['ok'] & finite & ~limit_bad):
             self.reason[i] = solver._dyad_reason(int(info['failure'][i]), float(info['violation'][i]))
+        self._fill(solver, poses, pts, arrays, safe, finite, ok)
+        self.margin = np.where(self.ok, info['margin'], 0.0)
+        self.signs = info['signs']
+        self.residual = cls._residuals(solver, poses, safe, self.ok, n)
+        self.iterations = np.zeros(n, int)
+        self.solver = 'closed_form'
+        return self
+
+    def _fill(self, solver, poses, pts, arrays, safe, finite, ok):
+        """points, links, joints and inputs of the rows ``ok`` from their poses (0 elsewhere);
+        an inverse solve's actuator beyond its limits turns its row into a failure."""
+        mech = solver.mech
         self.points = {p: np.where(ok[:, None], v, 0.0) for p, v in pts.items()}
         have = set(poses.phi)
         self.links = {l: np.where(ok, np.arctan2(np.sin(mech.links[l].angle_ref + poses.phi[l]),
@@ -784,7 +830,7 @@ class BatchResult:
                 self.inputs[a] = np.where(ok, spec_value_at(mech, s, poses), 0.0)
         for s, a in zip(solver.specs, arrays):
             if s.name in mech.actuators:
-                self.inputs[s.name] = np.where(ok, a, a if False else np.where(finite, a, 0.0))
+                self.inputs[s.name] = np.where(ok, a, np.where(finite, a, 0.0))
         if solver.inverse:
             for s in solver.actuator_specs:
                 if s.name in self.inputs and (s.minimum is not None or s.maximum is not None):
@@ -794,12 +840,101 @@ class BatchResult:
                             ok[i] = False
                             self.reason[i] = f'target needs {why}'
         self.ok = ok
-        self.margin = np.where(ok, info['margin'], 0.0)
-        self.signs = info['signs']
-        self.residual = cls._residuals(solver, poses, safe, ok, n)
-        self.iterations = np.zeros(n, int)
-        self.solver = 'closed_form'
+
+    @staticmethod
+    def _newton(self, solver, arrays, safe, valid, start):
+        """Vectorised warm-started Newton over independent instances (see Solver.solve_batch);
+        the rows it cannot vouch for go through Solver.solve from their start."""
+        mech, n, system = solver.mech, self.n, solver.system
+        plan = solver.full_plan
+        branches = bool(plan.complete and plan.branch_steps)
+        k = len(plan.branch_steps) if branches else 0
+        eligible = np.flatnonzero(valid & start.ok & (start.det_sign != 0))
+        x = np.zeros((n, system.n))
+        accepted = np.zeros(n, bool)
+        iterations = np.zeros(n, int)
+        residual = np.zeros(n)
+        det_sign = np.zeros(n, int)
+        cond = np.full(n, np.inf)
+        if len(eligible):
+            bs = system.solve_batch(start.x[eligible], [a[eligible] for a in safe],
+                                    start.det_sign[eligible], tol=solver.tol)
+            rows = eligible[bs.ok]
+            x[rows], iterations[eligible] = bs.x[bs.ok], bs.iterations
+            residual[rows], det_sign[rows], cond[rows] = bs.residual[bs.ok], bs.det_sign[bs.ok], \
+                bs.cond[bs.ok]
+            # Solver.solve checks the closed form can assemble unless the answer is provably on
+            # its branch: well conditioned for its residual (Newton-Kantorovich) and the dyads on
+            # the start's sides. A row that needs that check (or changed sides) goes there too.
+            accepted[rows] = cond[rows] ** 2 * residual[rows] * system.n <= 1e-2
+        poses = _batch_poses(solver, x)
+        pts = {p: poses.world(l, p, mech) for p, l in _point_owners(mech)}
+        signs = np.zeros((n, k), int)
+        margin = np.where(accepted, 1.0 / np.maximum(cond, 1.0), 0.0)
+        if branches:
+            signs, margins = branch_geometry_batch(plan, pts, poses)
+            accepted &= np.all(signs == start.signs, axis=1)
+            margin = np.min(margins, axis=1)
+        if solver.branch_mode == 'explicit':
+            accepted &= np.all(signs == np.asarray(solver.fixed_signs, int), axis=1)
+        elif solver.branch_mode == 'reference' and branches:
+            accepted &= np.all(signs == np.asarray(plan.reference_signs, int), axis=1)
+        self._fill(solver, poses, pts, arrays, safe, valid, accepted.copy())
+        self.x, self.det_sign = x, np.where(self.ok, det_sign, 0)
+        self.signs, self.margin = np.where(self.ok[:, None], signs, 0), np.where(self.ok, margin, 0.0)
+        self.iterations = np.where(self.ok, iterations, 0)
+        self.residual = np.where(self.ok, np.maximum(
+            residual, BatchResult._residuals(solver, poses, safe, self.ok, n)), 0.0)
+        self.solver = solver.mode
+        self.careful = valid & ~accepted
+        careful = np.flatnonzero(self.careful)
+        if len(careful):
+            snapshot = solver.snapshot()
+            try:
+                for i in careful:
+                    r = self._careful_row(solver, arrays, start, i)
+                    self._set_row(solver, i, r, iterations[i])
+            finally:
+                solver.restore(snapshot)
         return self
+
+    def _careful_row(self, solver, arrays, start, i) -> Result:
+        """Row i by Solver.solve from row i of ``start`` (its configuration, det J sign and
+        dyad sides; the reference pose if that row failed), committed so its x can be read."""
+        solver.reset()
+        if start.ok[i]:
+            xi = start.x[i]
+            poses, pts = solver.check_system.configuration(xi)
+            vals = [np.array(a[i], float) if s.kind == 'point' else float(a[i])
+                    for s, a in zip(solver.specs, start.values)]
+            if solver.full_plan.complete:
+                signs, margins = branch_geometry_one(solver.full_plan, pts, poses)
+            else:
+                signs, margins = solver.plan.reference_signs, ()
+            solver._history = [solver._state(vals, poses, pts, signs, int(start.det_sign[i]),
+                                             margins, x_all=xi.copy())]
+        cmd = {s.name: (arrays[k][i] if s.kind == 'point' else float(arrays[k][i]))
+               for k, s in enumerate(solver.specs)}
+        return solver.solve(cmd)
+
+    def _set_row(self, solver, i, r: Result, spent: int):
+        """Write one Result into row i (x and det_sign from the solver's committed state)."""
+        self.ok[i], self.reason[i] = r.success, r.reason
+        if not r.success:
+            self.det_sign[i] = 0
+            return
+        for table, got in ((self.links, r.links), (self.joints, r.joints),
+                           (self.inputs, r.inputs)):
+            for name in table:
+                table[name][i] = got.get(name, 0.0)
+        for p in self.points:
+            self.points[p][i] = r.points.get(p, (0.0, 0.0))
+        self.margin[i], self.residual[i] = r.margin or 0.0, r.residual or 0.0
+        self.iterations[i] = r.iterations + spent
+        if self.signs.shape[1] == len(r.branch):
+            self.signs[i] = [1 if c == '+' else -1 for c in r.branch]
+        state = solver._history[-1]
+        self.x[i], self.det_sign[i] = state.x_all, state.det_sign
 
     @staticmethod
     def _residuals(solver, poses, arrays, ok, n):
@@ -826,7 +961,7 @@ class BatchResult:
     @staticmethod
     def _sequential(self, solver, arrays, n):
         mech = solver.mech
-        rows = []
+        rows, states = [], {}
         for i in range(n):
             if self.reason[i] is not None:
                 rows.append(Result(False, self.reason[i]))
@@ -834,6 +969,8 @@ class BatchResult:
             cmd = {s.name: (arrays[k][i] if s.kind == 'point' else float(arrays[k][i]))
                    for k, s in enumerate(solver.specs)}
             rows.append(solver.solve(cmd))
+            if rows[-1].success:
+                states[i] = solver._history[-1]
         self.ok = np.array([r.success for r in rows], bool)
         self.reason = [r.reason for r in rows]
         names_p = list(mech.points)
@@ -848,6 +985,13 @@ class BatchResult:
         self.signs = np.zeros((n, 0), int)
         self.solver = solver.mode
         self.rows = rows
+        if solver.mode == 'newton':          # what a later batch of these rows may start from
+            self.x, self.det_sign = np.zeros((n, solver.system.n)), np.zeros(n, int)
+            for i in np.flatnonzero(self.ok):
+                self.x[i], self.det_sign[i] = states[i].x_all, states[i].det_sign
+            k = len(solver.full_plan.branch_steps) if solver.full_plan.complete else 0
+            self.signs = np.array([[1 if c == '+' else -1 for c in r.branch] if r.success and
+                                   len(r.branch) == k else [0] * k for r in rows], int).reshape(n, k)
         return self
 
     def row(self, i: int, solver: Solver) -> Result:
@@ -864,6 +1008,28 @@ class BatchResult:
                       residual=float(self.residual[i]), iterations=int(self.iterations[i]),
                       solver=self.solver, branch=_sign_str(sg), margin=float(self.margin[i]),
                       branch_defined=bool(self.margin[i] > BRANCH_UNDEFINED_MARGIN) if sg else True)
+
+
+def _batch_poses(solver: Solver, x: np.ndarray) -> Poses:
+    """Poses of every link from newton unknowns x (n, 3 per moving link: phi and the world
+    position of the link's reference centroid o, so T = c - R(phi) o); the ground at rest."""
+    system, n = solver.system, x.shape[0]
+    poses = Poses({solver.mech.ground: np.zeros(n)}, {solver.mech.ground: np.zeros((n, 2))})
+    for l, i in system.index.items():
+        phi = x[:, 3 * i]
+        poses.phi[l] = phi
+        poses.T[l] = x[:, 3 * i + 1:3 * i + 3] - dyads.rotate(
+            np.broadcast_to(system.centroid[l], (n, 2)), phi)
+    return poses
+
+
+def _point_owners(mech: Mechanism) -> list[tuple[str, str]]:
+    """(point, the first link that carries it) for every point."""
+    owner: dict[str, str] = {}
+    for l, link in mech.links.items():
+        for p in link.points:
+            owner.setdefault(p, l)
+    return list(owner.items())
 
 
 def _compile_assembly(solver: Solver, have: tuple[str, ...]):
