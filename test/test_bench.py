@@ -96,7 +96,12 @@ def test_report_structure(quick_run):
     assert rep['node'] == {'skipped': '--no-node given'}
     names = [t['target'] for t in rep['targets']]
     assert any('numpy baseline' in n for n in names)
-    assert sum('scipy' in n for n in names) == len(bench.SCENES)
+    # per scene: the scalar Newton solve and the vectorised batch of instances, each vs scipy
+    assert sum('scipy' in n and 'vectorised' not in n for n in names) == len(bench.SCENES)
+    assert sum('scipy' in n and 'vectorised' in n for n in names) == len(bench.SCENES)
+    newton = [r for r in rep['settings'] if r['family'] == 'newton']
+    assert newton and all(r['batch_us'] > 0 and r['batch_failures'] == 0 for r in newton)
+    assert all(r['batch_err_max'] <= 100 * max(r['tol'], 1e-13) for r in newton)
     assert all(t['met'] in (True, False, None) for t in rep['targets'])
 
 
