@@ -27,6 +27,7 @@ from linkage_ros.core.newton import (COND_EXACT, FAST_FLOOR, FAST_MARGIN, FAST_R
                                      _wrap_angles)
 from linkage_ros.core.solver import Solver
 from linkage_ros.resources import config_dir, scene_path
+from test_newton_fast import newton_beside_the_other_mode
 
 ALL_SCENES = sorted(p.stem for p in config_dir().glob('*.yaml'))
 SWEEP_SCENES = ['four_bar', 'slider_crank', 'peaucellier', 'excavator']
@@ -535,13 +536,9 @@ def test_start_on_the_other_assembly_mode_is_declined():
     """The other assembly mode's exact answer as the start (so it is converged at once), but
     this mode's det J sign: declined, never returned. With the other mode's own sign (from
     slogdet) the same start is ok and is the closed form's other mode."""
-    mech = four_bar((4.0, 1.5, 4.5, 3.0))
-    nw = Solver(mech, method='newton')
-    sy = nw.system
     t = 1.0
-    assert nw.solve({'crank': t - 0.05}).success
-    last = nw._history[-1]
-    other = Solver(mech, method='closed_form', branch='-' if last.signs[0] > 0 else '+')
+    mech, nw, last, other = newton_beside_the_other_mode(t)
+    sy = nw.system
     targets = [t, t + 0.02, t - 0.02]
     x_other = []
     for tt in targets:

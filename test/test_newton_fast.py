@@ -220,16 +220,23 @@ def test_predictor_is_scale_free():
 # the fast path never returns another assembly mode
 # =============================================================================================
 
-def test_guess_on_the_other_branch_is_declined():
-    """A guess that is the other assembly mode's exact answer (so it 'converges' at once) is
-    declined on its det J sign, and solve() then returns the start's mode from x0."""
+def newton_beside_the_other_mode(t):
+    """A crank-rocker Newton solver that has just solved crank = t - 0.05 (its last state), and
+    a closed-form solver pinned to the other assembly mode."""
     mech = four_bar((4.0, 1.5, 4.5, 3.0))
     nw = Solver(mech, method='newton')
-    sy = nw.system
-    t = 1.0
     assert nw.solve({'crank': t - 0.05}).success
     last = nw._history[-1]
     other = Solver(mech, method='closed_form', branch='-' if last.signs[0] > 0 else '+')
+    return mech, nw, last, other
+
+
+def test_guess_on_the_other_branch_is_declined():
+    """A guess that is the other assembly mode's exact answer (so it 'converges' at once) is
+    declined on its det J sign, and solve() then returns the start's mode from x0."""
+    t = 1.0
+    mech, nw, last, other = newton_beside_the_other_mode(t)
+    sy = nw.system
     ro = other.solve({'crank': t})
     assert ro.success
     nw2 = Solver(mech, method='newton')
