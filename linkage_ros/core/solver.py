@@ -702,13 +702,6 @@ class Solver:
             return Result(False, 'internal error: non-finite value in the solution', solver=solver)
         return res
 
-    def _residual(self, poses: ScalarPoses, vals) -> float:
-        """Largest loop-closure error over the joints and knowns whose links are all solved,
-        as a fraction of the length scale (rotation errors count as length-scale * angle). Same
-        metric as the Newton rows: the largest single component, so a Newton answer converged
-        to tolerance reports a residual within it."""
-        return self._assembler(poses)(poses.phi, poses.rot, poses.T, vals)[3]
-
     # -- batches -----------------------------------------------------------------------------
     def solve_batch(self, columns: Mapping[str, Any],
                     start: 'BatchResult | None' = None) -> 'BatchResult':
@@ -868,7 +861,7 @@ class BatchResult:
             # the start's sides. A row that needs that check (or changed sides) goes there too.
             accepted[rows] = cond[rows] ** 2 * residual[rows] * system.n <= 1e-2
         poses = _batch_poses(solver, x)
-        pts = {p: poses.world(l, p, mech) for p, l in _point_owners(mech)}
+        pts = {p: poses.world(l, p, mech) for p, l, _ in system._point_owner}
         signs = np.zeros((n, k), int)
         margin = np.where(accepted, 1.0 / np.maximum(cond, 1.0), 0.0)
         if branches:
@@ -1023,21 +1016,15 @@ def _batch_poses(solver: Solver, x: np.ndarray) -> Poses:
     return poses
 
 
-def _point_owners(mech: Mechanism) -> list[tuple[str, str]]:
-    """(point, the first link that carries it) for every point."""
-    owner: dict[str, str] = {}
-    for l, link in mech.links.items():
-        for p in link.points:
-            owner.setdefault(p, l)
-    return list(owner.items())
-
-
 def _compile_assembly(solver: Solver, have: tuple[str, ...]):
     """Straight-line code (phi, rot, T, vals) -> (inputs, joints, links, residual) reading a
     Result off the poses of the links in ``have``: every commanded actuator as given, every
     other actuator, joint and link whose links are placed, and the loop-closure residual over
-    the joints and knowns whose links are placed (see Solver._residual). Which rows apply, the
-    reference points and offsets are all resolved here once: this runs on every command."""
+    the joints and knowns whose links are placed, as a fraction of the length scale (rotation
+    errors count as length scale * angle; the largest single component, the Newton rows'
+    metric, so a Newton answer converged to tolerance reports a residual within it). Which
+    rows apply, the reference points and offsets are resolved here once: this runs on every
+    command."""
     mech, L = solver.mech, solver.mech.length_scale
     placed = set(have)
     ns = {'wrap_angle': wrap_angle, 'atan2': math.atan2, 'sin': math.sin, 'cos': math.cos}
