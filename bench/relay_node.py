@@ -2,14 +2,16 @@
 """A bare rclpy JointState relay: the baseline the node's latency is measured against.
 
 Subscribes ``~/command`` (sensor_msgs/JointState) and publishes every message unchanged on
-``joint_states``, with the node's QoS (reliable, keep last 10, volatile), so the topic layout
-and transport match ``linkage_node`` exactly and only the work done per message differs:
+``joint_states``, with the node's QoS (reliable, keep last N, volatile; N = 10 as the node's
+default ``queue_depth``, or ``--depth N`` as the node's ``-p queue_depth:=N``), so the topic
+layout and transport match ``linkage_node`` exactly and only the work done per message differs:
 
-    python bench/relay_node.py --ros-args -r __ns:=/relay
+    python bench/relay_node.py [--depth N] --ros-args -r __ns:=/relay
     # /relay/relay_node/command  ->  /relay/joint_states
 
 ``linkage bench`` starts it as a separate process (see linkage_ros/bench.py).
 """
+import argparse
 import sys
 
 import rclpy
@@ -18,22 +20,29 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
-QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10,
-                 durability=DurabilityPolicy.VOLATILE)
-
 
 class Relay(Node):
-    def __init__(self):
+    def __init__(self, depth: int = 10):
         super().__init__('relay_node')
-        self.pub = self.create_publisher(JointState, 'joint_states', QOS)
-        self.create_subscription(JointState, '~/command', self.pub.publish, QOS)
+        qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
+                         depth=depth, durability=DurabilityPolicy.VOLATILE)
+        self.pub = self.create_publisher(JointState, 'joint_states', qos)
+        self.create_subscription(JointState, '~/command', self.pub.publish, qos)
 
 
 def main(args=None) -> int:
-    rclpy.init(args=args)
+    argv = sys.argv[1:] if args is None else list(args)
+    cut = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
+    parser = argparse.ArgumentParser(description='bare rclpy JointState relay (benchmark baseline)')
+    parser.add_argument('--depth', type=int, default=10,
+                        help='history depth of both topics (keep last N; default 10)')
+    opts = parser.parse_args(argv[:cut])
+    if opts.depth < 1:
+        parser.error(f'--depth must be >= 1 (got {opts.depth})')
+    rclpy.init(args=[sys.argv[0]] + argv[cut:])
     node = None
     try:
-        node = Relay()
+        node = Relay(opts.depth)
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -86,6 +86,11 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'Names (actuators, joints, links or points) held at their current value when a '
               '~/target_point/<point> request arrives on a mechanism with more than 2 degrees of '
               "freedom, e.g. ['bucket'] for an excavator (point + held values = DOF)."),
+    ParamSpec('queue_depth', 10,
+              'History depth N of every topic the node subscribes and publishes (reliable, keep '
+              'last N, volatile). A stall of the node longer than N / command rate drops '
+              'commands: raise it for command streams of several hundred Hz and more.',
+              constraints='integer >= 1'),
 )
 
 
@@ -102,6 +107,7 @@ class NodeConfig:
     demo_sweep: bool = False
     demo_rate: float = 20.0
     target_point_hold: tuple[str, ...] = ()
+    queue_depth: int = 10
 
 
 def _fail(name: str, message: str, value: Any) -> None:
@@ -155,6 +161,9 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         _fail('target_point_hold', 'must be a list of names', hold)
     if len(set(hold)) != len(hold):
         _fail('target_point_hold', 'names something twice', list(hold))
+    depth = v['queue_depth']
+    if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
+        _fail('queue_depth', 'must be an integer >= 1', depth)
     path = scene_path(scene)
     if not path.exists():
         from .resources import config_dir
@@ -163,7 +172,8 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
               f'{", ".join(packaged) or "none"})', scene)
     return NodeConfig(scene=scene, scene_path=str(path), solver=solver or None,
                       tolerance=float(tol), max_iterations=it, branch=branch, frame_id=frame_id,
-                      demo_sweep=demo, demo_rate=rate, target_point_hold=tuple(hold))
+                      demo_sweep=demo, demo_rate=rate, target_point_hold=tuple(hold),
+                      queue_depth=depth)
 
 
 # ---- the kinematics engine (no ROS) -------------------------------------------------------------
@@ -341,9 +351,10 @@ class DemoSweep:
 
 # ---- the ROS node --------------------------------------------------------------------------------
 
-#: reliable, keep last 10, volatile: commands and outputs alike
-QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST, depth=10,
-                 durability=DurabilityPolicy.VOLATILE)
+def topic_qos(depth: int) -> QoSProfile:
+    """Reliable, keep last ``depth``, volatile: commands and outputs alike."""
+    return QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
+                      depth=depth, durability=DurabilityPolicy.VOLATILE)
 
 
 class LinkageNode(Node):
@@ -387,21 +398,22 @@ class LinkageNode(Node):
         # which costs the same order as the solve itself. The outputs and the per-point targets
         # carry none: the other end (rclpy, rclcpp and RViz by default) reports an incompatible
         # QoS or type on its side. ~/command and ~/target keep rclpy's default warnings.
+        qos = topic_qos(self.config.queue_depth)
         quiet = {'event_callbacks': PublisherEventCallbacks(use_default_callbacks=False)}
-        self.pub_joints = self.create_publisher(JointState, 'joint_states', QOS, **quiet)
+        self.pub_joints = self.create_publisher(JointState, 'joint_states', qos, **quiet)
         self._joint_msg: JointState | None = None      # refilled for every answer
-        self.pub_points = {p: self.create_publisher(PointStamped, f'~/points/{p}', QOS, **quiet)
+        self.pub_points = {p: self.create_publisher(PointStamped, f'~/points/{p}', qos, **quiet)
                            for p in mech.outputs}
-        self.pub_markers = self.create_publisher(MarkerArray, '~/markers', QOS, **quiet)
-        self.pub_status = self.create_publisher(DiagnosticStatus, '~/status', QOS, **quiet)
-        self.create_subscription(JointState, '~/command', self._on_command, QOS)
-        self.create_subscription(JointState, '~/target', self._on_target, QOS)
+        self.pub_markers = self.create_publisher(MarkerArray, '~/markers', qos, **quiet)
+        self.pub_status = self.create_publisher(DiagnosticStatus, '~/status', qos, **quiet)
+        self.create_subscription(JointState, '~/command', self._on_command, qos)
+        self.create_subscription(JointState, '~/target', self._on_target, qos)
         ground = set(mech.links[mech.ground].points)
         self.target_points = [p for p in mech.points if p not in ground]
         quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
         for p in self.target_points:
             self.create_subscription(PointStamped, f'~/target_point/{p}',
-                                     lambda msg, p=p: self._on_target_point(p, msg), QOS,
+                                     lambda msg, p=p: self._on_target_point(p, msg), qos,
                                      event_callbacks=quiet_sub)
         self._demo_timer = None
         self._demo: DemoSweep | None = None

@@ -182,18 +182,58 @@ def test_node_benchmark_machinery():
     pytest.importorskip('rclpy')
     pytest.importorskip('sensor_msgs.msg')
     sizes = replace(bench.QUICK, node_rates=(100.0,), node_seconds=0.3, node_warmup=3,
-                    node_ping=5)
+                    node_ping=5, node_deep_depth=37, node_deep_rates=(50.0,))
     rep = bench.bench_node(sizes)
     assert 'skipped' not in rep, rep
     for label in ('relay', 'node'):
         res = rep['targets'][label]
         assert res['ok'], res
+        assert res['depth'] == bench.DEFAULT_DEPTH
         assert res['latency']['n'] + res['latency']['timeouts'] == 5
         (run,) = res['runs']
         assert run['rate'] == 100.0 and run['sent'] == 30
         assert run['received'] + run['lost'] == run['sent']
+        # the same program with the deeper queue (the node accepted -p queue_depth:=37), at
+        # the deep rates only and without the latency phase
+        deep = rep['targets'][f'{label}_deep']
+        assert deep['ok'], deep
+        assert deep['depth'] == 37 and 'latency' not in deep
+        (run,) = deep['runs']
+        assert run['rate'] == 50.0 and run['sent'] == 15
+        assert run['received'] + run['lost'] == run['sent']
     md = bench.render_markdown({**_minimal_report(), 'node': rep}, 'linkage bench', None)
-    assert '| relay |' in md and '| node |' in md
+    assert '| relay | 10 |' in md and '| node | 10 |' in md
+    assert '| relay_deep | 37 | 50 |' in md and '| node_deep | 37 | 50 |' in md
+    assert 'keep last 37' in md
+
+
+def test_node_targets_and_interpretation_with_both_queue_depths():
+    """Synthetic node results (no ROS): the 1 kHz target is read at the default depth and,
+    as its own row, at the deeper one; the interpretation reports the losses at both."""
+    def run(rate, lost):
+        return {'rate': rate, 'sent': int(3 * rate), 'received': int(3 * rate) - lost,
+                'lost': lost, 'achieved_rate': rate, 'p50_ms': 1.0, 'p99_ms': 2.0, 'max_ms': 3.0}
+    lat = {'n': 10, 'timeouts': 0, 'p50_ms': 1.5, 'p99_ms': 3.0, 'max_ms': 4.0}
+    targets = {
+        'relay': {'ok': True, 'depth': 10, 'latency': dict(lat, p50_ms=1.3),
+                  'runs': [run(500.0, 0), run(1000.0, 4)]},
+        'node': {'ok': True, 'depth': 10, 'latency': lat, 'runs': [run(500.0, 0), run(1000.0, 17)]},
+        'relay_deep': {'ok': True, 'depth': 100, 'runs': [run(1000.0, 0)]},
+        'node_deep': {'ok': True, 'depth': 100, 'runs': [run(1000.0, 0)]},
+    }
+    for t in targets.values():
+        t['sustained_rate'] = bench.sustained_rate(t['runs'])
+    node = {'domain_id': 7, 'depth': 10, 'deep_depth': 100, 'deep_rates': [1000.0],
+            'seconds_per_rate': 3.0, 'ping_pong_n': 10, 'targets': targets}
+    rows = {r['target']: r for r in bench.evaluate_targets({'node': node, 'scenes': {}})}
+    plain = rows['node sustains 1000 Hz with zero loss']
+    assert plain['met'] is False and plain['measured'].startswith('17 lost of 3000')
+    (deep,) = [r for k, r in rows.items() if 'queue_depth 100' in k]
+    assert deep['met'] is True and '0 lost of 3000' in deep['measured']
+    assert 'relay 0 lost of 3000' in deep['measured']
+    text = bench.interpretation({'node': node, 'settings': [], 'scenes': {}, 'throughput': [],
+                                 'outputs': []})
+    assert 'queue depth 10 -> 100: node 1000 Hz 17 -> 0; relay 1000 Hz 4 -> 0' in text
 
 
 def _minimal_report():

@@ -612,6 +612,7 @@ BAD_STARTS = {
     'missing_scene': (None, {}, ['no_such_scene.yaml']),
     'bad_tolerance': ('', {'tolerance': -1.0}, ['tolerance', '-1.0']),
     'bad_solver': ('', {'solver': 'fastest'}, ['solver', 'fastest']),
+    'bad_queue_depth': ('', {'queue_depth': 0}, ['queue_depth', '0']),
 }
 
 
@@ -651,6 +652,32 @@ def test_parameter_file_example_is_valid():
         make_config(dict(params, max_iterations=0))
     with pytest.raises(ConfigError, match='branch'):
         make_config(dict(params, branch='sideways'))
+    assert make_config(params).queue_depth == 10
+    assert make_config(dict(params, queue_depth=250)).queue_depth == 250
+    for bad in (0, -5, 2.5, True, '100'):
+        with pytest.raises(ConfigError, match=f"'queue_depth'.*{bad!r}"):
+            make_config(dict(params, queue_depth=bad))
+
+
+def test_queue_depth_sets_the_history_of_every_topic(ros):
+    """queue_depth is the keep-last depth of every subscription and publisher (reliable,
+    volatile); the default is 10."""
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
+    from linkage_ros.node import LinkageNode
+    for depth, overrides in ((10, []), (250, [Parameter('queue_depth', Parameter.Type.INTEGER,
+                                                        250)])):
+        node = LinkageNode(context=ros.context, parameter_overrides=overrides)
+        try:
+            ours = [e for e in list(node.publishers) + list(node.subscriptions)
+                    if 'parameter_events' not in e.topic_name]
+            assert len(ours) >= 4 + 2 + 3           # outputs, command and target, 3 points
+            for e in ours:
+                q = e.qos_profile
+                assert (q.depth, q.history, q.reliability, q.durability) == (
+                    depth, HistoryPolicy.KEEP_LAST, ReliabilityPolicy.RELIABLE,
+                    DurabilityPolicy.VOLATILE), e.topic_name
+        finally:
+            node.destroy_node()
 
 
 # ---- pure conversions -----------------------------------------------------------------------
