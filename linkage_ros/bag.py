@@ -1614,8 +1614,24 @@ def _rows_bytes(arr: np.ndarray) -> list[bytes]:
 
 # ---- plot --------------------------------------------------------------------------------------
 
-def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 20000):
-    """Coupler-point traces (x-y) and inputs/joints against time (refused rows are gaps)."""
+def _isolated(ok: np.ndarray) -> np.ndarray:
+    """The ok samples without an ok neighbour: a line broken at the refused rows (NaN) has no
+    segment through them, so they need a marker of their own."""
+    prev = np.concatenate(([False], ok[:-1]))
+    after = np.concatenate((ok[1:], [False]))
+    return ok & ~prev & ~after
+
+
+def _series(ax, x, y, ok, **style):
+    """A line with gaps where not ok, plus a dot for every ok sample the line cannot show."""
+    (line,) = ax.plot(x, np.where(ok, y, np.nan), **style)
+    lone = _isolated(ok)
+    if lone.any():
+        ax.plot(x[lone], y[lone], '.', ms=6, color=line.get_color())
+
+
+def plot_figure(data: Commands, res: Results, mech, max_points: int = 20000):
+    """The matplotlib figure of :func:`write_plot` (the caller closes it)."""
     import matplotlib
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
@@ -1623,11 +1639,12 @@ def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 
     step = max(1, n // max_points)
     idx = np.arange(0, n, step)
     t = (data.log_ns[idx] - (data.log_ns[0] if n else 0)) * 1e-9
+    ok = res.ok[idx]
     fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 5.5))
     outs = list(mech.outputs) or [p for p in mech.points][-1:]
     for p in outs:
         xy = res.points[p][idx]
-        ax1.plot(xy[:, 0], xy[:, 1], '-', lw=1.0, label=p)
+        _series(ax1, xy[:, 0], xy[:, 1], ok, ls='-', lw=1.0, label=p)
     ax1.set_aspect('equal', adjustable='datalim')
     ax1.set_xlabel('x (m)')
     ax1.set_ylabel('y (m)')
@@ -1636,11 +1653,10 @@ def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 
         ax1.legend(loc='best', fontsize='small')
     ax1.grid(True, alpha=0.3)
     for a in mech.actuators:
-        ax2.plot(t, np.where(res.ok[idx], res.inputs[a][idx], np.nan), lw=1.6,
-                 label=f'input {a}')
+        _series(ax2, t, res.inputs[a][idx], ok, lw=1.6, label=f'input {a}')
     for j in mech.joint_names:
-        ax2.plot(t, res.joints[j][idx], lw=0.9, label=f'joint {j}')
-    bad = ~res.ok[idx]
+        _series(ax2, t, res.joints[j][idx], ok, lw=0.9, label=f'joint {j}')
+    bad = ~ok
     if np.any(bad):
         ax2.plot(t[bad], np.zeros(int(bad.sum())), 'rx', ms=4, label='refused')
     ax2.set_xlabel('bag time (s)')
@@ -1649,6 +1665,14 @@ def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 
     ax2.legend(loc='best', fontsize='small', ncol=2)
     ax2.grid(True, alpha=0.3)
     fig.tight_layout()
+    return fig
+
+
+def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 20000):
+    """Coupler-point traces (x-y) and inputs/joints against time (refused rows are gaps; an
+    accepted row between two refused ones is a dot)."""
+    import matplotlib.pyplot as plt
+    fig = plot_figure(data, res, mech, max_points)
     try:
         fig.savefig(path, dpi=110)
     except OSError as exc:

@@ -1158,7 +1158,13 @@ def machine_info() -> dict:
         mpv = mpmath.__version__
     except ImportError:
         mpv = None
+    try:        # numpy's SIMD dispatch: its vectorised maths differs with these, so do the ratios
+        from numpy._core._multiarray_umath import __cpu_features__
+        simd = [k for k in ('AVX2', 'FMA3', 'AVX512F', 'AVX512_SKX') if __cpu_features__.get(k)]
+    except ImportError:
+        simd = None
     return {'nproc': os.cpu_count(), 'loadavg': [round(v, 2) for v in os.getloadavg()],
+            'simd': simd,
             'affinity': len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else None,
             'cpu': cpu or platform.processor() or platform.machine(),
             'python': platform.python_version(), 'numpy': np.__version__,
@@ -1371,7 +1377,10 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
           'measured in the same run are the numbers to use')
     if report.get('code'):
         w(f'- code: commit {report["code"]}')
-    w(f'- machine: {m["nproc"]} CPU(s) ({m["cpu"]}), Python {m["python"]}, numpy {m["numpy"]}, '
+    simd = m.get('simd')
+    w(f'- machine: {m["nproc"]} CPU(s) ({m["cpu"]}'
+      + ('' if simd is None else f'; SIMD used by numpy: {", ".join(simd) or "none of AVX2/AVX-512"}')
+      + f'), Python {m["python"]}, numpy {m["numpy"]}, '
       f'scipy {m["scipy"]}, mpmath {m["mpmath"]}; {m["platform"]}')
     w(f'- sizes: {sz["sweep"]} inputs per warm-started sweep x {sz["repeats"]} pass(es); '
       f'batches of {sz["batch"]:,}; throughput at n = '

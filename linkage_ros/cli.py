@@ -457,7 +457,7 @@ knowns (in command-line order; with `sweep` that order is the grid order):
   --target NAME=VALUE       a joint value, a link's angle (from +x) or an actuator: inverse solve
   --target-point NAME=X,Y   a point's position (m): inverse solve
   --set and --target may be combined: the knowns are all the names given, and they must fix
-  every degree of freedom (e.g. one actuator and one joint angle of a 2-DOF five-bar).
+  every degree of freedom (e.g. one actuator and one joint angle of the 2-DOF plagiograph).
 """
 
 SOLVE_EPILOG = KNOWN_HELP + """
@@ -468,7 +468,7 @@ examples:
   linkage solve four_bar --set crank=0.5
   linkage solve four_bar --set crank=30deg --all-branches --json
   linkage solve four_bar --target rocker=1.9 --json
-  linkage solve five_bar.yaml --target-point T=0.12,0.33
+  linkage solve plagiograph --target-point D=0.125,0.185
 """
 
 SWEEP_EPILOG = KNOWN_HELP + """
@@ -487,7 +487,7 @@ exit 1); 2 usage error.
 
 examples:
   linkage sweep four_bar --set crank=0:6.283185307:73
-  linkage sweep five_bar.yaml --set a1=0.5:1.5:11 --set a2=1:2:11 --json
+  linkage sweep plagiograph --set theta_A=0.2:0.5:11 --set theta_C=1.2:1.5:11 --json
 """
 
 CHECK_EPILOG = """\

@@ -428,7 +428,15 @@ class LinkageNode(Node):
             log.warning(f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '
                      f'naming {mech.dof - 2} held value(s)')
         log.info(f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
-                 f'{list(mech.actuators)}), publishing {self.resolve_topic_name("joint_states")}')
+                 f'{list(mech.actuators)}), publishing {self.resolve_topic_name("joint_states")} '
+                 f'(reliable, keep last {self.config.queue_depth})')
+        # rclpy keeps an override this node never declares without a word: a misspelt name
+        # would silently leave its parameter at the default
+        overrides = getattr(self, '_parameter_overrides', None) or {}
+        ignored = sorted(n for n in overrides if not self.has_parameter(n))
+        if ignored:
+            log.warning(f'ignoring parameter(s) this node does not have: {ignored} (its '
+                        f'parameters: {", ".join(p.name for p in PARAMETERS)})')
         if self.config.demo_sweep:
             self._start_demo()
 

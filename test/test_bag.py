@@ -685,6 +685,34 @@ def test_plot_and_progress(tmp_path, scene, capsys, monkeypatch):
     assert 'wrote' in cap.out and 'time' in cap.out
 
 
+def test_plot_shows_an_accepted_row_between_refused_ones(tmp_path, scene):
+    """A line broken at refused rows (NaN) draws no segment through an accepted row whose
+    neighbours were refused: the plot marks such a row with a dot, in both panels."""
+    values = [0.1, 0.2, math.nan, 0.4, math.nan, 0.6, 0.7]
+    msgs = [('/cmd', 10 ** 9 * (i + 1), joint_state(['crank'], [v], sec=i + 1))
+            for i, v in enumerate(values)]
+    src = make_input(tmp_path, 'mcap', msgs)
+    mech = Scene.from_yaml(scene).mechanism
+    data = bag.read_commands(str(src), ['/cmd'])
+    res = bag.solve_commands(mech, data)
+    assert res.ok.tolist() == [not math.isnan(v) for v in values]
+    assert bag._isolated(res.ok).tolist() == [False, False, False, True, False, False, False]
+    fig = bag.plot_figure(data, res, mech)
+    try:
+        trace, joints = fig.axes
+        lone = res.points[mech.outputs[0]][3]
+        dots = [ln for ln in trace.get_lines() if ln.get_marker() == '.']
+        assert len(dots) == 1 and np.allclose(dots[0].get_xydata(), [lone])
+        dots = [ln for ln in joints.get_lines() if ln.get_marker() == '.']
+        assert len(dots) == 1 + len(mech.joint_names)       # the input and every joint
+        for ln in dots:
+            assert ln.get_xdata().tolist() == [3.0]           # bag time of the 4th row, s
+        assert dots[0].get_ydata().tolist() == [0.4]
+    finally:
+        import matplotlib.pyplot as plt
+        plt.close(fig)
+
+
 def test_csv_numbers_round_trip_exactly():
     rng = np.random.default_rng(11)
     values = np.concatenate([

@@ -642,6 +642,25 @@ def test_bad_scene_or_parameter_stops_startup(workdir, case):
     assert len(err.strip().splitlines()) <= 3, err
 
 
+def test_startup_log_names_the_queue_depth_and_ignored_parameters(workdir):
+    """A parameter the node does not have (a misspelling) is named in a warning, not silently
+    dropped; the start-up line shows the queue depth in force."""
+    proc = NodeProcess(workdir / 'misspelt', DOMAIN_ID,
+                       {'queue_depth': 33, 'queue_dept': 100}).start()
+    try:
+        t_end = time.monotonic() + 30
+        while 'listening on' not in proc.output() and proc.alive() \
+                and time.monotonic() < t_end:
+            time.sleep(0.05)
+        out = proc.output()
+        assert 'listening on' in out, out
+        assert '(reliable, keep last 33)' in out, out
+        (warn,) = [ln for ln in out.splitlines() if 'ignoring parameter' in ln]
+        assert 'WARN' in warn and "['queue_dept']" in warn and 'queue_depth' in warn, warn
+    finally:
+        _finish(proc)
+
+
 def test_parameter_file_example_is_valid():
     data = yaml.safe_load((CONFIG / 'params' / 'linkage_node.yaml').read_text())
     params = data['linkage_node']['ros__parameters']
