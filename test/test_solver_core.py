@@ -16,7 +16,7 @@ import oracles as orc
 from linkage_ros.core import dyads
 from linkage_ros.core.errors import PlanError, SceneError
 from linkage_ros.core.model import Scene
-from linkage_ros.core.solver import Solver
+from linkage_ros.core.solver import Result, Solver
 
 EPS = 2.0 ** -52
 TIGHT = 1e-12          # loop closure, fraction of the length scale
@@ -985,3 +985,125 @@ def test_newton_batch_start_is_checked():
         closed.solve_batch({'crank': t}, start=start)
     with pytest.raises(ValueError, match='newton BatchResult'):
         newton.solve_batch({'crank': t}, start=closed.solve_batch({'crank': t}))
+
+
+CONFIG = __import__('pathlib').Path(__file__).parent.parent / 'config'
+
+
+def test_newton_batch_start_must_come_from_the_same_solver_and_be_intact():
+    mech = four_bar(*CRANK_ROCKER)
+    newton = Solver(mech, method='newton')
+    t = np.linspace(0.0, 1.0, 5)
+    start = newton.solve_batch({'crank': t})
+    # the same width (9 unknowns) but another mechanism: its x means something else
+    other = Solver(slider_crank(0.05, 0.18, 0.01), method='newton')
+    assert other.system.n == newton.system.n
+    with pytest.raises(ValueError, match="mechanism \\('slider_crank'.*got one of 'four_bar'"):
+        other.solve_batch({'crank': t}, start=start)
+    # another four-bar geometry under the same names
+    with pytest.raises(ValueError, match='reference geometry'):
+        Solver(four_bar(0.3, 0.1, 0.26, 0.2), method='newton').solve_batch({'crank': t},
+                                                                          start=start)
+    for field, bad in (('det_sign', start.det_sign[:3]), ('x', start.x.tolist()),
+                       ('ok', start.ok[:2])):
+        tampered = newton.solve_batch({'crank': t})
+        setattr(tampered, field, bad)
+        with pytest.raises(ValueError, match='wrong shape'):
+            newton.solve_batch({'crank': t}, start=tampered)
+    # an intact start still works, and an empty batch is an empty result, in every mode
+    assert newton.solve_batch({'crank': t}, start=start).ok.all()
+    for method in ('closed_form', 'newton'):
+        b = Solver(mech, method=method).solve_batch({'crank': []})
+        assert b.n == 0 and b.ok.shape == (0,) and b.points['B'].shape == (0, 2)
+    b = newton.solve_batch({'crank': []})
+    assert newton.solve_batch({'crank': []}, start=b).n == 0
+
+
+def test_batch_columns_must_hold_real_numbers():
+    solver = Solver(four_bar(*CRANK_ROCKER))
+    for bad, kind in (([True, False], 'bool'), (['0.5', '1.0'], '<U3'),
+                      ([0.5 + 1j, 1.0], 'complex'), ([{}, 1.0], 'object')):
+        with pytest.raises(ValueError, match=f"column 'crank' must hold real numbers.*{kind}"):
+            solver.solve_batch({'crank': bad})
+    with pytest.raises(ValueError, match=r"column 'crank' must have shape \(n,\)"):
+        solver.solve_batch({'crank': np.zeros((3, 2))})
+    pts = Solver(Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism, knowns=['point:D'])
+    with pytest.raises(ValueError, match=r"column 'point:D' must have shape \(n, 2\)"):
+        pts.solve_batch({'point:D': np.zeros(6)})
+    assert solver.solve_batch({'crank': np.array([1, 2], dtype=np.int32)}).ok.all()
+
+
+def test_command_values_of_the_wrong_type_are_refused_by_name():
+    mech = Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism
+    solver = Solver(mech, knowns=['point:D'])
+    ref = solver.solve({'point:D': tuple(mech.points['D'])})
+    assert ref.success
+    for bad in (['0.12', '0.18'], [True, False], (0.12 + 1j, 0.18), '12', {'x': 1, 'y': 2},
+                (10 ** 400, 0.18)):
+        r = solver.solve({'point:D': bad})
+        assert not r.success and r.reason.startswith('point:D: a point needs two numbers') or \
+            'finite' in r.reason, (bad, r.reason)
+    crank = Solver(four_bar(*CRANK_ROCKER))
+    for big in (10 ** 400, -10 ** 400):
+        r = crank.solve({'crank': big})
+        assert not r.success and r.reason == f'crank: value must be finite (got {big!r})'
+    # nothing changed: the same answer as before the refusals
+    again = solver.solve({'point:D': tuple(mech.points['D'])})
+    assert again.points == ref.points
+
+
+def test_solver_arguments_of_the_wrong_type_are_refused():
+    mech = four_bar(*CRANK_ROCKER)
+    with pytest.raises(PlanError, match='tolerance'):
+        Solver(mech, tol=True)
+    with pytest.raises(PlanError, match='max_iter'):
+        Solver(mech, max_iter=True)
+    with pytest.raises(PlanError, match="outputs must be a list of names \\(got 'AB'\\)"):
+        Solver(mech, outputs='AB')
+    for knowns in ([None], [1], 'crank'):
+        with pytest.raises(PlanError, match='knowns must be a list of names'):
+            Solver(mech, knowns=knowns)
+
+
+def test_hybrid_solve_never_reports_a_false_assembly():
+    """A known point out of its link's reach: the closed-form part places the link through it
+    anyway (two known points), so only the closure check can tell. Refused, scalar and batch;
+    the reachable point next to it still solves."""
+    mech = Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism
+    solver = Solver(mech, knowns=['point:A'])
+    assert solver.mode == 'hybrid'
+    r = solver.solve({'point:A': (0.3, 0.1)})          # |O2 A| = 0.316, the crank is 0.25
+    assert not r.success and r.reason.startswith('cannot assemble: the configuration found '
+                                                 'misses loop closure by 0.126')
+    on = tuple(mech.points['A'])
+    b = solver.solve_batch({'point:A': np.array([(0.3, 0.1), on])})
+    assert b.ok.tolist() == [False, True] and b.reason[0] == r.reason
+    good = solver.solve({'point:A': on})
+    assert good.success and good.residual <= 1e-12
+    assert math.dist(good.points['A'], on) < 1e-12
+
+
+def test_adopt_and_restore_refuse_what_is_not_a_configuration():
+    """adopt() returns False and restore() raises for anything unusable, and neither changes
+    the solver: the next solves are those of a solver that never saw them."""
+    mech = four_bar(*CRANK_ROCKER)
+    clean, probed = Solver(mech, method='newton'), Solver(mech, method='newton')
+    first = clean.solve({'crank': 0.4})
+    assert probed.solve({'crank': 0.4}).points == first.points
+    broken = []
+    r = Solver(mech).solve({'crank': 0.9})
+    nan_point = Result(**{**r.__dict__, 'points': {**r.points, 'B': (math.nan, 0.0)}})
+    moved = Result(**{**r.__dict__, 'points': {**r.points, 'B': (r.points['B'][0] + 1e-3,
+                                                                  r.points['B'][1])}})
+    no_point = Result(**{**r.__dict__, 'points': {k: v for k, v in r.points.items() if k != 'B'}})
+    bad_angle = Result(**{**r.__dict__, 'links': {**r.links, 'coupler': 'x'}})
+    broken += [nan_point, moved, no_point, bad_angle, Result(False, 'no'), None, 'xyz']
+    for b in broken:
+        assert probed.adopt(b) is False, b
+    for snap in ('xyz', [1, 2], (None,)):
+        with pytest.raises(ValueError, match='restore'):
+            probed.restore(snap)
+    assert probed.adopt(r)                   # a real configuration is adopted
+    clean.adopt(r)
+    for t in (1.0, 1.2, 1.5):
+        assert probed.solve({'crank': t}).points == clean.solve({'crank': t}).points

@@ -15,6 +15,7 @@ string such as ``+-`` (one sign per branching dyad of the plan, in plan order).
 """
 from __future__ import annotations
 
+import cmath
 import collections.abc
 import math
 from dataclasses import dataclass, field
@@ -41,6 +42,11 @@ METHODS = ('auto', 'closed_form', 'newton')
 WALK_BUDGET = 6
 #: without a dyad plan, a scaled cond(J) above this counts as near a singular configuration
 NEAR_SINGULAR_COND = 1e6
+#: no answer leaves a solver with a loop-closure residual above max(CLOSURE_LIMIT, 10 * tol)
+#: (fraction of the length scale): a last guard against a false assembly, e.g. a known point
+#: beyond its link's reach placed by the closed-form part of a hybrid solve. The closed forms
+#: close to ~1e-15 and to the tangency clamp (1e-12) near toggles, Newton to tol.
+CLOSURE_LIMIT = 1e-10
 
 
 @dataclass
@@ -147,11 +153,17 @@ class Solver:
         method = method or mech.solver
         if method not in METHODS:
             raise PlanError(f'unknown solver {method!r}; expected one of {list(METHODS)}')
-        if not (isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0):
+        if isinstance(tol, bool) or not (isinstance(tol, (int, float)) and math.isfinite(tol)
+                                         and tol > 0):
             raise PlanError(f'tolerance must be a positive number (got {tol!r})')
-        if not (isinstance(max_iter, int) and max_iter > 0):
+        if isinstance(max_iter, bool) or not (isinstance(max_iter, int) and max_iter > 0):
             raise PlanError(f'max_iter must be a positive integer (got {max_iter!r})')
         self.tol, self.max_iter = float(tol), max_iter
+        self.closure_limit = max(CLOSURE_LIMIT, 10.0 * self.tol)
+        for what, names in (('knowns', knowns), ('outputs', outputs)):
+            if names is not None and (isinstance(names, (str, bytes, Mapping))
+                                      or not all(isinstance(v, str) for v in names)):
+                raise PlanError(f'{what} must be a list of names (got {names!r})')
         self.knowns = list(knowns) if knowns is not None else list(mech.actuators)
         if len(set(self.knowns)) != len(self.knowns):
             raise PlanError(f'a known is named twice: {self.knowns}')
@@ -246,7 +258,12 @@ class Solver:
         return tuple(self._history)
 
     def restore(self, snapshot) -> None:
-        """Return to a state taken by snapshot() (of this solver or one with the same knowns)."""
+        """Return to a state taken by snapshot() (of this solver or one with the same knowns);
+        ValueError, and no change, for anything else."""
+        if not isinstance(snapshot, (tuple, list)) or not all(
+                isinstance(st, _State) and len(st.values) == len(self.specs) for st in snapshot):
+            raise ValueError('restore() takes what snapshot() returned, of a solver with the '
+                             f'knowns {self.knowns}')
         self._history = list(snapshot)[-2:]
 
     @property
@@ -264,22 +281,37 @@ class Solver:
 
     def adopt(self, result: Result) -> bool:
         """Make a solved configuration (from any solver of this mechanism) the 'previous
-        configuration' for continuity and warm starts. Returns False if the result is unusable."""
-        if not result.success or set(result.links) != set(self.mech.links):
-            return False
+        configuration' for continuity and warm starts. Returns False, changing nothing, if the
+        result is unusable: failed, missing a link or point, non-finite, or its points not where
+        its link angles put them (not a rigid configuration of this mechanism)."""
         mech = self.mech
+        try:
+            if not (isinstance(result, Result) and result.success
+                    and set(result.links) == set(mech.links)
+                    and set(result.points) >= set(mech.points)):
+                return False
+            pts = {p: complex(float(result.points[p][0]), float(result.points[p][1]))
+                   for p in mech.points}
+            phis = {l: float(result.links[l]) for l in mech.links}
+        except (TypeError, ValueError, IndexError, KeyError, AttributeError):
+            return False
+        if not all(math.isfinite(v) for v in phis.values()) or \
+                not all(cmath.isfinite(w) for w in pts.values()):
+            return False
         poses = ScalarPoses()
+        tol = self.closure_limit * mech.length_scale
         for l, link in mech.links.items():
-            phi = wrap_angle(result.links[l] - link.angle_ref)
+            phi = wrap_angle(phis[l] - link.angle_ref)
             rot = complex(math.cos(phi), math.sin(phi))
             p = link.points[0]
-            w = complex(*result.points[p])
-            poses.set(l, phi, w - rot * complex(*mech.points[p]), rot)
+            poses.set(l, phi, pts[p] - rot * complex(*mech.points[p]), rot)
+            if any(abs(poses.world(l, complex(*mech.points[q])) - pts[q]) > tol
+                   for q in link.points[1:]):
+                return False
         vals = []
         for s in self.specs:
             v = spec_value_one(mech, s, poses)
             vals.append(np.asarray(v, float) if s.kind == 'point' else float(v))
-        pts = {p: complex(*v) for p, v in result.points.items()}
         if self.plan.complete:
             signs, margins = branch_geometry_one(self.plan, pts, poses)
         else:
@@ -303,8 +335,12 @@ class Solver:
             v = values[s.name]
             if s.kind == 'point':
                 try:
+                    if isinstance(v, (str, bytes, Mapping)) or any(
+                            isinstance(c, (bool, np.bool_)) or not isinstance(
+                                c, (int, float, np.floating, np.integer)) for c in v):
+                        raise TypeError
                     arr = np.asarray(v, float).reshape(-1)
-                except (TypeError, ValueError):
+                except (TypeError, ValueError, OverflowError):
                     raise ValueError(f'{s.name}: a point needs two numbers x, y (got {v!r})') from None
                 if arr.shape != (2,):
                     raise ValueError(f'{s.name}: a point needs two numbers x, y (got {v!r})')
@@ -312,9 +348,13 @@ class Solver:
                     raise ValueError(f'{s.name}: value must be finite (got {v!r})')
                 out.append(arr)
             else:
-                if isinstance(v, bool) or not isinstance(v, (int, float, np.floating, np.integer)):
+                if isinstance(v, (bool, np.bool_)) or not isinstance(
+                        v, (int, float, np.floating, np.integer)):
                     raise ValueError(f'{s.name}: value must be a number in {s.unit} (got {v!r})')
-                fv = float(v)
+                try:
+                    fv = float(v)
+                except OverflowError:         # a Python int beyond the float range
+                    fv = math.inf
                 if not math.isfinite(fv):
                     raise ValueError(f'{s.name}: value must be finite (got {v!r})')
                 out.append(fv)
@@ -363,6 +403,8 @@ class Solver:
             res, state = self._solve_closed(vals)
         else:
             res, state = self._solve_newton(vals)
+        if res.success and not res.residual <= self.closure_limit:
+            return self._fail(self._closure_reason(res.residual), echo, solver=res.solver)
         res.targets = {k: v for k, v in echo.items() if k not in self.mech.actuators}
         if res.success and self.inverse:
             for s in self.actuator_specs:
@@ -399,6 +441,11 @@ class Solver:
         finally:
             self.branch_mode, self.fixed_signs = saved
         return out or [self.solve(values, commit=False)]
+
+    def _closure_reason(self, residual: float) -> str:
+        return (f'cannot assemble: the configuration found misses loop closure by '
+                f'{residual:.3g} of the length scale (limit {self.closure_limit:.3g}); a known '
+                'value may be out of reach of its link')
 
     def _echo(self, vals):
         return {s.name: (list(map(float, v)) if s.kind == 'point' else float(v))
@@ -731,8 +778,7 @@ class Solver:
         arrays = []
         n = None
         for s in self.specs:
-            a = np.asarray(columns[s.name], float)
-            a = a.reshape(-1, 2) if s.kind == 'point' else a.reshape(-1)
+            a = self._batch_column(s, columns[s.name])
             if n is None:
                 n = a.shape[0]
             elif a.shape[0] != n:
@@ -747,7 +793,42 @@ class Solver:
             if start.n != (n or 0):
                 raise ValueError(f'start has {start.n} rows but this batch has {n or 0}: row i '
                                  'starts from row i')
+            theirs = getattr(start, 'source', None)
+            if theirs != self._batch_source():
+                what = f'{theirs[0]!r} with knowns {list(theirs[1])}' if theirs else 'unknown'
+                raise ValueError('start must be a newton BatchResult of a solver of this '
+                                 f'mechanism ({self.mech.name!r}, its reference geometry) with '
+                                 f'knowns {self.knowns}; got one of {what}')
+            if not (isinstance(start.x, np.ndarray) and start.x.shape == (start.n, self.system.n)
+                    and np.shape(start.det_sign) == (start.n,)
+                    and np.shape(start.ok) == (start.n,)):
+                raise ValueError('start is not a newton BatchResult as solve_batch made it (its '
+                                 'x, det_sign or ok arrays have the wrong shape)')
         return BatchResult.solve(self, arrays, n or 0, start)
+
+    def _batch_source(self) -> tuple:
+        """What a newton batch's x means (the mechanism, its reference geometry, the knowns and
+        the Newton unknowns): start= takes only batches of the same."""
+        return (self.mech.name, tuple(self.knowns), tuple(self.system.free),
+                tuple((p, float(v[0]), float(v[1])) for p, v in self.mech.points.items()))
+
+    @staticmethod
+    def _batch_column(s: Spec, v) -> np.ndarray:
+        """One command column as floats, (n,) or (n, 2) for a point; ValueError naming the
+        column for anything but real numbers (bool, str, complex and object columns too)."""
+        a = np.asarray(v)
+        if a.dtype.kind not in 'iuf':
+            raise ValueError(f'batch column {s.name!r} must hold real numbers ({s.unit}), got '
+                             f'an array of {a.dtype}')
+        a = a.astype(float)
+        if s.kind == 'point':
+            if a.ndim == 0 or a.shape[-1] != 2 or a.ndim > 2:
+                raise ValueError(f'batch column {s.name!r} must have shape (n, 2) (x, y in m), '
+                                 f'got {a.shape}')
+            return a.reshape(-1, 2)
+        if a.ndim > 1:
+            raise ValueError(f'batch column {s.name!r} must have shape (n,), got {a.shape}')
+        return a.reshape(-1)
 
 
 class BatchResult:
@@ -767,9 +848,10 @@ class BatchResult:
         self = cls()
         self.n = n
         self.values = arrays                 # the command columns, in solver.specs order
+        self.source = solver._batch_source()
         finite = np.ones(n, bool)
         for a in arrays:
-            finite &= np.all(np.isfinite(a.reshape(n, -1)), axis=1)
+            finite &= np.all(np.isfinite(a.reshape(n, -1 if n else 1)), axis=1)
         self.reason = [None] * n
         for i in np.flatnonzero(~finite):
             self.reason[i] = 'value must be finite (NaN or inf in the command)'
@@ -790,10 +872,15 @@ class BatchResult:
         ok = info['ok'] & finite & ~limit_bad
         for i in np.flatnonzero(~info['ok'] & finite & ~limit_bad):
             self.reason[i] = solver._dyad_reason(int(info['failure'][i]), float(info['violation'][i]))
+        residual = cls._residuals(solver, poses, safe, ok, n)
+        far = ok & ~(residual <= solver.closure_limit)         # as Solver.solve: no false assembly
+        for i in np.flatnonzero(far):
+            self.reason[i] = solver._closure_reason(float(residual[i]))
+        ok &= ~far
         self._fill(solver, poses, pts, arrays, safe, finite, ok)
         self.margin = np.where(self.ok, info['margin'], 0.0)
         self.signs = info['signs']
-        self.residual = cls._residuals(solver, poses, safe, self.ok, n)
+        self.residual = np.where(self.ok, residual, 0.0)
         self.iterations = np.zeros(n, int)
         self.solver = 'closed_form'
         return self
