@@ -236,7 +236,7 @@ def test_evaluate_batch_empty_and_shape_errors():
 def test_hybrid_system_is_refused():
     """A system whose rows name links placed by the dyad plan (fixed poses per solve) is not
     batched: a clear ValueError, not a wrong answer."""
-    h = Solver(scene('excavator'), knowns=['O2', 'point:A'], method='auto')
+    h = Solver(scene('excavator'), knowns=['G_Z3_rod', 'point:C'], method='auto')
     assert h.mode == 'hybrid' and 'boom' in h.closed_links
     sy = h.system
     X = np.tile(sy.reference_x(), (2, 1))

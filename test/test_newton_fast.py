@@ -24,8 +24,14 @@ ALL_SCENES = SCENES + ['hart', 'front_loader', 'quick_return', 'scott_russell', 
 TIGHT = 1e-12
 #: knowns giving a hybrid solve (the dyad plan places some links, Newton the rest): point specs
 #: and prismatic rows with links held by `fixed` poses
-HYBRID = {'excavator': ['O2', 'point:A'], 'front_loader': ['point:A'],
-          'plagiograph': ['point:A'], 'four_bar': ['link:coupler']}
+# knowns whose solves are hybrid (the dyad plan places some links, Newton the rest); a point
+# on a grounded crank (point:A) is no longer one: it fixes one motion with two values, which
+# Solver refuses
+HYBRID = {'excavator': ['G_Z3_rod', 'point:C'], 'front_loader': ['Z1', 'F'],
+          'plagiograph': ['theta_A', 'link:BCE'], 'four_bar': ['link:coupler']}
+# inverse knowns with point rows for the all-free (newton) system
+POINT_KNOWNS = {'excavator': ['Z1', 'point:L'], 'front_loader': ['point:T'],
+                'plagiograph': ['point:D']}
 
 
 def scene(name):
@@ -77,6 +83,10 @@ def test_jacobian_matches_finite_differences(name):
         h = Solver(mech, knowns=HYBRID[name], method='auto')
         assert h.mode == 'hybrid'
         systems.append((h.system, h._fixed_poses(h._ref_values)[0], h._ref_values))
+    if name in POINT_KNOWNS:
+        p = Solver(mech, knowns=POINT_KNOWNS[name], method='newton')
+        assert any(sp.kind == 'point' for sp in p.specs)
+        systems.append((p.system, None, p._ref_values))
     for sy, fixed, vals in systems:
         step = sy._step_scale
         for _ in range(3):

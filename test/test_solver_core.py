@@ -1065,10 +1065,29 @@ def test_solver_arguments_of_the_wrong_type_are_refused():
             Solver(mech, knowns=knowns)
 
 
-def test_hybrid_solve_never_reports_a_false_assembly():
-    """A known point out of its link's reach: the closed-form part places the link through it
-    anyway (two known points), so only the closure check can tell. Refused, scalar and batch;
-    the reachable point next to it still solves."""
+def test_knowns_that_do_not_determine_the_mechanism_are_refused():
+    """A point on a grounded crank gives 2 values but fixes 1 motion: with it as the only known
+    of a 2-DOF mechanism another link stays free (J singular everywhere). Refused at
+    construction, naming the knowns; independent knowns of the same count are fine."""
+    mech = Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism
+    for point in ('A', 'C'):
+        with pytest.raises(PlanError, match=rf"knowns \['point:{point}'\] do not determine "
+                                            "'plagiograph'.*leave a motion of '(\\w+)' free"):
+            Solver(mech, knowns=[f'point:{point}'])
+    for knowns in (['point:D'], ['point:E'], ['theta_A', 'link:BCE'], None):
+        Solver(mech, knowns=knowns)
+    loader = Scene.from_yaml(CONFIG / 'front_loader.yaml').mechanism
+    with pytest.raises(PlanError, match='do not determine'):
+        Solver(loader, knowns=['point:A'])
+
+
+def test_closure_guard_refuses_a_false_assembly(monkeypatch):
+    """The last line of defence: without the structural check above, the hybrid solve placed
+    the crank through a known point out of its reach (two known points) and reported success
+    with its loop open by 0.126 of the length scale. The closure guard refuses it, scalar and
+    batch; a point on the crank circle still solves."""
+    from linkage_ros.core.newton import LoopSystem
+    monkeypatch.setattr(LoopSystem, 'unfixed_links', lambda self: [])
     mech = Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism
     solver = Solver(mech, knowns=['point:A'])
     assert solver.mode == 'hybrid'

@@ -448,6 +448,24 @@ class LoopSystem:
         return F, Jv
 
     # -- linear algebra -----------------------------------------------------------------------
+    def unfixed_links(self) -> list[str]:
+        """Free links the equations cannot determine whatever the configuration: by the
+        sparsity pattern of J (a maximum matching of rows to unknowns leaves an unknown of each
+        unmatched), so [] for a system whose knowns each fix a different degree of freedom.
+        Knowns that constrain one link twice (a point on a grounded crank: 2 values, 1 motion)
+        leave another link free and make J singular everywhere."""
+        from scipy.sparse import csr_matrix
+        from scipy.sparse.csgraph import maximum_bipartite_matching
+        if self.m != self.n or not self.n:
+            return []
+        pattern = np.zeros(self.m * self.n + 1, bool)
+        pattern[self._jpos] = True
+        pattern[:-1] |= self._tpl_s[:-1] != 0
+        rows = maximum_bipartite_matching(
+            csr_matrix(pattern[:-1].reshape(self.m, self.n).astype(float)), perm_type='column')
+        matched = set(rows[rows >= 0].tolist())
+        return list(dict.fromkeys(self.free[c // 3] for c in range(self.n) if c not in matched))
+
     def scaled_cond(self, J: np.ndarray) -> float:
         """Exact 2-norm condition number of J with unit-norm columns (an SVD)."""
         if J.size == 0:

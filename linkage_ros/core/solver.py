@@ -192,6 +192,13 @@ class Solver:
         free = [l for l in mech.moving_links if l not in self.closed_links]
         self.system = LoopSystem(mech, self.specs, free)
         self.check_system = LoopSystem(mech, self.specs, mech.moving_links)
+        loose = self.check_system.unfixed_links()
+        if loose:
+            raise PlanError(f'the knowns {self.knowns} do not determine {mech.name!r}: they '
+                            f'give {n_values} value(s) for its {mech.dof} degree(s) of freedom '
+                            f'but constrain some links twice and leave a motion of '
+                            f'{loose[0]!r} free; choose knowns that each fix a different '
+                            'degree of freedom')
         self.branch_mode, self.fixed_signs = self._parse_branch(branch)
         self._slide_specs = {n: Spec(n, 'slide', joint=n) for n in mech.prismatics}
         self._ref_values = self._values_at_reference()
