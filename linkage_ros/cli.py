@@ -22,13 +22,13 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import itertools
 import json
 import math
 import os
 import sys
 from pathlib import Path
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from .core.errors import LinkageError
 
@@ -101,13 +101,48 @@ def _count(text: str, what: str) -> int:
     return n
 
 
+class _Linspace(Sequence):
+    """n evenly spaced values from a to b inclusive (floats or (x, y) tuples), computed when read:
+    a sweep of a billion lines must not build its list of values first."""
+
+    def __init__(self, a, b, n: int):
+        self.a, self.b, self.n = a, b, n
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(self.n))]
+        if i < 0:
+            i += self.n
+        if not 0 <= i < self.n:
+            raise IndexError(i)
+        a, b, n = self.a, self.b, self.n
+        if n == 1:
+            return a
+        if isinstance(a, tuple):
+            return tuple(a[k] + (b[k] - a[k]) * i / (n - 1) for k in range(2))
+        return a + (b - a) * i / (n - 1)
+
+    def __iter__(self):
+        return (self[i] for i in range(self.n))
+
+
 def _linspace(a, b, n):
-    """n evenly spaced values from a to b inclusive (floats or (x, y) tuples)."""
-    if n == 1:
-        return [a]
-    if isinstance(a, tuple):
-        return [tuple(a[k] + (b[k] - a[k]) * i / (n - 1) for k in range(2)) for i in range(n)]
-    return [a + (b - a) * i / (n - 1) for i in range(n)]
+    """n evenly spaced values from a to b inclusive (floats or (x, y) tuples), lazily."""
+    return _Linspace(a, b, n)
+
+
+def _grid(axes):
+    """The sweep grid lazily, first axis slowest: itertools.product would copy every axis into
+    a tuple before yielding anything."""
+    if not axes:
+        yield ()
+        return
+    for v in axes[0]:
+        for rest in _grid(axes[1:]):
+            yield (v,) + rest
 
 
 def parse_known(option: str, text: str, allow_range: bool):
@@ -313,7 +348,7 @@ def cmd_sweep(args) -> int:
             + ['residual', 'branch', 'margin']
         print('\t'.join(head))
     n_ok = n_err = 0
-    for i, combo in enumerate(itertools.product(*[vals for _, vals in axes])):
+    for i, combo in enumerate(_grid([vals for _, vals in axes])):
         command = dict(zip(names, combo))
         res = solver.solve(command)
         n_ok += res.success

@@ -24,6 +24,27 @@ from .fourbar import TANGENCY_TOL, angle_opposite
 GRASHOF_TOL = 1e-12
 
 _TWO_PI = 2.0 * math.pi
+_LENGTH_NAMES = ('l1', 'l2', 'l3', 'l4')
+
+
+def _lengths(l1, l2, l3, l4) -> tuple[float, float, float, float, int]:
+    """The four lengths as floats, checked (finite and > 0: NaN would compare as "turns fully"),
+    divided by 2**e near the longest, and that exponent e.
+
+    The results are angles, so scale-free; the power of two keeps the quotients exact, and
+    squares and sums of huge lengths no longer overflow to inf or NaN."""
+    out = []
+    for name, v in zip(_LENGTH_NAMES, (l1, l2, l3, l4)):
+        try:
+            f = float(v)
+        except (TypeError, ValueError):
+            raise ValueError(f'four-bar length {name} must be a number, got {v!r}') from None
+        if not (math.isfinite(f) and f > 0):
+            raise ValueError(f'four-bar length {name} must be finite and > 0, got {v!r}')
+        out.append(f)
+    e = math.frexp(max(out))[1]
+    return (math.ldexp(out[0], -e), math.ldexp(out[1], -e), math.ldexp(out[2], -e),
+            math.ldexp(out[3], -e), e)
 
 
 def kutzbach_dof(n_links: int, n_lower_pairs: int, n_higher_pairs: int = 0) -> int:
@@ -105,7 +126,7 @@ def grashof_class(l1: float, l2: float, l3: float, l4: float) -> str:
     return grashof_info(l1, l2, l3, l4).klass
 
 
-def _angle_intervals(g: float, c: float, m: float, n: float):
+def _angle_intervals(g: float, c: float, m: float, n: float, exp: int = 0):
     """Reachable angles phi [rad] of link c about its ground pivot, phi measured from the
     direction towards the other ground pivot (distance g), when the far dyad is (m, n).
 
@@ -114,14 +135,16 @@ def _angle_intervals(g: float, c: float, m: float, n: float):
     symmetric: |phi| <= beta (upper limit binds), |phi| >= alpha (lower limit binds) or both.
 
     Returns a list of (lo, hi) intervals with lo < hi, or None when every angle is reachable.
-    Raises ValueError when no angle is reachable.
+    Raises ValueError when no angle is reachable.  The sides are divided by 2**exp (see
+    :func:`_lengths`); the message shows them as given.
     """
     lo_band, hi_band = abs(m - n), m + n
     d_min, d_max = abs(g - c), g + c
     # Same relative clamp as the position solver, so the range endpoints assemble.
     tol = TANGENCY_TOL * max(g, c, m, n)
     if max(d_min, lo_band) > min(d_max, hi_band) + tol:
-        raise ValueError(f'four-bar cannot be assembled: sides {g}, {c}, {m}, {n}')
+        raise ValueError(f'four-bar cannot be assembled: sides {math.ldexp(g, exp)}, '
+                         f'{math.ldexp(c, exp)}, {math.ldexp(m, exp)}, {math.ldexp(n, exp)}')
     upper = d_max > hi_band + tol
     lower = d_min < lo_band - tol
     if not upper and not lower:
@@ -142,13 +165,14 @@ def fourbar_input_intervals(l1: float, l2: float, l3: float, l4: float):
     input rocks on a single circuit; two mirror-image intervals (upper and lower half-plane, one
     per circuit) when the input rocks inside a Grashof linkage.
     """
-    return _angle_intervals(float(l1), float(l2), float(l3), float(l4))
+    return _angle_intervals(*_lengths(l1, l2, l3, l4))
 
 
 def fourbar_output_intervals(l1: float, l2: float, l3: float, l4: float):
     """All reachable output angles theta4 [rad], like :func:`fourbar_input_intervals`."""
     # At O4 the direction towards O2 is theta4 = pi; phi = pi - theta4 maps the generic result.
-    ivs = _angle_intervals(float(l1), float(l4), float(l3), float(l2))
+    g, c, m, n, exp = _lengths(l1, l2, l3, l4)
+    ivs = _angle_intervals(g, n, m, c, exp)
     if ivs is None:
         return None
     return [(math.pi - hi, math.pi - lo) for lo, hi in ivs]
@@ -196,7 +220,7 @@ def fourbar_toggle_angles(l1: float, l2: float, l3: float, l4: float) -> list[fl
     cos(theta2) = (l1^2 + l2^2 - D^2) / (2 l1 l2), each D giving +-theta2.  A D that the crank
     can only just reach (within the relative tangency clamp) gives theta2 = 0 or pi once.
     """
-    l1, l2, l3, l4 = float(l1), float(l2), float(l3), float(l4)
+    l1, l2, l3, l4, _ = _lengths(l1, l2, l3, l4)
     tol = TANGENCY_TOL * max(l1, l2, l3, l4)
     out: list[float] = []
     for dist in (l3 + l4, abs(l3 - l4)):
@@ -216,9 +240,26 @@ def transmission_angle(l1, l2, l3, l4, theta2):
     input that cannot be assembled reports 0 or pi).  Evaluated as atan2(4*area, l3^2 + l4^2 -
     D^2) with Kahan's triangle area, which equals the clipped cosine rule but keeps full accuracy
     near mu = 0 and pi, where arccos loses half its digits.  Independent of the assembly branch.
-    Vectorised over all arguments.
+    Vectorised over all arguments; lengths must be finite and > 0 and theta2 finite
+    (ValueError otherwise).
     """
-    l1, l2, l3, l4, t2 = (np.asarray(v, dtype=float) for v in (l1, l2, l3, l4, theta2))
+    args = []
+    for name, v in zip(_LENGTH_NAMES + ('theta2',), (l1, l2, l3, l4, theta2)):
+        try:
+            a = np.asarray(v, dtype=float)     # None becomes NaN here, refused below
+        except (TypeError, ValueError):
+            raise ValueError(f'transmission_angle: {name} must be a number or an array of '
+                             f'numbers, got {v!r}') from None
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f'transmission_angle: {name} must be finite, got {v!r}')
+        if name != 'theta2' and not np.all(a > 0):
+            raise ValueError(f'transmission_angle: four-bar length {name} must be > 0, got {v!r}')
+        args.append(a)
+    l1, l2, l3, l4, t2 = args
+    # Divide by a power of two near the longest length (exact; mu is scale-free) so that the
+    # squares below cannot overflow for huge lengths.
+    exp = -np.frexp(np.maximum(np.maximum(l1, l2), np.maximum(l3, l4)))[1]
+    l1, l2, l3, l4 = (np.ldexp(v, exp) for v in (l1, l2, l3, l4))
     # |A - O4|^2 written with sin^2(theta2/2) to avoid cancellation near theta2 = 0.
     d2 = (l1 - l2) ** 2 + 4.0 * l1 * l2 * np.sin(0.5 * t2) ** 2
     return angle_opposite(l3, l4, np.sqrt(d2))

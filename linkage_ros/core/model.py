@@ -155,6 +155,9 @@ class Scene:
                 data = yaml.load(fh, Loader=_UniqueKeyLoader)
         except FileNotFoundError:
             raise SceneError('scene file not found', file=path) from None
+        except UnicodeDecodeError:
+            raise SceneError(f'not UTF-8 text ({_first_bad_utf8(path)}); save it as UTF-8',
+                             file=path) from None
         except OSError as exc:
             raise SceneError(f'cannot read scene file: {exc.strerror}', file=path) from None
         except yaml.YAMLError as exc:
@@ -169,20 +172,49 @@ class Scene:
         return cls(mechanism=build_mechanism(data, source=source), path=None)
 
 
+def _first_bad_utf8(path: str) -> str:
+    """Where a file stops being UTF-8: the reader's error counts from the start of its buffer,
+    not of the file."""
+    try:
+        raw = Path(path).read_bytes()
+        raw.decode('utf-8')
+    except UnicodeDecodeError as exc:
+        line = raw.count(b'\n', 0, exc.start) + 1
+        return f'byte {raw[exc.start:exc.start + 1]!r} on line {line} cannot be decoded'
+    except OSError:
+        pass
+    return 'it cannot be decoded'
+
+
 class _UniqueKeyLoader(yaml.SafeLoader):
     """safe_load that refuses a key given twice in one mapping (YAML's last-one-wins would build
-    a different mechanism than the file shows)."""
+    a different mechanism than the file shows) and reads 1e-3 as a number (YAML 1.2), not as the
+    string YAML 1.1 makes of an exponent without a dot."""
 
     def construct_mapping(self, node, deep=False):
         seen = {}
         for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=deep)
+            # deep: a list key is filled in only later otherwise, and the message shows it
+            key = self.construct_object(key_node, deep=True)
+            try:
+                hash(key)
+            except TypeError:       # `? [a, b]` or `? {a: 1}`: a list or mapping as a key
+                raise yaml.constructor.ConstructorError(
+                    None, None, f'a mapping key must be a name or number, not {key!r}',
+                    key_node.start_mark) from None
             if key in seen:
                 raise yaml.constructor.ConstructorError(
                     None, None, f'duplicate key {key!r} (first at line {seen[key] + 1})',
                     key_node.start_mark)
             seen[key] = key_node.start_mark.line
         return super().construct_mapping(node, deep=deep)
+
+
+# YAML 1.1 floats need a dot and a signed exponent (1.0e+3); also take 1e-3, 1E5, 2.5e3, .5e3.
+_UniqueKeyLoader.add_implicit_resolver(
+    'tag:yaml.org,2002:float',
+    re.compile(r'^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$'),
+    list('-+0123456789.'))
 
 
 # ---- validation helpers ----------------------------------------------------------------------
@@ -213,6 +245,11 @@ class _Ctx:
         if not isinstance(value, str) or not NAME_RE.match(value):
             self.fail(key, 'must be a name of letters, digits and _ starting with a letter', value)
         return value
+
+    @staticmethod
+    def known(value: object, names) -> bool:
+        """``value in names`` for a name; False (not TypeError) for a list or mapping."""
+        return isinstance(value, str) and value in names
 
     def mapping(self, key: str, value: object) -> Mapping[str, Any]:
         if not isinstance(value, Mapping):
@@ -285,7 +322,7 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
     links_raw = ctx.mapping('links', data.get('links'))
     links: dict[str, Link] = {}
     if ground not in links_raw:
-        ctx.fail('links', f'must contain the ground link {ground!r}', sorted(links_raw))
+        ctx.fail('links', f'must contain the ground link {ground!r}', sorted(links_raw, key=str))
     # ground first: it is the parent of every joint it takes part in
     for lname in [ground] + [n for n in links_raw if n != ground]:
         members = links_raw[lname]
@@ -294,10 +331,17 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         if isinstance(members, str) or not isinstance(members, (list, tuple)) or not members:
             ctx.fail(key, 'must be a non-empty list of point names', members)
         for p in members:
-            if p not in points:
+            if not ctx.known(p, points):
                 ctx.fail(key, f'unknown point {p!r}', p)
         if len(set(members)) != len(members):
             ctx.fail(key, 'lists a point twice', members)
+        # a link's angle is the direction of its first -> second point (its axis): two points
+        # on one spot give it none to solve for or report
+        if len(members) >= 2 and np.array_equal(points[members[0]], points[members[1]]):
+            ctx.fail(key, f'its first two points {members[0]} and {members[1]} coincide in the '
+                     f'reference pose (at {points[members[0]].tolist()}), so its axis (first '
+                     '-> second point) is undefined; list two distinct points first',
+                     list(members))
         links[lname] = _make_link(lname, tuple(members), points)
 
     prismatics: dict[str, PrismaticJoint] = {}
@@ -313,7 +357,7 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         ctx.only(key, spec, {'from', 'to', 'min', 'max'})
         a, b = spec.get('from'), spec.get('to')
         for k, p in (('from', a), ('to', b)):
-            if p not in points:
+            if not ctx.known(p, points):
                 ctx.fail(f'{key}.{k}', 'must name a point', p)
         axis = points[b] - points[a]
         length = float(np.hypot(*axis))
@@ -347,11 +391,11 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
             ctx.fail(key, 'duplicate prismatic joint name', jname)
         guide, slider, point = spec.get('guide'), spec.get('slider'), spec.get('point')
         for k, v in (('guide', guide), ('slider', slider)):
-            if v not in links:
+            if not ctx.known(v, links):
                 ctx.fail(f'{key}.{k}', 'must name a link', v)
         if guide == slider:
             ctx.fail(f'{key}.slider', 'must differ from the guide link', slider)
-        if point not in links[slider].points:
+        if not ctx.known(point, links[slider].points):
             ctx.fail(f'{key}.point', f'must be a point of the slider link {slider!r}', point)
         d = spec.get('direction', 0.0)
         if isinstance(d, (list, tuple)):
@@ -365,7 +409,7 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         dv = dv / n
         o = spec.get('origin', point)
         if isinstance(o, str):
-            if o not in points:
+            if not ctx.known(o, points):
                 ctx.fail(f'{key}.origin', 'must name a point or be [x, y]', o)
             ov = points[o]
         else:
@@ -409,13 +453,13 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         if kind == 'angle':
             ctx.only(key, spec, {'type', 'link', 'pivot', 'toward', 'relative_to', 'min', 'max'})
             link = spec.get('link')
-            if link not in links or link == ground:
+            if not ctx.known(link, links) or link == ground:
                 ctx.fail(f'{key}.link', 'must name a moving link', link)
             ref = spec.get('relative_to', ground)
-            if ref not in links or ref == link:
+            if not ctx.known(ref, links) or ref == link:
                 ctx.fail(f'{key}.relative_to', 'must name another link', ref)
             pivot = spec.get('pivot')
-            if pivot not in links[link].points:
+            if not ctx.known(pivot, links[link].points):
                 ctx.fail(f'{key}.pivot', f'must be a point of link {link!r}', pivot)
             toward = spec.get('toward')
             if toward is None:
@@ -423,14 +467,14 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
                 if not others:
                     ctx.fail(f'{key}.toward', f'link {link!r} has one point: name `toward`', None)
                 toward = others[0]
-            if toward not in links[link].points or toward == pivot:
+            if not ctx.known(toward, links[link].points) or toward == pivot:
                 ctx.fail(f'{key}.toward', f'must be another point of link {link!r}', toward)
             actuators[aname] = Actuator(aname, 'angle', link=link, reference=ref, pivot=pivot,
                                         toward=toward, min=lo, max=hi)
         elif kind == 'slide':
             ctx.only(key, spec, {'type', 'joint', 'min', 'max'})
             joint = spec.get('joint')
-            if joint not in prismatics:
+            if not ctx.known(joint, prismatics):
                 ctx.fail(f'{key}.joint', 'must name a prismatic joint (sliders)', joint)
             actuators[aname] = Actuator(aname, 'slide', joint=joint, min=lo, max=hi)
         else:
@@ -446,7 +490,7 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         if not isinstance(outputs_raw, list):
             ctx.fail('outputs', 'must be a list of point names', outputs_raw)
         for p in outputs_raw:
-            if p not in points:
+            if not ctx.known(p, points):
                 ctx.fail('outputs', f'unknown point {p!r}', p)
         outputs = tuple(outputs_raw)
 
@@ -504,6 +548,8 @@ def _length_scale(points, links, prismatics) -> float:
 # ---- shortcut forms --------------------------------------------------------------------------
 
 def _branch(ctx: _Ctx, key: str, value: object) -> int:
+    if isinstance(value, bool):     # True == 1: `branch: true` must not pass for +1
+        ctx.fail(key, "must be +1 or -1 (or '+' / '-')", value)
     if value in (1, '+', '+1'):
         return 1
     if value in (-1, '-', '-1'):
@@ -523,10 +569,11 @@ def _crank_actuator(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> dict[str, A
 
 
 def _reference_input(ctx: _Ctx, key: str, spec: Mapping[str, Any], start: float, assemble,
-                     lengths):
+                     lengths, intervals):
     """The reference crank angle: ``input`` if given (it must assemble), else the assembling
     angle nearest ``start`` (60 degrees above the ground line). ``assemble(theta)`` returns the
-    reference points or None."""
+    reference points or None; ``intervals()`` lists the (lo, hi) crank angles that assemble
+    (exact, from the closure condition)."""
     if 'input' in spec:
         theta = ctx.number(f'{key}.input', spec['input'])
         pts = assemble(theta)
@@ -536,6 +583,13 @@ def _reference_input(ctx: _Ctx, key: str, spec: Mapping[str, Any], start: float,
     steps = np.repeat(np.linspace(0.01, np.pi, 315), 2) * np.tile([1, -1], 315)
     for theta in start + np.concatenate([[0.0], steps]):
         pts = assemble(float(theta))
+        if pts is not None:
+            return pts
+    # The 0.01 rad grid misses a range narrower than its step (a short rod or coupler): try the
+    # middle of each exact range, nearest ``start`` first (the middle is furthest from a toggle).
+    mids = [0.5 * (lo + hi) for lo, hi in intervals()]
+    for theta in sorted(mids, key=lambda t: abs(math.remainder(t - start, 2 * math.pi))):
+        pts = assemble(theta)
         if pts is not None:
             return pts
     ctx.fail(key, 'these lengths do not assemble at any crank angle', lengths)
@@ -577,7 +631,17 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
         b, _, ok, _, _ = circle_circle(a, l3, o4, l4, branch)
         return (a, b) if ok and np.hypot(*(b - a)) > 0 else None
 
-    a, b = _reference_input(ctx, 'four_bar', fb, gang + np.pi / 3, assemble, [l1, l2, l3, l4])
+    def intervals():
+        from .analysis import fourbar_input_intervals
+        try:
+            ivs = fourbar_input_intervals(l1, l2, l3, l4)
+        except ValueError:          # assembles nowhere
+            return []
+        # None (turns fully) cannot reach here: the grid's first angle assembles
+        return [] if ivs is None else [(gang + lo, gang + hi) for lo, hi in ivs]
+
+    a, b = _reference_input(ctx, 'four_bar', fb, gang + np.pi / 3, assemble, [l1, l2, l3, l4],
+                            intervals)
     points = {'O2': o2, 'A': a, 'B': b, 'O4': o4}
     coupler = ['A', 'B']
     cp = fb.get('coupler_point')
@@ -627,7 +691,17 @@ def _slider_crank_to_general(ctx: _Ctx, data: Mapping[str, Any]):
         x = float(np.dot(a, d)) + branch * math.sqrt(rod - abs(dy)) * math.sqrt(rod + abs(dy))
         return a, foot + x * d
 
-    a, b = _reference_input(ctx, 'slider_crank', sc, dang + np.pi / 3, assemble, [r, rod, e])
+    def intervals():
+        # A's height over the line of stroke is r sin(phi), phi = theta - direction; the rod
+        # reaches the line iff |e - r sin(phi)| <= rod
+        lo, hi = max((e - rod) / r, -1.0), min((e + rod) / r, 1.0)
+        if lo > hi:
+            return []
+        a0, a1 = math.asin(lo), math.asin(hi)
+        return [(dang + a0, dang + a1), (dang + math.pi - a1, dang + math.pi - a0)]
+
+    a, b = _reference_input(ctx, 'slider_crank', sc, dang + np.pi / 3, assemble, [r, rod, e],
+                            intervals)
     crank = _crank_actuator(ctx, 'slider_crank', sc)
     general = {
         'points': {'O2': [0.0, 0.0], 'A': [float(a[0]), float(a[1])],
