@@ -73,44 +73,72 @@ class DyadSolution(NamedTuple):
     height: np.ndarray       # (...) distance of the point from the centre line (length units)
 
 
+def pow2_scale(m):
+    """Per element the even power of two S = 4**k with m / S in [1, 4) (1 where m is 0,
+    negative or not finite).  Dividing lengths by S is exact and commutes with square roots
+    (sqrt(S) = 2**k), so a result formed from the normalised values and multiplied back by S is
+    the one the unscaled formulas would give, except that no intermediate overflows (lengths
+    near 1e308) or loses its digits to subnormals (5e-324)."""
+    m = np.asarray(m, float)
+    _, expo = np.frexp(np.where(np.isfinite(m) & (m > 0), m, 1.0))
+    # m in [2**(expo-1), 2**expo); the even exponent 2 * floor((expo - 1) / 2) lies in
+    # [-1074, 1022]: S itself neither overflows nor underflows
+    return np.ldexp(1.0, ((expo - 1) >> 1) << 1)
+
+
 def circle_circle(c1, r1, c2, r2, sign, tol: float = TANGENCY_TOL) -> DyadSolution:
     """Intersection X of circle (c1, r1) and circle (c2, r2) -- the RRR dyad.
 
     ``sign`` = +1 puts X to the left of the vector c1 -> c2 (counter-clockwise side), -1 to the
     right. The margin is |sin| of the angle at X between X-c1 and X-c2 (the dyad's transmission
     angle; 0 at the toggle). Where not ok the point is that of circle 1 nearest to circle 2 on
-    the centre line (c1 itself when the centres coincide, zeros for non-finite input).
+    the centre line (c1 itself when the centres coincide or that point is beyond the float
+    range, zeros for non-finite input).  Centres and radii are first divided by a power of two
+    (exact) that brings the largest to [1, 4): centres ~1e308 apart, whose distance overflows,
+    and subnormal radii are solved like any other scale.  A solution point beyond the float
+    range (centres near +-1.8e308) is not representable: ok is False there.
     """
     c1 = np.asarray(c1, float)
     c2 = np.asarray(c2, float)
     r1 = np.asarray(r1, float)
     r2 = np.asarray(r2, float)
     sgn = np.where(np.asarray(sign, float) < 0, -1.0, 1.0)
-    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
-        dx = c2[..., 0] - c1[..., 0]
-        dy = c2[..., 1] - c1[..., 1]
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore', under='ignore'):
+        big = np.maximum(np.maximum(np.max(np.abs(c1), axis=-1), np.max(np.abs(c2), axis=-1)),
+                         np.maximum(np.abs(r1), np.abs(r2)))
+        S = pow2_scale(big)
+        c1n, c2n = c1 / S[..., None], c2 / S[..., None]
+        r1n, r2n = r1 / S, r2 / S
+        dx = c2n[..., 0] - c1n[..., 0]
+        dy = c2n[..., 1] - c1n[..., 1]
         d = np.hypot(dx, dy)
-        dx, dy, d, r1, r2, sgn = np.broadcast_arrays(dx, dy, d, r1, r2, sgn)
-        finite = (np.isfinite(dx) & np.isfinite(dy) & np.isfinite(r1) & np.isfinite(r2)
+        dx, dy, d, r1n, r2n, sgn, S = np.broadcast_arrays(dx, dy, d, r1n, r2n, sgn, S)
+        finite = (np.isfinite(dx) & np.isfinite(dy) & np.isfinite(r1n) & np.isfinite(r2n)
                   & np.all(np.isfinite(c1), axis=-1) & np.all(np.isfinite(c2), axis=-1))
-        four_area_n, violation_n, longest_n, scale = kahan_four_area(d, r1, r2)
+        four_area_n, violation_n, longest_n, scale = kahan_four_area(d, r1n, r2n)
         dn = d / scale  # 0 only if d == 0 or d / scale underflows
-        ok = (finite & (dn > 0) & (r1 > 0) & (r2 > 0) & (violation_n <= tol * longest_n))
+        ok = (finite & (dn > 0) & (r1n > 0) & (r2n > 0) & (violation_n <= tol * longest_n))
         dsafe = np.where(d > 0, d, 1.0)
         ux, uy = dx / dsafe, dy / dsafe
         # foot of X on the centre line from c1; (r1 - r2)(r1 + r2) / d avoids the cancellation
         # of r1**2 - r2**2 and cannot overflow (|r1 - r2| / d <= 1 where the circles meet)
-        along = 0.5 * (d + ((r1 - r2) / dsafe) * (r1 + r2))
-        along = np.clip(along, -np.abs(r1), np.abs(r1))
+        along = 0.5 * (d + ((r1n - r2n) / dsafe) * (r1n + r2n))
+        along = np.clip(along, -np.abs(r1n), np.abs(r1n))
         along = np.where(finite & (d > 0), along, 0.0)
         # h = 2 * area / d = (scale / 2) * four_area_n / dn: no overflow
         h = np.where(ok, 0.5 * scale * (four_area_n / np.where(dn > 0, dn, 1.0)), 0.0)
-        px = np.where(finite, c1[..., 0] + along * ux - sgn * h * uy, 0.0)
-        py = np.where(finite, c1[..., 1] + along * uy + sgn * h * ux, 0.0)
+        px = (c1n[..., 0] + along * ux - sgn * h * uy) * S
+        py = (c1n[..., 1] + along * uy + sgn * h * ux) * S
+        # beyond the float range (only possible for centres near +-1.8e308): not representable
+        inside = np.isfinite(px) & np.isfinite(py)
+        ok &= inside
+        px = np.where(finite, np.where(inside, px, c1[..., 0]), 0.0)
+        py = np.where(finite, np.where(inside, py, c1[..., 1]), 0.0)
         # margin = h d / (r1 r2) = |sin| of the angle at X, formed without overflow
-        margin = np.where(ok, (h / np.where(r1 > 0, r1, 1.0)) * (d / np.where(r2 > 0, r2, 1.0)),
+        margin = np.where(ok, (h / np.where(r1n > 0, r1n, 1.0)) * (d / np.where(r2n > 0, r2n, 1.0)),
                           0.0)
-        violation = np.where(finite, np.maximum(violation_n * scale, 0.0), np.inf)
+        h = np.where(ok, h * S, 0.0)        # h <= r1: no overflow
+        violation = np.where(finite, np.maximum(violation_n * (scale * S), 0.0), np.inf)
     margin = np.clip(np.nan_to_num(margin), 0.0, 1.0)
     violation = np.where(ok, 0.0, np.nan_to_num(violation, posinf=np.finfo(float).max))
     return DyadSolution(np.stack([px, py], axis=-1), margin, ok, violation, h)

@@ -23,7 +23,11 @@ Why the formulation looks the way it does:
 * Batches run block by block through fast kernels (see "fast block kernels" below) that keep
   their work arrays in cache; elements with a length or centre distance outside 2**+-200 or
   non-finite input (and calls with a negative or NaN tolerance) take the general whole-array
-  formulas instead.  Both give the same results to rounding.  The kernels measure the closure
+  formulas instead.  Both give the same results to rounding.  The general formulas first divide
+  every length by a power of four (exact, per element) that brings the longest to [1, 4), so
+  lengths near 1e308 or 5e-324 are solved like any other scale; a result that is itself beyond
+  the float range (a slider position x > 1.8e308) is refused (ok False).  Angles of exactly
+  -pi (signed zeros) are returned as +pi.  The kernels measure the closure
   residual along the solved link directions (unit vectors of B - A and B - O4) instead of
   through cos/sin of the returned angles, and take |sin(mu)| of the four-bar from the Kahan
   triangle area (2 * area / (l3 * l4)).
@@ -36,7 +40,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .dyads import TANGENCY_TOL, circle_circle, kahan_four_area
+from .dyads import TANGENCY_TOL, circle_circle, kahan_four_area, pow2_scale
 
 
 # Residual reported for non-finite inputs, where no misclosure can be measured: one full
@@ -215,8 +219,8 @@ class _Work:
 def _atan2(y, x, out, ws):
     """arctan2 into ``out``, as atan(y / x) plus the quadrant: half the cost of np.arctan2
     (glibc), within about an ulp of it (the rounding of y / x and of the added +-pi).  Signed
-    zeros and x = +-0 follow atan2; y = x = 0 gives NaN, which the kernels' finiteness test
-    sends to the general form."""
+    zeros and x = +-0 follow atan2, except that -pi comes out as +pi (the range is (-pi, pi]);
+    y = x = 0 gives NaN, which the kernels' finiteness test sends to the general form."""
     lead = out.shape[:-1]
     np.divide(y, x, out=out)
     np.arctan(out, out=out)
@@ -224,6 +228,10 @@ def _atan2(y, x, out, ws):
     np.copysign(np.pi, y, out=c)
     c *= np.signbit(x, out=ws('atan_b', *lead, dtype=bool))
     out += c
+    # -pi (y = -0 or a tiny negative y, x < 0) is the direction +pi: (-pi, pi] as documented.
+    # fmin skips the NaNs of elements bound for the general form (min would return NaN)
+    if np.fmin.reduce(out, axis=None) == -np.pi:
+        np.copyto(out, np.pi, where=out == -np.pi)
 
 
 def _rrr(w, r1, r2, sgn, tol, ok, ws):
@@ -409,7 +417,27 @@ def _transmission_sin(ax, ay, bx, by, o4x, o4y, l3, l4) -> np.ndarray:
     s3 = np.where(l3 > 0, l3, 1.0)
     s4 = np.where(l4 > 0, l4, 1.0)
     cross = ((ax - bx) / s3) * ((o4y - by) / s4) - ((ay - by) / s3) * ((o4x - bx) / s4)
-    return np.clip(np.abs(cross), 0.0, 1.0)
+    # NaN (0 * inf) only for a link ~1e-308 times the others, accepted by a tangency clamp of
+    # order 1: a degenerate configuration, reported as the singularity (0)
+    return np.clip(np.nan_to_num(np.abs(cross), nan=0.0), 0.0, 1.0)
+
+
+def _atan2_general(y, x):
+    """np.arctan2 with -pi (y = -0 or a tiny negative y, x < 0) returned as +pi: (-pi, pi]."""
+    a = np.arctan2(y, x)
+    return np.where(a == -np.pi, np.pi, a)
+
+
+def _normalised(*lengths):
+    """The lengths divided by the power of four S (per element, exact) that brings the longest
+    to [1, 4), and S.  The general forms solve the normalised linkage: angles and the relative
+    residual do not depend on the scale, and no intermediate overflows (lengths or coordinates
+    near 1e308) or loses its digits to subnormals (lengths near 5e-324)."""
+    m = np.abs(lengths[0])
+    for v in lengths[1:]:
+        m = np.maximum(m, np.abs(v))
+    S = pow2_scale(m)
+    return [v / S for v in lengths], S
 
 
 def _finish(values, ok, finite, residual):
@@ -451,14 +479,15 @@ def _fourbar_forward_general(l1, l2, l3, l4, t2, br, tangency_tol):
     with np.errstate(invalid='ignore', over='ignore'):
         finite = (np.isfinite(l1) & np.isfinite(l2) & np.isfinite(l3) & np.isfinite(l4)
                   & np.isfinite(t2))
+        (l1, l2, l3, l4), _ = _normalised(l1, l2, l3, l4)
         ax, ay = l2 * np.cos(t2), l2 * np.sin(t2)
         o4x, o4y = l1, np.zeros_like(l1)
         b, _, ok = circle_intersection(np.stack([ax, ay], -1), l3, np.stack([o4x, o4y], -1),
                                        l4, br, tangency_tol)
         ok = np.asarray(ok) & finite & (l1 >= 0) & (l2 >= 0)
         bx, by = b[..., 0], b[..., 1]
-        t3 = np.arctan2(by - ay, bx - ax)
-        t4 = np.arctan2(by - o4y, bx - o4x)
+        t3 = _atan2_general(by - ay, bx - ax)
+        t4 = _atan2_general(by - o4y, bx - o4x)
         tsin = _transmission_sin(ax, ay, bx, by, o4x, o4y, l3, l4)
         residual = _closure_residual(l1, l2, l3, l4, t2, t3, t4)
     (t3, t4, tsin), residual = _finish((t3, t4, tsin), ok, finite, residual)
@@ -527,14 +556,15 @@ def _fourbar_inverse_general(l1, l2, l3, l4, t4, br, tangency_tol):
     with np.errstate(invalid='ignore', over='ignore'):
         finite = (np.isfinite(l1) & np.isfinite(l2) & np.isfinite(l3) & np.isfinite(l4)
                   & np.isfinite(t4))
+        (l1, l2, l3, l4), _ = _normalised(l1, l2, l3, l4)
         o4x, o4y = l1, np.zeros_like(l1)
         bx, by = o4x + l4 * np.cos(t4), o4y + l4 * np.sin(t4)
         a, _, ok = circle_intersection(np.stack([bx, by], -1), l3,
                                        np.zeros(bx.shape + (2,)), l2, br, tangency_tol)
         ok = np.asarray(ok) & finite & (l1 >= 0) & (l4 >= 0)
         ax, ay = a[..., 0], a[..., 1]
-        t2 = np.arctan2(ay, ax)
-        t3 = np.arctan2(by - ay, bx - ax)
+        t2 = _atan2_general(ay, ax)
+        t3 = _atan2_general(by - ay, bx - ax)
         tsin = _transmission_sin(ax, ay, bx, by, o4x, o4y, l3, l4)
         residual = _closure_residual(l1, l2, l3, l4, t2, t3, t4)
     (t2, t3, tsin), residual = _finish((t2, t3, tsin), ok, finite, residual)
@@ -615,6 +645,7 @@ def _slider_forward_general(r, l, e, t2, br, tangency_tol):
     r, l, e, t2, br = np.broadcast_arrays(_f(r), _f(l), _f(e), _f(t2), _f(br))
     with np.errstate(invalid='ignore', over='ignore'):
         finite = np.isfinite(r) & np.isfinite(l) & np.isfinite(e) & np.isfinite(t2)
+        (r, l, e), S = _normalised(r, l, e)
         ax, ay = r * np.cos(t2), r * np.sin(t2)
         dy = e - ay
         ady = np.abs(dy)
@@ -625,8 +656,15 @@ def _slider_forward_general(r, l, e, t2, br, tangency_tol):
         half = np.where(ok & (gap > 0), np.sqrt(np.maximum(gap, 0.0)) * np.sqrt(l + ady), 0.0)
         x = np.where(ok, ax + br * half, ax)
         # closest approach when not ok: rod pointing straight at the line (angle +-pi/2)
-        t3 = np.where(ok, np.arctan2(dy, br * half), np.arctan2(dy, 0.0))
+        t3 = np.where(ok, _atan2_general(dy, br * half), np.arctan2(dy, 0.0))
         residual = _slider_residual(r, l, e, t2, t3, x)
+        # back to length units; an x beyond the float range (r + l near 1.8e308) is not
+        # representable: not ok, x = A_x (finite: |A_x| <= r) and the residual of a wrong answer
+        x, ax = x * S, ax * S
+        beyond = ok & ~np.isfinite(x)
+        ok &= ~beyond
+        x = np.where(beyond, ax, x)
+        residual = np.where(beyond, _NONFINITE_RESIDUAL, residual)
     (t3,), residual = _finish((t3,), ok, finite, residual)
     x = np.where(finite, x, 0.0)
     return x, t3, ok, residual
@@ -654,7 +692,8 @@ def slider_crank_forward(r, l, e, theta2, branch=1, tangency_tol: float = TANGEN
     SliderCrankSolution(x, theta3, ok, residual)
         x = B_x [length], theta3 in (-pi, pi].  Where not ok: x = A_x (the foot of A on the
         slide line), theta3 = 0 and the residual is the misclosure of the closest-approach
-        configuration (rod pointing at the line).
+        configuration (rod pointing at the line).  A slider position beyond the float range
+        (r + l near 1.8e308) is not ok either, with x = A_x and residual 1.
     """
     args = (_f(r), _f(l), _f(e), _f(theta2), _sign(branch))
     with np.errstate(all='ignore'):
@@ -681,12 +720,13 @@ def _slider_inverse_general(r, l, e, x, br, tangency_tol):
     r, l, e, x, br = np.broadcast_arrays(_f(r), _f(l), _f(e), _f(x), _f(br))
     with np.errstate(invalid='ignore', over='ignore'):
         finite = np.isfinite(r) & np.isfinite(l) & np.isfinite(e) & np.isfinite(x)
+        (r, l, e, x), _ = _normalised(r, l, e, x)
         a, _, ok = circle_intersection(np.zeros(x.shape + (2,)), r, np.stack([x, e], -1), l, br,
                                        tangency_tol)
         ok = np.asarray(ok) & finite
         ax, ay = a[..., 0], a[..., 1]
-        t2 = np.arctan2(ay, ax)
-        t3 = np.arctan2(e - ay, x - ax)
+        t2 = _atan2_general(ay, ax)
+        t3 = _atan2_general(e - ay, x - ax)
         residual = _slider_residual(r, l, e, t2, t3, x)
     (t2, t3), residual = _finish((t2, t3), ok, finite, residual)
     return t2, t3, ok, residual
