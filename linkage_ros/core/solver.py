@@ -815,9 +815,13 @@ class Solver:
 
     def _batch_source(self) -> tuple:
         """What a newton batch's x means (the mechanism, its reference geometry, the knowns and
-        the Newton unknowns): start= takes only batches of the same."""
-        return (self.mech.name, tuple(self.knowns), tuple(self.system.free),
+        the Newton unknowns): start= takes only batches of the same. Made once per solver."""
+        src = self.__dict__.get('_source')
+        if src is None:
+            src = self._source = (
+                self.mech.name, tuple(self.knowns), tuple(self.system.free),
                 tuple((p, float(v[0]), float(v[1])) for p, v in self.mech.points.items()))
+        return src
 
     @staticmethod
     def _batch_column(s: Spec, v) -> np.ndarray:
