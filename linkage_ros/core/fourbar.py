@@ -440,6 +440,19 @@ def _normalised(*lengths):
     return [v / S for v in lengths], S
 
 
+def _general_inputs(args, scaled: int):
+    """The general forms' arguments (the branch last) broadcast to one shape, the mask of the
+    elements whose other arguments are all finite, and the first ``scaled`` of them (the
+    lengths) divided by the power of four S of :func:`_normalised`: (args, finite, S)."""
+    args = np.broadcast_arrays(*(_f(a) for a in args))
+    finite = np.isfinite(args[0])
+    for a in args[1:-1]:
+        finite = finite & np.isfinite(a)
+    with np.errstate(invalid='ignore', over='ignore'):
+        lengths, S = _normalised(*args[:scaled])
+    return [*lengths, *args[scaled:]], finite, S
+
+
 def _finish(values, ok, finite, residual):
     """Zero the placeholders where not ok and make the residual finite."""
     vals = [np.where(ok, v, 0.0) for v in values]
@@ -475,11 +488,8 @@ def _fourbar_forward_fast(l1, l2, l3, l4, t2, sgn, tol, out, ws):
 
 
 def _fourbar_forward_general(l1, l2, l3, l4, t2, br, tangency_tol):
-    l1, l2, l3, l4, t2, br = np.broadcast_arrays(_f(l1), _f(l2), _f(l3), _f(l4), _f(t2), _f(br))
+    (l1, l2, l3, l4, t2, br), finite, _ = _general_inputs((l1, l2, l3, l4, t2, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
-        finite = (np.isfinite(l1) & np.isfinite(l2) & np.isfinite(l3) & np.isfinite(l4)
-                  & np.isfinite(t2))
-        (l1, l2, l3, l4), _ = _normalised(l1, l2, l3, l4)
         ax, ay = l2 * np.cos(t2), l2 * np.sin(t2)
         o4x, o4y = l1, np.zeros_like(l1)
         b, _, ok = circle_intersection(np.stack([ax, ay], -1), l3, np.stack([o4x, o4y], -1),
@@ -552,11 +562,8 @@ def _fourbar_inverse_fast(l1, l2, l3, l4, t4, sgn, tol, out, ws):
 
 
 def _fourbar_inverse_general(l1, l2, l3, l4, t4, br, tangency_tol):
-    l1, l2, l3, l4, t4, br = np.broadcast_arrays(_f(l1), _f(l2), _f(l3), _f(l4), _f(t4), _f(br))
+    (l1, l2, l3, l4, t4, br), finite, _ = _general_inputs((l1, l2, l3, l4, t4, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
-        finite = (np.isfinite(l1) & np.isfinite(l2) & np.isfinite(l3) & np.isfinite(l4)
-                  & np.isfinite(t4))
-        (l1, l2, l3, l4), _ = _normalised(l1, l2, l3, l4)
         o4x, o4y = l1, np.zeros_like(l1)
         bx, by = o4x + l4 * np.cos(t4), o4y + l4 * np.sin(t4)
         a, _, ok = circle_intersection(np.stack([bx, by], -1), l3,
@@ -642,10 +649,8 @@ def _slider_forward_fast(r, l, e, t2, sgn, tol, out, ws):
 
 
 def _slider_forward_general(r, l, e, t2, br, tangency_tol):
-    r, l, e, t2, br = np.broadcast_arrays(_f(r), _f(l), _f(e), _f(t2), _f(br))
+    (r, l, e, t2, br), finite, S = _general_inputs((r, l, e, t2, br), 3)
     with np.errstate(invalid='ignore', over='ignore'):
-        finite = np.isfinite(r) & np.isfinite(l) & np.isfinite(e) & np.isfinite(t2)
-        (r, l, e), S = _normalised(r, l, e)
         ax, ay = r * np.cos(t2), r * np.sin(t2)
         dy = e - ay
         ady = np.abs(dy)
@@ -717,10 +722,8 @@ def _slider_inverse_fast(r, l, e, x, sgn, tol, out, ws):
 
 
 def _slider_inverse_general(r, l, e, x, br, tangency_tol):
-    r, l, e, x, br = np.broadcast_arrays(_f(r), _f(l), _f(e), _f(x), _f(br))
+    (r, l, e, x, br), finite, _ = _general_inputs((r, l, e, x, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
-        finite = np.isfinite(r) & np.isfinite(l) & np.isfinite(e) & np.isfinite(x)
-        (r, l, e, x), _ = _normalised(r, l, e, x)
         a, _, ok = circle_intersection(np.zeros(x.shape + (2,)), r, np.stack([x, e], -1), l, br,
                                        tangency_tol)
         ok = np.asarray(ok) & finite
