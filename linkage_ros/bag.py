@@ -46,7 +46,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import re
+import shutil
 import struct
 import sys
 import time
@@ -131,7 +133,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help='Newton tolerance relative to the length scale (default 1e-12)')
     parser.add_argument('--max-iter', type=int, default=50, help='Newton iteration cap (default 50)')
     parser.add_argument('--plot', metavar='PNG', default=None,
-                        help='write coupler-point traces and input/joint curves to this image')
+                        help='write coupler-point traces and input/joint curves to this image '
+                             '(format from the extension: png, svg, pdf, ...; PNG if none)')
     parser.add_argument('--no-progress', action='store_true',
                         help='no progress bar (it is shown only when stderr is a terminal)')
 
@@ -165,50 +168,93 @@ def _run(args) -> int:
         raise BagError(f'--max-iter must be >= 1 (got {args.max_iter})')
     progress = _Progress(enabled=not args.no_progress and sys.stderr.isatty())
 
-    engine = _Engine(mech, args.solver, args.tol, args.max_iter, args.branch)   # PlanError early
-    topics = [args.command_topic] + ([args.target_topic] if args.target_topic else [])
-    data = read_commands(args.input, topics, progress)
-    t_read = time.perf_counter()
-    res = engine.solve_all(data, progress)
-    t_solve = time.perf_counter()
-    for kind, path in outs:
-        try:
-            if kind == 'csv':
-                write_csv(path, data, res, mech, progress)
-            else:
-                write_bag(path, data, res, mech, scene.frame_id, args.out_format, progress)
-        except OSError as exc:
-            raise BagError(f'output {path}: cannot write ({exc.strerror or exc})') from None
-    if args.plot:
-        write_plot(args.plot, data, res, mech)
-    t_end = time.perf_counter()
-    progress.clear()
+    try:
+        engine = _Engine(mech, args.solver, args.tol, args.max_iter, args.branch)  # PlanError early
+        topics = [args.command_topic] + ([args.target_topic] if args.target_topic else [])
+        data = read_commands(args.input, topics, progress)
+        t_read = time.perf_counter()
+        res = engine.solve_all(data, progress)
+        t_solve = time.perf_counter()
+        for kind, path in outs:
+            try:
+                if kind == 'csv':
+                    write_csv(path, data, res, mech, progress)
+                else:
+                    write_bag(path, data, res, mech, scene.frame_id, args.out_format, progress)
+            except OSError as exc:
+                raise BagError(f'output {path}: cannot write ({exc.strerror or exc})') from None
+        if args.plot:
+            write_plot(args.plot, data, res, mech)
+        t_end = time.perf_counter()
+    finally:
+        progress.clear()      # an error message starts on a line of its own
     _summary(data, res, outs, args.plot, t_start, t_read, t_solve, t_end)
     return OK
+
+
+def _resolved(path: Path, what: str) -> Path:
+    """The absolute path with symlinks resolved; a symlink loop is a clear error."""
+    try:
+        return path.resolve()
+    except (RuntimeError, OSError) as exc:      # Python < 3.13: RuntimeError on a loop
+        raise BagError(f'{what}: cannot use this path ({_exc_text(exc)})') from None
+
+
+def _check_parent(path: Path, what: str) -> Path:
+    full = _resolved(path, what)
+    parent = full.parent
+    if not parent.is_dir():
+        raise BagError(f'{what}: folder {parent} '
+                       + ('is not a folder' if parent.exists() else 'does not exist'))
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise BagError(f'{what}: folder {parent} is not writable (permission denied)')
+    return full
+
+
+def plot_formats() -> list[str]:
+    """The image formats (file extensions) matplotlib can write."""
+    from matplotlib.backend_bases import FigureCanvasBase
+    return sorted(FigureCanvasBase.get_supported_filetypes())
+
+
+def _plot_format(path: str) -> str:
+    """The image format of a --plot path: its extension, or PNG for a name without one."""
+    ext = Path(path).suffix.lower().lstrip('.')
+    if not ext:
+        return 'png'
+    formats = plot_formats()
+    if ext not in formats:
+        raise BagError(f'--plot {path}: cannot write a .{ext} image (image formats: '
+                       f'{", ".join(formats)})')
+    return ext
 
 
 def _check_outputs(outs: list[str], plot: str | None):
     checked = []
     for path in outs:
         p = Path(path)
+        what = f'output {path}'
         if p.suffix.lower() == '.csv':
             kind = 'csv'
             if p.is_dir():
-                raise BagError(f'output {path}: is a directory')
+                raise BagError(f'{what}: is a directory')
         else:
             kind = 'bag'
-            if p.exists():
-                raise BagError(f'output {path}: exists already (an output bag must be a new '
+            if p.exists() or p.is_symlink():
+                raise BagError(f'{what}: exists already (an output bag must be a new '
                                f'folder; not overwriting)')
-        parent = p.resolve().parent
-        if not parent.is_dir():
-            raise BagError(f'output {path}: folder {parent} does not exist')
-        checked.append((kind, p))
-    if len({str(p.resolve()) for _, p in checked}) != len(checked):
+        checked.append((kind, p, _check_parent(p, what)))
+    if len({str(full) for _, _, full in checked}) != len(checked):
         raise BagError('the same --out path is given twice')
-    if plot is not None and not Path(plot).resolve().parent.is_dir():
-        raise BagError(f'--plot {plot}: folder {Path(plot).resolve().parent} does not exist')
-    return checked
+    if plot is not None:
+        what = f'--plot {plot}'
+        full = _check_parent(Path(plot), what)
+        if full.is_dir():
+            raise BagError(f'{what}: is a directory')
+        if any(full == out for _, _, out in checked):
+            raise BagError(f'{what}: is also an --out path')
+        _plot_format(plot)
+    return [(kind, p) for kind, p, _ in checked]
 
 
 # ---- progress and summary ----------------------------------------------------------------------
@@ -298,32 +344,72 @@ class Commands:
     key: np.ndarray                 # (n,) int32 index into keys
     keys: list[tuple[str, ...]]     # the names of each distinct message shape
     npos: list[int]                 # number of positions of each key
-    pos: np.ndarray                 # (n, kmax) positions (NaN padded)
+    values: np.ndarray              # every row's positions, one after the other (float64)
+    start: np.ndarray               # (n + 1,) int64: row i's positions are values[start[i]:...]
 
     @property
     def n(self) -> int:
         return int(self.topic.shape[0])
+
+    def positions(self, a: int, b: int) -> np.ndarray:
+        """(b - a, k) positions of rows a..b-1, which share one key (k positions each)."""
+        k = self.npos[int(self.key[a])] if b > a else 0
+        lo = int(self.start[a])
+        return self.values[lo:lo + (b - a) * k].reshape(b - a, k)
+
+    @property
+    def pos(self) -> np.ndarray:
+        """(n, kmax) positions, NaN padded (small data only: one malformed message with many
+        positions makes it as wide for every row)."""
+        counts = np.diff(self.start)
+        out = np.full((self.n, int(counts.max()) if self.n else 0), np.nan)
+        for i in range(self.n):
+            out[i, :counts[i]] = self.values[self.start[i]:self.start[i + 1]]
+        return out
 
     @property
     def stamp_zero(self) -> np.ndarray:
         return (self.sec == 0) & (self.nanosec == 0)
 
 
-def _open_reader(path: str):
+class _AnyCase(dict):
+    """rosbags' storage plugins by file extension, found in any case ('.MCAP' too)."""
+
+    def get(self, key, default=None):
+        return super().get(key if key == 'dir' else str(key).lower(), default)
+
+
+def _reader_class():
     from rosbags.rosbag2 import Reader
+
+    class _Reader(Reader):
+        STORAGE_PLUGINS = _AnyCase(Reader.STORAGE_PLUGINS)
+    return _Reader
+
+
+STORAGE_SUFFIXES = ('.mcap', '.db3')
+
+
+def _open_reader(path: str):
+    Reader = _reader_class()
     p = Path(path)
     if not p.exists():
         raise BagError(f'input {path}: no such file or folder')
     if p.is_dir() and not (p / 'metadata.yaml').exists():
         # a bag folder without metadata: fall back to its single storage file, if any
-        files = sorted(list(p.glob('*.mcap')) + list(p.glob('*.db3')))
+        try:
+            files = sorted(f for f in p.iterdir()
+                           if f.suffix.lower() in STORAGE_SUFFIXES and f.is_file())
+        except OSError as exc:
+            raise BagError(f'input {path}: cannot list the folder ({exc.strerror or exc})') \
+                from None
         if len(files) == 1:
             p = files[0]
         else:
             raise BagError(f'input {path}: not a rosbag2 (a folder without metadata.yaml'
                            + (f' and with {len(files)} storage files' if files else
                               ' and no .mcap or .db3 file') + ')')
-    elif p.is_file() and p.suffix.lower() not in ('.mcap', '.db3'):
+    elif p.is_file() and p.suffix.lower() not in STORAGE_SUFFIXES:
         raise BagError(f'input {path}: not a rosbag2 (expected a bag folder, a .mcap or a .db3 '
                        f'file)')
     try:
@@ -392,8 +478,10 @@ def read_commands(path: str, topics: list[str], progress: _Progress | None = Non
         log_ns = log_ns[order]
         tops = np.asarray(tops, np.int8)[order]
     topic = np.asarray(tops, np.int8).reshape(n)
-    sec, nanosec, key, keys, npos, pos = decode_joint_states(raws, topic, topics, log_ns)
-    return Commands(str(path), list(topics), topic, log_ns, sec, nanosec, key, keys, npos, pos)
+    sec, nanosec, key, keys, npos, values, start = decode_joint_states(raws, topic, topics,
+                                                                       log_ns)
+    return Commands(str(path), list(topics), topic, log_ns, sec, nanosec, key, keys, npos,
+                    values, start)
 
 
 # -- JointState CDR decoding (vectorised over messages of one layout) ------------------------------
@@ -490,6 +578,9 @@ def decode_joint_states(raws: list[bytes], topic: np.ndarray, topics: list[str],
     Messages of one byte length usually share one layout (same names, same frame_id): they are
     decoded together as an (m, L) byte array; the layout is parsed once from the first of them
     and checked on all (every structural byte equal), the rest get their own layout.
+    The positions of all rows are returned one after the other (values, with row i's from
+    start[i] to start[i + 1]): a malformed message with thousands of positions costs its own
+    size, not that width for every row.
     """
     n = len(raws)
     sec = np.zeros(n, np.int64)
@@ -499,9 +590,9 @@ def decode_joint_states(raws: list[bytes], topic: np.ndarray, topics: list[str],
     npos: list[int] = []
     key_of: dict[tuple, int] = {}
     positions: list[tuple[np.ndarray, np.ndarray]] = []     # (rows, (m, k) values)
-    kmax = 0
+    counts = np.zeros(n, np.int64)
     if n == 0:
-        return sec, nanosec, key, keys, npos, np.zeros((0, 0))
+        return sec, nanosec, key, keys, npos, np.zeros(0), np.zeros(1, np.int64)
     lens = np.fromiter((len(r) for r in raws), np.int64, n)
     order = np.argsort(lens, kind='stable')
     bounds = np.flatnonzero(np.diff(lens[order])) + 1
@@ -538,12 +629,14 @@ def decode_joint_states(raws: list[bytes], topic: np.ndarray, topics: list[str],
                 keys.append(lay.names)
                 npos.append(count)
             key[g_rows] = key_of[k]
+            counts[g_rows] = count
             positions.append((g_rows, vals))
-            kmax = max(kmax, count)
-    pos = np.full((n, kmax), np.nan)
+    start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    values = np.empty(int(start[-1]))
     for rows, vals in positions:
-        pos[rows, :vals.shape[1]] = vals
-    return sec, nanosec, key, keys, npos, pos
+        if vals.shape[1]:
+            values[start[rows][:, None] + np.arange(vals.shape[1])] = vals
+    return sec, nanosec, key, keys, npos, values, start
 
 
 def _fmt_time(ns: int) -> str:
@@ -782,7 +875,7 @@ class _Engine:
         if why:                                     # conversions.joint_state_to_command
             self._refuse_all(a, b, why)
             return
-        vals = data.pos[a:b, :npos]
+        vals = data.positions(a, b)
         columns = {nm: vals[:, j] for j, nm in enumerate(names)}
         for nm, col in columns.items():
             if nm in self.res.inputs:
@@ -1285,13 +1378,19 @@ def format_ints(values) -> np.ndarray:
 
 
 def _stamp_text(sec, nsec) -> np.ndarray:
-    """'sec.nnnnnnnnn' (exact decimal seconds) as a byte array."""
-    ns = np.asarray(nsec, np.int64).astype(np.uint64)
+    """'sec.nnnnnnnnn' (exact decimal seconds of sec + nsec * 1e-9) as a byte array; a negative
+    time is '-' and its magnitude ('-4.999999999' for sec -5, nsec 1), and a nanosec field of a
+    second or more (not normalised) carries into the seconds, as rclpy's Time reads a stamp."""
+    total = np.asarray(sec, np.int64) * np.int64(10 ** 9) + np.asarray(nsec, np.int64)
+    mag = np.abs(total).astype(np.uint64)
+    s, ns = np.divmod(mag, np.uint64(10 ** 9))
     hi, lo = np.divmod(ns, _U4)
     a, b = np.divmod(hi, _U4)
     frac = np.concatenate([(a.astype(np.uint8) + np.uint8(48))[:, None], _LUT4[b], _LUT4[lo]],
                           axis=1)
-    return np.concatenate([format_ints(sec), np.full((len(ns), 1), 46, np.uint8), frac], axis=1)
+    whole = format_ints(s.astype(np.int64))
+    whole[:, 0] = (total < 0) * np.uint8(45)                                  # '-'
+    return np.concatenate([whole, np.full((len(ns), 1), 46, np.uint8), frac], axis=1)
 
 
 def _table(strings: list[str], codes: np.ndarray) -> np.ndarray:
@@ -1338,7 +1437,7 @@ def write_csv(path: Path, data: Commands, res: Results, mech, progress: _Progres
                 newline = np.full((m, 1), 10, np.uint8)
             ns = data.log_ns[sl]
             cols = [_stamp_text(data.sec[sl], data.nanosec[sl]), comma,
-                    _stamp_text(ns // 10 ** 9, ns % 10 ** 9), comma,
+                    _stamp_text(0, ns), comma,
                     _table(topics, data.topic[sl]), comma]
             for nm in mech.actuators:
                 text = format_floats(res.inputs[nm][sl], b'nan')
@@ -1554,12 +1653,19 @@ def write_bag(path: Path, data: Commands, res: Results, mech, frame_id: str, sto
                 write(c_st, t, statuses[i])
             progress.update(b)
         writer.close()
-    except BaseException:
+    except BaseException as exc:
+        # the folder is this run's own (it did not exist before): a half-written bag without
+        # metadata is no result, and would only block the next run ('exists already')
         try:
             writer.abort()
         except Exception:  # noqa: BLE001
             pass
-        raise
+        shutil.rmtree(path, ignore_errors=True)
+        if isinstance(exc, (BagError, OSError)) or not isinstance(exc, Exception):
+            raise
+        # sqlite3 ('database or disk is full'), rosbags' WriterError, ...
+        raise BagError(f'output {path}: cannot write the bag ({_exc_text(exc)}); nothing '
+                       f'was kept') from None
     progress.finish()
 
 
@@ -1672,11 +1778,14 @@ def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 
     """Coupler-point traces (x-y) and inputs/joints against time (refused rows are gaps; an
     accepted row between two refused ones is a dot)."""
     import matplotlib.pyplot as plt
+    fmt = _plot_format(str(path))         # the file named is the file written (no '.png' added)
     fig = plot_figure(data, res, mech, max_points)
     try:
-        fig.savefig(path, dpi=110)
+        fig.savefig(path, dpi=110, format=fmt)
     except OSError as exc:
         raise BagError(f'--plot {path}: {exc.strerror or exc}') from None
+    except Exception as exc:  # noqa: BLE001 - e.g. a format whose writer is missing (pgf: LaTeX)
+        raise BagError(f'--plot {path}: cannot write the image ({_exc_text(exc)})') from None
     finally:
         plt.close(fig)
 
