@@ -370,3 +370,24 @@ def test_sweep_grid_is_lazy_and_first_axis_slowest():
     small = [[1, 2], cli.parse_known('--set', 'b=0:1:3', True)[1]]
     assert list(cli._grid(small)) == list(itertools.product(*small))
     assert list(cli._grid([])) == [()]
+
+
+def test_two_known_points_on_one_link_name_the_link_and_the_alternative():
+    """The lecture moves the excavator bin by giving J and K: 4 values for 3 DOF, refused with a
+    reason that says why (one rigid link) and what to give instead, which then solves."""
+    mech = Scene.from_yaml(Path(__file__).resolve().parent.parent / 'config'
+                           / 'excavator.yaml').mechanism
+    from linkage_ros.core.errors import PlanError
+    with pytest.raises(PlanError) as err:
+        Solver(mech, knowns=['point:K', 'point:J'])
+    msg = str(err.value)
+    assert "'K' and 'J' are both on link 'bucket'" in msg and "['point:K', 'bucket']" in msg
+    with pytest.raises(PlanError) as err:       # two points on different links: no such hint
+        Solver(mech, knowns=['point:K', 'point:A'])
+    assert 'both on link' not in str(err.value)
+    solver = Solver(mech, knowns=['point:K', 'bucket'])
+    ref = Solver(mech).solve({'Z1': 1.5, 'Z2': 1.9, 'Z3': 1.4})
+    r = solver.solve({'point:K': ref.points['K'], 'bucket': ref.links['bucket']})
+    assert r.success
+    for a in ('Z1', 'Z2', 'Z3'):
+        assert r.inputs[a] == pytest.approx(ref.inputs[a], abs=1e-9)

@@ -171,7 +171,8 @@ class Solver:
         n_values = sum(s.size for s in self.specs)
         if n_values != mech.dof:
             raise PlanError(f'{mech.name!r} has {mech.dof} degree(s) of freedom but the knowns '
-                            f'{self.knowns} give {n_values} value(s)')
+                            f'{self.knowns} give {n_values} value(s)'
+                            + _same_link_points_hint(mech, self.specs))
         self.actuator_specs = [spec_for(mech, a) for a in mech.actuators]
         self.inverse = any(s.name not in mech.actuators for s in self.specs)
         wanted_links, wanted_points = self._wanted(outputs)
@@ -1099,6 +1100,22 @@ class BatchResult:
                       residual=float(self.residual[i]), iterations=int(self.iterations[i]),
                       solver=self.solver, branch=_sign_str(sg), margin=float(self.margin[i]),
                       branch_defined=bool(self.margin[i] > BRANCH_UNDEFINED_MARGIN) if sg else True)
+
+
+def _same_link_points_hint(mech: Mechanism, specs: Sequence[Spec]) -> str:
+    """For too many knowns: two known points on one link (the graphical method's 'move the
+    bin by J and K') fix its pose, 3 values, not 4; say how to give that pose instead."""
+    points = [s.point for s in specs if s.kind == 'point']
+    for i, a in enumerate(points):
+        for b in points[i + 1:]:
+            shared = [l for l in mech.links_of_point(a) if b in mech.links[l].points]
+            if shared:
+                link = shared[0]
+                return (f' (points {a!r} and {b!r} are both on link {link!r}: their distance '
+                        f'is fixed, so together they give its pose, 3 values, not 4; give one '
+                        f'of them and the link angle instead, e.g. knowns '
+                        f"['point:{a}', '{link}'])")
+    return ''
 
 
 def _batch_poses(solver: Solver, x: np.ndarray) -> Poses:
