@@ -403,8 +403,18 @@ def check_report(mech, path: str, solver_method: str | None) -> dict:
         from .core.analysis import grashof_info
         sc = mech.shortcut
         g = grashof_info(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'])
-        grashof = {'class': g.klass, 'input_fully_rotates': g.input_fully_rotates,
-                   'output_fully_rotates': g.output_fully_rotates}
+        s, p, q, lng = g.s, g.p, g.q, g.l
+        sign = {'change-point': '=', 'triple-rocker': '>'}.get(g.klass, '<')
+        grashof = {'chain': '4R', 'class': g.klass, 'input_fully_rotates': g.input_fully_rotates,
+                   'output_fully_rotates': g.output_fully_rotates,
+                   'rule': f's + l = {s + lng:.6g} {sign} p + q = {p + q:.6g}'}
+    else:       # any other single four-link loop driven by a crank (general form, slider-crank)
+        from .core.analysis import four_link_chain_info
+        c = four_link_chain_info(mech)
+        if c is not None:
+            grashof = {'chain': c.chain, 'class': c.klass,
+                       'input_fully_rotates': c.input_fully_rotates,
+                       'output_fully_rotates': c.output_fully_rotates, 'rule': c.rule}
     ranges = input_ranges(mech)
     inputs = {}
     for name, act in mech.actuators.items():
@@ -455,9 +465,9 @@ def format_check(r: dict) -> str:
                + ('match' if r['dof_matches_actuators'] else 'MISMATCH'))
     g = r['grashof']
     if g is not None:
-        out.append(f'grashof    {g["class"]} (input fully rotates: '
-                   f'{"yes" if g["input_fully_rotates"] else "no"}, output fully rotates: '
-                   f'{"yes" if g["output_fully_rotates"] else "no"})')
+        turns = [f'{end} fully rotates: {"yes" if g[f"{end}_fully_rotates"] else "no"}'
+                 for end in ('input', 'output') if g[f'{end}_fully_rotates'] is not None]
+        out.append(f'grashof    {g["chain"]} {g["class"]}: {g["rule"]} ({", ".join(turns)})')
     out.append('inputs')
     for k, v in r['inputs'].items():
         rng = ('unlimited' if v['min'] is None and v['max'] is None else
@@ -527,10 +537,11 @@ examples:
 
 CHECK_EPILOG = """\
 prints links (and their points), joints (type, point, parent, child), link and joint counts,
-Kutzbach DOF 3(n-1)-2j against the actuator count, the Grashof class (four_bar scenes), each
-input's range (null / "unlimited" for an unlimited side), and how the default solve is planned:
-the closed-form dyad steps, the links they place, the links left to the Newton solver and the
-solver mode. A scene that does not load (e.g. DOF != actuators) is an error: exit 2.
+Kutzbach DOF 3(n-1)-2j against the actuator count, the Grashof class of a one-loop four-link
+scene driven by a crank (4R: s + l against p + q; 3R-1P: lmin + e against lmax) with the
+inequality and which ground-pivoted links turn fully, each input's range (null / "unlimited"
+for an unlimited side), and how the default solve is planned: the closed-form dyad steps, the
+links they place, the links left to the Newton solver and the solver mode. A scene that does not load (e.g. DOF != actuators) is an error: exit 2.
 """
 
 MAIN_EPILOG = """\

@@ -305,3 +305,102 @@ def test_transmission_angle_at_toggles_and_crank_rocker_extremes():
     assert mu.min() == pytest.approx(_mp_transmission(*lengths, 0.0), abs=1e-9)
     assert mu.max() == pytest.approx(_mp_transmission(*lengths, np.pi), abs=1e-9)
     assert float(transmission_angle(*lengths, 0.0)) == pytest.approx(mu.min(), abs=1e-9)
+
+
+# ----------------------------------------------------------------------------- four-link chains
+# four_link_chain_info reads the class of any one-loop four-link scene (general form included);
+# oracle: does the position solver assemble the scene at every crank angle of a fine grid, and
+# does the other ground-pivoted link then make a whole turn.
+
+def _inverted_slider_crank(a, b, e, theta_ref=2.0, drive='crank'):
+    """General-form 3R-1P (seed 003 example 5): ground O2O4 = a, crank O2A = b, the slide line
+    through A at distance e from O4 (F its foot, on the rocker)."""
+    from linkage_ros.core.model import Scene
+    A = np.array([b * math.cos(theta_ref), b * math.sin(theta_ref)])
+    O4 = np.array([a, 0.0])
+    d = np.hypot(*(A - O4))
+    phi = math.atan2(*(A - O4)[::-1])
+    beta = math.acos(e / d)
+    F = O4 + e * np.array([math.cos(phi + beta), math.sin(phi + beta)])
+    act = ({'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'} if drive == 'crank'
+           else {'type': 'angle', 'link': 'rocker', 'pivot': 'O4', 'toward': 'F'})
+    return Scene.from_dict({
+        'name': 'isc', 'points': {'O2': [0.0, 0.0], 'O4': O4.tolist(), 'A': A.tolist(),
+                                  'F': F.tolist()},
+        'ground': 'ground',
+        'links': {'ground': ['O2', 'O4'], 'crank': ['O2', 'A'], 'block': ['A'],
+                  'rocker': ['O4', 'F']},
+        'sliders': [{'name': 'slide', 'guide': 'rocker', 'slider': 'block', 'point': 'A',
+                     'direction': (A - F).tolist(), 'origin': 'F'}],
+        'actuators': {'drive': act}}).mechanism
+
+
+def _turns(mech, n=3601):
+    """Does the driven link assemble at every angle of a whole turn from the reference pose
+    (the position solver, continuous branch)?"""
+    from linkage_ros.core.solver import Solver
+    s = Solver(mech, branch='continuous')
+    (name, start), = s.reference_values().items()
+    return all(s.solve({name: start + 2 * math.pi * k / (n - 1)}).success for k in range(n))
+
+
+@pytest.mark.parametrize('a,b,e,klass', [
+    (0.30, 0.20, 0.14, 'non-grashof'),      # the seed's example: lmin + e = 0.34 > lmax
+    (0.40, 0.10, 0.14, 'grashof'),          # crank turns, slotted link rocks
+    (0.15, 0.40, 0.10, 'grashof'),          # ground shortest: both turn (whitworth-like)
+    (0.15, 0.40, 0.30, 'non-grashof'),
+])
+def test_inverted_slider_crank_class_and_rotation_by_the_solver(a, b, e, klass):
+    from linkage_ros.core.analysis import four_link_chain_info
+    mech = _inverted_slider_crank(a, b, e)
+    info = four_link_chain_info(mech)
+    assert info.chain == '3R-1P' and info.klass == klass
+    assert info.lengths['e'] == pytest.approx(e, rel=1e-12)
+    crank_turns = _turns(mech)
+    rocker_turns = _turns(_inverted_slider_crank(a, b, e, drive='rocker'))
+    assert (info.input_fully_rotates, info.output_fully_rotates) == (crank_turns, rocker_turns)
+    if klass == 'non-grashof':
+        assert not crank_turns and not rocker_turns
+    # driving the slotted link instead swaps the roles
+    info = four_link_chain_info(_inverted_slider_crank(a, b, e, drive='rocker'))
+    assert info.klass == klass
+    assert (info.input_fully_rotates, info.output_fully_rotates) == (rocker_turns, crank_turns)
+
+
+@pytest.mark.parametrize('crank,rod,offset', [(0.05, 0.18, 0.01), (0.10, 0.12, 0.03),
+                                              (0.10, 0.12, 0.015), (0.12, 0.10, 0.0)])
+def test_slider_crank_class_and_crank_rotation_by_the_solver(crank, rod, offset):
+    from linkage_ros.core.analysis import four_link_chain_info
+    from linkage_ros.core.model import Scene
+    mech = Scene.from_dict({'name': 'sc', 'slider_crank': {
+        'crank': crank, 'rod': rod, 'offset': offset, 'input': 0.2}}).mechanism
+    info = four_link_chain_info(mech)
+    assert info.chain == '3R-1P' and info.output_fully_rotates is None
+    lmin, lmax = sorted((crank, rod))
+    assert info.klass == ('grashof' if lmin + offset < lmax else 'non-grashof')
+    assert info.input_fully_rotates == _turns(mech)
+
+
+def test_four_link_chain_info_agrees_with_grashof_info_and_skips_other_mechanisms():
+    from pathlib import Path
+    from linkage_ros.core.analysis import four_link_chain_info
+    from linkage_ros.core.model import Scene
+    config = Path(__file__).resolve().parent.parent / 'config'
+    seen = set()
+    for f in sorted(config.glob('*.yaml')):
+        mech = Scene.from_yaml(f).mechanism
+        info = four_link_chain_info(mech)
+        if mech.form == 'four_bar':
+            sc = mech.shortcut
+            g = grashof_info(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'])
+            assert (info.chain, info.klass, info.input_fully_rotates,
+                    info.output_fully_rotates) == ('4R', g.klass, g.input_fully_rotates,
+                                                   g.output_fully_rotates)
+        if len(mech.links) != 4:
+            assert info is None, f.name                 # multi-loop scenes have no such class
+        elif info is not None:
+            seen.add(f.stem)
+    assert seen >= {'four_bar', 'inverted_slider_crank_oscillating', 'slider_crank'}
+    osc = four_link_chain_info(Scene.from_yaml(
+        config / 'inverted_slider_crank_oscillating.yaml').mechanism)
+    assert osc.klass == 'non-grashof' and 'lmin + e = 0.34 > lmax = 0.3' == osc.rule

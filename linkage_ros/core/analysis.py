@@ -263,3 +263,121 @@ def transmission_angle(l1, l2, l3, l4, theta2):
     # |A - O4|^2 written with sin^2(theta2/2) to avoid cancellation near theta2 = 0.
     d2 = (l1 - l2) ** 2 + 4.0 * l1 * l2 * np.sin(0.5 * t2) ** 2
     return angle_opposite(l3, l4, np.sqrt(d2))
+
+
+@dataclass(frozen=True)
+class ChainInfo:
+    """Grashof-type class of a single-loop four-link chain driven by one crank angle (see
+    :func:`four_link_chain_info`)."""
+
+    chain: str                   #: '4R' or '3R-1P'
+    klass: str                   #: 4R: as GrashofInfo.klass; 3R-1P: 'grashof', 'change-point',
+    #: 'non-grashof'
+    lengths: dict                #: the kinematic dimensions used (m): 4R l1..l4; 3R-1P the two
+    #: revolute-to-revolute lengths and the offset e
+    input_fully_rotates: bool | None     #: the driven link turns 360 deg relative to the ground
+    output_fully_rotates: bool | None    #: the other ground-pivoted link does (None: a slider)
+    rule: str                    #: the inequality that decides the class, with its numbers
+
+
+def slide_chain_class(l_a: float, l_b: float, offset: float, tol: float = GRASHOF_TOL) -> str:
+    """Class of a 3R-1P chain with revolute-to-revolute lengths l_a, l_b and offset e (the
+    distance between the slide line and the revolute of its guide link, measured across it):
+    lmin + e < lmax 'grashof' (the shorter of l_a, l_b turns fully relative to its neighbours),
+    = 'change-point', > 'non-grashof' (every link only oscillates). Lengths in any one unit."""
+    lmin, lmax = sorted((float(l_a), float(l_b)))
+    e = abs(float(offset))
+    if not (math.isfinite(lmin) and math.isfinite(lmax) and math.isfinite(e) and lmin > 0):
+        raise ValueError(f'3R-1P lengths must be finite and > 0, got {l_a!r}, {l_b!r}, '
+                         f'offset {offset!r}')
+    excess = lmin + e - lmax
+    if abs(excess) <= tol * (lmin + lmax + e):
+        return 'change-point'
+    return 'non-grashof' if excess > 0 else 'grashof'
+
+
+def four_link_chain_info(mech) -> ChainInfo | None:
+    """The Grashof-type class of a mechanism that is one four-link loop (four revolutes, or three
+    revolutes and one slide) driven by one angle actuator on a ground-pivoted link (relative to
+    the ground), from its reference-pose dimensions; None for any other mechanism.
+
+    4R: :func:`grashof_info` of ground, driven link, coupler and the other ground-pivoted link.
+    3R-1P (seed 003: 'lmin + e > lmax: a non-Grashof 3R-1P chain, no link can rotate
+    completely'): :func:`slide_chain_class`; which links turn fully follows from where |A - O|
+    of the driven link's far point A can reach:
+
+    * ground between two revolutes a = |O2 O4|, driven link b = |O2 A| pinned at O2 (inverted
+      slider-crank): the slide line keeps distance e from O4, which needs |O4 A| >= e: the driven
+      link turns fully iff |a - b| >= e, the slotted link at O4 iff b - a >= e; driving the
+      slotted link instead swaps the two.
+    * ground carries the slide (slider-crank, crank b, rod c, e the distance of O2 from the line):
+      A must stay within c of the line: the crank turns fully iff b + e <= c; the slider does not
+      turn (None).
+    """
+    links = mech.links
+    if len(links) != 4 or len(mech.actuators) != 1 or \
+            len(mech.revolutes) + len(mech.prismatics) != 4:
+        return None
+    act = next(iter(mech.actuators.values()))
+    if act.kind != 'angle' or act.reference not in (None, mech.ground):
+        return None
+    pairs = {name: [] for name in links}            # link -> [(kind, other link, point)]
+    for j in mech.revolutes:
+        pairs[j.parent].append(('R', j.child, j.point))
+        pairs[j.child].append(('R', j.parent, j.point))
+    for pj in mech.prismatics.values():
+        pairs[pj.guide].append(('P', pj.slider, pj.point))
+        pairs[pj.slider].append(('P', pj.guide, pj.point))
+    if any(len(v) != 2 or v[0][1] == v[1][1] for v in pairs.values()):
+        return None                                 # not one simple loop of four links
+    ground, driven = mech.ground, act.link
+    if not any(other == ground and kind == 'R' for kind, other, _ in pairs[driven]):
+        return None                                 # the driven link is not pinned to the ground
+    pt = {k: np.asarray(v, float) for k, v in mech.points.items()}
+
+    def span(link):                                 # distance between a link's two revolutes
+        a, b = [p for kind, _, p in pairs[link] if kind == 'R']
+        return float(np.hypot(*(pt[a] - pt[b])))
+
+    tol = GRASHOF_TOL
+    output = next(o for kind, o, _ in pairs[ground] if o != driven)
+    coupler = next(l for l in links if l not in (ground, driven, output))
+    if not mech.prismatics:
+        l1, l2, l3, l4 = span(ground), span(driven), span(coupler), span(output)
+        g = grashof_info(l1, l2, l3, l4)
+        s, p, q, lng = g.s, g.p, g.q, g.l
+        sign = {'change-point': '=', 'triple-rocker': '>'}.get(g.klass, '<')
+        rule = f's + l = {s + lng:.6g} {sign} p + q = {p + q:.6g}'
+        return ChainInfo('4R', g.klass, {'l1': l1, 'l2': l2, 'l3': l3, 'l4': l4},
+                         g.input_fully_rotates, g.output_fully_rotates, rule)
+    pj = next(iter(mech.prismatics.values()))
+    u = np.asarray(pj.direction, float)
+    u = u / np.hypot(*u)
+    line = pt[pj.point]
+
+    def across(p):                                  # signed distance of point p from the line
+        d = pt[p] - line
+        return float(u[0] * d[1] - u[1] * d[0])
+    guide_r = next(p for kind, _, p in pairs[pj.guide] if kind == 'R')
+    slider_r = next(p for kind, _, p in pairs[pj.slider] if kind == 'R')
+    e = abs(across(guide_r) - across(slider_r))
+    rr = [l for l in links if all(kind == 'R' for kind, _, _ in pairs[l])]
+    klass = slide_chain_class(span(rr[0]), span(rr[1]), e, tol)
+    lmin, lmax = sorted((span(rr[0]), span(rr[1])))
+    rule = (f'lmin + e = {lmin + e:.6g} '
+            f'{"<" if klass == "grashof" else ">" if klass == "non-grashof" else "="} '
+            f'lmax = {lmax:.6g}')
+    lengths = {rr[0]: span(rr[0]), rr[1]: span(rr[1]), 'e': e}
+    slack = tol * (lmin + lmax + e)
+    if ground in rr:                                # inverted slider-crank
+        a = span(ground)
+        b = span(driven if driven in rr else output)
+        rr_turns = abs(a - b) >= e - slack
+        slotted_turns = b - a >= e - slack
+        inp, out = (rr_turns, slotted_turns) if driven in rr else (slotted_turns, rr_turns)
+    elif ground == pj.guide and driven in rr:       # slider-crank
+        c = span(coupler)
+        inp, out = span(driven) + e <= c + slack, None
+    else:
+        inp = out = None
+    return ChainInfo('3R-1P', klass, lengths, inp, out, rule)
