@@ -22,7 +22,8 @@ from .core.model import Mechanism
 from .core.solver import Result
 
 __all__ = [
-    'joint_state_to_command', 'point_stamped_to_xy', 'is_zero_stamp', 'result_to_joint_state',
+    'joint_state_to_command', 'point_stamped_to_xy', 'is_zero_stamp', 'stamp_error',
+    'result_to_joint_state',
     'result_to_points', 'result_to_status', 'error_status', 'result_to_markers', 'format_joints',
 ]
 
@@ -54,14 +55,41 @@ def joint_state_to_command(msg: JointState) -> dict[str, float]:
     return {n: float(p) for n, p in zip(names, positions)}
 
 
-def point_stamped_to_xy(msg: PointStamped) -> tuple[float, float]:
-    """The planar (x, y) of a PointStamped (m). z is ignored: mechanisms live in the xy plane."""
-    return (float(msg.point.x), float(msg.point.y))
+def point_stamped_to_xy(msg: PointStamped, name: str = '') -> tuple[float, float]:
+    """The planar (x, y) of a PointStamped (m). z is ignored (mechanisms live in the xy plane),
+    but like x and y it must be finite: a NaN or inf anywhere is a broken message, refused with
+    a CommandError naming the coordinate (and ``name``, the target point, if given)."""
+    p = msg.point
+    x, y, z = float(p.x), float(p.y), float(p.z)
+    if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
+        bad = ', '.join(f'point.{k} = {v}' for k, v in (('x', x), ('y', y), ('z', z))
+                        if not math.isfinite(v))
+        head = f'target point {name!r}: ' if name else ''
+        raise CommandError(f'{head}{bad} is not finite (every coordinate must be a finite '
+                           'number; z is ignored only when it is)')
+    return (x, y)
 
 
 def is_zero_stamp(stamp: Time) -> bool:
     """True for the unset stamp (0 s, 0 ns)."""
     return stamp.sec == 0 and stamp.nanosec == 0
+
+
+def stamp_error(stamp: Time) -> str | None:
+    """Why a request's ``header.stamp`` cannot be echoed on the answers, or None if it can.
+
+    builtin_interfaces/Time wants 0 <= nanosec < 1e9, and a ROS time is never negative
+    (rclpy's ``Time.from_msg`` and ``rclcpp::Time`` both refuse a negative ``sec``), so a consumer
+    of an answer carrying such a stamp would fail on it.
+    """
+    if stamp.sec < 0:
+        return (f'header.stamp is negative (sec = {stamp.sec}, nanosec = {stamp.nanosec}): a ROS '
+                'time cannot be before 0; stamp the request with the clock, or leave it 0 and '
+                "the node uses its clock's now")
+    if stamp.nanosec >= 1_000_000_000:
+        return (f'header.stamp.nanosec = {stamp.nanosec} must be below 1000000000 (carry whole '
+                f'seconds into sec = {stamp.sec})')
+    return None
 
 
 # ---- outbound ----------------------------------------------------------------------------------

@@ -37,7 +37,7 @@ from visualization_msgs.msg import MarkerArray
 
 from .conversions import (error_status, format_joints, is_zero_stamp, joint_state_to_command,
                           point_stamped_to_xy, result_to_joint_state, result_to_markers,
-                          result_to_points, result_to_status)
+                          result_to_points, result_to_status, stamp_error)
 from .core.errors import CommandError, LinkageError, PlanError, SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import METHODS, Result, Solver
@@ -45,6 +45,15 @@ from .resources import scene_path
 
 NODE_NAME = 'linkage_node'
 BRANCH_MODES = ('continuous', 'reference')
+#: demo_rate bounds (Hz): the timer period must be a positive whole number of nanoseconds that
+#: rclpy accepts, and a faster demo would only busy-loop the executor (1e300 Hz is a 0 ns timer)
+DEMO_RATE_MIN, DEMO_RATE_MAX = 1e-3, 1000.0
+#: a builtin_interfaces/Time nanosec field is valid in [0, 1e9)
+NSEC_PER_SEC = 1_000_000_000
+#: the largest QoS history depth rclpy accepts (a larger one fails inside rclpy's QoS profile)
+QUEUE_DEPTH_MAX = 2 ** 31 - 1
+ZERO_CLOCK = ("header.stamp is 0, and so is the node clock's now: use_sim_time is true and no "
+              "/clock message has arrived yet; stamp the request, or wait for /clock")
 #: IK solvers kept per node (one per set of target names); least recently used are dropped
 SOLVER_CACHE = 32
 
@@ -78,10 +87,12 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               "the previous configuration), 'reference' (always the reference pose's signs) or "
               "explicit signs such as '+-' (one per branching dyad of the forward plan).",
               constraints="continuous | reference | [+-]+"),
-    ParamSpec('frame_id', '', "frame_id stamped on every output; '' = the scene's frame_id."),
+    ParamSpec('frame_id', '', "frame_id stamped on every output; '' = the scene's frame_id.",
+              constraints="a tf2 frame name: no whitespace, no leading '/'"),
     ParamSpec('demo_sweep', False, 'Sweep the first actuator on a timer (through the command '
               'path) so joint states flow without any command.', read_only=False),
-    ParamSpec('demo_rate', 20.0, 'Demo sweep rate (Hz).', read_only=False, constraints='> 0'),
+    ParamSpec('demo_rate', 20.0, 'Demo sweep rate (Hz).', read_only=False,
+              constraints=f'{DEMO_RATE_MIN:g} <= demo_rate <= {DEMO_RATE_MAX:g}'),
     ParamSpec('target_point_hold', 'string_array',
               'Names (actuators, joints, links or points) held at their current value when a '
               '~/target_point/<point> request arrives on a mechanism with more than 2 degrees of '
@@ -90,7 +101,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
               'History depth N of every topic the node subscribes and publishes (reliable, keep '
               'last N, volatile). A stall of the node longer than N / command rate drops '
               'commands: raise it for command streams of several hundred Hz and more.',
-              constraints='integer >= 1'),
+              constraints=f'integer, 1 <= queue_depth <= {QUEUE_DEPTH_MAX}'),
 )
 
 
@@ -116,8 +127,9 @@ def _fail(name: str, message: str, value: Any) -> None:
 
 def check_demo_rate(value: Any) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) \
-            or not math.isfinite(value) or not value > 0:
-        _fail('demo_rate', 'must be a finite number of Hz > 0', value)
+            or not DEMO_RATE_MIN <= value <= DEMO_RATE_MAX:         # also refuses nan
+        _fail('demo_rate', f'must be a number of Hz from {DEMO_RATE_MIN:g} to {DEMO_RATE_MAX:g}',
+              value)
     return float(value)
 
 
@@ -150,8 +162,10 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
                                            or (branch and set(branch) <= {'+', '-'})):
         _fail('branch', "must be 'continuous', 'reference' or a string of + and - signs", branch)
     frame_id = v['frame_id']
-    if not isinstance(frame_id, str) or frame_id != frame_id.strip():
-        _fail('frame_id', "must be a frame name without spaces ('' = the scene's)", frame_id)
+    if not isinstance(frame_id, str) or any(c.isspace() for c in frame_id) \
+            or frame_id.startswith('/'):
+        _fail('frame_id', "must be a tf2 frame name, without whitespace or a leading '/' "
+              "('' = the scene's)", frame_id)
     demo = v['demo_sweep']
     if not isinstance(demo, bool):
         _fail('demo_sweep', 'must be true or false', demo)
@@ -162,8 +176,9 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
     if len(set(hold)) != len(hold):
         _fail('target_point_hold', 'names something twice', list(hold))
     depth = v['queue_depth']
-    if isinstance(depth, bool) or not isinstance(depth, int) or depth < 1:
-        _fail('queue_depth', 'must be an integer >= 1', depth)
+    if isinstance(depth, bool) or not isinstance(depth, int) or not 1 <= depth <= QUEUE_DEPTH_MAX:
+        _fail('queue_depth', f'must be an integer from 1 to {QUEUE_DEPTH_MAX} (the largest '
+              'history depth rclpy takes)', depth)
     path = scene_path(scene)
     if not path.exists():
         from .resources import config_dir
@@ -380,9 +395,9 @@ class LinkageNode(Node):
             except InvalidParameterTypeException as exc:
                 kind = type(p.default).__name__ if p.default != 'string_array' else \
                     'list of strings'
-                kind = {'float': 'double (write 1.0, not 1)', 'int': 'integer',
-                        'str': 'string', 'bool': 'bool'}.get(kind, kind)
-                raise ConfigError(f'parameter {p.name!r}: must be a {kind} ({exc})') from None
+                kind = {'float': 'a double (write 1.0, not 1)', 'int': 'an integer',
+                        'str': 'a string', 'bool': 'a bool'}.get(kind, 'a ' + kind)
+                raise ConfigError(f'parameter {p.name!r}: must be {kind} ({exc})') from None
             except ParameterException as exc:
                 raise ConfigError(f'parameter {p.name!r}: {exc}') from None
             values[p.name] = param.value
@@ -427,9 +442,6 @@ class LinkageNode(Node):
         if mech.dof > 2 and not self.config.target_point_hold:
             log.warning(f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '
                      f'naming {mech.dof - 2} held value(s)')
-        log.info(f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
-                 f'{list(mech.actuators)}), publishing {self.resolve_topic_name("joint_states")} '
-                 f'(reliable, keep last {self.config.queue_depth})')
         # rclpy keeps an override this node never declares without a word: a misspelt name
         # would silently leave its parameter at the default
         overrides = getattr(self, '_parameter_overrides', None) or {}
@@ -437,12 +449,18 @@ class LinkageNode(Node):
         if ignored:
             log.warning(f'ignoring parameter(s) this node does not have: {ignored} (its '
                         f'parameters: {", ".join(p.name for p in PARAMETERS)})')
+        # the last start-up line: whoever waits for it has every start-up warning already
+        log.info(f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
+                 f'{list(mech.actuators)}), publishing {self.resolve_topic_name("joint_states")} '
+                 f'(reliable, keep last {self.config.queue_depth})')
         if self.config.demo_sweep:
             self._start_demo()
 
     # -- parameters at runtime -------------------------------------------------------------------
     def _on_set_parameters(self, params):
-        cfg = self.config
+        """Check and apply demo_sweep / demo_rate. Never raises: a refused change (or one that
+        fails unexpectedly) leaves the parameters, the config and the demo timer as they were."""
+        old = cfg = self.config
         try:
             for p in params:
                 if p.name == 'demo_sweep':
@@ -453,27 +471,44 @@ class LinkageNode(Node):
                     cfg = dataclasses.replace(cfg, demo_rate=check_demo_rate(p.value))
         except ConfigError as exc:
             return SetParametersResult(successful=False, reason=str(exc))
-        if cfg != self.config:
-            self.config = cfg
-            self._stop_demo()
-            if cfg.demo_sweep:
-                self._start_demo()
+        if cfg != old:
+            try:
+                self._apply_demo(cfg)
+            except Exception as exc:     # e.g. a timer rclpy refuses: keep the old demo
+                self.get_logger().error(f'parameter change {[p.name for p in params]} refused: '
+                                        f'{exc!r}\n' + traceback.format_exc())
+                self._apply_demo(old)
+                return SetParametersResult(successful=False, reason=f'internal error: {exc!r}')
         return SetParametersResult(successful=True)
 
-    # -- requests ----------------------------------------------------------------------------------
-    def _stamp(self, stamp):
-        return self.get_clock().now().to_msg() if is_zero_stamp(stamp) else stamp
+    def _apply_demo(self, cfg: NodeConfig):
+        self._stop_demo()
+        self.config = cfg
+        if cfg.demo_sweep:
+            self._start_demo()
 
+    # -- requests ----------------------------------------------------------------------------------
     def _answer(self, request: str, stamp, solve: Callable[[], Result]) -> Result:
         """Run one request and publish its answer: on success joint_states, points, markers and
         an OK status; on failure only an ERROR status. Never raises."""
         try:
-            try:
-                result = solve()
-            except CommandError as exc:
-                result = Result(False, str(exc))
+            if is_zero_stamp(stamp):                      # unset: the node clock's now
+                stamp = self.get_clock().now().to_msg()
+                zero = is_zero_stamp(stamp)               # sim time before the first /clock
+            else:
+                zero = False
+            # a stamp rclpy / rclcpp cannot turn into a time (negative, nanosec >= 1e9) would
+            # reach every consumer of the answer: refuse the request instead
+            if stamp.sec < 0 or stamp.nanosec >= NSEC_PER_SEC:
+                result = Result(False, stamp_error(stamp))
+            elif zero:
+                result = Result(False, ZERO_CLOCK)
+            else:
+                try:
+                    result = solve()
+                except CommandError as exc:
+                    result = Result(False, str(exc))
             if result.success:
-                stamp = self._stamp(stamp)
                 self._joint_msg = result_to_joint_state(result, self.mech.joint_names, stamp,
                                                         self.frame_id, self._joint_msg)
                 self.pub_joints.publish(self._joint_msg)
@@ -514,7 +549,7 @@ class LinkageNode(Node):
                 return Result(False, f'target point {point!r} is in frame {fid!r} but this node '
                               f'works in {self.frame_id!r}; transform it first (or leave '
                               'header.frame_id empty to mean the node frame)')
-            return self.engine.target_point(point, point_stamped_to_xy(msg))
+            return self.engine.target_point(point, point_stamped_to_xy(msg, point))
         self._answer(f'target_point/{point}', msg.header.stamp, solve)
 
     # -- demo sweep --------------------------------------------------------------------------------
@@ -546,8 +581,11 @@ class LinkageNode(Node):
             self._demo_failures += 1
             demo.bounce(values[demo.name])
             if self._demo_failures >= 3:
-                self.get_logger().error(f'demo sweep stopped: {result.reason}')
+                self.get_logger().error(f'demo sweep stopped: {result.reason} (demo_sweep is '
+                                        'now false; set it to true to restart)')
                 self._stop_demo()
+                # the parameter says what runs: setting it true again restarts the sweep
+                self.set_parameters([Parameter('demo_sweep', value=False)])
 
 
 def main(args: Sequence[str] | None = None) -> int:
