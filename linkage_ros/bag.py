@@ -62,6 +62,7 @@ import numpy as np
 from .core.errors import LinkageError
 from .core.model import Scene
 from .core.solver import BRANCH_UNDEFINED_MARGIN, Solver
+from .stamps import NSEC_PER_SEC, stamp_error
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 POINT_STAMPED = 'geometry_msgs/msg/PointStamped'
@@ -852,8 +853,11 @@ class _Engine:
         self.done = 0
         progress.start('solving', n)
         if n:
+            # the node refuses a request whose stamp it cannot echo (negative, nanosec >= 1e9)
+            self.bad_stamp = (data.sec < 0) | (data.nanosec >= NSEC_PER_SEC)
             change = np.flatnonzero((data.topic[1:] != data.topic[:-1])
-                                    | (data.key[1:] != data.key[:-1])) + 1
+                                    | (data.key[1:] != data.key[:-1])
+                                    | (self.bad_stamp[1:] != self.bad_stamp[:-1])) + 1
             starts = np.concatenate([[0], change])
             ends = np.concatenate([change, [n]])
             for a, b in zip(starts.tolist(), ends.tolist()):
@@ -868,7 +872,12 @@ class _Engine:
             self.res.reason[g] = reason
 
     def _run(self, data: Commands, a: int, b: int):
-        """Rows a..b-1: one topic, one message shape (the same names in the same order)."""
+        """Rows a..b-1: one topic, one message shape (the same names in the same order), all
+        with valid stamps or all not."""
+        if self.bad_stamp[a]:                       # node.py _answer: refused before solving
+            for g in range(a, b):
+                self.res.reason[g] = stamp_error(int(data.sec[g]), int(data.nanosec[g]))
+            return
         k = int(data.key[a])
         names, npos = data.keys[k], data.npos[k]
         why = command_shape_error(names, npos)

@@ -18,6 +18,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from .core.errors import CommandError
+from .stamps import stamp_error as _stamp_error
 from .core.model import Mechanism
 from .core.solver import Result
 
@@ -76,20 +77,9 @@ def is_zero_stamp(stamp: Time) -> bool:
 
 
 def stamp_error(stamp: Time) -> str | None:
-    """Why a request's ``header.stamp`` cannot be echoed on the answers, or None if it can.
-
-    builtin_interfaces/Time wants 0 <= nanosec < 1e9, and a ROS time is never negative
-    (rclpy's ``Time.from_msg`` and ``rclcpp::Time`` both refuse a negative ``sec``), so a consumer
-    of an answer carrying such a stamp would fail on it.
-    """
-    if stamp.sec < 0:
-        return (f'header.stamp is negative (sec = {stamp.sec}, nanosec = {stamp.nanosec}): a ROS '
-                'time cannot be before 0; stamp the request with the clock, or leave it 0 and '
-                "the node uses its clock's now")
-    if stamp.nanosec >= 1_000_000_000:
-        return (f'header.stamp.nanosec = {stamp.nanosec} must be below 1000000000 (carry whole '
-                f'seconds into sec = {stamp.sec})')
-    return None
+    """Why a request's ``header.stamp`` cannot be echoed on the answers, or None if it can
+    (see :func:`linkage_ros.stamps.stamp_error`)."""
+    return _stamp_error(stamp.sec, stamp.nanosec)
 
 
 # ---- outbound ----------------------------------------------------------------------------------

@@ -42,14 +42,13 @@ from .core.errors import CommandError, LinkageError, PlanError, SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import METHODS, Result, Solver
 from .resources import scene_path
+from .stamps import NSEC_PER_SEC
 
 NODE_NAME = 'linkage_node'
 BRANCH_MODES = ('continuous', 'reference')
 #: demo_rate bounds (Hz): the timer period must be a positive whole number of nanoseconds that
 #: rclpy accepts, and a faster demo would only busy-loop the executor (1e300 Hz is a 0 ns timer)
 DEMO_RATE_MIN, DEMO_RATE_MAX = 1e-3, 1000.0
-#: a builtin_interfaces/Time nanosec field is valid in [0, 1e9)
-NSEC_PER_SEC = 1_000_000_000
 #: the largest QoS history depth rclpy accepts (a larger one fails inside rclpy's QoS profile)
 QUEUE_DEPTH_MAX = 2 ** 31 - 1
 ZERO_CLOCK = ("header.stamp is 0, and so is the node clock's now: use_sim_time is true and no "

@@ -775,7 +775,8 @@ def test_plot_without_extension_writes_the_named_file(tmp_path, scene, capsys):
 def test_csv_time_of_negative_and_unnormalised_stamps(tmp_path, scene, capsys):
     """The 'time' column is sec + nanosec * 1e-9 exactly (as rclpy reads a stamp): a negative
     second was printed as '-5.000000001' for -4.999999999 and a nanosec field >= 1e9 as garbage
-    ('3.Z94967295'). The output bag keeps the stamps as recorded (the node's semantics)."""
+    ('3.Z94967295'). As the node does, a stamp it cannot echo (negative, nanosec >= 1e9) refuses
+    its row with the node's reason; the others keep their stamps in the output bag."""
     from decimal import Decimal
     stamps = [(-5, 1), (3, 4294967295), (-1, 999999999), (-2147483648, 0), (2147483647, 5),
               (0, 7), (12, 0)]
@@ -792,9 +793,18 @@ def test_csv_time_of_negative_and_unnormalised_stamps(tmp_path, scene, capsys):
         assert Decimal(row['time']) == Decimal(s) + Decimal(ns) / Decimal(10 ** 9), row['time']
         assert len(row['time'].split('.')[1]) == 9
         assert Decimal(row['receive_time']) == Decimal(t) / Decimal(10 ** 9)
+    from linkage_ros.conversions import stamp_error
+    from builtin_interfaces.msg import Time
+    valid = [s >= 0 and ns < 10 ** 9 for s, ns in stamps]
+    assert valid == [False, False, False, False, True, True, True]
+    for row, (s, ns), ok in zip(table, stamps, valid):
+        assert row['status'] == ('ok' if ok else 'error')
+        if not ok:      # the node's own text for that stamp
+            assert row['reason'] == stamp_error(Time(sec=s, nanosec=ns))
     got, _ = read_out_bag(out_bag)
     assert [(m.header.stamp.sec, m.header.stamp.nanosec) for _, m in got['/joint_states']] == [
-        (s, ns) if (s or ns) else divmod(t, 10 ** 9) for (s, ns), (_, t, _) in zip(stamps, msgs)]
+        (s, ns) if (s or ns) else divmod(t, 10 ** 9)
+        for (s, ns), (_, t, _), ok in zip(stamps, msgs, valid) if ok]
     # negative bag receive times too
     text = bag._stamp_text(np.zeros(3, np.int64), np.array([-1, -10 ** 9 - 5, 10 ** 18 + 1]))
     assert [bytes(r[r != 0]).decode() for r in text] == ['-0.000000001', '-1.000000005',

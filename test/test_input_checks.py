@@ -391,3 +391,32 @@ def test_two_known_points_on_one_link_name_the_link_and_the_alternative():
     assert r.success
     for a in ('Z1', 'Z2', 'Z3'):
         assert r.inputs[a] == pytest.approx(ref.inputs[a], abs=1e-9)
+
+
+@pytest.mark.parametrize('frame', ['/base_link', 'base link', ' base_link', 'base_link\t', ''])
+def test_scene_frame_id_must_be_a_tf2_frame_name(frame):
+    """tf2 refuses a leading '/' and whitespace; the node's frame_id parameter has the same rule,
+    so a scene cannot bring such a frame in through the back door."""
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict({'name': 'fb', 'frame_id': frame, 'four_bar': {
+            'ground': 0.3, 'crank': 0.1, 'coupler': 0.25, 'rocker': 0.2, 'input': 1.0}})
+    assert 'frame_id' in str(err.value)
+    assert Scene.from_dict({'name': 'fb', 'frame_id': 'base_link', 'four_bar': {
+        'ground': 0.3, 'crank': 0.1, 'coupler': 0.25, 'rocker': 0.2, 'input': 1.0}})
+
+
+def test_explicit_branch_signs_for_a_plan_without_branching_dyads_say_so():
+    """The four-bar solved from its coupler angle places every link without a branch choice:
+    explicit signs are then refused with a reason that says there is none to give (the message
+    used to end in an empty list)."""
+    from linkage_ros.core.errors import PlanError
+    mech = Scene.from_yaml(Path(__file__).resolve().parent.parent / 'config'
+                           / 'four_bar.yaml').mechanism
+    assert not Solver(mech, knowns=['coupler']).plan.branch_steps
+    with pytest.raises(PlanError) as err:
+        Solver(mech, knowns=['coupler'], branch='+')
+    assert str(err.value) == ("branch '+' has 1 sign(s) but this solve has no branching dyad "
+                              "(no sign to give)")
+    with pytest.raises(PlanError) as err:                   # with dyads: they are listed
+        Solver(mech, knowns=['crank'], branch='+-')
+    assert '1 branching dyad(s): ' in str(err.value)

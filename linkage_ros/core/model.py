@@ -278,8 +278,10 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
         ctx.fail('', 'a scene needs exactly one of four_bar, slider_crank or points (general form)',
                  forms)
     frame_id = data.get('frame_id', 'world')
-    if not isinstance(frame_id, str) or not frame_id:
-        ctx.fail('frame_id', 'must be a non-empty string', frame_id)
+    if not isinstance(frame_id, str) or not frame_id or frame_id.startswith('/') \
+            or any(c.isspace() for c in frame_id):
+        ctx.fail('frame_id', "must be a tf2 frame name: a non-empty string without whitespace "
+                 "or a leading '/'", frame_id)
     solver = data.get('solver', 'auto')
     if solver not in SOLVERS:
         ctx.fail('solver', f'must be one of {list(SOLVERS)}', solver)

@@ -242,8 +242,9 @@ class Solver:
         if isinstance(branch, str) and set(branch) <= {'+', '-'}:
             if len(branch) != k:
                 raise PlanError(f'branch {branch!r} has {len(branch)} sign(s) but this solve has '
-                                f'{k} branching dyad(s): '
-                                + '; '.join(s.describe(self.plan) for s in self.plan.branch_steps))
+                                + (f'{k} branching dyad(s): ' + '; '.join(
+                                    s.describe(self.plan) for s in self.plan.branch_steps)
+                                   if k else 'no branching dyad (no sign to give)'))
             return 'explicit', tuple(1 if c == '+' else -1 for c in branch)
         raise PlanError(f"branch must be 'continuous', 'reference' or a string of + and - "
                         f'(got {branch!r})')

@@ -1,0 +1,23 @@
+"""Which request stamps the node can echo on its answers (ROS-free: the node and the offline bag
+analysis share it, so a recorded command is refused for the same reason the node refused it)."""
+from __future__ import annotations
+
+#: a builtin_interfaces/Time nanosec field is valid in [0, 1e9)
+NSEC_PER_SEC = 1_000_000_000
+
+
+def stamp_error(sec: int, nanosec: int) -> str | None:
+    """Why a request's ``header.stamp`` (sec, nanosec) cannot be echoed on the answers, or None.
+
+    builtin_interfaces/Time wants 0 <= nanosec < 1e9, and a ROS time is never negative
+    (rclpy's ``Time.from_msg`` and ``rclcpp::Time`` both refuse a negative ``sec``), so a consumer
+    of an answer carrying such a stamp would fail on it.
+    """
+    if sec < 0:
+        return (f'header.stamp is negative (sec = {sec}, nanosec = {nanosec}): a ROS '
+                'time cannot be before 0; stamp the request with the clock, or leave it 0 and '
+                "the node uses its clock's now")
+    if nanosec >= NSEC_PER_SEC:
+        return (f'header.stamp.nanosec = {nanosec} must be below 1000000000 (carry whole '
+                f'seconds into sec = {sec})')
+    return None
