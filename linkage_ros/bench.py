@@ -1411,22 +1411,22 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
     if plot_rel:
         w(f'![error vs time per solve]({plot_rel})\n')
     w('| scene | setting | us/solve (scalar) | us/solve (batch) | max error | median error | '
-      'fail | iter |')
-    w('|---|---|---:|---:|---:|---:|---:|---:|')
+      'max error (batch) | fail | iter |')
+    w('|---|---|---:|---:|---:|---:|---:|---:|---:|')
     for r in report['settings']:
         it = '-' if r['iterations'] is None else f'{r["iterations"]:.1f}'
+        berr = '-' if r['batch_err_max'] is None else _fmt_err(r['batch_err_max'])
         w(f'| {r["scene"]} | {r["setting"]} | {_fmt_us(r["scalar_us"])} | '
           f'{_fmt_us(r["batch_us"])} | {_fmt_err(r["err_max"])} | {_fmt_err(r["err_median"])} | '
-          f'{r["failures"]}/{r["n"]} | {it} |')
+          f'{berr} | {r["failures"]}/{r["n"]} | {it} |')
     w('')
     if report['scenes']:
         refs = '; '.join(f'{k}: {v["reference_unknowns"]} unknowns, worst final |F| '
                          f'{v["reference_residual"]:.0e}, {v["reference_seconds"]:.1f} s'
                          for k, v in report['scenes'].items())
-        batch = [r['batch_err_max'] for r in report['settings'] if r['batch_err_max'] is not None]
         w(f'Reference ({REF_DPS} digits, point positions as unknowns, Newton from the dyad '
-          f'plan\'s answer): {refs}. The vectorised batches (closed forms and Newton) have max '
-          f'error {_fmt_err(max(batch, default=None))} on the same inputs'
+          f'plan\'s answer): {refs}. "max error (batch)" is the vectorised batch\'s error on the '
+          f'same inputs (closed forms: all inputs in one batch; Newton: the instances above)'
           + ''.join(f'; {r["scene"]} Newton {r["tol"]:g} batch: {r["batch_failures"]} failed, '
                     f'{r["batch_careful"]} of {r["n"]} rows by the careful path'
                     for r in report['settings'] if r.get('batch_careful') is not None
