@@ -1625,7 +1625,7 @@ def interpretation(report: dict) -> str:
             'and faster on large ones. Vectorised over many instances '
             '(`Solver.solve_batch(start=)`: one numpy Newton for all rows, the same branch '
             'proofs per row) the per-solve cost drops to '
-            + ', '.join(f'{a["scene"]} {a["batch_us"]:.0f} us ({b["scalar_us"] / a["batch_us"]:.0f}x '
+            + ', '.join(f'{a["scene"]} {a["batch_us"]:.0f} us ({b["scalar_us"] / a["batch_us"]:.1f}x '
                         'scipy)' for a, b in pairs if a.get('batch_us'))
             + ': there the work per solve is a few LAPACK calls on small matrices, not Python.')
         bad = [b for _, b in pairs if b['failures'] or (b['err_max'] or 0) > 1e-6]
