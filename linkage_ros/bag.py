@@ -62,7 +62,7 @@ import numpy as np
 from .core.errors import LinkageError
 from .core.model import Scene
 from .core.solver import BRANCH_UNDEFINED_MARGIN, Solver
-from .stamps import NSEC_PER_SEC, stamp_error
+from .stamps import stamp_error, stamp_valid
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
 POINT_STAMPED = 'geometry_msgs/msg/PointStamped'
@@ -854,7 +854,7 @@ class _Engine:
         progress.start('solving', n)
         if n:
             # the node refuses a request whose stamp it cannot echo (negative, nanosec >= 1e9)
-            self.bad_stamp = (data.sec < 0) | (data.nanosec >= NSEC_PER_SEC)
+            self.bad_stamp = ~stamp_valid(data.sec, data.nanosec)
             change = np.flatnonzero((data.topic[1:] != data.topic[:-1])
                                     | (data.key[1:] != data.key[:-1])
                                     | (self.bad_stamp[1:] != self.bad_stamp[:-1])) + 1

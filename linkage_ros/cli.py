@@ -467,7 +467,8 @@ def format_check(r: dict) -> str:
     if g is not None:
         turns = [f'{end} fully rotates: {"yes" if g[f"{end}_fully_rotates"] else "no"}'
                  for end in ('input', 'output') if g[f'{end}_fully_rotates'] is not None]
-        out.append(f'grashof    {g["chain"]} {g["class"]}: {g["rule"]} ({", ".join(turns)})')
+        out.append(f'grashof    {g["chain"]} {g["class"]}: {g["rule"]}'
+                   + (f' ({", ".join(turns)})' if turns else ''))
     out.append('inputs')
     for k, v in r['inputs'].items():
         rng = ('unlimited' if v['min'] is None and v['max'] is None else
@@ -541,7 +542,8 @@ Kutzbach DOF 3(n-1)-2j against the actuator count, the Grashof class of a one-lo
 scene driven by a crank (4R: s + l against p + q; 3R-1P: lmin + e against lmax) with the
 inequality and which ground-pivoted links turn fully, each input's range (null / "unlimited"
 for an unlimited side), and how the default solve is planned: the closed-form dyad steps, the
-links they place, the links left to the Newton solver and the solver mode. A scene that does not load (e.g. DOF != actuators) is an error: exit 2.
+links they place, the links left to the Newton solver and the solver mode.
+A scene that does not load (e.g. DOF != actuators) is an error: exit 2.
 """
 
 MAIN_EPILOG = """\

@@ -42,7 +42,7 @@ from .core.errors import CommandError, LinkageError, PlanError, SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import METHODS, Result, Solver
 from .resources import scene_path
-from .stamps import NSEC_PER_SEC
+from .stamps import stamp_valid
 
 NODE_NAME = 'linkage_node'
 BRANCH_MODES = ('continuous', 'reference')
@@ -476,7 +476,10 @@ class LinkageNode(Node):
             except Exception as exc:     # e.g. a timer rclpy refuses: keep the old demo
                 self.get_logger().error(f'parameter change {[p.name for p in params]} refused: '
                                         f'{exc!r}\n' + traceback.format_exc())
-                self._apply_demo(old)
+                try:
+                    self._apply_demo(old)
+                except Exception as again:  # noqa: BLE001 - still never raise from here
+                    self.get_logger().error(f'could not restore the demo either: {again!r}')
                 return SetParametersResult(successful=False, reason=f'internal error: {exc!r}')
         return SetParametersResult(successful=True)
 
@@ -498,7 +501,7 @@ class LinkageNode(Node):
                 zero = False
             # a stamp rclpy / rclcpp cannot turn into a time (negative, nanosec >= 1e9) would
             # reach every consumer of the answer: refuse the request instead
-            if stamp.sec < 0 or stamp.nanosec >= NSEC_PER_SEC:
+            if not stamp_valid(stamp.sec, stamp.nanosec):
                 result = Result(False, stamp_error(stamp))
             elif zero:
                 result = Result(False, ZERO_CLOCK)

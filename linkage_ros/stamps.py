@@ -6,6 +6,12 @@ from __future__ import annotations
 NSEC_PER_SEC = 1_000_000_000
 
 
+def stamp_valid(sec, nanosec):
+    """Can a request stamp (sec, nanosec) be echoed: a ROS time, 0 <= sec, 0 <= nanosec < 1e9?
+    Works on ints and on numpy arrays (elementwise); nanosec is unsigned in the message."""
+    return (sec >= 0) & (nanosec < NSEC_PER_SEC)
+
+
 def stamp_error(sec: int, nanosec: int) -> str | None:
     """Why a request's ``header.stamp`` (sec, nanosec) cannot be echoed on the answers, or None.
 

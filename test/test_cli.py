@@ -416,3 +416,28 @@ def test_console_script_is_installed(scenes):
                           capture_output=True, text=True, timeout=60)
     assert proc.returncode == 0, proc.stderr
     assert loads(proc.stdout)['status'] == 'ok'
+
+
+@pytest.mark.parametrize('scene,line', [
+    ('inverted_slider_crank_oscillating',
+     'grashof    3R-1P non-grashof: lmin + e = 0.34 > lmax = 0.3 (input fully rotates: no, '
+     'output fully rotates: no)'),
+    ('slider_crank', 'grashof    3R-1P grashof: lmin + e = 0.06 < lmax = 0.18 (input fully '
+                     'rotates: yes)'),
+    ('four_bar', 'grashof    4R crank-rocker: s + l = 0.4 < p + q = 0.45 (input fully rotates: '
+                 'yes, output fully rotates: no)'),
+])
+def test_check_prints_the_chain_class_line(capsys, scene, line):
+    """Lecture 003 example 5 'first verifies that this is a non-Grashof 3R-1P linkage':
+    lmin + e = 0.20 + 0.14 > lmax = 0.30 (the scene file's dimensions)."""
+    rc, out, _ = run(capsys, 'check', scene)
+    assert rc == 0
+    assert line in out.splitlines()
+    rc, out, _ = run(capsys, 'check', scene, '--json')
+    d = loads(out)
+    assert d['grashof']['chain'] == line.split()[1]
+
+
+def test_check_has_no_chain_class_for_multi_loop_scenes(capsys):
+    rc, out, _ = run(capsys, 'check', 'excavator', '--json')
+    assert rc == 0 and loads(out)['grashof'] is None

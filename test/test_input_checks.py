@@ -385,6 +385,9 @@ def test_two_known_points_on_one_link_name_the_link_and_the_alternative():
     with pytest.raises(PlanError) as err:       # two points on different links: no such hint
         Solver(mech, knowns=['point:K', 'point:A'])
     assert 'both on link' not in str(err.value)
+    with pytest.raises(PlanError) as err:       # 5 values: replacing J by the angle is not enough
+        Solver(mech, knowns=['point:K', 'point:J', 'Z1'])
+    assert 'both on link' not in str(err.value)
     solver = Solver(mech, knowns=['point:K', 'bucket'])
     ref = Solver(mech).solve({'Z1': 1.5, 'Z2': 1.9, 'Z3': 1.4})
     r = solver.solve({'point:K': ref.points['K'], 'bucket': ref.links['bucket']})

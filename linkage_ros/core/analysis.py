@@ -268,16 +268,23 @@ def transmission_angle(l1, l2, l3, l4, theta2):
 @dataclass(frozen=True)
 class ChainInfo:
     """Grashof-type class of a single-loop four-link chain driven by one crank angle (see
-    :func:`four_link_chain_info`)."""
+    :func:`four_link_chain_info`).
 
-    chain: str                   #: '4R' or '3R-1P'
-    klass: str                   #: 4R: as GrashofInfo.klass; 3R-1P: 'grashof', 'change-point',
-    #: 'non-grashof'
-    lengths: dict                #: the kinematic dimensions used (m): 4R l1..l4; 3R-1P the two
-    #: revolute-to-revolute lengths and the offset e
+    ``klass``: for '4R' as :attr:`GrashofInfo.klass`; for '3R-1P' 'grashof', 'change-point' or
+    'non-grashof'. ``lengths`` (m): 4R ``l1`` (ground), ``l2`` (driven), ``l3`` (coupler),
+    ``l4`` (other ground-pivoted link); 3R-1P ``l_a``, ``l_b`` (the two links with two revolutes,
+    named in ``links``) and the offset ``e``. A rotation flag is None where it does not apply
+    (the output of a slider-crank is a slider) or is not derived (a slider pinned to nothing but
+    the ground's slide, driven from the other side).
+    """
+
+    chain: str                           #: '4R' or '3R-1P'
+    klass: str                           #: the class, see above
+    lengths: dict                        #: the kinematic dimensions used, see above
+    links: tuple                         #: the links those lengths belong to, in their order
     input_fully_rotates: bool | None     #: the driven link turns 360 deg relative to the ground
-    output_fully_rotates: bool | None    #: the other ground-pivoted link does (None: a slider)
-    rule: str                    #: the inequality that decides the class, with its numbers
+    output_fully_rotates: bool | None    #: the other ground-pivoted link does
+    rule: str                            #: the inequality that decides the class, with numbers
 
 
 def slide_chain_class(l_a: float, l_b: float, offset: float, tol: float = GRASHOF_TOL) -> str:
@@ -310,14 +317,14 @@ def four_link_chain_info(mech) -> ChainInfo | None:
       slider-crank): the slide line keeps distance e from O4, which needs |O4 A| >= e: the driven
       link turns fully iff |a - b| >= e, the slotted link at O4 iff b - a >= e; driving the
       slotted link instead swaps the two.
-    * ground carries the slide (slider-crank, crank b, rod c, e the distance of O2 from the line):
-      A must stay within c of the line: the crank turns fully iff b + e <= c; the slider does not
-      turn (None).
+    * ground carries the slide, as guide or slider (slider-crank, crank b, rod c, e the distance
+      of O2 from the line B moves on): A must stay within c of that line: the crank turns fully
+      iff b + e <= c; the slider does not turn (None).
     """
     links = mech.links
-    if len(links) != 4 or len(mech.actuators) != 1 or \
+    if len(links) != 4 or len(mech.actuators) != 1 or len(mech.prismatics) > 1 or \
             len(mech.revolutes) + len(mech.prismatics) != 4:
-        return None
+        return None                                 # not 4R or 3R-1P (e.g. a Scotch yoke)
     act = next(iter(mech.actuators.values()))
     if act.kind != 'angle' or act.reference not in (None, mech.ground):
         return None
@@ -349,7 +356,8 @@ def four_link_chain_info(mech) -> ChainInfo | None:
         sign = {'change-point': '=', 'triple-rocker': '>'}.get(g.klass, '<')
         rule = f's + l = {s + lng:.6g} {sign} p + q = {p + q:.6g}'
         return ChainInfo('4R', g.klass, {'l1': l1, 'l2': l2, 'l3': l3, 'l4': l4},
-                         g.input_fully_rotates, g.output_fully_rotates, rule)
+                         (ground, driven, coupler, output), g.input_fully_rotates,
+                         g.output_fully_rotates, rule)
     pj = next(iter(mech.prismatics.values()))
     u = np.asarray(pj.direction, float)
     u = u / np.hypot(*u)
@@ -367,7 +375,7 @@ def four_link_chain_info(mech) -> ChainInfo | None:
     rule = (f'lmin + e = {lmin + e:.6g} '
             f'{"<" if klass == "grashof" else ">" if klass == "non-grashof" else "="} '
             f'lmax = {lmax:.6g}')
-    lengths = {rr[0]: span(rr[0]), rr[1]: span(rr[1]), 'e': e}
+    lengths = {'l_a': span(rr[0]), 'l_b': span(rr[1]), 'e': e}
     slack = tol * (lmin + lmax + e)
     if ground in rr:                                # inverted slider-crank
         a = span(ground)
@@ -375,9 +383,8 @@ def four_link_chain_info(mech) -> ChainInfo | None:
         rr_turns = abs(a - b) >= e - slack
         slotted_turns = b - a >= e - slack
         inp, out = (rr_turns, slotted_turns) if driven in rr else (slotted_turns, rr_turns)
-    elif ground == pj.guide and driven in rr:       # slider-crank
+    else:           # the ground carries the slide (as guide or slider: either way only the
+        # relative angle is locked): a slider-crank, the driven link its crank (in rr)
         c = span(coupler)
         inp, out = span(driven) + e <= c + slack, None
-    else:
-        inp = out = None
-    return ChainInfo('3R-1P', klass, lengths, inp, out, rule)
+    return ChainInfo('3R-1P', klass, lengths, tuple(rr), inp, out, rule)

@@ -172,7 +172,8 @@ class Solver:
         if n_values != mech.dof:
             raise PlanError(f'{mech.name!r} has {mech.dof} degree(s) of freedom but the knowns '
                             f'{self.knowns} give {n_values} value(s)'
-                            + _same_link_points_hint(mech, self.specs))
+                            + (_same_link_points_hint(mech, self.knowns, self.specs)
+                               if n_values == mech.dof + 1 else ''))
         self.actuator_specs = [spec_for(mech, a) for a in mech.actuators]
         self.inverse = any(s.name not in mech.actuators for s in self.specs)
         wanted_links, wanted_points = self._wanted(outputs)
@@ -1103,19 +1104,21 @@ class BatchResult:
                       branch_defined=bool(self.margin[i] > BRANCH_UNDEFINED_MARGIN) if sg else True)
 
 
-def _same_link_points_hint(mech: Mechanism, specs: Sequence[Spec]) -> str:
-    """For too many knowns: two known points on one link (the graphical method's 'move the
-    bin by J and K') fix its pose, 3 values, not 4; say how to give that pose instead."""
-    points = [s.point for s in specs if s.kind == 'point']
-    for i, a in enumerate(points):
-        for b in points[i + 1:]:
+def _same_link_points_hint(mech: Mechanism, knowns: Sequence[str],
+                           specs: Sequence[Spec]) -> str:
+    """For one value too many: two known points on one link (the graphical method's 'move the
+    bin by J and K') fix its pose, 3 values, not 4; say so, and give the knowns with the second
+    point replaced by that link's angle."""
+    points = [(k, s.point) for k, s in zip(knowns, specs) if s.kind == 'point']
+    for i, (_, a) in enumerate(points):
+        for known_b, b in points[i + 1:]:
             shared = [l for l in mech.links_of_point(a) if b in mech.links[l].points]
             if shared:
                 link = shared[0]
+                better = [link if k == known_b else k for k in knowns]
                 return (f' (points {a!r} and {b!r} are both on link {link!r}: their distance '
                         f'is fixed, so together they give its pose, 3 values, not 4; give one '
-                        f'of them and the link angle instead, e.g. knowns '
-                        f"['point:{a}', '{link}'])")
+                        f'of them and the link angle instead: knowns {better})')
     return ''
 
 
