@@ -161,6 +161,11 @@ def _run(args) -> int:
     scene = Scene.from_yaml(scene_path(args.scene))
     mech = scene.mechanism
     outs = _check_outputs(args.out, args.plot)
+    for opt, topic in (('--command-topic', args.command_topic),
+                       ('--target-topic', args.target_topic)):
+        if topic is not None and not topic.strip():
+            raise BagError(f'{opt}: empty topic name (leave the option out for no such topic)'
+                           if opt == '--target-topic' else f'{opt}: empty topic name')
     if args.command_topic == args.target_topic:
         raise BagError('--command-topic and --target-topic must be different topics')
     if not (isinstance(args.tol, float) and math.isfinite(args.tol) and args.tol > 0):

@@ -12,7 +12,7 @@ may end in ``deg``: ``--set crank=30deg``), lengths metres.
 Exit status: 0 ok; 1 a solve was refused (the answer has status "error" and a reason; with
 ``--all-branches`` only when no assembly mode closes; ``sweep --strict`` when any line is an
 error); 2 a usage error (bad syntax, unknown name, missing scene, SceneError, PlanError), reported
-as one line on stderr.
+as one line on stderr; 130 interrupted by Ctrl-C (one line, no traceback).
 
 The CLI only parses, calls the core and prints: no kinematics lives here. More subcommands plug in
 through :data:`EXTERNAL_COMMANDS` (modules with ``add_arguments(parser)`` and
@@ -41,6 +41,7 @@ EXTERNAL_COMMANDS = {
 }
 
 USAGE_ERROR, REFUSED, OK = 2, 1, 0
+INTERRUPTED = 130                 # Ctrl-C, as a shell reports a SIGINT
 
 
 class UsageError(Exception):
@@ -548,7 +549,8 @@ A scene that does not load (e.g. DOF != actuators) is an error: exit 2.
 
 MAIN_EPILOG = """\
 SCENE is a scene file or the name of a packaged scene (e.g. four_bar).
-exit status: 0 ok, 1 solve refused, 2 usage error. `linkage COMMAND --help` for details.
+exit status: 0 ok, 1 solve refused, 2 usage error, 130 interrupted (Ctrl-C).
+`linkage COMMAND --help` for details.
 """
 
 
@@ -671,6 +673,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except BrokenPipeError:              # `linkage sweep ... | head`
         sys.stdout = open(os.devnull, 'w')      # no second error when Python flushes at exit
         return OK
+    except KeyboardInterrupt:            # Ctrl-C: the shell's convention, no traceback
+        print(f'\n{prog}: interrupted', file=sys.stderr)
+        return INTERRUPTED
 
 
 if __name__ == '__main__':

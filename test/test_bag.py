@@ -953,3 +953,19 @@ def test_unwritable_output_folder_is_refused_before_any_work(tmp_path, scene, ca
         err = _bad([*common, *extra], capsys)
         assert f'folder {locked.resolve()} is not writable' in err
     assert reads == []
+
+
+def test_empty_topic_names_are_usage_errors(tmp_path, scene, capsys):
+    """An empty --target-topic (e.g. an unset shell variable) was silently dropped, so target
+    commands went unsolved without a word; an empty --command-topic read nothing. Both are now
+    usage errors that name the option, before any output is written."""
+    src = _small_bag(tmp_path)
+    out_csv = tmp_path / 'r.csv'
+    common = [src, '--scene', scene, '--out', out_csv, '--no-progress']
+    err = _bad([*common, '--command-topic', '/cmd', '--target-topic', ''], capsys)
+    assert '--target-topic: empty topic name' in err
+    err = _bad([*common, '--command-topic', ' '], capsys)
+    assert '--command-topic: empty topic name' in err
+    assert not out_csv.exists()
+    code, cap = run_bag([*common, '--command-topic', '/cmd'], capsys)    # and the same run works
+    assert code == 0, cap.err

@@ -441,3 +441,16 @@ def test_check_prints_the_chain_class_line(capsys, scene, line):
 def test_check_has_no_chain_class_for_multi_loop_scenes(capsys):
     rc, out, _ = run(capsys, 'check', 'excavator', '--json')
     assert rc == 0 and loads(out)['grashof'] is None
+
+
+def test_ctrl_c_is_one_line_and_exit_130(capsys, monkeypatch):
+    """Ctrl-C during a command (here inside the check) ends with the shell's SIGINT status and
+    one line on stderr, not a traceback."""
+    from linkage_ros import cli as cli_module
+
+    def interrupted(*a, **k):
+        raise KeyboardInterrupt
+    monkeypatch.setattr(cli_module, 'check_report', interrupted)
+    rc, out, err = run(capsys, 'check', 'four_bar')
+    assert rc == 130
+    assert err.strip() == 'linkage check: interrupted' and 'Traceback' not in err
