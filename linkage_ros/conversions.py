@@ -18,13 +18,11 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from .core.errors import CommandError
-from .stamps import stamp_error as _stamp_error
 from .core.model import Mechanism
 from .core.solver import Result
 
 __all__ = [
-    'joint_state_to_command', 'point_stamped_to_xy', 'is_zero_stamp', 'stamp_error',
-    'result_to_joint_state',
+    'joint_state_to_command', 'point_stamped_to_xy', 'is_zero_stamp', 'result_to_joint_state',
     'result_to_points', 'result_to_status', 'error_status', 'result_to_markers', 'format_joints',
 ]
 
@@ -74,12 +72,6 @@ def point_stamped_to_xy(msg: PointStamped, name: str = '') -> tuple[float, float
 def is_zero_stamp(stamp: Time) -> bool:
     """True for the unset stamp (0 s, 0 ns)."""
     return stamp.sec == 0 and stamp.nanosec == 0
-
-
-def stamp_error(stamp: Time) -> str | None:
-    """Why a request's ``header.stamp`` cannot be echoed on the answers, or None if it can
-    (see :func:`linkage_ros.stamps.stamp_error`)."""
-    return _stamp_error(stamp.sec, stamp.nanosec)
 
 
 # ---- outbound ----------------------------------------------------------------------------------

@@ -37,12 +37,12 @@ from visualization_msgs.msg import MarkerArray
 
 from .conversions import (error_status, format_joints, is_zero_stamp, joint_state_to_command,
                           point_stamped_to_xy, result_to_joint_state, result_to_markers,
-                          result_to_points, result_to_status, stamp_error)
+                          result_to_points, result_to_status)
 from .core.errors import CommandError, LinkageError, PlanError, SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import METHODS, Result, Solver
 from .resources import scene_path
-from .stamps import stamp_valid
+from .stamps import stamp_error
 
 NODE_NAME = 'linkage_node'
 BRANCH_MODES = ('continuous', 'reference')
@@ -501,8 +501,9 @@ class LinkageNode(Node):
                 zero = False
             # a stamp rclpy / rclcpp cannot turn into a time (negative, nanosec >= 1e9) would
             # reach every consumer of the answer: refuse the request instead
-            if not stamp_valid(stamp.sec, stamp.nanosec):
-                result = Result(False, stamp_error(stamp))
+            bad_stamp = stamp_error(stamp.sec, stamp.nanosec)
+            if bad_stamp:
+                result = Result(False, bad_stamp)
             elif zero:
                 result = Result(False, ZERO_CLOCK)
             else:

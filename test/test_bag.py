@@ -793,14 +793,13 @@ def test_csv_time_of_negative_and_unnormalised_stamps(tmp_path, scene, capsys):
         assert Decimal(row['time']) == Decimal(s) + Decimal(ns) / Decimal(10 ** 9), row['time']
         assert len(row['time'].split('.')[1]) == 9
         assert Decimal(row['receive_time']) == Decimal(t) / Decimal(10 ** 9)
-    from linkage_ros.conversions import stamp_error
-    from builtin_interfaces.msg import Time
+    from linkage_ros.stamps import stamp_error      # the node's refusal text (node.py)
     valid = [s >= 0 and ns < 10 ** 9 for s, ns in stamps]
     assert valid == [False, False, False, False, True, True, True]
     for row, (s, ns), ok in zip(table, stamps, valid):
         assert row['status'] == ('ok' if ok else 'error')
         if not ok:      # the node's own text for that stamp
-            assert row['reason'] == stamp_error(Time(sec=s, nanosec=ns))
+            assert row['reason'] == stamp_error(s, ns)
     got, _ = read_out_bag(out_bag)
     assert [(m.header.stamp.sec, m.header.stamp.nanosec) for _, m in got['/joint_states']] == [
         (s, ns) if (s or ns) else divmod(t, 10 ** 9)
