@@ -400,22 +400,12 @@ def check_report(mech, path: str, solver_method: str | None) -> dict:
     from .core.solver import Solver
     desc = mech.describe()
     grashof = None
-    if mech.form == 'four_bar':
-        from .core.analysis import grashof_info
-        sc = mech.shortcut
-        g = grashof_info(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'])
-        s, p, q, lng = g.s, g.p, g.q, g.l
-        sign = {'change-point': '=', 'triple-rocker': '>'}.get(g.klass, '<')
-        grashof = {'chain': '4R', 'class': g.klass, 'input_fully_rotates': g.input_fully_rotates,
-                   'output_fully_rotates': g.output_fully_rotates,
-                   'rule': f's + l = {s + lng:.6g} {sign} p + q = {p + q:.6g}'}
-    else:       # any other single four-link loop driven by a crank (general form, slider-crank)
-        from .core.analysis import four_link_chain_info
-        c = four_link_chain_info(mech)
-        if c is not None:
-            grashof = {'chain': c.chain, 'class': c.klass,
-                       'input_fully_rotates': c.input_fully_rotates,
-                       'output_fully_rotates': c.output_fully_rotates, 'rule': c.rule}
+    from .core.analysis import four_link_chain_info
+    c = four_link_chain_info(mech)      # any one-loop four-link scene driven by a crank
+    if c is not None:
+        grashof = {'chain': c.chain, 'class': c.klass,
+                   'input_fully_rotates': c.input_fully_rotates,
+                   'output_fully_rotates': c.output_fully_rotates, 'rule': c.rule}
     ranges = input_ranges(mech)
     inputs = {}
     for name, act in mech.actuators.items():

@@ -308,7 +308,8 @@ def four_link_chain_info(mech) -> ChainInfo | None:
     revolutes and one slide) driven by one angle actuator on a ground-pivoted link (relative to
     the ground), from its reference-pose dimensions; None for any other mechanism.
 
-    4R: :func:`grashof_info` of ground, driven link, coupler and the other ground-pivoted link.
+    4R: :func:`grashof_info` of ground, driven link, coupler and the other ground-pivoted link
+    (a ``four_bar`` shortcut scene: its own four lengths).
     3R-1P (seed 003: 'lmin + e > lmax: a non-Grashof 3R-1P chain, no link can rotate
     completely'): :func:`slide_chain_class`; which links turn fully follows from where |A - O|
     of the driven link's far point A can reach:
@@ -350,7 +351,11 @@ def four_link_chain_info(mech) -> ChainInfo | None:
     output = next(o for kind, o, _ in pairs[ground] if o != driven)
     coupler = next(l for l in links if l not in (ground, driven, output))
     if not mech.prismatics:
-        l1, l2, l3, l4 = span(ground), span(driven), span(coupler), span(output)
+        if getattr(mech, 'form', None) == 'four_bar':      # the lengths as the scene gives them
+            sc = mech.shortcut
+            l1, l2, l3, l4 = sc['ground'], sc['crank'], sc['coupler'], sc['rocker']
+        else:
+            l1, l2, l3, l4 = span(ground), span(driven), span(coupler), span(output)
         g = grashof_info(l1, l2, l3, l4)
         s, p, q, lng = g.s, g.p, g.q, g.l
         sign = {'change-point': '=', 'triple-rocker': '>'}.get(g.klass, '<')
