@@ -449,32 +449,31 @@ def test_inversor_with_the_pivot_off_the_circle_through_o_draws_circles(stem):
     assert max(abs(x - k / (2 * r0)) for x in qx) <= EXACT
 
 
-def _peaucellier_cell():
-    """Seed 001's seven-link Peaucellier cell (before the eighth link O_P P is added): the
-    rhombus and the two long links, O fixed; driven by the directions of OA and OB."""
-    data = raw('peaucellier')
+def _inversor_cell(stem, actuators):
+    """Seed 001's inversor cell: the shipped inversor before its crank O_P P is added (O fixed,
+    the only ground point), driven by two link directions ``{name: (link, pivot, toward)}``."""
+    data = raw(stem)
     del data['points']['OP']
     del data['links']['crank']
     data['links']['ground'] = ['O']
-    data['name'] = 'peaucellier_cell'
-    data['actuators'] = {'theta_A': {'type': 'angle', 'link': 'OA', 'pivot': 'O', 'toward': 'A'},
-                         'theta_B': {'type': 'angle', 'link': 'OB', 'pivot': 'O', 'toward': 'B'}}
+    data['name'] = f'{stem}_cell'
+    data['actuators'] = {name: {'type': 'angle', 'link': link, 'pivot': pivot, 'toward': toward}
+                         for name, (link, pivot, toward) in actuators.items()}
     data['outputs'] = ['Q', 'P']
     return Scene.from_dict(data).mechanism
+
+
+def _peaucellier_cell():
+    """The seven-link Peaucellier cell (the rhombus and the two long links), driven by the
+    directions of OA and OB."""
+    return _inversor_cell('peaucellier', {'theta_A': ('OA', 'O', 'A'),
+                                          'theta_B': ('OB', 'O', 'B')})
 
 
 def _hart_cell():
-    """Seed 001's five-link Hart cell (the antiparallelogram with AD pivoted at O, before the
-    crank O_P P is added); driven by the directions of AD and AB."""
-    data = raw('hart')
-    del data['points']['OP']
-    del data['links']['crank']
-    data['links']['ground'] = ['O']
-    data['name'] = 'hart_cell'
-    data['actuators'] = {'theta_AD': {'type': 'angle', 'link': 'AD', 'pivot': 'O', 'toward': 'D'},
-                         'theta_AB': {'type': 'angle', 'link': 'AB', 'pivot': 'A', 'toward': 'B'}}
-    data['outputs'] = ['Q', 'P']
-    return Scene.from_dict(data).mechanism
+    """The five-link Hart cell (the antiparallelogram with AD pivoted at O), driven by the
+    directions of AD and AB."""
+    return _inversor_cell('hart', {'theta_AD': ('AD', 'O', 'D'), 'theta_AB': ('AB', 'A', 'B')})
 
 
 @pytest.mark.parametrize('make,counts,k,reach', [
