@@ -61,7 +61,7 @@ import numpy as np
 
 from .core.errors import LinkageError
 from .core.model import Scene
-from .core.solver import BRANCH_UNDEFINED_MARGIN, Solver
+from .core.solver import Solver, branch_identity_defined
 from .stamps import stamp_error, stamp_valid
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
@@ -1037,7 +1037,8 @@ class _Engine:
         res.iterations[sl] = 0
         nsg = B.signs.shape[1]
         if nsg:
-            res.branch_defined[sl] = np.where(ok, B.margin[:take] > BRANCH_UNDEFINED_MARGIN, True)
+            res.branch_defined[sl] = np.where(
+                ok, branch_identity_defined(B.margin[:take], B.residual[:take]), True)
             sg = np.asarray(B.signs[:take]) > 0
             keyv = sg.astype(np.int64) @ (np.int64(1) << np.arange(nsg, dtype=np.int64))
             uniq, first, inv = np.unique(keyv, return_index=True, return_inverse=True)

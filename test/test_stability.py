@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 import oracles as orc
 from linkage_ros.core.model import Scene
-from linkage_ros.core.solver import Solver
+from linkage_ros.core.solver import Solver, branch_undefined_below
 
 EPS = 2.0 ** -52
 TIGHT = 1e-12
@@ -176,6 +176,38 @@ def test_exactly_at_toggle_branch_is_undefined(L, tau, side, method):
         assert_finite(r)
         assert r.success, r.reason
         assert r.branch_defined is False, (r.margin, r.residual)
+
+
+@pytest.mark.parametrize('L, tau, side', TOGGLES)
+@pytest.mark.parametrize('method', METHODS)
+def test_near_toggle_branch_is_defined(L, tau, side, method):
+    """1e-9 rad inside the toggle the two modes are apart by a dyad height ~sqrt(2e-9) of the
+    link (the 50-digit oracle's transmission angle says so): the branch identity is defined, and
+    the undefined-branch bound stays far below that margin (it must not swallow real modes)."""
+    mech = four_bar(L)
+    with mp.workdps(50):
+        t = float(tau + side * mp.mpf('1e-9'))
+    for branch in (1, -1):
+        want = orc.fourbar(*L, t, branch)
+        assert want['ok']
+        if method == 'closed_form':
+            s = Solver(mech, method='closed_form', branch='+' if branch > 0 else '-')
+        else:
+            s = newton_near(mech, float(tau + side * mp.mpf('0.05')), branch)
+        r = s.solve({'crank': t})
+        assert r.success, r.reason
+        assert r.branch_defined is True, (r.margin, r.residual)
+        assert branch_undefined_below(r.residual) < 0.1 * r.margin
+
+
+def test_undefined_branch_bound_is_an_error_bound():
+    """The bound is the square-root law of a relative perturbation (input and dyad rounding,
+    32 eps, plus the closure residual), independent of any machine constant: it grows like
+    sqrt(residual) and is ~5e-7 for an exact answer."""
+    assert math.isclose(branch_undefined_below(0.0), 4 * math.sqrt(64 * EPS))
+    assert math.isclose(branch_undefined_below(1e-12), 4 * math.sqrt(2 * (1e-12 + 32 * EPS)))
+    arr = branch_undefined_below(np.array([0.0, 1e-14, 1e-10]))
+    assert arr.shape == (3,) and np.all(np.diff(arr) > 0)
 
 
 # =============================================================================================

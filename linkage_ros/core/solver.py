@@ -32,10 +32,32 @@ from .plan import (CONTINUITY_MARGIN, Plan, Poses, ScalarPoses, Spec, branch_geo
                    branch_geometry_one, run_one, spec_for, spec_value_at,
                    spec_point_link, spec_value_one)
 
-#: below this dyad margin the two assembly modes are numerically indistinguishable: rounding
-#: alone moves a dyad's height by ~sqrt(eps) = 1.5e-8 of its scale, and the margin grows like
-#: sqrt(distance to the toggle), so this is the float nearest a toggle and its neighbours
-BRANCH_UNDEFINED_MARGIN = 1e-7
+#: machine epsilon (float64): the unit of rounding in branch_identity_defined
+_EPS = float(np.finfo(float).eps)
+
+
+def branch_undefined_below(residual):
+    """Dyad margin (|sin| of the transmission angle) below which the two assembly modes cannot
+    be told apart, for an answer whose loop closure misses by ``residual`` (fraction of the
+    length scale; scalar or array).
+
+    An error bound, not a tuned constant: at a tangency a dyad's normalised height grows like
+    sqrt(2 delta) for a relative perturbation delta of its lengths. delta collects the rounding
+    of the inputs and of the dyad arithmetic (32 eps: inputs up to ~10 rad or ~10 length scales,
+    a few operations each) and what the solve leaves of loop closure (``residual``; Newton at a
+    double root stops with the position off by ~sqrt(residual)). The factor 4 covers the O(1)
+    geometry factors between that height and the margin. The bound holds whatever BLAS kernel or
+    SIMD path computed the answer: every kernel is within a few eps of exact rounding.
+    """
+    return 4.0 * np.sqrt(2.0 * (np.asarray(residual, float) + 32.0 * _EPS))
+
+
+def branch_identity_defined(margin, residual):
+    """True where ``margin`` is above the noise bound of :func:`branch_undefined_below`
+    (scalar or array, elementwise)."""
+    return np.asarray(margin, float) > branch_undefined_below(residual)
+
+
 METHODS = ('auto', 'closed_form', 'newton')
 #: a continuation walk gives up after this many times max_iter Newton iterations without a
 #: successful substep (an unreachable target would otherwise be bisected 10 levels deep)
@@ -746,7 +768,8 @@ class Solver:
                                                                  vals)
         points = {p: (v.real, v.imag) for p, v in pts.items()}
         res = Result(True, None, inputs, {}, joints, links, points, residual, iterations, solver,
-                     _sign_str(signs), bool(margin > BRANCH_UNDEFINED_MARGIN) if signs else True,
+                     _sign_str(signs),
+                     bool(branch_identity_defined(margin, residual)) if signs else True,
                      float(margin), cond if cond is None or math.isfinite(cond) else None)
         # one sum is finite when every term is (and may overflow only at ~1e308 scales, where
         # the exact check below runs)
@@ -1101,7 +1124,8 @@ class BatchResult:
                       points={k: (float(v[i, 0]), float(v[i, 1])) for k, v in self.points.items()},
                       residual=float(self.residual[i]), iterations=int(self.iterations[i]),
                       solver=self.solver, branch=_sign_str(sg), margin=float(self.margin[i]),
-                      branch_defined=bool(self.margin[i] > BRANCH_UNDEFINED_MARGIN) if sg else True)
+                      branch_defined=(bool(branch_identity_defined(self.margin[i], self.residual[i]))
+                                      if sg else True))
 
 
 def _same_link_points_hint(mech: Mechanism, knowns: Sequence[str],
