@@ -11,6 +11,7 @@ layout and transport match ``linkage_node`` exactly and only the work done per m
 
 ``linkage bench`` starts it as a separate process (see linkage_ros/bench.py).
 """
+
 import argparse
 import sys
 
@@ -24,8 +25,12 @@ from sensor_msgs.msg import JointState
 class Relay(Node):
     def __init__(self, depth: int = 10):
         super().__init__('relay_node')
-        qos = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
-                         depth=depth, durability=DurabilityPolicy.VOLATILE)
+        qos = QoSProfile(
+            reliability=ReliabilityPolicy.RELIABLE,
+            history=HistoryPolicy.KEEP_LAST,
+            depth=depth,
+            durability=DurabilityPolicy.VOLATILE,
+        )
         self.pub = self.create_publisher(JointState, 'joint_states', qos)
         self.create_subscription(JointState, '~/command', self.pub.publish, qos)
 
@@ -34,8 +39,12 @@ def main(args=None) -> int:
     argv = sys.argv[1:] if args is None else list(args)
     cut = argv.index('--ros-args') if '--ros-args' in argv else len(argv)
     parser = argparse.ArgumentParser(description='bare rclpy JointState relay (benchmark baseline)')
-    parser.add_argument('--depth', type=int, default=10,
-                        help='history depth of both topics (keep last N; default 10)')
+    parser.add_argument(
+        '--depth',
+        type=int,
+        default=10,
+        help='history depth of both topics (keep last N; default 10)',
+    )
     opts = parser.parse_args(argv[:cut])
     if opts.depth < 1:
         parser.error(f'--depth must be >= 1 (got {opts.depth})')

@@ -42,9 +42,11 @@ parse); both rosbags' and rclpy's (recorded bags') CDR variants are read.
 Bad input (missing, not a bag, missing topic, wrong type, truncated or corrupt) is one clear
 message on stderr and exit status 2.
 """
+
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import os
 import re
@@ -53,9 +55,10 @@ import struct
 import sys
 import time
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -85,7 +88,7 @@ MIN_BATCH = 32
 NEAR_TANGENT = 1e-6
 
 
-BAG_EPILOG = '''\
+BAG_EPILOG = """\
 outputs:
   OUTPUT.csv  one row per command (refused ones too): time (header stamp, s), receive_time
               (bag time, s), topic, input.<actuator>..., joint.<joint>..., <point>.x,
@@ -100,7 +103,7 @@ examples:
 
 exit status: 0 done (refused commands are rows, not failures); 2 unusable input, output or
 options (missing file, not a bag, missing topic, wrong type, truncated or corrupt bag).
-'''
+"""
 
 
 class BagError(LinkageError):
@@ -109,40 +112,84 @@ class BagError(LinkageError):
 
 # ---- command line ------------------------------------------------------------------------------
 
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """The ``linkage bag`` options (the CLI registers this module as the ``bag`` subcommand)."""
-    parser.description = ('Solve every command recorded in a rosbag2 the way the node would and '
-                          'write a CSV and/or a result bag.')
+    parser.description = (
+        'Solve every command recorded in a rosbag2 the way the node would and '
+        'write a CSV and/or a result bag.'
+    )
     parser.epilog = BAG_EPILOG
-    parser.add_argument('input', metavar='INPUT',
-                        help='rosbag2 folder (sqlite3 or mcap) or a single .mcap/.db3 file')
+    parser.add_argument(
+        'input',
+        metavar='INPUT',
+        help='rosbag2 folder (sqlite3 or mcap) or a single .mcap/.db3 file',
+    )
     parser.add_argument('--scene', required=True, help='scene file or packaged scene name')
-    parser.add_argument('--command-topic', required=True, metavar='TOPIC',
-                        help='sensor_msgs/msg/JointState commands naming the actuators')
-    parser.add_argument('--target-topic', metavar='TOPIC', default=None,
-                        help="sensor_msgs/msg/JointState targets naming joints, links or "
-                             "actuators (the node's ~/target: inverse kinematics)")
-    parser.add_argument('--out', action='append', required=True, metavar='OUTPUT',
-                        help='*.csv for a table, else a new rosbag2 folder; may be given twice')
-    parser.add_argument('--out-format', choices=('mcap', 'sqlite3'), default='mcap',
-                        help='storage of an output bag (default mcap)')
-    parser.add_argument('--solver', choices=('auto', 'closed_form', 'newton'), default=None,
-                        help="solver (default: the scene's)")
-    parser.add_argument('--branch', default='continuous',
-                        help="continuous (default, like the node), reference, or signs like '+-'")
-    parser.add_argument('--tol', type=float, default=1e-12,
-                        help='Newton tolerance relative to the length scale (default 1e-12)')
-    parser.add_argument('--max-iter', type=int, default=50, help='Newton iteration cap (default 50)')
-    parser.add_argument('--plot', metavar='PNG', default=None,
-                        help='write coupler-point traces and input/joint curves to this image '
-                             '(format from the extension: png, svg, pdf, ...; PNG if none)')
-    parser.add_argument('--no-progress', action='store_true',
-                        help='no progress bar (it is shown only when stderr is a terminal)')
+    parser.add_argument(
+        '--command-topic',
+        required=True,
+        metavar='TOPIC',
+        help='sensor_msgs/msg/JointState commands naming the actuators',
+    )
+    parser.add_argument(
+        '--target-topic',
+        metavar='TOPIC',
+        default=None,
+        help='sensor_msgs/msg/JointState targets naming joints, links or '
+        "actuators (the node's ~/target: inverse kinematics)",
+    )
+    parser.add_argument(
+        '--out',
+        action='append',
+        required=True,
+        metavar='OUTPUT',
+        help='*.csv for a table, else a new rosbag2 folder; may be given twice',
+    )
+    parser.add_argument(
+        '--out-format',
+        choices=('mcap', 'sqlite3'),
+        default='mcap',
+        help='storage of an output bag (default mcap)',
+    )
+    parser.add_argument(
+        '--solver',
+        choices=('auto', 'closed_form', 'newton'),
+        default=None,
+        help="solver (default: the scene's)",
+    )
+    parser.add_argument(
+        '--branch',
+        default='continuous',
+        help="continuous (default, like the node), reference, or signs like '+-'",
+    )
+    parser.add_argument(
+        '--tol',
+        type=float,
+        default=1e-12,
+        help='Newton tolerance relative to the length scale (default 1e-12)',
+    )
+    parser.add_argument(
+        '--max-iter', type=int, default=50, help='Newton iteration cap (default 50)'
+    )
+    parser.add_argument(
+        '--plot',
+        metavar='PNG',
+        default=None,
+        help='write coupler-point traces and input/joint curves to this image '
+        '(format from the extension: png, svg, pdf, ...; PNG if none)',
+    )
+    parser.add_argument(
+        '--no-progress',
+        action='store_true',
+        help='no progress bar (it is shown only when stderr is a terminal)',
+    )
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Stand-alone entry point: ``python -m linkage_ros.bag ...``."""
     from .cli import standalone_main
+
     return standalone_main('linkage bag', add_arguments, run, argv)
 
 
@@ -157,15 +204,21 @@ def run(args: argparse.Namespace) -> int:
 
 def _run(args) -> int:
     from .resources import scene_path
+
     t_start = time.perf_counter()
     scene = Scene.from_yaml(scene_path(args.scene))
     mech = scene.mechanism
     outs = _check_outputs(args.out, args.plot)
-    for opt, topic in (('--command-topic', args.command_topic),
-                       ('--target-topic', args.target_topic)):
+    for opt, topic in (
+        ('--command-topic', args.command_topic),
+        ('--target-topic', args.target_topic),
+    ):
         if topic is not None and not topic.strip():
-            raise BagError(f'{opt}: empty topic name (leave the option out for no such topic)'
-                           if opt == '--target-topic' else f'{opt}: empty topic name')
+            raise BagError(
+                f'{opt}: empty topic name (leave the option out for no such topic)'
+                if opt == '--target-topic'
+                else f'{opt}: empty topic name'
+            )
     if args.command_topic == args.target_topic:
         raise BagError('--command-topic and --target-topic must be different topics')
     if not (isinstance(args.tol, float) and math.isfinite(args.tol) and args.tol > 0):
@@ -193,7 +246,7 @@ def _run(args) -> int:
             write_plot(args.plot, data, res, mech)
         t_end = time.perf_counter()
     finally:
-        progress.clear()      # an error message starts on a line of its own
+        progress.clear()  # an error message starts on a line of its own
     _summary(data, res, outs, args.plot, t_start, t_read, t_solve, t_end)
     return OK
 
@@ -202,7 +255,7 @@ def _resolved(path: Path, what: str) -> Path:
     """The absolute path with symlinks resolved; a symlink loop is a clear error."""
     try:
         return path.resolve()
-    except (RuntimeError, OSError) as exc:      # Python < 3.13: RuntimeError on a loop
+    except (RuntimeError, OSError) as exc:  # Python < 3.13: RuntimeError on a loop
         raise BagError(f'{what}: cannot use this path ({_exc_text(exc)})') from None
 
 
@@ -210,8 +263,10 @@ def _check_parent(path: Path, what: str) -> Path:
     full = _resolved(path, what)
     parent = full.parent
     if not parent.is_dir():
-        raise BagError(f'{what}: folder {parent} '
-                       + ('is not a folder' if parent.exists() else 'does not exist'))
+        raise BagError(
+            f'{what}: folder {parent} '
+            + ('is not a folder' if parent.exists() else 'does not exist')
+        )
     if not os.access(parent, os.W_OK | os.X_OK):
         raise BagError(f'{what}: folder {parent} is not writable (permission denied)')
     return full
@@ -220,6 +275,7 @@ def _check_parent(path: Path, what: str) -> Path:
 def plot_formats() -> list[str]:
     """The image formats (file extensions) matplotlib can write."""
     from matplotlib.backend_bases import FigureCanvasBase
+
     return sorted(FigureCanvasBase.get_supported_filetypes())
 
 
@@ -230,8 +286,9 @@ def _plot_format(path: str) -> str:
         return 'png'
     formats = plot_formats()
     if ext not in formats:
-        raise BagError(f'--plot {path}: cannot write a .{ext} image (image formats: '
-                       f'{", ".join(formats)})')
+        raise BagError(
+            f'--plot {path}: cannot write a .{ext} image (image formats: {", ".join(formats)})'
+        )
     return ext
 
 
@@ -247,8 +304,9 @@ def _check_outputs(outs: list[str], plot: str | None):
         else:
             kind = 'bag'
             if p.exists() or p.is_symlink():
-                raise BagError(f'{what}: exists already (an output bag must be a new '
-                               f'folder; not overwriting)')
+                raise BagError(
+                    f'{what}: exists already (an output bag must be a new folder; not overwriting)'
+                )
         checked.append((kind, p, _check_parent(p, what)))
     if len({str(full) for _, _, full in checked}) != len(checked):
         raise BagError('the same --out path is given twice')
@@ -264,6 +322,7 @@ def _check_outputs(outs: list[str], plot: str | None):
 
 
 # ---- progress and summary ----------------------------------------------------------------------
+
 
 class _Progress:
     """A one-line text progress bar on stderr (only when it is a terminal)."""
@@ -288,8 +347,10 @@ class _Progress:
         width = 30
         frac = min(done / self.total, 1.0) if self.total else 1.0
         bar = '#' * int(frac * width) + '-' * (width - int(frac * width))
-        sys.stderr.write(f'\r{self.label:<8} [{bar}] {100 * frac:5.1f}% {done}/{self.total} '
-                         f'{now - self.t0:6.1f}s')
+        sys.stderr.write(
+            f'\r{self.label:<8} [{bar}] {100 * frac:5.1f}% {done}/{self.total} '
+            f'{now - self.t0:6.1f}s'
+        )
         sys.stderr.flush()
         self.shown = True
 
@@ -330,28 +391,32 @@ def _summary(data, res, outs, plot, t0, t_read, t_solve, t_end):
     if plot:
         lines.append(f'  wrote {plot} (plot)')
     total = t_end - t0
-    lines.append(f'  time {total:.2f} s (read {t_read - t0:.2f}, solve {t_solve - t_read:.2f}, '
-                 f'write {t_end - t_solve:.2f})'
-                 + (f', {n / total:,.0f} commands/s' if total > 0 and n else ''))
+    lines.append(
+        f'  time {total:.2f} s (read {t_read - t0:.2f}, solve {t_solve - t_read:.2f}, '
+        f'write {t_end - t_solve:.2f})'
+        + (f', {n / total:,.0f} commands/s' if total > 0 and n else '')
+    )
     print('\n'.join(lines))
 
 
 # ---- reading -----------------------------------------------------------------------------------
 
+
 @dataclass
 class Commands:
     """The recorded commands in bag time order (n rows)."""
+
     source: str
-    topics: list[str]               # index 0: command topic, 1: target topic
-    topic: np.ndarray               # (n,) int8, index into topics
-    log_ns: np.ndarray              # (n,) int64 bag receive time
-    sec: np.ndarray                 # (n,) int64 header stamp
-    nanosec: np.ndarray             # (n,) int64
-    key: np.ndarray                 # (n,) int32 index into keys
-    keys: list[tuple[str, ...]]     # the names of each distinct message shape
-    npos: list[int]                 # number of positions of each key
-    values: np.ndarray              # every row's positions, one after the other (float64)
-    start: np.ndarray               # (n + 1,) int64: row i's positions are values[start[i]:...]
+    topics: list[str]  # index 0: command topic, 1: target topic
+    topic: np.ndarray  # (n,) int8, index into topics
+    log_ns: np.ndarray  # (n,) int64 bag receive time
+    sec: np.ndarray  # (n,) int64 header stamp
+    nanosec: np.ndarray  # (n,) int64
+    key: np.ndarray  # (n,) int32 index into keys
+    keys: list[tuple[str, ...]]  # the names of each distinct message shape
+    npos: list[int]  # number of positions of each key
+    values: np.ndarray  # every row's positions, one after the other (float64)
+    start: np.ndarray  # (n + 1,) int64: row i's positions are values[start[i]:...]
 
     @property
     def n(self) -> int:
@@ -361,7 +426,7 @@ class Commands:
         """(b - a, k) positions of rows a..b-1, which share one key (k positions each)."""
         k = self.npos[int(self.key[a])] if b > a else 0
         lo = int(self.start[a])
-        return self.values[lo:lo + (b - a) * k].reshape(b - a, k)
+        return self.values[lo : lo + (b - a) * k].reshape(b - a, k)
 
     @property
     def pos(self) -> np.ndarray:
@@ -370,7 +435,7 @@ class Commands:
         counts = np.diff(self.start)
         out = np.full((self.n, int(counts.max()) if self.n else 0), np.nan)
         for i in range(self.n):
-            out[i, :counts[i]] = self.values[self.start[i]:self.start[i + 1]]
+            out[i, : counts[i]] = self.values[self.start[i] : self.start[i + 1]]
         return out
 
     @property
@@ -390,6 +455,7 @@ def _reader_class():
 
     class _Reader(Reader):
         STORAGE_PLUGINS = _AnyCase(Reader.STORAGE_PLUGINS)
+
     return _Reader
 
 
@@ -404,26 +470,37 @@ def _open_reader(path: str):
     if p.is_dir() and not (p / 'metadata.yaml').exists():
         # a bag folder without metadata: fall back to its single storage file, if any
         try:
-            files = sorted(f for f in p.iterdir()
-                           if f.suffix.lower() in STORAGE_SUFFIXES and f.is_file())
+            files = sorted(
+                f for f in p.iterdir() if f.suffix.lower() in STORAGE_SUFFIXES and f.is_file()
+            )
         except OSError as exc:
-            raise BagError(f'input {path}: cannot list the folder ({exc.strerror or exc})') \
-                from None
+            raise BagError(
+                f'input {path}: cannot list the folder ({exc.strerror or exc})'
+            ) from None
         if len(files) == 1:
             p = files[0]
         else:
-            raise BagError(f'input {path}: not a rosbag2 (a folder without metadata.yaml'
-                           + (f' and with {len(files)} storage files' if files else
-                              ' and no .mcap or .db3 file') + ')')
+            raise BagError(
+                f'input {path}: not a rosbag2 (a folder without metadata.yaml'
+                + (
+                    f' and with {len(files)} storage files'
+                    if files
+                    else ' and no .mcap or .db3 file'
+                )
+                + ')'
+            )
     elif p.is_file() and p.suffix.lower() not in STORAGE_SUFFIXES:
-        raise BagError(f'input {path}: not a rosbag2 (expected a bag folder, a .mcap or a .db3 '
-                       f'file)')
+        raise BagError(
+            f'input {path}: not a rosbag2 (expected a bag folder, a .mcap or a .db3 file)'
+        )
     try:
         reader = Reader(p)
         reader.open()
     except Exception as exc:  # noqa: BLE001 - every rosbags/sqlite/OS failure is "unreadable"
-        raise BagError(f'input {path}: cannot open the bag ({_exc_text(exc)}); it is truncated, '
-                       f'corrupt or not a rosbag2') from None
+        raise BagError(
+            f'input {path}: cannot open the bag ({_exc_text(exc)}); it is truncated, '
+            f'corrupt or not a rosbag2'
+        ) from None
     return reader
 
 
@@ -445,12 +522,15 @@ def read_commands(path: str, topics: list[str], progress: _Progress | None = Non
         for topic in topics:
             if topic not in available:
                 listing = ', '.join(f'{t} ({m})' for t, m in sorted(available.items())) or 'none'
-                raise BagError(f'input {path}: topic {topic} is not in the bag; topics in the '
-                               f'bag: {listing}')
+                raise BagError(
+                    f'input {path}: topic {topic} is not in the bag; topics in the bag: {listing}'
+                )
             types = {c.msgtype for c in reader.connections if c.topic == topic}
             if types != {JOINT_STATE}:
-                raise BagError(f'input {path}: topic {topic} has type '
-                               f'{", ".join(sorted(types))}; expected {JOINT_STATE}')
+                raise BagError(
+                    f'input {path}: topic {topic} has type '
+                    f'{", ".join(sorted(types))}; expected {JOINT_STATE}'
+                )
             conns.append([c for c in reader.connections if c.topic == topic])
         index = {c.id: k for k, group in enumerate(conns) for c in group}
         total = sum(c.msgcount for group in conns for c in group)
@@ -463,19 +543,19 @@ def read_commands(path: str, topics: list[str], progress: _Progress | None = Non
                 raws.append(raw)
                 tops.append(index[conn.id])
                 stamps.append(t)
-                if not i & 0x3fff:
+                if not i & 0x3FFF:
                     progress.update(i)
         except BagError:
             raise
         except Exception as exc:  # noqa: BLE001 - truncated chunk, corrupt database, ...
-            raise BagError(f'input {path}: cannot read message {len(raws) + 1} '
-                           f'({_exc_text(exc)}); the bag is truncated or corrupt') from None
+            raise BagError(
+                f'input {path}: cannot read message {len(raws) + 1} '
+                f'({_exc_text(exc)}); the bag is truncated or corrupt'
+            ) from None
         progress.finish()
     finally:
-        try:
+        with contextlib.suppress(Exception):
             reader.close()
-        except Exception:  # noqa: BLE001
-            pass
     n = len(raws)
     log_ns = np.array(stamps, np.int64)
     order = np.argsort(log_ns, kind='stable')
@@ -484,21 +564,22 @@ def read_commands(path: str, topics: list[str], progress: _Progress | None = Non
         log_ns = log_ns[order]
         tops = np.asarray(tops, np.int8)[order]
     topic = np.asarray(tops, np.int8).reshape(n)
-    sec, nanosec, key, keys, npos, values, start = decode_joint_states(raws, topic, topics,
-                                                                       log_ns)
-    return Commands(str(path), list(topics), topic, log_ns, sec, nanosec, key, keys, npos,
-                    values, start)
+    sec, nanosec, key, keys, npos, values, start = decode_joint_states(raws, topic, topics, log_ns)
+    return Commands(
+        str(path), list(topics), topic, log_ns, sec, nanosec, key, keys, npos, values, start
+    )
 
 
 # -- JointState CDR decoding (vectorised over messages of one layout) ------------------------------
+
 
 @dataclass
 class _Layout:
     little: bool
     names: tuple[str, ...]
     sec_off: int
-    arrays: list[tuple[int, int]]          # (offset, count) of position, velocity, effort
-    structural: np.ndarray                 # byte indices that must match for the same layout
+    arrays: list[tuple[int, int]]  # (offset, count) of position, velocity, effort
+    structural: np.ndarray  # byte indices that must match for the same layout
     end: int
 
 
@@ -535,7 +616,7 @@ def _parse_layout(raw: bytes) -> _Layout:
         if k == 0:
             return ''
         need(k)
-        s = raw[pos:pos + k]
+        s = raw[pos : pos + k]
         struct_idx.extend(range(pos, pos + k))
         pos += k
         return s.rstrip(b'\x00').decode('utf-8', errors='replace')
@@ -543,7 +624,7 @@ def _parse_layout(raw: bytes) -> _Layout:
     need(8)
     sec_off = pos
     pos += 8
-    string()                                   # frame_id
+    string()  # frame_id
     count = u32()
     if count > n:
         raise ValueError(f'implausible name count {count}')
@@ -577,8 +658,9 @@ def _parse_layout(raw: bytes) -> _Layout:
     raise found[0]
 
 
-def decode_joint_states(raws: list[bytes], topic: np.ndarray, topics: list[str],
-                        log_ns: np.ndarray):
+def decode_joint_states(
+    raws: list[bytes], topic: np.ndarray, topics: list[str], log_ns: np.ndarray
+):
     """Stamps, name sets and positions of CDR JointState messages.
 
     Messages of one byte length usually share one layout (same names, same frame_id): they are
@@ -595,7 +677,7 @@ def decode_joint_states(raws: list[bytes], topic: np.ndarray, topics: list[str],
     keys: list[tuple[str, ...]] = []
     npos: list[int] = []
     key_of: dict[tuple, int] = {}
-    positions: list[tuple[np.ndarray, np.ndarray]] = []     # (rows, (m, k) values)
+    positions: list[tuple[np.ndarray, np.ndarray]] = []  # (rows, (m, k) values)
     counts = np.zeros(n, np.int64)
     if n == 0:
         return sec, nanosec, key, keys, npos, np.zeros(0), np.zeros(1, np.int64)
@@ -604,8 +686,9 @@ def decode_joint_states(raws: list[bytes], topic: np.ndarray, topics: list[str],
     bounds = np.flatnonzero(np.diff(lens[order])) + 1
     for group in np.split(order, bounds):
         length = int(lens[group[0]])
-        buf = np.frombuffer(b''.join([raws[i] for i in group]), np.uint8).reshape(len(group),
-                                                                                  length)
+        buf = np.frombuffer(b''.join([raws[i] for i in group]), np.uint8).reshape(
+            len(group), length
+        )
         todo = np.arange(len(group))
         while todo.size:
             first = int(todo[0])
@@ -613,9 +696,11 @@ def decode_joint_states(raws: list[bytes], topic: np.ndarray, topics: list[str],
                 lay = _parse_layout(raws[group[first]])
             except (ValueError, UnicodeDecodeError) as exc:
                 g = int(group[first])
-                raise BagError(f'message {g + 1} on {topics[topic[g]]} (bag time '
-                               f'{_fmt_time(int(log_ns[g]))} s) is not a valid JointState: '
-                               f'{exc}; the bag is corrupt') from None
+                raise BagError(
+                    f'message {g + 1} on {topics[topic[g]]} (bag time '
+                    f'{_fmt_time(int(log_ns[g]))} s) is not a valid JointState: '
+                    f'{exc}; the bag is corrupt'
+                ) from None
             sub = buf[todo]
             same = np.all(sub[:, lay.structural] == buf[first, lay.structural], axis=1)
             rows = todo[same]
@@ -626,9 +711,14 @@ def decode_joint_states(raws: list[bytes], topic: np.ndarray, topics: list[str],
             sec[g_rows] = np.ascontiguousarray(block[:, 4:8]).view(e + 'i4').ravel()
             nanosec[g_rows] = np.ascontiguousarray(block[:, 8:12]).view(e + 'u4').ravel()
             off, count = lay.arrays[0]
-            vals = (np.ascontiguousarray(block[:, off:off + 8 * count]).view(e + 'f8')
-                    .reshape(len(rows), count).astype(float) if count else
-                    np.zeros((len(rows), 0)))
+            vals = (
+                np.ascontiguousarray(block[:, off : off + 8 * count])
+                .view(e + 'f8')
+                .reshape(len(rows), count)
+                .astype(float)
+                if count
+                else np.zeros((len(rows), 0))
+            )
             k = (lay.names, count)
             if k not in key_of:
                 key_of[k] = len(keys)
@@ -646,11 +736,12 @@ def decode_joint_states(raws: list[bytes], topic: np.ndarray, topics: list[str],
 
 
 def _fmt_time(ns: int) -> str:
-    s, r = divmod(int(ns), 10 ** 9)
+    s, r = divmod(int(ns), 10**9)
     return f'{s}.{r:09d}'
 
 
-# ---- command checks (the node's, message shape only) -----------------------------------------------
+# ---- command checks (the node's, message shape only) ----------------------------------------
+
 
 def command_shape_error(names: Sequence[str], npos: int) -> str | None:
     """The node's message-shape check of a JointState command or target (conversions.py):
@@ -659,8 +750,10 @@ def command_shape_error(names: Sequence[str], npos: int) -> str | None:
     if not names and not npos:
         return 'empty JointState: name and position are both empty'
     if len(names) != npos:
-        return (f'JointState has {len(names)} name(s) {names} but {npos} position(s); they must '
-                f'pair up one to one')
+        return (
+            f'JointState has {len(names)} name(s) {names} but {npos} position(s); they must '
+            f'pair up one to one'
+        )
     empty = [i for i, nm in enumerate(names) if not nm]
     if empty:
         return f'JointState name[{empty[0]}] is an empty string'
@@ -673,20 +766,22 @@ def command_shape_error(names: Sequence[str], npos: int) -> str | None:
 
 # ---- solving -----------------------------------------------------------------------------------
 
+
 @dataclass
 class Results:
     """Per-row answers (n rows), NaN where a row was refused."""
+
     ok: np.ndarray
     reason: list
     residual: np.ndarray
     margin: np.ndarray
-    branch_code: np.ndarray         # (n,) index into branch_names ('' for refused rows)
+    branch_code: np.ndarray  # (n,) index into branch_names ('' for refused rows)
     branch_defined: np.ndarray
     iterations: np.ndarray
     cond: np.ndarray
-    solver_code: np.ndarray         # (n,) index into solver_names
-    inputs: dict[str, np.ndarray]   # solved, or as commanded (NaN too) on refused rows
-    input_given: dict[str, np.ndarray]   # (n,) bool: the request named this actuator
+    solver_code: np.ndarray  # (n,) index into solver_names
+    inputs: dict[str, np.ndarray]  # solved, or as commanded (NaN too) on refused rows
+    input_given: dict[str, np.ndarray]  # (n,) bool: the request named this actuator
     joints: dict[str, np.ndarray]
     points: dict[str, np.ndarray]
     batched: int = 0
@@ -715,19 +810,27 @@ class Results:
 
     @classmethod
     def empty(cls, mech, n):
-        return cls(ok=np.zeros(n, bool), reason=[None] * n, residual=np.full(n, np.nan),
-                   margin=np.full(n, np.nan), branch_code=np.zeros(n, np.int32),
-                   branch_defined=np.ones(n, bool), iterations=np.zeros(n, np.int64),
-                   cond=np.full(n, np.nan), solver_code=np.zeros(n, np.int32),
-                   inputs={a: np.full(n, np.nan) for a in mech.actuators},
-                   input_given={a: np.zeros(n, bool) for a in mech.actuators},
-                   joints={j: np.full(n, np.nan) for j in mech.joint_names},
-                   points={p: np.full((n, 2), np.nan) for p in mech.points})
+        return cls(
+            ok=np.zeros(n, bool),
+            reason=[None] * n,
+            residual=np.full(n, np.nan),
+            margin=np.full(n, np.nan),
+            branch_code=np.zeros(n, np.int32),
+            branch_defined=np.ones(n, bool),
+            iterations=np.zeros(n, np.int64),
+            cond=np.full(n, np.nan),
+            solver_code=np.zeros(n, np.int32),
+            inputs={a: np.full(n, np.nan) for a in mech.actuators},
+            input_given={a: np.zeros(n, bool) for a in mech.actuators},
+            joints={j: np.full(n, np.nan) for j in mech.joint_names},
+            points={p: np.full((n, 2), np.nan) for p in mech.points},
+        )
 
 
 class _Entry:
     """One configuration in a solver's continuity history, as the node's solver holds it:
     ('adopt', result) after switching solvers, or ('solve', command, signs) after a success."""
+
     __slots__ = ('kind', 'cmd', 'signs', '_result', 'batch', 'i', 'solver')
 
     def __init__(self, kind, *, cmd=None, signs=(), result=None, batch=None, i=0, solver=None):
@@ -758,8 +861,8 @@ class _Context:
         self.knowns = list(knowns)
         self.solver = engine.make_solver(knowns, engine.branch)
         self.hist: list[_Entry] = []
-        self.synced = True          # the solver's own history equals self.hist
-        self.seen_version: int | None = None      # the node's Engine._synced[key]
+        self.synced = True  # the solver's own history equals self.hist
+        self.seen_version: int | None = None  # the node's Engine._synced[key]
         self._explicit: dict[tuple, Solver] = {}
 
     def explicit(self, signs) -> Solver:
@@ -767,7 +870,8 @@ class _Context:
         s = self._explicit.get(signs)
         if s is None:
             s = self._explicit[signs] = self.engine.make_solver(
-                self.knowns, ''.join('+' if x > 0 else '-' for x in signs))
+                self.knowns, ''.join('+' if x > 0 else '-' for x in signs)
+            )
         return s
 
     def push(self, entry: _Entry):
@@ -821,14 +925,21 @@ class _Engine:
         reference = S.reference_values()
         ref = S.solve(reference)
         if ref.success:
-            self.forward.hist = [_Entry('solve', cmd=reference, signs=_signs_of(ref.branch),
-                                        result=ref)]
+            self.forward.hist = [
+                _Entry('solve', cmd=reference, signs=_signs_of(ref.branch), result=ref)
+            ]
             self.last = self.forward.hist[-1]
         self.forward.seen_version = self.version
 
     def make_solver(self, knowns, branch) -> Solver:
-        return Solver(self.mech, knowns=list(knowns), method=self.method, tol=self.tol,
-                      max_iter=self.max_iter, branch=branch)
+        return Solver(
+            self.mech,
+            knowns=list(knowns),
+            method=self.method,
+            tol=self.tol,
+            max_iter=self.max_iter,
+            branch=branch,
+        )
 
     def context_for(self, names) -> _Context | str:
         """The node's Engine.solver_for: the forward solver for the actuator set, else one
@@ -846,7 +957,7 @@ class _Engine:
             while len(self.targets) > self.TARGET_CACHE:
                 self.targets.pop(next(iter(self.targets)))
         else:
-            self.targets[key] = self.targets.pop(key)          # most recently used
+            self.targets[key] = self.targets.pop(key)  # most recently used
         return ctx
 
     # -- driver ----------------------------------------------------------------------------------
@@ -860,9 +971,14 @@ class _Engine:
         if n:
             # the node refuses a request whose stamp it cannot echo (negative, nanosec >= 1e9)
             self.bad_stamp = ~stamp_valid(data.sec, data.nanosec)
-            change = np.flatnonzero((data.topic[1:] != data.topic[:-1])
-                                    | (data.key[1:] != data.key[:-1])
-                                    | (self.bad_stamp[1:] != self.bad_stamp[:-1])) + 1
+            change = (
+                np.flatnonzero(
+                    (data.topic[1:] != data.topic[:-1])
+                    | (data.key[1:] != data.key[:-1])
+                    | (self.bad_stamp[1:] != self.bad_stamp[:-1])
+                )
+                + 1
+            )
             starts = np.concatenate([[0], change])
             ends = np.concatenate([change, [n]])
             for a, b in zip(starts.tolist(), ends.tolist()):
@@ -879,14 +995,14 @@ class _Engine:
     def _run(self, data: Commands, a: int, b: int):
         """Rows a..b-1: one topic, one message shape (the same names in the same order), all
         with valid stamps or all not."""
-        if self.bad_stamp[a]:                       # node.py _answer: refused before solving
+        if self.bad_stamp[a]:  # node.py _answer: refused before solving
             for g in range(a, b):
                 self.res.reason[g] = stamp_error(int(data.sec[g]), int(data.nanosec[g]))
             return
         k = int(data.key[a])
         names, npos = data.keys[k], data.npos[k]
         why = command_shape_error(names, npos)
-        if why:                                     # conversions.joint_state_to_command
+        if why:  # conversions.joint_state_to_command
             self._refuse_all(a, b, why)
             return
         vals = data.positions(a, b)
@@ -896,15 +1012,18 @@ class _Engine:
                 self.res.inputs[nm][a:b] = col
                 self.res.input_given[nm][a:b] = True
         ctx = self.forward if int(data.topic[a]) == 0 else self.context_for(names)
-        if isinstance(ctx, str):                    # no solver for these target names
+        if isinstance(ctx, str):  # no solver for these target names
             self._refuse_all(a, b, ctx)
             return
         S = ctx.solver
         # the node's Engine._solve: adopt the last good state if another solver moved on
-        if ctx.seen_version != self.version and self.last is not None:
-            if S.adopt(self.last.result()):
-                ctx.hist = [_Entry('adopt', result=self.last.result(), signs=_adopted_signs(S))]
-                ctx.synced = True
+        if (
+            ctx.seen_version != self.version
+            and self.last is not None
+            and S.adopt(self.last.result())
+        ):
+            ctx.hist = [_Entry('adopt', result=self.last.result(), signs=_adopted_signs(S))]
+            ctx.synced = True
         ctx.seen_version = self.version
         if set(columns) != set(ctx.knowns):
             # wrong names: the solver's own message (it depends on the names only)
@@ -926,7 +1045,7 @@ class _Engine:
             self._store(a + i, r)
             if r.success:
                 ctx.push(_Entry('solve', cmd=cmd, signs=_signs_of(r.branch), result=r))
-            if not i & 0xff:
+            if not i & 0xFF:
                 self.progress.update(self.done + i)
         self.res.sequential += i1 - i0
 
@@ -958,8 +1077,11 @@ class _Engine:
     def _vectorised(self, ctx: _Context, columns, a, b):
         S = ctx.solver
         m = b - a
-        continuous = S.branch_mode == 'continuous' if hasattr(S, 'branch_mode') else \
-            self.branch == 'continuous'
+        continuous = (
+            S.branch_mode == 'continuous'
+            if hasattr(S, 'branch_mode')
+            else self.branch == 'continuous'
+        )
         pos = 0
         chunk = CHUNK_START
         stretch = SEQUENTIAL_STRETCH // 2
@@ -980,8 +1102,9 @@ class _Engine:
             B = solver.solve_batch(cols)
             take = self._easy_prefix(ctx, solver, B, cols, end - pos) if continuous else end - pos
             # next to a tangency the batched and single dyad formulas may disagree on closing
-            near = np.flatnonzero(np.asarray(B.ok[:take]) & (np.asarray(B.margin[:take])
-                                                             < NEAR_TANGENT))
+            near = np.flatnonzero(
+                np.asarray(B.ok[:take]) & (np.asarray(B.margin[:take]) < NEAR_TANGENT)
+            )
             if near.size:
                 take = int(near[0])
             if take:
@@ -1017,7 +1140,7 @@ class _Engine:
                     reasons[i] = cache[keyb]
                     continue
             r = solver.solve(_command(cols, i), commit=False)
-            if r.success:                  # a tangency the batch refused: leave it to Solver
+            if r.success:  # a tangency the batch refused: leave it to Solver
                 take = i
                 break
             reasons[i] = r.reason
@@ -1038,12 +1161,18 @@ class _Engine:
         nsg = B.signs.shape[1]
         if nsg:
             res.branch_defined[sl] = np.where(
-                ok, branch_identity_defined(B.margin[:take], B.residual[:take]), True)
+                ok, branch_identity_defined(B.margin[:take], B.residual[:take]), True
+            )
             sg = np.asarray(B.signs[:take]) > 0
             keyv = sg.astype(np.int64) @ (np.int64(1) << np.arange(nsg, dtype=np.int64))
             uniq, first, inv = np.unique(keyv, return_index=True, return_inverse=True)
-            table = np.array([res.branch_code_of(''.join('+' if x else '-' for x in sg[f]))
-                              for f in first.tolist()], np.int32)
+            table = np.array(
+                [
+                    res.branch_code_of(''.join('+' if x else '-' for x in sg[f]))
+                    for f in first.tolist()
+                ],
+                np.int32,
+            )
             res.branch_code[sl] = np.where(ok, table[inv.reshape(-1)], 0)
         else:
             res.branch_code[sl] = np.where(ok, res.branch_code_of(''), 0)
@@ -1060,8 +1189,16 @@ class _Engine:
         if okr.size:
             self.version += okr.size - min(okr.size, 2)
             for i in okr[-2:].tolist():
-                ctx.push(_Entry('solve', cmd=_command(cols, i), signs=tuple(B.signs[i]),
-                                batch=B, i=i, solver=solver))
+                ctx.push(
+                    _Entry(
+                        'solve',
+                        cmd=_command(cols, i),
+                        signs=tuple(B.signs[i]),
+                        batch=B,
+                        i=i,
+                        solver=solver,
+                    )
+                )
             ctx.synced = False
         res.batched += take
         return take
@@ -1101,13 +1238,20 @@ class _Engine:
                 if g in poses_f.phi:
                     rowphi[g][fin_fail] = poses_f.phi[g]
         # the previous good configurations of every row: the history, then the batch's ok rows
-        seqpts = {p: np.concatenate([np.array([e.point(p) for e in ctx.hist]).reshape(-1, 2),
-                                     rowpts[p][okr]]) for p in names}
-        seqphi = {g: np.concatenate([np.array([e.link(g) - mech.links[g].angle_ref
-                                               for e in ctx.hist]), rowphi[g][okr]])
-                  for g in guides}
+        seqpts = {
+            p: np.concatenate(
+                [np.array([e.point(p) for e in ctx.hist]).reshape(-1, 2), rowpts[p][okr]]
+            )
+            for p in names
+        }
+        seqphi = {
+            g: np.concatenate(
+                [np.array([e.link(g) - mech.links[g].angle_ref for e in ctx.hist]), rowphi[g][okr]]
+            )
+            for g in guides
+        }
         nh = len(ctx.hist)
-        last_idx = nh + (np.cumsum(okb) - okb) - 1        # into hist + ok batch rows
+        last_idx = nh + (np.cumsum(okb) - okb) - 1  # into hist + ok batch rows
         prev_idx = last_idx - 1
         has_last = last_idx >= 0
         has_prev = prev_idx >= 0
@@ -1149,8 +1293,11 @@ class _Engine:
             easy &= ~need | good
         easy |= ~finite
         # refused on an input limit: the node checks limits before any branch choice
-        limited = [(k, s) for k, s in enumerate(solver.specs)
-                   if s.kind != 'point' and (s.minimum is not None or s.maximum is not None)]
+        limited = [
+            (k, s)
+            for k, s in enumerate(solver.specs)
+            if s.kind != 'point' and (s.minimum is not None or s.maximum is not None)
+        ]
         if limited:
             for i in np.flatnonzero(~easy & ~okb).tolist():
                 if any(solver.limit_violation(s, float(safe[k][i])) for k, s in limited):
@@ -1163,6 +1310,7 @@ def _continuity_margin() -> float | None:
     """The dyad margin above which the core's continuity keeps the previous branch sign."""
     try:
         from .core.plan import CONTINUITY_MARGIN
+
         return float(CONTINUITY_MARGIN)
     except ImportError:
         return None
@@ -1235,8 +1383,9 @@ def _dist(a, b):
     return np.hypot(d[:, 0], d[:, 1])
 
 
-def solve_commands(mech, data: Commands, method=None, tol=1e-12, max_iter=50,
-                   branch='continuous') -> Results:
+def solve_commands(
+    mech, data: Commands, method=None, tol=1e-12, max_iter=50, branch='continuous'
+) -> Results:
     """Solve decoded commands in order as the node would (library entry point)."""
     return _Engine(mech, method, tol, max_iter, branch).solve_all(data)
 
@@ -1246,15 +1395,25 @@ def solve_commands(mech, data: Commands, method=None, tol=1e-12, max_iter=50,
 # is built here with numpy instead: each column as an (n, width) byte array in which a zero byte
 # means "nothing", the columns side by side, the zero bytes dropped.
 
-_P10 = np.array([10.0 ** k for k in range(23)])          # exact doubles
-_SPLIT = 134217729.0                                       # 2**27 + 1 (Veltkamp split)
+_P10 = np.array([10.0**k for k in range(23)])  # exact doubles
+_SPLIT = 134217729.0  # 2**27 + 1 (Veltkamp split)
 _U4 = np.uint64(10000)
-_LUT4 = np.array([[48 + (k // 1000) % 10, 48 + (k // 100) % 10, 48 + (k // 10) % 10, 48 + k % 10]
-                  for k in range(10000)], np.uint8)
-_TZ4 = np.array([4 if k == 0 else 3 if k % 1000 == 0 else 2 if k % 100 == 0 else
-                 1 if k % 10 == 0 else 0 for k in range(10000)], np.int16)
-_LUT4W = _LUT4.copy().view('<u4').ravel()                 # the four digits as one word
-_KEEPW = np.array([0, 0xff, 0xffff, 0xffffff, 0xffffffff], '<u4')     # keep the first k bytes
+_LUT4 = np.array(
+    [
+        [48 + (k // 1000) % 10, 48 + (k // 100) % 10, 48 + (k // 10) % 10, 48 + k % 10]
+        for k in range(10000)
+    ],
+    np.uint8,
+)
+_TZ4 = np.array(
+    [
+        4 if k == 0 else 3 if k % 1000 == 0 else 2 if k % 100 == 0 else 1 if k % 10 == 0 else 0
+        for k in range(10000)
+    ],
+    np.int16,
+)
+_LUT4W = _LUT4.copy().view('<u4').ravel()  # the four digits as one word
+_KEEPW = np.array([0, 0xFF, 0xFFFF, 0xFFFFFF, 0xFFFFFFFF], '<u4')  # keep the first k bytes
 FLOAT_WIDTH = 28
 
 
@@ -1279,25 +1438,25 @@ def _digits17(a):
         k1 = np.minimum(k, 22)
         p, err = _two_prod(a, _P10[k1])
         k2 = k - k1
-        if np.any(k2):                        # tiny values: a second exact power of ten
+        if np.any(k2):  # tiny values: a second exact power of ten
             m = k2 > 0
             P2 = _P10[k2]
             p2, e2 = _two_prod(p, P2)
             err = np.where(m, e2 + err * P2, err)
             p = np.where(m, p2, p)
         D = p.astype(np.uint64) + np.rint(err).astype(np.int64).astype(np.uint64)
-        hi = D >= np.uint64(10 ** 17)
-        lo = D < np.uint64(10 ** 16)
+        hi = np.uint64(10**17) <= D
+        lo = np.uint64(10**16) > D
         if not (hi.any() or lo.any()):
             break
-        e = e + hi - lo                       # log10 was off by one next to a power of ten
+        e = e + hi - lo  # log10 was off by one next to a power of ten
     return D, e
 
 
 def _exact_value(D, exp10):
     """D * 10**exp10 correctly rounded (as float() would parse it) where that is one exact
     operation (D < 2**53, |exp10| <= 22); NaN elsewhere."""
-    ok = (np.abs(exp10) <= 22) & (D < np.uint64(2 ** 53))
+    ok = (np.abs(exp10) <= 22) & (np.uint64(2**53) > D)
     pe = _P10[np.minimum(np.abs(exp10), 22)]
     Df = D.astype(float)
     return np.where(ok, np.where(exp10 >= 0, Df * pe, Df / pe), np.nan)
@@ -1315,7 +1474,7 @@ def format_floats(values, nan: bytes = b'') -> np.ndarray:
     n = v.size
     bits = v.view(np.int64)
     if n > 1 and (bits == bits[0]).all():
-        return np.broadcast_to(format_floats(v[:1], nan), (n, FLOAT_WIDTH))   # e.g. ground
+        return np.broadcast_to(format_floats(v[:1], nan), (n, FLOAT_WIDTH))  # e.g. ground
     a = np.abs(v)
     with np.errstate(invalid='ignore'):
         regular = np.isfinite(v) & (a >= 1e-28) & (a < 1e16)
@@ -1328,31 +1487,31 @@ def format_floats(values, nan: bytes = b'') -> np.ndarray:
     rows = np.zeros((m, FLOAT_WIDTH), np.uint8)
     if m:
         D, e = _digits17(ar)
-        for drop in (2, 1):                   # 15, then 16 digits where they round-trip
-            q, r = np.divmod(D, np.uint64(10 ** drop))
+        for drop in (2, 1):  # 15, then 16 digits where they round-trip
+            q, r = np.divmod(D, np.uint64(10**drop))
             half = np.uint64(5 * 10 ** (drop - 1))
             q = q + ((r > half) | ((r == half) & ((q & np.uint64(1)) == 1))).astype(np.uint64)
             good = (q < np.uint64(10 ** (17 - drop))) & (_exact_value(q, e - (16 - drop)) == ar)
-            D = np.where(good, q * np.uint64(10 ** drop), D)
+            D = np.where(good, q * np.uint64(10**drop), D)
         q, g4 = np.divmod(D, _U4)
         q, g3 = np.divmod(q, _U4)
         q, g2 = np.divmod(q, _U4)
         g0, g1 = np.divmod(q, _U4)
-        tz = _TZ4[g4]                         # trailing zeros, four digits at a time
+        tz = _TZ4[g4]  # trailing zeros, four digits at a time
         full = tz == 4
         for g in (g3, g2, g1):
             t = _TZ4[g]
             tz = tz + np.where(full, t, 0)
             full &= t == 4
-        keep = 16 - tz                        # significant digits after the first
-        rows[:, 0] = np.signbit(vr) * np.uint8(45)                            # '-'
-        rows[:, 1] = g0.astype(np.uint8) + np.uint8(48)                        # d0
-        rows[:, 2] = (keep > 0) * np.uint8(46)                                 # '.'
-        words = rows.view(np.uint32)          # digits 2..17 as four 4-byte words
+        keep = 16 - tz  # significant digits after the first
+        rows[:, 0] = np.signbit(vr) * np.uint8(45)  # '-'
+        rows[:, 1] = g0.astype(np.uint8) + np.uint8(48)  # d0
+        rows[:, 2] = (keep > 0) * np.uint8(46)  # '.'
+        words = rows.view(np.uint32)  # digits 2..17 as four 4-byte words
         for w, g in enumerate((g1, g2, g3, g4)):
             words[:, 1 + w] = _LUT4W[g] & _KEEPW[np.clip(keep - 4 * w, 0, 4)]
         ex = np.abs(e)
-        rows[:, 20] = 101                                                      # 'e'
+        rows[:, 20] = 101  # 'e'
         rows[:, 21] = np.where(e < 0, 45, 43)
         rows[:, 22] = (ex >= 100) * (ex // 100 + 48).astype(np.uint8)
         rows[:, 23] = (ex // 10) % 10 + 48
@@ -1362,17 +1521,17 @@ def format_floats(values, nan: bytes = b'') -> np.ndarray:
     out = np.zeros((n, FLOAT_WIDTH), np.uint8)
     out[idx] = rows
     zero = v == 0
-    if zero.any():                                            # '0.0' / '-0.0'
+    if zero.any():  # '0.0' / '-0.0'
         z = np.flatnonzero(zero)
         neg = np.signbit(v[z])
         out[z, 0] = neg * np.uint8(45)
         out[z, 1:4] = np.frombuffer(b'0.0', np.uint8)
     isnan = np.isnan(v)
     if isnan.any() and nan:
-        out[np.flatnonzero(isnan), :len(nan)] = np.frombuffer(nan, np.uint8)
+        out[np.flatnonzero(isnan), : len(nan)] = np.frombuffer(nan, np.uint8)
     for i in np.flatnonzero(~regular & ~zero & ~isnan).tolist():
         b = repr(float(v[i])).encode()
-        out[i, :len(b)] = np.frombuffer(b, np.uint8)
+        out[i, : len(b)] = np.frombuffer(b, np.uint8)
     return out
 
 
@@ -1385,9 +1544,9 @@ def format_ints(values) -> np.ndarray:
     for _ in range(5):
         u, g = np.divmod(u, _U4)
         groups.append(g)
-    dig = np.concatenate([_LUT4[g] for g in groups[::-1]], axis=1)          # 20 digits
+    dig = np.concatenate([_LUT4[g] for g in groups[::-1]], axis=1)  # 20 digits
     nz = dig != 48
-    first = np.where(nz.any(axis=1), np.argmax(nz, axis=1), 19)              # keep one '0'
+    first = np.where(nz.any(axis=1), np.argmax(nz, axis=1), 19)  # keep one '0'
     dig[np.arange(20)[None, :] < first[:, None]] = 0
     return np.concatenate([(neg * np.uint8(45))[:, None], dig], axis=1)
 
@@ -1396,15 +1555,16 @@ def _stamp_text(sec, nsec) -> np.ndarray:
     """'sec.nnnnnnnnn' (exact decimal seconds of sec + nsec * 1e-9) as a byte array; a negative
     time is '-' and its magnitude ('-4.999999999' for sec -5, nsec 1), and a nanosec field of a
     second or more (not normalised) carries into the seconds, as rclpy's Time reads a stamp."""
-    total = np.asarray(sec, np.int64) * np.int64(10 ** 9) + np.asarray(nsec, np.int64)
+    total = np.asarray(sec, np.int64) * np.int64(10**9) + np.asarray(nsec, np.int64)
     mag = np.abs(total).astype(np.uint64)
-    s, ns = np.divmod(mag, np.uint64(10 ** 9))
+    s, ns = np.divmod(mag, np.uint64(10**9))
     hi, lo = np.divmod(ns, _U4)
     a, b = np.divmod(hi, _U4)
-    frac = np.concatenate([(a.astype(np.uint8) + np.uint8(48))[:, None], _LUT4[b], _LUT4[lo]],
-                          axis=1)
+    frac = np.concatenate(
+        [(a.astype(np.uint8) + np.uint8(48))[:, None], _LUT4[b], _LUT4[lo]], axis=1
+    )
     whole = format_ints(s.astype(np.int64))
-    whole[:, 0] = (total < 0) * np.uint8(45)                                  # '-'
+    whole[:, 0] = (total < 0) * np.uint8(45)  # '-'
     return np.concatenate([whole, np.full((len(ns), 1), 46, np.uint8), frac], axis=1)
 
 
@@ -1414,16 +1574,18 @@ def _table(strings: list[str], codes: np.ndarray) -> np.ndarray:
     w = max([len(b) for b in enc] + [1])
     lut = np.zeros((len(enc), w), np.uint8)
     for i, b in enumerate(enc):
-        lut[i, :len(b)] = np.frombuffer(b, np.uint8)
+        lut[i, : len(b)] = np.frombuffer(b, np.uint8)
     return lut[np.asarray(codes)]
 
 
 def csv_header(mech) -> list[str]:
-    return (['time', 'receive_time', 'topic']
-            + [f'input.{a}' for a in mech.actuators]
-            + [f'joint.{j}' for j in mech.joint_names]
-            + [f'{p}.{c}' for p in mech.points for c in ('x', 'y')]
-            + ['residual', 'margin', 'branch', 'status', 'reason'])
+    return (
+        ['time', 'receive_time', 'topic']
+        + [f'input.{a}' for a in mech.actuators]
+        + [f'joint.{j}' for j in mech.joint_names]
+        + [f'{p}.{c}' for p in mech.points for c in ('x', 'y')]
+        + ['residual', 'margin', 'branch', 'status', 'reason']
+    )
 
 
 def _csv_field(s: str) -> str:
@@ -1432,8 +1594,14 @@ def _csv_field(s: str) -> str:
     return s
 
 
-def write_csv(path: Path, data: Commands, res: Results, mech, progress: _Progress | None = None,
-              block: int = 50_000):
+def write_csv(
+    path: Path,
+    data: Commands,
+    res: Results,
+    mech,
+    progress: _Progress | None = None,
+    block: int = 50_000,
+):
     """One row per command, in bag order (see the module docstring for the columns)."""
     progress = progress or _Progress(False)
     n = data.n
@@ -1451,30 +1619,48 @@ def write_csv(path: Path, data: Commands, res: Results, mech, progress: _Progres
                 comma = np.full((m, 1), 44, np.uint8)
                 newline = np.full((m, 1), 10, np.uint8)
             ns = data.log_ns[sl]
-            cols = [_stamp_text(data.sec[sl], data.nanosec[sl]), comma,
-                    _stamp_text(0, ns), comma,
-                    _table(topics, data.topic[sl]), comma]
+            cols = [
+                _stamp_text(data.sec[sl], data.nanosec[sl]),
+                comma,
+                _stamp_text(0, ns),
+                comma,
+                _table(topics, data.topic[sl]),
+                comma,
+            ]
             for nm in mech.actuators:
                 text = format_floats(res.inputs[nm][sl], b'nan')
                 absent = ~(res.ok[sl] | res.input_given[nm][sl])
-                if absent.any():                 # a refused request that did not name it
+                if absent.any():  # a refused request that did not name it
                     text = text.copy()
                     text[absent] = 0
                 cols += [text, comma]
             for nm in mech.joint_names:
                 cols += [format_floats(res.joints[nm][sl]), comma]
             for p in mech.points:
-                cols += [format_floats(res.points[p][sl, 0]), comma,
-                         format_floats(res.points[p][sl, 1]), comma]
-            cols += [format_floats(res.residual[sl]), comma, format_floats(res.margin[sl]), comma,
-                     _table(res.branch_names, res.branch_code[sl]), comma,
-                     _table(status_names, res.ok[sl].astype(np.int64)), comma]
-            bad = [(i, _csv_field(res.reason[a + i] or '').encode('utf-8'))
-                   for i in np.flatnonzero(~res.ok[sl]).tolist()]
+                cols += [
+                    format_floats(res.points[p][sl, 0]),
+                    comma,
+                    format_floats(res.points[p][sl, 1]),
+                    comma,
+                ]
+            cols += [
+                format_floats(res.residual[sl]),
+                comma,
+                format_floats(res.margin[sl]),
+                comma,
+                _table(res.branch_names, res.branch_code[sl]),
+                comma,
+                _table(status_names, res.ok[sl].astype(np.int64)),
+                comma,
+            ]
+            bad = [
+                (i, _csv_field(res.reason[a + i] or '').encode('utf-8'))
+                for i in np.flatnonzero(~res.ok[sl]).tolist()
+            ]
             width = max([len(r) for _, r in bad] + [1])
             reason = np.zeros((m, width), np.uint8)
             for i, r in bad:
-                reason[i, :len(r)] = np.frombuffer(r, np.uint8)
+                reason[i, : len(r)] = np.frombuffer(r, np.uint8)
             cols += [reason, newline]
             flat = np.concatenate(cols, axis=1).ravel()
             fh.write(flat[flat != 0].tobytes())
@@ -1482,7 +1668,8 @@ def write_csv(path: Path, data: Commands, res: Results, mech, progress: _Progres
     progress.finish()
 
 
-# ---- writing: rosbag2 ------------------------------------------------------------------------------
+# ---- writing: rosbag2 ----------------------------------------------------------------------
+
 
 class _Cdr:
     """A little-endian CDR writer for the few fixed message shapes written here."""
@@ -1494,7 +1681,7 @@ class _Cdr:
         self.buf += b'\x00' * ((-(len(self.buf) - 4)) % k)
 
     def u8(self, v):
-        self.buf.append(v & 0xff)
+        self.buf.append(v & 0xFF)
 
     def u32(self, v):
         self.align(4)
@@ -1567,6 +1754,7 @@ class _StatusWriter:
     """Serialises diagnostic_msgs/DiagnosticStatus as conversions.result_to_status builds it:
     name '<node>: <scene>', hardware_id '', OK + 'ok' + residual, branch, branch_defined, margin,
     solver, iterations[, cond], request; or ERROR + the reason + request."""
+
     OK_LEVEL, ERROR_LEVEL = 0, 2
 
     def __init__(self, name: str, hardware_id: str = ''):
@@ -1581,37 +1769,63 @@ class _StatusWriter:
         return b
 
     def _head(self, level: int, message: str, count: int) -> bytes:
-        return b''.join([b'\x00\x01\x00\x00', bytes([level, 0, 0, 0]), self.name,
-                         self.blk(message), self.hw, struct.pack('<I', count)])
+        return b''.join(
+            [
+                b'\x00\x01\x00\x00',
+                bytes([level, 0, 0, 0]),
+                self.name,
+                self.blk(message),
+                self.hw,
+                struct.pack('<I', count),
+            ]
+        )
 
-    def ok_parts(self, has_cond: bool, branch: str, bdef: bool, solver: str, iterations: int,
-                 request: str):
+    def ok_parts(
+        self, has_cond: bool, branch: str, bdef: bool, solver: str, iterations: int, request: str
+    ):
         """The constant pieces of an OK status around the residual and margin (and cond)."""
         key = (has_cond, branch, bdef, solver, iterations, request)
         hit = self.cache.get(key)
         if hit is None:
             k = self.blk
             head = self._head(self.OK_LEVEL, 'ok', 8 if has_cond else 7) + k('residual')
-            mid = b''.join([k('branch'), k(branch), k('branch_defined'),
-                            k('true' if bdef else 'false'), k('margin')])
+            mid = b''.join(
+                [
+                    k('branch'),
+                    k(branch),
+                    k('branch_defined'),
+                    k('true' if bdef else 'false'),
+                    k('margin'),
+                ]
+            )
             tail = b''.join([k('solver'), k(solver), k('iterations'), k(str(iterations))])
             end = k('request') + k(request)
             hit = self.cache[key] = (head, mid, tail + (k('cond') if has_cond else b''), end)
         return hit
 
     def error(self, reason: str, request: str) -> bytes:
-        return b''.join([self._head(self.ERROR_LEVEL, reason, 1), self.blk('request'),
-                         self.blk(request)])
+        return b''.join(
+            [self._head(self.ERROR_LEVEL, reason, 1), self.blk('request'), self.blk(request)]
+        )
 
 
-def write_bag(path: Path, data: Commands, res: Results, mech, frame_id: str, storage: str | None,
-              progress: _Progress | None = None, status_name: str | None = None,
-              block: int = 100_000):
+def write_bag(
+    path: Path,
+    data: Commands,
+    res: Results,
+    mech,
+    frame_id: str,
+    storage: str | None,
+    progress: _Progress | None = None,
+    status_name: str | None = None,
+    block: int = 100_000,
+):
     """A new rosbag2 with /joint_states, /points/<name> and /status, one set per command, each
     logged at its command's bag time, in the node's order (joint_states, points, status)."""
     from rosbags.rosbag2 import Writer
     from rosbags.rosbag2.enums import StoragePlugin
     from rosbags.typesys import Stores, get_typestore
+
     progress = progress or _Progress(False)
     plugin = StoragePlugin.MCAP if (storage or 'mcap') == 'mcap' else StoragePlugin.SQLITE3
     ts = get_typestore(Stores.ROS2_JAZZY)
@@ -1621,8 +1835,8 @@ def write_bag(path: Path, data: Commands, res: Results, mech, frame_id: str, sto
     progress.start('writing', n)
     # stamps: the command's, a zero stamp -> the bag receive time
     zero = data.stamp_zero
-    sec = np.where(zero, data.log_ns // 10 ** 9, data.sec).astype('<i4')
-    nsec = np.where(zero, data.log_ns % 10 ** 9, data.nanosec).astype('<u4')
+    sec = np.where(zero, data.log_ns // 10**9, data.sec).astype('<i4')
+    nsec = np.where(zero, data.log_ns % 10**9, data.nanosec).astype('<u4')
     js_t, js_off = _joint_state_template(joints, frame_id)
     pt_t, pt_off = _point_template(frame_id)
     status = _StatusWriter(status_name if status_name is not None else f'{NODE_NAME}: {mech.name}')
@@ -1634,8 +1848,9 @@ def write_bag(path: Path, data: Commands, res: Results, mech, frame_id: str, sto
         raise BagError(f'output {path}: cannot create the bag ({_exc_text(exc)})') from None
     try:
         c_js = writer.add_connection('/joint_states', JOINT_STATE, typestore=ts)
-        c_pts = [writer.add_connection(f'/points/{p}', POINT_STAMPED, typestore=ts)
-                 for p in outputs]
+        c_pts = [
+            writer.add_connection(f'/points/{p}', POINT_STAMPED, typestore=ts) for p in outputs
+        ]
         c_st = writer.add_connection('/status', DIAGNOSTIC_STATUS, typestore=ts)
         write = writer.write
         for a in range(0, n, block):
@@ -1644,15 +1859,14 @@ def write_bag(path: Path, data: Commands, res: Results, mech, frame_id: str, sto
             js = _stamped_rows(js_t, okr, sec, nsec)
             if joints and okr.size:
                 vals = np.stack([res.joints[j][okr] for j in joints], axis=1).astype('<f8')
-                js[:, js_off:js_off + 8 * len(joints)] = vals.view(np.uint8).reshape(okr.size,
-                                                                                      -1)
+                js[:, js_off : js_off + 8 * len(joints)] = vals.view(np.uint8).reshape(okr.size, -1)
             js_rows = _rows_bytes(js)
             pt_rows = []
             for p in outputs:
                 arr = _stamped_rows(pt_t, okr, sec, nsec)
                 xyz = np.zeros((okr.size, 3), '<f8')
                 xyz[:, :2] = res.points[p][okr]
-                arr[:, pt_off:pt_off + 24] = xyz.view(np.uint8).reshape(okr.size, 24)
+                arr[:, pt_off : pt_off + 24] = xyz.view(np.uint8).reshape(okr.size, 24)
                 pt_rows.append(_rows_bytes(arr))
             statuses = _status_rows(status, res, data.topic, requests, a, b, okr)
             ok = res.ok[a:b].tolist()
@@ -1671,16 +1885,15 @@ def write_bag(path: Path, data: Commands, res: Results, mech, frame_id: str, sto
     except BaseException as exc:
         # the folder is this run's own (it did not exist before): a half-written bag without
         # metadata is no result, and would only block the next run ('exists already')
-        try:
+        with contextlib.suppress(Exception):
             writer.abort()
-        except Exception:  # noqa: BLE001
-            pass
         shutil.rmtree(path, ignore_errors=True)
         if isinstance(exc, (BagError, OSError)) or not isinstance(exc, Exception):
             raise
         # sqlite3 ('database or disk is full'), rosbags' WriterError, ...
-        raise BagError(f'output {path}: cannot write the bag ({_exc_text(exc)}); nothing '
-                       f'was kept') from None
+        raise BagError(
+            f'output {path}: cannot write the bag ({_exc_text(exc)}); nothing was kept'
+        ) from None
     progress.finish()
 
 
@@ -1711,8 +1924,9 @@ def _status_rows(status: _StatusWriter, res: Results, topic, requests, a, b, okr
     for i in range(b - a):
         req = requests[tops[i]]
         if ok[i]:
-            head, mid, tail, end = status.ok_parts(hc[j], bnames[bcode[j]], bdef[j],
-                                                   snames[scode[j]], iters[j], req)
+            head, mid, tail, end = status.ok_parts(
+                hc[j], bnames[bcode[j]], bdef[j], snames[scode[j]], iters[j], req
+            )
             if hc[j]:
                 out.append(b''.join([head, res_blk[j], mid, mar_blk[j], tail, cond_blk[c], end]))
                 c += 1
@@ -1730,10 +1944,11 @@ def _rows_bytes(arr: np.ndarray) -> list[bytes]:
         return []
     width = arr.shape[1]
     buf = arr.tobytes()
-    return [buf[k:k + width] for k in range(0, len(buf), width)]
+    return [buf[k : k + width] for k in range(0, len(buf), width)]
 
 
 # ---- plot --------------------------------------------------------------------------------------
+
 
 def _isolated(ok: np.ndarray) -> np.ndarray:
     """The ok samples without an ok neighbour: a line broken at the refused rows (NaN) has no
@@ -1754,8 +1969,10 @@ def _series(ax, x, y, ok, **style):
 def plot_figure(data: Commands, res: Results, mech, max_points: int = 20000):
     """The matplotlib figure of :func:`write_plot` (the caller closes it)."""
     import matplotlib
+
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
+
     n = data.n
     step = max(1, n // max_points)
     idx = np.arange(0, n, step)
@@ -1793,7 +2010,8 @@ def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 
     """Coupler-point traces (x-y) and inputs/joints against time (refused rows are gaps; an
     accepted row between two refused ones is a dot)."""
     import matplotlib.pyplot as plt
-    fmt = _plot_format(str(path))         # the file named is the file written (no '.png' added)
+
+    fmt = _plot_format(str(path))  # the file named is the file written (no '.png' added)
     fig = plot_figure(data, res, mech, max_points)
     try:
         fig.savefig(path, dpi=110, format=fmt)

@@ -18,6 +18,7 @@ The CLI only parses, calls the core and prints: no kinematics lives here. More s
 through :data:`EXTERNAL_COMMANDS` (modules with ``add_arguments(parser)`` and
 ``run(args) -> int``).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,8 +27,8 @@ import json
 import math
 import os
 import sys
-from pathlib import Path
 from collections.abc import Sequence
+from pathlib import Path
 from typing import Any
 
 from .core.errors import LinkageError
@@ -41,7 +42,7 @@ EXTERNAL_COMMANDS = {
 }
 
 USAGE_ERROR, REFUSED, OK = 2, 1, 0
-INTERRUPTED = 130                 # Ctrl-C, as a shell reports a SIGINT
+INTERRUPTED = 130  # Ctrl-C, as a shell reports a SIGINT
 
 
 class UsageError(Exception):
@@ -66,6 +67,7 @@ class _Known(argparse.Action):
 
 
 # ---- parsing helpers ---------------------------------------------------------------------------
+
 
 def _number(text: str, what: str) -> tuple[float, bool]:
     """'0.5' -> (0.5, False); '30deg' -> (radians, True). Finite numbers only."""
@@ -153,8 +155,12 @@ def parse_known(option: str, text: str, allow_range: bool):
     ``values`` is a list (one element unless a range)."""
     point = option == '--target-point'
     shape = ('NAME=X,Y' if point else 'NAME=VALUE') + (
-        ' or NAME=X0,Y0:X1,Y1:COUNT' if point and allow_range else
-        ' or NAME=START:STOP:COUNT' if allow_range else '')
+        ' or NAME=X0,Y0:X1,Y1:COUNT'
+        if point and allow_range
+        else ' or NAME=START:STOP:COUNT'
+        if allow_range
+        else ''
+    )
     name, sep, rhs = text.partition('=')
     name = name.strip()
     if not sep or not name or not rhs.strip():
@@ -179,21 +185,26 @@ def parse_known(option: str, text: str, allow_range: bool):
 
 # ---- scene, solver and output helpers ----------------------------------------------------------
 
+
 def load_mechanism(scene: str):
     from .core.model import Scene
     from .resources import config_dir, scene_path
+
     try:
         path = scene_path(scene)
-    except OSError as exc:               # the ROS package index is unusable (unset environment)
-        raise UsageError(f'scene {scene!r} not found: not a file, and packaged scenes cannot '
-                         f'be located: {exc}') from None
+    except OSError as exc:  # the ROS package index is unusable (unset environment)
+        raise UsageError(
+            f'scene {scene!r} not found: not a file, and packaged scenes cannot be located: {exc}'
+        ) from None
     if not Path(path).exists():
         try:
             avail = sorted(p.stem for p in config_dir().glob('*.yaml'))
         except OSError:
             avail = []
-        raise UsageError(f'scene {scene!r} not found: not a file and not a packaged scene'
-                         + (f' (packaged: {", ".join(avail)})' if avail else ''))
+        raise UsageError(
+            f'scene {scene!r} not found: not a file and not a packaged scene'
+            + (f' (packaged: {", ".join(avail)})' if avail else '')
+        )
     return Scene.from_yaml(path).mechanism, str(path)
 
 
@@ -203,30 +214,34 @@ def build_solve(mech, args, allow_range: bool):
     ``axes`` is [(name, [values...])] in command-line order; a fixed value is a 1-element axis."""
     from .core.plan import spec_for
     from .core.solver import Solver
+
     items = getattr(args, 'knowns', None) or []
     if not items:
-        raise UsageError('nothing to solve: give --set NAME=VALUE for each actuator '
-                         f'({", ".join(mech.actuators)}), or --target / --target-point')
-    axes, options = [], {}
+        raise UsageError(
+            'nothing to solve: give --set NAME=VALUE for each actuator '
+            f'({", ".join(mech.actuators)}), or --target / --target-point'
+        )
+    axes: list[Any] = []
+    options: dict[str, Any] = {}
     for option, text in items:
         name, values, deg = parse_known(option, text, allow_range)
         if name in options:
             raise UsageError(f'{name!r} is given twice ({options[name]} and {option})')
         options[name] = option
         if option == '--set' and name not in mech.actuators:
-            raise UsageError(f'--set {name}: {name!r} is not an actuator of {mech.name!r} '
-                             f'(actuators: {", ".join(mech.actuators)}); use --target for joints, '
-                             'links or points')
+            raise UsageError(
+                f'--set {name}: {name!r} is not an actuator of {mech.name!r} '
+                f'(actuators: {", ".join(mech.actuators)}); use --target for joints, '
+                'links or points'
+            )
         if option == '--target-point':
             if name not in mech.points:
-                raise UsageError(f'--target-point {name}: {name!r} is not a point of '
-                                 f'{mech.name!r}')
-            name = f'point:{name}'          # a point may share its name with a joint
+                raise UsageError(f'--target-point {name}: {name!r} is not a point of {mech.name!r}')
+            name = f'point:{name}'  # a point may share its name with a joint
             options[name] = option
-        spec = spec_for(mech, name)          # PlanError for an unknown name
+        spec = spec_for(mech, name)  # PlanError for an unknown name
         if option != '--target-point' and spec.kind == 'point':
-            raise UsageError(f'{option} {name}: {name!r} is a point; use --target-point '
-                             f'{name}=X,Y')
+            raise UsageError(f'{option} {name}: {name!r} is a point; use --target-point {name}=X,Y')
         if deg and spec.kind != 'angle':
             raise UsageError(f'{option} {name}: a "deg" suffix on a length ({spec.unit})')
         axes.append((name, values))
@@ -235,8 +250,14 @@ def build_solve(mech, args, allow_range: bool):
         missing = [a for a in mech.actuators if a not in options]
         if missing:
             raise UsageError(f'missing --set for actuator(s) {", ".join(missing)} of {mech.name!r}')
-    solver = Solver(mech, knowns=knowns, method=args.solver, tol=args.tol,
-                    max_iter=args.max_iter, branch=args.branch)     # PlanError: exit 2
+    solver = Solver(
+        mech,
+        knowns=knowns,
+        method=args.solver,
+        tol=args.tol,
+        max_iter=args.max_iter,
+        branch=args.branch,
+    )  # PlanError: exit 2
     return knowns, axes, solver
 
 
@@ -284,8 +305,11 @@ def format_result(d: dict, mech) -> str:
     out = [f'status     {d["status"]}']
     if d['reason']:
         out.append(f'reason     {d["reason"]}')
-    w = max([len(k) for sec in ('inputs', 'joints', 'links', 'points')
-             for k in d.get(sec, {})] + [len(k) for k in d.get('targets', {})] + [6])
+    w = max(
+        [len(k) for sec in ('inputs', 'joints', 'links', 'points') for k in d.get(sec, {})]
+        + [len(k) for k in d.get('targets', {})]
+        + [6]
+    )
     if d.get('targets'):
         out.append('targets')
         out += [f'  {k:<{w}}  {_value(mech, k, v)}' for k, v in d['targets'].items()]
@@ -302,8 +326,10 @@ def format_result(d: dict, mech) -> str:
         out += [f'  {k:<{w}}  {x:14.9f} {y:14.9f}' for k, (x, y) in d['points'].items()]
     if d['status'] == 'ok':
         out.append(f'residual   {_f(d["residual"], ".3g")} (of the length scale)')
-        out.append(f'branch     {d["branch"] or "(none)"}'
-                   + ('' if d['branch_defined'] else '  (undefined: at a toggle)'))
+        out.append(
+            f'branch     {d["branch"] or "(none)"}'
+            + ('' if d['branch_defined'] else '  (undefined: at a toggle)')
+        )
         out.append(f'margin     {_f(d["margin"], ".6g")}')
         if d.get('cond') is not None:
             out.append(f'cond(J)    {_f(d["cond"], ".6g")}')
@@ -312,6 +338,7 @@ def format_result(d: dict, mech) -> str:
 
 
 # ---- solve -------------------------------------------------------------------------------------
+
 
 def cmd_solve(args) -> int:
     mech, _ = load_mechanism(args.scene)
@@ -324,13 +351,16 @@ def cmd_solve(args) -> int:
     else:
         for i, d in enumerate(dicts):
             if args.all_branches:
-                print(f'--- assembly mode {i + 1} of {len(dicts)}'
-                      + (f' (branch {d["branch"]})' if d['branch'] else ''))
+                print(
+                    f'--- assembly mode {i + 1} of {len(dicts)}'
+                    + (f' (branch {d["branch"]})' if d['branch'] else '')
+                )
             print(format_result(d, mech))
     return OK if any(r.success for r in results) else REFUSED
 
 
 # ---- sweep -------------------------------------------------------------------------------------
+
 
 def _cell(v) -> str:
     if isinstance(v, (list, tuple)):
@@ -345,8 +375,14 @@ def cmd_sweep(args) -> int:
     outs = [p for p in mech.outputs]
     solved_inputs = [a for a in mech.actuators if a not in names]
     if not args.json:
-        head = ['#'] + names + ['status'] + solved_inputs + [f'{p}.x,{p}.y' for p in outs] \
+        head = (
+            ['#']
+            + names
+            + ['status']
+            + solved_inputs
+            + [f'{p}.x,{p}.y' for p in outs]
             + ['residual', 'branch', 'margin']
+        )
         print('\t'.join(head))
     n_ok = n_err = 0
     for i, combo in enumerate(_grid([vals for _, vals in axes])):
@@ -376,6 +412,7 @@ def cmd_sweep(args) -> int:
 
 # ---- check -------------------------------------------------------------------------------------
 
+
 def input_ranges(mech) -> dict[str, tuple[float | None, float | None]]:
     """{actuator: (min or None, max or None)} from core.motion; until that module exists, the
     scene's limits and, for four_bar shortcut scenes, the crank's closed-form range."""
@@ -390,6 +427,7 @@ def input_ranges(mech) -> dict[str, tuple[float | None, float | None]]:
     sc = mech.shortcut
     if mech.form == 'four_bar' and out.get('crank') == (None, None):
         from .core.analysis import fourbar_input_range
+
         r = fourbar_input_range(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'])
         if r is not None:
             out['crank'] = (r[0] + sc['ground_angle'], r[1] + sc['ground_angle'])
@@ -398,20 +436,30 @@ def input_ranges(mech) -> dict[str, tuple[float | None, float | None]]:
 
 def check_report(mech, path: str, solver_method: str | None) -> dict:
     from .core.solver import Solver
+
     desc = mech.describe()
     grashof = None
     from .core.analysis import four_link_chain_info
-    c = four_link_chain_info(mech)      # any one-loop four-link scene driven by a crank
+
+    c = four_link_chain_info(mech)  # any one-loop four-link scene driven by a crank
     if c is not None:
-        grashof = {'chain': c.chain, 'class': c.klass,
-                   'input_fully_rotates': c.input_fully_rotates,
-                   'output_fully_rotates': c.output_fully_rotates, 'rule': c.rule}
+        grashof = {
+            'chain': c.chain,
+            'class': c.klass,
+            'input_fully_rotates': c.input_fully_rotates,
+            'output_fully_rotates': c.output_fully_rotates,
+            'rule': c.rule,
+        }
     ranges = input_ranges(mech)
     inputs = {}
     for name, act in mech.actuators.items():
         lo, hi = ranges.get(name, (None, None))
-        inputs[name] = {'kind': act.kind, 'unit': 'rad' if act.kind == 'angle' else 'm',
-                        'min': lo, 'max': hi}
+        inputs[name] = {
+            'kind': act.kind,
+            'unit': 'rad' if act.kind == 'angle' else 'm',
+            'min': lo,
+            'max': hi,
+        }
     solver = Solver(mech, method=solver_method, branch='reference')
     n_act = len(mech.actuators)
     return {
@@ -449,28 +497,41 @@ def format_check(r: dict) -> str:
         if j['type'] == 'revolute':
             out.append(f'  {k:<{w}}  revolute   at {j["point"]}: {j["parent"]} -> {j["child"]}')
         else:
-            out.append(f'  {k:<{w}}  prismatic  {j["point"]} of {j["slider"]} slides in '
-                       f'{j["guide"]}')
-    out.append(f'mobility   Kutzbach 3(n-1)-2j = 3({r["n_links"]}-1)-2*{r["n_joints"]} = '
-               f'{r["dof"]} DOF; {r["n_actuators"]} actuator(s): '
-               + ('match' if r['dof_matches_actuators'] else 'MISMATCH'))
+            out.append(
+                f'  {k:<{w}}  prismatic  {j["point"]} of {j["slider"]} slides in {j["guide"]}'
+            )
+    out.append(
+        f'mobility   Kutzbach 3(n-1)-2j = 3({r["n_links"]}-1)-2*{r["n_joints"]} = '
+        f'{r["dof"]} DOF; {r["n_actuators"]} actuator(s): '
+        + ('match' if r['dof_matches_actuators'] else 'MISMATCH')
+    )
     g = r['grashof']
     if g is not None:
-        turns = [f'{end} fully rotates: {"yes" if g[f"{end}_fully_rotates"] else "no"}'
-                 for end in ('input', 'output') if g[f'{end}_fully_rotates'] is not None]
-        out.append(f'grashof    {g["chain"]} {g["class"]}: {g["rule"]}'
-                   + (f' ({", ".join(turns)})' if turns else ''))
+        turns = [
+            f'{end} fully rotates: {"yes" if g[f"{end}_fully_rotates"] else "no"}'
+            for end in ('input', 'output')
+            if g[f'{end}_fully_rotates'] is not None
+        ]
+        out.append(
+            f'grashof    {g["chain"]} {g["class"]}: {g["rule"]}'
+            + (f' ({", ".join(turns)})' if turns else '')
+        )
     out.append('inputs')
     for k, v in r['inputs'].items():
-        rng = ('unlimited' if v['min'] is None and v['max'] is None else
-               f'min {_f(v["min"], ".9g")}  max {_f(v["max"], ".9g")} {v["unit"]}')
+        rng = (
+            'unlimited'
+            if v['min'] is None and v['max'] is None
+            else f'min {_f(v["min"], ".9g")}  max {_f(v["max"], ".9g")} {v["unit"]}'
+        )
         if v['unit'] == 'rad' and v['min'] is not None and v['max'] is not None:
             rng += f'  ({math.degrees(v["min"]):.4f} .. {math.degrees(v["max"]):.4f} deg)'
         out.append(f'  {k:<{w}}  {v["kind"]:<5}  {rng}')
     p = r['plan']
-    out.append(f'plan       solver {p["solver"]} -> mode {p["mode"]}; '
-               f'knowns {", ".join(p["knowns"])}'
-               + (f'; {p["branch_count"]} branching dyad(s)' if p['closed_form_steps'] else ''))
+    out.append(
+        f'plan       solver {p["solver"]} -> mode {p["mode"]}; '
+        f'knowns {", ".join(p["knowns"])}'
+        + (f'; {p["branch_count"]} branching dyad(s)' if p['closed_form_steps'] else '')
+    )
     if p['closed_form_steps']:
         out.append('  closed-form steps')
         out += [f'    {i + 1}. {s}' for i, s in enumerate(p['closed_form_steps'])]
@@ -497,7 +558,9 @@ knowns (in command-line order; with `sweep` that order is the grid order):
   every degree of freedom (e.g. one actuator and one joint angle of the 2-DOF plagiograph).
 """
 
-SOLVE_EPILOG = KNOWN_HELP + """
+SOLVE_EPILOG = (
+    KNOWN_HELP
+    + """
 exit status: 0 solved; 1 refused (status "error" with a reason; with --all-branches: no mode
 closes); 2 usage error.
 
@@ -507,8 +570,11 @@ examples:
   linkage solve four_bar --target rocker=1.9 --json
   linkage solve plagiograph --target-point D=0.125,0.185
 """
+)
 
-SWEEP_EPILOG = KNOWN_HELP + """
+SWEEP_EPILOG = (
+    KNOWN_HELP
+    + """
 ranges: NAME=START:STOP:COUNT (COUNT evenly spaced values, both ends included) and, for points,
 NAME=X0,Y0:X1,Y1:COUNT (a straight segment). Several ranges make a grid: the first range on the
 command line varies slowest, the last fastest (nested loops in command-line order). A fixed
@@ -526,6 +592,7 @@ examples:
   linkage sweep four_bar --set crank=0:6.283185307:73
   linkage sweep plagiograph --set theta_A=0.2:0.5:11 --set theta_C=1.2:1.5:11 --json
 """
+)
 
 CHECK_EPILOG = """\
 prints links (and their points), joints (type, point, parent, child), link and joint counts,
@@ -548,21 +615,46 @@ def _add_solve_options(p, default_branch: str, ranges: bool):
     p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
     g = p.add_argument_group('knowns')
     r = '[:STOP:COUNT]' if ranges else ''
-    g.add_argument('--set', action=_Known, metavar=f'NAME=VALUE{r}', dest='knowns',
-                   help='actuator value' + (' or range' if ranges else '') + ' (repeatable)')
-    g.add_argument('--target', action=_Known, metavar=f'NAME=VALUE{r}', dest='knowns',
-                   help='joint / link angle / actuator to reach: inverse solve (repeatable)')
-    g.add_argument('--target-point', action=_Known, dest='knowns',
-                   metavar='NAME=X,Y' + ('[:X1,Y1:COUNT]' if ranges else ''),
-                   help='point position to reach: inverse solve (repeatable)')
+    g.add_argument(
+        '--set',
+        action=_Known,
+        metavar=f'NAME=VALUE{r}',
+        dest='knowns',
+        help='actuator value' + (' or range' if ranges else '') + ' (repeatable)',
+    )
+    g.add_argument(
+        '--target',
+        action=_Known,
+        metavar=f'NAME=VALUE{r}',
+        dest='knowns',
+        help='joint / link angle / actuator to reach: inverse solve (repeatable)',
+    )
+    g.add_argument(
+        '--target-point',
+        action=_Known,
+        dest='knowns',
+        metavar='NAME=X,Y' + ('[:X1,Y1:COUNT]' if ranges else ''),
+        help='point position to reach: inverse solve (repeatable)',
+    )
     s = p.add_argument_group('solver')
-    s.add_argument('--branch', default=default_branch,
-                   help="assembly mode: 'continuous', 'reference' or one sign per branching "
-                        f"dyad such as '+-' (default {default_branch})")
-    s.add_argument('--solver', choices=('auto', 'closed_form', 'newton'), default=None,
-                   help="solver (default: the scene's, normally auto)")
-    s.add_argument('--tol', type=float, default=1e-12,
-                   help='Newton tolerance, relative to the length scale (default 1e-12)')
+    s.add_argument(
+        '--branch',
+        default=default_branch,
+        help="assembly mode: 'continuous', 'reference' or one sign per branching "
+        f"dyad such as '+-' (default {default_branch})",
+    )
+    s.add_argument(
+        '--solver',
+        choices=('auto', 'closed_form', 'newton'),
+        default=None,
+        help="solver (default: the scene's, normally auto)",
+    )
+    s.add_argument(
+        '--tol',
+        type=float,
+        default=1e-12,
+        help='Newton tolerance, relative to the length scale (default 1e-12)',
+    )
     s.add_argument('--max-iter', type=int, default=50, help='Newton iteration cap (default 50)')
     p.add_argument('--json', action='store_true', help='machine-readable output')
 
@@ -575,14 +667,15 @@ def _load_external() -> tuple[dict[str, Any], dict[str, str]]:
             mod = importlib.import_module(modname)
         except ModuleNotFoundError as exc:
             if exc.name is not None and modname.startswith(exc.name):
-                continue                 # not written / not installed: silently absent
+                continue  # not written / not installed: silently absent
             broken[name] = f'{type(exc).__name__}: {exc}'
             continue
         except Exception as exc:  # noqa: BLE001 - a broken plug-in must not break the CLI
             broken[name] = f'{type(exc).__name__}: {exc}'
             continue
-        if not (callable(getattr(mod, 'add_arguments', None)) and callable(getattr(mod, 'run',
-                                                                                   None))):
+        if not (
+            callable(getattr(mod, 'add_arguments', None)) and callable(getattr(mod, 'run', None))
+        ):
             broken[name] = f'{modname} lacks add_arguments(parser) / run(args)'
             continue
         ok[name] = mod
@@ -592,40 +685,66 @@ def _load_external() -> tuple[dict[str, Any], dict[str, str]]:
 def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
     external, broken = _load_external()
     epilog = MAIN_EPILOG + ''.join(f'unavailable: {k} ({v})\n' for k, v in broken.items())
-    parser = _Parser(prog='linkage', description='Solve, sweep and check planar linkage scenes.',
-                     epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = _Parser(
+        prog='linkage',
+        description='Solve, sweep and check planar linkage scenes.',
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
     sub.required = True
     fmt = argparse.RawDescriptionHelpFormatter
 
-    p = sub.add_parser('solve', help='one forward or inverse position solve',
-                       description='Solve one configuration: forward from actuator values '
-                                   '(--set) or inverse from targets (--target, --target-point).',
-                       epilog=SOLVE_EPILOG, formatter_class=fmt)
+    p = sub.add_parser(
+        'solve',
+        help='one forward or inverse position solve',
+        description='Solve one configuration: forward from actuator values '
+        '(--set) or inverse from targets (--target, --target-point).',
+        epilog=SOLVE_EPILOG,
+        formatter_class=fmt,
+    )
     _add_solve_options(p, 'reference', ranges=False)
-    p.add_argument('--all-branches', action='store_true',
-                   help='every assembly mode of the command (ignores --branch)')
+    p.add_argument(
+        '--all-branches',
+        action='store_true',
+        help='every assembly mode of the command (ignores --branch)',
+    )
     p.set_defaults(func=cmd_solve)
 
-    p = sub.add_parser('sweep', help='solve a range or grid of commands, one line each',
-                       description='Solve a range (or a grid of ranges) of commands, one output '
-                                   'line per command.', epilog=SWEEP_EPILOG, formatter_class=fmt)
+    p = sub.add_parser(
+        'sweep',
+        help='solve a range or grid of commands, one line each',
+        description='Solve a range (or a grid of ranges) of commands, one output line per command.',
+        epilog=SWEEP_EPILOG,
+        formatter_class=fmt,
+    )
     _add_solve_options(p, 'continuous', ranges=True)
     p.add_argument('--strict', action='store_true', help='exit 1 if any line is an error')
     p.set_defaults(func=cmd_sweep)
 
-    p = sub.add_parser('check', help='links, joints, DOF, Grashof class, input ranges, solve plan',
-                       description='Check a scene and describe how it will be solved.',
-                       epilog=CHECK_EPILOG, formatter_class=fmt)
+    p = sub.add_parser(
+        'check',
+        help='links, joints, DOF, Grashof class, input ranges, solve plan',
+        description='Check a scene and describe how it will be solved.',
+        epilog=CHECK_EPILOG,
+        formatter_class=fmt,
+    )
     p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
-    p.add_argument('--solver', choices=('auto', 'closed_form', 'newton'), default=None,
-                   help="solver whose plan to describe (default: the scene's)")
+    p.add_argument(
+        '--solver',
+        choices=('auto', 'closed_form', 'newton'),
+        default=None,
+        help="solver whose plan to describe (default: the scene's)",
+    )
     p.add_argument('--json', action='store_true', help='machine-readable output')
     p.set_defaults(func=cmd_check)
 
     for name, mod in external.items():
-        p = sub.add_parser(name, help=(mod.__doc__ or '').strip().splitlines()[0]
-                           if mod.__doc__ else None, formatter_class=fmt)
+        p = sub.add_parser(
+            name,
+            help=(mod.__doc__ or '').strip().splitlines()[0] if mod.__doc__ else None,
+            formatter_class=fmt,
+        )
         mod.add_arguments(p)
         p.set_defaults(func=mod.run)
     return parser, broken
@@ -634,7 +753,9 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
 def standalone_main(prog: str, add_arguments, run, argv: Sequence[str] | None = None) -> int:
     """Run one subcommand module on its own (``python -m linkage_ros.bag ...``): its parser,
     then run(args); argparse's usage errors become exit status 2 instead of SystemExit."""
-    parser = argparse.ArgumentParser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser = argparse.ArgumentParser(
+        prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     add_arguments(parser)
     try:
         args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
@@ -647,12 +768,14 @@ def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser, broken = build_parser()
     if argv and argv[0] in broken:
-        print(f'linkage: error: command {argv[0]!r} is unavailable: {broken[argv[0]]}',
-              file=sys.stderr)
+        print(
+            f'linkage: error: command {argv[0]!r} is unavailable: {broken[argv[0]]}',
+            file=sys.stderr,
+        )
         return USAGE_ERROR
     try:
         args = parser.parse_args(argv)
-    except SystemExit as exc:            # --help (0) or a usage error (2)
+    except SystemExit as exc:  # --help (0) or a usage error (2)
         return exc.code if isinstance(exc.code, int) else USAGE_ERROR
     prog = f'linkage {args.command}'
     try:
@@ -660,10 +783,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (UsageError, LinkageError) as exc:
         print(f'{prog}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
-    except BrokenPipeError:              # `linkage sweep ... | head`
-        sys.stdout = open(os.devnull, 'w')      # no second error when Python flushes at exit
+    except BrokenPipeError:  # `linkage sweep ... | head`
+        sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 no second error when Python flushes at exit
         return OK
-    except KeyboardInterrupt:            # Ctrl-C: the shell's convention, no traceback
+    except KeyboardInterrupt:  # Ctrl-C: the shell's convention, no traceback
         print(f'\n{prog}: interrupted', file=sys.stderr)
         return INTERRUPTED
 

@@ -5,10 +5,13 @@ Pure functions: no node, no clock, no maths beyond copying numbers between a cor
 (sensor_msgs/JointState, geometry_msgs/PointStamped, visualization_msgs/MarkerArray,
 diagnostic_msgs/DiagnosticStatus). Units are REP-103: radians and metres.
 """
+
 from __future__ import annotations
 
+import collections
 import math
-from typing import Any, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
@@ -22,12 +25,20 @@ from .core.model import Mechanism
 from .core.solver import Result
 
 __all__ = [
-    'joint_state_to_command', 'point_stamped_to_xy', 'is_zero_stamp', 'result_to_joint_state',
-    'result_to_points', 'result_to_status', 'error_status', 'result_to_markers', 'format_joints',
+    'joint_state_to_command',
+    'point_stamped_to_xy',
+    'is_zero_stamp',
+    'result_to_joint_state',
+    'result_to_points',
+    'result_to_status',
+    'error_status',
+    'result_to_markers',
+    'format_joints',
 ]
 
 
 # ---- inbound -----------------------------------------------------------------------------------
+
 
 def joint_state_to_command(msg: JointState) -> dict[str, float]:
     """``{name: position}`` from a JointState command or target.
@@ -42,13 +53,14 @@ def joint_state_to_command(msg: JointState) -> dict[str, float]:
     if not names and not positions:
         raise CommandError('empty JointState: name and position are both empty')
     if len(names) != len(positions):
-        raise CommandError(f'JointState has {len(names)} name(s) {names} but {len(positions)} '
-                           f'position(s); they must pair up one to one')
+        raise CommandError(
+            f'JointState has {len(names)} name(s) {names} but {len(positions)} '
+            f'position(s); they must pair up one to one'
+        )
     empty = [i for i, n in enumerate(names) if not n]
     if empty:
         raise CommandError(f'JointState name[{empty[0]}] is an empty string')
-    seen: set[str] = set()
-    dups = [n for n in names if n in seen or seen.add(n)]
+    dups = [n for n, count in collections.Counter(names).items() if count > 1]
     if dups:
         raise CommandError(f'JointState names {sorted(set(dups))} more than once')
     return {n: float(p) for n, p in zip(names, positions)}
@@ -61,11 +73,14 @@ def point_stamped_to_xy(msg: PointStamped, name: str = '') -> tuple[float, float
     p = msg.point
     x, y, z = float(p.x), float(p.y), float(p.z)
     if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
-        bad = ', '.join(f'point.{k} = {v}' for k, v in (('x', x), ('y', y), ('z', z))
-                        if not math.isfinite(v))
+        bad = ', '.join(
+            f'point.{k} = {v}' for k, v in (('x', x), ('y', y), ('z', z)) if not math.isfinite(v)
+        )
         head = f'target point {name!r}: ' if name else ''
-        raise CommandError(f'{head}{bad} is not finite (every coordinate must be a finite '
-                           'number; z is ignored only when it is)')
+        raise CommandError(
+            f'{head}{bad} is not finite (every coordinate must be a finite '
+            'number; z is ignored only when it is)'
+        )
     return (x, y)
 
 
@@ -76,8 +91,14 @@ def is_zero_stamp(stamp: Time) -> bool:
 
 # ---- outbound ----------------------------------------------------------------------------------
 
-def result_to_joint_state(result: Result, joint_names: Sequence[str], stamp: Time,
-                          frame_id: str, reuse: JointState | None = None) -> JointState:
+
+def result_to_joint_state(
+    result: Result,
+    joint_names: Sequence[str],
+    stamp: Time,
+    frame_id: str,
+    reuse: JointState | None = None,
+) -> JointState:
     """Every joint of ``joint_names`` (active and passive, in that order) with its position.
 
     Revolute: child link angle minus parent link angle (rad); prismatic: slide (m).
@@ -97,8 +118,9 @@ def result_to_joint_state(result: Result, joint_names: Sequence[str], stamp: Tim
     return msg
 
 
-def result_to_points(result: Result, names: Iterable[str], stamp: Time,
-                     frame_id: str) -> dict[str, PointStamped]:
+def result_to_points(
+    result: Result, names: Iterable[str], stamp: Time, frame_id: str
+) -> dict[str, PointStamped]:
     """``{name: PointStamped}`` for each named point of a successful result (z = 0)."""
     out = {}
     for name in names:
@@ -124,8 +146,9 @@ def _key_values(pairs: Mapping[str, Any]) -> list[KeyValue]:
     return [KeyValue(key=k, value=_fmt(v)) for k, v in pairs.items()]
 
 
-def result_to_status(result: Result, name: str, request: str = 'command',
-                     hardware_id: str = '') -> DiagnosticStatus:
+def result_to_status(
+    result: Result, name: str, request: str = 'command', hardware_id: str = ''
+) -> DiagnosticStatus:
     """One DiagnosticStatus answering one request.
 
     Success: level OK, message 'ok', values residual (fraction of the length scale), branch,
@@ -145,22 +168,43 @@ def result_to_status(result: Result, name: str, request: str = 'command',
     if result.cond is not None:
         values['cond'] = result.cond
     values['request'] = request
-    return DiagnosticStatus(level=DiagnosticStatus.OK, name=name, message='ok',
-                            hardware_id=hardware_id, values=_key_values(values))
+    return DiagnosticStatus(
+        level=DiagnosticStatus.OK,
+        name=name,
+        message='ok',
+        hardware_id=hardware_id,
+        values=_key_values(values),
+    )
 
 
-def error_status(reason: str, name: str, request: str = 'command',
-                 hardware_id: str = '') -> DiagnosticStatus:
+def error_status(
+    reason: str, name: str, request: str = 'command', hardware_id: str = ''
+) -> DiagnosticStatus:
     """Level ERROR with ``reason`` as the message."""
-    return DiagnosticStatus(level=DiagnosticStatus.ERROR, name=name, message=str(reason),
-                            hardware_id=hardware_id, values=_key_values({'request': request}))
+    return DiagnosticStatus(
+        level=DiagnosticStatus.ERROR,
+        name=name,
+        message=str(reason),
+        hardware_id=hardware_id,
+        values=_key_values({'request': request}),
+    )
 
 
 _GROUND = ColorRGBA(r=0.55, g=0.55, b=0.55, a=1.0)
-_PALETTE = [ColorRGBA(r=r, g=g, b=b, a=1.0) for r, g, b in (
-    (0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.84, 0.15, 0.16),
-    (0.58, 0.4, 0.74), (0.55, 0.34, 0.29), (0.89, 0.47, 0.76), (0.74, 0.74, 0.13),
-    (0.09, 0.75, 0.81))]
+_PALETTE = [
+    ColorRGBA(r=r, g=g, b=b, a=1.0)
+    for r, g, b in (
+        (0.12, 0.47, 0.71),
+        (1.0, 0.5, 0.05),
+        (0.17, 0.63, 0.17),
+        (0.84, 0.15, 0.16),
+        (0.58, 0.4, 0.74),
+        (0.55, 0.34, 0.29),
+        (0.89, 0.47, 0.76),
+        (0.74, 0.74, 0.13),
+        (0.09, 0.75, 0.81),
+    )
+]
 _JOINT = ColorRGBA(r=0.1, g=0.1, b=0.1, a=1.0)
 _OUTPUT = ColorRGBA(r=0.0, g=0.8, b=0.2, a=1.0)
 
@@ -169,8 +213,9 @@ def _xyz(xy) -> Point:
     return Point(x=float(xy[0]), y=float(xy[1]), z=0.0)
 
 
-def result_to_markers(result: Result, mech: Mechanism, stamp: Time, frame_id: str,
-                      ns: str = 'linkage') -> MarkerArray:
+def result_to_markers(
+    result: Result, mech: Mechanism, stamp: Time, frame_id: str, ns: str = 'linkage'
+) -> MarkerArray:
     """RViz markers of a solved configuration, with stable ids so each update replaces the last.
 
     * one LINE_STRIP per link with two or more points (closed for plates of three or more),
@@ -184,8 +229,11 @@ def result_to_markers(result: Result, mech: Mechanism, stamp: Time, frame_id: st
     header = Header(stamp=stamp, frame_id=frame_id)
     width = 0.02 * mech.length_scale
     out = MarkerArray()
-    cylinders = {pj.guide: pj for name, pj in mech.prismatics.items()
-                 if name in mech.actuators and mech.actuators[name].cylinder}
+    cylinders = {
+        pj.guide: pj
+        for name, pj in mech.prismatics.items()
+        if name in mech.actuators and mech.actuators[name].cylinder
+    }
     colour = 0
     for idx, (lname, link) in enumerate(mech.links.items()):
         m = Marker(header=header, ns=f'{ns}/links', id=idx, action=Marker.ADD)
@@ -208,10 +256,16 @@ def result_to_markers(result: Result, mech: Mechanism, stamp: Time, frame_id: st
             m.scale.x = 1.5 * width
             m.points = [_xyz(result.points[link.points[0]]), _xyz(result.points[pj.point])]
         else:
-            continue          # a slider block or cylinder rod: shown by its joint sphere
+            continue  # a slider block or cylinder rod: shown by its joint sphere
         out.markers.append(m)
-    joints = Marker(header=header, ns=f'{ns}/joints', id=0, type=Marker.SPHERE_LIST,
-                    action=Marker.ADD, color=_JOINT)
+    joints = Marker(
+        header=header,
+        ns=f'{ns}/joints',
+        id=0,
+        type=Marker.SPHERE_LIST,
+        action=Marker.ADD,
+        color=_JOINT,
+    )
     joints.pose.orientation.w = 1.0
     joints.scale.x = joints.scale.y = joints.scale.z = 2.5 * width
     seen: list[str] = []
@@ -221,8 +275,14 @@ def result_to_markers(result: Result, mech: Mechanism, stamp: Time, frame_id: st
     joints.points = [_xyz(result.points[p]) for p in seen]
     out.markers.append(joints)
     if mech.outputs:
-        outs = Marker(header=header, ns=f'{ns}/outputs', id=0, type=Marker.SPHERE_LIST,
-                      action=Marker.ADD, color=_OUTPUT)
+        outs = Marker(
+            header=header,
+            ns=f'{ns}/outputs',
+            id=0,
+            type=Marker.SPHERE_LIST,
+            action=Marker.ADD,
+            color=_OUTPUT,
+        )
         outs.pose.orientation.w = 1.0
         outs.scale.x = outs.scale.y = outs.scale.z = 3.0 * width
         outs.points = [_xyz(result.points[p]) for p in mech.outputs]

@@ -10,6 +10,7 @@ A thin shell around the core (see docs/TOPICS.md for the full interface):
 Each callback is message -> plain data (conversions) -> core Solver -> message. A bad request is
 answered by exactly one ERROR status and changes nothing; the node keeps the last good state.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -18,26 +19,35 @@ import math
 import sys
 import traceback
 from collections import OrderedDict
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any
 
 import rclpy
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.exceptions import InvalidParameterTypeException, ParameterException
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
-from .conversions import (error_status, format_joints, is_zero_stamp, joint_state_to_command,
-                          point_stamped_to_xy, result_to_joint_state, result_to_markers,
-                          result_to_points, result_to_status)
+from .conversions import (
+    error_status,
+    format_joints,
+    is_zero_stamp,
+    joint_state_to_command,
+    point_stamped_to_xy,
+    result_to_joint_state,
+    result_to_markers,
+    result_to_points,
+    result_to_status,
+)
 from .core.errors import CommandError, LinkageError, PlanError, SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import METHODS, Result, Solver
@@ -50,9 +60,11 @@ BRANCH_MODES = ('continuous', 'reference')
 #: rclpy accepts, and a faster demo would only busy-loop the executor (1e300 Hz is a 0 ns timer)
 DEMO_RATE_MIN, DEMO_RATE_MAX = 1e-3, 1000.0
 #: the largest QoS history depth rclpy accepts (a larger one fails inside rclpy's QoS profile)
-QUEUE_DEPTH_MAX = 2 ** 31 - 1
-ZERO_CLOCK = ("header.stamp is 0, and so is the node clock's now: use_sim_time is true and no "
-              "/clock message has arrived yet; stamp the request, or wait for /clock")
+QUEUE_DEPTH_MAX = 2**31 - 1
+ZERO_CLOCK = (
+    "header.stamp is 0, and so is the node clock's now: use_sim_time is true and no "
+    '/clock message has arrived yet; stamp the request, or wait for /clock'
+)
 #: IK solvers kept per node (one per set of target names); least recently used are dropped
 SOLVER_CACHE = 32
 
@@ -63,50 +75,87 @@ class ConfigError(LinkageError):
 
 # ---- configuration -----------------------------------------------------------------------------
 
+
 @dataclass(frozen=True)
 class ParamSpec:
     name: str
-    default: Any            # a value, or 'string_array' for an empty string array
+    default: Any  # a value, or 'string_array' for an empty string array
     description: str
     read_only: bool = True
     constraints: str = ''
 
 
 PARAMETERS: tuple[ParamSpec, ...] = (
-    ParamSpec('scene', 'four_bar',
-              'Scene file: a path to a YAML scene, or the name of a packaged scene '
-              '(four_bar, slider_crank, ...; see docs/SCENES.md).'),
-    ParamSpec('solver', '', "Solve method: auto, closed_form or newton; '' = the scene's "
-              "`solver` key.", constraints="'' | auto | closed_form | newton"),
-    ParamSpec('tolerance', 1e-12, 'Newton tolerance on the loop-closure residual, as a fraction '
-              'of the mechanism length scale.', constraints='> 0'),
+    ParamSpec(
+        'scene',
+        'four_bar',
+        'Scene file: a path to a YAML scene, or the name of a packaged scene '
+        '(four_bar, slider_crank, ...; see docs/SCENES.md).',
+    ),
+    ParamSpec(
+        'solver',
+        '',
+        "Solve method: auto, closed_form or newton; '' = the scene's `solver` key.",
+        constraints="'' | auto | closed_form | newton",
+    ),
+    ParamSpec(
+        'tolerance',
+        1e-12,
+        'Newton tolerance on the loop-closure residual, as a fraction '
+        'of the mechanism length scale.',
+        constraints='> 0',
+    ),
     ParamSpec('max_iterations', 50, 'Newton iteration cap per solve.', constraints='> 0'),
-    ParamSpec('branch', 'continuous',
-              "Assembly mode: 'continuous' (start in the reference pose's mode, then stay nearest "
-              "the previous configuration), 'reference' (always the reference pose's signs) or "
-              "explicit signs such as '+-' (one per branching dyad of the forward plan).",
-              constraints="continuous | reference | [+-]+"),
-    ParamSpec('frame_id', '', "frame_id stamped on every output; '' = the scene's frame_id.",
-              constraints="a tf2 frame name: no whitespace, no leading '/'"),
-    ParamSpec('demo_sweep', False, 'Sweep the first actuator on a timer (through the command '
-              'path) so joint states flow without any command.', read_only=False),
-    ParamSpec('demo_rate', 20.0, 'Demo sweep rate (Hz).', read_only=False,
-              constraints=f'{DEMO_RATE_MIN:g} <= demo_rate <= {DEMO_RATE_MAX:g}'),
-    ParamSpec('target_point_hold', 'string_array',
-              'Names (actuators, joints, links or points) held at their current value when a '
-              '~/target_point/<point> request arrives on a mechanism with more than 2 degrees of '
-              "freedom, e.g. ['bucket'] for an excavator (point + held values = DOF)."),
-    ParamSpec('queue_depth', 10,
-              'History depth N of every topic the node subscribes and publishes (reliable, keep '
-              'last N, volatile). A stall of the node longer than N / command rate drops '
-              'commands: raise it for command streams of several hundred Hz and more.',
-              constraints=f'integer, 1 <= queue_depth <= {QUEUE_DEPTH_MAX}'),
+    ParamSpec(
+        'branch',
+        'continuous',
+        "Assembly mode: 'continuous' (start in the reference pose's mode, then stay nearest "
+        "the previous configuration), 'reference' (always the reference pose's signs) or "
+        "explicit signs such as '+-' (one per branching dyad of the forward plan).",
+        constraints='continuous | reference | [+-]+',
+    ),
+    ParamSpec(
+        'frame_id',
+        '',
+        "frame_id stamped on every output; '' = the scene's frame_id.",
+        constraints="a tf2 frame name: no whitespace, no leading '/'",
+    ),
+    ParamSpec(
+        'demo_sweep',
+        False,
+        'Sweep the first actuator on a timer (through the command '
+        'path) so joint states flow without any command.',
+        read_only=False,
+    ),
+    ParamSpec(
+        'demo_rate',
+        20.0,
+        'Demo sweep rate (Hz).',
+        read_only=False,
+        constraints=f'{DEMO_RATE_MIN:g} <= demo_rate <= {DEMO_RATE_MAX:g}',
+    ),
+    ParamSpec(
+        'target_point_hold',
+        'string_array',
+        'Names (actuators, joints, links or points) held at their current value when a '
+        '~/target_point/<point> request arrives on a mechanism with more than 2 degrees of '
+        "freedom, e.g. ['bucket'] for an excavator (point + held values = DOF).",
+    ),
+    ParamSpec(
+        'queue_depth',
+        10,
+        'History depth N of every topic the node subscribes and publishes (reliable, keep '
+        'last N, volatile). A stall of the node longer than N / command rate drops '
+        'commands: raise it for command streams of several hundred Hz and more.',
+        constraints=f'integer, 1 <= queue_depth <= {QUEUE_DEPTH_MAX}',
+    ),
 )
 
 
 @dataclass(frozen=True)
 class NodeConfig:
     """Validated node parameters (frozen; demo_sweep / demo_rate are replaced, not mutated)."""
+
     scene: str = 'four_bar'
     scene_path: str = ''
     solver: str | None = None
@@ -125,10 +174,16 @@ def _fail(name: str, message: str, value: Any) -> None:
 
 
 def check_demo_rate(value: Any) -> float:
-    if isinstance(value, bool) or not isinstance(value, (int, float)) \
-            or not DEMO_RATE_MIN <= value <= DEMO_RATE_MAX:         # also refuses nan
-        _fail('demo_rate', f'must be a number of Hz from {DEMO_RATE_MIN:g} to {DEMO_RATE_MAX:g}',
-              value)
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not DEMO_RATE_MIN <= value <= DEMO_RATE_MAX
+    ):  # also refuses nan
+        _fail(
+            'demo_rate',
+            f'must be a number of Hz from {DEMO_RATE_MIN:g} to {DEMO_RATE_MAX:g}',
+            value,
+        )
     return float(value)
 
 
@@ -150,21 +205,32 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
     if solver not in ('',) + METHODS:
         _fail('solver', f"must be '' (the scene's) or one of {list(METHODS)}", solver)
     tol = v['tolerance']
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not math.isfinite(tol) \
-            or not tol > 0:
+    if (
+        isinstance(tol, bool)
+        or not isinstance(tol, (int, float))
+        or not math.isfinite(tol)
+        or not tol > 0
+    ):
         _fail('tolerance', 'must be a finite number > 0', tol)
     it = v['max_iterations']
     if isinstance(it, bool) or not isinstance(it, int) or it <= 0:
         _fail('max_iterations', 'must be an integer > 0', it)
     branch = v['branch']
-    if not isinstance(branch, str) or not (branch in BRANCH_MODES
-                                           or (branch and set(branch) <= {'+', '-'})):
+    if not isinstance(branch, str) or not (
+        branch in BRANCH_MODES or (branch and set(branch) <= {'+', '-'})
+    ):
         _fail('branch', "must be 'continuous', 'reference' or a string of + and - signs", branch)
     frame_id = v['frame_id']
-    if not isinstance(frame_id, str) or any(c.isspace() for c in frame_id) \
-            or frame_id.startswith('/'):
-        _fail('frame_id', "must be a tf2 frame name, without whitespace or a leading '/' "
-              "('' = the scene's)", frame_id)
+    if (
+        not isinstance(frame_id, str)
+        or any(c.isspace() for c in frame_id)
+        or frame_id.startswith('/')
+    ):
+        _fail(
+            'frame_id',
+            "must be a tf2 frame name, without whitespace or a leading '/' ('' = the scene's)",
+            frame_id,
+        )
     demo = v['demo_sweep']
     if not isinstance(demo, bool):
         _fail('demo_sweep', 'must be true or false', demo)
@@ -176,21 +242,40 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         _fail('target_point_hold', 'names something twice', list(hold))
     depth = v['queue_depth']
     if isinstance(depth, bool) or not isinstance(depth, int) or not 1 <= depth <= QUEUE_DEPTH_MAX:
-        _fail('queue_depth', f'must be an integer from 1 to {QUEUE_DEPTH_MAX} (the largest '
-              'history depth rclpy takes)', depth)
+        _fail(
+            'queue_depth',
+            f'must be an integer from 1 to {QUEUE_DEPTH_MAX} (the largest '
+            'history depth rclpy takes)',
+            depth,
+        )
     path = scene_path(scene)
     if not path.exists():
         from .resources import config_dir
+
         packaged = sorted(f.stem for f in config_dir().glob('*.yaml'))
-        _fail('scene', f'no such scene file, and no packaged scene of that name (packaged: '
-              f'{", ".join(packaged) or "none"})', scene)
-    return NodeConfig(scene=scene, scene_path=str(path), solver=solver or None,
-                      tolerance=float(tol), max_iterations=it, branch=branch, frame_id=frame_id,
-                      demo_sweep=demo, demo_rate=rate, target_point_hold=tuple(hold),
-                      queue_depth=depth)
+        _fail(
+            'scene',
+            f'no such scene file, and no packaged scene of that name (packaged: '
+            f'{", ".join(packaged) or "none"})',
+            scene,
+        )
+    return NodeConfig(
+        scene=scene,
+        scene_path=str(path),
+        solver=solver or None,
+        tolerance=float(tol),
+        max_iterations=it,
+        branch=branch,
+        frame_id=frame_id,
+        demo_sweep=demo,
+        demo_rate=rate,
+        target_point_hold=tuple(hold),
+        queue_depth=depth,
+    )
 
 
 # ---- the kinematics engine (no ROS) -------------------------------------------------------------
+
 
 def current_value(mech: Mechanism, result: Result, name: str) -> Any:
     """The value of a known-able ``name`` in a solved result, resolved like the core resolves
@@ -219,8 +304,9 @@ class Engine:
             self.forward = self._new_solver(None)
         except PlanError as exc:
             name = 'branch' if 'branch' in str(exc) else 'solver'
-            raise ConfigError(f'parameter {name!r} does not fit scene {mech.name!r}: {exc}') \
-                from None
+            raise ConfigError(
+                f'parameter {name!r} does not fit scene {mech.name!r}: {exc}'
+            ) from None
         self._check_hold()
         self._solvers: OrderedDict[frozenset, Solver | str] = OrderedDict()
         #: known-set -> the state version that solver last saw (lazy adopt before use)
@@ -235,8 +321,14 @@ class Engine:
 
     def _new_solver(self, knowns: Sequence[str] | None) -> Solver:
         c = self.config
-        return Solver(self.mech, knowns=knowns, method=c.solver, tol=c.tolerance,
-                      max_iter=c.max_iterations, branch=c.branch)
+        return Solver(
+            self.mech,
+            knowns=knowns,
+            method=c.solver,
+            tol=c.tolerance,
+            max_iter=c.max_iterations,
+            branch=c.branch,
+        )
 
     def _check_hold(self):
         mech, hold = self.mech, self.config.target_point_hold
@@ -245,15 +337,31 @@ class Engine:
         known = set(mech.actuators) | set(mech.joint_names) | set(mech.links) | set(mech.points)
         bad = [h for h in hold if h not in known or h == mech.ground]
         if bad:
-            _fail('target_point_hold', f'unknown name(s) {bad} in scene {mech.name!r}; '
-                  'expected actuator, joint, (moving) link or point names', list(hold))
-        size = sum(2 if (h in mech.points and h not in mech.actuators
-                         and h not in mech.joint_names and h not in mech.links) else 1
-                   for h in hold)
+            _fail(
+                'target_point_hold',
+                f'unknown name(s) {bad} in scene {mech.name!r}; '
+                'expected actuator, joint, (moving) link or point names',
+                list(hold),
+            )
+        size = sum(
+            2
+            if (
+                h in mech.points
+                and h not in mech.actuators
+                and h not in mech.joint_names
+                and h not in mech.links
+            )
+            else 1
+            for h in hold
+        )
         if 2 + size != mech.dof:
-            _fail('target_point_hold', f'a point target (2 values) plus these held names '
-                  f'({size} value(s)) must give the {mech.dof} degree(s) of freedom of '
-                  f'{mech.name!r}', list(hold))
+            _fail(
+                'target_point_hold',
+                f'a point target (2 values) plus these held names '
+                f'({size} value(s)) must give the {mech.dof} degree(s) of freedom of '
+                f'{mech.name!r}',
+                list(hold),
+            )
 
     def solver_for(self, knowns: Sequence[str]) -> Solver | str:
         """The cached solver for this set of knowns, or the reason it cannot be built."""
@@ -284,7 +392,7 @@ class Engine:
         if result.success:
             self.last = result
             self.version += 1
-            self._synced[key] = self.version      # the solver committed this state itself
+            self._synced[key] = self.version  # the solver committed this state itself
         return result
 
     def command(self, values: Mapping[str, float]) -> Result:
@@ -298,19 +406,24 @@ class Engine:
     def target_point(self, point: str, xy: tuple[float, float]) -> Result:
         """Inverse kinematics: put ``point`` at ``xy``; target_point_hold names keep their value
         in the last good state."""
-        key = f'point:{point}'            # explicit: a point may share its name with a joint
+        key = f'point:{point}'  # explicit: a point may share its name with a joint
         hold = [h for h in self.config.target_point_hold if h != point]
         solver = self.solver_for([key] + hold)
         if hold and not isinstance(solver, str):
             if self.last is None:
-                return Result(False, 'no good state yet to take the held value(s) '
-                              f'{hold} from: send a command first')
+                return Result(
+                    False,
+                    'no good state yet to take the held value(s) '
+                    f'{hold} from: send a command first',
+                )
             values = {h: current_value(self.mech, self.last, h) for h in hold}
         else:
             values = {}
         if isinstance(solver, str) and self.mech.dof > 2 and not hold:
-            solver += (f" (a point target fixes 2 of the {self.mech.dof} degrees of freedom: "
-                       "set the parameter target_point_hold)")
+            solver += (
+                f' (a point target fixes 2 of the {self.mech.dof} degrees of freedom: '
+                'set the parameter target_point_hold)'
+            )
         values[key] = xy
         return self._solve(solver, values)
 
@@ -365,10 +478,15 @@ class DemoSweep:
 
 # ---- the ROS node --------------------------------------------------------------------------------
 
+
 def topic_qos(depth: int) -> QoSProfile:
     """Reliable, keep last ``depth``, volatile: commands and outputs alike."""
-    return QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
-                      depth=depth, durability=DurabilityPolicy.VOLATILE)
+    return QoSProfile(
+        reliability=ReliabilityPolicy.RELIABLE,
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+        durability=DurabilityPolicy.VOLATILE,
+    )
 
 
 class LinkageNode(Node):
@@ -386,16 +504,24 @@ class LinkageNode(Node):
     def _declare_parameters(self) -> dict[str, Any]:
         values = {}
         for p in PARAMETERS:
-            desc = ParameterDescriptor(description=p.description, read_only=p.read_only,
-                                       additional_constraints=p.constraints)
+            desc = ParameterDescriptor(
+                description=p.description,
+                read_only=p.read_only,
+                additional_constraints=p.constraints,
+            )
             default = Parameter.Type.STRING_ARRAY if p.default == 'string_array' else p.default
             try:
                 param = self.declare_parameter(p.name, default, desc)
             except InvalidParameterTypeException as exc:
-                kind = type(p.default).__name__ if p.default != 'string_array' else \
-                    'list of strings'
-                kind = {'float': 'a double (write 1.0, not 1)', 'int': 'an integer',
-                        'str': 'a string', 'bool': 'a bool'}.get(kind, 'a ' + kind)
+                kind = (
+                    type(p.default).__name__ if p.default != 'string_array' else 'list of strings'
+                )
+                kind = {
+                    'float': 'a double (write 1.0, not 1)',
+                    'int': 'an integer',
+                    'str': 'a string',
+                    'bool': 'a bool',
+                }.get(kind, 'a ' + kind)
                 raise ConfigError(f'parameter {p.name!r}: must be {kind} ({exc})') from None
             except ParameterException as exc:
                 raise ConfigError(f'parameter {p.name!r}: {exc}') from None
@@ -415,9 +541,11 @@ class LinkageNode(Node):
         qos = topic_qos(self.config.queue_depth)
         quiet = {'event_callbacks': PublisherEventCallbacks(use_default_callbacks=False)}
         self.pub_joints = self.create_publisher(JointState, 'joint_states', qos, **quiet)
-        self._joint_msg: JointState | None = None      # refilled for every answer
-        self.pub_points = {p: self.create_publisher(PointStamped, f'~/points/{p}', qos, **quiet)
-                           for p in mech.outputs}
+        self._joint_msg: JointState | None = None  # refilled for every answer
+        self.pub_points = {
+            p: self.create_publisher(PointStamped, f'~/points/{p}', qos, **quiet)
+            for p in mech.outputs
+        }
         self.pub_markers = self.create_publisher(MarkerArray, '~/markers', qos, **quiet)
         self.pub_status = self.create_publisher(DiagnosticStatus, '~/status', qos, **quiet)
         self.create_subscription(JointState, '~/command', self._on_command, qos)
@@ -426,32 +554,44 @@ class LinkageNode(Node):
         self.target_points = [p for p in mech.points if p not in ground]
         quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
         for p in self.target_points:
-            self.create_subscription(PointStamped, f'~/target_point/{p}',
-                                     lambda msg, p=p: self._on_target_point(p, msg), qos,
-                                     event_callbacks=quiet_sub)
+            self.create_subscription(
+                PointStamped,
+                f'~/target_point/{p}',
+                lambda msg, p=p: self._on_target_point(p, msg),
+                qos,
+                event_callbacks=quiet_sub,
+            )
         self._demo_timer = None
         self._demo: DemoSweep | None = None
         self._demo_failures = 0
         self.add_on_set_parameters_callback(self._on_set_parameters)
         log = self.get_logger()
-        log.info(f'scene {mech.name!r} from {self.config.scene_path}: {mech.dof} DOF, '
-                 f'actuators {list(mech.actuators)}, joints {mech.joint_names}, outputs '
-                 f'{list(mech.outputs)}, frame {self.frame_id!r}, solver '
-                 f'{self.engine.forward.mode}, branch {self.config.branch}')
+        log.info(
+            f'scene {mech.name!r} from {self.config.scene_path}: {mech.dof} DOF, '
+            f'actuators {list(mech.actuators)}, joints {mech.joint_names}, outputs '
+            f'{list(mech.outputs)}, frame {self.frame_id!r}, solver '
+            f'{self.engine.forward.mode}, branch {self.config.branch}'
+        )
         if mech.dof > 2 and not self.config.target_point_hold:
-            log.warning(f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '
-                     f'naming {mech.dof - 2} held value(s)')
+            log.warning(
+                f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '
+                f'naming {mech.dof - 2} held value(s)'
+            )
         # rclpy keeps an override this node never declares without a word: a misspelt name
         # would silently leave its parameter at the default
         overrides = getattr(self, '_parameter_overrides', None) or {}
         ignored = sorted(n for n in overrides if not self.has_parameter(n))
         if ignored:
-            log.warning(f'ignoring parameter(s) this node does not have: {ignored} (its '
-                        f'parameters: {", ".join(p.name for p in PARAMETERS)})')
+            log.warning(
+                f'ignoring parameter(s) this node does not have: {ignored} (its '
+                f'parameters: {", ".join(p.name for p in PARAMETERS)})'
+            )
         # the last start-up line: whoever waits for it has every start-up warning already
-        log.info(f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
-                 f'{list(mech.actuators)}), publishing {self.resolve_topic_name("joint_states")} '
-                 f'(reliable, keep last {self.config.queue_depth})')
+        log.info(
+            f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
+            f'{list(mech.actuators)}), publishing {self.resolve_topic_name("joint_states")} '
+            f'(reliable, keep last {self.config.queue_depth})'
+        )
         if self.config.demo_sweep:
             self._start_demo()
 
@@ -473,9 +613,11 @@ class LinkageNode(Node):
         if cfg != old:
             try:
                 self._apply_demo(cfg)
-            except Exception as exc:     # e.g. a timer rclpy refuses: keep the old demo
-                self.get_logger().error(f'parameter change {[p.name for p in params]} refused: '
-                                        f'{exc!r}\n' + traceback.format_exc())
+            except Exception as exc:  # e.g. a timer rclpy refuses: keep the old demo
+                self.get_logger().error(
+                    f'parameter change {[p.name for p in params]} refused: '
+                    f'{exc!r}\n' + traceback.format_exc()
+                )
                 try:
                     self._apply_demo(old)
                 except Exception as again:  # noqa: BLE001 - still never raise from here
@@ -494,9 +636,9 @@ class LinkageNode(Node):
         """Run one request and publish its answer: on success joint_states, points, markers and
         an OK status; on failure only an ERROR status. Never raises."""
         try:
-            if is_zero_stamp(stamp):                      # unset: the node clock's now
+            if is_zero_stamp(stamp):  # unset: the node clock's now
                 stamp = self.get_clock().now().to_msg()
-                zero = is_zero_stamp(stamp)               # sim time before the first /clock
+                zero = is_zero_stamp(stamp)  # sim time before the first /clock
             else:
                 zero = False
             # a stamp rclpy / rclcpp cannot turn into a time (negative, nanosec >= 1e9) would
@@ -512,47 +654,56 @@ class LinkageNode(Node):
                 except CommandError as exc:
                     result = Result(False, str(exc))
             if result.success:
-                self._joint_msg = result_to_joint_state(result, self.mech.joint_names, stamp,
-                                                        self.frame_id, self._joint_msg)
+                self._joint_msg = result_to_joint_state(
+                    result, self.mech.joint_names, stamp, self.frame_id, self._joint_msg
+                )
                 self.pub_joints.publish(self._joint_msg)
                 # the rest only when someone listens: with volatile QoS an unread message is
                 # unobservable, and building markers costs more than the solve
-                listened = [n for n, pub in self.pub_points.items()
-                            if pub.get_subscription_count()]
+                listened = [n for n, pub in self.pub_points.items() if pub.get_subscription_count()]
                 if listened:
                     msgs = result_to_points(result, self.pub_points, stamp, self.frame_id)
                     for name in listened:
                         self.pub_points[name].publish(msgs[name])
                 if self.pub_markers.get_subscription_count():
-                    self.pub_markers.publish(result_to_markers(result, self.mech, stamp,
-                                                               self.frame_id))
+                    self.pub_markers.publish(
+                        result_to_markers(result, self.mech, stamp, self.frame_id)
+                    )
             if self.pub_status.get_subscription_count():
                 self.pub_status.publish(result_to_status(result, self.status_name, request))
             return result
-        except Exception as exc:   # a bug must not take the node down: answer and keep going
-            self.get_logger().error(f'internal error on {request}: {exc!r}\n'
-                                    + traceback.format_exc())
-            self.pub_status.publish(error_status(f'internal error: {exc!r}', self.status_name,
-                                                 request))
+        except Exception as exc:  # a bug must not take the node down: answer and keep going
+            self.get_logger().error(
+                f'internal error on {request}: {exc!r}\n' + traceback.format_exc()
+            )
+            self.pub_status.publish(
+                error_status(f'internal error: {exc!r}', self.status_name, request)
+            )
             return Result(False, f'internal error: {exc!r}')
 
     def _on_command(self, msg):
-        self._answer('command', msg.header.stamp,
-                     lambda: self.engine.command(joint_state_to_command(msg)))
+        self._answer(
+            'command', msg.header.stamp, lambda: self.engine.command(joint_state_to_command(msg))
+        )
 
     def _on_target(self, msg):
-        self._answer('target', msg.header.stamp,
-                     lambda: self.engine.target(joint_state_to_command(msg)))
+        self._answer(
+            'target', msg.header.stamp, lambda: self.engine.target(joint_state_to_command(msg))
+        )
 
     def _on_target_point(self, point: str, msg):
 
         def solve():
             fid = msg.header.frame_id
             if fid and fid != self.frame_id:
-                return Result(False, f'target point {point!r} is in frame {fid!r} but this node '
-                              f'works in {self.frame_id!r}; transform it first (or leave '
-                              'header.frame_id empty to mean the node frame)')
+                return Result(
+                    False,
+                    f'target point {point!r} is in frame {fid!r} but this node '
+                    f'works in {self.frame_id!r}; transform it first (or leave '
+                    'header.frame_id empty to mean the node frame)',
+                )
             return self.engine.target_point(point, point_stamped_to_xy(msg, point))
+
         self._answer(f'target_point/{point}', msg.header.stamp, solve)
 
     # -- demo sweep --------------------------------------------------------------------------------
@@ -577,15 +728,18 @@ class LinkageNode(Node):
         result = self._answer('demo', Time(), lambda: self.engine.command(values))
         if result.success:
             self._demo_failures = 0
-            self.get_logger().info(format_joints(result, self.mech.joint_names,
-                                                 list(self.mech.actuators)),
-                                   throttle_duration_sec=0.5)
+            self.get_logger().info(
+                format_joints(result, self.mech.joint_names, list(self.mech.actuators)),
+                throttle_duration_sec=0.5,
+            )
         else:
             self._demo_failures += 1
             demo.bounce(values[demo.name])
             if self._demo_failures >= 3:
-                self.get_logger().error(f'demo sweep stopped: {result.reason} (demo_sweep is '
-                                        'now false; set it to true to restart)')
+                self.get_logger().error(
+                    f'demo sweep stopped: {result.reason} (demo_sweep is '
+                    'now false; set it to true to restart)'
+                )
                 self._stop_demo()
                 # the parameter says what runs: setting it true again restarts the sweep
                 self.set_parameters([Parameter('demo_sweep', value=False)])
@@ -596,7 +750,7 @@ def main(args: Sequence[str] | None = None) -> int:
     configuration)."""
     try:
         rclpy.init(args=args)
-    except Exception as exc:      # malformed --ros-args or parameter file: rcl says why
+    except Exception as exc:  # malformed --ros-args or parameter file: rcl says why
         print(f'[FATAL] [{NODE_NAME}]: cannot start: {exc}', file=sys.stderr)
         return 1
     node = None

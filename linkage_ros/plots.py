@@ -4,23 +4,35 @@ matplotlib is imported lazily (Agg backend, no display, no pyplot global state),
 module costs nothing and the core never depends on it. Every function writes one PNG and returns
 the plotted data as plain lists.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
-_BRANCH_COLOURS = ('tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:purple', 'tab:brown',
-                   'tab:pink', 'tab:olive')
+_BRANCH_COLOURS = (
+    'tab:blue',
+    'tab:orange',
+    'tab:green',
+    'tab:red',
+    'tab:purple',
+    'tab:brown',
+    'tab:pink',
+    'tab:olive',
+)
 
 
 def _figure(width=7.0, height=6.0):
     import matplotlib
+
     matplotlib.use('Agg', force=False)
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
+
     fig = Figure(figsize=(width, height), dpi=110)
     FigureCanvasAgg(fig)
     return fig
@@ -38,8 +50,14 @@ def _hull_order(pts: np.ndarray) -> np.ndarray:
     return pts[np.argsort(np.arctan2(pts[:, 1] - c[1], pts[:, 0] - c[0]))]
 
 
-def draw_mechanism(ax, mech, points: Mapping[str, Any] | None = None, labels: bool = True,
-                   colour: str = 'k', alpha: float = 1.0) -> None:
+def draw_mechanism(
+    ax,
+    mech,
+    points: Mapping[str, Any] | None = None,
+    labels: bool = True,
+    colour: str = 'k',
+    alpha: float = 1.0,
+) -> None:
     """Draw the mechanism on a matplotlib axes: links as bars / plates, cylinders as thick bars,
     slide lines dashed, ground pivots as triangles (``points`` defaults to the reference pose)."""
     pts = {k: np.asarray(v, float) for k, v in (points or mech.points).items()}
@@ -51,10 +69,25 @@ def draw_mechanism(ax, mech, points: Mapping[str, Any] | None = None, labels: bo
             cyl_links |= {pj.guide, pj.slider}
             a, b = mech.links[pj.guide].points[0], mech.links[pj.slider].points[0]
             if a in pts and b in pts:
-                ax.plot([pts[a][0], pts[b][0]], [pts[a][1], pts[b][1]], '-', color='tab:gray',
-                        lw=5, alpha=0.6 * alpha, solid_capstyle='round', zorder=2)
-                ax.plot([pts[a][0], pts[b][0]], [pts[a][1], pts[b][1]], '-', color='k', lw=1,
-                        alpha=alpha, zorder=3)
+                ax.plot(
+                    [pts[a][0], pts[b][0]],
+                    [pts[a][1], pts[b][1]],
+                    '-',
+                    color='tab:gray',
+                    lw=5,
+                    alpha=0.6 * alpha,
+                    solid_capstyle='round',
+                    zorder=2,
+                )
+                ax.plot(
+                    [pts[a][0], pts[b][0]],
+                    [pts[a][1], pts[b][1]],
+                    '-',
+                    color='k',
+                    lw=1,
+                    alpha=alpha,
+                    zorder=3,
+                )
     for name, link in mech.links.items():
         if name == mech.ground or name in cyl_links:
             continue
@@ -73,20 +106,40 @@ def draw_mechanism(ax, mech, points: Mapping[str, Any] | None = None, labels: bo
         if pj.point in pts:
             p = pts[pj.point]
             d = np.asarray(pj.direction) * 0.4 * scale
-            ax.plot([p[0] - d[0], p[0] + d[0]], [p[1] - d[1], p[1] + d[1]], '--',
-                    color='tab:gray', lw=1, alpha=alpha, zorder=1)
+            ax.plot(
+                [p[0] - d[0], p[0] + d[0]],
+                [p[1] - d[1], p[1] + d[1]],
+                '--',
+                color='tab:gray',
+                lw=1,
+                alpha=alpha,
+                zorder=1,
+            )
     for name, p in pts.items():
         if name in ground:
             ax.plot(p[0], p[1], marker='^', color='k', ms=8, alpha=alpha, zorder=4)
         else:
             ax.plot(p[0], p[1], 'o', color='w', mec=colour, ms=5, alpha=alpha, zorder=4)
         if labels:
-            ax.annotate(name, p, textcoords='offset points', xytext=(4, 4), fontsize=8,
-                        alpha=alpha, zorder=5)
+            ax.annotate(
+                name,
+                p,
+                textcoords='offset points',
+                xytext=(4, 4),
+                fontsize=8,
+                alpha=alpha,
+                zorder=5,
+            )
 
 
-def plot_region(mech, region: Mapping[str, Any], path, title: str | None = None,
-                show_cloud: bool = True, tilt: Mapping[str, Any] | None = None) -> str:
+def plot_region(
+    mech,
+    region: Mapping[str, Any],
+    path,
+    title: str | None = None,
+    show_cloud: bool = True,
+    tilt: Mapping[str, Any] | None = None,
+) -> str:
     """Reachable region of a point (from :func:`linkage_ros.core.motion.reachable_region`): the
     sampled cloud, the extreme arcs, the boundary and the mechanism in its reference pose.
     Returns the PNG path."""
@@ -94,25 +147,53 @@ def plot_region(mech, region: Mapping[str, Any], path, title: str | None = None,
     ax = fig.add_subplot(1, 1, 1)
     cloud = np.asarray(region.get('cloud') or np.zeros((0, 2)), float).reshape(-1, 2)
     if show_cloud and cloud.size:
-        ax.plot(cloud[:, 0], cloud[:, 1], '.', color='tab:cyan', ms=2, alpha=0.6,
-                label=f'samples ({len(cloud)})', zorder=0)
+        ax.plot(
+            cloud[:, 0],
+            cloud[:, 1],
+            '.',
+            color='tab:cyan',
+            ms=2,
+            alpha=0.6,
+            label=f'samples ({len(cloud)})',
+            zorder=0,
+        )
     for k, arc in enumerate(region.get('arcs') or []):
         p = np.asarray(arc['points'], float).reshape(-1, 2)
         if p.size:
             name, which, val = arc['fixed']
-            ax.plot(p[:, 0], p[:, 1], '-', lw=2.2, color=_BRANCH_COLOURS[(k + 1) % 8],
-                    label=f'{name} at {which} ({val:.4g}), {arc["sweep"]} sweeps', zorder=2)
+            ax.plot(
+                p[:, 0],
+                p[:, 1],
+                '-',
+                lw=2.2,
+                color=_BRANCH_COLOURS[(k + 1) % 8],
+                label=f'{name} at {which} ({val:.4g}), {arc["sweep"]} sweeps',
+                zorder=2,
+            )
     b = np.asarray(region.get('boundary') or np.zeros((0, 2)), float).reshape(-1, 2)
     if b.size:
         closed = np.vstack([b, b[:1]]) if region.get('method') != 'path' else b
-        ax.plot(closed[:, 0], closed[:, 1], '-', color='tab:red', lw=0.9,
-                label=f'boundary ({region.get("method")}), area {region.get("area", 0):.4g}',
-                zorder=3)
+        ax.plot(
+            closed[:, 0],
+            closed[:, 1],
+            '-',
+            color='tab:red',
+            lw=0.9,
+            label=f'boundary ({region.get("method")}), area {region.get("area", 0):.4g}',
+            zorder=3,
+        )
     draw_mechanism(ax, mech)
     if tilt and tilt.get('hold_point'):
         hp = tilt['hold_point']
-        ax.plot(hp[0], hp[1], marker='*', color='tab:red', ms=12, zorder=6,
-                label=f'{tilt.get("lip")} held')
+        ax.plot(
+            hp[0],
+            hp[1],
+            marker='*',
+            color='tab:red',
+            ms=12,
+            zorder=6,
+            label=f'{tilt.get("lip")} held',
+        )
     pt = region.get('point')
     acts = ', '.join(region.get('actuators') or [])
     what = 'path' if region.get('method') == 'path' else 'region'
@@ -140,10 +221,16 @@ def _output_getter(mech, output: str):
         return output, 'deg' if ang else 'm', ang, lambda r: r.inputs.get(output, math.nan)
     if output in mech.joint_names:
         ang = output not in mech.prismatics
-        return f'joint {output}', 'deg' if ang else 'm', ang, \
-            lambda r: r.joints.get(output, math.nan)
-    raise ValueError(f'unknown output {output!r}: give a link, joint, actuator or a point '
-                     f'coordinate such as {next(iter(mech.points))}.x')
+        return (
+            f'joint {output}',
+            'deg' if ang else 'm',
+            ang,
+            lambda r: r.joints.get(output, math.nan),
+        )
+    raise ValueError(
+        f'unknown output {output!r}: give a link, joint, actuator or a point '
+        f'coordinate such as {next(iter(mech.points))}.x'
+    )
 
 
 def _angle_window(values: np.ndarray) -> float:
@@ -153,13 +240,20 @@ def _angle_window(values: np.ndarray) -> float:
         return 0.0
     gaps = np.diff(np.concatenate([v, [v[0] + 2 * math.pi]]))
     k = int(np.argmax(gaps))
-    if gaps[k] < 0.05:          # the output turns fully: plot over [0, 360)
+    if gaps[k] < 0.05:  # the output turns fully: plot over [0, 360)
         return 0.0
     return float(v[(k + 1) % v.size] - 0.5 * min(gaps[k], 0.2))
 
 
-def plot_output_vs_input(mech, input: str, output: str, path, samples: int = 721,
-                         held: Mapping[str, float] | None = None, title: str | None = None) -> dict:
+def plot_output_vs_input(
+    mech,
+    input: str,
+    output: str,
+    path,
+    samples: int = 721,
+    held: Mapping[str, float] | None = None,
+    title: str | None = None,
+) -> dict:
     """Output versus input over the input's whole assembly range, one curve per assembly mode
     (branch), like the theta4-versus-theta2 figures of the four-bar with both branches. The
     other actuators are held at their reference values (or ``held``); the scene's limits on the
@@ -169,9 +263,11 @@ def plot_output_vs_input(mech, input: str, output: str, path, samples: int = 721
     """
     from .core.motion import actuator_range, reference_value, without_limits
     from .core.solver import Solver
+
     if input not in mech.actuators:
-        raise ValueError(f'{input!r} is not an actuator of {mech.name!r}; actuators: '
-                         f'{sorted(mech.actuators)}')
+        raise ValueError(
+            f'{input!r} is not an actuator of {mech.name!r}; actuators: {sorted(mech.actuators)}'
+        )
     label, unit, is_angle, get = _output_getter(mech, output)
     act = mech.actuators[input]
     in_angle = act.kind == 'angle'
@@ -184,18 +280,25 @@ def plot_output_vs_input(mech, input: str, output: str, path, samples: int = 721
         else:
             lo, hi = asm
     else:
-        lo = asm[0] if asm and asm[0] is not None else (act.min if act.min is not None
-                                                       else x0 - mech.length_scale)
-        hi = asm[1] if asm and asm[1] is not None else (act.max if act.max is not None
-                                                       else x0 + mech.length_scale)
+        lo = (
+            asm[0]
+            if asm and asm[0] is not None
+            else (act.min if act.min is not None else x0 - mech.length_scale)
+        )
+        hi = (
+            asm[1]
+            if asm and asm[1] is not None
+            else (act.max if act.max is not None else x0 + mech.length_scale)
+        )
     xs = np.linspace(lo, hi, max(int(samples), 2))
     step = (hi - lo) / (xs.size - 1)
     if (in_angle and asm is not None and not info['full_turn']) or (not in_angle and asm):
         # near a toggle the output moves like the square root of the input: densify the ends
         fr = np.geomspace(1e-8, 1.0 / max(int(samples) - 1, 1), 12)
         xs = np.unique(np.concatenate([xs, lo + (hi - lo) * fr, hi - (hi - lo) * fr]))
-    others = {a: (held or {}).get(a, reference_value(mech, a))
-              for a in mech.actuators if a != input}
+    others = {
+        a: (held or {}).get(a, reference_value(mech, a)) for a in mech.actuators if a != input
+    }
     solver = Solver(without_limits(mech), knowns=[input] + list(others), branch='reference')
     curves: dict[str, list[tuple[float, float]]] = {}
     for x in xs:
@@ -238,17 +341,21 @@ def plot_output_vs_input(mech, input: str, output: str, path, samples: int = 721
     for v, name in ((act.min, 'min'), (act.max, 'max')):
         if v is not None:
             ax.axvline(math.degrees(v) if in_angle else v, ls='--', color='tab:gray', lw=1)
-            ax.annotate(f'{input} {name}', (math.degrees(v) if in_angle else v, 0.02),
-                        xycoords=('data', 'axes fraction'), fontsize=7, rotation=90,
-                        color='tab:gray')
+            ax.annotate(
+                f'{input} {name}',
+                (math.degrees(v) if in_angle else v, 0.02),
+                xycoords=('data', 'axes fraction'),
+                fontsize=7,
+                rotation=90,
+                color='tab:gray',
+            )
     ax.set_xlabel(f'{input} ({"deg" if in_angle else "m"})')
     ax.set_ylabel(f'{label} ({unit})')
     ax.set_title(title or f'{mech.name}: {label} versus {input}, every assembly mode')
     ax.grid(True, lw=0.3)
     if curves:
         ax.legend(fontsize=8, loc='best')
-    return {'path': _save(fig, path), 'input': input, 'output': output,
-            'branches': out_branches}
+    return {'path': _save(fig, path), 'input': input, 'output': output, 'branches': out_branches}
 
 
 __all__ = ['plot_region', 'plot_output_vs_input', 'draw_mechanism']

@@ -21,13 +21,15 @@ JSON: {"scene", "inputs": {name: {"min", "max", "min_source", "max_source", "ful
 Exit status: 0 ok; 1 a requested analysis was refused (the tilt's start pose does not solve);
 2 a usage error (bad option, unknown name, scene error).
 """
+
 from __future__ import annotations
 
 import argparse
 import json
 import math
 import sys
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 from .core.errors import LinkageError
 
@@ -40,33 +42,53 @@ class _Usage(Exception):
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.description = ('Motion limits of a scene: input ranges and toggle positions, the region a '
-                     'point reaches, the tilt of a link about a held point, and plots.')
+    p.description = (
+        'Motion limits of a scene: input ranges and toggle positions, the region a '
+        'point reaches, the tilt of a link about a held point, and plots.'
+    )
     p.epilog = __doc__.split('\n', 2)[2].rstrip() + '\n'
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
     p.add_argument('--json', action='store_true', help='machine-readable output')
     p.add_argument('--point', metavar='NAME', help='reachable region of this point')
-    p.add_argument('--actuators', metavar='A,B',
-                   help='actuators that run for the region (default: those that move the point)')
-    p.add_argument('--samples', type=int, default=41, metavar='N',
-                   help='region grid samples per actuator (default 41)')
+    p.add_argument(
+        '--actuators',
+        metavar='A,B',
+        help='actuators that run for the region (default: those that move the point)',
+    )
+    p.add_argument(
+        '--samples',
+        type=int,
+        default=41,
+        metavar='N',
+        help='region grid samples per actuator (default 41)',
+    )
     p.add_argument('--tilt', metavar='LINK', help='largest rotation of LINK about --lip held')
     p.add_argument('--lip', metavar='POINT', help='point of the tilted link that is held')
     p.add_argument('--hold', metavar='X,Y', help='where the lip is held (default: reference)')
-    p.add_argument('--links', action='store_true',
-                   help='oscillation range of every moving link (first actuator, or --input)')
+    p.add_argument(
+        '--links',
+        action='store_true',
+        help='oscillation range of every moving link (first actuator, or --input)',
+    )
     p.add_argument('--plot', metavar='PNG', help='draw the reachable region to this PNG')
-    p.add_argument('--curves', metavar='PNG',
-                   help='draw --output versus --input, every assembly mode, to this PNG')
+    p.add_argument(
+        '--curves',
+        metavar='PNG',
+        help='draw --output versus --input, every assembly mode, to this PNG',
+    )
     p.add_argument('--input', metavar='NAME', help='actuator for --curves / --links')
-    p.add_argument('--output', metavar='NAME',
-                   help='link (angle), joint, actuator or point coordinate P.x / P.y for --curves')
+    p.add_argument(
+        '--output',
+        metavar='NAME',
+        help='link (angle), joint, actuator or point coordinate P.x / P.y for --curves',
+    )
 
 
 def _load(scene: str):
-    from .resources import scene_path
     from .core.model import Scene
+    from .resources import scene_path
+
     return Scene.from_yaml(scene_path(scene)).mechanism
 
 
@@ -87,17 +109,22 @@ def _check(args, mech):
     if args.hold and args.tilt is None:
         raise _Usage('--hold needs --tilt and --lip')
     if args.curves and not args.output:
-        raise _Usage('--curves needs --output NAME (and --input NAME when there are several '
-                     'actuators)')
+        raise _Usage(
+            '--curves needs --output NAME (and --input NAME when there are several actuators)'
+        )
     if args.input is not None and args.input not in mech.actuators:
-        raise _Usage(f'--input {args.input!r} is not an actuator of {mech.name!r} '
-                     f'({", ".join(mech.actuators)})')
+        raise _Usage(
+            f'--input {args.input!r} is not an actuator of {mech.name!r} '
+            f'({", ".join(mech.actuators)})'
+        )
     if args.curves and args.input is None and len(mech.actuators) > 1:
-        raise _Usage(f'--curves needs --input NAME: {mech.name!r} has actuators '
-                     f'{", ".join(mech.actuators)}')
+        raise _Usage(
+            f'--curves needs --input NAME: {mech.name!r} has actuators {", ".join(mech.actuators)}'
+        )
     if args.point is not None and args.point not in mech.points:
-        raise _Usage(f'--point {args.point!r} is not a point of {mech.name!r} '
-                     f'({", ".join(mech.points)})')
+        raise _Usage(
+            f'--point {args.point!r} is not a point of {mech.name!r} ({", ".join(mech.points)})'
+        )
     if args.samples < 2:
         raise _Usage('--samples must be at least 2')
     acts = None
@@ -122,24 +149,46 @@ def _check(args, mech):
 def analyse(args, mech) -> tuple[dict, int]:
     """Run the requested analyses; returns (report dict of plain data, exit status)."""
     from .core import motion
+
     acts, hold = _check(args, mech)
-    report: dict[str, Any] = {'scene': mech.name, 'dof': mech.dof,
-                              'actuators': list(mech.actuators), 'inputs': {}, 'toggles': {}}
+    report: dict[str, Any] = {
+        'scene': mech.name,
+        'dof': mech.dof,
+        'actuators': list(mech.actuators),
+        'inputs': {},
+        'toggles': {},
+    }
     status = OK
     for name in mech.actuators:
         info = motion.actuator_range(mech, name)
-        report['inputs'][name] = {k: info[k] for k in ('kind', 'unit', 'min', 'max', 'min_source',
-                                                       'max_source', 'full_turn', 'assembly',
-                                                       'reference')}
+        report['inputs'][name] = {
+            k: info[k]
+            for k in (
+                'kind',
+                'unit',
+                'min',
+                'max',
+                'min_source',
+                'max_source',
+                'full_turn',
+                'assembly',
+                'reference',
+            )
+        }
         report['toggles'][name] = info['toggles']
     region_point = args.point or (mech.outputs[0] if args.plot and mech.outputs else None)
     if args.plot and region_point is None:
         raise _Usage('--plot needs --point NAME (the scene names no output point)')
     if region_point is not None:
-        reg = motion.reachable_region(mech, region_point, samples_per_actuator=args.samples,
-                                      actuators=acts)
-        report['region'] = {region_point: {k: reg[k] for k in (
-            'boundary', 'area', 'method', 'actuators', 'limits', 'held', 'hull_check')}}
+        reg = motion.reachable_region(
+            mech, region_point, samples_per_actuator=args.samples, actuators=acts
+        )
+        report['region'] = {
+            region_point: {
+                k: reg[k]
+                for k in ('boundary', 'area', 'method', 'actuators', 'limits', 'held', 'hull_check')
+            }
+        }
         region_full = reg
     if args.tilt is not None:
         try:
@@ -152,8 +201,12 @@ def analyse(args, mech) -> tuple[dict, int]:
     if args.links:
         inp = args.input or next(iter(mech.actuators))
         osc = {}
-        cyl = {l for a in mech.actuators.values() if a.cylinder
-               for l in (mech.prismatics[a.joint].guide, mech.prismatics[a.joint].slider)}
+        cyl = {
+            l
+            for a in mech.actuators.values()
+            if a.cylinder
+            for l in (mech.prismatics[a.joint].guide, mech.prismatics[a.joint].slider)
+        }
         for link in mech.moving_links:
             if link in cyl or len(mech.links[link].points) < 2:
                 continue
@@ -163,9 +216,11 @@ def analyse(args, mech) -> tuple[dict, int]:
     plots = {}
     if args.plot:
         from .plots import plot_region
+
         plots['region'] = plot_region(mech, region_full, args.plot, tilt=report.get('tilt'))
     if args.curves:
         from .plots import plot_output_vs_input
+
         inp = args.input or next(iter(mech.actuators))
         try:
             d = plot_output_vs_input(mech, inp, args.output, args.curves)
@@ -179,8 +234,10 @@ def analyse(args, mech) -> tuple[dict, int]:
 
 def _print_human(r: dict, mech) -> None:
     p = print
-    p(f'{r["scene"]}: {r["dof"]} DOF, actuators {", ".join(r["actuators"])}'
-      + (' (each range with the others held at the reference pose)' if r['dof'] > 1 else ''))
+    p(
+        f'{r["scene"]}: {r["dof"]} DOF, actuators {", ".join(r["actuators"])}'
+        + (' (each range with the others held at the reference pose)' if r['dof'] > 1 else '')
+    )
     p('input ranges:')
     for name, i in r['inputs'].items():
         unit = i['unit']
@@ -191,8 +248,12 @@ def _print_human(r: dict, mech) -> None:
             text += f'  [min: {i["min_source"] or "open"}, max: {i["max_source"] or "open"}]'
         if i['full_turn'] and i['min'] is not None:
             text += '  (the assembly turns fully)'
-        elif i['assembly'] and i['min_source'] == 'limit' and i['max_source'] == 'limit' \
-                and None not in i['assembly']:
+        elif (
+            i['assembly']
+            and i['min_source'] == 'limit'
+            and i['max_source'] == 'limit'
+            and None not in i['assembly']
+        ):
             a = i['assembly']
             text += f'  (assembly {a[0]:.9g} .. {a[1]:.9g} {unit})'
         p(f'  {name:<10} {i["kind"]:<6} {text}')
@@ -204,38 +265,51 @@ def _print_human(r: dict, mech) -> None:
         b = reg['boundary']
         xs = [v[0] for v in b] or [0.0]
         ys = [v[1] for v in b] or [0.0]
-        p(f'region of {pt} ({", ".join(reg["actuators"]) or "no actuator moves it"}): '
-          f'{reg["method"]}, area {reg["area"]:.6g} m^2, {len(b)} boundary vertices, '
-          f'x {min(xs):.6g} .. {max(xs):.6g} m, y {min(ys):.6g} .. {max(ys):.6g} m')
+        p(
+            f'region of {pt} ({", ".join(reg["actuators"]) or "no actuator moves it"}): '
+            f'{reg["method"]}, area {reg["area"]:.6g} m^2, {len(b)} boundary vertices, '
+            f'x {min(xs):.6g} .. {max(xs):.6g} m, y {min(ys):.6g} .. {max(ys):.6g} m'
+        )
         for a, lim in reg['limits'].items():
             p(f'  {a} over {lim[0]:.9g} .. {lim[1]:.9g}')
         hc = reg['hull_check']
         if reg['method'] == 'concave_hull' and hc.get('outside'):
-            p(f'  the extreme arcs do not enclose the samples ({hc["outside"]} outside by up to '
-              f'{hc["max_outside"]:.3g} m): the map folds; boundary from the samples')
+            p(
+                f'  the extreme arcs do not enclose the samples ({hc["outside"]} outside by up to '
+                f'{hc["max_outside"]:.3g} m): the map folds; boundary from the samples'
+            )
     t = r.get('tilt')
     if t is not None:
         hp = t['hold_point']
         if not t.get('ok'):
-            p(f'tilt of {t["link"]} about {t["lip"]} held at ({hp[0]:.6g}, {hp[1]:.6g}): '
-              f'refused at the start: {t["reason"].get("start")}')
+            p(
+                f'tilt of {t["link"]} about {t["lip"]} held at ({hp[0]:.6g}, {hp[1]:.6g}): '
+                f'refused at the start: {t["reason"].get("start")}'
+            )
         else:
-            p(f'tilt of {t["link"]} about {t["lip"]} held at ({hp[0]:.6g}, {hp[1]:.6g}), '
-              f'starting at {_fmt(t["start"], "rad")}:')
+            p(
+                f'tilt of {t["link"]} about {t["lip"]} held at ({hp[0]:.6g}, {hp[1]:.6g}), '
+                f'starting at {_fmt(t["start"], "rad")}:'
+            )
             for key, word in (('max', 'up (counter-clockwise)'), ('min', 'down (clockwise)')):
                 amount = t['tilt_up'] if key == 'max' else t['tilt_down']
                 if t[key] is None:
                     p(f'  {word}: no limit within half a turn')
                 else:
-                    p(f'  {word}: {_fmt(amount, "rad")} to {_fmt(t[key], "rad")}; '
-                      f'limited by: {t["reason"][key]}')
+                    p(
+                        f'  {word}: {_fmt(amount, "rad")} to {_fmt(t[key], "rad")}; '
+                        f'limited by: {t["reason"][key]}'
+                    )
     o = r.get('oscillation')
     if o is not None:
         p(f'link oscillation while {o["input"]} runs over its range:')
         for link, v in o['links'].items():
-            text = 'turns fully' if v['full_turn'] else \
-                f'{_fmt(v["min"], "rad")} .. {_fmt(v["max"], "rad")} ' \
+            text = (
+                'turns fully'
+                if v['full_turn']
+                else f'{_fmt(v["min"], "rad")} .. {_fmt(v["max"], "rad")} '
                 f'(swing {math.degrees(v["max"] - v["min"]):.4g} deg)'
+            )
             p(f'  {link:<12} {text}')
     for k, v in (r.get('plots') or {}).items():
         p(f'wrote {k} plot: {v}')
@@ -261,6 +335,7 @@ def run(args) -> int:
 def main(argv: Sequence[str] | None = None) -> int:
     """Stand-alone entry point: ``python -m linkage_ros.range_cli ...``."""
     from .cli import standalone_main
+
     return standalone_main(PROG, add_arguments, run, argv)
 
 

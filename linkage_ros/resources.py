@@ -1,4 +1,5 @@
 """Where the packaged scene files live (colcon install share/ or the source tree)."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -7,14 +8,15 @@ from pathlib import Path
 def config_dir() -> Path:
     """The directory of the packaged scene files (config/)."""
     try:
-        from ament_index_python.packages import get_package_share_directory, PackageNotFoundError
+        from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+
         try:
             share = Path(get_package_share_directory('linkage_ros')) / 'config'
             if share.is_dir():
                 return share
-        except (PackageNotFoundError, OSError):   # OSError: AMENT_PREFIX_PATH unset
+        except (PackageNotFoundError, OSError):  # OSError: AMENT_PREFIX_PATH unset
             pass
-    except ImportError:          # no ROS on this machine: the source tree is the package
+    except ImportError:  # no ROS on this machine: the source tree is the package
         pass
     return Path(__file__).resolve().parent.parent / 'config'
 

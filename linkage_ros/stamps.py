@@ -1,12 +1,15 @@
 """Which request stamps the node can echo on its answers (ROS-free: the node and the offline bag
 analysis share it, so a recorded command is refused for the same reason the node refused it)."""
+
 from __future__ import annotations
+
+from typing import Any
 
 #: a builtin_interfaces/Time nanosec field is valid in [0, 1e9)
 NSEC_PER_SEC = 1_000_000_000
 
 
-def stamp_valid(sec, nanosec):
+def stamp_valid(sec: Any, nanosec: Any) -> Any:
     """Can a request stamp (sec, nanosec) be echoed: a ROS time, 0 <= sec, 0 <= nanosec < 1e9?
     Works on ints and on numpy arrays (elementwise); nanosec is unsigned in the message."""
     return (sec >= 0) & (nanosec < NSEC_PER_SEC)
@@ -20,10 +23,14 @@ def stamp_error(sec: int, nanosec: int) -> str | None:
     of an answer carrying such a stamp would fail on it.
     """
     if sec < 0:
-        return (f'header.stamp is negative (sec = {sec}, nanosec = {nanosec}): a ROS '
-                'time cannot be before 0; stamp the request with the clock, or leave it 0 and '
-                "the node uses its clock's now")
+        return (
+            f'header.stamp is negative (sec = {sec}, nanosec = {nanosec}): a ROS '
+            'time cannot be before 0; stamp the request with the clock, or leave it 0 and '
+            "the node uses its clock's now"
+        )
     if nanosec >= NSEC_PER_SEC:
-        return (f'header.stamp.nanosec = {nanosec} must be below 1000000000 (carry whole '
-                f'seconds into sec = {sec})')
+        return (
+            f'header.stamp.nanosec = {nanosec} must be below 1000000000 (carry whole '
+            f'seconds into sec = {sec})'
+        )
     return None

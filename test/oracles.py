@@ -22,6 +22,7 @@ All functions accept floats (or mpf) and return mpf values (points as (x, y) tup
 convert with ``float`` for comparisons, or use the helpers ``angle_error`` / ``point_error``
 which do the subtraction at 50 digits.
 """
+
 from __future__ import annotations
 
 import math
@@ -30,7 +31,7 @@ from dataclasses import dataclass, field
 import mpmath as mp
 
 DPS = 50
-EPS = 2.0 ** -52          # double precision machine epsilon
+EPS = 2.0**-52  # double precision machine epsilon
 
 
 def _m(x):
@@ -43,6 +44,7 @@ def _pt(p):
 
 
 # ---- small helpers ---------------------------------------------------------------------------
+
 
 def wrap(a):
     """Angle wrapped to (-pi, pi] at 50 digits."""
@@ -81,12 +83,14 @@ def cross(u, v):
 
 # ---- dyads -----------------------------------------------------------------------------------
 
+
 @dataclass
 class Dyad:
     """An oracle dyad answer: ``point`` (None when the dyad does not close), the distance of the
     solution from the centre line ``height``, the amount by which the constraint misses
     ``miss`` (> 0: no solution; <= 0: closes) and the transmission margin (|sin| of the angle at
     X, 0 at the singularity)."""
+
     point: tuple | None
     height: object
     miss: object
@@ -152,6 +156,7 @@ def line_through_point(p, x, offset, sign):
 
 # ---- four-bar --------------------------------------------------------------------------------
 
+
 def _ground(l1, ground_angle):
     g = _m(ground_angle)
     return (mp.mpf(0), mp.mpf(0)), (_m(l1) * mp.cos(g), _m(l1) * mp.sin(g))
@@ -170,8 +175,16 @@ def fourbar(l1, l2, l3, l4, theta2, branch=1, ground_angle=0.0, coupler_point=No
         t2 = _m(theta2)
         a = (_m(l2) * mp.cos(t2), _m(l2) * mp.sin(t2))
         dy = circle_circle(a, l3, o4, l4, branch)
-        out = {'O2': o2, 'O4': o4, 'A': a, 'theta2': t2, 'miss': dy.miss,
-               'ok': dy.point is not None, 'h': dy.height, 'margin': dy.margin}
+        out = {
+            'O2': o2,
+            'O4': o4,
+            'A': a,
+            'theta2': t2,
+            'miss': dy.miss,
+            'ok': dy.point is not None,
+            'h': dy.height,
+            'margin': dy.margin,
+        }
         if dy.point is None:
             return out
         b = dy.point
@@ -193,8 +206,15 @@ def fourbar_inverse(l1, l2, l3, l4, theta4, branch=1, ground_angle=0.0):
         t4 = _m(theta4)
         b = (o4[0] + _m(l4) * mp.cos(t4), o4[1] + _m(l4) * mp.sin(t4))
         dy = circle_circle(o2, l2, b, l3, branch)
-        out = {'O2': o2, 'O4': o4, 'B': b, 'theta4': t4, 'miss': dy.miss,
-               'ok': dy.point is not None, 'margin': dy.margin}
+        out = {
+            'O2': o2,
+            'O4': o4,
+            'B': b,
+            'theta4': t4,
+            'miss': dy.miss,
+            'ok': dy.point is not None,
+            'margin': dy.margin,
+        }
         if dy.point is None:
             return out
         a = dy.point
@@ -243,6 +263,7 @@ def fourbar_output_toggles(l1, l2, l3, l4, ground_angle=0.0):
 
 # ---- slider-crank ----------------------------------------------------------------------------
 
+
 def _slide_frame(direction_angle):
     dang = _m(direction_angle)
     d = (mp.cos(dang), mp.sin(dang))
@@ -258,8 +279,14 @@ def slider_crank(r, rod, e, direction_angle, theta2, branch=1):
         a = (r * mp.cos(t2), r * mp.sin(t2))
         foot = (e * n[0], e * n[1])
         dy = circle_line(a, rod, foot, d, branch)
-        out = {'O2': (mp.mpf(0), mp.mpf(0)), 'A': a, 'theta2': t2, 'miss': dy.miss,
-               'ok': dy.point is not None, 'margin': dy.margin}
+        out = {
+            'O2': (mp.mpf(0), mp.mpf(0)),
+            'A': a,
+            'theta2': t2,
+            'miss': dy.miss,
+            'ok': dy.point is not None,
+            'margin': dy.margin,
+        }
         if dy.point is None:
             return out
         b = dy.point
@@ -277,8 +304,14 @@ def slider_crank_inverse(r, rod, e, direction_angle, x, branch=1):
         e, x = _m(e), _m(x)
         b = (e * n[0] + x * d[0], e * n[1] + x * d[1])
         dy = circle_circle((0, 0), r, b, rod, branch)
-        out = {'O2': (mp.mpf(0), mp.mpf(0)), 'B': b, 'x': x, 'miss': dy.miss,
-               'ok': dy.point is not None, 'margin': dy.margin}
+        out = {
+            'O2': (mp.mpf(0), mp.mpf(0)),
+            'B': b,
+            'x': x,
+            'miss': dy.miss,
+            'ok': dy.point is not None,
+            'margin': dy.margin,
+        }
         if dy.point is None:
             return out
         a = dy.point
@@ -289,6 +322,7 @@ def slider_crank_inverse(r, rod, e, direction_angle, x, branch=1):
 
 
 # ---- five-bar (2 DOF) ------------------------------------------------------------------------
+
 
 def five_bar(o1, o5, l_left, l_right, l_ac, l_bc, q1, q2, branch=1):
     """Five-bar: cranks O1->A (angle q1) and O5->B (angle q2); C from circles about A (l_ac) and

@@ -7,6 +7,7 @@
   single-threaded executor, reliable publishers and collecting subscriptions, and waits that
   poll the graph (matched publisher / subscription counts), never fixed sleeps.
 """
+
 from __future__ import annotations
 
 import os
@@ -15,8 +16,9 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any
 
 import rclpy
 import yaml
@@ -24,8 +26,12 @@ from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
-QOS = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
-                 depth=10, durability=DurabilityPolicy.VOLATILE)
+QOS = QoSProfile(
+    reliability=ReliabilityPolicy.RELIABLE,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=10,
+    durability=DurabilityPolicy.VOLATILE,
+)
 NODE_NAME = 'linkage_node'
 REPO = Path(__file__).resolve().parent.parent
 
@@ -38,16 +44,22 @@ def random_domain_id() -> int:
 def ros_env(domain_id: int) -> dict[str, str]:
     """The environment for a node process: our domain, localhost discovery, the venv prefix."""
     env = dict(os.environ)
-    for k in ('ROS_LOCALHOST_ONLY', 'ROS_STATIC_PEERS', 'FASTRTPS_DEFAULT_PROFILES_FILE',
-              'FASTDDS_DEFAULT_PROFILES_FILE'):
+    for k in (
+        'ROS_LOCALHOST_ONLY',
+        'ROS_STATIC_PEERS',
+        'FASTRTPS_DEFAULT_PROFILES_FILE',
+        'FASTDDS_DEFAULT_PROFILES_FILE',
+    ):
         env.pop(k, None)
-    env.update({
-        'ROS_DOMAIN_ID': str(domain_id),
-        'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
-        'AMENT_PREFIX_PATH': os.environ.get('AMENT_PREFIX_PATH', sys.prefix),
-        'PYTHONUNBUFFERED': '1',
-        'RCUTILS_COLORIZED_OUTPUT': '0',
-    })
+    env.update(
+        {
+            'ROS_DOMAIN_ID': str(domain_id),
+            'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+            'AMENT_PREFIX_PATH': os.environ.get('AMENT_PREFIX_PATH', sys.prefix),
+            'PYTHONUNBUFFERED': '1',
+            'RCUTILS_COLORIZED_OUTPUT': '0',
+        }
+    )
     return env
 
 
@@ -59,8 +71,14 @@ class NodeProcess:
     domain. ``args`` are extra ``--ros-args`` arguments.
     """
 
-    def __init__(self, workdir: Path, domain_id: int, params: dict[str, Any] | None = None,
-                 namespace: str | None = None, args: Iterable[str] = ()):
+    def __init__(
+        self,
+        workdir: Path,
+        domain_id: int,
+        params: dict[str, Any] | None = None,
+        namespace: str | None = None,
+        args: Iterable[str] = (),
+    ):
         self.workdir = Path(workdir)
         self.workdir.mkdir(parents=True, exist_ok=True)
         self.domain_id = domain_id
@@ -80,20 +98,32 @@ class NodeProcess:
 
     # life cycle ----------------------------------------------------------------------------
     def command_line(self) -> list[str]:
-        cmd = [sys.executable, '-m', 'linkage_ros.node', '--ros-args',
-               '-r', f'__ns:={self.namespace}']
+        cmd = [
+            sys.executable,
+            '-m',
+            'linkage_ros.node',
+            '--ros-args',
+            '-r',
+            f'__ns:={self.namespace}',
+        ]
         if self.params:
             pfile = self.workdir / 'params.yaml'
-            pfile.write_text(yaml.safe_dump(
-                {f'{self.namespace}/{NODE_NAME}': {'ros__parameters': self.params}}))
+            pfile.write_text(
+                yaml.safe_dump({f'{self.namespace}/{NODE_NAME}': {'ros__parameters': self.params}})
+            )
             cmd += ['--params-file', str(pfile)]
         return cmd + self.args
 
-    def start(self) -> 'NodeProcess':
-        self._out = open(self.stdout_path, 'wb')
-        self._err = open(self.stderr_path, 'wb')
-        self.proc = subprocess.Popen(self.command_line(), env=ros_env(self.domain_id),
-                                     stdout=self._out, stderr=self._err, cwd=str(REPO))
+    def start(self) -> NodeProcess:
+        self._out = open(self.stdout_path, 'wb')  # noqa: SIM115 (lives with the process)
+        self._err = open(self.stderr_path, 'wb')  # noqa: SIM115 (lives with the process)
+        self.proc = subprocess.Popen(
+            self.command_line(),
+            env=ros_env(self.domain_id),
+            stdout=self._out,
+            stderr=self._err,
+            cwd=str(REPO),
+        )
         return self
 
     def alive(self) -> bool:
@@ -141,7 +171,7 @@ class NodeProcess:
 class Collector:
     """Messages received on one topic, in arrival order."""
 
-    def __init__(self, harness: 'RosHarness', msg_type, topic: str):
+    def __init__(self, harness: RosHarness, msg_type, topic: str):
         self.topic = topic
         self.messages: list = []
         self.sub = harness.node.create_subscription(msg_type, topic, self.messages.append, QOS)
@@ -162,8 +192,9 @@ class RosHarness:
 
     def __init__(self, domain_id: int, name: str = 'linkage_test'):
         self.domain_id = domain_id
-        self._saved = {k: os.environ.get(k) for k in ('ROS_AUTOMATIC_DISCOVERY_RANGE',
-                                                      'ROS_LOCALHOST_ONLY')}
+        self._saved = {
+            k: os.environ.get(k) for k in ('ROS_AUTOMATIC_DISCOVERY_RANGE', 'ROS_LOCALHOST_ONLY')
+        }
         os.environ['ROS_AUTOMATIC_DISCOVERY_RANGE'] = 'LOCALHOST'
         os.environ.pop('ROS_LOCALHOST_ONLY', None)
         self.context = rclpy.Context()
@@ -190,8 +221,9 @@ class RosHarness:
         return Collector(self, msg_type, topic)
 
     # waiting -------------------------------------------------------------------------------
-    def spin_until(self, pred: Callable[[], bool], timeout: float,
-                   process: NodeProcess | None = None) -> bool:
+    def spin_until(
+        self, pred: Callable[[], bool], timeout: float, process: NodeProcess | None = None
+    ) -> bool:
         """Spin until ``pred()`` is true (True) or ``timeout`` s pass (False). Raises if the node
         process died meanwhile."""
         end = time.monotonic() + timeout
@@ -199,8 +231,10 @@ class RosHarness:
             if pred():
                 return True
             if process is not None and not process.alive():
-                raise RuntimeError(f'node process exited with {process.proc.returncode}:\n'
-                                   f'{process.output()[-3000:]}')
+                raise RuntimeError(
+                    f'node process exited with {process.proc.returncode}:\n'
+                    f'{process.output()[-3000:]}'
+                )
             left = end - time.monotonic()
             if left <= 0:
                 return False
@@ -212,16 +246,25 @@ class RosHarness:
         while (left := end - time.monotonic()) > 0:
             self.executor.spin_once(timeout_sec=min(0.05, left))
 
-    def wait_for_discovery(self, publishers=(), collectors=(), timeout: float = 20.0,
-                           process: NodeProcess | None = None):
+    def wait_for_discovery(
+        self,
+        publishers=(),
+        collectors=(),
+        timeout: float = 20.0,
+        process: NodeProcess | None = None,
+    ):
         """Until every publisher has a matched subscription and every collector a matched
         publisher."""
+
         def matched():
-            return (all(p.get_subscription_count() > 0 for p in publishers)
-                    and all(c.sub.get_publisher_count() > 0 for c in collectors))
+            return all(p.get_subscription_count() > 0 for p in publishers) and all(
+                c.sub.get_publisher_count() > 0 for c in collectors
+            )
+
         if not self.spin_until(matched, timeout, process):
-            missing = [p.topic_name for p in publishers if p.get_subscription_count() == 0] + \
-                      [c.topic for c in collectors if c.sub.get_publisher_count() == 0]
+            missing = [p.topic_name for p in publishers if p.get_subscription_count() == 0] + [
+                c.topic for c in collectors if c.sub.get_publisher_count() == 0
+            ]
             raise TimeoutError(f'no match within {timeout} s on {missing}')
 
     def publish(self, publisher, msg, ack_timeout: float | None = None):
@@ -234,5 +277,6 @@ class RosHarness:
         """
         publisher.publish(msg)
         if ack_timeout is not None and not publisher.wait_for_all_acked(
-                Duration(seconds=ack_timeout)):
+            Duration(seconds=ack_timeout)
+        ):
             raise TimeoutError(f'{publisher.topic_name}: sample not acknowledged')

@@ -4,16 +4,25 @@ Rotation and range claims are checked by sweeping the position solver (does the 
 assemble at this angle?) on fine grids and bisecting on that flag, never by re-deriving the
 formulas used in the code.  Transmission angles are checked against a 50-digit cosine rule.
 """
+
 import math
 
 import mpmath as mp
 import numpy as np
 import pytest
 
-from linkage_ros.core.analysis import (GrashofInfo, fourbar_input_intervals, fourbar_input_range,
-                                       fourbar_output_intervals, fourbar_output_range,
-                                       fourbar_toggle_angles, grashof_class, grashof_info,
-                                       kutzbach_dof, transmission_angle)
+from linkage_ros.core.analysis import (
+    GrashofInfo,
+    fourbar_input_intervals,
+    fourbar_input_range,
+    fourbar_output_intervals,
+    fourbar_output_range,
+    fourbar_toggle_angles,
+    grashof_class,
+    grashof_info,
+    kutzbach_dof,
+    transmission_angle,
+)
 from linkage_ros.core.fourbar import fourbar_forward, fourbar_inverse
 
 TWO_PI = 2 * math.pi
@@ -21,17 +30,21 @@ TWO_PI = 2 * math.pi
 
 # ----------------------------------------------------------------------------- Kutzbach
 
-@pytest.mark.parametrize('name,n,j,dof', [
-    ('four-bar', 4, 4, 1),
-    ('Peaucellier inversor', 8, 10, 1),
-    ('Hart inversor', 6, 7, 1),
-    ('plagiograph', 5, 5, 2),
-    ('loader', 9, 11, 2),
-    ('excavator', 12, 15, 3),
-    ('slider-crank', 4, 4, 1),
-    ('five-bar', 5, 5, 2),
-    ('structure (triangle)', 3, 3, 0),
-])
+
+@pytest.mark.parametrize(
+    'name,n,j,dof',
+    [
+        ('four-bar', 4, 4, 1),
+        ('Peaucellier inversor', 8, 10, 1),
+        ('Hart inversor', 6, 7, 1),
+        ('plagiograph', 5, 5, 2),
+        ('loader', 9, 11, 2),
+        ('excavator', 12, 15, 3),
+        ('slider-crank', 4, 4, 1),
+        ('five-bar', 5, 5, 2),
+        ('structure (triangle)', 3, 3, 0),
+    ],
+)
 def test_kutzbach_lecture_numbers(name, n, j, dof):
     assert kutzbach_dof(n, j) == dof
 
@@ -42,6 +55,7 @@ def test_kutzbach_higher_pairs():
 
 
 # ----------------------------------------------------------------------------- brute force oracles
+
 
 def _input_turns_fully(lengths, n=7201):
     t2 = np.linspace(0.0, TWO_PI, n)
@@ -84,16 +98,16 @@ def _endpoints_mod_2pi(intervals):
 
 # (lengths l1 ground, l2 input, l3 coupler, l4 output), class, input turns, output turns
 GRASHOF_CASES = [
-    ((4.0, 1.5, 4.5, 3.0), 'crank-rocker', True, False),           # shortest = input
-    ((4.0, 3.0, 4.5, 1.5), 'crank-rocker', False, True),           # shortest = output
+    ((4.0, 1.5, 4.5, 3.0), 'crank-rocker', True, False),  # shortest = input
+    ((4.0, 3.0, 4.5, 1.5), 'crank-rocker', False, True),  # shortest = output
     ((7.0, 2.0, 8.0, 5.0), 'crank-rocker', True, False),
-    ((1.5, 4.0, 4.5, 3.0), 'double-crank', True, True),            # shortest = ground
+    ((1.5, 4.0, 4.5, 3.0), 'double-crank', True, True),  # shortest = ground
     ((2.0, 7.0, 6.0, 5.0), 'double-crank', True, True),
     ((4.0, 3.0, 1.5, 4.5), 'grashof-double-rocker', False, False),  # shortest = coupler
-    ((4.0, 2.0, 5.0, 3.0), 'change-point', True, False),           # 2 + 5 == 4 + 3
-    ((2.0, 1.0, 2.0, 1.0), 'change-point', True, True),            # parallelogram
-    ((2.0, 2.0, 1.0, 1.0), 'change-point', False, True),           # kite
-    ((3.0, 1.0, 2.0, 2.0), 'change-point', True, False),           # 1 + 3 == 2 + 2
+    ((4.0, 2.0, 5.0, 3.0), 'change-point', True, False),  # 2 + 5 == 4 + 3
+    ((2.0, 1.0, 2.0, 1.0), 'change-point', True, True),  # parallelogram
+    ((2.0, 2.0, 1.0, 1.0), 'change-point', False, True),  # kite
+    ((3.0, 1.0, 2.0, 2.0), 'change-point', True, False),  # 1 + 3 == 2 + 2
     ((4.0, 3.0, 5.0, 2.5), 'triple-rocker', False, False),
     ((5.0, 4.0, 2.5, 3.0), 'triple-rocker', False, False),
     ((3.0, 2.0, 2.5, 4.0), 'triple-rocker', False, False),
@@ -129,9 +143,12 @@ def test_grashof_class_agrees_with_brute_force_on_random_linkages():
         inp, out = _input_turns_fully(lengths, 3601), _output_turns_fully(lengths, 3601)
         assert (info.input_fully_rotates, info.output_fully_rotates) == (inp, out)
         # the Grashof rule and the rotation behaviour tell the same story
-        expected = {(True, True): {'double-crank'}, (True, False): {'crank-rocker'},
-                    (False, True): {'crank-rocker'},
-                    (False, False): {'grashof-double-rocker', 'triple-rocker'}}[(inp, out)]
+        expected = {
+            (True, True): {'double-crank'},
+            (True, False): {'crank-rocker'},
+            (False, True): {'crank-rocker'},
+            (False, False): {'grashof-double-rocker', 'triple-rocker'},
+        }[(inp, out)]
         assert info.klass in expected
         if info.klass in ('grashof-double-rocker', 'triple-rocker'):
             # Grashof double-rocker: the coupler turns fully relative to the others, i.e. the
@@ -157,10 +174,22 @@ def test_grashof_change_point_tolerance_and_errors():
 
 # ----------------------------------------------------------------------------- ranges
 
-ROCKING_INPUT = [(4.0, 3.0, 5.0, 2.5), (5.0, 4.0, 2.5, 3.0), (3.0, 2.0, 2.5, 4.0),
-                 (4.0, 3.0, 1.5, 4.5), (4.0, 3.0, 4.5, 1.5), (3.0, 2.0, 2.0, 1.0)]
-ROCKING_OUTPUT = [(4.0, 3.0, 5.0, 2.5), (5.0, 4.0, 2.5, 3.0), (3.0, 2.0, 2.5, 4.0),
-                  (4.0, 3.0, 1.5, 4.5), (4.0, 1.5, 4.5, 3.0), (4.0, 2.0, 5.0, 3.0)]
+ROCKING_INPUT = [
+    (4.0, 3.0, 5.0, 2.5),
+    (5.0, 4.0, 2.5, 3.0),
+    (3.0, 2.0, 2.5, 4.0),
+    (4.0, 3.0, 1.5, 4.5),
+    (4.0, 3.0, 4.5, 1.5),
+    (3.0, 2.0, 2.0, 1.0),
+]
+ROCKING_OUTPUT = [
+    (4.0, 3.0, 5.0, 2.5),
+    (5.0, 4.0, 2.5, 3.0),
+    (3.0, 2.0, 2.5, 4.0),
+    (4.0, 3.0, 1.5, 4.5),
+    (4.0, 1.5, 4.5, 3.0),
+    (4.0, 2.0, 5.0, 3.0),
+]
 
 
 @pytest.mark.parametrize('lengths', ROCKING_INPUT)
@@ -219,8 +248,9 @@ def test_kite_singularity_is_inside_the_range():
     assert not fourbar_forward(*lengths, np.array([lo - 1e-9, hi + 1e-9])).ok.any()
 
 
-@pytest.mark.parametrize('lengths', [(4.0, 1.5, 4.5, 3.0), (1.5, 4.0, 4.5, 3.0),
-                                     (2.0, 1.0, 2.0, 1.0)])
+@pytest.mark.parametrize(
+    'lengths', [(4.0, 1.5, 4.5, 3.0), (1.5, 4.0, 4.5, 3.0), (2.0, 1.0, 2.0, 1.0)]
+)
 def test_full_rotation_gives_none(lengths):
     assert fourbar_input_range(*lengths) is None
     assert fourbar_input_intervals(*lengths) is None
@@ -236,10 +266,18 @@ def test_ranges_reject_unassemblable_linkage():
 
 # ----------------------------------------------------------------------------- toggles
 
-@pytest.mark.parametrize('lengths,count', [
-    ((4.0, 3.0, 5.0, 2.5), 2), ((5.0, 4.0, 2.5, 3.0), 2), ((4.0, 3.0, 1.5, 4.5), 4),
-    ((4.0, 1.5, 4.5, 3.0), 0), ((1.5, 4.0, 4.5, 3.0), 0), ((4.0, 2.0, 5.0, 3.0), 1),
-])
+
+@pytest.mark.parametrize(
+    'lengths,count',
+    [
+        ((4.0, 3.0, 5.0, 2.5), 2),
+        ((5.0, 4.0, 2.5, 3.0), 2),
+        ((4.0, 3.0, 1.5, 4.5), 4),
+        ((4.0, 1.5, 4.5, 3.0), 0),
+        ((1.5, 4.0, 4.5, 3.0), 0),
+        ((4.0, 2.0, 5.0, 3.0), 1),
+    ],
+)
 def test_toggle_angles(lengths, count):
     l1, l2, l3, l4 = lengths
     toggles = fourbar_toggle_angles(*lengths)
@@ -265,16 +303,19 @@ def test_toggle_angles(lengths, count):
 
 # ----------------------------------------------------------------------------- transmission angle
 
+
 def _mp_transmission(l1, l2, l3, l4, t2):
     with mp.workdps(50):
         l1, l2, l3, l4, t2 = (mp.mpf(float(v)) for v in (l1, l2, l3, l4, t2))
-        d2 = l1 ** 2 + l2 ** 2 - 2 * l1 * l2 * mp.cos(t2)
-        c = (l3 ** 2 + l4 ** 2 - d2) / (2 * l3 * l4)
+        d2 = l1**2 + l2**2 - 2 * l1 * l2 * mp.cos(t2)
+        c = (l3**2 + l4**2 - d2) / (2 * l3 * l4)
         return float(mp.acos(min(max(c, -1), 1)))
 
 
-@pytest.mark.parametrize('lengths', [(4.0, 1.5, 4.5, 3.0), (1.5, 4.0, 4.5, 3.0),
-                                     (4.0, 3.0, 5.0, 2.5), (4.0, 3.0, 1.5, 4.5)])
+@pytest.mark.parametrize(
+    'lengths',
+    [(4.0, 1.5, 4.5, 3.0), (1.5, 4.0, 4.5, 3.0), (4.0, 3.0, 5.0, 2.5), (4.0, 3.0, 1.5, 4.5)],
+)
 def test_transmission_angle_matches_mpmath_cosine_rule(lengths):
     t2 = np.linspace(-np.pi, np.pi, 181)
     mu = transmission_angle(*lengths, t2)
@@ -312,46 +353,71 @@ def test_transmission_angle_at_toggles_and_crank_rocker_extremes():
 # oracle: does the position solver assemble the scene at every crank angle of a fine grid, and
 # does the other ground-pivoted link then make a whole turn.
 
+
 def _inverted_slider_crank(a, b, e, theta_ref=2.0, drive='crank'):
     """General-form 3R-1P (seed 003 example 5): ground O2O4 = a, crank O2A = b, the slide line
     through A at distance e from O4 (F its foot, on the rocker)."""
     from linkage_ros.core.model import Scene
+
     A = np.array([b * math.cos(theta_ref), b * math.sin(theta_ref)])
     O4 = np.array([a, 0.0])
     d = np.hypot(*(A - O4))
     phi = math.atan2(*(A - O4)[::-1])
     beta = math.acos(e / d)
     F = O4 + e * np.array([math.cos(phi + beta), math.sin(phi + beta)])
-    act = ({'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'} if drive == 'crank'
-           else {'type': 'angle', 'link': 'rocker', 'pivot': 'O4', 'toward': 'F'})
-    return Scene.from_dict({
-        'name': 'isc', 'points': {'O2': [0.0, 0.0], 'O4': O4.tolist(), 'A': A.tolist(),
-                                  'F': F.tolist()},
-        'ground': 'ground',
-        'links': {'ground': ['O2', 'O4'], 'crank': ['O2', 'A'], 'block': ['A'],
-                  'rocker': ['O4', 'F']},
-        'sliders': [{'name': 'slide', 'guide': 'rocker', 'slider': 'block', 'point': 'A',
-                     'direction': (A - F).tolist(), 'origin': 'F'}],
-        'actuators': {'drive': act}}).mechanism
+    act = (
+        {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
+        if drive == 'crank'
+        else {'type': 'angle', 'link': 'rocker', 'pivot': 'O4', 'toward': 'F'}
+    )
+    return Scene.from_dict(
+        {
+            'name': 'isc',
+            'points': {'O2': [0.0, 0.0], 'O4': O4.tolist(), 'A': A.tolist(), 'F': F.tolist()},
+            'ground': 'ground',
+            'links': {
+                'ground': ['O2', 'O4'],
+                'crank': ['O2', 'A'],
+                'block': ['A'],
+                'rocker': ['O4', 'F'],
+            },
+            'sliders': [
+                {
+                    'name': 'slide',
+                    'guide': 'rocker',
+                    'slider': 'block',
+                    'point': 'A',
+                    'direction': (A - F).tolist(),
+                    'origin': 'F',
+                }
+            ],
+            'actuators': {'drive': act},
+        }
+    ).mechanism
 
 
 def _turns(mech, n=3601):
     """Does the driven link assemble at every angle of a whole turn from the reference pose
     (the position solver, continuous branch)?"""
     from linkage_ros.core.solver import Solver
+
     s = Solver(mech, branch='continuous')
-    (name, start), = s.reference_values().items()
+    ((name, start),) = s.reference_values().items()
     return all(s.solve({name: start + 2 * math.pi * k / (n - 1)}).success for k in range(n))
 
 
-@pytest.mark.parametrize('a,b,e,klass', [
-    (0.30, 0.20, 0.14, 'non-grashof'),      # the seed's example: lmin + e = 0.34 > lmax
-    (0.40, 0.10, 0.14, 'grashof'),          # crank turns, slotted link rocks
-    (0.15, 0.40, 0.10, 'grashof'),          # ground shortest: both turn (whitworth-like)
-    (0.15, 0.40, 0.30, 'non-grashof'),
-])
+@pytest.mark.parametrize(
+    'a,b,e,klass',
+    [
+        (0.30, 0.20, 0.14, 'non-grashof'),  # the seed's example: lmin + e = 0.34 > lmax
+        (0.40, 0.10, 0.14, 'grashof'),  # crank turns, slotted link rocks
+        (0.15, 0.40, 0.10, 'grashof'),  # ground shortest: both turn (whitworth-like)
+        (0.15, 0.40, 0.30, 'non-grashof'),
+    ],
+)
 def test_inverted_slider_crank_class_and_rotation_by_the_solver(a, b, e, klass):
     from linkage_ros.core.analysis import four_link_chain_info
+
     mech = _inverted_slider_crank(a, b, e)
     info = four_link_chain_info(mech)
     assert info.chain == '3R-1P' and info.klass == klass
@@ -367,13 +433,17 @@ def test_inverted_slider_crank_class_and_rotation_by_the_solver(a, b, e, klass):
     assert (info.input_fully_rotates, info.output_fully_rotates) == (rocker_turns, crank_turns)
 
 
-@pytest.mark.parametrize('crank,rod,offset', [(0.05, 0.18, 0.01), (0.10, 0.12, 0.03),
-                                              (0.10, 0.12, 0.015), (0.12, 0.10, 0.0)])
+@pytest.mark.parametrize(
+    'crank,rod,offset',
+    [(0.05, 0.18, 0.01), (0.10, 0.12, 0.03), (0.10, 0.12, 0.015), (0.12, 0.10, 0.0)],
+)
 def test_slider_crank_class_and_crank_rotation_by_the_solver(crank, rod, offset):
     from linkage_ros.core.analysis import four_link_chain_info
     from linkage_ros.core.model import Scene
-    mech = Scene.from_dict({'name': 'sc', 'slider_crank': {
-        'crank': crank, 'rod': rod, 'offset': offset, 'input': 0.2}}).mechanism
+
+    mech = Scene.from_dict(
+        {'name': 'sc', 'slider_crank': {'crank': crank, 'rod': rod, 'offset': offset, 'input': 0.2}}
+    ).mechanism
     info = four_link_chain_info(mech)
     assert info.chain == '3R-1P' and info.output_fully_rotates is None
     lmin, lmax = sorted((crank, rod))
@@ -383,8 +453,10 @@ def test_slider_crank_class_and_crank_rotation_by_the_solver(crank, rod, offset)
 
 def test_four_link_chain_info_agrees_with_grashof_info_and_skips_other_mechanisms():
     from pathlib import Path
+
     from linkage_ros.core.analysis import four_link_chain_info
     from linkage_ros.core.model import Scene
+
     config = Path(__file__).resolve().parent.parent / 'config'
     seen = set()
     for f in sorted(config.glob('*.yaml')):
@@ -393,17 +465,21 @@ def test_four_link_chain_info_agrees_with_grashof_info_and_skips_other_mechanism
         if mech.form == 'four_bar':
             sc = mech.shortcut
             g = grashof_info(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'])
-            assert (info.chain, info.klass, info.input_fully_rotates,
-                    info.output_fully_rotates) == ('4R', g.klass, g.input_fully_rotates,
-                                                   g.output_fully_rotates)
+            assert (
+                info.chain,
+                info.klass,
+                info.input_fully_rotates,
+                info.output_fully_rotates,
+            ) == ('4R', g.klass, g.input_fully_rotates, g.output_fully_rotates)
         if len(mech.links) != 4:
-            assert info is None, f.name                 # multi-loop scenes have no such class
+            assert info is None, f.name  # multi-loop scenes have no such class
         elif info is not None:
             seen.add(f.stem)
     assert seen >= {'four_bar', 'inverted_slider_crank_oscillating', 'slider_crank'}
-    osc = four_link_chain_info(Scene.from_yaml(
-        config / 'inverted_slider_crank_oscillating.yaml').mechanism)
-    assert osc.klass == 'non-grashof' and 'lmin + e = 0.34 > lmax = 0.3' == osc.rule
+    osc = four_link_chain_info(
+        Scene.from_yaml(config / 'inverted_slider_crank_oscillating.yaml').mechanism
+    )
+    assert osc.klass == 'non-grashof' and osc.rule == 'lmin + e = 0.34 > lmax = 0.3'
     assert osc.lengths == pytest.approx({'l_a': 0.3, 'l_b': 0.2, 'e': 0.14}, rel=1e-12)
     assert set(osc.links) == {'ground', 'crank'}
 
@@ -413,35 +489,63 @@ def _slider_crank_general(b, c, e, h, ground_is_slider=False, theta=0.3):
     declared through a point S = B - (0, h) of the block (h != 0: the slide point is not the wrist
     pin), or, with ground_is_slider, as a line fixed in the block through the ground point P."""
     from linkage_ros.core.model import Scene
+
     A = [b * math.cos(theta), b * math.sin(theta)]
     B = [A[0] + math.sqrt(c * c - (e - A[1]) ** 2), e]
     if ground_is_slider:
         points = {'O2': [0.0, 0.0], 'P': [0.0, e], 'A': A, 'B': B}
         links = {'ground': ['O2', 'P'], 'crank': ['O2', 'A'], 'rod': ['A', 'B'], 'block': ['B']}
-        slide = {'name': 's', 'guide': 'block', 'slider': 'ground', 'point': 'P',
-                 'direction': 0.0, 'origin': 'B'}
+        slide = {
+            'name': 's',
+            'guide': 'block',
+            'slider': 'ground',
+            'point': 'P',
+            'direction': 0.0,
+            'origin': 'B',
+        }
     else:
         points = {'O2': [0.0, 0.0], 'X': [0.0, 0.2], 'A': A, 'B': B, 'S': [B[0], e - h]}
-        links = {'ground': ['O2', 'X'], 'crank': ['O2', 'A'], 'rod': ['A', 'B'],
-                 'block': ['B', 'S']}
-        slide = {'name': 's', 'guide': 'ground', 'slider': 'block', 'point': 'S',
-                 'direction': 0.0, 'origin': 'X'}
-    return Scene.from_dict({'name': 'scg', 'points': points, 'ground': 'ground', 'links': links,
-                            'sliders': [slide], 'actuators': {'crank': {
-                                'type': 'angle', 'link': 'crank', 'pivot': 'O2',
-                                'toward': 'A'}}}).mechanism
+        links = {
+            'ground': ['O2', 'X'],
+            'crank': ['O2', 'A'],
+            'rod': ['A', 'B'],
+            'block': ['B', 'S'],
+        }
+        slide = {
+            'name': 's',
+            'guide': 'ground',
+            'slider': 'block',
+            'point': 'S',
+            'direction': 0.0,
+            'origin': 'X',
+        }
+    return Scene.from_dict(
+        {
+            'name': 'scg',
+            'points': points,
+            'ground': 'ground',
+            'links': links,
+            'sliders': [slide],
+            'actuators': {
+                'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
+            },
+        }
+    ).mechanism
 
 
 @pytest.mark.parametrize('ground_is_slider', [False, True])
-@pytest.mark.parametrize('b,c,e,turns', [(0.10, 0.12, 0.035, False), (0.10, 0.12, 0.015, True),
-                                         (0.05, 0.18, 0.02, True)])
-def test_slider_crank_offset_is_the_wrist_pins_line_not_the_slide_point(b, c, e, turns,
-                                                                         ground_is_slider):
+@pytest.mark.parametrize(
+    'b,c,e,turns', [(0.10, 0.12, 0.035, False), (0.10, 0.12, 0.015, True), (0.05, 0.18, 0.02, True)]
+)
+def test_slider_crank_offset_is_the_wrist_pins_line_not_the_slide_point(
+    b, c, e, turns, ground_is_slider
+):
     """The offset e is the distance of O2 from the line the wrist pin B moves on, whatever point
     declares the slide (here 0.05 m off B: taking that point's line would give |e - 0.05| and
     the opposite answer in the first two cases), and the ground may be the slide's guide or its
     slider. Oracle: a full turn of the position solver."""
     from linkage_ros.core.analysis import four_link_chain_info
+
     mech = _slider_crank_general(b, c, e, 0.05, ground_is_slider)
     info = four_link_chain_info(mech)
     assert info.chain == '3R-1P' and info.lengths['e'] == pytest.approx(e, abs=1e-12)
@@ -453,16 +557,36 @@ def test_four_link_chain_info_is_none_for_two_slides():
     """A Scotch yoke (R-R-P-P) is not a 4R or 3R-1P chain: no class (it used to raise)."""
     from linkage_ros.core.analysis import four_link_chain_info
     from linkage_ros.core.model import Scene
-    mech = Scene.from_dict({
-        'name': 'yoke', 'points': {'O2': [0.0, 0.0], 'A': [0.1, 0.0], 'Y': [0.1, 0.3]},
-        'ground': 'ground', 'links': {'ground': ['O2'], 'crank': ['O2', 'A'], 'block': ['A'],
-                                      'yoke': ['Y']},
-        'sliders': [{'name': 's1', 'guide': 'yoke', 'slider': 'block', 'point': 'A',
-                     'direction': math.pi / 2, 'origin': 'Y'},
-                    {'name': 's2', 'guide': 'ground', 'slider': 'yoke', 'point': 'Y',
-                     'direction': 0.0, 'origin': 'O2'}],
-        'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2',
-                                'toward': 'A'}}}).mechanism
+
+    mech = Scene.from_dict(
+        {
+            'name': 'yoke',
+            'points': {'O2': [0.0, 0.0], 'A': [0.1, 0.0], 'Y': [0.1, 0.3]},
+            'ground': 'ground',
+            'links': {'ground': ['O2'], 'crank': ['O2', 'A'], 'block': ['A'], 'yoke': ['Y']},
+            'sliders': [
+                {
+                    'name': 's1',
+                    'guide': 'yoke',
+                    'slider': 'block',
+                    'point': 'A',
+                    'direction': math.pi / 2,
+                    'origin': 'Y',
+                },
+                {
+                    'name': 's2',
+                    'guide': 'ground',
+                    'slider': 'yoke',
+                    'point': 'Y',
+                    'direction': 0.0,
+                    'origin': 'O2',
+                },
+            ],
+            'actuators': {
+                'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
+            },
+        }
+    ).mechanism
     assert four_link_chain_info(mech) is None
 
 
@@ -472,6 +596,7 @@ def test_general_form_four_bars_of_every_class_driven_from_either_side():
     random lengths kept 2 % away from the Grashof equality so a 0.5 deg grid resolves them."""
     from linkage_ros.core.analysis import four_link_chain_info
     from linkage_ros.core.model import Scene
+
     rng = np.random.default_rng(7)
     seen, cases = set(), 0
     while cases < 8:
@@ -487,16 +612,36 @@ def test_general_form_four_bars_of_every_class_driven_from_either_side():
             continue
         ang = math.atan2(*(O4 - A)[::-1]) + math.acos((l3 * l3 + d * d - l4 * l4) / (2 * l3 * d))
         B = A + l3 * np.array([math.cos(ang), math.sin(ang)])
-        pts = {'O2': [0.0, 0.0], 'O4': O4.tolist(), 'A': A.tolist(), 'B': B.tolist(),
-               'X': (A + [0.01, 0.02]).tolist(), 'Y': (B + [0.02, -0.01]).tolist()}
+        pts = {
+            'O2': [0.0, 0.0],
+            'O4': O4.tolist(),
+            'A': A.tolist(),
+            'B': B.tolist(),
+            'X': (A + [0.01, 0.02]).tolist(),
+            'Y': (B + [0.02, -0.01]).tolist(),
+        }
 
         def scene(drive):
-            act = ({'type': 'angle', 'link': 'inp', 'pivot': 'A', 'toward': 'X'}
-                   if drive == 'inp' else
-                   {'type': 'angle', 'link': 'outp', 'pivot': 'B', 'toward': 'Y'})
-            return Scene.from_dict({'name': 'f', 'points': pts, 'ground': 'g', 'links': {
-                'g': ['O4', 'O2'], 'inp': ['A', 'X', 'O2'], 'cp': ['B', 'A'],
-                'outp': ['Y', 'B', 'O4']}, 'actuators': {'d': act}}).mechanism
+            act = (
+                {'type': 'angle', 'link': 'inp', 'pivot': 'A', 'toward': 'X'}
+                if drive == 'inp'
+                else {'type': 'angle', 'link': 'outp', 'pivot': 'B', 'toward': 'Y'}
+            )
+            return Scene.from_dict(
+                {
+                    'name': 'f',
+                    'points': pts,
+                    'ground': 'g',
+                    'links': {
+                        'g': ['O4', 'O2'],
+                        'inp': ['A', 'X', 'O2'],
+                        'cp': ['B', 'A'],
+                        'outp': ['Y', 'B', 'O4'],
+                    },
+                    'actuators': {'d': act},
+                }
+            ).mechanism
+
         m_in, m_out = scene('inp'), scene('outp')
         cases += 1
         t_in, t_out = _turns(m_in, 721), _turns(m_out, 721)

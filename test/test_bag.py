@@ -11,6 +11,7 @@ recorded ROS bag holds them. Oracles:
   ``linkage_node`` over DDS on the same commands, compared to 1e-12;
 * a one-by-one run of the core Solver for the vectorised path (10^5 commands).
 """
+
 from __future__ import annotations
 
 import csv
@@ -32,14 +33,17 @@ from linkage_ros.core.solver import Solver
 
 TS = get_typestore(Stores.ROS2_JAZZY)
 JS = 'sensor_msgs/msg/JointState'
-SCENE_YAML = ('four_bar: {ground: 0.4, crank: 0.1, coupler: 0.35, rocker: 0.3, '
-              'coupler_point: {distance: 0.2, angle: 0.5}}\n')
+SCENE_YAML = (
+    'four_bar: {ground: 0.4, crank: 0.1, coupler: 0.35, rocker: 0.3, '
+    'coupler_point: {distance: 0.2, angle: 0.5}}\n'
+)
 GROUND, CRANK, COUPLER, ROCKER, CP_DIST, CP_ANGLE = 0.4, 0.1, 0.35, 0.3, 0.2, 0.5
 TOL = 1e-12
 REPO = Path(__file__).resolve().parent.parent
 
 
 # ---- helpers -----------------------------------------------------------------------------------
+
 
 @pytest.fixture
 def scene(tmp_path) -> Path:
@@ -63,31 +67,43 @@ def four_bar(theta2: float) -> dict:
     dx, dy = GROUND - ax, -ay
     d = math.hypot(dx, dy)
     ux, uy = dx / d, dy / d
-    along = (COUPLER ** 2 - ROCKER ** 2 + d ** 2) / (2 * d)
-    h = math.sqrt(COUPLER ** 2 - along ** 2)
+    along = (COUPLER**2 - ROCKER**2 + d**2) / (2 * d)
+    h = math.sqrt(COUPLER**2 - along**2)
     bx, by = ax + along * ux - h * uy, ay + along * uy + h * ux
     t3 = math.atan2(by - ay, bx - ax)
     t4 = math.atan2(by, bx - GROUND)
     px = ax + CP_DIST * math.cos(t3 + CP_ANGLE)
     py = ay + CP_DIST * math.sin(t3 + CP_ANGLE)
-    return {'joints': {'O2': wrap(theta2), 'A': wrap(t3 - theta2), 'B': wrap(t4 - t3),
-                       'O4': wrap(t4)},
-            'points': {'O2': (0.0, 0.0), 'A': (ax, ay), 'B': (bx, by), 'O4': (GROUND, 0.0),
-                       'P': (px, py)}}
+    return {
+        'joints': {'O2': wrap(theta2), 'A': wrap(t3 - theta2), 'B': wrap(t4 - t3), 'O4': wrap(t4)},
+        'points': {
+            'O2': (0.0, 0.0),
+            'A': (ax, ay),
+            'B': (bx, by),
+            'O4': (GROUND, 0.0),
+            'P': (px, py),
+        },
+    }
 
 
 def joint_state(names, positions, sec=0, nanosec=0, velocity=()):
     m = TS.types
-    return m[JS](header=m['std_msgs/msg/Header'](
-        stamp=m['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec), frame_id=''),
-        name=list(names), position=np.asarray(positions, float),
-        velocity=np.asarray(velocity, float), effort=np.zeros(0))
+    return m[JS](
+        header=m['std_msgs/msg/Header'](
+            stamp=m['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec), frame_id=''
+        ),
+        name=list(names),
+        position=np.asarray(positions, float),
+        velocity=np.asarray(velocity, float),
+        effort=np.zeros(0),
+    )
 
 
 def rclpy_bytes(names, positions, sec, nanosec) -> bytes:
     """A JointState serialised by rclpy (Fast-CDR): the bytes a recorded ROS bag holds."""
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
+
     msg = JointState()
     msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
     msg.name = list(names)
@@ -133,18 +149,19 @@ def read_out_bag(path: Path):
 
 
 def stamp_ns(msg) -> int:
-    return msg.header.stamp.sec * 10 ** 9 + msg.header.stamp.nanosec
+    return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
 
 
 # ---- a command stream with every kind of row ---------------------------------------------------
 
+
 def mixed_stream():
     """(topic, bag time, stamp (sec, ns), names, positions, kind) for the round-trip test."""
     rows = []
-    t = 1_700_000_000 * 10 ** 9
+    t = 1_700_000_000 * 10**9
     for i in range(120):
-        theta = -3.0 + 0.11 * i                      # sweeps past +-pi (wrapping)
-        sec, ns = divmod(t + 7_000_000 * i, 10 ** 9)
+        theta = -3.0 + 0.11 * i  # sweeps past +-pi (wrapping)
+        sec, ns = divmod(t + 7_000_000 * i, 10**9)
         names, pos, kind = ['crank'], [theta], 'ok'
         if i % 17 == 5:
             pos, kind = [float('nan')], 'nan'
@@ -153,19 +170,19 @@ def mixed_stream():
         elif i == 40:
             names, pos, kind = ['crank'], [0.1, 0.2], 'shape'
         elif i in (50, 51):
-            sec, ns = 0, 0                           # zero stamp -> bag receive time
+            sec, ns = 0, 0  # zero stamp -> bag receive time
         rows.append(('/cmd', t + 7_000_000 * i + 1000, (sec, ns), names, pos, kind))
     # inverse kinematics on the rocker angle (joint O4): reachable, then unreachable
     t2 = t + 7_000_000 * 120
-    for j, (o4, kind) in enumerate([(1.9, 'ik'), (1.95, 'ik'), (1.0, 'unreachable'),
-                                    (2.0, 'ik')]):
-        sec, ns = divmod(t2 + 5_000_000 * j, 10 ** 9)
+    for j, (o4, kind) in enumerate([(1.9, 'ik'), (1.95, 'ik'), (1.0, 'unreachable'), (2.0, 'ik')]):
+        sec, ns = divmod(t2 + 5_000_000 * j, 10**9)
         rows.append(('/target', t2 + 5_000_000 * j + 1000, (sec, ns), ['O4'], [o4], kind))
     t3 = t2 + 5_000_000 * 4
-    for k in range(10):                              # commands again: continuity after IK
-        sec, ns = divmod(t3 + 7_000_000 * k, 10 ** 9)
-        rows.append(('/cmd', t3 + 7_000_000 * k + 1000, (sec, ns), ['crank'], [0.5 + 0.2 * k],
-                     'ok'))
+    for k in range(10):  # commands again: continuity after IK
+        sec, ns = divmod(t3 + 7_000_000 * k, 10**9)
+        rows.append(
+            ('/cmd', t3 + 7_000_000 * k + 1000, (sec, ns), ['crank'], [0.5 + 0.2 * k], 'ok')
+        )
     return rows
 
 
@@ -192,37 +209,59 @@ def make_input(tmp_path: Path, storage: str, messages) -> Path:
 
 # ---- round trip: CSV and output bag ------------------------------------------------------------
 
+
 @pytest.mark.parametrize('storage', STORAGES)
 def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
     rows = mixed_stream()
     src = make_input(tmp_path, storage, stream_messages(rows, rclpy_every=3))
     out_csv, out_bag = tmp_path / 'out.csv', tmp_path / 'out_bag'
-    code, out = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--target-topic',
-                         '/target', '--out', out_csv, '--out', out_bag, '--no-progress'], capsys)
+    code, out = run_bag(
+        [
+            src,
+            '--scene',
+            scene,
+            '--command-topic',
+            '/cmd',
+            '--target-topic',
+            '/target',
+            '--out',
+            out_csv,
+            '--out',
+            out_bag,
+            '--no-progress',
+        ],
+        capsys,
+    )
     assert code == 0, out.err
     assert f'{len(rows)} message(s) read' in out.out and 'refused' in out.out
 
     table = read_csv(out_csv)
-    assert len(table) == len(rows)                   # one row per command, refused ones included
+    assert len(table) == len(rows)  # one row per command, refused ones included
     header = list(table[0])
     assert header[:4] == ['time', 'receive_time', 'topic', 'input.crank']
     assert header[-5:] == ['residual', 'margin', 'branch', 'status', 'reason']
     for p in ('O2', 'A', 'B', 'O4', 'P'):
         assert f'{p}.x' in header and f'{p}.y' in header
     refused = 0
-    for row, (topic, t, (sec, ns), names, pos, kind) in zip(table, rows):
+    for row, (topic, t, (sec, ns), _names, pos, kind) in zip(table, rows):
         assert row['topic'] == topic
-        assert row['receive_time'] == f'{t // 10 ** 9}.{t % 10 ** 9:09d}'
+        assert row['receive_time'] == f'{t // 10**9}.{t % 10**9:09d}'
         assert row['time'] == f'{sec}.{ns:09d}'
         if kind in ('nan', 'name', 'shape', 'unreachable'):
             refused += 1
             assert row['status'] == 'error' and row['reason'], row
             assert row['joint.O2'] == '' and row['P.x'] == ''
-            want = {'nan': 'must be finite', 'name': "unknown name(s) ['wrench']",
-                    'shape': 'JointState has 1 name(s)', 'unreachable': 'cannot assemble'}[kind]
+            want = {
+                'nan': 'must be finite',
+                'name': "unknown name(s) ['wrench']",
+                'shape': 'JointState has 1 name(s)',
+                'unreachable': 'cannot assemble',
+            }[kind]
             assert want in row['reason']
-            assert row['input.crank'] == {'nan': 'nan', 'name': '', 'shape': '',
-                                          'unreachable': ''}[kind]
+            assert (
+                row['input.crank']
+                == {'nan': 'nan', 'name': '', 'shape': '', 'unreachable': ''}[kind]
+            )
             continue
         assert row['status'] == 'ok' and row['reason'] == '' and row['branch'] == '+'
         got_j = {j: float(row[f'joint.{j}']) for j in ('O2', 'A', 'B', 'O4')}
@@ -235,7 +274,7 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
                 assert abs(wrap(got_j[j] - v)) < TOL, (j, row)
             for p in got_p:
                 assert np.allclose(got_p[p], want['points'][p], rtol=0, atol=TOL), (p, row)
-        else:                                        # IK: the target is met, the loop closes
+        else:  # IK: the target is met, the loop closes
             assert abs(got_j['O4'] - pos[0]) < TOL
             (ax, ay), (bx, by) = got_p['A'], got_p['B']
             assert abs(math.hypot(ax, ay) - CRANK) < TOL
@@ -245,15 +284,19 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
     assert refused == sum(1 for r in rows if r[5] in ('nan', 'name', 'shape', 'unreachable'))
 
     msgs, types = read_out_bag(out_bag)
-    assert types == {'/joint_states': JS, '/points/P': 'geometry_msgs/msg/PointStamped',
-                     '/status': 'diagnostic_msgs/msg/DiagnosticStatus'}
+    assert types == {
+        '/joint_states': JS,
+        '/points/P': 'geometry_msgs/msg/PointStamped',
+        '/status': 'diagnostic_msgs/msg/DiagnosticStatus',
+    }
     ok_rows = [(r, c) for r, c in zip(table, rows) if r['status'] == 'ok']
     assert len(msgs['/status']) == len(rows)
     assert len(msgs['/joint_states']) == len(msgs['/points/P']) == len(ok_rows)
-    for (t, js), (tp, pt), (row, (topic, tr, (sec, ns), *_)) in zip(
-            msgs['/joint_states'], msgs['/points/P'], ok_rows):
-        want_stamp = sec * 10 ** 9 + ns if (sec or ns) else tr
-        assert t == tp == tr                          # logged at the command's bag time
+    for (t, js), (tp, pt), (row, (_topic, tr, (sec, ns), *_)) in zip(
+        msgs['/joint_states'], msgs['/points/P'], ok_rows
+    ):
+        want_stamp = sec * 10**9 + ns if (sec or ns) else tr
+        assert t == tp == tr  # logged at the command's bag time
         assert stamp_ns(js) == stamp_ns(pt) == want_stamp
         assert js.header.frame_id == pt.header.frame_id == 'world'
         assert list(js.name) == ['O2', 'A', 'B', 'O4'] and len(js.velocity) == 0
@@ -278,13 +321,25 @@ def test_sqlite3_output_and_zero_stamps(tmp_path, scene, capsys):
     msgs = [('/cmd', 5_000_000_000 + i, joint_state(['crank'], [0.1 * i])) for i in range(40)]
     src = make_input(tmp_path, 'mcap', msgs)
     out = tmp_path / 'res'
-    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out', out,
-                         '--out-format', 'sqlite3', '--no-progress'], capsys)
+    code, cap = run_bag(
+        [
+            src,
+            '--scene',
+            scene,
+            '--command-topic',
+            '/cmd',
+            '--out',
+            out,
+            '--out-format',
+            'sqlite3',
+            '--no-progress',
+        ],
+        capsys,
+    )
     assert code == 0, cap.err
     assert list(out.glob('*.db3'))
     got, _ = read_out_bag(out)
-    assert [stamp_ns(m) for _, m in got['/joint_states']] == [5_000_000_000 + i
-                                                              for i in range(40)]
+    assert [stamp_ns(m) for _, m in got['/joint_states']] == [5_000_000_000 + i for i in range(40)]
     for i, (_, m) in enumerate(got['/joint_states']):
         want = four_bar(0.1 * i)['joints']
         assert np.allclose(m.position, [want[j] for j in m.name], rtol=0, atol=TOL)
@@ -292,20 +347,24 @@ def test_sqlite3_output_and_zero_stamps(tmp_path, scene, capsys):
 
 # ---- the node's answers ------------------------------------------------------------------------
 
+
 def _node_engine(scene_file, **params):
     """The node's kinematics engine (linkage_ros.node.Engine), in-process, for a scene file."""
     if not (REPO / 'linkage_ros' / 'node.py').exists():
         pytest.skip('linkage_ros/node.py does not exist yet: no node to compare with')
     import linkage_ros.node as node
+
     mech = Scene.from_yaml(scene_file).mechanism
     return mech, node.Engine(mech, node.make_config({'scene': str(scene_file), **params}))
 
 
 def _compare_with_engine(table, rows, engine):
     """Every CSV row equals the node engine's answer to the same request, in the same order."""
+    from sensor_msgs.msg import JointState
+
     from linkage_ros.conversions import joint_state_to_command
     from linkage_ros.core.errors import CommandError
-    from sensor_msgs.msg import JointState
+
     for row, (topic, _, _, names, pos, *_) in zip(table, rows):
         msg = JointState()
         msg.name, msg.position = list(names), [float(v) for v in pos]
@@ -337,18 +396,18 @@ def test_matches_node_engine_on_jumpy_mixed_stream(tmp_path, scene, branch, caps
     """Long runs (vectorised), jumps of any size, IK in between, bad rows: the node's answers."""
     _, engine = _node_engine(scene, branch=branch)
     rng = np.random.default_rng(7)
-    rows, t = [], 10 ** 12
+    rows, t = [], 10**12
     for seg in range(40):
         kind = seg % 5
         n = int(rng.integers(20, 400))
         for i in range(n if kind != 3 else 3):
             t += 1_000_000
             if kind in (0, 4):
-                v = [0.7 * seg + 0.013 * i]                              # smooth
+                v = [0.7 * seg + 0.013 * i]  # smooth
             elif kind == 1:
-                v = [float(rng.uniform(-4, 4))]                          # any jump
+                v = [float(rng.uniform(-4, 4))]  # any jump
             elif kind == 2:
-                v = [float(rng.uniform(-1, 1)) + (seg % 2) * np.pi]      # jumps near +-pi
+                v = [float(rng.uniform(-1, 1)) + (seg % 2) * np.pi]  # jumps near +-pi
             else:
                 v = [float('nan')]
             rows.append(('/cmd', t, (0, 0), ['crank'], v, ''))
@@ -358,9 +417,23 @@ def test_matches_node_engine_on_jumpy_mixed_stream(tmp_path, scene, branch, caps
                 rows.append(('/target', t, (0, 0), ['O4'], [o4], ''))
     src = make_input(tmp_path, 'mcap', stream_messages(rows))
     out_csv = tmp_path / 'o.csv'
-    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--target-topic',
-                         '/target', '--branch', branch, '--out', out_csv, '--no-progress'],
-                        capsys)
+    code, cap = run_bag(
+        [
+            src,
+            '--scene',
+            scene,
+            '--command-topic',
+            '/cmd',
+            '--target-topic',
+            '/target',
+            '--branch',
+            branch,
+            '--out',
+            out_csv,
+            '--no-progress',
+        ],
+        capsys,
+    )
     assert code == 0, cap.err
     assert _summary_count(cap.out, 'vectorised rows') > 0.8 * len(rows)
     table = read_csv(out_csv)
@@ -380,9 +453,10 @@ def test_matches_node_engine_through_toggles(tmp_path, linkage, capsys):
     """
     yaml_text = {
         'triple_rocker': 'four_bar: {ground: 0.5, crank: 0.4, coupler: 0.25, rocker: 0.3, '
-                         'coupler_point: {distance: 0.1, angle: 0.3}}\n',
+        'coupler_point: {distance: 0.1, angle: 0.3}}\n',
         'parallelogram': 'four_bar: {ground: 0.4, crank: 0.1, coupler: 0.4, rocker: 0.1, '
-                         'coupler_point: {distance: 0.2, angle: 0.0}}\n'}[linkage]
+        'coupler_point: {distance: 0.2, angle: 0.0}}\n',
+    }[linkage]
     path = tmp_path / f'{linkage}.yaml'
     path.write_text(yaml_text)
     _, engine = _node_engine(path)
@@ -398,21 +472,24 @@ def test_matches_node_engine_through_toggles(tmp_path, linkage, capsys):
                 values += list(1.2 + np.cumsum(rng.normal(0, 0.03, 200)))
     else:
         values = list(np.linspace(1.0, 1.0 + 6 * np.pi, 3000))
-    rows = [('/cmd', 10 ** 12 + 10 ** 6 * i, (0, 0), ['crank'], [float(v)], '')
-            for i, v in enumerate(values)]
+    rows = [
+        ('/cmd', 10**12 + 10**6 * i, (0, 0), ['crank'], [float(v)], '')
+        for i, v in enumerate(values)
+    ]
     src = make_input(tmp_path, 'sqlite3', stream_messages(rows))
     out_csv = tmp_path / 't.csv'
-    code, cap = run_bag([src, '--scene', path, '--command-topic', '/cmd', '--out', out_csv,
-                         '--no-progress'], capsys)
+    code, cap = run_bag(
+        [src, '--scene', path, '--command-topic', '/cmd', '--out', out_csv, '--no-progress'], capsys
+    )
     assert code == 0, cap.err
     assert _summary_count(cap.out, 'vectorised rows') > 0.9 * len(rows)
-    assert _summary_count(cap.out, 'one-by-one rows') > 0          # near the singularities
+    assert _summary_count(cap.out, 'one-by-one rows') > 0  # near the singularities
     table = read_csv(out_csv)
     if linkage == 'triple_rocker':
-        assert sum(r['status'] == 'error' for r in table) > 50      # beyond the toggles
+        assert sum(r['status'] == 'error' for r in table) > 50  # beyond the toggles
     else:
         flips = sum(a['branch'] != b['branch'] for a, b in zip(table, table[1:]))
-        assert flips == 6                                            # 2 flat positions a turn
+        assert flips == 6  # 2 flat positions a turn
         for r in table:
             assert abs(wrap(float(r['joint.O4']) - float(r['joint.O2']))) < 1e-9
     _compare_with_engine(table, rows, engine)
@@ -421,12 +498,30 @@ def test_matches_node_engine_through_toggles(tmp_path, linkage, capsys):
 def test_newton_solver_is_sequential_and_matches_node(tmp_path, scene, capsys):
     mech, engine = _node_engine(scene, solver='newton')
     from linkage_ros.conversions import result_to_status
-    rows = [('/cmd', 10 ** 9 + i, (1, i), ['crank'], [0.4 * i if i != 6 else float('nan')], '')
-            for i in range(25)]
+
+    rows = [
+        ('/cmd', 10**9 + i, (1, i), ['crank'], [0.4 * i if i != 6 else float('nan')], '')
+        for i in range(25)
+    ]
     src = make_input(tmp_path, 'sqlite3', stream_messages(rows))
     out_csv, out_bag = tmp_path / 'o.csv', tmp_path / 'o_bag'
-    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--solver', 'newton',
-                         '--out', out_csv, '--out', out_bag, '--no-progress'], capsys)
+    code, cap = run_bag(
+        [
+            src,
+            '--scene',
+            scene,
+            '--command-topic',
+            '/cmd',
+            '--solver',
+            'newton',
+            '--out',
+            out_csv,
+            '--out',
+            out_bag,
+            '--no-progress',
+        ],
+        capsys,
+    )
     assert code == 0, cap.err
     assert 'one-by-one rows 25' in cap.out
     table = read_csv(out_csv)
@@ -436,8 +531,11 @@ def test_newton_solver_is_sequential_and_matches_node(tmp_path, scene, capsys):
     got, _ = read_out_bag(out_bag)
     for (_, st), r in zip(got['/status'], rows):
         want = result_to_status(replay.command({'crank': r[4][0]}), st.name, 'command')
-        assert (st.level, st.message, st.name) == (want.level[0] if isinstance(
-            want.level, bytes) else want.level, want.message, f'linkage_node: {mech.name}')
+        assert (st.level, st.message, st.name) == (
+            want.level[0] if isinstance(want.level, bytes) else want.level,
+            want.message,
+            f'linkage_node: {mech.name}',
+        )
         assert [v.key for v in st.values] == [v.key for v in want.values]
         for a, b in zip(st.values, want.values):
             if a.key in ('residual', 'margin', 'cond'):
@@ -455,34 +553,51 @@ def test_matches_running_node_over_dds(tmp_path, scene):
     if not (REPO / 'linkage_ros' / 'node.py').exists():
         pytest.skip('linkage_ros/node.py does not exist yet: no node to compare with')
     from diagnostic_msgs.msg import DiagnosticStatus
-    from sensor_msgs.msg import JointState
     from ros_harness import NodeProcess, RosHarness, random_domain_id
+    from sensor_msgs.msg import JointState
 
-    rows = [r for r in mixed_stream() if r[2] != (0, 0)]          # stamps identify answers
+    rows = [r for r in mixed_stream() if r[2] != (0, 0)]  # stamps identify answers
     src = make_input(tmp_path, 'mcap', stream_messages(rows))
     out_bag = tmp_path / 'answers'
-    assert bag.main([str(src), '--scene', str(scene), '--command-topic', '/cmd',
-                     '--target-topic', '/target', '--out', str(out_bag), '--no-progress']) == 0
+    assert (
+        bag.main(
+            [
+                str(src),
+                '--scene',
+                str(scene),
+                '--command-topic',
+                '/cmd',
+                '--target-topic',
+                '/target',
+                '--out',
+                str(out_bag),
+                '--no-progress',
+            ]
+        )
+        == 0
+    )
     offline, _ = read_out_bag(out_bag)
 
     domain = random_domain_id()
     node = NodeProcess(tmp_path / 'node', domain, params={'scene': str(scene)}).start()
     ros = RosHarness(domain, name='bag_test')
     try:
-        pubs = {'/cmd': ros.publisher(JointState, node.topic('~/command')),
-                '/target': ros.publisher(JointState, node.topic('~/target'))}
+        pubs = {
+            '/cmd': ros.publisher(JointState, node.topic('~/command')),
+            '/target': ros.publisher(JointState, node.topic('~/target')),
+        }
         joints = ros.collector(JointState, node.topic('joint_states'))
         status = ros.collector(DiagnosticStatus, node.topic('~/status'))
-        ros.wait_for_discovery(list(pubs.values()), [joints, status], timeout=30.0,
-                               process=node)
+        ros.wait_for_discovery(list(pubs.values()), [joints, status], timeout=30.0, process=node)
         for topic, _, (sec, ns), names, pos, _ in rows:
             msg = JointState()
             msg.header.stamp.sec, msg.header.stamp.nanosec = sec, ns
             msg.name, msg.position = list(names), [float(v) for v in pos]
             before = len(status)
             ros.publish(pubs[topic], msg)
-            assert ros.spin_until(lambda: len(status) > before, 15.0, node), \
+            assert ros.spin_until(lambda: len(status) > before, 15.0, node), (
                 f'no status for {topic} {names} {pos}'
+            )
     finally:
         ros.close()
         node.stop()
@@ -507,20 +622,21 @@ def test_matches_running_node_over_dds(tmp_path, scene):
 
 # ---- the vectorised path -----------------------------------------------------------------------
 
+
 def test_vectorised_path_matches_one_by_one_solver(tmp_path, scene, capsys):
     n = 100_000
     rng = np.random.default_rng(3)
-    theta = np.cumsum(rng.normal(0.0, 0.05, n))          # a random walk, many turns
-    theta[rng.choice(n, 300, replace=False)] = rng.uniform(-4, 4, 300)    # jumps
+    theta = np.cumsum(rng.normal(0.0, 0.05, n))  # a random walk, many turns
+    theta[rng.choice(n, 300, replace=False)] = rng.uniform(-4, 4, 300)  # jumps
     theta[::997] = np.nan
     # serialise once, then patch stamp and value bytes (the fast way to make a big bag)
     tmpl = bytes(TS.serialize_cdr(joint_state(['crank'], [0.123456789]), JS))
-    off = tmpl.index(np.float64(0.123456789).tobytes())   # where position[0] is
+    off = tmpl.index(np.float64(0.123456789).tobytes())  # where position[0] is
     buf = np.tile(np.frombuffer(tmpl, np.uint8), (n, 1))
-    ns = 10 ** 9 + np.arange(n, dtype=np.int64) * 1_000_000
-    buf[:, 4:8] = (ns // 10 ** 9).astype('<i4').view(np.uint8).reshape(n, 4)
-    buf[:, 8:12] = (ns % 10 ** 9).astype('<u4').view(np.uint8).reshape(n, 4)
-    buf[:, off:off + 8] = theta.astype('<f8').view(np.uint8).reshape(n, 8)
+    ns = 10**9 + np.arange(n, dtype=np.int64) * 1_000_000
+    buf[:, 4:8] = (ns // 10**9).astype('<i4').view(np.uint8).reshape(n, 4)
+    buf[:, 8:12] = (ns % 10**9).astype('<u4').view(np.uint8).reshape(n, 4)
+    buf[:, off : off + 8] = theta.astype('<f8').view(np.uint8).reshape(n, 8)
     folder = tmp_path / 'big'
     with Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         c = w.add_connection('/cmd', JS, typestore=TS)
@@ -528,8 +644,10 @@ def test_vectorised_path_matches_one_by_one_solver(tmp_path, scene, capsys):
             w.write(c, t, buf[i].tobytes())
     out_csv = tmp_path / 'big.csv'
     t0 = time.perf_counter()
-    code, cap = run_bag([folder, '--scene', scene, '--command-topic', '/cmd', '--out', out_csv,
-                         '--no-progress'], capsys)
+    code, cap = run_bag(
+        [folder, '--scene', scene, '--command-topic', '/cmd', '--out', out_csv, '--no-progress'],
+        capsys,
+    )
     elapsed = time.perf_counter() - t0
     assert code == 0, cap.err
     assert _summary_count(cap.out, 'vectorised rows') >= 0.99 * n, cap.out
@@ -548,7 +666,7 @@ def test_vectorised_path_matches_one_by_one_solver(tmp_path, scene, capsys):
     checked = 0
     for i in range(n):
         if i not in sample and i % 50:
-            continue                     # continuity of a crank-rocker: a subsequence suffices
+            continue  # continuity of a crank-rocker: a subsequence suffices
         r = solver.solve({'crank': float(theta[i])})
         row = table[i]
         assert (row[col['status']] == 'ok') == r.success
@@ -567,6 +685,7 @@ def test_vectorised_path_matches_one_by_one_solver(tmp_path, scene, capsys):
 
 # ---- bad input ---------------------------------------------------------------------------------
 
+
 def _bad(args, capsys):
     code = bag.main([str(a) for a in args])
     err = capsys.readouterr().err.strip()
@@ -576,8 +695,11 @@ def _bad(args, capsys):
 
 
 def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
-    good = make_input(tmp_path, 'mcap', [('/cmd', 1000 + i, joint_state(['crank'], [0.1 * i]))
-                                         for i in range(200)])
+    good = make_input(
+        tmp_path,
+        'mcap',
+        [('/cmd', 1000 + i, joint_state(['crank'], [0.1 * i])) for i in range(200)],
+    )
     common = ['--scene', scene, '--command-topic', '/cmd', '--out', tmp_path / 'x.csv']
     # missing
     assert 'no such file' in _bad([tmp_path / 'nothing_here', *common], capsys)
@@ -593,37 +715,44 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
     fake.write_bytes(b'not an mcap file' * 10)
     assert 'cannot open' in _bad([fake, *common], capsys)
     # missing topic: the topics that exist are listed
-    err = _bad([good, '--scene', scene, '--command-topic', '/nope', '--out', tmp_path / 'x.csv'],
-               capsys)
+    err = _bad(
+        [good, '--scene', scene, '--command-topic', '/nope', '--out', tmp_path / 'x.csv'], capsys
+    )
     assert 'topic /nope is not in the bag' in err and '/cmd (sensor_msgs/msg/JointState)' in err
     err = _bad([good, *common, '--target-topic', '/missing'], capsys)
     assert '/missing' in err and '/cmd' in err
     # wrong message type: expected and found named
     typed = tmp_path / 'typed'
     string = TS.types['std_msgs/msg/String'](data='x')
-    write_bag(typed, 'sqlite3', [('/cmd', 5, joint_state(['crank'], [0.2]))],
-              extra_topics=[('/words', 'std_msgs/msg/String', string)])
-    err = _bad([typed, '--scene', scene, '--command-topic', '/words', '--out',
-                tmp_path / 'x.csv'], capsys)
+    write_bag(
+        typed,
+        'sqlite3',
+        [('/cmd', 5, joint_state(['crank'], [0.2]))],
+        extra_topics=[('/words', 'std_msgs/msg/String', string)],
+    )
+    err = _bad(
+        [typed, '--scene', scene, '--command-topic', '/words', '--out', tmp_path / 'x.csv'], capsys
+    )
     assert 'std_msgs/msg/String' in err and 'expected sensor_msgs/msg/JointState' in err
     # truncated MCAP (folder and single file)
     mcap = good / f'{good.name}.mcap'
     cut = tmp_path / 'cut'
     shutil.copytree(good, cut)
     data = mcap.read_bytes()
-    (cut / mcap.name).write_bytes(data[:len(data) // 2])
+    (cut / mcap.name).write_bytes(data[: len(data) // 2])
     assert 'truncated' in _bad([cut, *common], capsys)
     cutfile = tmp_path / 'cut.mcap'
-    cutfile.write_bytes(data[:len(data) // 2])
+    cutfile.write_bytes(data[: len(data) // 2])
     err = _bad([cutfile, *common], capsys)
     assert 'truncated' in err or 'corrupt' in err
     # corrupt sqlite3 database
     sq = tmp_path / 'sq'
-    write_bag(sq, 'sqlite3', [('/cmd', 1000 + i, joint_state(['crank'], [0.1 * i]))
-                              for i in range(200)])
+    write_bag(
+        sq, 'sqlite3', [('/cmd', 1000 + i, joint_state(['crank'], [0.1 * i])) for i in range(200)]
+    )
     db = next(sq.glob('*.db3'))
     raw = bytearray(db.read_bytes())
-    raw[100:len(raw)] = os.urandom(len(raw) - 100)
+    raw[100 : len(raw)] = os.urandom(len(raw) - 100)
     db.write_bytes(bytes(raw))
     err = _bad([sq, *common], capsys)
     assert 'corrupt' in err or 'truncated' in err
@@ -634,28 +763,54 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
     assert 'cannot open the bag' in _bad([meta, *common], capsys)
     # a message whose CDR is cut short
     short = tmp_path / 'short'
-    write_bag(short, 'mcap', [('/cmd', 7, bytes(TS.serialize_cdr(joint_state(['crank'], [0.3]),
-                                                                 JS))[:30])])
+    write_bag(
+        short,
+        'mcap',
+        [('/cmd', 7, bytes(TS.serialize_cdr(joint_state(['crank'], [0.3]), JS))[:30])],
+    )
     err = _bad([short, *common], capsys)
     assert 'not a valid JointState' in err and 'corrupt' in err
     # outputs: an existing output bag is not overwritten
     exists = tmp_path / 'exists'
     exists.mkdir()
-    assert 'exists already' in _bad([good, '--scene', scene, '--command-topic', '/cmd',
-                                     '--out', exists], capsys)
+    assert 'exists already' in _bad(
+        [good, '--scene', scene, '--command-topic', '/cmd', '--out', exists], capsys
+    )
     # a bad scene or branch is a usage error too
-    assert 'scene file not found' in _bad([good, '--scene', tmp_path / 'no.yaml',
-                                           '--command-topic', '/cmd', '--out',
-                                           tmp_path / 'x.csv'], capsys)
+    assert 'scene file not found' in _bad(
+        [
+            good,
+            '--scene',
+            tmp_path / 'no.yaml',
+            '--command-topic',
+            '/cmd',
+            '--out',
+            tmp_path / 'x.csv',
+        ],
+        capsys,
+    )
     assert 'branch' in _bad([good, *common, '--branch', '+-+'], capsys)
 
 
 def test_nan_commands_are_refused_rows(tmp_path, scene, capsys):
-    msgs = [('/cmd', 100 + i, joint_state(['crank'], [float('nan') if i % 3 else 0.2 * i]))
-            for i in range(60)]
+    msgs = [
+        ('/cmd', 100 + i, joint_state(['crank'], [float('nan') if i % 3 else 0.2 * i]))
+        for i in range(60)
+    ]
     src = make_input(tmp_path, 'sqlite3', msgs)
-    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out',
-                         tmp_path / 'n.csv', '--no-progress'], capsys)
+    code, cap = run_bag(
+        [
+            src,
+            '--scene',
+            scene,
+            '--command-topic',
+            '/cmd',
+            '--out',
+            tmp_path / 'n.csv',
+            '--no-progress',
+        ],
+        capsys,
+    )
     assert code == 0
     table = read_csv(tmp_path / 'n.csv')
     assert len(table) == 60
@@ -670,18 +825,32 @@ def test_nan_commands_are_refused_rows(tmp_path, scene, capsys):
 
 # ---- plot, progress, number text ---------------------------------------------------------------
 
+
 def test_plot_and_progress(tmp_path, scene, capsys, monkeypatch):
-    msgs = [('/cmd', 10 ** 9 + i * 10 ** 7, joint_state(['crank'], [0.05 * i],
-                                                        sec=1, nanosec=i * 10 ** 7))
-            for i in range(300)]
+    msgs = [
+        ('/cmd', 10**9 + i * 10**7, joint_state(['crank'], [0.05 * i], sec=1, nanosec=i * 10**7))
+        for i in range(300)
+    ]
     src = make_input(tmp_path, 'mcap', msgs)
     png = tmp_path / 'run.png'
     monkeypatch.setattr('sys.stderr.isatty', lambda: True, raising=False)
-    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out',
-                         tmp_path / 'p.csv', '--plot', png], capsys)
+    code, cap = run_bag(
+        [
+            src,
+            '--scene',
+            scene,
+            '--command-topic',
+            '/cmd',
+            '--out',
+            tmp_path / 'p.csv',
+            '--plot',
+            png,
+        ],
+        capsys,
+    )
     assert code == 0, cap.err
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and png.stat().st_size > 10_000
-    assert 'solving' in cap.err and '100.0%' in cap.err       # the progress bar, on stderr
+    assert 'solving' in cap.err and '100.0%' in cap.err  # the progress bar, on stderr
     assert 'wrote' in cap.out and 'time' in cap.out
 
 
@@ -689,8 +858,10 @@ def test_plot_shows_an_accepted_row_between_refused_ones(tmp_path, scene):
     """A line broken at refused rows (NaN) draws no segment through an accepted row whose
     neighbours were refused: the plot marks such a row with a dot, in both panels."""
     values = [0.1, 0.2, math.nan, 0.4, math.nan, 0.6, 0.7]
-    msgs = [('/cmd', 10 ** 9 * (i + 1), joint_state(['crank'], [v], sec=i + 1))
-            for i, v in enumerate(values)]
+    msgs = [
+        ('/cmd', 10**9 * (i + 1), joint_state(['crank'], [v], sec=i + 1))
+        for i, v in enumerate(values)
+    ]
     src = make_input(tmp_path, 'mcap', msgs)
     mech = Scene.from_yaml(scene).mechanism
     data = bag.read_commands(str(src), ['/cmd'])
@@ -704,22 +875,47 @@ def test_plot_shows_an_accepted_row_between_refused_ones(tmp_path, scene):
         dots = [ln for ln in trace.get_lines() if ln.get_marker() == '.']
         assert len(dots) == 1 and np.allclose(dots[0].get_xydata(), [lone])
         dots = [ln for ln in joints.get_lines() if ln.get_marker() == '.']
-        assert len(dots) == 1 + len(mech.joint_names)       # the input and every joint
+        assert len(dots) == 1 + len(mech.joint_names)  # the input and every joint
         for ln in dots:
-            assert ln.get_xdata().tolist() == [3.0]           # bag time of the 4th row, s
+            assert ln.get_xdata().tolist() == [3.0]  # bag time of the 4th row, s
         assert dots[0].get_ydata().tolist() == [0.4]
     finally:
         import matplotlib.pyplot as plt
+
         plt.close(fig)
 
 
 def test_csv_numbers_round_trip_exactly():
     rng = np.random.default_rng(11)
-    values = np.concatenate([
-        rng.uniform(-4, 4, 20000),
-        rng.normal(0, 1, 20000) * 10.0 ** rng.integers(-30, 20, 20000),
-        [0.0, -0.0, 1.0, 0.1, 0.5, 1e-5, 1e-4, np.pi, -np.pi, 1e16, 1e17, 2.5, 1 / 3, 5e-324,
-         1e300, -1e-300, 1.7976931348623157e308, np.inf, -np.inf, np.nan, 123456789.125]])
+    values = np.concatenate(
+        [
+            rng.uniform(-4, 4, 20000),
+            rng.normal(0, 1, 20000) * 10.0 ** rng.integers(-30, 20, 20000),
+            [
+                0.0,
+                -0.0,
+                1.0,
+                0.1,
+                0.5,
+                1e-5,
+                1e-4,
+                np.pi,
+                -np.pi,
+                1e16,
+                1e17,
+                2.5,
+                1 / 3,
+                5e-324,
+                1e300,
+                -1e-300,
+                1.7976931348623157e308,
+                np.inf,
+                -np.inf,
+                np.nan,
+                123456789.125,
+            ],
+        ]
+    )
     text = bag.format_floats(values, b'nan')
     for v, row in zip(values.tolist(), text):
         s = bytes(row[row != 0]).decode()
@@ -727,21 +923,29 @@ def test_csv_numbers_round_trip_exactly():
             assert s == 'nan'
         else:
             assert float(s) == v and math.copysign(1, float(s)) == math.copysign(1, v), (v, s)
-    for const in ([0.4] * 5, [-0.0] * 3, [np.nan] * 4, [-0.0, 0.0, -0.0]):   # the shortcut
+    for const in ([0.4] * 5, [-0.0] * 3, [np.nan] * 4, [-0.0, 0.0, -0.0]):  # the shortcut
         text = [bytes(r[r != 0]).decode() for r in bag.format_floats(np.array(const), b'nan')]
         assert text == [repr(float(v)) for v in const] or all(
-            float(t) == v for t, v in zip(text, const) if v == v)
+            float(t) == v for t, v in zip(text, const) if v == v
+        )
         assert [math.copysign(1, float(t)) for t in text] == [math.copysign(1, v) for v in const]
-    ints = bag.format_ints(np.array([0, 7, -7, 10, 1234567890123, 2 ** 62]))
-    assert [bytes(r[r != 0]).decode() for r in ints] == ['0', '7', '-7', '10', '1234567890123',
-                                                         str(2 ** 62)]
+    ints = bag.format_ints(np.array([0, 7, -7, 10, 1234567890123, 2**62]))
+    assert [bytes(r[r != 0]).decode() for r in ints] == [
+        '0',
+        '7',
+        '-7',
+        '10',
+        '1234567890123',
+        str(2**62),
+    ]
 
 
 # ---- review fixes: bad input found by hand -----------------------------------------------------
 
+
 def _small_bag(tmp_path, n=40, name='small'):
     (tmp_path / name).mkdir(exist_ok=True)
-    msgs = [('/cmd', 10 ** 9 + i * 10 ** 6, joint_state(['crank'], [0.05 * i])) for i in range(n)]
+    msgs = [('/cmd', 10**9 + i * 10**6, joint_state(['crank'], [0.05 * i])) for i in range(n)]
     return make_input(tmp_path / name, 'mcap', msgs)
 
 
@@ -753,7 +957,7 @@ def test_plot_path_is_checked_before_any_work(tmp_path, scene, capsys):
     common = [src, '--scene', scene, '--command-topic', '/cmd', '--out', out_csv, '--no-progress']
     err = _bad([*common, '--plot', tmp_path / 'run.txt'], capsys)
     assert 'cannot write a .txt image' in err and 'png' in err
-    assert not out_csv.exists()                      # nothing was written
+    assert not out_csv.exists()  # nothing was written
     assert 'is a directory' in _bad([*common, '--plot', tmp_path], capsys)
     assert 'is also an --out path' in _bad([*common, '--plot', out_csv], capsys)
     assert 'does not exist' in _bad([*common, '--plot', tmp_path / 'no' / 'p.png'], capsys)
@@ -764,8 +968,21 @@ def test_plot_without_extension_writes_the_named_file(tmp_path, scene, capsys):
     never written. The image is written exactly where --plot says, as PNG."""
     src = _small_bag(tmp_path, n=5)
     png = tmp_path / 'trace'
-    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out',
-                         tmp_path / 'r.csv', '--plot', png, '--no-progress'], capsys)
+    code, cap = run_bag(
+        [
+            src,
+            '--scene',
+            scene,
+            '--command-topic',
+            '/cmd',
+            '--out',
+            tmp_path / 'r.csv',
+            '--plot',
+            png,
+            '--no-progress',
+        ],
+        capsys,
+    )
     assert code == 0, cap.err
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
     assert not (tmp_path / 'trace.png').exists()
@@ -778,36 +995,65 @@ def test_csv_time_of_negative_and_unnormalised_stamps(tmp_path, scene, capsys):
     ('3.Z94967295'). As the node does, a stamp it cannot echo (negative, nanosec >= 1e9) refuses
     its row with the node's reason; the others keep their stamps in the output bag."""
     from decimal import Decimal
-    stamps = [(-5, 1), (3, 4294967295), (-1, 999999999), (-2147483648, 0), (2147483647, 5),
-              (0, 7), (12, 0)]
-    msgs = [('/cmd', 10 ** 9 * (i + 1) + 3, joint_state(['crank'], [0.1 * i], sec=s, nanosec=ns))
-            for i, (s, ns) in enumerate(stamps)]
+
+    stamps = [
+        (-5, 1),
+        (3, 4294967295),
+        (-1, 999999999),
+        (-2147483648, 0),
+        (2147483647, 5),
+        (0, 7),
+        (12, 0),
+    ]
+    msgs = [
+        ('/cmd', 10**9 * (i + 1) + 3, joint_state(['crank'], [0.1 * i], sec=s, nanosec=ns))
+        for i, (s, ns) in enumerate(stamps)
+    ]
     src = make_input(tmp_path, 'sqlite3', msgs)
     out_csv, out_bag = tmp_path / 's.csv', tmp_path / 's_bag'
-    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out', out_csv,
-                         '--out', out_bag, '--no-progress'], capsys)
+    code, cap = run_bag(
+        [
+            src,
+            '--scene',
+            scene,
+            '--command-topic',
+            '/cmd',
+            '--out',
+            out_csv,
+            '--out',
+            out_bag,
+            '--no-progress',
+        ],
+        capsys,
+    )
     assert code == 0, cap.err
     table = read_csv(out_csv)
     assert len(table) == len(stamps)
     for row, (s, ns), (_, t, _) in zip(table, stamps, msgs):
-        assert Decimal(row['time']) == Decimal(s) + Decimal(ns) / Decimal(10 ** 9), row['time']
+        assert Decimal(row['time']) == Decimal(s) + Decimal(ns) / Decimal(10**9), row['time']
         assert len(row['time'].split('.')[1]) == 9
-        assert Decimal(row['receive_time']) == Decimal(t) / Decimal(10 ** 9)
-    from linkage_ros.stamps import stamp_error      # the node's refusal text (node.py)
-    valid = [s >= 0 and ns < 10 ** 9 for s, ns in stamps]
+        assert Decimal(row['receive_time']) == Decimal(t) / Decimal(10**9)
+    from linkage_ros.stamps import stamp_error  # the node's refusal text (node.py)
+
+    valid = [s >= 0 and ns < 10**9 for s, ns in stamps]
     assert valid == [False, False, False, False, True, True, True]
     for row, (s, ns), ok in zip(table, stamps, valid):
         assert row['status'] == ('ok' if ok else 'error')
-        if not ok:      # the node's own text for that stamp
+        if not ok:  # the node's own text for that stamp
             assert row['reason'] == stamp_error(s, ns)
     got, _ = read_out_bag(out_bag)
     assert [(m.header.stamp.sec, m.header.stamp.nanosec) for _, m in got['/joint_states']] == [
-        (s, ns) if (s or ns) else divmod(t, 10 ** 9)
-        for (s, ns), (_, t, _), ok in zip(stamps, msgs, valid) if ok]
+        (s, ns) if (s or ns) else divmod(t, 10**9)
+        for (s, ns), (_, t, _), ok in zip(stamps, msgs, valid)
+        if ok
+    ]
     # negative bag receive times too
-    text = bag._stamp_text(np.zeros(3, np.int64), np.array([-1, -10 ** 9 - 5, 10 ** 18 + 1]))
-    assert [bytes(r[r != 0]).decode() for r in text] == ['-0.000000001', '-1.000000005',
-                                                         '1000000000.000000001']
+    text = bag._stamp_text(np.zeros(3, np.int64), np.array([-1, -(10**9) - 5, 10**18 + 1]))
+    assert [bytes(r[r != 0]).decode() for r in text] == [
+        '-0.000000001',
+        '-1.000000005',
+        '1000000000.000000001',
+    ]
 
 
 def test_one_message_with_many_positions_costs_its_own_size(tmp_path, scene, capsys):
@@ -815,16 +1061,22 @@ def test_one_message_with_many_positions_costs_its_own_size(tmp_path, scene, cap
     table for every row (here 2000 x 50000 doubles, 800 MB; a real bag: a MemoryError traceback).
     Now it is one refused row and the rest are solved (the closed-form four-bar as oracle)."""
     import tracemalloc
+
     n, wide = 2000, 50_000
     tmpl = bytes(TS.serialize_cdr(joint_state(['crank'], [0.25]), JS))
     folder = tmp_path / 'wide'
     with Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP) as w:
         c = w.add_connection('/cmd', JS, typestore=TS)
         for i in range(n):
-            w.write(c, 10 ** 9 + i, tmpl)
+            w.write(c, 10**9 + i, tmpl)
             if i == n // 2:
-                w.write(c, 10 ** 9 + i, bytes(TS.serialize_cdr(
-                    joint_state(['crank'], np.arange(wide, dtype=float)), JS)))
+                w.write(
+                    c,
+                    10**9 + i,
+                    bytes(
+                        TS.serialize_cdr(joint_state(['crank'], np.arange(wide, dtype=float)), JS)
+                    ),
+                )
     tracemalloc.start()
     try:
         data = bag.read_commands(str(folder), ['/cmd'])
@@ -832,13 +1084,14 @@ def test_one_message_with_many_positions_costs_its_own_size(tmp_path, scene, cap
     finally:
         tracemalloc.stop()
     assert data.n == n + 1
-    assert peak < 50 * 2 ** 20, f'reading took {peak / 2 ** 20:.0f} MiB'
+    assert peak < 50 * 2**20, f'reading took {peak / 2**20:.0f} MiB'
     mech = Scene.from_yaml(scene).mechanism
     res = bag.solve_commands(mech, data)
     bad = np.flatnonzero(~res.ok).tolist()
     assert bad == [n // 2 + 1]
-    assert res.reason[bad[0]] == (f"JointState has 1 name(s) ['crank'] but {wide} position(s); "
-                                  f"they must pair up one to one")
+    assert res.reason[bad[0]] == (
+        f"JointState has 1 name(s) ['crank'] but {wide} position(s); they must pair up one to one"
+    )
     want = four_bar(0.25)
     for j, v in want['joints'].items():
         assert np.all(np.abs(np.delete(res.joints[j], bad) - v) <= TOL), j
@@ -849,7 +1102,7 @@ def test_one_message_with_many_positions_costs_its_own_size(tmp_path, scene, cap
 def test_storage_file_extension_in_any_case(tmp_path, scene, capsys):
     """RUN.MCAP / RUN.DB3 (a FAT-formatted stick, a Windows copy) are the same bags: accepted by
     the tool's own check, then refused by rosbags as 'truncated, corrupt or not a rosbag2'."""
-    msgs = [('/cmd', 10 ** 9 + i, joint_state(['crank'], [0.1 * i])) for i in range(40)]
+    msgs = [('/cmd', 10**9 + i, joint_state(['crank'], [0.1 * i])) for i in range(40)]
     mc = make_input(tmp_path, 'mcap-file', msgs)
     sq = make_input(tmp_path, 'sqlite3', msgs)
     upper = {'RUN.MCAP': mc, 'RUN.DB3': next(sq.glob('*.db3'))}
@@ -860,8 +1113,10 @@ def test_storage_file_extension_in_any_case(tmp_path, scene, capsys):
         shutil.copy(orig, tmp_path / name)
     for src in [tmp_path / n for n in upper] + [nometa]:
         out = tmp_path / f'{src.name}.csv'
-        code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out', out,
-                             '--no-progress'], capsys)
+        code, cap = run_bag(
+            [src, '--scene', scene, '--command-topic', '/cmd', '--out', out, '--no-progress'],
+            capsys,
+        )
         assert code == 0, cap.err
         table = read_csv(out)
         assert len(table) == 40 and all(r['status'] == 'ok' for r in table)
@@ -879,8 +1134,9 @@ def test_unusable_output_paths_are_clear_errors(tmp_path, scene, capsys):
     assert 'cannot use this path' in _bad([*common, '--out', tmp_path / 'loop.csv'], capsys)
     err = _bad([*common, '--out', tmp_path / 'loopbag'], capsys)
     assert 'exists already' in err or 'cannot use this path' in err
-    assert 'cannot use this path' in _bad([*common, '--out', tmp_path / 'r.csv', '--plot',
-                                           tmp_path / 'loop.csv'], capsys)
+    assert 'cannot use this path' in _bad(
+        [*common, '--out', tmp_path / 'r.csv', '--plot', tmp_path / 'loop.csv'], capsys
+    )
     afile = tmp_path / 'afile'
     afile.write_text('x')
     err = _bad([*common, '--out', afile / 'r.csv'], capsys)
@@ -889,16 +1145,27 @@ def test_unusable_output_paths_are_clear_errors(tmp_path, scene, capsys):
     assert 'exists already' in _bad([*common, '--out', tmp_path / 'dangling'], capsys)
 
 
-def test_failed_bag_write_is_one_error_and_leaves_no_half_bag(tmp_path, scene, capsys,
-                                                              monkeypatch):
+def test_failed_bag_write_is_one_error_and_leaves_no_half_bag(tmp_path, scene, capsys, monkeypatch):
     """A storage error while writing the result bag (sqlite3's 'database or disk is full' is no
     OSError) was a traceback, and left a folder without metadata that blocked the next run."""
     import sqlite3
+
     from rosbags.rosbag2 import writer as rwriter
+
     src = _small_bag(tmp_path)
     out = tmp_path / 'res'
-    args = [src, '--scene', scene, '--command-topic', '/cmd', '--out', out, '--out-format',
-            'sqlite3', '--no-progress']
+    args = [
+        src,
+        '--scene',
+        scene,
+        '--command-topic',
+        '/cmd',
+        '--out',
+        out,
+        '--out-format',
+        'sqlite3',
+        '--no-progress',
+    ]
     real_write, count = rwriter.Writer.write, [0]
 
     def failing_write(self, *a, **k):
@@ -906,12 +1173,13 @@ def test_failed_bag_write_is_one_error_and_leaves_no_half_bag(tmp_path, scene, c
         if count[0] > 20:
             raise sqlite3.OperationalError('database or disk is full')
         return real_write(self, *a, **k)
+
     monkeypatch.setattr(rwriter.Writer, 'write', failing_write)
     err = _bad(args, capsys)
     assert f'output {out}: cannot write the bag (database or disk is full)' in err
     assert not out.exists()
     monkeypatch.setattr(rwriter.Writer, 'write', real_write)
-    code, cap = run_bag(args, capsys)               # the same command again: now it works
+    code, cap = run_bag(args, capsys)  # the same command again: now it works
     assert code == 0, cap.err
     got, _ = read_out_bag(out)
     assert len(got['/status']) == 40
@@ -921,34 +1189,51 @@ def test_error_after_a_progress_bar_starts_on_its_own_line(tmp_path, scene, caps
     """On a terminal the progress bar has no newline: an error found after it (a corrupt message,
     found once the messages are read) was printed on the end of the bar's line."""
     good = bytes(TS.serialize_cdr(joint_state(['crank'], [0.3]), JS))
-    src = make_input(tmp_path, 'mcap', [('/cmd', 7 + i, good) for i in range(5)]
-                     + [('/cmd', 20, good[:30])])
+    src = make_input(
+        tmp_path, 'mcap', [('/cmd', 7 + i, good) for i in range(5)] + [('/cmd', 20, good[:30])]
+    )
     monkeypatch.setattr('sys.stderr.isatty', lambda: True, raising=False)
-    code = bag.main([str(src), '--scene', str(scene), '--command-topic', '/cmd', '--out',
-                     str(tmp_path / 'x.csv')])
+    code = bag.main(
+        [
+            str(src),
+            '--scene',
+            str(scene),
+            '--command-topic',
+            '/cmd',
+            '--out',
+            str(tmp_path / 'x.csv'),
+        ]
+    )
     err = capsys.readouterr().err
     assert code == 2
-    assert 'reading' in err                                   # the bar was shown
+    assert 'reading' in err  # the bar was shown
     last = err.split('\r')[-1]
     assert last.startswith('linkage bag: error: message 6 on /cmd'), repr(err)
     assert 'not a valid JointState' in last and last.count('\n') == 1
 
 
-def test_unwritable_output_folder_is_refused_before_any_work(tmp_path, scene, capsys,
-                                                             monkeypatch):
+def test_unwritable_output_folder_is_refused_before_any_work(tmp_path, scene, capsys, monkeypatch):
     """A folder the user may not write to (simulated: these tests may run as root, whom
     permissions do not stop) is named at once, not after reading and solving the whole bag."""
     src = _small_bag(tmp_path)
     locked = tmp_path / 'locked'
     locked.mkdir()
     real_access = os.access
-    monkeypatch.setattr(bag.os, 'access', lambda p, mode, **k: (
-        False if Path(p) == locked.resolve() and mode & os.W_OK else real_access(p, mode, **k)))
+    monkeypatch.setattr(
+        bag.os,
+        'access',
+        lambda p, mode, **k: (
+            False if Path(p) == locked.resolve() and mode & os.W_OK else real_access(p, mode, **k)
+        ),
+    )
     reads = []
     monkeypatch.setattr(bag, 'read_commands', lambda *a, **k: reads.append(a))
     common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
-    for extra in (['--out', locked / 'r.csv'], ['--out', locked / 'answers'],
-                  ['--out', tmp_path / 'r.csv', '--plot', locked / 'p.png']):
+    for extra in (
+        ['--out', locked / 'r.csv'],
+        ['--out', locked / 'answers'],
+        ['--out', tmp_path / 'r.csv', '--plot', locked / 'p.png'],
+    ):
         err = _bad([*common, *extra], capsys)
         assert f'folder {locked.resolve()} is not writable' in err
     assert reads == []
@@ -966,5 +1251,5 @@ def test_empty_topic_names_are_usage_errors(tmp_path, scene, capsys):
     err = _bad([*common, '--command-topic', ' '], capsys)
     assert '--command-topic: empty topic name' in err
     assert not out_csv.exists()
-    code, cap = run_bag([*common, '--command-topic', '/cmd'], capsys)    # and the same run works
+    code, cap = run_bag([*common, '--command-topic', '/cmd'], capsys)  # and the same run works
     assert code == 0, cap.err

@@ -4,6 +4,7 @@ Never asserts a timing: only that every measurement runs, the report has its str
 50-digit reference is right (checked against geometry written here) and ``--write`` keeps the
 hand-written introduction above the marker line.
 """
+
 import json
 import math
 from dataclasses import replace
@@ -35,10 +36,16 @@ def test_cli_writes_report_below_the_marker(quick_run):
     assert text.startswith(INTRO)
     assert text.count(bench.MARKER) == 1
     assert 'old generated text' not in text
-    for heading in ('## Run', '## Targets', '## Speed against accuracy',
-                    '## Newton vs scipy.optimize.root', '## Vectorised four-bar throughput',
-                    '## Cost against what the scene asks', '## Node latency',
-                    '## Interpretation'):
+    for heading in (
+        '## Run',
+        '## Targets',
+        '## Speed against accuracy',
+        '## Newton vs scipy.optimize.root',
+        '## Vectorised four-bar throughput',
+        '## Cost against what the scene asks',
+        '## Node latency',
+        '## Interpretation',
+    ):
         assert heading in text
     assert '(bench_tradeoff.png)' in text
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
@@ -77,8 +84,11 @@ def test_report_structure(quick_run):
         assert r['scalar_us'] is not None and r['scalar_us'] > 0
         assert r['failures'] == 0, r
     for scene in bench.SCENES:
-        want = {('dyad', None), ('kernel', 1e-12)} | {('newton', t) for t in bench.NEWTON_TOLS} \
+        want = (
+            {('dyad', None), ('kernel', 1e-12)}
+            | {('newton', t) for t in bench.NEWTON_TOLS}
             | {('scipy', t) for t in bench.SCIPY_XTOLS}
+        )
         if scene in ('four_bar', 'slider_crank'):
             want.add(('direct', None))
         assert fams[scene] == want
@@ -120,10 +130,11 @@ def test_reference_is_independent_and_exact():
     mech = bench.load_scene('four_bar')
     sc = mech.shortcut
     ref = bench.MpReference(mech)
-    assert ref.n == 6                       # A, B, P unknown; O2, O4 on the ground
+    assert ref.n == 6  # A, B, P unknown; O2, O4 on the ground
     for theta in (0.3, 1.0471975511965976, 2.5, -2.0):
-        a, b = _textbook_fourbar(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'], theta,
-                                 sc['branch'])
+        a, b = _textbook_fourbar(
+            sc['ground'], sc['crank'], sc['coupler'], sc['rocker'], theta, sc['branch']
+        )
         # start far (1e-3 of the length scale) from the answer: the reference must still land
         # on it, i.e. it does not just echo its start
         start = {p: tuple(np.asarray(v) + 3e-4) for p, v in mech.points.items()}
@@ -147,6 +158,7 @@ def test_reference_covers_every_benchmark_scene():
         ref = bench.MpReference(mech)
         cmd = bench.sweep_inputs(mech, 4)[1]
         from linkage_ros.core.solver import Solver
+
         r = Solver(mech, method='closed_form').solve(cmd)
         assert r.success
         hi, lo, worst = bench.reference_points(ref, [cmd], [r.points])
@@ -169,10 +181,12 @@ def test_numpy_baseline_matches_textbook():
 
 
 def test_sustained_rate():
-    runs = [{'rate': 200.0, 'lost': 0, 'achieved_rate': 200.0},
-            {'rate': 500.0, 'lost': 0, 'achieved_rate': 499.0},
-            {'rate': 1000.0, 'lost': 3, 'achieved_rate': 1000.0},
-            {'rate': 2000.0, 'lost': 0, 'achieved_rate': 1500.0}]   # the driver could not keep up
+    runs = [
+        {'rate': 200.0, 'lost': 0, 'achieved_rate': 200.0},
+        {'rate': 500.0, 'lost': 0, 'achieved_rate': 499.0},
+        {'rate': 1000.0, 'lost': 3, 'achieved_rate': 1000.0},
+        {'rate': 2000.0, 'lost': 0, 'achieved_rate': 1500.0},
+    ]  # the driver could not keep up
     assert bench.sustained_rate(runs) == 500.0
     assert bench.sustained_rate(runs[2:]) is None
 
@@ -181,8 +195,15 @@ def test_node_benchmark_machinery():
     """The relay and the node under the driver, tiny sizes: structure only."""
     pytest.importorskip('rclpy')
     pytest.importorskip('sensor_msgs.msg')
-    sizes = replace(bench.QUICK, node_rates=(100.0,), node_seconds=0.3, node_warmup=3,
-                    node_ping=5, node_deep_depth=37, node_deep_rates=(50.0,))
+    sizes = replace(
+        bench.QUICK,
+        node_rates=(100.0,),
+        node_seconds=0.3,
+        node_warmup=3,
+        node_ping=5,
+        node_deep_depth=37,
+        node_deep_rates=(50.0,),
+    )
     rep = bench.bench_node(sizes)
     assert 'skipped' not in rep, rep
     for label in ('relay', 'node'):
@@ -210,33 +231,63 @@ def test_node_benchmark_machinery():
 def test_node_targets_and_interpretation_with_both_queue_depths():
     """Synthetic node results (no ROS): the 1 kHz target is read at the default depth and,
     as its own row, at the deeper one; the interpretation reports the losses at both."""
+
     def run(rate, lost):
-        return {'rate': rate, 'sent': int(3 * rate), 'received': int(3 * rate) - lost,
-                'lost': lost, 'achieved_rate': rate, 'p50_ms': 1.0, 'p99_ms': 2.0, 'max_ms': 3.0}
+        return {
+            'rate': rate,
+            'sent': int(3 * rate),
+            'received': int(3 * rate) - lost,
+            'lost': lost,
+            'achieved_rate': rate,
+            'p50_ms': 1.0,
+            'p99_ms': 2.0,
+            'max_ms': 3.0,
+        }
+
     lat = {'n': 10, 'timeouts': 0, 'p50_ms': 1.5, 'p99_ms': 3.0, 'max_ms': 4.0}
     targets = {
-        'relay': {'ok': True, 'depth': 10, 'latency': dict(lat, p50_ms=1.3),
-                  'runs': [run(500.0, 0), run(1000.0, 4)]},
+        'relay': {
+            'ok': True,
+            'depth': 10,
+            'latency': dict(lat, p50_ms=1.3),
+            'runs': [run(500.0, 0), run(1000.0, 4)],
+        },
         'node': {'ok': True, 'depth': 10, 'latency': lat, 'runs': [run(500.0, 0), run(1000.0, 17)]},
         'relay_deep': {'ok': True, 'depth': 100, 'runs': [run(1000.0, 0)]},
         'node_deep': {'ok': True, 'depth': 100, 'runs': [run(1000.0, 0)]},
     }
     for t in targets.values():
         t['sustained_rate'] = bench.sustained_rate(t['runs'])
-    node = {'domain_id': 7, 'depth': 10, 'deep_depth': 100, 'deep_rates': [1000.0],
-            'seconds_per_rate': 3.0, 'ping_pong_n': 10, 'targets': targets}
+    node = {
+        'domain_id': 7,
+        'depth': 10,
+        'deep_depth': 100,
+        'deep_rates': [1000.0],
+        'seconds_per_rate': 3.0,
+        'ping_pong_n': 10,
+        'targets': targets,
+    }
     rows = {r['target']: r for r in bench.evaluate_targets({'node': node, 'scenes': {}})}
     plain = rows['node sustains 1000 Hz with zero loss']
     assert plain['met'] is False and plain['measured'].startswith('17 lost of 3000')
     (deep,) = [r for k, r in rows.items() if 'queue_depth 100' in k]
     assert deep['met'] is True and '0 lost of 3000' in deep['measured']
     assert 'relay 0 lost of 3000' in deep['measured']
-    text = bench.interpretation({'node': node, 'settings': [], 'scenes': {}, 'throughput': [],
-                                 'outputs': []})
+    text = bench.interpretation(
+        {'node': node, 'settings': [], 'scenes': {}, 'throughput': [], 'outputs': []}
+    )
     assert 'queue depth 10 -> 100: node 1000 Hz 17 -> 0; relay 1000 Hz 4 -> 0' in text
 
 
 def _minimal_report():
-    return {'machine': bench.machine_info(), 'sizes': bench.QUICK.__dict__, 'date': 'now',
-            'seconds': 1.0, 'targets': [], 'settings': [], 'scenes': {}, 'throughput': [],
-            'outputs': []}
+    return {
+        'machine': bench.machine_info(),
+        'sizes': bench.QUICK.__dict__,
+        'date': 'now',
+        'seconds': 1.0,
+        'targets': [],
+        'settings': [],
+        'scenes': {},
+        'throughput': [],
+        'outputs': [],
+    }

@@ -5,6 +5,7 @@ console script is installed. Numbers are checked against independent geometry wr
 (circle intersection, Freudenstein's equation, the toggle-angle cosine rule), never against the
 core's own formulas.
 """
+
 import json
 import math
 import subprocess
@@ -17,9 +18,9 @@ from linkage_ros import cli
 from linkage_ros.cli import main
 
 # four-bar lengths (m): ground l1, crank l2, coupler l3, rocker l4
-CR = dict(l1=0.4, l2=0.1, l3=0.35, l4=0.3)        # Grashof crank-rocker (crank shortest)
-DR = dict(l1=0.4, l2=0.35, l3=0.1, l4=0.3)        # Grashof double-rocker (coupler shortest)
-CP = dict(distance=0.2, angle=0.5)                 # coupler point P of the crank-rocker
+CR = dict(l1=0.4, l2=0.1, l3=0.35, l4=0.3)  # Grashof crank-rocker (crank shortest)
+DR = dict(l1=0.4, l2=0.35, l3=0.1, l4=0.3)  # Grashof double-rocker (coupler shortest)
+CP = dict(distance=0.2, angle=0.5)  # coupler point P of the crank-rocker
 
 FOUR_BAR = f"""\
 four_bar: {{ground: {CR['l1']}, crank: {CR['l2']}, coupler: {CR['l3']}, rocker: {CR['l4']},
@@ -29,7 +30,7 @@ DOUBLE_ROCKER = f"""\
 four_bar: {{ground: {DR['l1']}, crank: {DR['l2']}, coupler: {DR['l3']}, rocker: {DR['l4']},
            input: 0.8}}
 """
-SLIDER_CRANK = "slider_crank: {crank: 0.1, rod: 0.3, offset: 0.02}\n"
+SLIDER_CRANK = 'slider_crank: {crank: 0.1, rod: 0.3, offset: 0.02}\n'
 # 2-DOF five-bar; T is a tool point on link l2 (a point that is not a joint)
 FIVE_BAR = """\
 name: five_bar
@@ -41,18 +42,25 @@ actuators:
   a2: {type: angle, link: l4, pivot: O5, toward: B}
 """
 # one actuator for a 2-DOF chain: the scene must not load
-FIVE_BAR_ONE_ACTUATOR = FIVE_BAR.split('actuators:')[0] + """actuators:
+FIVE_BAR_ONE_ACTUATOR = (
+    FIVE_BAR.split('actuators:')[0]
+    + """actuators:
   a1: {type: angle, link: l1, pivot: O2, toward: A}
 """
+)
 
 
 @pytest.fixture(scope='module')
 def scenes(tmp_path_factory):
     d = tmp_path_factory.mktemp('scenes')
     out = {}
-    for name, text in [('four_bar', FOUR_BAR), ('double_rocker', DOUBLE_ROCKER),
-                       ('slider_crank', SLIDER_CRANK), ('five_bar', FIVE_BAR),
-                       ('bad_dof', FIVE_BAR_ONE_ACTUATOR)]:
+    for name, text in [
+        ('four_bar', FOUR_BAR),
+        ('double_rocker', DOUBLE_ROCKER),
+        ('slider_crank', SLIDER_CRANK),
+        ('five_bar', FIVE_BAR),
+        ('bad_dof', FIVE_BAR_ONE_ACTUATOR),
+    ]:
         p = d / f'{name}.yaml'
         p.write_text(text)
         out[name] = str(p)
@@ -76,6 +84,7 @@ def run(capsys, *argv):
 
 # ---- independent geometry ----------------------------------------------------------------------
 
+
 def circle_intersections(c1, r1, c2, r2):
     """Both intersections of two circles (or [] when they miss)."""
     dx, dy = c2[0] - c1[0], c2[1] - c1[1]
@@ -97,7 +106,7 @@ def fourbar_B(theta2, l1, l2, l3, l4):
 def freudenstein_residual(theta2, theta4, l1, l2, l3, l4):
     """K1 cos t4 - K2 cos t2 + K3 - cos(t2 - t4) = 0 for an assembled four-bar."""
     k1, k2 = l1 / l2, l1 / l4
-    k3 = (l2 ** 2 - l3 ** 2 + l4 ** 2 + l1 ** 2) / (2 * l2 * l4)
+    k3 = (l2**2 - l3**2 + l4**2 + l1**2) / (2 * l2 * l4)
     return k1 * math.cos(theta4) - k2 * math.cos(theta2) + k3 - math.cos(theta2 - theta4)
 
 
@@ -115,16 +124,29 @@ def wrap(a):
 
 # ---- solve -------------------------------------------------------------------------------------
 
-SCHEMA_KEYS = {'status', 'reason', 'inputs', 'joints', 'links', 'points', 'residual', 'branch',
-               'branch_defined', 'margin', 'solver', 'iterations', 'cond'}
+SCHEMA_KEYS = {
+    'status',
+    'reason',
+    'inputs',
+    'joints',
+    'links',
+    'points',
+    'residual',
+    'branch',
+    'branch_defined',
+    'margin',
+    'solver',
+    'iterations',
+    'cond',
+}
 
 
 def test_solve_json_schema_and_values_match_independent_fourbar(capsys, scenes):
     theta2 = 0.5
     rc, out, err = run(capsys, 'solve', scenes['four_bar'], '--set', f'crank={theta2}', '--json')
     assert rc == 0 and err == ''
-    d = loads(out)                                    # exactly one JSON object
-    assert isinstance(d, dict) and SCHEMA_KEYS <= set(d)
+    d = loads(out)  # exactly one JSON object
+    assert isinstance(d, dict) and set(d) >= SCHEMA_KEYS
     assert d['status'] == 'ok' and d['reason'] is None
     assert d['inputs'] == {'crank': theta2}
     assert set(d['links']) == {'ground', 'crank', 'coupler', 'rocker'}
@@ -145,8 +167,10 @@ def test_solve_json_schema_and_values_match_independent_fourbar(capsys, scenes):
     assert abs(freudenstein_residual(theta2, t4, l1, l2, l3, l4)) < 1e-12
     t3 = math.atan2(b[1] - a[1], b[0] - a[0])
     assert d['links']['coupler']['angle'] == pytest.approx(t3, abs=1e-12)
-    p = (a[0] + CP['distance'] * math.cos(t3 + CP['angle']),
-         a[1] + CP['distance'] * math.sin(t3 + CP['angle']))
+    p = (
+        a[0] + CP['distance'] * math.cos(t3 + CP['angle']),
+        a[1] + CP['distance'] * math.sin(t3 + CP['angle']),
+    )
     assert close(d['points']['P'], p)
     # revolute joint value = child angle - parent angle
     assert d['joints']['O4'] == pytest.approx(t4, abs=1e-12)
@@ -156,16 +180,29 @@ def test_solve_json_schema_and_values_match_independent_fourbar(capsys, scenes):
 def test_solve_table_output(capsys, scenes):
     rc, out, err = run(capsys, 'solve', scenes['four_bar'], '--set', 'crank=30deg')
     assert rc == 0
-    for word in ('status     ok', 'inputs', 'joints', 'links', 'points', 'residual', 'branch',
-                 'margin', 'solver', 'iterations', '30.00000 deg', '[A B P]'):
+    for word in (
+        'status     ok',
+        'inputs',
+        'joints',
+        'links',
+        'points',
+        'residual',
+        'branch',
+        'margin',
+        'solver',
+        'iterations',
+        '30.00000 deg',
+        '[A B P]',
+    ):
         assert word in out
-    assert '0.523598776 rad' in out                    # 30deg was converted to radians
+    assert '0.523598776 rad' in out  # 30deg was converted to radians
 
 
 def test_all_branches_gives_two_distinct_assemblies(capsys, scenes):
     theta2 = 1.0
-    rc, out, _ = run(capsys, 'solve', scenes['four_bar'], '--set', f'crank={theta2}',
-                     '--all-branches', '--json')
+    rc, out, _ = run(
+        capsys, 'solve', scenes['four_bar'], '--set', f'crank={theta2}', '--all-branches', '--json'
+    )
     assert rc == 0
     modes = loads(out)
     assert isinstance(modes, list) and len(modes) == 2
@@ -174,7 +211,7 @@ def test_all_branches_gives_two_distinct_assemblies(capsys, scenes):
     _, bs = fourbar_B(theta2, *CR.values())
     got = [m['points']['B'] for m in modes]
     assert not close(got[0], got[1], 1e-6)
-    for c in bs:                                       # each exact assembly appears once
+    for c in bs:  # each exact assembly appears once
         assert sum(close(g, c) for g in got) == 1
 
 
@@ -192,39 +229,69 @@ def test_inverse_solve_target_rocker_reproduces_it(capsys, scenes):
     assert math.hypot(b[0] - a[0], b[1] - a[1]) == pytest.approx(l3, abs=1e-12)
     assert abs(freudenstein_residual(theta2, theta4, l1, l2, l3, l4)) < 1e-12
     # and the forward solve at that crank (same branch) gives the rocker back
-    rc, out, _ = run(capsys, 'solve', scenes['four_bar'], '--set', f'crank={theta2!r}',
-                     '--branch', d['branch'], '--json')
+    rc, out, _ = run(
+        capsys,
+        'solve',
+        scenes['four_bar'],
+        '--set',
+        f'crank={theta2!r}',
+        '--branch',
+        d['branch'],
+        '--json',
+    )
     assert rc == 0
     assert loads(out)['links']['rocker']['angle'] == pytest.approx(theta4, abs=1e-9)
 
 
 def test_target_point_on_five_bar(capsys, scenes):
     target = (0.12, 0.33)
-    rc, out, _ = run(capsys, 'solve', scenes['five_bar'], '--target-point',
-                     f'T={target[0]},{target[1]}', '--json')
+    rc, out, _ = run(
+        capsys,
+        'solve',
+        scenes['five_bar'],
+        '--target-point',
+        f'T={target[0]},{target[1]}',
+        '--json',
+    )
     assert rc == 0
     d = loads(out)
     assert d['status'] == 'ok' and d['targets'] == {'point:T': list(target)}
     pts = d['points']
     assert close(pts['T'], target)
     # link lengths from the reference pose are preserved
-    ref = {'O2': (0, 0), 'O5': (0.3, 0), 'A': (0.0, 0.15), 'P': (0.15, 0.3), 'B': (0.3, 0.15),
-           'T': (0.1, 0.35)}
+    ref = {
+        'O2': (0, 0),
+        'O5': (0.3, 0),
+        'A': (0.0, 0.15),
+        'P': (0.15, 0.3),
+        'B': (0.3, 0.15),
+        'T': (0.1, 0.35),
+    }
     for u, v in [('O2', 'A'), ('A', 'P'), ('A', 'T'), ('P', 'T'), ('P', 'B'), ('O5', 'B')]:
         assert math.dist(pts[u], pts[v]) == pytest.approx(math.dist(ref[u], ref[v]), abs=1e-12)
     a1, a2 = d['inputs']['a1'], d['inputs']['a2']
     assert a1 == pytest.approx(math.atan2(pts['A'][1], pts['A'][0]), abs=1e-12)
     assert a2 == pytest.approx(math.atan2(pts['B'][1], pts['B'][0] - 0.3), abs=1e-12)
     # forward solve with the actuator values found puts T on the target
-    rc, out, _ = run(capsys, 'solve', scenes['five_bar'], '--set', f'a1={a1!r}', '--set',
-                     f'a2={a2!r}', '--branch', d['branch'][1:], '--json')
+    rc, out, _ = run(
+        capsys,
+        'solve',
+        scenes['five_bar'],
+        '--set',
+        f'a1={a1!r}',
+        '--set',
+        f'a2={a2!r}',
+        '--branch',
+        d['branch'][1:],
+        '--json',
+    )
     assert rc == 0 and close(loads(out)['points']['T'], target)
 
 
 def test_unreachable_input_is_refused_without_nan(capsys, scenes):
     rc, out, err = run(capsys, 'solve', scenes['double_rocker'], '--set', 'crank=2.0', '--json')
     assert rc == 1
-    d = loads(out)                                      # raises on NaN / Infinity
+    d = loads(out)  # raises on NaN / Infinity
     assert d['status'] == 'error' and d['reason'] and 'assemble' in d['reason']
     assert d['points'] == {} and d['inputs'] == {'crank': 2.0}
     rc, out, _ = run(capsys, 'solve', scenes['double_rocker'], '--set', 'crank=2.0')
@@ -240,16 +307,19 @@ def test_unreachable_target_is_refused(capsys, scenes):
 
 # ---- sweep -------------------------------------------------------------------------------------
 
+
 def _toggles(l1, l2, l3, l4):
     """Input angles (upper half-plane) at which coupler and rocker are folded / extended."""
+
     def opposite(d):
         return math.acos((l1 * l1 + l2 * l2 - d * d) / (2 * l1 * l2))
+
     return opposite(abs(l3 - l4)), opposite(l3 + l4)
 
 
 def test_sweep_line_count_includes_error_lines(capsys, scenes):
     rc, out, err = run(capsys, 'sweep', scenes['double_rocker'], '--set', 'crank=0:3:7', '--json')
-    assert rc == 0                                      # the sweep ran: errors are lines
+    assert rc == 0  # the sweep ran: errors are lines
     lines = [loads(x) for x in out.splitlines()]
     assert len(lines) == 7
     lo, hi = _toggles(*DR.values())
@@ -270,8 +340,9 @@ def test_sweep_line_count_includes_error_lines(capsys, scenes):
 
 
 def test_sweep_grid_of_two_ranges_first_range_slowest(capsys, scenes):
-    rc, out, _ = run(capsys, 'sweep', scenes['five_bar'], '--set', 'a1=0.5:1.5:3',
-                     '--set', 'a2=1:2:4', '--json')
+    rc, out, _ = run(
+        capsys, 'sweep', scenes['five_bar'], '--set', 'a1=0.5:1.5:3', '--set', 'a2=1:2:4', '--json'
+    )
     assert rc == 0
     lines = [loads(x) for x in out.splitlines()]
     assert len(lines) == 12
@@ -283,8 +354,9 @@ def test_sweep_grid_of_two_ranges_first_range_slowest(capsys, scenes):
         assert line['inputs']['a1'] == pytest.approx(a1)
         assert line['inputs']['a2'] == pytest.approx(a2)
     # the grid axis order follows the command line
-    rc, out, _ = run(capsys, 'sweep', scenes['five_bar'], '--set', 'a2=1:2:4',
-                     '--set', 'a1=0.5:1.5:3', '--json')
+    rc, out, _ = run(
+        capsys, 'sweep', scenes['five_bar'], '--set', 'a2=1:2:4', '--set', 'a1=0.5:1.5:3', '--json'
+    )
     first = [loads(x)['command'] for x in out.splitlines()[:3]]
     assert [c['a2'] for c in first] == [1.0, 1.0, 1.0]
 
@@ -303,6 +375,7 @@ def test_inverse_sweep_over_target_range(capsys, scenes):
 
 # ---- check -------------------------------------------------------------------------------------
 
+
 def test_check_crank_rocker(capsys, scenes):
     rc, out, _ = run(capsys, 'check', scenes['four_bar'], '--json')
     assert rc == 0
@@ -312,8 +385,12 @@ def test_check_crank_rocker(capsys, scenes):
     assert d['inputs']['crank']['min'] is None and d['inputs']['crank']['max'] is None
     assert d['grashof']['class'] == 'crank-rocker' and d['grashof']['input_fully_rotates']
     assert d['links']['coupler'] == ['A', 'B', 'P']
-    assert d['joints']['B'] == {'type': 'revolute', 'point': 'B', 'parent': 'coupler',
-                                'child': 'rocker'}
+    assert d['joints']['B'] == {
+        'type': 'revolute',
+        'point': 'B',
+        'parent': 'coupler',
+        'child': 'rocker',
+    }
     plan = d['plan']
     assert plan['mode'] == 'closed_form' and plan['newton_links'] == []
     assert set(plan['closed_form_links']) == {'crank', 'coupler', 'rocker'}
@@ -329,7 +406,7 @@ def test_check_double_rocker_limits_are_the_toggle_angles(capsys, scenes):
     assert rc == 0
     d = loads(out)
     assert d['grashof']['class'] == 'grashof-double-rocker'
-    lo, hi = _toggles(*DR.values())     # the reference pose (input 0.8) is on this circuit
+    lo, hi = _toggles(*DR.values())  # the reference pose (input 0.8) is on this circuit
     assert d['inputs']['crank']['min'] == pytest.approx(lo, abs=1e-9)
     assert d['inputs']['crank']['max'] == pytest.approx(hi, abs=1e-9)
 
@@ -348,28 +425,32 @@ def test_check_five_bar_newton_plan_and_slider_crank(capsys, scenes):
 
 # ---- usage errors ------------------------------------------------------------------------------
 
-@pytest.mark.parametrize('argv,needle', [
-    (['solve', '{missing}', '--set', 'crank=1'], 'not found'),
-    (['solve', '{four_bar}', '--set', 'crank'], 'NAME=VALUE'),
-    (['solve', '{four_bar}', '--set', 'crank=abc'], "'abc' is not a number"),
-    (['solve', '{four_bar}', '--set', 'crank=nan'], 'finite'),
-    (['solve', '{four_bar}', '--set', 'cranky=1'], "'cranky' is not an actuator"),
-    (['solve', '{four_bar}', '--target', 'nosuch=1'], "unknown name 'nosuch'"),
-    (['solve', '{four_bar}', '--target-point', 'crank=1,2'], "'crank' is not a point"),
-    (['solve', '{four_bar}', '--set', 'crank=0:1:3'], 'sweep'),
-    (['solve', '{four_bar}', '--set', 'crank=1', '--set', 'crank=2'], 'given twice'),
-    (['solve', '{four_bar}'], 'nothing to solve'),
-    (['solve', '{five_bar}', '--set', 'a1=1'], 'missing --set for actuator(s) a2'),
-    (['solve', '{four_bar}', '--set', 'crank=1', '--branch', 'sideways'], 'branch'),
-    (['solve', '{four_bar}', '--set', 'crank=1', '--branch', '++'], 'branching dyad'),
-    (['solve', '{four_bar}', '--set', 'crank=1', '--tol', '-1'], 'tolerance'),
-    (['solve', '{four_bar}', '--set', 'crank=1', '--solver', 'magic'], 'invalid choice'),
-    (['sweep', '{four_bar}', '--set', 'crank=0:1:0'], 'COUNT must be >= 1'),
-    (['sweep', '{four_bar}', '--set', 'crank=0:1:x'], 'not an integer'),
-    (['check', '{bad_dof}'], 'degree(s) of freedom'),
-    (['solve'], 'SCENE'),
-    (['frobnicate'], 'invalid choice'),
-])
+
+@pytest.mark.parametrize(
+    'argv,needle',
+    [
+        (['solve', '{missing}', '--set', 'crank=1'], 'not found'),
+        (['solve', '{four_bar}', '--set', 'crank'], 'NAME=VALUE'),
+        (['solve', '{four_bar}', '--set', 'crank=abc'], "'abc' is not a number"),
+        (['solve', '{four_bar}', '--set', 'crank=nan'], 'finite'),
+        (['solve', '{four_bar}', '--set', 'cranky=1'], "'cranky' is not an actuator"),
+        (['solve', '{four_bar}', '--target', 'nosuch=1'], "unknown name 'nosuch'"),
+        (['solve', '{four_bar}', '--target-point', 'crank=1,2'], "'crank' is not a point"),
+        (['solve', '{four_bar}', '--set', 'crank=0:1:3'], 'sweep'),
+        (['solve', '{four_bar}', '--set', 'crank=1', '--set', 'crank=2'], 'given twice'),
+        (['solve', '{four_bar}'], 'nothing to solve'),
+        (['solve', '{five_bar}', '--set', 'a1=1'], 'missing --set for actuator(s) a2'),
+        (['solve', '{four_bar}', '--set', 'crank=1', '--branch', 'sideways'], 'branch'),
+        (['solve', '{four_bar}', '--set', 'crank=1', '--branch', '++'], 'branching dyad'),
+        (['solve', '{four_bar}', '--set', 'crank=1', '--tol', '-1'], 'tolerance'),
+        (['solve', '{four_bar}', '--set', 'crank=1', '--solver', 'magic'], 'invalid choice'),
+        (['sweep', '{four_bar}', '--set', 'crank=0:1:0'], 'COUNT must be >= 1'),
+        (['sweep', '{four_bar}', '--set', 'crank=0:1:x'], 'not an integer'),
+        (['check', '{bad_dof}'], 'degree(s) of freedom'),
+        (['solve'], 'SCENE'),
+        (['frobnicate'], 'invalid choice'),
+    ],
+)
 def test_usage_errors_exit_2_with_one_line(capsys, scenes, tmp_path, argv, needle):
     names = dict(scenes, missing=str(tmp_path / 'nope.yaml'))
     rc, out, err = run(capsys, *[a.format(**names) for a in argv])
@@ -390,15 +471,20 @@ def test_help(capsys):
 
 # ---- plug-in subcommands -----------------------------------------------------------------------
 
+
 def test_external_commands_register_when_importable(capsys, tmp_path, monkeypatch):
     (tmp_path / 'cli_plugin_ok.py').write_text(
         '"""Say hello."""\n'
         'def add_arguments(p):\n    p.add_argument("who")\n'
-        'def run(args):\n    print("hello", args.who)\n    return 0\n')
+        'def run(args):\n    print("hello", args.who)\n    return 0\n'
+    )
     (tmp_path / 'cli_plugin_broken.py').write_text('import no_such_dependency_xyz\n')
     monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setattr(cli, 'EXTERNAL_COMMANDS', {
-        'hello': 'cli_plugin_ok', 'broken': 'cli_plugin_broken', 'absent': 'cli_plugin_absent'})
+    monkeypatch.setattr(
+        cli,
+        'EXTERNAL_COMMANDS',
+        {'hello': 'cli_plugin_ok', 'broken': 'cli_plugin_broken', 'absent': 'cli_plugin_absent'},
+    )
     rc, out, _ = run(capsys, 'hello', 'world')
     assert rc == 0 and out == 'hello world\n'
     rc, out, _ = run(capsys, '--help')
@@ -409,24 +495,39 @@ def test_external_commands_register_when_importable(capsys, tmp_path, monkeypatc
 
 # ---- the installed console script -------------------------------------------------------------
 
+
 def test_console_script_is_installed(scenes):
     exe = Path(sys.executable).parent / 'linkage'
     assert exe.exists(), f'console script not installed next to {sys.executable}'
-    proc = subprocess.run([str(exe), 'solve', scenes['four_bar'], '--set', 'crank=0.5', '--json'],
-                          capture_output=True, text=True, timeout=60)
+    proc = subprocess.run(
+        [str(exe), 'solve', scenes['four_bar'], '--set', 'crank=0.5', '--json'],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert proc.returncode == 0, proc.stderr
     assert loads(proc.stdout)['status'] == 'ok'
 
 
-@pytest.mark.parametrize('scene,line', [
-    ('inverted_slider_crank_oscillating',
-     'grashof    3R-1P non-grashof: lmin + e = 0.34 > lmax = 0.3 (input fully rotates: no, '
-     'output fully rotates: no)'),
-    ('slider_crank', 'grashof    3R-1P grashof: lmin + e = 0.06 < lmax = 0.18 (input fully '
-                     'rotates: yes)'),
-    ('four_bar', 'grashof    4R crank-rocker: s + l = 0.4 < p + q = 0.45 (input fully rotates: '
-                 'yes, output fully rotates: no)'),
-])
+@pytest.mark.parametrize(
+    'scene,line',
+    [
+        (
+            'inverted_slider_crank_oscillating',
+            'grashof    3R-1P non-grashof: lmin + e = 0.34 > lmax = 0.3 (input fully rotates: no, '
+            'output fully rotates: no)',
+        ),
+        (
+            'slider_crank',
+            'grashof    3R-1P grashof: lmin + e = 0.06 < lmax = 0.18 (input fully rotates: yes)',
+        ),
+        (
+            'four_bar',
+            'grashof    4R crank-rocker: s + l = 0.4 < p + q = 0.45 (input fully rotates: '
+            'yes, output fully rotates: no)',
+        ),
+    ],
+)
 def test_check_prints_the_chain_class_line(capsys, scene, line):
     """Lecture 003 example 5 'first verifies that this is a non-Grashof 3R-1P linkage':
     lmin + e = 0.20 + 0.14 > lmax = 0.30 (the scene file's dimensions)."""
@@ -450,6 +551,7 @@ def test_ctrl_c_is_one_line_and_exit_130(capsys, monkeypatch):
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
+
     monkeypatch.setattr(cli_module, 'check_report', interrupted)
     rc, out, err = run(capsys, 'check', 'four_bar')
     assert rc == 130

@@ -5,6 +5,7 @@ Oracles used (never the code's own output):
 * 50-digit mpmath solutions of the Freudenstein equation / circle intersections,
 * reachability conditions derived directly from the triangle inequality.
 """
+
 import math
 
 import mpmath as mp
@@ -14,15 +15,20 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from linkage_ros.core.analysis import fourbar_input_range, fourbar_output_range
-from linkage_ros.core.fourbar import (circle_intersection, fourbar_forward, fourbar_inverse,
-                                      slider_crank_forward, slider_crank_inverse,
-                                      slider_crank_stroke)
+from linkage_ros.core.fourbar import (
+    circle_intersection,
+    fourbar_forward,
+    fourbar_inverse,
+    slider_crank_forward,
+    slider_crank_inverse,
+    slider_crank_stroke,
+)
 
 DPS = 50
-CRANK_ROCKER = (4.0, 1.5, 4.5, 3.0)          # s + l = 6 < 7, shortest is the input
-DOUBLE_CRANK = (1.5, 4.0, 4.5, 3.0)          # shortest is the ground
-TRIPLE_ROCKER_PI = (4.0, 3.0, 5.0, 2.5)      # non-Grashof, input range symmetric about pi
-TRIPLE_ROCKER_0 = (5.0, 4.0, 2.5, 3.0)       # non-Grashof, input range symmetric about 0
+CRANK_ROCKER = (4.0, 1.5, 4.5, 3.0)  # s + l = 6 < 7, shortest is the input
+DOUBLE_CRANK = (1.5, 4.0, 4.5, 3.0)  # shortest is the ground
+TRIPLE_ROCKER_PI = (4.0, 3.0, 5.0, 2.5)  # non-Grashof, input range symmetric about pi
+TRIPLE_ROCKER_0 = (5.0, 4.0, 2.5, 3.0)  # non-Grashof, input range symmetric about 0
 GRASHOF_DOUBLE_ROCKER = (4.0, 3.0, 1.5, 4.5)  # shortest is the coupler
 LINKAGES = [CRANK_ROCKER, DOUBLE_CRANK, TRIPLE_ROCKER_PI, TRIPLE_ROCKER_0, GRASHOF_DOUBLE_ROCKER]
 
@@ -57,11 +63,11 @@ def mp_fourbar_roots(l1, l2, l3, l4, t2):
         a, b, c, d = (mp.mpf(float(v)) for v in (l2, l3, l4, l1))  # Norton's names
         th2 = mp.mpf(float(t2))
         k1, k2 = d / a, d / c
-        k3 = (a ** 2 - b ** 2 + c ** 2 + d ** 2) / (2 * a * c)
+        k3 = (a**2 - b**2 + c**2 + d**2) / (2 * a * c)
         p = k1 - mp.cos(th2)
         q = -mp.sin(th2)
         r = k3 - k2 * mp.cos(th2)
-        disc = p ** 2 + q ** 2 - r ** 2
+        disc = p**2 + q**2 - r**2
         if disc < 0:
             return None
         # (r - p) t^2 + 2 q t + (p + r) = 0, t = tan(t4/2).  The textbook quotient
@@ -86,14 +92,15 @@ def nearest_root(sol, roots):
 
 # ----------------------------------------------------------------------------- circle_intersection
 
+
 def mp_circle_intersection(c1, r1, c2, r2, sign):
     with mp.workdps(DPS):
         x1, y1, x2, y2 = (mp.mpf(float(v)) for v in (*c1, *c2))
         r1, r2 = mp.mpf(float(r1)), mp.mpf(float(r2))
         dx, dy = x2 - x1, y2 - y1
-        d = mp.sqrt(dx ** 2 + dy ** 2)
-        a = (d ** 2 + r1 ** 2 - r2 ** 2) / (2 * d)
-        h = mp.sqrt(r1 ** 2 - a ** 2)
+        d = mp.sqrt(dx**2 + dy**2)
+        a = (d**2 + r1**2 - r2**2) / (2 * d)
+        h = mp.sqrt(r1**2 - a**2)
         px = x1 + a * dx / d - sign * h * dy / d
         py = y1 + a * dy / d + sign * h * dx / d
         return float(px), float(py), float(h)
@@ -132,7 +139,7 @@ def test_circle_intersection_needle_triangle_keeps_relative_accuracy():
         assert abs(h - hm) <= 1e-13 * hm
 
 
-@pytest.mark.parametrize('k', [1e-200, 2.0 ** -600, 1.0, 3e150, 1e300])
+@pytest.mark.parametrize('k', [1e-200, 2.0**-600, 1.0, 3e150, 1e300])
 def test_circle_intersection_extreme_scales(k):
     # needle triangle and ordinary triangle, both scaled by k: no under/overflow, same digits
     for c2x, r1, r2 in ((2.0 - 1e-10, 1.0, 1.0), (1.3, 0.9, 0.7), (1e-100, 1.0, 1.0)):
@@ -180,9 +187,9 @@ def test_circle_intersection_broadcasts():
 
 # ----------------------------------------------------------------------------- forward
 
+
 @settings(max_examples=600, deadline=None)
-@given(lengths=st.lists(st.floats(0.05, 20.0), min_size=4, max_size=4),
-       t2=st.floats(-10.0, 10.0))
+@given(lengths=st.lists(st.floats(0.05, 20.0), min_size=4, max_size=4), t2=st.floats(-10.0, 10.0))
 # found by hypothesis: A lands 1e-212 from O4 with l3 = l4, where Kahan's product d*d underflowed
 @example(lengths=[1.0, 1.0, 1.0, 1.0], t2=7.663009904905781e-212)
 def test_forward_satisfies_closure_equations(lengths, t2):
@@ -234,8 +241,9 @@ def test_forward_matches_mpmath_freudenstein(lengths):
 def test_forward_near_theta2_pi(lengths):
     # theta2 = pi exactly and a family of offsets around it: finite and exact versus mpmath.
     offsets = [0.0, 1e-15, -1e-15, 4e-16, 1e-12, -1e-12, 1e-9, -1e-9, 1e-6, -1e-6, 1e-3, -1e-3]
-    t2 = np.array([np.pi + o for o in offsets]
-                  + [np.nextafter(np.pi, 4.0), np.nextafter(np.pi, 3.0)])
+    t2 = np.array(
+        [np.pi + o for o in offsets] + [np.nextafter(np.pi, 4.0), np.nextafter(np.pi, 3.0)]
+    )
     for branch in (1, -1):
         sol = fourbar_forward(*lengths, t2, branch)
         assert sol.ok.all()
@@ -248,7 +256,7 @@ def test_forward_near_theta2_pi(lengths):
 
 def textbook_theta4(l1, l2, l3, l4, t2):
     """Norton's float closed form 2*atan((-B +- sqrt(B^2 - 4AC)) / (2A)): the thing to avoid."""
-    k1, k2, k3 = l1 / l2, l1 / l4, (l2 ** 2 - l3 ** 2 + l4 ** 2 + l1 ** 2) / (2 * l2 * l4)
+    k1, k2, k3 = l1 / l2, l1 / l4, (l2**2 - l3**2 + l4**2 + l1**2) / (2 * l2 * l4)
     a = np.cos(t2) - k1 - k2 * np.cos(t2) + k3
     b = -2 * np.sin(t2)
     c = k1 - (k2 + 1) * np.cos(t2) + k3
@@ -262,7 +270,7 @@ def test_forward_through_theta4_pi():
     # cos(theta2*) = (l2^2 + (l1 - l4)^2 - l3^2) / (2 l2 (l1 - l4)).
     l1, l2, l3, l4 = DOUBLE_CRANK
     with mp.workdps(DPS):
-        t2s = float(mp.acos((l2 ** 2 + (l1 - l4) ** 2 - l3 ** 2) / (2 * l2 * (l1 - l4))))
+        t2s = float(mp.acos((l2**2 + (l1 - l4) ** 2 - l3**2) / (2 * l2 * (l1 - l4))))
     for base in (t2s, -t2s):
         t2 = base + np.array([0.0, 1e-15, -1e-15, 1e-12, 1e-9, -1e-9, 1e-4, -1e-4])
         for branch in (1, -1):
@@ -353,10 +361,10 @@ def test_unreachable_inputs_are_flagged_and_finite():
     # degenerate and pathological inputs: still flagged and finite, no warnings
     both = (fourbar_forward, fourbar_inverse)
     cases = [
-        ((10.0, 1.0, 1.0, 1.0, 0.3), both),      # cannot be assembled at all
+        ((10.0, 1.0, 1.0, 1.0, 0.3), both),  # cannot be assembled at all
         ((2.0, 2.0, 1.0, 1.0, 0.0), (fourbar_forward,)),  # A falls on O4 (concentric circles)
-        ((4.0, 1.0, 0.0, 0.0, 1.0), both),       # zero coupler and rocker
-        ((4.0, 1.0, -3.0, 2.0, 1.0), both),      # negative length
+        ((4.0, 1.0, 0.0, 0.0, 1.0), both),  # zero coupler and rocker
+        ((4.0, 1.0, -3.0, 2.0, 1.0), both),  # negative length
         ((4.0, 1.0, 3.0, 2.0, np.nan), both),
         ((4.0, 1.0, 3.0, 2.0, np.inf), both),
         ((np.inf, 1.0, 3.0, 2.0, 1.0), both),
@@ -393,8 +401,9 @@ def test_vectorised_equals_scalar_calls():
         assert np.array_equal(row, fourbar_forward(*CRANK_ROCKER, t2[:50], b).theta4)
 
 
-@pytest.mark.parametrize('fn', [fourbar_forward, fourbar_inverse, slider_crank_forward,
-                                slider_crank_inverse])
+@pytest.mark.parametrize(
+    'fn', [fourbar_forward, fourbar_inverse, slider_crank_forward, slider_crank_inverse]
+)
 def test_extreme_inputs_inside_a_large_batch_are_solved_as_on_their_own(fn):
     # Batches run through cache-sized blocks of a fast kernel; the elements it does not take
     # (non-finite input, lengths outside 2**+-200, subnormal, zero or negative lengths) go to
@@ -407,7 +416,7 @@ def test_extreme_inputs_inside_a_large_batch_are_solved_as_on_their_own(fn):
     lengths = np.array(base)[:, None] * rng.uniform(0.8, 1.25, (nl, n))
     x = rng.uniform(1.5, 4.5, n) if fn is slider_crank_inverse else rng.uniform(-4, 4, n)
     branch = rng.choice([-1, 1], n)
-    special = [np.nan, np.inf, -np.inf, 0.0, -1.0, 1e-300, 5e-324, 1e300, 2.0 ** 201]
+    special = [np.nan, np.inf, -np.inf, 0.0, -1.0, 1e-300, 5e-324, 1e300, 2.0**201]
     idx = rng.choice(n, 60, replace=False)
     for j, i in enumerate(idx):
         if j % 3 == 0:
@@ -425,8 +434,9 @@ def test_extreme_inputs_inside_a_large_batch_are_solved_as_on_their_own(fn):
             assert abs(float(one[k]) - float(sol[k][i])) <= 1e-14 * (1 + abs(float(one[k])))
 
 
-@pytest.mark.parametrize('k', [10.0 ** p for p in range(-6, 7)]
-                         + [1e-300, 2.0 ** -201, 2.0 ** -199, 2.0 ** 199, 2.0 ** 201, 1e300])
+@pytest.mark.parametrize(
+    'k', [10.0**p for p in range(-6, 7)] + [1e-300, 2.0**-201, 2.0**-199, 2.0**199, 2.0**201, 1e300]
+)
 def test_scaling_all_lengths_leaves_angles_invariant(k):
     # lengths within 2**+-200 take the fast kernel, beyond it the scaled general formulas
     t2 = np.linspace(-np.pi, np.pi, 73)
@@ -438,8 +448,9 @@ def test_scaling_all_lengths_leaves_angles_invariant(k):
             assert np.array_equal(base.ok[well], scaled.ok[well])
             assert np.max(np.abs(wrap(scaled.theta3 - base.theta3))[well]) <= 1e-12
             assert np.max(np.abs(wrap(scaled.theta4 - base.theta4))[well]) <= 1e-12
-            assert np.allclose(scaled.transmission_sin[well], base.transmission_sin[well],
-                               atol=1e-12)
+            assert np.allclose(
+                scaled.transmission_sin[well], base.transmission_sin[well], atol=1e-12
+            )
             assert np.all(scaled.residual[scaled.ok] <= 1e-12)
         # the tangency clamp is relative, so toggles still assemble after scaling
         rng_ = fourbar_input_range(*lengths)
@@ -447,8 +458,9 @@ def test_scaling_all_lengths_leaves_angles_invariant(k):
             assert fourbar_forward(*(k * np.array(lengths)), rng_[1]).ok
 
 
-@pytest.mark.parametrize('lengths', [(1.0, 1e-6, 1.2, 0.9), (1e6, 1.0, 1e6, 1e6),
-                                     (1.0, 1e6, 1e6 + 0.5, 1e6 - 0.2)])
+@pytest.mark.parametrize(
+    'lengths', [(1.0, 1e-6, 1.2, 0.9), (1e6, 1.0, 1e6, 1e6), (1.0, 1e6, 1e6 + 0.5, 1e6 - 0.2)]
+)
 def test_extreme_link_ratios_match_mpmath(lengths):
     t2 = np.linspace(-np.pi, np.pi, 25)
     for branch in (1, -1):
@@ -515,7 +527,7 @@ def test_slider_forward_matches_mpmath_near_reach_limit():
             with mp.workdps(DPS):
                 tt = mp.mpf(t2)
                 dy = e - r * mp.sin(tt)
-                want = r * mp.cos(tt) + branch * mp.sqrt(max(l ** 2 - dy ** 2, 0))
+                want = r * mp.cos(tt) + branch * mp.sqrt(max(l**2 - dy**2, 0))
             assert abs(sol.x - float(want)) <= 1e-12 * max(r, l)
 
 
@@ -544,7 +556,7 @@ def _sweep_extremes(r, l, e, n=100_001):
         R, L, E = mp.mpf(r), mp.mpf(l), mp.mpf(e)
 
         def slack(t):
-            return L ** 2 - (E - R * mp.sin(t)) ** 2
+            return L**2 - (E - R * mp.sin(t)) ** 2
 
         def x_of(t):
             return R * mp.cos(t) + mp.sqrt(max(slack(t), 0))
@@ -587,8 +599,8 @@ def test_slider_stroke_equals_sweep_extremes(r, l, e):
     want_lo, want_hi = _sweep_extremes(r, l, e)
     assert abs(lo - want_lo) <= 1e-9 * max(r, l) and abs(hi - want_hi) <= 1e-9 * max(r, l)
     if abs(e) + r <= l:  # full rotation: the dead-centre formulas
-        assert hi == pytest.approx(math.sqrt((l + r) ** 2 - e ** 2), rel=1e-14)
-        assert lo == pytest.approx(math.sqrt((l - r) ** 2 - e ** 2), rel=1e-14, abs=1e-15)
+        assert hi == pytest.approx(math.sqrt((l + r) ** 2 - e**2), rel=1e-14)
+        assert lo == pytest.approx(math.sqrt((l - r) ** 2 - e**2), rel=1e-14, abs=1e-15)
 
 
 def test_slider_stroke_rejects_impossible():

@@ -4,6 +4,7 @@ Scene files and dictionaries: SceneError naming the file, the key and the value.
 of linkage_ros.core.analysis: ValueError naming the argument. The CLI: a usage error (exit 2)
 or, for a huge sweep, output that starts at once instead of a list built first.
 """
+
 import math
 import sys
 from pathlib import Path
@@ -12,9 +13,14 @@ import numpy as np
 import pytest
 
 from linkage_ros import cli
-from linkage_ros.core.analysis import (fourbar_input_intervals, fourbar_input_range,
-                                       fourbar_output_intervals, fourbar_output_range,
-                                       fourbar_toggle_angles, transmission_angle)
+from linkage_ros.core.analysis import (
+    fourbar_input_intervals,
+    fourbar_input_range,
+    fourbar_output_intervals,
+    fourbar_output_range,
+    fourbar_toggle_angles,
+    transmission_angle,
+)
 from linkage_ros.core.errors import SceneError
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
@@ -46,15 +52,22 @@ def scene_error(tmp_path, text) -> str:
 
 def general(**over):
     """The FOUR_BAR scene as a dict, with some keys replaced."""
-    data = {'points': {'O2': [0, 0], 'A': [0.05, 0.0866], 'B': [0.2, 0.18], 'O4': [0.3, 0]},
-            'links': {'ground': ['O2', 'O4'], 'crank': ['O2', 'A'], 'coupler': ['A', 'B'],
-                      'rocker': ['O4', 'B']},
-            'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}}}
+    data = {
+        'points': {'O2': [0, 0], 'A': [0.05, 0.0866], 'B': [0.2, 0.18], 'O4': [0.3, 0]},
+        'links': {
+            'ground': ['O2', 'O4'],
+            'crank': ['O2', 'A'],
+            'coupler': ['A', 'B'],
+            'rocker': ['O4', 'B'],
+        },
+        'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
+    }
     data.update(over)
     return data
 
 
 # ---- 1. zero-length links ------------------------------------------------------------------
+
 
 def test_coincident_points_of_a_link_are_refused_at_load(tmp_path):
     text = FOUR_BAR.replace('B: [0.2, 0.18]', 'B: [0.05, 0.0866]')
@@ -67,22 +80,39 @@ def test_coincident_points_of_a_link_are_refused_at_load(tmp_path):
 
 def test_scene_with_every_point_coincident_is_refused():
     pts = {k: [0.1, 0.2] for k in ('O2', 'A', 'B', 'O4')}
-    with pytest.raises(SceneError, match=r'links\.ground: its first two points O2 and O4 '
-                                         r'coincide'):
+    with pytest.raises(
+        SceneError,
+        match=r'links\.ground: its first two points O2 and O4 '
+        r'coincide',
+    ):
         Scene.from_dict(general(points=pts))
 
 
 def test_link_whose_first_two_points_coincide_is_refused():
     """The axis (first -> second point) defines a link's angle: a third, distinct point does
     not rescue a link whose first two coincide (it loaded, then the solver raised KeyError)."""
-    data = general(points={'O2': [0, 0], 'A': [0.05, 0.0866], 'B': [0.05, 0.0866],
-                           'P': [0.1, 0.2], 'O4': [0.3, 0]},
-                   links={'ground': ['O2', 'O4'], 'crank': ['O2', 'A'],
-                          'coupler': ['A', 'B', 'P'], 'rocker': ['O4', 'B']})
-    with pytest.raises(SceneError, match=r"links\.coupler: its first two points A and B "
-                                         r"coincide.*axis.*\['A', 'B', 'P'\]"):
+    data = general(
+        points={
+            'O2': [0, 0],
+            'A': [0.05, 0.0866],
+            'B': [0.05, 0.0866],
+            'P': [0.1, 0.2],
+            'O4': [0.3, 0],
+        },
+        links={
+            'ground': ['O2', 'O4'],
+            'crank': ['O2', 'A'],
+            'coupler': ['A', 'B', 'P'],
+            'rocker': ['O4', 'B'],
+        },
+    )
+    with pytest.raises(
+        SceneError,
+        match=r'links\.coupler: its first two points A and B '
+        r"coincide.*axis.*\['A', 'B', 'P'\]",
+    ):
         Scene.from_dict(data)
-    data['links']['coupler'] = ['A', 'P', 'B']       # a distinct second point: a valid link
+    data['links']['coupler'] = ['A', 'P', 'B']  # a distinct second point: a valid link
     Scene.from_dict(data)
 
 
@@ -95,6 +125,7 @@ def test_shipped_scenes_still_load():
 
 # ---- 2. unhashable / wrong-type names and undecodable files ----------------------------------
 
+
 def test_list_as_yaml_mapping_key_is_a_scene_error(tmp_path):
     msg = scene_error(tmp_path, FOUR_BAR + '? [a, b]\n: 1\n')
     assert 'line 4' in msg and "['a', 'b']" in msg
@@ -102,15 +133,20 @@ def test_list_as_yaml_mapping_key_is_a_scene_error(tmp_path):
     assert "{'a': 1}" in msg
 
 
-@pytest.mark.parametrize('text,key', [
-    (FOUR_BAR.replace('coupler: [A, B]', 'coupler: [A, [B]]'), 'links.coupler'),
-    (FOUR_BAR + 'outputs: [[B]]\n', 'outputs'),
-    (FOUR_BAR.replace('link: crank,', 'link: [crank],'), 'actuators.crank.link'),
-    (FOUR_BAR.replace('pivot: O2}', 'pivot: O2, relative_to: [ground]}'),
-     'actuators.crank.relative_to'),
-    (FOUR_BAR.replace('pivot: O2}', 'pivot: [O2]}'), 'actuators.crank.pivot'),
-    (FOUR_BAR.replace('pivot: O2}', 'pivot: O2, toward: {A: 1}}'), 'actuators.crank.toward'),
-])
+@pytest.mark.parametrize(
+    'text,key',
+    [
+        (FOUR_BAR.replace('coupler: [A, B]', 'coupler: [A, [B]]'), 'links.coupler'),
+        (FOUR_BAR + 'outputs: [[B]]\n', 'outputs'),
+        (FOUR_BAR.replace('link: crank,', 'link: [crank],'), 'actuators.crank.link'),
+        (
+            FOUR_BAR.replace('pivot: O2}', 'pivot: O2, relative_to: [ground]}'),
+            'actuators.crank.relative_to',
+        ),
+        (FOUR_BAR.replace('pivot: O2}', 'pivot: [O2]}'), 'actuators.crank.pivot'),
+        (FOUR_BAR.replace('pivot: O2}', 'pivot: O2, toward: {A: 1}}'), 'actuators.crank.toward'),
+    ],
+)
 def test_list_where_a_name_is_expected_general_four_bar(tmp_path, text, key):
     msg = scene_error(tmp_path, text)
     assert f'{key}:' in msg and '(got ' in msg
@@ -131,16 +167,24 @@ cylinders: {C: {from: Z, to: A}}
 """
 
 
-@pytest.mark.parametrize('text,key', [
-    (SLIDER.replace('guide: ground', 'guide: [ground]'), 'sliders.s.guide'),
-    (SLIDER.replace('slider: block', 'slider: [block]'), 'sliders.s.slider'),
-    (SLIDER.replace('point: B', 'point: [B]'), 'sliders.s.point'),
-    (SLIDER.replace('direction: 0.0', 'direction: 0.0, origin: [[O2]]'), 'sliders.s.origin'),
-    (SLIDER.replace('{crank: {type: angle, link: crank, pivot: O2}}',
-                    '{push: {type: slide, joint: [s]}}'), 'actuators.push.joint'),
-    (CYLINDER.replace('from: Z', 'from: [O2]'), 'cylinders.C.from'),
-    (CYLINDER.replace('to: A', 'to: {A: 1}'), 'cylinders.C.to'),
-])
+@pytest.mark.parametrize(
+    'text,key',
+    [
+        (SLIDER.replace('guide: ground', 'guide: [ground]'), 'sliders.s.guide'),
+        (SLIDER.replace('slider: block', 'slider: [block]'), 'sliders.s.slider'),
+        (SLIDER.replace('point: B', 'point: [B]'), 'sliders.s.point'),
+        (SLIDER.replace('direction: 0.0', 'direction: 0.0, origin: [[O2]]'), 'sliders.s.origin'),
+        (
+            SLIDER.replace(
+                '{crank: {type: angle, link: crank, pivot: O2}}',
+                '{push: {type: slide, joint: [s]}}',
+            ),
+            'actuators.push.joint',
+        ),
+        (CYLINDER.replace('from: Z', 'from: [O2]'), 'cylinders.C.from'),
+        (CYLINDER.replace('to: A', 'to: {A: 1}'), 'cylinders.C.to'),
+    ],
+)
 def test_list_where_a_name_is_expected_sliders_cylinders(tmp_path, text, key):
     msg = scene_error(tmp_path, text)
     assert f'{key}' in msg and '(got ' in msg
@@ -170,10 +214,14 @@ def test_non_utf8_scene_file_names_the_file(tmp_path, pad):
 
 # ---- 3. bools are not numbers or signs ------------------------------------------------------
 
-@pytest.mark.parametrize('form,spec', [
-    ('four_bar', {'ground': 0.3, 'crank': 0.1, 'coupler': 0.25, 'rocker': 0.2}),
-    ('slider_crank', {'crank': 0.05, 'rod': 0.18, 'offset': 0.01}),
-])
+
+@pytest.mark.parametrize(
+    'form,spec',
+    [
+        ('four_bar', {'ground': 0.3, 'crank': 0.1, 'coupler': 0.25, 'rocker': 0.2}),
+        ('slider_crank', {'crank': 0.05, 'rod': 0.18, 'offset': 0.01}),
+    ],
+)
 @pytest.mark.parametrize('flag', [True, False])
 def test_bool_branch_is_refused(form, spec, flag):
     with pytest.raises(SceneError, match=rf'{form}\.branch: must be \+1 or -1.*got {flag}'):
@@ -191,10 +239,13 @@ def test_bool_where_a_number_is_expected_is_refused():
 
 # ---- 4. exponent numbers without a dot -----------------------------------------------------
 
+
 def test_exponent_forms_read_as_numbers(tmp_path):
-    text = ('four_bar: {ground: 3e-1, crank: 1E-1, coupler: 2.5e-1, rocker: .2e0, '
-            'input: 1.0471975511965976, ground_angle: -2e-3, crank_limits: {min: -1E+5, '
-            'max: 1e5}}\n')
+    text = (
+        'four_bar: {ground: 3e-1, crank: 1E-1, coupler: 2.5e-1, rocker: .2e0, '
+        'input: 1.0471975511965976, ground_angle: -2e-3, crank_limits: {min: -1E+5, '
+        'max: 1e5}}\n'
+    )
     mech = Scene.from_yaml(write(tmp_path, text)).mechanism
     sc = mech.shortcut
     assert (sc['ground'], sc['crank'], sc['coupler'], sc['rocker']) == (0.3, 0.1, 0.25, 0.2)
@@ -206,10 +257,20 @@ def test_exponent_resolver_leaves_other_scalars_alone(tmp_path):
     import yaml
 
     from linkage_ros.core.model import _UniqueKeyLoader
-    data = yaml.load('{a: 1e3, b: e3, c: 1e, d: 12, e: 1.5, f: E5x, g: -2e3, h: 1_0e2}',
-                     Loader=_UniqueKeyLoader)
-    assert data == {'a': 1000.0, 'b': 'e3', 'c': '1e', 'd': 12, 'e': 1.5, 'f': 'E5x',
-                    'g': -2000.0, 'h': 1000.0}
+
+    data = yaml.load(
+        '{a: 1e3, b: e3, c: 1e, d: 12, e: 1.5, f: E5x, g: -2e3, h: 1_0e2}', Loader=_UniqueKeyLoader
+    )
+    assert data == {
+        'a': 1000.0,
+        'b': 'e3',
+        'c': '1e',
+        'd': 12,
+        'e': 1.5,
+        'f': 'E5x',
+        'g': -2000.0,
+        'h': 1000.0,
+    }
     assert isinstance(data['d'], int)
     # plain safe_load is not changed
     assert yaml.safe_load('a: 1e3') == {'a': '1e3'}
@@ -217,16 +278,20 @@ def test_exponent_resolver_leaves_other_scalars_alone(tmp_path):
 
 # ---- 5. the shortcut's reference input for narrow assembly ranges ----------------------------
 
+
 def _reference_ok(mech):
     theta = math.atan2(mech.points['A'][1], mech.points['A'][0])
     assert Solver(mech).solve({'crank': theta}).success
 
 
-@pytest.mark.parametrize('spec', [
-    {'crank': 1, 'rod': 1e-4, 'offset': 0.5},
-    {'crank': 1, 'rod': 1e-4, 'offset': 0.5, 'direction': 2.0, 'branch': -1},
-    {'crank': 1, 'rod': 1e-4, 'offset': -0.999},
-])
+@pytest.mark.parametrize(
+    'spec',
+    [
+        {'crank': 1, 'rod': 1e-4, 'offset': 0.5},
+        {'crank': 1, 'rod': 1e-4, 'offset': 0.5, 'direction': 2.0, 'branch': -1},
+        {'crank': 1, 'rod': 1e-4, 'offset': -0.999},
+    ],
+)
 def test_slider_crank_with_a_narrow_range_loads(spec):
     mech = Scene.from_dict({'slider_crank': spec}).mechanism
     a, b = mech.points['A'], mech.points['B']
@@ -253,8 +318,9 @@ def test_unassemblable_shortcuts_are_still_refused():
 def test_reference_input_unchanged_where_the_grid_finds_one():
     # a double-rocker whose crank reaches 0.39..0.90 rad: the reference stays the grid angle
     # nearest 60 degrees (pi/3 - k 0.01 rad), not the middle of the range
-    mech = Scene.from_dict({'four_bar': {'ground': 0.5, 'crank': 0.4, 'coupler': 0.1,
-                                         'rocker': 0.3}}).mechanism
+    mech = Scene.from_dict(
+        {'four_bar': {'ground': 0.5, 'crank': 0.4, 'coupler': 0.1, 'rocker': 0.3}}
+    ).mechanism
     theta = math.atan2(mech.points['A'][1], mech.points['A'][0])
     hi = fourbar_input_range(0.5, 0.4, 0.1, 0.3)[1]
     steps = np.linspace(0.01, np.pi, 315)
@@ -266,8 +332,13 @@ def test_reference_input_unchanged_where_the_grid_finds_one():
 
 # ---- 6. analysis argument checks ------------------------------------------------------------
 
-RANGE_FUNCS = [fourbar_input_range, fourbar_output_range, fourbar_input_intervals,
-               fourbar_output_intervals, fourbar_toggle_angles]
+RANGE_FUNCS = [
+    fourbar_input_range,
+    fourbar_output_range,
+    fourbar_input_intervals,
+    fourbar_output_intervals,
+    fourbar_toggle_angles,
+]
 
 
 @pytest.mark.parametrize('func', RANGE_FUNCS)
@@ -280,14 +351,17 @@ def test_range_functions_refuse_bad_lengths(func, pos, bad):
         func(*args)
 
 
-@pytest.mark.parametrize('scale', [1e300, 2.0 ** 1021, 1e-300])
+@pytest.mark.parametrize('scale', [1e300, 2.0**1021, 1e-300])
 def test_range_functions_are_scale_invariant_for_huge_and_tiny_lengths(scale):
     for lengths in [(0.3, 0.1, 0.25, 0.2), (0.5, 0.4, 0.25, 0.3), (4.0, 3.0, 1.5, 4.5)]:
         big = [v * scale for v in lengths]
         for func in RANGE_FUNCS:
             want, got = func(*lengths), func(*big)
-            assert np.allclose(np.asarray(got, float), np.asarray(want, float),
-                               rtol=1e-12, atol=1e-12) if want is not None else got is None
+            assert (
+                np.allclose(np.asarray(got, float), np.asarray(want, float), rtol=1e-12, atol=1e-12)
+                if want is not None
+                else got is None
+            )
 
 
 def test_toggle_angles_of_equal_huge_lengths():
@@ -309,9 +383,21 @@ def test_transmission_angle_with_huge_lengths():
     assert np.all(both == want)
 
 
-@pytest.mark.parametrize('pos,bad', [(4, math.nan), (4, None), (4, [1.0, None]), (4, math.inf),
-                                     (4, 'x'), (0, math.nan), (1, -1.0), (2, [1.0, math.inf]),
-                                     (3, None), (2, 0.0)])
+@pytest.mark.parametrize(
+    'pos,bad',
+    [
+        (4, math.nan),
+        (4, None),
+        (4, [1.0, None]),
+        (4, math.inf),
+        (4, 'x'),
+        (0, math.nan),
+        (1, -1.0),
+        (2, [1.0, math.inf]),
+        (3, None),
+        (2, 0.0),
+    ],
+)
 def test_transmission_angle_refuses_bad_arguments(pos, bad):
     args = [3, 1, 2.5, 2, 1.0]
     args[pos] = bad
@@ -322,13 +408,21 @@ def test_transmission_angle_refuses_bad_arguments(pos, bad):
 
 # ---- 7. huge sweeps start at once -----------------------------------------------------------
 
+
 def test_sweep_range_values_are_lazy():
     name, values, deg = cli.parse_known('--set', 'crank=0:1:1000000000001', True)
     assert name == 'crank' and not deg
-    assert len(values) == 10 ** 12 + 1
+    assert len(values) == 10**12 + 1
     assert values[0] == 0.0 and values[-1] == 1.0 and values[1] == 1e-12
-    assert list(cli.parse_known('--set', 'crank=0:3:7', True)[1]) == [0.0, 0.5, 1.0, 1.5, 2.0,
-                                                                      2.5, 3.0]
+    assert list(cli.parse_known('--set', 'crank=0:3:7', True)[1]) == [
+        0.0,
+        0.5,
+        1.0,
+        1.5,
+        2.0,
+        2.5,
+        3.0,
+    ]
     _, pts, _ = cli.parse_known('--target-point', 'P=0,0:1,2:3', True)
     assert list(pts) == [(0.0, 0.0), (0.5, 1.0), (1.0, 2.0)]
 
@@ -364,6 +458,7 @@ def test_huge_sweep_starts_printing_at_once(monkeypatch):
 
 def test_sweep_grid_is_lazy_and_first_axis_slowest():
     import itertools
+
     huge = cli.parse_known('--set', 'a=0:1:1000000000001', True)[1]
     head = list(itertools.islice(cli._grid([huge, [5.0, 6.0], [7.0]]), 3))
     assert head == [(0.0, 5.0, 7.0), (0.0, 6.0, 7.0), (1e-12, 5.0, 7.0)]
@@ -375,17 +470,19 @@ def test_sweep_grid_is_lazy_and_first_axis_slowest():
 def test_two_known_points_on_one_link_name_the_link_and_the_alternative():
     """The lecture moves the excavator bin by giving J and K: 4 values for 3 DOF, refused with a
     reason that says why (one rigid link) and what to give instead, which then solves."""
-    mech = Scene.from_yaml(Path(__file__).resolve().parent.parent / 'config'
-                           / 'excavator.yaml').mechanism
+    mech = Scene.from_yaml(
+        Path(__file__).resolve().parent.parent / 'config' / 'excavator.yaml'
+    ).mechanism
     from linkage_ros.core.errors import PlanError
+
     with pytest.raises(PlanError) as err:
         Solver(mech, knowns=['point:K', 'point:J'])
     msg = str(err.value)
     assert "'K' and 'J' are both on link 'bucket'" in msg and "['point:K', 'bucket']" in msg
-    with pytest.raises(PlanError) as err:       # two points on different links: no such hint
+    with pytest.raises(PlanError) as err:  # two points on different links: no such hint
         Solver(mech, knowns=['point:K', 'point:A'])
     assert 'both on link' not in str(err.value)
-    with pytest.raises(PlanError) as err:       # 5 values: replacing J by the angle is not enough
+    with pytest.raises(PlanError) as err:  # 5 values: replacing J by the angle is not enough
         Solver(mech, knowns=['point:K', 'point:J', 'Z1'])
     assert 'both on link' not in str(err.value)
     solver = Solver(mech, knowns=['point:K', 'bucket'])
@@ -401,11 +498,27 @@ def test_scene_frame_id_must_be_a_tf2_frame_name(frame):
     """tf2 refuses a leading '/' and whitespace; the node's frame_id parameter has the same rule,
     so a scene cannot bring such a frame in through the back door."""
     with pytest.raises(SceneError) as err:
-        Scene.from_dict({'name': 'fb', 'frame_id': frame, 'four_bar': {
-            'ground': 0.3, 'crank': 0.1, 'coupler': 0.25, 'rocker': 0.2, 'input': 1.0}})
+        Scene.from_dict(
+            {
+                'name': 'fb',
+                'frame_id': frame,
+                'four_bar': {
+                    'ground': 0.3,
+                    'crank': 0.1,
+                    'coupler': 0.25,
+                    'rocker': 0.2,
+                    'input': 1.0,
+                },
+            }
+        )
     assert 'frame_id' in str(err.value)
-    assert Scene.from_dict({'name': 'fb', 'frame_id': 'base_link', 'four_bar': {
-        'ground': 0.3, 'crank': 0.1, 'coupler': 0.25, 'rocker': 0.2, 'input': 1.0}})
+    assert Scene.from_dict(
+        {
+            'name': 'fb',
+            'frame_id': 'base_link',
+            'four_bar': {'ground': 0.3, 'crank': 0.1, 'coupler': 0.25, 'rocker': 0.2, 'input': 1.0},
+        }
+    )
 
 
 def test_explicit_branch_signs_for_a_plan_without_branching_dyads_say_so():
@@ -413,13 +526,16 @@ def test_explicit_branch_signs_for_a_plan_without_branching_dyads_say_so():
     explicit signs are then refused with a reason that says there is none to give (the message
     used to end in an empty list)."""
     from linkage_ros.core.errors import PlanError
-    mech = Scene.from_yaml(Path(__file__).resolve().parent.parent / 'config'
-                           / 'four_bar.yaml').mechanism
+
+    mech = Scene.from_yaml(
+        Path(__file__).resolve().parent.parent / 'config' / 'four_bar.yaml'
+    ).mechanism
     assert not Solver(mech, knowns=['coupler']).plan.branch_steps
     with pytest.raises(PlanError) as err:
         Solver(mech, knowns=['coupler'], branch='+')
-    assert str(err.value) == ("branch '+' has 1 sign(s) but this solve has no branching dyad "
-                              "(no sign to give)")
-    with pytest.raises(PlanError) as err:                   # with dyads: they are listed
+    assert str(err.value) == (
+        "branch '+' has 1 sign(s) but this solve has no branching dyad (no sign to give)"
+    )
+    with pytest.raises(PlanError) as err:  # with dyads: they are listed
         Solver(mech, knowns=['crank'], branch='+-')
     assert '1 branching dyad(s): ' in str(err.value)

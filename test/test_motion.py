@@ -5,6 +5,7 @@ cosine rule for four-bar toggle angles, the seed's circle intersections and comm
 the non-Grashof 3R-1P chain, and hand-written triangle kinematics of two hydraulic fixtures swept
 by brute force (grid of throws, scan of the bin angle with bisection).
 """
+
 import json
 import math
 from pathlib import Path
@@ -45,7 +46,7 @@ def circle_meet(c1, r1, c2, r2, side):
     """Intersection of two circles on the given side of c1 -> c2 (+1 left), or None."""
     d = np.asarray(c2, float) - np.asarray(c1, float)
     L = math.hypot(*d)
-    if L == 0 or L > r1 + r2 or L < abs(r1 - r2):
+    if L == 0 or r1 + r2 < L or abs(r1 - r2) > L:
         return None
     a = (r1 * r1 - r2 * r2 + L * L) / (2 * L)
     h = math.sqrt(max(r1 * r1 - a * a, 0.0))
@@ -71,8 +72,9 @@ def crank_range_oracle(l1, l2, l3, l4):
 
 # ---- four-bar input ranges -----------------------------------------------------------------------
 
+
 def test_grashof_double_rocker_input_range_is_the_toggle_pair():
-    l1, l2, l3, l4 = 0.4, 0.35, 0.1, 0.3          # coupler shortest: both toggles bind
+    l1, l2, l3, l4 = 0.4, 0.35, 0.1, 0.3  # coupler shortest: both toggles bind
     mech = fourbar(l1, l2, l3, l4, input=1.0)
     lo, hi = motion.input_ranges(mech)['crank']
     o = crank_range_oracle(l1, l2, l3, l4)
@@ -89,14 +91,17 @@ def test_grashof_double_rocker_input_range_is_the_toggle_pair():
         assert not s.solve({'crank': v + d * 1e-7}).success
 
 
-@pytest.mark.parametrize('l1,l2,l3,l4,ground_angle', [
-    (0.5, 0.3, 0.35, 0.25, 0.0),        # extended toggles bind: range symmetric about 0
-    (0.5, 0.3, 0.35, 0.25, 0.7),        # same, ground line turned by 0.7 rad
-    (0.3, 0.25, 0.5, 0.12, 0.0),        # folded toggles bind: range symmetric about pi
-])
+@pytest.mark.parametrize(
+    'l1,l2,l3,l4,ground_angle',
+    [
+        (0.5, 0.3, 0.35, 0.25, 0.0),  # extended toggles bind: range symmetric about 0
+        (0.5, 0.3, 0.35, 0.25, 0.7),  # same, ground line turned by 0.7 rad
+        (0.3, 0.25, 0.5, 0.12, 0.0),  # folded toggles bind: range symmetric about pi
+    ],
+)
 def test_triple_rocker_input_range_matches_cosine_rule(l1, l2, l3, l4, ground_angle):
     s, p, q, lng = sorted((l1, l2, l3, l4))
-    assert s + lng > p + q                           # non-Grashof
+    assert s + lng > p + q  # non-Grashof
     mech = fourbar(l1, l2, l3, l4, ground_angle=ground_angle)
     lo, hi = motion.input_ranges(mech)['crank']
     o = crank_range_oracle(l1, l2, l3, l4)
@@ -106,7 +111,7 @@ def test_triple_rocker_input_range_matches_cosine_rule(l1, l2, l3, l4, ground_an
         exp = (ground_angle - b, ground_angle + b)
     else:
         a = o['folded']
-        exp = (ground_angle + a, ground_angle + TWO_PI - a)   # contains pi: max > pi
+        exp = (ground_angle + a, ground_angle + TWO_PI - a)  # contains pi: max > pi
         assert hi > math.pi
     assert abs(lo - exp[0]) < 1e-9 and abs(hi - exp[1]) < 1e-9
     # both assembly modes meet at the two toggles: the motion covers both (one circuit)
@@ -130,7 +135,7 @@ def test_crank_rocker_turns_fully_and_limits_are_intersected():
 
 
 def test_slider_driven_slider_crank_range_is_the_extended_and_folded_rod():
-    r, l, e = 0.1, 0.3, 0.04           # crank, rod, offset; the slider is the input
+    r, l, e = 0.1, 0.3, 0.04  # crank, rod, offset; the slider is the input
     A = [r * math.cos(1.0), r * math.sin(1.0)]
     xB = A[0] + math.sqrt(l * l - (e - A[1]) ** 2)
     text = f"""
@@ -151,19 +156,20 @@ actuators: {{s: {{type: slide, joint: s}}}}
 
 # ---- non-Grashof 3R-1P (seed 003 example 5) ------------------------------------------------------
 
-LMAX, LMIN, E = 0.5, 0.35, 0.25        # lmin + e = 0.6 > lmax: non-Grashof
+LMAX, LMIN, E = 0.5, 0.35, 0.25  # lmin + e = 0.6 > lmax: non-Grashof
 
 
 def _rpr_fixture():
     O4 = np.array([LMAX, 0.0])
-    A = np.array([-LMIN, 0.0])                       # crank at 180 degrees
+    A = np.array([-LMIN, 0.0])  # crank at 180 degrees
     # F: foot of the perpendicular from O4 on the slide line through A (tangent point from A
     # to the offset circle (O4, e)), the one above the ground line
     w = A - O4
     d = math.hypot(*w)
     beta = math.asin(E / d)
-    F = O4 + E * np.array([math.cos(ang(w) - (math.pi / 2 - beta)),
-                           math.sin(ang(w) - (math.pi / 2 - beta))])
+    F = O4 + E * np.array(
+        [math.cos(ang(w) - (math.pi / 2 - beta)), math.sin(ang(w) - (math.pi / 2 - beta))]
+    )
     assert abs(np.dot(A - F, F - O4)) < 1e-15 and F[1] > 0
     u = (A - F) / math.hypot(*(A - F))
     A, F, u = ([float(v) for v in x] for x in (A, F, u))
@@ -188,7 +194,7 @@ def test_nongrashof_rpr_crank_range_is_the_seed_circle_intersection():
     a = ang(Aup)
     lo, hi = motion.input_ranges(mech)['crank']
     assert abs(lo - a) < 1e-9 and abs(hi - (ang(Adn) + TWO_PI)) < 1e-9
-    assert hi > math.pi                                # the range spans theta2 = pi
+    assert hi > math.pi  # the range spans theta2 = pi
 
 
 def test_nongrashof_rpr_rocker_oscillation_is_the_seed_common_tangent():
@@ -203,9 +209,9 @@ def test_nongrashof_rpr_rocker_oscillation_is_the_seed_common_tangent():
         phi = ang(O4 - O2) + s * math.acos((E - LMIN) / LMAX)
         n = np.array([math.cos(phi), math.sin(phi)])
         c = float(n @ O2) - LMIN
-        T1, T2 = O2 - LMIN * n, O4 - E * n                 # the two tangency points
+        T1, T2 = O2 - LMIN * n, O4 - E * n  # the two tangency points
         assert abs(n @ T1 - c) < 1e-15 and abs(n @ T2 - c) < 1e-15
-        extremes.append(ang(T2 - O4))                      # rocker direction O4 -> F at T2
+        extremes.append(ang(T2 - O4))  # rocker direction O4 -> F at T2
     lo, hi = motion.oscillation_range(mech, 'rocker')
     assert lo < hi
     got = sorted([lo % TWO_PI, hi % TWO_PI])
@@ -231,11 +237,11 @@ def test_shipped_oscillating_rpr_matches_its_documented_range():
         pytest.skip('scene not shipped yet')
     mech = Scene.from_yaml(path).mechanism
     info = motion.actuator_range(mech, 'crank')
-    a = math.acos(0.92)                                   # cosine rule of the scene's header
+    a = math.acos(0.92)  # cosine rule of the scene's header
     assert info['assembly'] == pytest.approx([a, TWO_PI - a], abs=1e-9)
     assert info['toggles'] == pytest.approx([a, TWO_PI - a], abs=1e-9)
     act = mech.actuators['crank']
-    assert (info['min'], info['max']) == (act.min, act.max)   # limits sit inside the toggles
+    assert (info['min'], info['max']) == (act.min, act.max)  # limits sit inside the toggles
 
 
 def test_shipped_peaucellier_folds_where_op_equals_l_minus_s():
@@ -252,12 +258,24 @@ def test_shipped_peaucellier_folds_where_op_equals_l_minus_s():
 
 # ---- hydraulic fixtures: boom / arm / bin with three cylinders --------------------------------
 
-PTS = {'O': (0.0, 0.0), 'C1': (0.6, -0.4), 'B1': (1.0, 0.35), 'B2': (1.6, 0.7),
-       'E': (2.5, 0.5), 'R2': (2.3, 1.1), 'R3': (2.9, 0.2), 'P': (3.2, -0.6),
-       'M': (3.5, -0.3), 'Lp': (3.0, -1.1)}
+PTS = {
+    'O': (0.0, 0.0),
+    'C1': (0.6, -0.4),
+    'B1': (1.0, 0.35),
+    'B2': (1.6, 0.7),
+    'E': (2.5, 0.5),
+    'R2': (2.3, 1.1),
+    'R3': (2.9, 0.2),
+    'P': (3.2, -0.6),
+    'M': (3.5, -0.3),
+    'Lp': (3.0, -1.1),
+}
 REF = {k: np.array(v) for k, v in PTS.items()}
-Z_REF = {'Z1': math.dist(PTS['C1'], PTS['B1']), 'Z2': math.dist(PTS['B2'], PTS['R2']),
-         'Z3': math.dist(PTS['R3'], PTS['M'])}
+Z_REF = {
+    'Z1': math.dist(PTS['C1'], PTS['B1']),
+    'Z2': math.dist(PTS['B2'], PTS['R2']),
+    'Z3': math.dist(PTS['R3'], PTS['M']),
+}
 LIMITS = {'Z1': (0.70, 1.05), 'Z2': (0.65, 1.00), 'Z3': (Z_REF['Z3'] - 0.12, Z_REF['Z3'] + 0.10)}
 HYD = f"""
 name: hydraulic_arm
@@ -288,14 +306,20 @@ def side(a, b, x):
 
 def arm_tip(z1, z2):
     """Oracle forward kinematics of the fixture's point P from the throws (triangles)."""
-    B1 = circle_meet(REF['O'], math.dist(PTS['O'], PTS['B1']), REF['C1'], z1,
-                     side(REF['O'], REF['C1'], REF['B1']))
+    B1 = circle_meet(
+        REF['O'],
+        math.dist(PTS['O'], PTS['B1']),
+        REF['C1'],
+        z1,
+        side(REF['O'], REF['C1'], REF['B1']),
+    )
     if B1 is None:
         return None
     p1 = ang(B1) - ang(REF['B1'])
     E_, B2 = rot(REF['E'], p1), rot(REF['B2'], p1)
-    R2 = circle_meet(E_, math.dist(PTS['E'], PTS['R2']), B2, z2,
-                     side(REF['E'], REF['B2'], REF['R2']))
+    R2 = circle_meet(
+        E_, math.dist(PTS['E'], PTS['R2']), B2, z2, side(REF['E'], REF['B2'], REF['R2'])
+    )
     if R2 is None:
         return None
     p2 = ang(R2 - E_) - ang(REF['R2'] - REF['E'])
@@ -309,8 +333,13 @@ def tilt_state(beta):
     q = beta - b0
     P_ = REF['Lp'] + rot(REF['P'] - REF['Lp'], q)
     M_ = REF['Lp'] + rot(REF['M'] - REF['Lp'], q)
-    E_ = circle_meet(REF['O'], math.dist(PTS['O'], PTS['E']), P_, math.dist(PTS['P'], PTS['E']),
-                     side(REF['O'], REF['P'], REF['E']))
+    E_ = circle_meet(
+        REF['O'],
+        math.dist(PTS['O'], PTS['E']),
+        P_,
+        math.dist(PTS['P'], PTS['E']),
+        side(REF['O'], REF['P'], REF['E']),
+    )
     if E_ is None:
         return None
     p1 = ang(E_) - ang(REF['E'])
@@ -329,7 +358,7 @@ def tilt_ok(beta, limits=LIMITS):
 def test_region_of_a_point_agrees_with_a_brute_force_sweep_of_both_throws(hyd):
     _, mech = hyd
     reg = motion.reachable_region(mech, 'P', samples_per_actuator=41)
-    assert reg['actuators'] == ['Z1', 'Z2']              # Z3 does not move P
+    assert reg['actuators'] == ['Z1', 'Z2']  # Z3 does not move P
     assert reg['method'] == 'extreme_arcs'
     poly = np.asarray(reg['boundary'])
     # every boundary vertex is reached: its throws are within limits and the oracle puts P there
@@ -341,12 +370,13 @@ def test_region_of_a_point_agrees_with_a_brute_force_sweep_of_both_throws(hyd):
         assert np.hypot(*(arm_tip(z1, z2) - v)) < 1e-9
     # brute force: a fine grid of both throws; every point inside the boundary polygon
     from matplotlib.path import Path as MPath
+
     g1 = np.linspace(*LIMITS['Z1'], 121)
     g2 = np.linspace(*LIMITS['Z2'], 121)
     pts = np.array([arm_tip(a, b) for a in g1 for b in g2])
     inside = MPath(poly).contains_points(pts, radius=0.0)
     out = pts[~inside]
-    if out.size:   # only points on the boundary itself, off the chords by the arcs' sagitta
+    if out.size:  # only points on the boundary itself, off the chords by the arcs' sagitta
         d = motion.distance_to_polygon(out, poly)
         assert d.max() < 1e-5
     # area: the integral of |det dP/dz| over the throw box (the map does not fold here)
@@ -362,8 +392,11 @@ def test_region_of_a_point_agrees_with_a_brute_force_sweep_of_both_throws(hyd):
             dets.append(cross(d1, d2))
     dets = np.array(dets)
     assert np.all(dets > 0) or np.all(dets < 0)
-    area = np.abs(dets).mean() * (LIMITS['Z1'][1] - LIMITS['Z1'][0]) * \
-        (LIMITS['Z2'][1] - LIMITS['Z2'][0])
+    area = (
+        np.abs(dets).mean()
+        * (LIMITS['Z1'][1] - LIMITS['Z1'][0])
+        * (LIMITS['Z2'][1] - LIMITS['Z2'][0])
+    )
     assert reg['area'] == pytest.approx(area, rel=2e-3)
     assert reg['hull_check']['outside'] == 0
 
@@ -371,8 +404,9 @@ def test_region_of_a_point_agrees_with_a_brute_force_sweep_of_both_throws(hyd):
 @pytest.mark.parametrize('z3', [LIMITS['Z3'], (0.3, 1.3)], ids=['Z3 binds', 'Z2 binds'])
 def test_max_tilt_with_the_lip_held_agrees_with_a_brute_force_scan(z3):
     limits = {**LIMITS, 'Z3': z3}
-    text = HYD.replace(f"min: {LIMITS['Z3'][0]!r}, max: {LIMITS['Z3'][1]!r}",
-                       f"min: {z3[0]!r}, max: {z3[1]!r}")
+    text = HYD.replace(
+        f'min: {LIMITS["Z3"][0]!r}, max: {LIMITS["Z3"][1]!r}', f'min: {z3[0]!r}, max: {z3[1]!r}'
+    )
     mech = Scene.from_dict(yaml.safe_load(text)).mechanism
     assert (mech.actuators['Z3'].min, mech.actuators['Z3'].max) == z3
     res = motion.max_tilt(mech, 'Lp', 'bin')
@@ -410,10 +444,29 @@ def test_max_tilt_with_the_lip_held_agrees_with_a_brute_force_scan(z3):
 
 def test_cli_range_json_region_tilt_and_plots(hyd, tmp_path, capsys):
     from linkage_ros.range_cli import main
+
     path, mech = hyd
     png, cur = tmp_path / 'region.png', tmp_path / 'curves.png'
-    rc = main([path, '--json', '--point', 'P', '--tilt', 'bin', '--lip', 'Lp',
-               '--plot', str(png), '--curves', str(cur), '--input', 'Z2', '--output', 'arm'])
+    rc = main(
+        [
+            path,
+            '--json',
+            '--point',
+            'P',
+            '--tilt',
+            'bin',
+            '--lip',
+            'Lp',
+            '--plot',
+            str(png),
+            '--curves',
+            str(cur),
+            '--input',
+            'Z2',
+            '--output',
+            'arm',
+        ]
+    )
     out = capsys.readouterr().out
     assert rc == 0
     data = json.loads(out)
@@ -433,19 +486,21 @@ def test_cli_range_json_region_tilt_and_plots(hyd, tmp_path, capsys):
     assert main([path, '--point', 'nope']) == 2
     # registered as `linkage range`
     from linkage_ros import cli
+
     assert cli.main(['range', path, '--json']) == 0
     assert set(json.loads(capsys.readouterr().out)['inputs']) == {'Z1', 'Z2', 'Z3'}
 
 
 def test_plots_write_pngs_with_both_branches(tmp_path):
     from linkage_ros.plots import plot_output_vs_input, plot_region
+
     mech = fourbar(0.4, 0.1, 0.35, 0.3, coupler_point={'distance': 0.2, 'angle': 0.5})
     d = plot_output_vs_input(mech, 'crank', 'rocker', tmp_path / 'theta4.png', samples=181)
     assert Path(d['path']).stat().st_size > 5000
     assert set(d['branches']) == {'+', '-'}
     # each branch is a closed-form rocker angle: check one point of each against Freudenstein's
     # geometry (B on both circles)
-    for key, br in d['branches'].items():
+    for _key, br in d['branches'].items():
         t2, t4 = br['input'][40], br['output'][40]
         A = 0.1 * np.array([math.cos(t2), math.sin(t2)])
         B = np.array([0.4, 0]) + 0.3 * np.array([math.cos(t4), math.sin(t4)])
@@ -456,8 +511,17 @@ def test_plots_write_pngs_with_both_branches(tmp_path):
     assert Path(p).stat().st_size > 5000
 
 
-@pytest.mark.parametrize('scene', ['four_bar', 'hart', 'peaucellier', 'quick_return',
-                                   'inverted_slider_crank_oscillating', 'slider_crank'])
+@pytest.mark.parametrize(
+    'scene',
+    [
+        'four_bar',
+        'hart',
+        'peaucellier',
+        'quick_return',
+        'inverted_slider_crank_oscillating',
+        'slider_crank',
+    ],
+)
 def test_link_oscillation_matches_a_continuous_sweep_within_the_limits(scene):
     """Within its limits (away from the toggles) the crank cannot change assembly mode: every
     link's range is what a fine, branch-continuous sweep of the crank shows."""
@@ -500,6 +564,7 @@ def test_shipped_plagiograph_toggles_where_the_parallelogram_folds():
 
 # ---- inverse kinematics round trips on the shipped scenes ---------------------------------------
 
+
 def _scene(name):
     path = CONFIG / f'{name}.yaml'
     if not path.exists():
@@ -515,8 +580,7 @@ def _target_value(mech, name, r):
     if spec.kind == 'slide':
         return r.joints[spec.joint]
     bare = name.split(':')[-1]
-    return r.links[bare] if bare in mech.links and spec.reference == mech.ground \
-        else r.joints[bare]
+    return r.links[bare] if bare in mech.links and spec.reference == mech.ground else r.joints[bare]
 
 
 def _err(mech, name, a, b):
@@ -557,15 +621,24 @@ def test_inverse_kinematics_round_trip_on_shipped_scenes(scene, knowns):
             cmd[a] = float(rng.uniform(lo, hi))
         r = fwd.solve(cmd)
         assert r.success, r.reason
-        target = {k: (_target_value(mech, k, r).tolist() if np.ndim(_target_value(mech, k, r))
-                      else _target_value(mech, k, r)) for k in keys}
+        target = {
+            k: (
+                _target_value(mech, k, r).tolist()
+                if np.ndim(_target_value(mech, k, r))
+                else _target_value(mech, k, r)
+            )
+            for k in keys
+        }
         answers = [x for x in inv.solve_all(target) if x.success]
         assert answers, inv.solve(target).reason
         for x in answers:
             # forward(inverse(x)) = x: the actuator values reproduce the target in some mode
             back = Solver(mech).solve_all(x.inputs)
-            worst = min(max(_err(mech, k, _target_value(mech, k, b), target[k]) for k in keys)
-                        for b in back if b.success)
+            worst = min(
+                max(_err(mech, k, _target_value(mech, k, b), target[k]) for k in keys)
+                for b in back
+                if b.success
+            )
             assert worst < 1e-10, (cmd, target, x.inputs)
         tested += 1
     assert tested == 12
@@ -589,8 +662,9 @@ def test_unreachable_and_beyond_limit_targets_are_refused_with_a_reason(scene, k
             far[k] = 100.0 * mech.length_scale
     r = inv.solve(far)
     assert not r.success and r.reason
-    assert 'close' in r.reason or 'assemble' in r.reason or 'beyond' in r.reason \
-        or 'below' in r.reason, r.reason
+    assert (
+        'close' in r.reason or 'assemble' in r.reason or 'beyond' in r.reason or 'below' in r.reason
+    ), r.reason
     # beyond a limit: a pose reached with one actuator past its limit, solved by an unlimited
     # copy, then asked of the limited scene
     limited = [a for a, act in mech.actuators.items() if act.max is not None]

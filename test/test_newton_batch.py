@@ -13,30 +13,40 @@ on the other assembly mode were accepted instead of declined (x unchanged); a de
 changed the other rows' results; max_steps were exceeded; or an empty batch, a hybrid system or a
 non-square system were mishandled.
 """
+
 import functools
 import math
 
 import numpy as np
-import pytest
-
 import oracles as orc
+import pytest
+from test_newton_fast import newton_beside_the_other_mode
+
 from linkage_ros.bench import sweep_inputs
 from linkage_ros.core.dyads import wrap_angle
 from linkage_ros.core.model import Scene
-from linkage_ros.core.newton import (COND_EXACT, FAST_FLOOR, FAST_MARGIN, FAST_RATE, POLISH_COND, LoopSystem,
-                                     _wrap_angles)
+from linkage_ros.core.newton import (
+    COND_EXACT,
+    FAST_FLOOR,
+    FAST_MARGIN,
+    FAST_RATE,
+    POLISH_COND,
+    LoopSystem,
+    _wrap_angles,
+)
 from linkage_ros.core.solver import Solver
 from linkage_ros.resources import config_dir, scene_path
-from test_newton_fast import newton_beside_the_other_mode
 
 ALL_SCENES = sorted(p.stem for p in config_dir().glob('*.yaml'))
 SWEEP_SCENES = ['four_bar', 'slider_crank', 'peaucellier', 'excavator']
 #: Newton-mode systems with point specs (knowns), none of which the actuators give
 #: (a point on a moving link: 'point:A' would be singular, A's owner being a crank)
-POINT_KNOWNS = [('excavator', ('O2', 'point:J')), ('front_loader', ('point:E',)),
-                ('plagiograph', ('point:D',))]
+POINT_KNOWNS = [
+    ('excavator', ('O2', 'point:J')),
+    ('front_loader', ('point:E',)),
+    ('plagiograph', ('point:D',)),
+]
 TOL = 1e-12
-
 
 
 def reported_cond(sy, Js):
@@ -45,13 +55,15 @@ def reported_cond(sy, Js):
     c1 = np.linalg.cond(Js, 1)
     return c1 if c1 < COND_EXACT else sy.scaled_cond(Js)
 
+
 def scene(name):
     return Scene.from_yaml(scene_path(name)).mechanism
 
 
 def four_bar(L):
-    return Scene.from_dict({'four_bar': dict(zip(('ground', 'crank', 'coupler', 'rocker'),
-                                                  L))}).mechanism
+    return Scene.from_dict(
+        {'four_bar': dict(zip(('ground', 'crank', 'coupler', 'rocker'), L))}
+    ).mechanism
 
 
 def stack(sy, rows):
@@ -68,7 +80,7 @@ def pick(values, idx):
     return [np.asarray(v)[idx] for v in values]
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def scalar_sweep(name, n):
     """The Solver (newton) warm-started one command at a time over the bench's closed path:
     (system, x_k (K, n), det_sign_k (K,), values_k per row)."""
@@ -91,7 +103,7 @@ def random_inputs(sy, ref_values, N, rng, spread=0.3):
         row = []
         for s, v in zip(sy.specs, ref_values):
             if s.kind == 'angle':
-                row.append(float(v) + rng.normal() * 2.0)        # some beyond (-pi, pi]
+                row.append(float(v) + rng.normal() * 2.0)  # some beyond (-pi, pi]
             elif s.kind == 'slide':
                 row.append(float(v) + rng.normal() * 0.1 * sy.L)
             else:
@@ -139,6 +151,7 @@ def assert_rows_equal_scalar(sy, X, rows, skip=()):
 # evaluate_batch
 # =============================================================================================
 
+
 @pytest.mark.parametrize('label,sy,ref', SYSTEMS, ids=IDS)
 def test_evaluate_batch_equals_scalar_rows(label, sy, ref):
     """50 random configurations and values: F, J and res equal the scalar _eval_s per row;
@@ -160,11 +173,26 @@ def test_evaluate_batch_non_finite_and_huge_inputs(label, sy, ref):
     X, rows = random_inputs(sy, ref, 50, rng)
     angle = [i for i, s in enumerate(sy.specs) if s.kind == 'angle']
     skip = set()
-    for r, big in zip(range(0, 12), (1e6, -1e6, 3 * math.pi, -math.pi, 1e300, 123456.789,
-                                     -654321.0, 2 * math.pi * 1e5, math.pi, 7.0, -7.0, 1e6 + 0.5)):
+    for r, big in zip(
+        range(12),
+        (
+            1e6,
+            -1e6,
+            3 * math.pi,
+            -math.pi,
+            1e300,
+            123456.789,
+            -654321.0,
+            2 * math.pi * 1e5,
+            math.pi,
+            7.0,
+            -7.0,
+            1e6 + 0.5,
+        ),
+    ):
         for i in angle:
             rows[r][i] = big
-    bad = {}                                # row -> how it is broken
+    bad = {}  # row -> how it is broken
     for r in range(20, 26):
         i = r % len(sy.specs)
         s = sy.specs[i]
@@ -172,13 +200,13 @@ def test_evaluate_batch_non_finite_and_huge_inputs(label, sy, ref):
         rows[r][i] = np.array([v, 0.0]) if s.kind == 'point' else v
         bad[r] = 'value'
         if s.kind == 'angle' and math.isinf(v):
-            skip.add(r)                     # math.sin(inf) raises in the scalar form
+            skip.add(r)  # math.sin(inf) raises in the scalar form
     X[30, 0] = math.nan
-    X[31, 0] = math.inf                     # an infinite angle: the scalar form NaNs all slots
+    X[31, 0] = math.inf  # an infinite angle: the scalar form NaNs all slots
     X[32, 1] = -math.inf
     X[33, 2] = math.nan
     bad.update({30: 'x', 31: 'x', 32: 'x', 33: 'x'})
-    with np.errstate(all='raise'):          # no floating-point warnings escape either
+    with np.errstate(all='raise'):  # no floating-point warnings escape either
         F, J, res = assert_rows_equal_scalar(sy, X, rows, skip)
     for r in bad:
         assert res[r] == math.inf, (r, bad[r])
@@ -193,8 +221,24 @@ def test_wrap_angles_matches_scalar_wrap():
     rng = np.random.default_rng(9)
     for scale in (4.0, 1e3, 1e6, 3e6, 1e12, 1e300):
         v = rng.uniform(-scale, scale, 20000)
-        v = np.concatenate([v, [math.pi, -math.pi, 3 * math.pi, -3 * math.pi, 1e6, -1e6,
-                                2 * math.pi * 123456, 0.0, -0.0, 2.0 ** 21, -(2.0 ** 21)]])
+        v = np.concatenate(
+            [
+                v,
+                [
+                    math.pi,
+                    -math.pi,
+                    3 * math.pi,
+                    -3 * math.pi,
+                    1e6,
+                    -1e6,
+                    2 * math.pi * 123456,
+                    0.0,
+                    -0.0,
+                    2.0**21,
+                    -(2.0**21),
+                ],
+            ]
+        )
         got = _wrap_angles(v)
         want = np.array([wrap_angle(a) for a in v.tolist()])
         assert np.all(np.abs(got - want) <= 2 * np.spacing(np.abs(want)) + 1e-300), scale
@@ -216,8 +260,9 @@ def test_evaluate_batch_jacobian_matches_finite_differences(label, sy, ref):
     for j in range(sy.n):
         e = np.zeros(sy.n)
         e[j] = h * sy._step_scale[j]
-        fd = (sy.evaluate_batch(X + e, vals, False)[0]
-              - sy.evaluate_batch(X - e, vals, False)[0]) / (2 * h)
+        fd = (
+            sy.evaluate_batch(X + e, vals, False)[0] - sy.evaluate_batch(X - e, vals, False)[0]
+        ) / (2 * h)
         np.testing.assert_allclose(J[:, :, j], fd, rtol=1e-6, atol=1e-8, err_msg=f'{label} {j}')
 
 
@@ -264,6 +309,7 @@ def test_non_square_system():
 # solve_batch on warm-started sweeps: the scalar Solver's answers
 # =============================================================================================
 
+
 def check_against_sweep(sy, xs, signs, vals, b, rows):
     """Each ok row among ``rows`` (indices of the step k - 1 -> k) is the scalar x_k on the
     same det J side, at its residual, with the slogdet sign and scaled_cond of the scalar
@@ -294,7 +340,7 @@ def test_solve_batch_reproduces_the_scalar_sweep(name):
     X0 = xs[:-1]
     keep = X0.copy()
     b = sy.solve_batch(X0, stack(sy, vals[1:]), signs[:-1], tol=TOL)
-    assert np.array_equal(X0, keep)                # the start is not written to
+    assert np.array_equal(X0, keep)  # the start is not written to
     assert b.x.shape == (K - 1, sy.n) and b.ok.dtype == bool
     assert b.ok.mean() >= 0.98, b.ok.mean()
     check_against_sweep(sy, xs, signs, vals, b, np.arange(K - 1))
@@ -312,7 +358,7 @@ def test_coarse_steps_are_declined_or_right(name):
     b = sy.solve_batch(xs[:-1], stack(sy, vals[1:]), signs[:-1], tol=TOL)
     check_against_sweep(sy, xs, signs, vals, b, np.arange(len(xs) - 1))
     assert np.array_equal(b.x[~b.ok], xs[:-1][~b.ok])
-    for i in np.flatnonzero(~b.ok):                # residual at the start, as documented
+    for i in np.flatnonzero(~b.ok):  # residual at the start, as documented
         assert b.residual[i] == pytest.approx(sy._eval_s(xs[i], vals[i + 1], None)[2], rel=1e-12)
 
 
@@ -336,8 +382,13 @@ def rule(sy, x0, vals, sign, tol=TOL, max_steps=6):
             break
         x, F, J, res = xn, Fn, Jn, rn
     s1, logdet = np.linalg.slogdet(J)
-    ok = (res <= tol and s1 == sign and math.isfinite(logdet)
-          and sy.scaled_cond(J) < POLISH_COND and np.all(np.isfinite(x)))
+    ok = (
+        res <= tol
+        and s1 == sign
+        and math.isfinite(logdet)
+        and sy.scaled_cond(J) < POLISH_COND
+        and np.all(np.isfinite(x))
+    )
     return ok, (x if ok else x0), steps, stalled and ok
 
 
@@ -365,7 +416,7 @@ def test_solve_batch_follows_its_rule(name):
         check_rule(sy, xs[:-1], vals[1:], signs[:-1])
     check_rule(sy, xs[:-1], vals[1:], signs[:-1], max_steps=2)
     rng = np.random.default_rng(13)
-    for amp in (1e-15, 4e-15):               # starts a few ulps off the answers
+    for amp in (1e-15, 4e-15):  # starts a few ulps off the answers
         near = xs + rng.normal(size=xs.shape) * amp * sy._step_scale
         for tol in (1e-13, 3e-14, 1e-14):
             check_rule(sy, near, vals, signs, tol=tol)
@@ -373,8 +424,9 @@ def test_solve_batch_follows_its_rule(name):
     start, aim = rng.integers(0, len(xs), N), rng.integers(0, len(xs), N)
     X0 = xs[start] + rng.normal(size=(N, sy.n)) * 0.05 * sy._step_scale
     rows = [vals[i] for i in aim]
-    own = np.array([int(np.linalg.slogdet(sy._eval_s(X0[i], rows[i], None)[1])[0])
-                    for i in range(N)])
+    own = np.array(
+        [int(np.linalg.slogdet(sy._eval_s(X0[i], rows[i], None)[1])[0]) for i in range(N)]
+    )
     check_rule(sy, X0, rows, own)
 
 
@@ -386,8 +438,9 @@ def test_a_step_that_cannot_cut_at_the_rounding_floor_is_converged():
     sy, xs, signs, vals = scalar_sweep('four_bar', 200)
     rng = np.random.default_rng(15)
     d = rng.normal(size=xs.shape) * sy._step_scale
-    slope = np.array([sy._eval_s(xs[i] + 1e-9 * d[i], vals[i], None)[2] / 1e-9
-                      for i in range(len(xs))])
+    slope = np.array(
+        [sy._eval_s(xs[i] + 1e-9 * d[i], vals[i], None)[2] / 1e-9 for i in range(len(xs))]
+    )
     X0 = xs + (4.6e-15 / slope)[:, None] * d
     verdicts = check_rule(sy, X0, vals, signs, tol=1e-13)
     stalled = [i for i, v in enumerate(verdicts) if v[3]]
@@ -454,9 +507,14 @@ def test_solve_batch_with_point_specs(name, knowns):
     rng = np.random.default_rng(12)
     rows = []
     for _ in range(40):
-        rows.append([np.asarray(v, float) + rng.normal(size=2) * 2e-3 * sy.L
-                     if sp.kind == 'point' else float(v) + rng.normal() * 2e-3
-                     for sp, v in zip(sy.specs, ref)])
+        rows.append(
+            [
+                np.asarray(v, float) + rng.normal(size=2) * 2e-3 * sy.L
+                if sp.kind == 'point'
+                else float(v) + rng.normal() * 2e-3
+                for sp, v in zip(sy.specs, ref)
+            ]
+        )
     b = sy.solve_batch(np.tile(x_ref, (40, 1)), stack(sy, rows), sign)
     assert b.ok.mean() >= 0.9
     for i in np.flatnonzero(b.ok):
@@ -470,6 +528,7 @@ def test_solve_batch_with_point_specs(name, knowns):
 # declines: rows the scalar careful path must take, and the other rows unaffected
 # =============================================================================================
 
+
 def test_declined_rows_leave_the_others_alone():
     """One batch of the four-bar sweep with rows spoiled in turn: a wrong start sign, NaN / inf
     values, NaN in X0, a start sign of 0 and a 3 rad jump of the crank: those are declined with
@@ -479,9 +538,16 @@ def test_declined_rows_leave_the_others_alone():
     n = 40
     X0 = xs[:n].copy()
     start = signs[:n].copy()
-    values = stack(sy, vals[1:n + 1])
-    spoiled = {3: 'wrong sign', 7: 'NaN value', 8: 'inf value', 11: 'NaN in X0',
-               15: 'sign 0', 19: 'far jump', 20: 'far jump'}
+    values = stack(sy, vals[1 : n + 1])
+    spoiled = {
+        3: 'wrong sign',
+        7: 'NaN value',
+        8: 'inf value',
+        11: 'NaN in X0',
+        15: 'sign 0',
+        19: 'far jump',
+        20: 'far jump',
+    }
     start[3] = -start[3]
     values[0][7] = math.nan
     values[0][8] = math.inf
@@ -497,8 +563,8 @@ def test_declined_rows_leave_the_others_alone():
     rest = [r for r in range(n) if r not in spoiled]
     assert b.ok[rest].all()
     check_against_sweep(sy, xs, signs, vals, b, np.arange(n))
-    for r in range(n):                     # alone: the same result, spoiled or not
-        a = sy.solve_batch(X0[r:r + 1], pick(values, [r]), start[r:r + 1])
+    for r in range(n):  # alone: the same result, spoiled or not
+        a = sy.solve_batch(X0[r : r + 1], pick(values, [r]), start[r : r + 1])
         assert a.ok[0] == b.ok[r] and a.iterations[0] == b.iterations[r], r
         assert a.det_sign[0] == b.det_sign[r], r
         np.testing.assert_allclose(a.x[0], b.x[r], rtol=0, atol=1e-15, equal_nan=True)
@@ -516,8 +582,11 @@ def test_unreachable_input_is_declined():
     toggles = sorted(float(t) for t, _ in orc.fourbar_toggles(*L))
     ts = np.linspace(-math.pi, math.pi, 721)[:-1]
     reach = [t for t in ts if orc.fourbar(*L, float(t), 1)['ok']]
-    far = [t for t in ts if not orc.fourbar(*L, float(t), 1)['ok']
-           and min(abs(t - g) for g in toggles) > 0.05]
+    far = [
+        t
+        for t in ts
+        if not orc.fourbar(*L, float(t), 1)['ok'] and min(abs(t - g) for g in toggles) > 0.05
+    ]
     assert reach and far
     t0 = reach[len(reach) // 2]
     r = nw.solve({'crank': float(t0)})
@@ -577,18 +646,21 @@ def test_answers_near_a_fold_are_declined():
     L = (4.0, 3.0, 1.5, 4.5)
     mech = four_bar(L)
     # the toggle (0.84 rad) that the crank reaches from above
-    tau = min(float(t) for t, _ in orc.fourbar_toggles(*L)
-              if t > 0 and orc.fourbar(*L, float(t) + 1e-3, 1)['ok'])
+    tau = min(
+        float(t)
+        for t, _ in orc.fourbar_toggles(*L)
+        if t > 0 and orc.fourbar(*L, float(t) + 1e-3, 1)['ok']
+    )
     nw = Solver(mech, method='newton', branch='reference')
     sy = nw.system
     xs, signs, conds, ts = [], [], [], []
     for e in range(1, 14):
-        t = tau + 10.0 ** -e
+        t = tau + 10.0**-e
         r = nw.solve({'crank': t})
         assert r.success and nw._history[-1].det_sign != 0
         xs.append(nw._history[-1].x_all)
         signs.append(nw._history[-1].det_sign)
-        conds.append(sy.scaled_cond(sy._eval_s(xs[-1], [t], None)[1]))     # exact, not estimated
+        conds.append(sy.scaled_cond(sy._eval_s(xs[-1], [t], None)[1]))  # exact, not estimated
         ts.append(t)
     xs, conds = np.array(xs), np.array(conds)
     near = conds >= POLISH_COND
@@ -597,17 +669,20 @@ def test_answers_near_a_fold_are_declined():
     assert np.array_equal(b.ok, ~near)
     assert np.array_equal(b.x[near], xs[near])
     assert np.all(b.residual[~near] <= TOL)
-    reported = np.array([reported_cond(sy, sy._eval_s(b.x[i], [ts[i]], None)[1]) for i in range(len(ts))])
+    reported = np.array(
+        [reported_cond(sy, sy._eval_s(b.x[i], [ts[i]], None)[1]) for i in range(len(ts))]
+    )
     np.testing.assert_allclose(b.cond[~near], reported[~near], rtol=0.05)
 
     def gap_to_oracle(x, t, branch):
         B = sy.configuration(x)[1]['B']
         return orc.point_error((B.real, B.imag), orc.fourbar(*L, t, branch)['B']) / sy.L
+
     branch = min((1, -1), key=lambda br: gap_to_oracle(xs[0], ts[0], br))
     for i in np.flatnonzero(b.ok):
         gap = gap_to_oracle(b.x[i], ts[i], branch)
         # the configuration error of an answer is about cond * residual
-        assert gap <= 1e-12 + 4 * b.cond[i] * max(b.residual[i], 2.0 ** -52), (i, gap)
+        assert gap <= 1e-12 + 4 * b.cond[i] * max(b.residual[i], 2.0**-52), (i, gap)
 
 
 def test_empty_batch():

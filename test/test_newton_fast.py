@@ -7,31 +7,45 @@ slogdet; the condition estimate drifted from the exact one; a warm smooth sweep 
 one Newton step and one Jacobian factorisation at the answer per solve; a guess on the other
 assembly mode were accepted; or a sweep passing near a toggle switched branch.
 """
+
 import math
 
 import numpy as np
+import oracles as orc
 import pytest
 
-import oracles as orc
 from linkage_ros.core.model import Scene
 from linkage_ros.core.newton import COND_EXACT
 from linkage_ros.core.solver import Solver
 from linkage_ros.resources import scene_path
 
 SCENES = ['four_bar', 'slider_crank', 'peaucellier', 'excavator']
-ALL_SCENES = SCENES + ['hart', 'front_loader', 'quick_return', 'scott_russell', 'plagiograph',
-                       'inverted_slider_crank']
+ALL_SCENES = SCENES + [
+    'hart',
+    'front_loader',
+    'quick_return',
+    'scott_russell',
+    'plagiograph',
+    'inverted_slider_crank',
+]
 TIGHT = 1e-12
 #: knowns giving a hybrid solve (the dyad plan places some links, Newton the rest): point specs
 #: and prismatic rows with links held by `fixed` poses
 # knowns whose solves are hybrid (the dyad plan places some links, Newton the rest); a point
 # on a grounded crank (point:A) is no longer one: it fixes one motion with two values, which
 # Solver refuses
-HYBRID = {'excavator': ['G_Z3_rod', 'point:C'], 'front_loader': ['Z1', 'F'],
-          'plagiograph': ['theta_A', 'link:BCE'], 'four_bar': ['link:coupler']}
+HYBRID = {
+    'excavator': ['G_Z3_rod', 'point:C'],
+    'front_loader': ['Z1', 'F'],
+    'plagiograph': ['theta_A', 'link:BCE'],
+    'four_bar': ['link:coupler'],
+}
 # inverse knowns with point rows for the all-free (newton) system
-POINT_KNOWNS = {'excavator': ['Z1', 'point:L'], 'front_loader': ['point:T'],
-                'plagiograph': ['point:D']}
+POINT_KNOWNS = {
+    'excavator': ['Z1', 'point:L'],
+    'front_loader': ['point:T'],
+    'plagiograph': ['point:D'],
+}
 
 
 def scene(name):
@@ -47,6 +61,7 @@ def four_bar(L, **extra):
 def sweep(mech, n):
     """n commands around the bench's closed warm-started path (bench.sweep_inputs)."""
     from linkage_ros.bench import sweep_inputs
+
     return sweep_inputs(mech, n)
 
 
@@ -70,6 +85,7 @@ def system_sweep(mech, n, laps=1):
 # =============================================================================================
 # the compiled residual and Jacobian
 # =============================================================================================
+
 
 @pytest.mark.parametrize('name', ALL_SCENES)
 def test_jacobian_matches_finite_differences(name):
@@ -101,8 +117,10 @@ def test_jacobian_matches_finite_differences(name):
             for j in range(sy.n):
                 e = np.zeros(sy.n)
                 e[j] = 1e-6 * step[j]
-                fd = (sy.evaluate(x + e, vals, fixed, False)[0]
-                      - sy.evaluate(x - e, vals, fixed, False)[0]) / (2 * e[j])
+                fd = (
+                    sy.evaluate(x + e, vals, fixed, False)[0]
+                    - sy.evaluate(x - e, vals, fixed, False)[0]
+                ) / (2 * e[j])
                 assert np.allclose(J[:, j], fd, rtol=1e-6, atol=1e-7 * sy.L / step[j]), (name, j)
 
 
@@ -127,6 +145,7 @@ def test_evaluate_scale_free():
 # LU: det J sign and conditioning
 # =============================================================================================
 
+
 def test_lu_det_sign_equals_slogdet_sign():
     rng = np.random.default_rng(2)
     sy = Solver(scene('four_bar'), method='newton').system
@@ -140,7 +159,7 @@ def test_lu_det_sign_equals_slogdet_sign():
             assert fac[2] == int(np.linalg.slogdet(A)[0])
     S = np.ones((3, 3))
     S[:, 2] = 0.0
-    assert sy._factor(S) is None and np.linalg.slogdet(S)[0] == 0    # exactly singular
+    assert sy._factor(S) is None and np.linalg.slogdet(S)[0] == 0  # exactly singular
 
 
 @pytest.mark.parametrize('name', SCENES)
@@ -171,6 +190,7 @@ def test_cond_is_exact_near_a_singularity():
 # =============================================================================================
 # the fast path on warm smooth sweeps
 # =============================================================================================
+
 
 @pytest.mark.parametrize('name', SCENES)
 def test_warm_sweep_takes_the_fast_path(name):
@@ -205,8 +225,13 @@ def test_solver_warm_sweep_one_step_and_agrees_with_closed_form(name):
         assert r.branch == c.branch
         if i >= 3:
             assert r.iterations <= 2, (i, r.iterations)
-        gap = max(math.hypot(r.points[p][0] - c.points[p][0], r.points[p][1] - c.points[p][1])
-                  for p in r.points) / mech.length_scale
+        gap = (
+            max(
+                math.hypot(r.points[p][0] - c.points[p][0], r.points[p][1] - c.points[p][1])
+                for p in r.points
+            )
+            / mech.length_scale
+        )
         assert gap <= 1e-9, (i, gap)
 
 
@@ -229,6 +254,7 @@ def test_predictor_is_scale_free():
 # =============================================================================================
 # the fast path never returns another assembly mode
 # =============================================================================================
+
 
 def newton_beside_the_other_mode(t):
     """A crank-rocker Newton solver that has just solved crank = t - 0.05 (its last state), and
@@ -269,7 +295,7 @@ def test_sweep_passing_near_a_toggle_keeps_its_branch(eps):
     coupler and rocker pass within ~sqrt(eps) of folding flat (the dyad margin dips to
     ~sqrt(eps)). Newton (continuous) must follow its branch: every answer is the closed form's
     on the starting branch, never the other mode."""
-    L = (4.0, 1.5, 5.5 - eps, 3.0)                   # 1.5 + 5.5 = 4 + 3: the change point
+    L = (4.0, 1.5, 5.5 - eps, 3.0)  # 1.5 + 5.5 = 4 + 3: the change point
     mech = four_bar(L)
     nw = Solver(mech, method='newton')
     ts = list(np.linspace(-math.pi, math.pi, 241))[:-1] * 2
@@ -282,16 +308,22 @@ def test_sweep_passing_near_a_toggle_keeps_its_branch(eps):
         assert r.success and r.residual <= TIGHT, (t, r.reason)
         assert r.branch == first.branch, (t, r.branch)
         c = cf.solve({'crank': t})
-        gap = max(math.hypot(r.points[p][0] - c.points[p][0], r.points[p][1] - c.points[p][1])
-                  for p in r.points) / mech.length_scale
-        rho = max(r.residual, 2.0 ** -52)
-        assert gap <= 1e-9 + 8 * rho / math.sqrt(r.margin ** 2 + rho), (t, gap, r.margin)
+        gap = (
+            max(
+                math.hypot(r.points[p][0] - c.points[p][0], r.points[p][1] - c.points[p][1])
+                for p in r.points
+            )
+            / mech.length_scale
+        )
+        rho = max(r.residual, 2.0**-52)
+        assert gap <= 1e-9 + 8 * rho / math.sqrt(r.margin**2 + rho), (t, gap, r.margin)
         low = min(low, r.margin)
-    assert low < 10 * math.sqrt(eps)                 # it did pass near the fold
+    assert low < 10 * math.sqrt(eps)  # it did pass near the fold
 
 
-@pytest.mark.parametrize('L', [(4.0, 3.0, 1.5, 4.5), (4.0, 3.0, 5.0, 2.5)],
-                         ids=['double_rocker', 'triple_rocker'])
+@pytest.mark.parametrize(
+    'L', [(4.0, 3.0, 1.5, 4.5), (4.0, 3.0, 5.0, 2.5)], ids=['double_rocker', 'triple_rocker']
+)
 def test_reference_branch_up_to_a_toggle_and_back(L):
     """Driven towards each input toggle to within 1e-12 rad and back out in shrinking then
     growing steps (where the predictor extrapolates hardest), branch 'reference': every answer
@@ -302,7 +334,7 @@ def test_reference_branch_up_to_a_toggle_and_back(L):
             probe = orc.fourbar(*L, float(tau + side * 1e-3), 1)
             if not probe['ok']:
                 continue
-            d = [10.0 ** -e for e in range(1, 13)]
+            d = [10.0**-e for e in range(1, 13)]
             ts = [float(tau + side * v) for v in d + d[::-1]]
             nw = Solver(mech, method='newton', branch='reference')
             cf = Solver(mech, method='closed_form', branch='reference')
@@ -313,10 +345,14 @@ def test_reference_branch_up_to_a_toggle_and_back(L):
                     continue
                 assert c.success and r.branch == c.branch, (t, r.branch, c.branch)
                 assert r.residual <= TIGHT
-                gap = max(math.hypot(r.points[p][0] - c.points[p][0],
-                                     r.points[p][1] - c.points[p][1])
-                          for p in r.points) / mech.length_scale
-                rho = max(r.residual, c.residual, 2.0 ** -52)
+                gap = (
+                    max(
+                        math.hypot(r.points[p][0] - c.points[p][0], r.points[p][1] - c.points[p][1])
+                        for p in r.points
+                    )
+                    / mech.length_scale
+                )
+                rho = max(r.residual, c.residual, 2.0**-52)
                 m = min(r.margin, c.margin)
                 assert gap <= 1e-9 + 8 * rho / math.sqrt(m * m + rho), (t, gap)
 
@@ -324,7 +360,7 @@ def test_reference_branch_up_to_a_toggle_and_back(L):
 def test_fast_path_result_does_not_alias_the_guess():
     s = Solver(scene('four_bar'), method='newton')
     sy = s.system
-    guess = sy.reference_x()              # already the answer at the reference input
+    guess = sy.reference_x()  # already the answer at the reference input
     keep = guess.copy()
     r = sy.solve_from_guess(guess, s._ref_values, None, tol=1e-12, max_iter=50, start_sign=None)
     assert r.success and r.x is not guess

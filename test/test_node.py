@@ -10,6 +10,7 @@ checked on the Freudenstein equation); multi-DOF scenes are checked on rigid-bod
 the published geometry (every link keeps its reference point distances, commanded cylinder
 throws and crank angles appear as given, a point target is met exactly).
 """
+
 from __future__ import annotations
 
 import math
@@ -20,10 +21,11 @@ from pathlib import Path
 import pytest
 import yaml
 from builtin_interfaces.msg import Time
-from rclpy.parameter import Parameter
-from rclpy.parameter_client import AsyncParameterClient
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped
+from rclpy.parameter import Parameter
+from rclpy.parameter_client import AsyncParameterClient
+from ros_harness import NodeProcess, RosHarness, random_domain_id
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -32,14 +34,13 @@ from linkage_ros.core.errors import CommandError
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Result
 from linkage_ros.node import NODE_NAME, PARAMETERS, ConfigError, make_config
-from ros_harness import NodeProcess, RosHarness, random_domain_id
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / 'config'
 DOMAIN_ID = random_domain_id()
-ANSWER_TIMEOUT = 10.0        # s: an answer that takes longer is a failure
-QUIET = 0.4                  # s: bounded window after an error proving nothing else arrives
-SETTLE = 0.15                # s: the same after a success (only a second status could come)
+ANSWER_TIMEOUT = 10.0  # s: an answer that takes longer is a failure
+QUIET = 0.4  # s: bounded window after an error proving nothing else arrives
+SETTLE = 0.15  # s: the same after a success (only a second status could come)
 ANGLE_TOL = 1e-9
 LENGTH_TOL = 1e-9
 
@@ -59,9 +60,10 @@ four_bar:
   branch: 1
   crank_limits: {min: -2.0, max: 2.0}
 """
-ROCKER_REACH = math.acos((0.5 ** 2 + 0.4 ** 2 - (0.25 + 0.3) ** 2) / (2 * 0.5 * 0.4))
+ROCKER_REACH = math.acos((0.5**2 + 0.4**2 - (0.25 + 0.3) ** 2) / (2 * 0.5 * 0.4))
 
 # ---- independent four-bar oracle ------------------------------------------------------------
+
 
 def wrap(a: float) -> float:
     return math.atan2(math.sin(a), math.cos(a))
@@ -96,16 +98,25 @@ class FourBarOracle:
         ay = self.o2[1] + self.l2 * math.sin(theta2)
         dx, dy = self.o4[0] - ax, self.o4[1] - ay
         d = math.hypot(dx, dy)
-        along = (self.l3 ** 2 - self.l4 ** 2 + d ** 2) / (2 * d)
-        h = math.sqrt(self.l3 ** 2 - along ** 2)
+        along = (self.l3**2 - self.l4**2 + d**2) / (2 * d)
+        h = math.sqrt(self.l3**2 - along**2)
         ux, uy = dx / d, dy / d
         bx = ax + along * ux - self.branch * h * uy
         by = ay + along * uy + self.branch * h * ux
         t3 = math.atan2(by - ay, bx - ax)
         t4 = math.atan2(by - self.o4[1], bx - self.o4[0])
-        out = {'theta3': t3, 'theta4': t4, 'A': (ax, ay), 'B': (bx, by),
-               'joints': {'O2': wrap(theta2 - self.g), 'A': wrap(t3 - theta2),
-                          'B': wrap(t4 - t3), 'O4': wrap(t4 - self.g)}}
+        out = {
+            'theta3': t3,
+            'theta4': t4,
+            'A': (ax, ay),
+            'B': (bx, by),
+            'joints': {
+                'O2': wrap(theta2 - self.g),
+                'A': wrap(t3 - theta2),
+                'B': wrap(t4 - t3),
+                'O4': wrap(t4 - self.g),
+            },
+        }
         if self.cp:
             name, dist, ang = self.cp
             out[name] = (ax + dist * math.cos(t3 + ang), ay + dist * math.sin(t3 + ang))
@@ -120,6 +131,7 @@ class FourBarOracle:
 
 
 # ---- message helpers ------------------------------------------------------------------------
+
 
 def joint_state(names, positions, stamp=(0, 0)) -> JointState:
     msg = JointState()
@@ -158,6 +170,7 @@ def marker_points(markers: MarkerArray, mech) -> dict[str, dict[str, tuple[float
 
 # ---- served nodes ---------------------------------------------------------------------------
 
+
 class Served:
     """A started node and the test-side endpoints that talk to it."""
 
@@ -169,8 +182,9 @@ class Served:
         self.joints = ros.collector(JointState, proc.topic('joint_states'))
         self.status = ros.collector(DiagnosticStatus, proc.topic('~/status'))
         self.markers = ros.collector(MarkerArray, proc.topic('~/markers'))
-        self.points = {p: ros.collector(PointStamped, proc.topic(f'~/points/{p}'))
-                       for p in self.mech.outputs}
+        self.points = {
+            p: ros.collector(PointStamped, proc.topic(f'~/points/{p}')) for p in self.mech.outputs
+        }
         self._pubs = {}
 
     @property
@@ -200,7 +214,7 @@ class Served:
             if time.monotonic() > end:
                 raise TimeoutError(f'no answer on {[c.topic for c in self.collectors if not c]}')
             retried = True
-        self.ros.spin_for(3.5 if retried else SETTLE)   # late repeats of a retried warm-up
+        self.ros.spin_for(3.5 if retried else SETTLE)  # late repeats of a retried warm-up
         self.clear()
         return self
 
@@ -214,12 +228,14 @@ class Served:
         pub = self.command if topic == '~/command' else self.publisher(msg_type, topic)
         self.clear()
         self.ros.publish(pub, msg)
-        assert self.ros.spin_until(lambda: len(self.status) >= 1, ANSWER_TIMEOUT, self.proc), \
+        assert self.ros.spin_until(lambda: len(self.status) >= 1, ANSWER_TIMEOUT, self.proc), (
             f'no status within {ANSWER_TIMEOUT} s'
+        )
         if self.status.last.level == DiagnosticStatus.OK:
             # every output of a success is published before its status: wait for them all
-            assert self.ros.spin_until(lambda: all(len(c) for c in self.collectors),
-                                       ANSWER_TIMEOUT, self.proc)
+            assert self.ros.spin_until(
+                lambda: all(len(c) for c in self.collectors), ANSWER_TIMEOUT, self.proc
+            )
             self.ros.spin_for(SETTLE)
         else:
             self.ros.spin_for(QUIET)
@@ -314,13 +330,20 @@ def two_dof(ros, workdir):
 @pytest.fixture(scope='module')
 def three_dof(ros, workdir):
     scene = CONFIG / 'excavator.yaml'
-    served, proc = _serve(ros, workdir, 'three_dof', scene, _mid_joint_state(scene),
-                          params={'target_point_hold': ['bucket']})
+    served, proc = _serve(
+        ros,
+        workdir,
+        'three_dof',
+        scene,
+        _mid_joint_state(scene),
+        params={'target_point_hold': ['bucket']},
+    )
     yield served
     _finish(proc)
 
 
 # ---- the four-bar: forward, inverse, bad commands -------------------------------------------
+
 
 def test_forward_command_matches_closed_form_four_bar(four_bar):
     theta2 = 1.0
@@ -363,20 +386,24 @@ def test_inverse_target_on_rocker_returns_crank(four_bar):
     four_bar.assert_single_ok(four_bar.request(joint_state(['crank'], [1.0])))
     theta2 = 1.1
     want = four_bar.oracle.solve(theta2)
-    status = four_bar.request(joint_state(['rocker'], [want['theta4']], stamp=(77, 1)),
-                              topic='~/target')
+    status = four_bar.request(
+        joint_state(['rocker'], [want['theta4']], stamp=(77, 1)), topic='~/target'
+    )
     joints = four_bar.assert_single_ok(status)
     assert angle_diff(joints['O2'], want['joints']['O2']) < 1e-8
     assert angle_diff(joints['O4'], want['joints']['O4']) < 1e-8
     assert stamp_of(four_bar.joints.last) == (77, 1)
-    assert math.dist((four_bar.points['P'].last.point.x, four_bar.points['P'].last.point.y),
-                     want['P']) < 1e-8
+    assert (
+        math.dist((four_bar.points['P'].last.point.x, four_bar.points['P'].last.point.y), want['P'])
+        < 1e-8
+    )
     # the state the target left is where the next command continues from: the crank's rocker
     # position of the other assembly (crank mirrored about O4 B) is never chosen
     theta2b = 1.15
     wantb = four_bar.oracle.solve(theta2b)
-    joints = four_bar.assert_single_ok(four_bar.request(
-        joint_state(['O4'], [wantb['joints']['O4']]), topic='~/target'))
+    joints = four_bar.assert_single_ok(
+        four_bar.request(joint_state(['O4'], [wantb['joints']['O4']]), topic='~/target')
+    )
     assert angle_diff(joints['O2'], wantb['joints']['O2']) < 1e-8
 
 
@@ -422,6 +449,7 @@ def test_unreachable_and_out_of_limit_crank_on_triple_rocker(rocker):
 
 # ---- multi-DOF scenes -----------------------------------------------------------------------
 
+
 def check_rigid_geometry(served, command):
     """Every link keeps its reference point distances; every shared point is one point; angle
     actuators point where commanded; the published points are those of the geometry."""
@@ -431,14 +459,16 @@ def check_rigid_geometry(served, command):
     for lname, pts in links.items():
         ref = mech.links[lname].points
         for i, p in enumerate(ref):
-            for q in ref[i + 1:]:
-                assert abs(math.dist(pts[p], pts[q]) - math.dist(mech.points[p], mech.points[q])) \
-                    < 1e-9 * mech.length_scale, (lname, p, q)
+            for q in ref[i + 1 :]:
+                assert (
+                    abs(math.dist(pts[p], pts[q]) - math.dist(mech.points[p], mech.points[q]))
+                    < 1e-9 * mech.length_scale
+                ), (lname, p, q)
             if p in where:
                 assert math.dist(where[p], pts[p]) < 1e-9 * mech.length_scale, p
             where[p] = pts[p]
     for a, act in mech.actuators.items():
-        if act.kind == "angle" and act.reference == mech.ground and a in command:
+        if act.kind == 'angle' and act.reference == mech.ground and a in command:
             (px, py), (tx, ty) = where[act.pivot], where[act.toward]
             assert angle_diff(math.atan2(ty - py, tx - px), command[a]) < 1e-9
     for name, col in served.points.items():
@@ -480,8 +510,11 @@ def test_two_dof_target_point(two_dof):
     name = _pure_point_output(mech)
     p = two_dof.points[name].last.point
     goal = (p.x + 0.01 * mech.length_scale, p.y - 0.01 * mech.length_scale)
-    status = two_dof.request(point_stamped(*goal, stamp=(9, 10), frame_id=two_dof.frame_id),
-                             topic=f'~/target_point/{name}', msg_type=PointStamped)
+    status = two_dof.request(
+        point_stamped(*goal, stamp=(9, 10), frame_id=two_dof.frame_id),
+        topic=f'~/target_point/{name}',
+        msg_type=PointStamped,
+    )
     two_dof.assert_single_ok(status)
     q = two_dof.points[name].last
     assert math.dist((q.point.x, q.point.y), goal) < 1e-9 * mech.length_scale
@@ -489,16 +522,18 @@ def test_two_dof_target_point(two_dof):
     check_rigid_geometry(two_dof, {})
     # an empty frame_id means the node's frame
     goal2 = (goal[0], goal[1] + 0.005 * mech.length_scale)
-    two_dof.assert_single_ok(two_dof.request(point_stamped(*goal2), f'~/target_point/{name}',
-                                             PointStamped))
+    two_dof.assert_single_ok(
+        two_dof.request(point_stamped(*goal2), f'~/target_point/{name}', PointStamped)
+    )
     q = two_dof.points[name].last.point
     assert math.dist((q.x, q.y), goal2) < 1e-9 * mech.length_scale
 
 
 def test_target_point_in_another_frame_is_rejected(two_dof):
     name = _pure_point_output(two_dof.mech)
-    status = two_dof.request(point_stamped(0.1, 0.1, frame_id='elsewhere'),
-                             f'~/target_point/{name}', PointStamped)
+    status = two_dof.request(
+        point_stamped(0.1, 0.1, frame_id='elsewhere'), f'~/target_point/{name}', PointStamped
+    )
     two_dof.assert_single_error(status, 'elsewhere', two_dof.frame_id)
 
 
@@ -509,12 +544,12 @@ def test_three_dof_scene_serves_cylinder_commands(three_dof):
     status = three_dof.request(joint_state(list(command), list(command.values()), stamp=(3, 4)))
     joints = three_dof.assert_single_ok(status)
     for a, v in command.items():
-        assert abs(joints[mech.actuators[a].joint] - v) < 1e-9     # cylinder = pin-to-pin length
+        assert abs(joints[mech.actuators[a].joint] - v) < 1e-9  # cylinder = pin-to-pin length
     assert set(three_dof.points) == set(mech.outputs) and len(mech.outputs) >= 1
     for col in three_dof.points.values():
         assert stamp_of(col.last) == (3, 4)
     where = check_rigid_geometry(three_dof, command)
-    for a, v in command.items():          # the cylinder pins are the commanded length apart
+    for a, v in command.items():  # the cylinder pins are the commanded length apart
         pj = mech.prismatics[mech.actuators[a].joint]
         pin = mech.links[pj.guide].points[0]
         assert abs(math.dist(where[pin], where[pj.point]) - v) < 1e-9
@@ -524,19 +559,22 @@ def test_three_dof_limit_violation_is_rejected(three_dof):
     a, act = next(iter(three_dof.mech.actuators.items()))
     command = _mid_command(three_dof.mech)
     command[a] = act.max + 0.1
-    three_dof.assert_single_error(three_dof.request(
-        joint_state(list(command), list(command.values()))), 'maximum')
+    three_dof.assert_single_error(
+        three_dof.request(joint_state(list(command), list(command.values()))), 'maximum'
+    )
 
 
 def test_three_dof_target_point_holds_bucket(three_dof):
     mech = three_dof.mech
     command = _mid_command(mech)
-    three_dof.assert_single_ok(three_dof.request(joint_state(list(command),
-                                                             list(command.values()))))
+    three_dof.assert_single_ok(
+        three_dof.request(joint_state(list(command), list(command.values())))
+    )
     bucket = list(mech.links['bucket'].points)
     before = marker_points(three_dof.markers.last, mech)['bucket']
-    name = next(p for p in ('L',) + tuple(mech.outputs) if p in mech.outputs
-                and p not in mech.joint_names)
+    name = next(
+        p for p in ('L',) + tuple(mech.outputs) if p in mech.outputs and p not in mech.joint_names
+    )
     p = three_dof.points[name].last.point
     goal = (p.x + 0.02 * mech.length_scale, p.y + 0.01 * mech.length_scale)
     status = three_dof.request(point_stamped(*goal), f'~/target_point/{name}', PointStamped)
@@ -548,6 +586,7 @@ def test_three_dof_target_point_holds_bucket(three_dof):
     def heading(pts):
         (x0, y0), (x1, y1) = pts[bucket[0]], pts[bucket[1]]
         return math.atan2(y1 - y0, x1 - x0)
+
     assert angle_diff(heading(after), heading(before)) < 1e-9
 
 
@@ -556,22 +595,24 @@ def test_three_dof_target_point_on_a_joint_point(three_dof):
     mech = three_dof.mech
     assert 'K' in mech.joint_names and 'K' in mech.points
     command = _mid_command(mech)
-    three_dof.assert_single_ok(three_dof.request(joint_state(list(command),
-                                                             list(command.values()))))
+    three_dof.assert_single_ok(
+        three_dof.request(joint_state(list(command), list(command.values())))
+    )
     k = marker_points(three_dof.markers.last, mech)['bucket']['K']
     goal = (k[0] + 0.01 * mech.length_scale, k[1] - 0.01 * mech.length_scale)
-    three_dof.assert_single_ok(three_dof.request(point_stamped(*goal), '~/target_point/K',
-                                                 PointStamped))
+    three_dof.assert_single_ok(
+        three_dof.request(point_stamped(*goal), '~/target_point/K', PointStamped)
+    )
     k = marker_points(three_dof.markers.last, mech)['bucket']['K']
     assert math.dist(k, goal) < 1e-9 * mech.length_scale
 
 
 # ---- demo sweep, start-up errors, parameters ------------------------------------------------
 
+
 def test_demo_sweep_publishes_without_commands(ros, workdir):
     """The packaged default scene (no scene parameter) with demo_sweep: joint states flow."""
-    proc = NodeProcess(workdir / 'demo', DOMAIN_ID,
-                       {'demo_sweep': True, 'demo_rate': 25.0}).start()
+    proc = NodeProcess(workdir / 'demo', DOMAIN_ID, {'demo_sweep': True, 'demo_rate': 25.0}).start()
     try:
         joints = ros.collector(JointState, proc.topic('joint_states'))
         ros.wait_for_discovery(collectors=[joints], process=proc)
@@ -586,8 +627,9 @@ def test_demo_sweep_publishes_without_commands(ros, workdir):
         # demo_sweep can be switched off at runtime; read-only parameters cannot change
         client = AsyncParameterClient(ros.node, f'{proc.namespace}/{NODE_NAME}')
         assert client.wait_for_services(timeout_sec=10.0)
-        future = client.set_parameters([Parameter('demo_sweep', value=False),
-                                        Parameter('tolerance', value=1e-9)])
+        future = client.set_parameters(
+            [Parameter('demo_sweep', value=False), Parameter('tolerance', value=1e-9)]
+        )
         assert ros.spin_until(future.done, 10.0, proc)
         ok, read_only = future.result().results
         assert ok.successful and not read_only.successful
@@ -604,10 +646,16 @@ def test_demo_sweep_publishes_without_commands(ros, workdir):
 # case: (scene file text, or None for a missing file, or '' for the default scene; parameters;
 #        what stderr must name)
 BAD_STARTS = {
-    'bad_scene_value': ('four_bar:\n  ground: 0.3\n  crank: -0.1\n  coupler: 0.25\n'
-                        '  rocker: 0.2\n', {}, ['four_bar.crank', '-0.1']),
-    'bad_scene_key': ('four_bar:\n  ground: 0.3\n  crank: 0.1\n  coupler: 0.25\n'
-                      '  rocker: 0.2\n  rockr: 0.2\n', {}, ['four_bar.rockr', 'unknown key']),
+    'bad_scene_value': (
+        'four_bar:\n  ground: 0.3\n  crank: -0.1\n  coupler: 0.25\n  rocker: 0.2\n',
+        {},
+        ['four_bar.crank', '-0.1'],
+    ),
+    'bad_scene_key': (
+        'four_bar:\n  ground: 0.3\n  crank: 0.1\n  coupler: 0.25\n  rocker: 0.2\n  rockr: 0.2\n',
+        {},
+        ['four_bar.rockr', 'unknown key'],
+    ),
     'bad_yaml': ('four_bar: {ground: 0.3\n', {}, ['invalid YAML']),
     'missing_scene': (None, {}, ['no_such_scene.yaml']),
     'bad_tolerance': ('', {'tolerance': -1.0}, ['tolerance', '-1.0']),
@@ -645,12 +693,12 @@ def test_bad_scene_or_parameter_stops_startup(workdir, case):
 def test_startup_log_names_the_queue_depth_and_ignored_parameters(workdir):
     """A parameter the node does not have (a misspelling) is named in a warning, not silently
     dropped; the start-up line shows the queue depth in force."""
-    proc = NodeProcess(workdir / 'misspelt', DOMAIN_ID,
-                       {'queue_depth': 33, 'queue_dept': 100}).start()
+    proc = NodeProcess(
+        workdir / 'misspelt', DOMAIN_ID, {'queue_depth': 33, 'queue_dept': 100}
+    ).start()
     try:
         t_end = time.monotonic() + 30
-        while 'listening on' not in proc.output() and proc.alive() \
-                and time.monotonic() < t_end:
+        while 'listening on' not in proc.output() and proc.alive() and time.monotonic() < t_end:
             time.sleep(0.05)
         out = proc.output()
         assert 'listening on' in out, out
@@ -682,31 +730,47 @@ def test_queue_depth_sets_the_history_of_every_topic(ros):
     """queue_depth is the keep-last depth of every subscription and publisher (reliable,
     volatile); the default is 10."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
+
     from linkage_ros.node import LinkageNode
-    for depth, overrides in ((10, []), (250, [Parameter('queue_depth', Parameter.Type.INTEGER,
-                                                        250)])):
+
+    for depth, overrides in (
+        (10, []),
+        (250, [Parameter('queue_depth', Parameter.Type.INTEGER, 250)]),
+    ):
         node = LinkageNode(context=ros.context, parameter_overrides=overrides)
         try:
-            ours = [e for e in list(node.publishers) + list(node.subscriptions)
-                    if 'parameter_events' not in e.topic_name]
-            assert len(ours) >= 4 + 2 + 3           # outputs, command and target, 3 points
+            ours = [
+                e
+                for e in list(node.publishers) + list(node.subscriptions)
+                if 'parameter_events' not in e.topic_name
+            ]
+            assert len(ours) >= 4 + 2 + 3  # outputs, command and target, 3 points
             for e in ours:
                 q = e.qos_profile
                 assert (q.depth, q.history, q.reliability, q.durability) == (
-                    depth, HistoryPolicy.KEEP_LAST, ReliabilityPolicy.RELIABLE,
-                    DurabilityPolicy.VOLATILE), e.topic_name
+                    depth,
+                    HistoryPolicy.KEEP_LAST,
+                    ReliabilityPolicy.RELIABLE,
+                    DurabilityPolicy.VOLATILE,
+                ), e.topic_name
         finally:
             node.destroy_node()
 
 
 # ---- pure conversions -----------------------------------------------------------------------
 
+
 def test_joint_state_to_command_checks_shape():
-    assert joint_state_to_command(JointState(name=['a', 'b'], position=[1.0, 2.0])) == \
-        {'a': 1.0, 'b': 2.0}
-    for msg in (JointState(), JointState(name=['a'], position=[]),
-                JointState(name=['a', 'a'], position=[1.0, 2.0]),
-                JointState(name=[''], position=[1.0])):
+    assert joint_state_to_command(JointState(name=['a', 'b'], position=[1.0, 2.0])) == {
+        'a': 1.0,
+        'b': 2.0,
+    }
+    for msg in (
+        JointState(),
+        JointState(name=['a'], position=[]),
+        JointState(name=['a', 'a'], position=[1.0, 2.0]),
+        JointState(name=[''], position=[1.0]),
+    ):
         with pytest.raises(CommandError):
             joint_state_to_command(msg)
 
@@ -720,10 +784,16 @@ def test_result_to_joint_state_keeps_order_and_stamp():
 
 
 def test_result_to_joint_state_refills_a_reused_message():
-    first = result_to_joint_state(Result(True, joints={'a': 1.0, 'b': 2.0}), ['a', 'b'],
-                                  Time(sec=1, nanosec=2), 'f')
-    again = result_to_joint_state(Result(True, joints={'a': -3.0, 'b': 4.5}), ['a', 'b'],
-                                  Time(sec=7, nanosec=8), 'f', reuse=first)
+    first = result_to_joint_state(
+        Result(True, joints={'a': 1.0, 'b': 2.0}), ['a', 'b'], Time(sec=1, nanosec=2), 'f'
+    )
+    again = result_to_joint_state(
+        Result(True, joints={'a': -3.0, 'b': 4.5}),
+        ['a', 'b'],
+        Time(sec=7, nanosec=8),
+        'f',
+        reuse=first,
+    )
     assert again is first
     assert list(again.name) == ['a', 'b'] and list(again.position) == [-3.0, 4.5]
     assert stamp_of(again) == (7, 8) and again.header.frame_id == 'f'
@@ -733,12 +803,19 @@ def test_only_command_and_target_carry_qos_event_handlers(ros):
     """Each QoS-event handler is a waitable the executor polls on every message: outputs and
     per-point targets carry none, ~/command and ~/target keep rclpy's incompatibility warnings."""
     from linkage_ros.node import LinkageNode
-    node = LinkageNode(context=ros.context, parameter_overrides=[
-        Parameter('scene', Parameter.Type.STRING, 'four_bar')])
+
+    node = LinkageNode(
+        context=ros.context,
+        parameter_overrides=[Parameter('scene', Parameter.Type.STRING, 'four_bar')],
+    )
     try:
         ours = [p for p in node.publishers if 'parameter_events' not in p.topic_name]
-        assert {p.topic_name.rsplit('/', 1)[-1] for p in ours} >= {'joint_states', 'markers',
-                                                                   'status', 'P'}
+        assert {p.topic_name.rsplit('/', 1)[-1] for p in ours} >= {
+            'joint_states',
+            'markers',
+            'status',
+            'P',
+        }
         assert all(p.event_handlers == [] for p in ours)
         handled = {s.topic_name.rsplit('/', 1)[-1] for s in node.subscriptions if s.event_handlers}
         assert handled == {'command', 'target'}

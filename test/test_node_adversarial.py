@@ -12,6 +12,7 @@ good *probe* with a unique stamp and waits for the probe's joint_states. joint_s
 each come from one writer, in order, so everything the bad request published has arrived by then
 and is checked. Start-up failures (exit code, the FATAL line) run the node as a subprocess.
 """
+
 from __future__ import annotations
 
 import math
@@ -26,23 +27,34 @@ import pytest
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped
-from rosgraph_msgs.msg import Clock
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from ros_harness import NodeProcess, RosHarness, random_domain_id
+from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import JointState
 
-from linkage_ros.node import (DEMO_RATE_MAX, DEMO_RATE_MIN, ConfigError, LinkageNode, NODE_NAME,
-                              load_engine, make_config)
-from ros_harness import NodeProcess, RosHarness, random_domain_id
+from linkage_ros.node import (
+    DEMO_RATE_MAX,
+    DEMO_RATE_MIN,
+    NODE_NAME,
+    ConfigError,
+    LinkageNode,
+    load_engine,
+    make_config,
+)
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / 'config'
 DOMAIN_ID = random_domain_id()
-TIMEOUT = 10.0            # s: an answer that takes longer is a failure
+TIMEOUT = 10.0  # s: an answer that takes longer is a failure
 OK, ERROR = DiagnosticStatus.OK, DiagnosticStatus.ERROR
-DEEP = QoSProfile(reliability=ReliabilityPolicy.RELIABLE, history=HistoryPolicy.KEEP_LAST,
-                  depth=200, durability=DurabilityPolicy.VOLATILE)
+DEEP = QoSProfile(
+    reliability=ReliabilityPolicy.RELIABLE,
+    history=HistoryPolicy.KEEP_LAST,
+    depth=200,
+    durability=DurabilityPolicy.VOLATILE,
+)
 _stamps = count(1000)
 
 
@@ -51,8 +63,12 @@ def stamp_next() -> tuple[int, int]:
 
 
 def joint_state(names, positions, stamp=(0, 0), velocity=(), effort=()) -> JointState:
-    msg = JointState(name=list(names), position=[float(p) for p in positions],
-                     velocity=[float(v) for v in velocity], effort=[float(e) for e in effort])
+    msg = JointState(
+        name=list(names),
+        position=[float(p) for p in positions],
+        velocity=[float(v) for v in velocity],
+        effort=[float(e) for e in effort],
+    )
     msg.header.stamp = Time(sec=stamp[0], nanosec=stamp[1])
     return msg
 
@@ -71,9 +87,11 @@ def stamp_of(msg) -> tuple[int, int]:
 
 # ---- an independent four-bar oracle (circle intersection) -----------------------------------
 
+
 class FourBar:
     """The packaged four_bar: O2 = 0, O4 = (0.3, 0), crank 0.1, coupler 0.25, rocker 0.2, B left
     of A -> O4. Joint values as docs/TOPICS.md defines them (ground along +x)."""
+
     O4, L2, L3, L4 = (0.30, 0.0), 0.10, 0.25, 0.20
 
     @classmethod
@@ -81,13 +99,13 @@ class FourBar:
         ax, ay = cls.L2 * math.cos(theta2), cls.L2 * math.sin(theta2)
         dx, dy = cls.O4[0] - ax, cls.O4[1] - ay
         d = math.hypot(dx, dy)
-        along = (cls.L3 ** 2 - cls.L4 ** 2 + d * d) / (2 * d)
-        h = math.sqrt(cls.L3 ** 2 - along ** 2)
+        along = (cls.L3**2 - cls.L4**2 + d * d) / (2 * d)
+        h = math.sqrt(cls.L3**2 - along**2)
         bx, by = ax + (along * dx - h * dy) / d, ay + (along * dy + h * dx) / d
         t3 = math.atan2(by - ay, bx - ax)
         t4 = math.atan2(by - cls.O4[1], bx - cls.O4[0])
-        w = lambda a: math.atan2(math.sin(a), math.cos(a))      # noqa: E731
-        return [w(theta2), w(t3 - theta2), w(t4 - t3), w(t4)]   # O2, A, B, O4
+        w = lambda a: math.atan2(math.sin(a), math.cos(a))  # noqa: E731
+        return [w(theta2), w(t3 - theta2), w(t4 - t3), w(t4)]  # O2, A, B, O4
 
 
 def assert_close_angles(got, want, tol=1e-9):
@@ -98,6 +116,7 @@ def assert_close_angles(got, want, tol=1e-9):
 
 # ---- a node in this process, over DDS -------------------------------------------------------
 
+
 class Served:
     """A LinkageNode in this process (its own namespace), the harness's executor spinning it, and
     the test-side endpoints: collectors of joint_states and status, publishers made on demand."""
@@ -105,8 +124,11 @@ class Served:
     def __init__(self, ros: RosHarness, params: dict):
         self.ros = ros
         self.ns = f'/adv{os.getpid()}_{random.randrange(1 << 30)}'
-        self.node = LinkageNode(context=ros.context, namespace=self.ns, parameter_overrides=[
-            Parameter(k, value=v) for k, v in params.items()])
+        self.node = LinkageNode(
+            context=ros.context,
+            namespace=self.ns,
+            parameter_overrides=[Parameter(k, value=v) for k, v in params.items()],
+        )
         ros.executor.add_node(self.node)
         self.mech = self.node.mech
         self.joints = ros.collector(JointState, f'{self.ns}/joint_states')
@@ -114,10 +136,15 @@ class Served:
         self._pubs = {}
         # both ends matched: our readers see the node's writers and the node's writers see ours
         # (the node publishes a status only while someone subscribes)
-        assert ros.spin_until(lambda: self.joints.sub.get_publisher_count() > 0
-                              and self.status.sub.get_publisher_count() > 0
-                              and self.node.pub_joints.get_subscription_count() > 0
-                              and self.node.pub_status.get_subscription_count() > 0, TIMEOUT)
+        assert ros.spin_until(
+            lambda: (
+                self.joints.sub.get_publisher_count() > 0
+                and self.status.sub.get_publisher_count() > 0
+                and self.node.pub_joints.get_subscription_count() > 0
+                and self.node.pub_status.get_subscription_count() > 0
+            ),
+            TIMEOUT,
+        )
 
     def close(self):
         self.ros.executor.remove_node(self.node)
@@ -137,8 +164,9 @@ class Served:
     def send(self, topic: str, msg) -> DiagnosticStatus:
         """Publish one request and wait for its (first) status."""
         self.clear()
-        self.pub(topic, PointStamped if topic.startswith('target_point/') else JointState) \
-            .publish(msg)
+        self.pub(topic, PointStamped if topic.startswith('target_point/') else JointState).publish(
+            msg
+        )
         assert self.ros.spin_until(lambda: len(self.status) >= 1, TIMEOUT), f'no status: {topic}'
         return self.status.messages[0]
 
@@ -149,10 +177,13 @@ class Served:
         assert want != (0, 0)
         status = self.send(topic, msg)
         assert status.level == OK, status.message
-        assert self.ros.spin_until(lambda: any(stamp_of(j) == want for j in self.joints.messages),
-                                   TIMEOUT)
-        assert len(self.joints) == 1 and len(self.status) == 1, \
-            ([stamp_of(j) for j in self.joints.messages], [s.message for s in self.status.messages])
+        assert self.ros.spin_until(
+            lambda: any(stamp_of(j) == want for j in self.joints.messages), TIMEOUT
+        )
+        assert len(self.joints) == 1 and len(self.status) == 1, (
+            [stamp_of(j) for j in self.joints.messages],
+            [s.message for s in self.status.messages],
+        )
         js = self.joints.last
         assert list(js.name) == self.mech.joint_names
         assert all(math.isfinite(v) for v in js.position), list(js.position)
@@ -169,15 +200,18 @@ class Served:
             assert f in status.message, (f, status.message)
         assert {kv.key: kv.value for kv in status.values}.get('request') == topic
         want = stamp_of(probe[1])
-        self.pub(probe[0])          # matched before we publish
+        self.pub(probe[0])  # matched before we publish
         self.ros.publish(self.pub(probe[0]), probe[1])
-        assert self.ros.spin_until(lambda: any(stamp_of(j) == want for j in self.joints.messages),
-                                   TIMEOUT), 'the probe after a bad request was not answered'
+        assert self.ros.spin_until(
+            lambda: any(stamp_of(j) == want for j in self.joints.messages), TIMEOUT
+        ), 'the probe after a bad request was not answered'
         assert self.ros.spin_until(lambda: len(self.status) >= 2, TIMEOUT)
-        assert [stamp_of(j) for j in self.joints.messages] == [want], \
+        assert [stamp_of(j) for j in self.joints.messages] == [want], (
             'a refused request published joint_states'
-        assert [s.level for s in self.status.messages] == [ERROR, OK], \
-            [s.message for s in self.status.messages]
+        )
+        assert [s.level for s in self.status.messages] == [ERROR, OK], [
+            s.message for s in self.status.messages
+        ]
         return status.message
 
 
@@ -196,6 +230,7 @@ def serve(ros):
         s = Served(ros, params)
         made.append(s)
         return s
+
     yield make
     for s in made:
         s.close()
@@ -205,9 +240,9 @@ def serve(ros):
 
 BAD_STAMPS = {
     'negative': ((-5, 0), ['header.stamp is negative', 'sec = -5']),
-    'negative_max': ((-2 ** 31, 999_999_999), ['header.stamp is negative']),
+    'negative_max': ((-(2**31), 999_999_999), ['header.stamp is negative']),
     'nanosec_1e9': ((7, 1_000_000_000), ['header.stamp.nanosec = 1000000000']),
-    'nanosec_max': ((7, 2 ** 32 - 1), ['header.stamp.nanosec = 4294967295']),
+    'nanosec_max': ((7, 2**32 - 1), ['header.stamp.nanosec = 4294967295']),
 }
 
 
@@ -223,15 +258,18 @@ def test_stamps_a_ros_time_cannot_hold_are_refused_on_every_request(serve):
 
     def probe():
         return 'command', joint_state(acts, mid, stamp_next())
+
     d = s.node.engine.last.points['D']
     for case, (stamp, fragments) in BAD_STAMPS.items():
-        for topic, msg in (('command', joint_state(acts, [m + 0.01 for m in mid], stamp)),
-                           ('target', joint_state(['theta_A', 'C'], [0.3, 0.9], stamp)),
-                           ('target_point/D', point_stamped(d[0] + 0.001, d[1], stamp=stamp))):
+        for topic, msg in (
+            ('command', joint_state(acts, [m + 0.01 for m in mid], stamp)),
+            ('target', joint_state(['theta_A', 'C'], [0.3, 0.9], stamp)),
+            ('target_point/D', point_stamped(d[0] + 0.001, d[1], stamp=stamp)),
+        ):
             s.bad(topic, msg, fragments, probe())
             assert s.joints.last.position.tolist() == before, (case, topic)
     # valid extremes: echoed as they are
-    for stamp in ((2 ** 31 - 1, 999_999_999), (0, 1), (1, 0)):
+    for stamp in ((2**31 - 1, 999_999_999), (0, 1), (1, 0)):
         s.good('command', joint_state(acts, mid, stamp))
         assert stamp_of(s.joints.last) == stamp
 
@@ -241,13 +279,22 @@ def test_zero_stamp_under_sim_time_before_the_first_clock(ros, serve):
     stamp published, against the promise. Now such a request is refused (state kept), a stamped
     one is answered, and once /clock runs a zero stamp becomes the sim time."""
     s = serve(scene='four_bar', use_sim_time=True)
-    s.bad('command', joint_state(['crank'], [0.7]), ['use_sim_time', '/clock'],
-          ('command', joint_state(['crank'], [1.0], stamp_next())))
+    s.bad(
+        'command',
+        joint_state(['crank'], [0.7]),
+        ['use_sim_time', '/clock'],
+        ('command', joint_state(['crank'], [1.0], stamp_next())),
+    )
     assert_close_angles(s.joints.last.position, FourBar.joints(1.0))
     clock_pub = ros.node.create_publisher(Clock, '/clock', 10)
     assert ros.spin_until(lambda: clock_pub.get_subscription_count() > 0, TIMEOUT)
-    assert ros.spin_until(lambda: clock_pub.publish(Clock(clock=Time(sec=4321, nanosec=5)))
-                          or s.node.get_clock().now().nanoseconds > 0, TIMEOUT)
+    assert ros.spin_until(
+        lambda: (
+            clock_pub.publish(Clock(clock=Time(sec=4321, nanosec=5)))
+            or s.node.get_clock().now().nanoseconds > 0
+        ),
+        TIMEOUT,
+    )
     ros.node.destroy_publisher(clock_pub)
     status = s.send('command', joint_state(['crank'], [0.7]))
     assert status.level == OK, status.message
@@ -258,6 +305,7 @@ def test_zero_stamp_under_sim_time_before_the_first_clock(ros, serve):
 
 # ---- non-finite point targets ---------------------------------------------------------------
 
+
 def test_point_target_with_a_non_finite_coordinate_is_refused(serve):
     """z is ignored, but a NaN or inf z is a broken message: it used to be solved as if fine."""
     s = serve(scene=str(CONFIG / 'plagiograph.yaml'))
@@ -266,14 +314,18 @@ def test_point_target_with_a_non_finite_coordinate_is_refused(serve):
     before = s.good('command', joint_state(acts, mid, stamp_next()))
     d = s.node.engine.last.points['D']
     goal = (d[0] + 0.002, d[1] - 0.001)
-    for (x, y, z), fragments in (((*goal, math.nan), ['point.z = nan']),
-                                 ((*goal, -math.inf), ['point.z = -inf']),
-                                 ((math.nan, goal[1], 0.0), ['point.x = nan']),
-                                 ((goal[0], math.inf, math.nan),
-                                  ['point.y = inf', 'point.z = nan'])):
-        message = s.bad('target_point/D', point_stamped(x, y, z, stamp=stamp_next()),
-                        fragments + ["'D'"],
-                        ('command', joint_state(acts, mid, stamp_next())))
+    for (x, y, z), fragments in (
+        ((*goal, math.nan), ['point.z = nan']),
+        ((*goal, -math.inf), ['point.z = -inf']),
+        ((math.nan, goal[1], 0.0), ['point.x = nan']),
+        ((goal[0], math.inf, math.nan), ['point.y = inf', 'point.z = nan']),
+    ):
+        message = s.bad(
+            'target_point/D',
+            point_stamped(x, y, z, stamp=stamp_next()),
+            fragments + ["'D'"],
+            ('command', joint_state(acts, mid, stamp_next())),
+        )
         assert s.joints.last.position.tolist() == before, message
     # the next good point target is met exactly (a finite z is ignored)
     s.good('target_point/D', point_stamped(*goal, z=5.0, stamp=stamp_next()))
@@ -282,6 +334,7 @@ def test_point_target_with_a_non_finite_coordinate_is_refused(serve):
 
 
 # ---- a barrage of bad requests on a 3-DOF scene: nothing changes -----------------------------
+
 
 def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
     """Every kind of bad request on ~/command, ~/target and ~/target_point/<p>, interleaved with
@@ -293,7 +346,7 @@ def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
     s = serve(**params)
     _, ref = load_engine(make_config(params))
     mech = s.mech
-    acts = list(mech.actuators)                              # Z1, Z2, Z3 (cylinder lengths)
+    acts = list(mech.actuators)  # Z1, Z2, Z3 (cylinder lengths)
     lo = {a: x.min for a, x in mech.actuators.items()}
     hi = {a: x.max for a, x in mech.actuators.items()}
     mid = {a: 0.5 * (lo[a] + hi[a]) for a in acts}
@@ -319,15 +372,24 @@ def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
         ('command', cmd(dict(mid, Z1=-math.inf)), ['Z1', 'finite']),
         ('command', joint_state([], [], stamp_next()), ['empty JointState']),
         ('command', joint_state(acts, [1.5, 1.9], stamp_next()), ['3 name(s)', '2 position(s)']),
-        ('command', joint_state(['Z1'], [1.5, 1.9, 1.4], stamp_next()), ['1 name(s)',
-                                                                        '3 position(s)']),
-        ('command', joint_state(['Z1', 'Z2', 'Z1'], [1.5, 1.9, 1.6], stamp_next()),
-         ["['Z1'] more than once"]),
-        ('command', joint_state(['Z1', '', 'Z3'], [1.5, 1.9, 1.4], stamp_next()),
-         ['name[1]', 'empty']),
+        (
+            'command',
+            joint_state(['Z1'], [1.5, 1.9, 1.4], stamp_next()),
+            ['1 name(s)', '3 position(s)'],
+        ),
+        (
+            'command',
+            joint_state(['Z1', 'Z2', 'Z1'], [1.5, 1.9, 1.6], stamp_next()),
+            ["['Z1'] more than once"],
+        ),
+        (
+            'command',
+            joint_state(['Z1', '', 'Z3'], [1.5, 1.9, 1.4], stamp_next()),
+            ['name[1]', 'empty'],
+        ),
         ('command', cmd({'Z1': 1.5, 'Z2': 1.9, 'Z4': 1.4}), ["unknown name(s) ['Z4']"]),
         ('command', cmd({'Z1': 1.5, 'Z2': 1.9, 'bucket': 1.4}), ["unknown name(s) ['bucket']"]),
-        ('command', cmd({'Z1': 1.5}), ['missing', 'Z2', 'Z3']),        # partial, 3 DOF
+        ('command', cmd({'Z1': 1.5}), ['missing', 'Z2', 'Z3']),  # partial, 3 DOF
         ('command', cmd({'Z2': 1.9, 'Z3': 1.4}), ['missing', 'Z1']),
         ('command', cmd(dict(mid, Z1=hi['Z1'] + 0.1)), ['Z1', 'maximum']),
         ('command', cmd(dict(mid, Z3=lo['Z3'] - 0.05)), ['Z3', 'minimum']),
@@ -337,39 +399,57 @@ def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
         ('target', cmd({'bucket': 0.1, 'stick': 0.2, 'boom': math.nan}), ['boom', 'finite']),
         ('target', cmd({'bucket': 0.1, 'stick': 0.2, 'shovel': 0.3}), ["'shovel'"]),
         ('target', cmd({'bucket': 0.1, 'stick': 0.2, 'ground': 0.3}), ['ground link']),
-        ('target', cmd({'Z1': 1.5, 'Z2': 1.9, 'Z3': 1.2, 'bucket': 0.0}),
-         ['3 degree(s) of freedom', 'give 4 value']),
-        ('target', cmd({'boom': 3.0, 'stick': 0.0, 'bucket': 0.0}), ['']),   # unreachable
+        (
+            'target',
+            cmd({'Z1': 1.5, 'Z2': 1.9, 'Z3': 1.2, 'bucket': 0.0}),
+            ['3 degree(s) of freedom', 'give 4 value'],
+        ),
+        ('target', cmd({'boom': 3.0, 'stick': 0.0, 'bucket': 0.0}), ['']),  # unreachable
         ('target_point/L', point_stamped(40.0, 40.0, stamp=stamp_next()), ['']),
-        ('target_point/L', point_stamped(2.0, 0.5, stamp=stamp_next(), frame_id='map'),
-         ["'map'", mech.frame_id]),
+        (
+            'target_point/L',
+            point_stamped(2.0, 0.5, stamp=stamp_next(), frame_id='map'),
+            ["'map'", mech.frame_id],
+        ),
         ('target_point/L', point_stamped(math.nan, 0.5, stamp=stamp_next()), ['point.x = nan']),
-        ('target_point/L', point_stamped(2.0, 0.5, math.inf, stamp=stamp_next()),
-         ['point.z = inf']),
-        ('target_point/L', point_stamped(2.0, 0.5, stamp=(3, 10 ** 9)),
-         ['header.stamp.nanosec']),
+        (
+            'target_point/L',
+            point_stamped(2.0, 0.5, math.inf, stamp=stamp_next()),
+            ['point.z = inf'],
+        ),
+        ('target_point/L', point_stamped(2.0, 0.5, stamp=(3, 10**9)), ['header.stamp.nanosec']),
     ]
     # a velocity and an effort field (even NaN, even of another length) are ignored
     step = dict(mid, Z1=mid['Z1'] + 0.02)
-    check_good('command', cmd(step, velocity=[math.nan], effort=[1.0, 2.0, 3.0, 4.0]),
-               lambda: ref.command(step))
+    check_good(
+        'command',
+        cmd(step, velocity=[math.nan], effort=[1.0, 2.0, 3.0, 4.0]),
+        lambda: ref.command(step),
+    )
     for i, (topic, msg, fragments) in enumerate(bad):
         s.bad(topic, msg, fragments, probe())
-        ref.command(mid)                         # the probe, on the reference too
-        if i % 6 == 5:                           # good requests in between, of every kind
+        ref.command(mid)  # the probe, on the reference too
+        if i % 6 == 5:  # good requests in between, of every kind
             L = ref.last.points['L']
             goal = (L[0] + 0.01 * (i % 4), L[1] - 0.005)
-            check_good('target_point/L', point_stamped(*goal, stamp=stamp_next()),
-                       lambda: ref.target_point('L', goal))
+            check_good(
+                'target_point/L',
+                point_stamped(*goal, stamp=stamp_next()),
+                lambda: ref.target_point('L', goal),
+            )
             assert math.dist(s.node.engine.last.points['L'], goal) < 1e-9
             bucket = ref.last.links['bucket']
-            t = {'boom': ref.last.links['boom'] + 0.01, 'stick': ref.last.links['stick'],
-                 'bucket': bucket}
+            t = {
+                'boom': ref.last.links['boom'] + 0.01,
+                'stick': ref.last.links['stick'],
+                'bucket': bucket,
+            }
             check_good('target', cmd(t), lambda: ref.target(t))
     assert s.node.engine.last.joints == ref.last.joints
 
 
 # ---- bursts and alternation -----------------------------------------------------------------
+
 
 def test_burst_and_alternation_of_command_and_target(serve):
     """60 requests back to back, commands and targets alternating: every answer is complete and
@@ -381,27 +461,34 @@ def test_burst_and_alternation_of_command_and_target(serve):
     joints, status = [], []
     ros = s.ros
     ros.node.create_subscription(JointState, f'{s.ns}/joint_states', joints.append, DEEP)
-    ros.node.create_subscription(DiagnosticStatus, f'{s.ns}/{NODE_NAME}/status', status.append,
-                                 DEEP)
+    ros.node.create_subscription(
+        DiagnosticStatus, f'{s.ns}/{NODE_NAME}/status', status.append, DEEP
+    )
     cmd = ros.node.create_publisher(JointState, f'{s.ns}/{NODE_NAME}/command', DEEP)
     tgt = ros.node.create_publisher(JointState, f'{s.ns}/{NODE_NAME}/target', DEEP)
-    assert ros.spin_until(lambda: s.node.pub_joints.get_subscription_count() >= 2
-                          and s.node.pub_status.get_subscription_count() >= 2
-                          and cmd.get_subscription_count() and tgt.get_subscription_count(),
-                          TIMEOUT)
+    assert ros.spin_until(
+        lambda: (
+            s.node.pub_joints.get_subscription_count() >= 2
+            and s.node.pub_status.get_subscription_count() >= 2
+            and cmd.get_subscription_count()
+            and tgt.get_subscription_count()
+        ),
+        TIMEOUT,
+    )
     sent = {}
     for i in range(60):
         theta2 = -math.pi + 2 * math.pi * i / 60 + 0.01
         want = FourBar.joints(theta2)
         stamp = (50_000 + i, 7)
         if i % 2:
-            tgt.publish(joint_state(['O2'], [want[0]], stamp))       # a joint target
+            tgt.publish(joint_state(['O2'], [want[0]], stamp))  # a joint target
         else:
             cmd.publish(joint_state(['crank'], [theta2], stamp))
         sent[stamp] = want
     last = (50_059, 7)
-    assert ros.spin_until(lambda: any(stamp_of(j) == last for j in joints)
-                          and len(status) >= len(joints), TIMEOUT)
+    assert ros.spin_until(
+        lambda: any(stamp_of(j) == last for j in joints) and len(status) >= len(joints), TIMEOUT
+    )
     assert 1 <= len(joints) <= 60
     assert len(set(map(stamp_of, joints))) == len(joints), 'one answer per request'
     for js in joints:
@@ -417,16 +504,20 @@ def test_rocker_targets_up_to_and_past_the_toggle(serve):
     back works. Every answer is whole and finite."""
     s = serve(scene='four_bar')
     grid = [FourBar.joints(2 * math.pi * i / 20000) for i in range(20000)]
-    top = max(grid, key=lambda j: j[3])              # the rocker's largest angle from +x
+    top = max(grid, key=lambda j: j[3])  # the rocker's largest angle from +x
     s.good('command', joint_state(['crank'], [top[0] - 0.3], stamp_next()))
     for o4 in (top[3] - 0.05, top[3] - 1e-3, top[3] - 1e-6):
         got = s.good('target', joint_state(['O4'], [o4], stamp_next()))
         assert abs(got[3] - o4) < 1e-9
-        assert_close_angles(got, FourBar.joints(got[0]))     # a real assembly, branch +
+        assert_close_angles(got, FourBar.joints(got[0]))  # a real assembly, branch +
     before = got
     for past in (top[3] + 1e-3, top[3] + 0.2, top[3] + math.pi):
-        s.bad('target', joint_state(['O4'], [past], stamp_next()), [''],
-              ('target', joint_state(['O4'], [before[3]], stamp_next())))
+        s.bad(
+            'target',
+            joint_state(['O4'], [past], stamp_next()),
+            [''],
+            ('target', joint_state(['O4'], [before[3]], stamp_next())),
+        )
         assert_close_angles(s.joints.last.position, before, tol=1e-7)
     got = s.good('target', joint_state(['O4'], [top[3] - 0.05], stamp_next()))
     assert abs(got[3] - (top[3] - 0.05)) < 1e-9
@@ -440,22 +531,38 @@ def test_random_requests_always_give_one_status_and_whole_finite_joint_states(se
     mech = s.mech
     acts = list(mech.actuators)
     rng = random.Random(20240601)
-    extremes = [0.0, 1e-300, -1e-300, 1e300, -1e300, 1e17, math.pi, -math.pi, 2 * math.pi,
-                math.nan, math.inf]
+    extremes = [
+        0.0,
+        1e-300,
+        -1e-300,
+        1e300,
+        -1e300,
+        1e17,
+        math.pi,
+        -math.pi,
+        2 * math.pi,
+        math.nan,
+        math.inf,
+    ]
     names = acts + mech.joint_names + [l for l in mech.links if l != mech.ground]
 
     def value(now):
         """Mostly a small step from the current value, sometimes an extreme one."""
         return rng.choice(extremes) if rng.random() < 0.25 else now + rng.uniform(-0.05, 0.05)
-    s.good('command', joint_state(acts, [0.5 * (a.min + a.max) for a in mech.actuators.values()],
-                                  stamp_next()))
+
+    s.good(
+        'command',
+        joint_state(acts, [0.5 * (a.min + a.max) for a in mech.actuators.values()], stamp_next()),
+    )
     oks = 0
     for i in range(60):
-        last = s.node.engine.last                # where the mechanism is: to pick near values
+        last = s.node.engine.last  # where the mechanism is: to pick near values
         kind = i % 3
         if kind == 0:
-            topic, msg = 'command', joint_state(acts, [value(last.inputs[a]) for a in acts],
-                                                stamp_next())
+            topic, msg = (
+                'command',
+                joint_state(acts, [value(last.inputs[a]) for a in acts], stamp_next()),
+            )
         elif kind == 1:
             k = rng.sample(names, 2)
             now = {**last.links, **last.joints, **last.inputs}
@@ -479,6 +586,7 @@ def test_random_requests_always_give_one_status_and_whole_finite_joint_states(se
 
 # ---- runtime parameters ---------------------------------------------------------------------
 
+
 def _set(ros, client, *params):
     future = client.set_parameters(list(params))
     assert ros.spin_until(future.done, TIMEOUT)
@@ -494,25 +602,39 @@ def test_runtime_parameter_changes_that_cannot_apply_are_refused(ros, serve):
     client = AsyncParameterClient(ros.node, f'{s.ns}/{NODE_NAME}')
     assert client.wait_for_services(timeout_sec=TIMEOUT)
     timer = s.node._demo_timer
-    for value in (1e-12, 1e-300, 1e300, DEMO_RATE_MAX * 1.001, DEMO_RATE_MIN / 2, 0.0, -1.0,
-                  math.nan, math.inf):
+    for value in (
+        1e-12,
+        1e-300,
+        1e300,
+        DEMO_RATE_MAX * 1.001,
+        DEMO_RATE_MIN / 2,
+        0.0,
+        -1.0,
+        math.nan,
+        math.inf,
+    ):
         (r,) = _set(ros, client, Parameter('demo_rate', value=value))
-        assert not r.successful and "'demo_rate'" in r.reason and repr(value) in r.reason, \
-            (value, r.reason)
+        assert not r.successful and "'demo_rate'" in r.reason and repr(value) in r.reason, (
+            value,
+            r.reason,
+        )
         assert s.node.get_parameter('demo_rate').value == 50.0
         assert s.node.config.demo_rate == 50.0 and s.node._demo_timer is timer
-    for param, fragment in ((Parameter('demo_rate', value=5), 'DOUBLE'),
-                            (Parameter('demo_sweep', value='yes'), 'BOOL'),
-                            (Parameter('tolerance', value=1e-9), 'read-only'),
-                            (Parameter('scene', value='excavator'), 'read-only')):
+    for param, fragment in (
+        (Parameter('demo_rate', value=5), 'DOUBLE'),
+        (Parameter('demo_sweep', value='yes'), 'BOOL'),
+        (Parameter('tolerance', value=1e-9), 'read-only'),
+        (Parameter('scene', value='excavator'), 'read-only'),
+    ):
         (r,) = _set(ros, client, param)
         assert not r.successful and fragment in r.reason, r.reason
     assert not _set(ros, client, Parameter('queue_dept', value=3))[0].successful
     # the sweep still runs at 50 Hz: its answers keep coming and they are whole and finite
     s.clear()
     assert ros.spin_until(lambda: len(s.joints) >= 3, TIMEOUT)
-    assert all(len(j.position) == 4 and all(map(math.isfinite, j.position))
-               for j in s.joints.messages)
+    assert all(
+        len(j.position) == 4 and all(map(math.isfinite, j.position)) for j in s.joints.messages
+    )
     # the range ends are accepted
     for value in (DEMO_RATE_MAX, DEMO_RATE_MIN, 40.0):
         (r,) = _set(ros, client, Parameter('demo_rate', value=value))
@@ -548,17 +670,19 @@ def test_a_demo_that_stops_turns_demo_sweep_off_and_can_be_restarted(ros, serve,
     assert client.wait_for_services(timeout_sec=TIMEOUT)
     for _ in range(2):
         s.clear()
-        (r,) = _set(ros, client, Parameter('demo_sweep', value=True))     # restart: it runs
+        (r,) = _set(ros, client, Parameter('demo_sweep', value=True))  # restart: it runs
         assert r.successful, r.reason
-        assert ros.spin_until(lambda: not s.node.get_parameter('demo_sweep').value
-                              and len(s.status) >= 3, TIMEOUT)
+        assert ros.spin_until(
+            lambda: not s.node.get_parameter('demo_sweep').value and len(s.status) >= 3, TIMEOUT
+        )
         assert s.node._demo_timer is None and not s.node.config.demo_sweep
-        assert [st.level for st in s.status.messages] == [ERROR] * 3       # then it stopped
+        assert [st.level for st in s.status.messages] == [ERROR] * 3  # then it stopped
         assert 'cannot assemble' in s.status.last.message
         assert len(s.joints) == 0
 
 
 # ---- start-up -------------------------------------------------------------------------------
+
 
 def test_make_config_checks_demo_rate_frame_id_and_queue_depth():
     for rate in (1e-12, 1e300, DEMO_RATE_MAX + 1, 0.0, math.nan, math.inf, True, '5'):
@@ -571,18 +695,20 @@ def test_make_config_checks_demo_rate_frame_id_and_queue_depth():
             make_config({'frame_id': frame})
     for frame in ('', 'base_link', 'robot1/base_link', 'map'):
         assert make_config({'frame_id': frame}).frame_id == frame
-    for depth in (2 ** 31, 2 ** 63 - 1):
+    for depth in (2**31, 2**63 - 1):
         with pytest.raises(ConfigError, match=f"'queue_depth'.*{depth}"):
             make_config({'queue_depth': depth})
-    assert make_config({'queue_depth': 2 ** 31 - 1}).queue_depth == 2 ** 31 - 1
+    assert make_config({'queue_depth': 2**31 - 1}).queue_depth == 2**31 - 1
 
 
 def test_wrong_parameter_type_message(ros):
-    for name, value, fragment in (('queue_depth', '10', 'must be an integer'),
-                                  ('demo_rate', 20, 'must be a double (write 1.0, not 1)'),
-                                  ('demo_sweep', 'yes', 'must be a bool'),
-                                  ('frame_id', 5, 'must be a string')):
-        with pytest.raises(ConfigError, match=fr"'{name}': {re.escape(fragment)}"):
+    for name, value, fragment in (
+        ('queue_depth', '10', 'must be an integer'),
+        ('demo_rate', 20, 'must be a double (write 1.0, not 1)'),
+        ('demo_sweep', 'yes', 'must be a bool'),
+        ('frame_id', 5, 'must be a string'),
+    ):
+        with pytest.raises(ConfigError, match=rf"'{name}': {re.escape(fragment)}"):
             LinkageNode(context=ros.context, parameter_overrides=[Parameter(name, value=value)])
 
 
@@ -590,7 +716,7 @@ STARTS = {
     'demo_rate_tiny': ({'demo_sweep': True, 'demo_rate': 1e-12}, ['demo_rate', '1e-12']),
     'demo_rate_huge': ({'demo_sweep': True, 'demo_rate': 1e300}, ['demo_rate', '1e+300']),
     'frame_slash': ({'frame_id': '/base_link'}, ['frame_id', '/base_link']),
-    'queue_depth_2_31': ({'queue_depth': 2 ** 31}, ['queue_depth', str(2 ** 31)]),
+    'queue_depth_2_31': ({'queue_depth': 2**31}, ['queue_depth', str(2**31)]),
 }
 
 
@@ -599,8 +725,10 @@ def test_startup_refuses_parameters_that_used_to_crash_or_busy_loop(tmp_path):
     1e300 to start a 0 ns demo timer (a busy loop), frame_id '/base_link' to be stamped on every
     output (tf2 refuses a leading '/'). Now each ends start-up with exit code 1 and one FATAL
     line naming the parameter and the value."""
-    procs = {name: NodeProcess(tmp_path / name, DOMAIN_ID, params).start()
-             for name, (params, _) in STARTS.items()}
+    procs = {
+        name: NodeProcess(tmp_path / name, DOMAIN_ID, params).start()
+        for name, (params, _) in STARTS.items()
+    }
     try:
         codes = {name: p.wait(timeout=60) for name, p in procs.items()}
     finally:
@@ -628,8 +756,9 @@ def test_demo_rate_parameter_descriptor_shows_the_range(ros):
 def test_node_survives_everything_and_exits_cleanly(ros, tmp_path):
     """A subprocess node (the real entry point) after refused parameter changes, with the sweep
     on and off: still answering, then a clean exit 0 on SIGINT, no traceback."""
-    proc = NodeProcess(tmp_path / 'sub', DOMAIN_ID, {'scene': 'four_bar', 'demo_rate': 10.0,
-                                                     'queue_dept': 3})      # misspelt
+    proc = NodeProcess(
+        tmp_path / 'sub', DOMAIN_ID, {'scene': 'four_bar', 'demo_rate': 10.0, 'queue_dept': 3}
+    )  # misspelt
     proc.start()
     try:
         cmd = ros.publisher(JointState, proc.topic('~/command'))
@@ -643,7 +772,7 @@ def test_node_survives_everything_and_exits_cleanly(ros, tmp_path):
             assert not r.successful
         (r,) = _set(ros, client, Parameter('demo_sweep', value=True))
         assert r.successful
-        (r,) = _set(ros, client, Parameter('demo_rate', value=1e-12))   # with the sweep on
+        (r,) = _set(ros, client, Parameter('demo_rate', value=1e-12))  # with the sweep on
         assert not r.successful and 'demo_rate' in r.reason
         (r,) = _set(ros, client, Parameter('demo_sweep', value=False))
         assert r.successful
@@ -653,8 +782,9 @@ def test_node_survives_everything_and_exits_cleanly(ros, tmp_path):
         good = joint_state(['crank'], [1.0], stamp)
         for _ in range(10):
             ros.publish(cmd, good)
-            if ros.spin_until(lambda: any(stamp_of(j) == stamp for j in joints.messages), 3.5,
-                              proc):
+            if ros.spin_until(
+                lambda: any(stamp_of(j) == stamp for j in joints.messages), 3.5, proc
+            ):
                 break
         js = next(j for j in joints.messages if stamp_of(j) == stamp)
         assert_close_angles(js.position, FourBar.joints(1.0))
@@ -666,6 +796,6 @@ def test_node_survives_everything_and_exits_cleanly(ros, tmp_path):
     # 'listening on' is the last start-up line: one who waits for it (as test_node does) has
     # the start-up warnings already; the warning used to come after it (a race for readers)
     lines = proc.stderr().splitlines()
-    warn = next(i for i, ln in enumerate(lines) if "ignoring parameter(s)" in ln)
+    warn = next(i for i, ln in enumerate(lines) if 'ignoring parameter(s)' in ln)
     ready = next(i for i, ln in enumerate(lines) if 'listening on' in ln)
     assert warn < ready and "['queue_dept']" in lines[warn]

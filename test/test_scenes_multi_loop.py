@@ -16,6 +16,7 @@ Oracles (never the solver's own output):
 * Kutzbach counts n, j, F as stated in the seeds, counted from the scene file itself;
 * Newton on the loop-closure equations vs the closed-form dyad plan (two different algorithms).
 """
+
 import cmath
 import math
 from pathlib import Path
@@ -37,11 +38,11 @@ PLAGIOGRAPH = {'k': 2.0, 'alpha': math.radians(-60.0), 'O2A': 0.25, 'O2C': 0.30}
 
 # Kutzbach numbers as the seeds state them: links n, revolute pairs, prismatic pairs, DOF F
 SEED_COUNTS = {
-    'peaucellier': (8, 10, 0, 1),   # seed 001: n = 8, J = J1 + 2 J2 = 2 + 2*4 = 10, F = 1
-    'hart': (6, 7, 0, 1),           # seed 001: n = 6, J1 = 7, F = 1
-    'plagiograph': (5, 5, 0, 2),    # seed 000: n = 5, j = 3 + 2*1 = 5, F = 2
-    'front_loader': (9, 9, 2, 2),   # seed 003 example 4: n = 9, 9 R + 2 P = 11, F = 2
-    'excavator': (12, 12, 3, 3),    # seed 003 example 6: n = 12, 12 R + 3 P = 15, F = 3
+    'peaucellier': (8, 10, 0, 1),  # seed 001: n = 8, J = J1 + 2 J2 = 2 + 2*4 = 10, F = 1
+    'hart': (6, 7, 0, 1),  # seed 001: n = 6, J1 = 7, F = 1
+    'plagiograph': (5, 5, 0, 2),  # seed 000: n = 5, j = 3 + 2*1 = 5, F = 2
+    'front_loader': (9, 9, 2, 2),  # seed 003 example 4: n = 9, 9 R + 2 P = 11, F = 2
+    'excavator': (12, 12, 3, 3),  # seed 003 example 6: n = 12, 12 R + 3 P = 15, F = 3
 }
 
 #: geometric tolerance of the exact oracles, as a fraction of the mechanism's length scale
@@ -93,6 +94,7 @@ def actuator_grid(mech, n):
 
 
 # ---- the scene files ---------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize('name', SCENES)
 def test_scene_loads_with_seed_kutzbach_counts_and_a_closed_form_plan(name):
@@ -160,7 +162,7 @@ def test_plagiograph_reference_pose_has_the_parallelogram_and_similar_triangles(
     O2, A, B, C, D, E = (p[n] for n in ('O2', 'A', 'B', 'C', 'D', 'E'))
     assert abs(A - O2) == pytest.approx(PLAGIOGRAPH['O2A'], rel=1e-14)
     assert abs(C - O2) == pytest.approx(PLAGIOGRAPH['O2C'], rel=1e-14)
-    assert abs((B - A) - (C - O2)) <= 1e-15        # O2ABC is a parallelogram
+    assert abs((B - A) - (C - O2)) <= 1e-15  # O2ABC is a parallelogram
     # AB = (AB/AD) e^{i alpha} AD and CE = (CE/CB) e^{i alpha} CB with AB/AD = CE/CB = k
     assert abs((B - A) / (D - A) - k * cmath.exp(1j * alpha)) <= 1e-14
     assert abs((E - C) / (B - C) - k * cmath.exp(1j * alpha)) <= 1e-14
@@ -168,12 +170,13 @@ def test_plagiograph_reference_pose_has_the_parallelogram_and_similar_triangles(
 
 # ---- inversors: exact straight lines -----------------------------------------------------------
 
+
 def _inversor_sweep(name, constant, r):
     mech = load(name)
     scale = mech.length_scale
     O, OP = c(mech.points['O']), c(mech.points['OP'])
-    axis = (OP - O) / abs(OP - O)                 # unit vector O -> OP (the diameter of k_p)
-    ot = constant / (2 * r)                       # OT = OP * OQ / (diameter of k_p)
+    axis = (OP - O) / abs(OP - O)  # unit vector O -> OP (the diameter of k_p)
+    ot = constant / (2 * r)  # OT = OP * OQ / (diameter of k_p)
     solver = Solver(mech)
     act, thetas = crank_sweep(mech, 241)
     for theta in thetas:
@@ -206,11 +209,12 @@ def test_peaucellier_q_traces_an_exact_straight_line():
 def test_hart_q_traces_an_exact_straight_line():
     l, s, t, r = HART['l'], HART['s'], HART['t'], HART['r']
     oa, od, ad = t * s, (1 - t) * s, s
-    thetas = _inversor_sweep('hart', oa * od / ad ** 2 * (l * l - ad * ad), r)
+    thetas = _inversor_sweep('hart', oa * od / ad**2 * (l * l - ad * ad), r)
     assert thetas[0] < -1.9 and thetas[-1] > 1.9
 
 
 # ---- plagiograph: the copy is scaled by AB/AD and turned by alpha ------------------------------
+
 
 def test_plagiograph_e_copies_d_scaled_and_rotated():
     mech = load('plagiograph')
@@ -218,7 +222,7 @@ def test_plagiograph_e_copies_d_scaled_and_rotated():
     factor = PLAGIOGRAPH['k'] * cmath.exp(1j * PLAGIOGRAPH['alpha'])
     O2 = c(mech.points['O2'])
     acts = list(mech.actuators.values())
-    solver = Solver(mech, branch='reference')    # random jumps: stay in the parallelogram mode
+    solver = Solver(mech, branch='reference')  # random jumps: stay in the parallelogram mode
     rng = np.random.default_rng(20240601)
     for _ in range(200):
         pair = []
@@ -263,7 +267,7 @@ def test_plagiograph_draws_a_scaled_rotated_square_by_inverse_kinematics():
         e_edge = e_corners[(i + 1) % 4] - e_corners[i]
         assert abs(e_edge) == pytest.approx(k * side, rel=1e-11)
         assert cmath.phase(e_edge / d_edge) == pytest.approx(alpha, abs=1e-11)
-    assert abs(drawn[-1] - drawn[0]) <= EXACT * scale         # the figure closes
+    assert abs(drawn[-1] - drawn[0]) <= EXACT * scale  # the figure closes
 
 
 # ---- hydraulic linkages: rigid links, closed loops, one assembly mode --------------------------
@@ -276,8 +280,10 @@ DYAD_TRIANGLES = {
 
 
 def _orientation(p1, p2, p3):
-    return np.sign((p2[..., 0] - p1[..., 0]) * (p3[..., 1] - p1[..., 1])
-                   - (p2[..., 1] - p1[..., 1]) * (p3[..., 0] - p1[..., 0]))
+    return np.sign(
+        (p2[..., 0] - p1[..., 0]) * (p3[..., 1] - p1[..., 1])
+        - (p2[..., 1] - p1[..., 1]) * (p3[..., 0] - p1[..., 0])
+    )
 
 
 @pytest.mark.parametrize('name, n', [('front_loader', 21), ('excavator', 9)])
@@ -323,14 +329,14 @@ def test_hydraulic_linkage_links_rigid_and_loops_closed_over_the_throw_grid(name
 
 def test_excavator_seed_cylinder_ranges():
     acts = load('excavator').actuators
-    assert (acts['Z1'].min, acts['Z1'].max) == (1.1, 1.8)     # (O2A)min, (O2A)max of seed 003
-    assert (acts['Z2'].min, acts['Z2'].max) == (1.5, 2.4)     # (CB)min, (CB)max of seed 003
+    assert (acts['Z1'].min, acts['Z1'].max) == (1.1, 1.8)  # (O2A)min, (O2A)max of seed 003
+    assert (acts['Z2'].min, acts['Z2'].max) == (1.5, 2.4)  # (CB)min, (CB)max of seed 003
 
 
 # ---- closed form vs Newton ---------------------------------------------------------------------
 
 SWEEPS = {'peaucellier': 41, 'hart': 41, 'plagiograph': 7, 'front_loader': 7, 'excavator': 4}
-MAX_STEP = {'angle': 0.02, 'slide': 0.02}          # rad, m per command of the walked sweep
+MAX_STEP = {'angle': 0.02, 'slide': 0.02}  # rad, m per command of the walked sweep
 
 
 def walked_sweep(mech, n):
@@ -348,8 +354,7 @@ def walked_sweep(mech, n):
     path, prev = [], np.array(start)
     for cmd in cmds:
         cmd = np.array(cmd, float)
-        steps = max(1, int(np.ceil(np.max(np.abs(cmd - prev)
-                                          / [MAX_STEP[a.kind] for a in acts]))))
+        steps = max(1, int(np.ceil(np.max(np.abs(cmd - prev) / [MAX_STEP[a.kind] for a in acts]))))
         path += [prev + (cmd - prev) * f for f in np.arange(1, steps + 1) / steps]
         prev = cmd
     return names, path
@@ -369,7 +374,7 @@ def test_closed_form_and_newton_agree_along_a_sweep(name):
         a, b = closed.solve(values), newton.solve(values)
         assert a.success, a.reason
         assert b.success, b.reason
-        assert a.branch == reference_mode          # no assembly-mode change inside the limits
+        assert a.branch == reference_mode  # no assembly-mode change inside the limits
         assert set(a.points) == set(b.points) == set(mech.points)
         worst = max(dist(a.points[p], b.points[p]) for p in mech.points)
         assert worst <= 1e-9 * scale, (values, worst)
@@ -377,11 +382,12 @@ def test_closed_form_and_newton_agree_along_a_sweep(name):
 
 # ---- regressions: branch continuity over coarse steps ----------------------------------------
 
+
 def test_closed_form_continuity_keeps_the_mode_over_a_coarse_step():
     mech = load('front_loader')
-    solver = Solver(mech)                              # closed form, branch='continuous'
+    solver = Solver(mech)  # closed form, branch='continuous'
     assert solver.solve({'Z1': 1.30, 'Z2': 2.05}).success
-    res = solver.solve({'Z1': 1.4667, 'Z2': 2.05})     # boom turns ~12 deg; still far from a toggle
+    res = solver.solve({'Z1': 1.4667, 'Z2': 2.05})  # boom turns ~12 deg; still far from a toggle
     assert res.success and res.margin > 0.5
     # the bin's dyad triangle E-C-D keeps the orientation of the reference pose
     ref = {p: np.asarray(v, float) for p, v in raw('front_loader')['points'].items()}

@@ -7,6 +7,7 @@ quick-return stroke and time ratio, the seed's circle construction for the non-G
 inverted slider-crank, triangle closure for the four-bar and the slider-crank, and plain rigid
 motions for link rigidity, slide lines and joint values.
 """
+
 import copy
 import math
 import re
@@ -22,10 +23,16 @@ from linkage_ros.core.solver import Solver
 ROOT = Path(__file__).resolve().parent.parent
 CONFIG = ROOT / 'config'
 DOCS = ROOT / 'docs' / 'SCENES.md'
-SCENES = ['four_bar', 'slider_crank', 'inverted_slider_crank',
-          'inverted_slider_crank_oscillating', 'quick_return', 'scott_russell']
-TIGHT = 1e-12       # closed-form accuracy, fraction of the length scale
-AGREE = 1e-9        # closed form vs Newton, fraction of the length scale
+SCENES = [
+    'four_bar',
+    'slider_crank',
+    'inverted_slider_crank',
+    'inverted_slider_crank_oscillating',
+    'quick_return',
+    'scott_russell',
+]
+TIGHT = 1e-12  # closed-form accuracy, fraction of the length scale
+AGREE = 1e-9  # closed form vs Newton, fraction of the length scale
 N_SWEEP = 121
 
 
@@ -89,8 +96,9 @@ def link_rotation(mech, res, link):
     pts = mech.links[link].points
     if len(pts) >= 2:
         p, q = pts[0], pts[1]
-        return wrap(direction(res.points[p], res.points[q])
-                    - direction(mech.points[p], mech.points[q]))
+        return wrap(
+            direction(res.points[p], res.points[q]) - direction(mech.points[p], mech.points[q])
+        )
     if link == mech.ground:
         return 0.0
     return res.links[link]
@@ -115,6 +123,7 @@ def sweep(solver, values):
 
 # ---- loading and plans -----------------------------------------------------------------------
 
+
 @pytest.mark.parametrize('stem', SCENES)
 def test_scene_loads_with_one_crank_and_a_complete_closed_form_plan(stem):
     mech = load(stem)
@@ -135,12 +144,19 @@ def test_scene_loads_with_one_crank_and_a_complete_closed_form_plan(stem):
 def test_shortcut_scenes_generate_the_documented_links():
     fb = load('four_bar')
     assert {n: list(l.points) for n, l in fb.links.items()} == {
-        'ground': ['O2', 'O4'], 'crank': ['O2', 'A'], 'coupler': ['A', 'B', 'P'],
-        'rocker': ['O4', 'B']}
+        'ground': ['O2', 'O4'],
+        'crank': ['O2', 'A'],
+        'coupler': ['A', 'B', 'P'],
+        'rocker': ['O4', 'B'],
+    }
     assert fb.outputs == ('P',)
     sc = load('slider_crank')
     assert {n: list(l.points) for n, l in sc.links.items()} == {
-        'ground': ['O2'], 'crank': ['O2', 'A'], 'rod': ['A', 'B'], 'slider': ['B']}
+        'ground': ['O2'],
+        'crank': ['O2', 'A'],
+        'rod': ['A', 'B'],
+        'slider': ['B'],
+    }
     assert list(sc.prismatics) == ['slider']
     assert sc.prismatics['slider'].guide == 'ground'
 
@@ -160,8 +176,10 @@ def test_scene_dimensions_match_their_comments():
     sr = load('scott_russell').points
     for p, q in (('O2', 'A'), ('A', 'B'), ('A', 'C')):
         assert dist(sr[p], sr[q]) == pytest.approx(0.15, abs=1e-15)
-    for stem, (l1, l2, e) in {'inverted_slider_crank': (0.40, 0.10, 0.14),
-                              'inverted_slider_crank_oscillating': (0.30, 0.20, 0.14)}.items():
+    for stem, (l1, l2, e) in {
+        'inverted_slider_crank': (0.40, 0.10, 0.14),
+        'inverted_slider_crank_oscillating': (0.30, 0.20, 0.14),
+    }.items():
         m = load(stem)
         p = m.points
         assert dist(p['O2'], p['O4']) == pytest.approx(l1, abs=1e-15)
@@ -178,6 +196,7 @@ def test_scene_dimensions_match_their_comments():
 
 # ---- every scene: rigidity, closure, joint semantics, closed form vs Newton -----------------
 
+
 def check_configuration(mech, res):
     """Independent checks of one solved configuration; returns the worst error (m)."""
     worst = 0.0
@@ -186,16 +205,17 @@ def check_configuration(mech, res):
     for name, link in mech.links.items():
         # rigidity: every distance between two points of the link is its reference distance
         for i, p in enumerate(link.points):
-            for q in link.points[i + 1:]:
-                worst = max(worst, abs(dist(pts[p], pts[q]) - dist(mech.points[p],
-                                                                   mech.points[q])))
+            for q in link.points[i + 1 :]:
+                worst = max(worst, abs(dist(pts[p], pts[q]) - dist(mech.points[p], mech.points[q])))
         # reported angle = direction first -> second point
         if len(link.points) >= 2:
-            assert abs(wrap(res.links[name] - direction(pts[link.points[0]],
-                                                        pts[link.points[1]]))) < 1e-12
-    for p in mech.links[mech.ground].points:     # the ground does not move
+            assert (
+                abs(wrap(res.links[name] - direction(pts[link.points[0]], pts[link.points[1]])))
+                < 1e-12
+            )
+    for p in mech.links[mech.ground].points:  # the ground does not move
         worst = max(worst, dist(pts[p], mech.points[p]))
-    for rj in mech.revolutes:                    # joint value = child angle - parent angle
+    for rj in mech.revolutes:  # joint value = child angle - parent angle
         expect = wrap(res.links[rj.child] - res.links[rj.parent])
         assert abs(wrap(res.joints[rj.name] - expect)) < 1e-12, rj.name
     for pj in mech.prismatics.values():
@@ -241,6 +261,7 @@ def test_closed_form_and_newton_agree_over_the_sweep(stem):
 
 # ---- four-bar and slider-crank: triangle closure written out ---------------------------------
 
+
 def test_four_bar_matches_the_circle_intersection():
     raw = load_raw('four_bar')['four_bar']
     l1, l2, l3, l4 = raw['ground'], raw['crank'], raw['coupler'], raw['rocker']
@@ -253,15 +274,17 @@ def test_four_bar_matches_the_circle_intersection():
         d = dist(a, o4)
         u = ((o4[0] - a[0]) / d, (o4[1] - a[1]) / d)
         along = (d * d + l3 * l3 - l4 * l4) / (2 * d)
-        h = math.sqrt(l3 * l3 - along * along)            # branch +1: left of A -> O4
+        h = math.sqrt(l3 * l3 - along * along)  # branch +1: left of A -> O4
         b = (a[0] + along * u[0] - h * u[1], a[1] + along * u[1] + h * u[0])
         t3 = direction(a, b)
-        p = (a[0] + cp['distance'] * math.cos(t3 + cp['angle']),
-             a[1] + cp['distance'] * math.sin(t3 + cp['angle']))
+        p = (
+            a[0] + cp['distance'] * math.cos(t3 + cp['angle']),
+            a[1] + cp['distance'] * math.sin(t3 + cp['angle']),
+        )
         for name, expect in (('A', a), ('B', b), ('P', p)):
             assert dist(res.points[name], expect) <= TIGHT * l1, (v, name)
         assert res.links['crank'] == pytest.approx(wrap(v), abs=1e-12)
-        assert res.joints['O2'] == pytest.approx(wrap(v), abs=1e-12)   # ground axis is +x
+        assert res.joints['O2'] == pytest.approx(wrap(v), abs=1e-12)  # ground axis is +x
 
 
 def test_slider_crank_matches_the_offset_slider_formula():
@@ -275,14 +298,16 @@ def test_slider_crank_matches_the_offset_slider_formula():
         assert res.joints['slider'] == pytest.approx(x, abs=TIGHT * l)
     # stroke between the dead centres: sqrt((l + r)^2 - e^2) - sqrt((l - r)^2 - e^2)
     batch = Solver(mech, branch='reference').solve_batch(
-        {'crank': np.linspace(0, 2 * math.pi, 20001)})
+        {'crank': np.linspace(0, 2 * math.pi, 20001)}
+    )
     assert batch.ok.all()
     stroke = np.ptp(batch.points['B'][:, 0])
     expect = math.sqrt((l + r) ** 2 - e * e) - math.sqrt((l - r) ** 2 - e * e)
-    assert stroke == pytest.approx(expect, abs=1e-8)     # sampling error ~ 1e-9
+    assert stroke == pytest.approx(expect, abs=1e-8)  # sampling error ~ 1e-9
 
 
 # ---- inverted slider-cranks --------------------------------------------------------------------
+
 
 def slide_offset(mech):
     """e: the perpendicular distance from O4 to the slide line through A (reference pose)."""
@@ -299,15 +324,16 @@ def test_inverted_slider_crank_line_is_tangent_to_the_offset_circle(stem):
     e = slide_offset(mech)
     o4 = mech.points['O4']
     values = sweep_values(mech)
-    for v, res in zip(values, sweep(Solver(mech), values)):
+    for _v, res in zip(values, sweep(Solver(mech), values)):
         a, f = res.points['A'], res.points['F']
         assert dist(o4, f) == pytest.approx(e, abs=TIGHT * mech.length_scale)
         fa = (a[0] - f[0], a[1] - f[1])
         o4f = (f[0] - o4[0], f[1] - o4[1])
-        assert abs(fa[0] * o4f[0] + fa[1] * o4f[1]) <= TIGHT * mech.length_scale ** 2
+        assert abs(fa[0] * o4f[0] + fa[1] * o4f[1]) <= TIGHT * mech.length_scale**2
         rho = dist(o4, a)
-        assert res.joints['slide'] == pytest.approx(math.sqrt(rho * rho - e * e),
-                                                    abs=1e-11 * mech.length_scale)
+        assert res.joints['slide'] == pytest.approx(
+            math.sqrt(rho * rho - e * e), abs=1e-11 * mech.length_scale
+        )
 
 
 def test_grashof_inverted_slider_crank_turns_fully_and_rocker_oscillates():
@@ -316,7 +342,7 @@ def test_grashof_inverted_slider_crank_turns_fully_and_rocker_oscillates():
     batch = Solver(mech, branch='reference').solve_batch({'crank': theta})
     assert batch.ok.all()
     rocker = np.unwrap(batch.links['rocker'])
-    assert np.ptp(rocker) < math.pi          # the rocker only oscillates
+    assert np.ptp(rocker) < math.pi  # the rocker only oscillates
     assert abs(rocker[-1] - rocker[0]) < 1e-12
 
 
@@ -339,14 +365,15 @@ def test_non_grashof_crank_range_matches_the_tangent_construction():
     mech = without_limits('inverted_slider_crank_oscillating')
     o2, o4, a_ref = mech.points['O2'], mech.points['O4'], mech.points['A']
     lmax, lmin, e = dist(o2, o4), dist(o2, a_ref), slide_offset(mech)
-    assert lmin + e > lmax                                    # non-Grashof
+    assert lmin + e > lmax  # non-Grashof
     # circle-circle intersection, written out
     along = (lmax * lmax + lmin * lmin - e * e) / (2 * lmax)
     h = math.sqrt(lmin * lmin - along * along)
     g = direction(o2, o4)
-    ends = sorted([(g + math.atan2(h, along)) % (2 * math.pi),
-                   (g - math.atan2(h, along)) % (2 * math.pi)])
-    for end in ends:                                          # |O4A| = e exactly there
+    ends = sorted(
+        [(g + math.atan2(h, along)) % (2 * math.pi), (g - math.atan2(h, along)) % (2 * math.pi)]
+    )
+    for end in ends:  # |O4A| = e exactly there
         a = (o2[0] + lmin * math.cos(end), o2[1] + lmin * math.sin(end))
         assert dist(o4, a) == pytest.approx(e, abs=1e-15)
 
@@ -356,7 +383,7 @@ def test_non_grashof_crank_range_matches_the_tangent_construction():
     ok = solver.solve_batch({'crank': theta}).ok
     inside = np.flatnonzero(ok)
     assert inside.size and not ok[0] and not ok[-1]
-    assert np.all(np.diff(inside) == 1)                       # one contiguous arc
+    assert np.all(np.diff(inside) == 1)  # one contiguous arc
     lo = boundary(solver, theta[inside[0]], theta[inside[0] - 1])
     hi = boundary(solver, theta[inside[-1]], theta[inside[-1] + 1])
     assert lo == pytest.approx(ends[0], abs=1e-9)
@@ -375,6 +402,7 @@ def test_non_grashof_crank_range_matches_the_tangent_construction():
 
 # ---- quick-return ----------------------------------------------------------------------------
 
+
 def tool_x(solver, theta):
     batch = solver.solve_batch({'crank': np.atleast_1d(np.asarray(theta, float))})
     assert batch.ok.all()
@@ -384,9 +412,11 @@ def tool_x(solver, theta):
 def refine_extreme(solver, theta0, step, sense, h=1e-5):
     """Bisect on the sign of the tool's central-difference slope around a sampled extreme
     (sense +1: maximum, -1: minimum) until the bracket is 1e-13 rad wide."""
+
     def slope(t):
         xm, xp = tool_x(solver, [t - h, t + h])
-        return sense * (xp - xm)                       # > 0 before the extreme, < 0 after
+        return sense * (xp - xm)  # > 0 before the extreme, < 0 after
+
     lo, hi = theta0 - step, theta0 + step
     assert slope(lo) > 0 > slope(hi)
     while hi - lo > 1e-13:
@@ -423,19 +453,21 @@ def test_quick_return_stroke_and_time_ratio():
     assert stroke == pytest.approx(1 / 3, abs=1e-9)
     assert t_max == pytest.approx(-beta, abs=1e-9)
     assert t_min % (2 * math.pi) == pytest.approx(math.pi + beta, abs=1e-9)
-    forward = (t_min - t_max) % (2 * math.pi)           # tool moving -x, crank counter-clockwise
+    forward = (t_min - t_max) % (2 * math.pi)  # tool moving -x, crank counter-clockwise
     ret = 2 * math.pi - forward
     assert forward / ret == pytest.approx((math.pi + 2 * beta) / (math.pi - 2 * beta), abs=1e-9)
     # the slot value is |O4A| = sqrt(d^2 + r^2 + 2 d r sin(theta2)) (O2 straight above O4)
     batch = solver.solve_batch({'crank': theta})
-    assert np.allclose(batch.joints['slot'], np.sqrt(d * d + r * r + 2 * d * r * np.sin(theta)),
-                       rtol=0, atol=1e-12)
+    assert np.allclose(
+        batch.joints['slot'], np.sqrt(d * d + r * r + 2 * d * r * np.sin(theta)), rtol=0, atol=1e-12
+    )
     # the tool runs on the ground line y = 0.57 and its slide value is x(C) - x(D)
     assert np.allclose(batch.points['C'][:, 1], p['D'][1], rtol=0, atol=1e-12)
     assert np.allclose(batch.joints['ram'], batch.points['C'][:, 0] - p['D'][0], rtol=0, atol=1e-12)
 
 
 # ---- Scott-Russell -----------------------------------------------------------------------------
+
 
 def test_scott_russell_traces_the_vertical_through_o2():
     """O2A = AB = AC = a and A is the midpoint of BC, so B, O2, C lie on Thales' circle about A:
@@ -460,12 +492,14 @@ def test_scott_russell_traces_the_vertical_through_o2():
     # the shipped scene (limits +-1.45 rad) solves across its whole range on the same line
     shipped = load('scott_russell')
     batch = Solver(shipped, branch='reference').solve_batch(
-        {'crank': np.linspace(-1.45, 1.45, 301)})
+        {'crank': np.linspace(-1.45, 1.45, 301)}
+    )
     assert batch.ok.all()
     assert np.max(np.abs(batch.points['C'][:, 0] - o2[0])) <= TIGHT * scale
 
 
 # ---- docs/SCENES.md ----------------------------------------------------------------------------
+
 
 def doc_text():
     return DOCS.read_text(encoding='utf-8')
@@ -512,8 +546,13 @@ def scene_table(text):
 
 def test_scene_table_lists_every_shipped_scene_and_matches_it():
     rows = scene_table(doc_text())
-    for name in ('peaucellier.yaml', 'hart.yaml', 'plagiograph.yaml', 'front_loader.yaml',
-                 'excavator.yaml'):
+    for name in (
+        'peaucellier.yaml',
+        'hart.yaml',
+        'plagiograph.yaml',
+        'front_loader.yaml',
+        'excavator.yaml',
+    ):
         assert name in rows
     for path in sorted(CONFIG.glob('*.yaml')):
         with open(path, encoding='utf-8') as fh:

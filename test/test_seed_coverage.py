@@ -10,6 +10,7 @@ Every oracle is independent of the solver: the seeds' own formulas and construct
 out here (tan-half-angle quadratics, circle intersections, "tracing paper" rigid transfers,
 cosine rules, the inversion of a circle), never the package's answer fed back to itself.
 """
+
 import cmath
 import math
 from pathlib import Path
@@ -25,7 +26,7 @@ from linkage_ros.core.solver import Solver
 
 CONFIG = Path(__file__).resolve().parent.parent / 'config'
 TWO_PI = 2.0 * math.pi
-EXACT = 1e-12       # closed-form geometry, fraction of the length scale
+EXACT = 1e-12  # closed-form geometry, fraction of the length scale
 
 
 def load(stem):
@@ -82,6 +83,7 @@ def four_bar(l1, l2, l3, l4, **kw):
 # Seed 000 / 002: loop closure of the 4R chain and its tan-half-angle solution
 # ================================================================================================
 
+
 def seed000_roots(l1, l2, l3, l4, t2):
     """Seed 000's solution, in its frame (O2 at the origin, vector l1 = O4->O2 along +x, loop
     l1 + l2 + l3 - l4 = 0):
@@ -99,9 +101,14 @@ def seed000_roots(l1, l2, l3, l4, t2):
     return t3, t4
 
 
-@pytest.mark.parametrize('lengths', [(0.30, 0.10, 0.25, 0.20),     # shipped four_bar.yaml
-                                     (0.10, 0.25, 0.30, 0.20),     # double-crank scene
-                                     (0.30, 0.20, 0.25, 0.22)])    # non-Grashof scene
+@pytest.mark.parametrize(
+    'lengths',
+    [
+        (0.30, 0.10, 0.25, 0.20),  # shipped four_bar.yaml
+        (0.10, 0.25, 0.30, 0.20),  # double-crank scene
+        (0.30, 0.20, 0.25, 0.22),
+    ],
+)  # non-Grashof scene
 def test_seed000_tan_half_angle_roots_are_the_two_assembly_modes(lengths):
     """Seed 000: 'we get two roots for tan theta4/2 ... two values of theta4 and two values of
     theta3', one per mode of assembly. Built in the seed's own frame (O4 at (-l1, 0):
@@ -118,7 +125,7 @@ def test_seed000_tan_half_angle_roots_are_the_two_assembly_modes(lengths):
         disc = a * a + b * b - cc * cc
         results = solver.solve_all({'crank': t2})
         ok = [r for r in results if r.success]
-        if disc < 1e-9:            # no real root (or a toggle): the package must not assemble
+        if disc < 1e-9:  # no real root (or a toggle): the package must not assemble
             assert disc > -1e-9 or not ok
             continue
         t3s, t4s = seed000_roots(l1, l2, l3, l4, t2)
@@ -130,7 +137,7 @@ def test_seed000_tan_half_angle_roots_are_the_two_assembly_modes(lengths):
             assert abs(l2 * math.sin(t2) + l3 * math.sin(t3) - l4 * math.sin(t4)) <= 1e-12
         assert sorted(min(circ(t4, r) for t4 in t4s) for _, r in got)[-1] <= 1e-9
         assert sorted(min(circ(t3, r) for t3 in t3s) for r, _ in got)[-1] <= 1e-9
-        assert circ(got[0][1], got[1][1]) > 1e-6          # two distinct modes
+        assert circ(got[0][1], got[1][1]) > 1e-6  # two distinct modes
         checked += 1
     assert checked >= 30
 
@@ -159,8 +166,8 @@ def test_seed002_forward_and_inverse_kinematics_of_the_4r_chain():
             P = l2 * cmath.exp(1j * t2)
             Q = l1 + l4 * cmath.exp(1j * t4)
             assert circ(r.links['coupler'], math.atan2(Q.imag - P.imag, Q.real - P.real)) <= 1e-10
-    inv = Solver(mech, knowns=['rocker'])          # the output link's angle is given
-    lo, hi = 1.633337088591388, 2.6810992285307336   # rocker range (toggles), see test_analysis
+    inv = Solver(mech, knowns=['rocker'])  # the output link's angle is given
+    lo, hi = 1.633337088591388, 2.6810992285307336  # rocker range (toggles), see test_analysis
     for t4 in np.linspace(lo + 1e-3, hi - 1e-3, 25):
         t4 = float(t4)
         Q = l1 + l4 * cmath.exp(1j * t4)
@@ -178,6 +185,7 @@ def test_seed002_forward_and_inverse_kinematics_of_the_4r_chain():
 # ================================================================================================
 # Seed 000 / 002: theta4(theta2) curves of the Grashof classes, assembly modes and circuits
 # ================================================================================================
+
 
 def theta4_branches(l1, l2, l3, l4, t2):
     """Both rocker angles at crank angle t2 (NaN where the dyad does not close): B from the
@@ -199,31 +207,45 @@ def grashof_oracle(l1, l2, l3, l4):
     return s + lng < p + q
 
 
-SCENE_LENGTHS = {'four_bar': (0.30, 0.10, 0.25, 0.20),
-                 'four_bar_double_crank': (0.10, 0.25, 0.30, 0.20),
-                 'four_bar_grashof_double_rocker': (0.30, 0.20, 0.10, 0.25),
-                 'four_bar_non_grashof': (0.30, 0.20, 0.25, 0.22)}
-SCENE_CLASS = {'four_bar': 'crank-rocker', 'four_bar_double_crank': 'double-crank',
-               'four_bar_grashof_double_rocker': 'grashof-double-rocker',
-               'four_bar_non_grashof': 'triple-rocker'}
+SCENE_LENGTHS = {
+    'four_bar': (0.30, 0.10, 0.25, 0.20),
+    'four_bar_double_crank': (0.10, 0.25, 0.30, 0.20),
+    'four_bar_grashof_double_rocker': (0.30, 0.20, 0.10, 0.25),
+    'four_bar_non_grashof': (0.30, 0.20, 0.25, 0.22),
+}
+SCENE_CLASS = {
+    'four_bar': 'crank-rocker',
+    'four_bar_double_crank': 'double-crank',
+    'four_bar_grashof_double_rocker': 'grashof-double-rocker',
+    'four_bar_non_grashof': 'triple-rocker',
+}
 
 
 @pytest.mark.parametrize('stem', sorted(SCENE_LENGTHS))
 def test_grashof_class_scenes_have_their_documented_dimensions_and_class(stem):
     """The four theta4(theta2) plots of seed 000, one shipped scene each."""
     from linkage_ros.core.analysis import grashof_class
+
     mech = load(stem)
     p = mech.points
-    got = (abs(c(p['O4']) - c(p['O2'])), abs(c(p['A']) - c(p['O2'])),
-           abs(c(p['B']) - c(p['A'])), abs(c(p['B']) - c(p['O4'])))
+    got = (
+        abs(c(p['O4']) - c(p['O2'])),
+        abs(c(p['A']) - c(p['O2'])),
+        abs(c(p['B']) - c(p['A'])),
+        abs(c(p['B']) - c(p['O4'])),
+    )
     assert got == pytest.approx(SCENE_LENGTHS[stem], rel=1e-14)
     lengths = SCENE_LENGTHS[stem]
     s = sorted(lengths)
     assert grashof_oracle(*lengths) == (stem != 'four_bar_non_grashof')
     shortest = lengths.index(s[0])
-    oracle = ('triple-rocker' if not grashof_oracle(*lengths) else
-              {0: 'double-crank', 1: 'crank-rocker', 2: 'grashof-double-rocker',
-               3: 'crank-rocker'}[shortest])
+    oracle = (
+        'triple-rocker'
+        if not grashof_oracle(*lengths)
+        else {0: 'double-crank', 1: 'crank-rocker', 2: 'grashof-double-rocker', 3: 'crank-rocker'}[
+            shortest
+        ]
+    )
     assert oracle == SCENE_CLASS[stem] == grashof_class(*lengths)
 
 
@@ -235,22 +257,23 @@ def test_grashof_crank_curves_are_two_separate_modes_and_a_drive_stays_in_one(st
     minimum and a maximum; double-crank: theta4 also turns through 2 pi per turn."""
     l1, l2, l3, l4 = SCENE_LENGTHS[stem]
     mech = load(stem)
-    t2 = np.linspace(0.0, 2 * TWO_PI, 1441)            # two full turns of the crank
+    t2 = np.linspace(0.0, 2 * TWO_PI, 1441)  # two full turns of the crank
     oracle = np.array([theta4_branches(l1, l2, l3, l4, float(t)) for t in t2])
-    assert np.isfinite(oracle).all()                   # every crank angle assembles, both modes
+    assert np.isfinite(oracle).all()  # every crank angle assembles, both modes
     gap = np.abs(np.remainder(oracle[:, 0] - oracle[:, 1] + math.pi, TWO_PI) - math.pi)
-    assert gap.min() > 0.1                             # the two curves never meet
-    drive = Solver(mech)                               # continuous: the way it moves
+    assert gap.min() > 0.1  # the two curves never meet
+    drive = Solver(mech)  # continuous: the way it moves
     got = np.array([drive.solve({'crank': float(t)}).links['rocker'] for t in t2])
     ref_mode = 0 if circ(got[0], oracle[0, 0]) < 1e-9 else 1
-    assert np.all(np.abs(np.remainder(got - oracle[:, ref_mode] + math.pi, TWO_PI) - math.pi)
-                  <= 1e-10)
+    assert np.all(
+        np.abs(np.remainder(got - oracle[:, ref_mode] + math.pi, TWO_PI) - math.pi) <= 1e-10
+    )
     turn = np.unwrap(got)
     if stem == 'four_bar':
-        assert turn.max() - turn.min() < math.pi          # a rocker: bounded
+        assert turn.max() - turn.min() < math.pi  # a rocker: bounded
         assert abs(turn[-1] - turn[0]) <= 1e-10
     else:
-        assert abs(abs(turn[-1] - turn[0]) - 2 * TWO_PI) <= 1e-9     # turns fully, twice
+        assert abs(abs(turn[-1] - turn[0]) - 2 * TWO_PI) <= 1e-9  # turns fully, twice
     # the package lists both modes at every angle, and the other one is the other curve
     other = Solver(mech, branch='-' if ref_mode == 0 else '+')
     for i in range(0, t2.size, 60):
@@ -288,11 +311,11 @@ def test_grashof_double_rocker_moves_on_one_of_two_separate_loops():
     toggles) and never the union with the mirror loop."""
     l1, l2, l3, l4 = SCENE_LENGTHS['four_bar_grashof_double_rocker']
     mech = load('four_bar_grashof_double_rocker')
-    alpha, beta = rocking_range_oracle(l1, l2, l3, l4)         # 0.460493, 1.508256
+    alpha, beta = rocking_range_oracle(l1, l2, l3, l4)  # 0.460493, 1.508256
     info = motion.actuator_range(mech, 'crank')
     assert (info['min'], info['max']) == pytest.approx((alpha, beta), abs=1e-9)
     assert sorted(info['toggles']) == pytest.approx([alpha, beta], abs=1e-9)
-    phi_near, phi_far = output_range_oracle(l1, l2, l3, l4)   # rocker angle from O4->O2
+    phi_near, phi_far = output_range_oracle(l1, l2, l3, l4)  # rocker angle from O4->O2
     lo4, hi4 = motion.oscillation_range(mech, 'rocker')
     assert (lo4, hi4) == pytest.approx((math.pi - phi_far, math.pi - phi_near), abs=1e-9)
     # the mirror loop exists (the geometry closes there) but the shipped crank cannot get there
@@ -313,10 +336,10 @@ def test_non_grashof_has_one_circuit_that_takes_up_the_mirror_image():
     -theta4). Were the circuit one sign only, the rocker range would stop at theta4 = 3.363 rad."""
     l1, l2, l3, l4 = SCENE_LENGTHS['four_bar_non_grashof']
     mech = load('four_bar_non_grashof')
-    (beta,) = rocking_range_oracle(l1, l2, l3, l4)             # only l3 + l4 binds: 2.430271
+    (beta,) = rocking_range_oracle(l1, l2, l3, l4)  # only l3 + l4 binds: 2.430271
     info = motion.actuator_range(mech, 'crank')
     assert (info['min'], info['max']) == pytest.approx((-beta, beta), abs=1e-9)
-    (phi,) = output_range_oracle(l1, l2, l3, l4)               # only l2 + l3 binds: 2.077853
+    (phi,) = output_range_oracle(l1, l2, l3, l4)  # only l2 + l3 binds: 2.077853
     lo4, hi4 = motion.oscillation_range(mech, 'rocker')
     assert (lo4, hi4) == pytest.approx((math.pi - phi, math.pi + phi), abs=1e-9)
     # every pose's mirror image is a pose of the same chain: same crank interval, theta4 -> -theta4
@@ -332,6 +355,7 @@ def test_non_grashof_has_one_circuit_that_takes_up_the_mirror_image():
 # ================================================================================================
 # Seed 000: the slotted-lever quick-return mechanism's two loop-closure equations
 # ================================================================================================
+
 
 def test_quick_return_reports_the_four_unknowns_of_the_seed_loops():
     """Seed 000: two independent loops, O2-A-O4 (l2 = l1 + s4) and O2-A-B-C-D (lever, link 5 and
@@ -362,6 +386,7 @@ def test_quick_return_reports_the_four_unknowns_of_the_seed_loops():
 # Seed 001: Scott-Russell, inversion, Peaucellier and Hart
 # ================================================================================================
 
+
 def test_scott_russell_line_is_perpendicular_to_any_slide_direction():
     """Seed 001: 'one point of the connecting rod generates an exact straight line perpendicular
     to the direction of the slider'. The shipped scene, turned so that the slide runs at 35 deg:
@@ -382,13 +407,13 @@ def test_scott_russell_line_is_perpendicular_to_any_slide_direction():
         res = solver.solve({'crank': float(t)})
         assert res.success, res.reason
         C = c(res.points['C'])
-        assert abs((C * u.conjugate()).real) <= EXACT               # no component along the slide
+        assert abs((C * u.conjugate()).real) <= EXACT  # no component along the slide
         assert abs(abs(C) - 2 * a * abs(math.sin(t - beta))) <= EXACT
         B = c(res.points['B'])
-        assert abs((B * u.conjugate()).imag) <= EXACT               # B on the slide line
+        assert abs((B * u.conjugate()).imag) <= EXACT  # B on the slide line
     # broken design check: with AC != AB the same construction leaves the line
     bad = raw('scott_russell')
-    bad['points']['C'] = [-0.01, 0.18 + 0.0075]       # C further out along B->A (AC = 0.1625)
+    bad['points']['C'] = [-0.01, 0.18 + 0.0075]  # C further out along B->A (AC = 0.1625)
     bad_mech = Scene.from_dict(bad).mechanism
     xs = [Solver(bad_mech).solve({'crank': float(t)}).points['C'][0] for t in (0.3, 0.9, 1.3)]
     assert max(xs) - min(xs) > 1e-3
@@ -403,8 +428,10 @@ def _inversor_variant(stem, op):
     return Scene.from_dict(data).mechanism
 
 
-INVERSION = {'peaucellier': 0.15 ** 2 - 0.10 ** 2,                   # l^2 - s^2
-             'hart': 0.4 * 0.6 * (0.15 ** 2 - 0.07 ** 2)}            # OA OD / AD^2 (l^2 - s^2)
+INVERSION = {
+    'peaucellier': 0.15**2 - 0.10**2,  # l^2 - s^2
+    'hart': 0.4 * 0.6 * (0.15**2 - 0.07**2),
+}  # OA OD / AD^2 (l^2 - s^2)
 
 
 @pytest.mark.parametrize('stem', ['peaucellier', 'hart'])
@@ -419,13 +446,13 @@ def test_inversor_with_the_pivot_off_the_circle_through_o_draws_circles(stem):
     P0 = c(mech0.points['P'])
     r0 = abs(P0 - c(mech0.points['OP']))
     centres = []
-    for dx in (+0.006, -0.006):                       # O outside, then inside, the circle k_p
+    for dx in (+0.006, -0.006):  # O outside, then inside, the circle k_p
         mech = _inversor_variant(stem, [r0 + dx, 0.0])
         cen = complex(r0 + dx, 0.0)
         rad = abs(P0 - cen)
-        power = abs(cen) ** 2 - rad ** 2
+        power = abs(cen) ** 2 - rad**2
         qc, qr = k * cen / power, k * rad / abs(power)
-        assert abs(cross(cen, qc)) <= 1e-15            # O, O_P, O_Q collinear
+        assert abs(cross(cen, qc)) <= 1e-15  # O, O_P, O_Q collinear
         solver = Solver(mech)
         act = mech.actuators['crank']
         done, xs = 0, []
@@ -440,7 +467,7 @@ def test_inversor_with_the_pivot_off_the_circle_through_o_draws_circles(stem):
             xs.append(Q.real)
             done += 1
         assert done >= 15
-        assert max(xs) - min(xs) > 1e-4               # not the straight line any more
+        assert max(xs) - min(xs) > 1e-4  # not the straight line any more
         centres.append(qc.real)
     # opposite curvature on the two sides: the centres of Q's circles lie on opposite sides of O
     assert centres[0] > 0 > centres[1]
@@ -457,8 +484,10 @@ def _inversor_cell(stem, actuators):
     del data['links']['crank']
     data['links']['ground'] = ['O']
     data['name'] = f'{stem}_cell'
-    data['actuators'] = {name: {'type': 'angle', 'link': link, 'pivot': pivot, 'toward': toward}
-                         for name, (link, pivot, toward) in actuators.items()}
+    data['actuators'] = {
+        name: {'type': 'angle', 'link': link, 'pivot': pivot, 'toward': toward}
+        for name, (link, pivot, toward) in actuators.items()
+    }
     data['outputs'] = ['Q', 'P']
     return Scene.from_dict(data).mechanism
 
@@ -466,8 +495,7 @@ def _inversor_cell(stem, actuators):
 def _peaucellier_cell():
     """The seven-link Peaucellier cell (the rhombus and the two long links), driven by the
     directions of OA and OB."""
-    return _inversor_cell('peaucellier', {'theta_A': ('OA', 'O', 'A'),
-                                          'theta_B': ('OB', 'O', 'B')})
+    return _inversor_cell('peaucellier', {'theta_A': ('OA', 'O', 'A'), 'theta_B': ('OB', 'O', 'B')})
 
 
 def _hart_cell():
@@ -476,10 +504,13 @@ def _hart_cell():
     return _inversor_cell('hart', {'theta_AD': ('AD', 'O', 'D'), 'theta_AB': ('AB', 'A', 'B')})
 
 
-@pytest.mark.parametrize('make,counts,k,reach', [
-    (_peaucellier_cell, (7, 8, 2), INVERSION['peaucellier'], (0.1125, 0.245)),
-    (_hart_cell, (5, 5, 2), INVERSION['hart'], (0.035, 0.09)),
-])
+@pytest.mark.parametrize(
+    'make,counts,k,reach',
+    [
+        (_peaucellier_cell, (7, 8, 2), INVERSION['peaucellier'], (0.1125, 0.245)),
+        (_hart_cell, (5, 5, 2), INVERSION['hart'], (0.035, 0.09)),
+    ],
+)
 def test_inversor_cell_has_two_dof_and_q_goes_anywhere_with_op_oq_constant(make, counts, k, reach):
     """Seed 001: before the crank is added the cell has n = 7, J = 2 + 2*2 = 8, F = 2
     (Peaucellier) or n = 5, J = 5, F = 2 (Hart), 'I can take this point Q anywhere in this plane
@@ -505,8 +536,8 @@ def test_inversor_cell_has_two_dof_and_q_goes_anywhere_with_op_oq_constant(make,
         done += 1
         P, Qs = c(res.points['P']), c(res.points['Q'])
         assert abs(Qs - Q) <= EXACT
-        assert abs(cross(P, Qs)) <= 1e-12 * abs(P) * abs(Qs)      # O, P, Q collinear
-        assert abs(abs(P) * abs(Qs) - k) <= 1e-12                  # OP * OQ = k
+        assert abs(cross(P, Qs)) <= 1e-12 * abs(P) * abs(Qs)  # O, P, Q collinear
+        assert abs(abs(P) * abs(Qs) - k) <= 1e-12  # OP * OQ = k
     assert done >= 30
 
 
@@ -522,14 +553,15 @@ def test_hart_antiparallelogram_keeps_bd_parallel_to_ac_with_bd_ac_constant():
         P, Q, O = c(res.points['P']), c(res.points['Q']), c(res.points['O'])
         x, y = abs(B - D), abs(C - A)
         assert abs(cross(B - D, C - A)) <= 1e-12 * x * y
-        assert abs(x * y - (0.15 ** 2 - 0.07 ** 2)) <= 1e-13
-        assert abs(abs(P - O) - x * 0.4) <= EXACT                 # OA / AD = 0.4
-        assert abs(abs(Q - O) - y * 0.6) <= EXACT                 # OD / AD = 0.6
+        assert abs(x * y - (0.15**2 - 0.07**2)) <= 1e-13
+        assert abs(abs(P - O) - x * 0.4) <= EXACT  # OA / AD = 0.4
+        assert abs(abs(Q - O) - y * 0.6) <= EXACT  # OD / AD = 0.6
 
 
 # ================================================================================================
 # Seed 003, example 4: the front-end loader, D -> D1 by the seed's construction
 # ================================================================================================
+
 
 def test_front_loader_bin_hinge_d_to_d1_matches_the_seed_construction():
     """Seed 003 example 4: when D comes to D1, C is where the circle about O4 (radius O4C) meets
@@ -541,14 +573,23 @@ def test_front_loader_bin_hinge_d_to_d1_matches_the_seed_construction():
     mech = load('front_loader')
     p = {k: c(v) for k, v in mech.points.items()}
     solver = Solver(mech, knowns=['point:D'])
-    for d1 in (p['D'] + complex(-0.24, 0.06), p['D'] + complex(-0.10, -0.30),
-               p['D'] + complex(-0.05, -0.50)):
-        C1 = meet(p['O4'], abs(p['C'] - p['O4']), d1, abs(p['D'] - p['C']),
-                  side_of(p['O4'], p['D'], p['C']))
+    for d1 in (
+        p['D'] + complex(-0.24, 0.06),
+        p['D'] + complex(-0.10, -0.30),
+        p['D'] + complex(-0.05, -0.50),
+    ):
+        C1 = meet(
+            p['O4'],
+            abs(p['C'] - p['O4']),
+            d1,
+            abs(p['D'] - p['C']),
+            side_of(p['O4'], p['D'], p['C']),
+        )
         A1 = transfer(p['O4'], p['C'], p['O4'], C1, p['A'])
         B1 = transfer(p['O4'], p['C'], p['O4'], C1, p['B'])
-        E1 = meet(d1, abs(p['E'] - p['D']), B1, abs(p['E'] - p['B']),
-                  side_of(p['D'], p['B'], p['E']))
+        E1 = meet(
+            d1, abs(p['E'] - p['D']), B1, abs(p['E'] - p['B']), side_of(p['D'], p['B'], p['E'])
+        )
         F1 = transfer(p['B'], p['E'], B1, E1, p['F'])
         res = solver.solve({'point:D': (d1.real, d1.imag)})
         assert res.success, res.reason
@@ -565,6 +606,7 @@ def test_front_loader_bin_hinge_d_to_d1_matches_the_seed_construction():
 # ================================================================================================
 # Seed 003, example 6: the earth-moving machinery
 # ================================================================================================
+
 
 def excavator_k(p, z1, z2):
     """Seed 003's construction of K from the two throws (tracing paper): A from the circles about
@@ -588,21 +630,39 @@ def test_excavator_bin_to_any_pose_by_the_seed_construction():
     p = {k: c(v) for k, v in mech.points.items()}
     solver = Solver(mech, knowns=['point:K', 'bucket'])
     kj = abs(p['J'] - p['K'])
-    for dk, dphi in ((complex(0.10, 0.15), -0.20), (complex(-0.25, 0.30), 0.10),
-                     (complex(0.20, -0.20), 0.05)):
+    for dk, dphi in (
+        (complex(0.10, 0.15), -0.20),
+        (complex(-0.25, 0.30), 0.10),
+        (complex(0.20, -0.20), 0.05),
+    ):
         K2 = p['K'] + dk
         phi = mech.links['bucket'].angle_ref + dphi
         J2 = K2 + kj * cmath.exp(1j * phi)
-        D2 = meet(p['O4'], abs(p['D'] - p['O4']), K2, abs(p['D'] - p['K']),
-                  side_of(p['O4'], p['K'], p['D']))
+        D2 = meet(
+            p['O4'],
+            abs(p['D'] - p['O4']),
+            K2,
+            abs(p['D'] - p['K']),
+            side_of(p['O4'], p['K'], p['D']),
+        )
         A2, B2 = (transfer(p['O4'], p['D'], p['O4'], D2, p[n]) for n in 'AB')
         C2, E2, H2 = (transfer(p['K'], p['D'], K2, D2, p[n]) for n in 'CEH')
-        G2 = meet(J2, abs(p['G'] - p['J']), H2, abs(p['G'] - p['H']),
-                  side_of(p['J'], p['H'], p['G']))
+        G2 = meet(
+            J2, abs(p['G'] - p['J']), H2, abs(p['G'] - p['H']), side_of(p['J'], p['H'], p['G'])
+        )
         res = solver.solve({'point:K': (K2.real, K2.imag), 'bucket': phi})
         assert res.success, res.reason
-        for name, want in (('D', D2), ('A', A2), ('B', B2), ('C', C2), ('E', E2), ('H', H2),
-                           ('G', G2), ('J', J2), ('K', K2)):
+        for name, want in (
+            ('D', D2),
+            ('A', A2),
+            ('B', B2),
+            ('C', C2),
+            ('E', E2),
+            ('H', H2),
+            ('G', G2),
+            ('J', J2),
+            ('K', K2),
+        ):
             assert abs(c(res.points[name]) - want) <= EXACT * mech.length_scale, name
         for act, want in (('Z1', abs(A2 - p['O2'])), ('Z2', abs(C2 - B2)), ('Z3', abs(G2 - E2))):
             assert res.inputs[act] == pytest.approx(want, abs=1e-12), act
@@ -637,9 +697,11 @@ def test_excavator_zone_of_k_edges_are_the_seed_arcs():
 def _fold_throw(p):
     """The Z2 at which the stick lies along the boom line (O4, D, K collinear, K between): where
     the (Z1, Z2) -> K map folds (bisection on the oracle construction)."""
+
     def s(z2):
         D, K = excavator_k(p, 1.5, z2)
         return cross(D - p['O4'], K - D)
+
     lo, hi = 1.5, 2.4
     if s(lo) * s(hi) > 0:
         return None
@@ -666,9 +728,12 @@ def test_excavator_zone_of_k_for_the_seed_throw_ranges_is_the_four_arc_region():
     assert reg['hull_check']['outside'] == 0
     n = 2001
     z1s, z2s = np.linspace(1.1, 1.8, n), np.linspace(1.5, 2.4, n)
-    edge = ([excavator_k(p, 1.1, z)[1] for z in z2s] + [excavator_k(p, z, 2.4)[1] for z in z1s]
-            + [excavator_k(p, 1.8, z)[1] for z in z2s[::-1]]
-            + [excavator_k(p, z, 1.5)[1] for z in z1s[::-1]])
+    edge = (
+        [excavator_k(p, 1.1, z)[1] for z in z2s]
+        + [excavator_k(p, z, 2.4)[1] for z in z1s]
+        + [excavator_k(p, 1.8, z)[1] for z in z2s[::-1]]
+        + [excavator_k(p, z, 1.5)[1] for z in z1s[::-1]]
+    )
     xs, ys = np.array([q.real for q in edge]), np.array([q.imag for q in edge])
     area = 0.5 * abs(np.dot(xs, np.roll(ys, -1)) - np.dot(ys, np.roll(xs, -1)))
     assert reg['area'] == pytest.approx(area, rel=2e-3)
@@ -686,15 +751,16 @@ def test_excavator_bin_tilt_about_the_lip_stops_where_k_meets_the_zone_edge():
     assert res['ok']
     assert 'Z2' in res['reason']['min'] and 'minimum' in res['reason']['min']
     _, K_any = excavator_k(p, 1.5, 1.5)
-    r_min = abs(K_any - p['O4'])                          # zone edge CB = 1.5: circle about O4
+    r_min = abs(K_any - p['O4'])  # zone edge CB = 1.5: circle about O4
     lk = abs(p['K'] - p['L'])
     cands = [meet(p['L'], lk, p['O4'], r_min, s) for s in (1, -1)]
     turns = [cmath.phase((q - p['L']) / (p['K'] - p['L'])) for q in cands]
     clockwise = [-t for t in turns if t < 0]
     assert res['tilt_down'] == pytest.approx(min(clockwise), abs=1e-9)
     K3 = cands[turns.index(-min(clockwise))]
-    D3 = meet(p['O4'], abs(p['D'] - p['O4']), K3, abs(p['D'] - p['K']),
-              side_of(p['O4'], p['K'], p['D']))
+    D3 = meet(
+        p['O4'], abs(p['D'] - p['O4']), K3, abs(p['D'] - p['K']), side_of(p['O4'], p['K'], p['D'])
+    )
     A3 = transfer(p['O4'], p['D'], p['O4'], D3, p['A'])
     assert res['inputs_at']['min']['Z1'] == pytest.approx(abs(A3 - p['O2']), abs=1e-8)
     assert 1.1 <= abs(A3 - p['O2']) <= 1.8

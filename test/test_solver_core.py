@@ -4,26 +4,27 @@ branch selection, command validation, limits, unreachable inputs and scene error
 Every expected number comes from ``oracles`` (50-digit mpmath geometry taking the float inputs
 exactly) or from elementary geometry written out here -- never from the code under test.
 """
+
 import cmath
 import math
 import re
 
 import mpmath as mp
 import numpy as np
+import oracles as orc
 import pytest
 
-import oracles as orc
 from linkage_ros.core import dyads
 from linkage_ros.core.errors import PlanError, SceneError
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Result, Solver
 
-EPS = 2.0 ** -52
-TIGHT = 1e-12          # loop closure, fraction of the length scale
-AGREE = 1e-9           # closed form vs Newton, fraction of the length scale
+EPS = 2.0**-52
+TIGHT = 1e-12  # loop closure, fraction of the length scale
+AGREE = 1e-9  # closed form vs Newton, fraction of the length scale
 
-CRANK_ROCKER = (4.0, 1.5, 4.5, 3.0)        # (ground, crank, coupler, rocker), Grashof
-TRIPLE_ROCKER = (4.0, 3.0, 5.0, 2.5)       # non-Grashof, input range symmetric about pi
+CRANK_ROCKER = (4.0, 1.5, 4.5, 3.0)  # (ground, crank, coupler, rocker), Grashof
+TRIPLE_ROCKER = (4.0, 3.0, 5.0, 2.5)  # non-Grashof, input range symmetric about pi
 
 
 def four_bar(l1, l2, l3, l4, **extra):
@@ -51,12 +52,25 @@ LEVER = {
 # A 2-DOF five-bar: cranks O1-A and O5-B, coupler links A-C(-P) and C-B.
 FIVE_BAR = {
     'name': 'five_bar',
-    'points': {'O1': [0.0, 0.0], 'O5': [1.0, 0.0], 'A': [0.0, 0.6], 'B': [1.0, 0.6],
-               'C': [0.5, 1.2], 'P': [0.25, 1.2]},
-    'links': {'ground': ['O1', 'O5'], 'left': ['O1', 'A'], 'upper_l': ['A', 'C', 'P'],
-              'upper_r': ['C', 'B'], 'right': ['O5', 'B']},
-    'actuators': {'q1': {'type': 'angle', 'link': 'left', 'pivot': 'O1'},
-                  'q2': {'type': 'angle', 'link': 'right', 'pivot': 'O5'}},
+    'points': {
+        'O1': [0.0, 0.0],
+        'O5': [1.0, 0.0],
+        'A': [0.0, 0.6],
+        'B': [1.0, 0.6],
+        'C': [0.5, 1.2],
+        'P': [0.25, 1.2],
+    },
+    'links': {
+        'ground': ['O1', 'O5'],
+        'left': ['O1', 'A'],
+        'upper_l': ['A', 'C', 'P'],
+        'upper_r': ['C', 'B'],
+        'right': ['O5', 'B'],
+    },
+    'actuators': {
+        'q1': {'type': 'angle', 'link': 'left', 'pivot': 'O1'},
+        'q2': {'type': 'angle', 'link': 'right', 'pivot': 'O5'},
+    },
 }
 
 
@@ -128,8 +142,11 @@ def test_circle_circle_near_tangency_sqrt_law(scale):
     for external in (True, False):
         for eps_rel in (0.0, 1e-15, 1e-12, 1e-9, 1e-6, 1e-3):
             with mp.workdps(50):
-                d = (mp.mpf(r1) + mp.mpf(r2) - eps_rel * scale) if external else \
-                    (mp.mpf(r1) - mp.mpf(r2) + eps_rel * scale)
+                d = (
+                    (mp.mpf(r1) + mp.mpf(r2) - eps_rel * scale)
+                    if external
+                    else (mp.mpf(r1) - mp.mpf(r2) + eps_rel * scale)
+                )
             c1 = np.array([0.3, -0.2]) * scale
             u = np.array([math.cos(0.7), math.sin(0.7)])
             c2 = c1 + float(d) * u
@@ -137,13 +154,16 @@ def test_circle_circle_near_tangency_sqrt_law(scale):
                 X, margin, ok, viol = dyads.circle_circle(c1, r1, c2, r2, sign)[:4]
                 want = orc.circle_circle(c1, r1, c2, r2, sign)
                 assert bool(ok), (external, eps_rel)
-                if want.point is None:      # rounding of c2 put it just outside: the clamp
+                if want.point is None:  # rounding of c2 put it just outside: the clamp
                     assert float(want.miss) <= dyads.TANGENCY_TOL * 2 * scale
                     continue
                 err = orc.point_error(X, want.point)
                 distance = max(float(-want.miss) / scale, 0.0)
-                assert err <= scale * (1e-15 + orc.sqrt_law_bound(distance, EPS)), \
-                    (external, eps_rel, err)
+                assert err <= scale * (1e-15 + orc.sqrt_law_bound(distance, EPS)), (
+                    external,
+                    eps_rel,
+                    err,
+                )
 
 
 @pytest.mark.parametrize('scale', SCALES)
@@ -169,12 +189,18 @@ def test_circle_circle_beyond_tangency(scale):
 
 def test_circle_circle_degenerate_inputs_stay_finite():
     """Concentric circles, zero radius, NaN and inf: ok False and finite placeholders."""
-    cases = [((0, 0), 1.0, (0, 0), 1.0), ((0, 0), 0.0, (1, 0), 1.0),
-             ((0, 0), 1.0, (np.nan, 0), 1.0), ((0, 0), np.inf, (1, 0), 1.0),
-             ((np.inf, 0), 1.0, (1, 0), 1.0), ((0, 0), -1.0, (1, 0), 1.0)]
+    cases = [
+        ((0, 0), 1.0, (0, 0), 1.0),
+        ((0, 0), 0.0, (1, 0), 1.0),
+        ((0, 0), 1.0, (np.nan, 0), 1.0),
+        ((0, 0), np.inf, (1, 0), 1.0),
+        ((np.inf, 0), 1.0, (1, 0), 1.0),
+        ((0, 0), -1.0, (1, 0), 1.0),
+    ]
     for c1, r1, c2, r2 in cases:
-        X, margin, ok, viol = dyads.circle_circle(np.array(c1, float), r1, np.array(c2, float),
-                                                  r2, 1)[:4]
+        X, margin, ok, viol = dyads.circle_circle(
+            np.array(c1, float), r1, np.array(c2, float), r2, 1
+        )[:4]
         assert not bool(ok), (c1, r1, c2, r2)
         assert np.all(np.isfinite(X)) and np.isfinite(margin) and np.isfinite(viol)
 
@@ -236,7 +262,8 @@ def test_line_through_point_matches_mpmath(scale, sign):
     for _ in range(40):
         p = rng.uniform(-1, 1, 2) * scale
         x = p + rng.uniform(0.3, 2.0) * scale * np.array(
-            [math.cos(a := rng.uniform(-math.pi, math.pi)), math.sin(a)])
+            [math.cos(a := rng.uniform(-math.pi, math.pi)), math.sin(a)]
+        )
         rho = float(np.hypot(*(x - p)))
         e = rng.uniform(-0.9, 0.9) * rho
         psi, margin, ok, viol = dyads.line_through_point(p, x, e, sign)
@@ -271,8 +298,9 @@ def test_scalar_pair_forms_agree_with_batched_forms():
         p0 = c + 0.3 * scale * 1j * u
         foot, kv, m, ok, viol = dyads.circle_line_pair(c, 0.8 * scale, p0, u)
         for s in (1, -1):
-            X = dyads.circle_line((c.real, c.imag), 0.8 * scale, (p0.real, p0.imag),
-                                  (u.real, u.imag), s)[0]
+            X = dyads.circle_line(
+                (c.real, c.imag), 0.8 * scale, (p0.real, p0.imag), (u.real, u.imag), s
+            )[0]
             assert abs(foot + s * kv - complex(*X)) <= 8 * EPS * scale
         # line through a point
         p, x, e = complex(0.1, 0.2) * scale, complex(1.1, -0.4) * scale, 0.3 * scale
@@ -285,6 +313,7 @@ def test_scalar_pair_forms_agree_with_batched_forms():
 # =============================================================================================
 # plan compilation
 # =============================================================================================
+
 
 def test_plan_four_bar_forward_and_inverse():
     l1, l2, l3, l4 = CRANK_ROCKER
@@ -384,9 +413,15 @@ def test_plan_cylinder_driven_lever():
 def test_plan_five_bar_forward_and_point_known():
     m = five_bar()
     pts = m.points
-    lens = {k: float(np.hypot(*(pts[a] - pts[b]))) for k, (a, b) in
-            {'left': ('O1', 'A'), 'right': ('O5', 'B'), 'ac': ('A', 'C'),
-             'bc': ('B', 'C')}.items()}
+    lens = {
+        k: float(np.hypot(*(pts[a] - pts[b])))
+        for k, (a, b) in {
+            'left': ('O1', 'A'),
+            'right': ('O5', 'B'),
+            'ac': ('A', 'C'),
+            'bc': ('B', 'C'),
+        }.items()
+    }
     fwd = Solver(m)
     assert m.dof == 2 and fwd.knowns == ['q1', 'q2']
     assert ops(fwd) == ['ground', 'circle_circle', 'two_points', 'two_points']
@@ -396,8 +431,9 @@ def test_plan_five_bar_forward_and_point_known():
     assert [s.point for s in inv.plan.branch_steps] == ['A', 'B']
     for q1, q2 in [(1.6, 1.5), (1.3, 1.9), (2.0, 1.2), (1.5708, 1.5708)]:
         r = fwd.solve({'q1': q1, 'q2': q2})
-        want = orc.five_bar(pts['O1'], pts['O5'], lens['left'], lens['right'], lens['ac'],
-                            lens['bc'], q1, q2, 1)
+        want = orc.five_bar(
+            pts['O1'], pts['O5'], lens['left'], lens['right'], lens['ac'], lens['bc'], q1, q2, 1
+        )
         assert r.success and r.branch == '+'
         assert orc.point_error(r.points['C'], want['C']) <= TIGHT * m.length_scale
         # inverse: the point C found above gives back the two crank angles
@@ -425,6 +461,7 @@ def test_plan_is_pruned_to_the_wanted_outputs():
 # closed form vs Newton over sweeps
 # =============================================================================================
 
+
 def _sweep_agree(mech, knowns, commands, branch='continuous'):
     cf = Solver(mech, knowns=knowns, method='closed_form', branch=branch)
     nw = Solver(mech, knowns=knowns, method='newton', branch=branch)
@@ -445,8 +482,9 @@ def test_closed_form_and_newton_agree_four_bar_sweeps():
     m = four_bar(*CRANK_ROCKER, coupler_point={'distance': 2.0, 'angle': 0.4})
     _sweep_agree(m, None, [{'crank': float(t)} for t in np.linspace(0, 4 * math.pi, 241)])
     lo, hi = _rocker_range(CRANK_ROCKER)
-    path = np.concatenate([np.linspace(lo + 0.02, hi - 0.02, 60),
-                           np.linspace(hi - 0.02, lo + 0.02, 60)])
+    path = np.concatenate(
+        [np.linspace(lo + 0.02, hi - 0.02, 60), np.linspace(hi - 0.02, lo + 0.02, 60)]
+    )
     _sweep_agree(m, ['rocker'], [{'rocker': float(t)} for t in path])
 
 
@@ -461,19 +499,32 @@ def test_closed_form_and_newton_agree_lever_and_five_bar_sweeps():
     m = lever()
     path = np.concatenate([np.linspace(0.55, 1.38, 40), np.linspace(1.38, 0.55, 40)])
     _sweep_agree(m, None, [{'cyl': float(x)} for x in path])
-    _sweep_agree(m, ['lever'], [{'lever': 0.6 * math.sin(s)}
-                                for s in np.linspace(0, 2 * math.pi, 60)])
+    _sweep_agree(
+        m, ['lever'], [{'lever': 0.6 * math.sin(s)} for s in np.linspace(0, 2 * math.pi, 60)]
+    )
     m5 = five_bar()
-    _sweep_agree(m5, None, [{'q1': 1.6 + 0.3 * math.sin(s), 'q2': 1.5 + 0.3 * math.cos(s)}
-                            for s in np.linspace(0, 2 * math.pi, 60)])
-    _sweep_agree(m5, ['point:C'], [{'point:C': (0.5 + 0.15 * math.cos(s),
-                                                1.1 + 0.1 * math.sin(s))}
-                                   for s in np.linspace(0, 2 * math.pi, 60)])
+    _sweep_agree(
+        m5,
+        None,
+        [
+            {'q1': 1.6 + 0.3 * math.sin(s), 'q2': 1.5 + 0.3 * math.cos(s)}
+            for s in np.linspace(0, 2 * math.pi, 60)
+        ],
+    )
+    _sweep_agree(
+        m5,
+        ['point:C'],
+        [
+            {'point:C': (0.5 + 0.15 * math.cos(s), 1.1 + 0.1 * math.sin(s))}
+            for s in np.linspace(0, 2 * math.pi, 60)
+        ],
+    )
 
 
 # =============================================================================================
 # explicit branches
 # =============================================================================================
+
 
 @pytest.mark.parametrize('method', ['closed_form', 'newton'])
 def test_explicit_branches_give_the_two_assembly_modes(method):
@@ -515,8 +566,15 @@ def test_explicit_branches_two_dyads(method):
     assert len(seen) == 4
 
 
-BAD_BRANCHES = [('+-', '2 sign'), ('', '0 sign'), ('x', "'x'"), ('up', "'up'"), (5, '5'),
-                (None, 'None'), ('++-', '3 sign')]
+BAD_BRANCHES = [
+    ('+-', '2 sign'),
+    ('', '0 sign'),
+    ('x', "'x'"),
+    ('up', "'up'"),
+    (5, '5'),
+    (None, 'None'),
+    ('++-', '3 sign'),
+]
 
 
 @pytest.mark.parametrize('branch, fragment', BAD_BRANCHES)
@@ -550,14 +608,20 @@ def test_no_closed_form_plan_is_refused_for_closed_form_only():
     m = five_bar()
     with pytest.raises(PlanError, match='no closed-form dyad plan'):
         Solver(m, knowns=['upper_l', 'upper_r'], method='closed_form')
-    s = Solver(m, knowns=['upper_l', 'upper_r'])           # auto: Newton places the rest
+    s = Solver(m, knowns=['upper_l', 'upper_r'])  # auto: Newton places the rest
     assert s.mode == 'hybrid'
 
 
-@pytest.mark.parametrize('kwargs, fragment', [
-    ({'method': 'bogus'}, "unknown solver 'bogus'"), ({'tol': -1.0}, 'tolerance'),
-    ({'tol': float('nan')}, 'tolerance'), ({'max_iter': 0}, 'max_iter'),
-    ({'outputs': ['nosuch']}, "unknown output 'nosuch'")])
+@pytest.mark.parametrize(
+    'kwargs, fragment',
+    [
+        ({'method': 'bogus'}, "unknown solver 'bogus'"),
+        ({'tol': -1.0}, 'tolerance'),
+        ({'tol': float('nan')}, 'tolerance'),
+        ({'max_iter': 0}, 'max_iter'),
+        ({'outputs': ['nosuch']}, "unknown output 'nosuch'"),
+    ],
+)
 def test_bad_solver_settings_raise_plan_error(kwargs, fragment):
     with pytest.raises(PlanError) as exc:
         Solver(four_bar(*CRANK_ROCKER), **kwargs)
@@ -655,6 +719,7 @@ def test_bad_point_command_is_refused_and_changes_nothing(method, bad, words):
 # actuator limits
 # =============================================================================================
 
+
 @pytest.mark.parametrize('method', ['closed_form', 'newton'])
 def test_angle_limits_refuse_with_the_amount(method):
     m = four_bar(*CRANK_ROCKER, crank_limits={'min': -1.0, 'max': 1.0})
@@ -689,11 +754,11 @@ def test_cylinder_limits_forward_and_inverse(method):
     # the lever angle at which |CP| = 1.45 (> max 1.4), by the cosine rule in triangle O C P
     oc = float(np.hypot(*c))
     ang_c = math.atan2(c[1], c[0])
-    gamma = math.acos((oc ** 2 + l_op ** 2 - 1.45 ** 2) / (2 * oc * l_op))
+    gamma = math.acos((oc**2 + l_op**2 - 1.45**2) / (2 * oc * l_op))
     for target in (ang_c + gamma, ang_c - gamma):
         r = inv.solve({'lever': _wrap(target)})
         if r.success:
-            continue                 # not this side of the ground line
+            continue  # not this side of the ground line
         assert 'target needs' in r.reason and 'cyl' in r.reason and 'maximum' in r.reason
         assert re.search(r'by 0\.05\b', r.reason), r.reason
         break
@@ -708,6 +773,7 @@ def _wrap(a):
 # =============================================================================================
 # unreachable inputs
 # =============================================================================================
+
 
 def _miss_in(reason):
     m = re.search(r'misses by ([0-9.eE+-]+) m', reason)
@@ -725,7 +791,7 @@ def test_unreachable_four_bar_names_the_dyad_and_the_miss():
         r = s.solve({'crank': t})
         assert not r.success
         assert 'RRR dyad: B from circles about A (coupler) and O4 (rocker)' in r.reason
-        assert _miss_in(r.reason) == pytest.approx(float(want["miss"]), rel=1e-5)
+        assert _miss_in(r.reason) == pytest.approx(float(want['miss']), rel=1e-5)
         assert r.inputs == {'crank': t}
     nw = Solver(m, method='newton')
     r = nw.solve({'crank': 0.0})
@@ -741,7 +807,7 @@ def test_unreachable_slider_crank_inverse_names_the_dyad_and_the_miss():
         r = s.solve({'slider': x})
         assert not r.success
         assert 'RRR dyad: A from circles about O2 (crank) and B (rod)' in r.reason
-        assert _miss_in(r.reason) == pytest.approx(float(want["miss"]), rel=1e-5)
+        assert _miss_in(r.reason) == pytest.approx(float(want['miss']), rel=1e-5)
         assert r.targets == {'slider': x}
 
 
@@ -779,33 +845,50 @@ actuators:
 """
 
 BROKEN_SCENES = {
-    'unknown_point': (GOOD_POINTS + GOOD_LINKS.replace('[A, B]', '[A, Z]') + GOOD_ACT,
-                      ['links.coupler', "unknown point 'Z'"]),
-    'non_numeric': (GOOD_POINTS.replace('[2.6, 1.5]', '[2.6, abc]') + GOOD_LINKS + GOOD_ACT,
-                    ['points.B[1]', 'number', "'abc'"]),
-    'dof_mismatch': (GOOD_POINTS + GOOD_LINKS + GOOD_ACT
-                     + '  rock: {type: angle, link: rocker, pivot: O4}\n',
-                     ['actuators', '1 degree(s) of freedom', '2 actuator(s)', "'rock'"]),
-    'unknown_top_key': (GOOD_POINTS + GOOD_LINKS + GOOD_ACT + 'linkz: {}\n',
-                        ['linkz', 'unknown key']),
-    'duplicate_slider': ("""\
+    'unknown_point': (
+        GOOD_POINTS + GOOD_LINKS.replace('[A, B]', '[A, Z]') + GOOD_ACT,
+        ['links.coupler', "unknown point 'Z'"],
+    ),
+    'non_numeric': (
+        GOOD_POINTS.replace('[2.6, 1.5]', '[2.6, abc]') + GOOD_LINKS + GOOD_ACT,
+        ['points.B[1]', 'number', "'abc'"],
+    ),
+    'dof_mismatch': (
+        GOOD_POINTS + GOOD_LINKS + GOOD_ACT + '  rock: {type: angle, link: rocker, pivot: O4}\n',
+        ['actuators', '1 degree(s) of freedom', '2 actuator(s)', "'rock'"],
+    ),
+    'unknown_top_key': (
+        GOOD_POINTS + GOOD_LINKS + GOOD_ACT + 'linkz: {}\n',
+        ['linkz', 'unknown key'],
+    ),
+    'duplicate_slider': (
+        """\
 points: {O2: [0, 0], A: [0.3, 0.4], B: [1.5, 0], C: [1.8, 0]}
 links: {ground: [O2], crank: [O2, A], rod: [A, B, C], s1: [B], s2: [C]}
 sliders:
   - {name: slide, guide: ground, slider: s1, point: B, direction: 0.0}
   - {name: slide, guide: ground, slider: s2, point: C, direction: 0.0}
 actuators: {crank: {type: angle, link: crank, pivot: O2}}
-""", ['sliders.slide', 'duplicate', "'slide'"]),
-    'actuator_named_like_cylinder': ("""\
+""",
+        ['sliders.slide', 'duplicate', "'slide'"],
+    ),
+    'actuator_named_like_cylinder': (
+        """\
 points: {O: [0, 0], C: [-0.5, -0.3], P: [0.4, 0.3]}
 links: {ground: [O, C], lever: [O, P]}
 cylinders: {cyl: {from: C, to: P}}
 actuators: {cyl: {type: angle, link: lever, pivot: O}}
-""", ['actuators.cyl', 'duplicate', "'cyl'"]),
-    'four_bar_bad_length': ('four_bar: {ground: 4, crank: abc, coupler: 4.5, rocker: 3}\n',
-                            ['four_bar.crank', 'number', "'abc'"]),
-    'four_bar_negative_length': ('four_bar: {ground: 4, crank: -1.5, coupler: 4.5, rocker: 3}\n',
-                                 ['four_bar.crank', '> 0', '-1.5']),
+""",
+        ['actuators.cyl', 'duplicate', "'cyl'"],
+    ),
+    'four_bar_bad_length': (
+        'four_bar: {ground: 4, crank: abc, coupler: 4.5, rocker: 3}\n',
+        ['four_bar.crank', 'number', "'abc'"],
+    ),
+    'four_bar_negative_length': (
+        'four_bar: {ground: 4, crank: -1.5, coupler: 4.5, rocker: 3}\n',
+        ['four_bar.crank', '> 0', '-1.5'],
+    ),
 }
 
 
@@ -836,12 +919,15 @@ def test_scene_error_duplicate_yaml_key_is_not_silently_dropped(tmp_path):
 
 # ---- the generated scalar code (plan.run_one, Solver result assembly) ----------------------------
 
-SHIPPED = sorted(p.stem for p in __import__('pathlib').Path(__file__).parent.parent.glob('config/*.yaml'))
+SHIPPED = sorted(
+    p.stem for p in __import__('pathlib').Path(__file__).parent.parent.glob('config/*.yaml')
+)
 
 
 def _knowns_sets(mech):
     """Forward, every set of dof joint/actuator names, and (2-DOF scenes) one point target each."""
     import itertools
+
     names = list(mech.actuators) + [j for j in mech.joint_names if j not in mech.actuators]
     sets = [None] + [list(c) for c in itertools.combinations(names, mech.dof)]
     if mech.dof == 2:
@@ -862,8 +948,9 @@ def test_generated_scalar_code_agrees_with_the_batched_plan(scene):
     for knowns in _knowns_sets(mech):
         for outputs in (None, list(mech.outputs)[:1]):
             try:
-                s = Solver(mech, knowns=knowns, outputs=outputs, method='closed_form',
-                           branch='reference')
+                s = Solver(
+                    mech, knowns=knowns, outputs=outputs, method='closed_form', branch='reference'
+                )
             except PlanError:
                 continue
             ref = s.reference_values()
@@ -871,14 +958,19 @@ def test_generated_scalar_code_agrees_with_the_batched_plan(scene):
             for k, v in ref.items():
                 if isinstance(v, (list, tuple)):
                     cols[k] = np.asarray(v, float) + rng.normal(0, 0.05 * L, (12, 2))
-                else:   # wide spread: some commands are beyond a limit or do not assemble
+                else:  # wide spread: some commands are beyond a limit or do not assemble
                     cols[k] = v + rng.normal(0, 0.6, 12)
             batch = s.solve_batch(cols)
             for i in range(12):
                 cmd = {k: (c[i].tolist() if c.ndim == 2 else float(c[i])) for k, c in cols.items()}
                 r = s.solve(cmd)
-                assert r.success == bool(batch.ok[i]), (knowns, outputs, cmd, r.reason,
-                                                        batch.reason[i])
+                assert r.success == bool(batch.ok[i]), (
+                    knowns,
+                    outputs,
+                    cmd,
+                    r.reason,
+                    batch.reason[i],
+                )
                 if not r.success:
                     continue
                 checked += 1
@@ -886,19 +978,23 @@ def test_generated_scalar_code_agrees_with_the_batched_plan(scene):
                 assert set(r.points) == set(batch.points)
                 for p, xy in r.points.items():
                     assert np.max(np.abs(np.asarray(xy) - batch.points[p][i])) <= TIGHT * L, p
-                for table, got in ((batch.joints, r.joints), (batch.links, r.links),
-                                   (batch.inputs, r.inputs)):
+                for table, got in (
+                    (batch.joints, r.joints),
+                    (batch.links, r.links),
+                    (batch.inputs, r.inputs),
+                ):
                     assert set(got) == set(table)
                     for name, v in got.items():
                         d = v - table[name][i]
                         if name in mech.joint_names and name in mech.prismatics:
                             assert abs(d) <= TIGHT * L, name
-                        else:           # angles: compare on the circle
+                        else:  # angles: compare on the circle
                             assert abs(math.remainder(d, 2 * math.pi)) <= TIGHT, name
     assert checked >= 6, f'{scene}: too few assembling commands to compare ({checked})'
 
 
 # ---- warm-started Newton over a batch of instances (Solver.solve_batch(start=)) ---------------
+
 
 def _instance_paths(mech, n, steps):
     """n instances spread along a closed path through the actuator ranges, each moving one
@@ -929,7 +1025,7 @@ def test_newton_batch_of_instances_matches_the_closed_form(scene):
     newton = Solver(mech, method='newton')
     closed = Solver(mech, method='closed_form', branch='reference')
     paths = _instance_paths(mech, 40, 3)
-    batch = newton.solve_batch(paths[0])          # no start: the rows are solved as one path
+    batch = newton.solve_batch(paths[0])  # no start: the rows are solved as one path
     assert batch.ok.all() and batch.x is not None
     for cols in paths[1:]:
         batch = newton.solve_batch(cols, start=batch)
@@ -941,15 +1037,16 @@ def test_newton_batch_of_instances_matches_the_closed_form(scene):
             assert np.max(np.abs(batch.points[p] - want.points[p])) <= AGREE * L, p
         assert np.array_equal(batch.signs, want.signs)
         for j in mech.joint_names:
-            assert np.max(np.abs(np.remainder(batch.joints[j] - want.joints[j] + np.pi,
-                                              2 * np.pi) - np.pi)) <= AGREE * max(L, 1.0), j
+            assert np.max(
+                np.abs(np.remainder(batch.joints[j] - want.joints[j] + np.pi, 2 * np.pi) - np.pi)
+            ) <= AGREE * max(L, 1.0), j
 
 
 def test_newton_batch_rows_it_cannot_vouch_for_take_the_careful_path():
     """Bad rows fail with a reason and leave the others alone; a big jump (no fast-path proof)
     is solved by Solver.solve's careful path from that row's start, like the closed form; a row
     whose start failed starts from the reference pose; an input past a toggle is refused."""
-    mech = four_bar(*TRIPLE_ROCKER)          # non-Grashof: the crank cannot turn fully
+    mech = four_bar(*TRIPLE_ROCKER)  # non-Grashof: the crank cannot turn fully
     newton = Solver(mech, method='newton')
     closed = Solver(mech, method='closed_form', branch='reference')
     t0 = closed.reference_values()['crank']
@@ -958,7 +1055,7 @@ def test_newton_batch_rows_it_cannot_vouch_for_take_the_careful_path():
     cmd = np.array([t0 + 0.02, t0 + 0.12, np.nan, t0 + 0.9, t0 + 0.03])
     before = newton.snapshot()
     got = newton.solve_batch({'crank': cmd}, start=start)
-    assert newton.snapshot() == before           # the solver's own state is untouched
+    assert newton.snapshot() == before  # the solver's own state is untouched
     assert not got.ok[2] and 'finite' in got.reason[2]
     assert got.careful[3] and got.careful[4] and not got.careful[0] and not got.careful[1]
     want = closed.solve_batch({'crank': np.nan_to_num(cmd)})
@@ -1002,10 +1099,14 @@ def test_newton_batch_start_must_come_from_the_same_solver_and_be_intact():
         other.solve_batch({'crank': t}, start=start)
     # another four-bar geometry under the same names
     with pytest.raises(ValueError, match='reference geometry'):
-        Solver(four_bar(0.3, 0.1, 0.26, 0.2), method='newton').solve_batch({'crank': t},
-                                                                          start=start)
-    for field, bad in (('det_sign', start.det_sign[:3]), ('x', start.x.tolist()),
-                       ('ok', start.ok[:2])):
+        Solver(four_bar(0.3, 0.1, 0.26, 0.2), method='newton').solve_batch(
+            {'crank': t}, start=start
+        )
+    for field, bad in (
+        ('det_sign', start.det_sign[:3]),
+        ('x', start.x.tolist()),
+        ('ok', start.ok[:2]),
+    ):
         tampered = newton.solve_batch({'crank': t})
         setattr(tampered, field, bad)
         with pytest.raises(ValueError, match='wrong shape'):
@@ -1021,8 +1122,12 @@ def test_newton_batch_start_must_come_from_the_same_solver_and_be_intact():
 
 def test_batch_columns_must_hold_real_numbers():
     solver = Solver(four_bar(*CRANK_ROCKER))
-    for bad, kind in (([True, False], 'bool'), (['0.5', '1.0'], '<U3'),
-                      ([0.5 + 1j, 1.0], 'complex'), ([{}, 1.0], 'object')):
+    for bad, kind in (
+        ([True, False], 'bool'),
+        (['0.5', '1.0'], '<U3'),
+        ([0.5 + 1j, 1.0], 'complex'),
+        ([{}, 1.0], 'object'),
+    ):
         with pytest.raises(ValueError, match=f"column 'crank' must hold real numbers.*{kind}"):
             solver.solve_batch({'crank': bad})
     with pytest.raises(ValueError, match=r"column 'crank' must have shape \(n,\)"):
@@ -1038,13 +1143,22 @@ def test_command_values_of_the_wrong_type_are_refused_by_name():
     solver = Solver(mech, knowns=['point:D'])
     ref = solver.solve({'point:D': tuple(mech.points['D'])})
     assert ref.success
-    for bad in (['0.12', '0.18'], [True, False], (0.12 + 1j, 0.18), '12', {'x': 1, 'y': 2},
-                (10 ** 400, 0.18)):
+    for bad in (
+        ['0.12', '0.18'],
+        [True, False],
+        (0.12 + 1j, 0.18),
+        '12',
+        {'x': 1, 'y': 2},
+        (10**400, 0.18),
+    ):
         r = solver.solve({'point:D': bad})
-        assert not r.success and r.reason.startswith('point:D: a point needs two numbers') or \
-            'finite' in r.reason, (bad, r.reason)
+        assert (
+            not r.success
+            and r.reason.startswith('point:D: a point needs two numbers')
+            or 'finite' in r.reason
+        ), (bad, r.reason)
     crank = Solver(four_bar(*CRANK_ROCKER))
-    for big in (10 ** 400, -10 ** 400):
+    for big in (10**400, -(10**400)):
         r = crank.solve({'crank': big})
         assert not r.success and r.reason == f'crank: value must be finite (got {big!r})'
     # nothing changed: the same answer as before the refusals
@@ -1071,8 +1185,11 @@ def test_knowns_that_do_not_determine_the_mechanism_are_refused():
     construction, naming the knowns; independent knowns of the same count are fine."""
     mech = Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism
     for point in ('A', 'C'):
-        with pytest.raises(PlanError, match=rf"knowns \['point:{point}'\] do not determine "
-                                            "'plagiograph'.*leave a motion of '(\\w+)' free"):
+        with pytest.raises(
+            PlanError,
+            match=rf"knowns \['point:{point}'\] do not determine "
+            "'plagiograph'.*leave a motion of '(\\w+)' free",
+        ):
             Solver(mech, knowns=[f'point:{point}'])
     for knowns in (['point:D'], ['point:E'], ['theta_A', 'link:BCE'], None):
         Solver(mech, knowns=knowns)
@@ -1087,13 +1204,15 @@ def test_closure_guard_refuses_a_false_assembly(monkeypatch):
     with its loop open by 0.126 of the length scale. The closure guard refuses it, scalar and
     batch; a point on the crank circle still solves."""
     from linkage_ros.core.newton import LoopSystem
+
     monkeypatch.setattr(LoopSystem, 'unfixed_links', lambda self: [])
     mech = Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism
     solver = Solver(mech, knowns=['point:A'])
     assert solver.mode == 'hybrid'
-    r = solver.solve({'point:A': (0.3, 0.1)})          # |O2 A| = 0.316, the crank is 0.25
-    assert not r.success and r.reason.startswith('cannot assemble: the configuration found '
-                                                 'misses loop closure by 0.126')
+    r = solver.solve({'point:A': (0.3, 0.1)})  # |O2 A| = 0.316, the crank is 0.25
+    assert not r.success and r.reason.startswith(
+        'cannot assemble: the configuration found misses loop closure by 0.126'
+    )
     on = tuple(mech.points['A'])
     b = solver.solve_batch({'point:A': np.array([(0.3, 0.1), on])})
     assert b.ok.tolist() == [False, True] and b.reason[0] == r.reason
@@ -1112,8 +1231,9 @@ def test_adopt_and_restore_refuse_what_is_not_a_configuration():
     broken = []
     r = Solver(mech).solve({'crank': 0.9})
     nan_point = Result(**{**r.__dict__, 'points': {**r.points, 'B': (math.nan, 0.0)}})
-    moved = Result(**{**r.__dict__, 'points': {**r.points, 'B': (r.points['B'][0] + 1e-3,
-                                                                  r.points['B'][1])}})
+    moved = Result(
+        **{**r.__dict__, 'points': {**r.points, 'B': (r.points['B'][0] + 1e-3, r.points['B'][1])}}
+    )
     no_point = Result(**{**r.__dict__, 'points': {k: v for k, v in r.points.items() if k != 'B'}})
     bad_angle = Result(**{**r.__dict__, 'links': {**r.links, 'coupler': 'x'}})
     broken += [nan_point, moved, no_point, bad_angle, Result(False, 'no'), None, 'xyz']
@@ -1122,7 +1242,7 @@ def test_adopt_and_restore_refuse_what_is_not_a_configuration():
     for snap in ('xyz', [1, 2], (None,)):
         with pytest.raises(ValueError, match='restore'):
             probed.restore(snap)
-    assert probed.adopt(r)                   # a real configuration is adopted
+    assert probed.adopt(r)  # a real configuration is adopted
     clean.adopt(r)
     for t in (1.0, 1.2, 1.5):
         assert probed.solve({'crank': t}).points == clean.solve({'crank': t}).points

@@ -4,24 +4,25 @@
 Oracles: ``oracles`` (50-digit mpmath, float inputs taken exactly). The toggle angles are exact
 (cosine rule at 50 digits), so the distance of a float input from its toggle is known exactly.
 """
+
 import math
 
 import mpmath as mp
 import numpy as np
+import oracles as orc
 import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-import oracles as orc
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver, branch_undefined_below
 
-EPS = 2.0 ** -52
+EPS = 2.0**-52
 TIGHT = 1e-12
 AGREE = 1e-9
 
-DOUBLE_ROCKER = (4.0, 3.0, 1.5, 4.5)     # Grashof, shortest is the coupler: input in two arcs
-TRIPLE_ROCKER = (4.0, 3.0, 5.0, 2.5)     # non-Grashof, input range symmetric about pi
+DOUBLE_ROCKER = (4.0, 3.0, 1.5, 4.5)  # Grashof, shortest is the coupler: input in two arcs
+TRIPLE_ROCKER = (4.0, 3.0, 5.0, 2.5)  # non-Grashof, input range symmetric about pi
 CRANK_ROCKER = (4.0, 1.5, 4.5, 3.0)
 METHODS = ['closed_form', 'newton']
 DISTANCES = [0.0, 1e-15, 1e-12, 1e-9, 1e-6, 1e-3]
@@ -34,8 +35,9 @@ def four_bar(L, **extra):
 
 
 def slider_crank(r, rod, e, direction=0.0):
-    return Scene.from_dict({'slider_crank': {'crank': r, 'rod': rod, 'offset': e,
-                                             'direction': direction}}).mechanism
+    return Scene.from_dict(
+        {'slider_crank': {'crank': r, 'rod': rod, 'offset': e, 'direction': direction}}
+    ).mechanism
 
 
 def assert_finite(result):
@@ -49,11 +51,11 @@ def assert_finite(result):
         elif isinstance(obj, (list, tuple)):
             for i, v in enumerate(obj):
                 walk(v, f'{path}[{i}]')
-        elif isinstance(obj, float) and not math.isfinite(obj):
+        elif (isinstance(obj, float) and not math.isfinite(obj)) or (
+            isinstance(obj, (np.floating, np.ndarray)) and not np.all(np.isfinite(obj))
+        ):
             bad.append(path)
-        elif isinstance(obj, (np.floating, np.ndarray)):
-            if not np.all(np.isfinite(obj)):
-                bad.append(path)
+
     walk(result.to_dict(), '')
     assert not bad, (bad, result)
     if not result.success:
@@ -61,8 +63,10 @@ def assert_finite(result):
 
 
 def angle_errors(res, want):
-    return max(orc.angle_error(res.links['coupler'], want['theta3']),
-               orc.angle_error(res.links['rocker'], want['theta4']))
+    return max(
+        orc.angle_error(res.links['coupler'], want['theta3']),
+        orc.angle_error(res.links['rocker'], want['theta4']),
+    )
 
 
 def newton_near(mech, t_start, branch_sign):
@@ -79,6 +83,7 @@ def newton_near(mech, t_start, branch_sign):
 # =============================================================================================
 # toggles
 # =============================================================================================
+
 
 def _toggle_cases():
     """(linkage, exact toggle angle, direction into the reachable range) for every toggle."""
@@ -118,7 +123,7 @@ def test_near_toggle_closes_and_follows_the_sqrt_law(L, tau, side, method, branc
     for delta in DISTANCES:
         with mp.workdps(50):
             t = float(tau + side * mp.mpf(delta))
-            dist = float(abs(mp.mpf(t) - tau))          # the float's exact distance
+            dist = float(abs(mp.mpf(t) - tau))  # the float's exact distance
         if method == 'closed_form':
             s = Solver(mech, method='closed_form', branch='+' if branch > 0 else '-')
         else:
@@ -214,6 +219,7 @@ def test_undefined_branch_bound_is_an_error_bound():
 # theta = pi
 # =============================================================================================
 
+
 def _pi_cases():
     """Crank angles that put theta2, theta3 or theta4 at pi (exactly, up to the float)."""
     cases = [(TRIPLE_ROCKER, math.pi, 'theta2'), (CRANK_ROCKER, math.pi, 'theta2')]
@@ -244,7 +250,7 @@ def test_theta_pi_to_1e12(method):
             assert want['ok']
             if method == 'closed_form':
                 s = Solver(mech, method=method, branch='+' if branch > 0 else '-')
-            else:       # Newton driven in order: from a configuration 0.01 rad away
+            else:  # Newton driven in order: from a configuration 0.01 rad away
                 near = next(t + d for d in (0.01, -0.01) if orc.fourbar(*L, t + d, branch)['ok'])
                 s = newton_near(mech, near, branch)
             r = s.solve({'crank': t})
@@ -301,8 +307,10 @@ def test_change_point_sweep_never_jumps(L, k, method):
         results.append(r)
 
     def gap(a, b):
-        return max(math.hypot(a.points[p][0] - b.points[p][0], a.points[p][1] - b.points[p][1])
-                   for p in a.points)
+        return max(
+            math.hypot(a.points[p][0] - b.points[p][0], a.points[p][1] - b.points[p][1])
+            for p in a.points
+        )
 
     for i in range(1, len(ts)):
         a, b = results[i - 1], results[i]
@@ -326,10 +334,11 @@ def test_change_point_sweep_never_jumps(L, k, method):
 # scale invariance: all lengths times k, k = 1e-6 .. 1e6
 # =============================================================================================
 
-SCALE_FACTORS = [10.0 ** e for e in range(-6, 7)]
+SCALE_FACTORS = [10.0**e for e in range(-6, 7)]
 SCALE_MECHS = {
-    'crank_rocker': lambda k: four_bar(tuple(k * v for v in CRANK_ROCKER),
-                                       coupler_point={'distance': 2.0 * k, 'angle': 0.4}),
+    'crank_rocker': lambda k: four_bar(
+        tuple(k * v for v in CRANK_ROCKER), coupler_point={'distance': 2.0 * k, 'angle': 0.4}
+    ),
     'triple_rocker': lambda k: four_bar(tuple(k * v for v in TRIPLE_ROCKER)),
     'slider_crank': lambda k: slider_crank(1.0 * k, 3.0 * k, 0.5 * k, 0.3),
 }
@@ -364,16 +373,22 @@ def test_scaling_all_lengths_changes_no_angle(name, method):
         for a, b in zip(ref, got):
             assert a.branch == b.branch
             for link in a.links:
-                assert abs(math.remainder(a.links[link] - b.links[link], 2 * math.pi)) <= TIGHT, \
-                    (k, link)
+                assert abs(math.remainder(a.links[link] - b.links[link], 2 * math.pi)) <= TIGHT, (
+                    k,
+                    link,
+                )
             for j in a.joints:
                 if j == 'slider':
                     assert abs(a.joints[j] - b.joints[j] / k) <= TIGHT * 3.5, (k, j)
                 else:
                     assert abs(math.remainder(a.joints[j] - b.joints[j], 2 * math.pi)) <= TIGHT
             for p in a.points:
-                assert math.hypot(a.points[p][0] - b.points[p][0] / k,
-                                  a.points[p][1] - b.points[p][1] / k) <= TIGHT * 5, (k, p)
+                assert (
+                    math.hypot(
+                        a.points[p][0] - b.points[p][0] / k, a.points[p][1] - b.points[p][1] / k
+                    )
+                    <= TIGHT * 5
+                ), (k, p)
 
 
 @pytest.mark.parametrize('method', METHODS)
@@ -383,9 +398,11 @@ def test_extreme_link_ratios_against_mpmath(method):
     good as the data allow: a link of length l read from points known to rho * L (L the length
     scale, rho = eps for the closed form, the residual tolerance for Newton) has its angle known
     to ~rho * L / l."""
-    cases = [((1.0, 1e-6, 1.0, 1.0), list(np.linspace(-3, 3, 9))),
-             ((1.0, 1e6, 1e6, 2.0), list(np.linspace(-3, 3, 9))),
-             ((1e6, 1.0, 1e6, 1e6 - 0.5), list(np.linspace(-3, 3, 9)))]
+    cases = [
+        ((1.0, 1e-6, 1.0, 1.0), list(np.linspace(-3, 3, 9))),
+        ((1.0, 1e6, 1e6, 2.0), list(np.linspace(-3, 3, 9))),
+        ((1e6, 1.0, 1e6, 1e6 - 0.5), list(np.linspace(-3, 3, 9))),
+    ]
     for L, inputs in cases:
         mech = four_bar(L)
         s = Solver(mech, method=method)
@@ -396,10 +413,12 @@ def test_extreme_link_ratios_against_mpmath(method):
             assert r.success and r.residual <= TIGHT, (L, t, r.reason, r.residual)
             want = orc.fourbar(*L, float(t), 1 if r.branch == '+' else -1)
             scale = mech.length_scale
-            assert orc.angle_error(r.links['coupler'], want['theta3']) <= \
-                1e-13 + rho * scale / L[2], (L, t)
-            assert orc.angle_error(r.links['rocker'], want['theta4']) <= \
-                1e-13 + rho * scale / L[3], (L, t)
+            assert (
+                orc.angle_error(r.links['coupler'], want['theta3']) <= 1e-13 + rho * scale / L[2]
+            ), (L, t)
+            assert (
+                orc.angle_error(r.links['rocker'], want['theta4']) <= 1e-13 + rho * scale / L[3]
+            ), (L, t)
     mech = slider_crank(1e-6, 1.0, 0.0)
     s = Solver(mech, method=method)
     for t in np.linspace(-3, 3, 9):
@@ -433,8 +452,13 @@ def test_large_input_angles_reduce_exactly(method, t):
     assert angle_errors(r, want) <= TIGHT
     r2 = Solver(mech, method=method).solve({'crank': float(reduced)})
     assert r2.success and r2.branch == r.branch
-    assert max(math.hypot(r.points[p][0] - r2.points[p][0], r.points[p][1] - r2.points[p][1])
-               for p in r.points) <= TIGHT * mech.length_scale
+    assert (
+        max(
+            math.hypot(r.points[p][0] - r2.points[p][0], r.points[p][1] - r2.points[p][1])
+            for p in r.points
+        )
+        <= TIGHT * mech.length_scale
+    )
     assert r.residual <= TIGHT, r.residual
 
 
@@ -473,6 +497,7 @@ def test_extreme_length_scales(k, method, form):
     """Scenes with lengths ~1e-300 .. 1e300: if they load, every solve is either right (same
     angles as at unit scale, residual <= 1e-12) or refused with a reason; never NaN/inf."""
     from linkage_ros.core.errors import SceneError
+
     try:
         if form == 'four_bar':
             mech = four_bar(tuple(k * v for v in CRANK_ROCKER))
@@ -480,11 +505,11 @@ def test_extreme_length_scales(k, method, form):
         else:
             mech = slider_crank(k, 3 * k, 0.5 * k)
             unit = slider_crank(1.0, 3.0, 0.5)
-    except SceneError as exc:          # refusing to load is allowed; it must say why
+    except SceneError as exc:  # refusing to load is allowed; it must say why
         assert str(exc)
         return
     s, su = Solver(mech, method=method), Solver(unit, method='closed_form')
-    for t in (1.0, 2.5, -2.0, 1e-310):      # (huge angles: test_subnormal_and_huge_angles)
+    for t in (1.0, 2.5, -2.0, 1e-310):  # (huge angles: test_subnormal_and_huge_angles)
         r = s.solve({'crank': t})
         assert_finite(r)
         if not r.success:
@@ -492,22 +517,40 @@ def test_extreme_length_scales(k, method, form):
         ru = su.solve({'crank': t})
         assert r.residual <= TIGHT, (t, r.residual)
         for link in ru.links:
-            assert abs(math.remainder(r.links[link] - ru.links[link], 2 * math.pi)) <= 1e-9, \
-                (t, link, r.links[link], ru.links[link])
+            assert abs(math.remainder(r.links[link] - ru.links[link], 2 * math.pi)) <= 1e-9, (
+                t,
+                link,
+                r.links[link],
+                ru.links[link],
+            )
 
 
 # =============================================================================================
 # Newton: converges or says why; never silently another branch
 # =============================================================================================
 
-LINKAGES = {'crank_rocker': CRANK_ROCKER, 'triple_rocker': TRIPLE_ROCKER,
-            'double_rocker': DOUBLE_ROCKER}
+LINKAGES = {
+    'crank_rocker': CRANK_ROCKER,
+    'triple_rocker': TRIPLE_ROCKER,
+    'double_rocker': DOUBLE_ROCKER,
+}
 _MECHS = {n: four_bar(L) for n, L in LINKAGES.items()}
 _SC = slider_crank(1.0, 3.0, 0.5, 0.3)
 
-angles = st.one_of(st.floats(-7.0, 7.0, allow_nan=False),
-                   st.sampled_from([0.0, math.pi, -math.pi, 0.6741305066673152,
-                                    -0.6741305066673152, 2.046915387706693, 0.8410686705679302]))
+angles = st.one_of(
+    st.floats(-7.0, 7.0, allow_nan=False),
+    st.sampled_from(
+        [
+            0.0,
+            math.pi,
+            -math.pi,
+            0.6741305066673152,
+            -0.6741305066673152,
+            2.046915387706693,
+            0.8410686705679302,
+        ]
+    ),
+)
 
 
 def _agree_tol(a, b):
@@ -518,8 +561,9 @@ def _agree_tol(a, b):
     return AGREE + 8 * rho / math.sqrt(m * m + rho)
 
 
-@settings(max_examples=20, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    max_examples=20, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(name=st.sampled_from(sorted(LINKAGES)), seq=st.lists(angles, min_size=1, max_size=6))
 @example(name='crank_rocker', seq=[-0.673828125, 3.142578125])
 @example(name='triple_rocker', seq=[4.0, -0.6741305066673152])
@@ -541,15 +585,23 @@ def test_newton_reference_branch_never_switches(name, seq):
         assert r.residual <= TIGHT
         assert c.success, (t, c.reason)
         assert r.branch == c.branch, (t, r.branch, c.branch)
-        gap = max(math.hypot(r.points[p][0] - c.points[p][0], r.points[p][1] - c.points[p][1])
-                  for p in r.points) / mech.length_scale
+        gap = (
+            max(
+                math.hypot(r.points[p][0] - c.points[p][0], r.points[p][1] - c.points[p][1])
+                for p in r.points
+            )
+            / mech.length_scale
+        )
         assert gap <= _agree_tol(r, c), (t, gap)
 
 
-@settings(max_examples=20, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.too_slow])
-@given(name=st.sampled_from(sorted(LINKAGES) + ['slider_crank']),
-       seq=st.lists(angles, min_size=1, max_size=8))
+@settings(
+    max_examples=20, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
+@given(
+    name=st.sampled_from(sorted(LINKAGES) + ['slider_crank']),
+    seq=st.lists(angles, min_size=1, max_size=8),
+)
 @example(name='double_rocker', seq=[0.8410686705679302])
 @example(name='triple_rocker', seq=[1.0, 0.0, 3.0, -0.6741305066673152])
 def test_newton_continuous_converges_or_says_why(name, seq):
@@ -568,8 +620,13 @@ def test_newton_continuous_converges_or_says_why(name, seq):
         assert r.residual <= TIGHT, (t, r.residual)
         c = Solver(mech, method='closed_form', branch=r.branch).solve({'crank': t})
         assert c.success, (t, c.reason)
-        gap = max(math.hypot(r.points[p][0] - c.points[p][0], r.points[p][1] - c.points[p][1])
-                  for p in r.points) / mech.length_scale
+        gap = (
+            max(
+                math.hypot(r.points[p][0] - c.points[p][0], r.points[p][1] - c.points[p][1])
+                for p in r.points
+            )
+            / mech.length_scale
+        )
         assert gap <= _agree_tol(r, c), (t, gap, r.margin)
 
 
@@ -577,22 +634,41 @@ def test_newton_continuous_converges_or_says_why(name, seq):
 # NaN / inf never leave a solver
 # =============================================================================================
 
-WILD = [0.0, 1.0, -1.0, math.pi, 1e-310, 5e-324, 1e300, -1e300, 1.7976931348623157e308,
-        float('nan'), float('inf'), -float('inf'), 0.6741305066673152, 2.046915387706693]
+WILD = [
+    0.0,
+    1.0,
+    -1.0,
+    math.pi,
+    1e-310,
+    5e-324,
+    1e300,
+    -1e300,
+    1.7976931348623157e308,
+    float('nan'),
+    float('inf'),
+    -float('inf'),
+    0.6741305066673152,
+    2.046915387706693,
+]
 
 
 @pytest.mark.parametrize('method', METHODS)
 def test_no_nan_or_inf_leaves_a_solver(method):
     """Every float of every Result.to_dict() is finite (or None), for wild inputs on several
     mechanisms, forward and inverse; and solve_batch arrays are finite too."""
-    mechs = [four_bar(CRANK_ROCKER), four_bar(TRIPLE_ROCKER), four_bar(DOUBLE_ROCKER),
-             four_bar((1.0, 1.0, 1.0, 1.0)), slider_crank(1.0, 3.0, 0.5, 0.3)]
+    mechs = [
+        four_bar(CRANK_ROCKER),
+        four_bar(TRIPLE_ROCKER),
+        four_bar(DOUBLE_ROCKER),
+        four_bar((1.0, 1.0, 1.0, 1.0)),
+        slider_crank(1.0, 3.0, 0.5, 0.3),
+    ]
     for i, mech in enumerate(mechs):
         s = Solver(mech, method=method)
         for t in WILD:
             assert_finite(s.solve({'crank': t}))
         if method == 'newton' and i in (1, 2, 3):
-            continue    # a refused Newton solve bisects its whole path (0.1-0.4 s): keep it short
+            continue  # a refused Newton solve bisects its whole path (0.1-0.4 s): keep it short
         if method == 'newton' and i == 4:
             continue
         knowns = ['rocker'] if 'rocker' in mech.links else ['slider']
@@ -600,7 +676,11 @@ def test_no_nan_or_inf_leaves_a_solver(method):
         for v in WILD:
             assert_finite(si.solve({knowns[0]: v}))
         b = s.solve_batch({'crank': np.array(WILD)})
-        for arr in ([b.residual, b.margin] + list(b.links.values()) + list(b.joints.values())
-                    + list(b.points.values())):
+        for arr in (
+            [b.residual, b.margin]
+            + list(b.links.values())
+            + list(b.joints.values())
+            + list(b.points.values())
+        ):
             assert np.all(np.isfinite(arr))
         assert not np.any(b.ok[np.isnan(WILD) | np.isinf(WILD)])

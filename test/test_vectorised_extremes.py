@@ -7,30 +7,50 @@ general formulas or refused with ok False.  Oracles: the loop-closure equations 
 hand on lengths normalised by the longest, and the exact power-of-two scale invariance of the
 problem.
 """
+
 import itertools
 import math
 
 import numpy as np
 import pytest
 
-from linkage_ros.core.fourbar import (fourbar_forward, fourbar_inverse, slider_crank_forward,
-                                      slider_crank_inverse)
+from linkage_ros.core.fourbar import (
+    fourbar_forward,
+    fourbar_inverse,
+    slider_crank_forward,
+    slider_crank_inverse,
+)
 
 PI = math.pi
-ULP_PI = np.spacing(PI)            # 4.4e-16
+ULP_PI = np.spacing(PI)  # 4.4e-16
 MAXF = np.finfo(float).max
 
 # lengths across the whole float range, signed zeros and subnormals included
-LENGTHS = [0.0, -0.0, 5e-324, 1e-310, 2.0 ** -200, 0.35, 0.7, 1.0, 2.0 ** 200, 1e300, 1e308,
-           1.3e308, MAXF]
+LENGTHS = [
+    0.0,
+    -0.0,
+    5e-324,
+    1e-310,
+    2.0**-200,
+    0.35,
+    0.7,
+    1.0,
+    2.0**200,
+    1e300,
+    1e308,
+    1.3e308,
+    MAXF,
+]
 COORDS = LENGTHS + [-v for v in LENGTHS if v != 0]
 ANGLES = [0.0, -0.0, PI, -PI, 1.0, PI / 2, -PI / 2, 3.0, -2.0]
 
 # name, function, indices of the angle outputs
-FUNCS = [('fourbar_forward', fourbar_forward, (0, 1)),
-         ('fourbar_inverse', fourbar_inverse, (0, 1)),
-         ('slider_crank_forward', slider_crank_forward, (1,)),
-         ('slider_crank_inverse', slider_crank_inverse, (0, 1))]
+FUNCS = [
+    ('fourbar_forward', fourbar_forward, (0, 1)),
+    ('fourbar_inverse', fourbar_inverse, (0, 1)),
+    ('slider_crank_forward', slider_crank_forward, (1,)),
+    ('slider_crank_inverse', slider_crank_inverse, (0, 1)),
+]
 
 
 def wrapped(a):
@@ -94,15 +114,22 @@ def assert_contract(name, angle_idx, args, sol, closes=True):
         # a subnormal x is the exact one rounded to the subnormal grid (spacing 2**-1074)
         slack = 0.0
         if name == 'slider_crank_forward':
-            m = np.maximum(np.maximum(np.abs(args[0]), np.abs(args[1])),
-                           np.maximum(np.abs(args[2]), np.abs(sol.x)))
-            slack = 2.0 ** -1074 / np.where(m > 0, m, 1.0)
+            m = np.maximum(
+                np.maximum(np.abs(args[0]), np.abs(args[1])),
+                np.maximum(np.abs(args[2]), np.abs(sol.x)),
+            )
+            slack = 2.0**-1074 / np.where(m > 0, m, 1.0)
         bad = np.flatnonzero(ok & ~(mis <= 1e-11 + slack))
-        assert bad.size == 0, (name, [v[bad[0]] for v in args], [o[bad[0]] for o in sol],
-                               mis[bad[0]])
+        assert bad.size == 0, (
+            name,
+            [v[bad[0]] for v in args],
+            [o[bad[0]] for o in sol],
+            mis[bad[0]],
+        )
 
 
 # ----------------------------------------------------------------------------- reported cases
+
 
 def test_reported_slider_inverse_with_overflowing_centre_distance():
     # |B| = hypot(1.3e308, 1.3e308) overflows; the circles are 1.8e308 apart, radii 0.35, 0.2
@@ -132,16 +159,24 @@ def test_reported_slider_forward_signed_zero_gives_minus_pi():
 
 # inputs that gave exactly -pi (signed zeros, sin(-pi) = -1.2e-16): args -> output name
 MINUS_PI_CASES = {
-    fourbar_forward: [((1.0, 0.35, 0.35, 1.0, -0.0, -1), 'theta3'),
-                      ((1.0, 0.35, 0.35, 1.0, -0.0, -1), 'theta4'),
-                      ((1.0, 1.0, 1.0, 1.0, -PI, 1), 'theta4')],
-    fourbar_inverse: [((1.0, 1.0, 1.0, 1.0, -PI, 1), 'theta2'),
-                      ((1.0, 1.0, 1.0, 1.0, -PI, -1), 'theta3'),
-                      ((1.0, 1.0, 0.35, 0.35, PI, 1), 'theta3')],
-    slider_crank_forward: [((1.0, 1.0, 0.0, PI, -1), 'theta3'),
-                           ((1.0, 1.0, -0.0, 0.0, -1), 'theta3')],
-    slider_crank_inverse: [((1.0, 1.0, 1.0, -1.0, -1), 'theta3'),
-                           ((1.0, 1.0, -1.0, -1.0, -1), 'theta2')],
+    fourbar_forward: [
+        ((1.0, 0.35, 0.35, 1.0, -0.0, -1), 'theta3'),
+        ((1.0, 0.35, 0.35, 1.0, -0.0, -1), 'theta4'),
+        ((1.0, 1.0, 1.0, 1.0, -PI, 1), 'theta4'),
+    ],
+    fourbar_inverse: [
+        ((1.0, 1.0, 1.0, 1.0, -PI, 1), 'theta2'),
+        ((1.0, 1.0, 1.0, 1.0, -PI, -1), 'theta3'),
+        ((1.0, 1.0, 0.35, 0.35, PI, 1), 'theta3'),
+    ],
+    slider_crank_forward: [
+        ((1.0, 1.0, 0.0, PI, -1), 'theta3'),
+        ((1.0, 1.0, -0.0, 0.0, -1), 'theta3'),
+    ],
+    slider_crank_inverse: [
+        ((1.0, 1.0, 1.0, -1.0, -1), 'theta3'),
+        ((1.0, 1.0, -1.0, -1.0, -1), 'theta2'),
+    ],
 }
 
 
@@ -149,7 +184,7 @@ MINUS_PI_CASES = {
 def test_direction_pi_is_plus_pi(fn):
     nl = 4 if fn in (fourbar_forward, fourbar_inverse) else 3
     for args, out in MINUS_PI_CASES[fn]:
-        for scale in (1.0, 2.0 ** 300, 2.0 ** -1060):     # the fast and the general forms
+        for scale in (1.0, 2.0**300, 2.0**-1060):  # the fast and the general forms
             a = [v * scale for v in args[:nl]] + list(args[nl:])
             if fn is slider_crank_inverse:
                 a[3] *= scale
@@ -165,13 +200,14 @@ def test_direction_pi_is_plus_pi(fn):
 
 # ----------------------------------------------------------------------------- the contract
 
+
 @pytest.mark.parametrize('name, fn, angle_idx', FUNCS)
 def test_contract_on_a_grid_of_extreme_inputs(name, fn, angle_idx):
     args = grid(name)
     with np.errstate(all='raise'):
         sol = fn(*args)
     assert_contract(name, angle_idx, args, sol)
-    assert 0.01 < sol.ok.mean() < 0.5          # a real mix of solvable and unsolvable
+    assert 0.01 < sol.ok.mean() < 0.5  # a real mix of solvable and unsolvable
     # each element as in a call of its own
     rng = np.random.default_rng(5)
     for i in rng.choice(args.shape[1], 300, replace=False):
@@ -196,11 +232,11 @@ FB_LINKAGES = [(4.0, 1.5, 4.5, 3.0), (4.0, 3.0, 5.0, 2.5), (1.0, 0.25, 1.125, 0.
 SC_LINKAGES = [(1.0, 3.0, 0.5), (2.0, 1.0, -0.25), (1.0, 1.0, 0.0)]
 # exponents k of the scale 2**k: subnormal, the general form's range, the fast range, near max
 EXPONENTS = [-1066, -1040, -1000, -700, -201, -120, 0, 120, 201, 700, 1000, 1018, 1021]
-REF = 300                      # the general form, far from both ends of the float range
+REF = 300  # the general form, far from both ends of the float range
 
 
 def _scaled_call(name, fn, base, u, k):
-    s = 2.0 ** k
+    s = 2.0**k
     if name == 'slider_crank_inverse':
         return fn(*(v * s for v in base), u * s, np.array([[1.0], [-1.0]]))
     return fn(*(v * s for v in base), u, np.array([[1.0], [-1.0]]))
@@ -209,26 +245,31 @@ def _scaled_call(name, fn, base, u, k):
 @pytest.mark.parametrize('name, fn, angle_idx', FUNCS)
 def test_scaling_all_lengths_by_a_power_of_two(name, fn, angle_idx):
     if name == 'slider_crank_inverse':
-        u = np.arange(-72, 73) / 16.0                # slider positions, exact at every scale
+        u = np.arange(-72, 73) / 16.0  # slider positions, exact at every scale
     else:
         u = np.linspace(-PI, PI, 91)
     linkages = FB_LINKAGES if name.startswith('fourbar') else SC_LINKAGES
     for k, base in itertools.product(EXPONENTS, linkages):
         ref = _scaled_call(name, fn, base, u, REF)
         sol = _scaled_call(name, fn, base, u, k)
-        args = [np.broadcast_to(v, sol.ok.shape).ravel() for v in
-                ([b * 2.0 ** k for b in base] + [u * 2.0 ** k if name == 'slider_crank_inverse'
-                                                  else u, np.array([[1.0], [-1.0]])])]
+        args = [
+            np.broadcast_to(v, sol.ok.shape).ravel()
+            for v in (
+                [b * 2.0**k for b in base]
+                + [u * 2.0**k if name == 'slider_crank_inverse' else u, np.array([[1.0], [-1.0]])]
+            )
+        ]
         assert_contract(name, angle_idx, args, type(sol)(*(np.ravel(o) for o in sol)))
-        assert 0.1 < ref.ok.mean()
+        assert ref.ok.mean() > 0.1
         if name == 'slider_crank_forward':
             # x beyond the float range cannot be returned: refused there, and only there
             fits = np.abs(np.ldexp(ref.x, k - REF)) < MAXF * (1 - 1e-15)
             assert np.array_equal(sol.ok, ref.ok & fits), (k, base)
             both = sol.ok
             # x to a few ulps of the longest length, or rounded to the subnormal grid
-            tol = np.maximum(4 * np.spacing(2.0 ** REF * max(map(abs, base))),
-                             np.ldexp(1.0, -1074 + REF - k))
+            tol = np.maximum(
+                4 * np.spacing(2.0**REF * max(map(abs, base))), np.ldexp(1.0, -1074 + REF - k)
+            )
             assert np.all(np.abs(np.ldexp(sol.x[both], REF - k) - ref.x[both]) <= tol)
         else:
             assert np.array_equal(sol.ok, ref.ok), (k, base)

@@ -11,6 +11,7 @@ alone, |A - O4|^2 = l1^2 + l2^2 - 2 l1 l2 cos(theta2), and the dyad A-B-O4 close
 collinear).  The same holds for the output with |B - O2|^2 = l1^2 + l4^2 + 2 l1 l4 cos(theta4)
 and the band [|l2 - l3|, l2 + l3].
 """
+
 from __future__ import annotations
 
 import math
@@ -43,8 +44,13 @@ def _lengths(l1, l2, l3, l4) -> tuple[float, float, float, float, int]:
             raise ValueError(f'four-bar length {name} must be finite and > 0, got {v!r}')
         out.append(f)
     e = math.frexp(max(out))[1]
-    return (math.ldexp(out[0], -e), math.ldexp(out[1], -e), math.ldexp(out[2], -e),
-            math.ldexp(out[3], -e), e)
+    return (
+        math.ldexp(out[0], -e),
+        math.ldexp(out[1], -e),
+        math.ldexp(out[2], -e),
+        math.ldexp(out[3], -e),
+        e,
+    )
 
 
 def kutzbach_dof(n_links: int, n_lower_pairs: int, n_higher_pairs: int = 0) -> int:
@@ -62,13 +68,13 @@ class GrashofInfo:
 
     #: "crank-rocker", "double-crank", "grashof-double-rocker", "change-point", "triple-rocker"
     klass: str
-    input_fully_rotates: bool    #: the input crank l2 turns 360 deg relative to the ground
-    output_fully_rotates: bool   #: the output link l4 turns 360 deg relative to the ground
-    s: float                     #: shortest length
-    l: float                     #: longest length
-    p: float                     #: the smaller of the two intermediate lengths
-    q: float                     #: the larger of the two intermediate lengths
-    assemblable: bool = True     #: l <= s + p + q (otherwise no configuration exists at all)
+    input_fully_rotates: bool  #: the input crank l2 turns 360 deg relative to the ground
+    output_fully_rotates: bool  #: the output link l4 turns 360 deg relative to the ground
+    s: float  #: shortest length
+    l: float  #: longest length
+    p: float  #: the smaller of the two intermediate lengths
+    q: float  #: the larger of the two intermediate lengths
+    assemblable: bool = True  #: l <= s + p + q (otherwise no configuration exists at all)
 
 
 def _rotates(g: float, c: float, m: float, n: float, tol: float) -> bool:
@@ -110,13 +116,20 @@ def grashof_info(l1: float, l2: float, l3: float, l4: float) -> GrashofInfo:
         # Grashof with a strict inequality: the shortest link is unique (two equal shortest
         # links would need l < q), so index() is unambiguous.
         shortest = lengths.index(s)
-        klass = {0: 'double-crank', 1: 'crank-rocker', 2: 'grashof-double-rocker',
-                 3: 'crank-rocker'}[shortest]
+        klass = {
+            0: 'double-crank',
+            1: 'crank-rocker',
+            2: 'grashof-double-rocker',
+            3: 'crank-rocker',
+        }[shortest]
     return GrashofInfo(
         klass=klass,
         input_fully_rotates=_rotates(lengths[0], lengths[1], lengths[2], lengths[3], tol),
         output_fully_rotates=_rotates(lengths[0], lengths[3], lengths[1], lengths[2], tol),
-        s=s, l=lng, p=p, q=q,
+        s=s,
+        l=lng,
+        p=p,
+        q=q,
         assemblable=lng <= (s + p + q) + tol,
     )
 
@@ -143,8 +156,10 @@ def _angle_intervals(g: float, c: float, m: float, n: float, exp: int = 0):
     # Same relative clamp as the position solver, so the range endpoints assemble.
     tol = TANGENCY_TOL * max(g, c, m, n)
     if max(d_min, lo_band) > min(d_max, hi_band) + tol:
-        raise ValueError(f'four-bar cannot be assembled: sides {math.ldexp(g, exp)}, '
-                         f'{math.ldexp(c, exp)}, {math.ldexp(m, exp)}, {math.ldexp(n, exp)}')
+        raise ValueError(
+            f'four-bar cannot be assembled: sides {math.ldexp(g, exp)}, '
+            f'{math.ldexp(c, exp)}, {math.ldexp(m, exp)}, {math.ldexp(n, exp)}'
+        )
     upper = d_max > hi_band + tol
     lower = d_min < lo_band - tol
     if not upper and not lower:
@@ -246,10 +261,11 @@ def transmission_angle(l1, l2, l3, l4, theta2):
     args = []
     for name, v in zip(_LENGTH_NAMES + ('theta2',), (l1, l2, l3, l4, theta2)):
         try:
-            a = np.asarray(v, dtype=float)     # None becomes NaN here, refused below
+            a = np.asarray(v, dtype=float)  # None becomes NaN here, refused below
         except (TypeError, ValueError):
-            raise ValueError(f'transmission_angle: {name} must be a number or an array of '
-                             f'numbers, got {v!r}') from None
+            raise ValueError(
+                f'transmission_angle: {name} must be a number or an array of numbers, got {v!r}'
+            ) from None
         if not np.all(np.isfinite(a)):
             raise ValueError(f'transmission_angle: {name} must be finite, got {v!r}')
         if name != 'theta2' and not np.all(a > 0):
@@ -278,13 +294,13 @@ class ChainInfo:
     the ground's slide, driven from the other side).
     """
 
-    chain: str                           #: '4R' or '3R-1P'
-    klass: str                           #: the class, see above
-    lengths: dict                        #: the kinematic dimensions used, see above
-    links: tuple                         #: the links those lengths belong to, in their order
-    input_fully_rotates: bool | None     #: the driven link turns 360 deg relative to the ground
-    output_fully_rotates: bool | None    #: the other ground-pivoted link does
-    rule: str                            #: the inequality that decides the class, with numbers
+    chain: str  #: '4R' or '3R-1P'
+    klass: str  #: the class, see above
+    lengths: dict  #: the kinematic dimensions used, see above
+    links: tuple  #: the links those lengths belong to, in their order
+    input_fully_rotates: bool | None  #: the driven link turns 360 deg relative to the ground
+    output_fully_rotates: bool | None  #: the other ground-pivoted link does
+    rule: str  #: the inequality that decides the class, with numbers
 
 
 def slide_chain_class(l_a: float, l_b: float, offset: float, tol: float = GRASHOF_TOL) -> str:
@@ -295,8 +311,9 @@ def slide_chain_class(l_a: float, l_b: float, offset: float, tol: float = GRASHO
     lmin, lmax = sorted((float(l_a), float(l_b)))
     e = abs(float(offset))
     if not (math.isfinite(lmin) and math.isfinite(lmax) and math.isfinite(e) and lmin > 0):
-        raise ValueError(f'3R-1P lengths must be finite and > 0, got {l_a!r}, {l_b!r}, '
-                         f'offset {offset!r}')
+        raise ValueError(
+            f'3R-1P lengths must be finite and > 0, got {l_a!r}, {l_b!r}, offset {offset!r}'
+        )
     excess = lmin + e - lmax
     if abs(excess) <= tol * (lmin + lmax + e):
         return 'change-point'
@@ -323,13 +340,17 @@ def four_link_chain_info(mech) -> ChainInfo | None:
       iff b + e <= c; the slider does not turn (None).
     """
     links = mech.links
-    if len(links) != 4 or len(mech.actuators) != 1 or len(mech.prismatics) > 1 or \
-            len(mech.revolutes) + len(mech.prismatics) != 4:
-        return None                                 # not 4R or 3R-1P (e.g. a Scotch yoke)
+    if (
+        len(links) != 4
+        or len(mech.actuators) != 1
+        or len(mech.prismatics) > 1
+        or len(mech.revolutes) + len(mech.prismatics) != 4
+    ):
+        return None  # not 4R or 3R-1P (e.g. a Scotch yoke)
     act = next(iter(mech.actuators.values()))
     if act.kind != 'angle' or act.reference not in (None, mech.ground):
         return None
-    pairs = {name: [] for name in links}            # link -> [(kind, other link, point)]
+    pairs = {name: [] for name in links}  # link -> [(kind, other link, point)]
     for j in mech.revolutes:
         pairs[j.parent].append(('R', j.child, j.point))
         pairs[j.child].append(('R', j.parent, j.point))
@@ -337,13 +358,13 @@ def four_link_chain_info(mech) -> ChainInfo | None:
         pairs[pj.guide].append(('P', pj.slider, pj.point))
         pairs[pj.slider].append(('P', pj.guide, pj.point))
     if any(len(v) != 2 or v[0][1] == v[1][1] for v in pairs.values()):
-        return None                                 # not one simple loop of four links
+        return None  # not one simple loop of four links
     ground, driven = mech.ground, act.link
     if not any(other == ground and kind == 'R' for kind, other, _ in pairs[driven]):
-        return None                                 # the driven link is not pinned to the ground
+        return None  # the driven link is not pinned to the ground
     pt = {k: np.asarray(v, float) for k, v in mech.points.items()}
 
-    def span(link):                                 # distance between a link's two revolutes
+    def span(link):  # distance between a link's two revolutes
         a, b = [p for kind, _, p in pairs[link] if kind == 'R']
         return float(np.hypot(*(pt[a] - pt[b])))
 
@@ -351,7 +372,7 @@ def four_link_chain_info(mech) -> ChainInfo | None:
     output = next(o for kind, o, _ in pairs[ground] if o != driven)
     coupler = next(l for l in links if l not in (ground, driven, output))
     if not mech.prismatics:
-        if getattr(mech, 'form', None) == 'four_bar':      # the lengths as the scene gives them
+        if getattr(mech, 'form', None) == 'four_bar':  # the lengths as the scene gives them
             sc = mech.shortcut
             l1, l2, l3, l4 = sc['ground'], sc['crank'], sc['coupler'], sc['rocker']
         else:
@@ -360,35 +381,44 @@ def four_link_chain_info(mech) -> ChainInfo | None:
         s, p, q, lng = g.s, g.p, g.q, g.l
         sign = {'change-point': '=', 'triple-rocker': '>'}.get(g.klass, '<')
         rule = f's + l = {s + lng:.6g} {sign} p + q = {p + q:.6g}'
-        return ChainInfo('4R', g.klass, {'l1': l1, 'l2': l2, 'l3': l3, 'l4': l4},
-                         (ground, driven, coupler, output), g.input_fully_rotates,
-                         g.output_fully_rotates, rule)
+        return ChainInfo(
+            '4R',
+            g.klass,
+            {'l1': l1, 'l2': l2, 'l3': l3, 'l4': l4},
+            (ground, driven, coupler, output),
+            g.input_fully_rotates,
+            g.output_fully_rotates,
+            rule,
+        )
     pj = next(iter(mech.prismatics.values()))
     u = np.asarray(pj.direction, float)
     u = u / np.hypot(*u)
     line = pt[pj.point]
 
-    def across(p):                                  # signed distance of point p from the line
+    def across(p):  # signed distance of point p from the line
         d = pt[p] - line
         return float(u[0] * d[1] - u[1] * d[0])
+
     guide_r = next(p for kind, _, p in pairs[pj.guide] if kind == 'R')
     slider_r = next(p for kind, _, p in pairs[pj.slider] if kind == 'R')
     e = abs(across(guide_r) - across(slider_r))
     rr = [l for l in links if all(kind == 'R' for kind, _, _ in pairs[l])]
     klass = slide_chain_class(span(rr[0]), span(rr[1]), e, tol)
     lmin, lmax = sorted((span(rr[0]), span(rr[1])))
-    rule = (f'lmin + e = {lmin + e:.6g} '
-            f'{"<" if klass == "grashof" else ">" if klass == "non-grashof" else "="} '
-            f'lmax = {lmax:.6g}')
+    rule = (
+        f'lmin + e = {lmin + e:.6g} '
+        f'{"<" if klass == "grashof" else ">" if klass == "non-grashof" else "="} '
+        f'lmax = {lmax:.6g}'
+    )
     lengths = {'l_a': span(rr[0]), 'l_b': span(rr[1]), 'e': e}
     slack = tol * (lmin + lmax + e)
-    if ground in rr:                                # inverted slider-crank
+    if ground in rr:  # inverted slider-crank
         a = span(ground)
         b = span(driven if driven in rr else output)
         rr_turns = abs(a - b) >= e - slack
         slotted_turns = b - a >= e - slack
         inp, out = (rr_turns, slotted_turns) if driven in rr else (slotted_turns, rr_turns)
-    else:           # the ground carries the slide (as guide or slider: either way only the
+    else:  # the ground carries the slide (as guide or slider: either way only the
         # relative angle is locked): a slider-crank, the driven link its crank (in rr)
         c = span(coupler)
         inp, out = span(driven) + e <= c + slack, None

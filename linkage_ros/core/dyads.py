@@ -10,6 +10,7 @@ accurate for needle-like triangles near tangency; angles come from atan2, never 
 tan-half-angle quotient (which divides by zero at theta = pi); tangency is clamped relative to
 the dyad's own length scale so results are scale-invariant.
 """
+
 from __future__ import annotations
 
 import math
@@ -60,17 +61,21 @@ def kahan_four_area(a, b, c):
     neg_factor = small - (big - mid)  # the only factor that can be negative
     # Square roots taken factor by factor: the plain product underflows for needle triangles
     # (a side of 1e-200 next to sides of 1 squares to 0).
-    four_area_n = (np.sqrt(big + (mid + small)) * np.sqrt(np.maximum(neg_factor, 0.0))
-                   * np.sqrt(small + (big - mid)) * np.sqrt(big + (mid - small)))
+    four_area_n = (
+        np.sqrt(big + (mid + small))
+        * np.sqrt(np.maximum(neg_factor, 0.0))
+        * np.sqrt(small + (big - mid))
+        * np.sqrt(big + (mid - small))
+    )
     return four_area_n, -neg_factor, big, scale
 
 
 class DyadSolution(NamedTuple):
-    point: np.ndarray        # (..., 2) the solved point (finite fill where not ok)
-    margin: np.ndarray       # (...) distance to the dyad's singularity, 1 far .. 0 at it
-    ok: np.ndarray           # (...) bool, the dyad closes (within the tangency clamp)
-    violation: np.ndarray    # (...) by how much it misses (length units, 0 when ok)
-    height: np.ndarray       # (...) distance of the point from the centre line (length units)
+    point: np.ndarray  # (..., 2) the solved point (finite fill where not ok)
+    margin: np.ndarray  # (...) distance to the dyad's singularity, 1 far .. 0 at it
+    ok: np.ndarray  # (...) bool, the dyad closes (within the tangency clamp)
+    violation: np.ndarray  # (...) by how much it misses (length units, 0 when ok)
+    height: np.ndarray  # (...) distance of the point from the centre line (length units)
 
 
 def pow2_scale(m):
@@ -104,8 +109,10 @@ def circle_circle(c1, r1, c2, r2, sign, tol: float = TANGENCY_TOL) -> DyadSoluti
     r2 = np.asarray(r2, float)
     sgn = np.where(np.asarray(sign, float) < 0, -1.0, 1.0)
     with np.errstate(invalid='ignore', divide='ignore', over='ignore', under='ignore'):
-        big = np.maximum(np.maximum(np.max(np.abs(c1), axis=-1), np.max(np.abs(c2), axis=-1)),
-                         np.maximum(np.abs(r1), np.abs(r2)))
+        big = np.maximum(
+            np.maximum(np.max(np.abs(c1), axis=-1), np.max(np.abs(c2), axis=-1)),
+            np.maximum(np.abs(r1), np.abs(r2)),
+        )
         S = pow2_scale(big)
         c1n, c2n = c1 / S[..., None], c2 / S[..., None]
         r1n, r2n = r1 / S, r2 / S
@@ -113,11 +120,17 @@ def circle_circle(c1, r1, c2, r2, sign, tol: float = TANGENCY_TOL) -> DyadSoluti
         dy = c2n[..., 1] - c1n[..., 1]
         d = np.hypot(dx, dy)
         dx, dy, d, r1n, r2n, sgn, S = np.broadcast_arrays(dx, dy, d, r1n, r2n, sgn, S)
-        finite = (np.isfinite(dx) & np.isfinite(dy) & np.isfinite(r1n) & np.isfinite(r2n)
-                  & np.all(np.isfinite(c1), axis=-1) & np.all(np.isfinite(c2), axis=-1))
+        finite = (
+            np.isfinite(dx)
+            & np.isfinite(dy)
+            & np.isfinite(r1n)
+            & np.isfinite(r2n)
+            & np.all(np.isfinite(c1), axis=-1)
+            & np.all(np.isfinite(c2), axis=-1)
+        )
         four_area_n, violation_n, longest_n, scale = kahan_four_area(d, r1n, r2n)
         dn = d / scale  # 0 only if d == 0 or d / scale underflows
-        ok = (finite & (dn > 0) & (r1n > 0) & (r2n > 0) & (violation_n <= tol * longest_n))
+        ok = finite & (dn > 0) & (r1n > 0) & (r2n > 0) & (violation_n <= tol * longest_n)
         dsafe = np.where(d > 0, d, 1.0)
         ux, uy = dx / dsafe, dy / dsafe
         # foot of X on the centre line from c1; (r1 - r2)(r1 + r2) / d avoids the cancellation
@@ -135,9 +148,10 @@ def circle_circle(c1, r1, c2, r2, sign, tol: float = TANGENCY_TOL) -> DyadSoluti
         px = np.where(finite, np.where(inside, px, c1[..., 0]), 0.0)
         py = np.where(finite, np.where(inside, py, c1[..., 1]), 0.0)
         # margin = h d / (r1 r2) = |sin| of the angle at X, formed without overflow
-        margin = np.where(ok, (h / np.where(r1n > 0, r1n, 1.0)) * (d / np.where(r2n > 0, r2n, 1.0)),
-                          0.0)
-        h = np.where(ok, h * S, 0.0)        # h <= r1: no overflow
+        margin = np.where(
+            ok, (h / np.where(r1n > 0, r1n, 1.0)) * (d / np.where(r2n > 0, r2n, 1.0)), 0.0
+        )
+        h = np.where(ok, h * S, 0.0)  # h <= r1: no overflow
         violation = np.where(finite, np.maximum(violation_n * (scale * S), 0.0), np.inf)
     margin = np.clip(np.nan_to_num(margin), 0.0, 1.0)
     violation = np.where(ok, 0.0, np.nan_to_num(violation, posinf=np.finfo(float).max))
@@ -194,7 +208,7 @@ def line_through_point(p, x, offset, sign, tol: float = TANGENCY_TOL):
 
 def rotation_between(v_ref, v_now):
     """Angle (rad) that rotates vector v_ref onto the direction of v_now (atan2 form)."""
-    a, _ = _safe_unit(np.asarray(v_ref, float))    # unit first: products of 1e-300 underflow
+    a, _ = _safe_unit(np.asarray(v_ref, float))  # unit first: products of 1e-300 underflow
     b, _ = _safe_unit(np.asarray(v_now, float))
     return np.arctan2(cross2(a, b), np.sum(a * b, axis=-1))
 
@@ -219,6 +233,7 @@ def wrap_angle(a: float) -> float:
 # length-1 arrays. Same formulas as above; both candidates come back so a continuity choice
 # costs one evaluation. test_solver_core checks these agree with the batched forms.
 
+
 def circle_circle_pair(c1: complex, r1: float, c2: complex, r2: float, tol: float = TANGENCY_TOL):
     """RRR dyad on complex points: returns (foot, hvec, margin, ok, violation); the solutions are
     foot + hvec (sign +1, left of c1 -> c2) and foot - hvec."""
@@ -233,8 +248,12 @@ def circle_circle_pair(c1: complex, r1: float, c2: complex, r2: float, tol: floa
     scale = math.ldexp(1.0, math.frexp(a)[1])
     a, b, c = a / scale, b / scale, c / scale
     neg = c - (a - b)
-    four_area_n = (math.sqrt(a + (b + c)) * math.sqrt(max(neg, 0.0)) * math.sqrt(c + (a - b))
-                   * math.sqrt(a + (b - c)))
+    four_area_n = (
+        math.sqrt(a + (b + c))
+        * math.sqrt(max(neg, 0.0))
+        * math.sqrt(c + (a - b))
+        * math.sqrt(a + (b - c))
+    )
     h = 0.5 * scale * (four_area_n / (d / scale))
     u = dv / d
     along = min(max(0.5 * (d + ((r1 - r2) / d) * (r1 + r2)), -r1), r1)
@@ -252,7 +271,7 @@ def circle_line_pair(c: complex, r: float, p0: complex, u: complex, tol: float =
     scale = max(r, dist)
     if not (r > 0 and violation <= tol * (scale if scale > 0 else 1.0)):
         return p0, 0j, 0.0, False, max(violation, 0.0)
-    k = math.sqrt(max(r - dist, 0.0)) * math.sqrt(r + dist)   # no under/overflow at 1e+-300
+    k = math.sqrt(max(r - dist, 0.0)) * math.sqrt(r + dist)  # no under/overflow at 1e+-300
     return p0 + s0 * u, k * u, min(max(k / r, 0.0), 1.0), True, max(violation, 0.0)
 
 
@@ -267,5 +286,10 @@ def line_through_pair(p: complex, x: complex, offset: float, tol: float = TANGEN
     if not (rho > 0 and violation <= tol * (scale if scale > 0 else 1.0)):
         return 0.0, 1.0, 0.0, False, max(violation, 0.0)
     along = math.sqrt(max(rho - ae, 0.0)) * math.sqrt(rho + ae)
-    return math.atan2(w.imag, w.real), along, min(max(along / rho, 0.0), 1.0), True, \
-        max(violation, 0.0)
+    return (
+        math.atan2(w.imag, w.real),
+        along,
+        min(max(along / rho, 0.0), 1.0),
+        True,
+        max(violation, 0.0),
+    )

@@ -1,4 +1,5 @@
 """Small exception hierarchy. Messages name the file, the key and the offending value."""
+
 from __future__ import annotations
 
 
@@ -9,8 +10,15 @@ class LinkageError(Exception):
 class SceneError(LinkageError):
     """A scene file (or scene dictionary) is malformed or describes an impossible mechanism."""
 
-    def __init__(self, message: str, *, file: str | None = None, key: str | None = None,
-                 value: object = None, has_value: bool = False):
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str | None = None,
+        key: str | None = None,
+        value: object = None,
+        has_value: bool = False,
+    ):
         self.file, self.key, self.value = file, key, value
         parts = []
         if file:

@@ -32,6 +32,7 @@ Why the formulation looks the way it does:
   through cos/sin of the returned angles, and take |sin(mu)| of the four-bar from the Kahan
   triangle area (2 * area / (l3 * l4)).
 """
+
 from __future__ import annotations
 
 import math
@@ -42,7 +43,6 @@ import numpy as np
 
 from .dyads import TANGENCY_TOL, circle_circle, kahan_four_area, pow2_scale
 
-
 # Residual reported for non-finite inputs, where no misclosure can be measured: one full
 # link length, i.e. "completely wrong", while keeping every output finite.
 _NONFINITE_RESIDUAL = 1.0
@@ -51,22 +51,22 @@ _NONFINITE_RESIDUAL = 1.0
 class FourBarSolution(NamedTuple):
     """Result of :func:`fourbar_forward` (arrays broadcast from the inputs)."""
 
-    theta3: np.ndarray           #: coupler angle [rad], in (-pi, pi]; 0 where not ok
-    theta4: np.ndarray           #: rocker angle [rad], in (-pi, pi]; 0 where not ok
-    ok: np.ndarray               #: bool, the linkage assembles at this input
+    theta3: np.ndarray  #: coupler angle [rad], in (-pi, pi]; 0 where not ok
+    theta4: np.ndarray  #: rocker angle [rad], in (-pi, pi]; 0 where not ok
+    ok: np.ndarray  #: bool, the linkage assembles at this input
     #: |sin(mu)|, mu = angle at B between coupler and rocker; 0 where not ok
     transmission_sin: np.ndarray
-    residual: np.ndarray         #: loop-closure error / longest link [-]
+    residual: np.ndarray  #: loop-closure error / longest link [-]
 
 
 class FourBarInverseSolution(NamedTuple):
     """Result of :func:`fourbar_inverse`."""
 
-    theta2: np.ndarray           #: crank angle [rad], in (-pi, pi]; 0 where not ok
-    theta3: np.ndarray           #: coupler angle [rad], in (-pi, pi]; 0 where not ok
-    ok: np.ndarray               #: bool
+    theta2: np.ndarray  #: crank angle [rad], in (-pi, pi]; 0 where not ok
+    theta3: np.ndarray  #: coupler angle [rad], in (-pi, pi]; 0 where not ok
+    ok: np.ndarray  #: bool
     transmission_sin: np.ndarray  #: |sin(mu)| at B (coupler vs rocker); 0 where not ok
-    residual: np.ndarray         #: loop-closure error / longest link [-]
+    residual: np.ndarray  #: loop-closure error / longest link [-]
 
 
 class SliderCrankSolution(NamedTuple):
@@ -74,21 +74,22 @@ class SliderCrankSolution(NamedTuple):
 
     #: slider position B_x [length]; A_x (foot of A on the slide line) where not ok
     x: np.ndarray
-    theta3: np.ndarray           #: rod angle [rad], in (-pi, pi]; 0 where not ok
-    ok: np.ndarray               #: bool
-    residual: np.ndarray         #: loop-closure error / max(r, l, |e|) [-]
+    theta3: np.ndarray  #: rod angle [rad], in (-pi, pi]; 0 where not ok
+    ok: np.ndarray  #: bool
+    residual: np.ndarray  #: loop-closure error / max(r, l, |e|) [-]
 
 
 class SliderCrankInverseSolution(NamedTuple):
     """Result of :func:`slider_crank_inverse`."""
 
-    theta2: np.ndarray           #: crank angle [rad], in (-pi, pi]; 0 where not ok
-    theta3: np.ndarray           #: rod angle [rad], in (-pi, pi]; 0 where not ok
-    ok: np.ndarray               #: bool
-    residual: np.ndarray         #: loop-closure error / max(r, l, |e|) [-]
+    theta2: np.ndarray  #: crank angle [rad], in (-pi, pi]; 0 where not ok
+    theta3: np.ndarray  #: rod angle [rad], in (-pi, pi]; 0 where not ok
+    ok: np.ndarray  #: bool
+    residual: np.ndarray  #: loop-closure error / max(r, l, |e|) [-]
 
 
 # --------------------------------------------------------------------------- helpers
+
 
 def _f(x) -> np.ndarray:
     return np.asarray(x, dtype=float)
@@ -130,6 +131,7 @@ def angle_opposite(side_a, side_b, opposite) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- circle-circle
+
 
 def circle_intersection(c1, r1, c2, r2, sign, tangency_tol: float = TANGENCY_TOL):
     """Intersection point of circle (c1, r1) and circle (c2, r2), batched.
@@ -183,7 +185,7 @@ _BLOCK = 16384
 #: While every length and centre distance lies in [_LO, _HI], no square or product of the
 #: kernels (the Kahan product of four factors included) can overflow or become subnormal, so
 #: they need neither the power-of-two scaling nor hypot of the general form.
-_LO, _HI = 2.0 ** -200, 2.0 ** 200
+_LO, _HI = 2.0**-200, 2.0**200
 _LO2 = _LO * _LO
 
 
@@ -213,7 +215,7 @@ class _Work:
         a = self._arrays.get((name, lead, dtype))
         if a is None:
             a = self._arrays[(name, lead, dtype)] = np.empty(lead + (self.size,), dtype)
-        return a if self.m == self.size else a[..., :self.m]
+        return a if self.m == self.size else a[..., : self.m]
 
 
 def _atan2(y, x, out, ws):
@@ -224,7 +226,7 @@ def _atan2(y, x, out, ws):
     lead = out.shape[:-1]
     np.divide(y, x, out=out)
     np.arctan(out, out=out)
-    c = ws('q', 2, *lead)[0]                         # scratch: 'q' is free between stages
+    c = ws('q', 2, *lead)[0]  # scratch: 'q' is free between stages
     np.copysign(np.pi, y, out=c)
     c *= np.signbit(x, out=ws('atan_b', *lead, dtype=bool))
     out += c
@@ -257,7 +259,7 @@ def _rrr(w, r1, r2, sgn, tol, ok, ws):
         hi, lo = np.maximum(r1, r2), np.minimum(r1, r2)
     np.maximum(d, hi, out=big)
     if isinstance(lo, float) and d.min() >= lo:
-        small = lo                  # d >= lo: mid = min(d, hi), bm = |d - hi|, same values
+        small = lo  # d >= lo: mid = min(d, hi), bm = |d - hi|, same values
         np.subtract(d, hi, out=bm)
         np.abs(bm, out=bm)
         np.add(d, hi, out=s)
@@ -269,13 +271,13 @@ def _rrr(w, r1, r2, sgn, tol, ok, ws):
         np.subtract(big, mid, out=bm)
         np.add(big, mid, out=s)
     area4, a, h = ws('area4'), ws('a'), ws('h')
-    np.add(small, bm, out=area4)                     # Kahan's small + (big - mid)
-    neg = np.subtract(small, bm, out=bm)             # the only Kahan factor that can be < 0
+    np.add(small, bm, out=area4)  # Kahan's small + (big - mid)
+    neg = np.subtract(small, bm, out=bm)  # the only Kahan factor that can be < 0
     np.greater_equal(neg, np.multiply(big, -tol, out=h), out=ok)
     # Elements not ok or within the tangency clamp (neg < 0) get height 0 and a foot clamped
     # to circle 1; the others need neither, so a block without any skips both.
     clamped = None if neg.min() >= 0 else np.less(neg, 0.0, out=ws('clamped', dtype=bool))
-    if clamped is not None:                          # (a NaN min looks closer too)
+    if clamped is not None:  # (a NaN min looks closer too)
         np.maximum(neg, 0.0, out=neg)
     # Kahan's 4 * area, one root of the product of the four factors (no under/overflow in
     # range).  The two factors that cannot cancel are formed from big + mid: same accuracy.
@@ -290,7 +292,7 @@ def _rrr(w, r1, r2, sgn, tol, ok, ws):
     # (no cancellation of r1**2 - r2**2), h = height / d = +-2 area / d^2
     np.divide(0.5 * ((r1 - r2) * (r1 + r2)), d2, out=a)
     a += 0.5
-    if clamped is not None:                          # the foot clamped to circle 1: |foot| <= r1
+    if clamped is not None:  # the foot clamped to circle 1: |foot| <= r1
         bound, t = np.divide(r1, d, out=s), ws('t')
         np.minimum(a, bound, out=t)
         np.negative(bound, out=bound)
@@ -303,11 +305,11 @@ def _rrr(w, r1, r2, sgn, tol, ok, ws):
     np.multiply(h, w, out=p)
     v[0, 0] -= p[1]
     v[0, 1] += p[0]
-    np.subtract(v[0], w, out=v[1])                   # X - c2 = (X - c1) - (c2 - c1)
+    np.subtract(v[0], w, out=v[1])  # X - c2 = (X - c1) - (c2 - c1)
     q, k = ws('q', 2, 2), p
     np.multiply(v, v, out=q)
     np.add(q[:, 0], q[:, 1], out=k)
-    np.sqrt(k, out=k)                                # |v1|, |v2|
+    np.sqrt(k, out=k)  # |v1|, |v2|
     np.divide(r1, k[0], out=k[0])
     np.divide(r2, k[1], out=k[1])
     np.multiply(k[:, None], v, out=q)
@@ -336,7 +338,7 @@ def _zero_where_not(ok, *arrays):
     if not ok.all():
         bad = ~ok
         for a in arrays:
-            np.copyto(a, 0.0, where=bad)             # (a[..., bad] = 0 costs 4x more)
+            np.copyto(a, 0.0, where=bad)  # (a[..., bad] = 0 costs 4x more)
 
 
 def _in_range(a, kind):
@@ -363,14 +365,14 @@ def _blocked(fast, general, args, kinds, nout, tol):
     flat, checks = [], []
     for a, kind in zip(args, kinds):
         if a.size == 1 and (n > 1 or kind is not None):
-            v = float(a.reshape(-1)[0])   # scalars stay scalars: no per-element work for them
+            v = float(a.reshape(-1)[0])  # scalars stay scalars: no per-element work for them
             flat.append(v)
             if kind is not None:
                 fast_ok &= _in_range(np.asarray(v), kind) is True
         else:
             if a.shape != shape:
                 a = np.broadcast_to(a, shape)
-            a = a.reshape(-1)             # copies only for repeating broadcasts
+            a = a.reshape(-1)  # copies only for repeating broadcasts
             flat.append(a)
             if kind is not None:
                 checks.append((a, kind))
@@ -381,8 +383,12 @@ def _blocked(fast, general, args, kinds, nout, tol):
     for s in range(0, n, ws.size):
         ws.m = min(ws.size, n - s)
         sl = slice(s, s + ws.m)
-        good = fast(*[v[sl] if isinstance(v, np.ndarray) else v for v in flat], tol,
-                    [o[..., sl] for o in outs], ws)
+        good = fast(
+            *[v[sl] if isinstance(v, np.ndarray) else v for v in flat],
+            tol,
+            [o[..., sl] for o in outs],
+            ws,
+        )
         for a, kind in checks:
             inside = _in_range(a[sl], kind)
             if inside is not True:
@@ -402,6 +408,7 @@ def _shaped(cls, outs, shape):
 
 
 # --------------------------------------------------------------------------- four-bar
+
 
 def _closure_residual(l1, l2, l3, l4, t2, t3, t4) -> np.ndarray:
     """|O2A + AB - O2O4 - O4B| / longest link, from angles."""
@@ -462,7 +469,7 @@ def _finish(values, ok, finite, residual):
 
 def _longest(*lengths):
     if all(isinstance(v, float) for v in lengths):
-        return max(lengths)          # scalars: no ufunc call per block
+        return max(lengths)  # scalars: no ufunc call per block
     m = lengths[0]
     for v in lengths[1:]:
         m = np.maximum(m, v)
@@ -470,8 +477,8 @@ def _longest(*lengths):
 
 
 def _fourbar_forward_fast(l1, l2, l3, l4, t2, sgn, tol, out, ws):
-    angles, ok, tsin, res = out                       # angles = (theta3, theta4)
-    w = ws('w', 2)                                    # w = O4 - A
+    angles, ok, tsin, res = out  # angles = (theta3, theta4)
+    w = ws('w', 2)  # w = O4 - A
     np.cos(t2, out=w[0])
     np.sin(t2, out=w[1])
     w *= -l2
@@ -492,8 +499,9 @@ def _fourbar_forward_general(l1, l2, l3, l4, t2, br, tangency_tol):
     with np.errstate(invalid='ignore', over='ignore'):
         ax, ay = l2 * np.cos(t2), l2 * np.sin(t2)
         o4x, o4y = l1, np.zeros_like(l1)
-        b, _, ok = circle_intersection(np.stack([ax, ay], -1), l3, np.stack([o4x, o4y], -1),
-                                       l4, br, tangency_tol)
+        b, _, ok = circle_intersection(
+            np.stack([ax, ay], -1), l3, np.stack([o4x, o4y], -1), l4, br, tangency_tol
+        )
         ok = np.asarray(ok) & finite & (l1 >= 0) & (l2 >= 0)
         bx, by = b[..., 0], b[..., 1]
         t3 = _atan2_general(by - ay, bx - ax)
@@ -531,23 +539,28 @@ def fourbar_forward(l1, l2, l3, l4, theta2, branch=1, tangency_tol: float = TANG
     """
     args = (_f(l1), _f(l2), _f(l3), _f(l4), _f(theta2), _sign(branch))
     with np.errstate(all='ignore'):
-        outs, shape = _blocked(_fourbar_forward_fast, _fourbar_forward_general, args,
-                               ('len', 'len', 'len', 'len', None, None), 2,
-                               float(tangency_tol))
+        outs, shape = _blocked(
+            _fourbar_forward_fast,
+            _fourbar_forward_general,
+            args,
+            ('len', 'len', 'len', 'len', None, None),
+            2,
+            float(tangency_tol),
+        )
     return _shaped(FourBarSolution, outs, shape)
 
 
 def _fourbar_inverse_fast(l1, l2, l3, l4, t4, sgn, tol, out, ws):
-    angles, ok, tsin, res = out                       # angles = (theta2, theta3)
+    angles, ok, tsin, res = out  # angles = (theta2, theta3)
     cs, w = ws('cs', 2), ws('w', 2)
     np.cos(t4, out=cs[0])
     np.sin(t4, out=cs[1])
-    np.multiply(cs, -l4, out=w)                       # w = O2 - B = -(O4 + l4 (c4, s4))
+    np.multiply(cs, -l4, out=w)  # w = O2 - B = -(O4 + l4 (c4, s4))
     w[0] -= l1
     # A from circle (B, l3) and circle (O2, l2): v = (A - B, A - O2)
     v, _, mis, good = _rrr(w, l3, l2, sgn, tol, ok, ws)
-    np.negative(v[0], out=v[0])                       # B - A
-    v = v[::-1]                                       # (A - O2, B - A): theta2, theta3
+    np.negative(v[0], out=v[0])  # B - A
+    v = v[::-1]  # (A - O2, B - A): theta2, theta3
     _atan2(v[:, 1], v[:, 0], angles, ws)
     # |sin mu| = |cross(B - A, B - O4)| / (l3 l4), B - O4 = l4 (c4, s4)
     ba = v[1]
@@ -566,8 +579,9 @@ def _fourbar_inverse_general(l1, l2, l3, l4, t4, br, tangency_tol):
     with np.errstate(invalid='ignore', over='ignore'):
         o4x, o4y = l1, np.zeros_like(l1)
         bx, by = o4x + l4 * np.cos(t4), o4y + l4 * np.sin(t4)
-        a, _, ok = circle_intersection(np.stack([bx, by], -1), l3,
-                                       np.zeros(bx.shape + (2,)), l2, br, tangency_tol)
+        a, _, ok = circle_intersection(
+            np.stack([bx, by], -1), l3, np.zeros(bx.shape + (2,)), l2, br, tangency_tol
+        )
         ok = np.asarray(ok) & finite & (l1 >= 0) & (l4 >= 0)
         ax, ay = a[..., 0], a[..., 1]
         t2 = _atan2_general(ay, ax)
@@ -592,13 +606,19 @@ def fourbar_inverse(l1, l2, l3, l4, theta4, branch=1, tangency_tol: float = TANG
     """
     args = (_f(l1), _f(l2), _f(l3), _f(l4), _f(theta4), _sign(branch))
     with np.errstate(all='ignore'):
-        outs, shape = _blocked(_fourbar_inverse_fast, _fourbar_inverse_general, args,
-                               ('len', 'len', 'len', 'len', None, None), 2,
-                               float(tangency_tol))
+        outs, shape = _blocked(
+            _fourbar_inverse_fast,
+            _fourbar_inverse_general,
+            args,
+            ('len', 'len', 'len', 'len', None, None),
+            2,
+            float(tangency_tol),
+        )
     return _shaped(FourBarInverseSolution, outs, shape)
 
 
 # --------------------------------------------------------------------------- slider-crank
+
 
 def _slider_residual(r, l, e, t2, t3, x) -> np.ndarray:
     """|O2A + AB - (x, e)| / max(r, l, |e|)."""
@@ -609,9 +629,9 @@ def _slider_residual(r, l, e, t2, t3, x) -> np.ndarray:
 
 
 def _slider_forward_fast(r, l, e, t2, sgn, tol, out, ws):
-    xt3, ok, res = out                                # xt3 = (x, theta3)
+    xt3, ok, res = out  # xt3 = (x, theta3)
     x, t3 = xt3
-    a, rod = ws('a', 2), ws('rod', 2)                 # A, and the rod B - A = (hx, dy)
+    a, rod = ws('a', 2), ws('rod', 2)  # A, and the rod B - A = (hx, dy)
     np.cos(t2, out=a[0])
     np.sin(t2, out=a[1])
     a *= r
@@ -629,7 +649,7 @@ def _slider_forward_fast(r, l, e, t2, sgn, tol, out, ws):
     np.sqrt(gap, out=hx)
     hx *= sgn
     np.add(a[0], hx, out=x)
-    _atan2(dy, hx, t3, ws)   # where not ok: the rod pointing straight at the line (+-pi/2)
+    _atan2(dy, hx, t3, ws)  # where not ok: the rod pointing straight at the line (+-pi/2)
     # misclosure of the rod drawn with length l along its solved direction
     q, k = ws('q', 2), ws('k')
     np.multiply(rod, rod, out=q)
@@ -702,19 +722,25 @@ def slider_crank_forward(r, l, e, theta2, branch=1, tangency_tol: float = TANGEN
     """
     args = (_f(r), _f(l), _f(e), _f(theta2), _sign(branch))
     with np.errstate(all='ignore'):
-        outs, shape = _blocked(_slider_forward_fast, _slider_forward_general, args,
-                               ('len', 'len', 'coord', None, None), 1, float(tangency_tol))
+        outs, shape = _blocked(
+            _slider_forward_fast,
+            _slider_forward_general,
+            args,
+            ('len', 'len', 'coord', None, None),
+            1,
+            float(tangency_tol),
+        )
     return _shaped(SliderCrankSolution, outs, shape)
 
 
 def _slider_inverse_fast(r, l, e, x, sgn, tol, out, ws):
-    angles, ok, res = out                             # angles = (theta2, theta3)
-    w = ws('w', 2)                                    # w = B - O2 = (x, e)
+    angles, ok, res = out  # angles = (theta2, theta3)
+    w = ws('w', 2)  # w = B - O2 = (x, e)
     np.copyto(w[0], x)
     np.copyto(w[1], e)
     # A from circle (O2, r) and circle (B, l): v = (A - O2, A - B)
     v, _, mis, good = _rrr(w, r, l, sgn, tol, ok, ws)
-    np.negative(v[1], out=v[1])                       # B - A
+    np.negative(v[1], out=v[1])  # B - A
     _atan2(v[:, 1], v[:, 0], angles, ws)
     np.divide(mis, _longest(r, l, np.abs(e)), out=res)
     _zero_where_not(ok, angles)
@@ -724,8 +750,9 @@ def _slider_inverse_fast(r, l, e, x, sgn, tol, out, ws):
 def _slider_inverse_general(r, l, e, x, br, tangency_tol):
     (r, l, e, x, br), finite, _ = _general_inputs((r, l, e, x, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
-        a, _, ok = circle_intersection(np.zeros(x.shape + (2,)), r, np.stack([x, e], -1), l, br,
-                                       tangency_tol)
+        a, _, ok = circle_intersection(
+            np.zeros(x.shape + (2,)), r, np.stack([x, e], -1), l, br, tangency_tol
+        )
         ok = np.asarray(ok) & finite
         ax, ay = a[..., 0], a[..., 1]
         t2 = _atan2_general(ay, ax)
@@ -750,8 +777,14 @@ def slider_crank_inverse(r, l, e, x, branch=1, tangency_tol: float = TANGENCY_TO
     """
     args = (_f(r), _f(l), _f(e), _f(x), _sign(branch))
     with np.errstate(all='ignore'):
-        outs, shape = _blocked(_slider_inverse_fast, _slider_inverse_general, args,
-                               ('len', 'len', 'coord', 'coord', None), 1, float(tangency_tol))
+        outs, shape = _blocked(
+            _slider_inverse_fast,
+            _slider_inverse_general,
+            args,
+            ('len', 'len', 'coord', 'coord', None),
+            1,
+            float(tangency_tol),
+        )
     return _shaped(SliderCrankInverseSolution, outs, shape)
 
 
@@ -776,8 +809,10 @@ def slider_crank_stroke(r: float, l: float, e: float) -> tuple[float, float]:
     ae = abs(e)
     if ae + r <= l:
         # Factored differences of squares: accurate even when l - r is close to |e|.
-        return (float(np.sqrt(((l - r) - ae) * ((l - r) + ae))),
-                float(np.sqrt(((l + r) - ae) * ((l + r) + ae))))
+        return (
+            float(np.sqrt(((l - r) - ae) * ((l - r) + ae))),
+            float(np.sqrt(((l + r) - ae) * ((l + r) + ae))),
+        )
     if r + l < ae:
         raise ValueError(f'slider-crank cannot be assembled: r + l < |e| ({r} + {l} < {ae})')
     cands = []

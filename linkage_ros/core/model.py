@@ -9,13 +9,15 @@ pin-to-pin length). Link geometry and the default assembly mode come from the re
 Shortcut forms (``four_bar``, ``slider_crank``) compile into the same general form, so one
 validator serves every scene. See docs/SCENES.md for the file format.
 """
+
 from __future__ import annotations
 
 import math
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import yaml
@@ -34,6 +36,7 @@ class Link:
     by default the first two points (theta2 = direction O2->A for a crank). ``angle_ref`` is that
     direction in the reference pose.
     """
+
     name: str
     points: tuple[str, ...]
     angle_ref: float = 0.0
@@ -45,6 +48,7 @@ class RevoluteJoint:
     """Links ``parent`` and ``child`` share ``point``; the joint value is the child's angle minus
     the parent's angle (rad), each link's angle being the direction of its axis (first -> second
     point), so a URDF with each link frame on its axis reproduces the pose."""
+
     name: str
     point: str
     parent: str
@@ -59,6 +63,7 @@ class PrismaticJoint:
     pose); the slider keeps its orientation relative to the guide. The joint value is the signed
     distance (m) along ``direction`` from ``origin`` (a reference-pose position fixed in the guide).
     """
+
     name: str
     guide: str
     slider: str
@@ -76,6 +81,7 @@ class Actuator:
     the reported direction of ``reference`` (from +x when the reference is the ground link).
     slide: the value of prismatic joint ``joint`` (a cylinder's pin-to-pin length).
     """
+
     name: str
     kind: str
     link: str | None = None
@@ -126,10 +132,19 @@ class Mechanism:
         return {
             'name': self.name,
             'links': {n: list(l.points) for n, l in self.links.items()},
-            'joints': {j.name: {'type': 'revolute', 'point': j.point, 'parent': j.parent,
-                                'child': j.child} for j in self.revolutes}
-            | {p.name: {'type': 'prismatic', 'guide': p.guide, 'slider': p.slider,
-                        'point': p.point} for p in self.prismatics.values()},
+            'joints': {
+                j.name: {'type': 'revolute', 'point': j.point, 'parent': j.parent, 'child': j.child}
+                for j in self.revolutes
+            }
+            | {
+                p.name: {
+                    'type': 'prismatic',
+                    'guide': p.guide,
+                    'slider': p.slider,
+                    'point': p.point,
+                }
+                for p in self.prismatics.values()
+            },
             'actuators': {a.name: a.kind for a in self.actuators.values()},
             'n_links': len(self.links),
             'n_joints': len(self.revolutes) + len(self.prismatics),
@@ -140,6 +155,7 @@ class Mechanism:
 @dataclass
 class Scene:
     """A scene file: one mechanism plus the frame it is published in and the default solver."""
+
     mechanism: Mechanism
     path: str | None = None
 
@@ -148,7 +164,7 @@ class Scene:
         return self.mechanism.frame_id
 
     @classmethod
-    def from_yaml(cls, path: str | Path) -> 'Scene':
+    def from_yaml(cls, path: str | Path) -> Scene:
         path = str(path)
         try:
             with open(path, encoding='utf-8') as fh:
@@ -156,19 +172,21 @@ class Scene:
         except FileNotFoundError:
             raise SceneError('scene file not found', file=path) from None
         except UnicodeDecodeError:
-            raise SceneError(f'not UTF-8 text ({_first_bad_utf8(path)}); save it as UTF-8',
-                             file=path) from None
+            raise SceneError(
+                f'not UTF-8 text ({_first_bad_utf8(path)}); save it as UTF-8', file=path
+            ) from None
         except OSError as exc:
             raise SceneError(f'cannot read scene file: {exc.strerror}', file=path) from None
         except yaml.YAMLError as exc:
             mark = getattr(exc, 'problem_mark', None)
             where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
-            raise SceneError(f'invalid YAML{where}: {getattr(exc, "problem", exc)}',
-                             file=path) from None
+            raise SceneError(
+                f'invalid YAML{where}: {getattr(exc, "problem", exc)}', file=path
+            ) from None
         return cls(mechanism=build_mechanism(data, source=path), path=path)
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], source: str = '<scene>') -> 'Scene':
+    def from_dict(cls, data: Mapping[str, Any], source: str = '<scene>') -> Scene:
         return cls(mechanism=build_mechanism(data, source=source), path=None)
 
 
@@ -180,7 +198,7 @@ def _first_bad_utf8(path: str) -> str:
         raw.decode('utf-8')
     except UnicodeDecodeError as exc:
         line = raw.count(b'\n', 0, exc.start) + 1
-        return f'byte {raw[exc.start:exc.start + 1]!r} on line {line} cannot be decoded'
+        return f'byte {raw[exc.start : exc.start + 1]!r} on line {line} cannot be decoded'
     except OSError:
         pass
     return 'it cannot be decoded'
@@ -198,14 +216,20 @@ class _UniqueKeyLoader(yaml.SafeLoader):
             key = self.construct_object(key_node, deep=True)
             try:
                 hash(key)
-            except TypeError:       # `? [a, b]` or `? {a: 1}`: a list or mapping as a key
+            except TypeError:  # `? [a, b]` or `? {a: 1}`: a list or mapping as a key
                 raise yaml.constructor.ConstructorError(
-                    None, None, f'a mapping key must be a name or number, not {key!r}',
-                    key_node.start_mark) from None
+                    None,
+                    None,
+                    f'a mapping key must be a name or number, not {key!r}',
+                    key_node.start_mark,
+                ) from None
             if key in seen:
                 raise yaml.constructor.ConstructorError(
-                    None, None, f'duplicate key {key!r} (first at line {seen[key] + 1})',
-                    key_node.start_mark)
+                    None,
+                    None,
+                    f'duplicate key {key!r} (first at line {seen[key] + 1})',
+                    key_node.start_mark,
+                )
             seen[key] = key_node.start_mark.line
         return super().construct_mapping(node, deep=deep)
 
@@ -214,10 +238,12 @@ class _UniqueKeyLoader(yaml.SafeLoader):
 _UniqueKeyLoader.add_implicit_resolver(
     'tag:yaml.org,2002:float',
     re.compile(r'^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$'),
-    list('-+0123456789.'))
+    list('-+0123456789.'),
+)
 
 
 # ---- validation helpers ----------------------------------------------------------------------
+
 
 class _Ctx:
     def __init__(self, source: str):
@@ -259,12 +285,27 @@ class _Ctx:
     def only(self, key: str, data: Mapping[str, Any], allowed: set[str]):
         for k in data:
             if k not in allowed:
-                self.fail(f'{key}.{k}' if key else str(k),
-                          f'unknown key; expected one of {sorted(allowed)}', has_value=False)
+                self.fail(
+                    f'{key}.{k}' if key else str(k),
+                    f'unknown key; expected one of {sorted(allowed)}',
+                    has_value=False,
+                )
 
 
-TOP_KEYS = {'name', 'frame_id', 'solver', 'four_bar', 'slider_crank', 'points', 'links', 'ground',
-            'sliders', 'cylinders', 'actuators', 'outputs'}
+TOP_KEYS = {
+    'name',
+    'frame_id',
+    'solver',
+    'four_bar',
+    'slider_crank',
+    'points',
+    'links',
+    'ground',
+    'sliders',
+    'cylinders',
+    'actuators',
+    'outputs',
+}
 
 
 def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
@@ -275,13 +316,23 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
     ctx.only('', data, TOP_KEYS)
     forms = [k for k in ('four_bar', 'slider_crank', 'points') if k in data]
     if len(forms) != 1:
-        ctx.fail('', 'a scene needs exactly one of four_bar, slider_crank or points (general form)',
-                 forms)
+        ctx.fail(
+            '',
+            'a scene needs exactly one of four_bar, slider_crank or points (general form)',
+            forms,
+        )
     frame_id = data.get('frame_id', 'world')
-    if not isinstance(frame_id, str) or not frame_id or frame_id.startswith('/') \
-            or any(c.isspace() for c in frame_id):
-        ctx.fail('frame_id', "must be a tf2 frame name: a non-empty string without whitespace "
-                 "or a leading '/'", frame_id)
+    if (
+        not isinstance(frame_id, str)
+        or not frame_id
+        or frame_id.startswith('/')
+        or any(c.isspace() for c in frame_id)
+    ):
+        ctx.fail(
+            'frame_id',
+            "must be a tf2 frame name: a non-empty string without whitespace or a leading '/'",
+            frame_id,
+        )
     solver = data.get('solver', 'auto')
     if solver not in SOLVERS:
         ctx.fail('solver', f'must be one of {list(SOLVERS)}', solver)
@@ -289,8 +340,12 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
     if form != 'points':
         clash = [k for k in ('links', 'ground', 'sliders', 'cylinders', 'actuators') if k in data]
         if clash:
-            ctx.fail(clash[0], f'is a general-form key; it cannot be combined with the {form} '
-                     'shortcut (use the general form instead)', has_value=False)
+            ctx.fail(
+                clash[0],
+                f'is a general-form key; it cannot be combined with the {form} '
+                'shortcut (use the general form instead)',
+                has_value=False,
+            )
     shortcut: dict[str, Any] = {}
     if form == 'four_bar':
         general, shortcut = _four_bar_to_general(ctx, data)
@@ -299,9 +354,10 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
     else:
         general = dict(data)
     if form != 'points' and 'outputs' in data:
-        general['outputs'] = data['outputs']        # a shortcut may name its published points
-    default_name = Path(source).stem if source != '<scene>' else (
-        'mechanism' if form == 'points' else form)
+        general['outputs'] = data['outputs']  # a shortcut may name its published points
+    default_name = (
+        Path(source).stem if source != '<scene>' else ('mechanism' if form == 'points' else form)
+    )
     name = ctx.name('name', data.get('name', default_name))
     mech = _build_general(ctx, general, name=name, frame_id=frame_id, solver=solver)
     mech.form = form if form != 'points' else 'general'
@@ -309,8 +365,9 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
     return mech
 
 
-def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: str,
-                   solver: str) -> Mechanism:
+def _build_general(
+    ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: str, solver: str
+) -> Mechanism:
     pts_raw = ctx.mapping('points', data.get('points'))
     if not pts_raw:
         ctx.fail('points', 'must name at least two points', pts_raw)
@@ -340,10 +397,13 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         # a link's angle is the direction of its first -> second point (its axis): two points
         # on one spot give it none to solve for or report
         if len(members) >= 2 and np.array_equal(points[members[0]], points[members[1]]):
-            ctx.fail(key, f'its first two points {members[0]} and {members[1]} coincide in the '
-                     f'reference pose (at {points[members[0]].tolist()}), so its axis (first '
-                     '-> second point) is undefined; list two distinct points first',
-                     list(members))
+            ctx.fail(
+                key,
+                f'its first two points {members[0]} and {members[1]} coincide in the '
+                f'reference pose (at {points[members[0]].tolist()}), so its axis (first '
+                '-> second point) is undefined; list two distinct points first',
+                list(members),
+            )
         links[lname] = _make_link(lname, tuple(members), points)
 
     prismatics: dict[str, PrismaticJoint] = {}
@@ -373,8 +433,15 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         links[barrel] = Link(barrel, (a,), angle_ref=ang)
         links[rod] = Link(rod, (b,), angle_ref=ang)
         u = axis / length
-        prismatics[cname] = PrismaticJoint(cname, barrel, rod, b, (float(u[0]), float(u[1])),
-                                           (float(points[a][0]), float(points[a][1])), length)
+        prismatics[cname] = PrismaticJoint(
+            cname,
+            barrel,
+            rod,
+            b,
+            (float(u[0]), float(u[1])),
+            (float(points[a][0]), float(points[a][1])),
+            length,
+        )
         lo, hi = _limits(ctx, key, spec)
         if lo is not None and lo <= 0:
             ctx.fail(f'{key}.min', 'a cylinder length must be > 0', lo)
@@ -417,8 +484,15 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         else:
             ov = ctx.xy(f'{key}.origin', o)
         ref_value = float(np.dot(points[point] - ov, dv))
-        prismatics[jname] = PrismaticJoint(jname, guide, slider, point, (float(dv[0]), float(dv[1])),
-                                           (float(ov[0]), float(ov[1])), ref_value)
+        prismatics[jname] = PrismaticJoint(
+            jname,
+            guide,
+            slider,
+            point,
+            (float(dv[0]), float(dv[1])),
+            (float(ov[0]), float(ov[1])),
+            ref_value,
+        )
 
     # revolute joints where links share a point (the first link listed is the parent)
     revolutes: list[RevoluteJoint] = []
@@ -430,17 +504,22 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         for child in owners[1:]:
             jname = pname if len(owners) == 2 else f'{pname}_{child}'
             if jname in used_names:
-                ctx.fail(f'points.{pname}', f'joint name {jname!r} clashes with another joint',
-                         jname)
+                ctx.fail(
+                    f'points.{pname}', f'joint name {jname!r} clashes with another joint', jname
+                )
             used_names.add(jname)
             revolutes.append(RevoluteJoint(jname, pname, owners[0], child))
     names = list(links)
     for i, a in enumerate(names):
-        for b in names[i + 1:]:
+        for b in names[i + 1 :]:
             shared = set(links[a].points) & set(links[b].points)
             if len(shared) >= 2:
-                ctx.fail(f'links.{b}', f'shares points {sorted(shared)} with link {a!r}; two '
-                         'links sharing two points are one rigid link', sorted(shared))
+                ctx.fail(
+                    f'links.{b}',
+                    f'shares points {sorted(shared)} with link {a!r}; two '
+                    'links sharing two points are one rigid link',
+                    sorted(shared),
+                )
 
     act_raw = data.get('actuators') or {}
     ctx.mapping('actuators', act_raw)
@@ -471,8 +550,9 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
                 toward = others[0]
             if not ctx.known(toward, links[link].points) or toward == pivot:
                 ctx.fail(f'{key}.toward', f'must be another point of link {link!r}', toward)
-            actuators[aname] = Actuator(aname, 'angle', link=link, reference=ref, pivot=pivot,
-                                        toward=toward, min=lo, max=hi)
+            actuators[aname] = Actuator(
+                aname, 'angle', link=link, reference=ref, pivot=pivot, toward=toward, min=lo, max=hi
+            )
         elif kind == 'slide':
             ctx.only(key, spec, {'type', 'joint', 'min', 'max'})
             joint = spec.get('joint')
@@ -485,9 +565,12 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
     outputs_raw = data.get('outputs')
     if outputs_raw is None:
         # default: coupler points, i.e. points carried by exactly one moving link
-        outputs = tuple(p for p in points
-                        if len([n for n in links if p in links[n].points]) == 1
-                        and ground not in [n for n in links if p in links[n].points])
+        outputs = tuple(
+            p
+            for p in points
+            if len([n for n in links if p in links[n].points]) == 1
+            and ground not in [n for n in links if p in links[n].points]
+        )
     else:
         if not isinstance(outputs_raw, list):
             ctx.fail('outputs', 'must be a list of point names', outputs_raw)
@@ -497,21 +580,43 @@ def _build_general(ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: s
         outputs = tuple(outputs_raw)
 
     for lname, link in links.items():
-        if lname != ground and len(link.points) == 1 and not any(
-                lname in (pj.guide, pj.slider) for pj in prismatics.values()):
-            ctx.fail(f'links.{lname}', 'a one-point link must be a slider or a guide; '
-                     'otherwise its orientation is undefined', list(link.points))
+        if (
+            lname != ground
+            and len(link.points) == 1
+            and not any(lname in (pj.guide, pj.slider) for pj in prismatics.values())
+        ):
+            ctx.fail(
+                f'links.{lname}',
+                'a one-point link must be a slider or a guide; '
+                'otherwise its orientation is undefined',
+                list(link.points),
+            )
 
     scale = _length_scale(points, links, prismatics)
-    mech = Mechanism(name=name, points=points, links=links, ground=ground, revolutes=revolutes,
-                     prismatics=prismatics, actuators=actuators, outputs=outputs,
-                     frame_id=frame_id, solver=solver, source=ctx.source, length_scale=scale)
+    mech = Mechanism(
+        name=name,
+        points=points,
+        links=links,
+        ground=ground,
+        revolutes=revolutes,
+        prismatics=prismatics,
+        actuators=actuators,
+        outputs=outputs,
+        frame_id=frame_id,
+        solver=solver,
+        source=ctx.source,
+        length_scale=scale,
+    )
     if not actuators:
         ctx.fail('actuators', 'the mechanism needs at least one actuator (or cylinder)', None)
     if mech.dof != len(actuators):
-        ctx.fail('actuators', f'the mechanism has {mech.dof} degree(s) of freedom (Kutzbach '
-                 f'3(n-1)-2j with n={len(links)} links, j={len(revolutes) + len(prismatics)} '
-                 f'joints) but {len(actuators)} actuator(s)', sorted(actuators))
+        ctx.fail(
+            'actuators',
+            f'the mechanism has {mech.dof} degree(s) of freedom (Kutzbach '
+            f'3(n-1)-2j with n={len(links)} links, j={len(revolutes) + len(prismatics)} '
+            f'joints) but {len(actuators)} actuator(s)',
+            sorted(actuators),
+        )
     return mech
 
 
@@ -549,8 +654,9 @@ def _length_scale(points, links, prismatics) -> float:
 
 # ---- shortcut forms --------------------------------------------------------------------------
 
+
 def _branch(ctx: _Ctx, key: str, value: object) -> int:
-    if isinstance(value, bool):     # True == 1: `branch: true` must not pass for +1
+    if isinstance(value, bool):  # True == 1: `branch: true` must not pass for +1
         ctx.fail(key, "must be +1 or -1 (or '+' / '-')", value)
     if value in (1, '+', '+1'):
         return 1
@@ -570,8 +676,9 @@ def _crank_actuator(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> dict[str, A
     return crank
 
 
-def _reference_input(ctx: _Ctx, key: str, spec: Mapping[str, Any], start: float, assemble,
-                     lengths, intervals):
+def _reference_input(
+    ctx: _Ctx, key: str, spec: Mapping[str, Any], start: float, assemble, lengths, intervals
+):
     """The reference crank angle: ``input`` if given (it must assemble), else the assembling
     angle nearest ``start`` (60 degrees above the ground line). ``assemble(theta)`` returns the
     reference points or None; ``intervals()`` lists the (lo, hi) crank angles that assemble
@@ -599,9 +706,24 @@ def _reference_input(ctx: _Ctx, key: str, spec: Mapping[str, Any], start: float,
 
 def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
     from .dyads import circle_circle
+
     fb = ctx.mapping('four_bar', data['four_bar'])
-    ctx.only('four_bar', fb, {'ground', 'crank', 'coupler', 'rocker', 'ground_angle', 'pivots',
-                              'coupler_point', 'input', 'branch', 'crank_limits'})
+    ctx.only(
+        'four_bar',
+        fb,
+        {
+            'ground',
+            'crank',
+            'coupler',
+            'rocker',
+            'ground_angle',
+            'pivots',
+            'coupler_point',
+            'input',
+            'branch',
+            'crank_limits',
+        },
+    )
     l2 = ctx.number('four_bar.crank', fb.get('crank'), positive=True)
     l3 = ctx.number('four_bar.coupler', fb.get('coupler'), positive=True)
     l4 = ctx.number('four_bar.rocker', fb.get('rocker'), positive=True)
@@ -618,8 +740,9 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
             if abs(g - l1) > 1e-9 * max(g, l1):
                 ctx.fail('four_bar.ground', f'disagrees with |O2O4| = {l1!r} from pivots', g)
         if 'ground_angle' in fb:
-            ctx.fail('four_bar.ground_angle', 'give pivots or ground_angle, not both',
-                     fb['ground_angle'])
+            ctx.fail(
+                'four_bar.ground_angle', 'give pivots or ground_angle, not both', fb['ground_angle']
+            )
         gang = math.atan2(*(o4 - o2)[::-1])
     else:
         l1 = ctx.number('four_bar.ground', fb.get('ground'), positive=True)
@@ -635,15 +758,17 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
 
     def intervals():
         from .analysis import fourbar_input_intervals
+
         try:
             ivs = fourbar_input_intervals(l1, l2, l3, l4)
-        except ValueError:          # assembles nowhere
+        except ValueError:  # assembles nowhere
             return []
         # None (turns fully) cannot reach here: the grid's first angle assembles
         return [] if ivs is None else [(gang + lo, gang + hi) for lo, hi in ivs]
 
-    a, b = _reference_input(ctx, 'four_bar', fb, gang + np.pi / 3, assemble, [l1, l2, l3, l4],
-                            intervals)
+    a, b = _reference_input(
+        ctx, 'four_bar', fb, gang + np.pi / 3, assemble, [l1, l2, l3, l4], intervals
+    )
     points = {'O2': o2, 'A': a, 'B': b, 'O4': o4}
     coupler = ['A', 'B']
     cp = fb.get('coupler_point')
@@ -661,19 +786,33 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
     crank = _crank_actuator(ctx, 'four_bar', fb)
     general = {
         'points': {k: [float(v[0]), float(v[1])] for k, v in points.items()},
-        'links': {'ground': ['O2', 'O4'], 'crank': ['O2', 'A'], 'coupler': coupler,
-                  'rocker': ['O4', 'B']},
+        'links': {
+            'ground': ['O2', 'O4'],
+            'crank': ['O2', 'A'],
+            'coupler': coupler,
+            'rocker': ['O4', 'B'],
+        },
         'actuators': {'crank': crank},
         'outputs': coupler[2:],
     }
-    return general, {'form': 'four_bar', 'ground': l1, 'crank': l2, 'coupler': l3, 'rocker': l4,
-                     'ground_angle': gang, 'branch': branch}
+    return general, {
+        'form': 'four_bar',
+        'ground': l1,
+        'crank': l2,
+        'coupler': l3,
+        'rocker': l4,
+        'ground_angle': gang,
+        'branch': branch,
+    }
 
 
 def _slider_crank_to_general(ctx: _Ctx, data: Mapping[str, Any]):
     sc = ctx.mapping('slider_crank', data['slider_crank'])
-    ctx.only('slider_crank', sc, {'crank', 'rod', 'offset', 'direction', 'input', 'branch',
-                                  'crank_limits'})
+    ctx.only(
+        'slider_crank',
+        sc,
+        {'crank', 'rod', 'offset', 'direction', 'input', 'branch', 'crank_limits'},
+    )
     r = ctx.number('slider_crank.crank', sc.get('crank'), positive=True)
     rod = ctx.number('slider_crank.rod', sc.get('rod'), positive=True)
     e = ctx.number('slider_crank.offset', sc.get('offset', 0.0))
@@ -702,18 +841,35 @@ def _slider_crank_to_general(ctx: _Ctx, data: Mapping[str, Any]):
         a0, a1 = math.asin(lo), math.asin(hi)
         return [(dang + a0, dang + a1), (dang + math.pi - a1, dang + math.pi - a0)]
 
-    a, b = _reference_input(ctx, 'slider_crank', sc, dang + np.pi / 3, assemble, [r, rod, e],
-                            intervals)
+    a, b = _reference_input(
+        ctx, 'slider_crank', sc, dang + np.pi / 3, assemble, [r, rod, e], intervals
+    )
     crank = _crank_actuator(ctx, 'slider_crank', sc)
     general = {
-        'points': {'O2': [0.0, 0.0], 'A': [float(a[0]), float(a[1])],
-                   'B': [float(b[0]), float(b[1])]},
+        'points': {
+            'O2': [0.0, 0.0],
+            'A': [float(a[0]), float(a[1])],
+            'B': [float(b[0]), float(b[1])],
+        },
         'links': {'ground': ['O2'], 'crank': ['O2', 'A'], 'rod': ['A', 'B'], 'slider': ['B']},
-        'sliders': [{'name': 'slider', 'guide': 'ground', 'slider': 'slider', 'point': 'B',
-                     'direction': [float(d[0]), float(d[1])],
-                     'origin': [float(foot[0]), float(foot[1])]}],
+        'sliders': [
+            {
+                'name': 'slider',
+                'guide': 'ground',
+                'slider': 'slider',
+                'point': 'B',
+                'direction': [float(d[0]), float(d[1])],
+                'origin': [float(foot[0]), float(foot[1])],
+            }
+        ],
         'actuators': {'crank': crank},
         'outputs': [],
     }
-    return general, {'form': 'slider_crank', 'crank': r, 'rod': rod, 'offset': e,
-                     'direction': dang, 'branch': branch}
+    return general, {
+        'form': 'slider_crank',
+        'crank': r,
+        'rod': rod,
+        'offset': e,
+        'direction': dang,
+        'branch': branch,
+    }

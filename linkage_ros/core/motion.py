@@ -32,14 +32,16 @@ spanning angle pi or 0/2pi is one interval, e.g. (0.40, 5.88)). Where a bound is
 limit, that limit is reported as written in the scene; otherwise min lies in [-pi, pi).
 A full turn without limits is (None, None).
 """
+
 from __future__ import annotations
 
 import copy
 import dataclasses
 import itertools
 import math
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -61,6 +63,7 @@ _MAX_SEGMENTS = 64
 
 
 # ---- small helpers ----------------------------------------------------------------------------
+
 
 def point_key(mech: Mechanism, name: str) -> str:
     """The known name that means *point* ``name`` (prefixed ``point:`` where a joint, link or
@@ -84,8 +87,9 @@ def link_key(mech: Mechanism, name: str) -> str:
 def without_limits(mech: Mechanism) -> Mechanism:
     """A shallow copy of ``mech`` whose actuators have no min / max (to probe the assembly)."""
     free = copy.copy(mech)
-    free.actuators = {n: dataclasses.replace(a, min=None, max=None)
-                      for n, a in mech.actuators.items()}
+    free.actuators = {
+        n: dataclasses.replace(a, min=None, max=None) for n, a in mech.actuators.items()
+    }
     return free
 
 
@@ -132,11 +136,13 @@ def _clip_periodic(lo, hi, lim):
 
 # ---- one-dimensional scans over a closed-form plan --------------------------------------------
 
+
 @dataclass
 class _Segment:
     """A stretch of the circuit on one assembly mode: the scanned known over [lo, hi] (unwrapped
     for angles), or the full turn; ends are ('toggle', branch) / ('limit', None) / ('bracket',
     None) / ('full', None)."""
+
     signs: tuple
     lo: float
     hi: float
@@ -150,8 +156,14 @@ class _Segment:
 class _Line:
     """The mechanism along one scanned known with every other known held (closed-form plan)."""
 
-    def __init__(self, mech: Mechanism, scan: str, held: Mapping[str, Any], samples: int = 720,
-                 bracket: tuple | None = None):
+    def __init__(
+        self,
+        mech: Mechanism,
+        scan: str,
+        held: Mapping[str, Any],
+        samples: int = 720,
+        bracket: tuple | None = None,
+    ):
         self.mech = mech
         self.free = without_limits(mech)
         self.scan = scan
@@ -164,7 +176,7 @@ class _Line:
         self.scale = mech.length_scale
         self.tol = ANGLE_TOL if self.periodic else LENGTH_TOL * self.scale
         self.samples = max(16, int(samples))
-        self.bracket = bracket            # slides: (lo, hi, lo_hard, hi_hard)
+        self.bracket = bracket  # slides: (lo, hi, lo_hard, hi_hard)
         self.branch_of_step = {}
         k = 0
         for i, st in enumerate(self.plan.steps):
@@ -179,8 +191,9 @@ class _Line:
         values = [x]
         for s in self.solver.specs[1:]:
             v = self.held[s.name]
-            values.append(np.tile(np.asarray(v, float), (n, 1)) if s.kind == 'point'
-                          else np.full(n, float(v)))
+            values.append(
+                np.tile(np.asarray(v, float), (n, 1)) if s.kind == 'point' else np.full(n, float(v))
+            )
         return self.plan.run(values, n, list(signs))
 
     def ok(self, x, signs) -> np.ndarray:
@@ -226,7 +239,7 @@ class _Line:
         dt = TWO_PI / n
         xs = seed + (np.arange(n) - c) * dt
         ok = self.ok(xs, signs)
-        ok[c] = True                       # the seed assembles (it may sit on a toggle)
+        ok[c] = True  # the seed assembles (it may sit on a toggle)
         if ok.all():
             return None
         up = 0
@@ -243,8 +256,9 @@ class _Line:
         blo, bhi, hard_lo, hard_hi = self.bracket
         grow = 0
         while True:
-            xs = np.unique(np.concatenate([np.linspace(blo, bhi, self.samples),
-                                           [min(max(seed, blo), bhi)]]))
+            xs = np.unique(
+                np.concatenate([np.linspace(blo, bhi, self.samples), [min(max(seed, blo), bhi)]])
+            )
             c = int(np.searchsorted(xs, min(max(seed, blo), bhi)))
             ok = self.ok(xs, signs)
             if not ok[c]:
@@ -284,7 +298,7 @@ class _Line:
     def _soft_low(self, v):
         act = self.mech.actuators.get(self.scan)
         if act is not None and act.cylinder:
-            return max(v, 1e-6 * self.scale)      # a cylinder's pin-to-pin length stays > 0
+            return max(v, 1e-6 * self.scale)  # a cylinder's pin-to-pin length stays > 0
         return v
 
     def _same(self, a, b):
@@ -317,12 +331,24 @@ class _Line:
                 continue
             if comp is None:
                 if not any(s.full and s.signs == signs for s in segs):
-                    segs.append(_Segment(signs, seed - math.pi, seed + math.pi, ('full', None),
-                                         ('full', None), seed, parent, full=True))
+                    segs.append(
+                        _Segment(
+                            signs,
+                            seed - math.pi,
+                            seed + math.pi,
+                            ('full', None),
+                            ('full', None),
+                            seed,
+                            parent,
+                            full=True,
+                        )
+                    )
                 continue
             lo, hi, lo_end, hi_end = comp
-            if any(s.signs == signs and not s.full and self._same(s.lo, lo) and
-                   self._same(s.hi, hi) for s in segs):
+            if any(
+                s.signs == signs and not s.full and self._same(s.lo, lo) and self._same(s.hi, hi)
+                for s in segs
+            ):
                 continue
             segs.append(_Segment(signs, lo, hi, lo_end, hi_end, seed, parent))
             me = len(segs) - 1
@@ -367,8 +393,17 @@ def _slide_bracket(mech: Mechanism, name: str, x0: float):
 
 # ---- walks with the solver (Newton / hybrid plans, inverse problems with limits) --------------
 
-def _walk(solver: Solver, command: Callable[[float], dict], start: Result, x0: float,
-          direction: int, step: float, extent: float, tol: float):
+
+def _walk(
+    solver: Solver,
+    command: Callable[[float], dict],
+    start: Result,
+    x0: float,
+    direction: int,
+    step: float,
+    extent: float,
+    tol: float,
+):
     """Follow a scalar known from x0 in one direction with warm-started, branch-continuous solves
     until a solve is refused, then bisect between the last accepted and the first refused value.
 
@@ -402,8 +437,15 @@ def _walk(solver: Solver, command: Callable[[float], dict], start: Result, x0: f
         return good, why, last
 
 
-def _walk_range(mech: Mechanism, scan: str, held: Mapping[str, Any], x0: float, periodic: bool,
-                bracket=None, step=None):
+def _walk_range(
+    mech: Mechanism,
+    scan: str,
+    held: Mapping[str, Any],
+    x0: float,
+    periodic: bool,
+    bracket=None,
+    step=None,
+):
     """Range of a known by continuation (when no closed-form plan exists): (lo, hi, lo_end,
     hi_end) or None for a full turn."""
     free = without_limits(mech)
@@ -437,6 +479,7 @@ def _walk_range(mech: Mechanism, scan: str, held: Mapping[str, Any], x0: float, 
 
 # ---- actuator ranges --------------------------------------------------------------------------
 
+
 def _scan_circuit(mech: Mechanism, name: str, held: Mapping[str, Any], samples: int):
     """(line, x0, segments, bracket) of one scanned actuator; line None for a walk."""
     x0 = reference_value(mech, name)
@@ -451,14 +494,30 @@ def _scan_circuit(mech: Mechanism, name: str, held: Mapping[str, Any], samples: 
     if comp == 'empty':
         return None, x0, [], bracket
     if comp is None:
-        return None, x0, [_Segment((), x0 - math.pi, x0 + math.pi, ('full', None),
-                                   ('full', None), x0, None, full=True)], bracket
+        return (
+            None,
+            x0,
+            [
+                _Segment(
+                    (),
+                    x0 - math.pi,
+                    x0 + math.pi,
+                    ('full', None),
+                    ('full', None),
+                    x0,
+                    None,
+                    full=True,
+                )
+            ],
+            bracket,
+        )
     lo, hi, le, he = comp
     return None, x0, [_Segment((), lo, hi, le, he, x0)], bracket
 
 
-def actuator_range(mech: Mechanism, name: str, samples: int = 720,
-                   held: Mapping[str, Any] | None = None) -> dict:
+def actuator_range(
+    mech: Mechanism, name: str, samples: int = 720, held: Mapping[str, Any] | None = None
+) -> dict:
     """Range of one actuator with the other actuators held (at their reference-pose values unless
     ``held`` gives them).
 
@@ -468,15 +527,27 @@ def actuator_range(mech: Mechanism, name: str, samples: int = 720,
     :func:`toggle_positions`), ``reference`` (the reference-pose value), ``kind``, ``unit``.
     """
     if name not in mech.actuators:
-        raise ValueError(f'{mech.name!r} has no actuator {name!r}; actuators: '
-                         f'{sorted(mech.actuators)}')
+        raise ValueError(
+            f'{mech.name!r} has no actuator {name!r}; actuators: {sorted(mech.actuators)}'
+        )
     act = mech.actuators[name]
     periodic = act.kind == 'angle'
     held = _held_reference(mech, name, held)
     line, x0, segs, _ = _scan_circuit(mech, name, held, samples)
-    out = {'name': name, 'kind': act.kind, 'unit': 'rad' if periodic else 'm',
-           'reference': x0, 'min': None, 'max': None, 'min_source': None, 'max_source': None,
-           'full_turn': False, 'toggles': [], 'assembles': bool(segs), 'assembly': None}
+    out = {
+        'name': name,
+        'kind': act.kind,
+        'unit': 'rad' if periodic else 'm',
+        'reference': x0,
+        'min': None,
+        'max': None,
+        'min_source': None,
+        'max_source': None,
+        'full_turn': False,
+        'toggles': [],
+        'assembles': bool(segs),
+        'assembly': None,
+    }
     if not segs:
         return out
     full = any(s.full for s in segs)
@@ -488,8 +559,11 @@ def actuator_range(mech: Mechanism, name: str, samples: int = 720,
     hi_seg = max(segs, key=lambda s: s.hi)
     lo_src = None if full else _source(lo_seg.lo_end)
     hi_src = None if full else _source(hi_seg.hi_end)
-    toggles = _segment_toggles(line, segs) if line is not None else \
-        [v for s in segs for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end)) if e[0] == 'toggle']
+    toggles = (
+        _segment_toggles(line, segs)
+        if line is not None
+        else [v for s in segs for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end)) if e[0] == 'toggle']
+    )
     if periodic:
         lim = _limit_interval(act, True)
         if full:
@@ -505,8 +579,10 @@ def actuator_range(mech: Mechanism, name: str, samples: int = 720,
                 out['assembles'] = False
                 return out
             # the piece holding the reference value (else the nearest one)
-            piece = min(pieces, key=lambda p: 0.0 if p[0] <= x0 <= p[1]
-                        else min(abs(p[0] - x0), abs(p[1] - x0)))
+            piece = min(
+                pieces,
+                key=lambda p: 0.0 if p[0] <= x0 <= p[1] else min(abs(p[0] - x0), abs(p[1] - x0)),
+            )
             a, b, a_lim, b_lim = piece
             shift = 0.0
             if a_lim:
@@ -515,9 +591,12 @@ def actuator_range(mech: Mechanism, name: str, samples: int = 720,
                 shift = lim[1] - b
             else:
                 shift = -TWO_PI * math.floor((a + math.pi) / TWO_PI)
-            out.update(min=a + shift, max=b + shift,
-                       min_source='limit' if a_lim else lo_src,
-                       max_source='limit' if b_lim else hi_src)
+            out.update(
+                min=a + shift,
+                max=b + shift,
+                min_source='limit' if a_lim else lo_src,
+                max_source='limit' if b_lim else hi_src,
+            )
         # toggles and the assembly's own range in one turn starting at the assembly's min
         if full:
             base = -math.pi
@@ -525,16 +604,16 @@ def actuator_range(mech: Mechanism, name: str, samples: int = 720,
         else:
             base = lo - TWO_PI * math.floor((lo + math.pi) / TWO_PI)
             out['assembly'] = [base, base + (hi - lo)]
-        out['toggles'] = _dedupe(sorted(base + (t - base) % TWO_PI for t in toggles),
-                                 True)
+        out['toggles'] = _dedupe(sorted(base + (t - base) % TWO_PI for t in toggles), True)
     else:
-        out.update(min=lo if lo_src != 'bracket' else None,
-                   max=hi if hi_src != 'bracket' else None,
-                   min_source=lo_src if lo_src != 'bracket' else None,
-                   max_source=hi_src if hi_src != 'bracket' else None)
+        out.update(
+            min=lo if lo_src != 'bracket' else None,
+            max=hi if hi_src != 'bracket' else None,
+            min_source=lo_src if lo_src != 'bracket' else None,
+            max_source=hi_src if hi_src != 'bracket' else None,
+        )
         # the assembly's own ends (unknown beyond a scene limit: the scan stops there)
-        out['assembly'] = [lo if lo_src == 'toggle' else None,
-                           hi if hi_src == 'toggle' else None]
+        out['assembly'] = [lo if lo_src == 'toggle' else None, hi if hi_src == 'toggle' else None]
         out['toggles'] = _dedupe(sorted(toggles), None)
     return out
 
@@ -623,8 +702,9 @@ def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
     return res
 
 
-def input_ranges(mech: Mechanism,
-                 samples: int = 720) -> dict[str, tuple[float | None, float | None]]:
+def input_ranges(
+    mech: Mechanism, samples: int = 720
+) -> dict[str, tuple[float | None, float | None]]:
     """{actuator: (min or None, max or None)} with the other actuators held at their
     reference-pose values: the toggle positions where the assembly ends (refined to 1e-12 rad or
     1e-12 of the length scale), intersected with the actuator's own min / max.
@@ -641,8 +721,9 @@ def input_ranges(mech: Mechanism,
     return out
 
 
-def toggle_positions(mech: Mechanism, actuator: str, samples: int = 720,
-                     held: Mapping[str, Any] | None = None) -> list[float]:
+def toggle_positions(
+    mech: Mechanism, actuator: str, samples: int = 720, held: Mapping[str, Any] | None = None
+) -> list[float]:
     """Values of ``actuator`` (others held at the reference pose) where a dyad of the assembly
     toggles (its margin, |sin| of the transmission angle or its analogue, reaches 0): the ends of
     the assembly's range and any interior tangency, over every assembly mode the motion passes
@@ -653,14 +734,21 @@ def toggle_positions(mech: Mechanism, actuator: str, samples: int = 720,
 
 # ---- link oscillation -------------------------------------------------------------------------
 
-def oscillation_range(mech: Mechanism, link: str, actuator: str | None = None,
-                      samples: int = 720, held: Mapping[str, Any] | None = None):
+
+def oscillation_range(
+    mech: Mechanism,
+    link: str,
+    actuator: str | None = None,
+    samples: int = 720,
+    held: Mapping[str, Any] | None = None,
+):
     """(min, max) of the angle of ``link`` (rad, direction of its axis) while ``actuator`` (default
     the first) runs over its range within its limits, the other actuators held; (None, None) when
     the link turns fully. Follows the circuit through toggles, so both assembly modes a
     non-Grashof chain passes through count. Extremes inside the range are refined by Brent's
     method; the angle convention is the module's (max may exceed pi)."""
     from scipy.optimize import minimize_scalar
+
     if link not in mech.links or link == mech.ground:
         raise ValueError(f'{link!r} is not a moving link of {mech.name!r}')
     actuator = actuator or next(iter(mech.actuators))
@@ -674,11 +762,13 @@ def oscillation_range(mech: Mechanism, link: str, actuator: str | None = None,
         return None, None
     lim = _limit_interval(act, periodic) if periodic else (act.min, act.max)
     # sample every segment (clipped to the actuator's limits), unwrap and stitch the angle
-    pieces = []          # (signs, xs, unwrapped angles)
+    pieces = []  # (signs, xs, unwrapped angles)
     stitch: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for k, s in enumerate(segs):
-        n = max(129, int(samples * (s.hi - s.lo) / (TWO_PI if periodic else
-                                                    max(s.hi - s.lo, 1e-300))) + 1)
+        n = max(
+            129,
+            int(samples * (s.hi - s.lo) / (TWO_PI if periodic else max(s.hi - s.lo, 1e-300))) + 1,
+        )
         xs = np.linspace(s.lo, s.hi, n)
         ang = line.link_angle(xs, s.signs, link)
         good = np.isfinite(ang)
@@ -737,8 +827,9 @@ def oscillation_range(mech: Mechanism, link: str, actuator: str | None = None,
                         return math.inf
                     return -sign * (centre + wrap_angle(v - centre))
 
-                r = minimize_scalar(f, bounds=(xs[i - 1], xs[i + 1]), method='bounded',
-                                    options={'xatol': 1e-13})
+                r = minimize_scalar(
+                    f, bounds=(xs[i - 1], xs[i + 1]), method='bounded', options={'xatol': 1e-13}
+                )
                 if np.isfinite(r.fun):
                     best = max(best, -float(r.fun))
         return sign * best
@@ -749,6 +840,7 @@ def oscillation_range(mech: Mechanism, link: str, actuator: str | None = None,
 
 
 # ---- reachable regions ------------------------------------------------------------------------
+
 
 def _actuator_limits(mech: Mechanism, name: str, samples: int) -> tuple[float, float]:
     act = mech.actuators[name]
@@ -814,7 +906,7 @@ def distance_to_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
     L2 = np.sum(ab * ab, axis=1)
     best = np.full(pts.shape[0], np.inf)
     for k in range(0, a.shape[0], 256):
-        aa, bb, ll = a[k:k + 256], ab[k:k + 256], L2[k:k + 256]
+        aa, bb, ll = a[k : k + 256], ab[k : k + 256], L2[k : k + 256]
         ap = pts[:, None, :] - aa[None, :, :]
         t = np.clip(np.sum(ap * bb[None], axis=2) / np.where(ll > 0, ll, 1.0)[None], 0.0, 1.0)
         d = ap - t[..., None] * bb[None]
@@ -826,17 +918,19 @@ def _concave_hull(pts: np.ndarray, max_edge: float) -> np.ndarray:
     """Outer boundary (m, 2) of the alpha shape of ``pts``: the Delaunay triangles whose edges are
     all at most ``max_edge`` long, merged."""
     from scipy.spatial import Delaunay
+
     pts = np.unique(np.asarray(pts, float), axis=0)
     if pts.shape[0] < 3:
         return pts
     try:
         tri = Delaunay(pts)
-    except Exception:          # noqa: BLE001 - collinear cloud: a path, no area
+    except Exception:  # noqa: BLE001 - collinear cloud: a path, no area
         order = np.argsort(pts[:, 0] + 1e-3 * pts[:, 1])
         return pts[order]
     s = tri.simplices
-    e = np.stack([np.linalg.norm(pts[s[:, i]] - pts[s[:, (i + 1) % 3]], axis=1)
-                  for i in range(3)], axis=1)
+    e = np.stack(
+        [np.linalg.norm(pts[s[:, i]] - pts[s[:, (i + 1) % 3]], axis=1) for i in range(3)], axis=1
+    )
     keep = s[np.max(e, axis=1) <= max_edge]
     if keep.size == 0:
         keep = s
@@ -870,10 +964,15 @@ def _concave_hull(pts: np.ndarray, max_edge: float) -> np.ndarray:
     return max(loops, key=_polygon_area) if loops else pts
 
 
-def reachable_region(mech: Mechanism, point: str, samples_per_actuator: int = 41,
-                     actuators: Sequence[str] | None = None, edge_samples: int | None = None,
-                     limits: Mapping[str, tuple[float, float]] | None = None,
-                     held: Mapping[str, Any] | None = None) -> dict:
+def reachable_region(
+    mech: Mechanism,
+    point: str,
+    samples_per_actuator: int = 41,
+    actuators: Sequence[str] | None = None,
+    edge_samples: int | None = None,
+    limits: Mapping[str, tuple[float, float]] | None = None,
+    held: Mapping[str, Any] | None = None,
+) -> dict:
     """Region reached by ``point`` while ``actuators`` run over their limits (the others held at
     the reference pose), e.g. the seed's zone of the excavator's hinge K for the Z1, Z2 ranges.
 
@@ -901,10 +1000,12 @@ def reachable_region(mech: Mechanism, point: str, samples_per_actuator: int = 41
     for a in acts:
         if a not in mech.actuators:
             raise ValueError(f'{a!r} is not an actuator of {mech.name!r}')
-    held_vals = {a: (held or {}).get(a, reference_value(mech, a))
-                 for a in mech.actuators if a not in acts}
-    lims = {a: tuple(map(float, (limits or {}).get(a) or _actuator_limits(mech, a, 720)))
-            for a in acts}
+    held_vals = {
+        a: (held or {}).get(a, reference_value(mech, a)) for a in mech.actuators if a not in acts
+    }
+    lims = {
+        a: tuple(map(float, (limits or {}).get(a) or _actuator_limits(mech, a, 720))) for a in acts
+    }
     scale = mech.length_scale
     n = max(2, int(samples_per_actuator))
     if len(acts) >= 3:
@@ -919,15 +1020,29 @@ def reachable_region(mech: Mechanism, point: str, samples_per_actuator: int = 41
         r = solver.solve_batch(full)
         return r.ok, r.points[point]
 
-    out: dict[str, Any] = {'point': point, 'actuators': acts,
-                           'limits': {a: list(lims[a]) for a in acts},
-                           'held': {a: float(v) for a, v in held_vals.items()}}
+    out: dict[str, Any] = {
+        'point': point,
+        'actuators': acts,
+        'limits': {a: list(lims[a]) for a in acts},
+        'held': {a: float(v) for a, v in held_vals.items()},
+    }
     if not acts:
         p = reference_value(mech, point_key(mech, point))
-        out.update(boundary=[list(map(float, p))], boundary_inputs={}, area=0.0,
-                   cloud=[list(map(float, p))], arcs=[], method='point',
-                   hull_check={'outside': 0, 'max_outside': 0.0, 'tolerance': 0.0,
-                               'convex_hull_area': 0.0, 'convex': True})
+        out.update(
+            boundary=[list(map(float, p))],
+            boundary_inputs={},
+            area=0.0,
+            cloud=[list(map(float, p))],
+            arcs=[],
+            method='point',
+            hull_check={
+                'outside': 0,
+                'max_outside': 0.0,
+                'tolerance': 0.0,
+                'convex_hull_area': 0.0,
+                'convex': True,
+            },
+        )
         return out
     # the cloud: a grid over the throws, solved in serpentine order (sequential Newton solves
     # then stay continuous), kept in natural order
@@ -957,15 +1072,25 @@ def reachable_region(mech: Mechanism, point: str, samples_per_actuator: int = 41
         (l1, h1), (l2, h2) = lims[a1], lims[a2]
         s1 = np.linspace(l1, h1, ne)
         s2 = np.linspace(l2, h2, ne)
-        specs = [(a1, 'min', l1, a2, s2), (a2, 'max', h2, a1, s1),
-                 (a1, 'max', h1, a2, s2[::-1]), (a2, 'min', l2, a1, s1[::-1])]
+        specs = [
+            (a1, 'min', l1, a2, s2),
+            (a2, 'max', h2, a1, s1),
+            (a1, 'max', h1, a2, s2[::-1]),
+            (a2, 'min', l2, a1, s1[::-1]),
+        ]
         verts, ins1, ins2, complete = [], [], [], True
         for fixed, which, val, sweep, vals in specs:
             cols = {fixed: np.full(vals.size, val), sweep: vals}
             okp, pp = solve(cols)
             complete &= bool(okp.all())
-            arcs.append({'fixed': [fixed, which, float(val)], 'sweep': sweep,
-                         'inputs': vals[okp].tolist(), 'points': pp[okp].tolist()})
+            arcs.append(
+                {
+                    'fixed': [fixed, which, float(val)],
+                    'sweep': sweep,
+                    'inputs': vals[okp].tolist(),
+                    'points': pp[okp].tolist(),
+                }
+            )
             # drop each arc's last vertex: it is the next arc's first (a shared corner)
             sel = np.flatnonzero(okp)
             sel = sel[sel < vals.size - 1]
@@ -985,8 +1110,9 @@ def reachable_region(mech: Mechanism, point: str, samples_per_actuator: int = 41
     if len(acts) >= 2 and cloud.shape[0] >= 3:
         try:
             from scipy.spatial import ConvexHull
+
             hull_area = float(ConvexHull(cloud).volume)
-        except Exception:      # noqa: BLE001 - degenerate cloud
+        except Exception:  # noqa: BLE001 - degenerate cloud
             hull_area = 0.0
     outside, max_out = 0, 0.0
     if method == 'extreme_arcs':
@@ -997,16 +1123,26 @@ def reachable_region(mech: Mechanism, point: str, samples_per_actuator: int = 41
         if outside:
             method = 'concave_hull'
     if method == 'concave_hull':
-        pts = np.concatenate([cloud] + [np.asarray(a['points'], float).reshape(-1, 2)
-                                        for a in arcs])
+        pts = np.concatenate(
+            [cloud] + [np.asarray(a['points'], float).reshape(-1, 2) for a in arcs]
+        )
         boundary = _concave_hull(pts, 2.5 * spacing)
         binputs = {}
         area = _polygon_area(boundary)
-    out.update(boundary=np.asarray(boundary, float).tolist(), boundary_inputs=binputs,
-               area=float(area), arcs=arcs, method=method,
-               hull_check={'outside': outside, 'max_outside': max_out, 'tolerance': tolerance,
-                           'convex_hull_area': hull_area,
-                           'convex': bool(hull_area > 0 and area >= hull_area * (1 - 1e-3))})
+    out.update(
+        boundary=np.asarray(boundary, float).tolist(),
+        boundary_inputs=binputs,
+        area=float(area),
+        arcs=arcs,
+        method=method,
+        hull_check={
+            'outside': outside,
+            'max_outside': max_out,
+            'tolerance': tolerance,
+            'convex_hull_area': hull_area,
+            'convex': bool(hull_area > 0 and area >= hull_area * (1 - 1e-3)),
+        },
+    )
     return out
 
 
@@ -1027,11 +1163,20 @@ def _grid_spacing(P: np.ndarray, ok: np.ndarray, n: int, k: int) -> float:
 
 # ---- tilt of a link about a held point --------------------------------------------------------
 
-def max_tilt(mech: Mechanism, lip: str, link: str, hold_point=None,
-             start_angle: float | None = None,
-             inputs: Mapping[str, float] | None = None, held: Sequence[str] | None = None,
-             step: float = math.radians(1.0), max_rotation: float = math.pi, tol: float = 1e-12,
-             method: str | None = None) -> dict:
+
+def max_tilt(
+    mech: Mechanism,
+    lip: str,
+    link: str,
+    hold_point=None,
+    start_angle: float | None = None,
+    inputs: Mapping[str, float] | None = None,
+    held: Sequence[str] | None = None,
+    step: float = math.radians(1.0),
+    max_rotation: float = math.pi,
+    tol: float = 1e-12,
+    method: str | None = None,
+) -> dict:
     """Largest rotation of ``link`` (the bin) about its point ``lip`` (L) held fixed, within the
     actuator limits: inverse kinematics with knowns [lip point, link angle] (plus ``held``
     actuators at their current values when the mechanism has more than three DOF), scanning the
@@ -1055,8 +1200,10 @@ def max_tilt(mech: Mechanism, lip: str, link: str, hold_point=None,
         raise ValueError(f'point {lip!r} is not on link {link!r}')
     extra = mech.dof - 3
     if extra < 0:
-        raise ValueError(f'{mech.name!r} has {mech.dof} DOF: holding a point (2) and turning a '
-                         'link about it (1) needs at least 3')
+        raise ValueError(
+            f'{mech.name!r} has {mech.dof} DOF: holding a point (2) and turning a '
+            'link about it (1) needs at least 3'
+        )
     if held is None:
         held = list(mech.actuators)[:extra]
     held = list(held)
@@ -1068,8 +1215,14 @@ def max_tilt(mech: Mechanism, lip: str, link: str, hold_point=None,
         current.update({k: float(v) for k, v in inputs.items()})
         fwd = Solver(mech, method=method).solve(current)
         if not fwd.success:
-            return {'ok': False, 'link': link, 'lip': lip, 'min': None, 'max': None,
-                    'reason': {'start': fwd.reason}}
+            return {
+                'ok': False,
+                'link': link,
+                'lip': lip,
+                'min': None,
+                'max': None,
+                'reason': {'start': fwd.reason},
+            }
         lip_now = np.asarray(fwd.points[lip], float)
         ang_now = fwd.links[link]
     else:
@@ -1077,20 +1230,32 @@ def max_tilt(mech: Mechanism, lip: str, link: str, hold_point=None,
         ang_now = mech.links[link].angle_ref
     hold = lip_now if hold_point is None else np.asarray(hold_point, float).reshape(2)
     a0 = float(ang_now if start_angle is None else start_angle)
-    solver = Solver(mech, knowns=[pk, lk] + held, method=method, branch='continuous',
-                    max_iter=200)
+    solver = Solver(mech, knowns=[pk, lk] + held, method=method, branch='continuous', max_iter=200)
 
     def command(angle):
         cmd = {pk: hold, lk: angle}
         cmd.update({h: current[h] for h in held})
         return cmd
 
-    base = {'link': link, 'lip': lip, 'hold_point': [float(hold[0]), float(hold[1])],
-            'start': a0, 'held': {h: float(current[h]) for h in held}}
+    base = {
+        'link': link,
+        'lip': lip,
+        'hold_point': [float(hold[0]), float(hold[1])],
+        'start': a0,
+        'held': {h: float(current[h]) for h in held},
+    }
     start = solver.solve(command(a0), commit=False)
     if not start.success:
-        return {**base, 'ok': False, 'min': None, 'max': None, 'tilt_up': None,
-                'tilt_down': None, 'reason': {'start': start.reason}, 'inputs_at': {}}
+        return {
+            **base,
+            'ok': False,
+            'min': None,
+            'max': None,
+            'tilt_up': None,
+            'tilt_down': None,
+            'reason': {'start': start.reason},
+            'inputs_at': {},
+        }
     res = {**base, 'ok': True, 'reason': {}, 'inputs_at': {}}
     for d, key in ((1, 'max'), (-1, 'min')):
         b, why, last = _walk(solver, command, start, a0, d, step, max_rotation, tol)
@@ -1102,6 +1267,17 @@ def max_tilt(mech: Mechanism, lip: str, link: str, hold_point=None,
     return res
 
 
-__all__ = ['input_ranges', 'actuator_range', 'toggle_positions', 'oscillation_range',
-           'reachable_region', 'max_tilt', 'reference_value', 'without_limits', 'point_key',
-           'link_key', 'points_in_polygon', 'distance_to_polygon']
+__all__ = [
+    'input_ranges',
+    'actuator_range',
+    'toggle_positions',
+    'oscillation_range',
+    'reachable_region',
+    'max_tilt',
+    'reference_value',
+    'without_limits',
+    'point_key',
+    'link_key',
+    'points_in_polygon',
+    'distance_to_polygon',
+]

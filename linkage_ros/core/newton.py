@@ -29,14 +29,15 @@ Jacobian for N configurations at once in numpy, and full Newton steps on the N x
 warm starts, accepting a row only where the fast path would (FAST_RATE per step, det J sign at
 start and answer, cond below POLISH_COND); the rows it declines go to the scalar careful path.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from decimal import Decimal
 from fractions import Fraction
 from types import SimpleNamespace
-from typing import Sequence
 
 import numpy as np
 
@@ -48,16 +49,17 @@ from .plan import ScalarPoses, Spec
 @dataclass
 class SolveResult:
     """Outcome of one Newton solve (configuration vector x over the free links)."""
+
     x: np.ndarray
     success: bool
-    iterations: int              # steps taken (Newton, chord, line-search, LM and polish)
-    residual: float              # max |F| / length scale
+    iterations: int  # steps taken (Newton, chord, line-search, LM and polish)
+    residual: float  # max |F| / length scale
     reason: str | None = None
-    cond: float = float('inf')   # condition number of the scale-free Jacobian (see _cond)
+    cond: float = float('inf')  # condition number of the scale-free Jacobian (see _cond)
     det_sign: int = 0
     factor: tuple | None = None  # (lu, piv, det sign) of the scale-free J at x
-    jacobians: int = 0           # Jacobians evaluated and factorised
-    predicted: bool = False      # converged by the fast path from the predicted guess
+    jacobians: int = 0  # Jacobians evaluated and factorised
+    predicted: bool = False  # converged by the fast path from the predicted guess
 
 
 @dataclass
@@ -65,12 +67,13 @@ class BatchSolve:
     """Outcome of LoopSystem.solve_batch: N warm-started Newton solves at once. Rows are
     independent; a row not ``ok`` was *declined* (not failed): its x is its start, and the caller
     solves it another way (LoopSystem.solve, the scalar careful path)."""
-    x: np.ndarray                # (N, n) answers (phi rad, centroid m); the X0 row where declined
-    ok: np.ndarray               # (N,) bool: converged on the start's side of det J = 0
-    iterations: np.ndarray       # (N,) int: Newton steps evaluated (as SolveResult.iterations)
-    residual: np.ndarray         # (N,) max |F| / length scale at x
-    det_sign: np.ndarray         # (N,) int: det J sign at x where ok, else 0
-    cond: np.ndarray             # (N,) cond(J) at x (as _cond reports it) where ok, else inf
+
+    x: np.ndarray  # (N, n) answers (phi rad, centroid m); the X0 row where declined
+    ok: np.ndarray  # (N,) bool: converged on the start's side of det J = 0
+    iterations: np.ndarray  # (N,) int: Newton steps evaluated (as SolveResult.iterations)
+    residual: np.ndarray  # (N,) max |F| / length scale at x
+    det_sign: np.ndarray  # (N,) int: det J sign at x where ok, else 0
+    cond: np.ndarray  # (N,) cond(J) at x (as _cond reports it) where ok, else inf
 
 
 #: at convergence, a scaled cond(J) above this means a near-singular configuration: polish
@@ -98,6 +101,7 @@ def _lapack():
     global _LAPACK
     if _LAPACK is None:
         from scipy.linalg import lapack
+
         _LAPACK = (lapack.dgetrf, lapack.dgetrs, lapack.dgecon)
     return _LAPACK
 
@@ -114,7 +118,7 @@ def _two_pi_parts(bits=(33, 33, 53)) -> tuple[float, ...]:
     for b in bits:
         ulp = Fraction(2) ** (math.frexp(float(rest))[1] - b)
         part = round(rest / ulp) * ulp
-        parts.append(float(part))          # exact: at most b + 1 significant bits
+        parts.append(float(part))  # exact: at most b + 1 significant bits
         rest -= part
     return tuple(parts)
 
@@ -122,7 +126,7 @@ def _two_pi_parts(bits=(33, 33, 53)) -> tuple[float, ...]:
 _TWO_PI_HI, _TWO_PI_MID, _TWO_PI_LO = _two_pi_parts()
 #: |v| up to this is reduced by the three-part 2 pi (k = round(v / 2 pi) < 2^19); larger finite
 #: angles (rare) go through the scalar wrap_angle one by one
-_WRAP_BATCH_LIMIT = 2.0 ** 21
+_WRAP_BATCH_LIMIT = 2.0**21
 
 
 def _wrap_angles(v: np.ndarray) -> np.ndarray:
@@ -130,7 +134,7 @@ def _wrap_angles(v: np.ndarray) -> np.ndarray:
     exactly to within an ulp or so (Cody-Waite with a three-part 2 pi); NaN where v is not
     finite (where the scalar form gives NaN or raises)."""
     out = np.array(v, float)
-    wide = ~((out > -math.pi) & (out <= math.pi))          # NaN and inf included
+    wide = ~((out > -math.pi) & (out <= math.pi))  # NaN and inf included
     if not wide.any():
         return out
     w = out[wide]
@@ -151,7 +155,9 @@ def _wrap_angles(v: np.ndarray) -> np.ndarray:
 class LoopSystem:
     """The loop-closure equations of a mechanism restricted to a set of free links."""
 
-    def __init__(self, mech: Mechanism, specs: Sequence[Spec], free_links: Sequence[str] | None = None):
+    def __init__(
+        self, mech: Mechanism, specs: Sequence[Spec], free_links: Sequence[str] | None = None
+    ):
         self.mech = mech
         self.specs = list(specs)
         self.L = mech.length_scale
@@ -160,7 +166,9 @@ class LoopSystem:
         self.index = {l: k for k, l in enumerate(free)}
         self.n = 3 * len(free)
         pts = mech.points
-        self.centroid = {n: np.mean([pts[p] for p in l.points], axis=0) for n, l in mech.links.items()}
+        self.centroid = {
+            n: np.mean([pts[p] for p in l.points], axis=0) for n, l in mech.links.items()
+        }
         self.rows: list[tuple] = []
         m = 0
         fr = set(free)
@@ -207,7 +215,7 @@ class LoopSystem:
                 self._others.append(link)
             return slot[link]
 
-        dummy = m * n                  # varying entries of fixed links land here (dropped)
+        dummy = m * n  # varying entries of fixed links land here (dropped)
         tpl = np.zeros(m * n + 1)
         jpos: list[int] = []
 
@@ -225,7 +233,7 @@ class LoopSystem:
             return float(v[0]), float(v[1])
 
         self._revs, self._tail = [], []
-        self._val_rows: list[int] | None = []       # row of each value component
+        self._val_rows: list[int] | None = []  # row of each value component
         r = 0
         for row in self.rows:
             if row[0] != 'rev':
@@ -240,8 +248,18 @@ class LoopSystem:
 
         def line(r, pj, u0, base, vi):
             G, S = pj.guide, pj.slider
-            self._tail.append((0, s_of(G), s_of(S), float(u0[0]), float(u0[1]),
-                               *lever(S, pts[pj.point]), *lever(G, base), vi))
+            self._tail.append(
+                (
+                    0,
+                    s_of(G),
+                    s_of(S),
+                    float(u0[0]),
+                    float(u0[1]),
+                    *lever(S, pts[pj.point]),
+                    *lever(G, base),
+                    vi,
+                )
+            )
             for link, k in ((G, 0), (G, 1), (G, 2), (S, 0), (S, 1), (S, 2)):
                 var(r, link, k)
 
@@ -276,7 +294,7 @@ class LoopSystem:
                     r += 2
         for i, s in enumerate(self.specs):
             if i not in spec_rows:
-                self._val_rows = None   # a value moves fixed links: no prediction
+                self._val_rows = None  # a value moves fixed links: no prediction
                 break
             self._val_rows += [spec_rows[i]] if s.size == 1 else [spec_rows[i], spec_rows[i] + 1]
         self._val_idx = np.array(self._val_rows or [], np.intp)
@@ -285,7 +303,7 @@ class LoopSystem:
         self._jpos = np.array(jpos, np.intp)
         real = [p for p in jpos if p != dummy]
         self._jpos_unique = len(set(real)) == len(real)
-        self._none_slots = None        # the fixed-link slots when no fixed poses are given
+        self._none_slots = None  # the fixed-link slots when no fixed poses are given
         self._point_owner = []
         seen = set()
         for l, link in mech.links.items():
@@ -301,13 +319,13 @@ class LoopSystem:
         for l, i in self.index.items():
             o = self.centroid[l]
             c = poses.rot[l] * complex(o[0], o[1]) + poses.T[l]
-            x[3 * i:3 * i + 3] = (poses.phi[l], c.real, c.imag)
+            x[3 * i : 3 * i + 3] = (poses.phi[l], c.real, c.imag)
         return x
 
     def reference_x(self) -> np.ndarray:
         x = np.zeros(self.n)
         for l, i in self.index.items():
-            x[3 * i + 1:3 * i + 3] = self.centroid[l]
+            x[3 * i + 1 : 3 * i + 3] = self.centroid[l]
         return x
 
     def poses_from_x(self, x: np.ndarray, fixed: ScalarPoses | None = None) -> ScalarPoses:
@@ -352,8 +370,13 @@ class LoopSystem:
                 raise KeyError(f'link {l!r} is neither free nor fixed')
         return P, phis
 
-    def evaluate(self, x: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None,
-                 jacobian: bool = True):
+    def evaluate(
+        self,
+        x: np.ndarray,
+        values: Sequence,
+        fixed: ScalarPoses | None = None,
+        jacobian: bool = True,
+    ):
         """Residual F (m,) and, if asked, the analytic Jacobian J (m, n)."""
         F, Jv = self._rows(x, values, fixed, jacobian, 1.0)
         return np.array(F, float), (self._jacobian(Jv, self._tpl) if jacobian else None)
@@ -371,7 +394,7 @@ class LoopSystem:
         F, Jv = self._rows(x, values, fixed, jacobian, 1.0 / self.L)
         res = max(map(abs, F), default=0.0)
         total = sum(F)
-        if total - total != 0.0:         # a NaN or inf
+        if total - total != 0.0:  # a NaN or inf
             res = math.inf
         return np.array(F, float), Jv, res
 
@@ -391,7 +414,7 @@ class LoopSystem:
         phis = xs[0::3]
         try:
             P = [(cos(p), sin(p), cx, cy) for p, cx, cy in zip(phis, xs[1::3], xs[2::3])]
-        except ValueError:               # an infinite angle: NaN rows (callers reject them)
+        except ValueError:  # an infinite angle: NaN rows (callers reject them)
             phis = [math.nan] * len(phis)
             P = [(math.nan,) * 4] * len(phis)
         if self._others:
@@ -412,12 +435,12 @@ class LoopSystem:
             rbx, rby = c2 * lbx - s2 * lby, s2 * lbx + c2 * lby
             F.append(((x1 + rax) - (x2 + rbx)) * k)
             F.append(((y1 + ray) - (y2 + rby)) * k)
-            if jac:                      # d/dphi of a world point is perp(lever)
+            if jac:  # d/dphi of a world point is perp(lever)
                 Jv += (-ray * k, rax * k, rby * k, -rbx * k)
         kL = self.L * k
         for row in self._tail:
             kind = row[0]
-            if kind == 0:                # line row: u . (w_S(X) - w_G(base)) [- value]
+            if kind == 0:  # line row: u . (w_S(X) - w_G(base)) [- value]
                 _, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, vi = row
                 cG, sG, xG, yG = P[iG]
                 cS, sS, xS, yS = P[iS]
@@ -427,16 +450,22 @@ class LoopSystem:
                 dx, dy = (xS + srx) - (xG + grx), (yS + sry) - (yG + gry)
                 f = ux * dx + uy * dy
                 F.append((f if vi is None else f - float(values[vi])) * k)
-                if jac:                  # d u / dphi_G = perp(u)
-                    Jv += ((-uy * dx + ux * dy - (ux * -gry + uy * grx)) * k, -ux, -uy,
-                           (ux * -sry + uy * srx) * k, ux, uy)
-            elif kind == 1:              # angle row: L * wrap(phi_a - phi_b [- (value - offset)])
+                if jac:  # d u / dphi_G = perp(u)
+                    Jv += (
+                        (-uy * dx + ux * dy - (ux * -gry + uy * grx)) * k,
+                        -ux,
+                        -uy,
+                        (ux * -sry + uy * srx) * k,
+                        ux,
+                        uy,
+                    )
+            elif kind == 1:  # angle row: L * wrap(phi_a - phi_b [- (value - offset)])
                 _, ia, ib, vi, off = row
                 a = phis[ia] - phis[ib]
                 if vi is not None:
                     a -= wrap_angle(float(values[vi])) - off
                 F.append(kL * math.atan2(sin(a), cos(a)))
-            else:                        # point row: w(X) - (x, y)
+            else:  # point row: w(X) - (x, y)
                 _, i, lx, ly, vi = row
                 c, s, cx, cy = P[i]
                 rx, ry = c * lx - s * ly, s * lx + c * ly
@@ -456,13 +485,15 @@ class LoopSystem:
         leave another link free and make J singular everywhere."""
         from scipy.sparse import csr_matrix
         from scipy.sparse.csgraph import maximum_bipartite_matching
+
         if self.m != self.n or not self.n:
             return []
         pattern = np.zeros(self.m * self.n + 1, bool)
         pattern[self._jpos] = True
         pattern[:-1] |= self._tpl_s[:-1] != 0
         rows = maximum_bipartite_matching(
-            csr_matrix(pattern[:-1].reshape(self.m, self.n).astype(float)), perm_type='column')
+            csr_matrix(pattern[:-1].reshape(self.m, self.n).astype(float)), perm_type='column'
+        )
         matched = set(rows[rows >= 0].tolist())
         return list(dict.fromkeys(self.free[c // 3] for c in range(self.n) if c not in matched))
 
@@ -470,7 +501,7 @@ class LoopSystem:
         """Exact 2-norm condition number of J with unit-norm columns (an SVD)."""
         if J.size == 0:
             return 1.0
-        peak = np.max(np.abs(J), axis=0)         # pre-scale: column norms of 1e300 overflow
+        peak = np.max(np.abs(J), axis=0)  # pre-scale: column norms of 1e300 overflow
         peak[peak == 0] = 1.0
         Jn = J / peak
         norms = np.linalg.norm(Jn, axis=0)
@@ -533,7 +564,7 @@ class LoopSystem:
         """b - a per value component in scale-free units (rad, length scales)."""
         out, L = [], self.L
         for s, va, vb in zip(self.specs, a, b):
-            if s.kind == 'angle':          # reduce first: vb - va may overflow
+            if s.kind == 'angle':  # reduce first: vb - va may overflow
                 out.append(wrap_angle(wrap_angle(float(vb)) - wrap_angle(float(va))))
             elif s.kind == 'slide':
                 out.append(float(vb) / L - float(va) / L)
@@ -549,9 +580,16 @@ class LoopSystem:
             return None
         return r.factor
 
-    def predict(self, x_last: np.ndarray, lu_last: tuple, vals_last: Sequence, vals: Sequence,
-                x_prev: np.ndarray | None = None, vals_prev: Sequence | None = None,
-                lu_prev: tuple | None = None) -> np.ndarray | None:
+    def predict(
+        self,
+        x_last: np.ndarray,
+        lu_last: tuple,
+        vals_last: Sequence,
+        vals: Sequence,
+        x_prev: np.ndarray | None = None,
+        vals_prev: Sequence | None = None,
+        lu_prev: tuple | None = None,
+    ) -> np.ndarray | None:
         """Predicted solution at ``vals`` from the solution x_last at vals_last and its
         rate_factor ``lu_last`` (the tangent T = dx/dvalue is its inverse applied to -dF/dvalue).
         h = value_step(vals_last, vals); alone: x_last + T h. Given the solution before (x_prev at
@@ -568,7 +606,7 @@ class LoopSystem:
             den = sum(v * v for v in hp)
             s = sum(u * v for u, v in zip(h, hp)) / den if den > 0 else math.inf
             if lu_prev is not None and -1.0 <= s <= 1.5:
-                t = 1.0 + s                    # Hermite on t in [0, 1] from x_prev to x_last
+                t = 1.0 + s  # Hermite on t in [0, 1] from x_prev to x_last
                 t2, t3 = t * t, t * t * t
                 w = [u - s * v for u, v in zip(h, hp)]
                 k_back = 2 * t3 - 3 * t2 + 1
@@ -580,10 +618,10 @@ class LoopSystem:
 
         n, rows = self.n, self._val_rows
 
-        def tangent(lu, c):                 # T c, scale-free (a list)
+        def tangent(lu, c):  # T c, scale-free (a list)
             rhs = [0.0] * n
             for i, v in zip(rows, c):
-                rhs[i] = v                  # -dF/dvalue (scale-free) times c
+                rhs[i] = v  # -dF/dvalue (scale-free) times c
             y, info = getrs(lu[0], lu[1], np.array(rhs))
             return y.tolist() if info == 0 else [math.nan] * n
 
@@ -603,9 +641,18 @@ class LoopSystem:
         return np.array([x + d * w for x, d, w in zip(xl, dy, self._step_list)])
 
     # -- solving ------------------------------------------------------------------------------
-    def solve(self, x0: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None, *,
-              tol: float = 1e-12, max_iter: int = 50, keep_det_sign: bool = True,
-              start_sign: int | None = None, guess: np.ndarray | None = None) -> SolveResult:
+    def solve(
+        self,
+        x0: np.ndarray,
+        values: Sequence,
+        fixed: ScalarPoses | None = None,
+        *,
+        tol: float = 1e-12,
+        max_iter: int = 50,
+        keep_det_sign: bool = True,
+        start_sign: int | None = None,
+        guess: np.ndarray | None = None,
+    ) -> SolveResult:
         """Solve from ``guess`` by the fast path if given and it qualifies (solve_from_guess),
         else from x0 by Newton with a line search on det-sign flips and an LM fallback. Works in
         scale-free units (see _eval_s); ``tol`` bounds max|F| / length scale. The det J sign
@@ -623,8 +670,9 @@ class LoopSystem:
             sign0 = self._sign_of(J, fac)
         spent = 0
         if guess is not None:
-            r = self.solve_from_guess(guess, values, fixed, tol=tol, max_iter=max_iter,
-                                      start_sign=sign0)
+            r = self.solve_from_guess(
+                guess, values, fixed, tol=tol, max_iter=max_iter, start_sign=sign0
+            )
             r.jacobians += nj
             if r.success:
                 return r
@@ -698,32 +746,45 @@ class LoopSystem:
         r.success = False
         r.factor = None
         if it >= max_iter:
-            r.reason = (f'Newton reached its iteration cap ({max_iter}) with loop-closure residual '
-                        f'{r.residual:.3g} of the length scale (tolerance {tol:g})')
+            r.reason = (
+                f'Newton reached its iteration cap ({max_iter}) with loop-closure residual '
+                f'{r.residual:.3g} of the length scale (tolerance {tol:g})'
+            )
         else:
-            r.reason = (f'Newton stalled with loop-closure residual {r.residual:.3g} of the length '
-                        f'scale: no assembly near the start (cond J = {r.cond:.3g}); the input may '
-                        'be beyond a limit or toggle position')
+            r.reason = (
+                f'Newton stalled with loop-closure residual {r.residual:.3g} of the length '
+                f'scale: no assembly near the start (cond J = {r.cond:.3g}); the input may '
+                'be beyond a limit or toggle position'
+            )
         return r
 
-    def solve_from_guess(self, guess: np.ndarray, values: Sequence,
-                         fixed: ScalarPoses | None = None, *, tol: float = 1e-12,
-                         max_iter: int = 50, start_sign: int = 0) -> SolveResult:
+    def solve_from_guess(
+        self,
+        guess: np.ndarray,
+        values: Sequence,
+        fixed: ScalarPoses | None = None,
+        *,
+        tol: float = 1e-12,
+        max_iter: int = 50,
+        start_sign: int = 0,
+    ) -> SolveResult:
         """The fast path: one Newton step from a predicted guess, then chord steps on its
         factorisation, J factorised again at the answer. Steps go on to FAST_MARGIN * tol (or
         FAST_FLOOR) while each cuts max|F| FAST_RATE-fold (an answer just inside ``tol`` would
         leave angles read off its points off by ~tol / link length). Declines (success False,
         the steps spent counted) unless J is regular at the guess and at the answer with det
         sign ``start_sign`` (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
-        x = guess = np.array(guess, float)      # the result never aliases the caller's array
+        x = guess = np.array(guess, float)  # the result never aliases the caller's array
         F, J, res = self._eval_s(x, values, fixed)
         fac = self._factor(J)
         steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
         Jv = None
 
         def declined():
-            return SolveResult(guess, False, it, res, 'the predicted start did not qualify',
-                               jacobians=nj)
+            return SolveResult(
+                guess, False, it, res, 'the predicted start did not qualify', jacobians=nj
+            )
+
         if fac is None or not math.isfinite(res) or (start_sign and fac[2] != start_sign):
             return declined()
         lin = fac
@@ -735,11 +796,11 @@ class LoopSystem:
                 Fn, Jvn, rn = self._eval_rows_s(xn, values, fixed)
                 it += 1
             if dy is None or not rn <= FAST_RATE * res:
-                if res <= tol:          # converged; the rounding floor is above the margin
+                if res <= tol:  # converged; the rounding floor is above the margin
                     break
                 return declined()
             x, F, Jv, res, fac = xn, Fn, Jvn, rn, None
-        if fac is None:                 # J at the answer: its det sign, cond and factorisation
+        if fac is None:  # J at the answer: its det sign, cond and factorisation
             J = self._jacobian(Jv, self._tpl_s)
             fac = self._factor(J)
             nj += 1
@@ -747,7 +808,7 @@ class LoopSystem:
                 return declined()
         r = self._finish(x, F, J, fac, res, it, values, fixed)
         if start_sign and r.det_sign not in (0, start_sign):
-            return declined()           # polishing near a fold crossed det J = 0
+            return declined()  # polishing near a fold crossed det J = 0
         r.jacobians += nj
         r.predicted = True
         return r
@@ -780,7 +841,7 @@ class LoopSystem:
                 nj += 1
                 it += 1
             cond = self._cond(J, fac)
-        det = fac[2] if fac is not None and cond < SINGULAR_COND else 0     # 0: singular, no sign
+        det = fac[2] if fac is not None and cond < SINGULAR_COND else 0  # 0: singular, no sign
         return SolveResult(x, True, it, res, None, cond, det, fac, nj)
 
     # -- batched: N configurations at once (numpy over the rows, loops only over the tables) ---
@@ -794,8 +855,10 @@ class LoopSystem:
             return tab
         foreign = [l for l in self._others if l != self.mech.ground]
         if foreign:
-            raise ValueError(f'batched evaluation takes no fixed poses, but the rows name the '
-                             f'non-free link(s) {foreign}; use evaluate/solve with their poses')
+            raise ValueError(
+                f'batched evaluation takes no fixed poses, but the rows name the '
+                f'non-free link(s) {foreign}; use evaluate/solve with their poses'
+            )
         # value columns: one per value component, then an all-zero one for rows without a value
         cols, c = [], 0
         for s in self.specs:
@@ -803,17 +866,26 @@ class LoopSystem:
             c += s.size
         zero = c
         # the fixed slots (the ground at its reference pose) as (phi, cos, sin, cx, cy)
-        fixed = np.array([(0.0, 1.0, 0.0, float(self.centroid[l][0]), float(self.centroid[l][1]))
-                          for l in self._others]).reshape(-1, 5).T[:, None, :]
+        fixed = (
+            np.array(
+                [
+                    (0.0, 1.0, 0.0, float(self.centroid[l][0]), float(self.centroid[l][1]))
+                    for l in self._others
+                ]
+            )
+            .reshape(-1, 5)
+            .T[:, None, :]
+        )
         revs = np.array(self._revs, float).reshape(-1, 6)
         nrev = len(self._revs)
         lines, angles, points = [], [], []
-        r, j = 2 * nrev, 4 * nrev          # next residual row and next varying-entry column
+        r, j = 2 * nrev, 4 * nrev  # next residual row and next varying-entry column
         for row in self._tail:
             if row[0] == 0:
                 _, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, vi = row
-                lines.append((r, j, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy,
-                              zero if vi is None else cols[vi]))
+                lines.append(
+                    (r, j, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, zero if vi is None else cols[vi])
+                )
                 r, j = r + 1, j + 6
             elif row[0] == 1:
                 _, ia, ib, vi, off = row
@@ -827,20 +899,36 @@ class LoopSystem:
         ln = np.array(lines, float).reshape(-1, 11)
         an = np.array(angles, float).reshape(-1, 5)
         pt = np.array(points, float).reshape(-1, 6)
-        idx = lambda a: a.astype(np.intp)                               # noqa: E731
-        real = self._jpos != self.m * self.n       # entries of fixed links are dropped
+        idx = lambda a: a.astype(np.intp)  # noqa: E731
+        real = self._jpos != self.m * self.n  # entries of fixed links are dropped
         tab = SimpleNamespace(
-            n_cols=zero + 1, cols=cols, fixed=fixed,
-            rev_a=idx(revs[:, 0]), rev_la=(revs[:, 1], revs[:, 2]),
-            rev_b=idx(revs[:, 3]), rev_lb=(revs[:, 4], revs[:, 5]),
-            line_row=idx(ln[:, 0]), line_jv=idx(ln[:, 1])[:, None] + np.arange(6),
-            line_g=idx(ln[:, 2]), line_s=idx(ln[:, 3]), line_k=tuple(ln[:, 4:10].T),
+            n_cols=zero + 1,
+            cols=cols,
+            fixed=fixed,
+            rev_a=idx(revs[:, 0]),
+            rev_la=(revs[:, 1], revs[:, 2]),
+            rev_b=idx(revs[:, 3]),
+            rev_lb=(revs[:, 4], revs[:, 5]),
+            line_row=idx(ln[:, 0]),
+            line_jv=idx(ln[:, 1])[:, None] + np.arange(6),
+            line_g=idx(ln[:, 2]),
+            line_s=idx(ln[:, 3]),
+            line_k=tuple(ln[:, 4:10].T),
             line_val=idx(ln[:, 10]),
-            ang_row=idx(an[:, 0]), ang_a=idx(an[:, 1]), ang_b=idx(an[:, 2]),
-            ang_val=idx(an[:, 3]), ang_off=an[:, 4],
-            pt_row=idx(pt[:, 0]), pt_jv=idx(pt[:, 1])[:, None] + np.arange(2),
-            pt_link=idx(pt[:, 2]), pt_lever=(pt[:, 3], pt[:, 4]), pt_val=idx(pt[:, 5]),
-            jv_real=np.flatnonzero(real), j_pos=self._jpos[real], j_tpl=self._tpl_s[:-1])
+            ang_row=idx(an[:, 0]),
+            ang_a=idx(an[:, 1]),
+            ang_b=idx(an[:, 2]),
+            ang_val=idx(an[:, 3]),
+            ang_off=an[:, 4],
+            pt_row=idx(pt[:, 0]),
+            pt_jv=idx(pt[:, 1])[:, None] + np.arange(2),
+            pt_link=idx(pt[:, 2]),
+            pt_lever=(pt[:, 3], pt[:, 4]),
+            pt_val=idx(pt[:, 5]),
+            jv_real=np.flatnonzero(real),
+            j_pos=self._jpos[real],
+            j_tpl=self._tpl_s[:-1],
+        )
         self._batch_tab = tab
         return tab
 
@@ -856,10 +944,11 @@ class LoopSystem:
             try:
                 arr = np.broadcast_to(np.asarray(v, float), shape)
             except ValueError:
-                raise ValueError(f'values for {s.name!r} ({s.kind}) must have shape {shape}, '
-                                 f'got {np.shape(v)}') from None
+                raise ValueError(
+                    f'values for {s.name!r} ({s.kind}) must have shape {shape}, got {np.shape(v)}'
+                ) from None
             if s.kind == 'point':
-                V[:, c:c + 2] = arr
+                V[:, c : c + 2] = arr
             elif s.kind == 'angle':
                 V[:, c] = _wrap_angles(arr)
             else:
@@ -872,7 +961,7 @@ class LoopSystem:
         tab = self._batch_tables()
         N, m, nf = X.shape[0], self.m, len(self.free)
         k = 1.0 / self.L
-        kL = self.L * k                    # as _rows: not exactly 1
+        kL = self.L * k  # as _rows: not exactly 1
         with np.errstate(invalid='ignore', over='ignore'):
             # slots (free links, then the ground): phi, cos, sin, cx, cy
             P = np.empty((5, N, nf + len(self._others)))
@@ -884,23 +973,24 @@ class LoopSystem:
             P[4, :, :nf] = X[:, 2::3]
             P[:, :, nf:] = tab.fixed
             blown = np.isinf(phi).any(axis=1)
-            if blown.any():                # as _rows, where math.cos raises: NaN free slots
+            if blown.any():  # as _rows, where math.cos raises: NaN free slots
                 P[:, blown, :nf] = math.nan
             F = np.empty((N, m))
             Jv = np.empty((N, len(self._jpos))) if jacobian else None
             nrev = len(tab.rev_a)
-            if nrev:                       # revolute rows: w_a(P) - w_b(P)
+            if nrev:  # revolute rows: w_a(P) - w_b(P)
                 c1, s1, x1, y1 = P[1:, :, tab.rev_a]
                 c2, s2, x2, y2 = P[1:, :, tab.rev_b]
                 (lax, lay), (lbx, lby) = tab.rev_la, tab.rev_lb
                 rax, ray = c1 * lax - s1 * lay, s1 * lax + c1 * lay
                 rbx, rby = c2 * lbx - s2 * lby, s2 * lbx + c2 * lby
-                F[:, 0:2 * nrev:2] = ((x1 + rax) - (x2 + rbx)) * k
-                F[:, 1:2 * nrev:2] = ((y1 + ray) - (y2 + rby)) * k
+                F[:, 0 : 2 * nrev : 2] = ((x1 + rax) - (x2 + rbx)) * k
+                F[:, 1 : 2 * nrev : 2] = ((y1 + ray) - (y2 + rby)) * k
                 if jacobian:
-                    Jv[:, :4 * nrev] = np.stack((-ray * k, rax * k, rby * k, -rbx * k),
-                                                axis=-1).reshape(N, 4 * nrev)
-            if len(tab.line_row):          # line rows: u . (w_S(X) - w_G(base)) [- value]
+                    Jv[:, : 4 * nrev] = np.stack(
+                        (-ray * k, rax * k, rby * k, -rbx * k), axis=-1
+                    ).reshape(N, 4 * nrev)
+            if len(tab.line_row):  # line rows: u . (w_S(X) - w_G(base)) [- value]
                 cG, sG, xG, yG = P[1:, :, tab.line_g]
                 cS, sS, xS, yS = P[1:, :, tab.line_s]
                 u0x, u0y, lsx, lsy, lgx, lgy = tab.line_k
@@ -911,13 +1001,21 @@ class LoopSystem:
                 F[:, tab.line_row] = ((ux * dx + uy * dy) - V[:, tab.line_val]) * k
                 if jacobian:
                     Jv[:, tab.line_jv] = np.stack(
-                        ((-uy * dx + ux * dy - (ux * -gry + uy * grx)) * k, -ux, -uy,
-                         (ux * -sry + uy * srx) * k, ux, uy), axis=-1)
-            if len(tab.ang_row):           # angle rows: L * wrap(phi_a - phi_b - (value - off))
+                        (
+                            (-uy * dx + ux * dy - (ux * -gry + uy * grx)) * k,
+                            -ux,
+                            -uy,
+                            (ux * -sry + uy * srx) * k,
+                            ux,
+                            uy,
+                        ),
+                        axis=-1,
+                    )
+            if len(tab.ang_row):  # angle rows: L * wrap(phi_a - phi_b - (value - off))
                 a = P[0][:, tab.ang_a] - P[0][:, tab.ang_b]
                 a = a - (V[:, tab.ang_val] - tab.ang_off)
                 F[:, tab.ang_row] = kL * np.arctan2(np.sin(a), np.cos(a))
-            if len(tab.pt_row):            # point rows: w(X) - (x, y)
+            if len(tab.pt_row):  # point rows: w(X) - (x, y)
                 c, s, cx, cy = P[1:, :, tab.pt_link]
                 lx, ly = tab.pt_lever
                 rx, ry = c * lx - s * ly, s * lx + c * ly
@@ -1003,18 +1101,25 @@ class LoopSystem:
             return out
         try:
             inv = np.linalg.inv(J)
-        except np.linalg.LinAlgError:          # an exactly singular matrix: SVDs for all
+        except np.linalg.LinAlgError:  # an exactly singular matrix: SVDs for all
             return LoopSystem._scaled_conds(J)
         with np.errstate(invalid='ignore', over='ignore'):
             c1 = np.abs(J).sum(axis=1).max(axis=1) * np.abs(inv).sum(axis=1).max(axis=1)
-        small = c1 < COND_EXACT                 # False for NaN
+        small = c1 < COND_EXACT  # False for NaN
         out[small] = c1[small]
         if not small.all():
             out[~small] = LoopSystem._scaled_conds(J[~small])
         return out
 
-    def solve_batch(self, X0: np.ndarray, values: Sequence, start_sign, *, tol: float = 1e-12,
-                    max_steps: int = FAST_STEPS + 2) -> BatchSolve:
+    def solve_batch(
+        self,
+        X0: np.ndarray,
+        values: Sequence,
+        start_sign,
+        *,
+        tol: float = 1e-12,
+        max_steps: int = FAST_STEPS + 2,
+    ) -> BatchSolve:
         """Newton for N warm starts at once (numpy over the rows): row i from X0[i] (N, n:
         phi rad, centroid m per free link; typically instance i's last solution) to the values
         of row i (as in evaluate_batch), on the side of det J = 0 given by start_sign[i] (+1 or
@@ -1028,14 +1133,16 @@ class LoopSystem:
         (a step that does not, taken from a point already within ``tol``, leaves the row there,
         converged); det J at the answer has the start's sign (else it crossed det J = 0, maybe
         onto another assembly mode); the answer is off folds (cond < POLISH_COND, else the
-        scalar path polishes it; cond as _cond reports it: see _batch_conds) and finite. Otherwise the row is *declined*, not failed:
+        scalar path polishes it; cond as _cond reports it: see _batch_conds) and finite.
+        Otherwise the row is *declined*, not failed:
         ok False, x its X0 row, residual max|F| / L at X0, det_sign 0, cond inf; the caller
         solves it another way (solve(): the careful path with line search and LM). Rows never
         affect one another: each row's result is what solving it alone would give."""
-        self._batch_tables()               # ValueError first if the system needs fixed poses
+        self._batch_tables()  # ValueError first if the system needs fixed poses
         if self.m != self.n:
-            raise ValueError(f'solve_batch needs a square system (m = {self.m} rows, '
-                             f'n = {self.n} unknowns)')
+            raise ValueError(
+                f'solve_batch needs a square system (m = {self.m} rows, n = {self.n} unknowns)'
+            )
         X0 = np.asarray(X0, float)
         if X0.ndim != 2 or X0.shape[1] != self.n:
             raise ValueError(f'X0 must have shape (N, {self.n}), got {X0.shape}')
@@ -1051,8 +1158,8 @@ class LoopSystem:
         iterations = np.zeros(N, int)
         live = (sign0 != 0) & np.isfinite(res)
         live[live] = self._det_signs(J[live]) == sign0[live]
-        done = live & (res <= target)      # converged (pending det sign and cond at the answer)
-        active = live & ~done              # still stepping
+        done = live & (res <= target)  # converged (pending det sign and cond at the answer)
+        active = live & ~done  # still stepping
         for _ in range(max_steps):
             rows = np.flatnonzero(active)
             if not rows.size:
@@ -1060,16 +1167,16 @@ class LoopSystem:
             xn = x[rows] + self._newton_steps(J[rows], F[rows]) * self._step_scale
             Fn, Jn, rn = self._batch_eval(xn, V[rows], True)
             iterations[rows] += 1
-            cut = rn <= FAST_RATE * res[rows]                      # False for NaN
+            cut = rn <= FAST_RATE * res[rows]  # False for NaN
             stalled = rows[~cut]
             active[stalled] = False
-            done[stalled] = res[stalled] <= tol    # at the rounding floor already: converged
+            done[stalled] = res[stalled] <= tol  # at the rounding floor already: converged
             moved = rows[cut]
             x[moved], F[moved], J[moved], res[moved] = xn[cut], Fn[cut], Jn[cut], rn[cut]
             there = moved[rn[cut] <= target]
             active[there] = False
             done[there] = True
-        rows = np.flatnonzero(active)              # out of steps: converged if within tol
+        rows = np.flatnonzero(active)  # out of steps: converged if within tol
         done[rows] = res[rows] <= tol
 
         # at the answer: the start's det J sign (else it crossed det J = 0: maybe another
@@ -1081,6 +1188,11 @@ class LoopSystem:
         rows = np.flatnonzero(done)
         cond[rows] = self._batch_conds(J[rows])
         ok = done & (cond < POLISH_COND) & np.isfinite(x).all(axis=1) & np.isfinite(res)
-        return BatchSolve(x=np.where(ok[:, None], x, X0), ok=ok, iterations=iterations,
-                          residual=np.where(ok, res, res0), det_sign=np.where(ok, sign0, 0),
-                          cond=np.where(ok, cond, math.inf))
+        return BatchSolve(
+            x=np.where(ok[:, None], x, X0),
+            ok=ok,
+            iterations=iterations,
+            residual=np.where(ok, res, res0),
+            det_sign=np.where(ok, sign0, 0),
+            cond=np.where(ok, cond, math.inf),
+        )

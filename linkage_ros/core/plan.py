@@ -15,11 +15,12 @@ Every branching step carries an explicit sign; the default is the sign seen in t
 The plan is pruned backwards to the steps the wanted outputs depend on, and is cached by the
 caller per (mechanism, knowns, outputs). Execution is vectorised over a leading batch axis.
 """
+
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Iterable, Sequence
 
 import numpy as np
 
@@ -27,8 +28,8 @@ from . import dyads
 from .errors import PlanError
 from .model import Mechanism
 
-
 # ---- known-quantity specs --------------------------------------------------------------------
+
 
 @dataclass(frozen=True)
 class Spec:
@@ -38,6 +39,7 @@ class Spec:
     kind 'slide': value of prismatic joint ``joint``                 (m;   1 value)
     kind 'point': world position of ``point``                        (m;   2 values x, y)
     """
+
     name: str
     kind: str
     link: str | None = None
@@ -79,13 +81,23 @@ def spec_for(mech: Mechanism, name: str) -> Spec:
         found = _spec_of_kind(mech, kind, name)
         if found is not None:
             return found
-    raise PlanError(f'unknown name {name!r}: not an actuator, joint, link or point of '
-                    f'{mech.name!r}')
+    raise PlanError(
+        f'unknown name {name!r}: not an actuator, joint, link or point of {mech.name!r}'
+    )
 
 
 def _renamed(spec: Spec, name: str) -> Spec:
-    return Spec(name, spec.kind, spec.link, spec.reference, spec.offset, spec.joint, spec.point,
-                spec.minimum, spec.maximum)
+    return Spec(
+        name,
+        spec.kind,
+        spec.link,
+        spec.reference,
+        spec.offset,
+        spec.joint,
+        spec.point,
+        spec.minimum,
+        spec.maximum,
+    )
 
 
 def _spec_of_kind(mech: Mechanism, kind: str, name: str) -> Spec | None:
@@ -97,28 +109,40 @@ def _spec_of_kind(mech: Mechanism, kind: str, name: str) -> Spec | None:
         v = mech.points[act.toward] - mech.points[act.pivot]
         d0 = math.atan2(v[1], v[0])
         ref_angle = 0.0 if act.reference == mech.ground else mech.links[act.reference].angle_ref
-        return Spec(name, 'angle', link=link.name, reference=act.reference, offset=d0 - ref_angle,
-                    minimum=act.min, maximum=act.max)
+        return Spec(
+            name,
+            'angle',
+            link=link.name,
+            reference=act.reference,
+            offset=d0 - ref_angle,
+            minimum=act.min,
+            maximum=act.max,
+        )
     if kind == 'joint':
         for rj in mech.revolutes:
             if rj.name == name:
                 # joint value = child link angle - parent link angle (each along its axis)
-                return Spec(name, 'angle', link=rj.child, reference=rj.parent,
-                            offset=mech.links[rj.child].angle_ref
-                            - mech.links[rj.parent].angle_ref)
+                return Spec(
+                    name,
+                    'angle',
+                    link=rj.child,
+                    reference=rj.parent,
+                    offset=mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref,
+                )
         if name in mech.prismatics:
             return Spec(name, 'slide', joint=name)
     if kind == 'link' and name in mech.links:
         if name == mech.ground:
             raise PlanError(f'{name!r} is the ground link: its angle is fixed')
-        return Spec(name, 'angle', link=name, reference=mech.ground,
-                    offset=mech.links[name].angle_ref)
+        return Spec(
+            name, 'angle', link=name, reference=mech.ground, offset=mech.links[name].angle_ref
+        )
     if kind == 'point' and name in mech.points:
         return Spec(name, 'point', point=name)
     return None
 
 
-def spec_value_at(mech: Mechanism, spec: Spec, poses: 'Poses') -> np.ndarray:
+def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
     """Evaluate a spec on solved poses: (N,) for angle/slide, (N, 2) for a point."""
     if spec.kind == 'angle':
         d = poses.phi[spec.link] - poses.phi[spec.reference] + spec.offset
@@ -144,14 +168,18 @@ def spec_point_link(mech: Mechanism, point: str, preferred: str) -> str:
 
 # ---- poses -----------------------------------------------------------------------------------
 
+
 @dataclass
 class Poses:
     """Link poses over a batch: world(p) = R(phi) p_ref + T, with p_ref the reference position."""
+
     phi: dict[str, np.ndarray] = field(default_factory=dict)
     T: dict[str, np.ndarray] = field(default_factory=dict)
 
     def apply(self, link: str, p_ref: np.ndarray) -> np.ndarray:
-        return dyads.rotate(np.broadcast_to(p_ref, self.T[link].shape), self.phi[link]) + self.T[link]
+        return (
+            dyads.rotate(np.broadcast_to(p_ref, self.T[link].shape), self.phi[link]) + self.T[link]
+        )
 
     def world(self, link: str, point: str, mech: Mechanism) -> np.ndarray:
         return self.apply(link, mech.points[point])
@@ -159,13 +187,15 @@ class Poses:
 
 # ---- bodies ----------------------------------------------------------------------------------
 
+
 @dataclass
 class Weld:
     """How member ``link`` is placed from ``via`` (already placed) in its body's weld tree."""
+
     link: str
     via: str
     spec_index: int
-    kind: str          # 'angle' or 'slide'
+    kind: str  # 'angle' or 'slide'
     shared_point: str | None = None
 
 
@@ -184,7 +214,7 @@ class Step:
     body: int | None = None
     point: str | None = None
     args: tuple = ()
-    sign: int = 0                 # branching steps: +1 / -1 from the reference pose
+    sign: int = 0  # branching steps: +1 / -1 from the reference pose
     needs: tuple = ()
     gives: tuple = ()
 
@@ -192,7 +222,7 @@ class Step:
     def branching(self) -> bool:
         return self.op in ('circle_circle', 'circle_line', 'line_through')
 
-    def describe(self, plan: 'Plan') -> str:
+    def describe(self, plan: Plan) -> str:
         b = plan.bodies[self.body].links if self.body is not None else None
         if self.op == 'ground':
             return f'ground: place {"+".join(b)}'
@@ -205,23 +235,31 @@ class Step:
         if self.op == 'angle':
             return f'orientation of {"+".join(b)} from {self.args[1]}'
         if self.op == 'circle_circle':
-            return (f'RRR dyad: {self.point} from circles about {self.args[1]} '
-                    f'({"+".join(plan.bodies[self.args[0]].links)}) and {self.args[3]} '
-                    f'({"+".join(plan.bodies[self.args[2]].links)})')
+            return (
+                f'RRR dyad: {self.point} from circles about {self.args[1]} '
+                f'({"+".join(plan.bodies[self.args[0]].links)}) and {self.args[3]} '
+                f'({"+".join(plan.bodies[self.args[2]].links)})'
+            )
         if self.op == 'circle_line':
-            return (f'RRP dyad: {self.point} on slide {self.args[2]} and circle about '
-                    f'{self.args[1]}')
+            return f'RRP dyad: {self.point} on slide {self.args[2]} and circle about {self.args[1]}'
         if self.op == 'line_through':
-            return (f'RPR dyad: orient {"+".join(b)} about {self.args[1]} so slide '
-                    f'{self.args[0]} passes {self.point}')
+            return (
+                f'RPR dyad: orient {"+".join(b)} about {self.args[1]} so slide '
+                f'{self.args[0]} passes {self.point}'
+            )
         return self.op
 
 
 class Plan:
     """A compiled closed-form plan for one set of known specs and wanted outputs."""
 
-    def __init__(self, mech: Mechanism, specs: Sequence[Spec], wanted_links: Iterable[str] | None,
-                 wanted_points: Iterable[str] | None = None):
+    def __init__(
+        self,
+        mech: Mechanism,
+        specs: Sequence[Spec],
+        wanted_links: Iterable[str] | None,
+        wanted_points: Iterable[str] | None = None,
+    ):
         self.mech = mech
         self.specs = list(specs)
         self._build_bodies()
@@ -240,7 +278,7 @@ class Plan:
             return a
 
         edges: list[tuple[str, str, int, str, str | None]] = []
-        self.relations: list[tuple[str, str, int | None]] = []   # angle-only relations
+        self.relations: list[tuple[str, str, int | None]] = []  # angle-only relations
         for i, s in enumerate(self.specs):
             if s.kind == 'angle':
                 shared = set(mech.links[s.link].points) & set(mech.links[s.reference].points)
@@ -253,12 +291,14 @@ class Plan:
                 edges.append((pj.guide, pj.slider, i, 'slide', None))
         for pj in mech.prismatics.values():
             if not any(e[3] == 'slide' and self.specs[e[2]].joint == pj.name for e in edges):
-                self.relations.append((pj.guide, pj.slider, None))      # orientation lock
-        for a, b, i, kind, _ in edges:
+                self.relations.append((pj.guide, pj.slider, None))  # orientation lock
+        for a, b, i, _kind, _ in edges:
             ra, rb = find(a), find(b)
             if ra == rb:
-                raise PlanError(f'known {self.specs[i].name!r} over-constrains links {a!r} and '
-                                f'{b!r}: they are already rigidly connected by other knowns')
+                raise PlanError(
+                    f'known {self.specs[i].name!r} over-constrains links {a!r} and '
+                    f'{b!r}: they are already rigidly connected by other knowns'
+                )
             parent[rb] = ra
         groups: dict[str, list[str]] = {}
         for n in mech.links:
@@ -273,12 +313,15 @@ class Plan:
                 for e in list(todo):
                     a, b, i, kind, sp = e
                     if a in placed and b not in placed:
-                        welds.append(Weld(b, a, i, kind, sp)); placed.append(b)
+                        welds.append(Weld(b, a, i, kind, sp))
+                        placed.append(b)
                     elif b in placed and a not in placed:
-                        welds.append(Weld(a, b, i, kind, sp)); placed.append(a)
+                        welds.append(Weld(a, b, i, kind, sp))
+                        placed.append(a)
                     else:
                         continue
-                    todo.remove(e); progressed = True
+                    todo.remove(e)
+                    progressed = True
                 if not progressed:
                     break
             pts = []
@@ -303,7 +346,8 @@ class Plan:
 
         def place(step: Step, bi: int):
             steps.append(step)
-            placed.add(bi); angled.add(bi)
+            placed.add(bi)
+            angled.add(bi)
             known_pts.update(self.bodies[bi].points)
 
         gb = self.body_of[mech.ground]
@@ -311,10 +355,12 @@ class Plan:
         for i, s in enumerate(self.specs):
             if s.kind == 'point':
                 if s.point in known_pts:
-                    raise PlanError(f'known point {s.point!r} is fixed by the ground; it cannot '
-                                    'be a target')
-                steps.append(Step('known_point', point=s.point, args=(i,),
-                                  gives=(('pt', s.point),)))
+                    raise PlanError(
+                        f'known point {s.point!r} is fixed by the ground; it cannot be a target'
+                    )
+                steps.append(
+                    Step('known_point', point=s.point, args=(i,), gives=(('pt', s.point),))
+                )
                 known_pts.add(s.point)
 
         def known_of(bi):
@@ -333,23 +379,44 @@ class Plan:
                 kp = known_of(bi)
                 two = self._two_distinct(bi, kp)
                 if two:
-                    place(Step('two_points', body=bi, args=two,
-                               needs=(point_needs(two[0]), point_needs(two[1])),
-                               gives=(('pose', bi),)), bi)
+                    place(
+                        Step(
+                            'two_points',
+                            body=bi,
+                            args=two,
+                            needs=(point_needs(two[0]), point_needs(two[1])),
+                            gives=(('pose', bi),),
+                        ),
+                        bi,
+                    )
                     progress = True
                     continue
                 if bi in angled and kp:
-                    place(Step('point_angle', body=bi, args=(kp[0],),
-                               needs=(point_needs(kp[0]), ('angle', bi)),
-                               gives=(('pose', bi),)), bi)
+                    place(
+                        Step(
+                            'point_angle',
+                            body=bi,
+                            args=(kp[0],),
+                            needs=(point_needs(kp[0]), ('angle', bi)),
+                            gives=(('pose', bi),),
+                        ),
+                        bi,
+                    )
                     progress = True
                     continue
                 if bi not in angled:
                     rel = self._angle_source(bi, angled)
                     if rel is not None:
                         src_body, link_here, link_there, spec_i = rel
-                        steps.append(Step('angle', body=bi, args=(link_here, link_there, spec_i),
-                                          needs=(('angle', src_body),), gives=(('angle', bi),)))
+                        steps.append(
+                            Step(
+                                'angle',
+                                body=bi,
+                                args=(link_here, link_there, spec_i),
+                                needs=(('angle', src_body),),
+                                gives=(('angle', bi),),
+                            )
+                        )
                         angled.add(bi)
                         progress = True
             if progress:
@@ -359,7 +426,8 @@ class Plan:
                 break
             steps.append(step)
             if step.op == 'line_through':
-                placed.add(step.body); angled.add(step.body)
+                placed.add(step.body)
+                angled.add(step.body)
                 known_pts.update(self.bodies[step.body].points)
             else:
                 known_pts.add(step.point)
@@ -394,10 +462,16 @@ class Plan:
                     b1, b2 = cands[i], cands[j]
                     p1, p2 = known_of(b1)[0], known_of(b2)[0]
                     if p1 == p2 or np.hypot(*(ref[p1] - ref[p2])) == 0:
-                        continue                 # concentric circles: no dyad
+                        continue  # concentric circles: no dyad
                     sign = _side(ref[p1], ref[p2], ref[x])
-                    return Step('circle_circle', point=x, args=(b1, p1, b2, p2), sign=sign,
-                                needs=(('pt', p1), ('pt', p2)), gives=(('pt', x),))
+                    return Step(
+                        'circle_circle',
+                        point=x,
+                        args=(b1, p1, b2, p2),
+                        sign=sign,
+                        needs=(('pt', p1), ('pt', p2)),
+                        gives=(('pt', x),),
+                    )
         # RRP: slider point on a placed guide's line, also on a body with one known point
         for pj in mech.prismatics.values():
             x = pj.point
@@ -413,8 +487,14 @@ class Plan:
                 p1 = known_of(bi)[0]
                 u = np.asarray(pj.direction)
                 sign = int(np.sign(np.dot(ref[x] - ref[p1], u))) or 1
-                return Step('circle_line', point=x, args=(bi, p1, pj.name), sign=sign,
-                            needs=(('pt', p1), ('pose', gb)), gives=(('pt', x),))
+                return Step(
+                    'circle_line',
+                    point=x,
+                    args=(bi, p1, pj.name),
+                    sign=sign,
+                    needs=(('pt', p1), ('pose', gb)),
+                    gives=(('pt', x),),
+                )
         # RPR: a known slider point, the guide pivoting about one known point
         for pj in mech.prismatics.values():
             x = pj.point
@@ -427,8 +507,15 @@ class Plan:
             p = kp[0]
             u = np.asarray(pj.direction)
             sign = int(np.sign(np.dot(ref[x] - ref[p], u))) or 1
-            return Step('line_through', body=gb, point=x, args=(pj.name, p), sign=sign,
-                        needs=(('pt', x), ('pt', p)), gives=(('pose', gb),))
+            return Step(
+                'line_through',
+                body=gb,
+                point=x,
+                args=(pj.name, p),
+                sign=sign,
+                needs=(('pt', x), ('pt', p)),
+                gives=(('pose', gb),),
+            )
         return None
 
     # -- pruning ------------------------------------------------------------------------------
@@ -463,8 +550,11 @@ class Plan:
         self.missing = sorted(need)
         self.steps = [s for s, k in zip(self.steps_all, keep) if k]
         self.complete = not self.missing
-        placed = {s.body for s in self.steps if s.op in
-                  ('ground', 'two_points', 'point_angle', 'line_through')}
+        placed = {
+            s.body
+            for s in self.steps
+            if s.op in ('ground', 'two_points', 'point_angle', 'line_through')
+        }
         self.placed_links = [l for b in sorted(placed) for l in self.bodies[b].links]
         self.branch_steps = [s for s in self.steps if s.branching]
 
@@ -493,7 +583,7 @@ class Plan:
             s = self.specs[w.spec_index]
             v = values[w.spec_index]
             if w.kind == 'angle':
-                rel = _wrap_pi(v) - s.offset          # phi[s.link] - phi[s.reference]
+                rel = _wrap_pi(v) - s.offset  # phi[s.link] - phi[s.reference]
                 phi = loc.phi[w.via] + (rel if w.link == s.link else -rel)
                 loc.phi[w.link] = phi
                 p = mech.points[w.shared_point]
@@ -503,19 +593,25 @@ class Plan:
                 pj = mech.prismatics[s.joint]
                 x_ref = mech.points[pj.point]
                 u = np.asarray(pj.direction)
-                x_on_guide = x_ref + (v - pj.ref_value)[..., None] * u    # guide reference coords
+                x_on_guide = x_ref + (v - pj.ref_value)[..., None] * u  # guide reference coords
                 loc.phi[w.link] = loc.phi[w.via].copy()
-                if w.link == pj.slider:      # guide placed: put the slider point on its line
+                if w.link == pj.slider:  # guide placed: put the slider point on its line
                     xw = loc.apply(w.via, x_on_guide)
-                    loc.T[w.link] = xw - dyads.rotate(np.broadcast_to(x_ref, xw.shape),
-                                                      loc.phi[w.link])
-                else:                        # slider placed: hang the guide off it
+                    loc.T[w.link] = xw - dyads.rotate(
+                        np.broadcast_to(x_ref, xw.shape), loc.phi[w.link]
+                    )
+                else:  # slider placed: hang the guide off it
                     xw = loc.apply(w.via, x_ref)
                     loc.T[w.link] = xw - dyads.rotate(x_on_guide, loc.phi[w.link])
         return loc
 
-    def run(self, values: Sequence[np.ndarray], n: int, signs: Sequence[int] | None = None,
-            tol: float = dyads.TANGENCY_TOL):
+    def run(
+        self,
+        values: Sequence[np.ndarray],
+        n: int,
+        signs: Sequence[int] | None = None,
+        tol: float = dyads.TANGENCY_TOL,
+    ):
         """Execute the plan over a batch of n with fixed branch signs (continuity is a
         one-command-at-a-time rule: see run_one).
 
@@ -533,7 +629,7 @@ class Plan:
         fail_step = np.full(n, -1)
         used_signs = np.zeros((n, len(self.branch_steps)), int)
         locals_: dict[int, Poses] = {}
-        angles: dict[int, np.ndarray] = {}     # body root orientation when known before placing
+        angles: dict[int, np.ndarray] = {}  # body root orientation when known before placing
         bk = 0
 
         def local(bi):
@@ -594,7 +690,7 @@ class Plan:
                     sb = self.body_of[link_there]
                     src = angles[sb] + local(sb).phi[link_there]
                 if spec_i is None:
-                    rel = np.zeros(n)                     # prismatic orientation lock
+                    rel = np.zeros(n)  # prismatic orientation lock
                 else:
                     s = self.specs[spec_i]
                     rel = _wrap_pi(values[spec_i]) - s.offset
@@ -628,10 +724,11 @@ class Plan:
                 loc = local(bi)
                 lp = local_pt(bi, p)
                 # the guide line in body-local coordinates: through x_ref on the guide, dir u
-                u_loc = dyads.rotate(np.broadcast_to(np.asarray(pj.direction), (n, 2)),
-                                     loc.phi[pj.guide])
+                u_loc = dyads.rotate(
+                    np.broadcast_to(np.asarray(pj.direction), (n, 2)), loc.phi[pj.guide]
+                )
                 x_loc = loc.apply(pj.guide, mech.points[x])
-                e = dyads.cross2(u_loc, x_loc - lp)   # signed offset of the pivot from the line
+                e = dyads.cross2(u_loc, x_loc - lp)  # signed offset of the pivot from the line
                 psi0 = np.arctan2(u_loc[:, 1], u_loc[:, 0])
 
                 def solve_phi(s):
@@ -642,8 +739,13 @@ class Plan:
                 angles[bi] = phi
                 place_body(bi, phi, pts[p] - dyads.rotate(lp, phi))
                 took(k, m, okk, viol)
-        info = {'ok': ok, 'margin': margin, 'signs': used_signs, 'failure': fail_step,
-                'violation': violation}
+        info = {
+            'ok': ok,
+            'margin': margin,
+            'signs': used_signs,
+            'failure': fail_step,
+            'violation': violation,
+        }
         return poses, pts, info
 
 
@@ -657,12 +759,13 @@ def _side(p1, p2, x) -> int:
     return int(s) if s else 1
 
 
-
 # ---- one command at a time (scalar, complex numbers) -----------------------------------------
+
 
 @dataclass
 class ScalarPoses:
     """Link poses of one configuration: world(p) = rot * p_ref + T with rot = e^{i phi}."""
+
     phi: dict[str, float] = field(default_factory=dict)
     rot: dict[str, complex] = field(default_factory=dict)
     T: dict[str, complex] = field(default_factory=dict)
@@ -698,8 +801,14 @@ class ScalarRun:
     margins: tuple[float, ...] = ()
 
 
-def run_one(plan: Plan, values, signs=None, prefer: dict | None = None,
-            tol: float = dyads.TANGENCY_TOL, prev_margins=None) -> ScalarRun:
+def run_one(
+    plan: Plan,
+    values,
+    signs=None,
+    prefer: dict | None = None,
+    tol: float = dyads.TANGENCY_TOL,
+    prev_margins=None,
+) -> ScalarRun:
     """Scalar twin of :meth:`Plan.run` for one command: ``values[i]`` a float (angle/slide) or an
     (x, y) pair (point). ``signs`` are the branch signs to keep. ``prefer`` maps point names to
     predicted complex positions and '@link' to predicted link angles: where a dyad is near its
@@ -721,22 +830,29 @@ class _ScalarCode:
         self.mech = plan.mech
         self.pc = {p: _c(v) for p, v in self.mech.points.items()}
         self.lines: list[str] = []
-        self.ns = {'cos': math.cos, 'sin': math.sin, 'atan2': math.atan2,
-                   'wrap_angle': dyads.wrap_angle, 'circle_circle_pair': dyads.circle_circle_pair,
-                   'circle_line_pair': dyads.circle_line_pair,
-                   'line_through_pair': dyads.line_through_pair, 'ScalarRun': ScalarRun,
-                   'ScalarPoses': ScalarPoses, 'CONTINUITY_MARGIN': CONTINUITY_MARGIN}
+        self.ns = {
+            'cos': math.cos,
+            'sin': math.sin,
+            'atan2': math.atan2,
+            'wrap_angle': dyads.wrap_angle,
+            'circle_circle_pair': dyads.circle_circle_pair,
+            'circle_line_pair': dyads.circle_line_pair,
+            'line_through_pair': dyads.line_through_pair,
+            'ScalarRun': ScalarRun,
+            'ScalarPoses': ScalarPoses,
+            'CONTINUITY_MARGIN': CONTINUITY_MARGIN,
+        }
         self.link_id = {l: k for k, l in enumerate(self.mech.links)}
         self.point_id = {p: k for k, p in enumerate(self.mech.points)}
-        self.placed_links: list[str] = []       # in placement order (the poses' dict order)
+        self.placed_links: list[str] = []  # in placement order (the poses' dict order)
         self.placed_points: list[str] = []
-        self.frames: dict[int, dict[str, tuple[str, str, str]]] = {}   # body local frames
+        self.frames: dict[int, dict[str, tuple[str, str, str]]] = {}  # body local frames
         self.point_link: dict[tuple[int, str], str] = {}
         for b in plan.bodies:
             for l in b.links:
                 for p in self.mech.links[l].points:
                     self.point_link.setdefault((b.index, p), l)
-        self.branches = 0                         # branching steps emitted so far
+        self.branches = 0  # branching steps emitted so far
 
     def emit(self, line: str):
         self.lines.append('    ' + line)
@@ -766,7 +882,9 @@ class _ScalarCode:
             tag = f'{bi}_{self.link(w.link)}'
             vphi, vrot, vT = frame[w.via]
             if w.kind == 'angle':
-                self.emit(f'rel = wrap_angle(float(values[{w.spec_index}])) - {self.const(s.offset)}')
+                self.emit(
+                    f'rel = wrap_angle(float(values[{w.spec_index}])) - {self.const(s.offset)}'
+                )
                 self.emit(f'lph{tag} = {vphi} + {"rel" if w.link == s.link else "-rel"}')
                 p = self.const(self.pc[w.shared_point])
                 self.emit(f'lro{tag} = complex(cos(lph{tag}), sin(lph{tag}))')
@@ -774,8 +892,10 @@ class _ScalarCode:
             else:
                 pj = self.mech.prismatics[s.joint]
                 x_ref = self.const(self.pc[pj.point])
-                self.emit(f'along = {x_ref} + (float(values[{w.spec_index}]) - '
-                          f'{self.const(pj.ref_value)}) * {self.const(_c(pj.direction))}')
+                self.emit(
+                    f'along = {x_ref} + (float(values[{w.spec_index}]) - '
+                    f'{self.const(pj.ref_value)}) * {self.const(_c(pj.direction))}'
+                )
                 self.emit(f'lph{tag} = {vphi}')
                 self.emit(f'lro{tag} = {vrot}')
                 if w.link == pj.slider:
@@ -815,9 +935,15 @@ class _ScalarCode:
     def result(self, ok: bool, k: int = -1) -> str:
         """The ScalarRun of everything placed so far."""
         ids = [self.link(l) for l in self.placed_links]
-        poses = ('ScalarPoses({' + ', '.join(f'{l!r}: ph{k}' for l, k in zip(self.placed_links, ids))
-                 + '}, {' + ', '.join(f'{l!r}: ro{k}' for l, k in zip(self.placed_links, ids))
-                 + '}, {' + ', '.join(f'{l!r}: T{k}' for l, k in zip(self.placed_links, ids)) + '})')
+        poses = (
+            'ScalarPoses({'
+            + ', '.join(f'{l!r}: ph{k}' for l, k in zip(self.placed_links, ids))
+            + '}, {'
+            + ', '.join(f'{l!r}: ro{k}' for l, k in zip(self.placed_links, ids))
+            + '}, {'
+            + ', '.join(f'{l!r}: T{k}' for l, k in zip(self.placed_links, ids))
+            + '})'
+        )
         pts = '{' + ', '.join(f'{p!r}: {self.pt(p)}' for p in self.placed_points) + '}'
         used = '(' + ''.join(f'sg{b}, ' for b in range(self.branches)) + ')'
         margins = '(' + ''.join(f'm{b}, ' for b in range(self.branches)) + ')'
@@ -829,8 +955,9 @@ class _ScalarCode:
         """Code that runs ``then`` when the current branching step's dyad is near its
         singularity now (margin m) or was at the previous solve (prev_margins)."""
         b = self.branches
-        self.emit(f'    prev = prev_margins[{b}] if prev_margins and {b} < len(prev_margins) '
-                  'else 1.0')
+        self.emit(
+            f'    prev = prev_margins[{b}] if prev_margins and {b} < len(prev_margins) else 1.0'
+        )
         self.emit('    if min(m, prev) < CONTINUITY_MARGIN:')
         for line in then:
             self.emit('        ' + line)
@@ -839,7 +966,7 @@ class _ScalarCode:
         b = self.branches
         self.emit(f'sg{b} = sg')
         self.emit(f'm{b} = m')
-        self.emit(f'margin = min(margin, m)')
+        self.emit('margin = min(margin, m)')
         self.branches += 1
 
     def step(self, k: int, st: Step):
@@ -858,17 +985,21 @@ class _ScalarCode:
             self.emit(f'b = {self.pt(q)} - {self.pt(p)}')
             # unit first: 1e-300 lengths would underflow
             self.emit('a, b = a / abs(a), b / (abs(b) or 1.0)')
-            self.emit('phi = atan2(a.real * b.imag - a.imag * b.real, '
-                      'a.real * b.real + a.imag * b.imag)')
+            self.emit(
+                'phi = atan2(a.real * b.imag - a.imag * b.real, a.real * b.real + a.imag * b.imag)'
+            )
             self.place_body(st.body, 'phi', f'{self.pt(p)} - complex(cos(phi), sin(phi)) * lp')
         elif op == 'point_angle':
             p = st.args[0]
             self.emit(f'phi = ang{st.body}')
-            self.place_body(st.body, 'phi', f'{self.pt(p)} - complex(cos(phi), sin(phi)) * '
-                            f'{self.local_pt(st.body, p)}')
+            self.place_body(
+                st.body,
+                'phi',
+                f'{self.pt(p)} - complex(cos(phi), sin(phi)) * {self.local_pt(st.body, p)}',
+            )
         elif op == 'angle':
             here, there, spec_i = st.args
-            here_phi = self.frame(st.body)[here][0]    # any frame code first: it uses rel
+            here_phi = self.frame(st.body)[here][0]  # any frame code first: it uses rel
             if there in self.placed_links:
                 self.emit(f'src = ph{self.link(there)}')
             else:
@@ -896,28 +1027,37 @@ class _ScalarCode:
                 # anywhere on the circle; keep it where continuity predicts, else where the
                 # reference pose has it relative to p1. Branch identity is undefined (margin 0).
                 self.emit(f'    guess = prefer.get({x!r}) if prefer else None')
-                self.emit(f'    off = (guess - {P1}) if guess is not None else '
-                          f'{self.const(self.pc[x] - self.pc[p1])}')
+                self.emit(
+                    f'    off = (guess - {P1}) if guess is not None else '
+                    f'{self.const(self.pc[x] - self.pc[p1])}'
+                )
                 self.emit('    off = off / abs(off) if abs(off) > 0 else 1 + 0j')
                 self.emit(f'    foot, vec, m, ok, viol = {P1} + r1 * off, 0j, 0.0, True, 0.0')
                 self.emit('else:')
-                self.emit(f'    foot, vec, m, ok, viol = circle_circle_pair({P1}, r1, {P2}, r2, tol)')
+                self.emit(
+                    f'    foot, vec, m, ok, viol = circle_circle_pair({P1}, r1, {P2}, r2, tol)'
+                )
             else:
                 b1, p1, jname = st.args
                 pj = self.mech.prismatics[jname]
                 g = self.link(pj.guide)
                 self.emit(f'r = abs({self.local_pt(b1, x)} - {self.local_pt(b1, p1)})')
-                self.emit(f'foot, vec, m, ok, viol = circle_line_pair({self.pt(p1)}, r, '
-                          f'ro{g} * {self.const(self.pc[x])} + T{g}, '
-                          f'ro{g} * {self.const(_c(pj.direction))}, tol)')
+                self.emit(
+                    f'foot, vec, m, ok, viol = circle_line_pair({self.pt(p1)}, r, '
+                    f'ro{g} * {self.const(self.pc[x])} + T{g}, '
+                    f'ro{g} * {self.const(_c(pj.direction))}, tol)'
+                )
             self.emit('if not ok:')
             self.emit(f'    return {self.result(False, k)}')
             # the two solutions are foot +- vec: + is the dyad's positive branch
             self.emit(f'sg = signs[{self.branches}]')
             self.emit(f'if prefer is not None and {x!r} in prefer:')
-            self.near_singular([
-                f'target = prefer[{x!r}]',
-                'sg = 1 if abs((foot + vec) - target) <= abs((foot - vec) - target) else -1'])
+            self.near_singular(
+                [
+                    f'target = prefer[{x!r}]',
+                    'sg = 1 if abs((foot + vec) - target) <= abs((foot - vec) - target) else -1',
+                ]
+            )
             self.emit(f'{X} = foot + sg * vec')
             self.placed_points.append(x)
             self.took()
@@ -930,10 +1070,11 @@ class _ScalarCode:
             gphi, grot, gT = frame[pj.guide]
             self.emit(f'u_loc = {grot} * {self.const(_c(pj.direction))}')
             self.emit(f'w = ({grot} * {self.const(self.pc[x])} + {gT}) - lp')
-            self.emit('e = u_loc.real * w.imag - u_loc.imag * w.real')   # signed pivot offset
+            self.emit('e = u_loc.real * w.imag - u_loc.imag * w.real')  # signed pivot offset
             self.emit('psi0 = atan2(u_loc.imag, u_loc.real)')
-            self.emit(f'beta, along, m, ok, viol = line_through_pair({self.pt(p)}, {self.pt(x)}, '
-                      'e, tol)')
+            self.emit(
+                f'beta, along, m, ok, viol = line_through_pair({self.pt(p)}, {self.pt(x)}, e, tol)'
+            )
             self.emit('if not ok:')
             self.emit(f'    return {self.result(False, k)}')
             self.emit('phi_p = beta - atan2(e, along) - psi0')
@@ -941,10 +1082,13 @@ class _ScalarCode:
             self.emit(f'sg = signs[{self.branches}]')
             key = '@' + pj.guide
             self.emit(f'if prefer is not None and {key!r} in prefer:')
-            self.near_singular([
-                f'last = prefer[{key!r}]',
-                f'sg = 1 if abs(wrap_angle(phi_p + {gphi} - last)) <= '
-                f'abs(wrap_angle(phi_m + {gphi} - last)) else -1'])
+            self.near_singular(
+                [
+                    f'last = prefer[{key!r}]',
+                    f'sg = 1 if abs(wrap_angle(phi_p + {gphi} - last)) <= '
+                    f'abs(wrap_angle(phi_m + {gphi} - last)) else -1',
+                ]
+            )
             self.emit('phi = phi_p if sg > 0 else phi_m')
             self.emit(f'ang{bi} = phi')
             self.place_body(bi, 'phi', f'{self.pt(p)} - complex(cos(phi), sin(phi)) * lp')
@@ -965,9 +1109,9 @@ def _compile_scalar(plan: Plan):
     code.emit(f'return {code.result(True)}')
     src = 'def run(values, signs, prefer, tol, prev_margins):\n' + '\n'.join(code.lines) + '\n'
     namespace = dict(code.ns)
-    exec(compile(src, f'<scalar plan of {plan.mech.name}>', 'exec'), namespace)
+    exec(compile(src, f'<scalar plan of {plan.mech.name}>', 'exec'), namespace)  # noqa: S102 (to go: issue 15)
     fn = namespace['run']
-    fn.source = src                      # the generated code, for debugging
+    fn.source = src  # the generated code, for debugging
     return fn
 
 
@@ -1001,7 +1145,7 @@ def branch_geometry_one(plan: Plan, pts: dict[str, complex], poses: ScalarPoses)
         if st.op == 'circle_circle':
             _, p1, _, p2 = st.args
             a, b = pts[p1], pts[p2]
-            ab, ax = _unit(b - a), _unit(x - a)          # units: products of 1e200 overflow
+            ab, ax = _unit(b - a), _unit(x - a)  # units: products of 1e200 overflow
             side = ab.real * ax.imag - ab.imag * ax.real
             va, vb = _unit(x - a), _unit(x - b)
             m = abs(va.real * vb.imag - va.imag * vb.real)
@@ -1022,10 +1166,14 @@ def branch_geometry_batch(plan: Plan, pts: dict[str, np.ndarray], poses: Poses):
     (+1 / -1) and margins (n, k) of the plan's k branching steps."""
     n = poses.phi[plan.mech.ground].shape[0]
 
-    def unit(v):                          # hypot: no overflow at 1e200; a zero vector stays 0
+    def unit(v):  # hypot: no overflow at 1e200; a zero vector stays 0
         r = np.hypot(v[:, 0], v[:, 1])
         return v / np.where(r > 0, r, 1.0)[:, None]
-    signs, margins = np.zeros((n, len(plan.branch_steps)), int), np.zeros((n, len(plan.branch_steps)))
+
+    signs, margins = (
+        np.zeros((n, len(plan.branch_steps)), int),
+        np.zeros((n, len(plan.branch_steps))),
+    )
     for k, st in enumerate(plan.branch_steps):
         x = pts[st.point]
         if st.op == 'circle_circle':
@@ -1035,11 +1183,11 @@ def branch_geometry_batch(plan: Plan, pts: dict[str, np.ndarray], poses: Poses):
             m = np.abs(dyads.cross2(unit(x - a), unit(x - b)))
         else:
             pj = plan.mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
-            u = dyads.rotate(np.broadcast_to(np.asarray(pj.direction, float), (n, 2)),
-                             poses.phi[pj.guide])
+            u = dyads.rotate(
+                np.broadcast_to(np.asarray(pj.direction, float), (n, 2)), poses.phi[pj.guide]
+            )
             side = np.sum(unit(x - pts[st.args[1]]) * u, axis=-1)
             m = np.abs(side)
         signs[:, k] = np.where(side >= 0, 1, -1)
         margins[:, k] = np.clip(m, 0.0, 1.0)
     return signs, margins
-

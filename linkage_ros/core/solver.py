@@ -13,24 +13,37 @@ Branch: ``continuous`` (start in the reference pose's assembly mode, then keep t
 the previous configuration), ``reference`` (the reference pose's signs, always) or an explicit sign
 string such as ``+-`` (one sign per branching dyad of the plan, in plan order).
 """
+
 from __future__ import annotations
 
 import cmath
 import collections.abc
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
 from . import dyads
-from .errors import PlanError
 from .dyads import wrap_angle
+from .errors import PlanError
 from .model import Mechanism
 from .newton import LoopSystem
-from .plan import (CONTINUITY_MARGIN, Plan, Poses, ScalarPoses, Spec, branch_geometry_batch,
-                   branch_geometry_one, run_one, spec_for, spec_value_at,
-                   spec_point_link, spec_value_one)
+from .plan import (
+    CONTINUITY_MARGIN,
+    Plan,
+    Poses,
+    ScalarPoses,
+    Spec,
+    branch_geometry_batch,
+    branch_geometry_one,
+    run_one,
+    spec_for,
+    spec_point_link,
+    spec_value_at,
+    spec_value_one,
+)
 
 #: machine epsilon (float64): the unit of rounding in branch_identity_defined
 _EPS = float(np.finfo(float).eps)
@@ -74,6 +87,7 @@ CLOSURE_LIMIT = 1e-10
 @dataclass
 class Result:
     """One solved configuration (or the reason there is none)."""
+
     success: bool
     reason: str | None = None
     inputs: dict[str, float] = field(default_factory=dict)
@@ -88,7 +102,7 @@ class Result:
     branch_defined: bool = True
     margin: float | None = None
     cond: float | None = None
-    all_branches: list['Result'] | None = None
+    all_branches: list[Result] | None = None
 
     def to_dict(self, mech: Mechanism | None = None) -> dict[str, Any]:
         links = {}
@@ -118,14 +132,15 @@ class Result:
 @dataclass
 class _State:
     """The previous configuration: continuity predictions and Newton warm starts start here."""
+
     values: list
-    x_all: np.ndarray | None   # every moving link (phi, cx, cy), for Newton warm starts
+    x_all: np.ndarray | None  # every moving link (phi, cx, cy), for Newton warm starts
     points: dict[str, complex]
     poses: ScalarPoses
     signs: tuple[int, ...]
     det_sign: int
     margins: tuple[float, ...] = ()
-    x_lu: tuple | None = None   # Newton: LU of the Jacobian at x_all (for the predictor)
+    x_lu: tuple | None = None  # Newton: LU of the Jacobian at x_all (for the predictor)
 
 
 class _Prediction(collections.abc.Mapping):
@@ -134,7 +149,7 @@ class _Prediction(collections.abc.Mapping):
     Computed per key on first use: the dyad plan asks only near a singular dyad, so most
     solves never pay for it."""
 
-    def __init__(self, solver: 'Solver', vals):
+    def __init__(self, solver: Solver, vals):
         self._last = solver._history[-1]
         self._prev = solver._history[-2] if len(solver._history) == 2 else None
         self._solver, self._vals = solver, vals
@@ -168,23 +183,33 @@ class _Prediction(collections.abc.Mapping):
 class Solver:
     """Compiled solver for one mechanism, one set of known names and wanted outputs."""
 
-    def __init__(self, mech: Mechanism, knowns: Sequence[str] | None = None,
-                 outputs: Sequence[str] | None = None, method: str | None = None,
-                 tol: float = 1e-12, max_iter: int = 50, branch: str = 'continuous'):
+    def __init__(
+        self,
+        mech: Mechanism,
+        knowns: Sequence[str] | None = None,
+        outputs: Sequence[str] | None = None,
+        method: str | None = None,
+        tol: float = 1e-12,
+        max_iter: int = 50,
+        branch: str = 'continuous',
+    ):
         self.mech = mech
         method = method or mech.solver
         if method not in METHODS:
             raise PlanError(f'unknown solver {method!r}; expected one of {list(METHODS)}')
-        if isinstance(tol, bool) or not (isinstance(tol, (int, float)) and math.isfinite(tol)
-                                         and tol > 0):
+        if isinstance(tol, bool) or not (
+            isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0
+        ):
             raise PlanError(f'tolerance must be a positive number (got {tol!r})')
         if isinstance(max_iter, bool) or not (isinstance(max_iter, int) and max_iter > 0):
             raise PlanError(f'max_iter must be a positive integer (got {max_iter!r})')
         self.tol, self.max_iter = float(tol), max_iter
         self.closure_limit = max(CLOSURE_LIMIT, 10.0 * self.tol)
         for what, names in (('knowns', knowns), ('outputs', outputs)):
-            if names is not None and (isinstance(names, (str, bytes, Mapping))
-                                      or not all(isinstance(v, str) for v in names)):
+            if names is not None and (
+                isinstance(names, (str, bytes, Mapping))
+                or not all(isinstance(v, str) for v in names)
+            ):
                 raise PlanError(f'{what} must be a list of names (got {names!r})')
         self.knowns = list(knowns) if knowns is not None else list(mech.actuators)
         if len(set(self.knowns)) != len(self.knowns):
@@ -192,18 +217,25 @@ class Solver:
         self.specs = [spec_for(mech, n) for n in self.knowns]
         n_values = sum(s.size for s in self.specs)
         if n_values != mech.dof:
-            raise PlanError(f'{mech.name!r} has {mech.dof} degree(s) of freedom but the knowns '
-                            f'{self.knowns} give {n_values} value(s)'
-                            + (_same_link_points_hint(mech, self.knowns, self.specs)
-                               if n_values == mech.dof + 1 else ''))
+            raise PlanError(
+                f'{mech.name!r} has {mech.dof} degree(s) of freedom but the knowns '
+                f'{self.knowns} give {n_values} value(s)'
+                + (
+                    _same_link_points_hint(mech, self.knowns, self.specs)
+                    if n_values == mech.dof + 1
+                    else ''
+                )
+            )
         self.actuator_specs = [spec_for(mech, a) for a in mech.actuators]
         self.inverse = any(s.name not in mech.actuators for s in self.specs)
         wanted_links, wanted_points = self._wanted(outputs)
         self.plan = Plan(mech, self.specs, wanted_links, wanted_points)
         self.full_plan = self.plan if wanted_links is None else Plan(mech, self.specs, None, None)
         if method == 'closed_form' and not self.plan.complete:
-            raise PlanError(f'no closed-form dyad plan for knowns {self.knowns} of '
-                            f'{mech.name!r}; use solver newton or auto')
+            raise PlanError(
+                f'no closed-form dyad plan for knowns {self.knowns} of '
+                f'{mech.name!r}; use solver newton or auto'
+            )
         self.method = method
         if method == 'newton':
             self.mode = 'newton'
@@ -211,22 +243,27 @@ class Solver:
             self.mode = 'closed_form'
         else:
             self.mode = 'hybrid'
-        self.closed_links = ([] if self.mode == 'newton' else
-                             [l for l in self.full_plan.placed_links if l != mech.ground])
+        self.closed_links = (
+            []
+            if self.mode == 'newton'
+            else [l for l in self.full_plan.placed_links if l != mech.ground]
+        )
         free = [l for l in mech.moving_links if l not in self.closed_links]
         self.system = LoopSystem(mech, self.specs, free)
         self.check_system = LoopSystem(mech, self.specs, mech.moving_links)
         loose = self.check_system.unfixed_links()
         if loose:
-            raise PlanError(f'the knowns {self.knowns} do not determine {mech.name!r}: they '
-                            f'give {n_values} value(s) for its {mech.dof} degree(s) of freedom '
-                            f'but constrain some links twice and leave a motion of '
-                            f'{loose[0]!r} free; choose knowns that each fix a different '
-                            'degree of freedom')
+            raise PlanError(
+                f'the knowns {self.knowns} do not determine {mech.name!r}: they '
+                f'give {n_values} value(s) for its {mech.dof} degree(s) of freedom '
+                f'but constrain some links twice and leave a motion of '
+                f'{loose[0]!r} free; choose knowns that each fix a different '
+                'degree of freedom'
+            )
         self.branch_mode, self.fixed_signs = self._parse_branch(branch)
         self._slide_specs = {n: Spec(n, 'slide', joint=n) for n in mech.prismatics}
         self._ref_values = self._values_at_reference()
-        self._assemblers: dict[tuple, Any] = {}   # result assembly per set of placed links
+        self._assemblers: dict[tuple, Any] = {}  # result assembly per set of placed links
         self.reset()
 
     # -- set-up helpers ----------------------------------------------------------------------
@@ -264,25 +301,35 @@ class Solver:
             return branch, None
         if isinstance(branch, str) and set(branch) <= {'+', '-'}:
             if len(branch) != k:
-                raise PlanError(f'branch {branch!r} has {len(branch)} sign(s) but this solve has '
-                                + (f'{k} branching dyad(s): ' + '; '.join(
-                                    s.describe(self.plan) for s in self.plan.branch_steps)
-                                   if k else 'no branching dyad (no sign to give)'))
+                raise PlanError(
+                    f'branch {branch!r} has {len(branch)} sign(s) but this solve has '
+                    + (
+                        f'{k} branching dyad(s): '
+                        + '; '.join(s.describe(self.plan) for s in self.plan.branch_steps)
+                        if k
+                        else 'no branching dyad (no sign to give)'
+                    )
+                )
             return 'explicit', tuple(1 if c == '+' else -1 for c in branch)
-        raise PlanError(f"branch must be 'continuous', 'reference' or a string of + and - "
-                        f'(got {branch!r})')
+        raise PlanError(
+            f"branch must be 'continuous', 'reference' or a string of + and - (got {branch!r})"
+        )
 
     def _values_at_reference(self):
         ref = ScalarPoses()
         for l in self.mech.links:
             ref.set(l, 0.0, 0j, 1 + 0j)
-        return [np.asarray(v, float) if s.kind == 'point' else float(v)
-                for s, v in ((s, spec_value_one(self.mech, s, ref)) for s in self.specs)]
+        return [
+            np.asarray(v, float) if s.kind == 'point' else float(v)
+            for s, v in ((s, spec_value_one(self.mech, s, ref)) for s in self.specs)
+        ]
 
     def reference_values(self) -> dict[str, Any]:
         """The known quantities' values in the scene's reference pose ({known name: value})."""
-        return {s.name: (tuple(float(c) for c in v) if s.kind == 'point' else float(v))
-                for s, v in zip(self.specs, self._ref_values)}
+        return {
+            s.name: (tuple(float(c) for c in v) if s.kind == 'point' else float(v))
+            for s, v in zip(self.specs, self._ref_values)
+        }
 
     def snapshot(self) -> tuple:
         """The continuity state (the previous configurations it predicts from), opaque: pass it
@@ -293,9 +340,12 @@ class Solver:
         """Return to a state taken by snapshot() (of this solver or one with the same knowns);
         ValueError, and no change, for anything else."""
         if not isinstance(snapshot, (tuple, list)) or not all(
-                isinstance(st, _State) and len(st.values) == len(self.specs) for st in snapshot):
-            raise ValueError('restore() takes what snapshot() returned, of a solver with the '
-                             f'knowns {self.knowns}')
+            isinstance(st, _State) and len(st.values) == len(self.specs) for st in snapshot
+        ):
+            raise ValueError(
+                'restore() takes what snapshot() returned, of a solver with the '
+                f'knowns {self.knowns}'
+            )
         self._history = list(snapshot)[-2:]
 
     @property
@@ -318,17 +368,23 @@ class Solver:
         its link angles put them (not a rigid configuration of this mechanism)."""
         mech = self.mech
         try:
-            if not (isinstance(result, Result) and result.success
-                    and set(result.links) == set(mech.links)
-                    and set(result.points) >= set(mech.points)):
+            if not (
+                isinstance(result, Result)
+                and result.success
+                and set(result.links) == set(mech.links)
+                and set(result.points) >= set(mech.points)
+            ):
                 return False
-            pts = {p: complex(float(result.points[p][0]), float(result.points[p][1]))
-                   for p in mech.points}
+            pts = {
+                p: complex(float(result.points[p][0]), float(result.points[p][1]))
+                for p in mech.points
+            }
             phis = {l: float(result.links[l]) for l in mech.links}
         except (TypeError, ValueError, IndexError, KeyError, AttributeError):
             return False
-        if not all(math.isfinite(v) for v in phis.values()) or \
-                not all(cmath.isfinite(w) for w in pts.values()):
+        if not all(math.isfinite(v) for v in phis.values()) or not all(
+            cmath.isfinite(w) for w in pts.values()
+        ):
             return False
         poses = ScalarPoses()
         tol = self.closure_limit * mech.length_scale
@@ -337,8 +393,10 @@ class Solver:
             rot = complex(math.cos(phi), math.sin(phi))
             p = link.points[0]
             poses.set(l, phi, pts[p] - rot * complex(*mech.points[p]), rot)
-            if any(abs(poses.world(l, complex(*mech.points[q])) - pts[q]) > tol
-                   for q in link.points[1:]):
+            if any(
+                abs(poses.world(l, complex(*mech.points[q])) - pts[q]) > tol
+                for q in link.points[1:]
+            ):
                 return False
         vals = []
         for s in self.specs:
@@ -368,12 +426,16 @@ class Solver:
             if s.kind == 'point':
                 try:
                     if isinstance(v, (str, bytes, Mapping)) or any(
-                            isinstance(c, (bool, np.bool_)) or not isinstance(
-                                c, (int, float, np.floating, np.integer)) for c in v):
+                        isinstance(c, (bool, np.bool_))
+                        or not isinstance(c, (int, float, np.floating, np.integer))
+                        for c in v
+                    ):
                         raise TypeError
                     arr = np.asarray(v, float).reshape(-1)
                 except (TypeError, ValueError, OverflowError):
-                    raise ValueError(f'{s.name}: a point needs two numbers x, y (got {v!r})') from None
+                    raise ValueError(
+                        f'{s.name}: a point needs two numbers x, y (got {v!r})'
+                    ) from None
                 if arr.shape != (2,):
                     raise ValueError(f'{s.name}: a point needs two numbers x, y (got {v!r})')
                 if not np.all(np.isfinite(arr)):
@@ -381,11 +443,12 @@ class Solver:
                 out.append(arr)
             else:
                 if isinstance(v, (bool, np.bool_)) or not isinstance(
-                        v, (int, float, np.floating, np.integer)):
+                    v, (int, float, np.floating, np.integer)
+                ):
                     raise ValueError(f'{s.name}: value must be a number in {s.unit} (got {v!r})')
                 try:
                     fv = float(v)
-                except OverflowError:         # a Python int beyond the float range
+                except OverflowError:  # a Python int beyond the float range
                     fv = math.inf
                 if not math.isfinite(fv):
                     raise ValueError(f'{s.name}: value must be finite (got {v!r})')
@@ -405,16 +468,24 @@ class Solver:
             over_hi = v - hi
             under_lo = lo + 2 * math.pi - v
             if under_lo < over_hi:
-                return (f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} '
-                        f'by {under_lo:.3g} {spec.unit}')
-            return (f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
-                    f'{over_hi:.3g} {spec.unit}')
+                return (
+                    f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} '
+                    f'by {under_lo:.3g} {spec.unit}'
+                )
+            return (
+                f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
+                f'{over_hi:.3g} {spec.unit}'
+            )
         if lo is not None and v < lo:
-            return (f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} by '
-                    f'{lo - v:.3g} {spec.unit}')
+            return (
+                f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} by '
+                f'{lo - v:.3g} {spec.unit}'
+            )
         if hi is not None and v > hi:
-            return (f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
-                    f'{v - hi:.3g} {spec.unit}')
+            return (
+                f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
+                f'{v - hi:.3g} {spec.unit}'
+            )
         return None
 
     # -- solving -----------------------------------------------------------------------------
@@ -454,6 +525,7 @@ class Solver:
         closes), without touching the continuity history. Newton-only solves have no enumerable
         branches: the single answer nearest the current configuration is returned."""
         import itertools
+
         if self.mode != 'closed_form' or not self.branch_count:
             return [self.solve(values, commit=False)]
         out, seen = [], set()
@@ -464,9 +536,12 @@ class Solver:
                 r = self.solve(values, commit=False)
                 if not r.success:
                     continue
-                key = tuple(round(c / self.mech.length_scale, 9) for p in sorted(r.points)
-                            for c in r.points[p])
-                if key in seen:          # coincident modes (at a toggle) are one answer
+                key = tuple(
+                    round(c / self.mech.length_scale, 9)
+                    for p in sorted(r.points)
+                    for c in r.points[p]
+                )
+                if key in seen:  # coincident modes (at a toggle) are one answer
                     continue
                 seen.add(key)
                 out.append(r)
@@ -475,19 +550,26 @@ class Solver:
         return out or [self.solve(values, commit=False)]
 
     def _closure_reason(self, residual: float) -> str:
-        return (f'cannot assemble: the configuration found misses loop closure by '
-                f'{residual:.3g} of the length scale (limit {self.closure_limit:.3g}); a known '
-                'value may be out of reach of its link')
+        return (
+            f'cannot assemble: the configuration found misses loop closure by '
+            f'{residual:.3g} of the length scale (limit {self.closure_limit:.3g}); a known '
+            'value may be out of reach of its link'
+        )
 
     def _echo(self, vals):
-        return {s.name: (list(map(float, v)) if s.kind == 'point' else float(v))
-                for s, v in zip(self.specs, vals)}
+        return {
+            s.name: (list(map(float, v)) if s.kind == 'point' else float(v))
+            for s, v in zip(self.specs, vals)
+        }
 
     def _fail(self, reason, echo, solver=None):
-        return Result(False, reason, inputs={k: v for k, v in echo.items()
-                                             if k in self.mech.actuators},
-                      targets={k: v for k, v in echo.items() if k not in self.mech.actuators},
-                      solver=solver or self.mode)
+        return Result(
+            False,
+            reason,
+            inputs={k: v for k, v in echo.items() if k in self.mech.actuators},
+            targets={k: v for k, v in echo.items() if k not in self.mech.actuators},
+            solver=solver or self.mode,
+        )
 
     def _prediction(self, vals):
         """Predicted point positions and link angles for continuity (see :class:`_Prediction`),
@@ -520,8 +602,9 @@ class Solver:
             out.append(a.reshape(n, 2) if s.kind == 'point' else a.reshape(n))
         return out
 
-    def _state(self, vals, poses: ScalarPoses, pts, signs, det_sign=0, margins=(), x_all=None,
-               x_lu=None):
+    def _state(
+        self, vals, poses: ScalarPoses, pts, signs, det_sign=0, margins=(), x_all=None, x_lu=None
+    ):
         if x_all is None and self.mode != 'closed_form' and set(poses.phi) >= set(self.mech.links):
             x_all = self.check_system.x_from_poses(poses)
         return _State(vals, x_all, pts, poses, tuple(signs), det_sign, tuple(margins), x_lu)
@@ -530,17 +613,27 @@ class Solver:
         prev = self._history[-1].margins if self._history else None
         run = run_one(self.plan, vals, self._signs(), self._prediction(vals), prev_margins=prev)
         if not run.ok:
-            return self._fail(self._dyad_reason(run.failure, run.violation), self._echo(vals),
-                              'closed_form'), None
-        res = self._build(run.poses, run.points, vals, solver='closed_form', iterations=0,
-                          signs=run.signs, margin=run.margin)
+            return self._fail(
+                self._dyad_reason(run.failure, run.violation), self._echo(vals), 'closed_form'
+            ), None
+        res = self._build(
+            run.poses,
+            run.points,
+            vals,
+            solver='closed_form',
+            iterations=0,
+            signs=run.signs,
+            margin=run.margin,
+        )
         return res, self._state(vals, run.poses, run.points, run.signs, margins=run.margins)
 
     def _dyad_reason(self, k, violation):
         st = self.plan.steps[k]
         what = st.describe(self.plan)
-        return (f'cannot assemble: {what} does not close; the constraint misses by '
-                f'{violation:.6g} m ({violation / self.mech.length_scale:.3g} of the length scale)')
+        return (
+            f'cannot assemble: {what} does not close; the constraint misses by '
+            f'{violation:.6g} m ({violation / self.mech.length_scale:.3g} of the length scale)'
+        )
 
     # Newton (alone, or for the links the dyad plan cannot place) with continuation
     def _fixed_poses(self, vals):
@@ -550,8 +643,10 @@ class Solver:
         run = run_one(self.full_plan, vals, None, None)
         if not run.ok:
             st = self.full_plan.steps[run.failure]
-            return None, (f'cannot assemble: {st.describe(self.full_plan)} does not close; misses '
-                          f'by {run.violation:.6g} m')
+            return None, (
+                f'cannot assemble: {st.describe(self.full_plan)} does not close; misses '
+                f'by {run.violation:.6g} m'
+            )
         keep = ScalarPoses()
         for l in self.closed_links + [self.mech.ground]:
             keep.set(l, run.poses.phi[l], run.poses.T[l], run.poses.rot[l])
@@ -561,8 +656,9 @@ class Solver:
         fixed, reason = self._fixed_poses(vals)
         if reason:
             return None, reason, None
-        r = self.system.solve(x0, vals, fixed, tol=self.tol, max_iter=self.max_iter,
-                              start_sign=start_sign)
+        r = self.system.solve(
+            x0, vals, fixed, tol=self.tol, max_iter=self.max_iter, start_sign=start_sign
+        )
         return r, None, fixed
 
     def _start(self, vals):
@@ -573,13 +669,19 @@ class Solver:
             guess = None
             if last.x_lu is not None and self.mode == 'newton':
                 prev = self._history[-2] if len(self._history) == 2 else None
-                before = (prev.x_all, prev.values, prev.x_lu) if prev is not None and \
-                    prev.x_all is not None else ()
+                before = (
+                    (prev.x_all, prev.values, prev.x_lu)
+                    if prev is not None and prev.x_all is not None
+                    else ()
+                )
                 guess = self.system.predict(last.x_all, last.x_lu, last.values, vals, *before)
             return last.values, self._sub_x(last.x_all), guess
         x_all = self.check_system.reference_x()
-        if self.branch_mode == 'explicit' and self.fixed_signs != self.plan.reference_signs \
-                and self.full_plan.complete:
+        if (
+            self.branch_mode == 'explicit'
+            and self.fixed_signs != self.plan.reference_signs
+            and self.full_plan.complete
+        ):
             # another assembly mode: start from the dyad plan's answer at the reference input
             run = run_one(self.full_plan, self._ref_values, self.fixed_signs, None)
             if run.ok:
@@ -587,11 +689,14 @@ class Solver:
         return self._ref_values, self._sub_x(x_all), None
 
     def _sub_x(self, x_all):
-        if self.mode == 'newton':           # every moving link is free, in the same order
+        if self.mode == 'newton':  # every moving link is free, in the same order
             return x_all
         idx = self.check_system.index
-        return np.concatenate([x_all[3 * idx[l]:3 * idx[l] + 3] for l in self.system.free]) \
-            if self.system.free else np.zeros(0)
+        return (
+            np.concatenate([x_all[3 * idx[l] : 3 * idx[l] + 3] for l in self.system.free])
+            if self.system.free
+            else np.zeros(0)
+        )
 
     def _branch_of(self, x, fixed):
         """(signs, margins, poses, points) of configuration x: its dyads' sides and margins."""
@@ -609,8 +714,10 @@ class Solver:
     def _branch_jump(self, ga, gb) -> bool:
         """True when a dyad changed side between two configurations (their _branch_of) while
         far from its singularity: only a jump (not a continuous motion) does that."""
-        return any(a != b and min(p, q) >= CONTINUITY_MARGIN
-                   for a, b, p, q in zip(ga[0], gb[0], ga[1], gb[1]))
+        return any(
+            a != b and min(p, q) >= CONTINUITY_MARGIN
+            for a, b, p, q in zip(ga[0], gb[0], ga[1], gb[1])
+        )
 
     def _interp(self, a, b, t):
         out = []
@@ -637,23 +744,29 @@ class Solver:
             if run.ok:
                 return None
             st = self.full_plan.steps[run.failure]
-            return self._fail(f'cannot assemble: {st.describe(self.full_plan)} does not '
-                              f'close; the constraint misses by {run.violation:.6g} m '
-                              f'({run.violation / self.mech.length_scale:.3g} of the length '
-                              'scale)', self._echo(vals), solver_name)
+            return self._fail(
+                f'cannot assemble: {st.describe(self.full_plan)} does not '
+                f'close; the constraint misses by {run.violation:.6g} m '
+                f'({run.violation / self.mech.length_scale:.3g} of the length '
+                'scale)',
+                self._echo(vals),
+                solver_name,
+            )
 
         v0, x0, guess = self._start(vals)
         total_iter = [0]
-        since_progress = [0]        # iterations since the last substep that succeeded
+        since_progress = [0]  # iterations since the last substep that succeeded
         branches = bool(self.full_plan.complete and self.full_plan.branch_steps)
-        seen: dict[int, tuple] = {}    # branch geometry of the configurations met in this solve
+        seen: dict[int, tuple] = {}  # branch geometry of the configurations met in this solve
         last = self._history[-1] if self._history else None
         if branches and last is not None and last.x_all is not None:
             # x0 is the previous answer: its points and poses are known, and a Newton answer
             # (x_lu set) also left its dyads' sides and margins (full plan: see the end)
-            known_geo = (last.signs, last.margins) if last.x_lu is not None and \
-                len(last.margins) == len(self.full_plan.branch_steps) else \
-                branch_geometry_one(self.full_plan, last.points, last.poses)
+            known_geo = (
+                (last.signs, last.margins)
+                if last.x_lu is not None and len(last.margins) == len(self.full_plan.branch_steps)
+                else branch_geometry_one(self.full_plan, last.points, last.poses)
+            )
             seen[id(x0)] = (x0, (*known_geo, last.poses, last.points))
 
         def geometry(x, fixed):
@@ -667,7 +780,7 @@ class Solver:
 
         def walk(va, xa, vb, depth, sign_a=None):
             fixed_a = self._fixed_poses(va)[0]
-            if sign_a is None:        # det J sign at the start; 0 where it is singular
+            if sign_a is None:  # det J sign at the start; 0 where it is singular
                 sign_a = self.system.start_sign(xa, va, fixed_a)
             r, reason, fixed = self._newton_at(vb, xa, sign_a)
             jumped = False
@@ -692,11 +805,19 @@ class Solver:
                 if r is None:
                     return None, reason, None
                 if jumped:
-                    return None, ('Newton could only reach this input in another assembly mode '
-                                  '(a branch jump): it is not reachable on the current branch '
-                                  'without crossing a singularity'), None
-                why = r.reason or ('the sign of det J changed: a singularity (toggle or change '
-                                   'point) lies between the previous configuration and this input')
+                    return (
+                        None,
+                        (
+                            'Newton could only reach this input in another assembly mode '
+                            '(a branch jump): it is not reachable on the current branch '
+                            'without crossing a singularity'
+                        ),
+                        None,
+                    )
+                why = r.reason or (
+                    'the sign of det J changed: a singularity (toggle or change '
+                    'point) lies between the previous configuration and this input'
+                )
                 return None, why, None
             vm = self._interp(va, vb, 0.5)
             rm, why, fm = walk(va, xa, vm, depth + 1, sign_a)
@@ -704,21 +825,32 @@ class Solver:
                 return None, why, None
             return walk(vm, rm.x, vb, depth + 1, rm.det_sign)
 
-        known = last.det_sign if last is not None and last.x_all is not None \
-            and last.det_sign != 0 else None
+        known = (
+            last.det_sign
+            if last is not None and last.x_all is not None and last.det_sign != 0
+            else None
+        )
         r = fixed = None
         if guess is not None and known is not None:
             # newton mode: the fast path from the predicted solution, kept if no dyad jumped sides
-            rf = self.system.solve_from_guess(guess, vals, None, tol=self.tol,
-                                              max_iter=self.max_iter, start_sign=known)
+            rf = self.system.solve_from_guess(
+                guess, vals, None, tol=self.tol, max_iter=self.max_iter, start_sign=known
+            )
             total_iter[0] += rf.iterations
             if rf.success and not jump(x0, None, rf.x, None):
                 r = rf
         # the closed-form check is skipped only where it must pass: the answer is on the
         # check's branch and well-conditioned enough for its residual (cond^2 residual n small:
         # Newton-Kantorovich) that an exact assembly on that branch lies next to it
-        if r is None or not r.cond * r.cond * r.residual * self.system.n <= 1e-2 or (branches and tuple(
-                geometry(r.x, None)[0]) != tuple(check_signs or self.full_plan.reference_signs)):
+        if (
+            r is None
+            or not r.cond * r.cond * r.residual * self.system.n <= 1e-2
+            or (
+                branches
+                and tuple(geometry(r.x, None)[0])
+                != tuple(check_signs or self.full_plan.reference_signs)
+            )
+        ):
             bad = refusal()
             if bad is not None:
                 return bad, None
@@ -732,23 +864,48 @@ class Solver:
             signs_t, margins, poses, pts = geometry(r.x, fixed)
         else:
             poses, pts = self.system.configuration(r.x, fixed)
-            signs_t, margins = branch_geometry_one(self.full_plan, pts, poses) \
-                if self.full_plan.complete else ((), [])
-        if self.branch_mode in ('explicit', 'reference') and self.full_plan.complete \
-                and self.full_plan is self.plan:
+            signs_t, margins = (
+                branch_geometry_one(self.full_plan, pts, poses)
+                if self.full_plan.complete
+                else ((), [])
+            )
+        if (
+            self.branch_mode in ('explicit', 'reference')
+            and self.full_plan.complete
+            and self.full_plan is self.plan
+        ):
             want = tuple(self._signs())
             if signs_t != want:
-                return self._fail(f'Newton converged to assembly mode {_sign_str(signs_t)}, not the '
-                                  f'requested {_sign_str(want)}: the input is not reachable on '
-                                  'that branch from the start configuration without crossing a '
-                                  'singularity', self._echo(vals), solver_name), None
+                return self._fail(
+                    f'Newton converged to assembly mode {_sign_str(signs_t)}, not the '
+                    f'requested {_sign_str(want)}: the input is not reachable on '
+                    'that branch from the start configuration without crossing a '
+                    'singularity',
+                    self._echo(vals),
+                    solver_name,
+                ), None
         margin = min(margins) if margins else 1.0 / max(r.cond, 1.0)
-        res = self._build(poses, pts, vals, solver=solver_name, iterations=total_iter[0],
-                          signs=signs_t, margin=margin, cond=r.cond)
-        newton = self.mode == 'newton'         # x is then x_all, and predicts the next solve
-        return res, self._state(vals, poses, pts, signs_t, r.det_sign, margins,
-                                x_all=r.x if newton else None,
-                                x_lu=self.system.rate_factor(r) if newton else None)
+        res = self._build(
+            poses,
+            pts,
+            vals,
+            solver=solver_name,
+            iterations=total_iter[0],
+            signs=signs_t,
+            margin=margin,
+            cond=r.cond,
+        )
+        newton = self.mode == 'newton'  # x is then x_all, and predicts the next solve
+        return res, self._state(
+            vals,
+            poses,
+            pts,
+            signs_t,
+            r.det_sign,
+            margins,
+            x_all=r.x if newton else None,
+            x_lu=self.system.rate_factor(r) if newton else None,
+        )
 
     # -- result assembly ---------------------------------------------------------------------
     def _assembler(self, poses: ScalarPoses):
@@ -758,33 +915,70 @@ class Solver:
         fn = self._assemblers.get(key)
         if fn is None:
             fn = _compile_assembly(self, key)
-            if len(self._assemblers) < 16:      # a handful of sets occur; never grow unbounded
+            if len(self._assemblers) < 16:  # a handful of sets occur; never grow unbounded
                 self._assemblers[key] = fn
         return fn
 
-    def _build(self, poses: ScalarPoses, pts: dict[str, complex], vals, *, solver, iterations,
-               signs, margin, cond=None):
-        inputs, joints, links, residual = self._assembler(poses)(poses.phi, poses.rot, poses.T,
-                                                                 vals)
+    def _build(
+        self,
+        poses: ScalarPoses,
+        pts: dict[str, complex],
+        vals,
+        *,
+        solver,
+        iterations,
+        signs,
+        margin,
+        cond=None,
+    ):
+        inputs, joints, links, residual = self._assembler(poses)(
+            poses.phi, poses.rot, poses.T, vals
+        )
         points = {p: (v.real, v.imag) for p, v in pts.items()}
-        res = Result(True, None, inputs, {}, joints, links, points, residual, iterations, solver,
-                     _sign_str(signs),
-                     bool(branch_identity_defined(margin, residual)) if signs else True,
-                     float(margin), cond if cond is None or math.isfinite(cond) else None)
+        res = Result(
+            True,
+            None,
+            inputs,
+            {},
+            joints,
+            links,
+            points,
+            residual,
+            iterations,
+            solver,
+            _sign_str(signs),
+            bool(branch_identity_defined(margin, residual)) if signs else True,
+            float(margin),
+            cond if cond is None or math.isfinite(cond) else None,
+        )
         # one sum is finite when every term is (and may overflow only at ~1e308 scales, where
         # the exact check below runs)
-        total = (sum(joints.values()) + sum(links.values()) + sum(inputs.values())
-                 + sum(v.real + v.imag for v in pts.values()) + res.residual + res.margin)
+        total = (
+            sum(joints.values())
+            + sum(links.values())
+            + sum(inputs.values())
+            + sum(v.real + v.imag for v in pts.values())
+            + res.residual
+            + res.margin
+        )
         if not math.isfinite(total) and not all(
-                math.isfinite(v) for v in [*joints.values(), *links.values(), *inputs.values(),
-                                           *(c for p in points.values() for c in p),
-                                           res.residual, res.margin]):
+            math.isfinite(v)
+            for v in [
+                *joints.values(),
+                *links.values(),
+                *inputs.values(),
+                *(c for p in points.values() for c in p),
+                res.residual,
+                res.margin,
+            ]
+        ):
             return Result(False, 'internal error: non-finite value in the solution', solver=solver)
         return res
 
     # -- batches -----------------------------------------------------------------------------
-    def solve_batch(self, columns: Mapping[str, Any],
-                    start: 'BatchResult | None' = None) -> 'BatchResult':
+    def solve_batch(
+        self, columns: Mapping[str, Any], start: BatchResult | None = None
+    ) -> BatchResult:
         """Solve n commands at once. ``columns`` maps each known name to an (n,) array ((n, 2)
         for points).
 
@@ -805,9 +999,11 @@ class Solver:
         unknown = [k for k in names if k not in self.knowns]
         missing = [k for k in self.knowns if k not in columns]
         if unknown or missing:
-            raise ValueError(f'batch columns must be exactly {self.knowns}'
-                             f'{"; unknown " + str(unknown) if unknown else ""}'
-                             f'{"; missing " + str(missing) if missing else ""}')
+            raise ValueError(
+                f'batch columns must be exactly {self.knowns}'
+                f'{"; unknown " + str(unknown) if unknown else ""}'
+                f'{"; missing " + str(missing) if missing else ""}'
+            )
         arrays = []
         n = None
         for s in self.specs:
@@ -821,22 +1017,32 @@ class Solver:
             if self.mode != 'newton':
                 raise ValueError(f'start= warm-starts newton batches; this solver is {self.mode}')
             if not isinstance(start, BatchResult) or start.x is None:
-                raise ValueError('start must be a newton BatchResult of this solver (a closed-form '
-                                 'batch carries no Newton state)')
+                raise ValueError(
+                    'start must be a newton BatchResult of this solver (a closed-form '
+                    'batch carries no Newton state)'
+                )
             if start.n != (n or 0):
-                raise ValueError(f'start has {start.n} rows but this batch has {n or 0}: row i '
-                                 'starts from row i')
+                raise ValueError(
+                    f'start has {start.n} rows but this batch has {n or 0}: row i starts from row i'
+                )
             theirs = getattr(start, 'source', None)
             if theirs != self._batch_source():
                 what = f'{theirs[0]!r} with knowns {list(theirs[1])}' if theirs else 'unknown'
-                raise ValueError('start must be a newton BatchResult of a solver of this '
-                                 f'mechanism ({self.mech.name!r}, its reference geometry) with '
-                                 f'knowns {self.knowns}; got one of {what}')
-            if not (isinstance(start.x, np.ndarray) and start.x.shape == (start.n, self.system.n)
-                    and np.shape(start.det_sign) == (start.n,)
-                    and np.shape(start.ok) == (start.n,)):
-                raise ValueError('start is not a newton BatchResult as solve_batch made it (its '
-                                 'x, det_sign or ok arrays have the wrong shape)')
+                raise ValueError(
+                    'start must be a newton BatchResult of a solver of this '
+                    f'mechanism ({self.mech.name!r}, its reference geometry) with '
+                    f'knowns {self.knowns}; got one of {what}'
+                )
+            if not (
+                isinstance(start.x, np.ndarray)
+                and start.x.shape == (start.n, self.system.n)
+                and np.shape(start.det_sign) == (start.n,)
+                and np.shape(start.ok) == (start.n,)
+            ):
+                raise ValueError(
+                    'start is not a newton BatchResult as solve_batch made it (its '
+                    'x, det_sign or ok arrays have the wrong shape)'
+                )
         return BatchResult.solve(self, arrays, n or 0, start)
 
     def _batch_source(self) -> tuple:
@@ -845,8 +1051,11 @@ class Solver:
         src = self.__dict__.get('_source')
         if src is None:
             src = self._source = (
-                self.mech.name, tuple(self.knowns), tuple(self.system.free),
-                tuple((p, float(v[0]), float(v[1])) for p, v in self.mech.points.items()))
+                self.mech.name,
+                tuple(self.knowns),
+                tuple(self.system.free),
+                tuple((p, float(v[0]), float(v[1])) for p, v in self.mech.points.items()),
+            )
         return src
 
     @staticmethod
@@ -855,13 +1064,16 @@ class Solver:
         column for anything but real numbers (bool, str, complex and object columns too)."""
         a = np.asarray(v)
         if a.dtype.kind not in 'iuf':
-            raise ValueError(f'batch column {s.name!r} must hold real numbers ({s.unit}), got '
-                             f'an array of {a.dtype}')
+            raise ValueError(
+                f'batch column {s.name!r} must hold real numbers ({s.unit}), got '
+                f'an array of {a.dtype}'
+            )
         a = a.astype(float)
         if s.kind == 'point':
             if a.ndim == 0 or a.shape[-1] != 2 or a.ndim > 2:
-                raise ValueError(f'batch column {s.name!r} must have shape (n, 2) (x, y in m), '
-                                 f'got {a.shape}')
+                raise ValueError(
+                    f'batch column {s.name!r} must have shape (n, 2) (x, y in m), got {a.shape}'
+                )
             return a.reshape(-1, 2)
         if a.ndim > 1:
             raise ValueError(f'batch column {s.name!r} must have shape (n,), got {a.shape}')
@@ -876,15 +1088,16 @@ class BatchResult:
 
     x: np.ndarray | None = None
     det_sign: np.ndarray | None = None
-    careful: np.ndarray | None = None    # newton batches with start=: rows Solver.solve answered
+    careful: np.ndarray | None = None  # newton batches with start=: rows Solver.solve answered
     rows: list[Result] | None = None
 
     @classmethod
-    def solve(cls, solver: Solver, arrays: list[np.ndarray], n: int,
-              start: 'BatchResult | None' = None) -> 'BatchResult':
+    def solve(
+        cls, solver: Solver, arrays: list[np.ndarray], n: int, start: BatchResult | None = None
+    ) -> BatchResult:
         self = cls()
         self.n = n
-        self.values = arrays                 # the command columns, in solver.specs order
+        self.values = arrays  # the command columns, in solver.specs order
         self.source = solver._batch_source()
         finite = np.ones(n, bool)
         for a in arrays:
@@ -908,9 +1121,11 @@ class BatchResult:
         poses, pts, info = solver.plan.run(safe, n, solver._signs())
         ok = info['ok'] & finite & ~limit_bad
         for i in np.flatnonzero(~info['ok'] & finite & ~limit_bad):
-            self.reason[i] = solver._dyad_reason(int(info['failure'][i]), float(info['violation'][i]))
+            self.reason[i] = solver._dyad_reason(
+                int(info['failure'][i]), float(info['violation'][i])
+            )
         residual = cls._residuals(solver, poses, safe, ok, n)
-        far = ok & ~(residual <= solver.closure_limit)         # as Solver.solve: no false assembly
+        far = ok & ~(residual <= solver.closure_limit)  # as Solver.solve: no false assembly
         for i in np.flatnonzero(far):
             self.reason[i] = solver._closure_reason(float(residual[i]))
         ok &= ~far
@@ -928,14 +1143,27 @@ class BatchResult:
         mech = solver.mech
         self.points = {p: np.where(ok[:, None], v, 0.0) for p, v in pts.items()}
         have = set(poses.phi)
-        self.links = {l: np.where(ok, np.arctan2(np.sin(mech.links[l].angle_ref + poses.phi[l]),
-                                                 np.cos(mech.links[l].angle_ref + poses.phi[l])), 0.0)
-                      for l in mech.links if l in have}
+        self.links = {
+            l: np.where(
+                ok,
+                np.arctan2(
+                    np.sin(mech.links[l].angle_ref + poses.phi[l]),
+                    np.cos(mech.links[l].angle_ref + poses.phi[l]),
+                ),
+                0.0,
+            )
+            for l in mech.links
+            if l in have
+        }
         self.joints = {}
         for rj in mech.revolutes:
             if rj.parent in have and rj.child in have:
-                d = (mech.links[rj.child].angle_ref + poses.phi[rj.child]
-                     - mech.links[rj.parent].angle_ref - poses.phi[rj.parent])
+                d = (
+                    mech.links[rj.child].angle_ref
+                    + poses.phi[rj.child]
+                    - mech.links[rj.parent].angle_ref
+                    - poses.phi[rj.parent]
+                )
                 self.joints[rj.name] = np.where(ok, np.arctan2(np.sin(d), np.cos(d)), 0.0)
         for pj in mech.prismatics.values():
             if pj.guide in have and pj.slider in have:
@@ -974,12 +1202,19 @@ class BatchResult:
         det_sign = np.zeros(n, int)
         cond = np.full(n, np.inf)
         if len(eligible):
-            bs = system.solve_batch(start.x[eligible], [a[eligible] for a in safe],
-                                    start.det_sign[eligible], tol=solver.tol)
+            bs = system.solve_batch(
+                start.x[eligible],
+                [a[eligible] for a in safe],
+                start.det_sign[eligible],
+                tol=solver.tol,
+            )
             rows = eligible[bs.ok]
             x[rows], iterations[eligible] = bs.x[bs.ok], bs.iterations
-            residual[rows], det_sign[rows], cond[rows] = bs.residual[bs.ok], bs.det_sign[bs.ok], \
-                bs.cond[bs.ok]
+            residual[rows], det_sign[rows], cond[rows] = (
+                bs.residual[bs.ok],
+                bs.det_sign[bs.ok],
+                bs.cond[bs.ok],
+            )
             # Solver.solve checks the closed form can assemble unless the answer is provably on
             # its branch: well conditioned for its residual (Newton-Kantorovich) and the dyads on
             # the start's sides. A row that needs that check (or changed sides) goes there too.
@@ -998,10 +1233,16 @@ class BatchResult:
             accepted &= np.all(signs == np.asarray(plan.reference_signs, int), axis=1)
         self._fill(solver, poses, pts, arrays, safe, valid, accepted.copy())
         self.x, self.det_sign = x, np.where(self.ok, det_sign, 0)
-        self.signs, self.margin = np.where(self.ok[:, None], signs, 0), np.where(self.ok, margin, 0.0)
+        self.signs, self.margin = (
+            np.where(self.ok[:, None], signs, 0),
+            np.where(self.ok, margin, 0.0),
+        )
         self.iterations = np.where(self.ok, iterations, 0)
-        self.residual = np.where(self.ok, np.maximum(
-            residual, BatchResult._residuals(solver, poses, safe, self.ok, n)), 0.0)
+        self.residual = np.where(
+            self.ok,
+            np.maximum(residual, BatchResult._residuals(solver, poses, safe, self.ok, n)),
+            0.0,
+        )
         self.solver = solver.mode
         self.careful = valid & ~accepted
         careful = np.flatnonzero(self.careful)
@@ -1022,16 +1263,23 @@ class BatchResult:
         if start.ok[i]:
             xi = start.x[i]
             poses, pts = solver.check_system.configuration(xi)
-            vals = [np.array(a[i], float) if s.kind == 'point' else float(a[i])
-                    for s, a in zip(solver.specs, start.values)]
+            vals = [
+                np.array(a[i], float) if s.kind == 'point' else float(a[i])
+                for s, a in zip(solver.specs, start.values)
+            ]
             if solver.full_plan.complete:
                 signs, margins = branch_geometry_one(solver.full_plan, pts, poses)
             else:
                 signs, margins = solver.plan.reference_signs, ()
-            solver._history = [solver._state(vals, poses, pts, signs, int(start.det_sign[i]),
-                                             margins, x_all=xi.copy())]
-        cmd = {s.name: (arrays[k][i] if s.kind == 'point' else float(arrays[k][i]))
-               for k, s in enumerate(solver.specs)}
+            solver._history = [
+                solver._state(
+                    vals, poses, pts, signs, int(start.det_sign[i]), margins, x_all=xi.copy()
+                )
+            ]
+        cmd = {
+            s.name: (arrays[k][i] if s.kind == 'point' else float(arrays[k][i]))
+            for k, s in enumerate(solver.specs)
+        }
         return solver.solve(cmd)
 
     def _set_row(self, solver, i, r: Result, spent: int):
@@ -1040,8 +1288,7 @@ class BatchResult:
         if not r.success:
             self.det_sign[i] = 0
             return
-        for table, got in ((self.links, r.links), (self.joints, r.joints),
-                           (self.inputs, r.inputs)):
+        for table, got in ((self.links, r.links), (self.joints, r.joints), (self.inputs, r.inputs)):
             for name in table:
                 table[name][i] = got.get(name, 0.0)
         for p in self.points:
@@ -1067,12 +1314,20 @@ class BatchResult:
         for pj in mech.prismatics.values():
             x = poses.world(pj.slider, pj.point, mech)
             g = poses.apply(pj.guide, mech.points[pj.point])
-            nrm = dyads.rotate(np.broadcast_to(dyads.perp(np.asarray(pj.direction)), (n, 2)),
-                               poses.phi[pj.guide])
+            nrm = dyads.rotate(
+                np.broadcast_to(dyads.perp(np.asarray(pj.direction)), (n, 2)), poses.phi[pj.guide]
+            )
             worst = np.maximum(worst, np.abs(np.sum((x - g) * nrm, axis=-1)))
-            worst = np.maximum(worst, mech.length_scale * np.abs(
-                np.arctan2(np.sin(poses.phi[pj.slider] - poses.phi[pj.guide]),
-                           np.cos(poses.phi[pj.slider] - poses.phi[pj.guide]))))
+            worst = np.maximum(
+                worst,
+                mech.length_scale
+                * np.abs(
+                    np.arctan2(
+                        np.sin(poses.phi[pj.slider] - poses.phi[pj.guide]),
+                        np.cos(poses.phi[pj.slider] - poses.phi[pj.guide]),
+                    )
+                ),
+            )
         return np.where(ok, worst / mech.length_scale, 0.0)
 
     @staticmethod
@@ -1083,16 +1338,19 @@ class BatchResult:
             if self.reason[i] is not None:
                 rows.append(Result(False, self.reason[i]))
                 continue
-            cmd = {s.name: (arrays[k][i] if s.kind == 'point' else float(arrays[k][i]))
-                   for k, s in enumerate(solver.specs)}
+            cmd = {
+                s.name: (arrays[k][i] if s.kind == 'point' else float(arrays[k][i]))
+                for k, s in enumerate(solver.specs)
+            }
             rows.append(solver.solve(cmd))
             if rows[-1].success:
                 states[i] = solver._history[-1]
         self.ok = np.array([r.success for r in rows], bool)
         self.reason = [r.reason for r in rows]
         names_p = list(mech.points)
-        self.points = {p: np.array([r.points.get(p, (0.0, 0.0)) for r in rows]).reshape(n, 2)
-                       for p in names_p}
+        self.points = {
+            p: np.array([r.points.get(p, (0.0, 0.0)) for r in rows]).reshape(n, 2) for p in names_p
+        }
         self.links = {l: np.array([r.links.get(l, 0.0) for r in rows]) for l in mech.links}
         self.joints = {j: np.array([r.joints.get(j, 0.0) for r in rows]) for j in mech.joint_names}
         self.inputs = {a: np.array([r.inputs.get(a, 0.0) for r in rows]) for a in mech.actuators}
@@ -1102,13 +1360,20 @@ class BatchResult:
         self.signs = np.zeros((n, 0), int)
         self.solver = solver.mode
         self.rows = rows
-        if solver.mode == 'newton':          # what a later batch of these rows may start from
+        if solver.mode == 'newton':  # what a later batch of these rows may start from
             self.x, self.det_sign = np.zeros((n, solver.system.n)), np.zeros(n, int)
             for i in np.flatnonzero(self.ok):
                 self.x[i], self.det_sign[i] = states[i].x_all, states[i].det_sign
             k = len(solver.full_plan.branch_steps) if solver.full_plan.complete else 0
-            self.signs = np.array([[1 if c == '+' else -1 for c in r.branch] if r.success and
-                                   len(r.branch) == k else [0] * k for r in rows], int).reshape(n, k)
+            self.signs = np.array(
+                [
+                    [1 if c == '+' else -1 for c in r.branch]
+                    if r.success and len(r.branch) == k
+                    else [0] * k
+                    for r in rows
+                ],
+                int,
+            ).reshape(n, k)
         return self
 
     def row(self, i: int, solver: Solver) -> Result:
@@ -1117,32 +1382,40 @@ class BatchResult:
         if not self.ok[i]:
             return Result(False, self.reason[i], solver=self.solver)
         sg = tuple(int(s) for s in self.signs[i])
-        return Result(True, None,
-                      inputs={k: float(v[i]) for k, v in self.inputs.items()},
-                      joints={k: float(v[i]) for k, v in self.joints.items()},
-                      links={k: float(v[i]) for k, v in self.links.items()},
-                      points={k: (float(v[i, 0]), float(v[i, 1])) for k, v in self.points.items()},
-                      residual=float(self.residual[i]), iterations=int(self.iterations[i]),
-                      solver=self.solver, branch=_sign_str(sg), margin=float(self.margin[i]),
-                      branch_defined=(bool(branch_identity_defined(self.margin[i], self.residual[i]))
-                                      if sg else True))
+        return Result(
+            True,
+            None,
+            inputs={k: float(v[i]) for k, v in self.inputs.items()},
+            joints={k: float(v[i]) for k, v in self.joints.items()},
+            links={k: float(v[i]) for k, v in self.links.items()},
+            points={k: (float(v[i, 0]), float(v[i, 1])) for k, v in self.points.items()},
+            residual=float(self.residual[i]),
+            iterations=int(self.iterations[i]),
+            solver=self.solver,
+            branch=_sign_str(sg),
+            margin=float(self.margin[i]),
+            branch_defined=(
+                bool(branch_identity_defined(self.margin[i], self.residual[i])) if sg else True
+            ),
+        )
 
 
-def _same_link_points_hint(mech: Mechanism, knowns: Sequence[str],
-                           specs: Sequence[Spec]) -> str:
+def _same_link_points_hint(mech: Mechanism, knowns: Sequence[str], specs: Sequence[Spec]) -> str:
     """For one value too many: two known points on one link (the graphical method's 'move the
     bin by J and K') fix its pose, 3 values, not 4; say so, and give the knowns with the second
     point replaced by that link's angle."""
     points = [(k, s.point) for k, s in zip(knowns, specs) if s.kind == 'point']
     for i, (_, a) in enumerate(points):
-        for known_b, b in points[i + 1:]:
+        for known_b, b in points[i + 1 :]:
             shared = [l for l in mech.links_of_point(a) if b in mech.links[l].points]
             if shared:
                 link = shared[0]
                 better = [link if k == known_b else k for k in knowns]
-                return (f' (points {a!r} and {b!r} are both on link {link!r}: their distance '
-                        f'is fixed, so together they give its pose, 3 values, not 4; give one '
-                        f'of them and the link angle instead: knowns {better})')
+                return (
+                    f' (points {a!r} and {b!r} are both on link {link!r}: their distance '
+                    f'is fixed, so together they give its pose, 3 values, not 4; give one '
+                    f'of them and the link angle instead: knowns {better})'
+                )
     return ''
 
 
@@ -1154,8 +1427,9 @@ def _batch_poses(solver: Solver, x: np.ndarray) -> Poses:
     for l, i in system.index.items():
         phi = x[:, 3 * i]
         poses.phi[l] = phi
-        poses.T[l] = x[:, 3 * i + 1:3 * i + 3] - dyads.rotate(
-            np.broadcast_to(system.centroid[l], (n, 2)), phi)
+        poses.T[l] = x[:, 3 * i + 1 : 3 * i + 3] - dyads.rotate(
+            np.broadcast_to(system.centroid[l], (n, 2)), phi
+        )
     return poses
 
 
@@ -1185,8 +1459,9 @@ def _compile_assembly(solver: Solver, have: tuple[str, ...]):
     def wrapped(target: str, expr: str):
         """target = wrap_angle(expr), inlined (most angles are in range: no call at all)."""
         emit(f'a = {expr}')
-        emit(f'{target} = a if {const(-math.pi)} < a <= {const(math.pi)} else '
-             'atan2(sin(a), cos(a))')
+        emit(
+            f'{target} = a if {const(-math.pi)} < a <= {const(math.pi)} else atan2(sin(a), cos(a))'
+        )
 
     def world(link: str, p: complex) -> str:
         k = var[link]
@@ -1212,7 +1487,7 @@ def _compile_assembly(solver: Solver, have: tuple[str, ...]):
     emit('inputs = {}')
     commanded = {s.name: i for i, s in enumerate(solver.specs)}
     for a, s in zip(mech.actuators, solver.actuator_specs):
-        if a in commanded:                        # commanded: the value exactly as given
+        if a in commanded:  # commanded: the value exactly as given
             emit(f'inputs[{a!r}] = float(vals[{commanded[a]}])')
         elif all(l in placed for l in links_of(s)):
             emit(f'inputs[{a!r}] = float({spec_value(s)})')
@@ -1220,7 +1495,9 @@ def _compile_assembly(solver: Solver, have: tuple[str, ...]):
     for rj in mech.revolutes:
         if rj.parent in placed and rj.child in placed:
             offset = mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref
-            wrapped(f'joints[{rj.name!r}]', f'{const(offset)} + ph{var[rj.child]} - ph{var[rj.parent]}')
+            wrapped(
+                f'joints[{rj.name!r}]', f'{const(offset)} + ph{var[rj.child]} - ph{var[rj.parent]}'
+            )
     for pj in mech.prismatics.values():
         if pj.guide in placed and pj.slider in placed:
             emit(f'joints[{pj.name!r}] = float({spec_value(solver._slide_specs[pj.name])})')
@@ -1240,8 +1517,10 @@ def _compile_assembly(solver: Solver, have: tuple[str, ...]):
             g, sl = var[pj.guide], var[pj.slider]
             emit(f'off = {world(pj.slider, p)} - {world(pj.guide, p)}')
             emit(f'n = ro{g} * {const(1j * complex(*pj.direction))}')
-            emit(f'worst = max(worst, abs(off.real * n.real + off.imag * n.imag), '
-                 f'{const(L)} * abs(wrap_angle(ph{sl} - ph{g})))')
+            emit(
+                f'worst = max(worst, abs(off.real * n.real + off.imag * n.imag), '
+                f'{const(L)} * abs(wrap_angle(ph{sl} - ph{g})))'
+            )
     for i, s in enumerate(solver.specs):
         if not all(l in placed for l in links_of(s)):
             continue
@@ -1249,19 +1528,17 @@ def _compile_assembly(solver: Solver, have: tuple[str, ...]):
         emit(f'v = vals[{i}]')
         if s.kind == 'point':
             emit('worst = max(worst, abs(got[0] - v[0]), abs(got[1] - v[1]))')
-        elif s.kind == 'angle':                   # reduce v exactly first
+        elif s.kind == 'angle':  # reduce v exactly first
             emit(f'worst = max(worst, {const(L)} * abs(wrap_angle(got - wrap_angle(v))))')
         else:
             emit('worst = max(worst, abs(got - v))')
     emit(f'return inputs, joints, links, worst / {const(L)}')
     src = 'def assemble(phi, rot, T, vals):\n' + '\n'.join(lines) + '\n'
-    exec(compile(src, f'<result assembly of {mech.name}>', 'exec'), ns)
+    exec(compile(src, f'<result assembly of {mech.name}>', 'exec'), ns)  # noqa: S102 (to go: issue 15)
     fn = ns['assemble']
-    fn.source = src                      # the generated code, for debugging
+    fn.source = src  # the generated code, for debugging
     return fn
 
 
 def _sign_str(signs) -> str:
     return ''.join('+' if s > 0 else '-' for s in signs)
-
-
