@@ -1,0 +1,92 @@
+"""Benchmark the solvers: speed against accuracy, throughput, scipy and node latency.
+
+    linkage bench [--quick] [--write docs/BENCHMARKS.md] [--plot PNG] [--no-node] [--json FILE]
+
+One module per measurement: ``tradeoff`` (speed vs accuracy of each solver setting against the
+50-digit ``reference``), ``throughput`` (vectorised four-bar vs a numpy baseline, pruned outputs),
+``ros_latency`` (the node vs a bare rclpy relay), ``collect`` (one run and its targets),
+``report`` (the markdown, its prose and the plot: not library code) and ``command`` (the CLI).
+Speed claims are ratios measured in the same run.
+"""
+
+from __future__ import annotations
+
+from .collect import (  # noqa: F401
+    _cpu_seconds,
+    _hz,
+    _setting,
+    code_version,
+    collect,
+    evaluate_targets,
+    machine_info,
+)
+from .command import (  # noqa: F401
+    add_arguments,
+    main,
+    run,
+)
+from .reference import (  # noqa: F401
+    MpReference,
+    point_errors,
+    reference_points,
+)
+from .report import (  # noqa: F401
+    DEFAULT_INTRO,
+    _deep_queue_sentence,
+    _fmt_err,
+    _fmt_ms,
+    _fmt_us,
+    _met,
+    interpretation,
+    render_markdown,
+    save_plot,
+    write_report,
+)
+from .ros_latency import (  # noqa: F401
+    Driver,
+    _Link,
+    _Proc,
+    _ros_env,
+    bench_node,
+    relay_script,
+    sustained_rate,
+)
+from .settings import (  # noqa: F401
+    DEFAULT_DEPTH,
+    ERROR_FLOOR,
+    FULL,
+    MARKER,
+    NEWTON_TOLS,
+    QUICK,
+    REF_DPS,
+    SCENES,
+    SCIPY_XTOLS,
+    TARGET_LATENCY_MS,
+    TARGET_NEWTON_VS_SCIPY,
+    TARGET_RATE_HZ,
+    Sizes,
+    _log,
+)
+from .throughput import (  # noqa: F401
+    bench_outputs,
+    bench_throughput,
+    numpy_circle_baseline,
+)
+from .tradeoff import (  # noqa: F401
+    DirectStepper,
+    KernelStepper,
+    ScipyStepper,
+    SettingResult,
+    SolverStepper,
+    Stepper,
+    _direct,
+    _median_us,
+    _newton_batch,
+    _result_points,
+    batch_columns,
+    bench_scene,
+    load_scene,
+    run_interleaved,
+    sweep_inputs,
+    time_batches,
+)

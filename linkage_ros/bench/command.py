@@ -1,0 +1,103 @@
+"""``linkage bench``: arguments and the run."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from collections.abc import Sequence
+from pathlib import Path
+
+from .collect import collect
+from .report import _met, render_markdown, save_plot, write_report
+from .settings import FULL, QUICK, SCENES, _log
+
+# =============================================================================================
+# command line
+# =============================================================================================
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.description = (
+        'Benchmark the solver settings (speed vs accuracy against a 50-digit '
+        'reference), vectorised throughput, Newton vs scipy, and the node '
+        'latency vs a bare rclpy relay.'
+    )
+    parser.add_argument(
+        '--quick',
+        action='store_true',
+        help='tiny sizes (a smoke run of the machinery, < 20 s); numbers are not meaningful',
+    )
+    parser.add_argument(
+        '--write',
+        metavar='MD',
+        help='write the report below the marker line of this markdown file '
+        '(e.g. docs/BENCHMARKS.md) and the plot next to it',
+    )
+    parser.add_argument(
+        '--plot',
+        metavar='PNG',
+        help='error-vs-time plot (default with --write: bench_tradeoff.png next '
+        'to the markdown file)',
+    )
+    parser.add_argument(
+        '--no-node',
+        action='store_true',
+        help='skip the node latency / rate measurement (no ROS processes)',
+    )
+    parser.add_argument('--json', metavar='FILE', help='also dump the raw results as JSON')
+    parser.add_argument(
+        '--render',
+        metavar='JSON',
+        help='do not measure: render the report (and plot) from the --json dump of an earlier run',
+    )
+    parser.add_argument(
+        '--scenes',
+        default=','.join(SCENES),
+        help=f'comma-separated scenes (default {",".join(SCENES)})',
+    )
+
+
+def run(args) -> int:
+    sizes = QUICK if args.quick else FULL
+    scenes = [s.strip() for s in args.scenes.split(',') if s.strip()]
+    if args.render:
+        report = json.loads(Path(args.render).read_text())
+        command = report.get('command', 'linkage bench')
+    else:
+        report = collect(sizes, scenes, node=not args.no_node)
+        command = (
+            'linkage bench'
+            + (' --quick' if args.quick else '')
+            + (f' --write {args.write}' if args.write else '')
+            + (' --no-node' if args.no_node else '')
+        )
+        report['command'] = command
+    plot = (
+        Path(args.plot)
+        if args.plot
+        else (Path(args.write).parent / 'bench_tradeoff.png' if args.write else None)
+    )
+    plot_rel = None
+    if plot is not None:
+        save_plot(report, plot)
+        plot_rel = os.path.relpath(plot, Path(args.write).parent) if args.write else str(plot)
+    body = render_markdown(report, command, plot_rel)
+    if args.write:
+        write_report(Path(args.write), body)
+        _log(f'wrote {args.write}' + (f' and {plot}' if plot else ''))
+    else:
+        print(body)
+    if args.json:
+        Path(args.json).write_text(json.dumps(report, indent=1, default=float))
+    for t in report['targets']:
+        print(f'{_met(t["met"]).strip("*"):8} {t["target"]}: {t["measured"]}')
+    print(f'linkage bench: {report["seconds"]:.0f} s')
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m linkage_ros.bench ...``: the same as ``linkage bench ...``."""
+    from ..cli import standalone_main
+
+    return standalone_main('linkage bench', add_arguments, run, argv)
