@@ -1220,14 +1220,14 @@ def test_unwritable_output_folder_is_refused_before_any_work(tmp_path, scene, ca
     locked.mkdir()
     real_access = os.access
     monkeypatch.setattr(
-        bag.os,
+        os,
         'access',
         lambda p, mode, **k: (
             False if Path(p) == locked.resolve() and mode & os.W_OK else real_access(p, mode, **k)
         ),
     )
     reads = []
-    monkeypatch.setattr(bag, 'read_commands', lambda *a, **k: reads.append(a))
+    monkeypatch.setattr(bag.command, 'read_commands', lambda *a, **k: reads.append(a))
     common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
     for extra in (
         ['--out', locked / 'r.csv'],

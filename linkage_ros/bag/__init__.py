@@ -1,0 +1,153 @@
+"""Offline analysis of recorded commands: solve every command of a rosbag2 as the node would.
+
+    linkage bag INPUT --scene SCENE --command-topic TOPIC [--target-topic TOPIC]
+                      --out OUTPUT [--out OUTPUT2] [--out-format mcap|sqlite3]
+                      [--solver S] [--branch B] [--tol T] [--max-iter N]
+                      [--plot out.png] [--no-progress]
+
+INPUT is a rosbag2 folder (sqlite3 or MCAP storage) or a single ``.mcap`` / ``.db3`` file, read
+with the pure-Python ``rosbags`` library (no ROS installation needed). The command topic carries
+``sensor_msgs/msg/JointState`` naming the scene's actuators, exactly like the node's ``~/command``;
+the optional target topic carries ``JointState`` naming joints, links or actuators, exactly like
+the node's ``~/target`` (inverse kinematics). Both topics are merged in bag time order and solved
+in that order with the node's semantics (linkage_ros.node.Engine): the reference pose is the
+first good state, continuity (default branch ``continuous``) carries on from the last good
+state, a refused request changes nothing, and a target solver adopts the last good state.
+
+Outputs (``--out`` may be given twice):
+
+* ``*.csv``: one row per command, refused ones included (status ``error`` and the reason).
+  Columns: ``time`` (header stamp, s), ``receive_time`` (bag time, s), ``topic``,
+  ``input.<actuator>`` ..., ``joint.<joint>`` ..., ``<point>.x``, ``<point>.y`` (every point),
+  ``residual``, ``margin``, ``branch``, ``status``, ``reason``.
+* anything else: a new rosbag2 folder (MCAP unless ``--out-format sqlite3``) with
+  ``/joint_states`` (JointState, every joint), ``/points/<name>`` (PointStamped, per output point)
+  and ``/status`` (DiagnosticStatus, one per command: OK with residual, branch, margin, solver,
+  iterations; ERROR with the reason). Header stamps are the commands' (a zero stamp becomes the
+  bag receive time), frame_id is the scene's, and each message is logged at its command's bag time.
+
+Speed: a closed-form scene is solved in vectorised chunks (``Solver.solve_batch`` with the branch
+signs then current). A row is taken from the batch only when the node's continuity rule provably
+picks the same assembly mode for it, at every branching dyad: either the dyad is clear of its
+singularity now and in the previous good configuration (margin above core.plan's
+CONTINUITY_MARGIN, so the node keeps the sign), or the batch's solution is nearer than the other
+one to the node's prediction for every extrapolation ratio it may use (0 ... 1.5: the distance
+difference is linear in it) by a clear margin. The first row where neither holds (a branch change
+near a toggle) and a stretch after it are solved one by one by a continuous Solver whose history
+is made identical to the node's, then the batch resumes. Refused rows get the reason a single
+solve gives (the node's exact text). Newton and hybrid solvers go one command at a time.
+JointState messages are decoded with numpy, many at a time (messages of one layout share one
+parse); both rosbags' and rclpy's (recorded bags') CDR variants are read.
+
+Bad input (missing, not a bag, missing topic, wrong type, truncated or corrupt) is one clear
+message on stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+from .bag_out import (  # noqa: F401
+    _LEN,
+    _PAD,
+    _Cdr,
+    _cdr_str_block,
+    _float_blocks,
+    _joint_state_template,
+    _point_template,
+    _rows_bytes,
+    _stamped_rows,
+    _status_rows,
+    _StatusWriter,
+    write_bag,
+)
+from .command import (  # noqa: F401
+    BAG_EPILOG,
+    OK,
+    USAGE_ERROR,
+    _check_outputs,
+    _check_parent,
+    _resolved,
+    _run,
+    add_arguments,
+    main,
+    run,
+)
+from .common import (  # noqa: F401
+    DIAGNOSTIC_STATUS,
+    JOINT_STATE,
+    NODE_NAME,
+    POINT_STAMPED,
+    BagError,
+)
+from .csv_out import (  # noqa: F401
+    _KEEPW,
+    _LUT4,
+    _LUT4W,
+    _P10,
+    _SPLIT,
+    _TZ4,
+    _U4,
+    FLOAT_WIDTH,
+    _csv_field,
+    _digits17,
+    _exact_value,
+    _stamp_text,
+    _table,
+    _two_prod,
+    csv_header,
+    format_floats,
+    format_ints,
+    write_csv,
+)
+from .plot import (  # noqa: F401
+    _isolated,
+    _plot_format,
+    _series,
+    plot_figure,
+    plot_formats,
+    write_plot,
+)
+from .progress import (  # noqa: F401
+    _NUM,
+    _Progress,
+    _reason_class,
+    _summary,
+)
+from .reading import (  # noqa: F401
+    STORAGE_SUFFIXES,
+    Commands,
+    _AnyCase,
+    _exc_text,
+    _fmt_time,
+    _Layout,
+    _open_reader,
+    _parse_layout,
+    _reader_class,
+    command_shape_error,
+    decode_joint_states,
+    read_commands,
+)
+from .replay import (  # noqa: F401
+    CHUNK_MAX,
+    CHUNK_MIN,
+    CHUNK_START,
+    EASY_MARGIN,
+    MIN_BATCH,
+    NEAR_TANGENT,
+    SEQUENTIAL_STRETCH,
+    _adopted_signs,
+    _command,
+    _Context,
+    _continuity_margin,
+    _dist,
+    _Engine,
+    _Entry,
+    _finite_rows,
+    _signs_of,
+    _step_inputs,
+    _step_margin,
+    _wrap,
+    solve_commands,
+)
+from .results import (  # noqa: F401
+    Results,
+)

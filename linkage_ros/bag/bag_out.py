@@ -1,0 +1,294 @@
+"""Writing the results as a new rosbag2 (joint states, points, status)."""
+
+from __future__ import annotations
+
+import contextlib
+import shutil
+import struct
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .common import DIAGNOSTIC_STATUS, JOINT_STATE, NODE_NAME, POINT_STAMPED, BagError
+from .progress import _Progress
+from .reading import Commands, _exc_text
+from .results import Results
+
+# ---- writing: rosbag2 ----------------------------------------------------------------------
+
+
+class _Cdr:
+    """A little-endian CDR writer for the few fixed message shapes written here."""
+
+    def __init__(self):
+        self.buf = bytearray(b'\x00\x01\x00\x00')
+
+    def align(self, k):
+        self.buf += b'\x00' * ((-(len(self.buf) - 4)) % k)
+
+    def u8(self, v):
+        self.buf.append(v & 0xFF)
+
+    def u32(self, v):
+        self.align(4)
+        self.buf += struct.pack('<I', v)
+
+    def i32(self, v):
+        self.align(4)
+        self.buf += struct.pack('<i', v)
+
+    def string(self, s: str):
+        b = s.encode('utf-8')
+        self.u32(len(b) + 1)
+        self.buf += b + b'\x00'
+
+    def f64s(self, values) -> int:
+        self.align(8)
+        off = len(self.buf)
+        for v in values:
+            self.buf += struct.pack('<d', v)
+        return off
+
+    def header(self, frame_id):
+        self.i32(0)
+        self.u32(0)
+        self.string(frame_id)
+
+
+def _joint_state_template(names, frame_id):
+    c = _Cdr()
+    c.header(frame_id)
+    c.u32(len(names))
+    for nm in names:
+        c.string(nm)
+    c.u32(len(names))
+    off = c.f64s([0.0] * len(names)) if names else len(c.buf)
+    c.u32(0)
+    c.u32(0)
+    return np.frombuffer(bytes(c.buf), np.uint8), off
+
+
+def _point_template(frame_id):
+    c = _Cdr()
+    c.header(frame_id)
+    off = c.f64s([0.0, 0.0, 0.0])
+    return np.frombuffer(bytes(c.buf), np.uint8), off
+
+
+def _cdr_str_block(s: str) -> bytes:
+    """A CDR string starting at a 4-aligned offset, padded to the next 4-aligned offset."""
+    b = s.encode('utf-8')
+    k = len(b) + 1
+    return struct.pack('<I', k) + b + b'\x00' * (1 + (-k) % 4)
+
+
+_LEN = [struct.pack('<I', k + 1) for k in range(256)]
+_PAD = [b'\x00' * (1 + (-(k + 1)) % 4) for k in range(256)]
+
+
+def _float_blocks(values: list[float]) -> list[bytes]:
+    """CDR string blocks of repr(value) (what the node's status key-values hold)."""
+    out = []
+    for x in values:
+        b = repr(x).encode()
+        k = len(b)
+        out.append(_LEN[k] + b + _PAD[k])
+    return out
+
+
+class _StatusWriter:
+    """Serialises diagnostic_msgs/DiagnosticStatus as conversions.result_to_status builds it:
+    name '<node>: <scene>', hardware_id '', OK + 'ok' + residual, branch, branch_defined, margin,
+    solver, iterations[, cond], request; or ERROR + the reason + request."""
+
+    OK_LEVEL, ERROR_LEVEL = 0, 2
+
+    def __init__(self, name: str, hardware_id: str = ''):
+        self.name = _cdr_str_block(name)
+        self.hw = _cdr_str_block(hardware_id)
+        self.cache: dict[Any, bytes] = {}
+
+    def blk(self, s: str) -> bytes:
+        b = self.cache.get(s)
+        if b is None:
+            b = self.cache[s] = _cdr_str_block(s)
+        return b
+
+    def _head(self, level: int, message: str, count: int) -> bytes:
+        return b''.join(
+            [
+                b'\x00\x01\x00\x00',
+                bytes([level, 0, 0, 0]),
+                self.name,
+                self.blk(message),
+                self.hw,
+                struct.pack('<I', count),
+            ]
+        )
+
+    def ok_parts(
+        self, has_cond: bool, branch: str, bdef: bool, solver: str, iterations: int, request: str
+    ):
+        """The constant pieces of an OK status around the residual and margin (and cond)."""
+        key = (has_cond, branch, bdef, solver, iterations, request)
+        hit = self.cache.get(key)
+        if hit is None:
+            k = self.blk
+            head = self._head(self.OK_LEVEL, 'ok', 8 if has_cond else 7) + k('residual')
+            mid = b''.join(
+                [
+                    k('branch'),
+                    k(branch),
+                    k('branch_defined'),
+                    k('true' if bdef else 'false'),
+                    k('margin'),
+                ]
+            )
+            tail = b''.join([k('solver'), k(solver), k('iterations'), k(str(iterations))])
+            end = k('request') + k(request)
+            hit = self.cache[key] = (head, mid, tail + (k('cond') if has_cond else b''), end)
+        return hit
+
+    def error(self, reason: str, request: str) -> bytes:
+        return b''.join(
+            [self._head(self.ERROR_LEVEL, reason, 1), self.blk('request'), self.blk(request)]
+        )
+
+
+def write_bag(
+    path: Path,
+    data: Commands,
+    res: Results,
+    mech,
+    frame_id: str,
+    storage: str | None,
+    progress: _Progress | None = None,
+    status_name: str | None = None,
+    block: int = 100_000,
+):
+    """A new rosbag2 with /joint_states, /points/<name> and /status, one set per command, each
+    logged at its command's bag time, in the node's order (joint_states, points, status)."""
+    from rosbags.rosbag2 import Writer
+    from rosbags.rosbag2.enums import StoragePlugin
+    from rosbags.typesys import Stores, get_typestore
+
+    progress = progress or _Progress(False)
+    plugin = StoragePlugin.MCAP if (storage or 'mcap') == 'mcap' else StoragePlugin.SQLITE3
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    n = data.n
+    joints = list(mech.joint_names)
+    outputs = list(mech.outputs)
+    progress.start('writing', n)
+    # stamps: the command's, a zero stamp -> the bag receive time
+    zero = data.stamp_zero
+    sec = np.where(zero, data.log_ns // 10**9, data.sec).astype('<i4')
+    nsec = np.where(zero, data.log_ns % 10**9, data.nanosec).astype('<u4')
+    js_t, js_off = _joint_state_template(joints, frame_id)
+    pt_t, pt_off = _point_template(frame_id)
+    status = _StatusWriter(status_name if status_name is not None else f'{NODE_NAME}: {mech.name}')
+    requests = ['command', 'target']
+    try:
+        writer = Writer(path, version=9, storage_plugin=plugin)
+        writer.open()
+    except Exception as exc:  # noqa: BLE001
+        raise BagError(f'output {path}: cannot create the bag ({_exc_text(exc)})') from None
+    try:
+        c_js = writer.add_connection('/joint_states', JOINT_STATE, typestore=ts)
+        c_pts = [
+            writer.add_connection(f'/points/{p}', POINT_STAMPED, typestore=ts) for p in outputs
+        ]
+        c_st = writer.add_connection('/status', DIAGNOSTIC_STATUS, typestore=ts)
+        write = writer.write
+        for a in range(0, n, block):
+            b = min(n, a + block)
+            okr = a + np.flatnonzero(res.ok[a:b])
+            js = _stamped_rows(js_t, okr, sec, nsec)
+            if joints and okr.size:
+                vals = np.stack([res.joints[j][okr] for j in joints], axis=1).astype('<f8')
+                js[:, js_off : js_off + 8 * len(joints)] = vals.view(np.uint8).reshape(okr.size, -1)
+            js_rows = _rows_bytes(js)
+            pt_rows = []
+            for p in outputs:
+                arr = _stamped_rows(pt_t, okr, sec, nsec)
+                xyz = np.zeros((okr.size, 3), '<f8')
+                xyz[:, :2] = res.points[p][okr]
+                arr[:, pt_off : pt_off + 24] = xyz.view(np.uint8).reshape(okr.size, 24)
+                pt_rows.append(_rows_bytes(arr))
+            statuses = _status_rows(status, res, data.topic, requests, a, b, okr)
+            ok = res.ok[a:b].tolist()
+            log = data.log_ns[a:b].tolist()
+            j = 0
+            for i in range(b - a):
+                t = log[i]
+                if ok[i]:
+                    write(c_js, t, js_rows[j])
+                    for conn, rows in zip(c_pts, pt_rows):
+                        write(conn, t, rows[j])
+                    j += 1
+                write(c_st, t, statuses[i])
+            progress.update(b)
+        writer.close()
+    except BaseException as exc:
+        # the folder is this run's own (it did not exist before): a half-written bag without
+        # metadata is no result, and would only block the next run ('exists already')
+        with contextlib.suppress(Exception):
+            writer.abort()
+        shutil.rmtree(path, ignore_errors=True)
+        if isinstance(exc, (BagError, OSError)) or not isinstance(exc, Exception):
+            raise
+        # sqlite3 ('database or disk is full'), rosbags' WriterError, ...
+        raise BagError(
+            f'output {path}: cannot write the bag ({_exc_text(exc)}); nothing was kept'
+        ) from None
+    progress.finish()
+
+
+def _stamped_rows(template: np.ndarray, rows: np.ndarray, sec, nsec) -> np.ndarray:
+    """The message template once per row, with each row's header stamp."""
+    out = np.tile(template, (rows.size, 1))
+    out[:, 4:8] = sec[rows].view(np.uint8).reshape(rows.size, 4)
+    out[:, 8:12] = nsec[rows].view(np.uint8).reshape(rows.size, 4)
+    return out
+
+
+def _status_rows(status: _StatusWriter, res: Results, topic, requests, a, b, okr) -> list[bytes]:
+    """Serialised DiagnosticStatus of rows a..b-1 (okr: their successful rows)."""
+    res_blk = _float_blocks(res.residual[okr].tolist())
+    mar_blk = _float_blocks(res.margin[okr].tolist())
+    cond = res.cond[okr]
+    has_cond = ~np.isnan(cond)
+    cond_blk = _float_blocks(cond[has_cond].tolist()) if has_cond.any() else []
+    bcode, bnames = res.branch_code[okr].tolist(), res.branch_names
+    scode, snames = res.solver_code[okr].tolist(), res.solver_names
+    bdef = res.branch_defined[okr].tolist()
+    iters = res.iterations[okr].tolist()
+    hc = has_cond.tolist()
+    ok = res.ok[a:b].tolist()
+    tops = topic[a:b].tolist()
+    out: list[bytes] = []
+    j = c = 0
+    for i in range(b - a):
+        req = requests[tops[i]]
+        if ok[i]:
+            head, mid, tail, end = status.ok_parts(
+                hc[j], bnames[bcode[j]], bdef[j], snames[scode[j]], iters[j], req
+            )
+            if hc[j]:
+                out.append(b''.join([head, res_blk[j], mid, mar_blk[j], tail, cond_blk[c], end]))
+                c += 1
+            else:
+                out.append(b''.join([head, res_blk[j], mid, mar_blk[j], tail, end]))
+            j += 1
+        else:
+            out.append(status.error(res.reason[a + i] or 'failed', req))
+    return out
+
+
+def _rows_bytes(arr: np.ndarray) -> list[bytes]:
+    """The rows of a 2-D uint8 array as bytes objects."""
+    if not arr.shape[0]:
+        return []
+    width = arr.shape[1]
+    buf = arr.tobytes()
+    return [buf[k : k + width] for k in range(0, len(buf), width)]

@@ -1,0 +1,232 @@
+"""``linkage bag``: arguments, the checks made before any work, and the run."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+
+from ..core.errors import LinkageError
+from ..core.model import Scene
+from .bag_out import write_bag
+from .common import BagError
+from .csv_out import write_csv
+from .plot import _plot_format, write_plot
+from .progress import _Progress, _summary
+from .reading import _exc_text, read_commands
+from .replay import _Engine
+
+# ---- command line ------------------------------------------------------------------------------
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """The ``linkage bag`` options (the CLI registers this module as the ``bag`` subcommand)."""
+    parser.description = (
+        'Solve every command recorded in a rosbag2 the way the node would and '
+        'write a CSV and/or a result bag.'
+    )
+    parser.epilog = BAG_EPILOG
+    parser.add_argument(
+        'input',
+        metavar='INPUT',
+        help='rosbag2 folder (sqlite3 or mcap) or a single .mcap/.db3 file',
+    )
+    parser.add_argument('--scene', required=True, help='scene file or packaged scene name')
+    parser.add_argument(
+        '--command-topic',
+        required=True,
+        metavar='TOPIC',
+        help='sensor_msgs/msg/JointState commands naming the actuators',
+    )
+    parser.add_argument(
+        '--target-topic',
+        metavar='TOPIC',
+        default=None,
+        help='sensor_msgs/msg/JointState targets naming joints, links or '
+        "actuators (the node's ~/target: inverse kinematics)",
+    )
+    parser.add_argument(
+        '--out',
+        action='append',
+        required=True,
+        metavar='OUTPUT',
+        help='*.csv for a table, else a new rosbag2 folder; may be given twice',
+    )
+    parser.add_argument(
+        '--out-format',
+        choices=('mcap', 'sqlite3'),
+        default='mcap',
+        help='storage of an output bag (default mcap)',
+    )
+    parser.add_argument(
+        '--solver',
+        choices=('auto', 'closed_form', 'newton'),
+        default=None,
+        help="solver (default: the scene's)",
+    )
+    parser.add_argument(
+        '--branch',
+        default='continuous',
+        help="continuous (default, like the node), reference, or signs like '+-'",
+    )
+    parser.add_argument(
+        '--tol',
+        type=float,
+        default=1e-12,
+        help='Newton tolerance relative to the length scale (default 1e-12)',
+    )
+    parser.add_argument(
+        '--max-iter', type=int, default=50, help='Newton iteration cap (default 50)'
+    )
+    parser.add_argument(
+        '--plot',
+        metavar='PNG',
+        default=None,
+        help='write coupler-point traces and input/joint curves to this image '
+        '(format from the extension: png, svg, pdf, ...; PNG if none)',
+    )
+    parser.add_argument(
+        '--no-progress',
+        action='store_true',
+        help='no progress bar (it is shown only when stderr is a terminal)',
+    )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Stand-alone entry point: ``python -m linkage_ros.bag ...``."""
+    from ..cli import standalone_main
+
+    return standalone_main('linkage bag', add_arguments, run, argv)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Run ``linkage bag``; returns the exit status (0 done, 2 unusable input or options)."""
+    try:
+        return _run(args)
+    except (BagError, LinkageError) as exc:
+        print(f'linkage bag: error: {exc}', file=sys.stderr)
+        return USAGE_ERROR
+
+
+def _run(args) -> int:
+    from ..resources import scene_path
+
+    t_start = time.perf_counter()
+    scene = Scene.from_yaml(scene_path(args.scene))
+    mech = scene.mechanism
+    outs = _check_outputs(args.out, args.plot)
+    for opt, topic in (
+        ('--command-topic', args.command_topic),
+        ('--target-topic', args.target_topic),
+    ):
+        if topic is not None and not topic.strip():
+            raise BagError(
+                f'{opt}: empty topic name (leave the option out for no such topic)'
+                if opt == '--target-topic'
+                else f'{opt}: empty topic name'
+            )
+    if args.command_topic == args.target_topic:
+        raise BagError('--command-topic and --target-topic must be different topics')
+    if not (isinstance(args.tol, float) and math.isfinite(args.tol) and args.tol > 0):
+        raise BagError(f'--tol must be a positive number (got {args.tol!r})')
+    if args.max_iter < 1:
+        raise BagError(f'--max-iter must be >= 1 (got {args.max_iter})')
+    progress = _Progress(enabled=not args.no_progress and sys.stderr.isatty())
+
+    try:
+        engine = _Engine(mech, args.solver, args.tol, args.max_iter, args.branch)  # PlanError early
+        topics = [args.command_topic] + ([args.target_topic] if args.target_topic else [])
+        data = read_commands(args.input, topics, progress)
+        t_read = time.perf_counter()
+        res = engine.solve_all(data, progress)
+        t_solve = time.perf_counter()
+        for kind, path in outs:
+            try:
+                if kind == 'csv':
+                    write_csv(path, data, res, mech, progress)
+                else:
+                    write_bag(path, data, res, mech, scene.frame_id, args.out_format, progress)
+            except OSError as exc:
+                raise BagError(f'output {path}: cannot write ({exc.strerror or exc})') from None
+        if args.plot:
+            write_plot(args.plot, data, res, mech)
+        t_end = time.perf_counter()
+    finally:
+        progress.clear()  # an error message starts on a line of its own
+    _summary(data, res, outs, args.plot, t_start, t_read, t_solve, t_end)
+    return OK
+
+
+def _resolved(path: Path, what: str) -> Path:
+    """The absolute path with symlinks resolved; a symlink loop is a clear error."""
+    try:
+        return path.resolve()
+    except (RuntimeError, OSError) as exc:  # Python < 3.13: RuntimeError on a loop
+        raise BagError(f'{what}: cannot use this path ({_exc_text(exc)})') from None
+
+
+def _check_parent(path: Path, what: str) -> Path:
+    full = _resolved(path, what)
+    parent = full.parent
+    if not parent.is_dir():
+        raise BagError(
+            f'{what}: folder {parent} '
+            + ('is not a folder' if parent.exists() else 'does not exist')
+        )
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise BagError(f'{what}: folder {parent} is not writable (permission denied)')
+    return full
+
+
+def _check_outputs(outs: list[str], plot: str | None):
+    checked = []
+    for path in outs:
+        p = Path(path)
+        what = f'output {path}'
+        if p.suffix.lower() == '.csv':
+            kind = 'csv'
+            if p.is_dir():
+                raise BagError(f'{what}: is a directory')
+        else:
+            kind = 'bag'
+            if p.exists() or p.is_symlink():
+                raise BagError(
+                    f'{what}: exists already (an output bag must be a new folder; not overwriting)'
+                )
+        checked.append((kind, p, _check_parent(p, what)))
+    if len({str(full) for _, _, full in checked}) != len(checked):
+        raise BagError('the same --out path is given twice')
+    if plot is not None:
+        what = f'--plot {plot}'
+        full = _check_parent(Path(plot), what)
+        if full.is_dir():
+            raise BagError(f'{what}: is a directory')
+        if any(full == out for _, _, out in checked):
+            raise BagError(f'{what}: is also an --out path')
+        _plot_format(plot)
+    return [(kind, p) for kind, p, _ in checked]
+
+
+USAGE_ERROR, OK = 2, 0
+
+
+BAG_EPILOG = """\
+outputs:
+  OUTPUT.csv  one row per command (refused ones too): time (header stamp, s), receive_time
+              (bag time, s), topic, input.<actuator>..., joint.<joint>..., <point>.x,
+              <point>.y (every point), residual, margin, branch, status (ok/error), reason
+  OUTPUT      a new rosbag2 folder (--out-format mcap|sqlite3): /joint_states,
+              /points/<output point>, /status (one per command; ERROR with the reason)
+
+examples:
+  linkage bag run1 --scene four_bar --command-topic /linkage_node/command --out run1.csv
+  linkage bag run1.mcap --scene my.yaml --command-topic /cmd --target-topic /tgt \\
+      --out answers --out answers.csv --plot run1.png
+
+exit status: 0 done (refused commands are rows, not failures); 2 unusable input, output or
+options (missing file, not a bag, missing topic, wrong type, truncated or corrupt bag).
+"""

@@ -1,0 +1,106 @@
+"""The input/output plot of a replay."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from .common import BagError
+from .reading import Commands, _exc_text
+from .results import Results
+
+# ---- plot --------------------------------------------------------------------------------------
+
+
+def _isolated(ok: np.ndarray) -> np.ndarray:
+    """The ok samples without an ok neighbour: a line broken at the refused rows (NaN) has no
+    segment through them, so they need a marker of their own."""
+    prev = np.concatenate(([False], ok[:-1]))
+    after = np.concatenate((ok[1:], [False]))
+    return ok & ~prev & ~after
+
+
+def _series(ax, x, y, ok, **style):
+    """A line with gaps where not ok, plus a dot for every ok sample the line cannot show."""
+    (line,) = ax.plot(x, np.where(ok, y, np.nan), **style)
+    lone = _isolated(ok)
+    if lone.any():
+        ax.plot(x[lone], y[lone], '.', ms=6, color=line.get_color())
+
+
+def plot_figure(data: Commands, res: Results, mech, max_points: int = 20000):
+    """The matplotlib figure of :func:`write_plot` (the caller closes it)."""
+    import matplotlib
+
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    n = data.n
+    step = max(1, n // max_points)
+    idx = np.arange(0, n, step)
+    t = (data.log_ns[idx] - (data.log_ns[0] if n else 0)) * 1e-9
+    ok = res.ok[idx]
+    fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(13, 5.5))
+    outs = list(mech.outputs) or [p for p in mech.points][-1:]
+    for p in outs:
+        xy = res.points[p][idx]
+        _series(ax1, xy[:, 0], xy[:, 1], ok, ls='-', lw=1.0, label=p)
+    ax1.set_aspect('equal', adjustable='datalim')
+    ax1.set_xlabel('x (m)')
+    ax1.set_ylabel('y (m)')
+    ax1.set_title(f'{mech.name}: coupler point trace' + ('s' if len(outs) > 1 else ''))
+    if outs:
+        ax1.legend(loc='best', fontsize='small')
+    ax1.grid(True, alpha=0.3)
+    for a in mech.actuators:
+        _series(ax2, t, res.inputs[a][idx], ok, lw=1.6, label=f'input {a}')
+    for j in mech.joint_names:
+        _series(ax2, t, res.joints[j][idx], ok, lw=0.9, label=f'joint {j}')
+    bad = ~ok
+    if np.any(bad):
+        ax2.plot(t[bad], np.zeros(int(bad.sum())), 'rx', ms=4, label='refused')
+    ax2.set_xlabel('bag time (s)')
+    ax2.set_ylabel('rad / m')
+    ax2.set_title('inputs and joints')
+    ax2.legend(loc='best', fontsize='small', ncol=2)
+    ax2.grid(True, alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 20000):
+    """Coupler-point traces (x-y) and inputs/joints against time (refused rows are gaps; an
+    accepted row between two refused ones is a dot)."""
+    import matplotlib.pyplot as plt
+
+    fmt = _plot_format(str(path))  # the file named is the file written (no '.png' added)
+    fig = plot_figure(data, res, mech, max_points)
+    try:
+        fig.savefig(path, dpi=110, format=fmt)
+    except OSError as exc:
+        raise BagError(f'--plot {path}: {exc.strerror or exc}') from None
+    except Exception as exc:  # noqa: BLE001 - e.g. a format whose writer is missing (pgf: LaTeX)
+        raise BagError(f'--plot {path}: cannot write the image ({_exc_text(exc)})') from None
+    finally:
+        plt.close(fig)
+
+
+def plot_formats() -> list[str]:
+    """The image formats (file extensions) matplotlib can write."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    return sorted(FigureCanvasBase.get_supported_filetypes())
+
+
+def _plot_format(path: str) -> str:
+    """The image format of a --plot path: its extension, or PNG for a name without one."""
+    ext = Path(path).suffix.lower().lstrip('.')
+    if not ext:
+        return 'png'
+    formats = plot_formats()
+    if ext not in formats:
+        raise BagError(
+            f'--plot {path}: cannot write a .{ext} image (image formats: {", ".join(formats)})'
+        )
+    return ext

@@ -1,0 +1,379 @@
+"""Reading a rosbag2: the command topics, JointState decoding (many messages at a time) and
+the node's message-shape check."""
+
+from __future__ import annotations
+
+import contextlib
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .common import JOINT_STATE, BagError
+from .progress import _Progress
+
+# ---- reading -----------------------------------------------------------------------------------
+
+
+@dataclass
+class Commands:
+    """The recorded commands in bag time order (n rows)."""
+
+    source: str
+    topics: list[str]  # index 0: command topic, 1: target topic
+    topic: np.ndarray  # (n,) int8, index into topics
+    log_ns: np.ndarray  # (n,) int64 bag receive time
+    sec: np.ndarray  # (n,) int64 header stamp
+    nanosec: np.ndarray  # (n,) int64
+    key: np.ndarray  # (n,) int32 index into keys
+    keys: list[tuple[str, ...]]  # the names of each distinct message shape
+    npos: list[int]  # number of positions of each key
+    values: np.ndarray  # every row's positions, one after the other (float64)
+    start: np.ndarray  # (n + 1,) int64: row i's positions are values[start[i]:...]
+
+    @property
+    def n(self) -> int:
+        return int(self.topic.shape[0])
+
+    def positions(self, a: int, b: int) -> np.ndarray:
+        """(b - a, k) positions of rows a..b-1, which share one key (k positions each)."""
+        k = self.npos[int(self.key[a])] if b > a else 0
+        lo = int(self.start[a])
+        return self.values[lo : lo + (b - a) * k].reshape(b - a, k)
+
+    @property
+    def pos(self) -> np.ndarray:
+        """(n, kmax) positions, NaN padded (small data only: one malformed message with many
+        positions makes it as wide for every row)."""
+        counts = np.diff(self.start)
+        out = np.full((self.n, int(counts.max()) if self.n else 0), np.nan)
+        for i in range(self.n):
+            out[i, : counts[i]] = self.values[self.start[i] : self.start[i + 1]]
+        return out
+
+    @property
+    def stamp_zero(self) -> np.ndarray:
+        return (self.sec == 0) & (self.nanosec == 0)
+
+
+class _AnyCase(dict):
+    """rosbags' storage plugins by file extension, found in any case ('.MCAP' too)."""
+
+    def get(self, key, default=None):
+        return super().get(key if key == 'dir' else str(key).lower(), default)
+
+
+def _reader_class():
+    from rosbags.rosbag2 import Reader
+
+    class _Reader(Reader):
+        STORAGE_PLUGINS = _AnyCase(Reader.STORAGE_PLUGINS)
+
+    return _Reader
+
+
+STORAGE_SUFFIXES = ('.mcap', '.db3')
+
+
+def _open_reader(path: str):
+    Reader = _reader_class()
+    p = Path(path)
+    if not p.exists():
+        raise BagError(f'input {path}: no such file or folder')
+    if p.is_dir() and not (p / 'metadata.yaml').exists():
+        # a bag folder without metadata: fall back to its single storage file, if any
+        try:
+            files = sorted(
+                f for f in p.iterdir() if f.suffix.lower() in STORAGE_SUFFIXES and f.is_file()
+            )
+        except OSError as exc:
+            raise BagError(
+                f'input {path}: cannot list the folder ({exc.strerror or exc})'
+            ) from None
+        if len(files) == 1:
+            p = files[0]
+        else:
+            raise BagError(
+                f'input {path}: not a rosbag2 (a folder without metadata.yaml'
+                + (
+                    f' and with {len(files)} storage files'
+                    if files
+                    else ' and no .mcap or .db3 file'
+                )
+                + ')'
+            )
+    elif p.is_file() and p.suffix.lower() not in STORAGE_SUFFIXES:
+        raise BagError(
+            f'input {path}: not a rosbag2 (expected a bag folder, a .mcap or a .db3 file)'
+        )
+    try:
+        reader = Reader(p)
+        reader.open()
+    except Exception as exc:  # noqa: BLE001 - every rosbags/sqlite/OS failure is "unreadable"
+        raise BagError(
+            f'input {path}: cannot open the bag ({_exc_text(exc)}); it is truncated, '
+            f'corrupt or not a rosbag2'
+        ) from None
+    return reader
+
+
+def _exc_text(exc: BaseException) -> str:
+    text = ' '.join(str(exc).split()) or type(exc).__name__
+    return text if len(text) < 300 else text[:300] + '...'
+
+
+def read_commands(path: str, topics: list[str], progress: _Progress | None = None) -> Commands:
+    """Read the JointState messages of ``topics`` from a bag, in bag time order, decoded."""
+    progress = progress or _Progress(False)
+    reader = _open_reader(path)
+    try:
+        try:
+            available = {c.topic: c.msgtype for c in reader.connections}
+        except Exception as exc:  # noqa: BLE001
+            raise BagError(f'input {path}: cannot list topics ({_exc_text(exc)})') from None
+        conns = []
+        for topic in topics:
+            if topic not in available:
+                listing = ', '.join(f'{t} ({m})' for t, m in sorted(available.items())) or 'none'
+                raise BagError(
+                    f'input {path}: topic {topic} is not in the bag; topics in the bag: {listing}'
+                )
+            types = {c.msgtype for c in reader.connections if c.topic == topic}
+            if types != {JOINT_STATE}:
+                raise BagError(
+                    f'input {path}: topic {topic} has type '
+                    f'{", ".join(sorted(types))}; expected {JOINT_STATE}'
+                )
+            conns.append([c for c in reader.connections if c.topic == topic])
+        index = {c.id: k for k, group in enumerate(conns) for c in group}
+        total = sum(c.msgcount for group in conns for c in group)
+        progress.start('reading', total)
+        raws: list[bytes] = []
+        tops: list[int] = []
+        stamps: list[int] = []
+        try:
+            for i, (conn, t, raw) in enumerate(reader.messages([c for g in conns for c in g])):
+                raws.append(raw)
+                tops.append(index[conn.id])
+                stamps.append(t)
+                if not i & 0x3FFF:
+                    progress.update(i)
+        except BagError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - truncated chunk, corrupt database, ...
+            raise BagError(
+                f'input {path}: cannot read message {len(raws) + 1} '
+                f'({_exc_text(exc)}); the bag is truncated or corrupt'
+            ) from None
+        progress.finish()
+    finally:
+        with contextlib.suppress(Exception):
+            reader.close()
+    n = len(raws)
+    log_ns = np.array(stamps, np.int64)
+    order = np.argsort(log_ns, kind='stable')
+    if n and np.any(order != np.arange(n)):
+        raws = [raws[i] for i in order]
+        log_ns = log_ns[order]
+        tops = np.asarray(tops, np.int8)[order]
+    topic = np.asarray(tops, np.int8).reshape(n)
+    sec, nanosec, key, keys, npos, values, start = decode_joint_states(raws, topic, topics, log_ns)
+    return Commands(
+        str(path), list(topics), topic, log_ns, sec, nanosec, key, keys, npos, values, start
+    )
+
+
+# -- JointState CDR decoding (vectorised over messages of one layout) ------------------------------
+
+
+@dataclass
+class _Layout:
+    little: bool
+    names: tuple[str, ...]
+    sec_off: int
+    arrays: list[tuple[int, int]]  # (offset, count) of position, velocity, effort
+    structural: np.ndarray  # byte indices that must match for the same layout
+    end: int
+
+
+def _parse_layout(raw: bytes) -> _Layout:
+    """Parse one CDR-encoded JointState: where its stamp and numbers are. ValueError if bad."""
+    n = len(raw)
+    if n < 4 or raw[0] != 0 or raw[1] not in (0, 1):
+        raise ValueError('not a CDR-encoded message (bad encapsulation header)')
+    little = raw[1] == 1
+    e = '<' if little else '>'
+    struct_idx = [0, 1]
+    pos = 4
+
+    def need(k):
+        if pos + k > n:
+            raise ValueError(f'truncated message ({n} bytes, needs at least {pos + k})')
+
+    def align(k):
+        nonlocal pos
+        pos += (-(pos - 4)) % k
+
+    def u32():
+        nonlocal pos
+        align(4)
+        need(4)
+        v = struct.unpack_from(e + 'I', raw, pos)[0]
+        struct_idx.extend(range(pos, pos + 4))
+        pos += 4
+        return v
+
+    def string():
+        nonlocal pos
+        k = u32()
+        if k == 0:
+            return ''
+        need(k)
+        s = raw[pos : pos + k]
+        struct_idx.extend(range(pos, pos + k))
+        pos += k
+        return s.rstrip(b'\x00').decode('utf-8', errors='replace')
+
+    need(8)
+    sec_off = pos
+    pos += 8
+    string()  # frame_id
+    count = u32()
+    if count > n:
+        raise ValueError(f'implausible name count {count}')
+    names = tuple(string() for _ in range(count))
+    head_pos, head_idx = pos, list(struct_idx)
+    # float64[] position, velocity, effort: an empty sequence has no alignment padding (rosbags
+    # and Fast-CDR alike); rclpy-serialised messages (hence recorded bags) may end with up to a
+    # few bytes of slack from its size estimate. A serialiser that aligns empty sequences is
+    # tried second.
+    found = []
+    for align_empty in (False, True):
+        pos, struct_idx[:] = head_pos, head_idx
+        try:
+            arrays = []
+            for _ in range(3):
+                count = u32()
+                if count > n:
+                    raise ValueError(f'implausible array length {count}')
+                if count or align_empty:
+                    align(8)
+                need(8 * count)
+                arrays.append((pos, count))
+                pos += 8 * count
+        except ValueError as exc:
+            found.append(exc)
+            continue
+        if n - pos > 16:
+            found.append(ValueError(f'{n - pos} unexpected bytes after the message'))
+            continue
+        return _Layout(little, names, sec_off, arrays, np.asarray(struct_idx, np.intp), pos)
+    raise found[0]
+
+
+def decode_joint_states(
+    raws: list[bytes], topic: np.ndarray, topics: list[str], log_ns: np.ndarray
+):
+    """Stamps, name sets and positions of CDR JointState messages.
+
+    Messages of one byte length usually share one layout (same names, same frame_id): they are
+    decoded together as an (m, L) byte array; the layout is parsed once from the first of them
+    and checked on all (every structural byte equal), the rest get their own layout.
+    The positions of all rows are returned one after the other (values, with row i's from
+    start[i] to start[i + 1]): a malformed message with thousands of positions costs its own
+    size, not that width for every row.
+    """
+    n = len(raws)
+    sec = np.zeros(n, np.int64)
+    nanosec = np.zeros(n, np.int64)
+    key = np.zeros(n, np.int32)
+    keys: list[tuple[str, ...]] = []
+    npos: list[int] = []
+    key_of: dict[tuple, int] = {}
+    positions: list[tuple[np.ndarray, np.ndarray]] = []  # (rows, (m, k) values)
+    counts = np.zeros(n, np.int64)
+    if n == 0:
+        return sec, nanosec, key, keys, npos, np.zeros(0), np.zeros(1, np.int64)
+    lens = np.fromiter((len(r) for r in raws), np.int64, n)
+    order = np.argsort(lens, kind='stable')
+    bounds = np.flatnonzero(np.diff(lens[order])) + 1
+    for group in np.split(order, bounds):
+        length = int(lens[group[0]])
+        buf = np.frombuffer(b''.join([raws[i] for i in group]), np.uint8).reshape(
+            len(group), length
+        )
+        todo = np.arange(len(group))
+        while todo.size:
+            first = int(todo[0])
+            try:
+                lay = _parse_layout(raws[group[first]])
+            except (ValueError, UnicodeDecodeError) as exc:
+                g = int(group[first])
+                raise BagError(
+                    f'message {g + 1} on {topics[topic[g]]} (bag time '
+                    f'{_fmt_time(int(log_ns[g]))} s) is not a valid JointState: '
+                    f'{exc}; the bag is corrupt'
+                ) from None
+            sub = buf[todo]
+            same = np.all(sub[:, lay.structural] == buf[first, lay.structural], axis=1)
+            rows = todo[same]
+            todo = todo[~same]
+            block = buf[rows]
+            g_rows = group[rows]
+            e = '<' if lay.little else '>'
+            sec[g_rows] = np.ascontiguousarray(block[:, 4:8]).view(e + 'i4').ravel()
+            nanosec[g_rows] = np.ascontiguousarray(block[:, 8:12]).view(e + 'u4').ravel()
+            off, count = lay.arrays[0]
+            vals = (
+                np.ascontiguousarray(block[:, off : off + 8 * count])
+                .view(e + 'f8')
+                .reshape(len(rows), count)
+                .astype(float)
+                if count
+                else np.zeros((len(rows), 0))
+            )
+            k = (lay.names, count)
+            if k not in key_of:
+                key_of[k] = len(keys)
+                keys.append(lay.names)
+                npos.append(count)
+            key[g_rows] = key_of[k]
+            counts[g_rows] = count
+            positions.append((g_rows, vals))
+    start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    values = np.empty(int(start[-1]))
+    for rows, vals in positions:
+        if vals.shape[1]:
+            values[start[rows][:, None] + np.arange(vals.shape[1])] = vals
+    return sec, nanosec, key, keys, npos, values, start
+
+
+def _fmt_time(ns: int) -> str:
+    s, r = divmod(int(ns), 10**9)
+    return f'{s}.{r:09d}'
+
+
+# ---- command checks (the node's, message shape only) ----------------------------------------
+
+
+def command_shape_error(names: Sequence[str], npos: int) -> str | None:
+    """The node's message-shape check of a JointState command or target (conversions.py):
+    names and positions pair up, no empty or repeated name."""
+    names = list(names)
+    if not names and not npos:
+        return 'empty JointState: name and position are both empty'
+    if len(names) != npos:
+        return (
+            f'JointState has {len(names)} name(s) {names} but {npos} position(s); they must '
+            f'pair up one to one'
+        )
+    empty = [i for i, nm in enumerate(names) if not nm]
+    if empty:
+        return f'JointState name[{empty[0]}] is an empty string'
+    seen: set[str] = set()
+    dups = [nm for nm in names if nm in seen or seen.add(nm)]
+    if dups:
+        return f'JointState names {sorted(set(dups))} more than once'
+    return None

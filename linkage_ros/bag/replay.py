@@ -1,0 +1,591 @@
+"""Replay of the commands in bag order with the node's semantics, vectorised where provably
+identical."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.errors import LinkageError
+from ..core.solver import Solver, branch_identity_defined
+from ..stamps import stamp_error, stamp_valid
+from .progress import _Progress
+from .reading import Commands, command_shape_error
+from .results import Results
+
+
+class _Entry:
+    """One configuration in a solver's continuity history, as the node's solver holds it:
+    ('adopt', result) after switching solvers, or ('solve', command, signs) after a success."""
+
+    __slots__ = ('kind', 'cmd', 'signs', '_result', 'batch', 'i', 'solver')
+
+    def __init__(self, kind, *, cmd=None, signs=(), result=None, batch=None, i=0, solver=None):
+        self.kind, self.cmd, self.signs = kind, cmd, tuple(signs)
+        self._result, self.batch, self.i, self.solver = result, batch, i, solver
+
+    def result(self):
+        if self._result is None:
+            self._result = self.batch.row(self.i, self.solver)
+        return self._result
+
+    def point(self, p) -> np.ndarray:
+        if self._result is None and self.batch is not None:
+            return self.batch.points[p][self.i]
+        return np.asarray(self.result().points[p], float)
+
+    def link(self, l) -> float:
+        if self._result is None and self.batch is not None:
+            return float(self.batch.links[l][self.i])
+        return float(self.result().links[l])
+
+
+class _Context:
+    """One solver (one set of knowns) and its node-equivalent continuity history."""
+
+    def __init__(self, engine, knowns):
+        self.engine = engine
+        self.knowns = list(knowns)
+        self.solver = engine.make_solver(knowns, engine.branch)
+        self.hist: list[_Entry] = []
+        self.synced = True  # the solver's own history equals self.hist
+        self.seen_version: int | None = None  # the node's Engine._synced[key]
+        self._explicit: dict[tuple, Solver] = {}
+
+    def explicit(self, signs) -> Solver:
+        signs = tuple(signs)
+        s = self._explicit.get(signs)
+        if s is None:
+            s = self._explicit[signs] = self.engine.make_solver(
+                self.knowns, ''.join('+' if x > 0 else '-' for x in signs)
+            )
+        return s
+
+    def push(self, entry: _Entry):
+        """A success of this solver (the node: last = result, version += 1)."""
+        self.hist = (self.hist + [entry])[-2:]
+        eng = self.engine
+        eng.last = entry
+        eng.version += 1
+        self.seen_version = eng.version
+
+    def sync(self):
+        """Give the solver exactly the history the node's solver has (self.hist)."""
+        if self.synced:
+            return
+        S = self.solver
+        S.reset()
+        states = []
+        for e in self.hist:
+            if e.kind == 'adopt':
+                S.adopt(e.result())
+                states.append(S.snapshot()[-1])
+            else:
+                # the same command with the same branch signs gives the same state
+                sx = self.explicit(e.signs)
+                sx.reset()
+                sx.solve(e.cmd)
+                states.append(sx.snapshot()[-1])
+                sx.reset()
+        S.restore(states)
+        self.synced = True
+
+
+class _Engine:
+    """Solves the commands in order with the node's semantics (linkage_ros.node.Engine): one
+    continuous Solver for commands, one per set of target names (an LRU cache of 32), one shared
+    'last good state' that a solver adopts when another solver has succeeded since it was last
+    used, and the reference pose solved first as the initial good state."""
+
+    TARGET_CACHE = 32
+
+    def __init__(self, mech, method, tol, max_iter, branch):
+        self.mech, self.method, self.tol, self.max_iter = mech, method, tol, max_iter
+        self.branch = branch
+        self.version = 0
+        self.last: _Entry | None = None
+        # the command solver exists from the start (a bad --solver/--branch fails here)
+        self.forward = _Context(self, list(mech.actuators))
+        self.targets: dict[frozenset, _Context | str] = {}
+        # like the node: the reference pose is the first good state
+        S = self.forward.solver
+        reference = S.reference_values()
+        ref = S.solve(reference)
+        if ref.success:
+            self.forward.hist = [
+                _Entry('solve', cmd=reference, signs=_signs_of(ref.branch), result=ref)
+            ]
+            self.last = self.forward.hist[-1]
+        self.forward.seen_version = self.version
+
+    def make_solver(self, knowns, branch) -> Solver:
+        return Solver(
+            self.mech,
+            knowns=list(knowns),
+            method=self.method,
+            tol=self.tol,
+            max_iter=self.max_iter,
+            branch=branch,
+        )
+
+    def context_for(self, names) -> _Context | str:
+        """The node's Engine.solver_for: the forward solver for the actuator set, else one
+        cached solver per set of names (compiled in the order first seen), or why not."""
+        key = frozenset(names)
+        if key == frozenset(self.forward.knowns):
+            return self.forward
+        ctx = self.targets.get(key)
+        if ctx is None:
+            try:
+                ctx = _Context(self, list(names))
+            except LinkageError as exc:
+                ctx = str(exc)
+            self.targets[key] = ctx
+            while len(self.targets) > self.TARGET_CACHE:
+                self.targets.pop(next(iter(self.targets)))
+        else:
+            self.targets[key] = self.targets.pop(key)  # most recently used
+        return ctx
+
+    # -- driver ----------------------------------------------------------------------------------
+    def solve_all(self, data: Commands, progress: _Progress | None = None) -> Results:
+        progress = progress or _Progress(False)
+        n = data.n
+        self.res = res = Results.empty(self.mech, n)
+        self.progress = progress
+        self.done = 0
+        progress.start('solving', n)
+        if n:
+            # the node refuses a request whose stamp it cannot echo (negative, nanosec >= 1e9)
+            self.bad_stamp = ~stamp_valid(data.sec, data.nanosec)
+            change = (
+                np.flatnonzero(
+                    (data.topic[1:] != data.topic[:-1])
+                    | (data.key[1:] != data.key[:-1])
+                    | (self.bad_stamp[1:] != self.bad_stamp[:-1])
+                )
+                + 1
+            )
+            starts = np.concatenate([[0], change])
+            ends = np.concatenate([change, [n]])
+            for a, b in zip(starts.tolist(), ends.tolist()):
+                self._run(data, a, b)
+                self.done = b
+                progress.update(b)
+        progress.finish()
+        return res
+
+    def _refuse_all(self, a, b, reason):
+        for g in range(a, b):
+            self.res.reason[g] = reason
+
+    def _run(self, data: Commands, a: int, b: int):
+        """Rows a..b-1: one topic, one message shape (the same names in the same order), all
+        with valid stamps or all not."""
+        if self.bad_stamp[a]:  # node.py _answer: refused before solving
+            for g in range(a, b):
+                self.res.reason[g] = stamp_error(int(data.sec[g]), int(data.nanosec[g]))
+            return
+        k = int(data.key[a])
+        names, npos = data.keys[k], data.npos[k]
+        why = command_shape_error(names, npos)
+        if why:  # conversions.joint_state_to_command
+            self._refuse_all(a, b, why)
+            return
+        vals = data.positions(a, b)
+        columns = {nm: vals[:, j] for j, nm in enumerate(names)}
+        for nm, col in columns.items():
+            if nm in self.res.inputs:
+                self.res.inputs[nm][a:b] = col
+                self.res.input_given[nm][a:b] = True
+        ctx = self.forward if int(data.topic[a]) == 0 else self.context_for(names)
+        if isinstance(ctx, str):  # no solver for these target names
+            self._refuse_all(a, b, ctx)
+            return
+        S = ctx.solver
+        # the node's Engine._solve: adopt the last good state if another solver moved on
+        if (
+            ctx.seen_version != self.version
+            and self.last is not None
+            and S.adopt(self.last.result())
+        ):
+            ctx.hist = [_Entry('adopt', result=self.last.result(), signs=_adopted_signs(S))]
+            ctx.synced = True
+        ctx.seen_version = self.version
+        if set(columns) != set(ctx.knowns):
+            # wrong names: the solver's own message (it depends on the names only)
+            r = S.solve(_command(columns, 0), commit=False)
+            self._refuse_all(a, b, r.reason)
+            return
+        if S.mode == 'closed_form' and b - a >= MIN_BATCH:
+            self._vectorised(ctx, columns, a, b)
+        else:
+            self._sequential(ctx, columns, a, b, 0, b - a)
+
+    # -- one by one ------------------------------------------------------------------------------
+    def _sequential(self, ctx: _Context, columns, a, b, i0, i1):
+        ctx.sync()
+        S = ctx.solver
+        for i in range(i0, i1):
+            cmd = _command(columns, i)
+            r = S.solve(cmd)
+            self._store(a + i, r)
+            if r.success:
+                ctx.push(_Entry('solve', cmd=cmd, signs=_signs_of(r.branch), result=r))
+            if not i & 0xFF:
+                self.progress.update(self.done + i)
+        self.res.sequential += i1 - i0
+
+    def _store(self, g, r):
+        res = self.res
+        if not r.success:
+            res.reason[g] = r.reason
+            for nm, v in r.inputs.items():
+                if nm in res.inputs:
+                    res.inputs[nm][g] = v
+            return
+        res.ok[g] = True
+        res.residual[g] = r.residual
+        res.margin[g] = r.margin if r.margin is not None else np.nan
+        res.branch_code[g] = res.branch_code_of(r.branch)
+        res.branch_defined[g] = r.branch_defined
+        res.iterations[g] = r.iterations
+        res.cond[g] = r.cond if r.cond is not None else np.nan
+        res.solver_code[g] = res.solver_code_of(r.solver)
+        for nm, v in r.inputs.items():
+            if nm in res.inputs:
+                res.inputs[nm][g] = v
+        for nm, v in r.joints.items():
+            res.joints[nm][g] = v
+        for nm, v in r.points.items():
+            res.points[nm][g] = v
+
+    # -- vectorised ------------------------------------------------------------------------------
+    def _vectorised(self, ctx: _Context, columns, a, b):
+        S = ctx.solver
+        m = b - a
+        continuous = (
+            S.branch_mode == 'continuous'
+            if hasattr(S, 'branch_mode')
+            else self.branch == 'continuous'
+        )
+        pos = 0
+        chunk = CHUNK_START
+        stretch = SEQUENTIAL_STRETCH // 2
+        while pos < m:
+            if continuous and not ctx.hist:
+                # the very first configuration: the reference assembly mode, no prediction
+                self._sequential(ctx, columns, a, b, pos, pos + 1)
+                pos += 1
+                continue
+            end = min(m, pos + chunk)
+            cols = {nm: c[pos:end] for nm, c in columns.items()}
+            if continuous:
+                signs0 = ctx.hist[-1].signs
+                solver = ctx.explicit(signs0)
+            else:
+                solver = S
+                signs0 = None
+            B = solver.solve_batch(cols)
+            take = self._easy_prefix(ctx, solver, B, cols, end - pos) if continuous else end - pos
+            # next to a tangency the batched and single dyad formulas may disagree on closing
+            near = np.flatnonzero(
+                np.asarray(B.ok[:take]) & (np.asarray(B.margin[:take]) < NEAR_TANGENT)
+            )
+            if near.size:
+                take = int(near[0])
+            if take:
+                take = self._accept(ctx, solver, B, cols, a + pos, take)
+                pos += take
+            if pos < end:
+                # a row the batch cannot vouch for: one by one for a while; when batches keep
+                # breaking at once (jumpy commands), back off to longer one-by-one stretches
+                stretch = SEQUENTIAL_STRETCH if take >= 64 else min(2 * stretch, 4096)
+                stop = min(m, pos + stretch)
+                self._sequential(ctx, columns, a, b, pos, stop)
+                pos = stop
+                chunk = max(CHUNK_MIN, min(chunk, 4 * take))
+            else:
+                stretch = SEQUENTIAL_STRETCH // 2
+                chunk = min(CHUNK_MAX, chunk * 4)
+            self.progress.update(self.done + pos)
+
+    def _accept(self, ctx, solver, B, cols, g0, take) -> int:
+        """Copy the first ``take`` batch rows into the results; returns how many were taken
+        (fewer if a single solve accepts a command the batch refused: from there on the rows
+        go one by one)."""
+        res = self.res
+        # refused rows: the node's exact reason (the same solve, with the same branch choices)
+        reasons = {}
+        cache: dict[bytes, str] = {}
+        finite = _finite_rows({nm: c[:take] for nm, c in cols.items()}, take)
+        for i in np.flatnonzero(~B.ok[:take]).tolist():
+            keyb = None
+            if not finite[i]:
+                keyb = b''.join(np.asarray(c[i], float).tobytes() for c in cols.values())
+                if keyb in cache:
+                    reasons[i] = cache[keyb]
+                    continue
+            r = solver.solve(_command(cols, i), commit=False)
+            if r.success:  # a tangency the batch refused: leave it to Solver
+                take = i
+                break
+            reasons[i] = r.reason
+            if keyb is not None:
+                cache[keyb] = r.reason
+        if not take:
+            return 0
+        sl = slice(g0, g0 + take)
+        ok = B.ok[:take]
+        okr = np.flatnonzero(ok)
+        for i, why in reasons.items():
+            if i < take:
+                res.reason[g0 + i] = why
+        res.ok[sl] = ok
+        res.residual[sl] = np.where(ok, B.residual[:take], np.nan)
+        res.margin[sl] = np.where(ok, B.margin[:take], np.nan)
+        res.iterations[sl] = 0
+        nsg = B.signs.shape[1]
+        if nsg:
+            res.branch_defined[sl] = np.where(
+                ok, branch_identity_defined(B.margin[:take], B.residual[:take]), True
+            )
+            sg = np.asarray(B.signs[:take]) > 0
+            keyv = sg.astype(np.int64) @ (np.int64(1) << np.arange(nsg, dtype=np.int64))
+            uniq, first, inv = np.unique(keyv, return_index=True, return_inverse=True)
+            table = np.array(
+                [
+                    res.branch_code_of(''.join('+' if x else '-' for x in sg[f]))
+                    for f in first.tolist()
+                ],
+                np.int32,
+            )
+            res.branch_code[sl] = np.where(ok, table[inv.reshape(-1)], 0)
+        else:
+            res.branch_code[sl] = np.where(ok, res.branch_code_of(''), 0)
+        res.solver_code[sl] = np.where(ok, res.solver_code_of(B.solver), 0)
+        for nm, arr in B.inputs.items():
+            if nm in res.inputs:
+                res.inputs[nm][sl] = np.where(ok, arr[:take], res.inputs[nm][sl])
+        for nm, arr in B.joints.items():
+            res.joints[nm][sl] = np.where(ok, arr[:take], np.nan)
+        for nm, arr in B.points.items():
+            if nm in res.points:
+                res.points[nm][sl] = np.where(ok[:, None], arr[:take], np.nan)
+        # the last two successes become the node's history
+        if okr.size:
+            self.version += okr.size - min(okr.size, 2)
+            for i in okr[-2:].tolist():
+                ctx.push(
+                    _Entry(
+                        'solve',
+                        cmd=_command(cols, i),
+                        signs=tuple(B.signs[i]),
+                        batch=B,
+                        i=i,
+                        solver=solver,
+                    )
+                )
+            ctx.synced = False
+        res.batched += take
+        return take
+
+    def _easy_prefix(self, ctx: _Context, solver: Solver, B, cols, m) -> int:
+        """How many leading batch rows the node's continuity rule provably solves the same way."""
+        plan = solver.plan
+        bsteps = plan.branch_steps
+        if not bsteps:
+            return m
+        mech = self.mech
+        signs0 = list(ctx.hist[-1].signs)
+        finite = _finite_rows(cols, m)
+        safe = []
+        for s in solver.specs:
+            v = np.asarray(cols[s.name], float)
+            v = v.reshape(m, 2) if s.kind == 'point' else v.reshape(m)
+            safe.append(np.where(np.isfinite(v), v, 0.0))
+        okb = np.asarray(B.ok[:m], bool)
+        okr = np.flatnonzero(okb)
+        step_index = {id(st): k for k, st in enumerate(plan.steps)}
+        # the configuration the batch chose (signs0) at each branching step: the batch rows,
+        # plus a run for refused rows that still reach some branching step
+        reached = {k: okb.copy() for k in range(len(bsteps))}
+        names, guides = _step_inputs(mech, bsteps)
+        rowpts = {p: np.array(B.points[p][:m], float) for p in names}
+        rowphi = {g: np.asarray(B.links[g][:m], float) - mech.links[g].angle_ref for g in guides}
+        fin_fail = np.flatnonzero(~okb & finite)
+        if fin_fail.size:
+            poses_f, pts_f, info_f = plan.run([v[fin_fail] for v in safe], fin_fail.size, signs0)
+            for k, st in enumerate(bsteps):
+                reached[k][fin_fail] = info_f['ok'] | (info_f['failure'] > step_index[id(st)])
+            for p in names:
+                if p in pts_f:
+                    rowpts[p][fin_fail] = pts_f[p]
+            for g in guides:
+                if g in poses_f.phi:
+                    rowphi[g][fin_fail] = poses_f.phi[g]
+        # the previous good configurations of every row: the history, then the batch's ok rows
+        seqpts = {
+            p: np.concatenate(
+                [np.array([e.point(p) for e in ctx.hist]).reshape(-1, 2), rowpts[p][okr]]
+            )
+            for p in names
+        }
+        seqphi = {
+            g: np.concatenate(
+                [np.array([e.link(g) - mech.links[g].angle_ref for e in ctx.hist]), rowphi[g][okr]]
+            )
+            for g in guides
+        }
+        nh = len(ctx.hist)
+        last_idx = nh + (np.cumsum(okb) - okb) - 1  # into hist + ok batch rows
+        prev_idx = last_idx - 1
+        has_last = last_idx >= 0
+        has_prev = prev_idx >= 0
+        li = np.maximum(last_idx, 0)
+        pi = np.maximum(prev_idx, 0)
+        eps = EASY_MARGIN * mech.length_scale
+        gate = _continuity_margin()
+        easy = np.ones(m, bool)
+        for k, st in enumerate(bsteps):
+            need = reached[k] & has_last
+            if not np.any(need):
+                continue
+            if gate is not None:
+                # the node keeps the previous sign where the dyad is clear of its singularity
+                # now and in the previous configuration (core.plan.CONTINUITY_MARGIN)
+                m_now = _step_margin(mech, st, rowpts, rowphi)
+                m_seq = _step_margin(mech, st, seqpts, seqphi)
+                keep = (m_now > gate + 1e-9) & (m_seq[li] > gate + 1e-9)
+                need &= ~keep
+                if not np.any(need):
+                    continue
+            flipped = list(signs0)
+            flipped[k] = -flipped[k]
+            poses1, pts1, _ = plan.run(safe, m, flipped)
+            if st.op == 'line_through':
+                gl = mech.prismatics[st.args[0]].guide
+                phs = rowphi[gl]
+                last = seqphi[gl][li]
+                ds = np.abs(_wrap(phs - last))
+                do = np.abs(_wrap(poses1.phi[gl] - last))
+                good = do - ds > EASY_MARGIN
+            else:
+                x = st.point
+                xs, xo = rowpts[x], pts1[x]
+                L, P = seqpts[x][li], seqpts[x][pi]
+                good = _dist(xo, L) - _dist(xs, L) > eps
+                T = L + 1.5 * (L - P)
+                good &= ~has_prev | (_dist(xo, T) - _dist(xs, T) > eps)
+            easy &= ~need | good
+        easy |= ~finite
+        # refused on an input limit: the node checks limits before any branch choice
+        limited = [
+            (k, s)
+            for k, s in enumerate(solver.specs)
+            if s.kind != 'point' and (s.minimum is not None or s.maximum is not None)
+        ]
+        if limited:
+            for i in np.flatnonzero(~easy & ~okb).tolist():
+                if any(solver.limit_violation(s, float(safe[k][i])) for k, s in limited):
+                    easy[i] = True
+        bad = np.flatnonzero(~easy)
+        return int(bad[0]) if bad.size else m
+
+
+def _continuity_margin() -> float | None:
+    """The dyad margin above which the core's continuity keeps the previous branch sign."""
+    try:
+        from ..core.plan import CONTINUITY_MARGIN
+
+        return float(CONTINUITY_MARGIN)
+    except ImportError:
+        return None
+
+
+def _step_inputs(mech, bsteps):
+    """The points and guide links whose positions decide each branching step."""
+    names, guides = [], []
+    for st in bsteps:
+        pts = [st.point, st.args[1]] + ([st.args[3]] if st.op == 'circle_circle' else [])
+        names += [p for p in pts if p not in names]
+        if st.op != 'circle_circle':
+            g = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]].guide
+            if g not in guides:
+                guides.append(g)
+    return names, guides
+
+
+def _step_margin(mech, st, pts, phi) -> np.ndarray:
+    """Margin of one branching dyad (|sin| of its transmission angle, 0 at the singularity),
+    read off positions as core.plan.branch_geometry_one does, vectorised."""
+    x = pts[st.point]
+    if st.op == 'circle_circle':
+        va, vb = x - pts[st.args[1]], x - pts[st.args[3]]
+        den = np.hypot(va[:, 0], va[:, 1]) * np.hypot(vb[:, 0], vb[:, 1])
+        num = np.abs(va[:, 0] * vb[:, 1] - va[:, 1] * vb[:, 0])
+    else:
+        pj = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
+        ang = phi[pj.guide]
+        c, s = np.cos(ang), np.sin(ang)
+        ux = c * pj.direction[0] - s * pj.direction[1]
+        uy = s * pj.direction[0] + c * pj.direction[1]
+        v = x - pts[st.args[1]]
+        den = np.hypot(v[:, 0], v[:, 1])
+        num = np.abs(v[:, 0] * ux + v[:, 1] * uy)
+    with np.errstate(invalid='ignore', divide='ignore'):
+        return np.clip(np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0), 0.0, 1.0)
+
+
+def _command(columns, i) -> dict:
+    out = {}
+    for nm, c in columns.items():
+        v = c[i]
+        out[nm] = (float(v[0]), float(v[1])) if np.ndim(v) else float(v)
+    return out
+
+
+def _finite_rows(cols, m) -> np.ndarray:
+    f = np.ones(m, bool)
+    for c in cols.values():
+        f &= np.all(np.isfinite(np.asarray(c, float).reshape(m, -1)), axis=1)
+    return f
+
+
+def _adopted_signs(S: Solver) -> tuple[int, ...]:
+    """The branch signs a solver holds after adopt() (its plan's signs of that pose)."""
+    return S.current_signs
+
+
+def _signs_of(branch: str) -> tuple[int, ...]:
+    return tuple(1 if c == '+' else -1 for c in branch)
+
+
+def _wrap(a):
+    return np.arctan2(np.sin(a), np.cos(a))
+
+
+def _dist(a, b):
+    d = a - b
+    return np.hypot(d[:, 0], d[:, 1])
+
+
+def solve_commands(
+    mech, data: Commands, method=None, tol=1e-12, max_iter=50, branch='continuous'
+) -> Results:
+    """Solve decoded commands in order as the node would (library entry point)."""
+    return _Engine(mech, method, tol, max_iter, branch).solve_all(data)
+
+
+CHUNK_MIN, CHUNK_START, CHUNK_MAX = 256, 8192, 65536
+
+
+SEQUENTIAL_STRETCH = 16
+
+
+EASY_MARGIN = 1e-9
+
+
+MIN_BATCH = 32
+
+
+NEAR_TANGENT = 1e-6
