@@ -17,6 +17,7 @@ import pytest
 from linkage_ros.core import dyads
 from linkage_ros.core.errors import PlanError, SceneError
 from linkage_ros.core.model import Scene
+from linkage_ros.core.ops import SCALAR
 from linkage_ros.core.solver import Result, Solver
 
 EPS = 2.0**-52
@@ -276,38 +277,39 @@ def test_line_through_point_matches_mpmath(scale, sign):
         assert float(np.dot(d, x - p)) * sign > 0
 
 
-def test_scalar_pair_forms_agree_with_batched_forms():
-    """The complex-number fast path (one command at a time) and the batched numpy forms are the
-    same formulas: they agree to a few ulps, both signs, and agree on ok/violation."""
+def test_one_command_backend_agrees_with_the_batch_backend():
+    """Each dyad kernel is written once (core.dyads, on core.ops backends); run on Python
+    numbers (one command) and on numpy arrays (a batch) it agrees to a few ulps, both signs, and
+    on ok/violation."""
     rng = np.random.default_rng(23)
     for scale in SCALES:
         for c1, r1, c2, r2 in _rrr_cases(rng, scale, 15):
-            foot, hv, m, ok, viol = dyads.circle_circle_pair(complex(*c1), r1, complex(*c2), r2)
+            pair = dyads.solve_rrr_dyad(SCALAR, complex(*c1), r1, complex(*c2), r2)
             for s in (1, -1):
                 X, mb, okb, vb = dyads.circle_circle(c1, r1, c2, r2, s)[:4]
-                z = foot + s * hv
+                z, ok = dyads.dyad_point(SCALAR, pair, s)
                 assert abs(z - complex(*X)) <= 8 * EPS * scale / float(mb)
-            assert ok == bool(okb) and abs(m - float(mb)) <= 1e-14
+            assert ok == bool(okb) and abs(pair.margin - float(mb)) <= 1e-14
         # a miss
-        foot, hv, m, ok, viol = dyads.circle_circle_pair(0j, 1.0 * scale, 3.0 * scale, 1.0 * scale)
+        pair = dyads.solve_rrr_dyad(SCALAR, 0j, 1.0 * scale, 3.0 * scale, 1.0 * scale)
         vb = dyads.circle_circle((0, 0), 1.0 * scale, (3.0 * scale, 0), 1.0 * scale, 1)[3]
-        assert not ok and viol == pytest.approx(float(vb), rel=1e-12)
+        assert not pair.ok and pair.violation == pytest.approx(float(vb), rel=1e-12)
         # circle-line
         c = complex(0.2, -0.1) * scale
         u = cmath.exp(0.4j)
         p0 = c + 0.3 * scale * 1j * u
-        foot, kv, m, ok, viol = dyads.circle_line_pair(c, 0.8 * scale, p0, u)
+        pair = dyads.solve_rrp_dyad(SCALAR, c, 0.8 * scale, p0, u)
         for s in (1, -1):
             X = dyads.circle_line(
                 (c.real, c.imag), 0.8 * scale, (p0.real, p0.imag), (u.real, u.imag), s
             )[0]
-            assert abs(foot + s * kv - complex(*X)) <= 8 * EPS * scale
+            assert abs(dyads.dyad_point(SCALAR, pair, s)[0] - complex(*X)) <= 8 * EPS * scale
         # line through a point
         p, x, e = complex(0.1, 0.2) * scale, complex(1.1, -0.4) * scale, 0.3 * scale
-        beta, along, m, ok, viol = dyads.line_through_pair(p, x, e)
+        dy = dyads.solve_rpr_dyad(SCALAR, p, x, e)
         for s in (1, -1):
             psi = dyads.line_through_point((p.real, p.imag), (x.real, x.imag), e, s)[0]
-            assert orc.angle_error(beta - math.atan2(e, s * along), float(psi)) <= 1e-15
+            assert orc.angle_error(dyads.rpr_direction(SCALAR, dy, s), float(psi)) <= 1e-15
 
 
 # =============================================================================================
@@ -936,11 +938,12 @@ def _knowns_sets(mech):
 
 
 @pytest.mark.parametrize('scene', SHIPPED)
-def test_generated_scalar_code_agrees_with_the_batched_plan(scene):
-    """The scalar path is code generated per plan (the node's hot path); the batched path is
-    numpy over the same plan, written independently. For every knowns set a shipped scene
-    admits in closed form, with all outputs and pruned to one: they agree on success, points,
-    joints, links and inputs to 1e-12 of the length scale, and both close their loops."""
+def test_one_command_and_batch_backends_agree(scene):
+    """The plan executor and the result assembly are written once and run on two backends
+    (core.ops: Python numbers for one command, numpy arrays for a batch). For every knowns set a
+    shipped scene admits in closed form, with all outputs and pruned to one: they agree on
+    success, points, joints, links and inputs to 1e-12 of the length scale, and both close
+    their loops."""
     mech = Scene.from_yaml(f'config/{scene}.yaml').mechanism
     L = mech.length_scale
     rng = np.random.default_rng(7)

@@ -495,7 +495,7 @@ class _Engine:
 def _continuity_margin() -> float | None:
     """The dyad margin above which the core's continuity keeps the previous branch sign."""
     try:
-        from ..core.plan import CONTINUITY_MARGIN
+        from ..core.execute import CONTINUITY_MARGIN
 
         return float(CONTINUITY_MARGIN)
     except ImportError:

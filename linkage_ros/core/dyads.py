@@ -13,10 +13,11 @@ the dyad's own length scale so results are scale-invariant.
 
 from __future__ import annotations
 
-import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
+
+from .ops import BATCH, SCALAR, to_complex, to_xy
 
 #: Relative tolerance (of the dyad's length scale) within which a tangency still assembles.
 TANGENCY_TOL = 1e-12
@@ -39,7 +40,14 @@ def _safe_unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def kahan_four_area(a, b, c):
-    """Normalised Kahan area of the triangle with sides a, b, c (any order), batched.
+    """Normalised Kahan area of the triangle with sides a, b, c (any order), batched (numpy):
+    :func:`kahan_four_area_of` on the array backend."""
+    a, b, c = (np.asarray(v, float) for v in (a, b, c))
+    return kahan_four_area_of(BATCH, a, b, c)
+
+
+def kahan_four_area_of(ops: Any, a: Any, b: Any, c: Any) -> tuple[Any, Any, Any, Any]:
+    """Normalised Kahan area of the triangle with sides a, b, c (any order), on ``ops``.
 
     The sides are divided by ``scale``, the power of two just above the longest side: an exact
     operation (so the needle-triangle accuracy is kept) that makes every intermediate O(1), with
@@ -48,13 +56,12 @@ def kahan_four_area(a, b, c):
     (longest - sum of the other two) / scale (> 0: no triangle) and ``longest_n`` = longest /
     scale, in [0.5, 1).
     """
-    a, b, c = np.asarray(a, float), np.asarray(b, float), np.asarray(c, float)
-    # sorted by a min/max network (exact, and cheaper than stacking and np.sort)
-    lo, hi = np.minimum(a, b), np.maximum(a, b)
-    big, small = np.maximum(hi, c), np.minimum(lo, c)
-    mid = np.maximum(lo, np.minimum(hi, c))
-    _, expo = np.frexp(np.where(np.isfinite(big), big, 1.0))
-    scale = np.ldexp(1.0, expo)
+    # sorted by a min/max network (exact, and cheaper than stacking and sorting)
+    lo, hi = ops.minimum(a, b), ops.maximum(a, b)
+    big, small = ops.maximum(hi, c), ops.minimum(lo, c)
+    mid = ops.maximum(lo, ops.minimum(hi, c))
+    _, expo = ops.frexp(ops.where(ops.isfinite(big), big, 1.0))
+    scale = ops.ldexp(1.0, expo)
     big, mid, small = big / scale, mid / scale, small / scale
     # The parenthesisation is the point: each factor is computed without cancellation when
     # big >= mid >= small (Kahan, "Miscalculating area and angles of a needle-like triangle").
@@ -62,10 +69,10 @@ def kahan_four_area(a, b, c):
     # Square roots taken factor by factor: the plain product underflows for needle triangles
     # (a side of 1e-200 next to sides of 1 squares to 0).
     four_area_n = (
-        np.sqrt(big + (mid + small))
-        * np.sqrt(np.maximum(neg_factor, 0.0))
-        * np.sqrt(small + (big - mid))
-        * np.sqrt(big + (mid - small))
+        ops.sqrt(big + (mid + small))
+        * ops.sqrt(ops.maximum(neg_factor, 0.0))
+        * ops.sqrt(small + (big - mid))
+        * ops.sqrt(big + (mid - small))
     )
     return four_area_n, -neg_factor, big, scale
 
@@ -79,131 +86,195 @@ class DyadSolution(NamedTuple):
 
 
 def pow2_scale(m):
-    """Per element the even power of two S = 4**k with m / S in [1, 4) (1 where m is 0,
-    negative or not finite).  Dividing lengths by S is exact and commutes with square roots
-    (sqrt(S) = 2**k), so a result formed from the normalised values and multiplied back by S is
-    the one the unscaled formulas would give, except that no intermediate overflows (lengths
-    near 1e308) or loses its digits to subnormals (5e-324)."""
-    m = np.asarray(m, float)
-    _, expo = np.frexp(np.where(np.isfinite(m) & (m > 0), m, 1.0))
-    # m in [2**(expo-1), 2**expo); the even exponent 2 * floor((expo - 1) / 2) lies in
-    # [-1074, 1022]: S itself neither overflows nor underflows
-    return np.ldexp(1.0, ((expo - 1) >> 1) << 1)
+    """Per element the even power of two S = 4**k with m / S in [1, 4) (see ops): numpy."""
+    return BATCH.pow2_scale(m)
+
+
+class DyadPair(NamedTuple):
+    """Both solutions of a dyad, on either backend (points complex): the solution of branch
+    sign s is ``(base + (along + s * spread) * direction) * scale`` (see :func:`dyad_point`).
+    ``scale`` is a power of two (exact); ``fallback`` is the finite placeholder point where the
+    dyad does not close."""
+
+    base: Any
+    direction: Any
+    along: Any
+    spread: Any
+    scale: Any
+    margin: Any  # distance to the dyad's singularity, 1 far .. 0 at it
+    ok: Any  # the dyad closes (within the tangency clamp)
+    violation: Any  # by how much it misses (length units, 0 when ok)
+    height: Any  # distance of the solutions from the centre line (length units)
+    fallback: Any
+
+
+def dyad_point(ops: Any, pair: DyadPair, sign: Any) -> tuple[Any, Any]:
+    """The solution of branch ``sign`` (+1 / -1) of a dyad and its ok mask: a point beyond the
+    float range (centres near +-1.8e308) is not representable, so it is not ok, and where the
+    dyad does not close the point is ``pair.fallback``."""
+    z = (pair.base + (pair.along + sign * pair.spread) * pair.direction) * pair.scale
+    inside = ops.isfinite(z)
+    ok = pair.ok & inside
+    return ops.where(ok, z, pair.fallback), ok
+
+
+def solve_rrr_dyad(ops: Any, c1: Any, r1: Any, c2: Any, r2: Any, tol: float = TANGENCY_TOL):
+    """Intersections of circle (c1, r1) and circle (c2, r2), centres complex -- the RRR dyad.
+
+    Branch sign +1 puts the point to the left of the vector c1 -> c2 (counter-clockwise side),
+    -1 to the right. The margin is |sin| of the angle at the point between X-c1 and X-c2 (the
+    dyad's transmission angle; 0 at the toggle). Centres and radii are first divided by a power
+    of two (exact) that brings the largest to [1, 4): centres ~1e308 apart, whose distance
+    overflows, and subnormal radii are solved like any other scale. Where the dyad does not
+    close, the placeholder is the point of circle 1 nearest to circle 2 on the centre line
+    (c1 itself when the centres coincide or that point is beyond the float range, 0 for
+    non-finite input). Returns a :class:`DyadPair`.
+    """
+    big = ops.maximum(ops.maximum(ops.cmax(c1), ops.cmax(c2)), ops.maximum(abs(r1), abs(r2)))
+    S = ops.pow2_scale(big)
+    c1n, c2n = c1 / S, c2 / S
+    r1n, r2n = r1 / S, r2 / S
+    dv = c2n - c1n
+    d = abs(dv)  # hypot: no overflow
+    finite = (
+        ops.isfinite(dv)
+        & ops.isfinite(r1n)
+        & ops.isfinite(r2n)
+        & ops.isfinite(c1)
+        & ops.isfinite(c2)
+    )
+    four_area_n, violation_n, longest_n, scale = kahan_four_area_of(
+        ops, ops.where(finite, d, 0.0), ops.where(finite, r1n, 0.0), ops.where(finite, r2n, 0.0)
+    )
+    dn = d / scale  # 0 only if d == 0 or d / scale underflows
+    ok = finite & (dn > 0) & (r1n > 0) & (r2n > 0) & (violation_n <= tol * longest_n)
+    dsafe = ops.where(finite & (d > 0), d, 1.0)
+    u = ops.where(finite, dv, 0.0) / dsafe
+    # foot of the solutions on the centre line from c1; (r1 - r2)(r1 + r2) / d avoids the
+    # cancellation of r1**2 - r2**2 and cannot overflow (|r1 - r2| / d <= 1 where they meet)
+    along = 0.5 * (d + ((r1n - r2n) / dsafe) * (r1n + r2n))
+    along = ops.clip(along, -abs(r1n), abs(r1n))
+    along = ops.where(finite & (d > 0), along, 0.0)
+    # h = 2 * area / d = (scale / 2) * four_area_n / dn: no overflow
+    h = ops.where(ok, 0.5 * scale * (four_area_n / ops.where(dn > 0, dn, 1.0)), 0.0)
+    # margin = h d / (r1 r2) = |sin| of the angle at the solution, formed without overflow
+    margin = ops.where(
+        ok, (h / ops.where(r1n > 0, r1n, 1.0)) * (d / ops.where(r2n > 0, r2n, 1.0)), 0.0
+    )
+    margin = ops.clip(ops.where(margin == margin, margin, 0.0), 0.0, 1.0)
+    violation = ops.where(finite, ops.maximum(violation_n * (scale * S), 0.0), _FLOAT_MAX)
+    violation = ops.where(ok, 0.0, ops.minimum(violation, _FLOAT_MAX))
+    # the not-ok placeholder: circle 1's point nearest circle 2 (c1 if not representable)
+    near = (c1n + along * u) * S
+    fallback = ops.where(finite, ops.where(ops.isfinite(near), near, c1), 0j)
+    return DyadPair(
+        ops.where(finite, c1n, 0j),
+        u,
+        along,
+        ops.cplx(0.0 * h, h),
+        S,
+        margin,
+        ok,
+        violation,
+        ops.where(ok, h * S, 0.0),
+        fallback,
+    )
+
+
+_FLOAT_MAX = float(np.finfo(float).max)
 
 
 def circle_circle(c1, r1, c2, r2, sign, tol: float = TANGENCY_TOL) -> DyadSolution:
-    """Intersection X of circle (c1, r1) and circle (c2, r2) -- the RRR dyad.
-
-    ``sign`` = +1 puts X to the left of the vector c1 -> c2 (counter-clockwise side), -1 to the
-    right. The margin is |sin| of the angle at X between X-c1 and X-c2 (the dyad's transmission
-    angle; 0 at the toggle). Where not ok the point is that of circle 1 nearest to circle 2 on
-    the centre line (c1 itself when the centres coincide or that point is beyond the float
-    range, zeros for non-finite input).  Centres and radii are first divided by a power of two
-    (exact) that brings the largest to [1, 4): centres ~1e308 apart, whose distance overflows,
-    and subnormal radii are solved like any other scale.  A solution point beyond the float
-    range (centres near +-1.8e308) is not representable: ok is False there.
-    """
-    c1 = np.asarray(c1, float)
-    c2 = np.asarray(c2, float)
-    r1 = np.asarray(r1, float)
-    r2 = np.asarray(r2, float)
-    sgn = np.where(np.asarray(sign, float) < 0, -1.0, 1.0)
+    """:func:`solve_rrr_dyad` on (..., 2) coordinate arrays for one branch ``sign``: the batched
+    numpy form (points as (..., 2) arrays; ``sign`` broadcasts)."""
     with np.errstate(invalid='ignore', divide='ignore', over='ignore', under='ignore'):
-        big = np.maximum(
-            np.maximum(np.max(np.abs(c1), axis=-1), np.max(np.abs(c2), axis=-1)),
-            np.maximum(np.abs(r1), np.abs(r2)),
-        )
-        S = pow2_scale(big)
-        c1n, c2n = c1 / S[..., None], c2 / S[..., None]
-        r1n, r2n = r1 / S, r2 / S
-        dx = c2n[..., 0] - c1n[..., 0]
-        dy = c2n[..., 1] - c1n[..., 1]
-        d = np.hypot(dx, dy)
-        dx, dy, d, r1n, r2n, sgn, S = np.broadcast_arrays(dx, dy, d, r1n, r2n, sgn, S)
-        finite = (
-            np.isfinite(dx)
-            & np.isfinite(dy)
-            & np.isfinite(r1n)
-            & np.isfinite(r2n)
-            & np.all(np.isfinite(c1), axis=-1)
-            & np.all(np.isfinite(c2), axis=-1)
-        )
-        four_area_n, violation_n, longest_n, scale = kahan_four_area(d, r1n, r2n)
-        dn = d / scale  # 0 only if d == 0 or d / scale underflows
-        ok = finite & (dn > 0) & (r1n > 0) & (r2n > 0) & (violation_n <= tol * longest_n)
-        dsafe = np.where(d > 0, d, 1.0)
-        ux, uy = dx / dsafe, dy / dsafe
-        # foot of X on the centre line from c1; (r1 - r2)(r1 + r2) / d avoids the cancellation
-        # of r1**2 - r2**2 and cannot overflow (|r1 - r2| / d <= 1 where the circles meet)
-        along = 0.5 * (d + ((r1n - r2n) / dsafe) * (r1n + r2n))
-        along = np.clip(along, -np.abs(r1n), np.abs(r1n))
-        along = np.where(finite & (d > 0), along, 0.0)
-        # h = 2 * area / d = (scale / 2) * four_area_n / dn: no overflow
-        h = np.where(ok, 0.5 * scale * (four_area_n / np.where(dn > 0, dn, 1.0)), 0.0)
-        px = (c1n[..., 0] + along * ux - sgn * h * uy) * S
-        py = (c1n[..., 1] + along * uy + sgn * h * ux) * S
-        # beyond the float range (only possible for centres near +-1.8e308): not representable
-        inside = np.isfinite(px) & np.isfinite(py)
-        ok &= inside
-        px = np.where(finite, np.where(inside, px, c1[..., 0]), 0.0)
-        py = np.where(finite, np.where(inside, py, c1[..., 1]), 0.0)
-        # margin = h d / (r1 r2) = |sin| of the angle at X, formed without overflow
-        margin = np.where(
-            ok, (h / np.where(r1n > 0, r1n, 1.0)) * (d / np.where(r2n > 0, r2n, 1.0)), 0.0
-        )
-        h = np.where(ok, h * S, 0.0)  # h <= r1: no overflow
-        violation = np.where(finite, np.maximum(violation_n * (scale * S), 0.0), np.inf)
-    margin = np.clip(np.nan_to_num(margin), 0.0, 1.0)
-    violation = np.where(ok, 0.0, np.nan_to_num(violation, posinf=np.finfo(float).max))
-    return DyadSolution(np.stack([px, py], axis=-1), margin, ok, violation, h)
+        c1, c2 = np.asarray(c1, float), np.asarray(c2, float)
+        r1a, r2a = np.asarray(r1, float), np.asarray(r2, float)
+        sgn = np.where(np.asarray(sign, float) < 0, -1.0, 1.0)
+        shape = np.broadcast_shapes(c1.shape[:-1], c2.shape[:-1], r1a.shape, r2a.shape, sgn.shape)
+        c1z = to_complex(np.broadcast_to(c1, shape + (2,)))
+        c2z = to_complex(np.broadcast_to(c2, shape + (2,)))
+        r1a, r2a, sgn = (np.broadcast_to(a, shape) for a in (r1a, r2a, sgn))
+        pair = solve_rrr_dyad(BATCH, c1z, r1a, c2z, r2a, tol)
+        z, ok = dyad_point(BATCH, pair, sgn)
+    return DyadSolution(
+        to_xy(z),
+        np.where(ok, pair.margin, 0.0),
+        np.asarray(ok),
+        np.asarray(np.where(ok, 0.0, pair.violation)),
+        np.where(ok, pair.height, 0.0),
+    )
+
+
+def solve_rrp_dyad(ops: Any, c: Any, r: Any, p0: Any, u: Any, tol: float = TANGENCY_TOL):
+    """Intersections of circle (c, r) and the line p0 + s u (|u| = 1), points complex -- the RRP
+    dyad. Branch sign +1 takes the intersection further along +u. margin = half-chord / r (0
+    when the link is perpendicular to the line: a dead-centre). Returns a :class:`DyadPair`."""
+    w = c - p0
+    s0 = w.real * u.real + w.imag * u.imag
+    dist = abs(u.real * w.imag - u.imag * w.real)
+    violation = dist - r
+    scale = ops.maximum(r, dist)
+    ok = (violation <= tol * ops.where(scale > 0, scale, 1.0)) & (r > 0)
+    # roots factor by factor: the product underflows / overflows for lengths near 1e-300 / 1e300
+    k = ops.where(ok, ops.sqrt(ops.maximum(r - dist, 0.0)) * ops.sqrt(r + dist), 0.0)
+    margin = ops.where(ok, ops.clip(k / ops.where(r > 0, r, 1.0), 0.0, 1.0), 0.0)
+    return DyadPair(p0, u, s0, k, 1.0, margin, ok, ops.maximum(violation, 0.0), k, p0 + s0 * u)
 
 
 def circle_line(c, r, p0, u, sign, tol: float = TANGENCY_TOL):
-    """Intersection X of circle (c, r) and the line p0 + s*u (|u| = 1) -- the RRP dyad.
+    """:func:`solve_rrp_dyad` on (..., 2) coordinate arrays for one branch ``sign``. Returns
+    ``(X, margin, ok, violation)``."""
+    with np.errstate(invalid='ignore', over='ignore', under='ignore'):
+        cz, pz, uz = to_complex(c), to_complex(p0), to_complex(u)
+        r = np.asarray(r, float)
+        pair = solve_rrp_dyad(BATCH, cz, r, pz, uz, tol)
+        z = pair.base + (pair.along + np.asarray(sign, float) * pair.spread) * pair.direction
+    return to_xy(z), pair.margin, pair.ok, pair.violation
 
-    ``sign`` = +1 takes the intersection further along +u. Returns ``(X, margin, ok, violation)``;
-    margin = half-chord / r (0 when the link is perpendicular to the line: a dead-centre).
+
+class RprDyad(NamedTuple):
+    """A line through a known point x, rigid with a body pivoting at p (the RPR dyad): its
+    direction for branch sign s is ``beta - atan2(offset, s * along)``."""
+
+    beta: Any
+    along: Any
+    offset: Any
+    margin: Any
+    ok: Any
+    violation: Any
+
+
+def solve_rpr_dyad(ops: Any, p: Any, x: Any, offset: Any, tol: float = TANGENCY_TOL) -> RprDyad:
+    """Direction of a line, rigid with a body pivoting at p (complex), that must pass through x
+    (complex) while keeping the signed perpendicular distance ``offset`` = cross(dir, x - p) from
+    the pivot (inverted slider-crank, or a cylinder's axis when offset = 0). Sign +1 chooses x
+    ahead of the foot of p along the line's direction. margin = along-line component / |x - p|.
     """
-    c = np.asarray(c, float)
-    p0 = np.asarray(p0, float)
-    u = np.asarray(u, float)
-    r = np.asarray(r, float)
-    w = c - p0
-    s0 = np.sum(w * u, axis=-1)
-    dist = np.abs(cross2(u, w))
-    violation = dist - r
-    scale = np.maximum(r, dist)
-    ok = (violation <= tol * np.where(scale > 0, scale, 1.0)) & (r > 0)
-    # roots factor by factor: the product underflows / overflows for lengths near 1e-300 / 1e300
-    k = np.where(ok, np.sqrt(np.maximum(r - dist, 0.0)) * np.sqrt(r + dist), 0.0)
-    s = s0 + np.asarray(sign, float) * k
-    x = p0 + s[..., None] * u
-    margin = np.where(ok, np.clip(k / np.where(r > 0, r, 1.0), 0.0, 1.0), 0.0)
-    return x, margin, ok, np.maximum(violation, 0.0)
+    w = x - p
+    rho = abs(w)
+    ae = abs(offset)
+    violation = ae - rho
+    scale = ops.maximum(rho, ae)
+    ok = (rho > 0) & (violation <= tol * ops.where(scale > 0, scale, 1.0))
+    along = ops.where(ok, ops.sqrt(ops.maximum(rho - ae, 0.0)) * ops.sqrt(rho + ae), 1.0)
+    beta = ops.atan2(w.imag, w.real)
+    margin = ops.where(ok, ops.clip(along / ops.where(rho > 0, rho, 1.0), 0.0, 1.0), 0.0)
+    return RprDyad(beta, along, ops.where(ok, offset, 0.0), margin, ok, ops.maximum(violation, 0.0))
+
+
+def rpr_direction(ops: Any, dyad: RprDyad, sign: Any) -> Any:
+    """The line direction (rad) of branch ``sign`` of an RPR dyad."""
+    return dyad.beta - ops.atan2(dyad.offset, sign * dyad.along)
 
 
 def line_through_point(p, x, offset, sign, tol: float = TANGENCY_TOL):
-    """Direction angle psi of a line, rigid with a body pivoting at p, that must pass through x.
-
-    The line keeps the signed perpendicular distance ``offset`` = cross(dir, x - p) from the
-    pivot (the RPR dyad: inverted slider-crank, or a cylinder's axis when offset = 0).
-    ``sign`` = +1 chooses x ahead of the foot of p along the line's direction.
-    Returns ``(psi, margin, ok, violation)``; margin = along-line component / |x - p|.
-    """
-    p = np.asarray(p, float)
-    x = np.asarray(x, float)
-    e = np.asarray(offset, float)
-    w = x - p
-    rho = np.hypot(w[..., 0], w[..., 1])
-    ae = np.abs(e)
-    violation = ae - rho
-    scale = np.maximum(rho, ae)
-    ok = (rho > 0) & (violation <= tol * np.where(scale > 0, scale, 1.0))
-    along = np.where(ok, np.sqrt(np.maximum(rho - ae, 0.0)) * np.sqrt(rho + ae), 1.0)
-    beta = np.arctan2(w[..., 1], w[..., 0])
-    psi = beta - np.arctan2(np.where(ok, e, 0.0), np.asarray(sign, float) * along)
-    margin = np.where(ok, np.clip(along / np.where(rho > 0, rho, 1.0), 0.0, 1.0), 0.0)
-    return psi, margin, ok, np.maximum(violation, 0.0)
+    """:func:`solve_rpr_dyad` on (..., 2) coordinate arrays for one branch ``sign``. Returns
+    ``(psi, margin, ok, violation)``."""
+    with np.errstate(invalid='ignore', over='ignore', under='ignore'):
+        dyad = solve_rpr_dyad(BATCH, to_complex(p), to_complex(x), np.asarray(offset, float), tol)
+        psi = rpr_direction(BATCH, dyad, np.asarray(sign, float))
+    return psi, dyad.margin, dyad.ok, dyad.violation
 
 
 def rotation_between(v_ref, v_now):
@@ -220,76 +291,5 @@ def rotate(v, phi):
 
 
 def wrap_angle(a: float) -> float:
-    """Wrap one angle to (-pi, pi] by atan2 of its sine and cosine: exact argument reduction,
-    so 1e6 rad or 1e300 rad keep full precision (a modulo by 2*pi would not). An angle already
-    in range is returned as it is (exact, and the common case: three calls fewer)."""
-    if -math.pi < a <= math.pi:
-        return a
-    return math.atan2(math.sin(a), math.cos(a))
-
-
-# ---- scalar forms (Python complex numbers) ---------------------------------------------------
-# One command at a time (the node's hot path) is ~20x faster in plain Python than in numpy on
-# length-1 arrays. Same formulas as above; both candidates come back so a continuity choice
-# costs one evaluation. test_solver_core checks these agree with the batched forms.
-
-
-def circle_circle_pair(c1: complex, r1: float, c2: complex, r2: float, tol: float = TANGENCY_TOL):
-    """RRR dyad on complex points: returns (foot, hvec, margin, ok, violation); the solutions are
-    foot + hvec (sign +1, left of c1 -> c2) and foot - hvec."""
-    dv = c2 - c1
-    d = abs(dv)
-    a, b, c = sorted((d, r1, r2), reverse=True)
-    violation = max(d - (r1 + r2), abs(r1 - r2) - d)
-    if not (d > 0 and r1 > 0 and r2 > 0 and violation <= tol * a and math.isfinite(a)):
-        return c1, 0j, 0.0, False, max(violation, 0.0) if math.isfinite(violation) else 1e308
-    # sides scaled by a power of two (exact) so nothing overflows or underflows; roots taken
-    # factor by factor as in kahan_four_area
-    scale = math.ldexp(1.0, math.frexp(a)[1])
-    a, b, c = a / scale, b / scale, c / scale
-    neg = c - (a - b)
-    four_area_n = (
-        math.sqrt(a + (b + c))
-        * math.sqrt(max(neg, 0.0))
-        * math.sqrt(c + (a - b))
-        * math.sqrt(a + (b - c))
-    )
-    h = 0.5 * scale * (four_area_n / (d / scale))
-    u = dv / d
-    along = min(max(0.5 * (d + ((r1 - r2) / d) * (r1 + r2)), -r1), r1)
-    margin = min(max((h / r1) * (d / r2), 0.0), 1.0)
-    return c1 + along * u, 1j * h * u, margin, True, max(violation, 0.0)
-
-
-def circle_line_pair(c: complex, r: float, p0: complex, u: complex, tol: float = TANGENCY_TOL):
-    """RRP dyad on complex points (|u| = 1): returns (foot, kvec, margin, ok, violation); the
-    solutions are foot + kvec (further along +u) and foot - kvec."""
-    w = c - p0
-    s0 = w.real * u.real + w.imag * u.imag
-    dist = abs(u.real * w.imag - u.imag * w.real)
-    violation = dist - r
-    scale = max(r, dist)
-    if not (r > 0 and violation <= tol * (scale if scale > 0 else 1.0)):
-        return p0, 0j, 0.0, False, max(violation, 0.0)
-    k = math.sqrt(max(r - dist, 0.0)) * math.sqrt(r + dist)  # no under/overflow at 1e+-300
-    return p0 + s0 * u, k * u, min(max(k / r, 0.0), 1.0), True, max(violation, 0.0)
-
-
-def line_through_pair(p: complex, x: complex, offset: float, tol: float = TANGENCY_TOL):
-    """RPR dyad on complex points: returns (beta, along, margin, ok, violation); the line
-    direction is psi = beta - atan2(offset, sign * along) for sign = +1 / -1."""
-    w = x - p
-    rho = abs(w)
-    ae = abs(offset)
-    violation = ae - rho
-    scale = max(rho, ae)
-    if not (rho > 0 and violation <= tol * (scale if scale > 0 else 1.0)):
-        return 0.0, 1.0, 0.0, False, max(violation, 0.0)
-    along = math.sqrt(max(rho - ae, 0.0)) * math.sqrt(rho + ae)
-    return (
-        math.atan2(w.imag, w.real),
-        along,
-        min(max(along / rho, 0.0), 1.0),
-        True,
-        max(violation, 0.0),
-    )
+    """Wrap one angle to (-pi, pi] (see ops.ScalarOps.wrap)."""
+    return SCALAR.wrap(a)

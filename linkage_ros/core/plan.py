@@ -26,7 +26,9 @@ import numpy as np
 
 from . import dyads
 from .errors import PlanError
+from .execute import LinkPoses, PlanRun, executor
 from .model import Mechanism
+from .ops import BATCH, SCALAR, to_complex, to_xy
 
 # ---- known-quantity specs --------------------------------------------------------------------
 
@@ -140,26 +142,6 @@ def _spec_of_kind(mech: Mechanism, kind: str, name: str) -> Spec | None:
     if kind == 'point' and name in mech.points:
         return Spec(name, 'point', point=name)
     return None
-
-
-def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
-    """Evaluate a spec on solved poses: (N,) for angle/slide, (N, 2) for a point."""
-    if spec.kind == 'angle':
-        d = poses.phi[spec.link] - poses.phi[spec.reference] + spec.offset
-        return _wrap_pi(d)
-    if spec.kind == 'slide':
-        pj = mech.prismatics[spec.joint]
-        x = poses.world(spec_point_link(mech, pj.point, pj.slider), pj.point, mech)
-        o = poses.apply(pj.guide, np.asarray(pj.origin))
-        dvec = dyads.rotate(np.asarray(pj.direction), poses.phi[pj.guide])
-        return np.sum((x - o) * dvec, axis=-1)
-    owner = mech.links_of_point(spec.point)
-    return poses.world(owner[0], spec.point, mech)
-
-
-def _wrap_pi(a):
-    """Wrap to (-pi, pi] using atan2 so that huge inputs keep full precision."""
-    return np.arctan2(np.sin(a), np.cos(a))
 
 
 def spec_point_link(mech: Mechanism, point: str, preferred: str) -> str:
@@ -572,39 +554,6 @@ class Plan:
         return out
 
     # -- execution ----------------------------------------------------------------------------
-    def body_local(self, bi: int, values: Sequence[np.ndarray], n: int) -> Poses:
-        """Poses of the body's member links with its root at the reference pose (identity)."""
-        mech = self.mech
-        body = self.bodies[bi]
-        loc = Poses()
-        loc.phi[body.root] = np.zeros(n)
-        loc.T[body.root] = np.zeros((n, 2))
-        for w in body.welds:
-            s = self.specs[w.spec_index]
-            v = values[w.spec_index]
-            if w.kind == 'angle':
-                rel = _wrap_pi(v) - s.offset  # phi[s.link] - phi[s.reference]
-                phi = loc.phi[w.via] + (rel if w.link == s.link else -rel)
-                loc.phi[w.link] = phi
-                p = mech.points[w.shared_point]
-                pw = loc.apply(w.via, p)
-                loc.T[w.link] = pw - dyads.rotate(np.broadcast_to(p, pw.shape), phi)
-            else:
-                pj = mech.prismatics[s.joint]
-                x_ref = mech.points[pj.point]
-                u = np.asarray(pj.direction)
-                x_on_guide = x_ref + (v - pj.ref_value)[..., None] * u  # guide reference coords
-                loc.phi[w.link] = loc.phi[w.via].copy()
-                if w.link == pj.slider:  # guide placed: put the slider point on its line
-                    xw = loc.apply(w.via, x_on_guide)
-                    loc.T[w.link] = xw - dyads.rotate(
-                        np.broadcast_to(x_ref, xw.shape), loc.phi[w.link]
-                    )
-                else:  # slider placed: hang the guide off it
-                    xw = loc.apply(w.via, x_ref)
-                    loc.T[w.link] = xw - dyads.rotate(x_on_guide, loc.phi[w.link])
-        return loc
-
     def run(
         self,
         values: Sequence[np.ndarray],
@@ -612,141 +561,40 @@ class Plan:
         signs: Sequence[int] | None = None,
         tol: float = dyads.TANGENCY_TOL,
     ):
-        """Execute the plan over a batch of n with fixed branch signs (continuity is a
-        one-command-at-a-time rule: see run_one).
+        """Execute the plan over a batch of n with fixed branch signs (the batch view of
+        :class:`~linkage_ros.core.execute.PlanExecutor`: points as (n, 2) arrays).
 
         ``values[i]`` is the value array of spec i ((n,) or (n, 2)). ``signs`` overrides the
         branch signs (one per branching step). Returns (poses, points, info) where info has
         ok (n,), margin (n,), signs (n, k), failure (step index or -1) and violation (n,).
         """
-        mech = self.mech
-        signs = list(self.reference_signs if signs is None else signs)
-        poses = Poses()
-        pts: dict[str, np.ndarray] = {}
-        ok = np.ones(n, bool)
-        margin = np.ones(n)
-        violation = np.zeros(n)
-        fail_step = np.full(n, -1)
-        used_signs = np.zeros((n, len(self.branch_steps)), int)
-        locals_: dict[int, Poses] = {}
-        angles: dict[int, np.ndarray] = {}  # body root orientation when known before placing
-        bk = 0
 
-        def local(bi):
-            if bi not in locals_:
-                locals_[bi] = self.body_local(bi, values, n)
-            return locals_[bi]
-
-        def local_pt(bi, p):
-            loc = local(bi)
-            for l in self.bodies[bi].links:
-                if p in mech.links[l].points:
-                    return loc.world(l, p, mech)
-            raise KeyError(p)
-
-        def place_body(bi, phi, T):
-            loc = local(bi)
-            for l in self.bodies[bi].links:
-                poses.phi[l] = phi + loc.phi[l]
-                poses.T[l] = dyads.rotate(loc.T[l], phi) + T
-            for l in self.bodies[bi].links:
-                for p in mech.links[l].points:
-                    if p not in pts:
-                        pts[p] = poses.world(l, p, mech)
-
-        def fail(mask, k, viol):
-            nonlocal ok
-            newly = mask & ok
-            fail_step[newly] = k
-            violation[newly] = viol[newly] if np.ndim(viol) else viol
-            ok = ok & ~mask
-
-        def took(k, m, okk, viol):
-            """Record a branching step: its sign column, margins and failures."""
-            nonlocal margin, bk
-            used_signs[:, bk] = signs[bk]
-            margin = np.minimum(margin, m)
-            fail(~okk, k, viol)
-            bk += 1
-
-        for k, st in enumerate(self.steps):
-            if st.op == 'ground':
-                place_body(st.body, np.zeros(n), np.zeros((n, 2)))
-            elif st.op == 'known_point':
-                pts[st.point] = np.asarray(values[st.args[0]], float).reshape(n, 2)
-            elif st.op == 'two_points':
-                p, q = st.args
-                lp, lq = local_pt(st.body, p), local_pt(st.body, q)
-                phi = dyads.rotation_between(lq - lp, pts[q] - pts[p])
-                place_body(st.body, phi, pts[p] - dyads.rotate(lp, phi))
-            elif st.op == 'point_angle':
-                p = st.args[0]
-                phi = angles[st.body]
-                place_body(st.body, phi, pts[p] - dyads.rotate(local_pt(st.body, p), phi))
-            elif st.op == 'angle':
-                link_here, link_there, spec_i = st.args
-                src = poses.phi.get(link_there)
-                if src is None:
-                    sb = self.body_of[link_there]
-                    src = angles[sb] + local(sb).phi[link_there]
-                if spec_i is None:
-                    rel = np.zeros(n)  # prismatic orientation lock
-                else:
-                    s = self.specs[spec_i]
-                    rel = _wrap_pi(values[spec_i]) - s.offset
-                    if link_here == s.reference:
-                        rel = -rel
-                angles[st.body] = src + rel - local(st.body).phi[link_here]
-            elif st.op == 'circle_circle':
-                b1, p1, b2, p2 = st.args
-                x = st.point
-                r1 = _norm(local_pt(b1, x) - local_pt(b1, p1))
-                r2 = _norm(local_pt(b2, x) - local_pt(b2, p2))
-                X, m, okk, viol, _ = dyads.circle_circle(pts[p1], r1, pts[p2], r2, signs[bk], tol)
-                pts[x] = X
-                took(k, m, okk, viol)
-            elif st.op == 'circle_line':
-                b1, p1, jname = st.args
-                pj = mech.prismatics[jname]
-                x = st.point
-                r = _norm(local_pt(b1, x) - local_pt(b1, p1))
-                g = pj.guide
-                p0 = poses.apply(g, mech.points[x])
-                u = dyads.rotate(np.broadcast_to(np.asarray(pj.direction), (n, 2)), poses.phi[g])
-                X, m, okk, viol = dyads.circle_line(pts[p1], r, p0, u, signs[bk], tol)
-                pts[x] = X
-                took(k, m, okk, viol)
-            elif st.op == 'line_through':
-                jname, p = st.args
-                pj = mech.prismatics[jname]
-                x = st.point
-                bi = st.body
-                loc = local(bi)
-                lp = local_pt(bi, p)
-                # the guide line in body-local coordinates: through x_ref on the guide, dir u
-                u_loc = dyads.rotate(
-                    np.broadcast_to(np.asarray(pj.direction), (n, 2)), loc.phi[pj.guide]
-                )
-                x_loc = loc.apply(pj.guide, mech.points[x])
-                e = dyads.cross2(u_loc, x_loc - lp)  # signed offset of the pivot from the line
-                psi0 = np.arctan2(u_loc[:, 1], u_loc[:, 0])
-
-                def solve_phi(s):
-                    psi, mm, okk, viol = dyads.line_through_point(pts[p], pts[x], e, s, tol)
-                    return psi - psi0, mm, okk, viol
-
-                phi, m, okk, viol = solve_phi(signs[bk])
-                angles[bi] = phi
-                place_body(bi, phi, pts[p] - dyads.rotate(lp, phi))
-                took(k, m, okk, viol)
+        r = executor(self).run(values, n, signs, tol=tol)
+        k = len(self.branch_steps)
+        used = np.zeros((n, k), int)
+        for b, sg in enumerate(r.signs):
+            used[:, b] = sg
         info = {
-            'ok': ok,
-            'margin': margin,
-            'signs': used_signs,
-            'failure': fail_step,
-            'violation': violation,
+            'ok': np.asarray(r.ok, bool),
+            'margin': np.asarray(r.margin, float),
+            'signs': used,
+            'failure': np.asarray(r.failure).astype(int),
+            'violation': np.asarray(r.violation, float),
         }
-        return poses, pts, info
+        return batch_poses(r.poses), {p: to_xy(z) for p, z in r.points.items()}, info
+
+
+def batch_poses(poses: LinkPoses) -> Poses:
+    """(n, 2)-coordinate view of batched complex link poses."""
+    return Poses(dict(poses.phi), {l: to_xy(T) for l, T in poses.T.items()})
+
+
+def link_poses(poses: Poses) -> LinkPoses:
+    """Complex view of (n, 2)-coordinate batched link poses."""
+    out = LinkPoses()
+    for l, phi in poses.phi.items():
+        out.set(l, phi, to_complex(poses.T[l]), BATCH.expi(phi))
+    return out
 
 
 def _norm(v):
@@ -759,46 +607,12 @@ def _side(p1, p2, x) -> int:
     return int(s) if s else 1
 
 
-# ---- one command at a time (scalar, complex numbers) -----------------------------------------
+# ---- one command at a time -------------------------------------------------------------------
 
-
-@dataclass
-class ScalarPoses:
-    """Link poses of one configuration: world(p) = rot * p_ref + T with rot = e^{i phi}."""
-
-    phi: dict[str, float] = field(default_factory=dict)
-    rot: dict[str, complex] = field(default_factory=dict)
-    T: dict[str, complex] = field(default_factory=dict)
-
-    def set(self, link: str, phi: float, T: complex, rot: complex | None = None):
-        self.phi[link] = phi
-        self.rot[link] = complex(math.cos(phi), math.sin(phi)) if rot is None else rot
-        self.T[link] = T
-
-    def world(self, link: str, p_ref: complex) -> complex:
-        return self.rot[link] * p_ref + self.T[link]
-
-
-def _c(v) -> complex:
-    return complex(float(v[0]), float(v[1]))
-
-
-#: Below this dyad margin (|sin| of its transmission angle) continuity decides the branch by the
-#: predicted position; above it the previous sign is kept, because an assembly mode can only
-#: change by passing through the dyad's singular (tangent) configuration.
-CONTINUITY_MARGIN = 0.1
-
-
-@dataclass
-class ScalarRun:
-    ok: bool
-    poses: ScalarPoses
-    points: dict[str, complex]
-    margin: float = 1.0
-    signs: tuple[int, ...] = ()
-    failure: int = -1
-    violation: float = 0.0
-    margins: tuple[float, ...] = ()
+#: one configuration's link poses (complex): see execute.LinkPoses
+ScalarPoses = LinkPoses
+#: what running a plan gave: see execute.PlanRun
+ScalarRun = PlanRun
 
 
 def run_one(
@@ -808,386 +622,125 @@ def run_one(
     prefer: dict | None = None,
     tol: float = dyads.TANGENCY_TOL,
     prev_margins=None,
-) -> ScalarRun:
-    """Scalar twin of :meth:`Plan.run` for one command: ``values[i]`` a float (angle/slide) or an
-    (x, y) pair (point). ``signs`` are the branch signs to keep. ``prefer`` maps point names to
-    predicted complex positions and '@link' to predicted link angles: where a dyad is near its
-    singularity (its margin now or in ``prev_margins`` below CONTINUITY_MARGIN) the branch
-    nearest the prediction is taken instead (continuity through tangent configurations).
-
-    Runs the plan's straight-line Python (:func:`_compile_scalar`, made on first use)."""
-    fn = plan.__dict__.get('_scalar_fn')
-    if fn is None:
-        fn = plan._scalar_fn = _compile_scalar(plan)
-    return fn(values, plan.reference_signs if signs is None else signs, prefer, tol, prev_margins)
+) -> PlanRun:
+    """:class:`~linkage_ros.core.execute.PlanExecutor` on one command: ``values[i]`` a float
+    (angle/slide) or an (x, y) pair (point); ``prefer`` and ``prev_margins`` steer continuity
+    through tangent configurations (see PlanExecutor.run)."""
+    return executor(plan).run(values, None, signs, prefer, prev_margins, tol)
 
 
-class _ScalarCode:
-    """Source of one plan's scalar solve, emitted step by step (see _compile_scalar)."""
+def _c(v) -> complex:
+    return complex(float(v[0]), float(v[1]))
 
-    def __init__(self, plan: Plan):
-        self.plan = plan
-        self.mech = plan.mech
-        self.pc = {p: _c(v) for p, v in self.mech.points.items()}
-        self.lines: list[str] = []
-        self.ns = {
-            'cos': math.cos,
-            'sin': math.sin,
-            'atan2': math.atan2,
-            'wrap_angle': dyads.wrap_angle,
-            'circle_circle_pair': dyads.circle_circle_pair,
-            'circle_line_pair': dyads.circle_line_pair,
-            'line_through_pair': dyads.line_through_pair,
-            'ScalarRun': ScalarRun,
-            'ScalarPoses': ScalarPoses,
-            'CONTINUITY_MARGIN': CONTINUITY_MARGIN,
-        }
-        self.link_id = {l: k for k, l in enumerate(self.mech.links)}
-        self.point_id = {p: k for k, p in enumerate(self.mech.points)}
-        self.placed_links: list[str] = []  # in placement order (the poses' dict order)
-        self.placed_points: list[str] = []
-        self.frames: dict[int, dict[str, tuple[str, str, str]]] = {}  # body local frames
-        self.point_link: dict[tuple[int, str], str] = {}
-        for b in plan.bodies:
-            for l in b.links:
-                for p in self.mech.links[l].points:
-                    self.point_link.setdefault((b.index, p), l)
-        self.branches = 0  # branching steps emitted so far
 
-    def emit(self, line: str):
-        self.lines.append('    ' + line)
+@dataclass(frozen=True)
+class SpecReader:
+    """How to read one spec's value off solved complex link poses, resolved once: an angle
+    (rad, wrapped to (-pi, pi]), a slide (m) or a point's complex position."""
 
-    def const(self, value) -> str:
-        name = f'K{len(self.ns)}'
-        self.ns[name] = value
-        return name
+    kind: str
+    link: str = ''  # angle: the link; slide: the slider's point's link; point: its link
+    reference: str = ''  # angle: the reference link; slide: the guide
+    offset: float = 0.0
+    p_ref: complex = 0j  # slide / point: the point in the reference pose
+    origin: complex = 0j  # slide: the origin on the guide
+    direction: complex = 0j  # slide: the direction (reference pose)
 
-    def pt(self, p: str) -> str:
-        return f'p{self.point_id[p]}'
+    def __call__(self, ops, poses: LinkPoses):
+        if self.kind == 'angle':
+            return ops.wrap(poses.phi[self.link] - poses.phi[self.reference] + self.offset)
+        x = poses.rot[self.link] * self.p_ref + poses.T[self.link]
+        if self.kind == 'point':
+            return x
+        rot = poses.rot[self.reference]
+        v = x - (rot * self.origin + poses.T[self.reference])
+        d = rot * self.direction
+        return v.real * d.real + v.imag * d.imag
 
-    def link(self, l: str) -> str:
-        return str(self.link_id[l])
 
-    def frame(self, bi: int) -> dict[str, tuple[str, str, str]]:
-        """(phi, rot, T) expressions of each member link in the body's local frame. A body
-        without welds is its root alone at the identity; a welded body's frame depends on the
-        command's values, so its code is emitted here, before its first use."""
-        got = self.frames.get(bi)
-        if got is not None:
-            return got
-        body = self.plan.bodies[bi]
-        frame = {body.root: ('0.0', '(1+0j)', '0j')}
-        for w in body.welds:
-            s = self.plan.specs[w.spec_index]
-            tag = f'{bi}_{self.link(w.link)}'
-            vphi, vrot, vT = frame[w.via]
-            if w.kind == 'angle':
-                self.emit(
-                    f'rel = wrap_angle(float(values[{w.spec_index}])) - {self.const(s.offset)}'
-                )
-                self.emit(f'lph{tag} = {vphi} + {"rel" if w.link == s.link else "-rel"}')
-                p = self.const(self.pc[w.shared_point])
-                self.emit(f'lro{tag} = complex(cos(lph{tag}), sin(lph{tag}))')
-                self.emit(f'lT{tag} = ({vrot} * {p} + {vT}) - lro{tag} * {p}')
-            else:
-                pj = self.mech.prismatics[s.joint]
-                x_ref = self.const(self.pc[pj.point])
-                self.emit(
-                    f'along = {x_ref} + (float(values[{w.spec_index}]) - '
-                    f'{self.const(pj.ref_value)}) * {self.const(_c(pj.direction))}'
-                )
-                self.emit(f'lph{tag} = {vphi}')
-                self.emit(f'lro{tag} = {vrot}')
-                if w.link == pj.slider:
-                    self.emit(f'lT{tag} = ({vrot} * along + {vT}) - {vrot} * {x_ref}')
-                else:
-                    self.emit(f'lT{tag} = ({vrot} * {x_ref} + {vT}) - {vrot} * along')
-            frame[w.link] = (f'lph{tag}', f'lro{tag}', f'lT{tag}')
-        self.frames[bi] = frame
-        return frame
-
-    def local_pt(self, bi: int, p: str) -> str:
-        """Expression of point p in body bi's local frame (a constant for an unwelded body)."""
-        l = self.point_link[(bi, p)]
-        if not self.plan.bodies[bi].welds:
-            return self.const((1 + 0j) * self.pc[p] + 0j)
-        _, rot, T = self.frame(bi)[l]
-        return f'({rot} * {self.const(self.pc[p])} + {T})'
-
-    def place_body(self, bi: int, phi: str, Tb: str):
-        """Every member link's world pose from the body's rotation phi (a variable) and
-        translation Tb (an expression), and the world position of their points not yet placed."""
-        frame = self.frame(bi)
-        self.emit(f'Tb = {Tb}')
-        self.emit(f'rot = complex(cos({phi}), sin({phi}))')
-        for l in self.plan.bodies[bi].links:
-            lphi, lrot, lT = frame[l]
-            k = self.link(l)
-            self.emit(f'ro{k} = rot * {lrot}')
-            self.emit(f'T{k} = rot * {lT} + Tb')
-            self.emit(f'ph{k} = {phi} + {lphi}')
-            self.placed_links.append(l)
-            for p in self.mech.links[l].points:
-                if p not in self.placed_points:
-                    self.emit(f'{self.pt(p)} = ro{k} * {self.const(self.pc[p])} + T{k}')
-                    self.placed_points.append(p)
-
-    def result(self, ok: bool, k: int = -1) -> str:
-        """The ScalarRun of everything placed so far."""
-        ids = [self.link(l) for l in self.placed_links]
-        poses = (
-            'ScalarPoses({'
-            + ', '.join(f'{l!r}: ph{k}' for l, k in zip(self.placed_links, ids))
-            + '}, {'
-            + ', '.join(f'{l!r}: ro{k}' for l, k in zip(self.placed_links, ids))
-            + '}, {'
-            + ', '.join(f'{l!r}: T{k}' for l, k in zip(self.placed_links, ids))
-            + '})'
+def spec_reader(mech: Mechanism, spec: Spec) -> SpecReader:
+    if spec.kind == 'angle':
+        return SpecReader('angle', spec.link, spec.reference, spec.offset)
+    if spec.kind == 'slide':
+        pj = mech.prismatics[spec.joint]
+        return SpecReader(
+            'slide',
+            spec_point_link(mech, pj.point, pj.slider),
+            pj.guide,
+            p_ref=_c(mech.points[pj.point]),
+            origin=_c(pj.origin),
+            direction=_c(pj.direction),
         )
-        pts = '{' + ', '.join(f'{p!r}: {self.pt(p)}' for p in self.placed_points) + '}'
-        used = '(' + ''.join(f'sg{b}, ' for b in range(self.branches)) + ')'
-        margins = '(' + ''.join(f'm{b}, ' for b in range(self.branches)) + ')'
-        if ok:
-            return f'ScalarRun(True, {poses}, {pts}, margin, {used}, margins={margins})'
-        return f'ScalarRun(False, {poses}, {pts}, 0.0, {used}, {k}, viol, {margins})'
-
-    def near_singular(self, then: list[str]):
-        """Code that runs ``then`` when the current branching step's dyad is near its
-        singularity now (margin m) or was at the previous solve (prev_margins)."""
-        b = self.branches
-        self.emit(
-            f'    prev = prev_margins[{b}] if prev_margins and {b} < len(prev_margins) else 1.0'
-        )
-        self.emit('    if min(m, prev) < CONTINUITY_MARGIN:')
-        for line in then:
-            self.emit('        ' + line)
-
-    def took(self):
-        b = self.branches
-        self.emit(f'sg{b} = sg')
-        self.emit(f'm{b} = m')
-        self.emit('margin = min(margin, m)')
-        self.branches += 1
-
-    def step(self, k: int, st: Step):
-        op = st.op
-        if op == 'ground':
-            self.emit('phi = 0.0')
-            self.place_body(st.body, 'phi', '0j')
-        elif op == 'known_point':
-            self.emit(f'v = values[{st.args[0]}]')
-            self.emit(f'{self.pt(st.point)} = complex(float(v[0]), float(v[1]))')
-            self.placed_points.append(st.point)
-        elif op == 'two_points':
-            p, q = st.args
-            self.emit(f'lp = {self.local_pt(st.body, p)}')
-            self.emit(f'a = {self.local_pt(st.body, q)} - lp')
-            self.emit(f'b = {self.pt(q)} - {self.pt(p)}')
-            # unit first: 1e-300 lengths would underflow
-            self.emit('a, b = a / abs(a), b / (abs(b) or 1.0)')
-            self.emit(
-                'phi = atan2(a.real * b.imag - a.imag * b.real, a.real * b.real + a.imag * b.imag)'
-            )
-            self.place_body(st.body, 'phi', f'{self.pt(p)} - complex(cos(phi), sin(phi)) * lp')
-        elif op == 'point_angle':
-            p = st.args[0]
-            self.emit(f'phi = ang{st.body}')
-            self.place_body(
-                st.body,
-                'phi',
-                f'{self.pt(p)} - complex(cos(phi), sin(phi)) * {self.local_pt(st.body, p)}',
-            )
-        elif op == 'angle':
-            here, there, spec_i = st.args
-            here_phi = self.frame(st.body)[here][0]  # any frame code first: it uses rel
-            if there in self.placed_links:
-                self.emit(f'src = ph{self.link(there)}')
-            else:
-                sb = self.plan.body_of[there]
-                there_phi = self.frame(sb)[there][0]
-                self.emit(f'src = ang{sb} + {there_phi}')
-            self.emit('rel = 0.0')
-            if spec_i is not None:
-                s = self.plan.specs[spec_i]
-                self.emit(f'rel = wrap_angle(float(values[{spec_i}])) - {self.const(s.offset)}')
-                if here == s.reference:
-                    self.emit('rel = -rel')
-            self.emit(f'ang{st.body} = src + rel - {here_phi}')
-        elif op in ('circle_circle', 'circle_line'):
-            x = st.point
-            X = self.pt(x)
-            if op == 'circle_circle':
-                b1, p1, b2, p2 = st.args
-                P1, P2 = self.pt(p1), self.pt(p2)
-                self.emit(f'r1 = abs({self.local_pt(b1, x)} - {self.local_pt(b1, p1)})')
-                self.emit(f'r2 = abs({self.local_pt(b2, x)} - {self.local_pt(b2, p2)})')
-                self.emit('big = max(r1, r2)')
-                self.emit(f'if abs({P1} - {P2}) <= tol * big and abs(r1 - r2) <= tol * big:')
-                # coincident circles (a change point: e.g. a rhombus folded flat): x may be
-                # anywhere on the circle; keep it where continuity predicts, else where the
-                # reference pose has it relative to p1. Branch identity is undefined (margin 0).
-                self.emit(f'    guess = prefer.get({x!r}) if prefer else None')
-                self.emit(
-                    f'    off = (guess - {P1}) if guess is not None else '
-                    f'{self.const(self.pc[x] - self.pc[p1])}'
-                )
-                self.emit('    off = off / abs(off) if abs(off) > 0 else 1 + 0j')
-                self.emit(f'    foot, vec, m, ok, viol = {P1} + r1 * off, 0j, 0.0, True, 0.0')
-                self.emit('else:')
-                self.emit(
-                    f'    foot, vec, m, ok, viol = circle_circle_pair({P1}, r1, {P2}, r2, tol)'
-                )
-            else:
-                b1, p1, jname = st.args
-                pj = self.mech.prismatics[jname]
-                g = self.link(pj.guide)
-                self.emit(f'r = abs({self.local_pt(b1, x)} - {self.local_pt(b1, p1)})')
-                self.emit(
-                    f'foot, vec, m, ok, viol = circle_line_pair({self.pt(p1)}, r, '
-                    f'ro{g} * {self.const(self.pc[x])} + T{g}, '
-                    f'ro{g} * {self.const(_c(pj.direction))}, tol)'
-                )
-            self.emit('if not ok:')
-            self.emit(f'    return {self.result(False, k)}')
-            # the two solutions are foot +- vec: + is the dyad's positive branch
-            self.emit(f'sg = signs[{self.branches}]')
-            self.emit(f'if prefer is not None and {x!r} in prefer:')
-            self.near_singular(
-                [
-                    f'target = prefer[{x!r}]',
-                    'sg = 1 if abs((foot + vec) - target) <= abs((foot - vec) - target) else -1',
-                ]
-            )
-            self.emit(f'{X} = foot + sg * vec')
-            self.placed_points.append(x)
-            self.took()
-        elif op == 'line_through':
-            jname, p = st.args
-            pj = self.mech.prismatics[jname]
-            x, bi = st.point, st.body
-            frame = self.frame(bi)
-            self.emit(f'lp = {self.local_pt(bi, p)}')
-            gphi, grot, gT = frame[pj.guide]
-            self.emit(f'u_loc = {grot} * {self.const(_c(pj.direction))}')
-            self.emit(f'w = ({grot} * {self.const(self.pc[x])} + {gT}) - lp')
-            self.emit('e = u_loc.real * w.imag - u_loc.imag * w.real')  # signed pivot offset
-            self.emit('psi0 = atan2(u_loc.imag, u_loc.real)')
-            self.emit(
-                f'beta, along, m, ok, viol = line_through_pair({self.pt(p)}, {self.pt(x)}, e, tol)'
-            )
-            self.emit('if not ok:')
-            self.emit(f'    return {self.result(False, k)}')
-            self.emit('phi_p = beta - atan2(e, along) - psi0')
-            self.emit('phi_m = beta - atan2(e, -along) - psi0')
-            self.emit(f'sg = signs[{self.branches}]')
-            key = '@' + pj.guide
-            self.emit(f'if prefer is not None and {key!r} in prefer:')
-            self.near_singular(
-                [
-                    f'last = prefer[{key!r}]',
-                    f'sg = 1 if abs(wrap_angle(phi_p + {gphi} - last)) <= '
-                    f'abs(wrap_angle(phi_m + {gphi} - last)) else -1',
-                ]
-            )
-            self.emit('phi = phi_p if sg > 0 else phi_m')
-            self.emit(f'ang{bi} = phi')
-            self.place_body(bi, 'phi', f'{self.pt(p)} - complex(cos(phi), sin(phi)) * lp')
-            self.took()
-        else:
-            raise PlanError(f'internal: unknown plan step {op!r}')
+    return SpecReader(
+        'point', mech.links_of_point(spec.point)[0], p_ref=_c(mech.points[spec.point])
+    )
 
 
-def _compile_scalar(plan: Plan):
-    """The plan as one straight-line Python function (values, signs, prefer, tol,
-    prev_margins) -> ScalarRun: every lookup of the plan (bodies, local frames, reference
-    points, which link carries which point) is resolved here once, so a solve executes only
-    its arithmetic. This is the node's per-command path."""
-    code = _ScalarCode(plan)
-    code.emit('margin = 1.0')
-    for k, st in enumerate(plan.steps):
-        code.step(k, st)
-    code.emit(f'return {code.result(True)}')
-    src = 'def run(values, signs, prefer, tol, prev_margins):\n' + '\n'.join(code.lines) + '\n'
-    namespace = dict(code.ns)
-    exec(compile(src, f'<scalar plan of {plan.mech.name}>', 'exec'), namespace)  # noqa: S102 (to go: issue 15)
-    fn = namespace['run']
-    fn.source = src  # the generated code, for debugging
-    return fn
-
-
-def _unit(z: complex) -> complex:
-    a = abs(z)
-    return z / a if a > 0 else 0j
+def spec_value_of(ops, mech: Mechanism, spec: Spec, poses: LinkPoses):
+    """A spec's value on solved poses (complex link poses, either backend): an angle (rad,
+    wrapped to (-pi, pi]) or slide (m), or a point's complex position."""
+    return spec_reader(mech, spec)(ops, poses)
 
 
 def spec_value_one(mech: Mechanism, spec: Spec, poses: ScalarPoses):
-    """Evaluate a spec on one configuration: a float, or (x, y) for a point."""
-    if spec.kind == 'angle':
-        return dyads.wrap_angle(poses.phi[spec.link] - poses.phi[spec.reference] + spec.offset)
-    if spec.kind == 'slide':
-        pj = mech.prismatics[spec.joint]
-        x = poses.world(spec_point_link(mech, pj.point, pj.slider), _c(mech.points[pj.point]))
-        o = poses.world(pj.guide, _c(pj.origin))
-        d = poses.rot[pj.guide] * _c(pj.direction)
-        v = x - o
-        return v.real * d.real + v.imag * d.imag
-    w = poses.world(mech.links_of_point(spec.point)[0], _c(mech.points[spec.point]))
-    return (w.real, w.imag)
+    """A spec's value on one configuration: a float, or (x, y) for a point."""
+    v = spec_value_of(SCALAR, mech, spec, poses)
+    return (v.real, v.imag) if spec.kind == 'point' else v
 
 
-def branch_geometry_one(plan: Plan, pts: dict[str, complex], poses: ScalarPoses):
-    """Branch signs and dyad margins of the plan's branching steps read off one configuration
-    (how a Newton solution is told which assembly mode it is in)."""
+def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
+    """A spec's value on batched poses: (N,) for angle/slide, (N, 2) for a point."""
+    with np.errstate(all='ignore'):
+        v = spec_value_of(BATCH, mech, spec, link_poses(poses))
+    return to_xy(v) if spec.kind == 'point' else np.asarray(v, float)
+
+
+def branch_geometry_of(ops, plan: Plan, pts, poses: LinkPoses):
+    """Branch signs (+1 / -1) and dyad margins of the plan's branching steps read off a solved
+    configuration, either backend (how a Newton solution is told which assembly mode it is
+    in): one list entry per branching step."""
     mech = plan.mech
+    where = ops.where
+
+    def unit(z):  # hypot: no overflow at 1e200; a zero vector stays 0
+        r = abs(z)
+        return z / where(r > 0, r, 1.0)
+
     signs, margins = [], []
     for st in plan.branch_steps:
         x = pts[st.point]
         if st.op == 'circle_circle':
-            _, p1, _, p2 = st.args
-            a, b = pts[p1], pts[p2]
-            ab, ax = _unit(b - a), _unit(x - a)  # units: products of 1e200 overflow
+            a, b = pts[st.args[1]], pts[st.args[3]]
+            ab, ax = unit(b - a), unit(x - a)  # units: products of 1e200 overflow
             side = ab.real * ax.imag - ab.imag * ax.real
-            va, vb = _unit(x - a), _unit(x - b)
-            m = abs(va.real * vb.imag - va.imag * vb.real)
+            vb = unit(x - b)
+            m = abs(ax.real * vb.imag - ax.imag * vb.real)
         else:
             pj = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
-            base = pts[st.args[1]]
             u = poses.rot[pj.guide] * _c(pj.direction)
-            v = _unit(x - base)
+            v = unit(x - pts[st.args[1]])
             side = v.real * u.real + v.imag * u.imag
             m = abs(side)
-        signs.append(1 if side >= 0 else -1)
-        margins.append(min(max(m, 0.0), 1.0))
+        signs.append(where(side >= 0, 1, -1))
+        margins.append(ops.clip(m, 0.0, 1.0))
+    return signs, margins
+
+
+def branch_geometry_one(plan: Plan, pts: dict[str, complex], poses: ScalarPoses):
+    """branch_geometry_of on one configuration: (signs tuple, margins list)."""
+    signs, margins = branch_geometry_of(SCALAR, plan, pts, poses)
     return tuple(signs), margins
 
 
 def branch_geometry_batch(plan: Plan, pts: dict[str, np.ndarray], poses: Poses):
-    """branch_geometry_one over a batch: points {name: (n, 2)} and batched poses -> signs (n, k)
+    """branch_geometry_of over a batch: points {name: (n, 2)} and batched poses -> signs (n, k)
     (+1 / -1) and margins (n, k) of the plan's k branching steps."""
     n = poses.phi[plan.mech.ground].shape[0]
-
-    def unit(v):  # hypot: no overflow at 1e200; a zero vector stays 0
-        r = np.hypot(v[:, 0], v[:, 1])
-        return v / np.where(r > 0, r, 1.0)[:, None]
-
-    signs, margins = (
-        np.zeros((n, len(plan.branch_steps)), int),
-        np.zeros((n, len(plan.branch_steps))),
-    )
-    for k, st in enumerate(plan.branch_steps):
-        x = pts[st.point]
-        if st.op == 'circle_circle':
-            _, p1, _, p2 = st.args
-            a, b = pts[p1], pts[p2]
-            side = dyads.cross2(unit(b - a), unit(x - a))
-            m = np.abs(dyads.cross2(unit(x - a), unit(x - b)))
-        else:
-            pj = plan.mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
-            u = dyads.rotate(
-                np.broadcast_to(np.asarray(pj.direction, float), (n, 2)), poses.phi[pj.guide]
-            )
-            side = np.sum(unit(x - pts[st.args[1]]) * u, axis=-1)
-            m = np.abs(side)
-        signs[:, k] = np.where(side >= 0, 1, -1)
-        margins[:, k] = np.clip(m, 0.0, 1.0)
+    k = len(plan.branch_steps)
+    zs = {p: to_complex(v) for p, v in pts.items()}
+    with np.errstate(all='ignore'):
+        sg, mg = branch_geometry_of(BATCH, plan, zs, link_poses(poses))
+    signs, margins = np.zeros((n, k), int), np.zeros((n, k))
+    for j in range(k):
+        signs[:, j], margins[:, j] = sg[j], mg[j]
     return signs, margins

@@ -19,29 +19,30 @@ from __future__ import annotations
 import cmath
 import collections.abc
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from . import dyads
+from .assemble import ResultAssembler
 from .dyads import wrap_angle
 from .errors import PlanError
+from .execute import CONTINUITY_MARGIN
 from .model import Mechanism
 from .newton import LoopSystem
+from .ops import BATCH, SCALAR
 from .plan import (
-    CONTINUITY_MARGIN,
     Plan,
     Poses,
     ScalarPoses,
     Spec,
     branch_geometry_batch,
     branch_geometry_one,
+    link_poses,
     run_one,
     spec_for,
-    spec_point_link,
-    spec_value_at,
     spec_value_one,
 )
 
@@ -62,13 +63,14 @@ def branch_undefined_below(residual):
     geometry factors between that height and the margin. The bound holds whatever BLAS kernel or
     SIMD path computed the answer: every kernel is within a few eps of exact rounding.
     """
-    return 4.0 * np.sqrt(2.0 * (np.asarray(residual, float) + 32.0 * _EPS))
+    # ** 0.5: the same square root on a float (no numpy call per command) or an array
+    return 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
 
 
 def branch_identity_defined(margin, residual):
     """True where ``margin`` is above the noise bound of :func:`branch_undefined_below`
     (scalar or array, elementwise)."""
-    return np.asarray(margin, float) > branch_undefined_below(residual)
+    return margin > branch_undefined_below(residual)
 
 
 METHODS = ('auto', 'closed_form', 'newton')
@@ -908,13 +910,15 @@ class Solver:
         )
 
     # -- result assembly ---------------------------------------------------------------------
-    def _assembler(self, poses: ScalarPoses):
-        """The result-assembly code for configurations that place exactly these links (one per
-        set: a dyad plan always places the same links, Newton all of them)."""
-        key = tuple(poses.phi)
+    def _assembler(self, placed: Iterable[str]) -> ResultAssembler:
+        """The result assembly for configurations that place exactly these links (one per set:
+        a dyad plan always places the same links, Newton all of them)."""
+        key = tuple(placed)
         fn = self._assemblers.get(key)
         if fn is None:
-            fn = _compile_assembly(self, key)
+            fn = ResultAssembler(
+                self.mech, self.specs, self.actuator_specs, self.check_system._spec_links, key
+            )
             if len(self._assemblers) < 16:  # a handful of sets occur; never grow unbounded
                 self._assemblers[key] = fn
         return fn
@@ -931,9 +935,8 @@ class Solver:
         margin,
         cond=None,
     ):
-        inputs, joints, links, residual = self._assembler(poses)(
-            poses.phi, poses.rot, poses.T, vals
-        )
+        got = self._assembler(poses.phi)(SCALAR, poses, vals)
+        inputs, joints, links, residual = got.inputs, got.joints, got.links, got.residual
         points = {p: (v.real, v.imag) for p, v in pts.items()}
         res = Result(
             True,
@@ -1124,12 +1127,13 @@ class BatchResult:
             self.reason[i] = solver._dyad_reason(
                 int(info['failure'][i]), float(info['violation'][i])
             )
-        residual = cls._residuals(solver, poses, safe, ok, n)
+        got = _batch_assembly(solver, poses, safe)
+        residual = np.where(ok, got.residual, 0.0)
         far = ok & ~(residual <= solver.closure_limit)  # as Solver.solve: no false assembly
         for i in np.flatnonzero(far):
             self.reason[i] = solver._closure_reason(float(residual[i]))
         ok &= ~far
-        self._fill(solver, poses, pts, arrays, safe, finite, ok)
+        self._fill(solver, poses, pts, arrays, safe, finite, ok, got)
         self.margin = np.where(self.ok, info['margin'], 0.0)
         self.signs = info['signs']
         self.residual = np.where(self.ok, residual, 0.0)
@@ -1137,44 +1141,18 @@ class BatchResult:
         self.solver = 'closed_form'
         return self
 
-    def _fill(self, solver, poses, pts, arrays, safe, finite, ok):
+    def _fill(self, solver, poses, pts, arrays, safe, finite, ok, got=None):
         """points, links, joints and inputs of the rows ``ok`` from their poses (0 elsewhere);
-        an inverse solve's actuator beyond its limits turns its row into a failure."""
-        mech = solver.mech
+        an inverse solve's actuator beyond its limits turns its row into a failure. Returns the
+        assembly (``got``, when the caller already has it)."""
+        if got is None:
+            got = _batch_assembly(solver, poses, safe)
         self.points = {p: np.where(ok[:, None], v, 0.0) for p, v in pts.items()}
-        have = set(poses.phi)
-        self.links = {
-            l: np.where(
-                ok,
-                np.arctan2(
-                    np.sin(mech.links[l].angle_ref + poses.phi[l]),
-                    np.cos(mech.links[l].angle_ref + poses.phi[l]),
-                ),
-                0.0,
-            )
-            for l in mech.links
-            if l in have
-        }
-        self.joints = {}
-        for rj in mech.revolutes:
-            if rj.parent in have and rj.child in have:
-                d = (
-                    mech.links[rj.child].angle_ref
-                    + poses.phi[rj.child]
-                    - mech.links[rj.parent].angle_ref
-                    - poses.phi[rj.parent]
-                )
-                self.joints[rj.name] = np.where(ok, np.arctan2(np.sin(d), np.cos(d)), 0.0)
-        for pj in mech.prismatics.values():
-            if pj.guide in have and pj.slider in have:
-                v = spec_value_at(mech, Spec(pj.name, 'slide', joint=pj.name), poses)
-                self.joints[pj.name] = np.where(ok, v, 0.0)
-        self.inputs = {}
-        for a, s in zip(mech.actuators, solver.actuator_specs):
-            if all(l in have for l in solver.check_system._spec_links(s)):
-                self.inputs[a] = np.where(ok, spec_value_at(mech, s, poses), 0.0)
+        self.links = {l: np.where(ok, v, 0.0) for l, v in got.links.items()}
+        self.joints = {j: np.where(ok, v, 0.0) for j, v in got.joints.items()}
+        self.inputs = {a: np.where(ok, v, 0.0) for a, v in got.inputs.items()}
         for s, a in zip(solver.specs, arrays):
-            if s.name in mech.actuators:
+            if s.name in solver.mech.actuators:
                 self.inputs[s.name] = np.where(ok, a, np.where(finite, a, 0.0))
         if solver.inverse:
             for s in solver.actuator_specs:
@@ -1185,6 +1163,7 @@ class BatchResult:
                             ok[i] = False
                             self.reason[i] = f'target needs {why}'
         self.ok = ok
+        return got
 
     @staticmethod
     def _newton(self, solver, arrays, safe, valid, start):
@@ -1231,7 +1210,7 @@ class BatchResult:
             accepted &= np.all(signs == np.asarray(solver.fixed_signs, int), axis=1)
         elif solver.branch_mode == 'reference' and branches:
             accepted &= np.all(signs == np.asarray(plan.reference_signs, int), axis=1)
-        self._fill(solver, poses, pts, arrays, safe, valid, accepted.copy())
+        got = self._fill(solver, poses, pts, arrays, safe, valid, accepted.copy())
         self.x, self.det_sign = x, np.where(self.ok, det_sign, 0)
         self.signs, self.margin = (
             np.where(self.ok[:, None], signs, 0),
@@ -1240,7 +1219,7 @@ class BatchResult:
         self.iterations = np.where(self.ok, iterations, 0)
         self.residual = np.where(
             self.ok,
-            np.maximum(residual, BatchResult._residuals(solver, poses, safe, self.ok, n)),
+            np.maximum(residual, got.residual),
             0.0,
         )
         self.solver = solver.mode
@@ -1299,36 +1278,6 @@ class BatchResult:
             self.signs[i] = [1 if c == '+' else -1 for c in r.branch]
         state = solver._history[-1]
         self.x[i], self.det_sign[i] = state.x_all, state.det_sign
-
-    @staticmethod
-    def _residuals(solver, poses, arrays, ok, n):
-        mech = solver.mech
-        if set(poses.phi) < set(mech.links):
-            return np.zeros(n)
-        # vectorised loop-closure check: every revolute and prismatic pair
-        worst = np.zeros(n)
-        for rj in mech.revolutes:
-            a = poses.world(rj.parent, rj.point, mech)
-            b = poses.world(rj.child, rj.point, mech)
-            worst = np.maximum(worst, np.max(np.abs(a - b), axis=-1))
-        for pj in mech.prismatics.values():
-            x = poses.world(pj.slider, pj.point, mech)
-            g = poses.apply(pj.guide, mech.points[pj.point])
-            nrm = dyads.rotate(
-                np.broadcast_to(dyads.perp(np.asarray(pj.direction)), (n, 2)), poses.phi[pj.guide]
-            )
-            worst = np.maximum(worst, np.abs(np.sum((x - g) * nrm, axis=-1)))
-            worst = np.maximum(
-                worst,
-                mech.length_scale
-                * np.abs(
-                    np.arctan2(
-                        np.sin(poses.phi[pj.slider] - poses.phi[pj.guide]),
-                        np.cos(poses.phi[pj.slider] - poses.phi[pj.guide]),
-                    )
-                ),
-            )
-        return np.where(ok, worst / mech.length_scale, 0.0)
 
     @staticmethod
     def _sequential(self, solver, arrays, n):
@@ -1419,6 +1368,12 @@ def _same_link_points_hint(mech: Mechanism, knowns: Sequence[str], specs: Sequen
     return ''
 
 
+def _batch_assembly(solver: Solver, poses: Poses, arrays) -> Any:
+    """ResultAssembler on batched (n, 2)-coordinate poses."""
+    with np.errstate(all='ignore'):
+        return solver._assembler(poses.phi)(BATCH, link_poses(poses), arrays)
+
+
 def _batch_poses(solver: Solver, x: np.ndarray) -> Poses:
     """Poses of every link from newton unknowns x (n, 3 per moving link: phi and the world
     position of the link's reference centroid o, so T = c - R(phi) o); the ground at rest."""
@@ -1431,113 +1386,6 @@ def _batch_poses(solver: Solver, x: np.ndarray) -> Poses:
             np.broadcast_to(system.centroid[l], (n, 2)), phi
         )
     return poses
-
-
-def _compile_assembly(solver: Solver, have: tuple[str, ...]):
-    """Straight-line code (phi, rot, T, vals) -> (inputs, joints, links, residual) reading a
-    Result off the poses of the links in ``have``: every commanded actuator as given, every
-    other actuator, joint and link whose links are placed, and the loop-closure residual over
-    the joints and knowns whose links are placed, as a fraction of the length scale (rotation
-    errors count as length scale * angle; the largest single component, the Newton rows'
-    metric, so a Newton answer converged to tolerance reports a residual within it). Which
-    rows apply, the reference points and offsets are resolved here once: this runs on every
-    command."""
-    mech, L = solver.mech, solver.mech.length_scale
-    placed = set(have)
-    ns = {'wrap_angle': wrap_angle, 'atan2': math.atan2, 'sin': math.sin, 'cos': math.cos}
-    lines: list[str] = []
-    var = {l: k for k, l in enumerate(have)}
-
-    def const(value) -> str:
-        name = f'K{len(ns)}'
-        ns[name] = value
-        return name
-
-    def emit(line: str):
-        lines.append('    ' + line)
-
-    def wrapped(target: str, expr: str):
-        """target = wrap_angle(expr), inlined (most angles are in range: no call at all)."""
-        emit(f'a = {expr}')
-        emit(
-            f'{target} = a if {const(-math.pi)} < a <= {const(math.pi)} else atan2(sin(a), cos(a))'
-        )
-
-    def world(link: str, p: complex) -> str:
-        k = var[link]
-        return f'(ro{k} * {const(p)} + T{k})'
-
-    def spec_value(s: Spec) -> str:
-        """Expression of the spec's value (spec_value_one), after any lines it needs."""
-        if s.kind == 'angle':
-            return f'wrap_angle(ph{var[s.link]} - ph{var[s.reference]} + {const(s.offset)})'
-        if s.kind == 'slide':
-            pj = mech.prismatics[s.joint]
-            g = var[pj.guide]
-            x = world(spec_point_link(mech, pj.point, pj.slider), complex(*mech.points[pj.point]))
-            emit(f'v = {x} - {world(pj.guide, complex(*pj.origin))}')
-            emit(f'd = ro{g} * {const(complex(*pj.direction))}')
-            return 'v.real * d.real + v.imag * d.imag'
-        emit(f'w = {world(mech.links_of_point(s.point)[0], complex(*mech.points[s.point]))}')
-        return '(w.real, w.imag)'
-
-    links_of = solver.check_system._spec_links
-    for l, k in var.items():
-        emit(f'ph{k} = phi[{l!r}]; ro{k} = rot[{l!r}]; T{k} = T[{l!r}]')
-    emit('inputs = {}')
-    commanded = {s.name: i for i, s in enumerate(solver.specs)}
-    for a, s in zip(mech.actuators, solver.actuator_specs):
-        if a in commanded:  # commanded: the value exactly as given
-            emit(f'inputs[{a!r}] = float(vals[{commanded[a]}])')
-        elif all(l in placed for l in links_of(s)):
-            emit(f'inputs[{a!r}] = float({spec_value(s)})')
-    emit('joints = {}')
-    for rj in mech.revolutes:
-        if rj.parent in placed and rj.child in placed:
-            offset = mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref
-            wrapped(
-                f'joints[{rj.name!r}]', f'{const(offset)} + ph{var[rj.child]} - ph{var[rj.parent]}'
-            )
-    for pj in mech.prismatics.values():
-        if pj.guide in placed and pj.slider in placed:
-            emit(f'joints[{pj.name!r}] = float({spec_value(solver._slide_specs[pj.name])})')
-    emit('links = {}')
-    for l, link in mech.links.items():
-        if l in placed:
-            wrapped(f'links[{l!r}]', f'{const(link.angle_ref)} + ph{var[l]}')
-    emit('worst = 0.0')
-    for rj in mech.revolutes:
-        if rj.parent in placed and rj.child in placed:
-            p = complex(*mech.points[rj.point])
-            emit(f'd = {world(rj.parent, p)} - {world(rj.child, p)}')
-            emit('worst = max(worst, abs(d.real), abs(d.imag))')
-    for pj in mech.prismatics.values():
-        if pj.guide in placed and pj.slider in placed:
-            p = complex(*mech.points[pj.point])
-            g, sl = var[pj.guide], var[pj.slider]
-            emit(f'off = {world(pj.slider, p)} - {world(pj.guide, p)}')
-            emit(f'n = ro{g} * {const(1j * complex(*pj.direction))}')
-            emit(
-                f'worst = max(worst, abs(off.real * n.real + off.imag * n.imag), '
-                f'{const(L)} * abs(wrap_angle(ph{sl} - ph{g})))'
-            )
-    for i, s in enumerate(solver.specs):
-        if not all(l in placed for l in links_of(s)):
-            continue
-        emit(f'got = {spec_value(s)}')
-        emit(f'v = vals[{i}]')
-        if s.kind == 'point':
-            emit('worst = max(worst, abs(got[0] - v[0]), abs(got[1] - v[1]))')
-        elif s.kind == 'angle':  # reduce v exactly first
-            emit(f'worst = max(worst, {const(L)} * abs(wrap_angle(got - wrap_angle(v))))')
-        else:
-            emit('worst = max(worst, abs(got - v))')
-    emit(f'return inputs, joints, links, worst / {const(L)}')
-    src = 'def assemble(phi, rot, T, vals):\n' + '\n'.join(lines) + '\n'
-    exec(compile(src, f'<result assembly of {mech.name}>', 'exec'), ns)  # noqa: S102 (to go: issue 15)
-    fn = ns['assemble']
-    fn.source = src  # the generated code, for debugging
-    return fn
 
 
 def _sign_str(signs) -> str:

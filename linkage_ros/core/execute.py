@@ -1,0 +1,336 @@
+"""Execution of a compiled plan: the one implementation, for one command or a batch.
+
+:class:`PlanExecutor` runs a :class:`~linkage_ros.core.plan.Plan`'s steps on either number
+backend of :mod:`linkage_ros.core.ops` (points complex): ``SCALAR`` for one command (the node's
+path, with continuity through tangent configurations) and ``BATCH`` for many (fixed branch
+signs). Every lookup of the plan (which link carries a point, reference positions, slide
+directions) is resolved once per plan, so a solve does only its arithmetic.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from . import dyads
+from .dyads import DyadPair, dyad_point, rpr_direction, solve_rpr_dyad, solve_rrp_dyad
+from .dyads import solve_rrr_dyad as _rrr
+from .errors import PlanError
+from .ops import BATCH, SCALAR, to_complex
+
+#: Below this dyad margin (|sin| of its transmission angle) continuity decides the branch by the
+#: predicted position; above it the previous sign is kept, because an assembly mode can only
+#: change by passing through the dyad's singular (tangent) configuration.
+CONTINUITY_MARGIN = 0.1
+
+
+@dataclass
+class LinkPoses:
+    """Link poses of one configuration or a batch: world(p) = rot * p_ref + T (complex), with
+    rot = e^{i phi}, phi the link's rotation from the reference pose (rad)."""
+
+    phi: dict[str, Any] = field(default_factory=dict)
+    rot: dict[str, Any] = field(default_factory=dict)
+    T: dict[str, Any] = field(default_factory=dict)
+
+    def set(self, link: str, phi: Any, T: Any, rot: Any = None) -> None:
+        """Pose of one link; rot defaults to e^{i phi} of one configuration."""
+        self.phi[link] = phi
+        self.rot[link] = SCALAR.expi(phi) if rot is None else rot
+        self.T[link] = T
+
+    def world(self, link: str, p_ref: Any) -> Any:
+        return self.rot[link] * p_ref + self.T[link]
+
+
+@dataclass
+class PlanRun:
+    """What executing a plan gave. One command: ``ok`` a bool, ``failure`` the index of the
+    step that did not close (-1) and the run stops there. A batch: ``ok``, ``failure``,
+    ``violation`` and ``margin`` are (n,) arrays and every row runs to the end (finite
+    placeholders where not ok). ``signs`` and ``margins`` hold one entry per branching step
+    taken (the sign used, the dyad's margin)."""
+
+    ok: Any
+    poses: LinkPoses
+    points: dict[str, Any]
+    margin: Any = 1.0
+    signs: tuple[Any, ...] = ()
+    failure: Any = -1
+    violation: Any = 0.0
+    margins: tuple[Any, ...] = ()
+
+
+class PlanExecutor:
+    """One plan, ready to run on either backend (made once per plan: see :func:`executor`)."""
+
+    def __init__(self, plan: Any):
+        self.plan = plan
+        mech = plan.mech
+        self.ref = {p: complex(float(v[0]), float(v[1])) for p, v in mech.points.items()}
+        self.direction = {
+            j: complex(float(pj.direction[0]), float(pj.direction[1]))
+            for j, pj in mech.prismatics.items()
+        }
+        #: (body, point) -> the member link whose frame carries the point
+        self.carrier: dict[tuple[int, str], str] = {}
+        for b in plan.bodies:
+            for link in b.links:
+                for p in mech.links[link].points:
+                    self.carrier.setdefault((b.index, p), link)
+
+    # -- bodies --------------------------------------------------------------------------------
+    def _frame(self, ops: Any, bi: int, values: Sequence[Any], zero: Any) -> dict[str, tuple]:
+        """(phi, rot, T) of each member link of body bi with its root at the identity: welds by
+        a known angle turn a member about the shared point, welds by a known slide move it
+        along the slide."""
+        plan, mech = self.plan, self.plan.mech
+        body = plan.bodies[bi]
+        frame = {body.root: (zero, ops.cplx(zero + 1.0, zero), ops.cplx(zero, zero))}
+        for w in body.welds:
+            s = plan.specs[w.spec_index]
+            v = values[w.spec_index]
+            vphi, vrot, vT = frame[w.via]
+            if w.kind == 'angle':
+                rel = ops.wrap(v) - s.offset  # phi[s.link] - phi[s.reference]
+                phi = vphi + (rel if w.link == s.link else -rel)
+                rot = ops.expi(phi)
+                p = self.ref[w.shared_point]
+                frame[w.link] = (phi, rot, (vrot * p + vT) - rot * p)
+            else:
+                pj = mech.prismatics[s.joint]
+                x_ref = self.ref[pj.point]
+                u, dv = self.direction[pj.name], v - pj.ref_value
+                along = x_ref + ops.cplx(dv * u.real, dv * u.imag)
+                if w.link == pj.slider:  # guide placed: the slider point on its line
+                    T = (vrot * along + vT) - vrot * x_ref
+                else:  # slider placed: hang the guide off it
+                    T = (vrot * x_ref + vT) - vrot * along
+                frame[w.link] = (vphi, vrot, T)
+        return frame
+
+    # -- the run -------------------------------------------------------------------------------
+    def run(
+        self,
+        values: Sequence[Any],
+        n: int | None = None,
+        signs: Sequence[int] | None = None,
+        prefer: Any = None,
+        prev_margins: Sequence[float] | None = None,
+        tol: float = dyads.TANGENCY_TOL,
+    ) -> PlanRun:
+        """Execute the plan: one command (``n`` None: ``values[i]`` a float, or an (x, y) pair
+        for a point) or a batch of n (``values[i]`` (n,) or (n, 2) arrays).
+
+        ``signs`` are the branch signs, one per branching step (default: the reference pose's).
+        One command only: ``prefer`` maps point names to predicted complex positions and
+        '@link' to predicted link angles; where a dyad is near its singularity (its margin now
+        or in ``prev_margins`` below CONTINUITY_MARGIN) the branch nearest the prediction is
+        taken instead (continuity through tangent configurations), and coincident circles (a
+        change point: a rhombus folded flat) keep the point where continuity predicts it.
+        """
+        if n is None:
+            one = [v if s.kind == 'point' else float(v) for s, v in zip(self.plan.specs, values)]
+            return self._run(SCALAR, one, 0.0, signs, prefer, prev_margins, tol)
+        vals = [
+            to_complex(np.asarray(v, float).reshape(n, 2))
+            if s.kind == 'point'
+            else np.asarray(v, float).reshape(n)
+            for s, v in zip(self.plan.specs, values)
+        ]
+        with np.errstate(all='ignore'):
+            return self._run(BATCH, vals, np.zeros(n), signs, None, None, tol)
+
+    def _run(self, ops, values, zero, signs, prefer, prev_margins, tol) -> PlanRun:
+        plan, mech, ref = self.plan, self.plan.mech, self.ref
+        signs = list(plan.reference_signs if signs is None else signs)
+        poses = LinkPoses()
+        pts: dict[str, Any] = {}
+        frames: dict[int, dict[str, tuple]] = {}
+        angles: dict[int, Any] = {}  # body root orientation when known before placing
+        used: list[Any] = []
+        margins: list[Any] = []
+        state = {'ok': zero == zero, 'margin': zero + 1.0, 'failure': zero - 1.0}
+        state['violation'] = zero + 0.0
+
+        def frame(bi):
+            f = frames.get(bi)
+            if f is None:
+                f = frames[bi] = self._frame(ops, bi, values, zero)
+            return f
+
+        def local_pt(bi, p):
+            if not plan.bodies[bi].welds:  # a single link at the identity
+                return ref[p]
+            _, rot, T = frame(bi)[self.carrier[(bi, p)]]
+            return rot * ref[p] + T
+
+        def place_body(bi, phi, Tb):
+            rot = ops.expi(phi)
+            body = plan.bodies[bi]
+            if not body.welds:  # a single link: its frame is the identity
+                link = body.root
+                poses.phi[link], poses.rot[link], poses.T[link] = phi, rot, Tb
+                for p in mech.links[link].points:
+                    if p not in pts:
+                        pts[p] = rot * ref[p] + Tb
+                return
+            f = frame(bi)
+            for link in body.links:
+                lphi, lrot, lT = f[link]
+                lr = rot * lrot
+                lt = rot * lT + Tb
+                poses.phi[link], poses.rot[link], poses.T[link] = phi + lphi, lr, lt
+                for p in mech.links[link].points:
+                    if p not in pts:
+                        pts[p] = lr * ref[p] + lt
+
+        def finish(k=None, violation=None):
+            """The run so far; ``k`` the step that failed (one command)."""
+            if k is not None:
+                return PlanRun(False, poses, pts, 0.0, tuple(used), k, violation, tuple(margins))
+            return PlanRun(
+                state['ok'],
+                poses,
+                pts,
+                state['margin'],
+                tuple(used),
+                state['failure'] if ops.batch else -1,
+                state['violation'],
+                tuple(margins),
+            )
+
+        def near_singular(m):
+            b = len(used)
+            prev = prev_margins[b] if prev_margins and b < len(prev_margins) else 1.0
+            return min(m, prev) < CONTINUITY_MARGIN
+
+        def took(k, sg, m, okk, viol):
+            """A branching step: its sign, margin and (batch) failures."""
+            used.append(sg)
+            margins.append(m)
+            state['margin'] = ops.minimum(state['margin'], m)
+            if ops.batch:
+                newly = state['ok'] & ops.not_(okk)
+                state['failure'] = np.where(newly, k, state['failure'])
+                state['violation'] = np.where(newly, viol, state['violation'])
+                state['ok'] = state['ok'] & okk
+
+        for k, st in enumerate(plan.steps):
+            op = st.op
+            if op == 'ground':
+                place_body(st.body, zero, ops.cplx(zero, zero))
+            elif op == 'known_point':
+                v = values[st.args[0]]
+                pts[st.point] = v if ops.batch else complex(float(v[0]), float(v[1]))
+            elif op == 'two_points':
+                p, q = st.args
+                lp = local_pt(st.body, p)
+                a, b = local_pt(st.body, q) - lp, pts[q] - pts[p]
+                # unit first: products of 1e-300 lengths would underflow
+                na, nb = abs(a), abs(b)
+                a, b = a / ops.where(na > 0, na, 1.0), b / ops.where(nb > 0, nb, 1.0)
+                cross = a.real * b.imag - a.imag * b.real
+                phi = ops.atan2(cross, a.real * b.real + a.imag * b.imag)
+                place_body(st.body, phi, pts[p] - ops.expi(phi) * lp)
+            elif op == 'point_angle':
+                p = st.args[0]
+                phi = angles[st.body]
+                place_body(st.body, phi, pts[p] - ops.expi(phi) * local_pt(st.body, p))
+            elif op == 'angle':
+                here, there, spec_i = st.args
+                if there in poses.phi:
+                    src = poses.phi[there]
+                else:
+                    sb = plan.body_of[there]
+                    src = angles[sb] + frame(sb)[there][0]
+                rel = zero
+                if spec_i is not None:
+                    s = plan.specs[spec_i]
+                    rel = ops.wrap(values[spec_i]) - s.offset
+                    if here == s.reference:
+                        rel = -rel
+                angles[st.body] = src + rel - frame(st.body)[here][0]
+            elif op in ('circle_circle', 'circle_line'):
+                x = st.point
+                if op == 'circle_circle':
+                    b1, p1, b2, p2 = st.args
+                    r1 = abs(local_pt(b1, x) - local_pt(b1, p1))
+                    r2 = abs(local_pt(b2, x) - local_pt(b2, p2))
+                    pair = None
+                    if not ops.batch:
+                        pair = self._coincident(pts, x, p1, p2, r1, r2, prefer, tol)
+                    if pair is None:
+                        pair = _rrr(ops, pts[p1], r1, pts[p2], r2, tol)
+                else:
+                    b1, p1, jname = st.args
+                    g = mech.prismatics[jname].guide
+                    r = abs(local_pt(b1, x) - local_pt(b1, p1))
+                    p0 = poses.rot[g] * ref[x] + poses.T[g]
+                    u = poses.rot[g] * self.direction[jname]
+                    pair = solve_rrp_dyad(ops, pts[p1], r, p0, u, tol)
+                if not ops.batch and not pair.ok:
+                    return finish(k, pair.violation)
+                sg = signs[len(used)]
+                if prefer is not None and x in prefer and near_singular(pair.margin):
+                    target = prefer[x]
+                    plus, _ = dyad_point(ops, pair, 1)
+                    minus, _ = dyad_point(ops, pair, -1)
+                    sg = 1 if abs(plus - target) <= abs(minus - target) else -1
+                pts[x], okk = dyad_point(ops, pair, sg)
+                if not ops.batch and not okk:  # beyond the float range
+                    return finish(k, 0.0)
+                took(k, sg, pair.margin, okk, pair.violation)
+            elif op == 'line_through':
+                jname, p = st.args
+                pj = mech.prismatics[jname]
+                x, bi = st.point, st.body
+                gphi, grot, gT = frame(bi)[pj.guide]
+                lp = local_pt(bi, p)
+                u_loc = grot * self.direction[jname]
+                w = (grot * ref[x] + gT) - lp
+                e = u_loc.real * w.imag - u_loc.imag * w.real  # signed offset of the pivot
+                psi0 = ops.atan2(u_loc.imag, u_loc.real)
+                dy = solve_rpr_dyad(ops, pts[p], pts[x], e, tol)
+                if not ops.batch and not dy.ok:
+                    return finish(k, dy.violation)
+                sg = signs[len(used)]
+                key = '@' + pj.guide
+                if prefer is not None and key in prefer and near_singular(dy.margin):
+                    last = prefer[key]
+                    phi_p = rpr_direction(ops, dy, 1) - psi0
+                    phi_m = rpr_direction(ops, dy, -1) - psi0
+                    miss_p = abs(ops.wrap(phi_p + gphi - last))
+                    sg = 1 if miss_p <= abs(ops.wrap(phi_m + gphi - last)) else -1
+                phi = rpr_direction(ops, dy, sg) - psi0
+                angles[bi] = phi
+                place_body(bi, phi, pts[p] - ops.expi(phi) * lp)
+                took(k, sg, dy.margin, dy.ok, dy.violation)
+            else:
+                raise PlanError(f'internal: unknown plan step {op!r}')
+        return finish()
+
+    def _coincident(self, pts, x, p1, p2, r1, r2, prefer, tol) -> DyadPair | None:
+        """One command only: circles that coincide (a change point, e.g. a rhombus folded flat)
+        leave x anywhere on the circle; keep it where continuity predicts, else where the
+        reference pose has it relative to p1. Branch identity is undefined there (margin 0)."""
+        P1, P2 = pts[p1], pts[p2]
+        big = max(r1, r2)
+        if not (abs(P1 - P2) <= tol * big and abs(r1 - r2) <= tol * big):
+            return None
+        guess = prefer.get(x) if prefer else None
+        off = (guess - P1) if guess is not None else self.ref[x] - self.ref[p1]
+        off = off / abs(off) if abs(off) > 0 else 1 + 0j
+        foot = P1 + r1 * off
+        return DyadPair(foot, 1.0, 0.0, 0.0, 1.0, 0.0, True, 0.0, 0.0, foot)
+
+
+def executor(plan: Any) -> PlanExecutor:
+    """The plan's executor, made on first use and kept on the plan."""
+    ex = plan.__dict__.get('_executor')
+    if ex is None:
+        ex = plan._executor = PlanExecutor(plan)
+    return ex

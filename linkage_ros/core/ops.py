@@ -1,0 +1,269 @@
+"""The two number backends every kinematic kernel runs on: one command or a batch.
+
+Each kernel of the core (dyads, plan execution, result assembly) is written once against this
+small interface, with points as complex numbers (x + iy). :data:`SCALAR` runs it on Python
+floats and complex numbers (the node's one-command path: ~50x cheaper per command than numpy on
+arrays of one); :data:`BATCH` runs the same code on numpy arrays with a leading batch axis (the
+bag tool, sweeps, ``Solver.solve_batch``). Arithmetic operators, comparisons, ``&``, ``|`` and
+``abs`` are shared by both; everything else a kernel needs is an attribute here.
+
+Rules a kernel follows so that both backends give the same answer: no ``~`` (use ``not_``), no
+``if`` on a value (use ``where``; ``batch`` tells whether masks are arrays), no division by a
+value that may be 0 and no root of one that may be negative (``where`` a safe value first:
+Python raises where numpy returns inf/NaN).
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from typing import Any
+
+import numpy as np
+
+
+def _max(a: Any, b: Any) -> Any:
+    """max propagating NaN from either side, like np.maximum (Python's max does not)."""
+    return a if (a >= b or a != a) else b
+
+
+def _min(a: Any, b: Any) -> Any:
+    return a if (a <= b or a != a) else b
+
+
+def _pow2_scale(ops: Any, m: Any) -> Any:
+    """The even power of two S = 4**k with m / S in [1, 4) (1 where m is 0, negative or not
+    finite). Dividing lengths by S is exact and commutes with square roots (sqrt(S) = 2**k), so
+    a result formed from the normalised values and multiplied back by S is the one the unscaled
+    formulas would give, except that no intermediate overflows (lengths near 1e308) or loses its
+    digits to subnormals (5e-324)."""
+    _, expo = ops.frexp(ops.where(ops.isfinite(m) & (m > 0), m, 1.0))
+    # m in [2**(expo-1), 2**expo); the even exponent 2 * floor((expo - 1) / 2) lies in
+    # [-1074, 1022]: S itself neither overflows nor underflows
+    return ops.ldexp(1.0, ((expo - 1) >> 1) << 1)
+
+
+class ScalarOps:
+    """Python floats and complex numbers: one command."""
+
+    batch = False
+    pi = math.pi
+    sqrt = staticmethod(math.sqrt)
+    sin = staticmethod(math.sin)
+    cos = staticmethod(math.cos)
+    atan2 = staticmethod(math.atan2)
+    hypot = staticmethod(math.hypot)
+    frexp = staticmethod(math.frexp)
+    ldexp = staticmethod(math.ldexp)
+    isfinite = staticmethod(cmath.isfinite)  # real or complex
+    maximum = staticmethod(_max)
+    minimum = staticmethod(_min)
+
+    @staticmethod
+    def where(cond: Any, a: Any, b: Any) -> Any:
+        return a if cond else b
+
+    @staticmethod
+    def not_(cond: Any) -> bool:
+        return not cond
+
+    @staticmethod
+    def clip(x: Any, lo: Any, hi: Any) -> Any:
+        return _min(_max(x, lo), hi)
+
+    @staticmethod
+    def expi(phi: float) -> complex:
+        """e^{i phi} as cos + i sin (exactly those two roundings)."""
+        return complex(math.cos(phi), math.sin(phi))
+
+    @staticmethod
+    def cplx(x: float, y: float) -> complex:
+        return complex(x, y)
+
+    @staticmethod
+    def wrap(a: float) -> float:
+        """Wrap an angle to (-pi, pi] by atan2 of its sine and cosine: exact argument
+        reduction, so 1e6 rad or 1e300 rad keep full precision (a modulo by 2*pi would not). An
+        angle already in range is returned as it is (exact, and the common case)."""
+        if -math.pi < a <= math.pi:
+            return a
+        return math.atan2(math.sin(a), math.cos(a))
+
+    @staticmethod
+    def cmax(z: complex) -> float:
+        """max(|x|, |y|) of a point."""
+        return _max(abs(z.real), abs(z.imag))
+
+    @staticmethod
+    def any(mask: Any) -> bool:
+        return bool(mask)
+
+    def pow2_scale(self, m: Any) -> Any:
+        return _pow2_scale(self, m)
+
+    @staticmethod
+    def full(value: Any, like: Any) -> Any:  # noqa: ARG004 (the batch twin needs like)
+        return value
+
+
+class CArray:
+    """Complex points of a batch as two real arrays.
+
+    numpy's own complex ufuncs take SIMD paths that round differently for long and short arrays
+    (a row's answer would depend on the batch size); these operators use only real ufuncs, in
+    exactly the formulas of Python's complex arithmetic, so a row is solved the same in any
+    batch and within rounding of the one-command backend."""
+
+    __slots__ = ('re', 'im')
+    __array_priority__ = 1000.0  # ndarray (op) CArray defers to the reflected method here
+
+    def __init__(self, re: Any, im: Any):
+        self.re, self.im = re, im
+
+    @property
+    def real(self) -> Any:
+        return self.re
+
+    @property
+    def imag(self) -> Any:
+        return self.im
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return np.shape(self.re)
+
+    def __getitem__(self, index: Any) -> CArray:
+        return CArray(self.re[index], self.im[index])
+
+    def __len__(self) -> int:
+        return len(self.re)
+
+    @staticmethod
+    def _parts(o: Any) -> tuple[Any, Any]:
+        if isinstance(o, CArray):
+            return o.re, o.im
+        if isinstance(o, complex):
+            return o.real, o.imag
+        if getattr(o, 'dtype', None) is not None and o.dtype.kind == 'c':
+            raise TypeError('a numpy complex array met a CArray: make it with ops.cplx')
+        return o, None
+
+    def __add__(self, o: Any) -> CArray:
+        ore, oim = self._parts(o)
+        return CArray(self.re + ore, self.im if oim is None else self.im + oim)
+
+    __radd__ = __add__
+
+    def __sub__(self, o: Any) -> CArray:
+        ore, oim = self._parts(o)
+        return CArray(self.re - ore, self.im if oim is None else self.im - oim)
+
+    def __rsub__(self, o: Any) -> CArray:
+        ore, oim = self._parts(o)
+        return CArray(ore - self.re, -self.im if oim is None else oim - self.im)
+
+    def __neg__(self) -> CArray:
+        return CArray(-self.re, -self.im)
+
+    def __mul__(self, o: Any) -> CArray:
+        ore, oim = self._parts(o)
+        if oim is None:
+            return CArray(self.re * ore, self.im * ore)
+        return CArray(self.re * ore - self.im * oim, self.re * oim + self.im * ore)
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, o: Any) -> CArray:
+        ore, oim = self._parts(o)
+        if oim is not None:
+            raise TypeError('CArray divides by real values only')
+        return CArray(self.re / ore, self.im / ore)
+
+    def __abs__(self) -> Any:
+        return np.hypot(self.re, self.im)
+
+
+def _batch_where(cond: Any, a: Any, b: Any) -> Any:
+    """np.where, for complex points (CArray or Python complex) too."""
+    if isinstance(a, (CArray, complex)) or isinstance(b, (CArray, complex)):
+        are, aim = CArray._parts(a)
+        bre, bim = CArray._parts(b)
+        aim = 0.0 if aim is None else aim
+        bim = 0.0 if bim is None else bim
+        return CArray(np.where(cond, are, bre), np.where(cond, aim, bim))
+    return np.where(cond, a, b)
+
+
+def _batch_isfinite(x: Any) -> Any:
+    if isinstance(x, CArray):
+        return np.isfinite(x.re) & np.isfinite(x.im)
+    if isinstance(x, complex):
+        return cmath.isfinite(x)
+    return np.isfinite(x)
+
+
+class BatchOps:
+    """numpy arrays with a leading batch axis: many commands at once (points: CArray)."""
+
+    batch = True
+    pi = math.pi
+    sqrt = staticmethod(np.sqrt)
+    sin = staticmethod(np.sin)
+    cos = staticmethod(np.cos)
+    atan2 = staticmethod(np.arctan2)
+    hypot = staticmethod(np.hypot)
+    frexp = staticmethod(np.frexp)
+    ldexp = staticmethod(np.ldexp)
+    isfinite = staticmethod(_batch_isfinite)
+    maximum = staticmethod(np.maximum)
+    minimum = staticmethod(np.minimum)
+    where = staticmethod(_batch_where)
+    not_ = staticmethod(np.logical_not)
+    clip = staticmethod(np.clip)
+
+    @staticmethod
+    def expi(phi: Any) -> Any:
+        return BatchOps.cplx(np.cos(phi), np.sin(phi))
+
+    @staticmethod
+    def cplx(x: Any, y: Any) -> CArray:
+        x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
+        return CArray(x, y)
+
+    @staticmethod
+    def wrap(a: Any) -> Any:
+        """ScalarOps.wrap elementwise."""
+        a = np.asarray(a, float)
+        inside = (-math.pi < a) & (a <= math.pi)
+        return np.where(inside, a, np.arctan2(np.sin(a), np.cos(a)))
+
+    @staticmethod
+    def cmax(z: Any) -> Any:
+        return np.maximum(np.abs(z.real), np.abs(z.imag))
+
+    @staticmethod
+    def any(mask: Any) -> bool:
+        return bool(np.any(mask))
+
+    def pow2_scale(self, m: Any) -> Any:
+        return _pow2_scale(self, np.asarray(m, float))
+
+    @staticmethod
+    def full(value: Any, like: Any) -> Any:
+        return np.full(np.shape(like), value)
+
+
+SCALAR = ScalarOps()
+BATCH = BatchOps()
+
+
+def to_complex(xy: Any) -> CArray:
+    """(..., 2) coordinates -> batched complex points."""
+    a = np.asarray(xy, float)
+    return CArray(a[..., 0], a[..., 1])
+
+
+def to_xy(z: Any) -> np.ndarray:
+    """Batched complex points (CArray, or a numpy complex array) -> (..., 2) coordinates."""
+    x, y = np.broadcast_arrays(np.asarray(z.real, float), np.asarray(z.imag, float))
+    return np.stack([x, y], axis=-1)
