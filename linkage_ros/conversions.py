@@ -8,7 +8,6 @@ diagnostic_msgs/DiagnosticStatus). Units are REP-103: radians and metres.
 
 from __future__ import annotations
 
-import collections
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
@@ -23,6 +22,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from .core.errors import CommandError
 from .core.model import Mechanism
 from .core.solver import Result
+from .engine import request_values, status_values
 
 __all__ = [
     'joint_state_to_command',
@@ -48,22 +48,7 @@ def joint_state_to_command(msg: JointState) -> dict[str, float]:
     or missing names, NaN, inf, limits, reachability) is the solver's call. ``velocity`` and
     ``effort`` are ignored.
     """
-    names = list(msg.name)
-    positions = list(msg.position)
-    if not names and not positions:
-        raise CommandError('empty JointState: name and position are both empty')
-    if len(names) != len(positions):
-        raise CommandError(
-            f'JointState has {len(names)} name(s) {names} but {len(positions)} '
-            f'position(s); they must pair up one to one'
-        )
-    empty = [i for i, n in enumerate(names) if not n]
-    if empty:
-        raise CommandError(f'JointState name[{empty[0]}] is an empty string')
-    dups = [n for n, count in collections.Counter(names).items() if count > 1]
-    if dups:
-        raise CommandError(f'JointState names {sorted(set(dups))} more than once')
-    return {n: float(p) for n, p in zip(names, positions)}
+    return request_values(list(msg.name), list(msg.position))
 
 
 def point_stamped_to_xy(msg: PointStamped, name: str = '') -> tuple[float, float]:
@@ -157,23 +142,12 @@ def result_to_status(
     """
     if not result.success:
         return error_status(result.reason or 'failed', name, request, hardware_id)
-    values = {
-        'residual': result.residual,
-        'branch': result.branch,
-        'branch_defined': result.branch_defined,
-        'margin': result.margin,
-        'solver': result.solver,
-        'iterations': result.iterations,
-    }
-    if result.cond is not None:
-        values['cond'] = result.cond
-    values['request'] = request
     return DiagnosticStatus(
         level=DiagnosticStatus.OK,
         name=name,
         message='ok',
         hardware_id=hardware_id,
-        values=_key_values(values),
+        values=_key_values(status_values(result, request)),
     )
 
 
@@ -186,7 +160,7 @@ def error_status(
         name=name,
         message=str(reason),
         hardware_id=hardware_id,
-        values=_key_values({'request': request}),
+        values=_key_values(status_values(Result(False, reason), request)),
     )
 
 

@@ -18,7 +18,6 @@ import gc
 import math
 import sys
 import traceback
-from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -48,9 +47,10 @@ from .conversions import (
     result_to_points,
     result_to_status,
 )
-from .core.errors import CommandError, LinkageError, PlanError, SceneError
+from .core.errors import CommandError, PlanError, SceneError
 from .core.model import Mechanism, Scene
-from .core.solver import METHODS, Result, Solver
+from .core.solver import METHODS, Result
+from .engine import ConfigError, Engine, EngineSettings, fail_setting
 from .resources import scene_path
 from .stamps import stamp_error
 
@@ -65,12 +65,6 @@ ZERO_CLOCK = (
     "header.stamp is 0, and so is the node clock's now: use_sim_time is true and no "
     '/clock message has arrived yet; stamp the request, or wait for /clock'
 )
-#: IK solvers kept per node (one per set of target names); least recently used are dropped
-SOLVER_CACHE = 32
-
-
-class ConfigError(LinkageError):
-    """A node parameter is invalid (the message names the parameter and the value)."""
 
 
 # ---- configuration -----------------------------------------------------------------------------
@@ -168,9 +162,10 @@ class NodeConfig:
     target_point_hold: tuple[str, ...] = ()
     queue_depth: int = 10
 
-
-def _fail(name: str, message: str, value: Any) -> None:
-    raise ConfigError(f'parameter {name!r}: {message} (got {value!r})')
+    def engine_settings(self) -> EngineSettings:
+        return EngineSettings(
+            self.solver, self.tolerance, self.max_iterations, self.branch, self.target_point_hold
+        )
 
 
 def check_demo_rate(value: Any) -> float:
@@ -179,7 +174,7 @@ def check_demo_rate(value: Any) -> float:
         or not isinstance(value, (int, float))
         or not DEMO_RATE_MIN <= value <= DEMO_RATE_MAX
     ):  # also refuses nan
-        _fail(
+        fail_setting(
             'demo_rate',
             f'must be a number of Hz from {DEMO_RATE_MIN:g} to {DEMO_RATE_MAX:g}',
             value,
@@ -200,10 +195,10 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
     v.update({k: x for k, x in values.items() if x is not None})
     scene = v['scene']
     if not isinstance(scene, str) or not scene.strip():
-        _fail('scene', 'must be a scene file path or a packaged scene name', scene)
+        fail_setting('scene', 'must be a scene file path or a packaged scene name', scene)
     solver = v['solver']
     if solver not in ('',) + METHODS:
-        _fail('solver', f"must be '' (the scene's) or one of {list(METHODS)}", solver)
+        fail_setting('solver', f"must be '' (the scene's) or one of {list(METHODS)}", solver)
     tol = v['tolerance']
     if (
         isinstance(tol, bool)
@@ -211,38 +206,40 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         or not math.isfinite(tol)
         or not tol > 0
     ):
-        _fail('tolerance', 'must be a finite number > 0', tol)
+        fail_setting('tolerance', 'must be a finite number > 0', tol)
     it = v['max_iterations']
     if isinstance(it, bool) or not isinstance(it, int) or it <= 0:
-        _fail('max_iterations', 'must be an integer > 0', it)
+        fail_setting('max_iterations', 'must be an integer > 0', it)
     branch = v['branch']
     if not isinstance(branch, str) or not (
         branch in BRANCH_MODES or (branch and set(branch) <= {'+', '-'})
     ):
-        _fail('branch', "must be 'continuous', 'reference' or a string of + and - signs", branch)
+        fail_setting(
+            'branch', "must be 'continuous', 'reference' or a string of + and - signs", branch
+        )
     frame_id = v['frame_id']
     if (
         not isinstance(frame_id, str)
         or any(c.isspace() for c in frame_id)
         or frame_id.startswith('/')
     ):
-        _fail(
+        fail_setting(
             'frame_id',
             "must be a tf2 frame name, without whitespace or a leading '/' ('' = the scene's)",
             frame_id,
         )
     demo = v['demo_sweep']
     if not isinstance(demo, bool):
-        _fail('demo_sweep', 'must be true or false', demo)
+        fail_setting('demo_sweep', 'must be true or false', demo)
     rate = check_demo_rate(v['demo_rate'])
     hold = v['target_point_hold']
     if isinstance(hold, str) or not all(isinstance(h, str) and h for h in hold):
-        _fail('target_point_hold', 'must be a list of names', hold)
+        fail_setting('target_point_hold', 'must be a list of names', hold)
     if len(set(hold)) != len(hold):
-        _fail('target_point_hold', 'names something twice', list(hold))
+        fail_setting('target_point_hold', 'names something twice', list(hold))
     depth = v['queue_depth']
     if isinstance(depth, bool) or not isinstance(depth, int) or not 1 <= depth <= QUEUE_DEPTH_MAX:
-        _fail(
+        fail_setting(
             'queue_depth',
             f'must be an integer from 1 to {QUEUE_DEPTH_MAX} (the largest '
             'history depth rclpy takes)',
@@ -253,7 +250,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         from .resources import config_dir
 
         packaged = sorted(f.stem for f in config_dir().glob('*.yaml'))
-        _fail(
+        fail_setting(
             'scene',
             f'no such scene file, and no packaged scene of that name (packaged: '
             f'{", ".join(packaged) or "none"})',
@@ -274,164 +271,15 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
     )
 
 
-# ---- the kinematics engine (no ROS) -------------------------------------------------------------
-
-
-def current_value(mech: Mechanism, result: Result, name: str) -> Any:
-    """The value of a known-able ``name`` in a solved result, resolved like the core resolves
-    knowns: actuator, joint, link angle, then point (x, y)."""
-    if name in mech.actuators:
-        return result.inputs[name]
-    if name in result.joints:
-        return result.joints[name]
-    if name in mech.links:
-        return result.links[name]
-    return result.points[name]
-
-
-class Engine:
-    """Solvers of one mechanism sharing one 'last good state'.
-
-    ``forward`` serves commands (knowns = the actuators). Inverse solvers are compiled on demand,
-    one per set of target names (an LRU cache), and brought up to the last good state before use,
-    so FK and IK continue from the same configuration. A failed request changes nothing.
-    """
-
-    def __init__(self, mech: Mechanism, config: NodeConfig):
-        self.mech = mech
-        self.config = config
-        try:
-            self.forward = self._new_solver(None)
-        except PlanError as exc:
-            name = 'branch' if 'branch' in str(exc) else 'solver'
-            raise ConfigError(
-                f'parameter {name!r} does not fit scene {mech.name!r}: {exc}'
-            ) from None
-        self._check_hold()
-        self._solvers: OrderedDict[frozenset, Solver | str] = OrderedDict()
-        #: known-set -> the state version that solver last saw (lazy adopt before use)
-        self._synced: dict[frozenset, int] = {}
-        self.version = 0
-        self.last: Result | None = None
-        # the reference pose is the first good state (held values, demo start) until a command
-        ref = self.forward.solve(self.forward.reference_values())
-        if ref.success:
-            self.last = ref
-        self._synced[frozenset(self.forward.knowns)] = self.version
-
-    def _new_solver(self, knowns: Sequence[str] | None) -> Solver:
-        c = self.config
-        return Solver(
-            self.mech,
-            knowns=knowns,
-            method=c.solver,
-            tol=c.tolerance,
-            max_iter=c.max_iterations,
-            branch=c.branch,
-        )
-
-    def _check_hold(self):
-        mech, hold = self.mech, self.config.target_point_hold
-        if not hold:
-            return
-        known = set(mech.actuators) | set(mech.joint_names) | set(mech.links) | set(mech.points)
-        bad = [h for h in hold if h not in known or h == mech.ground]
-        if bad:
-            _fail(
-                'target_point_hold',
-                f'unknown name(s) {bad} in scene {mech.name!r}; '
-                'expected actuator, joint, (moving) link or point names',
-                list(hold),
-            )
-        size = sum(
-            2
-            if (
-                h in mech.points
-                and h not in mech.actuators
-                and h not in mech.joint_names
-                and h not in mech.links
-            )
-            else 1
-            for h in hold
-        )
-        if 2 + size != mech.dof:
-            _fail(
-                'target_point_hold',
-                f'a point target (2 values) plus these held names '
-                f'({size} value(s)) must give the {mech.dof} degree(s) of freedom of '
-                f'{mech.name!r}',
-                list(hold),
-            )
-
-    def solver_for(self, knowns: Sequence[str]) -> Solver | str:
-        """The cached solver for this set of knowns, or the reason it cannot be built."""
-        key = frozenset(knowns)
-        if key == frozenset(self.forward.knowns):
-            return self.forward
-        hit = self._solvers.get(key)
-        if hit is None:
-            try:
-                hit = self._new_solver(list(knowns))
-            except PlanError as exc:
-                hit = str(exc)
-            self._solvers[key] = hit
-            while len(self._solvers) > SOLVER_CACHE:
-                old, _ = self._solvers.popitem(last=False)
-                self._synced.pop(old, None)
-        self._solvers.move_to_end(key)
-        return hit
-
-    def _solve(self, solver: Solver | str, values: Mapping[str, Any]) -> Result:
-        if isinstance(solver, str):
-            return Result(False, solver)
-        key = frozenset(solver.knowns)
-        if self._synced.get(key) != self.version and self.last is not None:
-            solver.adopt(self.last)
-        self._synced[key] = self.version
-        result = solver.solve(values)
-        if result.success:
-            self.last = result
-            self.version += 1
-            self._synced[key] = self.version  # the solver committed this state itself
-        return result
-
-    def command(self, values: Mapping[str, float]) -> Result:
-        """Forward kinematics: ``{actuator: value}``."""
-        return self._solve(self.forward, values)
-
-    def target(self, values: Mapping[str, float]) -> Result:
-        """Inverse kinematics: ``{joint/link/actuator name: value}`` (DOF values in all)."""
-        return self._solve(self.solver_for(list(values)), values)
-
-    def target_point(self, point: str, xy: tuple[float, float]) -> Result:
-        """Inverse kinematics: put ``point`` at ``xy``; target_point_hold names keep their value
-        in the last good state."""
-        key = f'point:{point}'  # explicit: a point may share its name with a joint
-        hold = [h for h in self.config.target_point_hold if h != point]
-        solver = self.solver_for([key] + hold)
-        if hold and not isinstance(solver, str):
-            if self.last is None:
-                return Result(
-                    False,
-                    'no good state yet to take the held value(s) '
-                    f'{hold} from: send a command first',
-                )
-            values = {h: current_value(self.mech, self.last, h) for h in hold}
-        else:
-            values = {}
-        if isinstance(solver, str) and self.mech.dof > 2 and not hold:
-            solver += (
-                f' (a point target fixes 2 of the {self.mech.dof} degrees of freedom: '
-                'set the parameter target_point_hold)'
-            )
-        values[key] = xy
-        return self._solve(solver, values)
-
-
 def load_engine(config: NodeConfig) -> tuple[Scene, Engine]:
     """Load the scene and compile the forward solver; SceneError / ConfigError on failure."""
     scene = Scene.from_yaml(config.scene_path)
-    return scene, Engine(scene.mechanism, config)
+    mech = scene.mechanism
+    try:
+        return scene, Engine(mech, config.engine_settings())
+    except PlanError as exc:
+        name = 'branch' if 'branch' in str(exc) else 'solver'
+        raise ConfigError(f'parameter {name!r} does not fit scene {mech.name!r}: {exc}') from None
 
 
 class DemoSweep:
@@ -604,7 +452,7 @@ class LinkageNode(Node):
             for p in params:
                 if p.name == 'demo_sweep':
                     if not isinstance(p.value, bool):
-                        _fail('demo_sweep', 'must be true or false', p.value)
+                        fail_setting('demo_sweep', 'must be true or false', p.value)
                     cfg = dataclasses.replace(cfg, demo_sweep=p.value)
                 elif p.name == 'demo_rate':
                     cfg = dataclasses.replace(cfg, demo_rate=check_demo_rate(p.value))

@@ -349,13 +349,14 @@ def test_sqlite3_output_and_zero_stamps(tmp_path, scene, capsys):
 
 
 def _node_engine(scene_file, **params):
-    """The node's kinematics engine (linkage_ros.node.Engine), in-process, for a scene file."""
+    """The node's session (linkage_ros.engine.Engine, as the node loads it), in-process, solving
+    one command at a time, for a scene file."""
     if not (REPO / 'linkage_ros' / 'node.py').exists():
         pytest.skip('linkage_ros/node.py does not exist yet: no node to compare with')
     import linkage_ros.node as node
 
     mech = Scene.from_yaml(scene_file).mechanism
-    return mech, node.Engine(mech, node.make_config({'scene': str(scene_file), **params}))
+    return mech, node.load_engine(node.make_config({'scene': str(scene_file), **params}))[1]
 
 
 def _compare_with_engine(table, rows, engine):

@@ -10,7 +10,7 @@ with the pure-Python ``rosbags`` library (no ROS installation needed). The comma
 ``sensor_msgs/msg/JointState`` naming the scene's actuators, exactly like the node's ``~/command``;
 the optional target topic carries ``JointState`` naming joints, links or actuators, exactly like
 the node's ``~/target`` (inverse kinematics). Both topics are merged in bag time order and solved
-in that order with the node's semantics (linkage_ros.node.Engine): the reference pose is the
+in that order with the node's semantics (linkage_ros.engine.Engine): the reference pose is the
 first good state, continuity (default branch ``continuous``) carries on from the last good
 state, a refused request changes nothing, and a target solver adopts the last good state.
 
@@ -122,7 +122,6 @@ from .reading import (  # noqa: F401
     _open_reader,
     _parse_layout,
     _reader_class,
-    command_shape_error,
     decode_joint_states,
     read_commands,
 )

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import contextlib
 import struct
-from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -356,24 +355,3 @@ def _fmt_time(ns: int) -> str:
 
 
 # ---- command checks (the node's, message shape only) ----------------------------------------
-
-
-def command_shape_error(names: Sequence[str], npos: int) -> str | None:
-    """The node's message-shape check of a JointState command or target (conversions.py):
-    names and positions pair up, no empty or repeated name."""
-    names = list(names)
-    if not names and not npos:
-        return 'empty JointState: name and position are both empty'
-    if len(names) != npos:
-        return (
-            f'JointState has {len(names)} name(s) {names} but {npos} position(s); they must '
-            f'pair up one to one'
-        )
-    empty = [i for i, nm in enumerate(names) if not nm]
-    if empty:
-        return f'JointState name[{empty[0]}] is an empty string'
-    seen: set[str] = set()
-    dups = [nm for nm in names if nm in seen or seen.add(nm)]
-    if dups:
-        return f'JointState names {sorted(set(dups))} more than once'
-    return None

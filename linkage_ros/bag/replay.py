@@ -5,11 +5,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.errors import LinkageError
 from ..core.solver import Solver, branch_identity_defined
+from ..engine import SOLVER_CACHE, Engine, EngineSettings, request_shape_error
 from ..stamps import stamp_error, stamp_valid
 from .progress import _Progress
-from .reading import Commands, command_shape_error
+from .reading import Commands
 from .results import Results
 
 
@@ -40,33 +40,30 @@ class _Entry:
 
 
 class _Context:
-    """One solver (one set of knowns) and its node-equivalent continuity history."""
+    """One of the engine's solvers (one set of knowns) and its node-equivalent continuity
+    history, kept as entries so batch rows need not be materialised."""
 
-    def __init__(self, engine, knowns):
-        self.engine = engine
-        self.knowns = list(knowns)
-        self.solver = engine.make_solver(knowns, engine.branch)
+    def __init__(self, replay: _Engine, solver: Solver):
+        self.replay = replay
+        self.solver = solver
+        self.knowns = list(solver.knowns)
         self.hist: list[_Entry] = []
         self.synced = True  # the solver's own history equals self.hist
-        self.seen_version: int | None = None  # the node's Engine._synced[key]
         self._explicit: dict[tuple, Solver] = {}
 
     def explicit(self, signs) -> Solver:
         signs = tuple(signs)
         s = self._explicit.get(signs)
         if s is None:
-            s = self._explicit[signs] = self.engine.make_solver(
+            s = self._explicit[signs] = self.replay.engine.new_solver(
                 self.knowns, ''.join('+' if x > 0 else '-' for x in signs)
             )
         return s
 
     def push(self, entry: _Entry):
-        """A success of this solver (the node: last = result, version += 1)."""
+        """A success of this solver: the engine's new last good state."""
         self.hist = (self.hist + [entry])[-2:]
-        eng = self.engine
-        eng.last = entry
-        eng.version += 1
-        self.seen_version = eng.version
+        self.replay.engine.record(self.solver, entry)
 
     def sync(self):
         """Give the solver exactly the history the node's solver has (self.hist)."""
@@ -91,59 +88,38 @@ class _Context:
 
 
 class _Engine:
-    """Solves the commands in order with the node's semantics (linkage_ros.node.Engine): one
-    continuous Solver for commands, one per set of target names (an LRU cache of 32), one shared
-    'last good state' that a solver adopts when another solver has succeeded since it was last
-    used, and the reference pose solved first as the initial good state."""
-
-    TARGET_CACHE = 32
+    """Solves the commands in order with the node's semantics, on the node's own session
+    (linkage_ros.engine.Engine: its forward solver, its solver per set of target names, its
+    last good state that a solver adopts when another one has succeeded since it last ran,
+    the reference pose as the first good state); what this adds is the vectorised replay."""
 
     def __init__(self, mech, method, tol, max_iter, branch):
-        self.mech, self.method, self.tol, self.max_iter = mech, method, tol, max_iter
-        self.branch = branch
-        self.version = 0
-        self.last: _Entry | None = None
+        self.mech, self.branch = mech, branch
         # the command solver exists from the start (a bad --solver/--branch fails here)
-        self.forward = _Context(self, list(mech.actuators))
-        self.targets: dict[frozenset, _Context | str] = {}
-        # like the node: the reference pose is the first good state
-        S = self.forward.solver
-        reference = S.reference_values()
-        ref = S.solve(reference)
-        if ref.success:
+        self.engine = Engine(mech, EngineSettings(method, tol, max_iter, branch))
+        self.forward = _Context(self, self.engine.forward)
+        self._contexts: dict[frozenset, _Context] = {}
+        ref = self.engine.last
+        if ref is not None:
+            reference = self.engine.forward.reference_values()
             self.forward.hist = [
                 _Entry('solve', cmd=reference, signs=_signs_of(ref.branch), result=ref)
             ]
-            self.last = self.forward.hist[-1]
-        self.forward.seen_version = self.version
-
-    def make_solver(self, knowns, branch) -> Solver:
-        return Solver(
-            self.mech,
-            knowns=list(knowns),
-            method=self.method,
-            tol=self.tol,
-            max_iter=self.max_iter,
-            branch=branch,
-        )
 
     def context_for(self, names) -> _Context | str:
-        """The node's Engine.solver_for: the forward solver for the actuator set, else one
-        cached solver per set of names (compiled in the order first seen), or why not."""
-        key = frozenset(names)
-        if key == frozenset(self.forward.knowns):
+        """The engine's solver for these names (with its replay history), or why not."""
+        solver = self.engine.solver_for(names)
+        if isinstance(solver, str):
+            return solver
+        if solver is self.engine.forward:
             return self.forward
-        ctx = self.targets.get(key)
-        if ctx is None:
-            try:
-                ctx = _Context(self, list(names))
-            except LinkageError as exc:
-                ctx = str(exc)
-            self.targets[key] = ctx
-            while len(self.targets) > self.TARGET_CACHE:
-                self.targets.pop(next(iter(self.targets)))
-        else:
-            self.targets[key] = self.targets.pop(key)  # most recently used
+        key = frozenset(names)
+        ctx = self._contexts.get(key)
+        if ctx is None or ctx.solver is not solver:  # new, or rebuilt after the LRU dropped it
+            ctx = self._contexts[key] = _Context(self, solver)
+            if len(self._contexts) > 2 * SOLVER_CACHE:  # forget the dropped solvers' histories
+                live = {id(v) for v in self.engine._solvers.values()}
+                self._contexts = {k: c for k, c in self._contexts.items() if id(c.solver) in live}
         return ctx
 
     # -- driver ----------------------------------------------------------------------------------
@@ -187,7 +163,7 @@ class _Engine:
             return
         k = int(data.key[a])
         names, npos = data.keys[k], data.npos[k]
-        why = command_shape_error(names, npos)
+        why = request_shape_error(names, npos)
         if why:  # conversions.joint_state_to_command
             self._refuse_all(a, b, why)
             return
@@ -202,15 +178,10 @@ class _Engine:
             self._refuse_all(a, b, ctx)
             return
         S = ctx.solver
-        # the node's Engine._solve: adopt the last good state if another solver moved on
-        if (
-            ctx.seen_version != self.version
-            and self.last is not None
-            and S.adopt(self.last.result())
-        ):
-            ctx.hist = [_Entry('adopt', result=self.last.result(), signs=_adopted_signs(S))]
+        # the engine's solve: adopt the last good state if another solver moved on
+        if self.engine.bring_up_to_date(S):
+            ctx.hist = [_Entry('adopt', result=self.engine.last, signs=_adopted_signs(S))]
             ctx.synced = True
-        ctx.seen_version = self.version
         if set(columns) != set(ctx.knowns):
             # wrong names: the solver's own message (it depends on the names only)
             r = S.solve(_command(columns, 0), commit=False)
@@ -373,7 +344,7 @@ class _Engine:
                 res.points[nm][sl] = np.where(ok[:, None], arr[:take], np.nan)
         # the last two successes become the node's history
         if okr.size:
-            self.version += okr.size - min(okr.size, 2)
+            self.engine.version += okr.size - min(okr.size, 2)
             for i in okr[-2:].tolist():
                 ctx.push(
                     _Entry(

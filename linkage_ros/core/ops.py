@@ -92,7 +92,8 @@ class ScalarOps:
     @staticmethod
     def cmax(z: complex) -> float:
         """max(|x|, |y|) of a point."""
-        return _max(abs(z.real), abs(z.imag))
+        x, y = abs(z.real), abs(z.imag)
+        return x if (x >= y or x != x) else y
 
     @staticmethod
     def any(mask: Any) -> bool:

@@ -1,0 +1,274 @@
+"""The ROS-free session every front end shares: the node, ``linkage bag`` and any other.
+
+An :class:`Engine` holds one mechanism's solvers and its one 'last good state': the forward
+solver for commands, inverse solvers compiled on demand per set of target names (an LRU cache),
+each brought up to the last good state before use, so FK and IK continue from the same
+configuration. A refused request changes nothing. The request checks (a JointState's shape)
+and the status fields of an answer live here too, so every front end refuses the same requests
+with the same words and reports the same fields.
+"""
+
+from __future__ import annotations
+
+import collections
+from collections import OrderedDict
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any, Protocol
+
+from .core.errors import CommandError, LinkageError, PlanError
+from .core.model import Mechanism
+from .core.solver import Result, Solver
+
+#: inverse solvers kept per engine (one per set of target names); least recently used dropped
+SOLVER_CACHE = 32
+
+
+class ConfigError(LinkageError):
+    """A setting (node parameter) is invalid: the message names it and the value."""
+
+
+def fail_setting(name: str, message: str, value: Any) -> None:
+    raise ConfigError(f'parameter {name!r}: {message} (got {value!r})')
+
+
+@dataclass(frozen=True)
+class EngineSettings:
+    """How the engine solves (the node's parameters of the same names)."""
+
+    solver: str | None = None  # auto, closed_form, newton; None = the scene's
+    tolerance: float = 1e-12  # Newton tolerance, fraction of the length scale
+    max_iterations: int = 50
+    branch: str = 'continuous'  # continuous, reference or explicit signs such as '+-'
+    target_point_hold: tuple[str, ...] = ()  # held by a point target (DOF > 2)
+
+
+class GoodState(Protocol):
+    """The last good state: a Result, or something that makes one when it is needed (the bag
+    replay keeps batch rows unmaterialised)."""
+
+    def result(self) -> Result: ...
+
+
+def current_value(mech: Mechanism, result: Result, name: str) -> Any:
+    """The value of a known-able ``name`` in a solved result, resolved like the core resolves
+    knowns: actuator, joint, link angle, then point (x, y)."""
+    if name in mech.actuators:
+        return result.inputs[name]
+    if name in result.joints:
+        return result.joints[name]
+    if name in mech.links:
+        return result.links[name]
+    return result.points[name]
+
+
+class Engine:
+    """Solvers of one mechanism sharing one 'last good state' (see the module docstring).
+
+    The reference pose, solved by the forward solver, is the first good state. ``version``
+    counts the good states; a solver that has not seen the current one adopts it before its
+    next solve.
+    """
+
+    def __init__(self, mech: Mechanism, settings: EngineSettings):
+        self.mech = mech
+        self.settings = settings
+        self.forward = self.new_solver(None)  # PlanError: a branch or solver that does not fit
+        self._check_hold()
+        self._solvers: OrderedDict[frozenset[str], Solver | str] = OrderedDict()
+        #: known-set -> the state version that solver last saw (lazy adopt before use)
+        self._synced: dict[frozenset[str], int] = {}
+        self.version = 0
+        self._last: Result | GoodState | None = None
+        ref = self.forward.solve(self.forward.reference_values())
+        if ref.success:
+            self._last = ref
+        self._synced[frozenset(self.forward.knowns)] = self.version
+
+    # -- the good state ----------------------------------------------------------------------------
+    @property
+    def last(self) -> Result | None:
+        """The last good state as a Result (None before there is one)."""
+        if self._last is None or isinstance(self._last, Result):
+            return self._last
+        self._last = self._last.result()
+        return self._last
+
+    def record(self, solver: Solver, state: Result | GoodState) -> None:
+        """A success of ``solver`` (which committed it itself): the new last good state."""
+        self._last = state
+        self.version += 1
+        self._synced[frozenset(solver.knowns)] = self.version
+
+    def bring_up_to_date(self, solver: Solver) -> bool:
+        """Before ``solver`` solves: adopt the last good state if another solver has succeeded
+        since it last ran. True if it adopted one."""
+        key = frozenset(solver.knowns)
+        adopted = False
+        last = self.last if self._synced.get(key) != self.version else None
+        if last is not None:
+            adopted = solver.adopt(last)
+        self._synced[key] = self.version
+        return adopted
+
+    # -- solvers -----------------------------------------------------------------------------------
+    def new_solver(self, knowns: Sequence[str] | None, branch: str | None = None) -> Solver:
+        s = self.settings
+        return Solver(
+            self.mech,
+            knowns=knowns,
+            method=s.solver,
+            tol=s.tolerance,
+            max_iter=s.max_iterations,
+            branch=s.branch if branch is None else branch,
+        )
+
+    def solver_for(self, knowns: Sequence[str]) -> Solver | str:
+        """The cached solver for this set of knowns, or the reason it cannot be built."""
+        key = frozenset(knowns)
+        if key == frozenset(self.forward.knowns):
+            return self.forward
+        hit = self._solvers.get(key)
+        if hit is None:
+            try:
+                hit = self.new_solver(list(knowns))
+            except PlanError as exc:
+                hit = str(exc)
+            self._solvers[key] = hit
+            while len(self._solvers) > SOLVER_CACHE:
+                old, _ = self._solvers.popitem(last=False)
+                self._synced.pop(old, None)
+        self._solvers.move_to_end(key)
+        return hit
+
+    def _check_hold(self) -> None:
+        mech, hold = self.mech, self.settings.target_point_hold
+        if not hold:
+            return
+        known = set(mech.actuators) | set(mech.joint_names) | set(mech.links) | set(mech.points)
+        bad = [h for h in hold if h not in known or h == mech.ground]
+        if bad:
+            fail_setting(
+                'target_point_hold',
+                f'unknown name(s) {bad} in scene {mech.name!r}; '
+                'expected actuator, joint, (moving) link or point names',
+                list(hold),
+            )
+        size = sum(
+            2
+            if (
+                h in mech.points
+                and h not in mech.actuators
+                and h not in mech.joint_names
+                and h not in mech.links
+            )
+            else 1
+            for h in hold
+        )
+        if 2 + size != mech.dof:
+            fail_setting(
+                'target_point_hold',
+                f'a point target (2 values) plus these held names '
+                f'({size} value(s)) must give the {mech.dof} degree(s) of freedom of '
+                f'{mech.name!r}',
+                list(hold),
+            )
+
+    # -- requests ----------------------------------------------------------------------------------
+    def solve(self, solver: Solver | str, values: Mapping[str, Any]) -> Result:
+        """One request on one solver (or the reason there is none): brought up to date,
+        solved, and on success the new last good state."""
+        if isinstance(solver, str):
+            return Result(False, solver)
+        self.bring_up_to_date(solver)
+        result = solver.solve(values)
+        if result.success:
+            self.record(solver, result)
+        return result
+
+    def command(self, values: Mapping[str, float]) -> Result:
+        """Forward kinematics: ``{actuator: value}``."""
+        return self.solve(self.forward, values)
+
+    def target(self, values: Mapping[str, float]) -> Result:
+        """Inverse kinematics: ``{joint/link/actuator name: value}`` (DOF values in all)."""
+        return self.solve(self.solver_for(list(values)), values)
+
+    def target_point(self, point: str, xy: tuple[float, float]) -> Result:
+        """Inverse kinematics: put ``point`` at ``xy``; target_point_hold names keep their value
+        in the last good state."""
+        key = f'point:{point}'  # explicit: a point may share its name with a joint
+        hold = [h for h in self.settings.target_point_hold if h != point]
+        solver = self.solver_for([key] + hold)
+        values: dict[str, Any] = {}
+        if hold and not isinstance(solver, str):
+            last = self.last
+            if last is None:
+                return Result(
+                    False,
+                    'no good state yet to take the held value(s) '
+                    f'{hold} from: send a command first',
+                )
+            values = {h: current_value(self.mech, last, h) for h in hold}
+        if isinstance(solver, str) and self.mech.dof > 2 and not hold:
+            solver += (
+                f' (a point target fixes 2 of the {self.mech.dof} degrees of freedom: '
+                'set the parameter target_point_hold)'
+            )
+        values[key] = xy
+        return self.solve(solver, values)
+
+
+# ---- request checks and status fields (every front end) ----------------------------------------
+
+
+def request_shape_error(names: Sequence[str], npos: int) -> str | None:
+    """Why a JointState request (its names and its number of positions) is malformed, or None.
+
+    Only the message's own shape: at least one name, as many positions as names, no empty or
+    repeated name. Whether the names and values make sense for the mechanism (unknown or
+    missing names, NaN, inf, limits, reachability) is the solver's call.
+    """
+    names = list(names)
+    if not names and not npos:
+        return 'empty JointState: name and position are both empty'
+    if len(names) != npos:
+        return (
+            f'JointState has {len(names)} name(s) {names} but {npos} position(s); they must '
+            'pair up one to one'
+        )
+    empty = [i for i, n in enumerate(names) if not n]
+    if empty:
+        return f'JointState name[{empty[0]}] is an empty string'
+    dups = [n for n, count in collections.Counter(names).items() if count > 1]
+    if dups:
+        return f'JointState names {sorted(set(dups))} more than once'
+    return None
+
+
+def request_values(names: Sequence[str], positions: Sequence[float]) -> dict[str, float]:
+    """``{name: position}`` of a JointState request; CommandError if it is malformed."""
+    why = request_shape_error(names, len(positions))
+    if why:
+        raise CommandError(why)
+    return {n: float(p) for n, p in zip(names, positions)}
+
+
+def status_values(result: Result, request: str) -> dict[str, Any]:
+    """The key/values of the status answering a request, in order. Success: residual
+    (fraction of the length scale), branch, branch_defined, margin, solver, iterations, cond
+    (Newton only) and request. Failure: request (the reason is the status message)."""
+    if not result.success:
+        return {'request': request}
+    values: dict[str, Any] = {
+        'residual': result.residual,
+        'branch': result.branch,
+        'branch_defined': result.branch_defined,
+        'margin': result.margin,
+        'solver': result.solver,
+        'iterations': result.iterations,
+    }
+    if result.cond is not None:
+        values['cond'] = result.cond
+    values['request'] = request
+    return values
