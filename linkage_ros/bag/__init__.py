@@ -144,7 +144,6 @@ from .replay import (  # noqa: F401
     _signs_of,
     _step_inputs,
     _step_margin,
-    _wrap,
     solve_commands,
 )
 from .results import (  # noqa: F401

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.ops import BATCH
 from ..core.solver import Solver, branch_identity_defined
 from ..engine import SOLVER_CACHE, Engine, EngineSettings, request_shape_error
 from ..stamps import stamp_error, stamp_valid
@@ -437,8 +438,8 @@ class _Engine:
                 gl = mech.prismatics[st.args[0]].guide
                 phs = rowphi[gl]
                 last = seqphi[gl][li]
-                ds = np.abs(_wrap(phs - last))
-                do = np.abs(_wrap(poses1.phi[gl] - last))
+                ds = np.abs(BATCH.wrap(phs - last))
+                do = np.abs(BATCH.wrap(poses1.phi[gl] - last))
                 good = do - ds > EASY_MARGIN
             else:
                 x = st.point
@@ -529,10 +530,6 @@ def _adopted_signs(S: Solver) -> tuple[int, ...]:
 
 def _signs_of(branch: str) -> tuple[int, ...]:
     return tuple(1 if c == '+' else -1 for c in branch)
-
-
-def _wrap(a):
-    return np.arctan2(np.sin(a), np.cos(a))
 
 
 def _dist(a, b):

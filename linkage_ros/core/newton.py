@@ -35,14 +35,13 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from decimal import Decimal
-from fractions import Fraction
 from types import SimpleNamespace
 
 import numpy as np
 
 from .dyads import wrap_angle
 from .model import Mechanism
+from .ops import BATCH
 from .plan import ScalarPoses, Spec
 
 
@@ -104,52 +103,6 @@ def _lapack():
 
         _LAPACK = (lapack.dgetrf, lapack.dgetrs, lapack.dgecon)
     return _LAPACK
-
-
-#: pi to 60 digits, for the split of 2 pi below (the float math.pi is 1.2e-16 short of it)
-_PI_DIGITS = '3.14159265358979323846264338327950288419716939937510582097494459'
-
-
-def _two_pi_parts(bits=(33, 33, 53)) -> tuple[float, ...]:
-    """2 pi as a sum of floats of ``bits`` significant bits each (Cody-Waite): k * part is exact
-    for the first ones while k has at most 53 - 34 bits, so v - k * 2 pi keeps ~113 bits."""
-    rest = 2 * Fraction(Decimal(_PI_DIGITS))
-    parts = []
-    for b in bits:
-        ulp = Fraction(2) ** (math.frexp(float(rest))[1] - b)
-        part = round(rest / ulp) * ulp
-        parts.append(float(part))  # exact: at most b + 1 significant bits
-        rest -= part
-    return tuple(parts)
-
-
-_TWO_PI_HI, _TWO_PI_MID, _TWO_PI_LO = _two_pi_parts()
-#: |v| up to this is reduced by the three-part 2 pi (k = round(v / 2 pi) < 2^19); larger finite
-#: angles (rare) go through the scalar wrap_angle one by one
-_WRAP_BATCH_LIMIT = 2.0**21
-
-
-def _wrap_angles(v: np.ndarray) -> np.ndarray:
-    """dyads.wrap_angle on an array (rad): values in (-pi, pi] as they are, others reduced
-    exactly to within an ulp or so (Cody-Waite with a three-part 2 pi); NaN where v is not
-    finite (where the scalar form gives NaN or raises)."""
-    out = np.array(v, float)
-    wide = ~((out > -math.pi) & (out <= math.pi))  # NaN and inf included
-    if not wide.any():
-        return out
-    w = out[wide]
-    with np.errstate(invalid='ignore', over='ignore'):
-        k = np.rint(w / (2 * math.pi))
-        # w - k * HI is exact (Sterbenz), k * MID exact: one rounding in the subtraction
-        r = ((w - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
-    # k rounded off by one at an odd multiple of pi: back into [-pi, pi] (as atan2 returns)
-    r = np.where(r > math.pi, r - 2 * math.pi, np.where(r < -math.pi, r + 2 * math.pi, r))
-    huge = np.isfinite(w) & (np.abs(w) > _WRAP_BATCH_LIMIT)
-    if huge.any():
-        r[huge] = [wrap_angle(a) for a in w[huge].tolist()]
-    r[~np.isfinite(w)] = math.nan
-    out[wide] = r
-    return out
 
 
 class LoopSystem:
@@ -464,7 +417,7 @@ class LoopSystem:
                 a = phis[ia] - phis[ib]
                 if vi is not None:
                     a -= wrap_angle(float(values[vi])) - off
-                F.append(kL * math.atan2(sin(a), cos(a)))
+                F.append(kL * wrap_angle(a))
             else:  # point row: w(X) - (x, y)
                 _, i, lx, ly, vi = row
                 c, s, cx, cy = P[i]
@@ -950,7 +903,7 @@ class LoopSystem:
             if s.kind == 'point':
                 V[:, c : c + 2] = arr
             elif s.kind == 'angle':
-                V[:, c] = _wrap_angles(arr)
+                V[:, c] = BATCH.wrap(arr)
             else:
                 V[:, c] = arr
         return V
@@ -1014,7 +967,7 @@ class LoopSystem:
             if len(tab.ang_row):  # angle rows: L * wrap(phi_a - phi_b - (value - off))
                 a = P[0][:, tab.ang_a] - P[0][:, tab.ang_b]
                 a = a - (V[:, tab.ang_val] - tab.ang_off)
-                F[:, tab.ang_row] = kL * np.arctan2(np.sin(a), np.cos(a))
+                F[:, tab.ang_row] = kL * BATCH.wrap(a)
             if len(tab.pt_row):  # point rows: w(X) - (x, y)
                 c, s, cx, cy = P[1:, :, tab.pt_link]
                 lx, ly = tab.pt_lever

@@ -17,9 +17,75 @@ from __future__ import annotations
 
 import cmath
 import math
+from decimal import Decimal
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
+
+# ---- one angle wrap: (-pi, pi] ------------------------------------------------------------------
+
+#: pi to 60 digits, for the split of 2 pi below (the float math.pi is 1.2e-16 short of it)
+_PI_DIGITS = '3.14159265358979323846264338327950288419716939937510582097494459'
+
+
+def _two_pi_parts(bits: tuple[int, ...] = (33, 33, 53)) -> tuple[float, ...]:
+    """2 pi as a sum of floats of ``bits`` significant bits each (Cody-Waite): k * part is exact
+    for the first ones while k has at most 53 - 34 bits, so v - k * 2 pi keeps ~113 bits."""
+    rest = 2 * Fraction(Decimal(_PI_DIGITS))
+    parts = []
+    for b in bits:
+        ulp = Fraction(2) ** (math.frexp(float(rest))[1] - b)
+        part = round(rest / ulp) * ulp
+        parts.append(float(part))  # exact: at most b + 1 significant bits
+        rest -= part
+    return tuple(parts)
+
+
+_TWO_PI_HI, _TWO_PI_MID, _TWO_PI_LO = _two_pi_parts()
+#: |a| up to this is reduced by the three-part 2 pi (k = round(a / 2 pi) < 2^19); larger finite
+#: angles (rare) by atan2 of the sine and cosine (libm's exact argument reduction)
+WRAP_REDUCE_LIMIT = 2.0**21
+
+
+def _wrap_one(a: float) -> float:
+    """The angle wrap, one float: (-pi, pi] as it is (exact, and the common case), others
+    reduced exactly to within an ulp or so (Cody-Waite with a three-part 2 pi; atan2 of sin and
+    cos beyond WRAP_REDUCE_LIMIT, so 1e300 rad keeps full precision too); NaN if not finite.
+    The batch form runs exactly these float operations elementwise."""
+    if -math.pi < a <= math.pi:
+        return a
+    if not math.isfinite(a):
+        return math.nan
+    if abs(a) > WRAP_REDUCE_LIMIT:
+        return math.atan2(math.sin(a), math.cos(a))
+    k = float(round(a / (2 * math.pi)))
+    r = ((a - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
+    # k rounded off by one at an odd multiple of pi: back into [-pi, pi] (as atan2 returns)
+    if r > math.pi:
+        return r - 2 * math.pi
+    if r < -math.pi:
+        return r + 2 * math.pi
+    return r
+
+
+def _wrap_many(v: Any) -> Any:
+    """_wrap_one elementwise on an array (the same float operations)."""
+    out = np.array(v, float)
+    wide = ~((out > -math.pi) & (out <= math.pi))  # NaN and inf included
+    if not wide.any():
+        return out
+    w = out[wide]
+    with np.errstate(invalid='ignore', over='ignore'):
+        k = np.rint(w / (2 * math.pi))
+        r = ((w - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
+    r = np.where(r > math.pi, r - 2 * math.pi, np.where(r < -math.pi, r + 2 * math.pi, r))
+    huge = np.isfinite(w) & (np.abs(w) > WRAP_REDUCE_LIMIT)
+    if huge.any():
+        r[huge] = [_wrap_one(a) for a in w[huge].tolist()]
+    r[~np.isfinite(w)] = math.nan
+    out[wide] = r
+    return out
 
 
 def _max(a: Any, b: Any) -> Any:
@@ -80,14 +146,7 @@ class ScalarOps:
     def cplx(x: float, y: float) -> complex:
         return complex(x, y)
 
-    @staticmethod
-    def wrap(a: float) -> float:
-        """Wrap an angle to (-pi, pi] by atan2 of its sine and cosine: exact argument
-        reduction, so 1e6 rad or 1e300 rad keep full precision (a modulo by 2*pi would not). An
-        angle already in range is returned as it is (exact, and the common case)."""
-        if -math.pi < a <= math.pi:
-            return a
-        return math.atan2(math.sin(a), math.cos(a))
+    wrap = staticmethod(_wrap_one)
 
     @staticmethod
     def cmax(z: complex) -> float:
@@ -231,12 +290,7 @@ class BatchOps:
         x, y = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float))
         return CArray(x, y)
 
-    @staticmethod
-    def wrap(a: Any) -> Any:
-        """ScalarOps.wrap elementwise."""
-        a = np.asarray(a, float)
-        inside = (-math.pi < a) & (a <= math.pi)
-        return np.where(inside, a, np.arctan2(np.sin(a), np.cos(a)))
+    wrap = staticmethod(_wrap_many)
 
     @staticmethod
     def cmax(z: Any) -> Any:
