@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.ops import BATCH
+from ..core.ops import BATCH, to_complex
+from ..core.plan import step_geometry
 from ..core.solver import Solver, branch_identity_defined
 from ..engine import SOLVER_CACHE, Engine, EngineSettings, request_shape_error
 from ..stamps import stamp_error, stamp_valid
@@ -488,24 +489,12 @@ def _step_inputs(mech, bsteps):
 
 
 def _step_margin(mech, st, pts, phi) -> np.ndarray:
-    """Margin of one branching dyad (|sin| of its transmission angle, 0 at the singularity),
-    read off positions as core.plan.branch_geometry_one does, vectorised."""
-    x = pts[st.point]
-    if st.op == 'circle_circle':
-        va, vb = x - pts[st.args[1]], x - pts[st.args[3]]
-        den = np.hypot(va[:, 0], va[:, 1]) * np.hypot(vb[:, 0], vb[:, 1])
-        num = np.abs(va[:, 0] * vb[:, 1] - va[:, 1] * vb[:, 0])
-    else:
-        pj = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
-        ang = phi[pj.guide]
-        c, s = np.cos(ang), np.sin(ang)
-        ux = c * pj.direction[0] - s * pj.direction[1]
-        uy = s * pj.direction[0] + c * pj.direction[1]
-        v = x - pts[st.args[1]]
-        den = np.hypot(v[:, 0], v[:, 1])
-        num = np.abs(v[:, 0] * ux + v[:, 1] * uy)
-    with np.errstate(invalid='ignore', divide='ignore'):
-        return np.clip(np.where(den > 0, num / np.where(den > 0, den, 1.0), 0.0), 0.0, 1.0)
+    """Margin of one branching dyad over rows ((n, 2) points, guide angles phi): the core's
+    step_geometry, as a Newton solution's branch is read."""
+    zs = {p: to_complex(v) for p, v in pts.items()}
+    rot = {g: BATCH.expi(a) for g, a in phi.items()}
+    with np.errstate(all='ignore'):
+        return np.asarray(step_geometry(BATCH, mech, st, zs, rot)[1], float)
 
 
 def _command(columns, i) -> dict:

@@ -695,34 +695,40 @@ def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
     return to_xy(v) if spec.kind == 'point' else np.asarray(v, float)
 
 
+def step_geometry(ops, mech: Mechanism, st: Step, pts, rot) -> tuple:
+    """(side, margin) of one branching step read off solved positions, either backend: the
+    branch sign is +1 where side >= 0; margin is |sin| of the dyad's transmission angle (0 at
+    its singularity). ``pts`` complex points, ``rot`` {link: e^{i phi}} of the guide links."""
+
+    def unit(z):  # hypot: no overflow at 1e200; a zero vector stays 0
+        r = abs(z)
+        return z / ops.where(r > 0, r, 1.0)
+
+    x = pts[st.point]
+    if st.op == 'circle_circle':
+        a, b = pts[st.args[1]], pts[st.args[3]]
+        ab, ax = unit(b - a), unit(x - a)  # units: products of 1e200 overflow
+        side = ab.real * ax.imag - ab.imag * ax.real
+        vb = unit(x - b)
+        m = abs(ax.real * vb.imag - ax.imag * vb.real)
+    else:
+        pj = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
+        u = rot[pj.guide] * _c(pj.direction)
+        v = unit(x - pts[st.args[1]])
+        side = v.real * u.real + v.imag * u.imag
+        m = abs(side)
+    return side, ops.clip(m, 0.0, 1.0)
+
+
 def branch_geometry_of(ops, plan: Plan, pts, poses: LinkPoses):
     """Branch signs (+1 / -1) and dyad margins of the plan's branching steps read off a solved
     configuration, either backend (how a Newton solution is told which assembly mode it is
     in): one list entry per branching step."""
-    mech = plan.mech
-    where = ops.where
-
-    def unit(z):  # hypot: no overflow at 1e200; a zero vector stays 0
-        r = abs(z)
-        return z / where(r > 0, r, 1.0)
-
     signs, margins = [], []
     for st in plan.branch_steps:
-        x = pts[st.point]
-        if st.op == 'circle_circle':
-            a, b = pts[st.args[1]], pts[st.args[3]]
-            ab, ax = unit(b - a), unit(x - a)  # units: products of 1e200 overflow
-            side = ab.real * ax.imag - ab.imag * ax.real
-            vb = unit(x - b)
-            m = abs(ax.real * vb.imag - ax.imag * vb.real)
-        else:
-            pj = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
-            u = poses.rot[pj.guide] * _c(pj.direction)
-            v = unit(x - pts[st.args[1]])
-            side = v.real * u.real + v.imag * u.imag
-            m = abs(side)
-        signs.append(where(side >= 0, 1, -1))
-        margins.append(ops.clip(m, 0.0, 1.0))
+        side, m = step_geometry(ops, plan.mech, st, pts, poses.rot)
+        signs.append(ops.where(side >= 0, 1, -1))
+        margins.append(m)
     return signs, margins
 
 
