@@ -684,3 +684,25 @@ def test_no_nan_or_inf_leaves_a_solver(method):
         ):
             assert np.all(np.isfinite(arr))
         assert not np.any(b.ok[np.isnan(WILD) | np.isinf(WILD)])
+
+
+def test_an_exact_toggle_lands_on_the_toggle_in_any_drawing():
+    """Ground 4, crank 1, coupler 3, rocker 2: at crank = ground angle + pi the coupler and
+    rocker are collinear (|O4 A| = 5 = 3 + 2), an external toggle. Whichever way the drawing is
+    turned, the given lengths are used exactly (not re-read from rounded coordinates) and a
+    hair either side of the tangency lands on it: both assembly modes are one configuration,
+    B on the line A-O4, margin 0 and branch undefined. (With lengths re-derived from the
+    drawing, four of these ten drawings put B 5e-8 of the link off the line.)"""
+    for g in np.linspace(0.0, 2 * math.pi, 10, endpoint=False):
+        mech = four_bar((4.0, 1.0, 3.0, 2.0), ground_angle=float(g))
+        for branch in ('+', '-'):
+            r = Solver(mech, method='closed_form', branch=branch).solve(
+                {'crank': float(g) + math.pi}
+            )
+            assert r.success, r.reason
+            a, b = np.array(r.points['A']), np.array(r.points['B'])
+            o4 = np.array(mech.points['O4'])
+            u = (o4 - a) / np.hypot(*(o4 - a))
+            off_line = abs(u[0] * (b - a)[1] - u[1] * (b - a)[0])
+            assert off_line <= 8 * EPS * 5.0, (g, branch, off_line)
+            assert r.margin == 0.0 and r.branch_defined is False, (g, branch, r.margin)

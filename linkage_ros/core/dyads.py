@@ -21,6 +21,10 @@ from .ops import BATCH, SCALAR, to_complex, to_xy
 
 #: Relative tolerance (of the dyad's length scale) within which a tangency still assembles.
 TANGENCY_TOL = 1e-12
+#: Within this relative distance of a tangency on either side (a hair too long or a hair too
+#: short: the rounding of the given lengths and of the arithmetic), a dyad lands exactly on it
+#: (height 0), so an exact toggle comes out as one whichever way the last bits fell.
+TOGGLE_BAND = 2.0**-52
 
 
 def perp(v: np.ndarray) -> np.ndarray:
@@ -155,8 +159,14 @@ def solve_rrr_dyad(ops: Any, c1: Any, r1: Any, c2: Any, r2: Any, tol: float = TA
     along = 0.5 * (d + ((r1n - r2n) / dsafe) * (r1n + r2n))
     along = ops.clip(along, -abs(r1n), abs(r1n))
     along = ops.where(finite & (d > 0), along, 0.0)
-    # h = 2 * area / d = (scale / 2) * four_area_n / dn: no overflow
-    h = ops.where(ok, 0.5 * scale * (four_area_n / ops.where(dn > 0, dn, 1.0)), 0.0)
+    # h = 2 * area / d = (scale / 2) * four_area_n / dn: no overflow; 0 within the toggle band
+    # (not where the smallest side is the whole of that distance: nearly coincident circles,
+    # a needle whose height is not small at all)
+    smallest_n = ops.minimum(ops.minimum(dn, r1n / scale), r2n / scale)
+    on_toggle = (violation_n >= -TOGGLE_BAND * longest_n) & (-violation_n < 0.5 * smallest_n)
+    h = ops.where(
+        ok & ops.not_(on_toggle), 0.5 * scale * (four_area_n / ops.where(dn > 0, dn, 1.0)), 0.0
+    )
     # margin = h d / (r1 r2) = |sin| of the angle at the solution, formed without overflow
     margin = ops.where(
         ok, (h / ops.where(r1n > 0, r1n, 1.0)) * (d / ops.where(r2n > 0, r2n, 1.0)), 0.0
@@ -216,8 +226,10 @@ def solve_rrp_dyad(ops: Any, c: Any, r: Any, p0: Any, u: Any, tol: float = TANGE
     violation = dist - r
     scale = ops.maximum(r, dist)
     ok = (violation <= tol * ops.where(scale > 0, scale, 1.0)) & (r > 0)
-    # roots factor by factor: the product underflows / overflows for lengths near 1e-300 / 1e300
-    k = ops.where(ok, ops.sqrt(ops.maximum(r - dist, 0.0)) * ops.sqrt(r + dist), 0.0)
+    # roots factor by factor: the product underflows / overflows for lengths near 1e-300 / 1e300;
+    # 0 within the toggle band (a dead centre whichever way the last bits fell)
+    off = ops.where(r - dist > TOGGLE_BAND * scale, r - dist, 0.0)
+    k = ops.where(ok, ops.sqrt(off) * ops.sqrt(r + dist), 0.0)
     margin = ops.where(ok, ops.clip(k / ops.where(r > 0, r, 1.0), 0.0, 1.0), 0.0)
     return DyadPair(p0, u, s0, k, 1.0, margin, ok, ops.maximum(violation, 0.0), k, p0 + s0 * u)
 
@@ -257,7 +269,9 @@ def solve_rpr_dyad(ops: Any, p: Any, x: Any, offset: Any, tol: float = TANGENCY_
     violation = ae - rho
     scale = ops.maximum(rho, ae)
     ok = (rho > 0) & (violation <= tol * ops.where(scale > 0, scale, 1.0))
-    along = ops.where(ok, ops.sqrt(ops.maximum(rho - ae, 0.0)) * ops.sqrt(rho + ae), 1.0)
+    # 0 within the toggle band (the line through the pivot's foot whichever way the bits fell)
+    off = ops.where(rho - ae > TOGGLE_BAND * scale, rho - ae, 0.0)
+    along = ops.where(ok, ops.sqrt(off) * ops.sqrt(rho + ae), 1.0)
     beta = ops.atan2(w.imag, w.real)
     margin = ops.where(ok, ops.clip(along / ops.where(rho > 0, rho, 1.0), 0.0, 1.0), 0.0)
     return RprDyad(beta, along, ops.where(ok, offset, 0.0), margin, ok, ops.maximum(violation, 0.0))

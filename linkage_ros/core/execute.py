@@ -75,6 +75,8 @@ class PlanExecutor:
             j: complex(float(pj.direction[0]), float(pj.direction[1]))
             for j, pj in mech.prismatics.items()
         }
+        #: (body, point, point) -> the length the scene states between them, or None
+        self._stated: dict[tuple[int, str, str], float | None] = {}
         #: (body, point) -> the member link whose frame carries the point
         self.carrier: dict[tuple[int, str], str] = {}
         for b in plan.bodies:
@@ -161,6 +163,22 @@ class PlanExecutor:
             if f is None:
                 f = frames[bi] = self._frame(ops, bi, values, zero)
             return f
+
+        def radius(bi, x, p):
+            """|x - p| within body bi: the length the scene states for a link that carries both
+            points (exactly as given), else the distance in the body's frame."""
+            d = self._stated.get((bi, x, p), False)
+            if d is False:
+                d = self._stated[(bi, x, p)] = next(
+                    (
+                        mech.distance(link, x, p)
+                        for link in plan.bodies[bi].links
+                        if {x, p} <= set(mech.links[link].points)
+                        and mech.distance(link, x, p) is not None
+                    ),
+                    None,
+                )
+            return abs(local_pt(bi, x) - local_pt(bi, p)) if d is None else d
 
         def local_pt(bi, p):
             if not plan.bodies[bi].welds:  # a single link at the identity
@@ -258,8 +276,7 @@ class PlanExecutor:
                 x = st.point
                 if op == 'circle_circle':
                     b1, p1, b2, p2 = st.args
-                    r1 = abs(local_pt(b1, x) - local_pt(b1, p1))
-                    r2 = abs(local_pt(b2, x) - local_pt(b2, p2))
+                    r1, r2 = radius(b1, x, p1), radius(b2, x, p2)
                     pair = None
                     if not ops.batch:
                         pair = self._coincident(pts, x, p1, p2, r1, r2, prefer, tol)
@@ -268,7 +285,7 @@ class PlanExecutor:
                 else:
                     b1, p1, jname = st.args
                     g = mech.prismatics[jname].guide
-                    r = abs(local_pt(b1, x) - local_pt(b1, p1))
+                    r = radius(b1, x, p1)
                     p0 = poses.rot[g] * ref[x] + poses.T[g]
                     u = poses.rot[g] * self.direction[jname]
                     pair = solve_rrp_dyad(ops, pts[p1], r, p0, u, tol)

@@ -110,6 +110,15 @@ class Mechanism:
     length_scale: float = 1.0
     form: str = 'general'
     shortcut: dict[str, Any] = field(default_factory=dict)
+    #: lengths the scene states (m), by (link, point, point): used exactly wherever the solver
+    #: needs that distance, instead of the distance of the drawn reference coordinates (which
+    #: is the given length only to within rounding)
+    dimensions: dict[tuple[str, str, str], float] = field(default_factory=dict)
+
+    def distance(self, link: str, p: str, q: str) -> float | None:
+        """The stated length between points p and q of ``link``, or None."""
+        d = self.dimensions.get((link, p, q))
+        return self.dimensions.get((link, q, p)) if d is None else d
 
     # ---- derived views -------------------------------------------------------------------
     @property
@@ -362,6 +371,17 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
     mech = _build_general(ctx, general, name=name, frame_id=frame_id, solver=solver)
     mech.form = form if form != 'points' else 'general'
     mech.shortcut = shortcut
+    if form == 'four_bar':
+        mech.dimensions = {
+            ('crank', 'O2', 'A'): shortcut['crank'],
+            ('coupler', 'A', 'B'): shortcut['coupler'],
+            ('rocker', 'O4', 'B'): shortcut['rocker'],
+        }
+    elif form == 'slider_crank':
+        mech.dimensions = {
+            ('crank', 'O2', 'A'): shortcut['crank'],
+            ('rod', 'A', 'B'): shortcut['rod'],
+        }
     return mech
 
 
