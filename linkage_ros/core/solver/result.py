@@ -1,0 +1,157 @@
+"""Result (what every solve answers), the branch-identity bound and the solver's own state
+records."""
+
+from __future__ import annotations
+
+import collections.abc
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ..model import Mechanism
+from ..plan import (
+    ScalarPoses,
+)
+
+#: machine epsilon (float64): the unit of rounding in branch_identity_defined
+_EPS = float(np.finfo(float).eps)
+
+if TYPE_CHECKING:
+    from .solver import Solver
+
+
+def branch_undefined_below(residual):
+    """Dyad margin (|sin| of the transmission angle) below which the two assembly modes cannot
+    be told apart, for an answer whose loop closure misses by ``residual`` (fraction of the
+    length scale; scalar or array).
+
+    An error bound, not a tuned constant: at a tangency a dyad's normalised height grows like
+    sqrt(2 delta) for a relative perturbation delta of its lengths. delta collects the rounding
+    of the inputs and of the dyad arithmetic (32 eps: inputs up to ~10 rad or ~10 length scales,
+    a few operations each) and what the solve leaves of loop closure (``residual``; Newton at a
+    double root stops with the position off by ~sqrt(residual)). The factor 4 covers the O(1)
+    geometry factors between that height and the margin. The bound holds whatever BLAS kernel or
+    SIMD path computed the answer: every kernel is within a few eps of exact rounding.
+    """
+    # ** 0.5: the same square root on a float (no numpy call per command) or an array
+    return 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
+
+
+def branch_identity_defined(margin, residual):
+    """True where ``margin`` is above the noise bound of :func:`branch_undefined_below`
+    (scalar or array, elementwise)."""
+    return margin > branch_undefined_below(residual)
+
+
+METHODS = ('auto', 'closed_form', 'newton')
+#: a continuation walk gives up after this many times max_iter Newton iterations without a
+#: successful substep (an unreachable target would otherwise be bisected 10 levels deep)
+WALK_BUDGET = 6
+#: without a dyad plan, a scaled cond(J) above this counts as near a singular configuration
+NEAR_SINGULAR_COND = 1e6
+#: no answer leaves a solver with a loop-closure residual above max(CLOSURE_LIMIT, 10 * tol)
+#: (fraction of the length scale): a last guard against a false assembly, e.g. a known point
+#: beyond its link's reach placed by the closed-form part of a hybrid solve. The closed forms
+#: close to ~1e-15 and to the tangency clamp (1e-12) near toggles, Newton to tol.
+CLOSURE_LIMIT = 1e-10
+
+
+@dataclass
+class Result:
+    """One solved configuration (or the reason there is none)."""
+
+    success: bool
+    reason: str | None = None
+    inputs: dict[str, float] = field(default_factory=dict)
+    targets: dict[str, Any] = field(default_factory=dict)
+    joints: dict[str, float] = field(default_factory=dict)
+    links: dict[str, float] = field(default_factory=dict)
+    points: dict[str, tuple[float, float]] = field(default_factory=dict)
+    residual: float | None = None
+    iterations: int = 0
+    solver: str = ''
+    branch: str = ''
+    branch_defined: bool = True
+    margin: float | None = None
+    cond: float | None = None
+    all_branches: list[Result] | None = None
+
+    def to_dict(self, mech: Mechanism | None = None) -> dict[str, Any]:
+        links = {}
+        for name, ang in self.links.items():
+            pts = list(mech.links[name].points) if mech is not None else []
+            links[name] = {'points': pts, 'angle': ang}
+        out = {
+            'status': 'ok' if self.success else 'error',
+            'reason': self.reason,
+            'inputs': dict(self.inputs),
+            'joints': dict(self.joints),
+            'links': links,
+            'points': {k: [v[0], v[1]] for k, v in self.points.items()},
+            'residual': self.residual,
+            'branch': self.branch,
+            'branch_defined': self.branch_defined,
+            'margin': self.margin,
+            'solver': self.solver,
+            'iterations': self.iterations,
+            'cond': self.cond,
+        }
+        if self.targets:
+            out['targets'] = dict(self.targets)
+        return out
+
+
+@dataclass
+class _State:
+    """The previous configuration: continuity predictions and Newton warm starts start here."""
+
+    values: list
+    x_all: np.ndarray | None  # every moving link (phi, cx, cy), for Newton warm starts
+    points: dict[str, complex]
+    poses: ScalarPoses
+    signs: tuple[int, ...]
+    det_sign: int
+    margins: tuple[float, ...] = ()
+    x_lu: tuple | None = None  # Newton: LU of the Jacobian at x_all (for the predictor)
+
+
+class _Prediction(collections.abc.Mapping):
+    """Where continuity expects each point ({name: complex}) and link angle ({'@link': rad}):
+    the previous configuration, extrapolated along the previous step after two commands.
+    Computed per key on first use: the dyad plan asks only near a singular dyad, so most
+    solves never pay for it."""
+
+    def __init__(self, solver: Solver, vals):
+        self._last = solver._history[-1]
+        self._prev = solver._history[-2] if len(solver._history) == 2 else None
+        self._solver, self._vals = solver, vals
+        self._ratio: float | None = None
+
+    def __getitem__(self, key: str):
+        last = self._last
+        if key[:1] == '@':
+            return last.poses.phi[key[1:]]
+        v = last.points[key]
+        prev = self._prev
+        if prev is None or key not in prev.points:
+            return v
+        if self._ratio is None:
+            self._ratio = self._solver._step_ratio(prev.values, last.values, self._vals)
+        return v + self._ratio * (v - prev.points[key])
+
+    def __contains__(self, key) -> bool:
+        if isinstance(key, str) and key[:1] == '@':
+            return key[1:] in self._last.poses.phi
+        return key in self._last.points
+
+    def __iter__(self):
+        yield from self._last.points
+        yield from ('@' + l for l in self._last.poses.phi)
+
+    def __len__(self) -> int:
+        return len(self._last.points) + len(self._last.poses.phi)
+
+
+def _sign_str(signs) -> str:
+    return ''.join('+' if s > 0 else '-' for s in signs)
