@@ -1,0 +1,121 @@
+"""Link oscillation: the range a link's angle sweeps as an input moves."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..dyads import wrap_angle
+from ..model import Mechanism
+from .common import TWO_PI, _clip_periodic, _limit_interval
+from .ranges import _scan_circuit
+from .scan import _held_reference
+
+# ---- link oscillation -------------------------------------------------------------------------
+
+
+def oscillation_range(
+    mech: Mechanism,
+    link: str,
+    actuator: str | None = None,
+    samples: int = 720,
+    held: Mapping[str, Any] | None = None,
+):
+    """(min, max) of the angle of ``link`` (rad, direction of its axis) while ``actuator`` (default
+    the first) runs over its range within its limits, the other actuators held; (None, None) when
+    the link turns fully. Follows the circuit through toggles, so both assembly modes a
+    non-Grashof chain passes through count. Extremes inside the range are refined by Brent's
+    method; the angle convention is the module's (max may exceed pi)."""
+    from scipy.optimize import minimize_scalar
+
+    if link not in mech.links or link == mech.ground:
+        raise ValueError(f'{link!r} is not a moving link of {mech.name!r}')
+    actuator = actuator or next(iter(mech.actuators))
+    act = mech.actuators[actuator]
+    periodic = act.kind == 'angle'
+    held = _held_reference(mech, actuator, held)
+    line, x0, segs, _ = _scan_circuit(mech, actuator, held, samples)
+    if line is None:
+        raise ValueError(f'oscillation_range needs a closed-form plan for {actuator!r}')
+    if not segs:
+        return None, None
+    lim = _limit_interval(act, periodic) if periodic else (act.min, act.max)
+    # sample every segment (clipped to the actuator's limits), unwrap and stitch the angle
+    pieces = []  # (signs, xs, unwrapped angles)
+    stitch: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+    for k, s in enumerate(segs):
+        n = max(
+            129,
+            int(samples * (s.hi - s.lo) / (TWO_PI if periodic else max(s.hi - s.lo, 1e-300))) + 1,
+        )
+        xs = np.linspace(s.lo, s.hi, n)
+        ang = line.link_angle(xs, s.signs, link)
+        good = np.isfinite(ang)
+        xs, ang = xs[good], np.unwrap(ang[good])
+        if xs.size == 0:
+            continue
+        if s.parent is not None and s.parent in stitch:
+            pxs, pang = stitch[s.parent]
+            j = int(np.argmin(np.abs(pxs - s.seed)))
+            i = int(np.argmin(np.abs(xs - s.seed)))
+            ang = ang + TWO_PI * round((pang[j] - ang[i]) / TWO_PI)
+        stitch[k] = (xs, ang)
+        # clip to the limits
+        if periodic and lim is not None:
+            keep = np.zeros(xs.size, bool)
+            for a, b, _, _ in _clip_periodic(s.lo, s.hi, lim):
+                keep |= (xs >= a) & (xs <= b)
+            for a, b, _, _ in _clip_periodic(s.lo, s.hi, lim):
+                # make sure the exact limit values are sampled
+                for v in (a, b):
+                    va = line.link_angle([v], s.signs, link)[0]
+                    if np.isfinite(va):
+                        j = int(np.argmin(np.abs(xs - v)))
+                        xs = np.append(xs, v)
+                        ang = np.append(ang, ang[j] + wrap_angle(va - ang[j]))
+                        keep = np.append(keep, True)
+            xs, ang = xs[keep], ang[keep]
+        elif not periodic:
+            keep = np.ones(xs.size, bool)
+            if lim[0] is not None:
+                keep &= xs >= lim[0]
+            if lim[1] is not None:
+                keep &= xs <= lim[1]
+            xs, ang = xs[keep], ang[keep]
+        if xs.size:
+            order = np.argsort(xs)
+            pieces.append((s.signs, xs[order], ang[order]))
+    if not pieces:
+        return None, None
+    all_ang = np.concatenate([p[2] for p in pieces])
+    if all_ang.max() - all_ang.min() >= TWO_PI - 1e-9:
+        return None, None
+
+    def extreme(sign):
+        best = -math.inf
+        for signs, xs, ang in pieces:
+            vals = sign * ang
+            i = int(np.argmax(vals))
+            best = max(best, float(vals[i]))
+            if 0 < i < xs.size - 1:
+                centre = float(ang[i])
+
+                def f(x, signs=signs, centre=centre):
+                    v = line.link_angle([x], signs, link)[0]
+                    if not np.isfinite(v):
+                        return math.inf
+                    return -sign * (centre + wrap_angle(v - centre))
+
+                r = minimize_scalar(
+                    f, bounds=(xs[i - 1], xs[i + 1]), method='bounded', options={'xatol': 1e-13}
+                )
+                if np.isfinite(r.fun):
+                    best = max(best, -float(r.fun))
+        return sign * best
+
+    hi, lo = extreme(1), extreme(-1)
+    shift = -TWO_PI * math.floor((lo + math.pi) / TWO_PI)
+    return lo + shift, hi + shift

@@ -1,0 +1,268 @@
+"""Actuator ranges: the input intervals where a mechanism assembles, and its toggles."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..model import Mechanism
+from .common import TOGGLE_MARGIN, TWO_PI, _clip_periodic, _limit_interval, reference_value
+from .scan import _held_reference, _Line, _Segment, _slide_bracket
+from .walk import _walk_range
+
+# ---- actuator ranges --------------------------------------------------------------------------
+
+
+def _scan_circuit(mech: Mechanism, name: str, held: Mapping[str, Any], samples: int):
+    """(line, x0, segments, bracket) of one scanned actuator; line None for a walk."""
+    x0 = reference_value(mech, name)
+    act = mech.actuators[name]
+    periodic = act.kind == 'angle'
+    bracket = None if periodic else _slide_bracket(mech, name, x0)
+    line = _Line(mech, name, held, samples, bracket)
+    if line.closed:
+        limits = _limit_interval(act, True) if periodic else (act.min, act.max)
+        return line, x0, line.circuit(x0, limits), bracket
+    comp = _walk_range(mech, name, held, x0, periodic, bracket)
+    if comp == 'empty':
+        return None, x0, [], bracket
+    if comp is None:
+        return (
+            None,
+            x0,
+            [
+                _Segment(
+                    (),
+                    x0 - math.pi,
+                    x0 + math.pi,
+                    ('full', None),
+                    ('full', None),
+                    x0,
+                    None,
+                    full=True,
+                )
+            ],
+            bracket,
+        )
+    lo, hi, le, he = comp
+    return None, x0, [_Segment((), lo, hi, le, he, x0)], bracket
+
+
+def actuator_range(
+    mech: Mechanism, name: str, samples: int = 720, held: Mapping[str, Any] | None = None
+) -> dict:
+    """Range of one actuator with the other actuators held (at their reference-pose values unless
+    ``held`` gives them).
+
+    Returns a dict: ``min``, ``max`` (None for no bound), ``min_source`` / ``max_source``
+    ('toggle': the assembly ends there; 'limit': the scene's limit; None), ``full_turn`` (the
+    assembly lets an angle turn fully), ``toggles`` (assembly toggles, see
+    :func:`toggle_positions`), ``reference`` (the reference-pose value), ``kind``, ``unit``.
+    """
+    if name not in mech.actuators:
+        raise ValueError(
+            f'{mech.name!r} has no actuator {name!r}; actuators: {sorted(mech.actuators)}'
+        )
+    act = mech.actuators[name]
+    periodic = act.kind == 'angle'
+    held = _held_reference(mech, name, held)
+    line, x0, segs, _ = _scan_circuit(mech, name, held, samples)
+    out = {
+        'name': name,
+        'kind': act.kind,
+        'unit': 'rad' if periodic else 'm',
+        'reference': x0,
+        'min': None,
+        'max': None,
+        'min_source': None,
+        'max_source': None,
+        'full_turn': False,
+        'toggles': [],
+        'assembles': bool(segs),
+        'assembly': None,
+    }
+    if not segs:
+        return out
+    full = any(s.full for s in segs)
+    lo = min(s.lo for s in segs)
+    hi = max(s.hi for s in segs)
+    if periodic and (full or hi - lo >= TWO_PI - 1e-12):
+        full = True
+    lo_seg = min(segs, key=lambda s: s.lo)
+    hi_seg = max(segs, key=lambda s: s.hi)
+    lo_src = None if full else _source(lo_seg.lo_end)
+    hi_src = None if full else _source(hi_seg.hi_end)
+    toggles = (
+        _segment_toggles(line, segs)
+        if line is not None
+        else [v for s in segs for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end)) if e[0] == 'toggle']
+    )
+    if periodic:
+        lim = _limit_interval(act, True)
+        if full:
+            out['full_turn'] = True
+            if lim is not None:
+                out.update(min=lim[0], max=lim[1], min_source='limit', max_source='limit')
+        else:
+            if lim is None:
+                pieces = [(lo, hi, False, False)]
+            else:
+                pieces = _clip_periodic(lo, hi, lim)
+            if not pieces:
+                out['assembles'] = False
+                return out
+            # the piece holding the reference value (else the nearest one)
+            piece = min(
+                pieces,
+                key=lambda p: 0.0 if p[0] <= x0 <= p[1] else min(abs(p[0] - x0), abs(p[1] - x0)),
+            )
+            a, b, a_lim, b_lim = piece
+            shift = 0.0
+            if a_lim:
+                shift = lim[0] - a
+            elif b_lim:
+                shift = lim[1] - b
+            else:
+                shift = -TWO_PI * math.floor((a + math.pi) / TWO_PI)
+            out.update(
+                min=a + shift,
+                max=b + shift,
+                min_source='limit' if a_lim else lo_src,
+                max_source='limit' if b_lim else hi_src,
+            )
+        # toggles and the assembly's own range in one turn starting at the assembly's min
+        if full:
+            base = -math.pi
+            out['assembly'] = None
+        else:
+            base = lo - TWO_PI * math.floor((lo + math.pi) / TWO_PI)
+            out['assembly'] = [base, base + (hi - lo)]
+        out['toggles'] = _dedupe(sorted(base + (t - base) % TWO_PI for t in toggles), True)
+    else:
+        out.update(
+            min=lo if lo_src != 'bracket' else None,
+            max=hi if hi_src != 'bracket' else None,
+            min_source=lo_src if lo_src != 'bracket' else None,
+            max_source=hi_src if hi_src != 'bracket' else None,
+        )
+        # the assembly's own ends (unknown beyond a scene limit: the scan stops there)
+        out['assembly'] = [lo if lo_src == 'toggle' else None, hi if hi_src == 'toggle' else None]
+        out['toggles'] = _dedupe(sorted(toggles), None)
+    return out
+
+
+def _dedupe(values, periodic) -> list[float]:
+    res: list[float] = []
+    for v in values:
+        if not res or abs(v - res[-1]) > 1e-9:
+            res.append(float(v))
+    if periodic and len(res) > 1 and abs(res[0] + TWO_PI - res[-1]) <= 1e-9:
+        res.pop()
+    return res
+
+
+def _source(end):
+    return {'toggle': 'toggle', 'limit': 'limit', 'bracket': 'bracket'}.get(end[0])
+
+
+def _golden_min(f, a: float, b: float, tol: float) -> tuple[float, float]:
+    """Golden-section minimum of a unimodal f on [a, b] (robust on the V-shaped margin at a
+    tangency, where parabolic steps stall at sqrt(eps))."""
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(200):
+        if abs(b - a) <= tol:
+            break
+        if fc <= fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = f(d)
+    return (c, fc) if fc <= fd else (d, fd)
+
+
+def _flat_centre(f, a: float, x: float, b: float, fx: float) -> float:
+    """Centre of the zone around x where f stays at its floor fx (a tangency's margin is
+    |linear| in the input but rounds to its floor over ~sqrt(eps): the centre is the toggle)."""
+    tau = fx + 1e-14
+
+    def edge(inside, outside):
+        for _ in range(200):
+            mid = 0.5 * (inside + outside)
+            if mid in (inside, outside):
+                break
+            if f(mid) <= tau:
+                inside = mid
+            else:
+                outside = mid
+        return inside
+
+    if f(a) <= tau or f(b) <= tau:
+        return x
+    return 0.5 * (edge(x, a) + edge(x, b))
+
+
+def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
+    """Assembly-limited segment ends plus interior points where a dyad margin touches zero."""
+    out = []
+    for s in segs:
+        for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end)):
+            if e[0] == 'toggle':
+                out.append(v)
+        n = max(64, line.samples // (1 if s.full else 2))
+        xs = np.linspace(s.lo, s.hi, n)
+        m = line.margins(xs, s.signs)
+        for i in range(1, n - 1):
+            if not (np.isfinite(m[i]) and m[i] < 0.05 and m[i] <= m[i - 1] and m[i] <= m[i + 1]):
+                continue
+
+            def f(x, signs=s.signs):
+                v = line.margins([x], signs)[0]
+                return 1.0 if not np.isfinite(v) else float(v)
+
+            x, fx = _golden_min(f, xs[i - 1], xs[i + 1], line.tol)
+            if fx < TOGGLE_MARGIN:
+                out.append(_flat_centre(f, xs[i - 1], x, xs[i + 1], fx))
+    # dedupe
+    res: list[float] = []
+    for v in sorted(out):
+        if not res or not line._same(res[-1], v):
+            res.append(v)
+    return res
+
+
+def input_ranges(
+    mech: Mechanism, samples: int = 720
+) -> dict[str, tuple[float | None, float | None]]:
+    """{actuator: (min or None, max or None)} with the other actuators held at their
+    reference-pose values: the toggle positions where the assembly ends (refined to 1e-12 rad or
+    1e-12 of the length scale), intersected with the actuator's own min / max.
+
+    An angle that turns fully without limits gives (None, None); a reachable set spanning angle
+    pi (or 0/2pi) is one interval min < max with max possibly > pi (see the module docstring).
+    A slide without a limit on a side where the assembly does not end within a bracket of
+    thousands of length scales around its reference value gives None on that side.
+    """
+    out = {}
+    for name in mech.actuators:
+        info = actuator_range(mech, name, samples)
+        out[name] = (info['min'], info['max'])
+    return out
+
+
+def toggle_positions(
+    mech: Mechanism, actuator: str, samples: int = 720, held: Mapping[str, Any] | None = None
+) -> list[float]:
+    """Values of ``actuator`` (others held at the reference pose) where a dyad of the assembly
+    toggles (its margin, |sin| of the transmission angle or its analogue, reaches 0): the ends of
+    the assembly's range and any interior tangency, over every assembly mode the motion passes
+    through. Geometric: the actuator's own limits are not applied (compare with
+    :func:`actuator_range`). Angles are reported in [min, min + 2 pi) of the range."""
+    return actuator_range(mech, actuator, samples, held)['toggles']

@@ -1,0 +1,336 @@
+"""Reachable regions of a point: sampled, hulled, and measured."""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..model import Mechanism
+from ..solver import Solver
+from .common import point_key, reference_value
+from .ranges import actuator_range
+
+# ---- reachable regions ------------------------------------------------------------------------
+
+
+def _actuator_limits(mech: Mechanism, name: str, samples: int) -> tuple[float, float]:
+    act = mech.actuators[name]
+    if act.min is not None and act.max is not None:
+        return float(act.min), float(act.max)
+    info = actuator_range(mech, name, samples)
+    x0 = info['reference']
+    if act.kind == 'angle':
+        if info['min'] is None:
+            return x0 - math.pi, x0 + math.pi
+        return float(info['min']), float(info['max'])
+    lo = info['min'] if info['min'] is not None else x0 - mech.length_scale
+    hi = info['max'] if info['max'] is not None else x0 + mech.length_scale
+    return float(lo), float(hi)
+
+
+def _moving_actuators(mech: Mechanism, point: str, solver: Solver) -> list[str]:
+    ref = {a: reference_value(mech, a) for a in mech.actuators}
+    base = solver.solve_batch({a: [v] for a, v in ref.items()})
+    p0 = base.points[point][0]
+    out = []
+    for a, act in mech.actuators.items():
+        d = 1e-4 if act.kind == 'angle' else 1e-4 * mech.length_scale
+        moved = False
+        for sgn in (1, -1):
+            cols = {b: [v] for b, v in ref.items()}
+            cols[a] = [ref[a] + sgn * d]
+            r = solver.solve_batch(cols)
+            if r.ok[0]:
+                moved = float(np.hypot(*(r.points[point][0] - p0))) > 1e-9 * mech.length_scale
+                break
+        if moved:
+            out.append(a)
+    return out
+
+
+def _polygon_area(poly: np.ndarray) -> float:
+    if len(poly) < 3:
+        return 0.0
+    x, y = poly[:, 0], poly[:, 1]
+    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+def points_in_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Even-odd rule: which of the (n, 2) points lie inside the closed polygon (m, 2)."""
+    pts = np.asarray(pts, float).reshape(-1, 2)
+    poly = np.asarray(poly, float).reshape(-1, 2)
+    x, y = pts[:, 0][:, None], pts[:, 1][:, None]
+    x1, y1 = poly[:, 0][None, :], poly[:, 1][None, :]
+    x2, y2 = np.roll(poly[:, 0], -1)[None, :], np.roll(poly[:, 1], -1)[None, :]
+    cond = (y1 > y) != (y2 > y)
+    with np.errstate(divide='ignore', invalid='ignore'):
+        xint = x1 + (y - y1) * (x2 - x1) / np.where(y2 != y1, y2 - y1, 1.0)
+    return (np.sum(cond & (x < xint), axis=1) % 2) == 1
+
+
+def distance_to_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance from each of the (n, 2) points to the polygon's edges."""
+    pts = np.asarray(pts, float).reshape(-1, 2)
+    a = np.asarray(poly, float).reshape(-1, 2)
+    b = np.roll(a, -1, axis=0)
+    ab = b - a
+    L2 = np.sum(ab * ab, axis=1)
+    best = np.full(pts.shape[0], np.inf)
+    for k in range(0, a.shape[0], 256):
+        aa, bb, ll = a[k : k + 256], ab[k : k + 256], L2[k : k + 256]
+        ap = pts[:, None, :] - aa[None, :, :]
+        t = np.clip(np.sum(ap * bb[None], axis=2) / np.where(ll > 0, ll, 1.0)[None], 0.0, 1.0)
+        d = ap - t[..., None] * bb[None]
+        best = np.minimum(best, np.min(np.hypot(d[..., 0], d[..., 1]), axis=1))
+    return best
+
+
+def _concave_hull(pts: np.ndarray, max_edge: float) -> np.ndarray:
+    """Outer boundary (m, 2) of the alpha shape of ``pts``: the Delaunay triangles whose edges are
+    all at most ``max_edge`` long, merged."""
+    from scipy.spatial import Delaunay
+
+    pts = np.unique(np.asarray(pts, float), axis=0)
+    if pts.shape[0] < 3:
+        return pts
+    try:
+        tri = Delaunay(pts)
+    except Exception:  # noqa: BLE001 - collinear cloud: a path, no area
+        order = np.argsort(pts[:, 0] + 1e-3 * pts[:, 1])
+        return pts[order]
+    s = tri.simplices
+    e = np.stack(
+        [np.linalg.norm(pts[s[:, i]] - pts[s[:, (i + 1) % 3]], axis=1) for i in range(3)], axis=1
+    )
+    keep = s[np.max(e, axis=1) <= max_edge]
+    if keep.size == 0:
+        keep = s
+    count: dict[tuple[int, int], int] = {}
+    for t in keep:
+        for i in range(3):
+            a, b = int(t[i]), int(t[(i + 1) % 3])
+            key = (a, b) if a < b else (b, a)
+            count[key] = count.get(key, 0) + 1
+    edges = [k for k, c in count.items() if c == 1]
+    adj: dict[int, list[int]] = {}
+    for a, b in edges:
+        adj.setdefault(a, []).append(b)
+        adj.setdefault(b, []).append(a)
+    used = set()
+    loops = []
+    for a, b in edges:
+        if (a, b) in used:
+            continue
+        loop = [a]
+        prev, cur = a, b
+        used.add((min(a, b), max(a, b)))
+        while cur != a and len(loop) <= len(edges):
+            loop.append(cur)
+            nxt = [v for v in adj[cur] if (min(cur, v), max(cur, v)) not in used]
+            if not nxt:
+                break
+            prev, cur = cur, nxt[0]
+            used.add((min(prev, cur), max(prev, cur)))
+        loops.append(pts[loop])
+    return max(loops, key=_polygon_area) if loops else pts
+
+
+def reachable_region(
+    mech: Mechanism,
+    point: str,
+    samples_per_actuator: int = 41,
+    actuators: Sequence[str] | None = None,
+    edge_samples: int | None = None,
+    limits: Mapping[str, tuple[float, float]] | None = None,
+    held: Mapping[str, Any] | None = None,
+) -> dict:
+    """Region reached by ``point`` while ``actuators`` run over their limits (the others held at
+    the reference pose), e.g. the seed's zone of the excavator's hinge K for the Z1, Z2 ranges.
+
+    ``actuators`` defaults to those that move the point. Limits are the scene's min / max, else
+    :func:`actuator_range` (a full turn for a rotating crank); ``limits`` overrides them. The
+    mechanism stays in the reference assembly mode.
+
+    Returns a dict of plain data:
+
+    * ``boundary`` [[x, y], ...] the closed polygon (first vertex not repeated); with two
+      actuators the four extreme arcs (each actuator at its min or max while the other sweeps)
+      joined in order, with ``boundary_inputs`` {actuator: [value per vertex]} (method
+      'extreme_arcs'); one actuator: the path itself ('path', area 0); otherwise, or when the
+      cloud does not lie inside the arcs (the map folds, or a corner of the throw box does not
+      assemble), the concave hull of the cloud ('concave_hull');
+    * ``area``, ``cloud`` (sampled points on a grid of the throws), ``arcs`` (each with ``fixed``
+      = [actuator, 'min'|'max', value], ``sweep`` and ``points``), ``limits``, ``held``;
+    * ``hull_check``: ``outside`` (cloud points outside the boundary beyond ``tolerance``),
+      ``max_outside``, ``convex_hull_area``, ``convex`` (the region equals its convex hull).
+    """
+    if point not in mech.points:
+        raise ValueError(f'{mech.name!r} has no point {point!r}; points: {sorted(mech.points)}')
+    solver = Solver(mech, outputs=[point], branch='reference')
+    acts = list(actuators) if actuators is not None else _moving_actuators(mech, point, solver)
+    for a in acts:
+        if a not in mech.actuators:
+            raise ValueError(f'{a!r} is not an actuator of {mech.name!r}')
+    held_vals = {
+        a: (held or {}).get(a, reference_value(mech, a)) for a in mech.actuators if a not in acts
+    }
+    lims = {
+        a: tuple(map(float, (limits or {}).get(a) or _actuator_limits(mech, a, 720))) for a in acts
+    }
+    scale = mech.length_scale
+    n = max(2, int(samples_per_actuator))
+    if len(acts) >= 3:
+        n = max(2, min(n, int(round(30000 ** (1.0 / len(acts))))))
+    ne = int(edge_samples) if edge_samples else 4 * (n - 1) + 1
+
+    def solve(cols):
+        full = {a: np.asarray(cols[a], float) for a in acts}
+        m = next(iter(full.values())).shape[0] if full else 1
+        for a, v in held_vals.items():
+            full[a] = np.full(m, float(v))
+        r = solver.solve_batch(full)
+        return r.ok, r.points[point]
+
+    out: dict[str, Any] = {
+        'point': point,
+        'actuators': acts,
+        'limits': {a: list(lims[a]) for a in acts},
+        'held': {a: float(v) for a, v in held_vals.items()},
+    }
+    if not acts:
+        p = reference_value(mech, point_key(mech, point))
+        out.update(
+            boundary=[list(map(float, p))],
+            boundary_inputs={},
+            area=0.0,
+            cloud=[list(map(float, p))],
+            arcs=[],
+            method='point',
+            hull_check={
+                'outside': 0,
+                'max_outside': 0.0,
+                'tolerance': 0.0,
+                'convex_hull_area': 0.0,
+                'convex': True,
+            },
+        )
+        return out
+    # the cloud: a grid over the throws, solved in serpentine order (sequential Newton solves
+    # then stay continuous), kept in natural order
+    axes = [np.linspace(lims[a][0], lims[a][1], n) for a in acts]
+    grid = np.array(list(itertools.product(*axes)))
+    perm = np.arange(grid.shape[0])
+    if len(acts) >= 2:
+        rows = perm.reshape(-1, n).copy()
+        rows[1::2] = rows[1::2, ::-1]
+        perm = rows.reshape(-1)
+    ok_s, P_s = solve({a: grid[perm, i] for i, a in enumerate(acts)})
+    ok = np.zeros(grid.shape[0], bool)
+    P = np.zeros((grid.shape[0], 2))
+    ok[perm], P[perm] = ok_s, P_s
+    cloud = P[ok]
+    out['cloud'] = cloud.tolist()
+    arcs = []
+    if len(acts) == 1:
+        a = acts[0]
+        xs = np.linspace(lims[a][0], lims[a][1], ne)
+        okp, pp = solve({a: xs})
+        boundary, binputs = pp[okp], {a: xs[okp].tolist()}
+        method = 'path'
+        area = 0.0
+    elif len(acts) == 2:
+        a1, a2 = acts
+        (l1, h1), (l2, h2) = lims[a1], lims[a2]
+        s1 = np.linspace(l1, h1, ne)
+        s2 = np.linspace(l2, h2, ne)
+        specs = [
+            (a1, 'min', l1, a2, s2),
+            (a2, 'max', h2, a1, s1),
+            (a1, 'max', h1, a2, s2[::-1]),
+            (a2, 'min', l2, a1, s1[::-1]),
+        ]
+        verts, ins1, ins2, complete = [], [], [], True
+        for fixed, which, val, sweep, vals in specs:
+            cols = {fixed: np.full(vals.size, val), sweep: vals}
+            okp, pp = solve(cols)
+            complete &= bool(okp.all())
+            arcs.append(
+                {
+                    'fixed': [fixed, which, float(val)],
+                    'sweep': sweep,
+                    'inputs': vals[okp].tolist(),
+                    'points': pp[okp].tolist(),
+                }
+            )
+            # drop each arc's last vertex: it is the next arc's first (a shared corner)
+            sel = np.flatnonzero(okp)
+            sel = sel[sel < vals.size - 1]
+            verts.append(pp[sel])
+            ins1.append(cols[a1][sel])
+            ins2.append(cols[a2][sel])
+        boundary = np.concatenate(verts)
+        binputs = {a1: np.concatenate(ins1).tolist(), a2: np.concatenate(ins2).tolist()}
+        method = 'extreme_arcs' if complete else 'concave_hull'
+        area = _polygon_area(boundary)
+    else:
+        boundary, binputs, method, area = None, {}, 'concave_hull', 0.0
+    # hull check: the cloud must lie inside the boundary
+    spacing = _grid_spacing(P, ok, n, len(acts))
+    tolerance = 1e-9 * scale
+    hull_area = 0.0
+    if len(acts) >= 2 and cloud.shape[0] >= 3:
+        try:
+            from scipy.spatial import ConvexHull
+
+            hull_area = float(ConvexHull(cloud).volume)
+        except Exception:  # noqa: BLE001 - degenerate cloud
+            hull_area = 0.0
+    outside, max_out = 0, 0.0
+    if method == 'extreme_arcs':
+        inside = points_in_polygon(cloud, boundary)
+        d = distance_to_polygon(cloud[~inside], boundary) if (~inside).any() else np.zeros(0)
+        outside = int(np.sum(d > tolerance))
+        max_out = float(d.max()) if d.size else 0.0
+        if outside:
+            method = 'concave_hull'
+    if method == 'concave_hull':
+        pts = np.concatenate(
+            [cloud] + [np.asarray(a['points'], float).reshape(-1, 2) for a in arcs]
+        )
+        boundary = _concave_hull(pts, 2.5 * spacing)
+        binputs = {}
+        area = _polygon_area(boundary)
+    out.update(
+        boundary=np.asarray(boundary, float).tolist(),
+        boundary_inputs=binputs,
+        area=float(area),
+        arcs=arcs,
+        method=method,
+        hull_check={
+            'outside': outside,
+            'max_outside': max_out,
+            'tolerance': tolerance,
+            'convex_hull_area': hull_area,
+            'convex': bool(hull_area > 0 and area >= hull_area * (1 - 1e-3)),
+        },
+    )
+    return out
+
+
+def _grid_spacing(P: np.ndarray, ok: np.ndarray, n: int, k: int) -> float:
+    """Largest image distance between neighbouring samples of the throw grid (any axis)."""
+    if k == 0 or P.shape[0] < 2:
+        return 0.0
+    Pg = P.reshape((n,) * k + (2,))
+    okg = ok.reshape((n,) * k)
+    best = 0.0
+    for ax in range(k):
+        d = np.linalg.norm(np.diff(Pg, axis=ax), axis=-1)
+        both = np.logical_and(np.delete(okg, 0, axis=ax), np.delete(okg, -1, axis=ax))
+        if both.any():
+            best = max(best, float(d[both].max()))
+    return best

@@ -1,0 +1,279 @@
+"""One-dimensional scans of an actuator over a closed-form plan (segments where it assembles)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..dyads import wrap_angle
+from ..model import Mechanism
+from ..solver import Solver
+from .common import (
+    _KARY,
+    _MAX_SEGMENTS,
+    ANGLE_TOL,
+    LENGTH_TOL,
+    TWO_PI,
+    reference_value,
+    without_limits,
+)
+
+# ---- one-dimensional scans over a closed-form plan --------------------------------------------
+
+
+@dataclass
+class _Segment:
+    """A stretch of the circuit on one assembly mode: the scanned known over [lo, hi] (unwrapped
+    for angles), or the full turn; ends are ('toggle', branch) / ('limit', None) / ('bracket',
+    None) / ('full', None)."""
+
+    signs: tuple
+    lo: float
+    hi: float
+    lo_end: tuple
+    hi_end: tuple
+    seed: float
+    parent: int | None = None
+    full: bool = False
+
+
+class _Line:
+    """The mechanism along one scanned known with every other known held (closed-form plan)."""
+
+    def __init__(
+        self,
+        mech: Mechanism,
+        scan: str,
+        held: Mapping[str, Any],
+        samples: int = 720,
+        bracket: tuple | None = None,
+    ):
+        self.mech = mech
+        self.free = without_limits(mech)
+        self.scan = scan
+        self.held = dict(held)
+        self.solver = Solver(self.free, knowns=[scan] + list(self.held), branch='reference')
+        self.closed = self.solver.mode == 'closed_form'
+        self.plan = self.solver.plan
+        self.spec = self.solver.specs[0]
+        self.periodic = self.spec.kind == 'angle'
+        self.scale = mech.length_scale
+        self.tol = ANGLE_TOL if self.periodic else LENGTH_TOL * self.scale
+        self.samples = max(16, int(samples))
+        self.bracket = bracket  # slides: (lo, hi, lo_hard, hi_hard)
+        self.branch_of_step = {}
+        k = 0
+        for i, st in enumerate(self.plan.steps):
+            if st.branching:
+                self.branch_of_step[i] = k
+                k += 1
+
+    # -- evaluation
+    def run(self, x, signs):
+        x = np.atleast_1d(np.asarray(x, float))
+        n = x.shape[0]
+        values = [x]
+        for s in self.solver.specs[1:]:
+            v = self.held[s.name]
+            values.append(
+                np.tile(np.asarray(v, float), (n, 1)) if s.kind == 'point' else np.full(n, float(v))
+            )
+        return self.plan.run(values, n, list(signs))
+
+    def ok(self, x, signs) -> np.ndarray:
+        return np.asarray(self.run(x, signs)[2]['ok'], bool)
+
+    def _failing_branch(self, x, signs):
+        info = self.run([x], signs)[2]
+        if info['ok'][0]:
+            return None
+        return self.branch_of_step.get(int(info['failure'][0]))
+
+    def refine(self, good: float, bad: float, signs) -> tuple[float, int | None]:
+        """Boundary between an assembling ``good`` and a failing ``bad`` value (k-ary search);
+        returns (last assembling value, index of the branching dyad that fails beyond)."""
+        for _ in range(200):
+            if abs(bad - good) <= self.tol:
+                break
+            xs = good + (bad - good) * np.arange(1, _KARY + 1) / (_KARY + 1)
+            okk = self.ok(xs, signs)
+            fails = np.flatnonzero(~okk)
+            if fails.size == 0:
+                new_good, new_bad = xs[-1], bad
+            else:
+                i = int(fails[0])
+                new_good = xs[i - 1] if i > 0 else good
+                new_bad = xs[i]
+            if new_good == good and new_bad == bad:
+                break
+            good, bad = float(new_good), float(new_bad)
+        return good, self._failing_branch(bad, signs)
+
+    # -- components
+    def component(self, seed: float, signs):
+        """The interval of assembling values around ``seed`` on one assembly mode:
+        None for a full turn, else (lo, hi, lo_end, hi_end)."""
+        if self.periodic:
+            return self._component_periodic(seed, signs)
+        return self._component_line(seed, signs)
+
+    def _component_periodic(self, seed, signs):
+        n = self.samples
+        c = n // 2
+        dt = TWO_PI / n
+        xs = seed + (np.arange(n) - c) * dt
+        ok = self.ok(xs, signs)
+        ok[c] = True  # the seed assembles (it may sit on a toggle)
+        if ok.all():
+            return None
+        up = 0
+        while ok[(c + up + 1) % n]:
+            up += 1
+        down = 0
+        while ok[(c - down - 1) % n]:
+            down += 1
+        hi, kh = self.refine(seed + up * dt, seed + (up + 1) * dt, signs)
+        lo, kl = self.refine(seed - down * dt, seed - (down + 1) * dt, signs)
+        return lo, hi, ('toggle', kl), ('toggle', kh)
+
+    def _component_line(self, seed, signs):
+        blo, bhi, hard_lo, hard_hi = self.bracket
+        grow = 0
+        while True:
+            xs = np.unique(
+                np.concatenate([np.linspace(blo, bhi, self.samples), [min(max(seed, blo), bhi)]])
+            )
+            c = int(np.searchsorted(xs, min(max(seed, blo), bhi)))
+            ok = self.ok(xs, signs)
+            if not ok[c]:
+                # a seed outside the limits (or on a toggle's wrong side): nearest assembling sample
+                good = np.flatnonzero(ok)
+                if good.size == 0:
+                    return 'empty'
+                c = int(good[np.argmin(np.abs(good - c))])
+            i = c
+            while i + 1 < xs.size and ok[i + 1]:
+                i += 1
+            j = c
+            while j - 1 >= 0 and ok[j - 1]:
+                j -= 1
+            soft_hit = (i == xs.size - 1 and not hard_hi) or (j == 0 and not hard_lo)
+            if soft_hit and grow < 3:
+                grow += 1
+                w = 4.0 * (bhi - blo)
+                if i == xs.size - 1 and not hard_hi:
+                    bhi = bhi + w
+                if j == 0 and not hard_lo:
+                    blo = self._soft_low(blo - w)
+                continue
+            break
+        if i == xs.size - 1:
+            hi, hi_end = float(xs[-1]), ('limit' if hard_hi else 'bracket', None)
+        else:
+            hi, k = self.refine(float(xs[i]), float(xs[i + 1]), signs)
+            hi_end = ('toggle', k)
+        if j == 0:
+            lo, lo_end = float(xs[0]), ('limit' if hard_lo else 'bracket', None)
+        else:
+            lo, k = self.refine(float(xs[j]), float(xs[j - 1]), signs)
+            lo_end = ('toggle', k)
+        return lo, hi, lo_end, hi_end
+
+    def _soft_low(self, v):
+        act = self.mech.actuators.get(self.scan)
+        if act is not None and act.cylinder:
+            return max(v, 1e-6 * self.scale)  # a cylinder's pin-to-pin length stays > 0
+        return v
+
+    def _same(self, a, b):
+        if self.periodic:
+            return abs(wrap_angle(a - b)) <= 1e-9
+        return abs(a - b) <= 1e-9 * self.scale
+
+    # -- circuits
+    def within(self, v: float, limits) -> bool:
+        """Is ``v`` inside the actuator's limits ((lo, hi) with None sides for slides, a circular
+        (lo, hi) or None for angles)?"""
+        if limits is None:
+            return True
+        lo, hi = limits
+        if self.periodic:
+            return (v - lo) % TWO_PI <= (hi - lo) + 1e-12
+        tol = 1e-12 * self.scale
+        return (lo is None or v >= lo - tol) and (hi is None or v <= hi + tol)
+
+    def circuit(self, x0: float, limits=None) -> list[_Segment]:
+        """Follow the motion from ``x0`` in the reference assembly mode through every toggle
+        (only toggles inside ``limits``: the motion cannot reach the others)."""
+        ref = tuple(self.plan.reference_signs)
+        segs: list[_Segment] = []
+        queue = [(ref, float(x0), None)]
+        while queue and len(segs) < _MAX_SEGMENTS:
+            signs, seed, parent = queue.pop(0)
+            comp = self.component(seed, signs)
+            if comp == 'empty':
+                continue
+            if comp is None:
+                if not any(s.full and s.signs == signs for s in segs):
+                    segs.append(
+                        _Segment(
+                            signs,
+                            seed - math.pi,
+                            seed + math.pi,
+                            ('full', None),
+                            ('full', None),
+                            seed,
+                            parent,
+                            full=True,
+                        )
+                    )
+                continue
+            lo, hi, lo_end, hi_end = comp
+            if any(
+                s.signs == signs and not s.full and self._same(s.lo, lo) and self._same(s.hi, hi)
+                for s in segs
+            ):
+                continue
+            segs.append(_Segment(signs, lo, hi, lo_end, hi_end, seed, parent))
+            me = len(segs) - 1
+            for end, (kind, k) in ((lo, lo_end), (hi, hi_end)):
+                if kind == 'toggle' and k is not None and self.within(end, limits):
+                    flipped = list(signs)
+                    flipped[k] = -flipped[k]
+                    queue.append((tuple(flipped), end, me))
+        return segs
+
+    # -- sampled quantities
+    def margins(self, xs, signs):
+        _, _, info = self.run(xs, signs)
+        return np.where(info['ok'], info['margin'], np.nan)
+
+    def link_angle(self, xs, signs, link):
+        poses, _, info = self.run(xs, signs)
+        ang = self.mech.links[link].angle_ref + np.asarray(poses.phi[link], float)
+        return np.where(info['ok'], ang, np.nan)
+
+
+def _held_reference(mech: Mechanism, scan: str, held: Mapping[str, Any] | None):
+    out = {}
+    for a in mech.actuators:
+        if a == scan:
+            continue
+        out[a] = (held or {}).get(a, reference_value(mech, a))
+    return out
+
+
+def _slide_bracket(mech: Mechanism, name: str, x0: float):
+    act = mech.actuators.get(name)
+    lo = act.min if act is not None else None
+    hi = act.max if act is not None else None
+    w = 4.0 * mech.length_scale
+    blo = lo if lo is not None else x0 - w
+    bhi = hi if hi is not None else x0 + w
+    if lo is None and act is not None and act.cylinder:
+        blo = max(blo, 1e-6 * mech.length_scale)
+    return blo, bhi, lo is not None, hi is not None

@@ -1,0 +1,96 @@
+"""Walks with the solver (Newton / hybrid plans, inverse problems with limits)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from ..model import Mechanism
+from ..solver import Result, Solver
+from .common import ANGLE_TOL, LENGTH_TOL, TWO_PI, without_limits
+
+# ---- walks with the solver (Newton / hybrid plans, inverse problems with limits) --------------
+
+
+def _walk(
+    solver: Solver,
+    command: Callable[[float], dict],
+    start: Result,
+    x0: float,
+    direction: int,
+    step: float,
+    extent: float,
+    tol: float,
+):
+    """Follow a scalar known from x0 in one direction with warm-started, branch-continuous solves
+    until a solve is refused, then bisect between the last accepted and the first refused value.
+
+    Returns (boundary or None, reason or None, result at the boundary); None when ``extent`` is
+    covered without a refusal.
+    """
+    solver.reset()
+    solver.adopt(start)
+    x, last = x0, start
+    while True:
+        done = abs(x - x0)
+        if done >= extent * (1 - 1e-15):
+            return None, None, last
+        xn = x0 + direction * min(done + step, extent)
+        r = solver.solve(command(xn))
+        if r.success:
+            x, last = xn, r
+            continue
+        good, bad, why = x, xn, r.reason
+        while abs(bad - good) > tol:
+            mid = 0.5 * (good + bad)
+            if mid in (good, bad):
+                break
+            solver.reset()
+            solver.adopt(last)
+            rm = solver.solve(command(mid), commit=False)
+            if rm.success:
+                good, last = mid, rm
+            else:
+                bad, why = mid, rm.reason
+        return good, why, last
+
+
+def _walk_range(
+    mech: Mechanism,
+    scan: str,
+    held: Mapping[str, Any],
+    x0: float,
+    periodic: bool,
+    bracket=None,
+    step=None,
+):
+    """Range of a known by continuation (when no closed-form plan exists): (lo, hi, lo_end,
+    hi_end) or None for a full turn."""
+    free = without_limits(mech)
+    solver = Solver(free, knowns=[scan] + list(held), branch='continuous', max_iter=200)
+
+    def command(v):
+        return {scan: v, **held}
+
+    start = solver.solve(command(x0), commit=False)
+    if not start.success:
+        return 'empty'
+    if periodic:
+        step = step or math.radians(2.0)
+        tol = ANGLE_TOL
+        ends = []
+        for d in (1, -1):
+            b, why, _ = _walk(solver, command, start, x0, d, step, TWO_PI, tol)
+            ends.append(b)
+        if ends[0] is None or ends[1] is None:
+            return None
+        return ends[1], ends[0], ('toggle', None), ('toggle', None)
+    blo, bhi, hard_lo, hard_hi = bracket
+    step = step or (bhi - blo) / 360.0
+    tol = LENGTH_TOL * mech.length_scale
+    hi, _, _ = _walk(solver, command, start, x0, 1, step, bhi - x0, tol)
+    lo, _, _ = _walk(solver, command, start, x0, -1, step, x0 - blo, tol)
+    hi_end = ('toggle', None) if hi is not None else ('limit' if hard_hi else 'bracket', None)
+    lo_end = ('toggle', None) if lo is not None else ('limit' if hard_lo else 'bracket', None)
+    return (blo if lo is None else lo), (bhi if hi is None else hi), lo_end, hi_end
