@@ -1,0 +1,67 @@
+"""What a Newton solve gives (one system or a batch), the solver's constants and LAPACK."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass
+class SolveResult:
+    """Outcome of one Newton solve (configuration vector x over the free links)."""
+
+    x: np.ndarray
+    success: bool
+    iterations: int  # steps taken (Newton, chord, line-search, LM and polish)
+    residual: float  # max |F| / length scale
+    reason: str | None = None
+    cond: float = float('inf')  # condition number of the scale-free Jacobian (see _cond)
+    det_sign: int = 0
+    factor: tuple | None = None  # (lu, piv, det sign) of the scale-free J at x
+    jacobians: int = 0  # Jacobians evaluated and factorised
+    predicted: bool = False  # converged by the fast path from the predicted guess
+
+
+@dataclass
+class BatchSolve:
+    """Outcome of LoopSystem.solve_batch: N warm-started Newton solves at once. Rows are
+    independent; a row not ``ok`` was *declined* (not failed): its x is its start, and the caller
+    solves it another way (LoopSystem.solve, the scalar careful path)."""
+
+    x: np.ndarray  # (N, n) answers (phi rad, centroid m); the X0 row where declined
+    ok: np.ndarray  # (N,) bool: converged on the start's side of det J = 0
+    iterations: np.ndarray  # (N,) int: Newton steps evaluated (as SolveResult.iterations)
+    residual: np.ndarray  # (N,) max |F| / length scale at x
+    det_sign: np.ndarray  # (N,) int: det J sign at x where ok, else 0
+    cond: np.ndarray  # (N,) cond(J) at x (as _cond reports it) where ok, else inf
+
+
+#: at convergence, a scaled cond(J) above this means a near-singular configuration: polish
+POLISH_COND = 1e6
+POLISH_STEPS = 40
+#: a scaled cond(J) above this is a singular configuration (rank-deficient to rounding)
+SINGULAR_COND = 1e10
+#: LAPACK's 1-norm estimate of cond(J) above this: compute the exact (scaled_cond, an SVD). On the
+#: scenes the estimate is 1.5-7x the exact value, so the thresholds above are decided exactly
+COND_EXACT = 1e4
+#: the fast path: at most this many steps, each cutting max|F| at least by this factor, down to
+#: FAST_MARGIN * tol (not below FAST_FLOOR, about the rounding floor of max|F| / L) where they can
+FAST_STEPS = 4
+FAST_RATE = 0.1
+FAST_MARGIN = 1e-2
+FAST_FLOOR = 4e-15
+#: a prediction moving any unknown further than this (rad, or length scales) is not tried
+MAX_PREDICTION = 0.5
+
+_LAPACK = None
+
+
+def _lapack():
+    """(getrf, getrs, gecon) from scipy's LAPACK wrappers, imported on first use."""
+    global _LAPACK
+    if _LAPACK is None:
+        from scipy.linalg import lapack
+
+        _LAPACK = (lapack.dgetrf, lapack.dgetrs, lapack.dgecon)
+    return _LAPACK

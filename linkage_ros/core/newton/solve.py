@@ -1,0 +1,313 @@
+"""Solving one system: the continuation predictor, the fast and careful Newton paths."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+
+from ..dyads import wrap_angle
+from ..plan import ScalarPoses
+from .results import (
+    FAST_FLOOR,
+    FAST_MARGIN,
+    FAST_RATE,
+    FAST_STEPS,
+    MAX_PREDICTION,
+    POLISH_COND,
+    POLISH_STEPS,
+    SINGULAR_COND,
+    SolveResult,
+    _lapack,
+)
+
+
+class ScalarSolve:
+    """LoopSystem's one-configuration solves (a mixin: it uses the system's rows and linear
+    algebra)."""
+
+    # -- continuation: predictor ----------------------------------------------------------------
+    def value_step(self, a: Sequence, b: Sequence) -> list[float]:
+        """b - a per value component in scale-free units (rad, length scales)."""
+        out, L = [], self.L
+        for s, va, vb in zip(self.specs, a, b):
+            if s.kind == 'angle':  # reduce first: vb - va may overflow
+                out.append(wrap_angle(wrap_angle(float(vb)) - wrap_angle(float(va))))
+            elif s.kind == 'slide':
+                out.append(float(vb) / L - float(va) / L)
+            else:
+                out += [float(vb[0]) / L - float(va[0]) / L, float(vb[1]) / L - float(va[1]) / L]
+        return out
+
+    def rate_factor(self, r: SolveResult) -> tuple | None:
+        """What predict() needs of a solution: its Jacobian's factorisation (dx/dvalue there is
+        its inverse applied to -dF/dvalue); None if it failed or a value has no row here. Only
+        meaningful where no fixed link moves with the values (the Solver: newton mode)."""
+        if not r.success or r.factor is None or self._val_rows is None:
+            return None
+        return r.factor
+
+    def predict(
+        self,
+        x_last: np.ndarray,
+        lu_last: tuple,
+        vals_last: Sequence,
+        vals: Sequence,
+        x_prev: np.ndarray | None = None,
+        vals_prev: Sequence | None = None,
+        lu_prev: tuple | None = None,
+    ) -> np.ndarray | None:
+        """Predicted solution at ``vals`` from the solution x_last at vals_last and its
+        rate_factor ``lu_last`` (the tangent T = dx/dvalue is its inverse applied to -dF/dvalue).
+        h = value_step(vals_last, vals); alone: x_last + T h. Given the solution before (x_prev at
+        vals_prev, hp the step since, s = h.hp / hp.hp, w = h - s hp): along hp the cubic
+        Hermite extrapolation through both solutions and their tangents (with ``lu_prev``),
+        else the quadratic one (the curvature the tangent missed over hp, times s^2), plus
+        T w off that line. None if it moves an unknown by more than MAX_PREDICTION (rad, or
+        length scales)."""
+        getrs = _lapack()[1]
+        h = self.value_step(vals_last, vals)
+        c_last, c_prev, k_back = h, None, 0.0
+        if x_prev is not None and vals_prev is not None:
+            hp = self.value_step(vals_prev, vals_last)
+            den = sum(v * v for v in hp)
+            s = sum(u * v for u, v in zip(h, hp)) / den if den > 0 else math.inf
+            if lu_prev is not None and -1.0 <= s <= 1.5:
+                t = 1.0 + s  # Hermite on t in [0, 1] from x_prev to x_last
+                t2, t3 = t * t, t * t * t
+                w = [u - s * v for u, v in zip(h, hp)]
+                k_back = 2 * t3 - 3 * t2 + 1
+                c_prev = [(t3 - 2 * t2 + t) * v - s * u for u, v in zip(w, hp)]
+                c_last = [(t3 - t2) * v + t * u for u, v in zip(w, hp)]
+            elif abs(s) <= 2.0:
+                k_back = s * s
+                c_last = [u + k_back * v for u, v in zip(h, hp)]
+
+        n, rows = self.n, self._val_rows
+
+        def tangent(lu, c):  # T c, scale-free (a list)
+            rhs = [0.0] * n
+            for i, v in zip(rows, c):
+                rhs[i] = v  # -dF/dvalue (scale-free) times c
+            y, info = getrs(lu[0], lu[1], np.array(rhs))
+            return y.tolist() if info == 0 else [math.nan] * n
+
+        # plain Python on these short vectors: a dozen numpy calls would cost more
+        dy = tangent(lu_last, c_last)
+        if c_prev is not None:
+            dy = [a + b for a, b in zip(dy, tangent(lu_prev, c_prev))]
+        xl = x_last.tolist()
+        if k_back:
+            back = [a - b for a, b in zip(x_prev.tolist(), xl)]
+            for j in range(0, n, 3):
+                if abs(back[j]) > math.pi:  # angles a turn apart
+                    back[j] = math.remainder(back[j], 2 * math.pi)
+            dy = [d + k_back * b * w for d, b, w in zip(dy, back, self._inv_step_list)]
+        if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
+            return None
+        return np.array([x + d * w for x, d, w in zip(xl, dy, self._step_list)])
+
+    # -- solving ------------------------------------------------------------------------------
+    def solve(
+        self,
+        x0: np.ndarray,
+        values: Sequence,
+        fixed: ScalarPoses | None = None,
+        *,
+        tol: float = 1e-12,
+        max_iter: int = 50,
+        keep_det_sign: bool = True,
+        start_sign: int | None = None,
+        guess: np.ndarray | None = None,
+    ) -> SolveResult:
+        """Solve from ``guess`` by the fast path if given and it qualifies (solve_from_guess),
+        else from x0 by Newton with a line search on det-sign flips and an LM fallback. Works in
+        scale-free units (see _eval_s); ``tol`` bounds max|F| / length scale. The det J sign
+        tracked is ``start_sign`` (known from the solve that produced x0), else read at x0."""
+        x = np.array(x0, float)
+        square = self.m == self.n
+        nj = 0
+        F = J = fac = None
+        # at a singular start (a change point) det J has no meaningful sign: do not track it
+        sign0 = 0 if not keep_det_sign else start_sign
+        if sign0 is None:
+            F, J, res = self._eval_s(x, values, fixed)
+            fac = self._factor(J)
+            nj += 1
+            sign0 = self._sign_of(J, fac)
+        spent = 0
+        if guess is not None:
+            r = self.solve_from_guess(
+                guess, values, fixed, tol=tol, max_iter=max_iter, start_sign=sign0
+            )
+            r.jacobians += nj
+            if r.success:
+                return r
+            spent, nj = r.iterations, r.jacobians
+        if F is None:
+            F, J, res = self._eval_s(x, values, fixed)
+            fac = self._factor(J)
+            nj += 1
+        it = 0
+        mu = None
+        while res > tol and it < max_iter:
+            it += 1
+            fnorm = math.sqrt(float(F @ F))
+            step = None
+            if mu is None:
+                if square:
+                    dy = self._lu_step(fac, F) if fac is not None else None
+                else:
+                    dy = np.linalg.lstsq(J, -F, rcond=None)[0]
+                    dy = dy if np.all(np.isfinite(dy)) else None
+                if dy is not None:
+                    step = dy * self._step_scale
+            accepted = False
+            if step is not None:
+                alpha = 1.0
+                for _ in range(10):
+                    xn = x + alpha * step
+                    # the full step usually holds: evaluate J with it; shorter trials F alone
+                    Fn, Jn, rn = self._eval_s(xn, values, fixed, alpha == 1.0)
+                    if math.sqrt(float(Fn @ Fn)) < (1.0 - 1e-4 * alpha) * fnorm:
+                        if Jn is None:
+                            Jn = self._eval_s(xn, values, fixed)[1]
+                        facn = self._factor(Jn)
+                        nj += 1
+                        if self._side_ok(sign0, Jn, facn):
+                            x, F, J, fac, res = xn, Fn, Jn, facn, rn
+                            accepted = True
+                            break
+                    alpha *= 0.5
+            if not accepted:
+                # Levenberg-Marquardt with Marquardt's column scaling
+                JtJ = J.T @ J
+                g = J.T @ F
+                D = np.diag(JtJ).copy()
+                D[D == 0] = 1.0
+                mu = mu or 1e-3
+                for _ in range(12):
+                    try:
+                        dy = np.linalg.solve(JtJ + mu * np.diag(D), -g)
+                    except np.linalg.LinAlgError:
+                        mu *= 10
+                        continue
+                    xn = x + dy * self._step_scale
+                    Fn, Jn, rn = self._eval_s(xn, values, fixed)
+                    if math.sqrt(float(Fn @ Fn)) < fnorm:
+                        facn = self._factor(Jn)
+                        nj += 1
+                        if self._side_ok(sign0, Jn, facn):
+                            x, F, J, fac, res = xn, Fn, Jn, facn, rn
+                            mu = max(mu / 10, 1e-12)
+                            accepted = True
+                            break
+                    mu *= 10
+                if not accepted:
+                    break
+        r = self._finish(x, F, J, fac, res, it, values, fixed, polish=res <= tol)
+        r.iterations += spent
+        r.jacobians += nj
+        if res <= tol:
+            return r
+        r.success = False
+        r.factor = None
+        if it >= max_iter:
+            r.reason = (
+                f'Newton reached its iteration cap ({max_iter}) with loop-closure residual '
+                f'{r.residual:.3g} of the length scale (tolerance {tol:g})'
+            )
+        else:
+            r.reason = (
+                f'Newton stalled with loop-closure residual {r.residual:.3g} of the length '
+                f'scale: no assembly near the start (cond J = {r.cond:.3g}); the input may '
+                'be beyond a limit or toggle position'
+            )
+        return r
+
+    def solve_from_guess(
+        self,
+        guess: np.ndarray,
+        values: Sequence,
+        fixed: ScalarPoses | None = None,
+        *,
+        tol: float = 1e-12,
+        max_iter: int = 50,
+        start_sign: int = 0,
+    ) -> SolveResult:
+        """The fast path: one Newton step from a predicted guess, then chord steps on its
+        factorisation, J factorised again at the answer. Steps go on to FAST_MARGIN * tol (or
+        FAST_FLOOR) while each cuts max|F| FAST_RATE-fold (an answer just inside ``tol`` would
+        leave angles read off its points off by ~tol / link length). Declines (success False,
+        the steps spent counted) unless J is regular at the guess and at the answer with det
+        sign ``start_sign`` (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
+        x = guess = np.array(guess, float)  # the result never aliases the caller's array
+        F, J, res = self._eval_s(x, values, fixed)
+        fac = self._factor(J)
+        steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
+        Jv = None
+
+        def declined():
+            return SolveResult(
+                guess, False, it, res, 'the predicted start did not qualify', jacobians=nj
+            )
+
+        if fac is None or not math.isfinite(res) or (start_sign and fac[2] != start_sign):
+            return declined()
+        lin = fac
+        target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
+        while res > target:
+            dy = self._lu_step(lin, F) if it < steps else None
+            if dy is not None:
+                xn = x + dy * self._step_scale
+                Fn, Jvn, rn = self._eval_rows_s(xn, values, fixed)
+                it += 1
+            if dy is None or not rn <= FAST_RATE * res:
+                if res <= tol:  # converged; the rounding floor is above the margin
+                    break
+                return declined()
+            x, F, Jv, res, fac = xn, Fn, Jvn, rn, None
+        if fac is None:  # J at the answer: its det sign, cond and factorisation
+            J = self._jacobian(Jv, self._tpl_s)
+            fac = self._factor(J)
+            nj += 1
+            if fac is None or (start_sign and fac[2] != start_sign):
+                return declined()
+        r = self._finish(x, F, J, fac, res, it, values, fixed)
+        if start_sign and r.det_sign not in (0, start_sign):
+            return declined()  # polishing near a fold crossed det J = 0
+        r.jacobians += nj
+        r.predicted = True
+        return r
+
+    def _finish(self, x, F, J, fac, res, it, values, fixed, polish=True) -> SolveResult:
+        """The result at x (marked a success: the caller decides): condition number, det J
+        sign and, if ``polish`` (converged) and near a fold, polishing steps."""
+        square = self.m == self.n
+        cond = self._cond(J, fac)
+        nj = 0
+        if polish and cond > POLISH_COND:
+            # near a toggle Newton converges only linearly and the configuration error is
+            # ~sqrt(residual): polish while it still pays, so margins and branch signs read off
+            # the answer are as exact as floating point allows
+            for _ in range(POLISH_STEPS):
+                if res <= 1e-15:
+                    break
+                if square:
+                    dy = self._lu_step(fac, F) if fac is not None else None
+                    if dy is None:
+                        break
+                else:
+                    dy = np.linalg.lstsq(J, -F, rcond=None)[0]
+                xn = x + dy * self._step_scale
+                Fn, Jn, rn = self._eval_s(xn, values, fixed)
+                if not (np.all(np.isfinite(xn)) and rn < 0.7 * res):
+                    break
+                x, F, J, res = xn, Fn, Jn, rn
+                fac = self._factor(J)
+                nj += 1
+                it += 1
+            cond = self._cond(J, fac)
+        det = fac[2] if fac is not None and cond < SINGULAR_COND else 0  # 0: singular, no sign
+        return SolveResult(x, True, it, res, None, cond, det, fac, nj)
