@@ -1,0 +1,369 @@
+"""The general form: points, links, sliders, cylinders and actuators into a Mechanism."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .checks import TOP_KEYS, _Ctx
+from .mechanism import SOLVERS, Actuator, Link, Mechanism, PrismaticJoint, RevoluteJoint
+from .shortcuts import _four_bar_to_general, _slider_crank_to_general
+
+
+def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
+    """Validate a scene mapping (general or shortcut form) and build the Mechanism."""
+    ctx = _Ctx(source)
+    if not isinstance(data, Mapping):
+        ctx.fail('', 'a scene must be a YAML mapping', type(data).__name__)
+    ctx.only('', data, TOP_KEYS)
+    forms = [k for k in ('four_bar', 'slider_crank', 'points') if k in data]
+    if len(forms) != 1:
+        ctx.fail(
+            '',
+            'a scene needs exactly one of four_bar, slider_crank or points (general form)',
+            forms,
+        )
+    frame_id = data.get('frame_id', 'world')
+    if (
+        not isinstance(frame_id, str)
+        or not frame_id
+        or frame_id.startswith('/')
+        or any(c.isspace() for c in frame_id)
+    ):
+        ctx.fail(
+            'frame_id',
+            "must be a tf2 frame name: a non-empty string without whitespace or a leading '/'",
+            frame_id,
+        )
+    solver = data.get('solver', 'auto')
+    if solver not in SOLVERS:
+        ctx.fail('solver', f'must be one of {list(SOLVERS)}', solver)
+    form = forms[0]
+    if form != 'points':
+        clash = [k for k in ('links', 'ground', 'sliders', 'cylinders', 'actuators') if k in data]
+        if clash:
+            ctx.fail(
+                clash[0],
+                f'is a general-form key; it cannot be combined with the {form} '
+                'shortcut (use the general form instead)',
+                has_value=False,
+            )
+    shortcut: dict[str, Any] = {}
+    if form == 'four_bar':
+        general, shortcut = _four_bar_to_general(ctx, data)
+    elif form == 'slider_crank':
+        general, shortcut = _slider_crank_to_general(ctx, data)
+    else:
+        general = dict(data)
+    if form != 'points' and 'outputs' in data:
+        general['outputs'] = data['outputs']  # a shortcut may name its published points
+    default_name = (
+        Path(source).stem if source != '<scene>' else ('mechanism' if form == 'points' else form)
+    )
+    name = ctx.name('name', data.get('name', default_name))
+    mech = _build_general(ctx, general, name=name, frame_id=frame_id, solver=solver)
+    mech.form = form if form != 'points' else 'general'
+    mech.shortcut = shortcut
+    if form == 'four_bar':
+        mech.dimensions = {
+            ('crank', 'O2', 'A'): shortcut['crank'],
+            ('coupler', 'A', 'B'): shortcut['coupler'],
+            ('rocker', 'O4', 'B'): shortcut['rocker'],
+        }
+    elif form == 'slider_crank':
+        mech.dimensions = {
+            ('crank', 'O2', 'A'): shortcut['crank'],
+            ('rod', 'A', 'B'): shortcut['rod'],
+        }
+    return mech
+
+
+def _build_general(
+    ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: str, solver: str
+) -> Mechanism:
+    pts_raw = ctx.mapping('points', data.get('points'))
+    if not pts_raw:
+        ctx.fail('points', 'must name at least two points', pts_raw)
+    points: dict[str, np.ndarray] = {}
+    for pname, xy in pts_raw.items():
+        ctx.name(f'points.{pname}', pname)
+        points[pname] = ctx.xy(f'points.{pname}', xy)
+
+    ground = data.get('ground', 'ground')
+    ctx.name('ground', ground)
+    links_raw = ctx.mapping('links', data.get('links'))
+    links: dict[str, Link] = {}
+    if ground not in links_raw:
+        ctx.fail('links', f'must contain the ground link {ground!r}', sorted(links_raw, key=str))
+    # ground first: it is the parent of every joint it takes part in
+    for lname in [ground] + [n for n in links_raw if n != ground]:
+        members = links_raw[lname]
+        key = f'links.{lname}'
+        ctx.name(key, lname)
+        if isinstance(members, str) or not isinstance(members, (list, tuple)) or not members:
+            ctx.fail(key, 'must be a non-empty list of point names', members)
+        for p in members:
+            if not ctx.known(p, points):
+                ctx.fail(key, f'unknown point {p!r}', p)
+        if len(set(members)) != len(members):
+            ctx.fail(key, 'lists a point twice', members)
+        # a link's angle is the direction of its first -> second point (its axis): two points
+        # on one spot give it none to solve for or report
+        if len(members) >= 2 and np.array_equal(points[members[0]], points[members[1]]):
+            ctx.fail(
+                key,
+                f'its first two points {members[0]} and {members[1]} coincide in the '
+                f'reference pose (at {points[members[0]].tolist()}), so its axis (first '
+                '-> second point) is undefined; list two distinct points first',
+                list(members),
+            )
+        links[lname] = _make_link(lname, tuple(members), points)
+
+    prismatics: dict[str, PrismaticJoint] = {}
+    actuators: dict[str, Actuator] = {}
+
+    # cylinders: barrel pinned at `from`, rod pinned at `to`, a prismatic pair between them
+    cyl_raw = data.get('cylinders') or {}
+    ctx.mapping('cylinders', cyl_raw)
+    for cname, spec in cyl_raw.items():
+        key = f'cylinders.{cname}'
+        ctx.name(key, cname)
+        spec = ctx.mapping(key, spec)
+        ctx.only(key, spec, {'from', 'to', 'min', 'max'})
+        a, b = spec.get('from'), spec.get('to')
+        for k, p in (('from', a), ('to', b)):
+            if not ctx.known(p, points):
+                ctx.fail(f'{key}.{k}', 'must name a point', p)
+        axis = points[b] - points[a]
+        length = float(np.hypot(*axis))
+        if not length > 0:
+            ctx.fail(key, 'pins `from` and `to` coincide in the reference pose', [a, b])
+        barrel, rod = f'{cname}_barrel', f'{cname}_rod'
+        for ln in (barrel, rod):
+            if ln in links:
+                ctx.fail(key, f'link name {ln!r} (made for the cylinder) is already used', ln)
+        ang = math.atan2(axis[1], axis[0])
+        links[barrel] = Link(barrel, (a,), angle_ref=ang)
+        links[rod] = Link(rod, (b,), angle_ref=ang)
+        u = axis / length
+        prismatics[cname] = PrismaticJoint(
+            cname,
+            barrel,
+            rod,
+            b,
+            (float(u[0]), float(u[1])),
+            (float(points[a][0]), float(points[a][1])),
+            length,
+        )
+        lo, hi = _limits(ctx, key, spec)
+        if lo is not None and lo <= 0:
+            ctx.fail(f'{key}.min', 'a cylinder length must be > 0', lo)
+        actuators[cname] = Actuator(cname, 'slide', joint=cname, min=lo, max=hi, cylinder=True)
+
+    sliders_raw = data.get('sliders') or []
+    if not isinstance(sliders_raw, list):
+        ctx.fail('sliders', 'must be a list of prismatic joints', sliders_raw)
+    for i, spec in enumerate(sliders_raw):
+        key = f'sliders[{i}]'
+        spec = ctx.mapping(key, spec)
+        ctx.only(key, spec, {'name', 'guide', 'slider', 'point', 'direction', 'origin'})
+        jname = ctx.name(f'{key}.name', spec.get('name'))
+        key = f'sliders.{jname}'
+        if jname in prismatics:
+            ctx.fail(key, 'duplicate prismatic joint name', jname)
+        guide, slider, point = spec.get('guide'), spec.get('slider'), spec.get('point')
+        for k, v in (('guide', guide), ('slider', slider)):
+            if not ctx.known(v, links):
+                ctx.fail(f'{key}.{k}', 'must name a link', v)
+        if guide == slider:
+            ctx.fail(f'{key}.slider', 'must differ from the guide link', slider)
+        if not ctx.known(point, links[slider].points):
+            ctx.fail(f'{key}.point', f'must be a point of the slider link {slider!r}', point)
+        d = spec.get('direction', 0.0)
+        if isinstance(d, (list, tuple)):
+            dv = ctx.xy(f'{key}.direction', d)
+        else:
+            ang = ctx.number(f'{key}.direction', d)
+            dv = np.array([math.cos(ang), math.sin(ang)])
+        n = float(np.hypot(*dv))
+        if not n > 0:
+            ctx.fail(f'{key}.direction', 'must be a non-zero vector', d)
+        dv = dv / n
+        o = spec.get('origin', point)
+        if isinstance(o, str):
+            if not ctx.known(o, points):
+                ctx.fail(f'{key}.origin', 'must name a point or be [x, y]', o)
+            ov = points[o]
+        else:
+            ov = ctx.xy(f'{key}.origin', o)
+        ref_value = float(np.dot(points[point] - ov, dv))
+        prismatics[jname] = PrismaticJoint(
+            jname,
+            guide,
+            slider,
+            point,
+            (float(dv[0]), float(dv[1])),
+            (float(ov[0]), float(ov[1])),
+            ref_value,
+        )
+
+    # revolute joints where links share a point (the first link listed is the parent)
+    revolutes: list[RevoluteJoint] = []
+    used_names: set[str] = set(prismatics)
+    for pname in points:
+        owners = [n for n, l in links.items() if pname in l.points]
+        if not owners:
+            ctx.fail(f'points.{pname}', 'is on no link', pname, has_value=False)
+        for child in owners[1:]:
+            jname = pname if len(owners) == 2 else f'{pname}_{child}'
+            if jname in used_names:
+                ctx.fail(
+                    f'points.{pname}', f'joint name {jname!r} clashes with another joint', jname
+                )
+            used_names.add(jname)
+            revolutes.append(RevoluteJoint(jname, pname, owners[0], child))
+    names = list(links)
+    for i, a in enumerate(names):
+        for b in names[i + 1 :]:
+            shared = set(links[a].points) & set(links[b].points)
+            if len(shared) >= 2:
+                ctx.fail(
+                    f'links.{b}',
+                    f'shares points {sorted(shared)} with link {a!r}; two '
+                    'links sharing two points are one rigid link',
+                    sorted(shared),
+                )
+
+    act_raw = data.get('actuators') or {}
+    ctx.mapping('actuators', act_raw)
+    for aname, spec in act_raw.items():
+        key = f'actuators.{aname}'
+        ctx.name(key, aname)
+        if aname in actuators:
+            ctx.fail(key, 'duplicate actuator name (a cylinder already has it)', aname)
+        spec = ctx.mapping(key, spec)
+        kind = spec.get('type')
+        lo, hi = _limits(ctx, key, spec)
+        if kind == 'angle':
+            ctx.only(key, spec, {'type', 'link', 'pivot', 'toward', 'relative_to', 'min', 'max'})
+            link = spec.get('link')
+            if not ctx.known(link, links) or link == ground:
+                ctx.fail(f'{key}.link', 'must name a moving link', link)
+            ref = spec.get('relative_to', ground)
+            if not ctx.known(ref, links) or ref == link:
+                ctx.fail(f'{key}.relative_to', 'must name another link', ref)
+            pivot = spec.get('pivot')
+            if not ctx.known(pivot, links[link].points):
+                ctx.fail(f'{key}.pivot', f'must be a point of link {link!r}', pivot)
+            toward = spec.get('toward')
+            if toward is None:
+                others = [p for p in links[link].points if p != pivot]
+                if not others:
+                    ctx.fail(f'{key}.toward', f'link {link!r} has one point: name `toward`', None)
+                toward = others[0]
+            if not ctx.known(toward, links[link].points) or toward == pivot:
+                ctx.fail(f'{key}.toward', f'must be another point of link {link!r}', toward)
+            actuators[aname] = Actuator(
+                aname, 'angle', link=link, reference=ref, pivot=pivot, toward=toward, min=lo, max=hi
+            )
+        elif kind == 'slide':
+            ctx.only(key, spec, {'type', 'joint', 'min', 'max'})
+            joint = spec.get('joint')
+            if not ctx.known(joint, prismatics):
+                ctx.fail(f'{key}.joint', 'must name a prismatic joint (sliders)', joint)
+            actuators[aname] = Actuator(aname, 'slide', joint=joint, min=lo, max=hi)
+        else:
+            ctx.fail(f'{key}.type', "must be 'angle' or 'slide'", kind)
+
+    outputs_raw = data.get('outputs')
+    if outputs_raw is None:
+        # default: coupler points, i.e. points carried by exactly one moving link
+        outputs = tuple(
+            p
+            for p in points
+            if len([n for n in links if p in links[n].points]) == 1
+            and ground not in [n for n in links if p in links[n].points]
+        )
+    else:
+        if not isinstance(outputs_raw, list):
+            ctx.fail('outputs', 'must be a list of point names', outputs_raw)
+        for p in outputs_raw:
+            if not ctx.known(p, points):
+                ctx.fail('outputs', f'unknown point {p!r}', p)
+        outputs = tuple(outputs_raw)
+
+    for lname, link in links.items():
+        if (
+            lname != ground
+            and len(link.points) == 1
+            and not any(lname in (pj.guide, pj.slider) for pj in prismatics.values())
+        ):
+            ctx.fail(
+                f'links.{lname}',
+                'a one-point link must be a slider or a guide; '
+                'otherwise its orientation is undefined',
+                list(link.points),
+            )
+
+    scale = _length_scale(points, links, prismatics)
+    mech = Mechanism(
+        name=name,
+        points=points,
+        links=links,
+        ground=ground,
+        revolutes=revolutes,
+        prismatics=prismatics,
+        actuators=actuators,
+        outputs=outputs,
+        frame_id=frame_id,
+        solver=solver,
+        source=ctx.source,
+        length_scale=scale,
+    )
+    if not actuators:
+        ctx.fail('actuators', 'the mechanism needs at least one actuator (or cylinder)', None)
+    if mech.dof != len(actuators):
+        ctx.fail(
+            'actuators',
+            f'the mechanism has {mech.dof} degree(s) of freedom (Kutzbach '
+            f'3(n-1)-2j with n={len(links)} links, j={len(revolutes) + len(prismatics)} '
+            f'joints) but {len(actuators)} actuator(s)',
+            sorted(actuators),
+        )
+    return mech
+
+
+def _limits(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> tuple[float | None, float | None]:
+    lo = spec.get('min')
+    hi = spec.get('max')
+    lo = None if lo is None else ctx.number(f'{key}.min', lo)
+    hi = None if hi is None else ctx.number(f'{key}.max', hi)
+    if lo is not None and hi is not None and not lo < hi:
+        ctx.fail(f'{key}.max', f'must be greater than min ({lo})', hi)
+    return lo, hi
+
+
+def _make_link(name: str, members: tuple[str, ...], points: Mapping[str, np.ndarray]) -> Link:
+    if len(members) >= 2:
+        v = points[members[1]] - points[members[0]]
+        return Link(name, members, angle_ref=math.atan2(v[1], v[0]), axis=(members[0], members[1]))
+    return Link(name, members, angle_ref=0.0)
+
+
+def _length_scale(points, links, prismatics) -> float:
+    """The largest distance between two points of one link (or a slider's reference throw)."""
+    best = 0.0
+    for link in links.values():
+        pts = [points[p] for p in link.points]
+        for i in range(len(pts)):
+            for j in range(i + 1, len(pts)):
+                best = max(best, float(np.hypot(*(pts[i] - pts[j]))))
+    for pj in prismatics.values():
+        best = max(best, abs(pj.ref_value))
+    if best == 0.0:
+        best = max((float(np.hypot(*p)) for p in points.values()), default=1.0) or 1.0
+    return best
