@@ -1,171 +1,19 @@
-"""Compile (mechanism, known quantities, wanted outputs) into a closed-form solve plan.
-
-Known quantities are *specs*: an actuator or joint value, a link's angle, or a point's (x, y).
-A known joint value between two links that share a point welds them into one rigid *body*
-(a crank at a known angle is welded to the ground; a cylinder at a known throw is one rigid
-strut). The plan then places bodies exactly as the graphical "tracing paper" method does:
-
-* ``two_points``   a body with two known points is placed (rigid transfer),
-* ``point_angle``  a body with a known point and a known orientation is placed,
-* ``circle_circle`` (RRR) a point shared by two bodies that each have one known point,
-* ``circle_line``   (RRP) a slider point on a known guide line and on a body with one known point,
-* ``line_through``  (RPR) a guide body pivoting on a known point whose line must pass a known point.
-
-Every branching step carries an explicit sign; the default is the sign seen in the reference pose.
-The plan is pruned backwards to the steps the wanted outputs depend on, and is cached by the
-caller per (mechanism, knowns, outputs). Execution is vectorised over a leading batch axis.
-"""
+"""Compiling (mechanism, knowns, wanted outputs) into a pruned closed-form plan of typed steps."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
-from . import dyads
-from .errors import PlanError
-from .execute import LinkPoses, PlanRun, executor
-from .model import Mechanism
-from .ops import BATCH, SCALAR, to_complex, to_xy
-
-# ---- known-quantity specs --------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Spec:
-    """One known (or wanted) quantity of a mechanism.
-
-    kind 'angle': phi[link] - phi[reference] = value - offset        (rad; 1 value)
-    kind 'slide': value of prismatic joint ``joint``                 (m;   1 value)
-    kind 'point': world position of ``point``                        (m;   2 values x, y)
-    """
-
-    name: str
-    kind: str
-    link: str | None = None
-    reference: str | None = None
-    offset: float = 0.0
-    joint: str | None = None
-    point: str | None = None
-    minimum: float | None = None
-    maximum: float | None = None
-
-    @property
-    def size(self) -> int:
-        return 2 if self.kind == 'point' else 1
-
-    @property
-    def unit(self) -> str:
-        return 'rad' if self.kind == 'angle' else 'm'
-
-
-KNOWN_KINDS = ('actuator', 'joint', 'link', 'point')
-
-
-def spec_for(mech: Mechanism, name: str) -> Spec:
-    """Resolve a user-facing name: actuator, then joint, then link (its angle), then point.
-
-    A prefix picks the kind explicitly: ``point:D`` is the point D even where a joint is also
-    named D (every point shared by two links is), likewise ``joint:``, ``link:``, ``actuator:``.
-    The spec keeps the name exactly as given, so command dicts use the same key.
-    """
-    kind, _, bare = name.partition(':') if ':' in name else ('', '', name)
-    if kind:
-        if kind not in KNOWN_KINDS:
-            raise PlanError(f'unknown kind {kind!r} in {name!r}; use one of {list(KNOWN_KINDS)}')
-        found = _spec_of_kind(mech, kind, bare)
-        if found is None:
-            raise PlanError(f'{mech.name!r} has no {kind} named {bare!r}')
-        return _renamed(found, name)
-    for kind in KNOWN_KINDS:
-        found = _spec_of_kind(mech, kind, name)
-        if found is not None:
-            return found
-    raise PlanError(
-        f'unknown name {name!r}: not an actuator, joint, link or point of {mech.name!r}'
-    )
-
-
-def _renamed(spec: Spec, name: str) -> Spec:
-    return Spec(
-        name,
-        spec.kind,
-        spec.link,
-        spec.reference,
-        spec.offset,
-        spec.joint,
-        spec.point,
-        spec.minimum,
-        spec.maximum,
-    )
-
-
-def _spec_of_kind(mech: Mechanism, kind: str, name: str) -> Spec | None:
-    if kind == 'actuator' and name in mech.actuators:
-        act = mech.actuators[name]
-        if act.kind == 'slide':
-            return Spec(name, 'slide', joint=act.joint, minimum=act.min, maximum=act.max)
-        link = mech.links[act.link]
-        v = mech.points[act.toward] - mech.points[act.pivot]
-        d0 = math.atan2(v[1], v[0])
-        ref_angle = 0.0 if act.reference == mech.ground else mech.links[act.reference].angle_ref
-        return Spec(
-            name,
-            'angle',
-            link=link.name,
-            reference=act.reference,
-            offset=d0 - ref_angle,
-            minimum=act.min,
-            maximum=act.max,
-        )
-    if kind == 'joint':
-        for rj in mech.revolutes:
-            if rj.name == name:
-                # joint value = child link angle - parent link angle (each along its axis)
-                return Spec(
-                    name,
-                    'angle',
-                    link=rj.child,
-                    reference=rj.parent,
-                    offset=mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref,
-                )
-        if name in mech.prismatics:
-            return Spec(name, 'slide', joint=name)
-    if kind == 'link' and name in mech.links:
-        if name == mech.ground:
-            raise PlanError(f'{name!r} is the ground link: its angle is fixed')
-        return Spec(
-            name, 'angle', link=name, reference=mech.ground, offset=mech.links[name].angle_ref
-        )
-    if kind == 'point' and name in mech.points:
-        return Spec(name, 'point', point=name)
-    return None
-
-
-def spec_point_link(mech: Mechanism, point: str, preferred: str) -> str:
-    return preferred if point in mech.links[preferred].points else mech.links_of_point(point)[0]
-
-
-# ---- poses -----------------------------------------------------------------------------------
-
-
-@dataclass
-class Poses:
-    """Link poses over a batch: world(p) = R(phi) p_ref + T, with p_ref the reference position."""
-
-    phi: dict[str, np.ndarray] = field(default_factory=dict)
-    T: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def apply(self, link: str, p_ref: np.ndarray) -> np.ndarray:
-        return (
-            dyads.rotate(np.broadcast_to(p_ref, self.T[link].shape), self.phi[link]) + self.T[link]
-        )
-
-    def world(self, link: str, point: str, mech: Mechanism) -> np.ndarray:
-        return self.apply(link, mech.points[point])
-
+from .. import dyads
+from ..errors import PlanError
+from ..execute import PlanRun, executor
+from ..model import Mechanism
+from ..ops import to_xy
+from .poses import batch_poses
+from .spec import Spec
 
 # ---- bodies ----------------------------------------------------------------------------------
 
@@ -584,19 +432,6 @@ class Plan:
         return batch_poses(r.poses), {p: to_xy(z) for p, z in r.points.items()}, info
 
 
-def batch_poses(poses: LinkPoses) -> Poses:
-    """(n, 2)-coordinate view of batched complex link poses."""
-    return Poses(dict(poses.phi), {l: to_xy(T) for l, T in poses.T.items()})
-
-
-def link_poses(poses: Poses) -> LinkPoses:
-    """Complex view of (n, 2)-coordinate batched link poses."""
-    out = LinkPoses()
-    for l, phi in poses.phi.items():
-        out.set(l, phi, to_complex(poses.T[l]), BATCH.expi(phi))
-    return out
-
-
 def _norm(v):
     return np.hypot(v[..., 0], v[..., 1])
 
@@ -610,9 +445,7 @@ def _side(p1, p2, x) -> int:
 # ---- one command at a time -------------------------------------------------------------------
 
 #: one configuration's link poses (complex): see execute.LinkPoses
-ScalarPoses = LinkPoses
 #: what running a plan gave: see execute.PlanRun
-ScalarRun = PlanRun
 
 
 def run_one(
@@ -627,126 +460,3 @@ def run_one(
     (angle/slide) or an (x, y) pair (point); ``prefer`` and ``prev_margins`` steer continuity
     through tangent configurations (see PlanExecutor.run)."""
     return executor(plan).run(values, None, signs, prefer, prev_margins, tol)
-
-
-def _c(v) -> complex:
-    return complex(float(v[0]), float(v[1]))
-
-
-@dataclass(frozen=True)
-class SpecReader:
-    """How to read one spec's value off solved complex link poses, resolved once: an angle
-    (rad, wrapped to (-pi, pi]), a slide (m) or a point's complex position."""
-
-    kind: str
-    link: str = ''  # angle: the link; slide: the slider's point's link; point: its link
-    reference: str = ''  # angle: the reference link; slide: the guide
-    offset: float = 0.0
-    p_ref: complex = 0j  # slide / point: the point in the reference pose
-    origin: complex = 0j  # slide: the origin on the guide
-    direction: complex = 0j  # slide: the direction (reference pose)
-
-    def __call__(self, ops, poses: LinkPoses):
-        if self.kind == 'angle':
-            return ops.wrap(poses.phi[self.link] - poses.phi[self.reference] + self.offset)
-        x = poses.rot[self.link] * self.p_ref + poses.T[self.link]
-        if self.kind == 'point':
-            return x
-        rot = poses.rot[self.reference]
-        v = x - (rot * self.origin + poses.T[self.reference])
-        d = rot * self.direction
-        return v.real * d.real + v.imag * d.imag
-
-
-def spec_reader(mech: Mechanism, spec: Spec) -> SpecReader:
-    if spec.kind == 'angle':
-        return SpecReader('angle', spec.link, spec.reference, spec.offset)
-    if spec.kind == 'slide':
-        pj = mech.prismatics[spec.joint]
-        return SpecReader(
-            'slide',
-            spec_point_link(mech, pj.point, pj.slider),
-            pj.guide,
-            p_ref=_c(mech.points[pj.point]),
-            origin=_c(pj.origin),
-            direction=_c(pj.direction),
-        )
-    return SpecReader(
-        'point', mech.links_of_point(spec.point)[0], p_ref=_c(mech.points[spec.point])
-    )
-
-
-def spec_value_of(ops, mech: Mechanism, spec: Spec, poses: LinkPoses):
-    """A spec's value on solved poses (complex link poses, either backend): an angle (rad,
-    wrapped to (-pi, pi]) or slide (m), or a point's complex position."""
-    return spec_reader(mech, spec)(ops, poses)
-
-
-def spec_value_one(mech: Mechanism, spec: Spec, poses: ScalarPoses):
-    """A spec's value on one configuration: a float, or (x, y) for a point."""
-    v = spec_value_of(SCALAR, mech, spec, poses)
-    return (v.real, v.imag) if spec.kind == 'point' else v
-
-
-def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
-    """A spec's value on batched poses: (N,) for angle/slide, (N, 2) for a point."""
-    with np.errstate(all='ignore'):
-        v = spec_value_of(BATCH, mech, spec, link_poses(poses))
-    return to_xy(v) if spec.kind == 'point' else np.asarray(v, float)
-
-
-def step_geometry(ops, mech: Mechanism, st: Step, pts, rot) -> tuple:
-    """(side, margin) of one branching step read off solved positions, either backend: the
-    branch sign is +1 where side >= 0; margin is |sin| of the dyad's transmission angle (0 at
-    its singularity). ``pts`` complex points, ``rot`` {link: e^{i phi}} of the guide links."""
-
-    def unit(z):  # hypot: no overflow at 1e200; a zero vector stays 0
-        r = abs(z)
-        return z / ops.where(r > 0, r, 1.0)
-
-    x = pts[st.point]
-    if st.op == 'circle_circle':
-        a, b = pts[st.args[1]], pts[st.args[3]]
-        ab, ax = unit(b - a), unit(x - a)  # units: products of 1e200 overflow
-        side = ab.real * ax.imag - ab.imag * ax.real
-        vb = unit(x - b)
-        m = abs(ax.real * vb.imag - ax.imag * vb.real)
-    else:
-        pj = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
-        u = rot[pj.guide] * _c(pj.direction)
-        v = unit(x - pts[st.args[1]])
-        side = v.real * u.real + v.imag * u.imag
-        m = abs(side)
-    return side, ops.clip(m, 0.0, 1.0)
-
-
-def branch_geometry_of(ops, plan: Plan, pts, poses: LinkPoses):
-    """Branch signs (+1 / -1) and dyad margins of the plan's branching steps read off a solved
-    configuration, either backend (how a Newton solution is told which assembly mode it is
-    in): one list entry per branching step."""
-    signs, margins = [], []
-    for st in plan.branch_steps:
-        side, m = step_geometry(ops, plan.mech, st, pts, poses.rot)
-        signs.append(ops.where(side >= 0, 1, -1))
-        margins.append(m)
-    return signs, margins
-
-
-def branch_geometry_one(plan: Plan, pts: dict[str, complex], poses: ScalarPoses):
-    """branch_geometry_of on one configuration: (signs tuple, margins list)."""
-    signs, margins = branch_geometry_of(SCALAR, plan, pts, poses)
-    return tuple(signs), margins
-
-
-def branch_geometry_batch(plan: Plan, pts: dict[str, np.ndarray], poses: Poses):
-    """branch_geometry_of over a batch: points {name: (n, 2)} and batched poses -> signs (n, k)
-    (+1 / -1) and margins (n, k) of the plan's k branching steps."""
-    n = poses.phi[plan.mech.ground].shape[0]
-    k = len(plan.branch_steps)
-    zs = {p: to_complex(v) for p, v in pts.items()}
-    with np.errstate(all='ignore'):
-        sg, mg = branch_geometry_of(BATCH, plan, zs, link_poses(poses))
-    signs, margins = np.zeros((n, k), int), np.zeros((n, k))
-    for j in range(k):
-        signs[:, j], margins[:, j] = sg[j], mg[j]
-    return signs, margins

@@ -1,0 +1,56 @@
+"""Compile (mechanism, known quantities, wanted outputs) into a closed-form solve plan.
+
+Known quantities are *specs*: an actuator or joint value, a link's angle, or a point's (x, y).
+A known joint value between two links that share a point welds them into one rigid *body*
+(a crank at a known angle is welded to the ground; a cylinder at a known throw is one rigid
+strut). The plan then places bodies exactly as the graphical "tracing paper" method does:
+
+* ``two_points``   a body with two known points is placed (rigid transfer),
+* ``point_angle``  a body with a known point and a known orientation is placed,
+* ``circle_circle`` (RRR) a point shared by two bodies that each have one known point,
+* ``circle_line``   (RRP) a slider point on a known guide line and on a body with one known point,
+* ``line_through``  (RPR) a guide body pivoting on a known point whose line must pass a known point.
+
+Every branching step carries an explicit sign; the default is the sign seen in the reference pose.
+The plan is pruned backwards to the steps the wanted outputs depend on, and is cached by the
+caller per (mechanism, knowns, outputs). Execution is vectorised over a leading batch axis.
+"""
+
+from __future__ import annotations
+
+from .compile import (  # noqa: F401
+    Body,
+    Plan,
+    Step,
+    Weld,
+    _norm,
+    _side,
+    run_one,
+)
+from .geometry import (  # noqa: F401
+    branch_geometry_batch,
+    branch_geometry_of,
+    branch_geometry_one,
+    step_geometry,
+)
+from .poses import (  # noqa: F401
+    Poses,
+    ScalarPoses,
+    ScalarRun,
+    batch_poses,
+    link_poses,
+)
+from .spec import (  # noqa: F401
+    KNOWN_KINDS,
+    Spec,
+    SpecReader,
+    _c,
+    _renamed,
+    _spec_of_kind,
+    spec_for,
+    spec_point_link,
+    spec_reader,
+    spec_value_at,
+    spec_value_of,
+    spec_value_one,
+)

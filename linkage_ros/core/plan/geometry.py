@@ -1,0 +1,69 @@
+"""Branch geometry read off solved positions: the side and margin of each branching dyad."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..execute import LinkPoses
+from ..model import Mechanism
+from ..ops import BATCH, SCALAR, to_complex
+from .compile import Plan, Step
+from .poses import Poses, ScalarPoses, link_poses
+from .spec import _c
+
+
+def step_geometry(ops, mech: Mechanism, st: Step, pts, rot) -> tuple:
+    """(side, margin) of one branching step read off solved positions, either backend: the
+    branch sign is +1 where side >= 0; margin is |sin| of the dyad's transmission angle (0 at
+    its singularity). ``pts`` complex points, ``rot`` {link: e^{i phi}} of the guide links."""
+
+    def unit(z):  # hypot: no overflow at 1e200; a zero vector stays 0
+        r = abs(z)
+        return z / ops.where(r > 0, r, 1.0)
+
+    x = pts[st.point]
+    if st.op == 'circle_circle':
+        a, b = pts[st.args[1]], pts[st.args[3]]
+        ab, ax = unit(b - a), unit(x - a)  # units: products of 1e200 overflow
+        side = ab.real * ax.imag - ab.imag * ax.real
+        vb = unit(x - b)
+        m = abs(ax.real * vb.imag - ax.imag * vb.real)
+    else:
+        pj = mech.prismatics[st.args[0] if st.op == 'line_through' else st.args[2]]
+        u = rot[pj.guide] * _c(pj.direction)
+        v = unit(x - pts[st.args[1]])
+        side = v.real * u.real + v.imag * u.imag
+        m = abs(side)
+    return side, ops.clip(m, 0.0, 1.0)
+
+
+def branch_geometry_of(ops, plan: Plan, pts, poses: LinkPoses):
+    """Branch signs (+1 / -1) and dyad margins of the plan's branching steps read off a solved
+    configuration, either backend (how a Newton solution is told which assembly mode it is
+    in): one list entry per branching step."""
+    signs, margins = [], []
+    for st in plan.branch_steps:
+        side, m = step_geometry(ops, plan.mech, st, pts, poses.rot)
+        signs.append(ops.where(side >= 0, 1, -1))
+        margins.append(m)
+    return signs, margins
+
+
+def branch_geometry_one(plan: Plan, pts: dict[str, complex], poses: ScalarPoses):
+    """branch_geometry_of on one configuration: (signs tuple, margins list)."""
+    signs, margins = branch_geometry_of(SCALAR, plan, pts, poses)
+    return tuple(signs), margins
+
+
+def branch_geometry_batch(plan: Plan, pts: dict[str, np.ndarray], poses: Poses):
+    """branch_geometry_of over a batch: points {name: (n, 2)} and batched poses -> signs (n, k)
+    (+1 / -1) and margins (n, k) of the plan's k branching steps."""
+    n = poses.phi[plan.mech.ground].shape[0]
+    k = len(plan.branch_steps)
+    zs = {p: to_complex(v) for p, v in pts.items()}
+    with np.errstate(all='ignore'):
+        sg, mg = branch_geometry_of(BATCH, plan, zs, link_poses(poses))
+    signs, margins = np.zeros((n, k), int), np.zeros((n, k))
+    for j in range(k):
+        signs[:, j], margins[:, j] = sg[j], mg[j]
+    return signs, margins
