@@ -20,6 +20,7 @@ from .dyads import DyadPair, dyad_point, rpr_direction, solve_rpr_dyad, solve_rr
 from .dyads import solve_rrr_dyad as _rrr
 from .errors import PlanError
 from .ops import BATCH, SCALAR, to_complex
+from .steps import StepKind
 
 #: Below this dyad margin (|sin| of its transmission angle) continuity decides the branch by the
 #: predicted position; above it the previous sign is kept, because an assembly mode can only
@@ -239,12 +240,12 @@ class PlanExecutor:
 
         for k, st in enumerate(plan.steps):
             op = st.op
-            if op == 'ground':
+            if op == StepKind.GROUND:
                 place_body(st.body, zero, ops.cplx(zero, zero))
-            elif op == 'known_point':
+            elif op == StepKind.KNOWN_POINT:
                 v = values[st.args[0]]
                 pts[st.point] = v if ops.batch else complex(float(v[0]), float(v[1]))
-            elif op == 'two_points':
+            elif op == StepKind.TWO_POINTS:
                 p, q = st.args
                 lp = local_pt(st.body, p)
                 a, b = local_pt(st.body, q) - lp, pts[q] - pts[p]
@@ -254,11 +255,11 @@ class PlanExecutor:
                 cross = a.real * b.imag - a.imag * b.real
                 phi = ops.atan2(cross, a.real * b.real + a.imag * b.imag)
                 place_body(st.body, phi, pts[p] - ops.expi(phi) * lp)
-            elif op == 'point_angle':
+            elif op == StepKind.POINT_ANGLE:
                 p = st.args[0]
                 phi = angles[st.body]
                 place_body(st.body, phi, pts[p] - ops.expi(phi) * local_pt(st.body, p))
-            elif op == 'angle':
+            elif op == StepKind.ANGLE:
                 here, there, spec_i = st.args
                 if there in poses.phi:
                     src = poses.phi[there]
@@ -272,9 +273,9 @@ class PlanExecutor:
                     if here == s.reference:
                         rel = -rel
                 angles[st.body] = src + rel - frame(st.body)[here][0]
-            elif op in ('circle_circle', 'circle_line'):
+            elif op in (StepKind.RRR, StepKind.RRP):
                 x = st.point
-                if op == 'circle_circle':
+                if op == StepKind.RRR:
                     b1, p1, b2, p2 = st.args
                     r1, r2 = radius(b1, x, p1), radius(b2, x, p2)
                     pair = None
@@ -301,7 +302,7 @@ class PlanExecutor:
                 if not ops.batch and not okk:  # beyond the float range
                     return finish(k, 0.0)
                 took(k, sg, pair.margin, okk, pair.violation)
-            elif op == 'line_through':
+            elif op == StepKind.RPR:
                 jname, p = st.args
                 pj = mech.prismatics[jname]
                 x, bi = st.point, st.body

@@ -12,6 +12,7 @@ from ..errors import PlanError
 from ..execute import PlanRun, executor
 from ..model import Mechanism
 from ..ops import to_xy
+from ..steps import BRANCHING, StepKind
 from .poses import batch_poses
 from .spec import Spec
 
@@ -40,7 +41,7 @@ class Body:
 
 @dataclass
 class Step:
-    op: str
+    op: StepKind
     body: int | None = None
     point: str | None = None
     args: tuple = ()
@@ -50,29 +51,29 @@ class Step:
 
     @property
     def branching(self) -> bool:
-        return self.op in ('circle_circle', 'circle_line', 'line_through')
+        return self.op in BRANCHING
 
     def describe(self, plan: Plan) -> str:
         b = plan.bodies[self.body].links if self.body is not None else None
-        if self.op == 'ground':
+        if self.op == StepKind.GROUND:
             return f'ground: place {"+".join(b)}'
-        if self.op == 'known_point':
+        if self.op == StepKind.KNOWN_POINT:
             return f'known point {self.point}'
-        if self.op == 'two_points':
+        if self.op == StepKind.TWO_POINTS:
             return f'rigid transfer: place {"+".join(b)} from points {self.args[0]}, {self.args[1]}'
-        if self.op == 'point_angle':
+        if self.op == StepKind.POINT_ANGLE:
             return f'place {"+".join(b)} from point {self.args[0]} and its known angle'
-        if self.op == 'angle':
+        if self.op == StepKind.ANGLE:
             return f'orientation of {"+".join(b)} from {self.args[1]}'
-        if self.op == 'circle_circle':
+        if self.op == StepKind.RRR:
             return (
                 f'RRR dyad: {self.point} from circles about {self.args[1]} '
                 f'({"+".join(plan.bodies[self.args[0]].links)}) and {self.args[3]} '
                 f'({"+".join(plan.bodies[self.args[2]].links)})'
             )
-        if self.op == 'circle_line':
+        if self.op == StepKind.RRP:
             return f'RRP dyad: {self.point} on slide {self.args[2]} and circle about {self.args[1]}'
-        if self.op == 'line_through':
+        if self.op == StepKind.RPR:
             return (
                 f'RPR dyad: orient {"+".join(b)} about {self.args[1]} so slide '
                 f'{self.args[0]} passes {self.point}'
@@ -181,7 +182,7 @@ class Plan:
             known_pts.update(self.bodies[bi].points)
 
         gb = self.body_of[mech.ground]
-        place(Step('ground', body=gb, gives=(('pose', gb),)), gb)
+        place(Step(StepKind.GROUND, body=gb, gives=(('pose', gb),)), gb)
         for i, s in enumerate(self.specs):
             if s.kind == 'point':
                 if s.point in known_pts:
@@ -189,7 +190,7 @@ class Plan:
                         f'known point {s.point!r} is fixed by the ground; it cannot be a target'
                     )
                 steps.append(
-                    Step('known_point', point=s.point, args=(i,), gives=(('pt', s.point),))
+                    Step(StepKind.KNOWN_POINT, point=s.point, args=(i,), gives=(('pt', s.point),))
                 )
                 known_pts.add(s.point)
 
@@ -211,7 +212,7 @@ class Plan:
                 if two:
                     place(
                         Step(
-                            'two_points',
+                            StepKind.TWO_POINTS,
                             body=bi,
                             args=two,
                             needs=(point_needs(two[0]), point_needs(two[1])),
@@ -224,7 +225,7 @@ class Plan:
                 if bi in angled and kp:
                     place(
                         Step(
-                            'point_angle',
+                            StepKind.POINT_ANGLE,
                             body=bi,
                             args=(kp[0],),
                             needs=(point_needs(kp[0]), ('angle', bi)),
@@ -240,7 +241,7 @@ class Plan:
                         src_body, link_here, link_there, spec_i = rel
                         steps.append(
                             Step(
-                                'angle',
+                                StepKind.ANGLE,
                                 body=bi,
                                 args=(link_here, link_there, spec_i),
                                 needs=(('angle', src_body),),
@@ -255,7 +256,7 @@ class Plan:
             if step is None:
                 break
             steps.append(step)
-            if step.op == 'line_through':
+            if step.op == StepKind.RPR:
                 placed.add(step.body)
                 angled.add(step.body)
                 known_pts.update(self.bodies[step.body].points)
@@ -295,7 +296,7 @@ class Plan:
                         continue  # concentric circles: no dyad
                     sign = _side(ref[p1], ref[p2], ref[x])
                     return Step(
-                        'circle_circle',
+                        StepKind.RRR,
                         point=x,
                         args=(b1, p1, b2, p2),
                         sign=sign,
@@ -318,7 +319,7 @@ class Plan:
                 u = np.asarray(pj.direction)
                 sign = int(np.sign(np.dot(ref[x] - ref[p1], u))) or 1
                 return Step(
-                    'circle_line',
+                    StepKind.RRP,
                     point=x,
                     args=(bi, p1, pj.name),
                     sign=sign,
@@ -338,7 +339,7 @@ class Plan:
             u = np.asarray(pj.direction)
             sign = int(np.sign(np.dot(ref[x] - ref[p], u))) or 1
             return Step(
-                'line_through',
+                StepKind.RPR,
                 body=gb,
                 point=x,
                 args=(pj.name, p),
@@ -365,14 +366,14 @@ class Plan:
         for k in range(len(self.steps_all) - 1, -1, -1):
             st = self.steps_all[k]
             gives = set(st.gives)
-            if st.op in ('ground', 'two_points', 'point_angle', 'line_through'):
+            if st.op in (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR):
                 gives |= {('pt', p) for p in self.bodies[st.body].points}
-            if st.op == 'line_through':
+            if st.op == StepKind.RPR:
                 gives.add(('angle', st.body))
-            if st.op in ('ground', 'two_points', 'point_angle'):
+            if st.op in (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE):
                 gives.add(('angle', st.body))
             hit = gives & need
-            if hit or st.op == 'ground':
+            if hit or st.op == StepKind.GROUND:
                 keep[k] = True
                 need -= hit
                 need |= set(st.needs)
@@ -383,7 +384,7 @@ class Plan:
         placed = {
             s.body
             for s in self.steps
-            if s.op in ('ground', 'two_points', 'point_angle', 'line_through')
+            if s.op in (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
         }
         self.placed_links = [l for b in sorted(placed) for l in self.bodies[b].links]
         self.branch_steps = [s for s in self.steps if s.branching]
