@@ -19,7 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .fourbar import TANGENCY_TOL, angle_opposite
+from .dyads import TANGENCY_TOL
+from .fourbar import angle_opposite
 
 #: Relative tolerance (of the sum of the four lengths) for the Grashof equality s + l = p + q.
 GRASHOF_TOL = 1e-12
