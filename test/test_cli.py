@@ -481,7 +481,7 @@ def test_external_commands_register_when_importable(capsys, tmp_path, monkeypatc
     (tmp_path / 'cli_plugin_broken.py').write_text('import no_such_dependency_xyz\n')
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.setattr(
-        cli,
+        cli.parser,
         'EXTERNAL_COMMANDS',
         {'hello': 'cli_plugin_ok', 'broken': 'cli_plugin_broken', 'absent': 'cli_plugin_absent'},
     )
@@ -552,7 +552,7 @@ def test_ctrl_c_is_one_line_and_exit_130(capsys, monkeypatch):
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli_module, 'check_report', interrupted)
+    monkeypatch.setattr(cli_module.check, 'check_report', interrupted)
     rc, out, err = run(capsys, 'check', 'four_bar')
     assert rc == 130
     assert err.strip() == 'linkage check: interrupted' and 'Traceback' not in err

@@ -443,7 +443,7 @@ def test_max_tilt_with_the_lip_held_agrees_with_a_brute_force_scan(z3):
 
 
 def test_cli_range_json_region_tilt_and_plots(hyd, tmp_path, capsys):
-    from linkage_ros.range_cli import main
+    from linkage_ros.cli.range import main
 
     path, mech = hyd
     png, cur = tmp_path / 'region.png', tmp_path / 'curves.png'

@@ -31,7 +31,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
-from .core.errors import LinkageError
+from ..core.errors import LinkageError
 
 OK, REFUSED, USAGE_ERROR = 0, 1, 2
 PROG = 'linkage range'
@@ -86,8 +86,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _load(scene: str):
-    from .core.model import Scene
-    from .resources import scene_path
+    from ..core.model import Scene
+    from ..resources import scene_path
 
     return Scene.from_yaml(scene_path(scene)).mechanism
 
@@ -148,7 +148,7 @@ def _check(args, mech):
 
 def analyse(args, mech) -> tuple[dict, int]:
     """Run the requested analyses; returns (report dict of plain data, exit status)."""
-    from .core import motion
+    from ..core import motion
 
     acts, hold = _check(args, mech)
     report: dict[str, Any] = {
@@ -215,11 +215,11 @@ def analyse(args, mech) -> tuple[dict, int]:
         report['oscillation'] = {'input': inp, 'links': osc}
     plots = {}
     if args.plot:
-        from .plots import plot_region
+        from ..plots import plot_region
 
         plots['region'] = plot_region(mech, region_full, args.plot, tilt=report.get('tilt'))
     if args.curves:
-        from .plots import plot_output_vs_input
+        from ..plots import plot_output_vs_input
 
         inp = args.input or next(iter(mech.actuators))
         try:
@@ -333,8 +333,8 @@ def run(args) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    """Stand-alone entry point: ``python -m linkage_ros.range_cli ...``."""
-    from .cli import standalone_main
+    """Stand-alone entry point: ``python -m linkage_ros.cli.range ...``."""
+    from .parser import standalone_main
 
     return standalone_main(PROG, add_arguments, run, argv)
 

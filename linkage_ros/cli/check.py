@@ -1,0 +1,143 @@
+"""``linkage check``: links, joints, DOF, Grashof class, input ranges, solve plan."""
+
+from __future__ import annotations
+
+import math
+
+from .common import OK, _f, dumps, load_mechanism
+
+# ---- check -------------------------------------------------------------------------------------
+
+
+def input_ranges(mech) -> dict[str, tuple[float | None, float | None]]:
+    """{actuator: (min or None, max or None)} from core.motion; until that module exists, the
+    scene's limits and, for four_bar shortcut scenes, the crank's closed-form range."""
+    try:
+        from ..core.motion import input_ranges as ranges
+    except ModuleNotFoundError as exc:
+        if exc.name not in ('linkage_ros.core.motion',):
+            raise
+    else:
+        return ranges(mech)
+    out = {a.name: (a.min, a.max) for a in mech.actuators.values()}
+    sc = mech.shortcut
+    if mech.form == 'four_bar' and out.get('crank') == (None, None):
+        from ..core.analysis import fourbar_input_range
+
+        r = fourbar_input_range(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'])
+        if r is not None:
+            out['crank'] = (r[0] + sc['ground_angle'], r[1] + sc['ground_angle'])
+    return out
+
+
+def check_report(mech, path: str, solver_method: str | None) -> dict:
+    from ..core.solver import Solver
+
+    desc = mech.describe()
+    grashof = None
+    from ..core.analysis import four_link_chain_info
+
+    c = four_link_chain_info(mech)  # any one-loop four-link scene driven by a crank
+    if c is not None:
+        grashof = {
+            'chain': c.chain,
+            'class': c.klass,
+            'input_fully_rotates': c.input_fully_rotates,
+            'output_fully_rotates': c.output_fully_rotates,
+            'rule': c.rule,
+        }
+    ranges = input_ranges(mech)
+    inputs = {}
+    for name, act in mech.actuators.items():
+        lo, hi = ranges.get(name, (None, None))
+        inputs[name] = {
+            'kind': act.kind,
+            'unit': 'rad' if act.kind == 'angle' else 'm',
+            'min': lo,
+            'max': hi,
+        }
+    solver = Solver(mech, method=solver_method, branch='reference')
+    n_act = len(mech.actuators)
+    return {
+        'scene': path,
+        'name': mech.name,
+        'form': mech.form,
+        'links': desc['links'],
+        'joints': desc['joints'],
+        'n_links': desc['n_links'],
+        'n_joints': desc['n_joints'],
+        'dof': mech.dof,
+        'n_actuators': n_act,
+        'dof_matches_actuators': mech.dof == n_act,
+        'grashof': grashof,
+        'inputs': inputs,
+        'plan': {
+            'solver': solver.method,
+            'mode': solver.mode,
+            'knowns': list(solver.knowns),
+            'closed_form_steps': [] if solver.mode == 'newton' else solver.plan.describe(),
+            'closed_form_links': list(solver.closed_links),
+            'newton_links': list(solver.system.free),
+            'branch_count': solver.branch_count,
+        },
+    }
+
+
+def format_check(r: dict) -> str:
+    out = [f'scene      {r["name"]} ({r["form"]})  {r["scene"]}']
+    w = max(len(k) for k in list(r['links']) + list(r['joints']) + list(r['inputs']))
+    out.append(f'links ({r["n_links"]})')
+    out += [f'  {k:<{w}}  {" ".join(v)}' for k, v in r['links'].items()]
+    out.append(f'joints ({r["n_joints"]})')
+    for k, j in r['joints'].items():
+        if j['type'] == 'revolute':
+            out.append(f'  {k:<{w}}  revolute   at {j["point"]}: {j["parent"]} -> {j["child"]}')
+        else:
+            out.append(
+                f'  {k:<{w}}  prismatic  {j["point"]} of {j["slider"]} slides in {j["guide"]}'
+            )
+    out.append(
+        f'mobility   Kutzbach 3(n-1)-2j = 3({r["n_links"]}-1)-2*{r["n_joints"]} = '
+        f'{r["dof"]} DOF; {r["n_actuators"]} actuator(s): '
+        + ('match' if r['dof_matches_actuators'] else 'MISMATCH')
+    )
+    g = r['grashof']
+    if g is not None:
+        turns = [
+            f'{end} fully rotates: {"yes" if g[f"{end}_fully_rotates"] else "no"}'
+            for end in ('input', 'output')
+            if g[f'{end}_fully_rotates'] is not None
+        ]
+        out.append(
+            f'grashof    {g["chain"]} {g["class"]}: {g["rule"]}'
+            + (f' ({", ".join(turns)})' if turns else '')
+        )
+    out.append('inputs')
+    for k, v in r['inputs'].items():
+        rng = (
+            'unlimited'
+            if v['min'] is None and v['max'] is None
+            else f'min {_f(v["min"], ".9g")}  max {_f(v["max"], ".9g")} {v["unit"]}'
+        )
+        if v['unit'] == 'rad' and v['min'] is not None and v['max'] is not None:
+            rng += f'  ({math.degrees(v["min"]):.4f} .. {math.degrees(v["max"]):.4f} deg)'
+        out.append(f'  {k:<{w}}  {v["kind"]:<5}  {rng}')
+    p = r['plan']
+    out.append(
+        f'plan       solver {p["solver"]} -> mode {p["mode"]}; '
+        f'knowns {", ".join(p["knowns"])}'
+        + (f'; {p["branch_count"]} branching dyad(s)' if p['closed_form_steps'] else '')
+    )
+    if p['closed_form_steps']:
+        out.append('  closed-form steps')
+        out += [f'    {i + 1}. {s}' for i, s in enumerate(p['closed_form_steps'])]
+    out.append(f'  placed by closed-form dyads: {", ".join(p["closed_form_links"]) or "(none)"}')
+    out.append(f'  placed by Newton:            {", ".join(p["newton_links"]) or "(none)"}')
+    return '\n'.join(out)
+
+
+def cmd_check(args) -> int:
+    mech, path = load_mechanism(args.scene)
+    report = check_report(mech, path, args.solver)
+    print(dumps(report) if args.json else format_check(report))
+    return OK

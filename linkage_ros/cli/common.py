@@ -1,0 +1,306 @@
+"""What the linkage subcommands share: exit codes, parsing of values and ranges, loading a
+scene, building a solve, output formatting."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+USAGE_ERROR, REFUSED, OK = 2, 1, 0
+INTERRUPTED = 130  # Ctrl-C, as a shell reports a SIGINT
+
+
+class UsageError(Exception):
+    """A command line that cannot be run; printed as one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line on stderr (exit 2)."""
+
+    def error(self, message):
+        self.exit(USAGE_ERROR, f'{self.prog}: error: {message} (see {self.prog} --help)\n')
+
+
+class _Known(argparse.Action):
+    """--set / --target / --target-point all append (option, text) to one list, keeping the
+    command-line order (it is the sweep grid order)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        items = list(getattr(namespace, 'knowns', None) or [])
+        items.append((option_string, values))
+        namespace.knowns = items
+
+
+# ---- parsing helpers ---------------------------------------------------------------------------
+
+
+def _number(text: str, what: str) -> tuple[float, bool]:
+    """'0.5' -> (0.5, False); '30deg' -> (radians, True). Finite numbers only."""
+    t = text.strip()
+    deg = t.lower().endswith('deg')
+    if deg:
+        t = t[:-3].strip()
+    try:
+        v = float(t)
+    except ValueError:
+        raise UsageError(f'{what}: {text!r} is not a number') from None
+    if not math.isfinite(v):
+        raise UsageError(f'{what}: {text!r} must be a finite number')
+    return (math.radians(v) if deg else v), deg
+
+
+def _point(text: str, what: str) -> tuple[float, float]:
+    parts = text.split(',')
+    if len(parts) != 2:
+        raise UsageError(f'{what}: {text!r} is not a point X,Y')
+    (x, dx), (y, dy) = (_number(p, what) for p in parts)
+    if dx or dy:
+        raise UsageError(f'{what}: a point is in metres, not degrees')
+    return x, y
+
+
+def _count(text: str, what: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        raise UsageError(f'{what}: COUNT {text!r} is not an integer') from None
+    if n < 1:
+        raise UsageError(f'{what}: COUNT must be >= 1 (got {n})')
+    return n
+
+
+class _Linspace(Sequence):
+    """n evenly spaced values from a to b inclusive (floats or (x, y) tuples), computed when read:
+    a sweep of a billion lines must not build its list of values first."""
+
+    def __init__(self, a, b, n: int):
+        self.a, self.b, self.n = a, b, n
+
+    def __len__(self) -> int:
+        return self.n
+
+    def __getitem__(self, i):
+        if isinstance(i, slice):
+            return [self[j] for j in range(*i.indices(self.n))]
+        if i < 0:
+            i += self.n
+        if not 0 <= i < self.n:
+            raise IndexError(i)
+        a, b, n = self.a, self.b, self.n
+        if n == 1:
+            return a
+        if isinstance(a, tuple):
+            return tuple(a[k] + (b[k] - a[k]) * i / (n - 1) for k in range(2))
+        return a + (b - a) * i / (n - 1)
+
+    def __iter__(self):
+        return (self[i] for i in range(self.n))
+
+
+def _linspace(a, b, n):
+    """n evenly spaced values from a to b inclusive (floats or (x, y) tuples), lazily."""
+    return _Linspace(a, b, n)
+
+
+def _grid(axes):
+    """The sweep grid lazily, first axis slowest: itertools.product would copy every axis into
+    a tuple before yielding anything."""
+    if not axes:
+        yield ()
+        return
+    for v in axes[0]:
+        for rest in _grid(axes[1:]):
+            yield (v,) + rest
+
+
+def parse_known(option: str, text: str, allow_range: bool):
+    """One --set/--target/--target-point argument -> (name, values, used_deg).
+
+    Scalars: NAME=VALUE or NAME=START:STOP:COUNT; points: NAME=X,Y or NAME=X0,Y0:X1,Y1:COUNT.
+    ``values`` is a list (one element unless a range)."""
+    point = option == '--target-point'
+    shape = ('NAME=X,Y' if point else 'NAME=VALUE') + (
+        ' or NAME=X0,Y0:X1,Y1:COUNT'
+        if point and allow_range
+        else ' or NAME=START:STOP:COUNT'
+        if allow_range
+        else ''
+    )
+    name, sep, rhs = text.partition('=')
+    name = name.strip()
+    if not sep or not name or not rhs.strip():
+        raise UsageError(f'{option} {text!r}: expected {shape}')
+    what = f'{option} {name}'
+    parts = rhs.split(':')
+    if len(parts) == 1:
+        if point:
+            return name, [_point(parts[0], what)], False
+        v, deg = _number(parts[0], what)
+        return name, [v], deg
+    if len(parts) != 3:
+        raise UsageError(f'{option} {text!r}: expected {shape}')
+    if not allow_range:
+        raise UsageError(f'{option} {text!r}: ranges START:STOP:COUNT are for `linkage sweep`')
+    n = _count(parts[2], what)
+    if point:
+        return name, _linspace(_point(parts[0], what), _point(parts[1], what), n), False
+    (a, da), (b, db) = _number(parts[0], what), _number(parts[1], what)
+    return name, _linspace(a, b, n), da or db
+
+
+# ---- scene, solver and output helpers ----------------------------------------------------------
+
+
+def load_mechanism(scene: str):
+    from ..core.model import Scene
+    from ..resources import config_dir, scene_path
+
+    try:
+        path = scene_path(scene)
+    except OSError as exc:  # the ROS package index is unusable (unset environment)
+        raise UsageError(
+            f'scene {scene!r} not found: not a file, and packaged scenes cannot be located: {exc}'
+        ) from None
+    if not Path(path).exists():
+        try:
+            avail = sorted(p.stem for p in config_dir().glob('*.yaml'))
+        except OSError:
+            avail = []
+        raise UsageError(
+            f'scene {scene!r} not found: not a file and not a packaged scene'
+            + (f' (packaged: {", ".join(avail)})' if avail else '')
+        )
+    return Scene.from_yaml(path).mechanism, str(path)
+
+
+def build_solve(mech, args, allow_range: bool):
+    """The knowns of a solve/sweep command line -> (knowns, axes, Solver).
+
+    ``axes`` is [(name, [values...])] in command-line order; a fixed value is a 1-element axis."""
+    from ..core.plan import spec_for
+    from ..core.solver import Solver
+
+    items = getattr(args, 'knowns', None) or []
+    if not items:
+        raise UsageError(
+            'nothing to solve: give --set NAME=VALUE for each actuator '
+            f'({", ".join(mech.actuators)}), or --target / --target-point'
+        )
+    axes: list[Any] = []
+    options: dict[str, Any] = {}
+    for option, text in items:
+        name, values, deg = parse_known(option, text, allow_range)
+        if name in options:
+            raise UsageError(f'{name!r} is given twice ({options[name]} and {option})')
+        options[name] = option
+        if option == '--set' and name not in mech.actuators:
+            raise UsageError(
+                f'--set {name}: {name!r} is not an actuator of {mech.name!r} '
+                f'(actuators: {", ".join(mech.actuators)}); use --target for joints, '
+                'links or points'
+            )
+        if option == '--target-point':
+            if name not in mech.points:
+                raise UsageError(f'--target-point {name}: {name!r} is not a point of {mech.name!r}')
+            name = f'point:{name}'  # a point may share its name with a joint
+            options[name] = option
+        spec = spec_for(mech, name)  # PlanError for an unknown name
+        if option != '--target-point' and spec.kind == 'point':
+            raise UsageError(f'{option} {name}: {name!r} is a point; use --target-point {name}=X,Y')
+        if deg and spec.kind != 'angle':
+            raise UsageError(f'{option} {name}: a "deg" suffix on a length ({spec.unit})')
+        axes.append((name, values))
+    knowns = [n for n, _ in axes]
+    if all(options[n] == '--set' for n in knowns):
+        missing = [a for a in mech.actuators if a not in options]
+        if missing:
+            raise UsageError(f'missing --set for actuator(s) {", ".join(missing)} of {mech.name!r}')
+    solver = Solver(
+        mech,
+        knowns=knowns,
+        method=args.solver,
+        tol=args.tol,
+        max_iter=args.max_iter,
+        branch=args.branch,
+    )  # PlanError: exit 2
+    return knowns, axes, solver
+
+
+def clean(obj: Any) -> Any:
+    """JSON-safe copy: tuples -> lists, numpy scalars -> Python, non-finite floats -> None."""
+    if isinstance(obj, dict):
+        return {str(k): clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [clean(v) for v in obj]
+    if hasattr(obj, 'item') and not isinstance(obj, (str, bytes)):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def dumps(obj: Any) -> str:
+    return json.dumps(clean(obj), allow_nan=False)
+
+
+def _f(v, spec='.9g') -> str:
+    return '-' if v is None else format(v, spec)
+
+
+def _angle(v) -> str:
+    return '-' if v is None else f'{v: .9f} rad  {math.degrees(v): 11.5f} deg'
+
+
+def _unit_of(mech, name: str) -> str:
+    """'m' for prismatic joints and slide actuators, 'rad' otherwise."""
+    if name in mech.prismatics:
+        return 'm'
+    act = mech.actuators.get(name)
+    return 'm' if act is not None and act.kind == 'slide' else 'rad'
+
+
+def _value(mech, name, v) -> str:
+    if isinstance(v, (list, tuple)):
+        return f'({v[0]: .9f}, {v[1]: .9f}) m'
+    return _angle(v) if _unit_of(mech, name) == 'rad' else f'{v: .9f} m'
+
+
+def format_result(d: dict, mech) -> str:
+    """Readable table of one Result.to_dict."""
+    out = [f'status     {d["status"]}']
+    if d['reason']:
+        out.append(f'reason     {d["reason"]}')
+    w = max(
+        [len(k) for sec in ('inputs', 'joints', 'links', 'points') for k in d.get(sec, {})]
+        + [len(k) for k in d.get('targets', {})]
+        + [6]
+    )
+    if d.get('targets'):
+        out.append('targets')
+        out += [f'  {k:<{w}}  {_value(mech, k, v)}' for k, v in d['targets'].items()]
+    for sec in ('inputs', 'joints'):
+        if d[sec]:
+            out.append(sec)
+            out += [f'  {k:<{w}}  {_value(mech, k, v)}' for k, v in d[sec].items()]
+    if d['links']:
+        out.append('links')
+        for k, v in d['links'].items():
+            out.append(f'  {k:<{w}}  {_angle(v["angle"])}   [{" ".join(v["points"])}]')
+    if d['points']:
+        out.append(f'points     {"x (m)":>14} {"y (m)":>14}')
+        out += [f'  {k:<{w}}  {x:14.9f} {y:14.9f}' for k, (x, y) in d['points'].items()]
+    if d['status'] == 'ok':
+        out.append(f'residual   {_f(d["residual"], ".3g")} (of the length scale)')
+        out.append(
+            f'branch     {d["branch"] or "(none)"}'
+            + ('' if d['branch_defined'] else '  (undefined: at a toggle)')
+        )
+        out.append(f'margin     {_f(d["margin"], ".6g")}')
+        if d.get('cond') is not None:
+            out.append(f'cond(J)    {_f(d["cond"], ".6g")}')
+    out.append(f'solver     {d["solver"]}   iterations {d["iterations"]}')
+    return '\n'.join(out)

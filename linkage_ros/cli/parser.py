@@ -1,0 +1,271 @@
+"""The ``linkage`` parser, the subcommands registered from their modules, and the entry points."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+from collections.abc import Sequence
+from typing import Any
+
+from ..core.errors import LinkageError
+from .check import cmd_check
+from .common import INTERRUPTED, OK, USAGE_ERROR, UsageError, _Known, _Parser
+from .solve import cmd_solve
+from .sweep import cmd_sweep
+
+# ---- parser ------------------------------------------------------------------------------------
+
+KNOWN_HELP = """\
+knowns (in command-line order; with `sweep` that order is the grid order):
+  --set NAME=VALUE          an actuator value (rad or m; "30deg" is accepted for angles)
+  --target NAME=VALUE       a joint value, a link's angle (from +x) or an actuator: inverse solve
+  --target-point NAME=X,Y   a point's position (m): inverse solve
+  --set and --target may be combined: the knowns are all the names given, and they must fix
+  every degree of freedom (e.g. one actuator and one joint angle of the 2-DOF plagiograph).
+"""
+
+SOLVE_EPILOG = (
+    KNOWN_HELP
+    + """
+exit status: 0 solved; 1 refused (status "error" with a reason; with --all-branches: no mode
+closes); 2 usage error.
+
+examples:
+  linkage solve four_bar --set crank=0.5
+  linkage solve four_bar --set crank=30deg --all-branches --json
+  linkage solve four_bar --target rocker=1.9 --json
+  linkage solve plagiograph --target-point D=0.125,0.185
+"""
+)
+
+SWEEP_EPILOG = (
+    KNOWN_HELP
+    + """
+ranges: NAME=START:STOP:COUNT (COUNT evenly spaced values, both ends included) and, for points,
+NAME=X0,Y0:X1,Y1:COUNT (a straight segment). Several ranges make a grid: the first range on the
+command line varies slowest, the last fastest (nested loops in command-line order). A fixed
+NAME=VALUE stays constant. The solver keeps its state between lines, so --branch continuous
+(default) follows the assembly mode along the sweep.
+
+output: one line per grid point, never dropped: refused inputs are error lines (status "error"
+and the reason). --json prints JSON lines: the solve schema plus "index" and "command" (the
+commanded values). A summary "N command(s), K ok, E error(s)" goes to stderr.
+
+exit status: 0 when the sweep ran (even if some lines are errors; --strict makes any error line
+exit 1); 2 usage error.
+
+examples:
+  linkage sweep four_bar --set crank=0:6.283185307:73
+  linkage sweep plagiograph --set theta_A=0.2:0.5:11 --set theta_C=1.2:1.5:11 --json
+"""
+)
+
+CHECK_EPILOG = """\
+prints links (and their points), joints (type, point, parent, child), link and joint counts,
+Kutzbach DOF 3(n-1)-2j against the actuator count, the Grashof class of a one-loop four-link
+scene driven by a crank (4R: s + l against p + q; 3R-1P: lmin + e against lmax) with the
+inequality and which ground-pivoted links turn fully, each input's range (null / "unlimited"
+for an unlimited side), and how the default solve is planned: the closed-form dyad steps, the
+links they place, the links left to the Newton solver and the solver mode.
+A scene that does not load (e.g. DOF != actuators) is an error: exit 2.
+"""
+
+MAIN_EPILOG = """\
+SCENE is a scene file or the name of a packaged scene (e.g. four_bar).
+exit status: 0 ok, 1 solve refused, 2 usage error, 130 interrupted (Ctrl-C).
+`linkage COMMAND --help` for details.
+"""
+
+#: subcommand -> module defining ``add_arguments(parser)`` and ``run(args) -> int``; a module that
+#: does not import is left out (the reason shows in ``linkage --help``).
+EXTERNAL_COMMANDS = {
+    'range': 'linkage_ros.cli.range',
+    'bag': 'linkage_ros.bag',
+    'bench': 'linkage_ros.bench',
+}
+
+
+def _add_solve_options(p, default_branch: str, ranges: bool):
+    p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+    g = p.add_argument_group('knowns')
+    r = '[:STOP:COUNT]' if ranges else ''
+    g.add_argument(
+        '--set',
+        action=_Known,
+        metavar=f'NAME=VALUE{r}',
+        dest='knowns',
+        help='actuator value' + (' or range' if ranges else '') + ' (repeatable)',
+    )
+    g.add_argument(
+        '--target',
+        action=_Known,
+        metavar=f'NAME=VALUE{r}',
+        dest='knowns',
+        help='joint / link angle / actuator to reach: inverse solve (repeatable)',
+    )
+    g.add_argument(
+        '--target-point',
+        action=_Known,
+        dest='knowns',
+        metavar='NAME=X,Y' + ('[:X1,Y1:COUNT]' if ranges else ''),
+        help='point position to reach: inverse solve (repeatable)',
+    )
+    s = p.add_argument_group('solver')
+    s.add_argument(
+        '--branch',
+        default=default_branch,
+        help="assembly mode: 'continuous', 'reference' or one sign per branching "
+        f"dyad such as '+-' (default {default_branch})",
+    )
+    s.add_argument(
+        '--solver',
+        choices=('auto', 'closed_form', 'newton'),
+        default=None,
+        help="solver (default: the scene's, normally auto)",
+    )
+    s.add_argument(
+        '--tol',
+        type=float,
+        default=1e-12,
+        help='Newton tolerance, relative to the length scale (default 1e-12)',
+    )
+    s.add_argument('--max-iter', type=int, default=50, help='Newton iteration cap (default 50)')
+    p.add_argument('--json', action='store_true', help='machine-readable output')
+
+
+def _load_external() -> tuple[dict[str, Any], dict[str, str]]:
+    """Import the plug-in subcommand modules; returns ({name: module}, {name: why not})."""
+    ok, broken = {}, {}
+    for name, modname in EXTERNAL_COMMANDS.items():
+        try:
+            mod = importlib.import_module(modname)
+        except ModuleNotFoundError as exc:
+            if exc.name is not None and modname.startswith(exc.name):
+                continue  # not written / not installed: silently absent
+            broken[name] = f'{type(exc).__name__}: {exc}'
+            continue
+        except Exception as exc:  # noqa: BLE001 - a broken plug-in must not break the CLI
+            broken[name] = f'{type(exc).__name__}: {exc}'
+            continue
+        if not (
+            callable(getattr(mod, 'add_arguments', None)) and callable(getattr(mod, 'run', None))
+        ):
+            broken[name] = f'{modname} lacks add_arguments(parser) / run(args)'
+            continue
+        ok[name] = mod
+    return ok, broken
+
+
+def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
+    external, broken = _load_external()
+    epilog = MAIN_EPILOG + ''.join(f'unavailable: {k} ({v})\n' for k, v in broken.items())
+    parser = _Parser(
+        prog='linkage',
+        description='Solve, sweep and check planar linkage scenes.',
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
+    sub.required = True
+    fmt = argparse.RawDescriptionHelpFormatter
+
+    p = sub.add_parser(
+        'solve',
+        help='one forward or inverse position solve',
+        description='Solve one configuration: forward from actuator values '
+        '(--set) or inverse from targets (--target, --target-point).',
+        epilog=SOLVE_EPILOG,
+        formatter_class=fmt,
+    )
+    _add_solve_options(p, 'reference', ranges=False)
+    p.add_argument(
+        '--all-branches',
+        action='store_true',
+        help='every assembly mode of the command (ignores --branch)',
+    )
+    p.set_defaults(func=cmd_solve)
+
+    p = sub.add_parser(
+        'sweep',
+        help='solve a range or grid of commands, one line each',
+        description='Solve a range (or a grid of ranges) of commands, one output line per command.',
+        epilog=SWEEP_EPILOG,
+        formatter_class=fmt,
+    )
+    _add_solve_options(p, 'continuous', ranges=True)
+    p.add_argument('--strict', action='store_true', help='exit 1 if any line is an error')
+    p.set_defaults(func=cmd_sweep)
+
+    p = sub.add_parser(
+        'check',
+        help='links, joints, DOF, Grashof class, input ranges, solve plan',
+        description='Check a scene and describe how it will be solved.',
+        epilog=CHECK_EPILOG,
+        formatter_class=fmt,
+    )
+    p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+    p.add_argument(
+        '--solver',
+        choices=('auto', 'closed_form', 'newton'),
+        default=None,
+        help="solver whose plan to describe (default: the scene's)",
+    )
+    p.add_argument('--json', action='store_true', help='machine-readable output')
+    p.set_defaults(func=cmd_check)
+
+    for name, mod in external.items():
+        p = sub.add_parser(
+            name,
+            help=(mod.__doc__ or '').strip().splitlines()[0] if mod.__doc__ else None,
+            formatter_class=fmt,
+        )
+        mod.add_arguments(p)
+        p.set_defaults(func=mod.run)
+    return parser, broken
+
+
+def standalone_main(prog: str, add_arguments, run, argv: Sequence[str] | None = None) -> int:
+    """Run one subcommand module on its own (``python -m linkage_ros.bag ...``): its parser,
+    then run(args); argparse's usage errors become exit status 2 instead of SystemExit."""
+    parser = argparse.ArgumentParser(
+        prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
+    add_arguments(parser)
+    try:
+        args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
+    except SystemExit as exc:
+        return exc.code if isinstance(exc.code, int) else 2
+    return run(args)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    parser, broken = build_parser()
+    if argv and argv[0] in broken:
+        print(
+            f'linkage: error: command {argv[0]!r} is unavailable: {broken[argv[0]]}',
+            file=sys.stderr,
+        )
+        return USAGE_ERROR
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help (0) or a usage error (2)
+        return exc.code if isinstance(exc.code, int) else USAGE_ERROR
+    prog = f'linkage {args.command}'
+    try:
+        return int(args.func(args))
+    except (UsageError, LinkageError) as exc:
+        print(f'{prog}: error: {exc}', file=sys.stderr)
+        return USAGE_ERROR
+    except BrokenPipeError:  # `linkage sweep ... | head`
+        sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 no second error when Python flushes at exit
+        return OK
+    except KeyboardInterrupt:  # Ctrl-C: the shell's convention, no traceback
+        print(f'\n{prog}: interrupted', file=sys.stderr)
+        return INTERRUPTED
+
+
+if __name__ == '__main__':
+    sys.exit(main())
