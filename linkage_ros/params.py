@@ -1,0 +1,238 @@
+"""The node's parameters: declared once (name, default, description, constraints), validated
+and frozen into a NodeConfig; ROS-free, so the checks are testable without a graph."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from .core.errors import PlanError
+from .core.model import Scene
+from .core.solver import METHODS
+from .engine import ConfigError, Engine, EngineSettings, fail_setting
+from .resources import scene_path
+
+NODE_NAME = 'linkage_node'
+BRANCH_MODES = ('continuous', 'reference')
+#: demo_rate bounds (Hz): the timer period must be a positive whole number of nanoseconds that
+#: rclpy accepts, and a faster demo would only busy-loop the executor (1e300 Hz is a 0 ns timer)
+DEMO_RATE_MIN, DEMO_RATE_MAX = 1e-3, 1000.0
+#: the largest QoS history depth rclpy accepts (a larger one fails inside rclpy's QoS profile)
+QUEUE_DEPTH_MAX = 2**31 - 1
+
+
+# ---- configuration -----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    name: str
+    default: Any  # a value, or 'string_array' for an empty string array
+    description: str
+    read_only: bool = True
+    constraints: str = ''
+
+
+PARAMETERS: tuple[ParamSpec, ...] = (
+    ParamSpec(
+        'scene',
+        'four_bar',
+        'Scene file: a path to a YAML scene, or the name of a packaged scene '
+        '(four_bar, slider_crank, ...; see docs/SCENES.md).',
+    ),
+    ParamSpec(
+        'solver',
+        '',
+        "Solve method: auto, closed_form or newton; '' = the scene's `solver` key.",
+        constraints="'' | auto | closed_form | newton",
+    ),
+    ParamSpec(
+        'tolerance',
+        1e-12,
+        'Newton tolerance on the loop-closure residual, as a fraction '
+        'of the mechanism length scale.',
+        constraints='> 0',
+    ),
+    ParamSpec('max_iterations', 50, 'Newton iteration cap per solve.', constraints='> 0'),
+    ParamSpec(
+        'branch',
+        'continuous',
+        "Assembly mode: 'continuous' (start in the reference pose's mode, then stay nearest "
+        "the previous configuration), 'reference' (always the reference pose's signs) or "
+        "explicit signs such as '+-' (one per branching dyad of the forward plan).",
+        constraints='continuous | reference | [+-]+',
+    ),
+    ParamSpec(
+        'frame_id',
+        '',
+        "frame_id stamped on every output; '' = the scene's frame_id.",
+        constraints="a tf2 frame name: no whitespace, no leading '/'",
+    ),
+    ParamSpec(
+        'demo_sweep',
+        False,
+        'Sweep the first actuator on a timer (through the command '
+        'path) so joint states flow without any command.',
+        read_only=False,
+    ),
+    ParamSpec(
+        'demo_rate',
+        20.0,
+        'Demo sweep rate (Hz).',
+        read_only=False,
+        constraints=f'{DEMO_RATE_MIN:g} <= demo_rate <= {DEMO_RATE_MAX:g}',
+    ),
+    ParamSpec(
+        'target_point_hold',
+        'string_array',
+        'Names (actuators, joints, links or points) held at their current value when a '
+        '~/target_point/<point> request arrives on a mechanism with more than 2 degrees of '
+        "freedom, e.g. ['bucket'] for an excavator (point + held values = DOF).",
+    ),
+    ParamSpec(
+        'queue_depth',
+        10,
+        'History depth N of every topic the node subscribes and publishes (reliable, keep '
+        'last N, volatile). A stall of the node longer than N / command rate drops '
+        'commands: raise it for command streams of several hundred Hz and more.',
+        constraints=f'integer, 1 <= queue_depth <= {QUEUE_DEPTH_MAX}',
+    ),
+)
+
+
+@dataclass(frozen=True)
+class NodeConfig:
+    """Validated node parameters (frozen; demo_sweep / demo_rate are replaced, not mutated)."""
+
+    scene: str = 'four_bar'
+    scene_path: str = ''
+    solver: str | None = None
+    tolerance: float = 1e-12
+    max_iterations: int = 50
+    branch: str = 'continuous'
+    frame_id: str = ''
+    demo_sweep: bool = False
+    demo_rate: float = 20.0
+    target_point_hold: tuple[str, ...] = ()
+    queue_depth: int = 10
+
+    def engine_settings(self) -> EngineSettings:
+        return EngineSettings(
+            self.solver, self.tolerance, self.max_iterations, self.branch, self.target_point_hold
+        )
+
+
+def check_demo_rate(value: Any) -> float:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not DEMO_RATE_MIN <= value <= DEMO_RATE_MAX
+    ):  # also refuses nan
+        fail_setting(
+            'demo_rate',
+            f'must be a number of Hz from {DEMO_RATE_MIN:g} to {DEMO_RATE_MAX:g}',
+            value,
+        )
+    return float(value)
+
+
+def make_config(values: Mapping[str, Any]) -> NodeConfig:
+    """Validate raw parameter values (defaults for missing ones) into a :class:`NodeConfig`.
+
+    Pure: checks types and ranges and resolves the scene name to a path; it does not load the
+    scene (see :class:`Engine` for the checks that need the mechanism).
+    """
+    v = {p.name: ([] if p.default == 'string_array' else p.default) for p in PARAMETERS}
+    unknown = sorted(set(values) - set(v))
+    if unknown:
+        raise ConfigError(f'unknown parameter(s) {unknown}; expected {sorted(v)}')
+    v.update({k: x for k, x in values.items() if x is not None})
+    scene = v['scene']
+    if not isinstance(scene, str) or not scene.strip():
+        fail_setting('scene', 'must be a scene file path or a packaged scene name', scene)
+    solver = v['solver']
+    if solver not in ('',) + METHODS:
+        fail_setting('solver', f"must be '' (the scene's) or one of {list(METHODS)}", solver)
+    tol = v['tolerance']
+    if (
+        isinstance(tol, bool)
+        or not isinstance(tol, (int, float))
+        or not math.isfinite(tol)
+        or not tol > 0
+    ):
+        fail_setting('tolerance', 'must be a finite number > 0', tol)
+    it = v['max_iterations']
+    if isinstance(it, bool) or not isinstance(it, int) or it <= 0:
+        fail_setting('max_iterations', 'must be an integer > 0', it)
+    branch = v['branch']
+    if not isinstance(branch, str) or not (
+        branch in BRANCH_MODES or (branch and set(branch) <= {'+', '-'})
+    ):
+        fail_setting(
+            'branch', "must be 'continuous', 'reference' or a string of + and - signs", branch
+        )
+    frame_id = v['frame_id']
+    if (
+        not isinstance(frame_id, str)
+        or any(c.isspace() for c in frame_id)
+        or frame_id.startswith('/')
+    ):
+        fail_setting(
+            'frame_id',
+            "must be a tf2 frame name, without whitespace or a leading '/' ('' = the scene's)",
+            frame_id,
+        )
+    demo = v['demo_sweep']
+    if not isinstance(demo, bool):
+        fail_setting('demo_sweep', 'must be true or false', demo)
+    rate = check_demo_rate(v['demo_rate'])
+    hold = v['target_point_hold']
+    if isinstance(hold, str) or not all(isinstance(h, str) and h for h in hold):
+        fail_setting('target_point_hold', 'must be a list of names', hold)
+    if len(set(hold)) != len(hold):
+        fail_setting('target_point_hold', 'names something twice', list(hold))
+    depth = v['queue_depth']
+    if isinstance(depth, bool) or not isinstance(depth, int) or not 1 <= depth <= QUEUE_DEPTH_MAX:
+        fail_setting(
+            'queue_depth',
+            f'must be an integer from 1 to {QUEUE_DEPTH_MAX} (the largest '
+            'history depth rclpy takes)',
+            depth,
+        )
+    path = scene_path(scene)
+    if not path.exists():
+        from .resources import config_dir
+
+        packaged = sorted(f.stem for f in config_dir().glob('*.yaml'))
+        fail_setting(
+            'scene',
+            f'no such scene file, and no packaged scene of that name (packaged: '
+            f'{", ".join(packaged) or "none"})',
+            scene,
+        )
+    return NodeConfig(
+        scene=scene,
+        scene_path=str(path),
+        solver=solver or None,
+        tolerance=float(tol),
+        max_iterations=it,
+        branch=branch,
+        frame_id=frame_id,
+        demo_sweep=demo,
+        demo_rate=rate,
+        target_point_hold=tuple(hold),
+        queue_depth=depth,
+    )
+
+
+def load_engine(config: NodeConfig) -> tuple[Scene, Engine]:
+    """Load the scene and compile the forward solver; SceneError / ConfigError on failure."""
+    scene = Scene.from_yaml(config.scene_path)
+    mech = scene.mechanism
+    try:
+        return scene, Engine(mech, config.engine_settings())
+    except PlanError as exc:
+        name = 'branch' if 'branch' in str(exc) else 'solver'
+        raise ConfigError(f'parameter {name!r} does not fit scene {mech.name!r}: {exc}') from None
