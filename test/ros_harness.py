@@ -25,6 +25,7 @@ import yaml
 from rclpy.duration import Duration
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from scenes import REPO
 
 QOS = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
@@ -32,8 +33,8 @@ QOS = QoSProfile(
     depth=10,
     durability=DurabilityPolicy.VOLATILE,
 )
+
 NODE_NAME = 'linkage_node'
-REPO = Path(__file__).resolve().parent.parent
 
 
 def random_domain_id() -> int:

@@ -11,6 +11,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from scenes import CONFIG
 
 from linkage_ros import cli
 from linkage_ros.core.analysis import (
@@ -24,9 +25,6 @@ from linkage_ros.core.analysis import (
 from linkage_ros.core.errors import SceneError
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
-
-ROOT = Path(__file__).resolve().parent.parent
-CONFIG = ROOT / 'config'
 
 FOUR_BAR = """\
 points: {O2: [0, 0], A: [0.05, 0.0866], B: [0.2, 0.18], O4: [0.3, 0]}

@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
+from scenes import CONFIG
+from scenes import four_bar as fourbar
 
 from linkage_ros.core import motion
 from linkage_ros.core.model import Scene
@@ -20,7 +22,6 @@ from linkage_ros.core.plan import spec_for
 from linkage_ros.core.solver import Solver
 
 TWO_PI = 2 * math.pi
-CONFIG = Path(__file__).resolve().parent.parent / 'config'
 
 
 def circ(a, b):
@@ -52,11 +53,6 @@ def circle_meet(c1, r1, c2, r2, side):
     h = math.sqrt(max(r1 * r1 - a * a, 0.0))
     u = d / L
     return np.asarray(c1, float) + a * u + side * h * np.array([-u[1], u[0]])
-
-
-def fourbar(l1, l2, l3, l4, **kw):
-    fb = {'ground': l1, 'crank': l2, 'coupler': l3, 'rocker': l4, **kw}
-    return Scene.from_dict({'four_bar': fb}).mechanism
 
 
 def crank_range_oracle(l1, l2, l3, l4):

@@ -20,6 +20,7 @@ import math
 import numpy as np
 import oracles as orc
 import pytest
+from scenes import four_bar
 from test_newton_fast import newton_beside_the_other_mode
 
 from linkage_ros.bench import sweep_inputs
@@ -56,12 +57,6 @@ def reported_cond(sy, Js):
 
 def scene(name):
     return Scene.from_yaml(scene_path(name)).mechanism
-
-
-def four_bar(L):
-    return Scene.from_dict(
-        {'four_bar': dict(zip(('ground', 'crank', 'coupler', 'rocker'), L))}
-    ).mechanism
 
 
 def stack(sy, rows):

@@ -13,6 +13,7 @@ import math
 import numpy as np
 import oracles as orc
 import pytest
+from scenes import four_bar
 
 from linkage_ros.core.model import Scene
 from linkage_ros.core.newton import COND_EXACT
@@ -50,12 +51,6 @@ POINT_KNOWNS = {
 
 def scene(name):
     return Scene.from_yaml(scene_path(name)).mechanism
-
-
-def four_bar(L, **extra):
-    spec = dict(zip(('ground', 'crank', 'coupler', 'rocker'), L))
-    spec.update(extra)
-    return Scene.from_dict({'four_bar': spec}).mechanism
 
 
 def sweep(mech, n):

@@ -26,6 +26,7 @@ from geometry_msgs.msg import PointStamped
 from rclpy.parameter import Parameter
 from rclpy.parameter_client import AsyncParameterClient
 from ros_harness import NodeProcess, RosHarness, random_domain_id
+from scenes import CONFIG
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import Marker, MarkerArray
 
@@ -35,8 +36,6 @@ from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Result
 from linkage_ros.node import NODE_NAME, PARAMETERS, ConfigError, make_config
 
-REPO = Path(__file__).resolve().parent.parent
-CONFIG = REPO / 'config'
 DOMAIN_ID = random_domain_id()
 ANSWER_TIMEOUT = 10.0  # s: an answer that takes longer is a failure
 QUIET = 0.4  # s: bounded window after an error proving nothing else arrives

@@ -21,7 +21,6 @@ import random
 import re
 import signal
 from itertools import count
-from pathlib import Path
 
 import pytest
 from builtin_interfaces.msg import Time
@@ -32,6 +31,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from ros_harness import NodeProcess, RosHarness, random_domain_id
 from rosgraph_msgs.msg import Clock
+from scenes import CONFIG
 from sensor_msgs.msg import JointState
 
 from linkage_ros.node import (
@@ -44,8 +44,6 @@ from linkage_ros.node import (
     make_config,
 )
 
-REPO = Path(__file__).resolve().parent.parent
-CONFIG = REPO / 'config'
 DOMAIN_ID = random_domain_id()
 TIMEOUT = 10.0  # s: an answer that takes longer is a failure
 OK, ERROR = DiagnosticStatus.OK, DiagnosticStatus.ERROR
@@ -55,6 +53,7 @@ DEEP = QoSProfile(
     depth=200,
     durability=DurabilityPolicy.VOLATILE,
 )
+
 _stamps = count(1000)
 
 

@@ -5,9 +5,8 @@ import ast
 import glob
 import re
 import xml.etree.ElementTree as ET
-from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from scenes import REPO as ROOT
 
 
 def test_package_xml_is_format_3_ament_python_with_the_runtime_dependencies():

@@ -19,16 +19,13 @@ Oracles (never the solver's own output):
 
 import cmath
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
+from scenes import load, raw
 
-from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
 
-CONFIG = Path(__file__).resolve().parent.parent / 'config'
 SCENES = ('peaucellier', 'hart', 'plagiograph', 'front_loader', 'excavator')
 
 # design dimensions (m, rad) the scene files were built from
@@ -47,15 +44,6 @@ SEED_COUNTS = {
 
 #: geometric tolerance of the exact oracles, as a fraction of the mechanism's length scale
 EXACT = 1e-12
-
-
-def load(name):
-    return Scene.from_yaml(CONFIG / f'{name}.yaml').mechanism
-
-
-def raw(name):
-    with open(CONFIG / f'{name}.yaml', encoding='utf-8') as fh:
-        return yaml.safe_load(fh)
 
 
 def c(p):

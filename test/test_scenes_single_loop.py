@@ -11,17 +11,17 @@ motions for link rigidity, slide lines and joint values.
 import copy
 import math
 import re
-from pathlib import Path
 
 import numpy as np
 import pytest
 import yaml
+from scenes import CONFIG, load
+from scenes import REPO as ROOT
+from scenes import raw as load_raw
 
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
 
-ROOT = Path(__file__).resolve().parent.parent
-CONFIG = ROOT / 'config'
 DOCS = ROOT / 'docs' / 'SCENES.md'
 SCENES = [
     'four_bar',
@@ -34,15 +34,6 @@ SCENES = [
 TIGHT = 1e-12  # closed-form accuracy, fraction of the length scale
 AGREE = 1e-9  # closed form vs Newton, fraction of the length scale
 N_SWEEP = 121
-
-
-def load(stem):
-    return Scene.from_yaml(CONFIG / f'{stem}.yaml').mechanism
-
-
-def load_raw(stem):
-    with open(CONFIG / f'{stem}.yaml', encoding='utf-8') as fh:
-        return yaml.safe_load(fh)
 
 
 def without_limits(stem):

@@ -13,29 +13,18 @@ cosine rules, the inversion of a circle), never the package's answer fed back to
 
 import cmath
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
-import yaml
+from scenes import four_bar, load, raw
 
 from linkage_ros.core import motion
 from linkage_ros.core.errors import PlanError
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
 
-CONFIG = Path(__file__).resolve().parent.parent / 'config'
 TWO_PI = 2.0 * math.pi
 EXACT = 1e-12  # closed-form geometry, fraction of the length scale
-
-
-def load(stem):
-    return Scene.from_yaml(CONFIG / f'{stem}.yaml').mechanism
-
-
-def raw(stem):
-    with open(CONFIG / f'{stem}.yaml', encoding='utf-8') as fh:
-        return yaml.safe_load(fh)
 
 
 def c(p):
@@ -71,12 +60,6 @@ def transfer(ref_a, ref_b, new_a, new_b, ref_x):
     have moved to new_a, new_b."""
     rot = (new_b - new_a) / (ref_b - ref_a)
     return new_a + rot / abs(rot) * (ref_x - ref_a)
-
-
-def four_bar(l1, l2, l3, l4, **kw):
-    spec = dict(ground=l1, crank=l2, coupler=l3, rocker=l4)
-    spec.update(kw)
-    return Scene.from_dict({'four_bar': spec}).mechanism
 
 
 # ================================================================================================

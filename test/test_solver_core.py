@@ -13,6 +13,7 @@ import mpmath as mp
 import numpy as np
 import oracles as orc
 import pytest
+from scenes import CONFIG, four_bar, slider_crank
 
 from linkage_ros.core import dyads
 from linkage_ros.core.errors import PlanError, SceneError
@@ -26,18 +27,6 @@ AGREE = 1e-9  # closed form vs Newton, fraction of the length scale
 
 CRANK_ROCKER = (4.0, 1.5, 4.5, 3.0)  # (ground, crank, coupler, rocker), Grashof
 TRIPLE_ROCKER = (4.0, 3.0, 5.0, 2.5)  # non-Grashof, input range symmetric about pi
-
-
-def four_bar(l1, l2, l3, l4, **extra):
-    spec = {'ground': l1, 'crank': l2, 'coupler': l3, 'rocker': l4}
-    spec.update(extra)
-    return Scene.from_dict({'four_bar': spec}).mechanism
-
-
-def slider_crank(r, rod, e=0.0, direction=0.0, **extra):
-    spec = {'crank': r, 'rod': rod, 'offset': e, 'direction': direction}
-    spec.update(extra)
-    return Scene.from_dict({'slider_crank': spec}).mechanism
 
 
 # A lever pivoting on the ground at O, driven by a hydraulic cylinder from the ground pin C to the
@@ -1085,9 +1074,6 @@ def test_newton_batch_start_is_checked():
         closed.solve_batch({'crank': t}, start=start)
     with pytest.raises(ValueError, match='newton BatchResult'):
         newton.solve_batch({'crank': t}, start=closed.solve_batch({'crank': t}))
-
-
-CONFIG = __import__('pathlib').Path(__file__).parent.parent / 'config'
 
 
 def test_newton_batch_start_must_come_from_the_same_solver_and_be_intact():

@@ -13,8 +13,8 @@ import oracles as orc
 import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
+from scenes import four_bar, slider_crank
 
-from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver, branch_undefined_below
 
 EPS = 2.0**-52
@@ -26,18 +26,6 @@ TRIPLE_ROCKER = (4.0, 3.0, 5.0, 2.5)  # non-Grashof, input range symmetric about
 CRANK_ROCKER = (4.0, 1.5, 4.5, 3.0)
 METHODS = ['closed_form', 'newton']
 DISTANCES = [0.0, 1e-15, 1e-12, 1e-9, 1e-6, 1e-3]
-
-
-def four_bar(L, **extra):
-    spec = dict(zip(('ground', 'crank', 'coupler', 'rocker'), L))
-    spec.update(extra)
-    return Scene.from_dict({'four_bar': spec}).mechanism
-
-
-def slider_crank(r, rod, e, direction=0.0):
-    return Scene.from_dict(
-        {'slider_crank': {'crank': r, 'rod': rod, 'offset': e, 'direction': direction}}
-    ).mechanism
 
 
 def assert_finite(result):
