@@ -4,53 +4,50 @@ from __future__ import annotations
 
 import re
 import sys
-import time
 from collections import Counter
 
 import numpy as np
+from tqdm import tqdm
 
 # ---- progress and summary ----------------------------------------------------------------------
 
 
 class _Progress:
-    """A one-line text progress bar on stderr (only when it is a terminal)."""
+    """A tqdm progress bar on stderr, one phase at a time (reading, solving, writing); only when
+    enabled (stderr is a terminal and --no-progress was not given)."""
 
     def __init__(self, enabled: bool):
         self.enabled = enabled
-        self.label, self.total, self.t0, self.last = '', 0, 0.0, 0.0
-        self.shown = False
+        self.bar: tqdm | None = None
 
-    def start(self, label: str, total: int):
-        self.label, self.total = label, max(int(total), 0)
-        self.t0 = self.last = time.perf_counter()
-        self.update(0, force=True)
-
-    def update(self, done: int, force: bool = False):
-        if not self.enabled:
-            return
-        now = time.perf_counter()
-        if not force and now - self.last < 0.1:
-            return
-        self.last = now
-        width = 30
-        frac = min(done / self.total, 1.0) if self.total else 1.0
-        bar = '#' * int(frac * width) + '-' * (width - int(frac * width))
-        sys.stderr.write(
-            f'\r{self.label:<8} [{bar}] {100 * frac:5.1f}% {done}/{self.total} '
-            f'{now - self.t0:6.1f}s'
-        )
-        sys.stderr.flush()
-        self.shown = True
-
-    def finish(self):
+    def start(self, label: str, total: int) -> None:
+        self.clear()
         if self.enabled:
-            self.update(self.total, force=True)
+            # file is looked up now, not at import: tests and callers may have replaced stderr
+            self.bar = tqdm(
+                total=max(int(total), 0),
+                desc=f'{label:<8}',
+                file=sys.stderr,
+                leave=False,
+                mininterval=0.1,
+                dynamic_ncols=True,
+            )
 
-    def clear(self):
-        if self.enabled and self.shown:
-            sys.stderr.write('\r' + ' ' * 79 + '\r')
-            sys.stderr.flush()
-            self.shown = False
+    def update(self, done: int) -> None:
+        """Move the bar to ``done`` items of the phase's total."""
+        if self.bar is not None:
+            self.bar.update(max(int(done) - self.bar.n, 0))
+
+    def finish(self) -> None:
+        if self.bar is not None:
+            self.bar.update(self.bar.total - self.bar.n)
+            self.bar.refresh()
+
+    def clear(self) -> None:
+        """Take the bar off the line, so what is printed next starts on a line of its own."""
+        if self.bar is not None:
+            self.bar.close()
+            self.bar = None
 
 
 _NUM = re.compile(r'(?<![A-Za-z_0-9.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?')
