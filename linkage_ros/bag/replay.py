@@ -8,7 +8,7 @@ import numpy as np
 from ..core.ops import BATCH, to_complex
 from ..core.plan import step_geometry
 from ..core.solver import Solver, branch_identity_defined
-from ..core.steps import StepKind
+from ..core.steps import RPRDyad, RRPDyad, RRRDyad, StepKind, anchor_of
 from ..engine import SOLVER_CACHE, Engine, EngineSettings, request_shape_error
 from ..stamps import stamp_error, stamp_valid
 from .progress import _Progress
@@ -437,7 +437,7 @@ class _Engine:
             flipped[k] = -flipped[k]
             poses1, pts1, _ = plan.run(safe, m, flipped)
             if st.op == StepKind.RPR:
-                gl = mech.prismatics[st.args[0]].guide
+                gl = mech.prismatics[st.args.joint].guide
                 phs = rowphi[gl]
                 last = seqphi[gl][li]
                 ds = np.abs(BATCH.wrap(phs - last))
@@ -480,10 +480,12 @@ def _step_inputs(mech, bsteps):
     """The points and guide links whose positions decide each branching step."""
     names, guides = [], []
     for st in bsteps:
-        pts = [st.point, st.args[1]] + ([st.args[3]] if st.op == StepKind.RRR else [])
+        pts = [st.point, anchor_of(st.args)]
+        if isinstance(st.args, RRRDyad):
+            pts.append(st.args.centre_b)
         names += [p for p in pts if p not in names]
-        if st.op != StepKind.RRR:
-            g = mech.prismatics[st.args[0] if st.op == StepKind.RPR else st.args[2]].guide
+        if isinstance(st.args, RRPDyad | RPRDyad):
+            g = mech.prismatics[st.args.joint].guide
             if g not in guides:
                 guides.append(g)
     return names, guides

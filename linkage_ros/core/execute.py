@@ -243,10 +243,10 @@ class PlanExecutor:
             if op == StepKind.GROUND:
                 place_body(st.body, zero, ops.cplx(zero, zero))
             elif op == StepKind.KNOWN_POINT:
-                v = values[st.args[0]]
+                v = values[st.args.spec_index]
                 pts[st.point] = v if ops.batch else complex(float(v[0]), float(v[1]))
             elif op == StepKind.TWO_POINTS:
-                p, q = st.args
+                p, q = st.args.first, st.args.second
                 lp = local_pt(st.body, p)
                 a, b = local_pt(st.body, q) - lp, pts[q] - pts[p]
                 # unit first: products of 1e-300 lengths would underflow
@@ -256,11 +256,11 @@ class PlanExecutor:
                 phi = ops.atan2(cross, a.real * b.real + a.imag * b.imag)
                 place_body(st.body, phi, pts[p] - ops.expi(phi) * lp)
             elif op == StepKind.POINT_ANGLE:
-                p = st.args[0]
+                p = st.args.point
                 phi = angles[st.body]
                 place_body(st.body, phi, pts[p] - ops.expi(phi) * local_pt(st.body, p))
             elif op == StepKind.ANGLE:
-                here, there, spec_i = st.args
+                here, there, spec_i = st.args.link, st.args.source, st.args.spec_index
                 if there in poses.phi:
                     src = poses.phi[there]
                 else:
@@ -276,7 +276,8 @@ class PlanExecutor:
             elif op in (StepKind.RRR, StepKind.RRP):
                 x = st.point
                 if op == StepKind.RRR:
-                    b1, p1, b2, p2 = st.args
+                    a = st.args
+                    b1, p1, b2, p2 = a.body_a, a.centre_a, a.body_b, a.centre_b
                     r1, r2 = radius(b1, x, p1), radius(b2, x, p2)
                     pair = None
                     if not ops.batch:
@@ -284,7 +285,7 @@ class PlanExecutor:
                     if pair is None:
                         pair = _rrr(ops, pts[p1], r1, pts[p2], r2, tol)
                 else:
-                    b1, p1, jname = st.args
+                    b1, p1, jname = st.args.body, st.args.centre, st.args.joint
                     g = mech.prismatics[jname].guide
                     r = radius(b1, x, p1)
                     p0 = poses.rot[g] * ref[x] + poses.T[g]
@@ -303,7 +304,7 @@ class PlanExecutor:
                     return finish(k, 0.0)
                 took(k, sg, pair.margin, okk, pair.violation)
             elif op == StepKind.RPR:
-                jname, p = st.args
+                jname, p = st.args.joint, st.args.pivot
                 pj = mech.prismatics[jname]
                 x, bi = st.point, st.body
                 gphi, grot, gT = frame(bi)[pj.guide]

@@ -3,6 +3,7 @@ them)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import StrEnum
 
 
@@ -20,3 +21,82 @@ class StepKind(StrEnum):
 
 
 BRANCHING = (StepKind.RRR, StepKind.RRP, StepKind.RPR)
+
+
+# ---- what each kind of step works on (Step.args) -------------------------------------------
+
+
+@dataclass(frozen=True)
+class KnownPoint:
+    """KNOWN_POINT: the point (Step.point) is the value of spec ``spec_index``."""
+
+    spec_index: int
+
+
+@dataclass(frozen=True)
+class TwoPoints:
+    """TWO_POINTS: the body is placed from two of its points, both known and distinct."""
+
+    first: str
+    second: str
+
+
+@dataclass(frozen=True)
+class PointAngle:
+    """POINT_ANGLE: the body is placed from a known point of it and its known orientation."""
+
+    point: str
+
+
+@dataclass(frozen=True)
+class AngleFrom:
+    """ANGLE: the orientation of ``link`` (in the step's body) from ``source`` (in a body whose
+    orientation is known), related by spec ``spec_index`` (an angle) or locked (None: the
+    guide and slider of a prismatic joint turn together)."""
+
+    link: str
+    source: str
+    spec_index: int | None
+
+
+@dataclass(frozen=True)
+class RRRDyad:
+    """RRR: the point (Step.point) on a circle about ``centre_a`` (a known point of body
+    ``body_a``) and one about ``centre_b`` (of ``body_b``)."""
+
+    body_a: int
+    centre_a: str
+    body_b: int
+    centre_b: str
+
+
+@dataclass(frozen=True)
+class RRPDyad:
+    """RRP: the slider point (Step.point) of ``joint`` on its guide's line and on a circle
+    about ``centre`` (a known point of body ``body``)."""
+
+    body: int
+    centre: str
+    joint: str
+
+
+@dataclass(frozen=True)
+class RPRDyad:
+    """RPR: the step's body (the guide of ``joint``) turned about its known point ``pivot`` so
+    that its line passes the known slider point (Step.point)."""
+
+    joint: str
+    pivot: str
+
+
+StepArgs = KnownPoint | TwoPoints | PointAngle | AngleFrom | RRRDyad | RRPDyad | RPRDyad
+
+
+def anchor_of(args: RRRDyad | RRPDyad | RPRDyad) -> str:
+    """The known point a branching step's sign is measured from (the first circle's centre,
+    or the guide's pivot)."""
+    if isinstance(args, RRRDyad):
+        return args.centre_a
+    if isinstance(args, RRPDyad):
+        return args.centre
+    return args.pivot

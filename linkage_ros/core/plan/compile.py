@@ -12,7 +12,18 @@ from ..errors import PlanError
 from ..execute import PlanRun, executor
 from ..model import Mechanism
 from ..ops import to_xy
-from ..steps import BRANCHING, StepKind
+from ..steps import (
+    BRANCHING,
+    AngleFrom,
+    KnownPoint,
+    PointAngle,
+    RPRDyad,
+    RRPDyad,
+    RRRDyad,
+    StepArgs,
+    StepKind,
+    TwoPoints,
+)
 from .poses import batch_poses
 from .spec import Spec
 
@@ -44,7 +55,7 @@ class Step:
     op: StepKind
     body: int | None = None
     point: str | None = None
-    args: tuple = ()
+    args: StepArgs | None = None  # what the step works on, by kind (core.steps)
     sign: int = 0  # branching steps: +1 / -1 from the reference pose
     needs: tuple = ()
     gives: tuple = ()
@@ -54,31 +65,29 @@ class Step:
         return self.op in BRANCHING
 
     def describe(self, plan: Plan) -> str:
-        b = plan.bodies[self.body].links if self.body is not None else None
+        b = '+'.join(plan.bodies[self.body].links) if self.body is not None else ''
+        a = self.args
         if self.op == StepKind.GROUND:
-            return f'ground: place {"+".join(b)}'
+            return f'ground: place {b}'
         if self.op == StepKind.KNOWN_POINT:
             return f'known point {self.point}'
-        if self.op == StepKind.TWO_POINTS:
-            return f'rigid transfer: place {"+".join(b)} from points {self.args[0]}, {self.args[1]}'
-        if self.op == StepKind.POINT_ANGLE:
-            return f'place {"+".join(b)} from point {self.args[0]} and its known angle'
-        if self.op == StepKind.ANGLE:
-            return f'orientation of {"+".join(b)} from {self.args[1]}'
-        if self.op == StepKind.RRR:
+        if isinstance(a, TwoPoints):
+            return f'rigid transfer: place {b} from points {a.first}, {a.second}'
+        if isinstance(a, PointAngle):
+            return f'place {b} from point {a.point} and its known angle'
+        if isinstance(a, AngleFrom):
+            return f'orientation of {b} from {a.source}'
+        if isinstance(a, RRRDyad):
             return (
-                f'RRR dyad: {self.point} from circles about {self.args[1]} '
-                f'({"+".join(plan.bodies[self.args[0]].links)}) and {self.args[3]} '
-                f'({"+".join(plan.bodies[self.args[2]].links)})'
+                f'RRR dyad: {self.point} from circles about {a.centre_a} '
+                f'({"+".join(plan.bodies[a.body_a].links)}) and {a.centre_b} '
+                f'({"+".join(plan.bodies[a.body_b].links)})'
             )
-        if self.op == StepKind.RRP:
-            return f'RRP dyad: {self.point} on slide {self.args[2]} and circle about {self.args[1]}'
-        if self.op == StepKind.RPR:
-            return (
-                f'RPR dyad: orient {"+".join(b)} about {self.args[1]} so slide '
-                f'{self.args[0]} passes {self.point}'
-            )
-        return self.op
+        if isinstance(a, RRPDyad):
+            return f'RRP dyad: {self.point} on slide {a.joint} and circle about {a.centre}'
+        if isinstance(a, RPRDyad):
+            return f'RPR dyad: orient {b} about {a.pivot} so slide {a.joint} passes {self.point}'
+        return str(self.op)
 
 
 class Plan:
@@ -190,7 +199,12 @@ class Plan:
                         f'known point {s.point!r} is fixed by the ground; it cannot be a target'
                     )
                 steps.append(
-                    Step(StepKind.KNOWN_POINT, point=s.point, args=(i,), gives=(('pt', s.point),))
+                    Step(
+                        StepKind.KNOWN_POINT,
+                        point=s.point,
+                        args=KnownPoint(i),
+                        gives=(('pt', s.point),),
+                    )
                 )
                 known_pts.add(s.point)
 
@@ -214,7 +228,7 @@ class Plan:
                         Step(
                             StepKind.TWO_POINTS,
                             body=bi,
-                            args=two,
+                            args=TwoPoints(*two),
                             needs=(point_needs(two[0]), point_needs(two[1])),
                             gives=(('pose', bi),),
                         ),
@@ -227,7 +241,7 @@ class Plan:
                         Step(
                             StepKind.POINT_ANGLE,
                             body=bi,
-                            args=(kp[0],),
+                            args=PointAngle(kp[0]),
                             needs=(point_needs(kp[0]), ('angle', bi)),
                             gives=(('pose', bi),),
                         ),
@@ -243,7 +257,7 @@ class Plan:
                             Step(
                                 StepKind.ANGLE,
                                 body=bi,
-                                args=(link_here, link_there, spec_i),
+                                args=AngleFrom(link_here, link_there, spec_i),
                                 needs=(('angle', src_body),),
                                 gives=(('angle', bi),),
                             )
@@ -298,7 +312,7 @@ class Plan:
                     return Step(
                         StepKind.RRR,
                         point=x,
-                        args=(b1, p1, b2, p2),
+                        args=RRRDyad(b1, p1, b2, p2),
                         sign=sign,
                         needs=(('pt', p1), ('pt', p2)),
                         gives=(('pt', x),),
@@ -321,7 +335,7 @@ class Plan:
                 return Step(
                     StepKind.RRP,
                     point=x,
-                    args=(bi, p1, pj.name),
+                    args=RRPDyad(bi, p1, pj.name),
                     sign=sign,
                     needs=(('pt', p1), ('pose', gb)),
                     gives=(('pt', x),),
@@ -342,7 +356,7 @@ class Plan:
                 StepKind.RPR,
                 body=gb,
                 point=x,
-                args=(pj.name, p),
+                args=RPRDyad(pj.name, p),
                 sign=sign,
                 needs=(('pt', x), ('pt', p)),
                 gives=(('pose', gb),),

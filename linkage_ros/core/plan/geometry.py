@@ -7,7 +7,7 @@ import numpy as np
 from ..execute import LinkPoses
 from ..model import Mechanism
 from ..ops import BATCH, SCALAR, to_complex
-from ..steps import StepKind
+from ..steps import StepKind, anchor_of
 from .compile import Plan, Step
 from .poses import Poses, ScalarPoses, link_poses
 from .spec import _c
@@ -24,15 +24,15 @@ def step_geometry(ops, mech: Mechanism, st: Step, pts, rot) -> tuple:
 
     x = pts[st.point]
     if st.op == StepKind.RRR:
-        a, b = pts[st.args[1]], pts[st.args[3]]
+        a, b = pts[st.args.centre_a], pts[st.args.centre_b]
         ab, ax = unit(b - a), unit(x - a)  # units: products of 1e200 overflow
         side = ab.real * ax.imag - ab.imag * ax.real
         vb = unit(x - b)
         m = abs(ax.real * vb.imag - ax.imag * vb.real)
     else:
-        pj = mech.prismatics[st.args[0] if st.op == StepKind.RPR else st.args[2]]
+        pj = mech.prismatics[st.args.joint]
         u = rot[pj.guide] * _c(pj.direction)
-        v = unit(x - pts[st.args[1]])
+        v = unit(x - pts[anchor_of(st.args)])
         side = v.real * u.real + v.imag * u.imag
         m = abs(side)
     return side, ops.clip(m, 0.0, 1.0)
