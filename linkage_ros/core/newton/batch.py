@@ -19,6 +19,7 @@ from .results import (
     POLISH_COND,
     BatchSolve,
 )
+from .rows import AngleRow, LineRow
 
 if TYPE_CHECKING:
     pass
@@ -64,13 +65,13 @@ class BatchSystem:
         lines, angles, points = [], [], []
         r, j = 2 * nrev, 4 * nrev  # next residual row and next varying-entry column
         for row in self._tail:
-            if row[0] == 0:
+            if isinstance(row, LineRow):
                 _, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, vi = row
                 lines.append(
                     (r, j, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, zero if vi is None else cols[vi])
                 )
                 r, j = r + 1, j + 6
-            elif row[0] == 1:
+            elif isinstance(row, AngleRow):
                 _, ia, ib, vi, off = row
                 angles.append((r, ia, ib, zero if vi is None else cols[vi], off))
                 r += 1

@@ -17,6 +17,17 @@ from .results import (
     SINGULAR_COND,
     _lapack,
 )
+from .rows import (
+    AngleRow,
+    EquationRows,
+    LineRow,
+    PointRow,
+    PrismaticRows,
+    RevoluteRows,
+    RowKind,
+    SpecRows,
+    TailRow,
+)
 from .solve import ScalarSolve
 
 
@@ -37,21 +48,21 @@ class LoopSystem(ScalarSolve, BatchSystem):
         self.centroid = {
             n: np.mean([pts[p] for p in l.points], axis=0) for n, l in mech.links.items()
         }
-        self.rows: list[tuple] = []
+        self.rows: list[EquationRows] = []
         m = 0
         fr = set(free)
         for rj in mech.revolutes:
             if rj.parent in fr or rj.child in fr:
-                self.rows.append(('rev', rj.parent, rj.child, rj.point))
+                self.rows.append(RevoluteRows(rj.parent, rj.child, rj.point))
                 m += 2
         for pj in mech.prismatics.values():
             if pj.guide in fr or pj.slider in fr:
-                self.rows.append(('pri', pj))
+                self.rows.append(PrismaticRows(pj))
                 m += 2
         for i, s in enumerate(self.specs):
             links = self._spec_links(s)
             if any(l in fr for l in links):
-                self.rows.append(('spec', i))
+                self.rows.append(SpecRows(i))
                 m += s.size
         self.m = m
         self._col_scale = np.tile([1.0 / self.L, 1.0, 1.0], len(free))
@@ -100,13 +111,14 @@ class LoopSystem(ScalarSolve, BatchSystem):
             v = np.asarray(p, float) - cen[link]
             return float(v[0]), float(v[1])
 
-        self._revs, self._tail = [], []
+        self._revs: list[tuple[int, float, float, int, float, float]] = []
+        self._tail: list[TailRow] = []
         self._val_rows: list[int] | None = []  # row of each value component
         r = 0
         for row in self.rows:
-            if row[0] != 'rev':
+            if not isinstance(row, RevoluteRows):
                 continue
-            _, a, b, P = row
+            a, b, P = row.parent, row.child, row.point
             self._revs.append((s_of(a), *lever(a, pts[P]), s_of(b), *lever(b, pts[P])))
             var(r, a), var(r + 1, a), var(r, b), var(r + 1, b)
             const(r, a, 1, 1.0), const(r + 1, a, 2, 1.0)
@@ -117,8 +129,8 @@ class LoopSystem(ScalarSolve, BatchSystem):
         def line(r, pj, u0, base, vi):
             G, S = pj.guide, pj.slider
             self._tail.append(
-                (
-                    0,
+                LineRow(
+                    RowKind.LINE,
                     s_of(G),
                     s_of(S),
                     float(u0[0]),
@@ -132,19 +144,19 @@ class LoopSystem(ScalarSolve, BatchSystem):
                 var(r, link, k)
 
         def angle(r, a, b, vi, offset):
-            self._tail.append((1, s_of(a), s_of(b), vi, offset))
+            self._tail.append(AngleRow(RowKind.ANGLE, s_of(a), s_of(b), vi, offset))
             const(r, a, 0, L), const(r, b, 0, -L)
 
         spec_rows = {}
         for row in self.rows:
-            if row[0] == 'pri':
-                pj = row[1]
+            if isinstance(row, PrismaticRows):
+                pj = row.joint
                 d0 = pj.direction
                 line(r, pj, (-d0[1], d0[0]), pts[pj.point], None)
                 angle(r + 1, pj.slider, pj.guide, None, 0.0)
                 r += 2
-            elif row[0] == 'spec':
-                i = row[1]
+            elif isinstance(row, SpecRows):
+                i = row.spec_index
                 s = self.specs[i]
                 spec_rows[i] = r
                 if s.kind == 'angle':
@@ -156,7 +168,9 @@ class LoopSystem(ScalarSolve, BatchSystem):
                     r += 1
                 else:
                     owner = mech.links_of_point(s.point)[0]
-                    self._tail.append((2, s_of(owner), *lever(owner, pts[s.point]), i))
+                    self._tail.append(
+                        PointRow(RowKind.POINT, s_of(owner), *lever(owner, pts[s.point]), i)
+                    )
                     var(r, owner), var(r + 1, owner)
                     const(r, owner, 1, 1.0), const(r + 1, owner, 2, 1.0)
                     r += 2
@@ -308,7 +322,7 @@ class LoopSystem(ScalarSolve, BatchSystem):
         kL = self.L * k
         for row in self._tail:
             kind = row[0]
-            if kind == 0:  # line row: u . (w_S(X) - w_G(base)) [- value]
+            if kind == RowKind.LINE:  # line row: u . (w_S(X) - w_G(base)) [- value]
                 _, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, vi = row
                 cG, sG, xG, yG = P[iG]
                 cS, sS, xS, yS = P[iS]
@@ -327,7 +341,7 @@ class LoopSystem(ScalarSolve, BatchSystem):
                         ux,
                         uy,
                     )
-            elif kind == 1:  # angle row: L * wrap(phi_a - phi_b [- (value - offset)])
+            elif kind == RowKind.ANGLE:  # angle row: L * wrap(phi_a - phi_b [- (value - offset)])
                 _, ia, ib, vi, off = row
                 a = phis[ia] - phis[ib]
                 if vi is not None:
