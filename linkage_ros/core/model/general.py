@@ -85,6 +85,48 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
 def _build_general(
     ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: str, solver: str
 ) -> Mechanism:
+    """The general form, in passes: each reads one key of the scene (checking it against what
+    the earlier passes built) and names the key of anything wrong."""
+    points = _read_points(ctx, data)
+    ground, links = _read_links(ctx, data, points)
+    prismatics: dict[str, PrismaticJoint] = {}
+    actuators: dict[str, Actuator] = {}
+    _read_cylinders(ctx, data, points, links, prismatics, actuators)
+    _read_sliders(ctx, data, points, links, prismatics)
+    revolutes = _revolute_joints(ctx, points, links, prismatics)
+    _read_actuators(ctx, data, ground, links, prismatics, actuators)
+    outputs = _read_outputs(ctx, data, points, ground, links)
+    _check_one_point_links(ctx, ground, links, prismatics)
+    scale = _length_scale(points, links, prismatics)
+    mech = Mechanism(
+        name=name,
+        points=points,
+        links=links,
+        ground=ground,
+        revolutes=revolutes,
+        prismatics=prismatics,
+        actuators=actuators,
+        outputs=outputs,
+        frame_id=frame_id,
+        solver=solver,
+        source=ctx.source,
+        length_scale=scale,
+    )
+    if not actuators:
+        ctx.fail('actuators', 'the mechanism needs at least one actuator (or cylinder)', None)
+    if mech.dof != len(actuators):
+        ctx.fail(
+            'actuators',
+            f'the mechanism has {mech.dof} degree(s) of freedom (Kutzbach '
+            f'3(n-1)-2j with n={len(links)} links, j={len(revolutes) + len(prismatics)} '
+            f'joints) but {len(actuators)} actuator(s)',
+            sorted(actuators),
+        )
+    return mech
+
+
+def _read_points(ctx: _Ctx, data: Mapping[str, Any]) -> dict[str, np.ndarray]:
+    """points: name -> [x, y] (m), the reference pose."""
     pts_raw = ctx.mapping('points', data.get('points'))
     if not pts_raw:
         ctx.fail('points', 'must name at least two points', pts_raw)
@@ -93,6 +135,13 @@ def _build_general(
         ctx.name(f'points.{pname}', pname)
         points[pname] = ctx.xy(f'points.{pname}', xy)
 
+    return points
+
+
+def _read_links(
+    ctx: _Ctx, data: Mapping[str, Any], points: Mapping[str, np.ndarray]
+) -> tuple[str, dict[str, Link]]:
+    """ground and links: name -> the points it carries (ground first)."""
     ground = data.get('ground', 'ground')
     ctx.name('ground', ground)
     links_raw = ctx.mapping('links', data.get('links'))
@@ -123,9 +172,18 @@ def _build_general(
             )
         links[lname] = _make_link(lname, tuple(members), points)
 
-    prismatics: dict[str, PrismaticJoint] = {}
-    actuators: dict[str, Actuator] = {}
+    return ground, links
 
+
+def _read_cylinders(
+    ctx: _Ctx,
+    data: Mapping[str, Any],
+    points: Mapping[str, np.ndarray],
+    links: dict[str, Link],
+    prismatics: dict[str, PrismaticJoint],
+    actuators: dict[str, Actuator],
+) -> None:
+    """cylinders: each adds a barrel and a rod link, their prismatic joint and its actuator."""
     # cylinders: barrel pinned at `from`, rod pinned at `to`, a prismatic pair between them
     cyl_raw = data.get('cylinders') or {}
     ctx.mapping('cylinders', cyl_raw)
@@ -164,6 +222,15 @@ def _build_general(
             ctx.fail(f'{key}.min', 'a cylinder length must be > 0', lo)
         actuators[cname] = Actuator(cname, 'slide', joint=cname, min=lo, max=hi, cylinder=True)
 
+
+def _read_sliders(
+    ctx: _Ctx,
+    data: Mapping[str, Any],
+    points: Mapping[str, np.ndarray],
+    links: Mapping[str, Link],
+    prismatics: dict[str, PrismaticJoint],
+) -> None:
+    """sliders: prismatic joints between two links."""
     sliders_raw = data.get('sliders') or []
     if not isinstance(sliders_raw, list):
         ctx.fail('sliders', 'must be a list of prismatic joints', sliders_raw)
@@ -211,7 +278,15 @@ def _build_general(
             ref_value,
         )
 
-    # revolute joints where links share a point (the first link listed is the parent)
+
+def _revolute_joints(
+    ctx: _Ctx,
+    points: Mapping[str, np.ndarray],
+    links: Mapping[str, Link],
+    prismatics: Mapping[str, PrismaticJoint],
+) -> list[RevoluteJoint]:
+    """A revolute joint wherever links share a point (the first link listed is the parent)."""
+
     revolutes: list[RevoluteJoint] = []
     used_names: set[str] = set(prismatics)
     for pname in points:
@@ -238,6 +313,18 @@ def _build_general(
                     sorted(shared),
                 )
 
+    return revolutes
+
+
+def _read_actuators(
+    ctx: _Ctx,
+    data: Mapping[str, Any],
+    ground: str,
+    links: Mapping[str, Link],
+    prismatics: Mapping[str, PrismaticJoint],
+    actuators: dict[str, Actuator],
+) -> None:
+    """actuators: angle (a link relative to another) or slide (a prismatic joint)."""
     act_raw = data.get('actuators') or {}
     ctx.mapping('actuators', act_raw)
     for aname, spec in act_raw.items():
@@ -279,6 +366,15 @@ def _build_general(
         else:
             ctx.fail(f'{key}.type', "must be 'angle' or 'slide'", kind)
 
+
+def _read_outputs(
+    ctx: _Ctx,
+    data: Mapping[str, Any],
+    points: Mapping[str, np.ndarray],
+    ground: str,
+    links: Mapping[str, Link],
+) -> tuple[str, ...]:
+    """outputs: the published points (default: the coupler points)."""
     outputs_raw = data.get('outputs')
     if outputs_raw is None:
         # default: coupler points, i.e. points carried by exactly one moving link
@@ -296,6 +392,12 @@ def _build_general(
                 ctx.fail('outputs', f'unknown point {p!r}', p)
         outputs = tuple(outputs_raw)
 
+    return outputs
+
+
+def _check_one_point_links(
+    ctx: _Ctx, ground: str, links: Mapping[str, Link], prismatics: Mapping[str, PrismaticJoint]
+) -> None:
     for lname, link in links.items():
         if (
             lname != ground
@@ -308,33 +410,6 @@ def _build_general(
                 'otherwise its orientation is undefined',
                 list(link.points),
             )
-
-    scale = _length_scale(points, links, prismatics)
-    mech = Mechanism(
-        name=name,
-        points=points,
-        links=links,
-        ground=ground,
-        revolutes=revolutes,
-        prismatics=prismatics,
-        actuators=actuators,
-        outputs=outputs,
-        frame_id=frame_id,
-        solver=solver,
-        source=ctx.source,
-        length_scale=scale,
-    )
-    if not actuators:
-        ctx.fail('actuators', 'the mechanism needs at least one actuator (or cylinder)', None)
-    if mech.dof != len(actuators):
-        ctx.fail(
-            'actuators',
-            f'the mechanism has {mech.dof} degree(s) of freedom (Kutzbach '
-            f'3(n-1)-2j with n={len(links)} links, j={len(revolutes) + len(prismatics)} '
-            f'joints) but {len(actuators)} actuator(s)',
-            sorted(actuators),
-        )
-    return mech
 
 
 def _limits(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> tuple[float | None, float | None]:
