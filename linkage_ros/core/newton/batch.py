@@ -19,7 +19,7 @@ from .results import (
     POLISH_COND,
     BatchSolve,
 )
-from .rows import AngleRow, LineRow
+from .rows import AngleRow, LineRow, angle_row, line_row, point_rows, revolute_rows
 
 if TYPE_CHECKING:
     pass
@@ -141,7 +141,7 @@ class BatchSystem:
 
     def _batch_eval(self, X: np.ndarray, V: np.ndarray, jacobian: bool):
         """_eval_s for the rows of X (N, n) with the value matrix V (_batch_values): F (N, m),
-        J (N, m, n) or None, res (N,). The same formulas in the same order as _rows."""
+        J (N, m, n) or None, res (N,). The formulas are core.newton.rows', as in _rows."""
         tab = self._batch_tables()
         N, m, nf = X.shape[0], self.m, len(self.free)
         k = 1.0 / self.L
@@ -163,50 +163,45 @@ class BatchSystem:
             Jv = np.empty((N, len(self._jpos))) if jacobian else None
             nrev = len(tab.rev_a)
             if nrev:  # revolute rows: w_a(P) - w_b(P)
-                c1, s1, x1, y1 = P[1:, :, tab.rev_a]
-                c2, s2, x2, y2 = P[1:, :, tab.rev_b]
-                (lax, lay), (lbx, lby) = tab.rev_la, tab.rev_lb
-                rax, ray = c1 * lax - s1 * lay, s1 * lax + c1 * lay
-                rbx, rby = c2 * lbx - s2 * lby, s2 * lbx + c2 * lby
-                F[:, 0 : 2 * nrev : 2] = ((x1 + rax) - (x2 + rbx)) * k
-                F[:, 1 : 2 * nrev : 2] = ((y1 + ray) - (y2 + rby)) * k
+                fx, fy, jv = revolute_rows(
+                    *P[1:, :, tab.rev_a], *tab.rev_la, *P[1:, :, tab.rev_b], *tab.rev_lb, k
+                )
+                F[:, 0 : 2 * nrev : 2] = fx
+                F[:, 1 : 2 * nrev : 2] = fy
                 if jacobian:
-                    Jv[:, : 4 * nrev] = np.stack(
-                        (-ray * k, rax * k, rby * k, -rbx * k), axis=-1
-                    ).reshape(N, 4 * nrev)
+                    Jv[:, : 4 * nrev] = np.stack(jv, axis=-1).reshape(N, 4 * nrev)
             if len(tab.line_row):  # line rows: u . (w_S(X) - w_G(base)) [- value]
-                cG, sG, xG, yG = P[1:, :, tab.line_g]
-                cS, sS, xS, yS = P[1:, :, tab.line_s]
-                u0x, u0y, lsx, lsy, lgx, lgy = tab.line_k
-                ux, uy = cG * u0x - sG * u0y, sG * u0x + cG * u0y
-                srx, sry = cS * lsx - sS * lsy, sS * lsx + cS * lsy
-                grx, gry = cG * lgx - sG * lgy, sG * lgx + cG * lgy
-                dx, dy = (xS + srx) - (xG + grx), (yS + sry) - (yG + gry)
-                F[:, tab.line_row] = ((ux * dx + uy * dy) - V[:, tab.line_val]) * k
+                f, jv = line_row(
+                    *P[1:, :, tab.line_g],
+                    *P[1:, :, tab.line_s],
+                    *tab.line_k,
+                    V[:, tab.line_val],
+                    k,
+                )
+                F[:, tab.line_row] = f
                 if jacobian:
-                    Jv[:, tab.line_jv] = np.stack(
-                        (
-                            (-uy * dx + ux * dy - (ux * -gry + uy * grx)) * k,
-                            -ux,
-                            -uy,
-                            (ux * -sry + uy * srx) * k,
-                            ux,
-                            uy,
-                        ),
-                        axis=-1,
-                    )
+                    Jv[:, tab.line_jv] = np.stack(jv, axis=-1)
             if len(tab.ang_row):  # angle rows: L * wrap(phi_a - phi_b - (value - off))
-                a = P[0][:, tab.ang_a] - P[0][:, tab.ang_b]
-                a = a - (V[:, tab.ang_val] - tab.ang_off)
-                F[:, tab.ang_row] = kL * BATCH.wrap(a)
+                F[:, tab.ang_row] = angle_row(
+                    P[0][:, tab.ang_a],
+                    P[0][:, tab.ang_b],
+                    V[:, tab.ang_val],
+                    tab.ang_off,
+                    kL,
+                    BATCH.wrap,
+                )
             if len(tab.pt_row):  # point rows: w(X) - (x, y)
-                c, s, cx, cy = P[1:, :, tab.pt_link]
-                lx, ly = tab.pt_lever
-                rx, ry = c * lx - s * ly, s * lx + c * ly
-                F[:, tab.pt_row] = ((cx + rx) - V[:, tab.pt_val]) * k
-                F[:, tab.pt_row + 1] = ((cy + ry) - V[:, tab.pt_val + 1]) * k
+                fx, fy, jv = point_rows(
+                    *P[1:, :, tab.pt_link],
+                    *tab.pt_lever,
+                    V[:, tab.pt_val],
+                    V[:, tab.pt_val + 1],
+                    k,
+                )
+                F[:, tab.pt_row] = fx
+                F[:, tab.pt_row + 1] = fy
                 if jacobian:
-                    Jv[:, tab.pt_jv] = np.stack((-ry * k, rx * k), axis=-1)
+                    Jv[:, tab.pt_jv] = np.stack(jv, axis=-1)
         res = np.abs(F).max(axis=1) if m else np.zeros(N)
         res[~np.isfinite(F).all(axis=1)] = math.inf
         if not jacobian:

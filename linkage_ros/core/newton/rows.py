@@ -84,3 +84,54 @@ class PointRow(NamedTuple):
 
 
 TailRow = LineRow | AngleRow | PointRow
+
+
+# ---- the residual formulas, once --------------------------------------------------------------
+# Each takes floats (the scalar solve, one row at a time) or numpy arrays (the batched solve,
+# every row of that kind for every configuration at once): the same expressions serve both.
+# A link's pose enters as (c, s, x, y) = (cos phi, sin phi, centroid x, centroid y); a lever is
+# a point's offset from its link's centroid in the reference pose (m); k scales the residual
+# (1 or 1 / length scale). Each returns the residual row(s) and the varying Jacobian entries
+# in the order _compile lists them (rotation columns times k).
+
+
+def revolute_rows(c1, s1, x1, y1, lax, lay, c2, s2, x2, y2, lbx, lby, k):
+    """The joint's point as carried by link a minus as carried by link b: (fx, fy, jacobian
+    entries d/dphi_a of fx, fy, d/dphi_b of fx, fy). d/dphi of a world point is perp(lever)."""
+    rax, ray = c1 * lax - s1 * lay, s1 * lax + c1 * lay
+    rbx, rby = c2 * lbx - s2 * lby, s2 * lbx + c2 * lby
+    fx = ((x1 + rax) - (x2 + rbx)) * k
+    fy = ((y1 + ray) - (y2 + rby)) * k
+    return fx, fy, (-ray * k, rax * k, rby * k, -rbx * k)
+
+
+def line_row(cG, sG, xG, yG, cS, sS, xS, yS, u0x, u0y, lsx, lsy, lgx, lgy, value, k):
+    """u . (w_S(lever_S) - w_G(lever_G)) - value (m, times k), u the guide's turned direction:
+    (f, jacobian entries d/d(phi_G, x_G, y_G, phi_S, x_S, y_S)); d u / dphi_G = perp(u)."""
+    ux, uy = cG * u0x - sG * u0y, sG * u0x + cG * u0y
+    srx, sry = cS * lsx - sS * lsy, sS * lsx + cS * lsy
+    grx, gry = cG * lgx - sG * lgy, sG * lgx + cG * lgy
+    dx, dy = (xS + srx) - (xG + grx), (yS + sry) - (yG + gry)
+    f = ((ux * dx + uy * dy) - value) * k
+    jac = (
+        (-uy * dx + ux * dy - (ux * -gry + uy * grx)) * k,
+        -ux,
+        -uy,
+        (ux * -sry + uy * srx) * k,
+        ux,
+        uy,
+    )
+    return f, jac
+
+
+def angle_row(phi_a, phi_b, wrapped_value, offset, kL, wrap):
+    """L * wrap(phi_a - phi_b - (value - offset)) (m, times k = kL / L): ``wrapped_value`` is the
+    known angle already wrapped (0 for a locked pair); its Jacobian entries are constants."""
+    return kL * wrap((phi_a - phi_b) - (wrapped_value - offset))
+
+
+def point_rows(c, s, cx, cy, lx, ly, vx, vy, k):
+    """The point on its link minus its known position (vx, vy): (fx, fy, jacobian entries
+    d/dphi of fx, fy)."""
+    rx, ry = c * lx - s * ly, s * lx + c * ly
+    return ((cx + rx) - vx) * k, ((cy + ry) - vy) * k, (-ry * k, rx * k)

@@ -27,6 +27,10 @@ from .rows import (
     RowKind,
     SpecRows,
     TailRow,
+    angle_row,
+    line_row,
+    point_rows,
+    revolute_rows,
 )
 from .solve import ScalarSolve
 
@@ -311,51 +315,31 @@ class LoopSystem(ScalarSolve, BatchSystem):
         F: list[float] = []
         Jv: list[float] = []
         for ia, lax, lay, ib, lbx, lby in self._revs:
-            c1, s1, x1, y1 = P[ia]
-            c2, s2, x2, y2 = P[ib]
-            rax, ray = c1 * lax - s1 * lay, s1 * lax + c1 * lay
-            rbx, rby = c2 * lbx - s2 * lby, s2 * lbx + c2 * lby
-            F.append(((x1 + rax) - (x2 + rbx)) * k)
-            F.append(((y1 + ray) - (y2 + rby)) * k)
-            if jac:  # d/dphi of a world point is perp(lever)
-                Jv += (-ray * k, rax * k, rby * k, -rbx * k)
+            fx, fy, jv = revolute_rows(*P[ia], lax, lay, *P[ib], lbx, lby, k)
+            F += (fx, fy)
+            if jac:
+                Jv += jv
         kL = self.L * k
         for row in self._tail:
             kind = row[0]
-            if kind == RowKind.LINE:  # line row: u . (w_S(X) - w_G(base)) [- value]
+            if kind == RowKind.LINE:
                 _, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, vi = row
-                cG, sG, xG, yG = P[iG]
-                cS, sS, xS, yS = P[iS]
-                ux, uy = cG * u0x - sG * u0y, sG * u0x + cG * u0y
-                srx, sry = cS * lsx - sS * lsy, sS * lsx + cS * lsy
-                grx, gry = cG * lgx - sG * lgy, sG * lgx + cG * lgy
-                dx, dy = (xS + srx) - (xG + grx), (yS + sry) - (yG + gry)
-                f = ux * dx + uy * dy
-                F.append((f if vi is None else f - float(values[vi])) * k)
-                if jac:  # d u / dphi_G = perp(u)
-                    Jv += (
-                        (-uy * dx + ux * dy - (ux * -gry + uy * grx)) * k,
-                        -ux,
-                        -uy,
-                        (ux * -sry + uy * srx) * k,
-                        ux,
-                        uy,
-                    )
-            elif kind == RowKind.ANGLE:  # angle row: L * wrap(phi_a - phi_b [- (value - offset)])
-                _, ia, ib, vi, off = row
-                a = phis[ia] - phis[ib]
-                if vi is not None:
-                    a -= wrap_angle(float(values[vi])) - off
-                F.append(kL * wrap_angle(a))
-            else:  # point row: w(X) - (x, y)
-                _, i, lx, ly, vi = row
-                c, s, cx, cy = P[i]
-                rx, ry = c * lx - s * ly, s * lx + c * ly
-                v = values[vi]
-                F.append(((cx + rx) - float(v[0])) * k)
-                F.append(((cy + ry) - float(v[1])) * k)
+                v = 0.0 if vi is None else float(values[vi])
+                f, jv = line_row(*P[iG], *P[iS], u0x, u0y, lsx, lsy, lgx, lgy, v, k)
+                F.append(f)
                 if jac:
-                    Jv += (-ry * k, rx * k)
+                    Jv += jv
+            elif kind == RowKind.ANGLE:
+                _, ia, ib, vi, off = row
+                v = 0.0 if vi is None else wrap_angle(float(values[vi]))
+                F.append(angle_row(phis[ia], phis[ib], v, off, kL, wrap_angle))
+            else:
+                _, i, lx, ly, vi = row
+                v = values[vi]
+                fx, fy, jv = point_rows(*P[i], lx, ly, float(v[0]), float(v[1]), k)
+                F += (fx, fy)
+                if jac:
+                    Jv += jv
         return F, Jv
 
     # -- linear algebra -----------------------------------------------------------------------
