@@ -323,7 +323,7 @@ def plot_output_vs_input(
     fig = _figure(7.5, 5.0)
     ax = fig.add_subplot(1, 1, 1)
     out_branches = {}
-    for k, (key, pts) in enumerate(sorted(curves.items())):
+    for n, (key, pts) in enumerate(sorted(curves.items())):
         a = np.array(pts)
         xin, yv = a[:, 0], a[:, 1]
         if is_angle:
@@ -337,7 +337,7 @@ def plot_output_vs_input(
         cut = np.flatnonzero(jump | gap) + 1
         xp = np.insert(xp.astype(float), cut, np.nan)
         yp = np.insert(yp.astype(float), cut, np.nan)
-        ax.plot(xp, yp, '-', lw=1.6, color=_BRANCH_COLOURS[k % 8], label=f'branch {key}')
+        ax.plot(xp, yp, '-', lw=1.6, color=_BRANCH_COLOURS[n % 8], label=f'branch {key}')
     for v, name in ((act.min, 'min'), (act.max, 'max')):
         if v is not None:
             ax.axvline(math.degrees(v) if in_angle else v, ls='--', color='tab:gray', lw=1)

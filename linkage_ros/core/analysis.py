@@ -351,7 +351,8 @@ def four_link_chain_info(mech) -> ChainInfo | None:
     act = next(iter(mech.actuators.values()))
     if act.kind != 'angle' or act.reference not in (None, mech.ground):
         return None
-    pairs = {name: [] for name in links}  # link -> [(kind, other link, point)]
+    # link -> [(kind, other link, point)]
+    pairs: dict[str, list[tuple[str, str, str]]] = {name: [] for name in links}
     for j in mech.revolutes:
         pairs[j.parent].append(('R', j.child, j.point))
         pairs[j.child].append(('R', j.parent, j.point))

@@ -73,7 +73,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
     string YAML 1.1 makes of an exponent without a dot."""
 
     def construct_mapping(self, node, deep=False):
-        seen = {}
+        seen: dict[Any, Any] = {}
         for key_node, _ in node.value:
             # deep: a list key is filled in only later otherwise, and the message shows it
             key = self.construct_object(key_node, deep=True)

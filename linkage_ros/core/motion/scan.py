@@ -141,6 +141,7 @@ class _Line:
         return lo, hi, ('toggle', kl), ('toggle', kh)
 
     def _component_line(self, seed, signs):
+        assert self.bracket is not None, 'a slide scan needs its bracket'
         blo, bhi, hard_lo, hard_hi = self.bracket
         grow = 0
         while True:
@@ -171,6 +172,8 @@ class _Line:
                     blo = self._soft_low(blo - w)
                 continue
             break
+        hi_end: tuple[str, int | None]
+        lo_end: tuple[str, int | None]
         if i == xs.size - 1:
             hi, hi_end = float(xs[-1]), ('limit' if hard_hi else 'bracket', None)
         else:
@@ -211,7 +214,7 @@ class _Line:
         (only toggles inside ``limits``: the motion cannot reach the others)."""
         ref = tuple(self.plan.reference_signs)
         segs: list[_Segment] = []
-        queue = [(ref, float(x0), None)]
+        queue: list[tuple[tuple[int, ...], float, int | None]] = [(ref, float(x0), None)]
         while queue and len(segs) < _MAX_SEGMENTS:
             signs, seed, parent = queue.pop(0)
             comp = self.component(seed, signs)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -107,7 +108,7 @@ def max_tilt(
             'reason': {'start': start.reason},
             'inputs_at': {},
         }
-    res = {**base, 'ok': True, 'reason': {}, 'inputs_at': {}}
+    res: dict[str, Any] = {**base, 'ok': True, 'reason': {}, 'inputs_at': {}}
     for d, key in ((1, 'max'), (-1, 'min')):
         b, why, last = _walk(solver, command, start, a0, d, step, max_rotation, tol)
         res[key] = b
