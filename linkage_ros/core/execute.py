@@ -27,6 +27,10 @@ from .steps import StepKind
 #: change by passing through the dyad's singular (tangent) configuration.
 CONTINUITY_MARGIN = 0.1
 
+_GROUND, _KNOWN_POINT, _TWO_POINTS = StepKind.GROUND, StepKind.KNOWN_POINT, StepKind.TWO_POINTS
+_POINT_ANGLE, _ANGLE = StepKind.POINT_ANGLE, StepKind.ANGLE
+_RRR, _RRP, _RPR = StepKind.RRR, StepKind.RRP, StepKind.RPR
+
 
 @dataclass
 class LinkPoses:
@@ -76,7 +80,8 @@ class PlanExecutor:
             j: complex(float(pj.direction[0]), float(pj.direction[1]))
             for j, pj in mech.prismatics.items()
         }
-        #: (body, point, point) -> the length the scene states between them, or None
+        #: (body, point, point) -> the length the scene states between them, or their constant
+        #: distance within a one-link body; None: measured in the body's frame on every run
         self._stated: dict[tuple[int, str, str], float | None] = {}
         #: (body, point) -> the member link whose frame carries the point
         self.carrier: dict[tuple[int, str], str] = {}
@@ -170,7 +175,7 @@ class PlanExecutor:
             points (exactly as given), else the distance in the body's frame."""
             d = self._stated.get((bi, x, p), False)
             if d is False:
-                d = self._stated[(bi, x, p)] = next(
+                d = next(
                     (
                         mech.distance(link, x, p)
                         for link in plan.bodies[bi].links
@@ -179,6 +184,9 @@ class PlanExecutor:
                     ),
                     None,
                 )
+                if d is None and not plan.bodies[bi].welds:  # one rigid link: a constant
+                    d = abs(ref[x] - ref[p])
+                self._stated[(bi, x, p)] = d
             return abs(local_pt(bi, x) - local_pt(bi, p)) if d is None else d
 
         def local_pt(bi, p):
@@ -240,12 +248,13 @@ class PlanExecutor:
 
         for k, st in enumerate(plan.steps):
             op = st.op
-            if op == StepKind.GROUND:
+            # identity tests: enum members are singletons, and == on a StrEnum costs ~8x more
+            if op is _GROUND:
                 place_body(st.body, zero, ops.cplx(zero, zero))
-            elif op == StepKind.KNOWN_POINT:
+            elif op is _KNOWN_POINT:
                 v = values[st.args.spec_index]
                 pts[st.point] = v if ops.batch else complex(float(v[0]), float(v[1]))
-            elif op == StepKind.TWO_POINTS:
+            elif op is _TWO_POINTS:
                 p, q = st.args.first, st.args.second
                 lp = local_pt(st.body, p)
                 a, b = local_pt(st.body, q) - lp, pts[q] - pts[p]
@@ -255,11 +264,11 @@ class PlanExecutor:
                 cross = a.real * b.imag - a.imag * b.real
                 phi = ops.atan2(cross, a.real * b.real + a.imag * b.imag)
                 place_body(st.body, phi, pts[p] - ops.expi(phi) * lp)
-            elif op == StepKind.POINT_ANGLE:
+            elif op is _POINT_ANGLE:
                 p = st.args.point
                 phi = angles[st.body]
                 place_body(st.body, phi, pts[p] - ops.expi(phi) * local_pt(st.body, p))
-            elif op == StepKind.ANGLE:
+            elif op is _ANGLE:
                 here, there, spec_i = st.args.link, st.args.source, st.args.spec_index
                 if there in poses.phi:
                     src = poses.phi[there]
@@ -273,9 +282,9 @@ class PlanExecutor:
                     if here == s.reference:
                         rel = -rel
                 angles[st.body] = src + rel - frame(st.body)[here][0]
-            elif op in (StepKind.RRR, StepKind.RRP):
+            elif op is _RRR or op is _RRP:
                 x = st.point
-                if op == StepKind.RRR:
+                if op is _RRR:
                     a = st.args
                     b1, p1, b2, p2 = a.body_a, a.centre_a, a.body_b, a.centre_b
                     r1, r2 = radius(b1, x, p1), radius(b2, x, p2)
@@ -303,7 +312,7 @@ class PlanExecutor:
                 if not ops.batch and not okk:  # beyond the float range
                     return finish(k, 0.0)
                 took(k, sg, pair.margin, okk, pair.violation)
-            elif op == StepKind.RPR:
+            elif op is _RPR:
                 jname, p = st.args.joint, st.args.pivot
                 pj = mech.prismatics[jname]
                 x, bi = st.point, st.body

@@ -402,10 +402,8 @@ class Plan:
         }
         self.placed_links = [l for b in sorted(placed) for l in self.bodies[b].links]
         self.branch_steps = [s for s in self.steps if s.branching]
-
-    @property
-    def reference_signs(self) -> tuple[int, ...]:
-        return tuple(s.sign for s in self.branch_steps)
+        #: the branch sign of each branching step in the reference pose
+        self.reference_signs: tuple[int, ...] = tuple(s.sign for s in self.branch_steps)
 
     def describe(self) -> list[str]:
         out = []

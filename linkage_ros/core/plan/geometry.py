@@ -23,7 +23,7 @@ def step_geometry(ops, mech: Mechanism, st: Step, pts, rot) -> tuple:
         return z / ops.where(r > 0, r, 1.0)
 
     x = pts[st.point]
-    if st.op == StepKind.RRR:
+    if st.op is StepKind.RRR:
         a, b = pts[st.args.centre_a], pts[st.args.centre_b]
         ab, ax = unit(b - a), unit(x - a)  # units: products of 1e200 overflow
         side = ab.real * ax.imag - ab.imag * ax.real
