@@ -1255,3 +1255,25 @@ def test_empty_topic_names_are_usage_errors(tmp_path, scene, capsys):
     assert not out_csv.exists()
     code, cap = run_bag([*common, '--command-topic', '/cmd'], capsys)  # and the same run works
     assert code == 0, cap.err
+
+
+# ---- why JointState is decoded by hand --------------------------------------------------------
+
+
+@pytest.mark.parametrize('names', [['crank'], ['Z1', 'Z2', 'Z3'], ['ab']])
+def test_recorded_joint_states_need_the_hand_decoder(names):
+    """rosbags' own CDR deserialiser refuses what rclpy (hence `ros2 bag record`) writes: the
+    Fast-CDR size estimate leaves slack bytes after the message ("size mismatch"). The bag tool
+    decodes JointState itself (vectorised over messages of one layout); when this test fails
+    because rosbags reads these bytes, the hand decoder can give way to it."""
+    from rosbags.serde import SerdeError
+
+    positions = [0.25 * (k + 1) for k in range(len(names))]
+    raw = bytes(rclpy_bytes(names, positions, 7, 8))
+    with pytest.raises(SerdeError, match='size mismatch'):
+        TS.deserialize_cdr(raw, JS)
+    sec, nanosec, key, keys, _npos, values, _start = bag.reading.decode_joint_states(
+        [raw], np.zeros(1, np.int8), ['/cmd'], np.zeros(1, np.int64)
+    )
+    assert (int(sec[0]), int(nanosec[0])) == (7, 8)
+    assert keys[int(key[0])] == tuple(names) and values.tolist() == positions
