@@ -16,7 +16,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from .core.errors import CommandError, LinkageError, PlanError
+from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
 from .core.solver import Result, Solver
 
@@ -234,7 +234,7 @@ def request_shape_error(names: Sequence[str], npos: int) -> str | None:
         return 'empty JointState: name and position are both empty'
     if len(names) != npos:
         return (
-            f'JointState has {len(names)} name(s) {names} but {npos} position(s); they must '
+            f'JointState has {len(names)} name(s) {echo(names)} but {npos} position(s); they must '
             'pair up one to one'
         )
     empty = [i for i, n in enumerate(names) if not n]
@@ -242,7 +242,7 @@ def request_shape_error(names: Sequence[str], npos: int) -> str | None:
         return f'JointState name[{empty[0]}] is an empty string'
     dups = [n for n, count in collections.Counter(names).items() if count > 1]
     if dups:
-        return f'JointState names {sorted(set(dups))} more than once'
+        return f'JointState names {echo(sorted(set(dups)))} more than once'
     return None
 
 

@@ -1149,7 +1149,10 @@ def test_command_values_of_the_wrong_type_are_refused_by_name():
     crank = Solver(four_bar(*CRANK_ROCKER))
     for big in (10**400, -(10**400)):
         r = crank.solve({'crank': big})
-        assert not r.success and r.reason == f'crank: value must be finite (got {big!r})'
+        # the echo is cut to 80 characters (one rule for every echoed value)
+        assert (
+            not r.success and r.reason == f'crank: value must be finite (got {repr(big)[:77]}...)'
+        )
     # nothing changed: the same answer as before the refusals
     again = solver.solve({'point:D': tuple(mech.points['D'])})
     assert again.points == ref.points

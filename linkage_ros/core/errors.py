@@ -2,6 +2,20 @@
 
 from __future__ import annotations
 
+#: The most characters of a value any message quotes (scene errors, request refusals, bag
+#: errors): a message never grows with the input it echoes.
+ECHO_CHARS = 80
+
+
+def echo(value: object, limit: int = ECHO_CHARS) -> str:
+    """``repr(value)`` for a message, cut to ``limit`` characters with '...' at the end."""
+    if isinstance(value, str | bytes) and len(value) > 4 * limit:
+        value = value[: 4 * limit]  # repr of a 1 MB string only to cut it: cut first
+        text = repr(value)[:-1]  # the closing quote goes: the value does not end there
+    else:
+        text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + '...'
+
 
 class LinkageError(Exception):
     """Base class of every error raised by linkage_ros."""
@@ -28,7 +42,7 @@ class SceneError(LinkageError):
         head = ': '.join(parts)
         text = f'{head}: {message}' if head else message
         if has_value or value is not None:
-            text += f' (got {value!r})'
+            text += f' (got {echo(value)})'
         super().__init__(text)
 
 

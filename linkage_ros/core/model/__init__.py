@@ -33,8 +33,10 @@ from .mechanism import (  # noqa: F401
     RevoluteJoint,
 )
 from .scene import (  # noqa: F401
+    MAX_NUMBER_CHARS,
+    MAX_SCENE_BYTES,
+    MAX_SCENE_DEPTH,
     Scene,
-    _first_bad_utf8,
     _UniqueKeyLoader,
 )
 from .shortcuts import (  # noqa: F401

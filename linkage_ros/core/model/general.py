@@ -190,6 +190,8 @@ def _read_cylinders(
     for cname, spec in cyl_raw.items():
         key = f'cylinders.{cname}'
         ctx.name(key, cname)
+        if cname in links:
+            ctx.fail(key, 'is the name of a link; a cylinder needs a name of its own', cname)
         spec = ctx.mapping(key, spec)
         ctx.only(key, spec, {'from', 'to', 'min', 'max'})
         a, b = spec.get('from'), spec.get('to')
@@ -325,6 +327,7 @@ def _read_actuators(
     actuators: dict[str, Actuator],
 ) -> None:
     """actuators: angle (a link relative to another) or slide (a prismatic joint)."""
+    turns = _AngleGraph()  # which links the angle actuators already turn relative to another
     act_raw = data.get('actuators') or {}
     ctx.mapping('actuators', act_raw)
     for aname, spec in act_raw.items():
@@ -343,6 +346,15 @@ def _read_actuators(
             ref = spec.get('relative_to', ground)
             if not ctx.known(ref, links) or ref == link:
                 ctx.fail(f'{key}.relative_to', 'must name another link', ref)
+            chain = turns.path(link, ref)
+            if chain is not None:
+                ctx.fail(
+                    f'{key}.relative_to',
+                    f'closes a cycle of angle actuators ({", ".join([*chain, aname])}): the '
+                    f'angle of {link!r} relative to {ref!r} is already fixed by the others',
+                    ref,
+                )
+            turns.join(link, ref, aname)
             pivot = spec.get('pivot')
             if not ctx.known(pivot, links[link].points):
                 ctx.fail(f'{key}.pivot', f'must be a point of link {link!r}', pivot)
@@ -410,6 +422,37 @@ def _check_one_point_links(
                 'otherwise its orientation is undefined',
                 list(link.points),
             )
+
+
+class _AngleGraph:
+    """Links joined by angle actuators (each fixes one link's angle relative to another): a
+    new actuator between links already joined would over-constrain them."""
+
+    def __init__(self) -> None:
+        self.edges: dict[str, list[tuple[str, str]]] = {}  # link -> [(other link, actuator)]
+
+    def join(self, a: str, b: str, actuator: str) -> None:
+        self.edges.setdefault(a, []).append((b, actuator))
+        self.edges.setdefault(b, []).append((a, actuator))
+
+    def path(self, a: str, b: str) -> list[str] | None:
+        """The actuators joining a to b (breadth first), or None if they are not joined."""
+        seen: dict[str, tuple[str, str] | None] = {a: None}
+        todo = [a]
+        while todo:
+            here = todo.pop(0)
+            if here == b:
+                chain: list[str] = []
+                while seen[here] is not None:
+                    prev, act = seen[here]  # type: ignore[misc]
+                    chain.append(act)
+                    here = prev
+                return chain[::-1]
+            for other, act in self.edges.get(here, []):
+                if other not in seen:
+                    seen[other] = (here, act)
+                    todo.append(other)
+        return None
 
 
 def _limits(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> tuple[float | None, float | None]:

@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import os
 import re
+import stat
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -29,22 +31,17 @@ class Scene:
     @classmethod
     def from_yaml(cls, path: str | Path) -> Scene:
         path = str(path)
+        text = _read_text(path)
         try:
-            with open(path, encoding='utf-8') as fh:
-                data = yaml.load(fh, Loader=_UniqueKeyLoader)
-        except FileNotFoundError:
-            raise SceneError('scene file not found', file=path) from None
-        except UnicodeDecodeError:
-            raise SceneError(
-                f'not UTF-8 text ({_first_bad_utf8(path)}); save it as UTF-8', file=path
-            ) from None
-        except OSError as exc:
-            raise SceneError(f'cannot read scene file: {exc.strerror}', file=path) from None
+            data = yaml.load(text, Loader=_UniqueKeyLoader)
+        except _OutOfBounds as exc:
+            raise SceneError(str(exc), file=path, key=exc.key) from None
         except yaml.YAMLError as exc:
             mark = getattr(exc, 'problem_mark', None)
             where = f' at line {mark.line + 1}, column {mark.column + 1}' if mark else ''
+            key = getattr(exc, 'key', None)
             raise SceneError(
-                f'invalid YAML{where}: {getattr(exc, "problem", exc)}', file=path
+                f'invalid YAML{where}: {getattr(exc, "problem", exc)}', file=path, key=key
             ) from None
         return cls(mechanism=build_mechanism(data, source=path), path=path)
 
@@ -53,24 +50,142 @@ class Scene:
         return cls(mechanism=build_mechanism(data, source=source), path=None)
 
 
-def _first_bad_utf8(path: str) -> str:
-    """Where a file stops being UTF-8: the reader's error counts from the start of its buffer,
-    not of the file."""
+#: The largest scene file read (bytes): the largest shipped scene is a few kB; a file this big
+#: parses in well under a second, and anything larger is refused before it is parsed.
+MAX_SCENE_BYTES = 1 << 20
+#: The deepest nesting of mappings and lists a scene may use (the shipped ones use 4).
+MAX_SCENE_DEPTH = 32
+#: The most characters a number may have (a 10^5-digit integer takes seconds to convert).
+MAX_NUMBER_CHARS = 100
+
+_KINDS = (
+    (stat.S_ISDIR, 'a directory'),
+    (stat.S_ISFIFO, 'a FIFO (named pipe)'),
+    (stat.S_ISCHR, 'a character device'),
+    (stat.S_ISBLK, 'a block device'),
+    (stat.S_ISSOCK, 'a socket'),
+)
+
+
+def _read_text(path: str) -> str:
+    """A scene file's text, bounded: a regular file only (opened without blocking, so a FIFO or
+    a device is refused at once), at most MAX_SCENE_BYTES, UTF-8."""
     try:
-        raw = Path(path).read_bytes()
-        raw.decode('utf-8')
+        fd = os.open(path, os.O_RDONLY | getattr(os, 'O_NONBLOCK', 0) | getattr(os, 'O_NOCTTY', 0))
+    except FileNotFoundError:
+        raise SceneError('scene file not found', file=path) from None
+    except OSError as exc:
+        raise SceneError(f'cannot read scene file: {exc.strerror or exc}', file=path) from None
+    try:
+        mode = os.fstat(fd).st_mode
+        if not stat.S_ISREG(mode):
+            kind = next((what for test, what in _KINDS if test(mode)), 'not a regular file')
+            raise SceneError(f'is {kind}, not a scene file (a regular file)', file=path)
+        chunks, size = [], 0
+        while size <= MAX_SCENE_BYTES:
+            chunk = os.read(fd, MAX_SCENE_BYTES + 1 - size)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            size += len(chunk)
+    except OSError as exc:
+        raise SceneError(f'cannot read scene file: {exc.strerror or exc}', file=path) from None
+    finally:
+        os.close(fd)
+    if size > MAX_SCENE_BYTES:
+        raise SceneError(
+            f'larger than {MAX_SCENE_BYTES} bytes, the limit for a scene file '
+            '(the shipped scenes are a few kB)',
+            file=path,
+        )
+    raw = b''.join(chunks)
+    try:
+        return raw.decode('utf-8')
     except UnicodeDecodeError as exc:
         line = raw.count(b'\n', 0, exc.start) + 1
-        return f'byte {raw[exc.start : exc.start + 1]!r} on line {line} cannot be decoded'
-    except OSError:
-        pass
-    return 'it cannot be decoded'
+        bad = raw[exc.start : exc.start + 1]
+        raise SceneError(
+            f'not UTF-8 text (byte {bad!r} on line {line} cannot be decoded); save it as UTF-8',
+            file=path,
+        ) from None
+
+
+class _OutOfBounds(yaml.YAMLError):
+    """A scene beyond a structural bound (nesting deeper than MAX_SCENE_DEPTH, raised before
+    the composer recurses; a number longer than MAX_NUMBER_CHARS), with the key it is under."""
+
+    def __init__(self, message: str, key: str):
+        super().__init__(message)
+        self.key = key
+
+
+def _key_label(index: object) -> str | None:
+    """The key a composed node sits under: a mapping key's text, or [i] in a list."""
+    if isinstance(index, yaml.ScalarNode):
+        return str(index.value)
+    if isinstance(index, int):
+        return f'[{index}]'
+    return None
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):
     """safe_load that refuses a key given twice in one mapping (YAML's last-one-wins would build
     a different mechanism than the file shows) and reads 1e-3 as a number (YAML 1.2), not as the
     string YAML 1.1 makes of an exponent without a dot."""
+
+    def __init__(self, stream: Any):
+        super().__init__(stream)
+        self._path: list[str] = []
+        self._depth = 0
+
+    def _where(self) -> str:
+        key = ''
+        for part in self._path:
+            key += part if part.startswith('[') or not key else f'.{part}'
+        return key
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        """Compose with the key path known: refuse an alias (its expansion is unbounded: a
+        billion-laughs file of a few hundred bytes), nesting deeper than MAX_SCENE_DEPTH (the
+        composer recurses) and a number longer than MAX_NUMBER_CHARS, naming the key."""
+        label = _key_label(index)
+        if label is not None:
+            self._path.append(label)
+        self._depth += 1
+        try:
+            if self.check_event(yaml.AliasEvent):
+                event = self.peek_event()
+                err = yaml.composer.ComposerError(
+                    None,
+                    None,
+                    f'aliases (*{event.anchor}) are not allowed in a scene file; '
+                    'write the value out',
+                    event.start_mark,
+                )
+                err.key = self._where() or None  # type: ignore[attr-defined]
+                raise err
+            if self._depth > MAX_SCENE_DEPTH + 1:  # + 1: the document's top node
+                raise _OutOfBounds(
+                    f'nested deeper than {MAX_SCENE_DEPTH} levels (line '
+                    f'{self.peek_event().start_mark.line + 1})',
+                    self._where(),
+                )
+            node = super().compose_node(parent, index)
+            if (
+                isinstance(node, yaml.ScalarNode)
+                and len(node.value) > MAX_NUMBER_CHARS
+                and node.tag.endswith((':int', ':float'))
+            ):
+                raise _OutOfBounds(
+                    f'a number of {len(node.value)} characters is out of range '
+                    f'(at most {MAX_NUMBER_CHARS}; line {node.start_mark.line + 1})',
+                    self._where(),
+                )
+            return node
+        finally:
+            self._depth -= 1
+            if label is not None:
+                self._path.pop()
 
     def construct_mapping(self, node, deep=False):
         seen: dict[Any, Any] = {}

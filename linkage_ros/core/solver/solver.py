@@ -25,7 +25,7 @@ import numpy as np
 
 from ..assemble import ResultAssembler
 from ..dyads import wrap_angle
-from ..errors import PlanError
+from ..errors import PlanError, echo
 from ..model import Mechanism
 from ..newton import LoopSystem
 from ..ops import SCALAR
@@ -287,7 +287,7 @@ class Solver(NewtonPath, BatchAPI):
             raise ValueError('a command must map known names to values')
         unknown = [k for k in values if k not in self.knowns]
         if unknown:
-            raise ValueError(f'unknown name(s) {unknown}; this solve takes {self.knowns}')
+            raise ValueError(f'unknown name(s) {echo(unknown)}; this solve takes {self.knowns}')
         missing = [k for k in self.knowns if k not in values]
         if missing:
             raise ValueError(f'missing value(s) for {missing}')
@@ -305,24 +305,26 @@ class Solver(NewtonPath, BatchAPI):
                     arr = np.asarray(v, float).reshape(-1)
                 except (TypeError, ValueError, OverflowError):
                     raise ValueError(
-                        f'{s.name}: a point needs two numbers x, y (got {v!r})'
+                        f'{s.name}: a point needs two numbers x, y (got {echo(v)})'
                     ) from None
                 if arr.shape != (2,):
-                    raise ValueError(f'{s.name}: a point needs two numbers x, y (got {v!r})')
+                    raise ValueError(f'{s.name}: a point needs two numbers x, y (got {echo(v)})')
                 if not np.all(np.isfinite(arr)):
-                    raise ValueError(f'{s.name}: value must be finite (got {v!r})')
+                    raise ValueError(f'{s.name}: value must be finite (got {echo(v)})')
                 out.append(arr)
             else:
                 if isinstance(v, (bool, np.bool_)) or not isinstance(
                     v, (int, float, np.floating, np.integer)
                 ):
-                    raise ValueError(f'{s.name}: value must be a number in {s.unit} (got {v!r})')
+                    raise ValueError(
+                        f'{s.name}: value must be a number in {s.unit} (got {echo(v)})'
+                    )
                 try:
                     fv = float(v)
                 except OverflowError:  # a Python int beyond the float range
                     fv = math.inf
                 if not math.isfinite(fv):
-                    raise ValueError(f'{s.name}: value must be finite (got {v!r})')
+                    raise ValueError(f'{s.name}: value must be finite (got {echo(v)})')
                 out.append(fv)
         return out
 
@@ -367,26 +369,26 @@ class Solver(NewtonPath, BatchAPI):
             vals = self.parse(values)
         except ValueError as exc:
             return Result(False, str(exc), solver=self.mode)
-        echo = self._echo(vals)
+        given = self._echo(vals)
         for s, v in zip(self.specs, vals):
             if s.kind != 'point':
                 bad = self.limit_violation(s, v)
                 if bad:
-                    return self._fail(bad, echo)
+                    return self._fail(bad, given)
         if self.mode == 'closed_form':
             res, state = self._solve_closed(vals)
         else:
             res, state = self._solve_newton(vals)
         if res.success and not res.residual <= self.closure_limit:
-            return self._fail(self._closure_reason(res.residual), echo, solver=res.solver)
-        res.targets = {k: v for k, v in echo.items() if k not in self.mech.actuators}
+            return self._fail(self._closure_reason(res.residual), given, solver=res.solver)
+        res.targets = {k: v for k, v in given.items() if k not in self.mech.actuators}
         if res.success and self.inverse:
             for s in self.actuator_specs:
                 v = res.inputs.get(s.name)
                 if v is not None:
                     bad = self.limit_violation(s, v)
                     if bad:
-                        return self._fail(f'target needs {bad}', echo, solver=res.solver)
+                        return self._fail(f'target needs {bad}', given, solver=res.solver)
         if res.success and commit and state is not None:
             self._history = (self._history + [state])[-2:]
         return res

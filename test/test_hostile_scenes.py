@@ -1,0 +1,188 @@
+"""Scene files written by an attacker, a careless user or a failing disk: every one is refused
+with one line naming the file and the key, quickly and in bounded memory, by the CLI (exit 2)
+and by the node (exit 1, one FATAL line); nothing echoes more than a short prefix of a value.
+
+Each case here used to hang, exhaust memory or end in a traceback: a YAML alias bomb printed a
+66 MB error, a FIFO blocked the CLI forever, 10^5 nested lists or a 10^5-digit integer ended in
+RecursionError / ValueError tracebacks, and any size of file was read whole."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+
+import pytest
+import yaml
+from ros_harness import NodeProcess, random_domain_id
+from scenes import CONFIG
+
+from linkage_ros.core.errors import ECHO_CHARS, SceneError
+from linkage_ros.core.model import MAX_NUMBER_CHARS, MAX_SCENE_BYTES, MAX_SCENE_DEPTH, Scene
+
+FOUR_BAR = (CONFIG / 'four_bar.yaml').read_text()
+
+
+def alias_bomb(levels: int) -> str:
+    """A four_bar scene whose rocker nests ``levels`` levels of aliases, 9 wide each (its full
+    expansion has 9**levels leaves; 454 bytes at 7 levels)."""
+    rows = ['&a0 [1, 1, 1, 1, 1, 1, 1, 1, 1]']
+    for k in range(1, levels + 1):
+        rows.append(f'&a{k} [' + ', '.join([f'*a{k - 1}'] * 9) + ']')
+    return (
+        f'four_bar:\n  ground: 0.3\n  crank: 0.1\n  coupler: 0.25\n  rocker: [{", ".join(rows)}]\n'
+    )
+
+
+def run_cli(*args, timeout=60):
+    t0 = time.perf_counter()
+    proc = subprocess.run(
+        [sys.executable, '-m', 'linkage_ros.cli', *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
+    return proc, time.perf_counter() - t0
+
+
+def refused_fast(path, key: str | None, fragment: str) -> SceneError:
+    """In-process: Scene.from_yaml refuses in well under a second, naming file, key and why."""
+    t0 = time.perf_counter()
+    with pytest.raises(SceneError) as info:
+        Scene.from_yaml(path)
+    took = time.perf_counter() - t0
+    text = str(info.value)
+    assert took < 0.5, (took, text[:200])
+    assert text.startswith(str(path)), text[:200]
+    if key is not None:
+        assert info.value.key == key, text[:200]
+    assert fragment in text, text[:300]
+    assert len(text) < 600, len(text)
+    return info.value
+
+
+def test_an_alias_bomb_is_refused_at_its_first_alias(tmp_path):
+    path = tmp_path / 'bomb.yaml'
+    path.write_text(alias_bomb(8))
+    assert len(alias_bomb(7)) < 500  # as small as the reported file (436 bytes)
+    refused_fast(path, 'four_bar.rocker[1][0]', 'aliases (*a0) are not allowed')
+    proc, _ = run_cli('check', path)
+    assert proc.returncode == 2, proc.stderr[-500:]
+    assert 'Traceback' not in proc.stderr and len(proc.stderr) < 600, proc.stderr[-500:]
+    assert str(path) in proc.stderr and 'four_bar.rocker' in proc.stderr
+
+
+def test_a_file_over_the_size_limit_is_refused_before_it_is_read_whole(tmp_path):
+    random_bytes = tmp_path / 'random.yaml'
+    random_bytes.write_bytes(os.urandom(3 * MAX_SCENE_BYTES))
+    refused_fast(random_bytes, None, f'larger than {MAX_SCENE_BYTES} bytes')
+    padded = tmp_path / 'padded.yaml'
+    padded.write_text(FOUR_BAR + ('# padding' + ' ' * 90 + '\n') * (MAX_SCENE_BYTES // 100 + 1))
+    refused_fast(padded, None, 'the limit for a scene file')
+
+
+def test_a_scene_just_under_the_limit_still_loads(tmp_path):
+    padded = tmp_path / 'padded.yaml'
+    pad = ('#' + ' ' * 98 + '\n') * ((MAX_SCENE_BYTES - len(FOUR_BAR.encode())) // 100)
+    padded.write_text(FOUR_BAR + pad)
+    assert padded.stat().st_size <= MAX_SCENE_BYTES
+    t0 = time.perf_counter()
+    mech = Scene.from_yaml(padded).mechanism
+    assert mech.dof == 1 and time.perf_counter() - t0 < 5.0
+
+
+def test_bad_utf8_is_located_without_a_second_read(tmp_path):
+    path = tmp_path / 'latin1.yaml'
+    path.write_bytes(FOUR_BAR.encode() + b'# caf\xe9\n')
+    line = FOUR_BAR.count('\n') + 1
+    refused_fast(path, None, f"not UTF-8 text (byte b'\\xe9' on line {line} cannot be decoded)")
+
+
+@pytest.mark.skipif(not hasattr(os, 'mkfifo'), reason='no FIFOs on this system')
+def test_a_fifo_or_a_device_is_refused_at_once(tmp_path):
+    fifo = tmp_path / 'scene.yaml'
+    os.mkfifo(fifo)
+    refused_fast(fifo, None, 'is a FIFO (named pipe), not a scene file')
+    proc, took = run_cli('check', fifo, timeout=30)  # used to block forever
+    assert proc.returncode == 2 and 'FIFO' in proc.stderr and 'Traceback' not in proc.stderr
+    refused_fast('/dev/zero', None, 'is a character device')
+    refused_fast(tmp_path, None, 'is a directory')
+
+
+def test_deep_nesting_is_refused_naming_the_key(tmp_path):
+    path = tmp_path / 'deep.yaml'
+    depth = 10**5
+    path.write_text(FOUR_BAR.replace('rocker: 0.20', 'rocker: ' + '[' * depth + ']' * depth))
+    err = refused_fast(path, None, f'nested deeper than {MAX_SCENE_DEPTH} levels')
+    assert err.key.startswith('four_bar.rocker[0][0]')
+    # the block style nests by indentation: the same bound
+    block = ''.join(f'{"  " * k}k{k}:\n' for k in range(40)) + '  ' * 40 + 'v: 1\n'
+    path.write_text(block)
+    refused_fast(path, None, 'nested deeper than')
+    proc, _ = run_cli('check', path)
+    assert proc.returncode == 2 and 'Traceback' not in proc.stderr, proc.stderr[-500:]
+
+
+def test_an_enormous_number_is_refused_before_conversion(tmp_path):
+    path = tmp_path / 'digits.yaml'
+    path.write_text(FOUR_BAR.replace('rocker: 0.20', 'rocker: ' + '9' * 10**5))
+    refused_fast(path, 'four_bar.rocker', 'a number of 100000 characters is out of range')
+    path.write_text(FOUR_BAR.replace('rocker: 0.20', 'rocker: 0.' + '2' * 10**5))
+    refused_fast(path, 'four_bar.rocker', f'(at most {MAX_NUMBER_CHARS}')
+    proc, _ = run_cli('check', path)
+    assert proc.returncode == 2 and 'Traceback' not in proc.stderr, proc.stderr[-500:]
+
+
+def test_a_long_value_is_echoed_as_a_short_prefix(tmp_path):
+    path = tmp_path / 'long.yaml'
+    path.write_text(FOUR_BAR.replace('rocker: 0.20', 'rocker: "' + 'x' * 500_000 + '"'))
+    err = refused_fast(path, 'four_bar.rocker', 'must be')
+    echoed = str(err).split('(got ', 1)[1]
+    assert echoed.endswith('...)') and len(echoed) <= ECHO_CHARS + 1
+
+
+def test_a_cylinder_named_like_a_link_is_refused(tmp_path):
+    data = yaml.safe_load((CONFIG / 'excavator.yaml').read_text())
+    cyl = next(iter(data['cylinders']))
+    link = next(n for n in data['links'] if n != data.get('ground', 'ground'))
+    data['cylinders'][link] = data['cylinders'].pop(cyl)
+    path = tmp_path / 'clash.yaml'
+    path.write_text(yaml.safe_dump(data))
+    refused_fast(path, f'cylinders.{link}', 'is the name of a link')
+
+
+def test_cyclic_relative_to_names_the_file_and_the_key(tmp_path):
+    data = yaml.safe_load((CONFIG / 'plagiograph.yaml').read_text())
+    data['actuators']['theta_A']['relative_to'] = 'crank_C'
+    data['actuators']['theta_C']['relative_to'] = 'crank_A'
+    path = tmp_path / 'cycle.yaml'
+    path.write_text(yaml.safe_dump(data))
+    refused_fast(
+        path,
+        'actuators.theta_C.relative_to',
+        'closes a cycle of angle actuators (theta_A, theta_C)',
+    )
+
+
+def test_the_node_refuses_a_hostile_scene_with_one_fatal_line(tmp_path):
+    bomb = tmp_path / 'bomb.yaml'
+    bomb.write_text(alias_bomb(8))
+    deep = tmp_path / 'deep.yaml'
+    deep.write_text(FOUR_BAR.replace('rocker: 0.20', 'rocker: ' + '[' * 10**5 + ']' * 10**5))
+    domain = random_domain_id()
+    procs = {
+        name: NodeProcess(tmp_path / f'node_{name}', domain, {'scene': str(path)}).start()
+        for name, path in (('bomb', bomb), ('deep', deep))
+    }
+    try:
+        codes = {name: p.wait(timeout=60) for name, p in procs.items()}
+    finally:
+        for p in procs.values():
+            p.stop()
+    for name, p in procs.items():
+        err = p.stderr()
+        assert codes[name] == 1, p.output()[-2000:]
+        assert 'Traceback' not in err and len(err) < 2000, err[-2000:]
+        (fatal,) = [ln for ln in err.splitlines() if 'FATAL' in ln]
+        assert f'{name}.yaml' in fatal and 'four_bar.rocker' in fatal, fatal
