@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import gc
+import signal
 import sys
 import traceback
 from collections.abc import Callable, Sequence
@@ -27,10 +28,11 @@ from geometry_msgs.msg import PointStamped
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
 from rclpy.exceptions import InvalidParameterTypeException, ParameterException
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
 
@@ -352,27 +354,64 @@ class LinkageNode(Node):
                 self.set_parameters([Parameter('demo_sweep', value=False)])
 
 
+#: How long the spin loop may block before it looks at the stop flag (s): the latency of a
+#: shutdown on SIGINT / SIGTERM, not of any message.
+STOP_POLL_S = 0.1
+
+
+class _StopOnSignal:
+    """SIGINT and SIGTERM (what systemd, docker and ros2 launch send) both ask the spin loop to
+    stop. rclpy's own handlers shut the context down from under a running callback (an RCLError
+    traceback, or a spin that never wakes); here the handler only sets a flag, the callback in
+    progress finishes, and main() destroys the node and shuts rclpy down itself."""
+
+    def __init__(self) -> None:
+        self.requested: int | None = None
+
+    def install(self) -> None:
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, self._on_signal)
+
+    def _on_signal(self, signum: int, _frame: Any) -> None:
+        if self.requested is None:
+            self.requested = signum
+
+
 def main(args: Sequence[str] | None = None) -> int:
-    """Entry point of ``linkage_node``. Returns the process exit code (0 clean, 1 bad
-    configuration)."""
+    """Entry point of ``linkage_node``. Returns the process exit code (0 clean, also on SIGINT
+    and SIGTERM; 1 bad configuration)."""
+    stop = _StopOnSignal()
+    stop.install()  # before rclpy.init: a signal during start-up is a clean stop too
     try:
-        rclpy.init(args=None if args is None else list(args))
+        rclpy.init(
+            args=None if args is None else list(args),
+            signal_handler_options=SignalHandlerOptions.NO,
+        )
     except Exception as exc:  # malformed --ros-args or parameter file: rcl says why
         print(f'[FATAL] [{NODE_NAME}]: cannot start: {exc}', file=sys.stderr)
         return 1
     node = None
+    executor = None
     try:
         node = LinkageNode()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
         # start-up objects (modules, the scene, compiled plans) live as long as the process:
         # move them out of the collector's sight so a full collection does not stall a command
         gc.freeze()
-        rclpy.spin(node)
+        while stop.requested is None and rclpy.ok():
+            executor.spin_once(timeout_sec=STOP_POLL_S)
     except (ConfigError, SceneError) as exc:
         rclpy.logging.get_logger(NODE_NAME).fatal(f'cannot start: {exc}')
         return 1
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        # a second signal while shutting down changes nothing
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+        if executor is not None:
+            executor.shutdown(timeout_sec=1.0)
         if node is not None:
             node.destroy_node()
         rclpy.try_shutdown()
