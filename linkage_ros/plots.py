@@ -14,6 +14,8 @@ from typing import Any
 
 import numpy as np
 
+from .outputs import written_whole
+
 _BRANCH_COLOURS = (
     'tab:blue',
     'tab:orange',
@@ -41,7 +43,8 @@ def _figure(width=7.0, height=6.0):
 def _save(fig, path) -> str:
     path = str(path)
     Path(path).parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, format='png', bbox_inches='tight')
+    with written_whole(path) as tmp:
+        fig.savefig(tmp, format='png', bbox_inches='tight')
     return path
 
 

@@ -90,6 +90,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         '(format from the extension: png, svg, pdf, ...; PNG if none)',
     )
     parser.add_argument(
+        '--accept-missing',
+        action='store_true',
+        help='read a bag whose index counts more messages than it holds (a damaged or edited '
+        'bag) instead of refusing it; the summary says how many are missing per topic',
+    )
+    parser.add_argument(
         '--no-progress',
         action='store_true',
         help='no progress bar (it is shown only when stderr is a terminal)',
@@ -140,7 +146,7 @@ def _run(args) -> int:
     try:
         engine = _Engine(mech, args.solver, args.tol, args.max_iter, args.branch)  # PlanError early
         topics = [args.command_topic] + ([args.target_topic] if args.target_topic else [])
-        data = read_commands(args.input, topics, progress)
+        data = read_commands(args.input, topics, progress, accept_missing=args.accept_missing)
         t_read = time.perf_counter()
         res = engine.solve_all(data, progress)
         t_solve = time.perf_counter()

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import written_whole
 from .progress import _Progress
 from .reading import Commands
 from .results import Results
@@ -229,7 +230,7 @@ def write_csv(
     comma = None
     topics = [_csv_field(t) for t in data.topics]
     status_names = ['error', 'ok']
-    with open(path, 'wb') as fh:
+    with written_whole(path) as tmp, open(tmp, 'wb') as fh:
         fh.write((','.join(csv_header(mech)) + '\n').encode())
         for a in range(0, n, block):
             b = min(n, a + block)

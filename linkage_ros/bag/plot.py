@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..outputs import written_whole
 from .common import BagError
 from .reading import Commands, _exc_text
 from .results import Results
@@ -77,7 +78,8 @@ def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 
     fmt = _plot_format(str(path))  # the file named is the file written (no '.png' added)
     fig = plot_figure(data, res, mech, max_points)
     try:
-        fig.savefig(path, dpi=110, format=fmt)
+        with written_whole(path) as tmp:
+            fig.savefig(tmp, dpi=110, format=fmt)
     except OSError as exc:
         raise BagError(f'--plot {path}: {exc.strerror or exc}') from None
     except Exception as exc:  # noqa: BLE001 - e.g. a format whose writer is missing (pgf: LaTeX)

@@ -62,7 +62,11 @@ def _summary(data, res, outs, plot, t0, t_read, t_solve, t_end):
     n = data.n
     lines = [f'linkage bag: {n} message(s) read from {data.source}']
     for k, topic in enumerate(data.topics):
-        lines.append(f'  {topic}: {int(np.count_nonzero(data.topic == k))}')
+        lost = data.missing.get(topic)
+        lines.append(
+            f'  {topic}: {int(np.count_nonzero(data.topic == k))}'
+            + (f' (MISSING {lost} more that the bag counts: --accept-missing)' if lost else '')
+        )
     solved = int(np.count_nonzero(res.ok))
     lines.append(f'  solved {solved}, refused {n - solved}')
     counts = Counter(_reason_class(r) for r, ok in zip(res.reason, res.ok) if not ok)

@@ -5,11 +5,12 @@ from __future__ import annotations
 
 import contextlib
 import struct
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from ..core.errors import echo
 from .common import JOINT_STATE, BagError
 from .progress import _Progress
 
@@ -31,6 +32,9 @@ class Commands:
     npos: list[int]  # number of positions of each key
     values: np.ndarray  # every row's positions, one after the other (float64)
     start: np.ndarray  # (n + 1,) int64: row i's positions are values[start[i]:...]
+    #: topic -> messages the bag's index counts but that could not be read (only with
+    #: accept_missing; otherwise a missing message is an error)
+    missing: dict[str, int] = field(default_factory=dict)
 
     @property
     def n(self) -> int:
@@ -123,9 +127,26 @@ def _exc_text(exc: BaseException) -> str:
     return text if len(text) < 300 else text[:300] + '...'
 
 
-def read_commands(path: str, topics: list[str], progress: _Progress | None = None) -> Commands:
-    """Read the JointState messages of ``topics`` from a bag, in bag time order, decoded."""
+#: The latest bag receive time read (ns since the epoch): int64, as rosbag2 stores it
+MAX_LOG_NS = 2**63 - 1
+
+
+def read_commands(
+    path: str,
+    topics: list[str],
+    progress: _Progress | None = None,
+    accept_missing: bool = False,
+) -> Commands:
+    """Read the JointState messages of ``topics`` from a bag, in bag time order, decoded.
+
+    What can be checked is: every message's receive time is an integer in [0, 2^63), and the
+    messages read per topic are as many as the bag's index (metadata.yaml, the MCAP summary)
+    counts; a message lost from the middle of a bag (a deleted row, a row whose topic no longer
+    matches, a damaged record) is a BagError naming the topic, unless ``accept_missing``, when
+    the shortfall per topic is kept in ``Commands.missing``. A .db3 file must pass SQLite's
+    quick_check first."""
     progress = progress or _Progress(False)
+    _check_sqlite(path)
     reader = _open_reader(path)
     try:
         try:
@@ -152,11 +173,18 @@ def read_commands(path: str, topics: list[str], progress: _Progress | None = Non
         raws: list[bytes] = []
         tops: list[int] = []
         stamps: list[int] = []
+        read: dict[int, int] = {}
         try:
             for i, (conn, t, raw) in enumerate(reader.messages([c for g in conns for c in g])):
+                if not (type(t) is int and 0 <= t <= MAX_LOG_NS):
+                    raise BagError(
+                        f'input {path}: message {i + 1} on {conn.topic} has the receive time '
+                        f'{echo(t)}; a bag time is an integer number of ns in [0, 2^63)'
+                    )
                 raws.append(raw)
                 tops.append(index[conn.id])
                 stamps.append(t)
+                read[conn.id] = read.get(conn.id, 0) + 1
                 if not i & 0x3FFF:
                     progress.update(i)
         except BagError:
@@ -167,6 +195,7 @@ def read_commands(path: str, topics: list[str], progress: _Progress | None = Non
                 f'({_exc_text(exc)}); the bag is truncated or corrupt'
             ) from None
         progress.finish()
+        missing = _shortfall(path, conns, read, accept_missing)
     finally:
         with contextlib.suppress(Exception):
             reader.close()
@@ -180,8 +209,69 @@ def read_commands(path: str, topics: list[str], progress: _Progress | None = Non
     topic = np.asarray(tops, np.int8).reshape(n)
     sec, nanosec, key, keys, npos, values, start = decode_joint_states(raws, topic, topics, log_ns)
     return Commands(
-        str(path), list(topics), topic, log_ns, sec, nanosec, key, keys, npos, values, start
+        str(path),
+        list(topics),
+        topic,
+        log_ns,
+        sec,
+        nanosec,
+        key,
+        keys,
+        npos,
+        values,
+        start,
+        missing,
     )
+
+
+def _shortfall(path: str, conns: list, read: dict[int, int], accept: bool) -> dict[str, int]:
+    """Messages the bag's index counts per topic but that were not read: a BagError, or (with
+    ``accept``) {topic: how many}. More read than counted is always an error (made up rows)."""
+    missing: dict[str, int] = {}
+    for group in conns:
+        topic = group[0].topic
+        counted = sum(int(c.msgcount) for c in group)
+        got = sum(read.get(c.id, 0) for c in group)
+        if got > counted or (got < counted and not accept):
+            raise BagError(
+                f'input {path}: topic {topic}: the bag counts {counted} message(s) but '
+                f'{got} could be read; '
+                + (
+                    'it holds messages its index does not know'
+                    if got > counted
+                    else f'{counted - got} are missing (a damaged or edited bag; '
+                    '--accept-missing reads it anyway and says how many are missing)'
+                )
+            )
+        if got < counted:
+            missing[topic] = counted - got
+    return missing
+
+
+def _check_sqlite(path: str) -> None:
+    """SQLite's own consistency check on every .db3 file of the bag (read-only)."""
+    import sqlite3
+
+    p = Path(path)
+    files = sorted(p.glob('*.db3')) if p.is_dir() else [p] if p.suffix.lower() == '.db3' else []
+    for f in files:
+        try:
+            con = sqlite3.connect(f'file:{f}?mode=ro', uri=True)
+            try:
+                rows = con.execute('PRAGMA quick_check').fetchall()
+            finally:
+                con.close()
+        except sqlite3.Error as exc:
+            raise BagError(
+                f'input {path}: {f.name} fails SQLite quick_check ({_exc_text(exc)}); '
+                'the bag is truncated or corrupt'
+            ) from None
+        if rows != [('ok',)]:
+            first = rows[0][0] if rows else 'no answer'
+            raise BagError(
+                f'input {path}: {f.name} fails SQLite quick_check ({echo(first)}); '
+                'the bag is corrupt'
+            )
 
 
 # -- JointState CDR decoding (vectorised over messages of one layout) ------------------------------

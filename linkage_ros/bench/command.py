@@ -8,6 +8,7 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..outputs import written_whole
 from .collect import collect
 from .report import _met, render_markdown, save_plot, write_report
 from .settings import FULL, QUICK, SCENES, _log
@@ -89,7 +90,8 @@ def run(args) -> int:
     else:
         print(body)
     if args.json:
-        Path(args.json).write_text(json.dumps(report, indent=1, default=float))
+        with written_whole(args.json) as tmp:
+            tmp.write_text(json.dumps(report, indent=1, default=float))
     for t in report['targets']:
         print(f'{_met(t["met"]).strip("*"):8} {t["target"]}: {t["measured"]}')
     print(f'linkage bench: {report["seconds"]:.0f} s')

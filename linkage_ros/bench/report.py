@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from ..outputs import written_whole
 from .collect import _hz, _setting
 from .settings import (
     DEFAULT_DEPTH,
@@ -548,7 +549,8 @@ def save_plot(report: dict, path: Path) -> None:
     )
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    with written_whole(path) as tmp:
+        fig.savefig(tmp, dpi=120, format=path.suffix[1:] or 'png')
     plt.close(fig)
 
 
@@ -561,4 +563,5 @@ def write_report(path: Path, body: str) -> None:
         text = path.read_text(encoding='utf-8')
         intro = text.split(MARKER, 1)[0].rstrip('\n') + '\n'
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(f'{intro}\n{MARKER}\n\n{body}', encoding='utf-8')
+    with written_whole(path) as tmp:
+        tmp.write_text(f'{intro}\n{MARKER}\n\n{body}', encoding='utf-8')
