@@ -40,7 +40,7 @@ __all__ = [
 # ---- inbound -----------------------------------------------------------------------------------
 
 
-def joint_state_to_command(msg: JointState) -> dict[str, float]:
+def joint_state_to_command(msg: JointState, max_names: int | None = None) -> dict[str, float]:
     """``{name: position}`` from a JointState command or target.
 
     Checks only the message's own shape: at least one name, as many positions as names, no
@@ -48,7 +48,10 @@ def joint_state_to_command(msg: JointState) -> dict[str, float]:
     or missing names, NaN, inf, limits, reachability) is the solver's call. ``velocity`` and
     ``effort`` are ignored.
     """
-    return request_values(list(msg.name), list(msg.position))
+    names, positions = msg.name, msg.position
+    if max_names is not None and max(len(names), len(positions)) > max_names:  # no copies
+        return request_values(names, positions, max_names)
+    return request_values(list(names), list(positions), max_names)
 
 
 def point_stamped_to_xy(msg: PointStamped, name: str = '') -> tuple[float, float]:

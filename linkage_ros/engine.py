@@ -222,13 +222,22 @@ class Engine:
 # ---- request checks and status fields (every front end) ----------------------------------------
 
 
-def request_shape_error(names: Sequence[str], npos: int) -> str | None:
+def request_shape_error(
+    names: Sequence[str], npos: int, max_names: int | None = None
+) -> str | None:
     """Why a JointState request (its names and its number of positions) is malformed, or None.
 
     Only the message's own shape: at least one name, as many positions as names, no empty or
     repeated name. Whether the names and values make sense for the mechanism (unknown or
-    missing names, NaN, inf, limits, reachability) is the solver's call.
+    missing names, NaN, inf, limits, reachability) is the solver's call. ``max_names``
+    (:func:`max_request_names`): more names than that are refused first, before any per-name
+    work, so a 10^5-name message costs what a short one does.
     """
+    if max_names is not None and max(len(names), npos) > max_names:
+        return (
+            f'JointState has {len(names)} name(s) and {npos} position(s); the scene has only '
+            f'{max_names} names (actuators, joints, links and points) to give values for'
+        )
     names = list(names)
     if not names and not npos:
         return 'empty JointState: name and position are both empty'
@@ -246,9 +255,17 @@ def request_shape_error(names: Sequence[str], npos: int) -> str | None:
     return None
 
 
-def request_values(names: Sequence[str], positions: Sequence[float]) -> dict[str, float]:
+def max_request_names(mech: Mechanism) -> int:
+    """The most names a request may carry: every name the scene has (a longer one must repeat
+    a name or name something unknown)."""
+    return len(mech.actuators) + len(mech.joint_names) + len(mech.links) + len(mech.points)
+
+
+def request_values(
+    names: Sequence[str], positions: Sequence[float], max_names: int | None = None
+) -> dict[str, float]:
     """``{name: position}`` of a JointState request; CommandError if it is malformed."""
-    why = request_shape_error(names, len(positions))
+    why = request_shape_error(names, len(positions), max_names)
     if why:
         raise CommandError(why)
     return {n: float(p) for n, p in zip(names, positions)}

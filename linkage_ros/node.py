@@ -50,6 +50,7 @@ from .conversions import (
 from .core.errors import CommandError, SceneError
 from .core.solver import Result
 from .demo import DemoSweep
+from .engine import max_request_names
 from .params import (
     DEMO_RATE_MAX,
     DEMO_RATE_MIN,
@@ -141,6 +142,7 @@ class LinkageNode(Node):
         self.config = make_config(self._declare_parameters())
         self.scene, self.engine = load_engine(self.config)
         mech = self.mech = self.scene.mechanism
+        self.max_names = max_request_names(mech)  # a longer request is refused at once
         self.frame_id = self.config.frame_id or mech.frame_id
         self.status_name = f'{NODE_NAME}: {mech.name}'
         # Each QoS-event handler is one more waitable that the executor polls on every wakeup,
@@ -292,12 +294,16 @@ class LinkageNode(Node):
 
     def _on_command(self, msg):
         self._answer(
-            'command', msg.header.stamp, lambda: self.engine.command(joint_state_to_command(msg))
+            'command',
+            msg.header.stamp,
+            lambda: self.engine.command(joint_state_to_command(msg, self.max_names)),
         )
 
     def _on_target(self, msg):
         self._answer(
-            'target', msg.header.stamp, lambda: self.engine.target(joint_state_to_command(msg))
+            'target',
+            msg.header.stamp,
+            lambda: self.engine.target(joint_state_to_command(msg, self.max_names)),
         )
 
     def _on_target_point(self, point: str, msg):

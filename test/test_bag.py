@@ -1404,4 +1404,22 @@ def test_a_corrupt_sqlite_page_fails_quick_check(tmp_path, scene, capsys):
     )
     assert code == 2, cap.out[-500:]
     (line,) = cap.err.strip().splitlines()
-    assert str(folder) in line and "quick_check" in line and "corrupt" in line, line
+    assert str(folder) in line and 'quick_check' in line and 'corrupt' in line, line
+
+
+@pytest.mark.parametrize(
+    'name', ['crank\x00junk', 'crank\x00', '\x00crank', 'cr\x00\x00', 'cr\u00e9nk', 'crank' * 40]
+)
+def test_names_decode_as_the_node_reads_them(name):
+    """One engine, one answer: a name with a NUL in it used to be read differently by the bag
+    tool (trailing NULs stripped) and by the node (rclpy reads a string up to its first NUL).
+    The oracle is rclpy's own deserialisation, the node's."""
+    from rclpy.serialization import deserialize_message
+    from sensor_msgs.msg import JointState
+
+    raw = bytes(TS.serialize_cdr(joint_state([name], [0.5], sec=3), JS))
+    node_reads = deserialize_message(raw, JointState).name[0]
+    _s, _ns, key, keys, _np, _v, _st = bag.reading.decode_joint_states(
+        [raw], np.zeros(1, np.int8), ['/cmd'], np.zeros(1, np.int64)
+    )
+    assert keys[int(key[0])] == (node_reads,)

@@ -846,3 +846,31 @@ def test_a_signal_during_a_command_stream_exits_0_every_time(ros, tmp_path, sig)
         assert code == 0, (code, out[-3000:])
         assert 'Traceback' not in out and 'RCLError' not in out, out[-3000:]
         assert t < 10.0, t
+
+
+def test_a_request_with_more_names_than_the_scene_has_is_refused_at_once(serve):
+    """A 10^5-name message used to be checked name by name (and its reason listed them all);
+    now the count alone refuses it, before any per-name work, on the node and in the bag tool
+    alike (the same engine check), with a short reason; the state is unchanged."""
+    from linkage_ros.engine import max_request_names, request_shape_error
+
+    s = serve(scene='four_bar')
+    limit = max_request_names(s.mech)
+    names = [f'n{k}' for k in range(10**5)]
+    t0 = time.perf_counter()
+    why = request_shape_error(names, len(names), limit)
+    assert time.perf_counter() - t0 < 1e-3
+    assert why == (
+        f'JointState has 100000 name(s) and 100000 position(s); the scene has only {limit} '
+        'names (actuators, joints, links and points) to give values for'
+    )
+    before = s.good('command', joint_state(['crank'], [0.7], (71, 0)))
+    for topic in ('command', 'target'):
+        msg = s.bad(
+            topic,
+            joint_state(names, [0.5] * len(names), (72, 0)),
+            [why],
+            ('command', joint_state(['crank'], [0.7], (73 + (topic == 'target'), 0))),
+        )
+        assert len(msg) < 300
+    assert s.good('command', joint_state(['crank'], [0.7], (80, 0))) == before

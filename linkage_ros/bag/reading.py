@@ -326,7 +326,8 @@ def _parse_layout(raw: bytes) -> _Layout:
         s = raw[pos : pos + k]
         struct_idx.extend(range(pos, pos + k))
         pos += k
-        return s.rstrip(b'\x00').decode('utf-8', errors='replace')
+        # as rclpy (hence the node) reads a string: up to its first NUL, bad UTF-8 replaced
+        return s.split(b'\x00', 1)[0].decode('utf-8', errors='replace')
 
     need(8)
     sec_off = pos

@@ -9,7 +9,13 @@ from ..core.ops import BATCH, to_complex
 from ..core.plan import step_geometry
 from ..core.solver import Solver, branch_identity_defined
 from ..core.steps import RPRDyad, RRPDyad, RRRDyad, StepKind, anchor_of
-from ..engine import SOLVER_CACHE, Engine, EngineSettings, request_shape_error
+from ..engine import (
+    SOLVER_CACHE,
+    Engine,
+    EngineSettings,
+    max_request_names,
+    request_shape_error,
+)
 from ..stamps import stamp_error, stamp_valid
 from .progress import _Progress
 from .reading import Commands
@@ -98,6 +104,7 @@ class _Engine:
 
     def __init__(self, mech, method, tol, max_iter, branch):
         self.mech, self.branch = mech, branch
+        self.max_names = max_request_names(mech)
         # the command solver exists from the start (a bad --solver/--branch fails here)
         self.engine = Engine(mech, EngineSettings(method, tol, max_iter, branch))
         self.forward = _Context(self, self.engine.forward)
@@ -166,7 +173,7 @@ class _Engine:
             return
         k = int(data.key[a])
         names, npos = data.keys[k], data.npos[k]
-        why = request_shape_error(names, npos)
+        why = request_shape_error(names, npos, self.max_names)
         if why:  # conversions.joint_state_to_command
             self._refuse_all(a, b, why)
             return
