@@ -84,6 +84,8 @@ class Engine:
         if ref.success:
             self._last = ref
         self._synced[frozenset(self.forward.knowns)] = self.version
+        #: (target names, branch signs) -> an inverse solver with those branch signs fixed
+        self._explicit: dict[tuple[frozenset[str], str], Solver] = {}
 
     # -- the good state ----------------------------------------------------------------------------
     @property
@@ -190,9 +192,97 @@ class Engine:
         """Forward kinematics: ``{actuator: value}``."""
         return self.solve(self.forward, values)
 
-    def target(self, values: Mapping[str, float]) -> Result:
-        """Inverse kinematics: ``{joint/link/actuator name: value}`` (DOF values in all)."""
-        return self.solve(self.solver_for(list(values)), values)
+    def target(self, values: Mapping[str, float], allow_mode_change: bool = False) -> Result:
+        """Inverse kinematics: ``{joint/link/actuator name: value}`` (DOF values in all), in
+        the mechanism's current assembly mode (see :meth:`solve_target`)."""
+        return self.solve_target(self.solver_for(list(values)), values, allow_mode_change)
+
+    # -- the assembly-mode rule for targets ------------------------------------------------------
+    def mode(self, result: Result | None) -> tuple[tuple[int, ...], list[float]] | None:
+        """The mechanism's assembly mode in a configuration: the branch signs (and margins) of
+        the forward solver's dyads there. None where it is not defined (no closed-form forward
+        plan, no configuration)."""
+        return None if result is None else self.forward.mode_of(result)
+
+    def solve_target(
+        self, solver: Solver | str, values: Mapping[str, Any], allow_mode_change: bool = False
+    ) -> Result:
+        """A target in the current assembly mode. A real mechanism cannot change mode without
+        being taken apart, so under ``branch: continuous`` an answer in another mode (or one
+        refused on a limit) is replaced by a solution in the current mode within limits where
+        one exists (the inverse plan's other branches are tried); if only other modes reach
+        the target it is refused, naming the mode that would, unless ``allow_mode_change``
+        (then the answer says ``mode_change``)."""
+        if isinstance(solver, str):
+            return Result(False, solver)
+        if self.settings.branch != 'continuous':
+            return self.solve(solver, values)
+        self.bring_up_to_date(solver)
+        before = self.mode(self.last)
+        if before is None:
+            return self.solve(solver, values)
+        result = solver.solve(values, commit=False)
+        after = self.mode(result) if result.success else None
+        in_mode = result if result.success and not _mode_differs(before, after) else None
+        # every branch of the inverse plan: the solution in mode nearest the last good state
+        # (continuity of the inverse plan alone may pick another one of the same mode)
+        alt = self._in_mode(solver, values, before, in_mode)
+        if alt is not None:
+            return self._commit(solver, alt)
+        if in_mode is not None:
+            return self._commit(solver, in_mode)
+        if not result.success or after is None:
+            return result
+        change = f'{_mode_text(before[0])} -> {_mode_text(after[0])}'
+        if not allow_mode_change:
+            return Result(
+                False,
+                f'target is reachable only in assembly mode {_mode_text(after[0])} of the '
+                f'forward dyads; the mechanism is in mode {_mode_text(before[0])} and cannot '
+                'change mode without being taken apart (ask for the change explicitly to '
+                'allow it)',
+                solver=result.solver,
+            )
+        result.mode_change = change
+        return self._commit(solver, result)
+
+    def _commit(self, solver: Solver, result: Result) -> Result:
+        solver.adopt(result)
+        self.record(solver, result)
+        return result
+
+    def _in_mode(
+        self,
+        solver: Solver,
+        values: Mapping[str, Any],
+        before: tuple[tuple[int, ...], list[float]],
+        found: Result | None,
+    ) -> Result | None:
+        """The solution of the target in assembly mode ``before`` within limits nearest the
+        last good state, among ``found`` and the branches of a closed-form inverse plan; None
+        if there is none (or the plan is not closed-form)."""
+        if solver.mode != 'closed_form' or not 0 < len(solver.plan.branch_steps) <= MAX_BRANCHES:
+            return found
+        last = self.last
+        best: tuple[float, Result] | None = None
+        if found is not None:
+            best = (_distance(last, found), found)
+        k = len(solver.plan.branch_steps)
+        for code in range(2**k):
+            signs = ''.join('-' if code >> i & 1 else '+' for i in range(k))
+            key = (frozenset(solver.knowns), signs)
+            alt = self._explicit.get(key)
+            if alt is None:
+                alt = self._explicit[key] = self.new_solver(list(solver.knowns), branch=signs)
+                if len(self._explicit) > 4 * SOLVER_CACHE:
+                    self._explicit.pop(next(iter(self._explicit)))
+            r = alt.solve(values, commit=False)
+            if not r.success or _mode_differs(before, self.mode(r)):
+                continue
+            d = _distance(last, r)
+            if best is None or d < best[0]:
+                best = (d, r)
+        return None if best is None else best[1]
 
     def target_point(self, point: str, xy: tuple[float, float]) -> Result:
         """Inverse kinematics: put ``point`` at ``xy``; target_point_hold names keep their value
@@ -216,7 +306,42 @@ class Engine:
                 'set the parameter target_point_hold)'
             )
         values[key] = xy
-        return self.solve(solver, values)
+        return self.solve_target(solver, values)
+
+
+#: the most branching steps of an inverse plan whose 2^k branch choices are searched for a
+#: solution in the current assembly mode
+MAX_BRANCHES = 6
+#: a dyad margin (|sin| of its transmission angle) below which its branch sign is not read as
+#: the assembly mode: at (or within rounding of) its toggle the two modes meet
+MODE_MARGIN = 1e-9
+
+
+def _mode_differs(
+    before: tuple[tuple[int, ...], list[float]], after: tuple[tuple[int, ...], list[float]] | None
+) -> bool:
+    """Whether two assembly modes differ at a dyad clear of its toggle in both."""
+    if after is None:
+        return False
+    return any(
+        sb != sa and mb > MODE_MARGIN and ma > MODE_MARGIN
+        for sb, sa, mb, ma in zip(before[0], after[0], before[1], after[1])
+    )
+
+
+def _mode_text(signs: Sequence[int]) -> str:
+    return ''.join('+' if s > 0 else '-' for s in signs)
+
+
+def _distance(a: Result | None, b: Result) -> float:
+    """Sum of squared point displacements between two configurations (m^2)."""
+    if a is None:
+        return 0.0
+    return sum(
+        (b.points[p][0] - a.points[p][0]) ** 2 + (b.points[p][1] - a.points[p][1]) ** 2
+        for p in a.points
+        if p in b.points
+    )
 
 
 # ---- request checks and status fields (every front end) ----------------------------------------
@@ -233,10 +358,10 @@ def request_shape_error(
     (:func:`max_request_names`): more names than that are refused first, before any per-name
     work, so a 10^5-name message costs what a short one does.
     """
-    if max_names is not None and max(len(names), npos) > max_names:
+    if max_names is not None and len(names) > max_names:
         return (
-            f'JointState has {len(names)} name(s) and {npos} position(s); the scene has only '
-            f'{max_names} names (actuators, joints, links and points) to give values for'
+            f'JointState has {len(names)} name(s); the scene has only {max_names} names '
+            '(actuators, joints, links and points) to give values for'
         )
     names = list(names)
     if not names and not npos:
@@ -287,5 +412,7 @@ def status_values(result: Result, request: str) -> dict[str, Any]:
     }
     if result.cond is not None:
         values['cond'] = result.cond
+    if result.mode_change:
+        values['mode_change'] = result.mode_change
     values['request'] = request
     return values

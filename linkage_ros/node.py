@@ -161,6 +161,13 @@ class LinkageNode(Node):
         self.pub_status = self.create_publisher(DiagnosticStatus, '~/status', qos, **quiet)
         self.create_subscription(JointState, '~/command', self._on_command, qos)
         self.create_subscription(JointState, '~/target', self._on_target, qos)
+        self.create_subscription(
+            JointState,
+            '~/target_any_mode',
+            self._on_target_any_mode,
+            qos,
+            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
+        )
         ground = set(mech.links[mech.ground].points)
         self.target_points = [p for p in mech.points if p not in ground]
         quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
@@ -304,6 +311,16 @@ class LinkageNode(Node):
             'target',
             msg.header.stamp,
             lambda: self.engine.target(joint_state_to_command(msg, self.max_names)),
+        )
+
+    def _on_target_any_mode(self, msg):
+        """~/target that may change the assembly mode (explicitly asked for)."""
+        self._answer(
+            'target_any_mode',
+            msg.header.stamp,
+            lambda: self.engine.target(
+                joint_state_to_command(msg, self.max_names), allow_mode_change=True
+            ),
         )
 
     def _on_target_point(self, point: str, msg):

@@ -1423,3 +1423,33 @@ def test_names_decode_as_the_node_reads_them(name):
         [raw], np.zeros(1, np.int8), ['/cmd'], np.zeros(1, np.int64)
     )
     assert keys[int(key[0])] == (node_reads,)
+
+
+def test_the_bag_keeps_the_assembly_mode_like_the_node(tmp_path, capsys):
+    """A recorded ~/target only the other mode reaches is refused with the node's reason, and
+    the commands after it stay in the mode they were in (one engine, one answer)."""
+    from scenes import CONFIG
+
+    from linkage_ros.engine import Engine, EngineSettings
+
+    msgs = [
+        ('/cmd', 10**9, joint_state(['crank'], [1.0], sec=1)),
+        ('/tgt', 2 * 10**9, joint_state(['B'], [-1.2], sec=2)),
+        ('/cmd', 3 * 10**9, joint_state(['crank'], [1.0], sec=3)),
+    ]
+    src = make_input(tmp_path, 'mcap', msgs)
+    out = tmp_path / 'o.csv'
+    scene = CONFIG / 'four_bar.yaml'
+    args = [src, '--scene', scene, '--command-topic', '/cmd', '--target-topic', '/tgt']
+    code, cap = run_bag([*args, '--out', out, '--no-progress'], capsys)
+    assert code == 0, cap.err
+    rows = read_csv(out)
+    mech = Scene.from_yaml(scene).mechanism
+    node = Engine(mech, EngineSettings('auto', 1e-12, 50, 'continuous'))
+    answers = [node.command({'crank': 1.0}), node.target({'B': -1.2}), node.command({'crank': 1.0})]
+    assert [r['status'] for r in rows] == ['ok', 'error', 'ok']
+    assert rows[1]['reason'] == answers[1].reason
+    assert 'reachable only in assembly mode -' in rows[1]['reason']
+    for row, ans in ((rows[0], answers[0]), (rows[2], answers[2])):
+        for j in mech.joint_names:
+            assert math.isclose(float(row[f'joint.{j}']), ans.joints[j], abs_tol=1e-12), j

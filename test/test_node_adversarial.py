@@ -861,8 +861,8 @@ def test_a_request_with_more_names_than_the_scene_has_is_refused_at_once(serve):
     why = request_shape_error(names, len(names), limit)
     assert time.perf_counter() - t0 < 1e-3
     assert why == (
-        f'JointState has 100000 name(s) and 100000 position(s); the scene has only {limit} '
-        'names (actuators, joints, links and points) to give values for'
+        f'JointState has 100000 name(s); the scene has only {limit} names '
+        '(actuators, joints, links and points) to give values for'
     )
     before = s.good('command', joint_state(['crank'], [0.7], (71, 0)))
     for topic in ('command', 'target'):
@@ -874,3 +874,27 @@ def test_a_request_with_more_names_than_the_scene_has_is_refused_at_once(serve):
         )
         assert len(msg) < 300
     assert s.good('command', joint_state(['crank'], [0.7], (80, 0))) == before
+
+
+def test_a_target_in_the_other_assembly_mode_is_refused_unless_asked_for(serve):
+    """On the node: ~/target B = -1.2 (only the other mode reaches it) is refused and changes
+    nothing (crank = 1.0 then gives the fresh node's joints); the same on ~/target_any_mode is
+    answered, its status says mode_change '+ -> -', and commands continue in that mode."""
+    s = serve(scene='four_bar')
+    fresh = s.good('command', joint_state(['crank'], [1.0], (91, 0)))
+    msg = s.bad(
+        'target',
+        joint_state(['B'], [-1.2], (92, 0)),
+        ['target is reachable only in assembly mode -', 'the mechanism is in mode +'],
+        ('command', joint_state(['crank'], [1.0], (93, 0))),
+    )
+    assert 'ask for the change explicitly' in msg
+    assert s.good('command', joint_state(['crank'], [1.0], (94, 0))) == fresh
+    status = s.send('target_any_mode', joint_state(['B'], [-1.2], (95, 0)))
+    assert status.level == OK, status.message
+    kv = {v.key: v.value for v in status.values}
+    assert kv['mode_change'] == '+ -> -' and kv['request'] == 'target_any_mode'
+    other = s.good('command', joint_state(['crank'], [1.0], (96, 0)))
+    assert not all(math.isclose(a, b, abs_tol=1e-9) for a, b in zip(other, fresh))
+    status = s.send('command', joint_state(['crank'], [1.1], (97, 0)))
+    assert {v.key: v.value for v in status.values}['branch'] == '-'

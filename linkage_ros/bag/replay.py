@@ -197,10 +197,27 @@ class _Engine:
             r = S.solve(_command(columns, 0), commit=False)
             self._refuse_all(a, b, r.reason)
             return
-        if S.mode == 'closed_form' and b - a >= MIN_BATCH:
+        if int(data.topic[a]) == 1:  # targets: the engine's assembly-mode rule, one by one
+            self._targets(ctx, columns, a, b)
+        elif S.mode == 'closed_form' and b - a >= MIN_BATCH:
             self._vectorised(ctx, columns, a, b)
         else:
             self._sequential(ctx, columns, a, b, 0, b - a)
+
+    def _targets(self, ctx: _Context, columns, a, b):
+        """Target rows as the node answers ~/target: Engine.solve_target (a solution in the
+        current assembly mode, else refused), which commits a success by adoption."""
+        ctx.sync()
+        S = ctx.solver
+        for i in range(b - a):
+            r = self.engine.solve_target(S, _command(columns, i))
+            self._store(a + i, r)
+            if r.success:
+                ctx.hist = [_Entry('adopt', result=r, signs=_adopted_signs(S))]
+                ctx.synced = True
+            if not i & 0xFF:
+                self.progress.update(self.done + i)
+        self.res.sequential += b - a
 
     # -- one by one ------------------------------------------------------------------------------
     def _sequential(self, ctx: _Context, columns, a, b, i0, i1):

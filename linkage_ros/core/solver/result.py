@@ -76,6 +76,8 @@ class Result:
     margin: float | None = None
     cond: float | None = None
     all_branches: list[Result] | None = None
+    #: set by a front end that allowed a target to change the assembly mode: 'before -> after'
+    mode_change: str = ''
 
     def to_dict(self, mech: Mechanism | None = None) -> dict[str, Any]:
         links = {}

@@ -16,7 +16,6 @@ string such as ``+-`` (one sign per branching dyad of the plan, in plan order).
 
 from __future__ import annotations
 
-import cmath
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
@@ -24,7 +23,6 @@ from typing import Any
 import numpy as np
 
 from ..assemble import ResultAssembler
-from ..dyads import wrap_angle
 from ..errors import PlanError, echo
 from ..model import Mechanism
 from ..newton import LoopSystem
@@ -33,12 +31,12 @@ from ..plan import (
     Plan,
     ScalarPoses,
     Spec,
-    branch_geometry_one,
     run_one,
     spec_for,
     spec_value_one,
 )
 from .batch import BatchAPI
+from .configuration import ConfigurationReading
 from .newton_path import NewtonPath
 from .result import (
     CLOSURE_LIMIT,
@@ -51,7 +49,7 @@ from .result import (
 )
 
 
-class Solver(NewtonPath, BatchAPI):
+class Solver(NewtonPath, BatchAPI, ConfigurationReading):
     """Compiled solver for one mechanism, one set of known names and wanted outputs."""
 
     def __init__(
@@ -231,54 +229,6 @@ class Solver(NewtonPath, BatchAPI):
     @property
     def branch_count(self) -> int:
         return len(self.plan.branch_steps)
-
-    def adopt(self, result: Result) -> bool:
-        """Make a solved configuration (from any solver of this mechanism) the 'previous
-        configuration' for continuity and warm starts. Returns False, changing nothing, if the
-        result is unusable: failed, missing a link or point, non-finite, or its points not where
-        its link angles put them (not a rigid configuration of this mechanism)."""
-        mech = self.mech
-        try:
-            if not (
-                isinstance(result, Result)
-                and result.success
-                and set(result.links) == set(mech.links)
-                and set(result.points) >= set(mech.points)
-            ):
-                return False
-            pts = {
-                p: complex(float(result.points[p][0]), float(result.points[p][1]))
-                for p in mech.points
-            }
-            phis = {l: float(result.links[l]) for l in mech.links}
-        except (TypeError, ValueError, IndexError, KeyError, AttributeError):
-            return False
-        if not all(math.isfinite(v) for v in phis.values()) or not all(
-            cmath.isfinite(w) for w in pts.values()
-        ):
-            return False
-        poses = ScalarPoses()
-        tol = self.closure_limit * mech.length_scale
-        for l, link in mech.links.items():
-            phi = wrap_angle(phis[l] - link.angle_ref)
-            rot = complex(math.cos(phi), math.sin(phi))
-            p = link.points[0]
-            poses.set(l, phi, pts[p] - rot * complex(*mech.points[p]), rot)
-            if any(
-                abs(poses.world(l, complex(*mech.points[q])) - pts[q]) > tol
-                for q in link.points[1:]
-            ):
-                return False
-        vals = []
-        for s in self.specs:
-            v = spec_value_one(mech, s, poses)
-            vals.append(np.asarray(v, float) if s.kind == 'point' else float(v))
-        if self.plan.complete:
-            signs, margins = branch_geometry_one(self.plan, pts, poses)
-        else:
-            signs, margins = self.plan.reference_signs, ()
-        self._history = [self._state(vals, poses, pts, signs, margins=margins)]
-        return True
 
     # -- command validation ------------------------------------------------------------------
     def parse(self, values: Mapping[str, Any]) -> list:

@@ -1,0 +1,130 @@
+"""Targets keep the assembly mode (issue 19): a target reachable only in the other mode used to
+switch the mode of every later command silently (four_bar: target B = -1.2 then crank = 1.0
+gave the rocker at -2.3488 rad where a fresh node gives 1.6896). The oracle for the positions
+is the 50-digit four-bar of test/oracles.py, written apart from the core."""
+
+from __future__ import annotations
+
+import math
+import random
+
+import pytest
+from oracles import fourbar as oracle
+from scenes import load
+
+from linkage_ros.engine import Engine, EngineSettings
+
+L = (0.3, 0.1, 0.25, 0.2)  # config/four_bar.yaml: ground, crank, coupler, rocker
+
+
+def engine(stem='four_bar', branch='continuous'):
+    return Engine(load(stem), EngineSettings('auto', 1e-12, 50, branch))
+
+
+def rocker_oracle(theta2, branch):
+    return float(oracle(*L, theta2, branch=branch)['theta4'])
+
+
+def close_angle(a, b, tol=1e-12):
+    return abs(math.remainder(a - b, 2 * math.pi)) < tol
+
+
+def test_a_target_only_the_other_mode_reaches_is_refused_and_changes_nothing():
+    e = engine()
+    assert e.last.branch == '+'
+    t = e.target({'B': -1.2})
+    assert not t.success
+    assert t.reason.startswith('target is reachable only in assembly mode - of the forward dyads')
+    assert 'the mechanism is in mode +' in t.reason
+    c = e.command({'crank': 1.0})
+    assert c.success and c.branch == '+'
+    assert close_angle(c.links['rocker'], rocker_oracle(1.0, +1))
+    assert close_angle(c.links['rocker'], 1.6895883797486895, 1e-9)  # the fresh node's answer
+
+
+def test_an_explicit_mode_change_is_allowed_and_reported():
+    e = engine()
+    t = e.target({'B': -1.2}, allow_mode_change=True)
+    assert t.success and t.mode_change == '+ -> -'
+    assert close_angle(t.joints['B'], -1.2)
+    c = e.command({'crank': 1.0})
+    assert c.success and c.branch == '-'
+    assert close_angle(c.links['rocker'], rocker_oracle(1.0, -1))
+    assert close_angle(c.links['rocker'], -2.3488338882991395, 1e-9)
+
+
+def test_a_target_with_a_solution_in_the_current_mode_gets_that_one():
+    """A rocker angle is reached by two crank angles, one in each mode: the one in the current
+    mode is returned, whichever the inverse solve found first."""
+    for start_branch in (+1, -1):
+        e = engine()
+        if start_branch < 0:
+            assert e.target({'B': -1.2}, allow_mode_change=True).success
+        for theta2 in (0.3, 1.0, 2.0, 3.0, -2.5, -1.0):
+            want = rocker_oracle(theta2, start_branch)
+            t = e.target({'rocker': want})
+            assert t.success and not t.mode_change, t.reason
+            c = e.command({'crank': t.inputs['crank']})
+            assert c.branch == ('+' if start_branch > 0 else '-')
+            assert close_angle(c.links['rocker'], want, 1e-9)
+
+
+@pytest.mark.parametrize('stem', ['four_bar', 'slider_crank', 'excavator', 'front_loader'])
+def test_random_target_sequences_answer_in_mode_or_say_why(stem):
+    """Property test over sequences: targets taken from forward solves near the current state
+    (joint, link, actuator names, mixed) are answered OK in the current mode, closing the loops
+    (and mostly at the configuration they came from, see below), or refused with a named
+    reason; never an internal error, never a silent mode change."""
+    mech = load(stem)
+    rng = random.Random(f'{stem}-modes')
+    e = engine(stem)
+    fwd = e.forward
+    acts = list(mech.actuators)
+    names = [n for n in list(mech.joint_names) + list(mech.links) + acts if n != mech.ground]
+    matched = refused = in_mode = 0
+    for _ in range(60):
+        ref = e.last
+        cmd = {}  # a forward configuration near the current one, within limits
+        for a in acts:
+            s = next(sp for sp in fwd.specs if sp.name == a)
+            lo = s.minimum if s.minimum is not None else ref.inputs[a] - 0.5
+            hi = s.maximum if s.maximum is not None else ref.inputs[a] + 0.5
+            mid = min(max(ref.inputs[a], lo), hi)
+            span = 0.002 * (hi - lo)  # small steps: the source is the nearest solution
+            cmd[a] = min(max(mid + rng.uniform(-span, span), lo), hi)
+        f = fwd.solve(cmd, commit=False)
+        if not f.success:
+            continue
+        values = {}
+        for n in rng.sample(names, mech.dof):
+            if n in mech.links:
+                values[n] = f.links[n]
+            else:
+                values[n] = f.inputs[n] if n in acts else f.joints[n]
+        before = e.mode(e.last)
+        r = e.target(values)
+        if not r.success:
+            assert r.reason and 'internal' not in r.reason, r.reason
+            assert e.mode(e.last)[0] == before[0]
+            refused += 1
+            continue
+        assert not r.mode_change
+        assert r.residual < 1e-9, r.residual
+        for n, v in values.items():  # the answer is at the target values
+            got = r.links[n] if n in mech.links else (r.inputs[n] if n in acts else r.joints[n])
+            assert abs(math.remainder(got - v, 2 * math.pi)) < 1e-9 * max(1.0, abs(v)), (n, got, v)
+        after = e.mode(r)
+        for sb, sa, mb, ma in zip(before[0], after[0], before[1], after[1]):
+            assert sb == sa or min(mb, ma) <= 1e-9, (before, after)
+        if r.cond is not None and r.cond > 1e10:
+            # a singular target problem (the names do not fix the configuration locally, or an
+            # inverse toggle): any point of the solution set is an answer, not the source
+            continue
+        if e.mode(f)[0] == before[0]:  # the configuration the target came from is in mode
+            miss = max(math.dist(r.points[p], f.points[p]) for p in mech.points)
+            matched += miss < 1e-6 * mech.length_scale
+            in_mode += 1
+    # The target values need not single out one configuration of the mode (a slider-crank's
+    # rod angle is reached at crank angles t and pi - t alike): the answer is the solution
+    # nearest the last good state, which for these small steps is almost always the source.
+    assert in_mode >= 10 and matched >= 0.9 * in_mode, (matched, in_mode, refused)
