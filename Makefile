@@ -16,7 +16,7 @@ export PYTHONDONTWRITEBYTECODE := 1
 EXTREME_TESTS := test/test_stability.py test/test_vectorised_extremes.py
 OPENBLAS_KERNELS := Haswell Sandybridge
 
-.PHONY: venv run test check bench lock clean
+.PHONY: venv run test check fuzz bench lock clean
 
 venv: $(STAMP)
 
@@ -44,6 +44,10 @@ test: check
 	  echo "== $(EXTREME_TESTS) under OPENBLAS_CORETYPE=$$k"; \
 	  OPENBLAS_CORETYPE=$$k $(PY) -m pytest -q -p no:cacheprovider $(EXTREME_TESTS) || exit 1; \
 	done
+
+# the long fuzz run of the scene loader and the request checks (make test runs a short one)
+fuzz: $(STAMP)
+	LINKAGE_FUZZ=long $(PY) -m pytest -q -p no:cacheprovider test/test_fuzz.py
 
 bench: $(STAMP)
 	$(VENV)/bin/linkage bench --write docs/BENCHMARKS.md

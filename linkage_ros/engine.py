@@ -223,14 +223,13 @@ class Engine:
             return self.solve(solver, values)
         result = solver.solve(values, commit=False)
         after = self.mode(result) if result.success else None
-        in_mode = result if result.success and not _mode_differs(before, after) else None
-        # every branch of the inverse plan: the solution in mode nearest the last good state
-        # (continuity of the inverse plan alone may pick another one of the same mode)
-        alt = self._in_mode(solver, values, before, in_mode)
+        if result.success and not _mode_differs(before, after):
+            return self._commit(solver, result)  # the inverse solver's own continuity
+        # another mode, or refused (a limit): the solution in mode nearest the last good state
+        # among the inverse plan's other branches
+        alt = self._in_mode(solver, values, before)
         if alt is not None:
             return self._commit(solver, alt)
-        if in_mode is not None:
-            return self._commit(solver, in_mode)
         if not result.success or after is None:
             return result
         change = f'{_mode_text(before[0])} -> {_mode_text(after[0])}'
@@ -256,17 +255,14 @@ class Engine:
         solver: Solver,
         values: Mapping[str, Any],
         before: tuple[tuple[int, ...], list[float]],
-        found: Result | None,
     ) -> Result | None:
         """The solution of the target in assembly mode ``before`` within limits nearest the
-        last good state, among ``found`` and the branches of a closed-form inverse plan; None
-        if there is none (or the plan is not closed-form)."""
+        last good state among the branches of a closed-form inverse plan; None if there is
+        none (or the plan is not closed-form)."""
         if solver.mode != 'closed_form' or not 0 < len(solver.plan.branch_steps) <= MAX_BRANCHES:
-            return found
+            return None
         last = self.last
         best: tuple[float, Result] | None = None
-        if found is not None:
-            best = (_distance(last, found), found)
         k = len(solver.plan.branch_steps)
         for code in range(2**k):
             signs = ''.join('-' if code >> i & 1 else '+' for i in range(k))

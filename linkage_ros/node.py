@@ -212,6 +212,27 @@ class LinkageNode(Node):
         )
         if self.config.demo_sweep:
             self._start_demo()
+        # another node of this name in this namespace mixes its answers, status and parameter
+        # services with ours: look at the graph once discovery has had time to see it
+        self._clash_checks = 0
+        self._clash_timer = self.create_timer(CLASH_CHECK_S, self._check_name_clash)
+
+    def _check_name_clash(self) -> None:
+        """Log an error if the graph holds another node with this node's full name (checked a
+        few times during the first seconds, then never again)."""
+        self._clash_checks += 1
+        me = (self.get_name(), self.get_namespace())
+        count = sum(1 for n in self.get_node_names_and_namespaces() if n == me)
+        if count > 1 or self._clash_checks >= CLASH_CHECKS:
+            self._clash_timer.cancel()
+            self.destroy_timer(self._clash_timer)
+        if count > 1:
+            full = self.get_fully_qualified_name()
+            self.get_logger().error(
+                f'{count} nodes named {full} are running: their joint_states, status and '
+                'parameter services mix and requests reach both; start each with its own '
+                'name or namespace (--ros-args -r __node:=NAME or -r __ns:=/NS)'
+            )
 
     # -- parameters at runtime -------------------------------------------------------------------
     def _on_set_parameters(self, params):
@@ -376,6 +397,10 @@ class LinkageNode(Node):
                 # the parameter says what runs: setting it true again restarts the sweep
                 self.set_parameters([Parameter('demo_sweep', value=False)])
 
+
+#: When the node looks at the graph for another node of its name (s after start-up, times)
+CLASH_CHECK_S = 1.0
+CLASH_CHECKS = 5
 
 #: How long the spin loop may block before it looks at the stop flag (s): the latency of a
 #: shutdown on SIGINT / SIGTERM, not of any message.

@@ -898,3 +898,28 @@ def test_a_target_in_the_other_assembly_mode_is_refused_unless_asked_for(serve):
     assert not all(math.isclose(a, b, abs_tol=1e-9) for a, b in zip(other, fresh))
     status = s.send('command', joint_state(['crank'], [1.1], (97, 0)))
     assert {v.key: v.value for v in status.values}['branch'] == '-'
+
+
+def test_two_nodes_with_one_name_log_the_clash(tmp_path):
+    """Two nodes started with the same name in one namespace used to collide silently (their
+    answers and parameter services mix). Each now looks at the graph after start-up and logs
+    an error naming the clash; a node alone logs nothing of the kind."""
+    ns = f'/clash{os.getpid()}_{random.randrange(1 << 30)}'
+    procs = [
+        NodeProcess(tmp_path / f'n{k}', DOMAIN_ID, {'scene': 'four_bar'}, namespace=ns).start()
+        for k in range(2)
+    ]
+    alone = NodeProcess(tmp_path / 'alone', DOMAIN_ID, {'scene': 'four_bar'}).start()
+    try:
+        deadline = time.monotonic() + 30
+        while time.monotonic() < deadline and not all('nodes named' in p.stderr() for p in procs):
+            time.sleep(0.2)
+        time.sleep(1.0)
+    finally:
+        codes = [p.stop(signal.SIGINT) for p in [*procs, alone]]
+    for p in procs:
+        err = p.stderr()
+        (line,) = [ln for ln in err.splitlines() if 'nodes named' in ln]
+        assert 'ERROR' in line and f'2 nodes named {ns}/{NODE_NAME} are running' in line, line
+    assert 'nodes named' not in alone.stderr()
+    assert codes == [0, 0, 0]

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import echo
 from .checks import TOP_KEYS, _Ctx
 from .mechanism import SOLVERS, Actuator, Link, Mechanism, PrismaticJoint, RevoluteJoint
 from .shortcuts import _four_bar_to_general, _slider_crank_to_general
@@ -157,7 +158,7 @@ def _read_links(
             ctx.fail(key, 'must be a non-empty list of point names', members)
         for p in members:
             if not ctx.known(p, points):
-                ctx.fail(key, f'unknown point {p!r}', p)
+                ctx.fail(key, f'unknown point {echo(p)}', has_value=False)
         if len(set(members)) != len(members):
             ctx.fail(key, 'lists a point twice', members)
         # a link's angle is the direction of its first -> second point (its axis): two points
@@ -401,7 +402,7 @@ def _read_outputs(
             ctx.fail('outputs', 'must be a list of point names', outputs_raw)
         for p in outputs_raw:
             if not ctx.known(p, points):
-                ctx.fail('outputs', f'unknown point {p!r}', p)
+                ctx.fail('outputs', f'unknown point {echo(p)}', has_value=False)
         outputs = tuple(outputs_raw)
 
     return outputs

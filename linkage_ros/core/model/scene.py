@@ -12,7 +12,7 @@ from typing import Any
 
 import yaml
 
-from ..errors import SceneError
+from ..errors import SceneError, echo
 from .general import build_mechanism
 from .mechanism import Mechanism
 
@@ -198,14 +198,14 @@ class _UniqueKeyLoader(yaml.SafeLoader):
                 raise yaml.constructor.ConstructorError(
                     None,
                     None,
-                    f'a mapping key must be a name or number, not {key!r}',
+                    f'a mapping key must be a name or number, not {echo(key)}',
                     key_node.start_mark,
                 ) from None
             if key in seen:
                 raise yaml.constructor.ConstructorError(
                     None,
                     None,
-                    f'duplicate key {key!r} (first at line {seen[key] + 1})',
+                    f'duplicate key {echo(key)} (first at line {seen[key] + 1})',
                     key_node.start_mark,
                 )
             seen[key] = key_node.start_mark.line
