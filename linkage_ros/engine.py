@@ -11,6 +11,7 @@ with the same words and reports the same fields.
 from __future__ import annotations
 
 import collections
+import time
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -41,6 +42,9 @@ class EngineSettings:
     max_iterations: int = 50
     branch: str = 'continuous'  # continuous, reference or explicit signs such as '+-'
     target_point_hold: tuple[str, ...] = ()  # held by a point target (DOF > 2)
+    #: new inverse solvers compiled per second at most (a live node's protection against a
+    #: flood of requests naming ever new sets of targets); None: no limit (offline tools)
+    compile_rate: float | None = None
 
 
 class GoodState(Protocol):
@@ -84,6 +88,8 @@ class Engine:
         if ref.success:
             self._last = ref
         self._synced[frozenset(self.forward.knowns)] = self.version
+        self._clock = time.monotonic
+        self._tokens, self._t_tokens = float(SOLVER_CACHE), self._clock()
         #: (target names, branch signs) -> an inverse solver with those branch signs fixed
         self._explicit: dict[tuple[frozenset[str], str], Solver] = {}
 
@@ -126,12 +132,16 @@ class Engine:
         )
 
     def solver_for(self, knowns: Sequence[str]) -> Solver | str:
-        """The cached solver for this set of knowns, or the reason it cannot be built."""
+        """The cached solver for this set of knowns, or the reason it cannot be built (or, with
+        ``compile_rate``, why it is not built now)."""
         key = frozenset(knowns)
         if key == frozenset(self.forward.knowns):
             return self.forward
         hit = self._solvers.get(key)
         if hit is None:
+            busy = self._compile_budget()
+            if busy:
+                return busy
             try:
                 hit = self.new_solver(list(knowns))
             except PlanError as exc:
@@ -142,6 +152,23 @@ class Engine:
                 self._synced.pop(old, None)
         self._solvers.move_to_end(key)
         return hit
+
+    def _compile_budget(self) -> str | None:
+        """Take one compile from a token bucket of ``compile_rate`` per second (a burst of the
+        cache's size); why not, when it is empty."""
+        rate = self.settings.compile_rate
+        if rate is None:
+            return None
+        now = self._clock()
+        self._tokens = min(float(SOLVER_CACHE), self._tokens + (now - self._t_tokens) * rate)
+        self._t_tokens = now
+        if self._tokens < 1.0:
+            return (
+                f'too many new sets of target names: at most {rate:g} new ones per second are '
+                'compiled (sets already used are answered at once); send it again later'
+            )
+        self._tokens -= 1.0
+        return None
 
     def _check_hold(self) -> None:
         mech, hold = self.mech, self.settings.target_point_hold

@@ -120,8 +120,18 @@ class NodeConfig:
 
     def engine_settings(self) -> EngineSettings:
         return EngineSettings(
-            self.solver, self.tolerance, self.max_iterations, self.branch, self.target_point_hold
+            self.solver,
+            self.tolerance,
+            self.max_iterations,
+            self.branch,
+            self.target_point_hold,
+            compile_rate=TARGET_COMPILE_RATE,
         )
+
+
+#: new sets of target names the node compiles a solver for per second, at most (~3 ms each on
+#: the excavator): a flood of ever new sets cannot starve ~/command
+TARGET_COMPILE_RATE = 20.0
 
 
 def check_demo_rate(value: Any) -> float:
