@@ -186,3 +186,37 @@ def test_the_node_refuses_a_hostile_scene_with_one_fatal_line(tmp_path):
         assert 'Traceback' not in err and len(err) < 2000, err[-2000:]
         (fatal,) = [ln for ln in err.splitlines() if 'FATAL' in ln]
         assert f'{name}.yaml' in fatal and 'four_bar.rocker' in fatal, fatal
+
+
+def test_extreme_scenes_give_clean_errors_or_answers_and_no_warnings(tmp_path):
+    """numpy overflow RuntimeWarnings used to reach the user, and a Newton solve of a scene
+    at the float range's edge ended in an OverflowError traceback (Python's abs of a complex
+    raises where numpy returns inf). Each case is now decided: a clean error or an answer
+    (possibly a refusal with its reason), with warnings turned into errors here."""
+    import warnings
+
+    from linkage_ros.core.solver import Solver
+
+    cases = {
+        'subnormal': '{ground: 4.0e-320, crank: 1.0e-320, coupler: 3.0e-320, rocker: 2.5e-320}',
+        'huge': '{ground: 1.7e308, crank: 0.3e308, coupler: 1.0e308, rocker: 1.0e308}',
+        'far_point': '{ground: 1.0e308, crank: 0.5e308, coupler: 1.0e308, rocker: 1.0e308, '
+        'coupler_point: {distance: 1.7e308, angle: 0.5}}',
+    }
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        for name, spec in cases.items():
+            path = tmp_path / f'{name}.yaml'
+            path.write_text(f'four_bar: {spec}\n')
+            if name == 'subnormal':
+                refused_fast(path, 'points', 'below the smallest normal float')
+                continue
+            if name == 'far_point':
+                refused_fast(path, 'four_bar.coupler_point.distance', 'beyond the float range')
+                continue
+            mech = Scene.from_yaml(path).mechanism
+            for method in ('closed_form', 'newton'):
+                r = Solver(mech, method=method).solve({'crank': 2.0})
+                assert r.success or r.reason, (method, r)
+            r = Solver(mech, knowns=['rocker'], method='newton').solve({'rocker': 1.0})
+            assert r.success or r.reason

@@ -9,6 +9,7 @@ directions) is resolved once per plan, so a solve does only its arithmetic.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -185,9 +186,9 @@ class PlanExecutor:
                     None,
                 )
                 if d is None and not plan.bodies[bi].welds:  # one rigid link: a constant
-                    d = abs(ref[x] - ref[p])
+                    d = SCALAR.cabs(ref[x] - ref[p])
                 self._stated[(bi, x, p)] = d
-            return abs(local_pt(bi, x) - local_pt(bi, p)) if d is None else d
+            return ops.cabs(local_pt(bi, x) - local_pt(bi, p)) if d is None else d
 
         def local_pt(bi, p):
             if not plan.bodies[bi].welds:  # a single link at the identity
@@ -259,7 +260,7 @@ class PlanExecutor:
                 lp = local_pt(st.body, p)
                 a, b = local_pt(st.body, q) - lp, pts[q] - pts[p]
                 # unit first: products of 1e-300 lengths would underflow
-                na, nb = abs(a), abs(b)
+                na, nb = ops.cabs(a), ops.cabs(b)
                 a, b = a / ops.where(na > 0, na, 1.0), b / ops.where(nb > 0, nb, 1.0)
                 cross = a.real * b.imag - a.imag * b.real
                 phi = ops.atan2(cross, a.real * b.real + a.imag * b.imag)
@@ -307,7 +308,7 @@ class PlanExecutor:
                     target = prefer[x]
                     plus, _ = dyad_point(ops, pair, 1)
                     minus, _ = dyad_point(ops, pair, -1)
-                    sg = 1 if abs(plus - target) <= abs(minus - target) else -1
+                    sg = 1 if ops.cabs(plus - target) <= ops.cabs(minus - target) else -1
                 pts[x], okk = dyad_point(ops, pair, sg)
                 if not ops.batch and not okk:  # beyond the float range
                     return finish(k, 0.0)
@@ -347,11 +348,12 @@ class PlanExecutor:
         reference pose has it relative to p1. Branch identity is undefined there (margin 0)."""
         P1, P2 = pts[p1], pts[p2]
         big = max(r1, r2)
-        if not (abs(P1 - P2) <= tol * big and abs(r1 - r2) <= tol * big):
+        if not (SCALAR.cabs(P1 - P2) <= tol * big and abs(r1 - r2) <= tol * big):
             return None
         guess = prefer.get(x) if prefer else None
         off = (guess - P1) if guess is not None else self.ref[x] - self.ref[p1]
-        off = off / abs(off) if abs(off) > 0 else 1 + 0j
+        n = SCALAR.cabs(off)
+        off = off / n if 0 < n < math.inf else 1 + 0j
         foot = P1 + r1 * off
         return DyadPair(foot, 1.0, 0.0, 0.0, 1.0, 0.0, True, 0.0, 0.0, foot)
 

@@ -109,6 +109,16 @@ def _pow2_scale(ops: Any, m: Any) -> Any:
     return ops.ldexp(1.0, ((expo - 1) >> 1) << 1)
 
 
+def _cabs_one(z: Any) -> float:
+    """|z| of a Python complex, inf where it overflows (abs() raises OverflowError there,
+    numpy returns inf: a kernel must not depend on which)."""
+    try:
+        r: float = abs(z)
+    except OverflowError:
+        return math.inf
+    return r
+
+
 class ScalarOps:
     """Python floats and complex numbers: one command."""
 
@@ -147,6 +157,7 @@ class ScalarOps:
         return complex(x, y)
 
     wrap = staticmethod(_wrap_one)
+    cabs = staticmethod(_cabs_one)  # |z| of a point, inf beyond the float range
 
     @staticmethod
     def cmax(z: complex) -> float:
@@ -291,6 +302,7 @@ class BatchOps:
         return CArray(x, y)
 
     wrap = staticmethod(_wrap_many)
+    cabs = staticmethod(abs)  # CArray's |z| (hypot: inf beyond the float range)
 
     @staticmethod
     def cmax(z: Any) -> Any:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import sys
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -99,6 +100,14 @@ def _build_general(
     outputs = _read_outputs(ctx, data, points, ground, links)
     _check_one_point_links(ctx, ground, links, prismatics)
     scale = _length_scale(points, links, prismatics)
+    if scale < sys.float_info.min:
+        # the solvers work in units of the scale: 1 / scale would overflow
+        ctx.fail(
+            'points',
+            f'the mechanism is {scale:.3g} m across, below the smallest normal float '
+            f'({sys.float_info.min:.3g}); draw it in larger units',
+            has_value=False,
+        )
     mech = Mechanism(
         name=name,
         points=points,

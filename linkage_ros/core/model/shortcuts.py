@@ -139,7 +139,14 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
         dist = ctx.number('four_bar.coupler_point.distance', cp.get('distance'))
         ang = ctx.number('four_bar.coupler_point.angle', cp.get('angle', 0.0))
         t3 = math.atan2(*(b - a)[::-1])
-        points[pname] = a + dist * np.array([math.cos(t3 + ang), math.sin(t3 + ang)])
+        with np.errstate(over='ignore'):  # beyond the float range: refused below as not finite
+            points[pname] = a + dist * np.array([math.cos(t3 + ang), math.sin(t3 + ang)])
+        if not np.all(np.isfinite(points[pname])):
+            ctx.fail(
+                'four_bar.coupler_point.distance',
+                'puts the coupler point beyond the float range',
+                cp.get('distance'),
+            )
         coupler.append(pname)
     crank = _crank_actuator(ctx, 'four_bar', fb)
     general = {

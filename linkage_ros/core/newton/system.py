@@ -50,7 +50,10 @@ class LoopSystem(ScalarSolve, BatchSystem):
         self.n = 3 * len(free)
         pts = mech.points
         self.centroid = {
-            n: np.mean([pts[p] for p in l.points], axis=0) for n, l in mech.links.items()
+            # divided before the sum: points near 1.8e308 (a scene at the float range's edge)
+            # would overflow np.mean's sum
+            n: np.sum([pts[p] / len(l.points) for p in l.points], axis=0)
+            for n, l in mech.links.items()
         }
         self.rows: list[EquationRows] = []
         m = 0

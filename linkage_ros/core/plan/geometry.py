@@ -19,7 +19,7 @@ def step_geometry(ops, mech: Mechanism, st: Step, pts, rot) -> tuple:
     its singularity). ``pts`` complex points, ``rot`` {link: e^{i phi}} of the guide links."""
 
     def unit(z):  # hypot: no overflow at 1e200; a zero vector stays 0
-        r = abs(z)
+        r = ops.cabs(z)
         return z / ops.where(r > 0, r, 1.0)
 
     x = pts[st.point]
