@@ -32,6 +32,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from visualization_msgs.msg import MarkerArray
@@ -40,6 +41,7 @@ from .conversions import (
     error_status,
     format_joints,
     is_zero_stamp,
+    joint_state_peek,
     joint_state_to_command,
     point_stamped_to_xy,
     result_to_joint_state,
@@ -50,7 +52,7 @@ from .conversions import (
 from .core.errors import CommandError, SceneError
 from .core.solver import Result
 from .demo import DemoSweep
-from .engine import max_request_names
+from .engine import max_request_names, request_shape_error
 from .params import (
     DEMO_RATE_MAX,
     DEMO_RATE_MIN,
@@ -160,13 +162,16 @@ class LinkageNode(Node):
         self.pub_markers = self.create_publisher(MarkerArray, '~/markers', qos, **quiet)
         self.pub_status = self.create_publisher(DiagnosticStatus, '~/status', qos, **quiet)
         self.create_subscription(JointState, '~/command', self._on_command, qos)
-        self.create_subscription(JointState, '~/target', self._on_target, qos)
+        # targets arrive serialised: a request with more names than the scene has is refused
+        # from its first bytes, before rclpy would build 10^5 Python strings for it
+        self.create_subscription(JointState, '~/target', self._on_target, qos, raw=True)
         self.create_subscription(
             JointState,
             '~/target_any_mode',
             self._on_target_any_mode,
             qos,
             event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
+            raw=True,
         )
         ground = set(mech.links[mech.ground].points)
         self.target_points = [p for p in mech.points if p not in ground]
@@ -327,20 +332,31 @@ class LinkageNode(Node):
             lambda: self.engine.command(joint_state_to_command(msg, self.max_names)),
         )
 
-    def _on_target(self, msg):
-        self._answer(
-            'target',
-            msg.header.stamp,
-            lambda: self.engine.target(joint_state_to_command(msg, self.max_names)),
-        )
+    def _on_target(self, raw: bytes):
+        self._on_raw_target('target', raw, False)
 
-    def _on_target_any_mode(self, msg):
+    def _on_target_any_mode(self, raw: bytes):
         """~/target that may change the assembly mode (explicitly asked for)."""
+        self._on_raw_target('target_any_mode', raw, True)
+
+    def _on_raw_target(self, request: str, raw: bytes, any_mode: bool) -> None:
+        peek = joint_state_peek(raw)
+        if peek is not None and peek[2] > self.max_names:
+            sec, nanosec, count = peek
+            why = request_shape_error(range(count), count, self.max_names)
+            self._answer(request, Time(sec=sec, nanosec=nanosec), lambda: Result(False, why))
+            return
+        try:
+            msg = deserialize_message(raw, JointState)
+        except Exception as exc:  # noqa: BLE001 - rmw already checked it; answer, never raise
+            bad = f'not a JointState: {exc}'
+            self._answer(request, Time(), lambda: Result(False, bad))
+            return
         self._answer(
-            'target_any_mode',
+            request,
             msg.header.stamp,
             lambda: self.engine.target(
-                joint_state_to_command(msg, self.max_names), allow_mode_change=True
+                joint_state_to_command(msg, self.max_names), allow_mode_change=any_mode
             ),
         )
 

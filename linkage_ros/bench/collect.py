@@ -253,6 +253,22 @@ def evaluate_targets(report: dict) -> list[dict]:
                     'value': at['lost'],
                 }
             )
+        what = {
+            'new_sets': 'each naming a new set of names',
+            'huge': 'each with 10^5 names, 2 MB',
+        }
+        for fl in nd.get('floods', []):
+            out.append(
+                {
+                    'target': f'node loses no ~/command answer at {fl["rate"]:g} Hz beside a '
+                    f'{fl["flood_rate"]:g} Hz flood of hostile ~/target requests '
+                    f'({what.get(fl["flood_kind"], fl["flood_kind"])})',
+                    'measured': f'{fl["lost"]} lost of {fl["sent"]} commands (achieved send '
+                    f'rate {fl["achieved_rate"]:.0f} Hz; {fl["flood_sent"]} flood requests)',
+                    'met': fl['lost'] == 0 and fl['achieved_rate'] >= 0.95 * fl['rate'],
+                    'value': fl['lost'],
+                }
+            )
         deep = tg.get('node_deep', {})
         at = next((r for r in deep.get('runs', []) if r['rate'] == TARGET_RATE_HZ), None)
         if at is not None:

@@ -22,6 +22,11 @@ from .settings import DEFAULT_DEPTH, Sizes, _log
 # =============================================================================================
 
 
+#: the flood measurement: commands at this rate beside hostile ~/target requests at that one
+FLOOD_COMMAND_HZ = 500.0
+FLOOD_RATE_HZ = 100.0
+
+
 def relay_script() -> Path | None:
     p = Path(__file__).resolve().parents[2] / 'bench' / 'relay_node.py'
     return p if p.is_file() else None
@@ -230,19 +235,28 @@ class Driver:
         return out
 
     def rate_run(
-        self, link: _Link, rate: float, seconds: float, drain_timeout: float = 2.0
+        self,
+        link: _Link,
+        rate: float,
+        seconds: float,
+        drain_timeout: float = 2.0,
+        flood: Flood | None = None,
     ) -> dict:
         """Commands at ``rate`` Hz for ``seconds`` (absolute schedule, spinning in between);
-        then drain until every answer is in or none arrived for ``drain_timeout`` s."""
+        then drain until every answer is in or none arrived for ``drain_timeout`` s. With
+        ``flood``, its hostile requests go out at their own rate meanwhile."""
         link.recv.clear()
         n = max(1, int(round(rate * seconds)))
         period = 1.0 / rate
         stamps = []
         t0 = time.perf_counter()
-        i = 0
+        i = j = 0
         while i < n:
             now = time.perf_counter()
             due = t0 + i * period
+            if flood is not None and now >= t0 + j / flood.rate:
+                flood.send(j)
+                j += 1
             if now >= due:
                 stamps.append(link.send())
                 i += 1
@@ -278,6 +292,37 @@ class Driver:
             elif time.monotonic() - last_change > timeout:
                 return
             self.exec.spin_once(timeout_sec=0.01)
+
+
+class Flood:
+    """Hostile ~/target requests at ``rate`` Hz from the driver, of one ``kind``: 'new_sets'
+    names a new, unknown set of names every time (each used to compile a solver and push a
+    cached one out), 'huge' is a message with 10^5 names (2 MB serialised)."""
+
+    KINDS = ('new_sets', 'huge')
+
+    def __init__(self, driver: Driver, topic: str, rate: float, kind: str):
+        self.rate, self.kind = rate, kind
+        self.pub = driver.node.create_publisher(driver.msg_type, topic, driver.qos)
+        from rclpy.serialization import serialize_message
+
+        big = driver.msg_type()
+        big.name = [f'n{k}' for k in range(10**5)]
+        big.position = [0.5] * len(big.name)
+        self.big = serialize_message(big)  # published as bytes: the driver pays for it once
+        self.msg_type = driver.msg_type
+        self.sent = 0
+
+    def send(self, j: int) -> None:
+        msg: Any
+        if self.kind == 'huge':
+            msg = self.big
+        else:
+            msg = self.msg_type()
+            msg.name = [f'flood_{j}_a', f'flood_{j}_b']
+            msg.position = [0.1, 0.2]
+        self.pub.publish(msg)
+        self.sent += 1
 
 
 def sustained_rate(runs: list[dict]) -> float | None:
@@ -324,6 +369,7 @@ def bench_node(
         [('_deep', sizes.node_deep_depth)] if sizes.node_deep_rates else []
     )
     specs = []
+    specs_ns: dict[str, str] = {}
     if include_relay:
         script = relay_script()
         if script is None:
@@ -352,6 +398,7 @@ def bench_node(
         argv = list(node_argv) if node_argv else [sys.executable, '-m', 'linkage_ros.node']
         for suffix, depth in deep:
             ns = f'/{tag}_node{suffix}'
+            specs_ns[f'node{suffix}'] = ns
             specs.append(
                 (
                     f'node{suffix}',
@@ -412,6 +459,23 @@ def bench_node(
                     )
         for label in links:
             out['targets'][label]['sustained_rate'] = sustained_rate(out['targets'][label]['runs'])
+        if 'node' in links:  # commands beside a flood of hostile targets on the same node
+            out['targets']['node']['floods'] = []
+            for kind in Flood.KINDS:
+                flood = Flood(
+                    driver, f'{specs_ns["node"]}/linkage_node/target', FLOOD_RATE_HZ, kind
+                )
+                _log(
+                    f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz beside a '
+                    f'{FLOOD_RATE_HZ:g} Hz ~/target flood ({kind})'
+                )
+                driver.spin_for(1.0)  # the flood's publisher matched
+                run = driver.rate_run(
+                    links['node'], FLOOD_COMMAND_HZ, sizes.node_seconds, flood=flood
+                )
+                run.update(flood_rate=FLOOD_RATE_HZ, flood_sent=flood.sent, flood_kind=kind)
+                out['targets']['node']['floods'].append(run)
+                driver.spin_for(2.0)  # the node catches up before the next
     finally:
         for link in links.values():
             link.close()

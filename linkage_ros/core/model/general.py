@@ -167,7 +167,7 @@ def _read_links(
             ctx.fail(key, 'must be a non-empty list of point names', members)
         for p in members:
             if not ctx.known(p, points):
-                ctx.fail(key, f'unknown point {echo(p)}', has_value=False)
+                ctx.fail(key, f'unknown point {echo(p)}', p)
         if len(set(members)) != len(members):
             ctx.fail(key, 'lists a point twice', members)
         # a link's angle is the direction of its first -> second point (its axis): two points
@@ -411,7 +411,7 @@ def _read_outputs(
             ctx.fail('outputs', 'must be a list of point names', outputs_raw)
         for p in outputs_raw:
             if not ctx.known(p, points):
-                ctx.fail('outputs', f'unknown point {echo(p)}', has_value=False)
+                ctx.fail('outputs', f'unknown point {echo(p)}', p)
         outputs = tuple(outputs_raw)
 
     return outputs
