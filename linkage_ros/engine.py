@@ -20,6 +20,7 @@ from typing import Any, Protocol
 from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
 from .core.solver import Result, Solver
+from .core.solver.result import branch_text
 
 #: inverse solvers kept per engine (one per set of target names); least recently used dropped
 SOLVER_CACHE = 32
@@ -259,12 +260,12 @@ class Engine:
             return self._commit(solver, alt)
         if not result.success or after is None:
             return result
-        change = f'{_mode_text(before[0])} -> {_mode_text(after[0])}'
+        change = f'{branch_text(before[0])} -> {branch_text(after[0])}'
         if not allow_mode_change:
             return Result(
                 False,
-                f'target is reachable only in assembly mode {_mode_text(after[0])} of the '
-                f'forward dyads; the mechanism is in mode {_mode_text(before[0])} and cannot '
+                f'target is reachable only in assembly mode {branch_text(after[0])} of the '
+                f'forward dyads; the mechanism is in mode {branch_text(before[0])} and cannot '
                 'change mode without being taken apart (ask for the change explicitly to '
                 'allow it)',
                 solver=result.solver,
@@ -350,10 +351,6 @@ def _mode_differs(
         sb != sa and mb > MODE_MARGIN and ma > MODE_MARGIN
         for sb, sa, mb, ma in zip(before[0], after[0], before[1], after[1])
     )
-
-
-def _mode_text(signs: Sequence[int]) -> str:
-    return ''.join('+' if s > 0 else '-' for s in signs)
 
 
 def _distance(a: Result | None, b: Result) -> float:

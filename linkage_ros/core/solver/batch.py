@@ -16,7 +16,7 @@ from ..plan import (
     branch_geometry_one,
     link_poses,
 )
-from .result import Result, _sign_str, branch_identity_defined
+from .result import Result, branch_identity_defined, branch_text
 
 if TYPE_CHECKING:
     from .solver import Solver
@@ -280,7 +280,7 @@ class BatchResult:
             residual=float(self.residual[i]),
             iterations=int(self.iterations[i]),
             solver=self.solver,
-            branch=_sign_str(sg),
+            branch=branch_text(sg),
             margin=float(self.margin[i]),
             branch_defined=(
                 bool(branch_identity_defined(self.margin[i], self.residual[i])) if sg else True

@@ -11,7 +11,7 @@ from ..plan import (
     branch_geometry_one,
     run_one,
 )
-from .result import NEAR_SINGULAR_COND, WALK_BUDGET, _sign_str
+from .result import NEAR_SINGULAR_COND, WALK_BUDGET, branch_text
 
 
 class NewtonPath:
@@ -262,8 +262,8 @@ class NewtonPath:
             want = tuple(self._signs())
             if signs_t != want:
                 return self._fail(
-                    f'Newton converged to assembly mode {_sign_str(signs_t)}, not the '
-                    f'requested {_sign_str(want)}: the input is not reachable on '
+                    f'Newton converged to assembly mode {branch_text(signs_t)}, not the '
+                    f'requested {branch_text(want)}: the input is not reachable on '
                     'that branch from the start configuration without crossing a '
                     'singularity',
                     self._echo(vals),

@@ -155,5 +155,6 @@ class _Prediction(collections.abc.Mapping):
         return len(self._last.points) + len(self._last.poses.phi)
 
 
-def _sign_str(signs) -> str:
+def branch_text(signs) -> str:
+    """Branch signs as the status shows them: '+-' for (+1, -1)."""
     return ''.join('+' if s > 0 else '-' for s in signs)

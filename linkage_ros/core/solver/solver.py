@@ -43,9 +43,9 @@ from .result import (
     METHODS,
     Result,
     _Prediction,
-    _sign_str,
     _State,
     branch_identity_defined,
+    branch_text,
 )
 
 
@@ -498,7 +498,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
             residual,
             iterations,
             solver,
-            _sign_str(signs),
+            branch_text(signs),
             bool(branch_identity_defined(margin, residual)) if signs else True,
             float(margin),
             cond if cond is None or math.isfinite(cond) else None,
