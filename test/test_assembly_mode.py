@@ -10,7 +10,7 @@ import random
 
 import pytest
 from oracles import fourbar as oracle
-from scenes import load
+from scenes import CONFIG, load
 
 from linkage_ros.engine import Engine, EngineSettings
 
@@ -69,7 +69,7 @@ def test_a_target_with_a_solution_in_the_current_mode_gets_that_one():
             assert close_angle(c.links['rocker'], want, 1e-9)
 
 
-@pytest.mark.parametrize('stem', ['four_bar', 'slider_crank', 'excavator', 'front_loader'])
+@pytest.mark.parametrize('stem', sorted(p.stem for p in CONFIG.glob('*.yaml')))
 def test_random_target_sequences_answer_in_mode_or_say_why(stem):
     """Property test over sequences: targets taken from forward solves near the current state
     (joint, link, actuator names, mixed) are answered OK in the current mode, closing the loops
