@@ -1453,3 +1453,34 @@ def test_the_bag_keeps_the_assembly_mode_like_the_node(tmp_path, capsys):
     for row, ans in ((rows[0], answers[0]), (rows[2], answers[2])):
         for j in mech.joint_names:
             assert math.isclose(float(row[f'joint.{j}']), ans.joints[j], abs_tol=1e-12), j
+
+
+def test_an_output_bag_appears_whole_or_not_at_all(tmp_path, scene):
+    """The output bag is written in a staging folder beside the target and renamed into place
+    when complete: cut short (here by `ulimit -f`; SIGKILL alike) nothing is left under the
+    output's name nor beside it; complete, it is a readable bag named as asked."""
+    import resource
+    import subprocess
+    import sys
+
+    msgs = [
+        ('/cmd', 10**9 + i * 10**6, joint_state(['crank'], [0.001 * i], sec=1 + i // 1000))
+        for i in range(4000)
+    ]
+    src = make_input(tmp_path, 'mcap', msgs)
+    out = tmp_path / 'solved'
+    cmd = [sys.executable, '-m', 'linkage_ros.bag', str(src), '--scene', str(scene)]
+    cmd += ['--command-topic', '/cmd', '--out', str(out), '--no-progress']
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100 * 1024, 100 * 1024))
+
+    proc = subprocess.run(cmd, capture_output=True, text=True, preexec_fn=limit, timeout=120)
+    assert proc.returncode == 2 and 'Traceback' not in proc.stderr, proc.stderr[-2000:]
+    assert not out.exists() and not list(tmp_path.glob('.solved.*')), list(tmp_path.iterdir())
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr[-2000:]
+    assert (out / 'metadata.yaml').exists() and (out / 'solved.mcap').exists()
+    assert not list(tmp_path.glob('.solved.*'))
+    got, _types = read_out_bag(out)
+    assert len(got['/joint_states']) == len(msgs)

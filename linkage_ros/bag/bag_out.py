@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import contextlib
+import os
 import shutil
 import struct
 from pathlib import Path
@@ -188,10 +189,16 @@ def write_bag(
     pt_t, pt_off = _point_template(frame_id)
     status = _StatusWriter(status_name if status_name is not None else f'{NODE_NAME}: {mech.name}')
     requests = ['command', 'target']
+    # written in a staging folder beside the target and renamed into place when complete:
+    # a run cut short (even by SIGKILL) leaves no half bag under the output's name
+    final = Path(path)
+    stage = final.parent / f'.{final.name}.{os.getpid()}.partial'
     try:
-        writer = Writer(path, version=9, storage_plugin=plugin)
+        stage.mkdir()
+        writer = Writer(stage / final.name, version=9, storage_plugin=plugin)
         writer.open()
     except Exception as exc:  # noqa: BLE001
+        shutil.rmtree(stage, ignore_errors=True)
         raise BagError(f'output {path}: cannot create the bag ({_exc_text(exc)})') from None
     try:
         c_js = writer.add_connection('/joint_states', JOINT_STATE, typestore=ts)
@@ -229,12 +236,13 @@ def write_bag(
                 write(c_st, t, statuses[i])
             progress.update(b)
         writer.close()
+        os.rename(stage / final.name, final)
+        stage.rmdir()
     except BaseException as exc:
-        # the folder is this run's own (it did not exist before): a half-written bag without
-        # metadata is no result, and would only block the next run ('exists already')
+        # a half-written bag is no result: the staging folder goes
         with contextlib.suppress(Exception):
             writer.abort()
-        shutil.rmtree(path, ignore_errors=True)
+        shutil.rmtree(stage, ignore_errors=True)
         if isinstance(exc, (BagError, OSError)) or not isinstance(exc, Exception):
             raise
         # sqlite3 ('database or disk is full'), rosbags' WriterError, ...
