@@ -1484,3 +1484,31 @@ def test_an_output_bag_appears_whole_or_not_at_all(tmp_path, scene):
     assert not list(tmp_path.glob('.solved.*'))
     got, _types = read_out_bag(out)
     assert len(got['/joint_states']) == len(msgs)
+
+
+def test_an_mcap_chunk_whose_checksum_fails_is_an_error(tmp_path, scene, capsys):
+    """MCAP chunks carry a CRC where the writer set one (ros2 bag record's writer does): a
+    chunk whose bytes no longer match it is an error naming the bag, never rows read from it."""
+    import struct
+
+    msgs = [('/cmd', 10**9 + i, joint_state(['crank'], [0.01 * i], sec=1)) for i in range(50)]
+    folder = make_input(tmp_path, 'mcap', msgs)
+    path = next(folder.glob('*.mcap'))
+    raw = bytearray(path.read_bytes())
+    pos, patched = 8, 0  # after the magic: records of (opcode u8, length u64, content)
+    while pos + 9 <= len(raw):
+        op, length = raw[pos], struct.unpack_from('<Q', raw, pos + 1)[0]
+        if op == 0x06:  # a chunk: start, end, uncompressed size, then its CRC32
+            struct.pack_into('<I', raw, pos + 9 + 24, 0x1234567)
+            patched += 1
+        pos += 9 + length
+    assert patched >= 1
+    path.write_bytes(bytes(raw))
+    out = tmp_path / 'o.csv'
+    code, cap = run_bag(
+        [folder, '--scene', scene, '--command-topic', '/cmd', '--out', out, '--no-progress'],
+        capsys,
+    )
+    assert code == 2 and not out.exists()
+    (line,) = cap.err.strip().splitlines()
+    assert str(folder) in line and 'checksum' in line and 'corrupt' in line, line
