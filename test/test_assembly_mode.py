@@ -117,8 +117,8 @@ def test_random_target_sequences_answer_in_mode_or_say_why(stem):
         for sb, sa, mb, ma in zip(before[0], after[0], before[1], after[1]):
             assert sb == sa or min(mb, ma) <= 1e-9, (before, after)
         if r.cond is not None and r.cond > 1e10:
-            # a singular target problem (the names do not fix the configuration locally, or an
-            # inverse toggle): any point of the solution set is an answer, not the source
+            # an inverse toggle (a double root): the answer is the root, not the source
+            # (name sets that fix no configuration at all are refused when their solver is made)
             continue
         if e.mode(f)[0] == before[0]:  # the configuration the target came from is in mode
             miss = max(math.dist(r.points[p], f.points[p]) for p in mech.points)

@@ -38,7 +38,7 @@ TIGHT = 1e-12
 HYBRID = {
     'excavator': ['G_Z3_rod', 'point:C'],
     'front_loader': ['Z1', 'F'],
-    'plagiograph': ['theta_A', 'link:BCE'],
+    'plagiograph': ['link:ABD', 'link:BCE'],  # (theta_A and BCE fix one motion: refused)
     'four_bar': ['link:coupler'],
 }
 # inverse knowns with point rows for the all-free (newton) system

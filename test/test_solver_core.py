@@ -1183,8 +1183,17 @@ def test_knowns_that_do_not_determine_the_mechanism_are_refused():
             "'plagiograph'.*leave a motion of '(\\w+)' free",
         ):
             Solver(mech, knowns=[f'point:{point}'])
-    for knowns in (['point:D'], ['point:E'], ['theta_A', 'link:BCE'], None):
+    for knowns in (['point:D'], ['point:E'], ['theta_A', 'link:ABD'], None):
         Solver(mech, knowns=knowns)
+    # O2-A-B-C is a parallelogram: BCE turns with crank_A, so its angle and theta_A fix one
+    # motion and leave crank_C free (the sparsity pattern cannot see it; J is singular in
+    # every pose). This pair used to be accepted and answered with an arbitrary crank_C.
+    with pytest.raises(
+        PlanError,
+        match=r"knowns \['theta_A', 'link:BCE'\] do not determine.*"
+        'fix the same motion',
+    ):
+        Solver(mech, knowns=['theta_A', 'link:BCE'])
     loader = Scene.from_yaml(CONFIG / 'front_loader.yaml').mechanism
     with pytest.raises(PlanError, match='do not determine'):
         Solver(loader, knowns=['point:A'])
@@ -1198,6 +1207,7 @@ def test_closure_guard_refuses_a_false_assembly(monkeypatch):
     from linkage_ros.core.newton import LoopSystem
 
     monkeypatch.setattr(LoopSystem, 'unfixed_links', lambda self: [])
+    monkeypatch.setattr(Solver, '_check_determined', lambda self, n: None)
     mech = Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism
     solver = Solver(mech, knowns=['point:A'])
     assert solver.mode == 'hybrid'

@@ -48,6 +48,11 @@ from .result import (
     branch_text,
 )
 
+#: the condition number of an inverse solve's equations at the reference pose above which its
+#: knowns are taken not to determine the mechanism (rounding alone gives ~1e16; a generic
+#: reference pose of a well-posed solve stays below ~1e6)
+UNDETERMINED_COND = 1e12
+
 
 class Solver(NewtonPath, BatchAPI, ConfigurationReading):
     """Compiled solver for one mechanism, one set of known names and wanted outputs."""
@@ -129,9 +134,11 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
                 f'{loose[0]!r} free; choose knowns that each fix a different '
                 'degree of freedom'
             )
+        self._ref_values = self._values_at_reference()
+        if self.inverse:
+            self._check_determined(n_values)
         self.branch_mode, self.fixed_signs = self._parse_branch(branch)
         self._slide_specs = {n: Spec(n, 'slide', joint=n) for n in mech.prismatics}
-        self._ref_values = self._values_at_reference()
         self._assemblers: dict[tuple, Any] = {}  # result assembly per set of placed links
         self.reset()
 
@@ -183,6 +190,51 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         raise PlanError(
             f"branch must be 'continuous', 'reference' or a string of + and - (got {branch!r})"
         )
+
+    def _check_determined(self, n_values: int) -> None:
+        """Knowns whose equations are singular at the reference pose do not fix the
+        configuration (two of them fix the same motion, another stays free) even where the
+        sparsity pattern says they might: a solve would return an arbitrary point of a curve of
+        solutions. Refused here, as the structural check refuses what it sees."""
+        cs = self.check_system
+        _, J = cs.evaluate(cs.reference_x(), self._ref_values)
+        cond = cs.scaled_cond(J)
+        if cond < UNDETERMINED_COND:
+            return
+        # singular in the reference pose: a drawing at a dead point is singular there only;
+        # undetermined knowns are singular everywhere. Look at poses the actuators move to.
+        fwd = Solver(self.mech, method='closed_form' if self.plan.complete else 'auto')
+        ref = fwd.reference_values()
+        scale = self.mech.length_scale
+        seen = False
+        for step in (0.05, -0.05, 0.3, -0.3):
+            # a different step for each actuator: equal steps keep a symmetric drawing symmetric
+            cmd = {
+                s.name: ref[s.name]
+                + (-1) ** k * (1 + 0.37 * k) * (step if s.kind == 'angle' else step * 0.1 * scale)
+                for k, s in enumerate(fwd.specs)
+            }
+            r = fwd.solve(cmd, commit=False)
+            got = self._configuration_of(r) if r.success else None
+            if got is None:
+                continue
+            seen = True
+            poses = got[1]
+            vals = [
+                np.asarray(v, float) if s.kind == 'point' else float(v)
+                for s, v in ((s, spec_value_one(self.mech, s, poses)) for s in self.specs)
+            ]
+            _, J = cs.evaluate(cs.x_from_poses(poses), vals)
+            if cs.scaled_cond(J) < UNDETERMINED_COND:
+                return
+        if seen:
+            raise PlanError(
+                f'the knowns {self.knowns} do not determine {self.mech.name!r}: they give '
+                f'{n_values} value(s) for its {self.mech.dof} degree(s) of freedom, but two '
+                'of them fix the same motion and leave another free (their equations are '
+                f'singular in every pose tried: condition number {cond:.2g} in the reference '
+                'pose); choose knowns that each fix a different degree of freedom'
+            )
 
     def _values_at_reference(self):
         ref = ScalarPoses()
