@@ -104,6 +104,7 @@ def result_to_joint_state(
     stamp: Time,
     frame_id: str,
     reuse: JointState | None = None,
+    prefix: str = '',
 ) -> JointState:
     """Every joint of ``joint_names`` (active and passive, in that order) with its position.
 
@@ -111,6 +112,7 @@ def result_to_joint_state(
     velocity and effort are left empty (position kinematics only).
     ``reuse``: a message made by an earlier call with the same names and frame, refilled in
     place (a publisher serialises on publish, so one message can carry every answer).
+    ``prefix`` is prepended to each published name (the node's ``prefix`` parameter).
     """
     positions = [float(result.joints[j]) for j in joint_names]
     if reuse is not None:
@@ -119,7 +121,7 @@ def result_to_joint_state(
         return reuse
     msg = JointState()
     msg.header = Header(stamp=stamp, frame_id=frame_id)
-    msg.name = list(joint_names)
+    msg.name = [prefix + j for j in joint_names]
     msg.position = positions
     return msg
 

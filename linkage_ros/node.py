@@ -299,7 +299,12 @@ class LinkageNode(Node):
                     result = Result(False, str(exc))
             if result.success:
                 self._joint_msg = result_to_joint_state(
-                    result, self.mech.joint_names, stamp, self.frame_id, self._joint_msg
+                    result,
+                    self.mech.joint_names,
+                    stamp,
+                    self.frame_id,
+                    self._joint_msg,
+                    prefix=self.config.prefix,
                 )
                 self.pub_joints.publish(self._joint_msg)
                 # the rest only when someone listens: with volatile QoS an unread message is
@@ -314,14 +319,16 @@ class LinkageNode(Node):
                         result_to_markers(result, self.mech, stamp, self.frame_id)
                     )
             if self.pub_status.get_subscription_count():
-                self.pub_status.publish(result_to_status(result, self.status_name, request))
+                self.pub_status.publish(
+                    result_to_status(result, self.status_name, request, self.mech.name)
+                )
             return result
         except Exception as exc:  # a bug must not take the node down: answer and keep going
             self.get_logger().error(
                 f'internal error on {request}: {exc!r}\n' + traceback.format_exc()
             )
             self.pub_status.publish(
-                error_status(f'internal error: {exc!r}', self.status_name, request)
+                error_status(f'internal error: {exc!r}', self.status_name, request, self.mech.name)
             )
             return Result(False, f'internal error: {exc!r}')
 

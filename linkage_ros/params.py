@@ -71,6 +71,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         constraints="a tf2 frame name: no whitespace, no leading '/'",
     ),
     ParamSpec(
+        'prefix',
+        '',
+        'Prepended to every joint name in joint_states (as robot_state_publisher prepends '
+        "frame_prefix to frames), so two mechanisms share one /joint_states: 'left_' gives "
+        "left_O2, left_A, ... Requests keep naming the scene's own names.",
+        constraints='no whitespace',
+    ),
+    ParamSpec(
         'demo_sweep',
         False,
         'Sweep the first actuator on a timer (through the command '
@@ -113,6 +121,7 @@ class NodeConfig:
     max_iterations: int = 50
     branch: str = 'continuous'
     frame_id: str = ''
+    prefix: str = ''
     demo_sweep: bool = False
     demo_rate: float = 20.0
     target_point_hold: tuple[str, ...] = ()
@@ -194,6 +203,9 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
             "must be a tf2 frame name, without whitespace or a leading '/' ('' = the scene's)",
             frame_id,
         )
+    prefix = v['prefix']
+    if not isinstance(prefix, str) or any(c.isspace() for c in prefix):
+        fail_setting('prefix', 'must be a string without whitespace', prefix)
     demo = v['demo_sweep']
     if not isinstance(demo, bool):
         fail_setting('demo_sweep', 'must be true or false', demo)
@@ -230,6 +242,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         max_iterations=it,
         branch=branch,
         frame_id=frame_id,
+        prefix=prefix,
         demo_sweep=demo,
         demo_rate=rate,
         target_point_hold=tuple(hold),

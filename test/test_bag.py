@@ -305,7 +305,7 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
         assert (pt.point.x, pt.point.y, pt.point.z) == (float(row['P.x']), float(row['P.y']), 0)
     for (t, st), row, (topic, tr, *_) in zip(msgs['/status'], table, rows):
         assert t == tr
-        assert st.name == 'linkage_node: crank_rocker' and st.hardware_id == ''
+        assert st.name == 'linkage_node: crank_rocker' and st.hardware_id == 'crank_rocker'
         kv = {v.key: v.value for v in st.values}
         assert kv['request'] == ('command' if topic == '/cmd' else 'target')
         if row['status'] == 'ok':

@@ -923,3 +923,17 @@ def test_two_nodes_with_one_name_log_the_clash(tmp_path):
         assert 'ERROR' in line and f'2 nodes named {ns}/{NODE_NAME} are running' in line, line
     assert 'nodes named' not in alone.stderr()
     assert codes == [0, 0, 0]
+
+
+def test_prefix_names_the_joints_and_hardware_id_the_scene(serve):
+    """Two mechanisms on one /joint_states need distinct joint names: the prefix parameter is
+    prepended to every published name (requests keep the scene's names); the status carries
+    the scene as hardware_id."""
+    s = serve(scene='four_bar', prefix='left_')
+    msg = joint_state(['crank'], [0.9], (131, 0))
+    status = s.send('command', msg)
+    assert status.level == OK and status.hardware_id == 'four_bar'
+    assert s.ros.spin_until(lambda: len(s.joints) >= 1, TIMEOUT)
+    assert list(s.joints.last.name) == ['left_' + j for j in s.mech.joint_names]
+    with pytest.raises(ConfigError, match="'prefix': must be a string without whitespace"):
+        make_config({'prefix': 'left arm'})

@@ -100,8 +100,9 @@ def _float_blocks(values: list[float]) -> list[bytes]:
 
 class _StatusWriter:
     """Serialises diagnostic_msgs/DiagnosticStatus as conversions.result_to_status builds it:
-    name '<node>: <scene>', hardware_id '', OK + 'ok' + residual, branch, branch_defined, margin,
-    solver, iterations[, cond], request; or ERROR + the reason + request."""
+    name '<node>: <scene>', hardware_id '<scene>', OK + 'ok' + residual, branch,
+    branch_defined, margin, solver, iterations[, cond], request; or ERROR + the
+    reason + request."""
 
     OK_LEVEL, ERROR_LEVEL = 0, 2
 
@@ -187,7 +188,9 @@ def write_bag(
     nsec = np.where(zero, data.log_ns % 10**9, data.nanosec).astype('<u4')
     js_t, js_off = _joint_state_template(joints, frame_id)
     pt_t, pt_off = _point_template(frame_id)
-    status = _StatusWriter(status_name if status_name is not None else f'{NODE_NAME}: {mech.name}')
+    status = _StatusWriter(
+        status_name if status_name is not None else f'{NODE_NAME}: {mech.name}', mech.name
+    )
     requests = ['command', 'target']
     # written in a staging folder beside the target and renamed into place when complete:
     # a run cut short (even by SIGKILL) leaves no half bag under the output's name
