@@ -56,7 +56,7 @@ def load_or_refuse(path) -> None:
         assert len(text) < len(str(path)) + 600, text[:300]
         if '(got ' in text:
             assert len(text.rsplit('(got ', 1)[1]) <= ECHO_CHARS + 1, text[-200:]
-    assert time.perf_counter() - t0 < 2.0
+    assert time.perf_counter() - t0 < 5.0  # no hang (not a speed target)
 
 
 @FUZZ

@@ -47,13 +47,16 @@ def run_cli(*args, timeout=60):
 
 
 def refused_fast(path, key: str | None, fragment: str) -> SceneError:
-    """In-process: Scene.from_yaml refuses in well under a second, naming file, key and why."""
+    """In-process: Scene.from_yaml refuses quickly (no hang, no expansion), naming file, key
+    and why."""
     t0 = time.perf_counter()
     with pytest.raises(SceneError) as info:
         Scene.from_yaml(path)
     took = time.perf_counter() - t0
     text = str(info.value)
-    assert took < 0.5, (took, text[:200])
+    # a bound that catches a hang or an expansion (the old reads took 12 s or forever), not a
+    # speed target: those are measured in linkage bench, not in a timed test on a shared box
+    assert took < 5.0, (took, text[:200])
     assert text.startswith(str(path)), text[:200]
     if key is not None:
         assert info.value.key == key, text[:200]
