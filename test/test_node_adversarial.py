@@ -819,6 +819,13 @@ def test_a_signal_during_a_command_stream_exits_0_every_time(ros, tmp_path, sig)
         joints = [ros.collector(JointState, p.topic('joint_states')) for p in procs]
         for p, pub, col in zip(procs, pubs, joints):
             ros.wait_for_discovery([pub], [col], process=p)
+            # the node's writer may match our reader a little after ours matched its reader:
+            # resend until one command is answered
+            for _ in range(40):
+                pub.publish(joint_state(['crank'], [0.3], (999, 0)))
+                if ros.spin_until(lambda col=col: len(col) > 0, 0.5, p):
+                    break
+            assert len(col) > 0, 'the node answers before the stream starts'
         codes, took = [], []
         period = 1.0 / 500
         for k, (p, pub) in enumerate(zip(procs, pubs)):
@@ -830,7 +837,6 @@ def test_a_signal_during_a_command_stream_exits_0_every_time(ros, tmp_path, sig)
                 n += 1
                 next_t += period
                 ros.spin_for(max(0.0, next_t - time.monotonic()))
-            assert len(joints[k]) > 0, 'the node answered the stream'
             t0 = time.monotonic()
             p.proc.send_signal(sig)  # mid-stream: more commands keep arriving
             for _ in range(50):
@@ -857,9 +863,15 @@ def test_a_request_with_more_names_than_the_scene_has_is_refused_at_once(serve):
     s = serve(scene='four_bar')
     limit = max_request_names(s.mech)
     names = [f'n{k}' for k in range(10**5)]
-    t0 = time.perf_counter()
-    why = request_shape_error(names, len(names), limit)
-    assert time.perf_counter() - t0 < 1e-3
+
+    class CountOnly:  # a name list that fails if the check looks at any single name
+        def __len__(self):
+            return len(names)
+
+        def __getitem__(self, i):
+            raise AssertionError('the count alone must refuse it')
+
+    why = request_shape_error(CountOnly(), len(names), limit)
     assert why == (
         f'JointState has 100000 name(s); the scene has only {limit} names '
         '(actuators, joints, links and points) to give values for'
