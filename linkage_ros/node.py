@@ -423,7 +423,7 @@ class LinkageNode(Node):
 
 #: When the node looks at the graph for another node of its name (s after start-up, times)
 CLASH_CHECK_S = 1.0
-CLASH_CHECKS = 5
+CLASH_CHECKS = 10
 
 #: How long the spin loop may block before it looks at the stop flag (s): the latency of a
 #: shutdown on SIGINT / SIGTERM, not of any message.
