@@ -50,10 +50,8 @@ def joint_state_to_command(msg: JointState, max_names: int | None = None) -> dic
     or missing names, NaN, inf, limits, reachability) is the solver's call. ``velocity`` and
     ``effort`` are ignored.
     """
-    names, positions = msg.name, msg.position
-    if max_names is not None and max(len(names), len(positions)) > max_names:  # no copies
-        return request_values(names, positions, max_names)
-    return request_values(list(names), list(positions), max_names)
+    # the message's own sequences: the name count is checked before any copy or per-name work
+    return request_values(msg.name, msg.position, max_names)
 
 
 def joint_state_peek(raw: bytes) -> tuple[int, int, int] | None:
