@@ -13,6 +13,8 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/config/params', glob('config/params/*.yaml')),
+        ('share/' + package_name + '/launch', glob('config/launch/*.launch.py')),
+        ('share/' + package_name + '/rviz', glob('config/rviz/*.rviz')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

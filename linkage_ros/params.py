@@ -11,6 +11,7 @@ from typing import Any
 from .core.errors import PlanError
 from .core.model import Scene
 from .core.solver import METHODS
+from .core.urdf import name_error
 from .engine import ConfigError, Engine, EngineSettings, fail_setting
 from .resources import scene_path
 
@@ -75,8 +76,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         '',
         'Prepended to every joint name in joint_states (as robot_state_publisher prepends '
         "frame_prefix to frames), so two mechanisms share one /joint_states: 'left_' gives "
-        "left_O2, left_A, ... Requests keep naming the scene's own names.",
-        constraints='no whitespace',
+        'left_O2, left_A, ... Give `linkage urdf --prefix` the same. Requests keep naming the '
+        "scene's own names.",
+        constraints="no whitespace or control characters, no leading '/'",
     ),
     ParamSpec(
         'demo_sweep',
@@ -204,8 +206,12 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
             frame_id,
         )
     prefix = v['prefix']
-    if not isinstance(prefix, str) or any(c.isspace() for c in prefix):
-        fail_setting('prefix', 'must be a string without whitespace', prefix)
+    if name_error(prefix, allow_empty=True):
+        fail_setting(
+            'prefix',
+            "must be a string without whitespace, control characters or leading '/'",
+            prefix,
+        )
     demo = v['demo_sweep']
     if not isinstance(demo, bool):
         fail_setting('demo_sweep', 'must be true or false', demo)

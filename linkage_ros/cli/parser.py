@@ -84,6 +84,7 @@ EXTERNAL_COMMANDS = {
     'range': 'linkage_ros.cli.range',
     'bag': 'linkage_ros.bag',
     'bench': 'linkage_ros.bench',
+    'urdf': 'linkage_ros.cli.urdf',
 }
 
 

@@ -1,0 +1,62 @@
+"""Write the scene as a URDF tree for robot_state_publisher and RViz.
+
+    linkage urdf SCENE [--prefix P] [--frame-id F] [-o FILE]
+
+The joint names are the names linkage_node publishes on joint_states (with the same --prefix as
+the node's ``prefix`` parameter), so robot_state_publisher fed by the node puts every link and
+point frame where the solver says. The root link is the node's frame_id (the scene's, or
+--frame-id as given to the node); every link and point is a frame named after it, prefixed.
+Loop-closing joints are left out of the tree and listed in a comment. Without -o the URDF goes
+to stdout (robot_description: "$(linkage urdf four_bar)").
+
+Exit status: 0 written; 2 a usage error or a scene the URDF cannot name (a point and a link of
+one name, a frame_id that names a point or link), one line on stderr.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from ..core.errors import LinkageError
+from ..core.urdf import name_error, urdf_document
+from ..outputs import written_whole
+from .common import OK, USAGE_ERROR, UsageError, load_mechanism
+
+PROG = 'linkage urdf'
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.description = "Write the scene as a URDF tree (joint names = the node's joint_states)."
+    p.epilog = __doc__.split('\n', 2)[2].rstrip() + '\n'
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+    p.add_argument(
+        '--prefix',
+        default='',
+        help="prepended to every joint and frame name except the root (the node's prefix)",
+    )
+    p.add_argument('--frame-id', default=None, help="root frame (default: the scene's frame_id)")
+    p.add_argument('-o', '--output', metavar='FILE', help='write here (default: stdout)')
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        for what, value in (('prefix', args.prefix), ('frame-id', args.frame_id)):
+            why = name_error(value, allow_empty=what == 'prefix') if value is not None else None
+            if why:
+                raise UsageError(f'--{what} {why}')
+        mech, _path = load_mechanism(args.scene)
+        text = urdf_document(mech, prefix=args.prefix, frame_id=args.frame_id)
+        if args.output:
+            with written_whole(args.output) as tmp:
+                tmp.write_text(text, encoding='utf-8')
+        else:
+            sys.stdout.write(text)
+    except (UsageError, LinkageError) as exc:
+        print(f'{PROG}: error: {exc}', file=sys.stderr)
+        return USAGE_ERROR
+    except OSError as exc:
+        print(f'{PROG}: error: cannot write {args.output}: {exc.strerror or exc}', file=sys.stderr)
+        return USAGE_ERROR
+    return OK
