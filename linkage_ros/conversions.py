@@ -23,7 +23,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from .core.errors import CommandError
 from .core.model import Mechanism
 from .core.solver import Result
-from .engine import request_values, status_values
+from .engine import request_rates, request_values, status_values
 
 __all__ = [
     'joint_state_to_command',
@@ -48,10 +48,15 @@ def joint_state_to_command(msg: JointState, max_names: int | None = None) -> dic
     Checks only the message's own shape: at least one name, as many positions as names, no
     empty or repeated name. Whether the names and values make sense for the mechanism (unknown
     or missing names, NaN, inf, limits, reachability) is the solver's call. ``velocity`` and
-    ``effort`` are ignored.
+    ``effort`` are ignored here (:func:`joint_state_rates` reads velocity).
     """
     # the message's own sequences: the name count is checked before any copy or per-name work
     return request_values(msg.name, msg.position, max_names)
+
+
+def joint_state_rates(msg: JointState) -> dict[str, float] | None:
+    """``{name: velocity}`` of a JointState command, None if its velocity is empty."""
+    return request_rates(msg.name, msg.velocity)
 
 
 def joint_state_peek(raw: bytes) -> tuple[int, int, int] | None:
@@ -107,20 +112,25 @@ def result_to_joint_state(
     """Every joint of ``joint_names`` (active and passive, in that order) with its position.
 
     Revolute: child link angle minus parent link angle (rad); prismatic: slide (m).
-    velocity and effort are left empty (position kinematics only).
+    velocity (rad/s, m/s) for every joint when the result carries rates (a command that gave
+    velocities), else empty; effort is always empty (kinematics only).
     ``reuse``: a message made by an earlier call with the same names and frame, refilled in
     place (a publisher serialises on publish, so one message can carry every answer).
     ``prefix`` is prepended to each published name (the node's ``prefix`` parameter).
     """
     positions = [float(result.joints[j]) for j in joint_names]
+    vel = result.velocity
+    rates = [vel.joints[j] for j in joint_names] if vel is not None and vel.success else []
     if reuse is not None:
         reuse.header.stamp = stamp
         reuse.position = positions
+        reuse.velocity = rates
         return reuse
     msg = JointState()
     msg.header = Header(stamp=stamp, frame_id=frame_id)
     msg.name = [prefix + j for j in joint_names]
     msg.position = positions
+    msg.velocity = rates
     return msg
 
 

@@ -11,6 +11,7 @@ with the same words and reports the same fields.
 from __future__ import annotations
 
 import collections
+import math
 import time
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
@@ -21,6 +22,7 @@ from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
 from .core.solver import Result, Solver
 from .core.solver.result import branch_text
+from .core.velocity import velocities
 
 #: inverse solvers kept per engine (one per set of target names); least recently used dropped
 SOLVER_CACHE = 32
@@ -216,9 +218,24 @@ class Engine:
             self.record(solver, result)
         return result
 
-    def command(self, values: Mapping[str, float]) -> Result:
-        """Forward kinematics: ``{actuator: value}``."""
-        return self.solve(self.forward, values)
+    def command(
+        self, values: Mapping[str, float], rates: Mapping[str, float] | None = None
+    ) -> Result:
+        """Forward kinematics: ``{actuator: value}``; with ``rates`` ({actuator: rad/s or m/s},
+        the same names) the answer's ``velocity`` holds every joint's, link's and point's rate
+        (core.velocity: exact, from the loop-closure Jacobian)."""
+        if rates is not None:
+            bad = [n for n, v in rates.items() if not math.isfinite(v)]
+            if bad:
+                return Result(
+                    False,
+                    f'velocity of {echo(bad)} is not finite: give finite rates (rad/s, m/s) '
+                    'for every name, or no velocity at all',
+                )
+        result = self.solve(self.forward, values)
+        if rates is not None and result.success:
+            result.velocity = velocities(self.forward, result, values, rates)
+        return result
 
     def target(self, values: Mapping[str, float], allow_mode_change: bool = False) -> Result:
         """Inverse kinematics: ``{joint/link/actuator name: value}`` (DOF values in all), in
@@ -416,10 +433,25 @@ def request_values(
     return {n: float(p) for n, p in zip(names, positions)}
 
 
+def request_rates(names: Sequence[str], velocity: Sequence[float]) -> dict[str, float] | None:
+    """``{name: velocity}`` of a JointState command (None when velocity is empty, as
+    JointState allows); CommandError unless there is one velocity per name."""
+    if not len(velocity):
+        return None
+    if len(velocity) != len(names):
+        raise CommandError(
+            f'JointState has {len(names)} name(s) but {len(velocity)} velocities; give one '
+            'velocity per name (rad/s or m/s) or none'
+        )
+    return {n: float(v) for n, v in zip(names, velocity)}
+
+
 def status_values(result: Result, request: str) -> dict[str, Any]:
     """The key/values of the status answering a request, in order. Success: residual
     (fraction of the length scale), branch, branch_defined, margin, solver, iterations, cond
-    (Newton only) and request. Failure: request (the reason is the status message)."""
+    (Newton only), mode_change (when a target changed it), velocity (when the request gave
+    rates: 'ok (cond C)' or why there is none) and request. Failure: request (the reason is
+    the status message)."""
     if not result.success:
         return {'request': request}
     values: dict[str, Any] = {
@@ -434,5 +466,8 @@ def status_values(result: Result, request: str) -> dict[str, Any]:
         values['cond'] = result.cond
     if result.mode_change:
         values['mode_change'] = result.mode_change
+    vel = result.velocity
+    if vel is not None:
+        values['velocity'] = f'ok (cond {vel.cond:.3g})' if vel.success else vel.reason
     values['request'] = request
     return values

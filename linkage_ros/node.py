@@ -42,6 +42,7 @@ from .conversions import (
     format_joints,
     is_zero_stamp,
     joint_state_peek,
+    joint_state_rates,
     joint_state_to_command,
     point_stamped_to_xy,
     result_to_joint_state,
@@ -336,7 +337,9 @@ class LinkageNode(Node):
         self._answer(
             'command',
             msg.header.stamp,
-            lambda: self.engine.command(joint_state_to_command(msg, self.max_names)),
+            lambda: self.engine.command(
+                joint_state_to_command(msg, self.max_names), joint_state_rates(msg)
+            ),
         )
 
     def _on_target(self, raw: bytes):

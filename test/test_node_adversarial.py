@@ -369,6 +369,9 @@ def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
     bad = [
         ('command', cmd(nan_mid), ['Z2', 'finite', 'nan']),
         ('command', cmd(dict(mid, Z3=math.inf)), ['Z3', 'finite', 'inf']),
+        # a command's velocity: empty or one finite rate per name
+        ('command', cmd(mid, velocity=[math.nan]), ['3 name(s) but 1 velocities']),
+        ('command', cmd(mid, velocity=[0.1, math.inf, 0.0]), ["['Z2']", 'not finite']),
         ('command', cmd(dict(mid, Z1=-math.inf)), ['Z1', 'finite']),
         ('command', joint_state([], [], stamp_next()), ['empty JointState']),
         ('command', joint_state(acts, [1.5, 1.9], stamp_next()), ['3 name(s)', '2 position(s)']),
@@ -419,11 +422,11 @@ def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
         ),
         ('target_point/L', point_stamped(2.0, 0.5, stamp=(3, 10**9)), ['header.stamp.nanosec']),
     ]
-    # a velocity and an effort field (even NaN, even of another length) are ignored
+    # effort (even NaN, even of another length) is ignored
     step = dict(mid, Z1=mid['Z1'] + 0.02)
     check_good(
         'command',
-        cmd(step, velocity=[math.nan], effort=[1.0, 2.0, 3.0, 4.0]),
+        cmd(step, effort=[math.nan, 2.0, 3.0, 4.0]),
         lambda: ref.command(step),
     )
     for i, (topic, msg, fragments) in enumerate(bad):

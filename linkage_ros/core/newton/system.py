@@ -345,6 +345,31 @@ class LoopSystem(ScalarSolve, BatchSystem):
                     Jv += jv
         return F, Jv
 
+    # -- rates ----------------------------------------------------------------------------------
+    def rates(
+        self, x: np.ndarray, values: Sequence, value_rates: Sequence[float]
+    ) -> tuple[np.ndarray | None, float]:
+        """(dx/dt, cond): the unknowns' rates (per free link: rad/s, then its centroid's m/s)
+        for the knowns' rates ``value_rates`` (one per value component: rad/s or m/s), from the
+        analytic Jacobian at the solution x: J dx = -dF/dvalue * rates, the tangent predict()
+        extrapolates along (scale-free units, then scaled back). cond is J's scaled condition
+        number; dx is None where J is singular (a toggle) or a value has no row here."""
+        F, J, _ = self._eval_s(x, values, None)
+        cond = self.scaled_cond(J)
+        fac = self._factor(J) if self._val_rows is not None else None
+        if fac is None:
+            return None, cond
+        rhs = np.zeros(self.n)
+        comps = []
+        for s in self.specs:
+            comps += [s.kind == 'angle'] * s.size
+        for i, rate, is_angle in zip(self._val_rows or [], value_rates, comps):
+            rhs[i] = float(rate) if is_angle else float(rate) / self.L
+        dy, info = _lapack()[1](fac[0], fac[1], rhs)
+        if info != 0 or not np.all(np.isfinite(dy)):
+            return None, cond
+        return dy * self._step_scale, cond
+
     # -- linear algebra -----------------------------------------------------------------------
     def unfixed_links(self) -> list[str]:
         """Free links the equations cannot determine whatever the configuration: by the

@@ -78,6 +78,8 @@ class Result:
     all_branches: list[Result] | None = None
     #: set by a front end that allowed a target to change the assembly mode: 'before -> after'
     mode_change: str = ''
+    #: rates of this configuration (core.velocity.Velocities), when the request gave rates
+    velocity: Any = None
 
     def to_dict(self, mech: Mechanism | None = None) -> dict[str, Any]:
         links = {}

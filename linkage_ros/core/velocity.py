@@ -1,0 +1,103 @@
+"""Velocities from the loop-closure Jacobian: the knowns' rates (actuator rad/s or m/s, or a
+target's) -> every link's angular velocity, every joint's rate and every point's velocity.
+
+Exact to rounding: one linear solve with the analytic Jacobian of the loop-closure equations
+at the solved configuration (J dx/dt = -dF/dvalue * rates), not a finite difference. Near a
+toggle J becomes singular and the velocities grow without bound (as the mechanism's do: a
+finite input rate drives an output at an unbounded rate there); ``cond`` says how near, and at
+a singular J there is no answer (``success`` False with the reason).
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+from .plan import ScalarPoses
+
+if TYPE_CHECKING:
+    from .solver import Result, Solver
+
+
+@dataclass
+class Velocities:
+    """Rates of one configuration: ``links`` rad/s (counter-clockwise), ``joints`` rad/s for
+    revolute and m/s for prismatic joints, ``points`` (vx, vy) m/s; ``cond`` is the scaled
+    condition number of the loop-closure Jacobian (large near a toggle)."""
+
+    success: bool
+    reason: str | None = None
+    links: dict[str, float] = field(default_factory=dict)
+    joints: dict[str, float] = field(default_factory=dict)
+    points: dict[str, tuple[float, float]] = field(default_factory=dict)
+    cond: float = math.inf
+
+
+def _poses(solver: Solver, result: Result) -> ScalarPoses:
+    """The link poses of a solved configuration, read back from its link angles and points."""
+    mech = solver.mech
+    poses = ScalarPoses()
+    for name, link in mech.links.items():
+        phi = float(result.links[name]) - link.angle_ref
+        rot = cmath.exp(1j * phi)
+        p = link.points[0]
+        world = complex(*result.points[p])
+        ref = complex(*(float(v) for v in mech.points[p]))
+        poses.set(name, phi, world - rot * ref, rot)
+    return poses
+
+
+def velocities(
+    solver: Solver, result: Result, values: Mapping[str, Any], rates: Mapping[str, Any]
+) -> Velocities:
+    """Rates of the configuration ``result`` that ``solver`` solved from ``values``, for the
+    knowns' ``rates`` (the same names: rad/s, m/s; a point known's rate is (vx, vy))."""
+    mech, system = solver.mech, solver.check_system
+    missing = [k for k in solver.knowns if k not in rates]
+    if missing:
+        return Velocities(False, f'no rate given for {missing}')
+    poses = _poses(solver, result)
+    x = system.x_from_poses(poses)
+    comps: list[float] = []
+    for s in solver.specs:
+        r = rates[s.name]
+        comps += [float(r[0]), float(r[1])] if s.kind == 'point' else [float(r)]
+    dx, cond = system.rates(x, solver.parse(values), comps)
+    if dx is None:
+        return Velocities(
+            False,
+            f'no velocity: the loop-closure Jacobian is singular here (condition {cond:.3g}; '
+            'a toggle, where a finite input rate drives the mechanism at an unbounded rate)',
+            cond=cond,
+        )
+    omega = {mech.ground: 0.0}
+    centre = {mech.ground: (0j, 0j)}  # (centroid position, its velocity)
+    for link, i in system.index.items():
+        omega[link] = float(dx[3 * i])
+        centre[link] = (complex(x[3 * i + 1], x[3 * i + 2]), complex(dx[3 * i + 1], dx[3 * i + 2]))
+
+    def carried(link: str, at: complex) -> complex:
+        """Velocity of the point of ``link`` now at ``at``."""
+        c, v = centre[link]
+        return v + 1j * omega[link] * (at - c)
+
+    points = {}
+    for p, (px, py) in result.points.items():
+        owner = mech.links_of_point(p)[0]
+        v = carried(owner, complex(px, py))
+        points[p] = (v.real, v.imag)
+    joints = {j.name: omega[j.child] - omega[j.parent] for j in mech.revolutes}
+    for pj in mech.prismatics.values():
+        # slide = u . (P - O): u the guide's direction, O its origin, both turning with it
+        rot, T = poses.rot[pj.guide], poses.T[pj.guide]
+        u = rot * complex(*pj.direction)
+        origin = rot * complex(*pj.origin) + T
+        at = complex(*result.points[pj.point])
+        dv = carried(pj.slider, at) - carried(pj.guide, origin)
+        du = 1j * omega[pj.guide] * u
+        d = at - origin
+        joints[pj.name] = (u.conjugate() * dv).real + (du.conjugate() * d).real
+    return Velocities(True, None, omega, joints, points, cond)

@@ -1,0 +1,138 @@
+"""Velocities from the loop-closure Jacobian (core.velocity), against independent oracles:
+central differences of position solves on every shipped scene, the classical four-bar
+velocity formulas, and the growth without bound near a toggle."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scenes
+
+from linkage_ros.core.analysis import fourbar_toggle_angles
+from linkage_ros.core.solver import Solver
+from linkage_ros.core.velocity import velocities
+from linkage_ros.engine import Engine, EngineSettings
+
+SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
+
+
+def _central(solver, values, rates, h):
+    """(joint rates, point velocities) by central differences of two position solves."""
+    plus = solver.solve({a: values[a] + h * rates[a] for a in values}, commit=False)
+    minus = solver.solve({a: values[a] - h * rates[a] for a in values}, commit=False)
+    assert plus.success and minus.success
+    joints = {
+        j: math.remainder(plus.joints[j] - minus.joints[j], 2 * math.pi) / (2 * h)
+        if j in {r.name for r in solver.mech.revolutes}
+        else (plus.joints[j] - minus.joints[j]) / (2 * h)
+        for j in plus.joints
+    }
+    points = {
+        p: (
+            (plus.points[p][0] - minus.points[p][0]) / (2 * h),
+            (plus.points[p][1] - minus.points[p][1]) / (2 * h),
+        )
+        for p in plus.points
+    }
+    return joints, points
+
+
+@pytest.mark.parametrize('stem', SHIPPED)
+def test_velocities_match_central_differences(stem):
+    mech = scenes.load(stem)
+    solver = Solver(mech, knowns=list(mech.actuators), branch='reference')
+    ref = solver.reference_values()
+    rng = np.random.default_rng(3)
+    L = mech.length_scale
+    checked = 0
+    for _ in range(12):
+        values = {
+            a: ref[a]
+            + rng.standard_normal() * (0.05 if mech.actuators[a].kind == 'angle' else 0.01 * L)
+            for a in ref
+        }
+        result = solver.solve(values, commit=False)
+        if not result.success or result.margin is not None and result.margin < 0.05:
+            continue
+        rates = {
+            a: float(rng.uniform(-2, 2)) * (1 if mech.actuators[a].kind == 'angle' else L)
+            for a in ref
+        }
+        vel = velocities(solver, result, values, rates)
+        assert vel.success, vel.reason
+        fd_joints, fd_points = _central(solver, values, rates, 1e-6)
+        scale = max(1.0, max(abs(v) for v in vel.joints.values()))
+        for j in mech.joint_names:
+            unit = L if j in mech.prismatics else 1.0
+            assert abs(vel.joints[j] - fd_joints[j]) <= 1e-6 * scale * unit, (stem, j)
+        for p in mech.points:
+            for k in (0, 1):
+                assert abs(vel.points[p][k] - fd_points[p][k]) <= 1e-6 * scale * L, (stem, p)
+        checked += 1
+    assert checked >= 3
+
+
+def test_four_bar_matches_the_classical_formulas():
+    """Norton's four-bar velocity equations, written from the textbook, not from the core:
+    w3 = a w2 sin(t4 - t2) / (b sin(t3 - t4)), w4 = a w2 sin(t2 - t3) / (c sin(t4 - t3))."""
+    mech = scenes.four_bar(0.3, 0.1, 0.25, 0.2)
+    a, b, c = 0.1, 0.25, 0.2
+    solver = Solver(mech, knowns=['crank'])
+    for theta in np.linspace(0.1, 2 * math.pi - 0.1, 25):
+        r = solver.solve({'crank': theta})
+        assert r.success
+        w2 = 1.7
+        vel = velocities(solver, r, {'crank': theta}, {'crank': w2})
+        t2, t3, t4 = r.links['crank'], r.links['coupler'], r.links['rocker']
+        w3 = a * w2 * math.sin(t4 - t2) / (b * math.sin(t3 - t4))
+        w4 = a * w2 * math.sin(t2 - t3) / (c * math.sin(t4 - t3))
+        assert vel.links['crank'] == pytest.approx(w2, abs=1e-12)
+        assert vel.links['coupler'] == pytest.approx(w3, rel=1e-9, abs=1e-12)
+        assert vel.links['rocker'] == pytest.approx(w4, rel=1e-9, abs=1e-12)
+        # the coupler point B: rocker tip velocity c w4 perpendicular to O4 -> B
+        vb = vel.points['B']
+        assert vb[0] == pytest.approx(-c * w4 * math.sin(t4), abs=1e-10)
+        assert vb[1] == pytest.approx(c * w4 * math.cos(t4), abs=1e-10)
+
+
+def test_velocity_grows_without_bound_near_a_toggle_and_stays_exact():
+    lengths = (0.3, 0.2, 0.15, 0.2)  # non-Grashof: the crank rocks between two toggles
+    mech = scenes.four_bar(*lengths)
+    toggle = fourbar_toggle_angles(*lengths)[0]
+    solver = Solver(mech, knowns=['crank'], branch='reference')
+    ref = solver.reference_values()['crank']
+    inside = 1.0 if ref > toggle else -1.0
+    last_speed, last_cond = 0.0, 0.0
+    for delta in (1e-2, 1e-4, 1e-6, 1e-8):
+        theta = toggle + inside * delta
+        r = solver.solve({'crank': theta}, commit=False)
+        assert r.success, r.reason
+        vel = velocities(solver, r, {'crank': theta}, {'crank': 1.0})
+        assert vel.success
+        speed = abs(vel.links['rocker']) + abs(vel.links['coupler'])
+        assert speed > last_speed and vel.cond > last_cond
+        # like 1 / sqrt(delta): exact against differences far smaller than the distance
+        fd, _ = _central(solver, {'crank': theta}, {'crank': 1.0}, delta * 1e-3)
+        for j in mech.joint_names:
+            assert vel.joints[j] == pytest.approx(fd[j], rel=1e-4, abs=1e-9)
+        last_speed, last_cond = speed, vel.cond
+    assert last_speed > 1e3  # grows without bound: ~ 1 / sqrt(1e-8)
+    assert r.margin < 1e-3  # the margin said how near
+
+
+def test_engine_fills_velocity_and_refuses_non_finite_rates():
+    mech = scenes.load('excavator')
+    engine = Engine(mech, EngineSettings())
+    r = engine.command({'Z1': 1.5, 'Z2': 1.8, 'Z3': 1.3}, {'Z1': 0.1, 'Z2': 0.0, 'Z3': -0.05})
+    assert r.success and r.velocity.success
+    assert set(r.velocity.joints) == set(mech.joint_names)
+    assert r.velocity.joints['Z1'] == pytest.approx(0.1, abs=1e-12)
+    assert r.velocity.joints['Z3'] == pytest.approx(-0.05, abs=1e-12)
+    before = engine.last
+    bad = engine.command({'Z1': 1.6, 'Z2': 1.8, 'Z3': 1.3}, {'Z1': math.nan, 'Z2': 0, 'Z3': 0})
+    assert not bad.success and "['Z1']" in bad.reason and 'not finite' in bad.reason
+    assert engine.last is before  # nothing changed
+    plain = engine.command({'Z1': 1.6, 'Z2': 1.8, 'Z3': 1.3})
+    assert plain.success and plain.velocity is None
