@@ -23,32 +23,24 @@ from typing import Any
 
 import rclpy
 from builtin_interfaces.msg import Time
-from diagnostic_msgs.msg import DiagnosticStatus
 from geometry_msgs.msg import PointStamped
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
-from rclpy.event_handler import PublisherEventCallbacks, SubscriptionEventCallbacks
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.exceptions import InvalidParameterTypeException, ParameterException
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
-from visualization_msgs.msg import MarkerArray
 
 from .conversions import (
-    error_status,
     format_joints,
     is_zero_stamp,
     joint_state_peek,
     joint_state_rates,
     joint_state_to_command,
     point_stamped_to_xy,
-    result_to_joint_state,
-    result_to_markers,
-    result_to_points,
-    result_to_status,
 )
 from .core.errors import CommandError, SceneError
 from .core.solver import Result
@@ -67,6 +59,7 @@ from .params import (
     load_engine,
     make_config,
 )
+from .publishing import Outputs, topic_qos
 from .stamps import stamp_error
 
 __all__ = [
@@ -90,16 +83,6 @@ ZERO_CLOCK = (
 
 
 # ---- the ROS node --------------------------------------------------------------------------------
-
-
-def topic_qos(depth: int) -> QoSProfile:
-    """Reliable, keep last ``depth``, volatile: commands and outputs alike."""
-    return QoSProfile(
-        reliability=ReliabilityPolicy.RELIABLE,
-        history=HistoryPolicy.KEEP_LAST,
-        depth=depth,
-        durability=DurabilityPolicy.VOLATILE,
-    )
 
 
 class LinkageNode(Node):
@@ -147,21 +130,10 @@ class LinkageNode(Node):
         mech = self.mech = self.scene.mechanism
         self.max_names = max_request_names(mech)  # a longer request is refused at once
         self.frame_id = self.config.frame_id or mech.frame_id
-        self.status_name = f'{NODE_NAME}: {mech.name}'
-        # Each QoS-event handler is one more waitable that the executor polls on every wakeup,
-        # which costs the same order as the solve itself. The outputs and the per-point targets
-        # carry none: the other end (rclpy, rclcpp and RViz by default) reports an incompatible
-        # QoS or type on its side. ~/command and ~/target keep rclpy's default warnings.
+        self.outputs = Outputs(self, self.engine, self.config, self.frame_id)
+        # ~/command and ~/target keep rclpy's default QoS-event warnings; the per-point targets
+        # carry none (see Outputs: each handler costs every executor wakeup)
         qos = topic_qos(self.config.queue_depth)
-        quiet = {'event_callbacks': PublisherEventCallbacks(use_default_callbacks=False)}
-        self.pub_joints = self.create_publisher(JointState, 'joint_states', qos, **quiet)
-        self._joint_msg: JointState | None = None  # refilled for every answer
-        self.pub_points = {
-            p: self.create_publisher(PointStamped, f'~/points/{p}', qos, **quiet)
-            for p in mech.outputs
-        }
-        self.pub_markers = self.create_publisher(MarkerArray, '~/markers', qos, **quiet)
-        self.pub_status = self.create_publisher(DiagnosticStatus, '~/status', qos, **quiet)
         self.create_subscription(JointState, '~/command', self._on_command, qos)
         # targets arrive serialised: a request with more names than the scene has is refused
         # from its first bytes, before rclpy would build 10^5 Python strings for it
@@ -278,8 +250,9 @@ class LinkageNode(Node):
 
     # -- requests ----------------------------------------------------------------------------------
     def _answer(self, request: str, stamp, solve: Callable[[], Result]) -> Result:
-        """Run one request and publish its answer: on success joint_states, points, markers and
-        an OK status; on failure only an ERROR status. Never raises."""
+        """Run one request and publish its answer (Outputs.answer: on success joint_states,
+        the subscribed points and an OK status; on failure only an ERROR status). Never
+        raises."""
         try:
             if is_zero_stamp(stamp):  # unset: the node clock's now
                 stamp = self.get_clock().now().to_msg()
@@ -298,39 +271,13 @@ class LinkageNode(Node):
                     result = solve()
                 except CommandError as exc:
                     result = Result(False, str(exc))
-            if result.success:
-                self._joint_msg = result_to_joint_state(
-                    result,
-                    self.mech.joint_names,
-                    stamp,
-                    self.frame_id,
-                    self._joint_msg,
-                    prefix=self.config.prefix,
-                )
-                self.pub_joints.publish(self._joint_msg)
-                # the rest only when someone listens: with volatile QoS an unread message is
-                # unobservable, and building markers costs more than the solve
-                listened = [n for n, pub in self.pub_points.items() if pub.get_subscription_count()]
-                if listened:
-                    msgs = result_to_points(result, self.pub_points, stamp, self.frame_id)
-                    for name in listened:
-                        self.pub_points[name].publish(msgs[name])
-                if self.pub_markers.get_subscription_count():
-                    self.pub_markers.publish(
-                        result_to_markers(result, self.mech, stamp, self.frame_id)
-                    )
-            if self.pub_status.get_subscription_count():
-                self.pub_status.publish(
-                    result_to_status(result, self.status_name, request, self.mech.name)
-                )
+            self.outputs.answer(result, stamp, request)
             return result
         except Exception as exc:  # a bug must not take the node down: answer and keep going
             self.get_logger().error(
                 f'internal error on {request}: {exc!r}\n' + traceback.format_exc()
             )
-            self.pub_status.publish(
-                error_status(f'internal error: {exc!r}', self.status_name, request, self.mech.name)
-            )
+            self.outputs.internal_error(f'internal error: {exc!r}', request)
             return Result(False, f'internal error: {exc!r}')
 
     def _on_command(self, msg):

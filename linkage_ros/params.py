@@ -20,6 +20,8 @@ BRANCH_MODES = ('continuous', 'reference')
 #: demo_rate bounds (Hz): the timer period must be a positive whole number of nanoseconds that
 #: rclpy accepts, and a faster demo would only busy-loop the executor (1e300 Hz is a 0 ns timer)
 DEMO_RATE_MIN, DEMO_RATE_MAX = 1e-3, 1000.0
+#: publish_rate / marker_rate bounds (Hz) when not 0 (off)
+OUTPUT_RATE_MIN, OUTPUT_RATE_MAX = 1e-3, 1000.0
 #: the largest QoS history depth rclpy accepts (a larger one fails inside rclpy's QoS profile)
 QUEUE_DEPTH_MAX = 2**31 - 1
 
@@ -102,6 +104,22 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "freedom, e.g. ['bucket'] for an excavator (point + held values = DOF).",
     ),
     ParamSpec(
+        'publish_rate',
+        10.0,
+        'Republish the last good state on joint_states at this rate (Hz), stamped now, like '
+        'joint_state_publisher: from start-up (the reference pose) and between answers, so a '
+        'late subscriber (robot_state_publisher, RViz) sees the mechanism. 0 = answers only.',
+        constraints=f'0 or {OUTPUT_RATE_MIN:g} <= publish_rate <= {OUTPUT_RATE_MAX:g}',
+    ),
+    ParamSpec(
+        'marker_rate',
+        10.0,
+        'Most ~/markers messages per second (Hz): markers are for displays, published from a '
+        'timer (the latest state, transient-local so a late RViz gets it), never from the '
+        'command path. 0 = no markers.',
+        constraints=f'0 or {OUTPUT_RATE_MIN:g} <= marker_rate <= {OUTPUT_RATE_MAX:g}',
+    ),
+    ParamSpec(
         'queue_depth',
         10,
         'History depth N of every topic the node subscribes and publishes (reliable, keep '
@@ -127,6 +145,8 @@ class NodeConfig:
     demo_sweep: bool = False
     demo_rate: float = 20.0
     target_point_hold: tuple[str, ...] = ()
+    publish_rate: float = 10.0
+    marker_rate: float = 10.0
     queue_depth: int = 10
 
     def engine_settings(self) -> EngineSettings:
@@ -154,6 +174,21 @@ def check_demo_rate(value: Any) -> float:
         fail_setting(
             'demo_rate',
             f'must be a number of Hz from {DEMO_RATE_MIN:g} to {DEMO_RATE_MAX:g}',
+            value,
+        )
+    return float(value)
+
+
+def check_output_rate(name: str, value: Any) -> float:
+    """publish_rate / marker_rate: 0 (off) or a number of Hz within the bounds."""
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, (int, float))
+        or not (value == 0 or OUTPUT_RATE_MIN <= value <= OUTPUT_RATE_MAX)
+    ):  # also refuses nan
+        fail_setting(
+            name,
+            f'must be 0 (off) or a number of Hz from {OUTPUT_RATE_MIN:g} to {OUTPUT_RATE_MAX:g}',
             value,
         )
     return float(value)
@@ -221,6 +256,8 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         fail_setting('target_point_hold', 'must be a list of names', hold)
     if len(set(hold)) != len(hold):
         fail_setting('target_point_hold', 'names something twice', list(hold))
+    publish_rate = check_output_rate('publish_rate', v['publish_rate'])
+    marker_rate = check_output_rate('marker_rate', v['marker_rate'])
     depth = v['queue_depth']
     if isinstance(depth, bool) or not isinstance(depth, int) or not 1 <= depth <= QUEUE_DEPTH_MAX:
         fail_setting(
@@ -252,6 +289,8 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         demo_sweep=demo,
         demo_rate=rate,
         target_point_hold=tuple(hold),
+        publish_rate=publish_rate,
+        marker_rate=marker_rate,
         queue_depth=depth,
     )
 

@@ -69,7 +69,8 @@ class NodeProcess:
 
     ``params`` are written to a parameter file keyed by the node's fully qualified name
     (``/<namespace>/linkage_node``); ``namespace`` keeps parallel test runs apart even on one
-    domain. ``args`` are extra ``--ros-args`` arguments.
+    domain. ``args`` are extra ``--ros-args`` arguments. ``publish_rate`` is 0 (answers only)
+    unless ``params`` gives it: most tests count the messages each request causes.
     """
 
     def __init__(
@@ -84,7 +85,7 @@ class NodeProcess:
         self.workdir.mkdir(parents=True, exist_ok=True)
         self.domain_id = domain_id
         self.namespace = namespace or f'/lk{os.getpid()}_{random.randrange(1 << 30)}'
-        self.params = dict(params or {})
+        self.params = {'publish_rate': 0.0, **(params or {})}
         self.args = list(args)
         self.proc: subprocess.Popen | None = None
         self.stdout_path = self.workdir / 'stdout.txt'

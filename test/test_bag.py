@@ -606,7 +606,10 @@ def test_matches_running_node_over_dds(tmp_path, scene):
     assert len(status.messages) == len(offline['/status'])
     for live, (_, off) in zip(status.messages, offline['/status']):
         level = live.level[0] if isinstance(live.level, bytes) else int(live.level)
-        assert (level, live.message, live.name) == (off.level, off.message, off.name)
+        # the live node runs in a namespace: its status names carry it (the bag's names are
+        # those of a node in the root namespace)
+        ns = node.namespace.lstrip('/')
+        assert (level, live.message, live.name) == (off.level, off.message, f'{ns}/{off.name}')
         lkv = {v.key: v.value for v in live.values}
         okv = {v.key: v.value for v in off.values}
         assert lkv.keys() == okv.keys()

@@ -14,6 +14,8 @@ import pytest
 
 from linkage_ros import bench
 from linkage_ros.cli import main as cli_main
+from linkage_ros.core.model import Scene
+from linkage_ros.resources import scene_path
 
 INTRO = '# Benchmarks\n\nHand-written introduction that the tool must keep.\n'
 
@@ -203,6 +205,7 @@ def test_node_benchmark_machinery():
         node_ping=5,
         node_deep_depth=37,
         node_deep_rates=(50.0,),
+        node_all_rate=100.0,
     )
     rep = bench.bench_node(sizes)
     assert 'skipped' not in rep, rep
@@ -222,7 +225,30 @@ def test_node_benchmark_machinery():
         (run,) = deep['runs']
         assert run['rate'] == 50.0 and run['sent'] == 15
         assert run['received'] + run['lost'] == run['sent']
+    # every output subscribed, per scene: the node answered with every output, the relay too
+    assert rep['all_outputs_rate'] == 100.0
+    for scene in ('four_bar', 'excavator'):
+        res = rep['all_outputs'][scene]
+        for label in ('relay', 'node'):
+            assert res[label]['ok'], res[label]
+            assert res[label]['sent'] == 30
+            assert res[label]['received'] + res[label]['lost'] == 30
+        counts = res['node']['outputs']
+        # the listener process got one status per command and every point of every answer
+        statuses = sum(v for k, v in counts.items() if k.endswith('/status'))
+        assert statuses == 30, counts
+        n_points = len(Scene.from_yaml(scene_path(scene)).mechanism.outputs)
+        assert sum(v for k, v in counts.items() if '/points/' in k) == 30 * n_points, counts
+    targets = {t['target']: t for t in bench.evaluate_targets({**_minimal_report(), 'node': rep})}
+    for scene in ('four_bar', 'excavator'):
+        (answered,) = [
+            t for k, t in targets.items() if k.startswith(f'{scene}, every output on (points')
+        ]
+        assert answered['met'] is not None and 'statuses received' in answered['measured']
+        assert any(k.startswith(f'{scene}, every output on: node p50 within') for k in targets)
     md = bench.render_markdown({**_minimal_report(), 'node': rep}, 'linkage bench', None)
+    assert '**Every output on** (100 Hz' in md
+    assert '| four_bar | node | 30 |' in md and '| excavator | relay | 30 |' in md
     assert '| relay | 10 |' in md and '| node | 10 |' in md
     assert '| relay_deep | 37 | 50 |' in md and '| node_deep | 37 | 50 |' in md
     assert 'keep last 37' in md

@@ -243,7 +243,7 @@ class Served:
     def assert_single_error(self, status, *fragments):
         assert len(self.status) == 1, [s.message for s in self.status.messages]
         assert status.level == DiagnosticStatus.ERROR
-        assert status.name == f'linkage_node: {self.mech.name}'
+        assert status.name == f'{self.proc.namespace.lstrip("/")}/linkage_node: {self.mech.name}'
         for f in fragments:
             assert f.lower() in status.message.lower(), status.message
         assert len(self.joints) == 0, 'a rejected request must not publish joint_states'
@@ -723,11 +723,17 @@ def test_parameter_file_example_is_valid():
     for bad in (0, -5, 2.5, True, '100'):
         with pytest.raises(ConfigError, match=f"'queue_depth'.*{bad!r}"):
             make_config(dict(params, queue_depth=bad))
+    for name in ('publish_rate', 'marker_rate'):
+        assert getattr(make_config(dict(params, **{name: 0.0})), name) == 0.0  # 0 = off
+        assert getattr(make_config(dict(params, **{name: 250.0})), name) == 250.0
+        for bad in (-1.0, 1e-4, 5000.0, math.nan, True, '10'):
+            with pytest.raises(ConfigError, match=f"'{name}'.*must be 0 \\(off\\)"):
+                make_config(dict(params, **{name: bad}))
 
 
 def test_queue_depth_sets_the_history_of_every_topic(ros):
     """queue_depth is the keep-last depth of every subscription and publisher (reliable,
-    volatile); the default is 10."""
+    volatile) but ~/markers (latched, depth 1) and /diagnostics; the default is 10."""
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 
     from linkage_ros.node import LinkageNode
@@ -742,8 +748,9 @@ def test_queue_depth_sets_the_history_of_every_topic(ros):
                 e
                 for e in list(node.publishers) + list(node.subscriptions)
                 if 'parameter_events' not in e.topic_name
+                and not e.topic_name.endswith(('/markers', '/diagnostics'))
             ]
-            assert len(ours) >= 4 + 2 + 3  # outputs, command and target, 3 points
+            assert len(ours) >= 3 + 2 + 3  # outputs, command and target, 3 points
             for e in ours:
                 q = e.qos_profile
                 assert (q.depth, q.history, q.reliability, q.durability) == (
@@ -752,6 +759,12 @@ def test_queue_depth_sets_the_history_of_every_topic(ros):
                     ReliabilityPolicy.RELIABLE,
                     DurabilityPolicy.VOLATILE,
                 ), e.topic_name
+            # markers are latched (the latest for a late RViz); /diagnostics is the standard topic
+            (markers,) = [p for p in node.publishers if p.topic_name.endswith('/markers')]
+            q = markers.qos_profile
+            assert (q.depth, q.durability) == (1, DurabilityPolicy.TRANSIENT_LOCAL)
+            (diag,) = [p for p in node.publishers if p.topic_name == '/diagnostics']
+            assert diag.qos_profile.reliability == ReliabilityPolicy.RELIABLE
         finally:
             node.destroy_node()
 

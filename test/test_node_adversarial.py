@@ -127,7 +127,10 @@ class Served:
         self.node = LinkageNode(
             context=ros.context,
             namespace=self.ns,
-            parameter_overrides=[Parameter(k, value=v) for k, v in params.items()],
+            # answers only: these tests count the messages each request causes
+            parameter_overrides=[
+                Parameter(k, value=v) for k, v in {'publish_rate': 0.0, **params}.items()
+            ],
         )
         ros.executor.add_node(self.node)
         self.mech = self.node.mech
@@ -140,8 +143,8 @@ class Served:
             lambda: (
                 self.joints.sub.get_publisher_count() > 0
                 and self.status.sub.get_publisher_count() > 0
-                and self.node.pub_joints.get_subscription_count() > 0
-                and self.node.pub_status.get_subscription_count() > 0
+                and self.node.outputs.pub_joints.get_subscription_count() > 0
+                and self.node.outputs.pub_status.get_subscription_count() > 0
             ),
             TIMEOUT,
         )
@@ -195,7 +198,7 @@ class Served:
         joint_states and no second status for the bad request."""
         status = self.send(topic, msg)
         assert status.level == ERROR, f'accepted: {topic} {msg}'
-        assert status.name == f'{NODE_NAME}: {self.mech.name}'
+        assert status.name == f'{self.ns.lstrip("/")}/{NODE_NAME}: {self.mech.name}'
         for f in fragments:
             assert f in status.message, (f, status.message)
         assert {kv.key: kv.value for kv in status.values}.get('request') == topic
@@ -471,8 +474,8 @@ def test_burst_and_alternation_of_command_and_target(serve):
     tgt = ros.node.create_publisher(JointState, f'{s.ns}/{NODE_NAME}/target', DEEP)
     assert ros.spin_until(
         lambda: (
-            s.node.pub_joints.get_subscription_count() >= 2
-            and s.node.pub_status.get_subscription_count() >= 2
+            s.node.outputs.pub_joints.get_subscription_count() >= 2
+            and s.node.outputs.pub_status.get_subscription_count() >= 2
             and cmd.get_subscription_count()
             and tgt.get_subscription_count()
         ),

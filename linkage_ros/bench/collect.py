@@ -287,11 +287,58 @@ def evaluate_targets(report: dict) -> list[dict]:
                     'value': at['lost'],
                 }
             )
+        out.extend(_all_outputs_targets(node))
     else:
         why = '; '.join(f'{k}: {v.get("reason")}' for k, v in tg.items() if not v.get('ok'))
         out.append(
             {'target': 'node latency / rate', 'measured': f'not measured: {why}', 'met': None}
         )
+    return out
+
+
+def _all_outputs_targets(node: dict) -> list[dict]:
+    """Every output subscribed: the node answers every command at the rate, as the relay in the
+    same run does, with its p50 latency within TARGET_LATENCY_MS of the relay's."""
+    out: list[dict] = []
+    rate = node.get('all_outputs_rate')
+    for scene, res in (node.get('all_outputs') or {}).items():
+        nd, rl = res.get('node', {}), res.get('relay', {})
+        if not nd.get('ok'):
+            why = nd.get('reason', 'not run')
+            out.append(
+                {
+                    'target': f'{scene}, every output on: node loses nothing at {rate:g} Hz',
+                    'measured': f'not measured: {why}',
+                    'met': None,
+                }
+            )
+            continue
+        relay = f'relay {rl["lost"]} lost' if rl.get('ok') else 'relay not measured'
+        statuses = sum(v for k, v in nd.get('outputs', {}).items() if k.endswith('/status'))
+        out.append(
+            {
+                'target': f'{scene}, every output on (points, markers, status, diagnostics '
+                f'subscribed): node answers every command at {rate:g} Hz',
+                'measured': f'{nd["lost"]} lost of {nd["sent"]} ({relay}; achieved send rate '
+                f'{nd["achieved_rate"]:.0f} Hz; {statuses} statuses received)',
+                'met': nd['lost'] == 0
+                and statuses == nd['sent']
+                and nd['achieved_rate'] >= 0.95 * nd['rate'],
+                'value': nd['lost'],
+            }
+        )
+        if rl.get('ok') and nd.get('p50_ms') is not None and rl.get('p50_ms') is not None:
+            d = nd['p50_ms'] - rl['p50_ms']
+            out.append(
+                {
+                    'target': f'{scene}, every output on: node p50 within '
+                    f'{TARGET_LATENCY_MS} ms of the relay at {rate:g} Hz',
+                    'measured': f'{d:+.3f} ms (node {nd["p50_ms"]:.3f} ms, relay '
+                    f'{rl["p50_ms"]:.3f} ms; includes queueing)',
+                    'met': d <= TARGET_LATENCY_MS,
+                    'value': d,
+                }
+            )
     return out
 
 

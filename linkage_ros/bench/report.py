@@ -293,9 +293,48 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
                     f'rate {_hz(res.get("sustained_rate"))} of those tried'
                 )
         w('')
+        all_out = node.get('all_outputs')
+        if all_out:
+            _all_outputs_table(w, all_out, node.get('all_outputs_rate'), node['seconds_per_rate'])
     w('## Interpretation\n')
     w(interpretation(report))
     return '\n'.join(L) + '\n'
+
+
+def _all_outputs_table(w, all_out: dict, rate, seconds) -> None:
+    """Every output subscribed: node vs relay at one rate, per scene."""
+    w(
+        f'**Every output on** ({rate:g} Hz for {seconds:g} s per target; the driver measures '
+        'joint_states as above while a listener in its own process (as RViz or an aggregator '
+        'would be) subscribes to every `~/points/<p>`, `~/markers` (transient-local), '
+        '`~/status` and `/diagnostics` of the node and counts them; the node at its defaults: '
+        'publish_rate 10 Hz, marker_rate 10 Hz, queue depth 10; the relay answers the same '
+        'commands in the same run, just before; latency includes queueing):\n'
+    )
+    w(
+        '| scene | process | sent | lost | p50 (ms) | p99 (ms) | statuses | points | markers | '
+        'diagnostics |'
+    )
+    w('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|')
+    for scene, res in all_out.items():
+        for label in ('relay', 'node'):
+            r = res.get(label)
+            if r is None:
+                continue
+            if not r.get('ok'):
+                w(f'| {scene} | {label} | - | - | - | - | not measured: {r.get("reason")} | | | |')
+                continue
+            c = r.get('outputs', {})
+
+            def count(suffix, c=c):
+                return sum(v for k, v in c.items() if suffix in k) if c else '-'
+
+            w(
+                f'| {scene} | {label} | {r["sent"]} | {r["lost"]} | {_fmt_ms(r["p50_ms"])} | '
+                f'{_fmt_ms(r["p99_ms"])} | {count("/status")} | {count("/points/")} | '
+                f'{count("/markers")} | {count("/diagnostics")} |'
+            )
+    w('')
 
 
 def _fmt_ms(v):
@@ -432,8 +471,18 @@ def interpretation(report: dict) -> str:
                 f"{_hz(tg['relay'].get('sustained_rate'))}). The difference is the node's "
                 'own work per command: parse and check the command, solve it (dyad plan, '
                 'continuity, residual, branch and margin) and fill joint_states. Subscribing to '
-                '~/markers, ~/points/<p> or ~/status adds their construction to every command.'
+                '~/points/<p> or ~/status adds their construction to every command; ~/markers '
+                'and /diagnostics come from timers and add nothing per command.'
                 + _deep_queue_sentence(tg)
+            )
+    for scene, res in (node.get('all_outputs') or {}).items():
+        n, r = res.get('node', {}), res.get('relay', {})
+        if n.get('ok') and r.get('ok') and n.get('p50_ms') is not None and r.get('p50_ms'):
+            lines.append(
+                f'- **Every output on, {scene}** at {node.get("all_outputs_rate", 0):g} Hz: the '
+                f'node lost {n["lost"]} of {n["sent"]} (relay {r["lost"]} of {r["sent"]}), p50 '
+                f"{n['p50_ms']:.2f} ms against the relay's {r['p50_ms']:.2f} ms "
+                f'({n["p50_ms"] - r["p50_ms"]:+.2f} ms).'
             )
     return '\n'.join(lines) + '\n'
 

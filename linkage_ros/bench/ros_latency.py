@@ -61,11 +61,11 @@ class _Proc:
     def alive(self) -> bool:
         return self.proc.poll() is None
 
-    def stop(self):
+    def stop(self, timeout: float = 5.0):
         if self.proc.poll() is None:
             try:
                 self.proc.send_signal(signal.SIGINT)
-                self.proc.wait(timeout=5)
+                self.proc.wait(timeout=timeout)
             except subprocess.TimeoutExpired:
                 self.proc.terminate()
                 try:
@@ -97,11 +97,22 @@ class _Link:
     """One target under test as the driver sees it: a command publisher, an answer subscription
     and the arrival time of every answer, keyed by the command stamp (ns)."""
 
-    def __init__(self, driver: Driver, label: str, cmd_topic: str, out_topic: str):
+    def __init__(
+        self,
+        driver: Driver,
+        label: str,
+        cmd_topic: str,
+        out_topic: str,
+        names: list[str] | None = None,
+        value: Callable[[int], list] | None = None,
+    ):
+        """``names`` / ``value``: this target's command (default: the driver's)."""
         from sensor_msgs.msg import JointState
 
         self.label = label
         self.driver = driver
+        self.names = names if names is not None else driver.names
+        self.value = value if value is not None else driver.value
         self.recv: dict[int, int] = {}
         self.pub = driver.node.create_publisher(JointState, cmd_topic, driver.qos)
         self.sub = driver.node.create_subscription(JointState, out_topic, self._on_msg, driver.qos)
@@ -120,8 +131,8 @@ class _Link:
         t = max(time.time_ns(), self.driver.last_stamp + 1)
         self.driver.last_stamp = t
         msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t, 1_000_000_000)
-        msg.name = self.driver.names
-        msg.position = self.driver.value(self.k)
+        msg.name = self.names
+        msg.position = self.value(self.k)
         self.k += 1
         self.pub.publish(msg)
         return t
@@ -166,8 +177,8 @@ class Driver:
         finally:
             self.rclpy.try_shutdown(context=self.ctx)
 
-    def link(self, label, cmd_topic, out_topic) -> _Link:
-        return _Link(self, label, cmd_topic, out_topic)
+    def link(self, label, cmd_topic, out_topic, **kw) -> _Link:
+        return _Link(self, label, cmd_topic, out_topic, **kw)
 
     def spin_for(self, seconds: float):
         t_end = time.monotonic() + seconds
@@ -476,6 +487,28 @@ def bench_node(
                 run.update(flood_rate=FLOOD_RATE_HZ, flood_sent=flood.sent, flood_kind=kind)
                 out['targets']['node']['floods'].append(run)
                 driver.spin_for(2.0)  # the node catches up before the next
+        if include_node and sizes.node_all_rate:
+            from .all_outputs import bench_all_outputs
+
+            # the processes measured so far stop first: they would share the CPU and
+            # /diagnostics with the every-output case
+            for link in links.values():
+                link.close()
+            links.clear()
+            for p in procs.values():
+                p.stop()
+            procs.clear()
+
+            out['all_outputs_rate'] = sizes.node_all_rate
+            out['all_outputs'] = bench_all_outputs(
+                driver,
+                env,
+                work,
+                tag,
+                sizes.node_all_rate,
+                sizes.node_seconds,
+                sizes.node_warmup,
+            )
     finally:
         for link in links.values():
             link.close()

@@ -37,6 +37,8 @@ class Sizes:
     # the rate runs again with a deeper queue in both targets (node: -p queue_depth:=N)
     node_deep_depth: int
     node_deep_rates: tuple[float, ...]
+    # the rate of the every-output-subscribed runs (node vs relay, per scene); 0 = skip them
+    node_all_rate: float
 
 
 #: the node's default queue_depth (and the relay's): the targets' QoS in the main measurements
@@ -55,6 +57,7 @@ FULL = Sizes(
     node_ping=1000,
     node_deep_depth=100,
     node_deep_rates=(1000.0, 2000.0),
+    node_all_rate=1000.0,
 )
 QUICK = Sizes(
     sweep=12,
@@ -69,6 +72,7 @@ QUICK = Sizes(
     node_ping=20,
     node_deep_depth=100,
     node_deep_rates=(200.0,),
+    node_all_rate=200.0,
 )
 
 

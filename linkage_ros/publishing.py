@@ -1,0 +1,209 @@
+"""What the node publishes, and when: answers on the request path, the rest on timers.
+
+* On the request path (one answer per request): ``joint_states``, ``~/points/<p>`` (only those
+  someone subscribes to) and one ``~/status``.
+* ``publish_rate``: the last good state again on ``joint_states``, stamped now, when no answer
+  went out for a period (from start-up: the reference pose), like joint_state_publisher.
+* ``marker_rate``: ``~/markers`` (transient-local, depth 1: a late RViz gets the latest) from a
+  timer, only when the state changed and someone subscribes: a display's needs never slow the
+  command path.
+* ``/diagnostics`` at 1 Hz: the node's health (scene, solver, requests answered and refused,
+  the last error, the smallest margin seen).
+"""
+
+from __future__ import annotations
+
+import math
+
+from builtin_interfaces.msg import Time
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from geometry_msgs.msg import PointStamped
+from rclpy.event_handler import PublisherEventCallbacks
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Header
+from visualization_msgs.msg import MarkerArray
+
+from .conversions import (
+    error_status,
+    result_to_joint_state,
+    result_to_markers,
+    result_to_points,
+    result_to_status,
+)
+from .core.solver import Result
+from .engine import Engine
+from .params import NodeConfig
+
+#: /diagnostics period (s): the diagnostic_updater convention
+DIAGNOSTICS_PERIOD_S = 1.0
+
+
+def topic_qos(depth: int) -> QoSProfile:
+    """Reliable, keep last ``depth``, volatile: commands and outputs alike."""
+    return QoSProfile(
+        reliability=ReliabilityPolicy.RELIABLE,
+        history=HistoryPolicy.KEEP_LAST,
+        depth=depth,
+        durability=DurabilityPolicy.VOLATILE,
+    )
+
+
+def latched_qos() -> QoSProfile:
+    """Reliable, keep last 1, transient local: a late subscriber gets the latest message."""
+    return QoSProfile(
+        reliability=ReliabilityPolicy.RELIABLE,
+        history=HistoryPolicy.KEEP_LAST,
+        depth=1,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+
+
+class Outputs:
+    """The node's publishers and timers, and the counters /diagnostics reports."""
+
+    def __init__(self, node: Node, engine: Engine, config: NodeConfig, frame_id: str):
+        mech = engine.mech
+        self.node, self.engine, self.mech = node, engine, mech
+        self.config, self.frame_id = config, frame_id
+        #: statuses are named after the node as it runs (remapped name, namespace)
+        self.status_name = f'{node.get_fully_qualified_name().lstrip("/")}: {mech.name}'
+        # Each QoS-event handler is one more waitable that the executor polls on every wakeup,
+        # which costs the same order as the solve itself: the outputs carry none (the other end
+        # reports an incompatible QoS or type on its side).
+        qos = topic_qos(config.queue_depth)
+        quiet = PublisherEventCallbacks(use_default_callbacks=False)
+        self.pub_joints = node.create_publisher(
+            JointState, 'joint_states', qos, event_callbacks=quiet
+        )
+        self._joint_msg: JointState | None = None  # refilled for every answer
+        self.pub_points = {
+            p: node.create_publisher(PointStamped, f'~/points/{p}', qos, event_callbacks=quiet)
+            for p in mech.outputs
+        }
+        self.pub_markers = node.create_publisher(
+            MarkerArray, '~/markers', latched_qos(), event_callbacks=quiet
+        )
+        self.pub_status = node.create_publisher(
+            DiagnosticStatus, '~/status', qos, event_callbacks=quiet
+        )
+        self.pub_diagnostics = node.create_publisher(
+            DiagnosticArray, '/diagnostics', topic_qos(10), event_callbacks=quiet
+        )
+        # health counters for /diagnostics
+        self.answered = 0
+        self.refused = 0
+        self.last_error = ''
+        self.last_ok = True
+        self.smallest_margin: float | None = None
+        self._answered_since_tick = False
+        #: the newest state not drawn yet: at start-up the reference pose
+        self._marker_state: tuple[Result, Time] | None = (
+            None if engine.last is None else (engine.last, self.now())
+        )
+        self.timers = []
+        if config.publish_rate > 0:
+            self.timers.append(node.create_timer(1.0 / config.publish_rate, self._republish))
+        if config.marker_rate > 0:
+            self.timers.append(node.create_timer(1.0 / config.marker_rate, self._draw))
+        self.timers.append(node.create_timer(DIAGNOSTICS_PERIOD_S, self._diagnose))
+
+    def now(self) -> Time:
+        return self.node.get_clock().now().to_msg()
+
+    # -- the request path -------------------------------------------------------------------------
+    def answer(self, result: Result, stamp: Time, request: str) -> None:
+        """Publish the answer to one request: on success joint_states, the subscribed points
+        and an OK status; on failure only an ERROR status."""
+        self.last_ok = result.success
+        if result.success:
+            self.answered += 1
+            self._publish_state(result, stamp)
+            listened = [n for n, pub in self.pub_points.items() if pub.get_subscription_count()]
+            if listened:
+                msgs = result_to_points(result, listened, stamp, self.frame_id)
+                for name in listened:
+                    self.pub_points[name].publish(msgs[name])
+            self._marker_state = (result, stamp)
+            m = result.margin
+            if (
+                m is not None
+                and math.isfinite(m)
+                and (self.smallest_margin is None or m < self.smallest_margin)
+            ):
+                self.smallest_margin = m
+        else:
+            self.refused += 1
+            self.last_error = f'{request}: {result.reason}'
+        if self.pub_status.get_subscription_count():
+            self.pub_status.publish(
+                result_to_status(result, self.status_name, request, self.mech.name)
+            )
+
+    def internal_error(self, reason: str, request: str) -> None:
+        self.refused += 1
+        self.last_ok = False
+        self.last_error = f'{request}: {reason}'
+        self.pub_status.publish(error_status(reason, self.status_name, request, self.mech.name))
+
+    def _publish_state(self, result: Result, stamp: Time) -> None:
+        self._joint_msg = result_to_joint_state(
+            result,
+            self.mech.joint_names,
+            stamp,
+            self.frame_id,
+            self._joint_msg,
+            prefix=self.config.prefix,
+        )
+        self.pub_joints.publish(self._joint_msg)
+        self._answered_since_tick = True
+
+    # -- timers -----------------------------------------------------------------------------------
+    def _republish(self) -> None:
+        """The last good state, stamped now, unless an answer went out this period."""
+        if self._answered_since_tick:
+            self._answered_since_tick = False
+            return
+        last = self.engine.last
+        if last is None:
+            return
+        if last.velocity is not None:  # the rates of a past command are not the state's now
+            last = Result(True, joints=last.joints)
+        self._publish_state(last, self.now())
+        self._answered_since_tick = False
+
+    def _draw(self) -> None:
+        """Markers of the newest state, if it changed since the last drawing (whether anyone
+        subscribes or not: the latched topic keeps it for a late RViz)."""
+        state, self._marker_state = self._marker_state, None
+        if state is not None:
+            result, stamp = state
+            self.pub_markers.publish(result_to_markers(result, self.mech, stamp, self.frame_id))
+
+    def _diagnose(self) -> None:
+        status = DiagnosticStatus()
+        status.name = self.status_name
+        status.hardware_id = self.mech.name
+        engine = self.engine
+        if engine.last is None:
+            status.level, status.message = DiagnosticStatus.ERROR, 'no good state'
+        elif not self.last_ok:
+            status.level, status.message = DiagnosticStatus.WARN, 'last request refused'
+        else:
+            status.level, status.message = DiagnosticStatus.OK, 'ok'
+        values = {
+            'scene': self.mech.name,
+            'scene_file': self.config.scene_path,
+            'solver': engine.forward.mode,
+            'branch': self.config.branch,
+            'answered': self.answered,
+            'refused': self.refused,
+            'last_error': self.last_error,
+            'smallest_margin': '' if self.smallest_margin is None else self.smallest_margin,
+        }
+        status.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
+        msg = DiagnosticArray()
+        msg.header = Header(stamp=self.now())
+        msg.status = [status]
+        self.pub_diagnostics.publish(msg)
