@@ -11,6 +11,7 @@ with the same words and reports the same fields.
 from __future__ import annotations
 
 import collections
+import itertools
 import math
 import time
 from collections import OrderedDict
@@ -95,6 +96,8 @@ class Engine:
         self._tokens, self._t_tokens = float(SOLVER_CACHE), self._clock()
         #: (target names, branch signs) -> an inverse solver with those branch signs fixed
         self._explicit: dict[tuple[frozenset[str], str], Solver] = {}
+        #: assembly mode -> forward configurations spread over the actuator ranges in it
+        self._starts: dict[tuple[int, ...], list[Result]] = {}
 
     # -- the good state ----------------------------------------------------------------------------
     @property
@@ -302,28 +305,112 @@ class Engine:
         before: tuple[tuple[int, ...], list[float]],
     ) -> Result | None:
         """The solution of the target in assembly mode ``before`` within limits nearest the
-        last good state among the branches of a closed-form inverse plan; None if there is
-        none (or the plan is not closed-form)."""
-        if solver.mode != 'closed_form' or not 0 < len(solver.plan.branch_steps) <= MAX_BRANCHES:
-            return None
+        last good state: every branch of the inverse plan's dyads is tried (a closed-form plan
+        has no other solutions); where Newton places the rest (hybrid, newton), each branch
+        is solved from the last good state and then, if none is in mode, restarted from
+        configurations spread over the actuator ranges in that mode (a Newton root depends on
+        its start). None if none is found."""
         last = self.last
-        best: tuple[float, Result] | None = None
         k = len(solver.plan.branch_steps)
-        for code in range(2**k):
-            signs = ''.join('-' if code >> i & 1 else '+' for i in range(k))
-            key = (frozenset(solver.knowns), signs)
-            alt = self._explicit.get(key)
-            if alt is None:
-                alt = self._explicit[key] = self.new_solver(list(solver.knowns), branch=signs)
-                if len(self._explicit) > 4 * SOLVER_CACHE:
-                    self._explicit.pop(next(iter(self._explicit)))
+        if k > MAX_BRANCHES:
+            return None
+        alternatives = [self._with_signs(solver, code, k) for code in range(2**k)] if k else []
+        if solver.mode != 'closed_form':
+            alternatives = alternatives or [solver]
+        best: tuple[float, Result] | None = None
+        for alt in alternatives:
+            if alt.mode != 'closed_form' and last is not None:
+                alt.adopt(last)  # Newton starts from the mechanism's state
             r = alt.solve(values, commit=False)
             if not r.success or _mode_differs(before, self.mode(r)):
                 continue
             d = _distance(last, r)
             if best is None or d < best[0]:
                 best = (d, r)
-        return None if best is None else best[1]
+        if best is not None or solver.mode == 'closed_form':
+            return None if best is None else best[1]
+        return self._multi_start(self._newton_for(solver), values, before)
+
+    def _with_signs(self, solver: Solver, code: int, k: int) -> Solver:
+        """The inverse solver of ``solver``'s knowns with the branch signs of bit pattern
+        ``code`` (k dyads), cached."""
+        signs = ''.join('-' if code >> i & 1 else '+' for i in range(k))
+        key = (frozenset(solver.knowns), signs)
+        alt = self._explicit.get(key)
+        if alt is None:
+            alt = self._explicit[key] = self.new_solver(list(solver.knowns), branch=signs)
+            if len(self._explicit) > 4 * SOLVER_CACHE:
+                self._explicit.pop(next(iter(self._explicit)))
+        return alt
+
+    def _newton_for(self, solver: Solver) -> Solver:
+        """A Newton-only solver of ``solver``'s knowns (cached): its root is the one nearest
+        its start, where a hybrid solve's closed-form part fixes some values whatever the
+        start."""
+        key = (frozenset(solver.knowns), 'newton')
+        alt = self._explicit.get(key)
+        if alt is None:
+            s = self.settings
+            alt = self._explicit[key] = Solver(
+                self.mech,
+                knowns=list(solver.knowns),
+                method='newton',
+                tol=s.tolerance,
+                max_iter=s.max_iterations,
+            )
+        return alt
+
+    def _multi_start(
+        self,
+        solver: Solver,
+        values: Mapping[str, Any],
+        before: tuple[tuple[int, ...], list[float]],
+    ) -> Result | None:
+        """A Newton (or hybrid) inverse solve converges to the root nearest its start, which
+        may lie in another mode or beyond a limit while the target has a solution in the
+        current mode within limits. Restart it from configurations spread over the actuators'
+        ranges in the current mode (nearest the last good state first) and return the first
+        solution in mode within limits; None if none of MAX_STARTS starts reaches one."""
+        last = self.last
+        found = None
+        try:
+            for start in self._mode_starts(before[0])[:MAX_STARTS]:
+                solver.adopt(start)
+                r = solver.solve(values, commit=False)
+                if r.success and not _mode_differs(before, self.mode(r)):
+                    found = r
+                    break
+        finally:
+            if last is not None:
+                solver.adopt(last)
+        return found
+
+    def _mode_starts(self, signs: tuple[int, ...]) -> list[Result]:
+        """Configurations in assembly mode ``signs`` spread over the actuators' ranges (a
+        grid of forward solves, made once per mode), nearest the last good state first."""
+        starts = self._starts.get(signs)
+        if starts is None:
+            fwd = self.new_solver(None, branch=branch_text(signs))
+            levels = 3 if len(fwd.specs) <= 4 else 2
+            axes = []
+            for spec in fwd.specs:
+                lo, hi = spec.minimum, spec.maximum
+                if lo is None or hi is None:
+                    if spec.kind != 'angle':  # an unlimited slide: around its reference value
+                        ref = fwd.reference_values()[spec.name]
+                        scale = 0.2 * self.mech.length_scale
+                        lo, hi = ref - scale, ref + scale
+                    else:
+                        lo, hi = -math.pi, math.pi
+                axes.append([lo + (hi - lo) * (k + 0.5) / levels for k in range(levels)])
+            starts = []
+            for combo in itertools.islice(itertools.product(*axes), MAX_STARTS * 4):
+                r = fwd.solve(dict(zip(fwd.knowns, combo)), commit=False)
+                if r.success and not _mode_differs((signs, [1.0] * len(signs)), self.mode(r)):
+                    starts.append(r)
+            self._starts[signs] = starts
+        last = self.last
+        return sorted(starts, key=lambda r: _distance(last, r))
 
     def target_point(self, point: str, xy: tuple[float, float]) -> Result:
         """Inverse kinematics: put ``point`` at ``xy``; target_point_hold names keep their value
@@ -353,6 +440,8 @@ class Engine:
 #: the most branching steps of an inverse plan whose 2^k branch choices are searched for a
 #: solution in the current assembly mode
 MAX_BRANCHES = 6
+#: the most restarts of a Newton inverse solve that looks for a solution in the current mode
+MAX_STARTS = 16
 #: a dyad margin (|sin| of its transmission angle) below which its branch sign is not read as
 #: the assembly mode: at (or within rounding of) its toggle the two modes meet
 MODE_MARGIN = 1e-9

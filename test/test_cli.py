@@ -305,6 +305,74 @@ def test_unreachable_target_is_refused(capsys, scenes):
     assert d['status'] == 'error' and d['reason'] and d['targets'] == {'rocker': 0.2}
 
 
+def test_solve_keeps_the_reference_mode_and_any_mode_allows_the_other(capsys):
+    """four_bar: B = -1.2 is reached only in the other assembly mode (issue 19): refused by
+    default naming the mode; --any-mode solves it and says the mode changed."""
+    rc, out, _ = run(capsys, 'solve', 'four_bar', '--target', 'B=-1.2', '--json')
+    d = loads(out)
+    assert rc == 1 and d['reason'].startswith('target is reachable only in assembly mode -')
+    rc, out, _ = run(capsys, 'solve', 'four_bar', '--target', 'B=-1.2', '--any-mode', '--json')
+    d = loads(out)
+    assert rc == 0 and d['mode_change'] == '+ -> -'
+    assert abs(math.remainder(d['joints']['B'] + 1.2, 2 * math.pi)) < 1e-9
+    rc, _, err = run(capsys, 'solve', 'four_bar', '--set', 'crank=1', '--any-mode')
+    assert rc == 2 and '--any-mode' in err
+
+
+def test_solve_answers_excavator_targets_taken_from_in_limit_configurations(capsys):
+    """Issue 19: `linkage solve excavator --target ...` with three link/joint/actuator values
+    read off an in-limits forward solve was refused in 4 of 60 cases ("target needs Z1 = 0.893 m
+    is below its minimum") although the source configuration is a solution within limits: the
+    inverse plan's own branch landed elsewhere. Every such target must now be solved, at a
+    configuration that has the target values, within limits, in the reference mode, or be
+    refused for not determining the mechanism (an honest reason)."""
+    import random
+
+    from linkage_ros.core.model import Scene
+    from linkage_ros.core.solver import Solver
+    from linkage_ros.resources import scene_path
+
+    mech = Scene.from_yaml(scene_path('excavator')).mechanism
+    fwd = Solver(mech, branch='reference')
+    ref_mode = fwd.solve(fwd.reference_values()).branch
+    rng = random.Random('cli-excavator-targets')
+    acts = list(mech.actuators)
+    every = list(mech.joint_names) + list(mech.links) + acts
+    names = [n for n in dict.fromkeys(every) if n != mech.ground]  # a cylinder is both
+    solved = 0
+    for _ in range(100):
+        cmd = {}
+        for a in acts:
+            s = next(sp for sp in fwd.specs if sp.name == a)
+            cmd[a] = rng.uniform(s.minimum, s.maximum)
+        f = fwd.solve(cmd, commit=False)
+        if not f.success or f.branch != ref_mode:
+            continue
+        picked = rng.sample(names, 3)
+        argv = ['solve', 'excavator', '--json']
+        for n in picked:
+            v = f.links[n] if n in mech.links else (f.inputs[n] if n in acts else f.joints[n])
+            argv += ['--target', f'{n}={v!r}']
+        rc, out, err = run(capsys, *argv)
+        if rc == 2:  # name sets that fix no configuration are refused when the solver is made
+            assert 'do not determine' in err or 'over-constrains' in err, (picked, err)
+            continue
+        d = loads(out)
+        assert rc == 0, (picked, d['reason'])
+        solved += 1
+        for n in picked:
+            got = (
+                d['links'][n]['angle']
+                if n in mech.links
+                else (d['inputs'][n] if n in acts else d['joints'][n])
+            )
+            want = f.links[n] if n in mech.links else (f.inputs[n] if n in acts else f.joints[n])
+            assert abs(math.remainder(got - want, 2 * math.pi)) < 1e-9, (n, got, want)
+        for s in fwd.specs:  # within limits
+            assert s.minimum - 1e-12 <= d['inputs'][s.name] <= s.maximum + 1e-12
+    assert solved >= 40, solved
+
+
 # ---- sweep -------------------------------------------------------------------------------------
 
 

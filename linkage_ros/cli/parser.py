@@ -29,6 +29,10 @@ knowns (in command-line order; with `sweep` that order is the grid order):
 SOLVE_EPILOG = (
     KNOWN_HELP
     + """
+assembly mode: an inverse solve (default --branch reference) is answered in the reference pose's
+assembly mode within the actuator limits, as a node answers its first target; a target only
+another mode reaches is refused naming that mode, unless --any-mode.
+
 exit status: 0 solved; 1 refused (status "error" with a reason; with --all-branches: no mode
 closes); 2 usage error.
 
@@ -185,6 +189,12 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
         '--all-branches',
         action='store_true',
         help='every assembly mode of the command (ignores --branch)',
+    )
+    p.add_argument(
+        '--any-mode',
+        action='store_true',
+        help='inverse solve: accept a target that only another assembly mode than the '
+        "reference pose's reaches (by default it is refused, naming that mode)",
     )
     p.set_defaults(func=cmd_solve)
 

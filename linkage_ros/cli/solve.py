@@ -1,18 +1,46 @@
-"""``linkage solve``: one forward or inverse solve."""
+"""``linkage solve``: one forward or inverse solve.
+
+A single solve is the node's first request: it goes through the same Engine, starting from the
+scene's reference pose. An inverse solve is answered in the reference pose's assembly mode within
+the actuator limits (the inverse plan's other branches are searched when its own lands in
+another mode or on a limit), or refused naming the mode that would reach it; ``--any-mode``
+allows that mode, as the node's ``~/target_any_mode`` does. ``--all-branches`` lists every mode.
+"""
 
 from __future__ import annotations
 
-from .common import OK, REFUSED, build_solve, dumps, format_result, load_mechanism
+from ..engine import Engine, EngineSettings
+from .common import OK, REFUSED, UsageError, build_solve, dumps, format_result, load_mechanism
 
 # ---- solve -------------------------------------------------------------------------------------
 
 
 def cmd_solve(args) -> int:
     mech, _ = load_mechanism(args.scene)
-    _, axes, solver = build_solve(mech, args, allow_range=False)
+    knowns, axes, solver = build_solve(mech, args, allow_range=False)
     command = {n: vals[0] for n, vals in axes}
-    results = solver.solve_all(command) if args.all_branches else [solver.solve(command)]
+    if args.any_mode and (args.all_branches or not solver.inverse):
+        raise UsageError('--any-mode applies to an inverse solve (--target, --target-point)')
+    if args.all_branches:
+        results = solver.solve_all(command)
+    elif solver.inverse and args.branch == 'reference':
+        # the assembly mode of the reference pose, kept as a real mechanism keeps it
+        engine = Engine(
+            mech,
+            EngineSettings(
+                solver=args.solver,
+                tolerance=args.tol,
+                max_iterations=args.max_iter,
+                branch='continuous',
+            ),
+        )
+        results = [engine.solve_target(solver, command, allow_mode_change=args.any_mode)]
+    else:
+        results = [solver.solve(command)]
     dicts = [r.to_dict(mech) for r in results]
+    for d, r in zip(dicts, results):
+        if r.mode_change:
+            d['mode_change'] = r.mode_change
     if args.json:
         print(dumps(dicts if args.all_branches else dicts[0]))
     else:
@@ -23,4 +51,6 @@ def cmd_solve(args) -> int:
                     + (f' (branch {d["branch"]})' if d['branch'] else '')
                 )
             print(format_result(d, mech))
+            if d.get('mode_change'):
+                print(f'assembly mode changed: {d["mode_change"]} (--any-mode)')
     return OK if any(r.success for r in results) else REFUSED
