@@ -24,6 +24,7 @@ from .core.model import Mechanism
 from .core.solver import Result, Solver
 from .core.solver.result import branch_text
 from .core.velocity import velocities
+from .point_coordinates import group_point_coordinates
 
 #: inverse solvers kept per engine (one per set of target names); least recently used dropped
 SOLVER_CACHE = 32
@@ -242,8 +243,13 @@ class Engine:
 
     def target(self, values: Mapping[str, float], allow_mode_change: bool = False) -> Result:
         """Inverse kinematics: ``{joint/link/actuator name: value}`` (DOF values in all), in
-        the mechanism's current assembly mode (see :meth:`solve_target`)."""
-        return self.solve_target(self.solver_for(list(values)), values, allow_mode_change)
+        the mechanism's current assembly mode (see :meth:`solve_target`). A point is given as
+        ``<point>.x`` and ``<point>.y`` (point_coordinates)."""
+        try:
+            knowns = group_point_coordinates(self.mech, values)
+        except CommandError as exc:
+            return Result(False, str(exc))
+        return self.solve_target(self.solver_for(list(knowns)), knowns, allow_mode_change)
 
     # -- the assembly-mode rule for targets ------------------------------------------------------
     def mode(self, result: Result | None) -> tuple[tuple[int, ...], list[float]] | None:
@@ -487,7 +493,7 @@ def request_shape_error(
     if max_names is not None and len(names) > max_names:
         return (
             f'JointState has {len(names)} name(s); the scene has only {max_names} names '
-            '(actuators, joints, links and points) to give values for'
+            '(actuators, joints, links, and points as <point>.x and <point>.y) to give values for'
         )
     names = list(names)
     if not names and not npos:
@@ -508,8 +514,8 @@ def request_shape_error(
 
 def max_request_names(mech: Mechanism) -> int:
     """The most names a request may carry: every name the scene has (a longer one must repeat
-    a name or name something unknown)."""
-    return len(mech.actuators) + len(mech.joint_names) + len(mech.links) + len(mech.points)
+    a name or name something unknown); a point counts twice (``<point>.x``, ``<point>.y``)."""
+    return len(mech.actuators) + len(mech.joint_names) + len(mech.links) + 2 * len(mech.points)
 
 
 def request_values(

@@ -1515,3 +1515,49 @@ def test_an_mcap_chunk_whose_checksum_fails_is_an_error(tmp_path, scene, capsys)
     assert code == 2 and not out.exists()
     (line,) = cap.err.strip().splitlines()
     assert str(folder) in line and 'checksum' in line and 'corrupt' in line, line
+
+
+def test_the_bag_answers_point_coordinate_targets_like_the_node(tmp_path, capsys):
+    """Recorded ~/target messages naming `J.x, J.y, K.x, K.y` (the excavator bin by its
+    hinges) get the node's answers: the consistent pair solved, the stretched one refused with
+    the same reason, a lone coordinate refused (one engine, one answer)."""
+    from scenes import CONFIG
+
+    from linkage_ros.engine import Engine, EngineSettings
+
+    scene = CONFIG / 'excavator.yaml'
+    mech = Scene.from_yaml(scene).mechanism
+    ref = Engine(mech, EngineSettings('auto', 1e-12, 50, 'continuous'))
+    src_cfg = ref.command({'Z1': 1.4, 'Z2': 2.1, 'Z3': 1.4})
+    (jx, jy), (kx, ky) = src_cfg.points['J'], src_cfg.points['K']
+    names = ['J.x', 'J.y', 'K.x', 'K.y']
+    requests = [[jx, jy, kx, ky], [jx, jy, kx + 0.01, ky], [jx, jy, kx, ky]]
+    msgs = [
+        ('/tgt', (i + 1) * 10**9, joint_state(names, pos, sec=i + 1))
+        for i, pos in enumerate(requests)
+    ]
+    msgs.append(('/tgt', 9 * 10**9, joint_state(['J.x', 'K.x', 'K.y'], [jx, kx, ky], sec=9)))
+    start = {'Z1': 1.6, 'Z2': 1.9, 'Z3': 1.6}
+    msgs.insert(0, ('/cmd', 5 * 10**8, joint_state(list(start), list(start.values()), sec=0)))
+    src = make_input(tmp_path, 'mcap', msgs)
+    out = tmp_path / 'o.csv'
+    args = [src, '--scene', scene, '--command-topic', '/cmd', '--target-topic', '/tgt']
+    code, cap = run_bag([*args, '--out', out, '--no-progress'], capsys)
+    assert code == 0, cap.err
+    rows = read_csv(out)[1:]  # after the first command
+    node = Engine(mech, EngineSettings('auto', 1e-12, 50, 'continuous'))
+    assert node.command(start).success
+    answers = [node.target(dict(zip(names, pos))) for pos in requests]
+    answers.append(node.target({'J.x': jx, 'K.x': kx, 'K.y': ky}))
+    assert [r['status'] for r in rows] == ['ok', 'error', 'ok', 'error']
+    assert rows[1]['reason'] == answers[1].reason and 'the target puts them' in rows[1]['reason']
+    assert (
+        rows[3]['reason']
+        == answers[3].reason
+        == 'J.x is given without J.y: a point target needs both'
+    )
+    for row, ans in ((rows[0], answers[0]), (rows[2], answers[2])):
+        for j in mech.joint_names:
+            assert math.isclose(float(row[f'joint.{j}']), ans.joints[j], abs_tol=1e-12), j
+        for a in mech.actuators:
+            assert math.isclose(float(row[f'joint.{a}']), src_cfg.inputs[a], abs_tol=1e-9), a

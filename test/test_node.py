@@ -606,6 +606,31 @@ def test_three_dof_target_point_on_a_joint_point(three_dof):
     assert math.dist(k, goal) < 1e-9 * mech.length_scale
 
 
+def test_three_dof_target_by_two_bin_hinges(three_dof):
+    """Seed 003, example 6: the bin given by its hinges J and K (`J.x, J.y, K.x, K.y` on
+    ~/target) is solved exactly; a pair whose distance is not the bin's is refused with both
+    distances, and changes nothing."""
+    mech = three_dof.mech
+    command = {a: act.min + 0.35 * (act.max - act.min) for a, act in mech.actuators.items()}
+    source = three_dof.assert_single_ok(
+        three_dof.request(joint_state(list(command), list(command.values())))
+    )
+    bin_pts = marker_points(three_dof.markers.last, mech)['bucket']
+    (jx, jy), (kx, ky) = bin_pts['J'], bin_pts['K']
+    mid = _mid_command(mech)
+    three_dof.assert_single_ok(three_dof.request(joint_state(list(mid), list(mid.values()))))
+    names = ['J.x', 'J.y', 'K.x', 'K.y']
+    joints = three_dof.assert_single_ok(
+        three_dof.request(joint_state(names, [jx, jy, kx, ky]), topic='~/target')
+    )
+    for name, v in source.items():  # the configuration the hinges came from
+        assert abs(math.remainder(joints[name] - v, 2 * math.pi)) < 1e-9, (name, joints[name], v)
+    status = three_dof.request(joint_state(names, [jx, jy, kx + 0.01, ky]), topic='~/target')
+    three_dof.assert_single_error(status, 'both on link', 'm apart', 'the target puts them')
+    status = three_dof.request(joint_state(['J.x', 'K.x', 'K.y'], [jx, kx, ky]), topic='~/target')
+    three_dof.assert_single_error(status, 'J.x is given without J.y')
+
+
 # ---- demo sweep, start-up errors, parameters ------------------------------------------------
 
 

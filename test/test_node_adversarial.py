@@ -880,7 +880,7 @@ def test_a_request_with_more_names_than_the_scene_has_is_refused_at_once(serve):
     why = request_shape_error(CountOnly(), len(names), limit)
     assert why == (
         f'JointState has 100000 name(s); the scene has only {limit} names '
-        '(actuators, joints, links and points) to give values for'
+        '(actuators, joints, links, and points as <point>.x and <point>.y) to give values for'
     )
     before = s.good('command', joint_state(['crank'], [0.7], (71, 0)))
     for topic in ('command', 'target'):

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.errors import CommandError
 from ..core.ops import BATCH, to_complex
 from ..core.plan import step_geometry
 from ..core.solver import Solver, branch_identity_defined
@@ -16,6 +17,7 @@ from ..engine import (
     max_request_names,
     request_shape_error,
 )
+from ..point_coordinates import group_point_coordinates
 from ..stamps import stamp_error, stamp_valid
 from .progress import _Progress
 from .reading import Commands
@@ -183,6 +185,13 @@ class _Engine:
             if nm in self.res.inputs:
                 self.res.inputs[nm][a:b] = col
                 self.res.input_given[nm][a:b] = True
+        if int(data.topic[a]) == 1:  # Engine.target: <point>.x, <point>.y make a point
+            try:
+                columns = group_point_coordinates(self.engine.mech, columns)
+            except CommandError as exc:
+                self._refuse_all(a, b, str(exc))
+                return
+            names = list(columns)
         ctx = self.forward if int(data.topic[a]) == 0 else self.context_for(names)
         if isinstance(ctx, str):  # no solver for these target names
             self._refuse_all(a, b, ctx)

@@ -16,6 +16,7 @@ from ..plan import (
     branch_geometry_one,
     link_poses,
 )
+from .point_pairs import pair_columns
 from .result import Result, branch_identity_defined, branch_text
 
 if TYPE_CHECKING:
@@ -340,6 +341,8 @@ class BatchAPI:
                 f'{"; unknown " + str(unknown) if unknown else ""}'
                 f'{"; missing " + str(missing) if missing else ""}'
             )
+        if self.point_pairs:
+            columns = pair_columns(columns, self.point_pairs, self.pair_tolerance_m)
         arrays = []
         n = None
         for s in self.specs:

@@ -38,6 +38,7 @@ from ..plan import (
 from .batch import BatchAPI
 from .configuration import ConfigurationReading
 from .newton_path import NewtonPath
+from .point_pairs import find_point_pairs, pair_values, replaced_knowns
 from .result import (
     CLOSURE_LIMIT,
     METHODS,
@@ -88,17 +89,26 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         self.knowns = list(knowns) if knowns is not None else list(mech.actuators)
         if len(set(self.knowns)) != len(self.knowns):
             raise PlanError(f'a known is named twice: {self.knowns}')
-        self.specs = [spec_for(mech, n) for n in self.knowns]
+        # two known points of one link fix its pose: the plan takes the first and the link's
+        # angle (point_pairs); parse() converts a request, after checking their distance
+        self.point_pairs = find_point_pairs(
+            mech, self.knowns, [spec_for(mech, n) for n in self.knowns]
+        )
+        #: the knowns the plan solves, aligned with ``specs`` (``knowns`` with each pair's
+        #: second point replaced by the link's angle)
+        self.plan_knowns = replaced_knowns(self.knowns, self.point_pairs)
+        if len(set(self.plan_knowns)) != len(self.plan_knowns):
+            raise PlanError(
+                f'the knowns {self.knowns} give the angle of a link twice (two of its points '
+                'fix it already)'
+            )
+        self.specs = [spec_for(mech, n) for n in self.plan_knowns]
         n_values = sum(s.size for s in self.specs)
         if n_values != mech.dof:
             raise PlanError(
                 f'{mech.name!r} has {mech.dof} degree(s) of freedom but the knowns '
                 f'{self.knowns} give {n_values} value(s)'
-                + (
-                    _same_link_points_hint(mech, self.knowns, self.specs)
-                    if n_values == mech.dof + 1
-                    else ''
-                )
+                + (' (two points of one link give 3: its pose)' if self.point_pairs else '')
             )
         self.actuator_specs = [spec_for(mech, a) for a in mech.actuators]
         self.inverse = any(s.name not in mech.actuators for s in self.specs)
@@ -245,6 +255,12 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
             for s, v in ((s, spec_value_one(self.mech, s, ref)) for s in self.specs)
         ]
 
+    @property
+    def pair_tolerance_m(self) -> float:
+        """How far (m) the distance of a target's two points of one link may be from the
+        link's: what the solver accepts as loop closure."""
+        return self.closure_limit * self.mech.length_scale
+
     def reference_values(self) -> dict[str, Any]:
         """The known quantities' values in the scene's reference pose ({known name: value})."""
         return {
@@ -287,10 +303,12 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         """Validate a {known name: value} command; raise ValueError naming what is wrong."""
         if not isinstance(values, Mapping):
             raise ValueError('a command must map known names to values')
-        unknown = [k for k in values if k not in self.knowns]
+        if self.point_pairs:
+            values = pair_values(values, self.knowns, self.point_pairs, self.pair_tolerance_m)
+        unknown = [k for k in values if k not in self.plan_knowns]
         if unknown:
             raise ValueError(f'unknown name(s) {echo(unknown)}; this solve takes {self.knowns}')
-        missing = [k for k in self.knowns if k not in values]
+        missing = [k for k in self.plan_knowns if k not in values]
         if missing:
             raise ValueError(f'missing value(s) for {missing}')
         out = []
@@ -372,6 +390,9 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         except ValueError as exc:
             return Result(False, str(exc), solver=self.mode)
         given = self._echo(vals)
+        for pair in self.point_pairs:  # echo the request as given: two points, not an angle
+            del given[pair.link_known]
+            given[pair.second] = [float(c) for c in values[pair.second]]
         for s, v in zip(self.specs, vals):
             if s.kind != 'point':
                 bad = self.limit_violation(s, v)
@@ -578,22 +599,3 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         ):
             return Result(False, 'internal error: non-finite value in the solution', solver=solver)
         return res
-
-
-def _same_link_points_hint(mech: Mechanism, knowns: Sequence[str], specs: Sequence[Spec]) -> str:
-    """For one value too many: two known points on one link (the graphical method's 'move the
-    bin by J and K') fix its pose, 3 values, not 4; say so, and give the knowns with the second
-    point replaced by that link's angle."""
-    points = [(k, s.point) for k, s in zip(knowns, specs) if s.kind == 'point']
-    for i, (_, a) in enumerate(points):
-        for known_b, b in points[i + 1 :]:
-            shared = [l for l in mech.links_of_point(a) if b in mech.links[l].points]
-            if shared:
-                link = shared[0]
-                better = [link if k == known_b else k for k in knowns]
-                return (
-                    f' (points {a!r} and {b!r} are both on link {link!r}: their distance '
-                    f'is fixed, so together they give its pose, 3 values, not 4; give one '
-                    f'of them and the link angle instead: knowns {better})'
-                )
-    return ''

@@ -1,0 +1,52 @@
+"""Point coordinates in a JointState target: ``<point>.x`` and ``<point>.y`` (m).
+
+A ``~/target`` (sensor_msgs/JointState) carries one number per name, so a point of the
+mechanism is given as two names, ``J.x`` and ``J.y`` (scene names are identifiers: no dot, so
+nothing else is named so). Together with other names this gives every inverse problem the
+lectures pose in one request: two points of one link (``J.x, J.y, K.x, K.y``: the excavator bin
+by its hinges), a point and a link angle (``L.x, L.y, bucket``), a point and an actuator. The
+node and the bag tool both group them here, so both answer the same request alike.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from .core.errors import CommandError, echo
+from .core.model import Mechanism
+
+AXES = ('x', 'y')
+
+
+def group_point_coordinates(mech: Mechanism, values: Mapping[str, Any]) -> dict[str, Any]:
+    """``{'J.x': x, 'J.y': y, ...}`` -> ``{'point:J': (x, y), ...}`` (numbers or equal-length
+    arrays: then an (n, 2) column); other names unchanged, in order. CommandError for a
+    coordinate of a point the scene does not have, or one axis without the other."""
+    if not any('.' in name for name in values):
+        return dict(values)
+    out: dict[str, Any] = {}
+    for name, value in values.items():
+        point, dot, axis = name.rpartition('.')
+        if not dot:
+            out[name] = value
+            continue
+        if axis not in AXES or point not in mech.points:
+            raise CommandError(
+                f'unknown name {echo(name)}: a point coordinate is <point>.x or <point>.y '
+                f'with a point of {mech.name!r}'
+            )
+        key = f'point:{point}'
+        if key in out:
+            continue
+        other = f'{point}.{"y" if axis == "x" else "x"}'
+        if other not in values:
+            raise CommandError(f'{name} is given without {other}: a point target needs both')
+        x, y = values[f'{point}.x'], values[f'{point}.y']
+        if np.ndim(x):
+            out[key] = np.stack([np.asarray(x, float), np.asarray(y, float)], axis=-1)
+        else:
+            out[key] = (x, y)
+    return out
