@@ -227,7 +227,14 @@ class Engine:
     ) -> Result:
         """Forward kinematics: ``{actuator: value}``; with ``rates`` ({actuator: rad/s or m/s},
         the same names) the answer's ``velocity`` holds every joint's, link's and point's rate
-        (core.velocity: exact, from the loop-closure Jacobian)."""
+        (core.velocity: exact, from the loop-closure Jacobian). A partial command (some
+        actuators, no unknown name) holds the others at their values in the last good state
+        (their rates 0): the answer's ``held`` names them."""
+        values, held = self.held_values(values)
+        if isinstance(held, str):
+            return Result(False, held)
+        if rates is not None and held:
+            rates = {**rates, **{a: 0.0 for a in held}}
         if rates is not None:
             bad = [n for n, v in rates.items() if not math.isfinite(v)]
             if bad:
@@ -239,7 +246,26 @@ class Engine:
         result = self.solve(self.forward, values)
         if rates is not None and result.success:
             result.velocity = velocities(self.forward, result, values, rates)
+        result.held = held
         return result
+
+    def held_values(
+        self, values: Mapping[str, Any]
+    ) -> tuple[dict[str, Any], tuple[str, ...] | str]:
+        """A command naming some actuators (and nothing else) -> every actuator, the others at
+        their values in the last good state, and the names held (or why they cannot be)."""
+        acts = self.forward.knowns
+        held = tuple(a for a in acts if a not in values)
+        if not values or not held or any(n not in acts for n in values):
+            return dict(values), ()  # complete, empty or naming something else: the solver's
+        last = self.last
+        if last is None:
+            return dict(values), (
+                f'missing value(s) for {list(held)} and no good state to hold them at: name '
+                'every actuator in the first command'
+            )
+        full = {a: values[a] if a in values else last.inputs[a] for a in acts}
+        return full, held
 
     def target(self, values: Mapping[str, float], allow_mode_change: bool = False) -> Result:
         """Inverse kinematics: ``{joint/link/actuator name: value}`` (DOF values in all), in
@@ -561,6 +587,8 @@ def status_values(result: Result, request: str) -> dict[str, Any]:
         values['cond'] = result.cond
     if result.mode_change:
         values['mode_change'] = result.mode_change
+    if result.held:
+        values['held'] = ', '.join(result.held)
     vel = result.velocity
     if vel is not None:
         values['velocity'] = f'ok (cond {vel.cond:.3g})' if vel.success else vel.reason

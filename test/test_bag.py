@@ -1561,3 +1561,47 @@ def test_the_bag_answers_point_coordinate_targets_like_the_node(tmp_path, capsys
             assert math.isclose(float(row[f'joint.{j}']), ans.joints[j], abs_tol=1e-12), j
         for a in mech.actuators:
             assert math.isclose(float(row[f'joint.{a}']), src_cfg.inputs[a], abs_tol=1e-9), a
+
+
+def test_the_bag_holds_actuators_a_partial_command_leaves_out_like_the_node(tmp_path, capsys):
+    """A recorded command naming some actuators keeps the others at their last good values,
+    as the node does, and its /status says which were held (`held`), with the node's exact
+    key-values (conversions.result_to_status of the engine's answer)."""
+    from scenes import CONFIG
+
+    from linkage_ros.conversions import result_to_status
+    from linkage_ros.engine import Engine, EngineSettings
+
+    scene = CONFIG / 'plagiograph.yaml'
+    mech = Scene.from_yaml(scene).mechanism
+    first, second = list(mech.actuators)
+    lo = {a: act.min + 0.4 * (act.max - act.min) for a, act in mech.actuators.items()}
+    requests = [dict(lo)] + [{first: lo[first] + 0.01 * k} for k in range(1, 60)]
+    requests.append({second: lo[second] + 0.02})
+    requests.append({first: 0.3, 'wrench': 1.0})
+    msgs = [
+        ('/cmd', (i + 1) * 10**8, joint_state(list(r), list(r.values()), sec=i + 1))
+        for i, r in enumerate(requests)
+    ]
+    src = make_input(tmp_path, 'mcap', msgs)
+    out_csv, out_bag = tmp_path / 'o.csv', tmp_path / 'o_bag'
+    args = [src, '--scene', scene, '--command-topic', '/cmd', '--out', out_csv, '--out', out_bag]
+    code, cap = run_bag([*args, '--no-progress'], capsys)
+    assert code == 0, cap.err
+    rows = read_csv(out_csv)
+    node = Engine(mech, EngineSettings('auto', 1e-12, 50, 'continuous'))
+    answers = [node.command(r) for r in requests]
+    assert [a.held for a in answers[1:4]] == [(second,)] * 3 and answers[-2].held == (first,)
+    assert [r['status'] for r in rows] == ['ok' if a.success else 'error' for a in answers]
+    assert 'wrench' in rows[-1]['reason']
+    out, _ = read_out_bag(out_bag)
+    for (_, st), ans, row in zip(out['/status'], answers, rows):
+        want = result_to_status(ans, st.name, 'command', mech.name)
+        got_kv = {v.key: v.value for v in st.values}
+        want_kv = {v.key: v.value for v in want.values}
+        assert list(got_kv) == list(want_kv), (got_kv, want_kv)
+        assert st.level == ord(want.level) and st.message == want.message
+        if ans.success:
+            assert got_kv.get('held') == want_kv.get('held')
+            for j in mech.joint_names:
+                assert math.isclose(float(row[f'joint.{j}']), ans.joints[j], abs_tol=1e-12), j

@@ -465,27 +465,30 @@ def test_sweep_grid_is_lazy_and_first_axis_slowest():
     assert list(cli._grid([])) == [()]
 
 
-def test_two_known_points_on_one_link_name_the_link_and_the_alternative():
-    """The lecture moves the excavator bin by giving J and K: 4 values for 3 DOF, refused with a
-    reason that says why (one rigid link) and what to give instead, which then solves."""
+def test_two_known_points_on_one_link_are_its_pose_and_more_knowns_are_refused():
+    """The lecture moves the excavator bin by giving J and K: 3 values (its pose), solved as K
+    and the bin's angle (test_point_pairs checks the positions); a known beyond that is refused
+    with the count, saying what two points of one link give."""
     mech = Scene.from_yaml(
         Path(__file__).resolve().parent.parent / 'config' / 'excavator.yaml'
     ).mechanism
     from linkage_ros.core.errors import PlanError
 
-    with pytest.raises(PlanError) as err:
-        Solver(mech, knowns=['point:K', 'point:J'])
-    msg = str(err.value)
-    assert "'K' and 'J' are both on link 'bucket'" in msg and "['point:K', 'bucket']" in msg
-    with pytest.raises(PlanError) as err:  # two points on different links: no such hint
+    solver = Solver(mech, knowns=['point:K', 'point:J'])
+    assert solver.plan_knowns == ['point:K', 'link:bucket'] and solver.knowns == [
+        'point:K',
+        'point:J',
+    ]
+    with pytest.raises(PlanError) as err:  # two points on different links: 4 values for 3 DOF
         Solver(mech, knowns=['point:K', 'point:A'])
-    assert 'both on link' not in str(err.value)
-    with pytest.raises(PlanError) as err:  # 5 values: replacing J by the angle is not enough
+    assert 'give 4 value(s)' in str(err.value) and 'two points of one link' not in str(err.value)
+    with pytest.raises(PlanError) as err:  # the pose and one more value
         Solver(mech, knowns=['point:K', 'point:J', 'Z1'])
-    assert 'both on link' not in str(err.value)
-    solver = Solver(mech, knowns=['point:K', 'bucket'])
+    assert 'give 4 value(s) (two points of one link give 3: its pose)' in str(err.value)
+    with pytest.raises(PlanError, match='angle of a link twice'):
+        Solver(mech, knowns=['point:K', 'point:J', 'link:bucket'])
     ref = Solver(mech).solve({'Z1': 1.5, 'Z2': 1.9, 'Z3': 1.4})
-    r = solver.solve({'point:K': ref.points['K'], 'bucket': ref.links['bucket']})
+    r = solver.solve({'point:K': ref.points['K'], 'point:J': ref.points['J']})
     assert r.success
     for a in ('Z1', 'Z2', 'Z3'):
         assert r.inputs[a] == pytest.approx(ref.inputs[a], abs=1e-9)

@@ -132,11 +132,12 @@ class FourBarOracle:
 # ---- message helpers ------------------------------------------------------------------------
 
 
-def joint_state(names, positions, stamp=(0, 0)) -> JointState:
+def joint_state(names, positions, stamp=(0, 0), velocity=()) -> JointState:
     msg = JointState()
     msg.header.stamp = Time(sec=stamp[0], nanosec=stamp[1])
     msg.name = list(names)
     msg.position = [float(p) for p in positions]
+    msg.velocity = [float(v) for v in velocity]
     return msg
 
 
@@ -490,9 +491,26 @@ def test_two_dof_scene_serves_commands(two_dof):
     check_rigid_geometry(two_dof, command)
 
 
-def test_two_dof_missing_actuator_is_rejected(two_dof):
-    first = next(iter(two_dof.mech.actuators))
-    two_dof.assert_single_error(two_dof.request(joint_state([first], [0.3])), 'missing')
+def test_two_dof_partial_command_holds_the_other_actuator(two_dof):
+    """A command naming some actuators keeps the others at their last good values and says so
+    in the status (`held`); an unknown name beside them is still an error."""
+    mech = two_dof.mech
+    first, second = list(mech.actuators)
+    mid = _mid_command(mech)
+    two_dof.assert_single_ok(two_dof.request(joint_state(list(mid), list(mid.values()))))
+    full = dict(mid, **{first: mid[first] + 0.05})
+    want = two_dof.assert_single_ok(two_dof.request(joint_state(list(full), list(full.values()))))
+    two_dof.assert_single_ok(two_dof.request(joint_state(list(mid), list(mid.values()))))
+    status = two_dof.request(joint_state([first], [full[first]], velocity=[0.2]))
+    joints = two_dof.assert_single_ok(status)
+    kv = {k.key: k.value for k in status.values}
+    assert kv['held'] == second, kv
+    for name, v in want.items():  # the same answer as the full command
+        assert abs(math.remainder(joints[name] - v, 2 * math.pi)) < 1e-12, name
+    js = two_dof.joints.last
+    assert len(js.velocity) == len(js.name) and kv['velocity'].startswith('ok')
+    status = two_dof.request(joint_state([first, 'wrench'], [0.3, 0.1]))
+    two_dof.assert_single_error(status, 'unknown', 'wrench')
 
 
 def _pure_point_output(mech):

@@ -395,8 +395,7 @@ def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
         ),
         ('command', cmd({'Z1': 1.5, 'Z2': 1.9, 'Z4': 1.4}), ["unknown name(s) ['Z4']"]),
         ('command', cmd({'Z1': 1.5, 'Z2': 1.9, 'bucket': 1.4}), ["unknown name(s) ['bucket']"]),
-        ('command', cmd({'Z1': 1.5}), ['missing', 'Z2', 'Z3']),  # partial, 3 DOF
-        ('command', cmd({'Z2': 1.9, 'Z3': 1.4}), ['missing', 'Z1']),
+        ('command', cmd({'Z1': 1.5, 'wrench': 1.0}), ['unknown', 'wrench']),  # partial + unknown
         ('command', cmd(dict(mid, Z1=hi['Z1'] + 0.1)), ['Z1', 'maximum']),
         ('command', cmd(dict(mid, Z3=lo['Z3'] - 0.05)), ['Z3', 'minimum']),
         ('command', cmd(dict(mid, Z2=-1e300)), ['Z2', 'minimum']),

@@ -101,7 +101,7 @@ def _float_blocks(values: list[float]) -> list[bytes]:
 class _StatusWriter:
     """Serialises diagnostic_msgs/DiagnosticStatus as conversions.result_to_status builds it:
     name '<node>: <scene>', hardware_id '<scene>', OK + 'ok' + residual, branch,
-    branch_defined, margin, solver, iterations[, cond], request; or ERROR + the
+    branch_defined, margin, solver, iterations[, cond][, held], request; or ERROR + the
     reason + request."""
 
     OK_LEVEL, ERROR_LEVEL = 0, 2
@@ -130,14 +130,22 @@ class _StatusWriter:
         )
 
     def ok_parts(
-        self, has_cond: bool, branch: str, bdef: bool, solver: str, iterations: int, request: str
+        self,
+        has_cond: bool,
+        branch: str,
+        bdef: bool,
+        solver: str,
+        iterations: int,
+        request: str,
+        held: str = '',
     ):
         """The constant pieces of an OK status around the residual and margin (and cond)."""
-        key = (has_cond, branch, bdef, solver, iterations, request)
+        key = (has_cond, branch, bdef, solver, iterations, request, held)
         hit = self.cache.get(key)
         if hit is None:
             k = self.blk
-            head = self._head(self.OK_LEVEL, 'ok', 8 if has_cond else 7) + k('residual')
+            count = 7 + bool(has_cond) + bool(held)
+            head = self._head(self.OK_LEVEL, 'ok', count) + k('residual')
             mid = b''.join(
                 [
                     k('branch'),
@@ -148,7 +156,7 @@ class _StatusWriter:
                 ]
             )
             tail = b''.join([k('solver'), k(solver), k('iterations'), k(str(iterations))])
-            end = k('request') + k(request)
+            end = (k('held') + k(held) if held else b'') + k('request') + k(request)
             hit = self.cache[key] = (head, mid, tail + (k('cond') if has_cond else b''), end)
         return hit
 
@@ -272,6 +280,7 @@ def _status_rows(status: _StatusWriter, res: Results, topic, requests, a, b, okr
     cond_blk = _float_blocks(cond[has_cond].tolist()) if has_cond.any() else []
     bcode, bnames = res.branch_code[okr].tolist(), res.branch_names
     scode, snames = res.solver_code[okr].tolist(), res.solver_names
+    hcode, hnames = res.held_code[okr].tolist(), res.held_names
     bdef = res.branch_defined[okr].tolist()
     iters = res.iterations[okr].tolist()
     hc = has_cond.tolist()
@@ -283,7 +292,7 @@ def _status_rows(status: _StatusWriter, res: Results, topic, requests, a, b, okr
         req = requests[tops[i]]
         if ok[i]:
             head, mid, tail, end = status.ok_parts(
-                hc[j], bnames[bcode[j]], bdef[j], snames[scode[j]], iters[j], req
+                hc[j], bnames[bcode[j]], bdef[j], snames[scode[j]], iters[j], req, hnames[hcode[j]]
             )
             if hc[j]:
                 out.append(b''.join([head, res_blk[j], mid, mar_blk[j], tail, cond_blk[c], end]))

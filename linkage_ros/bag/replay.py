@@ -181,10 +181,22 @@ class _Engine:
             return
         vals = data.positions(a, b)
         columns = {nm: vals[:, j] for j, nm in enumerate(names)}
+        held: tuple[str, ...] | str = ()
+        if int(data.topic[a]) == 0:  # Engine.command: a partial command holds the others
+            _, held = self.engine.held_values({nm: 0.0 for nm in names})
+            if isinstance(held, str):
+                self._refuse_all(a, b, held)
+                return
+            if held:
+                last = self.engine.last
+                assert last is not None  # held_values needs it
+                columns.update({h: np.full(b - a, last.inputs[h]) for h in held})
+                self.res.held_code[a:b] = self.res.held_code_of(', '.join(held))
+                names = list(self.forward.knowns)
         for nm, col in columns.items():
             if nm in self.res.inputs:
                 self.res.inputs[nm][a:b] = col
-                self.res.input_given[nm][a:b] = True
+                self.res.input_given[nm][a:b] = nm not in held
         if int(data.topic[a]) == 1:  # Engine.target: <point>.x, <point>.y make a point
             try:
                 columns = group_point_coordinates(self.engine.mech, columns)

@@ -22,6 +22,7 @@ class Results:
     iterations: np.ndarray
     cond: np.ndarray
     solver_code: np.ndarray  # (n,) index into solver_names
+    held_code: np.ndarray  # (n,) index into held_names: the actuators a partial command held
     inputs: dict[str, np.ndarray]  # solved, or as commanded (NaN too) on refused rows
     input_given: dict[str, np.ndarray]  # (n,) bool: the request named this actuator
     joints: dict[str, np.ndarray]
@@ -30,6 +31,7 @@ class Results:
     sequential: int = 0
     branch_names: list = field(default_factory=lambda: [''])
     solver_names: list = field(default_factory=lambda: [''])
+    held_names: list = field(default_factory=lambda: [''])
 
     def _code(self, table: list, name: str) -> int:
         try:
@@ -43,6 +45,9 @@ class Results:
 
     def solver_code_of(self, name: str) -> int:
         return self._code(self.solver_names, name)
+
+    def held_code_of(self, name: str) -> int:
+        return self._code(self.held_names, name)
 
     def branch(self, i: int) -> str:
         return self.branch_names[self.branch_code[i]]
@@ -62,6 +67,7 @@ class Results:
             iterations=np.zeros(n, np.int64),
             cond=np.full(n, np.nan),
             solver_code=np.zeros(n, np.int32),
+            held_code=np.zeros(n, np.int32),
             inputs={a: np.full(n, np.nan) for a in mech.actuators},
             input_given={a: np.zeros(n, bool) for a in mech.actuators},
             joints={j: np.full(n, np.nan) for j in mech.joint_names},

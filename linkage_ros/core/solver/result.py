@@ -80,6 +80,8 @@ class Result:
     mode_change: str = ''
     #: rates of this configuration (core.velocity.Velocities), when the request gave rates
     velocity: Any = None
+    #: set by a front end for a partial command: the actuators it held at their last values
+    held: tuple[str, ...] = ()
 
     def to_dict(self, mech: Mechanism | None = None) -> dict[str, Any]:
         links = {}
