@@ -126,6 +126,18 @@ class Engine:
         self._synced[key] = self.version
         return adopted
 
+    def checkpoint(self) -> tuple[Any, ...]:
+        """The engine's state (last good state, versions, every solver's continuity), opaque:
+        :meth:`rollback` returns to it (a trajectory is solved, then the state restored)."""
+        solvers = [self.forward, *(v for v in self._solvers.values() if not isinstance(v, str))]
+        return (self._last, self.version, dict(self._synced), [(s, s.snapshot()) for s in solvers])
+
+    def rollback(self, token: tuple[Any, ...]) -> None:
+        self._last, self.version, synced, snaps = token
+        self._synced = dict(synced)
+        for solver, snap in snaps:
+            solver.restore(snap)
+
     # -- solvers -----------------------------------------------------------------------------------
     def new_solver(self, knowns: Sequence[str] | None, branch: str | None = None) -> Solver:
         s = self.settings

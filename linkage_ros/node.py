@@ -24,6 +24,7 @@ from typing import Any
 import rclpy
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped
+from nav_msgs.msg import Path
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.exceptions import InvalidParameterTypeException, ParameterException
@@ -33,6 +34,7 @@ from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
+from trajectory_msgs.msg import JointTrajectory
 
 from .conversions import (
     format_joints,
@@ -61,6 +63,8 @@ from .params import (
 )
 from .publishing import Outputs, topic_qos
 from .stamps import stamp_error
+from .trajectory import TrajectoryAnswer, path_targets, solve_trajectory
+from .trajectory_io import joint_trajectory_request, path_request
 
 __all__ = [
     'DEMO_RATE_MAX',
@@ -154,6 +158,18 @@ class LinkageNode(Node):
                 PointStamped,
                 f'~/target_point/{p}',
                 lambda msg, p=p: self._on_target_point(p, msg),
+                qos,
+                event_callbacks=quiet_sub,
+            )
+        # trajectories and paths: many requests answered as one (trajectory.py)
+        self.create_subscription(
+            JointTrajectory, '~/trajectory', self._on_trajectory, qos, event_callbacks=quiet_sub
+        )
+        for p in self.target_points:
+            self.create_subscription(
+                Path,
+                f'~/target_path/{p}',
+                lambda msg, p=p: self._on_target_path(p, msg),
                 qos,
                 event_callbacks=quiet_sub,
             )
@@ -316,6 +332,54 @@ class LinkageNode(Node):
                 joint_state_to_command(msg, self.max_names), allow_mode_change=any_mode
             ),
         )
+
+    def _on_trajectory(self, msg):
+        """~/trajectory: every point solved, answered on ~/solved_trajectory and one status."""
+
+        def solve():
+            names, positions, velocities, times = joint_trajectory_request(msg)
+            return solve_trajectory(self.engine, names, positions, velocities, times), times
+
+        self._answer_trajectory('trajectory', msg.header.stamp, solve)
+
+    def _on_target_path(self, point: str, msg):
+        """~/target_path/<point>: the point's successive positions as one trajectory."""
+
+        def solve():
+            xy, times = path_request(msg, point, self.frame_id)
+            targets = path_targets(self.engine, point, xy)
+            if isinstance(targets, str):
+                return TrajectoryAnswer(False, targets), times
+            if not targets:
+                return TrajectoryAnswer(False, 'empty path: no poses'), times
+            names = list(targets[0])
+            rows = [[t[n] for n in names] for t in targets]
+            return solve_trajectory(self.engine, names, rows), times
+
+        self._answer_trajectory(f'target_path/{point}', msg.header.stamp, solve)
+
+    def _answer_trajectory(self, request: str, stamp, solve) -> None:
+        """_answer for a trajectory or path: the same stamp rules, one status. Never raises."""
+        try:
+            if is_zero_stamp(stamp):
+                stamp = self.get_clock().now().to_msg()
+            bad_stamp = stamp_error(stamp.sec, stamp.nanosec)
+            times: list[int] = []
+            if bad_stamp:
+                answer = TrajectoryAnswer(False, bad_stamp)
+            elif is_zero_stamp(stamp):
+                answer = TrajectoryAnswer(False, ZERO_CLOCK)
+            else:
+                try:
+                    answer, times = solve()
+                except CommandError as exc:
+                    answer = TrajectoryAnswer(False, str(exc))
+            self.outputs.answer_trajectory(answer, stamp, request, times)
+        except Exception as exc:  # a bug must not take the node down: answer and keep going
+            self.get_logger().error(
+                f'internal error on {request}: {exc!r}\n' + traceback.format_exc()
+            )
+            self.outputs.internal_error(f'internal error: {exc!r}', request)
 
     def _on_target_point(self, point: str, msg):
 

@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -23,6 +24,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
+from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import MarkerArray
 
 from .conversions import (
@@ -35,6 +37,8 @@ from .conversions import (
 from .core.solver import Result
 from .engine import Engine
 from .params import NodeConfig
+from .trajectory import TrajectoryAnswer
+from .trajectory_io import answer_to_joint_trajectory, trajectory_status
 
 #: /diagnostics period (s): the diagnostic_updater convention
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -88,6 +92,9 @@ class Outputs:
         self.pub_status = node.create_publisher(
             DiagnosticStatus, '~/status', qos, event_callbacks=quiet
         )
+        self.pub_trajectory = node.create_publisher(
+            JointTrajectory, '~/solved_trajectory', qos, event_callbacks=quiet
+        )
         self.pub_diagnostics = node.create_publisher(
             DiagnosticArray, '/diagnostics', topic_qos(10), event_callbacks=quiet
         )
@@ -140,6 +147,30 @@ class Outputs:
             self.pub_status.publish(
                 result_to_status(result, self.status_name, request, self.mech.name)
             )
+
+    def answer_trajectory(
+        self, answer: TrajectoryAnswer, stamp: Time, request: str, times_ns: Sequence[int]
+    ) -> None:
+        """A trajectory or path: on success ~/solved_trajectory, then one status either way."""
+        self.last_ok = answer.success
+        if answer.success:
+            self.answered += 1
+            self.pub_trajectory.publish(
+                answer_to_joint_trajectory(
+                    answer,
+                    self.mech.joint_names,
+                    self.config.prefix,
+                    stamp,
+                    self.frame_id,
+                    times_ns,
+                )
+            )
+        else:
+            self.refused += 1
+            self.last_error = f'{request}: {answer.reason}'
+        self.pub_status.publish(
+            trajectory_status(answer, self.status_name, request, self.mech.name)
+        )
 
     def internal_error(self, reason: str, request: str) -> None:
         self.refused += 1

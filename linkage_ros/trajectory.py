@@ -1,0 +1,189 @@
+"""Trajectories and paths: many requests answered as one (ROS-free; the node and the bag use it).
+
+A trajectory is a sequence of requests with the same names, one per point: actuator values
+(forward kinematics; a partial set holds the others as a command does) or target values (inverse
+kinematics: joints, links, actuators and points as ``<point>.x``, ``<point>.y``). It is solved
+point by point from the engine's last good state, the assembly mode followed continuously: a
+step that changes mode (a branch jump, a toggle crossed) is refused, as is any point that is
+unreachable, and then the whole trajectory is refused with the first failing index and why (a
+robot must never execute half of a trajectory). A trajectory is a plan, not a motion: the
+engine's state is the same after it as before.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from .core.errors import echo
+from .core.solver import Result
+from .engine import Engine, _mode_differs, max_request_names, request_shape_error
+
+#: the most points one trajectory may have (a 10 s trajectory at 1 kHz)
+MAX_TRAJECTORY_POINTS = 10_000
+
+
+@dataclass
+class TrajectoryAnswer:
+    """Every point's Result when ``success``; else the reason, naming the first failing point
+    (``failed_index``, None when the request as a whole is malformed)."""
+
+    success: bool
+    reason: str = ''
+    results: list[Result] = field(default_factory=list)
+    failed_index: int | None = None
+    inverse: bool = False
+
+    @property
+    def smallest_margin(self) -> float | None:
+        margins = [r.margin for r in self.results if r.margin is not None]
+        return min(margins) if margins else None
+
+    @property
+    def largest_residual(self) -> float | None:
+        res = [r.residual for r in self.results if r.residual is not None]
+        return max(res) if res else None
+
+
+def _refused(reason: str, index: int | None = None) -> TrajectoryAnswer:
+    return TrajectoryAnswer(False, reason, failed_index=index)
+
+
+def check_shape(
+    engine: Engine,
+    names: Sequence[str],
+    positions: Sequence[Sequence[float]],
+    velocities: Sequence[Sequence[float]],
+    times_ns: Sequence[int],
+) -> TrajectoryAnswer | None:
+    """Why a trajectory is malformed as a message (before any solve), or None."""
+    n = len(positions)
+    if n == 0:
+        return _refused('empty trajectory: no points')
+    if n > MAX_TRAJECTORY_POINTS:
+        return _refused(
+            f'trajectory has {n} points; at most {MAX_TRAJECTORY_POINTS} are solved in one '
+            'request (send it in parts)'
+        )
+    why = request_shape_error(names, len(names), max_request_names(engine.mech))
+    if why:
+        return _refused(f'joint_names: {why}')
+    for i, row in enumerate(positions):
+        if len(row) != len(names):
+            return _refused(f'point {i} has {len(row)} position(s) for {len(names)} joint_names', i)
+        vel = velocities[i] if i < len(velocities) else ()
+        if len(vel) not in (0, len(names)):
+            return _refused(
+                f'point {i} has {len(vel)} velocities for {len(names)} joint_names: give one '
+                'per name or none',
+                i,
+            )
+        if i and times_ns[i] <= times_ns[i - 1]:
+            return _refused(
+                f'point {i}: time_from_start {times_ns[i] * 1e-9:.9g} s is not after point '
+                f"{i - 1}'s {times_ns[i - 1] * 1e-9:.9g} s (it must increase strictly)",
+                i,
+            )
+    return None
+
+
+def is_forward(engine: Engine, names: Sequence[str]) -> bool:
+    """Actuator names only: forward kinematics (a partial set holds the others)."""
+    return all(n in engine.forward.knowns for n in names)
+
+
+def solve_trajectory(
+    engine: Engine,
+    names: Sequence[str],
+    positions: Sequence[Sequence[float]],
+    velocities: Sequence[Sequence[float]] = (),
+    times_ns: Sequence[int] | None = None,
+) -> TrajectoryAnswer:
+    """Solve every point (see the module docstring); the engine's state is unchanged after."""
+    times = list(times_ns) if times_ns is not None else list(range(len(positions)))
+    bad = check_shape(engine, names, positions, velocities, times)
+    if bad is not None:
+        return bad
+    forward = is_forward(engine, names)
+    token = engine.checkpoint()
+    results: list[Result] = []
+    try:
+        before = engine.mode(engine.last)
+        for i, row in enumerate(positions):
+            values: dict[str, Any] = dict(zip(names, (float(v) for v in row)))
+            vel = velocities[i] if i < len(velocities) else ()
+            rates = dict(zip(names, (float(v) for v in vel))) if len(vel) else None
+            if forward:
+                r = engine.command(values, rates)
+            else:
+                r = engine.target(values)
+                if r.success and rates is not None:
+                    r.velocity = _target_rates(engine, values, rates, r)
+            if not r.success:
+                return _refused(f'point {i}: {r.reason}', i)
+            after = engine.mode(r)
+            if before is not None and _mode_differs(before, after):
+                assert after is not None
+                return _refused(
+                    f'point {i}: the assembly mode changes from {_signs(before[0])} to '
+                    f'{_signs(after[0])} between points {i - 1} and {i} (a branch jump or a '
+                    'toggle crossed); a mechanism cannot follow that',
+                    i,
+                )
+            before = after if after is not None else before
+            results.append(r)
+    finally:
+        engine.rollback(token)
+    return TrajectoryAnswer(True, results=results, inverse=not forward)
+
+
+def _target_rates(
+    engine: Engine, values: Mapping[str, Any], rates: Mapping[str, float], result: Result
+) -> Any:
+    """Every joint's rate for the rates of a target's names (the same Jacobian as a command's)."""
+    from .core.velocity import velocities
+    from .point_coordinates import group_point_coordinates
+
+    if any('.' in n for n in rates):  # point coordinate rates: no point-velocity known yet
+        return None
+    solver = engine.solver_for(list(group_point_coordinates(engine.mech, values)))
+    if isinstance(solver, str):
+        return None
+    bad = [n for n, v in rates.items() if not math.isfinite(v)]
+    if bad:
+        return None
+    return velocities(solver, result, values, rates)
+
+
+def _signs(signs: Sequence[int]) -> str:
+    return ''.join('+' if s > 0 else '-' for s in signs)
+
+
+def path_targets(
+    engine: Engine, point: str, xy: Sequence[tuple[float, float]]
+) -> list[dict[str, Any]] | str:
+    """A point's successive positions -> one target per position (``<point>.x``, ``<point>.y``
+    and, with more than 2 degrees of freedom, the ``target_point_hold`` names at their values in
+    the last good state, as ``~/target_point/<point>`` holds them); or why not."""
+    mech = engine.mech
+    if point not in mech.points:
+        return f'unknown point {echo(point)} of {mech.name!r}'
+    hold = [h for h in engine.settings.target_point_hold if h != point]
+    held: dict[str, Any] = {}
+    if hold:
+        last = engine.last
+        if last is None:
+            return f'no good state yet to take the held value(s) {hold} from: send a command first'
+        from .engine import current_value
+
+        held = {h: current_value(mech, last, h) for h in hold}
+        if any(isinstance(v, tuple) for v in held.values()):
+            return 'a held point cannot be part of a path target; hold joints, links or actuators'
+    elif mech.dof > 2:
+        return (
+            f'a path of {point!r} fixes 2 of the {mech.dof} degrees of freedom: set the '
+            'parameter target_point_hold'
+        )
+    return [{f'{point}.x': x, f'{point}.y': y, **held} for x, y in xy]

@@ -1,0 +1,123 @@
+"""Trajectories and paths solved as one request (issue 17; linkage_ros/trajectory.py).
+
+Oracles: the 50-digit four-bar of test/oracles.py (a crank turn), forward solves of the throws
+an inverse path returns (they must reproduce the path), and fresh engines for the state checks.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from oracles import fourbar as oracle
+from scenes import load
+
+from linkage_ros.engine import Engine, EngineSettings
+from linkage_ros.trajectory import MAX_TRAJECTORY_POINTS, path_targets, solve_trajectory
+
+L = (0.3, 0.1, 0.25, 0.2)  # config/four_bar.yaml: ground, crank, coupler, rocker
+
+
+def engine(stem='four_bar', hold=()):
+    return Engine(load(stem), EngineSettings('auto', 1e-12, 50, 'continuous', tuple(hold)))
+
+
+def test_a_crank_turn_is_the_oracle_at_every_point_and_leaves_the_state():
+    e = engine()
+    before = e.last
+    thetas = [1.0 + 2 * math.pi * k / 72 for k in range(73)]
+    ans = solve_trajectory(e, ['crank'], [[t] for t in thetas], [[2.0]] * 73, list(range(73)))
+    assert ans.success, ans.reason
+    assert len(ans.results) == 73 and not ans.inverse
+    for t, r in zip(thetas, ans.results):
+        want = oracle(*L, t, branch=1)
+        assert abs(math.remainder(r.links['rocker'] - float(want['theta4']), 2 * math.pi)) < 1e-12
+        assert r.velocity is not None and r.velocity.success
+    assert e.last is before  # a trajectory is a plan: the state is unchanged
+    assert e.command({'crank': 1.0}).links['rocker'] == pytest.approx(1.6895883797486895, abs=1e-12)
+
+
+def test_an_excavator_throw_sweep_equals_one_command_after_another():
+    e = engine('excavator')
+    mech = e.mech
+    acts = list(mech.actuators)
+    rows = []
+    for k in range(40):
+        s = k / 39
+        rows.append(
+            [act.min + (act.max - act.min) * (0.2 + 0.6 * s) for act in mech.actuators.values()]
+        )
+    ans = solve_trajectory(e, acts, rows, (), list(range(40)))
+    assert ans.success, ans.reason
+    ref = engine('excavator')
+    for row, r in zip(rows, ans.results):
+        want = ref.command(dict(zip(acts, row)))
+        for j in mech.joint_names:
+            assert abs(math.remainder(r.joints[j] - want.joints[j], 2 * math.pi)) < 1e-9, j
+
+
+def test_an_unreachable_point_refuses_the_whole_trajectory_naming_its_index():
+    e = engine()
+    before = e.last
+    targets = [[1.70], [1.75], [1.2], [1.8]]  # the rocker swings from 1.633 to 2.681 rad
+    ans = solve_trajectory(e, ['rocker'], targets, (), [0, 1, 2, 3])
+    assert not ans.success and ans.failed_index == 2 and ans.reason.startswith('point 2: ')
+    assert ans.results == [] and e.last is before
+    # a point only the other assembly mode reaches is refused the same way
+    ans = solve_trajectory(e, ['B'], [[1.2], [-1.2]], (), [0, 1])
+    assert (
+        not ans.success
+        and ans.failed_index == 1
+        and 'reachable only in assembly mode' in ans.reason
+    )
+    assert e.last is before
+
+
+def test_a_bin_path_comes_back_as_throws_that_reproduce_it():
+    """Seed 002: successive positions of the bin -> the coordinated actuator motion."""
+    e = engine('excavator', hold=('bucket',))
+    mech = e.mech
+    lip = e.last.points['L']
+    path = [(lip[0] + 0.3 * s, lip[1] - 0.2 * s + 0.1 * s * s) for s in np.linspace(0, 1, 25)]
+    targets = path_targets(e, 'L', path)
+    assert not isinstance(targets, str)
+    names = list(targets[0])
+    assert names == ['L.x', 'L.y', 'bucket']
+    ans = solve_trajectory(e, names, [[t[n] for n in names] for t in targets])
+    assert ans.success, ans.reason
+    fwd = engine('excavator')
+    for (x, y), r in zip(path, ans.results):
+        again = fwd.command({a: r.inputs[a] for a in mech.actuators})
+        assert math.dist(again.points['L'], (x, y)) < 1e-9 * mech.length_scale
+        assert (
+            abs(math.remainder(again.links['bucket'] - e.last.links['bucket'], 2 * math.pi)) < 1e-9
+        )
+    assert path_targets(engine('excavator'), 'L', path).startswith('a path of ')  # no hold
+
+
+@pytest.mark.parametrize(
+    'names, rows, vel, times, why, index',
+    [
+        (['crank'], [], (), [], 'empty trajectory', None),
+        (['crank'], [[0.1]] * (MAX_TRAJECTORY_POINTS + 1), (), None, 'at most', None),
+        (['crank'], [[0.1], [0.2, 0.3]], (), [0, 1], 'point 1 has 2 position(s)', 1),
+        (['crank'], [[0.1], [0.2]], [[], [1.0, 2.0]], [0, 1], 'point 1 has 2 velocities', 1),
+        (['crank'], [[0.1], [0.2], [0.3]], (), [0, 5, 5], 'point 2: time_from_start', 2),
+        (['crank'], [[0.1], [math.nan]], (), [0, 1], 'point 1: crank: value must be finite', 1),
+        (['crank'], [[0.1], [0.2]], [[0.0], [math.inf]], [0, 1], 'point 1: velocity', 1),
+        (['crank', 'crank'], [[0.1, 0.1]], (), [0], 'more than once', None),
+        (['wrench'], [[0.1]], (), [0], "point 0: unknown name 'wrench'", 0),
+    ],
+)
+def test_bad_trajectories_get_one_clear_reason_and_change_nothing(
+    names, rows, vel, times, why, index
+):
+    e = engine()
+    before = e.last
+    if times is None:
+        times = list(range(len(rows)))
+    ans = solve_trajectory(e, names, rows, vel, times)
+    assert not ans.success and why in ans.reason, ans.reason
+    assert ans.failed_index == index
+    assert e.last is before
