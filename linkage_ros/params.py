@@ -17,6 +17,8 @@ from .resources import scene_path
 
 NODE_NAME = 'linkage_node'
 BRANCH_MODES = ('continuous', 'reference')
+#: the executors the node can run on (parameter ``executor``)
+EXECUTORS = ('events', 'single_threaded')
 #: demo_rate bounds (Hz): the timer period must be a positive whole number of nanoseconds that
 #: rclpy accepts, and a faster demo would only busy-loop the executor (1e300 Hz is a 0 ns timer)
 DEMO_RATE_MIN, DEMO_RATE_MAX = 1e-3, 1000.0
@@ -120,6 +122,15 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         constraints=f'0 or {OUTPUT_RATE_MIN:g} <= marker_rate <= {OUTPUT_RATE_MAX:g}',
     ),
     ParamSpec(
+        'executor',
+        'events',
+        "The rclpy executor that runs the node: 'events' (rclpy.experimental.EventsExecutor: "
+        "about a third less CPU per command than 'single_threaded', see docs/BENCHMARKS.md; "
+        "falls back to 'single_threaded' with a warning where rclpy lacks it) or "
+        "'single_threaded' (rclpy's SingleThreadedExecutor).",
+        constraints='events | single_threaded',
+    ),
+    ParamSpec(
         'queue_depth',
         10,
         'History depth N of every topic the node subscribes and publishes (reliable, keep '
@@ -147,6 +158,7 @@ class NodeConfig:
     target_point_hold: tuple[str, ...] = ()
     publish_rate: float = 10.0
     marker_rate: float = 10.0
+    executor: str = 'events'
     queue_depth: int = 10
 
     def engine_settings(self) -> EngineSettings:
@@ -258,6 +270,9 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         fail_setting('target_point_hold', 'names something twice', list(hold))
     publish_rate = check_output_rate('publish_rate', v['publish_rate'])
     marker_rate = check_output_rate('marker_rate', v['marker_rate'])
+    executor = v['executor']
+    if executor not in EXECUTORS:
+        fail_setting('executor', f'must be one of {list(EXECUTORS)}', executor)
     depth = v['queue_depth']
     if isinstance(depth, bool) or not isinstance(depth, int) or not 1 <= depth <= QUEUE_DEPTH_MAX:
         fail_setting(
@@ -291,6 +306,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         target_point_hold=tuple(hold),
         publish_rate=publish_rate,
         marker_rate=marker_rate,
+        executor=executor,
         queue_depth=depth,
     )
 

@@ -874,6 +874,10 @@ def test_parameter_file_example_is_valid():
     for bad in (0, -5, 2.5, True, '100'):
         with pytest.raises(ConfigError, match=f"'queue_depth'.*{bad!r}"):
             make_config(dict(params, queue_depth=bad))
+    assert make_config(params).executor == 'events'
+    assert make_config(dict(params, executor='single_threaded')).executor == 'single_threaded'
+    with pytest.raises(ConfigError, match="'executor'.*multi"):
+        make_config(dict(params, executor='multi'))
     for name in ('publish_rate', 'marker_rate'):
         assert getattr(make_config(dict(params, **{name: 0.0})), name) == 0.0  # 0 = off
         assert getattr(make_config(dict(params, **{name: 250.0})), name) == 250.0

@@ -176,3 +176,22 @@ def test_answers_only_publishes_nothing_between_requests(ros, tmp_path):
         assert len(joints) == 0
     finally:
         assert proc.stop(signal.SIGINT) == 0
+
+
+@pytest.mark.parametrize('executor', ['events', 'single_threaded'])
+def test_each_executor_serves_commands_and_stops_cleanly(ros, tmp_path, executor):
+    """The executor parameter picks the executor (events by default); both answer a command
+    and stop on SIGTERM with exit 0 and no traceback."""
+    params = {'scene': 'four_bar', 'publish_rate': 0.0, 'executor': executor}
+    proc = NodeProcess(tmp_path, DOMAIN_ID, params).start()
+    try:
+        joints = ros.collector(JointState, proc.topic('joint_states'))
+        cmd = ros.publisher(JointState, proc.topic('~/command'))
+        ros.wait_for_discovery([cmd], [joints], TIMEOUT, proc)
+        ros.publish(cmd, JointState(name=['crank'], position=[1.0]))
+        assert ros.spin_until(lambda: len(joints) >= 1, TIMEOUT, proc)
+        got = dict(zip(joints.last.name, joints.last.position))
+        assert abs(got['O4'] - 1.6895883797486895) < 1e-9
+    finally:
+        assert proc.stop(signal.SIGTERM) == 0
+    assert 'Traceback' not in proc.output()
