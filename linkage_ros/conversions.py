@@ -15,7 +15,7 @@ from typing import Any
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
-from geometry_msgs.msg import Point, PointStamped
+from geometry_msgs.msg import Point, PointStamped, PoseStamped
 from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
@@ -91,6 +91,35 @@ def point_stamped_to_xy(msg: PointStamped, name: str = '') -> tuple[float, float
             'number; z is ignored only when it is)'
         )
     return (x, y)
+
+
+#: how far (in quaternion components, after normalising) an orientation may tilt out of the
+#: plane and still be read as a rotation about z
+PLANAR_TOLERANCE = 1e-6
+
+
+def pose_to_xy_yaw(msg: PoseStamped, name: str = '') -> tuple[float, float, float]:
+    """The planar pose (x, y in m, yaw in rad about +z) of a PoseStamped. Every number must be
+    finite, and the orientation a rotation about z (x and y of the unit quaternion within
+    PLANAR_TOLERANCE of 0): anything else is refused with a CommandError naming it."""
+    p, q = msg.pose.position, msg.pose.orientation
+    head = f'target pose {name!r}: ' if name else ''
+    values = [('position.x', p.x), ('position.y', p.y), ('position.z', p.z)]
+    values += [('orientation.x', q.x), ('orientation.y', q.y)]
+    values += [('orientation.z', q.z), ('orientation.w', q.w)]
+    bad = [f'{k} = {v}' for k, v in values if not math.isfinite(v)]
+    if bad:
+        raise CommandError(f'{head}{", ".join(bad)} is not finite')
+    norm = math.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)
+    if not norm > 1e-9:
+        raise CommandError(f'{head}the orientation quaternion is zero (give w = 1 for yaw 0)')
+    qx, qy, qz, qw = q.x / norm, q.y / norm, q.z / norm, q.w / norm
+    if abs(qx) > PLANAR_TOLERANCE or abs(qy) > PLANAR_TOLERANCE:
+        raise CommandError(
+            f'{head}the orientation is not a rotation about z (normalised quaternion x = '
+            f'{qx:.3g}, y = {qy:.3g}; a planar mechanism has only a yaw)'
+        )
+    return float(p.x), float(p.y), 2.0 * math.atan2(qz, qw)
 
 
 def is_zero_stamp(stamp: Time) -> bool:

@@ -23,7 +23,7 @@ from typing import Any
 
 import rclpy
 from builtin_interfaces.msg import Time
-from geometry_msgs.msg import PointStamped
+from geometry_msgs.msg import PointStamped, PoseStamped
 from nav_msgs.msg import Path
 from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
 from rclpy.event_handler import SubscriptionEventCallbacks
@@ -43,6 +43,7 @@ from .conversions import (
     joint_state_rates,
     joint_state_to_command,
     point_stamped_to_xy,
+    pose_to_xy_yaw,
 )
 from .core.errors import CommandError, SceneError
 from .core.solver import Result
@@ -61,6 +62,7 @@ from .params import (
     load_engine,
     make_config,
 )
+from .point_coordinates import pose_target
 from .publishing import Outputs, topic_qos
 from .stamps import stamp_error
 from .trajectory import TrajectoryAnswer, path_targets, solve_trajectory
@@ -158,6 +160,16 @@ class LinkageNode(Node):
                 PointStamped,
                 f'~/target_point/{p}',
                 lambda msg, p=p: self._on_target_point(p, msg),
+                qos,
+                event_callbacks=quiet_sub,
+            )
+        # a link's pose (its first point and its angle) from a PoseStamped, e.g. a TF pose
+        self.pose_links = [l for l in mech.links if l != mech.ground]
+        for link in self.pose_links:
+            self.create_subscription(
+                PoseStamped,
+                f'~/target_pose/{link}',
+                lambda msg, link=link: self._on_target_pose(link, msg),
                 qos,
                 event_callbacks=quiet_sub,
             )
@@ -332,6 +344,21 @@ class LinkageNode(Node):
                 joint_state_to_command(msg, self.max_names), allow_mode_change=any_mode
             ),
         )
+
+    def _on_target_pose(self, link: str, msg):
+        def solve():
+            fid = msg.header.frame_id
+            if fid and fid != self.frame_id:
+                return Result(
+                    False,
+                    f'target pose of {link!r} is in frame {fid!r} but this node works in '
+                    f'{self.frame_id!r}; transform it first (or leave header.frame_id empty '
+                    'to mean the node frame)',
+                )
+            x, y, yaw = pose_to_xy_yaw(msg, link)
+            return self.engine.target(pose_target(self.mech, link, (x, y), yaw))
+
+        self._answer(f'target_pose/{link}', msg.header.stamp, solve)
 
     def _on_trajectory(self, msg):
         """~/trajectory: every point solved, answered on ~/solved_trajectory and one status."""

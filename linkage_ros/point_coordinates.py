@@ -50,3 +50,15 @@ def group_point_coordinates(mech: Mechanism, values: Mapping[str, Any]) -> dict[
         else:
             out[key] = (x, y)
     return out
+
+
+def pose_target(
+    mech: Mechanism, link: str, xy: tuple[float, float], yaw_rad: float
+) -> dict[str, Any]:
+    """A link's pose as target names: its first point (where its axis starts: the scene's
+    first point of the link) at ``xy`` (m) and the link's angle ``yaw_rad`` (its reported angle,
+    the axis direction from +x): 3 values, the pose of a rigid body in the plane."""
+    if link not in mech.links or link == mech.ground:
+        raise CommandError(f'unknown link {echo(link)}: a pose target names a moving link')
+    point = mech.links[link].points[0]
+    return {f'{point}.x': xy[0], f'{point}.y': xy[1], f'link:{link}': yaw_rad}

@@ -652,6 +652,43 @@ def test_three_dof_target_by_two_bin_hinges(three_dof):
     three_dof.assert_single_error(status, 'J.x is given without J.y')
 
 
+def _pose(x, y, yaw, tilt=0.0):
+    msg = PoseStamped()
+    msg.pose.position.x, msg.pose.position.y = x, y
+    # yaw about z, then a tilt about x (0: planar)
+    cz, sz, cx, sx = math.cos(yaw / 2), math.sin(yaw / 2), math.cos(tilt / 2), math.sin(tilt / 2)
+    q = msg.pose.orientation
+    q.w, q.x, q.y, q.z = cz * cx, cz * sx, sz * sx, sz * cx
+    return msg
+
+
+def test_three_dof_target_pose_of_the_bin(three_dof):
+    """~/target_pose/bucket (PoseStamped): the bin's first point K at the position, the bin's
+    angle from the yaw; the configuration it came from is solved; a tilted orientation or a
+    NaN is refused with the reason."""
+    mech = three_dof.mech
+    command = {a: act.min + 0.6 * (act.max - act.min) for a, act in mech.actuators.items()}
+    source = three_dof.assert_single_ok(
+        three_dof.request(joint_state(list(command), list(command.values())))
+    )
+    first = mech.links['bucket'].points[0]
+    bin_pts = marker_points(three_dof.markers.last, mech)['bucket']
+    (x0, y0), (x1, y1) = bin_pts[first], bin_pts[mech.links['bucket'].points[1]]
+    yaw = math.atan2(y1 - y0, x1 - x0)  # the bin's reported angle: its axis direction
+    mid = _mid_command(mech)
+    three_dof.assert_single_ok(three_dof.request(joint_state(list(mid), list(mid.values()))))
+    topic = '~/target_pose/bucket'
+    joints = three_dof.assert_single_ok(
+        three_dof.request(_pose(x0, y0, yaw), topic=topic, msg_type=PoseStamped)
+    )
+    for name, v in source.items():
+        assert abs(math.remainder(joints[name] - v, 2 * math.pi)) < 1e-9, (name, joints[name], v)
+    status = three_dof.request(_pose(x0, y0, yaw, tilt=0.01), topic=topic, msg_type=PoseStamped)
+    three_dof.assert_single_error(status, 'not a rotation about z')
+    status = three_dof.request(_pose(math.nan, y0, yaw), topic=topic, msg_type=PoseStamped)
+    three_dof.assert_single_error(status, 'position.x = nan is not finite')
+
+
 def _trajectory_request(served, msg, topic):
     """Publish one trajectory or path; return (status, solved trajectory or None). Nothing
     else may answer it: no joint_states, no points."""
