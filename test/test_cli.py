@@ -624,3 +624,42 @@ def test_ctrl_c_is_one_line_and_exit_130(capsys, monkeypatch):
     rc, out, err = run(capsys, 'check', 'four_bar')
     assert rc == 130
     assert err.strip() == 'linkage check: interrupted' and 'Traceback' not in err
+
+
+def test_sweep_csv_is_the_actuator_trajectory_of_a_path(capsys, tmp_path):
+    """`linkage sweep --target-point L=... --target bucket=... --csv FILE`: the CSV's actuator
+    values, solved forward, put the lip L on the path (what a controller would be fed)."""
+    import csv as _csv
+
+    from linkage_ros.core.model import Scene
+    from linkage_ros.core.solver import Solver
+    from linkage_ros.resources import scene_path
+
+    out = tmp_path / 'throws.csv'
+    rc, _, err = run(
+        capsys,
+        'sweep',
+        'excavator',
+        '--target-point',
+        'L=2.0,-0.2:2.3,-0.4:7',
+        '--target',
+        'bucket=-0.9',
+        '--csv',
+        out,
+    )
+    assert rc == 0 and '7 ok' in err
+    rows = list(_csv.DictReader(out.open()))
+    mech = Scene.from_yaml(scene_path('excavator')).mechanism
+    fwd = Solver(mech)
+    assert [r['index'] for r in rows] == [str(i) for i in range(7)]
+    for k, row in enumerate(rows):
+        assert row['status'] == 'ok'
+        r = fwd.solve({a: float(row[f'actuator.{a}']) for a in mech.actuators})
+        want = (2.0 + 0.3 * k / 6, -0.2 - 0.2 * k / 6)
+        assert math.dist(r.points['L'], want) < 1e-9 * mech.length_scale
+        for j in mech.joint_names:
+            assert abs(math.remainder(float(row[f'joint.{j}']) - r.joints[j], 2 * math.pi)) < 1e-9
+    rc, _, err = run(
+        capsys, 'sweep', 'four_bar', '--set', 'crank=0:1:3', '--csv', tmp_path / 'no' / 'x.csv'
+    )
+    assert rc == 2 and '--csv: cannot write' in err

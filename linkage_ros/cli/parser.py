@@ -57,6 +57,13 @@ output: one line per grid point, never dropped: refused inputs are error lines (
 and the reason). --json prints JSON lines: the solve schema plus "index" and "command" (the
 commanded values). A summary "N command(s), K ok, E error(s)" goes to stderr.
 
+csv: --csv FILE writes one row per command with every actuator and joint value (rad, m), e.g. the
+coordinated actuator motion of a --target-point path, to feed a controller.
+
+An inverse sweep (--target, --target-point) with --branch continuous answers each line as a
+node answers a stream of targets: in the assembly mode the mechanism is in, refused where only
+the other mode reaches the target.
+
 exit status: 0 when the sweep ran (even if some lines are errors; --strict makes any error line
 exit 1); 2 usage error.
 
@@ -207,6 +214,12 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
     )
     _add_solve_options(p, 'continuous', ranges=True)
     p.add_argument('--strict', action='store_true', help='exit 1 if any line is an error')
+    p.add_argument(
+        '--csv',
+        metavar='FILE',
+        help='also write the trajectory as CSV: index, status, reason, every actuator and every '
+        'joint (full precision; empty on refused rows), written whole or not at all',
+    )
     p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser(

@@ -1,10 +1,14 @@
-"""``linkage sweep``: a grid of commands, JSON lines out."""
+"""``linkage sweep``: a grid of commands, JSON lines out (and, with ``--csv``, the trajectory of
+every actuator and joint as CSV)."""
 
 from __future__ import annotations
 
+import csv
 import sys
 
-from .common import OK, REFUSED, _f, _grid, build_solve, dumps, load_mechanism
+from ..engine import Engine, EngineSettings
+from ..outputs import written_whole
+from .common import OK, REFUSED, UsageError, _f, _grid, build_solve, dumps, load_mechanism
 
 # ---- sweep -------------------------------------------------------------------------------------
 
@@ -31,10 +35,24 @@ def cmd_sweep(args) -> int:
             + ['residual', 'branch', 'margin']
         )
         print('\t'.join(head))
+    engine = None
+    if solver.inverse and args.branch == 'continuous':  # targets as a node answers them
+        engine = Engine(
+            mech,
+            EngineSettings(
+                solver=args.solver,
+                tolerance=args.tol,
+                max_iterations=args.max_iter,
+                branch='continuous',
+            ),
+        )
+    rows = []
     n_ok = n_err = 0
     for i, combo in enumerate(_grid([vals for _, vals in axes])):
         command = dict(zip(names, combo))
-        res = solver.solve(command)
+        res = engine.solve_target(solver, command) if engine else solver.solve(command)
+        if args.csv:
+            rows.append(_csv_row(mech, i, res))
         n_ok += res.success
         n_err += not res.success
         d = res.to_dict(mech)
@@ -52,6 +70,32 @@ def cmd_sweep(args) -> int:
             row += [d['reason'] or 'refused']
         print('\t'.join(row))
     sys.stdout.flush()
+    if args.csv:
+        _write_csv(args.csv, mech, rows)
     total = n_ok + n_err
     print(f'linkage sweep: {total} command(s), {n_ok} ok, {n_err} error(s)', file=sys.stderr)
     return REFUSED if args.strict and n_err else OK
+
+
+def _csv_row(mech, i: int, res) -> list:
+    if not res.success:
+        return [i, 'error', res.reason or 'refused'] + [''] * (
+            len(mech.actuators) + len(mech.joint_names)
+        )
+    return (
+        [i, 'ok', '']
+        + [repr(float(res.inputs[a])) for a in mech.actuators]
+        + [repr(float(res.joints[j])) for j in mech.joint_names]
+    )
+
+
+def _write_csv(path: str, mech, rows: list) -> None:
+    head = ['index', 'status', 'reason']
+    head += [f'actuator.{a}' for a in mech.actuators] + [f'joint.{j}' for j in mech.joint_names]
+    try:
+        with written_whole(path) as tmp, open(tmp, 'w', newline='') as fh:
+            w = csv.writer(fh)
+            w.writerow(head)
+            w.writerows(rows)
+    except OSError as exc:
+        raise UsageError(f'--csv: cannot write {path}: {exc.strerror or exc}') from None
