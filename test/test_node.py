@@ -767,6 +767,45 @@ def test_crank_turn_trajectory_over_dds(four_bar):
     assert angle_diff(joints['O4'], four_bar.oracle.solve(1.0)['joints']['O4']) < 1e-9
 
 
+def test_throw_sweep_trajectory_over_dds_equals_the_cli(three_dof, capsys):
+    """A trajectory of cylinder throws on the excavator equals `linkage solve` of the same
+    throws one after another (--branch continuous) to 1e-9; 10^5 points get one clear ERROR and
+    change nothing."""
+    import json
+
+    from linkage_ros.cli import main as cli_main
+
+    mech = three_dof.mech
+    mid = _mid_command(mech)
+    three_dof.assert_single_ok(three_dof.request(joint_state(list(mid), list(mid.values()))))
+    acts = list(mech.actuators)
+    lo = {a: act.min + 0.3 * (act.max - act.min) for a, act in mech.actuators.items()}
+    hi = {a: act.min + 0.7 * (act.max - act.min) for a, act in mech.actuators.items()}
+    n = 21
+    rows = [[lo[a] + (hi[a] - lo[a]) * k / (n - 1) for a in acts] for k in range(n)]
+    status, solved = _trajectory_request(three_dof, _trajectory(acts, rows), '~/trajectory')
+    assert status.level == DiagnosticStatus.OK, status.message
+    capsys.readouterr()
+    for k, row in enumerate(rows):
+        args = ['solve', 'excavator', '--json', '--branch', 'continuous']
+        for a, v in zip(acts, row):
+            args += ['--set', f'{a}={v!r}']
+        assert cli_main(args) == 0
+        d = json.loads(capsys.readouterr().out)
+        got = dict(zip(solved.joint_names, solved.points[k].positions))
+        for j in mech.joint_names:
+            assert abs(math.remainder(got[j] - d['joints'][j], 2 * math.pi)) < 1e-9, (k, j)
+    big = JointTrajectory(joint_names=acts)
+    pt = JointTrajectoryPoint(positions=rows[0])
+    big.points = [pt] * 100_000
+    status, solved = _trajectory_request(three_dof, big, '~/trajectory')
+    assert status.level == DiagnosticStatus.ERROR and 'at most 10000' in status.message
+    joints = three_dof.assert_single_ok(
+        three_dof.request(joint_state(list(mid), list(mid.values())))
+    )
+    assert all(math.isfinite(v) for v in joints.values())
+
+
 def test_bin_path_over_dds_comes_back_as_throws(three_dof):
     """~/target_path/L (nav_msgs/Path) on the excavator, the bucket held: the solved
     trajectory's throws, solved forward, put L on the path."""
