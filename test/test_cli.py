@@ -663,3 +663,27 @@ def test_sweep_csv_is_the_actuator_trajectory_of_a_path(capsys, tmp_path):
         capsys, 'sweep', 'four_bar', '--set', 'crank=0:1:3', '--csv', tmp_path / 'no' / 'x.csv'
     )
     assert rc == 2 and '--csv: cannot write' in err
+
+
+def test_check_prints_declared_limits_beside_a_tighter_computed_range(capsys, tmp_path):
+    """Issue 18: `linkage check` replaced a declared limit by a tighter computed one without
+    saying so. The reachable range of this non-Grashof crank (the toggle angles, from the cosine
+    rule written here) is printed with the declared limits beside it, in text and JSON."""
+    scene = tmp_path / 'wide.yaml'
+    scene.write_text(
+        'name: wide\nfour_bar: {ground: 0.30, crank: 0.20, coupler: 0.25, rocker: 0.22,\n'
+        '           input: 1.0, crank_limits: {min: -3.0, max: 3.0}}\n'
+    )
+    l1, l2, l3, l4 = 0.30, 0.20, 0.25, 0.22
+    toggle = math.acos((l1 * l1 + l2 * l2 - (l3 + l4) ** 2) / (2 * l1 * l2))
+    rc, out, _ = run(capsys, 'check', scene, '--json')
+    d = loads(out)['inputs']['crank']
+    assert rc == 0 and d['declared_min'] == -3.0 and d['declared_max'] == 3.0
+    assert d['min'] == pytest.approx(-toggle, abs=1e-9) and d['max'] == pytest.approx(
+        toggle, abs=1e-9
+    )
+    rc, out, _ = run(capsys, 'check', scene)
+    (line,) = [ln for ln in out.splitlines() if ln.strip().startswith('crank    angle')]
+    assert '[reachable range, computed; declared limits: min -3  max 3]' in line, line
+    rc, out, _ = run(capsys, 'check', 'four_bar')  # nothing computed: nothing added
+    assert 'declared limits' not in out

@@ -53,8 +53,10 @@ def check_report(mech, path: str, solver_method: str | None) -> dict:
         inputs[name] = {
             'kind': act.kind,
             'unit': 'rad' if act.kind == 'angle' else 'm',
-            'min': lo,
+            'min': lo,  # the range the input can take: the declared limits, or tighter
             'max': hi,
+            'declared_min': act.min,  # the scene's own limits (None: none given)
+            'declared_max': act.max,
         }
     solver = Solver(mech, method=solver_method, branch='reference')
     n_act = len(mech.actuators)
@@ -121,6 +123,14 @@ def format_check(r: dict) -> str:
         )
         if v['unit'] == 'rad' and v['min'] is not None and v['max'] is not None:
             rng += f'  ({math.degrees(v["min"]):.4f} .. {math.degrees(v["max"]):.4f} deg)'
+        declared = (v.get('declared_min'), v.get('declared_max'))
+        if declared != (v['min'], v['max']):  # a computed range replaced the scene's limits
+            said = (
+                'none'
+                if declared == (None, None)
+                else f'min {_f(declared[0], ".9g")}  max {_f(declared[1], ".9g")}'
+            )
+            rng += f'  [reachable range, computed; declared limits: {said}]'
         out.append(f'  {k:<{w}}  {v["kind"]:<5}  {rng}')
     p = r['plan']
     out.append(
