@@ -195,7 +195,9 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
     p.add_argument(
         '--all-branches',
         action='store_true',
-        help='every assembly mode of the command (ignores --branch)',
+        help='every assembly mode of the command (ignores --branch): each sign combination '
+        'of the dyad plan; where Newton places the mechanism, the modes a search from 128 '
+        'starts finds, said to be possibly incomplete (JSON: modes_complete)',
     )
     p.add_argument(
         '--any-mode',

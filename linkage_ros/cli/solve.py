@@ -21,8 +21,10 @@ def cmd_solve(args) -> int:
     command = {n: vals[0] for n, vals in axes}
     if args.any_mode and (args.all_branches or not solver.inverse):
         raise UsageError('--any-mode applies to an inverse solve (--target, --target-point)')
+    modes = None
     if args.all_branches:
-        results = solver.solve_all(command)
+        modes = solver.modes(command)
+        results = modes.results
     elif solver.inverse and args.branch == 'reference':
         # the assembly mode of the reference pose, kept as a real mechanism keeps it
         engine = Engine(
@@ -41,9 +43,21 @@ def cmd_solve(args) -> int:
     for d, r in zip(dicts, results):
         if r.mode_change:
             d['mode_change'] = r.mode_change
+        if modes is not None:  # whether the list is provably every assembly mode
+            d['modes_complete'] = modes.complete
     if args.json:
         print(dumps(dicts if args.all_branches else dicts[0]))
     else:
+        if modes is not None and not modes.complete:
+            print(
+                f'assembly modes: {len(dicts)} found ({modes.method})'
+                + (
+                    f'; {modes.singular} start(s) ended on a continuum of solutions (singular: '
+                    'e.g. a folded cell), not listed'
+                    if modes.singular
+                    else ''
+                )
+            )
         for i, d in enumerate(dicts):
             if args.all_branches:
                 print(

@@ -37,6 +37,7 @@ from ..plan import (
 )
 from .batch import BatchAPI
 from .configuration import ConfigurationReading
+from .modes import ModeList, mode_key, newton_modes
 from .newton_path import NewtonPath
 from .point_pairs import find_point_pairs, pair_values, replaced_knowns
 from .result import (
@@ -417,12 +418,33 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         return res
 
     def solve_all(self, values: Mapping[str, Any]) -> list[Result]:
-        """Every assembly mode of one command (each sign combination of the dyad plan that
-        closes), without touching the continuity history. Newton-only solves have no enumerable
-        branches: the single answer nearest the current configuration is returned."""
+        """Every assembly mode of one command, without touching the continuity history: each
+        sign combination of the dyad plan that closes; where Newton places the mechanism, the
+        modes a multi-start Newton search finds (see :meth:`modes`: may be incomplete)."""
+        return self.modes(values).results
+
+    def modes(self, values: Mapping[str, Any]) -> ModeList:
+        """:meth:`solve_all` with whether the list is provably complete (closed form) or the
+        result of a search (core.solver.modes)."""
+        if self.mode != 'closed_form':
+            newton = (
+                self
+                if self.mode == 'newton'
+                else Solver(
+                    self.mech,
+                    knowns=self.knowns,
+                    method='newton',
+                    tol=self.tol,
+                    max_iter=self.max_iter,
+                )
+            )
+            return newton_modes(newton, values)
+        return ModeList(self._closed_form_modes(values))
+
+    def _closed_form_modes(self, values: Mapping[str, Any]) -> list[Result]:
         import itertools
 
-        if self.mode != 'closed_form' or not self.branch_count:
+        if not self.branch_count:
             return [self.solve(values, commit=False)]
         out, seen = [], set()
         saved = (self.branch_mode, self.fixed_signs)
@@ -432,11 +454,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
                 r = self.solve(values, commit=False)
                 if not r.success:
                     continue
-                key = tuple(
-                    round(c / self.mech.length_scale, 9)
-                    for p in sorted(r.points)
-                    for c in r.points[p]
-                )
+                key = mode_key(r, self.mech.length_scale)
                 if key in seen:  # coincident modes (at a toggle) are one answer
                     continue
                 seen.add(key)

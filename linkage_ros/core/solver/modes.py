@@ -1,0 +1,103 @@
+"""Every assembly mode of a solve that Newton places (no closed-form plan to enumerate).
+
+A dyad plan lists its modes exactly (each sign combination that closes). Where Newton places the
+mechanism, the modes are the real roots of the loop equations, and no finite search is known to
+find them all here; so they are searched by Newton from many starts (the link angles spread at
+random, seeded, so a run is repeatable), every root found is checked to close the loops within
+the solver's closure limit (and, for an inverse solve, the actuator limits), and coincident
+roots are one mode. Roots on a continuum of solutions (singular Jacobian: a cell folded flat)
+are counted apart. The list says it may be incomplete (``ModeList.complete`` is False).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .result import Result
+
+if TYPE_CHECKING:
+    from .solver import Solver
+
+#: Newton starts of the search (the first is the scene's reference pose)
+MODE_STARTS = 128
+#: a root whose scale-free Jacobian is this ill-conditioned is not an isolated assembly mode but
+#: a point of a continuum of solutions (a folded cell, a dyad with coincident centres): such
+#: roots are counted, not listed (a regular mode here has a condition number of order 10-1e4)
+SINGULAR_MODE_COND = 1e10
+
+
+@dataclass
+class ModeList:
+    """Assembly modes found for one command; ``complete`` when they are provably all (a
+    closed-form plan's sign combinations), False for a multi-start search."""
+
+    results: list[Result] = field(default_factory=list)
+    complete: bool = True
+    method: str = 'closed-form dyad plan: every sign combination'
+    singular: int = 0  # roots found on a continuum of solutions (not listed)
+
+
+def mode_key(result: Result, scale: float) -> tuple[float, ...]:
+    """Points rounded to 1e-9 of the length scale: coincident modes (at a toggle) share it."""
+    return tuple(round(c / scale, 9) for p in sorted(result.points) for c in result.points[p])
+
+
+def newton_modes(solver: Solver, values: Mapping[str, Any], starts: int = MODE_STARTS) -> ModeList:
+    """The modes of ``values`` found by Newton from ``starts`` starts (see the docstring).
+    ``solver`` must be a Newton-only solver (every moving link a Newton unknown)."""
+    found = ModeList(complete=False, method=f'Newton from {starts} starts: may be incomplete')
+    first = solver.solve(values, commit=False)  # the answer nearest the current configuration
+    seen: set[tuple[float, ...]] = set()
+    scale = solver.mech.length_scale
+    if first.success:
+        found.results.append(first)
+        seen.add(mode_key(first, scale))
+    try:
+        vals = solver.parse(values)
+    except ValueError:
+        return found if found.results else ModeList([first], False, found.method)
+    system = solver.system
+    x_ref = system.reference_x()
+    rng = np.random.default_rng(20261125)
+    for k in range(starts):
+        x0 = x_ref.copy()
+        if k:
+            x0[0::3] = rng.uniform(-math.pi, math.pi, system.n // 3)
+        r = system.solve(x0, vals, tol=solver.tol, max_iter=solver.max_iter, keep_det_sign=False)
+        if not r.success:
+            continue
+        poses, pts = system.configuration(r.x)
+        res = solver._build(
+            poses,
+            pts,
+            vals,
+            solver='newton',
+            iterations=r.iterations,
+            signs=(),
+            margin=1.0 / max(r.cond, 1.0),
+            cond=r.cond,
+        )
+        if not (res.success and res.residual is not None and res.residual <= solver.closure_limit):
+            continue
+        if not r.cond < SINGULAR_MODE_COND:
+            found.singular += 1
+            continue
+        if solver.inverse and any(
+            solver.limit_violation(s, res.inputs[s.name])
+            for s in solver.actuator_specs
+            if s.name in res.inputs
+        ):
+            continue
+        key = mode_key(res, scale)
+        if key in seen:
+            continue
+        seen.add(key)
+        found.results.append(res)
+    if not found.results:
+        found.results.append(first)
+    return found
