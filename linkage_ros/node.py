@@ -65,8 +65,13 @@ from .params import (
 from .point_coordinates import pose_target
 from .publishing import Outputs, topic_qos
 from .stamps import stamp_error
-from .trajectory import TrajectoryAnswer, path_targets, solve_trajectory
-from .trajectory_io import joint_trajectory_request, path_request
+from .trajectory import (
+    TrajectoryAnswer,
+    joint_trajectory_request,
+    path_request,
+    path_targets,
+    solve_trajectory,
+)
 
 __all__ = [
     'DEMO_RATE_MAX',

@@ -17,7 +17,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from .core.errors import echo
+from .core.errors import CommandError, echo
 from .core.solver import Result
 from .engine import Engine, _mode_differs, max_request_names, request_shape_error
 
@@ -45,6 +45,91 @@ class TrajectoryAnswer:
     def largest_residual(self) -> float | None:
         res = [r.residual for r in self.results if r.residual is not None]
         return max(res) if res else None
+
+
+# ---- reading requests (trajectory_msgs/JointTrajectory, nav_msgs/Path: rclpy's messages in the
+# node, rosbags' in the bag tool; only their fields are read) -----------------------------------
+
+
+def duration_ns(d: Any) -> int:
+    """A builtin_interfaces/Duration (or Time) in ns."""
+    return int(d.sec) * 1_000_000_000 + int(d.nanosec)
+
+
+def joint_trajectory_request(
+    msg: Any,
+) -> tuple[list[str], list[Sequence[float]], list[Sequence[float]], list[int]]:
+    """(joint_names, positions per point, velocities per point, time_from_start ns per point);
+    CommandError for more points than one request may have (checked before any copy)."""
+    if len(msg.points) > MAX_TRAJECTORY_POINTS:
+        raise CommandError(
+            f'trajectory has {len(msg.points)} points; at most {MAX_TRAJECTORY_POINTS} are '
+            'solved in one request (send it in parts)'
+        )
+    names = list(msg.joint_names)
+    pts = msg.points
+    return (
+        names,
+        [p.positions for p in pts],
+        [p.velocities for p in pts],
+        [duration_ns(p.time_from_start) for p in pts],
+    )
+
+
+def path_request(
+    msg: Any, point: str, frame_id: str
+) -> tuple[list[tuple[float, float]], list[int]]:
+    """The (x, y) of every pose (m) and each pose's time from the first (ns: its stamp less the
+    first's when the stamps increase strictly, else 0: a path has no timing); CommandError for a
+    frame other than the node's or a non-finite coordinate."""
+    if len(msg.poses) > MAX_TRAJECTORY_POINTS:
+        raise CommandError(
+            f'path has {len(msg.poses)} poses; at most {MAX_TRAJECTORY_POINTS} are solved in one '
+            'request (send it in parts)'
+        )
+    frames = {msg.header.frame_id} | {p.header.frame_id for p in msg.poses}
+    foreign = sorted(f for f in frames if f and f != frame_id)
+    if foreign:
+        raise CommandError(
+            f'path of {point!r} is in frame {foreign[0]!r} but this node works in {frame_id!r}; '
+            'transform it first (or leave frame_id empty to mean the node frame)'
+        )
+    xy = []
+    for i, pose in enumerate(msg.poses):
+        p = pose.pose.position
+        for axis, v in (('x', p.x), ('y', p.y), ('z', p.z)):
+            if not math.isfinite(v):
+                raise CommandError(f'pose {i}: position.{axis} = {v} is not finite')
+        xy.append((float(p.x), float(p.y)))
+    stamps = [
+        int(p.header.stamp.sec) * 1_000_000_000 + int(p.header.stamp.nanosec) for p in msg.poses
+    ]
+    timed = all(b > a for a, b in zip(stamps, stamps[1:]))
+    times = [s - stamps[0] for s in stamps] if stamps and timed else [0] * len(stamps)
+    return xy, times
+
+
+def trajectory_status_values(
+    answer: TrajectoryAnswer, request: str
+) -> tuple[bool, str, dict[str, str]]:
+    """(ok, message, key-values) of the one status answering a trajectory or path: OK with
+    points, largest residual, smallest margin, solver and velocity (ok / none); or ERROR with
+    the reason (naming the first failing point) and failed_index when there is one."""
+    if not answer.success:
+        values: dict[str, Any] = {'request': request}
+        if answer.failed_index is not None:
+            values = {'failed_index': answer.failed_index, **values}
+        return False, answer.reason, {k: str(v) for k, v in values.items()}
+    with_rates = all(r.velocity is not None and r.velocity.success for r in answer.results)
+    values = {
+        'points': len(answer.results),
+        'residual': answer.largest_residual,
+        'margin': answer.smallest_margin,
+        'solver': answer.results[-1].solver,
+        'velocity': 'ok' if with_rates else 'none',
+        'request': request,
+    }
+    return True, 'ok', {k: '' if v is None else str(v) for k, v in values.items()}
 
 
 def _refused(reason: str, index: int | None = None) -> TrajectoryAnswer:
