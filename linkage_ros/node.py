@@ -65,13 +65,7 @@ from .params import (
 from .point_coordinates import pose_target
 from .publishing import Outputs, topic_qos
 from .stamps import stamp_error
-from .trajectory import (
-    TrajectoryAnswer,
-    joint_trajectory_request,
-    path_request,
-    path_targets,
-    solve_trajectory,
-)
+from .trajectory import TrajectoryAnswer, answer_path_msg, answer_trajectory_msg
 
 __all__ = [
     'DEMO_RATE_MAX',
@@ -367,28 +361,17 @@ class LinkageNode(Node):
 
     def _on_trajectory(self, msg):
         """~/trajectory: every point solved, answered on ~/solved_trajectory and one status."""
-
-        def solve():
-            names, positions, velocities, times = joint_trajectory_request(msg)
-            return solve_trajectory(self.engine, names, positions, velocities, times), times
-
-        self._answer_trajectory('trajectory', msg.header.stamp, solve)
+        self._answer_trajectory(
+            'trajectory', msg.header.stamp, lambda: answer_trajectory_msg(self.engine, msg)
+        )
 
     def _on_target_path(self, point: str, msg):
         """~/target_path/<point>: the point's successive positions as one trajectory."""
-
-        def solve():
-            xy, times = path_request(msg, point, self.frame_id)
-            targets = path_targets(self.engine, point, xy)
-            if isinstance(targets, str):
-                return TrajectoryAnswer(False, targets), times
-            if not targets:
-                return TrajectoryAnswer(False, 'empty path: no poses'), times
-            names = list(targets[0])
-            rows = [[t[n] for n in names] for t in targets]
-            return solve_trajectory(self.engine, names, rows), times
-
-        self._answer_trajectory(f'target_path/{point}', msg.header.stamp, solve)
+        self._answer_trajectory(
+            f'target_path/{point}',
+            msg.header.stamp,
+            lambda: answer_path_msg(self.engine, point, msg, self.frame_id),
+        )
 
     def _answer_trajectory(self, request: str, stamp, solve) -> None:
         """_answer for a trajectory or path: the same stamp rules, one status. Never raises."""

@@ -272,3 +272,32 @@ def path_targets(
             'parameter target_point_hold'
         )
     return [{f'{point}.x': x, f'{point}.y': y, **held} for x, y in xy]
+
+
+def answer_trajectory_msg(engine: Engine, msg: Any) -> tuple[TrajectoryAnswer, list[int]]:
+    """A trajectory_msgs/JointTrajectory (any message with its fields) solved: the answer and
+    each point's time_from_start (ns)."""
+    try:
+        names, positions, velocities, times = joint_trajectory_request(msg)
+    except CommandError as exc:
+        return TrajectoryAnswer(False, str(exc)), []
+    return solve_trajectory(engine, names, positions, velocities, times), times
+
+
+def answer_path_msg(
+    engine: Engine, point: str, msg: Any, frame_id: str
+) -> tuple[TrajectoryAnswer, list[int]]:
+    """A nav_msgs/Path of ``point`` (any message with its fields) solved as a trajectory of
+    point targets: the answer and each pose's time from the first (ns)."""
+    try:
+        xy, times = path_request(msg, point, frame_id)
+    except CommandError as exc:
+        return TrajectoryAnswer(False, str(exc)), []
+    targets = path_targets(engine, point, xy)
+    if isinstance(targets, str):
+        return TrajectoryAnswer(False, targets), times
+    if not targets:
+        return TrajectoryAnswer(False, 'empty path: no poses'), times
+    names = list(targets[0])
+    rows = [[t[n] for n in names] for t in targets]
+    return solve_trajectory(engine, names, rows), times

@@ -1605,3 +1605,131 @@ def test_the_bag_holds_actuators_a_partial_command_leaves_out_like_the_node(tmp_
             assert got_kv.get('held') == want_kv.get('held')
             for j in mech.joint_names:
                 assert math.isclose(float(row[f'joint.{j}']), ans.joints[j], abs_tol=1e-12), j
+
+
+def test_recorded_trajectories_and_paths_get_the_nodes_answers(tmp_path, capsys):
+    """Recorded ~/trajectory (serialised by rclpy, as a recording holds it) and
+    ~/target_path/L messages are answered at their place in bag time with the node's answers
+    (trajectory.py on an Engine that saw the same commands before): /solved_trajectory and one
+    /status each, a CSV beside the command CSV, and the commands after them unchanged."""
+    from builtin_interfaces.msg import Duration as RclDuration
+    from rclpy.serialization import serialize_message
+    from scenes import CONFIG
+    from trajectory_msgs.msg import JointTrajectory as RclTrajectory
+    from trajectory_msgs.msg import JointTrajectoryPoint as RclPoint
+
+    from linkage_ros.engine import Engine, EngineSettings
+    from linkage_ros.trajectory import solve_trajectory, trajectory_status_values
+
+    scene = CONFIG / 'excavator.yaml'
+    mech = Scene.from_yaml(scene).mechanism
+    acts = list(mech.actuators)
+    start = {'Z1': 1.5, 'Z2': 1.9, 'Z3': 1.4}
+    rows = [[1.5 + 0.01 * k, 1.9 - 0.01 * k, 1.4 + 0.005 * k] for k in range(12)]
+    traj = RclTrajectory(joint_names=acts)
+    traj.header.stamp.sec = 3
+    traj.points = [
+        RclPoint(positions=r, time_from_start=RclDuration(sec=k + 1)) for k, r in enumerate(rows)
+    ]
+    bad = RclTrajectory(joint_names=acts)
+    bad.header.stamp.sec = 4
+    bad.points = [
+        RclPoint(positions=rows[0], time_from_start=RclDuration(sec=1)),
+        RclPoint(positions=[1.5, 9.0, 1.4], time_from_start=RclDuration(sec=2)),
+    ]
+    # the node: an Engine that saw the first command, then the plans (each leaves the state)
+    node = Engine(mech, EngineSettings('auto', 1e-12, 50, 'continuous', ('bucket',)))
+    node.command(start)
+    lip = node.last.points['L']
+    xy = [(lip[0] + 0.02 * k, lip[1] - 0.01 * k) for k in range(8)]
+    want_traj = solve_trajectory(node, acts, rows, (), [(k + 1) * 10**9 for k in range(12)])
+    want_bad = solve_trajectory(node, acts, [rows[0], [1.5, 9.0, 1.4]], (), [1, 2])
+    bucket = node.last.links['bucket']
+    path_rows = [[x, y, bucket] for x, y in xy]
+    want_path = solve_trajectory(node, ['L.x', 'L.y', 'bucket'], path_rows)
+    assert want_traj.success and want_path.success and want_bad.failed_index == 1
+    T = TS.types
+    stamp = T['builtin_interfaces/msg/Time'](sec=5, nanosec=0)
+    hdr = T['std_msgs/msg/Header'](stamp=stamp, frame_id='')
+    poses = [
+        T['geometry_msgs/msg/PoseStamped'](
+            header=hdr,
+            pose=T['geometry_msgs/msg/Pose'](
+                position=T['geometry_msgs/msg/Point'](x=x, y=y, z=0.0),
+                orientation=T['geometry_msgs/msg/Quaternion'](x=0.0, y=0.0, z=0.0, w=1.0),
+            ),
+        )
+        for x, y in xy
+    ]
+    path_msg = T['nav_msgs/msg/Path'](header=hdr, poses=poses)
+    later = {'Z1': 1.6, 'Z2': 2.0, 'Z3': 1.45}
+    folder = tmp_path / 'in'
+    traj_type, path_type = 'trajectory_msgs/msg/JointTrajectory', 'nav_msgs/msg/Path'
+    with Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        c_cmd = w.add_connection('/cmd', JS, typestore=TS)
+        c_tr = w.add_connection('/traj', traj_type, typestore=TS)
+        c_path = w.add_connection('/n/target_path/L', path_type, typestore=TS)
+        first = joint_state(acts, list(start.values()), sec=1)
+        w.write(c_cmd, 1 * 10**9, TS.serialize_cdr(first, JS))
+        w.write(c_tr, 2 * 10**9, bytes(serialize_message(traj)))
+        w.write(c_tr, 3 * 10**9, bytes(serialize_message(bad)))
+        w.write(c_path, 4 * 10**9, TS.serialize_cdr(path_msg, path_type))
+        second = joint_state(acts, list(later.values()), sec=6)
+        w.write(c_cmd, 5 * 10**9, TS.serialize_cdr(second, JS))
+    out_csv, out_bag = tmp_path / 'o.csv', tmp_path / 'o_bag'
+    args = [folder, '--scene', scene, '--command-topic', '/cmd', '--trajectory-topic', '/traj']
+    args += ['--path-topic', '/n/target_path/L', '--target-point-hold', 'bucket']
+    args += ['--out', out_csv, '--out', out_bag, '--no-progress']
+    code, cap = run_bag(args, capsys)
+    assert code == 0, cap.err
+    out, _ = read_out_bag(out_bag)
+    solved = dict(out['/solved_trajectory'])
+    assert sorted(solved) == [2 * 10**9, 4 * 10**9]
+    for t, want, k_stamp in ((2 * 10**9, want_traj, 3), (4 * 10**9, want_path, 5)):
+        msg = solved[t]
+        assert (msg.header.stamp.sec, msg.header.stamp.nanosec) == (k_stamp, 0)
+        assert list(msg.joint_names) == mech.joint_names
+        assert len(msg.points) == len(want.results)
+        for pt, r in zip(msg.points, want.results):
+            assert pt.positions.tolist() == [r.joints[j] for j in mech.joint_names]
+    for k, pt in enumerate(solved[2 * 10**9].points):
+        assert (pt.time_from_start.sec, pt.time_from_start.nanosec) == (k + 1, 0)
+    statuses = dict(out['/status'])
+    for t, want, request in (
+        (2 * 10**9, want_traj, 'trajectory'),
+        (3 * 10**9, want_bad, 'trajectory'),
+        (4 * 10**9, want_path, 'target_path/L'),
+    ):
+        _ok, message, values = trajectory_status_values(want, request)
+        st = statuses[t]
+        assert st.message == message and {v.key: v.value for v in st.values} == values
+    # the command after the plans is answered as if they had not been there
+    rows_csv = read_csv(out_csv)
+    assert [r['status'] for r in rows_csv] == ['ok', 'ok']
+    again = node.command(later)
+    for j in mech.joint_names:
+        assert math.isclose(float(rows_csv[1][f'joint.{j}']), again.joints[j], abs_tol=1e-12), j
+    plan_rows = read_csv(tmp_path / 'o.trajectories.csv')
+    assert [r['status'] for r in plan_rows] == ['ok'] * 12 + ['error'] + ['ok'] * 8
+    assert plan_rows[12]['failed_index'] == '1' and 'point 1: ' in plan_rows[12]['reason']
+    assert 'trajectories and paths: 3 read, solved 2, refused 1' in cap.out
+
+
+def test_a_path_topic_must_name_a_point_and_a_trajectory_topic_its_type(tmp_path, capsys):
+    from scenes import CONFIG
+
+    msgs = [('/cmd', 10**9, joint_state(['crank'], [1.0], sec=1))]
+    src = make_input(tmp_path, 'mcap', msgs)
+    common = [src, '--scene', CONFIG / 'four_bar.yaml', '--command-topic', '/cmd']
+    code, cap = run_bag(
+        [*common, '--path-topic', '/x/target_path/Q', '--out', tmp_path / 'a.csv'], capsys
+    )
+    assert (
+        code == 2 and "--path-topic /x/target_path/Q: its last name 'Q' is not a point" in cap.err
+    )
+    code, cap = run_bag(
+        [*common, '--trajectory-topic', '/cmd', '--out', tmp_path / 'b.csv'], capsys
+    )
+    assert code == 2 and 'topic /cmd has type sensor_msgs/msg/JointState' in cap.err
+    assert 'expected trajectory_msgs/msg/JointTrajectory' in cap.err
+    assert not (tmp_path / 'a.csv').exists() and not (tmp_path / 'b.csv').exists()

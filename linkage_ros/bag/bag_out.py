@@ -6,12 +6,15 @@ import contextlib
 import os
 import shutil
 import struct
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from ..trajectory import TrajectoryAnswer, trajectory_status_values
 from .common import DIAGNOSTIC_STATUS, JOINT_STATE, NODE_NAME, POINT_STAMPED, BagError
+from .plans import TRAJECTORY, PlanRequest
 from .progress import _Progress
 from .reading import Commands, _exc_text
 from .results import Results
@@ -176,9 +179,12 @@ def write_bag(
     progress: _Progress | None = None,
     status_name: str | None = None,
     block: int = 100_000,
+    plans: Sequence[PlanRequest] = (),
 ):
     """A new rosbag2 with /joint_states, /points/<name> and /status, one set per command, each
-    logged at its command's bag time, in the node's order (joint_states, points, status)."""
+    logged at its command's bag time, in the node's order (joint_states, points, status); and
+    for each recorded trajectory or path (``plans``, answered) /solved_trajectory on success
+    and one /status, at its bag time."""
     from rosbags.rosbag2 import Writer
     from rosbags.rosbag2.enums import StoragePlugin
     from rosbags.typesys import Stores, get_typestore
@@ -196,9 +202,8 @@ def write_bag(
     nsec = np.where(zero, data.log_ns % 10**9, data.nanosec).astype('<u4')
     js_t, js_off = _joint_state_template(joints, frame_id)
     pt_t, pt_off = _point_template(frame_id)
-    status = _StatusWriter(
-        status_name if status_name is not None else f'{NODE_NAME}: {mech.name}', mech.name
-    )
+    name = status_name if status_name is not None else f'{NODE_NAME}: {mech.name}'
+    status = _StatusWriter(name, mech.name)
     requests = ['command', 'target']
     # written in a staging folder beside the target and renamed into place when complete:
     # a run cut short (even by SIGKILL) leaves no half bag under the output's name
@@ -217,6 +222,9 @@ def write_bag(
             writer.add_connection(f'/points/{p}', POINT_STAMPED, typestore=ts) for p in outputs
         ]
         c_st = writer.add_connection('/status', DIAGNOSTIC_STATUS, typestore=ts)
+        c_traj = (
+            writer.add_connection('/solved_trajectory', TRAJECTORY, typestore=ts) if plans else None
+        )
         write = writer.write
         for a in range(0, n, block):
             b = min(n, a + block)
@@ -246,6 +254,14 @@ def write_bag(
                     j += 1
                 write(c_st, t, statuses[i])
             progress.update(b)
+        for req in plans:
+            ans = req.answer
+            assert ans is not None  # answered by the replay
+            if ans.success and c_traj is not None:
+                msg = _trajectory_msg(ts, req, joints, frame_id)
+                write(c_traj, req.log_ns, ts.serialize_cdr(msg, TRAJECTORY))
+            msg = _plan_status_msg(ts, ans, name, req.request, mech.name)
+            write(c_st, req.log_ns, ts.serialize_cdr(msg, DIAGNOSTIC_STATUS))
         writer.close()
         os.rename(stage / final.name, final)
         stage.rmdir()
@@ -312,3 +328,51 @@ def _rows_bytes(arr: np.ndarray) -> list[bytes]:
     width = arr.shape[1]
     buf = arr.tobytes()
     return [buf[k : k + width] for k in range(0, len(buf), width)]
+
+
+def _trajectory_msg(ts: Any, req: PlanRequest, joints: list[str], frame_id: str) -> Any:
+    """The node's ~/solved_trajectory for a recorded request (trajectory_io's, as rosbags
+    objects): every joint at every point, stamp and time_from_start of the request,
+    velocities when every point has them."""
+    t = ts.types
+    ans = req.answer
+    assert ans is not None
+    with_rates = all(r.velocity is not None and r.velocity.success for r in ans.results)
+    points = []
+    empty = np.zeros(0, np.float64)
+    for r, tn in zip(ans.results, req.times_ns):
+        sec, nsec = divmod(int(tn), 1_000_000_000)
+        points.append(
+            t['trajectory_msgs/msg/JointTrajectoryPoint'](
+                positions=np.array([r.joints[j] for j in joints], np.float64),
+                velocities=(
+                    np.array([r.velocity.joints[j] for j in joints], np.float64)
+                    if with_rates
+                    else empty
+                ),
+                accelerations=empty,
+                effort=empty,
+                time_from_start=t['builtin_interfaces/msg/Duration'](sec=sec, nanosec=nsec),
+            )
+        )
+    header = t['std_msgs/msg/Header'](
+        stamp=t['builtin_interfaces/msg/Time'](sec=req.stamp[0], nanosec=req.stamp[1]),
+        frame_id=frame_id,
+    )
+    return t['trajectory_msgs/msg/JointTrajectory'](
+        header=header, joint_names=list(joints), points=points
+    )
+
+
+def _plan_status_msg(
+    ts: Any, ans: TrajectoryAnswer, name: str, request: str, hardware_id: str
+) -> Any:
+    t = ts.types
+    ok, message, values = trajectory_status_values(ans, request)
+    return t['diagnostic_msgs/msg/DiagnosticStatus'](
+        level=0 if ok else 2,
+        name=name,
+        message=message,
+        hardware_id=hardware_id,
+        values=[t['diagnostic_msgs/msg/KeyValue'](key=k, value=v) for k, v in values.items()],
+    )

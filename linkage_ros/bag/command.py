@@ -15,6 +15,13 @@ from ..core.model import Scene
 from .bag_out import write_bag
 from .common import BagError
 from .csv_out import write_csv
+from .plans import (
+    path_point,
+    plans_csv_path,
+    plans_summary,
+    read_plan_requests,
+    write_plans_csv,
+)
 from .plot import _plot_format, write_plot
 from .progress import _Progress, _summary
 from .reading import _exc_text, read_commands
@@ -48,6 +55,30 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=None,
         help='sensor_msgs/msg/JointState targets naming joints, links or '
         "actuators (the node's ~/target: inverse kinematics)",
+    )
+    parser.add_argument(
+        '--trajectory-topic',
+        action='append',
+        default=[],
+        metavar='TOPIC',
+        help="trajectory_msgs/msg/JointTrajectory requests (the node's ~/trajectory), answered "
+        'at their place in bag time; may be given more than once',
+    )
+    parser.add_argument(
+        '--path-topic',
+        action='append',
+        default=[],
+        metavar='TOPIC',
+        help="nav_msgs/msg/Path requests (the node's ~/target_path/<point>; the point is the "
+        "topic's last name), answered like trajectories; may be given more than once",
+    )
+    parser.add_argument(
+        '--target-point-hold',
+        action='append',
+        default=[],
+        metavar='NAME',
+        help="as the node's target_point_hold parameter: for a path on a mechanism with more "
+        'than 2 DOF, these names keep their values (e.g. bucket); may be given more than once',
     )
     parser.add_argument(
         '--out',
@@ -144,18 +175,41 @@ def _run(args) -> int:
     progress = _Progress(enabled=not args.no_progress and sys.stderr.isatty())
 
     try:
-        engine = _Engine(mech, args.solver, args.tol, args.max_iter, args.branch)  # PlanError early
+        engine = _Engine(  # PlanError / ConfigError early
+            mech, args.solver, args.tol, args.max_iter, args.branch, args.target_point_hold
+        )
         topics = [args.command_topic] + ([args.target_topic] if args.target_topic else [])
         data = read_commands(args.input, topics, progress, accept_missing=args.accept_missing)
+        for topic in args.path_topic:
+            if path_point(topic) not in mech.points:
+                raise BagError(
+                    f'--path-topic {topic}: its last name {path_point(topic)!r} is not a point '
+                    f'of {mech.name!r} (a path topic is .../target_path/<point>)'
+                )
+        plans, plans_missing = read_plan_requests(
+            args.input, args.trajectory_topic, args.path_topic, args.accept_missing
+        )
+        data.missing.update(plans_missing)
         t_read = time.perf_counter()
-        res = engine.solve_all(data, progress)
+        res = engine.solve_all(data, progress, plans, frame_id=scene.frame_id)
         t_solve = time.perf_counter()
         for kind, path in outs:
             try:
                 if kind == 'csv':
                     write_csv(path, data, res, mech, progress)
+                    if plans:
+                        write_plans_csv(plans_csv_path(path), plans, mech.joint_names)
                 else:
-                    write_bag(path, data, res, mech, scene.frame_id, args.out_format, progress)
+                    write_bag(
+                        path,
+                        data,
+                        res,
+                        mech,
+                        scene.frame_id,
+                        args.out_format,
+                        progress,
+                        plans=plans,
+                    )
             except OSError as exc:
                 raise BagError(f'output {path}: cannot write ({exc.strerror or exc})') from None
         if args.plot:
@@ -164,6 +218,11 @@ def _run(args) -> int:
     finally:
         progress.clear()  # an error message starts on a line of its own
     _summary(data, res, outs, args.plot, t_start, t_read, t_solve, t_end)
+    for line in plans_summary(plans):
+        print(line)
+    for kind, path in outs:
+        if kind == 'csv' and plans:
+            print(f'  wrote {plans_csv_path(path)} (csv: the trajectories and paths)')
     return OK
 
 

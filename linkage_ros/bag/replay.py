@@ -3,6 +3,8 @@ identical."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ..core.errors import CommandError
@@ -19,6 +21,7 @@ from ..engine import (
 )
 from ..point_coordinates import group_point_coordinates
 from ..stamps import stamp_error, stamp_valid
+from .plans import PlanRequest, answer_plan
 from .progress import _Progress
 from .reading import Commands
 from .results import Results
@@ -104,11 +107,11 @@ class _Engine:
     last good state that a solver adopts when another one has succeeded since it last ran,
     the reference pose as the first good state); what this adds is the vectorised replay."""
 
-    def __init__(self, mech, method, tol, max_iter, branch):
+    def __init__(self, mech, method, tol, max_iter, branch, hold=()):
         self.mech, self.branch = mech, branch
         self.max_names = max_request_names(mech)
         # the command solver exists from the start (a bad --solver/--branch fails here)
-        self.engine = Engine(mech, EngineSettings(method, tol, max_iter, branch))
+        self.engine = Engine(mech, EngineSettings(method, tol, max_iter, branch, tuple(hold)))
         self.forward = _Context(self, self.engine.forward)
         self._contexts: dict[frozenset, _Context] = {}
         ref = self.engine.last
@@ -135,30 +138,52 @@ class _Engine:
         return ctx
 
     # -- driver ----------------------------------------------------------------------------------
-    def solve_all(self, data: Commands, progress: _Progress | None = None) -> Results:
+    def solve_all(
+        self,
+        data: Commands,
+        progress: _Progress | None = None,
+        plans: Sequence[PlanRequest] = (),
+        frame_id: str = '',
+    ) -> Results:
+        """Every command in order; ``plans`` (recorded trajectories and paths, in bag time
+        order) are answered at their place among them, from the state the commands before
+        them left (bag.plans.answer_plan)."""
         progress = progress or _Progress(False)
         n = data.n
         self.res = res = Results.empty(self.mech, n)
         self.progress = progress
         self.done = 0
         progress.start('solving', n)
+        # a plan comes after every command received at or before its own receive time
+        cuts = np.searchsorted(data.log_ns, [p.log_ns for p in plans], side='right').tolist()
+        pending = list(zip(cuts, plans))
+
+        def plans_up_to(row: int) -> None:
+            while pending and pending[0][0] <= row:
+                # the solvers get the node's continuity history first (the replay keeps it as
+                # entries); the plan leaves the engine's state as it found it
+                for ctx in (self.forward, *self._contexts.values()):
+                    ctx.sync()
+                answer_plan(self.engine, pending.pop(0)[1], frame_id)
+
+        plans_up_to(0)
         if n:
             # the node refuses a request whose stamp it cannot echo (negative, nanosec >= 1e9)
             self.bad_stamp = ~stamp_valid(data.sec, data.nanosec)
-            change = (
-                np.flatnonzero(
-                    (data.topic[1:] != data.topic[:-1])
-                    | (data.key[1:] != data.key[:-1])
-                    | (self.bad_stamp[1:] != self.bad_stamp[:-1])
-                )
-                + 1
+            breaks = (
+                (data.topic[1:] != data.topic[:-1])
+                | (data.key[1:] != data.key[:-1])
+                | (self.bad_stamp[1:] != self.bad_stamp[:-1])
             )
-            starts = np.concatenate([[0], change])
-            ends = np.concatenate([change, [n]])
+            change = np.union1d(np.flatnonzero(breaks) + 1, [c for c in cuts if 0 < c < n])
+            starts = np.concatenate([[0], change]).astype(int)
+            ends = np.concatenate([change, [n]]).astype(int)
             for a, b in zip(starts.tolist(), ends.tolist()):
                 self._run(data, a, b)
                 self.done = b
                 progress.update(b)
+                plans_up_to(b)
+        plans_up_to(n)
         progress.finish()
         return res
 
