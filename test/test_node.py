@@ -759,6 +759,7 @@ def test_crank_turn_trajectory_over_dds(four_bar):
         (_trajectory(['crank'], [[0.1], [math.nan]]), 'point 1: crank: value must be finite'),
         (_trajectory(['crank'], [[0.1], [0.2, 0.3]]), 'point 1 has 2 position(s)'),
         (bad, 'point 1: time_from_start'),
+        (_trajectory(['crank'], [[0.1], [0.2]], velocities=[[0.0], [math.nan]]), 'velocity'),
     ):
         status, solved = _trajectory_request(four_bar, msg, '~/trajectory')
         assert status.level == DiagnosticStatus.ERROR and why in status.message, status.message
