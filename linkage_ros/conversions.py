@@ -164,15 +164,30 @@ def result_to_joint_state(
 
 
 def result_to_points(
-    result: Result, names: Iterable[str], stamp: Time, frame_id: str
+    result: Result,
+    names: Iterable[str],
+    stamp: Time,
+    frame_id: str,
+    reuse: dict[str, PointStamped] | None = None,
 ) -> dict[str, PointStamped]:
-    """``{name: PointStamped}`` for each named point of a successful result (z = 0)."""
+    """``{name: PointStamped}`` for each named point of a successful result (z = 0).
+    ``reuse``: messages of an earlier call with the same frame, refilled in place (and any
+    missing one added to it): a publisher serialises on publish, so one message per point can
+    carry every answer, which saves building a header and a point each time."""
     out = {}
     for name in names:
         x, y = result.points[name]
-        msg = PointStamped()
-        msg.header = Header(stamp=stamp, frame_id=frame_id)
-        msg.point = Point(x=float(x), y=float(y), z=0.0)
+        msg = reuse.get(name) if reuse is not None else None
+        if msg is None:
+            msg = PointStamped()
+            msg.header = Header(stamp=stamp, frame_id=frame_id)
+            msg.point = Point(x=float(x), y=float(y), z=0.0)
+            if reuse is not None:
+                reuse[name] = msg
+        else:
+            msg.header.stamp = stamp
+            pt = msg.point
+            pt.x, pt.y = float(x), float(y)
         out[name] = msg
     return out
 

@@ -82,6 +82,7 @@ class Outputs:
             JointState, 'joint_states', qos, event_callbacks=quiet
         )
         self._joint_msg: JointState | None = None  # refilled for every answer
+        self._point_msgs: dict[str, PointStamped] = {}  # likewise, one per output point
         self.pub_points = {
             p: node.create_publisher(PointStamped, f'~/points/{p}', qos, event_callbacks=quiet)
             for p in mech.outputs
@@ -129,7 +130,9 @@ class Outputs:
             self._publish_state(result, stamp)
             listened = [n for n, pub in self.pub_points.items() if pub.get_subscription_count()]
             if listened:
-                msgs = result_to_points(result, listened, stamp, self.frame_id)
+                msgs = result_to_points(
+                    result, listened, stamp, self.frame_id, self._point_msgs
+                )
                 for name in listened:
                     self.pub_points[name].publish(msgs[name])
             self._marker_state = (result, stamp)

@@ -1043,6 +1043,27 @@ def test_result_to_joint_state_refills_a_reused_message():
     assert stamp_of(again) == (7, 8) and again.header.frame_id == 'f'
 
 
+def test_result_to_points_refills_reused_messages():
+    from linkage_ros.conversions import result_to_points
+
+    cache: dict = {}
+    first = result_to_points(
+        Result(True, points={'P': (1.0, 2.0), 'Q': (3.0, 4.0)}), ['P'], Time(sec=1), 'f', cache
+    )
+    assert set(cache) == {'P'} and first['P'] is cache['P']
+    again = result_to_points(
+        Result(True, points={'P': (-1.5, 0.25), 'Q': (5.0, 6.0)}),
+        ['P', 'Q'],
+        Time(sec=7, nanosec=8),
+        'f',
+        cache,
+    )
+    assert again['P'] is first['P'] and set(cache) == {'P', 'Q'}
+    p, q = again['P'], again['Q']
+    assert (p.point.x, p.point.y, p.point.z) == (-1.5, 0.25, 0.0) and stamp_of(p) == (7, 8)
+    assert (q.point.x, q.point.y) == (5.0, 6.0) and q.header.frame_id == p.header.frame_id == 'f'
+
+
 def test_only_command_and_target_carry_qos_event_handlers(ros):
     """Each QoS-event handler is a waitable the executor polls on every message: outputs and
     per-point targets carry none, ~/command and ~/target keep rclpy's incompatibility warnings."""
