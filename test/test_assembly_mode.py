@@ -72,8 +72,8 @@ def test_a_target_with_a_solution_in_the_current_mode_gets_that_one():
 @pytest.mark.parametrize('stem', sorted(p.stem for p in CONFIG.glob('*.yaml')))
 def test_random_target_sequences_answer_in_mode_or_say_why(stem):
     """Property test over sequences: targets taken from forward solves near the current state
-    (joint, link, actuator names, mixed) are answered OK in the current mode, closing the loops
-    (and mostly at the configuration they came from, see below), or refused with a named
+    (joint, link, actuator and point names, mixed) are answered OK in the current mode, closing
+    the loops (and mostly at the configuration they came from, see below), or refused with a named
     reason; never an internal error, never a silent mode change."""
     mech = load(stem)
     rng = random.Random(f'{stem}-modes')
@@ -81,7 +81,10 @@ def test_random_target_sequences_answer_in_mode_or_say_why(stem):
     ref0 = e.last
     fwd = e.forward
     acts = list(mech.actuators)
-    names = [n for n in list(mech.joint_names) + list(mech.links) + acts if n != mech.ground]
+    every = list(mech.joint_names) + list(mech.links) + acts
+    names = [n for n in dict.fromkeys(every) if n != mech.ground]  # a cylinder is both
+    ground_points = set(mech.links[mech.ground].points)
+    moving_points = [p for p in mech.points if p not in ground_points]
     matched = refused = in_mode = 0
     for _ in range(60):
         ref = e.last
@@ -97,13 +100,21 @@ def test_random_target_sequences_answer_in_mode_or_say_why(stem):
         if not f.success:
             continue
         values = {}
-        for n in rng.sample(names, mech.dof):
-            if n in mech.links:
-                values[n] = f.links[n]
-            else:
-                values[n] = f.inputs[n] if n in acts else f.joints[n]
+        points = {}  # point targets (<point>.x, <point>.y): 2 values each
+        for n in rng.sample(names + [f'point:{p}' for p in moving_points], len(names)):
+            room = mech.dof - len(values) - 2 * len(points)
+            if n.startswith('point:'):
+                if room >= 2:
+                    points[n[6:]] = f.points[n[6:]]
+            elif room >= 1:
+                values[n] = (
+                    f.links[n] if n in mech.links else (f.inputs[n] if n in acts else f.joints[n])
+                )
+        request = dict(values)
+        for p, (x, y) in points.items():
+            request[f'{p}.x'], request[f'{p}.y'] = x, y
         before = e.mode(e.last)
-        r = e.target(values)
+        r = e.target(request)
         if not r.success:
             assert r.reason and 'internal' not in r.reason, r.reason
             assert e.mode(e.last)[0] == before[0]
@@ -118,7 +129,12 @@ def test_random_target_sequences_answer_in_mode_or_say_why(stem):
                 and abs(math.remainder(f.links[n] - ref0.links[n], 2 * math.pi)) < 1e-12
             ]
             if e.mode(f)[0] == before[0] and not still:
-                about_names = ('determine', 'over-constrains', 'degree(s) of freedom')
+                about_names = (
+                    'determine',
+                    'over-constrains',
+                    'degree(s) of freedom',
+                    'cannot be a target',  # a point the other knowns fix already
+                )
                 assert any(t in r.reason for t in about_names), (values, r.reason)
             refused += 1
             continue
@@ -127,6 +143,8 @@ def test_random_target_sequences_answer_in_mode_or_say_why(stem):
         for n, v in values.items():  # the answer is at the target values
             got = r.links[n] if n in mech.links else (r.inputs[n] if n in acts else r.joints[n])
             assert abs(math.remainder(got - v, 2 * math.pi)) < 1e-9 * max(1.0, abs(v)), (n, got, v)
+        for p, xy in points.items():
+            assert math.dist(r.points[p], xy) < 1e-9 * mech.length_scale, (p, r.points[p], xy)
         after = e.mode(r)
         for sb, sa, mb, ma in zip(before[0], after[0], before[1], after[1]):
             assert sb == sa or min(mb, ma) <= 1e-9, (before, after)
