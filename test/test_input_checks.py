@@ -6,6 +6,7 @@ or, for a huge sweep, output that starts at once instead of a list built first.
 """
 
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -110,7 +111,81 @@ def test_link_whose_first_two_points_coincide_is_refused():
         r"coincide.*axis.*\['A', 'B', 'P'\]",
     ):
         Scene.from_dict(data)
-    data['links']['coupler'] = ['A', 'P', 'B']  # a distinct second point: a valid link
+    # a distinct second point gives an axis, but A and B on one spot are still one point of
+    # a degenerate plate (issue 18: it loaded silently)
+    data['links']['coupler'] = ['A', 'P', 'B']
+    with pytest.raises(
+        SceneError, match=r'links\.coupler: its points A and B coincide in the reference pose'
+    ):
+        Scene.from_dict(data)
+    data['points']['B'] = [0.06, 0.0866]
+    Scene.from_dict(data)
+
+
+@pytest.mark.parametrize(
+    'edit, key, why',
+    [
+        (
+            {'cylinders': {'Z1': {'from': 'O2', 'to': 'A', 'min': 0.5, 'max': 0.6}}},
+            'cylinders.Z1',
+            'm is below its minimum 0.5 by',
+        ),
+        (
+            {
+                'actuators': {
+                    'crank': {
+                        'type': 'angle',
+                        'link': 'crank',
+                        'pivot': 'O2',
+                        'min': 0.2,
+                        'max': 0.9,
+                    }
+                }
+            },
+            'actuators.crank',
+            'is beyond its maximum 0.9',
+        ),
+    ],
+)
+def test_a_reference_pose_outside_its_own_limits_is_refused(edit, key, why):
+    """Issue 18: a reference pose outside its own actuator limits loaded silently (and became
+    the node's first state). Refused, naming the key, the value and the limit."""
+    pts = {'O2': [0, 0], 'A': [0.05, 0.0866], 'B': [0.3, 0.2], 'O4': [0.3, 0]}  # crank 60 deg
+    links = {
+        'ground': ['O2', 'O4'],
+        'crank': ['O2', 'A'],
+        'coupler': ['A', 'B'],
+        'rocker': ['O4', 'B'],
+    }
+    data = general(points=pts, links=links)
+    if 'cylinders' in edit:  # a ram from O2 to A replaces the crank's angle as the input
+        data = general(
+            points={**pts, 'C': [0.0, 0.05]},
+            links={**links, 'crank': ['O2', 'A', 'C']},
+        )
+        data.pop('actuators', None)
+    data.update(edit)
+    with pytest.raises(
+        SceneError, match=re.escape(key) + r': the reference pose is outside'
+    ) as err:
+        Scene.from_dict(data)
+    assert why in str(err.value)
+
+
+def test_a_four_bar_input_outside_its_crank_limits_is_refused():
+    data = {
+        'four_bar': {
+            'ground': 0.3,
+            'crank': 0.1,
+            'coupler': 0.25,
+            'rocker': 0.2,
+            'input': 2.0,
+            'crank_limits': {'min': 0.0, 'max': 1.5},
+        }
+    }
+    with pytest.raises(SceneError, match=r'four_bar\.input: the reference pose is outside'):
+        Scene.from_dict(data)
+    data['four_bar']['input'] = 1.0
     Scene.from_dict(data)
 
 

@@ -35,6 +35,7 @@ from rosgraph_msgs.msg import Clock
 from scenes import CONFIG
 from sensor_msgs.msg import JointState
 
+from linkage_ros.core.solver import Result
 from linkage_ros.node import (
     DEMO_RATE_MAX,
     DEMO_RATE_MIN,
@@ -649,28 +650,15 @@ def test_runtime_parameter_changes_that_cannot_apply_are_refused(ros, serve):
     assert r.successful and s.node._demo_timer is None
 
 
-# every four-bar the node can be given has a crank reach; this one's crank limits lie beyond it,
-# so no value the sweep may take assembles (and neither does the reference pose)
-STUCK = """\
-name: stuck
-frame_id: world
-four_bar:
-  ground: 0.5
-  crank: 0.4
-  coupler: 0.25
-  rocker: 0.3
-  branch: 1
-  input: 1.0
-  crank_limits: {min: 1.5, max: 2.0}
-"""
-
-
 def test_a_demo_that_stops_turns_demo_sweep_off_and_can_be_restarted(ros, serve, tmp_path):
     """After three failed ticks the sweep stops. demo_sweep used to stay true, so setting it true
     again changed nothing and the sweep could not be restarted without first setting false."""
-    scene = tmp_path / 'stuck.yaml'
-    scene.write_text(STUCK)
-    s = serve(scene=str(scene), demo_rate=200.0)
+    s = serve(scene='four_bar', demo_rate=200.0)
+    # no command assembles (a scene cannot be drawn so: its reference pose must be within its
+    # limits and assemble), so every tick of the sweep fails
+    s.node.engine.command = lambda values, rates=None: Result(
+        False, 'cannot assemble: forced by the test'
+    )
     client = AsyncParameterClient(ros.node, f'{s.ns}/{NODE_NAME}')
     assert client.wait_for_services(timeout_sec=TIMEOUT)
     for _ in range(2):

@@ -713,7 +713,7 @@ def test_bad_point_command_is_refused_and_changes_nothing(method, bad, words):
 
 @pytest.mark.parametrize('method', ['closed_form', 'newton'])
 def test_angle_limits_refuse_with_the_amount(method):
-    m = four_bar(*CRANK_ROCKER, crank_limits={'min': -1.0, 'max': 1.0})
+    m = four_bar(*CRANK_ROCKER, input=0.5, crank_limits={'min': -1.0, 'max': 1.0})
     s = Solver(m, method=method)
     assert s.solve({'crank': 0.999}).success
     assert s.solve({'crank': 1.0}).success

@@ -70,6 +70,7 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
     mech = _build_general(ctx, general, name=name, frame_id=frame_id, solver=solver)
     mech.form = form if form != 'points' else 'general'
     mech.shortcut = shortcut
+    _check_reference_limits(ctx, mech, form, data)
     if form == 'four_bar':
         mech.dimensions = {
             ('crank', 'O2', 'A'): shortcut['crank'],
@@ -172,6 +173,22 @@ def _read_links(
             ctx.fail(key, 'lists a point twice', members)
         # a link's angle is the direction of its first -> second point (its axis): two points
         # on one spot give it none to solve for or report
+        # two points of a rigid link on one spot (a plate drawn degenerate) are one point
+        same = [
+            (a, b)
+            for i, a in enumerate(members)
+            for b in members[i + 1 :]
+            if (a, b) != (members[0], members[1]) and np.array_equal(points[a], points[b])
+        ]
+        if same:
+            a, b = same[0]
+            ctx.fail(
+                key,
+                f'its points {a} and {b} coincide in the reference pose (at '
+                f'{points[a].tolist()}): two points of one rigid link are one point; draw '
+                'them apart or give the point once',
+                list(members),
+            )
         if len(members) >= 2 and np.array_equal(points[members[0]], points[members[1]]):
             ctx.fail(
                 key,
@@ -495,3 +512,37 @@ def _length_scale(points, links, prismatics) -> float:
     if best == 0.0:
         best = max((float(np.hypot(*p)) for p in points.values()), default=1.0) or 1.0
     return best
+
+
+def _check_reference_limits(ctx: _Ctx, mech: Mechanism, form: str, data: Mapping) -> None:
+    """The reference pose must be one the actuators can reach: it is the node's first state and
+    it chooses the assembly mode. An actuator whose reference value is outside its own limits
+    is refused, naming the key and both."""
+    from ..plan.poses import ScalarPoses
+    from ..plan.spec import limit_violation, spec_for, spec_value_one
+
+    ref = ScalarPoses()
+    for l in mech.links:
+        ref.set(l, 0.0, 0j, 1 + 0j)  # every link where the scene draws it
+    for name, act in mech.actuators.items():
+        if act.min is None and act.max is None:
+            continue
+        spec = spec_for(mech, name)
+        bad = limit_violation(spec, float(spec_value_one(mech, spec, ref)))
+        if bad is None:
+            continue
+        if form == 'four_bar':
+            key = 'four_bar.input'
+        elif form == 'slider_crank':
+            key = 'slider_crank.input'
+        elif name in (data.get('cylinders') or {}):
+            key = f'cylinders.{name}'
+        else:
+            key = f'actuators.{name}'
+        ctx.fail(
+            key,
+            f"the reference pose is outside this actuator's own limits ({bad}); the "
+            'reference pose is the first state and chooses the assembly mode: draw it within '
+            'the limits, or widen them',
+            has_value=False,
+        )

@@ -47,6 +47,7 @@ from .spec import (  # noqa: F401
     _c,
     _renamed,
     _spec_of_kind,
+    limit_violation,
     spec_for,
     spec_point_link,
     spec_reader,

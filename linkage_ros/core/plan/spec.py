@@ -196,3 +196,39 @@ def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
     with np.errstate(all='ignore'):
         v = spec_value_of(BATCH, mech, spec, link_poses(poses))
     return to_xy(v) if spec.kind == 'point' else np.asarray(v, float)
+
+
+def limit_violation(spec: Spec, value: float) -> str | None:
+    """Why ``value`` is outside ``spec``'s limits, or None. Angles compare on the circle: the
+    value is brought into [min, min + 2 pi) first, and a refusal names the nearer limit."""
+    lo, hi = spec.minimum, spec.maximum
+    if lo is None and hi is None:
+        return None
+    v = value
+    if spec.kind == 'angle' and lo is not None and hi is not None:
+        # angles compare on the circle: bring v into [lo, lo + 2 pi)
+        v = lo + (value - lo) % (2 * math.pi)
+        if v <= hi + 1e-12 * max(1.0, abs(hi)):
+            return None
+        over_hi = v - hi
+        under_lo = lo + 2 * math.pi - v
+        if under_lo < over_hi:
+            return (
+                f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} '
+                f'by {under_lo:.3g} {spec.unit}'
+            )
+        return (
+            f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
+            f'{over_hi:.3g} {spec.unit}'
+        )
+    if lo is not None and v < lo:
+        return (
+            f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} by '
+            f'{lo - v:.3g} {spec.unit}'
+        )
+    if hi is not None and v > hi:
+        return (
+            f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
+            f'{v - hi:.3g} {spec.unit}'
+        )
+    return None

@@ -31,6 +31,7 @@ from ..plan import (
     Plan,
     ScalarPoses,
     Spec,
+    limit_violation,
     run_one,
     spec_for,
     spec_value_one,
@@ -350,37 +351,8 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         return out
 
     def limit_violation(self, spec: Spec, value: float) -> str | None:
-        lo, hi = spec.minimum, spec.maximum
-        if lo is None and hi is None:
-            return None
-        v = value
-        if spec.kind == 'angle' and lo is not None and hi is not None:
-            # angles compare on the circle: bring v into [lo, lo + 2 pi)
-            v = lo + (value - lo) % (2 * math.pi)
-            if v <= hi + 1e-12 * max(1.0, abs(hi)):
-                return None
-            over_hi = v - hi
-            under_lo = lo + 2 * math.pi - v
-            if under_lo < over_hi:
-                return (
-                    f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} '
-                    f'by {under_lo:.3g} {spec.unit}'
-                )
-            return (
-                f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
-                f'{over_hi:.3g} {spec.unit}'
-            )
-        if lo is not None and v < lo:
-            return (
-                f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} by '
-                f'{lo - v:.3g} {spec.unit}'
-            )
-        if hi is not None and v > hi:
-            return (
-                f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
-                f'{v - hi:.3g} {spec.unit}'
-            )
-        return None
+        """Why ``value`` is outside ``spec``'s limits (plan.limit_violation), or None."""
+        return limit_violation(spec, value)
 
     # -- solving -----------------------------------------------------------------------------
     def solve(self, values: Mapping[str, Any], commit: bool = True) -> Result:
