@@ -47,6 +47,7 @@ from .conversions import (
 )
 from .core.errors import CommandError, SceneError
 from .core.solver import Result
+from .core.solver.modes import reference_toggle_warnings
 from .demo import DemoSweep
 from .engine import max_request_names, request_shape_error
 from .params import (
@@ -195,6 +196,8 @@ class LinkageNode(Node):
             f'{list(mech.outputs)}, frame {self.frame_id!r}, solver '
             f'{self.engine.forward.mode}, branch {self.config.branch}'
         )
+        for warning in reference_toggle_warnings(self.engine.forward):
+            log.warning(f'scene {mech.name!r}: {warning}')
         if mech.dof > 2 and not self.config.target_point_hold:
             log.warning(
                 f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '

@@ -687,3 +687,25 @@ def test_check_prints_declared_limits_beside_a_tighter_computed_range(capsys, tm
     assert '[reachable range, computed; declared limits: min -3  max 3]' in line, line
     rc, out, _ = run(capsys, 'check', 'four_bar')  # nothing computed: nothing added
     assert 'declared limits' not in out
+
+
+def test_check_warns_about_a_reference_pose_drawn_at_a_toggle(capsys, tmp_path):
+    """Issue 18: a drawing at a toggle (coupler and rocker stretched out in line: the circles
+    about A and O4 touch, 0.15 + 0.15 = |A O4| = 0.3) loaded silently, its assembly mode left to
+    rounding. `linkage check` warns naming the dyad; a drawing off the toggle gets no warning."""
+    scene = tmp_path / 'flat.yaml'
+    text = (
+        'name: flat\n'
+        'points: {{O2: [0, 0], A: [0.1, 0], B: [0.25, {y}], O4: [0.4, 0]}}\n'
+        'links: {{ground: [O2, O4], crank: [O2, A], coupler: [A, B], rocker: [O4, B]}}\n'
+        'actuators: {{crank: {{type: angle, link: crank, pivot: O2}}}}\n'
+    )
+    scene.write_text(text.format(y=0))
+    rc, out, _ = run(capsys, 'check', scene, '--json')
+    (warning,) = loads(out)['warnings']
+    assert rc == 0 and 'at the toggle of RRR dyad: B from circles about A' in warning
+    rc, out, _ = run(capsys, 'check', scene)
+    assert 'warning    the reference pose is at the toggle' in out
+    scene.write_text(text.format(y=0.05))
+    rc, out, _ = run(capsys, 'check', scene, '--json')
+    assert rc == 0 and loads(out)['warnings'] == []

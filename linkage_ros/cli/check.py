@@ -32,6 +32,7 @@ def input_ranges(mech) -> dict[str, tuple[float | None, float | None]]:
 
 def check_report(mech, path: str, solver_method: str | None) -> dict:
     from ..core.solver import Solver
+    from ..core.solver.modes import reference_toggle_warnings
 
     desc = mech.describe()
     grashof = None
@@ -82,6 +83,7 @@ def check_report(mech, path: str, solver_method: str | None) -> dict:
             'newton_links': list(solver.system.free),
             'branch_count': solver.branch_count,
         },
+        'warnings': reference_toggle_warnings(solver),
     }
 
 
@@ -143,6 +145,7 @@ def format_check(r: dict) -> str:
         out += [f'    {i + 1}. {s}' for i, s in enumerate(p['closed_form_steps'])]
     out.append(f'  placed by closed-form dyads: {", ".join(p["closed_form_links"]) or "(none)"}')
     out.append(f'  placed by Newton:            {", ".join(p["newton_links"]) or "(none)"}')
+    out += [f'warning    {w}' for w in r.get('warnings', [])]
     return '\n'.join(out)
 
 

@@ -101,3 +101,29 @@ def newton_modes(solver: Solver, values: Mapping[str, Any], starts: int = MODE_S
     if not found.results:
         found.results.append(first)
     return found
+
+
+#: a dyad margin below which the reference pose is read as drawn at that dyad's toggle
+TOGGLE_MARGIN = 1e-9
+
+
+def reference_toggle_warnings(solver: Solver) -> list[str]:
+    """Why the reference pose does not choose an assembly mode, if it does not: each branching
+    dyad of ``solver``'s forward plan that the drawing puts at its toggle (a cell drawn folded
+    flat, a dyad drawn stretched out), where the two modes meet and the drawing's sign is
+    rounding. Empty for a drawing clear of every toggle (or without a closed-form plan)."""
+    if solver.mode != 'closed_form' or not solver.branch_count:
+        return []
+    ref = solver.solve(solver.reference_values(), commit=False)
+    mode = solver.mode_of(ref) if ref.success else None
+    if mode is None:
+        return []
+    out = []
+    for step, margin in zip(solver.plan.branch_steps, mode[1]):
+        if margin < TOGGLE_MARGIN:
+            out.append(
+                f'the reference pose is at the toggle of {step.describe(solver.plan)} (margin '
+                f'{margin:.3g}): its assembly mode there is not chosen by the drawing; draw the '
+                'pose off the toggle to choose it'
+            )
+    return out
