@@ -709,3 +709,23 @@ def test_check_warns_about_a_reference_pose_drawn_at_a_toggle(capsys, tmp_path):
     scene.write_text(text.format(y=0.05))
     rc, out, _ = run(capsys, 'check', scene, '--json')
     assert rc == 0 and loads(out)['warnings'] == []
+
+
+def test_check_prints_the_motion_of_a_one_input_mechanism(capsys):
+    """`linkage check` (text and JSON): the rocker's swing with the crank angles at its ends,
+    the time ratio and the transmission angle extremes (their values are checked against the
+    closed forms in test_quantities)."""
+    rc, out, _ = run(capsys, 'check', 'four_bar', '--json')
+    m = loads(out)['motion']
+    assert rc == 0 and m['actuator'] == 'crank' and m['full_turn'] is True
+    rocker = m['outputs']['link:rocker']
+    assert rocker['stroke'] == pytest.approx(rocker['max'] - rocker['min'])
+    assert rocker['time_ratio'] > 1.0
+    mu = m['transmission_angle']['A-B-O4']
+    assert 0 < mu['min'] < mu['max'] < math.pi
+    rc, out, _ = run(capsys, 'check', 'four_bar')
+    assert 'motion     crank over a full turn' in out
+    assert '  rocker (angle)  min ' in out and 'time ratio ' in out
+    assert '  transmission angle A-B-O4  min ' in out
+    rc, out, _ = run(capsys, 'check', 'excavator', '--json')
+    assert loads(out)['motion'] is None

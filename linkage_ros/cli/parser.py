@@ -80,6 +80,11 @@ scene driven by a crank (4R: s + l against p + q; 3R-1P: lmin + e against lmax) 
 inequality and which ground-pivoted links turn fully, each input's range (null / "unlimited"
 for an unlimited side), and how the default solve is planned: the closed-form dyad steps, the
 links they place, the links left to the Newton solver and the solver mode.
+For a mechanism with one actuator, "motion" sweeps it over its range (a full turn when it turns
+fully): each rocker's swing and each ground slider's stroke with the input values at their
+extremes, the time ratio (slower / faster stroke of a fully turning crank), and each RRR dyad's
+transmission angle extremes (JSON: motion.outputs, motion.transmission_angle). Warnings (JSON:
+warnings) name a reference pose drawn at a toggle.
 A scene that does not load (e.g. DOF != actuators) is an error: exit 2.
 """
 

@@ -1,0 +1,210 @@
+"""Quantities designers ask for, over one input's range: the signed transmission angle of each
+RRR dyad and its extremes, an output's extremes (stroke or swing) with the input values there,
+and the time ratio of a fully turning crank.
+
+The transmission angle of an RRR dyad is the angle at its point X between the directions to
+its two circle centres (the classical mu of a four-bar: the angle A-B-O4 between coupler and
+rocker), signed counter-clockwise from the first centre's direction to the second's, in
+(-pi, pi]: its size is the classical mu in [0, pi] and its sign tells the assembly mode, which
+the margin |sin mu| cannot (it does not tell mu from pi - mu either).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from ..model import Mechanism
+from ..solver import Result, Solver
+from ..steps import RRRDyad
+from .ranges import _golden_min, input_ranges
+
+
+def transmission_angles(solver: Solver, result: Result) -> dict[str, float]:
+    """{'<A>-<X>-<B>': signed angle (rad)} of every RRR dyad of ``solver``'s plan at a solved
+    configuration (see the module docstring)."""
+    out = {}
+    for step in solver.plan.steps:
+        a = step.args
+        if not isinstance(a, RRRDyad) or step.point is None:
+            continue
+        x = np.asarray(result.points[step.point], float)
+        u = np.asarray(result.points[a.centre_a], float) - x
+        v = np.asarray(result.points[a.centre_b], float) - x
+        key = f'{a.centre_a}-{step.point}-{a.centre_b}'
+        out[key] = math.atan2(u[0] * v[1] - u[1] * v[0], u[0] * v[0] + u[1] * v[1])
+    return out
+
+
+@dataclass
+class Extreme:
+    """The least and greatest value of a quantity over the input's range, and where."""
+
+    minimum: float
+    maximum: float
+    input_at_min: float
+    input_at_max: float
+
+
+@dataclass
+class InputSweep:
+    """What one input's range gives (see :func:`input_sweep`). Angles in rad, lengths in m."""
+
+    actuator: str
+    full_turn: bool
+    outputs: dict[str, Extreme]  # link:<name> angle (rad; min in (-pi, pi]), joint:<name> value
+    transmission: dict[str, Extreme]  # |mu| of each RRR dyad, the classical angle in [0, pi]
+    time_ratio: dict[str, float]  # full turn only: slower / faster stroke of each output
+
+
+def _value(r: Result, output: str) -> float:
+    """An output's value: ``link:<name>`` its angle (rad), ``joint:<name>`` its value."""
+    kind, _, name = output.partition(':')
+    return float(r.links[name] if kind == 'link' else r.joints[name])
+
+
+def input_sweep(
+    mech: Mechanism, outputs: list[str], samples: int = 1440, tol: float = 1e-12
+) -> InputSweep:
+    """Sweep the only actuator of a 1-DOF mechanism over its range (a full turn when it turns
+    fully) in the reference pose's assembly mode: each output's extremes and the input values
+    there, the transmission angles' extremes, and for a full turn the time ratio of each output
+    (the crank turn from its minimum to its maximum against the turn back, the larger over the
+    smaller: 1 for a symmetric motion). Extremes are refined by golden-section search to
+    ``tol`` rad of the input. ValueError for a mechanism with more than one actuator."""
+    if len(mech.actuators) != 1:
+        raise ValueError(f'{mech.name!r} has {len(mech.actuators)} actuators; this needs one')
+    (act,) = mech.actuators
+    lo, hi = input_ranges(mech)[act]
+    solver = Solver(mech, branch='continuous')
+    ref = solver.reference_values()[act]
+    full = lo is None and hi is None and mech.actuators[act].kind == 'angle'
+    if full:
+        grid = ref + np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
+    elif lo is None or hi is None:
+        raise ValueError(f'{act!r} has no bounded range to sweep')
+    else:
+        grid = np.linspace(lo, hi, samples)
+    results = []
+    for v in grid:
+        r = solver.solve({act: float(v)})
+        if not r.success:
+            raise ValueError(f'{act} = {v:.9g} does not assemble: {r.reason}')
+        results.append(r)
+    signs = results[0].branch
+    exact = Solver(mech, branch=signs) if signs else Solver(mech)
+
+    def refine(series: np.ndarray, f_of, i: int, sign: float) -> tuple[float, float]:
+        """The extreme near sample i of ``series`` (sign +1 min, -1 max): (input, value)."""
+        n = len(grid)
+        if full:
+            a, b = grid[i] - (grid[1] - grid[0]), grid[i] + (grid[1] - grid[0])
+        else:
+            a, b = grid[max(i - 1, 0)], grid[min(i + 1, n - 1)]
+
+        def f(x: float) -> float:
+            r = exact.solve({act: x}, commit=False)
+            if not r.success:
+                return math.inf
+            return sign * f_of(r, series[i])
+
+        x, fx = _golden_min(f, float(a), float(b), tol)
+        if not fx <= sign * series[i]:  # an end of the range, or a flat top
+            x, fx = float(grid[i]), sign * float(series[i])
+        if full:  # a crank angle in (-pi, pi]
+            x = math.remainder(x, 2 * math.pi)
+        return x, sign * fx
+
+    def extreme(series: np.ndarray, f_of) -> Extreme:
+        i_min, i_max = int(np.argmin(series)), int(np.argmax(series))
+        (x_lo, v_lo), (x_hi, v_hi) = (
+            refine(series, f_of, i_min, 1.0),
+            refine(series, f_of, i_max, -1.0),
+        )
+        return Extreme(v_lo, v_hi, x_lo, x_hi)
+
+    out: dict[str, Extreme] = {}
+    ratios: dict[str, float] = {}
+    for name in outputs:
+        if not name.startswith(('link:', 'joint:')):
+            raise ValueError(f'output {name!r}: name it link:<name> or joint:<name>')
+        raw = np.array([_value(r, name) for r in results])
+        angle = name.startswith('link:')
+        series = np.unwrap(raw) if angle else raw
+
+        def f_of(r: Result, near: float, name: str = name, angle: bool = angle) -> float:
+            v = _value(r, name)
+            return near + math.remainder(v - near, 2 * math.pi) if angle else v
+
+        ext = extreme(series, f_of)
+        if angle:  # the swing's start in (-pi, pi]
+            shift = ext.minimum - math.remainder(ext.minimum, 2 * math.pi)
+            ext = Extreme(
+                ext.minimum - shift, ext.maximum - shift, ext.input_at_min, ext.input_at_max
+            )
+        out[name] = ext
+        if full:
+            forward = (ext.input_at_max - ext.input_at_min) % (2 * math.pi)
+            back = 2 * math.pi - forward
+            short = min(forward, back)
+            ratios[name] = max(forward, back) / short if short else math.inf
+    trans: dict[str, Extreme] = {}
+    keys = list(transmission_angles(solver, results[0]))
+    for key in keys:
+        series = np.array([abs(transmission_angles(solver, r)[key]) for r in results])
+
+        def mu_of(r: Result, near: float, key: str = key) -> float:
+            return abs(transmission_angles(exact, r)[key])
+
+        trans[key] = extreme(series, mu_of)
+    return InputSweep(act, full, out, trans, ratios)
+
+
+def classical_outputs(mech: Mechanism) -> list[str]:
+    """The outputs a designer asks about for a 1-DOF mechanism (``link:<name>``,
+    ``joint:<name>``): each link pivoted on the ground that the actuator does not drive (a
+    rocker), and each slider joint on the ground's guide that is not an actuator (a slider's
+    stroke)."""
+    driven = {a.link if a.kind == 'angle' else a.joint for a in mech.actuators.values()}
+    ground = set(mech.links[mech.ground].points)
+    rockers = [
+        l
+        for l, link in mech.links.items()
+        if l != mech.ground and l not in driven and len(set(link.points) & ground) == 1
+    ]
+    sliders = [
+        j for j, pj in mech.prismatics.items() if pj.guide == mech.ground and j not in driven
+    ]
+    return [f'link:{l}' for l in rockers] + [f'joint:{j}' for j in sliders]
+
+
+def quantities_report(mech: Mechanism) -> dict[str, Any] | None:
+    """:func:`input_sweep` of :func:`classical_outputs` as plain data (None where it does not
+    apply: not 1-DOF, or no range to sweep)."""
+    if len(mech.actuators) != 1:
+        return None
+    try:
+        sweep = input_sweep(mech, classical_outputs(mech))
+    except ValueError:
+        return None
+
+    def ext(e: Extreme) -> dict[str, float]:
+        return {
+            'min': e.minimum,
+            'max': e.maximum,
+            'input_at_min': e.input_at_min,
+            'input_at_max': e.input_at_max,
+        }
+
+    return {
+        'actuator': sweep.actuator,
+        'full_turn': sweep.full_turn,
+        'outputs': {
+            n: {**ext(e), 'stroke': e.maximum - e.minimum, 'time_ratio': sweep.time_ratio.get(n)}
+            for n, e in sweep.outputs.items()
+        },
+        'transmission_angle': {k: ext(e) for k, e in sweep.transmission.items()},
+    }

@@ -1,0 +1,99 @@
+"""Quantities designers ask for (issue 18): signed transmission angle and its extremes, an
+output's swing or stroke with the input values there, and the time ratio; checked against the
+closed forms of the crank-rocker and the offset slider-crank (cosine rule at the dead centres,
+written here) and against a dense sweep of the 50-digit four-bar oracle."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from oracles import fourbar as oracle
+from scenes import load
+
+from linkage_ros.core.motion.quantities import (
+    classical_outputs,
+    input_sweep,
+    quantities_report,
+    transmission_angles,
+)
+from linkage_ros.core.solver import Solver
+
+L1, L2, L3, L4 = 0.3, 0.1, 0.25, 0.2  # config/four_bar.yaml
+
+
+def close_angle(a, b, tol):
+    return abs(math.remainder(a - b, 2 * math.pi)) < tol
+
+
+def test_crank_rocker_against_the_closed_forms():
+    sweep = input_sweep(load('four_bar'), ['link:rocker'])
+    assert sweep.full_turn and classical_outputs(load('four_bar')) == ['link:rocker']
+    # transmission angle extremes: crank along the ground (theta2 = 0 and pi)
+    (mu,) = sweep.transmission.values()
+    mu_min = math.acos((L3 * L3 + L4 * L4 - (L1 - L2) ** 2) / (2 * L3 * L4))
+    mu_max = math.acos((L3 * L3 + L4 * L4 - (L1 + L2) ** 2) / (2 * L3 * L4))
+    assert mu.minimum == pytest.approx(mu_min, abs=1e-12)
+    assert mu.maximum == pytest.approx(mu_max, abs=1e-12)
+    assert close_angle(mu.input_at_min, 0.0, 1e-6) and close_angle(mu.input_at_max, math.pi, 1e-6)
+    # rocker extremes: crank and coupler in line (extended, folded)
+    ext = math.acos((L1 * L1 + (L2 + L3) ** 2 - L4 * L4) / (2 * L1 * (L2 + L3)))
+    fold = math.pi + math.acos((L1 * L1 + (L3 - L2) ** 2 - L4 * L4) / (2 * L1 * (L3 - L2)))
+
+    def rocker_at(theta2, reach):
+        bx, by = reach * math.cos(theta2), reach * math.sin(theta2)
+        return math.atan2(by, bx - L1)
+
+    out = sweep.outputs['link:rocker']
+    assert close_angle(out.input_at_min, ext, 1e-7) and close_angle(out.input_at_max, fold, 1e-7)
+    assert close_angle(out.minimum, rocker_at(ext, L2 + L3), 1e-12)
+    assert close_angle(out.maximum, rocker_at(fold, L2 - L3), 1e-12)
+    delta = (fold - ext) % (2 * math.pi)
+    want_ratio = max(delta, 2 * math.pi - delta) / min(delta, 2 * math.pi - delta)
+    assert sweep.time_ratio['link:rocker'] == pytest.approx(want_ratio, rel=1e-7)
+    # a dense sweep of the 50-digit oracle never leaves the reported swing
+    for k in range(4000):
+        theta4 = float(oracle(L1, L2, L3, L4, 2 * math.pi * k / 4000, branch=1)['theta4'])
+        v = out.minimum + (theta4 - out.minimum) % (2 * math.pi)
+        assert v <= out.maximum + 1e-12
+
+
+def test_offset_slider_crank_stroke_and_time_ratio():
+    r, rod, e = 0.05, 0.18, 0.01  # config/slider_crank.yaml
+    mech = load('slider_crank')
+    (name,) = classical_outputs(mech)
+    sweep = input_sweep(mech, [name])
+    out = sweep.outputs[name]
+    x_ext, x_fold = math.sqrt((r + rod) ** 2 - e * e), math.sqrt((rod - r) ** 2 - e * e)
+    assert out.maximum == pytest.approx(x_ext, abs=1e-12)
+    assert out.minimum == pytest.approx(x_fold, abs=1e-12)
+    t_ext, t_fold = math.atan2(e, x_ext), math.atan2(e, x_fold) + math.pi
+    assert close_angle(out.input_at_max, t_ext, 1e-7)
+    assert close_angle(out.input_at_min, t_fold, 1e-7)
+    delta = (t_fold - t_ext) % (2 * math.pi)
+    want = max(delta, 2 * math.pi - delta) / min(delta, 2 * math.pi - delta)
+    assert sweep.time_ratio[name] == pytest.approx(want, rel=1e-7)
+    assert sweep.time_ratio[name] > 1.0  # the offset makes the strokes unequal
+
+
+def test_the_signed_transmission_angle_tells_the_modes_apart():
+    """|sin mu| cannot tell the modes apart; the sign can. Both modes of one crank angle:
+    equal size (the cosine rule, written here), opposite signs."""
+    mech = load('four_bar')
+    s = Solver(mech, method='closed_form')
+    a, b = s.solve_all({'crank': 1.0})
+    ((ka, mua),) = transmission_angles(s, a).items()
+    ((kb, mub),) = transmission_angles(s, b).items()
+    d2 = L1 * L1 + L2 * L2 - 2 * L1 * L2 * math.cos(1.0)  # |A O4|^2
+    mu = math.acos((L3 * L3 + L4 * L4 - d2) / (2 * L3 * L4))
+    assert ka == kb == 'A-B-O4'
+    assert abs(mua) == pytest.approx(mu, abs=1e-12) and abs(mub) == pytest.approx(mu, abs=1e-12)
+    assert mua * mub < 0
+    assert abs(math.sin(mua)) == pytest.approx(a.margin, abs=1e-12)
+
+
+def test_report_applies_to_one_input_mechanisms_only():
+    assert quantities_report(load('excavator')) is None
+    rep = quantities_report(load('four_bar'))
+    assert rep is not None and rep['outputs']['link:rocker']['time_ratio'] > 1.0
+    assert set(rep['transmission_angle']) == {'A-B-O4'}
