@@ -97,3 +97,20 @@ def test_report_applies_to_one_input_mechanisms_only():
     rep = quantities_report(load('four_bar'))
     assert rep is not None and rep['outputs']['link:rocker']['time_ratio'] > 1.0
     assert set(rep['transmission_angle']) == {'A-B-O4'}
+
+
+def test_slotted_lever_quick_return_against_its_closed_form():
+    """config/quick_return.yaml: crank radius r = |O2 A| = 0.1 about O2, lever pivot O4 at
+    d = 0.3 below it. The lever's extremes are where it is tangent to the crank circle: it
+    swings 2 asin(r / d) and the crank turns pi + 2 asin(r / d) one way, pi - 2 asin(r / d) the
+    other (the classic quick-return time ratio)."""
+    mech = load('quick_return')
+    assert classical_outputs(mech) == ['link:lever', 'joint:ram']
+    sweep = input_sweep(mech, ['link:lever'])
+    alpha = math.asin(0.1 / 0.3)
+    lever = sweep.outputs['link:lever']
+    assert lever.maximum - lever.minimum == pytest.approx(2 * alpha, abs=1e-12)
+    assert close_angle(lever.minimum, math.pi / 2 - alpha, 1e-12)  # the lever points up at rest
+    assert sweep.time_ratio['link:lever'] == pytest.approx(
+        (math.pi + 2 * alpha) / (math.pi - 2 * alpha), rel=1e-7
+    )
