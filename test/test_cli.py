@@ -729,3 +729,14 @@ def test_check_prints_the_motion_of_a_one_input_mechanism(capsys):
     assert '  transmission angle A-B-O4  min ' in out
     rc, out, _ = run(capsys, 'check', 'excavator', '--json')
     assert loads(out)['motion'] is None
+
+
+def test_range_motion_gives_what_check_gives(capsys):
+    rc, out, _ = run(capsys, 'range', 'quick_return', '--motion', '--json')
+    motion = loads(out)['motion']
+    rc2, out2, _ = run(capsys, 'check', 'quick_return', '--json')
+    assert rc == rc2 == 0 and motion == loads(out2)['motion']
+    rc, out, _ = run(capsys, 'range', 'quick_return', '--motion')
+    assert 'lever (angle)  min ' in out and 'time ratio 1.55215' in out
+    rc, _, err = run(capsys, 'range', 'excavator', '--motion')
+    assert rc == 2 and '--motion needs a scene with one actuator' in err

@@ -147,29 +147,7 @@ def format_check(r: dict) -> str:
         out += [f'    {i + 1}. {s}' for i, s in enumerate(p['closed_form_steps'])]
     out.append(f'  placed by closed-form dyads: {", ".join(p["closed_form_links"]) or "(none)"}')
     out.append(f'  placed by Newton:            {", ".join(p["newton_links"]) or "(none)"}')
-    m = r.get('motion')
-    if m:
-        act = m['actuator']
-        out.append(f'motion     {act} over {"a full turn" if m["full_turn"] else "its range"}')
-        for name, o in m['outputs'].items():
-            kind, _, bare = name.partition(':')
-            unit = 'rad' if kind == 'link' else 'm'
-            line = (
-                f'  {bare} ({"angle" if kind == "link" else "slide"})  min {_f(o["min"], ".9g")} '
-                f'at {act} {_f(o["input_at_min"], ".9g")}  max {_f(o["max"], ".9g")} at {act} '
-                f'{_f(o["input_at_max"], ".9g")}  {"swing" if unit == "rad" else "stroke"} '
-                f'{_f(o["stroke"], ".9g")} {unit}'
-            )
-            if o.get('time_ratio') is not None:
-                line += f'  time ratio {_f(o["time_ratio"], ".6g")}'
-            out.append(line)
-        for key, t in m['transmission_angle'].items():
-            out.append(
-                f'  transmission angle {key}  min {_f(t["min"], ".6g")} rad '
-                f'({math.degrees(t["min"]):.3f} deg) at {act} {_f(t["input_at_min"], ".9g")}  '
-                f'max {_f(t["max"], ".6g")} rad ({math.degrees(t["max"]):.3f} deg) at {act} '
-                f'{_f(t["input_at_max"], ".9g")}'
-            )
+    out += format_motion(r.get('motion'))
     out += [f'warning    {w}' for w in r.get('warnings', [])]
     return '\n'.join(out)
 
@@ -179,3 +157,32 @@ def cmd_check(args) -> int:
     report = check_report(mech, path, args.solver)
     print(dumps(report) if args.json else format_check(report))
     return OK
+
+
+def format_motion(m: dict | None) -> list[str]:
+    """The text lines of a quantities_report (``linkage check`` and ``linkage range --motion``)."""
+    if not m:
+        return []
+    out = []
+    act = m['actuator']
+    out.append(f'motion     {act} over {"a full turn" if m["full_turn"] else "its range"}')
+    for name, o in m['outputs'].items():
+        kind, _, bare = name.partition(':')
+        unit = 'rad' if kind == 'link' else 'm'
+        line = (
+            f'  {bare} ({"angle" if kind == "link" else "slide"})  min {_f(o["min"], ".9g")} '
+            f'at {act} {_f(o["input_at_min"], ".9g")}  max {_f(o["max"], ".9g")} at {act} '
+            f'{_f(o["input_at_max"], ".9g")}  {"swing" if unit == "rad" else "stroke"} '
+            f'{_f(o["stroke"], ".9g")} {unit}'
+        )
+        if o.get('time_ratio') is not None:
+            line += f'  time ratio {_f(o["time_ratio"], ".6g")}'
+        out.append(line)
+    for key, t in m['transmission_angle'].items():
+        out.append(
+            f'  transmission angle {key}  min {_f(t["min"], ".6g")} rad '
+            f'({math.degrees(t["min"]):.3f} deg) at {act} {_f(t["input_at_min"], ".9g")}  '
+            f'max {_f(t["max"], ".6g")} rad ({math.degrees(t["max"]):.3f} deg) at {act} '
+            f'{_f(t["input_at_max"], ".9g")}'
+        )
+    return out

@@ -3,6 +3,7 @@
     linkage range SCENE [--json] [--point NAME [--actuators A,B] [--samples N]]
                         [--tilt LINK --lip POINT [--hold X,Y]] [--links]
                         [--plot out.png] [--curves out.png --input NAME --output NAME]
+                        [--motion]
 
 Input ranges are found with the other actuators held at their reference-pose values (each
 bound is a toggle of the assembly, refined to 1e-12, or the scene's limit). ``--point`` adds the
@@ -16,7 +17,9 @@ mode. Angles are radians (degrees in parentheses), lengths metres.
 JSON: {"scene", "inputs": {name: {"min", "max", "min_source", "max_source", "full_turn",
 "assembly", "reference", "unit"}}, "toggles": {name: [...]}, "region": {point: {"boundary":
 [[x, y], ...], "area", "method", "actuators", "limits", "hull_check"}}, "tilt": {...},
-"oscillation": {"input", "links": {link: {"min", "max", "full_turn"}}}, "plots": {...}}.
+"oscillation": {"input", "links": {link: {"min", "max", "full_turn"}}}, "motion": {"actuator",
+"full_turn", "outputs": {...}, "transmission_angle": {...}} (``--motion``, as linkage check's),
+"plots": {...}}.
 
 Exit status: 0 ok; 1 a requested analysis was refused (the tilt's start pose does not solve);
 2 a usage error (bad option, unknown name, scene error).
@@ -78,6 +81,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help='draw --output versus --input, every assembly mode, to this PNG',
     )
     p.add_argument('--input', metavar='NAME', help='actuator for --curves / --links')
+    p.add_argument(
+        '--motion',
+        action='store_true',
+        help='one-actuator scenes: rocker swing / slider stroke with the input at their ends, '
+        'time ratio, transmission angle extremes (as linkage check prints them)',
+    )
     p.add_argument(
         '--output',
         metavar='NAME',
@@ -213,6 +222,15 @@ def analyse(args, mech) -> tuple[dict, int]:
             lo, hi = motion.oscillation_range(mech, link, inp)
             osc[link] = {'min': lo, 'max': hi, 'full_turn': lo is None}
         report['oscillation'] = {'input': inp, 'links': osc}
+    if args.motion:
+        from ..core.motion.quantities import quantities_report
+
+        if len(mech.actuators) != 1:
+            raise _Usage(
+                f'--motion needs a scene with one actuator ({mech.name!r} has '
+                f'{len(mech.actuators)})'
+            )
+        report['motion'] = quantities_report(mech)
     plots = {}
     if args.plot:
         from ..plots import plot_region
@@ -311,6 +329,11 @@ def _print_human(r: dict, mech) -> None:
                 f'(swing {math.degrees(v["max"] - v["min"]):.4g} deg)'
             )
             p(f'  {link:<12} {text}')
+    if r.get('motion') is not None:
+        from .check import format_motion
+
+        for line in format_motion(r['motion']):
+            p(line)
     for k, v in (r.get('plots') or {}).items():
         p(f'wrote {k} plot: {v}')
 
