@@ -219,6 +219,7 @@ class LinkageNode(Node):
             f'(reliable, keep last {self.config.queue_depth})'
         )
         if self.config.demo_sweep:
+            self._check_demo_possible()
             self._start_demo()
         # another node of this name in this namespace mixes its answers, status and parameter
         # services with ours: look at the graph once discovery has had time to see it
@@ -252,6 +253,8 @@ class LinkageNode(Node):
                 if p.name == 'demo_sweep':
                     if not isinstance(p.value, bool):
                         fail_setting('demo_sweep', 'must be true or false', p.value)
+                    if p.value:
+                        self._check_demo_possible()
                     cfg = dataclasses.replace(cfg, demo_sweep=p.value)
                 elif p.name == 'demo_rate':
                     cfg = dataclasses.replace(cfg, demo_rate=check_demo_rate(p.value))
@@ -415,6 +418,14 @@ class LinkageNode(Node):
         self._answer(f'target_point/{point}', msg.header.stamp, solve)
 
     # -- demo sweep --------------------------------------------------------------------------------
+    def _check_demo_possible(self) -> None:
+        if not self.mech.actuators:
+            fail_setting(
+                'demo_sweep',
+                f'scene {self.mech.name!r} has no actuator to sweep (a structure: 0 DOF)',
+                True,
+            )
+
     def _start_demo(self):
         first = next(iter(self.mech.actuators))
         start = self.engine.last.inputs[first] if self.engine.last else 0.0

@@ -888,6 +888,12 @@ BAD_STARTS = {
     'bad_tolerance': ('', {'tolerance': -1.0}, ['tolerance', '-1.0']),
     'bad_solver': ('', {'solver': 'fastest'}, ['solver', 'fastest']),
     'bad_queue_depth': ('', {'queue_depth': 0}, ['queue_depth', '0']),
+    'demo_of_a_structure': (
+        'name: truss\npoints: {O1: [0, 0], O2: [0.4, 0], P: [0.15, 0.2]}\n'
+        'links: {ground: [O1, O2], left: [O1, P], right: [O2, P]}\n',
+        {'demo_sweep': True},
+        ['demo_sweep', 'no actuator to sweep', '0 DOF'],
+    ),
 }
 
 

@@ -139,7 +139,7 @@ def format_check(r: dict) -> str:
     p = r['plan']
     out.append(
         f'plan       solver {p["solver"]} -> mode {p["mode"]}; '
-        f'knowns {", ".join(p["knowns"])}'
+        f'knowns {", ".join(p["knowns"]) or "none (a structure: 0 DOF)"}'
         + (f'; {p["branch_count"]} branching dyad(s)' if p['closed_form_steps'] else '')
     )
     if p['closed_form_steps']:

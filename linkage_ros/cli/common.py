@@ -185,6 +185,16 @@ def build_solve(mech, args, allow_range: bool):
     from ..core.solver import Solver
 
     items = getattr(args, 'knowns', None) or []
+    if not items and mech.dof == 0:  # a structure: where it assembles, no input to give
+        solver = Solver(
+            mech,
+            knowns=[],
+            method=args.solver,
+            tol=args.tol,
+            max_iter=args.max_iter,
+            branch=args.branch,
+        )
+        return [], [], solver
     if not items:
         raise UsageError(
             'nothing to solve: give --set NAME=VALUE for each actuator '

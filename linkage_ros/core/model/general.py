@@ -123,8 +123,8 @@ def _build_general(
         source=ctx.source,
         length_scale=scale,
     )
-    if not actuators:
-        ctx.fail('actuators', 'the mechanism needs at least one actuator (or cylinder)', None)
+    # a structure (0 DOF, no actuator) is an assembly question: where its points go, in each
+    # assembly mode; it needs no input
     if mech.dof != len(actuators):
         ctx.fail(
             'actuators',
