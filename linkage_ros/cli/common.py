@@ -185,17 +185,7 @@ def build_solve(mech, args, allow_range: bool):
     from ..core.solver import Solver
 
     items = getattr(args, 'knowns', None) or []
-    if not items and mech.dof == 0:  # a structure: where it assembles, no input to give
-        solver = Solver(
-            mech,
-            knowns=[],
-            method=args.solver,
-            tol=args.tol,
-            max_iter=args.max_iter,
-            branch=args.branch,
-        )
-        return [], [], solver
-    if not items:
+    if not items and mech.dof:  # a structure (0 DOF) is solved with no knowns: where it goes
         raise UsageError(
             'nothing to solve: give --set NAME=VALUE for each actuator '
             f'({", ".join(mech.actuators)}), or --target / --target-point'
