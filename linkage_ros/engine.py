@@ -15,7 +15,7 @@ import itertools
 import math
 import time
 from collections import OrderedDict
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -95,7 +95,7 @@ class Engine:
         self._synced[frozenset(self.forward.knowns)] = self.version
         self._clock = time.monotonic
         self._tokens, self._t_tokens = float(SOLVER_CACHE), self._clock()
-        #: (target names, branch signs) -> an inverse solver with those branch signs fixed
+        #: (target names, branch signs or 'newton') -> that variant of the names' inverse solver
         self._explicit: dict[tuple[frozenset[str], str], Solver] = {}
         #: assembly mode -> forward configurations spread over the actuator ranges in it
         self._starts: dict[tuple[int, ...], list[Result]] = {}
@@ -139,12 +139,15 @@ class Engine:
             solver.restore(snap)
 
     # -- solvers -----------------------------------------------------------------------------------
-    def new_solver(self, knowns: Sequence[str] | None, branch: str | None = None) -> Solver:
+    def new_solver(
+        self, knowns: Sequence[str] | None, branch: str | None = None, method: str | None = None
+    ) -> Solver:
+        """A solver with the engine's settings (``branch``, ``method``: instead of theirs)."""
         s = self.settings
         return Solver(
             self.mech,
             knowns=knowns,
-            method=s.solver,
+            method=s.solver if method is None else method,
             tol=s.tolerance,
             max_iter=s.max_iterations,
             branch=s.branch if branch is None else branch,
@@ -377,31 +380,26 @@ class Engine:
 
     def _with_signs(self, solver: Solver, code: int, k: int) -> Solver:
         """The inverse solver of ``solver``'s knowns with the branch signs of bit pattern
-        ``code`` (k dyads), cached."""
+        ``code`` (k dyads)."""
         signs = ''.join('-' if code >> i & 1 else '+' for i in range(k))
-        key = (frozenset(solver.knowns), signs)
-        alt = self._explicit.get(key)
-        if alt is None:
-            alt = self._explicit[key] = self.new_solver(list(solver.knowns), branch=signs)
-            if len(self._explicit) > 4 * SOLVER_CACHE:
-                self._explicit.pop(next(iter(self._explicit)))
-        return alt
+        return self._variant(solver, signs, lambda: self.new_solver(solver.knowns, branch=signs))
 
     def _newton_for(self, solver: Solver) -> Solver:
-        """A Newton-only solver of ``solver``'s knowns (cached): its root is the one nearest
-        its start, where a hybrid solve's closed-form part fixes some values whatever the
-        start."""
-        key = (frozenset(solver.knowns), 'newton')
+        """A Newton-only solver of ``solver``'s knowns: its root is the one nearest its start,
+        where a hybrid solve's closed-form part fixes some values whatever the start."""
+        return self._variant(
+            solver, 'newton', lambda: self.new_solver(solver.knowns, method='newton')
+        )
+
+    def _variant(self, solver: Solver, kind: str, make: Callable[[], Solver]) -> Solver:
+        """A variant of ``solver`` (other branch signs, Newton only), made once and kept; the
+        oldest is dropped beyond 4 x SOLVER_CACHE."""
+        key = (frozenset(solver.knowns), kind)
         alt = self._explicit.get(key)
         if alt is None:
-            s = self.settings
-            alt = self._explicit[key] = Solver(
-                self.mech,
-                knowns=list(solver.knowns),
-                method='newton',
-                tol=s.tolerance,
-                max_iter=s.max_iterations,
-            )
+            alt = self._explicit[key] = make()
+            if len(self._explicit) > 4 * SOLVER_CACHE:
+                self._explicit.pop(next(iter(self._explicit)))
         return alt
 
     def _multi_start(
@@ -456,22 +454,32 @@ class Engine:
         last = self.last
         return sorted(starts, key=lambda r: _distance(last, r))
 
+    def point_hold(self, point: str) -> list[str]:
+        """The target_point_hold names a target on ``point`` keeps (the point itself excepted)."""
+        return [h for h in self.settings.target_point_hold if h != point]
+
+    def held_now(self, names: Sequence[str]) -> dict[str, Any] | str:
+        """``names`` at their values in the last good state, or why there are none."""
+        last = self.last
+        if last is None:
+            return (
+                f'no good state yet to take the held value(s) {list(names)} from: send a '
+                'command first'
+            )
+        return {h: current_value(self.mech, last, h) for h in names}
+
     def target_point(self, point: str, xy: tuple[float, float]) -> Result:
         """Inverse kinematics: put ``point`` at ``xy``; target_point_hold names keep their value
         in the last good state."""
         key = f'point:{point}'  # explicit: a point may share its name with a joint
-        hold = [h for h in self.settings.target_point_hold if h != point]
+        hold = self.point_hold(point)
         solver = self.solver_for([key] + hold)
         values: dict[str, Any] = {}
         if hold and not isinstance(solver, str):
-            last = self.last
-            if last is None:
-                return Result(
-                    False,
-                    'no good state yet to take the held value(s) '
-                    f'{hold} from: send a command first',
-                )
-            values = {h: current_value(self.mech, last, h) for h in hold}
+            held = self.held_now(hold)
+            if isinstance(held, str):
+                return Result(False, held)
+            values = held
         if isinstance(solver, str) and self.mech.dof > 2 and not hold:
             solver += (
                 f' (a point target fixes 2 of the {self.mech.dof} degrees of freedom: '

@@ -255,15 +255,13 @@ def path_targets(
     mech = engine.mech
     if point not in mech.points:
         return f'unknown point {echo(point)} of {mech.name!r}'
-    hold = [h for h in engine.settings.target_point_hold if h != point]
+    hold = engine.point_hold(point)
     held: dict[str, Any] = {}
     if hold:
-        last = engine.last
-        if last is None:
-            return f'no good state yet to take the held value(s) {hold} from: send a command first'
-        from .engine import current_value
-
-        held = {h: current_value(mech, last, h) for h in hold}
+        now = engine.held_now(hold)
+        if isinstance(now, str):
+            return now
+        held = now
         if any(isinstance(v, tuple) for v in held.values()):
             return 'a held point cannot be part of a path target; hold joints, links or actuators'
     elif mech.dof > 2:
