@@ -19,7 +19,10 @@ from typing import Any
 
 from .core.errors import CommandError, echo
 from .core.solver import Result
+from .core.solver.result import branch_text
+from .core.velocity import velocities
 from .engine import Engine, _mode_differs, max_request_names, request_shape_error
+from .point_coordinates import group_point_coordinates
 
 #: the most points one trajectory may have (a 10 s trajectory at 1 kHz)
 MAX_TRAJECTORY_POINTS = 10_000
@@ -37,6 +40,26 @@ class TrajectoryAnswer:
     inverse: bool = False
 
     @property
+    def has_velocities(self) -> bool:
+        """Every point has its joints' velocities (the request gave them, all solved)."""
+        return all(r.velocity is not None and r.velocity.success for r in self.results)
+
+    def rows(
+        self, joint_names: Sequence[str], times_ns: Sequence[int]
+    ) -> list[tuple[list[float], list[float], int, int]]:
+        """Per point: every joint's position, their velocities (empty unless
+        :attr:`has_velocities`) and time_from_start as (sec, nanosec): what
+        ~/solved_trajectory carries, for the node's message and the bag's alike."""
+        rates = self.has_velocities
+        out = []
+        for r, t in zip(self.results, times_ns):
+            sec, nanosec = divmod(int(t), 1_000_000_000)
+            positions = [float(r.joints[j]) for j in joint_names]
+            velocities = [float(r.velocity.joints[j]) for j in joint_names] if rates else []
+            out.append((positions, velocities, sec, nanosec))
+        return out
+
+    @property
     def smallest_margin(self) -> float | None:
         margins = [r.margin for r in self.results if r.margin is not None]
         return min(margins) if margins else None
@@ -51,6 +74,13 @@ class TrajectoryAnswer:
 # node, rosbags' in the bag tool; only their fields are read) -----------------------------------
 
 
+def _too_many(what: str, n: int, items: str) -> str:
+    return (
+        f'{what} has {n} {items}; at most {MAX_TRAJECTORY_POINTS} are solved in one request '
+        '(send it in parts)'
+    )
+
+
 def duration_ns(d: Any) -> int:
     """A builtin_interfaces/Duration (or Time) in ns."""
     return int(d.sec) * 1_000_000_000 + int(d.nanosec)
@@ -62,10 +92,7 @@ def joint_trajectory_request(
     """(joint_names, positions per point, velocities per point, time_from_start ns per point);
     CommandError for more points than one request may have (checked before any copy)."""
     if len(msg.points) > MAX_TRAJECTORY_POINTS:
-        raise CommandError(
-            f'trajectory has {len(msg.points)} points; at most {MAX_TRAJECTORY_POINTS} are '
-            'solved in one request (send it in parts)'
-        )
+        raise CommandError(_too_many('trajectory', len(msg.points), 'points'))
     names = list(msg.joint_names)
     pts = msg.points
     return (
@@ -83,10 +110,7 @@ def path_request(
     first's when the stamps increase strictly, else 0: a path has no timing); CommandError for a
     frame other than the node's or a non-finite coordinate."""
     if len(msg.poses) > MAX_TRAJECTORY_POINTS:
-        raise CommandError(
-            f'path has {len(msg.poses)} poses; at most {MAX_TRAJECTORY_POINTS} are solved in one '
-            'request (send it in parts)'
-        )
+        raise CommandError(_too_many('path', len(msg.poses), 'poses'))
     frames = {msg.header.frame_id} | {p.header.frame_id for p in msg.poses}
     foreign = sorted(f for f in frames if f and f != frame_id)
     if foreign:
@@ -101,9 +125,7 @@ def path_request(
             if not math.isfinite(v):
                 raise CommandError(f'pose {i}: position.{axis} = {v} is not finite')
         xy.append((float(p.x), float(p.y)))
-    stamps = [
-        int(p.header.stamp.sec) * 1_000_000_000 + int(p.header.stamp.nanosec) for p in msg.poses
-    ]
+    stamps = [duration_ns(p.header.stamp) for p in msg.poses]
     timed = all(b > a for a, b in zip(stamps, stamps[1:]))
     times = [s - stamps[0] for s in stamps] if stamps and timed else [0] * len(stamps)
     return xy, times
@@ -120,13 +142,12 @@ def trajectory_status_values(
         if answer.failed_index is not None:
             values = {'failed_index': answer.failed_index, **values}
         return False, answer.reason, {k: str(v) for k, v in values.items()}
-    with_rates = all(r.velocity is not None and r.velocity.success for r in answer.results)
     values = {
         'points': len(answer.results),
         'residual': answer.largest_residual,
         'margin': answer.smallest_margin,
         'solver': answer.results[-1].solver,
-        'velocity': 'ok' if with_rates else 'none',
+        'velocity': 'ok' if answer.has_velocities else 'none',
         'request': request,
     }
     return True, 'ok', {k: '' if v is None else str(v) for k, v in values.items()}
@@ -148,10 +169,7 @@ def check_shape(
     if n == 0:
         return _refused('empty trajectory: no points')
     if n > MAX_TRAJECTORY_POINTS:
-        return _refused(
-            f'trajectory has {n} points; at most {MAX_TRAJECTORY_POINTS} are solved in one '
-            'request (send it in parts)'
-        )
+        return _refused(_too_many('trajectory', n, 'points'))
     why = request_shape_error(names, len(names), max_request_names(engine.mech))
     if why:
         return _refused(f'joint_names: {why}')
@@ -212,8 +230,8 @@ def solve_trajectory(
             if before is not None and _mode_differs(before, after):
                 assert after is not None
                 return _refused(
-                    f'point {i}: the assembly mode changes from {_signs(before[0])} to '
-                    f'{_signs(after[0])} between points {i - 1} and {i} (a branch jump or a '
+                    f'point {i}: the assembly mode changes from {branch_text(before[0])} to '
+                    f'{branch_text(after[0])} between points {i - 1} and {i} (a branch jump or a '
                     'toggle crossed); a mechanism cannot follow that',
                     i,
                 )
@@ -228,9 +246,6 @@ def _target_rates(
     engine: Engine, values: Mapping[str, Any], rates: Mapping[str, float], result: Result
 ) -> Any:
     """Every joint's rate for the rates of a target's names (the same Jacobian as a command's)."""
-    from .core.velocity import velocities
-    from .point_coordinates import group_point_coordinates
-
     if any('.' in n for n in rates):  # point coordinate rates: no point-velocity known yet
         return None
     solver = engine.solver_for(list(group_point_coordinates(engine.mech, values)))
@@ -240,10 +255,6 @@ def _target_rates(
     if bad:
         return None
     return velocities(solver, result, values, rates)
-
-
-def _signs(signs: Sequence[int]) -> str:
-    return ''.join('+' if s > 0 else '-' for s in signs)
 
 
 def path_targets(

@@ -26,16 +26,14 @@ def answer_to_joint_trajectory(
     msg = JointTrajectory()
     msg.header = Header(stamp=stamp, frame_id=frame_id)
     msg.joint_names = [prefix + j for j in joint_names]
-    with_rates = all(r.velocity is not None and r.velocity.success for r in answer.results)
-    points = []
-    for r, t in zip(answer.results, times_ns):
-        pt = JointTrajectoryPoint()
-        pt.positions = [float(r.joints[j]) for j in joint_names]
-        if with_rates:
-            pt.velocities = [float(r.velocity.joints[j]) for j in joint_names]
-        pt.time_from_start = Duration(sec=t // 1_000_000_000, nanosec=t % 1_000_000_000)
-        points.append(pt)
-    msg.points = points
+    msg.points = [
+        JointTrajectoryPoint(
+            positions=positions,
+            velocities=velocities,
+            time_from_start=Duration(sec=sec, nanosec=nanosec),
+        )
+        for positions, velocities, sec, nanosec in answer.rows(joint_names, times_ns)
+    ]
     return msg
 
 

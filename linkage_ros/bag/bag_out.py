@@ -337,24 +337,17 @@ def _trajectory_msg(ts: Any, req: PlanRequest, joints: list[str], frame_id: str)
     t = ts.types
     ans = req.answer
     assert ans is not None
-    with_rates = all(r.velocity is not None and r.velocity.success for r in ans.results)
-    points = []
     empty = np.zeros(0, np.float64)
-    for r, tn in zip(ans.results, req.times_ns):
-        sec, nsec = divmod(int(tn), 1_000_000_000)
-        points.append(
-            t['trajectory_msgs/msg/JointTrajectoryPoint'](
-                positions=np.array([r.joints[j] for j in joints], np.float64),
-                velocities=(
-                    np.array([r.velocity.joints[j] for j in joints], np.float64)
-                    if with_rates
-                    else empty
-                ),
-                accelerations=empty,
-                effort=empty,
-                time_from_start=t['builtin_interfaces/msg/Duration'](sec=sec, nanosec=nsec),
-            )
+    points = [
+        t['trajectory_msgs/msg/JointTrajectoryPoint'](
+            positions=np.array(positions, np.float64),
+            velocities=np.array(velocities, np.float64),
+            accelerations=empty,
+            effort=empty,
+            time_from_start=t['builtin_interfaces/msg/Duration'](sec=sec, nanosec=nanosec),
         )
+        for positions, velocities, sec, nanosec in ans.rows(joints, req.times_ns)
+    ]
     header = t['std_msgs/msg/Header'](
         stamp=t['builtin_interfaces/msg/Time'](sec=req.stamp[0], nanosec=req.stamp[1]),
         frame_id=frame_id,
