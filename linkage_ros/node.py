@@ -65,7 +65,7 @@ from .params import (
 )
 from .point_coordinates import pose_target
 from .publishing import Outputs, topic_qos
-from .stamps import stamp_error
+from .stamps import frame_error, stamp_error
 from .trajectory import TrajectoryAnswer, answer_path_msg, answer_trajectory_msg
 
 __all__ = [
@@ -282,23 +282,25 @@ class LinkageNode(Node):
             self._start_demo()
 
     # -- requests ----------------------------------------------------------------------------------
+    def _request_stamp(self, stamp: Time) -> tuple[Time, str | None]:
+        """The stamp a request's answers carry (an unset one: the node clock's now), and why
+        the request is refused for it, if it is."""
+        if is_zero_stamp(stamp):  # unset: the node clock's now
+            stamp = self.get_clock().now().to_msg()
+            if is_zero_stamp(stamp):  # sim time before the first /clock
+                return stamp, ZERO_CLOCK
+        # a stamp rclpy / rclcpp cannot turn into a time (negative, nanosec >= 1e9) would reach
+        # every consumer of the answer: refuse the request instead
+        return stamp, stamp_error(stamp.sec, stamp.nanosec)
+
     def _answer(self, request: str, stamp, solve: Callable[[], Result]) -> Result:
         """Run one request and publish its answer (Outputs.answer: on success joint_states,
         the subscribed points and an OK status; on failure only an ERROR status). Never
         raises."""
         try:
-            if is_zero_stamp(stamp):  # unset: the node clock's now
-                stamp = self.get_clock().now().to_msg()
-                zero = is_zero_stamp(stamp)  # sim time before the first /clock
-            else:
-                zero = False
-            # a stamp rclpy / rclcpp cannot turn into a time (negative, nanosec >= 1e9) would
-            # reach every consumer of the answer: refuse the request instead
-            bad_stamp = stamp_error(stamp.sec, stamp.nanosec)
+            stamp, bad_stamp = self._request_stamp(stamp)
             if bad_stamp:
                 result = Result(False, bad_stamp)
-            elif zero:
-                result = Result(False, ZERO_CLOCK)
             else:
                 try:
                     result = solve()
@@ -352,14 +354,9 @@ class LinkageNode(Node):
 
     def _on_target_pose(self, link: str, msg):
         def solve():
-            fid = msg.header.frame_id
-            if fid and fid != self.frame_id:
-                return Result(
-                    False,
-                    f'target pose of {link!r} is in frame {fid!r} but this node works in '
-                    f'{self.frame_id!r}; transform it first (or leave header.frame_id empty '
-                    'to mean the node frame)',
-                )
+            foreign = frame_error(f'target pose of {link!r}', msg.header.frame_id, self.frame_id)
+            if foreign:
+                return Result(False, foreign)
             x, y, yaw = pose_to_xy_yaw(msg, link)
             return self.engine.target(pose_target(self.mech, link, (x, y), yaw))
 
@@ -382,14 +379,10 @@ class LinkageNode(Node):
     def _answer_trajectory(self, request: str, stamp, solve) -> None:
         """_answer for a trajectory or path: the same stamp rules, one status. Never raises."""
         try:
-            if is_zero_stamp(stamp):
-                stamp = self.get_clock().now().to_msg()
-            bad_stamp = stamp_error(stamp.sec, stamp.nanosec)
+            stamp, bad_stamp = self._request_stamp(stamp)
             times: list[int] = []
             if bad_stamp:
                 answer = TrajectoryAnswer(False, bad_stamp)
-            elif is_zero_stamp(stamp):
-                answer = TrajectoryAnswer(False, ZERO_CLOCK)
             else:
                 try:
                     answer, times = solve()
@@ -405,14 +398,9 @@ class LinkageNode(Node):
     def _on_target_point(self, point: str, msg):
 
         def solve():
-            fid = msg.header.frame_id
-            if fid and fid != self.frame_id:
-                return Result(
-                    False,
-                    f'target point {point!r} is in frame {fid!r} but this node '
-                    f'works in {self.frame_id!r}; transform it first (or leave '
-                    'header.frame_id empty to mean the node frame)',
-                )
+            foreign = frame_error(f'target point {point!r}', msg.header.frame_id, self.frame_id)
+            if foreign:
+                return Result(False, foreign)
             return self.engine.target_point(point, point_stamped_to_xy(msg, point))
 
         self._answer(f'target_point/{point}', msg.header.stamp, solve)

@@ -1,5 +1,6 @@
-"""Which request stamps the node can echo on its answers (ROS-free: the node and the offline bag
-analysis share it, so a recorded command is refused for the same reason the node refused it)."""
+"""The header rules of a request: which stamps the node can echo on its answers, and which frames
+it answers in (ROS-free: the node and the offline bag analysis share them, so a recorded request
+is refused for the same reason the node refused it)."""
 
 from __future__ import annotations
 
@@ -34,3 +35,16 @@ def stamp_error(sec: int, nanosec: int) -> str | None:
             f'seconds into sec = {sec})'
         )
     return None
+
+
+def frame_error(
+    what: str, frame: str, node_frame: str, field: str = 'header.frame_id'
+) -> str | None:
+    """Why a request in ``frame`` cannot be answered by a node working in ``node_frame`` (there
+    is no tf lookup), or None; an empty frame means the node's."""
+    if not frame or frame == node_frame:
+        return None
+    return (
+        f'{what} is in frame {frame!r} but this node works in {node_frame!r}; transform it '
+        f'first (or leave {field} empty to mean the node frame)'
+    )

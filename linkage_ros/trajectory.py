@@ -23,6 +23,7 @@ from .core.solver.result import branch_text
 from .core.velocity import velocities
 from .engine import Engine, _mode_differs, max_request_names, request_shape_error
 from .point_coordinates import group_point_coordinates
+from .stamps import frame_error
 
 #: the most points one trajectory may have (a 10 s trajectory at 1 kHz)
 MAX_TRAJECTORY_POINTS = 10_000
@@ -115,8 +116,7 @@ def path_request(
     foreign = sorted(f for f in frames if f and f != frame_id)
     if foreign:
         raise CommandError(
-            f'path of {point!r} is in frame {foreign[0]!r} but this node works in {frame_id!r}; '
-            'transform it first (or leave frame_id empty to mean the node frame)'
+            str(frame_error(f'path of {point!r}', foreign[0], frame_id, field='frame_id'))
         )
     xy = []
     for i, pose in enumerate(msg.poses):
