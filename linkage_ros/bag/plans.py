@@ -19,7 +19,7 @@ from ..engine import Engine
 from ..stamps import stamp_error
 from ..trajectory import TrajectoryAnswer, answer_path_msg, answer_trajectory_msg
 from .common import BagError
-from .reading import MAX_LOG_NS, _exc_text, _open_reader, _shortfall
+from .reading import _exc_text, _open_reader, _shortfall, check_log_time, topic_connections
 
 TRAJECTORY = 'trajectory_msgs/msg/JointTrajectory'
 PATH = 'nav_msgs/msg/Path'
@@ -75,28 +75,10 @@ def read_plan_requests(
     reader = _open_reader(path)
     out: list[PlanRequest] = []
     try:
-        available = {c.topic: c.msgtype for c in reader.connections}
-        conns = []
-        for topic, want in topics:
-            if topic not in available:
-                listing = ', '.join(f'{t} ({m})' for t, m in sorted(available.items())) or 'none'
-                raise BagError(
-                    f'input {path}: topic {topic} is not in the bag; topics in the bag: {listing}'
-                )
-            types = {c.msgtype for c in reader.connections if c.topic == topic}
-            if types != {want}:
-                raise BagError(
-                    f'input {path}: topic {topic} has type {", ".join(sorted(types))}; '
-                    f'expected {want}'
-                )
-            conns.append([c for c in reader.connections if c.topic == topic])
+        conns = topic_connections(reader, path, topics)
         read: dict[int, int] = {}
         for i, (conn, t, raw) in enumerate(reader.messages([c for g in conns for c in g])):
-            if not (type(t) is int and 0 <= t <= MAX_LOG_NS):
-                raise BagError(
-                    f'input {path}: message {i + 1} on {conn.topic} has the receive time '
-                    f'{echo(t)}; a bag time is an integer number of ns in [0, 2^63)'
-                )
+            check_log_time(path, i, conn.topic, t)
             try:
                 msg = _decode(raw, conn.msgtype, ts)
             except Exception as exc:  # noqa: BLE001 - a damaged message

@@ -7,6 +7,7 @@ import contextlib
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -149,24 +150,7 @@ def read_commands(
     _check_sqlite(path)
     reader = _open_reader(path)
     try:
-        try:
-            available = {c.topic: c.msgtype for c in reader.connections}
-        except Exception as exc:  # noqa: BLE001
-            raise BagError(f'input {path}: cannot list topics ({_exc_text(exc)})') from None
-        conns = []
-        for topic in topics:
-            if topic not in available:
-                listing = ', '.join(f'{t} ({m})' for t, m in sorted(available.items())) or 'none'
-                raise BagError(
-                    f'input {path}: topic {topic} is not in the bag; topics in the bag: {listing}'
-                )
-            types = {c.msgtype for c in reader.connections if c.topic == topic}
-            if types != {JOINT_STATE}:
-                raise BagError(
-                    f'input {path}: topic {topic} has type '
-                    f'{", ".join(sorted(types))}; expected {JOINT_STATE}'
-                )
-            conns.append([c for c in reader.connections if c.topic == topic])
+        conns = topic_connections(reader, path, [(t, JOINT_STATE) for t in topics])
         index = {c.id: k for k, group in enumerate(conns) for c in group}
         total = sum(c.msgcount for group in conns for c in group)
         progress.start('reading', total)
@@ -176,11 +160,7 @@ def read_commands(
         read: dict[int, int] = {}
         try:
             for i, (conn, t, raw) in enumerate(reader.messages([c for g in conns for c in g])):
-                if not (type(t) is int and 0 <= t <= MAX_LOG_NS):
-                    raise BagError(
-                        f'input {path}: message {i + 1} on {conn.topic} has the receive time '
-                        f'{echo(t)}; a bag time is an integer number of ns in [0, 2^63)'
-                    )
+                check_log_time(path, i, conn.topic, t)
                 raws.append(raw)
                 tops.append(index[conn.id])
                 stamps.append(t)
@@ -222,6 +202,38 @@ def read_commands(
         start,
         missing,
     )
+
+
+def topic_connections(reader: Any, path: str, topics: list[tuple[str, str]]) -> list[list[Any]]:
+    """The bag's connections of each (topic, message type), grouped per topic; BagError naming
+    the bag and the topic for a topic the bag lacks or holds with another type."""
+    try:
+        available = {c.topic: c.msgtype for c in reader.connections}
+    except Exception as exc:  # noqa: BLE001
+        raise BagError(f'input {path}: cannot list topics ({_exc_text(exc)})') from None
+    conns = []
+    for topic, want in topics:
+        if topic not in available:
+            listing = ', '.join(f'{t} ({m})' for t, m in sorted(available.items())) or 'none'
+            raise BagError(
+                f'input {path}: topic {topic} is not in the bag; topics in the bag: {listing}'
+            )
+        types = {c.msgtype for c in reader.connections if c.topic == topic}
+        if types != {want}:
+            raise BagError(
+                f'input {path}: topic {topic} has type {", ".join(sorted(types))}; expected {want}'
+            )
+        conns.append([c for c in reader.connections if c.topic == topic])
+    return conns
+
+
+def check_log_time(path: str, i: int, topic: str, t: Any) -> None:
+    """A receive time is an integer number of ns in [0, 2^63): BagError naming message i + 1."""
+    if not (type(t) is int and 0 <= t <= MAX_LOG_NS):
+        raise BagError(
+            f'input {path}: message {i + 1} on {topic} has the receive time {echo(t)}; a bag '
+            'time is an integer number of ns in [0, 2^63)'
+        )
 
 
 def _shortfall(path: str, conns: list, read: dict[int, int], accept: bool) -> dict[str, int]:
