@@ -76,9 +76,15 @@ def replaced_knowns(knowns: Sequence[str], pairs: Sequence[PointPair]) -> list[s
     return [second.get(k, k) for k in knowns]
 
 
-def _point(name: str, value: Any) -> np.ndarray:
+def parse_point(name: str, value: Any) -> np.ndarray:
+    """A point's value (x, y in m) as a (2,) array; ValueError naming ``name`` for anything but
+    two finite real numbers (a bool, a string or a mapping is not a coordinate)."""
     try:
-        if isinstance(value, (str, bytes, Mapping)):
+        if isinstance(value, (str, bytes, Mapping)) or any(
+            isinstance(c, (bool, np.bool_))
+            or not isinstance(c, (int, float, np.floating, np.integer))
+            for c in value
+        ):
             raise TypeError
         arr = np.asarray(value, float).reshape(-1)
     except (TypeError, ValueError, OverflowError):
@@ -106,7 +112,7 @@ def pair_values(
         raise ValueError(f'missing value(s) for {missing}')
     out = dict(values)
     for p in pairs:
-        a, b = _point(p.first, values[p.first]), _point(p.second, values[p.second])
+        a, b = parse_point(p.first, values[p.first]), parse_point(p.second, values[p.second])
         d = b - a
         given = float(math.hypot(d[0], d[1]))
         if not abs(given - p.distance_m) <= tolerance_m:

@@ -40,7 +40,7 @@ from .batch import BatchAPI
 from .configuration import ConfigurationReading
 from .modes import ModeList, mode_key, newton_modes
 from .newton_path import NewtonPath
-from .point_pairs import find_point_pairs, pair_values, replaced_knowns
+from .point_pairs import find_point_pairs, pair_values, parse_point, replaced_knowns
 from .result import (
     CLOSURE_LIMIT,
     METHODS,
@@ -317,23 +317,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         for s in self.specs:
             v = values[s.name]
             if s.kind == 'point':
-                try:
-                    if isinstance(v, (str, bytes, Mapping)) or any(
-                        isinstance(c, (bool, np.bool_))
-                        or not isinstance(c, (int, float, np.floating, np.integer))
-                        for c in v
-                    ):
-                        raise TypeError
-                    arr = np.asarray(v, float).reshape(-1)
-                except (TypeError, ValueError, OverflowError):
-                    raise ValueError(
-                        f'{s.name}: a point needs two numbers x, y (got {echo(v)})'
-                    ) from None
-                if arr.shape != (2,):
-                    raise ValueError(f'{s.name}: a point needs two numbers x, y (got {echo(v)})')
-                if not np.all(np.isfinite(arr)):
-                    raise ValueError(f'{s.name}: value must be finite (got {echo(v)})')
-                out.append(arr)
+                out.append(parse_point(s.name, v))
             else:
                 if isinstance(v, (bool, np.bool_)) or not isinstance(
                     v, (int, float, np.floating, np.integer)
