@@ -230,6 +230,17 @@ def build_solve(mech, args, allow_range: bool):
     return knowns, axes, solver
 
 
+def target_engine(mech, args):
+    """The node's engine for the command line's solver options, in the reference pose's
+    assembly mode (branch continuous): targets are answered as a node answers them."""
+    from ..engine import Engine, EngineSettings
+
+    settings = EngineSettings(
+        solver=args.solver, tolerance=args.tol, max_iterations=args.max_iter, branch='continuous'
+    )
+    return Engine(mech, settings)
+
+
 def clean(obj: Any) -> Any:
     """JSON-safe copy: tuples -> lists, numpy scalars -> Python, non-finite floats -> None."""
     if isinstance(obj, dict):

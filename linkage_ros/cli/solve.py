@@ -9,8 +9,16 @@ allows that mode, as the node's ``~/target_any_mode`` does. ``--all-branches`` l
 
 from __future__ import annotations
 
-from ..engine import Engine, EngineSettings
-from .common import OK, REFUSED, UsageError, build_solve, dumps, format_result, load_mechanism
+from .common import (
+    OK,
+    REFUSED,
+    UsageError,
+    build_solve,
+    dumps,
+    format_result,
+    load_mechanism,
+    target_engine,
+)
 
 # ---- solve -------------------------------------------------------------------------------------
 
@@ -27,15 +35,7 @@ def cmd_solve(args) -> int:
         results = modes.results
     elif solver.inverse and args.branch == 'reference':
         # the assembly mode of the reference pose, kept as a real mechanism keeps it
-        engine = Engine(
-            mech,
-            EngineSettings(
-                solver=args.solver,
-                tolerance=args.tol,
-                max_iterations=args.max_iter,
-                branch='continuous',
-            ),
-        )
+        engine = target_engine(mech, args)
         results = [engine.solve_target(solver, command, allow_mode_change=args.any_mode)]
     else:
         results = [solver.solve(command)]

@@ -6,9 +6,18 @@ from __future__ import annotations
 import csv
 import sys
 
-from ..engine import Engine, EngineSettings
 from ..outputs import written_whole
-from .common import OK, REFUSED, UsageError, _f, _grid, build_solve, dumps, load_mechanism
+from .common import (
+    OK,
+    REFUSED,
+    UsageError,
+    _f,
+    _grid,
+    build_solve,
+    dumps,
+    load_mechanism,
+    target_engine,
+)
 
 # ---- sweep -------------------------------------------------------------------------------------
 
@@ -37,15 +46,7 @@ def cmd_sweep(args) -> int:
         print('\t'.join(head))
     engine = None
     if solver.inverse and args.branch == 'continuous':  # targets as a node answers them
-        engine = Engine(
-            mech,
-            EngineSettings(
-                solver=args.solver,
-                tolerance=args.tol,
-                max_iterations=args.max_iter,
-                branch='continuous',
-            ),
-        )
+        engine = target_engine(mech, args)
     rows = []
     n_ok = n_err = 0
     for i, combo in enumerate(_grid([vals for _, vals in axes])):

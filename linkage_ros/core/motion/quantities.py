@@ -152,9 +152,9 @@ def input_sweep(
             short = min(forward, back)
             ratios[name] = max(forward, back) / short if short else math.inf
     trans: dict[str, Extreme] = {}
-    keys = list(transmission_angles(solver, results[0]))
-    for key in keys:
-        series = np.array([abs(transmission_angles(solver, r)[key]) for r in results])
+    angles = [transmission_angles(solver, r) for r in results]  # once per sample
+    for key in angles[0]:
+        series = np.array([abs(a[key]) for a in angles])
 
         def mu_of(r: Result, near: float, key: str = key) -> float:
             return abs(transmission_angles(exact, r)[key])
