@@ -208,14 +208,13 @@ class _Engine:
         columns = {nm: vals[:, j] for j, nm in enumerate(names)}
         held: tuple[str, ...] | str = ()
         if int(data.topic[a]) == 0:  # Engine.command: a partial command holds the others
-            _, held = self.engine.held_values({nm: 0.0 for nm in names})
+            # the run's held values: its rows hold the same actuators at the same last values
+            full, held = self.engine.held_values({nm: 0.0 for nm in names})
             if isinstance(held, str):
                 self._refuse_all(a, b, held)
                 return
             if held:
-                last = self.engine.last
-                assert last is not None  # held_values needs it
-                columns.update({h: np.full(b - a, last.inputs[h]) for h in held})
+                columns.update({h: np.full(b - a, full[h]) for h in held})
                 self.res.held_code[a:b] = self.res.held_code_of(', '.join(held))
                 names = list(self.forward.knowns)
         for nm, col in columns.items():
