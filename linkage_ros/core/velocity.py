@@ -10,13 +10,10 @@ a singular J there is no answer (``success`` False with the reason).
 
 from __future__ import annotations
 
-import cmath
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
-
-from .plan import ScalarPoses
 
 if TYPE_CHECKING:
     from .solver import Result, Solver
@@ -36,20 +33,6 @@ class Velocities:
     cond: float = math.inf
 
 
-def _poses(solver: Solver, result: Result) -> ScalarPoses:
-    """The link poses of a solved configuration, read back from its link angles and points."""
-    mech = solver.mech
-    poses = ScalarPoses()
-    for name, link in mech.links.items():
-        phi = float(result.links[name]) - link.angle_ref
-        rot = cmath.exp(1j * phi)
-        p = link.points[0]
-        world = complex(*result.points[p])
-        ref = complex(*(float(v) for v in mech.points[p]))
-        poses.set(name, phi, world - rot * ref, rot)
-    return poses
-
-
 def velocities(
     solver: Solver, result: Result, values: Mapping[str, Any], rates: Mapping[str, Any]
 ) -> Velocities:
@@ -59,7 +42,10 @@ def velocities(
     missing = [k for k in solver.knowns if k not in rates]
     if missing:
         return Velocities(False, f'no rate given for {missing}')
-    poses = _poses(solver, result)
+    got = solver.configuration_of(result)  # the link poses, read back from the answer
+    if got is None:
+        return Velocities(False, 'no velocity: not a solved configuration of this mechanism')
+    poses = got[1]
     x = system.x_from_poses(poses)
     comps: list[float] = []
     for s in solver.specs:

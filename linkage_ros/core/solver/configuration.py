@@ -30,7 +30,7 @@ class ConfigurationReading:
         configuration' for continuity and warm starts. Returns False, changing nothing, if the
         result is unusable: failed, missing a link or point, non-finite, or its points not where
         its link angles put them (not a rigid configuration of this mechanism)."""
-        got = self._configuration_of(result)
+        got = self.configuration_of(result)
         if got is None:
             return False
         pts, poses = got
@@ -53,13 +53,13 @@ class ConfigurationReading:
         plan = self.plan if self.plan.complete else getattr(self, 'full_plan', None)
         if plan is None or not plan.complete:
             return None
-        got = self._configuration_of(result)
+        got = self.configuration_of(result)
         if got is None:
             return None
         signs, margins = branch_geometry_one(plan, *got)
         return tuple(int(s) for s in signs), [float(m) for m in margins]
 
-    def _configuration_of(self, result: Result) -> tuple[dict[str, complex], ScalarPoses] | None:
+    def configuration_of(self, result: Result) -> tuple[dict[str, complex], ScalarPoses] | None:
         """(points, poses) of a successful result of this mechanism, or None if unusable."""
         mech = self.mech
         try:

@@ -227,7 +227,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
                 for k, s in enumerate(fwd.specs)
             }
             r = fwd.solve(cmd, commit=False)
-            got = self._configuration_of(r) if r.success else None
+            got = self.configuration_of(r) if r.success else None
             if got is None:
                 continue
             seen = True
