@@ -10,6 +10,7 @@ from typing import Any
 
 import numpy as np
 
+from ..dyads import circle_circle
 from ..errors import echo
 from .checks import TOP_KEYS, _Ctx
 from .mechanism import SOLVERS, Actuator, Link, Mechanism, PrismaticJoint, RevoluteJoint
@@ -195,25 +196,19 @@ def _point_from_distances(
     if side not in ('left', 'right'):
         ctx.fail(f'{key}.side', "must be 'left' or 'right' of the line from the first point", side)
     pa, pb = points[a], points[b]
-    d = float(math.hypot(*(pb - pa)))
-    if d == 0.0:
+    if np.array_equal(pa, pb):
         ctx.fail(f'{key}.distances', f'{a} and {b} coincide: no line to place it from', list(dist))
-    # the foot of the point on A -> B and its height (Kahan's triangle area keeps the height
-    # exact near tangency; a height of 0 is the tangent case)
-    x = (d * d + r1 * r1 - r2 * r2) / (2.0 * d)
-    sides = sorted((d, r1, r2), reverse=True)
-    p, q, t = sides
-    area4 = (p + (q + t)) * (t - (p - q)) * (t + (p - q)) * (p + (q - t))
-    if area4 < 0.0:
+    # the dyad solver's own circle-circle construction; tol 0: circles that miss by any amount
+    # do not meet (a tangency within rounding lands on it)
+    sol = circle_circle(pa, r1, pb, r2, 1.0 if side == 'left' else -1.0, tol=0.0)
+    if not bool(sol.ok):
+        d = float(math.hypot(*(pb - pa)))
         ctx.fail(
             f'{key}.distances',
             f'circles of {r1:g} m about {a} and {r2:g} m about {b} ({d:.9g} m apart) do not meet',
             dict(dist),
         )
-    h = math.sqrt(area4) / (2.0 * d)
-    u = (pb - pa) / d
-    normal = np.array([-u[1], u[0]]) * (1.0 if side == 'left' else -1.0)
-    return pa + x * u + h * normal
+    return np.asarray(sol.point, float)
 
 
 def _read_links(
