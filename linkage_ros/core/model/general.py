@@ -580,12 +580,10 @@ def _check_reference_limits(ctx: _Ctx, mech: Mechanism, form: str, data: Mapping
     """The reference pose must be one the actuators can reach: it is the node's first state and
     it chooses the assembly mode. An actuator whose reference value is outside its own limits
     is refused, naming the key and both."""
-    from ..plan.poses import ScalarPoses
+    from ..plan.poses import reference_poses
     from ..plan.spec import limit_violation, spec_for, spec_value_one
 
-    ref = ScalarPoses()
-    for l in mech.links:
-        ref.set(l, 0.0, 0j, 1 + 0j)  # every link where the scene draws it
+    ref = reference_poses(mech)
     for name, act in mech.actuators.items():
         if act.min is None and act.max is None:
             continue

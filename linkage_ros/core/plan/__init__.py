@@ -39,6 +39,7 @@ from .poses import (  # noqa: F401
     ScalarRun,
     batch_poses,
     link_poses,
+    reference_poses,
 )
 from .spec import (  # noqa: F401
     KNOWN_KINDS,

@@ -46,4 +46,12 @@ def link_poses(poses: Poses) -> LinkPoses:
 ScalarPoses = LinkPoses
 
 
+def reference_poses(mech: Mechanism) -> LinkPoses:
+    """Every link where the scene draws it (angle 0, no translation): the reference pose."""
+    ref = LinkPoses()
+    for l in mech.links:
+        ref.set(l, 0.0, 0j, 1 + 0j)
+    return ref
+
+
 ScalarRun = PlanRun

@@ -32,6 +32,7 @@ from ..plan import (
     ScalarPoses,
     Spec,
     limit_violation,
+    reference_poses,
     run_one,
     spec_for,
     spec_value_one,
@@ -249,9 +250,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
             )
 
     def _values_at_reference(self):
-        ref = ScalarPoses()
-        for l in self.mech.links:
-            ref.set(l, 0.0, 0j, 1 + 0j)
+        ref = reference_poses(self.mech)
         return [
             np.asarray(v, float) if s.kind == 'point' else float(v)
             for s, v in ((s, spec_value_one(self.mech, s, ref)) for s in self.specs)
