@@ -10,6 +10,7 @@ from typing import Any
 
 from .core.errors import PlanError
 from .core.model import Scene
+from .core.model.dimensions import parse_assignment
 from .core.solver import METHODS
 from .core.urdf import name_error
 from .engine import ConfigError, Engine, EngineSettings, fail_setting
@@ -46,6 +47,13 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         'four_bar',
         'Scene file: a path to a YAML scene, or the name of a packaged scene '
         '(four_bar, slider_crank, ...; see docs/SCENES.md).',
+    ),
+    ParamSpec(
+        'dimensions',
+        'string_array',
+        "Dimensions used exactly instead of the scene's drawing, as NAME=VALUE (m): "
+        'LINK.P-Q (the distance between two points of a link) or SLIDER.offset, e.g. '
+        "['crank.O2-A=0.016']; they override the scene's own `dimensions` (docs/SCENES.md).",
     ),
     ParamSpec(
         'solver',
@@ -147,6 +155,7 @@ class NodeConfig:
 
     scene: str = 'four_bar'
     scene_path: str = ''
+    dimensions: tuple[tuple[str, float], ...] = ()
     solver: str | None = None
     tolerance: float = 1e-12
     max_iterations: int = 50
@@ -281,6 +290,17 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
             'history depth rclpy takes)',
             depth,
         )
+    dims = v['dimensions']
+    if isinstance(dims, str) or not isinstance(dims, (list, tuple)):
+        fail_setting('dimensions', 'must be a list of NAME=VALUE strings', dims)
+    parsed = []
+    for item in dims:
+        if not isinstance(item, str):
+            fail_setting('dimensions', 'must be a list of NAME=VALUE strings', item)
+        try:
+            parsed.append(parse_assignment(item))
+        except ValueError as exc:
+            fail_setting('dimensions', str(exc), item)
     path = scene_path(scene)
     if not path.exists():
         from .resources import config_dir
@@ -295,6 +315,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
     return NodeConfig(
         scene=scene,
         scene_path=str(path),
+        dimensions=tuple(parsed),
         solver=solver or None,
         tolerance=float(tol),
         max_iterations=it,
@@ -313,7 +334,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
 
 def load_engine(config: NodeConfig) -> tuple[Scene, Engine]:
     """Load the scene and compile the forward solver; SceneError / ConfigError on failure."""
-    scene = Scene.from_yaml(config.scene_path)
+    scene = Scene.from_yaml(config.scene_path, dict(config.dimensions) or None)
     mech = scene.mechanism
     try:
         return scene, Engine(mech, config.engine_settings())

@@ -512,8 +512,17 @@ def test_every_yaml_example_in_the_scene_doc_loads():
             forms.add('cylinder')
         if data.get('sliders'):
             forms.add('slider')
+        forms |= {k for k in ('dimensions', 'slots', 'distances') if k in data}
+        for name, value in mech.stated.items():  # stated dimensions are the ones in use
+            dim = name.split('.')
+            if dim[1] != 'offset':
+                p, q = dim[1].split('-')
+                assert abs(float(np.hypot(*(mech.points[p] - mech.points[q]))) - value) <= (
+                    1e-14 * mech.length_scale
+                )
         assert Solver(mech).solve({a: reference_value(mech, a) for a in mech.actuators}).success
     assert {'four_bar', 'slider_crank', 'general', 'slider', 'cylinder'} <= forms
+    assert {'dimensions', 'slots', 'distances'} <= forms
 
 
 def reference_value(mech, actuator):

@@ -10,6 +10,7 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..cli.common import add_scene_argument
 from ..core.errors import LinkageError
 from ..core.model import Scene
 from .bag_out import write_bag
@@ -42,7 +43,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar='INPUT',
         help='rosbag2 folder (sqlite3 or mcap) or a single .mcap/.db3 file',
     )
-    parser.add_argument('--scene', required=True, help='scene file or packaged scene name')
+    add_scene_argument(parser, flag=True)
     parser.add_argument(
         '--command-topic',
         required=True,
@@ -153,7 +154,7 @@ def _run(args) -> int:
     from ..resources import scene_path
 
     t_start = time.perf_counter()
-    scene = Scene.from_yaml(scene_path(args.scene))
+    scene = Scene.from_yaml(scene_path(args.scene), dict(args.dimension) or None)
     mech = scene.mechanism
     outs = _check_outputs(args.out, args.plot)
     for opt, topic in (

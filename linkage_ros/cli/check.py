@@ -68,6 +68,7 @@ def check_report(mech, path: str, solver_method: str | None) -> dict:
         'form': mech.form,
         'links': desc['links'],
         'joints': desc['joints'],
+        'dimensions': dict(mech.stated),  # stated by name, used exactly (m)
         'n_links': desc['n_links'],
         'n_joints': desc['n_joints'],
         'dof': mech.dof,
@@ -102,6 +103,9 @@ def format_check(r: dict) -> str:
             out.append(
                 f'  {k:<{w}}  prismatic  {j["point"]} of {j["slider"]} slides in {j["guide"]}'
             )
+    if r['dimensions']:
+        out.append('dimensions (stated, used exactly)')
+        out += [f'  {k} = {v:.12g} m' for k, v in r['dimensions'].items()]
     out.append(
         f'mobility   Kutzbach 3(n-1)-2j = 3({r["n_links"]}-1)-2*{r["n_joints"]} = '
         f'{r["dof"]} DOF; {r["n_actuators"]} actuator(s): '
@@ -153,7 +157,7 @@ def format_check(r: dict) -> str:
 
 
 def cmd_check(args) -> int:
-    mech, path = load_mechanism(args.scene)
+    mech, path = load_mechanism(args.scene, args.dimension)
     report = check_report(mech, path, args.solver)
     print(dumps(report) if args.json else format_check(report))
     return OK

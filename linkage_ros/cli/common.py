@@ -155,7 +155,36 @@ def parse_known(option: str, text: str, allow_range: bool):
 # ---- scene, solver and output helpers ----------------------------------------------------------
 
 
-def load_mechanism(scene: str):
+def dimension_argument(text: str) -> tuple[str, float]:
+    """argparse type of --dimension NAME=VALUE."""
+    from ..core.model.dimensions import parse_assignment
+
+    try:
+        return parse_assignment(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_scene_argument(p: argparse.ArgumentParser, flag: bool = False) -> None:
+    """SCENE (or --scene) and the repeatable --dimension NAME=VALUE that overrides its stated
+    dimensions by name."""
+    if flag:
+        p.add_argument('--scene', required=True, help='scene file or packaged scene name')
+    else:
+        p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+    p.add_argument(
+        '--dimension',
+        action='append',
+        default=[],
+        type=dimension_argument,
+        metavar='NAME=VALUE',
+        help='a dimension used exactly instead of the drawing (m): LINK.P-Q, the distance '
+        'between two points of a link, or SLIDER.offset (repeatable; see docs/SCENES.md)',
+    )
+
+
+def load_mechanism(scene: str, dimensions: Sequence[tuple[str, float]] = ()):
+    """The scene's mechanism and its path; ``dimensions`` override its stated dimensions."""
     from ..core.model import Scene
     from ..resources import config_dir, scene_path
 
@@ -174,7 +203,7 @@ def load_mechanism(scene: str):
             f'scene {scene!r} not found: not a file and not a packaged scene'
             + (f' (packaged: {", ".join(avail)})' if avail else '')
         )
-    return Scene.from_yaml(path).mechanism, str(path)
+    return Scene.from_yaml(path, dict(dimensions) or None).mechanism, str(path)
 
 
 def build_solve(mech, args, allow_range: bool):

@@ -11,7 +11,15 @@ from typing import Any
 
 from ..core.errors import LinkageError
 from .check import cmd_check
-from .common import INTERRUPTED, OK, USAGE_ERROR, UsageError, _Known, _Parser
+from .common import (
+    INTERRUPTED,
+    OK,
+    USAGE_ERROR,
+    UsageError,
+    _Known,
+    _Parser,
+    add_scene_argument,
+)
 from .solve import cmd_solve
 from .sweep import cmd_sweep
 
@@ -105,7 +113,7 @@ EXTERNAL_COMMANDS = {
 
 
 def _add_solve_options(p, default_branch: str, ranges: bool):
-    p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+    add_scene_argument(p)
     g = p.add_argument_group('knowns')
     r = '[:STOP:COUNT]' if ranges else ''
     g.add_argument(
@@ -236,7 +244,7 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
         epilog=CHECK_EPILOG,
         formatter_class=fmt,
     )
-    p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+    add_scene_argument(p)
     p.add_argument(
         '--solver',
         choices=('auto', 'closed_form', 'newton'),

@@ -35,6 +35,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..core.errors import LinkageError
+from .common import add_scene_argument
 
 OK, REFUSED, USAGE_ERROR = 0, 1, 2
 PROG = 'linkage range'
@@ -51,7 +52,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
     p.epilog = __doc__.split('\n', 2)[2].rstrip() + '\n'
     p.formatter_class = argparse.RawDescriptionHelpFormatter
-    p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+    add_scene_argument(p)
     p.add_argument('--json', action='store_true', help='machine-readable output')
     p.add_argument('--point', metavar='NAME', help='reachable region of this point')
     p.add_argument(
@@ -94,11 +95,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _load(scene: str):
+def _load(scene: str, dimensions=()):
     from ..core.model import Scene
     from ..resources import scene_path
 
-    return Scene.from_yaml(scene_path(scene)).mechanism
+    return Scene.from_yaml(scene_path(scene), dict(dimensions) or None).mechanism
 
 
 def _fmt(v, unit=''):
@@ -340,7 +341,7 @@ def _print_human(r: dict, mech) -> None:
 
 def run(args) -> int:
     try:
-        mech = _load(args.scene)
+        mech = _load(args.scene, args.dimension)
         report, status = analyse(args, mech)
     except _Usage as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)

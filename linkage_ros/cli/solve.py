@@ -24,7 +24,7 @@ from .common import (
 
 
 def cmd_solve(args) -> int:
-    mech, _ = load_mechanism(args.scene)
+    mech, _ = load_mechanism(args.scene, args.dimension)
     knowns, axes, solver = build_solve(mech, args, allow_range=False)
     command = {n: vals[0] for n, vals in axes}
     if args.any_mode and (args.all_branches or not solver.inverse):

@@ -29,7 +29,7 @@ def _cell(v) -> str:
 
 
 def cmd_sweep(args) -> int:
-    mech, _ = load_mechanism(args.scene)
+    mech, _ = load_mechanism(args.scene, args.dimension)
     _, axes, solver = build_solve(mech, args, allow_range=True)
     names = [n for n, _ in axes]
     outs = [p for p in mech.outputs]

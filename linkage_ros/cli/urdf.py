@@ -21,7 +21,7 @@ import sys
 from ..core.errors import LinkageError
 from ..core.urdf import name_error, urdf_document
 from ..outputs import written_whole
-from .common import OK, USAGE_ERROR, UsageError, load_mechanism
+from .common import OK, USAGE_ERROR, UsageError, add_scene_argument, load_mechanism
 
 PROG = 'linkage urdf'
 
@@ -30,7 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.description = "Write the scene as a URDF tree (joint names = the node's joint_states)."
     p.epilog = __doc__.split('\n', 2)[2].rstrip() + '\n'
     p.formatter_class = argparse.RawDescriptionHelpFormatter
-    p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+    add_scene_argument(p)
     p.add_argument(
         '--prefix',
         default='',
@@ -46,7 +46,7 @@ def run(args: argparse.Namespace) -> int:
             why = name_error(value, allow_empty=what == 'prefix') if value is not None else None
             if why:
                 raise UsageError(f'--{what} {why}')
-        mech, _path = load_mechanism(args.scene)
+        mech, _path = load_mechanism(args.scene, args.dimension)
         text = urdf_document(mech, prefix=args.prefix, frame_id=args.frame_id)
         if args.output:
             with written_whole(args.output) as tmp:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, NoReturn
 
 import numpy as np
 
@@ -18,7 +18,9 @@ class _Ctx:
     def __init__(self, source: str):
         self.source = source
 
-    def fail(self, key: str, message: str, value: object = None, has_value: bool = True):
+    def fail(
+        self, key: str, message: str, value: object = None, has_value: bool = True
+    ) -> NoReturn:
         raise SceneError(message, file=self.source, key=key, value=value, has_value=has_value)
 
     def number(self, key: str, value: object, *, positive: bool = False) -> float:
@@ -74,4 +76,7 @@ TOP_KEYS = {
     'cylinders',
     'actuators',
     'outputs',
+    'dimensions',
+    'slots',
+    'distances',
 }

@@ -13,13 +13,31 @@ import numpy as np
 from ..dyads import circle_circle
 from ..errors import echo
 from .checks import TOP_KEYS, _Ctx
+from .constraints import expand_constraints
+from .dimensions import SHORTCUT_KEYS, LinkDistance, apply_to_shortcut, merge, parse_name
 from .mechanism import SOLVERS, Actuator, Link, Mechanism, PrismaticJoint, RevoluteJoint
+from .redraw import redraw
 from .shortcuts import _four_bar_to_general, _slider_crank_to_general
 
 
-def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
-    """Validate a scene mapping (general or shortcut form) and build the Mechanism."""
+def build_mechanism(
+    data: Any, source: str = '<scene>', dimensions: Mapping[str, float] | None = None
+) -> Mechanism:
+    """Validate a scene mapping (general or shortcut form) and build the Mechanism.
+
+    ``dimensions`` (name -> m, see :mod:`.dimensions`) override the scene's ``dimensions`` key
+    of the same name; stated dimensions are used exactly and the drawing is redrawn to them."""
     ctx = _Ctx(source)
+    if isinstance(data, Mapping) and 'points' in data and ('slots' in data or 'distances' in data):
+        expanded, stated = expand_constraints(ctx, data, _read_points(ctx, data))
+        own = data.get('dimensions')
+        if stated:  # the scene's own dimensions of the same name win
+            expanded['dimensions'] = (
+                {**stated, **own} if isinstance(own, Mapping) else stated if own is None else own
+            )
+        return build_mechanism(expanded, source, dimensions)
+    if isinstance(data, Mapping) and ('dimensions' in data or dimensions):
+        return _with_dimensions(ctx, data, dimensions)
     if not isinstance(data, Mapping):
         ctx.fail('', 'a scene must be a YAML mapping', type(data).__name__)
     ctx.only('', data, TOP_KEYS)
@@ -47,7 +65,16 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
         ctx.fail('solver', f'must be one of {list(SOLVERS)}', solver)
     form = forms[0]
     if form != 'points':
-        clash = [k for k in ('links', 'ground', 'sliders', 'cylinders', 'actuators') if k in data]
+        general_keys = (
+            'links',
+            'ground',
+            'sliders',
+            'cylinders',
+            'actuators',
+            'slots',
+            'distances',
+        )
+        clash = [k for k in general_keys if k in data]
         if clash:
             ctx.fail(
                 clash[0],
@@ -83,6 +110,43 @@ def build_mechanism(data: Any, source: str = '<scene>') -> Mechanism:
             ('crank', 'O2', 'A'): shortcut['crank'],
             ('rod', 'A', 'B'): shortcut['rod'],
         }
+    return mech
+
+
+def _with_dimensions(
+    ctx: _Ctx, data: Mapping[str, Any], overrides: Mapping[str, float] | None
+) -> Mechanism:
+    """The scene with its stated dimensions: a shortcut takes them as its own parameters; a
+    general-form scene is built as drawn, redrawn to them (same assembly mode, actuators at
+    their drawn values) and built again from the new drawing, its solver reading the stated
+    lengths exactly."""
+    dims = merge(ctx.source, data.get('dimensions'), overrides)
+    plain = {k: v for k, v in data.items() if k != 'dimensions'}
+    drawn = build_mechanism(plain, ctx.source)  # as drawn: every other key checked first
+    if not dims:
+        return drawn
+    if drawn.form in SHORTCUT_KEYS:
+        mech = build_mechanism(apply_to_shortcut(ctx.source, drawn.form, plain, dims), ctx.source)
+        mech.stated = dict(dims)
+        return mech
+    new = redraw(drawn, dims)
+    plain['points'] = {p: [x, y] for p, (x, y) in new.points.items()}
+    sliders = []
+    for spec in plain.get('sliders') or []:
+        spec = dict(spec)
+        j = spec['name']
+        spec['direction'] = list(new.slider_directions[j])
+        if not isinstance(spec.get('origin', spec['point']), str):
+            spec['origin'] = list(new.slider_origins[j])
+        sliders.append(spec)
+    if sliders:
+        plain['sliders'] = sliders
+    mech = build_mechanism(plain, ctx.source)
+    for name, value in dims.items():
+        dim = parse_name(name)
+        if isinstance(dim, LinkDistance):
+            mech.dimensions[(dim.link, dim.p, dim.q)] = value
+    mech.stated = dict(dims)
     return mech
 
 

@@ -98,6 +98,8 @@ class Mechanism:
     #: needs that distance, instead of the distance of the drawn reference coordinates (which
     #: is the given length only to within rounding)
     dimensions: dict[tuple[str, str, str], float] = field(default_factory=dict)
+    #: the dimensions stated by name (the scene's ``dimensions`` key and overrides), m
+    stated: dict[str, float] = field(default_factory=dict)
 
     def distance(self, link: str, p: str, q: str) -> float | None:
         """The stated length between points p and q of ``link``, or None."""

@@ -29,7 +29,9 @@ class Scene:
         return self.mechanism.frame_id
 
     @classmethod
-    def from_yaml(cls, path: str | Path) -> Scene:
+    def from_yaml(cls, path: str | Path, dimensions: Mapping[str, float] | None = None) -> Scene:
+        """Load a scene file; ``dimensions`` (e.g. ``{'crank.O2-A': 0.016}``, m) override the
+        file's stated dimensions by name and are used exactly (see docs/SCENES.md)."""
         path = str(path)
         text = _read_text(path)
         try:
@@ -43,11 +45,16 @@ class Scene:
             raise SceneError(
                 f'invalid YAML{where}: {getattr(exc, "problem", exc)}', file=path, key=key
             ) from None
-        return cls(mechanism=build_mechanism(data, source=path), path=path)
+        return cls(mechanism=build_mechanism(data, path, dimensions), path=path)
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any], source: str = '<scene>') -> Scene:
-        return cls(mechanism=build_mechanism(data, source=source), path=None)
+    def from_dict(
+        cls,
+        data: Mapping[str, Any],
+        source: str = '<scene>',
+        dimensions: Mapping[str, float] | None = None,
+    ) -> Scene:
+        return cls(mechanism=build_mechanism(data, source, dimensions), path=None)
 
 
 #: The largest scene file read (bytes): the largest shipped scene is a few kB; a file this big

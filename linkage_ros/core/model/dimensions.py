@@ -1,0 +1,151 @@
+"""Dimensions stated by name: the distance between two points of a link (``crank.O2-A``) or a
+slider's offset (``slide.offset``), given in the scene's ``dimensions`` key, on the command line
+(``--dimension``) or through the API (``Scene.from_yaml(path, dimensions=...)``).
+
+A stated dimension is used exactly; the drawn reference pose then only chooses the assembly
+mode. The shortcut forms take them as their own parameters (``crank.O2-A`` is ``four_bar.crank``);
+the general form is redrawn by :mod:`.redraw` and its solver reads the stated lengths.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from ..errors import SceneError, echo
+
+#: ``link.P-Q`` (a distance, m) or ``slider.offset`` (m)
+_DISTANCE_RE = re.compile(
+    r'^([A-Za-z][A-Za-z0-9_]*)\.([A-Za-z][A-Za-z0-9_]*)-([A-Za-z][A-Za-z0-9_]*)$'
+)
+_OFFSET_RE = re.compile(r'^([A-Za-z][A-Za-z0-9_]*)\.offset$')
+
+
+@dataclass(frozen=True)
+class LinkDistance:
+    """The distance (m) between points ``p`` and ``q`` of ``link``."""
+
+    link: str
+    p: str
+    q: str
+
+    @property
+    def name(self) -> str:
+        return f'{self.link}.{self.p}-{self.q}'
+
+
+@dataclass(frozen=True)
+class SliderOffset:
+    """The signed distance (m) of slider ``slider``'s line from its origin, positive to the left
+    of its direction."""
+
+    slider: str
+
+    @property
+    def name(self) -> str:
+        return f'{self.slider}.offset'
+
+
+Dimension = LinkDistance | SliderOffset
+
+#: the shortcut forms' own length parameters, by dimension name
+SHORTCUT_KEYS = {
+    'four_bar': {
+        'ground.O2-O4': 'ground',
+        'crank.O2-A': 'crank',
+        'coupler.A-B': 'coupler',
+        'rocker.O4-B': 'rocker',
+    },
+    'slider_crank': {'crank.O2-A': 'crank', 'rod.A-B': 'rod', 'slider.offset': 'offset'},
+}
+
+
+def parse_name(name: object) -> Dimension | None:
+    """The dimension a name states, or None if it is not of the form link.P-Q / slider.offset."""
+    if not isinstance(name, str):
+        return None
+    m = _OFFSET_RE.match(name)
+    if m:
+        return SliderOffset(m.group(1))
+    m = _DISTANCE_RE.match(name)
+    if m and m.group(2) != m.group(3):
+        return LinkDistance(*m.groups())
+    return None
+
+
+def parse_assignment(text: str) -> tuple[str, float]:
+    """``NAME=VALUE`` (the command line's and the node parameter's form) -> (name, value); a
+    ValueError names what is wrong."""
+    name, sep, raw = text.partition('=')
+    name = name.strip()
+    if not sep or not name:
+        raise ValueError(f'{echo(text)} is not NAME=VALUE (e.g. crank.O2-A=0.016)')
+    try:
+        value = float(raw)
+    except ValueError:
+        raise ValueError(f'{name}: {echo(raw.strip())} is not a number (m)') from None
+    return name, value
+
+
+def merge(source: str, stated: object, overrides: Mapping[str, float] | None) -> dict[str, float]:
+    """The scene's ``dimensions`` mapping with ``overrides`` on top (an override replaces the
+    scene's value of the same name), each checked to be a finite number (a distance > 0)."""
+    out: dict[str, float] = {}
+    if stated is not None and not isinstance(stated, Mapping):
+        raise SceneError(
+            'must map dimension names (link.P-Q or slider.offset) to m',
+            file=source,
+            key='dimensions',
+            value=stated,
+        )
+    for where, items in (('dimensions', stated or {}), ('override', overrides or {})):
+        for name, value in items.items():
+            key = f'dimensions.{name}' if where == 'dimensions' else f'{where} {name}'
+            dim = parse_name(name)
+            if dim is None:
+                raise SceneError(
+                    'a dimension name is link.P-Q (the distance between two points of a link) '
+                    'or slider.offset',
+                    file=source,
+                    key=key,
+                    value=name,
+                )
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                raise SceneError('must be a number (m)', file=source, key=key, value=value)
+            v = float(value)
+            if not math.isfinite(v) or (isinstance(dim, LinkDistance) and not v > 0):
+                what = 'a finite number' if isinstance(dim, SliderOffset) else 'a length > 0'
+                raise SceneError(f'must be {what} (m)', file=source, key=key, value=value)
+            out[str(name)] = v
+    return out
+
+
+def apply_to_shortcut(
+    source: str, form: str, data: Mapping[str, Any], dims: Mapping[str, float]
+) -> dict[str, Any]:
+    """A shortcut scene with its length parameters replaced by the stated dimensions."""
+    keys = SHORTCUT_KEYS[form]
+    spec = dict(data[form]) if isinstance(data[form], Mapping) else data[form]
+    for name, value in dims.items():
+        if name not in keys:
+            raise SceneError(
+                f'is not a dimension of the {form} shortcut (its dimensions: '
+                f'{", ".join(keys)}); for others write the scene in the general form',
+                file=source,
+                key=f'dimensions.{name}',
+                value=value,
+            )
+        if form == 'four_bar' and keys[name] == 'ground' and 'pivots' in spec:
+            raise SceneError(
+                'the four_bar gives its ground by pivots: move O2 or O4 instead',
+                file=source,
+                key=f'dimensions.{name}',
+                value=value,
+            )
+        spec[keys[name]] = value
+    out = {k: v for k, v in data.items() if k != 'dimensions'}
+    out[form] = spec
+    return out
