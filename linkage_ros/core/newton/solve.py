@@ -27,6 +27,34 @@ class ScalarSolve:
     """LoopSystem's one-configuration solves (a mixin: it uses the system's rows and linear
     algebra)."""
 
+    def least_miss(
+        self, x0: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None
+    ) -> float:
+        """The loop-closure miss (m, the largest row) of the least-squares configuration nearest
+        ``x0`` at ``values``: how far the mechanism is from closing at an input Newton could not
+        reach (scipy's trust-region least squares from x0, on the analytic Jacobian). A local
+        minimum: no configuration near x0 closes better."""
+        from scipy.optimize import least_squares
+
+        def fun(x):
+            return self.evaluate(x, values, fixed, jacobian=False)[0] / self.L
+
+        if not self.n:
+            return float(np.max(np.abs(fun(x0)), initial=0.0)) * self.L
+        with np.errstate(all='ignore'):
+            sol = least_squares(
+                fun,
+                np.asarray(x0, float),
+                jac=lambda x: self.evaluate(x, values, fixed)[1] / self.L,
+                method='trf',
+                x_scale='jac',
+                xtol=1e-15,
+                ftol=1e-15,
+                gtol=1e-15,
+                max_nfev=200,
+            )
+        return float(np.max(np.abs(fun(sol.x)), initial=0.0)) * self.L
+
     # -- continuation: predictor ----------------------------------------------------------------
     def value_step(self, a: Sequence, b: Sequence) -> list[float]:
         """b - a per value component in scale-free units (rad, length scales)."""

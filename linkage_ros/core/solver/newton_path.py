@@ -11,7 +11,7 @@ from ..plan import (
     branch_geometry_one,
     run_one,
 )
-from .result import NEAR_SINGULAR_COND, WALK_BUDGET, branch_text
+from .result import CLOSURE_LIMIT, NEAR_SINGULAR_COND, WALK_BUDGET, branch_text
 
 
 class NewtonPath:
@@ -28,9 +28,10 @@ class NewtonPath:
         run = run_one(self.full_plan, vals, None, None)
         if not run.ok:
             st = self.full_plan.steps[run.failure]
+            miss, L = run.violation, self.mech.length_scale
             return None, (
-                f'cannot assemble: {st.describe(self.full_plan)} does not close; misses '
-                f'by {run.violation:.6g} m'
+                f'cannot assemble: {st.describe(self.full_plan)} does not close; the '
+                f'constraint misses by {miss:.6g} m ({miss / L:.3g} of the length scale)'
             )
         keep = ScalarPoses()
         for l in self.closed_links + [self.mech.ground]:
@@ -72,6 +73,28 @@ class NewtonPath:
             if run.ok:
                 x_all = self.check_system.x_from_poses(run.poses)
         return self._ref_values, self._sub_x(x_all), None
+
+    def _refusal_at(self, vals, x0, walk_reason: str | None) -> str:
+        """Why the input ``vals`` was not reached, with the closure miss at that input: the walk's
+        own reason is about the last input part-way to it that it tried (a dyad missing by
+        1e-8 m just past the edge of reach, Newton stalling with a small residual there), not
+        about the input asked for."""
+        fixed, closed_reason = self._fixed_poses(vals)
+        if closed_reason is not None:
+            return closed_reason  # the closed-form part, at the input asked for
+        L = self.mech.length_scale
+        miss = self.system.least_miss(x0, vals, fixed)
+        walked = f'; continuation from the current configuration stopped: {walk_reason}'
+        if not miss <= max(CLOSURE_LIMIT, 10 * self.tol) * L:
+            return (
+                f'cannot assemble at this input: the nearest configuration misses closing by '
+                f'{miss:.6g} m ({miss / L:.3g} of the length scale){walked}'
+            )
+        return (
+            'this input assembles, but not from the current configuration on its branch '
+            f'(a least-squares configuration closes it to {miss / L:.3g} of the length scale)'
+            + walked
+        )
 
     def _sub_x(self, x_all):
         if self.mode == 'newton':  # every moving link is free, in the same order
@@ -242,7 +265,7 @@ class NewtonPath:
         if r is None:
             r, reason, fixed = walk(v0, x0, vals, 0, known)
         if r is None:
-            res = self._fail(reason, self._echo(vals), solver_name)
+            res = self._fail(self._refusal_at(vals, x0, reason), self._echo(vals), solver_name)
             res.iterations = total_iter[0]
             return res, None
         if branches:
