@@ -26,8 +26,14 @@ from typing import Any
 from .ros_latency import Driver, _Proc, relay_script
 from .settings import DEFAULT_DEPTH, _log
 
-#: the scenes measured: the simplest and the largest shipped mechanism
-ALL_OUTPUT_SCENES = ('four_bar', 'excavator')
+
+def all_output_scenes(chosen: tuple[str, ...] = ()) -> tuple[str, ...]:
+    """The scenes measured: ``chosen``, or every packaged scene."""
+    if chosen:
+        return chosen
+    from ..resources import config_dir
+
+    return tuple(sorted(p.stem for p in config_dir().glob('*.yaml')))
 
 
 def command_values(scene: str) -> tuple[list[str], Callable[[int], list[float]]]:
@@ -116,7 +122,12 @@ def listen(scene: str, ns: str, out: Path, quiet_s: float = 0.5) -> int:
         node.create_subscription(kind, topic, lambda _m, t=topic: count(t), qos or deep, raw=True)
         for kind, topic, qos in outputs_of(scene, ns)
     ]
-    executor = SingleThreadedExecutor()
+    try:  # the cheapest executor rclpy has: the listener stands in for a C++ display
+        from rclpy.experimental import EventsExecutor
+
+        executor: Any = EventsExecutor()
+    except ImportError:
+        executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
         while not stop or time.monotonic() - last[0] < quiet_s:
@@ -134,14 +145,21 @@ def listen(scene: str, ns: str, out: Path, quiet_s: float = 0.5) -> int:
 
 
 def bench_all_outputs(
-    driver: Driver, env: dict, work: Path, tag: str, rate: float, seconds: float, warmup: int
+    driver: Driver,
+    env: dict,
+    work: Path,
+    tag: str,
+    rate: float,
+    seconds: float,
+    warmup: int,
+    scenes: tuple[str, ...] = (),
 ) -> dict:
     """{scene: {'node': run, 'relay': run, 'outputs': {topic: messages}}} at ``rate`` Hz."""
     from .ros_latency import _Link
 
     out: dict[str, Any] = {}
     script = relay_script()
-    for scene in ALL_OUTPUT_SCENES:
+    for scene in all_output_scenes(scenes):
         names, value = command_values(scene)
         ns_node, ns_relay = f'/{tag}_all_{scene}', f'/{tag}_allrelay_{scene}'
         procs = {

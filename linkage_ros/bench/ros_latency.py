@@ -508,6 +508,7 @@ def bench_node(
                 sizes.node_all_rate,
                 sizes.node_seconds,
                 sizes.node_warmup,
+                sizes.node_all_scenes,
             )
     finally:
         for link in links.values():

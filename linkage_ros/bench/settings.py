@@ -39,6 +39,8 @@ class Sizes:
     node_deep_rates: tuple[float, ...]
     # the rate of the every-output-subscribed runs (node vs relay, per scene); 0 = skip them
     node_all_rate: float
+    # the scenes of those runs; () = every packaged scene
+    node_all_scenes: tuple[str, ...] = ()
 
 
 #: the node's default queue_depth (and the relay's): the targets' QoS in the main measurements
@@ -73,6 +75,7 @@ QUICK = Sizes(
     node_deep_depth=100,
     node_deep_rates=(200.0,),
     node_all_rate=200.0,
+    node_all_scenes=('four_bar', 'excavator'),  # the simplest and the largest
 )
 
 
