@@ -8,6 +8,7 @@ construction with the crank 15 -> 16."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 
@@ -277,3 +278,71 @@ def test_cli_and_node_parameter(capsys, tmp_path):
         make_config({'scene': str(path), 'dimensions': ['crank.O2-A=0.12']})
     )
     assert scene.mechanism.stated == {'crank.O2-A': 0.12}
+
+
+def test_a_redraw_is_bounded_in_size():
+    # 25 four-bars on one ground: 75 moving links, more than a dense redraw takes; refused at
+    # once naming the bound (a scene of thousands would take hours and GBs otherwise)
+    pts, links, acts = {}, {'ground': []}, {}
+    for k in range(25):
+        x = float(k)
+        pts |= {
+            f'O{k}': [x, 0.0],
+            f'A{k}': [x + 0.05, 0.0866],
+            f'B{k}': [x + 0.32, 0.19],
+            f'Q{k}': [x + 0.3, 0.0],
+        }
+        links['ground'] += [f'O{k}', f'Q{k}']
+        links |= {
+            f'c{k}': [f'O{k}', f'A{k}'],
+            f'k{k}': [f'A{k}', f'B{k}'],
+            f'r{k}': [f'Q{k}', f'B{k}'],
+        }
+        acts[f'a{k}'] = {'type': 'angle', 'link': f'c{k}', 'pivot': f'O{k}'}
+    data = {'points': pts, 'links': links, 'actuators': acts}
+    assert Scene.from_dict(data).mechanism.dof == 25
+    with pytest.raises(SceneError, match='at most 64 moving links; this one has 75'):
+        Scene.from_dict(data, dimensions={'c0.O0-A0': 0.11})
+
+
+def test_four_bar_coupler_point_distance_by_name():
+    fb = {
+        'four_bar': {
+            'ground': 0.3,
+            'crank': 0.1,
+            'coupler': 0.25,
+            'rocker': 0.2,
+            'coupler_point': {'name': 'P', 'distance': 0.15, 'angle': 0.5},
+        }
+    }
+    mech = Scene.from_dict(fb, dimensions={'coupler.A-P': 0.18}).mechanism
+    res = points_at(mech, [0.9])[0]
+    o = oracles.fourbar(0.3, 0.1, 0.25, 0.2, 0.9, 1, coupler_point=(0.18, 0.5))
+    assert oracles.point_error(res['P'], o['P']) <= 1e-14
+
+
+def test_every_scene_command_takes_dimension(capsys, tmp_path):
+    path = tmp_path / 'fb.yaml'
+    path.write_text(json.dumps(four_bar_drawn(LENGTHS, 1.0)))
+    out = tmp_path / 'fb.urdf'
+    assert cli_main(['urdf', str(path), '--dimension', 'crank.O2-A=0.125', '-o', str(out)]) == 0
+    assert '0.125' in out.read_text()  # the crank's pin, 0.125 m along its frame
+    assert cli_main(['range', str(path), '--dimension', 'crank.O2-A=0.125', '--json']) == 0
+    assert (
+        cli_main(
+            [
+                'sweep',
+                str(path),
+                '--dimension',
+                'crank.O2-A=0.125',
+                '--set',
+                'crank=0:1:3',
+                '--json',
+            ]
+        )
+        == 0
+    )
+    capsys.readouterr()
+    with contextlib.suppress(SystemExit):  # argparse's --help exits
+        cli_main(['bag', '--help'])
+    assert '--dimension NAME=VALUE' in capsys.readouterr().out

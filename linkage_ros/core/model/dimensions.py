@@ -127,8 +127,11 @@ def apply_to_shortcut(
     source: str, form: str, data: Mapping[str, Any], dims: Mapping[str, float]
 ) -> dict[str, Any]:
     """A shortcut scene with its length parameters replaced by the stated dimensions."""
-    keys = SHORTCUT_KEYS[form]
+    keys = dict(SHORTCUT_KEYS[form])
     spec = dict(data[form]) if isinstance(data[form], Mapping) else data[form]
+    cp = spec.get('coupler_point') if form == 'four_bar' else None
+    if isinstance(cp, Mapping):  # the coupler point's distance from A
+        keys[f'coupler.A-{cp.get("name", "P")}'] = 'coupler_point'
     for name, value in dims.items():
         if name not in keys:
             raise SceneError(
@@ -145,7 +148,10 @@ def apply_to_shortcut(
                 key=f'dimensions.{name}',
                 value=value,
             )
-        spec[keys[name]] = value
+        if keys[name] == 'coupler_point':
+            spec['coupler_point'] = {**cp, 'distance': value}  # type: ignore[dict-item]
+        else:
+            spec[keys[name]] = value
     out = {k: v for k, v in data.items() if k != 'dimensions'}
     out[form] = spec
     return out

@@ -30,6 +30,9 @@ from .mechanism import Mechanism
 CLOSURE_TOL = 1e-12
 #: the most continuation steps (halving a step that fails, from 8 equal steps)
 MAX_STEPS = 512
+#: the most moving links a redraw takes: it solves one dense system of 3 unknowns per link
+#: (the Jansen leg has 7, the excavator 13); a scene of thousands would take hours and GBs
+MAX_REDRAW_LINKS = 64
 
 
 @dataclass(frozen=True)
@@ -227,6 +230,15 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
     def fail(name: str, message: str, value: object) -> None:
         raise SceneError(message, file=mech.source, key=f'dimensions.{name}', value=value)
 
+    if len(mech.moving_links) > MAX_REDRAW_LINKS:
+        raise SceneError(
+            f'stated dimensions redraw the mechanism by one dense solve, for at most '
+            f'{MAX_REDRAW_LINKS} moving links; this one has {len(mech.moving_links)}: draw it '
+            'with the lengths instead',
+            file=mech.source,
+            key='dimensions',
+            value=sorted(dims)[:3],
+        )
     shapes = _Shapes(mech, dims, fail)
     closure = _Closure(mech, shapes)
     names = ', '.join(f'{k} = {v:g} m' for k, v in dims.items())
