@@ -62,13 +62,10 @@ class _Shapes:
                 self.lengths.setdefault(dim.link, {})[frozenset((dim.p, dim.q))] = (d0, value)
             elif isinstance(dim, SliderOffset):
                 pj = mech.prismatics.get(dim.slider)
-                if (
-                    pj is None
-                    or mech.actuators.get(dim.slider, None) is not None
-                    and (mech.actuators[dim.slider].cylinder)
-                ):
+                act = mech.actuators.get(dim.slider)
+                if pj is None or (act is not None and act.cylinder):  # a cylinder has no offset
                     fail(name, f'{dim.slider!r} is not a slider of {mech.name!r}', value)
-                assert pj is not None
+                assert pj is not None  # fail raises
                 u = complex(*pj.direction)
                 off0 = ((self.drawn[pj.point] - complex(*pj.origin)) * u.conjugate()).imag
                 if off0 == 0.0 and self.drawn[pj.point] == complex(*pj.origin):
@@ -241,7 +238,8 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
         )
     shapes = _Shapes(mech, dims, fail)
     closure = _Closure(mech, shapes)
-    names = ', '.join(f'{k} = {v:g} m' for k, v in dims.items())
+    shown = [f'{k} = {v:g} m' for k, v in list(dims.items())[:3]]
+    names = ', '.join(shown) + (f' and {len(dims) - 3} more' if len(dims) > 3 else '')
     x = np.zeros(3 * len(closure.links))
     sign = _orientation(closure, x)
     lam, step, steps = 0.0, 1.0 / 8, 0
