@@ -269,3 +269,46 @@ def test_constraints_refused_beside_a_shortcut():
         Scene.from_dict(
             {'four_bar': {'ground': 3, 'crank': 1, 'coupler': 2.5, 'rocker': 2}, 'slots': []}
         )
+
+
+def doc_scene(name):
+    """A scene of docs/SCENES.md by its name."""
+    import re
+
+    import yaml
+    from scenes import REPO
+
+    text = (REPO / 'docs' / 'SCENES.md').read_text(encoding='utf-8')
+    for block in re.findall(r'^```yaml\n(.*?)^```', text, flags=re.S | re.M):
+        data = yaml.safe_load(block)
+        if data.get('name') == name:
+            return Scene.from_dict(data, source='docs/SCENES.md').mechanism
+    raise KeyError(name)
+
+
+@pytest.mark.parametrize('name', ['slotted_lever', 'roller_follower', 'four_bar_dimensioned'])
+def test_velocities_of_the_new_joints_match_central_differences(name):
+    from test_velocity import _central
+
+    from linkage_ros.core.velocity import velocities
+
+    mech = doc_scene(name)
+    solver = Solver(mech, knowns=['crank'], outputs=list(mech.points), branch='reference')
+    L = mech.length_scale
+    checked = 0
+    for theta in np.linspace(-1.2, 1.2, 9):
+        res = solver.solve({'crank': float(theta)}, commit=False)
+        if not res.success or res.margin < 0.05:
+            continue
+        vel = velocities(solver, res, {'crank': float(theta)}, {'crank': 1.3})
+        assert vel.success, vel.reason
+        fd_joints, fd_points = _central(solver, {'crank': float(theta)}, {'crank': 1.3}, 1e-6)
+        scale = max(1.0, max(abs(v) for v in vel.joints.values()))
+        for j in mech.joint_names:
+            unit = L if j in mech.prismatics else 1.0
+            assert abs(vel.joints[j] - fd_joints[j]) <= 1e-6 * scale * unit, (name, j)
+        for p in mech.points:
+            for k in (0, 1):
+                assert abs(vel.points[p][k] - fd_points[p][k]) <= 1e-6 * scale * L, (name, p)
+        checked += 1
+    assert checked >= 4
