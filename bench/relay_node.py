@@ -2,11 +2,12 @@
 """A bare rclpy JointState relay: the baseline the node's latency is measured against.
 
 Subscribes ``~/command`` (sensor_msgs/JointState) and publishes every message unchanged on
-``joint_states``, with the node's QoS (reliable, keep last N, volatile; N = 10 as the node's
-default ``queue_depth``, or ``--depth N`` as the node's ``-p queue_depth:=N``), so the topic
+``joint_states``, with the node's QoS (reliable, keep last N, volatile; the subscription N = 10
+as the node's default ``queue_depth``, or ``--depth N`` as the node's ``-p queue_depth:=N``; the
+publisher 100 as the node's default ``output_depth``, or ``--output-depth N``), so the topic
 layout and transport match ``linkage_node`` exactly and only the work done per message differs:
 
-    python bench/relay_node.py [--depth N] --ros-args -r __ns:=/relay
+    python bench/relay_node.py [--depth N] [--output-depth N] --ros-args -r __ns:=/relay
     # /relay/relay_node/command  ->  /relay/joint_states
 
 ``linkage bench`` starts it as a separate process (see linkage_ros/bench.py).
@@ -23,16 +24,19 @@ from sensor_msgs.msg import JointState
 
 
 class Relay(Node):
-    def __init__(self, depth: int = 10):
+    def __init__(self, depth: int = 10, output_depth: int = 100):
         super().__init__('relay_node')
-        qos = QoSProfile(
-            reliability=ReliabilityPolicy.RELIABLE,
-            history=HistoryPolicy.KEEP_LAST,
-            depth=depth,
-            durability=DurabilityPolicy.VOLATILE,
-        )
-        self.pub = self.create_publisher(JointState, 'joint_states', qos)
-        self.create_subscription(JointState, '~/command', self.pub.publish, qos)
+
+        def qos(n: int) -> QoSProfile:
+            return QoSProfile(
+                reliability=ReliabilityPolicy.RELIABLE,
+                history=HistoryPolicy.KEEP_LAST,
+                depth=n,
+                durability=DurabilityPolicy.VOLATILE,
+            )
+
+        self.pub = self.create_publisher(JointState, 'joint_states', qos(output_depth))
+        self.create_subscription(JointState, '~/command', self.pub.publish, qos(depth))
 
 
 def main(args=None) -> int:
@@ -43,15 +47,22 @@ def main(args=None) -> int:
         '--depth',
         type=int,
         default=10,
-        help='history depth of both topics (keep last N; default 10)',
+        help='history depth of the command subscription (keep last N; default 10)',
+    )
+    parser.add_argument(
+        '--output-depth',
+        type=int,
+        default=100,
+        help='history depth of joint_states (keep last N; default 100)',
     )
     opts = parser.parse_args(argv[:cut])
-    if opts.depth < 1:
-        parser.error(f'--depth must be >= 1 (got {opts.depth})')
+    for flag, n in (('--depth', opts.depth), ('--output-depth', opts.output_depth)):
+        if n < 1:
+            parser.error(f'{flag} must be >= 1 (got {n})')
     rclpy.init(args=[sys.argv[0]] + argv[cut:])
     node = None
     try:
-        node = Relay(opts.depth)
+        node = Relay(opts.depth, opts.output_depth)
         rclpy.spin(node)
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

@@ -216,7 +216,8 @@ class LinkageNode(Node):
         log.info(
             f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
             f'{list(mech.actuators)}), publishing {self.resolve_topic_name("joint_states")} '
-            f'(reliable, keep last {self.config.queue_depth})'
+            f'(reliable, keep last {self.config.output_depth}; commands keep last '
+            f'{self.config.queue_depth})'
         )
         if self.config.demo_sweep:
             self._check_demo_possible()

@@ -146,6 +146,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         'commands: raise it for command streams of several hundred Hz and more.',
         constraints=f'integer, 1 <= queue_depth <= {QUEUE_DEPTH_MAX}',
     ),
+    ParamSpec(
+        'output_depth',
+        100,
+        'History depth of joint_states, ~/points/<p> and ~/status (reliable, keep last N): '
+        'a subscriber held up for less than N / command rate (100 ms at 1 kHz) still gets '
+        'every answer; a writer keeps only the last N for a reader that has not taken them.',
+        constraints=f'integer, 1 <= output_depth <= {QUEUE_DEPTH_MAX}',
+    ),
 )
 
 
@@ -169,6 +177,7 @@ class NodeConfig:
     marker_rate: float = 10.0
     executor: str = 'events'
     queue_depth: int = 10
+    output_depth: int = 100
 
     def engine_settings(self) -> EngineSettings:
         return EngineSettings(
@@ -213,6 +222,18 @@ def check_output_rate(name: str, value: Any) -> float:
             value,
         )
     return float(value)
+
+
+def check_depth(name: str, depth: Any) -> int:
+    """A history depth: an integer from 1 to the largest rclpy takes."""
+    if isinstance(depth, bool) or not isinstance(depth, int) or not 1 <= depth <= QUEUE_DEPTH_MAX:
+        fail_setting(
+            name,
+            f'must be an integer from 1 to {QUEUE_DEPTH_MAX} (the largest '
+            'history depth rclpy takes)',
+            depth,
+        )
+    return int(depth)
 
 
 def make_config(values: Mapping[str, Any]) -> NodeConfig:
@@ -282,14 +303,8 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
     executor = v['executor']
     if executor not in EXECUTORS:
         fail_setting('executor', f'must be one of {list(EXECUTORS)}', executor)
-    depth = v['queue_depth']
-    if isinstance(depth, bool) or not isinstance(depth, int) or not 1 <= depth <= QUEUE_DEPTH_MAX:
-        fail_setting(
-            'queue_depth',
-            f'must be an integer from 1 to {QUEUE_DEPTH_MAX} (the largest '
-            'history depth rclpy takes)',
-            depth,
-        )
+    depth = check_depth('queue_depth', v['queue_depth'])
+    output_depth = check_depth('output_depth', v['output_depth'])
     dims = v['dimensions']
     if isinstance(dims, str) or not isinstance(dims, (list, tuple)):
         fail_setting('dimensions', 'must be a list of NAME=VALUE strings', dims)
@@ -329,6 +344,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         marker_rate=marker_rate,
         executor=executor,
         queue_depth=depth,
+        output_depth=output_depth,
     )
 
 

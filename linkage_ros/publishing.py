@@ -76,7 +76,9 @@ class Outputs:
         # Each QoS-event handler is one more waitable that the executor polls on every wakeup,
         # which costs the same order as the solve itself: the outputs carry none (the other end
         # reports an incompatible QoS or type on its side).
-        qos = topic_qos(config.queue_depth)
+        # the answers keep output_depth for a subscriber that falls behind (a writer drops what
+        # a reader has not taken beyond its depth); a solved trajectory can be MBs: queue_depth
+        qos = topic_qos(config.output_depth)
         quiet = PublisherEventCallbacks(use_default_callbacks=False)
         self.pub_joints = node.create_publisher(
             JointState, 'joint_states', qos, event_callbacks=quiet
@@ -94,7 +96,10 @@ class Outputs:
             DiagnosticStatus, '~/status', qos, event_callbacks=quiet
         )
         self.pub_trajectory = node.create_publisher(
-            JointTrajectory, '~/solved_trajectory', qos, event_callbacks=quiet
+            JointTrajectory,
+            '~/solved_trajectory',
+            topic_qos(config.queue_depth),
+            event_callbacks=quiet,
         )
         self.pub_diagnostics = node.create_publisher(
             DiagnosticArray, '/diagnostics', topic_qos(10), event_callbacks=quiet

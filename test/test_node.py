@@ -927,7 +927,7 @@ def test_startup_log_names_the_queue_depth_and_ignored_parameters(workdir):
     """A parameter the node does not have (a misspelling) is named in a warning, not silently
     dropped; the start-up line shows the queue depth in force."""
     proc = NodeProcess(
-        workdir / 'misspelt', DOMAIN_ID, {'queue_depth': 33, 'queue_dept': 100}
+        workdir / 'misspelt', DOMAIN_ID, {'queue_depth': 33, 'output_depth': 44, 'queue_dept': 100}
     ).start()
     try:
         t_end = time.monotonic() + 30
@@ -935,7 +935,7 @@ def test_startup_log_names_the_queue_depth_and_ignored_parameters(workdir):
             time.sleep(0.05)
         out = proc.output()
         assert 'listening on' in out, out
-        assert '(reliable, keep last 33)' in out, out
+        assert '(reliable, keep last 44; commands keep last 33)' in out, out
         (warn,) = [ln for ln in out.splitlines() if 'ignoring parameter' in ln]
         assert 'WARN' in warn and "['queue_dept']" in warn and 'queue_depth' in warn, warn
     finally:
@@ -953,6 +953,10 @@ def test_parameter_file_example_is_valid():
     with pytest.raises(ConfigError, match='branch'):
         make_config(dict(params, branch='sideways'))
     assert make_config(params).queue_depth == 10
+    assert make_config(params).output_depth == 100
+    for bad in (0, 2.5, '100'):
+        with pytest.raises(ConfigError, match=f"'output_depth'.*{bad!r}"):
+            make_config(dict(params, output_depth=bad))
     assert make_config(dict(params, queue_depth=250)).queue_depth == 250
     for bad in (0, -5, 2.5, True, '100'):
         with pytest.raises(ConfigError, match=f"'queue_depth'.*{bad!r}"):
@@ -970,15 +974,25 @@ def test_parameter_file_example_is_valid():
 
 
 def test_queue_depth_sets_the_history_of_every_topic(ros):
-    """queue_depth is the keep-last depth of every subscription and publisher (reliable,
-    volatile) but ~/markers (latched, depth 1) and /diagnostics; the default is 10."""
+    """queue_depth is the keep-last depth of every subscription and of ~/solved_trajectory,
+    output_depth that of joint_states, ~/points/<p> and ~/status (reliable, volatile); ~/markers
+    is latched (depth 1) and /diagnostics the standard topic. Defaults 10 and 100."""
+    answers = ('/joint_states', '/status') + tuple(f'/points/{p}' for p in 'LKJ')
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
 
     from linkage_ros.node import LinkageNode
 
-    for depth, overrides in (
-        (10, []),
-        (250, [Parameter('queue_depth', Parameter.Type.INTEGER, 250)]),
+    for depth, out_depth, overrides in (
+        (10, 100, [Parameter('scene', value='excavator')]),
+        (
+            250,
+            7,
+            [
+                Parameter('scene', value='excavator'),
+                Parameter('queue_depth', Parameter.Type.INTEGER, 250),
+                Parameter('output_depth', Parameter.Type.INTEGER, 7),
+            ],
+        ),
     ):
         node = LinkageNode(context=ros.context, parameter_overrides=overrides)
         try:
@@ -989,10 +1003,11 @@ def test_queue_depth_sets_the_history_of_every_topic(ros):
                 and not e.topic_name.endswith(('/markers', '/diagnostics'))
             ]
             assert len(ours) >= 3 + 2 + 3  # outputs, command and target, 3 points
+            assert len([e for e in ours if e.topic_name.endswith(answers)]) == 5
             for e in ours:
                 q = e.qos_profile
                 assert (q.depth, q.history, q.reliability, q.durability) == (
-                    depth,
+                    out_depth if e.topic_name.endswith(answers) else depth,
                     HistoryPolicy.KEEP_LAST,
                     ReliabilityPolicy.RELIABLE,
                     DurabilityPolicy.VOLATILE,

@@ -232,8 +232,9 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
             '-> joint_states; points, markers and status are built only while something '
             'subscribes to them, and here nothing does) and the bare rclpy '
             'relay `bench/relay_node.py` (subscribe, publish the same message back). Reliable QoS '
-            f"(keep last {node.get('depth', DEFAULT_DEPTH)} in both targets, the node's default "
-            '`queue_depth`; 1000 on the driver), '
+            f"(commands keep last {node.get('depth', DEFAULT_DEPTH)} in both targets, the node's "
+            'default `queue_depth`; joint_states keep last 100, its default `output_depth`; '
+            '1000 on the driver), '
             f'ROS_DOMAIN_ID {node["domain_id"]}, localhost discovery, discovery and '
             'warm-up awaited before measuring.'
             + (
@@ -311,7 +312,8 @@ def _all_outputs_table(w, all_out: dict, rate, seconds) -> None:
         'EventsExecutor: it stands in for a C++ display, and a Python listener that '
         'deserialised the ~5000 messages/s would take the CPU the node needs on a small '
         'machine); the node at its defaults: '
-        'publish_rate 10 Hz, marker_rate 10 Hz, queue depth 10; the relay answers the same '
+        'publish_rate 10 Hz, marker_rate 10 Hz, queue depth 10, output depth 100; the relay '
+        '(the same depths) answers the same '
         'commands in the same run, just before; latency includes queueing):\n'
     )
     w(
