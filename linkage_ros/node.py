@@ -195,6 +195,11 @@ class LinkageNode(Node):
             f'actuators {list(mech.actuators)}, joints {mech.joint_names}, outputs '
             f'{list(mech.outputs)}, frame {self.frame_id!r}, solver '
             f'{self.engine.forward.mode}, branch {self.config.branch}'
+            + (
+                ', dimensions ' + ', '.join(f'{k}={v:.12g}' for k, v in mech.stated.items())
+                if mech.stated
+                else ''
+            )
         )
         for warning in reference_toggle_warnings(self.engine.forward):
             log.warning(f'scene {mech.name!r}: {warning}')

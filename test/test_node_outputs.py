@@ -200,3 +200,29 @@ def test_each_executor_serves_commands_and_stops_cleanly(ros, tmp_path, executor
     finally:
         assert proc.stop(signal.SIGTERM) == 0
     assert 'Traceback' not in proc.output()
+
+
+def test_dimensions_parameter_redraws_the_scene(ros, tmp_path):
+    """-p dimensions:=[crank.O2-A=0.12]: the node publishes the four-bar with that crank from
+    start-up (the reference pose, crank angle held) and says so in its first log line; the
+    pose is the one `Scene.from_yaml(..., dimensions=)` gives (the CLI's)."""
+    from linkage_ros.core.model import Scene
+    from linkage_ros.core.solver import Solver
+
+    over = Scene.from_yaml(scenes.CONFIG / 'four_bar.yaml', {'crank.O2-A': 0.12}).mechanism
+    ref = Solver(over, knowns=['crank'], branch='reference')
+    want = ref.solve(ref.reference_values()).joints
+    params = {'scene': 'four_bar', 'dimensions': ['crank.O2-A=0.12'], 'publish_rate': 10.0}
+    proc = NodeProcess(tmp_path, DOMAIN_ID, params).start()
+    try:
+        joints = ros.collector(JointState, proc.topic('joint_states'))
+        ros.wait_for_discovery([], [joints], TIMEOUT, proc)
+        assert ros.spin_until(lambda: len(joints) >= 1, TIMEOUT, proc)
+        got = dict(zip(joints.last.name, joints.last.position))
+        for name, value in want.items():
+            assert abs(got[name] - value) <= 1e-12, name
+        drawn = Solver(scenes.load('four_bar'), knowns=['crank'], branch='reference')
+        assert abs(got['B'] - drawn.solve(drawn.reference_values()).joints['B']) > 1e-3
+        assert 'dimensions crank.O2-A=0.12' in proc.output()
+    finally:
+        assert proc.stop(signal.SIGTERM) == 0
