@@ -12,6 +12,7 @@ validator serves every scene. See docs/SCENES.md for the file format.
 
 from __future__ import annotations
 
+from .actuators import _limits  # noqa: F401
 from .checks import (  # noqa: F401
     TOP_KEYS,
     _Ctx,
@@ -19,7 +20,6 @@ from .checks import (  # noqa: F401
 from .general import (  # noqa: F401
     _build_general,
     _length_scale,
-    _limits,
     _make_link,
     build_mechanism,
 )

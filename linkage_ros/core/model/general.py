@@ -12,6 +12,7 @@ import numpy as np
 
 from ..dyads import circle_circle
 from ..errors import echo
+from .actuators import _limits, _read_actuators
 from .checks import TOP_KEYS, _Ctx
 from .constraints import expand_constraints
 from .dimensions import SHORTCUT_KEYS, LinkDistance, apply_to_shortcut, merge, parse_name
@@ -471,67 +472,6 @@ def _revolute_joints(
     return revolutes
 
 
-def _read_actuators(
-    ctx: _Ctx,
-    data: Mapping[str, Any],
-    ground: str,
-    links: Mapping[str, Link],
-    prismatics: Mapping[str, PrismaticJoint],
-    actuators: dict[str, Actuator],
-) -> None:
-    """actuators: angle (a link relative to another) or slide (a prismatic joint)."""
-    turns = _AngleGraph()  # which links the angle actuators already turn relative to another
-    act_raw = data.get('actuators') or {}
-    ctx.mapping('actuators', act_raw)
-    for aname, spec in act_raw.items():
-        key = f'actuators.{aname}'
-        ctx.name(key, aname)
-        if aname in actuators:
-            ctx.fail(key, 'duplicate actuator name (a cylinder already has it)', aname)
-        spec = ctx.mapping(key, spec)
-        kind = spec.get('type')
-        lo, hi = _limits(ctx, key, spec)
-        if kind == 'angle':
-            ctx.only(key, spec, {'type', 'link', 'pivot', 'toward', 'relative_to', 'min', 'max'})
-            link = spec.get('link')
-            if not ctx.known(link, links) or link == ground:
-                ctx.fail(f'{key}.link', 'must name a moving link', link)
-            ref = spec.get('relative_to', ground)
-            if not ctx.known(ref, links) or ref == link:
-                ctx.fail(f'{key}.relative_to', 'must name another link', ref)
-            chain = turns.path(link, ref)
-            if chain is not None:
-                ctx.fail(
-                    f'{key}.relative_to',
-                    f'closes a cycle of angle actuators ({", ".join([*chain, aname])}): the '
-                    f'angle of {link!r} relative to {ref!r} is already fixed by the others',
-                    ref,
-                )
-            turns.join(link, ref, aname)
-            pivot = spec.get('pivot')
-            if not ctx.known(pivot, links[link].points):
-                ctx.fail(f'{key}.pivot', f'must be a point of link {link!r}', pivot)
-            toward = spec.get('toward')
-            if toward is None:
-                others = [p for p in links[link].points if p != pivot]
-                if not others:
-                    ctx.fail(f'{key}.toward', f'link {link!r} has one point: name `toward`', None)
-                toward = others[0]
-            if not ctx.known(toward, links[link].points) or toward == pivot:
-                ctx.fail(f'{key}.toward', f'must be another point of link {link!r}', toward)
-            actuators[aname] = Actuator(
-                aname, 'angle', link=link, reference=ref, pivot=pivot, toward=toward, min=lo, max=hi
-            )
-        elif kind == 'slide':
-            ctx.only(key, spec, {'type', 'joint', 'min', 'max'})
-            joint = spec.get('joint')
-            if not ctx.known(joint, prismatics):
-                ctx.fail(f'{key}.joint', 'must name a prismatic joint (sliders)', joint)
-            actuators[aname] = Actuator(aname, 'slide', joint=joint, min=lo, max=hi)
-        else:
-            ctx.fail(f'{key}.type', "must be 'angle' or 'slide'", kind)
-
-
 def _read_outputs(
     ctx: _Ctx,
     data: Mapping[str, Any],
@@ -575,47 +515,6 @@ def _check_one_point_links(
                 'otherwise its orientation is undefined',
                 list(link.points),
             )
-
-
-class _AngleGraph:
-    """Links joined by angle actuators (each fixes one link's angle relative to another): a
-    new actuator between links already joined would over-constrain them."""
-
-    def __init__(self) -> None:
-        self.edges: dict[str, list[tuple[str, str]]] = {}  # link -> [(other link, actuator)]
-
-    def join(self, a: str, b: str, actuator: str) -> None:
-        self.edges.setdefault(a, []).append((b, actuator))
-        self.edges.setdefault(b, []).append((a, actuator))
-
-    def path(self, a: str, b: str) -> list[str] | None:
-        """The actuators joining a to b (breadth first), or None if they are not joined."""
-        seen: dict[str, tuple[str, str] | None] = {a: None}
-        todo = [a]
-        while todo:
-            here = todo.pop(0)
-            if here == b:
-                chain: list[str] = []
-                while seen[here] is not None:
-                    prev, act = seen[here]  # type: ignore[misc]
-                    chain.append(act)
-                    here = prev
-                return chain[::-1]
-            for other, act in self.edges.get(here, []):
-                if other not in seen:
-                    seen[other] = (here, act)
-                    todo.append(other)
-        return None
-
-
-def _limits(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> tuple[float | None, float | None]:
-    lo = spec.get('min')
-    hi = spec.get('max')
-    lo = None if lo is None else ctx.number(f'{key}.min', lo)
-    hi = None if hi is None else ctx.number(f'{key}.max', hi)
-    if lo is not None and hi is not None and not lo < hi:
-        ctx.fail(f'{key}.max', f'must be greater than min ({lo})', hi)
-    return lo, hi
 
 
 def _make_link(name: str, members: tuple[str, ...], points: Mapping[str, np.ndarray]) -> Link:
