@@ -160,3 +160,18 @@ def test_launch_file_names_executables_and_files_that_exist():
     declared = set(re.findall(r"DeclareLaunchArgument\('(\w+)'", source))
     read = set(re.findall(r"LaunchConfiguration\('(\w+)'\)", source))
     assert read <= declared
+
+
+def test_start_up_does_not_import_scipy_optimize():
+    """scipy.optimize takes ~0.4 s to import: the node and every CLI command would pay it at
+    start-up. Only a redraw (stated dimensions) and a refusal's least-squares miss use it, and
+    they import it when they run."""
+    import subprocess
+    import sys
+
+    code = (
+        'import sys, linkage_ros.core.model, linkage_ros.core.solver, linkage_ros.engine, '
+        'linkage_ros.node, linkage_ros.cli; print("scipy.optimize" in sys.modules)'
+    )
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == 'False', out.stdout + out.stderr

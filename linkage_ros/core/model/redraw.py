@@ -20,7 +20,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
 from ..errors import SceneError
 from .dimensions import LinkDistance, SliderOffset, parse_name
@@ -269,6 +268,8 @@ def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
     """The closed pose nearest ``x0`` at the current blend, or None where it does not close."""
     if not len(x0):
         return x0
+    from scipy.optimize import least_squares  # only a redraw needs it (0.4 s to import)
+
     with np.errstate(all='ignore'):
         sol = least_squares(
             closure.residual, x0, method='lm', xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=400
