@@ -35,14 +35,10 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..core.errors import LinkageError
-from .common import add_scene_argument
+from .common import UsageError, add_scene_argument, load_mechanism
 
 OK, REFUSED, USAGE_ERROR = 0, 1, 2
 PROG = 'linkage range'
-
-
-class _Usage(Exception):
-    pass
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -95,13 +91,6 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     )
 
 
-def _load(scene: str, dimensions=()):
-    from ..core.model import Scene
-    from ..resources import scene_path
-
-    return Scene.from_yaml(scene_path(scene), dict(dimensions) or None).mechanism
-
-
 def _fmt(v, unit=''):
     if v is None:
         return 'none'
@@ -115,36 +104,36 @@ def _fmt(v, unit=''):
 
 def _check(args, mech):
     if (args.tilt is None) != (args.lip is None):
-        raise _Usage('--tilt LINK and --lip POINT go together')
+        raise UsageError('--tilt LINK and --lip POINT go together')
     if args.hold and args.tilt is None:
-        raise _Usage('--hold needs --tilt and --lip')
+        raise UsageError('--hold needs --tilt and --lip')
     if args.curves and not args.output:
-        raise _Usage(
+        raise UsageError(
             '--curves needs --output NAME (and --input NAME when there are several actuators)'
         )
     if args.input is not None and args.input not in mech.actuators:
-        raise _Usage(
+        raise UsageError(
             f'--input {args.input!r} is not an actuator of {mech.name!r} '
             f'({", ".join(mech.actuators)})'
         )
     if args.curves and args.input is None and len(mech.actuators) > 1:
-        raise _Usage(
+        raise UsageError(
             f'--curves needs --input NAME: {mech.name!r} has actuators {", ".join(mech.actuators)}'
         )
     if args.point is not None and args.point not in mech.points:
-        raise _Usage(
+        raise UsageError(
             f'--point {args.point!r} is not a point of {mech.name!r} ({", ".join(mech.points)})'
         )
     if args.samples < 2:
-        raise _Usage('--samples must be at least 2')
+        raise UsageError('--samples must be at least 2')
     acts = None
     if args.actuators:
         acts = [a.strip() for a in args.actuators.split(',') if a.strip()]
         bad = [a for a in acts if a not in mech.actuators]
         if bad:
-            raise _Usage(f'--actuators: {bad} not actuator(s) of {mech.name!r}')
+            raise UsageError(f'--actuators: {bad} not actuator(s) of {mech.name!r}')
         if args.point is None and not args.plot:
-            raise _Usage('--actuators needs --point (or --plot)')
+            raise UsageError('--actuators needs --point (or --plot)')
     hold = None
     if args.hold:
         try:
@@ -152,7 +141,7 @@ def _check(args, mech):
         except ValueError:
             hold = []
         if len(hold) != 2 or not all(math.isfinite(v) for v in hold):
-            raise _Usage(f'--hold must be X,Y (two numbers), got {args.hold!r}')
+            raise UsageError(f'--hold must be X,Y (two numbers), got {args.hold!r}')
     return acts, hold
 
 
@@ -188,7 +177,7 @@ def analyse(args, mech) -> tuple[dict, int]:
         report['toggles'][name] = info['toggles']
     region_point = args.point or (mech.outputs[0] if args.plot and mech.outputs else None)
     if args.plot and region_point is None:
-        raise _Usage('--plot needs --point NAME (the scene names no output point)')
+        raise UsageError('--plot needs --point NAME (the scene names no output point)')
     if region_point is not None:
         reg = motion.reachable_region(
             mech, region_point, samples_per_actuator=args.samples, actuators=acts
@@ -204,7 +193,7 @@ def analyse(args, mech) -> tuple[dict, int]:
         try:
             tilt = motion.max_tilt(mech, args.lip, args.tilt, hold_point=hold)
         except ValueError as exc:
-            raise _Usage(str(exc)) from None
+            raise UsageError(str(exc)) from None
         report['tilt'] = tilt
         if not tilt.get('ok'):
             status = REFUSED
@@ -227,7 +216,7 @@ def analyse(args, mech) -> tuple[dict, int]:
         from ..core.motion.quantities import quantities_report
 
         if len(mech.actuators) != 1:
-            raise _Usage(
+            raise UsageError(
                 f'--motion needs a scene with one actuator ({mech.name!r} has '
                 f'{len(mech.actuators)})'
             )
@@ -244,7 +233,7 @@ def analyse(args, mech) -> tuple[dict, int]:
         try:
             d = plot_output_vs_input(mech, inp, args.output, args.curves)
         except ValueError as exc:
-            raise _Usage(str(exc)) from None
+            raise UsageError(str(exc)) from None
         plots['curves'] = d['path']
     if plots:
         report['plots'] = plots
@@ -341,9 +330,9 @@ def _print_human(r: dict, mech) -> None:
 
 def run(args) -> int:
     try:
-        mech = _load(args.scene, args.dimension)
+        mech, _path = load_mechanism(args.scene, args.dimension)
         report, status = analyse(args, mech)
-    except _Usage as exc:
+    except UsageError as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
     except LinkageError as exc:
