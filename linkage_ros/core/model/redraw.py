@@ -21,7 +21,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..dyads import dyad_point, solve_rrr_dyad
 from ..errors import SceneError
+from ..ops import SCALAR
 from .dimensions import LinkDistance, SliderOffset, parse_name
 from .mechanism import Mechanism
 
@@ -123,9 +125,10 @@ class _Shapes:
         for p in pts[2:]:
             drawn_side = ((self.drawn[p] - z0) * axis.conjugate()).imag
             r0, r1 = length(pts[0], p), length(pts[1], p)
-            x = (r0 * r0 - r1 * r1 + d01 * d01) / (2.0 * d01)
-            h2 = r0 * r0 - x * x
-            if h2 < -1e-12 * r0 * r0 and fail is not None:
+            # the dyad solver's own circle-circle construction (Kahan's triangle height)
+            pair = solve_rrr_dyad(SCALAR, out[pts[0]], r0, out[pts[1]], r1)
+            z, ok = dyad_point(SCALAR, pair, -1.0 if drawn_side < 0 else 1.0)
+            if not ok and fail is not None:
                 fail(
                     f'{link}.{pts[0]}-{p}',
                     f'with {link}.{pts[0]}-{pts[1]} = {d01:.9g}, {link}.{pts[0]}-{p} = '
@@ -133,8 +136,7 @@ class _Shapes:
                     '(one side is longer than the other two together)',
                     r0,
                 )
-            h = math.copysign(math.sqrt(max(h2, 0.0)), drawn_side)
-            out[p] = z0 + axis * complex(x, h)
+            out[p] = z
         return out
 
     def offset_shift(self, slider: str, lam: float) -> float:
