@@ -33,7 +33,7 @@ class Scene:
         """Load a scene file; ``dimensions`` (e.g. ``{'crank.O2-A': 0.016}``, m) override the
         file's stated dimensions by name and are used exactly (see docs/SCENES.md)."""
         path = str(path)
-        text = _read_text(path)
+        text = read_text(path)
         try:
             data = yaml.load(text, Loader=_UniqueKeyLoader)
         except _OutOfBounds as exc:
@@ -74,9 +74,11 @@ _KINDS = (
 )
 
 
-def _read_text(path: str) -> str:
+def read_text(path: str, limit: int | None = None) -> str:
     """A scene file's text, bounded: a regular file only (opened without blocking, so a FIFO or
-    a device is refused at once), at most MAX_SCENE_BYTES, UTF-8."""
+    a device is refused at once), at most ``limit`` bytes (MAX_SCENE_BYTES), UTF-8. Robot
+    descriptions and their side files are read with it too."""
+    limit = MAX_SCENE_BYTES if limit is None else limit
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, 'O_NONBLOCK', 0) | getattr(os, 'O_NOCTTY', 0))
     except FileNotFoundError:
@@ -89,8 +91,8 @@ def _read_text(path: str) -> str:
             kind = next((what for test, what in _KINDS if test(mode)), 'not a regular file')
             raise SceneError(f'is {kind}, not a scene file (a regular file)', file=path)
         chunks, size = [], 0
-        while size <= MAX_SCENE_BYTES:
-            chunk = os.read(fd, MAX_SCENE_BYTES + 1 - size)
+        while size <= limit:
+            chunk = os.read(fd, limit + 1 - size)
             if not chunk:
                 break
             chunks.append(chunk)
@@ -99,12 +101,10 @@ def _read_text(path: str) -> str:
         raise SceneError(f'cannot read scene file: {exc.strerror or exc}', file=path) from None
     finally:
         os.close(fd)
-    if size > MAX_SCENE_BYTES:
-        raise SceneError(
-            f'larger than {MAX_SCENE_BYTES} bytes, the limit for a scene file '
-            '(the shipped scenes are a few kB)',
-            file=path,
-        )
+    if size > limit:
+        what = 'a scene file (the shipped scenes are a few kB)' if limit == MAX_SCENE_BYTES else (
+            'this file')
+        raise SceneError(f'larger than {limit} bytes, the limit for {what}', file=path)
     raw = b''.join(chunks)
     try:
         return raw.decode('utf-8')

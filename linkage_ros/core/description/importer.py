@@ -1,0 +1,538 @@
+"""A robot description -> an assembled scene (the general form, in the description's names)
+and the JointMap of its joint coordinates. One pipeline for every format: read -> closures
+from side files -> the chain in its plane -> assemble at the actuated values -> scene."""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from typing import Any
+
+import numpy as np
+
+from ..model import Mechanism, Scene
+from ..model.scene import read_text
+from .chain import Chain, find_chain, rot
+from .joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
+from .records import ClosureType, Description, DescriptionError, JointType, TreeJoint
+from .sdf_reader import read_sdf
+from .side_files import apply_side_file, load_side_file
+from .urdf_reader import read_urdf
+from .xml_text import MAX_DESCRIPTION_BYTES, parse_xml
+
+#: a description's loops count as closed when they miss by at most this fraction of its size
+#: (the solver's own closure limit)
+CLOSED = 1e-10
+#: random restarts of the assembly before a description is refused as unassemblable
+ASSEMBLY_STARTS = 24
+DESCRIPTION_SUFFIXES = ('.urdf', '.sdf', '.xml')
+
+
+@dataclass(frozen=True, eq=False)
+class Imported:
+    """A description read, assembled and turned into a scene."""
+
+    description: Description
+    chain: Chain
+    scene: dict[str, Any]  # the general-form scene mapping (``linkage import`` writes it)
+    mechanism: Mechanism
+    joint_map: JointMap
+    actuated: tuple[str, ...]
+    values: dict[str, float]  # every chain joint's value in the assembled reference pose
+    gap: float  # m: how far the loops were open at the actuated values before assembly
+    notes: tuple[str, ...]  # what the node logs at start-up (superseded mimics, the gap)
+
+
+def is_description(path_or_text: str) -> bool:
+    """True for a description path (.urdf, .sdf, .xml) or URDF/SDF text."""
+    s = path_or_text.lstrip()
+    return s.startswith('<') or path_or_text.lower().endswith(DESCRIPTION_SUFFIXES)
+
+
+def read_description(text: str, source: str) -> Description:
+    root = parse_xml(text, source)
+    if root.tag == 'robot':
+        return read_urdf(root, source)
+    if root.tag == 'sdf':
+        return read_sdf(root, source)
+    raise DescriptionError(
+        f'the root element is <{root.tag}>, not <robot> (URDF) or <sdf>', file=source
+    )
+
+
+def import_description(
+    description: str,
+    closures: str | None = None,
+    actuated: Sequence[str] | None = None,
+    values: Mapping[str, float] | None = None,
+    dimensions: Mapping[str, float] | None = None,
+    text: bool = False,
+) -> Imported:
+    """Read ``description`` (a path, or URDF/SDF text with ``text``), add the closures of the
+    side file ``closures``, and assemble at ``values`` of the actuated joints (default 0)."""
+    source = '<robot_description>' if text else description
+    body = description if text else read_text(description, MAX_DESCRIPTION_BYTES)
+    desc = read_description(body, source)
+    if closures:
+        desc = apply_side_file(desc, load_side_file(closures), closures)
+    if actuated:
+        for n in actuated:
+            if desc.joint(n) is None:
+                raise DescriptionError(
+                    'names no joint of the description', file=source, key='actuated', value=n
+                )
+        desc = replace(desc, actuated=tuple(actuated))
+    chain = find_chain(desc)
+    acts = _actuated(chain)
+    q, gap = _assemble(chain, acts, dict(values or {}))
+    scene, names = _scene(chain, acts, q, dimensions)
+    mech = Scene.from_dict(scene, source=source).mechanism
+    jmap = _joint_map(chain, acts, q, mech, names)
+    notes = []
+    if gap > CLOSED * chain.length_scale:
+        notes.append(
+            f'the description is open by {gap:.6g} m at '
+            f'{_values_text(acts, q)}: assembled (the loops closed)'
+        )
+    mimics = [j.name for j in chain.joints if j.joint.mimic is not None and j.name not in acts]
+    if mimics:
+        notes.append(f'<mimic> of {", ".join(mimics)} superseded: the closures give their values')
+    return Imported(desc, chain, scene, mech, jmap, acts, q, gap, tuple(notes))
+
+
+def _values_text(acts: Sequence[str], q: Mapping[str, float]) -> str:
+    return ', '.join(f'{a} = {q[a]:.6g}' for a in acts) or 'its pose'
+
+
+def _actuated(chain: Chain) -> tuple[str, ...]:
+    desc = chain.description
+    names = {j.name for j in chain.joints}
+    if desc.actuated is not None:
+        for n in desc.actuated:
+            if n not in names:
+                raise DescriptionError(
+                    f'actuated joint {n!r} is not in the closed chain (it is above or beside it)',
+                    file=desc.source,
+                )
+        acts = [j.name for j in chain.joints if j.name in desc.actuated]
+    else:
+        acts = [
+            j.name
+            for j in chain.joints
+            if j.joint.independent or (j.joint.independent is None and j.joint.mimic is None)
+        ]
+    dof = len(chain.joints) - 2 * len(chain.closures)
+    if dof != len(acts):
+        raise DescriptionError(
+            f'the closed chain has {dof} degree(s) of freedom ({len(chain.joints)} joints, '
+            f'{len(chain.closures)} closure(s)) but {len(acts)} joint(s) are actuated '
+            f'({", ".join(acts) or "none"}); state the actuated joints: actuated: [..] in a '
+            'closure file, or --actuated / the actuated parameter '
+            f'(chain joints: {", ".join(j.name for j in chain.joints)})',
+            file=desc.source,
+        )
+    return tuple(acts)
+
+
+def _assemble(
+    chain: Chain, acts: Sequence[str], given: dict[str, float]
+) -> tuple[dict[str, float], float]:
+    """Every chain joint's value with the loops closed at the actuated values; and the gap
+    (m) the loops had before."""
+    from scipy.optimize import least_squares
+
+    desc = chain.description
+    names = {j.name for j in chain.joints}
+    for n in given:
+        if n not in names:
+            raise DescriptionError(
+                'is not a joint of the closed chain', file=desc.source, key='values', value=n
+            )
+    passive = [j for j in chain.joints if j.name not in acts]
+    base = {j.name: float(given.get(j.name, 0.0)) for j in chain.joints}
+    scale = chain.length_scale
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        vals = dict(base)
+        vals.update({j.name: float(v) for j, v in zip(passive, x)})
+        return chain.closure_residual(chain.poses(vals)) / scale
+
+    x0 = np.array([base[j.name] for j in passive])
+    gap = float(np.linalg.norm(residual(x0))) * scale
+    best_x, best = x0, math.inf
+    rng = np.random.default_rng(0)
+    for k in range(ASSEMBLY_STARTS):
+        start = (
+            x0
+            if k == 0
+            else x0
+            + np.array(
+                [
+                    rng.uniform(-math.pi, math.pi) if j.revolute else rng.normal(0, scale)
+                    for j in passive
+                ]
+            )
+        )
+        if not passive:
+            break
+        fit = least_squares(residual, start, xtol=1e-15, ftol=1e-15, gtol=1e-15, method='lm')
+        miss = float(np.linalg.norm(fit.fun))
+        if miss < best:
+            best_x, best = fit.x, miss
+        if best <= CLOSED:
+            break
+    miss = float(np.linalg.norm(residual(best_x))) * scale
+    if miss > CLOSED * scale:
+        raise DescriptionError(
+            f'cannot assemble at {_values_text(acts, base)}: the nearest configuration misses '
+            f'closing by {miss:.6g} m ({miss / scale:.3g} of its size)',
+            file=desc.source,
+        )
+    q = dict(base)
+    q.update({j.name: float(v) for j, v in zip(passive, best_x)})
+    for j in passive:
+        if j.revolute:
+            q[j.name] = wrap(q[j.name])
+    return q, gap
+
+
+_NAME_BAD = re.compile(r'[^A-Za-z0-9_]')
+
+
+class _Names:
+    """Scene names for description names (letters, digits, _; starting with a letter)."""
+
+    def __init__(self) -> None:
+        self.used: set[str] = set()
+        self.of: dict[tuple[str, str], str] = {}
+        #: a point merged into another at the same place (a compound hinge)
+        self.alias: dict[str, str] = {}
+
+    def point(self, raw: str) -> str:
+        """The scene point of a joint or closure (after merging coincident pins)."""
+        name = self.of[('point', raw)]
+        while name in self.alias:
+            name = self.alias[name]
+        return name
+
+    def __call__(self, kind: str, raw: str) -> str:
+        key = (kind, raw)
+        if key in self.of:
+            return self.of[key]
+        name = _NAME_BAD.sub('_', raw)
+        if not name[:1].isalpha():
+            name = 'n_' + name
+        base, k = name, 1
+        while name in self.used:
+            k += 1
+            name = f'{base}_{k}'
+        self.used.add(name)
+        self.of[key] = name
+        return name
+
+
+def _scene(
+    chain: Chain,
+    acts: Sequence[str],
+    q: Mapping[str, float],
+    dimensions: Mapping[str, float] | None,
+) -> tuple[dict[str, Any], _Names]:
+    desc = chain.description
+    poses = chain.poses(q)
+    names = _Names()
+    link_name = {b: names('link', b) for b in chain.bodies}
+    points: dict[str, list[float]] = {}
+    members: dict[str, list[str]] = {b: [] for b in chain.bodies}
+    sliders: list[dict[str, Any]] = []
+    actuators: dict[str, dict[str, Any]] = {}
+
+    def place(body: str, local: np.ndarray) -> np.ndarray:
+        t, phi = poses[body]
+        return t + rot(phi) @ local
+
+    for j in chain.joints:
+        pname = names('point', j.name)
+        if j.revolute:
+            xy = place(j.parent, j.parent_point)
+            points[pname] = [float(xy[0]), float(xy[1])]
+            members[j.parent].append(pname)
+            members[j.child].append(pname)
+        else:
+            xy = place(j.child, j.child_point)
+            origin = place(j.parent, j.parent_point)
+            d = rot(poses[j.parent][1]) @ j.direction
+            points[pname] = [float(xy[0]), float(xy[1])]
+            members[j.child].append(pname)
+            sliders.append(
+                {
+                    'name': pname,
+                    'guide': link_name[j.parent],
+                    'slider': link_name[j.child],
+                    'point': pname,
+                    'direction': [float(d[0]), float(d[1])],
+                    'origin': [float(origin[0]), float(origin[1])],
+                }
+            )
+    for c in chain.closures:
+        pname = names('point', c.name)
+        xy = place(c.b, c.point_b)
+        points[pname] = [float(xy[0]), float(xy[1])]
+        members[c.b].append(pname)
+        if c.direction is None:
+            members[c.a].append(pname)
+        else:
+            origin = place(c.a, c.point_a)
+            d = rot(poses[c.a][1]) @ c.direction
+            sliders.append(
+                {
+                    'name': pname,
+                    'guide': link_name[c.a],
+                    'slider': link_name[c.b],
+                    'point': pname,
+                    'direction': [float(d[0]), float(d[1])],
+                    'origin': [float(origin[0]), float(origin[1])],
+                }
+            )
+    _merge_coincident(points, members, names, chain.length_scale, {s['point'] for s in sliders})
+    by_name = {j.name: j for j in chain.joints}
+    for a in acts:
+        j = by_name[a]
+        lim = desc.limits.get(a, j.joint.limits)
+        if j.revolute:
+            pivot = names.point(a)
+            others = [p for p in members[j.child] if p != pivot]
+            if not others:
+                raise DescriptionError(
+                    f'actuated joint {a!r} turns a link with no other joint', file=desc.source
+                )
+            spec: dict[str, Any] = {
+                'type': 'angle',
+                'link': link_name[j.child],
+                'pivot': pivot,
+                'toward': others[0],
+            }
+            if j.parent != chain.ground:
+                spec['relative_to'] = link_name[j.parent]
+            # value = sign * q + k, k read off the assembled pose
+            v_ref = _angle(points, pivot, others[0]) - _axis_angle(
+                points, members[j.parent], j.parent == chain.ground
+            )
+            k = v_ref - j.sign * q[a]
+            if (
+                lim.lower is not None
+                and lim.upper is not None
+                and lim.upper - lim.lower < (2 * math.pi)
+            ):
+                lo, hi = sorted((j.sign * lim.lower + k, j.sign * lim.upper + k))
+                spec.update(min=lo, max=hi)
+        else:
+            spec = {'type': 'slide', 'joint': names('point', a)}
+            if lim.lower is not None and lim.upper is not None:
+                spec.update(min=lim.lower, max=lim.upper)
+        actuators[names('point', a)] = spec
+    scene: dict[str, Any] = {
+        'name': names('scene', desc.name),
+        'frame_id': chain.ground,
+        'points': points,
+        'ground': link_name[chain.ground],
+        'links': {link_name[b]: members[b] for b in chain.bodies},
+    }
+    if sliders:
+        scene['sliders'] = sliders
+    if actuators:
+        scene['actuators'] = actuators
+    dims = dict(desc.dimensions) | dict(dimensions or {})
+    if dims:
+        scene['dimensions'] = dims
+    return scene, names
+
+
+def _merge_coincident(
+    points: dict[str, list[float]],
+    members: dict[str, list[str]],
+    names: _Names,
+    scale: float,
+    keep: set[str],
+) -> None:
+    """Pins of one body at one place are one pin (three links meeting there: a compound
+    hinge, which the scene makes one joint per child)."""
+    tol = 1e-9 * scale
+    for pts in members.values():
+        for i, p in enumerate(pts):
+            if p in names.alias or p in keep:
+                continue
+            for r in pts[:i]:
+                r = names.alias.get(r, r)
+                if r != p and r not in keep and math.dist(points[p], points[r]) <= tol:
+                    names.alias[p] = r
+                    break
+    for body, pts in members.items():
+        merged: list[str] = []
+        for p in pts:
+            while p in names.alias:
+                p = names.alias[p]
+            if p not in merged:
+                merged.append(p)
+        members[body] = merged
+    for p in names.alias:
+        points.pop(p, None)
+
+
+def _angle(points: Mapping[str, list[float]], a: str, b: str) -> float:
+    (ax, ay), (bx, by) = points[a], points[b]
+    return math.atan2(by - ay, bx - ax)
+
+
+def _axis_angle(points: Mapping[str, list[float]], members: Sequence[str], ground: bool) -> float:
+    """A link's reported angle in the reference pose: its first two points' direction; the
+    ground's angles are measured from +x, and a one-point link's rotation starts at 0."""
+    if ground or len(members) < 2:
+        return 0.0
+    return _angle(points, members[0], members[1])
+
+
+def _joint_map(
+    chain: Chain, acts: Sequence[str], q: Mapping[str, float], mech: Mechanism, names: _Names
+) -> JointMap:
+    """Calibrate every affine map at the reference pose (the scene solved at its own values)."""
+    from ..solver import Solver
+
+    solver = Solver(mech)
+    ref = solver.solve(solver.reference_values())
+    if not ref.success:
+        raise DescriptionError(
+            f'the imported scene does not solve at its reference pose: {ref.reason}',
+            file=chain.description.source,
+        )
+    desc = chain.description
+    links = ref.links
+    poses = chain.poses(q)
+    outputs: list[OutputJoint] = []
+    inputs: list[InputJoint] = []
+    lname = {b: names.of[('link', b)] for b in chain.bodies}
+    for j in chain.joints:
+        sname = names.point(j.name)
+        lim = desc.limits.get(j.name, j.joint.limits)
+        if j.revolute:
+            a, b = lname[j.child], lname[j.parent]
+            offset = q[j.name] - j.sign * (links[a] - links[b])
+            outputs.append(
+                OutputJoint(
+                    j.name,
+                    OutputKind.REVOLUTE,
+                    a,
+                    b,
+                    sign=j.sign,
+                    offset=offset,
+                    lower=lim.lower,
+                    upper=lim.upper,
+                )
+            )
+            scene_joint = next(
+                r for r in mech.revolutes if r.point == sname and {r.parent, r.child} == {a, b}
+            )
+            sigma = 1.0 if scene_joint.child == a else -1.0
+            v_ref = ref.joints[scene_joint.name]
+            inputs.append(
+                InputJoint(
+                    j.name,
+                    scene_joint.name,
+                    sigma * j.sign,
+                    v_ref - sigma * j.sign * q[j.name],
+                    True,
+                )
+            )
+        else:
+            offset = q[j.name] - ref.joints[sname]
+            outputs.append(
+                OutputJoint(j.name, OutputKind.PRISMATIC, scene_joint=sname, offset=offset)
+            )
+            inputs.append(InputJoint(j.name, sname, 1.0, -offset, False))
+    for a in acts:  # an actuated joint is commanded through its actuator
+        j = next(x for x in chain.joints if x.name == a)
+        sname = names.of[('point', a)]  # the actuator keeps the joint's own name
+        v_ref = ref.inputs[sname]
+        scale = j.sign if j.revolute else 1.0
+        mimic = j.joint.mimic
+        leader = mimic.joint if mimic is not None and mimic.joint in acts else ''
+        inputs = [i for i in inputs if i.name != a]
+        inputs.append(
+            InputJoint(
+                a,
+                sname,
+                scale,
+                v_ref - scale * q[a],
+                j.revolute,
+                leader=leader,
+                multiplier=mimic.multiplier if leader and mimic else 1.0,
+                mimic_offset=mimic.offset if leader and mimic else 0.0,
+            )
+        )
+    outputs += _cut_joints(chain, poses, links, lname)
+    published = {o.name for o in outputs}
+    for tj in desc.joints:  # mimics outside the chain follow their published leader
+        if tj.mimic is not None and tj.name not in published and tj.mimic.joint in published:
+            outputs.append(
+                OutputJoint(
+                    tj.name,
+                    OutputKind.MIMIC,
+                    sign=tj.mimic.multiplier,
+                    offset=tj.mimic.offset,
+                    leader=tj.mimic.joint,
+                )
+            )
+            published.add(tj.name)
+    return JointMap(outputs, inputs)
+
+
+def _cut_joints(chain: Chain, poses, links, lname) -> list[OutputJoint]:
+    """The joints whose frames a closure names (Gepetto's dummy closure joints): the first held
+    at 0, the second turned so that the two frames coincide."""
+    from .chain import angle_about_normal, frame_rotation
+
+    out: list[OutputJoint] = []
+    desc = chain.description
+    for c in chain.closures:
+        ends = [
+            (e, j) for e in (c.closure.a, c.closure.b) if e.joint and (j := desc.joint(e.joint))
+        ]
+        if not ends:
+            continue
+        if len(ends) == 2:
+            out.append(OutputJoint(ends[0][1].name, OutputKind.CONSTANT, offset=0.0))
+        end, joint = ends[-1]
+        other = c.closure.a if end is c.closure.b else c.closure.b
+        assert joint is not None
+        if joint.type is not JointType.REVOLUTE:
+            continue
+        mine, theirs = chain.body_of[end.link][0], chain.body_of[other.link][0]
+        # frames equal: Rot(n, phi_theirs - phi_mine - s q) = R_mine0 R_theirs0^T
+        delta = angle_about_normal(
+            chain, frame_rotation(chain, end) @ frame_rotation(chain, other).T, c.closure.element
+        )
+        w = frame_rotation(chain, end) @ joint.axis
+        s = 1.0 if float(w @ chain.normal) > 0 else -1.0
+        q_ref = s * (poses[theirs][1] - poses[mine][1] - delta)
+        offset = q_ref - s * (links[lname[theirs]] - links[lname[mine]])
+        out.append(
+            OutputJoint(
+                joint.name,
+                OutputKind.CUT,
+                lname[theirs],
+                lname[mine],
+                sign=s,
+                offset=offset,
+                lower=joint.limits.lower,
+                upper=joint.limits.upper,
+            )
+        )
+    return out
+
+
+def closure_types() -> tuple[str, ...]:
+    return tuple(t.value for t in ClosureType)
+
+
+__all__ = ['Imported', 'import_description', 'is_description', 'read_description', 'TreeJoint']
