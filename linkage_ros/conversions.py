@@ -132,24 +132,36 @@ def is_zero_stamp(stamp: Time) -> bool:
 
 def result_to_joint_state(
     result: Result,
-    joint_names: Sequence[str],
+    mech: Mechanism,
     stamp: Time,
     frame_id: str,
     reuse: JointState | None = None,
     prefix: str = '',
+    omit: frozenset[str] = frozenset(),
 ) -> JointState:
-    """Every joint of ``joint_names`` (active and passive, in that order) with its position.
+    """Every published joint of ``mech`` (mech.output_joint_names: the scene's, or a robot
+    description's own names and values) with its position, less the names in ``omit`` (state
+    completion: the joints the hardware publishes itself).
 
-    Revolute: child link angle minus parent link angle (rad); prismatic: slide (m).
-    velocity (rad/s, m/s) for every joint when the result carries rates (a command that gave
-    velocities), else empty; effort is always empty (kinematics only).
+    Revolute: rad; prismatic: m. velocity (rad/s, m/s) for every joint when the result carries
+    rates (a command that gave velocities), else empty; effort is always empty (kinematics only).
     ``reuse``: a message made by an earlier call with the same names and frame, refilled in
     place (a publisher serialises on publish, so one message can carry every answer).
     ``prefix`` is prepended to each published name (the node's ``prefix`` parameter).
     """
-    positions = [float(result.joints[j]) for j in joint_names]
+    names = mech.output_joint_names
+    positions = [float(v) for v in mech.output_joints(result.joints)]
     vel = result.velocity
-    rates = [vel.joints[j] for j in joint_names] if vel is not None and vel.success else []
+    rates = (
+        [float(v) for v in mech.output_joint_rates(vel.joints)]
+        if vel is not None and vel.success
+        else []
+    )
+    if omit:
+        keep = [i for i, n in enumerate(names) if n not in omit]
+        names = [names[i] for i in keep]
+        positions = [positions[i] for i in keep]
+        rates = [rates[i] for i in keep] if rates else []
     if reuse is not None:
         reuse.header.stamp = stamp
         reuse.position = positions
@@ -157,7 +169,7 @@ def result_to_joint_state(
         return reuse
     msg = JointState()
     msg.header = Header(stamp=stamp, frame_id=frame_id)
-    msg.name = [prefix + j for j in joint_names]
+    msg.name = [prefix + j for j in names]
     msg.position = positions
     msg.velocity = rates
     return msg

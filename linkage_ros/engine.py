@@ -244,7 +244,13 @@ class Engine:
         the same names) the answer's ``velocity`` holds every joint's, link's and point's rate
         (core.velocity: exact, from the loop-closure Jacobian). A partial command (some
         actuators, no unknown name) holds the others at their values in the last good state
-        (their rates 0): the answer's ``held`` names them."""
+        (their rates 0): the answer's ``held`` names them. A mechanism read from a robot
+        description takes its own joint names and values (mech.joint_coordinates)."""
+        try:
+            values = self.to_scene(values)
+            rates = None if rates is None else self.to_scene(rates, rates=True)
+        except CommandError as exc:
+            return Result(False, str(exc))
         values, held = self.held_values(values)
         if isinstance(held, str):
             return Result(False, held)
@@ -263,6 +269,12 @@ class Engine:
             result.velocity = velocities(self.forward, result, values, rates)
         result.held = held
         return result
+
+    def to_scene(self, values: Mapping[str, Any], rates: bool = False) -> dict[str, Any]:
+        """A request in the robot description's joint names and values -> the scene's knowns
+        (unchanged for a scene file); CommandError naming a joint that cannot be set."""
+        coords = self.mech.joint_coordinates
+        return dict(values) if coords is None else coords.to_scene(values, rates)
 
     def held_values(
         self, values: Mapping[str, Any]
@@ -287,7 +299,7 @@ class Engine:
         the mechanism's current assembly mode (see :meth:`solve_target`). A point is given as
         ``<point>.x`` and ``<point>.y`` (point_coordinates)."""
         try:
-            knowns = group_point_coordinates(self.mech, values)
+            knowns = group_point_coordinates(self.mech, self.to_scene(values))
         except CommandError as exc:
             return Result(False, str(exc))
         return self.solve_target(self.solver_for(list(knowns)), knowns, allow_mode_change)

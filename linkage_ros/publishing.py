@@ -71,6 +71,8 @@ class Outputs:
         mech = engine.mech
         self.node, self.engine, self.mech = node, engine, mech
         self.config, self.frame_id = config, frame_id
+        #: joints left out of joint_states: in state completion, those the hardware publishes
+        self.omit_joints: frozenset[str] = frozenset()
         #: statuses are named after the node as it runs (remapped name, namespace)
         self.status_name = f'{node.get_fully_qualified_name().lstrip("/")}: {mech.name}'
         # Each QoS-event handler is one more waitable that the executor polls on every wakeup,
@@ -164,7 +166,7 @@ class Outputs:
             self.pub_trajectory.publish(
                 answer_to_joint_trajectory(
                     answer,
-                    self.mech.joint_names,
+                    self.mech,
                     self.config.prefix,
                     stamp,
                     self.frame_id,
@@ -187,11 +189,12 @@ class Outputs:
     def _publish_state(self, result: Result, stamp: Time) -> None:
         self._joint_msg = result_to_joint_state(
             result,
-            self.mech.joint_names,
+            self.mech,
             stamp,
             self.frame_id,
             self._joint_msg,
             prefix=self.config.prefix,
+            omit=self.omit_joints,
         )
         self.pub_joints.publish(self._joint_msg)
         self._answered_since_tick = True

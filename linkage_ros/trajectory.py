@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .core.errors import CommandError, echo
+from .core.model import Mechanism
 from .core.solver import Result
 from .core.solver.result import branch_text
 from .core.velocity import velocities
@@ -46,17 +47,22 @@ class TrajectoryAnswer:
         return all(r.velocity is not None and r.velocity.success for r in self.results)
 
     def rows(
-        self, joint_names: Sequence[str], times_ns: Sequence[int]
+        self, mech: Mechanism, times_ns: Sequence[int]
     ) -> list[tuple[list[float], list[float], int, int]]:
-        """Per point: every joint's position, their velocities (empty unless
-        :attr:`has_velocities`) and time_from_start as (sec, nanosec): what
-        ~/solved_trajectory carries, for the node's message and the bag's alike."""
+        """Per point: every published joint's position (mech.output_joint_names), their
+        velocities (empty unless :attr:`has_velocities`) and time_from_start as (sec,
+        nanosec): what ~/solved_trajectory carries, for the node's message and the bag's alike."""
         rates = self.has_velocities
         out = []
         for r, t in zip(self.results, times_ns):
             sec, nanosec = divmod(int(t), 1_000_000_000)
-            positions = [float(r.joints[j]) for j in joint_names]
-            velocities = [float(r.velocity.joints[j]) for j in joint_names] if rates else []
+            positions = [float(v) for v in mech.output_joints(r.joints)]
+            vel = r.velocity
+            velocities = (
+                [float(v) for v in mech.output_joint_rates(vel.joints)]
+                if rates and vel is not None
+                else []
+            )
             out.append((positions, velocities, sec, nanosec))
         return out
 

@@ -10,29 +10,30 @@ from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
 from std_msgs.msg import Header
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from .core.model import Mechanism
 from .trajectory import TrajectoryAnswer, trajectory_status_values
 
 
 def answer_to_joint_trajectory(
     answer: TrajectoryAnswer,
-    joint_names: Sequence[str],
+    mech: Mechanism,
     prefix: str,
     stamp: Time,
     frame_id: str,
     times_ns: Sequence[int],
 ) -> JointTrajectory:
-    """Every joint of the scene at every point (rad, m), time_from_start as requested,
-    velocities when every point has them."""
+    """Every published joint (mech.output_joint_names) at every point (rad, m),
+    time_from_start as requested, velocities when every point has them."""
     msg = JointTrajectory()
     msg.header = Header(stamp=stamp, frame_id=frame_id)
-    msg.joint_names = [prefix + j for j in joint_names]
+    msg.joint_names = [prefix + j for j in mech.output_joint_names]
     msg.points = [
         JointTrajectoryPoint(
             positions=positions,
             velocities=velocities,
             time_from_start=Duration(sec=sec, nanosec=nanosec),
         )
-        for positions, velocities, sec, nanosec in answer.rows(joint_names, times_ns)
+        for positions, velocities, sec, nanosec in answer.rows(mech, times_ns)
     ]
     return msg
 

@@ -81,18 +81,19 @@ def cmd_sweep(args) -> int:
 def _csv_row(mech, i: int, res) -> list:
     if not res.success:
         return [i, 'error', res.reason or 'refused'] + [''] * (
-            len(mech.actuators) + len(mech.joint_names)
+            len(mech.output_input_names) + len(mech.output_joint_names)
         )
     return (
         [i, 'ok', '']
-        + [repr(float(res.inputs[a])) for a in mech.actuators]
-        + [repr(float(res.joints[j])) for j in mech.joint_names]
+        + [repr(float(v)) for v in mech.output_inputs(res.inputs, res.joints)]
+        + [repr(float(v)) for v in mech.output_joints(res.joints)]
     )
 
 
 def _write_csv(path: str, mech, rows: list) -> None:
     head = ['index', 'status', 'reason']
-    head += [f'actuator.{a}' for a in mech.actuators] + [f'joint.{j}' for j in mech.joint_names]
+    head += [f'actuator.{a}' for a in mech.output_input_names]
+    head += [f'joint.{j}' for j in mech.output_joint_names]
     try:
         with written_whole(path) as tmp, open(tmp, 'w', newline='') as fh:
             w = csv.writer(fh)

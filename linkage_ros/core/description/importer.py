@@ -16,7 +16,7 @@ from ..model import Mechanism, Scene
 from ..model.scene import read_text
 from .chain import Chain, find_chain, rot
 from .joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
-from .records import ClosureType, Description, DescriptionError, JointType, TreeJoint
+from .records import Description, DescriptionError, JointType
 from .sdf_reader import read_sdf
 from .side_files import apply_side_file, load_side_file
 from .urdf_reader import read_urdf
@@ -90,6 +90,7 @@ def import_description(
     scene, names = _scene(chain, acts, q, dimensions)
     mech = Scene.from_dict(scene, source=source).mechanism
     jmap = _joint_map(chain, acts, q, mech, names)
+    mech = replace(mech, joint_coordinates=jmap)
     notes = []
     if gap > CLOSED * chain.length_scale:
         notes.append(
@@ -407,53 +408,42 @@ def _joint_map(
             file=chain.description.source,
         )
     desc = chain.description
-    links = ref.links
     poses = chain.poses(q)
     outputs: list[OutputJoint] = []
     inputs: list[InputJoint] = []
     lname = {b: names.of[('link', b)] for b in chain.bodies}
+
+    def scene_pin(point: str, a: str, b: str) -> tuple[str, float]:
+        """The scene joint at ``point`` between bodies a and b, and +1 if a is its child
+        (its value is then angle(a) - angle(b)), else -1."""
+        r = next(r for r in mech.revolutes if r.point == point and {r.parent, r.child} == {a, b})
+        return r.name, 1.0 if r.child == a else -1.0
+
     for j in chain.joints:
-        sname = names.point(j.name)
         lim = desc.limits.get(j.name, j.joint.limits)
         if j.revolute:
-            a, b = lname[j.child], lname[j.parent]
-            offset = q[j.name] - j.sign * (links[a] - links[b])
-            outputs.append(
-                OutputJoint(
-                    j.name,
-                    OutputKind.REVOLUTE,
-                    a,
-                    b,
-                    sign=j.sign,
-                    offset=offset,
-                    lower=lim.lower,
-                    upper=lim.upper,
-                )
-            )
-            scene_joint = next(
-                r for r in mech.revolutes if r.point == sname and {r.parent, r.child} == {a, b}
-            )
-            sigma = 1.0 if scene_joint.child == a else -1.0
-            v_ref = ref.joints[scene_joint.name]
-            inputs.append(
-                InputJoint(
-                    j.name,
-                    scene_joint.name,
-                    sigma * j.sign,
-                    v_ref - sigma * j.sign * q[j.name],
-                    True,
-                )
-            )
+            name, sigma = scene_pin(names.point(j.name), lname[j.child], lname[j.parent])
+            scale = sigma * j.sign  # q = sign * (angle(child) - angle(parent)) + const
         else:
-            offset = q[j.name] - ref.joints[sname]
-            outputs.append(
-                OutputJoint(j.name, OutputKind.PRISMATIC, scene_joint=sname, offset=offset)
+            name, scale = names.point(j.name), 1.0
+        offset = q[j.name] - scale * ref.joints[name]
+        outputs.append(
+            OutputJoint(
+                j.name,
+                OutputKind.JOINT,
+                name,
+                scale,
+                offset,
+                j.revolute,
+                lower=lim.lower,
+                upper=lim.upper,
             )
-            inputs.append(InputJoint(j.name, sname, 1.0, -offset, False))
+        )
+        # scale is +-1: the inverse map has the same scale
+        inputs.append(InputJoint(j.name, name, scale, -scale * offset, j.revolute))
     for a in acts:  # an actuated joint is commanded through its actuator
         j = next(x for x in chain.joints if x.name == a)
         sname = names.of[('point', a)]  # the actuator keeps the joint's own name
-        v_ref = ref.inputs[sname]
         scale = j.sign if j.revolute else 1.0
         mimic = j.joint.mimic
         leader = mimic.joint if mimic is not None and mimic.joint in acts else ''
@@ -463,14 +453,14 @@ def _joint_map(
                 a,
                 sname,
                 scale,
-                v_ref - scale * q[a],
+                ref.inputs[sname] - scale * q[a],
                 j.revolute,
                 leader=leader,
                 multiplier=mimic.multiplier if leader and mimic else 1.0,
                 mimic_offset=mimic.offset if leader and mimic else 0.0,
             )
         )
-    outputs += _cut_joints(chain, poses, links, lname)
+    outputs += _cut_joints(chain, poses, ref.joints, lname, names, scene_pin)
     published = {o.name for o in outputs}
     for tj in desc.joints:  # mimics outside the chain follow their published leader
         if tj.mimic is not None and tj.name not in published and tj.mimic.joint in published:
@@ -478,18 +468,18 @@ def _joint_map(
                 OutputJoint(
                     tj.name,
                     OutputKind.MIMIC,
-                    sign=tj.mimic.multiplier,
+                    scale=tj.mimic.multiplier,
                     offset=tj.mimic.offset,
                     leader=tj.mimic.joint,
                 )
             )
             published.add(tj.name)
-    return JointMap(outputs, inputs)
+    return JointMap(outputs, inputs, acts)
 
 
-def _cut_joints(chain: Chain, poses, links, lname) -> list[OutputJoint]:
+def _cut_joints(chain: Chain, poses, ref_joints, lname, names, scene_pin) -> list[OutputJoint]:
     """The joints whose frames a closure names (Gepetto's dummy closure joints): the first held
-    at 0, the second turned so that the two frames coincide."""
+    at 0, the second turned with the closure's pin so that the two frames coincide."""
     from .chain import angle_about_normal, frame_rotation
 
     out: list[OutputJoint] = []
@@ -498,32 +488,32 @@ def _cut_joints(chain: Chain, poses, links, lname) -> list[OutputJoint]:
         ends = [
             (e, j) for e in (c.closure.a, c.closure.b) if e.joint and (j := desc.joint(e.joint))
         ]
-        if not ends:
+        if not ends or c.direction is not None:
             continue
         if len(ends) == 2:
             out.append(OutputJoint(ends[0][1].name, OutputKind.CONSTANT, offset=0.0))
         end, joint = ends[-1]
-        other = c.closure.a if end is c.closure.b else c.closure.b
-        assert joint is not None
         if joint.type is not JointType.REVOLUTE:
             continue
+        other = c.closure.a if end is c.closure.b else c.closure.b
         mine, theirs = chain.body_of[end.link][0], chain.body_of[other.link][0]
-        # frames equal: Rot(n, phi_theirs - phi_mine - s q) = R_mine0 R_theirs0^T
+        # frames equal: Rot(n, phi_mine + s q - phi_theirs) = R_theirs0 R_mine0^T
         delta = angle_about_normal(
             chain, frame_rotation(chain, end) @ frame_rotation(chain, other).T, c.closure.element
         )
         w = frame_rotation(chain, end) @ joint.axis
         s = 1.0 if float(w @ chain.normal) > 0 else -1.0
         q_ref = s * (poses[theirs][1] - poses[mine][1] - delta)
-        offset = q_ref - s * (links[lname[theirs]] - links[lname[mine]])
+        pin, sigma = scene_pin(names.point(c.name), lname[theirs], lname[mine])
+        scale = s * sigma
         out.append(
             OutputJoint(
                 joint.name,
-                OutputKind.CUT,
-                lname[theirs],
-                lname[mine],
-                sign=s,
-                offset=offset,
+                OutputKind.JOINT,
+                pin,
+                scale,
+                q_ref - scale * ref_joints[pin],
+                True,
                 lower=joint.limits.lower,
                 upper=joint.limits.upper,
             )
@@ -531,8 +521,4 @@ def _cut_joints(chain: Chain, poses, links, lname) -> list[OutputJoint]:
     return out
 
 
-def closure_types() -> tuple[str, ...]:
-    return tuple(t.value for t in ClosureType)
-
-
-__all__ = ['Imported', 'import_description', 'is_description', 'read_description', 'TreeJoint']
+__all__ = ['Imported', 'import_description', 'is_description', 'read_description']

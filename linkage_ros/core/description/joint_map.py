@@ -16,28 +16,29 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import Any
 
+import numpy as np
+
 from ..errors import CommandError
 
 
 class OutputKind(Enum):
-    REVOLUTE = 'revolute'  # sign * (child link angle - parent link angle) + offset
-    PRISMATIC = 'prismatic'  # the scene slider's value + offset
-    CUT = 'cut'  # a closure's joint frame: sign * (link a angle - link b angle) + offset
+    JOINT = 'joint'  # scale * (a scene joint's value) + offset (revolute: wrapped)
     CONSTANT = 'constant'  # a closure's joint frame held at ``offset`` (the other one turns)
-    MIMIC = 'mimic'  # multiplier * leader + offset (a mimic outside the closed chain)
+    MIMIC = 'mimic'  # scale * leader + offset (a <mimic> outside the closed chain)
 
 
 @dataclass(frozen=True)
 class OutputJoint:
-    """One published joint: how its value follows from a solved result."""
+    """One published joint: an affine function of one scene joint's value. A description's
+    tree joint joins the same two bodies as a scene joint; a closure's cut joint turns with the
+    closure's pin."""
 
     name: str
     kind: OutputKind
-    link_a: str = ''  # revolute: the child's body; cut: the body carrying frame a
-    link_b: str = ''  # revolute: the parent's body; cut: the other body
-    scene_joint: str = ''  # prismatic: the scene's slider
-    sign: float = 1.0
+    scene_joint: str = ''
+    scale: float = 1.0
     offset: float = 0.0
+    revolute: bool = True
     leader: str = ''  # mimic
     lower: float | None = None  # the description's limits: a revolute value is wrapped into
     upper: float | None = None  # them where it fits
@@ -60,49 +61,55 @@ class InputJoint:
     mimic_offset: float = 0.0
 
 
-def wrap(angle: float) -> float:
-    """``angle`` in (-pi, pi]."""
-    a = math.remainder(angle, 2.0 * math.pi)
-    return math.pi if a == -math.pi else a
+def wrap(angle: Any) -> Any:
+    """``angle`` in [-pi, pi] (a float, or elementwise for a batch's array)."""
+    if isinstance(angle, np.ndarray):
+        return np.remainder(angle + math.pi, 2.0 * math.pi) - math.pi
+    return math.remainder(angle, 2.0 * math.pi)
 
 
 class JointMap:
     """Scene values <-> the description's joint names and values (see the module docstring)."""
 
-    def __init__(self, outputs: Sequence[OutputJoint], inputs: Sequence[InputJoint]):
+    def __init__(
+        self,
+        outputs: Sequence[OutputJoint],
+        inputs: Sequence[InputJoint],
+        actuated: Sequence[str] = (),
+    ):
         self.outputs = tuple(outputs)
         self.inputs = {i.name: i for i in inputs}
         self.names = tuple(o.name for o in self.outputs)
+        self.actuated = tuple(actuated)
         self._followers = {i.leader: i for i in inputs if i.leader}
 
     # -- out: a solved result -> the description's joint values --------------------------------
-    def positions(self, links: Mapping[str, float], joints: Mapping[str, float]) -> list[float]:
-        """Every published joint's value from a result's link angles and joint values."""
-        out: dict[str, float] = {}
+    def positions(self, joints: Mapping[str, Any]) -> list[Any]:
+        """Every published joint's value from a result's scene joint values (floats, or a
+        batch's arrays)."""
+        out: dict[str, Any] = {}
         for o in self.outputs:
-            if o.kind is OutputKind.PRISMATIC:
-                v = joints[o.scene_joint] + o.offset
-            elif o.kind is OutputKind.CONSTANT:
+            if o.kind is OutputKind.CONSTANT:
                 v = o.offset
             elif o.kind is OutputKind.MIMIC:
-                v = o.sign * out[o.leader] + o.offset
+                v = o.scale * out[o.leader] + o.offset
             else:
-                v = _fit(wrap(o.sign * (links[o.link_a] - links[o.link_b]) + o.offset), o)
+                v = o.scale * joints[o.scene_joint] + o.offset
+                if o.revolute:
+                    v = _fit(wrap(v), o)
             out[o.name] = v
         return [out[n] for n in self.names]
 
-    def velocities(self, links: Mapping[str, float], joints: Mapping[str, float]) -> list[float]:
-        """Every published joint's rate (rad/s, m/s) from a result's link and joint rates."""
-        out: dict[str, float] = {}
+    def velocities(self, joints: Mapping[str, Any]) -> list[Any]:
+        """Every published joint's rate (rad/s, m/s) from a result's scene joint rates."""
+        out: dict[str, Any] = {}
         for o in self.outputs:
-            if o.kind is OutputKind.PRISMATIC:
-                v = joints[o.scene_joint]
-            elif o.kind is OutputKind.CONSTANT:
+            if o.kind is OutputKind.CONSTANT:
                 v = 0.0
             elif o.kind is OutputKind.MIMIC:
-                v = o.sign * out[o.leader]
+                v = o.scale * out[o.leader]
             else:
-                v = o.sign * (links[o.link_a] - links[o.link_b])
+                v = o.scale * joints[o.scene_joint]
             out[o.name] = v
         return [out[n] for n in self.names]
 
@@ -148,8 +155,13 @@ class JointMap:
         }
 
 
-def _fit(v: float, o: OutputJoint) -> float:
+def _fit(v: Any, o: OutputJoint) -> Any:
     """A wrapped angle moved by 2 pi into the joint's limits where that fits."""
+    if isinstance(v, np.ndarray):
+        lo = -math.inf if o.lower is None else o.lower
+        hi = math.inf if o.upper is None else o.upper
+        v = np.where((v < lo) & (v + 2.0 * math.pi <= hi), v + 2.0 * math.pi, v)
+        return np.where((v > hi) & (v - 2.0 * math.pi >= lo), v - 2.0 * math.pi, v)
     if o.lower is not None and v < o.lower and v + 2.0 * math.pi <= (o.upper or math.inf):
         return v + 2.0 * math.pi
     if o.upper is not None and v > o.upper and v - 2.0 * math.pi >= (o.lower or -math.inf):

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -78,6 +79,24 @@ class Actuator:
     cylinder: bool = False
 
 
+class JointCoordinates(Protocol):
+    """A robot description's own joint coordinates (names, origins, axes, zero pose), mapped
+    at the edge of the engine: results leave in them, requests enter in them
+    (core.description.JointMap implements it). The solver never sees them."""
+
+    @property
+    def names(self) -> tuple[str, ...]: ...
+
+    @property
+    def actuated(self) -> tuple[str, ...]: ...
+
+    def positions(self, joints: Mapping[str, Any]) -> list[Any]: ...
+
+    def velocities(self, joints: Mapping[str, Any]) -> list[Any]: ...
+
+    def to_scene(self, values: Mapping[str, Any], rates: bool = False) -> dict[str, Any]: ...
+
+
 @dataclass
 class Mechanism:
     name: str
@@ -100,6 +119,8 @@ class Mechanism:
     dimensions: dict[tuple[str, str, str], float] = field(default_factory=dict)
     #: the dimensions stated by name (the scene's ``dimensions`` key and overrides), m
     stated: dict[str, float] = field(default_factory=dict)
+    #: a robot description's joint coordinates (None: the scene's own are published)
+    joint_coordinates: JointCoordinates | None = None
 
     def distance(self, link: str, p: str, q: str) -> float | None:
         """The stated length between points p and q of ``link``, or None."""
@@ -114,6 +135,43 @@ class Mechanism:
     @property
     def joint_names(self) -> list[str]:
         return [j.name for j in self.revolutes] + list(self.prismatics)
+
+    @property
+    def output_joint_names(self) -> list[str]:
+        """The joints published (joint_states, trajectories, CSV): the description's where the
+        mechanism came from one, else the scene's."""
+        jc = self.joint_coordinates
+        return list(jc.names) if jc is not None else self.joint_names
+
+    def output_joints(self, joints: Mapping[str, Any]) -> list[Any]:
+        """The published joints' values (rad, m) from a result's scene joint values (floats,
+        or a batch's arrays)."""
+        jc = self.joint_coordinates
+        if jc is None:
+            return [joints[j] for j in self.joint_names]
+        return jc.positions(joints)
+
+    def output_joint_rates(self, joints: Mapping[str, Any]) -> list[Any]:
+        """The published joints' rates (rad/s, m/s) from a result's scene joint rates."""
+        jc = self.joint_coordinates
+        if jc is None:
+            return [joints[j] for j in self.joint_names]
+        return jc.velocities(joints)
+
+    @property
+    def output_input_names(self) -> list[str]:
+        """The inputs as published: the description's actuated joints, else the actuators."""
+        jc = self.joint_coordinates
+        return list(jc.actuated) if jc is not None else list(self.actuators)
+
+    def output_inputs(self, inputs: Mapping[str, Any], joints: Mapping[str, Any]) -> list[Any]:
+        """The inputs' values as published (the description's joint values, else the
+        actuators')."""
+        jc = self.joint_coordinates
+        if jc is None:
+            return [inputs[a] for a in self.actuators]
+        values = dict(zip(jc.names, jc.positions(joints)))
+        return [values[a] for a in jc.actuated]
 
     def links_of_point(self, point: str) -> list[str]:
         return [n for n, l in self.links.items() if point in l.points]

@@ -23,6 +23,9 @@ class Scene:
 
     mechanism: Mechanism
     path: str | None = None
+    #: what loading did that a user should hear (a robot description assembled, its mimics
+    #: superseded): the node logs it at start-up, the CLI's check prints it
+    notes: tuple[str, ...] = ()
 
     @property
     def frame_id(self) -> str:
@@ -102,8 +105,11 @@ def read_text(path: str, limit: int | None = None) -> str:
     finally:
         os.close(fd)
     if size > limit:
-        what = 'a scene file (the shipped scenes are a few kB)' if limit == MAX_SCENE_BYTES else (
-            'this file')
+        what = (
+            'a scene file (the shipped scenes are a few kB)'
+            if limit == MAX_SCENE_BYTES
+            else ('this file')
+        )
         raise SceneError(f'larger than {limit} bytes, the limit for {what}', file=path)
     raw = b''.join(chunks)
     try:

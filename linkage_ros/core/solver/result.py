@@ -93,6 +93,7 @@ class Result:
             'reason': self.reason,
             'inputs': dict(self.inputs),
             'joints': dict(self.joints),
+            **_described(mech, self),
             'links': links,
             'points': {k: [v[0], v[1]] for k, v in self.points.items()},
             'residual': self.residual,
@@ -106,6 +107,19 @@ class Result:
         if self.targets:
             out['targets'] = dict(self.targets)
         return out
+
+
+def _described(mech: Mechanism | None, result: Result) -> dict[str, Any]:
+    """``inputs`` and ``joints`` in a robot description's own names and values, for a
+    mechanism read from one (a refused result has none)."""
+    if mech is None or mech.joint_coordinates is None or not result.joints:
+        return {}
+    return {
+        'inputs': dict(
+            zip(mech.output_input_names, mech.output_inputs(result.inputs, result.joints))
+        ),
+        'joints': dict(zip(mech.output_joint_names, mech.output_joints(result.joints))),
+    }
 
 
 @dataclass
