@@ -5,8 +5,8 @@ coordinates. See docs/ROBOT_DESCRIPTIONS.md."""
 
 from __future__ import annotations
 
+from ..model.joint_map import JointMap
 from .importer import Imported, import_description, is_description, read_description
-from .joint_map import JointMap
 from .records import DescriptionError
 
 __all__ = [

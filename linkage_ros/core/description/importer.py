@@ -13,9 +13,9 @@ from typing import Any
 import numpy as np
 
 from ..model import Mechanism, Scene
+from ..model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
 from ..model.scene import read_text
 from .chain import Chain, find_chain, rot
-from .joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
 from .records import Description, DescriptionError, JointType
 from .sdf_reader import read_sdf
 from .side_files import apply_side_file, load_side_file

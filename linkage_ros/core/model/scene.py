@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import re
 import stat
@@ -14,6 +15,7 @@ import yaml
 
 from ..errors import SceneError, echo
 from .general import build_mechanism
+from .joint_map import joint_map_from_dict
 from .mechanism import Mechanism
 
 
@@ -48,7 +50,7 @@ class Scene:
             raise SceneError(
                 f'invalid YAML{where}: {getattr(exc, "problem", exc)}', file=path, key=key
             ) from None
-        return cls(mechanism=build_mechanism(data, path, dimensions), path=path)
+        return cls(mechanism=_build(data, path, dimensions), path=path)
 
     @classmethod
     def from_dict(
@@ -57,7 +59,24 @@ class Scene:
         source: str = '<scene>',
         dimensions: Mapping[str, float] | None = None,
     ) -> Scene:
-        return cls(mechanism=build_mechanism(data, source, dimensions), path=None)
+        return cls(mechanism=_build(data, source, dimensions), path=None)
+
+
+def _build(data: Any, source: str, dimensions: Mapping[str, float] | None) -> Mechanism:
+    """build_mechanism, then the ``joint_coordinates`` key (a robot description's own joint
+    names and values, as ``linkage import`` writes them) applied to the mechanism built."""
+    if not isinstance(data, Mapping) or 'joint_coordinates' not in data:
+        return build_mechanism(data, source, dimensions)
+    rest = {k: v for k, v in data.items() if k != 'joint_coordinates'}
+    mech = build_mechanism(rest, source, dimensions)
+
+    def fail(key: str, message: str, value: Any = None, has_value: bool = True) -> None:
+        raise SceneError(message, file=source, key=key, value=value, has_value=has_value)
+
+    jmap = joint_map_from_dict(
+        data['joint_coordinates'], mech.joint_names, [*mech.actuators, *mech.joint_names], fail
+    )
+    return dataclasses.replace(mech, joint_coordinates=jmap)
 
 
 #: The largest scene file read (bytes): the largest shipped scene is a few kB; a file this big

@@ -167,3 +167,174 @@ def _fit(v: Any, o: OutputJoint) -> Any:
     if o.upper is not None and v > o.upper and v - 2.0 * math.pi >= (o.lower or -math.inf):
         return v - 2.0 * math.pi
     return v
+
+
+# ---- the scene file's ``joint_coordinates`` key (what ``linkage import`` writes) ---------------
+
+_OUTPUT_KEYS = {
+    'name',
+    'joint',
+    'scale',
+    'offset',
+    'revolute',
+    'lower',
+    'upper',
+    'constant',
+    'mimic',
+}
+_INPUT_KEYS = {
+    'name',
+    'known',
+    'scale',
+    'offset',
+    'revolute',
+    'leader',
+    'multiplier',
+    'mimic_offset',
+}
+
+
+def joint_map_to_dict(jmap: JointMap) -> dict[str, Any]:
+    """The scene-file form of a JointMap (read back by :func:`joint_map_from_dict`)."""
+    outputs: list[dict[str, Any]] = []
+    for o in jmap.outputs:
+        if o.kind is OutputKind.CONSTANT:
+            outputs.append({'name': o.name, 'constant': o.offset})
+            continue
+        item: dict[str, Any] = {'name': o.name}
+        if o.kind is OutputKind.MIMIC:
+            item['mimic'] = o.leader
+        else:
+            item['joint'] = o.scene_joint
+            item['revolute'] = o.revolute
+        item.update(scale=o.scale, offset=o.offset)
+        if o.lower is not None:
+            item['lower'] = o.lower
+        if o.upper is not None:
+            item['upper'] = o.upper
+        outputs.append(item)
+    inputs = []
+    for i in jmap.inputs.values():
+        item = {
+            'name': i.name,
+            'known': i.scene_name,
+            'scale': i.scale,
+            'offset': i.offset,
+            'revolute': i.revolute,
+        }
+        if i.leader:
+            item.update(leader=i.leader, multiplier=i.multiplier, mimic_offset=i.mimic_offset)
+        inputs.append(item)
+    return {'actuated': list(jmap.actuated), 'outputs': outputs, 'inputs': inputs}
+
+
+def joint_map_from_dict(
+    data: Any, scene_joints: Sequence[str], knowns: Sequence[str], fail: Any
+) -> JointMap:
+    """A scene's ``joint_coordinates`` -> JointMap; ``fail(key, message, value)`` raises the
+    scene's error naming the key. ``scene_joints``: the scene's joints; ``knowns``: its
+    actuators and joints (what an input may stand for)."""
+    key = 'joint_coordinates'
+    if not isinstance(data, Mapping) or set(map(str, data)) - {'actuated', 'outputs', 'inputs'}:
+        fail(key, 'must be a mapping of actuated, outputs and inputs', data)
+    outputs: list[OutputJoint] = []
+    seen: set[str] = set()
+    for k, item in enumerate(_list(data.get('outputs'), f'{key}.outputs', fail)):
+        where = f'{key}.outputs[{k}]'
+        name = _item_name(item, _OUTPUT_KEYS, where, fail)
+        if name in seen:
+            fail(where, 'names a joint twice', name)
+        if 'constant' in item:
+            outputs.append(
+                OutputJoint(name, OutputKind.CONSTANT, offset=_num(item['constant'], where, fail))
+            )
+        elif 'mimic' in item:
+            if item['mimic'] not in seen:
+                fail(where, 'a mimic follows a joint listed before it', item['mimic'])
+            outputs.append(
+                OutputJoint(
+                    name,
+                    OutputKind.MIMIC,
+                    scale=_num(item.get('scale', 1.0), where, fail),
+                    offset=_num(item.get('offset', 0.0), where, fail),
+                    leader=item['mimic'],
+                )
+            )
+        else:
+            joint = item.get('joint')
+            if joint not in scene_joints:
+                fail(where, 'joint must name a joint of the scene', joint)
+            outputs.append(
+                OutputJoint(
+                    name,
+                    OutputKind.JOINT,
+                    joint,
+                    _unit(item.get('scale', 1.0), where, fail),
+                    _num(item.get('offset', 0.0), where, fail),
+                    bool(item.get('revolute', True)),
+                    lower=_opt(item.get('lower'), where, fail),
+                    upper=_opt(item.get('upper'), where, fail),
+                )
+            )
+        seen.add(name)
+    inputs: list[InputJoint] = []
+    for k, item in enumerate(_list(data.get('inputs'), f'{key}.inputs', fail)):
+        where = f'{key}.inputs[{k}]'
+        name = _item_name(item, _INPUT_KEYS, where, fail)
+        known = item.get('known')
+        if known not in knowns:
+            fail(where, 'known must name an actuator or joint of the scene', known)
+        leader = item.get('leader', '')
+        inputs.append(
+            InputJoint(
+                name,
+                known,
+                _unit(item.get('scale', 1.0), where, fail),
+                _num(item.get('offset', 0.0), where, fail),
+                bool(item.get('revolute', True)),
+                leader=str(leader),
+                multiplier=_num(item.get('multiplier', 1.0), where, fail),
+                mimic_offset=_num(item.get('mimic_offset', 0.0), where, fail),
+            )
+        )
+    actuated = _list(data.get('actuated'), f'{key}.actuated', fail)
+    if not all(isinstance(a, str) and a in seen for a in actuated):
+        fail(f'{key}.actuated', 'must name published joints', actuated)
+    return JointMap(outputs, inputs, actuated)
+
+
+def _list(value: Any, key: str, fail: Any) -> list[Any]:
+    if value is None:
+        return []
+    if not isinstance(value, list):
+        fail(key, 'must be a list', value)
+    return value
+
+
+def _item_name(item: Any, allowed: set[str], where: str, fail: Any) -> str:
+    if not isinstance(item, Mapping):
+        fail(where, 'must be a mapping', item)
+    unknown = sorted(set(map(str, item)) - allowed)
+    if unknown:
+        fail(where, f'unknown key(s) {unknown}', has_value=False)
+    name = item.get('name')
+    if not isinstance(name, str) or not name:
+        fail(where, 'needs a name', name)
+    return name
+
+
+def _num(value: Any, where: str, fail: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        fail(where, 'must be a finite number', value)
+    return float(value)
+
+
+def _opt(value: Any, where: str, fail: Any) -> float | None:
+    return None if value is None else _num(value, where, fail)
+
+
+def _unit(value: Any, where: str, fail: Any) -> float:
+    v = _num(value, where, fail)
+    if v not in (1.0, -1.0):
+        fail(where, 'scale must be 1 or -1', value)
+    return v
