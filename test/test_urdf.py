@@ -5,12 +5,19 @@ homogeneous transforms from each joint's origin (xyz, rpy as URDF defines them) 
 composes them from the root, driven by the joint values the node would publish
 (conversions.result_to_joint_state). Every point frame must land on the solver's point to 1e-9
 of the length scale, and every moving link frame's x axis must point along the solver's link
-angle (the ground frame is the scene's coordinate frame).
+angle (the ground frame is the scene's coordinate frame). The limits of passive slides must hold
+every value the node publishes, in every assembly mode; a prefix must not break the XML.
+test_urdf_consumers.py checks the same documents with yourdfpy, Pinocchio, urdf_parser_py and
+rcl's parameter parser.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import itertools
 import math
+import re
+import shutil
 import subprocess
 import sys
 import xml.etree.ElementTree as ET
@@ -18,6 +25,7 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 import scenes
+import yaml
 from builtin_interfaces.msg import Time
 
 from linkage_ros.conversions import result_to_joint_state
@@ -25,7 +33,15 @@ from linkage_ros.core.errors import SceneError
 from linkage_ros.core.model import Scene
 from linkage_ros.core.motion import input_ranges
 from linkage_ros.core.solver import Solver
-from linkage_ros.core.urdf import urdf_document
+from linkage_ros.core.urdf import (
+    JointKind,
+    link_frames,
+    point_frame,
+    prefix_error,
+    spanning_tree,
+    urdf_document,
+)
+from linkage_ros.params import ConfigError, make_config
 
 SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
 
@@ -103,7 +119,7 @@ def urdf_fk(text: str, values: dict[str, float]) -> dict[str, np.ndarray]:
 # ---- sweeps of every shipped scene ---------------------------------------------------------------
 
 
-def _sweep(mech, n: int = 40, seed: int = 7):
+def sweep(mech, n: int = 40, seed: int = 7):
     """Successful continuous solves along a random walk through the actuators' ranges."""
     rng = np.random.default_rng(seed)
     ranges = input_ranges(mech)
@@ -136,21 +152,22 @@ def _sweep(mech, n: int = 40, seed: int = 7):
 def test_urdf_frames_follow_the_solver(stem, prefix):
     mech = scenes.load(stem)
     text = urdf_document(mech, prefix=prefix)
-    results = _sweep(mech)
+    results = sweep(mech)
     assert len(results) >= 20, f'{stem}: only {len(results)} solves succeeded'
     L = mech.length_scale
     for r in results:
-        msg = result_to_joint_state(r, mech.joint_names, Time(), mech.frame_id, prefix=prefix)
+        msg = result_to_joint_state(r, mech, Time(), mech.frame_id, prefix=prefix)
         fk = urdf_fk(text, dict(zip(msg.name, msg.position)))
         for p, (x, y) in r.points.items():
-            t = fk[prefix + p]
+            t = fk[point_frame(p, prefix)]
             err = max(abs(t[0, 3] - x), abs(t[1, 3] - y), abs(t[2, 3]))
             assert err <= 1e-9 * L, f'{stem} point {p}: off by {err / L:.2e} L'
-        np.testing.assert_array_equal(fk[prefix + mech.ground], np.eye(4))  # scene coordinates
+        frames = link_frames(mech, prefix)
+        np.testing.assert_array_equal(fk[frames[mech.ground]], np.eye(4))  # scene coordinates
         for link, angle in r.links.items():
             if link == mech.ground:
                 continue
-            t = fk[prefix + link]
+            t = fk[frames[link]]
             got = math.atan2(t[1, 0], t[0, 0])
             assert abs(math.remainder(got - angle, 2 * math.pi)) <= 1e-9, (stem, link)
             assert abs(t[2, 2] - 1.0) <= 1e-12  # stays planar
@@ -170,7 +187,8 @@ def test_urdf_joints_are_the_published_joints(stem):
     for name in cut:
         assert name in comments.split('loop-closing joints')[1].split('-->')[0]
     frames = {l.get('name') for l in robot.findall('link')}
-    assert frames == {mech.frame_id} | {'m1/' + n for n in (*mech.links, *mech.points)}
+    links = {'m1/link_' + l if l in mech.joint_names else 'm1/' + l for l in mech.links}
+    assert frames == {mech.frame_id} | links | {'m1/point_' + p for p in mech.points}
     for j in robot.findall('joint'):
         if j.get('type') in ('revolute', 'prismatic'):
             lim = j.find('limit')
@@ -221,6 +239,23 @@ def test_point_and_link_of_one_name_are_refused():
         urdf_document(mech)
     with pytest.raises(SceneError, match="frame_id 'A' is also the name"):
         urdf_document(scenes.load('four_bar'), frame_id='A')
+    with pytest.raises(SceneError, match="frame_id 'point_A' is also the name"):
+        urdf_document(scenes.load('four_bar'), frame_id='point_A')
+    # a link named like a point's frame: two frames 'point_P'
+    renamed = {
+        'name': 'clash',
+        'points': {'O2': [0, 0], 'O4': [1, 0], 'A': [0, 0.4], 'B': [1.1, 0.6], 'P': [0.5, 0.9]},
+        'ground': 'ground',
+        'links': {
+            'ground': ['O2', 'O4'],
+            'crank': ['O2', 'A'],
+            'point_P': ['A', 'B', 'P'],
+            'rocker': ['O4', 'B'],
+        },
+        'actuators': {'theta': {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}},
+    }
+    with pytest.raises(SceneError, match=r"\['point_P'\] would each name two frames"):
+        urdf_document(Scene.from_dict(renamed).mechanism)
 
 
 def test_cli_urdf_writes_the_file_and_refuses_bad_input(tmp_path):
@@ -250,3 +285,135 @@ def test_cli_urdf_writes_the_file_and_refuses_bad_input(tmp_path):
         timeout=60,
     )
     assert bad.returncode == 2 and 'prefix' in bad.stderr and 'Traceback' not in bad.stderr
+
+
+# ---- limits of passive slides: every assembly mode -----------------------------------------------
+
+
+def _limits(text: str) -> dict[str, tuple[float, float]]:
+    robot = ET.fromstring(text)
+    return {
+        j.get('name'): (float(j.find('limit').get('lower')), float(j.find('limit').get('upper')))
+        for j in robot.findall('joint')
+        if j.find('limit') is not None
+    }
+
+
+def _inputs(mech, n: int, seed: int = 11) -> list[dict[str, float]]:
+    """Commands over the actuators' ranges (the scene's limits, else a full turn or +-L): a fine
+    grid for one actuator (and its assembly's own range), random points for more."""
+    rng = np.random.default_rng(seed)
+    own = input_ranges(mech)
+    axes = {}
+    for a, act in mech.actuators.items():
+        lo, hi = act.min, act.max
+        if lo is None or hi is None:
+            ref = Solver(mech).reference_values()[a]
+            lo, hi = (-math.pi, math.pi) if act.kind == 'angle' else (ref - 1.0, ref + 1.0)
+        axes[a] = (lo, hi)
+    if len(axes) == 1:
+        ((a, (lo, hi)),) = axes.items()
+        grid = list(np.linspace(lo, hi, n)) + list(rng.uniform(lo, hi, n // 2))
+        if None not in own[a]:
+            grid += list(np.linspace(*own[a], n // 2))
+        return [{a: float(v)} for v in grid]
+    return [{a: float(rng.uniform(lo, hi)) for a, (lo, hi) in axes.items()} for _ in range(n)]
+
+
+#: the shipped scenes with a prismatic joint in their URDF tree (inverted_slider_crank's slides
+#: close its loop: they are not in the tree)
+SLIDERS = [
+    s
+    for s in SHIPPED
+    if any(j.kind is JointKind.PRISMATIC for j in spanning_tree(scenes.load(s)).joints)
+]
+
+
+@pytest.mark.parametrize('stem', SLIDERS)
+def test_published_joint_values_lie_within_the_urdf_limits_in_every_mode(stem):
+    """Every branch (each sign combination of the dyad plan, as `linkage solve --branch` and the
+    node's branch parameter give it) and the continuous walk: no joint_states value of a joint
+    with a <limit> lies outside it (the passive slides' limits once covered only the reference
+    mode: slider_crank's slider at crank = 1.0 on branch '-' was below its lower limit)."""
+    mech = scenes.load(stem)
+    limits = _limits(urdf_document(mech))
+    commands = _inputs(mech, 1201 if len(mech.actuators) == 1 else 200)
+    k = Solver(mech).branch_count
+    branches = [''.join(s) for s in itertools.product('+-', repeat=k)] if k else ['reference']
+    checked = 0
+    for branch in [*branches, 'continuous']:
+        solver = Solver(mech, branch=branch)
+        for values in commands:
+            r = solver.solve(values)
+            if not r.success:
+                continue
+            msg = result_to_joint_state(r, mech, Time(), mech.frame_id)
+            for name, q in zip(msg.name, msg.position):
+                if name in limits:
+                    lo, hi = limits[name]
+                    assert lo - 1e-12 <= q <= hi + 1e-12, (stem, branch, values, name, q, lo, hi)
+                    checked += 1
+    assert checked > 1000, checked  # 2000+ for a lone crank, 3000+ for the excavator
+
+
+def test_a_newton_scene_bounds_its_slides_in_every_mode_found():
+    """Where Newton places the links no plan lists the modes: the limits are a bound that holds
+    in all of them (the shortest chain of rigid distances from the slide's origin to its point)."""
+    mech = dataclasses.replace(scenes.load('slider_crank'), solver='newton')
+    solver = Solver(mech)
+    assert solver.mode == 'newton'
+    lo, hi = _limits(urdf_document(mech))['slider']
+    seen = []
+    for crank in np.linspace(-math.pi, math.pi, 25):
+        modes = solver.modes({'crank': float(crank)})
+        seen += [r.joints['slider'] for r in modes.results]
+    assert len(seen) >= 45  # both modes nearly everywhere
+    assert lo <= min(seen) < 0 < max(seen) <= hi
+    assert hi - lo < 0.5  # crank + rod + offset = 0.24 m each way, not an arbitrary span
+
+
+# ---- names and text that cannot break the XML ---------------------------------------------------
+
+
+def test_prefix_must_be_a_frame_prefix():
+    for good in ('', 'left_', 'm1/', 'arm-2.', 'a/b_'):
+        assert prefix_error(good) is None, good
+        assert make_config({'prefix': good}).prefix == good
+    for bad in ('x--><injected/><!--', 'a--b', '/left', 'a b', 'a<b', 'a>b', 'a&b', "a'b", 'a"b'):
+        assert prefix_error(bad), bad
+        with pytest.raises(ConfigError, match="'prefix': must be a string without whitespace"):
+            make_config({'prefix': bad})
+        with pytest.raises(ValueError, match="no '--'"):
+            urdf_document(scenes.load('four_bar'), prefix=bad)
+    assert prefix_error(3) and prefix_error(None)
+    run = subprocess.run(
+        [sys.executable, '-m', 'linkage_ros.cli', 'urdf', 'four_bar', '--prefix', 'x--><i/><!--'],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 2 and run.stdout == ''
+    (line,) = run.stderr.splitlines()
+    assert line.startswith('linkage urdf: error: --prefix must be a string without whitespace')
+    assert "(got 'x--><i/><!--')" in line
+
+
+def test_comments_cannot_be_closed_by_the_scene_path(tmp_path):
+    """The scene's path goes into a comment: '--' (which ends an XML comment), '-->', and YAML's
+    ': ' and ' #' in it are quoted, so the document stays well-formed and one YAML string."""
+    folder = tmp_path / 'x--><injected/><!-- a: b #c -'
+    folder.mkdir(parents=True)  # its '/' makes two folders
+    path = folder / 'fb--.yaml'
+    shutil.copy(scenes.CONFIG / 'four_bar.yaml', path)
+    run = subprocess.run(
+        [sys.executable, '-m', 'linkage_ros.cli', 'urdf', str(path)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert run.returncode == 0, run.stderr
+    robot = ET.fromstring(run.stdout)
+    assert {e.tag for e in robot} == {'material', 'link', 'joint'}
+    assert yaml.safe_load(run.stdout).startswith('<?xml')
+    (comment,) = re.findall(r'<!--(.*?)-->', run.stdout.split('loop-closing')[0], re.S)
+    assert '--' not in comment and 'x-%2D%3E%3Cinjected' in comment, comment

@@ -193,7 +193,7 @@ def write_bag(
     plugin = StoragePlugin.MCAP if (storage or 'mcap') == 'mcap' else StoragePlugin.SQLITE3
     ts = get_typestore(Stores.ROS2_JAZZY)
     n = data.n
-    joints = list(mech.joint_names)
+    joints = mech.output_joint_names  # a robot description's own names where it has them
     outputs = list(mech.outputs)
     progress.start('writing', n)
     # stamps: the command's, a zero stamp -> the bag receive time
@@ -231,7 +231,10 @@ def write_bag(
             okr = a + np.flatnonzero(res.ok[a:b])
             js = _stamped_rows(js_t, okr, sec, nsec)
             if joints and okr.size:
-                vals = np.stack([res.joints[j][okr] for j in joints], axis=1).astype('<f8')
+                scene = {j: res.joints[j][okr] for j in mech.joint_names}
+                vals = np.stack(
+                    [np.broadcast_to(v, okr.shape) for v in mech.output_joints(scene)], axis=1
+                ).astype('<f8')
                 js[:, js_off : js_off + 8 * len(joints)] = vals.view(np.uint8).reshape(okr.size, -1)
             js_rows = _rows_bytes(js)
             pt_rows = []
@@ -258,7 +261,7 @@ def write_bag(
             ans = req.answer
             assert ans is not None  # answered by the replay
             if ans.success and c_traj is not None:
-                msg = _trajectory_msg(ts, req, joints, frame_id)
+                msg = _trajectory_msg(ts, req, mech, frame_id)
                 write(c_traj, req.log_ns, ts.serialize_cdr(msg, TRAJECTORY))
             msg = _plan_status_msg(ts, ans, name, req.request, mech.name)
             write(c_st, req.log_ns, ts.serialize_cdr(msg, DIAGNOSTIC_STATUS))
@@ -330,7 +333,7 @@ def _rows_bytes(arr: np.ndarray) -> list[bytes]:
     return [buf[k : k + width] for k in range(0, len(buf), width)]
 
 
-def _trajectory_msg(ts: Any, req: PlanRequest, joints: list[str], frame_id: str) -> Any:
+def _trajectory_msg(ts: Any, req: PlanRequest, mech: Any, frame_id: str) -> Any:
     """The node's ~/solved_trajectory for a recorded request (trajectory_io's, as rosbags
     objects): every joint at every point, stamp and time_from_start of the request,
     velocities when every point has them."""
@@ -346,14 +349,14 @@ def _trajectory_msg(ts: Any, req: PlanRequest, joints: list[str], frame_id: str)
             effort=empty,
             time_from_start=t['builtin_interfaces/msg/Duration'](sec=sec, nanosec=nanosec),
         )
-        for positions, velocities, sec, nanosec in ans.rows(joints, req.times_ns)
+        for positions, velocities, sec, nanosec in ans.rows(mech, req.times_ns)
     ]
     header = t['std_msgs/msg/Header'](
         stamp=t['builtin_interfaces/msg/Time'](sec=req.stamp[0], nanosec=req.stamp[1]),
         frame_id=frame_id,
     )
     return t['trajectory_msgs/msg/JointTrajectory'](
-        header=header, joint_names=list(joints), points=points
+        header=header, joint_names=list(mech.output_joint_names), points=points
     )
 
 

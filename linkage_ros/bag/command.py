@@ -199,7 +199,7 @@ def _run(args) -> int:
                 if kind == 'csv':
                     write_csv(path, data, res, mech, progress)
                     if plans:
-                        write_plans_csv(plans_csv_path(path), plans, mech.joint_names)
+                        write_plans_csv(plans_csv_path(path), plans, mech)
                 else:
                     write_bag(
                         path,

@@ -202,8 +202,8 @@ def _table(strings: list[str], codes: np.ndarray) -> np.ndarray:
 def csv_header(mech) -> list[str]:
     return (
         ['time', 'receive_time', 'topic']
-        + [f'input.{a}' for a in mech.actuators]
-        + [f'joint.{j}' for j in mech.joint_names]
+        + [f'input.{a}' for a in mech.output_input_names]
+        + [f'joint.{j}' for j in mech.output_joint_names]
         + [f'{p}.{c}' for p in mech.points for c in ('x', 'y')]
         + ['residual', 'margin', 'branch', 'status', 'reason']
     )
@@ -248,15 +248,20 @@ def write_csv(
                 _table(topics, data.topic[sl]),
                 comma,
             ]
-            for nm in mech.actuators:
-                text = format_floats(res.inputs[nm][sl], b'nan')
+            inputs = mech.output_inputs({a: res.inputs[a][sl] for a in mech.actuators})
+            for nm, values in zip(mech.actuators, inputs):
+                text = format_floats(np.asarray(values, np.float64), b'nan')
                 absent = ~(res.ok[sl] | res.input_given[nm][sl])
                 if absent.any():  # a refused request that did not name it
                     text = text.copy()
                     text[absent] = 0
                 cols += [text, comma]
-            for nm in mech.joint_names:
-                cols += [format_floats(res.joints[nm][sl]), comma]
+            scene = {j: res.joints[j][sl] for j in mech.joint_names}
+            for values in mech.output_joints(scene):
+                cols += [
+                    format_floats(np.broadcast_to(np.asarray(values, np.float64), (m,))),
+                    comma,
+                ]
             for p in mech.points:
                 cols += [
                     format_floats(res.points[p][sl, 0]),

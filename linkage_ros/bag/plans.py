@@ -133,10 +133,11 @@ def plans_csv_path(csv_path: str) -> str:
     return (p[:-4] if p.lower().endswith('.csv') else p) + '.trajectories.csv'
 
 
-def write_plans_csv(path: str, plans: Sequence[PlanRequest], joints: Sequence[str]) -> None:
+def write_plans_csv(path: str, plans: Sequence[PlanRequest], mech: Any) -> None:
     """One row per solved point (request index, topic, request, bag time, stamp, status,
-    point index, time_from_start, every joint), one row per refused request (its reason,
-    failed_index), written whole or not at all."""
+    point index, time_from_start, every published joint: mech.output_joint_names), one row per
+    refused request (its reason, failed_index), written whole or not at all."""
+    joints = mech.output_joint_names
     import csv
 
     from ..outputs import written_whole
@@ -156,7 +157,7 @@ def write_plans_csv(path: str, plans: Sequence[PlanRequest], joints: Sequence[st
                 w.writerow(base + ['error', ans.reason, index, '', ''] + [''] * len(joints))
                 continue
             for i, (r, t) in enumerate(zip(ans.results, req.times_ns)):
-                values = [repr(float(r.joints[j])) for j in joints]
+                values = [repr(float(v)) for v in mech.output_joints(r.joints)]
                 w.writerow(base + ['ok', '', '', i, t] + values)
 
 

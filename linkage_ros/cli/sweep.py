@@ -85,7 +85,7 @@ def _csv_row(mech, i: int, res) -> list:
         )
     return (
         [i, 'ok', '']
-        + [repr(float(v)) for v in mech.output_inputs(res.inputs, res.joints)]
+        + [repr(float(v)) for v in mech.output_inputs(res.inputs)]
         + [repr(float(v)) for v in mech.output_joints(res.joints)]
     )
 

@@ -5,12 +5,17 @@
 The joint names are the names linkage_node publishes on joint_states (with the same --prefix as
 the node's ``prefix`` parameter), so robot_state_publisher fed by the node puts every link and
 point frame where the solver says. The root link is the node's frame_id (the scene's, or
---frame-id as given to the node); every link and point is a frame named after it, prefixed.
-Loop-closing joints are left out of the tree and listed in a comment. Without -o the URDF goes
-to stdout (robot_description: "$(linkage urdf four_bar)").
+--frame-id as given to the node); every link is a frame named after it and every point P a frame
+point_P, prefixed. Loop-closing joints are left out of the tree and listed in a comment. Without
+-o the URDF goes to stdout, as a value rcl reads whole from the command line:
+--ros-args -p robot_description:="$(linkage urdf four_bar)".
 
-Exit status: 0 written; 2 a usage error or a scene the URDF cannot name (a point and a link of
-one name, a frame_id that names a point or link), one line on stderr.
+--prefix: ASCII letters, digits and _ . - / only, no '--', no leading '/' (the node's prefix
+parameter takes the same).
+
+Exit status: 0 written; 2 a usage error (a prefix or frame id that cannot name frames) or a
+scene the URDF cannot name (a point and a link of one name, a frame_id or names that would name
+two frames), one line on stderr.
 """
 
 from __future__ import annotations
@@ -19,7 +24,7 @@ import argparse
 import sys
 
 from ..core.errors import LinkageError
-from ..core.urdf import name_error, urdf_document
+from ..core.urdf import name_error, prefix_error, urdf_document
 from ..outputs import written_whole
 from .common import OK, USAGE_ERROR, UsageError, add_scene_argument, load_mechanism
 
@@ -42,10 +47,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     try:
-        for what, value in (('prefix', args.prefix), ('frame-id', args.frame_id)):
-            why = name_error(value, allow_empty=what == 'prefix') if value is not None else None
-            if why:
-                raise UsageError(f'--{what} {why}')
+        why = prefix_error(args.prefix)
+        if why:
+            raise UsageError(f'--prefix {why}')
+        why = name_error(args.frame_id) if args.frame_id is not None else None
+        if why:
+            raise UsageError(f'--frame-id {why}')
         mech, _path = load_mechanism(args.scene, args.dimension)
         text = urdf_document(mech, prefix=args.prefix, frame_id=args.frame_id)
         if args.output:

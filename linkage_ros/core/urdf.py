@@ -12,22 +12,35 @@ the root, which is the node's ``frame_id`` that the node's messages carry):
 
 * the root (``frame_id``) -> the ground link (fixed, identity: the ground frame is the scene's
   coordinate frame, whatever direction the ground link reports);
-* one frame per moving link, named after the link, with its origin at the point of the joint
-  that reaches it and its x axis along the link's reported direction (``Link.axis``, the
-  angle the solver reports for the link);
-* one frame per scene point, named after the point, a fixed child of a link that carries it.
+* one frame per moving link, named after the link (``link_<link>`` for a link named like a
+  joint: :func:`link_frames`), with its origin at the point of the joint that reaches it and its
+  x axis along the link's reported direction (``Link.axis``, the angle the solver reports for
+  the link);
+* one frame per scene point, ``point_<point>`` (:func:`point_frame`), a fixed child of a link
+  that carries it. Joints are named after points (a pin ``A``): a point frame named ``A`` too
+  would make ``A`` name two frames in consumers that keep joints and links in one namespace
+  (Pinocchio's frames). Every joint and link name of the document is unique
+  (:func:`check_frame_names`).
 
 Joint conventions are the solver's (core.assemble): a revolute joint's value is the child
 link's angle minus the parent's (rad, wrapped); a prismatic joint's value is the slide along its
 direction from its origin (m). A tree edge that runs against the scene's parent -> child order
 gets axis -z (or the negated slide direction), so the published value is used unchanged.
+
+The text is meant for ``--ros-args -p robot_description:="$(linkage urdf SCENE)"``, where rcl
+reads the value as YAML: it has no ``': '``, ``' #'`` or line-ending ``':'`` (comments are
+worded without them, and the scene path is percent-quoted in them), so it is one plain YAML
+scalar, whose line breaks YAML folds into spaces (the same XML).
 """
 
 from __future__ import annotations
 
 import enum
+import heapq
 import math
+import re
 import xml.etree.ElementTree as ET
+from collections import Counter
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
@@ -217,45 +230,120 @@ def _revolute_limits(mech: Mechanism, tj: TreeJoint) -> tuple[float, float] | No
     return None
 
 
-def _swept_slides(mech: Mechanism, names: Sequence[str]) -> dict[str, tuple[float, float]]:
-    """Range of each named prismatic joint over a grid of the actuators' ranges (the scene's
-    limits, else the assembly's own range, else a full turn), widened by 5%."""
-    if not names:
-        return {}
+def _input_axes(mech: Mechanism) -> list[np.ndarray]:
+    """Samples of each actuator: over its scene limits (else a full turn for an angle, its
+    reference value +- a length scale for a slide); a lone actuator also, as finely, over the
+    assembly's own range (toggle to toggle), where a slide's extremes often lie."""
     from .motion import input_ranges
-    from .solver import Solver
 
-    ranges = input_ranges(mech)
+    own = input_ranges(mech)
     per = {1: 721, 2: 61, 3: 21}.get(len(mech.actuators), 9)
     axes = []
     for a, act in mech.actuators.items():
-        lo, hi = ranges.get(a, (None, None))
-        if lo is None or hi is None:
-            if act.kind == 'angle':
-                lo, hi = -math.pi, math.pi
-            else:
-                ref = mech.prismatics[act.joint].ref_value if act.joint else 0.0
-                lo = ref - mech.length_scale if lo is None else lo
-                hi = ref + mech.length_scale if hi is None else hi
-        axes.append(np.linspace(lo, hi, per))
-    grid = np.meshgrid(*axes, indexing='ij')
+        lo, hi = act.min, act.max
+        if act.kind == 'angle':
+            lo, hi = (-math.pi, math.pi) if lo is None or hi is None else (lo, hi)
+        else:
+            ref = mech.prismatics[act.joint].ref_value if act.joint else 0.0
+            lo = ref - mech.length_scale if lo is None else lo
+            hi = ref + mech.length_scale if hi is None else hi
+        axis = [np.linspace(lo, hi, per)]
+        o_lo, o_hi = own.get(a, (None, None))
+        if len(mech.actuators) == 1 and o_lo is not None and o_hi is not None:
+            axis.append(np.linspace(o_lo, o_hi, per))
+        axes.append(np.unique(np.concatenate(axis)))
+    return axes
+
+
+def _swept_slides(mech: Mechanism, names: Sequence[str]) -> dict[str, tuple[float, float]]:
+    """Range of each named prismatic joint over a grid of the actuators' ranges in every
+    assembly mode (each sign combination of the dyad plan: the node's 'continuous' branch may
+    reach any of them), widened by 5% but not beyond :func:`_slide_bounds`; where Newton places
+    links (no plan lists the modes), that bound alone."""
+    if not names:
+        return {}
+    import itertools
+
+    from .solver import Solver
+
     solver = Solver(mech, knowns=list(mech.actuators), branch='reference')
-    batch = solver.solve_batch({a: g.ravel() for a, g in zip(mech.actuators, grid)})
+    if solver.mode != 'closed_form':
+        return _slide_bounds(mech, names)
+    grid = np.meshgrid(*_input_axes(mech), indexing='ij')
+    values = {a: g.ravel() for a, g in zip(mech.actuators, grid)}
+    found: dict[str, list[np.ndarray]] = {n: [] for n in names}
+    for signs in itertools.product('+-', repeat=solver.branch_count):
+        if signs:
+            solver = Solver(mech, knowns=list(mech.actuators), branch=''.join(signs))
+        batch = solver.solve_batch(values)
+        for n in names:
+            v = np.asarray(batch.joints[n])[np.asarray(batch.ok, dtype=bool)]
+            found[n].append(v[np.isfinite(v)])
     out = {}
-    for n in names:
-        v = np.asarray(batch.joints[n])[np.asarray(batch.ok, dtype=bool)]
-        v = v[np.isfinite(v)]
+    for n, (b_lo, b_hi) in _slide_bounds(mech, names).items():
+        v = np.concatenate(found[n])
         ref = mech.prismatics[n].ref_value
         lo, hi = (float(v.min()), float(v.max())) if v.size else (ref, ref)
         pad = max(0.05 * (hi - lo), 1e-3 * mech.length_scale)
-        out[n] = (lo - pad, hi + pad)
+        out[n] = (max(lo - pad, b_lo), min(hi + pad, b_hi))  # the padding, within the bound
+    return out
+
+
+def _slide_bounds(mech: Mechanism, names: Sequence[str]) -> dict[str, tuple[float, float]]:
+    """A bound that holds in every assembly mode: a slide's value is at most the distance from
+    its origin to its point, and that is at most the length of any chain of rigid distances
+    (two points of one link, or a guide's slide origin and a point of the guide) and actuated
+    slides with both limits (their largest |limit| plus the point's offset from the line)
+    joining them; the shortest such chain (Dijkstra). No chain: a span of 1000 length scales."""
+    graph: dict[str, list[tuple[str, float]]] = {}
+
+    def edge(a: str, b: str, w: float) -> None:
+        graph.setdefault(a, []).append((b, w))
+        graph.setdefault(b, []).append((a, w))
+
+    def at(node: str) -> np.ndarray:
+        return np.asarray(
+            mech.prismatics[node[1:]].origin if node.startswith('>') else mech.points[node],
+            dtype=float,
+        )
+
+    for link in mech.links.values():
+        members = list(link.points)
+        members += ['>' + n for n, pj in mech.prismatics.items() if pj.guide == link.name]
+        for i, m in enumerate(members):
+            for q in members[i + 1 :]:
+                edge(m, q, float(np.hypot(*(at(m) - at(q)))))
+    for act in mech.actuators.values():
+        if act.joint and act.min is not None and act.max is not None:
+            pj = mech.prismatics[act.joint]
+            off = at(pj.point) - at('>' + act.joint)
+            perp = abs(float(off[0] * pj.direction[1] - off[1] * pj.direction[0]))
+            edge('>' + act.joint, pj.point, max(abs(act.min), abs(act.max)) + perp)
+    out = {}
+    for n in names:
+        target, dist, heap = mech.prismatics[n].point, {'>' + n: 0.0}, [(0.0, '>' + n)]
+        bound = 1000.0 * mech.length_scale
+        while heap:
+            d, node = heapq.heappop(heap)
+            if node == target:
+                bound = d
+                break
+            if d > dist.get(node, math.inf):
+                continue
+            for other, w in graph.get(node, []):
+                if d + w < dist.get(other, math.inf):
+                    dist[other] = d + w
+                    heapq.heappush(heap, (d + w, other))
+        bound += 1e-3 * mech.length_scale  # stated lengths differ from drawn ones by rounding
+        out[n] = (-bound, bound)
     return out
 
 
 def joint_limits(mech: Mechanism, tree: Tree) -> dict[str, tuple[float, float] | None]:
     """{tree joint: (lower, upper) or None (continuous)}: a cylinder's or slide actuator's
     limits as the scene gives them; a revolute joint's from an angle actuator across it; a
-    passive prismatic joint's (URDF requires limits for one) swept, advisory only."""
+    passive prismatic joint's (URDF requires limits for one) swept over the inputs in every
+    assembly mode (:func:`_swept_slides`), so no value the node publishes lies outside them."""
     out: dict[str, tuple[float, float] | None] = {}
     swept = []
     for tj in tree.joints:
@@ -274,33 +362,90 @@ def joint_limits(mech: Mechanism, tree: Tree) -> dict[str, tuple[float, float] |
 # ---- the document --------------------------------------------------------------------------------
 
 
-def name_error(name: str, allow_empty: bool = False) -> str | None:
-    """Why ``name`` cannot prefix or name a frame (tf2 and URDF: no whitespace, no leading
-    '/', no XML-hostile control characters), or None."""
+def name_error(name: object, allow_empty: bool = False) -> str | None:
+    """Why ``name`` cannot name a frame (tf2 and URDF: no whitespace, no leading '/', no
+    control or other unprintable characters, which XML cannot carry), or None."""
     if not isinstance(name, str):
         return f'must be a string (got {echo(name)})'
     if not name and not allow_empty:
         return 'must not be empty'
-    if any(c.isspace() or ord(c) < 32 for c in name) or name.startswith('/'):
+    if not all(c.isprintable() and not c.isspace() for c in name) or name.startswith('/'):
         return (
             f"must have no whitespace or control characters and no leading '/' (got {echo(name)})"
         )
     return None
 
 
-def check_frame_names(mech: Mechanism, frame_id: str) -> None:
-    """URDF links are named after links and points (and the root): they must all differ."""
+#: what a frame prefix may be: ASCII letters, digits and _ . - / (not leading), no '--' (which
+#: would end an XML comment); nothing XML or a YAML parameter override reads specially
+PREFIX_RE = re.compile(r'(?!/)(?!.*--)[A-Za-z0-9_./-]*\Z')
+PREFIX_RULE = (
+    "must be a string without whitespace, of ASCII letters, digits and '_', '.', '-', '/' only, "
+    "with no '--' and no leading '/'"
+)
+
+
+def prefix_error(prefix: object) -> str | None:
+    """Why ``prefix`` cannot prefix the frame and joint names (``linkage urdf --prefix`` and the
+    node's ``prefix`` parameter), as :data:`PREFIX_RULE` (got ...), or None ('' is fine)."""
+    if isinstance(prefix, str) and PREFIX_RE.match(prefix):
+        return None
+    return f'{PREFIX_RULE} (got {echo(prefix)})'
+
+
+def point_frame(point: str, prefix: str = '') -> str:
+    """The URDF link (TF frame) of a scene point: ``<prefix>point_<point>``, apart from the
+    joints, which are named after points."""
+    return f'{prefix}point_{point}'
+
+
+def link_frames(mech: Mechanism, prefix: str = '') -> dict[str, str]:
+    """{link: its URDF link (TF frame)}: ``<prefix><link>``, or ``<prefix>link_<link>`` for a
+    link named like a joint (the slider_crank and scott_russell shortcuts name a slider and its
+    prismatic joint alike), so that no joint and link share a name."""
+    joints = set(mech.joint_names)
+    return {l: f'{prefix}link_{l}' if l in joints else prefix + l for l in mech.links}
+
+
+def _comment(text: str) -> str:
+    """``text`` made safe in an XML comment and a YAML plain scalar: every character but
+    letters, digits, spaces and ``_ . / + , = @ ~ - ( ) ; ' ` `` percent-quoted (UTF-8), and
+    no ``--``; the caller words the rest without ': ' or ' #'."""
+    safe = set("_./+,=@~-();'` ")
+    out = ''.join(
+        c
+        if c.isalnum() or c in safe
+        else ''.join(f'%{b:02X}' for b in c.encode('utf-8', 'replace'))
+        for c in text
+    )
+    return out.replace('--', '-%2D')
+
+
+def check_frame_names(mech: Mechanism, frame_id: str, prefix: str = '') -> None:
+    """URDF links (the root, links, point frames) and joints must all have names of their own:
+    consumers such as Pinocchio keep both in one namespace of frames."""
     clash = sorted(set(mech.points) & set(mech.links))
     if clash:
         raise SceneError(
-            f'{clash} name both a point and a link; the URDF has a frame for each point and '
-            'each link, named after it, so the names must differ (rename one)',
+            f'{clash} name both a point and a link; the URDF names joints after points and a '
+            'frame after each link, so the names must differ (rename one)',
             file=mech.source,
         )
-    if frame_id in mech.points or frame_id in mech.links:
+    names = list(link_frames(mech, prefix).values())
+    names += [point_frame(p, prefix) for p in mech.points]
+    names += [prefix + j for j in mech.joint_names]
+    if frame_id in mech.points or frame_id in mech.links or frame_id in names:
         raise SceneError(
-            f'frame_id {frame_id!r} is also the name of a point or link; the URDF root frame '
-            'must have a name of its own',
+            f'frame_id {frame_id!r} is also the name of a point, link or joint; the URDF root '
+            'frame must have a name of its own',
+            file=mech.source,
+        )
+    twice = sorted(n for n, k in Counter(names).items() if k > 1)
+    if twice:
+        raise SceneError(
+            f'{twice} would each name two frames of the URDF (a link, a point frame '
+            f'{point_frame("<point>", prefix)!r}, a link frame {prefix + "link_<link>"!r} or '
+            'a joint): rename one',
             file=mech.source,
         )
 
@@ -316,27 +461,30 @@ def build_joints(
     mech: Mechanism, prefix: str = '', frame_id: str | None = None
 ) -> tuple[Tree, list[UrdfJoint], dict[str, str]]:
     """(tree, URDF joints in document order, {point: link that carries its frame})."""
+    why = prefix_error(prefix)
+    if why:
+        raise ValueError(f'prefix {why}')
     root = frame_id or mech.frame_id
-    check_frame_names(mech, root)
+    check_frame_names(mech, root, prefix)
     tree = spanning_tree(mech)
     frames = reference_frames(mech, tree)
     limits = joint_limits(mech, tree)
-    taken = {prefix + n for n in mech.joint_names}
+    lf = link_frames(mech, prefix)
+    taken = {root} | {prefix + n for n in mech.joint_names} | set(lf.values())
+    taken |= {point_frame(p, prefix) for p in mech.points}
     joints = [
         UrdfJoint(
             _unique(f'{prefix}{root}_to_{mech.ground}', taken),
             'fixed',
             root,
-            prefix + mech.ground,
+            lf[mech.ground],
             Pose2D(),
         )
     ]
     for tj in tree.joints:
         j = tree_joint(mech, tj, frames, prefix + tj.name, limits[tj.name])
         joints.append(
-            UrdfJoint(
-                j.name, j.type, prefix + j.parent, prefix + j.child, j.origin, j.axis, j.limits
-            )
+            UrdfJoint(j.name, j.type, lf[j.parent], lf[j.child], j.origin, j.axis, j.limits)
         )
     carrier: dict[str, str] = {}
     for link in tree.order:  # a point's frame hangs from the first link the tree reaches
@@ -346,10 +494,10 @@ def build_joints(
         x, y = frames[link].local(*(float(v) for v in mech.points[p]))
         joints.append(
             UrdfJoint(
-                _unique(f'{prefix}{link}_to_{p}', taken),
+                _unique(f'{prefix}{link}_to_{point_frame(p)}', taken),
                 'fixed',
-                prefix + link,
-                prefix + p,
+                lf[link],
+                point_frame(p, prefix),
                 Pose2D(x, y, 0.0),
             )
         )
@@ -377,12 +525,15 @@ def urdf_document(mech: Mechanism, prefix: str = '', frame_id: str | None = None
     tree, joints, _carrier = build_joints(mech, prefix, frame_id)
     frames = reference_frames(mech, tree)
     robot = ET.Element('robot', name=prefix + mech.name)
+    # comment text: no ': ', ' #' or '--' (see the module docstring); names are scene names
+    # (letters, digits, _) and the prefix is checked (prefix_error)
     robot.append(
         ET.Comment(
-            f' generated by `linkage urdf` from {mech.source}. Joint names are the names the '
-            'linkage_node publishes on joint_states'
-            + (f' (prefix {prefix!r})' if prefix else '')
-            + '; feed those joint_states to robot_state_publisher. '
+            f' generated by `linkage urdf` from {_comment(mech.source)}. Joint names are the '
+            'names the linkage_node publishes on joint_states'
+            + (f' (prefix {_comment(repr(prefix))})' if prefix else '')
+            + '; feed those joint_states to robot_state_publisher. Each scene point P has the '
+            f'frame {_comment(point_frame("P", prefix))}. '
         )
     )
     if tree.cut:
@@ -392,16 +543,18 @@ def urdf_document(mech: Mechanism, prefix: str = '', frame_id: str | None = None
         )
         robot.append(
             ET.Comment(
-                f' loop-closing joints, not in this tree (a URDF is a tree): {cut}. The node '
-                'publishes their values too; the tree joints alone place every link. '
+                ' loop-closing joints left out of this tree (a URDF is a tree) are '
+                f'{_comment(cut)}. The node publishes their values too; the tree joints alone '
+                'place every link. '
             )
         )
     for name, rgba in MATERIALS.items():
         m = ET.SubElement(robot, 'material', name=name)
         ET.SubElement(m, 'color', rgba=' '.join(_num(v) for v in rgba))
     ET.SubElement(robot, 'link', name=root_name)
+    lf = link_frames(mech, prefix)
     for link in tree.order:
-        el = ET.SubElement(robot, 'link', name=prefix + link)
+        el = ET.SubElement(robot, 'link', name=lf[link])
         for vis in link_visuals(mech, link, frames[link]):
             v = ET.SubElement(el, 'visual')
             _origin(v, vis.xyz, vis.rpy)
@@ -409,7 +562,7 @@ def urdf_document(mech: Mechanism, prefix: str = '', frame_id: str | None = None
             ET.SubElement(g, vis.shape, {k: _dims(val) for k, val in vis.size.items()})
             ET.SubElement(v, 'material', name=vis.material)
     for p in mech.points:
-        ET.SubElement(robot, 'link', name=prefix + p)
+        ET.SubElement(robot, 'link', name=point_frame(p, prefix))
     for j in joints:
         el = ET.SubElement(robot, 'joint', name=j.name, type=j.type)
         _origin(el, (j.origin.x, j.origin.y, 0.0), (0.0, 0.0, j.origin.yaw))

@@ -113,6 +113,21 @@ class JointMap:
             out[o.name] = v
         return [out[n] for n in self.names]
 
+    def actuated_values(self, inputs: Mapping[str, Any]) -> list[Any]:
+        """The actuated joints' values from the scene's actuator values (floats or arrays;
+        a refused request's given inputs too)."""
+        limits = {o.name: o for o in self.outputs}
+        out = []
+        for a in self.actuated:
+            entry = self.inputs[a]
+            v = entry.scale * (inputs[entry.scene_name] - entry.offset)  # scale is +-1
+            if entry.revolute:
+                v = wrap(v)
+                if a in limits:
+                    v = _fit(v, limits[a])
+            out.append(v)
+        return out
+
     # -- in: the description's names and values -> the scene's knowns -------------------------
     def to_scene(self, values: Mapping[str, Any], rates: bool = False) -> dict[str, Any]:
         """A request's values (or, ``rates``, their rates) with every description joint turned

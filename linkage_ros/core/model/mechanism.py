@@ -94,6 +94,8 @@ class JointCoordinates(Protocol):
 
     def velocities(self, joints: Mapping[str, Any]) -> list[Any]: ...
 
+    def actuated_values(self, inputs: Mapping[str, Any]) -> list[Any]: ...
+
     def to_scene(self, values: Mapping[str, Any], rates: bool = False) -> dict[str, Any]: ...
 
 
@@ -164,14 +166,13 @@ class Mechanism:
         jc = self.joint_coordinates
         return list(jc.actuated) if jc is not None else list(self.actuators)
 
-    def output_inputs(self, inputs: Mapping[str, Any], joints: Mapping[str, Any]) -> list[Any]:
+    def output_inputs(self, inputs: Mapping[str, Any]) -> list[Any]:
         """The inputs' values as published (the description's joint values, else the
-        actuators')."""
+        actuators') from the scene's actuator values (floats or a batch's arrays)."""
         jc = self.joint_coordinates
         if jc is None:
             return [inputs[a] for a in self.actuators]
-        values = dict(zip(jc.names, jc.positions(joints)))
-        return [values[a] for a in jc.actuated]
+        return jc.actuated_values(inputs)
 
     def links_of_point(self, point: str) -> list[str]:
         return [n for n, l in self.links.items() if point in l.points]

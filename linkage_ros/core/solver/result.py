@@ -115,9 +115,7 @@ def _described(mech: Mechanism | None, result: Result) -> dict[str, Any]:
     if mech is None or mech.joint_coordinates is None or not result.joints:
         return {}
     return {
-        'inputs': dict(
-            zip(mech.output_input_names, mech.output_inputs(result.inputs, result.joints))
-        ),
+        'inputs': dict(zip(mech.output_input_names, mech.output_inputs(result.inputs))),
         'joints': dict(zip(mech.output_joint_names, mech.output_joints(result.joints))),
     }
 
