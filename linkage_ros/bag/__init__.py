@@ -1,6 +1,7 @@
 """Offline analysis of recorded commands: solve every command of a rosbag2 as the node would.
 
-    linkage bag INPUT --scene SCENE --command-topic TOPIC [--target-topic TOPIC]
+    linkage bag INPUT --scene SCENE [--closures FILE] [--actuated NAME ...]
+                      --command-topic TOPIC [--target-topic TOPIC]
                       --out OUTPUT [--out OUTPUT2] [--out-format mcap|sqlite3]
                       [--solver S] [--branch B] [--tol T] [--max-iter N]
                       [--plot out.png] [--no-progress]

@@ -10,9 +10,8 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..cli.common import add_scene_argument
+from ..cli.common import add_scene_argument, description_options_error, print_notes
 from ..core.errors import LinkageError
-from ..core.model import Scene
 from .bag_out import write_bag
 from .common import BagError
 from .csv_out import write_csv
@@ -151,11 +150,26 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _run(args) -> int:
+    from ..core.loading import load_scene
     from ..resources import scene_path
 
     t_start = time.perf_counter()
-    scene = Scene.from_yaml(scene_path(args.scene), dict(args.dimension) or None)
+    path = str(scene_path(args.scene))
+    why = description_options_error(path, args.closures, args.actuated)
+    if why:
+        raise BagError(why)
+    scene = load_scene(path, dict(args.dimension) or None, args.closures, args.actuated or None)
     mech = scene.mechanism
+    print_notes(scene.notes)
+    if mech.joint_coordinates is not None:  # the replay hands the recorded values on as is
+        print_notes(
+            [
+                "the bag's commands and targets are taken in the scene's names and values "
+                f'(actuators {", ".join(mech.actuators)}; joints {", ".join(mech.joint_names)}),'
+                " not in the robot description's joint coordinates; the outputs are in the "
+                "description's"
+            ]
+        )
     outs = _check_outputs(args.out, args.plot)
     for opt, topic in (
         ('--command-topic', args.command_topic),

@@ -5,9 +5,13 @@
     linkage sweep SCENE --set NAME=START:STOP:COUNT ... [--set NAME=VALUE] [--target ...]
                         [--branch B] [--solver S] [--tol T] [--max-iter N] [--strict] [--json]
     linkage check SCENE [--solver S] [--json]
+    linkage import DESCRIPTION [--closures FILE] [--actuated NAME ...] [-o scene.yaml]
 
-SCENE is a scene file or the name of a packaged scene (``four_bar``). Angles are radians (a value
-may end in ``deg``: ``--set crank=30deg``), lengths metres.
+SCENE is a scene file, the name of a packaged scene (``four_bar``) or a robot description
+(``.urdf``, ``.sdf``, ``.xml``) with ``--closures FILE`` (its closure side file) and
+``--actuated NAME`` (its inputs, where it does not mark them); a description's requests and
+answers use its own joint names and values (linkage_ros.cli.described). Angles are radians (a
+value may end in ``deg``: ``--set crank=30deg``), lengths metres.
 
 Exit status: 0 ok; 1 a solve was refused (the answer has status "error" and a reason; with
 ``--all-branches`` only when no assembly mode closes; ``sweep --strict`` when any line is an
@@ -45,12 +49,16 @@ from .common import (  # noqa: F401
     _point,
     _unit_of,
     _value,
+    add_description_arguments,
+    add_scene_argument,
     build_solve,
     clean,
     dumps,
     format_result,
     load_mechanism,
+    load_scene_file,
     parse_known,
+    print_notes,
 )
 from .parser import (  # noqa: F401
     CHECK_EPILOG,

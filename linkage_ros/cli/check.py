@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import math
 
-from .common import OK, _f, dumps, load_mechanism
+from .common import OK, _f, dumps, load_scene_file, print_notes
+from .described import InputValues
 
 # ---- check -------------------------------------------------------------------------------------
 
@@ -30,7 +31,9 @@ def input_ranges(mech) -> dict[str, tuple[float | None, float | None]]:
     return out
 
 
-def check_report(mech, path: str, solver_method: str | None) -> dict:
+def check_report(
+    mech, path: str, solver_method: str | None, notes: tuple[str, ...] | list[str] = ()
+) -> dict:
     from ..core.motion.quantities import quantities_report
     from ..core.solver import Solver
     from ..core.solver.modes import reference_toggle_warnings
@@ -49,16 +52,18 @@ def check_report(mech, path: str, solver_method: str | None) -> dict:
             'rule': c.rule,
         }
     ranges = input_ranges(mech)
+    values = InputValues(mech)  # a robot description's: its joint names and values
     inputs = {}
     for name, act in mech.actuators.items():
-        lo, hi = ranges.get(name, (None, None))
-        inputs[name] = {
+        lo, hi = values.interval(name, *ranges.get(name, (None, None)))
+        declared = values.interval(name, act.min, act.max)
+        inputs[values.name(name)] = {
             'kind': act.kind,
             'unit': 'rad' if act.kind == 'angle' else 'm',
             'min': lo,  # the range the input can take: the declared limits, or tighter
             'max': hi,
-            'declared_min': act.min,  # the scene's own limits (None: none given)
-            'declared_max': act.max,
+            'declared_min': declared[0],  # the scene's own limits (None: none given)
+            'declared_max': declared[1],
         }
     solver = Solver(mech, method=solver_method, branch='reference')
     n_act = len(mech.actuators)
@@ -86,8 +91,24 @@ def check_report(mech, path: str, solver_method: str | None) -> dict:
             'branch_count': solver.branch_count,
         },
         'warnings': reference_toggle_warnings(solver),
-        'motion': quantities_report(mech),
+        'motion': described_motion(quantities_report(mech), values),
+        'notes': list(notes),  # what loading did (a robot description assembled, ...)
+        # a robot description's joints as published, and the scene known each request
+        # name stands for (None: a scene file, published as it is)
+        'joint_coordinates': None if values.jm is None else values.jm.describe(),
     }
+
+
+def described_motion(m: dict | None, values: InputValues) -> dict | None:
+    """A quantities_report with its actuator in a robot description's name and values."""
+    if not m or values.jm is None:
+        return m
+    act = m['actuator']
+    for section in ('outputs', 'transmission_angle'):
+        for e in m[section].values():
+            for key in ('input_at_min', 'input_at_max'):
+                e[key] = values.value(act, e[key])
+    return {**m, 'actuator': values.name(act)}
 
 
 def format_check(r: dict) -> str:
@@ -151,14 +172,25 @@ def format_check(r: dict) -> str:
         out += [f'    {i + 1}. {s}' for i, s in enumerate(p['closed_form_steps'])]
     out.append(f'  placed by closed-form dyads: {", ".join(p["closed_form_links"]) or "(none)"}')
     out.append(f'  placed by Newton:            {", ".join(p["newton_links"]) or "(none)"}')
+    jc = r.get('joint_coordinates')
+    if jc:
+        out.append(f"published  the description's joints: {', '.join(jc['joints'])}")
+        out.append(
+            '  requests   '
+            + ', '.join(
+                k if k == v else f'{k} (scene {v})' for k, v in sorted(jc['inputs'].items())
+            )
+        )
     out += format_motion(r.get('motion'))
     out += [f'warning    {w}' for w in r.get('warnings', [])]
     return '\n'.join(out)
 
 
 def cmd_check(args) -> int:
-    mech, path = load_mechanism(args.scene, args.dimension)
-    report = check_report(mech, path, args.solver)
+    scene = load_scene_file(args.scene, args.dimension, args.closures, args.actuated)
+    if not args.json:
+        print_notes(scene.notes)
+    report = check_report(scene.mechanism, str(scene.path), args.solver, scene.notes)
     print(dumps(report) if args.json else format_check(report))
     return OK
 

@@ -6,9 +6,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
+
+from ..core.errors import CommandError
 
 USAGE_ERROR, REFUSED, OK = 2, 1, 0
 INTERRUPTED = 130  # Ctrl-C, as a shell reports a SIGINT
@@ -166,12 +169,13 @@ def dimension_argument(text: str) -> tuple[str, float]:
 
 
 def add_scene_argument(p: argparse.ArgumentParser, flag: bool = False) -> None:
-    """SCENE (or --scene) and the repeatable --dimension NAME=VALUE that overrides its stated
-    dimensions by name."""
+    """SCENE (or --scene), the repeatable --dimension NAME=VALUE that overrides its stated
+    dimensions by name, and the robot description's --closures FILE and --actuated NAME."""
+    what = 'scene file, packaged scene name, or robot description (.urdf, .sdf, .xml)'
     if flag:
-        p.add_argument('--scene', required=True, help='scene file or packaged scene name')
+        p.add_argument('--scene', required=True, help=what)
     else:
-        p.add_argument('scene', metavar='SCENE', help='scene file or packaged scene name')
+        p.add_argument('scene', metavar='SCENE', help=what)
     p.add_argument(
         '--dimension',
         action='append',
@@ -181,11 +185,56 @@ def add_scene_argument(p: argparse.ArgumentParser, flag: bool = False) -> None:
         help='a dimension used exactly instead of the drawing (m): LINK.P-Q, the distance '
         'between two points of a link, or SLIDER.offset (repeatable; see docs/SCENES.md)',
     )
+    add_description_arguments(p)
 
 
-def load_mechanism(scene: str, dimensions: Sequence[tuple[str, float]] = ()):
-    """The scene's mechanism and its path; ``dimensions`` override its stated dimensions."""
-    from ..core.model import Scene
+#: a robot description's file names (core.description.importer.DESCRIPTION_SUFFIXES, which
+#: the CLI does not import for a scene file: the readers add 0.05 s to every command's start)
+DESCRIPTION_SUFFIXES = ('.urdf', '.sdf', '.xml')
+
+
+def add_description_arguments(p: argparse.ArgumentParser) -> None:
+    """--closures FILE and the repeatable --actuated NAME of a robot description."""
+    p.add_argument(
+        '--closures',
+        metavar='FILE',
+        default=None,
+        help='robot description only: a closure side file (a linkage_ros closure file or '
+        "Gepetto's YAML) stating where its loops close (see docs/ROBOT_DESCRIPTIONS.md)",
+    )
+    p.add_argument(
+        '--actuated',
+        action='append',
+        default=[],
+        metavar='NAME',
+        help='robot description only: an actuated joint, where neither the description nor '
+        'the closure file marks them (repeatable)',
+    )
+
+
+def description_options_error(
+    path: str, closures: str | None, actuated: Sequence[str] = ()
+) -> str | None:
+    """Why --closures / --actuated cannot go with ``path`` (a scene file), or None."""
+    from ..core.description import is_description
+
+    if (closures or actuated) and not is_description(path):
+        option = '--closures' if closures else '--actuated'
+        return (
+            f'{option} applies to a robot description (.urdf, .sdf, .xml); the scene file '
+            f'{path} states its closures and actuators itself'
+        )
+    return None
+
+
+def load_scene_file(
+    scene: str,
+    dimensions: Sequence[tuple[str, float]] = (),
+    closures: str | None = None,
+    actuated: Sequence[str] = (),
+):
+    """The Scene (mechanism, path, notes) of a scene file, packaged scene or robot
+    description (with its closure side file and actuated joints)."""
     from ..resources import config_dir, scene_path
 
     try:
@@ -203,49 +252,98 @@ def load_mechanism(scene: str, dimensions: Sequence[tuple[str, float]] = ()):
             f'scene {scene!r} not found: not a file and not a packaged scene'
             + (f' (packaged: {", ".join(avail)})' if avail else '')
         )
-    return Scene.from_yaml(path, dict(dimensions) or None).mechanism, str(path)
+    if not (closures or actuated or str(path).lower().endswith(DESCRIPTION_SUFFIXES)):
+        from ..core.model import Scene  # a scene file: the description readers stay unloaded
+
+        return Scene.from_yaml(path, dict(dimensions) or None)
+    from ..core.loading import load_scene
+
+    why = description_options_error(str(path), closures, actuated)
+    if why:
+        raise UsageError(why)
+    return load_scene(str(path), dict(dimensions) or None, closures, list(actuated) or None)
+
+
+def print_notes(notes: Sequence[str]) -> None:
+    """What loading did that a user should hear (a description assembled, its mimics
+    superseded): one line each on stderr."""
+    for note in notes:
+        print(f'note: {note}', file=sys.stderr)
+
+
+def load_mechanism(
+    scene: str,
+    dimensions: Sequence[tuple[str, float]] = (),
+    closures: str | None = None,
+    actuated: Sequence[str] = (),
+    notes: bool = True,
+):
+    """The scene's mechanism and its path; ``dimensions`` override its stated dimensions; a
+    robot description takes ``closures`` and ``actuated``. The scene's notes go to stderr
+    (``notes``: text output; JSON output leaves them out)."""
+    loaded = load_scene_file(scene, dimensions, closures, actuated)
+    if notes:
+        print_notes(loaded.notes)
+    return loaded.mechanism, str(loaded.path)
 
 
 def build_solve(mech, args, allow_range: bool):
     """The knowns of a solve/sweep command line -> (knowns, axes, Solver).
 
-    ``axes`` is [(name, [values...])] in command-line order; a fixed value is a 1-element axis."""
+    ``axes`` is [(name, [values...])] in command-line order; a fixed value is a 1-element axis.
+    ``knowns`` are the solver's. For a mechanism read from a robot description the names and
+    values are the description's: ``knowns`` are the scene's they stand for, and a command
+    built from ``axes`` goes through :func:`described.scene_command` before the solver."""
     from ..core.plan import spec_for
     from ..core.solver import Solver
+    from .described import commanded, scene_names
 
+    acts = commanded(mech)  # mech.actuators, or the description's commanded actuated joints
     items = getattr(args, 'knowns', None) or []
     if not items and mech.dof:  # a structure (0 DOF) is solved with no knowns: where it goes
         raise UsageError(
             'nothing to solve: give --set NAME=VALUE for each actuator '
-            f'({", ".join(mech.actuators)}), or --target / --target-point'
+            f'({", ".join(acts)}), or --target / --target-point'
         )
     axes: list[Any] = []
     options: dict[str, Any] = {}
+    knowns: list[str] = []
+    given: dict[str, str] = {}  # the solver's known -> the name on the command line
     for option, text in items:
         name, values, deg = parse_known(option, text, allow_range)
         if name in options:
             raise UsageError(f'{name!r} is given twice ({options[name]} and {option})')
         options[name] = option
-        if option == '--set' and name not in mech.actuators:
-            raise UsageError(
-                f'--set {name}: {name!r} is not an actuator of {mech.name!r} '
-                f'(actuators: {", ".join(mech.actuators)}); use --target for joints, '
-                'links or points'
-            )
         if option == '--target-point':
             if name not in mech.points:
                 raise UsageError(f'--target-point {name}: {name!r} is not a point of {mech.name!r}')
             name = f'point:{name}'  # a point may share its name with a joint
             options[name] = option
-        spec = spec_for(mech, name)  # PlanError for an unknown name
+        try:
+            names = scene_names(mech, name)  # a description's joint -> the scene's known(s)
+        except CommandError as exc:
+            raise UsageError(f'{option} {name}: {exc}') from None
+        if option == '--set' and name not in acts:
+            raise UsageError(
+                f'--set {name}: {name!r} is not an actuator of {mech.name!r} '
+                f'(actuators: {", ".join(acts)}); use --target for joints, '
+                'links or points'
+            )
+        spec = spec_for(mech, names[0])  # PlanError for an unknown name
         if option != '--target-point' and spec.kind == 'point':
             raise UsageError(f'{option} {name}: {name!r} is a point; use --target-point {name}=X,Y')
         if deg and spec.kind != 'angle':
             raise UsageError(f'{option} {name}: a "deg" suffix on a length ({spec.unit})')
+        for known in names:
+            if known in given:
+                raise UsageError(
+                    f'{given[known]!r} and {name!r} name the same known {known!r} of {mech.name!r}'
+                )
+            given[known] = name
+            knowns.append(known)
         axes.append((name, values))
-    knowns = [n for n, _ in axes]
-    if all(options[n] == '--set' for n in knowns):
-        missing = [a for a in mech.actuators if a not in options]
+    if all(options[n] == '--set' for n, _ in axes):
+        missing = [a for a in acts if a not in options]
         if missing:
             raise UsageError(f'missing --set for actuator(s) {", ".join(missing)} of {mech.name!r}')
     solver = Solver(
@@ -296,7 +394,13 @@ def _angle(v) -> str:
 
 
 def _unit_of(mech, name: str) -> str:
-    """'m' for prismatic joints and slide actuators, 'rad' otherwise."""
+    """'m' for prismatic joints and slide actuators, 'rad' otherwise (a robot description's
+    joint: by its type)."""
+    from .described import unit_of
+
+    unit = unit_of(mech, name)
+    if unit is not None:
+        return unit
     if name in mech.prismatics:
         return 'm'
     act = mech.actuators.get(name)

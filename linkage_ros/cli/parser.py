@@ -32,6 +32,8 @@ knowns (in command-line order; with `sweep` that order is the grid order):
   --target-point NAME=X,Y   a point's position (m): inverse solve
   --set and --target may be combined: the knowns are all the names given, and they must fix
   every degree of freedom (e.g. one actuator and one joint angle of the 2-DOF plagiograph).
+  For a robot description the names and values are its own joints' (--set an actuated joint,
+  --target any joint it can set), as the node takes them; the answer's inputs and joints too.
 """
 
 SOLVE_EPILOG = (
@@ -97,7 +99,10 @@ A scene that does not load (e.g. DOF != actuators) is an error: exit 2.
 """
 
 MAIN_EPILOG = """\
-SCENE is a scene file or the name of a packaged scene (e.g. four_bar).
+SCENE is a scene file, the name of a packaged scene (e.g. four_bar), or a robot description
+(.urdf, .sdf, .xml; with --closures FILE for a side file stating its loops, --actuated NAME for
+its inputs): requests and answers then use the description's own joint names and values
+(docs/ROBOT_DESCRIPTIONS.md).
 exit status: 0 ok, 1 solve refused, 2 usage error, 130 interrupted (Ctrl-C).
 `linkage COMMAND --help` for details.
 """
@@ -109,6 +114,7 @@ EXTERNAL_COMMANDS = {
     'bag': 'linkage_ros.bag',
     'bench': 'linkage_ros.bench',
     'urdf': 'linkage_ros.cli.urdf',
+    'import': 'linkage_ros.cli.importing',
 }
 
 

@@ -36,6 +36,7 @@ from typing import Any
 
 from ..core.errors import LinkageError
 from .common import UsageError, add_scene_argument, load_mechanism
+from .described import InputValues
 
 OK, REFUSED, USAGE_ERROR = 0, 1, 2
 PROG = 'linkage range'
@@ -328,10 +329,51 @@ def _print_human(r: dict, mech) -> None:
         p(f'wrote {k} plot: {v}')
 
 
+def described(report: dict, mech) -> dict:
+    """The report's actuator names and values in a robot description's own (its joint names
+    and values, as joint_states publishes them); a scene's report is left as it is."""
+    values = InputValues(mech)
+    if values.jm is None:
+        return report
+    name = values.name
+    report['actuators'] = [name(a) for a in report['actuators']]
+    inputs = {}
+    for act, i in report['inputs'].items():
+        i = dict(i)
+        i['min'], i['max'] = values.interval(act, i['min'], i['max'])
+        if values.reversed(act):
+            i['min_source'], i['max_source'] = i['max_source'], i['min_source']
+        if i.get('assembly'):
+            i['assembly'] = list(values.interval(act, *i['assembly']))
+        i['reference'] = values.value(act, i['reference'])
+        inputs[name(act)] = i
+    report['inputs'] = inputs
+    report['toggles'] = {name(a): values.values(a, t) for a, t in report['toggles'].items()}
+    for reg in (report.get('region') or {}).values():
+        reg['limits'] = {name(a): list(values.interval(a, *v)) for a, v in reg['limits'].items()}
+        reg['held'] = {name(a): values.value(a, v) for a, v in reg['held'].items()}
+        reg['actuators'] = [name(a) for a in reg['actuators']]
+    if report.get('oscillation'):
+        report['oscillation']['input'] = name(report['oscillation']['input'])
+    if report.get('motion'):
+        from .check import described_motion
+
+        report['motion'] = described_motion(report['motion'], values)
+    return report
+
+
 def run(args) -> int:
     try:
-        mech, _path = load_mechanism(args.scene, args.dimension)
+        mech, _path = load_mechanism(
+            args.scene, args.dimension, args.closures, args.actuated, notes=not args.json
+        )
+        values = InputValues(mech)  # a robot description's actuated joints name its actuators
+        if args.input is not None:
+            args.input = values.actuator(args.input)
+        if args.actuators:
+            args.actuators = ','.join(values.actuator(a.strip()) for a in args.actuators.split(','))
         report, status = analyse(args, mech)
+        report = described(report, mech)
     except UsageError as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR

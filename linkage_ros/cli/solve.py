@@ -19,14 +19,18 @@ from .common import (
     load_mechanism,
     target_engine,
 )
+from .described import request_echo, scene_command
 
 # ---- solve -------------------------------------------------------------------------------------
 
 
 def cmd_solve(args) -> int:
-    mech, _ = load_mechanism(args.scene, args.dimension)
+    mech, _ = load_mechanism(
+        args.scene, args.dimension, args.closures, args.actuated, notes=not args.json
+    )
     knowns, axes, solver = build_solve(mech, args, allow_range=False)
-    command = {n: vals[0] for n, vals in axes}
+    given = {n: vals[0] for n, vals in axes}
+    command = scene_command(mech, given)  # a robot description's names and values -> the scene's
     if args.any_mode and (args.all_branches or not solver.inverse):
         raise UsageError('--any-mode applies to an inverse solve (--target, --target-point)')
     modes = None
@@ -39,7 +43,7 @@ def cmd_solve(args) -> int:
         results = [engine.solve_target(solver, command, allow_mode_change=args.any_mode)]
     else:
         results = [solver.solve(command)]
-    dicts = [r.to_dict(mech) for r in results]
+    dicts = [request_echo(mech, r.to_dict(mech), given) for r in results]
     for d, r in zip(dicts, results):
         if r.mode_change:
             d['mode_change'] = r.mode_change

@@ -18,6 +18,7 @@ from .common import (
     load_mechanism,
     target_engine,
 )
+from .described import request_echo, scene_command
 
 # ---- sweep -------------------------------------------------------------------------------------
 
@@ -29,11 +30,13 @@ def _cell(v) -> str:
 
 
 def cmd_sweep(args) -> int:
-    mech, _ = load_mechanism(args.scene, args.dimension)
+    mech, _ = load_mechanism(
+        args.scene, args.dimension, args.closures, args.actuated, notes=not args.json
+    )
     _, axes, solver = build_solve(mech, args, allow_range=True)
     names = [n for n, _ in axes]
     outs = [p for p in mech.outputs]
-    solved_inputs = [a for a in mech.actuators if a not in names]
+    solved_inputs = [a for a in mech.output_input_names if a not in names]
     if not args.json:
         head = (
             ['#']
@@ -51,12 +54,13 @@ def cmd_sweep(args) -> int:
     n_ok = n_err = 0
     for i, combo in enumerate(_grid([vals for _, vals in axes])):
         command = dict(zip(names, combo))
-        res = engine.solve_target(solver, command) if engine else solver.solve(command)
+        known = scene_command(mech, command)  # a robot description's names and values
+        res = engine.solve_target(solver, known) if engine else solver.solve(known)
         if args.csv:
             rows.append(_csv_row(mech, i, res))
         n_ok += res.success
         n_err += not res.success
-        d = res.to_dict(mech)
+        d = request_echo(mech, res.to_dict(mech), command)
         if args.json:
             d['index'] = i
             d['command'] = {k: list(v) if isinstance(v, tuple) else v for k, v in command.items()}

@@ -53,7 +53,7 @@ def run(args: argparse.Namespace) -> int:
         why = name_error(args.frame_id) if args.frame_id is not None else None
         if why:
             raise UsageError(f'--frame-id {why}')
-        mech, _path = load_mechanism(args.scene, args.dimension)
+        mech, _path = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
         text = urdf_document(mech, prefix=args.prefix, frame_id=args.frame_id)
         if args.output:
             with written_whole(args.output) as tmp:
