@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 import struct
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Container, Iterable, Mapping, Sequence
 from typing import Any
 
 from builtin_interfaces.msg import Time
@@ -20,7 +20,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from .core.errors import CommandError
+from .core.errors import CommandError, echo
 from .core.model import Mechanism
 from .core.solver import Result
 from .engine import request_rates, request_values, status_values
@@ -28,6 +28,7 @@ from .engine import request_rates, request_values, status_values
 __all__ = [
     'joint_state_to_command',
     'joint_state_peek',
+    'joint_state_pick',
     'point_stamped_to_xy',
     'is_zero_stamp',
     'result_to_joint_state',
@@ -57,6 +58,34 @@ def joint_state_to_command(msg: JointState, max_names: int | None = None) -> dic
 def joint_state_rates(msg: JointState) -> dict[str, float] | None:
     """``{name: velocity}`` of a JointState command, None if its velocity is empty."""
     return request_rates(msg.name, msg.velocity)
+
+
+def joint_state_pick(
+    msg: JointState, wanted: Container[str]
+) -> tuple[dict[str, float], dict[str, float] | None]:
+    """``({name: position}, {name: velocity} or None)`` of the names in ``wanted`` that ``msg``
+    carries (state completion: the mechanism's inputs in a hardware JointState, which may carry
+    any number of other joints). Velocities are read only when the message has one per name.
+    A message whose positions do not line up with its names, or that repeats a wanted name, is
+    refused (CommandError) if it carries a wanted name at all; ``({}, None)`` when it carries
+    none."""
+    names = msg.name
+    picked = [(i, n) for i, n in enumerate(names) if n in wanted]
+    if not picked:
+        return {}, None
+    found = [n for _, n in picked]
+    if len(msg.position) != len(names):
+        raise CommandError(
+            f'JointState has {len(names)} name(s) but {len(msg.position)} position(s): '
+            f'cannot read {echo(found)}'
+        )
+    if len(set(found)) != len(found):
+        raise CommandError(f'JointState names {echo(sorted(set(found)))} more than once')
+    values = {n: float(msg.position[i]) for i, n in picked}
+    rates = (
+        {n: float(msg.velocity[i]) for i, n in picked} if len(msg.velocity) == len(names) else None
+    )
+    return values, rates
 
 
 def joint_state_peek(raw: bytes) -> tuple[int, int, int] | None:

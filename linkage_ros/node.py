@@ -7,6 +7,11 @@ A thin shell around the core (see docs/TOPICS.md for the full interface):
 * ``~/target_point/<point>`` geometry_msgs/PointStamped              -> inverse kinematics
 * publishes ``joint_states``, ``~/points/<name>``, ``~/markers`` and one ``~/status`` per request.
 
+The mechanism comes from a scene file, a robot description (a URDF/SDF path, the
+``robot_description`` parameter, or ``robot_description_topic``, where a later description
+replaces it whole), and with ``joint_states_in`` the node completes a hardware JointState: the
+inputs it reads command it, joint_states carries the passive joints.
+
 Each callback is message -> plain data (conversions) -> core Solver -> message. A bad request is
 answered by exactly one ERROR status and changes nothing; the node keeps the last good state.
 """
@@ -15,6 +20,7 @@ from __future__ import annotations
 
 import dataclasses
 import gc
+import math
 import signal
 import sys
 import traceback
@@ -34,22 +40,25 @@ from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
+from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
 from .conversions import (
     format_joints,
     is_zero_stamp,
     joint_state_peek,
+    joint_state_pick,
     joint_state_rates,
     joint_state_to_command,
     point_stamped_to_xy,
     pose_to_xy_yaw,
 )
 from .core.errors import CommandError, SceneError
+from .core.model import Mechanism, Scene
 from .core.solver import Result
 from .core.solver.modes import reference_toggle_warnings
 from .demo import DemoSweep
-from .engine import max_request_names, request_shape_error
+from .engine import Engine, max_request_names, request_shape_error
 from .params import (
     DEMO_RATE_MAX,
     DEMO_RATE_MIN,
@@ -64,7 +73,7 @@ from .params import (
     make_config,
 )
 from .point_coordinates import pose_target
-from .publishing import Outputs, topic_qos
+from .publishing import Channels, Outputs, Waiting, latched_qos, topic_qos
 from .stamps import frame_error, stamp_error
 from .trajectory import TrajectoryAnswer, answer_path_msg, answer_trajectory_msg
 
@@ -131,15 +140,33 @@ class LinkageNode(Node):
         return values
 
     def _setup(self):
-        self.config = make_config(self._declare_parameters())
-        self.scene, self.engine = load_engine(self.config)
-        mech = self.mech = self.scene.mechanism
-        self.max_names = max_request_names(mech)  # a longer request is refused at once
-        self.frame_id = self.config.frame_id or mech.frame_id
-        self.outputs = Outputs(self, self.engine, self.config, self.frame_id)
-        # ~/command and ~/target keep rclpy's default QoS-event warnings; the per-point targets
-        # carry none (see Outputs: each handler costs every executor wakeup)
-        qos = topic_qos(self.config.queue_depth)
+        self.config = cfg = make_config(self._declare_parameters())
+        # the mechanism and what serves it (_serve sets them; None while waiting for a robot
+        # description on robot_description_topic)
+        self.scene: Scene | None = None
+        self.engine: Engine | None = None
+        self.mech: Mechanism | None = None
+        self.outputs: Outputs | None = None
+        self.frame_id = cfg.frame_id
+        self.max_names = 0
+        self.target_points: list[str] = []
+        self.pose_links: list[str] = []
+        self._mech_subs: list[Any] = []  # per point / per link: destroyed with the mechanism
+        self._description = ''  # the robot description text served (from the topic)
+        self._waiting: Waiting | None = None
+        #: state completion: inputs read from joint_states_in and commanded; mimic followers
+        #: among the actuated joints (left out of joint_states when the hardware sends them)
+        self._state_inputs: frozenset[str] = frozenset()
+        self._state_followers: frozenset[str] = frozenset()
+        self._demo_timer = None
+        self._demo: DemoSweep | None = None
+        self._demo_failures = 0
+        # the publishers every mechanism shares (and the waiting state answers on)
+        self.channels = Channels(self, cfg)
+        # ~/command and ~/target keep rclpy's default QoS-event warnings; the others carry none
+        # (see Outputs: each handler costs every executor wakeup)
+        qos = topic_qos(cfg.queue_depth)
+        quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
         self.create_subscription(JointState, '~/command', self._on_command, qos)
         # targets arrive serialised: a request with more names than the scene has is refused
         # from its first bytes, before rclpy would build 10^5 Python strings for it
@@ -149,65 +176,17 @@ class LinkageNode(Node):
             '~/target_any_mode',
             self._on_target_any_mode,
             qos,
-            event_callbacks=SubscriptionEventCallbacks(use_default_callbacks=False),
+            event_callbacks=quiet_sub,
             raw=True,
         )
-        ground = set(mech.links[mech.ground].points)
-        self.target_points = [p for p in mech.points if p not in ground]
-        quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
-        for p in self.target_points:
-            self.create_subscription(
-                PointStamped,
-                f'~/target_point/{p}',
-                lambda msg, p=p: self._on_target_point(p, msg),
-                qos,
-                event_callbacks=quiet_sub,
-            )
-        # a link's pose (its first point and its angle) from a PoseStamped, e.g. a TF pose
-        self.pose_links = [l for l in mech.links if l != mech.ground]
-        for link in self.pose_links:
-            self.create_subscription(
-                PoseStamped,
-                f'~/target_pose/{link}',
-                lambda msg, link=link: self._on_target_pose(link, msg),
-                qos,
-                event_callbacks=quiet_sub,
-            )
-        # trajectories and paths: many requests answered as one (trajectory.py)
+        # trajectories: many requests answered as one (trajectory.py)
         self.create_subscription(
             JointTrajectory, '~/trajectory', self._on_trajectory, qos, event_callbacks=quiet_sub
         )
-        for p in self.target_points:
-            self.create_subscription(
-                Path,
-                f'~/target_path/{p}',
-                lambda msg, p=p: self._on_target_path(p, msg),
-                qos,
-                event_callbacks=quiet_sub,
-            )
-        self._demo_timer = None
-        self._demo: DemoSweep | None = None
-        self._demo_failures = 0
+        if cfg.joint_states_in:
+            self.create_subscription(JointState, cfg.joint_states_in, self._on_joint_states_in, qos)
         self.add_on_set_parameters_callback(self._on_set_parameters)
         log = self.get_logger()
-        log.info(
-            f'scene {mech.name!r} from {self.config.scene_path}: {mech.dof} DOF, '
-            f'actuators {list(mech.actuators)}, joints {mech.joint_names}, outputs '
-            f'{list(mech.outputs)}, frame {self.frame_id!r}, solver '
-            f'{self.engine.forward.mode}, branch {self.config.branch}'
-            + (
-                ', dimensions ' + ', '.join(f'{k}={v:.12g}' for k, v in mech.stated.items())
-                if mech.stated
-                else ''
-            )
-        )
-        for warning in reference_toggle_warnings(self.engine.forward):
-            log.warning(f'scene {mech.name!r}: {warning}')
-        if mech.dof > 2 and not self.config.target_point_hold:
-            log.warning(
-                f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '
-                f'naming {mech.dof - 2} held value(s)'
-            )
         # rclpy keeps an override this node never declares without a word: a misspelt name
         # would silently leave its parameter at the default
         overrides = getattr(self, '_parameter_overrides', None) or {}
@@ -217,20 +196,235 @@ class LinkageNode(Node):
                 f'ignoring parameter(s) this node does not have: {ignored} (its '
                 f'parameters: {", ".join(p.name for p in PARAMETERS)})'
             )
-        # the last start-up line: whoever waits for it has every start-up warning already
-        log.info(
-            f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
-            f'{list(mech.actuators)}), publishing {self.resolve_topic_name("joint_states")} '
-            f'(reliable, keep last {self.config.output_depth}; commands keep last '
-            f'{self.config.queue_depth})'
-        )
-        if self.config.demo_sweep:
-            self._check_demo_possible()
-            self._start_demo()
+        if cfg.robot_description_topic:
+            topic = self.resolve_topic_name(cfg.robot_description_topic)
+            self._waiting = Waiting(self, self.channels, topic)
+            self.create_subscription(
+                String,
+                cfg.robot_description_topic,
+                self._on_robot_description,
+                latched_qos(),
+                event_callbacks=quiet_sub,
+            )
+            # the last start-up line while there is no mechanism yet
+            log.info(
+                f'waiting for a robot description on {topic} (std_msgs/String, reliable, '
+                'transient local): every request is refused until one arrives'
+            )
+        else:
+            scene, engine = load_engine(cfg)
+            self._serve(scene, engine)
         # another node of this name in this namespace mixes its answers, status and parameter
         # services with ours: look at the graph once discovery has had time to see it
         self._clash_checks = 0
         self._clash_timer = self.create_timer(CLASH_CHECK_S, self._check_name_clash)
+
+    # -- the mechanism -----------------------------------------------------------------------------
+    def _serve(self, scene: Scene, engine: Engine) -> None:
+        """Serve ``scene``: its Outputs and per-point / per-link subscriptions, its start-up log
+        lines, the demo if it is on. A mechanism served before is replaced whole (its outputs
+        and subscriptions destroyed); if building the new one fails, the old one stays and the
+        exception goes on."""
+        cfg = self.config
+        mech = scene.mechanism
+        frame_id = cfg.frame_id or mech.frame_id
+        replacing = self.mech is not None
+        if cfg.demo_sweep and not replacing and not cfg.robot_description_topic:
+            self._check_demo_possible(mech)  # start-up stops here, before any other line
+        subs: list[Any] = []
+        outputs = None
+        try:
+            outputs = Outputs(
+                self, engine, cfg, frame_id, self.channels, self._source(), clear_markers=replacing
+            )
+            self._subscribe_mechanism(mech, subs)
+        except BaseException:
+            for sub in subs:
+                self.destroy_subscription(sub)
+            if outputs is not None:
+                outputs.destroy()
+            raise
+        # the new one is complete: the old one goes
+        self._stop_demo()
+        for sub in self._mech_subs:
+            self.destroy_subscription(sub)
+        if self.outputs is not None:
+            self.outputs.destroy()
+        if self._waiting is not None:
+            self._waiting.destroy()
+            self._waiting = None
+        self.scene, self.engine, self.mech, self.outputs = scene, engine, mech, outputs
+        self._mech_subs = subs
+        self.frame_id = frame_id
+        self.max_names = max_request_names(mech)  # a longer request is refused at once
+        self.target_points = [
+            p for p in mech.points if p not in set(mech.links[mech.ground].points)
+        ]
+        self.pose_links = [l for l in mech.links if l != mech.ground]
+        inputs = mech.output_input_names
+        leaders = getattr(mech.joint_coordinates, 'inputs', {})
+        followers = {a for a in inputs if getattr(leaders.get(a), 'leader', '')}
+        self._state_inputs = frozenset(inputs) - followers
+        self._state_followers = frozenset(followers)
+        if cfg.joint_states_in:  # the hardware publishes the inputs: joint_states carries the rest
+            outputs.set_omit_joints(self._state_inputs)
+        self._log_mechanism(scene, replacing)
+        if cfg.demo_sweep:
+            if mech.actuators:
+                self._start_demo()
+            else:  # a structure from robot_description_topic
+                self.get_logger().error(
+                    f'demo sweep stopped: scene {mech.name!r} has no actuator to sweep (a '
+                    'structure: 0 DOF); demo_sweep is now false'
+                )
+                self.set_parameters([Parameter('demo_sweep', value=False)])
+
+    def _source(self) -> str:
+        cfg = self.config
+        if cfg.robot_description_topic:
+            return self.resolve_topic_name(cfg.robot_description_topic)
+        return cfg.source
+
+    def _subscribe_mechanism(self, mech: Mechanism, subs: list[Any]) -> None:
+        """The per-point and per-link request topics of ``mech``, appended to ``subs`` as they
+        are made (so a failure part-way can destroy those made)."""
+        qos = topic_qos(self.config.queue_depth)
+        quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
+        ground = set(mech.links[mech.ground].points)
+        points = [p for p in mech.points if p not in ground]
+        for p in points:
+            subs.append(
+                self.create_subscription(
+                    PointStamped,
+                    f'~/target_point/{p}',
+                    lambda msg, p=p: self._on_target_point(p, msg),
+                    qos,
+                    event_callbacks=quiet_sub,
+                )
+            )
+        # a link's pose (its first point and its angle) from a PoseStamped, e.g. a TF pose
+        for link in (l for l in mech.links if l != mech.ground):
+            subs.append(
+                self.create_subscription(
+                    PoseStamped,
+                    f'~/target_pose/{link}',
+                    lambda msg, link=link: self._on_target_pose(link, msg),
+                    qos,
+                    event_callbacks=quiet_sub,
+                )
+            )
+        for p in points:
+            subs.append(
+                self.create_subscription(
+                    Path,
+                    f'~/target_path/{p}',
+                    lambda msg, p=p: self._on_target_path(p, msg),
+                    qos,
+                    event_callbacks=quiet_sub,
+                )
+            )
+
+    def _log_mechanism(self, scene: Scene, replacing: bool) -> None:
+        """The start-up lines of a mechanism (again when a robot description replaces it)."""
+        mech, engine, cfg, log = scene.mechanism, self.engine, self.config, self.get_logger()
+        assert engine is not None and self.outputs is not None
+        log.info(
+            ('robot description replaced: ' if replacing else '')
+            + f'scene {mech.name!r} from {self._source()}: {mech.dof} DOF, '
+            f'actuators {list(mech.actuators)}, joints {mech.output_joint_names}, outputs '
+            f'{list(mech.outputs)}, frame {self.frame_id!r}, solver '
+            f'{engine.forward.mode}, branch {cfg.branch}'
+            + (
+                ', dimensions ' + ', '.join(f'{k}={v:.12g}' for k, v in mech.stated.items())
+                if mech.stated
+                else ''
+            )
+        )
+        for note in scene.notes:
+            log.info(f'scene {mech.name!r}: {note}')
+        omit = self.outputs.omit_joints
+        published = [cfg.prefix + j for j in mech.output_joint_names if j not in omit]
+        log.info(
+            f'joint_states names: {published}'
+            + (
+                f' (leaving out {sorted(omit & set(mech.output_joint_names))}: '
+                f'{self.resolve_topic_name(cfg.joint_states_in)} gives them)'
+                if cfg.joint_states_in
+                else ''
+            )
+        )
+        for warning in reference_toggle_warnings(engine.forward):
+            log.warning(f'scene {mech.name!r}: {warning}')
+        if mech.dof > 2 and not cfg.target_point_hold:
+            log.warning(
+                f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '
+                f'naming {mech.dof - 2} held value(s)'
+            )
+        commands = sorted(self._state_inputs, key=mech.output_input_names.index)
+        # the last start-up line: whoever waits for it has every start-up warning already
+        log.info(
+            f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
+            f'{commands}), publishing {self.resolve_topic_name("joint_states")} '
+            f'(reliable, keep last {cfg.output_depth}; commands keep last '
+            f'{cfg.queue_depth})'
+            + (
+                f'; state completion from {self.resolve_topic_name(cfg.joint_states_in)}'
+                if cfg.joint_states_in
+                else ''
+            )
+        )
+
+    def _on_robot_description(self, msg: String) -> None:
+        """A robot description on robot_description_topic: the first one starts serving, a
+        later one replaces the mechanism; one that does not load is refused (the mechanism
+        served, if any, keeps running). Never raises."""
+        text = msg.data
+        if self.outputs is not None and text == self._description:
+            # the one served, again (after a refused one, the robot is back to it)
+            self.get_logger().info('robot description unchanged: the mechanism stays as it is')
+            self.outputs.description_error = ''
+            return
+        try:
+            if not text.strip():
+                raise SceneError('the robot description is empty')
+            scene, engine = load_engine(self.config, text)
+            self._serve(scene, engine)
+        except (SceneError, ConfigError) as exc:
+            self._refuse_description(str(exc))
+            return
+        except Exception as exc:  # a bug must not take the node down: refuse and keep going
+            self.get_logger().error(
+                f'internal error on a robot description: {exc!r}\n' + traceback.format_exc()
+            )
+            self._refuse_description(f'internal error: {exc!r}')
+            return
+        self._description = text
+
+    def _refuse_description(self, reason: str) -> None:
+        """Refuse a robot description: logged, one ERROR status, /diagnostics ERROR at once.
+        Never raises."""
+        try:
+            self._report_refused(one_line(reason))
+        except Exception as exc:  # noqa: BLE001 - never raise from a callback
+            self.get_logger().error(f'robot description refused: {reason}; and then: {exc!r}')
+
+    def _report_refused(self, reason: str) -> None:
+        log = self.get_logger()
+        if self.outputs is None:
+            assert self._waiting is not None
+            log.error(f'robot description refused: {reason}; still waiting for one')
+            self._waiting.refused_description = reason
+            self._waiting.answer('robot_description')
+            self._waiting.diagnose()
+            return
+        assert self.mech is not None
+        why = f'robot description refused: {reason}'
+        log.error(f'{why}; still serving {self.mech.name!r}')
+        self.outputs.description_error = why
+        self.outputs.answer(
+            Result(False, why), self.get_clock().now().to_msg(), 'robot_description'
+        )
+        self.outputs.diagnose()
 
     def _check_name_clash(self) -> None:
         """Log an error if the graph holds another node with this node's full name (checked a
@@ -284,7 +478,7 @@ class LinkageNode(Node):
     def _apply_demo(self, cfg: NodeConfig):
         self._stop_demo()
         self.config = cfg
-        if cfg.demo_sweep:
+        if cfg.demo_sweep and self.mech is not None:  # else it starts when a mechanism arrives
             self._start_demo()
 
     # -- requests ----------------------------------------------------------------------------------
@@ -303,6 +497,8 @@ class LinkageNode(Node):
         """Run one request and publish its answer (Outputs.answer: on success joint_states,
         the subscribed points and an OK status; on failure only an ERROR status). Never
         raises."""
+        if self.outputs is None:  # no robot description yet
+            return self._refuse_waiting(request)
         try:
             stamp, bad_stamp = self._request_stamp(stamp)
             if bad_stamp:
@@ -321,6 +517,16 @@ class LinkageNode(Node):
             self.outputs.internal_error(f'internal error: {exc!r}', request)
             return Result(False, f'internal error: {exc!r}')
 
+    def _refuse_waiting(self, request: str) -> Result:
+        """Answer a request that came before any robot description: an ERROR status saying
+        the node waits for one. Never raises."""
+        assert self._waiting is not None
+        try:
+            self._waiting.answer(request)
+        except Exception as exc:  # noqa: BLE001 - never raise from a callback
+            self.get_logger().error(f'internal error on {request}: {exc!r}')
+        return Result(False, self._waiting.reason())
+
     def _on_command(self, msg):
         self._answer(
             'command',
@@ -338,6 +544,9 @@ class LinkageNode(Node):
         self._on_raw_target('target_any_mode', raw, True)
 
     def _on_raw_target(self, request: str, raw: bytes, any_mode: bool) -> None:
+        if self.outputs is None:  # no robot description yet
+            self._refuse_waiting(request)
+            return
         peek = joint_state_peek(raw)
         if peek is not None and peek[2] > self.max_names:
             sec, nanosec, count = peek
@@ -384,6 +593,9 @@ class LinkageNode(Node):
 
     def _answer_trajectory(self, request: str, stamp, solve) -> None:
         """_answer for a trajectory or path: the same stamp rules, one status. Never raises."""
+        if self.outputs is None:  # no robot description yet
+            self._refuse_waiting(request)
+            return
         try:
             stamp, bad_stamp = self._request_stamp(stamp)
             times: list[int] = []
@@ -411,12 +623,49 @@ class LinkageNode(Node):
 
         self._answer(f'target_point/{point}', msg.header.stamp, solve)
 
+    def _on_joint_states_in(self, msg: JointState) -> None:
+        """State completion: the mechanism's inputs in a hardware JointState command it; the
+        answer's joint_states leave them out. A message carrying none of them (the node's own
+        joint_states among others) is ignored, and so is every message before a robot
+        description arrives (the inputs are not known yet). Never raises."""
+        if self.outputs is None:
+            return
+        try:
+            values, rates = joint_state_pick(msg, self._state_inputs | self._state_followers)
+        except CommandError as exc:
+            bad = str(exc)
+            self._answer('joint_states_in', msg.header.stamp, lambda: Result(False, bad))
+            return
+        except Exception as exc:  # noqa: BLE001 - a broken message must not raise here
+            bad = f'not a JointState: {exc!r}'
+            self._answer('joint_states_in', msg.header.stamp, lambda: Result(False, bad))
+            return
+        followers = self._state_followers.intersection(values)
+        if followers - self.outputs.omit_joints:  # the hardware publishes a mimic follower too
+            self.outputs.set_omit_joints(self.outputs.omit_joints | followers)
+        command = {n: v for n, v in values.items() if n not in followers}
+        if not command:
+            return
+        # joint_state_broadcaster fills a joint without a velocity interface with NaN: such
+        # rates are no rates, positions alone command
+        if rates is not None and all(math.isfinite(rates[n]) for n in command):
+            command_rates: dict[str, float] | None = {n: rates[n] for n in command}
+        else:
+            command_rates = None
+        engine = self.engine
+        assert engine is not None
+        self._answer(
+            'joint_states_in', msg.header.stamp, lambda: engine.command(command, command_rates)
+        )
+
     # -- demo sweep --------------------------------------------------------------------------------
-    def _check_demo_possible(self) -> None:
-        if not self.mech.actuators:
+    def _check_demo_possible(self, mech: Mechanism | None = None) -> None:
+        mech = mech or self.mech
+        if mech is not None and not mech.actuators:  # none yet: starts on arrival
             fail_setting(
                 'demo_sweep',
-                f'scene {self.mech.name!r} has no actuator to sweep (a structure: 0 DOF)',
+                f'scene {mech.name!r} from {self._source()} has no actuator to sweep (a '
+                'structure: 0 DOF)',
                 True,
             )
 
@@ -456,6 +705,13 @@ class LinkageNode(Node):
                 self._stop_demo()
                 # the parameter says what runs: setting it true again restarts the sweep
                 self.set_parameters([Parameter('demo_sweep', value=False)])
+
+
+def one_line(text: str, limit: int = 400) -> str:
+    """``text`` on one line (whitespace runs, line breaks too, become one space), cut to
+    ``limit`` characters: a reason for a log line and a diagnostic message."""
+    flat = ' '.join(text.split())
+    return flat if len(flat) <= limit else flat[: limit - 3] + '...'
 
 
 #: When the node looks at the graph for another node of its name (s after start-up, times)

@@ -4,15 +4,18 @@ and frozen into a NodeConfig; ROS-free, so the checks are testable without a gra
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from .core.errors import PlanError
+from .core.loading import load_scene
 from .core.model import Scene
 from .core.model.dimensions import parse_assignment
 from .core.solver import METHODS
-from .core.urdf import name_error
+from .core.urdf import PREFIX_RULE, prefix_error
 from .engine import ConfigError, Engine, EngineSettings, fail_setting
 from .resources import scene_path
 
@@ -46,7 +49,36 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         'scene',
         'four_bar',
         'Scene file: a path to a YAML scene, or the name of a packaged scene '
-        '(four_bar, slider_crank, ...; see docs/SCENES.md).',
+        '(four_bar, slider_crank, ...; see docs/SCENES.md), or a robot description '
+        '(.urdf, .sdf, .xml) whose closed chain the node solves in its own joint names.',
+    ),
+    ParamSpec(
+        'closures',
+        '',
+        'A closure side file for a robot description (a linkage_ros closure file or '
+        "Gepetto's YAML): the loops, cut joints and actuated joints the description does not "
+        "state. '' = none.",
+    ),
+    ParamSpec(
+        'actuated',
+        'string_array',
+        "The robot description's actuated joints, where neither it nor `closures` marks them. "
+        "[] (or ['']) = the description's own.",
+    ),
+    ParamSpec(
+        'robot_description',
+        '',
+        "A robot description's URDF or SDF text (what robot_state_publisher's "
+        "robot_description holds): when not '', the mechanism's source instead of `scene`.",
+    ),
+    ParamSpec(
+        'robot_description_topic',
+        '',
+        "A std_msgs/String topic (e.g. '/robot_description') the robot description is read "
+        'from (reliable, transient local, keep last 1, as robot_state_publisher publishes it) '
+        'instead of `scene`: requests are refused until one arrives, a later one replaces the '
+        "mechanism (a description that does not load is refused). '' = off.",
+        constraints="'' | a topic name",
     ),
     ParamSpec(
         'dimensions',
@@ -90,7 +122,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "frame_prefix to frames), so two mechanisms share one /joint_states: 'left_' gives "
         'left_O2, left_A, ... Give `linkage urdf --prefix` the same. Requests keep naming the '
         "scene's own names.",
-        constraints="no whitespace or control characters, no leading '/'",
+        constraints="ASCII letters, digits and _ . - / only, no '--', no leading '/'",
     ),
     ParamSpec(
         'demo_sweep',
@@ -154,6 +186,15 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         'every answer; a writer keeps only the last N for a reader that has not taken them.',
         constraints=f'integer, 1 <= output_depth <= {QUEUE_DEPTH_MAX}',
     ),
+    ParamSpec(
+        'joint_states_in',
+        '',
+        "State completion: a sensor_msgs/JointState topic (e.g. '/joint_states' of "
+        "joint_state_broadcaster) whose values of the mechanism's inputs (actuated joints, or "
+        'actuators) command the node; joint_states then leaves those joints out (the hardware '
+        "publishes them) and carries the passive ones. '' = off.",
+        constraints="'' | a topic name",
+    ),
 )
 
 
@@ -178,6 +219,20 @@ class NodeConfig:
     executor: str = 'events'
     queue_depth: int = 10
     output_depth: int = 100
+    closures: str = ''
+    actuated: tuple[str, ...] = ()
+    robot_description: str = ''
+    robot_description_topic: str = ''
+    joint_states_in: str = ''
+
+    @property
+    def source(self) -> str:
+        """Where the mechanism comes from, in words (logs, /diagnostics' scene_file)."""
+        if self.robot_description_topic:
+            return f'robot_description_topic {self.robot_description_topic}'
+        if self.robot_description:
+            return 'the robot_description parameter'
+        return self.scene_path
 
     def engine_settings(self) -> EngineSettings:
         return EngineSettings(
@@ -283,12 +338,8 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
             frame_id,
         )
     prefix = v['prefix']
-    if name_error(prefix, allow_empty=True):
-        fail_setting(
-            'prefix',
-            "must be a string without whitespace, control characters or leading '/'",
-            prefix,
-        )
+    if prefix_error(prefix):  # the rule of `linkage urdf --prefix`, whose frames it must name
+        fail_setting('prefix', PREFIX_RULE, prefix)
     demo = v['demo_sweep']
     if not isinstance(demo, bool):
         fail_setting('demo_sweep', 'must be true or false', demo)
@@ -316,8 +367,10 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
             parsed.append(parse_assignment(item))
         except ValueError as exc:
             fail_setting('dimensions', str(exc), item)
+    closures, actuated, description, description_topic = _description_settings(v)
+    joint_states_in = check_topic('joint_states_in', v['joint_states_in'])
     path = scene_path(scene)
-    if not path.exists():
+    if not (description or description_topic) and not path.exists():
         from .resources import config_dir
 
         packaged = sorted(f.stem for f in config_dir().glob('*.yaml'))
@@ -345,12 +398,74 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         executor=executor,
         queue_depth=depth,
         output_depth=output_depth,
+        closures=closures,
+        actuated=actuated,
+        robot_description=description,
+        robot_description_topic=description_topic,
+        joint_states_in=joint_states_in,
     )
 
 
-def load_engine(config: NodeConfig) -> tuple[Scene, Engine]:
-    """Load the scene and compile the forward solver; SceneError / ConfigError on failure."""
-    scene = Scene.from_yaml(config.scene_path, dict(config.dimensions) or None)
+#: a ROS topic name: tokens of letters, digits and _ (not starting with a digit) joined by '/',
+#: optionally absolute ('/') or private ('~/')
+_TOPIC = re.compile(r'(~/|/)?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*')
+
+
+def check_topic(name: str, value: Any) -> str:
+    """'' (off) or a valid ROS topic name."""
+    if not isinstance(value, str) or (value and not _TOPIC.fullmatch(value)):
+        fail_setting(
+            name,
+            "must be '' (off) or a topic name (letters, digits and _ in tokens joined by '/', "
+            "none starting with a digit; '/...' absolute, '~/...' private)",
+            value,
+        )
+    return str(value)
+
+
+def _description_settings(v: Mapping[str, Any]) -> tuple[str, tuple[str, ...], str, str]:
+    """closures, actuated, robot_description and robot_description_topic, checked."""
+    closures = v['closures']
+    if not isinstance(closures, str):
+        fail_setting('closures', "must be a closure file path ('' = none)", closures)
+    if closures and not Path(closures).is_file():
+        fail_setting('closures', 'no such file', closures)
+    actuated = v['actuated']
+    if isinstance(actuated, str) or not isinstance(actuated, (list, tuple)):
+        fail_setting('actuated', 'must be a list of joint names', actuated)
+    if list(actuated) == ['']:  # what `-p "actuated:=['']"` gives for none
+        actuated = []
+    if not all(isinstance(a, str) and a for a in actuated):
+        fail_setting('actuated', 'must be a list of joint names', list(actuated))
+    if len(set(actuated)) != len(actuated):
+        fail_setting('actuated', 'names a joint twice', list(actuated))
+    description = v['robot_description']
+    if not isinstance(description, str):
+        fail_setting('robot_description', "must be URDF or SDF text ('' = none)", description)
+    topic = check_topic('robot_description_topic', v['robot_description_topic'])
+    if description.strip() and topic:
+        fail_setting(
+            'robot_description_topic',
+            'and robot_description both give the robot description: set one of them',
+            topic,
+        )
+    return closures, tuple(actuated), description if description.strip() else '', topic
+
+
+def load_engine(config: NodeConfig, description: str | None = None) -> tuple[Scene, Engine]:
+    """Load the mechanism and compile the forward solver; SceneError / ConfigError on failure.
+
+    The mechanism comes from ``description`` (URDF or SDF text, e.g. a message of
+    robot_description_topic) if given, else the robot_description parameter, else the scene
+    file (a scene YAML or a description path); a description takes ``closures`` and
+    ``actuated``."""
+    text = description if description is not None else config.robot_description
+    dimensions = dict(config.dimensions) or None
+    closures, actuated = config.closures or None, config.actuated or None
+    if text:
+        scene = load_scene(text, dimensions, closures, actuated, text=True)
+    else:
+        scene = load_scene(config.scene_path, dimensions, closures, actuated)
     mech = scene.mechanism
     try:
         return scene, Engine(mech, config.engine_settings())

@@ -25,7 +25,7 @@ from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPo
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 from trajectory_msgs.msg import JointTrajectory
-from visualization_msgs.msg import MarkerArray
+from visualization_msgs.msg import Marker, MarkerArray
 
 from .conversions import (
     error_status,
@@ -64,17 +64,15 @@ def latched_qos() -> QoSProfile:
     )
 
 
-class Outputs:
-    """The node's publishers and timers, and the counters /diagnostics reports."""
+class Channels:
+    """The publishers that outlive a mechanism: ``joint_states``, ``~/status``, ``~/markers``,
+    ``~/solved_trajectory`` and ``/diagnostics``. A robot description that replaces the
+    mechanism keeps them (its subscribers, robot_state_publisher among them, never see the
+    endpoint go away and come back); they also answer while the node waits for its first
+    description."""
 
-    def __init__(self, node: Node, engine: Engine, config: NodeConfig, frame_id: str):
-        mech = engine.mech
-        self.node, self.engine, self.mech = node, engine, mech
-        self.config, self.frame_id = config, frame_id
-        #: joints left out of joint_states: in state completion, those the hardware publishes
-        self.omit_joints: frozenset[str] = frozenset()
-        #: statuses are named after the node as it runs (remapped name, namespace)
-        self.status_name = f'{node.get_fully_qualified_name().lstrip("/")}: {mech.name}'
+    def __init__(self, node: Node, config: NodeConfig):
+        self.node = node
         # Each QoS-event handler is one more waitable that the executor polls on every wakeup,
         # which costs the same order as the solve itself: the outputs carry none (the other end
         # reports an incompatible QoS or type on its side).
@@ -82,30 +80,80 @@ class Outputs:
         # a reader has not taken beyond its depth); a solved trajectory can be MBs: queue_depth
         qos = topic_qos(config.output_depth)
         quiet = PublisherEventCallbacks(use_default_callbacks=False)
-        self.pub_joints = node.create_publisher(
-            JointState, 'joint_states', qos, event_callbacks=quiet
-        )
-        self._joint_msg: JointState | None = None  # refilled for every answer
-        self._point_msgs: dict[str, PointStamped] = {}  # likewise, one per output point
-        self.pub_points = {
-            p: node.create_publisher(PointStamped, f'~/points/{p}', qos, event_callbacks=quiet)
-            for p in mech.outputs
-        }
-        self.pub_markers = node.create_publisher(
+        self.quiet = quiet
+        self.joints = node.create_publisher(JointState, 'joint_states', qos, event_callbacks=quiet)
+        self.markers = node.create_publisher(
             MarkerArray, '~/markers', latched_qos(), event_callbacks=quiet
         )
-        self.pub_status = node.create_publisher(
+        self.status = node.create_publisher(
             DiagnosticStatus, '~/status', qos, event_callbacks=quiet
         )
-        self.pub_trajectory = node.create_publisher(
+        self.trajectory = node.create_publisher(
             JointTrajectory,
             '~/solved_trajectory',
             topic_qos(config.queue_depth),
             event_callbacks=quiet,
         )
-        self.pub_diagnostics = node.create_publisher(
+        self.diagnostics = node.create_publisher(
             DiagnosticArray, '/diagnostics', topic_qos(10), event_callbacks=quiet
         )
+
+    def now(self) -> Time:
+        return self.node.get_clock().now().to_msg()
+
+    def diagnose(
+        self, level: bytes, message: str, name: str, hardware_id: str, values: dict[str, object]
+    ) -> None:
+        """Publish one /diagnostics status."""
+        status = DiagnosticStatus(level=level, name=name, message=message, hardware_id=hardware_id)
+        status.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
+        msg = DiagnosticArray()
+        msg.header = Header(stamp=self.now())
+        msg.status = [status]
+        self.diagnostics.publish(msg)
+
+
+class Outputs:
+    """One mechanism's outputs: its ``~/points/<p>`` publishers and timers on the node's
+    :class:`Channels`, and the counters /diagnostics reports. :meth:`destroy` ends them (a
+    robot description replaced the mechanism); the channels stay."""
+
+    def __init__(
+        self,
+        node: Node,
+        engine: Engine,
+        config: NodeConfig,
+        frame_id: str,
+        channels: Channels | None = None,
+        source: str = '',
+        clear_markers: bool = False,
+    ):
+        mech = engine.mech
+        self.node, self.engine, self.mech = node, engine, mech
+        self.config, self.frame_id = config, frame_id
+        #: where the mechanism came from (/diagnostics' scene_file): the scene file by default
+        self.source = source or config.scene_path
+        #: joints left out of joint_states: in state completion, those the hardware publishes
+        self.omit_joints: frozenset[str] = frozenset()
+        #: statuses are named after the node as it runs (remapped name, namespace)
+        self.status_name = f'{node.get_fully_qualified_name().lstrip("/")}: {mech.name}'
+        #: a robot description refused while this mechanism runs: /diagnostics says ERROR
+        self.description_error = ''
+        self.channels = channels = channels or Channels(node, config)
+        self.pub_joints = channels.joints
+        self.pub_markers = channels.markers
+        self.pub_status = channels.status
+        self.pub_trajectory = channels.trajectory
+        self.pub_diagnostics = channels.diagnostics
+        qos = topic_qos(config.output_depth)
+        self._joint_msg: JointState | None = None  # refilled for every answer
+        self._point_msgs: dict[str, PointStamped] = {}  # likewise, one per output point
+        self.pub_points = {
+            p: node.create_publisher(
+                PointStamped, f'~/points/{p}', qos, event_callbacks=channels.quiet
+            )
+            for p in mech.outputs
+        }
         # health counters for /diagnostics
         self.answered = 0
         self.refused = 0
@@ -117,12 +165,30 @@ class Outputs:
         self._marker_state: tuple[Result, Time] | None = (
             None if engine.last is None else (engine.last, self.now())
         )
+        #: a replaced mechanism's drawing is cleared by the first one of this (other links)
+        self._clear_markers = clear_markers
         self.timers = []
         if config.publish_rate > 0:
             self.timers.append(node.create_timer(1.0 / config.publish_rate, self._republish))
         if config.marker_rate > 0:
             self.timers.append(node.create_timer(1.0 / config.marker_rate, self._draw))
-        self.timers.append(node.create_timer(DIAGNOSTICS_PERIOD_S, self._diagnose))
+        self.timers.append(node.create_timer(DIAGNOSTICS_PERIOD_S, self.diagnose))
+
+    def destroy(self) -> None:
+        """End this mechanism's timers and point publishers (the channels stay)."""
+        for timer in self.timers:
+            timer.cancel()
+            self.node.destroy_timer(timer)
+        self.timers = []
+        for pub in self.pub_points.values():
+            self.node.destroy_publisher(pub)
+        self.pub_points = {}
+
+    def set_omit_joints(self, names: frozenset[str]) -> None:
+        """Leave ``names`` out of joint_states from now on (state completion)."""
+        if names != self.omit_joints:
+            self.omit_joints = names
+            self._joint_msg = None  # its names are the old ones: build the next one anew
 
     def now(self) -> Time:
         return self.node.get_clock().now().to_msg()
@@ -215,26 +281,33 @@ class Outputs:
 
     def _draw(self) -> None:
         """Markers of the newest state, if it changed since the last drawing (whether anyone
-        subscribes or not: the latched topic keeps it for a late RViz)."""
+        subscribes or not: the latched topic keeps it for a late RViz). The first drawing of a
+        mechanism that replaced another starts by deleting the old one's markers."""
         state, self._marker_state = self._marker_state, None
         if state is not None:
             result, stamp = state
-            self.pub_markers.publish(result_to_markers(result, self.mech, stamp, self.frame_id))
+            markers = result_to_markers(result, self.mech, stamp, self.frame_id)
+            if self._clear_markers:
+                self._clear_markers = False
+                clear = Marker(action=Marker.DELETEALL)
+                clear.header = Header(stamp=stamp, frame_id=self.frame_id)
+                markers.markers.insert(0, clear)
+            self.pub_markers.publish(markers)
 
-    def _diagnose(self) -> None:
-        status = DiagnosticStatus()
-        status.name = self.status_name
-        status.hardware_id = self.mech.name
+    def diagnose(self) -> None:
+        """Publish the health status on /diagnostics (the 1 Hz timer, or at once)."""
         engine = self.engine
-        if engine.last is None:
-            status.level, status.message = DiagnosticStatus.ERROR, 'no good state'
+        if self.description_error:
+            level, message = DiagnosticStatus.ERROR, self.description_error
+        elif engine.last is None:
+            level, message = DiagnosticStatus.ERROR, 'no good state'
         elif not self.last_ok:
-            status.level, status.message = DiagnosticStatus.WARN, 'last request refused'
+            level, message = DiagnosticStatus.WARN, 'last request refused'
         else:
-            status.level, status.message = DiagnosticStatus.OK, 'ok'
+            level, message = DiagnosticStatus.OK, 'ok'
         values = {
             'scene': self.mech.name,
-            'scene_file': self.config.scene_path,
+            'scene_file': self.source,
             'solver': engine.forward.mode,
             'branch': self.config.branch,
             'answered': self.answered,
@@ -242,8 +315,44 @@ class Outputs:
             'last_error': self.last_error,
             'smallest_margin': '' if self.smallest_margin is None else self.smallest_margin,
         }
-        status.values = [KeyValue(key=k, value=str(v)) for k, v in values.items()]
-        msg = DiagnosticArray()
-        msg.header = Header(stamp=self.now())
-        msg.status = [status]
-        self.pub_diagnostics.publish(msg)
+        self.channels.diagnose(level, message, self.status_name, self.mech.name, values)
+
+
+class Waiting:
+    """Before the first robot description arrives on ``topic``: /diagnostics WARN at 1 Hz
+    (ERROR while the last one that arrived was refused), and every request answered by an ERROR
+    status saying so. Nothing else is published."""
+
+    def __init__(self, node: Node, channels: Channels, topic: str):
+        self.node, self.channels = node, channels
+        self.message = f'waiting for a robot description on {topic}'
+        self.status_name = node.get_fully_qualified_name().lstrip('/')
+        #: why the last description that arrived was refused ('' if none was)
+        self.refused_description = ''
+        self.refused = 0
+        self.timer = node.create_timer(DIAGNOSTICS_PERIOD_S, self.diagnose)
+
+    def reason(self) -> str:
+        if self.refused_description:
+            return f'{self.message} (the last one was refused: {self.refused_description})'
+        return self.message
+
+    def answer(self, request: str) -> None:
+        self.refused += 1
+        self.channels.status.publish(error_status(self.reason(), self.status_name, request))
+
+    def diagnose(self) -> None:
+        if self.refused_description:
+            level, message = DiagnosticStatus.ERROR, self.reason()
+        else:
+            level, message = DiagnosticStatus.WARN, self.message
+        values = {
+            'scene': '',
+            'refused': self.refused,
+            'last_error': self.refused_description,
+        }
+        self.channels.diagnose(level, message, self.status_name, '', values)
+
+    def destroy(self) -> None:
+        self.timer.cancel()
+        self.node.destroy_timer(self.timer)

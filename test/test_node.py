@@ -1040,27 +1040,39 @@ def test_joint_state_to_command_checks_shape():
             joint_state_to_command(msg)
 
 
+def _four_bar_mech():
+    from linkage_ros.core.model import Scene
+    from linkage_ros.resources import scene_path
+
+    return Scene.from_yaml(scene_path('four_bar')).mechanism
+
+
 def test_result_to_joint_state_keeps_order_and_stamp():
-    res = Result(True, joints={'b': 2.0, 'a': 1.0})
-    msg = result_to_joint_state(res, ['a', 'b'], Time(sec=1, nanosec=2), 'f')
-    assert list(msg.name) == ['a', 'b'] and list(msg.position) == [1.0, 2.0]
+    mech = _four_bar_mech()
+    names = mech.joint_names
+    res = Result(True, joints={n: float(i) for i, n in reversed(list(enumerate(names)))})
+    msg = result_to_joint_state(res, mech, Time(sec=1, nanosec=2), 'f')
+    assert list(msg.name) == names and list(msg.position) == [float(i) for i in range(len(names))]
     assert stamp_of(msg) == (1, 2) and msg.header.frame_id == 'f'
     assert not msg.velocity and not msg.effort
 
 
 def test_result_to_joint_state_refills_a_reused_message():
+    mech = _four_bar_mech()
+    names = mech.joint_names
     first = result_to_joint_state(
-        Result(True, joints={'a': 1.0, 'b': 2.0}), ['a', 'b'], Time(sec=1, nanosec=2), 'f'
+        Result(True, joints=dict.fromkeys(names, 1.0)), mech, Time(sec=1, nanosec=2), 'f'
     )
     again = result_to_joint_state(
-        Result(True, joints={'a': -3.0, 'b': 4.5}),
-        ['a', 'b'],
+        Result(True, joints={n: -3.0 - i for i, n in enumerate(names)}),
+        mech,
         Time(sec=7, nanosec=8),
         'f',
         reuse=first,
     )
     assert again is first
-    assert list(again.name) == ['a', 'b'] and list(again.position) == [-3.0, 4.5]
+    assert list(again.name) == names
+    assert list(again.position) == [-3.0 - i for i in range(len(names))]
     assert stamp_of(again) == (7, 8) and again.header.frame_id == 'f'
 
 
