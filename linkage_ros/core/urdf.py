@@ -518,8 +518,19 @@ def _origin(parent: ET.Element, xyz: Iterable[float], rpy: Iterable[float]) -> N
 
 
 def urdf_document(mech: Mechanism, prefix: str = '', frame_id: str | None = None) -> str:
-    """The URDF (XML text) of ``mech``; see the module docstring for its frames and joints."""
+    """The URDF (XML text) of ``mech``; see the module docstring for its frames and joints.
+    A mechanism read from a robot description publishes that description's own joint names and
+    values: its URDF is the description itself, and one written here would name other joints
+    (SceneError)."""
     from .urdf_visuals import MATERIALS, link_visuals
+
+    if mech.joint_coordinates is not None:
+        raise SceneError(
+            'publishes a robot description\'s own joint names and values: give '
+            'robot_state_publisher that description itself (its URDF), which these joint_states '
+            'drive; linkage urdf writes scene files only',
+            file=mech.source,
+        )
 
     root_name = frame_id or mech.frame_id
     tree, joints, _carrier = build_joints(mech, prefix, frame_id)
