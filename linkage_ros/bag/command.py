@@ -24,7 +24,7 @@ from .plans import (
 )
 from .plot import _plot_format, write_plot
 from .progress import _Progress, _summary
-from .reading import _exc_text, read_commands
+from .reading import _exc_text, read_commands, to_scene_commands
 from .replay import _Engine
 
 # ---- command line ------------------------------------------------------------------------------
@@ -161,15 +161,6 @@ def _run(args) -> int:
     scene = load_scene(path, dict(args.dimension) or None, args.closures, args.actuated or None)
     mech = scene.mechanism
     print_notes(scene.notes)
-    if mech.joint_coordinates is not None:  # the replay hands the recorded values on as is
-        print_notes(
-            [
-                "the bag's commands and targets are taken in the scene's names and values "
-                f'(actuators {", ".join(mech.actuators)}; joints {", ".join(mech.joint_names)}),'
-                " not in the robot description's joint coordinates; the outputs are in the "
-                "description's"
-            ]
-        )
     outs = _check_outputs(args.out, args.plot)
     for opt, topic in (
         ('--command-topic', args.command_topic),
@@ -195,6 +186,8 @@ def _run(args) -> int:
         )
         topics = [args.command_topic] + ([args.target_topic] if args.target_topic else [])
         data = read_commands(args.input, topics, progress, accept_missing=args.accept_missing)
+        if mech.joint_coordinates is not None:  # the description's names and values, as the node
+            data = to_scene_commands(data, mech.joint_coordinates)
         for topic in args.path_topic:
             if path_point(topic) not in mech.points:
                 raise BagError(

@@ -156,6 +156,34 @@ class JointMap:
                 out[follower.scene_name] = self._convert(follower, q, rates)
         return out
 
+    def to_scene_columns(
+        self, names: Sequence[str], columns: Sequence[np.ndarray]
+    ) -> tuple[list[str], list[np.ndarray]]:
+        """:meth:`to_scene` for columns of values (a recorded bag's commands, one array per
+        name): the scene's names and values; names that are not the description's pass
+        unchanged (the engine refuses what it does not know)."""
+        out_names: list[str] = []
+        out_cols: list[np.ndarray] = []
+        for name, col in zip(names, columns):
+            entry = self.inputs.get(name)
+            if entry is None or entry.leader:
+                out_names.append(name)
+                out_cols.append(col)
+                continue
+            out_names.append(entry.scene_name)
+            out_cols.append(self._convert_array(entry, col))
+            follower = self._followers.get(name)
+            if follower is not None:
+                q = follower.multiplier * col + follower.mimic_offset
+                out_names.append(follower.scene_name)
+                out_cols.append(self._convert_array(follower, q))
+        return out_names, out_cols
+
+    @staticmethod
+    def _convert_array(entry: InputJoint, col: np.ndarray) -> np.ndarray:
+        v = entry.scale * np.asarray(col, np.float64) + entry.offset
+        return np.asarray(wrap(v), np.float64) if entry.revolute else v
+
     @staticmethod
     def _convert(entry: InputJoint, value: Any, rates: bool) -> Any:
         if isinstance(value, bool) or not isinstance(value, int | float):

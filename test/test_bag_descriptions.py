@@ -1,0 +1,72 @@
+"""linkage bag on a robot description: the recorded commands and targets are in the
+description's own joint names and values, exactly as the node receives them, and the outputs
+are in them too. Oracle: the same requests answered one by one by the engine (which converts
+them at its edge), and the description's own limits."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scenes import REPO
+from test_bag import joint_state, read_csv, run_bag, write_bag
+
+from linkage_ros.core.loading import load_scene
+from linkage_ros.engine import Engine, EngineSettings
+
+FIXTURES = REPO / 'test' / 'fixtures' / 'robot_descriptions'
+ROBOTIQ = FIXTURES / 'picknik_robotiq_2f_85.expanded.urdf'
+ROBOTIQ_CLOSURES = FIXTURES / 'picknik_robotiq_2f_85.closures.yaml'
+DRAKE = FIXTURES / 'drake_four_bar_loop.sdf'
+DRAKE_CLOSURES = FIXTURES / 'drake_four_bar_loop.closures.yaml'
+
+
+def _run(tmp_path, capsys, desc, closures, messages, targets=False):
+    folder = tmp_path / 'in'
+    write_bag(folder, 'mcap', messages)
+    out = tmp_path / 'out.csv'
+    args = [folder, '--scene', desc, '--closures', closures, '--command-topic', '/cmd']
+    args += (['--target-topic', '/tgt'] if targets else []) + ['--out', out, '--no-progress']
+    code, cap = run_bag(args, capsys)
+    assert code == 0, cap.err
+    return read_csv(out)
+
+
+def test_robotiq_commands_in_the_descriptions_values_are_all_answered(tmp_path, capsys):
+    """The knuckle's URDF range is 0..0.8 rad: every command inside it is answered, and the
+    right knuckle follows by its mimic (-1), as the description says."""
+    name = 'robotiq_85_left_knuckle_joint'
+    values = np.linspace(0.0, 0.8, 17)
+    msgs = [('/cmd', (k + 1) * 10**6, joint_state([name], [v])) for k, v in enumerate(values)]
+    rows = _run(tmp_path, capsys, ROBOTIQ, ROBOTIQ_CLOSURES, msgs)
+    assert [r['status'] for r in rows] == ['ok'] * len(values)
+    for r, v in zip(rows, values):
+        assert abs(float(r[f'input.{name}']) - v) < 1e-12
+        assert abs(float(r['joint.robotiq_85_right_knuckle_joint']) + v) < 1e-12
+        assert abs(float(r['joint.robotiq_85_left_inner_knuckle_joint']) - v) < 1e-9
+
+
+def test_drake_commands_and_passive_targets_match_the_engine(tmp_path, capsys):
+    """Commands (the driver) and targets naming a passive joint (the rocker) are answered as the
+    engine answers them one by one, in the description's values."""
+    scene = load_scene(str(DRAKE), closures=str(DRAKE_CLOSURES))
+    mech = scene.mechanism
+    engine = Engine(mech, EngineSettings())
+    msgs, expected = [], []
+    for k, v in enumerate(np.linspace(-0.4, 0.4, 9)):
+        msgs.append(('/cmd', (2 * k + 1) * 10**6, joint_state(['world_driver'], [v])))
+        expected.append(engine.command({'world_driver': float(v)}))
+        rocker = dict(zip(mech.output_joint_names, mech.output_joints(expected[-1].joints)))[
+            'world_rocker'
+        ]
+        target = rocker + 0.01
+        msgs.append(('/tgt', (2 * k + 2) * 10**6, joint_state(['world_rocker'], [target])))
+        expected.append(engine.target({'world_rocker': target}))
+    rows = _run(tmp_path, capsys, DRAKE, DRAKE_CLOSURES, msgs, targets=True)
+    assert len(rows) == len(expected)
+    for r, e in zip(rows, expected):
+        assert e.success and r['status'] == 'ok', (r['reason'], e.reason)
+        want = dict(zip(mech.output_joint_names, mech.output_joints(e.joints)))
+        for j, v in want.items():
+            got = float(r[f'joint.{j}'])
+            assert abs(math.remainder(got - v, 2 * math.pi)) < 1e-9, (j, got, v)
