@@ -1,0 +1,84 @@
+"""docs/ROBOT_DESCRIPTIONS.md is true: every `linkage` command it shows runs and exits 0 (from a
+scratch folder, the repository's paths made absolute), and every node command names parameters
+the node has with files that exist."""
+
+from __future__ import annotations
+
+import re
+import shlex
+
+import pytest
+from scenes import REPO
+
+from linkage_ros.cli import main
+from linkage_ros.params import PARAMETERS
+
+DOC = REPO / 'docs' / 'ROBOT_DESCRIPTIONS.md'
+
+
+def _commands(prefix: str) -> list[str]:
+    """Commands starting with ``prefix`` in sh blocks (continuations joined) and in code spans
+    that name a fixture (the others are prose: `linkage check DESCRIPTION`)."""
+    text = DOC.read_text(encoding='utf-8')
+    spans = re.finditer(r'`(' + re.escape(prefix) + r' [^`]+)`', text)
+    out = [m.group(1) for m in spans if 'test/fixtures/' in m.group(1)]
+    for block in re.findall(r'```sh\n(.*?)```', text, re.DOTALL):
+        joined = re.sub(r'\\\n\s*', ' ', block)
+        out += [
+            line.split('#')[0].strip()
+            for line in joined.splitlines()
+            if line.strip().startswith(prefix + ' ')
+        ]
+    return list(dict.fromkeys(out))
+
+
+def _absolute(words: list[str]) -> list[str]:
+    return [str(REPO / w) if w.startswith('test/') else w for w in words]
+
+
+CLI = _commands('linkage')
+NODE = _commands('linkage_node')
+
+
+def test_the_doc_shows_every_fixture_on_the_command_line_and_in_the_node():
+    for fixture in (
+        'grbda_four_bar.urdf',
+        'grbda_six_bar.urdf',
+        'robot.urdf',
+        'drake_four_bar_loop.sdf',
+        'picknik_robotiq_2f_85.expanded.urdf',
+    ):
+        assert any(fixture in c and ' solve ' in f' {c} ' for c in CLI), fixture
+        assert any(fixture in c for c in NODE), fixture
+
+
+@pytest.mark.parametrize('command', CLI)
+def test_every_linkage_command_of_the_doc_runs(command, tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    words = _absolute(shlex.split(command))[1:]
+    if words[0] == 'solve' and words[1] == 'six_bar.yaml':  # the import example's second line
+        assert (
+            main(
+                [
+                    'import',
+                    str(REPO / 'test/fixtures/robot_descriptions/grbda_six_bar.urdf'),
+                    '-o',
+                    'six_bar.yaml',
+                ]
+            )
+            == 0
+        )
+    assert main(words) == 0, capsys.readouterr().err
+
+
+@pytest.mark.parametrize('command', NODE)
+def test_every_node_command_of_the_doc_names_real_parameters(command):
+    names = {p.name for p in PARAMETERS}
+    words = shlex.split(command)
+    assert words[1] == '--ros-args'
+    for flag, assignment in zip(words[2::2], words[3::2]):
+        assert flag == '-p'
+        name, _, value = assignment.partition(':=')
+        assert name in names, name
+        if value.startswith('test/'):
+            assert (REPO / value).is_file(), value
