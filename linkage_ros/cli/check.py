@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+from ..core.model import AngleActuator
+from ..core.model.mechanism import actuator_kind
 from .common import OK, _f, dumps, load_mechanism
 
 # ---- check -------------------------------------------------------------------------------------
@@ -53,8 +55,8 @@ def check_report(mech, path: str, solver_method: str | None) -> dict:
     for name, act in mech.actuators.items():
         lo, hi = ranges.get(name, (None, None))
         inputs[name] = {
-            'kind': act.kind,
-            'unit': 'rad' if act.kind == 'angle' else 'm',
+            'kind': actuator_kind(act),
+            'unit': 'rad' if isinstance(act, AngleActuator) else 'm',
             'min': lo,  # the range the input can take: the declared limits, or tighter
             'max': hi,
             'declared_min': act.min,  # the scene's own limits (None: none given)

@@ -10,6 +10,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from ..core.model import SlideActuator
+from ..core.quantities import AngleSpec, PointSpec
+
 USAGE_ERROR, REFUSED, OK = 2, 1, 0
 INTERRUPTED = 130  # Ctrl-C, as a shell reports a SIGINT
 
@@ -238,9 +241,9 @@ def build_solve(mech, args, allow_range: bool):
             name = f'point:{name}'  # a point may share its name with a joint
             options[name] = option
         spec = spec_for(mech, name)  # PlanError for an unknown name
-        if option != '--target-point' and spec.kind == 'point':
+        if option != '--target-point' and isinstance(spec, PointSpec):
             raise UsageError(f'{option} {name}: {name!r} is a point; use --target-point {name}=X,Y')
-        if deg and spec.kind != 'angle':
+        if deg and not isinstance(spec, AngleSpec):
             raise UsageError(f'{option} {name}: a "deg" suffix on a length ({spec.unit})')
         axes.append((name, values))
     knowns = [n for n, _ in axes]
@@ -300,7 +303,7 @@ def _unit_of(mech, name: str) -> str:
     if name in mech.prismatics:
         return 'm'
     act = mech.actuators.get(name)
-    return 'm' if act is not None and act.kind == 'slide' else 'rad'
+    return 'm' if act is not None and isinstance(act, SlideActuator) else 'rad'
 
 
 def _value(mech, name, v) -> str:

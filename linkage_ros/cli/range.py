@@ -35,6 +35,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..core.errors import LinkageError
+from ..core.model import SlideActuator
 from .common import UsageError, add_scene_argument, load_mechanism
 
 OK, REFUSED, USAGE_ERROR = 0, 1, 2
@@ -203,7 +204,7 @@ def analyse(args, mech) -> tuple[dict, int]:
         cyl = {
             l
             for a in mech.actuators.values()
-            if a.cylinder
+            if isinstance(a, SlideActuator) and a.cylinder
             for l in (mech.prismatics[a.joint].guide, mech.prismatics[a.joint].slider)
         }
         for link in mech.moving_links:
