@@ -21,7 +21,7 @@ from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
 from .core.errors import CommandError, echo
-from .core.model import Mechanism
+from .core.model import Mechanism, SlideActuator
 from .core.solver import Result
 from .engine import request_rates, request_values, status_values
 
@@ -322,7 +322,7 @@ def result_to_markers(
     cylinders = {
         pj.guide: pj
         for name, pj in mech.prismatics.items()
-        if name in mech.actuators and mech.actuators[name].cylinder
+        if isinstance(act := mech.actuators.get(name), SlideActuator) and act.cylinder
     }
     colour = 0
     for idx, (lname, link) in enumerate(mech.links.items()):

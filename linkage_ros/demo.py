@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from .core.model import Mechanism
+from .core.model import AngleActuator, Mechanism
 
 
 class DemoSweep:
@@ -23,7 +23,7 @@ class DemoSweep:
         lo, hi = a.min, a.max
         if lo is not None and hi is not None:
             self.value = min(max(self.value, lo), hi)
-        elif a.kind == 'angle':  # a full turn, wrapped to (-pi, pi]
+        elif isinstance(a, AngleActuator):  # a full turn, wrapped to (-pi, pi]
             self.wrap = True
             self.lo, self.hi = -math.pi, math.pi
             self.step = 2 * math.pi / self.STEPS_FULL_TURN

@@ -21,6 +21,7 @@ from typing import Any, Protocol
 
 from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
+from .core.quantities import AngleSpec
 from .core.solver import Result, Solver
 from .core.solver.result import branch_text
 from .core.velocity import velocities
@@ -450,7 +451,9 @@ class Engine:
             for spec in fwd.specs:
                 lo, hi = spec.minimum, spec.maximum
                 if lo is None or hi is None:
-                    if spec.kind != 'angle':  # an unlimited slide: around its reference value
+                    if not isinstance(
+                        spec, AngleSpec
+                    ):  # an unlimited slide: around its reference value
                         ref = fwd.reference_values()[spec.name]
                         scale = 0.2 * self.mech.length_scale
                         lo, hi = ref - scale, ref + scale

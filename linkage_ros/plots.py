@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from .core.model import AngleActuator, SlideActuator
 from .outputs import written_whole
 
 _BRANCH_COLOURS = (
@@ -67,7 +68,7 @@ def draw_mechanism(
     ground = set(mech.links[mech.ground].points)
     cyl_links = set()
     for act in mech.actuators.values():
-        if act.cylinder:
+        if isinstance(act, SlideActuator) and act.cylinder:
             pj = mech.prismatics[act.joint]
             cyl_links |= {pj.guide, pj.slider}
             a, b = mech.links[pj.guide].points[0], mech.links[pj.slider].points[0]
@@ -220,7 +221,7 @@ def _output_getter(mech, output: str):
     if output in mech.links and output != mech.ground:
         return f'{output} angle', 'deg', True, lambda r: r.links.get(output, math.nan)
     if output in mech.actuators:
-        ang = mech.actuators[output].kind == 'angle'
+        ang = isinstance(mech.actuators[output], AngleActuator)
         return output, 'deg' if ang else 'm', ang, lambda r: r.inputs.get(output, math.nan)
     if output in mech.joint_names:
         ang = output not in mech.prismatics
@@ -273,7 +274,7 @@ def plot_output_vs_input(
         )
     label, unit, is_angle, get = _output_getter(mech, output)
     act = mech.actuators[input]
-    in_angle = act.kind == 'angle'
+    in_angle = isinstance(act, AngleActuator)
     info = actuator_range(mech, input, held=held)
     x0 = info['reference']
     asm = info.get('assembly')

@@ -19,6 +19,7 @@ from scenes import four_bar as fourbar
 from linkage_ros.core import motion
 from linkage_ros.core.model import Scene
 from linkage_ros.core.plan import spec_for
+from linkage_ros.core.quantities import AngleSpec, PointSpec, SlideSpec
 from linkage_ros.core.solver import Solver
 
 TWO_PI = 2 * math.pi
@@ -571,9 +572,9 @@ def _scene(name):
 def _target_value(mech, name, r):
     """The value of known `name` (a point, a link angle or a joint value) in a solved Result."""
     spec = spec_for(mech, name)
-    if spec.kind == 'point':
+    if isinstance(spec, PointSpec):
         return np.asarray(r.points[spec.point])
-    if spec.kind == 'slide':
+    if isinstance(spec, SlideSpec):
         return r.joints[spec.joint]
     bare = name.split(':')[-1]
     return r.links[bare] if bare in mech.links and spec.reference == mech.ground else r.joints[bare]
@@ -581,10 +582,10 @@ def _target_value(mech, name, r):
 
 def _err(mech, name, a, b):
     """Round-trip error: angles on the circle (rad), lengths as a fraction of the scale."""
-    kind = spec_for(mech, name).kind
-    if kind == 'point':
+    spec = spec_for(mech, name)
+    if isinstance(spec, PointSpec):
         return float(np.hypot(*(np.asarray(a) - np.asarray(b)))) / mech.length_scale
-    if kind == 'angle':
+    if isinstance(spec, AngleSpec):
         return circ(a, b)
     return abs(a - b) / mech.length_scale
 

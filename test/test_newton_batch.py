@@ -33,6 +33,7 @@ from linkage_ros.core.newton import (
     POLISH_COND,
     LoopSystem,
 )
+from linkage_ros.core.quantities import AngleSpec, PointSpec, SlideSpec
 from linkage_ros.core.solver import Solver
 from linkage_ros.resources import config_dir, scene_path
 
@@ -64,7 +65,9 @@ def stack(sy, rows):
     out = []
     for i, s in enumerate(sy.specs):
         col = [np.asarray(r[i], float) for r in rows]
-        out.append(np.array(col, float).reshape(len(rows), *((2,) if s.kind == 'point' else ())))
+        out.append(
+            np.array(col, float).reshape(len(rows), *((2,) if isinstance(s, PointSpec) else ()))
+        )
     return out
 
 
@@ -95,9 +98,9 @@ def random_inputs(sy, ref_values, N, rng, spread=0.3):
     for _ in range(N):
         row = []
         for s, v in zip(sy.specs, ref_values):
-            if s.kind == 'angle':
+            if isinstance(s, AngleSpec):
                 row.append(float(v) + rng.normal() * 2.0)  # some beyond (-pi, pi]
-            elif s.kind == 'slide':
+            elif isinstance(s, SlideSpec):
                 row.append(float(v) + rng.normal() * 0.1 * sy.L)
             else:
                 row.append(np.asarray(v, float) + rng.normal(size=2) * 0.1 * sy.L)
@@ -114,7 +117,7 @@ def systems():
         out.append((name, s.system, s._ref_values))
     for name, knowns in POINT_KNOWNS:
         s = Solver(scene(name), knowns=list(knowns), method='newton')
-        assert s.mode == 'newton' and any(sp.kind == 'point' for sp in s.specs)
+        assert s.mode == 'newton' and any(isinstance(sp, PointSpec) for sp in s.specs)
         out.append((f'{name}:{"+".join(knowns)}', s.system, s._ref_values))
     return out
 
@@ -164,7 +167,7 @@ def test_evaluate_batch_non_finite_and_huge_inputs(label, sy, ref):
     the other rows as the scalar form has them."""
     rng = np.random.default_rng(8)
     X, rows = random_inputs(sy, ref, 50, rng)
-    angle = [i for i, s in enumerate(sy.specs) if s.kind == 'angle']
+    angle = [i for i, s in enumerate(sy.specs) if isinstance(s, AngleSpec)]
     skip = set()
     for r, big in zip(
         range(12),
@@ -190,9 +193,9 @@ def test_evaluate_batch_non_finite_and_huge_inputs(label, sy, ref):
         i = r % len(sy.specs)
         s = sy.specs[i]
         v = [math.nan, math.inf, -math.inf][r % 3]
-        rows[r][i] = np.array([v, 0.0]) if s.kind == 'point' else v
+        rows[r][i] = np.array([v, 0.0]) if isinstance(s, PointSpec) else v
         bad[r] = 'value'
-        if s.kind == 'angle' and math.isinf(v):
+        if isinstance(s, AngleSpec) and math.isinf(v):
             skip.add(r)  # math.sin(inf) raises in the scalar form
     X[30, 0] = math.nan
     X[31, 0] = math.inf  # an infinite angle: the scalar form NaNs all slots
@@ -469,7 +472,7 @@ def test_solve_batch_with_point_specs(name, knowns):
         rows.append(
             [
                 np.asarray(v, float) + rng.normal(size=2) * 2e-3 * sy.L
-                if sp.kind == 'point'
+                if isinstance(sp, PointSpec)
                 else float(v) + rng.normal() * 2e-3
                 for sp, v in zip(sy.specs, ref)
             ]

@@ -17,6 +17,7 @@ from scenes import four_bar
 
 from linkage_ros.core.model import Scene
 from linkage_ros.core.newton import COND_EXACT
+from linkage_ros.core.quantities import PointSpec
 from linkage_ros.core.solver import Solver
 from linkage_ros.resources import scene_path
 
@@ -96,7 +97,7 @@ def test_jacobian_matches_finite_differences(name):
         systems.append((h.system, h._fixed_poses(h._ref_values)[0], h._ref_values))
     if name in POINT_KNOWNS:
         p = Solver(mech, knowns=POINT_KNOWNS[name], method='newton')
-        assert any(sp.kind == 'point' for sp in p.specs)
+        assert any(isinstance(sp, PointSpec) for sp in p.specs)
         systems.append((p.system, None, p._ref_values))
     for sy, fixed, vals in systems:
         step = sy._step_scale

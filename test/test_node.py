@@ -35,7 +35,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from linkage_ros.conversions import joint_state_to_command, result_to_joint_state
 from linkage_ros.core.errors import CommandError
-from linkage_ros.core.model import Scene
+from linkage_ros.core.model import AngleActuator, Scene
 from linkage_ros.core.solver import Result
 from linkage_ros.node import NODE_NAME, PARAMETERS, ConfigError, make_config
 
@@ -471,7 +471,7 @@ def check_rigid_geometry(served, command):
                 assert math.dist(where[p], pts[p]) < 1e-9 * mech.length_scale, p
             where[p] = pts[p]
     for a, act in mech.actuators.items():
-        if act.kind == 'angle' and act.reference == mech.ground and a in command:
+        if isinstance(act, AngleActuator) and act.reference == mech.ground and a in command:
             (px, py), (tx, ty) = where[act.pivot], where[act.toward]
             assert angle_diff(math.atan2(ty - py, tx - px), command[a]) < 1e-9
     for name, col in served.points.items():

@@ -24,6 +24,8 @@ import numpy as np
 import pytest
 from scenes import load, raw
 
+from linkage_ros.core.model import SlideActuator
+from linkage_ros.core.model.mechanism import actuator_kind
 from linkage_ros.core.solver import Solver
 
 SCENES = ('peaucellier', 'hart', 'plagiograph', 'front_loader', 'excavator')
@@ -334,7 +336,7 @@ def walked_sweep(mech, n):
     acts = [mech.actuators[a] for a in names]
     start = []
     for a in acts:
-        if a.kind == 'slide':
+        if isinstance(a, SlideActuator):
             cyl = raw(mech.name)['cylinders'][a.name]
             start.append(dist(mech.points[cyl['from']], mech.points[cyl['to']]))
         else:
@@ -342,7 +344,9 @@ def walked_sweep(mech, n):
     path, prev = [], np.array(start)
     for cmd in cmds:
         cmd = np.array(cmd, float)
-        steps = max(1, int(np.ceil(np.max(np.abs(cmd - prev) / [MAX_STEP[a.kind] for a in acts]))))
+        steps = max(
+            1, int(np.ceil(np.max(np.abs(cmd - prev) / [MAX_STEP[actuator_kind(a)] for a in acts])))
+        )
         path += [prev + (cmd - prev) * f for f in np.arange(1, steps + 1) / steps]
         prev = cmd
     return names, path

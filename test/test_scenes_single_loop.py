@@ -19,7 +19,7 @@ from scenes import CONFIG, load
 from scenes import REPO as ROOT
 from scenes import raw as load_raw
 
-from linkage_ros.core.model import Scene
+from linkage_ros.core.model import AngleActuator, Scene
 from linkage_ros.core.solver import Solver
 
 DOCS = ROOT / 'docs' / 'SCENES.md'
@@ -528,7 +528,7 @@ def test_every_yaml_example_in_the_scene_doc_loads():
 def reference_value(mech, actuator):
     """An actuator's value in the reference pose, from the reference points."""
     act = mech.actuators[actuator]
-    if act.kind == 'angle':
+    if isinstance(act, AngleActuator):
         return direction(mech.points[act.pivot], mech.points[act.toward])
     pj = mech.prismatics[act.joint]
     x = mech.points[pj.point]

@@ -30,7 +30,7 @@ from builtin_interfaces.msg import Time
 
 from linkage_ros.conversions import result_to_joint_state
 from linkage_ros.core.errors import SceneError
-from linkage_ros.core.model import Scene
+from linkage_ros.core.model import AngleActuator, Scene
 from linkage_ros.core.motion import input_ranges
 from linkage_ros.core.solver import Solver
 from linkage_ros.core.urdf import (
@@ -129,7 +129,11 @@ def sweep(mech, n: int = 40, seed: int = 7):
     for a, act in mech.actuators.items():
         lo, hi = ranges[a]
         if lo is None or hi is None:
-            lo, hi = (-math.pi, math.pi) if act.kind == 'angle' else (ref[a] * 0.9, ref[a] * 1.1)
+            lo, hi = (
+                (-math.pi, math.pi)
+                if isinstance(act, AngleActuator)
+                else (ref[a] * 0.9, ref[a] * 1.1)
+            )
         span = hi - lo
         lows.append(lo + 0.02 * span)
         highs.append(hi - 0.02 * span)
@@ -309,7 +313,9 @@ def _inputs(mech, n: int, seed: int = 11) -> list[dict[str, float]]:
         lo, hi = act.min, act.max
         if lo is None or hi is None:
             ref = Solver(mech).reference_values()[a]
-            lo, hi = (-math.pi, math.pi) if act.kind == 'angle' else (ref - 1.0, ref + 1.0)
+            lo, hi = (
+                (-math.pi, math.pi) if isinstance(act, AngleActuator) else (ref - 1.0, ref + 1.0)
+            )
         axes[a] = (lo, hi)
     if len(axes) == 1:
         ((a, (lo, hi)),) = axes.items()

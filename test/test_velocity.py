@@ -11,6 +11,7 @@ import pytest
 import scenes
 
 from linkage_ros.core.analysis import fourbar_toggle_angles
+from linkage_ros.core.model import AngleActuator
 from linkage_ros.core.solver import Solver
 from linkage_ros.core.velocity import velocities
 from linkage_ros.engine import Engine, EngineSettings
@@ -50,14 +51,16 @@ def test_velocities_match_central_differences(stem):
     for _ in range(12):
         values = {
             a: ref[a]
-            + rng.standard_normal() * (0.05 if mech.actuators[a].kind == 'angle' else 0.01 * L)
+            + rng.standard_normal()
+            * (0.05 if isinstance(mech.actuators[a], AngleActuator) else 0.01 * L)
             for a in ref
         }
         result = solver.solve(values, commit=False)
         if not result.success or result.margin is not None and result.margin < 0.05:
             continue
         rates = {
-            a: float(rng.uniform(-2, 2)) * (1 if mech.actuators[a].kind == 'angle' else L)
+            a: float(rng.uniform(-2, 2))
+            * (1 if isinstance(mech.actuators[a], AngleActuator) else L)
             for a in ref
         }
         vel = velocities(solver, result, values, rates)

@@ -10,6 +10,7 @@ import numpy as np
 from ..core.errors import CommandError
 from ..core.ops import BATCH, to_complex
 from ..core.plan import step_geometry
+from ..core.quantities import PointSpec
 from ..core.solver import Solver, branch_identity_defined
 from ..core.steps import RPRDyad, RRPDyad, RRRDyad, StepKind, anchor_of
 from ..engine import (
@@ -444,7 +445,7 @@ class _Engine:
         safe = []
         for s in solver.specs:
             v = np.asarray(cols[s.name], float)
-            v = v.reshape(m, 2) if s.kind == 'point' else v.reshape(m)
+            v = v.reshape(m, 2) if isinstance(s, PointSpec) else v.reshape(m)
             safe.append(np.where(np.isfinite(v), v, 0.0))
         okb = np.asarray(B.ok[:m], bool)
         okr = np.flatnonzero(okb)
@@ -525,7 +526,7 @@ class _Engine:
         limited = [
             (k, s)
             for k, s in enumerate(solver.specs)
-            if s.kind != 'point' and (s.minimum is not None or s.maximum is not None)
+            if not isinstance(s, PointSpec) and (s.minimum is not None or s.maximum is not None)
         ]
         if limited:
             for i in np.flatnonzero(~easy & ~okb).tolist():

@@ -42,15 +42,14 @@ from .report import (  # noqa: F401
     save_plot,
     write_report,
 )
-from .ros_latency import (  # noqa: F401
+from .ros_driver import (  # noqa: F401
     Driver,
     _Link,
     _Proc,
     _ros_env,
-    bench_node,
     relay_script,
-    sustained_rate,
 )
+from .ros_latency import bench_node, sustained_rate  # noqa: F401
 from .settings import (  # noqa: F401
     DEFAULT_DEPTH,
     ERROR_FLOOR,

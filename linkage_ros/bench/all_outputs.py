@@ -23,7 +23,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .ros_latency import Driver, _Proc, relay_script
+from .ros_driver import Driver, _Link, _Proc, relay_script
 from .settings import DEFAULT_DEPTH, _log
 
 
@@ -155,7 +155,6 @@ def bench_all_outputs(
     scenes: tuple[str, ...] = (),
 ) -> dict:
     """{scene: {'node': run, 'relay': run, 'outputs': {topic: messages}}} at ``rate`` Hz."""
-    from .ros_latency import _Link
 
     out: dict[str, Any] = {}
     script = relay_script()

@@ -6,6 +6,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
+from ..core.model import SlideActuator
 from .settings import REF_DPS
 
 # =============================================================================================
@@ -66,7 +67,7 @@ class MpReference:
                     self.eqs.append(('rigid', p0, p1, pj, a, b))
             self.inputs: list[tuple] = []  # (actuator name, equation index)
             actuated_joint = {
-                a.joint: name for name, a in mech.actuators.items() if a.kind == 'slide'
+                a.joint: name for name, a in mech.actuators.items() if isinstance(a, SlideActuator)
             }
             for pj in mech.prismatics.values():
                 g, s = mech.links[pj.guide], mech.links[pj.slider]
@@ -99,7 +100,7 @@ class MpReference:
                 else:
                     raise NotImplementedError(f'prismatic joint {pj.name!r} of this shape')
             for name, a in mech.actuators.items():
-                if a.kind == 'slide':
+                if isinstance(a, SlideActuator):
                     continue
                 if a.reference != mech.ground:
                     raise NotImplementedError(f'angle actuator {name!r} relative to a moving link')

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+from ..core.model import AngleActuator
+from ..core.model.mechanism import actuator_kind
 from .common import OK, _f, dumps, load_scene_file, print_notes
 from .described import InputValues
 
@@ -58,8 +60,8 @@ def check_report(
         lo, hi = values.interval(name, *ranges.get(name, (None, None)))
         declared = values.interval(name, act.min, act.max)
         inputs[values.name(name)] = {
-            'kind': act.kind,
-            'unit': 'rad' if act.kind == 'angle' else 'm',
+            'kind': actuator_kind(act),
+            'unit': 'rad' if isinstance(act, AngleActuator) else 'm',
             'min': lo,  # the range the input can take: the declared limits, or tighter
             'max': hi,
             'declared_min': declared[0],  # the scene's own limits (None: none given)

@@ -12,6 +12,8 @@ from pathlib import Path
 from typing import Any
 
 from ..core.errors import CommandError
+from ..core.model import SlideActuator
+from ..core.quantities import AngleSpec, PointSpec
 
 USAGE_ERROR, REFUSED, OK = 2, 1, 0
 INTERRUPTED = 130  # Ctrl-C, as a shell reports a SIGINT
@@ -330,9 +332,9 @@ def build_solve(mech, args, allow_range: bool):
                 'links or points'
             )
         spec = spec_for(mech, names[0])  # PlanError for an unknown name
-        if option != '--target-point' and spec.kind == 'point':
+        if option != '--target-point' and isinstance(spec, PointSpec):
             raise UsageError(f'{option} {name}: {name!r} is a point; use --target-point {name}=X,Y')
-        if deg and spec.kind != 'angle':
+        if deg and not isinstance(spec, AngleSpec):
             raise UsageError(f'{option} {name}: a "deg" suffix on a length ({spec.unit})')
         for known in names:
             if known in given:
@@ -404,7 +406,7 @@ def _unit_of(mech, name: str) -> str:
     if name in mech.prismatics:
         return 'm'
     act = mech.actuators.get(name)
-    return 'm' if act is not None and act.kind == 'slide' else 'rad'
+    return 'm' if act is not None and isinstance(act, SlideActuator) else 'rad'
 
 
 def _value(mech, name, v) -> str:

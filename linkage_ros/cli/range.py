@@ -35,6 +35,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..core.errors import LinkageError
+from ..core.model import SlideActuator
 from .common import UsageError, add_scene_argument, load_mechanism
 from .described import InputValues
 
@@ -204,7 +205,7 @@ def analyse(args, mech) -> tuple[dict, int]:
         cyl = {
             l
             for a in mech.actuators.values()
-            if a.cylinder
+            if isinstance(a, SlideActuator) and a.cylinder
             for l in (mech.prismatics[a.joint].guide, mech.prismatics[a.joint].slider)
         }
         for link in mech.moving_links:

@@ -21,6 +21,7 @@ import numpy as np
 
 from .dyads import TANGENCY_TOL
 from .fourbar import angle_opposite
+from .model.mechanism import AngleActuator
 
 #: Relative tolerance (of the sum of the four lengths) for the Grashof equality s + l = p + q.
 GRASHOF_TOL = 1e-12
@@ -349,7 +350,7 @@ def four_link_chain_info(mech) -> ChainInfo | None:
     ):
         return None  # not 4R or 3R-1P (e.g. a Scotch yoke)
     act = next(iter(mech.actuators.values()))
-    if act.kind != 'angle' or act.reference not in (None, mech.ground):
+    if not isinstance(act, AngleActuator) or act.reference not in (None, mech.ground):
         return None
     # link -> [(kind, other link, point)]
     pairs: dict[str, list[tuple[str, str, str]]] = {name: [] for name in links}

@@ -8,7 +8,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from .model import Mechanism
-from .plan import Spec, spec_reader
+from .plan import ReadKind, Spec, spec_reader
+from .quantities import SlideSpec
 
 
 @dataclass
@@ -71,7 +72,7 @@ class ResultAssembler:
                 pj.name,
                 pj.slider,
                 pj.guide,
-                spec_reader(mech, Spec(pj.name, 'slide', joint=pj.name)),
+                spec_reader(mech, SlideSpec(pj.name, pj.name)),
                 _c(mech.points[pj.point]),
                 1j * _c(pj.direction),
             )
@@ -80,7 +81,7 @@ class ResultAssembler:
         ]
         self.links = [(l, link.angle_ref) for l, link in mech.links.items() if l in have]
         self.knowns = [
-            (i, s.kind, spec_reader(mech, s))
+            (i, spec_reader(mech, s))
             for i, s in enumerate(self.specs)
             if all(l in have for l in spec_links(s))
         ]
@@ -111,12 +112,12 @@ class ResultAssembler:
             worst = mx(worst, abs(off.real * nrm.real + off.imag * nrm.imag))
             worst = mx(worst, L * abs(wrap(phi[slider] - phi[guide])))
         links = {l: wrap(ref + phi[l]) for l, ref in self.links}
-        for i, kind, read in self.knowns:
+        for i, read in self.knowns:
             got, v = read(ops, poses), values[i]
-            if kind == 'point':
+            if read.kind is ReadKind.POINT:
                 vx, vy = (v[:, 0], v[:, 1]) if ops.batch else (v[0], v[1])
                 worst = mx(worst, mx(abs(got.real - vx), abs(got.imag - vy)))
-            elif kind == 'angle':  # reduce v exactly first
+            elif read.kind is ReadKind.ANGLE:  # reduce v exactly first
                 worst = mx(worst, L * abs(wrap(got - wrap(v))))
             else:
                 worst = mx(worst, abs(got - v))

@@ -21,6 +21,7 @@ from .dyads import DyadPair, dyad_point, rpr_direction, solve_rpr_dyad, solve_rr
 from .dyads import solve_rrr_dyad as _rrr
 from .errors import PlanError
 from .ops import BATCH, SCALAR, to_complex
+from .quantities import AngleSpec, PointSpec
 from .steps import StepKind
 
 #: Below this dyad margin (|sin| of its transmission angle) continuity decides the branch by the
@@ -103,7 +104,7 @@ class PlanExecutor:
             s = plan.specs[w.spec_index]
             v = values[w.spec_index]
             vphi, vrot, vT = frame[w.via]
-            if w.kind == 'angle':
+            if isinstance(s, AngleSpec):
                 rel = ops.wrap(v) - s.offset  # phi[s.link] - phi[s.reference]
                 phi = vphi + (rel if w.link == s.link else -rel)
                 rot = ops.expi(phi)
@@ -142,11 +143,13 @@ class PlanExecutor:
         change point: a rhombus folded flat) keep the point where continuity predicts it.
         """
         if n is None:
-            one = [v if s.kind == 'point' else float(v) for s, v in zip(self.plan.specs, values)]
+            one = [
+                v if isinstance(s, PointSpec) else float(v) for s, v in zip(self.plan.specs, values)
+            ]
             return self._run(SCALAR, one, 0.0, signs, prefer, prev_margins, tol)
         vals = [
             to_complex(np.asarray(v, float).reshape(n, 2))
-            if s.kind == 'point'
+            if isinstance(s, PointSpec)
             else np.asarray(v, float).reshape(n)
             for s, v in zip(self.plan.specs, values)
         ]

@@ -47,37 +47,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import SceneError, echo
-from .model import Mechanism
+from .model import AngleActuator, Mechanism, SlideActuator
+from .urdf_visuals import MATERIALS, Pose2D, link_visuals
 
 # ---- planar rigid transforms ---------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Pose2D:
-    """A planar frame: origin (x, y) in m, x axis at ``yaw`` rad counter-clockwise."""
-
-    x: float = 0.0
-    y: float = 0.0
-    yaw: float = 0.0
-
-    def __matmul__(self, other: Pose2D) -> Pose2D:
-        """``self`` then ``other`` expressed in ``self``'s frame."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return Pose2D(
-            self.x + c * other.x - s * other.y,
-            self.y + s * other.x + c * other.y,
-            self.yaw + other.yaw,
-        )
-
-    def inverse(self) -> Pose2D:
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        return Pose2D(-(c * self.x + s * self.y), s * self.x - c * self.y, -self.yaw)
-
-    def local(self, x: float, y: float) -> tuple[float, float]:
-        """World point (x, y) in this frame's coordinates."""
-        c, s = math.cos(self.yaw), math.sin(self.yaw)
-        dx, dy = x - self.x, y - self.y
-        return c * dx + s * dy, -s * dx + c * dy
 
 
 def _wrap(a: float) -> float:
@@ -213,7 +186,7 @@ def _revolute_limits(mech: Mechanism, tj: TreeJoint) -> tuple[float, float] | No
     actuator or its range crosses the wrap."""
     rj = next(j for j in mech.revolutes if j.name == tj.name)
     for act in mech.actuators.values():
-        if act.kind != 'angle' or act.min is None or act.max is None:
+        if not isinstance(act, AngleActuator) or act.min is None or act.max is None:
             continue
         if {act.link, act.reference} != {rj.parent, rj.child}:
             continue
@@ -241,7 +214,7 @@ def _input_axes(mech: Mechanism) -> list[np.ndarray]:
     axes = []
     for a, act in mech.actuators.items():
         lo, hi = act.min, act.max
-        if act.kind == 'angle':
+        if isinstance(act, AngleActuator):
             lo, hi = (-math.pi, math.pi) if lo is None or hi is None else (lo, hi)
         else:
             ref = mech.prismatics[act.joint].ref_value if act.joint else 0.0
@@ -314,7 +287,7 @@ def _slide_bounds(mech: Mechanism, names: Sequence[str]) -> dict[str, tuple[floa
             for q in members[i + 1 :]:
                 edge(m, q, float(np.hypot(*(at(m) - at(q)))))
     for act in mech.actuators.values():
-        if act.joint and act.min is not None and act.max is not None:
+        if isinstance(act, SlideActuator) and act.min is not None and act.max is not None:
             pj = mech.prismatics[act.joint]
             off = at(pj.point) - at('>' + act.joint)
             perp = abs(float(off[0] * pj.direction[1] - off[1] * pj.direction[0]))
@@ -350,7 +323,14 @@ def joint_limits(mech: Mechanism, tree: Tree) -> dict[str, tuple[float, float] |
         if tj.kind is JointKind.REVOLUTE:
             out[tj.name] = _revolute_limits(mech, tj)
             continue
-        act = next((a for a in mech.actuators.values() if a.joint == tj.name), None)
+        act = next(
+            (
+                a
+                for a in mech.actuators.values()
+                if isinstance(a, SlideActuator) and a.joint == tj.name
+            ),
+            None,
+        )
         if act is not None and act.min is not None and act.max is not None:
             out[tj.name] = (act.min, act.max)
         else:
@@ -522,11 +502,10 @@ def urdf_document(mech: Mechanism, prefix: str = '', frame_id: str | None = None
     A mechanism read from a robot description publishes that description's own joint names and
     values: its URDF is the description itself, and one written here would name other joints
     (SceneError)."""
-    from .urdf_visuals import MATERIALS, link_visuals
 
     if mech.joint_coordinates is not None:
         raise SceneError(
-            'publishes a robot description\'s own joint names and values: give '
+            "publishes a robot description's own joint names and values: give "
             'robot_state_publisher that description itself (its URDF), which these joint_states '
             'drive; linkage urdf writes scene files only',
             file=mech.source,

@@ -13,8 +13,36 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .model import Mechanism
-from .urdf import Pose2D
+from .model import Mechanism, SlideActuator
+
+
+@dataclass(frozen=True)
+class Pose2D:
+    """A planar frame: origin (x, y) in m, x axis at ``yaw`` rad counter-clockwise."""
+
+    x: float = 0.0
+    y: float = 0.0
+    yaw: float = 0.0
+
+    def __matmul__(self, other: Pose2D) -> Pose2D:
+        """``self`` then ``other`` expressed in ``self``'s frame."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return Pose2D(
+            self.x + c * other.x - s * other.y,
+            self.y + s * other.x + c * other.y,
+            self.yaw + other.yaw,
+        )
+
+    def inverse(self) -> Pose2D:
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        return Pose2D(-(c * self.x + s * self.y), s * self.x - c * self.y, -self.yaw)
+
+    def local(self, x: float, y: float) -> tuple[float, float]:
+        """World point (x, y) in this frame's coordinates."""
+        c, s = math.cos(self.yaw), math.sin(self.yaw)
+        dx, dy = x - self.x, y - self.y
+        return c * dx + s * dy, -s * dx + c * dy
+
 
 #: material name -> rgba
 MATERIALS: dict[str, tuple[float, float, float, float]] = {
@@ -82,7 +110,7 @@ def _cylinder_parts(mech: Mechanism) -> dict[str, tuple[str, str]]:
     """{barrel or rod link: ('barrel' or 'rod', cylinder joint)}."""
     out = {}
     for act in mech.actuators.values():
-        if act.cylinder and act.joint:
+        if isinstance(act, SlideActuator) and act.cylinder:
             pj = mech.prismatics[act.joint]
             out[pj.guide] = ('barrel', act.joint)
             out[pj.slider] = ('rod', act.joint)

@@ -15,6 +15,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from .quantities import PointSpec
+
 if TYPE_CHECKING:
     from .solver import Result, Solver
 
@@ -50,7 +52,7 @@ def velocities(
     comps: list[float] = []
     for s in solver.specs:
         r = rates[s.name]
-        comps += [float(r[0]), float(r[1])] if s.kind == 'point' else [float(r)]
+        comps += [float(r[0]), float(r[1])] if isinstance(s, PointSpec) else [float(r)]
     dx, cond = system.rates(x, solver.parse(values), comps)
     if dx is None:
         return Velocities(

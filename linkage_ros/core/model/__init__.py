@@ -27,10 +27,12 @@ from .mechanism import (  # noqa: F401
     NAME_RE,
     SOLVERS,
     Actuator,
+    AngleActuator,
     Link,
     Mechanism,
     PrismaticJoint,
     RevoluteJoint,
+    SlideActuator,
 )
 from .scene import (  # noqa: F401
     MAX_NUMBER_CHARS,

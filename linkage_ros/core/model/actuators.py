@@ -7,7 +7,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from .checks import _Ctx
-from .mechanism import Actuator, Link, PrismaticJoint
+from .mechanism import Actuator, AngleActuator, Link, PrismaticJoint, SlideActuator
 
 
 def _read_actuators(
@@ -59,15 +59,21 @@ def _read_actuators(
                 toward = others[0]
             if not ctx.known(toward, links[link].points) or toward == pivot:
                 ctx.fail(f'{key}.toward', f'must be another point of link {link!r}', toward)
-            actuators[aname] = Actuator(
-                aname, 'angle', link=link, reference=ref, pivot=pivot, toward=toward, min=lo, max=hi
+            actuators[aname] = AngleActuator(
+                aname,
+                link=link,
+                reference=ref,
+                pivot=str(pivot),
+                toward=str(toward),
+                min=lo,
+                max=hi,
             )
         elif kind == 'slide':
             ctx.only(key, spec, {'type', 'joint', 'min', 'max'})
             joint = spec.get('joint')
             if not ctx.known(joint, prismatics):
                 ctx.fail(f'{key}.joint', 'must name a prismatic joint (sliders)', joint)
-            actuators[aname] = Actuator(aname, 'slide', joint=joint, min=lo, max=hi)
+            actuators[aname] = SlideActuator(aname, joint=str(joint), min=lo, max=hi)
         else:
             ctx.fail(f'{key}.type', "must be 'angle' or 'slide'", kind)
 

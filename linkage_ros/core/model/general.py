@@ -16,7 +16,17 @@ from .actuators import _limits, _read_actuators
 from .checks import TOP_KEYS, _Ctx
 from .constraints import expand_constraints
 from .dimensions import SHORTCUT_KEYS, LinkDistance, apply_to_shortcut, merge, parse_name
-from .mechanism import SOLVERS, Actuator, Link, Mechanism, PrismaticJoint, RevoluteJoint
+from .limits import limit_violation
+from .mechanism import (
+    SOLVERS,
+    Actuator,
+    Link,
+    Mechanism,
+    PrismaticJoint,
+    RevoluteJoint,
+    SlideActuator,
+    reference_value,
+)
 from .redraw import redraw
 from .shortcuts import _four_bar_to_general, _slider_crank_to_general
 
@@ -376,7 +386,7 @@ def _read_cylinders(
         lo, hi = _limits(ctx, key, spec)
         if lo is not None and lo <= 0:
             ctx.fail(f'{key}.min', 'a cylinder length must be > 0', lo)
-        actuators[cname] = Actuator(cname, 'slide', joint=cname, min=lo, max=hi, cylinder=True)
+        actuators[cname] = SlideActuator(cname, joint=cname, min=lo, max=hi, cylinder=True)
 
 
 def _read_sliders(
@@ -543,15 +553,11 @@ def _check_reference_limits(ctx: _Ctx, mech: Mechanism, form: str, data: Mapping
     """The reference pose must be one the actuators can reach: it is the node's first state and
     it chooses the assembly mode. An actuator whose reference value is outside its own limits
     is refused, naming the key and both."""
-    from ..plan.poses import reference_poses
-    from ..plan.spec import limit_violation, spec_for, spec_value_one
-
-    ref = reference_poses(mech)
     for name, act in mech.actuators.items():
         if act.min is None and act.max is None:
             continue
-        spec = spec_for(mech, name)
-        bad = limit_violation(spec, float(spec_value_one(mech, spec, ref)))
+        value = reference_value(mech, act)
+        bad = limit_violation(name, value, act.min, act.max, act.unit, act.periodic)
         if bad is None:
             continue
         if form == 'four_bar':

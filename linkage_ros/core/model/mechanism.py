@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any, ClassVar, Protocol
 
 import numpy as np
+
+from ..dyads import wrap_angle
 
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
 SOLVERS = ('auto', 'closed_form', 'newton')
@@ -59,24 +62,38 @@ class PrismaticJoint:
 
 
 @dataclass(frozen=True)
-class Actuator:
-    """An input: ``kind`` 'angle' (rad) or 'slide' (m).
-
-    angle: the direction of ``pivot`` -> ``toward`` on ``link`` measured counter-clockwise from
-    the reported direction of ``reference`` (from +x when the reference is the ground link).
-    slide: the value of prismatic joint ``joint`` (a cylinder's pin-to-pin length).
-    """
+class AngleActuator:
+    """An angle input (rad): the direction of ``pivot`` -> ``toward`` on ``link``, measured
+    counter-clockwise from the reported direction of ``reference`` (from +x when the reference
+    is the ground link). Limits compare on the circle."""
 
     name: str
-    kind: str
-    link: str | None = None
-    reference: str | None = None
-    pivot: str | None = None
-    toward: str | None = None
-    joint: str | None = None
+    link: str
+    reference: str
+    pivot: str
+    toward: str
+    min: float | None = None
+    max: float | None = None
+    unit: ClassVar[str] = 'rad'
+    periodic: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class SlideActuator:
+    """A slide input (m): the value of prismatic joint ``joint`` (a cylinder's pin-to-pin
+    length when ``cylinder``)."""
+
+    name: str
+    joint: str
     min: float | None = None
     max: float | None = None
     cylinder: bool = False
+    unit: ClassVar[str] = 'm'
+    periodic: ClassVar[bool] = False
+
+
+#: an input of a mechanism
+Actuator = AngleActuator | SlideActuator
 
 
 class JointCoordinates(Protocol):
@@ -199,8 +216,22 @@ class Mechanism:
                 }
                 for p in self.prismatics.values()
             },
-            'actuators': {a.name: a.kind for a in self.actuators.values()},
+            'actuators': {a.name: actuator_kind(a) for a in self.actuators.values()},
             'n_links': len(self.links),
             'n_joints': len(self.revolutes) + len(self.prismatics),
             'dof': self.dof,
         }
+
+
+def actuator_kind(act: Actuator) -> str:
+    """The actuator's type as scene files write it (``angle`` or ``slide``): for output only."""
+    return 'angle' if isinstance(act, AngleActuator) else 'slide'
+
+
+def reference_value(mech: Mechanism, act: Actuator) -> float:
+    """The actuator's value in the reference pose (rad or m), read off the drawing."""
+    if isinstance(act, SlideActuator):
+        return mech.prismatics[act.joint].ref_value
+    v = mech.points[act.toward] - mech.points[act.pivot]
+    ref = 0.0 if act.reference == mech.ground else mech.links[act.reference].angle_ref
+    return wrap_angle(math.atan2(float(v[1]), float(v[0])) - ref)

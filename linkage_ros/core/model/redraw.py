@@ -25,7 +25,7 @@ from ..dyads import dyad_point, solve_rrr_dyad
 from ..errors import SceneError
 from ..ops import SCALAR
 from .dimensions import LinkDistance, SliderOffset, parse_name
-from .mechanism import Mechanism
+from .mechanism import AngleActuator, Mechanism, SlideActuator
 
 #: the largest closure miss accepted at each continuation step (fraction of the length scale)
 CLOSURE_TOL = 1e-12
@@ -64,7 +64,9 @@ class _Shapes:
             elif isinstance(dim, SliderOffset):
                 pj = mech.prismatics.get(dim.slider)
                 act = mech.actuators.get(dim.slider)
-                if pj is None or (act is not None and act.cylinder):  # a cylinder has no offset
+                if pj is None or (
+                    isinstance(act, SlideActuator) and act.cylinder
+                ):  # a cylinder has no offset
                     fail(name, f'{dim.slider!r} is not a slider of {mech.name!r}', value)
                 assert pj is not None  # fail raises
                 u = complex(*pj.direction)
@@ -191,8 +193,8 @@ class _Closure:
     def _actuators(self, x: np.ndarray) -> np.ndarray:
         mech, out = self.mech, []
         for act in mech.actuators.values():
-            if act.kind == 'slide':
-                pj = mech.prismatics[act.joint]  # type: ignore[index]
+            if isinstance(act, SlideActuator):
+                pj = mech.prismatics[act.joint]
                 _, u, origin = self._line(x, pj.name)
                 at = self.world(x, pj.slider, pj.point)
                 out.append(((at - origin) * u.conjugate()).real / self.L)
@@ -214,7 +216,7 @@ class _Closure:
             out.append(((at - on) * u.conjugate()).imag / self.L)
             out.append(self.angle(x, pj.slider) - self.angle(x, pj.guide))
         turn = self._actuators(x) - self.held
-        is_angle = [a.kind == 'angle' for a in mech.actuators.values()]
+        is_angle = [isinstance(a, AngleActuator) for a in mech.actuators.values()]
         out += [math.remainder(t, 2 * math.pi) if a else t for t, a in zip(turn, is_angle)]
         return np.array(out)
 

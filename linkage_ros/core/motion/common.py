@@ -10,6 +10,7 @@ import numpy as np
 
 from ..model import Mechanism
 from ..plan import Poses, spec_for, spec_value_at
+from ..quantities import PointSpec
 
 TWO_PI = 2.0 * math.pi
 #: boundary refinement tolerance for angles (rad) and slides (fraction of the length scale)
@@ -66,7 +67,7 @@ def reference_value(mech: Mechanism, name: str):
     """Value of a known (actuator, joint, link angle or point) in the reference pose."""
     spec = spec_for(mech, name)
     v = spec_value_at(mech, spec, _identity_poses(mech))[0]
-    return np.asarray(v, float).copy() if spec.kind == 'point' else float(v)
+    return np.asarray(v, float).copy() if isinstance(spec, PointSpec) else float(v)
 
 
 def _limit_interval(act, periodic: bool):

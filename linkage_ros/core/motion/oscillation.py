@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..dyads import wrap_angle
-from ..model import Mechanism
+from ..model import AngleActuator, Mechanism
 from .common import TWO_PI, _clip_periodic, _limit_interval
 from .ranges import _scan_circuit
 from .scan import _held_reference
@@ -35,7 +35,7 @@ def oscillation_range(
         raise ValueError(f'{link!r} is not a moving link of {mech.name!r}')
     actuator = actuator or next(iter(mech.actuators))
     act = mech.actuators[actuator]
-    periodic = act.kind == 'angle'
+    periodic = isinstance(act, AngleActuator)
     held = _held_reference(mech, actuator, held)
     line, x0, segs, _ = _scan_circuit(mech, actuator, held, samples)
     if line is None:

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Mechanism
+from ..model import AngleActuator, Mechanism
 from ..solver import Result, Solver
 from ..steps import RRRDyad
 from .ranges import _golden_min, input_ranges
@@ -81,7 +81,7 @@ def input_sweep(
     lo, hi = input_ranges(mech)[act]
     solver = Solver(mech, branch='continuous')
     ref = solver.reference_values()[act]
-    full = lo is None and hi is None and mech.actuators[act].kind == 'angle'
+    full = lo is None and hi is None and isinstance(mech.actuators[act], AngleActuator)
     if full:
         grid = ref + np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
     elif lo is None or hi is None:
@@ -168,7 +168,7 @@ def classical_outputs(mech: Mechanism) -> list[str]:
     ``joint:<name>``): each link pivoted on the ground that the actuator does not drive (a
     rocker), and each slider joint on the ground's guide that is not an actuator (a slider's
     stroke)."""
-    driven = {a.link if a.kind == 'angle' else a.joint for a in mech.actuators.values()}
+    driven = {a.link if isinstance(a, AngleActuator) else a.joint for a in mech.actuators.values()}
     ground = set(mech.links[mech.ground].points)
     rockers = [
         l

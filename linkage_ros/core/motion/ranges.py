@@ -8,7 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Mechanism
+from ..model import AngleActuator, Mechanism
+from ..model.mechanism import actuator_kind
 from .common import TOGGLE_MARGIN, TWO_PI, _clip_periodic, _limit_interval, reference_value
 from .scan import _held_reference, _Line, _Segment, _slide_bracket
 from .walk import _walk_range
@@ -20,7 +21,7 @@ def _scan_circuit(mech: Mechanism, name: str, held: Mapping[str, Any], samples: 
     """(line, x0, segments, bracket) of one scanned actuator; line None for a walk."""
     x0 = reference_value(mech, name)
     act = mech.actuators[name]
-    periodic = act.kind == 'angle'
+    periodic = isinstance(act, AngleActuator)
     bracket = None if periodic else _slide_bracket(mech, name, x0)
     line = _Line(mech, name, held, samples, bracket)
     if line.closed:
@@ -67,12 +68,12 @@ def actuator_range(
             f'{mech.name!r} has no actuator {name!r}; actuators: {sorted(mech.actuators)}'
         )
     act = mech.actuators[name]
-    periodic = act.kind == 'angle'
+    periodic = isinstance(act, AngleActuator)
     held = _held_reference(mech, name, held)
     line, x0, segs, _ = _scan_circuit(mech, name, held, samples)
     out = {
         'name': name,
-        'kind': act.kind,
+        'kind': actuator_kind(act),
         'unit': 'rad' if periodic else 'm',
         'reference': x0,
         'min': None,

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..model import Mechanism
+from ..model import AngleActuator, Mechanism
 from ..solver import Solver
 from .common import point_key, reference_value
 from .ranges import actuator_range
@@ -23,7 +23,7 @@ def _actuator_limits(mech: Mechanism, name: str, samples: int) -> tuple[float, f
         return float(act.min), float(act.max)
     info = actuator_range(mech, name, samples)
     x0 = info['reference']
-    if act.kind == 'angle':
+    if isinstance(act, AngleActuator):
         if info['min'] is None:
             return x0 - math.pi, x0 + math.pi
         return float(info['min']), float(info['max'])
@@ -38,7 +38,7 @@ def _moving_actuators(mech: Mechanism, point: str, solver: Solver) -> list[str]:
     p0 = base.points[point][0]
     out = []
     for a, act in mech.actuators.items():
-        d = 1e-4 if act.kind == 'angle' else 1e-4 * mech.length_scale
+        d = 1e-4 if isinstance(act, AngleActuator) else 1e-4 * mech.length_scale
         moved = False
         for sgn in (1, -1):
             cols = {b: [v] for b, v in ref.items()}

@@ -10,7 +10,8 @@ from typing import Any
 import numpy as np
 
 from ..dyads import wrap_angle
-from ..model import Mechanism
+from ..model import Mechanism, SlideActuator
+from ..quantities import AngleSpec, PointSpec
 from ..solver import Solver
 from .common import (
     _KARY,
@@ -60,7 +61,7 @@ class _Line:
         self.closed = self.solver.mode == 'closed_form'
         self.plan = self.solver.plan
         self.spec = self.solver.specs[0]
-        self.periodic = self.spec.kind == 'angle'
+        self.periodic = isinstance(self.spec, AngleSpec)
         self.scale = mech.length_scale
         self.tol = ANGLE_TOL if self.periodic else LENGTH_TOL * self.scale
         self.samples = max(16, int(samples))
@@ -80,7 +81,9 @@ class _Line:
         for s in self.solver.specs[1:]:
             v = self.held[s.name]
             values.append(
-                np.tile(np.asarray(v, float), (n, 1)) if s.kind == 'point' else np.full(n, float(v))
+                np.tile(np.asarray(v, float), (n, 1))
+                if isinstance(s, PointSpec)
+                else np.full(n, float(v))
             )
         return self.plan.run(values, n, list(signs))
 
@@ -188,7 +191,7 @@ class _Line:
 
     def _soft_low(self, v):
         act = self.mech.actuators.get(self.scan)
-        if act is not None and act.cylinder:
+        if isinstance(act, SlideActuator) and act.cylinder:
             return max(v, 1e-6 * self.scale)  # a cylinder's pin-to-pin length stays > 0
         return v
 
@@ -277,6 +280,6 @@ def _slide_bracket(mech: Mechanism, name: str, x0: float):
     w = 4.0 * mech.length_scale
     blo = lo if lo is not None else x0 - w
     bhi = hi if hi is not None else x0 + w
-    if lo is None and act is not None and act.cylinder:
+    if lo is None and isinstance(act, SlideActuator) and act.cylinder:
         blo = max(blo, 1e-6 * mech.length_scale)
     return blo, bhi, lo is not None, hi is not None

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..ops import BATCH
+from ..quantities import AngleSpec, PointSpec
 from .results import (
     COND_EXACT,
     FAST_FLOOR,
@@ -124,16 +125,16 @@ class BatchSystem:
             raise ValueError(f'{len(values)} value arrays for {len(self.specs)} specs')
         V = np.zeros((N, tab.n_cols))
         for s, v, c in zip(self.specs, values, tab.cols):
-            shape = (N, 2) if s.kind == 'point' else (N,)
+            shape = (N, 2) if isinstance(s, PointSpec) else (N,)
             try:
                 arr = np.broadcast_to(np.asarray(v, float), shape)
             except ValueError:
                 raise ValueError(
-                    f'values for {s.name!r} ({s.kind}) must have shape {shape}, got {np.shape(v)}'
+                    f'values for {s.name!r} ({s.unit}) must have shape {shape}, got {np.shape(v)}'
                 ) from None
-            if s.kind == 'point':
+            if isinstance(s, PointSpec):
                 V[:, c : c + 2] = arr
-            elif s.kind == 'angle':
+            elif isinstance(s, AngleSpec):
                 V[:, c] = BATCH.wrap(arr)
             else:
                 V[:, c] = arr

@@ -9,6 +9,7 @@ import numpy as np
 
 from ..dyads import wrap_angle
 from ..plan import ScalarPoses
+from ..quantities import AngleSpec, SlideSpec
 from .results import (
     FAST_FLOOR,
     FAST_MARGIN,
@@ -60,9 +61,9 @@ class ScalarSolve:
         """b - a per value component in scale-free units (rad, length scales)."""
         out, L = [], self.L
         for s, va, vb in zip(self.specs, a, b):
-            if s.kind == 'angle':  # reduce first: vb - va may overflow
+            if isinstance(s, AngleSpec):  # reduce first: vb - va may overflow
                 out.append(wrap_angle(wrap_angle(float(vb)) - wrap_angle(float(va))))
-            elif s.kind == 'slide':
+            elif isinstance(s, SlideSpec):
                 out.append(float(vb) / L - float(va) / L)
             else:
                 out += [float(vb[0]) / L - float(va[0]) / L, float(vb[1]) / L - float(va[1]) / L]

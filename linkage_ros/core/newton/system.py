@@ -11,6 +11,7 @@ import numpy as np
 from ..dyads import wrap_angle
 from ..model import Mechanism
 from ..plan import ScalarPoses, Spec
+from ..quantities import AngleSpec, SlideSpec
 from .batch import BatchSystem
 from .results import (
     COND_EXACT,
@@ -79,9 +80,9 @@ class LoopSystem(ScalarSolve, BatchSystem):
         self._compile()
 
     def _spec_links(self, s: Spec) -> list[str]:
-        if s.kind == 'angle':
+        if isinstance(s, AngleSpec):
             return [s.link, s.reference]
-        if s.kind == 'slide':
+        if isinstance(s, SlideSpec):
             pj = self.mech.prismatics[s.joint]
             return [pj.guide, pj.slider]
         return [self.mech.links_of_point(s.point)[0]]
@@ -166,10 +167,10 @@ class LoopSystem(ScalarSolve, BatchSystem):
                 i = row.spec_index
                 s = self.specs[i]
                 spec_rows[i] = r
-                if s.kind == 'angle':
+                if isinstance(s, AngleSpec):
                     angle(r, s.link, s.reference, i, s.offset)
                     r += 1
-                elif s.kind == 'slide':
+                elif isinstance(s, SlideSpec):
                     pj = mech.prismatics[s.joint]
                     line(r, pj, pj.direction, pj.origin, i)
                     r += 1
@@ -362,7 +363,7 @@ class LoopSystem(ScalarSolve, BatchSystem):
         rhs = np.zeros(self.n)
         comps = []
         for s in self.specs:
-            comps += [s.kind == 'angle'] * s.size
+            comps += [isinstance(s, AngleSpec)] * s.size
         for i, rate, is_angle in zip(self._val_rows or [], value_rates, comps):
             rhs[i] = float(rate) if is_angle else float(rate) / self.L
         dy, info = _lapack()[1](fac[0], fac[1], rhs)

@@ -43,6 +43,11 @@ from .poses import (  # noqa: F401
 )
 from .spec import (  # noqa: F401
     KNOWN_KINDS,
+    AngleSpec,
+    PointSpec,
+    ReadKind,
+    ScalarSpec,
+    SlideSpec,
     Spec,
     SpecReader,
     _c,

@@ -12,6 +12,7 @@ from ..errors import PlanError
 from ..execute import PlanRun, executor
 from ..model import Mechanism
 from ..ops import to_xy
+from ..quantities import AngleSpec, PointSpec, SlideSpec
 from ..steps import (
     BRANCHING,
     AngleFrom,
@@ -37,7 +38,6 @@ class Weld:
     link: str
     via: str
     spec_index: int
-    kind: str  # 'angle' or 'slide'
     shared_point: str | None = None
 
 
@@ -117,22 +117,24 @@ class Plan:
                 a = parent[a]
             return a
 
-        edges: list[tuple[str, str, int, str, str | None]] = []
+        edges: list[tuple[str, str, int, str | None]] = []
         self.relations: list[tuple[str, str, int | None]] = []  # angle-only relations
         for i, s in enumerate(self.specs):
-            if s.kind == 'angle':
+            if isinstance(s, AngleSpec):
                 shared = set(mech.links[s.link].points) & set(mech.links[s.reference].points)
                 if shared:
-                    edges.append((s.reference, s.link, i, 'angle', sorted(shared)[0]))
+                    edges.append((s.reference, s.link, i, sorted(shared)[0]))
                 else:
                     self.relations.append((s.reference, s.link, i))
-            elif s.kind == 'slide':
+            elif isinstance(s, SlideSpec):
                 pj = mech.prismatics[s.joint]
-                edges.append((pj.guide, pj.slider, i, 'slide', None))
+                edges.append((pj.guide, pj.slider, i, None))
         for pj in mech.prismatics.values():
-            if not any(e[3] == 'slide' and self.specs[e[2]].joint == pj.name for e in edges):
+            if not any(
+                isinstance(sp := self.specs[e[2]], SlideSpec) and sp.joint == pj.name for e in edges
+            ):
                 self.relations.append((pj.guide, pj.slider, None))  # orientation lock
-        for a, b, i, _kind, _ in edges:
+        for a, b, i, _ in edges:
             ra, rb = find(a), find(b)
             if ra == rb:
                 raise PlanError(
@@ -151,12 +153,12 @@ class Plan:
             while todo:
                 progressed = False
                 for e in list(todo):
-                    a, b, i, kind, sp = e
+                    a, b, i, sp = e
                     if a in placed and b not in placed:
-                        welds.append(Weld(b, a, i, kind, sp))
+                        welds.append(Weld(b, a, i, sp))
                         placed.append(b)
                     elif b in placed and a not in placed:
-                        welds.append(Weld(a, b, i, kind, sp))
+                        welds.append(Weld(a, b, i, sp))
                         placed.append(a)
                     else:
                         continue
@@ -193,7 +195,7 @@ class Plan:
         gb = self.body_of[mech.ground]
         place(Step(StepKind.GROUND, body=gb, gives=(('pose', gb),)), gb)
         for i, s in enumerate(self.specs):
-            if s.kind == 'point':
+            if isinstance(s, PointSpec):
                 if s.point in known_pts:
                     raise PlanError(
                         f'known point {s.point!r} is fixed by the ground; it cannot be a target'

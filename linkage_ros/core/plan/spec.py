@@ -4,45 +4,20 @@ value off solved poses."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from enum import Enum
 
 import numpy as np
 
 from ..errors import PlanError
 from ..execute import LinkPoses
-from ..model import Mechanism
+from ..model import Mechanism, SlideActuator
+from ..model.limits import limit_violation as _limit_violation
 from ..ops import BATCH, SCALAR, to_xy
+from ..quantities import AngleSpec, PointSpec, ScalarSpec, SlideSpec, Spec
 from .poses import Poses, ScalarPoses, link_poses
 
 # ---- known-quantity specs --------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class Spec:
-    """One known (or wanted) quantity of a mechanism.
-
-    kind 'angle': phi[link] - phi[reference] = value - offset        (rad; 1 value)
-    kind 'slide': value of prismatic joint ``joint``                 (m;   1 value)
-    kind 'point': world position of ``point``                        (m;   2 values x, y)
-    """
-
-    name: str
-    kind: str
-    link: str | None = None
-    reference: str | None = None
-    offset: float = 0.0
-    joint: str | None = None
-    point: str | None = None
-    minimum: float | None = None
-    maximum: float | None = None
-
-    @property
-    def size(self) -> int:
-        return 2 if self.kind == 'point' else 1
-
-    @property
-    def unit(self) -> str:
-        return 'rad' if self.kind == 'angle' else 'm'
 
 
 KNOWN_KINDS = ('actuator', 'joint', 'link', 'point')
@@ -73,33 +48,22 @@ def spec_for(mech: Mechanism, name: str) -> Spec:
 
 
 def _renamed(spec: Spec, name: str) -> Spec:
-    return Spec(
-        name,
-        spec.kind,
-        spec.link,
-        spec.reference,
-        spec.offset,
-        spec.joint,
-        spec.point,
-        spec.minimum,
-        spec.maximum,
-    )
+    return replace(spec, name=name)
 
 
 def _spec_of_kind(mech: Mechanism, kind: str, name: str) -> Spec | None:
     if kind == 'actuator' and name in mech.actuators:
         act = mech.actuators[name]
-        if act.kind == 'slide':
-            return Spec(name, 'slide', joint=act.joint, minimum=act.min, maximum=act.max)
+        if isinstance(act, SlideActuator):
+            return SlideSpec(name, act.joint, minimum=act.min, maximum=act.max)
         link = mech.links[act.link]
         v = mech.points[act.toward] - mech.points[act.pivot]
         d0 = math.atan2(v[1], v[0])
         ref_angle = 0.0 if act.reference == mech.ground else mech.links[act.reference].angle_ref
-        return Spec(
+        return AngleSpec(
             name,
-            'angle',
-            link=link.name,
-            reference=act.reference,
+            link.name,
+            act.reference,
             offset=d0 - ref_angle,
             minimum=act.min,
             maximum=act.max,
@@ -108,23 +72,20 @@ def _spec_of_kind(mech: Mechanism, kind: str, name: str) -> Spec | None:
         for rj in mech.revolutes:
             if rj.name == name:
                 # joint value = child link angle - parent link angle (each along its axis)
-                return Spec(
+                return AngleSpec(
                     name,
-                    'angle',
-                    link=rj.child,
-                    reference=rj.parent,
+                    rj.child,
+                    rj.parent,
                     offset=mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref,
                 )
         if name in mech.prismatics:
-            return Spec(name, 'slide', joint=name)
+            return SlideSpec(name, name)
     if kind == 'link' and name in mech.links:
         if name == mech.ground:
             raise PlanError(f'{name!r} is the ground link: its angle is fixed')
-        return Spec(
-            name, 'angle', link=name, reference=mech.ground, offset=mech.links[name].angle_ref
-        )
+        return AngleSpec(name, name, mech.ground, offset=mech.links[name].angle_ref)
     if kind == 'point' and name in mech.points:
-        return Spec(name, 'point', point=name)
+        return PointSpec(name, name)
     return None
 
 
@@ -136,12 +97,18 @@ def _c(v) -> complex:
     return complex(float(v[0]), float(v[1]))
 
 
+class ReadKind(Enum):
+    ANGLE = 'angle'
+    SLIDE = 'slide'
+    POINT = 'point'
+
+
 @dataclass(frozen=True)
 class SpecReader:
     """How to read one spec's value off solved complex link poses, resolved once: an angle
     (rad, wrapped to (-pi, pi]), a slide (m) or a point's complex position."""
 
-    kind: str
+    kind: ReadKind
     link: str = ''  # angle: the link; slide: the slider's point's link; point: its link
     reference: str = ''  # angle: the reference link; slide: the guide
     offset: float = 0.0
@@ -150,10 +117,10 @@ class SpecReader:
     direction: complex = 0j  # slide: the direction (reference pose)
 
     def __call__(self, ops, poses: LinkPoses):
-        if self.kind == 'angle':
+        if self.kind is ReadKind.ANGLE:
             return ops.wrap(poses.phi[self.link] - poses.phi[self.reference] + self.offset)
         x = poses.rot[self.link] * self.p_ref + poses.T[self.link]
-        if self.kind == 'point':
+        if self.kind is ReadKind.POINT:
             return x
         rot = poses.rot[self.reference]
         v = x - (rot * self.origin + poses.T[self.reference])
@@ -162,21 +129,25 @@ class SpecReader:
 
 
 def spec_reader(mech: Mechanism, spec: Spec) -> SpecReader:
-    if spec.kind == 'angle':
-        return SpecReader('angle', spec.link, spec.reference, spec.offset)
-    if spec.kind == 'slide':
-        pj = mech.prismatics[spec.joint]
-        return SpecReader(
-            'slide',
-            spec_point_link(mech, pj.point, pj.slider),
-            pj.guide,
-            p_ref=_c(mech.points[pj.point]),
-            origin=_c(pj.origin),
-            direction=_c(pj.direction),
-        )
-    return SpecReader(
-        'point', mech.links_of_point(spec.point)[0], p_ref=_c(mech.points[spec.point])
-    )
+    match spec:
+        case AngleSpec():
+            return SpecReader(ReadKind.ANGLE, spec.link, spec.reference, spec.offset)
+        case SlideSpec():
+            pj = mech.prismatics[spec.joint]
+            return SpecReader(
+                ReadKind.SLIDE,
+                spec_point_link(mech, pj.point, pj.slider),
+                pj.guide,
+                p_ref=_c(mech.points[pj.point]),
+                origin=_c(pj.origin),
+                direction=_c(pj.direction),
+            )
+        case PointSpec():
+            return SpecReader(
+                ReadKind.POINT,
+                mech.links_of_point(spec.point)[0],
+                p_ref=_c(mech.points[spec.point]),
+            )
 
 
 def spec_value_of(ops, mech: Mechanism, spec: Spec, poses: LinkPoses):
@@ -188,47 +159,16 @@ def spec_value_of(ops, mech: Mechanism, spec: Spec, poses: LinkPoses):
 def spec_value_one(mech: Mechanism, spec: Spec, poses: ScalarPoses):
     """A spec's value on one configuration: a float, or (x, y) for a point."""
     v = spec_value_of(SCALAR, mech, spec, poses)
-    return (v.real, v.imag) if spec.kind == 'point' else v
+    return (v.real, v.imag) if isinstance(spec, PointSpec) else v
 
 
 def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
     """A spec's value on batched poses: (N,) for angle/slide, (N, 2) for a point."""
     with np.errstate(all='ignore'):
         v = spec_value_of(BATCH, mech, spec, link_poses(poses))
-    return to_xy(v) if spec.kind == 'point' else np.asarray(v, float)
+    return to_xy(v) if isinstance(spec, PointSpec) else np.asarray(v, float)
 
 
-def limit_violation(spec: Spec, value: float) -> str | None:
-    """Why ``value`` is outside ``spec``'s limits, or None. Angles compare on the circle: the
-    value is brought into [min, min + 2 pi) first, and a refusal names the nearer limit."""
-    lo, hi = spec.minimum, spec.maximum
-    if lo is None and hi is None:
-        return None
-    v = value
-    if spec.kind == 'angle' and lo is not None and hi is not None:
-        # angles compare on the circle: bring v into [lo, lo + 2 pi)
-        v = lo + (value - lo) % (2 * math.pi)
-        if v <= hi + 1e-12 * max(1.0, abs(hi)):
-            return None
-        over_hi = v - hi
-        under_lo = lo + 2 * math.pi - v
-        if under_lo < over_hi:
-            return (
-                f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} '
-                f'by {under_lo:.3g} {spec.unit}'
-            )
-        return (
-            f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
-            f'{over_hi:.3g} {spec.unit}'
-        )
-    if lo is not None and v < lo:
-        return (
-            f'{spec.name} = {value:.9g} {spec.unit} is below its minimum {lo:g} by '
-            f'{lo - v:.3g} {spec.unit}'
-        )
-    if hi is not None and v > hi:
-        return (
-            f'{spec.name} = {value:.9g} {spec.unit} is beyond its maximum {hi:g} by '
-            f'{v - hi:.3g} {spec.unit}'
-        )
-    return None
+def limit_violation(spec: ScalarSpec, value: float) -> str | None:
+    """Why ``value`` is outside ``spec``'s limits (the one rule: model.limits), or None."""
+    return _limit_violation(spec.name, value, spec.minimum, spec.maximum, spec.unit, spec.periodic)

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -16,11 +16,13 @@ from ..plan import (
     branch_geometry_one,
     link_poses,
 )
+from ..quantities import PointSpec
 from .point_pairs import pair_columns
 from .result import Result, branch_identity_defined, branch_text
 
-if TYPE_CHECKING:
-    from .solver import Solver
+#: core.solver.Solver, which mixes BatchAPI in: not imported (it imports this module); the
+#: batch functions read its compiled parts (specs, plan, Newton system) and continuity state
+Solver = Any
 
 
 class BatchResult:
@@ -51,7 +53,7 @@ class BatchResult:
         safe = [np.where(np.isfinite(a), a, 0.0) for a in arrays]
         limit_bad = np.zeros(n, bool)
         for s, a in zip(solver.specs, safe):
-            if s.kind != 'point' and (s.minimum is not None or s.maximum is not None):
+            if not isinstance(s, PointSpec) and (s.minimum is not None or s.maximum is not None):
                 for i in np.flatnonzero(finite & ~limit_bad):
                     why = solver.limit_violation(s, float(a[i]))
                     if why:
@@ -183,7 +185,7 @@ class BatchResult:
             xi = start.x[i]
             poses, pts = solver.check_system.configuration(xi)
             vals = [
-                np.array(a[i], float) if s.kind == 'point' else float(a[i])
+                np.array(a[i], float) if isinstance(s, PointSpec) else float(a[i])
                 for s, a in zip(solver.specs, start.values)
             ]
             if solver.full_plan.complete:
@@ -196,7 +198,7 @@ class BatchResult:
                 )
             ]
         cmd = {
-            s.name: (arrays[k][i] if s.kind == 'point' else float(arrays[k][i]))
+            s.name: (arrays[k][i] if isinstance(s, PointSpec) else float(arrays[k][i]))
             for k, s in enumerate(solver.specs)
         }
         return solver.solve(cmd)
@@ -228,7 +230,7 @@ class BatchResult:
                 rows.append(Result(False, self.reason[i]))
                 continue
             cmd = {
-                s.name: (arrays[k][i] if s.kind == 'point' else float(arrays[k][i]))
+                s.name: (arrays[k][i] if isinstance(s, PointSpec) else float(arrays[k][i]))
                 for k, s in enumerate(solver.specs)
             }
             rows.append(solver.solve(cmd))
@@ -408,7 +410,7 @@ class BatchAPI:
                 f'an array of {a.dtype}'
             )
         a = a.astype(float)
-        if s.kind == 'point':
+        if isinstance(s, PointSpec):
             if a.ndim == 0 or a.shape[-1] != 2 or a.ndim > 2:
                 raise ValueError(
                     f'batch column {s.name!r} must have shape (n, 2) (x, y in m), got {a.shape}'

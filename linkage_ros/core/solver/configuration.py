@@ -10,6 +10,7 @@ import numpy as np
 
 from ..dyads import wrap_angle
 from ..plan import ScalarPoses, branch_geometry_one, spec_value_one
+from ..quantities import PointSpec
 from .result import Result
 
 
@@ -37,7 +38,7 @@ class ConfigurationReading:
         vals = []
         for s in self.specs:
             v = spec_value_one(self.mech, s, poses)
-            vals.append(np.asarray(v, float) if s.kind == 'point' else float(v))
+            vals.append(np.asarray(v, float) if isinstance(s, PointSpec) else float(v))
         if self.plan.complete:
             signs, margins = branch_geometry_one(self.plan, pts, poses)
         else:

@@ -14,14 +14,43 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import numpy as np
 
+from ..model import Mechanism
 from .result import Result
 
-if TYPE_CHECKING:
-    from .solver import Solver
+
+class Solver(Protocol):
+    """What the mode search reads of a solver (core.solver.Solver; a protocol, so this module
+    does not import the solver that imports it)."""
+
+    mech: Mechanism
+    system: Any
+    plan: Any
+    tol: float
+    max_iter: int
+    closure_limit: float
+    inverse: bool
+    actuator_specs: list[Any]
+    mode: str
+
+    @property
+    def branch_count(self) -> int: ...
+
+    def solve(self, values: Mapping[str, Any], commit: bool = True) -> Result: ...
+
+    def parse(self, values: Mapping[str, Any]) -> list[Any]: ...
+
+    def reference_values(self) -> dict[str, Any]: ...
+
+    def limit_violation(self, spec: Any, value: float) -> str | None: ...
+
+    def mode_of(self, result: Result) -> Any: ...
+
+    def _build(self, *args: Any, **kwargs: Any) -> Result: ...
+
 
 #: Newton starts of the search (the first is the scene's reference pose)
 MODE_STARTS = 128

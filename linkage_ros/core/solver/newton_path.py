@@ -11,6 +11,7 @@ from ..plan import (
     branch_geometry_one,
     run_one,
 )
+from ..quantities import AngleSpec, PointSpec
 from .result import CLOSURE_LIMIT, NEAR_SINGULAR_COND, WALK_BUDGET, branch_text
 
 
@@ -130,9 +131,9 @@ class NewtonPath:
     def _interp(self, a, b, t):
         out = []
         for s, va, vb in zip(self.specs, a, b):
-            if s.kind == 'angle':
+            if isinstance(s, AngleSpec):
                 out.append(wrap_angle(va) + t * wrap_angle(wrap_angle(vb) - wrap_angle(va)))
-            elif s.kind == 'point':
+            elif isinstance(s, PointSpec):
                 out.append(np.asarray(va) + t * (np.asarray(vb) - np.asarray(va)))
             else:
                 out.append(va + t * (vb - va))

@@ -20,6 +20,7 @@ import numpy as np
 from ..errors import echo
 from ..model import Mechanism
 from ..plan import Spec
+from ..quantities import PointSpec
 
 
 @dataclass(frozen=True)
@@ -38,7 +39,7 @@ def find_point_pairs(
     mech: Mechanism, knowns: Sequence[str], specs: Sequence[Spec]
 ) -> list[PointPair]:
     """Each pair of known points carried by one moving link (each point in one pair at most)."""
-    points = [(k, s.point) for k, s in zip(knowns, specs) if s.kind == 'point' and s.point]
+    points = [(k, s.point) for k, s in zip(knowns, specs) if isinstance(s, PointSpec) and s.point]
     pairs: list[PointPair] = []
     used: set[str] = set()
     for i, (known_a, a) in enumerate(points):

@@ -4,8 +4,9 @@ records."""
 from __future__ import annotations
 
 import collections.abc
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
@@ -16,9 +17,6 @@ from ..plan import (
 
 #: machine epsilon (float64): the unit of rounding in branch_identity_defined
 _EPS = float(np.finfo(float).eps)
-
-if TYPE_CHECKING:
-    from .solver import Solver
 
 
 def branch_undefined_below(residual):
@@ -140,10 +138,17 @@ class _Prediction(collections.abc.Mapping):
     Computed per key on first use: the dyad plan asks only near a singular dyad, so most
     solves never pay for it."""
 
-    def __init__(self, solver: Solver, vals):
-        self._last = solver._history[-1]
-        self._prev = solver._history[-2] if len(solver._history) == 2 else None
-        self._solver, self._vals = solver, vals
+    def __init__(
+        self,
+        history: Sequence[_State],
+        step_ratio: Callable[[Any, Any, Any], float],
+        vals: Any,
+    ):
+        """``history``: the last one or two configurations; ``step_ratio(prev, last, now)``:
+        how far the new command goes along the previous step."""
+        self._last = history[-1]
+        self._prev = history[-2] if len(history) == 2 else None
+        self._step_ratio, self._vals = step_ratio, vals
         self._ratio: float | None = None
 
     def __getitem__(self, key: str):
@@ -155,7 +160,7 @@ class _Prediction(collections.abc.Mapping):
         if prev is None or key not in prev.points:
             return v
         if self._ratio is None:
-            self._ratio = self._solver._step_ratio(prev.values, last.values, self._vals)
+            self._ratio = self._step_ratio(prev.values, last.values, self._vals)
         return v + self._ratio * (v - prev.points[key])
 
     def __contains__(self, key) -> bool:

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..assemble import ResultAssembler
 from ..errors import PlanError, echo
-from ..model import Mechanism
+from ..model import Mechanism, SlideActuator
 from ..newton import LoopSystem
 from ..ops import SCALAR
 from ..plan import (
@@ -37,6 +37,7 @@ from ..plan import (
     spec_for,
     spec_value_one,
 )
+from ..quantities import AngleSpec, PointSpec, SlideSpec
 from .batch import BatchAPI
 from .configuration import ConfigurationReading
 from .modes import ModeList, mode_key, newton_modes
@@ -151,7 +152,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         if self.inverse:
             self._check_determined(n_values)
         self.branch_mode, self.fixed_signs = self._parse_branch(branch)
-        self._slide_specs = {n: Spec(n, 'slide', joint=n) for n in mech.prismatics}
+        self._slide_specs = {n: SlideSpec(n, n) for n in mech.prismatics}
         self._assemblers: dict[tuple, Any] = {}  # result assembly per set of placed links
         self.reset()
 
@@ -171,7 +172,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
                 links |= {pj.guide, pj.slider}
             elif name in mech.actuators:
                 a = mech.actuators[name]
-                if a.kind == 'slide':
+                if isinstance(a, SlideActuator):
                     pj = mech.prismatics[a.joint]
                     links |= {pj.guide, pj.slider}
                 else:
@@ -224,7 +225,9 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
             # a different step for each actuator: equal steps keep a symmetric drawing symmetric
             cmd = {
                 s.name: ref[s.name]
-                + (-1) ** k * (1 + 0.37 * k) * (step if s.kind == 'angle' else step * 0.1 * scale)
+                + (-1) ** k
+                * (1 + 0.37 * k)
+                * (step if isinstance(s, AngleSpec) else step * 0.1 * scale)
                 for k, s in enumerate(fwd.specs)
             }
             r = fwd.solve(cmd, commit=False)
@@ -234,7 +237,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
             seen = True
             poses = got[1]
             vals = [
-                np.asarray(v, float) if s.kind == 'point' else float(v)
+                np.asarray(v, float) if isinstance(s, PointSpec) else float(v)
                 for s, v in ((s, spec_value_one(self.mech, s, poses)) for s in self.specs)
             ]
             _, J = cs.evaluate(cs.x_from_poses(poses), vals)
@@ -252,7 +255,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
     def _values_at_reference(self):
         ref = reference_poses(self.mech)
         return [
-            np.asarray(v, float) if s.kind == 'point' else float(v)
+            np.asarray(v, float) if isinstance(s, PointSpec) else float(v)
             for s, v in ((s, spec_value_one(self.mech, s, ref)) for s in self.specs)
         ]
 
@@ -265,7 +268,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
     def reference_values(self) -> dict[str, Any]:
         """The known quantities' values in the scene's reference pose ({known name: value})."""
         return {
-            s.name: (tuple(float(c) for c in v) if s.kind == 'point' else float(v))
+            s.name: (tuple(float(c) for c in v) if isinstance(s, PointSpec) else float(v))
             for s, v in zip(self.specs, self._ref_values)
         }
 
@@ -315,7 +318,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         out = []
         for s in self.specs:
             v = values[s.name]
-            if s.kind == 'point':
+            if isinstance(s, PointSpec):
                 out.append(parse_point(s.name, v))
             else:
                 if isinstance(v, (bool, np.bool_)) or not isinstance(
@@ -350,7 +353,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
             del given[pair.link_known]
             given[pair.second] = [float(c) for c in values[pair.second]]
         for s, v in zip(self.specs, vals):
-            if s.kind != 'point':
+            if not isinstance(s, PointSpec):
                 bad = self.limit_violation(s, v)
                 if bad:
                     return self._fail(bad, given)
@@ -427,7 +430,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
 
     def _echo(self, vals):
         return {
-            s.name: (list(map(float, v)) if s.kind == 'point' else float(v))
+            s.name: (list(map(float, v)) if isinstance(s, PointSpec) else float(v))
             for s, v in zip(self.specs, vals)
         }
 
@@ -445,7 +448,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         or None when there is no previous configuration to predict from."""
         if self.branch_mode != 'continuous' or not self._history:
             return None
-        return _Prediction(self, vals)
+        return _Prediction(self._history, self._step_ratio, vals)
 
     def _step_ratio(self, prev_vals, last_vals, vals) -> float:
         """How far the new command goes along the previous step (d_now . d_prev / |d_prev|^2,
@@ -468,7 +471,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         out = []
         for s, v in zip(self.specs, vals):
             a = np.asarray(v, float)
-            out.append(a.reshape(n, 2) if s.kind == 'point' else a.reshape(n))
+            out.append(a.reshape(n, 2) if isinstance(s, PointSpec) else a.reshape(n))
         return out
 
     def _state(

@@ -1,0 +1,334 @@
+"""The ROS machinery the node benchmarks share: the bare rclpy relay, node processes, the driver
+that publishes commands and times the answers, and the ~/target flood."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def relay_script() -> Path | None:
+    p = Path(__file__).resolve().parents[2] / 'bench' / 'relay_node.py'
+    return p if p.is_file() else None
+
+
+class _Proc:
+    """A ROS process started (and stopped) by the benchmark; output goes to files."""
+
+    def __init__(self, argv: list[str], env: dict, workdir: Path, label: str):
+        self.label = label
+        self.out = open(workdir / f'{label}.out', 'wb')  # noqa: SIM115 (lives with the process)
+        self.err_path = workdir / f'{label}.err'
+        self.err = open(self.err_path, 'wb')  # noqa: SIM115 (lives with the process)
+        self.proc = subprocess.Popen(
+            argv,
+            env=env,
+            stdout=self.out,
+            stderr=self.err,
+            stdin=subprocess.DEVNULL,
+            start_new_session=True,
+        )
+
+    def tail(self, n: int = 600) -> str:
+        try:
+            txt = self.err_path.read_text(errors='replace') + Path(self.out.name).read_text(
+                errors='replace'
+            )
+        except OSError:
+            return ''
+        return txt.strip()[-n:]
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self, timeout: float = 5.0):
+        if self.proc.poll() is None:
+            try:
+                self.proc.send_signal(signal.SIGINT)
+                self.proc.wait(timeout=timeout)
+            except subprocess.TimeoutExpired:
+                self.proc.terminate()
+                try:
+                    self.proc.wait(timeout=3)
+                except subprocess.TimeoutExpired:
+                    self.proc.kill()
+                    self.proc.wait()
+        self.out.close()
+        self.err.close()
+
+
+def _ros_env(domain: int) -> dict:
+    env = dict(os.environ)
+    for k in ('ROS_LOCALHOST_ONLY', 'ROS_STATIC_PEERS'):
+        env.pop(k, None)
+    env.update(
+        {
+            'ROS_DOMAIN_ID': str(domain),
+            'ROS_AUTOMATIC_DISCOVERY_RANGE': 'LOCALHOST',
+            'AMENT_PREFIX_PATH': os.environ.get('AMENT_PREFIX_PATH', sys.prefix),
+            'PYTHONUNBUFFERED': '1',
+            'RCUTILS_COLORIZED_OUTPUT': '0',
+        }
+    )
+    return env
+
+
+class _Link:
+    """One target under test as the driver sees it: a command publisher, an answer subscription
+    and the arrival time of every answer, keyed by the command stamp (ns)."""
+
+    def __init__(
+        self,
+        driver: Driver,
+        label: str,
+        cmd_topic: str,
+        out_topic: str,
+        names: list[str] | None = None,
+        value: Callable[[int], list] | None = None,
+    ):
+        """``names`` / ``value``: this target's command (default: the driver's)."""
+        from sensor_msgs.msg import JointState
+
+        self.label = label
+        self.driver = driver
+        self.names = names if names is not None else driver.names
+        self.value = value if value is not None else driver.value
+        self.recv: dict[int, int] = {}
+        self.pub = driver.node.create_publisher(JointState, cmd_topic, driver.qos)
+        self.sub = driver.node.create_subscription(JointState, out_topic, self._on_msg, driver.qos)
+        self.k = 0
+
+    def _on_msg(self, msg):
+        t = time.time_ns()
+        self.recv.setdefault(msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec, t)
+
+    def matched(self) -> bool:
+        return self.pub.get_subscription_count() >= 1 and self.sub.get_publisher_count() >= 1
+
+    def send(self) -> int:
+        """Publish the next command; returns its stamp (ns, unique and increasing)."""
+        msg = self.driver.msg_type()
+        t = max(time.time_ns(), self.driver.last_stamp + 1)
+        self.driver.last_stamp = t
+        msg.header.stamp.sec, msg.header.stamp.nanosec = divmod(t, 1_000_000_000)
+        msg.name = self.names
+        msg.position = self.value(self.k)
+        self.k += 1
+        self.pub.publish(msg)
+        return t
+
+    def close(self):
+        self.driver.node.destroy_subscription(self.sub)
+        self.driver.node.destroy_publisher(self.pub)
+
+
+class Driver:
+    """Publishes JointState commands and collects the answers, in its own rclpy context in this
+    process (single-threaded executor: publish when due, otherwise spin). The same driver runs
+    every target, so their numbers compare."""
+
+    def __init__(self, domain: int, names: list[str], value: Callable[[int], list]):
+        import rclpy
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
+        from sensor_msgs.msg import JointState
+
+        self.rclpy = rclpy
+        self.msg_type = JointState
+        self.names, self.value = names, value
+        self.last_stamp = 0
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx, domain_id=domain)
+        self.node = rclpy.create_node(f'linkage_bench_driver_{os.getpid()}', context=self.ctx)
+        self.exec = SingleThreadedExecutor(context=self.ctx)
+        self.exec.add_node(self.node)
+        # deep queues on the driver's side so the driver is never the one that drops
+        self.qos = QoSProfile(
+            reliability=ReliabilityPolicy.RELIABLE,
+            history=HistoryPolicy.KEEP_LAST,
+            depth=1000,
+            durability=DurabilityPolicy.VOLATILE,
+        )
+
+    def close(self):
+        try:
+            self.exec.shutdown()
+            self.node.destroy_node()
+        finally:
+            self.rclpy.try_shutdown(context=self.ctx)
+
+    def link(self, label, cmd_topic, out_topic, **kw) -> _Link:
+        return _Link(self, label, cmd_topic, out_topic, **kw)
+
+    def spin_for(self, seconds: float):
+        t_end = time.monotonic() + seconds
+        while time.monotonic() < t_end:
+            self.exec.spin_once(timeout_sec=0.005)
+
+    def connect(self, link: _Link, warmup: int, timeout: float = 20.0) -> str | None:
+        """Wait for discovery both ways, then until ``warmup`` commands have been answered (the
+        first ones pay for lazy set-up). Returns None, or why the target is not usable."""
+        t_end = time.monotonic() + timeout
+        while not link.matched():
+            if time.monotonic() > t_end:
+                return (
+                    f'no discovery within {timeout:g} s (command subscribers '
+                    f'{link.pub.get_subscription_count()}, answer publishers '
+                    f'{link.sub.get_publisher_count()})'
+                )
+            self.exec.spin_once(timeout_sec=0.05)
+        t_end = time.monotonic() + timeout
+        sent = 0
+        while len(link.recv) < warmup:
+            if time.monotonic() > t_end:
+                return f'{len(link.recv)} of {sent} warm-up commands answered within {timeout:g} s'
+            link.send()
+            sent += 1
+            self.spin_for(0.01)
+        self.spin_for(0.2)
+        link.recv.clear()
+        return None
+
+    def ping_pong(
+        self, links: Sequence[_Link], n: int, period: float = 0.005, timeout: float = 0.5
+    ) -> dict[str, dict]:
+        """Latency without queueing: one command outstanding at a time, the targets taking turns
+        (paired samples under the same conditions), a new command every ``period`` s."""
+        lat: dict[str, list[float]] = {l.label: [] for l in links}
+        lost = {l.label: 0 for l in links}
+        t_next = time.perf_counter()
+        for _ in range(n):
+            for l in links:
+                while time.perf_counter() < t_next:
+                    self.exec.spin_once(
+                        timeout_sec=max(0.0, min(t_next - time.perf_counter(), 0.002))
+                    )
+                t_next += period
+                s = l.send()
+                t_end = time.monotonic() + timeout
+                while s not in l.recv and time.monotonic() < t_end:
+                    self.exec.spin_once(timeout_sec=0.002)
+                if s in l.recv:
+                    lat[l.label].append((l.recv[s] - s) / 1e6)
+                else:
+                    lost[l.label] += 1
+        out = {}
+        for l in links:
+            a = np.asarray(lat[l.label])
+            out[l.label] = {
+                'n': int(a.size),
+                'timeouts': lost[l.label],
+                'p50_ms': float(np.percentile(a, 50)) if a.size else None,
+                'p99_ms': float(np.percentile(a, 99)) if a.size else None,
+                'max_ms': float(a.max()) if a.size else None,
+            }
+            l.recv.clear()
+        return out
+
+    def rate_run(
+        self,
+        link: _Link,
+        rate: float,
+        seconds: float,
+        drain_timeout: float = 2.0,
+        flood: Flood | None = None,
+    ) -> dict:
+        """Commands at ``rate`` Hz for ``seconds`` (absolute schedule, spinning in between);
+        then drain until every answer is in or none arrived for ``drain_timeout`` s. With
+        ``flood``, its hostile requests go out at their own rate meanwhile."""
+        link.recv.clear()
+        n = max(1, int(round(rate * seconds)))
+        period = 1.0 / rate
+        stamps = []
+        t0 = time.perf_counter()
+        i = j = 0
+        while i < n:
+            now = time.perf_counter()
+            due = t0 + i * period
+            if flood is not None and now >= t0 + j / flood.rate:
+                flood.send(j)
+                j += 1
+            if now >= due:
+                stamps.append(link.send())
+                i += 1
+                self.exec.spin_once(timeout_sec=0)
+            else:
+                self.exec.spin_once(timeout_sec=min(due - now, 0.002))
+        send_seconds = time.perf_counter() - t0
+        self._drain(link.recv, stamps, drain_timeout)
+        got = [link.recv[s] - s for s in stamps if s in link.recv]
+        lat = np.asarray(got, float) / 1e6  # ms
+        # the most commands sent in any 10 ms (10 at an even 1 kHz): after a stall of the
+        # driver itself the absolute schedule sends what is overdue back to back, a burst a
+        # target's queue must hold
+        sent_ns = np.asarray(stamps, np.int64)
+        burst = (
+            int(np.max(np.searchsorted(sent_ns, sent_ns + 10_000_000) - np.arange(len(sent_ns))))
+            if len(sent_ns)
+            else 0
+        )
+        self.spin_for(0.3)
+        link.recv.clear()
+        return {
+            'rate': rate,
+            'sent': len(stamps),
+            'received': len(got),
+            'lost': len(stamps) - len(got),
+            'achieved_rate': len(stamps) / send_seconds if send_seconds > 0 else None,
+            'p50_ms': float(np.percentile(lat, 50)) if lat.size else None,
+            'p99_ms': float(np.percentile(lat, 99)) if lat.size else None,
+            'max_ms': float(lat.max()) if lat.size else None,
+            'burst_10ms': burst,
+        }
+
+    def _drain(self, recv, stamps, timeout):
+        want = set(stamps)
+        last_count, last_change = -1, time.monotonic()
+        while True:
+            have = len(want & recv.keys())
+            if have == len(want):
+                return
+            if have != last_count:
+                last_count, last_change = have, time.monotonic()
+            elif time.monotonic() - last_change > timeout:
+                return
+            self.exec.spin_once(timeout_sec=0.01)
+
+
+class Flood:
+    """Hostile ~/target requests at ``rate`` Hz from the driver, of one ``kind``: 'new_sets'
+    names a new, unknown set of names every time (each used to compile a solver and push a
+    cached one out), 'huge' is a message with 10^5 names (2 MB serialised)."""
+
+    KINDS = ('new_sets', 'huge')
+
+    def __init__(self, driver: Driver, topic: str, rate: float, kind: str):
+        self.rate, self.kind = rate, kind
+        self.pub = driver.node.create_publisher(driver.msg_type, topic, driver.qos)
+        from rclpy.serialization import serialize_message
+
+        big = driver.msg_type()
+        big.name = [f'n{k}' for k in range(10**5)]
+        big.position = [0.5] * len(big.name)
+        self.big = serialize_message(big)  # published as bytes: the driver pays for it once
+        self.msg_type = driver.msg_type
+        self.sent = 0
+
+    def send(self, j: int) -> None:
+        msg: Any
+        if self.kind == 'huge':
+            msg = self.big
+        else:
+            msg = self.msg_type()
+            msg.name = [f'flood_{j}_a', f'flood_{j}_b']
+            msg.position = [0.1, 0.2]
+        self.pub.publish(msg)
+        self.sent += 1

@@ -1,0 +1,53 @@
+"""The typed vocabulary of known (or wanted) quantities: one frozen dataclass per kind, matched
+with isinstance / match, never a kind string. Resolving a name to one (actuator, joint, link,
+point) is core.plan.spec's; this module has no dependencies, so every layer can use it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+
+@dataclass(frozen=True)
+class AngleSpec:
+    """phi[link] - phi[reference] = value - offset (rad; 1 value). ``minimum``/``maximum``:
+    an actuator's limits (compared on the circle)."""
+
+    name: str
+    link: str
+    reference: str
+    offset: float = 0.0
+    minimum: float | None = None
+    maximum: float | None = None
+    size: ClassVar[int] = 1
+    unit: ClassVar[str] = 'rad'
+    periodic: ClassVar[bool] = True
+
+
+@dataclass(frozen=True)
+class SlideSpec:
+    """The value of prismatic joint ``joint`` (m; 1 value), with an actuator's limits."""
+
+    name: str
+    joint: str
+    minimum: float | None = None
+    maximum: float | None = None
+    size: ClassVar[int] = 1
+    unit: ClassVar[str] = 'm'
+    periodic: ClassVar[bool] = False
+
+
+@dataclass(frozen=True)
+class PointSpec:
+    """The world position of ``point`` (m; 2 values x, y)."""
+
+    name: str
+    point: str
+    size: ClassVar[int] = 2
+    unit: ClassVar[str] = 'm'
+
+
+#: one known (or wanted) quantity of a mechanism
+Spec = AngleSpec | SlideSpec | PointSpec
+#: a known with one value (angle or slide), which may carry limits
+ScalarSpec = AngleSpec | SlideSpec
