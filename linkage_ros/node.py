@@ -115,10 +115,14 @@ class LinkageNode(Node):
     def _declare_parameters(self) -> dict[str, Any]:
         values = {}
         for p in PARAMETERS:
+            # a double takes a whole number too (ROS users write `-p publish_rate:=0`): typed
+            # dynamically, then checked to be a number and converted (make_config)
+            number = isinstance(p.default, float)
             desc = ParameterDescriptor(
                 description=p.description,
                 read_only=p.read_only,
                 additional_constraints=p.constraints,
+                dynamic_typing=number,
             )
             default = Parameter.Type.STRING_ARRAY if p.default == 'string_array' else p.default
             try:
@@ -136,7 +140,15 @@ class LinkageNode(Node):
                 raise ConfigError(f'parameter {p.name!r}: must be {kind} ({exc})') from None
             except ParameterException as exc:
                 raise ConfigError(f'parameter {p.name!r}: {exc}') from None
-            values[p.name] = param.value
+            value = param.value
+            if number:
+                if isinstance(value, bool) or not isinstance(value, int | float):
+                    raise ConfigError(
+                        f'parameter {p.name!r}: must be a number (a double or a whole number; '
+                        f'got {value!r})'
+                    )
+                value = float(value)
+            values[p.name] = value
         return values
 
     def _setup(self):

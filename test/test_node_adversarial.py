@@ -694,10 +694,30 @@ def test_make_config_checks_demo_rate_frame_id_and_queue_depth():
     assert make_config({'queue_depth': 2**31 - 1}).queue_depth == 2**31 - 1
 
 
+def test_whole_numbers_are_taken_for_doubles(ros):
+    """ROS users write `-p publish_rate:=0` (TOPICS.md's own "0 = answers only"): a whole
+    number is a double's value, converted; the node starts with it."""
+    node = LinkageNode(
+        context=ros.context,
+        parameter_overrides=[
+            Parameter('publish_rate', value=0),
+            Parameter('marker_rate', value=0),
+            Parameter('demo_rate', value=5),
+            Parameter('tolerance', value=1),
+        ],
+    )
+    try:
+        cfg = node.config
+        assert (cfg.publish_rate, cfg.marker_rate, cfg.demo_rate) == (0.0, 0.0, 5.0)
+        assert isinstance(cfg.demo_rate, float) and cfg.tolerance == 1.0
+    finally:
+        node.destroy_node()
+
+
 def test_wrong_parameter_type_message(ros):
     for name, value, fragment in (
         ('queue_depth', '10', 'must be an integer'),
-        ('demo_rate', 20, 'must be a double (write 1.0, not 1)'),
+        ('demo_rate', '20', 'must be a number (a double or a whole number'),
         ('demo_sweep', 'yes', 'must be a bool'),
         ('frame_id', 5, 'must be a string'),
     ):
