@@ -173,6 +173,11 @@ def find_chain(desc: Description) -> Chain:
                 return out
             out.append(body_of[j.parent][0])
 
+    for c in desc.closures:  # before the plane: such a chain may have no joint to find it by
+        if body_of[c.a.link][0] == body_of[c.b.link][0]:
+            raise DescriptionError(
+                'joins two frames of one rigid body (no loop)', file=src, key=c.element
+            )
     ends = [body_of[end.link][0] for c in desc.closures for end in (c.a, c.b)]
     paths = [ancestors(b) for b in ends]
     common = [b for b in paths[0] if all(b in p for p in paths[1:])]

@@ -14,11 +14,10 @@ import numpy as np
 
 from ..model import Mechanism, Scene
 from ..model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
-from ..model.scene import read_text
 from .chain import Chain, find_chain, rot
 from .records import Description, DescriptionError, JointType
 from .sdf_reader import read_sdf
-from .side_files import apply_side_file, load_side_file
+from .side_files import apply_side_file, load_side_file, read_file
 from .urdf_reader import read_urdf
 from .xml_text import MAX_DESCRIPTION_BYTES, parse_xml
 
@@ -73,7 +72,7 @@ def import_description(
     """Read ``description`` (a path, or URDF/SDF text with ``text``), add the closures of the
     side file ``closures``, and assemble at ``values`` of the actuated joints (default 0)."""
     source = '<robot_description>' if text else description
-    body = description if text else read_text(description, MAX_DESCRIPTION_BYTES)
+    body = description if text else read_file(description, MAX_DESCRIPTION_BYTES)
     desc = read_description(body, source)
     if closures:
         desc = apply_side_file(desc, load_side_file(closures), closures)
@@ -297,6 +296,9 @@ def _scene(
                 }
             )
     _merge_coincident(points, members, names, chain.length_scale, {s['point'] for s in sliders})
+    for s in sliders:
+        while s['point'] in names.alias:
+            s['point'] = names.alias[s['point']]
     by_name = {j.name: j for j in chain.joints}
     for a in acts:
         j = by_name[a]
@@ -358,17 +360,23 @@ def _merge_coincident(
     keep: set[str],
 ) -> None:
     """Pins of one body at one place are one pin (three links meeting there: a compound
-    hinge, which the scene makes one joint per child)."""
+    hinge, which the scene makes one joint per child). A slider's point with a pin of its
+    block at the same place (a slider-crank's block pinned at its slide frame) becomes that
+    pin: the slider keeps its name and runs on the pin's point."""
     tol = 1e-9 * scale
     for pts in members.values():
         for i, p in enumerate(pts):
-            if p in names.alias or p in keep:
+            if p in names.alias:
                 continue
             for r in pts[:i]:
                 r = names.alias.get(r, r)
-                if r != p and r not in keep and math.dist(points[p], points[r]) <= tol:
+                if r == p or {p, r} <= keep or math.dist(points[p], points[r]) > tol:
+                    continue
+                if r in keep:  # a slider's point is the pin's
+                    names.alias[r] = p
+                else:
                     names.alias[p] = r
-                    break
+                break
     for body, pts in members.items():
         merged: list[str] = []
         for p in pts:
@@ -425,7 +433,7 @@ def _joint_map(
             name, sigma = scene_pin(names.point(j.name), lname[j.child], lname[j.parent])
             scale = sigma * j.sign  # q = sign * (angle(child) - angle(parent)) + const
         else:
-            name, scale = names.point(j.name), 1.0
+            name, scale = names.of[('point', j.name)], 1.0  # the slider's name
         offset = q[j.name] - scale * ref.joints[name]
         outputs.append(
             OutputJoint(

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import yaml
 
+from ..errors import SceneError
 from ..model.scene import _UniqueKeyLoader, read_text
 from .records import Closure, ClosureType, Description, DescriptionError, Limits, LinkFrame
 from .records import transform as make_transform
@@ -24,8 +25,19 @@ _TYPES = {'revolute': ClosureType.REVOLUTE, 'prismatic': ClosureType.PRISMATIC}
 _TOP_KEYS = {'closures', 'actuated', 'limits', 'dimensions'}
 
 
+def read_file(path: str, limit: int) -> str:
+    """A description's or side file's text (bounded, UTF-8); a file that cannot be read is a
+    DescriptionError like every other refusal of a description."""
+    try:
+        return read_text(path, limit)
+    except SceneError as exc:
+        err = DescriptionError(str(exc))
+        err.file, err.key, err.value = exc.file, exc.key, exc.value
+        raise err from None
+
+
 def load_side_file(path: str) -> Mapping[str, Any]:
-    text = read_text(path, MAX_SIDE_FILE_BYTES)
+    text = read_file(path, MAX_SIDE_FILE_BYTES)
     try:
         data = yaml.load(text, Loader=_UniqueKeyLoader)
     except yaml.YAMLError as exc:

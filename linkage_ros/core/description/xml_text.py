@@ -43,7 +43,7 @@ def parse_xml(text: str, source: str) -> ET.Element:
     except ET.ParseError as exc:
         raise DescriptionError(f'malformed XML: {exc}', file=source) from None
     xacro = [
-        el.tag
+        'xacro:' + el.tag.split('}', 1)[1]
         for el in root.iter()
         if isinstance(el.tag, str)
         and el.tag.startswith(('{' + _XACRO_NS + '}', '{' + _XACRO_NS2 + '}'))
@@ -55,7 +55,7 @@ def parse_xml(text: str, source: str) -> ET.Element:
         if '${' in v or '$(' in v
     ]
     if unexpanded:
-        first = unexpanded[0].split('}')[-1]
+        first = unexpanded[0]
         raise DescriptionError(
             f'an unexpanded xacro file ({first!s:.60} ...): run xacro on it first '
             '(xacro robot.urdf.xacro > robot.urdf) and give the result',
