@@ -24,6 +24,8 @@ from .xml_text import MAX_DESCRIPTION_BYTES, parse_xml
 #: a description's loops count as closed when they miss by at most this fraction of its size
 #: (the solver's own closure limit)
 CLOSED = 1e-10
+#: the length of each link's axis mark (its second point) as a fraction of the chain's size
+AXIS_MARK = 0.25
 #: random restarts of the assembly before a description is refused as unassemblable
 ASSEMBLY_STARTS = 24
 DESCRIPTION_SUFFIXES = ('.urdf', '.sdf', '.xml')
@@ -299,30 +301,45 @@ def _scene(
     for s in sliders:
         while s['point'] in names.alias:
             s['point'] = names.alias[s['point']]
+    outputs = [p for p in points if sum(p in members[b] for b in chain.bodies[1:]) == 1]
+    outputs = [p for p in outputs if p not in members[chain.ground]]
+    # each body's axis (its first two points) along its frame's e1 at all values zero: then a
+    # link's angle is its rotation from the description's zero pose, and every joint and
+    # actuator value is the description's own (negated where a joint turns the other way)
+    scale = chain.length_scale
+    for b in chain.bodies:
+        first = members[b][0]
+        phi = poses[b][1]
+        mark = names('point', f'{b}_axis')
+        for length in (AXIS_MARK * scale * f for f in (1.0, 0.6, 1.7, 0.35, 2.9)):
+            at = [
+                points[first][0] + length * math.cos(phi),
+                points[first][1] + length * math.sin(phi),
+            ]
+            # apart from the body's other points: two points of a link must not coincide
+            if all(math.dist(at, points[p]) > 1e-3 * scale for p in members[b]):
+                break
+        points[mark] = at
+        members[b] = [first, mark, *members[b][1:]]
     by_name = {j.name: j for j in chain.joints}
     for a in acts:
         j = by_name[a]
         lim = desc.limits.get(a, j.joint.limits)
         if j.revolute:
-            pivot = names.point(a)
-            others = [p for p in members[j.child] if p != pivot]
-            if not others:
-                raise DescriptionError(
-                    f'actuated joint {a!r} turns a link with no other joint', file=desc.source
-                )
+            pivot, toward = members[j.child][:2]  # the child's axis: its angle
             spec: dict[str, Any] = {
                 'type': 'angle',
                 'link': link_name[j.child],
                 'pivot': pivot,
-                'toward': others[0],
+                'toward': toward,
             }
             if j.parent != chain.ground:
                 spec['relative_to'] = link_name[j.parent]
-            # value = sign * q + k, k read off the assembled pose
-            v_ref = _angle(points, pivot, others[0]) - _axis_angle(
+            # value = sign * q + k, k read off the assembled pose (0 up to rounding)
+            v_ref = _angle(points, pivot, toward) - _axis_angle(
                 points, members[j.parent], j.parent == chain.ground
             )
-            k = v_ref - j.sign * q[a]
+            k = math.remainder(v_ref - j.sign * q[a], 2.0 * math.pi)
             if (
                 lim.lower is not None
                 and lim.upper is not None
@@ -341,6 +358,7 @@ def _scene(
         'points': points,
         'ground': link_name[chain.ground],
         'links': {link_name[b]: members[b] for b in chain.bodies},
+        'outputs': outputs,
     }
     if sliders:
         scene['sliders'] = sliders
@@ -389,6 +407,12 @@ def _merge_coincident(
         points.pop(p, None)
 
 
+def _offset(value: float, revolute: bool) -> float:
+    """A calibrated offset: an angle's within (-pi, pi] (values are compared on the circle), and
+    never -0.0 (a written scene shows 0.0)."""
+    return (math.remainder(value, 2.0 * math.pi) if revolute else value) + 0.0
+
+
 def _angle(points: Mapping[str, list[float]], a: str, b: str) -> float:
     (ax, ay), (bx, by) = points[a], points[b]
     return math.atan2(by - ay, bx - ax)
@@ -434,7 +458,7 @@ def _joint_map(
             scale = sigma * j.sign  # q = sign * (angle(child) - angle(parent)) + const
         else:
             name, scale = names.of[('point', j.name)], 1.0  # the slider's name
-        offset = q[j.name] - scale * ref.joints[name]
+        offset = _offset(q[j.name] - scale * ref.joints[name], j.revolute)
         outputs.append(
             OutputJoint(
                 j.name,
@@ -461,7 +485,7 @@ def _joint_map(
                 a,
                 sname,
                 scale,
-                ref.inputs[sname] - scale * q[a],
+                _offset(ref.inputs[sname] - scale * q[a], j.revolute),
                 j.revolute,
                 leader=leader,
                 multiplier=mimic.multiplier if leader and mimic else 1.0,
@@ -520,7 +544,7 @@ def _cut_joints(chain: Chain, poses, ref_joints, lname, names, scene_pin) -> lis
                 OutputKind.JOINT,
                 pin,
                 scale,
-                q_ref - scale * ref_joints[pin],
+                _offset(q_ref - scale * ref_joints[pin], True),
                 True,
                 lower=joint.limits.lower,
                 upper=joint.limits.upper,

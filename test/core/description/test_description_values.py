@@ -1,0 +1,58 @@
+"""The imported scene speaks the description's values: a refused command quotes the joint's own
+value and <limit>, a passive target is the joint's own value, and the map at the edge is the
+identity (sign +1, offset 0 to rounding) for every joint turning the way most joints turn."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from scenes import REPO
+
+from linkage_ros.core.description import import_description
+from linkage_ros.engine import Engine, EngineSettings
+
+D = REPO / 'test' / 'fixtures' / 'robot_descriptions'
+FIXTURES = {
+    'grbda_four_bar': (D / 'grbda_four_bar.urdf', None),
+    'grbda_six_bar': (D / 'grbda_six_bar.urdf', None),
+    'gepetto': (D / 'gepetto_5bar_linkage/robot.urdf', D / 'gepetto_5bar_linkage/robot.yaml'),
+    'drake': (D / 'drake_four_bar_loop.sdf', D / 'drake_four_bar_loop.closures.yaml'),
+    'robotiq': (
+        D / 'picknik_robotiq_2f_85.expanded.urdf',
+        D / 'picknik_robotiq_2f_85.closures.yaml',
+    ),
+}
+
+
+def _mech(key):
+    path, closures = FIXTURES[key]
+    return import_description(str(path), str(closures) if closures else None).mechanism
+
+
+@pytest.mark.parametrize('key', FIXTURES)
+def test_tree_joints_map_to_the_scene_as_they_are(key):
+    coords = _mech(key).joint_coordinates
+    for name, entry in coords.inputs.items():
+        assert entry.scale == 1.0, name
+        assert abs(entry.offset) < 1e-12, (name, entry.offset)
+
+
+def test_a_refused_command_quotes_the_joints_own_value_and_limit():
+    mech = _mech('robotiq')
+    r = Engine(mech, EngineSettings()).command({'robotiq_85_left_knuckle_joint': 0.9})
+    assert not r.success
+    assert 'robotiq_85_left_knuckle_joint = 0.9 rad is beyond its maximum 0.8' in r.reason
+
+
+def test_a_passive_target_is_the_joints_own_value():
+    """Drake's rocker joint: its target is answered with that joint at that value."""
+    mech = _mech('drake')
+    engine = Engine(mech, EngineSettings())
+    ok = engine.command({'world_driver': 0.2})
+    rocker = dict(zip(mech.output_joint_names, mech.output_joints(ok.joints)))['world_rocker']
+    r = engine.target({'world_rocker': rocker + 0.01})
+    assert r.success, r.reason
+    got = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))['world_rocker']
+    assert abs(math.remainder(got - rocker - 0.01, 2 * math.pi)) < 1e-12
+    assert abs(r.targets['world_rocker'] - (rocker + 0.01)) < 1e-12
