@@ -87,7 +87,7 @@ def import_description(
         desc = replace(desc, actuated=tuple(actuated))
     chain = find_chain(desc)
     acts = _actuated(chain)
-    q, gap = _assemble(chain, acts, dict(values or {}))
+    q, gap = _assemble(chain, acts, {**desc.assemble_at, **(values or {})})
     scene, names = _scene(chain, acts, q, dimensions)
     mech = Scene.from_dict(scene, source=source).mechanism
     jmap = _joint_map(chain, acts, q, mech, names)

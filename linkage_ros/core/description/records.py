@@ -115,6 +115,8 @@ class Description:
     actuated: tuple[str, ...] | None = None
     #: lengths stated by a side file, ``{NAME: m}`` (applied to the imported scene)
     dimensions: dict[str, float] = field(default_factory=dict)
+    #: the actuated joints' values the chain is assembled at (rad, m; default 0)
+    assemble_at: dict[str, float] = field(default_factory=dict)
     #: limits a side file states, overriding the description's ``<limit>``
     limits: dict[str, Limits] = field(default_factory=dict)
     format: str = 'urdf'

@@ -22,7 +22,7 @@ from .records import transform as make_transform
 MAX_SIDE_FILE_BYTES = 1 << 20
 _GEPETTO_TYPES = {'3d': ClosureType.REVOLUTE, '6d': ClosureType.FRAME}
 _TYPES = {'revolute': ClosureType.REVOLUTE, 'prismatic': ClosureType.PRISMATIC}
-_TOP_KEYS = {'closures', 'actuated', 'limits', 'dimensions'}
+_TOP_KEYS = {'closures', 'actuated', 'limits', 'dimensions', 'assemble_at'}
 
 
 def read_file(path: str, limit: int) -> str:
@@ -90,6 +90,7 @@ def apply_side_file(desc: Description, data: Mapping[str, Any], path: str) -> De
         actuated=_actuated(desc, data.get('actuated'), path, 'actuated') or desc.actuated,
         limits=limits,
         dimensions=dims,
+        assemble_at=_assemble_at(desc, data.get('assemble_at'), path),
     )
 
 
@@ -224,3 +225,23 @@ def _vector(value: Any, n: int, path: str, key: str) -> tuple[float, ...]:
         raise DescriptionError(f'must be a list of {n} numbers', file=path, key=key, value=value)
     out = tuple(_number(v, path, key) for v in value)
     return tuple(0.0 if v is None else v for v in out)
+
+
+def _assemble_at(desc: Description, values: Any, path: str) -> dict[str, float]:
+    """``assemble_at: {joint: value}``: where the chain is assembled (rad, m)."""
+    if values is None:
+        return dict(desc.assemble_at)
+    if not isinstance(values, Mapping):
+        raise DescriptionError(
+            'must map joint names to values', file=path, key='assemble_at', value=values
+        )
+    out = {}
+    for name, value in values.items():
+        key = f'assemble_at.{name}'
+        if desc.joint(str(name)) is None:
+            raise DescriptionError('names no joint of the description', file=path, key=key)
+        v = _number(value, path, key)
+        if v is None:
+            raise DescriptionError('must be a number (rad or m)', file=path, key=key)
+        out[str(name)] = v
+    return out

@@ -56,3 +56,20 @@ def test_a_passive_target_is_the_joints_own_value():
     got = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))['world_rocker']
     assert abs(math.remainder(got - rocker - 0.01, 2 * math.pi)) < 1e-12
     assert abs(r.targets['world_rocker'] - (rocker + 0.01)) < 1e-12
+
+
+def test_a_closure_file_states_where_the_chain_is_assembled(tmp_path):
+    """assemble_at: the reference pose is assembled at those actuated values (the node's first
+    state), and the note names them; a joint the description lacks is refused naming the key."""
+    side = tmp_path / 'six_bar.closures.yaml'
+    side.write_text('assemble_at: {joint1: 0.3, joint2: -0.2}\n')
+    imp = import_description(str(FIXTURES['grbda_six_bar'][0]), str(side))
+    mech = imp.mechanism
+    assert imp.values['joint1'] == 0.3 and imp.values['joint2'] == -0.2
+    assert any('joint1 = 0.3, joint2 = -0.2' in n for n in imp.notes)
+    ref = Engine(mech, EngineSettings()).last
+    got = dict(zip(mech.output_joint_names, mech.output_joints(ref.joints)))
+    assert abs(got['joint1'] - 0.3) < 1e-12 and abs(got['joint2'] + 0.2) < 1e-12
+    side.write_text('assemble_at: {joint9: 0.3}\n')
+    with pytest.raises(Exception, match=r'assemble_at\.joint9: names no joint'):
+        import_description(str(FIXTURES['grbda_six_bar'][0]), str(side))
