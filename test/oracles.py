@@ -350,3 +350,33 @@ def sqrt_law_bound(distance: float, rho: float, c: float = 8.0) -> float:
     rho / sqrt(distance + rho). ``c`` absorbs the geometry's O(1) factors.
     """
     return c * rho / math.sqrt(distance + rho)
+
+
+# ---- 3-D frames of robot descriptions (URDF / SDFormat), written apart from the core -------------
+
+
+def rpy_matrix(r: float, p: float, y: float):
+    """URDF / SDFormat rpy: fixed-axis roll about x, then pitch about y, then yaw about z."""
+    import numpy as np
+
+    cr, sr, cp, sp, cy, sy = (
+        math.cos(r),
+        math.sin(r),
+        math.cos(p),
+        math.sin(p),
+        math.cos(y),
+        math.sin(y),
+    )
+    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
+    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
+    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def homogeneous(rot, xyz):
+    """The 4x4 transform of a rotation matrix and a translation."""
+    import numpy as np
+
+    out = np.eye(4)
+    out[:3, :3], out[:3, 3] = rot, xyz
+    return out

@@ -27,6 +27,7 @@ import pytest
 import scenes
 import yaml
 from builtin_interfaces.msg import Time
+from oracles import homogeneous, rpy_matrix
 
 from linkage_ros.conversions import result_to_joint_state
 from linkage_ros.core.errors import SceneError
@@ -47,28 +48,6 @@ SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
 
 
 # ---- the oracle: URDF forward kinematics from the XML alone -------------------------------------
-
-
-def _rpy(r: float, p: float, y: float) -> np.ndarray:
-    """URDF rpy: fixed-axis roll about x, then pitch about y, then yaw about z."""
-    cr, sr, cp, sp, cy, sy = (
-        math.cos(r),
-        math.sin(r),
-        math.cos(p),
-        math.sin(p),
-        math.cos(y),
-        math.sin(y),
-    )
-    rx = np.array([[1, 0, 0], [0, cr, -sr], [0, sr, cr]])
-    ry = np.array([[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]])
-    rz = np.array([[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]])
-    return rz @ ry @ rx
-
-
-def _homogeneous(rot: np.ndarray, xyz: np.ndarray) -> np.ndarray:
-    t = np.eye(4)
-    t[:3, :3], t[:3, 3] = rot, xyz
-    return t
 
 
 def _axis_angle(axis: np.ndarray, q: float) -> np.ndarray:
@@ -100,15 +79,15 @@ def urdf_fk(text: str, values: dict[str, float]) -> dict[str, np.ndarray]:
             o = j.find('origin')
             xyz = np.array([float(v) for v in o.get('xyz').split()])
             rpy = [float(v) for v in o.get('rpy').split()]
-            t = out[parent] @ _homogeneous(_rpy(*rpy), xyz)
+            t = out[parent] @ homogeneous(rpy_matrix(*rpy), xyz)
             kind = j.get('type')
             if kind != 'fixed':
                 axis = np.array([float(v) for v in j.find('axis').get('xyz').split()])
                 q = values[j.get('name')]
                 if kind == 'prismatic':
-                    t = t @ _homogeneous(np.eye(3), axis * q)
+                    t = t @ homogeneous(np.eye(3), axis * q)
                 else:
-                    t = t @ _homogeneous(_axis_angle(axis, q), np.zeros(3))
+                    t = t @ homogeneous(_axis_angle(axis, q), np.zeros(3))
             child = j.find('child').get('link')
             out[child] = t
             stack.append(child)

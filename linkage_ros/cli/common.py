@@ -450,3 +450,20 @@ def format_result(d: dict, mech) -> str:
             out.append(f'cond(J)    {_f(d["cond"], ".6g")}')
     out.append(f'solver     {d["solver"]}   iterations {d["iterations"]}')
     return '\n'.join(out)
+
+
+def write_text_output(prog: str, text: str, path: str | None) -> int:
+    """A command's text document to ``path`` (written whole or not at all) or to stdout; the
+    exit status (a file that cannot be written: one line on stderr, USAGE_ERROR)."""
+    from ..outputs import written_whole
+
+    try:
+        if path:
+            with written_whole(path) as tmp:
+                tmp.write_text(text, encoding='utf-8')
+        else:
+            sys.stdout.write(text)
+    except OSError as exc:
+        print(f'{prog}: error: cannot write {path}: {exc.strerror or exc}', file=sys.stderr)
+        return USAGE_ERROR
+    return OK

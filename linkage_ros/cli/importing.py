@@ -30,14 +30,13 @@ from typing import Any
 import yaml
 
 from ..core.errors import LinkageError
-from ..outputs import written_whole
 from .common import (
-    OK,
     USAGE_ERROR,
     UsageError,
     add_description_arguments,
     dimension_argument,
     print_notes,
+    write_text_output,
 )
 
 PROG = 'linkage import'
@@ -129,18 +128,10 @@ def run(args: argparse.Namespace) -> int:
     try:
         text, notes = scene_text(args.description, args.closures, args.actuated, args.dimension)
         print_notes(notes)
-        if args.output:
-            with written_whole(args.output) as tmp:
-                tmp.write_text(text, encoding='utf-8')
-        else:
-            sys.stdout.write(text)
     except (UsageError, LinkageError) as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
-    except OSError as exc:
-        print(f'{PROG}: error: cannot write {args.output}: {exc.strerror or exc}', file=sys.stderr)
-        return USAGE_ERROR
-    return OK
+    return write_text_output(PROG, text, args.output)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -25,8 +25,13 @@ import sys
 
 from ..core.errors import LinkageError
 from ..core.urdf import name_error, prefix_error, urdf_document
-from ..outputs import written_whole
-from .common import OK, USAGE_ERROR, UsageError, add_scene_argument, load_mechanism
+from .common import (
+    USAGE_ERROR,
+    UsageError,
+    add_scene_argument,
+    load_mechanism,
+    write_text_output,
+)
 
 PROG = 'linkage urdf'
 
@@ -55,15 +60,7 @@ def run(args: argparse.Namespace) -> int:
             raise UsageError(f'--frame-id {why}')
         mech, _path = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
         text = urdf_document(mech, prefix=args.prefix, frame_id=args.frame_id)
-        if args.output:
-            with written_whole(args.output) as tmp:
-                tmp.write_text(text, encoding='utf-8')
-        else:
-            sys.stdout.write(text)
     except (UsageError, LinkageError) as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
-    except OSError as exc:
-        print(f'{PROG}: error: cannot write {args.output}: {exc.strerror or exc}', file=sys.stderr)
-        return USAGE_ERROR
-    return OK
+    return write_text_output(PROG, text, args.output)

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 import pytest
+from oracles import homogeneous, rpy_matrix
 
 from linkage_ros.core.description import Imported, import_description
 from linkage_ros.core.solver import Solver
@@ -383,27 +384,6 @@ def test_robotiq_closes_in_pinocchio(branch):
 # ---- Drake's four-bar SDF: an independent SDFormat pose evaluator ----------------------------
 
 
-def _rpy(r: float, p: float, y: float) -> np.ndarray:
-    cx, sx, cy, sy, cz, sz = (
-        math.cos(r),
-        math.sin(r),
-        math.cos(p),
-        math.sin(p),
-        math.cos(y),
-        math.sin(y),
-    )
-    rx = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    ry = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    rz = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return rz @ ry @ rx
-
-
-def _homogeneous(rot: np.ndarray, xyz) -> np.ndarray:
-    out = np.eye(4)
-    out[:3, :3], out[:3, 3] = rot, xyz
-    return out
-
-
 def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     """Rotation about a unit axis (matrix exponential of the skew matrix, by its series)."""
     k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
@@ -451,7 +431,7 @@ class SdfModel:
         rel = pose.get('relative_to', default) if pose is not None else default
         v = [float(x) for x in (pose.text or '').split()] if pose is not None else [0.0] * 6
         v = v or [0.0] * 6
-        return self.initial(rel) @ _homogeneous(_rpy(*v[3:]), v[:3])
+        return self.initial(rel) @ homogeneous(rpy_matrix(*v[3:]), v[:3])
 
     def link_of(self, name: str) -> str:
         if name in ('world', '__model__'):
@@ -487,7 +467,7 @@ class SdfModel:
                     frame = xyz.get('expressed_in', name)
                     axis = (self.initial(name)[:3, :3].T @ self.initial(frame)[:3, :3]) @ axis
                     axis /= np.linalg.norm(axis)
-                    motion = _homogeneous(_axis_rotation(axis, values[name]), [0, 0, 0])
+                    motion = homogeneous(_axis_rotation(axis, values[name]), [0, 0, 0])
                     placed[child] = x_wp @ motion @ np.linalg.inv(x_cj)
                     pending.remove(j)
                     progress = True
