@@ -394,7 +394,7 @@ class Engine:
     def _with_signs(self, solver: Solver, code: int, k: int) -> Solver:
         """The inverse solver of ``solver``'s knowns with the branch signs of bit pattern
         ``code`` (k dyads)."""
-        signs = ''.join('-' if code >> i & 1 else '+' for i in range(k))
+        signs = branch_text(-1 if code >> i & 1 else 1 for i in range(k))
         return self._variant(solver, signs, lambda: self.new_solver(solver.knowns, branch=signs))
 
     def _newton_for(self, solver: Solver) -> Solver:

@@ -142,7 +142,6 @@ from .replay import (  # noqa: F401
     _Engine,
     _Entry,
     _finite_rows,
-    _signs_of,
     _step_inputs,
     _step_margin,
     solve_commands,

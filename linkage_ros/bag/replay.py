@@ -12,6 +12,7 @@ from ..core.ops import BATCH, to_complex
 from ..core.plan import step_geometry
 from ..core.quantities import PointSpec
 from ..core.solver import Solver, branch_identity_defined
+from ..core.solver.result import branch_signs, branch_text
 from ..core.steps import RPRDyad, RRPDyad, RRRDyad, StepKind, anchor_of
 from ..engine import (
     SOLVER_CACHE,
@@ -71,7 +72,7 @@ class _Context:
         s = self._explicit.get(signs)
         if s is None:
             s = self._explicit[signs] = self.replay.engine.new_solver(
-                self.knowns, ''.join('+' if x > 0 else '-' for x in signs)
+                self.knowns, branch_text(signs)
             )
         return s
 
@@ -119,7 +120,7 @@ class _Engine:
         if ref is not None:
             reference = self.engine.forward.reference_values()
             self.forward.hist = [
-                _Entry('solve', cmd=reference, signs=_signs_of(ref.branch), result=ref)
+                _Entry('solve', cmd=reference, signs=branch_signs(ref.branch), result=ref)
             ]
 
     def context_for(self, names) -> _Context | str:
@@ -274,7 +275,7 @@ class _Engine:
             r = S.solve(cmd)
             self._store(a + i, r)
             if r.success:
-                ctx.push(_Entry('solve', cmd=cmd, signs=_signs_of(r.branch), result=r))
+                ctx.push(_Entry('solve', cmd=cmd, signs=branch_signs(r.branch), result=r))
             if not i & 0xFF:
                 self.progress.update(self.done + i)
         self.res.sequential += i1 - i0
@@ -397,10 +398,7 @@ class _Engine:
             keyv = sg.astype(np.int64) @ (np.int64(1) << np.arange(nsg, dtype=np.int64))
             uniq, first, inv = np.unique(keyv, return_index=True, return_inverse=True)
             table = np.array(
-                [
-                    res.branch_code_of(''.join('+' if x else '-' for x in sg[f]))
-                    for f in first.tolist()
-                ],
+                [res.branch_code_of(branch_text(np.where(sg[f], 1, -1))) for f in first.tolist()],
                 np.int32,
             )
             res.branch_code[sl] = np.where(ok, table[inv.reshape(-1)], 0)
@@ -588,10 +586,6 @@ def _finite_rows(cols, m) -> np.ndarray:
 def _adopted_signs(S: Solver) -> tuple[int, ...]:
     """The branch signs a solver holds after adopt() (its plan's signs of that pose)."""
     return S.current_signs
-
-
-def _signs_of(branch: str) -> tuple[int, ...]:
-    return tuple(1 if c == '+' else -1 for c in branch)
 
 
 def _dist(a, b):

@@ -18,7 +18,7 @@ from ..plan import (
 )
 from ..quantities import PointSpec
 from .point_pairs import pair_columns
-from .result import Result, branch_identity_defined, branch_text
+from .result import Result, branch_identity_defined, branch_signs, branch_text
 
 #: core.solver.Solver, which mixes BatchAPI in: not imported (it imports this module); the
 #: batch functions read its compiled parts (specs, plan, Newton system) and continuity state
@@ -217,7 +217,7 @@ class BatchResult:
         self.margin[i], self.residual[i] = r.margin or 0.0, r.residual or 0.0
         self.iterations[i] = r.iterations + spent
         if self.signs.shape[1] == len(r.branch):
-            self.signs[i] = [1 if c == '+' else -1 for c in r.branch]
+            self.signs[i] = branch_signs(r.branch)
         state = solver._history[-1]
         self.x[i], self.det_sign[i] = state.x_all, state.det_sign
 
@@ -258,9 +258,7 @@ class BatchResult:
             k = len(solver.full_plan.branch_steps) if solver.full_plan.complete else 0
             self.signs = np.array(
                 [
-                    [1 if c == '+' else -1 for c in r.branch]
-                    if r.success and len(r.branch) == k
-                    else [0] * k
+                    branch_signs(r.branch) if r.success and len(r.branch) == k else [0] * k
                     for r in rows
                 ],
                 int,

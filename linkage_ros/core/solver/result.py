@@ -176,6 +176,11 @@ class _Prediction(collections.abc.Mapping):
         return len(self._last.points) + len(self._last.poses.phi)
 
 
+def branch_signs(text: str) -> tuple[int, ...]:
+    """Branch text as signs: (+1, -1) for '+-' (the inverse of :func:`branch_text`)."""
+    return tuple(1 if c == '+' else -1 for c in text)
+
+
 def branch_text(signs) -> str:
     """Branch signs as the status shows them: '+-' for (+1, -1)."""
     return ''.join('+' if s > 0 else '-' for s in signs)

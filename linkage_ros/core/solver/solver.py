@@ -50,6 +50,7 @@ from .result import (
     _Prediction,
     _State,
     branch_identity_defined,
+    branch_signs,
     branch_text,
 )
 
@@ -200,7 +201,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
                         else 'no branching dyad (no sign to give)'
                     )
                 )
-            return 'explicit', tuple(1 if c == '+' else -1 for c in branch)
+            return 'explicit', branch_signs(branch)
         raise PlanError(
             f"branch must be 'continuous', 'reference' or a string of + and - (got {branch!r})"
         )
