@@ -8,10 +8,10 @@ or, for a huge sweep, output that starts at once instead of a list built first.
 import math
 import re
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
+import scenes
 from scenes import CONFIG
 
 from linkage_ros import cli
@@ -544,9 +544,7 @@ def test_two_known_points_on_one_link_are_its_pose_and_more_knowns_are_refused()
     """The lecture moves the excavator bin by giving J and K: 3 values (its pose), solved as K
     and the bin's angle (test_point_pairs checks the positions); a known beyond that is refused
     with the count, saying what two points of one link give."""
-    mech = Scene.from_yaml(
-        Path(__file__).resolve().parent.parent / 'config' / 'excavator.yaml'
-    ).mechanism
+    mech = Scene.from_yaml(scenes.CONFIG / 'excavator.yaml').mechanism
     from linkage_ros.core.errors import PlanError
 
     solver = Solver(mech, knowns=['point:K', 'point:J'])
@@ -603,9 +601,7 @@ def test_explicit_branch_signs_for_a_plan_without_branching_dyads_say_so():
     used to end in an empty list)."""
     from linkage_ros.core.errors import PlanError
 
-    mech = Scene.from_yaml(
-        Path(__file__).resolve().parent.parent / 'config' / 'four_bar.yaml'
-    ).mechanism
+    mech = Scene.from_yaml(scenes.CONFIG / 'four_bar.yaml').mechanism
     assert not Solver(mech, knowns=['coupler']).plan.branch_steps
     with pytest.raises(PlanError) as err:
         Solver(mech, knowns=['coupler'], branch='+')

@@ -13,6 +13,7 @@ import mpmath as mp
 import numpy as np
 import oracles as orc
 import pytest
+import scenes
 from scenes import CONFIG, four_bar, slider_crank
 
 from linkage_ros.core import dyads
@@ -910,9 +911,7 @@ def test_scene_error_duplicate_yaml_key_is_not_silently_dropped(tmp_path):
 
 # ---- the generated scalar code (plan.run_one, Solver result assembly) ----------------------------
 
-SHIPPED = sorted(
-    p.stem for p in __import__('pathlib').Path(__file__).parent.parent.glob('config/*.yaml')
-)
+SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
 
 
 def _knowns_sets(mech):

@@ -10,6 +10,7 @@ import math
 import mpmath as mp
 import numpy as np
 import pytest
+import scenes
 
 from linkage_ros.core.analysis import (
     GrashofInfo,
@@ -452,12 +453,11 @@ def test_slider_crank_class_and_crank_rotation_by_the_solver(crank, rod, offset)
 
 
 def test_four_link_chain_info_agrees_with_grashof_info_and_skips_other_mechanisms():
-    from pathlib import Path
 
     from linkage_ros.core.analysis import four_link_chain_info
     from linkage_ros.core.model import Scene
 
-    config = Path(__file__).resolve().parent.parent / 'config'
+    config = scenes.CONFIG
     seen = set()
     for f in sorted(config.glob('*.yaml')):
         mech = Scene.from_yaml(f).mechanism
