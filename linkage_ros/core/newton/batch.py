@@ -141,7 +141,8 @@ class BatchSystem:
         return V
 
     def _batch_eval(self, X: np.ndarray, V: np.ndarray, jacobian: bool):
-        """_eval_s for the rows of X (N, n) with the value matrix V (_batch_values): F (N, m),
+        """evaluate_scaled for the rows of X (N, n) with the value matrix V (_batch_values):
+        F (N, m),
         J (N, m, n) or None, res (N,). The formulas are core.newton.rows', as in _rows."""
         tab = self._batch_tables()
         N, m, nf = X.shape[0], self.m, len(self.free)
@@ -216,7 +217,7 @@ class BatchSystem:
         return F, J.reshape(N, m, self.n), res
 
     def evaluate_batch(self, X: np.ndarray, values: Sequence, jacobian: bool = True):
-        """_eval_s for N configurations at once: returns (F, J, res) in scale-free units,
+        """evaluate_scaled for N configurations at once: returns (F, J, res) in scale-free units,
         F (N, m) = residual / length scale, J (N, m, n) = dF/dx with translation columns times the
         length scale (None if not ``jacobian``), res (N,) = max |F| per row, inf where a row's F
         has a NaN or inf (non-finite X or values give such rows, never an exception).
@@ -344,7 +345,7 @@ class BatchSystem:
             rows = np.flatnonzero(active)
             if not rows.size:
                 break
-            xn = x[rows] + self._newton_steps(J[rows], F[rows]) * self._step_scale
+            xn = x[rows] + self._newton_steps(J[rows], F[rows]) * self.step_scale
             Fn, Jn, rn = self._batch_eval(xn, V[rows], True)
             iterations[rows] += 1
             cut = rn <= FAST_RATE * res[rows]  # False for NaN

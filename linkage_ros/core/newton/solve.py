@@ -152,7 +152,7 @@ class ScalarSolve:
     ) -> SolveResult:
         """Solve from ``guess`` by the fast path if given and it qualifies (solve_from_guess),
         else from x0 by Newton with a line search on det-sign flips and an LM fallback. Works in
-        scale-free units (see _eval_s); ``tol`` bounds max|F| / length scale. The det J sign
+        scale-free units (see evaluate_scaled); ``tol`` bounds max|F| / length scale. The det J sign
         tracked is ``start_sign`` (known from the solve that produced x0), else read at x0."""
         x = np.array(x0, float)
         square = self.m == self.n
@@ -161,7 +161,7 @@ class ScalarSolve:
         # at a singular start (a change point) det J has no meaningful sign: do not track it
         sign0 = 0 if not keep_det_sign else start_sign
         if sign0 is None:
-            F, J, res = self._eval_s(x, values, fixed)
+            F, J, res = self.evaluate_scaled(x, values, fixed)
             fac = self._factor(J)
             nj += 1
             sign0 = self._sign_of(J, fac)
@@ -175,7 +175,7 @@ class ScalarSolve:
                 return r
             spent, nj = r.iterations, r.jacobians
         if F is None:
-            F, J, res = self._eval_s(x, values, fixed)
+            F, J, res = self.evaluate_scaled(x, values, fixed)
             fac = self._factor(J)
             nj += 1
         it = 0
@@ -191,17 +191,17 @@ class ScalarSolve:
                     dy = np.linalg.lstsq(J, -F, rcond=None)[0]
                     dy = dy if np.all(np.isfinite(dy)) else None
                 if dy is not None:
-                    step = dy * self._step_scale
+                    step = dy * self.step_scale
             accepted = False
             if step is not None:
                 alpha = 1.0
                 for _ in range(10):
                     xn = x + alpha * step
                     # the full step usually holds: evaluate J with it; shorter trials F alone
-                    Fn, Jn, rn = self._eval_s(xn, values, fixed, alpha == 1.0)
+                    Fn, Jn, rn = self.evaluate_scaled(xn, values, fixed, alpha == 1.0)
                     if math.sqrt(float(Fn @ Fn)) < (1.0 - 1e-4 * alpha) * fnorm:
                         if Jn is None:
-                            Jn = self._eval_s(xn, values, fixed)[1]
+                            Jn = self.evaluate_scaled(xn, values, fixed)[1]
                         facn = self._factor(Jn)
                         nj += 1
                         if self._side_ok(sign0, Jn, facn):
@@ -222,8 +222,8 @@ class ScalarSolve:
                     except np.linalg.LinAlgError:
                         mu *= 10
                         continue
-                    xn = x + dy * self._step_scale
-                    Fn, Jn, rn = self._eval_s(xn, values, fixed)
+                    xn = x + dy * self.step_scale
+                    Fn, Jn, rn = self.evaluate_scaled(xn, values, fixed)
                     if math.sqrt(float(Fn @ Fn)) < fnorm:
                         facn = self._factor(Jn)
                         nj += 1
@@ -272,7 +272,7 @@ class ScalarSolve:
         the steps spent counted) unless J is regular at the guess and at the answer with det
         sign ``start_sign`` (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
         x = guess = np.array(guess, float)  # the result never aliases the caller's array
-        F, J, res = self._eval_s(x, values, fixed)
+        F, J, res = self.evaluate_scaled(x, values, fixed)
         fac = self._factor(J)
         steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
         Jv = None
@@ -289,8 +289,8 @@ class ScalarSolve:
         while res > target:
             dy = self._lu_step(lin, F) if it < steps else None
             if dy is not None:
-                xn = x + dy * self._step_scale
-                Fn, Jvn, rn = self._eval_rows_s(xn, values, fixed)
+                xn = x + dy * self.step_scale
+                Fn, Jvn, rn = self.evaluate_rows_scaled(xn, values, fixed)
                 it += 1
             if dy is None or not rn <= FAST_RATE * res:
                 if res <= tol:  # converged; the rounding floor is above the margin
@@ -329,8 +329,8 @@ class ScalarSolve:
                         break
                 else:
                     dy = np.linalg.lstsq(J, -F, rcond=None)[0]
-                xn = x + dy * self._step_scale
-                Fn, Jn, rn = self._eval_s(xn, values, fixed)
+                xn = x + dy * self.step_scale
+                Fn, Jn, rn = self.evaluate_scaled(xn, values, fixed)
                 if not (np.all(np.isfinite(xn)) and rn < 0.7 * res):
                     break
                 x, F, J, res = xn, Fn, Jn, rn

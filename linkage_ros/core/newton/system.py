@@ -74,8 +74,8 @@ class LoopSystem(ScalarSolve, BatchSystem):
                 m += s.size
         self.m = m
         self._col_scale = np.tile([1.0 / self.L, 1.0, 1.0], len(free))
-        self._step_scale = np.tile([1.0, self.L, self.L], len(free))
-        self._step_list = self._step_scale.tolist()
+        self.step_scale = np.tile([1.0, self.L, self.L], len(free))
+        self._step_list = self.step_scale.tolist()
         self._inv_step_list = [1.0, 1.0 / self.L, 1.0 / self.L] * len(free)
         self._compile()
 
@@ -271,16 +271,16 @@ class LoopSystem(ScalarSolve, BatchSystem):
         F, Jv = self._rows(x, values, fixed, jacobian, 1.0)
         return np.array(F, float), (self._jacobian(Jv, self._tpl) if jacobian else None)
 
-    def _eval_s(self, x, values, fixed, jacobian=True):
+    def evaluate_scaled(self, x, values, fixed, jacobian=True):
         """F / L, J * col_scale (translations / L) and max|F / L| (inf if not finite): the
         scale-free units solve() works in, so nothing overflows at 1e300 m and the LM damping
-        means the same at every scale. Steps come back as dy, with dx = dy * self._step_scale."""
-        F, Jv, res = self._eval_rows_s(x, values, fixed, jacobian)
+        means the same at every scale. Steps come back as dy, with dx = dy * self.step_scale."""
+        F, Jv, res = self.evaluate_rows_scaled(x, values, fixed, jacobian)
         return F, self._jacobian(Jv, self._tpl_s) if jacobian else None, res
 
-    def _eval_rows_s(self, x, values, fixed, jacobian=True):
-        """_eval_s with J left as its varying entries (self._jacobian(Jv, self._tpl_s) builds
-        it), for points where it may not be needed."""
+    def evaluate_rows_scaled(self, x, values, fixed, jacobian=True):
+        """evaluate_scaled with J left as its varying entries (self._jacobian(Jv, self._tpl_s)
+        builds it), for points where it may not be needed."""
         F, Jv = self._rows(x, values, fixed, jacobian, 1.0 / self.L)
         res = max(map(abs, F), default=0.0)
         total = sum(F)
@@ -355,7 +355,7 @@ class LoopSystem(ScalarSolve, BatchSystem):
         analytic Jacobian at the solution x: J dx = -dF/dvalue * rates, the tangent predict()
         extrapolates along (scale-free units, then scaled back). cond is J's scaled condition
         number; dx is None where J is singular (a toggle) or a value has no row here."""
-        F, J, _ = self._eval_s(x, values, None)
+        F, J, _ = self.evaluate_scaled(x, values, None)
         cond = self.scaled_cond(J)
         fac = self._factor(J) if self._val_rows is not None else None
         if fac is None:
@@ -369,7 +369,7 @@ class LoopSystem(ScalarSolve, BatchSystem):
         dy, info = _lapack()[1](fac[0], fac[1], rhs)
         if info != 0 or not np.all(np.isfinite(dy)):
             return None, cond
-        return dy * self._step_scale, cond
+        return dy * self.step_scale, cond
 
     # -- linear algebra -----------------------------------------------------------------------
     def unfixed_links(self) -> list[str]:
@@ -451,5 +451,5 @@ class LoopSystem(ScalarSolve, BatchSystem):
         """The det J sign a solve from x tracks (0 where J is singular there)."""
         if not self.n:
             return 0
-        J = self._eval_s(x, values, fixed)[1]
+        J = self.evaluate_scaled(x, values, fixed)[1]
         return self._sign_of(J, self._factor(J))

@@ -1,6 +1,7 @@
 """The batched Newton kernel (core.newton): LoopSystem.evaluate_batch and LoopSystem.solve_batch.
 
-Oracles: the scalar residual/Jacobian _eval_s row by row, central differences, dyads.wrap_angle,
+Oracles: the scalar residual/Jacobian evaluate_scaled row by row, central differences,
+dyads.wrap_angle,
 the Solver's scalar warm-started sweeps (the predictor fast path and careful path, solved one
 command at a time), the closed-form solver for the other assembly mode, the 50-digit four-bar
 oracle for what cannot be assembled, and np.linalg.slogdet / scaled_cond at the answers.
@@ -93,7 +94,7 @@ def scalar_sweep(name, n):
 
 def random_inputs(sy, ref_values, N, rng, spread=0.3):
     """N configurations around the reference and values around the reference ones."""
-    X = sy.reference_x() + rng.normal(size=(N, sy.n)) * spread * sy._step_scale
+    X = sy.reference_x() + rng.normal(size=(N, sy.n)) * spread * sy.step_scale
     rows = []
     for _ in range(N):
         row = []
@@ -127,13 +128,14 @@ IDS = [label for label, _, _ in SYSTEMS]
 
 
 def assert_rows_equal_scalar(sy, X, rows, skip=()):
-    """evaluate_batch against _eval_s row by row (the rows in skip: the scalar form raises)."""
+    """evaluate_batch against evaluate_scaled row by row (the rows in skip: the scalar form
+    raises)."""
     F, J, res = sy.evaluate_batch(X, stack(sy, rows))
     assert F.shape == (len(X), sy.m) and J.shape == (len(X), sy.m, sy.n) and res.shape == (len(X),)
     for i in range(len(X)):
         if i in skip:
             continue
-        Fs, Js, rs = sy._eval_s(X[i], rows[i], None)
+        Fs, Js, rs = sy.evaluate_scaled(X[i], rows[i], None)
         np.testing.assert_allclose(F[i], Fs, rtol=1e-14, atol=1e-14, equal_nan=True)
         np.testing.assert_allclose(J[i], Js, rtol=1e-14, atol=1e-14, equal_nan=True)
         if math.isinf(rs):
@@ -150,7 +152,7 @@ def assert_rows_equal_scalar(sy, X, rows, skip=()):
 
 @pytest.mark.parametrize('label,sy,ref', SYSTEMS, ids=IDS)
 def test_evaluate_batch_equals_scalar_rows(label, sy, ref):
-    """50 random configurations and values: F, J and res equal the scalar _eval_s per row;
+    """50 random configurations and values: F, J and res equal the scalar evaluate_scaled per row;
     jacobian=False gives the same F and res and no J."""
     rng = np.random.default_rng(7)
     X, rows = random_inputs(sy, ref, 50, rng)
@@ -213,7 +215,7 @@ def test_evaluate_batch_non_finite_and_huge_inputs(label, sy, ref):
 @pytest.mark.parametrize('label,sy,ref', SYSTEMS, ids=IDS)
 def test_evaluate_batch_jacobian_matches_finite_differences(label, sy, ref):
     """J of evaluate_batch against central differences of its own F in the scale-free
-    variables (x moved by h * _step_scale), at 20 configurations at once."""
+    variables (x moved by h * step_scale), at 20 configurations at once."""
     rng = np.random.default_rng(10)
     X, rows = random_inputs(sy, ref, 20, rng, spread=0.15)
     vals = stack(sy, rows)
@@ -221,7 +223,7 @@ def test_evaluate_batch_jacobian_matches_finite_differences(label, sy, ref):
     h = 1e-6
     for j in range(sy.n):
         e = np.zeros(sy.n)
-        e[j] = h * sy._step_scale[j]
+        e[j] = h * sy.step_scale[j]
         fd = (
             sy.evaluate_batch(X + e, vals, False)[0] - sy.evaluate_batch(X - e, vals, False)[0]
         ) / (2 * h)
@@ -278,13 +280,13 @@ def check_against_sweep(sy, xs, signs, vals, b, rows):
     Jacobian there."""
     k = np.asarray(rows) + 1
     ok = b.ok
-    gap = np.abs(b.x[ok] - xs[k][ok]) / sy._step_scale
+    gap = np.abs(b.x[ok] - xs[k][ok]) / sy.step_scale
     assert gap.max(initial=0.0) <= 1e-10, gap.max()
     assert np.all(b.residual[ok] <= TOL)
     assert np.array_equal(b.det_sign[ok], signs[k][ok])
     for i in np.flatnonzero(ok):
         vk = vals[k[i]]
-        _, Js, rs = sy._eval_s(b.x[i], vk, None)
+        _, Js, rs = sy.evaluate_scaled(b.x[i], vk, None)
         # a few ulps apart at the rounding floor: wrap and atan2 are vectorised separately
         assert b.residual[i] == pytest.approx(rs, rel=1e-12, abs=2e-15)
         assert b.det_sign[i] == int(np.linalg.slogdet(Js)[0])
@@ -321,14 +323,16 @@ def test_coarse_steps_are_declined_or_right(name):
     check_against_sweep(sy, xs, signs, vals, b, np.arange(len(xs) - 1))
     assert np.array_equal(b.x[~b.ok], xs[:-1][~b.ok])
     for i in np.flatnonzero(~b.ok):  # residual at the start, as documented
-        assert b.residual[i] == pytest.approx(sy._eval_s(xs[i], vals[i + 1], None)[2], rel=1e-12)
+        assert b.residual[i] == pytest.approx(
+            sy.evaluate_scaled(xs[i], vals[i + 1], None)[2], rel=1e-12
+        )
 
 
 def rule(sy, x0, vals, sign, tol=TOL, max_steps=6):
-    """The acceptance rule solve_batch documents, one row in plain scalar code (_eval_s,
+    """The acceptance rule solve_batch documents, one row in plain scalar code (evaluate_scaled,
     np.linalg.solve, slogdet, scaled_cond): (ok, x, steps, stalled converged)."""
     target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
-    F, J, res = sy._eval_s(x0, vals, None)
+    F, J, res = sy.evaluate_scaled(x0, vals, None)
     if sign not in (1, -1) or not math.isfinite(res):
         return False, x0, 0, False
     s0, logdet = np.linalg.slogdet(J)
@@ -336,8 +340,8 @@ def rule(sy, x0, vals, sign, tol=TOL, max_steps=6):
         return False, x0, 0, False
     x, steps, stalled = x0, 0, False
     while res > target and steps < max_steps:
-        xn = x + np.linalg.solve(J, -F) * sy._step_scale
-        Fn, Jn, rn = sy._eval_s(xn, vals, None)
+        xn = x + np.linalg.solve(J, -F) * sy.step_scale
+        Fn, Jn, rn = sy.evaluate_scaled(xn, vals, None)
         steps += 1
         if not rn <= FAST_RATE * res:
             stalled = res <= tol
@@ -361,7 +365,7 @@ def check_rule(sy, X0, rows, signs, **kw):
     for i, (ok, x, steps, _) in enumerate(verdicts):
         assert b.ok[i] == ok and b.iterations[i] == steps, (i, b.ok[i], ok, b.iterations[i], steps)
         if ok:
-            assert np.all(np.abs(b.x[i] - x) / sy._step_scale <= 1e-12), i
+            assert np.all(np.abs(b.x[i] - x) / sy.step_scale <= 1e-12), i
         else:
             assert np.array_equal(b.x[i], X0[i], equal_nan=True), i
     return verdicts
@@ -379,15 +383,15 @@ def test_solve_batch_follows_its_rule(name):
     check_rule(sy, xs[:-1], vals[1:], signs[:-1], max_steps=2)
     rng = np.random.default_rng(13)
     for amp in (1e-15, 4e-15):  # starts a few ulps off the answers
-        near = xs + rng.normal(size=xs.shape) * amp * sy._step_scale
+        near = xs + rng.normal(size=xs.shape) * amp * sy.step_scale
         for tol in (1e-13, 3e-14, 1e-14):
             check_rule(sy, near, vals, signs, tol=tol)
     N = 150
     start, aim = rng.integers(0, len(xs), N), rng.integers(0, len(xs), N)
-    X0 = xs[start] + rng.normal(size=(N, sy.n)) * 0.05 * sy._step_scale
+    X0 = xs[start] + rng.normal(size=(N, sy.n)) * 0.05 * sy.step_scale
     rows = [vals[i] for i in aim]
     own = np.array(
-        [int(np.linalg.slogdet(sy._eval_s(X0[i], rows[i], None)[1])[0]) for i in range(N)]
+        [int(np.linalg.slogdet(sy.evaluate_scaled(X0[i], rows[i], None)[1])[0]) for i in range(N)]
     )
     check_rule(sy, X0, rows, own)
 
@@ -399,9 +403,9 @@ def test_a_step_that_cannot_cut_at_the_rounding_floor_is_converged():
     counted), like the scalar fast path's `if res <= tol: break`."""
     sy, xs, signs, vals = scalar_sweep('four_bar', 200)
     rng = np.random.default_rng(15)
-    d = rng.normal(size=xs.shape) * sy._step_scale
+    d = rng.normal(size=xs.shape) * sy.step_scale
     slope = np.array(
-        [sy._eval_s(xs[i] + 1e-9 * d[i], vals[i], None)[2] / 1e-9 for i in range(len(xs))]
+        [sy.evaluate_scaled(xs[i] + 1e-9 * d[i], vals[i], None)[2] / 1e-9 for i in range(len(xs))]
     )
     X0 = xs + (4.6e-15 / slope)[:, None] * d
     verdicts = check_rule(sy, X0, vals, signs, tol=1e-13)
@@ -423,7 +427,7 @@ def test_never_returns_the_other_side_of_det_j():
     rng = np.random.default_rng(14)
     N = 3000
     start, aim = rng.integers(0, len(xs), N), rng.integers(0, len(xs), N)
-    X0 = xs[start] + rng.normal(size=(N, sy.n)) * 0.3 * sy._step_scale
+    X0 = xs[start] + rng.normal(size=(N, sy.n)) * 0.3 * sy.step_scale
     values = stack(sy, [vals[i] for i in aim])
     _, J0, _ = sy.evaluate_batch(X0, values)
     own = np.linalg.slogdet(J0)[0].astype(int)
@@ -449,7 +453,9 @@ def test_max_steps(name):
     assert len(moved_then_declined) > len(xs) // 2
     for i in moved_then_declined:
         assert np.array_equal(b1.x[i], xs[i])
-        assert b1.residual[i] == pytest.approx(sy._eval_s(xs[i], vals[i + 1], None)[2], rel=1e-12)
+        assert b1.residual[i] == pytest.approx(
+            sy.evaluate_scaled(xs[i], vals[i + 1], None)[2], rel=1e-12
+        )
     b3 = sy.solve_batch(xs[:-1], stack(sy, vals[1:]), signs[:-1], max_steps=3)
     assert b3.iterations.max() <= 3 and b3.ok.sum() >= b1.ok.sum()
     at = sy.solve_batch(xs[1:], stack(sy, vals[1:]), signs[1:], max_steps=0)
@@ -482,7 +488,7 @@ def test_solve_batch_with_point_specs(name, knowns):
     for i in np.flatnonzero(b.ok):
         r = sy.solve(x_ref, rows[i], None, start_sign=sign)
         assert r.success and r.det_sign == sign
-        assert np.abs((b.x[i] - r.x) / sy._step_scale).max() <= 1e-10
+        assert np.abs((b.x[i] - r.x) / sy.step_scale).max() <= 1e-10
         assert b.det_sign[i] == sign and b.residual[i] <= TOL
 
 
@@ -579,7 +585,7 @@ def test_start_on_the_other_assembly_mode_is_declined():
         assert adopt.adopt(ro)
         x_other.append(adopt._history[-1].x_all)
     x_other = np.array(x_other)
-    sign_other = int(np.linalg.slogdet(sy._eval_s(x_other[0], [t], None)[1])[0])
+    sign_other = int(np.linalg.slogdet(sy.evaluate_scaled(x_other[0], [t], None)[1])[0])
     assert sign_other == -last.det_sign
     # starts: the other mode at t (converged), and the other mode at t +- 0.02 aimed at t
     X0 = x_other
@@ -594,7 +600,7 @@ def test_start_on_the_other_assembly_mode_is_declined():
     # with the other mode's sign: ok, and the other mode's closed-form answer
     b2 = sy.solve_batch(X0, vals, sign_other)
     assert b2.ok.all() and np.all(b2.det_sign == sign_other)
-    gap = np.abs((b2.x - x_other[0]) / sy._step_scale)
+    gap = np.abs((b2.x - x_other[0]) / sy.step_scale)
     assert gap.max() <= 1e-10
 
 
@@ -622,7 +628,9 @@ def test_answers_near_a_fold_are_declined():
         assert r.success and nw._history[-1].det_sign != 0
         xs.append(nw._history[-1].x_all)
         signs.append(nw._history[-1].det_sign)
-        conds.append(sy.scaled_cond(sy._eval_s(xs[-1], [t], None)[1]))  # exact, not estimated
+        conds.append(
+            sy.scaled_cond(sy.evaluate_scaled(xs[-1], [t], None)[1])
+        )  # exact, not estimated
         ts.append(t)
     xs, conds = np.array(xs), np.array(conds)
     near = conds >= POLISH_COND
@@ -632,7 +640,7 @@ def test_answers_near_a_fold_are_declined():
     assert np.array_equal(b.x[near], xs[near])
     assert np.all(b.residual[~near] <= TOL)
     reported = np.array(
-        [reported_cond(sy, sy._eval_s(b.x[i], [ts[i]], None)[1]) for i in range(len(ts))]
+        [reported_cond(sy, sy.evaluate_scaled(b.x[i], [ts[i]], None)[1]) for i in range(len(ts))]
     )
     np.testing.assert_allclose(b.cond[~near], reported[~near], rtol=0.05)
 

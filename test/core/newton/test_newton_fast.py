@@ -100,13 +100,13 @@ def test_jacobian_matches_finite_differences(name):
         assert any(isinstance(sp, PointSpec) for sp in p.specs)
         systems.append((p.system, None, p._ref_values))
     for sy, fixed, vals in systems:
-        step = sy._step_scale
+        step = sy.step_scale
         for _ in range(3):
             x = sy.reference_x() + rng.normal(size=sy.n) * 0.2 * step
             F, J = sy.evaluate(x, vals, fixed)
             F2, none = sy.evaluate(x, vals, fixed, jacobian=False)
             assert none is None and np.array_equal(F, F2)
-            Fs, Js, res = sy._eval_s(x, vals, fixed)
+            Fs, Js, res = sy.evaluate_scaled(x, vals, fixed)
             assert np.allclose(Fs, F / sy.L, rtol=1e-15, atol=0)
             assert np.allclose(Js, J * sy._col_scale, rtol=1e-15, atol=0)
             assert res == float(np.max(np.abs(Fs)))
@@ -127,11 +127,11 @@ def test_evaluate_scale_free():
     x0 = ref.reference_x()
     x0[0::3] += [0.3, -0.2, 0.1]
     vals = [0.7]
-    F0, J0, _ = ref._eval_s(x0, vals, None)
+    F0, J0, _ = ref.evaluate_scaled(x0, vals, None)
     for k in (1e-300, 1e300):
         sy = Solver(four_bar(tuple(k * v for v in (4.0, 1.5, 4.5, 3.0))), method='newton').system
         x = x0 * np.tile([1.0, k, k], 3)
-        F, J, res = sy._eval_s(x, vals, None)
+        F, J, res = sy.evaluate_scaled(x, vals, None)
         assert math.isfinite(res)
         assert np.allclose(F, F0, rtol=1e-12, atol=1e-14)
         assert np.allclose(J, J0, rtol=1e-12, atol=1e-14)
@@ -167,7 +167,7 @@ def test_lu_sign_and_cond_estimate_on_scene_jacobians(name):
     s, results = system_sweep(mech, 40)
     sy = s.system
     for r in results:
-        F, J, _ = sy._eval_s(r.x, s._ref_values, None)
+        F, J, _ = sy.evaluate_scaled(r.x, s._ref_values, None)
         fac = sy._factor(J)
         assert fac[2] == int(np.linalg.slogdet(J)[0])
         est, exact = sy._cond(J, fac), sy.scaled_cond(J)
