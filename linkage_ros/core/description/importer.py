@@ -28,6 +28,11 @@ CLOSED = 1e-10
 AXIS_MARK = 0.25
 #: random restarts of the assembly before a description is refused as unassemblable
 ASSEMBLY_STARTS = 24
+#: ... or this many, when the best of them still misses by more than FAR_OPEN of the chain's
+#: size (a loop a finite distance too long or short for its links: every local minimum of the
+#: miss is far from zero; a chain that closes is found closed from most starts)
+FAR_OPEN_STARTS = 6
+FAR_OPEN = 1e-3
 DESCRIPTION_SUFFIXES = ('.urdf', '.sdf', '.xml')
 
 
@@ -185,6 +190,8 @@ def _assemble(
             best_x, best = fit.x, miss
         if best <= CLOSED:
             break
+        if k + 1 >= FAR_OPEN_STARTS and best > FAR_OPEN:
+            break  # every start so far stopped far from closing: the loops cannot close
     miss = float(np.linalg.norm(residual(best_x))) * scale
     if miss > CLOSED * scale:
         raise DescriptionError(
