@@ -652,12 +652,13 @@ class LinkageNode(Node):
             bad = f'not a JointState: {exc!r}'
             self._answer('joint_states_in', msg.header.stamp, lambda: Result(False, bad))
             return
+        command = {n: v for n, v in values.items() if n in self._state_inputs}
+        if not command:
+            # no input: not the hardware's (the node's own joint_states carries a follower)
+            return
         followers = self._state_followers.intersection(values)
         if followers - self.outputs.omit_joints:  # the hardware publishes a mimic follower too
             self.outputs.set_omit_joints(self.outputs.omit_joints | followers)
-        command = {n: v for n, v in values.items() if n not in followers}
-        if not command:
-            return
         # joint_state_broadcaster fills a joint without a velocity interface with NaN: such
         # rates are no rates, positions alone command
         if rates is not None and all(math.isfinite(rates[n]) for n in command):

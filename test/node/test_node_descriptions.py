@@ -304,6 +304,9 @@ def procs(tmp_path_factory):
     params = {name: case['params'] for name, case in CASES.items()}
     params['topic'] = topic_node_params()
     params['completion'] = completion_params()
+    params['completion_robotiq'] = dict(
+        CASES['robotiq_2f_85']['params'], joint_states_in='joint_states'
+    )
     started = {
         name: NodeProcess(workdir / name, DOMAIN_ID, p).start() for name, p in params.items()
     }
@@ -628,3 +631,29 @@ def test_joint_state_pick_reads_only_the_wanted_names():
         joint_state_pick(JointState(name=['joint1', 'arm'], position=[1.0]), wanted)
     with pytest.raises(CommandError, match='more than once'):
         joint_state_pick(JointState(name=['joint1', 'joint1'], position=[1.0, 2.0]), wanted)
+
+
+def test_state_completion_keeps_publishing_a_mimic_follower_it_reads_back(ros, procs):
+    """The Robotiq's hardware publishes the left knuckle on /joint_states, where the node
+    publishes too: the node's own messages carry the right knuckle (the left's mimic follower)
+    and must not make it think the hardware publishes the follower (it stopped publishing it)."""
+    proc = procs['completion_robotiq']
+    node = Node(ros, proc).ready()
+    hardware = node.publisher(JointState, 'joint_states')
+    node.clear()
+    ros.publish(hardware, joint_state({'robotiq_85_left_knuckle_joint': 0.4}))
+    assert ros.spin_until(lambda: len(node.status) > 0, ANSWER_TIMEOUT, proc)
+    assert node.status.last.level == DiagnosticStatus.OK, node.status.last.message
+    ros.spin_for(1.0)  # the node reads its own answer (and republications) back
+    node.clear()
+    ros.publish(hardware, joint_state({'robotiq_85_left_knuckle_joint': 0.5}))
+    assert ros.spin_until(lambda: len(node.status) > 0, ANSWER_TIMEOUT, proc)
+    ros.spin_for(QUIET)
+    ours = [m for m in node.joints.messages if 'robotiq_85_left_knuckle_joint' not in m.name]
+    assert ours, [list(m.name) for m in node.joints.messages]
+    last = dict(zip(ours[-1].name, ours[-1].position))
+    assert last['robotiq_85_right_knuckle_joint'] == pytest.approx(-0.5, abs=1e-12)
+    text = text_of('picknik_robotiq_2f_85.expanded.urdf')
+    joints = dict(last, robotiq_85_left_knuckle_joint=0.5)
+    misses = pinocchio_closure_misses(text, joints, ROBOTIQ_PINS)
+    assert max(misses) < CLOSURE_TOL * 0.1
