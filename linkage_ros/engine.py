@@ -248,8 +248,8 @@ class Engine:
         (their rates 0): the answer's ``held`` names them. A mechanism read from a robot
         description takes its own joint names and values (mech.joint_coordinates)."""
         try:
-            values = self.to_scene(values)
-            rates = None if rates is None else self.to_scene(rates, rates=True)
+            values = self.to_scene(values, command=True)
+            rates = None if rates is None else self.to_scene(rates, rates=True, command=True)
         except CommandError as exc:
             return Result(False, str(exc))
         values, held = self.held_values(values)
@@ -271,11 +271,14 @@ class Engine:
         result.held = held
         return result
 
-    def to_scene(self, values: Mapping[str, Any], rates: bool = False) -> dict[str, Any]:
+    def to_scene(
+        self, values: Mapping[str, Any], rates: bool = False, command: bool = False
+    ) -> dict[str, Any]:
         """A request in the robot description's joint names and values -> the scene's knowns
-        (unchanged for a scene file); CommandError naming a joint that cannot be set."""
+        (unchanged for a scene file); CommandError naming a joint that cannot be set (in a
+        ``command``: a passive one too)."""
         coords = self.mech.joint_coordinates
-        return dict(values) if coords is None else coords.to_scene(values, rates)
+        return dict(values) if coords is None else coords.to_scene(values, rates, command)
 
     def held_values(
         self, values: Mapping[str, Any]

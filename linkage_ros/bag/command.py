@@ -24,7 +24,7 @@ from .plans import (
 )
 from .plot import _plot_format, write_plot
 from .progress import _Progress, _summary
-from .reading import _exc_text, read_commands, to_scene_commands
+from .reading import _exc_text, read_commands
 from .replay import _Engine
 
 # ---- command line ------------------------------------------------------------------------------
@@ -186,8 +186,6 @@ def _run(args) -> int:
         )
         topics = [args.command_topic] + ([args.target_topic] if args.target_topic else [])
         data = read_commands(args.input, topics, progress, accept_missing=args.accept_missing)
-        if mech.joint_coordinates is not None:  # the description's names and values, as the node
-            data = to_scene_commands(data, mech.joint_coordinates)
         for topic in args.path_topic:
             if path_point(topic) not in mech.points:
                 raise BagError(

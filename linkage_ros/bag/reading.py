@@ -4,7 +4,6 @@ the node's message-shape check."""
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -462,43 +461,3 @@ def _fmt_time(ns: int) -> str:
 
 
 # ---- command checks (the node's, message shape only) ----------------------------------------
-
-
-def to_scene_commands(data: Commands, coords: Any) -> Commands:
-    """Recorded commands in a robot description's joint names and values (coords: the
-    mechanism's joint_coordinates) -> the scene's, as the node converts what it receives: each
-    message shape's names mapped once, its rows' values converted column by column."""
-    keys: list[tuple[str, ...]] = []
-    npos: list[int] = []
-    converted: list[np.ndarray | None] = []
-    for k, names in enumerate(data.keys):
-        rows = np.flatnonzero(data.key == k)
-        width = data.npos[k]
-        if width != len(names) or not rows.size:  # malformed: the replay refuses it as it is
-            keys.append(names)
-            npos.append(width)
-            converted.append(None)
-            continue
-        pos = data.values[data.start[rows][:, None] + np.arange(width)]
-        new_names, cols = coords.to_scene_columns(list(names), [pos[:, j] for j in range(width)])
-        keys.append(tuple(new_names))
-        npos.append(len(new_names))
-        converted.append(np.stack(cols, axis=1) if cols else np.zeros((rows.size, 0)))
-    counts = np.diff(data.start)
-    for k, block in enumerate(converted):
-        if block is not None:
-            counts[data.key == k] = block.shape[1]
-    start = np.zeros(data.n + 1, np.int64)
-    np.cumsum(counts, out=start[1:])
-    values = np.empty(int(start[-1]), np.float64)
-    for k, block in enumerate(converted):
-        rows = np.flatnonzero(data.key == k)
-        if not rows.size:
-            continue
-        if block is None:  # copied as recorded
-            for i in rows:
-                n_i = int(data.start[i + 1] - data.start[i])
-                values[start[i] : start[i] + n_i] = data.values[data.start[i] : data.start[i + 1]]
-        elif block.shape[1]:
-            values[start[rows][:, None] + np.arange(block.shape[1])] = block
-    return dataclasses.replace(data, keys=keys, npos=npos, values=values, start=start)

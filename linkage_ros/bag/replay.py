@@ -208,6 +208,14 @@ class _Engine:
             return
         vals = data.positions(a, b)
         columns = {nm: vals[:, j] for j, nm in enumerate(names)}
+        coords = self.engine.mech.joint_coordinates
+        if coords is not None:  # the description's names and values, as the engine takes them
+            try:
+                columns = coords.to_scene_columns(columns, command=int(data.topic[a]) == 0)
+            except CommandError as exc:
+                self._refuse_all(a, b, str(exc))
+                return
+            names = list(columns)
         held: tuple[str, ...] | str = ()
         if int(data.topic[a]) == 0:  # Engine.command: a partial command holds the others
             # the run's held values: its rows hold the same actuators at the same last values

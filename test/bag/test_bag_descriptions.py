@@ -70,3 +70,22 @@ def test_drake_commands_and_passive_targets_match_the_engine(tmp_path, capsys):
         for j, v in want.items():
             got = float(r[f'joint.{j}'])
             assert abs(math.remainder(got - v, 2 * math.pi)) < 1e-9, (j, got, v)
+
+
+def test_the_bag_refuses_what_the_node_refuses_in_the_descriptions_terms(tmp_path, capsys):
+    """A command naming the mimic follower alone, or a passive joint, is refused with the
+    node's words (before: the follower was taken as an input, breaking its mimic)."""
+    msgs = [
+        ('/cmd', 10**6, joint_state(['robotiq_85_left_knuckle_joint'], [0.3])),
+        ('/cmd', 2 * 10**6, joint_state(['robotiq_85_right_knuckle_joint'], [-0.2])),
+        ('/cmd', 3 * 10**6, joint_state(['robotiq_85_left_inner_knuckle_joint'], [0.1])),
+    ]
+    rows = _run(tmp_path, capsys, ROBOTIQ, ROBOTIQ_CLOSURES, msgs)
+    assert [r['status'] for r in rows] == ['ok', 'error', 'error']
+    assert "follows 'robotiq_85_left_knuckle_joint' by its <mimic>" in rows[1]['reason']
+    assert "'robotiq_85_left_inner_knuckle_joint' is passive" in rows[2]['reason']
+    scene = load_scene(str(ROBOTIQ), closures=str(ROBOTIQ_CLOSURES))
+    engine = Engine(scene.mechanism, EngineSettings())
+    for msg, row in zip(msgs[1:], rows[1:]):
+        name, value = msg[2].name[0], float(msg[2].position[0])
+        assert engine.command({name: value}).reason == row['reason']

@@ -129,26 +129,19 @@ class JointMap:
         return out
 
     # -- in: the description's names and values -> the scene's knowns -------------------------
-    def to_scene(self, values: Mapping[str, Any], rates: bool = False) -> dict[str, Any]:
+    def to_scene(
+        self, values: Mapping[str, Any], rates: bool = False, command: bool = False
+    ) -> dict[str, Any]:
         """A request's values (or, ``rates``, their rates) with every description joint turned
         into the scene's known; other names (links, points, the scene's own) pass unchanged.
-        A mimic-coupled actuator follows its leader; naming it is refused."""
+        A mimic-coupled actuator follows its leader; naming it is refused, and so is a passive
+        joint in a ``command`` (CommandError, in the description's names)."""
         out: dict[str, Any] = {}
         for name, value in values.items():
-            entry = self.inputs.get(name)
+            entry = self._entry(name, command)
             if entry is None:
-                if any(o.name == name for o in self.outputs):
-                    raise CommandError(
-                        f'joint {name!r} follows from the closed chain (a closure frame or a '
-                        'mimic outside the loop): it cannot be commanded'
-                    )
                 out[name] = value
                 continue
-            if entry.leader:
-                raise CommandError(
-                    f'joint {name!r} follows {entry.leader!r} by its <mimic>: command '
-                    f'{entry.leader!r}'
-                )
             out[entry.scene_name] = self._convert(entry, value, rates)
             follower = self._followers.get(name)
             if follower is not None:
@@ -157,27 +150,46 @@ class JointMap:
         return out
 
     def to_scene_columns(
-        self, names: Sequence[str], columns: Sequence[np.ndarray]
-    ) -> tuple[list[str], list[np.ndarray]]:
-        """:meth:`to_scene` for columns of values (a recorded bag's commands, one array per
-        name): the scene's names and values; names that are not the description's pass
-        unchanged (the engine refuses what it does not know)."""
-        out_names: list[str] = []
-        out_cols: list[np.ndarray] = []
-        for name, col in zip(names, columns):
-            entry = self.inputs.get(name)
-            if entry is None or entry.leader:
-                out_names.append(name)
-                out_cols.append(col)
+        self, columns: Mapping[str, np.ndarray], command: bool = False
+    ) -> dict[str, np.ndarray]:
+        """:meth:`to_scene` for columns of values (a recorded bag's requests, one array per
+        name), with the same refusals."""
+        out: dict[str, np.ndarray] = {}
+        for name, col in columns.items():
+            entry = self._entry(name, command)
+            if entry is None:
+                out[name] = col
                 continue
-            out_names.append(entry.scene_name)
-            out_cols.append(self._convert_array(entry, col))
+            out[entry.scene_name] = self._convert_array(entry, col)
             follower = self._followers.get(name)
             if follower is not None:
-                q = follower.multiplier * col + follower.mimic_offset
-                out_names.append(follower.scene_name)
-                out_cols.append(self._convert_array(follower, q))
-        return out_names, out_cols
+                q = follower.multiplier * np.asarray(col, np.float64) + follower.mimic_offset
+                out[follower.scene_name] = self._convert_array(follower, q)
+        return out
+
+    def _entry(self, name: str, command: bool) -> InputJoint | None:
+        """The input ``name`` stands for (None: not the description's joint), or why it cannot
+        be set (CommandError)."""
+        entry = self.inputs.get(name)
+        if entry is None:
+            if any(o.name == name for o in self.outputs):
+                raise CommandError(
+                    f'joint {name!r} follows from the closed chain (a closure frame or a '
+                    'mimic outside the loop): it cannot be commanded'
+                )
+            return None
+        if entry.leader:
+            raise CommandError(
+                f'joint {name!r} follows {entry.leader!r} by its <mimic>: command {entry.leader!r}'
+            )
+        if command and name not in self.actuated:
+            commanded = [a for a in self.actuated if not self.inputs[a].leader]
+            raise CommandError(
+                f'joint {name!r} is passive: the closed chain places it. Command '
+                f'{", ".join(commanded)}, or ask for {name!r} as a target (~/target, '
+                '--target)'
+            )
+        return entry
 
     @staticmethod
     def _convert_array(entry: InputJoint, col: np.ndarray) -> np.ndarray:

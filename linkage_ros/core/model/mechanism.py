@@ -113,7 +113,13 @@ class JointCoordinates(Protocol):
 
     def actuated_values(self, inputs: Mapping[str, Any]) -> list[Any]: ...
 
-    def to_scene(self, values: Mapping[str, Any], rates: bool = False) -> dict[str, Any]: ...
+    def to_scene(
+        self, values: Mapping[str, Any], rates: bool = False, command: bool = False
+    ) -> dict[str, Any]: ...
+
+    def to_scene_columns(
+        self, columns: Mapping[str, Any], command: bool = False
+    ) -> dict[str, Any]: ...
 
 
 @dataclass
