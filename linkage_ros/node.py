@@ -129,7 +129,9 @@ class LinkageNode(Node):
                 param = self.declare_parameter(p.name, default, desc)
             except InvalidParameterTypeException as exc:
                 kind = (
-                    type(p.default).__name__ if p.default != 'string_array' else 'list of strings'
+                    type(p.default).__name__
+                    if p.default != 'string_array'
+                    else f'list of strings (write {p.name}:=[a, b])'
                 )
                 kind = {
                     'float': 'a double (write 1.0, not 1)',

@@ -507,7 +507,8 @@ def urdf_document(mech: Mechanism, prefix: str = '', frame_id: str | None = None
         raise SceneError(
             "publishes a robot description's own joint names and values: give "
             'robot_state_publisher that description itself (its URDF), which these joint_states '
-            'drive; linkage urdf writes scene files only',
+            'drive; linkage urdf writes the URDF of a scene in its own joint names (for a scene '
+            'written by linkage import: without its joint_coordinates key)',
             file=mech.source,
         )
 

@@ -156,9 +156,9 @@ def find_chain(desc: Description) -> Chain:
     src = desc.source
     if not desc.closures:
         raise DescriptionError(
-            'states no closure: the description is a tree. State where its loop is cut with '
-            '--closures FILE (a linkage_ros closure file or Gepetto YAML; see '
-            'docs/ROBOT_DESCRIPTIONS.md)',
+            'states no closure: the description is a tree. State where its loop is cut in a '
+            "closure file (the CLI's --closures FILE, the node's closures parameter; a "
+            'linkage_ros closure file or Gepetto YAML, see docs/ROBOT_DESCRIPTIONS.md)',
             file=src,
         )
     by_child = {j.child: j for j in desc.joints}

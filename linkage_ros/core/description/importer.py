@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import SceneError
 from ..model import Mechanism, Scene
 from ..model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
 from .chain import Chain, find_chain, rot
@@ -86,15 +87,30 @@ def import_description(
     if actuated:
         for n in actuated:
             if desc.joint(n) is None:
+                loop = any(c.name == n for c in desc.closures)
                 raise DescriptionError(
-                    'names no joint of the description', file=source, key='actuated', value=n
+                    'is the loop joint that closes the chain (a closure): it cannot be '
+                    'actuated; actuate a joint of the tree'
+                    if loop
+                    else 'names no joint of the description',
+                    file=source,
+                    key='actuated',
+                    value=n,
                 )
         desc = replace(desc, actuated=tuple(actuated))
     chain = find_chain(desc)
     acts = _actuated(chain)
-    q, gap = _assemble(chain, acts, {**desc.assemble_at, **(values or {})})
+    q, gap = _assemble(chain, acts, _assembly_values(chain, acts, desc, values))
     scene, names = _scene(chain, acts, q, dimensions)
-    mech = Scene.from_dict(scene, source=source).mechanism
+    try:
+        mech = Scene.from_dict(scene, source=source).mechanism
+    except DescriptionError:
+        raise
+    except SceneError as exc:  # e.g. the assembled pose outside a <limit>: say how to move it
+        raise DescriptionError(
+            f'{exc}; for a robot description: assemble it elsewhere with assemble_at in its '
+            'closure file, or state its limits there'
+        ) from None
     jmap = _joint_map(chain, acts, q, mech, names)
     mech = replace(mech, joint_coordinates=jmap)
     notes = []
@@ -103,6 +119,19 @@ def import_description(
             f'the description is open by {gap:.6g} m at '
             f'{_values_text(acts, q)}: assembled (the loops closed)'
         )
+    for j in chain.joints:
+        lim = desc.limits.get(j.name, j.joint.limits)
+        if (
+            j.name in acts
+            and j.revolute
+            and lim.lower is not None
+            and lim.upper is not None
+            and lim.upper - lim.lower >= 2 * math.pi
+        ):
+            notes.append(
+                f'the limits of {j.name} ({lim.lower:g} .. {lim.upper:g} rad) span a full turn '
+                'or more: it is not limited (limits are in radians)'
+            )
     mimics = [j.name for j in chain.joints if j.joint.mimic is not None and j.name not in acts]
     if mimics:
         notes.append(f'<mimic> of {", ".join(mimics)} superseded: the closures give their values')
@@ -135,12 +164,48 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
         raise DescriptionError(
             f'the closed chain has {dof} degree(s) of freedom ({len(chain.joints)} joints, '
             f'{len(chain.closures)} closure(s)) but {len(acts)} joint(s) are actuated '
-            f'({", ".join(acts) or "none"}); state the actuated joints: actuated: [..] in a '
+            f'({", ".join(acts) or "none"}'
+            + (
+                '; a joint without an independent mark counts as actuated'
+                if desc.actuated is None
+                else ''
+            )
+            + '); state the actuated joints: actuated: [..] in a '
             'closure file, or --actuated / the actuated parameter '
             f'(chain joints: {", ".join(j.name for j in chain.joints)})',
             file=desc.source,
         )
     return tuple(acts)
+
+
+def _assembly_values(
+    chain: Chain, acts: Sequence[str], desc: Description, values: Mapping[str, float] | None
+) -> dict[str, float]:
+    """The actuated joints' values to assemble at (a closure file's assemble_at, then the
+    caller's): a passive joint is refused (the loops place it), and a mimic follower takes its
+    leader's value by the mimic (stating it otherwise is refused)."""
+    given = {**desc.assemble_at, **(values or {})}
+    for name in given:
+        if name not in acts:
+            raise DescriptionError(
+                f'assemble_at: {name!r} is not an actuated joint (the closed chain places the '
+                f'others); give values of {", ".join(acts)}',
+                file=desc.source,
+            )
+    by_name = {j.name: j for j in chain.joints}
+    for name in acts:
+        mimic = by_name[name].joint.mimic
+        if mimic is None or mimic.joint not in acts:
+            continue
+        want = mimic.multiplier * given.get(mimic.joint, 0.0) + mimic.offset
+        if name in given and abs(given[name] - want) > 1e-12 * max(1.0, abs(want)):
+            raise DescriptionError(
+                f'assemble_at: {name!r} follows {mimic.joint!r} by its <mimic> ({want:.9g} '
+                f'there), not {given[name]:.9g}: give {mimic.joint!r} only',
+                file=desc.source,
+            )
+        given[name] = want
+    return given
 
 
 def _assemble(

@@ -73,3 +73,20 @@ def test_a_closure_file_states_where_the_chain_is_assembled(tmp_path):
     side.write_text('assemble_at: {joint9: 0.3}\n')
     with pytest.raises(Exception, match=r'assemble_at\.joint9: names no joint'):
         import_description(str(FIXTURES['grbda_six_bar'][0]), str(side))
+
+
+def test_assemble_at_takes_actuated_joints_and_follows_mimics(tmp_path):
+    """A passive joint in assemble_at is refused (the loops place it); a mimic follower takes
+    its leader's value (the Robotiq's right knuckle at -0.3 when the left is at 0.3)."""
+    robotiq, closures = FIXTURES['robotiq']
+    side = tmp_path / 'robotiq.closures.yaml'
+    base = closures.read_text()
+    side.write_text(base + 'assemble_at: {robotiq_85_left_knuckle_joint: 0.3}\n')
+    imp = import_description(str(robotiq), str(side))
+    assert imp.values['robotiq_85_right_knuckle_joint'] == pytest.approx(-0.3, abs=1e-15)
+    side.write_text(base + 'assemble_at: {robotiq_85_right_knuckle_joint: -0.2}\n')
+    with pytest.raises(Exception, match='follows .robotiq_85_left_knuckle_joint. by its <mimic>'):
+        import_description(str(robotiq), str(side))
+    side.write_text(base + 'assemble_at: {robotiq_85_left_inner_knuckle_joint: 0.3}\n')
+    with pytest.raises(Exception, match='is not an actuated joint'):
+        import_description(str(robotiq), str(side))
