@@ -627,7 +627,7 @@ def test_runtime_parameter_changes_that_cannot_apply_are_refused(ros, serve):
         assert s.node.get_parameter('demo_rate').value == 50.0
         assert s.node.config.demo_rate == 50.0 and s.node._demo_timer is timer
     for param, fragment in (
-        (Parameter('demo_rate', value=5), 'DOUBLE'),
+        (Parameter('demo_rate', value='5'), "'demo_rate'"),
         (Parameter('demo_sweep', value='yes'), 'BOOL'),
         (Parameter('tolerance', value=1e-9), 'read-only'),
         (Parameter('scene', value='excavator'), 'read-only'),
@@ -642,10 +642,11 @@ def test_runtime_parameter_changes_that_cannot_apply_are_refused(ros, serve):
         len(j.position) == 4 and all(map(math.isfinite, j.position)) for j in s.joints.messages
     )
     # the range ends are accepted
-    for value in (DEMO_RATE_MAX, DEMO_RATE_MIN, 40.0):
+    for value in (DEMO_RATE_MAX, DEMO_RATE_MIN, 40.0, 25):  # 25: a whole number is a double
         (r,) = _set(ros, client, Parameter('demo_rate', value=value))
         assert r.successful, r.reason
         assert abs(s.node._demo_timer.timer_period_ns - 1e9 / value) <= 1
+    assert s.node.config.demo_rate == 25.0 and isinstance(s.node.config.demo_rate, float)
     (r,) = _set(ros, client, Parameter('demo_sweep', value=False))
     assert r.successful and s.node._demo_timer is None
 
