@@ -104,10 +104,14 @@ def joint_state_peek(raw: bytes) -> tuple[int, int, int] | None:
     return sec, nanosec, count
 
 
-def point_stamped_to_xy(msg: PointStamped, name: str = '') -> tuple[float, float]:
-    """The planar (x, y) of a PointStamped (m). z is ignored (mechanisms live in the xy plane),
-    but like x and y it must be finite: a NaN or inf anywhere is a broken message, refused with
-    a CommandError naming the coordinate (and ``name``, the target point, if given)."""
+def point_stamped_to_xy(
+    msg: PointStamped, name: str = '', mech: Mechanism | None = None
+) -> tuple[float, float]:
+    """The planar (x, y) of a PointStamped (m). z is ignored (mechanisms live in the xy plane;
+    with ``mech``, the point is projected into its plane: a robot description's chain lies in a
+    plane of its ground link's 3-D frame), but like x and y it must be finite: a NaN or inf
+    anywhere is a broken message, refused with a CommandError naming the coordinate (and
+    ``name``, the target point, if given)."""
     p = msg.point
     x, y, z = float(p.x), float(p.y), float(p.z)
     if not (math.isfinite(x) and math.isfinite(y) and math.isfinite(z)):
@@ -119,7 +123,7 @@ def point_stamped_to_xy(msg: PointStamped, name: str = '') -> tuple[float, float
             f'{head}{bad} is not finite (every coordinate must be a finite '
             'number; z is ignored only when it is)'
         )
-    return (x, y)
+    return (x, y) if mech is None else mech.plane_xy(x, y, z)
 
 
 #: how far (in quaternion components, after normalising) an orientation may tilt out of the
@@ -210,25 +214,30 @@ def result_to_points(
     stamp: Time,
     frame_id: str,
     reuse: dict[str, PointStamped] | None = None,
+    mech: Mechanism | None = None,
 ) -> dict[str, PointStamped]:
-    """``{name: PointStamped}`` for each named point of a successful result (z = 0).
+    """``{name: PointStamped}`` for each named point of a successful result (z = 0; with
+    ``mech``, in its frame's 3-D coordinates: mech.point_3d).
     ``reuse``: messages of an earlier call with the same frame, refilled in place (and any
     missing one added to it): a publisher serialises on publish, so one message per point can
     carry every answer, which saves building a header and a point each time."""
     out = {}
     for name in names:
         x, y = result.points[name]
+        z = 0.0
+        if mech is not None and mech.joint_coordinates is not None:
+            x, y, z = mech.point_3d(name, x, y)
         msg = reuse.get(name) if reuse is not None else None
         if msg is None:
             msg = PointStamped()
             msg.header = Header(stamp=stamp, frame_id=frame_id)
-            msg.point = Point(x=float(x), y=float(y), z=0.0)
+            msg.point = Point(x=float(x), y=float(y), z=float(z))
             if reuse is not None:
                 reuse[name] = msg
         else:
             msg.header.stamp = stamp
             pt = msg.point
-            pt.x, pt.y = float(x), float(y)
+            pt.x, pt.y, pt.z = float(x), float(y), float(z)
         out[name] = msg
     return out
 
@@ -299,8 +308,9 @@ _JOINT = ColorRGBA(r=0.1, g=0.1, b=0.1, a=1.0)
 _OUTPUT = ColorRGBA(r=0.0, g=0.8, b=0.2, a=1.0)
 
 
-def _xyz(xy) -> Point:
-    return Point(x=float(xy[0]), y=float(xy[1]), z=0.0)
+def _xyz(xyz) -> Point:
+    """A scene point in its frame's 3-D coordinates (mech.point_3d) as a Point."""
+    return Point(x=float(xyz[0]), y=float(xyz[1]), z=float(xyz[2]))
 
 
 def result_to_markers(
@@ -336,7 +346,7 @@ def result_to_markers(
             colour += 1
         if len(link.points) >= 2:
             m.type = Marker.LINE_STRIP
-            pts = [_xyz(result.points[p]) for p in link.points]
+            pts = [_xyz(mech.point_3d(p, *result.points[p])) for p in link.points]
             if len(pts) >= 3:
                 pts.append(pts[0])
             m.points = pts
@@ -344,7 +354,11 @@ def result_to_markers(
             pj = cylinders[lname]
             m.type = Marker.LINE_LIST
             m.scale.x = 1.5 * width
-            m.points = [_xyz(result.points[link.points[0]]), _xyz(result.points[pj.point])]
+            first = link.points[0]
+            m.points = [
+                _xyz(mech.point_3d(first, *result.points[first])),
+                _xyz(mech.point_3d(pj.point, *result.points[pj.point])),
+            ]
         else:
             continue  # a slider block or cylinder rod: shown by its joint sphere
         out.markers.append(m)
@@ -362,7 +376,7 @@ def result_to_markers(
     for rj in mech.revolutes:
         if rj.point not in seen:
             seen.append(rj.point)
-    joints.points = [_xyz(result.points[p]) for p in seen]
+    joints.points = [_xyz(mech.point_3d(p, *result.points[p])) for p in seen]
     out.markers.append(joints)
     if mech.outputs:
         outs = Marker(
@@ -375,7 +389,7 @@ def result_to_markers(
         )
         outs.pose.orientation.w = 1.0
         outs.scale.x = outs.scale.y = outs.scale.z = 3.0 * width
-        outs.points = [_xyz(result.points[p]) for p in mech.outputs]
+        outs.points = [_xyz(mech.point_3d(p, *result.points[p])) for p in mech.outputs]
         out.markers.append(outs)
     return out
 

@@ -633,7 +633,7 @@ class LinkageNode(Node):
             foreign = frame_error(f'target point {point!r}', msg.header.frame_id, self.frame_id)
             if foreign:
                 return Result(False, foreign)
-            return self.engine.target_point(point, point_stamped_to_xy(msg, point))
+            return self.engine.target_point(point, point_stamped_to_xy(msg, point, self.mech))
 
         self._answer(f'target_point/{point}', msg.header.stamp, solve)
 

@@ -203,7 +203,9 @@ class Outputs:
             self._publish_state(result, stamp)
             listened = [n for n, pub in self.pub_points.items() if pub.get_subscription_count()]
             if listened:
-                msgs = result_to_points(result, listened, stamp, self.frame_id, self._point_msgs)
+                msgs = result_to_points(
+                    result, listened, stamp, self.frame_id, self._point_msgs, self.mech
+                )
                 for name in listened:
                     self.pub_points[name].publish(msgs[name])
             self._marker_state = (result, stamp)

@@ -111,11 +111,13 @@ def joint_trajectory_request(
 
 
 def path_request(
-    msg: Any, point: str, frame_id: str
+    msg: Any, point: str, frame_id: str, mech: Mechanism | None = None
 ) -> tuple[list[tuple[float, float]], list[int]]:
-    """The (x, y) of every pose (m) and each pose's time from the first (ns: its stamp less the
-    first's when the stamps increase strictly, else 0: a path has no timing); CommandError for a
-    frame other than the node's or a non-finite coordinate."""
+    """The (x, y) of every pose (m; with ``mech``, its position projected into the
+    mechanism's plane: a robot description's chain lies in a plane of its 3-D frame) and each
+    pose's time from the first (ns: its stamp less the first's when the stamps increase
+    strictly, else 0: a path has no timing); CommandError for a frame other than the node's or
+    a non-finite coordinate."""
     if len(msg.poses) > MAX_TRAJECTORY_POINTS:
         raise CommandError(_too_many('path', len(msg.poses), 'poses'))
     frames = {msg.header.frame_id} | {p.header.frame_id for p in msg.poses}
@@ -130,7 +132,10 @@ def path_request(
         for axis, v in (('x', p.x), ('y', p.y), ('z', p.z)):
             if not math.isfinite(v):
                 raise CommandError(f'pose {i}: position.{axis} = {v} is not finite')
-        xy.append((float(p.x), float(p.y)))
+        if mech is None:
+            xy.append((float(p.x), float(p.y)))
+        else:
+            xy.append(mech.plane_xy(float(p.x), float(p.y), float(p.z)))
     stamps = [duration_ns(p.header.stamp) for p in msg.poses]
     timed = all(b > a for a, b in zip(stamps, stamps[1:]))
     times = [s - stamps[0] for s in stamps] if stamps and timed else [0] * len(stamps)
@@ -305,7 +310,7 @@ def answer_path_msg(
     """A nav_msgs/Path of ``point`` (any message with its fields) solved as a trajectory of
     point targets: the answer and each pose's time from the first (ns)."""
     try:
-        xy, times = path_request(msg, point, frame_id)
+        xy, times = path_request(msg, point, frame_id, engine.mech)
     except CommandError as exc:
         return TrajectoryAnswer(False, str(exc)), []
     targets = path_targets(engine, point, xy)

@@ -657,3 +657,24 @@ def test_state_completion_keeps_publishing_a_mimic_follower_it_reads_back(ros, p
     joints = dict(last, robotiq_85_left_knuckle_joint=0.5)
     misses = pinocchio_closure_misses(text, joints, ROBOTIQ_PINS)
     assert max(misses) < CLOSURE_TOL * 0.1
+
+
+def test_points_in_and_out_of_a_description_are_3d_in_its_ground_frame():
+    """~/points and the markers give a description's points in its ground link's 3-D frame;
+    ~/target_point and path positions are projected back into its plane."""
+    from geometry_msgs.msg import Point, PointStamped
+
+    from linkage_ros.conversions import point_stamped_to_xy, result_to_points
+    from linkage_ros.core.solver import Solver
+
+    mech = load_scene(
+        fixture('gepetto_5bar_linkage/robot.urdf'),
+        closures=fixture('gepetto_5bar_linkage/robot.yaml'),
+    ).mechanism
+    r = Solver(mech).solve(mech.joint_coordinates.to_scene({'mot1': 0.2, 'mot2': -0.1}))
+    msgs = result_to_points(r, ['free1'], Time(), 'built', mech=mech)
+    p = msgs['free1'].point
+    assert (p.x, p.y, p.z) == pytest.approx(mech.point_3d('free1', *r.points['free1']))
+    assert p.x == pytest.approx(0.15)  # the pin's depth along x: the chain moves in yz
+    back = point_stamped_to_xy(PointStamped(point=Point(x=p.x, y=p.y, z=p.z)), 'free1', mech)
+    assert back == pytest.approx(r.points['free1'], abs=1e-15)

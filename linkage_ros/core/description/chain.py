@@ -106,6 +106,13 @@ class Chain:
         x = self.zero_poses[body] @ x_body_link @ pose
         return body, self.project(x[:3, 3] - self.zero_poses[body][:3, 3])
 
+    def depth(self, link: str, pose: np.ndarray) -> float:
+        """How far along the normal a frame fixed in ``link`` lies (m): the same in every
+        configuration (the chain moves in its plane)."""
+        body, x_body_link = self.body_of[link]
+        x = self.zero_poses[body] @ x_body_link @ pose
+        return float(self.normal @ x[:3, 3])
+
     def poses(self, values: Mapping[str, float]) -> dict[str, tuple[np.ndarray, float]]:
         """Every body's (origin in the plane, phi) at these joint values (missing: 0)."""
         out: dict[str, tuple[np.ndarray, float]] = {

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..model import Mechanism, Scene
-from ..model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
+from ..model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, Plane, wrap
 from .chain import Chain, find_chain, rot
 from .records import Description, DescriptionError, JointType
 from .sdf_reader import read_sdf
@@ -283,6 +283,8 @@ class _Names:
         self.of: dict[tuple[str, str], str] = {}
         #: a point merged into another at the same place (a compound hinge)
         self.alias: dict[str, str] = {}
+        #: each scene point's depth along the chain's normal (m)
+        self.depths: dict[str, float] = {}
 
     def point(self, raw: str) -> str:
         """The scene point of a joint or closure (after merging coincident pins)."""
@@ -328,6 +330,11 @@ def _scene(
 
     for j in chain.joints:
         pname = names('point', j.name)
+        names.depths[pname] = (
+            chain.depth(j.joint.parent, j.joint.parent_to_joint)
+            if j.revolute
+            else chain.depth(j.joint.child, j.joint.child_to_joint)
+        )
         if j.revolute:
             xy = place(j.parent, j.parent_point)
             points[pname] = [float(xy[0]), float(xy[1])]
@@ -351,6 +358,7 @@ def _scene(
             )
     for c in chain.closures:
         pname = names('point', c.name)
+        names.depths[pname] = chain.depth(c.closure.b.link, c.closure.b.pose)
         xy = place(c.b, c.point_b)
         points[pname] = [float(xy[0]), float(xy[1])]
         members[c.b].append(pname)
@@ -392,6 +400,7 @@ def _scene(
             if all(math.dist(at, points[p]) > 1e-3 * scale for p in members[b]):
                 break
         points[mark] = at
+        names.depths[mark] = names.depths.get(first, 0.0)
         members[b] = [first, mark, *members[b][1:]]
     by_name = {j.name: j for j in chain.joints}
     for a in acts:
@@ -578,7 +587,17 @@ def _joint_map(
                 )
             )
             published.add(tj.name)
-    return JointMap(outputs, inputs, acts)
+    plane = Plane(
+        _vec3(chain.basis[0]),
+        _vec3(chain.basis[1]),
+        _vec3(chain.normal),
+        depths={p: d for p, d in names.depths.items() if p in mech.points},
+    )
+    return JointMap(outputs, inputs, acts, plane)
+
+
+def _vec3(v: np.ndarray) -> tuple[float, float, float]:
+    return float(v[0]), float(v[1]), float(v[2])
 
 
 def _cut_joints(chain: Chain, poses, ref_joints, lname, names, scene_pin) -> list[OutputJoint]:

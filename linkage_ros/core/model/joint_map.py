@@ -68,20 +68,57 @@ def wrap(angle: Any) -> Any:
     return math.remainder(angle, 2.0 * math.pi)
 
 
+@dataclass(frozen=True)
+class Plane:
+    """Where the chain's plane lies in its ground link's 3-D frame: a scene point (x, y) is
+    ``x * e1 + y * e2 + depth * normal`` (m), its depth the pin's along the joint axes."""
+
+    e1: tuple[float, float, float]
+    e2: tuple[float, float, float]
+    normal: tuple[float, float, float]
+    depths: dict[str, float]
+
+    def point_3d(self, name: str, x: float, y: float) -> tuple[float, float, float]:
+        d = self.depths.get(name, 0.0)
+        return (
+            x * self.e1[0] + y * self.e2[0] + d * self.normal[0],
+            x * self.e1[1] + y * self.e2[1] + d * self.normal[1],
+            x * self.e1[2] + y * self.e2[2] + d * self.normal[2],
+        )
+
+    def plane_xy(self, x: float, y: float, z: float) -> tuple[float, float]:
+        """A 3-D point of the ground link's frame, projected into the plane."""
+        return (
+            x * self.e1[0] + y * self.e1[1] + z * self.e1[2],
+            x * self.e2[0] + y * self.e2[1] + z * self.e2[2],
+        )
+
+
 class JointMap:
-    """Scene values <-> the description's joint names and values (see the module docstring)."""
+    """Scene values <-> the description's joint names and values (see the module docstring),
+    and scene points <-> the ground link's 3-D frame (``plane``)."""
 
     def __init__(
         self,
         outputs: Sequence[OutputJoint],
         inputs: Sequence[InputJoint],
         actuated: Sequence[str] = (),
+        plane: Plane | None = None,
     ):
         self.outputs = tuple(outputs)
         self.inputs = {i.name: i for i in inputs}
         self.names = tuple(o.name for o in self.outputs)
         self.actuated = tuple(actuated)
+        self.plane = plane
         self._followers = {i.leader: i for i in inputs if i.leader}
+
+    def point_3d(self, name: str, x: float, y: float) -> tuple[float, float, float]:
+        """Scene point ``name`` at (x, y) in the ground link's 3-D frame (m)."""
+        return (x, y, 0.0) if self.plane is None else self.plane.point_3d(name, x, y)
+
+    def plane_xy(self, x: float, y: float, z: float) -> tuple[float, float]:
+        """A point of the ground link's 3-D frame in the chain's plane (m)."""
+        return (x, y) if self.plane is None else self.plane.plane_xy(x, y, z)
 
     # -- out: a solved result -> the description's joint values --------------------------------
     def positions(self, joints: Mapping[str, Any]) -> list[Any]:
@@ -280,7 +317,16 @@ def joint_map_to_dict(jmap: JointMap) -> dict[str, Any]:
         if i.leader:
             item.update(leader=i.leader, multiplier=i.multiplier, mimic_offset=i.mimic_offset)
         inputs.append(item)
-    return {'actuated': list(jmap.actuated), 'outputs': outputs, 'inputs': inputs}
+    out: dict[str, Any] = {'actuated': list(jmap.actuated), 'outputs': outputs, 'inputs': inputs}
+    if jmap.plane is not None:
+        p = jmap.plane
+        out['plane'] = {
+            'e1': list(p.e1),
+            'e2': list(p.e2),
+            'normal': list(p.normal),
+            'depths': dict(p.depths),
+        }
+    return out
 
 
 def joint_map_from_dict(
@@ -290,8 +336,13 @@ def joint_map_from_dict(
     scene's error naming the key. ``scene_joints``: the scene's joints; ``knowns``: its
     actuators and joints (what an input may stand for)."""
     key = 'joint_coordinates'
-    if not isinstance(data, Mapping) or set(map(str, data)) - {'actuated', 'outputs', 'inputs'}:
-        fail(key, 'must be a mapping of actuated, outputs and inputs', data)
+    if not isinstance(data, Mapping) or set(map(str, data)) - {
+        'actuated',
+        'outputs',
+        'inputs',
+        'plane',
+    }:
+        fail(key, 'must be a mapping of actuated, outputs, inputs and plane', data)
     outputs: list[OutputJoint] = []
     seen: set[str] = set()
     for k, item in enumerate(_list(data.get('outputs'), f'{key}.outputs', fail)):
@@ -355,7 +406,30 @@ def joint_map_from_dict(
     actuated = _list(data.get('actuated'), f'{key}.actuated', fail)
     if not all(isinstance(a, str) and a in seen for a in actuated):
         fail(f'{key}.actuated', 'must name published joints', actuated)
-    return JointMap(outputs, inputs, actuated)
+    return JointMap(outputs, inputs, actuated, _plane(data.get('plane'), f'{key}.plane', fail))
+
+
+def _plane(data: Any, key: str, fail: Any) -> Plane | None:
+    if data is None:
+        return None
+    if not isinstance(data, Mapping) or set(map(str, data)) != {'e1', 'e2', 'normal', 'depths'}:
+        fail(key, 'must map e1, e2, normal (3 numbers each) and depths ({point: m})', data)
+    axes: list[tuple[float, float, float]] = []
+    for k in ('e1', 'e2', 'normal'):
+        v = data[k]
+        if not isinstance(v, list) or len(v) != 3:
+            fail(f'{key}.{k}', 'must be 3 numbers', v)
+        x, y, z = (_num(c, f'{key}.{k}', fail) for c in v)
+        axes.append((x, y, z))
+    depths = data['depths']
+    if not isinstance(depths, Mapping):
+        fail(f'{key}.depths', 'must map point names to m', depths)
+    return Plane(
+        axes[0],
+        axes[1],
+        axes[2],
+        depths={str(n): _num(d, f'{key}.depths', fail) for n, d in depths.items()},
+    )
 
 
 def _list(value: Any, key: str, fail: Any) -> list[Any]:

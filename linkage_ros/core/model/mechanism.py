@@ -113,6 +113,10 @@ class JointCoordinates(Protocol):
 
     def actuated_values(self, inputs: Mapping[str, Any]) -> list[Any]: ...
 
+    def point_3d(self, name: str, x: float, y: float) -> tuple[float, float, float]: ...
+
+    def plane_xy(self, x: float, y: float, z: float) -> tuple[float, float]: ...
+
     def to_scene(
         self, values: Mapping[str, Any], rates: bool = False, command: bool = False
     ) -> dict[str, Any]: ...
@@ -182,6 +186,18 @@ class Mechanism:
         if jc is None:
             return [joints[j] for j in self.joint_names]
         return jc.velocities(joints)
+
+    def point_3d(self, name: str, x: float, y: float) -> tuple[float, float, float]:
+        """Point ``name`` at scene (x, y) in ``frame_id``'s 3-D coordinates (m): z = 0 for a
+        scene file; a description's plane placed in its ground link's frame."""
+        jc = self.joint_coordinates
+        return (x, y, 0.0) if jc is None else jc.point_3d(name, x, y)
+
+    def plane_xy(self, x: float, y: float, z: float) -> tuple[float, float]:
+        """A point of ``frame_id``'s 3-D coordinates in the scene's plane (z ignored for a
+        scene file; projected onto a description's plane)."""
+        jc = self.joint_coordinates
+        return (x, y) if jc is None else jc.plane_xy(x, y, z)
 
     @property
     def output_input_names(self) -> list[str]:

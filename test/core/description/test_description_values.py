@@ -90,3 +90,34 @@ def test_assemble_at_takes_actuated_joints_and_follows_mimics(tmp_path):
     side.write_text(base + 'assemble_at: {robotiq_85_left_inner_knuckle_joint: 0.3}\n')
     with pytest.raises(Exception, match='is not an actuated joint'):
         import_description(str(robotiq), str(side))
+
+
+def test_points_are_placed_in_the_ground_links_3d_frame():
+    """A pin's scene point, put into 3-D (mech.point_3d), is where Pinocchio places that joint
+    (Gepetto's 5-bar moves in the yz plane, its pins 0.1 and 0.15 m deep along x); projecting
+    back (plane_xy) gives the scene point; a scene written by linkage import keeps it."""
+    import numpy as np
+    import pinocchio as pin
+    import yaml
+
+    from linkage_ros.core.model import Scene
+    from linkage_ros.core.model.joint_map import joint_map_to_dict
+    from linkage_ros.core.solver import Solver
+
+    path, closures = FIXTURES['gepetto']
+    imp = import_description(str(path), str(closures))
+    mech = imp.mechanism
+    r = Solver(mech).solve(mech.joint_coordinates.to_scene({'mot1': 0.2, 'mot2': -0.1}))
+    model = pin.buildModelFromXML(path.read_text())
+    data = model.createData()
+    q = pin.neutral(model)
+    for name, value in zip(mech.output_joint_names, mech.output_joints(r.joints)):
+        q[model.joints[model.getJointId(name)].idx_q] = value
+    pin.forwardKinematics(model, data, q)
+    scene = dict(imp.scene, joint_coordinates=joint_map_to_dict(mech.joint_coordinates))
+    again = Scene.from_dict(yaml.safe_load(yaml.safe_dump(scene))).mechanism
+    for name in ('mot1', 'mot2', 'free1', 'free2'):
+        p3 = np.array(mech.point_3d(name, *r.points[name]))
+        assert np.linalg.norm(p3 - data.oMi[model.getJointId(name)].translation) < 1e-12
+        assert np.allclose(mech.plane_xy(*p3), r.points[name], rtol=0, atol=1e-15)
+        assert again.point_3d(name, *r.points[name]) == pytest.approx(tuple(p3), abs=1e-15)
