@@ -380,3 +380,24 @@ def homogeneous(rot, xyz):
     out = np.eye(4)
     out[:3, :3], out[:3, 3] = rot, xyz
     return out
+
+
+def central_difference_rates(solver, values, rates, h):
+    """(joint rates, point velocities) by central differences of two position solves."""
+    plus = solver.solve({a: values[a] + h * rates[a] for a in values}, commit=False)
+    minus = solver.solve({a: values[a] - h * rates[a] for a in values}, commit=False)
+    assert plus.success and minus.success
+    joints = {
+        j: math.remainder(plus.joints[j] - minus.joints[j], 2 * math.pi) / (2 * h)
+        if j in {r.name for r in solver.mech.revolutes}
+        else (plus.joints[j] - minus.joints[j]) / (2 * h)
+        for j in plus.joints
+    }
+    points = {
+        p: (
+            (plus.points[p][0] - minus.points[p][0]) / (2 * h),
+            (plus.points[p][1] - minus.points[p][1]) / (2 * h),
+        )
+        for p in plus.points
+    }
+    return joints, points

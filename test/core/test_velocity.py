@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 import scenes
+from oracles import central_difference_rates
 
 from linkage_ros.core.analysis import fourbar_toggle_angles
 from linkage_ros.core.model import AngleActuator
@@ -17,27 +18,6 @@ from linkage_ros.core.velocity import velocities
 from linkage_ros.engine import Engine, EngineSettings
 
 SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
-
-
-def _central(solver, values, rates, h):
-    """(joint rates, point velocities) by central differences of two position solves."""
-    plus = solver.solve({a: values[a] + h * rates[a] for a in values}, commit=False)
-    minus = solver.solve({a: values[a] - h * rates[a] for a in values}, commit=False)
-    assert plus.success and minus.success
-    joints = {
-        j: math.remainder(plus.joints[j] - minus.joints[j], 2 * math.pi) / (2 * h)
-        if j in {r.name for r in solver.mech.revolutes}
-        else (plus.joints[j] - minus.joints[j]) / (2 * h)
-        for j in plus.joints
-    }
-    points = {
-        p: (
-            (plus.points[p][0] - minus.points[p][0]) / (2 * h),
-            (plus.points[p][1] - minus.points[p][1]) / (2 * h),
-        )
-        for p in plus.points
-    }
-    return joints, points
 
 
 @pytest.mark.parametrize('stem', SHIPPED)
@@ -65,7 +45,7 @@ def test_velocities_match_central_differences(stem):
         }
         vel = velocities(solver, result, values, rates)
         assert vel.success, vel.reason
-        fd_joints, fd_points = _central(solver, values, rates, 1e-6)
+        fd_joints, fd_points = central_difference_rates(solver, values, rates, 1e-6)
         scale = max(1.0, max(abs(v) for v in vel.joints.values()))
         for j in mech.joint_names:
             unit = L if j in mech.prismatics else 1.0
@@ -117,7 +97,7 @@ def test_velocity_grows_without_bound_near_a_toggle_and_stays_exact():
         speed = abs(vel.links['rocker']) + abs(vel.links['coupler'])
         assert speed > last_speed and vel.cond > last_cond
         # like 1 / sqrt(delta): exact against differences far smaller than the distance
-        fd, _ = _central(solver, {'crank': theta}, {'crank': 1.0}, delta * 1e-3)
+        fd, _ = central_difference_rates(solver, {'crank': theta}, {'crank': 1.0}, delta * 1e-3)
         for j in mech.joint_names:
             assert vel.joints[j] == pytest.approx(fd[j], rel=1e-4, abs=1e-9)
         last_speed, last_cond = speed, vel.cond

@@ -12,7 +12,7 @@ from ..plan import (
     run_one,
 )
 from ..quantities import AngleSpec, PointSpec
-from .result import CLOSURE_LIMIT, NEAR_SINGULAR_COND, WALK_BUDGET, branch_text
+from .result import CLOSURE_LIMIT, NEAR_SINGULAR_COND, WALK_BUDGET, branch_text, dyad_reason
 
 
 class NewtonPath:
@@ -28,11 +28,8 @@ class NewtonPath:
             return None, None
         run = run_one(self.full_plan, vals, None, None)
         if not run.ok:
-            st = self.full_plan.steps[run.failure]
-            miss, L = run.violation, self.mech.length_scale
-            return None, (
-                f'cannot assemble: {st.describe(self.full_plan)} does not close; the '
-                f'constraint misses by {miss:.6g} m ({miss / L:.3g} of the length scale)'
+            return None, dyad_reason(
+                self.full_plan, run.failure, run.violation, self.mech.length_scale
             )
         keep = ScalarPoses()
         for l in self.closed_links + [self.mech.ground]:

@@ -176,6 +176,16 @@ class _Prediction(collections.abc.Mapping):
         return len(self._last.points) + len(self._last.poses.phi)
 
 
+def dyad_reason(plan: Any, k: int, violation: float, length_scale: float) -> str:
+    """Why a solve is refused where step ``k`` of ``plan`` (a dyad) does not close by
+    ``violation`` (m): the one wording of the closed form, the hybrid and the batch."""
+    what = plan.steps[k].describe(plan)
+    return (
+        f'cannot assemble: {what} does not close; the constraint misses by '
+        f'{violation:.6g} m ({violation / length_scale:.3g} of the length scale)'
+    )
+
+
 def branch_signs(text: str) -> tuple[int, ...]:
     """Branch text as signs: (+1, -1) for '+-' (the inverse of :func:`branch_text`)."""
     return tuple(1 if c == '+' else -1 for c in text)

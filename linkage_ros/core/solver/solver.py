@@ -52,6 +52,7 @@ from .result import (
     branch_identity_defined,
     branch_signs,
     branch_text,
+    dyad_reason,
 )
 
 #: the condition number of an inverse solve's equations at the reference pose above which its
@@ -501,12 +502,7 @@ class Solver(NewtonPath, BatchAPI, ConfigurationReading):
         return res, self._state(vals, run.poses, run.points, run.signs, margins=run.margins)
 
     def _dyad_reason(self, k, violation):
-        st = self.plan.steps[k]
-        what = st.describe(self.plan)
-        return (
-            f'cannot assemble: {what} does not close; the constraint misses by '
-            f'{violation:.6g} m ({violation / self.mech.length_scale:.3g} of the length scale)'
-        )
+        return dyad_reason(self.plan, k, violation, self.mech.length_scale)
 
     # -- result assembly ---------------------------------------------------------------------
     def _assembler(self, placed: Iterable[str]) -> ResultAssembler:

@@ -288,7 +288,7 @@ def doc_scene(name):
 
 @pytest.mark.parametrize('name', ['slotted_lever', 'roller_follower', 'four_bar_dimensioned'])
 def test_velocities_of_the_new_joints_match_central_differences(name):
-    from test_velocity import _central
+    from oracles import central_difference_rates as _central
 
     from linkage_ros.core.velocity import velocities
 
