@@ -543,6 +543,16 @@ def _distance(a: Result | None, b: Result) -> float:
 # ---- request checks and status fields (every front end) ----------------------------------------
 
 
+def name_count_error(count: int, max_names: int) -> str | None:
+    """Why a request with ``count`` names is refused before any per-name work, or None."""
+    if count <= max_names:
+        return None
+    return (
+        f'JointState has {count} name(s); the scene has only {max_names} names '
+        '(actuators, joints, links, and points as <point>.x and <point>.y) to give values for'
+    )
+
+
 def request_shape_error(
     names: Sequence[str], npos: int, max_names: int | None = None
 ) -> str | None:
@@ -554,11 +564,9 @@ def request_shape_error(
     (:func:`max_request_names`): more names than that are refused first, before any per-name
     work, so a 10^5-name message costs what a short one does.
     """
-    if max_names is not None and len(names) > max_names:
-        return (
-            f'JointState has {len(names)} name(s); the scene has only {max_names} names '
-            '(actuators, joints, links, and points as <point>.x and <point>.y) to give values for'
-        )
+    too_many = None if max_names is None else name_count_error(len(names), max_names)
+    if too_many:
+        return too_many
     names = list(names)
     if not names and not npos:
         return 'empty JointState: name and position are both empty'

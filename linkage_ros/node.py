@@ -19,6 +19,7 @@ answered by exactly one ERROR status and changes nothing; the node keeps the las
 from __future__ import annotations
 
 import dataclasses
+import functools
 import gc
 import math
 import signal
@@ -58,7 +59,7 @@ from .core.model import Mechanism, Scene
 from .core.solver import Result
 from .core.solver.modes import reference_toggle_warnings
 from .demo import DemoSweep
-from .engine import Engine, max_request_names, request_shape_error
+from .engine import Engine, max_request_names, name_count_error
 from .params import (
     DEMO_RATE_MAX,
     DEMO_RATE_MIN,
@@ -311,7 +312,7 @@ class LinkageNode(Node):
                 self.create_subscription(
                     PointStamped,
                     f'~/target_point/{p}',
-                    lambda msg, p=p: self._on_target_point(p, msg),
+                    functools.partial(self._on_target_point, p),
                     qos,
                     event_callbacks=quiet_sub,
                 )
@@ -322,7 +323,7 @@ class LinkageNode(Node):
                 self.create_subscription(
                     PoseStamped,
                     f'~/target_pose/{link}',
-                    lambda msg, link=link: self._on_target_pose(link, msg),
+                    functools.partial(self._on_target_pose, link),
                     qos,
                     event_callbacks=quiet_sub,
                 )
@@ -332,7 +333,7 @@ class LinkageNode(Node):
                 self.create_subscription(
                     Path,
                     f'~/target_path/{p}',
-                    lambda msg, p=p: self._on_target_path(p, msg),
+                    functools.partial(self._on_target_path, p),
                     qos,
                     event_callbacks=quiet_sub,
                 )
@@ -545,10 +546,20 @@ class LinkageNode(Node):
         self._answer(
             'command',
             msg.header.stamp,
-            lambda: self.engine.command(
+            lambda: self._served_engine().command(
                 joint_state_to_command(msg, self.max_names), joint_state_rates(msg)
             ),
         )
+
+    def _served_engine(self) -> Engine:
+        """The engine being served: request callbacks exist only while one is (and _answer
+        refuses while waiting for a robot description)."""
+        assert self.engine is not None
+        return self.engine
+
+    def _served_mech(self) -> Mechanism:
+        assert self.mech is not None
+        return self.mech
 
     def _on_target(self, raw: bytes):
         self._on_raw_target('target', raw, False)
@@ -564,7 +575,7 @@ class LinkageNode(Node):
         peek = joint_state_peek(raw)
         if peek is not None and peek[2] > self.max_names:
             sec, nanosec, count = peek
-            why = request_shape_error(range(count), count, self.max_names)
+            why = name_count_error(count, self.max_names)
             self._answer(request, Time(sec=sec, nanosec=nanosec), lambda: Result(False, why))
             return
         try:
@@ -576,7 +587,7 @@ class LinkageNode(Node):
         self._answer(
             request,
             msg.header.stamp,
-            lambda: self.engine.target(
+            lambda: self._served_engine().target(
                 joint_state_to_command(msg, self.max_names), allow_mode_change=any_mode
             ),
         )
@@ -587,14 +598,17 @@ class LinkageNode(Node):
             if foreign:
                 return Result(False, foreign)
             x, y, yaw = pose_to_xy_yaw(msg, link)
-            return self.engine.target(pose_target(self.mech, link, (x, y), yaw))
+            mech = self._served_mech()
+            return self._served_engine().target(pose_target(mech, link, (x, y), yaw))
 
         self._answer(f'target_pose/{link}', msg.header.stamp, solve)
 
     def _on_trajectory(self, msg):
         """~/trajectory: every point solved, answered on ~/solved_trajectory and one status."""
         self._answer_trajectory(
-            'trajectory', msg.header.stamp, lambda: answer_trajectory_msg(self.engine, msg)
+            'trajectory',
+            msg.header.stamp,
+            lambda: answer_trajectory_msg(self._served_engine(), msg),
         )
 
     def _on_target_path(self, point: str, msg):
@@ -602,7 +616,7 @@ class LinkageNode(Node):
         self._answer_trajectory(
             f'target_path/{point}',
             msg.header.stamp,
-            lambda: answer_path_msg(self.engine, point, msg, self.frame_id),
+            lambda: answer_path_msg(self._served_engine(), point, msg, self.frame_id),
         )
 
     def _answer_trajectory(self, request: str, stamp, solve) -> None:
@@ -633,7 +647,8 @@ class LinkageNode(Node):
             foreign = frame_error(f'target point {point!r}', msg.header.frame_id, self.frame_id)
             if foreign:
                 return Result(False, foreign)
-            return self.engine.target_point(point, point_stamped_to_xy(msg, point, self.mech))
+            xy = point_stamped_to_xy(msg, point, self._served_mech())
+            return self._served_engine().target_point(point, xy)
 
         self._answer(f'target_point/{point}', msg.header.stamp, solve)
 
@@ -685,9 +700,10 @@ class LinkageNode(Node):
             )
 
     def _start_demo(self):
-        first = next(iter(self.mech.actuators))
-        start = self.engine.last.inputs[first] if self.engine.last else 0.0
-        self._demo = DemoSweep(self.mech, first, start)
+        mech, last = self._served_mech(), self._served_engine().last
+        first = next(iter(mech.actuators))
+        start = last.inputs[first] if last else 0.0
+        self._demo = DemoSweep(mech, first, start)
         self._demo_failures = 0
         self._demo_timer = self.create_timer(1.0 / self.config.demo_rate, self._on_demo)
         self.get_logger().info(f'demo sweep of {first!r} at {self.config.demo_rate:g} Hz')
@@ -698,15 +714,16 @@ class LinkageNode(Node):
             self._demo_timer = None
 
     def _on_demo(self):
-        demo = self._demo
-        last = self.engine.last
-        values = dict(last.inputs) if last else {a: 0.0 for a in self.mech.actuators}
+        demo, engine, mech = self._demo, self._served_engine(), self._served_mech()
+        assert demo is not None  # the timer runs only with a demo
+        last = engine.last
+        values = dict(last.inputs) if last else {a: 0.0 for a in mech.actuators}
         values[demo.name] = demo.next()
-        result = self._answer('demo', Time(), lambda: self.engine.command(values))
+        result = self._answer('demo', Time(), lambda: engine.command(values))
         if result.success:
             self._demo_failures = 0
             self.get_logger().info(
-                format_joints(result, self.mech.joint_names, list(self.mech.actuators)),
+                format_joints(result, mech.joint_names, list(mech.actuators)),
                 throttle_duration_sec=0.5,
             )
         else:
