@@ -31,6 +31,10 @@ from .spec import Spec
 # ---- bodies ----------------------------------------------------------------------------------
 
 
+#: the steps that place a whole body (its pose, so every point it carries)
+_PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
+
+
 @dataclass
 class Weld:
     """How member ``link`` is placed from ``via`` (already placed) in its body's weld tree."""
@@ -131,7 +135,8 @@ class Plan:
                 edges.append((pj.guide, pj.slider, i, None))
         for pj in mech.prismatics.values():
             if not any(
-                isinstance(sp := self.specs[e[2]], SlideSpec) and sp.joint == pj.name for e in edges
+                isinstance(slide := self.specs[e[2]], SlideSpec) and slide.joint == pj.name
+                for e in edges
             ):
                 self.relations.append((pj.guide, pj.slider, None))  # orientation lock
         for a, b, i, _ in edges:
@@ -382,7 +387,7 @@ class Plan:
         for k in range(len(self.steps_all) - 1, -1, -1):
             st = self.steps_all[k]
             gives = set(st.gives)
-            if st.op in (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR):
+            if st.body is not None and st.op in _PLACES_BODY:
                 gives |= {('pt', p) for p in self.bodies[st.body].points}
             if st.op == StepKind.RPR:
                 gives.add(('angle', st.body))
@@ -397,11 +402,7 @@ class Plan:
         self.missing = sorted(need)
         self.steps = [s for s, k in zip(self.steps_all, keep) if k]
         self.complete = not self.missing
-        placed = {
-            s.body
-            for s in self.steps
-            if s.op in (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
-        }
+        placed = {s.body for s in self.steps if s.body is not None and s.op in _PLACES_BODY}
         self.placed_links = [l for b in sorted(placed) for l in self.bodies[b].links]
         self.branch_steps = [s for s in self.steps if s.branching]
         #: the branch sign of each branching step in the reference pose
