@@ -143,7 +143,8 @@ def pose_to_xy_yaw(msg: PoseStamped, name: str = '') -> tuple[float, float, floa
     bad = [f'{k} = {v}' for k, v in values if not math.isfinite(v)]
     if bad:
         raise CommandError(f'{head}{", ".join(bad)} is not finite')
-    norm = math.sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w)
+    # hypot: the squares of a quaternion scaled by 1e300 overflow (it was read as yaw 0)
+    norm = math.hypot(q.x, q.y, q.z, q.w)
     if not norm > 1e-9:
         raise CommandError(f'{head}the orientation quaternion is zero (give w = 1 for yaw 0)')
     qx, qy, qz, qw = q.x / norm, q.y / norm, q.z / norm, q.w / norm

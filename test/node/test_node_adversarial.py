@@ -963,3 +963,20 @@ def test_prefix_names_the_joints_and_hardware_id_the_scene(serve):
     assert list(s.joints.last.name) == ['left_' + j for j in s.mech.joint_names]
     with pytest.raises(ConfigError, match="'prefix': must be a string without whitespace"):
         make_config({'prefix': 'left arm'})
+
+
+def test_a_huge_quaternion_is_normalised_without_overflow():
+    """(1e300, 0, 0, 1e300) is a rotation about x by 90 deg: refused as not planar. Its squares
+    overflowed, the normalised quaternion became 0 and the pose was read as yaw 0."""
+    from geometry_msgs.msg import PoseStamped
+
+    from linkage_ros.conversions import pose_to_xy_yaw
+    from linkage_ros.core.errors import CommandError
+
+    msg = PoseStamped()
+    q = msg.pose.orientation
+    q.x, q.y, q.z, q.w = 1e300, 0.0, 0.0, 1e300
+    with pytest.raises(CommandError, match='not a rotation about z'):
+        pose_to_xy_yaw(msg, 'bucket')
+    q.x, q.z, q.w = 0.0, 1e300, 1e300  # yaw 90 deg, scaled
+    assert pose_to_xy_yaw(msg, 'bucket')[2] == pytest.approx(math.pi / 2, abs=1e-15)
