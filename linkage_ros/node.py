@@ -608,7 +608,7 @@ class LinkageNode(Node):
         self._answer_trajectory(
             'trajectory',
             msg.header.stamp,
-            lambda: answer_trajectory_msg(self._served_engine(), msg),
+            lambda: answer_trajectory_msg(self._served_engine(), msg, self.frame_id),
         )
 
     def _on_target_path(self, point: str, msg):

@@ -294,13 +294,21 @@ def path_targets(
     return [{f'{point}.x': x, f'{point}.y': y, **held} for x, y in xy]
 
 
-def answer_trajectory_msg(engine: Engine, msg: Any) -> tuple[TrajectoryAnswer, list[int]]:
+def answer_trajectory_msg(
+    engine: Engine, msg: Any, frame_id: str | None = None
+) -> tuple[TrajectoryAnswer, list[int]]:
     """A trajectory_msgs/JointTrajectory (any message with its fields) solved: the answer and
-    each point's time_from_start (ns)."""
+    each point's time_from_start (ns). With ``frame_id`` (the node's), a trajectory of point
+    coordinates (``<point>.x``) stamped in another frame is refused, as a path is."""
     try:
         names, positions, velocities, times = joint_trajectory_request(msg)
     except CommandError as exc:
         return TrajectoryAnswer(False, str(exc)), []
+    given = msg.header.frame_id
+    if frame_id is not None and given and any('.' in n for n in names):
+        foreign = frame_error('trajectory of point coordinates', given, frame_id)
+        if foreign:
+            return TrajectoryAnswer(False, str(foreign)), times
     return solve_trajectory(engine, names, positions, velocities, times), times
 
 

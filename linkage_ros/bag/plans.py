@@ -120,7 +120,7 @@ def answer_plan(engine: Engine, req: PlanRequest, frame_id: str) -> None:
     if bad:
         req.answer, req.times_ns = TrajectoryAnswer(False, bad), []
     elif req.request == 'trajectory':
-        req.answer, req.times_ns = answer_trajectory_msg(engine, req.msg)
+        req.answer, req.times_ns = answer_trajectory_msg(engine, req.msg, frame_id)
     else:
         point = req.request.split('/', 1)[1]
         req.answer, req.times_ns = answer_path_msg(engine, point, req.msg, frame_id)

@@ -121,3 +121,29 @@ def test_bad_trajectories_get_one_clear_reason_and_change_nothing(
     assert not ans.success and why in ans.reason, ans.reason
     assert ans.failed_index == index
     assert e.last is before
+
+
+def test_a_trajectory_of_point_coordinates_in_another_frame_is_refused():
+    """As a path is: the node has no tf lookup. Joint and actuator values have no frame."""
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from linkage_ros.engine import Engine, EngineSettings
+    from linkage_ros.trajectory import answer_trajectory_msg
+
+    mech = load('four_bar')
+    engine = Engine(mech, EngineSettings())
+
+    def trajectory(names, values, frame):
+        msg = JointTrajectory(joint_names=names)
+        msg.header.frame_id = frame
+        msg.points = [
+            JointTrajectoryPoint(positions=[v], time_from_start=Duration(sec=k + 1))
+            for k, v in enumerate(values)
+        ]
+        return msg
+
+    answer, _ = answer_trajectory_msg(engine, trajectory(['P.x'], [0.1], 'map'), 'base_link')
+    assert not answer.success and "in frame 'map'" in answer.reason
+    answer, _ = answer_trajectory_msg(engine, trajectory(['crank'], [0.1, 0.2], 'map'), 'base_link')
+    assert answer.success, answer.reason
