@@ -257,14 +257,9 @@ class Engine:
             return Result(False, held)
         if rates is not None and held:
             rates = {**rates, **{a: 0.0 for a in held}}
-        if rates is not None:
-            bad = [n for n, v in rates.items() if not math.isfinite(v)]
-            if bad:
-                return Result(
-                    False,
-                    f'velocity of {echo(bad)} is not finite: give finite rates (rad/s, m/s) '
-                    'for every name, or no velocity at all',
-                )
+        bad_rates = rates_error(rates)
+        if bad_rates:
+            return Result(False, bad_rates)
         result = self.solve(self.forward, values)
         if rates is not None and result.success:
             result.velocity = velocities(self.forward, result, values, rates)
@@ -541,6 +536,18 @@ def _distance(a: Result | None, b: Result) -> float:
 
 
 # ---- request checks and status fields (every front end) ----------------------------------------
+
+
+def rates_error(rates: Mapping[str, float] | None) -> str | None:
+    """Why a request's velocities cannot be used (one not finite), or None: the one rule of
+    commands and of forward and inverse trajectories."""
+    bad = [] if rates is None else [n for n, v in rates.items() if not math.isfinite(v)]
+    if not bad:
+        return None
+    return (
+        f'velocity of {echo(bad)} is not finite: give finite rates (rad/s, m/s) for every '
+        'name, or no velocity at all'
+    )
 
 
 def name_count_error(count: int, max_names: int) -> str | None:

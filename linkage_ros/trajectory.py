@@ -22,7 +22,7 @@ from .core.model import Mechanism
 from .core.solver import Result
 from .core.solver.result import branch_text
 from .core.velocity import velocities
-from .engine import Engine, _mode_differs, max_request_names, request_shape_error
+from .engine import Engine, _mode_differs, max_request_names, rates_error, request_shape_error
 from .point_coordinates import group_point_coordinates
 from .stamps import frame_error
 
@@ -229,6 +229,9 @@ def solve_trajectory(
             values: dict[str, Any] = dict(zip(names, (float(v) for v in row)))
             vel = velocities[i] if i < len(velocities) else ()
             rates = dict(zip(names, (float(v) for v in vel))) if len(vel) else None
+            bad_rates = rates_error(rates)
+            if bad_rates:  # as a command refuses them: forward and inverse alike
+                return _refused(f'point {i}: {bad_rates}', i)
             if forward:
                 r = engine.command(values, rates)
             else:

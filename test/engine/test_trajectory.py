@@ -106,6 +106,8 @@ def test_a_bin_path_comes_back_as_throws_that_reproduce_it():
         (['crank'], [[0.1], [0.2], [0.3]], (), [0, 5, 5], 'point 2: time_from_start', 2),
         (['crank'], [[0.1], [math.nan]], (), [0, 1], 'point 1: crank: value must be finite', 1),
         (['crank'], [[0.1], [0.2]], [[0.0], [math.inf]], [0, 1], 'point 1: velocity', 1),
+        # an inverse trajectory refuses a NaN velocity as a forward one does (it was dropped)
+        (['rocker'], [[1.9], [1.91]], [[0.0], [math.nan]], [0, 1], 'point 1: velocity', 1),
         (['crank', 'crank'], [[0.1, 0.1]], (), [0], 'more than once', None),
         (['wrench'], [[0.1]], (), [0], "point 0: unknown name 'wrench'", 0),
     ],
