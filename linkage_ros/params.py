@@ -13,7 +13,7 @@ from typing import Any
 from .core.errors import PlanError
 from .core.loading import load_scene
 from .core.model import Scene
-from .core.model.dimensions import parse_assignment
+from .core.model.dimensions import overrides, parse_assignment
 from .core.solver import METHODS
 from .core.urdf import PREFIX_RULE, prefix_error
 from .engine import ConfigError, Engine, EngineSettings, fail_setting
@@ -367,6 +367,10 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
             parsed.append(parse_assignment(item))
         except ValueError as exc:
             fail_setting('dimensions', str(exc), item)
+    try:
+        overrides(parsed)
+    except ValueError as exc:
+        fail_setting('dimensions', str(exc), list(dims))
     closures, actuated, description, description_topic = _description_settings(v)
     joint_states_in = check_topic('joint_states_in', v['joint_states_in'])
     path = scene_path(scene)

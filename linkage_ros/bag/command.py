@@ -10,7 +10,13 @@ import time
 from collections.abc import Sequence
 from pathlib import Path
 
-from ..cli.common import add_scene_argument, description_options_error, print_notes
+from ..cli.common import (
+    UsageError,
+    add_scene_argument,
+    description_options_error,
+    dimension_overrides,
+    print_notes,
+)
 from ..core.errors import LinkageError
 from .bag_out import write_bag
 from .common import BagError
@@ -144,7 +150,7 @@ def run(args: argparse.Namespace) -> int:
     """Run ``linkage bag``; returns the exit status (0 done, 2 unusable input or options)."""
     try:
         return _run(args)
-    except (BagError, LinkageError) as exc:
+    except (BagError, LinkageError, UsageError) as exc:
         print(f'linkage bag: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
 
@@ -158,7 +164,9 @@ def _run(args) -> int:
     why = description_options_error(path, args.closures, args.actuated)
     if why:
         raise BagError(why)
-    scene = load_scene(path, dict(args.dimension) or None, args.closures, args.actuated or None)
+    scene = load_scene(
+        path, dimension_overrides(args.dimension), args.closures, args.actuated or None
+    )
     mech = scene.mechanism
     print_notes(scene.notes)
     outs = _check_outputs(args.out, args.plot)

@@ -170,6 +170,16 @@ def dimension_argument(text: str) -> tuple[str, float]:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def dimension_overrides(pairs: Sequence[tuple[str, float]]) -> dict[str, float] | None:
+    """The --dimension options as a mapping; a name given twice is a usage error."""
+    from ..core.model.dimensions import overrides
+
+    try:
+        return overrides(pairs)
+    except ValueError as exc:
+        raise UsageError(f'--dimension: {exc}') from None
+
+
 def add_scene_argument(p: argparse.ArgumentParser, flag: bool = False) -> None:
     """SCENE (or --scene), the repeatable --dimension NAME=VALUE that overrides its stated
     dimensions by name, and the robot description's --closures FILE and --actuated NAME."""
@@ -257,13 +267,13 @@ def load_scene_file(
     if not (closures or actuated or str(path).lower().endswith(DESCRIPTION_SUFFIXES)):
         from ..core.model import Scene  # a scene file: the description readers stay unloaded
 
-        return Scene.from_yaml(path, dict(dimensions) or None)
+        return Scene.from_yaml(path, dimension_overrides(dimensions))
     from ..core.loading import load_scene
 
     why = description_options_error(str(path), closures, actuated)
     if why:
         raise UsageError(why)
-    return load_scene(str(path), dict(dimensions) or None, closures, list(actuated) or None)
+    return load_scene(str(path), dimension_overrides(dimensions), closures, list(actuated) or None)
 
 
 def print_notes(notes: Sequence[str]) -> None:

@@ -35,6 +35,7 @@ from .common import (
     UsageError,
     add_description_arguments,
     dimension_argument,
+    dimension_overrides,
     print_notes,
     write_text_output,
 )
@@ -85,7 +86,10 @@ def scene_text(
     if not Path(description).exists():
         raise UsageError(f'{description}: robot description not found')
     imported = import_description(
-        description, closures, list(actuated) or None, dimensions=dict(dimensions) or None
+        description,
+        closures,
+        list(actuated) or None,
+        dimensions=dimension_overrides(dimensions),
     )
     data: dict[str, Any] = dict(imported.scene)
     data['joint_coordinates'] = joint_map_to_dict(imported.joint_map)

@@ -513,3 +513,14 @@ def test_linkage_urdf_refuses_a_description_naming_the_description_itself(capsys
     lines = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and all(line.startswith('note: ') for line in lines[:-1])
     assert 'give robot_state_publisher that description itself' in lines[-1]
+
+
+def test_a_dimension_given_twice_or_with_an_underscore_is_refused(capsys):
+    """--dimension NAME twice kept the last silently; 1_0 read as 10 m."""
+    twice = ['--dimension', 'crank.O2-A=0.1', '--dimension', 'crank.O2-A=0.2']
+    code = main(['solve', 'four_bar', '--set', 'crank=0.3', *twice])
+    err = capsys.readouterr().err
+    assert code == 2 and 'crank.O2-A is given twice' in err
+    code = main(['solve', 'four_bar', '--set', 'crank=0.3', '--dimension', 'crank.O2-A=1_0'])
+    err = capsys.readouterr().err
+    assert code == 2 and "'1_0' is not a number" in err

@@ -611,3 +611,10 @@ def test_explicit_branch_signs_for_a_plan_without_branching_dyads_say_so():
     with pytest.raises(PlanError) as err:  # with dyads: they are listed
         Solver(mech, knowns=['crank'], branch='+-')
     assert '1 branching dyad(s): ' in str(err.value)
+
+
+def test_the_node_refuses_a_dimension_given_twice():
+    from linkage_ros.params import ConfigError, make_config
+
+    with pytest.raises(ConfigError, match="'dimensions'.*given twice"):
+        make_config({'dimensions': ['crank.O2-A=0.1', 'crank.O2-A=0.2']})

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -84,10 +84,25 @@ def parse_assignment(text: str) -> tuple[str, float]:
     if not sep or not name:
         raise ValueError(f'{echo(text)} is not NAME=VALUE (e.g. crank.O2-A=0.016)')
     try:
+        if '_' in raw:  # float() reads 1_0 as 10: a typo for 1.0 or 10 must not pass
+            raise ValueError
         value = float(raw)
     except ValueError:
         raise ValueError(f'{name}: {echo(raw.strip())} is not a number (m)') from None
     return name, value
+
+
+def overrides(pairs: Sequence[tuple[str, float]]) -> dict[str, float] | None:
+    """NAME=VALUE overrides as a mapping (None for none); ValueError for a name given twice
+    (the later would silently win)."""
+    out: dict[str, float] = {}
+    for name, value in pairs:
+        if name in out:
+            raise ValueError(
+                f'dimension {name} is given twice ({out[name]:g} and {value:g}): give it once'
+            )
+        out[name] = value
+    return out or None
 
 
 def merge(source: str, stated: object, overrides: Mapping[str, float] | None) -> dict[str, float]:
