@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..dyads import circle_circle
-from ..errors import echo
+from ..errors import SceneError, echo
 from .actuators import _limits, _read_actuators
 from .checks import TOP_KEYS, _Ctx
 from .constraints import expand_constraints
@@ -137,7 +137,13 @@ def _with_dimensions(
     if not dims:
         return drawn
     if drawn.form in SHORTCUT_KEYS:
-        mech = build_mechanism(apply_to_shortcut(ctx.source, drawn.form, plain, dims), ctx.source)
+        try:
+            mech = build_mechanism(
+                apply_to_shortcut(ctx.source, drawn.form, plain, dims), ctx.source
+            )
+        except SceneError as exc:  # the drawn scene loads: the stated dimensions are why
+            stated = ', '.join(f'{k}={v:.12g}' for k, v in dims.items())
+            raise SceneError(f'{exc} (with the dimensions {stated})') from None
         mech.stated = dict(dims)
         return mech
     new = redraw(drawn, dims)

@@ -15,6 +15,7 @@ import math
 import numpy as np
 import oracles
 import pytest
+import scenes
 
 from linkage_ros.cli import main as cli_main
 from linkage_ros.core.errors import SceneError
@@ -346,3 +347,13 @@ def test_every_scene_command_takes_dimension(capsys, tmp_path):
     with contextlib.suppress(SystemExit):  # argparse's --help exits
         cli_main(['bag', '--help'])
     assert '--dimension NAME=VALUE' in capsys.readouterr().out
+
+
+def test_a_shortcut_that_cannot_assemble_with_its_dimensions_names_them():
+    """An override of 1e308 m made the four-bar unassemblable, and the refusal blamed
+    four_bar.input alone: it names the dimensions now."""
+    from linkage_ros.core.errors import SceneError
+    from linkage_ros.core.model import Scene
+
+    with pytest.raises(SceneError, match=r'with the dimensions crank\.O2-A=1e\+308'):
+        Scene.from_yaml(scenes.CONFIG / 'four_bar.yaml', {'crank.O2-A': 1e308})
