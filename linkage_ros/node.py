@@ -465,6 +465,15 @@ class LinkageNode(Node):
         old = cfg = self.config
         try:
             for p in params:
+                if p.name == 'use_sim_time' and p.value != self.get_parameter(p.name).value:
+                    # the node's timers (republication, markers, /diagnostics, the demo) run
+                    # on its clock: switched at runtime they would stop until /clock arrives
+                    fail_setting(
+                        'use_sim_time',
+                        'can only be set at start-up (--ros-args -p use_sim_time:=true): '
+                        "switched at runtime, the node's timers would stop without a word",
+                        p.value,
+                    )
                 if p.name == 'demo_sweep':
                     if not isinstance(p.value, bool):
                         fail_setting('demo_sweep', 'must be true or false', p.value)

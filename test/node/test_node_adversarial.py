@@ -980,3 +980,17 @@ def test_a_huge_quaternion_is_normalised_without_overflow():
         pose_to_xy_yaw(msg, 'bucket')
     q.x, q.z, q.w = 0.0, 1e300, 1e300  # yaw 90 deg, scaled
     assert pose_to_xy_yaw(msg, 'bucket')[2] == pytest.approx(math.pi / 2, abs=1e-15)
+
+
+def test_use_sim_time_cannot_be_switched_at_runtime(ros):
+    """Switched at runtime it stopped every timer (republication, markers, /diagnostics)
+    without a word: refused, naming the start-up way."""
+    from rclpy.parameter import Parameter as RclpyParameter
+
+    node = LinkageNode(context=ros.context)
+    try:
+        (r,) = node.set_parameters([RclpyParameter('use_sim_time', value=True)])
+        assert not r.successful and 'only be set at start-up' in r.reason
+        assert node.get_parameter('use_sim_time').value is False
+    finally:
+        node.destroy_node()
