@@ -102,6 +102,18 @@ def joint_trajectory_request(
         raise CommandError(_too_many('trajectory', len(msg.points), 'points'))
     names = list(msg.joint_names)
     pts = msg.points
+    # accelerations and effort are not used (kinematics only), but a malformed one is a broken
+    # request, refused as a malformed velocity is rather than ignored without a word
+    for i, p in enumerate(pts):
+        for what in ('accelerations', 'effort'):
+            got = getattr(p, what, ())
+            if len(got) and len(got) != len(names):
+                raise CommandError(
+                    f'point {i} has {len(got)} {what} for {len(names)} joint_names: give one '
+                    f'per name or none ({what} are not used: kinematics only)'
+                )
+            if len(got) and not all(math.isfinite(float(v)) for v in got):
+                raise CommandError(f'point {i}: {what} are not all finite')
     return (
         names,
         [p.positions for p in pts],

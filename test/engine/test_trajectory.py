@@ -149,3 +149,29 @@ def test_a_trajectory_of_point_coordinates_in_another_frame_is_refused():
     assert not answer.success and "in frame 'map'" in answer.reason
     answer, _ = answer_trajectory_msg(engine, trajectory(['crank'], [0.1, 0.2], 'map'), 'base_link')
     assert answer.success, answer.reason
+
+
+def test_malformed_accelerations_or_effort_are_refused_not_ignored():
+    from builtin_interfaces.msg import Duration
+    from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+    from linkage_ros.engine import Engine, EngineSettings
+    from linkage_ros.trajectory import answer_trajectory_msg
+
+    engine = Engine(load('four_bar'), EngineSettings())
+    for field, values, why in (
+        ('accelerations', [0.0, 1.0], 'has 2 accelerations for 1 joint_names'),
+        ('effort', [math.nan], 'effort are not all finite'),
+    ):
+        point = JointTrajectoryPoint(positions=[0.2], time_from_start=Duration(sec=1))
+        setattr(point, field, values)
+        answer, _ = answer_trajectory_msg(
+            engine, JointTrajectory(joint_names=['crank'], points=[point])
+        )
+        assert not answer.success and why in answer.reason, answer.reason
+    point = JointTrajectoryPoint(positions=[0.2], time_from_start=Duration(sec=1))
+    point.accelerations = [0.5]  # well formed: accepted (not used)
+    answer, _ = answer_trajectory_msg(
+        engine, JointTrajectory(joint_names=['crank'], points=[point])
+    )
+    assert answer.success, answer.reason
