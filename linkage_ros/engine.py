@@ -36,7 +36,7 @@ class ConfigError(LinkageError):
 
 
 def fail_setting(name: str, message: str, value: Any) -> None:
-    raise ConfigError(f'parameter {name!r}: {message} (got {value!r})')
+    raise ConfigError(f'parameter {name!r}: {message} (got {echo(value)})')
 
 
 @dataclass(frozen=True)

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from typing import Any
 
+from .core.errors import echo
+
 #: a builtin_interfaces/Time nanosec field is valid in [0, 1e9)
 NSEC_PER_SEC = 1_000_000_000
 
@@ -45,6 +47,6 @@ def frame_error(
     if not frame or frame == node_frame:
         return None
     return (
-        f'{what} is in frame {frame!r} but this node works in {node_frame!r}; transform it '
+        f'{what} is in frame {echo(frame)} but this node works in {node_frame!r}; transform it '
         f'first (or leave {field} empty to mean the node frame)'
     )

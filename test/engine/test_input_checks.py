@@ -618,3 +618,18 @@ def test_the_node_refuses_a_dimension_given_twice():
 
     with pytest.raises(ConfigError, match="'dimensions'.*given twice"):
         make_config({'dimensions': ['crank.O2-A=0.1', 'crank.O2-A=0.2']})
+
+
+def test_a_huge_value_or_frame_is_not_echoed_whole():
+    """Messages quote at most ECHO_CHARS of what they were given (a 10^5-character frame id or
+    parameter value was echoed whole)."""
+    from linkage_ros.core.errors import ECHO_CHARS
+    from linkage_ros.params import ConfigError, make_config
+    from linkage_ros.stamps import frame_error
+
+    huge = 'x' * 100_000
+    why = frame_error('target point', huge, 'base_link')
+    assert why is not None and len(why) < 300 + ECHO_CHARS
+    with pytest.raises(ConfigError) as err:
+        make_config({'frame_id': huge + ' '})
+    assert len(str(err.value)) < 400 + ECHO_CHARS
