@@ -35,8 +35,13 @@ class ConfigError(LinkageError):
     """A setting (node parameter) is invalid: the message names it and the value."""
 
 
+#: the most characters of a refused setting's value a message quotes (a scene path is one)
+SETTING_ECHO_CHARS = 4096
+
+
 def fail_setting(name: str, message: str, value: Any) -> None:
-    raise ConfigError(f'parameter {name!r}: {message} (got {echo(value)})')
+    # a path is quoted whole (up to PATH_MAX); a 10^5-character value is not
+    raise ConfigError(f'parameter {name!r}: {message} (got {echo(value, SETTING_ECHO_CHARS)})')
 
 
 @dataclass(frozen=True)

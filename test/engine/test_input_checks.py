@@ -624,6 +624,7 @@ def test_a_huge_value_or_frame_is_not_echoed_whole():
     """Messages quote at most ECHO_CHARS of what they were given (a 10^5-character frame id or
     parameter value was echoed whole)."""
     from linkage_ros.core.errors import ECHO_CHARS
+    from linkage_ros.engine import SETTING_ECHO_CHARS
     from linkage_ros.params import ConfigError, make_config
     from linkage_ros.stamps import frame_error
 
@@ -632,4 +633,4 @@ def test_a_huge_value_or_frame_is_not_echoed_whole():
     assert why is not None and len(why) < 300 + ECHO_CHARS
     with pytest.raises(ConfigError) as err:
         make_config({'frame_id': huge + ' '})
-    assert len(str(err.value)) < 400 + ECHO_CHARS
+    assert len(str(err.value)) < 400 + SETTING_ECHO_CHARS
