@@ -164,8 +164,6 @@ class LinkageNode(Node):
         self.outputs: Outputs | None = None
         self.frame_id = cfg.frame_id
         self.max_names = 0
-        self.target_points: list[str] = []
-        self.pose_links: list[str] = []
         self._mech_subs: list[Any] = []  # per point / per link: destroyed with the mechanism
         self._description = ''  # the robot description text served (from the topic)
         self._waiting: Waiting | None = None
@@ -272,15 +270,8 @@ class LinkageNode(Node):
         self._mech_subs = subs
         self.frame_id = frame_id
         self.max_names = max_request_names(mech)  # a longer request is refused at once
-        self.target_points = [
-            p for p in mech.points if p not in set(mech.links[mech.ground].points)
-        ]
-        self.pose_links = [l for l in mech.links if l != mech.ground]
-        inputs = mech.output_input_names
-        leaders = getattr(mech.joint_coordinates, 'inputs', {})
-        followers = {a for a in inputs if getattr(leaders.get(a), 'leader', '')}
-        self._state_inputs = frozenset(inputs) - followers
-        self._state_followers = frozenset(followers)
+        self._state_inputs = frozenset(mech.commanded_input_names)
+        self._state_followers = frozenset(mech.output_input_names) - self._state_inputs
         if cfg.joint_states_in:  # the hardware publishes the inputs: joint_states carries the rest
             outputs.set_omit_joints(self._state_inputs)
         self._log_mechanism(scene, replacing)
@@ -307,37 +298,24 @@ class LinkageNode(Node):
         quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
         ground = set(mech.links[mech.ground].points)
         points = [p for p in mech.points if p not in ground]
-        for p in points:
-            subs.append(
-                self.create_subscription(
-                    PointStamped,
-                    f'~/target_point/{p}',
-                    functools.partial(self._on_target_point, p),
-                    qos,
-                    event_callbacks=quiet_sub,
-                )
-            )
+        links = [l for l in mech.links if l != mech.ground]
         # a link's pose (its first point and its angle) from a PoseStamped, e.g. a TF pose
-        for link in (l for l in mech.links if l != mech.ground):
-            subs.append(
-                self.create_subscription(
-                    PoseStamped,
-                    f'~/target_pose/{link}',
-                    functools.partial(self._on_target_pose, link),
-                    qos,
-                    event_callbacks=quiet_sub,
+        topics = (
+            (PointStamped, 'target_point', points, self._on_target_point),
+            (PoseStamped, 'target_pose', links, self._on_target_pose),
+            (Path, 'target_path', points, self._on_target_path),
+        )
+        for msg_type, topic, names, callback in topics:
+            for name in names:
+                subs.append(
+                    self.create_subscription(
+                        msg_type,
+                        f'~/{topic}/{name}',
+                        functools.partial(callback, name),
+                        qos,
+                        event_callbacks=quiet_sub,
+                    )
                 )
-            )
-        for p in points:
-            subs.append(
-                self.create_subscription(
-                    Path,
-                    f'~/target_path/{p}',
-                    functools.partial(self._on_target_path, p),
-                    qos,
-                    event_callbacks=quiet_sub,
-                )
-            )
 
     def _log_mechanism(self, scene: Scene, replacing: bool) -> None:
         """The start-up lines of a mechanism (again when a robot description replaces it)."""

@@ -211,7 +211,7 @@ class _Engine:
         coords = self.engine.mech.joint_coordinates
         if coords is not None:  # the description's names and values, as the engine takes them
             try:
-                columns = coords.to_scene_columns(columns, command=int(data.topic[a]) == 0)
+                columns = coords.to_scene(columns, command=int(data.topic[a]) == 0)
             except CommandError as exc:
                 self._refuse_all(a, b, str(exc))
                 return

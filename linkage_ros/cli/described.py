@@ -13,7 +13,6 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..core.errors import CommandError
 from ..core.model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
 
 TURN = 2.0 * math.pi
@@ -26,20 +25,8 @@ def joint_map(mech) -> JointMap | None:
 
 
 def commanded(mech) -> list[str]:
-    """The names ``--set`` takes: the actuators, or the description's actuated joints that are
-    commanded (not one that follows another by its <mimic>)."""
-    jc = mech.joint_coordinates
-    if jc is None:
-        return list(mech.actuators)
-    out = []
-    for name in jc.actuated:
-        try:
-            known = jc.to_scene({name: 0.0})
-        except CommandError:
-            continue
-        if any(k in mech.actuators for k in known):
-            out.append(name)
-    return out
+    """The names ``--set`` takes (mech.commanded_input_names)."""
+    return mech.commanded_input_names
 
 
 def scene_names(mech, name: str) -> list[str]:

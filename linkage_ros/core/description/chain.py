@@ -12,6 +12,7 @@ bodies.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -146,8 +147,10 @@ class Chain:
                 out.append(_wrap(phi_a - phi_b - c.angle) * self.length_scale)
         return np.array(out)
 
-    @property
+    @functools.cached_property
     def length_scale(self) -> float:
+        """The chain's size (m): the largest distance between its joints in the zero pose
+        (each closure residual is scaled by it: computed once, not per evaluation)."""
         pts = [p for j in self.joints for p in (j.parent_point, j.child_point)]
         pts += list(self.zero_planar.values())
         span = max((float(np.linalg.norm(p - q)) for p in pts for q in pts[:8]), default=0.0)

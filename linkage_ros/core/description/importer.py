@@ -211,17 +211,12 @@ def _assembly_values(
 def _assemble(
     chain: Chain, acts: Sequence[str], given: dict[str, float]
 ) -> tuple[dict[str, float], float]:
-    """Every chain joint's value with the loops closed at the actuated values; and the gap
-    (m) the loops had before."""
+    """Every chain joint's value with the loops closed at the actuated values ``given``
+    (actuated joints only: _assembly_values checked them); and the gap (m) the loops had
+    before."""
     from scipy.optimize import least_squares
 
     desc = chain.description
-    names = {j.name for j in chain.joints}
-    for n in given:
-        if n not in names:
-            raise DescriptionError(
-                'is not a joint of the closed chain', file=desc.source, key='values', value=n
-            )
     passive = [j for j in chain.joints if j.name not in acts]
     base = {j.name: float(given.get(j.name, 0.0)) for j in chain.joints}
     scale = chain.length_scale

@@ -109,6 +109,8 @@ class JointMap:
         self.inputs = {i.name: i for i in inputs}
         self.names = tuple(o.name for o in self.outputs)
         self.actuated = tuple(actuated)
+        #: the actuated joints a request sets: not one that follows another by its <mimic>
+        self.commanded = tuple(a for a in self.actuated if not self.inputs[a].leader)
         self.plane = plane
         self._followers = {i.leader: i for i in inputs if i.leader}
 
@@ -169,10 +171,11 @@ class JointMap:
     def to_scene(
         self, values: Mapping[str, Any], rates: bool = False, command: bool = False
     ) -> dict[str, Any]:
-        """A request's values (or, ``rates``, their rates) with every description joint turned
-        into the scene's known; other names (links, points, the scene's own) pass unchanged.
-        A mimic-coupled actuator follows its leader; naming it is refused, and so is a passive
-        joint in a ``command`` (CommandError, in the description's names)."""
+        """A request's values (or, ``rates``, their rates; floats, or a recorded bag's arrays
+        of them) with every description joint turned into the scene's known; other names
+        (links, points, the scene's own) pass unchanged. A mimic-coupled actuator follows its
+        leader; naming it is refused, and so is a passive joint in a ``command`` (CommandError,
+        in the description's names)."""
         out: dict[str, Any] = {}
         for name, value in values.items():
             entry = self._entry(name, command)
@@ -182,26 +185,9 @@ class JointMap:
             out[entry.scene_name] = self._convert(entry, value, rates)
             follower = self._followers.get(name)
             if follower is not None:
-                q = follower.multiplier * float(value) + (0.0 if rates else follower.mimic_offset)
+                v = np.asarray(value, np.float64) if isinstance(value, np.ndarray) else float(value)
+                q = follower.multiplier * v + (0.0 if rates else follower.mimic_offset)
                 out[follower.scene_name] = self._convert(follower, q, rates)
-        return out
-
-    def to_scene_columns(
-        self, columns: Mapping[str, np.ndarray], command: bool = False
-    ) -> dict[str, np.ndarray]:
-        """:meth:`to_scene` for columns of values (a recorded bag's requests, one array per
-        name), with the same refusals."""
-        out: dict[str, np.ndarray] = {}
-        for name, col in columns.items():
-            entry = self._entry(name, command)
-            if entry is None:
-                out[name] = col
-                continue
-            out[entry.scene_name] = self._convert_array(entry, col)
-            follower = self._followers.get(name)
-            if follower is not None:
-                q = follower.multiplier * np.asarray(col, np.float64) + follower.mimic_offset
-                out[follower.scene_name] = self._convert_array(follower, q)
         return out
 
     def _entry(self, name: str, command: bool) -> InputJoint | None:
@@ -220,25 +206,25 @@ class JointMap:
                 f'joint {name!r} follows {entry.leader!r} by its <mimic>: command {entry.leader!r}'
             )
         if command and name not in self.actuated:
-            commanded = [a for a in self.actuated if not self.inputs[a].leader]
             raise CommandError(
                 f'joint {name!r} is passive: the closed chain places it. Command '
-                f'{", ".join(commanded)}, or ask for {name!r} as a target (~/target, '
+                f'{", ".join(self.commanded)}, or ask for {name!r} as a target (~/target, '
                 '--target)'
             )
         return entry
 
     @staticmethod
-    def _convert_array(entry: InputJoint, col: np.ndarray) -> np.ndarray:
-        v = entry.scale * np.asarray(col, np.float64) + entry.offset
-        return np.asarray(wrap(v), np.float64) if entry.revolute else v
-
-    @staticmethod
     def _convert(entry: InputJoint, value: Any, rates: bool) -> Any:
+        """scale * value + offset (a rate: scale * value), an angle wrapped; a float or an
+        array of them; anything else unchanged (the engine's checks name a bad value)."""
+        offset = 0.0 if rates else entry.offset
+        if isinstance(value, np.ndarray):
+            v = entry.scale * np.asarray(value, np.float64) + offset
+            return np.asarray(wrap(v), np.float64) if entry.revolute and not rates else v
         if isinstance(value, bool) or not isinstance(value, int | float):
-            return value  # the engine's checks name a bad value
-        v = entry.scale * float(value) + (0.0 if rates else entry.offset)
-        return wrap(v) if entry.revolute and not rates and math.isfinite(v) else v
+            return value
+        x = entry.scale * float(value) + offset
+        return wrap(x) if entry.revolute and not rates and math.isfinite(x) else x
 
     def describe(self) -> dict[str, Any]:
         return {

@@ -107,6 +107,9 @@ class JointCoordinates(Protocol):
     @property
     def actuated(self) -> tuple[str, ...]: ...
 
+    @property
+    def commanded(self) -> tuple[str, ...]: ...
+
     def positions(self, joints: Mapping[str, Any]) -> list[Any]: ...
 
     def velocities(self, joints: Mapping[str, Any]) -> list[Any]: ...
@@ -119,10 +122,6 @@ class JointCoordinates(Protocol):
 
     def to_scene(
         self, values: Mapping[str, Any], rates: bool = False, command: bool = False
-    ) -> dict[str, Any]: ...
-
-    def to_scene_columns(
-        self, columns: Mapping[str, Any], command: bool = False
     ) -> dict[str, Any]: ...
 
 
@@ -204,6 +203,13 @@ class Mechanism:
         """The inputs as published: the description's actuated joints, else the actuators."""
         jc = self.joint_coordinates
         return list(jc.actuated) if jc is not None else list(self.actuators)
+
+    @property
+    def commanded_input_names(self) -> list[str]:
+        """The inputs a command sets: the actuators, or the description's actuated joints less
+        those that follow another by their <mimic>."""
+        jc = self.joint_coordinates
+        return list(jc.commanded) if jc is not None else list(self.actuators)
 
     def output_inputs(self, inputs: Mapping[str, Any]) -> list[Any]:
         """The inputs' values as published (the description's joint values, else the
