@@ -323,6 +323,22 @@ def _scene(
         t, phi = poses[body]
         return t + rot(phi) @ local
 
+    def slide(name: str, guide: str, slider: str, origin: np.ndarray, direction: np.ndarray):
+        """A scene slider: ``name``'s point of ``slider`` runs on the line through ``origin``
+        (the guide's point, zero frame) along ``direction``, both in the assembled pose."""
+        at = place(guide, origin)
+        d = rot(poses[guide][1]) @ direction
+        sliders.append(
+            {
+                'name': name,
+                'guide': link_name[guide],
+                'slider': link_name[slider],
+                'point': name,
+                'direction': [float(d[0]), float(d[1])],
+                'origin': [float(at[0]), float(at[1])],
+            }
+        )
+
     for j in chain.joints:
         pname = names('point', j.name)
         names.depths[pname] = (
@@ -336,21 +352,11 @@ def _scene(
             members[j.parent].append(pname)
             members[j.child].append(pname)
         else:
+            assert j.direction is not None  # a prismatic joint
             xy = place(j.child, j.child_point)
-            origin = place(j.parent, j.parent_point)
-            d = rot(poses[j.parent][1]) @ j.direction
             points[pname] = [float(xy[0]), float(xy[1])]
             members[j.child].append(pname)
-            sliders.append(
-                {
-                    'name': pname,
-                    'guide': link_name[j.parent],
-                    'slider': link_name[j.child],
-                    'point': pname,
-                    'direction': [float(d[0]), float(d[1])],
-                    'origin': [float(origin[0]), float(origin[1])],
-                }
-            )
+            slide(pname, j.parent, j.child, j.parent_point, j.direction)
     for c in chain.closures:
         pname = names('point', c.name)
         names.depths[pname] = chain.depth(c.closure.b.link, c.closure.b.pose)
@@ -360,18 +366,7 @@ def _scene(
         if c.direction is None:
             members[c.a].append(pname)
         else:
-            origin = place(c.a, c.point_a)
-            d = rot(poses[c.a][1]) @ c.direction
-            sliders.append(
-                {
-                    'name': pname,
-                    'guide': link_name[c.a],
-                    'slider': link_name[c.b],
-                    'point': pname,
-                    'direction': [float(d[0]), float(d[1])],
-                    'origin': [float(origin[0]), float(origin[1])],
-                }
-            )
+            slide(pname, c.a, c.b, c.point_a, c.direction)
     _merge_coincident(points, members, names, chain.length_scale, {s['point'] for s in sliders})
     for s in sliders:
         while s['point'] in names.alias:
