@@ -449,14 +449,12 @@ class Engine:
         starts = self._starts.get(signs)
         if starts is None:
             fwd = self.new_solver(None, branch=branch_text(signs))
-            levels = 3 if len(fwd.specs) <= 4 else 2
+            levels = 3 if len(fwd.actuator_specs) <= 4 else 2
             axes = []
-            for spec in fwd.specs:
+            for spec in fwd.actuator_specs:  # a forward solve: its knowns are the actuators
                 lo, hi = spec.minimum, spec.maximum
                 if lo is None or hi is None:
-                    if not isinstance(
-                        spec, AngleSpec
-                    ):  # an unlimited slide: around its reference value
+                    if not isinstance(spec, AngleSpec):  # an unlimited slide: about its reference
                         ref = fwd.reference_values()[spec.name]
                         scale = 0.2 * self.mech.length_scale
                         lo, hi = ref - scale, ref + scale

@@ -346,7 +346,7 @@ class LinkageNode(Node):
                 else ''
             )
         )
-        for warning in reference_toggle_warnings(engine.forward):
+        for warning in reference_toggle_warnings(engine.forward.compiled):
             log.warning(f'scene {mech.name!r}: {warning}')
         if mech.dof > 2 and not cfg.target_point_hold:
             log.warning(

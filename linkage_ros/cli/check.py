@@ -92,7 +92,7 @@ def check_report(
             'newton_links': list(solver.system.free),
             'branch_count': solver.branch_count,
         },
-        'warnings': reference_toggle_warnings(solver),
+        'warnings': reference_toggle_warnings(solver.compiled),
         'motion': described_motion(quantities_report(mech), values),
         'notes': list(notes),  # what loading did (a robot description assembled, ...)
         # a robot description's joints as published, and the scene known each request

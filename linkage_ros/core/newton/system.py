@@ -68,7 +68,7 @@ class LoopSystem(ScalarSolve, BatchSystem):
                 self.rows.append(PrismaticRows(pj))
                 m += 2
         for i, s in enumerate(self.specs):
-            links = self._spec_links(s)
+            links = self.spec_links(s)
             if any(l in fr for l in links):
                 self.rows.append(SpecRows(i))
                 m += s.size
@@ -79,7 +79,7 @@ class LoopSystem(ScalarSolve, BatchSystem):
         self._inv_step_list = [1.0, 1.0 / self.L, 1.0 / self.L] * len(free)
         self._compile()
 
-    def _spec_links(self, s: Spec) -> list[str]:
+    def spec_links(self, s: Spec) -> list[str]:
         if isinstance(s, AngleSpec):
             return [s.link, s.reference]
         if isinstance(s, SlideSpec):
@@ -194,13 +194,13 @@ class LoopSystem(ScalarSolve, BatchSystem):
         real = [p for p in jpos if p != dummy]
         self._jpos_unique = len(set(real)) == len(real)
         self._none_slots = None  # the fixed-link slots when no fixed poses are given
-        self._point_owner = []
+        self.point_owner = []
         seen = set()
         for l, link in mech.links.items():
             for p in link.points:
                 if p not in seen:
                     seen.add(p)
-                    self._point_owner.append((p, l, complex(*map(float, pts[p]))))
+                    self.point_owner.append((p, l, complex(*map(float, pts[p]))))
 
     # -- conversions between poses and the variable vector -------------------------------------
     def x_from_poses(self, poses: ScalarPoses) -> np.ndarray:
@@ -239,7 +239,7 @@ class LoopSystem(ScalarSolve, BatchSystem):
         off the first link that carries it."""
         poses = self.poses_from_x(x, fixed)
         rot, T = poses.rot, poses.T
-        return poses, {p: rot[l] * z + T[l] for p, l, z in self._point_owner}
+        return poses, {p: rot[l] * z + T[l] for p, l, z in self.point_owner}
 
     # -- evaluation ---------------------------------------------------------------------------
     def _fixed_slots(self, fixed):

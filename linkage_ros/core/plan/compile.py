@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -468,7 +469,7 @@ def run_one(
     plan: Plan,
     values,
     signs=None,
-    prefer: dict | None = None,
+    prefer: Mapping[str, Any] | None = None,
     tol: float = dyads.TANGENCY_TOL,
     prev_margins=None,
 ) -> PlanRun:

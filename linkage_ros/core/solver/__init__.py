@@ -1,10 +1,16 @@
 """One entry point for forward and inverse position kinematics of a mechanism: :class:`Solver`
-(``solver.py``; its Newton path in ``newton_path.py``), every answer a :class:`Result`
-(``result.py``), many commands at once a :class:`BatchResult` (``batch.py``)."""
+(``solver.py``), a facade over a frozen :class:`CompiledSolve` (``compiled.py``, made by
+``compiling.py``) and the caller's :class:`Continuity` (``continuity.py``); the paths are
+functions over the two: one command (``one.py``, its Newton part ``newton_path.py``), many
+commands (``batch.py``: :class:`BatchResult`), every assembly mode (``modes.py``), answers read
+back (``reading.py``). Every answer is a :class:`Result` (``result.py``)."""
 
 from __future__ import annotations
 
 from .batch import BatchResult
+from .compiled import CompiledSolve, SolveMode
+from .compiling import compile_solve
+from .continuity import Branch, BranchRule, Continuity
 from .result import (
     CLOSURE_LIMIT,
     METHODS,
@@ -22,6 +28,12 @@ __all__ = [
     'NEAR_SINGULAR_COND',
     'WALK_BUDGET',
     'BatchResult',
+    'Branch',
+    'BranchRule',
+    'CompiledSolve',
+    'Continuity',
+    'SolveMode',
+    'compile_solve',
     'Result',
     'Solver',
     'branch_identity_defined',

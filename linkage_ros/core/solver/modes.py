@@ -11,46 +11,20 @@ are counted apart. The list says it may be incomplete (``ModeList.complete`` is 
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 
-from ..model import Mechanism
+from ..plan import limit_violation
+from .compiled import CompiledSolve, SolveMode
+from .continuity import Branch, BranchRule, Continuity
+from .one import solve_one
+from .reading import mode_of
 from .result import Result
-
-
-class Solver(Protocol):
-    """What the mode search reads of a solver (core.solver.Solver; a protocol, so this module
-    does not import the solver that imports it)."""
-
-    mech: Mechanism
-    system: Any
-    plan: Any
-    tol: float
-    max_iter: int
-    closure_limit: float
-    inverse: bool
-    actuator_specs: list[Any]
-    mode: str
-
-    @property
-    def branch_count(self) -> int: ...
-
-    def solve(self, values: Mapping[str, Any], commit: bool = True) -> Result: ...
-
-    def parse(self, values: Mapping[str, Any]) -> list[Any]: ...
-
-    def reference_values(self) -> dict[str, Any]: ...
-
-    def limit_violation(self, spec: Any, value: float) -> str | None: ...
-
-    def mode_of(self, result: Result) -> Any: ...
-
-    def _build(self, *args: Any, **kwargs: Any) -> Result: ...
-
 
 #: Newton starts of the search (the first is the scene's reference pose)
 MODE_STARTS = 128
@@ -76,50 +50,94 @@ def mode_key(result: Result, scale: float) -> tuple[float, ...]:
     return tuple(round(c / scale, 9) for p in sorted(result.points) for c in result.points[p])
 
 
-def newton_modes(solver: Solver, values: Mapping[str, Any], starts: int = MODE_STARTS) -> ModeList:
-    """The modes of ``values`` found by Newton from ``starts`` starts (see the docstring).
-    ``solver`` must be a Newton-only solver (every moving link a Newton unknown)."""
-    found = ModeList(complete=False, method=f'Newton from {starts} starts: may be incomplete')
-    first = solver.solve(values, commit=False)  # the answer nearest the current configuration
+def modes_of(
+    c: CompiledSolve,
+    cont: Continuity,
+    values: Mapping[str, Any],
+    newton: CompiledSolve | None = None,
+) -> ModeList:
+    """Every assembly mode of one command (``cont`` is read, never changed): each sign
+    combination of the dyad plan that closes; where Newton places the mechanism, the modes a
+    multi-start Newton search finds with ``newton`` (a Newton-only compile of the same knowns;
+    ``c`` itself in newton mode)."""
+    if c.mode is SolveMode.CLOSED_FORM:
+        return ModeList(closed_form_modes(c, cont, values))
+    if newton is None or newton.mode is not SolveMode.NEWTON:
+        raise ValueError('the modes of a Newton solve need a Newton-only compile of its knowns')
+    return newton_modes(newton, values, cont if newton is c else None)
+
+
+def closed_form_modes(
+    c: CompiledSolve, cont: Continuity, values: Mapping[str, Any]
+) -> list[Result]:
+    """The dyad plan's answer for each sign combination that closes (coincident ones once)."""
+    if not c.branch_count:
+        return [solve_one(c, cont.with_branch(cont.branch), values, commit=False)]
+    out: list[Result] = []
     seen: set[tuple[float, ...]] = set()
-    scale = solver.mech.length_scale
+    for combo in itertools.product((1, -1), repeat=c.branch_count):
+        r = solve_one(c, cont.with_branch(Branch(BranchRule.EXPLICIT, combo)), values, commit=False)
+        if not r.success:
+            continue
+        key = mode_key(r, c.mech.length_scale)
+        if key in seen:  # coincident modes (at a toggle) are one answer
+            continue
+        seen.add(key)
+        out.append(r)
+    return out or [solve_one(c, cont.with_branch(cont.branch), values, commit=False)]
+
+
+def newton_modes(
+    c: CompiledSolve,
+    values: Mapping[str, Any],
+    cont: Continuity | None = None,
+    starts: int = MODE_STARTS,
+) -> ModeList:
+    """The modes of ``values`` found by Newton from ``starts`` starts (see the docstring).
+    ``c`` must be a Newton-only compile (every moving link a Newton unknown); ``cont`` its
+    continuity, read and never changed."""
+    found = ModeList(complete=False, method=f'Newton from {starts} starts: may be incomplete')
+    # the answer nearest the current configuration (the reference one without a history)
+    first = solve_one(
+        c, cont.with_branch(cont.branch) if cont else Continuity(), values, commit=False
+    )
+    seen: set[tuple[float, ...]] = set()
+    scale = c.mech.length_scale
     if first.success:
         found.results.append(first)
         seen.add(mode_key(first, scale))
     try:
-        vals = solver.parse(values)
+        vals = c.parse(values)
     except ValueError:
         return found if found.results else ModeList([first], False, found.method)
-    system = solver.system
+    system = c.system
     x_ref = system.reference_x()
     rng = np.random.default_rng(20261125)
     for k in range(starts):
         x0 = x_ref.copy()
         if k:
             x0[0::3] = rng.uniform(-math.pi, math.pi, system.n // 3)
-        r = system.solve(x0, vals, tol=solver.tol, max_iter=solver.max_iter, keep_det_sign=False)
+        r = system.solve(x0, vals, tol=c.tol, max_iter=c.max_iter, keep_det_sign=False)
         if not r.success:
             continue
         poses, pts = system.configuration(r.x)
-        res = solver._build(
+        res = c.build_result(
             poses,
             pts,
             vals,
-            solver='newton',
+            solver=SolveMode.NEWTON,
             iterations=r.iterations,
             signs=(),
             margin=1.0 / max(r.cond, 1.0),
             cond=r.cond,
         )
-        if not (res.success and res.residual is not None and res.residual <= solver.closure_limit):
+        if not (res.success and res.residual is not None and res.residual <= c.closure_limit):
             continue
         if not r.cond < SINGULAR_MODE_COND:
             found.singular += 1
             continue
-        if solver.inverse and any(
-            solver.limit_violation(s, res.inputs[s.name])
-            for s in solver.actuator_specs
-            if s.name in res.inputs
+        if c.inverse and any(
+            limit_violation(s, res.inputs[s.name]) for s in c.actuator_specs if s.name in res.inputs
         ):
             continue
         key = mode_key(res, scale)
@@ -136,22 +154,22 @@ def newton_modes(solver: Solver, values: Mapping[str, Any], starts: int = MODE_S
 TOGGLE_MARGIN = 1e-9
 
 
-def reference_toggle_warnings(solver: Solver) -> list[str]:
+def reference_toggle_warnings(c: CompiledSolve) -> list[str]:
     """Why the reference pose does not choose an assembly mode, if it does not: each branching
-    dyad of ``solver``'s forward plan that the drawing puts at its toggle (a cell drawn folded
+    dyad of the forward plan ``c`` that the drawing puts at its toggle (a cell drawn folded
     flat, a dyad drawn stretched out), where the two modes meet and the drawing's sign is
     rounding. Empty for a drawing clear of every toggle (or without a closed-form plan)."""
-    if solver.mode != 'closed_form' or not solver.branch_count:
+    if c.mode is not SolveMode.CLOSED_FORM or not c.branch_count:
         return []
-    ref = solver.solve(solver.reference_values(), commit=False)
-    mode = solver.mode_of(ref) if ref.success else None
+    ref = solve_one(c, Continuity(), c.reference_values(), commit=False)
+    mode = mode_of(c, ref) if ref.success else None
     if mode is None:
         return []
     out = []
-    for step, margin in zip(solver.plan.branch_steps, mode[1]):
+    for step, margin in zip(c.plan.branch_steps, mode[1]):
         if margin < TOGGLE_MARGIN:
             out.append(
-                f'the reference pose is at the toggle of {step.describe(solver.plan)} (margin '
+                f'the reference pose is at the toggle of {step.describe(c.plan)} (margin '
                 f'{margin:.3g}): its assembly mode there is not chosen by the drawing; draw the '
                 'pose off the toggle to choose it'
             )

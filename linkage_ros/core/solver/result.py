@@ -1,19 +1,13 @@
-"""Result (what every solve answers), the branch-identity bound and the solver's own state
-records."""
+"""Result (what every solve answers), the branch-identity bound and the branch text."""
 
 from __future__ import annotations
 
-import collections.abc
-from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from ..model import Mechanism
-from ..plan import (
-    ScalarPoses,
-)
 
 #: machine epsilon (float64): the unit of rounding in branch_identity_defined
 _EPS = float(np.finfo(float).eps)
@@ -116,64 +110,6 @@ def _described(mech: Mechanism | None, result: Result) -> dict[str, Any]:
         'inputs': dict(zip(mech.output_input_names, mech.output_inputs(result.inputs))),
         'joints': dict(zip(mech.output_joint_names, mech.output_joints(result.joints))),
     }
-
-
-@dataclass
-class _State:
-    """The previous configuration: continuity predictions and Newton warm starts start here."""
-
-    values: list
-    x_all: np.ndarray | None  # every moving link (phi, cx, cy), for Newton warm starts
-    points: dict[str, complex]
-    poses: ScalarPoses
-    signs: tuple[int, ...]
-    det_sign: int
-    margins: tuple[float, ...] = ()
-    x_lu: tuple | None = None  # Newton: LU of the Jacobian at x_all (for the predictor)
-
-
-class _Prediction(collections.abc.Mapping):
-    """Where continuity expects each point ({name: complex}) and link angle ({'@link': rad}):
-    the previous configuration, extrapolated along the previous step after two commands.
-    Computed per key on first use: the dyad plan asks only near a singular dyad, so most
-    solves never pay for it."""
-
-    def __init__(
-        self,
-        history: Sequence[_State],
-        step_ratio: Callable[[Any, Any, Any], float],
-        vals: Any,
-    ):
-        """``history``: the last one or two configurations; ``step_ratio(prev, last, now)``:
-        how far the new command goes along the previous step."""
-        self._last = history[-1]
-        self._prev = history[-2] if len(history) == 2 else None
-        self._step_ratio, self._vals = step_ratio, vals
-        self._ratio: float | None = None
-
-    def __getitem__(self, key: str):
-        last = self._last
-        if key[:1] == '@':
-            return last.poses.phi[key[1:]]
-        v = last.points[key]
-        prev = self._prev
-        if prev is None or key not in prev.points:
-            return v
-        if self._ratio is None:
-            self._ratio = self._step_ratio(prev.values, last.values, self._vals)
-        return v + self._ratio * (v - prev.points[key])
-
-    def __contains__(self, key) -> bool:
-        if isinstance(key, str) and key[:1] == '@':
-            return key[1:] in self._last.poses.phi
-        return key in self._last.points
-
-    def __iter__(self):
-        yield from self._last.points
-        yield from ('@' + l for l in self._last.poses.phi)
-
-    def __len__(self) -> int:
-        return len(self._last.points) + len(self._last.poses.phi)
 
 
 def dyad_reason(plan: Any, k: int, violation: float, length_scale: float) -> str:

@@ -36,6 +36,7 @@ from linkage_ros.core.newton import (
 )
 from linkage_ros.core.quantities import AngleSpec, PointSpec, SlideSpec
 from linkage_ros.core.solver import Solver
+from linkage_ros.core.solver.newton_path import branch_of
 from linkage_ros.resources import config_dir, scene_path
 
 ALL_SCENES = sorted(p.stem for p in config_dir().glob('*.yaml'))
@@ -86,8 +87,8 @@ def scalar_sweep(name, n):
     for cmd in sweep_inputs(s.mech, n):
         r = s.solve(cmd)
         assert r.success, r.reason
-        xs.append(s._history[-1].x_all.copy())
-        signs.append(s._history[-1].det_sign)
+        xs.append(s.continuity.history[-1].x_all.copy())
+        signs.append(s.continuity.history[-1].det_sign)
         vals.append(s.parse(cmd))
     return s.system, np.array(xs), np.array(signs), vals
 
@@ -115,11 +116,11 @@ def systems():
     out = []
     for name in ALL_SCENES:
         s = Solver(scene(name), method='newton')
-        out.append((name, s.system, s._ref_values))
+        out.append((name, s.system, list(s.compiled.ref_values)))
     for name, knowns in POINT_KNOWNS:
         s = Solver(scene(name), knowns=list(knowns), method='newton')
         assert s.mode == 'newton' and any(isinstance(sp, PointSpec) for sp in s.specs)
-        out.append((f'{name}:{"+".join(knowns)}', s.system, s._ref_values))
+        out.append((f'{name}:{"+".join(knowns)}', s.system, list(s.compiled.ref_values)))
     return out
 
 
@@ -249,7 +250,10 @@ def test_hybrid_system_is_refused():
     assert h.mode == 'hybrid' and 'boom' in h.closed_links
     sy = h.system
     X = np.tile(sy.reference_x(), (2, 1))
-    vals = [np.full(2, float(h._ref_values[0])), np.tile(h._ref_values[1], (2, 1))]
+    vals = [
+        np.full(2, float(list(h.compiled.ref_values)[0])),
+        np.tile(list(h.compiled.ref_values)[1], (2, 1)),
+    ]
     with pytest.raises(ValueError, match='fixed poses'):
         sy.evaluate_batch(X, vals)
     with pytest.raises(ValueError, match='fixed poses'):
@@ -469,7 +473,7 @@ def test_solve_batch_with_point_specs(name, knowns):
     reference against the scalar careful solve from the same start."""
     s = Solver(scene(name), knowns=list(knowns), method='newton')
     sy = s.system
-    x_ref, ref = sy.reference_x(), s._ref_values
+    x_ref, ref = sy.reference_x(), list(s.compiled.ref_values)
     sign = sy.start_sign(x_ref, ref)
     assert sign in (1, -1)
     rng = np.random.default_rng(12)
@@ -559,7 +563,7 @@ def test_unreachable_input_is_declined():
     t0 = reach[len(reach) // 2]
     r = nw.solve({'crank': float(t0)})
     assert r.success
-    x0, s0 = nw._history[-1].x_all, nw._history[-1].det_sign
+    x0, s0 = nw.continuity.history[-1].x_all, nw.continuity.history[-1].det_sign
     near = [t0 + 1e-3, t0 - 1e-3]
     targets = near + far[:10]
     b = sy.solve_batch(np.tile(x0, (len(targets), 1)), [np.array(targets)], s0)
@@ -583,7 +587,7 @@ def test_start_on_the_other_assembly_mode_is_declined():
         assert ro.success
         adopt = Solver(mech, method='newton')
         assert adopt.adopt(ro)
-        x_other.append(adopt._history[-1].x_all)
+        x_other.append(adopt.continuity.history[-1].x_all)
     x_other = np.array(x_other)
     sign_other = int(np.linalg.slogdet(sy.evaluate_scaled(x_other[0], [t], None)[1])[0])
     assert sign_other == -last.det_sign
@@ -596,7 +600,7 @@ def test_start_on_the_other_assembly_mode_is_declined():
     # from this mode's last answer it is ok and on this mode
     mine = sy.solve_batch(last.x_all[None, :], [np.array([t])], last.det_sign)
     assert mine.ok[0] and mine.det_sign[0] == last.det_sign
-    assert nw._branch_of(mine.x[0], None)[0] == last.signs
+    assert branch_of(nw.compiled, mine.x[0], None)[0] == last.signs
     # with the other mode's sign: ok, and the other mode's closed-form answer
     b2 = sy.solve_batch(X0, vals, sign_other)
     assert b2.ok.all() and np.all(b2.det_sign == sign_other)
@@ -625,9 +629,9 @@ def test_answers_near_a_fold_are_declined():
     for e in range(1, 14):
         t = tau + 10.0**-e
         r = nw.solve({'crank': t})
-        assert r.success and nw._history[-1].det_sign != 0
-        xs.append(nw._history[-1].x_all)
-        signs.append(nw._history[-1].det_sign)
+        assert r.success and nw.continuity.history[-1].det_sign != 0
+        xs.append(nw.continuity.history[-1].x_all)
+        signs.append(nw.continuity.history[-1].det_sign)
         conds.append(
             sy.scaled_cond(sy.evaluate_scaled(xs[-1], [t], None)[1])
         )  # exact, not estimated

@@ -19,6 +19,7 @@ from linkage_ros.core.model import Scene
 from linkage_ros.core.newton import COND_EXACT
 from linkage_ros.core.quantities import PointSpec
 from linkage_ros.core.solver import Solver
+from linkage_ros.core.solver.newton_path import branch_of
 from linkage_ros.resources import scene_path
 
 SCENES = ['four_bar', 'slider_crank', 'peaucellier', 'excavator']
@@ -65,7 +66,7 @@ def system_sweep(mech, n, laps=1):
     """The kernel driven like the Solver drives it: guess from predict, det sign tracked."""
     s = Solver(mech, method='newton')
     sy = s.system
-    x, vals, lu, before, sign = sy.reference_x(), list(s._ref_values), None, (), None
+    x, vals, lu, before, sign = sy.reference_x(), list(list(s.compiled.ref_values)), None, (), None
     out = []
     for cmd in sweep(mech, n) * laps:
         v = s.parse(cmd)
@@ -90,15 +91,21 @@ def test_jacobian_matches_finite_differences(name):
     mech = scene(name)
     rng = np.random.default_rng(1)
     s = Solver(mech, method='newton')
-    systems = [(s.check_system, None, s._ref_values)]
+    systems = [(s.check_system, None, list(s.compiled.ref_values))]
     if name in HYBRID:
         h = Solver(mech, knowns=HYBRID[name], method='auto')
         assert h.mode == 'hybrid'
-        systems.append((h.system, h._fixed_poses(h._ref_values)[0], h._ref_values))
+        systems.append(
+            (
+                h.system,
+                h.compiled.fixed_poses(list(h.compiled.ref_values))[0],
+                list(h.compiled.ref_values),
+            )
+        )
     if name in POINT_KNOWNS:
         p = Solver(mech, knowns=POINT_KNOWNS[name], method='newton')
         assert any(isinstance(sp, PointSpec) for sp in p.specs)
-        systems.append((p.system, None, p._ref_values))
+        systems.append((p.system, None, list(p.compiled.ref_values)))
     for sy, fixed, vals in systems:
         step = sy.step_scale
         for _ in range(3):
@@ -167,7 +174,7 @@ def test_lu_sign_and_cond_estimate_on_scene_jacobians(name):
     s, results = system_sweep(mech, 40)
     sy = s.system
     for r in results:
-        F, J, _ = sy.evaluate_scaled(r.x, s._ref_values, None)
+        F, J, _ = sy.evaluate_scaled(r.x, list(s.compiled.ref_values), None)
         fac = sy._factor(J)
         assert fac[2] == int(np.linalg.slogdet(J)[0])
         est, exact = sy._cond(J, fac), sy.scaled_cond(J)
@@ -258,7 +265,7 @@ def newton_beside_the_other_mode(t):
     mech = four_bar((4.0, 1.5, 4.5, 3.0))
     nw = Solver(mech, method='newton')
     assert nw.solve({'crank': t - 0.05}).success
-    last = nw._history[-1]
+    last = nw.continuity.history[-1]
     other = Solver(mech, method='closed_form', branch='-' if last.signs[0] > 0 else '+')
     return mech, nw, last, other
 
@@ -273,13 +280,13 @@ def test_guess_on_the_other_branch_is_declined():
     assert ro.success
     nw2 = Solver(mech, method='newton')
     assert nw2.adopt(ro)
-    x_other = nw2._history[-1].x_all
+    x_other = nw2.continuity.history[-1].x_all
     vals = nw.parse({'crank': t})
     r = sy.solve_from_guess(x_other, vals, None, start_sign=last.det_sign)
     assert not r.success and not r.predicted
     r = sy.solve(last.x_all, vals, None, start_sign=last.det_sign, guess=x_other)
     assert r.success and not r.predicted and r.det_sign == last.det_sign
-    assert nw._branch_of(r.x, None)[0] == last.signs
+    assert branch_of(nw.compiled, r.x, None)[0] == last.signs
 
 
 NEAR = [1e-2, 1e-4, 1e-6, 1e-8]
@@ -358,7 +365,9 @@ def test_fast_path_result_does_not_alias_the_guess():
     sy = s.system
     guess = sy.reference_x()  # already the answer at the reference input
     keep = guess.copy()
-    r = sy.solve_from_guess(guess, s._ref_values, None, tol=1e-12, max_iter=50, start_sign=None)
+    r = sy.solve_from_guess(
+        guess, list(s.compiled.ref_values), None, tol=1e-12, max_iter=50, start_sign=None
+    )
     assert r.success and r.x is not guess
     r.x[:] = 7.0
     assert np.array_equal(guess, keep)

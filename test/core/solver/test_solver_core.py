@@ -20,7 +20,7 @@ from linkage_ros.core import dyads
 from linkage_ros.core.errors import PlanError, SceneError
 from linkage_ros.core.model import Scene
 from linkage_ros.core.ops import SCALAR
-from linkage_ros.core.solver import Result, Solver
+from linkage_ros.core.solver import Result, Solver, compiling
 
 EPS = 2.0**-52
 TIGHT = 1e-12  # loop closure, fraction of the length scale
@@ -1206,7 +1206,7 @@ def test_closure_guard_refuses_a_false_assembly(monkeypatch):
     from linkage_ros.core.newton import LoopSystem
 
     monkeypatch.setattr(LoopSystem, 'unfixed_links', lambda self: [])
-    monkeypatch.setattr(Solver, '_check_determined', lambda self, n: None)
+    monkeypatch.setattr(compiling, '_check_determined', lambda c, n: None)
     mech = Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism
     solver = Solver(mech, knowns=['point:A'])
     assert solver.mode == 'hybrid'

@@ -1,0 +1,176 @@
+"""The state a solver carries between commands: the previous configurations (continuity and
+Newton warm starts) and the branch rule (continuous, reference or explicit signs)."""
+
+from __future__ import annotations
+
+import collections.abc
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
+from enum import StrEnum
+from typing import Any
+
+import numpy as np
+
+from ..errors import PlanError
+from ..execute import LinkPoses
+from ..plan import Plan
+from .compiled import CompiledSolve, SolveMode, Values
+from .result import branch_signs
+
+
+class BranchRule(StrEnum):
+    """Which assembly mode a solve takes."""
+
+    CONTINUOUS = 'continuous'  # the reference pose's first, then the one nearest the last answer
+    REFERENCE = 'reference'  # the reference pose's signs, always
+    EXPLICIT = 'explicit'  # given signs, one per branching dyad of the plan
+
+
+@dataclass(frozen=True)
+class Branch:
+    """A branch rule and, for an explicit one, its signs (+1 / -1 per branching dyad)."""
+
+    rule: BranchRule = BranchRule.CONTINUOUS
+    signs: tuple[int, ...] | None = None
+
+
+def parse_branch(plan: Plan, branch: Any) -> Branch:
+    """'continuous', 'reference' or a string of + and - (one per branching dyad of ``plan``);
+    PlanError naming the dyads for anything else."""
+    k = len(plan.branch_steps)
+    if branch in ('continuous', 'reference'):
+        return Branch(BranchRule(branch))
+    if isinstance(branch, str) and set(branch) <= {'+', '-'}:
+        if len(branch) != k:
+            dyads = '; '.join(s.describe(plan) for s in plan.branch_steps)
+            raise PlanError(
+                f'branch {branch!r} has {len(branch)} sign(s) but this solve has '
+                + (
+                    f'{k} branching dyad(s): {dyads}'
+                    if k
+                    else 'no branching dyad (no sign to give)'
+                )
+            )
+        return Branch(BranchRule.EXPLICIT, branch_signs(branch))
+    raise PlanError(
+        f"branch must be 'continuous', 'reference' or a string of + and - (got {branch!r})"
+    )
+
+
+@dataclass
+class State:
+    """A previous configuration: continuity predictions and Newton warm starts start here."""
+
+    values: Values
+    x_all: np.ndarray | None  # every moving link (phi, cx, cy), for Newton warm starts
+    points: dict[str, complex]
+    poses: LinkPoses
+    signs: tuple[int, ...]
+    det_sign: int
+    margins: tuple[float, ...] = ()
+    x_lu: tuple[Any, ...] | None = None  # Newton: LU of the Jacobian at x_all (the predictor)
+
+
+def state_of(
+    c: CompiledSolve,
+    vals: Values,
+    poses: LinkPoses,
+    pts: dict[str, complex],
+    signs: Sequence[int],
+    det_sign: int = 0,
+    margins: Sequence[float] = (),
+    x_all: np.ndarray | None = None,
+    x_lu: tuple[Any, ...] | None = None,
+) -> State:
+    """The State of a solved configuration (its Newton unknowns read off the poses where a
+    Newton solve will start from it and the caller has none)."""
+    if (
+        x_all is None
+        and c.mode is not SolveMode.CLOSED_FORM
+        and set(poses.phi) >= set(c.mech.links)
+    ):
+        x_all = c.check_system.x_from_poses(poses)
+    return State(vals, x_all, pts, poses, tuple(signs), det_sign, tuple(margins), x_lu)
+
+
+@dataclass
+class Continuity:
+    """A solver's memory: the branch rule and the last one or two answers it committed."""
+
+    branch: Branch = field(default_factory=Branch)
+    history: list[State] = field(default_factory=list)
+
+    @property
+    def last(self) -> State | None:
+        return self.history[-1] if self.history else None
+
+    def commit(self, state: State) -> None:
+        self.history = [*self.history[-1:], state]
+
+    def signs(self, plan: Plan) -> tuple[int, ...]:
+        """The branch signs the next solve starts from."""
+        b = self.branch
+        if b.rule is BranchRule.EXPLICIT and b.signs is not None:
+            return b.signs
+        if b.rule is BranchRule.CONTINUOUS and self.history:
+            return self.history[-1].signs
+        return tuple(plan.reference_signs)
+
+    def prediction(self, c: CompiledSolve, vals: Values) -> Prediction | None:
+        """Where continuity expects the next configuration, or None (no history, or a branch
+        rule that does not follow the previous answer)."""
+        if self.branch.rule is not BranchRule.CONTINUOUS or not self.history:
+            return None
+        return Prediction(self.history, c, vals)
+
+    def with_branch(self, branch: Branch) -> Continuity:
+        """The same history under another branch rule (for a solve that must not commit)."""
+        return Continuity(branch, list(self.history))
+
+
+def step_ratio(c: CompiledSolve, prev_vals: Values, last_vals: Values, vals: Values) -> float:
+    """How far the new command goes along the previous step (d_now . d_prev / |d_prev|^2,
+    clipped to [0, 1.5]): the secant extrapolation factor; 0 when the last step was zero."""
+    d_prev = c.check_system.value_step(prev_vals, last_vals)
+    d_now = c.check_system.value_step(last_vals, vals)
+    den = sum(d * d for d in d_prev)
+    if not den > 0:
+        return 0.0
+    return min(max(sum(n * d for n, d in zip(d_now, d_prev)) / den, 0.0), 1.5)
+
+
+class Prediction(collections.abc.Mapping[str, Any]):
+    """Where continuity expects each point ({name: complex}) and link angle ({'@link': rad}):
+    the previous configuration, extrapolated along the previous step after two commands.
+    Computed per key on first use: the dyad plan asks only near a singular dyad, so most
+    solves never pay for it."""
+
+    def __init__(self, history: Sequence[State], c: CompiledSolve, vals: Values):
+        self._last = history[-1]
+        self._prev = history[-2] if len(history) == 2 else None
+        self._c, self._vals = c, vals
+        self._ratio: float | None = None
+
+    def __getitem__(self, key: str) -> Any:
+        last = self._last
+        if key[:1] == '@':
+            return last.poses.phi[key[1:]]
+        v = last.points[key]
+        prev = self._prev
+        if prev is None or key not in prev.points:
+            return v
+        if self._ratio is None:
+            self._ratio = step_ratio(self._c, prev.values, last.values, self._vals)
+        return v + self._ratio * (v - prev.points[key])
+
+    def __contains__(self, key: object) -> bool:
+        if isinstance(key, str) and key[:1] == '@':
+            return key[1:] in self._last.poses.phi
+        return key in self._last.points
+
+    def __iter__(self) -> Iterator[str]:
+        yield from self._last.points
+        yield from ('@' + l for l in self._last.poses.phi)
+
+    def __len__(self) -> int:
+        return len(self._last.points) + len(self._last.poses.phi)
