@@ -91,6 +91,26 @@ class PlanExecutor:
             for link in b.links:
                 for p in mech.links[link].points:
                     self.carrier.setdefault((b.index, p), link)
+        #: per body: each member link's points with their reference positions (what placing
+        #: the body places), resolved once
+        self.body_points = [
+            tuple(
+                (link, tuple((p, self.ref[p]) for p in mech.links[link].points)) for link in b.links
+            )
+            for b in plan.bodies
+        ]
+        #: per body: True for one link alone (its frame is the identity: nothing to weld)
+        self.single = [not b.welds for b in plan.bodies]
+        #: per TWO_POINTS step of a one-link body: the unit vector between its two points in the
+        #: link's frame (a constant)
+        self.unit_between: dict[int, complex] = {}
+        for k, st in enumerate(plan.steps):
+            if st.op is _TWO_POINTS and self.single[st.body]:
+                a = self.ref[st.args.second] - self.ref[st.args.first]
+                na = SCALAR.cabs(a)
+                self.unit_between[k] = a / na if na > 0 else a
+        #: specs as points (complex) or numbers, for one command
+        self.point_specs = tuple(isinstance(s, PointSpec) for s in plan.specs)
 
     # -- bodies --------------------------------------------------------------------------------
     def _frame(self, ops: Any, bi: int, values: Sequence[Any], zero: Any) -> dict[str, tuple]:
@@ -143,9 +163,7 @@ class PlanExecutor:
         change point: a rhombus folded flat) keep the point where continuity predicts it.
         """
         if n is None:
-            one = [
-                v if isinstance(s, PointSpec) else float(v) for s, v in zip(self.plan.specs, values)
-            ]
+            one = [v if is_point else float(v) for is_point, v in zip(self.point_specs, values)]
             return self._run(SCALAR, one, 0.0, signs, prefer, prev_margins, tol)
         vals = [
             to_complex(np.asarray(v, float).reshape(n, 2))
@@ -156,17 +174,52 @@ class PlanExecutor:
         with np.errstate(all='ignore'):
             return self._run(BATCH, vals, np.zeros(n), signs, None, None, tol)
 
+    def _radius(self, ops: Any, bi: int, x: str, p: str, frame: Any) -> Any:
+        """|x - p| within body bi: the length the scene states for a link that carries both
+        points (exactly as given), else their constant distance in a one-link body, else the
+        distance in the body's frame (``frame()`` gives it)."""
+        key = (bi, x, p)
+        d = self._stated.get(key, False)
+        if d is False:
+            mech, plan = self.plan.mech, self.plan
+            d = next(
+                (
+                    mech.distance(link, x, p)
+                    for link in plan.bodies[bi].links
+                    if {x, p} <= set(mech.links[link].points)
+                    and mech.distance(link, x, p) is not None
+                ),
+                None,
+            )
+            if d is None and self.single[bi]:  # one rigid link: a constant
+                d = SCALAR.cabs(self.ref[x] - self.ref[p])
+            self._stated[key] = d
+        if d is not None:
+            return d
+        f = frame(bi)
+        _, rx, tx = f[self.carrier[(bi, x)]]
+        _, rp, tp = f[self.carrier[(bi, p)]]
+        return ops.cabs((rx * self.ref[x] + tx) - (rp * self.ref[p] + tp))
+
     def _run(self, ops, values, zero, signs, prefer, prev_margins, tol) -> PlanRun:
         plan, mech, ref = self.plan, self.plan.mech, self.ref
-        signs = list(plan.reference_signs if signs is None else signs)
+        batch = ops.batch
+        signs = plan.reference_signs if signs is None else signs
         poses = LinkPoses()
+        phi_of, rot_of, T_of = poses.phi, poses.rot, poses.T
         pts: dict[str, Any] = {}
         frames: dict[int, dict[str, tuple]] = {}
         angles: dict[int, Any] = {}  # body root orientation when known before placing
         used: list[Any] = []
         margins: list[Any] = []
-        state = {'ok': zero == zero, 'margin': zero + 1.0, 'failure': zero - 1.0}
-        state['violation'] = zero + 0.0
+        single, body_points = self.single, self.body_points
+        ok_all: Any = True
+        margin_all: Any = 1.0
+        failure: Any = -1
+        violation_all: Any = 0.0
+        if batch:
+            ok_all, margin_all = zero == zero, zero + 1.0
+            failure, violation_all = zero - 1.0, zero + 0.0
 
         def frame(bi):
             f = frames.get(bi)
@@ -174,108 +227,111 @@ class PlanExecutor:
                 f = frames[bi] = self._frame(ops, bi, values, zero)
             return f
 
-        def radius(bi, x, p):
-            """|x - p| within body bi: the length the scene states for a link that carries both
-            points (exactly as given), else the distance in the body's frame."""
-            d = self._stated.get((bi, x, p), False)
-            if d is False:
-                d = next(
-                    (
-                        mech.distance(link, x, p)
-                        for link in plan.bodies[bi].links
-                        if {x, p} <= set(mech.links[link].points)
-                        and mech.distance(link, x, p) is not None
-                    ),
-                    None,
-                )
-                if d is None and not plan.bodies[bi].welds:  # one rigid link: a constant
-                    d = SCALAR.cabs(ref[x] - ref[p])
-                self._stated[(bi, x, p)] = d
-            return ops.cabs(local_pt(bi, x) - local_pt(bi, p)) if d is None else d
-
         def local_pt(bi, p):
-            if not plan.bodies[bi].welds:  # a single link at the identity
+            if single[bi]:  # a single link at the identity
                 return ref[p]
             _, rot, T = frame(bi)[self.carrier[(bi, p)]]
             return rot * ref[p] + T
 
         def place_body(bi, phi, Tb):
             rot = ops.expi(phi)
-            body = plan.bodies[bi]
-            if not body.welds:  # a single link: its frame is the identity
-                link = body.root
-                poses.phi[link], poses.rot[link], poses.T[link] = phi, rot, Tb
-                for p in mech.links[link].points:
+            if single[bi]:  # a single link: its frame is the identity
+                ((link, members),) = body_points[bi]
+                phi_of[link], rot_of[link], T_of[link] = phi, rot, Tb
+                for p, r in members:
                     if p not in pts:
-                        pts[p] = rot * ref[p] + Tb
+                        pts[p] = rot * r + Tb
                 return
             f = frame(bi)
-            for link in body.links:
+            for link, members in body_points[bi]:
                 lphi, lrot, lT = f[link]
                 lr = rot * lrot
                 lt = rot * lT + Tb
-                poses.phi[link], poses.rot[link], poses.T[link] = phi + lphi, lr, lt
-                for p in mech.links[link].points:
+                phi_of[link], rot_of[link], T_of[link] = phi + lphi, lr, lt
+                for p, r in members:
                     if p not in pts:
-                        pts[p] = lr * ref[p] + lt
-
-        def finish(k=None, violation=None):
-            """The run so far; ``k`` the step that failed (one command)."""
-            if k is not None:
-                return PlanRun(False, poses, pts, 0.0, tuple(used), k, violation, tuple(margins))
-            return PlanRun(
-                state['ok'],
-                poses,
-                pts,
-                state['margin'],
-                tuple(used),
-                state['failure'] if ops.batch else -1,
-                state['violation'],
-                tuple(margins),
-            )
+                        pts[p] = lr * r + lt
 
         def near_singular(m):
             b = len(used)
             prev = prev_margins[b] if prev_margins and b < len(prev_margins) else 1.0
             return min(m, prev) < CONTINUITY_MARGIN
 
-        def took(k, sg, m, okk, viol):
-            """A branching step: its sign, margin and (batch) failures."""
-            used.append(sg)
-            margins.append(m)
-            state['margin'] = ops.minimum(state['margin'], m)
-            if ops.batch:
-                newly = state['ok'] & ops.not_(okk)
-                state['failure'] = np.where(newly, k, state['failure'])
-                state['violation'] = np.where(newly, viol, state['violation'])
-                state['ok'] = state['ok'] & okk
-
         for k, st in enumerate(plan.steps):
             op = st.op
             # identity tests: enum members are singletons, and == on a StrEnum costs ~8x more
-            if op is _GROUND:
+            if op is _TWO_POINTS:
+                p, q = st.args.first, st.args.second
+                bi = st.body
+                b = pts[q] - pts[p]
+                nb = ops.cabs(b)
+                b = b / ops.where(nb > 0, nb, 1.0)  # unit first: 1e-300 lengths would underflow
+                a = self.unit_between.get(k)
+                if a is None:
+                    lp = local_pt(bi, p)
+                    a = local_pt(bi, q) - lp
+                    na = ops.cabs(a)
+                    a = a / ops.where(na > 0, na, 1.0)
+                else:
+                    lp = ref[p]
+                cross = a.real * b.imag - a.imag * b.real
+                phi = ops.atan2(cross, a.real * b.real + a.imag * b.imag)
+                place_body(bi, phi, pts[p] - ops.expi(phi) * lp)
+            elif op is _RRR or op is _RRP:
+                x = st.point
+                if op is _RRR:
+                    a = st.args
+                    b1, p1, b2, p2 = a.body_a, a.centre_a, a.body_b, a.centre_b
+                    r1 = self._radius(ops, b1, x, p1, frame)
+                    r2 = self._radius(ops, b2, x, p2, frame)
+                    pair = None
+                    if not batch:
+                        pair = self._coincident(pts, x, p1, p2, r1, r2, prefer, tol)
+                    if pair is None:
+                        pair = _rrr(ops, pts[p1], r1, pts[p2], r2, tol)
+                else:
+                    b1, p1, jname = st.args.body, st.args.centre, st.args.joint
+                    g = mech.prismatics[jname].guide
+                    r = self._radius(ops, b1, x, p1, frame)
+                    p0 = rot_of[g] * ref[x] + T_of[g]
+                    u = rot_of[g] * self.direction[jname]
+                    pair = solve_rrp_dyad(ops, pts[p1], r, p0, u, tol)
+                if not batch and not pair.ok:
+                    return PlanRun(
+                        False, poses, pts, 0.0, tuple(used), k, pair.violation, tuple(margins)
+                    )
+                sg = signs[len(used)]
+                if prefer is not None and x in prefer and near_singular(pair.margin):
+                    target = prefer[x]
+                    plus, _ = dyad_point(ops, pair, 1)
+                    minus, _ = dyad_point(ops, pair, -1)
+                    sg = 1 if ops.cabs(plus - target) <= ops.cabs(minus - target) else -1
+                pts[x], okk = dyad_point(ops, pair, sg)
+                if not batch and not okk:  # beyond the float range
+                    return PlanRun(False, poses, pts, 0.0, tuple(used), k, 0.0, tuple(margins))
+                used.append(sg)
+                margins.append(pair.margin)
+                if batch:
+                    margin_all = ops.minimum(margin_all, pair.margin)
+                    newly = ok_all & ops.not_(okk)
+                    failure = np.where(newly, k, failure)
+                    violation_all = np.where(newly, pair.violation, violation_all)
+                    ok_all = ok_all & okk
+                else:
+                    margin_all = pair.margin if pair.margin < margin_all else margin_all
+            elif op is _GROUND:
                 place_body(st.body, zero, ops.cplx(zero, zero))
             elif op is _KNOWN_POINT:
                 v = values[st.args.spec_index]
-                pts[st.point] = v if ops.batch else complex(float(v[0]), float(v[1]))
-            elif op is _TWO_POINTS:
-                p, q = st.args.first, st.args.second
-                lp = local_pt(st.body, p)
-                a, b = local_pt(st.body, q) - lp, pts[q] - pts[p]
-                # unit first: products of 1e-300 lengths would underflow
-                na, nb = ops.cabs(a), ops.cabs(b)
-                a, b = a / ops.where(na > 0, na, 1.0), b / ops.where(nb > 0, nb, 1.0)
-                cross = a.real * b.imag - a.imag * b.real
-                phi = ops.atan2(cross, a.real * b.real + a.imag * b.imag)
-                place_body(st.body, phi, pts[p] - ops.expi(phi) * lp)
+                pts[st.point] = v if batch else complex(float(v[0]), float(v[1]))
             elif op is _POINT_ANGLE:
                 p = st.args.point
                 phi = angles[st.body]
                 place_body(st.body, phi, pts[p] - ops.expi(phi) * local_pt(st.body, p))
             elif op is _ANGLE:
                 here, there, spec_i = st.args.link, st.args.source, st.args.spec_index
-                if there in poses.phi:
-                    src = poses.phi[there]
+                if there in phi_of:
+                    src = phi_of[there]
                 else:
                     sb = plan.body_of[there]
                     src = angles[sb] + frame(sb)[there][0]
@@ -286,36 +342,6 @@ class PlanExecutor:
                     if here == s.reference:
                         rel = -rel
                 angles[st.body] = src + rel - frame(st.body)[here][0]
-            elif op is _RRR or op is _RRP:
-                x = st.point
-                if op is _RRR:
-                    a = st.args
-                    b1, p1, b2, p2 = a.body_a, a.centre_a, a.body_b, a.centre_b
-                    r1, r2 = radius(b1, x, p1), radius(b2, x, p2)
-                    pair = None
-                    if not ops.batch:
-                        pair = self._coincident(pts, x, p1, p2, r1, r2, prefer, tol)
-                    if pair is None:
-                        pair = _rrr(ops, pts[p1], r1, pts[p2], r2, tol)
-                else:
-                    b1, p1, jname = st.args.body, st.args.centre, st.args.joint
-                    g = mech.prismatics[jname].guide
-                    r = radius(b1, x, p1)
-                    p0 = poses.rot[g] * ref[x] + poses.T[g]
-                    u = poses.rot[g] * self.direction[jname]
-                    pair = solve_rrp_dyad(ops, pts[p1], r, p0, u, tol)
-                if not ops.batch and not pair.ok:
-                    return finish(k, pair.violation)
-                sg = signs[len(used)]
-                if prefer is not None and x in prefer and near_singular(pair.margin):
-                    target = prefer[x]
-                    plus, _ = dyad_point(ops, pair, 1)
-                    minus, _ = dyad_point(ops, pair, -1)
-                    sg = 1 if ops.cabs(plus - target) <= ops.cabs(minus - target) else -1
-                pts[x], okk = dyad_point(ops, pair, sg)
-                if not ops.batch and not okk:  # beyond the float range
-                    return finish(k, 0.0)
-                took(k, sg, pair.margin, okk, pair.violation)
             elif op is _RPR:
                 jname, p = st.args.joint, st.args.pivot
                 pj = mech.prismatics[jname]
@@ -327,8 +353,10 @@ class PlanExecutor:
                 e = u_loc.real * w.imag - u_loc.imag * w.real  # signed offset of the pivot
                 psi0 = ops.atan2(u_loc.imag, u_loc.real)
                 dy = solve_rpr_dyad(ops, pts[p], pts[x], e, tol)
-                if not ops.batch and not dy.ok:
-                    return finish(k, dy.violation)
+                if not batch and not dy.ok:
+                    return PlanRun(
+                        False, poses, pts, 0.0, tuple(used), k, dy.violation, tuple(margins)
+                    )
                 sg = signs[len(used)]
                 key = '@' + pj.guide
                 if prefer is not None and key in prefer and near_singular(dy.margin):
@@ -340,10 +368,21 @@ class PlanExecutor:
                 phi = rpr_direction(ops, dy, sg) - psi0
                 angles[bi] = phi
                 place_body(bi, phi, pts[p] - ops.expi(phi) * lp)
-                took(k, sg, dy.margin, dy.ok, dy.violation)
+                used.append(sg)
+                margins.append(dy.margin)
+                if batch:
+                    margin_all = ops.minimum(margin_all, dy.margin)
+                    newly = ok_all & ops.not_(dy.ok)
+                    failure = np.where(newly, k, failure)
+                    violation_all = np.where(newly, dy.violation, violation_all)
+                    ok_all = ok_all & dy.ok
+                else:
+                    margin_all = dy.margin if dy.margin < margin_all else margin_all
             else:
                 raise PlanError(f'internal: unknown plan step {op!r}')
-        return finish()
+        return PlanRun(
+            ok_all, poses, pts, margin_all, tuple(used), failure, violation_all, tuple(margins)
+        )
 
     def _coincident(self, pts, x, p1, p2, r1, r2, prefer, tol) -> DyadPair | None:
         """One command only: circles that coincide (a change point, e.g. a rhombus folded flat)
