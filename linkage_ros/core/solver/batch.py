@@ -236,7 +236,7 @@ def _newton(
     out.residual = np.where(out.ok, np.maximum(residual, got.residual), 0.0)
     out.solver = c.mode
     out.careful = valid & ~accepted
-    for i in np.flatnonzero(out.careful):
+    for i in np.flatnonzero(out.careful).tolist():
         _set_row(out, i, *_careful_row(c, cont, arrays, start, i), int(iterations[i]))
 
 
@@ -321,7 +321,7 @@ def _sequential(
     out.rows = rows
     if c.mode is SolveMode.NEWTON:  # what a later batch of these rows may start from
         out.x, out.det_sign = np.zeros((n, c.system.n)), np.zeros(n, int)
-        for i in np.flatnonzero(out.ok):
+        for i in np.flatnonzero(out.ok).tolist():
             x_i, det = x_rows[i]
             if x_i is not None:
                 out.x[i], out.det_sign[i] = x_i, det
@@ -400,7 +400,8 @@ def _check_start(c: CompiledSolve, start: BatchResult, n: int) -> None:
     if not (
         isinstance(start.x, np.ndarray)
         and start.x.shape == (start.n, c.system.n)
-        and np.shape(start.det_sign) == (start.n,)
+        and isinstance(start.det_sign, np.ndarray)
+        and start.det_sign.shape == (start.n,)
         and np.shape(start.ok) == (start.n,)
     ):
         raise ValueError(

@@ -179,9 +179,9 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
             if sign_a != 0 and near_singular(c, xa, fixed_a, va):
                 # det J may change sign only by passing a singular configuration, and one is
                 # near: step without the sign guard, keep it if no dyad jumped sides
-                r2, _, fixed2 = newton_at(c, vb, xa, 0)
-                total_iter[0] += r2.iterations
-                if r2.success and not jump(xa, fixed_a, r2.x, fixed2):
+                r2, _, fixed2 = newton_at(c, vb, xa, 0)  # placed as r was: r2 is not None
+                total_iter[0] += r2.iterations if r2 is not None else 0
+                if r2 is not None and r2.success and not jump(xa, fixed_a, r2.x, fixed2):
                     since_progress[0] = 0
                     return r2, None, fixed2
         if depth >= 10 or since_progress[0] > WALK_BUDGET * c.max_iter:

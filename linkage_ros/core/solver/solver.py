@@ -183,7 +183,7 @@ class Solver:
         """Validate a {known name: value} command; raise ValueError naming what is wrong."""
         return self.compiled.parse(values)
 
-    def limit_violation(self, spec: Spec, value: float) -> str | None:
+    def limit_violation(self, spec: ScalarSpec, value: float) -> str | None:
         """Why ``value`` is outside ``spec``'s limits (plan.limit_violation), or None."""
         return limit_violation(spec, value)
 
