@@ -11,19 +11,17 @@ with the same words and reports the same fields.
 from __future__ import annotations
 
 import collections
-import itertools
 import math
 import time
 from collections import OrderedDict
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
 from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
-from .core.quantities import AngleSpec
 from .core.solver import Result, Solver
-from .core.solver.result import branch_text
+from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.velocity import velocities
 from .point_coordinates import group_point_coordinates
 
@@ -101,10 +99,12 @@ class Engine:
         self._synced[frozenset(self.forward.knowns)] = self.version
         self._clock = time.monotonic
         self._tokens, self._t_tokens = float(SOLVER_CACHE), self._clock()
-        #: (target names, branch signs or 'newton') -> that variant of the names' inverse solver
-        self._explicit: dict[tuple[frozenset[str], str], Solver] = {}
-        #: assembly mode -> forward configurations spread over the actuator ranges in it
-        self._starts: dict[tuple[int, ...], list[Result]] = {}
+        #: the target rule: answers keep the assembly mode (core.solver.mode_rule)
+        self.keeper = ModeKeeper(
+            mech,
+            self.forward,
+            lambda knowns, branch, method: self.new_solver(knowns, branch, method),
+        )
 
     # -- the good state ----------------------------------------------------------------------------
     @property
@@ -309,166 +309,29 @@ class Engine:
         return self.solve_target(self.solver_for(list(knowns)), knowns, allow_mode_change)
 
     # -- the assembly-mode rule for targets ------------------------------------------------------
-    def mode(self, result: Result | None) -> tuple[tuple[int, ...], list[float]] | None:
-        """The mechanism's assembly mode in a configuration: the branch signs (and margins) of
-        the forward solver's dyads there. None where it is not defined (no closed-form forward
-        plan, no configuration)."""
-        return None if result is None else self.forward.mode_of(result)
+    def mode(self, result: Result | None) -> Mode | None:
+        """The mechanism's assembly mode in a configuration (core.solver.mode_rule)."""
+        return self.keeper.mode(result)
 
     def solve_target(
         self, solver: Solver | str, values: Mapping[str, Any], allow_mode_change: bool = False
     ) -> Result:
-        """A target in the current assembly mode. A real mechanism cannot change mode without
-        being taken apart, so under ``branch: continuous`` an answer in another mode (or one
-        refused on a limit) is replaced by a solution in the current mode within limits where
-        one exists (the inverse plan's other branches are tried); if only other modes reach
-        the target it is refused, naming the mode that would, unless ``allow_mode_change``
-        (then the answer says ``mode_change``)."""
+        """A target in the current assembly mode (the rule: core.solver.mode_rule; under
+        ``branch: continuous`` only, other branch settings choose the mode themselves)."""
         if isinstance(solver, str):
             return Result(False, solver)
         if self.settings.branch != 'continuous':
             return self.solve(solver, values)
         self.bring_up_to_date(solver)
-        before = self.mode(self.last)
-        if before is None:
+        last = self.last
+        before = self.mode(last)
+        if before is None or last is None:
             return self.solve(solver, values)
-        result = solver.solve(values, commit=False)
-        after = self.mode(result) if result.success else None
-        if result.success and not _mode_differs(before, after):
-            return self._commit(solver, result)  # the inverse solver's own continuity
-        # another mode, or refused (a limit): the solution in mode nearest the last good state
-        # among the inverse plan's other branches
-        alt = self._in_mode(solver, values, before)
-        if alt is not None:
-            return self._commit(solver, alt)
-        if not result.success or after is None:
-            return result
-        change = f'{branch_text(before[0])} -> {branch_text(after[0])}'
-        if not allow_mode_change:
-            return Result(
-                False,
-                f'target is reachable only in assembly mode {branch_text(after[0])} of the '
-                f'forward dyads; the mechanism is in mode {branch_text(before[0])} and cannot '
-                'change mode without being taken apart (ask for the change explicitly to '
-                'allow it)',
-                solver=result.solver,
-            )
-        result.mode_change = change
-        return self._commit(solver, result)
-
-    def _commit(self, solver: Solver, result: Result) -> Result:
-        solver.adopt(result)
-        self.record(solver, result)
-        return result
-
-    def _in_mode(
-        self,
-        solver: Solver,
-        values: Mapping[str, Any],
-        before: tuple[tuple[int, ...], list[float]],
-    ) -> Result | None:
-        """The solution of the target in assembly mode ``before`` within limits nearest the
-        last good state: every branch of the inverse plan's dyads is tried (a closed-form plan
-        has no other solutions); where Newton places the rest (hybrid, newton), each branch
-        is solved from the last good state and then, if none is in mode, restarted from
-        configurations spread over the actuator ranges in that mode (a Newton root depends on
-        its start). None if none is found."""
-        last = self.last
-        k = len(solver.plan.branch_steps)
-        if k > MAX_BRANCHES:
-            return None
-        alternatives = [self._with_signs(solver, code, k) for code in range(2**k)] if k else []
-        if solver.mode != 'closed_form':
-            alternatives = alternatives or [solver]
-        best: tuple[float, Result] | None = None
-        for alt in alternatives:
-            if alt.mode != 'closed_form' and last is not None:
-                alt.adopt(last)  # Newton starts from the mechanism's state
-            r = alt.solve(values, commit=False)
-            if not r.success or _mode_differs(before, self.mode(r)):
-                continue
-            d = _distance(last, r)
-            if best is None or d < best[0]:
-                best = (d, r)
-        if best is not None or solver.mode == 'closed_form':
-            return None if best is None else best[1]
-        return self._multi_start(self._newton_for(solver), values, before)
-
-    def _with_signs(self, solver: Solver, code: int, k: int) -> Solver:
-        """The inverse solver of ``solver``'s knowns with the branch signs of bit pattern
-        ``code`` (k dyads)."""
-        signs = branch_text(-1 if code >> i & 1 else 1 for i in range(k))
-        return self._variant(solver, signs, lambda: self.new_solver(solver.knowns, branch=signs))
-
-    def _newton_for(self, solver: Solver) -> Solver:
-        """A Newton-only solver of ``solver``'s knowns: its root is the one nearest its start,
-        where a hybrid solve's closed-form part fixes some values whatever the start."""
-        return self._variant(
-            solver, 'newton', lambda: self.new_solver(solver.knowns, method='newton')
-        )
-
-    def _variant(self, solver: Solver, kind: str, make: Callable[[], Solver]) -> Solver:
-        """A variant of ``solver`` (other branch signs, Newton only), made once and kept; the
-        oldest is dropped beyond 4 x SOLVER_CACHE."""
-        key = (frozenset(solver.knowns), kind)
-        alt = self._explicit.get(key)
-        if alt is None:
-            alt = self._explicit[key] = make()
-            if len(self._explicit) > 4 * SOLVER_CACHE:
-                self._explicit.pop(next(iter(self._explicit)))
-        return alt
-
-    def _multi_start(
-        self,
-        solver: Solver,
-        values: Mapping[str, Any],
-        before: tuple[tuple[int, ...], list[float]],
-    ) -> Result | None:
-        """A Newton (or hybrid) inverse solve converges to the root nearest its start, which
-        may lie in another mode or beyond a limit while the target has a solution in the
-        current mode within limits. Restart it from configurations spread over the actuators'
-        ranges in the current mode (nearest the last good state first) and return the first
-        solution in mode within limits; None if none of MAX_STARTS starts reaches one."""
-        last = self.last
-        found = None
-        try:
-            for start in self._mode_starts(before[0])[:MAX_STARTS]:
-                solver.adopt(start)
-                r = solver.solve(values, commit=False)
-                if r.success and not _mode_differs(before, self.mode(r)):
-                    found = r
-                    break
-        finally:
-            if last is not None:
-                solver.adopt(last)
-        return found
-
-    def _mode_starts(self, signs: tuple[int, ...]) -> list[Result]:
-        """Configurations in assembly mode ``signs`` spread over the actuators' ranges (a
-        grid of forward solves, made once per mode), nearest the last good state first."""
-        starts = self._starts.get(signs)
-        if starts is None:
-            fwd = self.new_solver(None, branch=branch_text(signs))
-            levels = 3 if len(fwd.actuator_specs) <= 4 else 2
-            axes = []
-            for spec in fwd.actuator_specs:  # a forward solve: its knowns are the actuators
-                lo, hi = spec.minimum, spec.maximum
-                if lo is None or hi is None:
-                    if not isinstance(spec, AngleSpec):  # an unlimited slide: about its reference
-                        ref = fwd.reference_values()[spec.name]
-                        scale = 0.2 * self.mech.length_scale
-                        lo, hi = ref - scale, ref + scale
-                    else:
-                        lo, hi = -math.pi, math.pi
-                axes.append([lo + (hi - lo) * (k + 0.5) / levels for k in range(levels)])
-            starts = []
-            for combo in itertools.islice(itertools.product(*axes), MAX_STARTS * 4):
-                r = fwd.solve(dict(zip(fwd.knowns, combo)), commit=False)
-                if r.success and not _mode_differs((signs, [1.0] * len(signs)), self.mode(r)):
-                    starts.append(r)
-            self._starts[signs] = starts
-        last = self.last
-        return sorted(starts, key=lambda r: _distance(last, r))
+        answer = self.keeper.target(solver, values, last, before, allow_mode_change)
+        if answer.commit:
+            solver.adopt(answer.result)
+            self.record(solver, answer.result)
+        return answer.result
 
     def point_hold(self, point: str) -> list[str]:
         """The target_point_hold names a target on ``point`` keeps (the point itself excepted)."""
@@ -503,39 +366,6 @@ class Engine:
             )
         values[key] = xy
         return self.solve_target(solver, values)
-
-
-#: the most branching steps of an inverse plan whose 2^k branch choices are searched for a
-#: solution in the current assembly mode
-MAX_BRANCHES = 6
-#: the most restarts of a Newton inverse solve that looks for a solution in the current mode
-MAX_STARTS = 16
-#: a dyad margin (|sin| of its transmission angle) below which its branch sign is not read as
-#: the assembly mode: at (or within rounding of) its toggle the two modes meet
-MODE_MARGIN = 1e-9
-
-
-def _mode_differs(
-    before: tuple[tuple[int, ...], list[float]], after: tuple[tuple[int, ...], list[float]] | None
-) -> bool:
-    """Whether two assembly modes differ at a dyad clear of its toggle in both."""
-    if after is None:
-        return False
-    return any(
-        sb != sa and mb > MODE_MARGIN and ma > MODE_MARGIN
-        for sb, sa, mb, ma in zip(before[0], after[0], before[1], after[1])
-    )
-
-
-def _distance(a: Result | None, b: Result) -> float:
-    """Sum of squared point displacements between two configurations (m^2)."""
-    if a is None:
-        return 0.0
-    return sum(
-        (b.points[p][0] - a.points[p][0]) ** 2 + (b.points[p][1] - a.points[p][1]) ** 2
-        for p in a.points
-        if p in b.points
-    )
 
 
 # ---- request checks and status fields (every front end) ----------------------------------------

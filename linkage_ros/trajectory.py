@@ -20,9 +20,10 @@ from typing import Any
 from .core.errors import CommandError, echo
 from .core.model import Mechanism
 from .core.solver import Result
+from .core.solver.mode_rule import mode_differs
 from .core.solver.result import branch_text
 from .core.velocity import velocities
-from .engine import Engine, _mode_differs, max_request_names, rates_error, request_shape_error
+from .engine import Engine, max_request_names, rates_error, request_shape_error
 from .point_coordinates import group_point_coordinates
 from .stamps import frame_error
 
@@ -253,7 +254,7 @@ def solve_trajectory(
             if not r.success:
                 return _refused(f'point {i}: {r.reason}', i)
             after = engine.mode(r)
-            if before is not None and _mode_differs(before, after):
+            if before is not None and mode_differs(before, after):
                 assert after is not None
                 return _refused(
                     f'point {i}: the assembly mode changes from {branch_text(before[0])} to '

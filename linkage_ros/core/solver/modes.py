@@ -24,7 +24,7 @@ from .compiled import CompiledSolve, SolveMode
 from .continuity import Branch, BranchRule, Continuity
 from .one import solve_one
 from .reading import mode_of
-from .result import Result
+from .result import SIGN_MARGIN, Result
 
 #: Newton starts of the search (the first is the scene's reference pose)
 MODE_STARTS = 128
@@ -150,8 +150,9 @@ def newton_modes(
     return found
 
 
-#: a dyad margin below which the reference pose is read as drawn at that dyad's toggle
-TOGGLE_MARGIN = 1e-9
+#: a dyad margin below which the reference pose is read as drawn at that dyad's toggle (the
+#: threshold below which a branch sign is not read as the assembly mode)
+TOGGLE_MARGIN = SIGN_MARGIN
 
 
 def reference_toggle_warnings(c: CompiledSolve) -> list[str]:

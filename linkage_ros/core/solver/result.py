@@ -36,6 +36,11 @@ def branch_identity_defined(margin, residual):
     return margin > branch_undefined_below(residual)
 
 
+#: a dyad margin below which its branch sign is not read as the assembly mode: at (or within
+#: rounding of) its toggle the two modes meet. The one threshold of that meaning: the target
+#: rule (mode_rule) and the reference-pose toggle warning (modes) use it.
+SIGN_MARGIN = 1e-9
+
 METHODS = ('auto', 'closed_form', 'newton')
 #: a continuation walk gives up after this many times max_iter Newton iterations without a
 #: successful substep (an unreachable target would otherwise be bisected 10 levels deep)

@@ -1,0 +1,219 @@
+"""The assembly-mode rule for targets: a real mechanism cannot change its assembly mode without
+being taken apart, so an inverse solve (a target) answers in the mechanism's current mode.
+
+:class:`ModeKeeper` applies the rule for one mechanism (the engine's targets, and any front end
+that asks): an answer in another mode (or one refused on a limit) is replaced by a solution in
+the current mode within limits where one exists (the inverse plan's other branches are tried;
+where Newton places the rest, restarts spread over the actuator ranges in that mode); if only
+other modes reach the target it is refused, naming the mode that would, unless the caller
+allows the change (the answer then says ``mode_change``).
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from ..model import Mechanism
+from ..quantities import AngleSpec
+from .result import SIGN_MARGIN, Result, branch_text
+from .solver import Solver
+
+#: an assembly mode: the branch sign and margin (|sin| of its transmission angle) of each
+#: branching dyad of the forward plan
+Mode = tuple[tuple[int, ...], list[float]]
+
+#: the most branching steps of an inverse plan whose 2^k branch choices are searched for a
+#: solution in the current assembly mode
+MAX_BRANCHES = 6
+#: the most restarts of a Newton inverse solve that looks for a solution in the current mode
+MAX_STARTS = 16
+#: variants (other branch signs, Newton only) kept per keeper; the oldest dropped beyond it
+MAX_VARIANTS = 128
+
+
+def mode_differs(before: Mode, after: Mode | None) -> bool:
+    """Whether two assembly modes differ at a dyad clear of its toggle in both."""
+    if after is None:
+        return False
+    return any(
+        sb != sa and mb > SIGN_MARGIN and ma > SIGN_MARGIN
+        for sb, sa, mb, ma in zip(before[0], after[0], before[1], after[1])
+    )
+
+
+def configuration_distance(a: Result | None, b: Result) -> float:
+    """Sum of squared point displacements between two configurations (m^2)."""
+    if a is None:
+        return 0.0
+    return sum(
+        (b.points[p][0] - a.points[p][0]) ** 2 + (b.points[p][1] - a.points[p][1]) ** 2
+        for p in a.points
+        if p in b.points
+    )
+
+
+#: makes a solver with the caller's settings: (knowns or None for the actuators, branch or None,
+#: method or None) -> Solver
+SolverMaker = Callable[[Sequence[str] | None, str | None, str | None], Solver]
+
+
+@dataclass(frozen=True)
+class TargetAnswer:
+    """What the rule answers a target: the result, and whether the caller should commit it (make
+    it the mechanism's state)."""
+
+    result: Result
+    commit: bool
+
+
+class ModeKeeper:
+    """The target rule for one mechanism (see the module); ``make`` builds solvers with the
+    caller's settings, ``forward`` reads a configuration's mode."""
+
+    def __init__(self, mech: Mechanism, forward: Solver, make: SolverMaker):
+        self.mech, self.forward, self.make = mech, forward, make
+        #: (target names, branch signs or 'newton') -> that variant of the names' inverse solver
+        self._variants: dict[tuple[frozenset[str], str], Solver] = {}
+        #: assembly mode -> forward configurations spread over the actuator ranges in it
+        self._starts: dict[tuple[int, ...], list[Result]] = {}
+
+    def mode(self, result: Result | None) -> Mode | None:
+        """The mechanism's assembly mode in a configuration: the branch signs (and margins) of
+        the forward solver's dyads there. None where it is not defined (no closed-form forward
+        plan, no configuration)."""
+        return None if result is None else self.forward.mode_of(result)
+
+    def target(
+        self,
+        solver: Solver,
+        values: Mapping[str, Any],
+        last: Result,
+        before: Mode,
+        allow_mode_change: bool = False,
+    ) -> TargetAnswer:
+        """``solver`` (brought up to ``last``, the mechanism's state in mode ``before``) on a
+        target, under the rule."""
+        result = solver.solve(values, commit=False)
+        after = self.mode(result) if result.success else None
+        if result.success and not mode_differs(before, after):
+            return TargetAnswer(result, True)  # the inverse solver's own continuity
+        # another mode, or refused (a limit): the solution in mode nearest the last good state
+        # among the inverse plan's other branches
+        alt = self.in_mode(solver, values, before, last)
+        if alt is not None:
+            return TargetAnswer(alt, True)
+        if not result.success or after is None:
+            return TargetAnswer(result, False)
+        if not allow_mode_change:
+            refusal = Result(
+                False,
+                f'target is reachable only in assembly mode {branch_text(after[0])} of the '
+                f'forward dyads; the mechanism is in mode {branch_text(before[0])} and cannot '
+                'change mode without being taken apart (ask for the change explicitly to '
+                'allow it)',
+                solver=result.solver,
+            )
+            return TargetAnswer(refusal, False)
+        result.mode_change = f'{branch_text(before[0])} -> {branch_text(after[0])}'
+        return TargetAnswer(result, True)
+
+    def in_mode(
+        self, solver: Solver, values: Mapping[str, Any], before: Mode, last: Result | None
+    ) -> Result | None:
+        """The solution of the target in assembly mode ``before`` within limits nearest
+        ``last``: every branch of the inverse plan's dyads is tried (a closed-form plan has no
+        other solutions); where Newton places the rest (hybrid, newton), each branch is solved
+        from ``last`` and then, if none is in mode, restarted from configurations spread over
+        the actuator ranges in that mode (a Newton root depends on its start). None if none is
+        found."""
+        k = solver.branch_count
+        if k > MAX_BRANCHES:
+            return None
+        alternatives = [self._with_signs(solver, code, k) for code in range(2**k)] if k else []
+        closed = solver.mode == 'closed_form'
+        if not closed:
+            alternatives = alternatives or [solver]
+        best: tuple[float, Result] | None = None
+        for alt in alternatives:
+            if alt.mode != 'closed_form' and last is not None:
+                alt.adopt(last)  # Newton starts from the mechanism's state
+            r = alt.solve(values, commit=False)
+            if not r.success or mode_differs(before, self.mode(r)):
+                continue
+            d = configuration_distance(last, r)
+            if best is None or d < best[0]:
+                best = (d, r)
+        if best is not None or closed:
+            return None if best is None else best[1]
+        return self._multi_start(self._newton_for(solver), values, before, last)
+
+    def _with_signs(self, solver: Solver, code: int, k: int) -> Solver:
+        """The inverse solver of ``solver``'s knowns with the branch signs of bit pattern
+        ``code`` (k dyads)."""
+        signs = branch_text(-1 if code >> i & 1 else 1 for i in range(k))
+        return self._variant(solver, signs, lambda: self.make(solver.knowns, signs, None))
+
+    def _newton_for(self, solver: Solver) -> Solver:
+        """A Newton-only solver of ``solver``'s knowns: its root is the one nearest its start,
+        where a hybrid solve's closed-form part fixes some values whatever the start."""
+        return self._variant(solver, 'newton', lambda: self.make(solver.knowns, None, 'newton'))
+
+    def _variant(self, solver: Solver, kind: str, make: Callable[[], Solver]) -> Solver:
+        key = (frozenset(solver.knowns), kind)
+        alt = self._variants.get(key)
+        if alt is None:
+            alt = self._variants[key] = make()
+            if len(self._variants) > MAX_VARIANTS:
+                self._variants.pop(next(iter(self._variants)))
+        return alt
+
+    def _multi_start(
+        self, solver: Solver, values: Mapping[str, Any], before: Mode, last: Result | None
+    ) -> Result | None:
+        """A Newton (or hybrid) inverse solve converges to the root nearest its start, which
+        may lie in another mode or beyond a limit while the target has a solution in the
+        current mode within limits. Restart it from configurations spread over the actuators'
+        ranges in the current mode (nearest ``last`` first) and return the first solution in
+        mode within limits; None if none of MAX_STARTS starts reaches one."""
+        found = None
+        try:
+            for start in self._mode_starts(before[0], last)[:MAX_STARTS]:
+                solver.adopt(start)
+                r = solver.solve(values, commit=False)
+                if r.success and not mode_differs(before, self.mode(r)):
+                    found = r
+                    break
+        finally:
+            if last is not None:
+                solver.adopt(last)
+        return found
+
+    def _mode_starts(self, signs: tuple[int, ...], last: Result | None) -> list[Result]:
+        """Configurations in assembly mode ``signs`` spread over the actuators' ranges (a
+        grid of forward solves, made once per mode), nearest ``last`` first."""
+        starts = self._starts.get(signs)
+        if starts is None:
+            fwd = self.make(None, branch_text(signs), None)
+            levels = 3 if len(fwd.actuator_specs) <= 4 else 2
+            axes = []
+            for spec in fwd.actuator_specs:  # a forward solve: its knowns are the actuators
+                lo, hi = spec.minimum, spec.maximum
+                if lo is None or hi is None:
+                    if not isinstance(spec, AngleSpec):  # an unlimited slide: about its reference
+                        ref = fwd.reference_values()[spec.name]
+                        scale = 0.2 * self.mech.length_scale
+                        lo, hi = ref - scale, ref + scale
+                    else:
+                        lo, hi = -math.pi, math.pi
+                axes.append([lo + (hi - lo) * (k + 0.5) / levels for k in range(levels)])
+            starts = []
+            for combo in itertools.islice(itertools.product(*axes), MAX_STARTS * 4):
+                r = fwd.solve(dict(zip(fwd.knowns, combo)), commit=False)
+                if r.success and not mode_differs((signs, [1.0] * len(signs)), self.mode(r)):
+                    starts.append(r)
+            self._starts[signs] = starts
+        return sorted(starts, key=lambda r: configuration_distance(last, r))
