@@ -291,6 +291,37 @@ def line_through_point(p, x, offset, sign, tol: float = TANGENCY_TOL):
     return psi, dyad.margin, dyad.ok, dyad.violation
 
 
+# ---- which side: the branch sign of a dyad, read off positions -----------------------------
+
+
+def unit_vector(ops: Any, z: Any) -> Any:
+    """z / |z| (hypot: no overflow at 1e200; a zero vector stays 0)."""
+    r = ops.cabs(z)
+    return z / ops.where(r > 0, r, 1.0)
+
+
+def circle_side(ops: Any, c1: Any, c2: Any, x: Any) -> Any:
+    """Which side of the line c1 -> c2 the point x lies (complex points): the cross product of
+    the unit vectors c1 -> c2 and c1 -> x, > 0 on the left (an RRR dyad's branch +1)."""
+    ab, ax = (
+        unit_vector(ops, c2 - c1),
+        unit_vector(ops, x - c1),
+    )  # units: products of 1e200 overflow
+    return ab.real * ax.imag - ab.imag * ax.real
+
+
+def line_side(ops: Any, anchor: Any, x: Any, u: Any) -> Any:
+    """How far along the direction u (unit, complex) x lies from ``anchor``: the dot product
+    of u and the unit vector anchor -> x, > 0 ahead (an RRP/RPR dyad's branch +1)."""
+    v = unit_vector(ops, x - anchor)
+    return v.real * u.real + v.imag * u.imag
+
+
+def side_sign(side: float) -> int:
+    """The branch sign of a side (+1 where side >= 0: a point on the line takes +1)."""
+    return 1 if side >= 0 else -1
+
+
 def rotation_between(v_ref, v_now):
     """Angle (rad) that rotates vector v_ref onto the direction of v_now (atan2 form)."""
     a, _ = _safe_unit(np.asarray(v_ref, float))  # unit first: products of 1e-300 underflow

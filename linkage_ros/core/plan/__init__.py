@@ -24,7 +24,6 @@ from .compile import (  # noqa: F401
     Step,
     Weld,
     _norm,
-    _side,
     run_one,
 )
 from .geometry import (  # noqa: F401

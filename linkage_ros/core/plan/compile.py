@@ -9,10 +9,11 @@ from typing import Any
 import numpy as np
 
 from .. import dyads
+from ..dyads import circle_side, line_side, side_sign
 from ..errors import PlanError
 from ..execute import PlanRun, executor
 from ..model import Mechanism
-from ..ops import to_xy
+from ..ops import SCALAR, to_xy
 from ..quantities import AngleSpec, PointSpec, SlideSpec
 from ..steps import (
     BRANCHING,
@@ -305,6 +306,7 @@ class Plan:
     def _branching_step(self, placed, known_pts, pt_bodies, known_of):
         mech = self.mech
         ref = mech.points
+        refc = {p: _cx(v) for p, v in ref.items()}  # the reference pose, complex
         # RRR: an unknown point shared by two unplaced bodies, each with one known point
         for x, owners in pt_bodies.items():
             if x in known_pts:
@@ -316,7 +318,7 @@ class Plan:
                     p1, p2 = known_of(b1)[0], known_of(b2)[0]
                     if p1 == p2 or np.hypot(*(ref[p1] - ref[p2])) == 0:
                         continue  # concentric circles: no dyad
-                    sign = _side(ref[p1], ref[p2], ref[x])
+                    sign = side_sign(circle_side(SCALAR, refc[p1], refc[p2], refc[x]))
                     return Step(
                         StepKind.RRR,
                         point=x,
@@ -338,8 +340,7 @@ class Plan:
                 if bi in placed or bi == sb or not known_of(bi):
                     continue
                 p1 = known_of(bi)[0]
-                u = np.asarray(pj.direction)
-                sign = int(np.sign(np.dot(ref[x] - ref[p1], u))) or 1
+                sign = side_sign(line_side(SCALAR, refc[p1], refc[x], _cx(pj.direction)))
                 return Step(
                     StepKind.RRP,
                     point=x,
@@ -358,8 +359,7 @@ class Plan:
             if not kp:
                 continue
             p = kp[0]
-            u = np.asarray(pj.direction)
-            sign = int(np.sign(np.dot(ref[x] - ref[p], u))) or 1
+            sign = side_sign(line_side(SCALAR, refc[p], refc[x], _cx(pj.direction)))
             return Step(
                 StepKind.RPR,
                 body=gb,
@@ -453,10 +453,8 @@ def _norm(v):
     return np.hypot(v[..., 0], v[..., 1])
 
 
-def _side(p1, p2, x) -> int:
-    a, b = p2 - p1, x - p1
-    s = float(np.sign(dyads.cross2(a / (np.hypot(*a) or 1.0), b / (np.hypot(*b) or 1.0))))
-    return int(s) if s else 1
+def _cx(v) -> complex:
+    return complex(float(v[0]), float(v[1]))
 
 
 # ---- one command at a time -------------------------------------------------------------------

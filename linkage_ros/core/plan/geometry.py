@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..dyads import circle_side, line_side, unit_vector
 from ..execute import LinkPoses
 from ..model import Mechanism
 from ..ops import BATCH, SCALAR, to_complex
@@ -18,22 +19,15 @@ def step_geometry(ops, mech: Mechanism, st: Step, pts, rot) -> tuple:
     branch sign is +1 where side >= 0; margin is |sin| of the dyad's transmission angle (0 at
     its singularity). ``pts`` complex points, ``rot`` {link: e^{i phi}} of the guide links."""
 
-    def unit(z):  # hypot: no overflow at 1e200; a zero vector stays 0
-        r = ops.cabs(z)
-        return z / ops.where(r > 0, r, 1.0)
-
     x = pts[st.point]
     if st.op is StepKind.RRR:
         a, b = pts[st.args.centre_a], pts[st.args.centre_b]
-        ab, ax = unit(b - a), unit(x - a)  # units: products of 1e200 overflow
-        side = ab.real * ax.imag - ab.imag * ax.real
-        vb = unit(x - b)
+        side = circle_side(ops, a, b, x)
+        ax, vb = unit_vector(ops, x - a), unit_vector(ops, x - b)
         m = abs(ax.real * vb.imag - ax.imag * vb.real)
     else:
         pj = mech.prismatics[st.args.joint]
-        u = rot[pj.guide] * _c(pj.direction)
-        v = unit(x - pts[anchor_of(st.args)])
-        side = v.real * u.real + v.imag * u.imag
+        side = line_side(ops, pts[anchor_of(st.args)], x, rot[pj.guide] * _c(pj.direction))
         m = abs(side)
     return side, ops.clip(m, 0.0, 1.0)
 
