@@ -106,8 +106,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         'continuous',
         "Assembly mode: 'continuous' (start in the reference pose's mode, then stay nearest "
         "the previous configuration), 'reference' (always the reference pose's signs) or "
-        "explicit signs such as '+-' (one per branching dyad of the forward plan).",
-        constraints='continuous | reference | [+-]+',
+        "explicit signs such as '+-' (one per branching dyad of the forward plan); for a scene "
+        "Newton places, 'J+' or 'J-' (the sign of its loop Jacobian's determinant).",
+        constraints='continuous | reference | [+-]+ | J+ | J-',
     ),
     ParamSpec(
         'frame_id',
@@ -321,10 +322,15 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         fail_setting('max_iterations', 'must be an integer > 0', it)
     branch = v['branch']
     if not isinstance(branch, str) or not (
-        branch in BRANCH_MODES or (branch and set(branch) <= {'+', '-'})
+        branch in BRANCH_MODES
+        or branch in ('J+', 'J-')
+        or (branch and set(branch) <= {'+', '-'})
     ):
         fail_setting(
-            'branch', "must be 'continuous', 'reference' or a string of + and - signs", branch
+            'branch',
+            "must be 'continuous', 'reference', a string of + and - signs, or J+ / J- (a "
+            'scene Newton places)',
+            branch,
         )
     frame_id = v['frame_id']
     if (

@@ -147,8 +147,9 @@ def _add_solve_options(p, default_branch: str, ranges: bool):
     s.add_argument(
         '--branch',
         default=default_branch,
-        help="assembly mode: 'continuous', 'reference' or one sign per branching "
-        f"dyad such as '+-' (default {default_branch})",
+        help="assembly mode: 'continuous', 'reference', one sign per branching "
+        "dyad such as '+-', or for a scene Newton places 'J+' / 'J-' (the sign of its loop "
+        f"Jacobian's determinant; default {default_branch})",
     )
     s.add_argument(
         '--solver',

@@ -272,7 +272,8 @@ def test_target_point_on_five_bar(capsys, scenes):
     a1, a2 = d['inputs']['a1'], d['inputs']['a2']
     assert a1 == pytest.approx(math.atan2(pts['A'][1], pts['A'][0]), abs=1e-12)
     assert a2 == pytest.approx(math.atan2(pts['B'][1], pts['B'][0] - 0.3), abs=1e-12)
-    # forward solve with the actuator values found puts T on the target
+    # forward solve with the actuator values found, in the answer's assembly mode (its branch:
+    # the forward dyads' signs), puts T on the target
     rc, out, _ = run(
         capsys,
         'solve',
@@ -282,7 +283,7 @@ def test_target_point_on_five_bar(capsys, scenes):
         '--set',
         f'a2={a2!r}',
         '--branch',
-        d['branch'][1:],
+        d['branch'],
         '--json',
     )
     assert rc == 0 and close(loads(out)['points']['T'], target)

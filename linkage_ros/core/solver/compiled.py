@@ -212,8 +212,10 @@ class CompiledSolve:
         signs: Sequence[int],
         margin: float,
         cond: float | None = None,
+        label: str | None = None,
     ) -> Result:
-        """The Result of one solved configuration (refused if any value is not finite)."""
+        """The Result of one solved configuration (refused if any value is not finite).
+        ``label``: the mode's name where the dyad signs do not give it (reading.mode_label)."""
         got = self.assembler(poses.phi)(SCALAR, poses, vals)
         inputs, joints, links, residual = got.inputs, got.joints, got.links, got.residual
         points = {p: (v.real, v.imag) for p, v in pts.items()}
@@ -228,8 +230,8 @@ class CompiledSolve:
             residual,
             iterations,
             solver,
-            branch_text(signs),
-            bool(branch_identity_defined(margin, residual)) if signs else True,
+            branch_text(signs) if label is None else label,
+            bool(branch_identity_defined(margin, residual)) if signs or label else True,
             float(margin),
             cond if cond is None or math.isfinite(cond) else None,
         )

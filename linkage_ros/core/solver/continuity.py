@@ -24,6 +24,7 @@ class BranchRule(StrEnum):
     CONTINUOUS = 'continuous'  # the reference pose's first, then the one nearest the last answer
     REFERENCE = 'reference'  # the reference pose's signs, always
     EXPLICIT = 'explicit'  # given signs, one per branching dyad of the plan
+    JACOBIAN = 'jacobian'  # where Newton places the mechanism: a loop Jacobian determinant sign
 
 
 @dataclass(frozen=True)
@@ -32,14 +33,30 @@ class Branch:
 
     rule: BranchRule = BranchRule.CONTINUOUS
     signs: tuple[int, ...] | None = None
+    #: JACOBIAN: the sign (+1 / -1) of the loop Jacobian's determinant over every moving link
+    det_sign: int | None = None
 
 
-def parse_branch(plan: Plan, branch: Any) -> Branch:
+def parse_branch(plan: Plan, branch: Any, newton_labels: bool = False) -> Branch:
     """'continuous', 'reference' or a string of + and - (one per branching dyad of ``plan``);
-    PlanError naming the dyads for anything else."""
+    with ``newton_labels`` (a forward solve that Newton places) also 'J+' or 'J-', the sign of
+    the loop Jacobian's determinant (reading.mode_label); PlanError naming the dyads for
+    anything else."""
     k = len(plan.branch_steps)
     if branch in ('continuous', 'reference'):
         return Branch(BranchRule(branch))
+    if branch in ('J+', 'J-'):
+        if not newton_labels:
+            raise PlanError(
+                f'branch {branch!r} names an assembly mode of a scene Newton places (the sign of '
+                "its loop Jacobian's determinant); this solve's modes are "
+                + (
+                    f'the signs of its {k} branching dyad(s), e.g. {"+" * k!r}'
+                    if k
+                    else 'not selectable (no branching dyad)'
+                )
+            )
+        return Branch(BranchRule.JACOBIAN, det_sign=1 if branch == 'J+' else -1)
     if isinstance(branch, str) and set(branch) <= {'+', '-'}:
         if len(branch) != k:
             dyads = '; '.join(s.describe(plan) for s in plan.branch_steps)

@@ -19,7 +19,8 @@ from typing import Any
 
 from ..model import Mechanism
 from ..quantities import AngleSpec
-from .result import SIGN_MARGIN, Result, branch_text
+from .reading import mode_label
+from .result import SIGN_MARGIN, Result, branch_identity_defined, branch_text
 from .solver import Solver
 
 #: an assembly mode: the branch sign and margin (|sin| of its transmission angle) of each
@@ -81,6 +82,10 @@ class ModeKeeper:
         #: assembly mode -> forward configurations spread over the actuator ranges in it
         self._starts: dict[tuple[int, ...], list[Result]] = {}
 
+    def label(self, mode: Mode) -> str:
+        """A mode as statuses show it: '+-' (the forward dyads' signs) or 'J+' (reading)."""
+        return mode_label(self.forward.compiled, mode[0])
+
     def mode(self, result: Result | None) -> Mode | None:
         """The mechanism's assembly mode in a configuration: the branch signs (and margins) of
         the forward solver's dyads there. None where it is not defined (no closed-form forward
@@ -100,26 +105,40 @@ class ModeKeeper:
         result = solver.solve(values, commit=False)
         after = self.mode(result) if result.success else None
         if result.success and not mode_differs(before, after):
-            return TargetAnswer(result, True)  # the inverse solver's own continuity
+            return self._answer(result, after or before)  # the inverse solver's continuity
         # another mode, or refused (a limit): the solution in mode nearest the last good state
         # among the inverse plan's other branches
         alt = self.in_mode(solver, values, before, last)
         if alt is not None:
-            return TargetAnswer(alt, True)
+            return self._answer(alt, self.mode(alt) or before)
         if not result.success or after is None:
             return TargetAnswer(result, False)
         if not allow_mode_change:
             refusal = Result(
                 False,
-                f'target is reachable only in assembly mode {branch_text(after[0])} of the '
-                f'forward dyads; the mechanism is in mode {branch_text(before[0])} and cannot '
+                f'target is reachable only in assembly mode {self.label(after)} '
+                f'{self._of_what()}; the mechanism is in mode {self.label(before)} and cannot '
                 'change mode without being taken apart (ask for the change explicitly to '
                 'allow it)',
                 solver=result.solver,
             )
             return TargetAnswer(refusal, False)
-        result.mode_change = f'{branch_text(before[0])} -> {branch_text(after[0])}'
+        result.mode_change = f'{self.label(before)} -> {self.label(after)}'
+        return self._answer(result, after)
+
+    def _answer(self, result: Result, mode: Mode) -> TargetAnswer:
+        """A target's answer, its ``branch`` the mechanism's mode (the forward dyads' signs or
+        the Jacobian's sign), as a command's status shows it, not the inverse plan's signs."""
+        result.branch = self.label(mode)
+        result.branch_defined = bool(
+            branch_identity_defined(min(mode[1], default=1.0), result.residual or 0.0)
+        )
         return TargetAnswer(result, True)
+
+    def _of_what(self) -> str:
+        if self.forward.full_plan.complete:
+            return 'of the forward dyads'
+        return "(the sign of the loop Jacobian's determinant)"
 
     def in_mode(
         self, solver: Solver, values: Mapping[str, Any], before: Mode, last: Result | None

@@ -23,7 +23,7 @@ from ..plan import limit_violation
 from .compiled import CompiledSolve, SolveMode
 from .continuity import Branch, BranchRule, Continuity
 from .one import solve_one
-from .reading import mode_of
+from .reading import mode_label, mode_of
 from .result import SIGN_MARGIN, Result
 
 #: Newton starts of the search (the first is the scene's reference pose)
@@ -45,9 +45,24 @@ class ModeList:
     singular: int = 0  # roots found on a continuum of solutions (not listed)
 
 
-def mode_key(result: Result, scale: float) -> tuple[float, ...]:
-    """Points rounded to 1e-9 of the length scale: coincident modes (at a toggle) share it."""
-    return tuple(round(c / scale, 9) for p in sorted(result.points) for c in result.points[p])
+#: two answers whose points all lie within this fraction of the length scale of each other are
+#: one assembly mode (coincident modes at a toggle; one Newton root reached from two starts,
+#: which agree only to its convergence, ~1e-12 times the condition number)
+SAME_MODE = 1e-6
+
+
+def same_configuration(a: Result, b: Result, scale: float) -> bool:
+    """Whether two answers place every point within SAME_MODE of the length scale."""
+    tol = SAME_MODE * scale
+    return all(
+        abs(a.points[p][0] - q[0]) <= tol and abs(a.points[p][1] - q[1]) <= tol
+        for p, q in b.points.items()
+        if p in a.points
+    )
+
+
+def _is_new(r: Result, found: list[Result], scale: float) -> bool:
+    return not any(same_configuration(r, f, scale) for f in found)
 
 
 def modes_of(
@@ -55,16 +70,26 @@ def modes_of(
     cont: Continuity,
     values: Mapping[str, Any],
     newton: CompiledSolve | None = None,
+    forward: CompiledSolve | None = None,
 ) -> ModeList:
     """Every assembly mode of one command (``cont`` is read, never changed): each sign
     combination of the dyad plan that closes; where Newton places the mechanism, the modes a
     multi-start Newton search finds with ``newton`` (a Newton-only compile of the same knowns;
-    ``c`` itself in newton mode)."""
+    ``c`` itself in newton mode). Where no dyad plan gives the modes' signs, each answer's
+    ``branch`` is the mechanism's mode label as ``forward`` (a forward compile) reads it
+    (reading.mode_label: the loop Jacobian's determinant sign, 'J+' or 'J-')."""
     if c.mode is SolveMode.CLOSED_FORM:
         return ModeList(closed_form_modes(c, cont, values))
     if newton is None or newton.mode is not SolveMode.NEWTON:
         raise ValueError('the modes of a Newton solve need a Newton-only compile of its knowns')
-    return newton_modes(newton, values, cont if newton is c else None)
+    found = newton_modes(newton, values, cont if newton is c else None)
+    if forward is not None and not forward.full_plan.complete:
+        for r in found.results:
+            mode = mode_of(forward, r) if r.success else None
+            if mode is not None and mode[0]:
+                r.branch = mode_label(forward, mode[0])
+                r.branch_defined = mode[1][0] > SIGN_MARGIN
+    return found
 
 
 def closed_form_modes(
@@ -74,16 +99,11 @@ def closed_form_modes(
     if not c.branch_count:
         return [solve_one(c, cont.with_branch(cont.branch), values, commit=False)]
     out: list[Result] = []
-    seen: set[tuple[float, ...]] = set()
     for combo in itertools.product((1, -1), repeat=c.branch_count):
         r = solve_one(c, cont.with_branch(Branch(BranchRule.EXPLICIT, combo)), values, commit=False)
-        if not r.success:
-            continue
-        key = mode_key(r, c.mech.length_scale)
-        if key in seen:  # coincident modes (at a toggle) are one answer
-            continue
-        seen.add(key)
-        out.append(r)
+        # coincident modes (at a toggle) are one answer
+        if r.success and _is_new(r, out, c.mech.length_scale):
+            out.append(r)
     return out or [solve_one(c, cont.with_branch(cont.branch), values, commit=False)]
 
 
@@ -101,11 +121,9 @@ def newton_modes(
     first = solve_one(
         c, cont.with_branch(cont.branch) if cont else Continuity(), values, commit=False
     )
-    seen: set[tuple[float, ...]] = set()
     scale = c.mech.length_scale
     if first.success:
         found.results.append(first)
-        seen.add(mode_key(first, scale))
     try:
         vals = c.parse(values)
     except ValueError:
@@ -140,11 +158,8 @@ def newton_modes(
             limit_violation(s, res.inputs[s.name]) for s in c.actuator_specs if s.name in res.inputs
         ):
             continue
-        key = mode_key(res, scale)
-        if key in seen:
-            continue
-        seen.add(key)
-        found.results.append(res)
+        if _is_new(res, found.results, scale):
+            found.results.append(res)
     if not found.results:
         found.results.append(first)
     return found

@@ -3,6 +3,7 @@ warm start, continuation with branch checks, a careful fallback."""
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -14,6 +15,7 @@ from ..plan import branch_geometry_one, run_one
 from ..quantities import AngleSpec, PointSpec
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import BranchRule, Continuity, State, state_of
+from .reading import jacobian_sign, mode_label
 from .result import CLOSURE_LIMIT, NEAR_SINGULAR_COND, WALK_BUDGET, Result, branch_text
 
 #: what a configuration's branch geometry is: (signs, margins, poses, points)
@@ -58,7 +60,47 @@ def start(
         run = run_one(c.full_plan, list(c.ref_values), cont.branch.signs, None)
         if run.ok:
             x_all = c.check_system.x_from_poses(run.poses)
+    if cont.branch.rule is BranchRule.JACOBIAN and cont.branch.det_sign is not None:
+        x_all = jacobian_mode_start(c, cont.branch.det_sign, x_all)
     return list(c.ref_values), c.sub_x(x_all), None
+
+
+#: Newton starts tried for a configuration in a requested Jacobian mode
+JACOBIAN_MODE_STARTS = 64
+
+
+def jacobian_mode_root(
+    c: CompiledSolve, det_sign: int, vals: Values, x_near: np.ndarray
+) -> SolveResult | None:
+    """A configuration at ``vals`` (over every moving link: ``c.check_system``) whose loop
+    Jacobian has the determinant sign ``det_sign``: Newton from ``x_near``, then from starts
+    with the link angles spread at random (seeded: repeatable), the root nearest ``x_near``
+    of the first few found; None if no start reaches one."""
+    cs = c.check_system
+    rng = np.random.default_rng(20261126)
+    found: list[SolveResult] = []
+    for k in range(JACOBIAN_MODE_STARTS):
+        x0 = x_near.copy()
+        if k:
+            x0[0::3] = rng.uniform(-math.pi, math.pi, cs.n // 3)
+        r = cs.solve(x0, vals, tol=c.tol, max_iter=c.max_iter, keep_det_sign=False)
+        if r.success and r.det_sign == det_sign:
+            found.append(r)
+            if len(found) == 4:
+                break
+    if not found:
+        return None
+    return min(found, key=lambda r: float(np.sum((r.x - x_near) ** 2)))
+
+
+def jacobian_mode_start(c: CompiledSolve, det_sign: int, x_ref: np.ndarray) -> np.ndarray:
+    """A configuration at the reference input in the Jacobian mode ``det_sign`` (see
+    jacobian_mode_root); the reference pose if it is in it or none is found."""
+    cs, vals = c.check_system, list(c.ref_values)
+    if cs.start_sign(x_ref, vals) == det_sign:
+        return x_ref
+    r = jacobian_mode_root(c, det_sign, vals, x_ref)
+    return x_ref if r is None else r.x
 
 
 def refusal_at(c: CompiledSolve, vals: Values, x0: np.ndarray, walk_reason: str | None) -> str:
@@ -264,6 +306,27 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
                 c.echo(vals),
                 solver_name,
             ), None
+    label = None
+    if not c.inverse and not c.full_plan.complete:
+        # a forward solve that Newton places: its mode is the loop Jacobian's determinant sign
+        det = jacobian_sign(c, poses)
+        want_det = cont.branch.det_sign
+        if cont.branch.rule is BranchRule.JACOBIAN and want_det is not None and det != want_det:
+            # the continuation ended in the other mode: the root in the requested one
+            x_all = c.check_system.x_from_poses(poses)
+            alt = jacobian_mode_root(c, want_det, vals, x_all)
+            if alt is None:
+                return c.fail(
+                    f'Newton converged to assembly mode {mode_label(c, (det,)) if det else "J0"}'
+                    f', not the requested {mode_label(c, (want_det,))}, and no root in that mode '
+                    f'was found from {JACOBIAN_MODE_STARTS} starts',
+                    c.echo(vals),
+                    solver_name,
+                ), None
+            total_iter[0] += alt.iterations
+            r, det = alt, want_det
+            poses, pts = c.check_system.configuration(alt.x)
+        label = mode_label(c, (det,)) if det else ''
     margin = min(margins) if margins else 1.0 / max(r.cond, 1.0)
     res = c.build_result(
         poses,
@@ -274,6 +337,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         signs=signs_t,
         margin=margin,
         cond=r.cond,
+        label=label,
     )
     newton = c.mode is SolveMode.NEWTON  # x is then x_all, and predicts the next solve
     return res, state_of(

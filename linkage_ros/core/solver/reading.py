@@ -13,7 +13,7 @@ from ..plan import branch_geometry_one, spec_value_one
 from ..quantities import PointSpec
 from .compiled import CompiledSolve, Values
 from .continuity import Continuity, state_of
-from .result import Result
+from .result import Result, branch_text
 
 
 def configuration_of(
@@ -81,15 +81,49 @@ def adopt(c: CompiledSolve, cont: Continuity, result: Result) -> bool:
 
 
 def mode_of(c: CompiledSolve, result: Result) -> tuple[tuple[int, ...], list[float]] | None:
-    """The assembly mode of a solved configuration (from any solver of this mechanism) as
-    this solve's plan reads it: the branch sign and dyad margin of each branching step (a
-    sign is undefined where its margin is ~0, at that dyad's toggle). None if the result is
-    unusable (see :func:`configuration_of`) or no plan of every link is complete."""
+    """The assembly mode of a solved configuration (from any solver of this mechanism) as this
+    solve reads it. With a closed-form plan of every link: the branch sign and dyad margin of
+    each branching step (a sign is undefined where its margin is ~0, at that dyad's toggle).
+    Without one (a forward solve that Newton places): the sign of the determinant of the loop
+    Jacobian over every moving link at the configuration, with 1 / its scaled condition number
+    as the margin (the sign is undefined at a singular configuration, where the modes meet).
+    None if the result is unusable (see :func:`configuration_of`), or for an inverse solve
+    without a complete plan (the forward solve reads the mechanism's mode)."""
     plan = c.plan if c.plan.complete else c.full_plan
-    if not plan.complete:
+    if not plan.complete and c.inverse:
         return None
     got = configuration_of(c, result)
     if got is None:
         return None
-    signs, margins = branch_geometry_one(plan, *got)
-    return tuple(int(s) for s in signs), [float(m) for m in margins]
+    if plan.complete:
+        signs, margins = branch_geometry_one(plan, *got)
+        return tuple(int(s) for s in signs), [float(m) for m in margins]
+    return jacobian_mode(c, got[1])
+
+
+def jacobian_mode(c: CompiledSolve, poses: LinkPoses) -> tuple[tuple[int, ...], list[float]]:
+    """((det sign,), [1 / scaled cond]) of the loop Jacobian of ``c``'s knowns over every moving
+    link at a configuration: the assembly-mode reading where no dyad plan gives signs."""
+    cs = c.check_system
+    _, J = cs.evaluate(cs.x_from_poses(poses), known_values(c, poses))
+    if J.shape[0] != J.shape[1] or not J.size:
+        return (), []
+    sign, _ = np.linalg.slogdet(J)
+    return (int(sign) if sign else 1,), [min(1.0, 1.0 / cs.scaled_cond(J))]
+
+
+def jacobian_sign(c: CompiledSolve, poses: LinkPoses) -> int:
+    """The determinant sign of the loop Jacobian of ``c``'s knowns over every moving link at a
+    configuration (0 if it is not square, or exactly singular)."""
+    cs = c.check_system
+    _, J = cs.evaluate(cs.x_from_poses(poses), known_values(c, poses))
+    if J.shape[0] != J.shape[1] or not J.size:
+        return 0
+    return int(np.linalg.slogdet(J)[0])
+
+
+def mode_label(c: CompiledSolve, signs: tuple[int, ...]) -> str:
+    """An assembly mode as statuses show it and ``branch`` takes it: the forward dyads' signs
+    ('+-'), or where Newton places the mechanism the loop Jacobian's determinant sign ('J+')."""
+    text = branch_text(signs)
+    return text if c.full_plan.complete else 'J' + text

@@ -54,8 +54,11 @@ class Solver:
         branch: str = 'continuous',
     ):
         self.compiled = compile_solve(mech, knowns, outputs, method, tol, max_iter)
-        self.continuity = Continuity(parse_branch(self.compiled.plan, branch))
+        c = self.compiled
+        labels = not c.inverse and not c.full_plan.complete  # modes named by a Jacobian sign
+        self.continuity = Continuity(parse_branch(c.plan, branch, labels))
         self._newton: CompiledSolve | None = None  # the mode search's, made on first use
+        self._forward: CompiledSolve | None = None  # reads the mechanism's mode, likewise
 
     # -- what was compiled (read-only views of ``compiled``) ------------------------------------
     @property
@@ -215,7 +218,18 @@ class Solver:
             if self._newton is None:
                 self._newton = compile_solve(c.mech, c.knowns, None, 'newton', c.tol, c.max_iter)
             newton = self._newton
-        return modes_of(c, self.continuity, values, newton)
+        return modes_of(c, self.continuity, values, newton, self.forward_compile())
+
+    def forward_compile(self) -> CompiledSolve:
+        """A compile of the mechanism's actuators (this one for a forward solve): what reads
+        the mechanism's assembly mode (mode_of, mode_label)."""
+        c = self.compiled
+        if not c.inverse and set(c.knowns) == set(c.mech.actuators):
+            return c
+        if self._forward is None:  # an inverse closed form may have a forward that is not
+            method = 'auto' if c.method == 'closed_form' else c.method
+            self._forward = compile_solve(c.mech, None, None, method, c.tol, c.max_iter)
+        return self._forward
 
     # -- reading answers back -------------------------------------------------------------------
     def adopt(self, result: Result) -> bool:
