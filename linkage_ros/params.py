@@ -322,9 +322,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         fail_setting('max_iterations', 'must be an integer > 0', it)
     branch = v['branch']
     if not isinstance(branch, str) or not (
-        branch in BRANCH_MODES
-        or branch in ('J+', 'J-')
-        or (branch and set(branch) <= {'+', '-'})
+        branch in BRANCH_MODES or branch in ('J+', 'J-') or (branch and set(branch) <= {'+', '-'})
     ):
         fail_setting(
             'branch',

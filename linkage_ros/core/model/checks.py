@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Container, Mapping
 from typing import Any, NoReturn
 
 import numpy as np
@@ -44,9 +44,16 @@ class _Ctx:
         return value
 
     @staticmethod
-    def known(value: object, names) -> bool:
+    def known(value: object, names: Container[str]) -> bool:
         """``value in names`` for a name; False (not TypeError) for a list or mapping."""
         return isinstance(value, str) and value in names
+
+    def member(self, key: str, value: object, names: Container[str], message: str) -> str:
+        """``value`` if it is one of ``names`` (a name, so typed str from here on), else a
+        SceneError at ``key`` with ``message``."""
+        if isinstance(value, str) and value in names:
+            return value
+        self.fail(key, message, value)
 
     def mapping(self, key: str, value: object) -> Mapping[str, Any]:
         if not isinstance(value, Mapping):

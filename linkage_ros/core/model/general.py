@@ -364,10 +364,8 @@ def _read_cylinders(
             ctx.fail(key, 'is the name of a link; a cylinder needs a name of its own', cname)
         spec = ctx.mapping(key, spec)
         ctx.only(key, spec, {'from', 'to', 'min', 'max'})
-        a, b = spec.get('from'), spec.get('to')
-        for k, p in (('from', a), ('to', b)):
-            if not ctx.known(p, points):
-                ctx.fail(f'{key}.{k}', 'must name a point', p)
+        a = ctx.member(f'{key}.from', spec.get('from'), points, 'must name a point')
+        b = ctx.member(f'{key}.to', spec.get('to'), points, 'must name a point')
         axis = points[b] - points[a]
         length = float(np.hypot(*axis))
         if not length > 0:
@@ -414,14 +412,16 @@ def _read_sliders(
         key = f'sliders.{jname}'
         if jname in prismatics:
             ctx.fail(key, 'duplicate prismatic joint name', jname)
-        guide, slider, point = spec.get('guide'), spec.get('slider'), spec.get('point')
-        for k, v in (('guide', guide), ('slider', slider)):
-            if not ctx.known(v, links):
-                ctx.fail(f'{key}.{k}', 'must name a link', v)
+        guide = ctx.member(f'{key}.guide', spec.get('guide'), links, 'must name a link')
+        slider = ctx.member(f'{key}.slider', spec.get('slider'), links, 'must name a link')
         if guide == slider:
             ctx.fail(f'{key}.slider', 'must differ from the guide link', slider)
-        if not ctx.known(point, links[slider].points):
-            ctx.fail(f'{key}.point', f'must be a point of the slider link {slider!r}', point)
+        point = ctx.member(
+            f'{key}.point',
+            spec.get('point'),
+            links[slider].points,
+            f'must be a point of the slider link {slider!r}',
+        )
         d = spec.get('direction', 0.0)
         if isinstance(d, (list, tuple)):
             dv = ctx.xy(f'{key}.direction', d)

@@ -28,6 +28,11 @@ Batched (:meth:`LoopSystem.evaluate_batch`, :meth:`LoopSystem.solve_batch`): the
 Jacobian for N configurations at once in numpy, and full Newton steps on the N x n x n stack from
 warm starts, accepting a row only where the fast path would (FAST_RATE per step, det J sign at
 start and answer, cond below POLISH_COND); the rows it declines go to the scalar careful path.
+
+Modules (no one imports back): tables (the equations compiled once: a frozen LoopTables),
+evaluate (one configuration's rows), linalg (LU, det sign, cond), scalar (the one-configuration
+solves and the predictor), batch (N at once), results (outcomes and constants); system's
+LoopSystem is the facade the solver uses.
 """
 
 from __future__ import annotations

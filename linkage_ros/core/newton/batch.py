@@ -1,11 +1,13 @@
-"""N configurations at once: the same rows and Jacobian in numpy, Newton on the stack."""
+"""N configurations at once: the same rows and Jacobian in numpy, Newton on the stack.
+BatchNewton holds a system's tables regrouped by row kind (BatchTables, built on first use);
+the stack algebra (det signs, steps, condition numbers) is plain functions."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from types import SimpleNamespace
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -21,110 +23,223 @@ from .results import (
     BatchSolve,
 )
 from .rows import AngleRow, LineRow, angle_row, line_row, point_rows, revolute_rows
-
-if TYPE_CHECKING:
-    pass
+from .tables import LoopTables
 
 
-class BatchSystem:
-    """LoopSystem's batched evaluation and solve (a mixin: it uses the compiled rows)."""
+@dataclass(frozen=True, slots=True)
+class BatchTables:
+    """LoopTables regrouped by row kind as index and constant arrays, so one numpy expression
+    evaluates a kind for every configuration and every row of that kind. Slots: the free links,
+    then the ground (the only non-free link a batched system may name). Value columns: one per
+    value component, then an all-zero one (``n_cols - 1``) for rows without a value."""
 
-    # -- batched: N configurations at once (numpy over the rows, loops only over the tables) ---
-    def _batch_tables(self) -> SimpleNamespace:
-        """The compiled tables regrouped by row kind as index and constant arrays, so one numpy
-        expression evaluates a kind for every configuration and every row of that kind. Built on
-        first use; ValueError for a system whose rows name a non-free link other than the
-        ground (a hybrid system: its fixed poses vary per solve)."""
-        tab = getattr(self, '_batch_tab', None)
-        if tab is not None:
-            return tab
-        foreign = [l for l in self._others if l != self.mech.ground]
-        if foreign:
-            raise ValueError(
-                f'batched evaluation takes no fixed poses, but the rows name the '
-                f'non-free link(s) {foreign}; use evaluate/solve with their poses'
-            )
-        # value columns: one per value component, then an all-zero one for rows without a value
-        cols, c = [], 0
-        for s in self.specs:
-            cols.append(c)
-            c += s.size
-        zero = c
-        # the fixed slots (the ground at its reference pose) as (phi, cos, sin, cx, cy)
-        fixed = (
-            np.array(
-                [
-                    (0.0, 1.0, 0.0, float(self.centroid[l][0]), float(self.centroid[l][1]))
-                    for l in self._others
-                ]
-            )
-            .reshape(-1, 5)
-            .T[:, None, :]
+    n_cols: int
+    cols: list[int]  # each spec's first value column
+    fixed: np.ndarray  # (5, 1, k): (phi, cos, sin, cx, cy) of the non-free slots
+    rev_a: np.ndarray  # revolute rows: slots and levers (m) of both links
+    rev_la: tuple[np.ndarray, np.ndarray]
+    rev_b: np.ndarray
+    rev_lb: tuple[np.ndarray, np.ndarray]
+    line_row: np.ndarray  # line rows: residual row, varying-entry columns (6 each), slots,
+    line_jv: np.ndarray  # constants (u0x, u0y, slider and guide levers) and value column
+    line_g: np.ndarray
+    line_s: np.ndarray
+    line_k: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    line_val: np.ndarray
+    ang_row: np.ndarray  # angle rows: residual row, slots, value column, offset (rad)
+    ang_a: np.ndarray
+    ang_b: np.ndarray
+    ang_val: np.ndarray
+    ang_off: np.ndarray
+    pt_row: np.ndarray  # point rows: first residual row, varying-entry columns (2 each),
+    pt_jv: np.ndarray  # slot, lever (m), x value column
+    pt_link: np.ndarray
+    pt_lever: tuple[np.ndarray, np.ndarray]
+    pt_val: np.ndarray
+    jv_real: np.ndarray  # the varying entries of free links (those of the ground dropped)
+    j_pos: np.ndarray  # ... and their flat positions in J
+    j_tpl: np.ndarray  # the scale-free J's constant entries, flat (m * n,)
+
+
+def batch_tables(t: LoopTables) -> BatchTables:
+    """The BatchTables of ``t``; ValueError for a system whose rows name a non-free link other
+    than the ground (a hybrid system: its fixed poses vary per solve)."""
+    foreign = [l for l in t.others if l != t.mech.ground]
+    if foreign:
+        raise ValueError(
+            f'batched evaluation takes no fixed poses, but the rows name the '
+            f'non-free link(s) {foreign}; use evaluate/solve with their poses'
         )
-        revs = np.array(self._revs, float).reshape(-1, 6)
-        nrev = len(self._revs)
-        lines, angles, points = [], [], []
-        r, j = 2 * nrev, 4 * nrev  # next residual row and next varying-entry column
-        for row in self._tail:
-            if isinstance(row, LineRow):
-                _, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, vi = row
-                lines.append(
-                    (r, j, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, zero if vi is None else cols[vi])
-                )
-                r, j = r + 1, j + 6
-            elif isinstance(row, AngleRow):
-                _, ia, ib, vi, off = row
-                angles.append((r, ia, ib, zero if vi is None else cols[vi], off))
-                r += 1
-            else:
-                _, i, lx, ly, vi = row
-                points.append((r, j, i, lx, ly, cols[vi]))
-                r, j = r + 2, j + 2
-        assert r == self.m and j == len(self._jpos), 'batched tables out of step with _compile'
-        ln = np.array(lines, float).reshape(-1, 11)
-        an = np.array(angles, float).reshape(-1, 5)
-        pt = np.array(points, float).reshape(-1, 6)
-        idx = lambda a: a.astype(np.intp)  # noqa: E731
-        real = self._jpos != self.m * self.n  # entries of fixed links are dropped
-        tab = SimpleNamespace(
-            n_cols=zero + 1,
-            cols=cols,
-            fixed=fixed,
-            rev_a=idx(revs[:, 0]),
-            rev_la=(revs[:, 1], revs[:, 2]),
-            rev_b=idx(revs[:, 3]),
-            rev_lb=(revs[:, 4], revs[:, 5]),
-            line_row=idx(ln[:, 0]),
-            line_jv=idx(ln[:, 1])[:, None] + np.arange(6),
-            line_g=idx(ln[:, 2]),
-            line_s=idx(ln[:, 3]),
-            line_k=tuple(ln[:, 4:10].T),
-            line_val=idx(ln[:, 10]),
-            ang_row=idx(an[:, 0]),
-            ang_a=idx(an[:, 1]),
-            ang_b=idx(an[:, 2]),
-            ang_val=idx(an[:, 3]),
-            ang_off=an[:, 4],
-            pt_row=idx(pt[:, 0]),
-            pt_jv=idx(pt[:, 1])[:, None] + np.arange(2),
-            pt_link=idx(pt[:, 2]),
-            pt_lever=(pt[:, 3], pt[:, 4]),
-            pt_val=idx(pt[:, 5]),
-            jv_real=np.flatnonzero(real),
-            j_pos=self._jpos[real],
-            j_tpl=self._tpl_s[:-1],
+    cols: list[int] = []
+    c = 0
+    for s in t.specs:
+        cols.append(c)
+        c += s.size
+    zero = c
+    # the fixed slots (the ground at its reference pose) as (phi, cos, sin, cx, cy)
+    fixed = (
+        np.array(
+            [(0.0, 1.0, 0.0, float(t.centroid[l][0]), float(t.centroid[l][1])) for l in t.others]
         )
-        self._batch_tab = tab
-        return tab
+        .reshape(-1, 5)
+        .T[:, None, :]
+    )
+    revs = np.array(t.revs, float).reshape(-1, 6)
+    nrev = len(t.revs)
+    lines: list[tuple[float, ...]] = []
+    angles: list[tuple[float, ...]] = []
+    points: list[tuple[float, ...]] = []
+    r, j = 2 * nrev, 4 * nrev  # next residual row and next varying-entry column
+    for row in t.tail:
+        if isinstance(row, LineRow):
+            iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, vi = row
+            lines.append(
+                (r, j, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, zero if vi is None else cols[vi])
+            )
+            r, j = r + 1, j + 6
+        elif isinstance(row, AngleRow):
+            ia, ib, va, off = row
+            angles.append((r, ia, ib, zero if va is None else cols[va], off))
+            r += 1
+        else:
+            i, lx, ly, vp = row
+            points.append((r, j, i, lx, ly, cols[vp]))
+            r, j = r + 2, j + 2
+    assert r == t.m and j == len(t.jpos), 'batched tables out of step with compile_tables'
+    ln = np.array(lines, float).reshape(-1, 11)
+    an = np.array(angles, float).reshape(-1, 5)
+    pt = np.array(points, float).reshape(-1, 6)
 
-    def _batch_values(self, values: Sequence, N: int) -> np.ndarray:
-        """(N, columns) matrix of the values (angles wrapped as _rows wraps them, rad; slides
-        and points m), then a zero column: what the batched rows subtract."""
-        tab = self._batch_tables()
-        if len(values) != len(self.specs):
-            raise ValueError(f'{len(values)} value arrays for {len(self.specs)} specs')
+    def idx(a: np.ndarray) -> np.ndarray:
+        return a.astype(np.intp)
+
+    real = t.jpos != t.m * t.n  # entries of fixed links are dropped
+    return BatchTables(
+        n_cols=zero + 1,
+        cols=cols,
+        fixed=fixed,
+        rev_a=idx(revs[:, 0]),
+        rev_la=(revs[:, 1], revs[:, 2]),
+        rev_b=idx(revs[:, 3]),
+        rev_lb=(revs[:, 4], revs[:, 5]),
+        line_row=idx(ln[:, 0]),
+        line_jv=idx(ln[:, 1])[:, None] + np.arange(6),
+        line_g=idx(ln[:, 2]),
+        line_s=idx(ln[:, 3]),
+        line_k=(ln[:, 4], ln[:, 5], ln[:, 6], ln[:, 7], ln[:, 8], ln[:, 9]),
+        line_val=idx(ln[:, 10]),
+        ang_row=idx(an[:, 0]),
+        ang_a=idx(an[:, 1]),
+        ang_b=idx(an[:, 2]),
+        ang_val=idx(an[:, 3]),
+        ang_off=an[:, 4],
+        pt_row=idx(pt[:, 0]),
+        pt_jv=idx(pt[:, 1])[:, None] + np.arange(2),
+        pt_link=idx(pt[:, 2]),
+        pt_lever=(pt[:, 3], pt[:, 4]),
+        pt_val=idx(pt[:, 5]),
+        jv_real=np.flatnonzero(real),
+        j_pos=t.jpos[real],
+        j_tpl=t.tpl_s[:-1],
+    )
+
+
+def _pose(
+    P: np.ndarray, slots: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(cos, sin, cx, cy) of the given slots, each (N, k), from the slot table P (5, N, slots)."""
+    c, s, x, y = P[1:, :, slots]
+    return c, s, x, y
+
+
+# ---- the algebra of a stack of square matrices ------------------------------------------------
+def det_signs(J: np.ndarray) -> np.ndarray:
+    """(K,) int sign of det of a (K, n, n) stack; 0 where singular or not finite."""
+    if J.shape[0] == 0:
+        return np.zeros(0, int)
+    # LAPACK's LU takes NaN and inf without failing (the log|det| comes out NaN): no copy of
+    # the finite rows needed
+    with np.errstate(invalid='ignore', divide='ignore'):
+        s, logdet = np.linalg.slogdet(J)
+    signs: np.ndarray = np.where(np.isfinite(logdet), s, 0.0).astype(int)
+    return signs
+
+
+def newton_steps(J: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """dy (K, n) solving J dy = -F for a (K, n, n) stack; NaN rows where J is singular (one
+    singular matrix makes np.linalg.solve raise for the whole stack: then solve the rest)."""
+    try:
+        steps: np.ndarray = np.linalg.solve(J, -F[:, :, None])[:, :, 0]
+        return steps
+    except np.linalg.LinAlgError:
+        dy = np.full(F.shape, math.nan)
+        regular = det_signs(J) != 0
+        if regular.any():
+            dy[regular] = np.linalg.solve(J[regular], -F[regular][:, :, None])[:, :, 0]
+        return dy
+
+
+def scaled_conds(J: np.ndarray) -> np.ndarray:
+    """linalg.scaled_cond of each matrix of a finite (K, m, n) stack (inf if an SVD fails)."""
+    if J.shape[0] == 0 or J.shape[1] * J.shape[2] == 0:
+        return np.ones(J.shape[0])
+    peak = np.max(np.abs(J), axis=1, keepdims=True)  # pre-scale, as scaled_cond
+    peak[peak == 0] = 1.0
+    Jn = J / peak
+    norms = np.linalg.norm(Jn, axis=1, keepdims=True)
+    norms[norms == 0] = 1.0
+    try:
+        with np.errstate(divide='ignore', invalid='ignore'):
+            conds: np.ndarray = np.linalg.cond(Jn / norms)
+            return conds
+    except np.linalg.LinAlgError:
+        return np.full(J.shape[0], math.inf)
+
+
+def batch_conds(J: np.ndarray) -> np.ndarray:
+    """cond of each matrix of a finite (K, n, n) stack as linalg.cond reports it: the 1-norm
+    condition number of the scale-free J (exact here, from its inverse; the scalar path
+    takes LAPACK's estimate of it) where that is below COND_EXACT, else scaled_cond. Only
+    the rows above pay for an SVD (an SVD costs ~5 LUs: the batch's largest cost)."""
+    out = np.full(J.shape[0], math.inf)
+    if J.shape[0] == 0:
+        return out
+    try:
+        inv = np.linalg.inv(J)
+    except np.linalg.LinAlgError:  # an exactly singular matrix: SVDs for all
+        return scaled_conds(J)
+    with np.errstate(invalid='ignore', over='ignore'):
+        c1 = np.abs(J).sum(axis=1).max(axis=1) * np.abs(inv).sum(axis=1).max(axis=1)
+    small = c1 < COND_EXACT  # False for NaN
+    out[small] = c1[small]
+    if not small.all():
+        out[~small] = scaled_conds(J[~small])
+    return out
+
+
+class BatchNewton:
+    """A loop system's batched evaluation and Newton solve (numpy over the rows, loops only
+    over the tables). Its BatchTables are built on the first batched call."""
+
+    def __init__(self, t: LoopTables):
+        self.t = t
+        self._tables: BatchTables | None = None
+
+    def tables(self) -> BatchTables:
+        """The BatchTables (ValueError for a hybrid system: see batch_tables)."""
+        if self._tables is None:
+            self._tables = batch_tables(self.t)
+        return self._tables
+
+    def values(self, values: Sequence[Any], N: int) -> np.ndarray:
+        """(N, columns) matrix of the values (angles wrapped as evaluate.residual_rows wraps
+        them, rad; slides and points m), then a zero column: what the batched rows subtract."""
+        tab = self.tables()
+        specs = self.t.specs
+        if len(values) != len(specs):
+            raise ValueError(f'{len(values)} value arrays for {len(specs)} specs')
         V = np.zeros((N, tab.n_cols))
-        for s, v, c in zip(self.specs, values, tab.cols):
+        for s, v, c in zip(specs, values, tab.cols):
             shape = (N, 2) if isinstance(s, PointSpec) else (N,)
             try:
                 arr = np.broadcast_to(np.asarray(v, float), shape)
@@ -140,17 +255,19 @@ class BatchSystem:
                 V[:, c] = arr
         return V
 
-    def _batch_eval(self, X: np.ndarray, V: np.ndarray, jacobian: bool):
-        """evaluate_scaled for the rows of X (N, n) with the value matrix V (_batch_values):
-        F (N, m),
-        J (N, m, n) or None, res (N,). The formulas are core.newton.rows', as in _rows."""
-        tab = self._batch_tables()
-        N, m, nf = X.shape[0], self.m, len(self.free)
-        k = 1.0 / self.L
-        kL = self.L * k  # as _rows: not exactly 1
+    def evaluate(
+        self, X: np.ndarray, V: np.ndarray, jacobian: bool
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """evaluate_scaled for the rows of X (N, n) with the value matrix V (values()):
+        F (N, m), J (N, m, n) or None, res (N,). The formulas are core.newton.rows', as in
+        evaluate.residual_rows."""
+        t, tab = self.t, self.tables()
+        N, m, nf = X.shape[0], t.m, len(t.free)
+        k = 1.0 / t.L
+        kL = t.L * k  # as residual_rows: not exactly 1
         with np.errstate(invalid='ignore', over='ignore'):
             # slots (free links, then the ground): phi, cos, sin, cx, cy
-            P = np.empty((5, N, nf + len(self._others)))
+            P = np.empty((5, N, nf + len(t.others)))
             phi = X[:, 0::3]
             P[0, :, :nf] = phi
             np.cos(phi, out=P[1, :, :nf])
@@ -159,30 +276,30 @@ class BatchSystem:
             P[4, :, :nf] = X[:, 2::3]
             P[:, :, nf:] = tab.fixed
             blown = np.isinf(phi).any(axis=1)
-            if blown.any():  # as _rows, where math.cos raises: NaN free slots
+            if blown.any():  # as residual_rows, where math.cos raises: NaN free slots
                 P[:, blown, :nf] = math.nan
             F = np.empty((N, m))
-            Jv = np.empty((N, len(self._jpos))) if jacobian else None
+            Jv = np.empty((N, len(t.jpos))) if jacobian else None
             nrev = len(tab.rev_a)
             if nrev:  # revolute rows: w_a(P) - w_b(P)
                 fx, fy, jv = revolute_rows(
-                    *P[1:, :, tab.rev_a], *tab.rev_la, *P[1:, :, tab.rev_b], *tab.rev_lb, k
+                    *_pose(P, tab.rev_a), *tab.rev_la, *_pose(P, tab.rev_b), *tab.rev_lb, k
                 )
                 F[:, 0 : 2 * nrev : 2] = fx
                 F[:, 1 : 2 * nrev : 2] = fy
-                if jacobian:
+                if Jv is not None:
                     Jv[:, : 4 * nrev] = np.stack(jv, axis=-1).reshape(N, 4 * nrev)
             if len(tab.line_row):  # line rows: u . (w_S(X) - w_G(base)) [- value]
-                f, jv = line_row(
-                    *P[1:, :, tab.line_g],
-                    *P[1:, :, tab.line_s],
+                f, jl = line_row(
+                    *_pose(P, tab.line_g),
+                    *_pose(P, tab.line_s),
                     *tab.line_k,
                     V[:, tab.line_val],
                     k,
                 )
                 F[:, tab.line_row] = f
-                if jacobian:
-                    Jv[:, tab.line_jv] = np.stack(jv, axis=-1)
+                if Jv is not None:
+                    Jv[:, tab.line_jv] = np.stack(jl, axis=-1)
             if len(tab.ang_row):  # angle rows: L * wrap(phi_a - phi_b - (value - off))
                 F[:, tab.ang_row] = angle_row(
                     P[0][:, tab.ang_a],
@@ -193,8 +310,8 @@ class BatchSystem:
                     BATCH.wrap,
                 )
             if len(tab.pt_row):  # point rows: w(X) - (x, y)
-                fx, fy, jv = point_rows(
-                    *P[1:, :, tab.pt_link],
+                fx, fy, jp = point_rows(
+                    *_pose(P, tab.pt_link),
                     *tab.pt_lever,
                     V[:, tab.pt_val],
                     V[:, tab.pt_val + 1],
@@ -202,151 +319,77 @@ class BatchSystem:
                 )
                 F[:, tab.pt_row] = fx
                 F[:, tab.pt_row + 1] = fy
-                if jacobian:
-                    Jv[:, tab.pt_jv] = np.stack(jv, axis=-1)
+                if Jv is not None:
+                    Jv[:, tab.pt_jv] = np.stack(jp, axis=-1)
         res = np.abs(F).max(axis=1) if m else np.zeros(N)
         res[~np.isfinite(F).all(axis=1)] = math.inf
-        if not jacobian:
+        if Jv is None:
             return F, None, res
-        J = np.empty((N, m * self.n))
+        J = np.empty((N, m * t.n))
         J[:] = tab.j_tpl
-        if self._jpos_unique:
+        if t.jpos_unique:
             J[:, tab.j_pos] = Jv[:, tab.jv_real]
         else:
-            np.add.at(J, (slice(None), tab.j_pos), Jv[:, tab.jv_real])
-        return F, J.reshape(N, m, self.n), res
+            # numpy's stubs take no tuple index for ufunc.at
+            np.add.at(J, (slice(None), tab.j_pos), Jv[:, tab.jv_real])  # type: ignore[arg-type]
+        return F, J.reshape(N, m, t.n), res
 
-    def evaluate_batch(self, X: np.ndarray, values: Sequence, jacobian: bool = True):
-        """evaluate_scaled for N configurations at once: returns (F, J, res) in scale-free units,
-        F (N, m) = residual / length scale, J (N, m, n) = dF/dx with translation columns times the
-        length scale (None if not ``jacobian``), res (N,) = max |F| per row, inf where a row's F
-        has a NaN or inf (non-finite X or values give such rows, never an exception).
-
-        X (N, n): rows of the variable vector (phi rad, centroid m per free link). ``values``: one
-        entry per spec: (N,) for 'angle' (rad) and 'slide' (m) specs, (N, 2) for 'point' (m).
-        Only for systems whose non-free links are the ground at its reference pose (what
-        evaluate does with fixed=None); ValueError for a hybrid system."""
+    def evaluate_batch(
+        self, X: np.ndarray, values: Sequence[Any], jacobian: bool = True
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """LoopSystem.evaluate_batch (its docstring)."""
         X = np.asarray(X, float)
-        if X.ndim != 2 or X.shape[1] != self.n:
-            raise ValueError(f'X must have shape (N, {self.n}), got {X.shape}')
-        return self._batch_eval(X, self._batch_values(values, X.shape[0]), jacobian)
+        n = self.t.n
+        if X.ndim != 2 or X.shape[1] != n:
+            raise ValueError(f'X must have shape (N, {n}), got {X.shape}')
+        return self.evaluate(X, self.values(values, X.shape[0]), jacobian)
 
-    @staticmethod
-    def _det_signs(J: np.ndarray) -> np.ndarray:
-        """(K,) int sign of det of a (K, n, n) stack; 0 where singular or not finite."""
-        if J.shape[0] == 0:
-            return np.zeros(0, int)
-        # LAPACK's LU takes NaN and inf without failing (the log|det| comes out NaN): no copy of
-        # the finite rows needed
-        with np.errstate(invalid='ignore', divide='ignore'):
-            s, logdet = np.linalg.slogdet(J)
-        return np.where(np.isfinite(logdet), s, 0.0).astype(int)
-
-    @staticmethod
-    def _newton_steps(J: np.ndarray, F: np.ndarray) -> np.ndarray:
-        """dy (K, n) solving J dy = -F for a (K, n, n) stack; NaN rows where J is singular (one
-        singular matrix makes np.linalg.solve raise for the whole stack: then solve the rest)."""
-        try:
-            return np.linalg.solve(J, -F[:, :, None])[:, :, 0]
-        except np.linalg.LinAlgError:
-            dy = np.full(F.shape, math.nan)
-            regular = BatchSystem._det_signs(J) != 0
-            if regular.any():
-                dy[regular] = np.linalg.solve(J[regular], -F[regular][:, :, None])[:, :, 0]
-            return dy
-
-    @staticmethod
-    def _scaled_conds(J: np.ndarray) -> np.ndarray:
-        """scaled_cond of each matrix of a finite (K, m, n) stack (inf if an SVD fails)."""
-        if J.shape[0] == 0 or J.shape[1] * J.shape[2] == 0:
-            return np.ones(J.shape[0])
-        peak = np.max(np.abs(J), axis=1, keepdims=True)  # pre-scale, as scaled_cond
-        peak[peak == 0] = 1.0
-        Jn = J / peak
-        norms = np.linalg.norm(Jn, axis=1, keepdims=True)
-        norms[norms == 0] = 1.0
-        try:
-            with np.errstate(divide='ignore', invalid='ignore'):
-                return np.linalg.cond(Jn / norms)
-        except np.linalg.LinAlgError:
-            return np.full(J.shape[0], math.inf)
-
-    @staticmethod
-    def _batch_conds(J: np.ndarray) -> np.ndarray:
-        """cond of each matrix of a finite (K, n, n) stack as _cond reports it: the 1-norm
-        condition number of the scale-free J (exact here, from its inverse; the scalar path
-        takes LAPACK's estimate of it) where that is below COND_EXACT, else scaled_cond. Only
-        the rows above pay for an SVD (an SVD costs ~5 LUs: the batch's largest cost)."""
-        out = np.full(J.shape[0], math.inf)
-        if J.shape[0] == 0:
-            return out
-        try:
-            inv = np.linalg.inv(J)
-        except np.linalg.LinAlgError:  # an exactly singular matrix: SVDs for all
-            return BatchSystem._scaled_conds(J)
-        with np.errstate(invalid='ignore', over='ignore'):
-            c1 = np.abs(J).sum(axis=1).max(axis=1) * np.abs(inv).sum(axis=1).max(axis=1)
-        small = c1 < COND_EXACT  # False for NaN
-        out[small] = c1[small]
-        if not small.all():
-            out[~small] = BatchSystem._scaled_conds(J[~small])
-        return out
+    def _evaluate_jac(
+        self, X: np.ndarray, V: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        F, J, res = self.evaluate(X, V, True)
+        assert J is not None
+        return F, J, res
 
     def solve_batch(
         self,
         X0: np.ndarray,
-        values: Sequence,
-        start_sign,
+        values: Sequence[Any],
+        start_sign: int | np.ndarray | Sequence[int],
         *,
         tol: float = 1e-12,
         max_steps: int = FAST_STEPS + 2,
     ) -> BatchSolve:
-        """Newton for N warm starts at once (numpy over the rows): row i from X0[i] (N, n:
-        phi rad, centroid m per free link; typically instance i's last solution) to the values
-        of row i (as in evaluate_batch), on the side of det J = 0 given by start_sign[i] (+1 or
-        -1, or one int for all). Full Newton steps: J evaluated and factorised at every iterate
-        (the scalar fast path takes chord steps after its first). Square systems without fixed
-        poses only (ValueError otherwise). ``tol`` bounds max|F| / length scale.
-
-        Row i is ok when, as the scalar fast path (solve_from_guess, then _finish) would accept
-        it: det J at X0[i] is finite with sign start_sign[i]; every step cuts max|F| / L at least
-        FAST_RATE-fold down to min(tol, max(FAST_MARGIN * tol, FAST_FLOOR)) within ``max_steps``
-        (a step that does not, taken from a point already within ``tol``, leaves the row there,
-        converged); det J at the answer has the start's sign (else it crossed det J = 0, maybe
-        onto another assembly mode); the answer is off folds (cond < POLISH_COND, else the
-        scalar path polishes it; cond as _cond reports it: see _batch_conds) and finite.
-        Otherwise the row is *declined*, not failed:
-        ok False, x its X0 row, residual max|F| / L at X0, det_sign 0, cond inf; the caller
-        solves it another way (solve(): the careful path with line search and LM). Rows never
-        affect one another: each row's result is what solving it alone would give."""
-        self._batch_tables()  # ValueError first if the system needs fixed poses
-        if self.m != self.n:
+        """LoopSystem.solve_batch (its docstring)."""
+        self.tables()  # ValueError first if the system needs fixed poses
+        t = self.t
+        if t.m != t.n:
             raise ValueError(
-                f'solve_batch needs a square system (m = {self.m} rows, n = {self.n} unknowns)'
+                f'solve_batch needs a square system (m = {t.m} rows, n = {t.n} unknowns)'
             )
         X0 = np.asarray(X0, float)
-        if X0.ndim != 2 or X0.shape[1] != self.n:
-            raise ValueError(f'X0 must have shape (N, {self.n}), got {X0.shape}')
+        if X0.ndim != 2 or X0.shape[1] != t.n:
+            raise ValueError(f'X0 must have shape (N, {t.n}), got {X0.shape}')
         N = X0.shape[0]
-        V = self._batch_values(values, N)
+        V = self.values(values, N)
         want = np.broadcast_to(np.asarray(start_sign), (N,))
         sign0 = np.where(want == 1, 1, np.where(want == -1, -1, 0))
         target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
 
         x = X0.copy()
-        F, J, res = self._batch_eval(x, V, True)
+        F, J, res = self._evaluate_jac(x, V)
         res0 = res.copy()
         iterations = np.zeros(N, int)
         live = (sign0 != 0) & np.isfinite(res)
-        live[live] = self._det_signs(J[live]) == sign0[live]
+        live[live] = det_signs(J[live]) == sign0[live]
         done = live & (res <= target)  # converged (pending det sign and cond at the answer)
         active = live & ~done  # still stepping
         for _ in range(max_steps):
             rows = np.flatnonzero(active)
             if not rows.size:
                 break
-            xn = x[rows] + self._newton_steps(J[rows], F[rows]) * self.step_scale
-            Fn, Jn, rn = self._batch_eval(xn, V[rows], True)
+            xn = x[rows] + newton_steps(J[rows], F[rows]) * t.step_scale
+            Fn, Jn, rn = self._evaluate_jac(xn, V[rows])
             iterations[rows] += 1
             cut = rn <= FAST_RATE * res[rows]  # False for NaN
             stalled = rows[~cut]
@@ -364,10 +407,10 @@ class BatchSystem:
         # branch; rows still at X0 were checked there) and off folds (else the scalar path
         # polishes)
         rows = np.flatnonzero(done & (iterations > 0))
-        done[rows] = self._det_signs(J[rows]) == sign0[rows]
+        done[rows] = det_signs(J[rows]) == sign0[rows]
         cond = np.full(N, math.inf)
         rows = np.flatnonzero(done)
-        cond[rows] = self._batch_conds(J[rows])
+        cond[rows] = batch_conds(J[rows])
         ok = done & (cond < POLISH_COND) & np.isfinite(x).all(axis=1) & np.isfinite(res)
         return BatchSolve(
             x=np.where(ok[:, None], x, X0),

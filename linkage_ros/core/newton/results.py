@@ -1,10 +1,16 @@
-"""What a Newton solve gives (one system or a batch), the solver's constants and LAPACK."""
+"""What a Newton solve gives (one system or a batch) and the solver's constants."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TypeAlias
 
 import numpy as np
+
+#: LAPACK's LU of a square J: (lu, piv, det sign), getrf's packed L and U, its row pivots and
+#: the sign of det J (+1 / -1) read off them. A plain tuple, not a NamedTuple: the scalar solve
+#: builds two per command, and a NamedTuple's constructor (a Python call) costs ~0.5 us each
+LUFactor: TypeAlias = tuple[np.ndarray, np.ndarray, int]
 
 
 @dataclass
@@ -16,9 +22,9 @@ class SolveResult:
     iterations: int  # steps taken (Newton, chord, line-search, LM and polish)
     residual: float  # max |F| / length scale
     reason: str | None = None
-    cond: float = float('inf')  # condition number of the scale-free Jacobian (see _cond)
+    cond: float = float('inf')  # condition number of the scale-free Jacobian (see linalg.cond)
     det_sign: int = 0
-    factor: tuple | None = None  # (lu, piv, det sign) of the scale-free J at x
+    factor: LUFactor | None = None  # LU and det sign of the scale-free J at x
     jacobians: int = 0  # Jacobians evaluated and factorised
     predicted: bool = False  # converged by the fast path from the predicted guess
 
@@ -34,7 +40,7 @@ class BatchSolve:
     iterations: np.ndarray  # (N,) int: Newton steps evaluated (as SolveResult.iterations)
     residual: np.ndarray  # (N,) max |F| / length scale at x
     det_sign: np.ndarray  # (N,) int: det J sign at x where ok, else 0
-    cond: np.ndarray  # (N,) cond(J) at x (as _cond reports it) where ok, else inf
+    cond: np.ndarray  # (N,) cond(J) at x (as linalg.cond reports it) where ok, else inf
 
 
 #: at convergence, a scaled cond(J) above this means a near-singular configuration: polish
@@ -53,15 +59,3 @@ FAST_MARGIN = 1e-2
 FAST_FLOOR = 4e-15
 #: a prediction moving any unknown further than this (rad, or length scales) is not tried
 MAX_PREDICTION = 0.5
-
-_LAPACK = None
-
-
-def _lapack():
-    """(getrf, getrs, gecon) from scipy's LAPACK wrappers, imported on first use."""
-    global _LAPACK
-    if _LAPACK is None:
-        from scipy.linalg import lapack
-
-        _LAPACK = (lapack.dgetrf, lapack.dgetrs, lapack.dgecon)
-    return _LAPACK

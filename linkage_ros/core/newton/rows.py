@@ -5,9 +5,11 @@ tuples (the scalar solve evaluates them ~10 times per command), yet each field h
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from enum import IntEnum
-from typing import NamedTuple
+from typing import NamedTuple, TypeVar
+
+import numpy as np
 
 from ..model import PrismaticJoint
 
@@ -39,19 +41,22 @@ class SpecRows:
 EquationRows = RevoluteRows | PrismaticRows | SpecRows
 
 
-class RowKind(IntEnum):
-    """The kind of a compiled tail row (its first field)."""
+class RevoluteRow(NamedTuple):
+    """Two rows: a revolute joint's point as carried by the link in ``slot_a`` minus as carried
+    by the link in ``slot_b`` (levers: the point's offsets from each link's centroid, m)."""
 
-    LINE = 0
-    ANGLE = 1
-    POINT = 2
+    slot_a: int
+    lever_ax: float
+    lever_ay: float
+    slot_b: int
+    lever_bx: float
+    lever_by: float
 
 
 class LineRow(NamedTuple):
     """u . (w_S(lever_S) - w_G(lever_G)) [- value] (m): the guide's direction u (u0 turned with
     the guide) dotted with the slider point's offset from a base point of the guide."""
 
-    kind: RowKind  # RowKind.LINE
     guide_slot: int
     slider_slot: int
     u0x: float
@@ -66,7 +71,6 @@ class LineRow(NamedTuple):
 class AngleRow(NamedTuple):
     """L * wrap(phi_a - phi_b [- (value - offset)]) (m): a relative angle, in length units."""
 
-    kind: RowKind  # RowKind.ANGLE
     slot_a: int
     slot_b: int
     value: int | None  # spec index, None: locked together (a prismatic joint's guide/slider)
@@ -76,7 +80,6 @@ class AngleRow(NamedTuple):
 class PointRow(NamedTuple):
     """Two rows: w(lever) - (x, y) (m), a point of a link at its known position."""
 
-    kind: RowKind  # RowKind.POINT
     slot: int
     lever_x: float
     lever_y: float
@@ -92,10 +95,27 @@ TailRow = LineRow | AngleRow | PointRow
 # A link's pose enters as (c, s, x, y) = (cos phi, sin phi, centroid x, centroid y); a lever is
 # a point's offset from its link's centroid in the reference pose (m); k scales the residual
 # (1 or 1 / length scale). Each returns the residual row(s) and the varying Jacobian entries
-# in the order _compile lists them (rotation columns times k).
+# in the order compile_tables lists them (rotation columns times k).
+
+#: a float (one row) or an array (a kind's rows for every configuration)
+Num = TypeVar('Num', float, np.ndarray)
 
 
-def revolute_rows(c1, s1, x1, y1, lax, lay, c2, s2, x2, y2, lbx, lby, k):
+def revolute_rows(
+    c1: Num,
+    s1: Num,
+    x1: Num,
+    y1: Num,
+    lax: Num,
+    lay: Num,
+    c2: Num,
+    s2: Num,
+    x2: Num,
+    y2: Num,
+    lbx: Num,
+    lby: Num,
+    k: float,
+) -> tuple[Num, Num, tuple[Num, Num, Num, Num]]:
     """The joint's point as carried by link a minus as carried by link b: (fx, fy, jacobian
     entries d/dphi_a of fx, fy, d/dphi_b of fx, fy). d/dphi of a world point is perp(lever)."""
     rax, ray = c1 * lax - s1 * lay, s1 * lax + c1 * lay
@@ -105,7 +125,24 @@ def revolute_rows(c1, s1, x1, y1, lax, lay, c2, s2, x2, y2, lbx, lby, k):
     return fx, fy, (-ray * k, rax * k, rby * k, -rbx * k)
 
 
-def line_row(cG, sG, xG, yG, cS, sS, xS, yS, u0x, u0y, lsx, lsy, lgx, lgy, value, k):
+def line_row(
+    cG: Num,
+    sG: Num,
+    xG: Num,
+    yG: Num,
+    cS: Num,
+    sS: Num,
+    xS: Num,
+    yS: Num,
+    u0x: Num,
+    u0y: Num,
+    lsx: Num,
+    lsy: Num,
+    lgx: Num,
+    lgy: Num,
+    value: Num,
+    k: float,
+) -> tuple[Num, tuple[Num, Num, Num, Num, Num, Num]]:
     """u . (w_S(lever_S) - w_G(lever_G)) - value (m, times k), u the guide's turned direction:
     (f, jacobian entries d/d(phi_G, x_G, y_G, phi_S, x_S, y_S)); d u / dphi_G = perp(u)."""
     ux, uy = cG * u0x - sG * u0y, sG * u0x + cG * u0y
@@ -124,13 +161,22 @@ def line_row(cG, sG, xG, yG, cS, sS, xS, yS, u0x, u0y, lsx, lsy, lgx, lgy, value
     return f, jac
 
 
-def angle_row(phi_a, phi_b, wrapped_value, offset, kL, wrap):
+def angle_row(
+    phi_a: Num,
+    phi_b: Num,
+    wrapped_value: Num,
+    offset: Num,
+    kL: float,
+    wrap: Callable[[Num], Num],
+) -> Num:
     """L * wrap(phi_a - phi_b - (value - offset)) (m, times k = kL / L): ``wrapped_value`` is the
     known angle already wrapped (0 for a locked pair); its Jacobian entries are constants."""
     return kL * wrap((phi_a - phi_b) - (wrapped_value - offset))
 
 
-def point_rows(c, s, cx, cy, lx, ly, vx, vy, k):
+def point_rows(
+    c: Num, s: Num, cx: Num, cy: Num, lx: Num, ly: Num, vx: Num, vy: Num, k: float
+) -> tuple[Num, Num, tuple[Num, Num]]:
     """The point on its link minus its known position (vx, vy): (fx, fy, jacobian entries
     d/dphi of fx, fy)."""
     rx, ry = c * lx - s * ly, s * lx + c * ly

@@ -1,209 +1,53 @@
-"""The loop-closure equations of a mechanism: rows, the analytic Jacobian, poses <-> unknowns,
-and the linear algebra of one linearisation point."""
+"""LoopSystem: the public face of a mechanism's loop-closure equations. It compiles them once
+(tables.compile_tables) and hands every call to the module that does it: evaluate (one
+configuration), scalar (the Newton solves of one), batch (N at once), linalg (factorisation,
+det J sign, condition number)."""
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any, Literal, overload
 
 import numpy as np
 
-from ..dyads import wrap_angle
+from ..execute import LinkPoses
 from ..model import Mechanism
-from ..plan import ScalarPoses, Spec
-from ..quantities import AngleSpec, SlideSpec
-from .batch import BatchSystem
-from .results import (
-    COND_EXACT,
-    SINGULAR_COND,
-    _lapack,
-)
-from .rows import (
-    AngleRow,
-    EquationRows,
-    LineRow,
-    PointRow,
-    PrismaticRows,
-    RevoluteRows,
-    RowKind,
-    SpecRows,
-    TailRow,
-    angle_row,
-    line_row,
-    point_rows,
-    revolute_rows,
-)
-from .solve import ScalarSolve
+from ..quantities import Spec
+from . import evaluate as ev
+from . import linalg, scalar
+from .batch import BatchNewton
+from .results import FAST_STEPS, BatchSolve, LUFactor, SolveResult
+from .tables import LoopTables, PointOwner, compile_tables, spec_links
 
 
-class LoopSystem(ScalarSolve, BatchSystem):
+class LoopSystem:
     """The loop-closure equations of a mechanism restricted to a set of free links."""
 
     def __init__(
         self, mech: Mechanism, specs: Sequence[Spec], free_links: Sequence[str] | None = None
     ):
+        t = compile_tables(mech, specs, free_links)
+        self.tables: LoopTables = t
+        self.batch = BatchNewton(t)
         self.mech = mech
-        self.specs = list(specs)
-        self.L = mech.length_scale
-        free = list(free_links) if free_links is not None else mech.moving_links
-        self.free = free
-        self.index = {l: k for k, l in enumerate(free)}
-        self.n = 3 * len(free)
-        pts = mech.points
-        self.centroid = {
-            # divided before the sum: points near 1.8e308 (a scene at the float range's edge)
-            # would overflow np.mean's sum
-            n: np.sum([pts[p] / len(l.points) for p in l.points], axis=0)
-            for n, l in mech.links.items()
-        }
-        self.rows: list[EquationRows] = []
-        m = 0
-        fr = set(free)
-        for rj in mech.revolutes:
-            if rj.parent in fr or rj.child in fr:
-                self.rows.append(RevoluteRows(rj.parent, rj.child, rj.point))
-                m += 2
-        for pj in mech.prismatics.values():
-            if pj.guide in fr or pj.slider in fr:
-                self.rows.append(PrismaticRows(pj))
-                m += 2
-        for i, s in enumerate(self.specs):
-            links = self.spec_links(s)
-            if any(l in fr for l in links):
-                self.rows.append(SpecRows(i))
-                m += s.size
-        self.m = m
-        self._col_scale = np.tile([1.0 / self.L, 1.0, 1.0], len(free))
-        self.step_scale = np.tile([1.0, self.L, self.L], len(free))
-        self._step_list = self.step_scale.tolist()
-        self._inv_step_list = [1.0, 1.0 / self.L, 1.0 / self.L] * len(free)
-        self._compile()
+        self.specs: list[Spec] = list(t.specs)
+        self.L = t.L
+        self.free: list[str] = list(t.free)
+        self.index: dict[str, int] = t.index
+        self.n = t.n
+        self.m = t.m
+        self.centroid: dict[str, np.ndarray] = t.centroid
+        self.col_scale: np.ndarray = t.col_scale
+        self.step_scale: np.ndarray = t.step_scale
+        self.point_owner: list[PointOwner] = t.point_owner
 
     def spec_links(self, s: Spec) -> list[str]:
-        if isinstance(s, AngleSpec):
-            return [s.link, s.reference]
-        if isinstance(s, SlideSpec):
-            pj = self.mech.prismatics[s.joint]
-            return [pj.guide, pj.slider]
-        return [self.mech.links_of_point(s.point)[0]]
-
-    def _compile(self):
-        """Flat instruction tables for evaluate(): link slots (free links first, then the fixed
-        links the rows name), per-row constants, and the Jacobian as a template of its constant
-        entries plus the flat positions of the entries that vary (in evaluation order)."""
-        mech, L, n, m = self.mech, self.L, self.n, self.m
-        pts, cen = mech.points, self.centroid
-        slot = dict(self.index)
-        self._others: list[str] = []
-
-        def s_of(link):
-            if link not in slot:
-                slot[link] = len(self.free) + len(self._others)
-                self._others.append(link)
-            return slot[link]
-
-        dummy = m * n  # varying entries of fixed links land here (dropped)
-        tpl = np.zeros(m * n + 1)
-        jpos: list[int] = []
-
-        def var(r, link, k=0):
-            i = self.index.get(link)
-            jpos.append(dummy if i is None else r * n + 3 * i + k)
-
-        def const(r, link, k, v):
-            i = self.index.get(link)
-            if i is not None:
-                tpl[r * n + 3 * i + k] += v
-
-        def lever(link, p):
-            v = np.asarray(p, float) - cen[link]
-            return float(v[0]), float(v[1])
-
-        self._revs: list[tuple[int, float, float, int, float, float]] = []
-        self._tail: list[TailRow] = []
-        self._val_rows: list[int] | None = []  # row of each value component
-        r = 0
-        for row in self.rows:
-            if not isinstance(row, RevoluteRows):
-                continue
-            a, b, P = row.parent, row.child, row.point
-            self._revs.append((s_of(a), *lever(a, pts[P]), s_of(b), *lever(b, pts[P])))
-            var(r, a), var(r + 1, a), var(r, b), var(r + 1, b)
-            const(r, a, 1, 1.0), const(r + 1, a, 2, 1.0)
-            const(r, b, 1, -1.0), const(r + 1, b, 2, -1.0)
-            r += 2
-        self.n_rev = r // 2
-
-        def line(r, pj, u0, base, vi):
-            G, S = pj.guide, pj.slider
-            self._tail.append(
-                LineRow(
-                    RowKind.LINE,
-                    s_of(G),
-                    s_of(S),
-                    float(u0[0]),
-                    float(u0[1]),
-                    *lever(S, pts[pj.point]),
-                    *lever(G, base),
-                    vi,
-                )
-            )
-            for link, k in ((G, 0), (G, 1), (G, 2), (S, 0), (S, 1), (S, 2)):
-                var(r, link, k)
-
-        def angle(r, a, b, vi, offset):
-            self._tail.append(AngleRow(RowKind.ANGLE, s_of(a), s_of(b), vi, offset))
-            const(r, a, 0, L), const(r, b, 0, -L)
-
-        spec_rows = {}
-        for row in self.rows:
-            if isinstance(row, PrismaticRows):
-                pj = row.joint
-                d0 = pj.direction
-                line(r, pj, (-d0[1], d0[0]), pts[pj.point], None)
-                angle(r + 1, pj.slider, pj.guide, None, 0.0)
-                r += 2
-            elif isinstance(row, SpecRows):
-                i = row.spec_index
-                s = self.specs[i]
-                spec_rows[i] = r
-                if isinstance(s, AngleSpec):
-                    angle(r, s.link, s.reference, i, s.offset)
-                    r += 1
-                elif isinstance(s, SlideSpec):
-                    pj = mech.prismatics[s.joint]
-                    line(r, pj, pj.direction, pj.origin, i)
-                    r += 1
-                else:
-                    owner = mech.links_of_point(s.point)[0]
-                    self._tail.append(
-                        PointRow(RowKind.POINT, s_of(owner), *lever(owner, pts[s.point]), i)
-                    )
-                    var(r, owner), var(r + 1, owner)
-                    const(r, owner, 1, 1.0), const(r + 1, owner, 2, 1.0)
-                    r += 2
-        for i, s in enumerate(self.specs):
-            if i not in spec_rows:
-                self._val_rows = None  # a value moves fixed links: no prediction
-                break
-            self._val_rows += [spec_rows[i]] if s.size == 1 else [spec_rows[i], spec_rows[i] + 1]
-        self._val_idx = np.array(self._val_rows or [], np.intp)
-        self._tpl = tpl
-        self._tpl_s = tpl * np.append(np.tile(self._col_scale, m), 1.0)
-        self._jpos = np.array(jpos, np.intp)
-        real = [p for p in jpos if p != dummy]
-        self._jpos_unique = len(set(real)) == len(real)
-        self._none_slots = None  # the fixed-link slots when no fixed poses are given
-        self.point_owner = []
-        seen = set()
-        for l, link in mech.links.items():
-            for p in link.points:
-                if p not in seen:
-                    seen.add(p)
-                    self.point_owner.append((p, l, complex(*map(float, pts[p]))))
+        """The links a spec's rows involve."""
+        return spec_links(self.mech, s)
 
     # -- conversions between poses and the variable vector -------------------------------------
-    def x_from_poses(self, poses: ScalarPoses) -> np.ndarray:
+    def x_from_poses(self, poses: LinkPoses) -> np.ndarray:
         """Variable vector of the free links from a configuration."""
         x = np.empty(self.n)
         for l, i in self.index.items():
@@ -213,15 +57,16 @@ class LoopSystem(ScalarSolve, BatchSystem):
         return x
 
     def reference_x(self) -> np.ndarray:
+        """The variable vector of the reference pose."""
         x = np.zeros(self.n)
         for l, i in self.index.items():
             x[3 * i + 1 : 3 * i + 3] = self.centroid[l]
         return x
 
-    def poses_from_x(self, x: np.ndarray, fixed: ScalarPoses | None = None) -> ScalarPoses:
+    def poses_from_x(self, x: np.ndarray, fixed: LinkPoses | None = None) -> LinkPoses:
         """Configuration of every link: free ones from x, the rest from ``fixed`` (ground at
         the reference pose)."""
-        poses = ScalarPoses()
+        poses = LinkPoses()
         if fixed is not None:
             for l in fixed.phi:
                 poses.set(l, fixed.phi[l], fixed.T[l], fixed.rot[l])
@@ -234,7 +79,9 @@ class LoopSystem(ScalarSolve, BatchSystem):
             poses.set(l, phi, complex(x[3 * i + 1], x[3 * i + 2]) - rot * complex(o[0], o[1]), rot)
         return poses
 
-    def configuration(self, x: np.ndarray, fixed: ScalarPoses | None = None):
+    def configuration(
+        self, x: np.ndarray, fixed: LinkPoses | None = None
+    ) -> tuple[LinkPoses, dict[str, complex]]:
         """(poses, points): poses_from_x and every point's world position (complex), each read
         off the first link that carries it."""
         poses = self.poses_from_x(x, fixed)
@@ -242,134 +89,209 @@ class LoopSystem(ScalarSolve, BatchSystem):
         return poses, {p: rot[l] * z + T[l] for p, l, z in self.point_owner}
 
     # -- evaluation ---------------------------------------------------------------------------
-    def _fixed_slots(self, fixed):
-        """(cos, sin, cx, cy) and phi of the fixed links the rows name: from ``fixed``, else the
-        ground in its reference pose."""
-        P, phis = [], []
-        for l in self._others:
-            o = self.centroid[l]
-            if fixed is not None and l in fixed.phi:
-                rot = fixed.rot[l]
-                c = rot * complex(o[0], o[1]) + fixed.T[l]
-                P.append((rot.real, rot.imag, c.real, c.imag))
-                phis.append(fixed.phi[l])
-            elif l == self.mech.ground:
-                P.append((1.0, 0.0, float(o[0]), float(o[1])))
-                phis.append(0.0)
-            else:
-                raise KeyError(f'link {l!r} is neither free nor fixed')
-        return P, phis
-
+    @overload
     def evaluate(
         self,
         x: np.ndarray,
-        values: Sequence,
-        fixed: ScalarPoses | None = None,
+        values: Sequence[Any],
+        fixed: LinkPoses | None = None,
+        jacobian: Literal[True] = True,
+    ) -> tuple[np.ndarray, np.ndarray]: ...
+    @overload
+    def evaluate(
+        self, x: np.ndarray, values: Sequence[Any], fixed: LinkPoses | None, jacobian: bool
+    ) -> tuple[np.ndarray, np.ndarray | None]: ...
+    @overload
+    def evaluate(
+        self,
+        x: np.ndarray,
+        values: Sequence[Any],
+        fixed: LinkPoses | None = None,
+        *,
+        jacobian: bool,
+    ) -> tuple[np.ndarray, np.ndarray | None]: ...
+    def evaluate(
+        self,
+        x: np.ndarray,
+        values: Sequence[Any],
+        fixed: LinkPoses | None = None,
         jacobian: bool = True,
-    ):
+    ) -> tuple[np.ndarray, np.ndarray | None]:
         """Residual F (m,) and, if asked, the analytic Jacobian J (m, n)."""
-        F, Jv = self._rows(x, values, fixed, jacobian, 1.0)
-        return np.array(F, float), (self._jacobian(Jv, self._tpl) if jacobian else None)
+        return ev.evaluate(self.tables, x, values, fixed, jacobian)
 
-    def evaluate_scaled(self, x, values, fixed, jacobian=True):
+    @overload
+    def evaluate_scaled(
+        self,
+        x: np.ndarray,
+        values: Sequence[Any],
+        fixed: LinkPoses | None,
+        jacobian: Literal[True] = True,
+    ) -> tuple[np.ndarray, np.ndarray, float]: ...
+    @overload
+    def evaluate_scaled(
+        self, x: np.ndarray, values: Sequence[Any], fixed: LinkPoses | None, jacobian: bool
+    ) -> tuple[np.ndarray, np.ndarray | None, float]: ...
+    def evaluate_scaled(
+        self,
+        x: np.ndarray,
+        values: Sequence[Any],
+        fixed: LinkPoses | None,
+        jacobian: bool = True,
+    ) -> tuple[np.ndarray, np.ndarray | None, float]:
         """F / L, J * col_scale (translations / L) and max|F / L| (inf if not finite): the
         scale-free units solve() works in, so nothing overflows at 1e300 m and the LM damping
         means the same at every scale. Steps come back as dy, with dx = dy * self.step_scale."""
-        F, Jv, res = self.evaluate_rows_scaled(x, values, fixed, jacobian)
-        return F, self._jacobian(Jv, self._tpl_s) if jacobian else None, res
+        return ev.evaluate_scaled(self.tables, x, values, fixed, jacobian)
 
-    def evaluate_rows_scaled(self, x, values, fixed, jacobian=True):
-        """evaluate_scaled with J left as its varying entries (self._jacobian(Jv, self._tpl_s)
-        builds it), for points where it may not be needed."""
-        F, Jv = self._rows(x, values, fixed, jacobian, 1.0 / self.L)
-        res = max(map(abs, F), default=0.0)
-        total = sum(F)
-        if total - total != 0.0:  # a NaN or inf
-            res = math.inf
-        return np.array(F, float), Jv, res
+    def evaluate_rows_scaled(
+        self,
+        x: np.ndarray,
+        values: Sequence[Any],
+        fixed: LinkPoses | None,
+        jacobian: bool = True,
+    ) -> tuple[np.ndarray, list[float], float]:
+        """evaluate_scaled with J left as its varying entries (jacobian_scaled builds it), for
+        points where it may not be needed."""
+        return ev.evaluate_rows_scaled(self.tables, x, values, fixed, jacobian)
 
-    def _jacobian(self, Jv, tpl):
-        Jf = tpl.copy()
-        if self._jpos_unique:
-            Jf[self._jpos] = Jv
-        else:
-            np.add.at(Jf, self._jpos, Jv)
-        return Jf[:-1].reshape(self.m, self.n)
+    def jacobian_scaled(self, Jv: Sequence[float]) -> np.ndarray:
+        """The scale-free J from evaluate_rows_scaled's varying entries."""
+        return ev.jacobian(self.tables, Jv, self.tables.tpl_s)
 
-    def _rows(self, x, values, fixed, jac, k):
-        """The residual rows (a list) times k and, if jac, the varying Jacobian entries (a list
-        in _jpos order), those of rotation columns times k."""
-        xs = x.tolist() if isinstance(x, np.ndarray) else [float(v) for v in x]
-        cos, sin = math.cos, math.sin
-        phis = xs[0::3]
-        try:
-            P = [(cos(p), sin(p), cx, cy) for p, cx, cy in zip(phis, xs[1::3], xs[2::3])]
-        except ValueError:  # an infinite angle: NaN rows (callers reject them)
-            phis = [math.nan] * len(phis)
-            P = [(math.nan,) * 4] * len(phis)
-        if self._others:
-            if fixed is None:
-                if self._none_slots is None:
-                    self._none_slots = self._fixed_slots(None)
-                ext = self._none_slots
-            else:
-                ext = self._fixed_slots(fixed)
-            P += ext[0]
-            phis += ext[1]
-        F: list[float] = []
-        Jv: list[float] = []
-        for ia, lax, lay, ib, lbx, lby in self._revs:
-            fx, fy, jv = revolute_rows(*P[ia], lax, lay, *P[ib], lbx, lby, k)
-            F += (fx, fy)
-            if jac:
-                Jv += jv
-        kL = self.L * k
-        for row in self._tail:
-            kind = row[0]
-            if kind == RowKind.LINE:
-                _, iG, iS, u0x, u0y, lsx, lsy, lgx, lgy, vi = row
-                v = 0.0 if vi is None else float(values[vi])
-                f, jv = line_row(*P[iG], *P[iS], u0x, u0y, lsx, lsy, lgx, lgy, v, k)
-                F.append(f)
-                if jac:
-                    Jv += jv
-            elif kind == RowKind.ANGLE:
-                _, ia, ib, vi, off = row
-                v = 0.0 if vi is None else wrap_angle(float(values[vi]))
-                F.append(angle_row(phis[ia], phis[ib], v, off, kL, wrap_angle))
-            else:
-                _, i, lx, ly, vi = row
-                v = values[vi]
-                fx, fy, jv = point_rows(*P[i], lx, ly, float(v[0]), float(v[1]), k)
-                F += (fx, fy)
-                if jac:
-                    Jv += jv
-        return F, Jv
+    def evaluate_batch(
+        self, X: np.ndarray, values: Sequence[Any], jacobian: bool = True
+    ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
+        """evaluate_scaled for N configurations at once: returns (F, J, res) in scale-free units,
+        F (N, m) = residual / length scale, J (N, m, n) = dF/dx with translation columns times the
+        length scale (None if not ``jacobian``), res (N,) = max |F| per row, inf where a row's F
+        has a NaN or inf (non-finite X or values give such rows, never an exception).
 
-    # -- rates ----------------------------------------------------------------------------------
+        X (N, n): rows of the variable vector (phi rad, centroid m per free link). ``values``: one
+        entry per spec: (N,) for an angle (rad) or slide (m) spec, (N, 2) for a point (m).
+        Only for systems whose non-free links are the ground at its reference pose (what
+        evaluate does with fixed=None); ValueError for a hybrid system."""
+        return self.batch.evaluate_batch(X, values, jacobian)
+
+    # -- solving ------------------------------------------------------------------------------
+    def solve(
+        self,
+        x0: np.ndarray,
+        values: Sequence[Any],
+        fixed: LinkPoses | None = None,
+        *,
+        tol: float = 1e-12,
+        max_iter: int = 50,
+        keep_det_sign: bool = True,
+        start_sign: int | None = None,
+        guess: np.ndarray | None = None,
+    ) -> SolveResult:
+        """Solve from ``guess`` by the fast path if given and it qualifies (solve_from_guess),
+        else from x0 by Newton with a line search on det-sign flips and an LM fallback. Works in
+        scale-free units (see evaluate_scaled); ``tol`` bounds max|F| / length scale. The det J
+        sign tracked is ``start_sign`` (known from the solve that produced x0), else read at
+        x0."""
+        return scalar.solve(
+            self.tables,
+            x0,
+            values,
+            fixed,
+            tol=tol,
+            max_iter=max_iter,
+            keep_det_sign=keep_det_sign,
+            start_sign=start_sign,
+            guess=guess,
+        )
+
+    def solve_from_guess(
+        self,
+        guess: np.ndarray,
+        values: Sequence[Any],
+        fixed: LinkPoses | None = None,
+        *,
+        tol: float = 1e-12,
+        max_iter: int = 50,
+        start_sign: int = 0,
+    ) -> SolveResult:
+        """The fast path (scalar.solve_from_guess): one Newton step from a predicted guess,
+        then chord steps on its factorisation; declines (success False) unless it stays on
+        the det J side ``start_sign`` (0: any) and converges quickly."""
+        return scalar.solve_from_guess(
+            self.tables, guess, values, fixed, tol=tol, max_iter=max_iter, start_sign=start_sign
+        )
+
+    def solve_batch(
+        self,
+        X0: np.ndarray,
+        values: Sequence[Any],
+        start_sign: int | np.ndarray | Sequence[int],
+        *,
+        tol: float = 1e-12,
+        max_steps: int = FAST_STEPS + 2,
+    ) -> BatchSolve:
+        """Newton for N warm starts at once (numpy over the rows): row i from X0[i] (N, n:
+        phi rad, centroid m per free link; typically instance i's last solution) to the values
+        of row i (as in evaluate_batch), on the side of det J = 0 given by start_sign[i] (+1 or
+        -1, or one int for all). Full Newton steps: J evaluated and factorised at every iterate
+        (the scalar fast path takes chord steps after its first). Square systems without fixed
+        poses only (ValueError otherwise). ``tol`` bounds max|F| / length scale.
+
+        Row i is ok when, as the scalar fast path (solve_from_guess, then finish) would accept
+        it: det J at X0[i] is finite with sign start_sign[i]; every step cuts max|F| / L at least
+        FAST_RATE-fold down to min(tol, max(FAST_MARGIN * tol, FAST_FLOOR)) within ``max_steps``
+        (a step that does not, taken from a point already within ``tol``, leaves the row there,
+        converged); det J at the answer has the start's sign (else it crossed det J = 0, maybe
+        onto another assembly mode); the answer is off folds (cond < POLISH_COND, else the
+        scalar path polishes it; cond as linalg.cond reports it: see batch.batch_conds) and
+        finite. Otherwise the row is *declined*, not failed: ok False, x its X0 row, residual
+        max|F| / L at X0, det_sign 0, cond inf; the caller solves it another way (solve(): the
+        careful path with line search and LM). Rows never affect one another: each row's result
+        is what solving it alone would give."""
+        return self.batch.solve_batch(X0, values, start_sign, tol=tol, max_steps=max_steps)
+
+    def least_miss(
+        self, x0: np.ndarray, values: Sequence[Any], fixed: LinkPoses | None = None
+    ) -> float:
+        """The loop-closure miss (m) of the least-squares configuration nearest ``x0`` (see
+        scalar.least_miss)."""
+        return scalar.least_miss(self.tables, x0, values, fixed)
+
+    # -- continuation -------------------------------------------------------------------------
+    def value_step(self, a: Sequence[Any], b: Sequence[Any]) -> list[float]:
+        """b - a per value component in scale-free units (rad, length scales)."""
+        return scalar.value_step(self.tables, a, b)
+
+    def rate_factor(self, r: SolveResult) -> LUFactor | None:
+        """What predict() needs of a solution (see scalar.rate_factor)."""
+        return scalar.rate_factor(self.tables, r)
+
+    def predict(
+        self,
+        x_last: np.ndarray,
+        lu_last: tuple[Any, ...],
+        vals_last: Sequence[Any],
+        vals: Sequence[Any],
+        x_prev: np.ndarray | None = None,
+        vals_prev: Sequence[Any] | None = None,
+        lu_prev: tuple[Any, ...] | None = None,
+    ) -> np.ndarray | None:
+        """Predicted solution at ``vals`` from the solution x_last at vals_last and its
+        rate_factor ``lu_last``, and optionally the one before (see scalar.predict)."""
+        return scalar.predict(
+            self.tables, x_last, lu_last, vals_last, vals, x_prev, vals_prev, lu_prev
+        )
+
     def rates(
-        self, x: np.ndarray, values: Sequence, value_rates: Sequence[float]
+        self, x: np.ndarray, values: Sequence[Any], value_rates: Sequence[float]
     ) -> tuple[np.ndarray | None, float]:
-        """(dx/dt, cond): the unknowns' rates (per free link: rad/s, then its centroid's m/s)
-        for the knowns' rates ``value_rates`` (one per value component: rad/s or m/s), from the
-        analytic Jacobian at the solution x: J dx = -dF/dvalue * rates, the tangent predict()
-        extrapolates along (scale-free units, then scaled back). cond is J's scaled condition
-        number; dx is None where J is singular (a toggle) or a value has no row here."""
-        F, J, _ = self.evaluate_scaled(x, values, None)
-        cond = self.scaled_cond(J)
-        fac = self._factor(J) if self._val_rows is not None else None
-        if fac is None:
-            return None, cond
-        rhs = np.zeros(self.n)
-        comps = []
-        for s in self.specs:
-            comps += [isinstance(s, AngleSpec)] * s.size
-        for i, rate, is_angle in zip(self._val_rows or [], value_rates, comps):
-            rhs[i] = float(rate) if is_angle else float(rate) / self.L
-        dy, info = _lapack()[1](fac[0], fac[1], rhs)
-        if info != 0 or not np.all(np.isfinite(dy)):
-            return None, cond
-        return dy * self.step_scale, cond
+        """(dx/dt, cond): the unknowns' rates for the knowns' rates (see scalar.rates)."""
+        return scalar.rates(self.tables, x, values, value_rates)
+
+    def start_sign(
+        self, x: np.ndarray, values: Sequence[Any], fixed: LinkPoses | None = None
+    ) -> int:
+        """The det J sign a solve from x tracks (0 where J is singular there)."""
+        return scalar.det_sign_at(self.tables, x, values, fixed)
 
     # -- linear algebra -----------------------------------------------------------------------
     def unfixed_links(self) -> list[str]:
@@ -381,75 +303,30 @@ class LoopSystem(ScalarSolve, BatchSystem):
         from scipy.sparse import csr_matrix
         from scipy.sparse.csgraph import maximum_bipartite_matching
 
-        if self.m != self.n or not self.n:
+        t = self.tables
+        if t.m != t.n or not t.n:
             return []
-        pattern = np.zeros(self.m * self.n + 1, bool)
-        pattern[self._jpos] = True
-        pattern[:-1] |= self._tpl_s[:-1] != 0
+        pattern = np.zeros(t.m * t.n + 1, bool)
+        pattern[t.jpos] = True
+        pattern[:-1] |= t.tpl_s[:-1] != 0
         rows = maximum_bipartite_matching(
-            csr_matrix(pattern[:-1].reshape(self.m, self.n).astype(float)), perm_type='column'
+            csr_matrix(pattern[:-1].reshape(t.m, t.n).astype(float)), perm_type='column'
         )
         matched = set(rows[rows >= 0].tolist())
-        return list(dict.fromkeys(self.free[c // 3] for c in range(self.n) if c not in matched))
-
-    def scaled_cond(self, J: np.ndarray) -> float:
-        """Exact 2-norm condition number of J with unit-norm columns (an SVD)."""
-        if J.size == 0:
-            return 1.0
-        peak = np.max(np.abs(J), axis=0)  # pre-scale: column norms of 1e300 overflow
-        peak[peak == 0] = 1.0
-        Jn = J / peak
-        norms = np.linalg.norm(Jn, axis=0)
-        norms[norms == 0] = 1.0
-        try:
-            return float(np.linalg.cond(Jn / norms))
-        except np.linalg.LinAlgError:
-            return float('inf')
-
-    def _factor(self, J: np.ndarray):
-        """LU of J: (lu, piv, det sign); None if J is singular to working precision (an
-        exactly zero pivot), not square or empty."""
-        if J.shape[0] != J.shape[1] or J.size == 0:
-            return None
-        lu, piv, info = _lapack()[0](J)
-        if info != 0:
-            return None
-        flips = sum(v < 0.0 for v in lu.diagonal().tolist())
-        flips += sum(p != i for i, p in enumerate(piv.tolist()))
-        return lu, piv, (-1 if flips % 2 else 1)
+        return list(dict.fromkeys(t.free[c // 3] for c in range(t.n) if c not in matched))
 
     @staticmethod
-    def _lu_step(fac, F):
-        """dy solving J dy = -F from a factorisation (None if not finite)."""
-        dy, info = _lapack()[1](fac[0], fac[1], -F)
-        return dy if info == 0 and math.isfinite(float(dy.sum())) else None
+    def scaled_cond(J: np.ndarray) -> float:
+        """Exact 2-norm condition number of J with unit-norm columns (an SVD)."""
+        return linalg.scaled_cond(J)
 
-    def _cond(self, J, fac) -> float:
-        """Condition number of the scale-free J: LAPACK's 1-norm estimate from its LU (1.5-7x
-        the exact value on the scenes), or the exact 2-norm one of J with unit-norm columns
-        (scaled_cond, an SVD) where the estimate exceeds COND_EXACT or there is no LU."""
-        if fac is not None:
-            rc, info = _lapack()[2](fac[0], float(abs(J).sum(axis=0).max()))
-            if info == 0 and rc * COND_EXACT >= 1.0:
-                return 1.0 / rc
-        return self.scaled_cond(J)
+    @staticmethod
+    def factor(J: np.ndarray) -> LUFactor | None:
+        """LU of J with its det sign; None if singular to working precision, not square or
+        empty."""
+        return linalg.factor(J)
 
-    def _side_ok(self, sign0: int, J, fac) -> bool:
-        """The point is on the start's side of det J = 0 (or on the singular set itself, e.g. a
-        toggle that is the answer, where the sign is rounding noise)."""
-        if sign0 == 0 or (fac is not None and fac[2] == sign0):
-            return True
-        return self.scaled_cond(J) > SINGULAR_COND
-
-    def _sign_of(self, J, fac) -> int:
-        """det J sign for tracking, 0 where J is singular (cond above SINGULAR_COND)."""
-        if fac is None:
-            return 0
-        return fac[2] if self._cond(J, fac) < SINGULAR_COND else 0
-
-    def start_sign(self, x: np.ndarray, values: Sequence, fixed: ScalarPoses | None = None) -> int:
-        """The det J sign a solve from x tracks (0 where J is singular there)."""
-        if not self.n:
-            return 0
-        J = self.evaluate_scaled(x, values, fixed)[1]
-        return self._sign_of(J, self._factor(J))
+    @staticmethod
+    def cond(J: np.ndarray, fac: LUFactor | None) -> float:
+        """Condition number of the scale-free J as the solves report it (see linalg.cond)."""
+        return linalg.cond(J, fac)

@@ -2,41 +2,57 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
+from typing import Any
+
 import numpy as np
 
 from ..dyads import circle_side, line_side, unit_vector
 from ..execute import LinkPoses
 from ..model import Mechanism
-from ..ops import BATCH, SCALAR, to_complex
-from ..steps import StepKind, anchor_of
+from ..ops import BATCH, SCALAR, BatchOps, ScalarOps, to_complex
+from ..steps import RPRDyad, RRPDyad, RRRDyad, anchor_of
 from .compile import Plan, Step
 from .poses import Poses, ScalarPoses, link_poses
 from .spec import _c
 
 
-def step_geometry(ops, mech: Mechanism, st: Step, pts, rot) -> tuple:
+def step_geometry(
+    ops: ScalarOps | BatchOps,
+    mech: Mechanism,
+    st: Step,
+    pts: Mapping[str, Any],
+    rot: Mapping[str, Any],
+) -> tuple[Any, Any]:
     """(side, margin) of one branching step read off solved positions, either backend: the
     branch sign is +1 where side >= 0; margin is |sin| of the dyad's transmission angle (0 at
-    its singularity). ``pts`` complex points, ``rot`` {link: e^{i phi}} of the guide links."""
+    its singularity). ``pts`` complex points, ``rot`` {link: e^{i phi}} of the guide links.
+    ValueError for a step that does not branch."""
 
+    args = st.args
+    if st.point is None or not isinstance(args, RRRDyad | RRPDyad | RPRDyad):
+        raise ValueError(f'step {st.op} places no point by a dyad: it has no branch')
     x = pts[st.point]
-    if st.op is StepKind.RRR:
-        a, b = pts[st.args.centre_a], pts[st.args.centre_b]
+    if isinstance(args, RRRDyad):
+        a, b = pts[args.centre_a], pts[args.centre_b]
         side = circle_side(ops, a, b, x)
         ax, vb = unit_vector(ops, x - a), unit_vector(ops, x - b)
         m = abs(ax.real * vb.imag - ax.imag * vb.real)
     else:
-        pj = mech.prismatics[st.args.joint]
-        side = line_side(ops, pts[anchor_of(st.args)], x, rot[pj.guide] * _c(pj.direction))
+        pj = mech.prismatics[args.joint]
+        side = line_side(ops, pts[anchor_of(args)], x, rot[pj.guide] * _c(pj.direction))
         m = abs(side)
     return side, ops.clip(m, 0.0, 1.0)
 
 
-def branch_geometry_of(ops, plan: Plan, pts, poses: LinkPoses):
+def branch_geometry_of(
+    ops: ScalarOps | BatchOps, plan: Plan, pts: Mapping[str, Any], poses: LinkPoses
+) -> tuple[list[Any], list[Any]]:
     """Branch signs (+1 / -1) and dyad margins of the plan's branching steps read off a solved
     configuration, either backend (how a Newton solution is told which assembly mode it is
     in): one list entry per branching step."""
-    signs, margins = [], []
+    signs: list[Any] = []
+    margins: list[Any] = []
     for st in plan.branch_steps:
         side, m = step_geometry(ops, plan.mech, st, pts, poses.rot)
         signs.append(ops.where(side >= 0, 1, -1))
@@ -44,13 +60,17 @@ def branch_geometry_of(ops, plan: Plan, pts, poses: LinkPoses):
     return signs, margins
 
 
-def branch_geometry_one(plan: Plan, pts: dict[str, complex], poses: ScalarPoses):
+def branch_geometry_one(
+    plan: Plan, pts: Mapping[str, complex], poses: ScalarPoses
+) -> tuple[tuple[int, ...], Sequence[float]]:
     """branch_geometry_of on one configuration: (signs tuple, margins list)."""
     signs, margins = branch_geometry_of(SCALAR, plan, pts, poses)
     return tuple(signs), margins
 
 
-def branch_geometry_batch(plan: Plan, pts: dict[str, np.ndarray], poses: Poses):
+def branch_geometry_batch(
+    plan: Plan, pts: Mapping[str, np.ndarray], poses: Poses
+) -> tuple[np.ndarray, np.ndarray]:
     """branch_geometry_of over a batch: points {name: (n, 2)} and batched poses -> signs (n, k)
     (+1 / -1) and margins (n, k) of the plan's k branching steps."""
     n = poses.phi[plan.mech.ground].shape[0]

@@ -52,7 +52,7 @@ TOL = 1e-12
 
 
 def reported_cond(sy, Js):
-    """cond as LoopSystem._cond reports it, computed independently: the exact 1-norm condition
+    """cond as LoopSystem.cond reports it, computed independently: the exact 1-norm condition
     number of the scale-free J (numpy) below COND_EXACT, else the exact scaled 2-norm one."""
     c1 = np.linalg.cond(Js, 1)
     return c1 if c1 < COND_EXACT else sy.scaled_cond(Js)

@@ -115,7 +115,7 @@ def test_jacobian_matches_finite_differences(name):
             assert none is None and np.array_equal(F, F2)
             Fs, Js, res = sy.evaluate_scaled(x, vals, fixed)
             assert np.allclose(Fs, F / sy.L, rtol=1e-15, atol=0)
-            assert np.allclose(Js, J * sy._col_scale, rtol=1e-15, atol=0)
+            assert np.allclose(Js, J * sy.col_scale, rtol=1e-15, atol=0)
             assert res == float(np.max(np.abs(Fs)))
             for j in range(sy.n):
                 e = np.zeros(sy.n)
@@ -157,12 +157,12 @@ def test_lu_det_sign_equals_slogdet_sign():
             A = rng.normal(size=(n, n))
             if rng.random() < 0.3:
                 A = A[rng.permutation(n)]
-            fac = sy._factor(A)
+            fac = sy.factor(A)
             assert fac is not None
             assert fac[2] == int(np.linalg.slogdet(A)[0])
     S = np.ones((3, 3))
     S[:, 2] = 0.0
-    assert sy._factor(S) is None and np.linalg.slogdet(S)[0] == 0  # exactly singular
+    assert sy.factor(S) is None and np.linalg.slogdet(S)[0] == 0  # exactly singular
 
 
 @pytest.mark.parametrize('name', SCENES)
@@ -175,9 +175,9 @@ def test_lu_sign_and_cond_estimate_on_scene_jacobians(name):
     sy = s.system
     for r in results:
         F, J, _ = sy.evaluate_scaled(r.x, list(s.compiled.ref_values), None)
-        fac = sy._factor(J)
+        fac = sy.factor(J)
         assert fac[2] == int(np.linalg.slogdet(J)[0])
-        est, exact = sy._cond(J, fac), sy.scaled_cond(J)
+        est, exact = sy.cond(J, fac), sy.scaled_cond(J)
         assert est <= COND_EXACT
         assert exact / 1.5 <= est <= 30 * exact, (est, exact)
 
@@ -187,7 +187,7 @@ def test_cond_is_exact_near_a_singularity():
     sy = Solver(scene('four_bar'), method='newton').system
     J = np.eye(4)
     J[3, 3] = 1e-9
-    assert sy._cond(J, sy._factor(J)) == sy.scaled_cond(J)
+    assert sy.cond(J, sy.factor(J)) == sy.scaled_cond(J)
 
 
 # =============================================================================================

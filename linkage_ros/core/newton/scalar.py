@@ -1,0 +1,406 @@
+"""Solving one configuration over the compiled tables: the continuation predictor, the fast
+and careful Newton paths, the rates at a solution and the closest miss where none closes."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from ..dyads import wrap_angle
+from ..execute import LinkPoses
+from ..quantities import AngleSpec, SlideSpec
+from .evaluate import evaluate, evaluate_rows_scaled, evaluate_scaled, jacobian
+from .linalg import cond, factor, lapack, lu_step, scaled_cond, side_ok, sign_of
+from .results import (
+    FAST_FLOOR,
+    FAST_MARGIN,
+    FAST_RATE,
+    FAST_STEPS,
+    MAX_PREDICTION,
+    POLISH_COND,
+    POLISH_STEPS,
+    SINGULAR_COND,
+    LUFactor,
+    SolveResult,
+)
+from .tables import LoopTables
+
+
+def least_miss(
+    t: LoopTables, x0: np.ndarray, values: Sequence[Any], fixed: LinkPoses | None = None
+) -> float:
+    """The loop-closure miss (m, the largest row) of the least-squares configuration nearest
+    ``x0`` at ``values``: how far the mechanism is from closing at an input Newton could not
+    reach (scipy's trust-region least squares from x0, on the analytic Jacobian). A local
+    minimum: no configuration near x0 closes better."""
+    from scipy.optimize import least_squares
+
+    def fun(x: np.ndarray) -> np.ndarray:
+        return evaluate(t, x, values, fixed, jac=False)[0] / t.L
+
+    def jac(x: np.ndarray) -> np.ndarray:
+        J = evaluate(t, x, values, fixed)[1]
+        assert J is not None
+        return J / t.L
+
+    if not t.n:
+        return float(np.max(np.abs(fun(x0)), initial=0.0)) * t.L
+    with np.errstate(all='ignore'):
+        sol = least_squares(
+            fun,
+            np.asarray(x0, float),
+            jac=jac,
+            method='trf',
+            x_scale='jac',
+            xtol=1e-15,
+            ftol=1e-15,
+            gtol=1e-15,
+            max_nfev=200,
+        )
+    return float(np.max(np.abs(fun(sol.x)), initial=0.0)) * t.L
+
+
+# -- continuation: predictor ------------------------------------------------------------------
+def value_step(t: LoopTables, a: Sequence[Any], b: Sequence[Any]) -> list[float]:
+    """b - a per value component in scale-free units (rad, length scales)."""
+    out: list[float] = []
+    L = t.L
+    for s, va, vb in zip(t.specs, a, b):
+        if isinstance(s, AngleSpec):  # reduce first: vb - va may overflow
+            out.append(wrap_angle(wrap_angle(float(vb)) - wrap_angle(float(va))))
+        elif isinstance(s, SlideSpec):
+            out.append(float(vb) / L - float(va) / L)
+        else:
+            out += [float(vb[0]) / L - float(va[0]) / L, float(vb[1]) / L - float(va[1]) / L]
+    return out
+
+
+def rate_factor(t: LoopTables, r: SolveResult) -> LUFactor | None:
+    """What predict() needs of a solution: its Jacobian's factorisation (dx/dvalue there is
+    its inverse applied to -dF/dvalue); None if it failed or a value has no row here. Only
+    meaningful where no fixed link moves with the values (the Solver: newton mode)."""
+    if not r.success or r.factor is None or t.val_rows is None:
+        return None
+    return r.factor
+
+
+def predict(
+    t: LoopTables,
+    x_last: np.ndarray,
+    lu_last: tuple[Any, ...],
+    vals_last: Sequence[Any],
+    vals: Sequence[Any],
+    x_prev: np.ndarray | None = None,
+    vals_prev: Sequence[Any] | None = None,
+    lu_prev: tuple[Any, ...] | None = None,
+) -> np.ndarray | None:
+    """Predicted solution at ``vals`` from the solution x_last at vals_last and its
+    rate_factor ``lu_last`` (an LUFactor: the tangent T = dx/dvalue is its inverse applied to
+    -dF/dvalue). h = value_step(vals_last, vals); alone: x_last + T h. Given the solution before
+    (x_prev at vals_prev, hp the step since, s = h.hp / hp.hp, w = h - s hp): along hp the cubic
+    Hermite extrapolation through both solutions and their tangents (with ``lu_prev``),
+    else the quadratic one (the curvature the tangent missed over hp, times s^2), plus
+    T w off that line. None if it moves an unknown by more than MAX_PREDICTION (rad, or
+    length scales)."""
+    getrs = lapack().getrs
+    h = value_step(t, vals_last, vals)
+    c_last: list[float] = h
+    c_prev: list[float] | None = None
+    k_back = 0.0
+    if x_prev is not None and vals_prev is not None:
+        hp = value_step(t, vals_prev, vals_last)
+        den = sum(v * v for v in hp)
+        s = sum(u * v for u, v in zip(h, hp)) / den if den > 0 else math.inf
+        if lu_prev is not None and -1.0 <= s <= 1.5:
+            tt = 1.0 + s  # Hermite on tt in [0, 1] from x_prev to x_last
+            t2, t3 = tt * tt, tt * tt * tt
+            w = [u - s * v for u, v in zip(h, hp)]
+            k_back = 2 * t3 - 3 * t2 + 1
+            c_prev = [(t3 - 2 * t2 + tt) * v - s * u for u, v in zip(w, hp)]
+            c_last = [(t3 - t2) * v + tt * u for u, v in zip(w, hp)]
+        elif abs(s) <= 2.0:
+            k_back = s * s
+            c_last = [u + k_back * v for u, v in zip(h, hp)]
+
+    n, rows = t.n, t.val_rows or ()
+
+    def tangent(lu: tuple[Any, ...], c: list[float]) -> list[float]:  # T c, scale-free
+        rhs = [0.0] * n
+        for i, v in zip(rows, c):
+            rhs[i] = v  # -dF/dvalue (scale-free) times c
+        y, info = getrs(lu[0], lu[1], np.array(rhs))
+        out: list[float] = y.tolist() if info == 0 else [math.nan] * n
+        return out
+
+    # plain Python on these short vectors: a dozen numpy calls would cost more
+    dy = tangent(lu_last, c_last)
+    if c_prev is not None and lu_prev is not None:
+        dy = [a + b for a, b in zip(dy, tangent(lu_prev, c_prev))]
+    xl: list[float] = x_last.tolist()
+    if k_back and x_prev is not None:
+        back = [a - b for a, b in zip(x_prev.tolist(), xl)]
+        for j in range(0, n, 3):
+            if abs(back[j]) > math.pi:  # angles a turn apart
+                back[j] = math.remainder(back[j], 2 * math.pi)
+        dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
+    if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
+        return None
+    return np.array([x + d * w for x, d, w in zip(xl, dy, t.step_list)])
+
+
+def rates(
+    t: LoopTables, x: np.ndarray, values: Sequence[Any], value_rates: Sequence[float]
+) -> tuple[np.ndarray | None, float]:
+    """(dx/dt, cond): the unknowns' rates (per free link: rad/s, then its centroid's m/s)
+    for the knowns' rates ``value_rates`` (one per value component: rad/s or m/s), from the
+    analytic Jacobian at the solution x: J dx = -dF/dvalue * rates, the tangent predict()
+    extrapolates along (scale-free units, then scaled back). cond is J's scaled condition
+    number; dx is None where J is singular (a toggle) or a value has no row here."""
+    F, J, _ = evaluate_scaled(t, x, values, None)
+    c = scaled_cond(J)
+    fac = factor(J) if t.val_rows is not None else None
+    if fac is None:
+        return None, c
+    rhs = np.zeros(t.n)
+    comps: list[bool] = []
+    for s in t.specs:
+        comps += [isinstance(s, AngleSpec)] * s.size
+    for i, rate, is_angle in zip(t.val_rows or (), value_rates, comps):
+        rhs[i] = float(rate) if is_angle else float(rate) / t.L
+    dy, info = lapack().getrs(fac[0], fac[1], rhs)
+    if info != 0 or not np.all(np.isfinite(dy)):
+        return None, c
+    out: np.ndarray = dy * t.step_scale
+    return out, c
+
+
+def det_sign_at(
+    t: LoopTables, x: np.ndarray, values: Sequence[Any], fixed: LinkPoses | None = None
+) -> int:
+    """The det J sign a solve from x tracks (0 where J is singular there)."""
+    if not t.n:
+        return 0
+    J = evaluate_scaled(t, x, values, fixed)[1]
+    return sign_of(J, factor(J))
+
+
+# -- solving ------------------------------------------------------------------------------------
+def solve(
+    t: LoopTables,
+    x0: np.ndarray,
+    values: Sequence[Any],
+    fixed: LinkPoses | None = None,
+    *,
+    tol: float = 1e-12,
+    max_iter: int = 50,
+    keep_det_sign: bool = True,
+    start_sign: int | None = None,
+    guess: np.ndarray | None = None,
+) -> SolveResult:
+    """Solve from ``guess`` by the fast path if given and it qualifies (solve_from_guess),
+    else from x0 by Newton with a line search on det-sign flips and an LM fallback. Works in
+    scale-free units (see evaluate_scaled); ``tol`` bounds max|F| / length scale. The det J sign
+    tracked is ``start_sign`` (known from the solve that produced x0), else read at x0."""
+    x = np.array(x0, float)
+    square = t.m == t.n
+    nj = 0
+    at_x0: tuple[np.ndarray, np.ndarray, float, LUFactor | None] | None = None
+    # at a singular start (a change point) det J has no meaningful sign: do not track it
+    sign0 = 0 if not keep_det_sign else start_sign
+    if sign0 is None:
+        F0, J0, res0 = evaluate_scaled(t, x, values, fixed)
+        at_x0 = F0, J0, res0, factor(J0)
+        nj += 1
+        sign0 = sign_of(J0, at_x0[3])
+    spent = 0
+    if guess is not None:
+        r = solve_from_guess(t, guess, values, fixed, tol=tol, max_iter=max_iter, start_sign=sign0)
+        r.jacobians += nj
+        if r.success:
+            return r
+        spent, nj = r.iterations, r.jacobians
+    if at_x0 is None:
+        F0, J0, res0 = evaluate_scaled(t, x, values, fixed)
+        at_x0 = F0, J0, res0, factor(J0)
+        nj += 1
+    F, J, res, fac = at_x0
+    it = 0
+    mu: float | None = None
+    while res > tol and it < max_iter:
+        it += 1
+        fnorm = math.sqrt(float(F @ F))
+        step = None
+        if mu is None:
+            dy: np.ndarray | None
+            if square:
+                dy = lu_step(fac, F) if fac is not None else None
+            else:
+                dy = np.linalg.lstsq(J, -F, rcond=None)[0]
+                dy = dy if np.all(np.isfinite(dy)) else None
+            if dy is not None:
+                step = dy * t.step_scale
+        accepted = False
+        if step is not None:
+            alpha = 1.0
+            for _ in range(10):
+                xn = x + alpha * step
+                # the full step usually holds: evaluate J with it; shorter trials F alone
+                Fn, Jn, rn = evaluate_scaled(t, xn, values, fixed, alpha == 1.0)
+                if math.sqrt(float(Fn @ Fn)) < (1.0 - 1e-4 * alpha) * fnorm:
+                    if Jn is None:
+                        Jn = evaluate_scaled(t, xn, values, fixed)[1]
+                    facn = factor(Jn)
+                    nj += 1
+                    if side_ok(sign0, Jn, facn):
+                        x, F, J, fac, res = xn, Fn, Jn, facn, rn
+                        accepted = True
+                        break
+                alpha *= 0.5
+        if not accepted:
+            # Levenberg-Marquardt with Marquardt's column scaling
+            JtJ = J.T @ J
+            g = J.T @ F
+            D = np.diag(JtJ).copy()
+            D[D == 0] = 1.0
+            mu = mu or 1e-3
+            for _ in range(12):
+                try:
+                    dy = np.linalg.solve(JtJ + mu * np.diag(D), -g)
+                except np.linalg.LinAlgError:
+                    mu *= 10
+                    continue
+                xn = x + dy * t.step_scale
+                Fn, Jm, rn = evaluate_scaled(t, xn, values, fixed)
+                if math.sqrt(float(Fn @ Fn)) < fnorm:
+                    facn = factor(Jm)
+                    nj += 1
+                    if side_ok(sign0, Jm, facn):
+                        x, F, J, fac, res = xn, Fn, Jm, facn, rn
+                        mu = max(mu / 10, 1e-12)
+                        accepted = True
+                        break
+                mu *= 10
+            if not accepted:
+                break
+    r = finish(t, x, F, J, fac, res, it, values, fixed, polish=res <= tol)
+    r.iterations += spent
+    r.jacobians += nj
+    if res <= tol:
+        return r
+    r.success = False
+    r.factor = None
+    if it >= max_iter:
+        r.reason = (
+            f'Newton reached its iteration cap ({max_iter}) with loop-closure residual '
+            f'{r.residual:.3g} of the length scale (tolerance {tol:g})'
+        )
+    else:
+        r.reason = (
+            f'Newton stalled with loop-closure residual {r.residual:.3g} of the length '
+            f'scale: no assembly near the start (cond J = {r.cond:.3g}); the input may '
+            'be beyond a limit or toggle position'
+        )
+    return r
+
+
+def solve_from_guess(
+    t: LoopTables,
+    guess: np.ndarray,
+    values: Sequence[Any],
+    fixed: LinkPoses | None = None,
+    *,
+    tol: float = 1e-12,
+    max_iter: int = 50,
+    start_sign: int = 0,
+) -> SolveResult:
+    """The fast path: one Newton step from a predicted guess, then chord steps on its
+    factorisation, J factorised again at the answer. Steps go on to FAST_MARGIN * tol (or
+    FAST_FLOOR) while each cuts max|F| FAST_RATE-fold (an answer just inside ``tol`` would
+    leave angles read off its points off by ~tol / link length). Declines (success False,
+    the steps spent counted) unless J is regular at the guess and at the answer with det
+    sign ``start_sign`` (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
+    x = guess = np.array(guess, float)  # the result never aliases the caller's array
+    F, J, res = evaluate_scaled(t, x, values, fixed)
+    fac = factor(J)
+    steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
+    Jv: list[float] = []
+
+    def declined() -> SolveResult:
+        return SolveResult(
+            guess, False, it, res, 'the predicted start did not qualify', jacobians=nj
+        )
+
+    if fac is None or not math.isfinite(res) or (start_sign and fac[2] != start_sign):
+        return declined()
+    lin = fac
+    at_answer: LUFactor | None = fac
+    target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
+    while res > target:
+        dy = lu_step(lin, F) if it < steps else None
+        if dy is not None:
+            xn = x + dy * t.step_scale
+            Fn, Jvn, rn = evaluate_rows_scaled(t, xn, values, fixed)
+            it += 1
+        if dy is None or not rn <= FAST_RATE * res:
+            if res <= tol:  # converged; the rounding floor is above the margin
+                break
+            return declined()
+        x, F, Jv, res, at_answer = xn, Fn, Jvn, rn, None
+    if at_answer is None:  # J at the answer: its det sign, cond and factorisation
+        J = jacobian(t, Jv, t.tpl_s)
+        at_answer = factor(J)
+        nj += 1
+        if at_answer is None or (start_sign and at_answer[2] != start_sign):
+            return declined()
+    r = finish(t, x, F, J, at_answer, res, it, values, fixed)
+    if start_sign and r.det_sign not in (0, start_sign):
+        return declined()  # polishing near a fold crossed det J = 0
+    r.jacobians += nj
+    r.predicted = True
+    return r
+
+
+def finish(
+    t: LoopTables,
+    x: np.ndarray,
+    F: np.ndarray,
+    J: np.ndarray,
+    fac: LUFactor | None,
+    res: float,
+    it: int,
+    values: Sequence[Any],
+    fixed: LinkPoses | None,
+    polish: bool = True,
+) -> SolveResult:
+    """The result at x (marked a success: the caller decides): condition number, det J
+    sign and, if ``polish`` (converged) and near a fold, polishing steps."""
+    square = t.m == t.n
+    c = cond(J, fac)
+    nj = 0
+    if polish and c > POLISH_COND:
+        # near a toggle Newton converges only linearly and the configuration error is
+        # ~sqrt(residual): polish while it still pays, so margins and branch signs read off
+        # the answer are as exact as floating point allows
+        for _ in range(POLISH_STEPS):
+            if res <= 1e-15:
+                break
+            if square:
+                dy = lu_step(fac, F) if fac is not None else None
+                if dy is None:
+                    break
+            else:
+                dy = np.linalg.lstsq(J, -F, rcond=None)[0]
+            xn = x + dy * t.step_scale
+            Fn, Jn, rn = evaluate_scaled(t, xn, values, fixed)
+            if not (np.all(np.isfinite(xn)) and rn < 0.7 * res):
+                break
+            x, F, J, res = xn, Fn, Jn, rn
+            fac = factor(J)
+            nj += 1
+            it += 1
+        c = cond(J, fac)
+    det = fac[2] if fac is not None and c < SINGULAR_COND else 0  # 0: singular, no sign
+    return SolveResult(x, True, it, res, None, c, det, fac, nj)
