@@ -145,15 +145,22 @@ class Continuity:
         return Continuity(branch, list(self.history))
 
 
+#: the furthest continuity extrapolates along the previous step (a multiple of it): a command
+#: far beyond the last step is predicted no further than this (the bag replay's easy-row test
+#: uses the same bound)
+MAX_STEP_RATIO = 1.5
+
+
 def step_ratio(c: CompiledSolve, prev_vals: Values, last_vals: Values, vals: Values) -> float:
     """How far the new command goes along the previous step (d_now . d_prev / |d_prev|^2,
-    clipped to [0, 1.5]): the secant extrapolation factor; 0 when the last step was zero."""
+    clipped to [0, MAX_STEP_RATIO]): the secant extrapolation factor; 0 when the last step was
+    zero."""
     d_prev = c.check_system.value_step(prev_vals, last_vals)
     d_now = c.check_system.value_step(last_vals, vals)
     den = sum(d * d for d in d_prev)
     if not den > 0:
         return 0.0
-    return min(max(sum(n * d for n, d in zip(d_now, d_prev)) / den, 0.0), 1.5)
+    return min(max(sum(n * d for n, d in zip(d_now, d_prev)) / den, 0.0), MAX_STEP_RATIO)
 
 
 class Prediction(collections.abc.Mapping[str, Any]):
