@@ -14,7 +14,6 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -38,7 +37,7 @@ from .core.solver import Result
 from .engine import Engine
 from .params import NodeConfig
 from .trajectory import TrajectoryAnswer
-from .trajectory_io import answer_to_joint_trajectory, trajectory_status
+from .trajectory_io import trajectory_status
 
 #: /diagnostics period (s): the diagnostic_updater convention
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -225,22 +224,15 @@ class Outputs:
             )
 
     def answer_trajectory(
-        self, answer: TrajectoryAnswer, stamp: Time, request: str, times_ns: Sequence[int]
+        self, answer: TrajectoryAnswer, stamp: Time, request: str, solved: bytes | None = None
     ) -> None:
-        """A trajectory or path: on success ~/solved_trajectory, then one status either way."""
+        """A trajectory or path: on success ~/solved_trajectory (``solved``, serialised by the
+        plan worker), then one status either way."""
         self.last_ok = answer.success
         if answer.success:
+            assert solved is not None
             self.answered += 1
-            self.pub_trajectory.publish(
-                answer_to_joint_trajectory(
-                    answer,
-                    self.mech,
-                    self.config.prefix,
-                    stamp,
-                    self.frame_id,
-                    times_ns,
-                )
-            )
+            self.pub_trajectory.publish(solved)
         else:
             self.refused += 1
             self.last_error = f'{request}: {answer.reason}'

@@ -265,6 +265,7 @@ class Driver:
         send_seconds = time.perf_counter() - t0
         self._drain(link.recv, stamps, drain_timeout)
         got = [link.recv[s] - s for s in stamps if s in link.recv]
+        got_at = [link.recv[s] for s in stamps if s in link.recv]
         lat = np.asarray(got, float) / 1e6  # ms
         # the most commands sent in any 10 ms (10 at an even 1 kHz): after a stall of the
         # driver itself the absolute schedule sends what is overdue back to back, a burst a
@@ -278,6 +279,7 @@ class Driver:
         self.spin_for(0.3)
         link.recv.clear()
         return {
+            **answer_gaps(stamps, got_at),
             'rate': rate,
             'sent': len(stamps),
             'received': len(got),
@@ -303,28 +305,69 @@ class Driver:
             self.exec.spin_once(timeout_sec=0.01)
 
 
-class Flood:
-    """Hostile ~/target requests at ``rate`` Hz from the driver, of one ``kind``: 'new_sets'
-    names a new, unknown set of names every time (each used to compile a solver and push a
-    cached one out), 'huge' is a message with 10^5 names (2 MB serialised)."""
+def answer_gaps(sent_ns: Sequence[int], answered_ns: Sequence[int]) -> dict[str, Any]:
+    """The largest gap between consecutive answers of a run (ms), when it began (s after the
+    first command) and the largest gap between consecutive sends around it: a stall of the
+    target shows as an answer gap while the sends go on; one of the driver as both."""
+    if len(answered_ns) < 2:
+        return {'max_gap_ms': None, 'max_gap_at_s': None, 'send_gap_ms': None}
+    arrivals = np.sort(np.asarray(answered_ns, np.int64))
+    gaps = np.diff(arrivals)
+    k = int(np.argmax(gaps))
+    start, end = int(arrivals[k]), int(arrivals[k + 1])
+    sent = np.asarray(sent_ns, np.int64)
+    window = sent[(sent >= start - 50_000_000) & (sent <= end)]
+    send_gap = float(np.max(np.diff(window))) / 1e6 if len(window) >= 2 else None
+    return {
+        'max_gap_ms': float(gaps[k]) / 1e6,
+        'max_gap_at_s': (start - int(sent[0])) / 1e9 if len(sent) else None,
+        'send_gap_ms': send_gap,
+    }
 
-    KINDS = ('new_sets', 'huge')
+
+class Flood:
+    """Hostile requests at ``rate`` Hz from the driver, of one ``kind``: on ~/target,
+    'new_sets' names a new, unknown set of names every time (each used to compile a solver and
+    push a cached one out), 'huge' is a message with 10^5 names (2 MB serialised); on
+    ~/trajectory, 'trajectory' is a 10^4-point trajectory of the four-bar's crank (a valid plan,
+    seconds of solving each)."""
+
+    KINDS = ('new_sets', 'huge', 'trajectory')
+    #: the points of a 'trajectory' flood request
+    TRAJECTORY_POINTS = 10_000
 
     def __init__(self, driver: Driver, topic: str, rate: float, kind: str):
-        self.rate, self.kind = rate, kind
-        self.pub = driver.node.create_publisher(driver.msg_type, topic, driver.qos)
         from rclpy.serialization import serialize_message
 
-        big = driver.msg_type()
-        big.name = [f'n{k}' for k in range(10**5)]
-        big.position = [0.5] * len(big.name)
-        self.big = serialize_message(big)  # published as bytes: the driver pays for it once
+        self.rate, self.kind = rate, kind
         self.msg_type = driver.msg_type
+        self.big: bytes | None = None  # published as bytes: the driver pays for it once
+        if kind == 'trajectory':
+            from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+            plan = JointTrajectory(joint_names=['crank'])
+            plan.points = [
+                JointTrajectoryPoint(positions=[1.0 + 0.001 * k])
+                for k in range(self.TRAJECTORY_POINTS)
+            ]
+            for k, point in enumerate(plan.points):
+                point.time_from_start.sec, point.time_from_start.nanosec = divmod(
+                    (k + 1) * 1_000_000, 1_000_000_000
+                )
+            self.pub = driver.node.create_publisher(JointTrajectory, topic, driver.qos)
+            self.big = serialize_message(plan)
+        else:
+            self.pub = driver.node.create_publisher(driver.msg_type, topic, driver.qos)
+            if kind == 'huge':
+                big = driver.msg_type()
+                big.name = [f'n{k}' for k in range(10**5)]
+                big.position = [0.5] * len(big.name)
+                self.big = serialize_message(big)
         self.sent = 0
 
     def send(self, j: int) -> None:
         msg: Any
-        if self.kind == 'huge':
+        if self.big is not None:
             msg = self.big
         else:
             msg = self.msg_type()

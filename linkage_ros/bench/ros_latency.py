@@ -20,9 +20,17 @@ from .settings import DEFAULT_DEPTH, Sizes, _log
 # =============================================================================================
 
 
-#: the flood measurement: commands at this rate beside hostile ~/target requests at that one
+#: the flood measurement: commands at this rate beside hostile requests at their rate
 FLOOD_COMMAND_HZ = 500.0
 FLOOD_RATE_HZ = 100.0
+#: (kind, the node's topic, requests per second): Flood.KINDS
+FLOODS = (
+    ('new_sets', 'target', FLOOD_RATE_HZ),
+    ('huge', 'target', FLOOD_RATE_HZ),
+    ('trajectory', 'trajectory', 10.0),
+)
+#: the parts of the node measurement ``parts`` selects from
+NODE_PARTS = ('rates', 'floods', 'all_outputs')
 
 
 def sustained_rate(runs: list[dict]) -> float | None:
@@ -39,10 +47,13 @@ def bench_node(
     include_node: bool = True,
     include_relay: bool = True,
     node_argv: Sequence[str] | None = None,
+    parts: Sequence[str] = NODE_PARTS,
 ) -> dict:
     """The relay and the node run as separate processes under one driver: first a paired
-    latency phase (ping-pong, targets taking turns), then each target alone at every rate.
-    ``node_argv`` replaces the node's command line (e.g. to measure a patched node)."""
+    latency phase (ping-pong, targets taking turns), then each target alone at every rate
+    ('rates'), the node beside floods of hostile requests ('floods'), and every output on
+    ('all_outputs'). ``node_argv`` replaces the node's command line (e.g. to measure a patched
+    node)."""
     try:
         import rclpy  # noqa: F401
         from sensor_msgs.msg import JointState  # noqa: F401
@@ -62,6 +73,7 @@ def bench_node(
         'deep_rates': list(sizes.node_deep_rates),
         'targets': {},
         'logs': str(work),
+        'parts': list(parts),
     }
     # (label, command line, command topic, answer topic, queue depth); the *_deep targets are
     # the same programs with the deeper queue, measured at node_deep_rates only
@@ -146,11 +158,13 @@ def bench_node(
             links[label] = link
             out['targets'][label] = {'ok': True, 'runs': [], 'depth': depth}
         main = {k: v for k, v in links.items() if not k.endswith('_deep')}
-        if main:
+        if main and 'rates' in parts:
             _log(f'node benchmark: paired latency ({sizes.node_ping} commands each)')
             for label, res in driver.ping_pong(list(main.values()), sizes.node_ping).items():
                 out['targets'][label]['latency'] = res
         for rate in sorted(set(sizes.node_rates) | set(sizes.node_deep_rates)):
+            if 'rates' not in parts:
+                break
             for label, link in links.items():  # targets alternate: same conditions
                 if rate in (sizes.node_deep_rates if label.endswith('_deep') else sizes.node_rates):
                     _log(f'node benchmark: {label} at {rate:g} Hz')
@@ -159,24 +173,11 @@ def bench_node(
                     )
         for label in links:
             out['targets'][label]['sustained_rate'] = sustained_rate(out['targets'][label]['runs'])
-        if 'node' in links:  # commands beside a flood of hostile targets on the same node
-            out['targets']['node']['floods'] = []
-            for kind in Flood.KINDS:
-                flood = Flood(
-                    driver, f'{specs_ns["node"]}/linkage_node/target', FLOOD_RATE_HZ, kind
-                )
-                _log(
-                    f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz beside a '
-                    f'{FLOOD_RATE_HZ:g} Hz ~/target flood ({kind})'
-                )
-                driver.spin_for(1.0)  # the flood's publisher matched
-                run = driver.rate_run(
-                    links['node'], FLOOD_COMMAND_HZ, sizes.node_seconds, flood=flood
-                )
-                run.update(flood_rate=FLOOD_RATE_HZ, flood_sent=flood.sent, flood_kind=kind)
-                out['targets']['node']['floods'].append(run)
-                driver.spin_for(2.0)  # the node catches up before the next
-        if include_node and sizes.node_all_rate:
+        if 'node' in links and 'floods' in parts:  # commands beside floods on the same node
+            out['targets']['node']['floods'] = _floods(
+                driver, links['node'], specs_ns['node'], sizes.node_seconds
+            )
+        if include_node and sizes.node_all_rate and 'all_outputs' in parts:
             # the processes measured so far stop first: they would share the CPU and
             # /diagnostics with the every-output case
             for link in links.values():
@@ -204,3 +205,25 @@ def bench_node(
         for p in procs.values():
             p.stop()
     return out
+
+
+def _floods(driver: Driver, link: _Link, ns: str, seconds: float) -> list[dict]:
+    """Commands at FLOOD_COMMAND_HZ alone (kind 'none': the reference), then beside each of
+    FLOODS, one after another on the same node."""
+    _log(f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz, no flood (the reference)')
+    run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds)
+    run.update(flood_rate=0.0, flood_sent=0, flood_kind='none')
+    runs = [run]
+    for kind, topic, rate in FLOODS:
+        flood = Flood(driver, f'{ns}/linkage_node/{topic}', rate, kind)
+        _log(
+            f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz beside a {rate:g} Hz '
+            f'~/{topic} flood ({kind})'
+        )
+        driver.spin_for(1.0)  # the flood's publisher matched
+        run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds, flood=flood)
+        run.update(flood_rate=rate, flood_sent=flood.sent, flood_kind=kind, flood_topic=topic)
+        runs.append(run)
+        driver.node.destroy_publisher(flood.pub)
+        driver.spin_for(2.0 if kind != 'trajectory' else 8.0)  # the node catches up
+    return runs
