@@ -3,14 +3,12 @@
 On the executor thread, per message: refused by its length against the scene's bound
 (plan_cdr), then by its first bytes (too many names or points, a bad stamp), or queued for the
 :class:`~linkage_ros.plan_worker.PlanWorker`, or refused as dropped for load when its queue is
-full. The worker's finished jobs are published here, on the executor thread as every other
-answer is, by a timer that runs only while plans are in flight (rclpy's EventsExecutor, the
-node's default, has no guard conditions).
+full. The worker's finished plans are published here, on the executor thread as every other
+answer is, by a timer that runs only while plans are in flight.
 """
 
 from __future__ import annotations
 
-import collections
 import traceback
 from typing import TYPE_CHECKING, Any
 
@@ -24,7 +22,12 @@ from .plan_cdr import (
     trajectory_bytes_bound,
 )
 from .plan_worker import PLAN_QUEUE, PlanJob, PlanWorker
-from .trajectory import MAX_TRAJECTORY_POINTS, TrajectoryAnswer, too_many_points
+from .trajectory import (
+    MAX_TRAJECTORY_POINTS,
+    TrajectoryAnswer,
+    too_many_points,
+    trajectory_status_values,
+)
 
 #: how often finished plans are looked for while plans are in flight (s)
 PLAN_POLL_S = 0.005
@@ -38,10 +41,11 @@ class PlanRequests:
 
     def __init__(self, node: LinkageNode):
         self.node = node
-        self._done: collections.deque[PlanJob] = collections.deque()
         self._poll: Any = None  # the timer publishing finished plans, while any are in flight
-        self._in_flight = 0  # plans queued or solved, not yet answered
-        self.worker = PlanWorker(self._done.append)  # deque.append is atomic
+        self.worker = PlanWorker()
+        #: the engine served and its generation (a robot description replaces it: +1)
+        self._engine: Any = None
+        self._generation = 0
         self.dropped = 0  # plans dropped for load
 
     def destroy(self) -> None:
@@ -83,7 +87,6 @@ class PlanRequests:
         if len(raw) > bound:
             self._refuse(
                 request,
-                Time(),
                 f'the {kind} message is {len(raw)} bytes; one to scene {mech.name!r} is at most '
                 f'{bound} bytes ({MAX_TRAJECTORY_POINTS} points, every name the scene has): '
                 'send it in parts',
@@ -92,78 +95,74 @@ class PlanRequests:
         try:
             peek = peek_plan(raw, point is not None, node.max_names)
         except CdrError as exc:
-            self._refuse(
-                request, Time(), f'not a {"JointTrajectory" if point is None else "Path"}: {exc}'
-            )
+            self._refuse(request, f'not a {"JointTrajectory" if point is None else "Path"}: {exc}')
             return
         stamp = Time(sec=peek.stamp.sec, nanosec=peek.stamp.nanosec)
         if peek.count > MAX_TRAJECTORY_POINTS:
             items = 'points' if point is None else 'poses'
-            self._refuse(request, stamp, too_many_points(kind, peek.count, items))
+            self._refuse(request, too_many_points(kind, peek.count, items))
             return
         stamp, bad_stamp = node._request_stamp(stamp)
         if bad_stamp:
-            self._refuse(request, stamp, bad_stamp)
+            self._refuse(request, bad_stamp)
             return
+        if engine is not self._engine:
+            self._engine, self._generation = engine, self._generation + 1
         job = PlanJob(
             request,
             raw,
-            engine,
+            self._generation,
             engine.last,
             node.frame_id,
             node.config.prefix,
             point,
             Stamp(stamp.sec, stamp.nanosec),
         )
-        if self.worker.offer(job):
-            self._in_flight += 1
+        if self.worker.offer(job, engine):
             if self._poll is None:
                 self._poll = node.create_timer(PLAN_POLL_S, self._publish_done)
         else:
             self.dropped += 1
             self._refuse(
                 request,
-                stamp,
                 f'dropped for load: {PLAN_QUEUE} plans wait while another is solved; send it '
                 'again later (commands keep their latency: plans are solved beside them)',
             )
 
-    def _refuse(self, request: str, stamp: Time, why: str) -> None:
+    def _refuse(self, request: str, why: str) -> None:
+        """One ERROR status (a plan's status carries no stamp)."""
         outputs = self.node.outputs
         assert outputs is not None
-        if stamp.sec == 0 and stamp.nanosec == 0:
-            stamp = self.node.get_clock().now().to_msg()
-        outputs.answer_trajectory(TrajectoryAnswer(False, why), stamp, request)
+        ok, message, values = trajectory_status_values(TrajectoryAnswer(False, why), request)
+        outputs.answer_trajectory(ok, message, values, request)
 
     def _publish_done(self) -> None:
         """The timer: publish every finished plan; the timer ends when none is in flight.
         Never raises."""
         node = self.node
-        while self._done:
-            job = self._done.popleft()
-            self._in_flight -= 1
+        for done in self.worker.collect():
             outputs = node.outputs
             if outputs is None:
                 continue
             try:
-                stamp = Time(sec=job.stamp.sec, nanosec=job.stamp.nanosec)
-                answer = job.answer
-                if job.engine is not node.engine:
-                    answer = TrajectoryAnswer(
-                        False,
-                        'the mechanism was replaced (a new robot description) while the plan '
-                        'was solved: send it again',
+                ok, message, values, solved = done.ok, done.message, done.values, done.solved
+                if done.generation != self._generation or node.engine is not self._engine:
+                    ok, message, values = trajectory_status_values(
+                        TrajectoryAnswer(
+                            False,
+                            'the mechanism was replaced (a new robot description) while the '
+                            'plan was solved: send it again',
+                        ),
+                        done.request,
                     )
-                assert answer is not None
-                if answer.reason.startswith('internal error'):
-                    node.get_logger().error(f'{job.request}: {answer.reason}')
-                    answer.reason = answer.reason.split('\n', 1)[0]
-                outputs.answer_trajectory(answer, stamp, job.request, job.solved)
+                if done.error:
+                    node.get_logger().error(f'{done.request}: {message}\n{done.error}')
+                outputs.answer_trajectory(ok, message, values, done.request, solved)
             except Exception as exc:  # a bug must not take the node down
                 node.get_logger().error(
-                    f'internal error on {job.request}: {exc!r}\n' + traceback.format_exc()
+                    f'internal error on {done.request}: {exc!r}\n' + traceback.format_exc()
                 )
-                outputs.internal_error(f'internal error: {exc!r}', job.request)
-        if self._in_flight <= 0 and self._poll is not None:
+                outputs.internal_error(f'internal error: {exc!r}', done.request)
+        if self.worker.pending <= 0 and self._poll is not None:
             node.destroy_timer(self._poll)
             self._poll = None

@@ -36,7 +36,6 @@ from .conversions import (
 from .core.solver import Result
 from .engine import Engine
 from .params import NodeConfig
-from .trajectory import TrajectoryAnswer
 from .trajectory_io import trajectory_status
 
 #: /diagnostics period (s): the diagnostic_updater convention
@@ -224,20 +223,26 @@ class Outputs:
             )
 
     def answer_trajectory(
-        self, answer: TrajectoryAnswer, stamp: Time, request: str, solved: bytes | None = None
+        self,
+        ok: bool,
+        message: str,
+        values: dict[str, str],
+        request: str,
+        solved: bytes | None = None,
     ) -> None:
-        """A trajectory or path: on success ~/solved_trajectory (``solved``, serialised by the
-        plan worker), then one status either way."""
-        self.last_ok = answer.success
-        if answer.success:
+        """A trajectory or path (its status: trajectory.trajectory_status_values): when ok
+        ~/solved_trajectory (``solved``, serialised by the plan worker), then one status
+        either way."""
+        self.last_ok = ok
+        if ok:
             assert solved is not None
             self.answered += 1
             self.pub_trajectory.publish(solved)
         else:
             self.refused += 1
-            self.last_error = f'{request}: {answer.reason}'
+            self.last_error = f'{request}: {message}'
         self.pub_status.publish(
-            trajectory_status(answer, self.status_name, request, self.mech.name)
+            trajectory_status(ok, message, values, self.status_name, self.mech.name)
         )
 
     def internal_error(self, reason: str, request: str) -> None:

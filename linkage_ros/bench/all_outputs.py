@@ -218,7 +218,7 @@ def bench_all_outputs(
                         res[label] = {'ok': False, 'reason': f'{why}; {listener.tail()}'}
                         continue
                 _log(f'node benchmark: every output on, {scene}, {label} at {rate:g} Hz')
-                run = driver.rate_run(link, rate, seconds)
+                run = driver.rate_run(link, rate, seconds, target_pid=procs[label].proc.pid)
                 if listener is not None:
                     listener.stop(timeout=30.0)
                     try:

@@ -318,6 +318,15 @@ def _flood_targets(floods: list[dict]) -> list[dict]:
     for kind, fl in runs.items():
         if kind == 'none':
             continue
+        if fl.get('ok') is False:
+            out.append(
+                {
+                    'target': f'commands beside a {kind} flood',
+                    'measured': f'not measured: {fl.get("reason")}',
+                    'met': None,
+                }
+            )
+            continue
         measured = (
             f'{fl["lost"]} lost of {fl["sent"]} commands, p99 {_fmt_ms_plain(fl["p99_ms"])} '
             f'(achieved send rate {fl["achieved_rate"]:.0f} Hz; {fl["flood_sent"]} flood '

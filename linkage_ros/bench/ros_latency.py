@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import random
 import sys
@@ -12,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .all_outputs import bench_all_outputs
-from .ros_driver import Driver, Flood, _Link, _Proc, _ros_env, relay_script
+from .ros_driver import Driver, _Link, _Proc, _ros_env, relay_script
 from .settings import DEFAULT_DEPTH, Sizes, _log
 
 # =============================================================================================
@@ -23,7 +24,7 @@ from .settings import DEFAULT_DEPTH, Sizes, _log
 #: the flood measurement: commands at this rate beside hostile requests at their rate
 FLOOD_COMMAND_HZ = 500.0
 FLOOD_RATE_HZ = 100.0
-#: (kind, the node's topic, requests per second): Flood.KINDS
+#: (kind, the node's topic, requests per second): flood.KINDS
 FLOODS = (
     ('new_sets', 'target', FLOOD_RATE_HZ),
     ('huge', 'target', FLOOD_RATE_HZ),
@@ -169,13 +170,21 @@ def bench_node(
                 if rate in (sizes.node_deep_rates if label.endswith('_deep') else sizes.node_rates):
                     _log(f'node benchmark: {label} at {rate:g} Hz')
                     out['targets'][label]['runs'].append(
-                        driver.rate_run(link, rate, sizes.node_seconds)
+                        driver.rate_run(
+                            link, rate, sizes.node_seconds, target_pid=procs[label].proc.pid
+                        )
                     )
         for label in links:
             out['targets'][label]['sustained_rate'] = sustained_rate(out['targets'][label]['runs'])
         if 'node' in links and 'floods' in parts:  # commands beside floods on the same node
             out['targets']['node']['floods'] = _floods(
-                driver, links['node'], specs_ns['node'], sizes.node_seconds
+                driver,
+                links['node'],
+                specs_ns['node'],
+                sizes.node_seconds,
+                env,
+                work,
+                procs['node'].proc.pid,
             )
         if include_node and sizes.node_all_rate and 'all_outputs' in parts:
             # the processes measured so far stop first: they would share the CPU and
@@ -207,23 +216,54 @@ def bench_node(
     return out
 
 
-def _floods(driver: Driver, link: _Link, ns: str, seconds: float) -> list[dict]:
+def _floods(
+    driver: Driver, link: _Link, ns: str, seconds: float, env: dict, work: Path, pid: int
+) -> list[dict]:
     """Commands at FLOOD_COMMAND_HZ alone (kind 'none': the reference), then beside each of
-    FLOODS, one after another on the same node."""
+    FLOODS, one after another on the same node; each flood from a process of its own
+    (flood.py), started and matched before the commands start and running past their end."""
     _log(f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz, no flood (the reference)')
-    run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds)
+    run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds, target_pid=pid)
     run.update(flood_rate=0.0, flood_sent=0, flood_kind='none')
     runs = [run]
     for kind, topic, rate in FLOODS:
-        flood = Flood(driver, f'{ns}/linkage_node/{topic}', rate, kind)
-        _log(
-            f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz beside a {rate:g} Hz '
-            f'~/{topic} flood ({kind})'
+        sent_file = work / f'flood_{kind}.json'
+        proc = _Proc(
+            [sys.executable, '-m', 'linkage_ros.bench.flood']
+            + ['--topic', f'{ns}/linkage_node/{topic}', '--kind', kind, '--rate', f'{rate:g}']
+            + ['--seconds', f'{seconds + 0.5:g}', '--out', str(sent_file)],
+            env,
+            work,
+            f'flood_{kind}',
         )
-        driver.spin_for(1.0)  # the flood's publisher matched
-        run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds, flood=flood)
-        run.update(flood_rate=rate, flood_sent=flood.sent, flood_kind=kind, flood_topic=topic)
-        runs.append(run)
-        driver.node.destroy_publisher(flood.pub)
+        try:
+            why = _await_ready(driver, proc)
+            if why is not None:
+                runs.append({'flood_kind': kind, 'ok': False, 'reason': why})
+                continue
+            _log(
+                f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz beside a {rate:g} Hz '
+                f'~/{topic} flood ({kind})'
+            )
+            run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds, target_pid=pid)
+            proc.proc.wait(timeout=60)
+            try:
+                sent = json.loads(sent_file.read_text())['sent']
+            except (OSError, ValueError, KeyError):
+                sent = None
+            run.update(flood_rate=rate, flood_sent=sent, flood_kind=kind, flood_topic=topic)
+            runs.append(run)
+        finally:
+            proc.stop()
         driver.spin_for(2.0 if kind != 'trajectory' else 8.0)  # the node catches up
     return runs
+
+
+def _await_ready(driver: Driver, proc: _Proc, timeout: float = 30.0) -> str | None:
+    """Wait for a flood process's 'ready' (its publisher matched the node)."""
+    t_end = time.monotonic() + timeout
+    while 'ready' not in Path(proc.out.name).read_text(errors='replace'):
+        if not proc.alive() or time.monotonic() > t_end:
+            return f'the flood did not start: {proc.tail()}'
+        driver.spin_for(0.05)
+    return None
