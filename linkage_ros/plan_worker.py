@@ -126,6 +126,10 @@ class PlanWorker:
             daemon=True,
         )
         self._proc.start()
+        # its priority lowered from its first instruction: its start-up (importing numpy and
+        # the engine, ~1 s of CPU) must not compete with commands as an equal
+        with contextlib.suppress(OSError):
+            os.setpriority(os.PRIO_PROCESS, self._proc.pid, PLAN_NICE)
 
     def stop(self, timeout: float = 2.0) -> None:
         """End the worker process (the plan it solves is not answered)."""
@@ -147,8 +151,6 @@ class PlanWorker:
 def serve_plans(jobs: Any, done: Any, parent: int) -> None:
     """The worker process: solve each job in turn, until None or the node is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (Ctrl-C reaches both)
-    with contextlib.suppress(OSError):
-        os.nice(PLAN_NICE)  # commands first where they compete for a busy CPU
     engine: Engine | None = None
     while True:
         try:

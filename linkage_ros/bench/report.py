@@ -49,7 +49,7 @@ introduction, not the tables, and re-run `make bench` to refresh them.
 def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
     m = report['machine']
     sz = report['sizes']
-    L = []
+    L: list[str] = []
     w = L.append
     w('## Run\n')
     w(f'- command: `{command}`')
