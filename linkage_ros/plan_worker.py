@@ -18,6 +18,7 @@ plan, still serialised, to a :class:`PlanWorker`:
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import dataclasses
 import multiprocessing
@@ -86,6 +87,8 @@ class PlanWorker:
     def __init__(self, depth: int = PLAN_QUEUE):
         self.depth = depth
         self.pending = 0  # offered and not collected: waiting, being solved or done
+        #: those jobs in order, without their bytes (the worker answers in order)
+        self._offered: collections.deque[PlanJob] = collections.deque()
         self._proc: Any = None
         self._jobs: Any = None
         self._done: Any = None
@@ -102,18 +105,33 @@ class PlanWorker:
             job = dataclasses.replace(job, mechanism=(engine.mech, engine.settings))
             self._generation_sent = job.generation
         self._jobs.put(job)
+        self._offered.append(dataclasses.replace(job, raw=b'', start=None, mechanism=None))
         self.pending += 1
         return True
 
     def collect(self) -> list[PlanDone]:
-        """The plans finished since the last call (never waits)."""
+        """The plans finished since the last call (never waits). If the worker process
+        died, the plans it had are answered as internal errors and the next plan starts a
+        new one."""
         out = []
         while self._done is not None:
             try:
                 out.append(self._done.get_nowait())
             except queue.Empty:
                 break
+        for _ in out:
+            self._offered.popleft()
         self.pending -= len(out)
+        if self._proc is not None and self._offered and not self._proc.is_alive():
+            why = (
+                f'internal error: the plan worker exited (exit code {self._proc.exitcode}); '
+                'the next plan starts a new one'
+            )
+            out += [
+                PlanDone(j.request, j.generation, j.stamp, False, why, {'request': j.request}, None)
+                for j in self._offered
+            ]
+            self.stop()
         return out
 
     def _start(self) -> None:
@@ -146,6 +164,8 @@ class PlanWorker:
             q.cancel_join_thread()
         self._proc = self._jobs = self._done = None
         self.pending = 0
+        self._offered.clear()
+        self._generation_sent = None  # a new worker needs the mechanism again
 
 
 def serve_plans(jobs: Any, done: Any, parent: int) -> None:

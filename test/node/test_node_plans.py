@@ -176,3 +176,29 @@ def test_a_trajectory_name_with_a_nul_is_refused_as_the_bag_refuses_it(ros, four
     assert status.level == ERROR and status.message == want.reason, status.message
     assert "'crank\\x00x'" in status.message
     assert isinstance(s.joints.messages, list) and len(s.joints) == 0
+
+
+def test_a_plan_worker_that_dies_is_answered_for_and_replaced(ros, four_bar):
+    """The worker process killed with a plan in hand: that plan gets one ERROR status saying
+    so (not silence, not 'dropped for load' forever after), and the next plan is solved by a
+    new worker."""
+    import os
+    import signal
+
+    s = four_bar
+    s.good('command', joint_state(['crank'], [0.4], (next(_stamp), 0)))
+    solved = solved_collector(s)
+    pub = s.pub('trajectory', JointTrajectory)
+    s.clear()
+    ros.publish(pub, crank_turns(10_000))
+    worker = s.node.plans.worker
+    assert ros.spin_until(lambda: worker.pending == 1 and worker._proc is not None, TIMEOUT)
+    os.kill(worker._proc.pid, signal.SIGKILL)
+    assert ros.spin_until(lambda: len(plan_statuses(s)) >= 1, TIMEOUT)
+    (status,) = plan_statuses(s)
+    assert status.level == ERROR and 'the plan worker exited' in status.message, status.message
+    s.clear()
+    ros.publish(pub, crank_turns(20))
+    assert ros.spin_until(lambda: len(plan_statuses(s)) >= 1 and len(solved) >= 1, 60.0)
+    assert plan_statuses(s)[0].level == OK
+    assert len(solved.last.points) == 20
