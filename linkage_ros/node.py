@@ -44,7 +44,6 @@ from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
 from .conversions import (
-    format_joints,
     is_zero_stamp,
     joint_state_peek,
     joint_state_pick,
@@ -56,8 +55,8 @@ from .conversions import (
 from .core.errors import CommandError, SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import Result
-from .demo import DemoSweep
 from .engine import Engine, max_request_names, name_count_error
+from .node_demo import DemoRunner
 from .node_runtime import (
     STOP_POLL_S,
     NameClashCheck,
@@ -145,9 +144,7 @@ class LinkageNode(Node):
         #: among the actuated joints (left out of joint_states when the hardware sends them)
         self._state_inputs: frozenset[str] = frozenset()
         self._state_followers: frozenset[str] = frozenset()
-        self._demo_timer = None
-        self._demo: DemoSweep | None = None
-        self._demo_failures = 0
+        self.demo = DemoRunner(self)
         # the publishers every mechanism shares (and the waiting state answers on)
         self.channels = Channels(self, cfg)
         # ~/command and ~/target keep rclpy's default QoS-event warnings; the others carry none
@@ -236,7 +233,7 @@ class LinkageNode(Node):
                 outputs.destroy()
             raise
         # the new one is complete: the old one goes
-        self._stop_demo()
+        self.demo.stop()
         for sub in self._mech_subs:
             self.destroy_subscription(sub)
         if self.outputs is not None:
@@ -256,7 +253,7 @@ class LinkageNode(Node):
         log_mechanism(self, scene, replacing)
         if cfg.demo_sweep:
             if mech.actuators:
-                self._start_demo()
+                self.demo.start()
             else:  # a structure from robot_description_topic
                 self.get_logger().error(
                     f'demo sweep stopped: scene {mech.name!r} has no actuator to sweep (a '
@@ -392,10 +389,10 @@ class LinkageNode(Node):
         return SetParametersResult(successful=True)
 
     def _apply_demo(self, cfg: NodeConfig):
-        self._stop_demo()
+        self.demo.stop()
         self.config = cfg
         if cfg.demo_sweep and self.mech is not None:  # else it starts when a mechanism arrives
-            self._start_demo()
+            self.demo.start()
 
     # -- requests ----------------------------------------------------------------------------------
     def _request_stamp(self, stamp: Time) -> tuple[Time, str | None]:
@@ -571,45 +568,6 @@ class LinkageNode(Node):
                 'structure: 0 DOF)',
                 True,
             )
-
-    def _start_demo(self):
-        mech, last = self._served_mech(), self._served_engine().last
-        first = next(iter(mech.actuators))
-        start = last.inputs[first] if last else 0.0
-        self._demo = DemoSweep(mech, first, start)
-        self._demo_failures = 0
-        self._demo_timer = self.create_timer(1.0 / self.config.demo_rate, self._on_demo)
-        self.get_logger().info(f'demo sweep of {first!r} at {self.config.demo_rate:g} Hz')
-
-    def _stop_demo(self):
-        if self._demo_timer is not None:
-            self.destroy_timer(self._demo_timer)
-            self._demo_timer = None
-
-    def _on_demo(self):
-        demo, engine, mech = self._demo, self._served_engine(), self._served_mech()
-        assert demo is not None  # the timer runs only with a demo
-        last = engine.last
-        values = dict(last.inputs) if last else {a: 0.0 for a in mech.actuators}
-        values[demo.name] = demo.next()
-        result = self._answer('demo', Time(), lambda: engine.command(values))
-        if result.success:
-            self._demo_failures = 0
-            self.get_logger().info(
-                format_joints(result, mech.joint_names, list(mech.actuators)),
-                throttle_duration_sec=0.5,
-            )
-        else:
-            self._demo_failures += 1
-            demo.bounce(values[demo.name])
-            if self._demo_failures >= 3:
-                self.get_logger().error(
-                    f'demo sweep stopped: {result.reason} (demo_sweep is '
-                    'now false; set it to true to restart)'
-                )
-                self._stop_demo()
-                # the parameter says what runs: setting it true again restarts the sweep
-                self.set_parameters([Parameter('demo_sweep', value=False)])
 
 
 def main(args: Sequence[str] | None = None) -> int:
