@@ -32,10 +32,9 @@ import rclpy
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped, PoseStamped
 from nav_msgs.msg import Path
-from rcl_interfaces.msg import ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.event_handler import SubscriptionEventCallbacks
-from rclpy.exceptions import InvalidParameterTypeException, ParameterException
-from rclpy.executors import Executor, ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.serialization import deserialize_message
@@ -45,7 +44,6 @@ from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
 from .conversions import (
-    format_joints,
     is_zero_stamp,
     joint_state_peek,
     joint_state_pick,
@@ -57,9 +55,17 @@ from .conversions import (
 from .core.errors import CommandError, SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import Result
-from .core.solver.modes import reference_toggle_warnings
-from .demo import DemoSweep
 from .engine import Engine, max_request_names, name_count_error
+from .node_demo import DemoRunner
+from .node_runtime import (
+    STOP_POLL_S,
+    NameClashCheck,
+    StopOnSignal,
+    declare_parameters,
+    log_mechanism,
+    make_executor,
+    one_line,
+)
 from .params import (
     DEMO_RATE_MAX,
     DEMO_RATE_MIN,
@@ -73,10 +79,11 @@ from .params import (
     load_engine,
     make_config,
 )
+from .plan_cdr import joint_state_bytes_bound
+from .plan_requests import PlanRequests
 from .point_coordinates import pose_target
 from .publishing import Channels, Outputs, Waiting, latched_qos, topic_qos
 from .stamps import frame_error, stamp_error
-from .trajectory import TrajectoryAnswer, answer_path_msg, answer_trajectory_msg
 
 __all__ = [
     'DEMO_RATE_MAX',
@@ -112,50 +119,15 @@ class LinkageNode(Node):
             self.destroy_node()
             raise
 
-    # -- set-up ----------------------------------------------------------------------------------
-    def _declare_parameters(self) -> dict[str, Any]:
-        values = {}
-        for p in PARAMETERS:
-            # a double takes a whole number too (ROS users write `-p publish_rate:=0`): typed
-            # dynamically, then checked to be a number and converted (make_config)
-            number = isinstance(p.default, float)
-            desc = ParameterDescriptor(
-                description=p.description,
-                read_only=p.read_only,
-                additional_constraints=p.constraints,
-                dynamic_typing=number,
-            )
-            default = Parameter.Type.STRING_ARRAY if p.default == 'string_array' else p.default
-            try:
-                param = self.declare_parameter(p.name, default, desc)
-            except InvalidParameterTypeException as exc:
-                kind = (
-                    type(p.default).__name__
-                    if p.default != 'string_array'
-                    else f'list of strings (write {p.name}:=[a, b])'
-                )
-                kind = {
-                    'float': 'a double (write 1.0, not 1)',
-                    'int': 'an integer',
-                    'str': 'a string',
-                    'bool': 'a bool',
-                }.get(kind, 'a ' + kind)
-                raise ConfigError(f'parameter {p.name!r}: must be {kind} ({exc})') from None
-            except ParameterException as exc:
-                raise ConfigError(f'parameter {p.name!r}: {exc}') from None
-            value = param.value
-            if number:
-                if isinstance(value, bool) or not isinstance(value, int | float):
-                    raise ConfigError(
-                        f'parameter {p.name!r}: must be a number (a double or a whole number; '
-                        f'got {value!r})'
-                    )
-                value = float(value)
-            values[p.name] = value
-        return values
+    def destroy_node(self) -> None:
+        plans = getattr(self, 'plans', None)
+        if plans is not None:  # the worker ends first: it hands its answers to this node
+            plans.destroy()
+        super().destroy_node()
 
+    # -- set-up ----------------------------------------------------------------------------------
     def _setup(self):
-        self.config = cfg = make_config(self._declare_parameters())
+        self.config = cfg = make_config(declare_parameters(self))
         # the mechanism and what serves it (_serve sets them; None while waiting for a robot
         # description on robot_description_topic)
         self.scene: Scene | None = None
@@ -164,6 +136,7 @@ class LinkageNode(Node):
         self.outputs: Outputs | None = None
         self.frame_id = cfg.frame_id
         self.max_names = 0
+        self.max_request_bytes = 0
         self._mech_subs: list[Any] = []  # per point / per link: destroyed with the mechanism
         self._description = ''  # the robot description text served (from the topic)
         self._waiting: Waiting | None = None
@@ -171,9 +144,7 @@ class LinkageNode(Node):
         #: among the actuated joints (left out of joint_states when the hardware sends them)
         self._state_inputs: frozenset[str] = frozenset()
         self._state_followers: frozenset[str] = frozenset()
-        self._demo_timer = None
-        self._demo: DemoSweep | None = None
-        self._demo_failures = 0
+        self.demo = DemoRunner(self)
         # the publishers every mechanism shares (and the waiting state answers on)
         self.channels = Channels(self, cfg)
         # ~/command and ~/target keep rclpy's default QoS-event warnings; the others carry none
@@ -192,9 +163,16 @@ class LinkageNode(Node):
             event_callbacks=quiet_sub,
             raw=True,
         )
-        # trajectories: many requests answered as one (trajectory.py)
+        # plans (trajectories, paths): many requests answered as one, solved beside the
+        # commands by a worker (plan_requests.py); taken serialised, refused by size first
+        self.plans = PlanRequests(self)
         self.create_subscription(
-            JointTrajectory, '~/trajectory', self._on_trajectory, qos, event_callbacks=quiet_sub
+            JointTrajectory,
+            '~/trajectory',
+            self.plans.on_trajectory,
+            qos,
+            event_callbacks=quiet_sub,
+            raw=True,
         )
         if cfg.joint_states_in:
             self.create_subscription(JointState, cfg.joint_states_in, self._on_joint_states_in, qos)
@@ -227,10 +205,7 @@ class LinkageNode(Node):
         else:
             scene, engine = load_engine(cfg)
             self._serve(scene, engine)
-        # another node of this name in this namespace mixes its answers, status and parameter
-        # services with ours: look at the graph once discovery has had time to see it
-        self._clash_checks = 0
-        self._clash_timer = self.create_timer(CLASH_CHECK_S, self._check_name_clash)
+        self._clash_check = NameClashCheck(self)
 
     # -- the mechanism -----------------------------------------------------------------------------
     def _serve(self, scene: Scene, engine: Engine) -> None:
@@ -258,7 +233,7 @@ class LinkageNode(Node):
                 outputs.destroy()
             raise
         # the new one is complete: the old one goes
-        self._stop_demo()
+        self.demo.stop()
         for sub in self._mech_subs:
             self.destroy_subscription(sub)
         if self.outputs is not None:
@@ -270,14 +245,15 @@ class LinkageNode(Node):
         self._mech_subs = subs
         self.frame_id = frame_id
         self.max_names = max_request_names(mech)  # a longer request is refused at once
+        self.max_request_bytes = joint_state_bytes_bound(mech)  # and a larger ~/target
         self._state_inputs = frozenset(mech.commanded_input_names)
         self._state_followers = frozenset(mech.output_input_names) - self._state_inputs
         if cfg.joint_states_in:  # the hardware publishes the inputs: joint_states carries the rest
             outputs.set_omit_joints(self._state_inputs)
-        self._log_mechanism(scene, replacing)
+        log_mechanism(self, scene, replacing)
         if cfg.demo_sweep:
             if mech.actuators:
-                self._start_demo()
+                self.demo.start()
             else:  # a structure from robot_description_topic
                 self.get_logger().error(
                     f'demo sweep stopped: scene {mech.name!r} has no actuator to sweep (a '
@@ -300,12 +276,13 @@ class LinkageNode(Node):
         points = [p for p in mech.points if p not in ground]
         links = [l for l in mech.links if l != mech.ground]
         # a link's pose (its first point and its angle) from a PoseStamped, e.g. a TF pose
+        # a path is a plan: taken serialised (plan_requests.py)
         topics = (
-            (PointStamped, 'target_point', points, self._on_target_point),
-            (PoseStamped, 'target_pose', links, self._on_target_pose),
-            (Path, 'target_path', points, self._on_target_path),
+            (PointStamped, 'target_point', points, self._on_target_point, False),
+            (PoseStamped, 'target_pose', links, self._on_target_pose, False),
+            (Path, 'target_path', points, self.plans.on_path, True),
         )
-        for msg_type, topic, names, callback in topics:
+        for msg_type, topic, names, callback, raw in topics:
             for name in names:
                 subs.append(
                     self.create_subscription(
@@ -314,58 +291,9 @@ class LinkageNode(Node):
                         functools.partial(callback, name),
                         qos,
                         event_callbacks=quiet_sub,
+                        raw=raw,
                     )
                 )
-
-    def _log_mechanism(self, scene: Scene, replacing: bool) -> None:
-        """The start-up lines of a mechanism (again when a robot description replaces it)."""
-        mech, engine, cfg, log = scene.mechanism, self.engine, self.config, self.get_logger()
-        assert engine is not None and self.outputs is not None
-        log.info(
-            ('robot description replaced: ' if replacing else '')
-            + f'scene {mech.name!r} from {self._source()}: {mech.dof} DOF, '
-            f'actuators {list(mech.actuators)}, joints {mech.output_joint_names}, outputs '
-            f'{list(mech.outputs)}, frame {self.frame_id!r}, solver '
-            f'{engine.forward.mode}, branch {cfg.branch}'
-            + (
-                ', dimensions ' + ', '.join(f'{k}={v:.12g}' for k, v in mech.stated.items())
-                if mech.stated
-                else ''
-            )
-        )
-        for note in scene.notes:
-            log.info(f'scene {mech.name!r}: {note}')
-        omit = self.outputs.omit_joints
-        published = [cfg.prefix + j for j in mech.output_joint_names if j not in omit]
-        log.info(
-            f'joint_states names: {published}'
-            + (
-                f' (leaving out {sorted(omit & set(mech.output_joint_names))}: '
-                f'{self.resolve_topic_name(cfg.joint_states_in)} gives them)'
-                if cfg.joint_states_in
-                else ''
-            )
-        )
-        for warning in reference_toggle_warnings(engine.forward.compiled):
-            log.warning(f'scene {mech.name!r}: {warning}')
-        if mech.dof > 2 and not cfg.target_point_hold:
-            log.warning(
-                f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '
-                f'naming {mech.dof - 2} held value(s)'
-            )
-        commands = sorted(self._state_inputs, key=mech.output_input_names.index)
-        # the last start-up line: whoever waits for it has every start-up warning already
-        log.info(
-            f'listening on {self.resolve_topic_name("~/command")} (sensor_msgs/JointState '
-            f'{commands}), publishing {self.resolve_topic_name("joint_states")} '
-            f'(reliable, keep last {cfg.output_depth}; commands keep last '
-            f'{cfg.queue_depth})'
-            + (
-                f'; state completion from {self.resolve_topic_name(cfg.joint_states_in)}'
-                if cfg.joint_states_in
-                else ''
-            )
-        )
 
     def _on_robot_description(self, msg: String) -> None:
         """A robot description on robot_description_topic: the first one starts serving, a
@@ -419,23 +347,6 @@ class LinkageNode(Node):
         )
         self.outputs.diagnose()
 
-    def _check_name_clash(self) -> None:
-        """Log an error if the graph holds another node with this node's full name (checked a
-        few times during the first seconds, then never again)."""
-        self._clash_checks += 1
-        me = (self.get_name(), self.get_namespace())
-        count = sum(1 for n in self.get_node_names_and_namespaces() if n == me)
-        if count > 1 or self._clash_checks >= CLASH_CHECKS:
-            self._clash_timer.cancel()
-            self.destroy_timer(self._clash_timer)
-        if count > 1:
-            full = self.get_fully_qualified_name()
-            self.get_logger().error(
-                f'{count} nodes named {full} are running: their joint_states, status and '
-                'parameter services mix and requests reach both; start each with its own '
-                'name or namespace (--ros-args -r __node:=NAME or -r __ns:=/NS)'
-            )
-
     # -- parameters at runtime -------------------------------------------------------------------
     def _on_set_parameters(self, params):
         """Check and apply demo_sweep / demo_rate. Never raises: a refused change (or one that
@@ -478,10 +389,10 @@ class LinkageNode(Node):
         return SetParametersResult(successful=True)
 
     def _apply_demo(self, cfg: NodeConfig):
-        self._stop_demo()
+        self.demo.stop()
         self.config = cfg
         if cfg.demo_sweep and self.mech is not None:  # else it starts when a mechanism arrives
-            self._start_demo()
+            self.demo.start()
 
     # -- requests ----------------------------------------------------------------------------------
     def _request_stamp(self, stamp: Time) -> tuple[Time, str | None]:
@@ -559,11 +470,21 @@ class LinkageNode(Node):
         if self.outputs is None:  # no robot description yet
             self._refuse_waiting(request)
             return
+        # the count of names first (the words of every front end), then the length
         peek = joint_state_peek(raw)
         if peek is not None and peek[2] > self.max_names:
             sec, nanosec, count = peek
             why = name_count_error(count, self.max_names)
             self._answer(request, Time(sec=sec, nanosec=nanosec), lambda: Result(False, why))
+            return
+        if len(raw) > self.max_request_bytes:  # its length says enough: refused unread
+            too_big = (
+                f'JointState message is {len(raw)} bytes; a request to scene '
+                f'{self._served_mech().name!r} is at most {self.max_request_bytes} bytes (every '
+                'name the scene has, with a position, velocity and effort each)'
+            )
+            stamp = Time() if peek is None else Time(sec=peek[0], nanosec=peek[1])
+            self._answer(request, stamp, lambda: Result(False, too_big))
             return
         try:
             msg = deserialize_message(raw, JointState)
@@ -589,44 +510,6 @@ class LinkageNode(Node):
             return self._served_engine().target(pose_target(mech, link, (x, y), yaw))
 
         self._answer(f'target_pose/{link}', msg.header.stamp, solve)
-
-    def _on_trajectory(self, msg):
-        """~/trajectory: every point solved, answered on ~/solved_trajectory and one status."""
-        self._answer_trajectory(
-            'trajectory',
-            msg.header.stamp,
-            lambda: answer_trajectory_msg(self._served_engine(), msg, self.frame_id),
-        )
-
-    def _on_target_path(self, point: str, msg):
-        """~/target_path/<point>: the point's successive positions as one trajectory."""
-        self._answer_trajectory(
-            f'target_path/{point}',
-            msg.header.stamp,
-            lambda: answer_path_msg(self._served_engine(), point, msg, self.frame_id),
-        )
-
-    def _answer_trajectory(self, request: str, stamp, solve) -> None:
-        """_answer for a trajectory or path: the same stamp rules, one status. Never raises."""
-        if self.outputs is None:  # no robot description yet
-            self._refuse_waiting(request)
-            return
-        try:
-            stamp, bad_stamp = self._request_stamp(stamp)
-            times: list[int] = []
-            if bad_stamp:
-                answer = TrajectoryAnswer(False, bad_stamp)
-            else:
-                try:
-                    answer, times = solve()
-                except CommandError as exc:
-                    answer = TrajectoryAnswer(False, str(exc))
-            self.outputs.answer_trajectory(answer, stamp, request, times)
-        except Exception as exc:  # a bug must not take the node down: answer and keep going
-            self.get_logger().error(
-                f'internal error on {request}: {exc!r}\n' + traceback.format_exc()
-            )
-            self.outputs.internal_error(f'internal error: {exc!r}', request)
 
     def _on_target_point(self, point: str, msg):
 
@@ -686,101 +569,11 @@ class LinkageNode(Node):
                 True,
             )
 
-    def _start_demo(self):
-        mech, last = self._served_mech(), self._served_engine().last
-        first = next(iter(mech.actuators))
-        start = last.inputs[first] if last else 0.0
-        self._demo = DemoSweep(mech, first, start)
-        self._demo_failures = 0
-        self._demo_timer = self.create_timer(1.0 / self.config.demo_rate, self._on_demo)
-        self.get_logger().info(f'demo sweep of {first!r} at {self.config.demo_rate:g} Hz')
-
-    def _stop_demo(self):
-        if self._demo_timer is not None:
-            self.destroy_timer(self._demo_timer)
-            self._demo_timer = None
-
-    def _on_demo(self):
-        demo, engine, mech = self._demo, self._served_engine(), self._served_mech()
-        assert demo is not None  # the timer runs only with a demo
-        last = engine.last
-        values = dict(last.inputs) if last else {a: 0.0 for a in mech.actuators}
-        values[demo.name] = demo.next()
-        result = self._answer('demo', Time(), lambda: engine.command(values))
-        if result.success:
-            self._demo_failures = 0
-            self.get_logger().info(
-                format_joints(result, mech.joint_names, list(mech.actuators)),
-                throttle_duration_sec=0.5,
-            )
-        else:
-            self._demo_failures += 1
-            demo.bounce(values[demo.name])
-            if self._demo_failures >= 3:
-                self.get_logger().error(
-                    f'demo sweep stopped: {result.reason} (demo_sweep is '
-                    'now false; set it to true to restart)'
-                )
-                self._stop_demo()
-                # the parameter says what runs: setting it true again restarts the sweep
-                self.set_parameters([Parameter('demo_sweep', value=False)])
-
-
-def one_line(text: str, limit: int = 400) -> str:
-    """``text`` on one line (whitespace runs, line breaks too, become one space), cut to
-    ``limit`` characters: a reason for a log line and a diagnostic message."""
-    flat = ' '.join(text.split())
-    return flat if len(flat) <= limit else flat[: limit - 3] + '...'
-
-
-#: When the node looks at the graph for another node of its name (s after start-up, times)
-CLASH_CHECK_S = 1.0
-CLASH_CHECKS = 10
-
-#: How long the spin loop may block before it looks at the stop flag (s): the latency of a
-#: shutdown on SIGINT / SIGTERM, not of any message.
-STOP_POLL_S = 0.1
-
-
-class _StopOnSignal:
-    """SIGINT and SIGTERM (what systemd, docker and ros2 launch send) both ask the spin loop to
-    stop. rclpy's own handlers shut the context down from under a running callback (an RCLError
-    traceback, or a spin that never wakes); here the handler only sets a flag, the callback in
-    progress finishes, and main() destroys the node and shuts rclpy down itself."""
-
-    def __init__(self) -> None:
-        self.requested: int | None = None
-
-    def install(self) -> None:
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, self._on_signal)
-
-    def _on_signal(self, signum: int, _frame: Any) -> None:
-        if self.requested is None:
-            self.requested = signum
-
-
-def make_executor(node: LinkageNode) -> Executor:
-    """The executor the ``executor`` parameter names. EventsExecutor (rclpy.experimental)
-    takes the next ready callback from a C++ event queue instead of rebuilding a wait set of
-    every subscription, timer and service on each wakeup, which is most of the node's cost per
-    command; where rclpy lacks it, SingleThreadedExecutor with a warning."""
-    if node.config.executor == 'events':
-        try:
-            from rclpy.experimental import EventsExecutor
-        except ImportError as exc:
-            node.get_logger().warning(
-                f'executor events: not in this rclpy ({exc}); using single_threaded'
-            )
-        else:
-            return EventsExecutor()
-    return SingleThreadedExecutor()
-
 
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point of ``linkage_node``. Returns the process exit code (0 clean, also on SIGINT
     and SIGTERM; 1 bad configuration)."""
-    stop = _StopOnSignal()
+    stop = StopOnSignal()
     stop.install()  # before rclpy.init: a signal during start-up is a clean stop too
     try:
         rclpy.init(

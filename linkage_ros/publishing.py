@@ -14,7 +14,6 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
@@ -37,8 +36,7 @@ from .conversions import (
 from .core.solver import Result
 from .engine import Engine
 from .params import NodeConfig
-from .trajectory import TrajectoryAnswer
-from .trajectory_io import answer_to_joint_trajectory, trajectory_status
+from .trajectory_io import trajectory_status
 
 #: /diagnostics period (s): the diagnostic_updater convention
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -225,27 +223,26 @@ class Outputs:
             )
 
     def answer_trajectory(
-        self, answer: TrajectoryAnswer, stamp: Time, request: str, times_ns: Sequence[int]
+        self,
+        ok: bool,
+        message: str,
+        values: dict[str, str],
+        request: str,
+        solved: bytes | None = None,
     ) -> None:
-        """A trajectory or path: on success ~/solved_trajectory, then one status either way."""
-        self.last_ok = answer.success
-        if answer.success:
+        """A trajectory or path (its status: trajectory.trajectory_status_values): when ok
+        ~/solved_trajectory (``solved``, serialised by the plan worker), then one status
+        either way."""
+        self.last_ok = ok
+        if ok:
+            assert solved is not None
             self.answered += 1
-            self.pub_trajectory.publish(
-                answer_to_joint_trajectory(
-                    answer,
-                    self.mech,
-                    self.config.prefix,
-                    stamp,
-                    self.frame_id,
-                    times_ns,
-                )
-            )
+            self.pub_trajectory.publish(solved)
         else:
             self.refused += 1
-            self.last_error = f'{request}: {answer.reason}'
+            self.last_error = f'{request}: {message}'
         self.pub_status.publish(
-            trajectory_status(answer, self.status_name, request, self.mech.name)
+            trajectory_status(ok, message, values, self.status_name, self.mech.name)
         )
 
     def internal_error(self, reason: str, request: str) -> None:

@@ -82,7 +82,8 @@ class TrajectoryAnswer:
 # node, rosbags' in the bag tool; only their fields are read) -----------------------------------
 
 
-def _too_many(what: str, n: int, items: str) -> str:
+def too_many_points(what: str, n: int, items: str) -> str:
+    """Why a plan of ``n`` points (``items``: points, poses) is refused."""
     return (
         f'{what} has {n} {items}; at most {MAX_TRAJECTORY_POINTS} are solved in one request '
         '(send it in parts)'
@@ -100,7 +101,7 @@ def joint_trajectory_request(
     """(joint_names, positions per point, velocities per point, time_from_start ns per point);
     CommandError for more points than one request may have (checked before any copy)."""
     if len(msg.points) > MAX_TRAJECTORY_POINTS:
-        raise CommandError(_too_many('trajectory', len(msg.points), 'points'))
+        raise CommandError(too_many_points('trajectory', len(msg.points), 'points'))
     names = list(msg.joint_names)
     pts = msg.points
     # accelerations and effort are not used (kinematics only), but a malformed one is a broken
@@ -132,7 +133,7 @@ def path_request(
     strictly, else 0: a path has no timing); CommandError for a frame other than the node's or
     a non-finite coordinate."""
     if len(msg.poses) > MAX_TRAJECTORY_POINTS:
-        raise CommandError(_too_many('path', len(msg.poses), 'poses'))
+        raise CommandError(too_many_points('path', len(msg.poses), 'poses'))
     frames = {msg.header.frame_id} | {p.header.frame_id for p in msg.poses}
     foreign = sorted(f for f in frames if f and f != frame_id)
     if foreign:
@@ -193,7 +194,7 @@ def check_shape(
     if n == 0:
         return _refused('empty trajectory: no points')
     if n > MAX_TRAJECTORY_POINTS:
-        return _refused(_too_many('trajectory', n, 'points'))
+        return _refused(too_many_points('trajectory', n, 'points'))
     why = request_shape_error(names, len(names), max_request_names(engine.mech))
     if why:
         return _refused(f'joint_names: {why}')

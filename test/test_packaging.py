@@ -144,7 +144,9 @@ def test_launch_file_names_executables_and_files_that_exist():
     _, kw = _data_files()
     scripts = ast.unparse(kw['entry_points'])
     assert 'linkage_node = ' in scripts and 'linkage = linkage_ros.cli:main' in scripts
-    assert "'linkage urdf '" in source  # robot_description comes from the CLI
+    # robot_description comes from the CLI, run as an argument list (not a string launch splits)
+    assert 'urdf_argv(scene, prefix, frame_id)' in source and 'OpaqueFunction' in source
+    assert 'Command(' not in source
     text, _ = _data_files()
     assert "glob('config/launch/*.launch.py')" in text and "glob('config/rviz/*.rviz')" in text
     assert "'rviz', 'linkage.rviz'" in source and (ROOT / 'config/rviz/linkage.rviz').exists()
@@ -175,3 +177,34 @@ def test_start_up_does_not_import_scipy_optimize():
     )
     out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == 'False', out.stdout + out.stderr
+
+
+def test_the_launch_files_urdf_command_takes_a_scene_path_with_spaces(tmp_path):
+    """The launch file built `linkage urdf` as one string that launch's Command substitution
+    splits on spaces: a scene in 'my scenes/four bar.yaml' was two arguments and failed. It now
+    runs urdf_argv's argument list: the URDF of that scene, prefixed, rooted at the frame."""
+    import contextlib
+    import shlex
+    import subprocess
+    import sys
+    import xml.etree.ElementTree as ET
+
+    from linkage_ros.cli.urdf import urdf_argv
+
+    folder = tmp_path / 'my scenes'
+    folder.mkdir()
+    scene = folder / "four bar's.yaml"
+    scene.write_text((ROOT / 'config' / 'four_bar.yaml').read_text())
+    old = f"linkage urdf {scene} --prefix 'left_' --frame-id world"  # the string it built
+    # the path cut apart, or (its quote unclosed) no command at all
+    with contextlib.suppress(ValueError):
+        assert str(scene) not in shlex.split(old)
+    argv = urdf_argv(
+        str(scene), 'left_', 'world', program=(sys.executable, '-m', 'linkage_ros.cli')
+    )
+    done = subprocess.run(argv, capture_output=True, text=True, check=False)
+    assert done.returncode == 0, done.stderr
+    robot = ET.fromstring(done.stdout)
+    joints = {j.get('name') for j in robot.iter('joint')}
+    links = {l.get('name') for l in robot.iter('link')}
+    assert 'world' in links and joints and all(j.startswith('left_') for j in joints)

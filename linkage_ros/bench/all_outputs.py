@@ -13,6 +13,7 @@ the node's latency would include the driver's work.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import math
 import os
@@ -46,7 +47,7 @@ def command_values(scene: str) -> tuple[list[str], Callable[[int], list[float]]]
     mech = Scene.from_yaml(scene_path(scene)).mechanism
     ranges = input_ranges(mech)
     names = list(mech.actuators)
-    plans = []
+    plans: list[tuple[float | None, float | None, int]] = []
     for k, a in enumerate(names):
         lo, hi = ranges[a]
         if lo is None or hi is None:
@@ -57,7 +58,7 @@ def command_values(scene: str) -> tuple[list[str], Callable[[int], list[float]]]
     def value(i: int) -> list[float]:
         out = []
         for lo, hi, k in plans:
-            if lo is None:
+            if lo is None or hi is None:
                 out.append(1.0 + 0.0105 * (i % 600))
             else:
                 out.append(lo + (hi - lo) * (0.5 + 0.45 * math.sin(0.01 * (k + 1) * i)))
@@ -90,6 +91,10 @@ def outputs_of(scene: str, ns: str) -> list[tuple[Any, str, Any]]:
 LISTENER_DEPTH = 100_000
 
 
+def _count_one(count: Callable[[str], None], topic: str, _msg: bytes) -> None:
+    count(topic)
+
+
 def listen(scene: str, ns: str, out: Path, quiet_s: float = 0.5) -> int:
     """The listener process: count every message of ``outputs_of(scene, ns)`` until SIGINT or
     SIGTERM, then take what is still queued (until none arrived for ``quiet_s``) and write the
@@ -119,7 +124,9 @@ def listen(scene: str, ns: str, out: Path, quiet_s: float = 0.5) -> int:
 
     # raw: counting needs no deserialisation (the cheapest reader rclpy has)
     subs = [
-        node.create_subscription(kind, topic, lambda _m, t=topic: count(t), qos or deep, raw=True)
+        node.create_subscription(
+            kind, topic, functools.partial(_count_one, count, topic), qos or deep, raw=True
+        )
         for kind, topic, qos in outputs_of(scene, ns)
     ]
     try:  # the cheapest executor rclpy has: the listener stands in for a C++ display
@@ -218,7 +225,7 @@ def bench_all_outputs(
                         res[label] = {'ok': False, 'reason': f'{why}; {listener.tail()}'}
                         continue
                 _log(f'node benchmark: every output on, {scene}, {label} at {rate:g} Hz')
-                run = driver.rate_run(link, rate, seconds)
+                run = driver.rate_run(link, rate, seconds, target_pid=procs[label].proc.pid)
                 if listener is not None:
                     listener.stop(timeout=30.0)
                     try:

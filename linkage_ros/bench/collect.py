@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from .core_speed import bench_core_speed, core_speed_targets
-from .ros_latency import bench_node
+from .ros_latency import NODE_PARTS, bench_node
 from .settings import (
     REF_DPS,
     SCENES,
@@ -114,8 +114,21 @@ def code_version() -> str | None:
     )
 
 
-def collect(sizes: Sizes, scenes: Sequence[str] = SCENES, node: bool = True) -> dict:
-    """Run every measurement; returns the report as plain data."""
+#: the measurements ``collect`` can run (``linkage bench --cases``)
+CASES = (
+    'tradeoff',
+    'throughput',
+    'core_speed',
+    'outputs',
+    *(f'node_{p}' for p in NODE_PARTS),
+)
+
+
+def collect(
+    sizes: Sizes, scenes: Sequence[str] = SCENES, node: bool = True, cases: Sequence[str] = CASES
+) -> dict:
+    """Run the measurements ``cases`` names (every one by default); returns the report as
+    plain data."""
     t_start = time.perf_counter()
     cpu0 = _cpu_seconds()
     report: dict[str, Any] = {
@@ -125,24 +138,31 @@ def collect(sizes: Sizes, scenes: Sequence[str] = SCENES, node: bool = True) -> 
         'sizes': sizes.__dict__ | {},
         'settings': [],
         'scenes': {},
+        'cases': list(cases),
+        'throughput': [],  # the measurements not chosen stay empty
+        'outputs': [],
     }
-    for name in scenes:
+    for name in scenes if 'tradeoff' in cases else ():
         t0 = time.perf_counter()
         _log(f'scene {name}: solver settings and the {REF_DPS}-digit reference')
         rows, info = bench_scene(name, sizes)
         info['seconds'] = time.perf_counter() - t0
         report['settings'] += [r.as_dict() for r in rows]
         report['scenes'][name] = info
-    _log('four-bar throughput vs the numpy circle-intersection baseline')
-    report['throughput'] = bench_throughput(sizes)
-    _log('solver core vs hand-written math / numpy four-bars and scipy root')
-    report['core_speed'] = bench_core_speed(sizes)
-    _log('excavator: one output vs all')
-    report['outputs'] = bench_outputs(sizes)
-    if node:
-        report['node'] = bench_node(sizes)
+    if 'throughput' in cases:
+        _log('four-bar throughput vs the numpy circle-intersection baseline')
+        report['throughput'] = bench_throughput(sizes)
+    if 'core_speed' in cases:
+        _log('solver core vs hand-written math / numpy four-bars and scipy root')
+        report['core_speed'] = bench_core_speed(sizes)
+    if 'outputs' in cases:
+        _log('excavator: one output vs all')
+        report['outputs'] = bench_outputs(sizes)
+    parts = [p for p in NODE_PARTS if f'node_{p}' in cases]
+    if node and parts:
+        report['node'] = bench_node(sizes, parts=parts)
     else:
-        report['node'] = {'skipped': '--no-node given'}
+        report['node'] = {'skipped': '--no-node given' if not node else 'no node case chosen'}
     report['targets'] = evaluate_targets(report)
     report['seconds'] = time.perf_counter() - t_start
     report['loadavg_end'] = [round(v, 2) for v in os.getloadavg()]
@@ -259,22 +279,7 @@ def evaluate_targets(report: dict) -> list[dict]:
                     'value': at['lost'],
                 }
             )
-        what = {
-            'new_sets': 'each naming a new set of names',
-            'huge': 'each with 10^5 names, 2 MB',
-        }
-        for fl in nd.get('floods', []):
-            out.append(
-                {
-                    'target': f'node loses no ~/command answer at {fl["rate"]:g} Hz beside a '
-                    f'{fl["flood_rate"]:g} Hz flood of hostile ~/target requests '
-                    f'({what.get(fl["flood_kind"], fl["flood_kind"])})',
-                    'measured': f'{fl["lost"]} lost of {fl["sent"]} commands (achieved send '
-                    f'rate {fl["achieved_rate"]:.0f} Hz; {fl["flood_sent"]} flood requests)',
-                    'met': fl['lost'] == 0 and fl['achieved_rate'] >= 0.95 * fl['rate'],
-                    'value': fl['lost'],
-                }
-            )
+        out.extend(_flood_targets(nd.get('floods', [])))
         deep = tg.get('node_deep', {})
         at = next((r for r in deep.get('runs', []) if r['rate'] == TARGET_RATE_HZ), None)
         if at is not None:
@@ -302,6 +307,81 @@ def evaluate_targets(report: dict) -> list[dict]:
     return out
 
 
+def _gap(run: dict) -> str:
+    g = run.get('max_gap_ms')
+    return (
+        'largest gap between answers -'
+        if g is None
+        else (f'largest gap between answers {g:.0f} ms')
+    )
+
+
+def _flood_targets(floods: list[dict]) -> list[dict]:
+    """Commands beside floods: none lost beside the small new-name flood; beside the 2 MB
+    flood, lost and p99 within 2x of the small new-name flood's; beside the 10 Hz 10^4-point
+    trajectories, within 2x of the run without a flood (the same node, just before)."""
+    runs = {fl['flood_kind']: fl for fl in floods}
+    what = {
+        'new_sets': 'hostile ~/target requests, each naming a new set of names',
+        'huge': 'hostile ~/target requests, each with 10^5 names, 2 MB',
+        'trajectory': '~/trajectory requests of 10^4 points each',
+    }
+    refs = {'huge': 'new_sets', 'trajectory': 'none'}
+    out: list[dict] = []
+    for kind, fl in runs.items():
+        if kind == 'none':
+            continue
+        if fl.get('ok') is False:
+            out.append(
+                {
+                    'target': f'commands beside a {kind} flood',
+                    'measured': f'not measured: {fl.get("reason")}',
+                    'met': None,
+                }
+            )
+            continue
+        measured = (
+            f'{fl["lost"]} lost of {fl["sent"]} commands, p99 {_fmt_ms_plain(fl["p99_ms"])} '
+            f'(achieved send rate {fl["achieved_rate"]:.0f} Hz; {fl["flood_sent"]} flood '
+            f'requests; {_gap(fl)})'
+        )
+        sent_ok = fl['achieved_rate'] >= 0.95 * fl['rate']
+        ref = runs.get(refs.get(kind, ''))
+        if ref is None:
+            target = (
+                f'node loses no ~/command answer at {fl["rate"]:g} Hz beside a '
+                f'{fl["flood_rate"]:g} Hz flood of {what.get(kind, kind)}'
+            )
+            met = fl['lost'] == 0 and sent_ok
+        else:
+            name = (
+                'the run without a flood'
+                if ref['flood_kind'] == 'none'
+                else ('the small new-name flood')
+            )
+            target = (
+                f'commands lost and command p99 at {fl["rate"]:g} Hz beside a '
+                f'{fl["flood_rate"]:g} Hz flood of {what.get(kind, kind)} within 2x of {name}'
+            )
+            measured += (
+                f'; {name}: {ref["lost"]} lost, p99 {_fmt_ms_plain(ref["p99_ms"])}, {_gap(ref)}'
+            )
+            p99, ref_p99 = fl.get('p99_ms'), ref.get('p99_ms')
+            met = (
+                sent_ok
+                and fl['lost'] <= 2 * ref['lost']
+                and p99 is not None
+                and ref_p99 is not None
+                and p99 <= 2 * ref_p99
+            )
+        out.append({'target': target, 'measured': measured, 'met': met, 'value': fl['lost']})
+    return out
+
+
+def _fmt_ms_plain(v) -> str:
+    return '-' if v is None else f'{v:.2f} ms'
+
+
 def _all_outputs_targets(node: dict) -> list[dict]:
     """Every output subscribed: the node answers every command at the rate, as the relay in the
     same run does, with its p50 latency within TARGET_LATENCY_MS of the relay's."""
@@ -326,7 +406,7 @@ def _all_outputs_targets(node: dict) -> list[dict]:
                 'target': f'{scene}, every output on (points, markers, status, diagnostics '
                 f'subscribed): node answers every command at {rate:g} Hz',
                 'measured': f'{nd["lost"]} lost of {nd["sent"]} ({relay}; achieved send rate '
-                f'{nd["achieved_rate"]:.0f} Hz; {statuses} statuses received)',
+                f'{nd["achieved_rate"]:.0f} Hz; {statuses} statuses received; {_gap(nd)})',
                 'met': nd['lost'] == 0
                 and statuses == nd['sent']
                 and nd['achieved_rate'] >= 0.95 * nd['rate'],

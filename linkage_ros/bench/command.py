@@ -8,8 +8,9 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
+from ..cli.common import UsageError
 from ..outputs import written_whole
-from .collect import collect
+from .collect import CASES, collect
 from .report import _met, render_markdown, save_plot, write_report
 from .settings import FULL, QUICK, SCENES, _log
 
@@ -53,6 +54,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='do not measure: render the report (and plot) from the --json dump of an earlier run',
     )
     parser.add_argument(
+        '--cases',
+        default=','.join(CASES),
+        help='comma-separated measurements to run (default: all of '
+        f'{",".join(CASES)}); a partial run is for looking at, not for --write',
+    )
+    parser.add_argument(
         '--scenes',
         default=','.join(SCENES),
         help=f'comma-separated scenes (default {",".join(SCENES)})',
@@ -66,12 +73,19 @@ def run(args) -> int:
         report = json.loads(Path(args.render).read_text())
         command = report.get('command', 'linkage bench')
     else:
-        report = collect(sizes, scenes, node=not args.no_node)
+        cases = [c.strip() for c in args.cases.split(',') if c.strip()]
+        unknown = sorted(set(cases) - set(CASES))
+        if unknown:
+            raise UsageError(f'unknown case(s) {unknown}; the cases: {list(CASES)}')
+        if args.write and set(cases) != set(CASES):
+            raise UsageError('--write takes a whole run (no --cases)')
+        report = collect(sizes, scenes, node=not args.no_node, cases=cases)
         command = (
             'linkage bench'
             + (' --quick' if args.quick else '')
             + (f' --write {args.write}' if args.write else '')
             + (' --no-node' if args.no_node else '')
+            + (f' --cases {",".join(cases)}' if set(cases) != set(CASES) else '')
         )
         report['command'] = command
     plot = (

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -52,7 +53,7 @@ class MpReference:
                 p: (mpmath.mpf(float(v[0])), mpmath.mpf(float(v[1])))
                 for p, v in mech.points.items()
             }
-            self.eqs: list[tuple] = []
+            self.eqs: list[tuple[Any, ...] | None] = []  # None: an input's row, set per solve
             for lname, link in mech.links.items():
                 if lname == mech.ground or len(link.points) < 2:
                     continue
@@ -113,7 +114,7 @@ class MpReference:
                 )
             self.n = n_rows
 
-    def _equations(self, values: dict[str, float]) -> list[tuple]:
+    def _equations(self, values: dict[str, float]) -> list[tuple[Any, ...] | None]:
         mpf = self.mpmath.mpf
         eqs = list(self.eqs)
         for item in self.inputs:
@@ -134,7 +135,7 @@ class MpReference:
         mp = self.mpmath
         n = self.n
         F = [mp.mpf(0)] * n
-        J = mp.zeros(n, n) if jac else None
+        J: Any = mp.zeros(n, n) if jac else None
 
         def P(p):
             c = self.col.get(p)
@@ -206,8 +207,8 @@ class MpReference:
             res = float(max(abs(f) for f in F))
             out = {}
             for p in self.names:
-                c = self.col.get(p)
-                x, y = (X[c], X[c + 1]) if c is not None else self.fixed[p]
+                col = self.col.get(p)
+                x, y = (X[col], X[col + 1]) if col is not None else self.fixed[p]
                 xh, yh = float(x), float(y)
                 out[p] = (xh, float(x - xh), yh, float(y - yh))
             return out, res

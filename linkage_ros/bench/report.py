@@ -50,7 +50,7 @@ introduction, not the tables, and re-run `make bench` to refresh them.
 def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
     m = report['machine']
     sz = report['sizes']
-    L = []
+    L: list[str] = []
     w = L.append
     w('## Run\n')
     w(f'- command: `{command}`')
@@ -274,22 +274,24 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
         )
         w(
             '| process | queue depth | rate (Hz) | achieved send rate | sent | lost | p50 (ms) | '
-            'p99 (ms) | max (ms) |'
+            'p99 (ms) | max (ms) | largest gap between answers (ms) | its main thread '
+            'waiting for a CPU (ms) |'
         )
-        w('|---|---:|---:|---:|---:|---:|---:|---:|---:|')
+        w('|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
         for label, res in node['targets'].items():
             depth = res.get('depth', DEFAULT_DEPTH)
             if not res.get('ok'):
                 w(
                     f'| {label} | {depth} | - | - | - | - | - | - | not measured: '
-                    f'{res.get("reason")} |'
+                    f'{res.get("reason")} | | |'
                 )
                 continue
             for r in res['runs']:
                 w(
                     f'| {label} | {depth} | {r["rate"]:g} | {r["achieved_rate"]:.0f} | '
                     f'{r["sent"]} | {r["lost"]} | {_fmt_ms(r["p50_ms"])} | '
-                    f'{_fmt_ms(r["p99_ms"])} | {_fmt_ms(r["max_ms"])} |'
+                    f'{_fmt_ms(r["p99_ms"])} | {_fmt_ms(r["max_ms"])} | '
+                    f'{_fmt_ms(r.get("max_gap_ms"))} | {_fmt_ms(r.get("target_runqueue_ms"))} |'
                 )
         w('')
         for label, res in node['targets'].items():
@@ -324,10 +326,11 @@ def _all_outputs_table(w, all_out: dict, rate, seconds) -> None:
         'sends what is overdue back to back, which a queue of depth 10 must hold):\n'
     )
     w(
-        '| scene | process | sent | lost | most sent in 10 ms | p50 (ms) | p99 (ms) | statuses | '
+        '| scene | process | sent | lost | most sent in 10 ms | p50 (ms) | p99 (ms) | largest gap '
+        'between answers (ms) | its main thread waiting for a CPU (ms) | statuses | '
         'points | markers | diagnostics |'
     )
-    w('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
+    w('|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|')
     for scene, res in all_out.items():
         for label in ('relay', 'node'):
             r = res.get(label)
@@ -335,8 +338,8 @@ def _all_outputs_table(w, all_out: dict, rate, seconds) -> None:
                 continue
             if not r.get('ok'):
                 w(
-                    f'| {scene} | {label} | - | - | - | - | - | not measured: {r.get("reason")} '
-                    '| | | |'
+                    f'| {scene} | {label} | - | - | - | - | - | - | - | not measured: '
+                    f'{r.get("reason")} | | | |'
                 )
                 continue
             c = r.get('outputs', {})
@@ -347,8 +350,9 @@ def _all_outputs_table(w, all_out: dict, rate, seconds) -> None:
             w(
                 f'| {scene} | {label} | {r["sent"]} | {r["lost"]} | {r.get("burst_10ms", "-")} | '
                 f'{_fmt_ms(r["p50_ms"])} | '
-                f'{_fmt_ms(r["p99_ms"])} | {count("/status")} | {count("/points/")} | '
-                f'{count("/markers")} | {count("/diagnostics")} |'
+                f'{_fmt_ms(r["p99_ms"])} | {_fmt_ms(r.get("max_gap_ms"))} | '
+                f'{_fmt_ms(r.get("target_runqueue_ms"))} | {count("/status")} | '
+                f'{count("/points/")} | {count("/markers")} | {count("/diagnostics")} |'
             )
     w('')
 

@@ -1,5 +1,6 @@
-"""The ROS machinery the node benchmarks share: the bare rclpy relay, node processes, the driver
-that publishes commands and times the answers, and the ~/target flood."""
+"""The ROS machinery the node benchmarks share: the bare rclpy relay, node processes, and the
+driver that publishes commands and times the answers (floods: flood.py, a process of its
+own)."""
 
 from __future__ import annotations
 
@@ -239,23 +240,23 @@ class Driver:
         rate: float,
         seconds: float,
         drain_timeout: float = 2.0,
-        flood: Flood | None = None,
+        target_pid: int | None = None,
     ) -> dict:
         """Commands at ``rate`` Hz for ``seconds`` (absolute schedule, spinning in between);
         then drain until every answer is in or none arrived for ``drain_timeout`` s. With
-        ``flood``, its hostile requests go out at their own rate meanwhile."""
+        ``target_pid``, the CPU time and run-queue wait of the target's main thread and the
+        driver's during the run are recorded too (sched_during)."""
         link.recv.clear()
+        pids = {'driver': os.getpid(), **({'target': target_pid} if target_pid else {})}
+        sched = {label: main_thread_sched(pid) for label, pid in pids.items()}
         n = max(1, int(round(rate * seconds)))
         period = 1.0 / rate
         stamps = []
         t0 = time.perf_counter()
-        i = j = 0
+        i = 0
         while i < n:
             now = time.perf_counter()
             due = t0 + i * period
-            if flood is not None and now >= t0 + j / flood.rate:
-                flood.send(j)
-                j += 1
             if now >= due:
                 stamps.append(link.send())
                 i += 1
@@ -263,8 +264,10 @@ class Driver:
             else:
                 self.exec.spin_once(timeout_sec=min(due - now, 0.002))
         send_seconds = time.perf_counter() - t0
+        sched_run = sched_during(sched, pids)
         self._drain(link.recv, stamps, drain_timeout)
         got = [link.recv[s] - s for s in stamps if s in link.recv]
+        got_at = [link.recv[s] for s in stamps if s in link.recv]
         lat = np.asarray(got, float) / 1e6  # ms
         # the most commands sent in any 10 ms (10 at an even 1 kHz): after a stall of the
         # driver itself the absolute schedule sends what is overdue back to back, a burst a
@@ -278,6 +281,8 @@ class Driver:
         self.spin_for(0.3)
         link.recv.clear()
         return {
+            **answer_gaps(stamps, got_at),
+            **sched_run,
             'rate': rate,
             'sent': len(stamps),
             'received': len(got),
@@ -303,32 +308,45 @@ class Driver:
             self.exec.spin_once(timeout_sec=0.01)
 
 
-class Flood:
-    """Hostile ~/target requests at ``rate`` Hz from the driver, of one ``kind``: 'new_sets'
-    names a new, unknown set of names every time (each used to compile a solver and push a
-    cached one out), 'huge' is a message with 10^5 names (2 MB serialised)."""
+def main_thread_sched(pid: int) -> tuple[int, int] | None:
+    """(ns on a CPU, ns runnable but waiting for one) of process ``pid``'s main thread so far
+    (/proc/<pid>/task/<pid>/schedstat), or None where the kernel does not say."""
+    try:
+        with open(f'/proc/{pid}/task/{pid}/schedstat') as fh:
+            on_cpu, waiting, _ = fh.read().split()
+        return int(on_cpu), int(waiting)
+    except (OSError, ValueError):
+        return None
 
-    KINDS = ('new_sets', 'huge')
 
-    def __init__(self, driver: Driver, topic: str, rate: float, kind: str):
-        self.rate, self.kind = rate, kind
-        self.pub = driver.node.create_publisher(driver.msg_type, topic, driver.qos)
-        from rclpy.serialization import serialize_message
+def sched_during(before: dict[str, tuple[int, int] | None], pids: dict[str, int]) -> dict:
+    """CPU time and run-queue wait (ms) of each main thread since ``before``: a thread that is
+    runnable but waits for a CPU (other processes on the machine) answers nothing meanwhile."""
+    out: dict[str, Any] = {}
+    for label, pid in pids.items():
+        now, then = main_thread_sched(pid), before.get(label)
+        if now is None or then is None:
+            continue
+        out[f'{label}_cpu_ms'] = (now[0] - then[0]) / 1e6
+        out[f'{label}_runqueue_ms'] = (now[1] - then[1]) / 1e6
+    return out
 
-        big = driver.msg_type()
-        big.name = [f'n{k}' for k in range(10**5)]
-        big.position = [0.5] * len(big.name)
-        self.big = serialize_message(big)  # published as bytes: the driver pays for it once
-        self.msg_type = driver.msg_type
-        self.sent = 0
 
-    def send(self, j: int) -> None:
-        msg: Any
-        if self.kind == 'huge':
-            msg = self.big
-        else:
-            msg = self.msg_type()
-            msg.name = [f'flood_{j}_a', f'flood_{j}_b']
-            msg.position = [0.1, 0.2]
-        self.pub.publish(msg)
-        self.sent += 1
+def answer_gaps(sent_ns: Sequence[int], answered_ns: Sequence[int]) -> dict[str, Any]:
+    """The largest gap between consecutive answers of a run (ms), when it began (s after the
+    first command) and the largest gap between consecutive sends around it: a stall of the
+    target shows as an answer gap while the sends go on; one of the driver as both."""
+    if len(answered_ns) < 2:
+        return {'max_gap_ms': None, 'max_gap_at_s': None, 'send_gap_ms': None}
+    arrivals = np.sort(np.asarray(answered_ns, np.int64))
+    gaps = np.diff(arrivals)
+    k = int(np.argmax(gaps))
+    start, end = int(arrivals[k]), int(arrivals[k + 1])
+    sent = np.asarray(sent_ns, np.int64)
+    window = sent[(sent >= start - 50_000_000) & (sent <= end)]
+    send_gap = float(np.max(np.diff(window))) / 1e6 if len(window) >= 2 else None
+    return {
+        'max_gap_ms': float(gaps[k]) / 1e6,
+        'max_gap_at_s': (start - int(sent[0])) / 1e9 if len(sent) else None,
+        'send_gap_ms': send_gap,
+    }

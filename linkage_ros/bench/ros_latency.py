@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import random
 import sys
@@ -12,7 +13,7 @@ from pathlib import Path
 from typing import Any
 
 from .all_outputs import bench_all_outputs
-from .ros_driver import Driver, Flood, _Link, _Proc, _ros_env, relay_script
+from .ros_driver import Driver, _Link, _Proc, _ros_env, relay_script
 from .settings import DEFAULT_DEPTH, Sizes, _log
 
 # =============================================================================================
@@ -20,9 +21,17 @@ from .settings import DEFAULT_DEPTH, Sizes, _log
 # =============================================================================================
 
 
-#: the flood measurement: commands at this rate beside hostile ~/target requests at that one
+#: the flood measurement: commands at this rate beside hostile requests at their rate
 FLOOD_COMMAND_HZ = 500.0
 FLOOD_RATE_HZ = 100.0
+#: (kind, the node's topic, requests per second): flood.KINDS
+FLOODS = (
+    ('new_sets', 'target', FLOOD_RATE_HZ),
+    ('huge', 'target', FLOOD_RATE_HZ),
+    ('trajectory', 'trajectory', 10.0),
+)
+#: the parts of the node measurement ``parts`` selects from
+NODE_PARTS = ('rates', 'floods', 'all_outputs')
 
 
 def sustained_rate(runs: list[dict]) -> float | None:
@@ -39,10 +48,13 @@ def bench_node(
     include_node: bool = True,
     include_relay: bool = True,
     node_argv: Sequence[str] | None = None,
+    parts: Sequence[str] = NODE_PARTS,
 ) -> dict:
     """The relay and the node run as separate processes under one driver: first a paired
-    latency phase (ping-pong, targets taking turns), then each target alone at every rate.
-    ``node_argv`` replaces the node's command line (e.g. to measure a patched node)."""
+    latency phase (ping-pong, targets taking turns), then each target alone at every rate
+    ('rates'), the node beside floods of hostile requests ('floods'), and every output on
+    ('all_outputs'). ``node_argv`` replaces the node's command line (e.g. to measure a patched
+    node)."""
     try:
         import rclpy  # noqa: F401
         from sensor_msgs.msg import JointState  # noqa: F401
@@ -62,6 +74,7 @@ def bench_node(
         'deep_rates': list(sizes.node_deep_rates),
         'targets': {},
         'logs': str(work),
+        'parts': list(parts),
     }
     # (label, command line, command topic, answer topic, queue depth); the *_deep targets are
     # the same programs with the deeper queue, measured at node_deep_rates only
@@ -146,37 +159,34 @@ def bench_node(
             links[label] = link
             out['targets'][label] = {'ok': True, 'runs': [], 'depth': depth}
         main = {k: v for k, v in links.items() if not k.endswith('_deep')}
-        if main:
+        if main and 'rates' in parts:
             _log(f'node benchmark: paired latency ({sizes.node_ping} commands each)')
             for label, res in driver.ping_pong(list(main.values()), sizes.node_ping).items():
                 out['targets'][label]['latency'] = res
         for rate in sorted(set(sizes.node_rates) | set(sizes.node_deep_rates)):
+            if 'rates' not in parts:
+                break
             for label, link in links.items():  # targets alternate: same conditions
                 if rate in (sizes.node_deep_rates if label.endswith('_deep') else sizes.node_rates):
                     _log(f'node benchmark: {label} at {rate:g} Hz')
                     out['targets'][label]['runs'].append(
-                        driver.rate_run(link, rate, sizes.node_seconds)
+                        driver.rate_run(
+                            link, rate, sizes.node_seconds, target_pid=procs[label].proc.pid
+                        )
                     )
         for label in links:
             out['targets'][label]['sustained_rate'] = sustained_rate(out['targets'][label]['runs'])
-        if 'node' in links:  # commands beside a flood of hostile targets on the same node
-            out['targets']['node']['floods'] = []
-            for kind in Flood.KINDS:
-                flood = Flood(
-                    driver, f'{specs_ns["node"]}/linkage_node/target', FLOOD_RATE_HZ, kind
-                )
-                _log(
-                    f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz beside a '
-                    f'{FLOOD_RATE_HZ:g} Hz ~/target flood ({kind})'
-                )
-                driver.spin_for(1.0)  # the flood's publisher matched
-                run = driver.rate_run(
-                    links['node'], FLOOD_COMMAND_HZ, sizes.node_seconds, flood=flood
-                )
-                run.update(flood_rate=FLOOD_RATE_HZ, flood_sent=flood.sent, flood_kind=kind)
-                out['targets']['node']['floods'].append(run)
-                driver.spin_for(2.0)  # the node catches up before the next
-        if include_node and sizes.node_all_rate:
+        if 'node' in links and 'floods' in parts:  # commands beside floods on the same node
+            out['targets']['node']['floods'] = _floods(
+                driver,
+                links['node'],
+                specs_ns['node'],
+                sizes.node_seconds,
+                env,
+                work,
+                procs['node'].proc.pid,
+            )
+        if include_node and sizes.node_all_rate and 'all_outputs' in parts:
             # the processes measured so far stop first: they would share the CPU and
             # /diagnostics with the every-output case
             for link in links.values():
@@ -204,3 +214,56 @@ def bench_node(
         for p in procs.values():
             p.stop()
     return out
+
+
+def _floods(
+    driver: Driver, link: _Link, ns: str, seconds: float, env: dict, work: Path, pid: int
+) -> list[dict]:
+    """Commands at FLOOD_COMMAND_HZ alone (kind 'none': the reference), then beside each of
+    FLOODS, one after another on the same node; each flood from a process of its own
+    (flood.py), started and matched before the commands start and running past their end."""
+    _log(f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz, no flood (the reference)')
+    run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds, target_pid=pid)
+    run.update(flood_rate=0.0, flood_sent=0, flood_kind='none')
+    runs = [run]
+    for kind, topic, rate in FLOODS:
+        sent_file = work / f'flood_{kind}.json'
+        proc = _Proc(
+            [sys.executable, '-m', 'linkage_ros.bench.flood']
+            + ['--topic', f'{ns}/linkage_node/{topic}', '--kind', kind, '--rate', f'{rate:g}']
+            + ['--seconds', f'{seconds + 0.5:g}', '--out', str(sent_file)],
+            env,
+            work,
+            f'flood_{kind}',
+        )
+        try:
+            why = _await_ready(driver, proc)
+            if why is not None:
+                runs.append({'flood_kind': kind, 'ok': False, 'reason': why})
+                continue
+            _log(
+                f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz beside a {rate:g} Hz '
+                f'~/{topic} flood ({kind})'
+            )
+            run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds, target_pid=pid)
+            proc.proc.wait(timeout=60)
+            try:
+                sent = json.loads(sent_file.read_text())['sent']
+            except (OSError, ValueError, KeyError):
+                sent = None
+            run.update(flood_rate=rate, flood_sent=sent, flood_kind=kind, flood_topic=topic)
+            runs.append(run)
+        finally:
+            proc.stop()
+        driver.spin_for(2.0 if kind != 'trajectory' else 8.0)  # the node catches up
+    return runs
+
+
+def _await_ready(driver: Driver, proc: _Proc, timeout: float = 30.0) -> str | None:
+    """Wait for a flood process's 'ready' (its publisher matched the node)."""
+    t_end = time.monotonic() + timeout
+    while 'ready' not in Path(proc.out.name).read_text(errors='replace'):
+        if not proc.alive() or time.monotonic() > t_end:
+            return f'the flood did not start: {proc.tail()}'
+        driver.spin_for(0.05)
+    return None

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -54,7 +57,7 @@ def bench_throughput(sizes: Sizes) -> list[dict]:
             'fourbar_forward': lambda: fourbar.fourbar_forward(l1, l2, l3, l4, theta, br),
             'Solver.solve_batch': lambda: solver.solve_batch({'crank': theta}),
         }
-        times = {k: [] for k in fns}
+        times: dict[str, list[float]] = {k: [] for k in fns}
         # interleaved, so drift hits all alike; small batches repeat more (the same inputs in
         # all, ~1e6 per function per repeat at full size), or one disturbed call sways the median
         repeats = max(
@@ -109,13 +112,16 @@ def bench_outputs(sizes: Sizes) -> list[dict]:
         (['L'], 'L (bucket lip: needs every loop)'),
         (None, 'all outputs (default)'),
     ]
-    out, steppers, batches = [], [], {}
+    out: list[dict[str, Any]] = []
+    steppers: list[SolverStepper] = []
+    batches: dict[str, Callable[[], Any]] = {}
     for k, (outputs, label) in enumerate(cases):
         cf = Solver(mech, outputs=outputs, method='closed_form')
         nw = Solver(mech, outputs=outputs, method='newton')
         steppers += [SolverStepper(cf, len(cmds)), SolverStepper(nw, len(cmds))]
-        sb = Solver(mech, outputs=outputs, method='closed_form')
-        batches[k] = lambda sb=sb: sb.solve_batch(cols)
+        batches[str(k)] = functools.partial(
+            Solver(mech, outputs=outputs, method='closed_form').solve_batch, cols
+        )
         out.append(
             {
                 'outputs': outputs,
@@ -128,14 +134,14 @@ def bench_outputs(sizes: Sizes) -> list[dict]:
     run_interleaved(steppers, cmds, sizes.repeats)
     per = time_batches(batches, sizes.batch, sizes.batch_repeats)
     for k, row in enumerate(out):
-        cf, nw = steppers[2 * k], steppers[2 * k + 1]
+        cf_step, nw_step = steppers[2 * k], steppers[2 * k + 1]
         row.update(
             {
-                'closed_form_scalar_us': cf.median_us(),
-                'closed_form_failures': cf.fails,
-                'newton_scalar_us': nw.median_us(),
-                'newton_failures': nw.fails,
-                'closed_form_batch_us': per[k],
+                'closed_form_scalar_us': cf_step.median_us(),
+                'closed_form_failures': cf_step.fails,
+                'newton_scalar_us': nw_step.median_us(),
+                'newton_failures': nw_step.fails,
+                'closed_form_batch_us': per[str(k)],
             }
         )
     return out

@@ -165,7 +165,7 @@ class KernelStepper(Stepper):
         system = self.system
         t0 = time.perf_counter_ns()
         guess = None
-        if self.rate is not None:
+        if self.rate is not None and self.vals is not None:
             guess = system.predict(self.x, self.rate, self.vals, vals, *(self.before or ()))
         r = system.solve(
             self.x, vals, None, tol=self.tol, max_iter=50, start_sign=self.sign, guess=guess
@@ -269,6 +269,7 @@ def _direct(mech):
         P0, A0, B0 = (mech.points[p] for p in (extra[0], 'A', 'B')) if extra else (None,) * 3
         cp = None
         if extra:
+            assert P0 is not None and A0 is not None and B0 is not None
             v, u = P0 - A0, B0 - A0
             cp = (math.hypot(*v), math.atan2(v[1], v[0]) - math.atan2(u[1], u[0]))
 
@@ -460,6 +461,7 @@ def _newton_batch(row: SettingResult, mech, cmds: list[dict], repeats: int, name
     from ..core.solver import Solver
 
     n = len(cmds)
+    assert row.tol is not None  # a Newton setting has one
     solver = Solver(mech, method='newton', tol=row.tol)
     cols = {a: np.array([c[a] for c in cmds], float) for a in mech.actuators}
     before = {a: np.roll(v, 1) for a, v in cols.items()}  # instance i was at input i - 1
@@ -474,4 +476,4 @@ def _newton_batch(row: SettingResult, mech, cmds: list[dict], repeats: int, name
     e = point_errors(np.where(res.ok[:, None, None], pts, np.nan), hi, lo, mech.length_scale)
     row.batch_err_max = float(np.nanmax(e)) if np.any(~np.isnan(e)) else None
     row.batch_failures = int(np.sum(~res.ok))
-    row.batch_careful = int(np.sum(res.careful))
+    row.batch_careful = int(np.sum(res.careful)) if res.careful is not None else 0

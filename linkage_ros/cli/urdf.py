@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 
 from ..core.errors import LinkageError
 from ..core.urdf import name_error, prefix_error, urdf_document
@@ -34,6 +35,22 @@ from .common import (
 )
 
 PROG = 'linkage urdf'
+
+
+def urdf_argv(
+    scene: str, prefix: str = '', frame_id: str = '', program: Sequence[str] = ('linkage',)
+) -> list[str]:
+    """The command line of ``linkage urdf`` as an argument list (the launch file runs it so):
+    a scene path with spaces or quotes stays one argument, where a command string split on
+    spaces (launch's Command substitution) cut it apart. An empty frame_id: the scene's."""
+    return [
+        *program,
+        'urdf',
+        f'--prefix={prefix}',
+        *([f'--frame-id={frame_id}'] if frame_id else []),
+        '--',
+        scene,
+    ]
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:

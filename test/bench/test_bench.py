@@ -317,3 +317,56 @@ def _minimal_report():
         'throughput': [],
         'outputs': [],
     }
+
+
+def test_answer_gaps_name_the_longest_silence_and_the_sends_around_it():
+    """The largest gap between answers (ms), when it began (s after the first send) and the
+    largest gap between sends around it, worked out by hand for a run with one stall."""
+    from linkage_ros.bench.ros_driver import answer_gaps
+
+    ms = 1_000_000
+    sent = [k * 2 * ms for k in range(10)]  # every 2 ms
+    answered = [s + ms for s in sent[:4]] + [s + ms + 50 * ms for s in sent[4:]]
+    gaps = answer_gaps(sent, answered)
+    assert gaps['max_gap_ms'] == pytest.approx(52.0)  # 7 ms -> 59 ms
+    assert gaps['max_gap_at_s'] == pytest.approx(0.007)
+    assert gaps['send_gap_ms'] == pytest.approx(2.0)  # the driver went on sending: the target
+    assert answer_gaps(sent, answered[:1])['max_gap_ms'] is None
+
+
+def test_flood_targets_compare_each_flood_with_its_reference():
+    """The 2 MB flood against the small new-name flood, the trajectory flood against the run
+    without one: within 2x in lost commands and p99, both."""
+    from linkage_ros.bench.collect import _flood_targets
+
+    def run(kind, lost, p99):
+        return {
+            'flood_kind': kind,
+            'rate': 500.0,
+            'flood_rate': 10.0,
+            'flood_sent': 30,
+            'sent': 1500,
+            'lost': lost,
+            'p99_ms': p99,
+            'achieved_rate': 500.0,
+            'max_gap_ms': 12.0,
+        }
+
+    floods = [run('none', 4, 2.0), run('new_sets', 1, 1.5), run('huge', 2, 3.0)]
+    met = [t['met'] for t in _flood_targets(floods)]
+    assert met == [False, True]  # the small flood must lose none; the 2 MB one within 2x of it
+    floods += [run('trajectory', 9, 3.0)]
+    (traj,) = [t for t in _flood_targets(floods) if 'trajectory' in t['target']]
+    assert traj['met'] is False and 'largest gap between answers 12 ms' in traj['measured']
+    floods[-1] = run('trajectory', 8, 4.0)
+    (traj,) = [t for t in _flood_targets(floods) if 'trajectory' in t['target']]
+    assert traj['met'] is True
+
+
+def test_bench_cases_select_measurements_and_refuse_unknown_ones(capsys):
+    from linkage_ros.cli import main
+
+    assert main(['bench', '--cases', 'node_floods,nonsense']) == 2
+    assert "unknown case(s) ['nonsense']" in capsys.readouterr().err
+    assert main(['bench', '--cases', 'throughput', '--write', 'x.md']) == 2
+    assert '--write takes a whole run' in capsys.readouterr().err

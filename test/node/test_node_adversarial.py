@@ -607,7 +607,7 @@ def test_runtime_parameter_changes_that_cannot_apply_are_refused(ros, serve):
     s = serve(scene='four_bar', demo_sweep=True, demo_rate=50.0)
     client = AsyncParameterClient(ros.node, f'{s.ns}/{NODE_NAME}')
     assert client.wait_for_services(timeout_sec=TIMEOUT)
-    timer = s.node._demo_timer
+    timer = s.node.demo.timer
     for value in (
         1e-12,
         1e-300,
@@ -625,7 +625,7 @@ def test_runtime_parameter_changes_that_cannot_apply_are_refused(ros, serve):
             r.reason,
         )
         assert s.node.get_parameter('demo_rate').value == 50.0
-        assert s.node.config.demo_rate == 50.0 and s.node._demo_timer is timer
+        assert s.node.config.demo_rate == 50.0 and s.node.demo.timer is timer
     for param, fragment in (
         (Parameter('demo_rate', value='5'), "'demo_rate'"),
         (Parameter('demo_sweep', value='yes'), 'BOOL'),
@@ -645,10 +645,10 @@ def test_runtime_parameter_changes_that_cannot_apply_are_refused(ros, serve):
     for value in (DEMO_RATE_MAX, DEMO_RATE_MIN, 40.0, 25):  # 25: a whole number is a double
         (r,) = _set(ros, client, Parameter('demo_rate', value=value))
         assert r.successful, r.reason
-        assert abs(s.node._demo_timer.timer_period_ns - 1e9 / value) <= 1
+        assert abs(s.node.demo.timer.timer_period_ns - 1e9 / value) <= 1
     assert s.node.config.demo_rate == 25.0 and isinstance(s.node.config.demo_rate, float)
     (r,) = _set(ros, client, Parameter('demo_sweep', value=False))
-    assert r.successful and s.node._demo_timer is None
+    assert r.successful and s.node.demo.timer is None
 
 
 def test_a_demo_that_stops_turns_demo_sweep_off_and_can_be_restarted(ros, serve, tmp_path):
@@ -669,7 +669,7 @@ def test_a_demo_that_stops_turns_demo_sweep_off_and_can_be_restarted(ros, serve,
         assert ros.spin_until(
             lambda: not s.node.get_parameter('demo_sweep').value and len(s.status) >= 3, TIMEOUT
         )
-        assert s.node._demo_timer is None and not s.node.config.demo_sweep
+        assert s.node.demo.timer is None and not s.node.config.demo_sweep
         assert [st.level for st in s.status.messages] == [ERROR] * 3  # then it stopped
         assert 'cannot assemble' in s.status.last.message
         assert len(s.joints) == 0

@@ -1,0 +1,231 @@
+"""Plans off the command path: a worker process solves trajectories and paths (ROS-free).
+
+A plan (``~/trajectory``, ``~/target_path/<point>``) of 10^4 points takes seconds to solve;
+commands are the control path and must keep their latency meanwhile. So the node hands each
+plan, still serialised, to a :class:`PlanWorker`:
+
+* a bounded queue (:data:`PLAN_QUEUE` waiting, one being solved): a plan offered while it is
+  full is dropped for load, and the node's status says so;
+* a process of its own (not a thread: a Python thread holds the interpreter lock the command
+  thread needs, and measured beside a 10 Hz flood of 10^4-point trajectories the node lost
+  most of its 500 Hz commands), at a lower CPU priority (:data:`PLAN_NICE`), so that the
+  command thread is served first when the two compete for a core;
+* it reads the bytes (plan_cdr.py), solves the plan on an engine of its own started from the
+  command engine's last good state as it was when the plan arrived (the command engine is
+  never touched: a plan cannot interleave with commands), and sends back the status values
+  and the solved trajectory as bytes (:class:`PlanDone`).
+"""
+
+from __future__ import annotations
+
+import collections
+import contextlib
+import dataclasses
+import multiprocessing
+import os
+import queue
+import signal
+import traceback
+from dataclasses import dataclass
+from typing import Any
+
+from .core.errors import CommandError
+from .core.model import Mechanism
+from .core.solver import Result
+from .engine import Engine, EngineSettings
+from .plan_cdr import CdrError, Stamp, joint_trajectory_bytes, read_joint_trajectory, read_path
+from .trajectory import (
+    TrajectoryAnswer,
+    answer_path_msg,
+    answer_trajectory_msg,
+    trajectory_status_values,
+)
+
+#: plans waiting beside the one being solved; one more is dropped for load
+PLAN_QUEUE = 2
+#: the worker's CPU priority (nice): below the node's, where the two compete for a core; not
+#: the lowest (19), which on a machine busy with other work barely ran plans at all
+PLAN_NICE = 5
+#: how often the worker looks whether the node is still there (s)
+PARENT_CHECK_S = 1.0
+
+
+@dataclass(frozen=True)
+class PlanJob:
+    """One plan request, its bytes still serialised."""
+
+    request: str  # 'trajectory' or 'target_path/<point>' (the status's request key)
+    raw: bytes
+    generation: int  # which mechanism the node served when the plan arrived
+    start: Result | None  # that mechanism's last good state then: where the plan starts
+    frame_id: str  # the node's frame
+    prefix: str  # the node's joint-name prefix (the solved trajectory's joint names)
+    point: str | None  # a path's point; None for a trajectory
+    stamp: Stamp  # the stamp the answers carry
+    #: the mechanism and settings, when the worker has not had this generation's yet
+    mechanism: tuple[Mechanism, EngineSettings] | None = None
+
+
+@dataclass(frozen=True)
+class PlanDone:
+    """A solved (or refused) plan: its one status and, on success, ~/solved_trajectory."""
+
+    request: str
+    generation: int
+    stamp: Stamp
+    ok: bool
+    message: str
+    values: dict[str, str]
+    solved: bytes | None  # serialised trajectory_msgs/JointTrajectory
+    error: str = ''  # an internal error's traceback, for the node's log
+
+
+class PlanWorker:
+    """A worker process and a bounded queue of :class:`PlanJob` (see the module docstring).
+    Used from one thread (the node's executor)."""
+
+    def __init__(self, depth: int = PLAN_QUEUE):
+        self.depth = depth
+        self.pending = 0  # offered and not collected: waiting, being solved or done
+        #: those jobs in order, without their bytes (the worker answers in order)
+        self._offered: collections.deque[PlanJob] = collections.deque()
+        self._proc: Any = None
+        self._jobs: Any = None
+        self._done: Any = None
+        self._generation_sent: int | None = None
+
+    def offer(self, job: PlanJob, engine: Engine) -> bool:
+        """Queue ``job`` (of ``engine``'s mechanism); False, queueing nothing, when the queue
+        is full (dropped for load)."""
+        if self.pending > self.depth:
+            return False
+        if self._proc is None:
+            self._start()
+        if self._generation_sent != job.generation:
+            job = dataclasses.replace(job, mechanism=(engine.mech, engine.settings))
+            self._generation_sent = job.generation
+        self._jobs.put(job)
+        self._offered.append(dataclasses.replace(job, raw=b'', start=None, mechanism=None))
+        self.pending += 1
+        return True
+
+    def collect(self) -> list[PlanDone]:
+        """The plans finished since the last call (never waits). If the worker process
+        died, the plans it had are answered as internal errors and the next plan starts a
+        new one."""
+        out = []
+        while self._done is not None:
+            try:
+                out.append(self._done.get_nowait())
+            except queue.Empty:
+                break
+        for _ in out:
+            self._offered.popleft()
+        self.pending -= len(out)
+        if self._proc is not None and self._offered and not self._proc.is_alive():
+            why = (
+                f'internal error: the plan worker exited (exit code {self._proc.exitcode}); '
+                'the next plan starts a new one'
+            )
+            out += [
+                PlanDone(j.request, j.generation, j.stamp, False, why, {'request': j.request}, None)
+                for j in self._offered
+            ]
+            self.stop()
+        return out
+
+    def _start(self) -> None:
+        ctx = multiprocessing.get_context('spawn')  # a fork of a process with DDS threads hangs
+        self._jobs, self._done = ctx.Queue(), ctx.Queue()
+        self._proc = ctx.Process(
+            target=serve_plans,
+            args=(self._jobs, self._done, os.getpid()),
+            name='linkage_plans',
+            daemon=True,
+        )
+        self._proc.start()
+        # its priority lowered from its first instruction: its start-up (importing numpy and
+        # the engine, ~1 s of CPU) must not compete with commands as an equal
+        with contextlib.suppress(OSError):
+            os.setpriority(os.PRIO_PROCESS, self._proc.pid, PLAN_NICE)
+
+    def stop(self, timeout: float = 2.0) -> None:
+        """End the worker process (the plan it solves is not answered)."""
+        if self._proc is None:
+            return
+        with contextlib.suppress(Exception):
+            self._jobs.put(None)
+        self._proc.join(timeout)
+        if self._proc.is_alive():
+            self._proc.terminate()
+            self._proc.join(timeout)
+        for q in (self._jobs, self._done):
+            q.close()
+            q.cancel_join_thread()
+        self._proc = self._jobs = self._done = None
+        self.pending = 0
+        self._offered.clear()
+        self._generation_sent = None  # a new worker needs the mechanism again
+
+
+def serve_plans(jobs: Any, done: Any, parent: int) -> None:
+    """The worker process: solve each job in turn, until None or the node is gone."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (Ctrl-C reaches both)
+    engine: Engine | None = None
+    while True:
+        try:
+            job = jobs.get(timeout=PARENT_CHECK_S)
+        except queue.Empty:
+            if os.getppid() != parent:
+                return
+            continue
+        if job is None:
+            return
+        try:
+            if job.mechanism is not None:
+                engine = Engine(*job.mechanism)
+            assert engine is not None
+            if job.start is not None and engine.forward.adopt(job.start):
+                engine.record(engine.forward, job.start)
+            result = solve_job(job, engine)
+        except Exception as exc:  # a bug must not end the worker: the status says so
+            why = f'internal error: {exc!r}'
+            result = PlanDone(
+                job.request,
+                job.generation,
+                job.stamp,
+                False,
+                why,
+                {'request': job.request},
+                None,
+                traceback.format_exc(),
+            )
+        done.put(result)
+
+
+def solve_job(job: PlanJob, engine: Engine) -> PlanDone:
+    """Read, solve and write one plan on ``engine`` (its state is the same after)."""
+    try:
+        msg = read_joint_trajectory(job.raw) if job.point is None else read_path(job.raw)
+    except CdrError as exc:
+        kind = 'JointTrajectory' if job.point is None else 'Path'
+        answer, times = TrajectoryAnswer(False, f'not a {kind}: {exc}'), list[int]()
+    else:
+        try:
+            if job.point is None:
+                answer, times = answer_trajectory_msg(engine, msg, job.frame_id)
+            else:
+                answer, times = answer_path_msg(engine, job.point, msg, job.frame_id)
+        except CommandError as exc:
+            answer, times = TrajectoryAnswer(False, str(exc)), []
+    solved = None
+    if answer.success:
+        mech = engine.mech
+        solved = joint_trajectory_bytes(
+            job.stamp,
+            job.frame_id,
+            [job.prefix + j for j in mech.output_joint_names],
+            answer.rows(mech, times),
+        )
+    ok, message, values = trajectory_status_values(answer, job.request)
+    return PlanDone(job.request, job.generation, job.stamp, ok, message, values, solved)
