@@ -42,10 +42,16 @@ parse); both rosbags' and rclpy's (recorded bags') CDR variants are read.
 
 Bad input (missing, not a bag, missing topic, wrong type, truncated or corrupt) is one clear
 message on stderr and exit status 2.
+
+Many bags: ``linkage bag INPUT... --out-dir DIR [--format F ...] [--jobs N | --scheduler ADDRESS]
+[--resume]`` (fleet_inputs: which bags and their output names; fleet_task: one bag, its outputs
+and manifest; fleet_run: local processes or Dask, the summary; parquet_out: the Parquet table).
+See docs/FLEET.md.
 """
 
 from __future__ import annotations
 
+from . import fleet_task  # noqa: F401
 from .bag_out import (  # noqa: F401
     _LEN,
     _PAD,

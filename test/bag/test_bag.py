@@ -1232,7 +1232,7 @@ def test_unwritable_output_folder_is_refused_before_any_work(tmp_path, scene, ca
         ),
     )
     reads = []
-    monkeypatch.setattr(bag.command, 'read_commands', lambda *a, **k: reads.append(a))
+    monkeypatch.setattr(bag.fleet_task, 'read_commands', lambda *a, **k: reads.append(a))
     common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
     for extra in (
         ['--out', locked / 'r.csv'],
