@@ -21,11 +21,13 @@ Outputs (``--out`` may be given twice):
   Columns: ``time`` (header stamp, s), ``receive_time`` (bag time, s), ``topic``,
   ``input.<actuator>`` ..., ``joint.<joint>`` ..., ``<point>.x``, ``<point>.y`` (every point),
   ``residual``, ``margin``, ``branch``, ``status``, ``reason``.
-* anything else: a new rosbag2 folder (MCAP unless ``--out-format sqlite3``) with
-  ``/joint_states`` (JointState, every joint), ``/points/<name>`` (PointStamped, per output point)
-  and ``/status`` (DiagnosticStatus, one per command: OK with residual, branch, margin, solver,
-  iterations; ERROR with the reason). Header stamps are the commands' (a zero stamp becomes the
-  bag receive time), frame_id is the scene's, and each message is logged at its command's bag time.
+* anything else: a new rosbag2 folder (MCAP unless ``--out-format sqlite3``) with the node's
+  topics (``--remap FROM:=TO`` renames one): ``/joint_states`` (JointState, every joint),
+  ``/linkage_node/points/<name>`` (PointStamped, per output point) and
+  ``/linkage_node/status`` (DiagnosticStatus, one per command: OK with residual, branch, margin,
+  solver, iterations; ERROR with the reason). Header stamps are the commands' (a zero stamp
+  becomes the bag receive time), frame_id is the scene's, and each message is logged at its
+  command's bag time.
 
 Speed: a closed-form scene is solved in vectorised chunks (``Solver.solve_batch`` with the branch
 signs then current). A row is taken from the batch only when the node's continuity rule provably

@@ -20,9 +20,10 @@ from ..cli.common import (
 )
 from ..core.errors import LinkageError
 from .bag_out import write_bag
-from .common import BagError
+from .common import BagError, output_topics, parse_remaps
 from .csv_out import write_csv
 from .fleet_run import add_fleet_arguments
+from .fleet_task import REFUSED_HINT
 from .plans import (
     path_point,
     plans_csv_path,
@@ -101,6 +102,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         choices=('mcap', 'sqlite3'),
         default='mcap',
         help='storage of an output bag (default mcap)',
+    )
+    parser.add_argument(
+        '--remap',
+        action='append',
+        default=[],
+        metavar='FROM:=TO',
+        help="rename an output bag's topic (the node's names by default: /joint_states, "
+        '/linkage_node/points/<p>, /linkage_node/status, /linkage_node/solved_trajectory); '
+        'repeatable',
     )
     parser.add_argument(
         '--solver',
@@ -200,6 +210,7 @@ def check_options(args: argparse.Namespace) -> Any:
                 f'--path-topic {topic}: its last name {path_point(topic)!r} is not a point '
                 f'of {scene.mechanism.name!r} (a path topic is .../target_path/<point>)'
             )
+    parse_remaps(args.remap, output_topics(list(scene.mechanism.outputs), True))
     # PlanError / ConfigError (a bad --solver, --branch) before any bag is read
     _Engine(
         scene.mechanism, args.solver, args.tol, args.max_iter, args.branch, args.target_point_hold
@@ -231,6 +242,7 @@ def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: 
         formats=tuple(formats),
         out_format=args.out_format,
         out_dir=out_dir,
+        remap=tuple((old, new) for old, _, new in (a.partition(':=') for a in args.remap)),
     )
 
 
@@ -268,9 +280,8 @@ def _run(args) -> int:
             mech, args.solver, args.tol, args.max_iter, args.branch, args.target_point_hold
         )
         marks: list[float] = []
-        data, res, plans = replay_input(
-            engine, mech, source, bag_options(args), progress, scene.frame_id, marks
-        )
+        opts = bag_options(args)
+        data, res, plans = replay_input(engine, mech, source, opts, progress, scene.frame_id, marks)
         t_read, t_solve = marks[0], time.perf_counter()
         for kind, path in outs:
             try:
@@ -288,6 +299,7 @@ def _run(args) -> int:
                         args.out_format,
                         progress,
                         plans=plans,
+                        remap=dict(opts.remap),
                     )
             except OSError as exc:
                 raise BagError(f'output {path}: cannot write ({exc.strerror or exc})') from None
@@ -302,6 +314,10 @@ def _run(args) -> int:
     for kind, path in outs:
         if kind == 'csv' and plans:
             print(f'  wrote {plans_csv_path(path)} (csv: the trajectories and paths)')
+    answered = int(res.ok.sum()) + sum(1 for p in plans if p.answer and p.answer.success)
+    if data.n + len(plans) and not answered:
+        print(f'linkage bag: {REFUSED_HINT}', file=sys.stderr)
+        return ALL_REFUSED
     return OK
 
 
@@ -356,6 +372,8 @@ def _check_outputs(outs: list[str], plot: str | None):
 
 
 USAGE_ERROR, OK = 2, 0
+#: every request of the bag refused (the outputs are written: they say why)
+ALL_REFUSED = 1
 
 
 BAG_EPILOG = """\
@@ -363,8 +381,9 @@ outputs:
   OUTPUT.csv  one row per command (refused ones too): time (header stamp, s), receive_time
               (bag time, s), topic, input.<actuator>..., joint.<joint>..., <point>.x,
               <point>.y (every point), residual, margin, branch, status (ok/error), reason
-  OUTPUT      a new rosbag2 folder (--out-format mcap|sqlite3): /joint_states,
-              /points/<output point>, /status (one per command; ERROR with the reason)
+  OUTPUT      a new rosbag2 folder (--out-format mcap|sqlite3) with the node's topics:
+              /joint_states, /linkage_node/points/<output point>, /linkage_node/status (one
+              per command; ERROR with the reason); --remap FROM:=TO renames one
 
 examples:
   linkage bag run1 --scene four_bar --command-topic /linkage_node/command --out run1.csv
@@ -377,7 +396,8 @@ many bags (--out-dir DIR; docs/FLEET.md):
   writes DIR/<bag path relative to its input folder>.<format> per bag, DIR/summary.csv and
   DIR/summary.json (one row per bag; a damaged bag fails alone, its row says why).
 
-exit status: 0 done (refused commands are rows, not failures); 2 unusable input, output or
+exit status: 0 done (refused commands are rows, not failures); 1 every request refused (the
+outputs are written; a wrong --scene or topic?); 2 unusable input, output or
 options (missing file, not a bag, missing topic, wrong type, truncated or corrupt bag); with
 --out-dir: 1 some bag had every request refused, 3 some bags failed (the others are complete).
 """

@@ -61,6 +61,7 @@ class BagOptions:
     formats: tuple[str, ...]
     out_format: str  # storage of the single-bag --out bag (unused by --format)
     out_dir: str
+    remap: tuple[tuple[str, str], ...] = ()  # output bag topic renames (--remap)
 
     @property
     def topics(self) -> list[str]:
@@ -198,7 +199,9 @@ def _write_outputs(
         elif fmt == 'parquet':
             write_parquet(path, data, res, mech)
         else:
-            write_bag(path, data, res, mech, scene.frame_id, fmt, plans=plans)
+            write_bag(
+                path, data, res, mech, scene.frame_id, fmt, plans=plans, remap=dict(opts.remap)
+            )
         written.append(path)
     if plans and {'csv', 'parquet'} & set(opts.formats):
         path = task.trajectories(opts.out_dir)

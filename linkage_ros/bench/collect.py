@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from .fleet import bench_fleet, fleet_targets
 from .ros_latency import bench_node
 from .settings import (
     REF_DPS,
@@ -112,8 +113,15 @@ def code_version() -> str | None:
     )
 
 
-def collect(sizes: Sizes, scenes: Sequence[str] = SCENES, node: bool = True) -> dict:
-    """Run every measurement; returns the report as plain data."""
+def collect(
+    sizes: Sizes,
+    scenes: Sequence[str] = SCENES,
+    node: bool = True,
+    fleet: bool = True,
+    fleet_only: bool = False,
+) -> dict:
+    """Run every measurement (``fleet_only``: the fleet analysis alone); returns the report
+    as plain data."""
     t_start = time.perf_counter()
     cpu0 = _cpu_seconds()
     report: dict[str, Any] = {
@@ -124,6 +132,8 @@ def collect(sizes: Sizes, scenes: Sequence[str] = SCENES, node: bool = True) -> 
         'settings': [],
         'scenes': {},
     }
+    if fleet_only:
+        scenes = ()
     for name in scenes:
         t0 = time.perf_counter()
         _log(f'scene {name}: solver settings and the {REF_DPS}-digit reference')
@@ -131,14 +141,16 @@ def collect(sizes: Sizes, scenes: Sequence[str] = SCENES, node: bool = True) -> 
         info['seconds'] = time.perf_counter() - t0
         report['settings'] += [r.as_dict() for r in rows]
         report['scenes'][name] = info
-    _log('four-bar throughput vs the numpy circle-intersection baseline')
-    report['throughput'] = bench_throughput(sizes)
-    _log('excavator: one output vs all')
-    report['outputs'] = bench_outputs(sizes)
-    if node:
+    if not fleet_only:
+        _log('four-bar throughput vs the numpy circle-intersection baseline')
+        report['throughput'] = bench_throughput(sizes)
+        _log('excavator: one output vs all')
+        report['outputs'] = bench_outputs(sizes)
+    if node and not fleet_only:
         report['node'] = bench_node(sizes)
     else:
-        report['node'] = {'skipped': '--no-node given'}
+        report['node'] = {'skipped': '--fleet-only given' if fleet_only else '--no-node given'}
+    report['fleet'] = bench_fleet(sizes) if fleet else {'skipped': '--no-fleet given'}
     report['targets'] = evaluate_targets(report)
     report['seconds'] = time.perf_counter() - t_start
     report['loadavg_end'] = [round(v, 2) for v in os.getloadavg()]
@@ -293,6 +305,7 @@ def evaluate_targets(report: dict) -> list[dict]:
         out.append(
             {'target': 'node latency / rate', 'measured': f'not measured: {why}', 'met': None}
         )
+    out.extend(fleet_targets(report))
     return out
 
 
