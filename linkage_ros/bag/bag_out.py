@@ -119,7 +119,8 @@ class _StatusWriter:
     def __init__(self, name: str, hardware_id: str = ''):
         self.name = _cdr_str_block(name)
         self.hw = _cdr_str_block(hardware_id)
-        self.cache: dict[Any, bytes] = {}
+        self.cache: dict[str, bytes] = {}
+        self.parts: dict[tuple[Any, ...], tuple[bytes, bytes, bytes, bytes]] = {}
 
     def blk(self, s: str) -> bytes:
         b = self.cache.get(s)
@@ -151,7 +152,7 @@ class _StatusWriter:
     ):
         """The constant pieces of an OK status around the residual and margin (and cond)."""
         key = (has_cond, branch, bdef, solver, iterations, request, held)
-        hit = self.cache.get(key)
+        hit = self.parts.get(key)
         if hit is None:
             k = self.blk
             count = 7 + bool(has_cond) + bool(held)
@@ -167,7 +168,7 @@ class _StatusWriter:
             )
             tail = b''.join([k('solver'), k(solver), k('iterations'), k(str(iterations))])
             end = (k('held') + k(held) if held else b'') + k('request') + k(request)
-            hit = self.cache[key] = (head, mid, tail + (k('cond') if has_cond else b''), end)
+            hit = self.parts[key] = (head, mid, tail + (k('cond') if has_cond else b''), end)
         return hit
 
     def error(self, reason: str, request: str) -> bytes:

@@ -4,6 +4,7 @@ identical."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -201,7 +202,7 @@ class _Engine:
                 self.res.reason[g] = stamp_error(int(data.sec[g]), int(data.nanosec[g]))
             return
         k = int(data.key[a])
-        names, npos = data.keys[k], data.npos[k]
+        names, npos = list(data.keys[k]), data.npos[k]
         why = request_shape_error(names, npos, self.max_names)
         if why:  # conversions.joint_state_to_command
             self._refuse_all(a, b, why)
@@ -338,7 +339,7 @@ class _Engine:
             else:
                 solver = S
                 signs0 = None
-            B = solver.solve_batch(cols)
+            B: Any = solver.solve_batch(cols)  # BatchResult: its arrays are set, not declared
             take = self._easy_prefix(ctx, solver, B, cols, end - pos) if continuous else end - pos
             # next to a tangency the batched and single dyad formulas may disagree on closing
             near = np.flatnonzero(
