@@ -21,11 +21,13 @@ Outputs (``--out`` may be given twice):
   Columns: ``time`` (header stamp, s), ``receive_time`` (bag time, s), ``topic``,
   ``input.<actuator>`` ..., ``joint.<joint>`` ..., ``<point>.x``, ``<point>.y`` (every point),
   ``residual``, ``margin``, ``branch``, ``status``, ``reason``.
-* anything else: a new rosbag2 folder (MCAP unless ``--out-format sqlite3``) with
-  ``/joint_states`` (JointState, every joint), ``/points/<name>`` (PointStamped, per output point)
-  and ``/status`` (DiagnosticStatus, one per command: OK with residual, branch, margin, solver,
-  iterations; ERROR with the reason). Header stamps are the commands' (a zero stamp becomes the
-  bag receive time), frame_id is the scene's, and each message is logged at its command's bag time.
+* anything else: a new rosbag2 folder (MCAP unless ``--out-format sqlite3``) with the node's
+  topics (``--remap FROM:=TO`` renames one): ``/joint_states`` (JointState, every joint),
+  ``/linkage_node/points/<name>`` (PointStamped, per output point) and
+  ``/linkage_node/status`` (DiagnosticStatus, one per command: OK with residual, branch, margin,
+  solver, iterations; ERROR with the reason). Header stamps are the commands' (a zero stamp
+  becomes the bag receive time), frame_id is the scene's, and each message is logged at its
+  command's bag time.
 
 Speed: a closed-form scene is solved in vectorised chunks (``Solver.solve_batch`` with the branch
 signs then current). A row is taken from the batch only when the node's continuity rule provably
@@ -42,10 +44,16 @@ parse); both rosbags' and rclpy's (recorded bags') CDR variants are read.
 
 Bad input (missing, not a bag, missing topic, wrong type, truncated or corrupt) is one clear
 message on stderr and exit status 2.
+
+Many bags: ``linkage bag INPUT... --out-dir DIR [--format F ...] [--jobs N | --scheduler ADDRESS]
+[--resume]`` (fleet_inputs: which bags and their output names; fleet_task: one bag, its outputs
+and manifest; fleet_run: local processes or Dask, the summary; parquet_out: the Parquet table).
+See docs/FLEET.md.
 """
 
 from __future__ import annotations
 
+from . import fleet_task  # noqa: F401
 from .bag_out import (  # noqa: F401
     _LEN,
     _PAD,

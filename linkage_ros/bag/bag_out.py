@@ -6,14 +6,21 @@ import contextlib
 import os
 import shutil
 import struct
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from ..trajectory import TrajectoryAnswer, trajectory_status_values
-from .common import DIAGNOSTIC_STATUS, JOINT_STATE, NODE_NAME, POINT_STAMPED, BagError
+from .common import (
+    DIAGNOSTIC_STATUS,
+    JOINT_STATE,
+    NODE_NAME,
+    POINT_STAMPED,
+    BagError,
+    node_topic,
+)
 from .plans import TRAJECTORY, PlanRequest
 from .progress import _Progress
 from .reading import Commands, _exc_text
@@ -112,7 +119,8 @@ class _StatusWriter:
     def __init__(self, name: str, hardware_id: str = ''):
         self.name = _cdr_str_block(name)
         self.hw = _cdr_str_block(hardware_id)
-        self.cache: dict[Any, bytes] = {}
+        self.cache: dict[str, bytes] = {}
+        self.parts: dict[tuple[Any, ...], tuple[bytes, bytes, bytes, bytes]] = {}
 
     def blk(self, s: str) -> bytes:
         b = self.cache.get(s)
@@ -144,7 +152,7 @@ class _StatusWriter:
     ):
         """The constant pieces of an OK status around the residual and margin (and cond)."""
         key = (has_cond, branch, bdef, solver, iterations, request, held)
-        hit = self.cache.get(key)
+        hit = self.parts.get(key)
         if hit is None:
             k = self.blk
             count = 7 + bool(has_cond) + bool(held)
@@ -160,7 +168,7 @@ class _StatusWriter:
             )
             tail = b''.join([k('solver'), k(solver), k('iterations'), k(str(iterations))])
             end = (k('held') + k(held) if held else b'') + k('request') + k(request)
-            hit = self.cache[key] = (head, mid, tail + (k('cond') if has_cond else b''), end)
+            hit = self.parts[key] = (head, mid, tail + (k('cond') if has_cond else b''), end)
         return hit
 
     def error(self, reason: str, request: str) -> bytes:
@@ -180,11 +188,13 @@ def write_bag(
     status_name: str | None = None,
     block: int = 100_000,
     plans: Sequence[PlanRequest] = (),
+    remap: Mapping[str, str] | None = None,
 ):
-    """A new rosbag2 with /joint_states, /points/<name> and /status, one set per command, each
-    logged at its command's bag time, in the node's order (joint_states, points, status); and
-    for each recorded trajectory or path (``plans``, answered) /solved_trajectory on success
-    and one /status, at its bag time."""
+    """A new rosbag2 with the node's topics (common.output_topics: /joint_states,
+    /linkage_node/points/<name>, /linkage_node/status; each renamed as ``remap`` says), one
+    set per command, each logged at its command's bag time, in the node's order (joint_states,
+    points, status); and for each recorded trajectory or path (``plans``, answered)
+    /linkage_node/solved_trajectory on success and one status, at its bag time."""
     from rosbags.rosbag2 import Writer
     from rosbags.rosbag2.enums import StoragePlugin
     from rosbags.typesys import Stores, get_typestore
@@ -217,13 +227,21 @@ def write_bag(
         shutil.rmtree(stage, ignore_errors=True)
         raise BagError(f'output {path}: cannot create the bag ({_exc_text(exc)})') from None
     try:
-        c_js = writer.add_connection('/joint_states', JOINT_STATE, typestore=ts)
+        names = dict(remap or {})
+
+        def topic(default: str) -> str:
+            return names.get(default, default)
+
+        c_js = writer.add_connection(topic('/joint_states'), JOINT_STATE, typestore=ts)
         c_pts = [
-            writer.add_connection(f'/points/{p}', POINT_STAMPED, typestore=ts) for p in outputs
+            writer.add_connection(topic(node_topic(f'points/{p}')), POINT_STAMPED, typestore=ts)
+            for p in outputs
         ]
-        c_st = writer.add_connection('/status', DIAGNOSTIC_STATUS, typestore=ts)
+        c_st = writer.add_connection(topic(node_topic('status')), DIAGNOSTIC_STATUS, typestore=ts)
         c_traj = (
-            writer.add_connection('/solved_trajectory', TRAJECTORY, typestore=ts) if plans else None
+            writer.add_connection(topic(node_topic('solved_trajectory')), TRAJECTORY, typestore=ts)
+            if plans
+            else None
         )
         write = writer.write
         for a in range(0, n, block):

@@ -9,6 +9,7 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from ..cli.common import (
     UsageError,
@@ -19,18 +20,19 @@ from ..cli.common import (
 )
 from ..core.errors import LinkageError
 from .bag_out import write_bag
-from .common import BagError
+from .common import BagError, output_topics, parse_remaps
 from .csv_out import write_csv
+from .fleet_run import add_fleet_arguments
+from .fleet_task import REFUSED_HINT
 from .plans import (
     path_point,
     plans_csv_path,
     plans_summary,
-    read_plan_requests,
     write_plans_csv,
 )
 from .plot import _plot_format, write_plot
 from .progress import _Progress, _summary
-from .reading import _exc_text, read_commands
+from .reading import _exc_text
 from .replay import _Engine
 
 # ---- command line ------------------------------------------------------------------------------
@@ -46,7 +48,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         'input',
         metavar='INPUT',
-        help='rosbag2 folder (sqlite3 or mcap) or a single .mcap/.db3 file',
+        nargs='+',
+        help='rosbag2 folder (sqlite3 or mcap) or a single .mcap/.db3 file; with --out-dir '
+        'several, and folders holding bags (searched recursively) or glob patterns',
     )
     add_scene_argument(parser, flag=True)
     parser.add_argument(
@@ -89,15 +93,24 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         '--out',
         action='append',
-        required=True,
+        default=[],
         metavar='OUTPUT',
-        help='*.csv for a table, else a new rosbag2 folder; may be given twice',
+        help='one bag: *.csv for a table, else a new rosbag2 folder; may be given twice',
     )
     parser.add_argument(
         '--out-format',
         choices=('mcap', 'sqlite3'),
         default='mcap',
         help='storage of an output bag (default mcap)',
+    )
+    parser.add_argument(
+        '--remap',
+        action='append',
+        default=[],
+        metavar='FROM:=TO',
+        help="rename an output bag's topic (the node's names by default: /joint_states, "
+        '/linkage_node/points/<p>, /linkage_node/status, /linkage_node/solved_trajectory); '
+        'repeatable',
     )
     parser.add_argument(
         '--solver',
@@ -132,6 +145,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='read a bag whose index counts more messages than it holds (a damaged or edited '
         'bag) instead of refusing it; the summary says how many are missing per topic',
     )
+    add_fleet_arguments(parser)
     parser.add_argument(
         '--no-progress',
         action='store_true',
@@ -147,19 +161,25 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Run ``linkage bag``; returns the exit status (0 done, 2 unusable input or options)."""
+    """Run ``linkage bag``; returns the exit status (0 done, 1 every request of the bag
+    refused, 2 unusable input or options; with --out-dir 3 when some bags failed)."""
     try:
+        if args.out_dir is not None:
+            from .fleet_run import run_fleet
+
+            return run_fleet(args)
         return _run(args)
     except (BagError, LinkageError, UsageError) as exc:
         print(f'linkage bag: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
 
 
-def _run(args) -> int:
+def check_options(args: argparse.Namespace) -> Any:
+    """The scene, loaded, after every check of the options that needs no bag (notes on
+    stderr); BagError / LinkageError / UsageError otherwise."""
     from ..core.loading import load_scene
     from ..resources import scene_path
 
-    t_start = time.perf_counter()
     path = str(scene_path(args.scene))
     why = description_options_error(path, args.closures, args.actuated)
     if why:
@@ -167,9 +187,7 @@ def _run(args) -> int:
     scene = load_scene(
         path, dimension_overrides(args.dimension), args.closures, args.actuated or None
     )
-    mech = scene.mechanism
     print_notes(scene.notes)
-    outs = _check_outputs(args.out, args.plot)
     for opt, topic in (
         ('--command-topic', args.command_topic),
         ('--target-topic', args.target_topic),
@@ -186,27 +204,85 @@ def _run(args) -> int:
         raise BagError(f'--tol must be a positive number (got {args.tol!r})')
     if args.max_iter < 1:
         raise BagError(f'--max-iter must be >= 1 (got {args.max_iter})')
+    for topic in args.path_topic:
+        if path_point(topic) not in scene.mechanism.points:
+            raise BagError(
+                f'--path-topic {topic}: its last name {path_point(topic)!r} is not a point '
+                f'of {scene.mechanism.name!r} (a path topic is .../target_path/<point>)'
+            )
+    parse_remaps(args.remap, output_topics(list(scene.mechanism.outputs), True))
+    # PlanError / ConfigError (a bad --solver, --branch) before any bag is read
+    _Engine(
+        scene.mechanism, args.solver, args.tol, args.max_iter, args.branch, args.target_point_hold
+    )
+    return scene
+
+
+def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: str = '') -> Any:
+    """The options every bag is solved with, as plain data (fleet_task.BagOptions)."""
+    from ..resources import scene_path
+    from .fleet_task import BagOptions
+
+    scene = scene_path(args.scene)
+    return BagOptions(
+        scene=str(scene.resolve()) if scene.exists() else args.scene,
+        dimensions=tuple(args.dimension),
+        closures=str(Path(args.closures).resolve()) if args.closures else None,
+        actuated=tuple(args.actuated),
+        command_topic=args.command_topic,
+        target_topic=args.target_topic,
+        trajectory_topics=tuple(args.trajectory_topic),
+        path_topics=tuple(args.path_topic),
+        hold=tuple(args.target_point_hold),
+        solver=args.solver,
+        branch=args.branch,
+        tol=args.tol,
+        max_iter=args.max_iter,
+        accept_missing=args.accept_missing,
+        formats=tuple(formats),
+        out_format=args.out_format,
+        out_dir=out_dir,
+        remap=tuple((old, new) for old, _, new in (a.partition(':=') for a in args.remap)),
+    )
+
+
+def _run(args) -> int:
+    from .fleet_task import replay_input
+
+    t_start = time.perf_counter()
+    fleet_only = [
+        opt
+        for opt, given in (
+            ('--format', args.format),
+            ('--jobs', args.jobs is not None),
+            ('--scheduler', args.scheduler),
+            ('--resume', args.resume),
+        )
+        if given
+    ]
+    if fleet_only:
+        raise BagError(f'{fleet_only[0]} goes with --out-dir (the outputs of a fleet run)')
+    if len(args.input) != 1:
+        raise BagError(
+            f'{len(args.input)} inputs: several bags need --out-dir DIR (--out names the '
+            'outputs of one bag)'
+        )
+    if not args.out:
+        raise BagError('no output: give --out OUTPUT (one bag) or --out-dir DIR (many)')
+    source = args.input[0]
+    scene = check_options(args)
+    mech = scene.mechanism
+    outs = _check_outputs(args.out, args.plot)
     progress = _Progress(enabled=not args.no_progress and sys.stderr.isatty())
 
     try:
-        engine = _Engine(  # PlanError / ConfigError early
+        engine = _Engine(
             mech, args.solver, args.tol, args.max_iter, args.branch, args.target_point_hold
         )
-        topics = [args.command_topic] + ([args.target_topic] if args.target_topic else [])
-        data = read_commands(args.input, topics, progress, accept_missing=args.accept_missing)
-        for topic in args.path_topic:
-            if path_point(topic) not in mech.points:
-                raise BagError(
-                    f'--path-topic {topic}: its last name {path_point(topic)!r} is not a point '
-                    f'of {mech.name!r} (a path topic is .../target_path/<point>)'
-                )
-        plans, plans_missing = read_plan_requests(
-            args.input, args.trajectory_topic, args.path_topic, args.accept_missing
-        )
-        data.missing.update(plans_missing)
-        t_read = time.perf_counter()
-        res = engine.solve_all(data, progress, plans, frame_id=scene.frame_id)
-        t_solve = time.perf_counter()
+        marks: list[float] = []
+        opts = bag_options(args)
+        data, res, plans = replay_input(engine, mech, source, opts, progress, scene.frame_id, marks)
+        t_read, t_solve = marks[0], time.perf_counter()
         for kind, path in outs:
             try:
                 if kind == 'csv':
@@ -223,6 +299,7 @@ def _run(args) -> int:
                         args.out_format,
                         progress,
                         plans=plans,
+                        remap=dict(opts.remap),
                     )
             except OSError as exc:
                 raise BagError(f'output {path}: cannot write ({exc.strerror or exc})') from None
@@ -237,6 +314,10 @@ def _run(args) -> int:
     for kind, path in outs:
         if kind == 'csv' and plans:
             print(f'  wrote {plans_csv_path(path)} (csv: the trajectories and paths)')
+    answered = int(res.ok.sum()) + sum(1 for p in plans if p.answer and p.answer.success)
+    if data.n + len(plans) and not answered:
+        print(f'linkage bag: {REFUSED_HINT}', file=sys.stderr)
+        return ALL_REFUSED
     return OK
 
 
@@ -291,6 +372,8 @@ def _check_outputs(outs: list[str], plot: str | None):
 
 
 USAGE_ERROR, OK = 2, 0
+#: every request of the bag refused (the outputs are written: they say why)
+ALL_REFUSED = 1
 
 
 BAG_EPILOG = """\
@@ -298,14 +381,23 @@ outputs:
   OUTPUT.csv  one row per command (refused ones too): time (header stamp, s), receive_time
               (bag time, s), topic, input.<actuator>..., joint.<joint>..., <point>.x,
               <point>.y (every point), residual, margin, branch, status (ok/error), reason
-  OUTPUT      a new rosbag2 folder (--out-format mcap|sqlite3): /joint_states,
-              /points/<output point>, /status (one per command; ERROR with the reason)
+  OUTPUT      a new rosbag2 folder (--out-format mcap|sqlite3) with the node's topics:
+              /joint_states, /linkage_node/points/<output point>, /linkage_node/status (one
+              per command; ERROR with the reason); --remap FROM:=TO renames one
 
 examples:
   linkage bag run1 --scene four_bar --command-topic /linkage_node/command --out run1.csv
   linkage bag run1.mcap --scene my.yaml --command-topic /cmd --target-topic /tgt \\
       --out answers --out answers.csv --plot run1.png
 
-exit status: 0 done (refused commands are rows, not failures); 2 unusable input, output or
-options (missing file, not a bag, missing topic, wrong type, truncated or corrupt bag).
+many bags (--out-dir DIR; docs/FLEET.md):
+  linkage bag recordings/ 'more/*.mcap' --scene four_bar --command-topic /cmd \\
+      --out-dir analysis --format parquet --format csv [--jobs N | --scheduler ADDRESS] [--resume]
+  writes DIR/<bag path relative to its input folder>.<format> per bag, DIR/summary.csv and
+  DIR/summary.json (one row per bag; a damaged bag fails alone, its row says why).
+
+exit status: 0 done (refused commands are rows, not failures); 1 every request refused (the
+outputs are written; a wrong --scene or topic?); 2 unusable input, output or
+options (missing file, not a bag, missing topic, wrong type, truncated or corrupt bag); with
+--out-dir: 1 some bag had every request refused, 3 some bags failed (the others are complete).
 """

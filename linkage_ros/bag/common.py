@@ -19,5 +19,45 @@ NODE_NAME = 'linkage_node'
 #: batch rows this close to a dyad tangency are left to the single-command solver
 
 
+def node_topic(name: str) -> str:
+    """The topic the node publishes ``~/<name>`` on (its default name and namespace)."""
+    return f'/{NODE_NAME}/{name}'
+
+
+def output_topics(outputs: list[str], plans: bool) -> list[str]:
+    """The topics of a result bag under the node's own names: ``/joint_states`` (the node's
+    is relative: /joint_states without a namespace), ``/linkage_node/points/<p>``,
+    ``/linkage_node/status`` and, with recorded trajectories or paths,
+    ``/linkage_node/solved_trajectory``."""
+    return (
+        ['/joint_states']
+        + [node_topic(f'points/{p}') for p in outputs]
+        + [node_topic('status')]
+        + ([node_topic('solved_trajectory')] if plans else [])
+    )
+
+
+def parse_remaps(items: list[str], topics: list[str]) -> dict[str, str]:
+    """--remap FROM:=TO items -> {FROM: TO}; BagError for a malformed item, a FROM that is not
+    one of ``topics``, a TO that is not an absolute topic name or that two topics share."""
+    remap: dict[str, str] = {}
+    for item in items:
+        old, sep, new = item.partition(':=')
+        if not sep or not old or not new:
+            raise BagError(f'--remap {item!r}: write FROM:=TO (e.g. /linkage_node/status:=/status)')
+        if old not in topics:
+            raise BagError(
+                f'--remap {item!r}: {old} is not an output topic; the output topics are '
+                + ', '.join(topics)
+            )
+        if not new.startswith('/') or any(c.isspace() for c in new) or new.endswith('/'):
+            raise BagError(f'--remap {item!r}: {new!r} is not an absolute topic name (/a/b)')
+        remap[old] = new
+    final = [remap.get(t, t) for t in topics]
+    if len(set(final)) != len(final):
+        raise BagError('--remap: two output topics would share one name')
+    return remap
+
+
 class BagError(LinkageError):
     """The input bag or an output path cannot be used; one message, exit status 2."""

@@ -35,7 +35,7 @@ _TZ4 = np.array(
 )
 _LUT4W = _LUT4.copy().view('<u4').ravel()  # the four digits as one word
 _KEEPW = np.array([0, 0xFF, 0xFFFF, 0xFFFFFF, 0xFFFFFFFF], '<u4')  # keep the first k bytes
-FLOAT_WIDTH = 28
+FLOAT_WIDTH = 44  # _repr_layout's columns (most are zero bytes: nothing)
 
 
 def _two_prod(a, b):
@@ -52,7 +52,8 @@ def _two_prod(a, b):
 
 def _digits17(a):
     """For 1e-28 <= a < 1e16: the correctly rounded 17 significant digits D (uint64,
-    1e16 <= D < 1e17) and the decimal exponent e, a ~ D * 10**(e - 16)."""
+    1e16 <= D < 1e17), the decimal exponent e and the rest r (|r| <= 0.5), with
+    a * 10**(16 - e) = D + r (to far better than the rest's size)."""
     e = np.floor(np.log10(a)).astype(np.int64)
     for _ in range(3):
         k = 16 - e
@@ -65,13 +66,27 @@ def _digits17(a):
             p2, e2 = _two_prod(p, P2)
             err = np.where(m, e2 + err * P2, err)
             p = np.where(m, p2, p)
-        D = p.astype(np.uint64) + np.rint(err).astype(np.int64).astype(np.uint64)
+        whole = np.rint(err)
+        D = p.astype(np.uint64) + whole.astype(np.int64).astype(np.uint64)
         hi = np.uint64(10**17) <= D
         lo = np.uint64(10**16) > D
         if not (hi.any() or lo.any()):
             break
         e = e + hi - lo  # log10 was off by one next to a power of ten
-    return D, e
+    # p >= 1e16 > 2**53 is a whole number: the rest is err's fraction
+    return D, e, err - whole
+
+
+def _round_trips(cand, D, rest, a) -> tuple[np.ndarray, np.ndarray]:
+    """(parses back to a, cannot tell) for candidate digits ``cand`` on D's scale: the
+    candidate is within half an ulp of a (a quarter below a power of two); a candidate too
+    near that bound to tell from the rest's precision is left to repr()."""
+    delta = (cand.astype(np.int64) - D.astype(np.int64)).astype(float) - rest
+    half = 0.5 * np.spacing(a) / a * (D.astype(float) + rest)
+    pow2 = (a.view(np.int64) & np.int64((1 << 52) - 1)) == 0
+    half = np.where(pow2 & (delta < 0), 0.5 * half, half)
+    unsure = np.abs(np.abs(delta) - half) <= 1e-6 * half
+    return (np.abs(delta) < half) & ~unsure, unsure
 
 
 def _exact_value(D, exp10):
@@ -86,10 +101,11 @@ def _exact_value(D, exp10):
 def format_floats(values, nan: bytes = b'') -> np.ndarray:
     """Text of float64 values as an (n, FLOAT_WIDTH) uint8 array, zero bytes meaning nothing.
 
-    Scientific notation (``9.479697413828935e-01``, ``-1.2566383147671889e-05``, ``5e-01``) whose
-    text parses back to exactly the same double: 17 correctly rounded significant digits,
-    shortened to 15 or 16 where those provably round-trip, trailing zeros dropped. Zero is
-    ``0.0``, NaN ``nan`` (default: empty); infinities and extreme magnitudes go through repr().
+    Python's repr() of each value (``0.9479697413828935``, ``-1.2566383147671889e-05``,
+    ``0.5``, ``2.0``): text that parses back to exactly the same double, in one format for every
+    number: 17 correctly rounded significant digits, shortened to 15 or 16 where those provably
+    round-trip, trailing zeros dropped, laid out as repr lays them out. Zero is ``0.0``, NaN
+    ``nan`` (default: empty); infinities and extreme magnitudes go through repr() itself.
     """
     v = np.asarray(values, float).ravel()
     n = v.size
@@ -107,13 +123,20 @@ def format_floats(values, nan: bytes = b'') -> np.ndarray:
         ar, m, vr = a[idx], idx.size, v[idx]
     rows = np.zeros((m, FLOAT_WIDTH), np.uint8)
     if m:
-        D, e = _digits17(ar)
-        for drop in (2, 1):  # 15, then 16 digits where they round-trip
-            q, r = np.divmod(D, np.uint64(10**drop))
-            half = np.uint64(5 * 10 ** (drop - 1))
+        D17, e, rest = _digits17(ar)
+        D, unsure, done = D17, np.zeros(m, bool), np.zeros(m, bool)
+        for drop in (2, 1):  # the shortest: 15 digits (or fewer), else 16, else 17
+            q, r = np.divmod(D17, np.uint64(10**drop))
+            # rounded from a's digits (D17 + rest), not from D17: no double rounding
+            r = r.astype(float) + rest
+            half = 5.0 * 10 ** (drop - 1)
             q = q + ((r > half) | ((r == half) & ((q & np.uint64(1)) == 1))).astype(np.uint64)
-            good = (q < np.uint64(10 ** (17 - drop))) & (_exact_value(q, e - (16 - drop)) == ar)
-            D = np.where(good, q * np.uint64(10**drop), D)
+            cand = q * np.uint64(10**drop)
+            good, unsure_here = _round_trips(cand, D17, rest, ar)
+            good &= (q < np.uint64(10 ** (17 - drop))) & ~done
+            unsure |= unsure_here & ~done
+            D = np.where(good, cand, D)
+            done |= good
         q, g4 = np.divmod(D, _U4)
         q, g3 = np.divmod(q, _U4)
         q, g2 = np.divmod(q, _U4)
@@ -125,18 +148,21 @@ def format_floats(values, nan: bytes = b'') -> np.ndarray:
             tz = tz + np.where(full, t, 0)
             full &= t == 4
         keep = 16 - tz  # significant digits after the first
-        rows[:, 0] = np.signbit(vr) * np.uint8(45)  # '-'
-        rows[:, 1] = g0.astype(np.uint8) + np.uint8(48)  # d0
-        rows[:, 2] = (keep > 0) * np.uint8(46)  # '.'
-        words = rows.view(np.uint32)  # digits 2..17 as four 4-byte words
-        for w, g in enumerate((g1, g2, g3, g4)):
-            words[:, 1 + w] = _LUT4W[g] & _KEEPW[np.clip(keep - 4 * w, 0, 4)]
-        ex = np.abs(e)
-        rows[:, 20] = 101  # 'e'
-        rows[:, 21] = np.where(e < 0, 45, 43)
-        rows[:, 22] = (ex >= 100) * (ex // 100 + 48).astype(np.uint8)
-        rows[:, 23] = (ex // 10) % 10 + 48
-        rows[:, 24] = ex % 10 + 48
+        digits = np.concatenate(
+            [
+                (g0.astype(np.uint8) + np.uint8(48))[:, None],
+                _LUT4[g1],
+                _LUT4[g2],
+                _LUT4[g3],
+                _LUT4[g4],
+            ],
+            axis=1,
+        )
+        rows = _repr_layout(np.signbit(vr), digits, keep.astype(np.int64) + 1, e)
+        for i in np.flatnonzero(unsure).tolist():  # a handful in a million
+            b = repr(float(vr[i])).encode()
+            rows[i] = 0
+            rows[i, : len(b)] = np.frombuffer(b, np.uint8)
     if allreg:
         return rows
     out = np.zeros((n, FLOAT_WIDTH), np.uint8)
@@ -153,6 +179,43 @@ def format_floats(values, nan: bytes = b'') -> np.ndarray:
     for i in np.flatnonzero(~regular & ~zero & ~isnan).tolist():
         b = repr(float(v[i])).encode()
         out[i, : len(b)] = np.frombuffer(b, np.uint8)
+    return out
+
+
+_COL17 = np.arange(17)[None, :]
+
+
+def _repr_layout(neg, digits, nd, e) -> np.ndarray:
+    """Python's repr() of regular doubles (1e-28 <= |v| < 1e16) from their shortest
+    round-trip digits (``digits``: (m, 17) ASCII, the first ``nd`` significant, the rest '0')
+    and decimal exponent ``e``: fixed notation for 1e-4 <= |v| < 1e16 (``0.05403023058681398``,
+    ``2.0``, ``0.0001``), else ``d.ddde-XX`` (``1e-05``, ``1.5e-07``).
+
+    The bytes sit in fixed columns and a zero byte is nothing, so no row is shifted: sign,
+    a '0.000' prefix (used for 1e-4 <= |v| < 1), each digit followed by a slot for the '.'
+    (after digit e, or after the first digit in scientific notation), the 'e-XX' suffix.
+    Returns (m, FLOAT_WIDTH) uint8."""
+    m = digits.shape[0]
+    e, nd = e[:, None], nd[:, None]
+    fixed = e >= -4
+    small = fixed & (e < 0)
+    sci = ~fixed
+    out = np.zeros((m, FLOAT_WIDTH), np.uint8)
+    out[:, 0] = neg * np.uint8(45)  # '-'
+    out[:, 1] = small[:, 0] * np.uint8(48)  # '0'
+    out[:, 2] = small[:, 0] * np.uint8(46)  # '.'
+    out[:, 3:6] = (small & (np.arange(3)[None, :] < -e - 1)) * np.uint8(48)  # leading zeros
+    # digits: the significant ones; for |v| >= 1 the integer part and one fraction digit too
+    keep = (nd > _COL17) | ((e >= 0) & (e + 1 >= _COL17))
+    body = out[:, 6:40].reshape(m, 17, 2)
+    body[:, :, 0] = digits * keep
+    dot = ((e >= 0) & (e == _COL17)) | (sci & (_COL17 == 0) & (nd > 1))
+    body[:, :, 1] = dot * np.uint8(46)
+    x = np.abs(e[:, 0])
+    out[:, 40] = sci[:, 0] * np.uint8(101)  # 'e'
+    out[:, 41] = sci[:, 0] * np.uint8(45)  # '-': |v| < 1e-4 here
+    out[:, 42] = sci[:, 0] * (x // 10 % 10 + 48).astype(np.uint8)
+    out[:, 43] = sci[:, 0] * (x % 10 + 48).astype(np.uint8)
     return out
 
 

@@ -22,9 +22,24 @@ def _isolated(ok: np.ndarray) -> np.ndarray:
     return ok & ~prev & ~after
 
 
-def _series(ax, x, y, ok, **style):
-    """A line with gaps where not ok, plus a dot for every ok sample the line cannot show."""
-    (line,) = ax.plot(x, np.where(ok, y, np.nan), **style)
+def _broken_at_wraps(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """An angle series (rad) with a gap (a NaN point) wherever two neighbouring samples differ
+    by more than pi: a wrap at +-pi, drawn as a break, not as a full-height jump."""
+    with np.errstate(invalid='ignore'):
+        jump = np.flatnonzero(np.abs(np.diff(y)) > np.pi)
+    if not jump.size:
+        return x, y
+    mid = 0.5 * (x[jump] + x[jump + 1])
+    return np.insert(x, jump + 1, mid), np.insert(y, jump + 1, np.nan)
+
+
+def _series(ax, x, y, ok, angle: bool = False, **style):
+    """A line with gaps where not ok (and, for an angle, at its wraps), plus a dot for every
+    ok sample the line cannot show."""
+    xs, ys = np.asarray(x, float), np.where(ok, y, np.nan)
+    if angle:
+        xs, ys = _broken_at_wraps(xs, ys)
+    (line,) = ax.plot(xs, ys, **style)
     lone = _isolated(ok)
     if lone.any():
         ax.plot(x[lone], y[lone], '.', ms=6, color=line.get_color())
@@ -54,13 +69,32 @@ def plot_figure(data: Commands, res: Results, mech, max_points: int = 20000):
     if outs:
         ax1.legend(loc='best', fontsize='small')
     ax1.grid(True, alpha=0.3)
-    for a in mech.actuators:
-        _series(ax2, t, res.inputs[a][idx], ok, lw=1.6, label=f'input {a}')
+    # every angle drawn alike: wrapped to +-pi as the node gives joints (an input as commanded
+    # may be any number of turns), each line broken where it wraps
+    for a, act in mech.actuators.items():
+        angle = act.unit == 'rad'
+        y = res.inputs[a][idx]
+        if angle:
+            y = np.arctan2(np.sin(y), np.cos(y))
+        _series(ax2, t, y, ok, angle, lw=1.6, label=f'input {a}')
     for j in mech.joint_names:
-        _series(ax2, t, res.joints[j][idx], ok, lw=0.9, label=f'joint {j}')
+        _series(
+            ax2, t, res.joints[j][idx], ok, j not in mech.prismatics, lw=0.9, label=f'joint {j}'
+        )
     bad = ~ok
     if np.any(bad):
-        ax2.plot(t[bad], np.zeros(int(bad.sum())), 'rx', ms=4, label='refused')
+        # marks on the time axis (axes coordinates), not values at y = 0
+        ax2.plot(
+            t[bad],
+            np.zeros(int(bad.sum())),
+            '|',
+            color='red',
+            ms=10,
+            mew=1.5,
+            transform=ax2.get_xaxis_transform(),
+            clip_on=False,
+            label='refused',
+        )
     ax2.set_xlabel('bag time (s)')
     ax2.set_ylabel('rad / m')
     ax2.set_title('inputs and joints')
@@ -71,8 +105,9 @@ def plot_figure(data: Commands, res: Results, mech, max_points: int = 20000):
 
 
 def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 20000):
-    """Coupler-point traces (x-y) and inputs/joints against time (refused rows are gaps; an
-    accepted row between two refused ones is a dot)."""
+    """Coupler-point traces (x-y) and inputs/joints against time (refused rows are gaps and
+    red marks on the time axis; an accepted row between two refused ones is a dot; an angle's
+    line is broken where it wraps at +-pi)."""
     import matplotlib.pyplot as plt
 
     fmt = _plot_format(str(path))  # the file named is the file written (no '.png' added)

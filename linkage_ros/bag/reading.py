@@ -182,11 +182,11 @@ def read_commands(
     n = len(raws)
     log_ns = np.array(stamps, np.int64)
     order = np.argsort(log_ns, kind='stable')
+    topic = np.asarray(tops, np.int8).reshape(n)
     if n and np.any(order != np.arange(n)):
         raws = [raws[i] for i in order]
         log_ns = log_ns[order]
-        tops = np.asarray(tops, np.int8)[order]
-    topic = np.asarray(tops, np.int8).reshape(n)
+        topic = topic[order]
     sec, nanosec, key, keys, npos, values, start = decode_joint_states(raws, topic, topics, log_ns)
     return Commands(
         str(path),

@@ -4,6 +4,7 @@ identical."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 
@@ -12,8 +13,9 @@ from ..core.ops import BATCH, to_complex
 from ..core.plan import step_geometry
 from ..core.quantities import PointSpec
 from ..core.solver import Solver, branch_identity_defined
+from ..core.solver.continuity import MAX_STEP_RATIO
 from ..core.solver.result import branch_signs, branch_text
-from ..core.steps import RPRDyad, RRPDyad, RRRDyad, StepKind, anchor_of
+from ..core.steps import RPRDyad, RRPDyad, RRRDyad, anchor_of
 from ..engine import (
     SOLVER_CACHE,
     Engine,
@@ -201,7 +203,7 @@ class _Engine:
                 self.res.reason[g] = stamp_error(int(data.sec[g]), int(data.nanosec[g]))
             return
         k = int(data.key[a])
-        names, npos = data.keys[k], data.npos[k]
+        names, npos = list(data.keys[k]), data.npos[k]
         why = request_shape_error(names, npos, self.max_names)
         if why:  # conversions.joint_state_to_command
             self._refuse_all(a, b, why)
@@ -338,7 +340,7 @@ class _Engine:
             else:
                 solver = S
                 signs0 = None
-            B = solver.solve_batch(cols)
+            B: Any = solver.solve_batch(cols)  # BatchResult: its arrays are set, not declared
             take = self._easy_prefix(ctx, solver, B, cols, end - pos) if continuous else end - pos
             # next to a tangency the batched and single dyad formulas may disagree on closing
             near = np.flatnonzero(
@@ -512,7 +514,7 @@ class _Engine:
             flipped = list(signs0)
             flipped[k] = -flipped[k]
             poses1, pts1, _ = plan.run(safe, m, flipped)
-            if st.op == StepKind.RPR:
+            if isinstance(st.args, RPRDyad):
                 gl = mech.prismatics[st.args.joint].guide
                 phs = rowphi[gl]
                 last = seqphi[gl][li]
@@ -524,7 +526,7 @@ class _Engine:
                 xs, xo = rowpts[x], pts1[x]
                 L, P = seqpts[x][li], seqpts[x][pi]
                 good = _dist(xo, L) - _dist(xs, L) > eps
-                T = L + 1.5 * (L - P)
+                T = L + MAX_STEP_RATIO * (L - P)  # as far as continuity extrapolates
                 good &= ~has_prev | (_dist(xo, T) - _dist(xs, T) > eps)
             easy &= ~need | good
         easy |= ~finite

@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .core_speed import bench_core_speed, core_speed_targets
+from .fleet import bench_fleet, fleet_targets
 from .ros_latency import NODE_PARTS, bench_node
 from .settings import (
     REF_DPS,
@@ -121,6 +122,7 @@ CASES = (
     'core_speed',
     'outputs',
     *(f'node_{p}' for p in NODE_PARTS),
+    'fleet',
 )
 
 
@@ -163,6 +165,7 @@ def collect(
         report['node'] = bench_node(sizes, parts=parts)
     else:
         report['node'] = {'skipped': '--no-node given' if not node else 'no node case chosen'}
+    report['fleet'] = bench_fleet(sizes) if 'fleet' in cases else {'skipped': 'not chosen'}
     report['targets'] = evaluate_targets(report)
     report['seconds'] = time.perf_counter() - t_start
     report['loadavg_end'] = [round(v, 2) for v in os.getloadavg()]
@@ -304,6 +307,7 @@ def evaluate_targets(report: dict) -> list[dict]:
         out.append(
             {'target': 'node latency / rate', 'measured': f'not measured: {why}', 'met': None}
         )
+    out.extend(fleet_targets(report))
     return out
 
 

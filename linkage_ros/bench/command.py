@@ -11,8 +11,9 @@ from pathlib import Path
 from ..cli.common import UsageError
 from ..outputs import written_whole
 from .collect import CASES, collect
+from .fleet import render_fleet
 from .report import _met, render_markdown, save_plot, write_report
-from .settings import FULL, QUICK, SCENES, _log
+from .settings import FULL, QUICK, SCENES, Sizes, _log
 
 # =============================================================================================
 # command line
@@ -47,6 +48,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         action='store_true',
         help='skip the node latency / rate measurement (no ROS processes)',
     )
+    parser.add_argument(
+        '--no-fleet',
+        action='store_true',
+        help='skip the fleet analysis (many bags: serial, --jobs 2, a Dask LocalCluster)',
+    )
+    parser.add_argument(
+        '--fleet-only',
+        action='store_true',
+        help='measure the fleet analysis alone and print its section (no --write)',
+    )
     parser.add_argument('--json', metavar='FILE', help='also dump the raw results as JSON')
     parser.add_argument(
         '--render',
@@ -69,23 +80,28 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     sizes = QUICK if args.quick else FULL
     scenes = [s.strip() for s in args.scenes.split(',') if s.strip()]
+    if args.fleet_only:
+        return _fleet_only(args, sizes)
     if args.render:
         report = json.loads(Path(args.render).read_text())
         command = report.get('command', 'linkage bench')
     else:
         cases = [c.strip() for c in args.cases.split(',') if c.strip()]
+        if args.no_fleet:
+            cases = [c for c in cases if c != 'fleet']
         unknown = sorted(set(cases) - set(CASES))
         if unknown:
             raise UsageError(f'unknown case(s) {unknown}; the cases: {list(CASES)}')
-        if args.write and set(cases) != set(CASES):
-            raise UsageError('--write takes a whole run (no --cases)')
+        if args.write and set(cases) | {'fleet'} != set(CASES):
+            raise UsageError('--write takes a whole run (no --cases; --no-fleet allowed)')
         report = collect(sizes, scenes, node=not args.no_node, cases=cases)
         command = (
             'linkage bench'
             + (' --quick' if args.quick else '')
             + (f' --write {args.write}' if args.write else '')
             + (' --no-node' if args.no_node else '')
-            + (f' --cases {",".join(cases)}' if set(cases) != set(CASES) else '')
+            + (' --no-fleet' if args.no_fleet else '')
+            + (f' --cases {",".join(cases)}' if set(cases) | {'fleet'} != set(CASES) else '')
         )
         report['command'] = command
     plot = (
@@ -109,6 +125,31 @@ def run(args) -> int:
     for t in report['targets']:
         print(f'{_met(t["met"]).strip("*"):8} {t["target"]}: {t["measured"]}')
     print(f'linkage bench: {report["seconds"]:.0f} s')
+    return 0
+
+
+def _fleet_only(args: argparse.Namespace, sizes: Sizes) -> int:
+    """``--fleet-only``: the fleet measurement, its section and targets on stdout."""
+    if args.write or args.render or args.no_fleet:
+        _log('--fleet-only goes without --write, --render and --no-fleet')
+        return 2
+    report = collect(sizes, (), node=False, cases=['fleet'])
+    m = report['machine']
+    print(
+        f'machine: {m["nproc"]} CPU(s) ({m["cpu"]}); load average before {m["loadavg"]}, '
+        f'after {report["loadavg_end"]}; other processes used '
+        + (
+            'n/a'
+            if report['other_cpu_cores'] is None
+            else f'{report["other_cpu_cores"]:.2f} cores on average'
+        )
+    )
+    print(render_fleet(report))
+    if args.json:
+        with written_whole(args.json) as tmp:
+            tmp.write_text(json.dumps(report, indent=1, default=float))
+    for t in report['targets']:
+        print(f'{_met(t["met"]).strip("*"):8} {t["target"]}: {t["measured"]}')
     return 0
 
 

@@ -7,6 +7,7 @@ from typing import Any
 
 from ..outputs import written_whole
 from .collect import _hz, _setting
+from .fleet import render_fleet
 from .settings import (
     DEFAULT_DEPTH,
     ERROR_FLOOR,
@@ -304,6 +305,7 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
         all_out = node.get('all_outputs')
         if all_out:
             _all_outputs_table(w, all_out, node.get('all_outputs_rate'), node['seconds_per_rate'])
+    w(render_fleet(report))
     w('## Interpretation\n')
     w(interpretation(report))
     return '\n'.join(L) + '\n'

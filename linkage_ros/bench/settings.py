@@ -22,6 +22,8 @@ TARGET_NEWTON_VS_SCIPY = 5.0
 TARGET_NEWTON_BATCH_VS_SCIPY = 20.0
 TARGET_LATENCY_MS = 0.3
 TARGET_RATE_HZ = 1000.0
+#: fleet analysis: bags in two processes (or Dask workers) against one after the other
+TARGET_FLEET_SPEEDUP = 1.7
 
 
 @dataclass(frozen=True)
@@ -43,6 +45,10 @@ class Sizes:
     node_all_rate: float
     # the scenes of those runs; () = every packaged scene
     node_all_scenes: tuple[str, ...] = ()
+    # fleet analysis: bags of commands each (0 bags = skip), and the Parquet-vs-CSV table rows
+    fleet_bags: int = 0
+    fleet_commands: int = 0
+    parquet_rows: int = 0
 
 
 #: the node's default queue_depth (and the relay's): the targets' QoS in the main measurements
@@ -62,6 +68,9 @@ FULL = Sizes(
     node_deep_depth=100,
     node_deep_rates=(1000.0, 2000.0),
     node_all_rate=1000.0,
+    fleet_bags=8,
+    fleet_commands=100_000,
+    parquet_rows=1_000_000,
 )
 QUICK = Sizes(
     sweep=12,
@@ -78,6 +87,9 @@ QUICK = Sizes(
     node_deep_rates=(200.0,),
     node_all_rate=200.0,
     node_all_scenes=('four_bar', 'excavator'),  # the simplest and the largest
+    fleet_bags=2,
+    fleet_commands=2000,
+    parquet_rows=20_000,
 )
 
 

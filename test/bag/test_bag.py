@@ -287,14 +287,14 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
     msgs, types = read_out_bag(out_bag)
     assert types == {
         '/joint_states': JS,
-        '/points/P': 'geometry_msgs/msg/PointStamped',
-        '/status': 'diagnostic_msgs/msg/DiagnosticStatus',
+        '/linkage_node/points/P': 'geometry_msgs/msg/PointStamped',
+        '/linkage_node/status': 'diagnostic_msgs/msg/DiagnosticStatus',
     }
     ok_rows = [(r, c) for r, c in zip(table, rows) if r['status'] == 'ok']
-    assert len(msgs['/status']) == len(rows)
-    assert len(msgs['/joint_states']) == len(msgs['/points/P']) == len(ok_rows)
+    assert len(msgs['/linkage_node/status']) == len(rows)
+    assert len(msgs['/joint_states']) == len(msgs['/linkage_node/points/P']) == len(ok_rows)
     for (t, js), (tp, pt), (row, (_topic, tr, (sec, ns), *_)) in zip(
-        msgs['/joint_states'], msgs['/points/P'], ok_rows
+        msgs['/joint_states'], msgs['/linkage_node/points/P'], ok_rows
     ):
         want_stamp = sec * 10**9 + ns if (sec or ns) else tr
         assert t == tp == tr  # logged at the command's bag time
@@ -303,7 +303,7 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
         assert list(js.name) == ['O2', 'A', 'B', 'O4'] and len(js.velocity) == 0
         assert list(js.position) == [float(row[f'joint.{j}']) for j in js.name]
         assert (pt.point.x, pt.point.y, pt.point.z) == (float(row['P.x']), float(row['P.y']), 0)
-    for (t, st), row, (topic, tr, *_) in zip(msgs['/status'], table, rows):
+    for (t, st), row, (topic, tr, *_) in zip(msgs['/linkage_node/status'], table, rows):
         assert t == tr
         assert st.name == 'linkage_node: crank_rocker' and st.hardware_id == 'crank_rocker'
         kv = {v.key: v.value for v in st.values}
@@ -531,7 +531,7 @@ def test_newton_solver_is_sequential_and_matches_node(tmp_path, scene, capsys):
     # the status messages are the node's (conversions.result_to_status), cond included
     _, replay = _node_engine(scene, solver='newton')
     got, _ = read_out_bag(out_bag)
-    for (_, st), r in zip(got['/status'], rows):
+    for (_, st), r in zip(got['/linkage_node/status'], rows):
         want = result_to_status(replay.command({'crank': r[4][0]}), st.name, 'command')
         assert (st.level, st.message, st.name) == (
             want.level[0] if isinstance(want.level, bytes) else want.level,
@@ -603,8 +603,8 @@ def test_matches_running_node_over_dds(tmp_path, scene):
     finally:
         ros.close()
         node.stop()
-    assert len(status.messages) == len(offline['/status'])
-    for live, (_, off) in zip(status.messages, offline['/status']):
+    assert len(status.messages) == len(offline['/linkage_node/status'])
+    for live, (_, off) in zip(status.messages, offline['/linkage_node/status']):
         level = live.level[0] if isinstance(live.level, bytes) else int(live.level)
         # the live node runs in a namespace: its status names carry it (the bag's names are
         # those of a node in the root namespace)
@@ -1187,7 +1187,7 @@ def test_failed_bag_write_is_one_error_and_leaves_no_half_bag(tmp_path, scene, c
     code, cap = run_bag(args, capsys)  # the same command again: now it works
     assert code == 0, cap.err
     got, _ = read_out_bag(out)
-    assert len(got['/status']) == 40
+    assert len(got['/linkage_node/status']) == 40
 
 
 def test_error_after_a_progress_bar_starts_on_its_own_line(tmp_path, scene, capsys, monkeypatch):
@@ -1232,7 +1232,7 @@ def test_unwritable_output_folder_is_refused_before_any_work(tmp_path, scene, ca
         ),
     )
     reads = []
-    monkeypatch.setattr(bag.command, 'read_commands', lambda *a, **k: reads.append(a))
+    monkeypatch.setattr(bag.fleet_task, 'read_commands', lambda *a, **k: reads.append(a))
     common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
     for extra in (
         ['--out', locked / 'r.csv'],
@@ -1595,7 +1595,7 @@ def test_the_bag_holds_actuators_a_partial_command_leaves_out_like_the_node(tmp_
     assert [r['status'] for r in rows] == ['ok' if a.success else 'error' for a in answers]
     assert 'wrench' in rows[-1]['reason']
     out, _ = read_out_bag(out_bag)
-    for (_, st), ans, row in zip(out['/status'], answers, rows):
+    for (_, st), ans, row in zip(out['/linkage_node/status'], answers, rows):
         want = result_to_status(ans, st.name, 'command', mech.name)
         got_kv = {v.key: v.value for v in st.values}
         want_kv = {v.key: v.value for v in want.values}
@@ -1683,7 +1683,7 @@ def test_recorded_trajectories_and_paths_get_the_nodes_answers(tmp_path, capsys)
     code, cap = run_bag(args, capsys)
     assert code == 0, cap.err
     out, _ = read_out_bag(out_bag)
-    solved = dict(out['/solved_trajectory'])
+    solved = dict(out['/linkage_node/solved_trajectory'])
     assert sorted(solved) == [2 * 10**9, 4 * 10**9]
     for t, want, k_stamp in ((2 * 10**9, want_traj, 3), (4 * 10**9, want_path, 5)):
         msg = solved[t]
@@ -1694,7 +1694,7 @@ def test_recorded_trajectories_and_paths_get_the_nodes_answers(tmp_path, capsys)
             assert pt.positions.tolist() == [r.joints[j] for j in mech.joint_names]
     for k, pt in enumerate(solved[2 * 10**9].points):
         assert (pt.time_from_start.sec, pt.time_from_start.nanosec) == (k + 1, 0)
-    statuses = dict(out['/status'])
+    statuses = dict(out['/linkage_node/status'])
     for t, want, request in (
         (2 * 10**9, want_traj, 'trajectory'),
         (3 * 10**9, want_bad, 'trajectory'),

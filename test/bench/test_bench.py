@@ -120,6 +120,14 @@ def test_report_structure(quick_run):
     assert newton and all(r['batch_us'] > 0 and r['batch_failures'] == 0 for r in newton)
     assert all(r['batch_err_max'] <= 100 * max(r['tol'], 1e-13) for r in newton)
     assert all(t['met'] in (True, False, None) for t in rep['targets'])
+    # the fleet case: the three runs of the real command give the same bytes, Parquet is smaller
+    fleet = rep['fleet']
+    assert set(fleet['runs']) == {'serial', 'jobs2', 'cluster2'}
+    assert all(r['exit'] == 0 and r['identical_to_serial'] for r in fleet['runs'].values())
+    table = fleet['parquet_vs_csv']
+    assert table['rows'] == bench.QUICK.parquet_rows
+    assert 0 < table['parquet']['bytes'] < table['csv']['bytes']
+    assert sum('faster than one after the other' in n for n in names) == 2
 
 
 def _textbook_fourbar(l1, l2, l3, l4, theta, branch):

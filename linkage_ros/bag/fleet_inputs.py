@@ -1,0 +1,143 @@
+"""The bags of a fleet run: several inputs, folders searched recursively, globs; and where each
+bag's outputs go under ``--out-dir``.
+
+A bag is a folder holding ``metadata.yaml`` (not searched further: its storage files are that
+bag), or a ``.mcap`` / ``.db3`` file outside such a folder. A bag's name (its outputs' path
+under ``--out-dir``, without the format's suffix) is its path relative to the input folder it
+was found in, or its own name when it was given itself, with a storage file's ``.mcap`` /
+``.db3`` dropped: ``fleet/day1/run3/`` -> ``day1/run3``, ``fleet/day1/b.mcap`` -> ``day1/b``.
+"""
+
+from __future__ import annotations
+
+import glob
+import os
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+from .common import BagError
+from .reading import STORAGE_SUFFIXES
+
+#: --format choices and the suffix each adds to a bag's name (mcap and sqlite3 are bag folders)
+FORMATS = ('csv', 'parquet', 'mcap', 'sqlite3')
+
+#: the file written last for each finished bag (its outputs are complete: see fleet_task)
+MANIFEST_SUFFIX = '.done.json'
+
+#: the fleet summary files in --out-dir
+SUMMARY_NAMES = ('summary.csv', 'summary.json')
+
+
+@dataclass(frozen=True)
+class BagTask:
+    """One bag to analyse: where it is, and its name under --out-dir (POSIX form)."""
+
+    source: str  # absolute path of the bag folder or storage file
+    name: str
+
+    def output(self, out_dir: str, fmt: str) -> Path:
+        """The path of this bag's output in ``fmt`` (a file, or a bag folder)."""
+        return Path(out_dir, *PurePosixPath(self.name).parts[:-1], self.leaf + '.' + fmt)
+
+    def manifest(self, out_dir: str) -> Path:
+        return Path(out_dir, *PurePosixPath(self.name).parts[:-1], self.leaf + MANIFEST_SUFFIX)
+
+    def trajectories(self, out_dir: str) -> Path:
+        """The CSV of the recorded trajectories and paths (only with --trajectory/path-topic)."""
+        return Path(out_dir, *PurePosixPath(self.name).parts[:-1], self.leaf + '.trajectories.csv')
+
+    @property
+    def leaf(self) -> str:
+        return PurePosixPath(self.name).name
+
+
+def _is_bag_folder(p: Path) -> bool:
+    return p.is_dir() and (p / 'metadata.yaml').is_file()
+
+
+def _is_storage_file(p: Path) -> bool:
+    return p.is_file() and p.suffix.lower() in STORAGE_SUFFIXES
+
+
+def _bag_name(rel: Path, is_file: bool) -> str:
+    parts = list(rel.parts)
+    if is_file:
+        parts[-1] = parts[-1][: -len(rel.suffix)] or parts[-1]
+    return '/'.join(parts)
+
+
+def _search(folder: Path) -> list[tuple[Path, str]]:
+    """Every bag under ``folder`` (recursively, sorted, symlinked folders not followed)."""
+    found: list[tuple[Path, str]] = []
+
+    def fail(exc: OSError) -> None:
+        raise BagError(f'input {folder}: cannot list {exc.filename} ({exc.strerror or exc})')
+
+    for root, dirs, files in os.walk(folder, onerror=fail):
+        here = Path(root)
+        dirs.sort()
+        keep = []
+        for d in dirs:
+            if _is_bag_folder(here / d):
+                found.append((here / d, _bag_name((here / d).relative_to(folder), False)))
+            else:
+                keep.append(d)
+        dirs[:] = keep
+        for f in sorted(files):
+            p = here / f
+            if _is_storage_file(p):
+                found.append((p, _bag_name(p.relative_to(folder), True)))
+    return found
+
+
+def _expand(item: str) -> list[str]:
+    """A glob pattern's matches (``**`` for any depth), or the item itself when it names an
+    existing path or has no pattern characters."""
+    if os.path.lexists(item) or not any(c in item for c in '*?['):
+        return [item]
+    matches = sorted(glob.glob(item, recursive=True))
+    if not matches:
+        raise BagError(f'input {item}: the pattern matches nothing')
+    return matches
+
+
+def find_bags(inputs: Sequence[str]) -> list[BagTask]:
+    """The bags of the inputs in the order given (each folder's in sorted order), each once;
+    BagError for a missing input, a folder holding no bag, or two bags of the same name."""
+    tasks: list[BagTask] = []
+    seen: dict[str, str] = {}  # resolved source -> name
+    names: dict[str, str] = {}  # name -> source
+    for item in inputs:
+        for path in _expand(item):
+            p = Path(path)
+            if not p.exists():
+                raise BagError(f'input {path}: no such file or folder')
+            if _is_bag_folder(p) or _is_storage_file(p):
+                found = [(p, _bag_name(Path(p.name), p.is_file()))]
+            elif p.is_dir():
+                found = _search(p)
+                if not found:
+                    raise BagError(
+                        f'input {path}: no bag in this folder or below (a bag is a folder '
+                        'with metadata.yaml, or a .mcap or .db3 file)'
+                    )
+            else:
+                raise BagError(
+                    f'input {path}: not a rosbag2 (expected a bag folder, a .mcap or a .db3 '
+                    'file, or a folder holding bags)'
+                )
+            for bag, name in found:
+                source = str(bag.resolve())
+                if source in seen:
+                    continue
+                if name in names:
+                    raise BagError(
+                        f'two bags would write the same outputs {name}.*: {names[name]} and '
+                        f'{source} (give their folders separately, or rename one)'
+                    )
+                seen[source], names[name] = name, source
+                tasks.append(BagTask(source, name))
+    if not tasks:
+        raise BagError('no bag given')
+    return tasks

@@ -1,0 +1,334 @@
+"""``linkage bag INPUT... --out-dir DIR``: many bags in one run, on every core or a Dask cluster.
+
+Each bag is one task (fleet_task.analyse_bag) with the run's options; the tasks run one after
+the other (``--jobs 1``), in a local process pool (``--jobs N``, default: the machine's cores)
+or on a Dask distributed cluster (``--scheduler ADDRESS``: dask.distributed's Client, imported
+only then). A bag is solved from its own start in every case, so its outputs are the same
+wherever it ran. One tqdm bar on stderr follows the fleet (bags and commands done, rate, ETA).
+At the end ``summary.csv`` and ``summary.json`` (one row per bag) are written to DIR.
+
+Exit status: 0 every bag analysed; 1 some bag had every request refused (and none failed);
+2 unusable options or inputs (nothing run); 3 some bags failed (their rows say why; the others
+are complete).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import io
+import json
+import os
+import sys
+import time
+import uuid
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+from .common import BagError
+from .fleet_inputs import FORMATS, SUMMARY_NAMES, BagTask, find_bags
+from .fleet_task import (
+    FAILED,
+    REFUSED,
+    SUMMARY_FIELDS,
+    BagOptions,
+    BagRow,
+    analyse_bag,
+    bag_fingerprint,
+    finished_row,
+    options_fingerprint,
+    remove_outputs,
+    stale_outputs,
+)
+
+ALL_DONE, SOME_REFUSED, SOME_FAILED = 0, 1, 3
+
+
+def add_fleet_arguments(parser: argparse.ArgumentParser) -> None:
+    """The options of a fleet run (``linkage bag`` registers them beside its own)."""
+    g = parser.add_argument_group('many bags (docs/FLEET.md)')
+    g.add_argument(
+        '--out-dir',
+        metavar='DIR',
+        default=None,
+        help='analyse every bag of the inputs; outputs go to DIR/<bag path relative to its '
+        'input folder>.<format>, beside summary.csv and summary.json',
+    )
+    g.add_argument(
+        '--format',
+        action='append',
+        choices=FORMATS,
+        default=[],
+        help='an output format per bag (repeatable; default csv): csv, parquet, or a result '
+        'bag in mcap or sqlite3 storage',
+    )
+    g.add_argument(
+        '--jobs',
+        type=int,
+        default=None,
+        metavar='N',
+        help="bags analysed at once in local processes (default: the machine's cores)",
+    )
+    g.add_argument(
+        '--scheduler',
+        metavar='ADDRESS',
+        default=None,
+        help='run the bags on this Dask distributed scheduler (e.g. tcp://host:8786); its '
+        'workers need linkage_ros installed and the bag and output paths',
+    )
+    g.add_argument(
+        '--resume',
+        action='store_true',
+        help='skip the bags whose outputs in DIR are complete (an earlier run of the same '
+        'command), redo the others',
+    )
+
+
+# ---- preparing -----------------------------------------------------------------------------
+
+
+def _prepare(args: argparse.Namespace) -> tuple[BagOptions, list[BagTask]]:
+    from .command import bag_options, check_options
+
+    if args.out:
+        raise BagError('--out and --out-dir: give one (--out for one bag, --out-dir for many)')
+    if args.plot:
+        raise BagError('--plot is for one bag (--out); a fleet run writes no plots')
+    if args.jobs is not None and args.jobs < 1:
+        raise BagError(f'--jobs must be >= 1 (got {args.jobs})')
+    if args.jobs is not None and args.scheduler:
+        raise BagError("--jobs and --scheduler: the cluster's workers set how many bags run")
+    formats = list(dict.fromkeys(args.format or ['csv']))
+    out_dir = Path(args.out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise BagError(f'--out-dir {out_dir}: is not a folder')
+    tasks = find_bags(args.input)
+    check_options(args)
+    opts = bag_options(args, formats, str(out_dir.resolve()))
+    reserved = {str(Path(opts.out_dir, n)) for n in SUMMARY_NAMES}
+    for t in tasks:
+        for fmt in formats:
+            if str(t.output(opts.out_dir, fmt)) in reserved:
+                raise BagError(f'bag {t.source}: its output would overwrite {t.name}.{fmt}')
+        if Path(opts.out_dir).resolve() in Path(t.source).parents:
+            raise BagError(f'bag {t.source} is inside --out-dir {out_dir}: choose another folder')
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise BagError(f'--out-dir {out_dir}: cannot create it ({exc.strerror or exc})') from None
+    if not os.access(out_dir, os.W_OK | os.X_OK):
+        raise BagError(f'--out-dir {out_dir}: is not writable (permission denied)')
+    return opts, tasks
+
+
+def _plan(
+    tasks: list[BagTask], opts: BagOptions, resume: bool
+) -> tuple[list[tuple[int, BagTask, str]], dict[int, BagRow]]:
+    """The bags to analyse (index, task, fingerprint) and, with ``resume``, the rows of those
+    already complete. Without ``resume`` an earlier run's outputs are a usage error (nothing
+    is overwritten); with it, an unfinished bag's leftovers are removed before it is redone."""
+    digest = options_fingerprint(opts)
+    todo, done = [], {}
+    for i, t in enumerate(tasks):
+        fp = bag_fingerprint(t, digest)
+        row = finished_row(t, opts.out_dir, fp) if resume else None
+        if row is not None:
+            done[i] = row
+            continue
+        stale = stale_outputs(t, opts)
+        if stale and not resume:
+            raise BagError(
+                f'--out-dir {opts.out_dir} holds outputs of an earlier run ({stale[0]}): '
+                '--resume finishes that run, or choose an empty folder'
+            )
+        remove_outputs(stale)
+        todo.append((i, t, fp))
+    return todo, done
+
+
+# ---- running: serial, local processes, Dask -------------------------------------------------
+
+
+def _failed(task: BagTask, why: str) -> BagRow:
+    return BagRow(bag=task.name, source=task.source, status=FAILED, reason=why)
+
+
+def _serial(todo: list[tuple[int, BagTask, str]], opts: BagOptions) -> Iterator[tuple[int, BagRow]]:
+    for i, t, fp in todo:
+        yield i, analyse_bag(t, opts, fp)
+
+
+def _pool(
+    todo: list[tuple[int, BagTask, str]], opts: BagOptions, jobs: int
+) -> Iterator[tuple[int, BagRow]]:
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor, as_completed
+
+    # fork: a worker starts in milliseconds with the package already imported (no threads run
+    # in this process before the pool starts); spawn where there is no fork
+    method = 'fork' if 'fork' in mp.get_all_start_methods() else 'spawn'
+    ex = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context(method))
+    # submitted now, before the progress bar exists (its monitor thread must not be forked)
+    futures = {ex.submit(analyse_bag, t, opts, fp): (i, t) for i, t, fp in todo}
+
+    def results() -> Iterator[tuple[int, BagRow]]:
+        try:
+            for f in as_completed(futures):
+                i, t = futures[f]
+                try:
+                    yield i, f.result()
+                except Exception as exc:  # noqa: BLE001 - the worker died (killed, OOM)
+                    why = f'the worker process was lost ({type(exc).__name__}: {exc})'
+                    yield i, _failed(t, why)
+        finally:
+            ex.shutdown(wait=True, cancel_futures=True)
+
+    return results()
+
+
+def _dask(
+    todo: list[tuple[int, BagTask, str]], opts: BagOptions, address: str
+) -> Iterator[tuple[int, BagRow]]:
+    from dask.distributed import Client, as_completed
+
+    try:
+        client = Client(address, timeout='20s')
+    except Exception as exc:  # noqa: BLE001 - unreachable, refused, not a scheduler
+        raise BagError(f'--scheduler {address}: cannot connect ({exc})') from None
+    run = uuid.uuid4().hex[:12]
+    try:
+        futures = {
+            client.submit(analyse_bag, t, opts, fp, key=f'linkage-bag-{run}-{i}', pure=False): (
+                i,
+                t,
+            )
+            for i, t, fp in todo
+        }
+        for f in as_completed(list(futures)):
+            i, t = futures[f]
+            try:
+                yield i, f.result()
+            except Exception as exc:  # noqa: BLE001 - e.g. the task's workers kept dying
+                yield i, _failed(t, f'the cluster could not run it ({type(exc).__name__}: {exc})')
+    finally:
+        client.close()
+
+
+# ---- summary -------------------------------------------------------------------------------
+
+
+def _csv_value(v: Any) -> str:
+    if v is None:
+        return ''
+    if isinstance(v, bool):
+        return 'true' if v else 'false'
+    if isinstance(v, float):
+        return repr(v)
+    return str(v)
+
+
+def summary_csv_text(rows: Sequence[BagRow]) -> str:
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator='\n')
+    w.writerow(SUMMARY_FIELDS)
+    for r in rows:
+        d = r.as_dict()
+        w.writerow([_csv_value(d[k]) for k in SUMMARY_FIELDS])
+    return buf.getvalue()
+
+
+def totals(rows: Sequence[BagRow]) -> dict[str, int]:
+    return {
+        'bags': len(rows),
+        'ok': sum(r.status == 'ok' for r in rows),
+        'all_refused': sum(r.status == REFUSED for r in rows),
+        'failed': sum(r.status == FAILED for r in rows),
+        'resumed': sum(r.resumed for r in rows),
+        'messages': sum(r.messages for r in rows),
+        'answered': sum(r.answered for r in rows),
+        'refused': sum(r.refused for r in rows),
+        'missing': sum(r.missing for r in rows),
+    }
+
+
+def write_summary(out_dir: str, rows: Sequence[BagRow]) -> list[Path]:
+    from ..outputs import written_whole
+
+    csv_path, json_path = (Path(out_dir, n) for n in SUMMARY_NAMES)
+    with written_whole(csv_path) as tmp:
+        tmp.write_text(summary_csv_text(rows))
+    doc = {'totals': totals(rows), 'bags': [r.as_dict() for r in rows]}
+    with written_whole(json_path) as tmp:
+        tmp.write_text(json.dumps(doc, indent=1, allow_nan=False) + '\n')
+    return [csv_path, json_path]
+
+
+# ---- the command ---------------------------------------------------------------------------
+
+
+def run_fleet(args: argparse.Namespace) -> int:
+    """``linkage bag ... --out-dir DIR``; returns the exit status (module docstring)."""
+    from tqdm import tqdm
+
+    t0 = time.perf_counter()
+    opts, tasks = _prepare(args)
+    todo, done = _plan(tasks, opts, args.resume)
+    rows: dict[int, BagRow] = dict(done)
+    if done:
+        print(f'linkage bag: {len(done)} bag(s) complete already, skipped (--resume)')
+    jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
+    if args.scheduler:
+        where = f'the Dask cluster at {args.scheduler}'
+        results = _dask(todo, opts, args.scheduler)
+    elif jobs > 1 and len(todo) > 1:
+        jobs = min(jobs, len(todo))
+        where = f'{jobs} local processes'
+        results = _pool(todo, opts, jobs)
+    else:
+        where = 'this process'
+        results = _serial(todo, opts)
+    enabled = not args.no_progress and sys.stderr.isatty()
+    commands = 0
+    with tqdm(
+        total=len(todo),
+        desc='bags',
+        unit='bag',
+        file=sys.stderr,
+        disable=not enabled,
+        dynamic_ncols=True,
+    ) as bar:
+        for i, row in results:
+            rows[i] = row
+            commands += row.messages
+            bar.update(1)
+            rate = commands / max(time.perf_counter() - t0, 1e-9)
+            bar.set_postfix_str(f'{commands:,} commands, {rate:,.0f}/s')
+            if row.status == FAILED:
+                bar.write(f'linkage bag: {row.bag}: failed: {row.reason}', file=sys.stderr)
+    ordered = [rows[i] for i in range(len(tasks))]
+    written = write_summary(opts.out_dir, ordered)
+    _print_summary(ordered, where, len(todo), time.perf_counter() - t0, written)
+    t = totals(ordered)
+    if t['failed']:
+        return SOME_FAILED
+    return SOME_REFUSED if t['all_refused'] else ALL_DONE
+
+
+def _print_summary(
+    rows: list[BagRow], where: str, ran: int, seconds: float, written: list[Path]
+) -> None:
+    t = totals(rows)
+    lines = [
+        f'linkage bag: {t["bags"]} bag(s): {t["ok"]} ok, {t["all_refused"]} with every '
+        f'request refused, {t["failed"]} failed'
+        + (f', {t["resumed"]} complete already' if t['resumed'] else ''),
+        f'  {t["messages"]:,} message(s): answered {t["answered"]:,}, refused {t["refused"]:,}'
+        + (f', missing {t["missing"]:,}' if t['missing'] else ''),
+        f'  {ran} bag(s) analysed on {where} in {seconds:.2f} s',
+    ]
+    for r in rows:
+        if r.status != 'ok' and not r.resumed:
+            lines.append(f'  {r.bag}: {r.status}: {r.reason}')
+    lines += [f'  wrote {p}' for p in written]
+    print('\n'.join(lines))

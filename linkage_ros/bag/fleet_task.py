@@ -1,0 +1,332 @@
+"""One bag of a fleet run, start to finish: the task a local process or a Dask worker runs.
+
+:func:`analyse_bag` solves one bag exactly as ``linkage bag`` does for a single bag (its own
+engine from the reference pose: a bag's answers never depend on which bags ran before it in the
+same process), writes its outputs under ``--out-dir`` and returns its summary row. Every failure
+(a damaged bag, a missing topic, a full disk, even a bug) is that bag's row with the reason;
+it never stops the others.
+
+Completeness (``--resume``): each output is renamed into place only once whole, and after the
+last of them a small manifest ``<name>.done.json`` is written (also whole, by rename). It holds
+the summary row, the outputs and a fingerprint of what they were made from (the options, the
+scene file's bytes, the bag's files' sizes and modification times). A bag counts as finished
+when its manifest parses, its fingerprint matches this run's and every output it lists exists;
+anything else (no manifest: the run stopped or the worker was lost before it) is redone.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import shutil
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .common import BagError
+from .fleet_inputs import BagTask
+from .plans import PlanRequest, path_point, read_plan_requests
+from .progress import _Progress
+from .reading import Commands, _exc_text, read_commands
+from .results import Results
+
+#: manifest layout version (a manifest of another version is not trusted)
+MANIFEST_VERSION = 1
+
+OK, REFUSED, FAILED = 'ok', 'all refused', 'failed'
+
+
+@dataclass(frozen=True)
+class BagOptions:
+    """What every bag of a run is solved and written with (plain data: pickled to workers)."""
+
+    scene: str  # a path (absolute) or a packaged scene's name
+    dimensions: tuple[tuple[str, float], ...]
+    closures: str | None
+    actuated: tuple[str, ...]
+    command_topic: str
+    target_topic: str | None
+    trajectory_topics: tuple[str, ...]
+    path_topics: tuple[str, ...]
+    hold: tuple[str, ...]
+    solver: str | None
+    branch: str
+    tol: float
+    max_iter: int
+    accept_missing: bool
+    formats: tuple[str, ...]
+    out_format: str  # storage of the single-bag --out bag (unused by --format)
+    out_dir: str
+    remap: tuple[tuple[str, str], ...] = ()  # output bag topic renames (--remap)
+
+    @property
+    def topics(self) -> list[str]:
+        return [self.command_topic] + ([self.target_topic] if self.target_topic else [])
+
+
+@dataclass(frozen=True)
+class BagRow:
+    """A bag's line in the fleet summary. Stamps are bag receive times (ns since the epoch);
+    margin and residual are over the answered commands (None when none was answered)."""
+
+    bag: str
+    source: str
+    status: str  # OK, REFUSED (every command refused) or FAILED
+    messages: int = 0
+    answered: int = 0
+    refused: int = 0
+    missing: int = 0
+    min_margin: float | None = None
+    max_residual: float | None = None
+    first_stamp_ns: int | None = None
+    last_stamp_ns: int | None = None
+    wall_s: float = 0.0
+    reason: str = ''
+    resumed: bool = False
+    outputs: tuple[str, ...] = field(default=())
+
+    def as_dict(self) -> dict[str, Any]:
+        d = asdict(self)
+        d['outputs'] = list(self.outputs)
+        return d
+
+
+SUMMARY_FIELDS = [k for k in BagRow.__dataclass_fields__ if k != 'outputs']
+
+
+# ---- solving one bag (the single-bag command uses it too) ----------------------------------
+
+
+def replay_input(
+    engine: Any,
+    mech: Any,
+    source: str,
+    opts: BagOptions,
+    progress: _Progress,
+    frame_id: str,
+    marks: list[float] | None = None,
+) -> tuple[Commands, Results, list[PlanRequest]]:
+    """Read a bag's requests and answer them in bag order on ``engine`` (bag.replay._Engine);
+    the time reading ended (perf_counter) is appended to ``marks``."""
+    data = read_commands(source, opts.topics, progress, accept_missing=opts.accept_missing)
+    for topic in opts.path_topics:
+        if path_point(topic) not in mech.points:
+            raise BagError(
+                f'--path-topic {topic}: its last name {path_point(topic)!r} is not a point '
+                f'of {mech.name!r} (a path topic is .../target_path/<point>)'
+            )
+    plans, plans_missing = read_plan_requests(
+        source, opts.trajectory_topics, opts.path_topics, opts.accept_missing
+    )
+    data.missing.update(plans_missing)
+    if marks is not None:
+        marks.append(time.perf_counter())
+    res = engine.solve_all(data, progress, plans, frame_id=frame_id)
+    return data, res, plans
+
+
+_SCENES: dict[tuple[Any, ...], Any] = {}
+
+
+def load_options_scene(opts: BagOptions) -> Any:
+    """The run's scene, loaded once per process (a worker analyses many bags)."""
+    key = (opts.scene, opts.dimensions, opts.closures, opts.actuated)
+    scene = _SCENES.get(key)
+    if scene is None:
+        from ..core.loading import load_scene
+        from ..resources import scene_path
+
+        dims = dict(opts.dimensions) or None
+        path = str(scene_path(opts.scene))
+        scene = load_scene(path, dims, opts.closures, opts.actuated or None)
+        _SCENES.clear()
+        _SCENES[key] = scene
+    return scene
+
+
+def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanRequest]) -> BagRow:
+    ok = np.asarray(res.ok, bool)
+    plans_ok = sum(1 for p in plans if p.answer is not None and p.answer.success)
+    messages = data.n + len(plans)
+    answered = int(np.count_nonzero(ok)) + plans_ok
+    margins = res.margin[ok]
+    margins = margins[~np.isnan(margins)]
+    residuals = res.residual[ok]
+    residuals = residuals[~np.isnan(residuals)]
+    stamps = [int(t) for t in data.log_ns[[0, -1]]] if data.n else []
+    stamps += [p.log_ns for p in plans]
+    return BagRow(
+        bag=task.name,
+        source=task.source,
+        status=REFUSED if messages and not answered else OK,
+        messages=messages,
+        answered=answered,
+        refused=messages - answered,
+        missing=int(sum(data.missing.values())),
+        min_margin=float(margins.min()) if margins.size else None,
+        max_residual=float(residuals.max()) if residuals.size else None,
+        first_stamp_ns=min(stamps) if stamps else None,
+        last_stamp_ns=max(stamps) if stamps else None,
+        reason=REFUSED_HINT if messages and not answered else '',
+    )
+
+
+REFUSED_HINT = (
+    'every request was refused: is --scene the mechanism that was recorded, and '
+    '--command-topic its commands? (the first reasons are in the outputs)'
+)
+
+
+def _write_outputs(
+    task: BagTask, opts: BagOptions, scene: Any, data: Commands, res: Results, plans: list
+) -> list[Path]:
+    from .bag_out import write_bag
+    from .csv_out import write_csv
+    from .parquet_out import write_parquet
+    from .plans import write_plans_csv
+
+    mech = scene.mechanism
+    written: list[Path] = []
+    for fmt in opts.formats:
+        path = task.output(opts.out_dir, fmt)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        if fmt == 'csv':
+            write_csv(path, data, res, mech)
+        elif fmt == 'parquet':
+            write_parquet(path, data, res, mech)
+        else:
+            write_bag(
+                path, data, res, mech, scene.frame_id, fmt, plans=plans, remap=dict(opts.remap)
+            )
+        written.append(path)
+    if plans and {'csv', 'parquet'} & set(opts.formats):
+        path = task.trajectories(opts.out_dir)
+        write_plans_csv(str(path), plans, mech)
+        written.append(path)
+    return written
+
+
+def _remove(paths: list[Path]) -> None:
+    for p in paths:
+        with contextlib.suppress(OSError):
+            if p.is_dir() and not p.is_symlink():
+                shutil.rmtree(p)
+            else:
+                p.unlink()
+
+
+def analyse_bag(task: BagTask, opts: BagOptions, fingerprint: str) -> BagRow:
+    """Solve one bag and write its outputs and manifest; its summary row (FAILED with the
+    reason on any error, its outputs then removed: a bag's outputs are all there or none)."""
+    from ..core.errors import LinkageError
+    from ..outputs import written_whole
+    from .replay import _Engine
+
+    t0 = time.perf_counter()
+    written: list[Path] = []
+    try:
+        scene = load_options_scene(opts)
+        mech = scene.mechanism
+        engine = _Engine(mech, opts.solver, opts.tol, opts.max_iter, opts.branch, opts.hold)
+        quiet = _Progress(False)
+        data, res, plans = replay_input(engine, mech, task.source, opts, quiet, scene.frame_id)
+        written = _write_outputs(task, opts, scene, data, res, plans)
+        row = _row_from(task, data, res, plans)
+        rel = [p.relative_to(opts.out_dir).as_posix() for p in written]
+        row = _with(row, wall_s=time.perf_counter() - t0, outputs=tuple(rel))
+        manifest = {
+            'version': MANIFEST_VERSION,
+            'fingerprint': fingerprint,
+            'row': row.as_dict(),
+        }
+        with written_whole(task.manifest(opts.out_dir)) as tmp:
+            tmp.write_text(json.dumps(manifest, indent=1, allow_nan=False) + '\n')
+        return row
+    except Exception as exc:  # noqa: BLE001 - one bag fails alone, whatever went wrong
+        _remove(written)
+        if isinstance(exc, BagError | LinkageError):
+            reason = str(exc)
+        elif isinstance(exc, OSError):
+            reason = f'cannot write an output ({exc.strerror or exc})'
+        else:
+            reason = f'{type(exc).__name__}: {_exc_text(exc)}'
+        return BagRow(
+            bag=task.name,
+            source=task.source,
+            status=FAILED,
+            wall_s=time.perf_counter() - t0,
+            reason=reason,
+        )
+
+
+def _with(row: BagRow, **changes: Any) -> BagRow:
+    from dataclasses import replace
+
+    return replace(row, **changes)
+
+
+# ---- resume --------------------------------------------------------------------------------
+
+
+def _file_digest(path: str | None) -> str | None:
+    if not path or not Path(path).is_file():
+        return None
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def options_fingerprint(opts: BagOptions) -> str:
+    """What every bag's outputs depend on besides the bag: the options and the scene's bytes."""
+    from ..resources import scene_path
+
+    d = asdict(opts)
+    d.pop('out_dir')
+    d['scene_sha256'] = _file_digest(str(scene_path(opts.scene)))
+    d['closures_sha256'] = _file_digest(opts.closures)
+    text = json.dumps(d, sort_keys=True, default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+def bag_fingerprint(task: BagTask, options_digest: str) -> str:
+    """The options' fingerprint and the bag's files (name, size, modification time)."""
+    p = Path(task.source)
+    files = sorted(p.rglob('*')) if p.is_dir() else [p]
+    parts = [options_digest]
+    for f in files:
+        with contextlib.suppress(OSError):
+            st = f.stat()
+            parts.append(
+                f'{f.relative_to(p) if p.is_dir() else f.name}:{st.st_size}:{st.st_mtime_ns}'
+            )
+    return hashlib.sha256('\n'.join(parts).encode()).hexdigest()
+
+
+def finished_row(task: BagTask, out_dir: str, fingerprint: str) -> BagRow | None:
+    """The summary row of a bag this output folder already holds complete, or None."""
+    try:
+        manifest = json.loads(task.manifest(out_dir).read_text())
+        if manifest.get('version') != MANIFEST_VERSION or manifest['fingerprint'] != fingerprint:
+            return None
+        d = dict(manifest['row'])
+        d['outputs'] = tuple(d.get('outputs', ()))
+        row = BagRow(**d)
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    if row.bag != task.name or not all(Path(out_dir, o).exists() for o in row.outputs):
+        return None
+    return _with(row, resumed=True)
+
+
+def stale_outputs(task: BagTask, opts: BagOptions) -> list[Path]:
+    """The bag's outputs (and manifest) that exist already under --out-dir."""
+    paths = [task.output(opts.out_dir, f) for f in opts.formats]
+    paths += [task.trajectories(opts.out_dir), task.manifest(opts.out_dir)]
+    return [p for p in paths if p.exists() or p.is_symlink()]
+
+
+def remove_outputs(paths: list[Path]) -> None:
+    """Remove an unfinished bag's leftovers before it is redone (--resume)."""
+    _remove(paths)
