@@ -523,6 +523,7 @@ class _Engine:
                 good = do - ds > EASY_MARGIN
             else:
                 x = st.point
+                assert x is not None  # an RRR / RRP step places its point
                 xs, xo = rowpts[x], pts1[x]
                 L, P = seqpts[x][li], seqpts[x][pi]
                 good = _dist(xo, L) - _dist(xs, L) > eps

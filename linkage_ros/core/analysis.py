@@ -18,10 +18,11 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+import numpy.typing as npt
 
 from .dyads import TANGENCY_TOL
 from .fourbar import angle_opposite
-from .model.mechanism import AngleActuator
+from .model.mechanism import AngleActuator, Mechanism
 
 #: Relative tolerance (of the sum of the four lengths) for the Grashof equality s + l = p + q.
 GRASHOF_TOL = 1e-12
@@ -30,7 +31,7 @@ _TWO_PI = 2.0 * math.pi
 _LENGTH_NAMES = ('l1', 'l2', 'l3', 'l4')
 
 
-def _lengths(l1, l2, l3, l4) -> tuple[float, float, float, float, int]:
+def _lengths(l1: float, l2: float, l3: float, l4: float) -> tuple[float, float, float, float, int]:
     """The four lengths as floats, checked (finite and > 0: NaN would compare as "turns fully"),
     divided by 2**e near the longest, and that exponent e.
 
@@ -141,7 +142,9 @@ def grashof_class(l1: float, l2: float, l3: float, l4: float) -> str:
     return grashof_info(l1, l2, l3, l4).klass
 
 
-def _angle_intervals(g: float, c: float, m: float, n: float, exp: int = 0):
+def _angle_intervals(
+    g: float, c: float, m: float, n: float, exp: int = 0
+) -> list[tuple[float, float]] | None:
     """Reachable angles phi [rad] of link c about its ground pivot, phi measured from the
     direction towards the other ground pivot (distance g), when the far dyad is (m, n).
 
@@ -175,7 +178,9 @@ def _angle_intervals(g: float, c: float, m: float, n: float, exp: int = 0):
     return [(alpha, beta), (-beta, -alpha)]
 
 
-def fourbar_input_intervals(l1: float, l2: float, l3: float, l4: float):
+def fourbar_input_intervals(
+    l1: float, l2: float, l3: float, l4: float
+) -> list[tuple[float, float]] | None:
     """All reachable input angles theta2 [rad] as a list of counter-clockwise intervals.
 
     None when the input turns fully.  One interval (symmetric about 0 or pi) for a linkage whose
@@ -185,7 +190,9 @@ def fourbar_input_intervals(l1: float, l2: float, l3: float, l4: float):
     return _angle_intervals(*_lengths(l1, l2, l3, l4))
 
 
-def fourbar_output_intervals(l1: float, l2: float, l3: float, l4: float):
+def fourbar_output_intervals(
+    l1: float, l2: float, l3: float, l4: float
+) -> list[tuple[float, float]] | None:
     """All reachable output angles theta4 [rad], like :func:`fourbar_input_intervals`."""
     # At O4 the direction towards O2 is theta4 = pi; phi = pi - theta4 maps the generic result.
     g, c, m, n, exp = _lengths(l1, l2, l3, l4)
@@ -195,7 +202,7 @@ def fourbar_output_intervals(l1: float, l2: float, l3: float, l4: float):
     return [(math.pi - hi, math.pi - lo) for lo, hi in ivs]
 
 
-def fourbar_input_range(l1: float, l2: float, l3: float, l4: float):
+def fourbar_input_range(l1: float, l2: float, l3: float, l4: float) -> tuple[float, float] | None:
     """Range of the input angle theta2 [rad] as (min, max), or None if the crank turns fully.
 
     The range is the closed interval going counter-clockwise from ``min`` to ``max`` with
@@ -218,7 +225,7 @@ def fourbar_input_range(l1: float, l2: float, l3: float, l4: float):
     return None if ivs is None else ivs[0]
 
 
-def fourbar_output_range(l1: float, l2: float, l3: float, l4: float):
+def fourbar_output_range(l1: float, l2: float, l3: float, l4: float) -> tuple[float, float] | None:
     """Range of the output angle theta4 [rad] as (min, max), or None if it turns fully.
 
     Same conventions as :func:`fourbar_input_range`; the limits are the positions where crank
@@ -250,7 +257,13 @@ def fourbar_toggle_angles(l1: float, l2: float, l3: float, l4: float) -> list[fl
     return sorted(out)
 
 
-def transmission_angle(l1, l2, l3, l4, theta2):
+def transmission_angle(
+    l1: npt.ArrayLike,
+    l2: npt.ArrayLike,
+    l3: npt.ArrayLike,
+    l4: npt.ArrayLike,
+    theta2: npt.ArrayLike,
+) -> np.ndarray:
     """Transmission angle mu [rad, 0..pi] between coupler and rocker at input angle theta2.
 
     Cosine rule: cos(mu) = (l3^2 + l4^2 - |A - O4|^2) / (2 l3 l4), clipped to [-1, 1] (so an
@@ -273,14 +286,14 @@ def transmission_angle(l1, l2, l3, l4, theta2):
         if name != 'theta2' and not np.all(a > 0):
             raise ValueError(f'transmission_angle: four-bar length {name} must be > 0, got {v!r}')
         args.append(a)
-    l1, l2, l3, l4, t2 = args
+    a1, a2, a3, a4, t2 = args
     # Divide by a power of two near the longest length (exact; mu is scale-free) so that the
     # squares below cannot overflow for huge lengths.
-    exp = -np.frexp(np.maximum(np.maximum(l1, l2), np.maximum(l3, l4)))[1]
-    l1, l2, l3, l4 = (np.ldexp(v, exp) for v in (l1, l2, l3, l4))
+    exp = -np.frexp(np.maximum(np.maximum(a1, a2), np.maximum(a3, a4)))[1]
+    s1, s2, s3, s4 = (np.ldexp(v, exp) for v in (a1, a2, a3, a4))
     # |A - O4|^2 written with sin^2(theta2/2) to avoid cancellation near theta2 = 0.
-    d2 = (l1 - l2) ** 2 + 4.0 * l1 * l2 * np.sin(0.5 * t2) ** 2
-    return angle_opposite(l3, l4, np.sqrt(d2))
+    d2 = (s1 - s2) ** 2 + 4.0 * s1 * s2 * np.sin(0.5 * t2) ** 2
+    return angle_opposite(s3, s4, np.sqrt(d2))
 
 
 @dataclass(frozen=True)
@@ -298,8 +311,8 @@ class ChainInfo:
 
     chain: str  #: '4R' or '3R-1P'
     klass: str  #: the class, see above
-    lengths: dict  #: the kinematic dimensions used, see above
-    links: tuple  #: the links those lengths belong to, in their order
+    lengths: dict[str, float]  #: the kinematic dimensions used, see above
+    links: tuple[str, ...]  #: the links those lengths belong to, in their order
     input_fully_rotates: bool | None  #: the driven link turns 360 deg relative to the ground
     output_fully_rotates: bool | None  #: the other ground-pivoted link does
     rule: str  #: the inequality that decides the class, with numbers
@@ -322,7 +335,7 @@ def slide_chain_class(l_a: float, l_b: float, offset: float, tol: float = GRASHO
     return 'non-grashof' if excess > 0 else 'grashof'
 
 
-def four_link_chain_info(mech) -> ChainInfo | None:
+def four_link_chain_info(mech: Mechanism) -> ChainInfo | None:
     """The Grashof-type class of a mechanism that is one four-link loop (four revolutes, or three
     revolutes and one slide) driven by one angle actuator on a ground-pivoted link (relative to
     the ground), from its reference-pose dimensions; None for any other mechanism.
@@ -367,7 +380,7 @@ def four_link_chain_info(mech) -> ChainInfo | None:
         return None  # the driven link is not pinned to the ground
     pt = {k: np.asarray(v, float) for k, v in mech.points.items()}
 
-    def span(link):  # distance between a link's two revolutes
+    def span(link: str) -> float:  # distance between a link's two revolutes
         a, b = [p for kind, _, p in pairs[link] if kind == 'R']
         return float(np.hypot(*(pt[a] - pt[b])))
 
@@ -398,7 +411,7 @@ def four_link_chain_info(mech) -> ChainInfo | None:
     u = u / np.hypot(*u)
     line = pt[pj.point]
 
-    def across(p):  # signed distance of point p from the line
+    def across(p: str) -> float:  # signed distance of point p from the line
         d = pt[p] - line
         return float(u[0] * d[1] - u[1] * d[0])
 

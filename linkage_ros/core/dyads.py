@@ -16,6 +16,7 @@ from __future__ import annotations
 from typing import Any, NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from .ops import BATCH, SCALAR, to_complex, to_xy
 
@@ -34,7 +35,8 @@ def perp(v: np.ndarray) -> np.ndarray:
 
 def cross2(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """z component of the cross product of (..., 2) vectors."""
-    return a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    z: np.ndarray = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return z
 
 
 def _safe_unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -43,7 +45,9 @@ def _safe_unit(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return v / safe[..., None], n
 
 
-def kahan_four_area(a, b, c):
+def kahan_four_area(
+    a: npt.ArrayLike, b: npt.ArrayLike, c: npt.ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Normalised Kahan area of the triangle with sides a, b, c (any order), batched (numpy):
     :func:`kahan_four_area_of` on the array backend."""
     a, b, c = (np.asarray(v, float) for v in (a, b, c))
@@ -89,9 +93,10 @@ class DyadSolution(NamedTuple):
     height: np.ndarray  # (...) distance of the point from the centre line (length units)
 
 
-def pow2_scale(m):
+def pow2_scale(m: npt.ArrayLike) -> np.ndarray:
     """Per element the even power of two S = 4**k with m / S in [1, 4) (see ops): numpy."""
-    return BATCH.pow2_scale(m)
+    scale: np.ndarray = BATCH.pow2_scale(m)
+    return scale
 
 
 class DyadPair(NamedTuple):
@@ -122,7 +127,9 @@ def dyad_point(ops: Any, pair: DyadPair, sign: Any) -> tuple[Any, Any]:
     return ops.where(ok, z, pair.fallback), ok
 
 
-def solve_rrr_dyad(ops: Any, c1: Any, r1: Any, c2: Any, r2: Any, tol: float = TANGENCY_TOL):
+def solve_rrr_dyad(
+    ops: Any, c1: Any, r1: Any, c2: Any, r2: Any, tol: float = TANGENCY_TOL
+) -> DyadPair:
     """Intersections of circle (c1, r1) and circle (c2, r2), centres complex -- the RRR dyad.
 
     Branch sign +1 puts the point to the left of the vector c1 -> c2 (counter-clockwise side),
@@ -194,7 +201,14 @@ def solve_rrr_dyad(ops: Any, c1: Any, r1: Any, c2: Any, r2: Any, tol: float = TA
 _FLOAT_MAX = float(np.finfo(float).max)
 
 
-def circle_circle(c1, r1, c2, r2, sign, tol: float = TANGENCY_TOL) -> DyadSolution:
+def circle_circle(
+    c1: npt.ArrayLike,
+    r1: npt.ArrayLike,
+    c2: npt.ArrayLike,
+    r2: npt.ArrayLike,
+    sign: npt.ArrayLike,
+    tol: float = TANGENCY_TOL,
+) -> DyadSolution:
     """:func:`solve_rrr_dyad` on (..., 2) coordinate arrays for one branch ``sign``: the batched
     numpy form (points as (..., 2) arrays; ``sign`` broadcasts)."""
     with np.errstate(invalid='ignore', divide='ignore', over='ignore', under='ignore'):
@@ -216,7 +230,9 @@ def circle_circle(c1, r1, c2, r2, sign, tol: float = TANGENCY_TOL) -> DyadSoluti
     )
 
 
-def solve_rrp_dyad(ops: Any, c: Any, r: Any, p0: Any, u: Any, tol: float = TANGENCY_TOL):
+def solve_rrp_dyad(
+    ops: Any, c: Any, r: Any, p0: Any, u: Any, tol: float = TANGENCY_TOL
+) -> DyadPair:
     """Intersections of circle (c, r) and the line p0 + s u (|u| = 1), points complex -- the RRP
     dyad. Branch sign +1 takes the intersection further along +u. margin = half-chord / r (0
     when the link is perpendicular to the line: a dead-centre). Returns a :class:`DyadPair`."""
@@ -234,7 +250,14 @@ def solve_rrp_dyad(ops: Any, c: Any, r: Any, p0: Any, u: Any, tol: float = TANGE
     return DyadPair(p0, u, s0, k, 1.0, margin, ok, ops.maximum(violation, 0.0), k, p0 + s0 * u)
 
 
-def circle_line(c, r, p0, u, sign, tol: float = TANGENCY_TOL):
+def circle_line(
+    c: npt.ArrayLike,
+    r: npt.ArrayLike,
+    p0: npt.ArrayLike,
+    u: npt.ArrayLike,
+    sign: npt.ArrayLike,
+    tol: float = TANGENCY_TOL,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`solve_rrp_dyad` on (..., 2) coordinate arrays for one branch ``sign``. Returns
     ``(X, margin, ok, violation)``."""
     with np.errstate(invalid='ignore', over='ignore', under='ignore'):
@@ -282,7 +305,13 @@ def rpr_direction(ops: Any, dyad: RprDyad, sign: Any) -> Any:
     return dyad.beta - ops.atan2(dyad.offset, sign * dyad.along)
 
 
-def line_through_point(p, x, offset, sign, tol: float = TANGENCY_TOL):
+def line_through_point(
+    p: npt.ArrayLike,
+    x: npt.ArrayLike,
+    offset: npt.ArrayLike,
+    sign: npt.ArrayLike,
+    tol: float = TANGENCY_TOL,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`solve_rpr_dyad` on (..., 2) coordinate arrays for one branch ``sign``. Returns
     ``(psi, margin, ok, violation)``."""
     with np.errstate(invalid='ignore', over='ignore', under='ignore'):
@@ -322,14 +351,15 @@ def side_sign(side: float) -> int:
     return 1 if side >= 0 else -1
 
 
-def rotation_between(v_ref, v_now):
+def rotation_between(v_ref: npt.ArrayLike, v_now: npt.ArrayLike) -> np.ndarray:
     """Angle (rad) that rotates vector v_ref onto the direction of v_now (atan2 form)."""
     a, _ = _safe_unit(np.asarray(v_ref, float))  # unit first: products of 1e-300 underflow
     b, _ = _safe_unit(np.asarray(v_now, float))
-    return np.arctan2(cross2(a, b), np.sum(a * b, axis=-1))
+    angle: np.ndarray = np.arctan2(cross2(a, b), np.sum(a * b, axis=-1))
+    return angle
 
 
-def rotate(v, phi):
+def rotate(v: np.ndarray, phi: npt.ArrayLike) -> np.ndarray:
     """Rotate (..., 2) vectors by phi (rad, broadcast over leading dims)."""
     c, s = np.cos(phi), np.sin(phi)
     return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1]], axis=-1)

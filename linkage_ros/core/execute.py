@@ -10,7 +10,7 @@ directions) is resolved once per plan, so a solve does only its arithmetic.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -32,6 +32,9 @@ CONTINUITY_MARGIN = 0.1
 _GROUND, _KNOWN_POINT, _TWO_POINTS = StepKind.GROUND, StepKind.KNOWN_POINT, StepKind.TWO_POINTS
 _POINT_ANGLE, _ANGLE = StepKind.POINT_ANGLE, StepKind.ANGLE
 _RRR, _RRP, _RPR = StepKind.RRR, StepKind.RRP, StepKind.RPR
+
+#: a body's frame: (phi, rot, T) of each member link with the body's root at the identity
+_Frame = dict[str, tuple[Any, Any, Any]]
 
 
 @dataclass
@@ -113,7 +116,7 @@ class PlanExecutor:
         self.point_specs = tuple(isinstance(s, PointSpec) for s in plan.specs)
 
     # -- bodies --------------------------------------------------------------------------------
-    def _frame(self, ops: Any, bi: int, values: Sequence[Any], zero: Any) -> dict[str, tuple]:
+    def _frame(self, ops: Any, bi: int, values: Sequence[Any], zero: Any) -> _Frame:
         """(phi, rot, T) of each member link of body bi with its root at the identity: welds by
         a known angle turn a member about the shared point, welds by a known slide move it
         along the slide."""
@@ -201,14 +204,23 @@ class PlanExecutor:
         _, rp, tp = f[self.carrier[(bi, p)]]
         return ops.cabs((rx * self.ref[x] + tx) - (rp * self.ref[p] + tp))
 
-    def _run(self, ops, values, zero, signs, prefer, prev_margins, tol) -> PlanRun:
+    def _run(
+        self,
+        ops: Any,
+        values: Sequence[Any],
+        zero: Any,
+        signs: Sequence[Any] | None,
+        prefer: Mapping[str, Any] | None,
+        prev_margins: Sequence[float] | None,
+        tol: float,
+    ) -> PlanRun:
         plan, mech, ref = self.plan, self.plan.mech, self.ref
         batch = ops.batch
         signs = plan.reference_signs if signs is None else signs
         poses = LinkPoses()
         phi_of, rot_of, T_of = poses.phi, poses.rot, poses.T
         pts: dict[str, Any] = {}
-        frames: dict[int, dict[str, tuple]] = {}
+        frames: dict[int, _Frame] = {}
         angles: dict[int, Any] = {}  # body root orientation when known before placing
         used: list[Any] = []
         margins: list[Any] = []
@@ -221,19 +233,19 @@ class PlanExecutor:
             ok_all, margin_all = zero == zero, zero + 1.0
             failure, violation_all = zero - 1.0, zero + 0.0
 
-        def frame(bi):
+        def frame(bi: int) -> _Frame:
             f = frames.get(bi)
             if f is None:
                 f = frames[bi] = self._frame(ops, bi, values, zero)
             return f
 
-        def local_pt(bi, p):
+        def local_pt(bi: int, p: str) -> Any:
             if single[bi]:  # a single link at the identity
                 return ref[p]
             _, rot, T = frame(bi)[self.carrier[(bi, p)]]
             return rot * ref[p] + T
 
-        def place_body(bi, phi, Tb):
+        def place_body(bi: int, phi: Any, Tb: Any) -> None:
             rot = ops.expi(phi)
             if single[bi]:  # a single link: its frame is the identity
                 ((link, members),) = body_points[bi]
@@ -252,7 +264,7 @@ class PlanExecutor:
                     if p not in pts:
                         pts[p] = lr * r + lt
 
-        def near_singular(m):
+        def near_singular(m: float) -> bool:
             b = len(used)
             prev = prev_margins[b] if prev_margins and b < len(prev_margins) else 1.0
             return min(m, prev) < CONTINUITY_MARGIN
@@ -384,7 +396,17 @@ class PlanExecutor:
             ok_all, poses, pts, margin_all, tuple(used), failure, violation_all, tuple(margins)
         )
 
-    def _coincident(self, pts, x, p1, p2, r1, r2, prefer, tol) -> DyadPair | None:
+    def _coincident(
+        self,
+        pts: dict[str, Any],
+        x: str,
+        p1: str,
+        p2: str,
+        r1: float,
+        r2: float,
+        prefer: Mapping[str, Any] | None,
+        tol: float,
+    ) -> DyadPair | None:
         """One command only: circles that coincide (a change point, e.g. a rhombus folded flat)
         leave x anywhere on the circle; keep it where continuity predicts, else where the
         reference pose has it relative to p1. Branch identity is undefined there (margin 0)."""
@@ -402,7 +424,7 @@ class PlanExecutor:
 
 def executor(plan: Any) -> PlanExecutor:
     """The plan's executor, made on first use and kept on the plan."""
-    ex = plan.__dict__.get('_executor')
+    ex: PlanExecutor | None = plan.__dict__.get('_executor')
     if ex is None:
         ex = plan._executor = PlanExecutor(plan)
     return ex

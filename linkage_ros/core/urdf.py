@@ -157,7 +157,11 @@ def reference_frames(mech: Mechanism, tree: Tree) -> dict[str, Pose2D]:
 
 
 def tree_joint(
-    mech: Mechanism, tj: TreeJoint, frames: Mapping[str, Pose2D], name: str, limits
+    mech: Mechanism,
+    tj: TreeJoint,
+    frames: Mapping[str, Pose2D],
+    name: str,
+    limits: tuple[float, float] | None,
 ) -> UrdfJoint:
     """The URDF joint of a tree edge: child frame = parent frame @ origin @ motion(value)."""
     parent, child = frames[tj.parent], frames[tj.child]

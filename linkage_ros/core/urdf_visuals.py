@@ -69,7 +69,9 @@ class Visual:
     material: str
 
 
-def _bar(p: np.ndarray, q: np.ndarray, radius: float, material: str, z: float = 0.0):
+def _bar(
+    p: np.ndarray, q: np.ndarray, radius: float, material: str, z: float = 0.0
+) -> Visual | None:
     d = q - p
     length = float(np.hypot(*d))
     if not length > 0:
@@ -90,7 +92,7 @@ def _hull(points: list[np.ndarray]) -> list[np.ndarray]:
     if len(pts) <= 2:
         return [np.array(p) for p in pts]
 
-    def cross(o, a, b):
+    def cross(o: tuple[float, float], a: tuple[float, float], b: tuple[float, float]) -> float:
         return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
 
     lower: list[tuple[float, float]] = []

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import functools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -34,6 +34,9 @@ from .records import (
 #: axes within this angle (rad) of parallel (or perpendicular) count as such: descriptions
 #: written with 16-digit rpy values agree to ~1e-16; CAD exports to ~1e-12
 AXIS_TOLERANCE = 1e-9
+
+#: link -> (its body, the link's pose in the body: 4x4)
+_BodyOf = Mapping[str, tuple[str, np.ndarray]]
 
 
 def rot(phi: float) -> np.ndarray:
@@ -99,7 +102,8 @@ class Chain:
     zero_planar: dict[str, np.ndarray]  # body -> its origin in the plane at all values 0
 
     def project(self, v: np.ndarray) -> np.ndarray:
-        return self.basis @ v
+        planar: np.ndarray = self.basis @ v
+        return planar
 
     def local_point(self, link: str, pose: np.ndarray) -> tuple[str, np.ndarray]:
         """A frame fixed in ``link`` as (body, its point in the body's planar zero frame)."""
@@ -281,7 +285,9 @@ def _bodies(desc: Description, by_child: dict[str, TreeJoint]) -> dict[str, tupl
     return out
 
 
-def _zero_poses(desc, ground, ordered, body_of) -> dict[str, np.ndarray]:
+def _zero_poses(
+    desc: Description, ground: str, ordered: Sequence[TreeJoint], body_of: _BodyOf
+) -> dict[str, np.ndarray]:
     poses = {ground: np.eye(4)}
     for j in ordered:
         x_p = (
@@ -293,13 +299,19 @@ def _zero_poses(desc, ground, ordered, body_of) -> dict[str, np.ndarray]:
     return poses
 
 
-def _world_axis(joint: TreeJoint, zero, body_of) -> np.ndarray:
+def _world_axis(joint: TreeJoint, zero: Mapping[str, np.ndarray], body_of: _BodyOf) -> np.ndarray:
     body, x = body_of[joint.parent]
     r = (zero[body] @ x @ joint.parent_to_joint)[:3, :3]
-    return r @ joint.axis
+    axis: np.ndarray = r @ joint.axis
+    return axis
 
 
-def _normal(desc, ordered, zero, body_of) -> np.ndarray:
+def _normal(
+    desc: Description,
+    ordered: Sequence[TreeJoint],
+    zero: Mapping[str, np.ndarray],
+    body_of: _BodyOf,
+) -> np.ndarray:
     src = desc.source
     revolute = [(j, _world_axis(j, zero, body_of)) for j in ordered if j.type is JointType.REVOLUTE]
     prismatic = [
@@ -362,7 +374,8 @@ def _planar_joint(chain: Chain, j: TreeJoint) -> PlanarJoint:
 
 def frame_rotation(chain: Chain, end: LinkFrame) -> np.ndarray:
     body, x = chain.body_of[end.link]
-    return (chain.zero_poses[body] @ x @ end.pose)[:3, :3]
+    rotation: np.ndarray = (chain.zero_poses[body] @ x @ end.pose)[:3, :3]
+    return rotation
 
 
 def angle_about_normal(chain: Chain, r: np.ndarray, what: str) -> float:

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -321,9 +321,12 @@ def _scene(
 
     def place(body: str, local: np.ndarray) -> np.ndarray:
         t, phi = poses[body]
-        return t + rot(phi) @ local
+        at: np.ndarray = t + rot(phi) @ local
+        return at
 
-    def slide(name: str, guide: str, slider: str, origin: np.ndarray, direction: np.ndarray):
+    def slide(
+        name: str, guide: str, slider: str, origin: np.ndarray, direction: np.ndarray
+    ) -> None:
         """A scene slider: ``name``'s point of ``slider`` runs on the line through ``origin``
         (the guide's point, zero frame) along ``direction``, both in the assembled pose."""
         at = place(guide, origin)
@@ -590,7 +593,14 @@ def _vec3(v: np.ndarray) -> tuple[float, float, float]:
     return float(v[0]), float(v[1]), float(v[2])
 
 
-def _cut_joints(chain: Chain, poses, ref_joints, lname, names, scene_pin) -> list[OutputJoint]:
+def _cut_joints(
+    chain: Chain,
+    poses: Mapping[str, tuple[np.ndarray, float]],
+    ref_joints: Mapping[str, float],
+    lname: Mapping[str, str],
+    names: _Names,
+    scene_pin: Callable[[str, str, str], tuple[str, float]],
+) -> list[OutputJoint]:
     """The joints whose frames a closure names (Gepetto's dummy closure joints): the first held
     at 0, the second turned with the closure's pin so that the two frames coincide."""
     from .chain import angle_about_normal, frame_rotation

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -151,7 +152,9 @@ def read_sdf(root: ET.Element, source: str) -> Description:
     )
 
 
-def _split_tree(links, joints, source):
+def _split_tree(
+    links: list[str], joints: Sequence[tuple[ET.Element, TreeJoint]], source: str
+) -> tuple[list[TreeJoint], list[Closure]]:
     """Tree joints in breadth-first order from the root; a joint whose child is already
     reached is a closure."""
     children = {j.child for _, j in joints}
@@ -194,7 +197,7 @@ def _split_tree(links, joints, source):
     return tree, closures
 
 
-def _root(links, tree, source):
+def _root(links: list[str], tree: Sequence[TreeJoint], source: str) -> str:
     children = {j.child for j in tree}
     roots = [l for l in links if l not in children]
     if len(roots) != 1:

@@ -94,7 +94,12 @@ def origin_of(el: ET.Element | None, source: str, where: str) -> np.ndarray:
     return transform(xyz, rpy)  # type: ignore[arg-type]
 
 
-def unit_axis(text: str | None, source: str, where: str, default=(1.0, 0.0, 0.0)) -> np.ndarray:
+def unit_axis(
+    text: str | None,
+    source: str,
+    where: str,
+    default: tuple[float, ...] = (1.0, 0.0, 0.0),
+) -> np.ndarray:
     v = np.array(numbers(text, 3, source, where, default))
     norm = float(np.linalg.norm(v))
     if not norm > 0:

@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import math
 import threading
+from collections.abc import Callable, Sequence
+from typing import Literal, TypeVar
 
 import numpy as np
 
@@ -35,29 +37,36 @@ _BLOCK = 16384
 _LO, _HI = 2.0**-200, 2.0**200
 _LO2 = _LO * _LO
 
+#: a kernel's argument: a float (a scalar argument stays one: no per-element work) or an array
+Num = float | np.ndarray
+#: what a fast kernel vouches for: True (every element of the block) or the mask of them
+Good = Literal[True] | np.ndarray
+#: the solution tuple a public function returns (FourBarSolution, ...)
+_Solution = TypeVar('_Solution')
+
 
 class _Work:
     """Named work arrays shared by the blocks of a call (``m`` = the current block length)."""
 
-    def __init__(self, size):
+    def __init__(self, size: int):
         self.size = self.m = size
-        self._arrays = {}
+        self._arrays: dict[tuple[str, tuple[int, ...], type], np.ndarray] = {}
 
     _full = threading.local()
 
     @classmethod
-    def get(cls, n):
+    def get(cls, n: int) -> _Work:
         """The work arrays for a call over n elements.  Full-size ones are kept per thread for
         the next call: allocating them afresh page-faults a few MB again on every call."""
         if n < _BLOCK:
             return cls(n)
-        ws = getattr(cls._full, 'ws', None)
+        ws: _Work | None = getattr(cls._full, 'ws', None)
         if ws is None or ws.size != _BLOCK:
             ws = cls._full.ws = cls(_BLOCK)
         ws.m = ws.size
         return ws
 
-    def __call__(self, name, *lead, dtype=float):
+    def __call__(self, name: str, *lead: int, dtype: type = float) -> np.ndarray:
         """The array ``name`` of shape lead + (m,); its contents are whatever was left there."""
         a = self._arrays.get((name, lead, dtype))
         if a is None:
@@ -65,7 +74,7 @@ class _Work:
         return a if self.m == self.size else a[..., : self.m]
 
 
-def _atan2(y, x, out, ws):
+def _atan2(y: np.ndarray, x: np.ndarray, out: np.ndarray, ws: _Work) -> None:
     """arctan2 into ``out``, as atan(y / x) plus the quadrant: half the cost of np.arctan2
     (glibc), within about an ulp of it (the rounding of y / x and of the added +-pi).  Signed
     zeros and x = +-0 follow atan2, except that -pi comes out as +pi (the range is (-pi, pi]);
@@ -83,7 +92,9 @@ def _atan2(y, x, out, ws):
         np.copyto(out, np.pi, where=out == -np.pi)
 
 
-def _rrr(w, r1, r2, sgn, tol, ok, ws):
+def _rrr(
+    w: np.ndarray, r1: Num, r2: Num, sgn: Num, tol: float, ok: np.ndarray, ws: _Work
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, Good]:
     """Circle (c1, r1) and circle (c2, r2), w = c2 - c1 as a (2, m) array, on one block.
 
     The same Kahan height and relative tangency clamp as :func:`dyads.circle_circle`, without
@@ -100,6 +111,9 @@ def _rrr(w, r1, r2, sgn, tol, ok, ws):
     np.sqrt(d2, out=d)
     # Kahan's sides sorted, big >= mid >= small: bm = big - mid, s = big + mid
     big, bm, s = ws('big'), ws('bm'), ws('s')
+    hi: Num
+    lo: Num
+    small: Num
     if isinstance(r1, float) and isinstance(r2, float):
         hi, lo = max(r1, r2), min(r1, r2)
     else:
@@ -168,19 +182,19 @@ def _rrr(w, r1, r2, sgn, tol, ok, ws):
     return v, area4, mis, _good(mis, d2, ws)
 
 
-def _good(res, d2, ws):
+def _good(res: np.ndarray, d2: np.ndarray | None, ws: _Work) -> Good:
     """True, or the mask of the elements the fast formulas hold for: ``res`` finite (NaN or inf
     anywhere upstream reaches it) and, if given, d2 = |w|^2 >= _LO2.  Block-level reductions
     first: the per-element mask is only formed for a block that needs it."""
     if math.isfinite(res.sum()) and (d2 is None or d2.min() >= _LO2):
         return True
-    good = np.isfinite(res, out=ws('good', dtype=bool))
+    good: np.ndarray = np.isfinite(res, out=ws('good', dtype=bool))
     if d2 is not None:
         good &= np.greater_equal(d2, _LO2, out=ws('b', dtype=bool))
     return good
 
 
-def _zero_where_not(ok, *arrays):
+def _zero_where_not(ok: np.ndarray, *arrays: np.ndarray) -> None:
     """The placeholders: 0 where not ok (in place, along the last axis)."""
     if not ok.all():
         bad = ~ok
@@ -188,7 +202,7 @@ def _zero_where_not(ok, *arrays):
             np.copyto(a, 0.0, where=bad)  # (a[..., bad] = 0 costs 4x more)
 
 
-def _in_range(a, kind):
+def _in_range(a: np.ndarray, kind: str) -> Good:
     """True, or the mask of the elements of ``a`` inside the fast range of its ``kind``: 'len'
     [_LO, _HI], 'coord' [-_HI, _HI] (NaN is outside)."""
     lo = _LO if kind == 'len' else -_HI
@@ -197,7 +211,14 @@ def _in_range(a, kind):
     return (a >= lo) & (a <= _HI)
 
 
-def _blocked(fast, general, args, kinds, nout, tol):
+def _blocked(
+    fast: Callable[..., Good],
+    general: Callable[..., Sequence[np.ndarray]],
+    args: Sequence[np.ndarray],
+    kinds: Sequence[str | None],
+    nout: int,
+    tol: float,
+) -> tuple[list[np.ndarray], tuple[int, ...]]:
     """Evaluate ``fast(*block_args, tol, block_outputs, work) -> good`` (True or a mask) block
     by block over the broadcast ``args``, and ``general(*args, tol) -> outputs`` wherever
     ``good`` is False or an argument is outside its fast range (``kinds``: see
@@ -209,7 +230,8 @@ def _blocked(fast, general, args, kinds, nout, tol):
     shape = np.broadcast_shapes(*(a.shape for a in args))
     n = math.prod(shape)
     fast_ok = math.isfinite(tol) and tol >= 0
-    flat, checks = [], []
+    flat: list[Num] = []
+    checks: list[tuple[np.ndarray, str]] = []
     for a, kind in zip(args, kinds):
         if a.size == 1 and (n > 1 or kind is not None):
             v = float(a.reshape(-1)[0])  # scalars stay scalars: no per-element work for them
@@ -250,5 +272,7 @@ def _blocked(fast, general, args, kinds, nout, tol):
     return [outs[0][0], outs[0][1]] + outs[1:], shape
 
 
-def _shaped(cls, outs, shape):
+def _shaped(
+    cls: Callable[..., _Solution], outs: Sequence[np.ndarray], shape: tuple[int, ...]
+) -> _Solution:
     return cls(*(_out(o.reshape(shape)) for o in outs))

@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
+import numpy.typing as npt
 
 from ..dyads import TANGENCY_TOL, circle_circle, kahan_four_area
 
@@ -56,21 +57,21 @@ class SliderCrankInverseSolution(NamedTuple):
 # --------------------------------------------------------------------------- helpers
 
 
-def _f(x) -> np.ndarray:
+def _f(x: npt.ArrayLike) -> np.ndarray:
     return np.asarray(x, dtype=float)
 
 
-def _out(x: np.ndarray):
+def _out(x: np.ndarray) -> Any:
     """Turn 0-d arrays into numpy scalars so scalar calls give scalar-like results."""
     return x[()] if isinstance(x, np.ndarray) and x.ndim == 0 else x
 
 
-def _sign(s) -> np.ndarray:
+def _sign(s: npt.ArrayLike) -> np.ndarray:
     """Branch / sign argument -> exactly +1.0 or -1.0 (negative means -1, anything else +1)."""
     return np.where(_f(s) < 0, -1.0, 1.0)
 
 
-def triangle_area(a, b, c) -> np.ndarray:
+def triangle_area(a: npt.ArrayLike, b: npt.ArrayLike, c: npt.ArrayLike) -> np.ndarray:
     """Area [length^2] of the triangle with sides a, b, c [length], by Kahan's stable formula.
 
     Side lengths that violate the triangle inequality (no triangle) give 0, so callers that care
@@ -78,10 +79,13 @@ def triangle_area(a, b, c) -> np.ndarray:
     """
     with np.errstate(invalid='ignore', over='ignore'):
         four_area_n, _, _, scale = kahan_four_area(a, b, c)
-        return _out(0.25 * four_area_n * scale * scale)
+        area: np.ndarray = _out(0.25 * four_area_n * scale * scale)  # (a numpy scalar for 0-d)
+        return area
 
 
-def angle_opposite(side_a, side_b, opposite) -> np.ndarray:
+def angle_opposite(
+    side_a: npt.ArrayLike, side_b: npt.ArrayLike, opposite: npt.ArrayLike
+) -> np.ndarray:
     """Angle [rad, 0..pi] between sides a and b of a triangle, opposite the third side.
 
     Computed as atan2(4*area, a^2 + b^2 - opposite^2) on sides normalised by the longest (= the
@@ -92,13 +96,21 @@ def angle_opposite(side_a, side_b, opposite) -> np.ndarray:
     with np.errstate(invalid='ignore'):
         four_area_n, _, _, scale = kahan_four_area(a, b, c)
         an, bn, cn = a / scale, b / scale, c / scale
-        return _out(np.arctan2(four_area_n, (an * an + bn * bn) - cn * cn))
+        angle: np.ndarray = _out(np.arctan2(four_area_n, (an * an + bn * bn) - cn * cn))
+        return angle
 
 
 # --------------------------------------------------------------------------- circle-circle
 
 
-def circle_intersection(c1, r1, c2, r2, sign, tangency_tol: float = TANGENCY_TOL):
+def circle_intersection(
+    c1: npt.ArrayLike,
+    r1: npt.ArrayLike,
+    c2: npt.ArrayLike,
+    r2: npt.ArrayLike,
+    sign: npt.ArrayLike,
+    tangency_tol: float = TANGENCY_TOL,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Intersection point of circle (c1, r1) and circle (c2, r2), batched.
 
     Parameters

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
+
 import numpy as np
+import numpy.typing as npt
 
 from ..dyads import TANGENCY_TOL, pow2_scale
-from .blocks import _atan2, _blocked, _rrr, _shaped, _zero_where_not
+from .blocks import Good, Num, _atan2, _blocked, _rrr, _shaped, _Work, _zero_where_not
 from .common import (
     _NONFINITE_RESIDUAL,
     FourBarInverseSolution,
@@ -18,15 +21,33 @@ from .common import (
 # --------------------------------------------------------------------------- four-bar
 
 
-def _closure_residual(l1, l2, l3, l4, t2, t3, t4) -> np.ndarray:
+def _closure_residual(
+    l1: np.ndarray,
+    l2: np.ndarray,
+    l3: np.ndarray,
+    l4: np.ndarray,
+    t2: np.ndarray,
+    t3: np.ndarray,
+    t4: np.ndarray,
+) -> np.ndarray:
     """|O2A + AB - O2O4 - O4B| / longest link, from angles."""
     rx = l2 * np.cos(t2) + l3 * np.cos(t3) - l1 - l4 * np.cos(t4)
     ry = l2 * np.sin(t2) + l3 * np.sin(t3) - l4 * np.sin(t4)
     scale = np.maximum(np.maximum(np.abs(l1), np.abs(l2)), np.maximum(np.abs(l3), np.abs(l4)))
-    return np.hypot(rx, ry) / np.where(scale > 0, scale, 1.0)
+    residual: np.ndarray = np.hypot(rx, ry) / np.where(scale > 0, scale, 1.0)
+    return residual
 
 
-def _transmission_sin(ax, ay, bx, by, o4x, o4y, l3, l4) -> np.ndarray:
+def _transmission_sin(
+    ax: np.ndarray,
+    ay: np.ndarray,
+    bx: np.ndarray,
+    by: np.ndarray,
+    o4x: np.ndarray,
+    o4y: np.ndarray,
+    l3: np.ndarray,
+    l4: np.ndarray,
+) -> np.ndarray:
     """|sin| of the angle at B between B->A (coupler) and B->O4 (rocker)."""
     # normalise before multiplying so huge lengths cannot overflow the cross product
     s3 = np.where(l3 > 0, l3, 1.0)
@@ -34,16 +55,17 @@ def _transmission_sin(ax, ay, bx, by, o4x, o4y, l3, l4) -> np.ndarray:
     cross = ((ax - bx) / s3) * ((o4y - by) / s4) - ((ay - by) / s3) * ((o4x - bx) / s4)
     # NaN (0 * inf) only for a link ~1e-308 times the others, accepted by a tangency clamp of
     # order 1: a degenerate configuration, reported as the singularity (0)
-    return np.clip(np.nan_to_num(np.abs(cross), nan=0.0), 0.0, 1.0)
+    tsin: np.ndarray = np.clip(np.nan_to_num(np.abs(cross), nan=0.0), 0.0, 1.0)
+    return tsin
 
 
-def _atan2_general(y, x):
+def _atan2_general(y: npt.ArrayLike, x: npt.ArrayLike) -> np.ndarray:
     """np.arctan2 with -pi (y = -0 or a tiny negative y, x < 0) returned as +pi: (-pi, pi]."""
     a = np.arctan2(y, x)
     return np.where(a == -np.pi, np.pi, a)
 
 
-def _normalised(*lengths):
+def _normalised(*lengths: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
     """The lengths divided by the power of four S (per element, exact) that brings the longest
     to [1, 4), and S.  The general forms solve the normalised linkage: angles and the relative
     residual do not depend on the scale, and no intermediate overflows (lengths or coordinates
@@ -55,27 +77,31 @@ def _normalised(*lengths):
     return [v / S for v in lengths], S
 
 
-def _general_inputs(args, scaled: int):
+def _general_inputs(
+    args: Sequence[Num], scaled: int
+) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     """The general forms' arguments (the branch last) broadcast to one shape, the mask of the
     elements whose other arguments are all finite, and the first ``scaled`` of them (the
     lengths) divided by the power of four S of :func:`_normalised`: (args, finite, S)."""
-    args = np.broadcast_arrays(*(_f(a) for a in args))
-    finite = np.isfinite(args[0])
-    for a in args[1:-1]:
+    arrays = np.broadcast_arrays(*(_f(a) for a in args))
+    finite = np.isfinite(arrays[0])
+    for a in arrays[1:-1]:
         finite = finite & np.isfinite(a)
     with np.errstate(invalid='ignore', over='ignore'):
-        lengths, S = _normalised(*args[:scaled])
-    return [*lengths, *args[scaled:]], finite, S
+        lengths, S = _normalised(*arrays[:scaled])
+    return [*lengths, *arrays[scaled:]], finite, S
 
 
-def _finish(values, ok, finite, residual):
+def _finish(
+    values: Iterable[np.ndarray], ok: np.ndarray, finite: np.ndarray, residual: np.ndarray
+) -> tuple[list[np.ndarray], np.ndarray]:
     """Zero the placeholders where not ok and make the residual finite."""
     vals = [np.where(ok, v, 0.0) for v in values]
     res = np.where(finite & np.isfinite(residual), residual, _NONFINITE_RESIDUAL)
     return vals, res
 
 
-def _longest(*lengths):
+def _longest(*lengths: Num) -> Num:
     if all(isinstance(v, float) for v in lengths):
         return max(lengths)  # scalars: no ufunc call per block
     m = lengths[0]
@@ -84,7 +110,17 @@ def _longest(*lengths):
     return m
 
 
-def _fourbar_forward_fast(l1, l2, l3, l4, t2, sgn, tol, out, ws):
+def _fourbar_forward_fast(
+    l1: Num,
+    l2: Num,
+    l3: Num,
+    l4: Num,
+    t2: Num,
+    sgn: Num,
+    tol: float,
+    out: Sequence[np.ndarray],
+    ws: _Work,
+) -> Good:
     angles, ok, tsin, res = out  # angles = (theta3, theta4)
     w = ws('w', 2)  # w = O4 - A
     np.cos(t2, out=w[0])
@@ -102,7 +138,9 @@ def _fourbar_forward_fast(l1, l2, l3, l4, t2, sgn, tol, out, ws):
     return good
 
 
-def _fourbar_forward_general(l1, l2, l3, l4, t2, br, tangency_tol):
+def _fourbar_forward_general(
+    l1: Num, l2: Num, l3: Num, l4: Num, t2: Num, br: Num, tangency_tol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     (l1, l2, l3, l4, t2, br), finite, _ = _general_inputs((l1, l2, l3, l4, t2, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
         ax, ay = l2 * np.cos(t2), l2 * np.sin(t2)
@@ -120,7 +158,15 @@ def _fourbar_forward_general(l1, l2, l3, l4, t2, br, tangency_tol):
     return t3, t4, ok, tsin, residual
 
 
-def fourbar_forward(l1, l2, l3, l4, theta2, branch=1, tangency_tol: float = TANGENCY_TOL):
+def fourbar_forward(
+    l1: npt.ArrayLike,
+    l2: npt.ArrayLike,
+    l3: npt.ArrayLike,
+    l4: npt.ArrayLike,
+    theta2: npt.ArrayLike,
+    branch: npt.ArrayLike = 1,
+    tangency_tol: float = TANGENCY_TOL,
+) -> FourBarSolution:
     """Four-bar position analysis: crank angle -> coupler and rocker angles.
 
     Parameters
@@ -158,7 +204,17 @@ def fourbar_forward(l1, l2, l3, l4, theta2, branch=1, tangency_tol: float = TANG
     return _shaped(FourBarSolution, outs, shape)
 
 
-def _fourbar_inverse_fast(l1, l2, l3, l4, t4, sgn, tol, out, ws):
+def _fourbar_inverse_fast(
+    l1: Num,
+    l2: Num,
+    l3: Num,
+    l4: Num,
+    t4: Num,
+    sgn: Num,
+    tol: float,
+    out: Sequence[np.ndarray],
+    ws: _Work,
+) -> Good:
     angles, ok, tsin, res = out  # angles = (theta2, theta3)
     cs, w = ws('cs', 2), ws('w', 2)
     np.cos(t4, out=cs[0])
@@ -182,7 +238,9 @@ def _fourbar_inverse_fast(l1, l2, l3, l4, t4, sgn, tol, out, ws):
     return good
 
 
-def _fourbar_inverse_general(l1, l2, l3, l4, t4, br, tangency_tol):
+def _fourbar_inverse_general(
+    l1: Num, l2: Num, l3: Num, l4: Num, t4: Num, br: Num, tangency_tol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     (l1, l2, l3, l4, t4, br), finite, _ = _general_inputs((l1, l2, l3, l4, t4, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
         o4x, o4y = l1, np.zeros_like(l1)
@@ -200,7 +258,15 @@ def _fourbar_inverse_general(l1, l2, l3, l4, t4, br, tangency_tol):
     return t2, t3, ok, tsin, residual
 
 
-def fourbar_inverse(l1, l2, l3, l4, theta4, branch=1, tangency_tol: float = TANGENCY_TOL):
+def fourbar_inverse(
+    l1: npt.ArrayLike,
+    l2: npt.ArrayLike,
+    l3: npt.ArrayLike,
+    l4: npt.ArrayLike,
+    theta4: npt.ArrayLike,
+    branch: npt.ArrayLike = 1,
+    tangency_tol: float = TANGENCY_TOL,
+) -> FourBarInverseSolution:
     """Four-bar inverse position analysis: rocker angle -> crank and coupler angles.
 
     B = O4 + l4*(cos theta4, sin theta4); A is the intersection of circle (B, l3) and circle

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
+import numpy.typing as npt
 
 from ..dyads import TANGENCY_TOL
-from .blocks import _atan2, _blocked, _good, _rrr, _shaped, _zero_where_not
+from .blocks import Good, Num, _atan2, _blocked, _good, _rrr, _shaped, _Work, _zero_where_not
 from .common import (
     _NONFINITE_RESIDUAL,
     SliderCrankInverseSolution,
@@ -19,15 +22,20 @@ from .four_r import _atan2_general, _finish, _general_inputs, _longest
 # --------------------------------------------------------------------------- slider-crank
 
 
-def _slider_residual(r, l, e, t2, t3, x) -> np.ndarray:
+def _slider_residual(
+    r: np.ndarray, l: np.ndarray, e: np.ndarray, t2: np.ndarray, t3: np.ndarray, x: np.ndarray
+) -> np.ndarray:
     """|O2A + AB - (x, e)| / max(r, l, |e|)."""
     rx = r * np.cos(t2) + l * np.cos(t3) - x
     ry = r * np.sin(t2) + l * np.sin(t3) - e
     scale = np.maximum(np.maximum(np.abs(r), np.abs(l)), np.abs(e))
-    return np.hypot(rx, ry) / np.where(scale > 0, scale, 1.0)
+    residual: np.ndarray = np.hypot(rx, ry) / np.where(scale > 0, scale, 1.0)
+    return residual
 
 
-def _slider_forward_fast(r, l, e, t2, sgn, tol, out, ws):
+def _slider_forward_fast(
+    r: Num, l: Num, e: Num, t2: Num, sgn: Num, tol: float, out: Sequence[np.ndarray], ws: _Work
+) -> Good:
     xt3, ok, res = out  # xt3 = (x, theta3)
     x, t3 = xt3
     a, rod = ws('a', 2), ws('rod', 2)  # A, and the rod B - A = (hx, dy)
@@ -67,7 +75,9 @@ def _slider_forward_fast(r, l, e, t2, sgn, tol, out, ws):
     return _good(res, None, ws)
 
 
-def _slider_forward_general(r, l, e, t2, br, tangency_tol):
+def _slider_forward_general(
+    r: Num, l: Num, e: Num, t2: Num, br: Num, tangency_tol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     (r, l, e, t2, br), finite, S = _general_inputs((r, l, e, t2, br), 3)
     with np.errstate(invalid='ignore', over='ignore'):
         ax, ay = r * np.cos(t2), r * np.sin(t2)
@@ -94,7 +104,14 @@ def _slider_forward_general(r, l, e, t2, br, tangency_tol):
     return x, t3, ok, residual
 
 
-def slider_crank_forward(r, l, e, theta2, branch=1, tangency_tol: float = TANGENCY_TOL):
+def slider_crank_forward(
+    r: npt.ArrayLike,
+    l: npt.ArrayLike,
+    e: npt.ArrayLike,
+    theta2: npt.ArrayLike,
+    branch: npt.ArrayLike = 1,
+    tangency_tol: float = TANGENCY_TOL,
+) -> SliderCrankSolution:
     """Offset slider-crank position analysis: crank angle -> slider position and rod angle.
 
     Parameters
@@ -132,7 +149,9 @@ def slider_crank_forward(r, l, e, theta2, branch=1, tangency_tol: float = TANGEN
     return _shaped(SliderCrankSolution, outs, shape)
 
 
-def _slider_inverse_fast(r, l, e, x, sgn, tol, out, ws):
+def _slider_inverse_fast(
+    r: Num, l: Num, e: Num, x: Num, sgn: Num, tol: float, out: Sequence[np.ndarray], ws: _Work
+) -> Good:
     angles, ok, res = out  # angles = (theta2, theta3)
     w = ws('w', 2)  # w = B - O2 = (x, e)
     np.copyto(w[0], x)
@@ -146,7 +165,9 @@ def _slider_inverse_fast(r, l, e, x, sgn, tol, out, ws):
     return good
 
 
-def _slider_inverse_general(r, l, e, x, br, tangency_tol):
+def _slider_inverse_general(
+    r: Num, l: Num, e: Num, x: Num, br: Num, tangency_tol: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     (r, l, e, x, br), finite, _ = _general_inputs((r, l, e, x, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
         a, _, ok = circle_intersection(
@@ -161,7 +182,14 @@ def _slider_inverse_general(r, l, e, x, br, tangency_tol):
     return t2, t3, ok, residual
 
 
-def slider_crank_inverse(r, l, e, x, branch=1, tangency_tol: float = TANGENCY_TOL):
+def slider_crank_inverse(
+    r: npt.ArrayLike,
+    l: npt.ArrayLike,
+    e: npt.ArrayLike,
+    x: npt.ArrayLike,
+    branch: npt.ArrayLike = 1,
+    tangency_tol: float = TANGENCY_TOL,
+) -> SliderCrankInverseSolution:
     """Offset slider-crank inverse: slider position -> crank and rod angles.
 
     A is the intersection of circle (O2, r) and circle (B = (x, e), l), taken with

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Container, Mapping
+from collections.abc import Callable, Container, Mapping
 from typing import Any, NoReturn
 
 import numpy as np
 
 from ..errors import SceneError
 from .mechanism import NAME_RE
+
+#: a validator's error: raises SceneError naming (key, message, value); never returns
+Fail = Callable[..., NoReturn]
 
 # ---- validation helpers ----------------------------------------------------------------------
 
@@ -60,7 +63,7 @@ class _Ctx:
             self.fail(key, 'must be a mapping', value)
         return value
 
-    def only(self, key: str, data: Mapping[str, Any], allowed: set[str]):
+    def only(self, key: str, data: Mapping[str, Any], allowed: set[str]) -> None:
         for k in data:
             if k not in allowed:
                 self.fail(

@@ -540,7 +540,11 @@ def _make_link(name: str, members: tuple[str, ...], points: Mapping[str, np.ndar
     return Link(name, members, angle_ref=0.0)
 
 
-def _length_scale(points, links, prismatics) -> float:
+def _length_scale(
+    points: Mapping[str, np.ndarray],
+    links: Mapping[str, Link],
+    prismatics: Mapping[str, PrismaticJoint],
+) -> float:
     """The largest distance between two points of one link (or a slider's reference throw)."""
     best = 0.0
     for link in links.values():
@@ -555,7 +559,7 @@ def _length_scale(points, links, prismatics) -> float:
     return best
 
 
-def _check_reference_limits(ctx: _Ctx, mech: Mechanism, form: str, data: Mapping) -> None:
+def _check_reference_limits(ctx: _Ctx, mech: Mechanism, form: str, data: Mapping[str, Any]) -> None:
     """The reference pose must be one the actuators can reach: it is the node's first state and
     it chooses the assembly mode. An actuator whose reference value is outside its own limits
     is refused, naming the key and both."""

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import CommandError
+from .checks import Fail
 
 
 class OutputKind(Enum):
@@ -316,7 +317,7 @@ def joint_map_to_dict(jmap: JointMap) -> dict[str, Any]:
 
 
 def joint_map_from_dict(
-    data: Any, scene_joints: Sequence[str], knowns: Sequence[str], fail: Any
+    data: Any, scene_joints: Sequence[str], knowns: Sequence[str], fail: Fail
 ) -> JointMap:
     """A scene's ``joint_coordinates`` -> JointMap; ``fail(key, message, value)`` raises the
     scene's error naming the key. ``scene_joints``: the scene's joints; ``knowns``: its
@@ -395,7 +396,7 @@ def joint_map_from_dict(
     return JointMap(outputs, inputs, actuated, _plane(data.get('plane'), f'{key}.plane', fail))
 
 
-def _plane(data: Any, key: str, fail: Any) -> Plane | None:
+def _plane(data: Any, key: str, fail: Fail) -> Plane | None:
     if data is None:
         return None
     if not isinstance(data, Mapping) or set(map(str, data)) != {'e1', 'e2', 'normal', 'depths'}:
@@ -418,7 +419,7 @@ def _plane(data: Any, key: str, fail: Any) -> Plane | None:
     )
 
 
-def _list(value: Any, key: str, fail: Any) -> list[Any]:
+def _list(value: Any, key: str, fail: Fail) -> list[Any]:
     if value is None:
         return []
     if not isinstance(value, list):
@@ -426,7 +427,7 @@ def _list(value: Any, key: str, fail: Any) -> list[Any]:
     return value
 
 
-def _item_name(item: Any, allowed: set[str], where: str, fail: Any) -> str:
+def _item_name(item: Any, allowed: set[str], where: str, fail: Fail) -> str:
     if not isinstance(item, Mapping):
         fail(where, 'must be a mapping', item)
     unknown = sorted(set(map(str, item)) - allowed)
@@ -438,17 +439,17 @@ def _item_name(item: Any, allowed: set[str], where: str, fail: Any) -> str:
     return name
 
 
-def _num(value: Any, where: str, fail: Any) -> float:
+def _num(value: Any, where: str, fail: Fail) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         fail(where, 'must be a finite number', value)
     return float(value)
 
 
-def _opt(value: Any, where: str, fail: Any) -> float | None:
+def _opt(value: Any, where: str, fail: Fail) -> float | None:
     return None if value is None else _num(value, where, fail)
 
 
-def _unit(value: Any, where: str, fail: Any) -> float:
+def _unit(value: Any, where: str, fail: Fail) -> float:
     v = _num(value, where, fail)
     if v not in (1.0, -1.0):
         fail(where, 'scale must be 1 or -1', value)

@@ -18,12 +18,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import NoReturn
 
 import numpy as np
 
 from ..dyads import dyad_point, solve_rrr_dyad
 from ..errors import SceneError
 from ..ops import SCALAR
+from .checks import Fail
 from .dimensions import LinkDistance, SliderOffset, parse_name
 from .mechanism import AngleActuator, Mechanism, SlideActuator
 
@@ -50,7 +52,7 @@ class _Shapes:
     """Each link's points in its own frame (the drawn coordinates, the link at angle 0), with
     the stated lengths blended in by ``lam`` (0 = as drawn, 1 = as stated)."""
 
-    def __init__(self, mech: Mechanism, dims: Mapping[str, float], fail):
+    def __init__(self, mech: Mechanism, dims: Mapping[str, float], fail: Fail):
         self.mech = mech
         self.drawn = {p: complex(*map(float, xy)) for p, xy in mech.points.items()}
         self.lengths: dict[str, dict[frozenset[str], tuple[float, float]]] = {}
@@ -86,7 +88,7 @@ class _Shapes:
                 if not math.isfinite(abs(shape[p] - shape[q])):
                     fail(f'{link}.{p}-{q}', 'puts the link beyond the float range', want)
 
-    def _check_pair(self, dim: LinkDistance, fail, value) -> None:
+    def _check_pair(self, dim: LinkDistance, fail: Fail, value: object) -> None:
         link = self.mech.links.get(dim.link)
         if link is None:
             fail(dim.name, f'{dim.link!r} is not a link of {self.mech.name!r}', value)
@@ -107,7 +109,7 @@ class _Shapes:
                 value,
             )
 
-    def local(self, link: str, lam: float, fail=None) -> dict[str, complex]:
+    def local(self, link: str, lam: float, fail: Fail | None = None) -> dict[str, complex]:
         """Link ``link``'s points at blend ``lam``: its first point and axis direction stay
         where drawn, each further point is placed by its distances from the first two on the
         side it is drawn (the two-circle construction)."""
@@ -227,7 +229,7 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
     dimension when a name does not fit the mechanism, a link cannot take the lengths, or the
     pose cannot be closed in the drawn assembly mode with the actuators at their drawn values."""
 
-    def fail(name: str, message: str, value: object) -> None:
+    def fail(name: str, message: str, value: object) -> NoReturn:
         raise SceneError(message, file=mech.source, key=f'dimensions.{name}', value=value)
 
     if len(mech.moving_links) > MAX_REDRAW_LINKS:

@@ -6,10 +6,10 @@ import dataclasses
 import os
 import re
 import stat
-from collections.abc import Mapping
+from collections.abc import Hashable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 import yaml
 
@@ -70,7 +70,7 @@ def _build(data: Any, source: str, dimensions: Mapping[str, float] | None) -> Me
     rest = {k: v for k, v in data.items() if k != 'joint_coordinates'}
     mech = build_mechanism(rest, source, dimensions)
 
-    def fail(key: str, message: str, value: Any = None, has_value: bool = True) -> None:
+    def fail(key: str, message: str, value: Any = None, has_value: bool = True) -> NoReturn:
         raise SceneError(message, file=source, key=key, value=value, has_value=has_value)
 
     jmap = joint_map_from_dict(
@@ -186,7 +186,9 @@ class _UniqueKeyLoader(yaml.SafeLoader):
         self._depth += 1
         try:
             if self.check_event(yaml.AliasEvent):
-                event = self.peek_event()
+                # types-PyYAML leaves Parser.peek_event unannotated (here: the AliasEvent
+                # check_event saw); the same below
+                event = self.peek_event()  # type: ignore[no-untyped-call]
                 err = yaml.composer.ComposerError(
                     None,
                     None,
@@ -199,7 +201,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
             if self._depth > MAX_SCENE_DEPTH + 1:  # + 1: the document's top node
                 raise _OutOfBounds(
                     f'nested deeper than {MAX_SCENE_DEPTH} levels (line '
-                    f'{self.peek_event().start_mark.line + 1})',
+                    f'{self.peek_event().start_mark.line + 1})',  # type: ignore[no-untyped-call]
                     self._where(),
                 )
             node = super().compose_node(parent, index)
@@ -219,7 +221,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
             if label is not None:
                 self._path.pop()
 
-    def construct_mapping(self, node, deep=False):
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Hashable, Any]:
         seen: dict[Any, Any] = {}
         for key_node, _ in node.value:
             # deep: a list key is filled in only later otherwise, and the message shows it

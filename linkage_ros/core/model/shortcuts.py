@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 
 from .checks import _Ctx
+
+#: a crank's reference points (A and the output point), (2,) arrays in m
+_Points = tuple[np.ndarray, np.ndarray]
 
 # ---- shortcut forms --------------------------------------------------------------------------
 
@@ -35,8 +38,14 @@ def _crank_actuator(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> dict[str, A
 
 
 def _reference_input(
-    ctx: _Ctx, key: str, spec: Mapping[str, Any], start: float, assemble, lengths, intervals
-):
+    ctx: _Ctx,
+    key: str,
+    spec: Mapping[str, Any],
+    start: float,
+    assemble: Callable[[float], _Points | None],
+    lengths: list[float],
+    intervals: Callable[[], list[tuple[float, float]]],
+) -> _Points:
     """The reference crank angle: ``input`` if given (it must assemble), else the assembling
     angle nearest ``start`` (60 degrees above the ground line). ``assemble(theta)`` returns the
     reference points or None; ``intervals()`` lists the (lo, hi) crank angles that assemble
@@ -62,7 +71,9 @@ def _reference_input(
     ctx.fail(key, 'these lengths do not assemble at any crank angle', lengths)
 
 
-def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
+def _four_bar_to_general(
+    ctx: _Ctx, data: Mapping[str, Any]
+) -> tuple[dict[str, Any], dict[str, Any]]:
     from ..dyads import circle_circle
 
     fb = ctx.mapping('four_bar', data['four_bar'])
@@ -109,12 +120,12 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
         o4 = o2 + l1 * np.array([math.cos(gang), math.sin(gang)])
     branch = _branch(ctx, 'four_bar.branch', fb.get('branch', 1))
 
-    def assemble(theta):
+    def assemble(theta: float) -> _Points | None:
         a = o2 + l2 * np.array([math.cos(theta), math.sin(theta)])
         b, _, ok, _, _ = circle_circle(a, l3, o4, l4, branch)
         return (a, b) if ok and np.hypot(*(b - a)) > 0 else None
 
-    def intervals():
+    def intervals() -> list[tuple[float, float]]:
         from ..analysis import fourbar_input_intervals
 
         try:
@@ -171,7 +182,9 @@ def _four_bar_to_general(ctx: _Ctx, data: Mapping[str, Any]):
     }
 
 
-def _slider_crank_to_general(ctx: _Ctx, data: Mapping[str, Any]):
+def _slider_crank_to_general(
+    ctx: _Ctx, data: Mapping[str, Any]
+) -> tuple[dict[str, Any], dict[str, Any]]:
     sc = ctx.mapping('slider_crank', data['slider_crank'])
     ctx.only(
         'slider_crank',
@@ -188,7 +201,7 @@ def _slider_crank_to_general(ctx: _Ctx, data: Mapping[str, Any]):
     o2 = np.zeros(2)
     foot = o2 + e * n
 
-    def assemble(theta):
+    def assemble(theta: float) -> _Points | None:
         a = o2 + r * np.array([math.cos(theta), math.sin(theta)])
         dy = e - float(np.dot(a, n))
         if rod - abs(dy) < 0:
@@ -197,7 +210,7 @@ def _slider_crank_to_general(ctx: _Ctx, data: Mapping[str, Any]):
         x = float(np.dot(a, d)) + branch * math.sqrt(rod - abs(dy)) * math.sqrt(rod + abs(dy))
         return a, foot + x * d
 
-    def intervals():
+    def intervals() -> list[tuple[float, float]]:
         # A's height over the line of stroke is r sin(phi), phi = theta - direction; the rod
         # reaches the line iff |e - r sin(phi)| <= rod
         lo, hi = max((e - rod) / r, -1.0), min((e + rod) / r, 1.0)

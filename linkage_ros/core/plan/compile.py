@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from .. import dyads
 from ..dyads import circle_side, line_side, side_sign
@@ -27,7 +28,7 @@ from ..steps import (
     StepKind,
     TwoPoints,
 )
-from .poses import batch_poses
+from .poses import Poses, batch_poses
 from .spec import Spec
 
 # ---- bodies ----------------------------------------------------------------------------------
@@ -35,6 +36,9 @@ from .spec import Spec
 
 #: the steps that place a whole body (its pose, so every point it carries)
 _PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
+
+#: what a step needs or gives: ('pose', body index), ('angle', body index) or ('pt', point)
+Need = tuple[str, int | str]
 
 
 @dataclass
@@ -63,8 +67,8 @@ class Step:
     point: str | None = None
     args: StepArgs | None = None  # what the step works on, by kind (core.steps)
     sign: int = 0  # branching steps: +1 / -1 from the reference pose
-    needs: tuple = ()
-    gives: tuple = ()
+    needs: tuple[Need, ...] = ()
+    gives: tuple[Need, ...] = ()
 
     @property
     def branching(self) -> bool:
@@ -113,11 +117,11 @@ class Plan:
         self._prune(wanted_links, wanted_points)
 
     # -- bodies -------------------------------------------------------------------------------
-    def _build_bodies(self):
+    def _build_bodies(self) -> None:
         mech = self.mech
         parent = {n: n for n in mech.links}
 
-        def find(a):
+        def find(a: str) -> str:
             while parent[a] != a:
                 parent[a] = parent[parent[a]]
                 a = parent[a]
@@ -182,7 +186,7 @@ class Plan:
                 self.body_of[n] = body.index
 
     # -- compile ------------------------------------------------------------------------------
-    def _compile(self):
+    def _compile(self) -> None:
         mech = self.mech
         steps: list[Step] = []
         known_pts: set[str] = set()
@@ -193,7 +197,7 @@ class Plan:
             for p in b.points:
                 pt_bodies.setdefault(p, []).append(b.index)
 
-        def place(step: Step, bi: int):
+        def place(step: Step, bi: int) -> None:
             steps.append(step)
             placed.add(bi)
             angled.add(bi)
@@ -217,10 +221,10 @@ class Plan:
                 )
                 known_pts.add(s.point)
 
-        def known_of(bi):
+        def known_of(bi: int) -> list[str]:
             return [p for p in self.bodies[bi].points if p in known_pts]
 
-        def point_needs(p):
+        def point_needs(p: str) -> Need:
             return ('pt', p)
 
         while len(placed) < len(self.bodies):
@@ -280,21 +284,23 @@ class Plan:
                 break
             steps.append(step)
             if step.op == StepKind.RPR:
+                assert step.body is not None  # an RPR step names the body it orients
                 placed.add(step.body)
                 angled.add(step.body)
                 known_pts.update(self.bodies[step.body].points)
             else:
+                assert step.point is not None  # an RRR / RRP step names the point it solves
                 known_pts.add(step.point)
         self.steps_all = steps
 
-    def _two_distinct(self, bi, kp):
+    def _two_distinct(self, bi: int, kp: Sequence[str]) -> tuple[str, str] | None:
         for i in range(len(kp)):
             for j in range(i + 1, len(kp)):
                 if np.hypot(*(self.mech.points[kp[i]] - self.mech.points[kp[j]])) > 0:
                     return (kp[i], kp[j])
         return None
 
-    def _angle_source(self, bi, angled):
+    def _angle_source(self, bi: int, angled: set[int]) -> tuple[int, str, str, int | None] | None:
         for a, b, i in self.relations:
             ba, bb = self.body_of[a], self.body_of[b]
             if bb == bi and ba in angled:
@@ -303,7 +309,13 @@ class Plan:
                 return bb, a, b, i
         return None
 
-    def _branching_step(self, placed, known_pts, pt_bodies, known_of):
+    def _branching_step(
+        self,
+        placed: set[int],
+        known_pts: set[str],
+        pt_bodies: Mapping[str, list[int]],
+        known_of: Callable[[int], list[str]],
+    ) -> Step | None:
         mech = self.mech
         ref = mech.points
         refc = {p: _cx(v) for p, v in ref.items()}  # the reference pose, complex
@@ -372,13 +384,15 @@ class Plan:
         return None
 
     # -- pruning ------------------------------------------------------------------------------
-    def _prune(self, wanted_links, wanted_points):
+    def _prune(
+        self, wanted_links: Iterable[str] | None, wanted_points: Iterable[str] | None
+    ) -> None:
         mech = self.mech
         if wanted_links is None and wanted_points is None:
             wanted_links = list(mech.links)
         wanted_links = list(wanted_links or [])
         wanted_points = list(wanted_points or [])
-        need: set = set()
+        need: set[Need] = set()
         for link in wanted_links:
             need.add(('pose', self.body_of[link]))
         for p in wanted_points:
@@ -388,11 +402,9 @@ class Plan:
         for k in range(len(self.steps_all) - 1, -1, -1):
             st = self.steps_all[k]
             gives = set(st.gives)
-            if st.body is not None and st.op in _PLACES_BODY:
+            if st.op in _PLACES_BODY:  # ground, two points, point + angle, RPR
+                assert st.body is not None  # a step that places a body names it
                 gives |= {('pt', p) for p in self.bodies[st.body].points}
-            if st.op == StepKind.RPR:
-                gives.add(('angle', st.body))
-            if st.op in (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE):
                 gives.add(('angle', st.body))
             hit = gives & need
             if hit or st.op == StepKind.GROUND:
@@ -425,7 +437,7 @@ class Plan:
         n: int,
         signs: Sequence[int] | None = None,
         tol: float = dyads.TANGENCY_TOL,
-    ):
+    ) -> tuple[Poses, dict[str, np.ndarray], dict[str, np.ndarray]]:
         """Execute the plan over a batch of n with fixed branch signs (the batch view of
         :class:`~linkage_ros.core.execute.PlanExecutor`: points as (n, 2) arrays).
 
@@ -449,11 +461,12 @@ class Plan:
         return batch_poses(r.poses), {p: to_xy(z) for p, z in r.points.items()}, info
 
 
-def _norm(v):
-    return np.hypot(v[..., 0], v[..., 1])
+def _norm(v: np.ndarray) -> np.ndarray:
+    norm: np.ndarray = np.hypot(v[..., 0], v[..., 1])
+    return norm
 
 
-def _cx(v) -> complex:
+def _cx(v: Sequence[float] | npt.NDArray[np.float64]) -> complex:
     return complex(float(v[0]), float(v[1]))
 
 
@@ -465,11 +478,11 @@ def _cx(v) -> complex:
 
 def run_one(
     plan: Plan,
-    values,
-    signs=None,
+    values: Sequence[Any],
+    signs: Sequence[int] | None = None,
     prefer: Mapping[str, Any] | None = None,
     tol: float = dyads.TANGENCY_TOL,
-    prev_margins=None,
+    prev_margins: Sequence[float] | None = None,
 ) -> PlanRun:
     """:class:`~linkage_ros.core.execute.PlanExecutor` on one command: ``values[i]`` a float
     (angle/slide) or an (x, y) pair (point); ``prefer`` and ``prev_margins`` steer continuity

@@ -22,9 +22,10 @@ class Poses:
     T: dict[str, np.ndarray] = field(default_factory=dict)
 
     def apply(self, link: str, p_ref: np.ndarray) -> np.ndarray:
-        return (
+        world: np.ndarray = (
             dyads.rotate(np.broadcast_to(p_ref, self.T[link].shape), self.phi[link]) + self.T[link]
         )
+        return world
 
     def world(self, link: str, point: str, mech: Mechanism) -> np.ndarray:
         return self.apply(link, mech.points[point])

@@ -4,10 +4,13 @@ value off solved poses."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
+from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
 from ..errors import PlanError
 from ..execute import LinkPoses
@@ -93,7 +96,7 @@ def spec_point_link(mech: Mechanism, point: str, preferred: str) -> str:
     return preferred if point in mech.links[preferred].points else mech.links_of_point(point)[0]
 
 
-def _c(v) -> complex:
+def _c(v: Sequence[float] | npt.NDArray[np.float64]) -> complex:
     return complex(float(v[0]), float(v[1]))
 
 
@@ -116,7 +119,7 @@ class SpecReader:
     origin: complex = 0j  # slide: the origin on the guide
     direction: complex = 0j  # slide: the direction (reference pose)
 
-    def __call__(self, ops, poses: LinkPoses):
+    def __call__(self, ops: Any, poses: LinkPoses) -> Any:
         if self.kind is ReadKind.ANGLE:
             return ops.wrap(poses.phi[self.link] - poses.phi[self.reference] + self.offset)
         x = poses.rot[self.link] * self.p_ref + poses.T[self.link]
@@ -150,13 +153,13 @@ def spec_reader(mech: Mechanism, spec: Spec) -> SpecReader:
             )
 
 
-def spec_value_of(ops, mech: Mechanism, spec: Spec, poses: LinkPoses):
+def spec_value_of(ops: Any, mech: Mechanism, spec: Spec, poses: LinkPoses) -> Any:
     """A spec's value on solved poses (complex link poses, either backend): an angle (rad,
     wrapped to (-pi, pi]) or slide (m), or a point's complex position."""
     return spec_reader(mech, spec)(ops, poses)
 
 
-def spec_value_one(mech: Mechanism, spec: Spec, poses: ScalarPoses):
+def spec_value_one(mech: Mechanism, spec: Spec, poses: ScalarPoses) -> Any:
     """A spec's value on one configuration: a float, or (x, y) for a point."""
     v = spec_value_of(SCALAR, mech, spec, poses)
     return (v.real, v.imag) if isinstance(spec, PointSpec) else v

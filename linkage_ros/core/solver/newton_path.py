@@ -4,7 +4,7 @@ warm start, continuation with branch checks, a careful fallback."""
 from __future__ import annotations
 
 import math
-from typing import Any
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -19,7 +19,7 @@ from .reading import jacobian_sign, mode_label
 from .result import CLOSURE_LIMIT, NEAR_SINGULAR_COND, WALK_BUDGET, Result, branch_text
 
 #: what a configuration's branch geometry is: (signs, margins, poses, points)
-Geometry = tuple[Any, Any, LinkPoses, dict[str, complex]]
+Geometry = tuple[tuple[int, ...], Sequence[float], LinkPoses, dict[str, complex]]
 
 
 def newton_at(
@@ -182,7 +182,8 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     total_iter = [0]
     since_progress = [0]  # iterations since the last substep that succeeded
     branches = bool(c.full_plan.complete and c.full_plan.branch_steps)
-    seen: dict[int, tuple] = {}  # branch geometry of the configurations met in this solve
+    # branch geometry of the configurations met in this solve
+    seen: dict[int, tuple[np.ndarray, Geometry]] = {}
     last = cont.last
     if branches and last is not None and last.x_all is not None:
         # x0 is the previous answer: its points and poses are known, and a Newton answer
@@ -194,16 +195,20 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         )
         seen[id(x0)] = (x0, (*known_geo, last.poses, last.points))
 
-    def geometry(x, fixed):
+    def geometry(x: np.ndarray, fixed: LinkPoses | None) -> Geometry:
         g = seen.get(id(x))
         if g is None or g[0] is not x:
             g = seen[id(x)] = (x, branch_of(c, x, fixed))
         return g[1]
 
-    def jump(xa, fixed_a, xb, fixed_b):
+    def jump(
+        xa: np.ndarray, fixed_a: LinkPoses | None, xb: np.ndarray, fixed_b: LinkPoses | None
+    ) -> bool:
         return branches and branch_jump(geometry(xa, fixed_a), geometry(xb, fixed_b))
 
-    def walk(va, xa, vb, depth, sign_a=None):
+    def walk(
+        va: Values, xa: np.ndarray, vb: Values, depth: int, sign_a: int | None = None
+    ) -> tuple[SolveResult | None, str | None, LinkPoses | None]:
         fixed_a = c.fixed_poses(va)[0]
         if sign_a is None:  # det J sign at the start; 0 where it is singular
             sign_a = c.system.start_sign(xa, va, fixed_a)
@@ -239,7 +244,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
                     ),
                     None,
                 )
-            why = r.reason or (
+            why: str | None = r.reason or (
                 'the sign of det J changed: a singularity (toggle or change '
                 'point) lies between the previous configuration and this input'
             )

@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -12,8 +13,11 @@ from ..model import Mechanism
 #: machine epsilon (float64): the unit of rounding in branch_identity_defined
 _EPS = float(np.finfo(float).eps)
 
+#: one command's float or a batch's array: the bounds below run the same on either
+_FloatOrArray = TypeVar('_FloatOrArray', float, np.ndarray)
 
-def branch_undefined_below(residual):
+
+def branch_undefined_below(residual: _FloatOrArray) -> _FloatOrArray:
     """Dyad margin (|sin| of the transmission angle) below which the two assembly modes cannot
     be told apart, for an answer whose loop closure misses by ``residual`` (fraction of the
     length scale; scalar or array).
@@ -27,10 +31,11 @@ def branch_undefined_below(residual):
     SIMD path computed the answer: every kernel is within a few eps of exact rounding.
     """
     # ** 0.5: the same square root on a float (no numpy call per command) or an array
-    return 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
+    bound: _FloatOrArray = 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
+    return bound
 
 
-def branch_identity_defined(margin, residual):
+def branch_identity_defined(margin: _FloatOrArray, residual: _FloatOrArray) -> bool | np.ndarray:
     """True where ``margin`` is above the noise bound of :func:`branch_undefined_below`
     (scalar or array, elementwise)."""
     return margin > branch_undefined_below(residual)
@@ -132,6 +137,6 @@ def branch_signs(text: str) -> tuple[int, ...]:
     return tuple(1 if c == '+' else -1 for c in text)
 
 
-def branch_text(signs) -> str:
+def branch_text(signs: Iterable[float]) -> str:
     """Branch signs as the status shows them: '+-' for (+1, -1)."""
     return ''.join('+' if s > 0 else '-' for s in signs)
