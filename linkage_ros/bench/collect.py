@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from .ros_latency import bench_node
+from .scaling import bench_scaling, scaling_targets
 from .settings import (
     REF_DPS,
     SCENES,
@@ -135,6 +136,7 @@ def collect(sizes: Sizes, scenes: Sequence[str] = SCENES, node: bool = True) -> 
     report['throughput'] = bench_throughput(sizes)
     _log('excavator: one output vs all')
     report['outputs'] = bench_outputs(sizes)
+    report['scaling'] = bench_scaling(sizes.scaling)
     if node:
         report['node'] = bench_node(sizes)
     else:
@@ -212,6 +214,7 @@ def evaluate_targets(report: dict) -> list[dict]:
                     'value': ratio,
                 }
             )
+    out.extend(scaling_targets(report.get('scaling') or []))
     # (c) node latency and rate
     node = report.get('node', {})
     tg = node.get('targets', {})

@@ -41,6 +41,8 @@ class Sizes:
     node_all_rate: float
     # the scenes of those runs; () = every packaged scene
     node_all_scenes: tuple[str, ...] = ()
+    # numbers of independent four-bars of the big-scene case (scaling.py); () = skip it
+    scaling: tuple[int, ...] = ()
 
 
 #: the node's default queue_depth (and the relay's): the targets' QoS in the main measurements
@@ -60,6 +62,7 @@ FULL = Sizes(
     node_deep_depth=100,
     node_deep_rates=(1000.0, 2000.0),
     node_all_rate=1000.0,
+    scaling=(10, 30, 100, 300),
 )
 QUICK = Sizes(
     sweep=12,
@@ -76,6 +79,7 @@ QUICK = Sizes(
     node_deep_rates=(200.0,),
     node_all_rate=200.0,
     node_all_scenes=('four_bar', 'excavator'),  # the simplest and the largest
+    scaling=(10, 40),
 )
 
 
