@@ -27,7 +27,7 @@ from .mechanism import (
     SlideActuator,
     reference_value,
 )
-from .redraw import redraw
+from .redraw import RedrawRefused, redraw
 from .shortcuts import _four_bar_to_general, _slider_crank_to_general
 
 
@@ -146,7 +146,16 @@ def _with_dimensions(
             raise SceneError(f'{exc} (with the dimensions {stated})') from None
         mech.stated = dict(dims)
         return mech
-    new = redraw(drawn, dims)
+    try:
+        new = redraw(drawn, dims)
+    except RedrawRefused:
+        if drawn.actuators or drawn.dof != 0:
+            raise
+        # a structure has no input to hold: whether it assembles with the stated lengths is
+        # its solve's question (refused there with the miss), not a scene error
+        drawn.dimensions.update(_stated_lengths(dims))
+        drawn.stated = dict(dims)
+        return drawn
     plain['points'] = {p: [x, y] for p, (x, y) in new.points.items()}
     sliders = []
     for spec in plain.get('sliders') or []:

@@ -36,6 +36,11 @@ MAX_STEPS = 512
 MAX_REDRAW_LINKS = 64
 
 
+class RedrawRefused(SceneError):
+    """The continuation from the drawn lengths to the stated ones stopped closing (the
+    dimensions are valid names and values; the pose with them is not reached)."""
+
+
 @dataclass(frozen=True)
 class Redrawn:
     """The new reference pose: every point's coordinates (m), and each slider's line as its
@@ -249,11 +254,12 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
     while lam < 1.0:
         steps += 1
         if steps > MAX_STEPS or step < 1.0 / (1 << 20):
-            raise SceneError(
+            held = ' with every actuator held at its drawn value' if mech.actuators else ''
+            raise RedrawRefused(
                 f'the drawn pose cannot be closed with {names}: at {lam:.0%} of the way from '
-                'the drawn lengths the mechanism stops closing with every actuator held at its '
-                'drawn value (it would not assemble, or would pass a toggle position and change '
-                'assembly mode); redraw the reference pose nearer the new dimensions',
+                f'the drawn lengths the mechanism stops closing{held} (it would not assemble, '
+                'or would pass a toggle position and change assembly mode); redraw the '
+                'reference pose nearer the new dimensions',
                 file=mech.source,
                 key='dimensions',
                 value=dict(dims),
