@@ -63,12 +63,14 @@ def _part(mech: Mechanism, links: set[str]) -> Mechanism:
     """The mechanism of the ground and ``links`` (one independent part)."""
     ground = mech.links[mech.ground]
     used = {p for l in links for p in mech.links[l].points}
+    # the ground keeps its axis points, first and in order (its axis, when not named, is its
+    # first two points), and the pivots of this part
     keep_ground = set(ground.axis or ground.points[:2]) | used
     ground_part = Link(
         ground.name,
         tuple(p for p in ground.points if p in keep_ground),
         ground.angle_ref,
-        ground.axis or (tuple(ground.points[:2]) if len(ground.points) >= 2 else None),  # type: ignore[arg-type]
+        ground.axis,
     )
     kept = links | {mech.ground}
     points = used | set(ground_part.points)
