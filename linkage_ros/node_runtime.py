@@ -13,7 +13,7 @@ from rclpy.node import Node
 from rclpy.parameter import Parameter
 
 from .core.model import Scene
-from .core.solver.modes import reference_toggle_warnings
+from .core.reference_warnings import reference_pose_warnings
 from .params import PARAMETERS, ConfigError
 
 
@@ -91,7 +91,7 @@ def log_mechanism(node: Any, scene: Scene, replacing: bool) -> None:
             else ''
         )
     )
-    for warning in reference_toggle_warnings(engine.forward.compiled):
+    for warning in reference_pose_warnings(engine.forward):  # every plan kind
         log.warning(f'scene {mech.name!r}: {warning}')
     if mech.dof > 2 and not cfg.target_point_hold:
         log.warning(

@@ -16,6 +16,7 @@ import numpy as np
 from .core_speed import bench_core_speed, core_speed_targets
 from .fleet import bench_fleet, fleet_targets
 from .ros_latency import NODE_PARTS, bench_node
+from .scaling import bench_scaling, scaling_targets
 from .settings import (
     REF_DPS,
     SCENES,
@@ -121,6 +122,7 @@ CASES = (
     'throughput',
     'core_speed',
     'outputs',
+    'scaling',
     *(f'node_{p}' for p in NODE_PARTS),
     'fleet',
 )
@@ -160,6 +162,9 @@ def collect(
     if 'outputs' in cases:
         _log('excavator: one output vs all')
         report['outputs'] = bench_outputs(sizes)
+    if 'scaling' in cases:
+        _log('big scenes: independent four-bars on one ground, time per actuator')
+        report['scaling'] = bench_scaling(sizes.scaling)
     parts = [p for p in NODE_PARTS if f'node_{p}' in cases]
     if node and parts:
         report['node'] = bench_node(sizes, parts=parts)
@@ -241,6 +246,7 @@ def evaluate_targets(report: dict) -> list[dict]:
             )
     if report.get('core_speed'):
         out.extend(core_speed_targets(report['core_speed']))
+    out.extend(scaling_targets(report.get('scaling') or []))
     # (c) node latency and rate
     node = report.get('node', {})
     tg = node.get('targets', {})

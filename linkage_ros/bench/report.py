@@ -8,6 +8,7 @@ from typing import Any
 from ..outputs import written_whole
 from .collect import _hz, _setting
 from .fleet import render_fleet
+from .scaling import scaling_markdown
 from .settings import (
     DEFAULT_DEPTH,
     ERROR_FLOOR,
@@ -223,6 +224,9 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
             f'of all outputs; Newton solves every loop whatever is asked '
             f'({one["newton_scalar_us"] / allo["newton_scalar_us"]:.2f}x).\n'
         )
+
+    for line in scaling_markdown(report.get('scaling') or []):
+        w(line)
 
     w('## Node latency and loss-free rate\n')
     node = report['node']

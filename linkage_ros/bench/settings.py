@@ -49,6 +49,8 @@ class Sizes:
     fleet_bags: int = 0
     fleet_commands: int = 0
     parquet_rows: int = 0
+    # numbers of independent four-bars of the big-scene case (scaling.py); () = skip it
+    scaling: tuple[int, ...] = ()
 
 
 #: the node's default queue_depth (and the relay's): the targets' QoS in the main measurements
@@ -71,6 +73,7 @@ FULL = Sizes(
     fleet_bags=8,
     fleet_commands=100_000,
     parquet_rows=1_000_000,
+    scaling=(10, 30, 100, 300),
 )
 QUICK = Sizes(
     sweep=12,
@@ -90,6 +93,7 @@ QUICK = Sizes(
     fleet_bags=2,
     fleet_commands=2000,
     parquet_rows=20_000,
+    scaling=(10, 40),
 )
 
 

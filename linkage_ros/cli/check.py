@@ -37,8 +37,8 @@ def check_report(
     mech, path: str, solver_method: str | None, notes: tuple[str, ...] | list[str] = ()
 ) -> dict:
     from ..core.motion.quantities import quantities_report
+    from ..core.reference_warnings import reference_pose_warnings
     from ..core.solver import Solver
-    from ..core.solver.modes import reference_toggle_warnings
 
     desc = mech.describe()
     grashof = None
@@ -92,13 +92,22 @@ def check_report(
             'newton_links': list(solver.system.free),
             'branch_count': solver.branch_count,
         },
-        'warnings': reference_toggle_warnings(solver.compiled),
+        'warnings': reference_pose_warnings(solver) + _structure_warnings(mech, solver),
         'motion': described_motion(quantities_report(mech), values),
         'notes': list(notes),  # what loading did (a robot description assembled, ...)
         # a robot description's joints as published, and the scene known each request
         # name stands for (None: a scene file, published as it is)
         'joint_coordinates': None if values.jm is None else values.jm.describe(),
     }
+
+
+def _structure_warnings(mech, solver) -> list[str]:
+    """A structure (0 DOF, no actuator) that does not assemble with its stated dimensions: its
+    solve is refused; say so, with the miss the solve reports."""
+    if mech.dof != 0 or mech.actuators:
+        return []
+    r = solver.solve({}, commit=False)
+    return [] if r.success else [f'the structure does not assemble: {r.reason}']
 
 
 def described_motion(m: dict | None, values: InputValues) -> dict | None:

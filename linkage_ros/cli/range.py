@@ -160,8 +160,7 @@ def analyse(args, mech) -> tuple[dict, int]:
         'toggles': {},
     }
     status = OK
-    for name in mech.actuators:
-        info = motion.actuator_range(mech, name)
+    for name, info in motion.actuator_ranges(mech).items():
         report['inputs'][name] = {
             k: info[k]
             for k in (

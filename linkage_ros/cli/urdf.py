@@ -15,7 +15,8 @@ parameter takes the same).
 
 Exit status: 0 written; 2 a usage error (a prefix or frame id that cannot name frames) or a
 scene the URDF cannot name (a point and a link of one name, a frame_id or names that would name
-two frames), one line on stderr.
+two frames) or draw (a structure that does not assemble with its stated dimensions), one line
+on stderr.
 """
 
 from __future__ import annotations
@@ -67,6 +68,18 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument('-o', '--output', metavar='FILE', help='write here (default: stdout)')
 
 
+def _check_assembles(mech) -> None:
+    """A structure (0 DOF) whose stated dimensions do not close has no pose to write (its
+    drawing is not its shape): refused with the miss its solve reports."""
+    if mech.dof != 0 or mech.actuators:
+        return
+    from ..core.solver import Solver
+
+    r = Solver(mech).solve({}, commit=False)
+    if not r.success:
+        raise UsageError(f'the structure does not assemble, so it has no pose: {r.reason}')
+
+
 def run(args: argparse.Namespace) -> int:
     try:
         why = prefix_error(args.prefix)
@@ -76,6 +89,7 @@ def run(args: argparse.Namespace) -> int:
         if why:
             raise UsageError(f'--frame-id {why}')
         mech, _path = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
+        _check_assembles(mech)
         text = urdf_document(mech, prefix=args.prefix, frame_id=args.frame_id)
     except (UsageError, LinkageError) as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 import sys
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +27,7 @@ from .mechanism import (
     SlideActuator,
     reference_value,
 )
-from .redraw import redraw
+from .redraw import RedrawRefused, redraw
 from .shortcuts import _four_bar_to_general, _slider_crank_to_general
 
 
@@ -146,7 +146,16 @@ def _with_dimensions(
             raise SceneError(f'{exc} (with the dimensions {stated})') from None
         mech.stated = dict(dims)
         return mech
-    new = redraw(drawn, dims)
+    try:
+        new = redraw(drawn, dims)
+    except RedrawRefused:
+        if drawn.actuators or drawn.dof != 0:
+            raise
+        # a structure has no input to hold: whether it assembles with the stated lengths is
+        # its solve's question (refused there with the miss), not a scene error
+        drawn.dimensions.update(_stated_lengths(dims))
+        drawn.stated = dict(dims)
+        return drawn
     plain['points'] = {p: [x, y] for p, (x, y) in new.points.items()}
     sliders = []
     for spec in plain.get('sliders') or []:
@@ -159,12 +168,19 @@ def _with_dimensions(
     if sliders:
         plain['sliders'] = sliders
     mech = build_mechanism(plain, ctx.source)
+    mech.dimensions.update(_stated_lengths(dims))
+    mech.stated = dict(dims)
+    return mech
+
+
+def _stated_lengths(dims: Mapping[str, float]) -> dict[tuple[str, str, str], float]:
+    """The stated link lengths by (link, point, point), m (what the solvers read exactly)."""
+    out = {}
     for name, value in dims.items():
         dim = parse_name(name)
         if isinstance(dim, LinkDistance):
-            mech.dimensions[(dim.link, dim.p, dim.q)] = value
-    mech.stated = dict(dims)
-    return mech
+            out[(dim.link, dim.p, dim.q)] = value
+    return out
 
 
 def _build_general(
@@ -292,6 +308,19 @@ def _point_from_distances(
     return np.asarray(sol.point, float)
 
 
+def _coinciding(members: Sequence[str], points: Mapping[str, np.ndarray]) -> list[tuple[str, str]]:
+    """Pairs of a link's points on one spot (other than its axis pair, refused on its own),
+    found by their coordinates in one pass (a ground of 600 pivots: 180 000 pairs otherwise)."""
+    first: dict[tuple[float, ...], str] = {}
+    out = []
+    for b in members:
+        spot = tuple(float(v) for v in points[b])
+        a = first.setdefault(spot, b)
+        if a != b and (a, b) != (members[0], members[1]):
+            out.append((a, b))
+    return out
+
+
 def _read_links(
     ctx: _Ctx, data: Mapping[str, Any], points: Mapping[str, np.ndarray]
 ) -> tuple[str, dict[str, Link]]:
@@ -317,12 +346,7 @@ def _read_links(
         # a link's angle is the direction of its first -> second point (its axis): two points
         # on one spot give it none to solve for or report
         # two points of a rigid link on one spot (a plate drawn degenerate) are one point
-        same = [
-            (a, b)
-            for i, a in enumerate(members)
-            for b in members[i + 1 :]
-            if (a, b) != (members[0], members[1]) and np.array_equal(points[a], points[b])
-        ]
+        same = _coinciding(members, points)
         if same:
             a, b = same[0]
             ctx.fail(
@@ -461,8 +485,12 @@ def _revolute_joints(
 
     revolutes: list[RevoluteJoint] = []
     used_names: set[str] = set(prismatics)
+    owners_of: dict[str, list[str]] = {}  # one pass over the links, not one per point
+    for n, l in links.items():
+        for p in l.points:
+            owners_of.setdefault(p, []).append(n)
     for pname in points:
-        owners = [n for n, l in links.items() if pname in l.points]
+        owners = owners_of.get(pname, [])
         if not owners:
             ctx.fail(f'points.{pname}', 'is on no link', pname, has_value=False)
         for child in owners[1:]:
@@ -473,17 +501,22 @@ def _revolute_joints(
                 )
             used_names.add(jname)
             revolutes.append(RevoluteJoint(jname, pname, owners[0], child))
-    names = list(links)
-    for i, a in enumerate(names):
-        for b in names[i + 1 :]:
-            shared = set(links[a].points) & set(links[b].points)
-            if len(shared) >= 2:
-                ctx.fail(
-                    f'links.{b}',
-                    f'shares points {sorted(shared)} with link {a!r}; two '
-                    'links sharing two points are one rigid link',
-                    sorted(shared),
-                )
+    # pairs of links sharing a point, from the owners (not every pair of links)
+    order = {n: i for i, n in enumerate(links)}
+    shared_by: dict[tuple[str, str], set[str]] = {}
+    for pname, owners in owners_of.items():
+        for i, a in enumerate(owners):
+            for b in owners[i + 1 :]:
+                shared_by.setdefault((a, b), set()).add(pname)
+    for a, b in sorted(shared_by, key=lambda ab: (order[ab[0]], order[ab[1]])):
+        shared = shared_by[(a, b)]
+        if len(shared) >= 2:
+            ctx.fail(
+                f'links.{b}',
+                f'shares points {sorted(shared)} with link {a!r}; two '
+                'links sharing two points are one rigid link',
+                sorted(shared),
+            )
 
     return revolutes
 
@@ -499,12 +532,12 @@ def _read_outputs(
     outputs_raw = data.get('outputs')
     if outputs_raw is None:
         # default: coupler points, i.e. points carried by exactly one moving link
-        outputs = tuple(
-            p
-            for p in points
-            if len([n for n in links if p in links[n].points]) == 1
-            and ground not in [n for n in links if p in links[n].points]
-        )
+        count: dict[str, int] = {}  # links carrying each point (one pass over the links)
+        for link in links.values():
+            for p in link.points:
+                count[p] = count.get(p, 0) + 1
+        on_ground = set(links[ground].points)
+        outputs = tuple(p for p in points if count.get(p, 0) == 1 and p not in on_ground)
     else:
         if not isinstance(outputs_raw, list):
             ctx.fail('outputs', 'must be a list of point names', outputs_raw)
@@ -548,10 +581,12 @@ def _length_scale(
     """The largest distance between two points of one link (or a slider's reference throw)."""
     best = 0.0
     for link in links.values():
-        pts = [points[p] for p in link.points]
-        for i in range(len(pts)):
-            for j in range(i + 1, len(pts)):
-                best = max(best, float(np.hypot(*(pts[i] - pts[j]))))
+        if len(link.points) < 2:
+            continue
+        xy = np.array([points[p] for p in link.points], float)  # every pair at once
+        best = max(
+            best, float(np.hypot(*(xy[:, None, :] - xy[None, :, :]).transpose(2, 0, 1)).max())
+        )
     for pj in prismatics.values():
         best = max(best, abs(pj.ref_value))
     if best == 0.0:

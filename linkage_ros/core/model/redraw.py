@@ -33,9 +33,18 @@ from .mechanism import AngleActuator, Mechanism, SlideActuator
 CLOSURE_TOL = 1e-12
 #: the most continuation steps (halving a step that fails, from 8 equal steps)
 MAX_STEPS = 512
+#: the smallest continuation step (fraction of the way): a redraw that cannot advance by this
+#: much does not close there (it stops at a fold, where every step beyond fails); each
+#: failed step of a 64-link scene costs seconds, so the way to the fold is not crept finer
+MIN_STEP = 1.0 / 1024
 #: the most moving links a redraw takes: it solves one dense system of 3 unknowns per link
 #: (the Jansen leg has 7, the excavator 13); a scene of thousands would take hours and GBs
 MAX_REDRAW_LINKS = 64
+
+
+class RedrawRefused(SceneError):
+    """The continuation from the drawn lengths to the stated ones stopped closing (the
+    dimensions are valid names and values; the pose with them is not reached)."""
 
 
 @dataclass(frozen=True)
@@ -160,6 +169,62 @@ class _Closure:
         self.L = mech.length_scale
         self.set_blend(0.0)
         self.held = self._actuators(np.zeros(3 * len(self.links)))
+        self.groups = self._column_groups()
+        rows = self._row_links()
+        #: the residual rows of each unknown (those of its link)
+        self.rows_of = [
+            np.array([r for r, row in enumerate(rows) if self.links[c // 3] in row], int)
+            for c in range(3 * len(self.links))
+        ]
+
+    def _row_links(self) -> list[tuple[str, str]]:
+        """The links each residual row depends on (the order of :meth:`residual`)."""
+        mech = self.mech
+        rows: list[tuple[str, str]] = []
+        for rj in mech.revolutes:
+            rows += [(rj.parent, rj.child)] * 2
+        for pj in mech.prismatics.values():
+            rows += [(pj.guide, pj.slider)] * 2
+        for act in mech.actuators.values():
+            if isinstance(act, SlideActuator):
+                pj = mech.prismatics[act.joint]
+                rows.append((pj.guide, pj.slider))
+            else:
+                rows.append((str(act.link), str(act.reference)))
+        return rows
+
+    def _column_groups(self) -> list[np.ndarray]:
+        """The unknowns in groups no two of which share a residual row (greedy colouring of
+        the links: a row touches at most two links), so a finite-difference Jacobian costs one
+        residual per group and not one per unknown (a chain of 63 links: a handful, not 189)."""
+        neighbours: dict[str, set[str]] = {l: set() for l in self.links}
+        for row in self._row_links():
+            moving = [l for l in row if l in self.index]
+            for a in moving:
+                neighbours[a].update(b for b in moving if b != a)
+        colour: dict[str, int] = {}
+        for link in self.links:
+            taken = {colour[b] for b in neighbours[link] if b in colour}
+            colour[link] = next(c for c in range(len(self.links) + 1) if c not in taken)
+        groups = []
+        for c in sorted(set(colour.values())):
+            members = [self.index[l] for l in self.links if colour[l] == c]
+            for k in range(3):  # phi, x, y of each link apart (they share the link's rows)
+                groups.append(np.array([3 * i + k for i in members]))
+        return groups
+
+    def jacobian(self, x: np.ndarray, h: float = 1e-7) -> np.ndarray:
+        """d residual / d x by central differences, one pair of residuals per column group."""
+        n = len(x)
+        jac = np.zeros((len(self.residual(x)), n))
+        for cols in self.groups:
+            e = np.zeros(n)
+            e[cols] = h
+            diff = (self.residual(x + e) - self.residual(x - e)) / (2 * h)
+            for c in cols:
+                mine = self.rows_of[c]
+                jac[mine, c] = diff[mine]
+        return jac
 
     def set_blend(self, lam: float) -> None:
         self.local = {l: self.shapes.local(l, lam) for l in self.mech.links}
@@ -167,6 +232,7 @@ class _Closure:
             j: complex(*pj.direction) * 1j * self.shapes.offset_shift(j, lam)
             for j, pj in self.mech.prismatics.items()
         }
+        self.arrays = _Arrays(self)
 
     def pose(self, x: np.ndarray, link: str) -> tuple[complex, complex]:
         """(rotation, translation) of ``link``: world = rotation * local + translation."""
@@ -193,34 +259,108 @@ class _Closure:
         return rot * base + t, rot * u, rot * complex(*pj.origin) + t
 
     def _actuators(self, x: np.ndarray) -> np.ndarray:
-        mech, out = self.mech, []
-        for act in mech.actuators.values():
-            if isinstance(act, SlideActuator):
-                pj = mech.prismatics[act.joint]
-                _, u, origin = self._line(x, pj.name)
-                at = self.world(x, pj.slider, pj.point)
-                out.append(((at - origin) * u.conjugate()).real / self.L)
-            else:
-                link, ref = str(act.link), str(act.reference)
-                v = self.world(x, link, str(act.toward)) - self.world(x, link, str(act.pivot))
-                base = 0.0 if ref == mech.ground else mech.links[ref].angle_ref + self.angle(x, ref)
-                out.append(math.atan2(v.imag, v.real) - base)
-        return np.array(out)
+        """Each actuator's value (rad, or m / L), in the order of ``mech.actuators``."""
+        a = self.arrays
+        rot, T, phi = a.poses(x)
+        out = np.zeros(len(a.is_angle))
+        if a.s_idx.size:
+            u = rot[a.s_guide] * a.s_dir
+            origin = rot[a.s_guide] * a.s_origin + T[a.s_guide]
+            at = rot[a.s_slider] * a.s_local + T[a.s_slider]
+            out[a.s_idx] = ((at - origin) * u.conj()).real / self.L
+        if a.a_idx.size:
+            v = rot[a.a_link] * a.a_arm
+            base = np.where(a.a_ref_is_ground, 0.0, a.a_ref_angle + phi[a.a_ref])
+            out[a.a_idx] = np.arctan2(v.imag, v.real) - base
+        return out
 
     def residual(self, x: np.ndarray) -> np.ndarray:
-        mech, out = self.mech, []
-        for rj in mech.revolutes:
-            d = self.world(x, rj.parent, rj.point) - self.world(x, rj.child, rj.point)
-            out += [d.real / self.L, d.imag / self.L]
-        for j, pj in mech.prismatics.items():
-            on, u, _ = self._line(x, j)
-            at = self.world(x, pj.slider, pj.point)
-            out.append(((at - on) * u.conjugate()).imag / self.L)
-            out.append(self.angle(x, pj.slider) - self.angle(x, pj.guide))
+        """Every joint's closure and every actuator's turn from its drawn value (rows: each
+        revolute's x, y miss, each slider's miss off its line and turn against its guide, each
+        actuator), in units of the length scale and rad; one numpy pass over the joints."""
+        a = self.arrays
+        rot, T, phi = a.poses(x)
+        d = rot[a.r_parent] * a.r_parent_local + T[a.r_parent]
+        d = d - (rot[a.r_child] * a.r_child_local + T[a.r_child])
+        revolute = np.column_stack([d.real, d.imag]).ravel() / self.L
+        on = rot[a.p_guide] * a.p_base + T[a.p_guide]
+        u = rot[a.p_guide] * a.p_dir
+        at = rot[a.p_slider] * a.p_local + T[a.p_slider]
+        slide = np.column_stack(
+            [((at - on) * u.conj()).imag / self.L, phi[a.p_slider] - phi[a.p_guide]]
+        ).ravel()
         turn = self._actuators(x) - self.held
-        is_angle = [isinstance(a, AngleActuator) for a in mech.actuators.values()]
-        out += [math.remainder(t, 2 * math.pi) if a else t for t, a in zip(turn, is_angle)]
-        return np.array(out)
+        turn = np.array(
+            [math.remainder(t, 2 * math.pi) if ang else t for t, ang in zip(turn, a.is_angle)]
+        )
+        return np.concatenate([revolute, slide, turn])
+
+
+class _Arrays:
+    """The closure's joints as index and coordinate arrays at one blend (the vectorised
+    residual's): link index ``len(links)`` is the fixed frame (the ground)."""
+
+    def __init__(self, c: _Closure):
+        mech, local, fixed = c.mech, c.local, len(c.links)
+
+        def at(link: str) -> int:
+            return c.index.get(link, fixed)
+
+        def ints(v: list[int]) -> np.ndarray:
+            return np.array(v, int)
+
+        def cplx(v: list[complex]) -> np.ndarray:
+            return np.array(v, complex)
+
+        self.n = fixed
+        self.L = c.L
+        rv = mech.revolutes
+        self.r_parent = ints([at(j.parent) for j in rv])
+        self.r_child = ints([at(j.child) for j in rv])
+        self.r_parent_local = cplx([local[j.parent][j.point] for j in rv])
+        self.r_child_local = cplx([local[j.child][j.point] for j in rv])
+        pr = list(mech.prismatics.values())
+        self.p_guide = ints([at(pj.guide) for pj in pr])
+        self.p_slider = ints([at(pj.slider) for pj in pr])
+        self.p_base = cplx([c.shapes.drawn[pj.point] + c.lines[pj.name] for pj in pr])
+        self.p_dir = cplx([complex(*pj.direction) for pj in pr])
+        self.p_local = cplx([local[pj.slider][pj.point] for pj in pr])
+        acts = list(mech.actuators.values())
+        self.is_angle = [isinstance(act, AngleActuator) for act in acts]
+        slides = [
+            (i, mech.prismatics[a.joint])
+            for i, a in enumerate(acts)
+            if isinstance(a, SlideActuator)
+        ]
+        self.s_idx = ints([i for i, _ in slides])
+        self.s_guide = ints([at(pj.guide) for _, pj in slides])
+        self.s_slider = ints([at(pj.slider) for _, pj in slides])
+        self.s_dir = cplx([complex(*pj.direction) for _, pj in slides])
+        self.s_origin = cplx([complex(*pj.origin) for _, pj in slides])
+        self.s_local = cplx([local[pj.slider][pj.point] for _, pj in slides])
+        angles = [(i, a) for i, a in enumerate(acts) if isinstance(a, AngleActuator)]
+        self.a_idx = ints([i for i, _ in angles])
+        self.a_link = ints([at(str(a.link)) for _, a in angles])
+        self.a_arm = cplx(
+            [
+                local[str(a.link)][str(a.toward)] - local[str(a.link)][str(a.pivot)]
+                for _, a in angles
+            ]
+        )
+        self.a_ref = ints([at(str(a.reference)) for _, a in angles])
+        self.a_ref_is_ground = np.array([a.reference == mech.ground for _, a in angles], bool)
+        self.a_ref_angle = np.array(
+            [
+                0.0 if a.reference == mech.ground else mech.links[a.reference].angle_ref
+                for _, a in angles
+            ]
+        )
+
+    def poses(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(rotation, translation (m), angle) of every link, the fixed frame last."""
+        phi = np.append(x[0::3], 0.0)
+        T = np.append((x[1::3] + 1j * x[2::3]) * self.L, 0j)
+        return np.cos(phi) + 1j * np.sin(phi), T, phi
 
 
 def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
@@ -247,15 +387,16 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
     names = ', '.join(shown) + (f' and {len(dims) - 3} more' if len(dims) > 3 else '')
     x = np.zeros(3 * len(closure.links))
     sign = _orientation(closure, x)
-    lam, step, steps = 0.0, 1.0 / 8, 0
+    lam, step, steps, failed = 0.0, 1.0 / 8, 0, False
     while lam < 1.0:
         steps += 1
-        if steps > MAX_STEPS or step < 1.0 / (1 << 20):
-            raise SceneError(
+        if steps > MAX_STEPS or step < MIN_STEP:
+            held = ' with every actuator held at its drawn value' if mech.actuators else ''
+            raise RedrawRefused(
                 f'the drawn pose cannot be closed with {names}: at {lam:.0%} of the way from '
-                'the drawn lengths the mechanism stops closing with every actuator held at its '
-                'drawn value (it would not assemble, or would pass a toggle position and change '
-                'assembly mode); redraw the reference pose nearer the new dimensions',
+                f'the drawn lengths the mechanism stops closing{held} (it would not assemble, '
+                'or would pass a toggle position and change assembly mode); redraw the '
+                'reference pose nearer the new dimensions',
                 file=mech.source,
                 key='dimensions',
                 value=dict(dims),
@@ -264,9 +405,12 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
         closure.set_blend(nxt)
         got = _close(closure, x)
         if got is None or (sign != 0 and _orientation(closure, got) != sign):
-            step /= 2
+            step, failed = step / 2, True
             continue
-        x, lam, step = got, nxt, min(2 * step, 1.0 / 8)
+        # after a failure the step grows again only once one has succeeded at its size: the
+        # way to a fold is halved, not retried at double the step after each success
+        x, lam = got, nxt
+        step, failed = (step if failed else min(2 * step, 1.0 / 8)), False
     return _read(closure, x)
 
 
@@ -278,7 +422,14 @@ def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
 
     with np.errstate(all='ignore'):
         sol = least_squares(
-            closure.residual, x0, method='lm', xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=400
+            closure.residual,
+            x0,
+            jac=closure.jacobian,
+            method='lm',
+            xtol=1e-15,
+            ftol=1e-15,
+            gtol=1e-15,
+            max_nfev=400,
         )
     miss = closure.residual(sol.x)
     if not np.all(np.isfinite(miss)) or float(np.max(np.abs(miss), initial=0.0)) > CLOSURE_TOL:
@@ -292,12 +443,7 @@ def _orientation(closure: _Closure, x: np.ndarray) -> int:
     n = len(x)
     if not n:
         return 0
-    h = 1e-7
-    jac = np.empty((n, n))
-    for k in range(n):
-        e = np.zeros(n)
-        e[k] = h
-        jac[:, k] = (closure.residual(x + e) - closure.residual(x - e)) / (2 * h)
+    jac = closure.jacobian(x)
     s, logdet = np.linalg.slogdet(jac)
     return int(s) if math.isfinite(logdet) and logdet > n * math.log(1e-9) else 0
 

@@ -4,11 +4,12 @@ Everything here is built on :class:`~linkage_ros.core.solver.Solver` (its compil
 vectorised scans, its continuation solves for walks) and returns plain data (dicts, tuples,
 lists of floats); nothing prints.
 
-* :func:`input_ranges` / :func:`actuator_range`: the range of each actuator with the others held at
-  their reference-pose values. The assembly is scanned over a full turn (angles) or over the
-  scene's [min, max] (slides; a generous bracket around the reference throw when a side has no
-  limit), each boundary is refined to 1e-12 rad / 1e-12 of the length scale (a toggle position),
-  and the result is intersected with the actuator's own limits.
+* :func:`input_ranges` / :func:`actuator_range` / :func:`actuator_ranges`: the range of each
+  actuator with the others held at their reference-pose values (each scanned on the independent
+  part of the scene it moves, :mod:`.components`). The assembly is scanned over a full turn
+  (angles) or over the scene's [min, max] (slides; a generous bracket around the reference throw
+  when a side has no limit), each boundary is refined to 1e-12 rad / 1e-12 of the length scale
+  (a toggle position), and the result is intersected with the actuator's own limits.
 * :func:`toggle_positions`: input values where a dyad of the assembly has a toggle (margin -> 0).
 * :func:`oscillation_range`: the range of a link's angle while an input runs over its range (the
   oscillation of a rocker, of both links of a non-Grashof chain, ...).
@@ -61,6 +62,7 @@ from .ranges import (  # noqa: F401
     _segment_toggles,
     _source,
     actuator_range,
+    actuator_ranges,
     input_ranges,
     toggle_positions,
 )
@@ -91,6 +93,7 @@ from .walk import (  # noqa: F401
 __all__ = [
     'input_ranges',
     'actuator_range',
+    'actuator_ranges',
     'toggle_positions',
     'oscillation_range',
     'reachable_region',

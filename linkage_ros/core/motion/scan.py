@@ -23,6 +23,11 @@ from .common import (
     without_limits,
 )
 
+#: how far inside an assembly edge its toggle's margin is sampled (rad, or of the length scale):
+#: well clear of the tangency clamp (1e-12) and close enough for a parabola in margin^2 to be
+#: exact to rounding
+_TOGGLE_PROBE = 1e-6
+
 # ---- one-dimensional scans over a closed-form plan --------------------------------------------
 
 
@@ -97,8 +102,12 @@ class _Line:
         return self.branch_of_step.get(int(info['failure'][0]))
 
     def refine(self, good: float, bad: float, signs) -> tuple[float, int | None]:
-        """Boundary between an assembling ``good`` and a failing ``bad`` value (k-ary search);
-        returns (last assembling value, index of the branching dyad that fails beyond)."""
+        """The toggle between an assembling ``good`` and a failing ``bad`` value; returns (the
+        toggle, index of the branching dyad that fails beyond). A k-ary search finds where the
+        plan stops assembling to ``tol``; that edge lies past the true toggle by the dyads'
+        tangency clamp (1e-12 of the length scale), so the toggle itself is then found as the
+        root of the margin squared (|sin| of the transmission angle, squared: linear in the
+        input at a toggle), a parabola through three samples just inside the edge."""
         for _ in range(200):
             if abs(bad - good) <= self.tol:
                 break
@@ -114,7 +123,22 @@ class _Line:
             if new_good == good and new_bad == bad:
                 break
             good, bad = float(new_good), float(new_bad)
-        return good, self._failing_branch(bad, signs)
+        return self._toggle_root(good, bad, signs), self._failing_branch(bad, signs)
+
+    def _toggle_root(self, good: float, bad: float, signs) -> float:
+        """The zero of the margin squared near the assembly edge ``good`` (``good`` itself where
+        the samples do not show a toggle's parabola: an edge that is no tangency)."""
+        step = math.copysign(_TOGGLE_PROBE * (1.0 if self.periodic else self.scale), bad - good)
+        xs = good - step * np.arange(1.0, 4.0)
+        m = self.margins(xs, signs)
+        if not np.all(np.isfinite(m)) or not np.all(m > 0):
+            return good
+        coef = np.polyfit((xs - good) / step, m * m, 2)  # in steps from the edge
+        roots = np.roots(coef) if coef[0] != 0.0 else np.roots(coef[1:])
+        near = [float(r.real) for r in roots if abs(r.imag) == 0.0 and -0.5 <= r.real <= 1e-3]
+        if not near:
+            return good
+        return good + step * max(near)
 
     # -- components
     def component(self, seed: float, signs):
