@@ -423,11 +423,20 @@ def _read_sliders(
         if jname in prismatics:
             ctx.fail(key, 'duplicate prismatic joint name', jname)
         guide, slider, point = spec.get('guide'), spec.get('slider'), spec.get('point')
+        roles = {'guide': 'the link the slide line is fixed in', 'slider': 'the link that slides'}
         for k, v in (('guide', guide), ('slider', slider)):
+            if v is None:  # not "(got None)": say what is missing
+                ctx.fail(f'{key}.{k}', f'is missing: name {roles[k]}', has_value=False)
             if not ctx.known(v, links):
-                ctx.fail(f'{key}.{k}', 'must name a link', v)
+                ctx.fail(f'{key}.{k}', f'must name a link ({roles[k]})', v)
         if guide == slider:
             ctx.fail(f'{key}.slider', 'must differ from the guide link', slider)
+        if point is None:
+            ctx.fail(
+                f'{key}.point',
+                f'is missing: name the point of {slider!r} that runs on the line',
+                has_value=False,
+            )
         if not ctx.known(point, links[slider].points):
             ctx.fail(f'{key}.point', f'must be a point of the slider link {slider!r}', point)
         d = spec.get('direction', 0.0)
