@@ -115,6 +115,10 @@ EXTERNAL_COMMANDS = {
     'bench': 'linkage_ros.bench',
     'urdf': 'linkage_ros.cli.urdf',
     'import': 'linkage_ros.cli.importing',
+    # wheels-only equivalents of ros2 bag record / topic echo / param (rclpy imported on run)
+    'record': 'linkage_ros.cli.record',
+    'echo': 'linkage_ros.cli.echo',
+    'param': 'linkage_ros.cli.param',
 }
 
 
