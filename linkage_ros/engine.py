@@ -257,6 +257,9 @@ class Engine:
             rates = None if rates is None else self.to_scene(rates, rates=True, command=True)
         except CommandError as exc:
             return Result(False, str(exc))
+        misplaced = self.not_actuators(values)
+        if misplaced is not None:
+            return Result(False, misplaced)
         values, held = self.held_values(values)
         if isinstance(held, str):
             return Result(False, held)
@@ -270,6 +273,25 @@ class Engine:
             result.velocity = velocities(self.forward, result, values, rates)
         result.held = held
         return result
+
+    def not_actuators(self, values: Mapping[str, Any]) -> str | None:
+        """Why a command naming a joint, link or point (not an actuator) is refused, with the
+        request that takes it (as the CLI's --set says "use --target"), or None. Other unknown
+        names are the solver's to refuse."""
+        acts = self.forward.knowns
+        mech = self.mech
+        named = [
+            n
+            for n in values
+            if n not in acts and (n in mech.joint_names or n in mech.links or n in mech.points)
+        ]
+        if not named:
+            return None
+        return (
+            f'{echo(named)} not an actuator of {mech.name!r} (actuators: {list(acts)}): a '
+            'command sets actuators; use ~/target for joints and links, '
+            '~/target_point/<point> for points'
+        )
 
     def to_scene(
         self, values: Mapping[str, Any], rates: bool = False, command: bool = False

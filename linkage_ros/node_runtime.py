@@ -80,6 +80,8 @@ def log_mechanism(node: Any, scene: Scene, replacing: bool) -> None:
     )
     for note in scene.notes:
         log.info(f'scene {mech.name!r}: {note}')
+    for warning in scene.warnings:  # likely degrees read as radians (core.units)
+        log.warning(f'scene {mech.name!r}: {warning}')
     omit = node.outputs.omit_joints
     published = [cfg.prefix + j for j in mech.output_joint_names if j not in omit]
     log.info(

@@ -10,8 +10,8 @@
 SCENE is a scene file, the name of a packaged scene (``four_bar``) or a robot description
 (``.urdf``, ``.sdf``, ``.xml``) with ``--closures FILE`` (its closure side file) and
 ``--actuated NAME`` (its inputs, where it does not mark them); a description's requests and
-answers use its own joint names and values (linkage_ros.cli.described). Angles are radians (a
-value may end in ``deg``: ``--set crank=30deg``), lengths metres.
+answers use its own joint names and values (linkage_ros.cli.described). Angles are radians, lengths
+metres, unless a value says its unit (core.units: ``--set crank=30deg``, ``16mm``).
 
 Exit status: 0 ok; 1 a solve was refused (the answer has status "error" and a reason; with
 ``--all-branches`` only when no assembly mode closes; ``sweep --strict`` when any line is an

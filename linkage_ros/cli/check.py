@@ -34,8 +34,14 @@ def input_ranges(mech) -> dict[str, tuple[float | None, float | None]]:
 
 
 def check_report(
-    mech, path: str, solver_method: str | None, notes: tuple[str, ...] | list[str] = ()
+    mech,
+    path: str,
+    solver_method: str | None,
+    notes: tuple[str, ...] | list[str] = (),
+    warnings: tuple[str, ...] | list[str] = (),
 ) -> dict:
+    """The check of a loaded mechanism (JSON-ready). ``notes`` and ``warnings``: the scene's
+    own (what loading did; what loads but is likely wrong)."""
     from ..core.motion.quantities import quantities_report
     from ..core.reference_warnings import reference_pose_warnings
     from ..core.solver import Solver
@@ -74,6 +80,8 @@ def check_report(
         'name': mech.name,
         'form': mech.form,
         'links': desc['links'],
+        # the reference pose (m): a point placed by distances on the wrong side shows here
+        'points': {p: [float(xy[0]), float(xy[1])] for p, xy in mech.points.items()},
         'joints': desc['joints'],
         'dimensions': dict(mech.stated),  # stated by name, used exactly (m)
         'n_links': desc['n_links'],
@@ -92,7 +100,11 @@ def check_report(
             'newton_links': list(solver.system.free),
             'branch_count': solver.branch_count,
         },
-        'warnings': reference_pose_warnings(solver) + _structure_warnings(mech, solver),
+        'warnings': [
+            *warnings,
+            *reference_pose_warnings(solver),
+            *_structure_warnings(mech, solver),
+        ],
         'motion': described_motion(quantities_report(mech), values),
         'notes': list(notes),  # what loading did (a robot description assembled, ...)
         # a robot description's joints as published, and the scene known each request
@@ -127,6 +139,9 @@ def format_check(r: dict) -> str:
     w = max(len(k) for k in list(r['links']) + list(r['joints']) + list(r['inputs']))
     out.append(f'links ({r["n_links"]})')
     out += [f'  {k:<{w}}  {" ".join(v)}' for k, v in r['links'].items()]
+    pw = max([len(k) for k in r['points']] + [w])
+    out.append(f'{"points (reference pose)":<{pw + 2}}  {"x (m)":>14} {"y (m)":>14}')
+    out += [f'  {k:<{pw}}  {x:14.9g} {y:14.9g}' for k, (x, y) in r['points'].items()]
     out.append(f'joints ({r["n_joints"]})')
     for k, j in r['joints'].items():
         if j['type'] == 'revolute':
@@ -201,7 +216,9 @@ def cmd_check(args) -> int:
     scene = load_scene_file(args.scene, args.dimension, args.closures, args.actuated)
     if not args.json:
         print_notes(scene.notes)
-    report = check_report(scene.mechanism, str(scene.path), args.solver, scene.notes)
+    report = check_report(
+        scene.mechanism, str(scene.path), args.solver, scene.notes, scene.warnings
+    )
     print(dumps(report) if args.json else format_check(report))
     return OK
 

@@ -14,6 +14,7 @@ from typing import Any
 from ..core.errors import CommandError
 from ..core.model import SlideActuator
 from ..core.quantities import AngleSpec, PointSpec
+from ..core.units import Quantity, Reading, UnitError, degrees_warning, expect, parse_text
 
 USAGE_ERROR, REFUSED, OK = 2, 1, 0
 INTERRUPTED = 130  # Ctrl-C, as a shell reports a SIGINT
@@ -43,29 +44,26 @@ class _Known(argparse.Action):
 # ---- parsing helpers ---------------------------------------------------------------------------
 
 
-def _number(text: str, what: str) -> tuple[float, bool]:
-    """'0.5' -> (0.5, False); '30deg' -> (radians, True). Finite numbers only."""
-    t = text.strip()
-    deg = t.lower().endswith('deg')
-    if deg:
-        t = t[:-3].strip()
+def _number(text: str, what: str) -> Reading:
+    """'0.5' -> Reading(0.5); '30deg' -> Reading(radians, 'deg'); '16mm' -> Reading(0.016,
+    'mm'): the unit grammar of core.units (the quantity is checked once the name's is known)."""
     try:
-        v = float(t)
-    except ValueError:
-        raise UsageError(f'{what}: {text!r} is not a number') from None
-    if not math.isfinite(v):
-        raise UsageError(f'{what}: {text!r} must be a finite number')
-    return (math.radians(v) if deg else v), deg
+        return parse_text(text)
+    except UnitError as exc:
+        raise UsageError(f'{what}: {text.strip()!r} {exc}') from None
 
 
 def _point(text: str, what: str) -> tuple[float, float]:
     parts = text.split(',')
     if len(parts) != 2:
         raise UsageError(f'{what}: {text!r} is not a point X,Y')
-    (x, dx), (y, dy) = (_number(p, what) for p in parts)
-    if dx or dy:
-        raise UsageError(f'{what}: a point is in metres, not degrees')
-    return x, y
+    x, y = (_number(p, what) for p in parts)
+    for reading, part in ((x, parts[0]), (y, parts[1])):
+        try:
+            expect(reading, Quantity.LENGTH)
+        except UnitError as exc:
+            raise UsageError(f'{what}: {part.strip()!r} {exc}') from None
+    return x.value, y.value
 
 
 def _count(text: str, what: str) -> int:
@@ -123,10 +121,12 @@ def _grid(axes):
 
 
 def parse_known(option: str, text: str, allow_range: bool):
-    """One --set/--target/--target-point argument -> (name, values, used_deg).
+    """One --set/--target/--target-point argument -> (name, values, readings).
 
     Scalars: NAME=VALUE or NAME=START:STOP:COUNT; points: NAME=X,Y or NAME=X0,Y0:X1,Y1:COUNT.
-    ``values`` is a list (one element unless a range)."""
+    ``values`` is a list (one element unless a range), in rad or m; ``readings`` the scalar
+    values as written (VALUE, or START and STOP; none for a point, always metres), whose
+    units :func:`check_units` holds against the name's quantity."""
     point = option == '--target-point'
     shape = ('NAME=X,Y' if point else 'NAME=VALUE') + (
         ' or NAME=X0,Y0:X1,Y1:COUNT'
@@ -143,18 +143,38 @@ def parse_known(option: str, text: str, allow_range: bool):
     parts = rhs.split(':')
     if len(parts) == 1:
         if point:
-            return name, [_point(parts[0], what)], False
-        v, deg = _number(parts[0], what)
-        return name, [v], deg
+            return name, [_point(parts[0], what)], ()
+        reading = _number(parts[0], what)
+        return name, [reading.value], (reading,)
     if len(parts) != 3:
         raise UsageError(f'{option} {text!r}: expected {shape}')
     if not allow_range:
         raise UsageError(f'{option} {text!r}: ranges START:STOP:COUNT are for `linkage sweep`')
     n = _count(parts[2], what)
     if point:
-        return name, _linspace(_point(parts[0], what), _point(parts[1], what), n), False
-    (a, da), (b, db) = _number(parts[0], what), _number(parts[1], what)
-    return name, _linspace(a, b, n), da or db
+        return name, _linspace(_point(parts[0], what), _point(parts[1], what), n), ()
+    a, b = _number(parts[0], what), _number(parts[1], what)
+    return name, _linspace(a.value, b.value, n), (a, b)
+
+
+def check_units(what: str, readings: Sequence[Reading], spec) -> None:
+    """Refuse a unit of the wrong quantity for ``spec`` (UsageError naming ``what``), and
+    warn on stderr about a bare angle beyond a full turn (likely degrees)."""
+    quantity = Quantity.ANGLE if isinstance(spec, AngleSpec) else Quantity.LENGTH
+    for reading in readings:
+        written = reading.quantity
+        if written is not None and written is not quantity:
+            raise UsageError(
+                f'{what}: {reading.unit!r} is a unit of {written.value}, but '
+                f'{spec.name!r} is {"an angle" if quantity is Quantity.ANGLE else "a length"} '
+                f'({spec.unit}, or with a unit: {", ".join(quantity.units)})'
+            )
+    if quantity is Quantity.ANGLE:
+        warning = next(
+            (w for w in (degrees_warning(what, r) for r in readings) if w is not None), None
+        )
+        if warning is not None:
+            print(f'warning: {warning}', file=sys.stderr)
 
 
 # ---- scene, solver and output helpers ----------------------------------------------------------
@@ -283,6 +303,13 @@ def print_notes(notes: Sequence[str]) -> None:
         print(f'note: {note}', file=sys.stderr)
 
 
+def print_warnings(warnings: Sequence[str]) -> None:
+    """What loads but is likely wrong (a bare angle beyond a full turn): one line each on
+    stderr, with JSON output too (stdout stays the document)."""
+    for warning in warnings:
+        print(f'warning: {warning}', file=sys.stderr)
+
+
 def load_mechanism(
     scene: str,
     dimensions: Sequence[tuple[str, float]] = (),
@@ -294,6 +321,7 @@ def load_mechanism(
     robot description takes ``closures`` and ``actuated``. The scene's notes go to stderr
     (``notes``: text output; JSON output leaves them out)."""
     loaded = load_scene_file(scene, dimensions, closures, actuated)
+    print_warnings(loaded.warnings)
     if notes:
         print_notes(loaded.notes)
     return loaded.mechanism, str(loaded.path)
@@ -322,7 +350,7 @@ def build_solve(mech, args, allow_range: bool):
     knowns: list[str] = []
     given: dict[str, str] = {}  # the solver's known -> the name on the command line
     for option, text in items:
-        name, values, deg = parse_known(option, text, allow_range)
+        name, values, readings = parse_known(option, text, allow_range)
         if name in options:
             raise UsageError(f'{name!r} is given twice ({options[name]} and {option})')
         options[name] = option
@@ -344,8 +372,7 @@ def build_solve(mech, args, allow_range: bool):
         spec = spec_for(mech, names[0])  # PlanError for an unknown name
         if option != '--target-point' and isinstance(spec, PointSpec):
             raise UsageError(f'{option} {name}: {name!r} is a point; use --target-point {name}=X,Y')
-        if deg and not isinstance(spec, AngleSpec):
-            raise UsageError(f'{option} {name}: a "deg" suffix on a length ({spec.unit})')
+        check_units(f'{option} {name}', readings, spec)
         for known in names:
             if known in given:
                 raise UsageError(

@@ -27,7 +27,7 @@ from .sweep import cmd_sweep
 
 KNOWN_HELP = """\
 knowns (in command-line order; with `sweep` that order is the grid order):
-  --set NAME=VALUE          an actuator value (rad or m; "30deg" is accepted for angles)
+  --set NAME=VALUE          an actuator value (rad or m; or with a unit: 30deg, 16mm)
   --target NAME=VALUE       a joint value, a link's angle (from +x) or an actuator: inverse solve
   --target-point NAME=X,Y   a point's position (m): inverse solve
   --set and --target may be combined: the knowns are all the names given, and they must fix
@@ -115,6 +115,10 @@ EXTERNAL_COMMANDS = {
     'bench': 'linkage_ros.bench',
     'urdf': 'linkage_ros.cli.urdf',
     'import': 'linkage_ros.cli.importing',
+    # wheels-only equivalents of ros2 bag record / topic echo / param (rclpy imported on run)
+    'record': 'linkage_ros.cli.record',
+    'echo': 'linkage_ros.cli.echo',
+    'param': 'linkage_ros.cli.param',
 }
 
 

@@ -420,7 +420,7 @@ BAD_COMMANDS = {
     'inf': (['crank'], [math.inf], 'finite'),
     'minus_inf': (['crank'], [-math.inf], 'finite'),
     'unknown_name': (['wrench'], [1.0], 'unknown'),
-    'passive_joint': (['B'], [0.3], 'unknown'),
+    'passive_joint': (['B'], [0.3], 'use ~/target for joints'),
     'missing_name': ([], [], 'empty'),
     'more_positions': (['crank'], [1.0, 2.0], 'position'),
     'more_names': (['crank', 'other'], [1.0], 'position'),

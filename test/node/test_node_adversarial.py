@@ -395,7 +395,12 @@ def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
             ['name[1]', 'empty'],
         ),
         ('command', cmd({'Z1': 1.5, 'Z2': 1.9, 'Z4': 1.4}), ["unknown name(s) ['Z4']"]),
-        ('command', cmd({'Z1': 1.5, 'Z2': 1.9, 'bucket': 1.4}), ["unknown name(s) ['bucket']"]),
+        # a link on ~/command: the hint names the request that takes it (as the CLI's --set)
+        (
+            'command',
+            cmd({'Z1': 1.5, 'Z2': 1.9, 'bucket': 1.4}),
+            ["['bucket'] not an actuator", 'use ~/target for joints and links'],
+        ),
         ('command', cmd({'Z1': 1.5, 'wrench': 1.0}), ['unknown', 'wrench']),  # partial + unknown
         ('command', cmd(dict(mid, Z1=hi['Z1'] + 0.1)), ['Z1', 'maximum']),
         ('command', cmd(dict(mid, Z3=lo['Z3'] - 0.05)), ['Z3', 'minimum']),

@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from ..units import Quantity, degrees_warning, span_warning
 from .checks import _Ctx
 from .mechanism import Actuator, AngleActuator, Link, PrismaticJoint, SlideActuator
 
@@ -29,8 +30,8 @@ def _read_actuators(
             ctx.fail(key, 'duplicate actuator name (a cylinder already has it)', aname)
         spec = ctx.mapping(key, spec)
         kind = spec.get('type')
-        lo, hi = _limits(ctx, key, spec)
         if kind == 'angle':
+            lo, hi = _limits(ctx, key, spec, Quantity.ANGLE)
             ctx.only(key, spec, {'type', 'link', 'pivot', 'toward', 'relative_to', 'min', 'max'})
             link = spec.get('link')
             if not ctx.known(link, links) or link == ground:
@@ -70,6 +71,7 @@ def _read_actuators(
             )
         elif kind == 'slide':
             ctx.only(key, spec, {'type', 'joint', 'min', 'max'})
+            lo, hi = _limits(ctx, key, spec, Quantity.LENGTH)
             joint = spec.get('joint')
             if not ctx.known(joint, prismatics):
                 ctx.fail(f'{key}.joint', 'must name a prismatic joint (sliders)', joint)
@@ -109,11 +111,24 @@ class _AngleGraph:
         return None
 
 
-def _limits(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> tuple[float | None, float | None]:
-    lo = spec.get('min')
-    hi = spec.get('max')
-    lo = None if lo is None else ctx.number(f'{key}.min', lo)
-    hi = None if hi is None else ctx.number(f'{key}.max', hi)
-    if lo is not None and hi is not None and not lo < hi:
-        ctx.fail(f'{key}.max', f'must be greater than min ({lo})', hi)
-    return lo, hi
+def _limits(
+    ctx: _Ctx, key: str, spec: Mapping[str, Any], quantity: Quantity
+) -> tuple[float | None, float | None]:
+    """``min`` and ``max`` of ``spec`` (rad or m, by ``quantity``; either may be absent).
+    Angle limits of bare numbers spanning more than a full turn, or beyond one, are read with
+    one warning (likely degrees)."""
+    lo_raw, hi_raw = spec.get('min'), spec.get('max')
+    lo = None if lo_raw is None else ctx.reading(f'{key}.min', lo_raw, quantity)
+    hi = None if hi_raw is None else ctx.reading(f'{key}.max', hi_raw, quantity)
+    if lo is not None and hi is not None and not lo.value < hi.value:
+        ctx.fail(
+            f'{key}.max', f'must be greater than min ({lo.value:g} {quantity.si_unit})', hi_raw
+        )
+    if quantity is Quantity.ANGLE:
+        span = None if lo is None or hi is None else span_warning(f'{key}.min/max', lo, hi)
+        ctx.warn(span)
+        if span is None:
+            for name, reading in (('min', lo), ('max', hi)):
+                if reading is not None:
+                    ctx.warn(degrees_warning(f'{key}.{name}', reading))
+    return (None if lo is None else lo.value), (None if hi is None else hi.value)

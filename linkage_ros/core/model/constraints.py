@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ..units import Quantity
 from .checks import _Ctx
 
 
@@ -76,7 +77,7 @@ def expand_constraints(
         axis = _axis_angle(points, members)
         radius = None
         if 'radius' in spec:
-            radius = ctx.number(f'{key}.radius', spec['radius'])
+            radius = ctx.number(f'{key}.radius', spec['radius'], quantity=Quantity.LENGTH)
             if radius < 0:
                 ctx.fail(f'{key}.radius', 'must be >= 0 (m)', radius)
             if through is None:
@@ -87,7 +88,7 @@ def expand_constraints(
                 ctx.fail(f'{key}.angle', "a face needs its angle from the link's axis (rad)", None)
         at = points[point]
         if 'angle' in spec:
-            direction = axis + ctx.number(f'{key}.angle', spec['angle'])
+            direction = axis + ctx.number(f'{key}.angle', spec['angle'], quantity=Quantity.ANGLE)
         elif through is not None and np.hypot(*(at - points[through])) > 0:
             v = at - points[through]
             direction = math.atan2(v[1], v[0])  # the slot runs from `through` toward the pin
@@ -140,7 +141,9 @@ def expand_constraints(
             ctx.fail(f'{key}.between', f'{p} and {q} coincide in the reference pose', list(pair))
         links[name] = [p, q]
         if 'length' in spec:
-            stated[f'{name}.{p}-{q}'] = ctx.number(f'{key}.length', spec['length'], positive=True)
+            stated[f'{name}.{p}-{q}'] = ctx.number(
+                f'{key}.length', spec['length'], quantity=Quantity.LENGTH, positive=True
+            )
     out['links'] = links
     if sliders:
         out['sliders'] = sliders

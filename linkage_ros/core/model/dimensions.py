@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..errors import SceneError, echo
+from ..units import Quantity, UnitError, expect, parse_text, read_value
 
 #: ``link.P-Q`` (a distance, m) or ``slider.offset`` (m)
 _DISTANCE_RE = re.compile(
@@ -82,14 +83,12 @@ def parse_assignment(text: str) -> tuple[str, float]:
     name, sep, raw = text.partition('=')
     name = name.strip()
     if not sep or not name:
-        raise ValueError(f'{echo(text)} is not NAME=VALUE (e.g. crank.O2-A=0.016)')
-    try:
-        if '_' in raw:  # float() reads 1_0 as 10: a typo for 1.0 or 10 must not pass
-            raise ValueError
-        value = float(raw)
-    except ValueError:
-        raise ValueError(f'{name}: {echo(raw.strip())} is not a number (m)') from None
-    return name, value
+        raise ValueError(f'{echo(text)} is not NAME=VALUE (e.g. crank.O2-A=0.016 or =16mm)')
+    try:  # the unit grammar of core.units: a length, m unless it says mm or cm
+        reading = expect(parse_text(raw), Quantity.LENGTH)
+    except UnitError as exc:
+        raise ValueError(f'{name}: {echo(raw.strip())} {exc}') from None
+    return name, reading.value
 
 
 def overrides(pairs: Sequence[tuple[str, float]]) -> dict[str, float] | None:
@@ -128,9 +127,18 @@ def merge(source: str, stated: object, overrides: Mapping[str, float] | None) ->
                     key=key,
                     value=name,
                 )
-            if isinstance(value, bool) or not isinstance(value, (int, float)):
-                raise SceneError('must be a number (m)', file=source, key=key, value=value)
-            v = float(value)
+            if isinstance(value, (int, float)) and not isinstance(value, bool):
+                v = float(value)  # NaN and inf: refused below as not a length
+            else:
+                try:  # '16mm': the unit grammar of core.units
+                    v = read_value(value, Quantity.LENGTH).value
+                except UnitError as exc:
+                    raise SceneError(
+                        f'must be a number (m, or with a unit: m, cm, mm); this one {exc}',
+                        file=source,
+                        key=key,
+                        value=value,
+                    ) from None
             if not math.isfinite(v) or (isinstance(dim, LinkDistance) and not v > 0):
                 what = 'a finite number' if isinstance(dim, SliderOffset) else 'a length > 0'
                 raise SceneError(f'must be {what} (m)', file=source, key=key, value=value)

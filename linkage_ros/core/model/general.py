@@ -12,6 +12,7 @@ import numpy as np
 
 from ..dyads import circle_circle
 from ..errors import SceneError, echo
+from ..units import Quantity
 from .actuators import _limits, _read_actuators
 from .checks import TOP_KEYS, _Ctx
 from .constraints import expand_constraints
@@ -32,13 +33,18 @@ from .shortcuts import _four_bar_to_general, _slider_crank_to_general
 
 
 def build_mechanism(
-    data: Any, source: str = '<scene>', dimensions: Mapping[str, float] | None = None
+    data: Any,
+    source: str = '<scene>',
+    dimensions: Mapping[str, float] | None = None,
+    warnings: list[str] | None = None,
 ) -> Mechanism:
     """Validate a scene mapping (general or shortcut form) and build the Mechanism.
 
     ``dimensions`` (name -> m, see :mod:`.dimensions`) override the scene's ``dimensions`` key
-    of the same name; stated dimensions are used exactly and the drawing is redrawn to them."""
-    ctx = _Ctx(source)
+    of the same name; stated dimensions are used exactly and the drawing is redrawn to them.
+    ``warnings`` (if given) collects what loads but is likely wrong (a bare angle beyond a
+    full turn: degrees read as radians)."""
+    ctx = _Ctx(source, warnings)
     if isinstance(data, Mapping) and 'points' in data and ('slots' in data or 'distances' in data):
         expanded, stated = expand_constraints(ctx, data, _read_points(ctx, data))
         own = data.get('dimensions')
@@ -46,7 +52,7 @@ def build_mechanism(
             expanded['dimensions'] = (
                 {**stated, **own} if isinstance(own, Mapping) else stated if own is None else own
             )
-        return build_mechanism(expanded, source, dimensions)
+        return build_mechanism(expanded, source, dimensions, ctx.warnings)
     if isinstance(data, Mapping) and ('dimensions' in data or dimensions):
         return _with_dimensions(ctx, data, dimensions)
     if not isinstance(data, Mapping):
@@ -106,7 +112,9 @@ def build_mechanism(
         Path(source).stem if source != '<scene>' else ('mechanism' if form == 'points' else form)
     )
     name = ctx.name('name', data.get('name', default_name))
-    mech = _build_general(ctx, general, name=name, frame_id=frame_id, solver=solver)
+    # a shortcut's values were read (and warned about) above: its general form is not again
+    built = ctx if form == 'points' else _Ctx(source)
+    mech = _build_general(built, general, name=name, frame_id=frame_id, solver=solver)
     mech.form = form if form != 'points' else 'general'
     mech.shortcut = shortcut
     _check_reference_limits(ctx, mech, form, data)
@@ -133,7 +141,7 @@ def _with_dimensions(
     lengths exactly."""
     dims = merge(ctx.source, data.get('dimensions'), overrides)
     plain = {k: v for k, v in data.items() if k != 'dimensions'}
-    drawn = build_mechanism(plain, ctx.source)  # as drawn: every other key checked first
+    drawn = build_mechanism(plain, ctx.source, warnings=ctx.warnings)  # every other key first
     if not dims:
         return drawn
     if drawn.form in SHORTCUT_KEYS:
@@ -287,8 +295,8 @@ def _point_from_distances(
     if len(dist) != 2:
         ctx.fail(f'{key}.distances', 'must give the distances from exactly two points', list(dist))
     (a, r1_raw), (b, r2_raw) = dist.items()
-    r1 = ctx.number(f'{key}.distances.{a}', r1_raw, positive=True)
-    r2 = ctx.number(f'{key}.distances.{b}', r2_raw, positive=True)
+    r1 = ctx.number(f'{key}.distances.{a}', r1_raw, quantity=Quantity.LENGTH, positive=True)
+    r2 = ctx.number(f'{key}.distances.{b}', r2_raw, quantity=Quantity.LENGTH, positive=True)
     side = spec.get('side', 'left')
     if side not in ('left', 'right'):
         ctx.fail(f'{key}.side', "must be 'left' or 'right' of the line from the first point", side)
@@ -411,7 +419,7 @@ def _read_cylinders(
             (float(points[a][0]), float(points[a][1])),
             length,
         )
-        lo, hi = _limits(ctx, key, spec)
+        lo, hi = _limits(ctx, key, spec, Quantity.LENGTH)
         if lo is not None and lo <= 0:
             ctx.fail(f'{key}.min', 'a cylinder length must be > 0', lo)
         actuators[cname] = SlideActuator(cname, joint=cname, min=lo, max=hi, cylinder=True)
@@ -436,21 +444,34 @@ def _read_sliders(
         key = f'sliders.{jname}'
         if jname in prismatics:
             ctx.fail(key, 'duplicate prismatic joint name', jname)
-        guide = ctx.member(f'{key}.guide', spec.get('guide'), links, 'must name a link')
-        slider = ctx.member(f'{key}.slider', spec.get('slider'), links, 'must name a link')
+        guide_v, slider_v, point_v = spec.get('guide'), spec.get('slider'), spec.get('point')
+        roles = {'guide': 'the link the slide line is fixed in', 'slider': 'the link that slides'}
+        for k, v in (('guide', guide_v), ('slider', slider_v)):
+            if v is None:  # not "(got None)": say what is missing
+                ctx.fail(f'{key}.{k}', f'is missing: name {roles[k]}', has_value=False)
+        guide = ctx.member(f'{key}.guide', guide_v, links, f'must name a link ({roles["guide"]})')
+        slider = ctx.member(
+            f'{key}.slider', slider_v, links, f'must name a link ({roles["slider"]})'
+        )
         if guide == slider:
             ctx.fail(f'{key}.slider', 'must differ from the guide link', slider)
+        if point_v is None:
+            ctx.fail(
+                f'{key}.point',
+                f'is missing: name the point of {slider!r} that runs on the line',
+                has_value=False,
+            )
         point = ctx.member(
             f'{key}.point',
-            spec.get('point'),
+            point_v,
             links[slider].points,
             f'must be a point of the slider link {slider!r}',
         )
         d = spec.get('direction', 0.0)
         if isinstance(d, (list, tuple)):
-            dv = ctx.xy(f'{key}.direction', d)
+            dv = ctx.xy(f'{key}.direction', d, quantity=None)
         else:
-            ang = ctx.number(f'{key}.direction', d)
+            ang = ctx.number(f'{key}.direction', d, quantity=Quantity.ANGLE)
             dv = np.array([math.cos(ang), math.sin(ang)])
         n = float(np.hypot(*dv))
         if not n > 0:

@@ -23,7 +23,10 @@ def limit_violation(
             return None
         over_hi = v - hi
         under_lo = lo + 2 * math.pi - v
-        if under_lo < over_hi:
+        # equally far from both (a value half a turn from the middle of [lo, hi], e.g. -pi/2
+        # for [0, pi]): the side the value was written on, not "beyond" a maximum it is not
+        tied = abs(under_lo - over_hi) <= LIMIT_SLACK * 2 * math.pi
+        if under_lo < over_hi if not tied else value < lo:
             return (
                 f'{name} = {value:.9g} {unit} is below its minimum {lo:g} by {under_lo:.3g} {unit}'
             )

@@ -142,12 +142,16 @@ class _Shapes:
             pair = solve_rrr_dyad(SCALAR, out[pts[0]], r0, out[pts[1]], r1)
             z, ok = dyad_point(SCALAR, pair, -1.0 if drawn_side < 0 else 1.0)
             if not ok and fail is not None:
+                # blame a side the user stated (the last: the point's own), not always P0-p
+                sides = [(pts[0], pts[1], d01), (pts[0], p, r0), (pts[1], p, r1)]
+                stated = [side for side in sides if frozenset(side[:2]) in pairs]
+                blamed_p, blamed_q, blamed = stated[-1] if stated else sides[1]
                 fail(
-                    f'{link}.{pts[0]}-{p}',
+                    f'{link}.{blamed_p}-{blamed_q}',
                     f'with {link}.{pts[0]}-{pts[1]} = {d01:.9g}, {link}.{pts[0]}-{p} = '
                     f'{r0:.9g} and {link}.{pts[1]}-{p} = {r1:.9g} the link is no triangle '
                     '(one side is longer than the other two together)',
-                    r0,
+                    blamed,
                 )
             out[p] = z
         return out

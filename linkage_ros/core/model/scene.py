@@ -28,6 +28,9 @@ class Scene:
     #: what loading did that a user should hear (a robot description assembled, its mimics
     #: superseded): the node logs it at start-up, the CLI's check prints it
     notes: tuple[str, ...] = ()
+    #: what loads but is likely wrong (a bare angle beyond a full turn: degrees read as
+    #: radians): the node logs it as a warning at start-up, the CLI prints it on stderr
+    warnings: tuple[str, ...] = ()
 
     @property
     def frame_id(self) -> str:
@@ -50,7 +53,8 @@ class Scene:
             raise SceneError(
                 f'invalid YAML{where}: {getattr(exc, "problem", exc)}', file=path, key=key
             ) from None
-        return cls(mechanism=_build(data, path, dimensions), path=path)
+        warnings: list[str] = []
+        return cls(_build(data, path, dimensions, warnings), path, warnings=tuple(warnings))
 
     @classmethod
     def from_dict(
@@ -59,16 +63,19 @@ class Scene:
         source: str = '<scene>',
         dimensions: Mapping[str, float] | None = None,
     ) -> Scene:
-        return cls(mechanism=_build(data, source, dimensions), path=None)
+        warnings: list[str] = []
+        return cls(_build(data, source, dimensions, warnings), None, warnings=tuple(warnings))
 
 
-def _build(data: Any, source: str, dimensions: Mapping[str, float] | None) -> Mechanism:
+def _build(
+    data: Any, source: str, dimensions: Mapping[str, float] | None, warnings: list[str]
+) -> Mechanism:
     """build_mechanism, then the ``joint_coordinates`` key (a robot description's own joint
     names and values, as ``linkage import`` writes them) applied to the mechanism built."""
     if not isinstance(data, Mapping) or 'joint_coordinates' not in data:
-        return build_mechanism(data, source, dimensions)
+        return build_mechanism(data, source, dimensions, warnings)
     rest = {k: v for k, v in data.items() if k != 'joint_coordinates'}
-    mech = build_mechanism(rest, source, dimensions)
+    mech = build_mechanism(rest, source, dimensions, warnings)
 
     def fail(key: str, message: str, value: Any = None, has_value: bool = True) -> NoReturn:
         raise SceneError(message, file=source, key=key, value=value, has_value=has_value)

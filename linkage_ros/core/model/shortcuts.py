@@ -8,6 +8,8 @@ from typing import Any
 
 import numpy as np
 
+from ..units import Quantity
+from .actuators import _limits
 from .checks import _Ctx
 
 #: a crank's reference points (A and the output point), (2,) arrays in m
@@ -29,11 +31,12 @@ def _branch(ctx: _Ctx, key: str, value: object) -> int:
 
 def _crank_actuator(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> dict[str, Any]:
     """The shortcut forms' crank: the angle of O2 -> A, with optional crank_limits."""
-    crank = {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
+    crank: dict[str, Any] = {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
     if 'crank_limits' in spec:
         lim = ctx.mapping(f'{key}.crank_limits', spec['crank_limits'])
         ctx.only(f'{key}.crank_limits', lim, {'min', 'max'})
-        crank.update({k: lim[k] for k in ('min', 'max') if k in lim})
+        lo, hi = _limits(ctx, f'{key}.crank_limits', lim, Quantity.ANGLE)
+        crank.update({k: v for k, v in (('min', lo), ('max', hi)) if v is not None})
     return crank
 
 
@@ -51,7 +54,7 @@ def _reference_input(
     reference points or None; ``intervals()`` lists the (lo, hi) crank angles that assemble
     (exact, from the closure condition)."""
     if 'input' in spec:
-        theta = ctx.number(f'{key}.input', spec['input'])
+        theta = ctx.number(f'{key}.input', spec['input'], quantity=Quantity.ANGLE)
         pts = assemble(theta)
         if pts is None:
             ctx.fail(f'{key}.input', 'the mechanism does not assemble at this crank angle', theta)
@@ -93,9 +96,9 @@ def _four_bar_to_general(
             'crank_limits',
         },
     )
-    l2 = ctx.number('four_bar.crank', fb.get('crank'), positive=True)
-    l3 = ctx.number('four_bar.coupler', fb.get('coupler'), positive=True)
-    l4 = ctx.number('four_bar.rocker', fb.get('rocker'), positive=True)
+    l2 = ctx.number('four_bar.crank', fb.get('crank'), quantity=Quantity.LENGTH, positive=True)
+    l3 = ctx.number('four_bar.coupler', fb.get('coupler'), quantity=Quantity.LENGTH, positive=True)
+    l4 = ctx.number('four_bar.rocker', fb.get('rocker'), quantity=Quantity.LENGTH, positive=True)
     if 'pivots' in fb:
         piv = ctx.mapping('four_bar.pivots', fb['pivots'])
         ctx.only('four_bar.pivots', piv, {'O2', 'O4'})
@@ -105,7 +108,7 @@ def _four_bar_to_general(
         if not l1 > 0:
             ctx.fail('four_bar.pivots', 'O2 and O4 coincide', fb['pivots'])
         if 'ground' in fb:
-            g = ctx.number('four_bar.ground', fb['ground'], positive=True)
+            g = ctx.number('four_bar.ground', fb['ground'], quantity=Quantity.LENGTH, positive=True)
             if abs(g - l1) > 1e-9 * max(g, l1):
                 ctx.fail('four_bar.ground', f'disagrees with |O2O4| = {l1!r} from pivots', g)
         if 'ground_angle' in fb:
@@ -114,8 +117,12 @@ def _four_bar_to_general(
             )
         gang = math.atan2(*(o4 - o2)[::-1])
     else:
-        l1 = ctx.number('four_bar.ground', fb.get('ground'), positive=True)
-        gang = ctx.number('four_bar.ground_angle', fb.get('ground_angle', 0.0))
+        l1 = ctx.number(
+            'four_bar.ground', fb.get('ground'), quantity=Quantity.LENGTH, positive=True
+        )
+        gang = ctx.number(
+            'four_bar.ground_angle', fb.get('ground_angle', 0.0), quantity=Quantity.ANGLE
+        )
         o2 = np.zeros(2)
         o4 = o2 + l1 * np.array([math.cos(gang), math.sin(gang)])
     branch = _branch(ctx, 'four_bar.branch', fb.get('branch', 1))
@@ -147,8 +154,12 @@ def _four_bar_to_general(
         pname = ctx.name('four_bar.coupler_point.name', cp.get('name', 'P'))
         if pname in points:
             ctx.fail('four_bar.coupler_point.name', 'clashes with O2, A, B or O4', pname)
-        dist = ctx.number('four_bar.coupler_point.distance', cp.get('distance'))
-        ang = ctx.number('four_bar.coupler_point.angle', cp.get('angle', 0.0))
+        dist = ctx.number(
+            'four_bar.coupler_point.distance', cp.get('distance'), quantity=Quantity.LENGTH
+        )
+        ang = ctx.number(
+            'four_bar.coupler_point.angle', cp.get('angle', 0.0), quantity=Quantity.ANGLE
+        )
         t3 = math.atan2(*(b - a)[::-1])
         with np.errstate(over='ignore'):  # beyond the float range: refused below as not finite
             points[pname] = a + dist * np.array([math.cos(t3 + ang), math.sin(t3 + ang)])
@@ -191,10 +202,10 @@ def _slider_crank_to_general(
         sc,
         {'crank', 'rod', 'offset', 'direction', 'input', 'branch', 'crank_limits'},
     )
-    r = ctx.number('slider_crank.crank', sc.get('crank'), positive=True)
-    rod = ctx.number('slider_crank.rod', sc.get('rod'), positive=True)
-    e = ctx.number('slider_crank.offset', sc.get('offset', 0.0))
-    dang = ctx.number('slider_crank.direction', sc.get('direction', 0.0))
+    r = ctx.number('slider_crank.crank', sc.get('crank'), quantity=Quantity.LENGTH, positive=True)
+    rod = ctx.number('slider_crank.rod', sc.get('rod'), quantity=Quantity.LENGTH, positive=True)
+    e = ctx.number('slider_crank.offset', sc.get('offset', 0.0), quantity=Quantity.LENGTH)
+    dang = ctx.number('slider_crank.direction', sc.get('direction', 0.0), quantity=Quantity.ANGLE)
     branch = _branch(ctx, 'slider_crank.branch', sc.get('branch', 1))
     d = np.array([math.cos(dang), math.sin(dang)])
     n = np.array([-d[1], d[0]])

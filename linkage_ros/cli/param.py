@@ -1,0 +1,82 @@
+"""Get or set a parameter of a running node, without the ros2 CLI.
+
+    linkage param get NODE NAME
+    linkage param set NODE NAME VALUE
+    linkage param list NODE
+
+NODE is the node's name with its namespace (`/linkage_node`, `/robot/linkage_node`; a name
+without `/` is in the root namespace). VALUE is read as YAML, as `ros2 param set` reads it:
+`true`, `5`, `5.0`, `[a, b]`, or text. It goes through rclpy's AsyncParameterClient, the
+node's own parameter services, so the node's checks apply: a refused value prints the node's
+reason.
+
+Exit status: 0 done; 1 the node refused the value; 2 a usage error (no such node within
+--wait seconds, an unknown parameter).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import yaml
+
+from .common import OK, REFUSED, UsageError
+from .ros_graph import DEFAULT_WAIT, plain, ros_session, spin_until
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.description = 'Get, set or list the parameters of a running node (no ros2 CLI needed).'
+    p.epilog = (__doc__ or '').split('\n', 2)[2].rstrip() + '\n'
+    p.formatter_class = argparse.RawDescriptionHelpFormatter
+    p.add_argument('action', choices=('get', 'set', 'list'))
+    p.add_argument('node', metavar='NODE', help='the node, e.g. /linkage_node')
+    p.add_argument('name', metavar='NAME', nargs='?', help='the parameter (get, set)')
+    p.add_argument('value', metavar='VALUE', nargs='?', help='the value to set (YAML)')
+    p.add_argument(
+        '--wait',
+        type=float,
+        default=DEFAULT_WAIT,
+        metavar='S',
+        help=f'wait up to S seconds for the node (default {DEFAULT_WAIT:g})',
+    )
+
+
+def run(args) -> int:
+    from rclpy.parameter import Parameter, parameter_value_to_python
+    from rclpy.parameter_client import AsyncParameterClient
+
+    if args.action in ('get', 'set') and args.name is None:
+        raise UsageError(f'param {args.action} needs NAME')
+    if (args.action == 'set') != (args.value is not None):
+        raise UsageError('VALUE goes with param set only')
+    node_name = args.node if args.node.startswith('/') else f'/{args.node}'
+    with ros_session('linkage_param') as node:
+        client = AsyncParameterClient(node, node_name)
+        if not spin_until(node, client.services_are_ready, args.wait):
+            raise UsageError(f'no node {node_name} answered within {args.wait:g} s')
+
+        def call(future):
+            spin_until(node, future.done, args.wait)
+            if not future.done():
+                raise UsageError(f'{node_name} did not answer within {args.wait:g} s')
+            return future.result()
+
+        if args.action == 'list':
+            for name in sorted(call(client.list_parameters()).result.names):
+                print(name)
+            return OK
+        if args.action == 'get':
+            values = call(client.get_parameters([args.name])).values
+            if not values or values[0].type == 0:  # none, or PARAMETER_NOT_SET
+                raise UsageError(f'{node_name} has no parameter {args.name!r}')
+            value = plain(parameter_value_to_python(values[0]))
+            print(json.dumps(value) if isinstance(value, list) else value)
+            return OK
+        value = yaml.safe_load(args.value)
+        (result,) = call(client.set_parameters([Parameter(args.name, value=value)])).results
+        if not result.successful:
+            print(f'linkage param: {node_name} refused {args.name}: {result.reason}')
+            return REFUSED
+        print(f'{node_name}: {args.name} = {args.value}')
+        return OK
