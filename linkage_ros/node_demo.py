@@ -3,16 +3,14 @@ states flow without any command (values: demo.DemoSweep)."""
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from builtin_interfaces.msg import Time
 from rclpy.parameter import Parameter
 
 from .conversions import format_joints
 from .demo import DemoSweep
-
-if TYPE_CHECKING:
-    from .node import LinkageNode
+from .node_protocol import ServingNode
 
 #: failed demo solves in a row that stop the demo (and set demo_sweep false)
 DEMO_FAILURES = 3
@@ -23,7 +21,7 @@ class DemoRunner:
     command is (request 'demo'); DEMO_FAILURES failures in a row stop it and set the parameter
     demo_sweep false (setting it true again restarts it)."""
 
-    def __init__(self, node: LinkageNode):
+    def __init__(self, node: ServingNode):
         self.node = node
         self.timer: Any = None
         self.sweep: DemoSweep | None = None

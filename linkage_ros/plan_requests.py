@@ -10,10 +10,11 @@ answer is, by a timer that runs only while plans are in flight.
 from __future__ import annotations
 
 import traceback
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from builtin_interfaces.msg import Time
 
+from .node_protocol import ServingNode
 from .plan_cdr import (
     CdrError,
     Stamp,
@@ -32,14 +33,11 @@ from .trajectory import (
 #: how often finished plans are looked for while plans are in flight (s)
 PLAN_POLL_S = 0.005
 
-if TYPE_CHECKING:
-    from .node import LinkageNode
-
 
 class PlanRequests:
     """Plan requests of one node (see the module docstring). :meth:`destroy` ends the worker."""
 
-    def __init__(self, node: LinkageNode):
+    def __init__(self, node: ServingNode):
         self.node = node
         self._poll: Any = None  # the timer publishing finished plans, while any are in flight
         self.worker = PlanWorker()

@@ -89,7 +89,7 @@ def add_fleet_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def _prepare(args: argparse.Namespace) -> tuple[BagOptions, list[BagTask]]:
-    from .command import bag_options, check_options
+    from .options import bag_options, check_options
 
     if args.out:
         raise BagError('--out and --out-dir: give one (--out for one bag, --out-dir for many)')

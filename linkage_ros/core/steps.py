@@ -3,6 +3,7 @@ them)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -100,3 +101,16 @@ def anchor_of(args: RRRDyad | RRPDyad | RPRDyad) -> str:
     if isinstance(args, RRPDyad):
         return args.centre
     return args.pivot
+
+
+# ---- branch signs as text: one sign per branching step ----------------------------------------
+
+
+def branch_signs(text: str) -> tuple[int, ...]:
+    """Branch text as signs: (+1, -1) for '+-' (the inverse of :func:`branch_text`)."""
+    return tuple(1 if c == '+' else -1 for c in text)
+
+
+def branch_text(signs: Iterable[float]) -> str:
+    """Branch signs as the status shows them: '+-' for (+1, -1)."""
+    return ''.join('+' if s > 0 else '-' for s in signs)

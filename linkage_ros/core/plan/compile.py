@@ -27,6 +27,7 @@ from ..steps import (
     StepArgs,
     StepKind,
     TwoPoints,
+    branch_text,
 )
 from .poses import Poses, batch_poses
 from .spec import Spec
@@ -426,7 +427,7 @@ class Plan:
         for s in self.steps:
             text = s.describe(self)
             if s.branching:
-                text += f' [branch {"+" if s.sign > 0 else "-"} in the reference pose]'
+                text += f' [branch {branch_text((s.sign,))} in the reference pose]'
             out.append(text)
         return out
 

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
 import numpy as np
 
 from ..model import Mechanism
+from ..steps import branch_signs as branch_signs  # re-exported: the solver's vocabulary
+from ..steps import branch_text as branch_text
 
 #: machine epsilon (float64): the unit of rounding in branch_identity_defined
 _EPS = float(np.finfo(float).eps)
@@ -130,13 +131,3 @@ def dyad_reason(plan: Any, k: int, violation: float, length_scale: float) -> str
         f'cannot assemble: {what} does not close; the constraint misses by '
         f'{violation:.6g} m ({violation / length_scale:.3g} of the length scale)'
     )
-
-
-def branch_signs(text: str) -> tuple[int, ...]:
-    """Branch text as signs: (+1, -1) for '+-' (the inverse of :func:`branch_text`)."""
-    return tuple(1 if c == '+' else -1 for c in text)
-
-
-def branch_text(signs: Iterable[float]) -> str:
-    """Branch signs as the status shows them: '+-' for (+1, -1)."""
-    return ''.join('+' if s > 0 else '-' for s in signs)

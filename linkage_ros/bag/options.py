@@ -1,0 +1,87 @@
+"""The checks of ``linkage bag``'s options that need no bag, and the options as plain data:
+shared by one bag's run (command.py) and a fleet's (fleet_run.py)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+from ..cli.common import description_options_error, dimension_overrides, print_notes
+from .common import BagError, output_topics, parse_remaps
+from .plans import path_point
+from .replay import _Engine
+
+
+def check_options(args: argparse.Namespace) -> Any:
+    """The scene, loaded, after every check of the options that needs no bag (notes on
+    stderr); BagError / LinkageError / UsageError otherwise."""
+    from ..core.loading import load_scene
+    from ..resources import scene_path
+
+    path = str(scene_path(args.scene))
+    why = description_options_error(path, args.closures, args.actuated)
+    if why:
+        raise BagError(why)
+    scene = load_scene(
+        path, dimension_overrides(args.dimension), args.closures, args.actuated or None
+    )
+    print_notes(scene.notes)
+    for opt, topic in (
+        ('--command-topic', args.command_topic),
+        ('--target-topic', args.target_topic),
+    ):
+        if topic is not None and not topic.strip():
+            raise BagError(
+                f'{opt}: empty topic name (leave the option out for no such topic)'
+                if opt == '--target-topic'
+                else f'{opt}: empty topic name'
+            )
+    if args.command_topic == args.target_topic:
+        raise BagError('--command-topic and --target-topic must be different topics')
+    if not (isinstance(args.tol, float) and math.isfinite(args.tol) and args.tol > 0):
+        raise BagError(f'--tol must be a positive number (got {args.tol!r})')
+    if args.max_iter < 1:
+        raise BagError(f'--max-iter must be >= 1 (got {args.max_iter})')
+    for topic in args.path_topic:
+        if path_point(topic) not in scene.mechanism.points:
+            raise BagError(
+                f'--path-topic {topic}: its last name {path_point(topic)!r} is not a point '
+                f'of {scene.mechanism.name!r} (a path topic is .../target_path/<point>)'
+            )
+    parse_remaps(args.remap, output_topics(list(scene.mechanism.outputs), True))
+    # PlanError / ConfigError (a bad --solver, --branch) before any bag is read
+    _Engine(
+        scene.mechanism, args.solver, args.tol, args.max_iter, args.branch, args.target_point_hold
+    )
+    return scene
+
+
+def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: str = '') -> Any:
+    """The options every bag is solved with, as plain data (fleet_task.BagOptions)."""
+    from ..resources import scene_path
+    from .fleet_task import BagOptions
+
+    scene = scene_path(args.scene)
+    return BagOptions(
+        scene=str(scene.resolve()) if scene.exists() else args.scene,
+        dimensions=tuple(args.dimension),
+        closures=str(Path(args.closures).resolve()) if args.closures else None,
+        actuated=tuple(args.actuated),
+        command_topic=args.command_topic,
+        target_topic=args.target_topic,
+        trajectory_topics=tuple(args.trajectory_topic),
+        path_topics=tuple(args.path_topic),
+        hold=tuple(args.target_point_hold),
+        solver=args.solver,
+        branch=args.branch,
+        tol=args.tol,
+        max_iter=args.max_iter,
+        accept_missing=args.accept_missing,
+        formats=tuple(formats),
+        out_format=args.out_format,
+        out_dir=out_dir,
+        remap=tuple((old, new) for old, _, new in (a.partition(':=') for a in args.remap)),
+    )
