@@ -4,7 +4,9 @@ Each bag is one task (fleet_task.analyse_bag) with the run's options; the tasks 
 the other (``--jobs 1``), in a local process pool (``--jobs N``, default: the machine's cores)
 or on a Dask distributed cluster (``--scheduler ADDRESS``: dask.distributed's Client, imported
 only then). A bag is solved from its own start in every case, so its outputs are the same
-wherever it ran. One tqdm bar on stderr follows the fleet (bags and commands done, rate, ETA).
+wherever it ran. One tqdm bar on stderr follows the fleet (bags and commands done, rate, ETA),
+and below it each bag being analysed has its own (one line per local worker; not for a Dask
+cluster, whose workers have no terminal).
 At the end ``summary.csv`` and ``summary.json`` (one row per bag) are written to DIR.
 
 Exit status: 0 every bag analysed; 1 some bag had every request refused (and none failed);
@@ -39,6 +41,7 @@ from .fleet_task import (
     finished_row,
     options_fingerprint,
     remove_outputs,
+    set_progress_line,
     stale_outputs,
 )
 
@@ -154,13 +157,15 @@ def _failed(task: BagTask, why: str) -> BagRow:
     return BagRow(bag=task.name, source=task.source, status=FAILED, reason=why)
 
 
-def _serial(todo: list[tuple[int, BagTask, str]], opts: BagOptions) -> Iterator[tuple[int, BagRow]]:
-    for i, t, fp in todo:
-        yield i, analyse_bag(t, opts, fp)
+def _serial(
+    todo: list[tuple[int, BagTask, str]], opts: BagOptions, bars: bool
+) -> Iterator[tuple[int, BagRow]]:
+    for i, t, fp in todo:  # each bag's progress on the line below the fleet's
+        yield i, analyse_bag(t, opts, fp, 1 if bars else 0)
 
 
 def _pool(
-    todo: list[tuple[int, BagTask, str]], opts: BagOptions, jobs: int
+    todo: list[tuple[int, BagTask, str]], opts: BagOptions, jobs: int, bars: bool
 ) -> Iterator[tuple[int, BagRow]]:
     import multiprocessing as mp
     from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -168,7 +173,15 @@ def _pool(
     # fork: a worker starts in milliseconds with the package already imported (no threads run
     # in this process before the pool starts); spawn where there is no fork
     method = 'fork' if 'fork' in mp.get_all_start_methods() else 'spawn'
-    ex = ProcessPoolExecutor(max_workers=jobs, mp_context=mp.get_context(method))
+    ctx = mp.get_context(method)
+    # each worker takes a terminal line of its own below the fleet's bar for its bags' bars
+    lines = ctx.Value('i', 0)
+    if bars:
+        ex = ProcessPoolExecutor(
+            max_workers=jobs, mp_context=ctx, initializer=set_progress_line, initargs=(lines,)
+        )
+    else:
+        ex = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
     # submitted now, before the progress bar exists (its monitor thread must not be forked)
     futures = {ex.submit(analyse_bag, t, opts, fp): (i, t) for i, t, fp in todo}
 
@@ -199,7 +212,7 @@ def _dask(
     run = uuid.uuid4().hex[:12]
     try:
         futures = {
-            client.submit(analyse_bag, t, opts, fp, key=f'linkage-bag-{run}-{i}', pure=False): (
+            client.submit(analyse_bag, t, opts, fp, 0, key=f'linkage-bag-{run}-{i}', pure=False): (
                 i,
                 t,
             )
@@ -278,17 +291,17 @@ def run_fleet(args: argparse.Namespace) -> int:
     if done:
         print(f'linkage bag: {len(done)} bag(s) complete already, skipped (--resume)')
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
-    if args.scheduler:
+    enabled = not args.no_progress and sys.stderr.isatty()
+    if args.scheduler:  # the cluster's workers have no terminal: the fleet's bar alone
         where = f'the Dask cluster at {args.scheduler}'
         results = _dask(todo, opts, args.scheduler)
     elif jobs > 1 and len(todo) > 1:
         jobs = min(jobs, len(todo))
         where = f'{jobs} local processes'
-        results = _pool(todo, opts, jobs)
+        results = _pool(todo, opts, jobs, enabled)
     else:
         where = 'this process'
-        results = _serial(todo, opts)
-    enabled = not args.no_progress and sys.stderr.isatty()
+        results = _serial(todo, opts, enabled)
     commands = 0
     with tqdm(
         total=len(todo),

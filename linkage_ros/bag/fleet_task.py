@@ -219,9 +219,26 @@ def _remove(paths: list[Path]) -> None:
                 p.unlink()
 
 
-def analyse_bag(task: BagTask, opts: BagOptions, fingerprint: str) -> BagRow:
+#: this process's line for per-bag progress bars (0: none): set in a local pool's workers
+_PROGRESS_LINE = 0
+
+
+def set_progress_line(counter: Any) -> None:
+    """A local pool worker's initializer: take the next terminal line (1, 2, ...) below the
+    fleet's bar for the bars of the bags it analyses."""
+    global _PROGRESS_LINE
+    with counter.get_lock():
+        counter.value += 1
+        _PROGRESS_LINE = counter.value
+
+
+def analyse_bag(
+    task: BagTask, opts: BagOptions, fingerprint: str, progress_line: int | None = None
+) -> BagRow:
     """Solve one bag and write its outputs and manifest; its summary row (FAILED with the
-    reason on any error, its outputs then removed: a bag's outputs are all there or none)."""
+    reason on any error, its outputs then removed: a bag's outputs are all there or none).
+    ``progress_line`` (default: this process's, set by set_progress_line; 0: none): the
+    terminal line of this bag's progress bar, below the fleet's."""
     from ..core.errors import LinkageError
     from ..outputs import written_whole
     from .replay import _Engine
@@ -232,8 +249,14 @@ def analyse_bag(task: BagTask, opts: BagOptions, fingerprint: str) -> BagRow:
         scene = load_options_scene(opts)
         mech = scene.mechanism
         engine = _Engine(mech, opts.solver, opts.tol, opts.max_iter, opts.branch, opts.hold)
-        quiet = _Progress(False)
-        data, res, plans = replay_input(engine, mech, task.source, opts, quiet, scene.frame_id)
+        line = _PROGRESS_LINE if progress_line is None else progress_line
+        progress = _Progress(line > 0, position=line, prefix=f'{task.name}: ')
+        try:
+            data, res, plans = replay_input(
+                engine, mech, task.source, opts, progress, scene.frame_id
+            )
+        finally:
+            progress.clear()
         written = _write_outputs(task, opts, scene, data, res, plans)
         row = _row_from(task, data, res, plans)
         rel = [p.relative_to(opts.out_dir).as_posix() for p in written]

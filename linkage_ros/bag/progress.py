@@ -16,8 +16,11 @@ class _Progress:
     """A tqdm progress bar on stderr, one phase at a time (reading, solving, writing); only when
     enabled (stderr is a terminal and --no-progress was not given)."""
 
-    def __init__(self, enabled: bool):
+    def __init__(self, enabled: bool, position: int | None = None, prefix: str = ''):
+        """``position``: the terminal line (0 the first) where several bars show at once (a
+        fleet's per-bag bars below its own); ``prefix``: what the bar's label starts with."""
         self.enabled = enabled
+        self.position, self.prefix = position, prefix
         self.bar: tqdm | None = None
 
     def start(self, label: str, total: int) -> None:
@@ -26,11 +29,12 @@ class _Progress:
             # file is looked up now, not at import: tests and callers may have replaced stderr
             self.bar = tqdm(
                 total=max(int(total), 0),
-                desc=f'{label:<8}',
+                desc=f'{self.prefix}{label:<8}',
                 file=sys.stderr,
                 leave=False,
                 mininterval=0.1,
                 dynamic_ncols=True,
+                position=self.position,
             )
 
     def update(self, done: int) -> None:
