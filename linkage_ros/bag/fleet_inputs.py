@@ -20,7 +20,7 @@ from .common import BagError
 from .reading import STORAGE_SUFFIXES
 
 #: --format choices and the suffix each adds to a bag's name (mcap and sqlite3 are bag folders)
-FORMATS = ('csv', 'parquet', 'mcap', 'sqlite3')
+FORMATS = ('csv', 'parquet', 'mcap', 'sqlite3', 'png', 'svg')
 
 #: the file written last for each finished bag (its outputs are complete: see fleet_task)
 MANIFEST_SUFFIX = '.done.json'

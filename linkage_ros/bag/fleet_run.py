@@ -63,8 +63,8 @@ def add_fleet_arguments(parser: argparse.ArgumentParser) -> None:
         action='append',
         choices=FORMATS,
         default=[],
-        help='an output format per bag (repeatable; default csv): csv, parquet, or a result '
-        'bag in mcap or sqlite3 storage',
+        help='an output format per bag (repeatable; default csv): csv, parquet, a result '
+        'bag in mcap or sqlite3 storage, or the plot of --plot as png or svg',
     )
     g.add_argument(
         '--jobs',
@@ -97,7 +97,10 @@ def _prepare(args: argparse.Namespace) -> tuple[BagOptions, list[BagTask]]:
     if args.out:
         raise BagError('--out and --out-dir: give one (--out for one bag, --out-dir for many)')
     if args.plot:
-        raise BagError('--plot is for one bag (--out); a fleet run writes no plots')
+        raise BagError(
+            '--plot names one file (for one bag); with --out-dir give --format png (or svg): '
+            "each bag's plot beside its other outputs"
+        )
     if args.jobs is not None and args.jobs < 1:
         raise BagError(f'--jobs must be >= 1 (got {args.jobs})')
     if args.jobs is not None and args.scheduler:

@@ -188,6 +188,7 @@ def _write_outputs(
     from .csv_out import write_csv
     from .parquet_out import write_parquet
     from .plans import write_plans_csv
+    from .plot import write_plot
 
     mech = scene.mechanism
     written: list[Path] = []
@@ -198,6 +199,8 @@ def _write_outputs(
             write_csv(path, data, res, mech)
         elif fmt == 'parquet':
             write_parquet(path, data, res, mech)
+        elif fmt in ('png', 'svg'):
+            write_plot(str(path), data, res, mech)
         else:
             write_bag(
                 path, data, res, mech, scene.frame_id, fmt, plans=plans, remap=dict(opts.remap)

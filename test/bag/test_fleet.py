@@ -393,3 +393,19 @@ def test_each_bag_shows_its_own_progress_below_the_fleets(fleet, tmp_path, capsy
         assert 'bags' in err  # the fleet's bar
         if jobs == '1':  # a worker process's bars go to the terminal, not to this capture
             assert 'a: reading' in err and 'b: solving' in err  # named as under --out-dir
+
+
+def test_each_bag_gets_its_plot_with_format_png(fleet, tmp_path, capsys):
+    root, _ = fleet
+    out = tmp_path / 'plots'
+    code, _ = run(
+        [root / 'day1', *COMMON, '--out-dir', out, '--format', 'png', '--jobs', '1'], capsys
+    )
+    assert code == 0
+    for name in ('a', 'b'):
+        head = (out / f'{name}.png').read_bytes()[:8]
+        assert head == b'\x89PNG\r\n\x1a\n'  # a PNG file, whole (written by rename)
+    code, got = run(
+        [root / 'day1', *COMMON, '--out-dir', tmp_path / 'x', '--plot', 'p.png'], capsys
+    )
+    assert code == 2 and '--format png' in got.err
