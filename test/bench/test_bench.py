@@ -128,6 +128,25 @@ def test_report_structure(quick_run):
     assert table['rows'] == bench.QUICK.parquet_rows
     assert 0 < table['parquet']['bytes'] < table['csv']['bytes']
     assert sum('faster than one after the other' in n for n in names) == 2
+    # big scenes: each quick size timed (range and check), its targets stated
+    assert [r['actuators'] for r in rep['scaling']] == list(bench.QUICK.scaling)
+    assert all(r['range_s'] > 0 and r['check_s'] > 0 and r['repeats'] >= 1 for r in rep['scaling'])
+    assert sum('independent four-bars' in n for n in names) == 2
+    assert sum('300 actuators' in n for n in names) == 2
+
+
+def test_the_big_scene_is_n_closed_four_bars():
+    """The scaling case's scene: every four-bar drawn with config/four_bar.yaml's lengths."""
+    from linkage_ros.bench.scaling import LENGTHS, four_bars_scene
+
+    scene = four_bars_scene(7)
+    pts = {k: complex(*v) for k, v in scene['points'].items()}
+    for k in range(7):
+        o2, o4, a, b = (pts[f'{p}_{k}'] for p in ('O2', 'O4', 'A', 'B'))
+        got = (abs(o4 - o2), abs(a - o2), abs(b - a), abs(b - o4))
+        assert np.allclose(got, LENGTHS, rtol=0, atol=1e-15)
+    mech = Scene.from_dict(scene).mechanism
+    assert len(mech.actuators) == 7 and mech.dof == 7
 
 
 def _textbook_fourbar(l1, l2, l3, l4, theta, branch):
