@@ -306,3 +306,46 @@ def core_speed_targets(core: dict[str, Any]) -> list[dict[str, Any]]:
             'value': b['excavator_vs_four_bar'],
         },
     ]
+
+
+def core_speed_markdown(w: Callable[[str], None], core: dict[str, Any]) -> None:
+    """The solver core against hand-written baselines (bench.core_speed)."""
+    s, nw, b = core['scalar'], core['newton'], core['batch']
+    w('## The solver core against hand-written baselines\n')
+    w(
+        'Each pair timed interleaved in this run, best pass (bench/core_speed.py): the scalar '
+        '`Solver.solve` (its full Result: every input, joint, link angle and point, residual, '
+        'margin) on the warm four-bar sweep against a hand-written `math` four-bar computing '
+        'theta3, theta4 and the coupler point; warm Newton 1e-12 against `scipy.optimize.root` '
+        '(hybr, xtol 1e-12) on the textbook two-equation closure, warm-started alike; '
+        '`Solver.solve_batch` against the same four-bar in plain numpy.\n'
+    )
+    w('| comparison | ours | baseline | ratio | answers agree to |')
+    w('|---|---:|---:|---:|---|')
+    us = s['us']
+    w(
+        f'| scalar four_bar | {us["Solver.solve four_bar"]:.2f} us | '
+        f'{us["math four-bar"]:.2f} us | {s["four_bar_vs_math"]:.1f}x slower | '
+        f'{s["max_point_diff_m"]:.1e} m |'
+    )
+    w(
+        f'| scalar excavator vs four_bar | {us["Solver.solve excavator"]:.2f} us | '
+        f'{us["Solver.solve four_bar"]:.2f} us | {s["excavator_vs_four_bar"]:.1f}x | - |'
+    )
+    nu = nw['us']
+    w(
+        f'| Newton 1e-12 four_bar | {nu["Solver newton"]:.1f} us | '
+        f'{nu["scipy root (2 equations)"]:.1f} us | {nw["speedup_vs_scipy"]:.2f}x faster | '
+        f'{nw["max_angle_diff_rad"]:.1e} rad |'
+    )
+    bu = b['us_per_input']
+    w(
+        f'| batch four_bar (n = {b["n"]:,}) | {bu["solve_batch four_bar"] * 1e3:.0f} ns | '
+        f'{bu["numpy four-bar"] * 1e3:.0f} ns | {b["throughput_vs_numpy"]:.2f}x the throughput '
+        f'| {b["max_point_diff_m"]:.1e} m |'
+    )
+    w(
+        f'| batch excavator vs four_bar | {bu["solve_batch excavator"] * 1e3:.0f} ns | '
+        f'{bu["solve_batch four_bar"] * 1e3:.0f} ns | {b["excavator_vs_four_bar"]:.1f}x | - |'
+    )
+    w('')

@@ -3,10 +3,10 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
 
 from ..outputs import written_whole
 from .collect import _hz, _setting
+from .core_speed import core_speed_markdown
 from .fleet import render_fleet
 from .scaling import scaling_markdown
 from .settings import (
@@ -197,7 +197,7 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
 
     core = report.get('core_speed')
     if core:
-        _core_speed_section(w, core)
+        core_speed_markdown(w, core)
 
     w('## Cost against what the scene asks (excavator)\n')
     w(
@@ -656,46 +656,3 @@ def write_report(path: Path, body: str) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     with written_whole(path) as tmp:
         tmp.write_text(f'{intro}\n{MARKER}\n\n{body}', encoding='utf-8')
-
-
-def _core_speed_section(w: Any, core: dict) -> None:
-    """The solver core against hand-written baselines (bench.core_speed)."""
-    s, nw, b = core['scalar'], core['newton'], core['batch']
-    w('## The solver core against hand-written baselines\n')
-    w(
-        'Each pair timed interleaved in this run, best pass (bench/core_speed.py): the scalar '
-        '`Solver.solve` (its full Result: every input, joint, link angle and point, residual, '
-        'margin) on the warm four-bar sweep against a hand-written `math` four-bar computing '
-        'theta3, theta4 and the coupler point; warm Newton 1e-12 against `scipy.optimize.root` '
-        '(hybr, xtol 1e-12) on the textbook two-equation closure, warm-started alike; '
-        '`Solver.solve_batch` against the same four-bar in plain numpy.\n'
-    )
-    w('| comparison | ours | baseline | ratio | answers agree to |')
-    w('|---|---:|---:|---:|---|')
-    us = s['us']
-    w(
-        f'| scalar four_bar | {us["Solver.solve four_bar"]:.2f} us | '
-        f'{us["math four-bar"]:.2f} us | {s["four_bar_vs_math"]:.1f}x slower | '
-        f'{s["max_point_diff_m"]:.1e} m |'
-    )
-    w(
-        f'| scalar excavator vs four_bar | {us["Solver.solve excavator"]:.2f} us | '
-        f'{us["Solver.solve four_bar"]:.2f} us | {s["excavator_vs_four_bar"]:.1f}x | - |'
-    )
-    nu = nw['us']
-    w(
-        f'| Newton 1e-12 four_bar | {nu["Solver newton"]:.1f} us | '
-        f'{nu["scipy root (2 equations)"]:.1f} us | {nw["speedup_vs_scipy"]:.2f}x faster | '
-        f'{nw["max_angle_diff_rad"]:.1e} rad |'
-    )
-    bu = b['us_per_input']
-    w(
-        f'| batch four_bar (n = {b["n"]:,}) | {bu["solve_batch four_bar"] * 1e3:.0f} ns | '
-        f'{bu["numpy four-bar"] * 1e3:.0f} ns | {b["throughput_vs_numpy"]:.2f}x the throughput '
-        f'| {b["max_point_diff_m"]:.1e} m |'
-    )
-    w(
-        f'| batch excavator vs four_bar | {bu["solve_batch excavator"] * 1e3:.0f} ns | '
-        f'{bu["solve_batch four_bar"] * 1e3:.0f} ns | {b["excavator_vs_four_bar"]:.1f}x | - |'
-    )
-    w('')
