@@ -22,7 +22,7 @@ from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
 from .core.solver import Result, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
-from .core.velocity import velocities
+from .core.velocity import Velocities, velocities
 from .point_coordinates import group_point_coordinates
 
 #: inverse solvers kept per engine (one per set of target names); least recently used dropped
@@ -497,8 +497,13 @@ def status_values(result: Result, request: str) -> dict[str, Any]:
         values['mode_change'] = result.mode_change
     if result.held:
         values['held'] = ', '.join(result.held)
-    vel = result.velocity
-    if vel is not None:
-        values['velocity'] = f'ok (cond {vel.cond:.3g})' if vel.success else vel.reason
+    if result.velocity is not None:
+        values['velocity'] = velocity_status(result.velocity)
     values['request'] = request
     return values
+
+
+def velocity_status(vel: Velocities) -> str:
+    """The status's 'velocity' value of an answer with rates: 'ok (cond C)' (C the scaled
+    condition number of the loop-closure Jacobian) or why there are no velocities."""
+    return f'ok (cond {vel.cond:.3g})' if vel.success else str(vel.reason)

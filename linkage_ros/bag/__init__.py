@@ -19,13 +19,20 @@ Outputs (``--out`` may be given twice):
 
 * ``*.csv``: one row per command, refused ones included (status ``error`` and the reason).
   Columns: ``time`` (header stamp, s), ``receive_time`` (bag time, s), ``topic``,
-  ``input.<actuator>`` ..., ``joint.<joint>`` ..., ``<point>.x``, ``<point>.y`` (every point),
-  ``residual``, ``margin``, ``branch``, ``status``, ``reason``.
+  ``input.<actuator>`` ..., ``joint.<joint>`` ..., ``velocity.<joint>`` ..., ``<point>.x``,
+  ``<point>.y`` (every point), ``residual``, ``margin``, ``branch``, ``status``, ``reason``.
+  The ``velocity.<joint>`` columns (rad/s, m/s; in the published joints' names and order) are
+  there only when some command gave velocities (one per name, as the node reads
+  ``~/command``'s ``velocity``): each such row has every joint's velocity as the node answers
+  it (core.velocity: exact, from the loop-closure Jacobian at the row's solution; a held
+  actuator moves at 0), empty on the other rows and where there is none (a toggle).
 * anything else: a new rosbag2 folder (MCAP unless ``--out-format sqlite3``) with the node's
   topics (``--remap FROM:=TO`` renames one): ``/joint_states`` (JointState, every joint),
   ``/linkage_node/points/<name>`` (PointStamped, per output point) and
   ``/linkage_node/status`` (DiagnosticStatus, one per command: OK with residual, branch, margin,
-  solver, iterations; ERROR with the reason). Header stamps are the commands' (a zero stamp
+  solver, iterations, and ``velocity`` (``ok (cond C)`` or why there is none) for a command
+  that gave velocities; ERROR with the reason). A command's joint_states then carry every
+  joint's velocity, as the node's do. Header stamps are the commands' (a zero stamp
   becomes the bag receive time), frame_id is the scene's, and each message is logged at its
   command's bag time.
 
@@ -39,6 +46,10 @@ difference is linear in it) by a clear margin. The first row where neither holds
 near a toggle) and a stretch after it are solved one by one by a continuous Solver whose history
 is made identical to the node's, then the batch resumes. Refused rows get the reason a single
 solve gives (the node's exact text). Newton and hybrid solvers go one command at a time.
+Velocities do not change the path: the positions are solved as above, then each command that
+gave velocities gets its rates from its own solution (core.velocity, one linear solve a row,
+as the node computes them); a command with a velocity that is not finite, or not one per
+name, is refused before solving, as the node refuses it.
 JointState messages are decoded with numpy, many at a time (messages of one layout share one
 parse); both rosbags' and rclpy's (recorded bags') CDR variants are read.
 

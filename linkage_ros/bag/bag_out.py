@@ -80,6 +80,22 @@ def _joint_state_template(names, frame_id):
     return np.frombuffer(bytes(c.buf), np.uint8), off
 
 
+def _joint_state_rates_template(names, frame_id):
+    """A JointState with a position and a velocity per name: (bytes, position offset, velocity
+    offset)."""
+    c = _Cdr()
+    c.header(frame_id)
+    c.u32(len(names))
+    for nm in names:
+        c.string(nm)
+    c.u32(len(names))
+    pos = c.f64s([0.0] * len(names)) if names else len(c.buf)
+    c.u32(len(names))
+    vel = c.f64s([0.0] * len(names)) if names else len(c.buf)
+    c.u32(0)
+    return np.frombuffer(bytes(c.buf), np.uint8), pos, vel
+
+
 def _point_template(frame_id):
     c = _Cdr()
     c.header(frame_id)
@@ -171,6 +187,17 @@ class _StatusWriter:
             hit = self.parts[key] = (head, mid, tail + (k('cond') if has_cond else b''), end)
         return hit
 
+    def with_velocity(self, parts: tuple[bytes, ...], held: str, request: str, note: str):
+        """ok_parts' pieces with the 'velocity' key-value before the request (one more
+        key-value: the count in the head goes up by one)."""
+        head, mid, tail, _ = parts
+        count_at = len(head) - len(self.blk('residual')) - 4
+        count = struct.unpack_from('<I', head, count_at)[0] + 1
+        head = head[:count_at] + struct.pack('<I', count) + head[count_at + 4 :]
+        k = self.blk
+        end = (k('held') + k(held) if held else b'') + k('velocity') + _cdr_str_block(note)
+        return head, mid, tail, end + k('request') + k(request)
+
     def error(self, reason: str, request: str) -> bytes:
         return b''.join(
             [self._head(self.ERROR_LEVEL, reason, 1), self.blk('request'), self.blk(request)]
@@ -211,6 +238,7 @@ def write_bag(
     sec = np.where(zero, data.log_ns // 10**9, data.sec).astype('<i4')
     nsec = np.where(zero, data.log_ns % 10**9, data.nanosec).astype('<u4')
     js_t, js_off = _joint_state_template(joints, frame_id)
+    jv_t, jv_pos, jv_vel = _joint_state_rates_template(joints, frame_id)
     pt_t, pt_off = _point_template(frame_id)
     name = status_name if status_name is not None else f'{NODE_NAME}: {mech.name}'
     status = _StatusWriter(name, mech.name)
@@ -255,6 +283,22 @@ def write_bag(
                 ).astype('<f8')
                 js[:, js_off : js_off + 8 * len(joints)] = vals.view(np.uint8).reshape(okr.size, -1)
             js_rows = _rows_bytes(js)
+            rated = np.flatnonzero(res.velocity_ok[okr]) if res.has_rates and joints else okr[:0]
+            if rated.size:  # the node's joint_states with every joint's velocity
+                vrows = okr[rated]
+                jv = _stamped_rows(jv_t, vrows, sec, nsec)
+                scene = {j: res.joints[j][vrows] for j in mech.joint_names}
+                rates = {j: res.joint_rates[j][vrows] for j in mech.joint_names}
+                for off, cols in (
+                    (jv_pos, mech.output_joints(scene)),
+                    (jv_vel, mech.output_joint_rates(rates)),
+                ):
+                    vals = np.stack([np.broadcast_to(v, vrows.shape) for v in cols], axis=1).astype(
+                        '<f8'
+                    )
+                    jv[:, off : off + 8 * len(joints)] = vals.view(np.uint8).reshape(vrows.size, -1)
+                for i, raw in zip(rated.tolist(), _rows_bytes(jv)):
+                    js_rows[i] = raw
             pt_rows = []
             for p in outputs:
                 arr = _stamped_rows(pt_t, okr, sec, nsec)
@@ -321,6 +365,7 @@ def _status_rows(status: _StatusWriter, res: Results, topic, requests, a, b, okr
     bdef = res.branch_defined[okr].tolist()
     iters = res.iterations[okr].tolist()
     hc = has_cond.tolist()
+    notes = [res.velocity_note.get(g) for g in okr.tolist()]
     ok = res.ok[a:b].tolist()
     tops = topic[a:b].tolist()
     out: list[bytes] = []
@@ -328,9 +373,13 @@ def _status_rows(status: _StatusWriter, res: Results, topic, requests, a, b, okr
     for i in range(b - a):
         req = requests[tops[i]]
         if ok[i]:
-            head, mid, tail, end = status.ok_parts(
+            parts = status.ok_parts(
                 hc[j], bnames[bcode[j]], bdef[j], snames[scode[j]], iters[j], req, hnames[hcode[j]]
             )
+            note = notes[j]
+            if note is not None:
+                parts = status.with_velocity(parts, hnames[hcode[j]], req, note)
+            head, mid, tail, end = parts
             if hc[j]:
                 out.append(b''.join([head, res_blk[j], mid, mar_blk[j], tail, cond_blk[c], end]))
                 c += 1

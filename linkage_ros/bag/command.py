@@ -302,7 +302,8 @@ ALL_REFUSED = 1
 BAG_EPILOG = """\
 outputs:
   OUTPUT.csv  one row per command (refused ones too): time (header stamp, s), receive_time
-              (bag time, s), topic, input.<actuator>..., joint.<joint>..., <point>.x,
+              (bag time, s), topic, input.<actuator>..., joint.<joint>..., velocity.<joint>...
+              (when commands gave velocities: the node's answer to them), <point>.x,
               <point>.y (every point), residual, margin, branch, status (ok/error), reason
   OUTPUT      a new rosbag2 folder (--out-format mcap|sqlite3) with the node's topics:
               /joint_states, /linkage_node/points/<output point>, /linkage_node/status (one

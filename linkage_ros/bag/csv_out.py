@@ -262,11 +262,13 @@ def _table(strings: list[str], codes: np.ndarray) -> np.ndarray:
     return lut[np.asarray(codes)]
 
 
-def csv_header(mech) -> list[str]:
+def csv_header(mech, rates: bool = False) -> list[str]:
+    """The columns; with ``rates`` (some command gave velocities) ``velocity.<joint>`` too."""
     return (
         ['time', 'receive_time', 'topic']
         + [f'input.{a}' for a in mech.output_input_names]
         + [f'joint.{j}' for j in mech.output_joint_names]
+        + ([f'velocity.{j}' for j in mech.output_joint_names] if rates else [])
         + [f'{p}.{c}' for p in mech.points for c in ('x', 'y')]
         + ['residual', 'margin', 'branch', 'status', 'reason']
     )
@@ -294,7 +296,8 @@ def write_csv(
     topics = [_csv_field(t) for t in data.topics]
     status_names = ['error', 'ok']
     with written_whole(path) as tmp, open(tmp, 'wb') as fh:
-        fh.write((','.join(csv_header(mech)) + '\n').encode())
+        rates = res.has_rates
+        fh.write((','.join(csv_header(mech, rates)) + '\n').encode())
         for a in range(0, n, block):
             b = min(n, a + block)
             m = b - a
@@ -325,6 +328,12 @@ def write_csv(
                     format_floats(np.broadcast_to(np.asarray(values, np.float64), (m,))),
                     comma,
                 ]
+            if rates:
+                for values in mech.output_joint_rates({j: res.joint_rates[j][sl] for j in scene}):
+                    cols += [
+                        format_floats(np.broadcast_to(np.asarray(values, np.float64), (m,))),
+                        comma,
+                    ]
             for p in mech.points:
                 cols += [
                     format_floats(res.points[p][sl, 0]),

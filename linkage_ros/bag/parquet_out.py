@@ -2,7 +2,8 @@
 
 Columns, in the CSV's order: ``time_ns`` (header stamp, int64 ns: sec * 10^9 + nanosec, as
 the CSV's ``time``), ``receive_time_ns`` (bag time, int64 ns), ``topic`` (dictionary),
-``input.<actuator>`` ..., ``joint.<joint>`` ..., ``<point>.x``, ``<point>.y`` (float64),
+``input.<actuator>`` ..., ``joint.<joint>`` ..., (``velocity.<joint>`` ... when a command gave
+velocities), ``<point>.x``, ``<point>.y`` (float64),
 ``residual``, ``margin`` (float64), ``branch``, ``status`` (dictionary: ``ok`` / ``error``),
 ``reason`` (string). Where the CSV leaves a field empty the column is null (a refused row's
 joints and points; an actuator a refused request did not name); a commanded NaN stays NaN.
@@ -28,8 +29,8 @@ ROW_GROUP = 100_000
 STATUS_NAMES = ('error', 'ok')
 
 
-def parquet_schema(mech: Any) -> Any:
-    """The arrow schema of a bag's Parquet output."""
+def parquet_schema(mech: Any, rates: bool = False) -> Any:
+    """The arrow schema of a bag's Parquet output (``rates``: with ``velocity.<joint>``)."""
     import pyarrow as pa
 
     f64 = pa.float64()
@@ -40,6 +41,8 @@ def parquet_schema(mech: Any) -> Any:
     ]
     fields += [pa.field(f'input.{a}', f64) for a in mech.output_input_names]
     fields += [pa.field(f'joint.{j}', f64) for j in mech.output_joint_names]
+    if rates:
+        fields += [pa.field(f'velocity.{j}', f64) for j in mech.output_joint_names]
     fields += [pa.field(f'{p}.{c}', f64) for p in mech.points for c in ('x', 'y')]
     fields += [pa.field('residual', f64), pa.field('margin', f64)]
     fields += [
@@ -81,7 +84,8 @@ def write_parquet(
     progress = progress or _Progress(False)
     n = data.n
     progress.start('parquet', n)
-    schema = parquet_schema(mech)
+    rates = res.has_rates
+    schema = parquet_schema(mech, rates)
     stamp = data.sec.astype(np.int64) * np.int64(10**9) + data.nanosec.astype(np.int64)
     with written_whole(path) as tmp, pq.ParquetWriter(tmp, schema, compression='zstd') as w:
         for a in range(0, n, block) if n else [0]:
@@ -99,6 +103,9 @@ def write_parquet(
                 cols.append(_float(np.broadcast_to(values, (b - a,)), absent))
             scene = {j: res.joints[j][sl] for j in mech.joint_names}
             cols += [_float(np.broadcast_to(v, (b - a,))) for v in mech.output_joints(scene)]
+            if rates:
+                vel = mech.output_joint_rates({j: res.joint_rates[j][sl] for j in scene})
+                cols += [_float(np.broadcast_to(v, (b - a,))) for v in vel]
             for p in mech.points:
                 cols += [_float(res.points[p][sl, 0]), _float(res.points[p][sl, 1])]
             cols += [_float(res.residual[sl]), _float(res.margin[sl])]

@@ -36,6 +36,10 @@ class Commands:
     #: topic -> messages the bag's index counts but that could not be read (only with
     #: accept_missing; otherwise a missing message is an error)
     missing: dict[str, int] = field(default_factory=dict)
+    #: velocities (rad/s, m/s): every row's one after the other (as values), row i's from
+    #: vel_start[i] to vel_start[i + 1] (a row may have none; rows of one key may differ)
+    vel_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    vel_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
 
     @property
     def n(self) -> int:
@@ -46,6 +50,22 @@ class Commands:
         k = self.npos[int(self.key[a])] if b > a else 0
         lo = int(self.start[a])
         return self.values[lo : lo + (b - a) * k].reshape(b - a, k)
+
+    def velocity_counts(self, a: int, b: int) -> np.ndarray:
+        """(b - a,) how many velocities rows a..b-1 carry."""
+        if self.vel_start.size < self.n + 1:  # made without velocities
+            return np.zeros(b - a, np.int64)
+        return np.diff(self.vel_start[a : b + 1])
+
+    def velocities(self, a: int, b: int, k: int) -> np.ndarray:
+        """(b - a, k) velocities of rows a..b-1: those of the rows with k of them, NaN on the
+        others."""
+        out = np.full((b - a, k), np.nan)
+        rows = np.flatnonzero(self.velocity_counts(a, b) == k) if k else np.zeros(0, np.intp)
+        if rows.size:
+            at = self.vel_start[a + rows][:, None] + np.arange(k)
+            out[rows] = self.vel_values[at]
+        return out
 
     @property
     def pos(self) -> np.ndarray:
@@ -187,7 +207,17 @@ def read_commands(
         raws = [raws[i] for i in order]
         log_ns = log_ns[order]
         topic = topic[order]
-    sec, nanosec, key, keys, npos, values, start = decode_joint_states(raws, topic, topics, log_ns)
+    rates: list[tuple[np.ndarray, np.ndarray]] = []
+    sec, nanosec, key, keys, npos, values, start = decode_joint_states(
+        raws, topic, topics, log_ns, rates
+    )
+    counts = np.zeros(n, np.int64)
+    for rows, vel in rates:
+        counts[rows] = vel.shape[1]
+    vel_start = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    vel_values = np.empty(int(vel_start[-1]))
+    for rows, vel in rates:
+        vel_values[vel_start[rows][:, None] + np.arange(vel.shape[1])] = vel
     return Commands(
         str(path),
         list(topics),
@@ -201,6 +231,8 @@ def read_commands(
         values,
         start,
         missing,
+        vel_values,
+        vel_start,
     )
 
 
@@ -379,7 +411,11 @@ def _parse_layout(raw: bytes) -> _Layout:
 
 
 def decode_joint_states(
-    raws: list[bytes], topic: np.ndarray, topics: list[str], log_ns: np.ndarray
+    raws: list[bytes],
+    topic: np.ndarray,
+    topics: list[str],
+    log_ns: np.ndarray,
+    rates: list[tuple[np.ndarray, np.ndarray]] | None = None,
 ):
     """Stamps, name sets and positions of CDR JointState messages.
 
@@ -388,7 +424,9 @@ def decode_joint_states(
     and checked on all (every structural byte equal), the rest get their own layout.
     The positions of all rows are returned one after the other (values, with row i's from
     start[i] to start[i + 1]): a malformed message with thousands of positions costs its own
-    size, not that width for every row.
+    size, not that width for every row. ``rates``, when given, gets (rows, (m, k) velocities)
+    of the rows that have velocities (a key is the names and the number of positions: rows
+    with and without velocities share one).
     """
     n = len(raws)
     sec = np.zeros(n, np.int64)
@@ -439,6 +477,15 @@ def decode_joint_states(
                 if count
                 else np.zeros((len(rows), 0))
             )
+            voff, vcount = lay.arrays[1]
+            if vcount and rates is not None:
+                vel = (
+                    np.ascontiguousarray(block[:, voff : voff + 8 * vcount])
+                    .view(e + 'f8')
+                    .reshape(len(rows), vcount)
+                    .astype(float)
+                )
+                rates.append((g_rows, vel))
             k = (lay.names, count)
             if k not in key_of:
                 key_of[k] = len(keys)

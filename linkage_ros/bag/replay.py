@@ -16,6 +16,7 @@ from ..core.solver import Solver, branch_identity_defined
 from ..core.solver.continuity import MAX_STEP_RATIO
 from ..core.solver.result import branch_signs, branch_text
 from ..core.steps import RPRDyad, RRPDyad, RRRDyad, anchor_of
+from ..core.velocity import velocities
 from ..engine import (
     SOLVER_CACHE,
     Engine,
@@ -25,84 +26,12 @@ from ..engine import (
 )
 from ..point_coordinates import group_point_coordinates
 from ..stamps import stamp_error, stamp_valid
+from .history import _Context, _Entry
 from .plans import PlanRequest, answer_plan
 from .progress import _Progress
+from .rates import RunRates, run_rates, stretches
 from .reading import Commands
 from .results import Results
-
-
-class _Entry:
-    """One configuration in a solver's continuity history, as the node's solver holds it:
-    ('adopt', result) after switching solvers, or ('solve', command, signs) after a success."""
-
-    __slots__ = ('kind', 'cmd', 'signs', '_result', 'batch', 'i', 'solver')
-
-    def __init__(self, kind, *, cmd=None, signs=(), result=None, batch=None, i=0, solver=None):
-        self.kind, self.cmd, self.signs = kind, cmd, tuple(signs)
-        self._result, self.batch, self.i, self.solver = result, batch, i, solver
-
-    def result(self):
-        if self._result is None:
-            self._result = self.batch.row(self.i, self.solver)
-        return self._result
-
-    def point(self, p) -> np.ndarray:
-        if self._result is None and self.batch is not None:
-            return self.batch.points[p][self.i]
-        return np.asarray(self.result().points[p], float)
-
-    def link(self, l) -> float:
-        if self._result is None and self.batch is not None:
-            return float(self.batch.links[l][self.i])
-        return float(self.result().links[l])
-
-
-class _Context:
-    """One of the engine's solvers (one set of knowns) and its node-equivalent continuity
-    history, kept as entries so batch rows need not be materialised."""
-
-    def __init__(self, replay: _Engine, solver: Solver):
-        self.replay = replay
-        self.solver = solver
-        self.knowns = list(solver.knowns)
-        self.hist: list[_Entry] = []
-        self.synced = True  # the solver's own history equals self.hist
-        self._explicit: dict[tuple, Solver] = {}
-
-    def explicit(self, signs) -> Solver:
-        signs = tuple(signs)
-        s = self._explicit.get(signs)
-        if s is None:
-            s = self._explicit[signs] = self.replay.engine.new_solver(
-                self.knowns, branch_text(signs)
-            )
-        return s
-
-    def push(self, entry: _Entry):
-        """A success of this solver: the engine's new last good state."""
-        self.hist = (self.hist + [entry])[-2:]
-        self.replay.engine.record(self.solver, entry)
-
-    def sync(self):
-        """Give the solver exactly the history the node's solver has (self.hist)."""
-        if self.synced:
-            return
-        S = self.solver
-        S.reset()
-        states = []
-        for e in self.hist:
-            if e.kind == 'adopt':
-                S.adopt(e.result())
-                states.append(S.snapshot()[-1])
-            else:
-                # the same command with the same branch signs gives the same state
-                sx = self.explicit(e.signs)
-                sx.reset()
-                sx.solve(e.cmd)
-                states.append(sx.snapshot()[-1])
-                sx.reset()
-        S.restore(states)
-        self.synced = True
 
 
 class _Engine:
@@ -192,8 +121,11 @@ class _Engine:
         return res
 
     def _refuse_all(self, a, b, reason):
+        """Rows a..b-1 refused, but for rows refused already (the node's first reason holds:
+        a bad velocity count is found before the names are looked at)."""
         for g in range(a, b):
-            self.res.reason[g] = reason
+            if self.res.reason[g] is None:
+                self.res.reason[g] = reason
 
     def _run(self, data: Commands, a: int, b: int):
         """Rows a..b-1: one topic, one message shape (the same names in the same order), all
@@ -208,12 +140,18 @@ class _Engine:
         if why:  # conversions.joint_state_to_command
             self._refuse_all(a, b, why)
             return
+        # a command's velocities (conversions.joint_state_rates; a target's are not read)
+        rates, refused = run_rates(data, a, b, names) if int(data.topic[a]) == 0 else (None, {})
+        for i, why in refused.items():
+            self.res.reason[a + i] = why
         vals = data.positions(a, b)
         columns = {nm: vals[:, j] for j, nm in enumerate(names)}
         coords = self.engine.mech.joint_coordinates
         if coords is not None:  # the description's names and values, as the engine takes them
             try:
                 columns = coords.to_scene(columns, command=int(data.topic[a]) == 0)
+                if rates is not None:
+                    rates = rates.in_scene(coords)
             except CommandError as exc:
                 self._refuse_all(a, b, str(exc))
                 return
@@ -227,20 +165,44 @@ class _Engine:
                 return
             if held:
                 columns.update({h: np.full(b - a, full[h]) for h in held})
+                if rates is not None:
+                    rates = rates.holding(held)
                 self.res.held_code[a:b] = self.res.held_code_of(', '.join(held))
                 names = list(self.forward.knowns)
         for nm, col in columns.items():
             if nm in self.res.inputs:
                 self.res.inputs[nm][a:b] = col
                 self.res.input_given[nm][a:b] = nm not in held
-        if int(data.topic[a]) == 1:  # Engine.target: <point>.x, <point>.y make a point
+        if rates is not None:  # Engine.command refuses a rate that is not finite before solving
+            refused.update(rates.refusals())
+        if not refused:
+            self._answer_run(columns, int(data.topic[a]), a, b, rates)
+            return
+        for i, why in refused.items():
+            self.res.reason[a + i] = why
+        skip = np.zeros(b - a, bool)
+        skip[list(refused)] = True
+        for i0, i1 in stretches(skip):  # the rows between are solved as a run
+            self._answer_run(
+                {nm: c[i0:i1] for nm, c in columns.items()},
+                0,
+                a + i0,
+                a + i1,
+                None if rates is None else rates.rows(i0, i1),
+            )
+
+    def _answer_run(self, columns, topic: int, a: int, b: int, rates: RunRates | None) -> None:
+        """Rows a..b-1 (``columns``, and a command's ``rates``, indexed from a) in the
+        scene's names: the engine's solver for them, then in a batch or one by one."""
+        names = list(columns)
+        if topic == 1:  # Engine.target: <point>.x, <point>.y make a point
             try:
                 columns = group_point_coordinates(self.engine.mech, columns)
             except CommandError as exc:
                 self._refuse_all(a, b, str(exc))
                 return
             names = list(columns)
-        ctx = self.forward if int(data.topic[a]) == 0 else self.context_for(names)
+        ctx = self.forward if topic == 0 else self.context_for(names)
         if isinstance(ctx, str):  # no solver for these target names
             self._refuse_all(a, b, ctx)
             return
@@ -254,12 +216,12 @@ class _Engine:
             r = S.solve(_command(columns, 0), commit=False)
             self._refuse_all(a, b, r.reason)
             return
-        if int(data.topic[a]) == 1:  # targets: the engine's assembly-mode rule, one by one
+        if topic == 1:  # targets: the engine's assembly-mode rule, one by one
             self._targets(ctx, columns, a, b)
         elif S.mode == 'closed_form' and b - a >= MIN_BATCH:
-            self._vectorised(ctx, columns, a, b)
+            self._vectorised(ctx, columns, a, b, rates)
         else:
-            self._sequential(ctx, columns, a, b, 0, b - a)
+            self._sequential(ctx, columns, a, b, 0, b - a, rates)
 
     def _targets(self, ctx: _Context, columns, a, b):
         """Target rows as the node answers ~/target: Engine.solve_target (a solution in the
@@ -277,7 +239,7 @@ class _Engine:
         self.res.sequential += b - a
 
     # -- one by one ------------------------------------------------------------------------------
-    def _sequential(self, ctx: _Context, columns, a, b, i0, i1):
+    def _sequential(self, ctx: _Context, columns, a, b, i0, i1, rates: RunRates | None = None):
         ctx.sync()
         S = ctx.solver
         for i in range(i0, i1):
@@ -286,6 +248,9 @@ class _Engine:
             self._store(a + i, r)
             if r.success:
                 ctx.push(_Entry('solve', cmd=cmd, signs=branch_signs(r.branch), result=r))
+                rate = None if rates is None else rates.row(i)
+                if rate is not None:  # Engine.command: the answer's velocity
+                    self.res.store_velocity(a + i, velocities(S, r, cmd, rate))
             if not i & 0xFF:
                 self.progress.update(self.done + i)
         self.res.sequential += i1 - i0
@@ -315,7 +280,7 @@ class _Engine:
             res.points[nm][g] = v
 
     # -- vectorised ------------------------------------------------------------------------------
-    def _vectorised(self, ctx: _Context, columns, a, b):
+    def _vectorised(self, ctx: _Context, columns, a, b, rates: RunRates | None):
         S = ctx.solver
         m = b - a
         continuous = (
@@ -329,7 +294,7 @@ class _Engine:
         while pos < m:
             if continuous and not ctx.hist:
                 # the very first configuration: the reference assembly mode, no prediction
-                self._sequential(ctx, columns, a, b, pos, pos + 1)
+                self._sequential(ctx, columns, a, b, pos, pos + 1, rates)
                 pos += 1
                 continue
             end = min(m, pos + chunk)
@@ -350,13 +315,15 @@ class _Engine:
                 take = int(near[0])
             if take:
                 take = self._accept(ctx, solver, B, cols, a + pos, take)
+                if take and rates is not None:
+                    self._batch_rates(ctx, B, cols, rates, a, pos, take)
                 pos += take
             if pos < end:
                 # a row the batch cannot vouch for: one by one for a while; when batches keep
                 # breaking at once (jumpy commands), back off to longer one-by-one stretches
                 stretch = SEQUENTIAL_STRETCH if take >= 64 else min(2 * stretch, 4096)
                 stop = min(m, pos + stretch)
-                self._sequential(ctx, columns, a, b, pos, stop)
+                self._sequential(ctx, columns, a, b, pos, stop, rates)
                 pos = stop
                 chunk = max(CHUNK_MIN, min(chunk, 4 * take))
             else:
@@ -440,6 +407,19 @@ class _Engine:
             ctx.synced = False
         res.batched += take
         return take
+
+    def _batch_rates(self, ctx: _Context, B, cols, rates: RunRates, a, pos, take) -> None:
+        """The velocities of the batch rows just taken (rows pos.. of the run starting at a)
+        whose commands gave some, each from its row's solution as Engine.command gives them:
+        core.velocity on the engine's solver (positions stay vectorised; rated rows pay for
+        this one by one)."""
+        rated = np.asarray(B.ok[:take], bool) & rates.given[pos : pos + take]
+        for i in np.flatnonzero(rated).tolist():
+            rate = rates.row(pos + i)
+            assert rate is not None  # a rated row
+            self.res.store_velocity(
+                a + pos + i, velocities(ctx.solver, B.row(i), _command(cols, i), rate)
+            )
 
     def _easy_prefix(self, ctx: _Context, solver: Solver, B, cols, m) -> int:
         """How many leading batch rows the node's continuity rule provably solves the same way."""

@@ -6,6 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.velocity import Velocities
+from ..engine import velocity_status
+
 # ---- solving -----------------------------------------------------------------------------------
 
 
@@ -27,6 +30,13 @@ class Results:
     input_given: dict[str, np.ndarray]  # (n,) bool: the request named this actuator
     joints: dict[str, np.ndarray]
     points: dict[str, np.ndarray]
+    #: the status's 'velocity' value of each solved command that gave velocities, by row
+    #: ('ok (cond C)' or why there is none: engine.status_values' words); empty: no rates
+    velocity_note: dict[int, str] = field(default_factory=dict)
+    #: joint rates (rad/s, m/s; NaN where none) and the rows that have them: allocated by the
+    #: first command with velocities (a bag without any costs nothing more)
+    joint_rates: dict[str, np.ndarray] = field(default_factory=dict)
+    velocity_ok: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     batched: int = 0
     sequential: int = 0
     branch_names: list = field(default_factory=lambda: [''])
@@ -73,3 +83,20 @@ class Results:
             joints={j: np.full(n, np.nan) for j in mech.joint_names},
             points={p: np.full((n, 2), np.nan) for p in mech.points},
         )
+
+    @property
+    def has_rates(self) -> bool:
+        """Some solved command gave velocities (the outputs then carry joint rates)."""
+        return bool(self.velocity_note)
+
+    def store_velocity(self, g: int, vel: Velocities) -> None:
+        """Row g's velocities (core.velocity, as Engine.command answers a command with rates)."""
+        if not self.velocity_note:
+            n = self.ok.size
+            self.joint_rates = {j: np.full(n, np.nan) for j in self.joints}
+            self.velocity_ok = np.zeros(n, bool)
+        self.velocity_note[g] = velocity_status(vel)
+        if vel.success:
+            self.velocity_ok[g] = True
+            for nm, v in vel.joints.items():
+                self.joint_rates[nm][g] = v

@@ -100,7 +100,7 @@ def joint_state(names, positions, sec=0, nanosec=0, velocity=()):
     )
 
 
-def rclpy_bytes(names, positions, sec, nanosec) -> bytes:
+def rclpy_bytes(names, positions, sec, nanosec, velocity=()) -> bytes:
     """A JointState serialised by rclpy (Fast-CDR): the bytes a recorded ROS bag holds."""
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
@@ -109,6 +109,7 @@ def rclpy_bytes(names, positions, sec, nanosec) -> bytes:
     msg.header.stamp.sec, msg.header.stamp.nanosec = sec, nanosec
     msg.name = list(names)
     msg.position = [float(v) for v in positions]
+    msg.velocity = [float(v) for v in velocity]
     return serialize_message(msg)
 
 
@@ -187,14 +188,28 @@ def mixed_stream():
     return rows
 
 
+def recorded_velocity(i: int) -> list[float]:
+    """The velocity array stream_messages records with row i: every other command gives one
+    rate (rad/s; the streams' commands name one actuator), zero among them, the rest none."""
+    return [0.1 * (i % 7) - 0.3] * (i % 2)
+
+
 def stream_messages(rows, rclpy_every=0):
     msgs = []
     for i, (topic, t, (sec, ns), names, pos, _) in enumerate(rows):
+        vel = recorded_velocity(i)
         if rclpy_every and i % rclpy_every == 0:
-            msgs.append((topic, t, rclpy_bytes(names, pos, sec, ns)))
+            msgs.append((topic, t, rclpy_bytes(names, pos, sec, ns, vel)))
         else:
-            msgs.append((topic, t, joint_state(names, pos, sec, ns, velocity=[0.0] * (i % 2))))
+            msgs.append((topic, t, joint_state(names, pos, sec, ns, velocity=vel)))
     return msgs
+
+
+def four_bar_rates(theta2: float, rate: float, h: float = 1e-5) -> dict:
+    """Every joint's velocity (rad/s) at crank angle theta2 turning at ``rate``: a central
+    difference of the closed-form four_bar (an oracle independent of the core's Jacobian)."""
+    up, down = four_bar(theta2 + h)['joints'], four_bar(theta2 - h)['joints']
+    return {j: wrap(up[j] - down[j]) / (2 * h) * rate for j in up}
 
 
 STORAGES = ['sqlite3', 'mcap', 'mcap-file']
@@ -243,8 +258,12 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
     assert header[-5:] == ['residual', 'margin', 'branch', 'status', 'reason']
     for p in ('O2', 'A', 'B', 'O4', 'P'):
         assert f'{p}.x' in header and f'{p}.y' in header
-    refused = 0
-    for row, (topic, t, (sec, ns), _names, pos, kind) in zip(table, rows):
+    # commands gave velocities: every joint's velocity follows the joints (as the node answers)
+    joints = ['O2', 'A', 'B', 'O4']
+    at = header.index('joint.O4') + 1
+    assert header[at : at + 4] == [f'velocity.{j}' for j in joints]
+    refused = rated = 0
+    for i, (row, (topic, t, (sec, ns), _names, pos, kind)) in enumerate(zip(table, rows)):
         assert row['topic'] == topic
         assert row['receive_time'] == f'{t // 10**9}.{t % 10**9:09d}'
         assert row['time'] == f'{sec}.{ns:09d}'
@@ -275,7 +294,15 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
                 assert abs(wrap(got_j[j] - v)) < TOL, (j, row)
             for p in got_p:
                 assert np.allclose(got_p[p], want['points'][p], rtol=0, atol=TOL), (p, row)
-        else:  # IK: the target is met, the loop closes
+            vel = recorded_velocity(i)
+            if vel:
+                rated += 1
+                for j, v in four_bar_rates(pos[0], vel[0]).items():
+                    assert abs(float(row[f'velocity.{j}']) - v) < 1e-8, (j, row)
+            else:
+                assert all(row[f'velocity.{j}'] == '' for j in joints), row
+        else:  # IK: the target is met, the loop closes (a target's velocity is not read)
+            assert all(row[f'velocity.{j}'] == '' for j in joints), row
             assert abs(got_j['O4'] - pos[0]) < TOL
             (ax, ay), (bx, by) = got_p['A'], got_p['B']
             assert abs(math.hypot(ax, ay) - CRANK) < TOL
@@ -283,6 +310,7 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
             assert abs(math.hypot(bx - GROUND, by) - ROCKER) < TOL
             assert abs(wrap(math.atan2(ay, ax) - float(row['input.crank']))) < TOL
     assert refused == sum(1 for r in rows if r[5] in ('nan', 'name', 'shape', 'unreachable'))
+    assert rated == sum(1 for i, r in enumerate(rows) if r[5] == 'ok' and recorded_velocity(i))
 
     msgs, types = read_out_bag(out_bag)
     assert types == {
@@ -300,7 +328,10 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
         assert t == tp == tr  # logged at the command's bag time
         assert stamp_ns(js) == stamp_ns(pt) == want_stamp
         assert js.header.frame_id == pt.header.frame_id == 'world'
-        assert list(js.name) == ['O2', 'A', 'B', 'O4'] and len(js.velocity) == 0
+        assert list(js.name) == ['O2', 'A', 'B', 'O4']
+        # a command with velocities is answered with every joint's (the CSV's), else none
+        want_vel = [float(row[f'velocity.{j}']) for j in js.name if row[f'velocity.{j}']]
+        assert list(js.velocity) == want_vel and len(want_vel) in (0, 4)
         assert list(js.position) == [float(row[f'joint.{j}']) for j in js.name]
         assert (pt.point.x, pt.point.y, pt.point.z) == (float(row['P.x']), float(row['P.y']), 0)
     for (t, st), row, (topic, tr, *_) in zip(msgs['/linkage_node/status'], table, rows):
@@ -311,6 +342,9 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
         if row['status'] == 'ok':
             assert st.level == 0 and st.message == 'ok'
             assert kv['branch'] == '+' and kv['solver'] == 'closed_form'
+            # the status of an answer with velocities says so (engine.status_values)
+            assert ('velocity' in kv) == bool(row['velocity.O2'])
+            assert kv.get('velocity', 'ok (cond ').startswith('ok (cond ')
             assert float(kv['residual']) == float(row['residual'])
             assert float(kv['margin']) == float(row['margin'])
         else:
@@ -360,19 +394,26 @@ def _node_engine(scene_file, **params):
     return mech, node.load_engine(node.make_config({'scene': str(scene_file), **params}))[1]
 
 
-def _compare_with_engine(table, rows, engine):
-    """Every CSV row equals the node engine's answer to the same request, in the same order."""
+def _compare_with_engine(table, rows, engine) -> int:
+    """Every CSV row equals the node engine's answer to the same request, in the same order,
+    the velocities of the commands that gave some (recorded_velocity) included; returns how
+    many rows had velocities."""
     from sensor_msgs.msg import JointState
 
-    from linkage_ros.conversions import joint_state_to_command
+    from linkage_ros.conversions import joint_state_rates, joint_state_to_command
     from linkage_ros.core.errors import CommandError
 
-    for row, (topic, _, _, names, pos, *_) in zip(table, rows):
+    rated = 0
+    for i, (row, (topic, _, _, names, pos, *_)) in enumerate(zip(table, rows)):
         msg = JointState()
         msg.name, msg.position = list(names), [float(v) for v in pos]
+        msg.velocity = recorded_velocity(i)
         try:
             cmd = joint_state_to_command(msg)
-            r = engine.command(cmd) if topic == '/cmd' else engine.target(cmd)
+            if topic == '/cmd':
+                r = engine.command(cmd, joint_state_rates(msg))
+            else:
+                r = engine.target(cmd)
         except CommandError as exc:
             assert row['status'] == 'error' and row['reason'] == str(exc)
             continue
@@ -387,6 +428,14 @@ def _compare_with_engine(table, rows, engine):
             assert abs(float(row[f'{p}.x']) - x) <= TOL and abs(float(row[f'{p}.y']) - y) <= TOL
         for a, v in r.inputs.items():
             assert abs(float(row[f'input.{a}']) - v) <= TOL
+        vel = r.velocity
+        if vel is None or not vel.success:
+            assert all(row.get(f'velocity.{j}', '') == '' for j in r.joints), row
+            continue
+        rated += 1
+        for j, v in vel.joints.items():
+            assert abs(float(row[f'velocity.{j}']) - v) <= TOL * max(1.0, abs(v)), (j, row)
+    return rated
 
 
 def _summary_count(text: str, what: str) -> int:
@@ -440,7 +489,7 @@ def test_matches_node_engine_on_jumpy_mixed_stream(tmp_path, scene, branch, caps
     assert _summary_count(cap.out, 'vectorised rows') > 0.8 * len(rows)
     table = read_csv(out_csv)
     assert len(table) == len(rows)
-    _compare_with_engine(table, rows, engine)
+    assert _compare_with_engine(table, rows, engine) > 0  # velocities compared too
 
 
 @pytest.mark.parametrize('linkage', ['triple_rocker', 'parallelogram'])
@@ -494,7 +543,7 @@ def test_matches_node_engine_through_toggles(tmp_path, linkage, capsys):
         assert flips == 6  # 2 flat positions a turn
         for r in table:
             assert abs(wrap(float(r['joint.O4']) - float(r['joint.O2']))) < 1e-9
-    _compare_with_engine(table, rows, engine)
+    assert _compare_with_engine(table, rows, engine) > 0  # velocities compared too
 
 
 def test_newton_solver_is_sequential_and_matches_node(tmp_path, scene, capsys):
@@ -527,12 +576,14 @@ def test_newton_solver_is_sequential_and_matches_node(tmp_path, scene, capsys):
     assert code == 0, cap.err
     assert 'one-by-one rows 25' in cap.out
     table = read_csv(out_csv)
-    _compare_with_engine(table, rows, engine)
+    assert _compare_with_engine(table, rows, engine) > 0  # velocities compared too
     # the status messages are the node's (conversions.result_to_status), cond included
     _, replay = _node_engine(scene, solver='newton')
     got, _ = read_out_bag(out_bag)
-    for (_, st), r in zip(got['/linkage_node/status'], rows):
-        want = result_to_status(replay.command({'crank': r[4][0]}), st.name, 'command')
+    for i, ((_, st), r) in enumerate(zip(got['/linkage_node/status'], rows)):
+        vel = recorded_velocity(i)  # the node answers a command's velocities with the joints'
+        rates = {'crank': vel[0]} if vel else None
+        want = result_to_status(replay.command({'crank': r[4][0]}, rates), st.name, 'command')
         assert (st.level, st.message, st.name) == (
             want.level[0] if isinstance(want.level, bytes) else want.level,
             want.message,
@@ -544,10 +595,14 @@ def test_newton_solver_is_sequential_and_matches_node(tmp_path, scene, capsys):
                 assert math.isclose(float(a.value), float(b.value), rel_tol=1e-9, abs_tol=1e-15)
             else:
                 assert a.value == b.value
-    for row, r in zip(table, rows):
+    for i, (row, r) in enumerate(zip(table, rows)):
         if row['status'] == 'ok':
             want = four_bar(r[4][0])['joints']
             assert all(abs(wrap(float(row[f'joint.{j}']) - v)) < 1e-9 for j, v in want.items())
+            vel = recorded_velocity(i)
+            if vel:  # the velocities against a central difference of the closed form
+                want_v = four_bar_rates(r[4][0], vel[0])
+                assert all(abs(float(row[f'velocity.{j}']) - v) < 1e-8 for j, v in want_v.items())
 
 
 def test_matches_running_node_over_dds(tmp_path, scene):
@@ -591,10 +646,11 @@ def test_matches_running_node_over_dds(tmp_path, scene):
         joints = ros.collector(JointState, node.topic('joint_states'))
         status = ros.collector(DiagnosticStatus, node.topic('~/status'))
         ros.wait_for_discovery(list(pubs.values()), [joints, status], timeout=30.0, process=node)
-        for topic, _, (sec, ns), names, pos, _ in rows:
+        for i, (topic, _, (sec, ns), names, pos, _) in enumerate(rows):
             msg = JointState()
             msg.header.stamp.sec, msg.header.stamp.nanosec = sec, ns
             msg.name, msg.position = list(names), [float(v) for v in pos]
+            msg.velocity = recorded_velocity(i)  # as the bag recorded it
             before = len(status)
             ros.publish(pubs[topic], msg)
             assert ros.spin_until(lambda: len(status) > before, 15.0, node), (
@@ -619,10 +675,17 @@ def test_matches_running_node_over_dds(tmp_path, scene):
             else:
                 assert lkv[k] == okv[k], k
     assert len(joints.messages) == len(offline['/joint_states'])
+    rated = 0
     for live, (_, off) in zip(joints.messages, offline['/joint_states']):
         assert stamp_ns(live) == stamp_ns(off)
         assert list(live.name) == list(off.name) and live.header.frame_id == off.header.frame_id
         assert np.max(np.abs(np.asarray(live.position) - off.position)) <= TOL
+        # the velocities of a command that gave some: every joint's, the node's own
+        assert len(live.velocity) == len(off.velocity)
+        if len(off.velocity):
+            rated += 1
+            assert np.max(np.abs(np.asarray(live.velocity) - off.velocity)) <= TOL
+    assert rated > 0
 
 
 # ---- the vectorised path -----------------------------------------------------------------------
