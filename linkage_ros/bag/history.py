@@ -12,7 +12,7 @@ from ..core.solver import Solver
 from ..core.solver.result import branch_text
 
 if TYPE_CHECKING:
-    from .replay import _Engine
+    from ..engine import Engine
 
 
 class _Entry:
@@ -45,8 +45,8 @@ class _Context:
     """One of the engine's solvers (one set of knowns) and its node-equivalent continuity
     history, kept as entries so batch rows need not be materialised."""
 
-    def __init__(self, replay: _Engine, solver: Solver):
-        self.replay = replay
+    def __init__(self, engine: Engine, solver: Solver):
+        self.engine = engine  # the replay's session (its solvers and last good state)
         self.solver = solver
         self.knowns = list(solver.knowns)
         self.hist: list[_Entry] = []
@@ -57,7 +57,7 @@ class _Context:
         signs = tuple(signs)
         s = self._explicit.get(signs)
         if s is None:
-            s = self._explicit[signs] = self.replay.engine.new_solver(
+            s = self._explicit[signs] = self.engine.new_solver(
                 self.knowns, branch_text(signs)
             )
         return s
@@ -65,7 +65,7 @@ class _Context:
     def push(self, entry: _Entry):
         """A success of this solver: the engine's new last good state."""
         self.hist = (self.hist + [entry])[-2:]
-        self.replay.engine.record(self.solver, entry)
+        self.engine.record(self.solver, entry)
 
     def sync(self):
         """Give the solver exactly the history the node's solver has (self.hist)."""

@@ -45,7 +45,7 @@ class _Engine:
         self.max_names = max_request_names(mech)
         # the command solver exists from the start (a bad --solver/--branch fails here)
         self.engine = Engine(mech, EngineSettings(method, tol, max_iter, branch, tuple(hold)))
-        self.forward = _Context(self, self.engine.forward)
+        self.forward = _Context(self.engine, self.engine.forward)
         self._contexts: dict[frozenset, _Context] = {}
         ref = self.engine.last
         if ref is not None:
@@ -64,7 +64,7 @@ class _Engine:
         key = frozenset(names)
         ctx = self._contexts.get(key)
         if ctx is None or ctx.solver is not solver:  # new, or rebuilt after the LRU dropped it
-            ctx = self._contexts[key] = _Context(self, solver)
+            ctx = self._contexts[key] = _Context(self.engine, solver)
             if len(self._contexts) > 2 * SOLVER_CACHE:  # forget the dropped solvers' histories
                 live = {id(v) for v in self.engine._solvers.values()}
                 self._contexts = {k: c for k, c in self._contexts.items() if id(c.solver) in live}
