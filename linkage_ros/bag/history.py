@@ -57,9 +57,7 @@ class _Context:
         signs = tuple(signs)
         s = self._explicit.get(signs)
         if s is None:
-            s = self._explicit[signs] = self.engine.new_solver(
-                self.knowns, branch_text(signs)
-            )
+            s = self._explicit[signs] = self.engine.new_solver(self.knowns, branch_text(signs))
         return s
 
     def push(self, entry: _Entry):

@@ -351,7 +351,7 @@ def test_usage_errors_before_any_work(fleet, tmp_path, capsys):
         (['--out', tmp_path / 'x.csv'], '--out and --out-dir'),
         (['--jobs', 0], '--jobs must be >= 1'),
         (['--jobs', 2, '--scheduler', 'tcp://127.0.0.1:1'], '--jobs and --scheduler'),
-        (['--plot', tmp_path / 'p.png'], '--plot is for one bag'),
+        (['--plot', tmp_path / 'p.png'], '--plot names one file (for one bag)'),
     ]:
         code, cap = run([root, *COMMON, '--out-dir', out, *extra], capsys)
         assert code == 2 and why in cap.err, cap.err

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 
+from ..disjoint import DisjointSets
 from ..model import AngleActuator, Link, Mechanism
 
 
@@ -25,17 +26,12 @@ def _driven_link(mech: Mechanism, actuator: str) -> str:
 
 def _link_groups(mech: Mechanism) -> dict[str, str]:
     """{moving link: representative of its independent part} (union-find)."""
-    parent = {l: l for l in mech.moving_links}
-
-    def find(a: str) -> str:
-        while parent[a] != a:
-            parent[a] = parent[parent[a]]
-            a = parent[a]
-        return a
+    sets = DisjointSets(mech.moving_links)
+    find = sets.find
 
     def join(a: str, b: str) -> None:
         if a != mech.ground and b != mech.ground:
-            parent[find(a)] = find(b)
+            sets.union(b, a)
 
     ground_points = set(mech.links[mech.ground].points)
     holder: dict[str, str] = {}  # point off the ground -> first moving link carrying it
@@ -56,7 +52,7 @@ def _link_groups(mech: Mechanism) -> dict[str, str]:
     for act in mech.actuators.values():
         if isinstance(act, AngleActuator):
             join(act.link, act.reference)
-    return {l: find(l) for l in parent}
+    return {l: find(l) for l in mech.moving_links}
 
 
 def _part(mech: Mechanism, links: set[str]) -> Mechanism:

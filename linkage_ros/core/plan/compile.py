@@ -10,6 +10,7 @@ import numpy as np
 import numpy.typing as npt
 
 from .. import dyads
+from ..disjoint import DisjointSets
 from ..dyads import circle_side, line_side, side_sign
 from ..errors import PlanError
 from ..execute import PlanRun, executor
@@ -120,14 +121,8 @@ class Plan:
     # -- bodies -------------------------------------------------------------------------------
     def _build_bodies(self) -> None:
         mech = self.mech
-        parent = {n: n for n in mech.links}
-
-        def find(a: str) -> str:
-            while parent[a] != a:
-                parent[a] = parent[parent[a]]
-                a = parent[a]
-            return a
-
+        sets = DisjointSets(mech.links)
+        find = sets.find
         edges: list[tuple[str, str, int, str | None]] = []
         self.relations: list[tuple[str, str, int | None]] = []  # angle-only relations
         for i, s in enumerate(self.specs):
@@ -147,13 +142,11 @@ class Plan:
             ):
                 self.relations.append((pj.guide, pj.slider, None))  # orientation lock
         for a, b, i, _ in edges:
-            ra, rb = find(a), find(b)
-            if ra == rb:
+            if not sets.union(a, b):
                 raise PlanError(
                     f'known {self.specs[i].name!r} over-constrains links {a!r} and '
                     f'{b!r}: they are already rigidly connected by other knowns'
                 )
-            parent[rb] = ra
         groups: dict[str, list[str]] = {}
         for n in mech.links:
             groups.setdefault(find(n), []).append(n)
