@@ -22,6 +22,7 @@ from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
 from .core.solver import Result, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
+from .core.solver.reach import reach_edge
 from .core.velocity import Velocities, velocities
 from .point_coordinates import group_point_coordinates
 
@@ -343,17 +344,33 @@ class Engine:
         if isinstance(solver, str):
             return Result(False, solver)
         if self.settings.branch != 'continuous':
-            return self.solve(solver, values)
+            return self._out_of_reach(solver, values, self.solve(solver, values))
         self.bring_up_to_date(solver)
         last = self.last
         before = self.mode(last)
         if before is None or last is None:
-            return self.solve(solver, values)
+            return self._out_of_reach(solver, values, self.solve(solver, values))
         answer = self.keeper.target(solver, values, last, before, allow_mode_change)
         if answer.commit:
             solver.adopt(answer.result)
             self.record(solver, answer.result)
-        return answer.result
+        return self._out_of_reach(solver, values, answer.result)
+
+    def _out_of_reach(self, solver: Solver, values: Mapping[str, Any], result: Result) -> Result:
+        """A point target that cannot be assembled, said in the user's terms first: where the
+        point stops being reachable on the line toward the target (core.solver.reach), then
+        the solver's own reason (the dyad or loop that does not close, with its miss)."""
+        last = self.last
+        if (
+            result.success
+            or last is None
+            or not (result.reason or '').startswith('cannot assemble')
+        ):
+            return result
+        edge = reach_edge(solver, values, last)
+        if edge is not None:
+            result.reason = f'{edge.describe()}; {result.reason}'
+        return result
 
     def point_hold(self, point: str) -> list[str]:
         """The target_point_hold names a target on ``point`` keeps (the point itself excepted)."""
