@@ -230,6 +230,15 @@ class _Reader:
         return k
 
 
+def size_refusal(kind: str, nbytes: int, scene: str, bound: int, max_points: int) -> str:
+    """Why a plan message longer than any request to the scene can be is refused (the node's
+    and the bag's words)."""
+    return (
+        f'the {kind} message is {nbytes} bytes; one to scene {scene!r} is at most {bound} bytes '
+        f'({max_points} points, every name the scene has): send it in parts'
+    )
+
+
 def peek_plan(raw: bytes | memoryview, path: bool, max_names: int) -> PlanPeek:
     """The stamp and the number of points (poses) of a serialised JointTrajectory (``path``
     false) or Path, read from its first bytes (a trajectory's joint names read past, at most

@@ -20,6 +20,7 @@ from .plan_cdr import (
     Stamp,
     path_bytes_bound,
     peek_plan,
+    size_refusal,
     trajectory_bytes_bound,
 )
 from .plan_worker import PLAN_QUEUE, PlanJob, PlanWorker
@@ -83,12 +84,8 @@ class PlanRequests:
             else path_bytes_bound(node.frame_id, MAX_TRAJECTORY_POINTS)
         )
         if len(raw) > bound:
-            self._refuse(
-                request,
-                f'the {kind} message is {len(raw)} bytes; one to scene {mech.name!r} is at most '
-                f'{bound} bytes ({MAX_TRAJECTORY_POINTS} points, every name the scene has): '
-                'send it in parts',
-            )
+            why = size_refusal(kind, len(raw), mech.name, bound, MAX_TRAJECTORY_POINTS)
+            self._refuse(request, why)
             return
         try:
             peek = peek_plan(raw, point is not None, node.max_names)

@@ -121,7 +121,7 @@ def replay_input(
                 f'of {mech.name!r} (a path topic is .../target_path/<point>)'
             )
     plans, plans_missing = read_plan_requests(
-        source, opts.trajectory_topics, opts.path_topics, opts.accept_missing
+        source, opts.trajectory_topics, opts.path_topics, opts.accept_missing, mech, frame_id
     )
     data.missing.update(plans_missing)
     if marks is not None:

@@ -15,9 +15,22 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..core.errors import echo
-from ..engine import Engine
+from ..engine import Engine, max_request_names
+from ..plan_cdr import (
+    CdrError,
+    path_bytes_bound,
+    peek_plan,
+    size_refusal,
+    trajectory_bytes_bound,
+)
 from ..stamps import stamp_error
-from ..trajectory import TrajectoryAnswer, answer_path_msg, answer_trajectory_msg
+from ..trajectory import (
+    MAX_TRAJECTORY_POINTS,
+    TrajectoryAnswer,
+    answer_path_msg,
+    answer_trajectory_msg,
+    too_many_points,
+)
 from .common import BagError
 from .reading import _exc_text, _open_reader, _shortfall, check_log_time, topic_connections
 
@@ -32,8 +45,10 @@ class PlanRequest:
     log_ns: int  # bag receive time
     topic: str
     request: str  # 'trajectory' or 'target_path/<point>' (the status's request key)
-    msg: Any
+    msg: Any  # the decoded message; None when it was refused from its size or first bytes
     answer: TrajectoryAnswer | None = None
+    #: why the message was refused before it was decoded (its size, its point count)
+    refused: str = ''
     times_ns: list[int] = field(default_factory=list)
     stamp: tuple[int, int] = (0, 0)
 
@@ -62,10 +77,15 @@ def read_plan_requests(
     trajectory_topics: Sequence[str],
     path_topics: Sequence[str],
     accept_missing: bool = False,
+    mech: Any = None,
+    frame_id: str = '',
 ) -> tuple[list[PlanRequest], dict[str, int]]:
     """Every message of the topics, decoded, in bag time order, with the same checks as the
     command topics (receive times, counts against the bag's index); BagError naming the bag,
-    the topic and the message otherwise."""
+    the topic and the message otherwise. With ``mech``, a message longer than any request to
+    the scene can be, or with more points than one request may have, is refused from its size
+    or first bytes before it is decoded, as the node refuses it (a 10^6-point trajectory is not
+    read into memory to be refused)."""
     from rosbags.typesys import Stores, get_typestore
 
     topics = [(t, TRAJECTORY) for t in trajectory_topics] + [(t, PATH) for t in path_topics]
@@ -79,6 +99,16 @@ def read_plan_requests(
         read: dict[int, int] = {}
         for i, (conn, t, raw) in enumerate(reader.messages([c for g in conns for c in g])):
             check_log_time(path, i, conn.topic, t)
+            request = (
+                'trajectory'
+                if conn.msgtype == TRAJECTORY
+                else f'target_path/{path_point(conn.topic)}'
+            )
+            refused = '' if mech is None else _refusal(raw, conn.msgtype, mech, frame_id)
+            if refused:
+                read[conn.id] = read.get(conn.id, 0) + 1
+                out.append(PlanRequest(t, conn.topic, request, None, refused=refused))
+                continue
             try:
                 msg = _decode(raw, conn.msgtype, ts)
             except Exception as exc:  # noqa: BLE001 - a damaged message
@@ -87,11 +117,6 @@ def read_plan_requests(
                     f'a {conn.msgtype} ({_exc_text(exc)})'
                 ) from None
             read[conn.id] = read.get(conn.id, 0) + 1
-            request = (
-                'trajectory'
-                if conn.msgtype == TRAJECTORY
-                else f'target_path/{path_point(conn.topic)}'
-            )
             out.append(PlanRequest(t, conn.topic, request, msg))
         missing = _shortfall(path, conns, read, accept_missing)
     except BagError:
@@ -108,9 +133,33 @@ def read_plan_requests(
     return out, missing
 
 
+def _refusal(raw: bytes | memoryview, msgtype: str, mech: Any, frame_id: str) -> str:
+    """Why the node would refuse this plan message from its size or first bytes, or ''."""
+    path = msgtype != TRAJECTORY
+    kind = 'path' if path else 'trajectory'
+    bound = (
+        path_bytes_bound(frame_id, MAX_TRAJECTORY_POINTS)
+        if path
+        else trajectory_bytes_bound(mech, MAX_TRAJECTORY_POINTS)
+    )
+    if len(raw) > bound:
+        return size_refusal(kind, len(raw), mech.name, bound, MAX_TRAJECTORY_POINTS)
+    try:
+        peek = peek_plan(raw, path, max_request_names(mech))
+    except CdrError:
+        return ''  # decoded whole below, which says what is wrong with it
+    if peek.count > MAX_TRAJECTORY_POINTS:
+        return too_many_points(kind, peek.count, 'poses' if path else 'points')
+    return ''
+
+
 def answer_plan(engine: Engine, req: PlanRequest, frame_id: str) -> None:
     """Answer one recorded trajectory or path as the node does (its stamp: the message's, a
     zero stamp the bag receive time; an invalid one refused)."""
+    if req.msg is None:  # refused from its size or first bytes, as the node refuses it
+        req.stamp = divmod(req.log_ns, 1_000_000_000)
+        req.answer, req.times_ns = TrajectoryAnswer(False, req.refused), []
+        return
     st = req.msg.header.stamp
     sec, nanosec = int(st.sec), int(st.nanosec)
     if sec == 0 and nanosec == 0:
