@@ -5,8 +5,7 @@ from side files -> the chain in its plane -> assemble at the actuated values -> 
 from __future__ import annotations
 
 import math
-import re
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -14,9 +13,11 @@ import numpy as np
 
 from ..errors import SceneError
 from ..model import Mechanism, Scene
-from ..model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, Plane, wrap
+from ..model.joint_map import JointMap, wrap
+from .calibration import calibrate_joint_map
 from .chain import Chain, find_chain, rot
-from .records import Description, DescriptionError, JointType
+from .records import Description, DescriptionError
+from .scene_names import SceneNames
 from .sdf_reader import read_sdf
 from .side_files import apply_side_file, load_side_file, read_file
 from .urdf_reader import read_urdf
@@ -111,7 +112,7 @@ def import_description(
             f'{exc}; for a robot description: assemble it elsewhere with assemble_at in its '
             'closure file, or state its limits there'
         ) from None
-    jmap = _joint_map(chain, acts, q, mech, names)
+    jmap = calibrate_joint_map(chain, acts, q, mech, names)
     mech = replace(mech, joint_coordinates=jmap)
     notes = []
     if gap > CLOSED * chain.length_scale:
@@ -267,52 +268,15 @@ def _assemble(
     return q, gap
 
 
-_NAME_BAD = re.compile(r'[^A-Za-z0-9_]')
-
-
-class _Names:
-    """Scene names for description names (letters, digits, _; starting with a letter)."""
-
-    def __init__(self) -> None:
-        self.used: set[str] = set()
-        self.of: dict[tuple[str, str], str] = {}
-        #: a point merged into another at the same place (a compound hinge)
-        self.alias: dict[str, str] = {}
-        #: each scene point's depth along the chain's normal (m)
-        self.depths: dict[str, float] = {}
-
-    def point(self, raw: str) -> str:
-        """The scene point of a joint or closure (after merging coincident pins)."""
-        name = self.of[('point', raw)]
-        while name in self.alias:
-            name = self.alias[name]
-        return name
-
-    def __call__(self, kind: str, raw: str) -> str:
-        key = (kind, raw)
-        if key in self.of:
-            return self.of[key]
-        name = _NAME_BAD.sub('_', raw)
-        if not name[:1].isalpha():
-            name = 'n_' + name
-        base, k = name, 1
-        while name in self.used:
-            k += 1
-            name = f'{base}_{k}'
-        self.used.add(name)
-        self.of[key] = name
-        return name
-
-
 def _scene(
     chain: Chain,
     acts: Sequence[str],
     q: Mapping[str, float],
     dimensions: Mapping[str, float] | None,
-) -> tuple[dict[str, Any], _Names]:
+) -> tuple[dict[str, Any], SceneNames]:
     desc = chain.description
     poses = chain.poses(q)
-    names = _Names()
+    names = SceneNames()
     link_name = {b: names('link', b) for b in chain.bodies}
     points: dict[str, list[float]] = {}
     members: dict[str, list[str]] = {b: [] for b in chain.bodies}
@@ -444,10 +408,23 @@ def _scene(
     return scene, names
 
 
+def _angle(points: Mapping[str, list[float]], a: str, b: str) -> float:
+    (ax, ay), (bx, by) = points[a], points[b]
+    return math.atan2(by - ay, bx - ax)
+
+
+def _axis_angle(points: Mapping[str, list[float]], members: Sequence[str], ground: bool) -> float:
+    """A link's reported angle in the reference pose: its first two points' direction; the
+    ground's angles are measured from +x, and a one-point link's rotation starts at 0."""
+    if ground or len(members) < 2:
+        return 0.0
+    return _angle(points, members[0], members[1])
+
+
 def _merge_coincident(
     points: dict[str, list[float]],
     members: dict[str, list[str]],
-    names: _Names,
+    names: SceneNames,
     scale: float,
     keep: set[str],
 ) -> None:
@@ -479,169 +456,6 @@ def _merge_coincident(
         members[body] = merged
     for p in names.alias:
         points.pop(p, None)
-
-
-def _offset(value: float, revolute: bool) -> float:
-    """A calibrated offset: an angle's within (-pi, pi] (values are compared on the circle), and
-    never -0.0 (a written scene shows 0.0)."""
-    return (math.remainder(value, 2.0 * math.pi) if revolute else value) + 0.0
-
-
-def _angle(points: Mapping[str, list[float]], a: str, b: str) -> float:
-    (ax, ay), (bx, by) = points[a], points[b]
-    return math.atan2(by - ay, bx - ax)
-
-
-def _axis_angle(points: Mapping[str, list[float]], members: Sequence[str], ground: bool) -> float:
-    """A link's reported angle in the reference pose: its first two points' direction; the
-    ground's angles are measured from +x, and a one-point link's rotation starts at 0."""
-    if ground or len(members) < 2:
-        return 0.0
-    return _angle(points, members[0], members[1])
-
-
-def _joint_map(
-    chain: Chain, acts: Sequence[str], q: Mapping[str, float], mech: Mechanism, names: _Names
-) -> JointMap:
-    """Calibrate every affine map at the reference pose (the scene solved at its own values)."""
-    from ..solver import Solver
-
-    solver = Solver(mech)
-    ref = solver.solve(solver.reference_values())
-    if not ref.success:
-        raise DescriptionError(
-            f'the imported scene does not solve at its reference pose: {ref.reason}',
-            file=chain.description.source,
-        )
-    desc = chain.description
-    poses = chain.poses(q)
-    outputs: list[OutputJoint] = []
-    inputs: list[InputJoint] = []
-    lname = {b: names.of[('link', b)] for b in chain.bodies}
-
-    def scene_pin(point: str, a: str, b: str) -> tuple[str, float]:
-        """The scene joint at ``point`` between bodies a and b, and +1 if a is its child
-        (its value is then angle(a) - angle(b)), else -1."""
-        r = next(r for r in mech.revolutes if r.point == point and {r.parent, r.child} == {a, b})
-        return r.name, 1.0 if r.child == a else -1.0
-
-    for j in chain.joints:
-        lim = desc.limits.get(j.name, j.joint.limits)
-        if j.revolute:
-            name, sigma = scene_pin(names.point(j.name), lname[j.child], lname[j.parent])
-            scale = sigma * j.sign  # q = sign * (angle(child) - angle(parent)) + const
-        else:
-            name, scale = names.of[('point', j.name)], 1.0  # the slider's name
-        offset = _offset(q[j.name] - scale * ref.joints[name], j.revolute)
-        outputs.append(
-            OutputJoint(
-                j.name,
-                OutputKind.JOINT,
-                name,
-                scale,
-                offset,
-                j.revolute,
-                lower=lim.lower,
-                upper=lim.upper,
-            )
-        )
-        # scale is +-1: the inverse map has the same scale
-        inputs.append(InputJoint(j.name, name, scale, -scale * offset, j.revolute))
-    for a in acts:  # an actuated joint is commanded through its actuator
-        j = next(x for x in chain.joints if x.name == a)
-        sname = names.of[('point', a)]  # the actuator keeps the joint's own name
-        scale = j.sign if j.revolute else 1.0
-        mimic = j.joint.mimic
-        leader = mimic.joint if mimic is not None and mimic.joint in acts else ''
-        inputs = [i for i in inputs if i.name != a]
-        inputs.append(
-            InputJoint(
-                a,
-                sname,
-                scale,
-                _offset(ref.inputs[sname] - scale * q[a], j.revolute),
-                j.revolute,
-                leader=leader,
-                multiplier=mimic.multiplier if leader and mimic else 1.0,
-                mimic_offset=mimic.offset if leader and mimic else 0.0,
-            )
-        )
-    outputs += _cut_joints(chain, poses, ref.joints, lname, names, scene_pin)
-    published = {o.name for o in outputs}
-    for tj in desc.joints:  # mimics outside the chain follow their published leader
-        if tj.mimic is not None and tj.name not in published and tj.mimic.joint in published:
-            outputs.append(
-                OutputJoint(
-                    tj.name,
-                    OutputKind.MIMIC,
-                    scale=tj.mimic.multiplier,
-                    offset=tj.mimic.offset,
-                    leader=tj.mimic.joint,
-                )
-            )
-            published.add(tj.name)
-    plane = Plane(
-        _vec3(chain.basis[0]),
-        _vec3(chain.basis[1]),
-        _vec3(chain.normal),
-        depths={p: d for p, d in names.depths.items() if p in mech.points},
-    )
-    return JointMap(outputs, inputs, acts, plane)
-
-
-def _vec3(v: np.ndarray) -> tuple[float, float, float]:
-    return float(v[0]), float(v[1]), float(v[2])
-
-
-def _cut_joints(
-    chain: Chain,
-    poses: Mapping[str, tuple[np.ndarray, float]],
-    ref_joints: Mapping[str, float],
-    lname: Mapping[str, str],
-    names: _Names,
-    scene_pin: Callable[[str, str, str], tuple[str, float]],
-) -> list[OutputJoint]:
-    """The joints whose frames a closure names (Gepetto's dummy closure joints): the first held
-    at 0, the second turned with the closure's pin so that the two frames coincide."""
-    from .chain import angle_about_normal, frame_rotation
-
-    out: list[OutputJoint] = []
-    desc = chain.description
-    for c in chain.closures:
-        ends = [
-            (e, j) for e in (c.closure.a, c.closure.b) if e.joint and (j := desc.joint(e.joint))
-        ]
-        if not ends or c.direction is not None:
-            continue
-        if len(ends) == 2:
-            out.append(OutputJoint(ends[0][1].name, OutputKind.CONSTANT, offset=0.0))
-        end, joint = ends[-1]
-        if joint.type is not JointType.REVOLUTE:
-            continue
-        other = c.closure.a if end is c.closure.b else c.closure.b
-        mine, theirs = chain.body_of[end.link][0], chain.body_of[other.link][0]
-        # frames equal: Rot(n, phi_mine + s q - phi_theirs) = R_theirs0 R_mine0^T
-        delta = angle_about_normal(
-            chain, frame_rotation(chain, end) @ frame_rotation(chain, other).T, c.closure.element
-        )
-        w = frame_rotation(chain, end) @ joint.axis
-        s = 1.0 if float(w @ chain.normal) > 0 else -1.0
-        q_ref = s * (poses[theirs][1] - poses[mine][1] - delta)
-        pin, sigma = scene_pin(names.point(c.name), lname[theirs], lname[mine])
-        scale = s * sigma
-        out.append(
-            OutputJoint(
-                joint.name,
-                OutputKind.JOINT,
-                pin,
-                scale,
-                _offset(q_ref - scale * ref_joints[pin], True),
-                True,
-                lower=joint.limits.lower,
-                upper=joint.limits.upper,
-            )
-        )
-    return out
 
 
 __all__ = ['Imported', 'import_description', 'is_description', 'read_description']
