@@ -335,6 +335,16 @@ def slide_chain_class(l_a: float, l_b: float, offset: float, tol: float = GRASHO
     return 'non-grashof' if excess > 0 else 'grashof'
 
 
+@dataclass(frozen=True)
+class _Pair:
+    """One joint of a link, seen from that link: a revolute (else the slide), the link at its
+    other side and the point it sits on."""
+
+    revolute: bool
+    other: str
+    point: str
+
+
 def four_link_chain_info(mech: Mechanism) -> ChainInfo | None:
     """The Grashof-type class of a mechanism that is one four-link loop (four revolutes, or three
     revolutes and one slide) driven by one angle actuator on a ground-pivoted link (relative to
@@ -365,27 +375,26 @@ def four_link_chain_info(mech: Mechanism) -> ChainInfo | None:
     act = next(iter(mech.actuators.values()))
     if not isinstance(act, AngleActuator) or act.reference not in (None, mech.ground):
         return None
-    # link -> [(kind, other link, point)]
-    pairs: dict[str, list[tuple[str, str, str]]] = {name: [] for name in links}
+    pairs: dict[str, list[_Pair]] = {name: [] for name in links}
     for j in mech.revolutes:
-        pairs[j.parent].append(('R', j.child, j.point))
-        pairs[j.child].append(('R', j.parent, j.point))
+        pairs[j.parent].append(_Pair(True, j.child, j.point))
+        pairs[j.child].append(_Pair(True, j.parent, j.point))
     for pj in mech.prismatics.values():
-        pairs[pj.guide].append(('P', pj.slider, pj.point))
-        pairs[pj.slider].append(('P', pj.guide, pj.point))
-    if any(len(v) != 2 or v[0][1] == v[1][1] for v in pairs.values()):
+        pairs[pj.guide].append(_Pair(False, pj.slider, pj.point))
+        pairs[pj.slider].append(_Pair(False, pj.guide, pj.point))
+    if any(len(v) != 2 or v[0].other == v[1].other for v in pairs.values()):
         return None  # not one simple loop of four links
     ground, driven = mech.ground, act.link
-    if not any(other == ground and kind == 'R' for kind, other, _ in pairs[driven]):
+    if not any(q.other == ground and q.revolute for q in pairs[driven]):
         return None  # the driven link is not pinned to the ground
     pt = {k: np.asarray(v, float) for k, v in mech.points.items()}
 
     def span(link: str) -> float:  # distance between a link's two revolutes
-        a, b = [p for kind, _, p in pairs[link] if kind == 'R']
+        a, b = [q.point for q in pairs[link] if q.revolute]
         return float(np.hypot(*(pt[a] - pt[b])))
 
     tol = GRASHOF_TOL
-    output = next(o for kind, o, _ in pairs[ground] if o != driven)
+    output = next(q.other for q in pairs[ground] if q.other != driven)
     coupler = next(l for l in links if l not in (ground, driven, output))
     if not mech.prismatics:
         if getattr(mech, 'form', None) == 'four_bar':  # the lengths as the scene gives them
@@ -415,10 +424,10 @@ def four_link_chain_info(mech: Mechanism) -> ChainInfo | None:
         d = pt[p] - line
         return float(u[0] * d[1] - u[1] * d[0])
 
-    guide_r = next(p for kind, _, p in pairs[pj.guide] if kind == 'R')
-    slider_r = next(p for kind, _, p in pairs[pj.slider] if kind == 'R')
+    guide_r = next(q.point for q in pairs[pj.guide] if q.revolute)
+    slider_r = next(q.point for q in pairs[pj.slider] if q.revolute)
     e = abs(across(guide_r) - across(slider_r))
-    rr = [l for l in links if all(kind == 'R' for kind, _, _ in pairs[l])]
+    rr = [l for l in links if all(q.revolute for q in pairs[l])]
     klass = slide_chain_class(span(rr[0]), span(rr[1]), e, tol)
     lmin, lmax = sorted((span(rr[0]), span(rr[1])))
     rule = (
