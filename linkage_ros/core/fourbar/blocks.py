@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Callable, Sequence
+from enum import Enum
 from typing import Literal, TypeVar
 
 import numpy as np
@@ -202,10 +203,17 @@ def _zero_where_not(ok: np.ndarray, *arrays: np.ndarray) -> None:
             np.copyto(a, 0.0, where=bad)  # (a[..., bad] = 0 costs 4x more)
 
 
-def _in_range(a: np.ndarray, kind: str) -> Good:
-    """True, or the mask of the elements of ``a`` inside the fast range of its ``kind``: 'len'
-    [_LO, _HI], 'coord' [-_HI, _HI] (NaN is outside)."""
-    lo = _LO if kind == 'len' else -_HI
+class FastRange(Enum):
+    """Where an argument of a blocked kernel is safe for the fast (unscaled) formulas."""
+
+    LENGTH = 'length'  # [_LO, _HI]: squares neither underflow nor overflow
+    COORDINATE = 'coordinate'  # [-_HI, _HI]
+
+
+def _in_range(a: np.ndarray, kind: FastRange) -> Good:
+    """True, or the mask of the elements of ``a`` inside the fast range of its ``kind``
+    (NaN is outside)."""
+    lo = _LO if kind is FastRange.LENGTH else -_HI
     if lo <= a.min() and a.max() <= _HI:
         return True
     return (a >= lo) & (a <= _HI)
@@ -215,7 +223,7 @@ def _blocked(
     fast: Callable[..., Good],
     general: Callable[..., Sequence[np.ndarray]],
     args: Sequence[np.ndarray],
-    kinds: Sequence[str | None],
+    kinds: Sequence[FastRange | None],
     nout: int,
     tol: float,
 ) -> tuple[list[np.ndarray], tuple[int, ...]]:
@@ -231,7 +239,7 @@ def _blocked(
     n = math.prod(shape)
     fast_ok = math.isfinite(tol) and tol >= 0
     flat: list[Num] = []
-    checks: list[tuple[np.ndarray, str]] = []
+    checks: list[tuple[np.ndarray, FastRange]] = []
     for a, kind in zip(args, kinds):
         if a.size == 1 and (n > 1 or kind is not None):
             v = float(a.reshape(-1)[0])  # scalars stay scalars: no per-element work for them

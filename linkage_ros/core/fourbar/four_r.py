@@ -8,7 +8,7 @@ import numpy as np
 import numpy.typing as npt
 
 from ..dyads import TANGENCY_TOL, pow2_scale
-from .blocks import Good, Num, _atan2, _blocked, _rrr, _shaped, _Work, _zero_where_not
+from .blocks import FastRange, Good, Num, _atan2, _blocked, _rrr, _shaped, _Work, _zero_where_not
 from .common import (
     _NONFINITE_RESIDUAL,
     FourBarInverseSolution,
@@ -19,6 +19,8 @@ from .common import (
 )
 
 # --------------------------------------------------------------------------- four-bar
+
+_LEN, _COORD = FastRange.LENGTH, FastRange.COORDINATE
 
 
 def _closure_residual(
@@ -197,7 +199,7 @@ def fourbar_forward(
             _fourbar_forward_fast,
             _fourbar_forward_general,
             args,
-            ('len', 'len', 'len', 'len', None, None),
+            (_LEN, _LEN, _LEN, _LEN, None, None),
             2,
             float(tangency_tol),
         )
@@ -284,7 +286,7 @@ def fourbar_inverse(
             _fourbar_inverse_fast,
             _fourbar_inverse_general,
             args,
-            ('len', 'len', 'len', 'len', None, None),
+            (_LEN, _LEN, _LEN, _LEN, None, None),
             2,
             float(tangency_tol),
         )

@@ -8,7 +8,18 @@ import numpy as np
 import numpy.typing as npt
 
 from ..dyads import TANGENCY_TOL
-from .blocks import Good, Num, _atan2, _blocked, _good, _rrr, _shaped, _Work, _zero_where_not
+from .blocks import (
+    FastRange,
+    Good,
+    Num,
+    _atan2,
+    _blocked,
+    _good,
+    _rrr,
+    _shaped,
+    _Work,
+    _zero_where_not,
+)
 from .common import (
     _NONFINITE_RESIDUAL,
     SliderCrankInverseSolution,
@@ -20,6 +31,8 @@ from .common import (
 from .four_r import _atan2_general, _finish, _general_inputs, _longest
 
 # --------------------------------------------------------------------------- slider-crank
+
+_LEN, _COORD = FastRange.LENGTH, FastRange.COORDINATE
 
 
 def _slider_residual(
@@ -142,7 +155,7 @@ def slider_crank_forward(
             _slider_forward_fast,
             _slider_forward_general,
             args,
-            ('len', 'len', 'coord', None, None),
+            (_LEN, _LEN, _COORD, None, None),
             1,
             float(tangency_tol),
         )
@@ -208,7 +221,7 @@ def slider_crank_inverse(
             _slider_inverse_fast,
             _slider_inverse_general,
             args,
-            ('len', 'len', 'coord', 'coord', None),
+            (_LEN, _LEN, _COORD, _COORD, None),
             1,
             float(tangency_tol),
         )
