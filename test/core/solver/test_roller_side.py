@@ -140,17 +140,16 @@ def test_every_nut_cracker_mode_against_the_oracle(mech, theta):
             for i, o in enumerate(want)
             if o['side'] == side
             and all(
-                oracles.point_error(res.points[k], v) <= 1e-12 * 0.2
-                for k, v in o['points'].items()
+                oracles.point_error(res.points[k], v) <= 1e-12 * 0.2 for k, v in o['points'].items()
             )
         ]
         assert len(near) == 1, res.branch
         matched.add(near[0])
     assert len(matched) == 8  # eight distinct configurations, one per oracle mode
     # four on each side, and the drawn mode is one of them: the reference signs
-    assert sorted(modes.roller_sides(r)['face'] for r in modes.results) == ['left'] * 4 + [
-        'right'
-    ] * 4
+    assert (
+        sorted(modes.roller_sides(r)['face'] for r in modes.results) == ['left'] * 4 + ['right'] * 4
+    )
     assert [c.drawn for c in modes.rollers] == ['left']
     assert sum(r.branch == modes.drawn for r in modes.results) == 1
 
