@@ -24,47 +24,18 @@ import mpmath as mp
 import numpy as np
 import oracles
 import pytest
+import scenes
 
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
 
-RADIUS = 0.01
-JAW = 0.06  # |O6 F|
-DRAWN = {
-    'O2': (0.0, 0.0),
-    'A': (0.03, 0.05),
-    'B': (0.09, 0.06),
-    'O4': (0.10, 0.0),
-    'R': (0.13, 0.03),
-    'O6': (0.16, -0.02),
-}
-
-
-def _jaw_point() -> tuple[float, float]:
-    """F drawn with the jaw's face (through O6 along O6 -> F) tangent to the roller, the centre
-    R on the face's left (drawn to rounding: the stated radius is then a no-op redraw)."""
-    psi = float(oracles.line_through_point(DRAWN['O6'], DRAWN['R'], RADIUS, 1))
-    return (DRAWN['O6'][0] + JAW * math.cos(psi), DRAWN['O6'][1] + JAW * math.sin(psi))
-
-
-def nut_cracker() -> dict:
-    points = {**DRAWN, 'F': _jaw_point()}
-    return {
-        'name': 'nut_cracker',
-        'points': {k: list(v) for k, v in points.items()},
-        'links': {
-            'ground': ['O2', 'O4', 'O6'],
-            'handle': ['O2', 'A'],
-            'arm': ['A', 'B'],
-            'lever': ['O4', 'B', 'R'],
-            'jaw': ['O6', 'F'],
-        },
-        'slots': [
-            {'name': 'face', 'point': 'R', 'link': 'jaw', 'through': 'O6', 'angle': 0,
-             'radius': RADIUS}
-        ],
-        'actuators': {'handle': {'type': 'angle', 'link': 'handle', 'pivot': 'O2'}},
-    }  # fmt: skip
+RADIUS, JAW, DRAWN, _jaw_point, nut_cracker = (
+    scenes.NUT_RADIUS,
+    scenes.NUT_JAW,
+    scenes.NUT_DRAWN,
+    scenes.nut_cracker_jaw_point,
+    scenes.nut_cracker,
+)
 
 
 def _dist(p, q) -> float:
