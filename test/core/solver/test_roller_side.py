@@ -28,6 +28,8 @@ import scenes
 
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
+from linkage_ros.core.velocity import velocities
+from linkage_ros.engine import Engine, EngineSettings
 
 RADIUS, JAW, DRAWN, _jaw_point, nut_cracker = (
     scenes.NUT_RADIUS,
@@ -234,3 +236,54 @@ def test_a_roller_on_a_ground_face_has_both_sides(drawn_side, theta):
         assert res.residual <= 1e-14
     assert len(got) == 4
     assert [c.drawn for c in modes.rollers] == ['left' if drawn_side > 0 else 'right']
+
+
+@pytest.mark.parametrize('branch', ['+++', '+-+', '--+', '+--'])
+def test_velocities_on_either_side_match_central_differences(mech, branch):
+    # the loop Jacobian does not depend on which side's line the roller runs on (the line moves
+    # across itself): the exact rates hold on the side not drawn as on the drawn one
+    solver = Solver(mech, branch=branch)
+    for theta in (-1.0, 0.4, 1.3):
+        values, rates = {'handle': theta}, {'handle': 1.0}
+        res = solver.solve(values)
+        assert res.success and res.branch == branch
+        vel = velocities(solver, res, values, rates)
+        assert vel.success, vel.reason
+        fd_joints, fd_points = oracles.central_difference_rates(solver, values, rates, 1e-6)
+        scale = max(1.0, max(abs(v) for v in vel.joints.values()))
+        for j in mech.joint_names:
+            assert abs(vel.joints[j] - fd_joints[j]) <= 1e-6 * scale, j
+        for p in mech.points:
+            for k in (0, 1):
+                assert abs(vel.points[p][k] - fd_points[p][k]) <= 1e-6 * scale, p
+
+
+@pytest.mark.parametrize('branch', ['+-+', '-+-'])
+def test_a_batch_takes_the_side_its_branch_says(mech, branch):
+    # the vectorised plan run places the roller on the side of its branch, as one command does
+    thetas = np.linspace(-1.5, 1.5, 41)
+    batch = Solver(mech, branch=branch).solve_batch({'handle': thetas})
+    assert np.all(batch.ok) and np.all(batch.residual <= 1e-14)
+    side = 1 if branch[1] == '+' else -1
+    assert np.all(batch.signs[:, 1] == side)
+    for i in range(0, 41, 8):
+        check_constraints(batch.row(i), side)
+
+
+def test_a_target_answers_in_the_mode_roller_side_included(mech):
+    # the target rule reads the roller's side as one of the mode's signs: a jaw angle reached
+    # here only in another mode is refused, naming both; allowed on request, later commands
+    # keep the new mode, roller side included
+    modes = Solver(mech).modes({'handle': -1.5})
+    flipped = next(r for r in modes.results if r.branch == '+-+')
+    e = Engine(mech, EngineSettings('auto', 1e-12, 50, 'continuous'))
+    t = e.target({'O6': flipped.joints['O6']})
+    assert not t.success and 'the mechanism is in mode +++' in t.reason
+    t = e.target({'O6': flipped.joints['O6']}, allow_mode_change=True)
+    assert t.success and t.mode_change.startswith('+++ -> ')
+    after = t.mode_change.split(' -> ')[1]
+    assert len(after) == 3
+    for theta in (-1.0, 0.0, 1.0):
+        c = e.command({'handle': theta})
+        assert c.success and c.branch == after
+        check_constraints(c, 1 if after[1] == '+' else -1)
