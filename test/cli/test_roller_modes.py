@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 
 import pytest
 import scenes
@@ -92,3 +93,16 @@ def test_branch_chooses_the_side_not_drawn(capsys, scene):
     fx, fy = p['F'][0] - p['O6'][0], p['F'][1] - p['O6'][1]
     wx, wy = p['R'][0] - p['O6'][0], p['R'][1] - p['O6'][1]
     assert (fx * wy - fy * wx) / math.hypot(fx, fy) == pytest.approx(-scenes.NUT_RADIUS, abs=1e-13)
+
+
+def test_the_scene_doc_nut_cracker_lists_eight_modes(capsys, tmp_path):
+    # docs/SCENES.md's example, as its text says it runs
+    text = (scenes.REPO / 'docs' / 'SCENES.md').read_text(encoding='utf-8')
+    block = next(b for b in re.findall(r'^```yaml\n(.*?)^```', text, re.S | re.M) if 'nut' in b)
+    p = tmp_path / 'nut_cracker.yaml'
+    p.write_text(block)
+    rc, out, _ = run(capsys, 'solve', p, '--set', 'handle=1.2', '--all-branches', '--json')
+    modes = json.loads(out)
+    assert rc == 0 and len(modes) == 8 and all(m['status'] == 'ok' for m in modes)
+    assert [m['branch'] for m in modes if m['drawn_mode']] == ['+++']
+    assert {m['rollers']['face']['side'] for m in modes} == {'left', 'right'}
