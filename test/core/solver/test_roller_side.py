@@ -199,23 +199,7 @@ def test_a_roller_drawn_on_the_right_lists_left_as_the_other_side():
 # ---- the roller's other dyad: a roller on a ground face (RRP) ---------------------------------
 
 
-def roller_crank(side: int) -> dict:
-    """A crank O2-A and a rod A-R whose roller (radius 0.02 about R) rides on the ground's
-    flat face through G along +x, drawn on ``side`` of it."""
-    r = 0.02
-    ax, ay = 0.1 * math.cos(1.0), 0.1 * math.sin(1.0)
-    ry = side * r
-    rx = ax + math.sqrt(0.3**2 - (ay - ry) ** 2)
-    return {
-        'name': 'roller_crank',
-        'points': {'O2': [0.0, 0.0], 'G': [0.5, 0.0], 'A': [ax, ay], 'R': [rx, ry]},
-        'links': {'ground': ['O2', 'G'], 'crank': ['O2', 'A'], 'rod': ['A', 'R']},
-        'slots': [
-            {'name': 'floor', 'point': 'R', 'link': 'ground', 'through': 'G', 'angle': 0,
-             'radius': r}
-        ],
-        'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
-    }  # fmt: skip
+roller_crank = scenes.roller_crank
 
 
 @pytest.mark.parametrize('drawn_side', [1, -1])
