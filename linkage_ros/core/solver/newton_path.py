@@ -171,6 +171,7 @@ def roller_side_refusal(c: CompiledSolve, cont: Continuity) -> str | None:
         return None
     plan, last = c.full_plan, cont.last
     flipped: list[str] = []
+    where = 'is asked to be'  # by the branch
     if cont.branch.rule is BranchRule.EXPLICIT and cont.branch.signs and plan is c.plan:
         flipped = [
             st.args.joint
@@ -181,10 +182,11 @@ def roller_side_refusal(c: CompiledSolve, cont: Continuity) -> str | None:
         ]
     elif cont.branch.rule is BranchRule.CONTINUOUS and last is not None:
         flipped = rollers_off_drawn_side(c.mech, last.points, last.poses)
+        where = 'is'  # in the configuration continuity starts from
     if not flipped:
         return None
     return (
-        f'the roller of slot {flipped[0]!r} is on the side of its face it is not drawn on; '
+        f'the roller of slot {flipped[0]!r} {where} on the side of its face it is not drawn on; '
         'Newton solves a roller on its drawn side only and cannot move it through its face: '
         'solve this in closed form (solver closed_form), or take the drawn side (branch)'
     )

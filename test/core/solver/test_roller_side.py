@@ -271,3 +271,11 @@ def test_a_target_answers_in_the_mode_roller_side_included(mech):
         c = e.command({'handle': theta})
         assert c.success and c.branch == after
         check_constraints(c, 1 if after[1] == '+' else -1)
+
+
+def test_newton_refuses_a_branch_with_the_side_not_drawn(mech):
+    res = Solver(mech, method='newton', branch='+-+').solve({'handle': 1.0})
+    assert not res.success and "roller of slot 'face' is asked to be on the side" in res.reason
+    res = Solver(mech, method='newton', branch='-++').solve({'handle': 1.0})
+    assert res.success and res.branch == '-++'
+    check_constraints(res, 1)
