@@ -58,20 +58,20 @@ NUT_DRAWN = {
 }
 
 
-def nut_cracker_jaw_point() -> tuple[float, float]:
+def nut_cracker_jaw_point(radius: float = NUT_RADIUS) -> tuple[float, float]:
     """F drawn with the jaw's face (through O6 along O6 -> F) tangent to the roller, the centre
     R on the face's left (drawn to rounding: the stated radius is then a no-op redraw)."""
     (ox, oy), (rx, ry) = NUT_DRAWN['O6'], NUT_DRAWN['R']
     # the face's direction: that of O6 -> R turned right by the angle R subtends at O6
-    psi = math.atan2(ry - oy, rx - ox) - math.asin(NUT_RADIUS / math.hypot(rx - ox, ry - oy))
+    psi = math.atan2(ry - oy, rx - ox) - math.asin(radius / math.hypot(rx - ox, ry - oy))
     return (ox + NUT_JAW * math.cos(psi), oy + NUT_JAW * math.sin(psi))
 
 
-def nut_cracker() -> dict:
+def nut_cracker(radius: float = NUT_RADIUS) -> dict:
     """The nut-cracker of issue 27 (test/core/solver/test_roller_side.py describes it): a handle
     driving a lever through an arm, the lever's roller (NUT_RADIUS about R) on the flat face of
     a jaw pivoted at O6; drawn with the roller on the face's left."""
-    points = {**NUT_DRAWN, 'F': nut_cracker_jaw_point()}
+    points = {**NUT_DRAWN, 'F': nut_cracker_jaw_point(radius)}
     return {
         'name': 'nut_cracker',
         'points': {k: list(v) for k, v in points.items()},
@@ -84,7 +84,7 @@ def nut_cracker() -> dict:
         },
         'slots': [
             {'name': 'face', 'point': 'R', 'link': 'jaw', 'through': 'O6', 'angle': 0,
-             'radius': NUT_RADIUS}
+             'radius': radius}
         ],
         'actuators': {'handle': {'type': 'angle', 'link': 'handle', 'pivot': 'O2'}},
     }  # fmt: skip

@@ -25,6 +25,8 @@ import numpy as np
 import oracles
 import pytest
 import scenes
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
@@ -75,11 +77,12 @@ def oracle_modes(theta: float) -> list[dict]:
     return out
 
 
-def check_constraints(res, side: int) -> None:
+def check_constraints(res, side: int, radius: float = RADIUS) -> None:
     """The constraint geometry of one answer, read off its points: every link length as
-    drawn, the ground where drawn, the roller centre RADIUS off the jaw's face on ``side``."""
+    drawn, the ground where drawn, the roller centre ``radius`` off the jaw's face on
+    ``side``."""
     p = {k: tuple(v) for k, v in res.points.items()}
-    d = {**DRAWN, 'F': _jaw_point()}
+    d = {**DRAWN, 'F': _jaw_point(radius)}
     tol = 1e-12 * 0.2
     for a, b in [('O2', 'A'), ('A', 'B'), ('O4', 'B'), ('O4', 'R'), ('B', 'R'), ('O6', 'F')]:
         assert abs(_dist(p[a], p[b]) - _dist(d[a], d[b])) <= tol, (a, b)
@@ -88,7 +91,7 @@ def check_constraints(res, side: int) -> None:
     u = np.subtract(p['F'], p['O6']) / _dist(p['F'], p['O6'])
     w = np.subtract(p['R'], p['O6'])
     offset = u[0] * w[1] - u[1] * w[0]  # > 0: R left of the face's direction
-    assert abs(offset - side * RADIUS) <= tol
+    assert abs(offset - side * radius) <= tol
 
 
 @pytest.fixture(scope='module')
@@ -279,3 +282,25 @@ def test_newton_refuses_a_branch_with_the_side_not_drawn(mech):
     res = Solver(mech, method='newton', branch='-++').solve({'handle': 1.0})
     assert res.success and res.branch == '-++'
     check_constraints(res, 1)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    theta=st.floats(-1.65, 1.65),
+    radius=st.floats(1e-4, 0.05),
+)
+def test_every_mode_closes_on_its_side_for_any_radius_and_input(theta, radius):
+    # every mode listed is a configuration of the nut-cracker with the roller on the side its
+    # branch says, the modes are distinct, and as many close on one side as on the other
+    mech = Scene.from_dict(nut_cracker(radius)).mechanism
+    modes = Solver(mech).modes({'handle': theta})
+    ok = [r for r in modes.results if r.success]
+    assume(ok)
+    for r in ok:
+        check_constraints(r, 1 if modes.roller_sides(r)['face'] == 'left' else -1, radius)
+    for i, a in enumerate(ok):
+        for b in ok[i + 1 :]:
+            assert max(_dist(a.points[k], b.points[k]) for k in a.points) > 1e-9
+    sides = [modes.roller_sides(r)['face'] for r in ok]
+    assert sides.count('left') == sides.count('right')  # the mirror line closes as the drawn
+    assert len(ok) <= 8
