@@ -4,6 +4,7 @@ building the shortcut mechanisms from lengths."""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any
 
@@ -41,3 +42,68 @@ def slider_crank(r: float, rod: float, e: float = 0.0, direction: float = 0.0, *
     spec = {'crank': r, 'rod': rod, 'offset': e, 'direction': direction}
     spec.update(extra)
     return Scene.from_dict({'slider_crank': spec}).mechanism
+
+
+# ---- a roller on a flat face: the nut-cracker (issue 27) ------------------------------------
+
+NUT_RADIUS = 0.01
+NUT_JAW = 0.06  # |O6 F|
+NUT_DRAWN = {
+    'O2': (0.0, 0.0),
+    'A': (0.03, 0.05),
+    'B': (0.09, 0.06),
+    'O4': (0.10, 0.0),
+    'R': (0.13, 0.03),
+    'O6': (0.16, -0.02),
+}
+
+
+def nut_cracker_jaw_point(radius: float = NUT_RADIUS) -> tuple[float, float]:
+    """F drawn with the jaw's face (through O6 along O6 -> F) tangent to the roller, the centre
+    R on the face's left (drawn to rounding: the stated radius is then a no-op redraw)."""
+    (ox, oy), (rx, ry) = NUT_DRAWN['O6'], NUT_DRAWN['R']
+    # the face's direction: that of O6 -> R turned right by the angle R subtends at O6
+    psi = math.atan2(ry - oy, rx - ox) - math.asin(radius / math.hypot(rx - ox, ry - oy))
+    return (ox + NUT_JAW * math.cos(psi), oy + NUT_JAW * math.sin(psi))
+
+
+def nut_cracker(radius: float = NUT_RADIUS) -> dict:
+    """The nut-cracker of issue 27 (test/core/solver/test_roller_side.py describes it): a handle
+    driving a lever through an arm, the lever's roller (NUT_RADIUS about R) on the flat face of
+    a jaw pivoted at O6; drawn with the roller on the face's left."""
+    points = {**NUT_DRAWN, 'F': nut_cracker_jaw_point(radius)}
+    return {
+        'name': 'nut_cracker',
+        'points': {k: list(v) for k, v in points.items()},
+        'links': {
+            'ground': ['O2', 'O4', 'O6'],
+            'handle': ['O2', 'A'],
+            'arm': ['A', 'B'],
+            'lever': ['O4', 'B', 'R'],
+            'jaw': ['O6', 'F'],
+        },
+        'slots': [
+            {'name': 'face', 'point': 'R', 'link': 'jaw', 'through': 'O6', 'angle': 0,
+             'radius': radius}
+        ],
+        'actuators': {'handle': {'type': 'angle', 'link': 'handle', 'pivot': 'O2'}},
+    }  # fmt: skip
+
+
+def roller_crank(side: int) -> dict:
+    """A crank O2-A and a rod A-R whose roller (radius 0.02 about R) rides on the ground's
+    flat face through G along +x, drawn on ``side`` of it."""
+    r = 0.02
+    ax, ay = 0.1 * math.cos(1.0), 0.1 * math.sin(1.0)
+    ry = side * r
+    rx = ax + math.sqrt(0.3**2 - (ay - ry) ** 2)
+    return {
+        'name': 'roller_crank',
+        'points': {'O2': [0.0, 0.0], 'G': [0.5, 0.0], 'A': [ax, ay], 'R': [rx, ry]},
+        'links': {'ground': ['O2', 'G'], 'crank': ['O2', 'A'], 'rod': ['A', 'R']},
+        'slots': [
+            {'name': 'floor', 'point': 'R', 'link': 'ground', 'through': 'G', 'angle': 0,
+             'radius': r}
+        ],
+        'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
+    }  # fmt: skip

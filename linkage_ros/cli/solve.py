@@ -9,6 +9,8 @@ allows that mode, as the node's ``~/target_any_mode`` does. ``--all-branches`` l
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 from .common import (
     OK,
     REFUSED,
@@ -21,7 +23,19 @@ from .common import (
 )
 from .described import request_echo, scene_command
 
+if TYPE_CHECKING:
+    from ..core.solver.modes import ModeList
+
 # ---- solve -------------------------------------------------------------------------------------
+
+
+def roller_legend(modes: ModeList) -> str:
+    """Which branch sign is which roller's side, and the side each is drawn on."""
+    return '\n'.join(
+        f'roller {c.joint}: branch sign {c.index + 1} of {len(modes.drawn)} is the side of its '
+        f'face (+ left of its direction, - right); drawn {c.drawn}'
+        for c in modes.rollers
+    )
 
 
 def cmd_solve(args) -> int:
@@ -49,6 +63,14 @@ def cmd_solve(args) -> int:
             d['mode_change'] = r.mode_change
         if modes is not None:  # whether the list is provably every assembly mode
             d['modes_complete'] = modes.complete
+            if modes.drawn:  # the mode the drawing is in, and each roller's side of its face
+                d['drawn_mode'] = d['branch'] == modes.drawn
+            if modes.rollers:
+                sides = modes.roller_sides(r)
+                d['rollers'] = {
+                    c.joint: {'side': sides.get(c.joint), 'drawn_side': c.drawn}
+                    for c in modes.rollers
+                }
     if args.json:
         print(dumps(dicts if args.all_branches else dicts[0]))
     else:
@@ -62,12 +84,20 @@ def cmd_solve(args) -> int:
                     else ''
                 )
             )
+        if modes is not None and modes.rollers:
+            print(roller_legend(modes))
         for i, d in enumerate(dicts):
             if args.all_branches:
                 print(
                     f'--- assembly mode {i + 1} of {len(dicts)}'
                     + (f' (branch {d["branch"]})' if d['branch'] else '')
+                    + (' (as drawn)' if d.get('drawn_mode') else '')
                 )
+                for joint, side in d.get('rollers', {}).items():
+                    print(
+                        f'roller {joint}: {side["side"]} of its face '
+                        + ('(as drawn)' if side['side'] == side['drawn_side'] else '(not drawn)')
+                    )
             print(format_result(d, mech))
             if d.get('mode_change'):
                 print(f'assembly mode changed: {d["mode_change"]} (--any-mode)')

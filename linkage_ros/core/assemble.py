@@ -26,6 +26,16 @@ def _c(v: Any) -> complex:
     return complex(float(v[0]), float(v[1]))
 
 
+def _roller_offset(mech: Mechanism, joint: str) -> float:
+    """A roller's drawn signed distance from its face (m, left of the joint's direction +),
+    0.0 for any other prismatic joint (its point on its line, which is then the residual)."""
+    if joint not in mech.rollers:
+        return 0.0
+    pj = mech.prismatics[joint]
+    u = _c(pj.direction)
+    return (u.conjugate() * (_c(mech.points[pj.point]) - _c(pj.origin))).imag
+
+
 class ResultAssembler:
     """What to read off configurations whose placed links are ``placed`` (a dyad plan always
     places the same links; Newton all of them), resolved once.
@@ -75,6 +85,7 @@ class ResultAssembler:
                 spec_reader(mech, SlideSpec(pj.name, pj.name)),
                 _c(mech.points[pj.point]),
                 1j * _c(pj.direction),
+                _roller_offset(mech, pj.name),
             )
             for pj in mech.prismatics.values()
             if pj.guide in have and pj.slider in have
@@ -105,11 +116,14 @@ class ResultAssembler:
             joints[name] = wrap(offset + phi[child] - phi[parent])
             d = (rot[parent] * p + T[parent]) - (rot[child] * p + T[child])
             worst = mx(worst, mx(abs(d.real), abs(d.imag)))
-        for name, slider, guide, read, p, normal in self.slides:
+        for name, slider, guide, read, p, normal, face in self.slides:
             joints[name] = read(ops, poses)
             off = (rot[slider] * p + T[slider]) - (rot[guide] * p + T[guide])
             nrm = rot[guide] * normal
-            worst = mx(worst, abs(off.real * nrm.real + off.imag * nrm.imag))
+            # the point's miss from its line; a roller's (face: its drawn offset) from either
+            # line ``face`` off its face (both sides close: the side is an assembly mode)
+            across = off.real * nrm.real + off.imag * nrm.imag
+            worst = mx(worst, abs(abs(across + face) - abs(face)))
             worst = mx(worst, L * abs(wrap(phi[slider] - phi[guide])))
         links = {l: wrap(ref + phi[l]) for l, ref in self.links}
         for i, read in self.knowns:

@@ -22,7 +22,7 @@ from .dyads import solve_rrr_dyad as _rrr
 from .errors import PlanError
 from .ops import BATCH, SCALAR, to_complex
 from .quantities import AngleSpec, PointSpec
-from .steps import StepKind
+from .steps import RollerSide, StepKind
 
 #: Below this dyad margin (|sin| of its transmission angle) continuity decides the branch by the
 #: predicted position; above it the previous sign is kept, because an assembly mode can only
@@ -32,6 +32,7 @@ CONTINUITY_MARGIN = 0.1
 _GROUND, _KNOWN_POINT, _TWO_POINTS = StepKind.GROUND, StepKind.KNOWN_POINT, StepKind.TWO_POINTS
 _POINT_ANGLE, _ANGLE = StepKind.POINT_ANGLE, StepKind.ANGLE
 _RRR, _RRP, _RPR = StepKind.RRR, StepKind.RRP, StepKind.RPR
+_SIDE = StepKind.SIDE
 
 #: a body's frame: (phi, rot, T) of each member link with the body's root at the identity
 _Frame = dict[str, tuple[Any, Any, Any]]
@@ -222,6 +223,8 @@ class PlanExecutor:
         pts: dict[str, Any] = {}
         frames: dict[int, _Frame] = {}
         angles: dict[int, Any] = {}  # body root orientation when known before placing
+        # a roller's line moved to the side chosen (guide's reference frame, m): SIDE steps
+        side_shift: dict[str, Any] = {}
         used: list[Any] = []
         margins: list[Any] = []
         single, body_points = self.single, self.body_points
@@ -305,7 +308,8 @@ class PlanExecutor:
                     b1, p1, jname = st.args.body, st.args.centre, st.args.joint
                     g = mech.prismatics[jname].guide
                     r = self._radius(ops, b1, x, p1, frame)
-                    p0 = rot_of[g] * ref[x] + T_of[g]
+                    on_line = ref[x] if jname not in side_shift else ref[x] + side_shift[jname]
+                    p0 = rot_of[g] * on_line + T_of[g]
                     u = rot_of[g] * self.direction[jname]
                     pair = solve_rrp_dyad(ops, pts[p1], r, p0, u, tol)
                 if not batch and not pair.ok:
@@ -361,7 +365,8 @@ class PlanExecutor:
                 gphi, grot, gT = frame(bi)[pj.guide]
                 lp = local_pt(bi, p)
                 u_loc = grot * self.direction[jname]
-                w = (grot * ref[x] + gT) - lp
+                on_line = ref[x] if jname not in side_shift else ref[x] + side_shift[jname]
+                w = (grot * on_line + gT) - lp
                 e = u_loc.real * w.imag - u_loc.imag * w.real  # signed offset of the pivot
                 psi0 = ops.atan2(u_loc.imag, u_loc.real)
                 dy = solve_rpr_dyad(ops, pts[p], pts[x], e, tol)
@@ -390,11 +395,23 @@ class PlanExecutor:
                     ok_all = ok_all & dy.ok
                 else:
                     margin_all = dy.margin if dy.margin < margin_all else margin_all
+            elif op is _SIDE:
+                sg = signs[len(used)]
+                side_shift[st.args.joint] = self._side_shift(st.args, sg)
+                used.append(sg)
+                margins.append(zero + 1.0)  # never near a toggle: the face lies between sides
             else:
                 raise PlanError(f'internal: unknown plan step {op!r}')
         return PlanRun(
             ok_all, poses, pts, margin_all, tuple(used), failure, violation_all, tuple(margins)
         )
+
+    def _side_shift(self, side: RollerSide, sign: Any) -> Any:
+        """How far a roller's line moves (complex, m, in its guide's reference frame) for its
+        centre to be on side ``sign`` of the face: 0 on the drawn side, else its mirror image
+        in the face (twice the drawn offset, across). Either backend (``sign`` +-1 or (n,))."""
+        d = side.drawn_offset
+        return (sign * abs(d) - d) * (1j * self.direction[side.joint])
 
     def _coincident(
         self,

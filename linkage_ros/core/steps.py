@@ -19,9 +19,10 @@ class StepKind(StrEnum):
     RRR = 'circle_circle'  # RRR dyad: a point on two circles
     RRP = 'circle_line'  # RRP dyad: a slider point on a circle and a line
     RPR = 'line_through'  # RPR dyad: a guide turned so its line passes a known point
+    SIDE = 'roller_side'  # which side of its flat face a roller is on (an assembly choice)
 
 
-BRANCHING = (StepKind.RRR, StepKind.RRP, StepKind.RPR)
+BRANCHING = (StepKind.RRR, StepKind.RRP, StepKind.RPR, StepKind.SIDE)
 
 
 # ---- what each kind of step works on (Step.args) -------------------------------------------
@@ -90,16 +91,41 @@ class RPRDyad:
     pivot: str
 
 
-StepArgs = KnownPoint | TwoPoints | PointAngle | AngleFrom | RRRDyad | RRPDyad | RPRDyad
+@dataclass(frozen=True)
+class RollerSide:
+    """SIDE: the side of its flat face that the roller of slot ``joint`` (a slot with a
+    ``radius``: its centre, Step.point, keeps that distance from the face) is on: +1 left of
+    the face's direction, -1 right. Either side closes wherever the other does (the centre on
+    the face's mirror line), and a roller cannot pass from one to the other without crossing
+    the face (distance 0, impossible with a radius): an assembly choice like a dyad's sign,
+    never changed by continuity. The next step (the RRP or RPR dyad of ``joint``) puts the
+    centre on the line ``offset`` (m, signed) off the face, the face being the line through
+    ``face`` (a point fixed in the guide, reference coordinates relative to its point
+    ``anchor``) along the joint's direction; ``offset`` is the drawn one, or its mirror."""
+
+    joint: str
+    anchor: str
+    face: complex  # the face point minus the anchor's, reference pose (m)
+    drawn_offset: float  # the centre's signed distance from the face as drawn (m; left +)
 
 
-def anchor_of(args: RRRDyad | RRPDyad | RPRDyad) -> str:
+StepArgs = (
+    KnownPoint | TwoPoints | PointAngle | AngleFrom | RRRDyad | RRPDyad | RPRDyad | RollerSide
+)
+
+#: what a branching step works on
+BranchArgs = RRRDyad | RRPDyad | RPRDyad | RollerSide
+
+
+def anchor_of(args: BranchArgs) -> str:
     """The known point a branching step's sign is measured from (the first circle's centre,
-    or the guide's pivot)."""
+    the guide's pivot, or a point of the roller's face link)."""
     if isinstance(args, RRRDyad):
         return args.centre_a
     if isinstance(args, RRPDyad):
         return args.centre
+    if isinstance(args, RollerSide):
+        return args.anchor
     return args.pivot
 
 

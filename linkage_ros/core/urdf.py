@@ -87,26 +87,29 @@ class Tree:
 
 def spanning_tree(mech: Mechanism) -> Tree:
     """Breadth-first spanning tree of the links from the ground (scene joint order breaks ties:
-    revolute joints, then prismatic)."""
+    revolute joints, then prismatic). A roller's joint (Mechanism.rollers) joins the tree only
+    where nothing else reaches its link: its line is the drawn side's, and a tree through its
+    pin's revolute joint places the roller right on either side of its face."""
     edges: list[tuple[str, JointKind, str, str, str]] = [
         (j.name, JointKind.REVOLUTE, j.point, j.parent, j.child) for j in mech.revolutes
     ] + [
         (p.name, JointKind.PRISMATIC, p.point, p.guide, p.slider) for p in mech.prismatics.values()
     ]
     order, joints, used = [mech.ground], [], set()
-    queue = [mech.ground]
-    while queue:
-        link = queue.pop(0)
-        for name, kind, point, a, b in edges:
-            if name in used or link not in (a, b):
-                continue
-            other = b if link == a else a
-            if other in order:
-                continue
-            used.add(name)
-            joints.append(TreeJoint(name, kind, point, link, other, reversed=link == b))
-            order.append(other)
-            queue.append(other)
+    for allowed in ([e for e in edges if e[0] not in mech.rollers], edges):
+        queue = list(order)
+        while queue:
+            link = queue.pop(0)
+            for name, kind, point, a, b in allowed:
+                if name in used or link not in (a, b):
+                    continue
+                other = b if link == a else a
+                if other in order:
+                    continue
+                used.add(name)
+                joints.append(TreeJoint(name, kind, point, link, other, reversed=link == b))
+                order.append(other)
+                queue.append(other)
     unreached = [l for l in mech.links if l not in order]
     if unreached:
         raise SceneError(

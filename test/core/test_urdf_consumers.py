@@ -30,6 +30,8 @@ from test_urdf import SHIPPED, sweep
 from urdf_parser_py.urdf import URDF
 
 from linkage_ros.conversions import result_to_joint_state
+from linkage_ros.core.model import Scene
+from linkage_ros.core.solver import Solver
 from linkage_ros.core.urdf import link_frames, point_frame, urdf_document
 
 PREFIXES = ['', 'left_', 'm1/']
@@ -168,3 +170,23 @@ def test_pinocchio_places_every_point_frame_where_the_solver_does(stem, prefix):
             got = data.oMf[frames[p]].translation
             err = max(abs(got[0] - x), abs(got[1] - y), abs(got[2]))
             assert err <= 1e-9 * L, f'{stem} point {p}: off by {err / L:.2e} L'
+
+
+@pytest.mark.parametrize('drawn_side', [1, -1])
+def test_pinocchio_places_a_roller_on_either_side_of_its_face(drawn_side):
+    # a roller's prismatic joint is left out of the tree (its line is the drawn side's): the
+    # tree through the pin's revolute joint places the roller in every mode, both sides
+    mech = Scene.from_dict(scenes.roller_crank(drawn_side)).mechanism
+    model = pinocchio.buildModelFromXML(urdf_document(mech))
+    data = model.createData()
+    frames = {p: model.getFrameId(point_frame(p)) for p in mech.points}
+    modes = Solver(mech).modes({'crank': 2.0})
+    assert len(modes.results) == 4
+    for r in modes.results:
+        msg = result_to_joint_state(r, mech, Time(), mech.frame_id)
+        pinocchio.framesForwardKinematics(
+            model, data, _configuration(model, dict(zip(msg.name, msg.position)))
+        )
+        for p, (x, y) in r.points.items():
+            got = data.oMf[frames[p]].translation
+            assert max(abs(got[0] - x), abs(got[1] - y), abs(got[2])) <= 1e-12, (r.branch, p)

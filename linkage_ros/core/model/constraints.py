@@ -27,15 +27,17 @@ from .checks import _Ctx
 
 def expand_constraints(
     ctx: _Ctx, data: Mapping[str, Any], points: Mapping[str, np.ndarray]
-) -> tuple[dict[str, Any], dict[str, float]]:
-    """The scene with its ``slots`` and ``distances`` compiled into links and sliders, and the
-    dimensions they state (name -> m)."""
+) -> tuple[dict[str, Any], dict[str, float], frozenset[str]]:
+    """The scene with its ``slots`` and ``distances`` compiled into links and sliders, the
+    dimensions they state (name -> m), and the slots that are rollers (a ``radius`` > 0: the
+    side of the face is an assembly choice, Mechanism.rollers)."""
     out = {k: v for k, v in data.items() if k not in ('slots', 'distances')}
     links = dict(ctx.mapping('links', data.get('links')))
     sliders = list(data.get('sliders') or [])
     if not isinstance(data.get('sliders') or [], list):
         ctx.fail('sliders', 'must be a list of prismatic joints', data.get('sliders'))
     stated: dict[str, float] = {}
+    rollers: set[str] = set()
     taken = set(links) | {s.get('name') for s in sliders if isinstance(s, Mapping)}
     taken |= set(data.get('cylinders') or {})
 
@@ -113,6 +115,8 @@ def expand_constraints(
                 # side it is drawn (a centre drawn on the face: the left side)
                 r = radius or 0.0
                 stated[f'{name}.offset'] = math.copysign(r, side) if side else r
+                if r > 0:
+                    rollers.add(name)
         sliders.append(slider)
 
     for i, spec in enumerate(_entries(ctx, data, 'distances')):
@@ -147,7 +151,7 @@ def expand_constraints(
     out['links'] = links
     if sliders:
         out['sliders'] = sliders
-    return out, stated
+    return out, stated, frozenset(rollers)
 
 
 def _entries(ctx: _Ctx, data: Mapping[str, Any], key: str) -> list[Mapping[str, Any]]:

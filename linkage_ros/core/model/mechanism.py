@@ -149,6 +149,10 @@ class Mechanism:
     stated: dict[str, float] = field(default_factory=dict)
     #: a robot description's joint coordinates (None: the scene's own are published)
     joint_coordinates: JointCoordinates | None = None
+    #: the prismatic joints that are rollers on a flat face (slots with a ``radius``): the
+    #: point keeps its offset from the line through the joint's origin on either side, the
+    #: side being an assembly choice (a branch sign of the plan: core.steps.RollerSide)
+    rollers: frozenset[str] = frozenset()
 
     def distance(self, link: str, p: str, q: str) -> float | None:
         """The stated length between points p and q of ``link``, or None."""

@@ -30,6 +30,7 @@ from .geometry import (  # noqa: F401
     branch_geometry_batch,
     branch_geometry_of,
     branch_geometry_one,
+    rollers_off_drawn_side,
     step_geometry,
 )
 from .poses import (  # noqa: F401

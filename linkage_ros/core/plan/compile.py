@@ -22,6 +22,7 @@ from ..steps import (
     AngleFrom,
     KnownPoint,
     PointAngle,
+    RollerSide,
     RPRDyad,
     RRPDyad,
     RRRDyad,
@@ -99,6 +100,11 @@ class Step:
             return f'RRP dyad: {self.point} on slide {a.joint} and circle about {a.centre}'
         if isinstance(a, RPRDyad):
             return f'RPR dyad: orient {b} about {a.pivot} so slide {a.joint} passes {self.point}'
+        if isinstance(a, RollerSide):
+            return (
+                f'roller side: {self.point} on the left (+) or right (-) of the face of slot '
+                f'{a.joint}'
+            )
         return str(self.op)
 
 
@@ -276,6 +282,9 @@ class Plan:
             step = self._branching_step(placed, known_pts, pt_bodies, known_of)
             if step is None:
                 break
+            side = self._roller_side(step)
+            if side is not None:  # the roller's side first: its dyad runs on that side's line
+                steps.append(side)
             steps.append(step)
             if step.op == StepKind.RPR:
                 assert step.body is not None  # an RPR step names the body it orients
@@ -286,6 +295,29 @@ class Plan:
                 assert step.point is not None  # an RRR / RRP step names the point it solves
                 known_pts.add(step.point)
         self.steps_all = steps
+
+    def _roller_side(self, dyad: Step) -> Step | None:
+        """The SIDE step of the roller a dyad step places (an RRP or RPR of a roller's slot
+        drawn off its face), which the dyad then needs; None for any other step."""
+        args = dyad.args
+        if not isinstance(args, RRPDyad | RPRDyad) or args.joint not in self.mech.rollers:
+            return None
+        mech = self.mech
+        pj = mech.prismatics[args.joint]
+        u, x = _cx(pj.direction), _cx(mech.points[pj.point])
+        face = _cx(pj.origin)
+        offset = (u.conjugate() * (x - face)).imag  # left of the face's direction: +
+        if offset == 0.0:  # drawn on its face (a stated offset of 0): no side to choose
+            return None
+        anchor = mech.links[pj.guide].points[0]
+        dyad.needs = (*dyad.needs, ('side', args.joint))
+        return Step(
+            StepKind.SIDE,
+            point=pj.point,
+            args=RollerSide(args.joint, anchor, face - _cx(mech.points[anchor]), offset),
+            sign=1 if offset > 0 else -1,
+            gives=(('side', args.joint),),
+        )
 
     def _two_distinct(self, bi: int, kp: Sequence[str]) -> tuple[str, str] | None:
         for i in range(len(kp)):

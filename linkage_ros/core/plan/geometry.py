@@ -11,7 +11,7 @@ from ..dyads import circle_side, line_side, unit_vector
 from ..execute import LinkPoses
 from ..model import Mechanism
 from ..ops import BATCH, SCALAR, BatchOps, ScalarOps, to_complex
-from ..steps import RPRDyad, RRPDyad, RRRDyad, anchor_of
+from ..steps import BranchArgs, RollerSide, RRRDyad, anchor_of
 from .compile import Plan, Step
 from .poses import Poses, ScalarPoses, link_poses
 from .spec import _c
@@ -27,12 +27,19 @@ def step_geometry(
     """(side, margin) of one branching step read off solved positions, either backend: the
     branch sign is +1 where side >= 0; margin is |sin| of the dyad's transmission angle (0 at
     its singularity). ``pts`` complex points, ``rot`` {link: e^{i phi}} of the guide links.
-    ValueError for a step that does not branch."""
+    A roller's side (core.steps.RollerSide) is the side of the face its centre is on, margin
+    1: it cannot be at a toggle. ValueError for a step that does not branch."""
 
     args = st.args
-    if st.point is None or not isinstance(args, RRRDyad | RRPDyad | RPRDyad):
+    if st.point is None or not isinstance(args, BranchArgs):
         raise ValueError(f'step {st.op} places no point by a dyad: it has no branch')
     x = pts[st.point]
+    if isinstance(args, RollerSide):
+        rot_g = rot[mech.prismatics[args.joint].guide]
+        u = rot_g * _c(mech.prismatics[args.joint].direction)
+        w = x - (pts[args.anchor] + rot_g * args.face)
+        side = u.real * w.imag - u.imag * w.real
+        return side, ops.where(side == side, 1.0, 1.0)  # 1 also where a row failed (NaN)
     if isinstance(args, RRRDyad):
         a, b = pts[args.centre_a], pts[args.centre_b]
         side = circle_side(ops, a, b, x)
@@ -82,3 +89,23 @@ def branch_geometry_batch(
     for j in range(k):
         signs[:, j], margins[:, j] = sg[j], mg[j]
     return signs, margins
+
+
+def rollers_off_drawn_side(
+    mech: Mechanism, pts: Mapping[str, complex], poses: LinkPoses
+) -> list[str]:
+    """The rollers (Mechanism.rollers) of one configuration whose centre is on the side of its
+    face it is not drawn on (the face: the line through the joint's origin, fixed in its
+    guide)."""
+    out = []
+    for j in sorted(mech.rollers):
+        pj = mech.prismatics[j]
+        if pj.guide not in poses.rot or pj.point not in pts:
+            continue
+        rot = poses.rot[pj.guide]
+        u, origin = _c(pj.direction), _c(pj.origin)
+        now = ((rot * u).conjugate() * (pts[pj.point] - (rot * origin + poses.T[pj.guide]))).imag
+        drawn = (u.conjugate() * (_c(mech.points[pj.point]) - origin)).imag
+        if now * drawn < 0:
+            out.append(j)
+    return out

@@ -20,11 +20,12 @@ from typing import Any
 import numpy as np
 
 from ..plan import limit_violation
+from ..steps import RollerSide
 from .compiled import CompiledSolve, SolveMode
 from .continuity import Branch, BranchRule, Continuity
 from .one import solve_one
 from .reading import mode_label, mode_of
-from .result import SIGN_MARGIN, Result
+from .result import SIGN_MARGIN, Result, branch_text
 
 #: Newton starts of the search (the first is the scene's reference pose)
 MODE_STARTS = 128
@@ -43,6 +44,47 @@ class ModeList:
     complete: bool = True
     method: str = 'closed-form dyad plan: every sign combination'
     singular: int = 0  # roots found on a continuum of solutions (not listed)
+    #: the branch the drawing is in (the plan's reference signs; '' without a dyad plan)
+    drawn: str = ''
+    #: what each branch sign chooses, in order (a dyad's side, a roller's side of its face)
+    signs: tuple[str, ...] = ()
+    #: each roller (slot with a radius) the plan places: its branch sign's index and drawn side
+    rollers: tuple[RollerChoice, ...] = ()
+
+    def roller_sides(self, result: Result) -> dict[str, str]:
+        """The side of its face each roller is on in one listed mode: 'left' or 'right' of
+        the face's direction ({} where the mode's branch does not say)."""
+        if len(result.branch) != len(self.drawn):
+            return {}
+        return {r.joint: _side_word(result.branch[r.index]) for r in self.rollers}
+
+
+@dataclass(frozen=True)
+class RollerChoice:
+    """A roller's side as a branch sign: slot ``joint``, sign ``index`` of the branch text,
+    the side it is drawn on ('left' / 'right' of its face's direction)."""
+
+    joint: str
+    index: int
+    drawn: str
+
+
+def _side_word(sign: str) -> str:
+    return 'left' if sign == '+' else 'right'
+
+
+def _described(c: CompiledSolve, found: ModeList) -> ModeList:
+    """``found`` with what the dyad plan says of its modes: the drawn branch, each sign's
+    choice, the rollers' sides."""
+    plan = c.plan
+    found.drawn = branch_text(plan.reference_signs)
+    found.signs = tuple(st.describe(plan) for st in plan.branch_steps)
+    found.rollers = tuple(
+        RollerChoice(st.args.joint, k, _side_word(branch_text((st.sign,))))
+        for k, st in enumerate(plan.branch_steps)
+        if isinstance(st.args, RollerSide)
+    )
+    return found
 
 
 #: two answers whose points all lie within this fraction of the length scale of each other are
@@ -79,7 +121,7 @@ def modes_of(
     ``branch`` is the mechanism's mode label as ``forward`` (a forward compile) reads it
     (reading.mode_label: the loop Jacobian's determinant sign, 'J+' or 'J-')."""
     if c.mode is SolveMode.CLOSED_FORM:
-        return ModeList(closed_form_modes(c, cont, values))
+        return _described(c, ModeList(closed_form_modes(c, cont, values)))
     if newton is None or newton.mode is not SolveMode.NEWTON:
         raise ValueError('the modes of a Newton solve need a Newton-only compile of its knowns')
     found = newton_modes(newton, values, cont if newton is c else None)

@@ -11,8 +11,9 @@ import numpy as np
 from ..dyads import wrap_angle
 from ..execute import CONTINUITY_MARGIN, LinkPoses
 from ..newton.results import SolveResult
-from ..plan import branch_geometry_one, run_one
+from ..plan import branch_geometry_one, rollers_off_drawn_side, run_one
 from ..quantities import AngleSpec, PointSpec
+from ..steps import RollerSide
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import BranchRule, Continuity, State, state_of
 from .reading import jacobian_sign, mode_label
@@ -161,6 +162,36 @@ def interpolate(c: CompiledSolve, a: Values, b: Values, t: float) -> Values:
     return out
 
 
+def roller_side_refusal(c: CompiledSolve, cont: Continuity) -> str | None:
+    """Why Newton cannot solve from here, if a roller is to be on the side of its face that is
+    not drawn (an explicit branch, or the configuration continuity starts from): Newton's loop
+    equations hold each roller on its drawn side, so it would flip the roller through its
+    face (or grind and fail). None where every roller is on its drawn side."""
+    if not c.mech.rollers:
+        return None
+    plan, last = c.full_plan, cont.last
+    flipped: list[str] = []
+    where = 'is asked to be'  # by the branch
+    if cont.branch.rule is BranchRule.EXPLICIT and cont.branch.signs and plan is c.plan:
+        flipped = [
+            st.args.joint
+            for st, want, drawn in zip(
+                plan.branch_steps, cont.branch.signs, plan.reference_signs, strict=True
+            )
+            if isinstance(st.args, RollerSide) and want != drawn
+        ]
+    elif cont.branch.rule is BranchRule.CONTINUOUS and last is not None:
+        flipped = rollers_off_drawn_side(c.mech, last.points, last.poses)
+        where = 'is'  # in the configuration continuity starts from
+    if not flipped:
+        return None
+    return (
+        f'the roller of slot {flipped[0]!r} {where} on the side of its face it is not drawn on; '
+        'Newton solves a roller on its drawn side only and cannot move it through its face: '
+        'solve this in closed form (solver closed_form), or take the drawn side (branch)'
+    )
+
+
 def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
     """One command by Newton (continuation from the last answer, branch checks)."""
     solver_name = 'newton' if c.mode is SolveMode.NEWTON else 'hybrid'
@@ -178,6 +209,9 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         reason = c.dyad_reason(run.failure, run.violation, c.full_plan)
         return c.fail(reason, c.echo(vals), solver_name)
 
+    side = roller_side_refusal(c, cont)
+    if side is not None:
+        return c.fail(side, c.echo(vals), solver_name), None
     v0, x0, guess = start(c, cont, vals)
     total_iter = [0]
     since_progress = [0]  # iterations since the last substep that succeeded
