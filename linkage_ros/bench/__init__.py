@@ -32,15 +32,19 @@ from .reference import (  # noqa: F401
 )
 from .report import (  # noqa: F401
     DEFAULT_INTRO,
-    _deep_queue_sentence,
     _fmt_err,
-    _fmt_ms,
     _fmt_us,
     _met,
     interpretation,
     render_markdown,
     save_plot,
     write_report,
+)
+from .report_node import (  # noqa: F401
+    _deep_queue_sentence,
+    _fmt_ms,
+    node_interpretation,
+    node_markdown,
 )
 from .ros_driver import (  # noqa: F401
     Driver,
