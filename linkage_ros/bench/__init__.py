@@ -11,6 +11,7 @@ Speed claims are ratios measured in the same run.
 
 from __future__ import annotations
 
+from .all_outputs import PLAIN_LISTENER_LABEL  # noqa: F401
 from .collect import (  # noqa: F401
     _cpu_seconds,
     _hz,
@@ -51,6 +52,7 @@ from .ros_driver import (  # noqa: F401
     _Link,
     _Proc,
     _ros_env,
+    process_cpu_s,
     relay_script,
 )
 from .ros_latency import bench_node, sustained_rate  # noqa: F401
@@ -60,6 +62,7 @@ from .settings import (  # noqa: F401
     FULL,
     MARKER,
     NEWTON_TOLS,
+    NODE_CPU_BASELINE_US,
     QUICK,
     REF_DPS,
     SCENES,
