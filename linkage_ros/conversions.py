@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 import struct
 from collections.abc import Container, Iterable, Mapping, Sequence
-from typing import Any
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticStatus, KeyValue
@@ -23,7 +22,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from .core.errors import CommandError, echo
 from .core.model import Mechanism, SlideActuator
 from .core.solver import Result
-from .engine import request_rates, request_values, status_values
+from .engine import request_rates, request_values, status_texts
 
 __all__ = [
     'joint_state_to_command',
@@ -243,18 +242,8 @@ def result_to_points(
     return out
 
 
-def _fmt(value: Any) -> str:
-    if value is None:
-        return ''
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else str(value)
-    return str(value)
-
-
-def _key_values(pairs: Mapping[str, Any]) -> list[KeyValue]:
-    return [KeyValue(key=k, value=_fmt(v)) for k, v in pairs.items()]
+def _key_values(pairs: Mapping[str, str]) -> list[KeyValue]:
+    return [KeyValue(key=k, value=v) for k, v in pairs.items()]
 
 
 def result_to_status(
@@ -273,7 +262,7 @@ def result_to_status(
         name=name,
         message='ok',
         hardware_id=hardware_id,
-        values=_key_values(status_values(result, request)),
+        values=_key_values(status_texts(result, request)),
     )
 
 
@@ -286,7 +275,7 @@ def error_status(
         name=name,
         message=str(reason),
         hardware_id=hardware_id,
-        values=_key_values(status_values(Result(False, reason), request)),
+        values=_key_values(status_texts(Result(False, reason), request)),
     )
 
 

@@ -446,6 +446,8 @@ def request_shape_error(
     too_many = None if max_names is None else name_count_error(len(names), max_names)
     if too_many:
         return too_many
+    if names and len(names) == npos and all(names) and len(set(names)) == len(names):
+        return None  # well formed (every command): no per-name diagnosis
     names = list(names)
     if not names and not npos:
         return 'empty JointState: name and position are both empty'
@@ -518,6 +520,23 @@ def status_values(result: Result, request: str) -> dict[str, Any]:
         values['velocity'] = velocity_status(result.velocity)
     values['request'] = request
     return values
+
+
+def status_text(value: Any) -> str:
+    """A status value as the status carries it: '' for none, true / false, a float's repr
+    (every digit), else str."""
+    if value is None:
+        return ''
+    if isinstance(value, bool):
+        return 'true' if value else 'false'
+    if isinstance(value, float):
+        return repr(value) if math.isfinite(value) else str(value)
+    return str(value)
+
+
+def status_texts(result: Result, request: str) -> dict[str, str]:
+    """:func:`status_values` as the status's key/value texts."""
+    return {k: status_text(v) for k, v in status_values(result, request).items()}
 
 
 def velocity_status(vel: Velocities) -> str:

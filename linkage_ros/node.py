@@ -21,15 +21,13 @@ from __future__ import annotations
 import dataclasses
 import functools
 import gc
-import math
 import signal
 import sys
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import rclpy
-from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PointStamped, PoseStamped
 from nav_msgs.msg import Path
 from rcl_interfaces.msg import SetParametersResult
@@ -37,26 +35,17 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
-from rclpy.serialization import deserialize_message
 from rclpy.signals import SignalHandlerOptions
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
 
-from .conversions import (
-    is_zero_stamp,
-    joint_state_peek,
-    joint_state_pick,
-    joint_state_rates,
-    joint_state_to_command,
-    point_stamped_to_xy,
-    pose_to_xy_yaw,
-)
-from .core.errors import CommandError, SceneError
+from .core.errors import SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import Result
-from .engine import Engine, max_request_names, name_count_error
+from .engine import Engine, max_request_names
 from .node_demo import DemoRunner
+from .node_requests import Requests
 from .node_runtime import (
     STOP_POLL_S,
     NameClashCheck,
@@ -81,9 +70,7 @@ from .params import (
 )
 from .plan_cdr import joint_state_bytes_bound
 from .plan_requests import PlanRequests
-from .point_coordinates import pose_target
 from .publishing import Channels, Outputs, Waiting, latched_qos, topic_qos
-from .stamps import frame_error, stamp_error
 
 __all__ = [
     'DEMO_RATE_MAX',
@@ -98,11 +85,6 @@ __all__ = [
     'main',
     'make_config',
 ]
-
-ZERO_CLOCK = (
-    "header.stamp is 0, and so is the node clock's now: use_sim_time is true and no "
-    '/clock message has arrived yet; stamp the request, or wait for /clock'
-)
 
 
 # ---- the ROS node --------------------------------------------------------------------------------
@@ -139,26 +121,27 @@ class LinkageNode(Node):
         self.max_request_bytes = 0
         self._mech_subs: list[Any] = []  # per point / per link: destroyed with the mechanism
         self._description = ''  # the robot description text served (from the topic)
-        self._waiting: Waiting | None = None
+        self.waiting: Waiting | None = None
         #: state completion: inputs read from joint_states_in and commanded; mimic followers
         #: among the actuated joints (left out of joint_states when the hardware sends them)
-        self._state_inputs: frozenset[str] = frozenset()
-        self._state_followers: frozenset[str] = frozenset()
+        self.state_inputs: frozenset[str] = frozenset()
+        self.state_followers: frozenset[str] = frozenset()
         self.demo = DemoRunner(self)
+        self.requests = Requests(self)
         # the publishers every mechanism shares (and the waiting state answers on)
         self.channels = Channels(self, cfg)
         # ~/command and ~/target keep rclpy's default QoS-event warnings; the others carry none
         # (see Outputs: each handler costs every executor wakeup)
         qos = topic_qos(cfg.queue_depth)
         quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
-        self.create_subscription(JointState, '~/command', self._on_command, qos)
+        self.create_subscription(JointState, '~/command', self.requests.on_command, qos)
         # targets arrive serialised: a request with more names than the scene has is refused
         # from its first bytes, before rclpy would build 10^5 Python strings for it
-        self.create_subscription(JointState, '~/target', self._on_target, qos, raw=True)
+        self.create_subscription(JointState, '~/target', self.requests.on_target, qos, raw=True)
         self.create_subscription(
             JointState,
             '~/target_any_mode',
-            self._on_target_any_mode,
+            self.requests.on_target_any_mode,
             qos,
             event_callbacks=quiet_sub,
             raw=True,
@@ -175,7 +158,9 @@ class LinkageNode(Node):
             raw=True,
         )
         if cfg.joint_states_in:
-            self.create_subscription(JointState, cfg.joint_states_in, self._on_joint_states_in, qos)
+            self.create_subscription(
+                JointState, cfg.joint_states_in, self.requests.on_joint_states_in, qos
+            )
         self.add_on_set_parameters_callback(self._on_set_parameters)
         log = self.get_logger()
         # rclpy keeps an override this node never declares without a word: a misspelt name
@@ -189,7 +174,7 @@ class LinkageNode(Node):
             )
         if cfg.robot_description_topic:
             topic = self.resolve_topic_name(cfg.robot_description_topic)
-            self._waiting = Waiting(self, self.channels, topic)
+            self.waiting = Waiting(self, self.channels, topic)
             self.create_subscription(
                 String,
                 cfg.robot_description_topic,
@@ -238,18 +223,18 @@ class LinkageNode(Node):
             self.destroy_subscription(sub)
         if self.outputs is not None:
             self.outputs.destroy()
-        if self._waiting is not None:
-            self._waiting.destroy()
-            self._waiting = None
+        if self.waiting is not None:
+            self.waiting.destroy()
+            self.waiting = None
         self.scene, self.engine, self.mech, self.outputs = scene, engine, mech, outputs
         self._mech_subs = subs
         self.frame_id = frame_id
         self.max_names = max_request_names(mech)  # a longer request is refused at once
         self.max_request_bytes = joint_state_bytes_bound(mech)  # and a larger ~/target
-        self._state_inputs = frozenset(mech.commanded_input_names)
-        self._state_followers = frozenset(mech.output_input_names) - self._state_inputs
+        self.state_inputs = frozenset(mech.commanded_input_names)
+        self.state_followers = frozenset(mech.output_input_names) - self.state_inputs
         if cfg.joint_states_in:  # the hardware publishes the inputs: joint_states carries the rest
-            outputs.set_omit_joints(self._state_inputs)
+            outputs.set_omit_joints(self.state_inputs)
         log_mechanism(self, scene, replacing)
         if cfg.demo_sweep:
             if mech.actuators:
@@ -278,8 +263,8 @@ class LinkageNode(Node):
         # a link's pose (its first point and its angle) from a PoseStamped, e.g. a TF pose
         # a path is a plan: taken serialised (plan_requests.py)
         topics = (
-            (PointStamped, 'target_point', points, self._on_target_point, False),
-            (PoseStamped, 'target_pose', links, self._on_target_pose, False),
+            (PointStamped, 'target_point', points, self.requests.on_target_point, False),
+            (PoseStamped, 'target_pose', links, self.requests.on_target_pose, False),
             (Path, 'target_path', points, self.plans.on_path, True),
         )
         for msg_type, topic, names, callback, raw in topics:
@@ -332,11 +317,11 @@ class LinkageNode(Node):
     def _report_refused(self, reason: str) -> None:
         log = self.get_logger()
         if self.outputs is None:
-            assert self._waiting is not None
+            assert self.waiting is not None
             log.error(f'robot description refused: {reason}; still waiting for one')
-            self._waiting.refused_description = reason
-            self._waiting.answer('robot_description')
-            self._waiting.diagnose()
+            self.waiting.refused_description = reason
+            self.waiting.answer('robot_description')
+            self.waiting.diagnose()
             return
         assert self.mech is not None
         why = f'robot description refused: {reason}'
@@ -393,170 +378,6 @@ class LinkageNode(Node):
         self.config = cfg
         if cfg.demo_sweep and self.mech is not None:  # else it starts when a mechanism arrives
             self.demo.start()
-
-    # -- requests ----------------------------------------------------------------------------------
-    def _request_stamp(self, stamp: Time) -> tuple[Time, str | None]:
-        """The stamp a request's answers carry (an unset one: the node clock's now), and why
-        the request is refused for it, if it is."""
-        if is_zero_stamp(stamp):  # unset: the node clock's now
-            stamp = self.get_clock().now().to_msg()
-            if is_zero_stamp(stamp):  # sim time before the first /clock
-                return stamp, ZERO_CLOCK
-        # a stamp rclpy / rclcpp cannot turn into a time (negative, nanosec >= 1e9) would reach
-        # every consumer of the answer: refuse the request instead
-        return stamp, stamp_error(stamp.sec, stamp.nanosec)
-
-    def _answer(self, request: str, stamp, solve: Callable[[], Result]) -> Result:
-        """Run one request and publish its answer (Outputs.answer: on success joint_states,
-        the subscribed points and an OK status; on failure only an ERROR status). Never
-        raises."""
-        if self.outputs is None:  # no robot description yet
-            return self._refuse_waiting(request)
-        try:
-            stamp, bad_stamp = self._request_stamp(stamp)
-            if bad_stamp:
-                result = Result(False, bad_stamp)
-            else:
-                try:
-                    result = solve()
-                except CommandError as exc:
-                    result = Result(False, str(exc))
-            self.outputs.answer(result, stamp, request)
-            return result
-        except Exception as exc:  # a bug must not take the node down: answer and keep going
-            self.get_logger().error(
-                f'internal error on {request}: {exc!r}\n' + traceback.format_exc()
-            )
-            self.outputs.internal_error(f'internal error: {exc!r}', request)
-            return Result(False, f'internal error: {exc!r}')
-
-    def _refuse_waiting(self, request: str) -> Result:
-        """Answer a request that came before any robot description: an ERROR status saying
-        the node waits for one. Never raises."""
-        assert self._waiting is not None
-        try:
-            self._waiting.answer(request)
-        except Exception as exc:  # noqa: BLE001 - never raise from a callback
-            self.get_logger().error(f'internal error on {request}: {exc!r}')
-        return Result(False, self._waiting.reason())
-
-    def _on_command(self, msg):
-        self._answer(
-            'command',
-            msg.header.stamp,
-            lambda: self._served_engine().command(
-                joint_state_to_command(msg, self.max_names), joint_state_rates(msg)
-            ),
-        )
-
-    def _served_engine(self) -> Engine:
-        """The engine being served: request callbacks exist only while one is (and _answer
-        refuses while waiting for a robot description)."""
-        assert self.engine is not None
-        return self.engine
-
-    def _served_mech(self) -> Mechanism:
-        assert self.mech is not None
-        return self.mech
-
-    def _on_target(self, raw: bytes):
-        self._on_raw_target('target', raw, False)
-
-    def _on_target_any_mode(self, raw: bytes):
-        """~/target that may change the assembly mode (explicitly asked for)."""
-        self._on_raw_target('target_any_mode', raw, True)
-
-    def _on_raw_target(self, request: str, raw: bytes, any_mode: bool) -> None:
-        if self.outputs is None:  # no robot description yet
-            self._refuse_waiting(request)
-            return
-        # the count of names first (the words of every front end), then the length
-        peek = joint_state_peek(raw)
-        if peek is not None and peek[2] > self.max_names:
-            sec, nanosec, count = peek
-            why = name_count_error(count, self.max_names)
-            self._answer(request, Time(sec=sec, nanosec=nanosec), lambda: Result(False, why))
-            return
-        if len(raw) > self.max_request_bytes:  # its length says enough: refused unread
-            too_big = (
-                f'JointState message is {len(raw)} bytes; a request to scene '
-                f'{self._served_mech().name!r} is at most {self.max_request_bytes} bytes (every '
-                'name the scene has, with a position, velocity and effort each)'
-            )
-            stamp = Time() if peek is None else Time(sec=peek[0], nanosec=peek[1])
-            self._answer(request, stamp, lambda: Result(False, too_big))
-            return
-        try:
-            msg = deserialize_message(raw, JointState)
-        except Exception as exc:  # noqa: BLE001 - rmw already checked it; answer, never raise
-            bad = f'not a JointState: {exc}'
-            self._answer(request, Time(), lambda: Result(False, bad))
-            return
-        self._answer(
-            request,
-            msg.header.stamp,
-            lambda: self._served_engine().target(
-                joint_state_to_command(msg, self.max_names), allow_mode_change=any_mode
-            ),
-        )
-
-    def _on_target_pose(self, link: str, msg):
-        def solve():
-            foreign = frame_error(f'target pose of {link!r}', msg.header.frame_id, self.frame_id)
-            if foreign:
-                return Result(False, foreign)
-            x, y, yaw = pose_to_xy_yaw(msg, link)
-            mech = self._served_mech()
-            return self._served_engine().target(pose_target(mech, link, (x, y), yaw))
-
-        self._answer(f'target_pose/{link}', msg.header.stamp, solve)
-
-    def _on_target_point(self, point: str, msg):
-
-        def solve():
-            foreign = frame_error(f'target point {point!r}', msg.header.frame_id, self.frame_id)
-            if foreign:
-                return Result(False, foreign)
-            xy = point_stamped_to_xy(msg, point, self._served_mech())
-            return self._served_engine().target_point(point, xy)
-
-        self._answer(f'target_point/{point}', msg.header.stamp, solve)
-
-    def _on_joint_states_in(self, msg: JointState) -> None:
-        """State completion: the mechanism's inputs in a hardware JointState command it; the
-        answer's joint_states leave them out. A message carrying none of them (the node's own
-        joint_states among others) is ignored, and so is every message before a robot
-        description arrives (the inputs are not known yet). Never raises."""
-        if self.outputs is None:
-            return
-        try:
-            values, rates = joint_state_pick(msg, self._state_inputs | self._state_followers)
-        except CommandError as exc:
-            bad = str(exc)
-            self._answer('joint_states_in', msg.header.stamp, lambda: Result(False, bad))
-            return
-        except Exception as exc:  # noqa: BLE001 - a broken message must not raise here
-            bad = f'not a JointState: {exc!r}'
-            self._answer('joint_states_in', msg.header.stamp, lambda: Result(False, bad))
-            return
-        command = {n: v for n, v in values.items() if n in self._state_inputs}
-        if not command:
-            # no input: not the hardware's (the node's own joint_states carries a follower)
-            return
-        followers = self._state_followers.intersection(values)
-        if followers - self.outputs.omit_joints:  # the hardware publishes a mimic follower too
-            self.outputs.set_omit_joints(self.outputs.omit_joints | followers)
-        # joint_state_broadcaster fills a joint without a velocity interface with NaN: such
-        # rates are no rates, positions alone command
-        if rates is not None and all(math.isfinite(rates[n]) for n in command):
-            command_rates: dict[str, float] | None = {n: rates[n] for n in command}
-        else:
-            command_rates = None
-        engine = self.engine
-        assert engine is not None
-        self._answer(
-            'joint_states_in', msg.header.stamp, lambda: engine.command(command, command_rates)
-        )
 
     # -- demo sweep --------------------------------------------------------------------------------
     def _check_demo_possible(self, mech: Mechanism | None = None) -> None:

@@ -29,7 +29,7 @@ class DemoRunner:
 
     def start(self) -> None:
         node = self.node
-        mech, last = node._served_mech(), node._served_engine().last
+        mech, last = node.requests.served_mech(), node.requests.served_engine().last
         first = next(iter(mech.actuators))
         start = last.inputs[first] if last else 0.0
         self.sweep = DemoSweep(mech, first, start)
@@ -44,12 +44,12 @@ class DemoRunner:
 
     def _tick(self) -> None:
         node, sweep = self.node, self.sweep
-        engine, mech = node._served_engine(), node._served_mech()
+        engine, mech = node.requests.served_engine(), node.requests.served_mech()
         assert sweep is not None  # the timer runs only with a sweep
         last = engine.last
         values = dict(last.inputs) if last else {a: 0.0 for a in mech.actuators}
         values[sweep.name] = sweep.next()
-        result = node._answer('demo', Time(), lambda: engine.command(values))
+        result = node.requests.answer('demo', Time(), lambda: engine.command(values))
         log = node.get_logger()
         if result.success:
             self.failures = 0

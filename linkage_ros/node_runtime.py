@@ -100,7 +100,7 @@ def log_mechanism(node: Any, scene: Scene, replacing: bool) -> None:
             f'{mech.dof}-DOF scene: ~/target_point/<point> needs target_point_hold '
             f'naming {mech.dof - 2} held value(s)'
         )
-    commands = sorted(node._state_inputs, key=mech.output_input_names.index)
+    commands = sorted(node.state_inputs, key=mech.output_input_names.index)
     # the last start-up line: whoever waits for it has every start-up warning already
     log.info(
         f'listening on {node.resolve_topic_name("~/command")} (sensor_msgs/JointState '

@@ -24,6 +24,7 @@ import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from .cdr import CDR_LE, write_doubles, write_string
 from .core.model import Mechanism
 from .engine import max_request_names
 
@@ -294,20 +295,6 @@ def read_path(raw: bytes | memoryview) -> PathRequest:
 # ---- writing the solved trajectory ------------------------------------------------------------
 
 
-def _write_string(buf: bytearray, s: str) -> None:
-    buf += b'\x00' * ((-(len(buf) - 4)) % 4)
-    b = s.encode()
-    buf += struct.pack('<I', len(b) + 1) + b + b'\x00'
-
-
-def _write_doubles(buf: bytearray, values: Sequence[float]) -> None:
-    buf += b'\x00' * ((-(len(buf) - 4)) % 4)
-    buf += struct.pack('<I', len(values))
-    if values:
-        buf += b'\x00' * ((-(len(buf) - 4)) % 8)
-        buf += struct.pack(f'<{len(values)}d', *values)
-
-
 def joint_trajectory_bytes(
     stamp: Stamp,
     frame_id: str,
@@ -317,18 +304,18 @@ def joint_trajectory_bytes(
     """A trajectory_msgs/JointTrajectory serialised (CDR, little-endian) from its rows
     (positions, velocities, time_from_start sec, nanosec; TrajectoryAnswer.rows): written in
     Python so that the plan worker yields the interpreter to commands while it writes."""
-    buf = bytearray(b'\x00\x01\x00\x00')
+    buf = bytearray(CDR_LE)
     buf += struct.pack('<iI', stamp.sec, stamp.nanosec)
-    _write_string(buf, frame_id)
+    write_string(buf, frame_id)
     buf += b'\x00' * ((-(len(buf) - 4)) % 4)
     buf += struct.pack('<I', len(joint_names))
     for name in joint_names:
-        _write_string(buf, name)
+        write_string(buf, name)
     buf += b'\x00' * ((-(len(buf) - 4)) % 4)
     buf += struct.pack('<I', len(rows))
     for positions, velocities, sec, nanosec in rows:
-        _write_doubles(buf, positions)
-        _write_doubles(buf, velocities)
+        write_doubles(buf, positions)
+        write_doubles(buf, velocities)
         buf += b'\x00' * ((-(len(buf) - 4)) % 4)
         buf += struct.pack('<IIiI', 0, 0, sec, nanosec)  # no accelerations, no effort
     return bytes(buf)

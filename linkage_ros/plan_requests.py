@@ -64,7 +64,7 @@ class PlanRequests:
         """Refuse the plan from its size or first bytes, or queue it. Never raises."""
         node = self.node
         if node.outputs is None:  # no robot description yet
-            node._refuse_waiting(request)
+            node.requests.refuse_waiting(request)
             return
         try:
             self._check_and_queue(request, raw, point)
@@ -76,7 +76,7 @@ class PlanRequests:
 
     def _check_and_queue(self, request: str, raw: bytes, point: str | None) -> None:
         node = self.node
-        engine, mech = node._served_engine(), node._served_mech()
+        engine, mech = node.requests.served_engine(), node.requests.served_mech()
         kind = 'trajectory' if point is None else 'path'
         bound = (
             trajectory_bytes_bound(mech, MAX_TRAJECTORY_POINTS)
@@ -97,7 +97,7 @@ class PlanRequests:
             items = 'points' if point is None else 'poses'
             self._refuse(request, too_many_points(kind, peek.count, items))
             return
-        stamp, bad_stamp = node._request_stamp(stamp)
+        stamp, bad_stamp = node.requests.request_stamp(stamp)
         if bad_stamp:
             self._refuse(request, bad_stamp)
             return

@@ -14,25 +14,22 @@
 from __future__ import annotations
 
 import math
+import time
 
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PointStamped
 from rclpy.event_handler import PublisherEventCallbacks
 from rclpy.node import Node
+from rclpy.publisher import Publisher
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Header
 from trajectory_msgs.msg import JointTrajectory
 from visualization_msgs.msg import Marker, MarkerArray
 
-from .conversions import (
-    error_status,
-    result_to_joint_state,
-    result_to_markers,
-    result_to_points,
-    result_to_status,
-)
+from .answer_cdr import AnswerBytes
+from .conversions import error_status, result_to_markers
 from .core.solver import Result
 from .engine import Engine
 from .params import NodeConfig
@@ -40,6 +37,28 @@ from .trajectory_io import trajectory_status
 
 #: /diagnostics period (s): the diagnostic_updater convention
 DIAGNOSTICS_PERIOD_S = 1.0
+#: how long a publisher found with subscribers is taken to still have them before rmw is
+#: asked again (s): asking costs about a tenth of a publish, on every answer of every topic
+LISTENED_RECHECK_S = 0.05
+
+
+class Listened:
+    """Whether ``pub`` has subscribers: asked of rmw on every call while it has none (a new
+    subscriber gets the next answer), at most every LISTENED_RECHECK_S while it has (one that
+    left gets answers for that long more: a publish nobody takes, nothing else)."""
+
+    def __init__(self, pub: Publisher):
+        self.pub = pub
+        self._until = -math.inf
+
+    def __call__(self) -> bool:
+        now = time.monotonic()
+        if now < self._until:
+            return True
+        if self.pub.get_subscription_count():
+            self._until = now + LISTENED_RECHECK_S
+            return True
+        return False
 
 
 def topic_qos(depth: int) -> QoSProfile:
@@ -144,14 +163,16 @@ class Outputs:
         self.pub_trajectory = channels.trajectory
         self.pub_diagnostics = channels.diagnostics
         qos = topic_qos(config.output_depth)
-        self._joint_msg: JointState | None = None  # refilled for every answer
-        self._point_msgs: dict[str, PointStamped] = {}  # likewise, one per output point
+        #: the answers written as bytes (answer_cdr): no message objects on the request path
+        self.answers = AnswerBytes(mech, frame_id, self.status_name, config.prefix)
         self.pub_points = {
             p: node.create_publisher(
                 PointStamped, f'~/points/{p}', qos, event_callbacks=channels.quiet
             )
             for p in mech.outputs
         }
+        self._points_listened = [(n, pub, Listened(pub)) for n, pub in self.pub_points.items()]
+        self._status_listened = Listened(self.pub_status)
         # health counters for /diagnostics
         self.answered = 0
         self.refused = 0
@@ -181,12 +202,15 @@ class Outputs:
         for pub in self.pub_points.values():
             self.node.destroy_publisher(pub)
         self.pub_points = {}
+        self._points_listened = []
 
     def set_omit_joints(self, names: frozenset[str]) -> None:
         """Leave ``names`` out of joint_states from now on (state completion)."""
         if names != self.omit_joints:
             self.omit_joints = names
-            self._joint_msg = None  # its names are the old ones: build the next one anew
+            self.answers = AnswerBytes(
+                self.mech, self.frame_id, self.status_name, self.config.prefix, names
+            )
 
     def now(self) -> Time:
         return self.node.get_clock().now().to_msg()
@@ -199,13 +223,9 @@ class Outputs:
         if result.success:
             self.answered += 1
             self._publish_state(result, stamp)
-            listened = [n for n, pub in self.pub_points.items() if pub.get_subscription_count()]
-            if listened:
-                msgs = result_to_points(
-                    result, listened, stamp, self.frame_id, self._point_msgs, self.mech
-                )
-                for name in listened:
-                    self.pub_points[name].publish(msgs[name])
+            for name, pub, listened in self._points_listened:
+                if listened():
+                    pub.publish(self.answers.point(result, name, stamp.sec, stamp.nanosec))
             self._marker_state = (result, stamp)
             m = result.margin
             if (
@@ -217,10 +237,8 @@ class Outputs:
         else:
             self.refused += 1
             self.last_error = f'{request}: {result.reason}'
-        if self.pub_status.get_subscription_count():
-            self.pub_status.publish(
-                result_to_status(result, self.status_name, request, self.mech.name)
-            )
+        if self._status_listened():
+            self.pub_status.publish(self.answers.status(result, request))
 
     def answer_trajectory(
         self,
@@ -249,19 +267,10 @@ class Outputs:
         self.refused += 1
         self.last_ok = False
         self.last_error = f'{request}: {reason}'
-        self.pub_status.publish(error_status(reason, self.status_name, request, self.mech.name))
+        self.pub_status.publish(self.answers.error(reason, request))
 
     def _publish_state(self, result: Result, stamp: Time) -> None:
-        self._joint_msg = result_to_joint_state(
-            result,
-            self.mech,
-            stamp,
-            self.frame_id,
-            self._joint_msg,
-            prefix=self.config.prefix,
-            omit=self.omit_joints,
-        )
-        self.pub_joints.publish(self._joint_msg)
+        self.pub_joints.publish(self.answers.joint_state(result, stamp.sec, stamp.nanosec))
         self._answered_since_tick = True
 
     # -- timers -----------------------------------------------------------------------------------

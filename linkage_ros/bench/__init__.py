@@ -11,6 +11,7 @@ Speed claims are ratios measured in the same run.
 
 from __future__ import annotations
 
+from .all_outputs import PLAIN_LISTENER_LABEL  # noqa: F401
 from .collect import (  # noqa: F401
     _cpu_seconds,
     _hz,
@@ -32,9 +33,7 @@ from .reference import (  # noqa: F401
 )
 from .report import (  # noqa: F401
     DEFAULT_INTRO,
-    _deep_queue_sentence,
     _fmt_err,
-    _fmt_ms,
     _fmt_us,
     _met,
     interpretation,
@@ -42,11 +41,18 @@ from .report import (  # noqa: F401
     save_plot,
     write_report,
 )
+from .report_node import (  # noqa: F401
+    _deep_queue_sentence,
+    _fmt_ms,
+    node_interpretation,
+    node_markdown,
+)
 from .ros_driver import (  # noqa: F401
     Driver,
     _Link,
     _Proc,
     _ros_env,
+    process_cpu_s,
     relay_script,
 )
 from .ros_latency import bench_node, sustained_rate  # noqa: F401
@@ -56,6 +62,7 @@ from .settings import (  # noqa: F401
     FULL,
     MARKER,
     NEWTON_TOLS,
+    NODE_CPU_BASELINE_US,
     QUICK,
     REF_DPS,
     SCENES,

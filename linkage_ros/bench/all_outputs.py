@@ -95,10 +95,19 @@ def _count_one(count: Callable[[str], None], topic: str, _msg: bytes) -> None:
     count(topic)
 
 
-def listen(scene: str, ns: str, out: Path, quiet_s: float = 0.5) -> int:
+#: the every-output node run whose listener is a plain rclpy one (SingleThreadedExecutor)
+PLAIN_LISTENER_LABEL = 'node_plain_listener'
+#: the listener's executors: rclpy's EventsExecutor (the bench's own listener: it stands in
+#: for a C++ display) or a plain SingleThreadedExecutor (what a Python tool would use)
+LISTENER_EXECUTORS = ('events', 'single')
+
+
+def listen(
+    scene: str, ns: str, out: Path, quiet_s: float = 0.5, executor_kind: str = 'events'
+) -> int:
     """The listener process: count every message of ``outputs_of(scene, ns)`` until SIGINT or
     SIGTERM, then take what is still queued (until none arrived for ``quiet_s``) and write the
-    counts to ``out``."""
+    counts to ``out``. ``executor_kind``: one of LISTENER_EXECUTORS."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -129,11 +138,15 @@ def listen(scene: str, ns: str, out: Path, quiet_s: float = 0.5) -> int:
         )
         for kind, topic, qos in outputs_of(scene, ns)
     ]
-    try:  # the cheapest executor rclpy has: the listener stands in for a C++ display
-        from rclpy.experimental import EventsExecutor
+    executor: Any = None
+    if executor_kind == 'events':  # the cheapest executor rclpy has: a C++ display's stand-in
+        try:
+            from rclpy.experimental import EventsExecutor
 
-        executor: Any = EventsExecutor()
-    except ImportError:
+            executor = EventsExecutor()
+        except ImportError:
+            pass
+    if executor is None:
         executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
@@ -161,7 +174,9 @@ def bench_all_outputs(
     warmup: int,
     scenes: tuple[str, ...] = (),
 ) -> dict:
-    """{scene: {'node': run, 'relay': run, 'outputs': {topic: messages}}} at ``rate`` Hz."""
+    """{scene: {'relay': run, 'node': run, PLAIN_LISTENER_LABEL: run}} at ``rate`` Hz, each
+    node run with 'outputs' ({topic: messages} its listener counted): the node's runs differ
+    only in the listener's executor."""
 
     out: dict[str, Any] = {}
     script = relay_script()
@@ -203,35 +218,50 @@ def bench_all_outputs(
                 names=names,
                 value=value,
             )
+            unusable: dict[str, str] = {}
             for label, link in links.items():
                 why = driver.connect(link, warmup)
                 if why is not None:
-                    res[label] = {'ok': False, 'reason': f'{why}; {procs[label].tail()}'}
-            for label, link in links.items():  # the relay, then the node: same conditions
-                if label in res:
+                    unusable[label] = f'{why}; {procs[label].tail()}'
+                    res[label] = {'ok': False, 'reason': unusable[label]}
+            # the relay, then the node with each listener: the same conditions
+            runs = [('relay', 'relay', None), ('node', 'node', 'events')]
+            runs.append((PLAIN_LISTENER_LABEL, 'node', 'single'))
+            for label, target, executor in runs:
+                if target not in links:
+                    continue
+                if target in unusable:
+                    res[label] = {'ok': False, 'reason': unusable[target]}
                     continue
                 listener = None
-                if label == 'node':  # every other output subscribed, by another process
-                    counts_file = work / f'all_{scene}_counts.json'
-                    listener = procs['listener'] = _Proc(
+                if executor is not None:  # every other output subscribed, by another process
+                    counts_file = work / f'all_{scene}_{executor}_counts.json'
+                    listener = procs[f'listener_{executor}'] = _Proc(
                         [sys.executable, '-m', 'linkage_ros.bench.all_outputs']
-                        + ['--scene', scene, '--ns', ns_node, '--out', str(counts_file)],
+                        + ['--scene', scene, '--ns', ns_node, '--out', str(counts_file)]
+                        + ['--executor', executor],
                         env,
                         work,
-                        f'all_{scene}_listener',
+                        f'all_{scene}_listener_{executor}',
                     )
                     why = _await_listener(driver, scene, ns_node)
                     if why is not None:
                         res[label] = {'ok': False, 'reason': f'{why}; {listener.tail()}'}
                         continue
                 _log(f'node benchmark: every output on, {scene}, {label} at {rate:g} Hz')
-                run = driver.rate_run(link, rate, seconds, target_pid=procs[label].proc.pid)
+                pid = procs[target].proc.pid
+                run = driver.rate_run(links[target], rate, seconds, target_pid=pid)
                 if listener is not None:
                     listener.stop(timeout=30.0)
                     try:
                         run['outputs'] = json.loads(counts_file.read_text())
                     except (OSError, ValueError) as exc:
                         res[label] = {'ok': False, 'reason': f'listener: {exc}; {listener.tail()}'}
+                        continue
+                    run['listener'] = executor
+                    why = _await_listener(driver, scene, ns_node, gone=True)
+                    if why is not None:
+                        res[label] = {'ok': False, 'reason': why}
                         continue
                 res[label] = {'ok': True, **run}
         finally:
@@ -243,11 +273,22 @@ def bench_all_outputs(
     return out
 
 
-def _await_listener(driver: Driver, scene: str, ns: str, timeout: float = 20.0) -> str | None:
-    """Wait until every output topic has a subscriber (the listener; the driver has none)."""
+def _await_listener(
+    driver: Driver, scene: str, ns: str, timeout: float = 20.0, gone: bool = False
+) -> str | None:
+    """Wait until every output topic has a subscriber (the listener; the driver has none), or
+    with ``gone`` until none has (the listener stopped: the next one starts alone)."""
     topics = [topic for _, topic, _ in outputs_of(scene, ns)]
     t_end = time.monotonic() + timeout
     while True:
+        if gone:
+            missing = [t for t in topics if driver.node.count_subscribers(t) > 0]
+            if not missing:
+                return None
+            if time.monotonic() > t_end:
+                return f'the output listener still subscribes {missing} after {timeout:g} s'
+            driver.spin_for(0.05)
+            continue
         missing = [t for t in topics if driver.node.count_subscribers(t) < 1]
         if not missing:
             driver.spin_for(
@@ -266,8 +307,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--scene', required=True)
     parser.add_argument('--ns', required=True, help="the node's namespace, e.g. /bench_all")
     parser.add_argument('--out', required=True, type=Path, help='JSON file for the counts')
+    parser.add_argument(
+        '--executor',
+        choices=LISTENER_EXECUTORS,
+        default='events',
+        help="rclpy's EventsExecutor (default) or a plain SingleThreadedExecutor",
+    )
     opts = parser.parse_args(argv)
-    return listen(opts.scene, opts.ns, opts.out)
+    return listen(opts.scene, opts.ns, opts.out, executor_kind=opts.executor)
 
 
 if __name__ == '__main__':

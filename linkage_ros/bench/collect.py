@@ -13,16 +13,20 @@ from typing import Any
 
 import numpy as np
 
+from .all_outputs import PLAIN_LISTENER_LABEL
 from .core_speed import bench_core_speed, core_speed_targets
 from .fleet import bench_fleet, fleet_targets
 from .ros_latency import NODE_PARTS, bench_node
 from .scaling import bench_scaling, scaling_targets
 from .settings import (
+    NODE_CPU_BASELINE_COMMIT,
+    NODE_CPU_BASELINE_US,
     REF_DPS,
     SCENES,
     TARGET_LATENCY_MS,
     TARGET_NEWTON_BATCH_VS_SCIPY,
     TARGET_NEWTON_VS_SCIPY,
+    TARGET_NODE_CPU_RATIO,
     TARGET_RATE_HZ,
     Sizes,
     _log,
@@ -423,6 +427,39 @@ def _all_outputs_targets(node: dict) -> list[dict]:
                 'value': nd['lost'],
             }
         )
+        plain = res.get(PLAIN_LISTENER_LABEL, {})
+        if plain.get('ok'):
+            statuses = sum(v for k, v in plain.get('outputs', {}).items() if k.endswith('/status'))
+            out.append(
+                {
+                    'target': f'{scene}, every output on, a plain rclpy listener '
+                    '(SingleThreadedExecutor, raw subscriptions, its own process): node '
+                    f'answers every command at {rate:g} Hz',
+                    'measured': f'{plain["lost"]} lost of {plain["sent"]} (achieved send rate '
+                    f'{plain["achieved_rate"]:.0f} Hz; {statuses} statuses received; '
+                    f'{_gap(plain)})',
+                    'met': plain['lost'] == 0
+                    and statuses == plain['sent']
+                    and plain['achieved_rate'] >= 0.95 * plain['rate'],
+                    'value': plain['lost'],
+                }
+            )
+        base = NODE_CPU_BASELINE_US.get(scene)
+        cpu = nd.get('target_cpu_per_answer_us')
+        if base is not None and cpu is not None:
+            out.append(
+                {
+                    'target': f'{scene}, every output on: node CPU per command at most '
+                    f'{TARGET_NODE_CPU_RATIO:g}x that of {NODE_CPU_BASELINE_COMMIT} (recorded: '
+                    f'{base:.0f} us)',
+                    'measured': f'{cpu:.0f} us per answered command, {cpu / base:.2f}x the '
+                    'recorded figure (the node process, every thread, first command to last '
+                    'answer; the recorded figure comes from an earlier run under its own load, '
+                    'see BENCHMARKS.md)',
+                    'met': cpu <= TARGET_NODE_CPU_RATIO * base,
+                    'value': cpu / base,
+                }
+            )
         if rl.get('ok') and nd.get('p50_ms') is not None and rl.get('p50_ms') is not None:
             d = nd['p50_ms'] - rl['p50_ms']
             out.append(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import os
 from collections.abc import Sequence
@@ -72,14 +73,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--scenes',
-        default=','.join(SCENES),
-        help=f'comma-separated scenes (default {",".join(SCENES)})',
+        default=None,
+        help=f'comma-separated scenes (default {",".join(SCENES)}); given, they are also the '
+        'scenes of the every-output node case (default: every packaged scene, --quick: '
+        'four_bar and excavator)',
     )
 
 
 def run(args) -> int:
     sizes = QUICK if args.quick else FULL
-    scenes = [s.strip() for s in args.scenes.split(',') if s.strip()]
+    scenes = [s.strip() for s in (args.scenes or ','.join(SCENES)).split(',') if s.strip()]
+    if args.scenes is not None:
+        sizes = dataclasses.replace(sizes, node_all_scenes=tuple(scenes))
     if args.fleet_only:
         return _fleet_only(args, sizes)
     if args.render:
@@ -102,6 +107,7 @@ def run(args) -> int:
             + (' --no-node' if args.no_node else '')
             + (' --no-fleet' if args.no_fleet else '')
             + (f' --cases {",".join(cases)}' if set(cases) | {'fleet'} != set(CASES) else '')
+            + (f' --scenes {",".join(scenes)}' if args.scenes is not None else '')
         )
         report['command'] = command
     plot = (

@@ -245,10 +245,14 @@ class Driver:
         """Commands at ``rate`` Hz for ``seconds`` (absolute schedule, spinning in between);
         then drain until every answer is in or none arrived for ``drain_timeout`` s. With
         ``target_pid``, the CPU time and run-queue wait of the target's main thread and the
-        driver's during the run are recorded too (sched_during)."""
+        driver's during the run are recorded too (sched_during), and the CPU time of the whole
+        target process (every thread) from the first command to the last answer, per answer
+        (target_cpu_per_answer_us)."""
         link.recv.clear()
         pids = {'driver': os.getpid(), **({'target': target_pid} if target_pid else {})}
         sched = {label: main_thread_sched(pid) for label, pid in pids.items()}
+        cpu_start = process_cpu_s(target_pid) if target_pid else None
+        cpu_last: list[float | None] = [cpu_start]
         n = max(1, int(round(rate * seconds)))
         period = 1.0 / rate
         stamps = []
@@ -265,7 +269,15 @@ class Driver:
                 self.exec.spin_once(timeout_sec=min(due - now, 0.002))
         send_seconds = time.perf_counter() - t0
         sched_run = sched_during(sched, pids)
-        self._drain(link.recv, stamps, drain_timeout)
+        if target_pid:  # the target's CPU up to its last answer (not the drain's idle wait)
+            self._drain(
+                link.recv,
+                stamps,
+                drain_timeout,
+                lambda: cpu_last.__setitem__(0, process_cpu_s(target_pid)),
+            )
+        else:
+            self._drain(link.recv, stamps, drain_timeout)
         got = [link.recv[s] - s for s in stamps if s in link.recv]
         got_at = [link.recv[s] for s in stamps if s in link.recv]
         lat = np.asarray(got, float) / 1e6  # ms
@@ -280,9 +292,16 @@ class Driver:
         )
         self.spin_for(0.3)
         link.recv.clear()
+        cpu_run = (
+            cpu_last[0] - cpu_start if cpu_start is not None and cpu_last[0] is not None else None
+        )
         return {
             **answer_gaps(stamps, got_at),
             **sched_run,
+            'target_process_cpu_ms': None if cpu_run is None else cpu_run * 1e3,
+            'target_cpu_per_answer_us': None
+            if cpu_run is None or not got
+            else cpu_run * 1e6 / len(got),
             'rate': rate,
             'sent': len(stamps),
             'received': len(got),
@@ -294,11 +313,15 @@ class Driver:
             'burst_10ms': burst,
         }
 
-    def _drain(self, recv, stamps, timeout):
+    def _drain(self, recv, stamps, timeout, on_progress: Callable[[], None] | None = None):
+        """Spin until every answer to ``stamps`` is in or none arrived for ``timeout`` s;
+        ``on_progress`` is called whenever more have arrived (and at the end, all in)."""
         want = set(stamps)
         last_count, last_change = -1, time.monotonic()
         while True:
             have = len(want & recv.keys())
+            if have != last_count and on_progress is not None:
+                on_progress()
             if have == len(want):
                 return
             if have != last_count:
@@ -316,6 +339,19 @@ def main_thread_sched(pid: int) -> tuple[int, int] | None:
             on_cpu, waiting, _ = fh.read().split()
         return int(on_cpu), int(waiting)
     except (OSError, ValueError):
+        return None
+
+
+def process_cpu_s(pid: int) -> float | None:
+    """CPU seconds (user + system) process ``pid`` has used so far, every thread (also those
+    that ended) counted (/proc/<pid>/stat; clock ticks, 10 ms on Linux), or None where the
+    kernel does not say."""
+    try:
+        with open(f'/proc/{pid}/stat') as fh:
+            text = fh.read()
+        fields = text[text.rindex(')') + 2 :].split()  # the name may hold spaces
+        return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
+    except (OSError, ValueError, IndexError):
         return None
 
 

@@ -22,6 +22,14 @@ TARGET_NEWTON_VS_SCIPY = 5.0
 TARGET_NEWTON_BATCH_VS_SCIPY = 20.0
 TARGET_LATENCY_MS = 0.3
 TARGET_RATE_HZ = 1000.0
+#: the node's CPU per answered command (us, every thread of its process) with every output
+#: subscribed at node_all_rate: the code of commit d18a49a, the median of four runs of
+#: `linkage bench --cases node_all_outputs --scenes four_bar,excavator` on 2026-11-26 on the
+#: shared 2-core host (load average 7.6-15; docs/BENCHMARKS.md has each run); the target is
+#: half of it
+NODE_CPU_BASELINE_COMMIT = 'd18a49a'
+NODE_CPU_BASELINE_US: dict[str, float] = {'four_bar': 792.0, 'excavator': 1587.0}
+TARGET_NODE_CPU_RATIO = 0.5
 #: fleet analysis: bags in two processes (or Dask workers) against one after the other
 TARGET_FLEET_SPEEDUP = 1.7
 

@@ -7,6 +7,7 @@ hand-written introduction above the marker line.
 
 import json
 import math
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -271,6 +272,19 @@ def test_node_benchmark_machinery():
         assert statuses == 30, counts
         n_points = len(Scene.from_yaml(scene_path(scene)).mechanism.outputs)
         assert sum(v for k, v in counts.items() if '/points/' in k) == 30 * n_points, counts
+        # the same node again beside a plain rclpy listener (SingleThreadedExecutor)
+        plain = res[bench.PLAIN_LISTENER_LABEL]
+        assert plain['ok'], plain
+        assert (plain['listener'], res['node']['listener']) == ('single', 'events')
+        assert plain['received'] + plain['lost'] == 30
+        assert sum(v for k, v in plain['outputs'].items() if k.endswith('/status')) == 30
+        # the node's CPU per answered command: its whole process over the run
+        for label in ('relay', 'node', bench.PLAIN_LISTENER_LABEL):
+            run = res[label]
+            assert run['target_process_cpu_ms'] is not None and run['target_process_cpu_ms'] >= 0
+            assert run['target_cpu_per_answer_us'] == pytest.approx(
+                run['target_process_cpu_ms'] * 1e3 / run['received']
+            )
     targets = {t['target']: t for t in bench.evaluate_targets({**_minimal_report(), 'node': rep})}
     for scene in ('four_bar', 'excavator'):
         (answered,) = [
@@ -278,9 +292,20 @@ def test_node_benchmark_machinery():
         ]
         assert answered['met'] is not None and 'statuses received' in answered['measured']
         assert any(k.startswith(f'{scene}, every output on: node p50 within') for k in targets)
+        assert any(
+            k.startswith(f'{scene}, every output on, a plain rclpy listener') for k in targets
+        )
+        (cpu,) = [
+            t for k, t in targets.items() if k.startswith(f'{scene}, every output on: node CPU')
+        ]
+        base = bench.NODE_CPU_BASELINE_US[scene]
+        ratio = rep['all_outputs'][scene]['node']['target_cpu_per_answer_us'] / base
+        assert cpu['value'] == pytest.approx(ratio) and cpu['met'] == (ratio <= 0.5)
     md = bench.render_markdown({**_minimal_report(), 'node': rep}, 'linkage bench', None)
     assert '**Every output on** (100 Hz' in md
     assert '| four_bar | node | 30 |' in md and '| excavator | relay | 30 |' in md
+    assert f'| excavator | {bench.PLAIN_LISTENER_LABEL} | 30 |' in md
+    assert 'CPU per answer (us)' in md
     assert '| relay | 10 |' in md and '| node | 10 |' in md
     assert '| relay_deep | 37 | 50 |' in md and '| node_deep | 37 | 50 |' in md
     assert 'keep last 37' in md
@@ -349,6 +374,27 @@ def _minimal_report():
         'throughput': [],
         'outputs': [],
     }
+
+
+def test_process_cpu_is_the_kernels_count_of_the_whole_process():
+    """process_cpu_s against os.times() of this very process (user + system, every thread)."""
+    import os
+    import threading
+
+    def spin():
+        t_end = time.process_time() + 0.2
+        while time.process_time() < t_end:
+            pass
+
+    worker = threading.Thread(target=spin)  # CPU in another thread counts too
+    worker.start()
+    worker.join()
+    before = os.times()
+    got = bench.process_cpu_s(os.getpid())
+    after = os.times()
+    assert got is not None
+    assert before.user + before.system - 0.02 <= got <= after.user + after.system + 0.02
+    assert bench.process_cpu_s(2**22 + 12345) is None  # no such process
 
 
 def test_answer_gaps_name_the_longest_silence_and_the_sends_around_it():
