@@ -1,5 +1,10 @@
-"""The one rule for an input's limits: a value is inside [min, max]; an angle compares on the
-circle (brought into [min, min + 2 pi) first, and a refusal names the nearer limit)."""
+"""The one rule for an input's limits: a value is inside [min, max]; an angle with both limits
+compares on the circle (brought into [min, min + 2 pi) first, and a refusal names the nearer
+limit); an angle with one limit compares as given (a solved angle is in (-pi, pi]).
+
+:func:`limit_violation` judges one value (the scalar solve, each row of a batch, the scene's
+reference pose); :func:`angle_limit_arc` is the same rule as the arc of allowed angles (the
+motion analyses clip input ranges to it)."""
 
 from __future__ import annotations
 
@@ -10,6 +15,18 @@ import math
 LIMIT_SLACK = 1e-12
 
 
+def angle_limit_arc(lo: float | None, hi: float | None) -> tuple[float, float] | None:
+    """The angles (rad) :func:`limit_violation` allows, as the arc [a, b] (taken modulo 2 pi:
+    an angle v is inside where a + (v - a) mod 2 pi <= b), or None where it allows every angle:
+    no limit, or limits a full turn apart. A one-sided limit bounds the reported angle, in
+    (-pi, pi]: [lo, pi] or [-pi, hi] (beyond +-pi: every reported angle, or none)."""
+    if lo is None and hi is None:
+        return None
+    if lo is not None and hi is not None:
+        return None if hi - lo >= 2 * math.pi else (lo, hi)
+    return (lo, math.pi) if lo is not None else (-math.pi, hi if hi is not None else math.pi)
+
+
 def limit_violation(
     name: str, value: float, lo: float | None, hi: float | None, unit: str, periodic: bool
 ) -> str | None:
@@ -18,6 +35,8 @@ def limit_violation(
         return None
     v = value
     if periodic and lo is not None and hi is not None:
+        if angle_limit_arc(lo, hi) is None:  # a full turn apart: every angle
+            return None
         v = lo + (value - lo) % (2 * math.pi)
         if v <= hi + LIMIT_SLACK * max(1.0, abs(hi)):
             return None

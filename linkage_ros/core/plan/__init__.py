@@ -50,8 +50,6 @@ from .spec import (  # noqa: F401
     Spec,
     SpecReader,
     _c,
-    _renamed,
-    _spec_of_kind,
     limit_violation,
     spec_for,
     spec_point_link,
