@@ -16,6 +16,10 @@ from .components import actuator_parts
 from .scan import Bracket, End, Signs, _held_reference, _Line, _Segment, _slide_bracket
 from .walk import _walk_range
 
+#: a sampled local minimum of a dyad's margin below this is refined (golden section) to see
+#: whether it touches a toggle (below TOUCHED_TOGGLE_MARGIN): a candidate, not a toggle
+DIP_MARGIN = 0.05
+
 # ---- actuator ranges --------------------------------------------------------------------------
 
 
@@ -224,8 +228,8 @@ def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
         n = max(64, line.samples // (1 if s.full else 2))
         xs = np.linspace(s.lo, s.hi, n)
         m = line.margins(xs, s.signs)
-        inner = m[1:-1]  # local minima of the margin below 0.05 (NaN compares False)
-        dips = np.flatnonzero((inner < 0.05) & (inner <= m[:-2]) & (inner <= m[2:])) + 1
+        inner = m[1:-1]  # local minima of the margin below DIP_MARGIN (NaN compares False)
+        dips = np.flatnonzero((inner < DIP_MARGIN) & (inner <= m[:-2]) & (inner <= m[2:])) + 1
         for i in dips:
 
             def f(x: float, signs: Signs = s.signs) -> float:
