@@ -51,6 +51,7 @@ from .spec import (  # noqa: F401
     SpecReader,
     _c,
     limit_violation,
+    needs_beyond_limits,
     spec_for,
     spec_point_link,
     spec_reader,

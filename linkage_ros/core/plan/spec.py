@@ -154,3 +154,10 @@ def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
 def limit_violation(spec: ScalarSpec, value: float) -> str | None:
     """Why ``value`` is outside ``spec``'s limits (the one rule: model.limits), or None."""
     return _limit_violation(spec.name, value, spec.minimum, spec.maximum, spec.unit, spec.periodic)
+
+
+def needs_beyond_limits(spec: ScalarSpec, value: float) -> str | None:
+    """Why an inverse solve's answer is refused where it needs actuator ``spec`` at ``value``
+    beyond its limits (the one wording of the scalar and the batch solve), or None."""
+    why = limit_violation(spec, value)
+    return None if why is None else f'target needs {why}'
