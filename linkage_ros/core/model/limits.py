@@ -27,6 +27,12 @@ def angle_limit_arc(lo: float | None, hi: float | None) -> tuple[float, float] |
     return (lo, math.pi) if lo is not None else (-math.pi, hi if hi is not None else math.pi)
 
 
+def on_arc(value: float, lo: float, hi: float, slack: float = 0.0) -> bool:
+    """Whether the angle ``value`` (rad) is on the arc [lo, hi] (taken modulo 2 pi; ``slack``
+    rad past ``hi`` still counts): brought into [lo, lo + 2 pi) and compared with hi."""
+    return lo + (value - lo) % (2 * math.pi) <= hi + slack
+
+
 def limit_violation(
     name: str, value: float, lo: float | None, hi: float | None, unit: str, periodic: bool
 ) -> str | None:
@@ -37,9 +43,9 @@ def limit_violation(
     if periodic and lo is not None and hi is not None:
         if angle_limit_arc(lo, hi) is None:  # a full turn apart: every angle
             return None
-        v = lo + (value - lo) % (2 * math.pi)
-        if v <= hi + LIMIT_SLACK * max(1.0, abs(hi)):
+        if on_arc(value, lo, hi, LIMIT_SLACK * max(1.0, abs(hi))):
             return None
+        v = lo + (value - lo) % (2 * math.pi)
         over_hi = v - hi
         under_lo = lo + 2 * math.pi - v
         # equally far from both (a value half a turn from the middle of [lo, hi], e.g. -pi/2

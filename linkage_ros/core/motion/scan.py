@@ -12,6 +12,7 @@ import numpy.typing as npt
 
 from ..dyads import wrap_angle
 from ..model import Mechanism, SlideActuator
+from ..model.limits import on_arc
 from ..plan import Poses
 from ..quantities import AngleSpec, PointSpec
 from ..solver import Solver
@@ -251,7 +252,7 @@ class _Line:
         lo, hi = limits
         if self.periodic:
             assert lo is not None and hi is not None  # an arc has both ends
-            return bool((v - lo) % TWO_PI <= (hi - lo) + 1e-12)
+            return on_arc(v, lo, hi, 1e-12)  # the limit rule's arc (model.limits)
         tol = 1e-12 * self.scale
         return (lo is None or v >= lo - tol) and (hi is None or v <= hi + tol)
 
