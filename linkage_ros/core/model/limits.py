@@ -1,6 +1,6 @@
 """The one rule for an input's limits: a value is inside [min, max]; an angle with both limits
 compares on the circle (brought into [min, min + 2 pi) first, and a refusal names the nearer
-limit); an angle with one limit compares as given (a solved angle is in (-pi, pi]).
+limit); an angle with one limit compares as reported, brought into (-pi, pi] first.
 
 :func:`limit_violation` judges one value (the scalar solve, each row of a batch, the scene's
 reference pose); :func:`angle_limit_arc` is the same rule as the arc of allowed angles (the
@@ -56,6 +56,11 @@ def limit_violation(
                 f'{name} = {value:.9g} {unit} is below its minimum {lo:g} by {under_lo:.3g} {unit}'
             )
         return f'{name} = {value:.9g} {unit} is beyond its maximum {hi:g} by {over_hi:.3g} {unit}'
+    if periodic:
+        # one limit: the angle as reported, in (-pi, pi] (a command of 4 rad is the angle
+        # -2.28 rad, below a minimum of -1 however it is written)
+        v = math.remainder(value, 2 * math.pi)
+        v = math.pi if v == -math.pi else v
     if lo is not None and v < lo:
         return f'{name} = {value:.9g} {unit} is below its minimum {lo:g} by {lo - v:.3g} {unit}'
     if hi is not None and v > hi:

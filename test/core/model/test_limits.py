@@ -15,13 +15,13 @@ from linkage_ros.core.model.limits import angle_limit_arc, limit_violation
 from linkage_ros.core.motion import actuator_range
 
 angles = st.floats(-2 * math.pi, 2 * math.pi, allow_nan=False)
-reported = st.floats(-math.pi, math.pi, allow_nan=False, exclude_min=True)
 
 
 def inside_documented(value: float, lo: float | None, hi: float | None) -> bool:
     if lo is not None and hi is not None:
         return lo + (value - lo) % (2 * math.pi) <= hi
-    return (lo is None or value >= lo) and (hi is None or value <= hi)
+    reported = math.atan2(math.sin(value), math.cos(value))  # in [-pi, pi]
+    return (lo is None or reported >= lo) and (hi is None or reported <= hi)
 
 
 def inside_arc(value: float, arc: tuple[float, float] | None) -> bool:
@@ -37,7 +37,7 @@ def clear_of(value: float, *bounds: float | None) -> bool:
 
 
 @settings(max_examples=400, deadline=None)
-@given(lo=angles, width=st.floats(1e-3, 7.0), value=reported, sides=st.sampled_from('lhb'))
+@given(lo=angles, width=st.floats(1e-3, 7.0), value=angles, sides=st.sampled_from('lhb'))
 def test_the_arc_allows_exactly_the_angles_the_check_allows(lo, width, value, sides):
     hi = lo + width
     lo_, hi_ = (lo, None) if sides == 'l' else (None, hi) if sides == 'h' else (lo, hi)
@@ -83,3 +83,24 @@ def test_a_refused_angle_names_the_nearer_limit(value):
         assert why is not None and 'below its minimum 0.4 by 1.4 rad' in why
     else:
         assert why is not None and 'beyond its maximum 2 by 0.1 rad' in why
+
+
+def test_an_angle_with_one_limit_is_judged_as_reported_by_the_solve_and_the_range():
+    """A crank limited by a minimum of -1 rad alone: ``linkage range`` gives [-1, pi]; the solve
+    refuses 4 rad (the angle -2.28 rad) as it refuses -2.28, and takes 2 rad and 2 + 2 pi. The
+    solve compared the command as written and took 4 rad."""
+    import dataclasses
+
+    from linkage_ros.core.solver import Solver
+
+    mech = scenes.four_bar(0.30, 0.10, 0.25, 0.20)  # a Grashof crank: it turns fully
+    (name,) = mech.actuators
+    mech.actuators = {name: dataclasses.replace(mech.actuators[name], min=-1.0)}
+    info = actuator_range(mech, name)
+    assert (info['min'], info['max']) == (-1.0, math.pi)
+    solver = Solver(mech)
+    for refused in (4.0, 4.0 - 2 * math.pi):
+        r = solver.solve({name: refused})
+        assert not r.success and 'below its minimum -1 by 1.28' in r.reason, r.reason
+    for taken in (2.0, 2.0 + 2 * math.pi):
+        assert solver.solve({name: taken}).success
