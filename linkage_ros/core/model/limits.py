@@ -41,8 +41,7 @@ def limit_violation(
         return None
     v = value
     if periodic and lo is not None and hi is not None:
-        if angle_limit_arc(lo, hi) is None:  # a full turn apart: every angle
-            return None
+        # (limits a full turn apart take every angle: the arc is the whole circle)
         if on_arc(value, lo, hi, LIMIT_SLACK * max(1.0, abs(hi))):
             return None
         v = lo + (value - lo) % (2 * math.pi)
