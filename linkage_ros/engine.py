@@ -20,9 +20,11 @@ from typing import Any, Protocol
 
 from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
+from .core.model.names import Named, NameKind, resolve_name
 from .core.solver import Result, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
+from .core.solver.result import named_value
 from .core.velocity import Velocities, velocities
 from .point_coordinates import group_point_coordinates
 
@@ -64,16 +66,26 @@ class GoodState(Protocol):
     def result(self) -> Result: ...
 
 
-def current_value(mech: Mechanism, result: Result, name: str) -> Any:
-    """The value of a known-able ``name`` in a solved result, resolved like the core resolves
-    knowns: actuator, joint, link angle, then point (x, y)."""
-    if name in mech.actuators:
-        return result.inputs[name]
-    if name in result.joints:
-        return result.joints[name]
-    if name in mech.links:
-        return result.links[name]
-    return result.points[name]
+def _held_name(mech: Mechanism, name: str) -> Named | None:
+    """``name`` resolved as a held value takes it (the one rule: model.names), or None: unknown,
+    or the ground link (its angle is fixed)."""
+    try:
+        named = resolve_name(mech, name)
+    except PlanError:
+        return None
+    return None if named.kind is NameKind.LINK and named.name == mech.ground else named
+
+
+def _kind_of(mech: Mechanism, name: str) -> NameKind | None:
+    try:
+        return resolve_name(mech, name).kind
+    except PlanError:
+        return None
+
+
+#: what a command may name besides the forward solver's knowns without the 'use ~/target'
+#: answer: actuators (the solver refuses one it does not know) and names that do not resolve
+_NOT_KNOWN = (NameKind.ACTUATOR, None)
 
 
 class Engine:
@@ -203,8 +215,8 @@ class Engine:
         mech, hold = self.mech, self.settings.target_point_hold
         if not hold:
             return
-        known = set(mech.actuators) | set(mech.joint_names) | set(mech.links) | set(mech.points)
-        bad = [h for h in hold if h not in known or h == mech.ground]
+        resolved = [_held_name(mech, h) for h in hold]
+        bad = [h for h, named in zip(hold, resolved) if named is None]
         if bad:
             fail_setting(
                 'target_point_hold',
@@ -212,17 +224,7 @@ class Engine:
                 'expected actuator, joint, (moving) link or point names',
                 list(hold),
             )
-        size = sum(
-            2
-            if (
-                h in mech.points
-                and h not in mech.actuators
-                and h not in mech.joint_names
-                and h not in mech.links
-            )
-            else 1
-            for h in hold
-        )
+        size = sum(named.values for named in resolved if named is not None)
         if 2 + size != mech.dof:
             fail_setting(
                 'target_point_hold',
@@ -281,11 +283,7 @@ class Engine:
         names are the solver's to refuse."""
         acts = self.forward.knowns
         mech = self.mech
-        named = [
-            n
-            for n in values
-            if n not in acts and (n in mech.joint_names or n in mech.links or n in mech.points)
-        ]
+        named = [n for n in values if n not in acts and _kind_of(mech, n) not in _NOT_KNOWN]
         if not named:
             return None
         return (
@@ -384,7 +382,7 @@ class Engine:
                 f'no good state yet to take the held value(s) {list(names)} from: send a '
                 'command first'
             )
-        return {h: current_value(self.mech, last, h) for h in names}
+        return {h: named_value(self.mech, last, h) for h in names}
 
     def target_point(self, point: str, xy: tuple[float, float]) -> Result:
         """Inverse kinematics: put ``point`` at ``xy``; target_point_hold names keep their value

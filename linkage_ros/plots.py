@@ -14,7 +14,9 @@ from typing import Any
 
 import numpy as np
 
+from .core.errors import PlanError
 from .core.model import AngleActuator, SlideActuator
+from .core.model.names import NameKind, point_coordinate, resolve_name
 from .outputs import written_whole
 
 _BRANCH_COLOURS = (
@@ -213,24 +215,29 @@ def plot_region(
 def _output_getter(mech, output: str):
     """(label, unit, is_angle, function(result) -> value) for an output name: a link (its
     angle), a joint, an actuator, or a point coordinate 'P.x' / 'P.y'."""
-    if '.' in output:
-        p, c = output.rsplit('.', 1)
-        if p in mech.points and c in ('x', 'y'):
-            i = 0 if c == 'x' else 1
-            return output, 'm', False, lambda r: r.points[p][i] if p in r.points else math.nan
-    if output in mech.links and output != mech.ground:
-        return f'{output} angle', 'deg', True, lambda r: r.links.get(output, math.nan)
-    if output in mech.actuators:
-        ang = isinstance(mech.actuators[output], AngleActuator)
-        return output, 'deg' if ang else 'm', ang, lambda r: r.inputs.get(output, math.nan)
-    if output in mech.joint_names:
-        ang = output not in mech.prismatics
-        return (
-            f'joint {output}',
-            'deg' if ang else 'm',
-            ang,
-            lambda r: r.joints.get(output, math.nan),
-        )
+    coordinate = point_coordinate(mech, output)
+    if coordinate is not None:
+        p, i = coordinate
+        return output, 'm', False, lambda r: r.points[p][i] if p in r.points else math.nan
+    try:
+        named = resolve_name(mech, output)  # the one rule (model.names), as the solver's knowns
+    except PlanError:
+        named = None
+    bare = named.name if named is not None else ''
+    match named.kind if named is not None else None:
+        case NameKind.ACTUATOR:
+            ang = isinstance(mech.actuators[bare], AngleActuator)
+            return output, 'deg' if ang else 'm', ang, lambda r: r.inputs.get(bare, math.nan)
+        case NameKind.JOINT:
+            ang = bare not in mech.prismatics
+            return (
+                f'joint {bare}',
+                'deg' if ang else 'm',
+                ang,
+                lambda r: r.joints.get(bare, math.nan),
+            )
+        case NameKind.LINK if bare != mech.ground:
+            return f'{bare} angle', 'deg', True, lambda r: r.links.get(bare, math.nan)
     raise ValueError(
         f'unknown output {output!r}: give a link, joint, actuator or a point '
         f'coordinate such as {next(iter(mech.points))}.x'

@@ -17,8 +17,7 @@ import numpy as np
 
 from .core.errors import CommandError, echo
 from .core.model import Mechanism
-
-AXES = ('x', 'y')
+from .core.model.names import AXES, point_coordinate
 
 
 def group_point_coordinates(mech: Mechanism, values: Mapping[str, Any]) -> dict[str, Any]:
@@ -29,19 +28,20 @@ def group_point_coordinates(mech: Mechanism, values: Mapping[str, Any]) -> dict[
         return dict(values)
     out: dict[str, Any] = {}
     for name, value in values.items():
-        point, dot, axis = name.rpartition('.')
-        if not dot:
+        if '.' not in name:
             out[name] = value
             continue
-        if axis not in AXES or point not in mech.points:
+        coordinate = point_coordinate(mech, name)
+        if coordinate is None:
             raise CommandError(
                 f'unknown name {echo(name)}: a point coordinate is <point>.x or <point>.y '
                 f'with a point of {mech.name!r}'
             )
+        point, axis = coordinate
         key = f'point:{point}'
         if key in out:
             continue
-        other = f'{point}.{"y" if axis == "x" else "x"}'
+        other = f'{point}.{AXES[1 - axis]}'
         if other not in values:
             raise CommandError(f'{name} is given without {other}: a point target needs both')
         x, y = values[f'{point}.x'], values[f'{point}.y']

@@ -152,9 +152,9 @@ class InputValues:
 
     def _published_reference(self, actuator: str) -> float:
         if actuator not in self._reference:
-            from ..core.motion.common import reference_value
+            from ..core.motion.common import reference_scalar
 
-            v = self.value(actuator, reference_value(self.mech, actuator))
+            v = self.value(actuator, reference_scalar(self.mech, actuator))
             self._reference[actuator] = float(v)  # type: ignore[arg-type]
         return self._reference[actuator]
 

@@ -14,15 +14,16 @@ from typing import TYPE_CHECKING
 
 from .plan import branch_geometry_one
 from .quantities import PointSpec
-from .solver.modes import TOGGLE_MARGIN, reference_toggle_warnings
+from .solver.modes import reference_toggle_warnings, toggle_warnings
+from .solver.result import SIGN_MARGIN
 from .velocity import velocities
 
 if TYPE_CHECKING:
     from .solver import Solver
 
 #: a loop-closure Jacobian condition above this at the reference pose: a singular position (the
-#: condition grows as 1 / margin toward a toggle; TOGGLE_MARGIN is the dyads' threshold)
-SINGULAR_CONDITION = 1.0 / TOGGLE_MARGIN
+#: condition grows as 1 / margin toward a toggle; SIGN_MARGIN is the dyads' threshold)
+SINGULAR_CONDITION = 1.0 / SIGN_MARGIN
 
 
 def reference_pose_warnings(solver: Solver) -> list[str]:
@@ -40,13 +41,7 @@ def reference_pose_warnings(solver: Solver) -> list[str]:
     got = solver.configuration_of(ref)
     if got is not None and solver.mode != 'newton' and solver.plan.branch_steps:
         _, margins = branch_geometry_one(solver.plan, *got)
-        for step, margin in zip(solver.plan.branch_steps, margins):
-            if margin < TOGGLE_MARGIN:
-                out.append(
-                    f'the reference pose is at the toggle of {step.describe(solver.plan)} (margin '
-                    f'{margin:.3g}): its assembly mode there is not chosen by the drawing; draw '
-                    'the pose off the toggle to choose it'
-                )
+        out += toggle_warnings(solver.plan, margins)
     rates = {s.name: (1.0, 0.0) if isinstance(s, PointSpec) else 1.0 for s in solver.specs}
     v = velocities(solver, ref, values, rates)
     if not v.success or v.cond > SINGULAR_CONDITION:

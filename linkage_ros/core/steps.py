@@ -3,7 +3,8 @@ them)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import itertools
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from enum import StrEnum
 
@@ -140,3 +141,10 @@ def branch_signs(text: str) -> tuple[int, ...]:
 def branch_text(signs: Iterable[float]) -> str:
     """Branch signs as the status shows them: '+-' for (+1, -1)."""
     return ''.join('+' if s > 0 else '-' for s in signs)
+
+
+def sign_combinations(branch_count: int) -> Iterator[tuple[int, ...]]:
+    """Every assembly mode of a dyad plan with ``branch_count`` branching steps, as branch
+    signs: (+1, ..., +1) first, then in the order of :func:`itertools.product` over (+1, -1)
+    (one empty combination where nothing branches)."""
+    return itertools.product((1, -1), repeat=branch_count)

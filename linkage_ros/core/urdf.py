@@ -242,9 +242,8 @@ def _swept_slides(mech: Mechanism, names: Sequence[str]) -> dict[str, tuple[floa
     links (no plan lists the modes), that bound alone."""
     if not names:
         return {}
-    import itertools
-
     from .solver import Solver
+    from .steps import branch_text, sign_combinations
 
     solver = Solver(mech, knowns=list(mech.actuators), branch='reference')
     if solver.mode != 'closed_form':
@@ -252,9 +251,9 @@ def _swept_slides(mech: Mechanism, names: Sequence[str]) -> dict[str, tuple[floa
     grid = np.meshgrid(*_input_axes(mech), indexing='ij')
     values = {a: g.ravel() for a, g in zip(mech.actuators, grid)}
     found: dict[str, list[np.ndarray]] = {n: [] for n in names}
-    for signs in itertools.product('+-', repeat=solver.branch_count):
+    for signs in sign_combinations(solver.branch_count):  # every assembly mode
         if signs:
-            solver = Solver(mech, knowns=list(mech.actuators), branch=''.join(signs))
+            solver = Solver(mech, knowns=list(mech.actuators), branch=branch_text(signs))
         batch = solver.solve_batch(values)
         for n in names:
             v = np.asarray(batch.joints[n])[np.asarray(batch.ok, dtype=bool)]

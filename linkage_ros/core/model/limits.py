@@ -1,5 +1,10 @@
-"""The one rule for an input's limits: a value is inside [min, max]; an angle compares on the
-circle (brought into [min, min + 2 pi) first, and a refusal names the nearer limit)."""
+"""The one rule for an input's limits: a value is inside [min, max]; an angle with both limits
+compares on the circle (brought into [min, min + 2 pi) first, and a refusal names the nearer
+limit); an angle with one limit compares as reported, brought into (-pi, pi] first.
+
+:func:`limit_violation` judges one value (the scalar solve, each row of a batch, the scene's
+reference pose); :func:`angle_limit_arc` is the same rule as the arc of allowed angles (the
+motion analyses clip input ranges to it)."""
 
 from __future__ import annotations
 
@@ -10,6 +15,24 @@ import math
 LIMIT_SLACK = 1e-12
 
 
+def angle_limit_arc(lo: float | None, hi: float | None) -> tuple[float, float] | None:
+    """The angles (rad) :func:`limit_violation` allows, as the arc [a, b] (taken modulo 2 pi:
+    an angle v is inside where a + (v - a) mod 2 pi <= b), or None where it allows every angle:
+    no limit, or limits a full turn apart. A one-sided limit bounds the reported angle, in
+    (-pi, pi]: [lo, pi] or [-pi, hi] (beyond +-pi: every reported angle, or none)."""
+    if lo is None and hi is None:
+        return None
+    if lo is not None and hi is not None:
+        return None if hi - lo >= 2 * math.pi else (lo, hi)
+    return (lo, math.pi) if lo is not None else (-math.pi, hi if hi is not None else math.pi)
+
+
+def on_arc(value: float, lo: float, hi: float, slack: float = 0.0) -> bool:
+    """Whether the angle ``value`` (rad) is on the arc [lo, hi] (taken modulo 2 pi; ``slack``
+    rad past ``hi`` still counts): brought into [lo, lo + 2 pi) and compared with hi."""
+    return lo + (value - lo) % (2 * math.pi) <= hi + slack
+
+
 def limit_violation(
     name: str, value: float, lo: float | None, hi: float | None, unit: str, periodic: bool
 ) -> str | None:
@@ -18,9 +41,10 @@ def limit_violation(
         return None
     v = value
     if periodic and lo is not None and hi is not None:
-        v = lo + (value - lo) % (2 * math.pi)
-        if v <= hi + LIMIT_SLACK * max(1.0, abs(hi)):
+        # (limits a full turn apart take every angle: the arc is the whole circle)
+        if on_arc(value, lo, hi, LIMIT_SLACK * max(1.0, abs(hi))):
             return None
+        v = lo + (value - lo) % (2 * math.pi)
         over_hi = v - hi
         under_lo = lo + 2 * math.pi - v
         # equally far from both (a value half a turn from the middle of [lo, hi], e.g. -pi/2
@@ -31,6 +55,11 @@ def limit_violation(
                 f'{name} = {value:.9g} {unit} is below its minimum {lo:g} by {under_lo:.3g} {unit}'
             )
         return f'{name} = {value:.9g} {unit} is beyond its maximum {hi:g} by {over_hi:.3g} {unit}'
+    if periodic:
+        # one limit: the angle as reported, in (-pi, pi] (a command of 4 rad is the angle
+        # -2.28 rad, below a minimum of -1 however it is written)
+        v = math.remainder(value, 2 * math.pi)
+        v = math.pi if v == -math.pi else v
     if lo is not None and v < lo:
         return f'{name} = {value:.9g} {unit} is below its minimum {lo:g} by {lo - v:.3g} {unit}'
     if hi is not None and v > hi:

@@ -22,7 +22,7 @@ from typing import NoReturn
 
 import numpy as np
 
-from ..dyads import dyad_point, solve_rrr_dyad
+from ..dyads import circle_side, dyad_point, side_sign, solve_rrr_dyad
 from ..errors import SceneError
 from ..ops import SCALAR
 from .checks import Fail
@@ -136,11 +136,12 @@ class _Shapes:
         d01 = length(pts[0], pts[1])
         out = {pts[0]: z0, pts[1]: z0 + d01 * axis}
         for p in pts[2:]:
-            drawn_side = ((self.drawn[p] - z0) * axis.conjugate()).imag
+            # the side it is drawn on, by the dyads' own branch-side rule (side_sign)
+            drawn_side = side_sign(circle_side(SCALAR, z0, z1, self.drawn[p]))
             r0, r1 = length(pts[0], p), length(pts[1], p)
             # the dyad solver's own circle-circle construction (Kahan's triangle height)
             pair = solve_rrr_dyad(SCALAR, out[pts[0]], r0, out[pts[1]], r1)
-            z, ok = dyad_point(SCALAR, pair, -1.0 if drawn_side < 0 else 1.0)
+            z, ok = dyad_point(SCALAR, pair, float(drawn_side))
             if not ok and fail is not None:
                 # blame a side the user stated (the last: the point's own), not always P0-p
                 sides = [(pts[0], pts[1], d01), (pts[0], p, r0), (pts[1], p, r1)]

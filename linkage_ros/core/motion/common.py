@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from ..model import Mechanism
+from ..model.names import NameKind, known_name
 from ..plan import Poses, spec_for, spec_value_at
 from ..quantities import PointSpec
 
@@ -18,8 +19,10 @@ ANGLE_TOL = 1e-12
 LENGTH_TOL = 1e-12
 #: points evaluated per refinement round (a 17-ary search: ~9 rounds from a grid step to 1e-12)
 _KARY = 16
-#: a dyad margin below this after refinement is a toggle
-TOGGLE_MARGIN = 1e-7
+#: a local minimum of a dyad's margin along a scanned input, refined to the input tolerance,
+#: below this is a toggle the circuit touches (a change point): the refined margin of a true
+#: touch is ~sqrt of the input tolerance. Not the assembly-mode threshold (result.SIGN_MARGIN)
+TOUCHED_TOGGLE_MARGIN = 1e-7
 #: cap on circuit segments followed through assembly-mode changes
 _MAX_SEGMENTS = 64
 
@@ -28,12 +31,12 @@ _MAX_SEGMENTS = 64
 
 
 def point_key(mech: Mechanism, name: str) -> str:
-    """The known name that means *point* ``name`` (prefixed ``point:`` where a joint, link or
-    actuator has the same name, as every point shared by two links does)."""
+    """The known name that means *point* ``name`` (prefixed ``point:`` where the one rule,
+    model.names, resolves the bare name to something else: a joint, as every point shared by two
+    links is)."""
     if name not in mech.points:
         raise ValueError(f'{mech.name!r} has no point {name!r}; points: {sorted(mech.points)}')
-    clash = name in mech.actuators or name in mech.joint_names or name in mech.links
-    return f'point:{name}' if clash else name
+    return known_name(mech, NameKind.POINT, name)
 
 
 def link_key(mech: Mechanism, name: str) -> str:
@@ -42,8 +45,7 @@ def link_key(mech: Mechanism, name: str) -> str:
         raise ValueError(f'{mech.name!r} has no link {name!r}; links: {sorted(mech.links)}')
     if name == mech.ground:
         raise ValueError(f'{name!r} is the ground link: its angle is fixed')
-    clash = name in mech.actuators or name in mech.joint_names
-    return f'link:{name}' if clash else name
+    return known_name(mech, NameKind.LINK, name)
 
 
 def without_limits(mech: Mechanism) -> Mechanism:
@@ -63,31 +65,37 @@ def _identity_poses(mech: Mechanism) -> Poses:
     return poses
 
 
-def reference_value(mech: Mechanism, name: str):
-    """Value of a known (actuator, joint, link angle or point) in the reference pose."""
+def reference_value(mech: Mechanism, name: str) -> float | np.ndarray:
+    """Value of a known (actuator, joint, link angle or point) in the reference pose: rad or m,
+    (x, y) (m) for a point."""
     spec = spec_for(mech, name)
     v = spec_value_at(mech, spec, _identity_poses(mech))[0]
     return np.asarray(v, float).copy() if isinstance(spec, PointSpec) else float(v)
 
 
-def _limit_interval(act, periodic: bool):
-    """The actuator's limits as (lo, hi) with None for a missing side; for angles a circular
-    interval [lo, hi] (None when the limits leave the full turn), mirroring Solver.limit_violation
-    (one-sided angle limits compare the value wrapped to (-pi, pi])."""
-    lo, hi = act.min, act.max
-    if not periodic:
-        return lo, hi
-    if lo is None and hi is None:
-        return None
-    if lo is not None and hi is not None:
-        return None if hi - lo >= TWO_PI else (lo, hi)
-    return (lo, math.pi) if lo is not None else (-math.pi, hi)
+def reference_scalar(mech: Mechanism, name: str) -> float:
+    """Value of a scalar known (an actuator, joint or link angle: rad or m) in the reference
+    pose; ValueError for a point."""
+    v = reference_value(mech, name)
+    if isinstance(v, np.ndarray):
+        raise ValueError(f'{name!r} is a point of {mech.name!r}: it has two coordinates')
+    return v
 
 
-def _clip_periodic(lo, hi, lim):
+def reference_point(mech: Mechanism, name: str) -> np.ndarray:
+    """A point's (x, y) (m) in the reference pose (``name`` resolves to a point)."""
+    v = reference_value(mech, name)
+    if not isinstance(v, np.ndarray):
+        raise ValueError(f'{name!r} is no point of {mech.name!r}')
+    return v
+
+
+def _clip_periodic(
+    lo: float, hi: float, lim: tuple[float, float]
+) -> list[tuple[float, float, bool, bool]]:
     """Pieces of the unwrapped interval [lo, hi] inside the circular interval lim = (a, b)."""
     a, b = lim
-    out = []
+    out: list[tuple[float, float, bool, bool]] = []
     k0 = math.floor((lo - b) / TWO_PI)
     for k in range(k0, k0 + 4):
         x, y = max(lo, a + TWO_PI * k), min(hi, b + TWO_PI * k)

@@ -10,9 +10,10 @@ import numpy as np
 
 from ..dyads import wrap_angle
 from ..model import AngleActuator, Mechanism
-from .common import TWO_PI, _clip_periodic, _limit_interval
+from ..model.limits import angle_limit_arc
+from .common import TWO_PI, _clip_periodic
 from .ranges import _scan_circuit
-from .scan import _held_reference
+from .scan import Signs, _held_reference
 
 # ---- link oscillation -------------------------------------------------------------------------
 
@@ -23,7 +24,7 @@ def oscillation_range(
     actuator: str | None = None,
     samples: int = 720,
     held: Mapping[str, Any] | None = None,
-):
+) -> tuple[float | None, float | None]:
     """(min, max) of the angle of ``link`` (rad, direction of its axis) while ``actuator`` (default
     the first) runs over its range within its limits, the other actuators held; (None, None) when
     the link turns fully. Follows the circuit through toggles, so both assembly modes a
@@ -42,9 +43,9 @@ def oscillation_range(
         raise ValueError(f'oscillation_range needs a closed-form plan for {actuator!r}')
     if not segs:
         return None, None
-    lim = _limit_interval(act, periodic) if periodic else (act.min, act.max)
+    arc = angle_limit_arc(act.min, act.max) if periodic else None
     # sample every segment (clipped to the actuator's limits), unwrap and stitch the angle
-    pieces = []  # (signs, xs, unwrapped angles)
+    pieces: list[tuple[Signs, np.ndarray, np.ndarray]] = []  # (signs, xs, unwrapped angles)
     stitch: dict[int, tuple[np.ndarray, np.ndarray]] = {}
     for k, s in enumerate(segs):
         n = max(
@@ -64,11 +65,11 @@ def oscillation_range(
             ang = ang + TWO_PI * round((pang[j] - ang[i]) / TWO_PI)
         stitch[k] = (xs, ang)
         # clip to the limits
-        if periodic and lim is not None:
+        if arc is not None:
             keep = np.zeros(xs.size, bool)
-            for a, b, _, _ in _clip_periodic(s.lo, s.hi, lim):
+            for a, b, _, _ in _clip_periodic(s.lo, s.hi, arc):
                 keep |= (xs >= a) & (xs <= b)
-            for a, b, _, _ in _clip_periodic(s.lo, s.hi, lim):
+            for a, b, _, _ in _clip_periodic(s.lo, s.hi, arc):
                 # make sure the exact limit values are sampled
                 for v in (a, b):
                     va = line.link_angle([v], s.signs, link)[0]
@@ -80,10 +81,10 @@ def oscillation_range(
             xs, ang = xs[keep], ang[keep]
         elif not periodic:
             keep = np.ones(xs.size, bool)
-            if lim[0] is not None:
-                keep &= xs >= lim[0]
-            if lim[1] is not None:
-                keep &= xs <= lim[1]
+            if act.min is not None:
+                keep &= xs >= act.min
+            if act.max is not None:
+                keep &= xs <= act.max
             xs, ang = xs[keep], ang[keep]
         if xs.size:
             order = np.argsort(xs)
@@ -94,7 +95,7 @@ def oscillation_range(
     if all_ang.max() - all_ang.min() >= TWO_PI - 1e-9:
         return None, None
 
-    def extreme(sign):
+    def extreme(sign: int) -> float:
         best = -math.inf
         for signs, xs, ang in pieces:
             vals = sign * ang
@@ -103,11 +104,11 @@ def oscillation_range(
             if 0 < i < xs.size - 1:
                 centre = float(ang[i])
 
-                def f(x, signs=signs, centre=centre):
+                def f(x: float, signs: Signs = signs, centre: float = centre) -> float:
                     v = line.link_angle([x], signs, link)[0]
                     if not np.isfinite(v):
                         return math.inf
-                    return -sign * (centre + wrap_angle(v - centre))
+                    return -sign * (centre + float(wrap_angle(v - centre)))
 
                 r = minimize_scalar(
                     f, bounds=(xs[i - 1], xs[i + 1]), method='bounded', options={'xatol': 1e-13}

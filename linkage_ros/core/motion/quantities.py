@@ -19,7 +19,9 @@ from typing import Any
 import numpy as np
 
 from ..model import AngleActuator, Mechanism
+from ..model.names import NameKind, resolve_name
 from ..solver import Result, Solver
+from ..solver.result import named_value
 from ..steps import RRRDyad
 from ..velocity import Velocities, velocities
 from .ranges import _golden_min, input_ranges
@@ -65,22 +67,24 @@ class InputSweep:
     time_ratio: dict[str, float]  # full turn only: slower / faster stroke of each output
 
 
-def _value(r: Result, output: str) -> float:
-    """An output's value: ``link:<name>`` its angle (rad), ``joint:<name>`` its value."""
-    kind, _, name = output.partition(':')
-    return float(r.links[name] if kind == 'link' else r.joints[name])
+def _value(mech: Mechanism, r: Result, output: str) -> float:
+    """An output's value: ``link:<name>`` its angle (rad), ``joint:<name>`` its value (the
+    name resolved by the one rule: model.names)."""
+    return float(named_value(mech, r, output))
 
 
 #: d(quantity)/d(input) at a solved configuration and its velocities (rates for input rate 1)
 RateOf = Callable[[Result, Velocities], float]
+#: a quantity's value at a solved configuration, taken on the turn nearest ``near`` for angles
+ValueNear = Callable[[Result, float], float]
 
 
-def _output_rate(output: str) -> RateOf:
+def _output_rate(mech: Mechanism, output: str) -> RateOf:
     """d(output)/d(input): a link's angular velocity or a joint's rate, for input rate 1."""
-    kind, _, name = output.partition(':')
-    if kind == 'link':
-        return lambda r, v: v.links[name]
-    return lambda r, v: v.joints[name]
+    named = resolve_name(mech, output)
+    if named.kind is NameKind.LINK:
+        return lambda r, v: float(v.links[named.name])
+    return lambda r, v: float(v.joints[named.name])
 
 
 def _transmission_rate(solver: Solver, key: str) -> RateOf:
@@ -171,7 +175,9 @@ def input_sweep(
 
     scale = 1.0 if isinstance(mech.actuators[act], AngleActuator) else mech.length_scale
 
-    def refine(series: np.ndarray, f_of, rate_of, i: int, sign: float) -> tuple[float, float]:
+    def refine(
+        series: np.ndarray, f_of: ValueNear, rate_of: RateOf, i: int, sign: float
+    ) -> tuple[float, float]:
         """The extreme near sample i of ``series`` (sign +1 min, -1 max): (input, value)."""
         n = len(grid)
         if full:
@@ -200,7 +206,7 @@ def input_sweep(
             x = math.remainder(x, 2 * math.pi)
         return x, sign * fx
 
-    def extreme(series: np.ndarray, f_of, rate_of) -> Extreme:
+    def extreme(series: np.ndarray, f_of: ValueNear, rate_of: RateOf) -> Extreme:
         i_min, i_max = int(np.argmin(series)), int(np.argmax(series))
         (x_lo, v_lo), (x_hi, v_hi) = (
             refine(series, f_of, rate_of, i_min, 1.0),
@@ -213,15 +219,15 @@ def input_sweep(
     for name in outputs:
         if not name.startswith(('link:', 'joint:')):
             raise ValueError(f'output {name!r}: name it link:<name> or joint:<name>')
-        raw = np.array([_value(r, name) for r in results])
+        raw = np.array([_value(mech, r, name) for r in results])
         angle = name.startswith('link:')
         series = np.unwrap(raw) if angle else raw
 
         def f_of(r: Result, near: float, name: str = name, angle: bool = angle) -> float:
-            v = _value(r, name)
+            v = _value(mech, r, name)
             return near + math.remainder(v - near, 2 * math.pi) if angle else v
 
-        ext = extreme(series, f_of, _output_rate(name))
+        ext = extreme(series, f_of, _output_rate(mech, name))
         if angle:  # the swing's start in (-pi, pi]
             shift = ext.minimum - math.remainder(ext.minimum, 2 * math.pi)
             ext = Extreme(

@@ -3,30 +3,37 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from ..model import AngleActuator, Mechanism
+from ..model.limits import angle_limit_arc
 from ..model.mechanism import actuator_kind
-from .common import TOGGLE_MARGIN, TWO_PI, _clip_periodic, _limit_interval, reference_value
+from .common import TOUCHED_TOGGLE_MARGIN, TWO_PI, _clip_periodic, reference_scalar
 from .components import actuator_parts
-from .scan import _held_reference, _Line, _Segment, _slide_bracket
+from .scan import Bracket, End, Signs, _held_reference, _Line, _Segment, _slide_bracket
 from .walk import _walk_range
+
+#: a sampled local minimum of a dyad's margin below this is refined (golden section) to see
+#: whether it touches a toggle (below TOUCHED_TOGGLE_MARGIN): a candidate, not a toggle
+DIP_MARGIN = 0.05
 
 # ---- actuator ranges --------------------------------------------------------------------------
 
 
-def _scan_circuit(mech: Mechanism, name: str, held: Mapping[str, Any], samples: int):
+def _scan_circuit(
+    mech: Mechanism, name: str, held: Mapping[str, Any], samples: int
+) -> tuple[_Line | None, float, list[_Segment], Bracket | None]:
     """(line, x0, segments, bracket) of one scanned actuator; line None for a walk."""
-    x0 = reference_value(mech, name)
+    x0 = reference_scalar(mech, name)
     act = mech.actuators[name]
     periodic = isinstance(act, AngleActuator)
     bracket = None if periodic else _slide_bracket(mech, name, x0)
     line = _Line(mech, name, held, samples, bracket)
     if line.closed:
-        limits = _limit_interval(act, True) if periodic else (act.min, act.max)
+        limits = angle_limit_arc(act.min, act.max) if periodic else (act.min, act.max)
         return line, x0, line.circuit(x0, limits), bracket
     comp = _walk_range(mech, name, held, x0, periodic, bracket)
     if comp == 'empty':
@@ -55,7 +62,7 @@ def _scan_circuit(mech: Mechanism, name: str, held: Mapping[str, Any], samples: 
 
 def actuator_range(
     mech: Mechanism, name: str, samples: int = 720, held: Mapping[str, Any] | None = None
-) -> dict:
+) -> dict[str, Any]:
     """Range of one actuator with the other actuators held (at their reference-pose values unless
     ``held`` gives them).
 
@@ -72,7 +79,7 @@ def actuator_range(
     periodic = isinstance(act, AngleActuator)
     held = _held_reference(mech, name, held)
     line, x0, segs, _ = _scan_circuit(mech, name, held, samples)
-    out = {
+    out: dict[str, Any] = {
         'name': name,
         'kind': actuator_kind(act),
         'unit': 'rad' if periodic else 'm',
@@ -103,7 +110,7 @@ def actuator_range(
         else [v for s in segs for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end)) if e[0] == 'toggle']
     )
     if periodic:
-        lim = _limit_interval(act, True)
+        lim = angle_limit_arc(act.min, act.max)
         if full:
             out['full_turn'] = True
             if lim is not None:
@@ -123,9 +130,9 @@ def actuator_range(
             )
             a, b, a_lim, b_lim = piece
             shift = 0.0
-            if a_lim:
+            if a_lim and lim is not None:
                 shift = lim[0] - a
-            elif b_lim:
+            elif b_lim and lim is not None:
                 shift = lim[1] - b
             else:
                 shift = -TWO_PI * math.floor((a + math.pi) / TWO_PI)
@@ -152,11 +159,11 @@ def actuator_range(
         )
         # the assembly's own ends (unknown beyond a scene limit: the scan stops there)
         out['assembly'] = [lo if lo_src == 'toggle' else None, hi if hi_src == 'toggle' else None]
-        out['toggles'] = _dedupe(sorted(toggles), None)
+        out['toggles'] = _dedupe(sorted(toggles), False)
     return out
 
 
-def _dedupe(values, periodic) -> list[float]:
+def _dedupe(values: Sequence[float], periodic: bool) -> list[float]:
     res: list[float] = []
     for v in values:
         if not res or abs(v - res[-1]) > 1e-9:
@@ -166,11 +173,11 @@ def _dedupe(values, periodic) -> list[float]:
     return res
 
 
-def _source(end):
+def _source(end: End) -> str | None:
     return {'toggle': 'toggle', 'limit': 'limit', 'bracket': 'bracket'}.get(end[0])
 
 
-def _golden_min(f, a: float, b: float, tol: float) -> tuple[float, float]:
+def _golden_min(f: Callable[[float], float], a: float, b: float, tol: float) -> tuple[float, float]:
     """Golden-section minimum of a unimodal f on [a, b] (robust on the V-shaped margin at a
     tangency, where parabolic steps stall at sqrt(eps))."""
     g = (math.sqrt(5.0) - 1.0) / 2.0
@@ -190,12 +197,12 @@ def _golden_min(f, a: float, b: float, tol: float) -> tuple[float, float]:
     return (c, fc) if fc <= fd else (d, fd)
 
 
-def _flat_centre(f, a: float, x: float, b: float, fx: float) -> float:
+def _flat_centre(f: Callable[[float], float], a: float, x: float, b: float, fx: float) -> float:
     """Centre of the zone around x where f stays at its floor fx (a tangency's margin is
     |linear| in the input but rounds to its floor over ~sqrt(eps): the centre is the toggle)."""
     tau = fx + 1e-14
 
-    def edge(inside, outside):
+    def edge(inside: float, outside: float) -> float:
         for _ in range(200):
             mid = 0.5 * (inside + outside)
             if mid in (inside, outside):
@@ -221,16 +228,16 @@ def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
         n = max(64, line.samples // (1 if s.full else 2))
         xs = np.linspace(s.lo, s.hi, n)
         m = line.margins(xs, s.signs)
-        inner = m[1:-1]  # local minima of the margin below 0.05 (NaN compares False)
-        dips = np.flatnonzero((inner < 0.05) & (inner <= m[:-2]) & (inner <= m[2:])) + 1
+        inner = m[1:-1]  # local minima of the margin below DIP_MARGIN (NaN compares False)
+        dips = np.flatnonzero((inner < DIP_MARGIN) & (inner <= m[:-2]) & (inner <= m[2:])) + 1
         for i in dips:
 
-            def f(x, signs=s.signs):
+            def f(x: float, signs: Signs = s.signs) -> float:
                 v = line.margins([x], signs)[0]
                 return 1.0 if not np.isfinite(v) else float(v)
 
             x, fx = _golden_min(f, xs[i - 1], xs[i + 1], line.tol)
-            if fx < TOGGLE_MARGIN:
+            if fx < TOUCHED_TOGGLE_MARGIN:
                 out.append(_flat_centre(f, xs[i - 1], x, xs[i + 1], fx))
     # dedupe
     res: list[float] = []
@@ -255,7 +262,7 @@ def input_ranges(
     return {name: (i['min'], i['max']) for name, i in actuator_ranges(mech, samples).items()}
 
 
-def actuator_ranges(mech: Mechanism, samples: int = 720) -> dict[str, dict]:
+def actuator_ranges(mech: Mechanism, samples: int = 720) -> dict[str, dict[str, Any]]:
     """{actuator: :func:`actuator_range`} of every actuator, the others held at their
     reference-pose values. Each actuator is scanned on the independent part of the scene it
     moves (see :mod:`.components`): the same answer as on the whole scene, in time linear in
@@ -272,4 +279,5 @@ def toggle_positions(
     the assembly's range and any interior tangency, over every assembly mode the motion passes
     through. Geometric: the actuator's own limits are not applied (compare with
     :func:`actuator_range`). Angles are reported in [min, min + 2 pi) of the range."""
-    return actuator_range(mech, actuator, samples, held)['toggles']
+    toggles: list[float] = actuator_range(mech, actuator, samples, held)['toggles']
+    return toggles

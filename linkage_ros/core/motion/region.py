@@ -11,7 +11,7 @@ import numpy as np
 
 from ..model import AngleActuator, Mechanism
 from ..solver import Solver
-from .common import point_key, reference_value
+from .common import point_key, reference_point, reference_scalar
 from .ranges import actuator_range
 
 # ---- reachable regions ------------------------------------------------------------------------
@@ -33,7 +33,7 @@ def _actuator_limits(mech: Mechanism, name: str, samples: int) -> tuple[float, f
 
 
 def _moving_actuators(mech: Mechanism, point: str, solver: Solver) -> list[str]:
-    ref = {a: reference_value(mech, a) for a in mech.actuators}
+    ref = {a: reference_scalar(mech, a) for a in mech.actuators}
     base = solver.solve_batch({a: [v] for a, v in ref.items()})
     p0 = base.points[point][0]
     out = []
@@ -69,7 +69,8 @@ def points_in_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
     cond = (y1 > y) != (y2 > y)
     with np.errstate(divide='ignore', invalid='ignore'):
         xint = x1 + (y - y1) * (x2 - x1) / np.where(y2 != y1, y2 - y1, 1.0)
-    return (np.sum(cond & (x < xint), axis=1) % 2) == 1
+    inside: np.ndarray = (np.sum(cond & (x < xint), axis=1) % 2) == 1
+    return inside
 
 
 def distance_to_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
@@ -147,7 +148,7 @@ def reachable_region(
     edge_samples: int | None = None,
     limits: Mapping[str, tuple[float, float]] | None = None,
     held: Mapping[str, Any] | None = None,
-) -> dict:
+) -> dict[str, Any]:
     """Region reached by ``point`` while ``actuators`` run over their limits (the others held at
     the reference pose), e.g. the seed's zone of the excavator's hinge K for the Z1, Z2 ranges.
 
@@ -176,7 +177,7 @@ def reachable_region(
         if a not in mech.actuators:
             raise ValueError(f'{a!r} is not an actuator of {mech.name!r}')
     held_vals = {
-        a: (held or {}).get(a, reference_value(mech, a)) for a in mech.actuators if a not in acts
+        a: (held or {}).get(a, reference_scalar(mech, a)) for a in mech.actuators if a not in acts
     }
     lims = {
         a: tuple(map(float, (limits or {}).get(a) or _actuator_limits(mech, a, 720))) for a in acts
@@ -187,7 +188,7 @@ def reachable_region(
         n = max(2, min(n, int(round(30000 ** (1.0 / len(acts))))))
     ne = int(edge_samples) if edge_samples else 4 * (n - 1) + 1
 
-    def solve(cols):
+    def solve(cols: Mapping[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
         full = {a: np.asarray(cols[a], float) for a in acts}
         m = next(iter(full.values())).shape[0] if full else 1
         for a, v in held_vals.items():
@@ -202,7 +203,7 @@ def reachable_region(
         'held': {a: float(v) for a, v in held_vals.items()},
     }
     if not acts:
-        p = reference_value(mech, point_key(mech, point))
+        p = reference_point(mech, point_key(mech, point))
         out.update(
             boundary=[list(map(float, p))],
             boundary_inputs={},

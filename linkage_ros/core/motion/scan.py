@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Literal, TypeAlias
 
 import numpy as np
+import numpy.typing as npt
 
 from ..dyads import wrap_angle
 from ..model import Mechanism, SlideActuator
+from ..model.limits import on_arc
+from ..plan import Poses
 from ..quantities import AngleSpec, PointSpec
 from ..solver import Solver
 from .common import (
@@ -28,6 +31,20 @@ from .common import (
 #: exact to rounding
 _TOGGLE_PROBE = 1e-6
 
+#: a segment end: ('toggle', the branching dyad that fails beyond or None), ('limit', None),
+#: ('bracket', None) or ('full', None)
+End: TypeAlias = tuple[str, int | None]
+#: one branch sign per branching dyad of the plan
+Signs: TypeAlias = tuple[int, ...]
+#: a slide's scan bracket: (lo, hi, lo is a hard limit, hi is a hard limit) (m)
+Bracket: TypeAlias = tuple[float, float, bool, bool]
+#: the assembling interval around a seed: (lo, hi, lo_end, hi_end); None for a full turn, or
+#: 'empty' where nothing assembles
+Component: TypeAlias = tuple[float, float, End, End] | None | Literal['empty']
+#: limits a scan respects: a circular (lo, hi) arc or None (angles), (lo, hi) with None sides
+#: (slides)
+Limits: TypeAlias = tuple[float | None, float | None] | None
+
 # ---- one-dimensional scans over a closed-form plan --------------------------------------------
 
 
@@ -37,11 +54,11 @@ class _Segment:
     for angles), or the full turn; ends are ('toggle', branch) / ('limit', None) / ('bracket',
     None) / ('full', None)."""
 
-    signs: tuple
+    signs: Signs
     lo: float
     hi: float
-    lo_end: tuple
-    hi_end: tuple
+    lo_end: End
+    hi_end: End
     seed: float
     parent: int | None = None
     full: bool = False
@@ -56,7 +73,7 @@ class _Line:
         scan: str,
         held: Mapping[str, Any],
         samples: int = 720,
-        bracket: tuple | None = None,
+        bracket: Bracket | None = None,
     ):
         self.mech = mech
         self.free = without_limits(mech)
@@ -71,7 +88,7 @@ class _Line:
         self.tol = ANGLE_TOL if self.periodic else LENGTH_TOL * self.scale
         self.samples = max(16, int(samples))
         self.bracket = bracket  # slides: (lo, hi, lo_hard, hi_hard)
-        self.branch_of_step = {}
+        self.branch_of_step: dict[int, int] = {}
         k = 0
         for i, st in enumerate(self.plan.steps):
             if st.branching:
@@ -79,7 +96,9 @@ class _Line:
                 k += 1
 
     # -- evaluation
-    def run(self, x, signs):
+    def run(
+        self, x: npt.ArrayLike, signs: Sequence[int]
+    ) -> tuple[Poses, dict[str, np.ndarray], dict[str, np.ndarray]]:
         x = np.atleast_1d(np.asarray(x, float))
         n = x.shape[0]
         values = [x]
@@ -92,16 +111,16 @@ class _Line:
             )
         return self.plan.run(values, n, list(signs))
 
-    def ok(self, x, signs) -> np.ndarray:
+    def ok(self, x: npt.ArrayLike, signs: Sequence[int]) -> np.ndarray:
         return np.asarray(self.run(x, signs)[2]['ok'], bool)
 
-    def _failing_branch(self, x, signs):
+    def _failing_branch(self, x: float, signs: Sequence[int]) -> int | None:
         info = self.run([x], signs)[2]
         if info['ok'][0]:
             return None
         return self.branch_of_step.get(int(info['failure'][0]))
 
-    def refine(self, good: float, bad: float, signs) -> tuple[float, int | None]:
+    def refine(self, good: float, bad: float, signs: Sequence[int]) -> tuple[float, int | None]:
         """The toggle between an assembling ``good`` and a failing ``bad`` value; returns (the
         toggle, index of the branching dyad that fails beyond). A k-ary search finds where the
         plan stops assembling to ``tol``; that edge lies past the true toggle by the dyads'
@@ -125,7 +144,7 @@ class _Line:
             good, bad = float(new_good), float(new_bad)
         return self._toggle_root(good, bad, signs), self._failing_branch(bad, signs)
 
-    def _toggle_root(self, good: float, bad: float, signs) -> float:
+    def _toggle_root(self, good: float, bad: float, signs: Sequence[int]) -> float:
         """The zero of the margin squared near the assembly edge ``good`` (``good`` itself where
         the samples do not show a toggle's parabola: an edge that is no tangency)."""
         step = math.copysign(_TOGGLE_PROBE * (1.0 if self.periodic else self.scale), bad - good)
@@ -141,14 +160,14 @@ class _Line:
         return good + step * max(near)
 
     # -- components
-    def component(self, seed: float, signs):
+    def component(self, seed: float, signs: Sequence[int]) -> Component:
         """The interval of assembling values around ``seed`` on one assembly mode:
         None for a full turn, else (lo, hi, lo_end, hi_end)."""
         if self.periodic:
             return self._component_periodic(seed, signs)
         return self._component_line(seed, signs)
 
-    def _component_periodic(self, seed, signs):
+    def _component_periodic(self, seed: float, signs: Sequence[int]) -> Component:
         n = self.samples
         c = n // 2
         dt = TWO_PI / n
@@ -167,7 +186,7 @@ class _Line:
         lo, kl = self.refine(seed - down * dt, seed - (down + 1) * dt, signs)
         return lo, hi, ('toggle', kl), ('toggle', kh)
 
-    def _component_line(self, seed, signs):
+    def _component_line(self, seed: float, signs: Sequence[int]) -> Component:
         assert self.bracket is not None, 'a slide scan needs its bracket'
         blo, bhi, hard_lo, hard_hi = self.bracket
         grow = 0
@@ -213,30 +232,31 @@ class _Line:
             lo_end = ('toggle', k)
         return lo, hi, lo_end, hi_end
 
-    def _soft_low(self, v):
+    def _soft_low(self, v: float) -> float:
         act = self.mech.actuators.get(self.scan)
         if isinstance(act, SlideActuator) and act.cylinder:
             return max(v, 1e-6 * self.scale)  # a cylinder's pin-to-pin length stays > 0
         return v
 
-    def _same(self, a, b):
+    def _same(self, a: float, b: float) -> bool:
         if self.periodic:
             return abs(wrap_angle(a - b)) <= 1e-9
         return abs(a - b) <= 1e-9 * self.scale
 
     # -- circuits
-    def within(self, v: float, limits) -> bool:
+    def within(self, v: float, limits: Limits) -> bool:
         """Is ``v`` inside the actuator's limits ((lo, hi) with None sides for slides, a circular
         (lo, hi) or None for angles)?"""
         if limits is None:
             return True
         lo, hi = limits
         if self.periodic:
-            return (v - lo) % TWO_PI <= (hi - lo) + 1e-12
+            assert lo is not None and hi is not None  # an arc has both ends
+            return on_arc(v, lo, hi, 1e-12)  # the limit rule's arc (model.limits)
         tol = 1e-12 * self.scale
         return (lo is None or v >= lo - tol) and (hi is None or v <= hi + tol)
 
-    def circuit(self, x0: float, limits=None) -> list[_Segment]:
+    def circuit(self, x0: float, limits: Limits = None) -> list[_Segment]:
         """Follow the motion from ``x0`` in the reference assembly mode through every toggle
         (only toggles inside ``limits``: the motion cannot reach the others)."""
         ref = tuple(self.plan.reference_signs)
@@ -278,18 +298,19 @@ class _Line:
         return segs
 
     # -- sampled quantities
-    def margins(self, xs, signs):
+    def margins(self, xs: npt.ArrayLike, signs: Sequence[int]) -> np.ndarray:
         _, _, info = self.run(xs, signs)
         return np.where(info['ok'], info['margin'], np.nan)
 
-    def link_angle(self, xs, signs, link):
+    def link_angle(self, xs: npt.ArrayLike, signs: Sequence[int], link: str) -> np.ndarray:
         poses, _, info = self.run(xs, signs)
         ang = self.mech.links[link].angle_ref + np.asarray(poses.phi[link], float)
         return np.where(info['ok'], ang, np.nan)
 
 
-def _held_reference(mech: Mechanism, scan: str, held: Mapping[str, Any] | None):
-    out = {}
+def _held_reference(mech: Mechanism, scan: str, held: Mapping[str, Any] | None) -> dict[str, Any]:
+    """The other actuators' values a scan holds: ``held``'s, else the reference pose's."""
+    out: dict[str, Any] = {}
     for a in mech.actuators:
         if a == scan:
             continue
@@ -297,7 +318,8 @@ def _held_reference(mech: Mechanism, scan: str, held: Mapping[str, Any] | None):
     return out
 
 
-def _slide_bracket(mech: Mechanism, name: str, x0: float):
+def _slide_bracket(mech: Mechanism, name: str, x0: float) -> Bracket:
+    """Where a slide's scan looks (m): its limits, else 4 length scales either side."""
     act = mech.actuators.get(name)
     lo = act.min if act is not None else None
     hi = act.max if act is not None else None

@@ -10,7 +10,7 @@ import numpy as np
 
 from ..model import Mechanism
 from ..solver import Solver
-from .common import link_key, point_key, reference_value
+from .common import link_key, point_key, reference_scalar
 from .walk import _walk
 
 # ---- tilt of a link about a held point --------------------------------------------------------
@@ -20,7 +20,7 @@ def max_tilt(
     mech: Mechanism,
     lip: str,
     link: str,
-    hold_point=None,
+    hold_point: Sequence[float] | np.ndarray | None = None,
     start_angle: float | None = None,
     inputs: Mapping[str, float] | None = None,
     held: Sequence[str] | None = None,
@@ -28,7 +28,7 @@ def max_tilt(
     max_rotation: float = math.pi,
     tol: float = 1e-12,
     method: str | None = None,
-) -> dict:
+) -> dict[str, Any]:
     """Largest rotation of ``link`` (the bin) about its point ``lip`` (L) held fixed, within the
     actuator limits: inverse kinematics with knowns [lip point, link angle] (plus ``held``
     actuators at their current values when the mechanism has more than three DOF), scanning the
@@ -62,7 +62,7 @@ def max_tilt(
     if len(held) != extra:
         raise ValueError(f'hold exactly {extra} actuator(s) of {mech.name!r} (got {held})')
     pk, lk = point_key(mech, lip), link_key(mech, link)
-    current = {a: reference_value(mech, a) for a in mech.actuators}
+    current = {a: reference_scalar(mech, a) for a in mech.actuators}
     if inputs:
         current.update({k: float(v) for k, v in inputs.items()})
         fwd = Solver(mech, method=method).solve(current)
@@ -84,8 +84,8 @@ def max_tilt(
     a0 = float(ang_now if start_angle is None else start_angle)
     solver = Solver(mech, knowns=[pk, lk] + held, method=method, branch='continuous', max_iter=200)
 
-    def command(angle):
-        cmd = {pk: hold, lk: angle}
+    def command(angle: float) -> dict[str, Any]:
+        cmd: dict[str, Any] = {pk: hold, lk: angle}
         cmd.update({h: current[h] for h in held})
         return cmd
 

@@ -9,20 +9,21 @@ from typing import Any
 from ..model import Mechanism
 from ..solver import Result, Solver
 from .common import ANGLE_TOL, LENGTH_TOL, TWO_PI, without_limits
+from .scan import Bracket, Component
 
 # ---- walks with the solver (Newton / hybrid plans, inverse problems with limits) --------------
 
 
 def _walk(
     solver: Solver,
-    command: Callable[[float], dict],
+    command: Callable[[float], dict[str, Any]],
     start: Result,
     x0: float,
     direction: int,
     step: float,
     extent: float,
     tol: float,
-):
+) -> tuple[float | None, str | None, Result]:
     """Follow a scalar known from x0 in one direction with warm-started, branch-continuous solves
     until a solve is refused, then bisect between the last accepted and the first refused value.
 
@@ -62,15 +63,15 @@ def _walk_range(
     held: Mapping[str, Any],
     x0: float,
     periodic: bool,
-    bracket=None,
-    step=None,
-):
+    bracket: Bracket | None = None,
+    step: float | None = None,
+) -> Component:
     """Range of a known by continuation (when no closed-form plan exists): (lo, hi, lo_end,
     hi_end) or None for a full turn."""
     free = without_limits(mech)
     solver = Solver(free, knowns=[scan] + list(held), branch='continuous', max_iter=200)
 
-    def command(v):
+    def command(v: float) -> dict[str, Any]:
         return {scan: v, **held}
 
     start = solver.solve(command(x0), commit=False)
@@ -86,6 +87,7 @@ def _walk_range(
         if ends[0] is None or ends[1] is None:
             return None
         return ends[1], ends[0], ('toggle', None), ('toggle', None)
+    assert bracket is not None, 'a slide walk needs its bracket'
     blo, bhi, hard_lo, hard_hi = bracket
     step = step or (bhi - blo) / 360.0
     tol = LENGTH_TOL * mech.length_scale

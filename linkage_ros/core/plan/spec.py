@@ -16,6 +16,8 @@ from ..errors import PlanError
 from ..execute import LinkPoses
 from ..model import Mechanism, SlideActuator
 from ..model.limits import limit_violation as _limit_violation
+from ..model.names import KNOWN_KINDS as KNOWN_KINDS
+from ..model.names import NameKind, resolve_name
 from ..ops import BATCH, SCALAR, to_xy
 from ..quantities import AngleSpec, PointSpec, ScalarSpec, SlideSpec, Spec
 from .poses import Poses, ScalarPoses, link_poses
@@ -23,73 +25,50 @@ from .poses import Poses, ScalarPoses, link_poses
 # ---- known-quantity specs --------------------------------------------------------------------
 
 
-KNOWN_KINDS = ('actuator', 'joint', 'link', 'point')
-
-
 def spec_for(mech: Mechanism, name: str) -> Spec:
-    """Resolve a user-facing name: actuator, then joint, then link (its angle), then point.
-
-    A prefix picks the kind explicitly: ``point:D`` is the point D even where a joint is also
-    named D (every point shared by two links is), likewise ``joint:``, ``link:``, ``actuator:``.
-    The spec keeps the name exactly as given, so command dicts use the same key.
-    """
-    kind, _, bare = name.partition(':') if ':' in name else ('', '', name)
-    if kind:
-        if kind not in KNOWN_KINDS:
-            raise PlanError(f'unknown kind {kind!r} in {name!r}; use one of {list(KNOWN_KINDS)}')
-        found = _spec_of_kind(mech, kind, bare)
-        if found is None:
-            raise PlanError(f'{mech.name!r} has no {kind} named {bare!r}')
-        return _renamed(found, name)
-    for kind in KNOWN_KINDS:
-        found = _spec_of_kind(mech, kind, name)
-        if found is not None:
-            return found
-    raise PlanError(
-        f'unknown name {name!r}: not an actuator, joint, link or point of {mech.name!r}'
-    )
+    """Resolve a user-facing name (the one rule: model.names.resolve_name: actuator, then
+    joint, then link (its angle), then point; ``point:D`` picks the kind explicitly) to its
+    spec. The spec keeps the name exactly as given, so command dicts use the same key."""
+    named = resolve_name(mech, name)
+    spec = _spec_of(mech, named.kind, named.name)
+    return replace(spec, name=name) if named.given != named.name else spec
 
 
-def _renamed(spec: Spec, name: str) -> Spec:
-    return replace(spec, name=name)
-
-
-def _spec_of_kind(mech: Mechanism, kind: str, name: str) -> Spec | None:
-    if kind == 'actuator' and name in mech.actuators:
-        act = mech.actuators[name]
-        if isinstance(act, SlideActuator):
-            return SlideSpec(name, act.joint, minimum=act.min, maximum=act.max)
-        link = mech.links[act.link]
-        v = mech.points[act.toward] - mech.points[act.pivot]
-        d0 = math.atan2(v[1], v[0])
-        ref_angle = 0.0 if act.reference == mech.ground else mech.links[act.reference].angle_ref
-        return AngleSpec(
-            name,
-            link.name,
-            act.reference,
-            offset=d0 - ref_angle,
-            minimum=act.min,
-            maximum=act.max,
-        )
-    if kind == 'joint':
-        for rj in mech.revolutes:
-            if rj.name == name:
-                # joint value = child link angle - parent link angle (each along its axis)
-                return AngleSpec(
-                    name,
-                    rj.child,
-                    rj.parent,
-                    offset=mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref,
-                )
-        if name in mech.prismatics:
+def _spec_of(mech: Mechanism, kind: NameKind, name: str) -> Spec:
+    match kind:
+        case NameKind.ACTUATOR:
+            act = mech.actuators[name]
+            if isinstance(act, SlideActuator):
+                return SlideSpec(name, act.joint, minimum=act.min, maximum=act.max)
+            link = mech.links[act.link]
+            v = mech.points[act.toward] - mech.points[act.pivot]
+            d0 = math.atan2(v[1], v[0])
+            ref_angle = 0.0 if act.reference == mech.ground else mech.links[act.reference].angle_ref
+            return AngleSpec(
+                name,
+                link.name,
+                act.reference,
+                offset=d0 - ref_angle,
+                minimum=act.min,
+                maximum=act.max,
+            )
+        case NameKind.JOINT:
+            for rj in mech.revolutes:
+                if rj.name == name:
+                    # joint value = child link angle - parent link angle (each along its axis)
+                    return AngleSpec(
+                        name,
+                        rj.child,
+                        rj.parent,
+                        offset=mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref,
+                    )
             return SlideSpec(name, name)
-    if kind == 'link' and name in mech.links:
-        if name == mech.ground:
-            raise PlanError(f'{name!r} is the ground link: its angle is fixed')
-        return AngleSpec(name, name, mech.ground, offset=mech.links[name].angle_ref)
-    if kind == 'point' and name in mech.points:
-        return PointSpec(name, name)
-    return None
+        case NameKind.LINK:
+            if name == mech.ground:
+                raise PlanError(f'{name!r} is the ground link: its angle is fixed')
+            return AngleSpec(name, name, mech.ground, offset=mech.links[name].angle_ref)
+        case NameKind.POINT:
+            return PointSpec(name, name)
 
 
 def spec_point_link(mech: Mechanism, point: str, preferred: str) -> str:
@@ -175,3 +154,10 @@ def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
 def limit_violation(spec: ScalarSpec, value: float) -> str | None:
     """Why ``value`` is outside ``spec``'s limits (the one rule: model.limits), or None."""
     return _limit_violation(spec.name, value, spec.minimum, spec.maximum, spec.unit, spec.periodic)
+
+
+def needs_beyond_limits(spec: ScalarSpec, value: float) -> str | None:
+    """Why an inverse solve's answer is refused where it needs actuator ``spec`` at ``value``
+    beyond its limits (the one wording of the scalar and the batch solve), or None."""
+    why = limit_violation(spec, value)
+    return None if why is None else f'target needs {why}'

@@ -18,6 +18,7 @@ from ..plan import (
     branch_geometry_one,
     limit_violation,
     link_poses,
+    needs_beyond_limits,
 )
 from ..quantities import PointSpec
 from .compiled import CompiledSolve, SolveMode
@@ -170,10 +171,10 @@ def _fill(
         for s in c.actuator_specs:
             if s.name in out.inputs and (s.minimum is not None or s.maximum is not None):
                 for i in np.flatnonzero(ok):
-                    why = limit_violation(s, float(out.inputs[s.name][i]))
+                    why = needs_beyond_limits(s, float(out.inputs[s.name][i]))
                     if why:
                         ok[i] = False
-                        out.reason[i] = f'target needs {why}'
+                        out.reason[i] = why
     out.ok = ok
 
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..errors import PlanError
 from ..model import Mechanism, SlideActuator
+from ..model.names import Named, NameKind, resolve_name
 from ..newton import LoopSystem
 from ..plan import Plan, Spec, reference_poses, spec_for, spec_value_one
 from ..quantities import AngleSpec, PointSpec, ScalarSpec
@@ -147,31 +148,42 @@ def _value(mech: Mechanism, s: Spec, poses: Any) -> Any:
 def _wanted(
     mech: Mechanism, outputs: Sequence[str] | None
 ) -> tuple[list[str] | None, list[str] | None]:
-    """The links and points the wanted outputs need placed (None: every one)."""
+    """The links and points the wanted outputs need placed (None: every one). An output says
+    what to place: a bare name is a link, else a point (a scene's outputs are point names: a
+    point needs one of its links placed, the joint of the same name both), else resolved by
+    the one rule (model.names: actuator, joint); a prefix such as ``point:P`` picks the kind."""
     if outputs is None:
         return None, None
     links: set[str] = set()
     pts: set[str] = set()
     for name in outputs:
-        if name in mech.links:
-            links.add(name)
-        elif name in mech.points:
-            pts.add(name)
-        elif name in mech.prismatics:
-            pj = mech.prismatics[name]
-            links |= {pj.guide, pj.slider}
-        elif name in mech.actuators:
-            a = mech.actuators[name]
-            if isinstance(a, SlideActuator):
-                pj = mech.prismatics[a.joint]
-                links |= {pj.guide, pj.slider}
+        try:
+            if name in mech.links:
+                named = Named(NameKind.LINK, name, name)
+            elif name in mech.points:
+                named = Named(NameKind.POINT, name, name)
             else:
-                links |= {a.link, a.reference}
-        else:
-            rj = next((r for r in mech.revolutes if r.name == name), None)
-            if rj is None:
-                raise PlanError(f'unknown output {name!r} of {mech.name!r}')
-            links |= {rj.parent, rj.child}
+                named = resolve_name(mech, name)
+        except PlanError:
+            raise PlanError(f'unknown output {name!r} of {mech.name!r}') from None
+        match named.kind:
+            case NameKind.POINT:
+                pts.add(named.name)
+            case NameKind.LINK:
+                links.add(named.name)
+            case NameKind.ACTUATOR:
+                a = mech.actuators[named.name]
+                if isinstance(a, SlideActuator):
+                    pj = mech.prismatics[a.joint]
+                    links |= {pj.guide, pj.slider}
+                else:
+                    links |= {a.link, a.reference}
+            case NameKind.JOINT if named.name in mech.prismatics:
+                pj = mech.prismatics[named.name]
+                links |= {pj.guide, pj.slider}
+            case NameKind.JOINT:
+                rj = next(r for r in mech.revolutes if r.name == named.name)
+                links |= {rj.parent, rj.child}
     return sorted(links), sorted(pts)
 
 

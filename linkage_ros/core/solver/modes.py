@@ -11,16 +11,15 @@ are counted apart. The list says it may be incomplete (``ModeList.complete`` is 
 
 from __future__ import annotations
 
-import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
-from ..plan import limit_violation
-from ..steps import RollerSide
+from ..plan import Plan, limit_violation
+from ..steps import RollerSide, sign_combinations
 from .compiled import CompiledSolve, SolveMode
 from .continuity import Branch, BranchRule, Continuity
 from .one import solve_one
@@ -141,7 +140,7 @@ def closed_form_modes(
     if not c.branch_count:
         return [solve_one(c, cont.with_branch(cont.branch), values, commit=False)]
     out: list[Result] = []
-    for combo in itertools.product((1, -1), repeat=c.branch_count):
+    for combo in sign_combinations(c.branch_count):
         r = solve_one(c, cont.with_branch(Branch(BranchRule.EXPLICIT, combo)), values, commit=False)
         # coincident modes (at a toggle) are one answer
         if r.success and _is_new(r, out, c.mech.length_scale):
@@ -207,11 +206,6 @@ def newton_modes(
     return found
 
 
-#: a dyad margin below which the reference pose is read as drawn at that dyad's toggle (the
-#: threshold below which a branch sign is not read as the assembly mode)
-TOGGLE_MARGIN = SIGN_MARGIN
-
-
 def reference_toggle_warnings(c: CompiledSolve) -> list[str]:
     """Why the reference pose does not choose an assembly mode, if it does not: each branching
     dyad of the forward plan ``c`` that the drawing puts at its toggle (a cell drawn folded
@@ -223,12 +217,17 @@ def reference_toggle_warnings(c: CompiledSolve) -> list[str]:
     mode = mode_of(c, ref) if ref.success else None
     if mode is None:
         return []
-    out = []
-    for step, margin in zip(c.plan.branch_steps, mode[1]):
-        if margin < TOGGLE_MARGIN:
-            out.append(
-                f'the reference pose is at the toggle of {step.describe(c.plan)} (margin '
-                f'{margin:.3g}): its assembly mode there is not chosen by the drawing; draw the '
-                'pose off the toggle to choose it'
-            )
-    return out
+    return toggle_warnings(c.plan, mode[1])
+
+
+def toggle_warnings(plan: Plan, margins: Sequence[float]) -> list[str]:
+    """The reference-pose warning of each branching step of ``plan`` whose dyad margin (as
+    drawn) is below SIGN_MARGIN, where its branch sign is not the assembly mode: the one wording
+    of the closed-form and the hybrid plans."""
+    return [
+        f'the reference pose is at the toggle of {step.describe(plan)} (margin {margin:.3g}): '
+        'its assembly mode there is not chosen by the drawing; draw the pose off the toggle to '
+        'choose it'
+        for step, margin in zip(plan.branch_steps, margins)
+        if margin < SIGN_MARGIN
+    ]

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from ..plan import limit_violation, run_one
+from ..plan import needs_beyond_limits, run_one
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity, State, state_of
 from .newton_path import solve_newton
@@ -40,9 +40,9 @@ def solve_one(
         for s in c.actuator_specs:
             v = res.inputs.get(s.name)
             if v is not None:
-                why = limit_violation(s, v)
+                why = needs_beyond_limits(s, v)
                 if why:
-                    return c.fail(f'target needs {why}', given, solver=res.solver)
+                    return c.fail(why, given, solver=res.solver)
     if commit and state is not None:
         cont.commit(state)
     return res

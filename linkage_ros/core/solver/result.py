@@ -8,6 +8,7 @@ from typing import Any, TypeVar
 import numpy as np
 
 from ..model import Mechanism
+from ..model.names import NameKind, resolve_name
 from ..steps import branch_signs as branch_signs  # re-exported: the solver's vocabulary
 from ..steps import branch_text as branch_text
 
@@ -110,6 +111,22 @@ class Result:
         if self.targets:
             out['targets'] = dict(self.targets)
         return out
+
+
+def named_value(mech: Mechanism, result: Result, name: str) -> Any:
+    """The value of a known-able ``name`` in a solved result, the name resolved by the one rule
+    (model.names.resolve_name: actuator, joint, link angle, point, or as its prefix says): a
+    float (rad or m), or (x, y) (m) for a point. PlanError for a name the mechanism lacks."""
+    named = resolve_name(mech, name)
+    match named.kind:
+        case NameKind.ACTUATOR:
+            return result.inputs[named.name]
+        case NameKind.JOINT:
+            return result.joints[named.name]
+        case NameKind.LINK:
+            return result.links[named.name]
+        case NameKind.POINT:
+            return result.points[named.name]
 
 
 def _described(mech: Mechanism | None, result: Result) -> dict[str, Any]:

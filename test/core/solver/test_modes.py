@@ -64,3 +64,45 @@ def test_the_cli_says_whether_the_list_is_every_mode(capsys):
     assert cli_main(argv) == 0
     out = capsys.readouterr().out
     assert out.startswith('assembly modes: 2 found (Newton from 128 starts: may be incomplete)')
+
+
+def test_a_toggle_is_warned_below_the_one_sign_threshold_in_one_wording():
+    """reference_toggle_warnings (closed form) and reference_pose_warnings (hybrid) word a
+    reference pose at a toggle alike (modes.toggle_warnings), below result.SIGN_MARGIN, the
+    threshold below which a branch sign is not read as the assembly mode."""
+    import re
+
+    from scenes import four_bar
+
+    from linkage_ros.core.model import Scene
+    from linkage_ros.core.reference_warnings import reference_pose_warnings
+    from linkage_ros.core.solver.modes import toggle_warnings
+    from linkage_ros.core.solver.result import SIGN_MARGIN
+
+    plan = Solver(four_bar(0.30, 0.10, 0.25, 0.20)).plan
+    (step,) = plan.branch_steps
+    got = toggle_warnings(plan, [0.5 * SIGN_MARGIN])
+    assert toggle_warnings(plan, [2.0 * SIGN_MARGIN]) == []
+    wording = (
+        r'the reference pose is at the toggle of (.+) \(margin [0-9.e+-]+\): its assembly mode '
+        r'there is not chosen by the drawing; draw the pose off the toggle to choose it'
+    )
+    (one,) = got
+    assert re.fullmatch(wording, one).group(1) == step.describe(plan)
+    # a four-bar drawn with coupler and rocker stretched out in line (0.15 + 0.15 = |A O4|):
+    # the solver's own reading of its drawing warns in the same words
+    flat = Scene.from_dict(
+        {
+            'name': 'flat',
+            'points': {'O2': [0, 0], 'A': [0.1, 0], 'B': [0.25, 0], 'O4': [0.4, 0]},
+            'links': {
+                'ground': ['O2', 'O4'],
+                'crank': ['O2', 'A'],
+                'coupler': ['A', 'B'],
+                'rocker': ['O4', 'B'],
+            },
+            'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
+        }
+    ).mechanism
+    (warned,) = reference_pose_warnings(Solver(flat))
+    assert re.fullmatch(wording, warned)

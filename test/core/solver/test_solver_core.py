@@ -753,6 +753,9 @@ def test_cylinder_limits_forward_and_inverse(method):
             continue  # not this side of the ground line
         assert 'target needs' in r.reason and 'cyl' in r.reason and 'maximum' in r.reason
         assert re.search(r'by 0\.05\b', r.reason), r.reason
+        # the batch refuses the row in the same words (one rule: plan.needs_beyond_limits)
+        batch = inv.solve_batch({'lever': [_wrap(target)]})
+        assert not batch.ok[0] and batch.reason[0] == r.reason
         break
     else:
         pytest.fail('no lever angle needing a 1.45 m cylinder was refused')

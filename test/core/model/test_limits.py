@@ -1,0 +1,106 @@
+"""The one limit rule (core.model.limits): limit_violation judges a value, angle_limit_arc is the
+same rule as the arc the motion analyses clip input ranges to. The oracle is the rule of
+docs/SCENES.md written out here (an angle with both limits is brought into [min, min + 2 pi))."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+import scenes
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from linkage_ros.core.model.limits import angle_limit_arc, limit_violation
+from linkage_ros.core.motion import actuator_range
+
+angles = st.floats(-2 * math.pi, 2 * math.pi, allow_nan=False)
+
+
+def inside_documented(value: float, lo: float | None, hi: float | None) -> bool:
+    if lo is not None and hi is not None:
+        return lo + (value - lo) % (2 * math.pi) <= hi
+    reported = math.atan2(math.sin(value), math.cos(value))  # in [-pi, pi]
+    return (lo is None or reported >= lo) and (hi is None or reported <= hi)
+
+
+def inside_arc(value: float, arc: tuple[float, float] | None) -> bool:
+    if arc is None:
+        return True
+    a, b = arc
+    return a + (value - a) % (2 * math.pi) <= b
+
+
+def clear_of(value: float, *bounds: float | None) -> bool:
+    """Not within rounding of a bound (the rule's slack is 1e-12 there)."""
+    return all(b is None or abs(math.remainder(value - b, 2 * math.pi)) > 1e-9 for b in bounds)
+
+
+@settings(max_examples=400, deadline=None)
+@given(lo=angles, width=st.floats(1e-3, 7.0), value=angles, sides=st.sampled_from('lhb'))
+def test_the_arc_allows_exactly_the_angles_the_check_allows(lo, width, value, sides):
+    hi = lo + width
+    lo_, hi_ = (lo, None) if sides == 'l' else (None, hi) if sides == 'h' else (lo, hi)
+    # a one-sided arc ends at +-pi, one angle on the circle (the reported angle is pi)
+    if not clear_of(value, lo_, hi_, math.pi if sides != 'b' else None):
+        return
+    allowed = limit_violation('a', value, lo_, hi_, 'rad', periodic=True) is None
+    assert allowed == inside_documented(value, lo_, hi_)
+    assert allowed == inside_arc(value, angle_limit_arc(lo_, hi_))
+
+
+def test_limits_a_full_turn_apart_allow_every_angle():
+    assert angle_limit_arc(0.0, 2 * math.pi) is None
+    assert angle_limit_arc(None, None) is None
+    for v in (-3.0, 0.0, 1.0, 3.1, 7.0):
+        assert limit_violation('a', v, 0.0, 2 * math.pi, 'rad', periodic=True) is None
+
+
+def test_an_input_range_ends_where_the_check_starts_refusing():
+    """The motion analyses clip an angle input's range to the arc: the shipped oscillating
+    inverted slider-crank assembles over [0.4027, 5.8805] rad and is limited to 0.4127 .. 5.8704
+    (an arc through pi): its range ends at the limits, which pass the check, and a step beyond
+    each is refused."""
+    mech = scenes.load('inverted_slider_crank_oscillating')
+    ((name, act),) = mech.actuators.items()
+    info = actuator_range(mech, name)
+    assert (info['min_source'], info['max_source']) == ('limit', 'limit')
+    for end in (info['min'], info['max']):
+        assert limit_violation(name, end, act.min, act.max, 'rad', periodic=True) is None
+        assert inside_arc(end, angle_limit_arc(act.min, act.max))
+    for outside in (info['min'] - 1e-3, info['max'] + 1e-3):
+        assert limit_violation(name, outside, act.min, act.max, 'rad', periodic=True)
+        assert not inside_arc(outside, angle_limit_arc(act.min, act.max))
+
+
+@pytest.mark.parametrize('value', [-1.0, 0.3, 2.1])
+def test_a_refused_angle_names_the_nearer_limit(value):
+    """docs/SCENES.md's example: with min 0.4, max 2.0, -1.0 is below its minimum by 1.4."""
+    why = limit_violation('crank', value, 0.4, 2.0, 'rad', periodic=True)
+    if value == 0.3:
+        assert why is not None and 'below its minimum 0.4 by 0.1 rad' in why
+    elif value == -1.0:
+        assert why is not None and 'below its minimum 0.4 by 1.4 rad' in why
+    else:
+        assert why is not None and 'beyond its maximum 2 by 0.1 rad' in why
+
+
+def test_an_angle_with_one_limit_is_judged_as_reported_by_the_solve_and_the_range():
+    """A crank limited by a minimum of -1 rad alone: ``linkage range`` gives [-1, pi]; the solve
+    refuses 4 rad (the angle -2.28 rad) as it refuses -2.28, and takes 2 rad and 2 + 2 pi. The
+    solve compared the command as written and took 4 rad."""
+    import dataclasses
+
+    from linkage_ros.core.solver import Solver
+
+    mech = scenes.four_bar(0.30, 0.10, 0.25, 0.20)  # a Grashof crank: it turns fully
+    (name,) = mech.actuators
+    mech.actuators = {name: dataclasses.replace(mech.actuators[name], min=-1.0)}
+    info = actuator_range(mech, name)
+    assert (info['min'], info['max']) == (-1.0, math.pi)
+    solver = Solver(mech)
+    for refused in (4.0, 4.0 - 2 * math.pi):
+        r = solver.solve({name: refused})
+        assert not r.success and 'below its minimum -1 by 1.28' in r.reason, r.reason
+    for taken in (2.0, 2.0 + 2 * math.pi):
+        assert solver.solve({name: taken}).success
