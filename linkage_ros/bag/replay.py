@@ -3,7 +3,7 @@ identical."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -77,10 +77,15 @@ class _Engine:
         progress: _Progress | None = None,
         plans: Sequence[PlanRequest] = (),
         frame_id: str = '',
+        decoded: Iterable[PlanRequest] | None = None,
+        on_plan: Callable[[PlanRequest], None] | None = None,
     ) -> Results:
         """Every command in order; ``plans`` (recorded trajectories and paths, in bag time
         order) are answered at their place among them, from the state the commands before
-        them left (bag.plans.answer_plan)."""
+        them left (bag.plans.answer_plan). ``decoded`` gives the same plans one at a time with
+        their messages (bag.plans.decoded_plans; default: ``plans``, decoded already). Each
+        answered plan goes to ``on_plan`` (the outputs), which leaves it only its outcome:
+        one plan's message and answer are held at a time."""
         progress = progress or _Progress(False)
         n = data.n
         self.res = res = Results.empty(self.mech, n)
@@ -90,6 +95,7 @@ class _Engine:
         # a plan comes after every command received at or before its own receive time
         cuts = np.searchsorted(data.log_ns, [p.log_ns for p in plans], side='right').tolist()
         pending = list(zip(cuts, plans))
+        stream = iter(plans if decoded is None else decoded)
 
         def plans_up_to(row: int) -> None:
             while pending and pending[0][0] <= row:
@@ -97,7 +103,12 @@ class _Engine:
                 # entries); the plan leaves the engine's state as it found it
                 for ctx in (self.forward, *self._contexts.values()):
                     ctx.sync()
-                answer_plan(self.engine, pending.pop(0)[1], frame_id)
+                req = next(stream)
+                assert req is pending.pop(0)[1]  # the same plans in the same order
+                answer_plan(self.engine, req, frame_id)
+                if on_plan is not None:
+                    on_plan(req)
+                    req.shed()
 
         plans_up_to(0)
         if n:
