@@ -101,7 +101,8 @@ class _Engine:
                 for ctx in (self.forward, *self._contexts.values()):
                     ctx.sync()
                 req = next(stream)
-                assert req is pending.pop(0)[1]  # the same plans in the same order
+                if req is not pending.pop(0)[1]:
+                    raise ValueError('decoded must give the plans, in their order')
                 answer_plan(self.engine, req, frame_id)
                 if on_plan is not None:
                     on_plan(req)

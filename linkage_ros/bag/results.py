@@ -15,7 +15,7 @@ from ..core.velocity import Velocities
 from ..engine import velocity_status
 
 
-@dataclass
+@dataclass(eq=False)  # numpy columns: no field-wise ==
 class Results(ResultTable):
     """Per-row answers (n rows), NaN where a row was refused (ResultTable's rule)."""
 

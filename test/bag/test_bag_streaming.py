@@ -121,3 +121,36 @@ def test_many_trajectories_cost_the_memory_of_one(tmp_path):
 
     # the commands are answered as if no plan had been there (a plan leaves the state)
     assert (folder / 'o.csv').read_bytes() == (tmp_path / 'none' / 'o.csv').read_bytes()
+
+
+def test_a_damaged_plan_found_while_streaming_leaves_no_output(tmp_path, capsys):
+    """A trajectory that does not decode is found when its turn comes (after the plans
+    before it went to the outputs): exit 2 naming the message, and no output at all (no
+    command CSV, no trajectories' CSV, no result bag, no partial file)."""
+    from rosbags.rosbag2 import Writer
+    from rosbags.rosbag2.enums import StoragePlugin
+
+    from linkage_ros.bag import main
+
+    good = bytes(tf.TS.serialize_cdr(tf.trajectory(crank_rows(0)[:5], 7), tf.TRAJ))
+    folder = tmp_path / 'in'
+    with Writer(folder / 'bag', version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        c_cmd = w.add_connection('/cmd', tf.JS, typestore=tf.TS)
+        c_traj = w.add_connection('/traj', tf.TRAJ, typestore=tf.TS)
+        for i in range(20):
+            t = tf.T0 + i * 10**7
+            sec, ns = divmod(t, 10**9)
+            msg = tf.joint_state(['crank'], [0.3 + 0.01 * i], sec, ns)
+            w.write(c_cmd, t, tf.TS.serialize_cdr(msg, tf.JS))
+        for k, raw in enumerate([good, good[: len(good) // 2], good]):
+            w.write(c_traj, tf.T0 + (5 + 5 * k) * 10**7 + 1, raw)
+    out = tmp_path / 'out'
+    out.mkdir()
+    args = [str(folder / 'bag'), '--scene', str(tf.SCENE), '--command-topic', '/cmd']
+    args += ['--trajectory-topic', '/traj', '--out', str(out / 'o.csv')]
+    args += ['--out', str(out / 'obag'), '--no-progress']
+    code = main(args)
+    err = capsys.readouterr().err
+    assert code == 2
+    assert f'message 2 on /traj is not a {tf.TRAJ}' in err
+    assert sorted(p.name for p in out.iterdir()) == []

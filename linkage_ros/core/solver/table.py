@@ -40,7 +40,7 @@ def _nan(n: int) -> np.ndarray:
     return np.full(n, np.nan)
 
 
-@dataclass
+@dataclass(eq=False)  # numpy columns: no field-wise ==
 class ResultTable:
     """Per-row answers of n commands (module docstring: a refused row). Branch and solver
     are codes into ``branch_names`` / ``solver_names`` (code 0: '', a refused row's)."""
