@@ -5,6 +5,10 @@ They are read beside the command topics and answered at their place in bag time:
 before them set the state they start from, and (a trajectory being a plan) they leave it as it
 was. The solving is trajectory.py's, the node's own; only the stamp rule is the bag's, as for
 commands (a zero stamp is the bag receive time).
+
+Memory: the bag is read twice for them. The first read places each message (bag time, topic,
+size) without decoding it; the second decodes each when its turn comes, and once its outputs
+have its answer only its outcome is kept (bag/run_outputs.py), so one plan is held at a time.
 """
 
 from __future__ import annotations

@@ -23,6 +23,10 @@ import oracles
 import test_fleet as tf
 from rosbags.rosbag2 import Reader
 
+from linkage_ros.core.model import Scene
+from linkage_ros.engine import Engine, EngineSettings
+from linkage_ros.trajectory import solve_trajectory
+
 POINTS = 4000
 MANY = 8
 
@@ -96,6 +100,21 @@ def test_many_trajectories_cost_the_memory_of_one(tmp_path):
             want = fourbar_joints(crank_rows(k)[i][0])
             for j, v in want.items():
                 assert math.isclose(float(mine[i][f'joint.{j}']), v, abs_tol=1e-12), (k, i, j)
+
+    # the same as answered whole, one after another, by the node's trajectory code on an
+    # engine that saw the commands before them (each plan leaves the state as it was)
+    engine = Engine(Scene.from_yaml(tf.SCENE).mechanism, EngineSettings())
+    for i in range(101):  # write_fleet_bag's commands received before the plans
+        engine.command({'crank': 0.3 + 0.013 * i})
+    times = [(i + 1) * 10**9 for i in range(POINTS)]
+    for k in (0, MANY - 1):
+        whole = solve_trajectory(engine, ['crank'], crank_rows(k), (), times)
+        assert whole.success
+        mine = rows[k * POINTS : (k + 1) * POINTS]
+        for r, row in zip(whole.results, mine):
+            assert [repr(float(r.joints[j])) for j in ('O2', 'A', 'B', 'O4')] == [
+                row[f'joint.{j}'] for j in ('O2', 'A', 'B', 'O4')
+            ]
 
     # the result bag: one solved trajectory and one status per plan, equal to the CSV's rows
     solved, statuses = [], []
