@@ -2,12 +2,13 @@
 kept every answer (about 3.6 KB a point: 36 MB per 10^4-point trajectory, 1.5 GB for 40 of
 them) until the end. Memory is now bounded by one plan whatever the number of plans.
 
-Memory is measured in a subprocess per run (the growth of its peak RSS over the analysis
-alone): the same commands with 0, 1 and 8 recorded trajectories. One plan's cost is what the
-run with one adds to the run with none; eight must not cost much more than one (the old code
-paid for each of them: 8 x 4000 points took 7 x 14 MB more than one). The outputs are checked
-against the closed-form four-bar (oracles.fourbar, 50 digits), and the two streamed outputs
-(the trajectories' CSV, the result bag) against each other.
+Memory is measured in a subprocess per run (the growth of its peak RSS, VmHWM, over
+the analysis alone): the same commands with 0, 1 and 8 recorded trajectories. One plan's cost
+is what the run with one adds to the run with none; eight must not cost much more than one
+(the old code paid for each of them: 8 x 4000 points took 7 x 14 MB more than one). The
+outputs are checked against the closed-form four-bar (oracles.fourbar, 50 digits), the node's
+trajectory code answering them whole, and the two streamed outputs (the trajectories' CSV, the
+result bag) against each other.
 """
 
 from __future__ import annotations
@@ -30,15 +31,21 @@ from linkage_ros.trajectory import solve_trajectory
 POINTS = 4000
 MANY = 8
 
-#: the analysis in a process of its own; prints its peak RSS growth (KiB) and exit status
+#: the analysis in a process of its own; prints its peak RSS growth (KiB) and exit status.
+#: The peak is the process's own (VmHWM: ru_maxrss starts at the parent's size after exec, so
+#: a child of a big test process would see no growth)
 RUN = """
-import json, resource, sys
+import json, sys
 from linkage_ros.bag import main
 import linkage_ros.bag.replay, linkage_ros.trajectory, rosbags.rosbag2  # imported before
-before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+
+def peak_kib():
+    with open('/proc/self/status') as fh:
+        return next(int(l.split()[1]) for l in fh if l.startswith('VmHWM:'))
+
+before = peak_kib()
 code = main(sys.argv[1:])
-after = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-print(json.dumps({'code': code, 'growth_kib': after - before}))
+print(json.dumps({'code': code, 'growth_kib': peak_kib() - before}))
 """
 
 
