@@ -38,14 +38,17 @@ Outputs (``--out`` may be given twice):
 
 Speed: a closed-form scene is solved in vectorised chunks (``Solver.solve_batch`` with the branch
 signs then current). A row is taken from the batch only when the node's continuity rule provably
-picks the same assembly mode for it, at every branching dyad: either the dyad is clear of its
-singularity now and in the previous good configuration (margin above core.plan's
+picks the same assembly mode for it, at every branching dyad (bag/easy_rows.py, on the core's
+statement of the rule: core.solver.continuity keeps_sign, nearer_for_every_ratio): either the
+dyad is clear of its singularity now and in the previous good configuration (margin above
 CONTINUITY_MARGIN, so the node keeps the sign), or the batch's solution is nearer than the other
-one to the node's prediction for every extrapolation ratio it may use (0 ... 1.5: the distance
-difference is linear in it) by a clear margin. The first row where neither holds (a branch change
-near a toggle) and a stretch after it are solved one by one by a continuous Solver whose history
-is made identical to the node's, then the batch resumes. Refused rows get the reason a single
-solve gives (the node's exact text). Newton and hybrid solvers go one command at a time.
+one to the node's prediction for every extrapolation ratio it may use (0 ... MAX_STEP_RATIO:
+the squared distance difference is linear in it) by a clear margin. The first row where neither
+holds (a branch change near a toggle) and a stretch after it are solved one by one by a
+continuous Solver whose history is made identical to the node's, then the batch resumes.
+Refused rows get the reason a single solve gives (the node's exact text); the answers go into
+the core's results table (core.solver.table.ResultTable: refused rows NaN), which every output
+reads. Newton and hybrid solvers go one command at a time.
 Velocities do not change the path: the positions are solved as above, then each command that
 gave velocities gets its rates from its own solution (core.velocity, one linear solve a row,
 as the node computes them); a command with a velocity that is not finite, or not one per
@@ -55,6 +58,10 @@ parse); both rosbags' and rclpy's (recorded bags') CDR variants are read.
 
 Bad input (missing, not a bag, missing topic, wrong type, truncated or corrupt) is one clear
 message on stderr and exit status 2.
+
+Recorded trajectories and paths (``--trajectory-topic``, ``--path-topic``) are placed in a first
+read without being decoded, then decoded one at a time when their turn comes and written to the
+outputs as soon as they are answered (bag/run_outputs.py): memory holds one plan at a time.
 
 Many bags: ``linkage bag INPUT... --out-dir DIR [--format F ...] [--jobs N | --scheduler ADDRESS]
 [--resume]`` (fleet_inputs: which bags and their output names; fleet_task: one bag, its outputs
@@ -118,6 +125,12 @@ from .csv_out import (  # noqa: F401
     format_ints,
     write_csv,
 )
+from .easy_rows import (  # noqa: F401
+    EASY_MARGIN,
+    _step_inputs,
+    _step_margin,
+    easy_prefix,
+)
 from .plot import (  # noqa: F401
     _isolated,
     _plot_format,
@@ -149,22 +162,16 @@ from .replay import (  # noqa: F401
     CHUNK_MAX,
     CHUNK_MIN,
     CHUNK_START,
-    EASY_MARGIN,
     MIN_BATCH,
     NEAR_TANGENT,
     SEQUENTIAL_STRETCH,
     _adopted_signs,
-    _command,
     _Context,
-    _continuity_margin,
-    _dist,
     _Engine,
     _Entry,
-    _finite_rows,
-    _step_inputs,
-    _step_margin,
     solve_commands,
 )
 from .results import (  # noqa: F401
     Results,
 )
+from .rows import command_row, finite_rows  # noqa: F401

@@ -6,7 +6,7 @@ import contextlib
 import os
 import shutil
 import struct
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -204,6 +204,183 @@ class _StatusWriter:
         )
 
 
+class ResultBag:
+    """A new rosbag2 with the node's topics (common.output_topics: /joint_states,
+    /linkage_node/points/<name>, /linkage_node/status; each renamed as ``remap`` says),
+    written in a staging folder beside the target and renamed into place by :meth:`close`
+    (a run cut short, even by SIGKILL, leaves no half bag under the output's name).
+
+    :meth:`add_plan` writes one answered trajectory or path as it is solved
+    (/linkage_node/solved_trajectory on success and one status, at its bag time: a bag of many
+    long plans never holds more than one); :meth:`write_commands` the commands' answers.
+    Any failure removes the staging folder (:meth:`abort`)."""
+
+    def __init__(
+        self,
+        path: Path | str,
+        mech: Any,
+        frame_id: str,
+        storage: str | None,
+        plans: bool = False,
+        status_name: str | None = None,
+        remap: Mapping[str, str] | None = None,
+    ):
+        from rosbags.rosbag2 import Writer
+        from rosbags.rosbag2.enums import StoragePlugin
+        from rosbags.typesys import Stores, get_typestore
+
+        plugin = StoragePlugin.MCAP if (storage or 'mcap') == 'mcap' else StoragePlugin.SQLITE3
+        self.ts = ts = get_typestore(Stores.ROS2_JAZZY)
+        self.path, self.mech, self.frame_id = path, mech, frame_id
+        self.name = status_name if status_name is not None else f'{NODE_NAME}: {mech.name}'
+        self.final = final = Path(path)
+        self.stage = stage = final.parent / f'.{final.name}.{os.getpid()}.partial'
+        self.writer: Any = None
+        try:
+            stage.mkdir()
+            self.writer = Writer(stage / final.name, version=9, storage_plugin=plugin)
+            self.writer.open()
+        except Exception as exc:  # noqa: BLE001
+            shutil.rmtree(stage, ignore_errors=True)
+            raise BagError(f'output {path}: cannot create the bag ({_exc_text(exc)})') from None
+        names = dict(remap or {})
+
+        def topic(default: str) -> str:
+            return names.get(default, default)
+
+        with self._failing():
+            w = self.writer
+            self.c_js = w.add_connection(topic('/joint_states'), JOINT_STATE, typestore=ts)
+            self.c_pts = [
+                w.add_connection(topic(node_topic(f'points/{p}')), POINT_STAMPED, typestore=ts)
+                for p in mech.outputs
+            ]
+            status = topic(node_topic('status'))
+            self.c_st = w.add_connection(status, DIAGNOSTIC_STATUS, typestore=ts)
+            self.c_traj = (
+                w.add_connection(topic(node_topic('solved_trajectory')), TRAJECTORY, typestore=ts)
+                if plans
+                else None
+            )
+
+    @contextlib.contextmanager
+    def _failing(self) -> Iterator[None]:
+        """A failure inside: the bag is abandoned (nothing kept) and the error said plainly."""
+        try:
+            yield
+        except BaseException as exc:
+            self.abort()
+            if isinstance(exc, (BagError, OSError)) or not isinstance(exc, Exception):
+                raise
+            # sqlite3 ('database or disk is full'), rosbags' WriterError, ...
+            raise BagError(
+                f'output {self.path}: cannot write the bag ({_exc_text(exc)}); nothing was kept'
+            ) from None
+
+    def add_plan(self, req: PlanRequest) -> None:
+        """One answered trajectory or path: its solved trajectory (on success) and its status,
+        at its bag time."""
+        ans = req.answer
+        assert ans is not None  # answered by the replay
+        ts = self.ts
+        with self._failing():
+            if ans.success and self.c_traj is not None:
+                msg = _trajectory_msg(ts, req, self.mech, self.frame_id)
+                self.writer.write(self.c_traj, req.log_ns, ts.serialize_cdr(msg, TRAJECTORY))
+            msg = _plan_status_msg(ts, ans, self.name, req.request, self.mech.name)
+            self.writer.write(self.c_st, req.log_ns, ts.serialize_cdr(msg, DIAGNOSTIC_STATUS))
+
+    def write_commands(
+        self,
+        data: Commands,
+        res: Results,
+        progress: _Progress | None = None,
+        block: int = 100_000,
+    ) -> None:
+        """One set of messages per command, each logged at its command's bag time, in the
+        node's order (joint_states, points, status)."""
+        with self._failing():
+            _write_commands(self, data, res, progress or _Progress(False), block)
+
+    def close(self) -> None:
+        """The bag, complete, under its name."""
+        with self._failing():
+            self.writer.close()
+            os.rename(self.stage / self.final.name, self.final)
+            self.stage.rmdir()
+
+    def abort(self) -> None:
+        """Nothing kept: the staging folder goes."""
+        with contextlib.suppress(Exception):
+            self.writer.abort()
+        shutil.rmtree(self.stage, ignore_errors=True)
+
+
+def _write_commands(out: ResultBag, data: Commands, res: Results, progress: _Progress, block):
+    mech, frame_id = out.mech, out.frame_id
+    n = data.n
+    joints = mech.output_joint_names  # a robot description's own names where it has them
+    progress.start('writing', n)
+    # stamps: the command's, a zero stamp -> the bag receive time
+    zero = data.stamp_zero
+    sec = np.where(zero, data.log_ns // 10**9, data.sec).astype('<i4')
+    nsec = np.where(zero, data.log_ns % 10**9, data.nanosec).astype('<u4')
+    js_t, js_off = _joint_state_template(joints, frame_id)
+    jv_t, jv_pos, jv_vel = _joint_state_rates_template(joints, frame_id)
+    pt_t, pt_off = _point_template(frame_id)
+    status = _StatusWriter(out.name, mech.name)
+    requests = ['command', 'target']
+    write, c_js, c_pts, c_st = out.writer.write, out.c_js, out.c_pts, out.c_st
+    for a in range(0, n, block):
+        b = min(n, a + block)
+        okr = a + np.flatnonzero(res.ok[a:b])
+        js = _stamped_rows(js_t, okr, sec, nsec)
+        if joints and okr.size:
+            scene = {j: res.joints[j][okr] for j in mech.joint_names}
+            vals = np.stack(
+                [np.broadcast_to(v, okr.shape) for v in mech.output_joints(scene)], axis=1
+            ).astype('<f8')
+            js[:, js_off : js_off + 8 * len(joints)] = vals.view(np.uint8).reshape(okr.size, -1)
+        js_rows = _rows_bytes(js)
+        rated = np.flatnonzero(res.velocity_ok[okr]) if res.has_rates and joints else okr[:0]
+        if rated.size:  # the node's joint_states with every joint's velocity
+            vrows = okr[rated]
+            jv = _stamped_rows(jv_t, vrows, sec, nsec)
+            scene = {j: res.joints[j][vrows] for j in mech.joint_names}
+            rates = {j: res.joint_rates[j][vrows] for j in mech.joint_names}
+            for off, cols in (
+                (jv_pos, mech.output_joints(scene)),
+                (jv_vel, mech.output_joint_rates(rates)),
+            ):
+                vals = np.stack([np.broadcast_to(v, vrows.shape) for v in cols], axis=1).astype(
+                    '<f8'
+                )
+                jv[:, off : off + 8 * len(joints)] = vals.view(np.uint8).reshape(vrows.size, -1)
+            for i, raw in zip(rated.tolist(), _rows_bytes(jv)):
+                js_rows[i] = raw
+        pt_rows = []
+        for p in mech.outputs:
+            arr = _stamped_rows(pt_t, okr, sec, nsec)
+            xyz = np.zeros((okr.size, 3), '<f8')
+            xyz[:, :2] = res.points[p][okr]
+            arr[:, pt_off : pt_off + 24] = xyz.view(np.uint8).reshape(okr.size, 24)
+            pt_rows.append(_rows_bytes(arr))
+        statuses = _status_rows(status, res, data.topic, requests, a, b, okr)
+        ok = res.ok[a:b].tolist()
+        log = data.log_ns[a:b].tolist()
+        j = 0
+        for i in range(b - a):
+            t = log[i]
+            if ok[i]:
+                write(c_js, t, js_rows[j])
+                for conn, rows in zip(c_pts, pt_rows):
+                    write(conn, t, rows[j])
+                j += 1
+            write(c_st, t, statuses[i])
+        progress.update(b)
+    progress.finish()
+
+
 def write_bag(
     path: Path,
     data: Commands,
@@ -217,131 +394,13 @@ def write_bag(
     plans: Sequence[PlanRequest] = (),
     remap: Mapping[str, str] | None = None,
 ):
-    """A new rosbag2 with the node's topics (common.output_topics: /joint_states,
-    /linkage_node/points/<name>, /linkage_node/status; each renamed as ``remap`` says), one
-    set per command, each logged at its command's bag time, in the node's order (joint_states,
-    points, status); and for each recorded trajectory or path (``plans``, answered)
-    /linkage_node/solved_trajectory on success and one status, at its bag time."""
-    from rosbags.rosbag2 import Writer
-    from rosbags.rosbag2.enums import StoragePlugin
-    from rosbags.typesys import Stores, get_typestore
-
-    progress = progress or _Progress(False)
-    plugin = StoragePlugin.MCAP if (storage or 'mcap') == 'mcap' else StoragePlugin.SQLITE3
-    ts = get_typestore(Stores.ROS2_JAZZY)
-    n = data.n
-    joints = mech.output_joint_names  # a robot description's own names where it has them
-    outputs = list(mech.outputs)
-    progress.start('writing', n)
-    # stamps: the command's, a zero stamp -> the bag receive time
-    zero = data.stamp_zero
-    sec = np.where(zero, data.log_ns // 10**9, data.sec).astype('<i4')
-    nsec = np.where(zero, data.log_ns % 10**9, data.nanosec).astype('<u4')
-    js_t, js_off = _joint_state_template(joints, frame_id)
-    jv_t, jv_pos, jv_vel = _joint_state_rates_template(joints, frame_id)
-    pt_t, pt_off = _point_template(frame_id)
-    name = status_name if status_name is not None else f'{NODE_NAME}: {mech.name}'
-    status = _StatusWriter(name, mech.name)
-    requests = ['command', 'target']
-    # written in a staging folder beside the target and renamed into place when complete:
-    # a run cut short (even by SIGKILL) leaves no half bag under the output's name
-    final = Path(path)
-    stage = final.parent / f'.{final.name}.{os.getpid()}.partial'
-    try:
-        stage.mkdir()
-        writer = Writer(stage / final.name, version=9, storage_plugin=plugin)
-        writer.open()
-    except Exception as exc:  # noqa: BLE001
-        shutil.rmtree(stage, ignore_errors=True)
-        raise BagError(f'output {path}: cannot create the bag ({_exc_text(exc)})') from None
-    try:
-        names = dict(remap or {})
-
-        def topic(default: str) -> str:
-            return names.get(default, default)
-
-        c_js = writer.add_connection(topic('/joint_states'), JOINT_STATE, typestore=ts)
-        c_pts = [
-            writer.add_connection(topic(node_topic(f'points/{p}')), POINT_STAMPED, typestore=ts)
-            for p in outputs
-        ]
-        c_st = writer.add_connection(topic(node_topic('status')), DIAGNOSTIC_STATUS, typestore=ts)
-        c_traj = (
-            writer.add_connection(topic(node_topic('solved_trajectory')), TRAJECTORY, typestore=ts)
-            if plans
-            else None
-        )
-        write = writer.write
-        for a in range(0, n, block):
-            b = min(n, a + block)
-            okr = a + np.flatnonzero(res.ok[a:b])
-            js = _stamped_rows(js_t, okr, sec, nsec)
-            if joints and okr.size:
-                scene = {j: res.joints[j][okr] for j in mech.joint_names}
-                vals = np.stack(
-                    [np.broadcast_to(v, okr.shape) for v in mech.output_joints(scene)], axis=1
-                ).astype('<f8')
-                js[:, js_off : js_off + 8 * len(joints)] = vals.view(np.uint8).reshape(okr.size, -1)
-            js_rows = _rows_bytes(js)
-            rated = np.flatnonzero(res.velocity_ok[okr]) if res.has_rates and joints else okr[:0]
-            if rated.size:  # the node's joint_states with every joint's velocity
-                vrows = okr[rated]
-                jv = _stamped_rows(jv_t, vrows, sec, nsec)
-                scene = {j: res.joints[j][vrows] for j in mech.joint_names}
-                rates = {j: res.joint_rates[j][vrows] for j in mech.joint_names}
-                for off, cols in (
-                    (jv_pos, mech.output_joints(scene)),
-                    (jv_vel, mech.output_joint_rates(rates)),
-                ):
-                    vals = np.stack([np.broadcast_to(v, vrows.shape) for v in cols], axis=1).astype(
-                        '<f8'
-                    )
-                    jv[:, off : off + 8 * len(joints)] = vals.view(np.uint8).reshape(vrows.size, -1)
-                for i, raw in zip(rated.tolist(), _rows_bytes(jv)):
-                    js_rows[i] = raw
-            pt_rows = []
-            for p in outputs:
-                arr = _stamped_rows(pt_t, okr, sec, nsec)
-                xyz = np.zeros((okr.size, 3), '<f8')
-                xyz[:, :2] = res.points[p][okr]
-                arr[:, pt_off : pt_off + 24] = xyz.view(np.uint8).reshape(okr.size, 24)
-                pt_rows.append(_rows_bytes(arr))
-            statuses = _status_rows(status, res, data.topic, requests, a, b, okr)
-            ok = res.ok[a:b].tolist()
-            log = data.log_ns[a:b].tolist()
-            j = 0
-            for i in range(b - a):
-                t = log[i]
-                if ok[i]:
-                    write(c_js, t, js_rows[j])
-                    for conn, rows in zip(c_pts, pt_rows):
-                        write(conn, t, rows[j])
-                    j += 1
-                write(c_st, t, statuses[i])
-            progress.update(b)
-        for req in plans:
-            ans = req.answer
-            assert ans is not None  # answered by the replay
-            if ans.success and c_traj is not None:
-                msg = _trajectory_msg(ts, req, mech, frame_id)
-                write(c_traj, req.log_ns, ts.serialize_cdr(msg, TRAJECTORY))
-            msg = _plan_status_msg(ts, ans, name, req.request, mech.name)
-            write(c_st, req.log_ns, ts.serialize_cdr(msg, DIAGNOSTIC_STATUS))
-        writer.close()
-        os.rename(stage / final.name, final)
-        stage.rmdir()
-    except BaseException as exc:
-        # a half-written bag is no result: the staging folder goes
-        with contextlib.suppress(Exception):
-            writer.abort()
-        shutil.rmtree(stage, ignore_errors=True)
-        if isinstance(exc, (BagError, OSError)) or not isinstance(exc, Exception):
-            raise
-        # sqlite3 ('database or disk is full'), rosbags' WriterError, ...
-        raise BagError(
-            f'output {path}: cannot write the bag ({_exc_text(exc)}); nothing was kept'
-        ) from None
-    progress.finish()
+    """A new rosbag2 (:class:`ResultBag`) with every command's answer and each recorded
+    trajectory or path of ``plans`` (answered already), at once."""
+    out = ResultBag(path, mech, frame_id, storage, bool(plans), status_name, remap)
+    out.write_commands(data, res, progress, block)
+    for req in plans:
+        out.add_plan(req)
+    out.close()
 
 
 def _stamped_rows(template: np.ndarray, rows: np.ndarray, sec, nsec) -> np.ndarray:

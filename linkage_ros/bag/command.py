@@ -14,21 +14,16 @@ from ..cli.common import (
     add_scene_argument,
 )
 from ..core.errors import LinkageError
-from .bag_out import write_bag
 from .common import BagError
-from .csv_out import write_csv
 from .fleet_run import add_fleet_arguments
 from .fleet_task import REFUSED_HINT
 from .options import bag_options, check_options
-from .plans import (
-    plans_csv_path,
-    plans_summary,
-    write_plans_csv,
-)
-from .plot import _plot_format, write_plot
+from .plans import plans_csv_path, plans_summary
+from .plot import _plot_format
 from .progress import _Progress, _summary
 from .reading import _exc_text
 from .replay import _Engine
+from .run_outputs import Output, OutputKind, RunOutputs
 
 # ---- command line ------------------------------------------------------------------------------
 
@@ -204,30 +199,16 @@ def _run(args) -> int:
         )
         marks: list[float] = []
         opts = bag_options(args)
-        data, res, plans = replay_input(engine, mech, source, opts, progress, scene.frame_id, marks)
-        t_read, t_solve = marks[0], time.perf_counter()
-        for kind, path in outs:
-            try:
-                if kind == 'csv':
-                    write_csv(path, data, res, mech, progress)
-                    if plans:
-                        write_plans_csv(plans_csv_path(path), plans, mech)
-                else:
-                    write_bag(
-                        path,
-                        data,
-                        res,
-                        mech,
-                        scene.frame_id,
-                        args.out_format,
-                        progress,
-                        plans=plans,
-                        remap=dict(opts.remap),
-                    )
-            except OSError as exc:
-                raise BagError(f'output {path}: cannot write ({exc.strerror or exc})') from None
-        if args.plot:
-            write_plot(args.plot, data, res, mech)
+        outputs = _run_outputs(outs, args, scene, opts)
+        try:
+            data, res, plans = replay_input(
+                engine, mech, source, opts, progress, scene.frame_id, marks, outputs
+            )
+            t_read, t_solve = marks[0], time.perf_counter()
+            outputs.finish(data, res, progress)
+        except BaseException:
+            outputs.abort()
+            raise
         t_end = time.perf_counter()
     finally:
         progress.clear()  # an error message starts on a line of its own
@@ -237,11 +218,37 @@ def _run(args) -> int:
     for kind, path in outs:
         if kind == 'csv' and plans:
             print(f'  wrote {plans_csv_path(path)} (csv: the trajectories and paths)')
-    answered = int(res.ok.sum()) + sum(1 for p in plans if p.answer and p.answer.success)
+    answered = int(res.ok.sum()) + sum(1 for p in plans if p.succeeded)
     if data.n + len(plans) and not answered:
         print(f'linkage bag: {REFUSED_HINT}', file=sys.stderr)
         return ALL_REFUSED
     return OK
+
+
+def _run_outputs(outs, args, scene, opts) -> RunOutputs:
+    """One bag's --out files (a CSV's trajectories beside it) and --plot."""
+    table = [
+        Output(OutputKind.CSV if kind == 'csv' else OutputKind.BAG, Path(path), args.out_format)
+        for kind, path in outs
+    ]
+    if args.plot:
+        table.append(Output(OutputKind.PLOT, Path(args.plot)))
+    csvs = [path for kind, path in outs if kind == 'csv']
+    return RunOutputs(
+        table,
+        scene.mechanism,
+        scene.frame_id,
+        plans_csvs=[Path(plans_csv_path(p)) for p in csvs],
+        remap=dict(opts.remap),
+        all_or_none=False,  # as before streaming: a finished --out stays when a later one fails
+        failed=_write_failed,
+    )
+
+
+def _write_failed(out: Output, exc: OSError) -> Exception:
+    if out.kind is OutputKind.PLOT:
+        return BagError(f'--plot {out.path}: {exc.strerror or exc}')
+    return BagError(f'output {out.path}: cannot write ({exc.strerror or exc})')
 
 
 def _resolved(path: Path, what: str) -> Path:

@@ -30,10 +30,11 @@ import numpy as np
 
 from .common import BagError
 from .fleet_inputs import BagTask
-from .plans import PlanRequest, path_point, read_plan_requests
+from .plans import PlanRequest, decoded_plans, path_point, plan_topics, read_plan_requests
 from .progress import _Progress
 from .reading import Commands, _exc_text, read_commands
 from .results import Results
+from .run_outputs import Output, OutputKind, RunOutputs
 
 #: manifest layout version (a manifest of another version is not trusted)
 MANIFEST_VERSION = 1
@@ -110,9 +111,12 @@ def replay_input(
     progress: _Progress,
     frame_id: str,
     marks: list[float] | None = None,
+    outputs: RunOutputs | None = None,
 ) -> tuple[Commands, Results, list[PlanRequest]]:
     """Read a bag's requests and answer them in bag order on ``engine`` (bag.replay._Engine);
-    the time reading ended (perf_counter) is appended to ``marks``."""
+    the time reading ended (perf_counter) is appended to ``marks``. The recorded plans are
+    placed first and decoded one at a time when answered; with ``outputs`` each answered plan
+    goes to them at once and keeps only its outcome (one plan in memory at a time)."""
     data = read_commands(source, opts.topics, progress, accept_missing=opts.accept_missing)
     for topic in opts.path_topics:
         if path_point(topic) not in mech.points:
@@ -126,7 +130,10 @@ def replay_input(
     data.missing.update(plans_missing)
     if marks is not None:
         marks.append(time.perf_counter())
-    res = engine.solve_all(data, progress, plans, frame_id=frame_id)
+    on_plan = outputs.start(plans) if outputs is not None else None
+    topics = plan_topics(opts.trajectory_topics, opts.path_topics)
+    decoded = decoded_plans(source, topics, plans)
+    res = engine.solve_all(data, progress, plans, frame_id, decoded=decoded, on_plan=on_plan)
     return data, res, plans
 
 
@@ -151,7 +158,7 @@ def load_options_scene(opts: BagOptions) -> Any:
 
 def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanRequest]) -> BagRow:
     ok = np.asarray(res.ok, bool)
-    plans_ok = sum(1 for p in plans if p.answer is not None and p.answer.success)
+    plans_ok = sum(1 for p in plans if p.succeeded)
     messages = data.n + len(plans)
     answered = int(np.count_nonzero(ok)) + plans_ok
     margins = res.margin[ok]
@@ -182,36 +189,24 @@ REFUSED_HINT = (
 )
 
 
-def _write_outputs(
-    task: BagTask, opts: BagOptions, scene: Any, data: Commands, res: Results, plans: list
-) -> list[Path]:
-    from .bag_out import write_bag
-    from .csv_out import write_csv
-    from .parquet_out import write_parquet
-    from .plans import write_plans_csv
-    from .plot import write_plot
-
-    mech = scene.mechanism
-    written: list[Path] = []
-    for fmt in opts.formats:
-        path = task.output(opts.out_dir, fmt)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        if fmt == 'csv':
-            write_csv(path, data, res, mech)
-        elif fmt == 'parquet':
-            write_parquet(path, data, res, mech)
-        elif fmt in ('png', 'svg'):
-            write_plot(str(path), data, res, mech)
-        else:
-            write_bag(
-                path, data, res, mech, scene.frame_id, fmt, plans=plans, remap=dict(opts.remap)
-            )
-        written.append(path)
-    if plans and {'csv', 'parquet'} & set(opts.formats):
-        path = task.trajectories(opts.out_dir)
-        write_plans_csv(str(path), plans, mech)
-        written.append(path)
-    return written
+def _outputs(task: BagTask, opts: BagOptions, scene: Any) -> RunOutputs:
+    """The bag's outputs under --out-dir (the trajectories' CSV with a CSV or Parquet table)."""
+    kinds = {'csv': OutputKind.CSV, 'parquet': OutputKind.PARQUET, 'png': OutputKind.PLOT}
+    kinds['svg'] = OutputKind.PLOT
+    outs = [
+        Output(kinds.get(fmt, OutputKind.BAG), task.output(opts.out_dir, fmt), fmt)
+        for fmt in opts.formats
+    ]
+    for out in outs:
+        out.path.parent.mkdir(parents=True, exist_ok=True)
+    tables = {'csv', 'parquet'} & set(opts.formats)
+    return RunOutputs(
+        outs,
+        scene.mechanism,
+        scene.frame_id,
+        plans_csvs=[task.trajectories(opts.out_dir)] if tables else [],
+        remap=dict(opts.remap),
+    )
 
 
 def _remove(paths: list[Path]) -> None:
@@ -281,13 +276,17 @@ def analyse_bag(
         engine = _Engine(mech, opts.solver, opts.tol, opts.max_iter, opts.branch, opts.hold)
         line = _PROGRESS_LINE if progress_line is None else progress_line
         progress = _Progress(line > 0, position=line, prefix=f'{task.name}: ')
+        outputs = _outputs(task, opts, scene)
         try:
             data, res, plans = replay_input(
-                engine, mech, task.source, opts, progress, scene.frame_id
+                engine, mech, task.source, opts, progress, scene.frame_id, outputs=outputs
             )
+            written = outputs.finish(data, res)
+        except BaseException:
+            outputs.abort()
+            raise
         finally:
             progress.clear()
-        written = _write_outputs(task, opts, scene, data, res, plans)
         row = _row_from(task, data, res, plans)
         rel = [p.relative_to(opts.out_dir).as_posix() for p in written]
         row = _with(row, wall_s=time.perf_counter() - t0, outputs=tuple(rel))

@@ -5,12 +5,16 @@ They are read beside the command topics and answered at their place in bag time:
 before them set the state they start from, and (a trajectory being a plan) they leave it as it
 was. The solving is trajectory.py's, the node's own; only the stamp rule is the bag's, as for
 commands (a zero stamp is the bag receive time).
+
+Memory: the bag is read twice for them. The first read places each message (bag time, topic,
+size) without decoding it; the second decodes each when its turn comes, and once its outputs
+have its answer only its outcome is kept (bag/run_outputs.py), so one plan is held at a time.
 """
 
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -38,19 +42,56 @@ TRAJECTORY = 'trajectory_msgs/msg/JointTrajectory'
 PATH = 'nav_msgs/msg/Path'
 
 
+@dataclass(frozen=True)
+class PlanOutcome:
+    """What is kept of an answered plan once its outputs have it: success, the reason and the
+    first failing point of a refusal, the number of points solved."""
+
+    success: bool
+    reason: str = ''
+    failed_index: int | None = None
+    points: int = 0
+
+
 @dataclass
 class PlanRequest:
-    """One recorded trajectory or path, and (once answered) its answer."""
+    """One recorded trajectory or path: its place in the bag (read first, without decoding),
+    then while it is answered its message and answer, and once its outputs have it only its
+    :class:`PlanOutcome` (a 10^4-point answer is tens of MB: one plan at a time is held)."""
 
     log_ns: int  # bag receive time
     topic: str
     request: str  # 'trajectory' or 'target_path/<point>' (the status's request key)
-    msg: Any  # the decoded message; None when it was refused from its size or first bytes
+    msg: Any  # the decoded message while it is answered; None before, after, and when refused
     answer: TrajectoryAnswer | None = None
     #: why the message was refused before it was decoded (its size, its point count)
     refused: str = ''
     times_ns: list[int] = field(default_factory=list)
     stamp: tuple[int, int] = (0, 0)
+    #: its message number on its topic (1, 2, ...) and its index in the bag's reading order
+    number: int = 0
+    ordinal: int = 0
+    outcome: PlanOutcome | None = None
+
+    @property
+    def succeeded(self) -> bool:
+        """Answered with success (from the answer, or the outcome kept after it)."""
+        if self.answer is not None:
+            return self.answer.success
+        return self.outcome is not None and self.outcome.success
+
+    @property
+    def reason(self) -> str:
+        if self.answer is not None:
+            return self.answer.reason
+        return '' if self.outcome is None else self.outcome.reason
+
+    def shed(self) -> None:
+        """Keep only the outcome: the message and the answer's points go."""
+        ans = self.answer
+        if ans is not None:
+            self.outcome = PlanOutcome(ans.success, ans.reason, ans.failed_index, len(ans.results))
+        self.msg, self.answer, self.times_ns = None, None, []
 
 
 def path_point(topic: str) -> str:
@@ -80,18 +121,15 @@ def read_plan_requests(
     mech: Any = None,
     frame_id: str = '',
 ) -> tuple[list[PlanRequest], dict[str, int]]:
-    """Every message of the topics, decoded, in bag time order, with the same checks as the
-    command topics (receive times, counts against the bag's index); BagError naming the bag,
-    the topic and the message otherwise. With ``mech``, a message longer than any request to
-    the scene can be, or with more points than one request may have, is refused from its size
-    or first bytes before it is decoded, as the node refuses it (a 10^6-point trajectory is not
-    read into memory to be refused)."""
-    from rosbags.typesys import Stores, get_typestore
-
-    topics = [(t, TRAJECTORY) for t in trajectory_topics] + [(t, PATH) for t in path_topics]
+    """Every message of the topics in bag time order, placed but not decoded (each is decoded
+    when its turn comes: :func:`decoded_plans`), with the same checks as the command topics
+    (receive times, counts against the bag's index); BagError naming the bag, the topic and the
+    message otherwise. With ``mech``, a message longer than any request to the scene can be, or
+    with more points than one request may have, is refused from its size or first bytes, as the
+    node refuses it (a 10^6-point trajectory is never decoded)."""
+    topics = plan_topics(trajectory_topics, path_topics)
     if not topics:
         return [], {}
-    ts = get_typestore(Stores.ROS2_JAZZY)
     reader = _open_reader(path)
     out: list[PlanRequest] = []
     try:
@@ -105,32 +143,84 @@ def read_plan_requests(
                 else f'target_path/{path_point(conn.topic)}'
             )
             refused = '' if mech is None else _refusal(raw, conn.msgtype, mech, frame_id)
-            if refused:
-                read[conn.id] = read.get(conn.id, 0) + 1
-                out.append(PlanRequest(t, conn.topic, request, None, refused=refused))
-                continue
-            try:
-                msg = _decode(raw, conn.msgtype, ts)
-            except Exception as exc:  # noqa: BLE001 - a damaged message
-                raise BagError(
-                    f'input {path}: message {read.get(conn.id, 0) + 1} on {conn.topic} is not '
-                    f'a {conn.msgtype} ({_exc_text(exc)})'
-                ) from None
             read[conn.id] = read.get(conn.id, 0) + 1
-            out.append(PlanRequest(t, conn.topic, request, msg))
+            out.append(
+                PlanRequest(
+                    t, conn.topic, request, None, refused=refused, number=read[conn.id], ordinal=i
+                )
+            )
         missing = _shortfall(path, conns, read, accept_missing)
     except BagError:
         raise
     except Exception as exc:  # noqa: BLE001 - truncated chunk, corrupt database, ...
-        raise BagError(
-            f'input {path}: cannot read the trajectory topics ({_exc_text(exc)}); the bag is '
-            'truncated or corrupt'
-        ) from None
+        raise _unreadable(path, exc) from None
     finally:
         with contextlib.suppress(Exception):
             reader.close()
     out.sort(key=lambda r: r.log_ns)
     return out, missing
+
+
+def plan_topics(
+    trajectory_topics: Sequence[str], path_topics: Sequence[str]
+) -> list[tuple[str, str]]:
+    return [(t, TRAJECTORY) for t in trajectory_topics] + [(t, PATH) for t in path_topics]
+
+
+def _unreadable(path: str, exc: BaseException) -> BagError:
+    return BagError(
+        f'input {path}: cannot read the trajectory topics ({_exc_text(exc)}); the bag is '
+        'truncated or corrupt'
+    )
+
+
+def decoded_plans(
+    path: str, topics: Sequence[tuple[str, str]], plans: Sequence[PlanRequest]
+) -> Iterator[PlanRequest]:
+    """``plans`` (read_plan_requests' list) one at a time in that order, each with its message
+    decoded (``msg``; a refused one without): the bag is read a second time, and a message
+    is held only from its reading to its turn (the reader gives them in time order: one at a
+    time). BagError for a message that does not decode."""
+    if not plans:
+        return
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    reader = _open_reader(path)
+    try:
+        conns = topic_connections(reader, path, list(topics))
+        stream = enumerate(reader.messages([c for g in conns for c in g]))
+        waiting: dict[int, tuple[Any, int, Any]] = {}  # read before their turn
+        for req in plans:
+            while req.ordinal not in waiting:
+                try:
+                    i, (conn, t, raw) = next(stream)
+                except StopIteration:
+                    raise BagError(
+                        f'input {path}: message {req.number} on {req.topic} is gone (the bag '
+                        'changed while it was read)'
+                    ) from None
+                waiting[i] = (conn, t, raw)
+            conn, t, raw = waiting.pop(req.ordinal)
+            if conn.topic != req.topic or t != req.log_ns:
+                raise BagError(f'input {path}: the bag changed while it was read')
+            if not req.refused:
+                try:
+                    req.msg = _decode(raw, conn.msgtype, ts)
+                except Exception as exc:  # noqa: BLE001 - a damaged message
+                    raise BagError(
+                        f'input {path}: message {req.number} on {conn.topic} is not '
+                        f'a {conn.msgtype} ({_exc_text(exc)})'
+                    ) from None
+            del raw
+            yield req
+    except BagError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - truncated chunk, corrupt database, ...
+        raise _unreadable(path, exc) from None
+    finally:
+        with contextlib.suppress(Exception):
+            reader.close()
 
 
 def _refusal(raw: bytes | memoryview, msgtype: str, mech: Any, frame_id: str) -> str:
@@ -175,48 +265,20 @@ def answer_plan(engine: Engine, req: PlanRequest, frame_id: str) -> None:
         req.answer, req.times_ns = answer_path_msg(engine, point, req.msg, frame_id)
 
 
-def plans_csv_path(csv_path: str) -> str:
+def plans_csv_path(csv_path: Any) -> str:
     """Where the trajectories' CSV goes beside a command CSV: ``out.csv`` ->
     ``out.trajectories.csv``."""
     p = str(csv_path)
     return (p[:-4] if p.lower().endswith('.csv') else p) + '.trajectories.csv'
 
 
-def write_plans_csv(path: str, plans: Sequence[PlanRequest], mech: Any) -> None:
-    """One row per solved point (request index, topic, request, bag time, stamp, status,
-    point index, time_from_start, every published joint: mech.output_joint_names), one row per
-    refused request (its reason, failed_index), written whole or not at all."""
-    joints = mech.output_joint_names
-    import csv
-
-    from ..outputs import written_whole
-
-    head = ['request', 'topic', 'kind', 'log_ns', 'stamp_sec', 'stamp_nanosec', 'status']
-    head += ['reason', 'failed_index', 'point', 'time_from_start_ns']
-    head += [f'joint.{j}' for j in joints]
-    with written_whole(path) as tmp, open(tmp, 'w', newline='') as fh:
-        w = csv.writer(fh)
-        w.writerow(head)
-        for k, req in enumerate(plans):
-            ans = req.answer
-            assert ans is not None
-            base = [k, req.topic, req.request, req.log_ns, req.stamp[0], req.stamp[1]]
-            if not ans.success:
-                index = '' if ans.failed_index is None else ans.failed_index
-                w.writerow(base + ['error', ans.reason, index, '', ''] + [''] * len(joints))
-                continue
-            for i, (r, t) in enumerate(zip(ans.results, req.times_ns)):
-                values = [repr(float(v)) for v in mech.output_joints(r.joints)]
-                w.writerow(base + ['ok', '', '', i, t] + values)
-
-
 def plans_summary(plans: Sequence[PlanRequest]) -> list[str]:
     if not plans:
         return []
-    ok = sum(1 for p in plans if p.answer is not None and p.answer.success)
+    ok = sum(1 for p in plans if p.succeeded)
     lines = [f'  trajectories and paths: {len(plans)} read, solved {ok}, refused {len(plans) - ok}']
     for p in plans:
-        if p.answer is not None and not p.answer.success:
-            lines.append(f'    {p.topic} at {p.log_ns}: {echo(p.answer.reason)}')
+        if not p.succeeded:
+            lines.append(f'    {p.topic} at {p.log_ns}: {echo(p.reason)}')
             break
     return lines

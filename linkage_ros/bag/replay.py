@@ -3,19 +3,14 @@ identical."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 import numpy as np
 
 from ..core.errors import CommandError
-from ..core.ops import BATCH, to_complex
-from ..core.plan import step_geometry
-from ..core.quantities import PointSpec
-from ..core.solver import Solver, branch_identity_defined
-from ..core.solver.continuity import MAX_STEP_RATIO
-from ..core.solver.result import branch_signs, branch_text
-from ..core.steps import RPRDyad, RRPDyad, RRRDyad, anchor_of
+from ..core.solver import Solver
+from ..core.solver.result import branch_signs
 from ..core.velocity import velocities
 from ..engine import (
     SOLVER_CACHE,
@@ -26,12 +21,14 @@ from ..engine import (
 )
 from ..point_coordinates import group_point_coordinates
 from ..stamps import stamp_error, stamp_valid
+from .easy_rows import easy_prefix
 from .history import _Context, _Entry
 from .plans import PlanRequest, answer_plan
 from .progress import _Progress
 from .rates import RunRates, run_rates, stretches
 from .reading import Commands
 from .results import Results
+from .rows import command_row, finite_rows
 
 
 class _Engine:
@@ -77,10 +74,15 @@ class _Engine:
         progress: _Progress | None = None,
         plans: Sequence[PlanRequest] = (),
         frame_id: str = '',
+        decoded: Iterable[PlanRequest] | None = None,
+        on_plan: Callable[[PlanRequest], None] | None = None,
     ) -> Results:
         """Every command in order; ``plans`` (recorded trajectories and paths, in bag time
         order) are answered at their place among them, from the state the commands before
-        them left (bag.plans.answer_plan)."""
+        them left (bag.plans.answer_plan). ``decoded`` gives the same plans one at a time with
+        their messages (bag.plans.decoded_plans; default: ``plans``, decoded already). Each
+        answered plan goes to ``on_plan`` (the outputs), which leaves it only its outcome:
+        one plan's message and answer are held at a time."""
         progress = progress or _Progress(False)
         n = data.n
         self.res = res = Results.empty(self.mech, n)
@@ -90,6 +92,7 @@ class _Engine:
         # a plan comes after every command received at or before its own receive time
         cuts = np.searchsorted(data.log_ns, [p.log_ns for p in plans], side='right').tolist()
         pending = list(zip(cuts, plans))
+        stream = iter(plans if decoded is None else decoded)
 
         def plans_up_to(row: int) -> None:
             while pending and pending[0][0] <= row:
@@ -97,7 +100,13 @@ class _Engine:
                 # entries); the plan leaves the engine's state as it found it
                 for ctx in (self.forward, *self._contexts.values()):
                     ctx.sync()
-                answer_plan(self.engine, pending.pop(0)[1], frame_id)
+                req = next(stream)
+                if req is not pending.pop(0)[1]:
+                    raise ValueError('decoded must give the plans, in their order')
+                answer_plan(self.engine, req, frame_id)
+                if on_plan is not None:
+                    on_plan(req)
+                    req.shed()
 
         plans_up_to(0)
         if n:
@@ -213,7 +222,7 @@ class _Engine:
             ctx.synced = True
         if set(columns) != set(ctx.knowns):
             # wrong names: the solver's own message (it depends on the names only)
-            r = S.solve(_command(columns, 0), commit=False)
+            r = S.solve(command_row(columns, 0), commit=False)
             self._refuse_all(a, b, r.reason)
             return
         if topic == 1:  # targets: the engine's assembly-mode rule, one by one
@@ -229,8 +238,8 @@ class _Engine:
         ctx.sync()
         S = ctx.solver
         for i in range(b - a):
-            r = self.engine.solve_target(S, _command(columns, i))
-            self._store(a + i, r)
+            r = self.engine.solve_target(S, command_row(columns, i))
+            self.res.put_result(a + i, r)
             if r.success:
                 ctx.hist = [_Entry('adopt', result=r, signs=_adopted_signs(S))]
                 ctx.synced = True
@@ -243,9 +252,9 @@ class _Engine:
         ctx.sync()
         S = ctx.solver
         for i in range(i0, i1):
-            cmd = _command(columns, i)
+            cmd = command_row(columns, i)
             r = S.solve(cmd)
-            self._store(a + i, r)
+            self.res.put_result(a + i, r)
             if r.success:
                 ctx.push(_Entry('solve', cmd=cmd, signs=branch_signs(r.branch), result=r))
                 rate = None if rates is None else rates.row(i)
@@ -254,30 +263,6 @@ class _Engine:
             if not i & 0xFF:
                 self.progress.update(self.done + i)
         self.res.sequential += i1 - i0
-
-    def _store(self, g, r):
-        res = self.res
-        if not r.success:
-            res.reason[g] = r.reason
-            for nm, v in r.inputs.items():
-                if nm in res.inputs:
-                    res.inputs[nm][g] = v
-            return
-        res.ok[g] = True
-        res.residual[g] = r.residual
-        res.margin[g] = r.margin if r.margin is not None else np.nan
-        res.branch_code[g] = res.branch_code_of(r.branch)
-        res.branch_defined[g] = r.branch_defined
-        res.iterations[g] = r.iterations
-        res.cond[g] = r.cond if r.cond is not None else np.nan
-        res.solver_code[g] = res.solver_code_of(r.solver)
-        for nm, v in r.inputs.items():
-            if nm in res.inputs:
-                res.inputs[nm][g] = v
-        for nm, v in r.joints.items():
-            res.joints[nm][g] = v
-        for nm, v in r.points.items():
-            res.points[nm][g] = v
 
     # -- vectorised ------------------------------------------------------------------------------
     def _vectorised(self, ctx: _Context, columns, a, b, rates: RunRates | None):
@@ -306,7 +291,11 @@ class _Engine:
                 solver = S
                 signs0 = None
             B: Any = solver.solve_batch(cols)  # BatchResult: its arrays are set, not declared
-            take = self._easy_prefix(ctx, solver, B, cols, end - pos) if continuous else end - pos
+            take = (
+                easy_prefix(self.mech, ctx.hist, solver, B, cols, end - pos)
+                if continuous
+                else end - pos
+            )
             # next to a tangency the batched and single dyad formulas may disagree on closing
             near = np.flatnonzero(
                 np.asarray(B.ok[:take]) & (np.asarray(B.margin[:take]) < NEAR_TANGENT)
@@ -339,7 +328,7 @@ class _Engine:
         # refused rows: the node's exact reason (the same solve, with the same branch choices)
         reasons = {}
         cache: dict[bytes, str] = {}
-        finite = _finite_rows({nm: c[:take] for nm, c in cols.items()}, take)
+        finite = finite_rows({nm: c[:take] for nm, c in cols.items()}, take)
         for i in np.flatnonzero(~B.ok[:take]).tolist():
             keyb = None
             if not finite[i]:
@@ -347,7 +336,7 @@ class _Engine:
                 if keyb in cache:
                     reasons[i] = cache[keyb]
                     continue
-            r = solver.solve(_command(cols, i), commit=False)
+            r = solver.solve(command_row(cols, i), commit=False)
             if r.success:  # a tangency the batch refused: leave it to Solver
                 take = i
                 break
@@ -356,40 +345,8 @@ class _Engine:
                 cache[keyb] = r.reason
         if not take:
             return 0
-        sl = slice(g0, g0 + take)
-        ok = B.ok[:take]
-        okr = np.flatnonzero(ok)
-        for i, why in reasons.items():
-            if i < take:
-                res.reason[g0 + i] = why
-        res.ok[sl] = ok
-        res.residual[sl] = np.where(ok, B.residual[:take], np.nan)
-        res.margin[sl] = np.where(ok, B.margin[:take], np.nan)
-        res.iterations[sl] = 0
-        nsg = B.signs.shape[1]
-        if nsg:
-            res.branch_defined[sl] = np.where(
-                ok, branch_identity_defined(B.margin[:take], B.residual[:take]), True
-            )
-            sg = np.asarray(B.signs[:take]) > 0
-            keyv = sg.astype(np.int64) @ (np.int64(1) << np.arange(nsg, dtype=np.int64))
-            uniq, first, inv = np.unique(keyv, return_index=True, return_inverse=True)
-            table = np.array(
-                [res.branch_code_of(branch_text(np.where(sg[f], 1, -1))) for f in first.tolist()],
-                np.int32,
-            )
-            res.branch_code[sl] = np.where(ok, table[inv.reshape(-1)], 0)
-        else:
-            res.branch_code[sl] = np.where(ok, res.branch_code_of(''), 0)
-        res.solver_code[sl] = np.where(ok, res.solver_code_of(B.solver), 0)
-        for nm, arr in B.inputs.items():
-            if nm in res.inputs:
-                res.inputs[nm][sl] = np.where(ok, arr[:take], res.inputs[nm][sl])
-        for nm, arr in B.joints.items():
-            res.joints[nm][sl] = np.where(ok, arr[:take], np.nan)
-        for nm, arr in B.points.items():
-            if nm in res.points:
-                res.points[nm][sl] = np.where(ok[:, None], arr[:take], np.nan)
+        res.put_batch(g0, B, take, reasons)
+        okr = np.flatnonzero(B.ok[:take])
         # the last two successes become the node's history
         if okr.size:
             self.engine.version += okr.size - min(okr.size, 2)
@@ -397,7 +354,7 @@ class _Engine:
                 ctx.push(
                     _Entry(
                         'solve',
-                        cmd=_command(cols, i),
+                        cmd=command_row(cols, i),
                         signs=tuple(B.signs[i]),
                         batch=B,
                         i=i,
@@ -418,170 +375,13 @@ class _Engine:
             rate = rates.row(pos + i)
             assert rate is not None  # a rated row
             self.res.store_velocity(
-                a + pos + i, velocities(ctx.solver, B.row(i), _command(cols, i), rate)
+                a + pos + i, velocities(ctx.solver, B.row(i), command_row(cols, i), rate)
             )
-
-    def _easy_prefix(self, ctx: _Context, solver: Solver, B, cols, m) -> int:
-        """How many leading batch rows the node's continuity rule provably solves the same way."""
-        plan = solver.plan
-        bsteps = plan.branch_steps
-        if not bsteps:
-            return m
-        mech = self.mech
-        signs0 = list(ctx.hist[-1].signs)
-        finite = _finite_rows(cols, m)
-        safe = []
-        for s in solver.specs:
-            v = np.asarray(cols[s.name], float)
-            v = v.reshape(m, 2) if isinstance(s, PointSpec) else v.reshape(m)
-            safe.append(np.where(np.isfinite(v), v, 0.0))
-        okb = np.asarray(B.ok[:m], bool)
-        okr = np.flatnonzero(okb)
-        step_index = {id(st): k for k, st in enumerate(plan.steps)}
-        # the configuration the batch chose (signs0) at each branching step: the batch rows,
-        # plus a run for refused rows that still reach some branching step
-        reached = {k: okb.copy() for k in range(len(bsteps))}
-        names, guides = _step_inputs(mech, bsteps)
-        rowpts = {p: np.array(B.points[p][:m], float) for p in names}
-        rowphi = {g: np.asarray(B.links[g][:m], float) - mech.links[g].angle_ref for g in guides}
-        fin_fail = np.flatnonzero(~okb & finite)
-        if fin_fail.size:
-            poses_f, pts_f, info_f = plan.run([v[fin_fail] for v in safe], fin_fail.size, signs0)
-            for k, st in enumerate(bsteps):
-                reached[k][fin_fail] = info_f['ok'] | (info_f['failure'] > step_index[id(st)])
-            for p in names:
-                if p in pts_f:
-                    rowpts[p][fin_fail] = pts_f[p]
-            for g in guides:
-                if g in poses_f.phi:
-                    rowphi[g][fin_fail] = poses_f.phi[g]
-        # the previous good configurations of every row: the history, then the batch's ok rows
-        seqpts = {
-            p: np.concatenate(
-                [np.array([e.point(p) for e in ctx.hist]).reshape(-1, 2), rowpts[p][okr]]
-            )
-            for p in names
-        }
-        seqphi = {
-            g: np.concatenate(
-                [np.array([e.link(g) - mech.links[g].angle_ref for e in ctx.hist]), rowphi[g][okr]]
-            )
-            for g in guides
-        }
-        nh = len(ctx.hist)
-        last_idx = nh + (np.cumsum(okb) - okb) - 1  # into hist + ok batch rows
-        prev_idx = last_idx - 1
-        has_last = last_idx >= 0
-        has_prev = prev_idx >= 0
-        li = np.maximum(last_idx, 0)
-        pi = np.maximum(prev_idx, 0)
-        eps = EASY_MARGIN * mech.length_scale
-        gate = _continuity_margin()
-        easy = np.ones(m, bool)
-        for k, st in enumerate(bsteps):
-            need = reached[k] & has_last
-            if not np.any(need):
-                continue
-            if gate is not None:
-                # the node keeps the previous sign where the dyad is clear of its singularity
-                # now and in the previous configuration (core.plan.CONTINUITY_MARGIN)
-                m_now = _step_margin(mech, st, rowpts, rowphi)
-                m_seq = _step_margin(mech, st, seqpts, seqphi)
-                keep = (m_now > gate + 1e-9) & (m_seq[li] > gate + 1e-9)
-                need &= ~keep
-                if not np.any(need):
-                    continue
-            flipped = list(signs0)
-            flipped[k] = -flipped[k]
-            poses1, pts1, _ = plan.run(safe, m, flipped)
-            if isinstance(st.args, RPRDyad):
-                gl = mech.prismatics[st.args.joint].guide
-                phs = rowphi[gl]
-                last = seqphi[gl][li]
-                ds = np.abs(BATCH.wrap(phs - last))
-                do = np.abs(BATCH.wrap(poses1.phi[gl] - last))
-                good = do - ds > EASY_MARGIN
-            else:
-                x = st.point
-                assert x is not None  # an RRR / RRP step places its point
-                xs, xo = rowpts[x], pts1[x]
-                L, P = seqpts[x][li], seqpts[x][pi]
-                good = _dist(xo, L) - _dist(xs, L) > eps
-                T = L + MAX_STEP_RATIO * (L - P)  # as far as continuity extrapolates
-                good &= ~has_prev | (_dist(xo, T) - _dist(xs, T) > eps)
-            easy &= ~need | good
-        easy |= ~finite
-        # refused on an input limit: the node checks limits before any branch choice
-        limited = [
-            (k, s)
-            for k, s in enumerate(solver.specs)
-            if not isinstance(s, PointSpec) and (s.minimum is not None or s.maximum is not None)
-        ]
-        if limited:
-            for i in np.flatnonzero(~easy & ~okb).tolist():
-                if any(solver.limit_violation(s, float(safe[k][i])) for k, s in limited):
-                    easy[i] = True
-        bad = np.flatnonzero(~easy)
-        return int(bad[0]) if bad.size else m
-
-
-def _continuity_margin() -> float | None:
-    """The dyad margin above which the core's continuity keeps the previous branch sign."""
-    try:
-        from ..core.execute import CONTINUITY_MARGIN
-
-        return float(CONTINUITY_MARGIN)
-    except ImportError:
-        return None
-
-
-def _step_inputs(mech, bsteps):
-    """The points and guide links whose positions decide each branching step."""
-    names, guides = [], []
-    for st in bsteps:
-        pts = [st.point, anchor_of(st.args)]
-        if isinstance(st.args, RRRDyad):
-            pts.append(st.args.centre_b)
-        names += [p for p in pts if p not in names]
-        if isinstance(st.args, RRPDyad | RPRDyad):
-            g = mech.prismatics[st.args.joint].guide
-            if g not in guides:
-                guides.append(g)
-    return names, guides
-
-
-def _step_margin(mech, st, pts, phi) -> np.ndarray:
-    """Margin of one branching dyad over rows ((n, 2) points, guide angles phi): the core's
-    step_geometry, as a Newton solution's branch is read."""
-    zs = {p: to_complex(v) for p, v in pts.items()}
-    rot = {g: BATCH.expi(a) for g, a in phi.items()}
-    with np.errstate(all='ignore'):
-        return np.asarray(step_geometry(BATCH, mech, st, zs, rot)[1], float)
-
-
-def _command(columns, i) -> dict:
-    out = {}
-    for nm, c in columns.items():
-        v = c[i]
-        out[nm] = (float(v[0]), float(v[1])) if np.ndim(v) else float(v)
-    return out
-
-
-def _finite_rows(cols, m) -> np.ndarray:
-    f = np.ones(m, bool)
-    for c in cols.values():
-        f &= np.all(np.isfinite(np.asarray(c, float).reshape(m, -1)), axis=1)
-    return f
 
 
 def _adopted_signs(S: Solver) -> tuple[int, ...]:
     """The branch signs a solver holds after adopt() (its plan's signs of that pose)."""
     return S.current_signs
-
-
-def _dist(a, b):
-    d = a - b
-    return np.hypot(d[:, 0], d[:, 1])
 
 
 def solve_commands(
@@ -595,9 +395,6 @@ CHUNK_MIN, CHUNK_START, CHUNK_MAX = 256, 8192, 65536
 
 
 SEQUENTIAL_STRETCH = 16
-
-
-EASY_MARGIN = 1e-9
 
 
 MIN_BATCH = 32

@@ -243,8 +243,8 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
     p.add_argument(
         '--csv',
         metavar='FILE',
-        help='also write the trajectory as CSV: index, status, reason, every actuator and every '
-        'joint (full precision; empty on refused rows), written whole or not at all',
+        help='also write the trajectory as CSV: index, status, reason, input.<actuator>... and '
+        'joint.<joint>... (full precision; empty on refused rows), written whole or not at all',
     )
     p.set_defaults(func=cmd_sweep)
 

@@ -1,11 +1,15 @@
 """``linkage sweep``: a grid of commands, JSON lines out (and, with ``--csv``, the trajectory of
-every actuator and joint as CSV)."""
+every actuator and joint as CSV: the answers go into the core's results table, the one
+``linkage bag`` fills, and the CSV is written from it with the bag CSV's column names)."""
 
 from __future__ import annotations
 
 import csv
 import sys
 
+import numpy as np
+
+from ..core.solver.table import ResultTable
 from ..outputs import written_whole
 from .common import (
     OK,
@@ -50,14 +54,15 @@ def cmd_sweep(args) -> int:
     engine = None
     if solver.inverse and args.branch == 'continuous':  # targets as a node answers them
         engine = target_engine(mech, args)
-    rows = []
+    grid = list(_grid([vals for _, vals in axes]))
+    table = ResultTable.for_mechanism(mech, len(grid)) if args.csv else None
     n_ok = n_err = 0
-    for i, combo in enumerate(_grid([vals for _, vals in axes])):
+    for i, combo in enumerate(grid):
         command = dict(zip(names, combo))
         known = scene_command(mech, command)  # a robot description's names and values
         res = engine.solve_target(solver, known) if engine else solver.solve(known)
-        if args.csv:
-            rows.append(_csv_row(mech, i, res))
+        if table is not None:
+            table.put_result(i, res)
         n_ok += res.success
         n_err += not res.success
         d = request_echo(mech, res.to_dict(mech), command)
@@ -75,33 +80,38 @@ def cmd_sweep(args) -> int:
             row += [d['reason'] or 'refused']
         print('\t'.join(row))
     sys.stdout.flush()
-    if args.csv:
-        _write_csv(args.csv, mech, rows)
+    if table is not None:
+        _write_csv(args.csv, mech, table)
     total = n_ok + n_err
     print(f'linkage sweep: {total} command(s), {n_ok} ok, {n_err} error(s)', file=sys.stderr)
     return REFUSED if args.strict and n_err else OK
 
 
-def _csv_row(mech, i: int, res) -> list:
-    if not res.success:
-        return [i, 'error', res.reason or 'refused'] + [''] * (
-            len(mech.output_input_names) + len(mech.output_joint_names)
-        )
-    return (
-        [i, 'ok', '']
-        + [repr(float(v)) for v in mech.output_inputs(res.inputs)]
-        + [repr(float(v)) for v in mech.output_joints(res.joints)]
-    )
+def _csv_rows(mech, table: ResultTable) -> list[list]:
+    """index, status, reason, every input and joint of each row (empty on a refused row)."""
+    n = table.n
+    columns = [
+        np.broadcast_to(np.asarray(v, float), (n,)).tolist()
+        for v in (*mech.output_inputs(table.inputs), *mech.output_joints(table.joints))
+    ]
+    blank = [''] * len(columns)
+    rows = []
+    for i in range(n):
+        if not table.ok[i]:
+            rows.append([i, 'error', table.reason[i] or 'refused'] + blank)
+            continue
+        rows.append([i, 'ok', ''] + [repr(c[i]) for c in columns])
+    return rows
 
 
-def _write_csv(path: str, mech, rows: list) -> None:
+def _write_csv(path: str, mech, table: ResultTable) -> None:
     head = ['index', 'status', 'reason']
-    head += [f'actuator.{a}' for a in mech.output_input_names]
+    head += [f'input.{a}' for a in mech.output_input_names]
     head += [f'joint.{j}' for j in mech.output_joint_names]
     try:
         with written_whole(path) as tmp, open(tmp, 'w', newline='') as fh:
             w = csv.writer(fh)
             w.writerow(head)
-            w.writerows(rows)
+            w.writerows(_csv_rows(mech, table))
     except OSError as exc:
         raise UsageError(f'--csv: cannot write {path}: {exc.strerror or exc}') from None

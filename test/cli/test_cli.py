@@ -655,7 +655,7 @@ def test_sweep_csv_is_the_actuator_trajectory_of_a_path(capsys, tmp_path):
     assert [r['index'] for r in rows] == [str(i) for i in range(7)]
     for k, row in enumerate(rows):
         assert row['status'] == 'ok'
-        r = fwd.solve({a: float(row[f'actuator.{a}']) for a in mech.actuators})
+        r = fwd.solve({a: float(row[f'input.{a}']) for a in mech.actuators})
         want = (2.0 + 0.3 * k / 6, -0.2 - 0.2 * k / 6)
         assert math.dist(r.points['L'], want) < 1e-9 * mech.length_scale
         for j in mech.joint_names:

@@ -436,7 +436,7 @@ def test_sweep_csv_columns_are_the_descriptions_joints(capsys, tmp_path):
     rows = list(csv.DictReader(out_csv.open()))
     names = ['joint1', 'joint4', 'joint2', 'joint5', 'joint3']
     assert list(rows[0]) == ['index', 'status', 'reason'] + [
-        f'actuator.{a}' for a in ('joint1', 'joint2', 'joint3')
+        f'input.{a}' for a in ('joint1', 'joint2', 'joint3')
     ] + [f'joint.{j}' for j in names]
     case = CASES['grbda_six_bar']
     for row, q1 in zip(rows, (0.0, 0.1, 0.2)):
@@ -450,8 +450,8 @@ def test_sweep_csv_columns_are_the_descriptions_joints(capsys, tmp_path):
     )  # fmt: skip
     assert rc == 0, err
     for row in csv.DictReader(out_csv.open()):
-        left = float(row[f'actuator.{LEFT_KNUCKLE}'])
-        assert float(row[f'actuator.{RIGHT_KNUCKLE}']) == pytest.approx(-left, abs=1e-12)
+        left = float(row[f'input.{LEFT_KNUCKLE}'])
+        assert float(row[f'input.{RIGHT_KNUCKLE}']) == pytest.approx(-left, abs=1e-12)
 
 
 def test_check_prints_the_notes_and_the_descriptions_joints(capsys):

@@ -3,7 +3,8 @@
 ``compiling.py``) and the caller's :class:`Continuity` (``continuity.py``); the paths are
 functions over the two: one command (``one.py``, its Newton part ``newton_path.py``), many
 commands (``batch.py``: :class:`BatchResult`), every assembly mode (``modes.py``), answers read
-back (``reading.py``). Every answer is a :class:`Result` (``result.py``)."""
+back (``reading.py``). Every answer is a :class:`Result` (``result.py``); many answers as
+columns with each row's status are a :class:`ResultTable` (``table.py``)."""
 
 from __future__ import annotations
 
@@ -21,6 +22,7 @@ from .result import (
     branch_undefined_below,
 )
 from .solver import Solver
+from .table import ResultTable
 
 __all__ = [
     'CLOSURE_LIMIT',
@@ -35,6 +37,7 @@ __all__ = [
     'SolveMode',
     'compile_solve',
     'Result',
+    'ResultTable',
     'Solver',
     'branch_identity_defined',
     'branch_undefined_below',

@@ -26,12 +26,14 @@ from .continuity import BranchRule, Continuity, state_of
 from .one import solve_one
 from .point_pairs import pair_columns
 from .result import Result, branch_identity_defined, branch_signs, branch_text
+from .table import ResultTable
 
 
 @dataclass(eq=False)
 class BatchResult:
     """Results of n commands as arrays: ok (n,), reason list, points {name: (n, 2)},
-    joints / links / inputs {name: (n,)}, residual, margin, iterations, signs (n, k); newton
+    joints / links / inputs {name: (n,)}, residual, margin, iterations, signs (n, k) (0 in a
+    refused row; :meth:`table` gives them as the one results table, NaN there); newton
     batches also x (n, 3 * moving links: the Newton unknowns) and det_sign (n,), what the next
     batch of the same instances starts from (Solver.solve_batch(start=...))."""
 
@@ -57,6 +59,11 @@ class BatchResult:
     careful: np.ndarray | None = None
     #: a batch solved row by row: each row's Result
     rows: list[Result] | None = None
+
+    def table(self) -> ResultTable:
+        """These answers as the package's one results table (core.solver.table: a refused
+        row NaN where these arrays hold 0)."""
+        return ResultTable.from_batch(self)
 
     def row(self, i: int, solver: Any = None) -> Result:
         """Row i as the Result solve() gives (``solver`` is accepted for callers of old)."""

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 
 from ..errors import PlanError
-from ..execute import LinkPoses
+from ..execute import CONTINUITY_MARGIN, LinkPoses
+from ..ops import BATCH
 from ..plan import Plan
 from .compiled import CompiledSolve, SolveMode, Values
 from .result import branch_signs
@@ -146,9 +147,67 @@ class Continuity:
 
 
 #: the furthest continuity extrapolates along the previous step (a multiple of it): a command
-#: far beyond the last step is predicted no further than this (the bag replay's easy-row test
-#: uses the same bound)
+#: far beyond the last step is predicted no further than this (nearer_for_every_ratio)
 MAX_STEP_RATIO = 1.5
+
+
+# ---- the continuity rule over many rows (linkage bag proves batch rows follow it) --------------
+# One command's solve applies it inside the dyad plan (core.execute.PlanExecutor: its
+# near_singular test and the nearest-to-``prefer`` choice); these state the same rule on arrays,
+# for a caller that must show a batch row gets the sign a single continuous solve would give.
+
+
+def keeps_sign(margin_now: np.ndarray, margin_prev: np.ndarray, slack: float = 0.0) -> np.ndarray:
+    """Where a dyad keeps its previous branch sign whatever continuity predicts: clear of its
+    singularity (margin, |sin| of its transmission angle, at or above CONTINUITY_MARGIN) now
+    and in the previous configuration, since an assembly mode changes only through that
+    singularity. ``slack``: that much clearer (margins computed another way may differ in
+    their last bits)."""
+    bound = CONTINUITY_MARGIN + slack
+    return np.asarray((np.asarray(margin_now) >= bound) & (np.asarray(margin_prev) >= bound))
+
+
+def predicted_point(last: np.ndarray, prev: np.ndarray, ratio: float) -> np.ndarray:
+    """Where continuity expects a point ((n, 2), m): ``last`` extrapolated ``ratio`` times the
+    previous step (last - prev); ratio is step_ratio's, in [0, MAX_STEP_RATIO]."""
+    return np.asarray(last + ratio * (last - prev))
+
+
+def nearer_for_every_ratio(
+    chosen: np.ndarray,
+    other: np.ndarray,
+    last: np.ndarray,
+    prev: np.ndarray,
+    has_prev: np.ndarray,
+    slack: float,
+) -> np.ndarray:
+    """Where a dyad near its singularity takes ``chosen`` rather than ``other`` ((n, 2)
+    candidate positions of its point) under the continuity rule, whatever the step ratio: the
+    rule takes the candidate nearest the prediction (predicted_point), and ``chosen`` is
+    nearer than ``other`` by more than ``slack`` (m) at ratio 0 and, with a previous
+    configuration (``has_prev``), at MAX_STEP_RATIO; the difference of the squared distances is
+    linear in the ratio, so its two ends decide every ratio between."""
+
+    def gap(target: np.ndarray) -> np.ndarray:
+        return np.asarray(_dist(other, target) - _dist(chosen, target))
+
+    good = gap(last) > slack
+    far = predicted_point(last, prev, MAX_STEP_RATIO)
+    return np.asarray(good & (~np.asarray(has_prev, bool) | (gap(far) > slack)))
+
+
+def nearer_angle(
+    chosen: np.ndarray, other: np.ndarray, last: np.ndarray, slack: float
+) -> np.ndarray:
+    """The same rule for a dyad placed by a link's angle (an RPR dyad: continuity predicts the
+    guide's previous angle, no extrapolation): ``chosen`` (rad) is nearer ``last`` than
+    ``other`` by more than ``slack`` (rad), the differences wrapped to (-pi, pi]."""
+    return np.asarray(np.abs(BATCH.wrap(other - last)) - np.abs(BATCH.wrap(chosen - last)) > slack)
+
+
+def _dist(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    d = a - b
+    return np.asarray(np.hypot(d[:, 0], d[:, 1]))
 
 
 def step_ratio(c: CompiledSolve, prev_vals: Values, last_vals: Values, vals: Values) -> float:
