@@ -16,7 +16,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Mapping, Sequence
 
-from .cdr import CDR_LE, encoded_string, padding, write_encoded
+from .cdr import CDR_LE, encoded_string, padding, string_block, write_encoded
 from .core.model import Mechanism
 from .core.solver import Result
 from .engine import status_texts
@@ -46,13 +46,20 @@ class JointStateBytes:
         self.names = tuple(names)
         self._after_stamp = bytes(buf[12:])
         start = len(buf)
-        #: the whole message, without and with velocities, as one struct each
-        self._plain = struct.Struct(self._layout(start, rates=False))
-        self._rates = struct.Struct(self._layout(start, rates=True))
+        #: the whole message, without and with velocities, as one struct each, and the byte
+        #: offsets of the position and velocity values in each
+        (fmt, self.plain_offsets), (rates_fmt, self.rates_offsets) = (
+            self._layout(start, rates=False),
+            self._layout(start, rates=True),
+        )
+        self._plain, self._rates = struct.Struct(fmt), struct.Struct(rates_fmt)
 
-    def _layout(self, offset: int, rates: bool) -> str:
+    def _layout(self, offset: int, rates: bool) -> tuple[str, tuple[int, int]]:
+        """The struct format of a message, and where its positions and velocities start
+        (bytes from the message's start; where a sequence is empty, where it would be)."""
         n = len(self.names)
         fmt = f'<4siI{len(self._after_stamp)}s'
+        starts: list[int] = []
         for filled in (True, rates, False):  # position, velocity, effort
             pad = padding(offset, 4)
             fmt += f'{pad}xI' if pad else 'I'
@@ -60,8 +67,11 @@ class JointStateBytes:
             if filled and n:
                 pad = padding(offset, 8)
                 fmt += f'{pad}x{n}d' if pad else f'{n}d'
-                offset += pad + 8 * n
-        return fmt
+                offset += pad
+            starts.append(offset)
+            if filled and n:
+                offset += 8 * n
+        return fmt, (starts[0], starts[1])
 
     def write(
         self, sec: int, nanosec: int, positions: Sequence[float], rates: Sequence[float] = ()
@@ -87,18 +97,12 @@ class PointStampedBytes:
         buf += b'\x00' * padding(len(buf), 8)
         self._after_stamp = bytes(buf[12:])
         self._struct = struct.Struct(f'<4siI{len(self._after_stamp)}s3d')
+        #: where x, y, z start (bytes from the message's start)
+        self.xyz_offset = len(buf)
 
     def write(self, sec: int, nanosec: int, x: float, y: float, z: float) -> bytes:
         """One point (m)."""
         return self._struct.pack(CDR_LE, sec, nanosec, self._after_stamp, x, y, z)
-
-
-def string_block(s: str) -> bytes:
-    """A CDR string that starts 4-aligned, padded so that what follows starts 4-aligned too:
-    a message of such blocks (and 4-byte words) needs no offset bookkeeping."""
-    b = s.encode()
-    k = len(b) + 1
-    return struct.pack('<I', k) + b + b'\x00' * (1 + (-k) % 4)
 
 
 #: status texts kept as blocks (the keys, and values that repeat: true, false, branch signs,

@@ -32,6 +32,14 @@ def write_encoded(buf: bytearray, encoded: bytes) -> None:
     buf += encoded
 
 
+def string_block(s: str) -> bytes:
+    """A CDR string that starts 4-aligned, padded so that what follows starts 4-aligned too:
+    a message of such blocks (and 4-byte words) needs no offset bookkeeping."""
+    b = s.encode()
+    k = len(b) + 1
+    return struct.pack('<I', k) + b + b'\x00' * (1 + (-k) % 4)
+
+
 def write_string(buf: bytearray, s: str) -> None:
     write_encoded(buf, encoded_string(s))
 

@@ -75,8 +75,6 @@ from . import fleet_task  # noqa: F401
 from .bag_out import (  # noqa: F401
     _LEN,
     _PAD,
-    _Cdr,
-    _cdr_str_block,
     _float_blocks,
     _joint_state_template,
     _point_template,

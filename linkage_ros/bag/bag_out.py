@@ -12,6 +12,8 @@ from typing import Any
 
 import numpy as np
 
+from ..answer_cdr import JointStateBytes, PointStampedBytes
+from ..cdr import string_block
 from ..trajectory import TrajectoryAnswer, trajectory_status_values
 from .common import (
     DIAGNOSTIC_STATUS,
@@ -29,85 +31,25 @@ from .results import Results
 # ---- writing: rosbag2 ----------------------------------------------------------------------
 
 
-class _Cdr:
-    """A little-endian CDR writer for the few fixed message shapes written here."""
-
-    def __init__(self):
-        self.buf = bytearray(b'\x00\x01\x00\x00')
-
-    def align(self, k):
-        self.buf += b'\x00' * ((-(len(self.buf) - 4)) % k)
-
-    def u8(self, v):
-        self.buf.append(v & 0xFF)
-
-    def u32(self, v):
-        self.align(4)
-        self.buf += struct.pack('<I', v)
-
-    def i32(self, v):
-        self.align(4)
-        self.buf += struct.pack('<i', v)
-
-    def string(self, s: str):
-        b = s.encode('utf-8')
-        self.u32(len(b) + 1)
-        self.buf += b + b'\x00'
-
-    def f64s(self, values) -> int:
-        self.align(8)
-        off = len(self.buf)
-        for v in values:
-            self.buf += struct.pack('<d', v)
-        return off
-
-    def header(self, frame_id):
-        self.i32(0)
-        self.u32(0)
-        self.string(frame_id)
-
-
 def _joint_state_template(names, frame_id):
-    c = _Cdr()
-    c.header(frame_id)
-    c.u32(len(names))
-    for nm in names:
-        c.string(nm)
-    c.u32(len(names))
-    off = c.f64s([0.0] * len(names)) if names else len(c.buf)
-    c.u32(0)
-    c.u32(0)
-    return np.frombuffer(bytes(c.buf), np.uint8), off
+    """A JointState of ``names`` with zero stamp and positions (the node's writer), and the
+    byte offset of its positions."""
+    w = JointStateBytes(frame_id, names)
+    return np.frombuffer(w.write(0, 0, [0.0] * len(names)), np.uint8), w.plain_offsets[0]
 
 
 def _joint_state_rates_template(names, frame_id):
     """A JointState with a position and a velocity per name: (bytes, position offset, velocity
     offset)."""
-    c = _Cdr()
-    c.header(frame_id)
-    c.u32(len(names))
-    for nm in names:
-        c.string(nm)
-    c.u32(len(names))
-    pos = c.f64s([0.0] * len(names)) if names else len(c.buf)
-    c.u32(len(names))
-    vel = c.f64s([0.0] * len(names)) if names else len(c.buf)
-    c.u32(0)
-    return np.frombuffer(bytes(c.buf), np.uint8), pos, vel
+    w = JointStateBytes(frame_id, names)
+    zeros = [0.0] * len(names)
+    pos, vel = w.rates_offsets
+    return np.frombuffer(w.write(0, 0, zeros, zeros), np.uint8), pos, vel
 
 
 def _point_template(frame_id):
-    c = _Cdr()
-    c.header(frame_id)
-    off = c.f64s([0.0, 0.0, 0.0])
-    return np.frombuffer(bytes(c.buf), np.uint8), off
-
-
-def _cdr_str_block(s: str) -> bytes:
-    """A CDR string starting at a 4-aligned offset, padded to the next 4-aligned offset."""
-    b = s.encode('utf-8')
-    k = len(b) + 1
-    return struct.pack('<I', k) + b + b'\x00' * (1 + (-k) % 4)
+    w = PointStampedBytes(frame_id)
+    return np.frombuffer(w.write(0, 0, 0.0, 0.0, 0.0), np.uint8), w.xyz_offset
 
 
 _LEN = [struct.pack('<I', k + 1) for k in range(256)]
@@ -133,15 +75,15 @@ class _StatusWriter:
     OK_LEVEL, ERROR_LEVEL = 0, 2
 
     def __init__(self, name: str, hardware_id: str = ''):
-        self.name = _cdr_str_block(name)
-        self.hw = _cdr_str_block(hardware_id)
+        self.name = string_block(name)
+        self.hw = string_block(hardware_id)
         self.cache: dict[str, bytes] = {}
         self.parts: dict[tuple[Any, ...], tuple[bytes, bytes, bytes, bytes]] = {}
 
     def blk(self, s: str) -> bytes:
         b = self.cache.get(s)
         if b is None:
-            b = self.cache[s] = _cdr_str_block(s)
+            b = self.cache[s] = string_block(s)
         return b
 
     def _head(self, level: int, message: str, count: int) -> bytes:
@@ -195,7 +137,7 @@ class _StatusWriter:
         count = struct.unpack_from('<I', head, count_at)[0] + 1
         head = head[:count_at] + struct.pack('<I', count) + head[count_at + 4 :]
         k = self.blk
-        end = (k('held') + k(held) if held else b'') + k('velocity') + _cdr_str_block(note)
+        end = (k('held') + k(held) if held else b'') + k('velocity') + string_block(note)
         return head, mid, tail, end + k('request') + k(request)
 
     def error(self, reason: str, request: str) -> bytes:
