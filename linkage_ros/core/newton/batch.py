@@ -359,6 +359,7 @@ class BatchNewton:
         *,
         tol: float = 1e-12,
         max_steps: int = FAST_STEPS + 2,
+        start_checked: bool = False,
     ) -> BatchSolve:
         """LoopSystem.solve_batch (its docstring)."""
         self.tables()  # ValueError first if the system needs fixed poses
@@ -381,7 +382,8 @@ class BatchNewton:
         res0 = res.copy()
         iterations = np.zeros(N, int)
         live = (sign0 != 0) & np.isfinite(res)
-        live[live] = det_signs(J[live]) == sign0[live]
+        if not start_checked:  # else the caller read start_sign off J at X0 (J needs no values)
+            live[live] = det_signs(J[live]) == sign0[live]
         done = live & (res <= target)  # converged (pending det sign and cond at the answer)
         active = live & ~done  # still stepping
         for _ in range(max_steps):
@@ -406,7 +408,7 @@ class BatchNewton:
         # at the answer: the start's det J sign (else it crossed det J = 0: maybe another
         # branch; rows still at X0 were checked there) and off folds (else the scalar path
         # polishes)
-        rows = np.flatnonzero(done & (iterations > 0))
+        rows = np.flatnonzero(done if start_checked else done & (iterations > 0))
         done[rows] = det_signs(J[rows]) == sign0[rows]
         cond = np.full(N, math.inf)
         rows = np.flatnonzero(done)
