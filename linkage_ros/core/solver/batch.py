@@ -264,7 +264,14 @@ def _careful_row(
         else:
             signs, margins = c.plan.reference_signs, ()
         det = int(start.det_sign[i])
-        row.history = [state_of(c, vals, poses, pts, signs, det, margins, x_all=xi.copy())]
+        # the factorisation of J at the start (J depends on x alone), as a scalar sweep's state
+        # keeps it: solve_one then tries the fast path from the predicted answer first
+        x_lu = None
+        if c.mode is SolveMode.NEWTON and c.system.tables.val_rows is not None:
+            x_lu = c.system.factor(c.system.evaluate_scaled(xi, vals, None)[1])
+        row.history = [
+            state_of(c, vals, poses, pts, signs, det, margins, x_all=xi.copy(), x_lu=x_lu)
+        ]
     return solve_one(c, row, _row_command(c, arrays, i)), row
 
 
