@@ -18,7 +18,7 @@ from . import evaluate as ev
 from . import linalg, scalar
 from .batch import BatchNewton
 from .results import FAST_STEPS, BatchSolve, LUFactor, SolveResult
-from .tables import LoopTables, PointOwner, compile_tables, spec_links
+from .tables import LoopTables, PointOwner, compile_tables, jacobian_pattern, spec_links
 
 
 class LoopSystem:
@@ -325,11 +325,8 @@ class LoopSystem:
         t = self.tables
         if t.m != t.n or not t.n:
             return []
-        pattern = np.zeros(t.m * t.n + 1, bool)
-        pattern[t.jpos] = True
-        pattern[:-1] |= t.tpl_s[:-1] != 0
         rows = maximum_bipartite_matching(
-            csr_matrix(pattern[:-1].reshape(t.m, t.n).astype(float)), perm_type='column'
+            csr_matrix(jacobian_pattern(t).astype(float)), perm_type='column'
         )
         matched = set(rows[rows >= 0].tolist())
         return list(dict.fromkeys(t.free[c // 3] for c in range(t.n) if c not in matched))
