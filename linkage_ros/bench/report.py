@@ -140,7 +140,7 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
             f'same inputs (closed forms: all inputs in one batch; Newton: the instances above)'
             + ''.join(
                 f'; {r["scene"]} Newton {r["tol"]:g} batch: {r["batch_failures"]} failed, '
-                f'{r["batch_careful"]} of {r["n"]} rows one by one (Solver.solve)'
+                f'{r["batch_careful"]} of {r["n"]} rows by the careful path'
                 for r in report['settings']
                 if r.get('batch_careful') is not None and r['tol'] == 1e-12
             )

@@ -65,7 +65,7 @@ class SettingResult:
     err_median: float | None = None
     batch_err_max: float | None = None
     batch_failures: int | None = None
-    batch_careful: int | None = None  # newton batches: rows Solver.solve answered one by one
+    batch_careful: int | None = None  # newton batches: rows that took Solver.solve's careful path
     failures: int = 0
     n: int = 0
     iterations: float | None = None

@@ -27,8 +27,7 @@ steps stop reducing the residual (near singularities).
 Batched (:meth:`LoopSystem.evaluate_batch`, :meth:`LoopSystem.solve_batch`): the same residual and
 Jacobian for N configurations at once in numpy, and full Newton steps on the N x n x n stack from
 warm starts, accepting a row only where the fast path would (FAST_RATE per step, det J sign at
-start and answer, cond below POLISH_COND); the rows it declines the Solver solves one by one
-from their start (the fast path from the predicted answer, the careful path where that declines).
+start and answer, cond below POLISH_COND); the rows it declines go to the scalar careful path.
 Its linear algebra goes block by block where J's fixed sparsity makes it block triangular
 (blocks.py: the excavator's 33 x 33 J is four blocks of at most 9).
 

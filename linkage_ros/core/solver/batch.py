@@ -52,7 +52,7 @@ class BatchResult:
     solver: str = SolveMode.CLOSED_FORM
     x: np.ndarray | None = None
     det_sign: np.ndarray | None = None
-    #: newton batches with start=: the rows solve_one answered one by one (from their start)
+    #: newton batches with start=: the rows solve_one answered (the careful path)
     careful: np.ndarray | None = None
     #: a batch solved row by row: each row's Result
     rows: list[Result] | None = None
@@ -102,10 +102,8 @@ def solve_batch(
     earlier newton BatchResult of this solve with the same n. Vectorised Newton answers
     every row it can prove is on the start's branch (det J keeps its sign, each step cuts
     the residual tenfold, the dyads keep their sides, the answer is well conditioned); the
-    other rows go through ``solve_one`` from their start, with the state a scalar sweep
-    leaves there (configuration, det J sign, dyad sides, J's factorisation: its fast path
-    from the predicted answer, else its careful path), so the answers are those ``solve_one``
-    would give from that start."""
+    other rows take ``solve_one``'s careful path from their start, so the answers are those
+    ``solve_one`` would give from that start."""
     arrays, n = _columns(c, columns)
     if start is not None:
         _check_start(c, start, n)
@@ -250,10 +248,9 @@ def _newton(
 def _careful_row(
     c: CompiledSolve, cont: Continuity, arrays: list[np.ndarray], start: BatchResult, i: int
 ) -> tuple[Result, Continuity]:
-    """Row i by solve_one from row i of ``start`` (its configuration, det J sign, dyad sides
-    and J's factorisation; the reference pose if that row failed), on a continuity of its
-    own (the caller's is not touched); returns the answer and that continuity (its state:
-    the row's x)."""
+    """Row i by solve_one from row i of ``start`` (its configuration, det J sign and dyad
+    sides; the reference pose if that row failed), on a continuity of its own (the caller's
+    is not touched); returns the answer and that continuity (its state: the row's x)."""
     row = Continuity(cont.branch)
     if start.ok[i] and start.x is not None and start.det_sign is not None:
         xi = start.x[i]
@@ -267,14 +264,7 @@ def _careful_row(
         else:
             signs, margins = c.plan.reference_signs, ()
         det = int(start.det_sign[i])
-        # the factorisation of J at the start (J depends on x alone), as a scalar sweep's state
-        # keeps it: solve_one then tries the fast path from the predicted answer first
-        x_lu = None
-        if c.mode is SolveMode.NEWTON and c.system.tables.val_rows is not None:
-            x_lu = c.system.factor(c.system.evaluate_scaled(xi, vals, None)[1])
-        row.history = [
-            state_of(c, vals, poses, pts, signs, det, margins, x_all=xi.copy(), x_lu=x_lu)
-        ]
+        row.history = [state_of(c, vals, poses, pts, signs, det, margins, x_all=xi.copy())]
     return solve_one(c, row, _row_command(c, arrays, i)), row
 
 
