@@ -28,11 +28,13 @@ Batched (:meth:`LoopSystem.evaluate_batch`, :meth:`LoopSystem.solve_batch`): the
 Jacobian for N configurations at once in numpy, and full Newton steps on the N x n x n stack from
 warm starts, accepting a row only where the fast path would (FAST_RATE per step, det J sign at
 start and answer, cond below POLISH_COND); the rows it declines go to the scalar careful path.
+Its linear algebra goes block by block where J's fixed sparsity makes it block triangular
+(blocks.py: the excavator's 33 x 33 J is four blocks of at most 9).
 
 Modules (no one imports back): tables (the equations compiled once: a frozen LoopTables),
 evaluate (one configuration's rows), linalg (LU, det sign, cond), scalar (the one-configuration
-solves and the predictor), batch (N at once), results (outcomes and constants); system's
-LoopSystem is the facade the solver uses.
+solves and the predictor), batch (N at once), blocks (J's block-triangular form for the batch),
+results (outcomes and constants); system's LoopSystem is the facade the solver uses.
 """
 
 from __future__ import annotations

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..ops import BATCH
 from ..quantities import AngleSpec, PointSpec
+from .blocks import BlockForm, block_det_signs, block_form, block_steps
 from .results import (
     COND_EXACT,
     FAST_FLOOR,
@@ -23,7 +24,7 @@ from .results import (
     BatchSolve,
 )
 from .rows import AngleRow, LineRow, angle_row, line_row, point_rows, revolute_rows
-from .tables import LoopTables
+from .tables import LoopTables, jacobian_pattern
 
 
 @dataclass(frozen=True, slots=True)
@@ -59,6 +60,7 @@ class BatchTables:
     jv_real: np.ndarray  # the varying entries of free links (those of the ground dropped)
     j_pos: np.ndarray  # ... and their flat positions in J
     j_tpl: np.ndarray  # the scale-free J's constant entries, flat (m * n,)
+    form: BlockForm | None  # J's block-triangular form (None: not square, or singular)
 
 
 def batch_tables(t: LoopTables) -> BatchTables:
@@ -141,6 +143,7 @@ def batch_tables(t: LoopTables) -> BatchTables:
         jv_real=np.flatnonzero(real),
         j_pos=t.jpos[real],
         j_tpl=t.tpl_s[:-1],
+        form=block_form(jacobian_pattern(t)),
     )
 
 
@@ -230,6 +233,18 @@ class BatchNewton:
         if self._tables is None:
             self._tables = batch_tables(self.t)
         return self._tables
+
+    def det_signs(self, J: np.ndarray) -> np.ndarray:
+        """det_signs of a (K, n, n) stack of this system's Jacobians, block by block."""
+        form = self.tables().form
+        return det_signs(J) if form is None or not J.shape[0] else block_det_signs(form, J)
+
+    def newton_steps(self, J: np.ndarray, F: np.ndarray) -> np.ndarray:
+        """newton_steps for a stack of this system's Jacobians: forward substitution through
+        its blocks, densely where a block of some matrix is singular."""
+        form = self.tables().form
+        dy = block_steps(form, J, F) if form is not None and J.shape[0] else None
+        return newton_steps(J, F) if dy is None else dy
 
     def values(self, values: Sequence[Any], N: int) -> np.ndarray:
         """(N, columns) matrix of the values (angles wrapped as evaluate.residual_rows wraps
@@ -359,6 +374,7 @@ class BatchNewton:
         *,
         tol: float = 1e-12,
         max_steps: int = FAST_STEPS + 2,
+        start_checked: bool = False,
     ) -> BatchSolve:
         """LoopSystem.solve_batch (its docstring)."""
         self.tables()  # ValueError first if the system needs fixed poses
@@ -381,14 +397,15 @@ class BatchNewton:
         res0 = res.copy()
         iterations = np.zeros(N, int)
         live = (sign0 != 0) & np.isfinite(res)
-        live[live] = det_signs(J[live]) == sign0[live]
+        if not start_checked:  # else the caller read start_sign off J at X0 (J needs no values)
+            live[live] = self.det_signs(J[live]) == sign0[live]
         done = live & (res <= target)  # converged (pending det sign and cond at the answer)
         active = live & ~done  # still stepping
         for _ in range(max_steps):
             rows = np.flatnonzero(active)
             if not rows.size:
                 break
-            xn = x[rows] + newton_steps(J[rows], F[rows]) * t.step_scale
+            xn = x[rows] + self.newton_steps(J[rows], F[rows]) * t.step_scale
             Fn, Jn, rn = self._evaluate_jac(xn, V[rows])
             iterations[rows] += 1
             cut = rn <= FAST_RATE * res[rows]  # False for NaN
@@ -406,8 +423,8 @@ class BatchNewton:
         # at the answer: the start's det J sign (else it crossed det J = 0: maybe another
         # branch; rows still at X0 were checked there) and off folds (else the scalar path
         # polishes)
-        rows = np.flatnonzero(done & (iterations > 0))
-        done[rows] = det_signs(J[rows]) == sign0[rows]
+        rows = np.flatnonzero(done if start_checked else done & (iterations > 0))
+        done[rows] = self.det_signs(J[rows]) == sign0[rows]
         cond = np.full(N, math.inf)
         rows = np.flatnonzero(done)
         cond[rows] = batch_conds(J[rows])

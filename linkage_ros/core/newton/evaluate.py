@@ -9,10 +9,13 @@ from typing import Any, Literal, overload
 
 import numpy as np
 
-from ..dyads import wrap_angle
 from ..execute import LinkPoses
+from ..ops import SCALAR
 from .rows import AngleRow, LineRow, angle_row, line_row, point_rows, revolute_rows
 from .tables import FixedSlots, LoopTables
+
+#: dyads.wrap_angle's function itself: one Python call less per angle row and value
+_wrap = SCALAR.wrap
 
 
 def fixed_slots(t: LoopTables, fixed: LinkPoses | None) -> FixedSlots:
@@ -78,8 +81,8 @@ def residual_rows(
                 Jv += jl
         elif isinstance(row, AngleRow):
             ia, ib, vi, off = row
-            v = 0.0 if vi is None else wrap_angle(float(values[vi]))
-            F.append(angle_row(phis[ia], phis[ib], v, off, kL, wrap_angle))
+            v = 0.0 if vi is None else _wrap(float(values[vi]))
+            F.append(angle_row(phis[ia], phis[ib], v, off, kL, _wrap))
         else:
             i, lx, ly, vp_i = row
             vp = values[vp_i]

@@ -18,7 +18,7 @@ from . import evaluate as ev
 from . import linalg, scalar
 from .batch import BatchNewton
 from .results import FAST_STEPS, BatchSolve, LUFactor, SolveResult
-from .tables import LoopTables, PointOwner, compile_tables, spec_links
+from .tables import LoopTables, PointOwner, compile_tables, jacobian_pattern, spec_links
 
 
 class LoopSystem:
@@ -41,6 +41,11 @@ class LoopSystem:
         self.col_scale: np.ndarray = t.col_scale
         self.step_scale: np.ndarray = t.step_scale
         self.point_owner: list[PointOwner] = t.point_owner
+        #: (free link, its index, its reference centroid as a complex number, m)
+        self._centroid_z: list[tuple[str, int, complex]] = [
+            (l, i, complex(float(t.centroid[l][0]), float(t.centroid[l][1])))
+            for l, i in t.index.items()
+        ]
 
     def spec_links(self, s: Spec) -> list[str]:
         """The links a spec's rows involve."""
@@ -66,18 +71,24 @@ class LoopSystem:
     def poses_from_x(self, x: np.ndarray, fixed: LinkPoses | None = None) -> LinkPoses:
         """Configuration of every link: free ones from x, the rest from ``fixed`` (ground at
         the reference pose)."""
-        poses = LinkPoses()
+        phi: dict[str, Any] = {}
+        rot: dict[str, Any] = {}
+        T: dict[str, Any] = {}
         if fixed is not None:
             for l in fixed.phi:
-                poses.set(l, fixed.phi[l], fixed.T[l], fixed.rot[l])
-        if self.mech.ground not in poses.phi:
-            poses.set(self.mech.ground, 0.0, 0j, 1 + 0j)
-        for l, i in self.index.items():
-            phi = float(x[3 * i])
-            rot = complex(math.cos(phi), math.sin(phi))
-            o = self.centroid[l]
-            poses.set(l, phi, complex(x[3 * i + 1], x[3 * i + 2]) - rot * complex(o[0], o[1]), rot)
-        return poses
+                phi[l], rot[l], T[l] = fixed.phi[l], fixed.rot[l], fixed.T[l]
+        ground = self.mech.ground
+        if ground not in phi:
+            phi[ground], rot[ground], T[ground] = 0.0, 1 + 0j, 0j
+        # plain floats and complex numbers: the warm Newton solve reads every configuration
+        # it checks through here (a dozen numpy scalar reads per link would cost more)
+        xs: list[float] = x.tolist()
+        cos, sin = math.cos, math.sin
+        for l, i, o in self._centroid_z:
+            p = xs[3 * i]
+            r = complex(cos(p), sin(p))
+            phi[l], rot[l], T[l] = p, r, complex(xs[3 * i + 1], xs[3 * i + 2]) - r * o
+        return LinkPoses(phi, rot, T)
 
     def configuration(
         self, x: np.ndarray, fixed: LinkPoses | None = None
@@ -228,6 +239,7 @@ class LoopSystem:
         *,
         tol: float = 1e-12,
         max_steps: int = FAST_STEPS + 2,
+        start_checked: bool = False,
     ) -> BatchSolve:
         """Newton for N warm starts at once (numpy over the rows): row i from X0[i] (N, n:
         phi rad, centroid m per free link; typically instance i's last solution) to the values
@@ -246,8 +258,15 @@ class LoopSystem:
         finite. Otherwise the row is *declined*, not failed: ok False, x its X0 row, residual
         max|F| / L at X0, det_sign 0, cond inf; the caller solves it another way (solve(): the
         careful path with line search and LM). Rows never affect one another: each row's result
-        is what solving it alone would give."""
-        return self.batch.solve_batch(X0, values, start_sign, tol=tol, max_steps=max_steps)
+        is what solving it alone would give.
+
+        ``start_checked``: the caller vouches that start_sign[i] is det J's sign at X0[i] (read
+        off J there, e.g. a BatchResult's det_sign at its x: J depends on x alone, not on the
+        values), so it is not computed again (one LU per row less); the sign at the answer is
+        then checked for every row, those converged at X0 too."""
+        return self.batch.solve_batch(
+            X0, values, start_sign, tol=tol, max_steps=max_steps, start_checked=start_checked
+        )
 
     def least_miss(
         self, x0: np.ndarray, values: Sequence[Any], fixed: LinkPoses | None = None
@@ -306,11 +325,8 @@ class LoopSystem:
         t = self.tables
         if t.m != t.n or not t.n:
             return []
-        pattern = np.zeros(t.m * t.n + 1, bool)
-        pattern[t.jpos] = True
-        pattern[:-1] |= t.tpl_s[:-1] != 0
         rows = maximum_bipartite_matching(
-            csr_matrix(pattern[:-1].reshape(t.m, t.n).astype(float)), perm_type='column'
+            csr_matrix(jacobian_pattern(t).astype(float)), perm_type='column'
         )
         matched = set(rows[rows >= 0].tolist())
         return list(dict.fromkeys(t.free[c // 3] for c in range(t.n) if c not in matched))

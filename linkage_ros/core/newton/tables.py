@@ -273,3 +273,13 @@ def compile_tables(
         ground_slots=ground_slots,
         point_owner=point_owner,
     )
+
+
+def jacobian_pattern(t: LoopTables) -> np.ndarray:
+    """(m, n) bool: the entries of J that can be nonzero at some configuration (the varying
+    ones of free links and the nonzero constants): the same at every configuration."""
+    pattern = np.zeros(t.m * t.n + 1, bool)
+    pattern[t.jpos] = True
+    pattern[:-1] |= t.tpl_s[:-1] != 0
+    out: np.ndarray = pattern[:-1].reshape(t.m, t.n)
+    return out

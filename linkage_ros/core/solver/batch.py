@@ -208,8 +208,13 @@ def _newton(
     det_sign = np.zeros(n, int)
     cond = np.full(n, np.inf)
     if len(eligible):
+        # start.det_sign is det J's sign at start.x, checked when that batch was solved
         bs = system.solve_batch(
-            start.x[eligible], [a[eligible] for a in safe], start.det_sign[eligible], tol=c.tol
+            start.x[eligible],
+            [a[eligible] for a in safe],
+            start.det_sign[eligible],
+            tol=c.tol,
+            start_checked=True,
         )
         rows = eligible[bs.ok]
         x[rows], iterations[eligible] = bs.x[bs.ok], bs.iterations

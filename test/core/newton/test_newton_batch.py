@@ -675,3 +675,25 @@ def test_result_does_not_alias_the_start():
     assert b.ok.all() and np.array_equal(b.x, X0)
     b.x[:] = 7.0
     assert np.array_equal(X0, xs[1:4])
+
+
+@pytest.mark.parametrize('name', ['four_bar', 'excavator'])
+def test_start_checked_skips_only_the_start_sign(name):
+    """start_checked=True (the caller read start_sign off J at X0, as Solver.solve_batch does
+    from a BatchResult) gives the same rows as the checked call where the signs are right; with
+    every sign flipped (a wrong vouch) no row comes back ok on the wrong side: the sign at the
+    answer is checked for every row, those converged at X0 as well (slogdet of the scalar
+    Jacobian as the oracle)."""
+    sy, xs, signs, vals = scalar_sweep(name, 300)
+    X0, values = xs[:-1], stack(sy, vals[1:])
+    a = sy.solve_batch(X0, values, signs[:-1])
+    b = sy.solve_batch(X0, values, signs[:-1], start_checked=True)
+    for field in ('x', 'ok', 'iterations', 'residual', 'det_sign', 'cond'):
+        assert np.array_equal(getattr(a, field), getattr(b, field)), field
+    at = sy.solve_batch(xs, stack(sy, vals), signs, start_checked=True, max_steps=0)
+    assert at.ok.all()  # converged at X0: the sign there is checked, and right
+    wrong = sy.solve_batch(xs, stack(sy, vals), -signs, start_checked=True)
+    assert not wrong.ok.any()
+    for i in range(0, len(xs), 37):
+        _, Js, _ = sy.evaluate_scaled(xs[i], vals[i], None)
+        assert int(np.linalg.slogdet(Js)[0]) == signs[i] != -signs[i]

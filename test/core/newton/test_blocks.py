@@ -1,0 +1,149 @@
+"""The loop Jacobian's block-triangular form (core/newton/blocks.py).
+
+Oracles: numpy's dense LU (np.linalg.solve, np.linalg.slogdet) on the same matrices, and the
+determinant of the permutation matrix for a permutation's sign.
+
+Would fail if: a block ordering left an entry above the block diagonal (the forward
+substitution would ignore it), the orderings' sign were dropped from det J, a singular block
+were solved instead of handed to the dense path, or blocks small enough to cost more than they
+save (the four-bar's) were kept apart.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from linkage_ros.core.model import Scene
+from linkage_ros.core.newton.batch import newton_steps
+from linkage_ros.core.newton.blocks import (
+    DENSE_BLOCK,
+    _permutation_sign,
+    block_det_signs,
+    block_form,
+    block_steps,
+)
+from linkage_ros.core.newton.tables import jacobian_pattern
+from linkage_ros.core.solver import Solver
+from linkage_ros.resources import config_dir, scene_path
+
+ALL_SCENES = sorted(p.stem for p in config_dir().glob('*.yaml'))
+
+
+def system(name):
+    return Solver(Scene.from_yaml(scene_path(name)).mechanism, method='newton').system
+
+
+def random_jacobians(sy, rng, N=64):
+    """J (N, n, n) and F (N, n) at configurations spread around the reference pose."""
+    X = sy.reference_x() + rng.normal(size=(N, sy.n)) * 0.5 * sy.step_scale
+    ref = Solver(sy.mech, method='newton').compiled.ref_values
+    cols = [np.broadcast_to(np.asarray(v, float), (N, *np.shape(v))) for v in ref]
+    F, J, _ = sy.evaluate_batch(X, cols)
+    return J, F
+
+
+@pytest.mark.parametrize('order', list(itertools.permutations(range(4))))
+def test_permutation_sign(order):
+    eye = np.eye(4)
+    assert _permutation_sign(np.array(order)) == round(np.linalg.det(eye[list(order)]))
+
+
+@pytest.mark.parametrize('name', ALL_SCENES)
+def test_scene_jacobians_solved_block_by_block(name):
+    """Every packaged scene: where the form has blocks, J at random configurations has no entry
+    above the block diagonal, the forward substitution solves J dy = -F as the dense LU does,
+    and det J's sign is the dense one."""
+    sy = system(name)
+    form = block_form(jacobian_pattern(sy.tables))
+    if form is None:
+        return
+    assert len(form.blocks) >= 2
+    rng = np.random.default_rng(7)
+    J, F = random_jacobians(sy, rng)
+    before: set[int] = set()
+    for bl in form.blocks:
+        touched = set(np.flatnonzero(np.any(J[:, bl.rows, :] != 0, axis=(0, 1))).tolist())
+        assert touched <= before | set(bl.cols.tolist())  # lower block triangular
+        assert set(bl.earlier.tolist()) <= before
+        before |= set(bl.cols.tolist())
+    assert before == set(range(sy.n))
+    dy = block_steps(form, J, F)
+    assert dy is not None
+    dense = np.linalg.solve(J, -F[:, :, None])[:, :, 0]
+    scale = np.abs(dense).max(axis=1, keepdims=True)
+    cond = np.linalg.cond(J)
+    assert np.all(np.abs(dy - dense) / scale <= 1e-14 * cond[:, None])
+    assert np.array_equal(block_det_signs(form, J), np.linalg.slogdet(J)[0].astype(int))
+
+
+def test_four_bar_blocks_are_merged_back_into_one():
+    """The four-bar's J splits into 6 + 1 + 1 + 1 unknowns: below DENSE_BLOCK together, so it
+    is solved densely (no form); the excavator's blocks stay apart."""
+    assert DENSE_BLOCK >= 9
+    assert block_form(jacobian_pattern(system('four_bar').tables)) is None
+    form = block_form(jacobian_pattern(system('excavator').tables))
+    assert form is not None and sorted(len(b.cols) for b in form.blocks) == [6, 9, 9, 9]
+
+
+def shuffled_block_diagonal(rng, sizes):
+    """A pattern of dense diagonal blocks with one coupling entry below each, rows and columns
+    shuffled; and random matrices with that pattern."""
+    n = sum(sizes)
+    pattern = np.zeros((n, n), bool)
+    at = 0
+    for k, b in enumerate(sizes):
+        pattern[at : at + b, at : at + b] = True
+        if k:
+            pattern[at, at - 1] = True
+        at += b
+    pr, pc = rng.permutation(n), rng.permutation(n)
+    pattern = pattern[pr][:, pc]
+    J = np.where(pattern, rng.normal(size=(40, n, n)), 0.0) + 4.0 * np.where(
+        pattern & (np.eye(n, dtype=bool)[pr][:, pc]), 1.0, 0.0
+    )
+    return pattern, J
+
+
+def test_shuffled_blocks_found_and_solved():
+    rng = np.random.default_rng(3)
+    pattern, J = shuffled_block_diagonal(rng, [8, 8, 8])
+    form = block_form(pattern)
+    assert form is not None and [len(b.cols) for b in form.blocks] == [8, 8, 8]
+    F = rng.normal(size=(40, 24))
+    dy = block_steps(form, J, F)
+    assert dy is not None
+    np.testing.assert_allclose(dy, np.linalg.solve(J, -F[:, :, None])[:, :, 0], rtol=1e-9)
+    assert np.array_equal(block_det_signs(form, J), np.linalg.slogdet(J)[0].astype(int))
+
+
+def test_a_singular_block_goes_to_the_dense_path():
+    """One matrix with a singular diagonal block: block_steps declines the stack (None), det
+    sign 0 there; the batched solver's steps are then the dense ones, NaN for that matrix."""
+    rng = np.random.default_rng(4)
+    pattern, J = shuffled_block_diagonal(rng, [8, 8, 8])
+    form = block_form(pattern)
+    assert form is not None
+    bl = form.blocks[1]
+    J[5][bl.rows[0], bl.cols] = J[5][bl.rows[1], bl.cols]  # two equal rows in that block
+    F = rng.normal(size=(40, 24))
+    assert block_steps(form, J, F) is None
+    signs = block_det_signs(form, J)
+    assert signs[5] == 0
+    keep = np.arange(40) != 5
+    assert np.array_equal(signs[keep], np.linalg.slogdet(J[keep])[0].astype(int))
+    dense = newton_steps(J, F)  # what BatchNewton.newton_steps falls back on
+    assert np.all(np.isnan(dense[5]))
+    np.testing.assert_allclose(
+        dense[keep], np.linalg.solve(J[keep], -F[keep][:, :, None])[:, :, 0], rtol=1e-9
+    )
+
+
+def test_structurally_singular_or_not_square_has_no_form():
+    pattern = np.ones((4, 4), bool)
+    pattern[:, 0] = False  # no row can take unknown 0
+    assert block_form(pattern) is None
+    assert block_form(np.ones((3, 4), bool)) is None
+    assert block_form(np.zeros((0, 0), bool)) is None
