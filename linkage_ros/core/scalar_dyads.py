@@ -44,66 +44,71 @@ RprPair = tuple[float, float, float, float, bool, float]
 def solve_rrr(c1: complex, r1: float, c2: complex, r2: float, tol: float = TANGENCY_TOL) -> RrrPair:
     """:func:`~linkage_ros.core.dyads.solve_rrr_dyad` on one command (circles (c1, r1) and
     (c2, r2); branch +1 left of c1 -> c2)."""
-    x, y = abs(c1.real), abs(c1.imag)
-    big = x if (x >= y or x != x) else y
-    x, y = abs(c2.real), abs(c2.imag)
-    m = x if (x >= y or x != x) else y
-    big = big if (big >= m or big != big) else m
-    x, y = abs(r1), abs(r2)
-    m = x if (x >= y or x != x) else y
-    big = big if (big >= m or big != big) else m
-    # ops.pow2_scale: the even power of two with big / S in [1, 4)
-    _, expo = frexp(big if (big - big == 0.0 and big > 0) else 1.0)
-    S = ldexp(1.0, ((expo - 1) >> 1) << 1)
-    c1n, c2n = c1 / S, c2 / S
+    if not (_cfinite(c1) and _cfinite(c2) and r1 - r1 == 0.0 and r2 - r2 == 0.0):
+        # the batch form's placeholders (its scale S is then never used: nothing closes)
+        return 0j, 0.0, 0.0, 0.0, 1.0, 0.0, False, _FLOAT_MAX, False
+    # ops.pow2_scale of the largest magnitude (finite here, so the plain max is the
+    # NaN-propagating one): the even power of two S with big / S in [1, 4)
+    big = max(abs(c1.real), abs(c1.imag), abs(c2.real), abs(c2.imag), abs(r1), abs(r2))
+    S = ldexp(1.0, ((frexp(big)[1] - 1) >> 1) << 1) if big > 0.0 else 1.0
+    c1n = c1 / S
+    dv = c2 / S - c1n
     r1n, r2n = r1 / S, r2 / S
-    dv = c2n - c1n
     d = abs(dv)
-    finite = (
-        _cfinite(dv) and r1n - r1n == 0.0 and r2n - r2n == 0.0 and _cfinite(c1) and _cfinite(c2)
-    )
-    # kahan_four_area_of (dyads): the sides finite and >= 0 here, so max / min are plain
-    a, b, c = (d, r1n, r2n) if finite else (0.0, 0.0, 0.0)
-    lo, hi = (a if a <= b else b), (a if a >= b else b)
-    longest, small = (hi if hi >= c else c), (lo if lo <= c else c)
-    m = hi if hi <= c else c
+    # kahan_four_area_of (dyads) on the sides d, r1n, r2n: sorted by the same min/max network
+    lo, hi = (d if d <= r1n else r1n), (d if d >= r1n else r1n)
+    longest, small = (hi if hi >= r2n else r2n), (lo if lo <= r2n else r2n)
+    m = hi if hi <= r2n else r2n
     mid = lo if lo >= m else m
-    _, expo = frexp(longest)
-    scale = ldexp(1.0, expo)
+    scale = ldexp(1.0, frexp(longest)[1])
     longest, mid, small = longest / scale, mid / scale, small / scale
-    neg_factor = small - (longest - mid)
-    four_area_n = (
-        sqrt(longest + (mid + small))
-        * sqrt(neg_factor if neg_factor >= 0.0 else 0.0)
-        * sqrt(small + (longest - mid))
-        * sqrt(longest + (mid - small))
-    )
-    violation_n = -neg_factor
+    neg_factor = small - (longest - mid)  # -violation_n
     dn = d / scale
-    ok = finite and dn > 0 and r1n > 0 and r2n > 0 and violation_n <= tol * longest
-    dsafe = d if (finite and d > 0) else 1.0
-    u = (dv if finite else 0.0) / dsafe
-    if finite and d > 0:
+    if not (dn > 0 and r1n > 0 and r2n > 0 and -neg_factor <= tol * longest):
+        return _rrr_open(c1n, dv, d, r1n, r2n, -neg_factor, scale, S)
+    u = dv / d
+    # foot of the solutions on the centre line from c1 (see dyads), clipped to circle 1
+    along = 0.5 * (d + ((r1n - r2n) / d) * (r1n + r2n))
+    if along < -r1n:
+        along = -r1n
+    elif along > r1n:
+        along = r1n
+    # 0 within the toggle band (not where the smallest side is the whole of that distance)
+    m = r1n / scale
+    smallest = dn if dn <= m else m
+    m = r2n / scale
+    smallest = smallest if smallest <= m else m
+    if neg_factor <= TOGGLE_BAND * longest and neg_factor < 0.5 * smallest:
+        h = 0.0
+    else:
+        four_area_n = (
+            sqrt(longest + (mid + small))
+            * sqrt(neg_factor if neg_factor >= 0.0 else 0.0)
+            * sqrt(small + (longest - mid))
+            * sqrt(longest + (mid - small))
+        )
+        h = 0.5 * scale * (four_area_n / dn)
+    margin = (h / r1n) * (d / r2n)
+    if not margin >= 0.0:  # NaN too
+        margin = 0.0
+    elif margin > 1.0:
+        margin = 1.0
+    return c1n, u, along, h, S, margin, True, 0.0, True
+
+
+def _rrr_open(
+    c1n: complex, dv: complex, d: float, r1n: float, r2n: float, violation_n: float,
+    scale: float, S: float,
+) -> RrrPair:  # fmt: skip
+    """A finite RRR dyad that does not close: what the batch form keeps of it (the foot on
+    the centre line for the placeholder, the violation in length units)."""
+    dsafe = d if d > 0 else 1.0
+    along = 0.0
+    if d > 0:
         along = 0.5 * (d + ((r1n - r2n) / dsafe) * (r1n + r2n))
         along = _min(_max(along, -abs(r1n)), abs(r1n))  # NaN-propagating, as ops.clip
-    else:
-        along = 0.0
-    h = margin = violation = 0.0
-    if ok:
-        m = r1n / scale
-        smallest = dn if dn <= m else m
-        m = r2n / scale
-        smallest = smallest if smallest <= m else m
-        if not (violation_n >= -TOGGLE_BAND * longest and -violation_n < 0.5 * smallest):
-            h = 0.5 * scale * (four_area_n / dn)
-        margin = (h / r1n) * (d / r2n)
-        margin = margin if margin == margin else 0.0
-        margin = margin if margin >= 0.0 else 0.0
-        margin = margin if margin <= 1.0 else 1.0
-    else:  # the batch form's where(finite, ...) chain, NaN-propagating max / min included
-        violation = _max(violation_n * (scale * S), 0.0) if finite else _FLOAT_MAX
-        violation = _min(violation, _FLOAT_MAX)
-    return (c1n if finite else 0j), u, along, h, S, margin, ok, violation, finite
+    violation = _min(_max(violation_n * (scale * S), 0.0), _FLOAT_MAX)
+    return c1n, dv / dsafe, along, 0.0, S, 0.0, False, violation, True
 
 
 def rrr_point(pair: RrrPair, sign: int) -> tuple[complex, bool]:

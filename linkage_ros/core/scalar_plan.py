@@ -3,25 +3,28 @@
 :class:`ScalarProgram` is the one-command twin of :class:`~linkage_ros.core.execute.PlanExecutor`
 (which runs a batch): everything a step looks up by name there (which link carries a point,
 reference positions, slide directions, stated lengths, which points a body placement sets
-first) is resolved here once per plan into slot indices and constants, and each step becomes a
-closure over them. A run keeps points and link poses in lists indexed by slot and builds the
-name-keyed dicts a :class:`~linkage_ros.core.execute.PlanRun` holds once, at the end. The dyads
-are :mod:`linkage_ros.core.scalar_dyads`.
+first) is resolved here once per plan into indices of one list of registers (points, link
+poses, welded bodies' frames, body orientations) and constants, and each step becomes a
+closure over them. A run copies the register template (the constants already in it) and
+builds the name-keyed dicts of a :class:`~linkage_ros.core.execute.PlanRun` only when asked,
+once. The dyads are :mod:`linkage_ros.core.scalar_dyads`.
 
-The arithmetic is the batch executor's, operation for operation (the float results are the
-same, the sign of a zero aside: see scalar_dyads); continuity is the one-command rule of the
-executor it replaces: where a dyad is near its singularity (its margin now or in the previous
-answer below CONTINUITY_MARGIN) the branch nearest the prediction is taken, and coincident
-circles (a change point) keep the point where continuity predicts it.
+The arithmetic is the batch executor's, operation for operation (the same floats, the sign of
+a zero aside: see scalar_dyads); continuity is the one-command rule of the executor: where a
+dyad is near its singularity (its margin now or in the previous answer below
+CONTINUITY_MARGIN) the branch nearest the prediction is taken, and coincident circles (a change
+point) keep the point where continuity predicts it.
 
-Why a twin: the generic executor on the one-command backend cost 25 us of a 61 us warm
-four-bar ``Solver.solve`` (issue 25's measurement: ~220 Python calls per solve, dict lookups by
-name per step and an ops call per where / max); this program runs the same plan in ~4 us.
+Why a twin: the generic executor on the one-command backend cost ~25 of the 61 us of a warm
+four-bar ``Solver.solve`` (issue 25: ~220 Python calls per solve, a dict lookup by name per
+step, an ops call per where / max); the program runs the same plan in about a third of that
+(measured with the rest in docs/BENCHMARKS.md's core-speed rows).
 """
 
 from __future__ import annotations
 
 import math
+from cmath import isfinite as _cfinite
 from collections.abc import Callable, Mapping, Sequence
 from math import atan2, cos, sin
 from typing import Any
@@ -31,18 +34,12 @@ from .errors import PlanError
 from .execute import CONTINUITY_MARGIN, LinkPoses, PlanRun
 from .ops import _cabs_one, _wrap_one
 from .quantities import AngleSpec, PointSpec
-from .scalar_dyads import (
-    rpr_angle,
-    rrp_point,
-    rrr_fallback,
-    rrr_point,
-    solve_rpr,
-    solve_rrp,
-    solve_rrr,
-)
+from .scalar_dyads import rpr_angle, rrp_point, rrr_fallback, solve_rpr, solve_rrp, solve_rrr
 from .steps import AngleFrom, KnownPoint, PointAngle, RPRDyad, RRPDyad, RRRDyad, StepKind, TwoPoints
 
 _PI = math.pi
+_CM = CONTINUITY_MARGIN
+_PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
 
 
 class _Refused(Exception):
@@ -53,17 +50,9 @@ class _Refused(Exception):
 
 
 class SlotRun:
-    """The slots of one run (points, link poses, body frames and orientations) and its
-    continuity inputs and outputs."""
+    """One run: its registers and its continuity inputs and outputs."""
 
-    P: list[Any]  # complex points by slot (None: not set yet)
-    phi: list[Any]  # link poses by slot: angle (rad), e^{i phi}, translation
-    rot: list[Any]
-    T: list[Any]
-    fphi: list[Any]  # welded bodies: each member's pose with the body's root at the identity
-    frot: list[Any]
-    fT: list[Any]
-    ang: list[Any]  # body orientation (rad) when known before the body is placed
+    R: list[Any]  # the registers (see ScalarProgram: points, poses, frames, orientations)
     values: list[Any]
     signs: Sequence[int]
     prefer: Mapping[str, Any] | None
@@ -76,14 +65,7 @@ class SlotRun:
     violation: float  # by how much it misses (m)
 
     __slots__ = (
-        'P',
-        'phi',
-        'rot',
-        'T',
-        'fphi',
-        'frot',
-        'fT',
-        'ang',
+        'R',
         'values',
         'signs',
         'prefer',
@@ -96,13 +78,17 @@ class SlotRun:
         'violation',
     )
 
-    def near_singular(self, m: float) -> bool:
-        """Continuity decides this dyad's branch: its margin, now or in the previous answer,
-        is below CONTINUITY_MARGIN."""
-        b = len(self.used)
-        prev = self.prev_margins
-        p = prev[b] if prev and b < len(prev) else 1.0
-        return min(m, p) < CONTINUITY_MARGIN
+    def decide(self, margin: float, key: str) -> bool:
+        """Continuity decides this branching step: a prediction for ``key`` exists and the
+        dyad's margin, now or in the previous answer, is below CONTINUITY_MARGIN."""
+        prefer = self.prefer
+        if prefer is None:
+            return False
+        if not margin < _CM:
+            prev, b = self.prev_margins, len(self.used)
+            if not (prev and b < len(prev) and prev[b] < _CM):
+                return False
+        return key in prefer
 
     def taken(self, sign: int, margin: float) -> None:
         self.used.append(sign)
@@ -119,7 +105,13 @@ Step = Callable[[SlotRun], None]
 
 
 class ScalarProgram:
-    """One plan, compiled for one command at a time (made once per plan: see :func:`program`)."""
+    """One plan, compiled for one command at a time (made once per plan: see :func:`program`).
+
+    Registers: ``ip[point]`` its complex position; ``iphi``, ``irot``, ``iT`` [link] its pose
+    (angle from the reference pose in rad, e^{i phi}, translation); ``ifphi``, ``ifrot``,
+    ``ifT`` [link] its pose in its welded body's frame (root at the identity); ``iang[body]`` the
+    body's orientation where known before it is placed. Points and links are numbered in the
+    order a run sets them (the order of the PlanRun's dicts)."""
 
     def __init__(self, plan: Any):
         self.plan = plan
@@ -135,167 +127,143 @@ class ScalarProgram:
             for link in b.links:
                 for p in mech.links[link].points:
                     self.carrier.setdefault((b.index, p), link)
-        # slots: points and links in the order a run first sets them (the order of the dicts
-        # a PlanRun holds), then the others
         point_order: list[str] = []
         link_order: list[str] = []
-        self._simulate(point_order, link_order)
-        self.point_names = tuple(point_order)
-        self.link_names = tuple(link_order)
-        self.pslot = {
-            p: i
-            for i, p in enumerate([*point_order, *(p for p in mech.points if p not in point_order)])
-        }
-        self.lslot = {
-            l: i
-            for i, l in enumerate([*link_order, *(l for l in mech.links if l not in link_order)])
-        }
-        self.n_points, self.n_links = len(mech.points), len(mech.links)
-        self.n_bodies = len(plan.bodies)
-        self.point_specs = tuple(isinstance(s, PointSpec) for s in plan.specs)
-        used_bodies: set[int] = set()
         for st in plan.steps:
-            a = st.args
-            used_bodies.update(
-                b
-                for b in (
-                    st.body,
-                    getattr(a, 'body_a', None),
-                    getattr(a, 'body_b', None),
-                    getattr(a, 'body', None),
-                )
-                if b is not None  # fmt: skip
-            )
-            if isinstance(a, AngleFrom):
-                used_bodies.add(plan.body_of[a.source])
-        #: the frames a run needs: its welded bodies'
-        self.frames: list[Step] = [
-            self._frame_of(b) for b in sorted(used_bodies) if not self.single[b]
-        ]
-        self.steps: list[Step] = []
-        set_pts: set[str] = set()
-        placed: set[str] = set()
-        for k, st in enumerate(plan.steps):
-            self.steps.append(self._compile(k, st, set_pts, placed))
-
-    # -- compile time --------------------------------------------------------------------------
-    def _simulate(self, point_order: list[str], link_order: list[str]) -> None:
-        """The order in which a run sets points and places links (static: a plan always does
-        the same steps)."""
-        plan, mech = self.plan, self.plan.mech
-        for st in plan.steps:
-            op = st.op
-            if op in (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR):
+            if st.op in _PLACES_BODY:
                 for link in plan.bodies[st.body].links:
                     link_order.append(link)
                     point_order.extend(p for p in mech.links[link].points if p not in point_order)
             elif st.point is not None and st.point not in point_order:
                 point_order.append(st.point)
+        self.point_names = tuple(point_order)
+        self.link_names = tuple(link_order)
+        points = [*point_order, *(p for p in mech.points if p not in point_order)]
+        links = [*link_order, *(l for l in mech.links if l not in link_order)]
+        n, nl = len(points), len(links)
+        self.ip = {p: i for i, p in enumerate(points)}
+        self.iphi = {l: n + i for i, l in enumerate(links)}
+        self.irot = {l: n + nl + i for i, l in enumerate(links)}
+        self.iT = {l: n + 2 * nl + i for i, l in enumerate(links)}
+        self.ifphi = {l: n + 3 * nl + i for i, l in enumerate(links)}
+        self.ifrot = {l: n + 4 * nl + i for i, l in enumerate(links)}
+        self.ifT = {l: n + 5 * nl + i for i, l in enumerate(links)}
+        self.iang = [n + 6 * nl + b for b in range(len(plan.bodies))]
+        self.template: list[Any] = [None] * (n + 6 * nl + len(plan.bodies))
+        self.n_placed = len(link_order)
+        self.point_specs = tuple(isinstance(s, PointSpec) for s in plan.specs)
+        used_bodies: set[int] = set()
+        for st in plan.steps:
+            a = st.args
+            for b in (st.body, *(getattr(a, f, None) for f in ('body_a', 'body_b', 'body'))):
+                if b is not None:
+                    used_bodies.add(b)
+            if isinstance(a, AngleFrom):
+                used_bodies.add(plan.body_of[a.source])
+        #: the steps of a run: the frames of the welded bodies it uses, then the plan's
+        self.steps: list[Step] = []
+        for b in sorted(used_bodies):
+            if not self.single[b]:
+                self.steps.extend(self._frame_of(b))
+        set_pts: set[str] = set()
+        placed: set[str] = set()
+        for k, st in enumerate(plan.steps):
+            step = self._compile(k, st, set_pts, placed)
+            if step is not None:
+                self.steps.append(step)
 
-    def _frame_of(self, bi: int) -> Step:
-        """Fill the frame slots of a welded body's members (its root at the identity): welds by
-        a known angle turn a member about the shared point, by a known slide move it along."""
-        plan, mech, ls = self.plan, self.plan.mech, self.lslot
+    # -- compile time --------------------------------------------------------------------------
+    def _frame_of(self, bi: int) -> list[Step]:
+        """Fill the frame registers of a welded body's members (its root at the identity): a
+        weld by a known angle turns a member about the shared point, by a known slide moves it
+        along the slide. The root's are constants (in the template)."""
+        plan, mech = self.plan, self.plan.mech
         body = plan.bodies[bi]
-        root = ls[body.root]
-        welds: list[tuple[Any, ...]] = []
+        R = self.template
+        R[self.ifphi[body.root]] = 0.0
+        R[self.ifrot[body.root]] = complex(1.0, 0.0)
+        R[self.ifT[body.root]] = complex(0.0, 0.0)
+        steps: list[Step] = []
         for w in body.welds:
             s = plan.specs[w.spec_index]
+            via = (self.ifphi[w.via], self.ifrot[w.via], self.ifT[w.via])
+            out = (self.ifphi[w.link], self.ifrot[w.link], self.ifT[w.link])
             if isinstance(s, AngleSpec):
                 assert w.shared_point is not None  # an angle weld turns about a shared point
-                welds.append(
-                    (
-                        True,
-                        ls[w.link],
-                        ls[w.via],
-                        w.spec_index,
-                        s.offset,
-                        w.link == s.link,
-                        self.ref[w.shared_point],
-                        0j,
-                        0.0,
-                    )  # fmt: skip
+                steps.append(
+                    _turn(
+                        w.spec_index, s.offset, w.link == s.link, self.ref[w.shared_point], via, out
+                    )
                 )
             else:
                 pj = mech.prismatics[s.joint]
-                welds.append(
-                    (
-                        False,
-                        ls[w.link],
-                        ls[w.via],
+                steps.append(
+                    _slide(
                         w.spec_index,
                         pj.ref_value,
                         w.link == pj.slider,
                         self.ref[pj.point],
                         self.direction[pj.name],
-                        0.0,
+                        via,
+                        out,
                     )  # fmt: skip
                 )
-
-        def frame(r: SlotRun) -> None:
-            fphi, frot, fT, values = r.fphi, r.frot, r.fT, r.values
-            fphi[root], frot[root], fT[root] = 0.0, complex(1.0, 0.0), complex(0.0, 0.0)
-            for is_angle, link, via, i, c0, forward, p, u, _ in welds:
-                vphi, vrot, vT = fphi[via], frot[via], fT[via]
-                if is_angle:
-                    rel = _wrap(values[i]) - c0
-                    phi = vphi + (rel if forward else -rel)
-                    rot = complex(cos(phi), sin(phi))
-                    fphi[link], frot[link], fT[link] = phi, rot, (vrot * p + vT) - rot * p
-                else:
-                    dv = values[i] - c0
-                    along = p + complex(dv * u.real, dv * u.imag)
-                    if forward:  # guide placed: the slider point on its line
-                        T = (vrot * along + vT) - vrot * p
-                    else:  # slider placed: hang the guide off it
-                        T = (vrot * p + vT) - vrot * along
-                    fphi[link], frot[link], fT[link] = vphi, vrot, T
-
-        return frame
+        return steps
 
     def _placer(self, bi: int, set_pts: set[str], placed: set[str]) -> Callable[..., None]:
-        """place(run, phi, rot, T): the body's members posed and the points it sets first."""
-        plan, mech, ls, ps = self.plan, self.plan.mech, self.lslot, self.pslot
+        """place(R, phi, rot, T): the body's members posed and the points it sets first."""
+        mech = self.plan.mech
         members = []
-        for link in plan.bodies[bi].links:
-            new = [(ps[p], self.ref[p]) for p in mech.links[link].points if p not in set_pts]
+        for link in self.plan.bodies[bi].links:
+            new = tuple(
+                (self.ip[p], self.ref[p]) for p in mech.links[link].points if p not in set_pts
+            )
             set_pts.update(mech.links[link].points)
             placed.add(link)
-            members.append((ls[link], tuple(new)))
+            members.append(
+                (
+                    self.iphi[link],
+                    self.irot[link],
+                    self.iT[link],
+                    new,
+                    self.ifphi[link],
+                    self.ifrot[link],
+                    self.ifT[link],
+                )  # fmt: skip
+            )
         if self.single[bi]:
-            ((lslot, pts),) = members
+            ((iphi, irot, iT, pts, _, _, _),) = members
 
-            def place_single(r: SlotRun, phi: float, rot: complex, Tb: complex) -> None:
-                r.phi[lslot], r.rot[lslot], r.T[lslot] = phi, rot, Tb
-                P = r.P
+            def place_single(R: list[Any], phi: float, rot: complex, Tb: complex) -> None:
+                R[iphi], R[irot], R[iT] = phi, rot, Tb
                 for s, ref in pts:
-                    P[s] = rot * ref + Tb
+                    R[s] = rot * ref + Tb
 
             return place_single
 
-        def place_welded(r: SlotRun, phi: float, rot: complex, Tb: complex) -> None:
-            P, fphi, frot, fT = r.P, r.fphi, r.frot, r.fT
-            for lslot, pts in members:
-                lr = rot * frot[lslot]
-                lt = rot * fT[lslot] + Tb
-                r.phi[lslot], r.rot[lslot], r.T[lslot] = phi + fphi[lslot], lr, lt
+        def place_welded(R: list[Any], phi: float, rot: complex, Tb: complex) -> None:
+            for iphi, irot, iT, pts, fphi, frot, fT in members:
+                lr = rot * R[frot]
+                lt = rot * R[fT] + Tb
+                R[iphi], R[irot], R[iT] = phi + R[fphi], lr, lt
                 for s, ref in pts:
-                    P[s] = lr * ref + lt
+                    R[s] = lr * ref + lt
 
         return place_welded
 
-    def _local(self, bi: int, p: str) -> Callable[[SlotRun], complex]:
+    def _local(self, bi: int, p: str) -> Callable[[list[Any]], complex]:
         """A point of body bi in the body's frame."""
         ref = self.ref[p]
         if self.single[bi]:
-            return lambda r: ref
-        c = self.lslot[self.carrier[(bi, p)]]
-        return lambda r: r.frot[c] * ref + r.fT[c]
+            return lambda R: ref
+        carrier = self.carrier[(bi, p)]
+        frot, fT = self.ifrot[carrier], self.ifT[carrier]
+        return lambda R: R[frot] * ref + R[fT]
 
-    def _radius(self, bi: int, x: str, p: str) -> Callable[[SlotRun], float]:
+    def _radius(self, bi: int, x: str, p: str) -> tuple[float, Callable[[list[Any]], float] | None]:
         """|x - p| within body bi: the length the scene states for a link that carries both
-        points, else their constant distance in a one-link body, else measured in the body's
-        frame on every run (as the batch executor reads it)."""
+        points, else their constant distance in a one-link body (a float), else measured in
+        the body's frame on every run (a function of the registers), as the executor does."""
         mech, plan = self.plan.mech, self.plan
         d = next(
             (
@@ -308,41 +276,46 @@ class ScalarProgram:
         if d is None and self.single[bi]:
             d = _cabs_one(self.ref[x] - self.ref[p])
         if d is not None:
-            stated = d
-            return lambda r: stated
-        cx, cp = self.lslot[self.carrier[(bi, x)]], self.lslot[self.carrier[(bi, p)]]
-        rx, rp = self.ref[x], self.ref[p]
-        return lambda r: _cabs_one((r.frot[cx] * rx + r.fT[cx]) - (r.frot[cp] * rp + r.fT[cp]))
+            return float(d), None
+        cx, cp = self.carrier[(bi, x)], self.carrier[(bi, p)]
+        rx, tx, rp, tp = self.ifrot[cx], self.ifT[cx], self.ifrot[cp], self.ifT[cp]
+        x_ref, p_ref = self.ref[x], self.ref[p]
+        return 0.0, lambda R: _cabs_one((R[rx] * x_ref + R[tx]) - (R[rp] * p_ref + R[tp]))
 
-    def _compile(self, k: int, st: Any, set_pts: set[str], placed: set[str]) -> Step:
-        ps, a = self.pslot, st.args
+    def _compile(self, k: int, st: Any, set_pts: set[str], placed: set[str]) -> Step | None:
+        a = st.args
         op = st.op
         if op is StepKind.GROUND:
             place = self._placer(st.body, set_pts, placed)
+            rot0, T0 = complex(cos(0.0), sin(0.0)), complex(0.0, 0.0)
+            if self.single[st.body]:  # a constant: placed once, in the template
+                place(self.template, 0.0, rot0, T0)
+                return None
 
             def ground(r: SlotRun) -> None:
-                place(r, 0.0, complex(cos(0.0), sin(0.0)), complex(0.0, 0.0))
+                place(r.R, 0.0, rot0, T0)
 
             return ground
         if op is StepKind.KNOWN_POINT and isinstance(a, KnownPoint):
-            s, i = ps[st.point], a.spec_index
+            s, i = self.ip[st.point], a.spec_index
             set_pts.add(st.point)
 
             def known_point(r: SlotRun) -> None:
                 v = r.values[i]
-                r.P[s] = complex(float(v[0]), float(v[1]))
+                r.R[s] = complex(float(v[0]), float(v[1]))
 
             return known_point
         if op is StepKind.TWO_POINTS and isinstance(a, TwoPoints):
-            return self._two_points(k, st.body, a, set_pts, placed)
+            return self._two_points(st.body, a, set_pts, placed)
         if op is StepKind.POINT_ANGLE and isinstance(a, PointAngle):
-            sp, lp, bslot = ps[a.point], self._local(st.body, a.point), st.body
+            sp, lp_of, ang = self.ip[a.point], self._local(st.body, a.point), self.iang[st.body]
             place = self._placer(st.body, set_pts, placed)
 
             def point_angle(r: SlotRun) -> None:
-                phi = r.ang[bslot]
+                R = r.R
+                phi = R[ang]
                 rot = complex(cos(phi), sin(phi))
-                place(r, phi, rot, r.P[sp] - rot * lp(r))
+                place(R, phi, rot, R[sp] - rot * lp_of(R))
 
             return point_angle
         if op is StepKind.ANGLE and isinstance(a, AngleFrom):
@@ -357,60 +330,54 @@ class ScalarProgram:
             return self._rpr(k, st, a, set_pts, placed)
         raise PlanError(f'internal: unknown plan step {op!r}')
 
-    def _two_points(
-        self, k: int, bi: int, a: TwoPoints, set_pts: set[str], placed: set[str]
-    ) -> Step:
-        sp, sq = self.pslot[a.first], self.pslot[a.second]
+    def _two_points(self, bi: int, a: TwoPoints, set_pts: set[str], placed: set[str]) -> Step:
+        sp, sq = self.ip[a.first], self.ip[a.second]
         place = self._placer(bi, set_pts, placed)
         if self.single[bi]:  # the unit vector between the points in the link's frame: constant
             v = self.ref[a.second] - self.ref[a.first]
             nv = _cabs_one(v)
-            unit, lp_ref = (v / nv if nv > 0 else v), self.ref[a.first]
+            unit, lp = (v / nv if nv > 0 else v), self.ref[a.first]
+            ux, uy = unit.real, unit.imag
 
             def two_points_single(r: SlotRun) -> None:
-                P = r.P
-                b = P[sq] - P[sp]
+                R = r.R
+                p = R[sp]
+                b = R[sq] - p
                 nb = _cabs_one(b)
                 b = b / (nb if nb > 0 else 1.0)  # unit first: 1e-300 lengths would underflow
-                phi = atan2(unit.real * b.imag - unit.imag * b.real,
-                            unit.real * b.real + unit.imag * b.imag)  # fmt: skip
+                phi = atan2(ux * b.imag - uy * b.real, ux * b.real + uy * b.imag)
                 rot = complex(cos(phi), sin(phi))
-                place(r, phi, rot, P[sp] - rot * lp_ref)
+                place(R, phi, rot, p - rot * lp)
 
             return two_points_single
         lp_of, lq_of = self._local(bi, a.first), self._local(bi, a.second)
 
         def two_points(r: SlotRun) -> None:
-            P = r.P
-            b = P[sq] - P[sp]
+            R = r.R
+            b = R[sq] - R[sp]
             nb = _cabs_one(b)
             b = b / (nb if nb > 0 else 1.0)
-            lp = lp_of(r)
-            u = lq_of(r) - lp
+            lp = lp_of(R)
+            u = lq_of(R) - lp
             nu = _cabs_one(u)
             u = u / (nu if nu > 0 else 1.0)
             phi = atan2(u.real * b.imag - u.imag * b.real, u.real * b.real + u.imag * b.imag)
             rot = complex(cos(phi), sin(phi))
-            place(r, phi, rot, P[sp] - rot * lp)
+            place(R, phi, rot, R[sp] - rot * lp)
 
         return two_points
 
     def _angle(self, bi: int, a: AngleFrom, placed: set[str]) -> Step:
-        plan, ls = self.plan, self.lslot
-        here = ls[a.link]
-        here_single = self.single[bi]
+        plan = self.plan
+        ang = self.iang[bi]
+        # the step's link's angle in its body (None: 0, a one-link body's root)
+        here = None if self.single[bi] else self.ifphi[a.link]
         if a.source in placed:  # its pose is known: its angle
-            src_slot = ls[a.source]
-
-            def source(r: SlotRun) -> float:
-                return r.phi[src_slot]  # type: ignore[no-any-return]
-        else:  # its body's orientation and its angle in the body
-            sb, there = plan.body_of[a.source], ls[a.source]
-            there_single = self.single[sb]
-
-            def source(r: SlotRun) -> float:
-                return r.ang[sb] + (0.0 if there_single else r.fphi[there])  # type: ignore[no-any-return]
-
+            src, src_in_body, from_pose = self.iphi[a.source], None, True
+        else:  # its body's orientation and its angle in the body (None: 0)
+            sb = plan.body_of[a.source]
+            src, from_pose = self.iang[sb], False
+            src_in_body = None if self.single[sb] else self.ifphi[a.source]
         i = a.spec_index
         offset, negate = 0.0, False
         if i is not None:
@@ -418,91 +385,84 @@ class ScalarProgram:
             offset, negate = s.offset, a.link == s.reference
 
         def angle(r: SlotRun) -> None:
+            R = r.R
+            source = R[src]
+            if not from_pose:
+                source = source + (0.0 if src_in_body is None else R[src_in_body])
             rel = 0.0
             if i is not None:
                 rel = _wrap(r.values[i]) - offset
                 if negate:
                     rel = -rel
-            r.ang[bi] = source(r) + rel - (0.0 if here_single else r.fphi[here])
+            R[ang] = source + rel - (0.0 if here is None else R[here])
 
         return angle
 
     def _rrr(self, k: int, x: str, a: RRRDyad) -> Step:
-        sx, s1, s2 = self.pslot[x], self.pslot[a.centre_a], self.pslot[a.centre_b]
-        r1_of = self._radius(a.body_a, x, a.centre_a)
-        r2_of = self._radius(a.body_b, x, a.centre_b)
+        sx, s1, s2 = self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b]
+        r1_const, r1_of = self._radius(a.body_a, x, a.centre_a)
+        r2_const, r2_of = self._radius(a.body_b, x, a.centre_b)
         ref_off = self.ref[x] - self.ref[a.centre_a]
+        k_step = k
 
         def rrr(r: SlotRun) -> None:
-            P = r.P
-            r1, r2 = r1_of(r), r2_of(r)
-            c1, c2 = P[s1], P[s2]
-            prefer, tol = r.prefer, r.tol
+            R = r.R
+            r1 = r1_const if r1_of is None else r1_of(R)
+            r2 = r2_const if r2_of is None else r2_of(R)
+            c1, c2, tol = R[s1], R[s2], r.tol
             big = max(r1, r2)
             if _cabs_one(c1 - c2) <= tol * big and abs(r1 - r2) <= tol * big:
-                # coincident circles (a change point, e.g. a rhombus folded flat) leave x
-                # anywhere on the circle: keep it where continuity predicts, else where the
-                # reference pose has it relative to c1; branch identity undefined (margin 0)
-                guess = prefer.get(x) if prefer else None
-                off = (guess - c1) if guess is not None else ref_off
-                n = _cabs_one(off)
-                off = off / n if 0 < n < math.inf else 1 + 0j
-                foot = c1 + r1 * off
-                sg = r.signs[len(r.used)]
-                if prefer is not None and x in prefer and r.near_singular(0.0):
-                    sg = 1  # both branches are the one point
-                z = (foot + (0.0 + sg * 0.0) * 1.0) * 1.0
-                if not _cfinite_point(z):
-                    P[sx] = foot
-                    raise _Refused(k, 0.0)
-                P[sx] = z
-                r.taken(sg, 0.0)
+                _coincident(r, k_step, x, sx, c1, r1, ref_off)
                 return
             pair = solve_rrr(c1, r1, c2, r2, tol)
-            margin = pair[5]
-            if not pair[6]:
-                raise _Refused(k, pair[7])
+            base, u, along, h, S, margin, ok, violation, _ = pair
+            if not ok:
+                R[sx] = rrr_fallback(pair, c1)
+                raise _Refused(k_step, violation)
             sg = r.signs[len(r.used)]
-            if prefer is not None and x in prefer and r.near_singular(margin):
-                target = prefer[x]
-                plus, ok = rrr_point(pair, 1)
-                plus = plus if ok else rrr_fallback(pair, c1)
-                minus, ok = rrr_point(pair, -1)
-                minus = minus if ok else rrr_fallback(pair, c1)
+            spread = complex(0.0 * h, h)
+            if r.prefer is not None and r.decide(margin, x):
+                target = r.prefer[x]
+                plus = (base + (along + 1 * spread) * u) * S
+                plus = plus if _cfinite(plus) else rrr_fallback(pair, c1)
+                minus = (base + (along + -1 * spread) * u) * S
+                minus = minus if _cfinite(minus) else rrr_fallback(pair, c1)
                 sg = 1 if _cabs_one(plus - target) <= _cabs_one(minus - target) else -1
-            z, ok = rrr_point(pair, sg)
-            if not ok:  # beyond the float range
-                P[sx] = rrr_fallback(pair, c1)
-                raise _Refused(k, 0.0)
-            P[sx] = z
-            r.taken(sg, margin)
+            z = (base + (along + sg * spread) * u) * S
+            if not _cfinite(z):  # beyond the float range
+                R[sx] = rrr_fallback(pair, c1)
+                raise _Refused(k_step, 0.0)
+            R[sx] = z
+            r.used.append(sg)
+            r.margins.append(margin)
+            if margin < r.margin:
+                r.margin = margin
 
         return rrr
 
     def _rrp(self, k: int, x: str, a: RRPDyad) -> Step:
-        mech = self.plan.mech
-        pj = mech.prismatics[a.joint]
-        sx, s1, g = self.pslot[x], self.pslot[a.centre], self.lslot[pj.guide]
-        r_of = self._radius(a.body, x, a.centre)
+        pj = self.plan.mech.prismatics[a.joint]
+        sx, s1 = self.ip[x], self.ip[a.centre]
+        grot, gT = self.irot[pj.guide], self.iT[pj.guide]
+        r_const, r_of = self._radius(a.body, x, a.centre)
         xref, d = self.ref[x], self.direction[a.joint]
 
         def rrp(r: SlotRun) -> None:
-            P = r.P
-            rad = r_of(r)
-            grot = r.rot[g]
-            pair = solve_rrp(P[s1], rad, grot * xref + r.T[g], grot * d, r.tol)
+            R = r.R
+            rad = r_const if r_of is None else r_of(R)
+            rot = R[grot]
+            pair = solve_rrp(R[s1], rad, rot * xref + R[gT], rot * d, r.tol)
             margin = pair[4]
             if not pair[5]:
                 raise _Refused(k, pair[6])
             sg = r.signs[len(r.used)]
-            prefer = r.prefer
-            if prefer is not None and x in prefer and r.near_singular(margin):
-                target = prefer[x]
+            if r.decide(margin, x):
+                target = r.prefer[x]  # type: ignore[index]
                 plus, _ = rrp_point(pair, 1)
                 minus, _ = rrp_point(pair, -1)
                 sg = 1 if _cabs_one(plus - target) <= _cabs_one(minus - target) else -1
             z, ok = rrp_point(pair, sg)
-            P[sx] = z
+            R[sx] = z
             if not ok:  # beyond the float range
                 raise _Refused(k, 0.0)
             r.taken(sg, margin)
@@ -510,40 +470,39 @@ class ScalarProgram:
         return rrp
 
     def _rpr(self, k: int, st: Any, a: RPRDyad, set_pts: set[str], placed: set[str]) -> Step:
-        mech, bi = self.plan.mech, st.body
-        pj = mech.prismatics[a.joint]
-        sx, sp = self.pslot[st.point], self.pslot[a.pivot]
-        guide = self.lslot[pj.guide]
+        bi = st.body
+        pj = self.plan.mech.prismatics[a.joint]
+        sx, sp, ang = self.ip[st.point], self.ip[a.pivot], self.iang[bi]
         single = self.single[bi]
+        gphi, grot, gT = self.ifphi[pj.guide], self.ifrot[pj.guide], self.ifT[pj.guide]
         lp_of = self._local(bi, a.pivot)
         xref, d, key = self.ref[st.point], self.direction[a.joint], '@' + pj.guide
         place = self._placer(bi, set_pts, placed)
 
         def rpr(r: SlotRun) -> None:
-            P = r.P
+            R = r.R
             if single:
-                gphi, grot, gT = 0.0, complex(1.0, 0.0), complex(0.0, 0.0)
+                fphi, frot, fT = 0.0, complex(1.0, 0.0), complex(0.0, 0.0)
             else:
-                gphi, grot, gT = r.fphi[guide], r.frot[guide], r.fT[guide]
-            lp = lp_of(r)
-            u = grot * d
-            w = (grot * xref + gT) - lp
+                fphi, frot, fT = R[gphi], R[grot], R[gT]
+            lp = lp_of(R)
+            u = frot * d
+            w = (frot * xref + fT) - lp
             e = u.real * w.imag - u.imag * w.real  # signed offset of the pivot
             psi0 = atan2(u.imag, u.real)
-            pair = solve_rpr(P[sp], P[sx], e, r.tol)
+            pair = solve_rpr(R[sp], R[sx], e, r.tol)
             margin = pair[3]
             if not pair[4]:
                 raise _Refused(k, pair[5])
             sg = r.signs[len(r.used)]
-            prefer = r.prefer
-            if prefer is not None and key in prefer and r.near_singular(margin):
-                last = prefer[key]
-                miss_p = abs(_wrap(rpr_angle(pair, 1) - psi0 + gphi - last))
-                sg = 1 if miss_p <= abs(_wrap(rpr_angle(pair, -1) - psi0 + gphi - last)) else -1
+            if r.decide(margin, key):
+                last = r.prefer[key]  # type: ignore[index]
+                miss_p = abs(_wrap(rpr_angle(pair, 1) - psi0 + fphi - last))
+                sg = 1 if miss_p <= abs(_wrap(rpr_angle(pair, -1) - psi0 + fphi - last)) else -1
             phi = rpr_angle(pair, sg) - psi0
-            r.ang[bi] = phi
+            R[ang] = phi
             rot = complex(cos(phi), sin(phi))
-            place(r, phi, rot, P[sp] - rot * lp)
+            place(R, phi, rot, R[sp] - rot * lp)
             r.taken(sg, margin)
 
         return rpr
@@ -560,23 +519,15 @@ class ScalarProgram:
         """Execute the plan on one command (``values[i]`` a float, or an (x, y) pair for a
         point) with branch ``signs`` (default: the reference pose's); ``prefer`` maps point
         names to predicted complex positions and '@link' to predicted link angles (continuity,
-        see the module), ``prev_margins`` are the previous answer's dyad margins. The run's
-        slots as they are: ``failure`` is the index of the step that did not close (-1: none)."""
+        see the module), ``prev_margins`` are the previous answer's dyad margins. Returns the
+        run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
         r = SlotRun()
+        r.R = self.template.copy()
         r.values = [v if is_point else float(v) for is_point, v in zip(self.point_specs, values)]
         r.signs = self.plan.reference_signs if signs is None else signs
         r.prefer, r.prev_margins, r.tol = prefer, prev_margins, tol
-        r.P = [None] * self.n_points
-        n = self.n_links
-        r.phi, r.rot, r.T = [None] * n, [None] * n, [None] * n
-        if self.frames:
-            r.fphi, r.frot, r.fT = [None] * n, [None] * n, [None] * n
-        r.ang = [None] * self.n_bodies
-        r.used, r.margins, r.margin = [], [], 1.0
-        r.failure, r.violation = -1, 0.0
+        r.used, r.margins, r.margin, r.failure, r.violation = [], [], 1.0, -1, 0.0
         try:
-            for frame in self.frames:
-                frame(r)
             for step in self.steps:
                 step(r)
         except _Refused as stop:
@@ -586,20 +537,25 @@ class ScalarProgram:
     def points_of(self, r: SlotRun) -> dict[str, complex]:
         """The points a run set, by name, in the order it set them."""
         if r.failure < 0:
-            return dict(zip(self.point_names, r.P))
-        return {p: v for p, v in zip(self.point_names, r.P) if v is not None}
+            return dict(zip(self.point_names, r.R))
+        return {p: v for p, v in zip(self.point_names, r.R) if v is not None}
 
     def poses_of(self, r: SlotRun) -> LinkPoses:
         """The link poses a run placed, by name, in the order it placed them."""
-        names = self.link_names
+        R, names, n = r.R, self.link_names, self.n_placed
+        phi, rot, T = (
+            (self.iphi[names[0]], self.irot[names[0]], self.iT[names[0]]) if n else (0, 0, 0)
+        )
         if r.failure < 0:
             return LinkPoses(
-                dict(zip(names, r.phi)), dict(zip(names, r.rot)), dict(zip(names, r.T))
+                dict(zip(names, R[phi : phi + n])),
+                dict(zip(names, R[rot : rot + n])),
+                dict(zip(names, R[T : T + n])),
             )
         poses = LinkPoses()
-        for l, phi, rot, T in zip(names, r.phi, r.rot, r.T):
-            if phi is not None:
-                poses.phi[l], poses.rot[l], poses.T[l] = phi, rot, T
+        for j, l in enumerate(names):
+            if R[phi + j] is not None:
+                poses.phi[l], poses.rot[l], poses.T[l] = R[phi + j], R[rot + j], R[T + j]
         return poses
 
     def run(
@@ -624,8 +580,69 @@ class ScalarProgram:
         )
 
 
-def _cfinite_point(z: complex) -> bool:
-    return z.real - z.real == 0.0 and z.imag - z.imag == 0.0
+def _turn(
+    i: int, offset: float, forward: bool, p: complex, via: tuple[int, int, int],
+    out: tuple[int, int, int],
+) -> Step:  # fmt: skip
+    """A weld by known angle ``values[i]``: the member turned about the shared point p."""
+    vphi, vrot, vT = via
+    lphi, lrot, lT = out
+
+    def turn(r: SlotRun) -> None:
+        R = r.R
+        v = r.values[i]
+        rel = (v if -_PI < v <= _PI else _wrap_one(v)) - offset
+        phi = R[vphi] + (rel if forward else -rel)
+        rot = complex(cos(phi), sin(phi))
+        R[lphi], R[lrot], R[lT] = phi, rot, (R[vrot] * p + R[vT]) - rot * p
+
+    return turn
+
+
+def _slide(
+    i: int, ref_value: float, forward: bool, x_ref: complex, u: complex,
+    via: tuple[int, int, int], out: tuple[int, int, int],
+) -> Step:  # fmt: skip
+    """A weld by known slide ``values[i]``: the member moved along the slide (``forward``: the
+    slider placed off its guide, else the guide off its slider)."""
+    vphi, vrot, vT = via
+    lphi, lrot, lT = out
+
+    def slide(r: SlotRun) -> None:
+        R = r.R
+        dv = r.values[i] - ref_value
+        along = x_ref + complex(dv * u.real, dv * u.imag)
+        vr = R[vrot]
+        if forward:  # guide placed: the slider point on its line
+            T = (vr * along + R[vT]) - vr * x_ref
+        else:  # slider placed: hang the guide off it
+            T = (vr * x_ref + R[vT]) - vr * along
+        R[lphi], R[lrot], R[lT] = R[vphi], vr, T
+
+    return slide
+
+
+def _coincident(
+    r: SlotRun, k: int, x: str, sx: int, c1: complex, r1: float, ref_off: complex
+) -> None:
+    """Coincident circles (a change point, e.g. a rhombus folded flat) leave x anywhere on the
+    circle: keep it where continuity predicts, else where the reference pose has it relative to
+    the first centre. Branch identity is undefined there (margin 0)."""
+    prefer = r.prefer
+    guess = prefer.get(x) if prefer else None
+    off = (guess - c1) if guess is not None else ref_off
+    n = _cabs_one(off)
+    off = off / n if 0 < n < math.inf else 1 + 0j
+    foot = c1 + r1 * off
+    sg = r.signs[len(r.used)]
+    if r.decide(0.0, x):
+        sg = 1  # both branches are the one point
+    z = (foot + (0.0 + sg * 0.0) * 1.0) * 1.0
+    if not _cfinite(z):
+        r.R[sx] = foot
+        raise _Refused(k, 0.0)
+    r.R[sx] = z
+    r.taken(sg, 0.0)
 
 
 def program(plan: Any) -> ScalarProgram:

@@ -16,8 +16,8 @@ from ..errors import PlanError
 from ..execute import PlanRun, executor
 from ..model import Mechanism
 from ..ops import SCALAR, to_xy
-from ..scalar_plan import program
 from ..quantities import AngleSpec, PointSpec, SlideSpec
+from ..scalar_plan import program
 from ..steps import (
     BRANCHING,
     AngleFrom,

@@ -20,7 +20,7 @@ from typing import Any
 
 from ..ops import _wrap_one
 from ..plan import ReadKind, SpecReader, spec_reader
-from ..quantities import PointSpec, SlideSpec
+from ..quantities import SlideSpec
 from ..scalar_plan import ScalarProgram, SlotRun, program
 from ..steps import branch_text
 from .compiled import CompiledSolve, SolveMode, Values
@@ -35,25 +35,34 @@ def _wrap(a: float) -> float:
     return a if -_PI < a <= _PI else _wrap_one(a)
 
 
-def _slot_reader(read: SpecReader, ls: dict[str, int]) -> Callable[[SlotRun], Any]:
-    """SpecReader.__call__ on a run's slots: an angle (rad, wrapped), a slide (m) or a point
-    (complex)."""
+def _slot_reader(read: SpecReader, prog: ScalarProgram) -> Callable[[list[Any]], Any]:
+    """SpecReader.__call__ on a run's registers: an angle (rad, wrapped), a slide (m) or a
+    point (complex)."""
     if read.kind is ReadKind.ANGLE:
-        a, b, off = ls[read.link], ls[read.reference], read.offset
-        return lambda r: _wrap(r.phi[a] - r.phi[b] + off)
-    link, p_ref = ls[read.link], read.p_ref
+        a, b, off = prog.iphi[read.link], prog.iphi[read.reference], read.offset
+        return lambda R: _wrap(R[a] - R[b] + off)
+    rot, T, p_ref = prog.irot[read.link], prog.iT[read.link], read.p_ref
     if read.kind is ReadKind.POINT:
-        return lambda r: r.rot[link] * p_ref + r.T[link]
-    g, origin, direction = ls[read.reference], read.origin, read.direction
+        return lambda R: R[rot] * p_ref + R[T]
+    grot, gT, origin, direction = (
+        prog.irot[read.reference],
+        prog.iT[read.reference],
+        read.origin,
+        read.direction,
+    )
 
-    def slide(r: SlotRun) -> float:
-        x = r.rot[link] * p_ref + r.T[link]
-        rot = r.rot[g]
-        v = x - (rot * origin + r.T[g])
-        d = rot * direction
+    def slide(R: list[Any]) -> float:
+        x = R[rot] * p_ref + R[T]
+        g = R[grot]
+        v = x - (g * origin + R[gT])
+        d = g * direction
         return v.real * d.real + v.imag * d.imag  # type: ignore[no-any-return]
 
     return slide
+
+
+def _c(v: Any) -> complex:
+    return complex(float(v[0]), float(v[1]))
 
 
 class SlotReadout:
@@ -62,51 +71,61 @@ class SlotReadout:
 
     def __init__(self, c: CompiledSolve, prog: ScalarProgram):
         mech, specs = c.mech, c.specs
-        ls = prog.lslot
         have = set(prog.link_names)
         spec_links = c.check_system.spec_links
         self.L = mech.length_scale
         commanded = {s.name: i for i, s in enumerate(specs)}
-        #: (actuator, index of its commanded value, or its reader)
-        self.inputs: list[tuple[str, int | None, Callable[[SlotRun], Any] | None]] = []
-        for a, s in zip(mech.actuators, c.actuator_specs):
-            if a in commanded:
-                self.inputs.append((a, commanded[a], None))
-            elif all(l in have for l in spec_links(s)):
-                self.inputs.append((a, None, _slot_reader(spec_reader(mech, s), ls)))
+        #: (actuator, index of its commanded value), and the others' readers
+        self.commanded = [(a, commanded[a]) for a in mech.actuators if a in commanded]
+        self.read_inputs = [
+            (a, _slot_reader(spec_reader(mech, s), prog))
+            for a, s in zip(mech.actuators, c.actuator_specs)
+            if a not in commanded and all(l in have for l in spec_links(s))
+        ]
+        #: the actuators in the mechanism's order (the Result's dict order)
+        self.input_order = [
+            a for a, s in zip(mech.actuators, c.actuator_specs)
+            if a in commanded or all(l in have for l in spec_links(s))
+        ]  # fmt: skip
+        iphi, irot, iT = prog.iphi, prog.irot, prog.iT
         self.revolutes = [
             (
                 rj.name,
-                ls[rj.child],
-                ls[rj.parent],
+                iphi[rj.child],
+                iphi[rj.parent],
                 mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref,
-                complex(float(mech.points[rj.point][0]), float(mech.points[rj.point][1])),
-            )
+                _c(mech.points[rj.point]),
+                irot[rj.parent],
+                iT[rj.parent],
+                irot[rj.child],
+                iT[rj.child],
+            )  # fmt: skip
             for rj in mech.revolutes
             if rj.parent in have and rj.child in have
         ]
         self.slides = [
             (
                 pj.name,
-                ls[pj.slider],
-                ls[pj.guide],
-                _slot_reader(spec_reader(mech, SlideSpec(pj.name, pj.name)), ls),
-                complex(float(mech.points[pj.point][0]), float(mech.points[pj.point][1])),
-                1j * complex(float(pj.direction[0]), float(pj.direction[1])),
-            )
+                _slot_reader(spec_reader(mech, SlideSpec(pj.name, pj.name)), prog),
+                _c(mech.points[pj.point]),
+                1j * _c(pj.direction),
+                iphi[pj.slider],
+                irot[pj.slider],
+                iT[pj.slider],
+                iphi[pj.guide],
+                irot[pj.guide],
+                iT[pj.guide],
+            )  # fmt: skip
             for pj in mech.prismatics.values()
             if pj.guide in have and pj.slider in have
         ]
-        self.link_names = tuple(l for l in mech.links if l in have)
-        self.links = [(ls[l], mech.links[l].angle_ref) for l in self.link_names]
+        self.links = [(l, iphi[l], mech.links[l].angle_ref) for l in mech.links if l in have]
         self.knowns = [
-            (i, spec_reader(mech, s).kind, _slot_reader(spec_reader(mech, s), ls))
+            (i, spec_reader(mech, s).kind, _slot_reader(spec_reader(mech, s), prog))
             for i, s in enumerate(specs)
             if all(l in have for l in spec_links(s))
         ]
         self.point_names = prog.point_names
-        #: the Result's echo of a command: its point knowns as given
-        self.points_known = any(isinstance(s, PointSpec) for s in specs)
         self._branch_texts: dict[tuple[int, ...], str] = {}
 
     def branch_text(self, signs: tuple[int, ...]) -> str:
@@ -119,28 +138,32 @@ class SlotReadout:
 
     def result(self, r: SlotRun, vals: Values, signs: tuple[int, ...]) -> Result:
         """The Result of a run that closed (refused if any value is not finite)."""
-        L, phi, rot, T = self.L, r.phi, r.rot, r.T
-        inputs = {}
-        for a, i, read in self.inputs:
-            inputs[a] = float(vals[i]) if read is None else read(r)  # type: ignore[index]
+        L, R = self.L, r.R
+        inputs = {a: float(vals[i]) for a, i in self.commanded}
+        if self.read_inputs:
+            inputs.update((a, read(R)) for a, read in self.read_inputs)
+            inputs = {a: inputs[a] for a in self.input_order}
         joints = {}
         worst = 0.0
-        for name, child, parent, offset, p in self.revolutes:
-            joints[name] = _wrap(offset + phi[child] - phi[parent])
-            d = (rot[parent] * p + T[parent]) - (rot[child] * p + T[child])
+        for name, child, parent, offset, p, prot, pT, crot, cT in self.revolutes:
+            a = offset + R[child] - R[parent]
+            joints[name] = a if -_PI < a <= _PI else _wrap_one(a)
+            d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
             dx, dy = abs(d.real), abs(d.imag)
             m = dy if dy > dx else dx
             if m > worst:
                 worst = m
-        for name, slider, guide, read, p, normal in self.slides:
-            joints[name] = read(r)
-            off = (rot[slider] * p + T[slider]) - (rot[guide] * p + T[guide])
-            nrm = rot[guide] * normal
+        for name, read, p, normal, sphi, srot, sT, gphi, grot, gT in self.slides:
+            joints[name] = read(R)
+            off = (R[srot] * p + R[sT]) - (R[grot] * p + R[gT])
+            nrm = R[grot] * normal
             worst = max(worst, abs(off.real * nrm.real + off.imag * nrm.imag))
-            worst = max(worst, L * abs(_wrap(phi[slider] - phi[guide])))
-        links = {l: _wrap(ref + phi[s]) for l, (s, ref) in zip(self.link_names, self.links)}
+            worst = max(worst, L * abs(_wrap(R[sphi] - R[gphi])))
+        links = {
+            l: (a if -_PI < (a := ref + R[i]) <= _PI else _wrap_one(a)) for l, i, ref in self.links
+        }
         for i, kind, read in self.knowns:
-            got, v = read(r), vals[i]
+            got, v = read(R), vals[i]
             if kind is ReadKind.POINT:
                 worst = max(worst, max(abs(got.real - v[0]), abs(got.imag - v[1])))
             elif kind is ReadKind.ANGLE:  # reduce v exactly first
@@ -148,16 +171,20 @@ class SlotReadout:
             else:
                 worst = max(worst, abs(got - v))
         residual = worst / L
-        points = {p: (z.real, z.imag) for p, z in zip(self.point_names, r.P)}
+        names = self.point_names
+        points = {p: (z.real, z.imag) for p, z in zip(names, R)}
         margin = float(r.margin)
         defined = True
         if signs:  # branch_identity_defined (result.py), inlined
             defined = bool(margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5)
+        # one sum is finite when every term is (it may overflow only at ~1e308 scales, where
+        # the exact check below runs)
+        zsum = sum(R[: len(names)], 0j)
         total = (
             sum(joints.values())
             + sum(links.values())
             + sum(inputs.values())
-            + sum([x + y for x, y in points.values()])
+            + (zsum.real + zsum.imag)
             + residual
             + margin
         )

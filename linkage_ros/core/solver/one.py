@@ -56,4 +56,3 @@ def _given(c: CompiledSolve, vals: Values, values: Mapping[str, Any]) -> dict[st
         del given[pair.link_known]
         given[pair.second] = [float(v) for v in values[pair.second]]
     return given
-
