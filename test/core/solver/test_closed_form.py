@@ -63,7 +63,8 @@ def test_solve_equals_solve_batch_on_every_packaged_scene(scene):
             checked += 1
             assert r.branch == ''.join('+' if s > 0 else '-' for s in batch.signs[n])
             tab = [(r.residual, batch.residual[n], 1.0), (r.margin, batch.margin[n], 1.0)]
-            for got, want in ((r.joints, batch.joints), (r.links, batch.links), (r.inputs, batch.inputs)):  # fmt: skip
+            tables = ((r.joints, batch.joints), (r.links, batch.links), (r.inputs, batch.inputs))
+            for got, want in tables:
                 assert list(got) == list(want)
                 tab += [(v, want[k][n], max(L, math.pi)) for k, v in got.items()]
             assert list(r.points) == list(batch.points)
