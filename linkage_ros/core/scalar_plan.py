@@ -55,7 +55,9 @@ class SlotRun:
     R: list[Any]  # the registers (see ScalarProgram: points, poses, frames, orientations)
     values: list[Any]
     signs: Sequence[int]
-    prefer: Mapping[str, Any] | None
+    prefer: Mapping[str, Any] | None  # made on first use by predict, if given
+    predict: Callable[[], Mapping[str, Any] | None] | None
+    prev_small: bool  # some previous margin is below CONTINUITY_MARGIN
     prev_margins: Sequence[float] | None
     tol: float
     used: list[int]  # the branch sign taken at each branching step so far
@@ -69,6 +71,8 @@ class SlotRun:
         'values',
         'signs',
         'prefer',
+        'predict',
+        'prev_small',
         'prev_margins',
         'tol',
         'used',
@@ -78,17 +82,21 @@ class SlotRun:
         'violation',
     )
 
+    def prediction(self) -> Mapping[str, Any] | None:
+        """Where continuity expects this configuration (None: nowhere), made on first use."""
+        if self.predict is not None:
+            self.prefer, self.predict = self.predict(), None
+        return self.prefer
+
     def decide(self, margin: float, key: str) -> bool:
-        """Continuity decides this branching step: a prediction for ``key`` exists and the
-        dyad's margin, now or in the previous answer, is below CONTINUITY_MARGIN."""
-        prefer = self.prefer
-        if prefer is None:
-            return False
+        """Continuity decides this branching step: the dyad's margin, now or in the previous
+        answer, is below CONTINUITY_MARGIN and there is a prediction for ``key``."""
         if not margin < _CM:
             prev, b = self.prev_margins, len(self.used)
             if not (prev and b < len(prev) and prev[b] < _CM):
                 return False
-        return key in prefer
+        prefer = self.prediction()
+        return prefer is not None and key in prefer
 
     def taken(self, sign: int, margin: float) -> None:
         self.used.append(sign)
@@ -150,6 +158,9 @@ class ScalarProgram:
         self.ifT = {l: n + 5 * nl + i for i, l in enumerate(links)}
         self.iang = [n + 6 * nl + b for b in range(len(plan.bodies))]
         self.template: list[Any] = [None] * (n + 6 * nl + len(plan.bodies))
+        #: point -> the link whose placement set it (rot * p_ref + T of that link exactly)
+        self.set_by: dict[str, str] = {}
+        self._members: dict[int, list[Any]] = {}  # per body placed: what _placer places
         self.n_placed = len(link_order)
         self.point_specs = tuple(isinstance(s, PointSpec) for s in plan.specs)
         used_bodies: set[int] = set()
@@ -220,6 +231,9 @@ class ScalarProgram:
             )
             set_pts.update(mech.links[link].points)
             placed.add(link)
+            for p in mech.links[link].points:
+                if self.ip[p] in {i for i, _ in new}:
+                    self.set_by[p] = link
             members.append(
                 (
                     self.iphi[link],
@@ -231,6 +245,7 @@ class ScalarProgram:
                     self.ifT[link],
                 )  # fmt: skip
             )
+        self._members[bi] = members
         if self.single[bi]:
             ((iphi, irot, iT, pts, _, _, _),) = members
 
@@ -334,6 +349,7 @@ class ScalarProgram:
         sp, sq = self.ip[a.first], self.ip[a.second]
         place = self._placer(bi, set_pts, placed)
         if self.single[bi]:  # the unit vector between the points in the link's frame: constant
+            ((iphi, irot, iT, pts, _, _, _),) = self._members[bi]
             v = self.ref[a.second] - self.ref[a.first]
             nv = _cabs_one(v)
             unit, lp = (v / nv if nv > 0 else v), self.ref[a.first]
@@ -343,11 +359,17 @@ class ScalarProgram:
                 R = r.R
                 p = R[sp]
                 b = R[sq] - p
-                nb = _cabs_one(b)
+                try:
+                    nb = abs(b)
+                except OverflowError:  # beyond the float range (as ops' cabs)
+                    nb = math.inf
                 b = b / (nb if nb > 0 else 1.0)  # unit first: 1e-300 lengths would underflow
                 phi = atan2(ux * b.imag - uy * b.real, ux * b.real + uy * b.imag)
                 rot = complex(cos(phi), sin(phi))
-                place(R, phi, rot, p - rot * lp)
+                T = p - rot * lp
+                R[iphi], R[irot], R[iT] = phi, rot, T
+                for s, ref in pts:
+                    R[s] = rot * ref + T
 
             return two_points_single
         lp_of, lq_of = self._local(bi, a.first), self._local(bi, a.second)
@@ -421,8 +443,8 @@ class ScalarProgram:
                 raise _Refused(k_step, violation)
             sg = r.signs[len(r.used)]
             spread = complex(0.0 * h, h)
-            if r.prefer is not None and r.decide(margin, x):
-                target = r.prefer[x]
+            if (margin < _CM or r.prev_small) and r.decide(margin, x):
+                target = r.prefer[x]  # type: ignore[index]
                 plus = (base + (along + 1 * spread) * u) * S
                 plus = plus if _cfinite(plus) else rrr_fallback(pair, c1)
                 minus = (base + (along + -1 * spread) * u) * S
@@ -456,7 +478,7 @@ class ScalarProgram:
             if not pair[5]:
                 raise _Refused(k, pair[6])
             sg = r.signs[len(r.used)]
-            if r.decide(margin, x):
+            if (margin < _CM or r.prev_small) and r.decide(margin, x):
                 target = r.prefer[x]  # type: ignore[index]
                 plus, _ = rrp_point(pair, 1)
                 minus, _ = rrp_point(pair, -1)
@@ -495,7 +517,7 @@ class ScalarProgram:
             if not pair[4]:
                 raise _Refused(k, pair[5])
             sg = r.signs[len(r.used)]
-            if r.decide(margin, key):
+            if (margin < _CM or r.prev_small) and r.decide(margin, key):
                 last = r.prefer[key]  # type: ignore[index]
                 miss_p = abs(_wrap(rpr_angle(pair, 1) - psi0 + fphi - last))
                 sg = 1 if miss_p <= abs(_wrap(rpr_angle(pair, -1) - psi0 + fphi - last)) else -1
@@ -515,17 +537,20 @@ class ScalarProgram:
         prefer: Mapping[str, Any] | None = None,
         prev_margins: Sequence[float] | None = None,
         tol: float = TANGENCY_TOL,
+        predict: Callable[[], Mapping[str, Any] | None] | None = None,
     ) -> SlotRun:
         """Execute the plan on one command (``values[i]`` a float, or an (x, y) pair for a
         point) with branch ``signs`` (default: the reference pose's); ``prefer`` maps point
         names to predicted complex positions and '@link' to predicted link angles (continuity,
-        see the module), ``prev_margins`` are the previous answer's dyad margins. Returns the
+        see the module), or ``predict`` makes them where a step first needs them;
+        ``prev_margins`` are the previous answer's dyad margins. Returns the
         run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
         r = SlotRun()
         r.R = self.template.copy()
         r.values = [v if is_point else float(v) for is_point, v in zip(self.point_specs, values)]
         r.signs = self.plan.reference_signs if signs is None else signs
-        r.prefer, r.prev_margins, r.tol = prefer, prev_margins, tol
+        r.prefer, r.predict, r.prev_margins, r.tol = prefer, predict, prev_margins, tol
+        r.prev_small = min(prev_margins) < _CM if prev_margins else False
         r.used, r.margins, r.margin, r.failure, r.violation = [], [], 1.0, -1, 0.0
         try:
             for step in self.steps:
@@ -537,26 +562,39 @@ class ScalarProgram:
     def points_of(self, r: SlotRun) -> dict[str, complex]:
         """The points a run set, by name, in the order it set them."""
         if r.failure < 0:
-            return dict(zip(self.point_names, r.R))
+            return self.points_closed(r.R)
         return {p: v for p, v in zip(self.point_names, r.R) if v is not None}
+
+    def points_closed(self, R: list[Any]) -> dict[str, complex]:
+        """points_of a run that closed, from its registers."""
+        return dict(zip(self.point_names, R))
 
     def poses_of(self, r: SlotRun) -> LinkPoses:
         """The link poses a run placed, by name, in the order it placed them."""
-        R, names, n = r.R, self.link_names, self.n_placed
-        phi, rot, T = (
-            (self.iphi[names[0]], self.irot[names[0]], self.iT[names[0]]) if n else (0, 0, 0)
-        )
         if r.failure < 0:
-            return LinkPoses(
-                dict(zip(names, R[phi : phi + n])),
-                dict(zip(names, R[rot : rot + n])),
-                dict(zip(names, R[T : T + n])),
-            )
+            return self.poses_closed(r.R)
+        R, names = r.R, self.link_names
         poses = LinkPoses()
-        for j, l in enumerate(names):
-            if R[phi + j] is not None:
-                poses.phi[l], poses.rot[l], poses.T[l] = R[phi + j], R[rot + j], R[T + j]
+        for l in names:
+            if R[self.iphi[l]] is not None:
+                poses.phi[l], poses.rot[l], poses.T[l] = (
+                    R[self.iphi[l]],
+                    R[self.irot[l]],
+                    R[self.iT[l]],
+                )
         return poses
+
+    def poses_closed(self, R: list[Any]) -> LinkPoses:
+        """poses_of a run that closed, from its registers."""
+        names, n = self.link_names, self.n_placed
+        if not n:
+            return LinkPoses()
+        phi, rot, T = self.iphi[names[0]], self.irot[names[0]], self.iT[names[0]]
+        return LinkPoses(
+            dict(zip(names, R[phi : phi + n])),
+            dict(zip(names, R[rot : rot + n])),
+            dict(zip(names, R[T : T + n])),
+        )
 
     def run(
         self,
@@ -628,7 +666,7 @@ def _coincident(
     """Coincident circles (a change point, e.g. a rhombus folded flat) leave x anywhere on the
     circle: keep it where continuity predicts, else where the reference pose has it relative to
     the first centre. Branch identity is undefined there (margin 0)."""
-    prefer = r.prefer
+    prefer = r.prediction()
     guess = prefer.get(x) if prefer else None
     off = (guess - c1) if guess is not None else ref_off
     n = _cabs_one(off)

@@ -18,6 +18,7 @@ import weakref
 from collections.abc import Callable
 from typing import Any
 
+from ..execute import LinkPoses
 from ..ops import _wrap_one
 from ..plan import ReadKind, SpecReader, spec_reader
 from ..quantities import SlideSpec
@@ -88,6 +89,14 @@ class SlotReadout:
             if a in commanded or all(l in have for l in spec_links(s))
         ]  # fmt: skip
         iphi, irot, iT = prog.iphi, prog.irot, prog.iT
+
+        def reg(point: str, link: str) -> int:
+            """The point's register where the run set it as rot * p_ref + T of ``link`` (the
+            very float the joint check would compute), else -1."""
+            return prog.ip[point] if prog.set_by.get(point) == link else -1
+
+        #: (joint, child, parent, angle offset, point, parent rot, T, child rot, T, and the
+        #: point's register where it is that of the parent / the child)
         self.revolutes = [
             (
                 rj.name,
@@ -99,7 +108,9 @@ class SlotReadout:
                 iT[rj.parent],
                 irot[rj.child],
                 iT[rj.child],
-            )  # fmt: skip
+                reg(rj.point, rj.parent),
+                reg(rj.point, rj.child),
+            )
             for rj in mech.revolutes
             if rj.parent in have and rj.child in have
         ]
@@ -145,14 +156,19 @@ class SlotReadout:
             inputs = {a: inputs[a] for a in self.input_order}
         joints = {}
         worst = 0.0
-        for name, child, parent, offset, p, prot, pT, crot, cT in self.revolutes:
+        for name, child, parent, offset, p, prot, pT, crot, cT, preg, creg in self.revolutes:
             a = offset + R[child] - R[parent]
             joints[name] = a if -_PI < a <= _PI else _wrap_one(a)
-            d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
-            dx, dy = abs(d.real), abs(d.imag)
-            m = dy if dy > dx else dx
-            if m > worst:
-                worst = m
+            d = (R[preg] if preg >= 0 else R[prot] * p + R[pT]) - (
+                R[creg] if creg >= 0 else R[crot] * p + R[cT]
+            )
+            # the largest component (a NaN one makes the Result refused whatever the residual)
+            a = abs(d.real)
+            if a > worst:
+                worst = a
+            a = abs(d.imag)
+            if a > worst:
+                worst = a
         for name, read, p, normal, sphi, srot, sT, gphi, grot, gT in self.slides:
             joints[name] = read(R)
             off = (R[srot] * p + R[sT]) - (R[grot] * p + R[gT])
@@ -231,6 +247,51 @@ def readout(c: CompiledSolve) -> SlotReadout:
     return got
 
 
+class SlotState(State):
+    """The State of a closed-form answer whose points and poses (name-keyed, as State holds
+    them) are read off the run's registers on first use: most commands never ask (continuity
+    reads them near a singular dyad only). Pickles as a plain State."""
+
+    def __init__(
+        self,
+        values: Values,
+        signs: tuple[int, ...],
+        margins: tuple[float, ...],
+        prog: ScalarProgram,
+        registers: list[Any],
+    ):  # State's fields set here, points and poses on first use
+        self.values, self.x_all, self.signs, self.det_sign = values, None, signs, 0
+        self.margins, self.x_lu = margins, None
+        self._prog, self._registers = prog, registers
+        self._points: dict[str, complex] | None = None
+        self._poses: LinkPoses | None = None
+
+    @property
+    def points(self) -> dict[str, complex]:
+        if self._points is None:
+            self._points = self._prog.points_closed(self._registers)
+        return self._points
+
+    @points.setter
+    def points(self, value: dict[str, complex]) -> None:
+        self._points = value
+
+    @property
+    def poses(self) -> LinkPoses:
+        if self._poses is None:
+            self._poses = self._prog.poses_closed(self._registers)
+        return self._poses
+
+    @poses.setter
+    def poses(self, value: LinkPoses) -> None:
+        self._poses = value
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return State, (
+            self.values, None, self.points, self.poses, self.signs, 0, self.margins, None
+        )  # fmt: skip
+
+
 def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
     """The dyad plan on one command, on the branch ``cont`` chooses."""
     last = cont.last
@@ -238,13 +299,13 @@ def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     r = prog.execute(
         vals,
         cont.signs(c.plan),
-        cont.prediction(c, vals),
+        None,
         last.margins if last is not None else None,
+        predict=lambda: cont.prediction(c, vals),
     )
     if r.failure >= 0:
         reason = c.dyad_reason(r.failure, r.violation)
         return c.fail(reason, c.echo(vals), _CLOSED_FORM), None
     signs = tuple(r.used)
     res = readout(c).result(r, vals, signs)
-    state = State(vals, None, prog.points_of(r), prog.poses_of(r), signs, 0, tuple(r.margins), None)
-    return res, state
+    return res, SlotState(vals, signs, tuple(r.margins), prog, r.R)
