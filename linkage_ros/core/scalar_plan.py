@@ -256,15 +256,7 @@ class ScalarProgram:
 
             return place_single
 
-        def place_welded(R: list[Any], phi: float, rot: complex, Tb: complex) -> None:
-            for iphi, irot, iT, pts, fphi, frot, fT in members:
-                lr = rot * R[frot]
-                lt = rot * R[fT] + Tb
-                R[iphi], R[irot], R[iT] = phi + R[fphi], lr, lt
-                for s, ref in pts:
-                    R[s] = lr * ref + lt
-
-        return place_welded
+        return _welded_placer(members)
 
     def _local(self, bi: int, p: str) -> Callable[[list[Any]], complex]:
         """A point of body bi in the body's frame."""
@@ -306,6 +298,10 @@ class ScalarProgram:
             if self.single[st.body]:  # a constant: placed once, in the template
                 place(self.template, 0.0, rot0, T0)
                 return None
+            # the root's frame is the identity: its pose and points are constants too
+            root, *rest = self._members[st.body]
+            _welded_placer([root])(self.template, 0.0, rot0, T0)
+            place = _welded_placer(rest)
 
             def ground(r: SlotRun) -> None:
                 place(r.R, 0.0, rot0, T0)
@@ -616,6 +612,21 @@ class ScalarProgram:
             r.violation,
             tuple(r.margins),
         )
+
+
+def _welded_placer(members: list[Any]) -> Callable[..., None]:
+    """place(R, phi, rot, T) of a welded body's members: each posed from its frame registers,
+    and the points it sets first."""
+
+    def place_welded(R: list[Any], phi: float, rot: complex, Tb: complex) -> None:
+        for iphi, irot, iT, pts, fphi, frot, fT in members:
+            lr = rot * R[frot]
+            lt = rot * R[fT] + Tb
+            R[iphi], R[irot], R[iT] = phi + R[fphi], lr, lt
+            for s, ref in pts:
+                R[s] = lr * ref + lt
+
+    return place_welded
 
 
 def _turn(
