@@ -3,16 +3,20 @@
 A twin, kept on purpose: :func:`~linkage_ros.core.dyads.solve_rrr_dyad` and its siblings are
 written once against the number backends of :mod:`linkage_ros.core.ops`, and on the one-command
 backend every ``ops.where`` / ``ops.maximum`` / ``ops.clip`` is a Python call and every result a
-NamedTuple. Measured in one process (four-bar RRR dyad of the packaged scene, 2-core machine
-at load ~8, best of 5 x 20000 calls): the generic kernel on ``SCALAR`` plus ``dyad_point``
-took 6.9 us per dyad, these kernels 1.3 us -- the generic form alone was 40% of a whole
-warm ``Solver.solve`` of the four-bar budget the issue sets (8x a hand-written math four-bar).
+NamedTuple. Measured in one process (CPU time, best of 15 x 2000 calls, the packaged four-bar's
+RRR dyad and one of its points; 2-core machine shared with other jobs, load ~10): the generic
+kernel on ``SCALAR`` with ``dyad_point`` 7.9 us, these kernels 2.8 us, a hand-written ``math``
+four-bar 1.6 us -- the generic form alone was 5x the arithmetic of the whole four-bar, most of
+the 8x a warm ``Solver.solve`` may cost (issue 25).
 
 The formulas are the batch kernels', operation for operation and in the same order (the
-branches below are the ``where`` of the batch form, taken once): on finite input every float
-returned equals the batch kernel's row (test/core/test_scalar_dyads.py proves it over a
-hypothesis-drawn space of dyads, tangent ones included). The Kahan-stable area, the power-of-two
-scaling and the toggle band are the batch kernels' (see there for why).
+branches below are the ``where`` of the batch form, taken once; a non-finite RRR input skips to
+the placeholders, which is all the batch form keeps of it): every float returned equals the
+batch kernel's row, the sign of a zero aside (Python's complex arithmetic multiplies by
+(x, +0)), and RPR's ``beta``, which goes through atan2 (numpy's may be a SIMD one: 1 ulp).
+test/core/test_scalar_dyads.py checks it over a hypothesis-drawn space of dyads, tangent ones
+included. The Kahan-stable area, the power-of-two scaling and the toggle band are the batch
+kernels' (see there for why).
 
 Each solver returns a plain tuple (no object built per command):
 

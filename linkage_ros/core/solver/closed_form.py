@@ -7,8 +7,10 @@ values by the same float operations (every commanded actuator as given, every ot
 joint and link whose links are placed, and the loop-closure residual as a fraction of the
 length scale), with every name resolved to a slot of :class:`~linkage_ros.core.scalar_plan.
 ScalarProgram` once, so that a command builds each of the Result's dicts once. Measured in one
-process (warm four-bar, 2-core machine at load ~5): ``build_result`` over the assembler took
-18 us of a 53 us solve, this readout and the Result ~6 us.
+process (CPU time, best of 15 x 2000 calls on one four-bar configuration; 2-core machine shared
+with other jobs, load ~10): ``CompiledSolve.build_result`` over the assembler 13.0 us, this
+readout with the Result 7.9 us. A closed-form answer's State (:class:`SlotState`) reads its
+name-keyed points and poses off the registers only when continuity asks.
 """
 
 from __future__ import annotations
