@@ -76,3 +76,23 @@ def test_solve_equals_solve_batch_on_every_packaged_scene(scene):
                 else:
                     assert abs(got - want) <= 1e-13 * scale, (scene, i, got, want)
     assert checked >= 60, f'{scene}: too few assembling commands compared ({checked})'
+
+
+def test_a_closed_form_state_reads_like_one_built_by_name_and_pickles():
+    """A closed-form answer's State reads its points and poses off the run on first use: they
+    are the answer's (the Result's points), a pickled snapshot restores into a fresh solver,
+    and the next command is then solved exactly as by the solver it came from."""
+    import pickle
+
+    mech = scenes.load('four_bar')
+    cmds = sweep_inputs(mech, 40)
+    a = Solver(mech, method='closed_form')
+    for c in cmds[:30]:
+        last = a.solve(c)
+    state = a.snapshot()[-1]
+    assert {p: (z.real, z.imag) for p, z in state.points.items()} == last.points
+    assert set(state.poses.phi) == set(last.links)
+    b = Solver(mech, method='closed_form')
+    b.restore(pickle.loads(pickle.dumps(a.snapshot())))
+    for c in cmds[30:]:
+        assert a.solve(c).to_dict(mech) == b.solve(c).to_dict(mech)
