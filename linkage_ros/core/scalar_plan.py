@@ -33,84 +33,23 @@ from typing import Any
 from .dyads import TANGENCY_TOL
 from .errors import PlanError
 from .execute import CONTINUITY_MARGIN, LinkPoses, PlanRun
-from .ops import _cabs_one, _wrap_one
+from .ops import _cabs_one
 from .quantities import AngleSpec, PointSpec
 from .scalar_dyads import rpr_angle, rrp_point, rrr_fallback, solve_rpr, solve_rrp, solve_rrr
+from .scalar_run import (
+    Refused,
+    SlotRun,
+    Step,
+    coincident,
+    slide_weld,
+    turn_weld,
+    welded_placer,
+    wrap,
+)
 from .steps import AngleFrom, KnownPoint, PointAngle, RPRDyad, RRPDyad, RRRDyad, StepKind, TwoPoints
 
-_PI = math.pi
 _CM = CONTINUITY_MARGIN
 _PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
-
-
-class _Refused(Exception):
-    """A step that does not close: its index and by how much (m); the run stops there."""
-
-    def __init__(self, step: int, violation: float):
-        self.step, self.violation = step, violation
-
-
-class SlotRun:
-    """One run: its registers and its continuity inputs and outputs."""
-
-    R: list[Any]  # the registers (see ScalarProgram: points, poses, frames, orientations)
-    values: list[Any]
-    signs: Sequence[int]
-    prefer: Mapping[str, Any] | None  # made on first use by predict, if given
-    predict: Callable[[], Mapping[str, Any] | None] | None
-    prev_small: bool  # some previous margin is below CONTINUITY_MARGIN
-    prev_margins: Sequence[float] | None
-    tol: float
-    used: list[int]  # the branch sign taken at each branching step so far
-    margins: list[float]  # and the dyad's margin
-    margin: float  # the least of them (1.0 without a branching step)
-    failure: int  # the step that did not close, or -1
-    violation: float  # by how much it misses (m)
-
-    __slots__ = (
-        'R',
-        'values',
-        'signs',
-        'prefer',
-        'predict',
-        'prev_small',
-        'prev_margins',
-        'tol',
-        'used',
-        'margins',
-        'margin',
-        'failure',
-        'violation',
-    )
-
-    def prediction(self) -> Mapping[str, Any] | None:
-        """Where continuity expects this configuration (None: nowhere), made on first use."""
-        if self.predict is not None:
-            self.prefer, self.predict = self.predict(), None
-        return self.prefer
-
-    def decide(self, margin: float, key: str) -> bool:
-        """Continuity decides this branching step: the dyad's margin, now or in the previous
-        answer, is below CONTINUITY_MARGIN and there is a prediction for ``key``."""
-        if not margin < _CM:
-            prev, b = self.prev_margins, len(self.used)
-            if not (prev and b < len(prev) and prev[b] < _CM):
-                return False
-        prefer = self.prediction()
-        return prefer is not None and key in prefer
-
-    def taken(self, sign: int, margin: float) -> None:
-        self.used.append(sign)
-        self.margins.append(margin)
-        if margin < self.margin:
-            self.margin = margin
-
-
-def _wrap(a: float) -> float:
-    return a if -_PI < a <= _PI else _wrap_one(a)
-
-
-Step = Callable[[SlotRun], None]
 
 
 class ScalarProgram:
@@ -203,14 +142,14 @@ class ScalarProgram:
             if isinstance(s, AngleSpec):
                 assert w.shared_point is not None  # an angle weld turns about a shared point
                 steps.append(
-                    _turn(
+                    turn_weld(
                         w.spec_index, s.offset, w.link == s.link, self.ref[w.shared_point], via, out
                     )
                 )
             else:
                 pj = mech.prismatics[s.joint]
                 steps.append(
-                    _slide(
+                    slide_weld(
                         w.spec_index,
                         pj.ref_value,
                         w.link == pj.slider,
@@ -257,7 +196,7 @@ class ScalarProgram:
 
             return place_single
 
-        return _welded_placer(members)
+        return welded_placer(members)
 
     def _local(self, bi: int, p: str) -> Callable[[list[Any]], complex]:
         """A point of body bi in the body's frame."""
@@ -301,8 +240,8 @@ class ScalarProgram:
                 return None
             # the root's frame is the identity: its pose and points are constants too
             root, *rest = self._members[st.body]
-            _welded_placer([root])(self.template, 0.0, rot0, T0)
-            place = _welded_placer(rest)
+            welded_placer([root])(self.template, 0.0, rot0, T0)
+            place = welded_placer(rest)
 
             def ground(r: SlotRun) -> None:
                 place(r.R, 0.0, rot0, T0)
@@ -410,7 +349,7 @@ class ScalarProgram:
                 source = source + (0.0 if src_in_body is None else R[src_in_body])
             rel = 0.0
             if i is not None:
-                rel = _wrap(r.values[i]) - offset
+                rel = wrap(r.values[i]) - offset
                 if negate:
                     rel = -rel
             R[ang] = source + rel - (0.0 if here is None else R[here])
@@ -431,13 +370,13 @@ class ScalarProgram:
             c1, c2, tol = R[s1], R[s2], r.tol
             big = max(r1, r2)
             if _cabs_one(c1 - c2) <= tol * big and abs(r1 - r2) <= tol * big:
-                _coincident(r, k_step, x, sx, c1, r1, ref_off)
+                coincident(r, k_step, x, sx, c1, r1, ref_off)
                 return
             pair = solve_rrr(c1, r1, c2, r2, tol)
             base, u, along, h, S, margin, ok, violation, _ = pair
             if not ok:
                 R[sx] = rrr_fallback(pair, c1)
-                raise _Refused(k_step, violation)
+                raise Refused(k_step, violation)
             sg = r.signs[len(r.used)]
             spread = complex(0.0 * h, h)
             if (margin < _CM or r.prev_small) and r.decide(margin, x):
@@ -450,7 +389,7 @@ class ScalarProgram:
             z = (base + (along + sg * spread) * u) * S
             if not _cfinite(z):  # beyond the float range
                 R[sx] = rrr_fallback(pair, c1)
-                raise _Refused(k_step, 0.0)
+                raise Refused(k_step, 0.0)
             R[sx] = z
             r.used.append(sg)
             r.margins.append(margin)
@@ -473,7 +412,7 @@ class ScalarProgram:
             pair = solve_rrp(R[s1], rad, rot * xref + R[gT], rot * d, r.tol)
             margin = pair[4]
             if not pair[5]:
-                raise _Refused(k, pair[6])
+                raise Refused(k, pair[6])
             sg = r.signs[len(r.used)]
             if (margin < _CM or r.prev_small) and r.decide(margin, x):
                 target = r.prefer[x]  # type: ignore[index]
@@ -483,7 +422,7 @@ class ScalarProgram:
             z, ok = rrp_point(pair, sg)
             R[sx] = z
             if not ok:  # beyond the float range
-                raise _Refused(k, 0.0)
+                raise Refused(k, 0.0)
             r.taken(sg, margin)
 
         return rrp
@@ -512,12 +451,12 @@ class ScalarProgram:
             pair = solve_rpr(R[sp], R[sx], e, r.tol)
             margin = pair[3]
             if not pair[4]:
-                raise _Refused(k, pair[5])
+                raise Refused(k, pair[5])
             sg = r.signs[len(r.used)]
             if (margin < _CM or r.prev_small) and r.decide(margin, key):
                 last = r.prefer[key]  # type: ignore[index]
-                miss_p = abs(_wrap(rpr_angle(pair, 1) - psi0 + fphi - last))
-                sg = 1 if miss_p <= abs(_wrap(rpr_angle(pair, -1) - psi0 + fphi - last)) else -1
+                miss_p = abs(wrap(rpr_angle(pair, 1) - psi0 + fphi - last))
+                sg = 1 if miss_p <= abs(wrap(rpr_angle(pair, -1) - psi0 + fphi - last)) else -1
             phi = rpr_angle(pair, sg) - psi0
             R[ang] = phi
             rot = complex(cos(phi), sin(phi))
@@ -552,7 +491,7 @@ class ScalarProgram:
         try:
             for step in self.steps:
                 step(r)
-        except _Refused as stop:
+        except Refused as stop:
             r.failure, r.violation, r.margin = stop.step, stop.violation, 0.0
         return r
 
@@ -613,86 +552,6 @@ class ScalarProgram:
             r.violation,
             tuple(r.margins),
         )
-
-
-def _welded_placer(members: list[Any]) -> Callable[..., None]:
-    """place(R, phi, rot, T) of a welded body's members: each posed from its frame registers,
-    and the points it sets first."""
-
-    def place_welded(R: list[Any], phi: float, rot: complex, Tb: complex) -> None:
-        for iphi, irot, iT, pts, fphi, frot, fT in members:
-            lr = rot * R[frot]
-            lt = rot * R[fT] + Tb
-            R[iphi], R[irot], R[iT] = phi + R[fphi], lr, lt
-            for s, ref in pts:
-                R[s] = lr * ref + lt
-
-    return place_welded
-
-
-def _turn(
-    i: int, offset: float, forward: bool, p: complex, via: tuple[int, int, int],
-    out: tuple[int, int, int],
-) -> Step:  # fmt: skip
-    """A weld by known angle ``values[i]``: the member turned about the shared point p."""
-    vphi, vrot, vT = via
-    lphi, lrot, lT = out
-
-    def turn(r: SlotRun) -> None:
-        R = r.R
-        v = r.values[i]
-        rel = (v if -_PI < v <= _PI else _wrap_one(v)) - offset
-        phi = R[vphi] + (rel if forward else -rel)
-        rot = complex(cos(phi), sin(phi))
-        R[lphi], R[lrot], R[lT] = phi, rot, (R[vrot] * p + R[vT]) - rot * p
-
-    return turn
-
-
-def _slide(
-    i: int, ref_value: float, forward: bool, x_ref: complex, u: complex,
-    via: tuple[int, int, int], out: tuple[int, int, int],
-) -> Step:  # fmt: skip
-    """A weld by known slide ``values[i]``: the member moved along the slide (``forward``: the
-    slider placed off its guide, else the guide off its slider)."""
-    vphi, vrot, vT = via
-    lphi, lrot, lT = out
-
-    def slide(r: SlotRun) -> None:
-        R = r.R
-        dv = r.values[i] - ref_value
-        along = x_ref + complex(dv * u.real, dv * u.imag)
-        vr = R[vrot]
-        if forward:  # guide placed: the slider point on its line
-            T = (vr * along + R[vT]) - vr * x_ref
-        else:  # slider placed: hang the guide off it
-            T = (vr * x_ref + R[vT]) - vr * along
-        R[lphi], R[lrot], R[lT] = R[vphi], vr, T
-
-    return slide
-
-
-def _coincident(
-    r: SlotRun, k: int, x: str, sx: int, c1: complex, r1: float, ref_off: complex
-) -> None:
-    """Coincident circles (a change point, e.g. a rhombus folded flat) leave x anywhere on the
-    circle: keep it where continuity predicts, else where the reference pose has it relative to
-    the first centre. Branch identity is undefined there (margin 0)."""
-    prefer = r.prediction()
-    guess = prefer.get(x) if prefer else None
-    off = (guess - c1) if guess is not None else ref_off
-    n = _cabs_one(off)
-    off = off / n if 0 < n < math.inf else 1 + 0j
-    foot = c1 + r1 * off
-    sg = r.signs[len(r.used)]
-    if r.decide(0.0, x):
-        sg = 1  # both branches are the one point
-    z = (foot + (0.0 + sg * 0.0) * 1.0) * 1.0
-    if not _cfinite(z):
-        r.R[sx] = foot
-        raise _Refused(k, 0.0)
-    r.R[sx] = z
-    r.taken(sg, 0.0)
 
 
 def program(plan: Any) -> ScalarProgram:

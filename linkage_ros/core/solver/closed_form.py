@@ -24,7 +24,8 @@ from ..execute import LinkPoses
 from ..ops import _wrap_one
 from ..plan import ReadKind, SpecReader, spec_reader
 from ..quantities import SlideSpec
-from ..scalar_plan import ScalarProgram, SlotRun, program
+from ..scalar_plan import ScalarProgram, program
+from ..scalar_run import SlotRun
 from ..steps import branch_text
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity, State
