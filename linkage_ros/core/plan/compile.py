@@ -17,6 +17,7 @@ from ..execute import PlanRun, executor
 from ..model import Mechanism
 from ..ops import SCALAR, to_xy
 from ..quantities import AngleSpec, PointSpec, SlideSpec
+from ..scalar_plan import program
 from ..steps import (
     BRANCHING,
     AngleFrom,
@@ -510,7 +511,7 @@ def run_one(
     tol: float = dyads.TANGENCY_TOL,
     prev_margins: Sequence[float] | None = None,
 ) -> PlanRun:
-    """:class:`~linkage_ros.core.execute.PlanExecutor` on one command: ``values[i]`` a float
-    (angle/slide) or an (x, y) pair (point); ``prefer`` and ``prev_margins`` steer continuity
-    through tangent configurations (see PlanExecutor.run)."""
-    return executor(plan).run(values, None, signs, prefer, prev_margins, tol)
+    """:class:`~linkage_ros.core.scalar_plan.ScalarProgram` on one command: ``values[i]`` a
+    float (angle/slide) or an (x, y) pair (point); ``prefer`` and ``prev_margins`` steer
+    continuity through tangent configurations (see ScalarProgram.run)."""
+    return program(plan).run(values, signs, prefer, prev_margins, tol)

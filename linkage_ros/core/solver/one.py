@@ -5,9 +5,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from ..plan import needs_beyond_limits, run_one
+from ..plan import needs_beyond_limits
+from .closed_form import solve_closed
 from .compiled import CompiledSolve, SolveMode, Values
-from .continuity import Continuity, State, state_of
+from .continuity import Continuity
 from .newton_path import solve_newton
 from .result import Result
 
@@ -55,28 +56,3 @@ def _given(c: CompiledSolve, vals: Values, values: Mapping[str, Any]) -> dict[st
         del given[pair.link_known]
         given[pair.second] = [float(v) for v in values[pair.second]]
     return given
-
-
-def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
-    """The dyad plan on one command, on the branch ``cont`` chooses."""
-    last = cont.last
-    run = run_one(
-        c.plan,
-        vals,
-        cont.signs(c.plan),
-        cont.prediction(c, vals),
-        prev_margins=last.margins if last is not None else None,
-    )
-    if not run.ok:
-        reason = c.dyad_reason(run.failure, run.violation)
-        return c.fail(reason, c.echo(vals), SolveMode.CLOSED_FORM), None
-    res = c.build_result(
-        run.poses,
-        run.points,
-        vals,
-        solver=SolveMode.CLOSED_FORM,
-        iterations=0,
-        signs=run.signs,
-        margin=run.margin,
-    )
-    return res, state_of(c, vals, run.poses, run.points, run.signs, margins=run.margins)

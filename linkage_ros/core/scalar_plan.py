@@ -1,0 +1,562 @@
+"""A closed-form plan compiled for one command: slot-indexed steps over plain floats.
+
+:class:`ScalarProgram` is the one-command twin of :class:`~linkage_ros.core.execute.PlanExecutor`
+(which runs a batch): everything a step looks up by name there (which link carries a point,
+reference positions, slide directions, stated lengths, which points a body placement sets
+first) is resolved here once per plan into indices of one list of registers (points, link
+poses, welded bodies' frames, body orientations) and constants, and each step becomes a
+closure over them. A run copies the register template (the constants already in it) and
+builds the name-keyed dicts of a :class:`~linkage_ros.core.execute.PlanRun` only when asked,
+once. The dyads are :mod:`linkage_ros.core.scalar_dyads`.
+
+The arithmetic is the batch executor's, operation for operation (the same floats, the sign of
+a zero aside: see scalar_dyads); continuity is the one-command rule of the executor: where a
+dyad is near its singularity (its margin now or in the previous answer below
+CONTINUITY_MARGIN) the branch nearest the prediction is taken, and coincident circles (a change
+point) keep the point where continuity predicts it.
+
+Why a twin: the generic executor on the one-command backend looks every name up per step and
+calls an ops function per where / max. Measured in one process (CPU time, best of 15 x 2000
+runs of the packaged four-bar's plan at one command; 2-core machine shared with other jobs,
+load ~10): the generic executor 32 us, this program 8.6 us (14 us with the name-keyed PlanRun
+that ``run_one`` returns), a hand-written ``math`` four-bar 1.6 us.
+"""
+
+from __future__ import annotations
+
+import math
+from cmath import isfinite as _cfinite
+from collections.abc import Callable, Mapping, Sequence
+from math import atan2, cos, sin
+from typing import Any
+
+from .dyads import TANGENCY_TOL
+from .errors import PlanError
+from .execute import CONTINUITY_MARGIN, LinkPoses, PlanRun
+from .ops import _cabs_one
+from .quantities import AngleSpec, PointSpec
+from .scalar_dyads import rpr_angle, rrp_point, rrr_fallback, solve_rpr, solve_rrp, solve_rrr
+from .scalar_run import (
+    Refused,
+    SlotRun,
+    Step,
+    coincident,
+    slide_weld,
+    turn_weld,
+    welded_placer,
+    wrap,
+)
+from .steps import AngleFrom, KnownPoint, PointAngle, RPRDyad, RRPDyad, RRRDyad, StepKind, TwoPoints
+
+_CM = CONTINUITY_MARGIN
+_PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
+
+
+class ScalarProgram:
+    """One plan, compiled for one command at a time (made once per plan: see :func:`program`).
+
+    Registers: ``ip[point]`` its complex position; ``iphi``, ``irot``, ``iT`` [link] its pose
+    (angle from the reference pose in rad, e^{i phi}, translation); ``ifphi``, ``ifrot``,
+    ``ifT`` [link] its pose in its welded body's frame (root at the identity); ``iang[body]`` the
+    body's orientation where known before it is placed. Points and links are numbered in the
+    order a run sets them (the order of the PlanRun's dicts)."""
+
+    def __init__(self, plan: Any):
+        self.plan = plan
+        mech = plan.mech
+        self.ref = {p: complex(float(v[0]), float(v[1])) for p, v in mech.points.items()}
+        self.direction = {
+            j: complex(float(pj.direction[0]), float(pj.direction[1]))
+            for j, pj in mech.prismatics.items()
+        }
+        self.single = [not b.welds for b in plan.bodies]
+        self.carrier: dict[tuple[int, str], str] = {}
+        for b in plan.bodies:
+            for link in b.links:
+                for p in mech.links[link].points:
+                    self.carrier.setdefault((b.index, p), link)
+        point_order: list[str] = []
+        link_order: list[str] = []
+        for st in plan.steps:
+            if st.op in _PLACES_BODY:
+                for link in plan.bodies[st.body].links:
+                    link_order.append(link)
+                    point_order.extend(p for p in mech.links[link].points if p not in point_order)
+            elif st.point is not None and st.point not in point_order:
+                point_order.append(st.point)
+        self.point_names = tuple(point_order)
+        self.link_names = tuple(link_order)
+        points = [*point_order, *(p for p in mech.points if p not in point_order)]
+        links = [*link_order, *(l for l in mech.links if l not in link_order)]
+        n, nl = len(points), len(links)
+        self.ip = {p: i for i, p in enumerate(points)}
+        self.iphi = {l: n + i for i, l in enumerate(links)}
+        self.irot = {l: n + nl + i for i, l in enumerate(links)}
+        self.iT = {l: n + 2 * nl + i for i, l in enumerate(links)}
+        self.ifphi = {l: n + 3 * nl + i for i, l in enumerate(links)}
+        self.ifrot = {l: n + 4 * nl + i for i, l in enumerate(links)}
+        self.ifT = {l: n + 5 * nl + i for i, l in enumerate(links)}
+        self.iang = [n + 6 * nl + b for b in range(len(plan.bodies))]
+        self.template: list[Any] = [None] * (n + 6 * nl + len(plan.bodies))
+        #: point -> the link whose placement set it (rot * p_ref + T of that link exactly)
+        self.set_by: dict[str, str] = {}
+        self._members: dict[int, list[Any]] = {}  # per body placed: what _placer places
+        self.n_placed = len(link_order)
+        self.point_specs = tuple(isinstance(s, PointSpec) for s in plan.specs)
+        used_bodies: set[int] = set()
+        for st in plan.steps:
+            a = st.args
+            for b in (st.body, *(getattr(a, f, None) for f in ('body_a', 'body_b', 'body'))):
+                if b is not None:
+                    used_bodies.add(b)
+            if isinstance(a, AngleFrom):
+                used_bodies.add(plan.body_of[a.source])
+        #: the steps of a run: the frames of the welded bodies it uses, then the plan's
+        self.steps: list[Step] = []
+        for b in sorted(used_bodies):
+            if not self.single[b]:
+                self.steps.extend(self._frame_of(b))
+        set_pts: set[str] = set()
+        placed: set[str] = set()
+        for k, st in enumerate(plan.steps):
+            step = self._compile(k, st, set_pts, placed)
+            if step is not None:
+                self.steps.append(step)
+
+    # -- compile time --------------------------------------------------------------------------
+    def _frame_of(self, bi: int) -> list[Step]:
+        """Fill the frame registers of a welded body's members (its root at the identity): a
+        weld by a known angle turns a member about the shared point, by a known slide moves it
+        along the slide. The root's are constants (in the template)."""
+        plan, mech = self.plan, self.plan.mech
+        body = plan.bodies[bi]
+        R = self.template
+        R[self.ifphi[body.root]] = 0.0
+        R[self.ifrot[body.root]] = complex(1.0, 0.0)
+        R[self.ifT[body.root]] = complex(0.0, 0.0)
+        steps: list[Step] = []
+        for w in body.welds:
+            s = plan.specs[w.spec_index]
+            via = (self.ifphi[w.via], self.ifrot[w.via], self.ifT[w.via])
+            out = (self.ifphi[w.link], self.ifrot[w.link], self.ifT[w.link])
+            if isinstance(s, AngleSpec):
+                assert w.shared_point is not None  # an angle weld turns about a shared point
+                steps.append(
+                    turn_weld(
+                        w.spec_index, s.offset, w.link == s.link, self.ref[w.shared_point], via, out
+                    )
+                )
+            else:
+                pj = mech.prismatics[s.joint]
+                steps.append(
+                    slide_weld(
+                        w.spec_index,
+                        pj.ref_value,
+                        w.link == pj.slider,
+                        self.ref[pj.point],
+                        self.direction[pj.name],
+                        via,
+                        out,
+                    )  # fmt: skip
+                )
+        return steps
+
+    def _placer(self, bi: int, set_pts: set[str], placed: set[str]) -> Callable[..., None]:
+        """place(R, phi, rot, T): the body's members posed and the points it sets first."""
+        mech = self.plan.mech
+        members = []
+        for link in self.plan.bodies[bi].links:
+            new = tuple(
+                (self.ip[p], self.ref[p]) for p in mech.links[link].points if p not in set_pts
+            )
+            set_pts.update(mech.links[link].points)
+            placed.add(link)
+            for p in mech.links[link].points:
+                if self.ip[p] in {i for i, _ in new}:
+                    self.set_by[p] = link
+            members.append(
+                (
+                    self.iphi[link],
+                    self.irot[link],
+                    self.iT[link],
+                    new,
+                    self.ifphi[link],
+                    self.ifrot[link],
+                    self.ifT[link],
+                )  # fmt: skip
+            )
+        self._members[bi] = members
+        if self.single[bi]:
+            ((iphi, irot, iT, pts, _, _, _),) = members
+
+            def place_single(R: list[Any], phi: float, rot: complex, Tb: complex) -> None:
+                R[iphi], R[irot], R[iT] = phi, rot, Tb
+                for s, ref in pts:
+                    R[s] = rot * ref + Tb
+
+            return place_single
+
+        return welded_placer(members)
+
+    def _local(self, bi: int, p: str) -> Callable[[list[Any]], complex]:
+        """A point of body bi in the body's frame."""
+        ref = self.ref[p]
+        if self.single[bi]:
+            return lambda R: ref
+        carrier = self.carrier[(bi, p)]
+        frot, fT = self.ifrot[carrier], self.ifT[carrier]
+        return lambda R: R[frot] * ref + R[fT]
+
+    def _radius(self, bi: int, x: str, p: str) -> tuple[float, Callable[[list[Any]], float] | None]:
+        """|x - p| within body bi: the length the scene states for a link that carries both
+        points, else their constant distance in a one-link body (a float), else measured in
+        the body's frame on every run (a function of the registers), as the executor does."""
+        mech, plan = self.plan.mech, self.plan
+        d = next(
+            (
+                mech.distance(link, x, p)
+                for link in plan.bodies[bi].links
+                if {x, p} <= set(mech.links[link].points) and mech.distance(link, x, p) is not None
+            ),
+            None,
+        )
+        if d is None and self.single[bi]:
+            d = _cabs_one(self.ref[x] - self.ref[p])
+        if d is not None:
+            return float(d), None
+        cx, cp = self.carrier[(bi, x)], self.carrier[(bi, p)]
+        rx, tx, rp, tp = self.ifrot[cx], self.ifT[cx], self.ifrot[cp], self.ifT[cp]
+        x_ref, p_ref = self.ref[x], self.ref[p]
+        return 0.0, lambda R: _cabs_one((R[rx] * x_ref + R[tx]) - (R[rp] * p_ref + R[tp]))
+
+    def _compile(self, k: int, st: Any, set_pts: set[str], placed: set[str]) -> Step | None:
+        a = st.args
+        op = st.op
+        if op is StepKind.GROUND:
+            place = self._placer(st.body, set_pts, placed)
+            rot0, T0 = complex(cos(0.0), sin(0.0)), complex(0.0, 0.0)
+            if self.single[st.body]:  # a constant: placed once, in the template
+                place(self.template, 0.0, rot0, T0)
+                return None
+            # the root's frame is the identity: its pose and points are constants too
+            root, *rest = self._members[st.body]
+            welded_placer([root])(self.template, 0.0, rot0, T0)
+            place = welded_placer(rest)
+
+            def ground(r: SlotRun) -> None:
+                place(r.R, 0.0, rot0, T0)
+
+            return ground
+        if op is StepKind.KNOWN_POINT and isinstance(a, KnownPoint):
+            s, i = self.ip[st.point], a.spec_index
+            set_pts.add(st.point)
+
+            def known_point(r: SlotRun) -> None:
+                v = r.values[i]
+                r.R[s] = complex(float(v[0]), float(v[1]))
+
+            return known_point
+        if op is StepKind.TWO_POINTS and isinstance(a, TwoPoints):
+            return self._two_points(st.body, a, set_pts, placed)
+        if op is StepKind.POINT_ANGLE and isinstance(a, PointAngle):
+            sp, lp_of, ang = self.ip[a.point], self._local(st.body, a.point), self.iang[st.body]
+            place = self._placer(st.body, set_pts, placed)
+
+            def point_angle(r: SlotRun) -> None:
+                R = r.R
+                phi = R[ang]
+                rot = complex(cos(phi), sin(phi))
+                place(R, phi, rot, R[sp] - rot * lp_of(R))
+
+            return point_angle
+        if op is StepKind.ANGLE and isinstance(a, AngleFrom):
+            return self._angle(st.body, a, placed)
+        if op is StepKind.RRR and isinstance(a, RRRDyad):
+            set_pts.add(st.point)
+            return self._rrr(k, st.point, a)
+        if op is StepKind.RRP and isinstance(a, RRPDyad):
+            set_pts.add(st.point)
+            return self._rrp(k, st.point, a)
+        if op is StepKind.RPR and isinstance(a, RPRDyad):
+            return self._rpr(k, st, a, set_pts, placed)
+        raise PlanError(f'internal: unknown plan step {op!r}')
+
+    def _two_points(self, bi: int, a: TwoPoints, set_pts: set[str], placed: set[str]) -> Step:
+        sp, sq = self.ip[a.first], self.ip[a.second]
+        place = self._placer(bi, set_pts, placed)
+        if self.single[bi]:  # the unit vector between the points in the link's frame: constant
+            ((iphi, irot, iT, pts, _, _, _),) = self._members[bi]
+            v = self.ref[a.second] - self.ref[a.first]
+            nv = _cabs_one(v)
+            unit, lp = (v / nv if nv > 0 else v), self.ref[a.first]
+            ux, uy = unit.real, unit.imag
+
+            def two_points_single(r: SlotRun) -> None:
+                R = r.R
+                p = R[sp]
+                b = R[sq] - p
+                try:
+                    nb = abs(b)
+                except OverflowError:  # beyond the float range (as ops' cabs)
+                    nb = math.inf
+                b = b / (nb if nb > 0 else 1.0)  # unit first: 1e-300 lengths would underflow
+                phi = atan2(ux * b.imag - uy * b.real, ux * b.real + uy * b.imag)
+                rot = complex(cos(phi), sin(phi))
+                T = p - rot * lp
+                R[iphi], R[irot], R[iT] = phi, rot, T
+                for s, ref in pts:
+                    R[s] = rot * ref + T
+
+            return two_points_single
+        lp_of, lq_of = self._local(bi, a.first), self._local(bi, a.second)
+
+        def two_points(r: SlotRun) -> None:
+            R = r.R
+            b = R[sq] - R[sp]
+            nb = _cabs_one(b)
+            b = b / (nb if nb > 0 else 1.0)
+            lp = lp_of(R)
+            u = lq_of(R) - lp
+            nu = _cabs_one(u)
+            u = u / (nu if nu > 0 else 1.0)
+            phi = atan2(u.real * b.imag - u.imag * b.real, u.real * b.real + u.imag * b.imag)
+            rot = complex(cos(phi), sin(phi))
+            place(R, phi, rot, R[sp] - rot * lp)
+
+        return two_points
+
+    def _angle(self, bi: int, a: AngleFrom, placed: set[str]) -> Step:
+        plan = self.plan
+        ang = self.iang[bi]
+        # the step's link's angle in its body (None: 0, a one-link body's root)
+        here = None if self.single[bi] else self.ifphi[a.link]
+        if a.source in placed:  # its pose is known: its angle
+            src, src_in_body, from_pose = self.iphi[a.source], None, True
+        else:  # its body's orientation and its angle in the body (None: 0)
+            sb = plan.body_of[a.source]
+            src, from_pose = self.iang[sb], False
+            src_in_body = None if self.single[sb] else self.ifphi[a.source]
+        i = a.spec_index
+        offset, negate = 0.0, False
+        if i is not None:
+            s = plan.specs[i]
+            offset, negate = s.offset, a.link == s.reference
+
+        def angle(r: SlotRun) -> None:
+            R = r.R
+            source = R[src]
+            if not from_pose:
+                source = source + (0.0 if src_in_body is None else R[src_in_body])
+            rel = 0.0
+            if i is not None:
+                rel = wrap(r.values[i]) - offset
+                if negate:
+                    rel = -rel
+            R[ang] = source + rel - (0.0 if here is None else R[here])
+
+        return angle
+
+    def _rrr(self, k: int, x: str, a: RRRDyad) -> Step:
+        sx, s1, s2 = self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b]
+        r1_const, r1_of = self._radius(a.body_a, x, a.centre_a)
+        r2_const, r2_of = self._radius(a.body_b, x, a.centre_b)
+        ref_off = self.ref[x] - self.ref[a.centre_a]
+        k_step = k
+
+        def rrr(r: SlotRun) -> None:
+            R = r.R
+            r1 = r1_const if r1_of is None else r1_of(R)
+            r2 = r2_const if r2_of is None else r2_of(R)
+            c1, c2, tol = R[s1], R[s2], r.tol
+            big = max(r1, r2)
+            if _cabs_one(c1 - c2) <= tol * big and abs(r1 - r2) <= tol * big:
+                coincident(r, k_step, x, sx, c1, r1, ref_off)
+                return
+            pair = solve_rrr(c1, r1, c2, r2, tol)
+            base, u, along, h, S, margin, ok, violation, _ = pair
+            if not ok:
+                R[sx] = rrr_fallback(pair, c1)
+                raise Refused(k_step, violation)
+            sg = r.signs[len(r.used)]
+            spread = complex(0.0 * h, h)
+            if (margin < _CM or r.prev_small) and r.decide(margin, x):
+                target = r.prefer[x]  # type: ignore[index]
+                plus = (base + (along + 1 * spread) * u) * S
+                plus = plus if _cfinite(plus) else rrr_fallback(pair, c1)
+                minus = (base + (along + -1 * spread) * u) * S
+                minus = minus if _cfinite(minus) else rrr_fallback(pair, c1)
+                sg = 1 if _cabs_one(plus - target) <= _cabs_one(minus - target) else -1
+            z = (base + (along + sg * spread) * u) * S
+            if not _cfinite(z):  # beyond the float range
+                R[sx] = rrr_fallback(pair, c1)
+                raise Refused(k_step, 0.0)
+            R[sx] = z
+            r.used.append(sg)
+            r.margins.append(margin)
+            if margin < r.margin:
+                r.margin = margin
+
+        return rrr
+
+    def _rrp(self, k: int, x: str, a: RRPDyad) -> Step:
+        pj = self.plan.mech.prismatics[a.joint]
+        sx, s1 = self.ip[x], self.ip[a.centre]
+        grot, gT = self.irot[pj.guide], self.iT[pj.guide]
+        r_const, r_of = self._radius(a.body, x, a.centre)
+        xref, d = self.ref[x], self.direction[a.joint]
+
+        def rrp(r: SlotRun) -> None:
+            R = r.R
+            rad = r_const if r_of is None else r_of(R)
+            rot = R[grot]
+            pair = solve_rrp(R[s1], rad, rot * xref + R[gT], rot * d, r.tol)
+            margin = pair[4]
+            if not pair[5]:
+                raise Refused(k, pair[6])
+            sg = r.signs[len(r.used)]
+            if (margin < _CM or r.prev_small) and r.decide(margin, x):
+                target = r.prefer[x]  # type: ignore[index]
+                plus, _ = rrp_point(pair, 1)
+                minus, _ = rrp_point(pair, -1)
+                sg = 1 if _cabs_one(plus - target) <= _cabs_one(minus - target) else -1
+            z, ok = rrp_point(pair, sg)
+            R[sx] = z
+            if not ok:  # beyond the float range
+                raise Refused(k, 0.0)
+            r.taken(sg, margin)
+
+        return rrp
+
+    def _rpr(self, k: int, st: Any, a: RPRDyad, set_pts: set[str], placed: set[str]) -> Step:
+        bi = st.body
+        pj = self.plan.mech.prismatics[a.joint]
+        sx, sp, ang = self.ip[st.point], self.ip[a.pivot], self.iang[bi]
+        single = self.single[bi]
+        gphi, grot, gT = self.ifphi[pj.guide], self.ifrot[pj.guide], self.ifT[pj.guide]
+        lp_of = self._local(bi, a.pivot)
+        xref, d, key = self.ref[st.point], self.direction[a.joint], '@' + pj.guide
+        place = self._placer(bi, set_pts, placed)
+
+        def rpr(r: SlotRun) -> None:
+            R = r.R
+            if single:
+                fphi, frot, fT = 0.0, complex(1.0, 0.0), complex(0.0, 0.0)
+            else:
+                fphi, frot, fT = R[gphi], R[grot], R[gT]
+            lp = lp_of(R)
+            u = frot * d
+            w = (frot * xref + fT) - lp
+            e = u.real * w.imag - u.imag * w.real  # signed offset of the pivot
+            psi0 = atan2(u.imag, u.real)
+            pair = solve_rpr(R[sp], R[sx], e, r.tol)
+            margin = pair[3]
+            if not pair[4]:
+                raise Refused(k, pair[5])
+            sg = r.signs[len(r.used)]
+            if (margin < _CM or r.prev_small) and r.decide(margin, key):
+                last = r.prefer[key]  # type: ignore[index]
+                miss_p = abs(wrap(rpr_angle(pair, 1) - psi0 + fphi - last))
+                sg = 1 if miss_p <= abs(wrap(rpr_angle(pair, -1) - psi0 + fphi - last)) else -1
+            phi = rpr_angle(pair, sg) - psi0
+            R[ang] = phi
+            rot = complex(cos(phi), sin(phi))
+            place(R, phi, rot, R[sp] - rot * lp)
+            r.taken(sg, margin)
+
+        return rpr
+
+    # -- a run ---------------------------------------------------------------------------------
+    def execute(
+        self,
+        values: Sequence[Any],
+        signs: Sequence[int] | None = None,
+        prefer: Mapping[str, Any] | None = None,
+        prev_margins: Sequence[float] | None = None,
+        tol: float = TANGENCY_TOL,
+        predict: Callable[[], Mapping[str, Any] | None] | None = None,
+    ) -> SlotRun:
+        """Execute the plan on one command (``values[i]`` a float, or an (x, y) pair for a
+        point) with branch ``signs`` (default: the reference pose's); ``prefer`` maps point
+        names to predicted complex positions and '@link' to predicted link angles (continuity,
+        see the module), or ``predict`` makes them where a step first needs them;
+        ``prev_margins`` are the previous answer's dyad margins. Returns the
+        run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
+        r = SlotRun()
+        r.R = self.template.copy()
+        r.values = [v if is_point else float(v) for is_point, v in zip(self.point_specs, values)]
+        r.signs = self.plan.reference_signs if signs is None else signs
+        r.prefer, r.predict, r.prev_margins, r.tol = prefer, predict, prev_margins, tol
+        r.prev_small = min(prev_margins) < _CM if prev_margins else False
+        r.used, r.margins, r.margin, r.failure, r.violation = [], [], 1.0, -1, 0.0
+        try:
+            for step in self.steps:
+                step(r)
+        except Refused as stop:
+            r.failure, r.violation, r.margin = stop.step, stop.violation, 0.0
+        return r
+
+    def points_of(self, r: SlotRun) -> dict[str, complex]:
+        """The points a run set, by name, in the order it set them."""
+        if r.failure < 0:
+            return self.points_closed(r.R)
+        return {p: v for p, v in zip(self.point_names, r.R) if v is not None}
+
+    def points_closed(self, R: list[Any]) -> dict[str, complex]:
+        """points_of a run that closed, from its registers."""
+        return dict(zip(self.point_names, R))
+
+    def poses_of(self, r: SlotRun) -> LinkPoses:
+        """The link poses a run placed, by name, in the order it placed them."""
+        if r.failure < 0:
+            return self.poses_closed(r.R)
+        R, names = r.R, self.link_names
+        poses = LinkPoses()
+        for l in names:
+            if R[self.iphi[l]] is not None:
+                poses.phi[l], poses.rot[l], poses.T[l] = (
+                    R[self.iphi[l]],
+                    R[self.irot[l]],
+                    R[self.iT[l]],
+                )
+        return poses
+
+    def poses_closed(self, R: list[Any]) -> LinkPoses:
+        """poses_of a run that closed, from its registers."""
+        names, n = self.link_names, self.n_placed
+        if not n:
+            return LinkPoses()
+        phi, rot, T = self.iphi[names[0]], self.irot[names[0]], self.iT[names[0]]
+        return LinkPoses(
+            dict(zip(names, R[phi : phi + n])),
+            dict(zip(names, R[rot : rot + n])),
+            dict(zip(names, R[T : T + n])),
+        )
+
+    def run(
+        self,
+        values: Sequence[Any],
+        signs: Sequence[int] | None = None,
+        prefer: Mapping[str, Any] | None = None,
+        prev_margins: Sequence[float] | None = None,
+        tol: float = TANGENCY_TOL,
+    ) -> PlanRun:
+        """:meth:`execute` as a :class:`~linkage_ros.core.execute.PlanRun` (name-keyed)."""
+        r = self.execute(values, signs, prefer, prev_margins, tol)
+        return PlanRun(
+            r.failure < 0,
+            self.poses_of(r),
+            self.points_of(r),
+            r.margin,
+            tuple(r.used),
+            r.failure,
+            r.violation,
+            tuple(r.margins),
+        )
+
+
+def program(plan: Any) -> ScalarProgram:
+    """The plan's one-command program, made on first use and kept on the plan."""
+    prog: ScalarProgram | None = plan.__dict__.get('_scalar_program')
+    if prog is None:
+        prog = plan._scalar_program = ScalarProgram(plan)
+    return prog

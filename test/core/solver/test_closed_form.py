@@ -1,0 +1,98 @@
+"""The one-command closed-form path (core.scalar_plan's program, core.solver.closed_form's
+readout) against the batch path (core.execute on numpy, core.assemble) it twins, on every
+packaged scene: ``Solver.solve`` answers what ``Solver.solve_batch`` answers for the same
+commands, value for value.
+
+Both paths run the same float operations; the only roundings that may differ between them are
+numpy's sin, cos and arctan2 against libm's (numpy may take SIMD paths on some CPUs). Where
+numpy's agree with libm's bit for bit on this machine (checked on the very angles), every
+value must be equal; elsewhere within a few ulps propagated (1e-13 of the length scale).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import scenes
+
+from linkage_ros.bench.tradeoff import sweep_inputs
+from linkage_ros.core.solver import Solver
+
+SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
+
+
+def _trig_is_libm(angles: np.ndarray) -> bool:
+    """numpy's sin, cos and arctan2 round as Python's math does on these angles."""
+    a = np.asarray(angles, float).reshape(-1)
+    b = a[::-1].copy()
+    return all(
+        float(s) == math.sin(x) and float(c) == math.cos(x) and float(t) == math.atan2(x, y)
+        for s, c, t, x, y in zip(np.sin(a), np.cos(a), np.arctan2(a, b), a.tolist(), b.tolist())
+    )
+
+
+@pytest.mark.parametrize('scene', SHIPPED)
+def test_solve_equals_solve_batch_on_every_packaged_scene(scene):
+    """A warm continuous sweep through the actuator ranges, with jumps and commands out of
+    reach: each command's Result (success, branch, inputs, joints, links, points, residual,
+    margin) equals the batch row solved with the branch the sweep took; and every command
+    solved on the reference branch (refusal words included) equals its reference batch row."""
+    mech = scenes.load(scene)
+    L = mech.length_scale
+    rng = np.random.default_rng(25)
+    cmds = sweep_inputs(mech, 120)
+    for j in range(0, len(cmds), 9):  # jumps, some beyond reach or limits
+        cmds[j] = {k: v + float(rng.normal(0, 0.8)) for k, v in cmds[j].items()}
+    solver = Solver(mech, method='closed_form')
+    results = [solver.solve(c) for c in cmds]
+    checked = 0
+    for branch in [*sorted({r.branch for r in results if r.success}), None]:
+        batch_solver = Solver(mech, method='closed_form', branch=branch or 'reference')
+        rows = [i for i, r in enumerate(results) if r.branch == branch or branch is None]
+        cols = {k: np.array([cmds[i][k] for i in rows]) for k in cmds[0]}
+        batch = batch_solver.solve_batch(cols)
+        exact = _trig_is_libm(np.concatenate(list(cols.values())))
+        for n, i in enumerate(rows):
+            r = results[i] if branch is not None else batch_solver.solve(cmds[i])
+            assert r.success == bool(batch.ok[n]), (i, r.reason, batch.reason[n])
+            if not r.success:
+                assert r.reason == batch.reason[n]
+                continue
+            checked += 1
+            assert r.branch == ''.join('+' if s > 0 else '-' for s in batch.signs[n])
+            tab = [(r.residual, batch.residual[n], 1.0), (r.margin, batch.margin[n], 1.0)]
+            tables = ((r.joints, batch.joints), (r.links, batch.links), (r.inputs, batch.inputs))
+            for got, want in tables:
+                assert list(got) == list(want)
+                tab += [(v, want[k][n], max(L, math.pi)) for k, v in got.items()]
+            assert list(r.points) == list(batch.points)
+            for p, (x, y) in r.points.items():
+                tab += [(x, batch.points[p][n, 0], L), (y, batch.points[p][n, 1], L)]
+            for got, want, scale in tab:
+                if exact:
+                    assert got == want, (scene, i, got, want)
+                else:
+                    assert abs(got - want) <= 1e-13 * scale, (scene, i, got, want)
+    assert checked >= 60, f'{scene}: too few assembling commands compared ({checked})'
+
+
+def test_a_closed_form_state_reads_like_one_built_by_name_and_pickles():
+    """A closed-form answer's State reads its points and poses off the run on first use: they
+    are the answer's (the Result's points), a pickled snapshot restores into a fresh solver,
+    and the next command is then solved exactly as by the solver it came from."""
+    import pickle
+
+    mech = scenes.load('four_bar')
+    cmds = sweep_inputs(mech, 40)
+    a = Solver(mech, method='closed_form')
+    for c in cmds[:30]:
+        last = a.solve(c)
+    state = a.snapshot()[-1]
+    assert {p: (z.real, z.imag) for p, z in state.points.items()} == last.points
+    assert set(state.poses.phi) == set(last.links)
+    b = Solver(mech, method='closed_form')
+    b.restore(pickle.loads(pickle.dumps(a.snapshot())))
+    for c in cmds[30:]:
+        assert a.solve(c).to_dict(mech) == b.solve(c).to_dict(mech)

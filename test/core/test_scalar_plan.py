@@ -1,0 +1,101 @@
+"""A plan's one-command program (core.scalar_plan) against the batch executor it twins
+(core.execute on numpy), step kind by step kind: every packaged scene, every set of knowns it
+admits in closed form (forward, inverse by joints, point targets: ground, known points, rigid
+transfers, point + angle, angle relations, RRR, RRP and RPR dyads), both branch choices, and
+commands spread wide enough that some dyads do not close.
+
+Each command's run equals its batch row: whether it closed, the step that did not and by how
+much, the branch signs and dyad margins, every point and link pose; except at a change point
+(coincident circles), where one command has a rule of its own (executor and program alike). As in
+test/core/solver/test_closed_form.py, value for value where numpy's sin, cos and arctan2 round
+as libm's on this machine, else within 1e-13 of the length scale.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+import scenes
+
+from linkage_ros.core.errors import PlanError
+from linkage_ros.core.scalar_plan import program
+from linkage_ros.core.solver import Solver
+
+SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
+
+
+def _knowns_sets(mech):
+    names = list(mech.actuators) + [j for j in mech.joint_names if j not in mech.actuators]
+    sets = [None] + [list(c) for c in itertools.combinations(names, mech.dof)]
+    if mech.dof == 2:
+        sets += [[f'point:{p}'] for p in mech.points]
+    return sets
+
+
+def _libm_trig(x: np.ndarray) -> bool:
+    a = np.asarray(x, float).reshape(-1)
+    return all(
+        float(s) == math.sin(v) and float(c) == math.cos(v) and float(t) == math.atan2(v, 1.0)
+        for s, c, t, v in zip(np.sin(a), np.cos(a), np.arctan2(a, 1.0), a.tolist())
+    )
+
+
+@pytest.mark.parametrize('scene', SHIPPED)
+def test_a_run_equals_its_batch_row(scene):
+    mech = scenes.load(scene)
+    L = mech.length_scale
+    rng = np.random.default_rng(3)
+    n, compared, kinds = 16, 0, set()
+    for knowns in _knowns_sets(mech):
+        try:
+            s = Solver(mech, knowns=knowns, method='closed_form', branch='reference')
+        except PlanError:
+            continue
+        plan = s.compiled.full_plan
+        if not plan.complete:
+            continue
+        kinds |= {st.op for st in plan.steps}
+        ref = s.compiled.ref_values
+        cols = []
+        for v in ref:
+            if np.ndim(v):
+                cols.append(np.asarray(v, float) + rng.normal(0, 0.1 * L, (n, 2)))
+            else:
+                cols.append(float(v) + rng.normal(0, 0.5, n))
+        exact = _libm_trig(np.concatenate([c.reshape(-1) for c in cols]))
+        for signs in {plan.reference_signs, tuple(-x for x in plan.reference_signs)}:
+            poses, points, info = plan.run(cols, n, signs)
+            for i in range(n):
+                vals = [c[i] if c.ndim == 2 else float(c[i]) for c in cols]
+                run = program(plan).run(vals, signs)
+                if run.ok and 0.0 in run.margins:
+                    # a change point (coincident circles: a rhombus folded flat) or an exact
+                    # toggle: one command keeps the point continuity predicts, a batch has no
+                    # such rule; both see the configuration as degenerate
+                    assert not info['ok'][i] or info['margin'][i] < 1e-6, (knowns, i)
+                    continue
+                assert run.ok == bool(info['ok'][i]), (knowns, i)
+                if not run.ok:
+                    assert run.failure == info['failure'][i]
+                    assert run.violation == info['violation'][i] or not exact
+                    continue
+                compared += 1
+                assert run.signs == tuple(info['signs'][i])
+                pairs = [(run.margin, info['margin'][i], 1.0)]
+                assert list(run.points) == list(points)
+                for p, z in run.points.items():
+                    pairs += [(z.real, points[p][i, 0], L), (z.imag, points[p][i, 1], L)]
+                assert list(run.poses.phi) == list(poses.phi)
+                for link, phi in run.poses.phi.items():
+                    T = run.poses.T[link]
+                    pairs += [(phi, poses.phi[link][i], math.pi)]
+                    pairs += [(T.real, poses.T[link][i, 0], L), (T.imag, poses.T[link][i, 1], L)]
+                for got, want, scale in pairs:
+                    if exact:
+                        assert got == want, (knowns, i, got, want)
+                    else:
+                        assert abs(got - want) <= 1e-13 * scale, (knowns, i, got, want)
+    assert compared >= 16, f'{scene}: too few closing commands compared ({compared})'
