@@ -26,7 +26,7 @@ def _c(v: Any) -> complex:
     return complex(float(v[0]), float(v[1]))
 
 
-def _roller_offset(mech: Mechanism, joint: str) -> float:
+def roller_offset(mech: Mechanism, joint: str) -> float:
     """A roller's drawn signed distance from its face (m, left of the joint's direction +),
     0.0 for any other prismatic joint (its point on its line, which is then the residual)."""
     if joint not in mech.rollers:
@@ -85,7 +85,7 @@ class ResultAssembler:
                 spec_reader(mech, SlideSpec(pj.name, pj.name)),
                 _c(mech.points[pj.point]),
                 1j * _c(pj.direction),
-                _roller_offset(mech, pj.name),
+                roller_offset(mech, pj.name),
             )
             for pj in mech.prismatics.values()
             if pj.guide in have and pj.slider in have

@@ -46,7 +46,17 @@ from .scalar_run import (
     welded_placer,
     wrap,
 )
-from .steps import AngleFrom, KnownPoint, PointAngle, RPRDyad, RRPDyad, RRRDyad, StepKind, TwoPoints
+from .steps import (
+    AngleFrom,
+    KnownPoint,
+    PointAngle,
+    RollerSide,
+    RPRDyad,
+    RRPDyad,
+    RRRDyad,
+    StepKind,
+    TwoPoints,
+)
 
 _CM = CONTINUITY_MARGIN
 _PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
@@ -118,6 +128,13 @@ class ScalarProgram:
                 self.steps.extend(self._frame_of(b))
         set_pts: set[str] = set()
         placed: set[str] = set()
+        #: a roller's line shift for the side its SIDE step chose (complex, m, in its guide's
+        #: reference frame): one register per roller, 0 (the drawn side) in the template
+        self.ishift: dict[str, int] = {}
+        for st in plan.steps:
+            if isinstance(st.args, RollerSide):
+                self.ishift[st.args.joint] = len(self.template)
+                self.template.append(complex(0.0, 0.0))
         for k, st in enumerate(plan.steps):
             step = self._compile(k, st, set_pts, placed)
             if step is not None:
@@ -279,6 +296,8 @@ class ScalarProgram:
             return self._rrp(k, st.point, a)
         if op is StepKind.RPR and isinstance(a, RPRDyad):
             return self._rpr(k, st, a, set_pts, placed)
+        if op is StepKind.SIDE and isinstance(a, RollerSide):
+            return self._side(a)
         raise PlanError(f'internal: unknown plan step {op!r}')
 
     def _two_points(self, bi: int, a: TwoPoints, set_pts: set[str], placed: set[str]) -> Step:
@@ -398,18 +417,32 @@ class ScalarProgram:
 
         return rrr
 
+    def _side(self, a: RollerSide) -> Step:
+        """The roller's side (the executor's SIDE step): its sign moves the roller's line to
+        the mirror of the drawn one in the face, or leaves it; never near a toggle."""
+        i, d, across = self.ishift[a.joint], a.drawn_offset, 1j * self.direction[a.joint]
+
+        def side(r: SlotRun) -> None:
+            sg = r.signs[len(r.used)]
+            r.R[i] = (sg * abs(d) - d) * across
+            r.taken(sg, 1.0)
+
+        return side
+
     def _rrp(self, k: int, x: str, a: RRPDyad) -> Step:
         pj = self.plan.mech.prismatics[a.joint]
         sx, s1 = self.ip[x], self.ip[a.centre]
         grot, gT = self.irot[pj.guide], self.iT[pj.guide]
         r_const, r_of = self._radius(a.body, x, a.centre)
         xref, d = self.ref[x], self.direction[a.joint]
+        ish = self.ishift.get(a.joint)
 
         def rrp(r: SlotRun) -> None:
             R = r.R
             rad = r_const if r_of is None else r_of(R)
             rot = R[grot]
-            pair = solve_rrp(R[s1], rad, rot * xref + R[gT], rot * d, r.tol)
+            on_line = xref if ish is None else xref + R[ish]
+            pair = solve_rrp(R[s1], rad, rot * on_line + R[gT], rot * d, r.tol)
             margin = pair[4]
             if not pair[5]:
                 raise Refused(k, pair[6])
@@ -435,6 +468,7 @@ class ScalarProgram:
         gphi, grot, gT = self.ifphi[pj.guide], self.ifrot[pj.guide], self.ifT[pj.guide]
         lp_of = self._local(bi, a.pivot)
         xref, d, key = self.ref[st.point], self.direction[a.joint], '@' + pj.guide
+        ish = self.ishift.get(a.joint)
         place = self._placer(bi, set_pts, placed)
 
         def rpr(r: SlotRun) -> None:
@@ -445,7 +479,7 @@ class ScalarProgram:
                 fphi, frot, fT = R[gphi], R[grot], R[gT]
             lp = lp_of(R)
             u = frot * d
-            w = (frot * xref + fT) - lp
+            w = (frot * (xref if ish is None else xref + R[ish]) + fT) - lp
             e = u.real * w.imag - u.imag * w.real  # signed offset of the pivot
             psi0 = atan2(u.imag, u.real)
             pair = solve_rpr(R[sp], R[sx], e, r.tol)

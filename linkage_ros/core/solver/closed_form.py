@@ -20,6 +20,7 @@ import weakref
 from collections.abc import Callable
 from typing import Any
 
+from ..assemble import roller_offset
 from ..execute import LinkPoses
 from ..ops import _wrap_one
 from ..plan import ReadKind, SpecReader, spec_reader
@@ -129,6 +130,7 @@ class SlotReadout:
                 iphi[pj.guide],
                 irot[pj.guide],
                 iT[pj.guide],
+                roller_offset(mech, pj.name),
             )  # fmt: skip
             for pj in mech.prismatics.values()
             if pj.guide in have and pj.slider in have
@@ -172,11 +174,13 @@ class SlotReadout:
             a = abs(d.imag)
             if a > worst:
                 worst = a
-        for name, read, p, normal, sphi, srot, sT, gphi, grot, gT in self.slides:
+        for name, read, p, normal, sphi, srot, sT, gphi, grot, gT, face in self.slides:
             joints[name] = read(R)
             off = (R[srot] * p + R[sT]) - (R[grot] * p + R[gT])
             nrm = R[grot] * normal
-            worst = max(worst, abs(off.real * nrm.real + off.imag * nrm.imag))
+            # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
+            across = off.real * nrm.real + off.imag * nrm.imag
+            worst = max(worst, abs(abs(across + face) - abs(face)) if face else abs(across))
             worst = max(worst, L * abs(_wrap(R[sphi] - R[gphi])))
         links = {
             l: (a if -_PI < (a := ref + R[i]) <= _PI else _wrap_one(a)) for l, i, ref in self.links
