@@ -138,3 +138,23 @@ def test_batch_refuses_exactly_the_rows_limit_violation_refuses(stem, mech):
             assert got.reason[i] == want, i
         else:
             assert got.reason[i] is None or 'minimum' not in got.reason[i], i
+
+
+@pytest.mark.parametrize('stem', ['excavator', 'four_bar', 'slider_crank'])
+def test_batch_outputs_share_no_memory(stem):
+    """Every output array of a batch whose rows all solve is its own (a cylinder's throw is an
+    input and a joint value; the command columns are echoed in values): writing into one
+    changes no other."""
+    mech = scenes.load(stem)
+    solver = Solver(mech, method='closed_form')
+    ref = solver.compiled.reference_values()
+    cols = {k: np.full(50, v) for k, v in ref.items()}
+    got = solver.solve_batch(cols)
+    assert got.ok.all()
+    arrays = [*got.values, got.residual, got.margin, got.signs]
+    for table in (got.points, got.joints, got.links, got.inputs):
+        arrays.extend(table.values())
+    arrays.extend(cols.values())
+    for i, a in enumerate(arrays):
+        for b in arrays[i + 1 :]:
+            assert not np.shares_memory(a, b)

@@ -117,7 +117,9 @@ def solve_batch(
         finite &= np.all(np.isfinite(a.reshape(n, -1 if n else 1)), axis=1)
     for i in np.flatnonzero(~finite).tolist():
         out.reason[i] = 'value must be finite (NaN or inf in the command)'
-    safe = [np.where(np.isfinite(a), a, 0.0) for a in arrays]
+    # non-finite values as 0 (their rows are refused); read only from here on
+    every_finite = bool(np.all(finite))
+    safe = arrays if every_finite else [np.where(np.isfinite(a), a, 0.0) for a in arrays]
     limit_bad = np.zeros(n, bool)
     for s, a in zip(c.specs, safe):
         if not isinstance(s, PointSpec) and (s.minimum is not None or s.maximum is not None):
@@ -170,10 +172,11 @@ def _fill(
     """points, links, joints and inputs of the rows ``ok`` from their assembly (0 elsewhere);
     an inverse solve's actuator beyond its limits turns its row into a failure."""
     every = bool(np.all(ok))
+    taken: set[int] = set()  # arrays handed out as they are: each to one output only
     out.points = {p: _points_where(ok, z, every) for p, z in pts.items()}
-    out.links = {l: _where_ok(ok, v, every) for l, v in got.links.items()}
-    out.joints = {j: _where_ok(ok, v, every) for j, v in got.joints.items()}
-    out.inputs = {a: _where_ok(ok, v, every) for a, v in got.inputs.items()}
+    out.links = {l: _where_ok(ok, v, every, taken) for l, v in got.links.items()}
+    out.joints = {j: _where_ok(ok, v, every, taken) for j, v in got.joints.items()}
+    out.inputs = {a: _where_ok(ok, v, every, taken) for a, v in got.inputs.items()}
     for s, a in zip(c.specs, arrays):
         if s.name in c.mech.actuators:  # a copy: out.values holds the column
             out.inputs[s.name] = a.copy() if every else np.where(ok, a, np.where(finite, a, 0.0))
@@ -367,10 +370,18 @@ def _sequential(
         ).reshape(n, k)
 
 
-def _where_ok(ok: np.ndarray, v: Any, every: bool) -> np.ndarray:
-    """np.where(ok, v, 0.0); ``v`` itself where every row is ok and it is a fresh (n,) float
-    array of the assembly's (nothing else holds it)."""
-    if every and isinstance(v, np.ndarray) and v.shape == ok.shape and v.dtype == np.float64:
+def _where_ok(ok: np.ndarray, v: Any, every: bool, taken: set[int]) -> np.ndarray:
+    """np.where(ok, v, 0.0); ``v`` itself where every row is ok and it is an (n,) float array
+    of the assembly's not handed out yet (``taken``: the ids handed out; a cylinder's throw is
+    both an input and a joint value, and the two must not share one array)."""
+    if (
+        every
+        and isinstance(v, np.ndarray)
+        and v.shape == ok.shape
+        and v.dtype == np.float64
+        and id(v) not in taken
+    ):
+        taken.add(id(v))
         return v
     return np.where(ok, v, 0.0)
 
