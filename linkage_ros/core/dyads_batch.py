@@ -105,14 +105,18 @@ def solve_rrr_dyad_batch(c1: Any, r1: Any, c2: Any, r2: Any, tol: float) -> Dyad
     smallest_n = np.minimum(np.minimum(dn, r1n / scale), r2n / scale)
     on_toggle = (violation_n >= -TOGGLE_BAND * longest_n) & (-violation_n < 0.5 * smallest_n)
     if all_ok:  # dn, r1n and r2n > 0 in every row
-        h = np.where(~on_toggle, 0.5 * scale * (four_area_n / dn), 0.0)
+        h = 0.5 * scale * (four_area_n / dn)
+        if on_toggle.any():
+            h = np.where(~on_toggle, h, 0.0)
         margin = (h / r1n) * (d / r2n)
     else:
         h = np.where(ok & ~on_toggle, 0.5 * scale * (four_area_n / np.where(dn > 0, dn, 1.0)), 0.0)
         margin = np.where(
             ok, (h / np.where(r1n > 0, r1n, 1.0)) * (d / np.where(r2n > 0, r2n, 1.0)), 0.0
         )
-    margin = np.clip(np.where(margin == margin, margin, 0.0), 0.0, 1.0)
+    if not bool(np.all(margin == margin)):  # NaN as 0
+        margin = np.where(margin == margin, margin, 0.0)
+    margin = np.clip(margin, 0.0, 1.0)
     if all_ok:
         violation = np.zeros(np.shape(ok))
     else:
@@ -121,7 +125,10 @@ def solve_rrr_dyad_batch(c1: Any, r1: Any, c2: Any, r2: Any, tol: float) -> Dyad
     # the not-ok placeholder: circle 1's point nearest circle 2 (c1 if not representable)
     nx, ny = (x1n + along * ux) * S, (y1n + along * uy) * S
     near_ok = np.isfinite(nx) & np.isfinite(ny)
-    if all_finite:
+    if all_finite and bool(np.all(near_ok)):
+        fx, fy = nx, ny
+        bx, by = x1n, y1n
+    elif all_finite:
         fx, fy = np.where(near_ok, nx, x1), np.where(near_ok, ny, y1)
         bx, by = x1n, y1n
     else:

@@ -282,13 +282,13 @@ class PlanExecutor:
                 nb = ops.cabs(b)
                 # unit first: 1e-300 lengths would underflow (a batch skips the where pass
                 # when no length is 0: the common case)
-                b = b / (nb if batch and nb.size and nb.min() > 0 else ops.where(nb > 0, nb, 1.0))
+                b = b / (nb if batch and _all_positive(nb) else ops.where(nb > 0, nb, 1.0))
                 a = self.unit_between.get(k)
                 if a is None:
                     lp = local_pt(bi, p)
                     a = local_pt(bi, q) - lp
                     na = ops.cabs(a)
-                    a = a / ops.where(na > 0, na, 1.0)
+                    a = a / (na if batch and _all_positive(na) else ops.where(na > 0, na, 1.0))
                 else:
                     lp = ref[p]
                 cross = a.real * b.imag - a.imag * b.real
@@ -433,6 +433,11 @@ class PlanExecutor:
         off = off / n if 0 < n < math.inf else 1 + 0j
         foot = P1 + r1 * off
         return DyadPair(foot, 1.0, 0.0, 0.0, 1.0, 0.0, True, 0.0, 0.0, foot)
+
+
+def _all_positive(x: Any) -> bool:
+    """Every entry of a batch's array > 0 (False for NaN, and for no entries)."""
+    return isinstance(x, np.ndarray) and x.size > 0 and bool(x.min() > 0)
 
 
 def executor(plan: Any) -> PlanExecutor:

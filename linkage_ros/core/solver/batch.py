@@ -21,7 +21,7 @@ from ..plan import (
     limit_violation,
     link_poses,
 )
-from ..quantities import PointSpec, ScalarSpec
+from ..quantities import AngleSpec, PointSpec, ScalarSpec
 from ..steps import StepKind
 from .compiled import CompiledSolve, SolveMode
 from .continuity import BranchRule, Continuity, state_of
@@ -402,11 +402,19 @@ def _points_where(ok: np.ndarray, z: Any, every: bool) -> np.ndarray:
 
 def _assembly_poses(plan: Plan, poses: LinkPoses) -> LinkPoses:
     """The executor's batched poses as the assembly reads them: each link's rot as
-    e^{i phi} of its own angle (a welded member's rot is a product of its body's rotations
-    there, which rounds differently; not in the ground's body, placed at rest: its members
-    keep e^{i phi} of their frame angles, see PlanExecutor)."""
+    e^{i phi} of its own angle. A member of a body welded by a known angle has for rot a
+    product of its body's rotations there, which rounds differently: it is made again. Not
+    in the ground's body, placed at rest (its members keep e^{i phi} of their frame angles),
+    nor in a body welded by slides only (each member's rot is the body's times exactly 1: the
+    body's own, to the bit; see PlanExecutor)."""
     at_rest = {st.body for st in plan.steps if st.op is StepKind.GROUND}
-    welded = {l for b in plan.bodies if b.welds and b.index not in at_rest for l in b.links}
+    welded = {
+        l
+        for b in plan.bodies
+        if b.index not in at_rest
+        and any(isinstance(plan.specs[w.spec_index], AngleSpec) for w in b.welds)
+        for l in b.links
+    }
     if not welded:
         return poses
     rot = {l: (BATCH.expi(poses.phi[l]) if l in welded else r) for l, r in poses.rot.items()}
