@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .model import Mechanism
-from .plan import ReadKind, Spec, spec_reader
+from .plan import ReadKind, Spec, SpecReader, spec_reader
 from .quantities import SlideSpec
 
 
@@ -104,12 +104,21 @@ class ResultAssembler:
         # builtin max for one command (as fast as it gets; a NaN anywhere makes the Result
         # refused by Solver._build's finiteness check whatever the residual says)
         mx, wrap = (ops.maximum if ops.batch else max), ops.wrap
+        #: each reading made once (a cylinder's throw is its joint's value, and a known's)
+        read_once: dict[SpecReader, Any] = {}
+
+        def reading(read: SpecReader) -> Any:
+            got = read_once.get(read)
+            if got is None:
+                got = read_once[read] = read(ops, poses)
+            return got
+
         inputs = {}
         for a, i, read in self.inputs:
             if i is not None:  # commanded: the value exactly as given
                 inputs[a] = values[i] if ops.batch else float(values[i])
             else:
-                inputs[a] = read(ops, poses)
+                inputs[a] = reading(read)
         joints = {}
         worst = 0.0
         for name, child, parent, offset, p in self.revolutes:
@@ -117,7 +126,7 @@ class ResultAssembler:
             d = (rot[parent] * p + T[parent]) - (rot[child] * p + T[child])
             worst = mx(worst, mx(abs(d.real), abs(d.imag)))
         for name, slider, guide, read, p, normal, face in self.slides:
-            joints[name] = read(ops, poses)
+            joints[name] = reading(read)
             off = (rot[slider] * p + T[slider]) - (rot[guide] * p + T[guide])
             nrm = rot[guide] * normal
             # the point's miss from its line; a roller's (face: its drawn offset) from either
@@ -127,7 +136,7 @@ class ResultAssembler:
             worst = mx(worst, L * abs(wrap(phi[slider] - phi[guide])))
         links = {l: wrap(ref + phi[l]) for l, ref in self.links}
         for i, read in self.knowns:
-            got, v = read(ops, poses), values[i]
+            got, v = reading(read), values[i]
             if read.kind is ReadKind.POINT:
                 vx, vy = (v[:, 0], v[:, 1]) if ops.batch else (v[0], v[1])
                 worst = mx(worst, mx(abs(got.real - vx), abs(got.imag - vy)))

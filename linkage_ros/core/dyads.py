@@ -124,6 +124,8 @@ def dyad_point(ops: Any, pair: DyadPair, sign: Any) -> tuple[Any, Any]:
     z = (pair.base + (pair.along + sign * pair.spread) * pair.direction) * pair.scale
     inside = ops.isfinite(z)
     ok = pair.ok & inside
+    if ops.batch and np.all(ok):  # no placeholder to put in: skip the where pass
+        return z, ok
     return ops.where(ok, z, pair.fallback), ok
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from . import dyads
 from .dyads import DyadPair, dyad_point, rpr_direction, solve_rpr_dyad, solve_rrp_dyad
 from .dyads import solve_rrr_dyad as _rrr
+from .dyads_batch import solve_rrr_dyad_batch
 from .errors import PlanError
 from .ops import BATCH, SCALAR, to_complex
 from .quantities import AngleSpec, PointSpec
@@ -248,8 +249,10 @@ class PlanExecutor:
             _, rot, T = frame(bi)[self.carrier[(bi, p)]]
             return rot * ref[p] + T
 
-        def place_body(bi: int, phi: Any, Tb: Any) -> None:
-            rot = ops.expi(phi)
+        def place_body(bi: int, phi: Any, Tb: Any, rot: Any, at_rest: bool = False) -> None:
+            """Body bi at angle phi (rot = e^{i phi}, made once by the caller) and offset Tb;
+            ``at_rest``: phi = 0 and rot = 1 exactly (the ground's body), so each member keeps
+            its frame's rot (1 * r is r to the bit: no frame angle is -0.0) and T + Tb."""
             if single[bi]:  # a single link: its frame is the identity
                 ((link, members),) = body_points[bi]
                 phi_of[link], rot_of[link], T_of[link] = phi, rot, Tb
@@ -260,8 +263,8 @@ class PlanExecutor:
             f = frame(bi)
             for link, members in body_points[bi]:
                 lphi, lrot, lT = f[link]
-                lr = rot * lrot
-                lt = rot * lT + Tb
+                lr = lrot if at_rest else rot * lrot
+                lt = (lT if at_rest else rot * lT) + Tb
                 phi_of[link], rot_of[link], T_of[link] = phi + lphi, lr, lt
                 for p, r in members:
                     if p not in pts:
@@ -280,18 +283,21 @@ class PlanExecutor:
                 bi = st.body
                 b = pts[q] - pts[p]
                 nb = ops.cabs(b)
-                b = b / ops.where(nb > 0, nb, 1.0)  # unit first: 1e-300 lengths would underflow
+                # unit first: 1e-300 lengths would underflow (a batch skips the where pass
+                # when no length is 0: the common case)
+                b = b / (nb if batch and _all_positive(nb) else ops.where(nb > 0, nb, 1.0))
                 a = self.unit_between.get(k)
                 if a is None:
                     lp = local_pt(bi, p)
                     a = local_pt(bi, q) - lp
                     na = ops.cabs(a)
-                    a = a / ops.where(na > 0, na, 1.0)
+                    a = a / (na if batch and _all_positive(na) else ops.where(na > 0, na, 1.0))
                 else:
                     lp = ref[p]
                 cross = a.real * b.imag - a.imag * b.real
                 phi = ops.atan2(cross, a.real * b.real + a.imag * b.imag)
-                place_body(bi, phi, pts[p] - ops.expi(phi) * lp)
+                rot = ops.expi(phi)
+                place_body(bi, phi, pts[p] - rot * lp, rot)
             elif op is _RRR or op is _RRP:
                 x = st.point
                 if op is _RRR:
@@ -302,7 +308,9 @@ class PlanExecutor:
                     pair = None
                     if not batch:
                         pair = self._coincident(pts, x, p1, p2, r1, r2, prefer, tol)
-                    if pair is None:
+                    if batch:  # the same kernel in fewer passes
+                        pair = solve_rrr_dyad_batch(pts[p1], r1, pts[p2], r2, tol)
+                    elif pair is None:
                         pair = _rrr(ops, pts[p1], r1, pts[p2], r2, tol)
                 else:
                     b1, p1, jname = st.args.body, st.args.centre, st.args.joint
@@ -330,20 +338,23 @@ class PlanExecutor:
                 if batch:
                     margin_all = ops.minimum(margin_all, pair.margin)
                     newly = ok_all & ops.not_(okk)
-                    failure = np.where(newly, k, failure)
-                    violation_all = np.where(newly, pair.violation, violation_all)
+                    if newly.any():
+                        failure = np.where(newly, k, failure)
+                        violation_all = np.where(newly, pair.violation, violation_all)
                     ok_all = ok_all & okk
                 else:
                     margin_all = pair.margin if pair.margin < margin_all else margin_all
             elif op is _GROUND:
-                place_body(st.body, zero, ops.cplx(zero, zero))
+                # e^{i 0} = 1 exactly on both backends
+                place_body(st.body, zero, ops.cplx(zero, zero), ops.cplx(zero + 1.0, zero), True)
             elif op is _KNOWN_POINT:
                 v = values[st.args.spec_index]
                 pts[st.point] = v if batch else complex(float(v[0]), float(v[1]))
             elif op is _POINT_ANGLE:
                 p = st.args.point
                 phi = angles[st.body]
-                place_body(st.body, phi, pts[p] - ops.expi(phi) * local_pt(st.body, p))
+                rot = ops.expi(phi)
+                place_body(st.body, phi, pts[p] - rot * local_pt(st.body, p), rot)
             elif op is _ANGLE:
                 here, there, spec_i = st.args.link, st.args.source, st.args.spec_index
                 if there in phi_of:
@@ -384,14 +395,16 @@ class PlanExecutor:
                     sg = 1 if miss_p <= abs(ops.wrap(phi_m + gphi - last)) else -1
                 phi = rpr_direction(ops, dy, sg) - psi0
                 angles[bi] = phi
-                place_body(bi, phi, pts[p] - ops.expi(phi) * lp)
+                rot = ops.expi(phi)
+                place_body(bi, phi, pts[p] - rot * lp, rot)
                 used.append(sg)
                 margins.append(dy.margin)
                 if batch:
                     margin_all = ops.minimum(margin_all, dy.margin)
                     newly = ok_all & ops.not_(dy.ok)
-                    failure = np.where(newly, k, failure)
-                    violation_all = np.where(newly, dy.violation, violation_all)
+                    if newly.any():
+                        failure = np.where(newly, k, failure)
+                        violation_all = np.where(newly, dy.violation, violation_all)
                     ok_all = ok_all & dy.ok
                 else:
                     margin_all = dy.margin if dy.margin < margin_all else margin_all
@@ -437,6 +450,11 @@ class PlanExecutor:
         off = off / n if 0 < n < math.inf else 1 + 0j
         foot = P1 + r1 * off
         return DyadPair(foot, 1.0, 0.0, 0.0, 1.0, 0.0, True, 0.0, 0.0, foot)
+
+
+def _all_positive(x: Any) -> bool:
+    """Every entry of a batch's array > 0 (False for NaN, and for no entries)."""
+    return isinstance(x, np.ndarray) and x.size > 0 and bool(x.min() > 0)
 
 
 def executor(plan: Any) -> PlanExecutor:

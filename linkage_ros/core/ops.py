@@ -72,6 +72,8 @@ def _wrap_one(a: float) -> float:
 def _wrap_many(v: Any) -> Any:
     """_wrap_one elementwise on an array (the same float operations)."""
     out = np.array(v, float)
+    if out.size and out.min() > -math.pi and out.max() <= math.pi:  # (NaN: min is NaN)
+        return out  # every angle already in (-pi, pi]: the common case, two passes
     wide = ~((out > -math.pi) & (out <= math.pi))  # NaN and inf included
     if not wide.any():
         return out

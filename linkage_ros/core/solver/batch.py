@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -10,8 +11,10 @@ import numpy as np
 
 from .. import dyads
 from ..assemble import Assembly
+from ..execute import LinkPoses, executor
 from ..ops import BATCH
 from ..plan import (
+    Plan,
     Poses,
     Spec,
     branch_geometry_batch,
@@ -20,7 +23,8 @@ from ..plan import (
     link_poses,
     needs_beyond_limits,
 )
-from ..quantities import PointSpec
+from ..quantities import AngleSpec, PointSpec, ScalarSpec
+from ..steps import StepKind
 from .compiled import CompiledSolve, SolveMode
 from .continuity import BranchRule, Continuity, state_of
 from .one import solve_one
@@ -120,13 +124,15 @@ def solve_batch(
     finite = np.ones(n, bool)
     for a in arrays:
         finite &= np.all(np.isfinite(a.reshape(n, -1 if n else 1)), axis=1)
-    for i in np.flatnonzero(~finite):
+    for i in np.flatnonzero(~finite).tolist():
         out.reason[i] = 'value must be finite (NaN or inf in the command)'
-    safe = [np.where(np.isfinite(a), a, 0.0) for a in arrays]
+    # non-finite values as 0 (their rows are refused); read only from here on
+    every_finite = bool(np.all(finite))
+    safe = arrays if every_finite else [np.where(np.isfinite(a), a, 0.0) for a in arrays]
     limit_bad = np.zeros(n, bool)
     for s, a in zip(c.specs, safe):
         if not isinstance(s, PointSpec) and (s.minimum is not None or s.maximum is not None):
-            for i in np.flatnonzero(finite & ~limit_bad):
+            for i in np.flatnonzero(finite & ~limit_bad & _limit_suspects(s, a)).tolist():
                 why = limit_violation(s, float(a[i]))
                 if why:
                     limit_bad[i] = True
@@ -137,19 +143,26 @@ def solve_batch(
         else:
             _sequential(out, c, cont, arrays)
         return out
-    poses, pts, info = c.plan.run(safe, n, cont.signs(c.plan))
-    ok = info['ok'] & finite & ~limit_bad
-    for i in np.flatnonzero(~info['ok'] & finite & ~limit_bad):
-        out.reason[i] = c.dyad_reason(int(info['failure'][i]), float(info['violation'][i]))
-    got = _batch_assembly(c, poses, safe)
+    run = executor(c.plan).run(safe, n, cont.signs(c.plan))
+    closed = np.asarray(run.ok, bool)
+    valid = finite & ~limit_bad
+    ok = closed & valid
+    failure = np.asarray(run.failure).astype(int)
+    violation = np.asarray(run.violation, float)
+    for i in np.flatnonzero(~closed & valid).tolist():
+        out.reason[i] = c.dyad_reason(int(failure[i]), float(violation[i]))
+    with np.errstate(all='ignore'):
+        got = c.assembler(run.poses.phi)(BATCH, _assembly_poses(c.plan, run.poses), safe)
     residual = np.where(ok, got.residual, 0.0)
     far = ok & ~(residual <= c.closure_limit)  # as solve_one: no false assembly
-    for i in np.flatnonzero(far):
+    for i in np.flatnonzero(far).tolist():
         out.reason[i] = c.closure_reason(float(residual[i]))
     ok &= ~far
-    _fill(out, c, pts, arrays, finite, ok, got)
-    out.margin = np.where(out.ok, info['margin'], 0.0)
-    out.signs = info['signs']
+    _fill(out, c, run.points, arrays, finite, ok, got)
+    out.margin = np.where(out.ok, run.margin, 0.0)
+    out.signs = np.zeros((n, len(c.plan.branch_steps)), int)
+    for b, sg in enumerate(run.signs):
+        out.signs[:, b] = sg
     out.residual = np.where(out.ok, residual, 0.0)
     out.iterations = np.zeros(n, int)
     out.solver = SolveMode.CLOSED_FORM
@@ -167,22 +180,50 @@ def _fill(
 ) -> None:
     """points, links, joints and inputs of the rows ``ok`` from their assembly (0 elsewhere);
     an inverse solve's actuator beyond its limits turns its row into a failure."""
-    out.points = {p: np.where(ok[:, None], v, 0.0) for p, v in pts.items()}
-    out.links = {l: np.where(ok, v, 0.0) for l, v in got.links.items()}
-    out.joints = {j: np.where(ok, v, 0.0) for j, v in got.joints.items()}
-    out.inputs = {a: np.where(ok, v, 0.0) for a, v in got.inputs.items()}
+    every = bool(np.all(ok))
+    taken: set[int] = set()  # arrays handed out as they are: each to one output only
+    out.points = {p: _points_where(ok, z, every) for p, z in pts.items()}
+    out.links = {l: _where_ok(ok, v, every, taken) for l, v in got.links.items()}
+    out.joints = {j: _where_ok(ok, v, every, taken) for j, v in got.joints.items()}
+    out.inputs = {a: _where_ok(ok, v, every, taken) for a, v in got.inputs.items()}
     for s, a in zip(c.specs, arrays):
-        if s.name in c.mech.actuators:
-            out.inputs[s.name] = np.where(ok, a, np.where(finite, a, 0.0))
+        if s.name in c.mech.actuators:  # a copy: out.values holds the column
+            out.inputs[s.name] = a.copy() if every else np.where(ok, a, np.where(finite, a, 0.0))
     if c.inverse:
         for s in c.actuator_specs:
             if s.name in out.inputs and (s.minimum is not None or s.maximum is not None):
-                for i in np.flatnonzero(ok):
-                    why = needs_beyond_limits(s, float(out.inputs[s.name][i]))
+                a = out.inputs[s.name]
+                for i in np.flatnonzero(ok & _limit_suspects(s, a)).tolist():
+                    why = needs_beyond_limits(s, float(a[i]))
                     if why:
                         ok[i] = False
                         out.reason[i] = why
     out.ok = ok
+
+
+#: |limit| (rad) up to which a periodic angle inside [minimum, maximum] as written is inside
+#: as limit_violation reads it too (its reduction lo + (v - lo) mod 2 pi then rounds off by a
+#: few ulps of this, far below its slack of 1e-12)
+_PERIODIC_FAST_LIMIT = 1e3
+
+
+def _limit_suspects(s: ScalarSpec, a: np.ndarray) -> np.ndarray:
+    """The rows of column ``a`` that may break ``s``'s limits: every row limit_violation
+    would refuse is among them, so it runs on these rows only (a Python call per row costs
+    ~30x the vectorised test)."""
+    lo, hi = s.minimum, s.maximum
+    if s.periodic and lo is not None and hi is not None:
+        if max(abs(lo), abs(hi)) > _PERIODIC_FAST_LIMIT:
+            return np.ones(a.shape, bool)
+        return ~((a >= lo) & (a <= hi))  # NaN rows too
+    # one limit on an angle: limit_violation compares it brought into (-pi, pi], so any row
+    # outside (-pi, pi] may break it whatever its written value
+    suspect = ~((a > -math.pi) & (a <= math.pi)) if s.periodic else np.zeros(a.shape, bool)
+    if lo is not None:
+        suspect |= a < lo
+    if hi is not None:
+        suspect |= a > hi
+    return suspect
 
 
 def _newton(
@@ -343,6 +384,57 @@ def _sequential(
             [branch_signs(r.branch) if r.success and len(r.branch) == k else [0] * k for r in rows],
             int,
         ).reshape(n, k)
+
+
+def _where_ok(ok: np.ndarray, v: Any, every: bool, taken: set[int]) -> np.ndarray:
+    """np.where(ok, v, 0.0); ``v`` itself where every row is ok and it is an (n,) float array
+    of the assembly's not handed out yet (``taken``: the ids handed out; a cylinder's throw is
+    both an input and a joint value, and the two must not share one array)."""
+    if (
+        every
+        and isinstance(v, np.ndarray)
+        and v.shape == ok.shape
+        and v.dtype == np.float64
+        and id(v) not in taken
+    ):
+        taken.add(id(v))
+        return v
+    return np.where(ok, v, 0.0)
+
+
+def _points_where(ok: np.ndarray, z: Any, every: bool) -> np.ndarray:
+    """Batched points (complex, or (n, 2) coordinates) as (n, 2) coordinates where ``ok``,
+    0 elsewhere (``every``: ok in every row)."""
+    if isinstance(z, np.ndarray):
+        return np.where(ok[:, None], z, 0.0)
+    xy = np.empty((ok.shape[0], 2)) if every else np.zeros((ok.shape[0], 2))
+    if every:
+        xy[:, 0], xy[:, 1] = z.real, z.imag
+    else:
+        np.copyto(xy[:, 0], z.real, where=ok)
+        np.copyto(xy[:, 1], z.imag, where=ok)
+    return xy
+
+
+def _assembly_poses(plan: Plan, poses: LinkPoses) -> LinkPoses:
+    """The executor's batched poses as the assembly reads them: each link's rot as
+    e^{i phi} of its own angle. A member of a body welded by a known angle has for rot a
+    product of its body's rotations there, which rounds differently: it is made again. Not
+    in the ground's body, placed at rest (its members keep e^{i phi} of their frame angles),
+    nor in a body welded by slides only (each member's rot is the body's times exactly 1: the
+    body's own, to the bit; see PlanExecutor)."""
+    at_rest = {st.body for st in plan.steps if st.op is StepKind.GROUND}
+    welded = {
+        l
+        for b in plan.bodies
+        if b.index not in at_rest
+        and any(isinstance(plan.specs[w.spec_index], AngleSpec) for w in b.welds)
+        for l in b.links
+    }
+    if not welded:
+        return poses
+    rot = {l: (BATCH.expi(poses.phi[l]) if l in welded else r) for l, r in poses.rot.items()}
+    return LinkPoses(poses.phi, rot, poses.T)
 
 
 def _batch_assembly(c: CompiledSolve, poses: Poses, arrays: list[np.ndarray]) -> Assembly:

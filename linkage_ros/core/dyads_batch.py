@@ -1,0 +1,150 @@
+"""The RRR dyad of :mod:`linkage_ros.core.dyads` over a batch, in fewer numpy passes.
+
+:func:`solve_rrr_dyad_batch` gives bit for bit what ``dyads.solve_rrr_dyad(BATCH, ...)`` gives
+(the same float operations in the same order, Kahan's needle-triangle area included); it only
+skips the passes that change nothing: ``where`` on a mask that holds for every row (every row
+finite, every dyad closed: the common batch) and the generic backend's dispatch. Powers of two
+are built from their exponent bits where they are normal numbers (``np.ldexp`` costs ~15
+times as much), ``np.ldexp`` elsewhere.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from .dyads import TOGGLE_BAND, DyadPair
+from .ops import CArray
+
+_FLOAT_MAX = float(np.finfo(float).max)
+_MIN_NORMAL_EXP, _MAX_EXP = -1022, 1023
+
+
+def pow2(k: np.ndarray) -> np.ndarray:
+    """2.0 ** k for integer arrays k, exactly ``np.ldexp(1.0, k)``."""
+    k = np.asarray(k)
+    if k.size and (k.min() < _MIN_NORMAL_EXP or k.max() > _MAX_EXP):
+        out: np.ndarray = np.ldexp(1.0, k)  # subnormal or overflowing powers
+        return out
+    return ((k.astype(np.int64) + 1023) << 52).view(np.float64)
+
+
+def _pow2_scale(m: np.ndarray) -> np.ndarray:
+    """ops._pow2_scale on the batch backend (the even power of two S with m / S in [1, 4))."""
+    _, expo = np.frexp(np.where(np.isfinite(m) & (m > 0), m, 1.0))
+    return pow2(((expo - 1) >> 1) << 1)
+
+
+def _kahan(a: Any, b: Any, c: Any) -> tuple[Any, Any, Any, Any]:
+    """dyads.kahan_four_area_of on the batch backend (see there for why each step)."""
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+    big, small = np.maximum(hi, c), np.minimum(lo, c)
+    mid = np.maximum(lo, np.minimum(hi, c))
+    fin = np.isfinite(big)
+    _, expo = np.frexp(big if fin.all() else np.where(fin, big, 1.0))
+    scale = pow2(expo)
+    big, mid, small = big / scale, mid / scale, small / scale
+    neg_factor = small - (big - mid)
+    four_area_n = (
+        np.sqrt(big + (mid + small))
+        * np.sqrt(np.maximum(neg_factor, 0.0))
+        * np.sqrt(small + (big - mid))
+        * np.sqrt(big + (mid - small))
+    )
+    return four_area_n, -neg_factor, big, scale
+
+
+def _isfinite(x: Any) -> Any:
+    return np.isfinite(x)
+
+
+def solve_rrr_dyad_batch(c1: Any, r1: Any, c2: Any, r2: Any, tol: float) -> DyadPair:
+    """``dyads.solve_rrr_dyad(BATCH, c1, r1, c2, r2, tol)``, bit for bit (see the module):
+    centres (n,) CArray points, radii floats or (n,) arrays."""
+    x1, y1 = c1.re, c1.im
+    x2, y2 = c2.re, c2.im
+    cm1 = np.maximum(np.abs(x1), np.abs(y1))
+    cm2 = np.maximum(np.abs(x2), np.abs(y2))
+    big = np.maximum(np.maximum(cm1, cm2), np.maximum(abs(r1), abs(r2)))
+    S = _pow2_scale(np.asarray(big, float))
+    x1n, y1n, x2n, y2n = x1 / S, y1 / S, x2 / S, y2 / S
+    r1n, r2n = r1 / S, r2 / S
+    dx, dy = x2n - x1n, y2n - y1n
+    d = np.hypot(dx, dy)
+    finite = (
+        _isfinite(dx)
+        & _isfinite(dy)
+        & _isfinite(r1n)
+        & _isfinite(r2n)
+        & (_isfinite(x1) & _isfinite(y1))
+        & (_isfinite(x2) & _isfinite(y2))
+    )
+    all_finite = bool(np.all(finite))
+    if all_finite:
+        four_area_n, violation_n, longest_n, scale = _kahan(d, r1n, r2n)
+    else:
+        four_area_n, violation_n, longest_n, scale = _kahan(
+            np.where(finite, d, 0.0), np.where(finite, r1n, 0.0), np.where(finite, r2n, 0.0)
+        )
+    dn = d / scale
+    ok = finite & (dn > 0) & (r1n > 0) & (r2n > 0) & (violation_n <= tol * longest_n)
+    all_ok = bool(np.all(ok))
+    placed = finite & (d > 0)
+    all_placed = all_ok or bool(np.all(placed))
+    dsafe = d if all_placed else np.where(placed, d, 1.0)
+    if all_finite:
+        ux, uy = dx / dsafe, dy / dsafe
+    else:
+        ux, uy = np.where(finite, dx, 0.0) / dsafe, np.where(finite, dy, 0.0) / dsafe
+    along = 0.5 * (d + ((r1n - r2n) / dsafe) * (r1n + r2n))
+    ar1 = abs(r1n)
+    along = np.clip(along, -ar1, ar1)
+    if not all_placed:
+        along = np.where(placed, along, 0.0)
+    smallest_n = np.minimum(np.minimum(dn, r1n / scale), r2n / scale)
+    on_toggle = (violation_n >= -TOGGLE_BAND * longest_n) & (-violation_n < 0.5 * smallest_n)
+    if all_ok:  # dn, r1n and r2n > 0 in every row
+        h = 0.5 * scale * (four_area_n / dn)
+        if on_toggle.any():
+            h = np.where(~on_toggle, h, 0.0)
+        margin = (h / r1n) * (d / r2n)
+    else:
+        h = np.where(ok & ~on_toggle, 0.5 * scale * (four_area_n / np.where(dn > 0, dn, 1.0)), 0.0)
+        margin = np.where(
+            ok, (h / np.where(r1n > 0, r1n, 1.0)) * (d / np.where(r2n > 0, r2n, 1.0)), 0.0
+        )
+    if not bool(np.all(margin == margin)):  # NaN as 0
+        margin = np.where(margin == margin, margin, 0.0)
+    margin = np.clip(margin, 0.0, 1.0)
+    if all_ok:
+        violation = np.zeros(np.shape(ok))
+    else:
+        violation = np.where(finite, np.maximum(violation_n * (scale * S), 0.0), _FLOAT_MAX)
+        violation = np.where(ok, 0.0, np.minimum(violation, _FLOAT_MAX))
+    # the not-ok placeholder: circle 1's point nearest circle 2 (c1 if not representable)
+    nx, ny = (x1n + along * ux) * S, (y1n + along * uy) * S
+    near_ok = np.isfinite(nx) & np.isfinite(ny)
+    if all_finite and bool(np.all(near_ok)):
+        fx, fy = nx, ny
+        bx, by = x1n, y1n
+    elif all_finite:
+        fx, fy = np.where(near_ok, nx, x1), np.where(near_ok, ny, y1)
+        bx, by = x1n, y1n
+    else:
+        fx = np.where(finite, np.where(near_ok, nx, x1), 0.0)
+        fy = np.where(finite, np.where(near_ok, ny, y1), 0.0)
+        bx, by = np.where(finite, x1n, 0.0), np.where(finite, y1n, 0.0)
+    hs = h * S if all_ok else np.where(ok, h * S, 0.0)
+    return DyadPair(
+        CArray(bx, by),
+        CArray(ux, uy),
+        along,
+        CArray(*np.broadcast_arrays(np.asarray(0.0 * h, float), np.asarray(h, float))),
+        S,
+        margin,
+        ok,
+        violation,
+        hs,
+        CArray(fx, fy),
+    )
