@@ -40,6 +40,10 @@ MAX_STEPS = 512
 #: much does not close there (it stops at a fold, where every step beyond fails); a failed
 #: step costs a whole careful Newton solve, so the way to the fold is not crept finer
 MIN_STEP = 1.0 / 1024
+#: the most Newton iterations of one continuation step: a step that closes does so in a handful
+#: (4-5 on the scenes, from the step before); one that has not in this many is at or past a
+#: fold, and is halved (each careful iteration of a 64-link scene costs milliseconds)
+MAX_ITERATIONS = 20
 #: the most moving links a redraw takes: it solves one dense system of 3 unknowns per link
 #: (the Jansen leg has 7, the excavator 13); a scene of thousands would take hours and GBs
 MAX_REDRAW_LINKS = 64
@@ -321,7 +325,14 @@ def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
     from ..newton.scalar import solve  # core.model loads first
 
     with np.errstate(all='ignore'):
-        got = solve(closure.tables, x0, closure.values, tol=CLOSURE_TOL, start_sign=closure.sign)
+        got = solve(
+            closure.tables,
+            x0,
+            closure.values,
+            tol=CLOSURE_TOL,
+            max_iter=MAX_ITERATIONS,
+            start_sign=closure.sign,
+        )
     return got.x if got.success else None
 
 
