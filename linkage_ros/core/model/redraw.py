@@ -314,12 +314,13 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
 
 
 def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
-    """The closed pose nearest ``x0`` at the current blend, or None where it does not close:
-    the Newton module's solve (core.newton.scalar.solve: Newton steps on the analytic Jacobian
-    with a backtracking line search, Levenberg-Marquardt where they stall, every accepted point
-    kept on the drawn side of det J = 0, ``closure.sign``; 0: any) to max|F| <= CLOSURE_TOL of the length scale. A
-    root of the square closure, not a least-squares compromise: a pose that does not close is
-    None."""
+    """The closed pose nearest ``x0`` at the current blend, or None where it does not close.
+    Solved by the Newton module (core.newton.scalar.solve over the loop tables): Newton steps on
+    the analytic Jacobian with a backtracking line search, Levenberg-Marquardt where they stall
+    (Gauss-Newton least squares where rows outnumber unknowns), every accepted point kept on
+    the drawn side of det J = 0 (``closure.sign``; 0: any). Success means every row closes to
+    max|F| <= CLOSURE_TOL of the length scale (rad for the held angles): the least-squares
+    minimum of a pose that cannot close is no answer, it is None."""
     if not len(x0):
         return x0
     from ..newton.scalar import solve  # core.model loads first
