@@ -43,7 +43,7 @@ MIN_STEP = 1.0 / 1024
 #: the most Newton iterations of one continuation step: a step that closes does so in a handful
 #: (4-5 on the scenes, from the step before); one that has not in this many is at or past a
 #: fold, and is halved (each careful iteration of a 64-link scene costs milliseconds)
-MAX_ITERATIONS = 20
+MAX_ITERATIONS = 10
 #: the most moving links a redraw takes: it solves one dense system of 3 unknowns per link
 #: (the Jansen leg has 7, the excavator 13); a scene of thousands would take hours and GBs
 MAX_REDRAW_LINKS = 64
@@ -320,10 +320,15 @@ def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
     (Gauss-Newton least squares where rows outnumber unknowns), every accepted point kept on
     the drawn side of det J = 0 (``closure.sign``; 0: any). Success means every row closes to
     max|F| <= CLOSURE_TOL of the length scale (rad for the held angles): the least-squares
-    minimum of a pose that cannot close is no answer, it is None."""
+    minimum of a pose that cannot close is no answer, it is None. A closed pose then goes on
+    by the module's fast path (solve_from_guess: Newton steps while each cuts max|F| tenfold)
+    to FAST_FLOOR, about the rounding floor, where it gets there (else it stays as closed):
+    the redrawn points are the new drawing the solvers read link lengths from, so they close
+    as well as floating point allows, not just inside the tolerance."""
     if not len(x0):
         return x0
-    from ..newton.scalar import solve  # core.model loads first
+    from ..newton.results import FAST_FLOOR  # core.model loads first
+    from ..newton.scalar import solve, solve_from_guess
 
     with np.errstate(all='ignore'):
         got = solve(
@@ -334,7 +339,12 @@ def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
             max_iter=MAX_ITERATIONS,
             start_sign=closure.sign,
         )
-    return got.x if got.success else None
+        if not got.success:
+            return None
+        tight = solve_from_guess(
+            closure.tables, got.x, closure.values, tol=FAST_FLOOR, start_sign=closure.sign
+        )
+    return tight.x if tight.success else got.x
 
 
 def _orientation(closure: _Closure, x: np.ndarray) -> int:

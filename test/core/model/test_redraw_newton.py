@@ -15,7 +15,9 @@ from linkage_ros.bench.scaling import LENGTHS, four_bars_scene
 from linkage_ros.core.model import Scene
 from linkage_ros.core.newton import scalar
 
-TOL = 1e-12  # of the length scale: the Newton solves' closure tolerance
+TOL = 1e-12  # of the length scale: the Newton solves' closure tolerance, per residual row
+#: a joint's miss as a distance: its x and y rows each within TOL
+JOINT_TOL = math.sqrt(2) * TOL
 
 
 @pytest.fixture
@@ -70,11 +72,11 @@ def test_a_redrawn_four_bar_closes_to_the_newton_tolerance(newton_only, coupler,
     want = dict(zip(('O2_0-O4_0', 'O2_0-A_0', 'A_0-B_0', 'O4_0-B_0'), LENGTHS))
     want.update({'O2_0-A_0': crank, 'A_0-B_0': coupler, 'O4_0-B_0': rocker})
     for pair, length in want.items():
-        assert abs(_dist(mech, *pair.split('-')) - length) <= TOL * L, pair
+        assert abs(_dist(mech, *pair.split('-')) - length) <= JOINT_TOL * L, pair
     for k in (1, 2):  # untouched four-bars keep their drawn pose
         for p in ('A', 'B'):
             (x, y), (x0, y0) = mech.points[f'{p}_{k}'], drawn.points[f'{p}_{k}']
-            assert math.hypot(x - x0, y - y0) <= TOL * L
+            assert math.hypot(x - x0, y - y0) <= JOINT_TOL * L
     # the crank held at its drawn angle, the rocker on its drawn side of A O4
     assert abs(math.remainder(_angle(mech, 'O2_0', 'A_0') - 0.3, math.tau)) <= TOL
     ax, ay = mech.points['A_0']
@@ -111,8 +113,9 @@ def test_a_redrawn_offset_slider_closes_to_the_newton_tolerance(newton_only):
     mech = Scene.from_dict(gen, dimensions={'slide.offset': e1, 'rod.A-B': rod1}).mechanism
     assert newton_only[0] > 0
     L = mech.length_scale
-    assert abs(float(mech.points['B'][1]) - e1) <= TOL * L
-    assert abs(_dist(mech, 'A', 'B') - rod1) <= TOL * L
-    assert abs(_dist(mech, 'O2', 'A') - r) <= TOL * L
+    # B is read off the rod: its joint with the block's B, then the block's B off the line
+    assert abs(float(mech.points['B'][1]) - e1) <= (JOINT_TOL + TOL) * L
+    assert abs(_dist(mech, 'A', 'B') - rod1) <= JOINT_TOL * L
+    assert abs(_dist(mech, 'O2', 'A') - r) <= JOINT_TOL * L
     assert abs(math.remainder(_angle(mech, 'O2', 'A') - th, math.tau)) <= TOL
     assert float(mech.points['B'][0]) > float(mech.points['A'][0])  # the drawn side
