@@ -206,7 +206,8 @@ class _Closure:
         """Compile the closure with the shapes at blend ``lam``: an angle actuator holds its
         arm's drawn direction, so its known turn is offset by how far the new shape turned the
         arm in the link's frame."""
-        from ..newton.tables import LinkShapes, compile_tables  # core.model loads first
+        # imported here: the core.newton package imports core.model, which imports this module
+        from ..newton.tables import LinkShapes, compile_tables
 
         mech = self.mech
         self.local = {l: self.shapes.local(l, lam) for l in mech.links}
@@ -327,7 +328,7 @@ def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
     as well as floating point allows, not just inside the tolerance."""
     if not len(x0):
         return x0
-    from ..newton.results import FAST_FLOOR  # core.model loads first
+    from ..newton.results import FAST_FLOOR  # here: see _Closure.set_blend
     from ..newton.scalar import solve, solve_from_guess
 
     with np.errstate(all='ignore'):
@@ -353,7 +354,7 @@ def _orientation(closure: _Closure, x: np.ndarray) -> int:
     change."""
     if not len(x):
         return 0
-    from ..newton.scalar import det_sign_at  # core.model loads first
+    from ..newton.scalar import det_sign_at  # here: see _Closure.set_blend
 
     with np.errstate(all='ignore'):
         return det_sign_at(closure.tables, x, closure.values)
