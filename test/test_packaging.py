@@ -168,8 +168,8 @@ def test_launch_file_names_executables_and_files_that_exist():
 
 def test_start_up_does_not_import_scipy_optimize():
     """scipy.optimize takes ~0.4 s to import: the node and every CLI command would pay it at
-    start-up. Only a redraw (stated dimensions) and a refusal's least-squares miss use it, and
-    they import it when they run."""
+    start-up. Only a refusal's least-squares miss and a description's assembly use it, and they
+    import it when they run."""
     import subprocess
     import sys
 

@@ -3,18 +3,20 @@ new link shapes, every actuator held at its drawn value, in the drawn assembly m
 
 The solvers read link shapes from the reference-pose coordinates, so a changed length needs a
 consistent new drawing. That is found here by continuation: the stated dimensions are reached
-from the drawn ones in steps, each step closing every joint (Newton-type least squares from the
-step before), and the sign of the closure Jacobian's determinant must not change on the way:
-a sign change means the path crossed a singular (toggle) position, where the assembly mode
-could change, and the redraw is refused rather than landing in another mode.
+from the drawn ones in steps, each step closing every joint by the Newton module's solve from
+the step before (core.newton: a root of the square closure to CLOSURE_TOL of the length scale,
+not a least-squares fit), and the sign of the closure Jacobian's determinant must not change on
+the way: a sign change means the path crossed a singular (toggle) position, where the assembly
+mode could change, and the redraw is refused rather than landing in another mode.
 
-The equations are written here, apart from the solvers', because here the link shapes are the
-unknowns' parameters: every link carries its own local copy of a shared point, which the
-solvers' equations (one coordinate per point) cannot express.
+The equations are the solvers' own loop tables, compiled with each link's own shape
+(core.newton.tables.LinkShapes): part of the way to the new lengths the links disagree on
+where their shared points are, so every link carries its own copy of each of its points.
 """
 
 from __future__ import annotations
 
+import cmath
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -25,6 +27,7 @@ import numpy as np
 from ..dyads import circle_side, dyad_point, side_sign, solve_rrr_dyad
 from ..errors import SceneError
 from ..ops import SCALAR
+from ..quantities import AngleSpec, SlideSpec
 from .checks import Fail
 from .dimensions import LinkDistance, SliderOffset, parse_name
 from .mechanism import AngleActuator, Mechanism, SlideActuator
@@ -34,9 +37,13 @@ CLOSURE_TOL = 1e-12
 #: the most continuation steps (halving a step that fails, from 8 equal steps)
 MAX_STEPS = 512
 #: the smallest continuation step (fraction of the way): a redraw that cannot advance by this
-#: much does not close there (it stops at a fold, where every step beyond fails); each
-#: failed step of a 64-link scene costs seconds, so the way to the fold is not crept finer
+#: much does not close there (it stops at a fold, where every step beyond fails); a failed
+#: step costs a whole careful Newton solve, so the way to the fold is not crept finer
 MIN_STEP = 1.0 / 1024
+#: the most Newton iterations of one continuation step: a step that closes does so in a handful
+#: (4-5 on the scenes, from the step before); one that has not in this many is at or past a
+#: fold, and is halved (each careful iteration of a 64-link scene costs milliseconds)
+MAX_ITERATIONS = 10
 #: the most moving links a redraw takes: it solves one dense system of 3 unknowns per link
 #: (the Jansen leg has 7, the excavator 13); a scene of thousands would take hours and GBs
 MAX_REDRAW_LINKS = 64
@@ -163,209 +170,97 @@ class _Shapes:
 
 
 class _Closure:
-    """The reference pose's closure equations with the shapes at one blend: every joint closed,
-    every actuator at its drawn value. Unknowns: each moving link's (phi, x / L, y / L) from its
-    drawn place; residuals in units of the length scale."""
+    """The reference pose's closure equations with the shapes at one blend, as the Newton
+    module's loop tables (core.newton.tables, compiled with each link's own shape): every
+    joint closed, every actuator held at its drawn value. Unknowns: each moving link's rotation
+    phi (rad) from its drawn place and the position (m) of its drawn points' centroid; rows in
+    units of the length scale (angles in rad)."""
 
     def __init__(self, mech: Mechanism, shapes: _Shapes):
         self.mech, self.shapes = mech, shapes
         self.links = mech.moving_links
-        self.index = {l: i for i, l in enumerate(self.links)}
-        self.L = mech.length_scale
-        self.set_blend(0.0)
-        self.held = self._actuators(np.zeros(3 * len(self.links)))
-        self.groups = self._column_groups()
-        rows = self._row_links()
-        #: the residual rows of each unknown (those of its link)
-        self.rows_of = [
-            np.array([r for r, row in enumerate(rows) if self.links[c // 3] in row], int)
-            for c in range(3 * len(self.links))
+        self.drawn_arm = {
+            a.name: self._arm(a, shapes.local(a.link, 0.0))
+            for a in mech.actuators.values()
+            if isinstance(a, AngleActuator)
+        }
+        # a slide actuator's value as drawn (m); an angle actuator's is the turn 0 of its arm
+        self.values: list[float] = [
+            self._slide_drawn(a) if isinstance(a, SlideActuator) else 0.0
+            for a in mech.actuators.values()
         ]
+        #: the drawn pose's det J sign (the assembly mode kept), 0: singular there, untracked
+        self.sign = 0
+        self.set_blend(0.0)
 
-    def _row_links(self) -> list[tuple[str, str]]:
-        """The links each residual row depends on (the order of :meth:`residual`)."""
-        mech = self.mech
-        rows: list[tuple[str, str]] = []
-        for rj in mech.revolutes:
-            rows += [(rj.parent, rj.child)] * 2
-        for pj in mech.prismatics.values():
-            rows += [(pj.guide, pj.slider)] * 2
-        for act in mech.actuators.values():
-            if isinstance(act, SlideActuator):
-                pj = mech.prismatics[act.joint]
-                rows.append((pj.guide, pj.slider))
-            else:
-                rows.append((str(act.link), str(act.reference)))
-        return rows
+    @staticmethod
+    def _arm(act: AngleActuator, local: Mapping[str, complex]) -> complex:
+        return local[act.toward] - local[act.pivot]
 
-    def _column_groups(self) -> list[np.ndarray]:
-        """The unknowns in groups no two of which share a residual row (greedy colouring of
-        the links: a row touches at most two links), so a finite-difference Jacobian costs one
-        residual per group and not one per unknown (a chain of 63 links: a handful, not 189)."""
-        neighbours: dict[str, set[str]] = {l: set() for l in self.links}
-        for row in self._row_links():
-            moving = [l for l in row if l in self.index]
-            for a in moving:
-                neighbours[a].update(b for b in moving if b != a)
-        colour: dict[str, int] = {}
-        for link in self.links:
-            taken = {colour[b] for b in neighbours[link] if b in colour}
-            colour[link] = next(c for c in range(len(self.links) + 1) if c not in taken)
-        groups = []
-        for c in sorted(set(colour.values())):
-            members = [self.index[l] for l in self.links if colour[l] == c]
-            for k in range(3):  # phi, x, y of each link apart (they share the link's rows)
-                groups.append(np.array([3 * i + k for i in members]))
-        return groups
-
-    def jacobian(self, x: np.ndarray, h: float = 1e-7) -> np.ndarray:
-        """d residual / d x by central differences, one pair of residuals per column group."""
-        n = len(x)
-        jac = np.zeros((len(self.residual(x)), n))
-        for cols in self.groups:
-            e = np.zeros(n)
-            e[cols] = h
-            diff = (self.residual(x + e) - self.residual(x - e)) / (2 * h)
-            for c in cols:
-                mine = self.rows_of[c]
-                jac[mine, c] = diff[mine]
-        return jac
+    def _slide_drawn(self, act: SlideActuator) -> float:
+        pj = self.mech.prismatics[act.joint]
+        at = self.shapes.drawn[pj.point] - complex(*pj.origin)
+        return (at * complex(*pj.direction).conjugate()).real
 
     def set_blend(self, lam: float) -> None:
-        self.local = {l: self.shapes.local(l, lam) for l in self.mech.links}
-        self.lines = {
-            j: complex(*pj.direction) * 1j * self.shapes.offset_shift(j, lam)
-            for j, pj in self.mech.prismatics.items()
+        """Compile the closure with the shapes at blend ``lam``: an angle actuator holds its
+        arm's drawn direction, so its known turn is offset by how far the new shape turned the
+        arm in the link's frame."""
+        # imported here: the core.newton package imports core.model, which imports this module
+        from ..newton.tables import LinkShapes, compile_tables
+
+        mech = self.mech
+        self.local = {l: self.shapes.local(l, lam) for l in mech.links}
+        specs: list[AngleSpec | SlideSpec] = []
+        for act in mech.actuators.values():
+            if isinstance(act, SlideActuator):
+                specs.append(SlideSpec(act.name, act.joint))
+            else:
+                arm0 = self.drawn_arm[act.name]
+                turn = self._arm(act, self.local[act.link]) / arm0 if arm0 else 1.0
+                specs.append(AngleSpec(act.name, act.link, act.reference, cmath.phase(turn)))
+        lines = {
+            j: _xy(self.shapes.drawn[pj.point] + complex(*pj.direction) * 1j * shift)
+            for j, pj in mech.prismatics.items()
+            if (shift := self.shapes.offset_shift(j, lam))
         }
-        self.arrays = _Arrays(self)
+        shapes = LinkShapes(
+            {l: {p: _xy(z) for p, z in pts.items()} for l, pts in self.local.items()}, lines
+        )
+        self.tables = compile_tables(mech, specs, self.links, shapes=shapes)
+
+    def reference(self) -> np.ndarray:
+        """The drawn pose: every link unturned, at its drawn centroid."""
+        t = self.tables
+        x = np.zeros(t.n)
+        for l, i in t.index.items():
+            x[3 * i + 1 : 3 * i + 3] = t.centroid[l]
+        return x
 
     def pose(self, x: np.ndarray, link: str) -> tuple[complex, complex]:
         """(rotation, translation) of ``link``: world = rotation * local + translation."""
-        i = self.index.get(link)
+        t = self.tables
+        i = t.index.get(link)
         if i is None:
             return 1 + 0j, 0j
-        phi, tx, ty = x[3 * i : 3 * i + 3]
-        return complex(math.cos(phi), math.sin(phi)), complex(tx, ty) * self.L
-
-    def angle(self, x: np.ndarray, link: str) -> float:
-        i = self.index.get(link)
-        return float(x[3 * i]) if i is not None else 0.0
+        phi, cx, cy = x[3 * i : 3 * i + 3]
+        rot = complex(math.cos(phi), math.sin(phi))
+        o = t.centroid[link]
+        return rot, complex(cx, cy) - rot * complex(o[0], o[1])
 
     def world(self, x: np.ndarray, link: str, p: str) -> complex:
         rot, t = self.pose(x, link)
         return rot * self.local[link][p] + t
 
-    def _line(self, x: np.ndarray, j: str) -> tuple[complex, complex, complex]:
-        """Slider j's line in the world: (a point on it, its unit direction, its origin)."""
+    def line(self, x: np.ndarray, j: str) -> tuple[complex, complex]:
+        """Slider j's line in the world: (its unit direction, its origin)."""
         pj = self.mech.prismatics[j]
         rot, t = self.pose(x, pj.guide)
-        u = complex(*pj.direction)
-        base = self.shapes.drawn[pj.point] + self.lines[j]
-        return rot * base + t, rot * u, rot * complex(*pj.origin) + t
-
-    def _actuators(self, x: np.ndarray) -> np.ndarray:
-        """Each actuator's value (rad, or m / L), in the order of ``mech.actuators``."""
-        a = self.arrays
-        rot, T, phi = a.poses(x)
-        out = np.zeros(len(a.is_angle))
-        if a.s_idx.size:
-            u = rot[a.s_guide] * a.s_dir
-            origin = rot[a.s_guide] * a.s_origin + T[a.s_guide]
-            at = rot[a.s_slider] * a.s_local + T[a.s_slider]
-            out[a.s_idx] = ((at - origin) * u.conj()).real / self.L
-        if a.a_idx.size:
-            v = rot[a.a_link] * a.a_arm
-            base = np.where(a.a_ref_is_ground, 0.0, a.a_ref_angle + phi[a.a_ref])
-            out[a.a_idx] = np.arctan2(v.imag, v.real) - base
-        return out
-
-    def residual(self, x: np.ndarray) -> np.ndarray:
-        """Every joint's closure and every actuator's turn from its drawn value (rows: each
-        revolute's x, y miss, each slider's miss off its line and turn against its guide, each
-        actuator), in units of the length scale and rad; one numpy pass over the joints."""
-        a = self.arrays
-        rot, T, phi = a.poses(x)
-        d = rot[a.r_parent] * a.r_parent_local + T[a.r_parent]
-        d = d - (rot[a.r_child] * a.r_child_local + T[a.r_child])
-        revolute = np.column_stack([d.real, d.imag]).ravel() / self.L
-        on = rot[a.p_guide] * a.p_base + T[a.p_guide]
-        u = rot[a.p_guide] * a.p_dir
-        at = rot[a.p_slider] * a.p_local + T[a.p_slider]
-        slide = np.column_stack(
-            [((at - on) * u.conj()).imag / self.L, phi[a.p_slider] - phi[a.p_guide]]
-        ).ravel()
-        turn = self._actuators(x) - self.held
-        turn = np.array(
-            [math.remainder(t, 2 * math.pi) if ang else t for t, ang in zip(turn, a.is_angle)]
-        )
-        return np.concatenate([revolute, slide, turn])
+        return rot * complex(*pj.direction), rot * complex(*pj.origin) + t
 
 
-class _Arrays:
-    """The closure's joints as index and coordinate arrays at one blend (the vectorised
-    residual's): link index ``len(links)`` is the fixed frame (the ground)."""
-
-    def __init__(self, c: _Closure):
-        mech, local, fixed = c.mech, c.local, len(c.links)
-
-        def at(link: str) -> int:
-            return c.index.get(link, fixed)
-
-        def ints(v: list[int]) -> np.ndarray:
-            return np.array(v, int)
-
-        def cplx(v: list[complex]) -> np.ndarray:
-            return np.array(v, complex)
-
-        self.n = fixed
-        self.L = c.L
-        rv = mech.revolutes
-        self.r_parent = ints([at(j.parent) for j in rv])
-        self.r_child = ints([at(j.child) for j in rv])
-        self.r_parent_local = cplx([local[j.parent][j.point] for j in rv])
-        self.r_child_local = cplx([local[j.child][j.point] for j in rv])
-        pr = list(mech.prismatics.values())
-        self.p_guide = ints([at(pj.guide) for pj in pr])
-        self.p_slider = ints([at(pj.slider) for pj in pr])
-        self.p_base = cplx([c.shapes.drawn[pj.point] + c.lines[pj.name] for pj in pr])
-        self.p_dir = cplx([complex(*pj.direction) for pj in pr])
-        self.p_local = cplx([local[pj.slider][pj.point] for pj in pr])
-        acts = list(mech.actuators.values())
-        self.is_angle = [isinstance(act, AngleActuator) for act in acts]
-        slides = [
-            (i, mech.prismatics[a.joint])
-            for i, a in enumerate(acts)
-            if isinstance(a, SlideActuator)
-        ]
-        self.s_idx = ints([i for i, _ in slides])
-        self.s_guide = ints([at(pj.guide) for _, pj in slides])
-        self.s_slider = ints([at(pj.slider) for _, pj in slides])
-        self.s_dir = cplx([complex(*pj.direction) for _, pj in slides])
-        self.s_origin = cplx([complex(*pj.origin) for _, pj in slides])
-        self.s_local = cplx([local[pj.slider][pj.point] for _, pj in slides])
-        angles = [(i, a) for i, a in enumerate(acts) if isinstance(a, AngleActuator)]
-        self.a_idx = ints([i for i, _ in angles])
-        self.a_link = ints([at(str(a.link)) for _, a in angles])
-        self.a_arm = cplx(
-            [
-                local[str(a.link)][str(a.toward)] - local[str(a.link)][str(a.pivot)]
-                for _, a in angles
-            ]
-        )
-        self.a_ref = ints([at(str(a.reference)) for _, a in angles])
-        self.a_ref_is_ground = np.array([a.reference == mech.ground for _, a in angles], bool)
-        self.a_ref_angle = np.array(
-            [
-                0.0 if a.reference == mech.ground else mech.links[a.reference].angle_ref
-                for _, a in angles
-            ]
-        )
-
-    def poses(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(rotation, translation (m), angle) of every link, the fixed frame last."""
-        phi = np.append(x[0::3], 0.0)
-        T = np.append((x[1::3] + 1j * x[2::3]) * self.L, 0j)
-        return np.cos(phi) + 1j * np.sin(phi), T, phi
+def _xy(z: complex) -> tuple[float, float]:
+    return z.real, z.imag
 
 
 def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
@@ -390,8 +285,8 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
     closure = _Closure(mech, shapes)
     shown = [f'{k} = {v:g} m' for k, v in list(dims.items())[:3]]
     names = ', '.join(shown) + (f' and {len(dims) - 3} more' if len(dims) > 3 else '')
-    x = np.zeros(3 * len(closure.links))
-    sign = _orientation(closure, x)
+    x = closure.reference()
+    sign = closure.sign = _orientation(closure, x)
     lam, step, steps, failed = 0.0, 1.0 / 8, 0, False
     while lam < 1.0:
         steps += 1
@@ -420,37 +315,49 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
 
 
 def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
-    """The closed pose nearest ``x0`` at the current blend, or None where it does not close."""
+    """The closed pose nearest ``x0`` at the current blend, or None where it does not close.
+    Solved by the Newton module (core.newton.scalar.solve over the loop tables): Newton steps on
+    the analytic Jacobian with a backtracking line search, Levenberg-Marquardt where they stall
+    (Gauss-Newton least squares where rows outnumber unknowns), every accepted point kept on
+    the drawn side of det J = 0 (``closure.sign``; 0: any). Success means every row closes to
+    max|F| <= CLOSURE_TOL of the length scale (rad for the held angles): the least-squares
+    minimum of a pose that cannot close is no answer, it is None. A closed pose then goes on
+    by the module's fast path (solve_from_guess: Newton steps while each cuts max|F| tenfold)
+    to FAST_FLOOR, about the rounding floor, where it gets there (else it stays as closed):
+    the redrawn points are the new drawing the solvers read link lengths from, so they close
+    as well as floating point allows, not just inside the tolerance."""
     if not len(x0):
         return x0
-    from scipy.optimize import least_squares  # only a redraw needs it (0.4 s to import)
+    from ..newton.results import FAST_FLOOR  # here: see _Closure.set_blend
+    from ..newton.scalar import solve, solve_from_guess
 
     with np.errstate(all='ignore'):
-        sol = least_squares(
-            closure.residual,
+        got = solve(
+            closure.tables,
             x0,
-            jac=closure.jacobian,
-            method='lm',
-            xtol=1e-15,
-            ftol=1e-15,
-            gtol=1e-15,
-            max_nfev=400,
+            closure.values,
+            tol=CLOSURE_TOL,
+            max_iter=MAX_ITERATIONS,
+            start_sign=closure.sign,
         )
-    miss = closure.residual(sol.x)
-    if not np.all(np.isfinite(miss)) or float(np.max(np.abs(miss), initial=0.0)) > CLOSURE_TOL:
-        return None
-    return np.asarray(sol.x, float)
+        if not got.success:
+            return None
+        tight = solve_from_guess(
+            closure.tables, got.x, closure.values, tol=FAST_FLOOR, start_sign=closure.sign
+        )
+    return tight.x if tight.success else got.x
 
 
 def _orientation(closure: _Closure, x: np.ndarray) -> int:
-    """The sign of the closure Jacobian's determinant (central differences): it changes only
-    through a singular position, where the assembly mode can change."""
-    n = len(x)
-    if not n:
+    """The sign of the closure Jacobian's determinant (the Newton module's, 0 where it is
+    singular): it changes only through a singular position, where the assembly mode can
+    change."""
+    if not len(x):
         return 0
-    jac = closure.jacobian(x)
-    s, logdet = np.linalg.slogdet(jac)
-    return int(s) if math.isfinite(logdet) and logdet > n * math.log(1e-9) else 0
+    from ..newton.scalar import det_sign_at  # here: see _Closure.set_blend
+
+    with np.errstate(all='ignore'):
+        return det_sign_at(closure.tables, x, closure.values)
 
 
 def _read(closure: _Closure, x: np.ndarray) -> Redrawn:
@@ -462,7 +369,7 @@ def _read(closure: _Closure, x: np.ndarray) -> Redrawn:
         points[p] = (z.real, z.imag)
     directions, origins = {}, {}
     for j in mech.prismatics:
-        _, u, origin = closure._line(x, j)
+        u, origin = closure.line(x, j)
         directions[j] = (u.real, u.imag)
         origins[j] = (origin.real, origin.imag)
     return Redrawn(points, directions, origins)

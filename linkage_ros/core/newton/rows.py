@@ -11,7 +11,7 @@ from typing import NamedTuple, TypeVar
 
 import numpy as np
 
-from ..model import PrismaticJoint
+from ..model.mechanism import PrismaticJoint  # the module: see tables.py
 
 
 @dataclass(frozen=True)

@@ -5,13 +5,14 @@ go, unknown scales), built once by compile_tables. Evaluation (evaluate.py), the
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
 
-from ..model import Mechanism, PrismaticJoint
+# the module, not the package: core.model's redraw compiles these tables (no import circle)
+from ..model.mechanism import Mechanism, PrismaticJoint
 from ..quantities import AngleSpec, SlideSpec, Spec
 from .rows import (
     AngleRow,
@@ -32,6 +33,18 @@ class FixedSlots(NamedTuple):
 
     poses: list[tuple[float, float, float, float]]
     phis: list[float]
+
+
+@dataclass(frozen=True)
+class LinkShapes:
+    """Each link's own drawing, where links disagree on their shared points (a redraw part of
+    the way to new lengths): ``points[link][point]`` (x, y) in m, every point of every link, in
+    the frame where the link is at its reference pose; ``line_bases[joint]`` a point of
+    prismatic joint ``joint``'s line in its guide's frame (m; default the slider point as
+    drawn). The unknowns stay each link's rotation and the place of its drawn centroid."""
+
+    points: Mapping[str, Mapping[str, tuple[float, float]]]
+    line_bases: Mapping[str, tuple[float, float]]
 
 
 class PointOwner(NamedTuple):
@@ -113,10 +126,14 @@ def _equation_rows(
 
 
 def compile_tables(
-    mech: Mechanism, specs: Sequence[Spec], free_links: Sequence[str] | None = None
+    mech: Mechanism,
+    specs: Sequence[Spec],
+    free_links: Sequence[str] | None = None,
+    *,
+    shapes: LinkShapes | None = None,
 ) -> LoopTables:
     """The LoopTables of ``mech`` with ``specs`` known and ``free_links`` (default: the moving
-    links) unknown."""
+    links) unknown; each link's levers from ``shapes`` where given (else from the drawing)."""
     specs = tuple(specs)
     L = mech.length_scale
     free = list(free_links) if free_links is not None else list(mech.moving_links)
@@ -159,6 +176,17 @@ def compile_tables(
         v = np.asarray(p, float) - cen[link]
         return float(v[0]), float(v[1])
 
+    def on(link: str, p: str) -> tuple[float, float]:
+        """Point p as ``link`` carries it (m)."""
+        x, y = pts[p] if shapes is None else shapes.points[link][p]
+        return float(x), float(y)
+
+    def line_base(pj: PrismaticJoint) -> tuple[float, float]:
+        if shapes is None or pj.name not in shapes.line_bases:
+            x, y = pts[pj.point]  # the slider point as drawn
+            return float(x), float(y)
+        return shapes.line_bases[pj.name]
+
     revs: list[RevoluteRow] = []
     tail: list[TailRow] = []
     r = 0
@@ -166,7 +194,7 @@ def compile_tables(
         if not isinstance(row, RevoluteRows):
             continue
         a, b, P = row.parent, row.child, row.point
-        revs.append(RevoluteRow(s_of(a), *lever(a, pts[P]), s_of(b), *lever(b, pts[P])))
+        revs.append(RevoluteRow(s_of(a), *lever(a, on(a, P)), s_of(b), *lever(b, on(b, P))))
         for rr, link in ((r, a), (r + 1, a), (r, b), (r + 1, b)):
             var(rr, link)
         for rr, link, k, v in (
@@ -187,7 +215,7 @@ def compile_tables(
                 s_of(S),
                 float(u[0]),
                 float(u[1]),
-                *lever(S, pts[pj.point]),
+                *lever(S, on(S, pj.point)),
                 *lever(G, base),
                 vi,
             )
@@ -205,7 +233,7 @@ def compile_tables(
         if isinstance(row, PrismaticRows):
             pj = row.joint
             d0 = pj.direction
-            line(r, pj, (-d0[1], d0[0]), pts[pj.point], None)
+            line(r, pj, (-d0[1], d0[0]), line_base(pj), None)
             angle(r + 1, pj.slider, pj.guide, None, 0.0)
             r += 2
         elif isinstance(row, SpecRows):
@@ -221,7 +249,7 @@ def compile_tables(
                 r += 1
             else:
                 owner = mech.links_of_point(s.point)[0]
-                tail.append(PointRow(s_of(owner), *lever(owner, pts[s.point]), i))
+                tail.append(PointRow(s_of(owner), *lever(owner, on(owner, s.point)), i))
                 var(r, owner)
                 var(r + 1, owner)
                 const(r, owner, 1, 1.0)
@@ -239,7 +267,7 @@ def compile_tables(
         for p in body.points:
             if p not in seen:
                 seen.add(p)
-                point_owner.append(PointOwner(p, l, complex(*map(float, pts[p]))))
+                point_owner.append(PointOwner(p, l, complex(*on(l, p))))
     ground_slots = (
         FixedSlots(
             [(1.0, 0.0, float(cen[l][0]), float(cen[l][1])) for l in others],
