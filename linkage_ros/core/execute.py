@@ -1,24 +1,23 @@
-"""Execution of a compiled plan: the one implementation, for one command or a batch.
+"""Execution of a compiled plan over a batch of commands.
 
-:class:`PlanExecutor` runs a :class:`~linkage_ros.core.plan.Plan`'s steps on either number
-backend of :mod:`linkage_ros.core.ops` (points complex): ``SCALAR`` for one command (the node's
-path, with continuity through tangent configurations) and ``BATCH`` for many (fixed branch
-signs). Every lookup of the plan (which link carries a point, reference positions, slide
-directions) is resolved once per plan, so a solve does only its arithmetic.
+:class:`PlanExecutor` runs a :class:`~linkage_ros.core.plan.Plan`'s steps on the ``BATCH``
+backend of :mod:`linkage_ros.core.ops` (points complex), with fixed branch signs. Every lookup
+of the plan (which link carries a point, reference positions, slide directions) is resolved once
+per plan, so a solve does only its arithmetic. One command runs on the plan's one-command
+program (:mod:`linkage_ros.core.scalar_plan`, a measured twin tested equal to this executor
+row for row), which holds the continuity rule through tangent configurations.
 """
 
 from __future__ import annotations
 
-import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from . import dyads
-from .dyads import DyadPair, dyad_point, rpr_direction, solve_rpr_dyad, solve_rrp_dyad
-from .dyads import solve_rrr_dyad as _rrr
+from .dyads import dyad_point, rpr_direction, solve_rpr_dyad, solve_rrp_dyad
 from .dyads_batch import solve_rrr_dyad_batch
 from .errors import PlanError
 from .ops import BATCH, SCALAR, to_complex
@@ -114,8 +113,6 @@ class PlanExecutor:
                 a = self.ref[st.args.second] - self.ref[st.args.first]
                 na = SCALAR.cabs(a)
                 self.unit_between[k] = a / na if na > 0 else a
-        #: specs as points (complex) or numbers, for one command
-        self.point_specs = tuple(isinstance(s, PointSpec) for s in plan.specs)
 
     # -- bodies --------------------------------------------------------------------------------
     def _frame(self, ops: Any, bi: int, values: Sequence[Any], zero: Any) -> _Frame:
@@ -151,25 +148,13 @@ class PlanExecutor:
     def run(
         self,
         values: Sequence[Any],
-        n: int | None = None,
+        n: int,
         signs: Sequence[int] | None = None,
-        prefer: Any = None,
-        prev_margins: Sequence[float] | None = None,
         tol: float = dyads.TANGENCY_TOL,
     ) -> PlanRun:
-        """Execute the plan: one command (``n`` None: ``values[i]`` a float, or an (x, y) pair
-        for a point) or a batch of n (``values[i]`` (n,) or (n, 2) arrays).
-
-        ``signs`` are the branch signs, one per branching step (default: the reference pose's).
-        One command only: ``prefer`` maps point names to predicted complex positions and
-        '@link' to predicted link angles; where a dyad is near its singularity (its margin now
-        or in ``prev_margins`` below CONTINUITY_MARGIN) the branch nearest the prediction is
-        taken instead (continuity through tangent configurations), and coincident circles (a
-        change point: a rhombus folded flat) keep the point where continuity predicts it.
-        """
-        if n is None:
-            one = [v if is_point else float(v) for is_point, v in zip(self.point_specs, values)]
-            return self._run(SCALAR, one, 0.0, signs, prefer, prev_margins, tol)
+        """Execute the plan over a batch of n (``values[i]`` (n,) or (n, 2) arrays) with the
+        branch ``signs``, one per branching step (default: the reference pose's); every row
+        runs to the end (finite placeholders where it does not close)."""
         vals = [
             to_complex(np.asarray(v, float).reshape(n, 2))
             if isinstance(s, PointSpec)
@@ -177,7 +162,7 @@ class PlanExecutor:
             for s, v in zip(self.plan.specs, values)
         ]
         with np.errstate(all='ignore'):
-            return self._run(BATCH, vals, np.zeros(n), signs, None, None, tol)
+            return self._run(vals, np.zeros(n), signs, tol)
 
     def _radius(self, ops: Any, bi: int, x: str, p: str, frame: Any) -> Any:
         """|x - p| within body bi: the length the scene states for a link that carries both
@@ -207,17 +192,10 @@ class PlanExecutor:
         return ops.cabs((rx * self.ref[x] + tx) - (rp * self.ref[p] + tp))
 
     def _run(
-        self,
-        ops: Any,
-        values: Sequence[Any],
-        zero: Any,
-        signs: Sequence[Any] | None,
-        prefer: Mapping[str, Any] | None,
-        prev_margins: Sequence[float] | None,
-        tol: float,
+        self, values: Sequence[Any], zero: np.ndarray, signs: Sequence[Any] | None, tol: float
     ) -> PlanRun:
         plan, mech, ref = self.plan, self.plan.mech, self.ref
-        batch = ops.batch
+        ops = BATCH
         signs = plan.reference_signs if signs is None else signs
         poses = LinkPoses()
         phi_of, rot_of, T_of = poses.phi, poses.rot, poses.T
@@ -229,13 +207,10 @@ class PlanExecutor:
         used: list[Any] = []
         margins: list[Any] = []
         single, body_points = self.single, self.body_points
-        ok_all: Any = True
-        margin_all: Any = 1.0
-        failure: Any = -1
-        violation_all: Any = 0.0
-        if batch:
-            ok_all, margin_all = zero == zero, zero + 1.0
-            failure, violation_all = zero - 1.0, zero + 0.0
+        ok_all: Any = zero == zero
+        margin_all: Any = zero + 1.0
+        failure: Any = zero - 1.0
+        violation_all: Any = zero + 0.0
 
         def frame(bi: int) -> _Frame:
             f = frames.get(bi)
@@ -270,11 +245,6 @@ class PlanExecutor:
                     if p not in pts:
                         pts[p] = lr * r + lt
 
-        def near_singular(m: float) -> bool:
-            b = len(used)
-            prev = prev_margins[b] if prev_margins and b < len(prev_margins) else 1.0
-            return min(m, prev) < CONTINUITY_MARGIN
-
         for k, st in enumerate(plan.steps):
             op = st.op
             # identity tests: enum members are singletons, and == on a StrEnum costs ~8x more
@@ -283,15 +253,15 @@ class PlanExecutor:
                 bi = st.body
                 b = pts[q] - pts[p]
                 nb = ops.cabs(b)
-                # unit first: 1e-300 lengths would underflow (a batch skips the where pass
-                # when no length is 0: the common case)
-                b = b / (nb if batch and _all_positive(nb) else ops.where(nb > 0, nb, 1.0))
+                # unit first: 1e-300 lengths would underflow (the where pass skipped when no
+                # length is 0: the common case)
+                b = b / (nb if _all_positive(nb) else ops.where(nb > 0, nb, 1.0))
                 a = self.unit_between.get(k)
                 if a is None:
                     lp = local_pt(bi, p)
                     a = local_pt(bi, q) - lp
                     na = ops.cabs(a)
-                    a = a / (na if batch and _all_positive(na) else ops.where(na > 0, na, 1.0))
+                    a = a / (na if _all_positive(na) else ops.where(na > 0, na, 1.0))
                 else:
                     lp = ref[p]
                 cross = a.real * b.imag - a.imag * b.real
@@ -305,13 +275,8 @@ class PlanExecutor:
                     b1, p1, b2, p2 = a.body_a, a.centre_a, a.body_b, a.centre_b
                     r1 = self._radius(ops, b1, x, p1, frame)
                     r2 = self._radius(ops, b2, x, p2, frame)
-                    pair = None
-                    if not batch:
-                        pair = self._coincident(pts, x, p1, p2, r1, r2, prefer, tol)
-                    if batch:  # the same kernel in fewer passes
-                        pair = solve_rrr_dyad_batch(pts[p1], r1, pts[p2], r2, tol)
-                    elif pair is None:
-                        pair = _rrr(ops, pts[p1], r1, pts[p2], r2, tol)
+                    # dyads.solve_rrr_dyad in fewer passes
+                    pair = solve_rrr_dyad_batch(pts[p1], r1, pts[p2], r2, tol)
                 else:
                     b1, p1, jname = st.args.body, st.args.centre, st.args.joint
                     g = mech.prismatics[jname].guide
@@ -320,36 +285,22 @@ class PlanExecutor:
                     p0 = rot_of[g] * on_line + T_of[g]
                     u = rot_of[g] * self.direction[jname]
                     pair = solve_rrp_dyad(ops, pts[p1], r, p0, u, tol)
-                if not batch and not pair.ok:
-                    return PlanRun(
-                        False, poses, pts, 0.0, tuple(used), k, pair.violation, tuple(margins)
-                    )
                 sg = signs[len(used)]
-                if prefer is not None and x in prefer and near_singular(pair.margin):
-                    target = prefer[x]
-                    plus, _ = dyad_point(ops, pair, 1)
-                    minus, _ = dyad_point(ops, pair, -1)
-                    sg = 1 if ops.cabs(plus - target) <= ops.cabs(minus - target) else -1
                 pts[x], okk = dyad_point(ops, pair, sg)
-                if not batch and not okk:  # beyond the float range
-                    return PlanRun(False, poses, pts, 0.0, tuple(used), k, 0.0, tuple(margins))
                 used.append(sg)
                 margins.append(pair.margin)
-                if batch:
-                    margin_all = ops.minimum(margin_all, pair.margin)
-                    newly = ok_all & ops.not_(okk)
-                    if newly.any():
-                        failure = np.where(newly, k, failure)
-                        violation_all = np.where(newly, pair.violation, violation_all)
-                    ok_all = ok_all & okk
-                else:
-                    margin_all = pair.margin if pair.margin < margin_all else margin_all
+                margin_all = ops.minimum(margin_all, pair.margin)
+                newly = ok_all & ops.not_(okk)
+                if newly.any():
+                    failure = np.where(newly, k, failure)
+                    violation_all = np.where(newly, pair.violation, violation_all)
+                ok_all = ok_all & okk
             elif op is _GROUND:
                 # e^{i 0} = 1 exactly on both backends
                 place_body(st.body, zero, ops.cplx(zero, zero), ops.cplx(zero + 1.0, zero), True)
             elif op is _KNOWN_POINT:
                 v = values[st.args.spec_index]
-                pts[st.point] = v if batch else complex(float(v[0]), float(v[1]))
+                pts[st.point] = v
             elif op is _POINT_ANGLE:
                 p = st.args.point
                 phi = angles[st.body]
@@ -373,7 +324,7 @@ class PlanExecutor:
                 jname, p = st.args.joint, st.args.pivot
                 pj = mech.prismatics[jname]
                 x, bi = st.point, st.body
-                gphi, grot, gT = frame(bi)[pj.guide]
+                _, grot, gT = frame(bi)[pj.guide]
                 lp = local_pt(bi, p)
                 u_loc = grot * self.direction[jname]
                 on_line = ref[x] if jname not in side_shift else ref[x] + side_shift[jname]
@@ -381,33 +332,19 @@ class PlanExecutor:
                 e = u_loc.real * w.imag - u_loc.imag * w.real  # signed offset of the pivot
                 psi0 = ops.atan2(u_loc.imag, u_loc.real)
                 dy = solve_rpr_dyad(ops, pts[p], pts[x], e, tol)
-                if not batch and not dy.ok:
-                    return PlanRun(
-                        False, poses, pts, 0.0, tuple(used), k, dy.violation, tuple(margins)
-                    )
                 sg = signs[len(used)]
-                key = '@' + pj.guide
-                if prefer is not None and key in prefer and near_singular(dy.margin):
-                    last = prefer[key]
-                    phi_p = rpr_direction(ops, dy, 1) - psi0
-                    phi_m = rpr_direction(ops, dy, -1) - psi0
-                    miss_p = abs(ops.wrap(phi_p + gphi - last))
-                    sg = 1 if miss_p <= abs(ops.wrap(phi_m + gphi - last)) else -1
                 phi = rpr_direction(ops, dy, sg) - psi0
                 angles[bi] = phi
                 rot = ops.expi(phi)
                 place_body(bi, phi, pts[p] - rot * lp, rot)
                 used.append(sg)
                 margins.append(dy.margin)
-                if batch:
-                    margin_all = ops.minimum(margin_all, dy.margin)
-                    newly = ok_all & ops.not_(dy.ok)
-                    if newly.any():
-                        failure = np.where(newly, k, failure)
-                        violation_all = np.where(newly, dy.violation, violation_all)
-                    ok_all = ok_all & dy.ok
-                else:
-                    margin_all = dy.margin if dy.margin < margin_all else margin_all
+                margin_all = ops.minimum(margin_all, dy.margin)
+                newly = ok_all & ops.not_(dy.ok)
+                if newly.any():
+                    failure = np.where(newly, k, failure)
+                    violation_all = np.where(newly, dy.violation, violation_all)
+                ok_all = ok_all & dy.ok
             elif op is _SIDE:
                 sg = signs[len(used)]
                 side_shift[st.args.joint] = self._side_shift(st.args, sg)
@@ -425,31 +362,6 @@ class PlanExecutor:
         in the face (twice the drawn offset, across). Either backend (``sign`` +-1 or (n,))."""
         d = side.drawn_offset
         return (sign * abs(d) - d) * (1j * self.direction[side.joint])
-
-    def _coincident(
-        self,
-        pts: dict[str, Any],
-        x: str,
-        p1: str,
-        p2: str,
-        r1: float,
-        r2: float,
-        prefer: Mapping[str, Any] | None,
-        tol: float,
-    ) -> DyadPair | None:
-        """One command only: circles that coincide (a change point, e.g. a rhombus folded flat)
-        leave x anywhere on the circle; keep it where continuity predicts, else where the
-        reference pose has it relative to p1. Branch identity is undefined there (margin 0)."""
-        P1, P2 = pts[p1], pts[p2]
-        big = max(r1, r2)
-        if not (SCALAR.cabs(P1 - P2) <= tol * big and abs(r1 - r2) <= tol * big):
-            return None
-        guess = prefer.get(x) if prefer else None
-        off = (guess - P1) if guess is not None else self.ref[x] - self.ref[p1]
-        n = SCALAR.cabs(off)
-        off = off / n if 0 < n < math.inf else 1 + 0j
-        foot = P1 + r1 * off
-        return DyadPair(foot, 1.0, 0.0, 0.0, 1.0, 0.0, True, 0.0, 0.0, foot)
 
 
 def _all_positive(x: Any) -> bool:
