@@ -21,6 +21,7 @@ from .dyads import dyad_point, rpr_direction, solve_rpr_dyad, solve_rrp_dyad
 from .dyads_batch import solve_rrr_dyad_batch
 from .errors import PlanError
 from .ops import BATCH, SCALAR, to_complex
+from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
 from .steps import RollerSide, StepKind
 
@@ -81,20 +82,16 @@ class PlanExecutor:
     def __init__(self, plan: Any):
         self.plan = plan
         mech = plan.mech
-        self.ref = {p: complex(float(v[0]), float(v[1])) for p, v in mech.points.items()}
-        self.direction = {
-            j: complex(float(pj.direction[0]), float(pj.direction[1]))
-            for j, pj in mech.prismatics.items()
-        }
+        look = plan_lookup(plan)
+        self.ref, self.direction, self.single, self.carrier = (
+            look.ref,
+            look.direction,
+            look.single,
+            look.carrier,
+        )
         #: (body, point, point) -> the length the scene states between them, or their constant
         #: distance within a one-link body; None: measured in the body's frame on every run
         self._stated: dict[tuple[int, str, str], float | None] = {}
-        #: (body, point) -> the member link whose frame carries the point
-        self.carrier: dict[tuple[int, str], str] = {}
-        for b in plan.bodies:
-            for link in b.links:
-                for p in mech.links[link].points:
-                    self.carrier.setdefault((b.index, p), link)
         #: per body: each member link's points with their reference positions (what placing
         #: the body places), resolved once
         self.body_points = [
@@ -104,7 +101,6 @@ class PlanExecutor:
             for b in plan.bodies
         ]
         #: per body: True for one link alone (its frame is the identity: nothing to weld)
-        self.single = [not b.welds for b in plan.bodies]
         #: per TWO_POINTS step of a one-link body: the unit vector between its two points in the
         #: link's frame (a constant)
         self.unit_between: dict[int, complex] = {}

@@ -34,6 +34,7 @@ from .dyads import TANGENCY_TOL
 from .errors import PlanError
 from .execute import CONTINUITY_MARGIN, LinkPoses, PlanRun
 from .ops import _cabs_one
+from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
 from .scalar_dyads import rpr_angle, rrp_point, rrr_fallback, solve_rpr, solve_rrp, solve_rrr
 from .scalar_run import (
@@ -74,17 +75,13 @@ class ScalarProgram:
     def __init__(self, plan: Any):
         self.plan = plan
         mech = plan.mech
-        self.ref = {p: complex(float(v[0]), float(v[1])) for p, v in mech.points.items()}
-        self.direction = {
-            j: complex(float(pj.direction[0]), float(pj.direction[1]))
-            for j, pj in mech.prismatics.items()
-        }
-        self.single = [not b.welds for b in plan.bodies]
-        self.carrier: dict[tuple[int, str], str] = {}
-        for b in plan.bodies:
-            for link in b.links:
-                for p in mech.links[link].points:
-                    self.carrier.setdefault((b.index, p), link)
+        look = plan_lookup(plan)
+        self.ref, self.direction, self.single, self.carrier = (
+            look.ref,
+            look.direction,
+            look.single,
+            look.carrier,
+        )
         point_order: list[str] = []
         link_order: list[str] = []
         for st in plan.steps:
