@@ -130,9 +130,8 @@ def read_plan_requests(
     topics = plan_topics(trajectory_topics, path_topics)
     if not topics:
         return [], {}
-    reader = _open_reader(path)
     out: list[PlanRequest] = []
-    try:
+    with _plan_reader(path) as reader:
         conns = topic_connections(reader, path, topics)
         read: dict[int, int] = {}
         for i, (conn, t, raw) in enumerate(reader.messages([c for g in conns for c in g])):
@@ -150,13 +149,6 @@ def read_plan_requests(
                 )
             )
         missing = _shortfall(path, conns, read, accept_missing)
-    except BagError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - truncated chunk, corrupt database, ...
-        raise _unreadable(path, exc) from None
-    finally:
-        with contextlib.suppress(Exception):
-            reader.close()
     out.sort(key=lambda r: r.log_ns)
     return out, missing
 
@@ -167,11 +159,23 @@ def plan_topics(
     return [(t, TRAJECTORY) for t in trajectory_topics] + [(t, PATH) for t in path_topics]
 
 
-def _unreadable(path: str, exc: BaseException) -> BagError:
-    return BagError(
-        f'input {path}: cannot read the trajectory topics ({_exc_text(exc)}); the bag is '
-        'truncated or corrupt'
-    )
+@contextlib.contextmanager
+def _plan_reader(path: str) -> Iterator[Any]:
+    """The bag open for reading its plan topics, closed after; a failure to read it (not a
+    BagError already) as a BagError saying the bag is truncated or corrupt."""
+    reader = _open_reader(path)
+    try:
+        yield reader
+    except BagError:
+        raise
+    except Exception as exc:  # noqa: BLE001 - truncated chunk, corrupt database, ...
+        raise BagError(
+            f'input {path}: cannot read the trajectory topics ({_exc_text(exc)}); the bag is '
+            'truncated or corrupt'
+        ) from None
+    finally:
+        with contextlib.suppress(Exception):
+            reader.close()
 
 
 def decoded_plans(
@@ -186,8 +190,7 @@ def decoded_plans(
     from rosbags.typesys import Stores, get_typestore
 
     ts = get_typestore(Stores.ROS2_JAZZY)
-    reader = _open_reader(path)
-    try:
+    with _plan_reader(path) as reader:
         conns = topic_connections(reader, path, list(topics))
         stream = enumerate(reader.messages([c for g in conns for c in g]))
         waiting: dict[int, tuple[Any, int, Any]] = {}  # read before their turn
@@ -214,13 +217,6 @@ def decoded_plans(
                     ) from None
             del raw
             yield req
-    except BagError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - truncated chunk, corrupt database, ...
-        raise _unreadable(path, exc) from None
-    finally:
-        with contextlib.suppress(Exception):
-            reader.close()
 
 
 def _refusal(raw: bytes | memoryview, msgtype: str, mech: Any, frame_id: str) -> str:
