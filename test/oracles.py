@@ -401,3 +401,16 @@ def central_difference_rates(solver, values, rates, h):
         for p in plus.points
     }
     return joints, points
+
+
+def trig_is_libm(angles) -> bool:
+    """numpy's sin, cos and arctan2 round as Python's math (libm) does on these angles: where
+    they do, a batch and a one-command solve can be compared float for float."""
+    import numpy as np
+
+    a = np.asarray(angles, float).reshape(-1)
+    b = a[::-1].copy()
+    return all(
+        float(s) == math.sin(x) and float(c) == math.cos(x) and float(t) == math.atan2(x, y)
+        for s, c, t, x, y in zip(np.sin(a), np.cos(a), np.arctan2(a, b), a.tolist(), b.tolist())
+    )

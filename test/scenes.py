@@ -4,6 +4,7 @@ building the shortcut mechanisms from lengths."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 from typing import Any
@@ -14,6 +15,17 @@ from linkage_ros.core.model import Mechanism, Scene
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / 'config'
+
+
+def knowns_sets(mech: Mechanism) -> list[list[str] | None]:
+    """The knowns sets a scene admits to try: forward (None), every set of dof joint/actuator
+    names, and (2-DOF scenes) one point target each."""
+    names = list(mech.actuators) + [j for j in mech.joint_names if j not in mech.actuators]
+    sets: list[list[str] | None] = [None]
+    sets += [list(c) for c in itertools.combinations(names, mech.dof)]
+    if mech.dof == 2:
+        sets += [[f'point:{p}'] for p in mech.points]
+    return sets
 
 
 def load(stem: str) -> Mechanism:

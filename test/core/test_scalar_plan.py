@@ -13,10 +13,10 @@ as libm's on this machine, else within 1e-13 of the length scale.
 
 from __future__ import annotations
 
-import itertools
 import math
 
 import numpy as np
+import oracles
 import pytest
 import scenes
 
@@ -36,29 +36,13 @@ def _mech(scene):
     return scenes.load(scene)
 
 
-def _knowns_sets(mech):
-    names = list(mech.actuators) + [j for j in mech.joint_names if j not in mech.actuators]
-    sets = [None] + [list(c) for c in itertools.combinations(names, mech.dof)]
-    if mech.dof == 2:
-        sets += [[f'point:{p}'] for p in mech.points]
-    return sets
-
-
-def _libm_trig(x: np.ndarray) -> bool:
-    a = np.asarray(x, float).reshape(-1)
-    return all(
-        float(s) == math.sin(v) and float(c) == math.cos(v) and float(t) == math.atan2(v, 1.0)
-        for s, c, t, v in zip(np.sin(a), np.cos(a), np.arctan2(a, 1.0), a.tolist())
-    )
-
-
 @pytest.mark.parametrize('scene', SCENES)
 def test_a_run_equals_its_batch_row(scene):
     mech = _mech(scene)
     L = mech.length_scale
     rng = np.random.default_rng(3)
     n, compared, kinds = 16, 0, set()
-    for knowns in _knowns_sets(mech):
+    for knowns in scenes.knowns_sets(mech):
         try:
             s = Solver(mech, knowns=knowns, method='closed_form', branch='reference')
         except PlanError:
@@ -74,7 +58,7 @@ def test_a_run_equals_its_batch_row(scene):
                 cols.append(np.asarray(v, float) + rng.normal(0, 0.1 * L, (n, 2)))
             else:
                 cols.append(float(v) + rng.normal(0, 0.5, n))
-        exact = _libm_trig(np.concatenate([c.reshape(-1) for c in cols]))
+        exact = oracles.trig_is_libm(np.concatenate([c.reshape(-1) for c in cols]))
         for signs in {plan.reference_signs, tuple(-x for x in plan.reference_signs)}:
             poses, points, info = plan.run(cols, n, signs)
             for i in range(n):

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import oracles
 import pytest
 import scenes
 
@@ -24,16 +25,6 @@ from linkage_ros.core.solver import Solver
 SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
 #: and a roller on a flat face (its residual closes on either side)
 SCENES = [*SHIPPED, 'nut_cracker']
-
-
-def _trig_is_libm(angles: np.ndarray) -> bool:
-    """numpy's sin, cos and arctan2 round as Python's math does on these angles."""
-    a = np.asarray(angles, float).reshape(-1)
-    b = a[::-1].copy()
-    return all(
-        float(s) == math.sin(x) and float(c) == math.cos(x) and float(t) == math.atan2(x, y)
-        for s, c, t, x, y in zip(np.sin(a), np.cos(a), np.arctan2(a, b), a.tolist(), b.tolist())
-    )
 
 
 @pytest.mark.parametrize('scene', SCENES)
@@ -60,7 +51,7 @@ def test_solve_equals_solve_batch_on_every_packaged_scene(scene):
         rows = [i for i, r in enumerate(results) if r.branch == branch or branch is None]
         cols = {k: np.array([cmds[i][k] for i in rows]) for k in cmds[0]}
         batch = batch_solver.solve_batch(cols)
-        exact = _trig_is_libm(np.concatenate(list(cols.values())))
+        exact = oracles.trig_is_libm(np.concatenate(list(cols.values())))
         for n, i in enumerate(rows):
             r = results[i] if branch is not None else batch_solver.solve(cmds[i])
             assert r.success == bool(batch.ok[n]), (i, r.reason, batch.reason[n])

@@ -912,34 +912,22 @@ def test_scene_error_duplicate_yaml_key_is_not_silently_dropped(tmp_path):
     assert str(path) in msg and 'A' in msg and 'duplicate' in msg.lower()
 
 
-# ---- the generated scalar code (plan.run_one, Solver result assembly) ----------------------------
+# ---- one command and a batch: the same answers (plan.run_one and solve_batch) -----------------
 
 SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
 
 
-def _knowns_sets(mech):
-    """Forward, every set of dof joint/actuator names, and (2-DOF scenes) one point target each."""
-    import itertools
-
-    names = list(mech.actuators) + [j for j in mech.joint_names if j not in mech.actuators]
-    sets = [None] + [list(c) for c in itertools.combinations(names, mech.dof)]
-    if mech.dof == 2:
-        sets += [[f'point:{p}'] for p in mech.points]
-    return sets
-
-
 @pytest.mark.parametrize('scene', SHIPPED)
 def test_one_command_and_batch_backends_agree(scene):
-    """The plan executor and the result assembly are written once and run on two backends
-    (core.ops: Python numbers for one command, numpy arrays for a batch). For every knowns set a
-    shipped scene admits in closed form, with all outputs and pruned to one: they agree on
-    success, points, joints, links and inputs to 1e-12 of the length scale, and both close
-    their loops."""
+    """Solver.solve (the one-command program) and Solver.solve_batch (the batch executor):
+    for every knowns set a shipped scene admits in closed form, with all outputs and pruned to
+    one, they agree on success, points, joints, links and inputs to 1e-12 of the length scale,
+    and both close their loops."""
     mech = Scene.from_yaml(f'config/{scene}.yaml').mechanism
     L = mech.length_scale
     rng = np.random.default_rng(7)
     checked = 0
-    for knowns in _knowns_sets(mech):
+    for knowns in scenes.knowns_sets(mech):
         for outputs in (None, list(mech.outputs)[:1]):
             try:
                 s = Solver(
