@@ -54,8 +54,13 @@ def cmd_sweep(args) -> int:
     engine = None
     if solver.inverse and args.branch == 'continuous':  # targets as a node answers them
         engine = target_engine(mech, args)
-    grid = list(_grid([vals for _, vals in axes]))
-    table = ResultTable.for_mechanism(mech, len(grid)) if args.csv else None
+    # lazy: a 10^9-point grid starts printing at once (only --csv, which keeps every answer
+    # for its table, lists it first)
+    grid = _grid([vals for _, vals in axes])
+    table = None
+    if args.csv:
+        grid = list(grid)
+        table = ResultTable.for_mechanism(mech, len(grid))
     n_ok = n_err = 0
     for i, combo in enumerate(grid):
         command = dict(zip(names, combo))
