@@ -273,7 +273,7 @@ def plot_output_vs_input(
     Returns {'path', 'input', 'output', 'branches': {label: {'input': [...], 'output': [...]}}}.
     """
     from .core.motion import actuator_range, reference_value, without_limits
-    from .core.solver import Solver
+    from .core.solver import SolveMode, Solver
 
     if input not in mech.actuators:
         raise ValueError(
@@ -314,7 +314,9 @@ def plot_output_vs_input(
     curves: dict[str, list[tuple[float, float]]] = {}
     for x in xs:
         cmd = {input: float(x), **others}
-        results = solver.solve_all(cmd) if solver.mode == 'closed_form' else [solver.solve(cmd)]
+        results = (
+            solver.solve_all(cmd) if solver.mode is SolveMode.CLOSED_FORM else [solver.solve(cmd)]
+        )
         for r in results:
             if not r.success:
                 continue

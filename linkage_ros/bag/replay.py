@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import CommandError
-from ..core.solver import Solver
+from ..core.solver import SolveMode, Solver
 from ..core.solver.result import branch_signs
 from ..core.velocity import velocities
 from ..engine import (
@@ -227,7 +227,7 @@ class _Engine:
             return
         if topic == 1:  # targets: the engine's assembly-mode rule, one by one
             self._targets(ctx, columns, a, b)
-        elif S.mode == 'closed_form' and b - a >= MIN_BATCH:
+        elif S.mode is SolveMode.CLOSED_FORM and b - a >= MIN_BATCH:
             self._vectorised(ctx, columns, a, b, rates)
         else:
             self._sequential(ctx, columns, a, b, 0, b - a, rates)

@@ -44,7 +44,7 @@ def check_report(
     own (what loading did; what loads but is likely wrong)."""
     from ..core.motion.quantities import quantities_report
     from ..core.reference_warnings import reference_pose_warnings
-    from ..core.solver import Solver
+    from ..core.solver import SolveMode, Solver
 
     desc = mech.describe()
     grashof = None
@@ -95,7 +95,7 @@ def check_report(
             'solver': solver.method,
             'mode': solver.mode,
             'knowns': list(solver.knowns),
-            'closed_form_steps': [] if solver.mode == 'newton' else solver.plan.describe(),
+            'closed_form_steps': [] if solver.mode is SolveMode.NEWTON else solver.plan.describe(),
             'closed_form_links': list(solver.closed_links),
             'newton_links': list(solver.system.free),
             'branch_count': solver.branch_count,

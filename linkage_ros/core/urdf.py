@@ -242,11 +242,11 @@ def _swept_slides(mech: Mechanism, names: Sequence[str]) -> dict[str, tuple[floa
     links (no plan lists the modes), that bound alone."""
     if not names:
         return {}
-    from .solver import Solver
+    from .solver import SolveMode, Solver
     from .steps import branch_text, sign_combinations
 
     solver = Solver(mech, knowns=list(mech.actuators), branch='reference')
-    if solver.mode != 'closed_form':
+    if solver.mode is not SolveMode.CLOSED_FORM:
         return _slide_bounds(mech, names)
     grid = np.meshgrid(*_input_axes(mech), indexing='ij')
     values = {a: g.ravel() for a, g in zip(mech.actuators, grid)}

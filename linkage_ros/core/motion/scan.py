@@ -15,7 +15,7 @@ from ..model import Mechanism, SlideActuator
 from ..model.limits import on_arc
 from ..plan import Poses
 from ..quantities import AngleSpec, PointSpec
-from ..solver import Solver
+from ..solver import SolveMode, Solver
 from .common import (
     _KARY,
     _MAX_SEGMENTS,
@@ -80,7 +80,7 @@ class _Line:
         self.scan = scan
         self.held = dict(held)
         self.solver = Solver(self.free, knowns=[scan] + list(self.held), branch='reference')
-        self.closed = self.solver.mode == 'closed_form'
+        self.closed = self.solver.mode is SolveMode.CLOSED_FORM
         self.plan = self.solver.plan
         self.spec = self.solver.specs[0]
         self.periodic = isinstance(self.spec, AngleSpec)

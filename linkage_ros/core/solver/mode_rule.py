@@ -19,6 +19,7 @@ from typing import Any
 
 from ..model import Mechanism
 from ..quantities import AngleSpec
+from .compiled import SolveMode
 from .reading import mode_label
 from .result import SIGN_MARGIN, Result, branch_identity_defined, branch_text
 from .solver import Solver
@@ -153,12 +154,12 @@ class ModeKeeper:
         if k > MAX_BRANCHES:
             return None
         alternatives = [self._with_signs(solver, code, k) for code in range(2**k)] if k else []
-        closed = solver.mode == 'closed_form'
+        closed = solver.mode is SolveMode.CLOSED_FORM
         if not closed:
             alternatives = alternatives or [solver]
         best: tuple[float, Result] | None = None
         for alt in alternatives:
-            if alt.mode != 'closed_form' and last is not None:
+            if alt.mode is not SolveMode.CLOSED_FORM and last is not None:
                 alt.adopt(last)  # Newton starts from the mechanism's state
             r = alt.solve(values, commit=False)
             if not r.success or mode_differs(before, self.mode(r)):
