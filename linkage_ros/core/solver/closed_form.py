@@ -16,7 +16,6 @@ name-keyed points and poses off the registers only when continuity asks.
 from __future__ import annotations
 
 import math
-import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -34,6 +33,7 @@ from .result import _EPS, Result
 
 _PI = math.pi
 _CLOSED_FORM = SolveMode.CLOSED_FORM
+_ANGLE, _POINT = ReadKind.ANGLE, ReadKind.POINT
 
 
 def _wrap(a: float) -> float:
@@ -76,6 +76,7 @@ class SlotReadout:
 
     def __init__(self, c: CompiledSolve, prog: ScalarProgram):
         mech, specs = c.mech, c.specs
+        self.prog = prog
         have = set(prog.link_names)
         spec_links = c.check_system.spec_links
         self.L = mech.length_scale
@@ -155,7 +156,9 @@ class SlotReadout:
     def result(self, r: SlotRun, vals: Values, signs: tuple[int, ...]) -> Result:
         """The Result of a run that closed (refused if any value is not finite)."""
         L, R = self.L, r.R
-        inputs = {a: float(vals[i]) for a, i in self.commanded}
+        inputs = {}  # (loops, not comprehensions: a comprehension is a call in Python 3.11)
+        for a, i in self.commanded:
+            inputs[a] = float(vals[i])
         if self.read_inputs:
             inputs.update((a, read(R)) for a, read in self.read_inputs)
             inputs = {a: inputs[a] for a in self.input_order}
@@ -182,20 +185,25 @@ class SlotReadout:
             across = off.real * nrm.real + off.imag * nrm.imag
             worst = max(worst, abs(abs(across + face) - abs(face)) if face else abs(across))
             worst = max(worst, L * abs(_wrap(R[sphi] - R[gphi])))
-        links = {
-            l: (a if -_PI < (a := ref + R[i]) <= _PI else _wrap_one(a)) for l, i, ref in self.links
-        }
+        links = {}
+        for l, i, ref in self.links:
+            a = ref + R[i]
+            links[l] = a if -_PI < a <= _PI else _wrap_one(a)
         for i, kind, read in self.knowns:
             got, v = read(R), vals[i]
-            if kind is ReadKind.POINT:
-                worst = max(worst, max(abs(got.real - v[0]), abs(got.imag - v[1])))
-            elif kind is ReadKind.ANGLE:  # reduce v exactly first
-                worst = max(worst, L * abs(_wrap(got - _wrap(v))))
+            if kind is _ANGLE:  # reduce v exactly first
+                a = L * abs(_wrap(got - _wrap(v)))
+            elif kind is _POINT:
+                a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
             else:
-                worst = max(worst, abs(got - v))
+                a = abs(got - v)
+            if a > worst:  # max(worst, a)
+                worst = a
         residual = worst / L
         names = self.point_names
-        points = {p: (z.real, z.imag) for p, z in zip(names, R)}
+        points = {}
+        for p, z in zip(names, R):
+            points[p] = (z.real, z.imag)
         margin = float(r.margin)
         defined = True
         if signs:  # branch_identity_defined (result.py), inlined
@@ -236,21 +244,20 @@ class SlotReadout:
             residual,
             0,
             _CLOSED_FORM,
-            self.branch_text(signs),
+            self._branch_texts.get(signs) or self.branch_text(signs),
             defined,
             margin,
             None,
         )
 
 
-#: each compiled solve's readout, made on first use (kept while the compiled solve lives)
-_READOUTS: weakref.WeakKeyDictionary[CompiledSolve, SlotReadout] = weakref.WeakKeyDictionary()
-
-
 def readout(c: CompiledSolve) -> SlotReadout:
-    got = _READOUTS.get(c)
+    """The compiled solve's readout, made on first use and kept on it (as ``program`` keeps
+    the program on its plan: a dict lookup per command, where a WeakKeyDictionary's made a
+    weak reference each time)."""
+    got: SlotReadout | None = c.__dict__.get('_slot_readout')
     if got is None:
-        got = _READOUTS[c] = SlotReadout(c, program(c.plan))
+        got = c.__dict__['_slot_readout'] = SlotReadout(c, program(c.plan))
     return got
 
 
@@ -301,18 +308,18 @@ class SlotState(State):
 
 def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
     """The dyad plan on one command, on the branch ``cont`` chooses."""
-    last = cont.last
-    prog = program(c.plan)
+    read = readout(c)
+    prog, history = read.prog, cont.history
     r = prog.execute(
         vals,
         cont.signs(c.plan),
         None,
-        last.margins if last is not None else None,
+        history[-1].margins if history else None,
         predict=lambda: cont.prediction(c, vals),
     )
     if r.failure >= 0:
         reason = c.dyad_reason(r.failure, r.violation)
         return c.fail(reason, c.echo(vals), _CLOSED_FORM), None
     signs = tuple(r.used)
-    res = readout(c).result(r, vals, signs)
+    res = read.result(r, vals, signs)
     return res, SlotState(vals, signs, tuple(r.margins), prog, r.R)
