@@ -33,7 +33,7 @@ from .result import _EPS, Result
 
 _PI = math.pi
 _CLOSED_FORM = SolveMode.CLOSED_FORM
-_ANGLE, _POINT = ReadKind.ANGLE, ReadKind.POINT
+_POINT = ReadKind.POINT
 
 
 def _wrap(a: float) -> float:
@@ -137,10 +137,21 @@ class SlotReadout:
             if pj.guide in have and pj.slider in have
         ]
         self.links = [(l, iphi[l], mech.links[l].angle_ref) for l in mech.links if l in have]
-        self.knowns = [
-            (i, spec_reader(mech, s).kind, _slot_reader(spec_reader(mech, s), prog))
+        read_knowns = [
+            (i, spec_reader(mech, s))
             for i, s in enumerate(specs)
             if all(l in have for l in spec_links(s))
+        ]
+        #: the known angles read inline (their link's and reference's phi registers, offset)
+        self.angle_knowns = [
+            (i, iphi[read.link], iphi[read.reference], read.offset)
+            for i, read in read_knowns
+            if read.kind is ReadKind.ANGLE
+        ]
+        self.knowns = [
+            (i, read.kind, _slot_reader(read, prog))
+            for i, read in read_knowns
+            if read.kind is not ReadKind.ANGLE
         ]
         self.point_names = prog.point_names
         self._branch_texts: dict[tuple[int, ...], str] = {}
@@ -162,11 +173,15 @@ class SlotReadout:
         if self.read_inputs:
             inputs.update((a, read(R)) for a, read in self.read_inputs)
             inputs = {a: inputs[a] for a in self.input_order}
+        # ``total``: every float of the Result summed as it is made (the finiteness test below)
         joints = {}
-        worst = 0.0
+        worst = total = 0.0
         for name, child, parent, offset, p, prot, pT, crot, cT, preg, creg in self.revolutes:
             a = offset + R[child] - R[parent]
-            joints[name] = a if -_PI < a <= _PI else _wrap_one(a)
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            joints[name] = a
+            total += a
             d = (R[preg] if preg >= 0 else R[prot] * p + R[pT]) - (
                 R[creg] if creg >= 0 else R[crot] * p + R[cT]
             )
@@ -178,7 +193,8 @@ class SlotReadout:
             if a > worst:
                 worst = a
         for name, read, p, normal, sphi, srot, sT, gphi, grot, gT, face in self.slides:
-            joints[name] = read(R)
+            joints[name] = a = read(R)
+            total += a
             off = (R[srot] * p + R[sT]) - (R[grot] * p + R[gT])
             nrm = R[grot] * normal
             # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
@@ -188,12 +204,26 @@ class SlotReadout:
         links = {}
         for l, i, ref in self.links:
             a = ref + R[i]
-            links[l] = a if -_PI < a <= _PI else _wrap_one(a)
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            links[l] = a
+            total += a
+        for i, ia, ib, off in self.angle_knowns:  # _slot_reader's angle, _wrap inlined
+            got = R[ia] - R[ib] + off
+            if not -_PI < got <= _PI:
+                got = _wrap_one(got)
+            v = vals[i]
+            if not -_PI < v <= _PI:  # reduce v exactly first
+                v = _wrap_one(v)
+            a = got - v
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            a = L * abs(a)
+            if a > worst:  # max(worst, a)
+                worst = a
         for i, kind, read in self.knowns:
             got, v = read(R), vals[i]
-            if kind is _ANGLE:  # reduce v exactly first
-                a = L * abs(_wrap(got - _wrap(v)))
-            elif kind is _POINT:
+            if kind is _POINT:
                 a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
             else:
                 a = abs(got - v)
@@ -202,23 +232,17 @@ class SlotReadout:
         residual = worst / L
         names = self.point_names
         points = {}
+        zsum = 0j
         for p, z in zip(names, R):
             points[p] = (z.real, z.imag)
+            zsum += z
         margin = float(r.margin)
         defined = True
         if signs:  # branch_identity_defined (result.py), inlined
             defined = bool(margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5)
         # one sum is finite when every term is (it may overflow only at ~1e308 scales, where
         # the exact check below runs)
-        zsum = sum(R[: len(names)], 0j)
-        total = (
-            sum(joints.values())
-            + sum(links.values())
-            + sum(inputs.values())
-            + (zsum.real + zsum.imag)
-            + residual
-            + margin
-        )
+        total += sum(inputs.values()) + (zsum.real + zsum.imag) + residual + margin
         if total - total != 0.0 and not all(
             math.isfinite(v)
             for v in [
