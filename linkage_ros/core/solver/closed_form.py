@@ -199,8 +199,15 @@ class SlotReadout:
             nrm = R[grot] * normal
             # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
             across = off.real * nrm.real + off.imag * nrm.imag
-            worst = max(worst, abs(abs(across + face) - abs(face)) if face else abs(across))
-            worst = max(worst, L * abs(_wrap(R[sphi] - R[gphi])))
+            a = abs(abs(across + face) - abs(face)) if face else abs(across)
+            if a > worst:  # max(worst, a), without the call
+                worst = a
+            a = R[sphi] - R[gphi]
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            a = L * abs(a)
+            if a > worst:
+                worst = a
         links = {}
         for l, i, ref in self.links:
             a = ref + R[i]
@@ -239,7 +246,7 @@ class SlotReadout:
         margin = float(r.margin)
         defined = True
         if signs:  # branch_identity_defined (result.py), inlined
-            defined = bool(margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5)
+            defined = margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
         # one sum is finite when every term is (it may overflow only at ~1e308 scales, where
         # the exact check below runs)
         total += sum(inputs.values()) + (zsum.real + zsum.imag) + residual + margin
