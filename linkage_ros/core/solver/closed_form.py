@@ -167,14 +167,15 @@ class SlotReadout:
     def result(self, r: SlotRun, vals: Values, signs: tuple[int, ...]) -> Result:
         """The Result of a run that closed (refused if any value is not finite)."""
         L, R = self.L, r.R
-        inputs = {}  # (loops, not comprehensions: a comprehension is a call in Python 3.11)
-        for a, i in self.commanded:
-            inputs[a] = float(vals[i])
+        # (loops, not comprehensions: a comprehension is a call in Python 3.11)
+        inputs: dict[str, float] = {}
+        for actuator, i in self.commanded:
+            inputs[actuator] = float(vals[i])
         if self.read_inputs:
             inputs.update((a, read(R)) for a, read in self.read_inputs)
             inputs = {a: inputs[a] for a in self.input_order}
         # ``total``: every float of the Result summed as it is made (the finiteness test below)
-        joints = {}
+        joints: dict[str, float] = {}
         worst = total = 0.0
         for name, child, parent, offset, p, prot, pT, crot, cT, preg, creg in self.revolutes:
             a = offset + R[child] - R[parent]
@@ -208,7 +209,7 @@ class SlotReadout:
             a = L * abs(a)
             if a > worst:
                 worst = a
-        links = {}
+        links: dict[str, float] = {}
         for l, i, ref in self.links:
             a = ref + R[i]
             if not -_PI < a <= _PI:
@@ -238,10 +239,10 @@ class SlotReadout:
                 worst = a
         residual = worst / L
         names = self.point_names
-        points = {}
+        points: dict[str, tuple[float, float]] = {}
         zsum = 0j
-        for p, z in zip(names, R):
-            points[p] = (z.real, z.imag)
+        for point, z in zip(names, R):
+            points[point] = (z.real, z.imag)
             zsum += z
         margin = float(r.margin)
         defined = True
