@@ -385,7 +385,7 @@ class ScalarProgram:
             r1 = r1_const if r1_of is None else r1_of(R)
             r2 = r2_const if r2_of is None else r2_of(R)
             c1, c2, tol = R[s1], R[s2], r.tol
-            big = max(r1, r2)
+            big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
             # (the cheap test first: equal radii are rare)
             if abs(r1 - r2) <= tol * big and _cabs_one(c1 - c2) <= tol * big:
                 coincident(r, k_step, x, sx, c1, r1, ref_off)
