@@ -110,6 +110,7 @@ class ScalarProgram:
         self._members: dict[int, list[Any]] = {}  # per body placed: what _placer places
         self.n_placed = len(link_order)
         self.point_specs = tuple(isinstance(s, PointSpec) for s in plan.specs)
+        self.any_point = any(self.point_specs)
         used_bodies: set[int] = set()
         for st in plan.steps:
             a = st.args
@@ -384,8 +385,9 @@ class ScalarProgram:
             r1 = r1_const if r1_of is None else r1_of(R)
             r2 = r2_const if r2_of is None else r2_of(R)
             c1, c2, tol = R[s1], R[s2], r.tol
-            big = max(r1, r2)
-            if _cabs_one(c1 - c2) <= tol * big and abs(r1 - r2) <= tol * big:
+            big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
+            # (the cheap test first: equal radii are rare)
+            if abs(r1 - r2) <= tol * big and _cabs_one(c1 - c2) <= tol * big:
                 coincident(r, k_step, x, sx, c1, r1, ref_off)
                 return
             pair = solve_rrr(c1, r1, c2, r2, tol)
@@ -514,7 +516,10 @@ class ScalarProgram:
         run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
         r = SlotRun()
         r.R = self.template.copy()
-        r.values = [v if is_point else float(v) for is_point, v in zip(self.point_specs, values)]
+        if self.any_point:
+            r.values = [v if pt else float(v) for pt, v in zip(self.point_specs, values)]
+        else:  # no comprehension's frame for the common command
+            r.values = list(map(float, values))
         r.signs = self.plan.reference_signs if signs is None else signs
         r.prefer, r.predict, r.prev_margins, r.tol = prefer, predict, prev_margins, tol
         r.prev_small = min(prev_margins) < _CM if prev_margins else False

@@ -16,7 +16,6 @@ name-keyed points and poses off the registers only when continuity asks.
 from __future__ import annotations
 
 import math
-import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -34,6 +33,7 @@ from .result import _EPS, Result
 
 _PI = math.pi
 _CLOSED_FORM = SolveMode.CLOSED_FORM
+_POINT = ReadKind.POINT
 
 
 def _wrap(a: float) -> float:
@@ -76,6 +76,7 @@ class SlotReadout:
 
     def __init__(self, c: CompiledSolve, prog: ScalarProgram):
         mech, specs = c.mech, c.specs
+        self.prog = prog
         have = set(prog.link_names)
         spec_links = c.check_system.spec_links
         self.L = mech.length_scale
@@ -136,10 +137,21 @@ class SlotReadout:
             if pj.guide in have and pj.slider in have
         ]
         self.links = [(l, iphi[l], mech.links[l].angle_ref) for l in mech.links if l in have]
-        self.knowns = [
-            (i, spec_reader(mech, s).kind, _slot_reader(spec_reader(mech, s), prog))
+        read_knowns = [
+            (i, spec_reader(mech, s))
             for i, s in enumerate(specs)
             if all(l in have for l in spec_links(s))
+        ]
+        #: the known angles read inline (their link's and reference's phi registers, offset)
+        self.angle_knowns = [
+            (i, iphi[read.link], iphi[read.reference], read.offset)
+            for i, read in read_knowns
+            if read.kind is ReadKind.ANGLE
+        ]
+        self.knowns = [
+            (i, read.kind, _slot_reader(read, prog))
+            for i, read in read_knowns
+            if read.kind is not ReadKind.ANGLE
         ]
         self.point_names = prog.point_names
         self._branch_texts: dict[tuple[int, ...], str] = {}
@@ -155,15 +167,22 @@ class SlotReadout:
     def result(self, r: SlotRun, vals: Values, signs: tuple[int, ...]) -> Result:
         """The Result of a run that closed (refused if any value is not finite)."""
         L, R = self.L, r.R
-        inputs = {a: float(vals[i]) for a, i in self.commanded}
+        # (loops, not comprehensions: a comprehension is a call in Python 3.11)
+        inputs: dict[str, float] = {}
+        for actuator, i in self.commanded:
+            inputs[actuator] = float(vals[i])
         if self.read_inputs:
             inputs.update((a, read(R)) for a, read in self.read_inputs)
             inputs = {a: inputs[a] for a in self.input_order}
-        joints = {}
-        worst = 0.0
+        # ``total``: every float of the Result summed as it is made (the finiteness test below)
+        joints: dict[str, float] = {}
+        worst = total = 0.0
         for name, child, parent, offset, p, prot, pT, crot, cT, preg, creg in self.revolutes:
             a = offset + R[child] - R[parent]
-            joints[name] = a if -_PI < a <= _PI else _wrap_one(a)
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            joints[name] = a
+            total += a
             d = (R[preg] if preg >= 0 else R[prot] * p + R[pT]) - (
                 R[creg] if creg >= 0 else R[crot] * p + R[cT]
             )
@@ -175,42 +194,63 @@ class SlotReadout:
             if a > worst:
                 worst = a
         for name, read, p, normal, sphi, srot, sT, gphi, grot, gT, face in self.slides:
-            joints[name] = read(R)
+            joints[name] = a = read(R)
+            total += a
             off = (R[srot] * p + R[sT]) - (R[grot] * p + R[gT])
             nrm = R[grot] * normal
             # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
             across = off.real * nrm.real + off.imag * nrm.imag
-            worst = max(worst, abs(abs(across + face) - abs(face)) if face else abs(across))
-            worst = max(worst, L * abs(_wrap(R[sphi] - R[gphi])))
-        links = {
-            l: (a if -_PI < (a := ref + R[i]) <= _PI else _wrap_one(a)) for l, i, ref in self.links
-        }
+            a = abs(abs(across + face) - abs(face)) if face else abs(across)
+            if a > worst:  # max(worst, a), without the call
+                worst = a
+            a = R[sphi] - R[gphi]
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            a = L * abs(a)
+            if a > worst:
+                worst = a
+        links: dict[str, float] = {}
+        for l, i, ref in self.links:
+            a = ref + R[i]
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            links[l] = a
+            total += a
+        for i, ia, ib, off in self.angle_knowns:  # _slot_reader's angle, _wrap inlined
+            got = R[ia] - R[ib] + off
+            if not -_PI < got <= _PI:
+                got = _wrap_one(got)
+            v = vals[i]
+            if not -_PI < v <= _PI:  # reduce v exactly first
+                v = _wrap_one(v)
+            a = got - v
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            a = L * abs(a)
+            if a > worst:  # max(worst, a)
+                worst = a
         for i, kind, read in self.knowns:
             got, v = read(R), vals[i]
-            if kind is ReadKind.POINT:
-                worst = max(worst, max(abs(got.real - v[0]), abs(got.imag - v[1])))
-            elif kind is ReadKind.ANGLE:  # reduce v exactly first
-                worst = max(worst, L * abs(_wrap(got - _wrap(v))))
+            if kind is _POINT:
+                a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
             else:
-                worst = max(worst, abs(got - v))
+                a = abs(got - v)
+            if a > worst:  # max(worst, a)
+                worst = a
         residual = worst / L
         names = self.point_names
-        points = {p: (z.real, z.imag) for p, z in zip(names, R)}
+        points: dict[str, tuple[float, float]] = {}
+        zsum = 0j
+        for point, z in zip(names, R):
+            points[point] = (z.real, z.imag)
+            zsum += z
         margin = float(r.margin)
         defined = True
         if signs:  # branch_identity_defined (result.py), inlined
-            defined = bool(margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5)
+            defined = margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
         # one sum is finite when every term is (it may overflow only at ~1e308 scales, where
         # the exact check below runs)
-        zsum = sum(R[: len(names)], 0j)
-        total = (
-            sum(joints.values())
-            + sum(links.values())
-            + sum(inputs.values())
-            + (zsum.real + zsum.imag)
-            + residual
-            + margin
-        )
+        total += sum(inputs.values()) + (zsum.real + zsum.imag) + residual + margin
         if total - total != 0.0 and not all(
             math.isfinite(v)
             for v in [
@@ -236,21 +276,20 @@ class SlotReadout:
             residual,
             0,
             _CLOSED_FORM,
-            self.branch_text(signs),
+            self._branch_texts.get(signs) or self.branch_text(signs),
             defined,
             margin,
             None,
         )
 
 
-#: each compiled solve's readout, made on first use (kept while the compiled solve lives)
-_READOUTS: weakref.WeakKeyDictionary[CompiledSolve, SlotReadout] = weakref.WeakKeyDictionary()
-
-
 def readout(c: CompiledSolve) -> SlotReadout:
-    got = _READOUTS.get(c)
+    """The compiled solve's readout, made on first use and kept on it (as ``program`` keeps
+    the program on its plan: a dict lookup per command, where a WeakKeyDictionary's made a
+    weak reference each time)."""
+    got: SlotReadout | None = c.__dict__.get('_slot_readout')
     if got is None:
-        got = _READOUTS[c] = SlotReadout(c, program(c.plan))
+        got = c.__dict__['_slot_readout'] = SlotReadout(c, program(c.plan))
     return got
 
 
@@ -301,18 +340,18 @@ class SlotState(State):
 
 def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
     """The dyad plan on one command, on the branch ``cont`` chooses."""
-    last = cont.last
-    prog = program(c.plan)
+    read = readout(c)
+    prog, history = read.prog, cont.history
     r = prog.execute(
         vals,
         cont.signs(c.plan),
         None,
-        last.margins if last is not None else None,
+        history[-1].margins if history else None,
         predict=lambda: cont.prediction(c, vals),
     )
     if r.failure >= 0:
         reason = c.dyad_reason(r.failure, r.violation)
         return c.fail(reason, c.echo(vals), _CLOSED_FORM), None
     signs = tuple(r.used)
-    res = readout(c).result(r, vals, signs)
+    res = read.result(r, vals, signs)
     return res, SlotState(vals, signs, tuple(r.margins), prog, r.R)

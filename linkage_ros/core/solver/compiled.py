@@ -99,7 +99,7 @@ class CompiledSolve:
     # -- commands ------------------------------------------------------------------------------
     def parse(self, values: Mapping[str, Any]) -> Values:
         """Validate a {known name: value} command; raise ValueError naming what is wrong."""
-        if not isinstance(values, Mapping):
+        if type(values) is not dict and not isinstance(values, Mapping):  # (an ABC check)
             raise ValueError('a command must map known names to values')
         if self.point_pairs:
             values = pair_values(values, list(self.knowns), self.point_pairs, self.pair_tolerance_m)

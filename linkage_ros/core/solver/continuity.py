@@ -28,6 +28,10 @@ class BranchRule(StrEnum):
     JACOBIAN = 'jacobian'  # where Newton places the mechanism: a loop Jacobian determinant sign
 
 
+#: the rules as module constants: an enum member's attribute lookup costs ~0.1 us per command
+_EXPLICIT, _CONTINUOUS = BranchRule.EXPLICIT, BranchRule.CONTINUOUS
+
+
 @dataclass(frozen=True)
 class Branch:
     """A branch rule and, for an explicit one, its signs (+1 / -1 per branching dyad)."""
@@ -128,9 +132,9 @@ class Continuity:
     def signs(self, plan: Plan) -> tuple[int, ...]:
         """The branch signs the next solve starts from."""
         b = self.branch
-        if b.rule is BranchRule.EXPLICIT and b.signs is not None:
+        if b.rule is _EXPLICIT and b.signs is not None:
             return b.signs
-        if b.rule is BranchRule.CONTINUOUS and self.history:
+        if b.rule is _CONTINUOUS and self.history:
             return self.history[-1].signs
         return tuple(plan.reference_signs)
 
