@@ -7,7 +7,18 @@ excavator sweeps (same start, same guess, same answer to rounding): solve_from_g
 184 us, BatchNewton.solve_batch of one row 463 us and 970 us (7.3x and 5.3x). Here the rows are
 plain floats and ``math`` and the linear algebra one LAPACK LU per linearisation point, reused
 for the chord steps. test/core/newton/test_newton_batch.py holds the two to the same answers
-(test_solve_batch_reproduces_the_scalar_sweep: every step of 300-command sweeps)."""
+(test_solve_batch_reproduces_the_scalar_sweep: every step of 300-command sweeps).
+
+Why the LU stays LAPACK's: a pure-Python LU with partial pivoting costs 24 us for a 6 x 6 matrix
+and 36 us for the four-bar's 9 x 9 on the bench machine (load ~4), getrf 1.8 and 2.6 us, getrs
+0.9 us. The fast path is therefore kept to the fewest calls: no per-call closure, the Newton
+step as J^-1 F subtracted (no negated copy of F; the same floats), LAPACK's 1-norm (dlange: the
+same column sums as numpy's three reductions) for the condition estimate. Measured in one
+process against the code before (CPU time, interleaved best of 9 x 300 calls at one command of
+the bench sweep, 2-core machine shared with other jobs, load ~5.5): solve_from_guess four_bar
+77.3 -> 65.5 us, slider_crank 88.5 -> 70.5, peaucellier 114.5 -> 106.8, excavator 228 -> 240
+(noise: its time is the rows' Python); the answers are the same to the last bit
+(test_fast_path_answer_reads_as_its_configuration_does holds each to its configuration)."""
 
 from __future__ import annotations
 
@@ -17,12 +28,13 @@ from typing import Any
 
 import numpy as np
 
-from ..dyads import wrap_angle
 from ..execute import LinkPoses
+from ..ops import _wrap_one
 from ..quantities import AngleSpec, SlideSpec
 from .evaluate import evaluate, evaluate_rows_scaled, evaluate_scaled, jacobian
 from .linalg import cond, factor, lapack, lu_step, scaled_cond, side_ok, sign_of
 from .results import (
+    COND_EXACT,
     FAST_FLOOR,
     FAST_MARGIN,
     FAST_RATE,
@@ -35,6 +47,8 @@ from .results import (
     SolveResult,
 )
 from .tables import LoopTables
+
+_PI = math.pi
 
 
 def least_miss(
@@ -72,14 +86,20 @@ def least_miss(
 
 
 # -- continuation: predictor ------------------------------------------------------------------
+def _wrap(a: float) -> float:
+    """wrap_angle without its two Python calls for an angle already in (-pi, pi] (the same
+    float either way)."""
+    return a if -_PI < a <= _PI else _wrap_one(a)
+
+
 def value_step(t: LoopTables, a: Sequence[Any], b: Sequence[Any]) -> list[float]:
     """b - a per value component in scale-free units (rad, length scales)."""
     out: list[float] = []
     L = t.L
     for s, va, vb in zip(t.specs, a, b):
-        if isinstance(s, AngleSpec):  # reduce first: vb - va may overflow
-            out.append(wrap_angle(wrap_angle(float(vb)) - wrap_angle(float(va))))
-        elif isinstance(s, SlideSpec):
+        if type(s) is AngleSpec:  # reduce first: vb - va may overflow
+            out.append(_wrap(_wrap(float(vb)) - _wrap(float(va))))
+        elif type(s) is SlideSpec:
             out.append(float(vb) / L - float(va) / L)
         else:
             out += [float(vb[0]) / L - float(va[0]) / L, float(vb[1]) / L - float(va[1]) / L]
@@ -151,7 +171,7 @@ def predict(
     if k_back and x_prev is not None:
         back = [a - b for a, b in zip(x_prev.tolist(), xl)]
         for j in range(0, n, 3):
-            if abs(back[j]) > math.pi:  # angles a turn apart
+            if abs(back[j]) > _PI:  # angles a turn apart
                 back[j] = math.remainder(back[j], 2 * math.pi)
         dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
     if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
@@ -331,44 +351,69 @@ def solve_from_guess(
     the steps spent counted) unless J is regular at the guess and at the answer with det
     sign ``start_sign`` (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
     x = guess = np.array(guess, float)  # the result never aliases the caller's array
-    F, J, res = evaluate_scaled(t, x, values, fixed)
+    F, Jv, res = evaluate_rows_scaled(t, x, values, fixed)
+    J = jacobian(t, Jv, t.tpl_s)
     fac = factor(J)
     steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
-    Jv: list[float] = []
-
-    def declined() -> SolveResult:
-        return SolveResult(
-            guess, False, it, res, 'the predicted start did not qualify', jacobians=nj
-        )
-
     if fac is None or not math.isfinite(res) or (start_sign and fac[2] != start_sign):
-        return declined()
+        return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)
     lin = fac
     at_answer: LUFactor | None = fac
     target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
+    getrs, step = lapack().getrs, t.step_scale
     while res > target:
-        dy = lu_step(lin, F) if it < steps else None
-        if dy is not None:
-            xn = x + dy * t.step_scale
-            Fn, Jvn, rn = evaluate_rows_scaled(t, xn, values, fixed)
-            it += 1
-        if dy is None or not rn <= FAST_RATE * res:
+        cut = False
+        if it < steps:
+            # J^-1 F, the step's negative to the bit (LAPACK's solve is odd in its right side)
+            y, info = getrs(lin[0], lin[1], F)
+            if info == 0 and math.isfinite(float(y.sum())):
+                xn = x - y * step
+                Fn, Jvn, rn = evaluate_rows_scaled(t, xn, values, fixed)
+                it += 1
+                cut = rn <= FAST_RATE * res
+        if not cut:
             if res <= tol:  # converged; the rounding floor is above the margin
                 break
-            return declined()
+            return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)
         x, F, Jv, res, at_answer = xn, Fn, Jvn, rn, None
     if at_answer is None:  # J at the answer: its det sign, cond and factorisation
         J = jacobian(t, Jv, t.tpl_s)
         at_answer = factor(J)
         nj += 1
         if at_answer is None or (start_sign and at_answer[2] != start_sign):
-            return declined()
+            return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)
     r = finish(t, x, F, J, at_answer, res, it, values, fixed)
     if start_sign and r.det_sign not in (0, start_sign):
-        return declined()  # polishing near a fold crossed det J = 0
+        return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)  # polished over a fold
     r.jacobians += nj
     r.predicted = True
     return r
+
+
+#: why the fast path declined a guess (the caller then takes the careful path)
+_DECLINED = 'the predicted start did not qualify'
+
+
+def _cond(J: np.ndarray, fac: LUFactor | None) -> float:
+    """linalg.cond with LAPACK's 1-norm of J (dlange) for numpy's three reductions: the same
+    column sums in the same order (one call instead of three)."""
+    if fac is not None:
+        lp = lapack()
+        rc, info = lp.gecon(fac[0], _dlange()('1', J))
+        if info == 0 and rc * COND_EXACT >= 1.0:
+            return float(1.0 / rc)
+    return cond(J, fac)
+
+
+_DLANGE: list[Any] = []
+
+
+def _dlange() -> Any:
+    if not _DLANGE:
+        from scipy.linalg.lapack import dlange
+
+        _DLANGE.append(dlange)
+    return _DLANGE[0]
 
 
 def finish(
@@ -386,7 +431,7 @@ def finish(
     """The result at x (marked a success: the caller decides): condition number, det J
     sign and, if ``polish`` (converged) and near a fold, polishing steps."""
     square = t.m == t.n
-    c = cond(J, fac)
+    c = _cond(J, fac)
     nj = 0
     if polish and c > POLISH_COND:
         # near a toggle Newton converges only linearly and the configuration error is
@@ -409,6 +454,6 @@ def finish(
             fac = factor(J)
             nj += 1
             it += 1
-        c = cond(J, fac)
+        c = _cond(J, fac)
     det = fac[2] if fac is not None and c < SINGULAR_COND else 0  # 0: singular, no sign
     return SolveResult(x, True, it, res, None, c, det, fac, nj)

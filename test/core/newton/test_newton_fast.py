@@ -371,3 +371,29 @@ def test_fast_path_result_does_not_alias_the_guess():
     assert r.success and r.x is not guess
     r.x[:] = 7.0
     assert np.array_equal(guess, keep)
+
+
+@pytest.mark.parametrize('name', ALL_SCENES)
+def test_fast_path_answer_reads_as_its_configuration_does(name):
+    """Each warm fast-path answer of a sweep carries what its configuration gives when read
+    afresh: the residual max|F| / L there (evaluate_scaled), det J's sign (numpy's slogdet of
+    the scale-free J there), cond as linalg.cond reports it (numpy's 1-norm of J into LAPACK's
+    estimate, or the SVD) and the LU the next prediction solves with (LAPACK's getrf of that
+    J). Would fail if the fast path reported a quantity of another point (the guess, a chord
+    iterate) or computed one of them differently (the 1-norm, the sign reading)."""
+    from scipy.linalg import lapack
+
+    mech = scene(name)
+    s, results = system_sweep(mech, 60)
+    sy = s.system
+    vals_of = [s.parse(cmd) for cmd in sweep(mech, 60)]
+    warm = [(r, v) for r, v in zip(results, vals_of) if r.predicted]
+    assert len(warm) >= 50
+    for r, v in warm:
+        F, J, res = sy.evaluate_scaled(r.x, v, None)
+        assert r.residual == res
+        assert r.det_sign == int(np.linalg.slogdet(J)[0])
+        lu, piv, info = lapack.dgetrf(J)
+        assert info == 0
+        assert np.array_equal(r.factor[0], lu) and np.array_equal(r.factor[1], piv)
+        assert r.cond == sy.cond(J, (lu, piv, r.det_sign))
