@@ -13,13 +13,14 @@ import numpy as np
 
 from ..ops import BATCH
 from ..quantities import AngleSpec, PointSpec
-from .blocks import BlockForm, block_det_signs, block_form, block_steps
+from .blocks import BlockForm, block_det_signs, block_form, block_inverse, block_steps
 from .results import (
     COND_EXACT,
     FAST_FLOOR,
     FAST_MARGIN,
     FAST_RATE,
     FAST_STEPS,
+    MAX_PREDICTION,
     POLISH_COND,
     BatchSolve,
 )
@@ -199,20 +200,22 @@ def scaled_conds(J: np.ndarray) -> np.ndarray:
         return np.full(J.shape[0], math.inf)
 
 
-def batch_conds(J: np.ndarray) -> np.ndarray:
+def batch_conds(J: np.ndarray, inverse: np.ndarray | None = None) -> np.ndarray:
     """cond of each matrix of a finite (K, n, n) stack as linalg.cond reports it: the 1-norm
-    condition number of the scale-free J (exact here, from its inverse; the scalar path
-    takes LAPACK's estimate of it) where that is below COND_EXACT, else scaled_cond. Only
-    the rows above pay for an SVD (an SVD costs ~5 LUs: the batch's largest cost)."""
+    condition number of the scale-free J (exact here, from its inverse, given or computed; the
+    scalar path takes LAPACK's estimate of it) where that is below COND_EXACT, else
+    scaled_cond. Only the rows above pay for an SVD (an SVD costs ~5 LUs: the batch's largest
+    cost)."""
     out = np.full(J.shape[0], math.inf)
     if J.shape[0] == 0:
         return out
-    try:
-        inv = np.linalg.inv(J)
-    except np.linalg.LinAlgError:  # an exactly singular matrix: SVDs for all
-        return scaled_conds(J)
+    if inverse is None:
+        try:
+            inverse = np.linalg.inv(J)
+        except np.linalg.LinAlgError:  # an exactly singular matrix: SVDs for all
+            return scaled_conds(J)
     with np.errstate(invalid='ignore', over='ignore'):
-        c1 = np.abs(J).sum(axis=1).max(axis=1) * np.abs(inv).sum(axis=1).max(axis=1)
+        c1 = np.abs(J).sum(axis=1).max(axis=1) * np.abs(inverse).sum(axis=1).max(axis=1)
     small = c1 < COND_EXACT  # False for NaN
     out[small] = c1[small]
     if not small.all():
@@ -238,6 +241,13 @@ class BatchNewton:
         """det_signs of a (K, n, n) stack of this system's Jacobians, block by block."""
         form = self.tables().form
         return det_signs(J) if form is None or not J.shape[0] else block_det_signs(form, J)
+
+    def conds(self, J: np.ndarray) -> np.ndarray:
+        """batch_conds of a (K, n, n) stack of this system's Jacobians, the inverse for the
+        1-norm taken block by block (block_inverse)."""
+        form = self.tables().form
+        inverse = block_inverse(form, J) if form is not None and J.shape[0] else None
+        return batch_conds(J, inverse)
 
     def newton_steps(self, J: np.ndarray, F: np.ndarray) -> np.ndarray:
         """newton_steps for a stack of this system's Jacobians: forward substitution through
@@ -375,6 +385,7 @@ class BatchNewton:
         tol: float = 1e-12,
         max_steps: int = FAST_STEPS + 2,
         start_checked: bool = False,
+        warm: bool = False,
     ) -> BatchSolve:
         """LoopSystem.solve_batch (its docstring)."""
         self.tables()  # ValueError first if the system needs fixed poses
@@ -392,27 +403,49 @@ class BatchNewton:
         sign0 = np.where(want == 1, 1, np.where(want == -1, -1, 0))
         target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
 
-        x = X0.copy()
+        # x, F, J, res: each row's latest accepted iterate. While every row steps (the common
+        # case) they are replaced whole, never gathered or scattered (copies of J cost as much
+        # as a step)
+        x = X0
         F, J, res = self._evaluate_jac(x, V)
-        res0 = res.copy()
+        res0 = res
         iterations = np.zeros(N, int)
         live = (sign0 != 0) & np.isfinite(res)
         if not start_checked:  # else the caller read start_sign off J at X0 (J needs no values)
-            live[live] = self.det_signs(J[live]) == sign0[live]
+            live[live] = self.det_signs(_rows_of(J, live)) == sign0[live]
         done = live & (res <= target)  # converged (pending det sign and cond at the answer)
         active = live & ~done  # still stepping
-        for _ in range(max_steps):
+        for step in range(max_steps):
             rows = np.flatnonzero(active)
             if not rows.size:
                 break
-            xn = x[rows] + self.newton_steps(J[rows], F[rows]) * t.step_scale
-            Fn, Jn, rn = self._evaluate_jac(xn, V[rows])
+            every = rows.size == N
+            Ja, Fa = (J, F) if every else (J[rows], F[rows])
+            dy = self.newton_steps(Ja, Fa)
+            xn = (x if every else x[rows]) + dy * t.step_scale
+            Fn, Jn, rn = self._evaluate_jac(xn, V if every else V[rows])
             iterations[rows] += 1
-            cut = rn <= FAST_RATE * res[rows]  # False for NaN
+            ra = res if every else res[rows]
+            with np.errstate(invalid='ignore'):
+                if warm and step == 0:
+                    # the first step from a solution at earlier values is the tangent
+                    # prediction the scalar path takes (scalar.predict): judged as it is
+                    # judged there, by how far it moves (MAX_PREDICTION); the rate from the next
+                    cut = (np.abs(dy).max(axis=1) <= MAX_PREDICTION) & np.isfinite(rn)
+                else:
+                    cut = rn <= FAST_RATE * ra  # False for NaN
+            if every and cut.all():
+                x, F, J, res = xn, Fn, Jn, rn
+                there = rn <= target
+                active &= ~there
+                done |= there
+                continue
             stalled = rows[~cut]
             active[stalled] = False
-            done[stalled] = res[stalled] <= tol  # at the rounding floor already: converged
+            done[stalled] = ra[~cut] <= tol  # at the rounding floor already: converged
             moved = rows[cut]
+            if x is X0:  # the first scatter: own copies, the start is not written to
+                x, F, J, res = x.copy(), F.copy(), J.copy(), res.copy()
             x[moved], F[moved], J[moved], res[moved] = xn[cut], Fn[cut], Jn[cut], rn[cut]
             there = moved[rn[cut] <= target]
             active[there] = False
@@ -423,11 +456,10 @@ class BatchNewton:
         # at the answer: the start's det J sign (else it crossed det J = 0: maybe another
         # branch; rows still at X0 were checked there) and off folds (else the scalar path
         # polishes)
-        rows = np.flatnonzero(done if start_checked else done & (iterations > 0))
-        done[rows] = self.det_signs(J[rows]) == sign0[rows]
+        check = done if start_checked else done & (iterations > 0)
+        done[check] = self.det_signs(_rows_of(J, check)) == sign0[check]
         cond = np.full(N, math.inf)
-        rows = np.flatnonzero(done)
-        cond[rows] = batch_conds(J[rows])
+        cond[done] = self.conds(_rows_of(J, done))
         ok = done & (cond < POLISH_COND) & np.isfinite(x).all(axis=1) & np.isfinite(res)
         return BatchSolve(
             x=np.where(ok[:, None], x, X0),
@@ -437,3 +469,8 @@ class BatchNewton:
             det_sign=np.where(ok, sign0, 0),
             cond=np.where(ok, cond, math.inf),
         )
+
+
+def _rows_of(A: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """A[mask], without the copy where every row is asked for."""
+    return A if mask.all() else A[mask]

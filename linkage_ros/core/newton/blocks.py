@@ -151,3 +151,33 @@ def block_steps(form: BlockForm, J: np.ndarray, F: np.ndarray) -> np.ndarray | N
                 except np.linalg.LinAlgError:
                     return None
     return dy
+
+
+def block_inverse(form: BlockForm, J: np.ndarray) -> np.ndarray | None:
+    """J^-1 (K, n, n) of a (K, n, n) stack with this block form, block row by block row: the
+    inverse of the diagonal block times (the identity's rows minus the blocks left of it times
+    the rows of J^-1 before it) (a dense stacked inverse costs ~3x more on the excavator);
+    None if a block of some matrix is singular (numpy's stacked inverse fails for the whole
+    stack: the caller takes the dense path). Rows of a matrix with a singular 1 x 1 block
+    come out inf or NaN."""
+    K, n = J.shape[0], J.shape[1]
+    inv = np.zeros((K, n, n))
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
+        for bl in form.blocks:
+            if len(bl.cols) == 1:
+                d = 1.0 / J[:, bl.rows[0], bl.cols[0]]
+                if bl.earlier.size:
+                    below = np.einsum('kj,kjc->kc', J[:, bl.rows[0], bl.earlier], inv[:, bl.earlier])
+                    inv[:, bl.cols[0], :] = -d[:, None] * below
+                inv[:, bl.cols[0], bl.rows[0]] += d
+                continue
+            try:
+                d_inv = np.linalg.inv(J[:, bl.rows[:, None], bl.cols])
+            except np.linalg.LinAlgError:
+                return None
+            if bl.earlier.size:
+                below = J[:, bl.rows[:, None], bl.earlier] @ inv[:, bl.earlier]
+                inv[:, bl.cols, :] = -(d_inv @ below)
+            # the identity's rows: d_inv's columns land in the block's own rows
+            inv[:, bl.cols[:, None], bl.rows] += d_inv
+    return inv

@@ -256,6 +256,7 @@ def _newton(
             start.det_sign[eligible],
             tol=c.tol,
             start_checked=True,
+            warm=True,  # start.x: solutions at the batch before
         )
         rows = eligible[bs.ok]
         x[rows], iterations[eligible] = bs.x[bs.ok], bs.iterations
