@@ -13,7 +13,7 @@ import numpy as np
 
 from ..ops import BATCH
 from ..quantities import AngleSpec, PointSpec
-from .blocks import BlockForm, block_det_signs, block_form, block_inverse, block_steps
+from .blocks import BlockForm, block_det_signs, block_form, block_inverse_norms, block_steps
 from .results import (
     COND_EXACT,
     FAST_FLOOR,
@@ -200,22 +200,23 @@ def scaled_conds(J: np.ndarray) -> np.ndarray:
         return np.full(J.shape[0], math.inf)
 
 
-def batch_conds(J: np.ndarray, inverse: np.ndarray | None = None) -> np.ndarray:
+def batch_conds(J: np.ndarray, inverse_norms: np.ndarray | None = None) -> np.ndarray:
     """cond of each matrix of a finite (K, n, n) stack as linalg.cond reports it: the 1-norm
-    condition number of the scale-free J (exact here, from its inverse, given or computed; the
-    scalar path takes LAPACK's estimate of it) where that is below COND_EXACT, else
-    scaled_cond. Only the rows above pay for an SVD (an SVD costs ~5 LUs: the batch's largest
-    cost)."""
+    condition number of the scale-free J (exact here, from its inverse: ``inverse_norms``
+    ||J^-1||_1 if given, else from a dense inverse; the scalar path takes LAPACK's estimate of
+    it) where that is below COND_EXACT, else scaled_cond. Only the rows above pay for an SVD
+    (an SVD costs ~5 LUs: the batch's largest cost)."""
     out = np.full(J.shape[0], math.inf)
     if J.shape[0] == 0:
         return out
-    if inverse is None:
+    if inverse_norms is None:
         try:
             inverse = np.linalg.inv(J)
         except np.linalg.LinAlgError:  # an exactly singular matrix: SVDs for all
             return scaled_conds(J)
+        inverse_norms = np.abs(inverse).sum(axis=1).max(axis=1)
     with np.errstate(invalid='ignore', over='ignore'):
-        c1 = np.abs(J).sum(axis=1).max(axis=1) * np.abs(inverse).sum(axis=1).max(axis=1)
+        c1 = np.abs(J).sum(axis=1).max(axis=1) * inverse_norms
     small = c1 < COND_EXACT  # False for NaN
     out[small] = c1[small]
     if not small.all():
@@ -243,11 +244,11 @@ class BatchNewton:
         return det_signs(J) if form is None or not J.shape[0] else block_det_signs(form, J)
 
     def conds(self, J: np.ndarray) -> np.ndarray:
-        """batch_conds of a (K, n, n) stack of this system's Jacobians, the inverse for the
-        1-norm taken block by block (block_inverse)."""
+        """batch_conds of a (K, n, n) stack of this system's Jacobians, ||J^-1||_1 found block
+        by block (block_inverse_norms)."""
         form = self.tables().form
-        inverse = block_inverse(form, J) if form is not None and J.shape[0] else None
-        return batch_conds(J, inverse)
+        norms = block_inverse_norms(form, J) if form is not None and J.shape[0] else None
+        return batch_conds(J, norms)
 
     def newton_steps(self, J: np.ndarray, F: np.ndarray) -> np.ndarray:
         """newton_steps for a stack of this system's Jacobians: forward substitution through

@@ -153,31 +153,38 @@ def block_steps(form: BlockForm, J: np.ndarray, F: np.ndarray) -> np.ndarray | N
     return dy
 
 
-def block_inverse(form: BlockForm, J: np.ndarray) -> np.ndarray | None:
-    """J^-1 (K, n, n) of a (K, n, n) stack with this block form, block row by block row: the
-    inverse of the diagonal block times (the identity's rows minus the blocks left of it times
-    the rows of J^-1 before it) (a dense stacked inverse costs ~3x more on the excavator);
-    None if a block of some matrix is singular (numpy's stacked inverse fails for the whole
-    stack: the caller takes the dense path). Rows of a matrix with a singular 1 x 1 block
-    come out inf or NaN."""
+def block_inverse_norms(form: BlockForm, J: np.ndarray) -> np.ndarray | None:
+    """(K,) ||J^-1||_1 (its largest column sum of magnitudes) of each matrix of a (K, n, n)
+    stack with this block form. J^-1's rows are found block by block (the inverse of the
+    diagonal block times the identity's rows minus the blocks left of it times the rows of
+    J^-1 before it), stored in block order (the 1-norm does not depend on the rows' order);
+    on the excavator about a third of the flops and copies of a dense stacked inverse. None
+    if a block of some matrix is singular (numpy's stacked inverse fails for the whole stack:
+    the caller takes the dense path); a singular 1 x 1 block makes its matrix's norm inf or
+    NaN."""
     K, n = J.shape[0], J.shape[1]
-    inv = np.zeros((K, n, n))
+    at_row = np.empty(n, np.intp)  # each unknown's row in the block-ordered inverse
+    at_row[np.concatenate([bl.cols for bl in form.blocks])] = np.arange(n)
+    inv = np.empty((K, n, n))
+    at = 0
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         for bl in form.blocks:
-            if len(bl.cols) == 1:
-                d = 1.0 / J[:, bl.rows[0], bl.cols[0]]
-                if bl.earlier.size:
-                    below = np.einsum('kj,kjc->kc', J[:, bl.rows[0], bl.earlier], inv[:, bl.earlier])
-                    inv[:, bl.cols[0], :] = -d[:, None] * below
-                inv[:, bl.cols[0], bl.rows[0]] += d
-                continue
-            try:
-                d_inv = np.linalg.inv(J[:, bl.rows[:, None], bl.cols])
-            except np.linalg.LinAlgError:
-                return None
+            size = len(bl.cols)
+            if size == 1:
+                d_inv = 1.0 / J[:, bl.rows[0], bl.cols[0]][:, None, None]
+            else:
+                try:
+                    d_inv = np.linalg.inv(J[:, bl.rows[:, None], bl.cols])
+                except np.linalg.LinAlgError:
+                    return None
+            rows = inv[:, at : at + size, :]
             if bl.earlier.size:
-                below = J[:, bl.rows[:, None], bl.earlier] @ inv[:, bl.earlier]
-                inv[:, bl.cols, :] = -(d_inv @ below)
-            # the identity's rows: d_inv's columns land in the block's own rows
-            inv[:, bl.cols[:, None], bl.rows] += d_inv
-    return inv
+                below = J[:, bl.rows[:, None], bl.earlier] @ inv[:, at_row[bl.earlier], :]
+                np.matmul(d_inv, below, out=rows)
+                np.negative(rows, out=rows)
+            else:
+                rows[...] = 0.0
+            rows[:, :, bl.rows] += d_inv  # the identity's rows: d_inv in the block's columns
+            at += size
+        norms: np.ndarray = np.abs(inv).sum(axis=1).max(axis=1)
+    return norms
