@@ -13,7 +13,15 @@ import numpy as np
 
 from ..ops import BATCH
 from ..quantities import AngleSpec, PointSpec
-from .blocks import BlockForm, block_det_signs, block_form, block_inverse_norms, block_steps
+from .blocks import (
+    Block,
+    BlockForm,
+    BlockParts,
+    block_form,
+    parts_det_signs,
+    parts_inverse_norms,
+    parts_steps,
+)
 from .results import (
     COND_EXACT,
     FAST_FLOOR,
@@ -26,6 +34,70 @@ from .results import (
 )
 from .rows import AngleRow, LineRow, angle_row, line_row, point_rows, revolute_rows
 from .tables import LoopTables, jacobian_pattern
+
+
+@dataclass(frozen=True, slots=True)
+class PackedJacobian:
+    """A square system's J stored block by block, as the batched solve keeps it: for each block
+    of ``form`` its diagonal part (b x b, row-major), then the part left of it (b x e), so each
+    is a view of the packed (K, size) stack rather than a gather from a dense one (the
+    excavator's 33 x 33 J packs into 405 entries). Every other entry of J is zero at every
+    configuration."""
+
+    form: BlockForm  # the system's block form, else one block: the whole J
+    whole: bool  # one block: the packed J is the dense one, flattened
+    at: tuple[tuple[int, int], ...]  # each block's offsets: its diagonal part, the part left
+    size: int
+    tpl: np.ndarray  # (size,) the scale-free J's constant entries
+    pos: np.ndarray  # the packed position of each varying entry of a free link
+    dense: np.ndarray  # (size,) each packed entry's flat position in the (m, n) J
+
+    def parts(self, Jp: np.ndarray) -> BlockParts:
+        """The BlockParts of a packed (K, size) stack: views, no copies."""
+        K = Jp.shape[0]
+        out: BlockParts = []
+        for bl, (d, e) in zip(self.form.blocks, self.at):
+            b, w = len(bl.cols), len(bl.earlier)
+            out.append(
+                (Jp[:, d : d + b * b].reshape(K, b, b), Jp[:, e : e + b * w].reshape(K, b, w))
+            )
+        return out
+
+    def unpack(self, Jp: np.ndarray) -> np.ndarray:
+        """The dense (K, n, n) stack of a packed one (a view where ``whole``)."""
+        n = sum(len(bl.cols) for bl in self.form.blocks)
+        if self.whole:
+            return Jp.reshape(-1, n, n)
+        J = np.zeros((Jp.shape[0], n * n))
+        J[:, self.dense] = Jp
+        return J.reshape(-1, n, n)
+
+
+def packed_jacobian(
+    form: BlockForm | None, n: int, tpl: np.ndarray, pos: np.ndarray
+) -> PackedJacobian:
+    """The PackedJacobian of an (n, n) J with this block form (None: one block), constant
+    entries ``tpl`` (flat, n * n) and varying entries at the flat positions ``pos``."""
+    whole = form is None
+    if form is None:
+        every = np.arange(n)
+        form = BlockForm((Block(every, every, np.zeros(0, np.intp)),), 1)
+    flat: list[np.ndarray] = []
+    at: list[tuple[int, int]] = []
+    size = 0
+    for bl in form.blocks:
+        diag = (bl.rows[:, None] * n + bl.cols).ravel()
+        left = (bl.rows[:, None] * n + bl.earlier).ravel()
+        at.append((size, size + diag.size))
+        flat += [diag, left]
+        size += diag.size + left.size
+    dense = np.concatenate(flat) if flat else np.zeros(0, np.intp)
+    packed_of = np.full(n * n, -1, np.intp)
+    packed_of[dense] = np.arange(size)
+    packed_pos = packed_of[pos]
+    # the blocks cover every entry that can be nonzero (jacobian_pattern): none is lost
+    assert np.all(packed_pos >= 0) and np.count_nonzero(tpl) == np.count_nonzero(tpl[dense])
+    return PackedJacobian(form, whole, tuple(at), size, tpl[dense], packed_pos, dense)
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +134,7 @@ class BatchTables:
     j_pos: np.ndarray  # ... and their flat positions in J
     j_tpl: np.ndarray  # the scale-free J's constant entries, flat (m * n,)
     form: BlockForm | None  # J's block-triangular form (None: not square, or singular)
+    packed: PackedJacobian | None  # how the batched solve stores J (None: not square)
 
 
 def batch_tables(t: LoopTables) -> BatchTables:
@@ -117,6 +190,8 @@ def batch_tables(t: LoopTables) -> BatchTables:
         return a.astype(np.intp)
 
     real = t.jpos != t.m * t.n  # entries of fixed links are dropped
+    form = block_form(jacobian_pattern(t))
+    packed = packed_jacobian(form, t.n, t.tpl_s[:-1], t.jpos[real]) if t.m == t.n and t.n else None
     return BatchTables(
         n_cols=zero + 1,
         cols=cols,
@@ -144,7 +219,8 @@ def batch_tables(t: LoopTables) -> BatchTables:
         jv_real=np.flatnonzero(real),
         j_pos=t.jpos[real],
         j_tpl=t.tpl_s[:-1],
-        form=block_form(jacobian_pattern(t)),
+        form=form,
+        packed=packed,
     )
 
 
@@ -238,24 +314,33 @@ class BatchNewton:
             self._tables = batch_tables(self.t)
         return self._tables
 
-    def det_signs(self, J: np.ndarray) -> np.ndarray:
-        """det_signs of a (K, n, n) stack of this system's Jacobians, block by block."""
-        form = self.tables().form
-        return det_signs(J) if form is None or not J.shape[0] else block_det_signs(form, J)
+    def _packed(self) -> PackedJacobian:
+        packed = self.tables().packed
+        assert packed is not None, 'the batched solve takes square systems only'
+        return packed
 
-    def conds(self, J: np.ndarray) -> np.ndarray:
-        """batch_conds of a (K, n, n) stack of this system's Jacobians, ||J^-1||_1 found block
-        by block (block_inverse_norms)."""
-        form = self.tables().form
-        norms = block_inverse_norms(form, J) if form is not None and J.shape[0] else None
-        return batch_conds(J, norms)
+    def det_signs(self, Jp: np.ndarray) -> np.ndarray:
+        """det_signs of a packed (K, size) stack of this system's Jacobians, block by block."""
+        packed = self._packed()
+        if packed.whole or not Jp.shape[0]:
+            return det_signs(packed.unpack(Jp))
+        return parts_det_signs(packed.form, packed.parts(Jp))
 
-    def newton_steps(self, J: np.ndarray, F: np.ndarray) -> np.ndarray:
-        """newton_steps for a stack of this system's Jacobians: forward substitution through
-        its blocks, densely where a block of some matrix is singular."""
-        form = self.tables().form
-        dy = block_steps(form, J, F) if form is not None and J.shape[0] else None
-        return newton_steps(J, F) if dy is None else dy
+    def conds(self, Jp: np.ndarray) -> np.ndarray:
+        """batch_conds of a packed (K, size) stack of this system's Jacobians, ||J^-1||_1
+        found block by block (parts_inverse_norms)."""
+        packed = self._packed()
+        blocks = not packed.whole and Jp.shape[0]
+        norms = parts_inverse_norms(packed.form, packed.parts(Jp)) if blocks else None
+        return batch_conds(packed.unpack(Jp), norms)
+
+    def newton_steps(self, Jp: np.ndarray, F: np.ndarray) -> np.ndarray:
+        """newton_steps for a packed (K, size) stack of this system's Jacobians: forward
+        substitution through its blocks, densely where a block of some matrix is singular."""
+        packed = self._packed()
+        blocks = not packed.whole and Jp.shape[0]
+        dy = parts_steps(packed.form, packed.parts(Jp), F) if blocks else None
+        return newton_steps(packed.unpack(Jp), F) if dy is None else dy
 
     def values(self, values: Sequence[Any], N: int) -> np.ndarray:
         """(N, columns) matrix of the values (angles wrapped as evaluate.residual_rows wraps
@@ -282,11 +367,11 @@ class BatchNewton:
         return V
 
     def evaluate(
-        self, X: np.ndarray, V: np.ndarray, jacobian: bool
+        self, X: np.ndarray, V: np.ndarray, jacobian: bool, packed: bool = False
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """evaluate_scaled for the rows of X (N, n) with the value matrix V (values()):
-        F (N, m), J (N, m, n) or None, res (N,). The formulas are core.newton.rows', as in
-        evaluate.residual_rows."""
+        F (N, m), J (N, m, n) (``packed``: (N, size) as PackedJacobian stores it) or None,
+        res (N,). The formulas are core.newton.rows', as in evaluate.residual_rows."""
         t, tab = self.t, self.tables()
         N, m, nf = X.shape[0], t.m, len(t.free)
         k = 1.0 / t.L
@@ -351,14 +436,16 @@ class BatchNewton:
         res[~np.isfinite(F).all(axis=1)] = math.inf
         if Jv is None:
             return F, None, res
-        J = np.empty((N, m * t.n))
-        J[:] = tab.j_tpl
+        layout = self._packed() if packed else None
+        tpl, pos = (tab.j_tpl, tab.j_pos) if layout is None else (layout.tpl, layout.pos)
+        J = np.empty((N, len(tpl)))
+        J[:] = tpl
         if t.jpos_unique:
-            J[:, tab.j_pos] = Jv[:, tab.jv_real]
+            J[:, pos] = Jv[:, tab.jv_real]
         else:
             # numpy's stubs take no tuple index for ufunc.at
-            np.add.at(J, (slice(None), tab.j_pos), Jv[:, tab.jv_real])  # type: ignore[arg-type]
-        return F, J.reshape(N, m, t.n), res
+            np.add.at(J, (slice(None), pos), Jv[:, tab.jv_real])  # type: ignore[arg-type]
+        return F, (J if packed else J.reshape(N, m, t.n)), res
 
     def evaluate_batch(
         self, X: np.ndarray, values: Sequence[Any], jacobian: bool = True
@@ -373,7 +460,7 @@ class BatchNewton:
     def _evaluate_jac(
         self, X: np.ndarray, V: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        F, J, res = self.evaluate(X, V, True)
+        F, J, res = self.evaluate(X, V, True, packed=True)
         assert J is not None
         return F, J, res
 
