@@ -386,8 +386,10 @@ class BatchNewton:
             P[3, :, :nf] = X[:, 1::3]
             P[4, :, :nf] = X[:, 2::3]
             P[:, :, nf:] = tab.fixed
-            blown = np.isinf(phi).any(axis=1)
-            if blown.any():  # as residual_rows, where math.cos raises: NaN free slots
+            total = float(phi.sum())
+            if total - total != 0.0:  # a NaN or inf angle somewhere: look closer (rare)
+                blown = np.isinf(phi).any(axis=1)
+                # as residual_rows, where math.cos raises: NaN free slots
                 P[:, blown, :nf] = math.nan
             F = np.empty((N, m))
             Jv = np.empty((N, len(t.jpos))) if jacobian else None
@@ -432,8 +434,10 @@ class BatchNewton:
                 F[:, tab.pt_row + 1] = fy
                 if Jv is not None:
                     Jv[:, tab.pt_jv] = np.stack(jp, axis=-1)
-        res = np.abs(F).max(axis=1) if m else np.zeros(N)
-        res[~np.isfinite(F).all(axis=1)] = math.inf
+        res = np.abs(F).max(axis=1) if m else np.zeros(N)  # NaN where F has one
+        total = float(res.sum())
+        if total - total != 0.0:  # a row with NaN or inf: inf (rare)
+            res[~np.isfinite(res)] = math.inf
         if Jv is None:
             return F, None, res
         layout = self._packed() if packed else None

@@ -232,6 +232,26 @@ def test_evaluate_batch_jacobian_matches_finite_differences(label, sy, ref):
         np.testing.assert_allclose(J[:, :, j], fd, rtol=1e-6, atol=1e-8, err_msg=f'{label} {j}')
 
 
+@pytest.mark.parametrize('label,sy,ref', SYSTEMS, ids=IDS)
+def test_packed_jacobian_holds_every_entry(label, sy, ref):
+    """The J the batched solve keeps packed block by block (BatchNewton.evaluate(packed=True))
+    unpacks to evaluate_batch's dense J bit for bit (every entry that can be nonzero is in a
+    block; the rest are 0), with the same F and res; its block parts are views of it."""
+    if sy.m != sy.n:
+        return
+    rng = np.random.default_rng(9)
+    X, rows = random_inputs(sy, ref, 30, rng)
+    V = sy.batch.values(stack(sy, rows), len(X))
+    F, J, res = sy.evaluate_batch(X, stack(sy, rows))
+    Fp, Jp, rp = sy.batch.evaluate(X, V, True, packed=True)
+    layout = sy.batch.tables().packed
+    assert layout is not None and Jp.shape == (len(X), layout.size)
+    assert np.array_equal(layout.unpack(Jp), J, equal_nan=True)
+    assert np.array_equal(Fp, F, equal_nan=True) and np.array_equal(rp, res)
+    for diag, left in layout.parts(Jp):
+        assert np.shares_memory(diag, Jp) and (left.size == 0 or np.shares_memory(left, Jp))
+
+
 def test_evaluate_batch_empty_and_shape_errors():
     sy = Solver(scene('four_bar'), method='newton').system
     F, J, res = sy.evaluate_batch(np.zeros((0, sy.n)), [np.zeros(0)])
