@@ -184,12 +184,14 @@ def block_inverse_norms(form: BlockForm, J: np.ndarray) -> np.ndarray | None:
 
 
 def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None:
-    """block_inverse_norms from the stack's BlockParts."""
+    """block_inverse_norms from the stack's BlockParts. J^-1 is kept with its rows (unknowns)
+    and columns (residual rows) both in block order, where it is block lower triangular: each
+    block's rows are found on the columns of the blocks up to it only, as slices."""
     K = parts[0][0].shape[0]
     n = sum(len(bl.cols) for bl in form.blocks)
     at_row = np.empty(n, np.intp)  # each unknown's row in the block-ordered inverse
     at_row[np.concatenate([bl.cols for bl in form.blocks])] = np.arange(n)
-    inv = np.empty((K, n, n))
+    inv = np.zeros((K, n, n))
     at = 0
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         for bl, (diag, left) in zip(form.blocks, parts):
@@ -201,13 +203,11 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
                     d_inv = np.linalg.inv(diag)
                 except np.linalg.LinAlgError:
                     return None
-            rows = inv[:, at : at + size, :]
-            if bl.earlier.size:
-                np.matmul(d_inv, left @ inv[:, at_row[bl.earlier], :], out=rows)
+            if bl.earlier.size:  # minus d_inv times the blocks left of it times their rows
+                rows = inv[:, at : at + size, :at]
+                np.matmul(d_inv, left @ inv[:, at_row[bl.earlier], :at], out=rows)
                 np.negative(rows, out=rows)
-            else:
-                rows[...] = 0.0
-            rows[:, :, bl.rows] += d_inv  # the identity's rows: d_inv in the block's columns
+            inv[:, at : at + size, at : at + size] = d_inv  # the identity's rows
             at += size
         norms: np.ndarray = np.abs(inv).sum(axis=1).max(axis=1)
     return norms
