@@ -13,18 +13,91 @@ import numpy as np
 
 from ..ops import BATCH
 from ..quantities import AngleSpec, PointSpec
-from .blocks import BlockForm, block_det_signs, block_form, block_steps
+from .blocks import (
+    Block,
+    BlockForm,
+    BlockParts,
+    block_form,
+    parts_det_signs,
+    parts_inverse_norms,
+    parts_steps,
+)
 from .results import (
     COND_EXACT,
     FAST_FLOOR,
     FAST_MARGIN,
     FAST_RATE,
     FAST_STEPS,
+    MAX_PREDICTION,
     POLISH_COND,
     BatchSolve,
 )
 from .rows import AngleRow, LineRow, angle_row, line_row, point_rows, revolute_rows
 from .tables import LoopTables, jacobian_pattern
+
+
+@dataclass(frozen=True, slots=True)
+class PackedJacobian:
+    """A square system's J stored block by block, as the batched solve keeps it: for each block
+    of ``form`` its diagonal part (b x b, row-major), then the part left of it (b x e), so each
+    is a view of the packed (K, size) stack rather than a gather from a dense one (the
+    excavator's 33 x 33 J packs into 405 entries). Every other entry of J is zero at every
+    configuration."""
+
+    form: BlockForm  # the system's block form, else one block: the whole J
+    whole: bool  # one block: the packed J is the dense one, flattened
+    at: tuple[tuple[int, int], ...]  # each block's offsets: its diagonal part, the part left
+    size: int
+    tpl: np.ndarray  # (size,) the scale-free J's constant entries
+    pos: np.ndarray  # the packed position of each varying entry of a free link
+    dense: np.ndarray  # (size,) each packed entry's flat position in the (m, n) J
+
+    def parts(self, Jp: np.ndarray) -> BlockParts:
+        """The BlockParts of a packed (K, size) stack: views, no copies."""
+        K = Jp.shape[0]
+        out: BlockParts = []
+        for bl, (d, e) in zip(self.form.blocks, self.at):
+            b, w = len(bl.cols), len(bl.earlier)
+            out.append(
+                (Jp[:, d : d + b * b].reshape(K, b, b), Jp[:, e : e + b * w].reshape(K, b, w))
+            )
+        return out
+
+    def unpack(self, Jp: np.ndarray) -> np.ndarray:
+        """The dense (K, n, n) stack of a packed one (a view where ``whole``)."""
+        n = sum(len(bl.cols) for bl in self.form.blocks)
+        if self.whole:
+            return Jp.reshape(-1, n, n)
+        J = np.zeros((Jp.shape[0], n * n))
+        J[:, self.dense] = Jp
+        return J.reshape(-1, n, n)
+
+
+def packed_jacobian(
+    form: BlockForm | None, n: int, tpl: np.ndarray, pos: np.ndarray
+) -> PackedJacobian:
+    """The PackedJacobian of an (n, n) J with this block form (None: one block), constant
+    entries ``tpl`` (flat, n * n) and varying entries at the flat positions ``pos``."""
+    whole = form is None
+    if form is None:
+        every = np.arange(n)
+        form = BlockForm((Block(every, every, np.zeros(0, np.intp)),), 1)
+    flat: list[np.ndarray] = []
+    at: list[tuple[int, int]] = []
+    size = 0
+    for bl in form.blocks:
+        diag = (bl.rows[:, None] * n + bl.cols).ravel()
+        left = (bl.rows[:, None] * n + bl.earlier).ravel()
+        at.append((size, size + diag.size))
+        flat += [diag, left]
+        size += diag.size + left.size
+    dense = np.concatenate(flat) if flat else np.zeros(0, np.intp)
+    packed_of = np.full(n * n, -1, np.intp)
+    packed_of[dense] = np.arange(size)
+    packed_pos = packed_of[pos]
+    # the blocks cover every entry that can be nonzero (jacobian_pattern): none is lost
+    assert np.all(packed_pos >= 0) and np.count_nonzero(tpl) == np.count_nonzero(tpl[dense])
+    return PackedJacobian(form, whole, tuple(at), size, tpl[dense], packed_pos, dense)
 
 
 @dataclass(frozen=True, slots=True)
@@ -61,6 +134,7 @@ class BatchTables:
     j_pos: np.ndarray  # ... and their flat positions in J
     j_tpl: np.ndarray  # the scale-free J's constant entries, flat (m * n,)
     form: BlockForm | None  # J's block-triangular form (None: not square, or singular)
+    packed: PackedJacobian | None  # how the batched solve stores J (None: not square)
 
 
 def batch_tables(t: LoopTables) -> BatchTables:
@@ -116,6 +190,8 @@ def batch_tables(t: LoopTables) -> BatchTables:
         return a.astype(np.intp)
 
     real = t.jpos != t.m * t.n  # entries of fixed links are dropped
+    form = block_form(jacobian_pattern(t))
+    packed = packed_jacobian(form, t.n, t.tpl_s[:-1], t.jpos[real]) if t.m == t.n and t.n else None
     return BatchTables(
         n_cols=zero + 1,
         cols=cols,
@@ -143,7 +219,8 @@ def batch_tables(t: LoopTables) -> BatchTables:
         jv_real=np.flatnonzero(real),
         j_pos=t.jpos[real],
         j_tpl=t.tpl_s[:-1],
-        form=block_form(jacobian_pattern(t)),
+        form=form,
+        packed=packed,
     )
 
 
@@ -199,20 +276,23 @@ def scaled_conds(J: np.ndarray) -> np.ndarray:
         return np.full(J.shape[0], math.inf)
 
 
-def batch_conds(J: np.ndarray) -> np.ndarray:
+def batch_conds(J: np.ndarray, inverse_norms: np.ndarray | None = None) -> np.ndarray:
     """cond of each matrix of a finite (K, n, n) stack as linalg.cond reports it: the 1-norm
-    condition number of the scale-free J (exact here, from its inverse; the scalar path
-    takes LAPACK's estimate of it) where that is below COND_EXACT, else scaled_cond. Only
-    the rows above pay for an SVD (an SVD costs ~5 LUs: the batch's largest cost)."""
+    condition number of the scale-free J (exact here, from its inverse: ``inverse_norms``
+    ||J^-1||_1 if given, else from a dense inverse; the scalar path takes LAPACK's estimate of
+    it) where that is below COND_EXACT, else scaled_cond. Only the rows above pay for an SVD
+    (an SVD costs ~5 LUs: the batch's largest cost)."""
     out = np.full(J.shape[0], math.inf)
     if J.shape[0] == 0:
         return out
-    try:
-        inv = np.linalg.inv(J)
-    except np.linalg.LinAlgError:  # an exactly singular matrix: SVDs for all
-        return scaled_conds(J)
+    if inverse_norms is None:
+        try:
+            inverse = np.linalg.inv(J)
+        except np.linalg.LinAlgError:  # an exactly singular matrix: SVDs for all
+            return scaled_conds(J)
+        inverse_norms = np.abs(inverse).sum(axis=1).max(axis=1)
     with np.errstate(invalid='ignore', over='ignore'):
-        c1 = np.abs(J).sum(axis=1).max(axis=1) * np.abs(inv).sum(axis=1).max(axis=1)
+        c1 = np.abs(J).sum(axis=1).max(axis=1) * inverse_norms
     small = c1 < COND_EXACT  # False for NaN
     out[small] = c1[small]
     if not small.all():
@@ -234,17 +314,33 @@ class BatchNewton:
             self._tables = batch_tables(self.t)
         return self._tables
 
-    def det_signs(self, J: np.ndarray) -> np.ndarray:
-        """det_signs of a (K, n, n) stack of this system's Jacobians, block by block."""
-        form = self.tables().form
-        return det_signs(J) if form is None or not J.shape[0] else block_det_signs(form, J)
+    def _packed(self) -> PackedJacobian:
+        packed = self.tables().packed
+        assert packed is not None, 'the batched solve takes square systems only'
+        return packed
 
-    def newton_steps(self, J: np.ndarray, F: np.ndarray) -> np.ndarray:
-        """newton_steps for a stack of this system's Jacobians: forward substitution through
-        its blocks, densely where a block of some matrix is singular."""
-        form = self.tables().form
-        dy = block_steps(form, J, F) if form is not None and J.shape[0] else None
-        return newton_steps(J, F) if dy is None else dy
+    def det_signs(self, Jp: np.ndarray) -> np.ndarray:
+        """det_signs of a packed (K, size) stack of this system's Jacobians, block by block."""
+        packed = self._packed()
+        if packed.whole or not Jp.shape[0]:
+            return det_signs(packed.unpack(Jp))
+        return parts_det_signs(packed.form, packed.parts(Jp))
+
+    def conds(self, Jp: np.ndarray) -> np.ndarray:
+        """batch_conds of a packed (K, size) stack of this system's Jacobians, ||J^-1||_1
+        found block by block (parts_inverse_norms)."""
+        packed = self._packed()
+        blocks = not packed.whole and Jp.shape[0]
+        norms = parts_inverse_norms(packed.form, packed.parts(Jp)) if blocks else None
+        return batch_conds(packed.unpack(Jp), norms)
+
+    def newton_steps(self, Jp: np.ndarray, F: np.ndarray) -> np.ndarray:
+        """newton_steps for a packed (K, size) stack of this system's Jacobians: forward
+        substitution through its blocks, densely where a block of some matrix is singular."""
+        packed = self._packed()
+        blocks = not packed.whole and Jp.shape[0]
+        dy = parts_steps(packed.form, packed.parts(Jp), F) if blocks else None
+        return newton_steps(packed.unpack(Jp), F) if dy is None else dy
 
     def values(self, values: Sequence[Any], N: int) -> np.ndarray:
         """(N, columns) matrix of the values (angles wrapped as evaluate.residual_rows wraps
@@ -271,11 +367,11 @@ class BatchNewton:
         return V
 
     def evaluate(
-        self, X: np.ndarray, V: np.ndarray, jacobian: bool
+        self, X: np.ndarray, V: np.ndarray, jacobian: bool, packed: bool = False
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """evaluate_scaled for the rows of X (N, n) with the value matrix V (values()):
-        F (N, m), J (N, m, n) or None, res (N,). The formulas are core.newton.rows', as in
-        evaluate.residual_rows."""
+        F (N, m), J (N, m, n) (``packed``: (N, size) as PackedJacobian stores it) or None,
+        res (N,). The formulas are core.newton.rows', as in evaluate.residual_rows."""
         t, tab = self.t, self.tables()
         N, m, nf = X.shape[0], t.m, len(t.free)
         k = 1.0 / t.L
@@ -290,8 +386,10 @@ class BatchNewton:
             P[3, :, :nf] = X[:, 1::3]
             P[4, :, :nf] = X[:, 2::3]
             P[:, :, nf:] = tab.fixed
-            blown = np.isinf(phi).any(axis=1)
-            if blown.any():  # as residual_rows, where math.cos raises: NaN free slots
+            total = float(phi.sum())
+            if total - total != 0.0:  # a NaN or inf angle somewhere: look closer (rare)
+                blown = np.isinf(phi).any(axis=1)
+                # as residual_rows, where math.cos raises: NaN free slots
                 P[:, blown, :nf] = math.nan
             F = np.empty((N, m))
             Jv = np.empty((N, len(t.jpos))) if jacobian else None
@@ -336,18 +434,22 @@ class BatchNewton:
                 F[:, tab.pt_row + 1] = fy
                 if Jv is not None:
                     Jv[:, tab.pt_jv] = np.stack(jp, axis=-1)
-        res = np.abs(F).max(axis=1) if m else np.zeros(N)
-        res[~np.isfinite(F).all(axis=1)] = math.inf
+        res = np.abs(F).max(axis=1) if m else np.zeros(N)  # NaN where F has one
+        total = float(res.sum())
+        if total - total != 0.0:  # a row with NaN or inf: inf (rare)
+            res[~np.isfinite(res)] = math.inf
         if Jv is None:
             return F, None, res
-        J = np.empty((N, m * t.n))
-        J[:] = tab.j_tpl
+        layout = self._packed() if packed else None
+        tpl, pos = (tab.j_tpl, tab.j_pos) if layout is None else (layout.tpl, layout.pos)
+        J = np.empty((N, len(tpl)))
+        J[:] = tpl
         if t.jpos_unique:
-            J[:, tab.j_pos] = Jv[:, tab.jv_real]
+            J[:, pos] = Jv[:, tab.jv_real]
         else:
             # numpy's stubs take no tuple index for ufunc.at
-            np.add.at(J, (slice(None), tab.j_pos), Jv[:, tab.jv_real])  # type: ignore[arg-type]
-        return F, J.reshape(N, m, t.n), res
+            np.add.at(J, (slice(None), pos), Jv[:, tab.jv_real])  # type: ignore[arg-type]
+        return F, (J if packed else J.reshape(N, m, t.n)), res
 
     def evaluate_batch(
         self, X: np.ndarray, values: Sequence[Any], jacobian: bool = True
@@ -362,7 +464,7 @@ class BatchNewton:
     def _evaluate_jac(
         self, X: np.ndarray, V: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        F, J, res = self.evaluate(X, V, True)
+        F, J, res = self.evaluate(X, V, True, packed=True)
         assert J is not None
         return F, J, res
 
@@ -375,6 +477,7 @@ class BatchNewton:
         tol: float = 1e-12,
         max_steps: int = FAST_STEPS + 2,
         start_checked: bool = False,
+        warm: bool = False,
     ) -> BatchSolve:
         """LoopSystem.solve_batch (its docstring)."""
         self.tables()  # ValueError first if the system needs fixed poses
@@ -392,27 +495,49 @@ class BatchNewton:
         sign0 = np.where(want == 1, 1, np.where(want == -1, -1, 0))
         target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
 
-        x = X0.copy()
+        # x, F, J, res: each row's latest accepted iterate. While every row steps (the common
+        # case) they are replaced whole, never gathered or scattered (copies of J cost as much
+        # as a step)
+        x = X0
         F, J, res = self._evaluate_jac(x, V)
-        res0 = res.copy()
+        res0 = res
         iterations = np.zeros(N, int)
         live = (sign0 != 0) & np.isfinite(res)
         if not start_checked:  # else the caller read start_sign off J at X0 (J needs no values)
-            live[live] = self.det_signs(J[live]) == sign0[live]
+            live[live] = self.det_signs(_rows_of(J, live)) == sign0[live]
         done = live & (res <= target)  # converged (pending det sign and cond at the answer)
         active = live & ~done  # still stepping
-        for _ in range(max_steps):
+        for step in range(max_steps):
             rows = np.flatnonzero(active)
             if not rows.size:
                 break
-            xn = x[rows] + self.newton_steps(J[rows], F[rows]) * t.step_scale
-            Fn, Jn, rn = self._evaluate_jac(xn, V[rows])
+            every = rows.size == N
+            Ja, Fa = (J, F) if every else (J[rows], F[rows])
+            dy = self.newton_steps(Ja, Fa)
+            xn = (x if every else x[rows]) + dy * t.step_scale
+            Fn, Jn, rn = self._evaluate_jac(xn, V if every else V[rows])
             iterations[rows] += 1
-            cut = rn <= FAST_RATE * res[rows]  # False for NaN
+            ra = res if every else res[rows]
+            with np.errstate(invalid='ignore'):
+                if warm and step == 0:
+                    # the first step from a solution at earlier values is the tangent
+                    # prediction the scalar path takes (scalar.predict): judged as it is
+                    # judged there, by how far it moves (MAX_PREDICTION); the rate from the next
+                    cut = (np.abs(dy).max(axis=1) <= MAX_PREDICTION) & np.isfinite(rn)
+                else:
+                    cut = rn <= FAST_RATE * ra  # False for NaN
+            if every and cut.all():
+                x, F, J, res = xn, Fn, Jn, rn
+                there = rn <= target
+                active &= ~there
+                done |= there
+                continue
             stalled = rows[~cut]
             active[stalled] = False
-            done[stalled] = res[stalled] <= tol  # at the rounding floor already: converged
+            done[stalled] = ra[~cut] <= tol  # at the rounding floor already: converged
             moved = rows[cut]
+            if x is X0:  # the first scatter: own copies, the start is not written to
+                x, F, J, res = x.copy(), F.copy(), J.copy(), res.copy()
             x[moved], F[moved], J[moved], res[moved] = xn[cut], Fn[cut], Jn[cut], rn[cut]
             there = moved[rn[cut] <= target]
             active[there] = False
@@ -423,11 +548,10 @@ class BatchNewton:
         # at the answer: the start's det J sign (else it crossed det J = 0: maybe another
         # branch; rows still at X0 were checked there) and off folds (else the scalar path
         # polishes)
-        rows = np.flatnonzero(done if start_checked else done & (iterations > 0))
-        done[rows] = self.det_signs(J[rows]) == sign0[rows]
+        check = done if start_checked else done & (iterations > 0)
+        done[check] = self.det_signs(_rows_of(J, check)) == sign0[check]
         cond = np.full(N, math.inf)
-        rows = np.flatnonzero(done)
-        cond[rows] = batch_conds(J[rows])
+        cond[done] = self.conds(_rows_of(J, done))
         ok = done & (cond < POLISH_COND) & np.isfinite(x).all(axis=1) & np.isfinite(res)
         return BatchSolve(
             x=np.where(ok[:, None], x, X0),
@@ -437,3 +561,8 @@ class BatchNewton:
             det_sign=np.where(ok, sign0, 0),
             cond=np.where(ok, cond, math.inf),
         )
+
+
+def _rows_of(A: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """A[mask], without the copy where every row is asked for."""
+    return A if mask.all() else A[mask]

@@ -240,6 +240,7 @@ class LoopSystem:
         tol: float = 1e-12,
         max_steps: int = FAST_STEPS + 2,
         start_checked: bool = False,
+        warm: bool = False,
     ) -> BatchSolve:
         """Newton for N warm starts at once (numpy over the rows): row i from X0[i] (N, n:
         phi rad, centroid m per free link; typically instance i's last solution) to the values
@@ -263,9 +264,21 @@ class LoopSystem:
         ``start_checked``: the caller vouches that start_sign[i] is det J's sign at X0[i] (read
         off J there, e.g. a BatchResult's det_sign at its x: J depends on x alone, not on the
         values), so it is not computed again (one LU per row less); the sign at the answer is
-        then checked for every row, those converged at X0 too."""
+        then checked for every row, those converged at X0 too.
+
+        ``warm``: the caller vouches that X0[i] is a solution at earlier values (a BatchResult's
+        x), so the first step from it is the tangent prediction the scalar path takes there
+        (scalar.predict: J at the last solution times the change of the values): it is judged
+        as the prediction is, by moving no unknown further than MAX_PREDICTION (rad, or length
+        scales) to a finite residual, and the FAST_RATE rule holds from the second step on."""
         return self.batch.solve_batch(
-            X0, values, start_sign, tol=tol, max_steps=max_steps, start_checked=start_checked
+            X0,
+            values,
+            start_sign,
+            tol=tol,
+            max_steps=max_steps,
+            start_checked=start_checked,
+            warm=warm,
         )
 
     def least_miss(

@@ -112,10 +112,11 @@ def solve_batch(
     newton with ``start``: n independent instances advancing together (a fleet of
     mechanisms, simulation environments), row i warm-started from row i of ``start``, an
     earlier newton BatchResult of this solve with the same n. Vectorised Newton answers
-    every row it can prove is on the start's branch (det J keeps its sign, each step cuts
-    the residual tenfold, the dyads keep their sides, the answer is well conditioned); the
-    other rows take ``solve_one``'s careful path from their start, so the answers are those
-    ``solve_one`` would give from that start."""
+    every row it can prove is on the start's branch (det J keeps its sign, the first step, the
+    tangent prediction the scalar path takes, moves no unknown further than MAX_PREDICTION and
+    each step after it cuts the residual tenfold, the dyads keep their sides, the answer is
+    well conditioned); the other rows take ``solve_one``'s careful path from their start, so
+    the answers are those ``solve_one`` would give from that start."""
     arrays, n = _columns(c, columns)
     if start is not None:
         _check_start(c, start, n)
@@ -256,6 +257,7 @@ def _newton(
             start.det_sign[eligible],
             tol=c.tol,
             start_checked=True,
+            warm=True,  # start.x: solutions at the batch before
         )
         rows = eligible[bs.ok]
         x[rows], iterations[eligible] = bs.x[bs.ok], bs.iterations

@@ -23,6 +23,7 @@ from linkage_ros.core.newton.blocks import (
     _permutation_sign,
     block_det_signs,
     block_form,
+    block_inverse_norms,
     block_steps,
 )
 from linkage_ros.core.newton.tables import jacobian_pattern
@@ -77,6 +78,50 @@ def test_scene_jacobians_solved_block_by_block(name):
     cond = np.linalg.cond(J)
     assert np.all(np.abs(dy - dense) / scale <= 1e-14 * cond[:, None])
     assert np.array_equal(block_det_signs(form, J), np.linalg.slogdet(J)[0].astype(int))
+
+
+def dense_inverse_norms(J):
+    """||J^-1||_1 of each matrix, from numpy's dense inverse."""
+    return np.abs(np.linalg.inv(J)).sum(axis=1).max(axis=1)
+
+
+@pytest.mark.parametrize('name', ALL_SCENES)
+def test_scene_inverse_norms_block_by_block(name):
+    """Every packaged scene with blocks: ||J^-1||_1 found block by block is the dense
+    inverse's (to rounding, relative to cond), at random configurations."""
+    sy = system(name)
+    form = block_form(jacobian_pattern(sy.tables))
+    if form is None:
+        return
+    J, _ = random_jacobians(sy, np.random.default_rng(8))
+    got = block_inverse_norms(form, J)
+    assert got is not None
+    cond = np.linalg.cond(J)
+    assert np.all(np.abs(got / dense_inverse_norms(J) - 1) <= 1e-13 * cond)
+
+
+def test_inverse_norms_with_one_by_one_blocks_and_a_singular_block():
+    """Shuffled blocks of 12, 1 and 12 unknowns (too big to merge): the dense inverse's norms;
+    a 12 x 12 block with a zero row in one matrix: None (the caller's dense path); a zero 1 x 1
+    block in one matrix: that matrix's norm is inf or NaN, the others' as before."""
+    rng = np.random.default_rng(5)
+    pattern, J = shuffled_block_diagonal(rng, [12, 1, 12])
+    form = block_form(pattern)
+    assert form is not None and [len(b.cols) for b in form.blocks] == [12, 1, 12]
+    got = block_inverse_norms(form, J)
+    assert got is not None
+    np.testing.assert_allclose(got, dense_inverse_norms(J), rtol=1e-10)
+    one = next(b for b in form.blocks if len(b.cols) == 1)
+    zero = J.copy()
+    zero[3][one.rows[0], one.cols[0]] = 0.0
+    got = block_inverse_norms(form, zero)
+    assert got is not None and not np.isfinite(got[3])
+    keep = np.arange(len(J)) != 3
+    np.testing.assert_allclose(got[keep], dense_inverse_norms(J[keep]), rtol=1e-10)
+    big = form.blocks[2]
+    singular = J.copy()
+    singular[6][big.rows[0], big.cols] = 0.0  # stays exactly 0 through the LU
+    assert block_inverse_norms(form, singular) is None
 
 
 def test_four_bar_blocks_are_merged_back_into_one():

@@ -31,6 +31,7 @@ from linkage_ros.core.newton import (
     FAST_FLOOR,
     FAST_MARGIN,
     FAST_RATE,
+    MAX_PREDICTION,
     POLISH_COND,
     LoopSystem,
 )
@@ -231,6 +232,26 @@ def test_evaluate_batch_jacobian_matches_finite_differences(label, sy, ref):
         np.testing.assert_allclose(J[:, :, j], fd, rtol=1e-6, atol=1e-8, err_msg=f'{label} {j}')
 
 
+@pytest.mark.parametrize('label,sy,ref', SYSTEMS, ids=IDS)
+def test_packed_jacobian_holds_every_entry(label, sy, ref):
+    """The J the batched solve keeps packed block by block (BatchNewton.evaluate(packed=True))
+    unpacks to evaluate_batch's dense J bit for bit (every entry that can be nonzero is in a
+    block; the rest are 0), with the same F and res; its block parts are views of it."""
+    if sy.m != sy.n:
+        return
+    rng = np.random.default_rng(9)
+    X, rows = random_inputs(sy, ref, 30, rng)
+    V = sy.batch.values(stack(sy, rows), len(X))
+    F, J, res = sy.evaluate_batch(X, stack(sy, rows))
+    Fp, Jp, rp = sy.batch.evaluate(X, V, True, packed=True)
+    layout = sy.batch.tables().packed
+    assert layout is not None and Jp.shape == (len(X), layout.size)
+    assert np.array_equal(layout.unpack(Jp), J, equal_nan=True)
+    assert np.array_equal(Fp, F, equal_nan=True) and np.array_equal(rp, res)
+    for diag, left in layout.parts(Jp):
+        assert np.shares_memory(diag, Jp) and (left.size == 0 or np.shares_memory(left, Jp))
+
+
 def test_evaluate_batch_empty_and_shape_errors():
     sy = Solver(scene('four_bar'), method='newton').system
     F, J, res = sy.evaluate_batch(np.zeros((0, sy.n)), [np.zeros(0)])
@@ -332,9 +353,11 @@ def test_coarse_steps_are_declined_or_right(name):
         )
 
 
-def rule(sy, x0, vals, sign, tol=TOL, max_steps=6):
+def rule(sy, x0, vals, sign, tol=TOL, max_steps=6, warm=False):
     """The acceptance rule solve_batch documents, one row in plain scalar code (evaluate_scaled,
-    np.linalg.solve, slogdet, scaled_cond): (ok, x, steps, stalled converged)."""
+    np.linalg.solve, slogdet, scaled_cond): (ok, x, steps, stalled converged). ``warm``: the
+    first step is judged as the scalar path's prediction (it moves no unknown further than
+    MAX_PREDICTION, to a finite residual), not by FAST_RATE."""
     target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
     F, J, res = sy.evaluate_scaled(x0, vals, None)
     if sign not in (1, -1) or not math.isfinite(res):
@@ -344,10 +367,15 @@ def rule(sy, x0, vals, sign, tol=TOL, max_steps=6):
         return False, x0, 0, False
     x, steps, stalled = x0, 0, False
     while res > target and steps < max_steps:
-        xn = x + np.linalg.solve(J, -F) * sy.step_scale
+        dy = np.linalg.solve(J, -F)
+        xn = x + dy * sy.step_scale
         Fn, Jn, rn = sy.evaluate_scaled(xn, vals, None)
         steps += 1
-        if not rn <= FAST_RATE * res:
+        if warm and steps == 1:
+            passed = np.max(np.abs(dy)) <= MAX_PREDICTION and math.isfinite(rn)
+        else:
+            passed = rn <= FAST_RATE * res
+        if not passed:
             stalled = res <= tol
             break
         x, F, J, res = xn, Fn, Jn, rn
@@ -366,6 +394,7 @@ def check_rule(sy, X0, rows, signs, **kw):
     """solve_batch against rule() row by row; returns rule()'s verdicts."""
     b = sy.solve_batch(X0, stack(sy, rows), signs, **kw)
     verdicts = [rule(sy, X0[i], rows[i], int(signs[i]), **kw) for i in range(len(X0))]
+    assert len(verdicts) == len(X0) > 0
     for i, (ok, x, steps, _) in enumerate(verdicts):
         assert b.ok[i] == ok and b.iterations[i] == steps, (i, b.ok[i], ok, b.iterations[i], steps)
         if ok:
@@ -398,6 +427,45 @@ def test_solve_batch_follows_its_rule(name):
         [int(np.linalg.slogdet(sy.evaluate_scaled(X0[i], rows[i], None)[1])[0]) for i in range(N)]
     )
     check_rule(sy, X0, rows, own)
+
+
+@pytest.mark.parametrize('name', ['four_bar', 'peaucellier', 'excavator'])
+def test_warm_starts_follow_their_rule(name):
+    """warm=True (X0 solutions at the values before, as Solver.solve_batch(start=) passes):
+    row by row the verdict, steps and answer of rule(warm=True), on fine and coarse sweeps and
+    on noisy starts aimed at random inputs (where the first step may jump: declined by its
+    size or by the rate of the steps after it)."""
+    for n in (60, 200):
+        sy, xs, signs, vals = scalar_sweep(name, n)
+        check_rule(sy, xs[:-1], vals[1:], signs[:-1], warm=True)
+    rng = np.random.default_rng(16)
+    N = 150
+    start, aim = rng.integers(0, len(xs), N), rng.integers(0, len(xs), N)
+    X0 = xs[start] + rng.normal(size=(N, sy.n)) * 0.05 * sy.step_scale
+    rows = [vals[i] for i in aim]
+    own = np.array(
+        [int(np.linalg.slogdet(sy.evaluate_scaled(X0[i], rows[i], None)[1])[0]) for i in range(N)]
+    )
+    verdicts = check_rule(sy, X0, rows, own, warm=True)
+    assert 0 < sum(v[0] for v in verdicts) < N  # some accepted, some declined
+
+
+def test_warm_start_answers_the_rows_whose_first_step_cut_less_than_tenfold():
+    """The excavator's 200-command sweep: some first steps from x_{k-1} cut max|F| only
+    9.6-9.9-fold (the rate rule declines them: the careful path); judged as the scalar path's
+    prediction (warm=True) every row is answered, each the scalar sweep's x_k (within 1e-10
+    length scales, same det J sign, scaled cond and slogdet of the scalar Jacobian there)."""
+    sy, xs, signs, vals = scalar_sweep('excavator', 200)
+    X0, values = xs[:-1], stack(sy, vals[1:])
+    cold = sy.solve_batch(X0, values, signs[:-1], start_checked=True)
+    warm = sy.solve_batch(X0, values, signs[:-1], start_checked=True, warm=True)
+    assert (~cold.ok).sum() >= 5  # the rows the rate rule declines
+    assert warm.ok.all()
+    check_against_sweep(sy, xs, signs, vals, warm, np.arange(len(xs) - 1))
+    # where both answer, the same steps and answers
+    both = cold.ok
+    assert np.array_equal(cold.iterations[both], warm.iterations[both])
+    assert np.all(np.abs(cold.x[both] - warm.x[both]) / sy.step_scale <= 1e-12)
 
 
 def test_a_step_that_cannot_cut_at_the_rounding_floor_is_converged():
