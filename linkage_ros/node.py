@@ -134,7 +134,11 @@ class LinkageNode(Node):
         # (see Outputs: each handler costs every executor wakeup)
         qos = topic_qos(cfg.queue_depth)
         quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
-        self.create_subscription(JointState, '~/command', self.requests.on_command, qos)
+        # commands arrive serialised: their fields are read off the bytes (command_cdr.py), not
+        # built into a Python message first
+        self.create_subscription(
+            JointState, '~/command', self.requests.on_raw_command, qos, raw=True
+        )
         # targets arrive serialised: a request with more names than the scene has is refused
         # from its first bytes, before rclpy would build 10^5 Python strings for it
         self.create_subscription(JointState, '~/target', self.requests.on_target, qos, raw=True)
