@@ -36,6 +36,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
+from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
@@ -417,8 +418,11 @@ def main(args: Sequence[str] | None = None) -> int:
         # start-up objects (modules, the scene, compiled plans) live as long as the process:
         # move them out of the collector's sight so a full collection does not stall a command
         gc.freeze()
+        # the executor runs every ready callback for STOP_POLL_S, then the stop flag is looked
+        # at: one Python call per poll, not one per callback (a command costs one callback)
+        never = Future()
         while stop.requested is None and rclpy.ok():
-            executor.spin_once(timeout_sec=STOP_POLL_S)
+            executor.spin_until_future_complete(never, timeout_sec=STOP_POLL_S)
     except (ConfigError, SceneError) as exc:
         rclpy.logging.get_logger(NODE_NAME).fatal(f'cannot start: {exc}')
         return 1
