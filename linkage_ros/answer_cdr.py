@@ -106,6 +106,7 @@ class PointStampedBytes:
         return self._struct.pack(CDR_LE, sec, nanosec, self._after_stamp, x, y, z)
 
 
+#: a uint32 word (a sequence's length)
 _COUNT = struct.Struct('<I')
 
 #: status texts kept as blocks (the keys, and values that repeat: true, false, branch signs,
