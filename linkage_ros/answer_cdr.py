@@ -15,11 +15,12 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Mapping, Sequence
+from typing import Any
 
 from .cdr import CDR_LE, encoded_string, padding, string_block, write_encoded
 from .core.model import Mechanism
 from .core.solver import Result
-from .engine import status_texts
+from .engine import status_text, status_texts, status_values
 
 #: diagnostic_msgs/DiagnosticStatus levels (its byte constants)
 STATUS_OK = 0
@@ -105,6 +106,9 @@ class PointStampedBytes:
         return self._struct.pack(CDR_LE, sec, nanosec, self._after_stamp, x, y, z)
 
 
+#: a uint32 word (a sequence's length)
+_COUNT = struct.Struct('<I')
+
 #: status texts kept as blocks (the keys, and values that repeat: true, false, branch signs,
 #: solver names, requests); at most this many, then texts are written anew each time
 STATUS_BLOCK_CACHE = 256
@@ -119,6 +123,19 @@ class StatusBytes:
         self._name = string_block(name)  # at offset 8 (after the level and its padding)
         self._hardware_id = string_block(hardware_id)
         self._blocks: dict[str, bytes] = {}
+        #: a key and its value's text as one block pair, by (key, value): what repeats from
+        #: answer to answer (a branch, a solver, an iteration count, the request)
+        self._pairs: dict[tuple[str, Any], bytes] = {}
+        #: everything before the key/values of an OK 'ok' status
+        self._ok_head = b''.join(
+            [
+                CDR_LE,
+                struct.pack('<B3x', STATUS_OK),
+                self._name,
+                string_block('ok'),
+                self._hardware_id,
+            ]
+        )
 
     def _block(self, text: str, keep: bool) -> bytes:
         hit = self._blocks.get(text)
@@ -127,6 +144,23 @@ class StatusBytes:
             if keep and len(self._blocks) < STATUS_BLOCK_CACHE:
                 self._blocks[text] = hit
         return hit
+
+    def write_ok(self, values: Mapping[str, Any]) -> bytes:
+        """An OK 'ok' status of ``values`` as engine.status_values gives them (each written
+        as engine.status_text says): the same bytes as ``write`` of their texts, with a value
+        that repeats (not a float: residual, margin, cond change with every answer) written
+        once."""
+        pairs = self._pairs
+        parts = [self._ok_head, _COUNT.pack(len(values))]
+        for item in values.items():
+            hit = pairs.get(item)
+            if hit is None:
+                key, value = item
+                hit = self._block(key, True) + string_block(status_text(value))
+                if not isinstance(value, float) and len(pairs) < STATUS_BLOCK_CACHE:
+                    pairs[item] = hit
+            parts.append(hit)
+        return b''.join(parts)
 
     def write(self, level: int, message: str, values: Mapping[str, str]) -> bytes:
         """One status (``level``: STATUS_OK, STATUS_ERROR or another DiagnosticStatus level)."""
@@ -199,7 +233,7 @@ class AnswerBytes:
         the reason."""
         if not result.success:
             return self.error(result.reason or 'failed', request)
-        return self.status_writer.write(STATUS_OK, 'ok', status_texts(result, request))
+        return self.status_writer.write_ok(status_values(result, request))
 
     def error(self, reason: str, request: str) -> bytes:
         return self.status_writer.write(

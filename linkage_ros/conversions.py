@@ -35,6 +35,7 @@ __all__ = [
     'result_to_status',
     'error_status',
     'result_to_markers',
+    'marker_layout',
     'format_joints',
 ]
 
@@ -306,7 +307,20 @@ def _xyz(xyz) -> Point:
 def result_to_markers(
     result: Result, mech: Mechanism, stamp: Time, frame_id: str, ns: str = 'linkage'
 ) -> MarkerArray:
-    """RViz markers of a solved configuration, with stable ids so each update replaces the last.
+    """RViz markers of a solved configuration (:func:`marker_layout`), drawn through the
+    result's points."""
+    out, drawn = marker_layout(mech, stamp, frame_id, ns)
+    for marker, names in zip(out.markers, drawn, strict=True):
+        marker.points = [_xyz(mech.point_3d(p, *result.points[p])) for p in names]
+    return out
+
+
+def marker_layout(
+    mech: Mechanism, stamp: Time, frame_id: str, ns: str = 'linkage'
+) -> tuple[MarkerArray, list[tuple[str, ...]]]:
+    """RViz markers of ``mech`` without their points, and for each marker the scene points it
+    is drawn through, in order (each as mech.point_3d places it). Stable ids, so each update
+    replaces the last; what is drawn depends on the mechanism alone, never on a configuration:
 
     * one LINE_STRIP per link with two or more points (closed for plates of three or more),
       ground grey, moving links coloured; namespace ``<ns>/links``, id = the link's index;
@@ -319,6 +333,7 @@ def result_to_markers(
     header = Header(stamp=stamp, frame_id=frame_id)
     width = 0.02 * mech.length_scale
     out = MarkerArray()
+    drawn: list[tuple[str, ...]] = []
     cylinders = {
         pj.guide: pj
         for name, pj in mech.prismatics.items()
@@ -336,19 +351,12 @@ def result_to_markers(
             colour += 1
         if len(link.points) >= 2:
             m.type = Marker.LINE_STRIP
-            pts = [_xyz(mech.point_3d(p, *result.points[p])) for p in link.points]
-            if len(pts) >= 3:
-                pts.append(pts[0])
-            m.points = pts
+            names = tuple(link.points)
+            drawn.append(names + names[:1] if len(names) >= 3 else names)
         elif lname in cylinders:
-            pj = cylinders[lname]
             m.type = Marker.LINE_LIST
             m.scale.x = 1.5 * width
-            first = link.points[0]
-            m.points = [
-                _xyz(mech.point_3d(first, *result.points[first])),
-                _xyz(mech.point_3d(pj.point, *result.points[pj.point])),
-            ]
+            drawn.append((link.points[0], cylinders[lname].point))
         else:
             continue  # a slider block or cylinder rod: shown by its joint sphere
         out.markers.append(m)
@@ -366,8 +374,8 @@ def result_to_markers(
     for rj in mech.revolutes:
         if rj.point not in seen:
             seen.append(rj.point)
-    joints.points = [_xyz(mech.point_3d(p, *result.points[p])) for p in seen]
     out.markers.append(joints)
+    drawn.append(tuple(seen))
     if mech.outputs:
         outs = Marker(
             header=header,
@@ -379,9 +387,9 @@ def result_to_markers(
         )
         outs.pose.orientation.w = 1.0
         outs.scale.x = outs.scale.y = outs.scale.z = 3.0 * width
-        outs.points = [_xyz(mech.point_3d(p, *result.points[p])) for p in mech.outputs]
         out.markers.append(outs)
-    return out
+        drawn.append(tuple(mech.outputs))
+    return out, drawn
 
 
 def format_joints(result: Result, joint_names: Sequence[str], inputs: Sequence[str] = ()) -> str:

@@ -100,6 +100,10 @@ class Engine:
         self.mech = mech
         self.settings = settings
         self.forward = self.new_solver(None)  # PlanError: a branch or solver that does not fit
+        #: the forward solver's actuators, as a tuple and as its key in _synced (every command
+        #: asks; Solver.knowns builds a new list each time)
+        self._actuators = tuple(self.forward.knowns)
+        self._forward_key = frozenset(self._actuators)
         self._check_hold()
         self._solvers: OrderedDict[frozenset[str], Solver | str] = OrderedDict()
         #: known-set -> the state version that solver last saw (lazy adopt before use)
@@ -109,7 +113,7 @@ class Engine:
         ref = self.forward.solve(self.forward.reference_values())
         if ref.success:
             self._last = ref
-        self._synced[frozenset(self.forward.knowns)] = self.version
+        self._synced[self._forward_key] = self.version
         self._clock = time.monotonic
         self._tokens, self._t_tokens = float(SOLVER_CACHE), self._clock()
         #: the target rule: answers keep the assembly mode (core.solver.mode_rule)
@@ -132,12 +136,16 @@ class Engine:
         """A success of ``solver`` (which committed it itself): the new last good state."""
         self._last = state
         self.version += 1
-        self._synced[frozenset(solver.knowns)] = self.version
+        self._synced[self._key(solver)] = self.version
+
+    def _key(self, solver: Solver) -> frozenset[str]:
+        """``solver``'s known-set (its key in _synced)."""
+        return self._forward_key if solver is self.forward else frozenset(solver.knowns)
 
     def bring_up_to_date(self, solver: Solver) -> bool:
         """Before ``solver`` solves: adopt the last good state if another solver has succeeded
         since it last ran. True if it adopted one."""
-        key = frozenset(solver.knowns)
+        key = self._key(solver)
         adopted = False
         last = self.last if self._synced.get(key) != self.version else None
         if last is not None:
@@ -176,7 +184,7 @@ class Engine:
         """The cached solver for this set of knowns, or the reason it cannot be built (or, with
         ``compile_rate``, why it is not built now)."""
         key = frozenset(knowns)
-        if key == frozenset(self.forward.knowns):
+        if key == self._forward_key:
             return self.forward
         hit = self._solvers.get(key)
         if hit is None:
@@ -281,7 +289,7 @@ class Engine:
         """Why a command naming a joint, link or point (not an actuator) is refused, with the
         request that takes it (as the CLI's --set says "use --target"), or None. Other unknown
         names are the solver's to refuse."""
-        acts = self.forward.knowns
+        acts = self._actuators
         mech = self.mech
         named = [n for n in values if n not in acts and _kind_of(mech, n) not in _NOT_KNOWN]
         if not named:
@@ -306,7 +314,7 @@ class Engine:
     ) -> tuple[dict[str, Any], tuple[str, ...] | str]:
         """A command naming some actuators (and nothing else) -> every actuator, the others at
         their values in the last good state, and the names held (or why they cannot be)."""
-        acts = self.forward.knowns
+        acts = self._actuators
         held = tuple(a for a in acts if a not in values)
         if not values or not held or any(n not in acts for n in values):
             return dict(values), ()  # complete, empty or naming something else: the solver's

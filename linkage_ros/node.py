@@ -36,6 +36,7 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
+from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
@@ -134,7 +135,11 @@ class LinkageNode(Node):
         # (see Outputs: each handler costs every executor wakeup)
         qos = topic_qos(cfg.queue_depth)
         quiet_sub = SubscriptionEventCallbacks(use_default_callbacks=False)
-        self.create_subscription(JointState, '~/command', self.requests.on_command, qos)
+        # commands arrive serialised: their fields are read off the bytes (command_cdr.py), not
+        # built into a Python message first
+        self.create_subscription(
+            JointState, '~/command', self.requests.on_raw_command, qos, raw=True
+        )
         # targets arrive serialised: a request with more names than the scene has is refused
         # from its first bytes, before rclpy would build 10^5 Python strings for it
         self.create_subscription(JointState, '~/target', self.requests.on_target, qos, raw=True)
@@ -413,8 +418,11 @@ def main(args: Sequence[str] | None = None) -> int:
         # start-up objects (modules, the scene, compiled plans) live as long as the process:
         # move them out of the collector's sight so a full collection does not stall a command
         gc.freeze()
+        # the executor runs every ready callback for STOP_POLL_S, then the stop flag is looked
+        # at: one Python call per poll, not one per callback (a command costs one callback)
+        never = Future()
         while stop.requested is None and rclpy.ok():
-            executor.spin_once(timeout_sec=STOP_POLL_S)
+            executor.spin_until_future_complete(never, timeout_sec=STOP_POLL_S)
     except (ConfigError, SceneError) as exc:
         rclpy.logging.get_logger(NODE_NAME).fatal(f'cannot start: {exc}')
         return 1

@@ -12,6 +12,7 @@ from builtin_interfaces.msg import Time
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
+from .command_cdr import read_joint_state
 from .conversions import (
     is_zero_stamp,
     joint_state_peek,
@@ -24,7 +25,7 @@ from .conversions import (
 from .core.errors import CommandError
 from .core.model import Mechanism
 from .core.solver import Result
-from .engine import Engine, name_count_error
+from .engine import Engine, name_count_error, request_rates, request_values
 from .node_protocol import ServingNode
 from .point_coordinates import pose_target
 from .stamps import frame_error, stamp_error
@@ -89,6 +90,7 @@ class Requests:
         return Result(False, self.node.waiting.reason())
 
     def on_command(self, msg):
+        """A deserialised ~/command (the path of the bytes read_joint_state leaves to rclpy)."""
         self.answer(
             'command',
             msg.header.stamp,
@@ -96,6 +98,36 @@ class Requests:
                 joint_state_to_command(msg, self.node.max_names), joint_state_rates(msg)
             ),
         )
+
+    def on_raw_command(self, raw: bytes) -> None:
+        """~/command as it arrives, serialised: its fields read off the bytes (command_cdr),
+        without the Python message rclpy would build; what the reader does not take goes
+        through rclpy's deserialiser to :meth:`on_command`. Answers exactly as that would."""
+        peek = joint_state_peek(raw)
+        if peek is not None and peek[2] > self.node.max_names:  # refused on its count alone
+            sec, nanosec, count = peek
+            why = name_count_error(count, self.node.max_names)
+            self.answer('command', Time(sec=sec, nanosec=nanosec), lambda: Result(False, why))
+            return
+        fields = read_joint_state(raw)
+        if fields is None:
+            try:
+                msg = deserialize_message(raw, JointState)
+            except Exception as exc:  # noqa: BLE001 - answer, never raise
+                bad = f'not a JointState: {exc}'
+                self.answer('command', Time(), lambda: Result(False, bad))
+                return
+            self.on_command(msg)
+            return
+
+        def solve() -> Result:
+            names = fields.names
+            return self.served_engine().command(
+                request_values(names, fields.positions, self.node.max_names),
+                request_rates(names, fields.velocities),
+            )
+
+        self.answer('command', Time(sec=fields.sec, nanosec=fields.nanosec), solve)
 
     def served_engine(self) -> Engine:
         """The engine being served: request callbacks exist only while one is (and answer

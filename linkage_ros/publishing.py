@@ -32,6 +32,7 @@ from .answer_cdr import AnswerBytes
 from .conversions import error_status, result_to_markers
 from .core.solver import Result
 from .engine import Engine
+from .marker_cdr import MarkerBytes
 from .params import NodeConfig
 from .trajectory_io import trajectory_status
 
@@ -186,6 +187,8 @@ class Outputs:
         )
         #: a replaced mechanism's drawing is cleared by the first one of this (other links)
         self._clear_markers = clear_markers
+        #: the markers written as bytes (marker_cdr): a template patched per drawing
+        self.marker_bytes = MarkerBytes(mech, frame_id) if config.marker_rate > 0 else None
         self.timers = []
         if config.publish_rate > 0:
             self.timers.append(node.create_timer(1.0 / config.publish_rate, self._republish))
@@ -294,12 +297,15 @@ class Outputs:
         state, self._marker_state = self._marker_state, None
         if state is not None:
             result, stamp = state
+            if not self._clear_markers:
+                assert self.marker_bytes is not None
+                self.pub_markers.publish(self.marker_bytes.write(result, stamp.sec, stamp.nanosec))
+                return
             markers = result_to_markers(result, self.mech, stamp, self.frame_id)
-            if self._clear_markers:
-                self._clear_markers = False
-                clear = Marker(action=Marker.DELETEALL)
-                clear.header = Header(stamp=stamp, frame_id=self.frame_id)
-                markers.markers.insert(0, clear)
+            self._clear_markers = False
+            clear = Marker(action=Marker.DELETEALL)
+            clear.header = Header(stamp=stamp, frame_id=self.frame_id)
+            markers.markers.insert(0, clear)
             self.pub_markers.publish(markers)
 
     def diagnose(self) -> None:

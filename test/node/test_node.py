@@ -385,6 +385,32 @@ def test_zero_stamp_is_replaced_by_now(four_bar):
     assert stamp_of(four_bar.points['P'].last) == (sec, nsec)
 
 
+@pytest.mark.parametrize('little_endian', [True, False])
+def test_command_bytes_of_another_writer_are_read_as_the_message(four_bar, little_endian):
+    """~/command is read off its bytes: a command serialised by rosbags (either byte order,
+    with a frame id and efforts the node skips) is answered as the same message would be."""
+    import numpy as np
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    t = store.types
+    msg = t['sensor_msgs/msg/JointState'](
+        header=t['std_msgs/msg/Header'](
+            stamp=t['builtin_interfaces/msg/Time'](sec=4321, nanosec=765), frame_id='odd frame'
+        ),
+        name=['crank'],
+        position=np.array([0.9]),
+        velocity=np.array([], dtype=float),
+        effort=np.array([1.0, 2.0, 3.0]),
+    )
+    raw = bytes(store.serialize_cdr(msg, 'sensor_msgs/msg/JointState', little_endian=little_endian))
+    joints = four_bar.assert_single_ok(four_bar.request(raw))
+    for name, value in four_bar.oracle.solve(0.9)['joints'].items():
+        assert angle_diff(joints[name], value) < ANGLE_TOL
+    assert stamp_of(four_bar.joints.last) == (4321, 765)
+    assert status_values(four_bar.status.last)['request'] == 'command'
+
+
 def test_inverse_target_on_rocker_returns_crank(four_bar):
     four_bar.assert_single_ok(four_bar.request(joint_state(['crank'], [1.0])))
     theta2 = 1.1

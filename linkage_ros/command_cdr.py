@@ -1,0 +1,81 @@
+"""A sensor_msgs/JointState command read straight from its CDR bytes (ROS-free).
+
+rclpy turns a message into Python objects field by field (a JointState, a Header, a Time, each
+through its generated setters' checks, and array.arrays for the numbers): with every output
+subscribed that cost the node about as much as the answer's solve. ``~/command`` is therefore
+taken serialised and only the fields a command uses are read here: the stamp, the names, the
+positions and the velocities (the frame id and the efforts are skipped, as the message path
+ignores them). Whatever this reader does not take for a plain XCDR1 JointState (another
+encoding, a cut message, a name that is not UTF-8) it leaves to rclpy's deserialiser, so a
+message is never answered differently for having been read here.
+
+The layout is checked against rclpy's own serialiser in test/node/test_command_cdr.py.
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+
+#: the two XCDR1 plain encapsulations (big- and little-endian) and their struct byte orders
+_ORDER = {0: '>', 1: '<'}
+_STAMP = {e: struct.Struct(e + 'iI') for e in _ORDER.values()}
+_WORD = {e: struct.Struct(e + 'I') for e in _ORDER.values()}
+
+
+@dataclass(frozen=True, slots=True)
+class JointStateFields:
+    """What a command reads of a JointState: ``header.stamp`` (s, ns), ``name``, ``position``
+    and ``velocity`` (rad or m, rad/s or m/s; empty when the message has none)."""
+
+    sec: int
+    nanosec: int
+    names: tuple[str, ...]
+    positions: tuple[float, ...]
+    velocities: tuple[float, ...]
+
+
+def read_joint_state(raw: bytes) -> JointStateFields | None:
+    """The command fields of a CDR-serialised JointState, or None where this reader does not
+    take the bytes (rclpy's deserialiser then says what they are). Offsets count from after the
+    4-byte encapsulation header, as CDR aligns; an empty float64 sequence has no padding."""
+    if len(raw) < 8 or raw[0] != 0 or raw[1] not in _ORDER:
+        return None
+    e = _ORDER[raw[1]]
+    word = _WORD[e].unpack_from
+    try:
+        sec, nanosec = _STAMP[e].unpack_from(raw, 4)
+        (flen,) = word(raw, 12)
+        pos = 16 + flen  # the frame id: not read
+        pos += -(pos - 4) % 4
+        (count,) = word(raw, pos)
+        pos += 4
+        names = []
+        for _ in range(count):
+            pos += -(pos - 4) % 4
+            (k,) = word(raw, pos)
+            end = pos + 4 + k
+            if k == 0 or end > len(raw) or raw[end - 1] != 0:
+                return None
+            names.append(raw[pos + 4 : end - 1].decode())
+            pos = end
+        sequences = []
+        for _ in range(2):  # position, velocity
+            pos += -(pos - 4) % 4
+            (n,) = word(raw, pos)
+            pos += 4
+            if n:
+                pos += -(pos - 4) % 8
+                if pos + 8 * n > len(raw):
+                    return None
+                sequences.append(struct.unpack_from(f'{e}{n}d', raw, pos))
+                pos += 8 * n
+            else:
+                sequences.append(())
+        pos += -(pos - 4) % 4
+        (n,) = word(raw, pos)  # effort: not read, but there
+        if n and pos + 4 + -(pos) % 8 + 8 * n > len(raw):
+            return None
+    except (struct.error, UnicodeDecodeError):
+        return None
+    return JointStateFields(sec, nanosec, tuple(names), sequences[0], sequences[1])
