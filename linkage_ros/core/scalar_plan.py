@@ -33,7 +33,7 @@ from typing import Any
 from .dyads import TANGENCY_TOL
 from .errors import PlanError
 from .execute import CONTINUITY_MARGIN, LinkPoses, PlanRun
-from .ops import _cabs_one
+from .ops import _cabs_one, _wrap_one
 from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
 from .scalar_dyads import rpr_angle, rrp_point, rrr_fallback, solve_rpr, solve_rrp, solve_rrr
@@ -60,6 +60,7 @@ from .steps import (
 )
 
 _CM = CONTINUITY_MARGIN
+_PI = math.pi
 _PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
 
 
@@ -119,6 +120,14 @@ class ScalarProgram:
                     used_bodies.add(b)
             if isinstance(a, AngleFrom):
                 used_bodies.add(plan.body_of[a.source])
+        #: each known angle's value wrapped to (-pi, pi] (spec index -> register): the run
+        #: wraps it once, for every step (and a readout) that uses it
+        self.iwrap: dict[int, int] = {}
+        for i, s in enumerate(plan.specs):
+            if isinstance(s, AngleSpec):
+                self.iwrap[i] = len(self.template)
+                self.template.append(0.0)
+        self._wrap_regs = tuple(self.iwrap.items())
         #: the steps of a run: the frames of the welded bodies it uses, then the plan's
         self.steps: list[Step] = []
         for b in sorted(used_bodies):
@@ -158,7 +167,7 @@ class ScalarProgram:
                 assert w.shared_point is not None  # an angle weld turns about a shared point
                 steps.append(
                     turn_weld(
-                        w.spec_index, s.offset, w.link == s.link, self.ref[w.shared_point], via, out
+                        self.iwrap[w.spec_index], s.offset, w.link == s.link, self.ref[w.shared_point], via, out
                     )
                 )
             else:
@@ -354,10 +363,10 @@ class ScalarProgram:
             src, from_pose = self.iang[sb], False
             src_in_body = None if self.single[sb] else self.ifphi[a.source]
         i = a.spec_index
-        offset, negate = 0.0, False
+        offset, negate, wreg = 0.0, False, -1
         if i is not None:
             s = plan.specs[i]
-            offset, negate = s.offset, a.link == s.reference
+            offset, negate, wreg = s.offset, a.link == s.reference, self.iwrap[i]
 
         def angle(r: SlotRun) -> None:
             R = r.R
@@ -366,7 +375,7 @@ class ScalarProgram:
                 source = source + (0.0 if src_in_body is None else R[src_in_body])
             rel = 0.0
             if i is not None:
-                rel = wrap(r.values[i]) - offset
+                rel = R[wreg] - offset
                 if negate:
                     rel = -rel
             R[ang] = source + rel - (0.0 if here is None else R[here])
@@ -514,14 +523,43 @@ class ScalarProgram:
         see the module), or ``predict`` makes them where a step first needs them;
         ``prev_margins`` are the previous answer's dyad margins. Returns the
         run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
-        r = SlotRun()
-        r.R = self.template.copy()
         if self.any_point:
-            r.values = [v if pt else float(v) for pt, v in zip(self.point_specs, values)]
+            vals = [v if pt else float(v) for pt, v in zip(self.point_specs, values)]
         else:  # no comprehension's frame for the common command
-            r.values = list(map(float, values))
-        r.signs = self.plan.reference_signs if signs is None else signs
-        r.prefer, r.predict, r.prev_margins, r.tol = prefer, predict, prev_margins, tol
+            vals = list(map(float, values))
+        return self.run_parsed(
+            vals,
+            self.plan.reference_signs if signs is None else signs,
+            prev_margins,
+            predict,
+            prefer,
+            tol,
+        )
+
+    def run_parsed(
+        self,
+        values: list[Any],
+        signs: Sequence[int],
+        prev_margins: Sequence[float] | None = None,
+        predict: Callable[[], Mapping[str, Any] | None] | None = None,
+        prefer: Mapping[str, Any] | None = None,
+        tol: float = TANGENCY_TOL,
+    ) -> SlotRun:
+        """:meth:`execute` on a command as a solver has parsed it (a float per angle or slide,
+        an (x, y) pair per point: ``CompiledSolve.parse``), which the run keeps as it is."""
+        r = SlotRun()
+        r.R = R = self.template.copy()
+        for i, reg in self._wrap_regs:
+            v = values[i]
+            R[reg] = v if -_PI < v <= _PI else _wrap_one(v)
+        r.values, r.signs, r.prefer, r.predict, r.prev_margins, r.tol = (
+            values,
+            signs,
+            prefer,
+            predict,
+            prev_margins,
+            tol,
+        )
         r.prev_small = min(prev_margins) < _CM if prev_margins else False
         r.used, r.margins, r.margin, r.failure, r.violation = [], [], 1.0, -1, 0.0
         try:
