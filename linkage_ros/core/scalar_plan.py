@@ -94,18 +94,27 @@ class ScalarProgram:
                 point_order.append(st.point)
         self.point_names = tuple(point_order)
         self.link_names = tuple(link_order)
-        points = [*point_order, *(p for p in mech.points if p not in point_order)]
-        links = [*link_order, *(l for l in mech.links if l not in link_order)]
-        n, nl = len(points), len(links)
-        self.ip = {p: i for i, p in enumerate(points)}
-        self.iphi = {l: n + i for i, l in enumerate(links)}
-        self.irot = {l: n + nl + i for i, l in enumerate(links)}
-        self.iT = {l: n + 2 * nl + i for i, l in enumerate(links)}
-        self.ifphi = {l: n + 3 * nl + i for i, l in enumerate(links)}
-        self.ifrot = {l: n + 4 * nl + i for i, l in enumerate(links)}
-        self.ifT = {l: n + 5 * nl + i for i, l in enumerate(links)}
-        self.iang = [n + 6 * nl + b for b in range(len(plan.bodies))]
-        self.template: list[Any] = [None] * (n + 6 * nl + len(plan.bodies))
+        # the registers: the points a run sets and the angles of the links it places first
+        # (one run of the list: what a Result's finiteness test sums), then the other points
+        # and links' angles, then every link's rot, T and frame, then the bodies' orientations
+        rest_points = [p for p in mech.points if p not in point_order]
+        rest_links = [l for l in mech.links if l not in link_order]
+        links = [*link_order, *rest_links]
+        nl = len(links)
+        self.n_set = len(point_order) + len(link_order)
+        self.ip = {p: i for i, p in enumerate(point_order)}
+        self.iphi = {l: len(point_order) + i for i, l in enumerate(link_order)}
+        self.ip.update({p: self.n_set + i for i, p in enumerate(rest_points)})
+        n = self.n_set + len(rest_points)
+        self.iphi.update({l: n + i for i, l in enumerate(rest_links)})
+        n += len(rest_links)
+        self.irot = {l: n + i for i, l in enumerate(links)}
+        self.iT = {l: n + nl + i for i, l in enumerate(links)}
+        self.ifphi = {l: n + 2 * nl + i for i, l in enumerate(links)}
+        self.ifrot = {l: n + 3 * nl + i for i, l in enumerate(links)}
+        self.ifT = {l: n + 4 * nl + i for i, l in enumerate(links)}
+        self.iang = [n + 5 * nl + b for b in range(len(plan.bodies))]
+        self.template: list[Any] = [None] * (n + 5 * nl + len(plan.bodies))
         #: point -> the link whose placement set it (rot * p_ref + T of that link exactly)
         self.set_by: dict[str, str] = {}
         self._members: dict[int, list[Any]] = {}  # per body placed: what _placer places
@@ -388,15 +397,23 @@ class ScalarProgram:
         r2_const, r2_of = self._radius(a.body_b, x, a.centre_b)
         ref_off = self.ref[x] - self.ref[a.centre_a]
         k_step = k
+        # both radii constant (most dyads): their larger one and their difference are too
+        fixed = r1_of is None and r2_of is None
+        big_fixed = r2_const if r2_const > r1_const else r1_const
+        gap_fixed = abs(r1_const - r2_const)
 
         def rrr(r: SlotRun) -> None:
             R = r.R
-            r1 = r1_const if r1_of is None else r1_of(R)
-            r2 = r2_const if r2_of is None else r2_of(R)
+            if fixed:
+                r1, r2, big, gap = r1_const, r2_const, big_fixed, gap_fixed
+            else:
+                r1 = r1_const if r1_of is None else r1_of(R)
+                r2 = r2_const if r2_of is None else r2_of(R)
+                big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
+                gap = abs(r1 - r2)
             c1, c2, tol = R[s1], R[s2], r.tol
-            big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
             # (the cheap test first: equal radii are rare)
-            if abs(r1 - r2) <= tol * big and _cabs_one(c1 - c2) <= tol * big:
+            if gap <= tol * big and _cabs_one(c1 - c2) <= tol * big:
                 coincident(r, k_step, x, sx, c1, r1, ref_off)
                 return
             pair = solve_rrr(c1, r1, c2, r2, tol)

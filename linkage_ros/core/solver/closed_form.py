@@ -167,12 +167,9 @@ class SlotReadout:
             if read.kind is not ReadKind.ANGLE
         ]
         self.point_names = prog.point_names
-        #: the registers of the points a run sets and of the placed links' angles: two runs of
-        #: the register list (ScalarProgram numbers what a run sets first)
-        self.n_points = len(prog.point_names)
-        links_set = prog.link_names
-        self.phi_first = iphi[links_set[0]] if links_set else 0
-        self.phi_end = self.phi_first + len(links_set)
+        #: the registers of the points a run sets and of the placed links' angles, the first
+        #: of the register list (ScalarProgram)
+        self.n_set = prog.n_set
         self._branch_texts: dict[tuple[int, ...], str] = {}
 
     def branch_text(self, signs: tuple[int, ...]) -> str:
@@ -274,18 +271,16 @@ class SlotReadout:
         if self.read_inputs:
             for _, read in self.read_inputs:
                 total += read(R)
-        zsum = sum(R[: self.n_points], 0j)
-        total += sum(R[self.phi_first : self.phi_end], residual + margin)
-        total += zsum.real + zsum.imag
+        zsum = sum(R[: self.n_set], 0j)
+        total += zsum.real + zsum.imag + residual + margin
         if total - total != 0.0 and not self._all_finite(R, vals, residual, margin):
             return Result(
                 False, 'internal error: non-finite value in the solution', solver=_CLOSED_FORM
             )
-        res = _new_closed(ClosedResult)
-        res._read, res._R, res._vals = self, R, vals
-        res.success, res.residual, res.solver = True, residual, _CLOSED_FORM
+        res = _new_closed(ClosedResult)  # (success and solver: the class's)
+        res._source = (self, R, vals)
+        res.residual, res.margin, res.branch_defined = residual, margin, defined
         res.branch = self._branch_texts.get(signs) or self.branch_text(signs)
-        res.branch_defined, res.margin = defined, margin
         return res
 
     def fill(self, d: dict[str, Any], R: list[Any], vals: Values) -> None:
@@ -314,12 +309,9 @@ class SlotReadout:
         points: dict[str, tuple[float, float]] = {}
         for point, z in zip(self.point_names, R):
             points[point] = (z.real, z.imag)
-        setdefault = d.setdefault
-        setdefault('inputs', inputs)
-        setdefault('targets', {})
-        setdefault('joints', joints)
-        setdefault('links', links)
-        setdefault('points', points)
+        got = {'inputs': inputs, 'targets': {}, 'joints': joints, 'links': links, 'points': points}
+        got.update(d)  # (what the Result was given meanwhile stays)
+        d.update(got)
 
     def _all_finite(self, R: list[Any], vals: Values, residual: float, margin: float) -> bool:
         """Every value of the Result finite (the exact check where the sum overflowed)."""
@@ -414,33 +406,43 @@ def lean_command(c: CompiledSolve) -> LeanCommand | None:
 
 
 #: the Result fields ClosedResult reads off the registers on first use
-_LAZY = frozenset(('inputs', 'targets', 'joints', 'links', 'points'))
+_LAZY = ('inputs', 'targets', 'joints', 'links', 'points')
 _FIELD_NAMES = tuple(f.name for f in fields(Result))
-_FACTORIES = {f.name: f.default_factory for f in fields(Result) if f.default_factory is not MISSING}
+
+
+class _Filled:
+    """A field of a :class:`ClosedResult` made on first read: the name-keyed dicts read off
+    its run, or another field's default. A non-data descriptor: once in the instance's
+    ``__dict__`` (filled, or given) the value there is read, at the cost of any attribute."""
+
+    def __init__(self, name: str, default: Callable[[], Any] | None = None):
+        self.name, self.default = name, default
+
+    def __get__(self, obj: ClosedResult | None, owner: type | None = None) -> Any:
+        if obj is None:
+            return self
+        d = obj.__dict__
+        if self.default is not None:
+            value = d[self.name] = self.default()
+            return value
+        read, R, vals = obj._source
+        read.fill(d, R, vals)
+        return d[self.name]
 
 
 class ClosedResult(Result):
     """A closed-form answer whose name-keyed dicts (inputs, targets, joints, links, points)
     are read off its run's registers when first asked, by the readout's very operations: most
     callers read a few values, many none (a node publishing one output, a bench). Every other
-    field is set when it is made (its other fields are Result's defaults). It reads, compares
-    (equal to a Result of the same values) and pickles (as a plain Result) as the Result it
-    is."""
+    field is set when it is made (success and solver are the class's, the others Result's
+    defaults). It reads, compares (equal to a Result of the same values) and pickles (as a
+    plain Result) as the Result it is."""
 
-    __slots__ = ('_read', '_R', '_vals')
-    _read: SlotReadout
-    _R: list[Any]
-    _vals: Values
+    __slots__ = ('_source',)
+    _source: tuple[SlotReadout, list[Any], Values]  # what fills the dicts: readout, run
 
-    def __getattr__(self, name: str) -> Any:  # only for what the instance does not hold
-        if name in _LAZY:
-            self._read.fill(self.__dict__, self._R, self._vals)
-            return self.__dict__[name]
-        factory = _FACTORIES.get(name)  # a field added to Result with a default factory
-        if factory is not None:
-            value = self.__dict__[name] = factory()  # type: ignore[operator]
-            return value
-        raise AttributeError(name)
+    success = True
+    solver = SolveMode.CLOSED_FORM
 
     def _values(self) -> tuple[Any, ...]:
         return tuple(getattr(self, n) for n in _FIELD_NAMES)
@@ -454,6 +456,15 @@ class ClosedResult(Result):
 
     def __reduce__(self) -> tuple[Any, ...]:
         return Result, self._values()
+
+
+for _f in fields(Result):  # every field a Result makes with a factory, made on first read
+    if _f.default_factory is not MISSING:
+        setattr(
+            ClosedResult,
+            _f.name,
+            _Filled(_f.name, None if _f.name in _LAZY else _f.default_factory),
+        )
 
 
 _new_closed = object.__new__
