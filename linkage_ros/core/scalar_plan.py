@@ -176,7 +176,12 @@ class ScalarProgram:
                 assert w.shared_point is not None  # an angle weld turns about a shared point
                 steps.append(
                     turn_weld(
-                        self.iwrap[w.spec_index], s.offset, w.link == s.link, self.ref[w.shared_point], via, out
+                        self.iwrap[w.spec_index],
+                        s.offset,
+                        w.link == s.link,
+                        self.ref[w.shared_point],
+                        via,
+                        out,
                     )
                 )
             else:

@@ -30,8 +30,8 @@ from ..newton import LoopSystem
 from ..plan import Plan, Spec, limit_violation
 from ..quantities import ScalarSpec
 from .batch import BatchResult, solve_batch
-from .compiled import CompiledSolve, SolveMode, Values
 from .closed_form import lean_command
+from .compiled import CompiledSolve, SolveMode, Values
 from .compiling import compile_solve
 from .continuity import BranchRule, Continuity, State, parse_branch
 from .modes import ModeList, modes_of
