@@ -6,11 +6,20 @@ ResultAssembler` (which reads a batch, and a Newton answer's name-keyed poses): 
 values by the same float operations (every commanded actuator as given, every other actuator,
 joint and link whose links are placed, and the loop-closure residual as a fraction of the
 length scale), with every name resolved to a slot of :class:`~linkage_ros.core.scalar_plan.
-ScalarProgram` once, so that a command builds each of the Result's dicts once. Measured in one
-process (CPU time, best of 15 x 2000 calls on one four-bar configuration; 2-core machine shared
-with other jobs, load ~10): ``CompiledSolve.build_result`` over the assembler 13.0 us, this
-readout with the Result 7.9 us. A closed-form answer's State (:class:`SlotState`) reads its
-name-keyed points and poses off the registers only when continuity asks.
+ScalarProgram` once. What decides the answer is computed with it (the residual, the margin and
+branch, whether every value is finite); the Result's name-keyed dicts are read off the
+registers when first asked (:class:`ClosedResult`), and a closed-form answer's State
+(:class:`SlotState`) reads its points and poses only when continuity asks.
+
+:meth:`SlotReadout.lean_command` is ``solve_one`` for the common command of a forward closed
+form (a dict of one finite float per actuator that assembles): no general checks of what that
+command is not, no per-command dicts; any other command or answer goes the general way.
+
+Measured in one process on the packaged four-bar's warm sweep (thread CPU time, best of 500
+interleaved passes of 20 commands; 2-core machine shared with other agents, load ~7):
+``CompiledSolve.build_result`` over the assembler 16.6 us, this readout's Result 3.6 us (7.2
+us with its dicts read), the program's run 8.9 us, a whole ``Solver.solve`` 18.5 us, the
+hand-written ``math`` four-bar of bench/core_speed.py 2.0 us.
 """
 
 from __future__ import annotations
@@ -277,8 +286,9 @@ class SlotReadout:
             return Result(
                 False, 'internal error: non-finite value in the solution', solver=_CLOSED_FORM
             )
-        res = _new_closed(ClosedResult)  # (success and solver: the class's)
+        res = _new_closed(ClosedResult)
         res._source = (self, R, vals)
+        res.success, res.solver = True, _CLOSED_FORM
         res.residual, res.margin, res.branch_defined = residual, margin, defined
         res.branch = self._branch_texts.get(signs) or self.branch_text(signs)
         return res
@@ -407,6 +417,7 @@ def lean_command(c: CompiledSolve) -> LeanCommand | None:
 
 #: the Result fields ClosedResult reads off the registers on first use
 _LAZY = ('inputs', 'targets', 'joints', 'links', 'points')
+_LAZY_SET = frozenset(_LAZY)
 _FIELD_NAMES = tuple(f.name for f in fields(Result))
 
 
@@ -421,7 +432,7 @@ class _Filled:
     def __get__(self, obj: ClosedResult | None, owner: type | None = None) -> Any:
         if obj is None:
             return self
-        d = obj.__dict__
+        d = _instance_dict(obj)
         if self.default is not None:
             value = d[self.name] = self.default()
             return value
@@ -434,15 +445,21 @@ class ClosedResult(Result):
     """A closed-form answer whose name-keyed dicts (inputs, targets, joints, links, points)
     are read off its run's registers when first asked, by the readout's very operations: most
     callers read a few values, many none (a node publishing one output, a bench). Every other
-    field is set when it is made (success and solver are the class's, the others Result's
-    defaults). It reads, compares (equal to a Result of the same values) and pickles (as a
-    plain Result) as the Result it is."""
+    field is set when it is made (or is Result's default). It reads, compares (equal to a
+    Result of the same values), copies and pickles (as a plain Result) as the Result it is."""
 
     __slots__ = ('_source',)
     _source: tuple[SlotReadout, list[Any], Values]  # what fills the dicts: readout, run
 
-    success = True
-    solver = SolveMode.CLOSED_FORM
+    @property
+    def __dict__(self) -> dict[str, Any]:  # type: ignore[override]
+        """The instance's attributes, the dicts filled first: ``vars(result)`` and
+        ``Result(**result.__dict__)`` see every value (attribute reads do not come here)."""
+        d: dict[str, Any] = _instance_dict(self)
+        if not d.keys() >= _LAZY_SET:
+            read, R, vals = self._source
+            read.fill(d, R, vals)
+        return d
 
     def _values(self) -> tuple[Any, ...]:
         return tuple(getattr(self, n) for n in _FIELD_NAMES)
@@ -468,6 +485,8 @@ for _f in fields(Result):  # every field a Result makes with a factory, made on 
 
 
 _new_closed = object.__new__
+#: an instance's own attribute dict (ClosedResult.__dict__ fills it first)
+_instance_dict = Result.__dict__['__dict__'].__get__
 
 
 class SlotState(State):

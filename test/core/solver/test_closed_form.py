@@ -172,6 +172,7 @@ def test_a_closed_form_result_is_a_result_in_every_use():
         for twin in (pickle.loads(pickle.dumps(r)), copy.copy(r), copy.deepcopy(r)):
             assert type(twin) is Result and twin == plain
         assert dataclasses.asdict(r) == dataclasses.asdict(plain)
+        assert Result(**r.__dict__) == plain and vars(r).keys() >= {'points', 'joints'}
         assert dataclasses.replace(r, reason='why') == dataclasses.replace(plain, reason='why')
     fresh = solver.solve({'crank': 1.0})
     fresh.targets = {'given': 1.0}
