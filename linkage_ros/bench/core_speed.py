@@ -1,8 +1,9 @@
 """The solver core against hand-written baselines, timed in the same run (issue 25's targets).
 
 * scalar closed form: ``Solver.solve`` on a warm four-bar sweep (its full Result) against a
-  hand-written ``math`` four-bar computing theta3, theta4 and the coupler point; the excavator's
-  ``Solver.solve`` against the four-bar's;
+  hand-written ``math`` four-bar computing theta3, theta4 and the coupler point, and the same
+  solves with every value of each Result read (a closed-form Result fills its name-keyed dicts
+  when first asked); the excavator's ``Solver.solve`` against the four-bar's;
 * Newton 1e-12, warm: ``Solver(method='newton').solve`` against ``scipy.optimize.root`` (hybr)
   on the textbook two-equation loop closure (unknowns theta3, theta4), both warm-started from
   the previous answer;
@@ -124,6 +125,12 @@ def _scalar(sizes: Sizes) -> dict[str, Any]:
             solver.solve(c)
         return len(cmds)
 
+    def ours_read() -> int:  # and every value of each Result read (a Result fills its
+        for c in cmds:  # name-keyed dicts when first asked: closed_form.ClosedResult)
+            r = solver.solve(c)
+            r.inputs, r.joints, r.links, r.points  # noqa: B018
+        return len(cmds)
+
     def baseline() -> int:
         for t in crank:
             math_four_bar(t, **dims)
@@ -139,12 +146,15 @@ def _scalar(sizes: Sizes) -> dict[str, Any]:
             'math four-bar': baseline,
             'Solver.solve four_bar': ours,
             'Solver.solve excavator': excavator,
+            'Solver.solve four_bar, every value read': ours_read,
         },
         max(3, sizes.repeats * 3),
     )
     return {
         'us': {k: v * 1e6 for k, v in per.items()},
         'four_bar_vs_math': per['Solver.solve four_bar'] / per['math four-bar'],
+        'four_bar_read_vs_math': per['Solver.solve four_bar, every value read']
+        / per['math four-bar'],
         'excavator_vs_four_bar': per['Solver.solve excavator'] / per['Solver.solve four_bar'],
         'max_point_diff_m': worst,
     }
@@ -315,7 +325,9 @@ def core_speed_markdown(w: Callable[[str], None], core: dict[str, Any]) -> None:
     w(
         'Each pair timed interleaved in this run, best pass (bench/core_speed.py): the scalar '
         '`Solver.solve` (its full Result: every input, joint, link angle and point, residual, '
-        'margin) on the warm four-bar sweep against a hand-written `math` four-bar computing '
+        'margin; a closed-form Result fills its name-keyed dicts when first read, so a second '
+        'row reads every value of each) on the warm four-bar sweep against a hand-written '
+        '`math` four-bar computing '
         'theta3, theta4 and the coupler point; warm Newton 1e-12 against `scipy.optimize.root` '
         '(hybr, xtol 1e-12) on the textbook two-equation closure, warm-started alike; '
         '`Solver.solve_batch` against the same four-bar in plain numpy.\n'
@@ -328,6 +340,12 @@ def core_speed_markdown(w: Callable[[str], None], core: dict[str, Any]) -> None:
         f'{us["math four-bar"]:.2f} us | {s["four_bar_vs_math"]:.1f}x slower | '
         f'{s["max_point_diff_m"]:.1e} m |'
     )
+    read = us.get('Solver.solve four_bar, every value read')
+    if read is not None:
+        w(
+            f'| scalar four_bar, every value of each Result read | {read:.2f} us | '
+            f'{us["math four-bar"]:.2f} us | {s["four_bar_read_vs_math"]:.1f}x slower | - |'
+        )
     w(
         f'| scalar excavator vs four_bar | {us["Solver.solve excavator"]:.2f} us | '
         f'{us["Solver.solve four_bar"]:.2f} us | {s["excavator_vs_four_bar"]:.1f}x | - |'

@@ -19,7 +19,10 @@ Why a twin: the generic executor on the one-command backend looks every name up 
 calls an ops function per where / max. Measured in one process (CPU time, best of 15 x 2000
 runs of the packaged four-bar's plan at one command; 2-core machine shared with other jobs,
 load ~10): the generic executor 32 us, this program 8.6 us (14 us with the name-keyed PlanRun
-that ``run_one`` returns), a hand-written ``math`` four-bar 1.6 us.
+that ``run_one`` returns), a hand-written ``math`` four-bar 1.6 us. Since then (each known
+angle wrapped once per run, constant RRR radii resolved once, one register run tested for
+finiteness): a run 8.9 us against the ``math`` four-bar's 2.0 us (thread CPU time, best of 500
+passes of 20 commands of the warm sweep, load ~7; core/solver/closed_form.py).
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ from typing import Any
 from .dyads import TANGENCY_TOL
 from .errors import PlanError
 from .execute import CONTINUITY_MARGIN, LinkPoses, PlanRun
-from .ops import _cabs_one
+from .ops import _cabs_one, _wrap_one
 from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
 from .scalar_dyads import rpr_angle, rrp_point, rrr_fallback, solve_rpr, solve_rrp, solve_rrr
@@ -60,6 +63,7 @@ from .steps import (
 )
 
 _CM = CONTINUITY_MARGIN
+_PI = math.pi
 _PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
 
 
@@ -93,18 +97,27 @@ class ScalarProgram:
                 point_order.append(st.point)
         self.point_names = tuple(point_order)
         self.link_names = tuple(link_order)
-        points = [*point_order, *(p for p in mech.points if p not in point_order)]
-        links = [*link_order, *(l for l in mech.links if l not in link_order)]
-        n, nl = len(points), len(links)
-        self.ip = {p: i for i, p in enumerate(points)}
-        self.iphi = {l: n + i for i, l in enumerate(links)}
-        self.irot = {l: n + nl + i for i, l in enumerate(links)}
-        self.iT = {l: n + 2 * nl + i for i, l in enumerate(links)}
-        self.ifphi = {l: n + 3 * nl + i for i, l in enumerate(links)}
-        self.ifrot = {l: n + 4 * nl + i for i, l in enumerate(links)}
-        self.ifT = {l: n + 5 * nl + i for i, l in enumerate(links)}
-        self.iang = [n + 6 * nl + b for b in range(len(plan.bodies))]
-        self.template: list[Any] = [None] * (n + 6 * nl + len(plan.bodies))
+        # the registers: the points a run sets and the angles of the links it places first
+        # (one run of the list: what a Result's finiteness test sums), then the other points
+        # and links' angles, then every link's rot, T and frame, then the bodies' orientations
+        rest_points = [p for p in mech.points if p not in point_order]
+        rest_links = [l for l in mech.links if l not in link_order]
+        links = [*link_order, *rest_links]
+        nl = len(links)
+        self.n_set = len(point_order) + len(link_order)
+        self.ip = {p: i for i, p in enumerate(point_order)}
+        self.iphi = {l: len(point_order) + i for i, l in enumerate(link_order)}
+        self.ip.update({p: self.n_set + i for i, p in enumerate(rest_points)})
+        n = self.n_set + len(rest_points)
+        self.iphi.update({l: n + i for i, l in enumerate(rest_links)})
+        n += len(rest_links)
+        self.irot = {l: n + i for i, l in enumerate(links)}
+        self.iT = {l: n + nl + i for i, l in enumerate(links)}
+        self.ifphi = {l: n + 2 * nl + i for i, l in enumerate(links)}
+        self.ifrot = {l: n + 3 * nl + i for i, l in enumerate(links)}
+        self.ifT = {l: n + 4 * nl + i for i, l in enumerate(links)}
+        self.iang = [n + 5 * nl + b for b in range(len(plan.bodies))]
+        self.template: list[Any] = [None] * (n + 5 * nl + len(plan.bodies))
         #: point -> the link whose placement set it (rot * p_ref + T of that link exactly)
         self.set_by: dict[str, str] = {}
         self._members: dict[int, list[Any]] = {}  # per body placed: what _placer places
@@ -119,6 +132,14 @@ class ScalarProgram:
                     used_bodies.add(b)
             if isinstance(a, AngleFrom):
                 used_bodies.add(plan.body_of[a.source])
+        #: each known angle's value wrapped to (-pi, pi] (spec index -> register): the run
+        #: wraps it once, for every step (and a readout) that uses it
+        self.iwrap: dict[int, int] = {}
+        for i, s in enumerate(plan.specs):
+            if isinstance(s, AngleSpec):
+                self.iwrap[i] = len(self.template)
+                self.template.append(0.0)
+        self._wrap_regs = tuple(self.iwrap.items())
         #: the steps of a run: the frames of the welded bodies it uses, then the plan's
         self.steps: list[Step] = []
         for b in sorted(used_bodies):
@@ -158,7 +179,12 @@ class ScalarProgram:
                 assert w.shared_point is not None  # an angle weld turns about a shared point
                 steps.append(
                     turn_weld(
-                        w.spec_index, s.offset, w.link == s.link, self.ref[w.shared_point], via, out
+                        self.iwrap[w.spec_index],
+                        s.offset,
+                        w.link == s.link,
+                        self.ref[w.shared_point],
+                        via,
+                        out,
                     )
                 )
             else:
@@ -354,10 +380,10 @@ class ScalarProgram:
             src, from_pose = self.iang[sb], False
             src_in_body = None if self.single[sb] else self.ifphi[a.source]
         i = a.spec_index
-        offset, negate = 0.0, False
+        offset, negate, wreg = 0.0, False, -1
         if i is not None:
             s = plan.specs[i]
-            offset, negate = s.offset, a.link == s.reference
+            offset, negate, wreg = s.offset, a.link == s.reference, self.iwrap[i]
 
         def angle(r: SlotRun) -> None:
             R = r.R
@@ -366,7 +392,7 @@ class ScalarProgram:
                 source = source + (0.0 if src_in_body is None else R[src_in_body])
             rel = 0.0
             if i is not None:
-                rel = wrap(r.values[i]) - offset
+                rel = R[wreg] - offset
                 if negate:
                     rel = -rel
             R[ang] = source + rel - (0.0 if here is None else R[here])
@@ -379,15 +405,23 @@ class ScalarProgram:
         r2_const, r2_of = self._radius(a.body_b, x, a.centre_b)
         ref_off = self.ref[x] - self.ref[a.centre_a]
         k_step = k
+        # both radii constant (most dyads): their larger one and their difference are too
+        fixed = r1_of is None and r2_of is None
+        big_fixed = r2_const if r2_const > r1_const else r1_const
+        gap_fixed = abs(r1_const - r2_const)
 
         def rrr(r: SlotRun) -> None:
             R = r.R
-            r1 = r1_const if r1_of is None else r1_of(R)
-            r2 = r2_const if r2_of is None else r2_of(R)
+            if fixed:
+                r1, r2, big, gap = r1_const, r2_const, big_fixed, gap_fixed
+            else:
+                r1 = r1_const if r1_of is None else r1_of(R)
+                r2 = r2_const if r2_of is None else r2_of(R)
+                big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
+                gap = abs(r1 - r2)
             c1, c2, tol = R[s1], R[s2], r.tol
-            big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
             # (the cheap test first: equal radii are rare)
-            if abs(r1 - r2) <= tol * big and _cabs_one(c1 - c2) <= tol * big:
+            if gap <= tol * big and _cabs_one(c1 - c2) <= tol * big:
                 coincident(r, k_step, x, sx, c1, r1, ref_off)
                 return
             pair = solve_rrr(c1, r1, c2, r2, tol)
@@ -514,14 +548,43 @@ class ScalarProgram:
         see the module), or ``predict`` makes them where a step first needs them;
         ``prev_margins`` are the previous answer's dyad margins. Returns the
         run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
-        r = SlotRun()
-        r.R = self.template.copy()
         if self.any_point:
-            r.values = [v if pt else float(v) for pt, v in zip(self.point_specs, values)]
+            vals = [v if pt else float(v) for pt, v in zip(self.point_specs, values)]
         else:  # no comprehension's frame for the common command
-            r.values = list(map(float, values))
-        r.signs = self.plan.reference_signs if signs is None else signs
-        r.prefer, r.predict, r.prev_margins, r.tol = prefer, predict, prev_margins, tol
+            vals = list(map(float, values))
+        return self.run_parsed(
+            vals,
+            self.plan.reference_signs if signs is None else signs,
+            prev_margins,
+            predict,
+            prefer,
+            tol,
+        )
+
+    def run_parsed(
+        self,
+        values: list[Any],
+        signs: Sequence[int],
+        prev_margins: Sequence[float] | None = None,
+        predict: Callable[[], Mapping[str, Any] | None] | None = None,
+        prefer: Mapping[str, Any] | None = None,
+        tol: float = TANGENCY_TOL,
+    ) -> SlotRun:
+        """:meth:`execute` on a command as a solver has parsed it (a float per angle or slide,
+        an (x, y) pair per point: ``CompiledSolve.parse``), which the run keeps as it is."""
+        r = SlotRun()
+        r.R = R = self.template.copy()
+        for i, reg in self._wrap_regs:
+            v = values[i]
+            R[reg] = v if -_PI < v <= _PI else _wrap_one(v)
+        r.values, r.signs, r.prefer, r.predict, r.prev_margins, r.tol = (
+            values,
+            signs,
+            prefer,
+            predict,
+            prev_margins,
+            tol,
+        )
         r.prev_small = min(prev_margins) < _CM if prev_margins else False
         r.used, r.margins, r.margin, r.failure, r.violation = [], [], 1.0, -1, 0.0
         try:

@@ -104,17 +104,17 @@ def welded_placer(members: list[Any]) -> Callable[..., None]:
 
 
 def turn_weld(
-    i: int, offset: float, forward: bool, p: complex, via: tuple[int, int, int],
+    wrapped: int, offset: float, forward: bool, p: complex, via: tuple[int, int, int],
     out: tuple[int, int, int],
 ) -> Step:  # fmt: skip
-    """A weld by known angle ``values[i]``: the member turned about the shared point p."""
+    """A weld by a known angle (its value wrapped to (-pi, pi] in register ``wrapped``): the
+    member turned about the shared point p."""
     vphi, vrot, vT = via
     lphi, lrot, lT = out
 
     def turn(r: SlotRun) -> None:
         R = r.R
-        v = r.values[i]
-        rel = (v if -_PI < v <= _PI else _wrap_one(v)) - offset
+        rel = R[wrapped] - offset
         phi = R[vphi] + (rel if forward else -rel)
         rot = complex(cos(phi), sin(phi))
         R[lphi], R[lrot], R[lT] = phi, rot, (R[vrot] * p + R[vT]) - rot * p

@@ -6,24 +6,34 @@ ResultAssembler` (which reads a batch, and a Newton answer's name-keyed poses): 
 values by the same float operations (every commanded actuator as given, every other actuator,
 joint and link whose links are placed, and the loop-closure residual as a fraction of the
 length scale), with every name resolved to a slot of :class:`~linkage_ros.core.scalar_plan.
-ScalarProgram` once, so that a command builds each of the Result's dicts once. Measured in one
-process (CPU time, best of 15 x 2000 calls on one four-bar configuration; 2-core machine shared
-with other jobs, load ~10): ``CompiledSolve.build_result`` over the assembler 13.0 us, this
-readout with the Result 7.9 us. A closed-form answer's State (:class:`SlotState`) reads its
-name-keyed points and poses off the registers only when continuity asks.
+ScalarProgram` once. What decides the answer is computed with it (the residual, the margin and
+branch, whether every value is finite); the Result's name-keyed dicts are read off the
+registers when first asked (:class:`ClosedResult`), and a closed-form answer's State
+(:class:`SlotState`) reads its points and poses only when continuity asks.
+
+:meth:`SlotReadout.lean_command` is ``solve_one`` for the common command of a forward closed
+form (a dict of one finite float per actuator that assembles): no general checks of what that
+command is not, no per-command dicts; any other command or answer goes the general way.
+
+Measured in one process on the packaged four-bar's warm sweep (thread CPU time, best of 500
+interleaved passes of 20 commands; 2-core machine shared with other agents, load ~7):
+``CompiledSolve.build_result`` over the assembler 16.6 us, this readout's Result 3.6 us (7.2
+us with its dicts read), the program's run 8.9 us, a whole ``Solver.solve`` 18.5 us, the
+hand-written ``math`` four-bar of bench/core_speed.py 2.0 us.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
+from dataclasses import MISSING, fields
 from typing import Any
 
 from ..assemble import roller_offset
 from ..execute import LinkPoses
 from ..ops import _wrap_one
 from ..plan import ReadKind, SpecReader, spec_reader
-from ..quantities import SlideSpec
+from ..quantities import PointSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
 from ..steps import branch_text
@@ -76,10 +86,14 @@ class SlotReadout:
 
     def __init__(self, c: CompiledSolve, prog: ScalarProgram):
         mech, specs = c.mech, c.specs
-        self.prog = prog
+        self.c, self.prog, self.plan = c, prog, c.plan
         have = set(prog.link_names)
         spec_links = c.check_system.spec_links
         self.L = mech.length_scale
+        self.closure_limit = c.closure_limit
+        self.limited = bool(c.limited)
+        #: the names of a command's values, in spec order (lean_command's parse)
+        self.known_names = tuple(s.name for s in specs)
         commanded = {s.name: i for i, s in enumerate(specs)}
         #: (actuator, index of its commanded value), and the others' readers
         self.commanded = [(a, commanded[a]) for a in mech.actuators if a in commanded]
@@ -100,25 +114,32 @@ class SlotReadout:
             very float the joint check would compute), else -1."""
             return prog.ip[point] if prog.set_by.get(point) == link else -1
 
-        #: (joint, child, parent, angle offset, point, parent rot, T, child rot, T, and the
-        #: point's register where it is that of the parent / the child)
-        self.revolutes = [
+        revolutes = [rj for rj in mech.revolutes if rj.parent in have and rj.child in have]
+        #: each revolute's angle: (joint, child's phi register, parent's, angle offset)
+        self.revolute_angles = [
             (
                 rj.name,
                 iphi[rj.child],
                 iphi[rj.parent],
                 mech.links[rj.child].angle_ref - mech.links[rj.parent].angle_ref,
-                _c(mech.points[rj.point]),
-                irot[rj.parent],
-                iT[rj.parent],
-                irot[rj.child],
-                iT[rj.child],
-                reg(rj.point, rj.parent),
-                reg(rj.point, rj.child),
             )
-            for rj in mech.revolutes
-            if rj.parent in have and rj.child in have
+            for rj in revolutes
         ]
+        # each revolute's closure (its point placed by the parent minus by the child), split by
+        # which side's placement set the point's register (that side's point is the register)
+        self.closure_parent_set: list[tuple[complex, int, int, int]] = []
+        self.closure_child_set: list[tuple[complex, int, int, int]] = []
+        self.closure_neither_set: list[tuple[complex, int, int, int, int]] = []
+        for rj in revolutes:
+            p = _c(mech.points[rj.point])
+            preg, creg = reg(rj.point, rj.parent), reg(rj.point, rj.child)
+            prot, pT, crot, cT = irot[rj.parent], iT[rj.parent], irot[rj.child], iT[rj.child]
+            if preg >= 0:
+                self.closure_parent_set.append((p, preg, crot, cT))
+            elif creg >= 0:
+                self.closure_child_set.append((p, prot, pT, creg))
+            else:
+                self.closure_neither_set.append((p, prot, pT, crot, cT))
         self.slides = [
             (
                 pj.name,
@@ -142,9 +163,10 @@ class SlotReadout:
             for i, s in enumerate(specs)
             if all(l in have for l in spec_links(s))
         ]
-        #: the known angles read inline (their link's and reference's phi registers, offset)
+        #: the known angles read inline (the register of the value wrapped, their link's and
+        #: reference's phi registers, offset)
         self.angle_knowns = [
-            (i, iphi[read.link], iphi[read.reference], read.offset)
+            (prog.iwrap[i], iphi[read.link], iphi[read.reference], read.offset)
             for i, read in read_knowns
             if read.kind is ReadKind.ANGLE
         ]
@@ -154,6 +176,9 @@ class SlotReadout:
             if read.kind is not ReadKind.ANGLE
         ]
         self.point_names = prog.point_names
+        #: the registers of the points a run sets and of the placed links' angles, the first
+        #: of the register list (ScalarProgram)
+        self.n_set = prog.n_set
         self._branch_texts: dict[tuple[int, ...], str] = {}
 
     def branch_text(self, signs: tuple[int, ...]) -> str:
@@ -165,43 +190,59 @@ class SlotReadout:
         return text
 
     def result(self, r: SlotRun, vals: Values, signs: tuple[int, ...]) -> Result:
-        """The Result of a run that closed (refused if any value is not finite)."""
+        """The Result of a run that closed (refused if any value is not finite). What decides
+        it is computed here: the loop-closure residual, the margin and branch, whether every
+        value is finite; the name-keyed dicts (inputs, joints, links, points) are read off the
+        registers when first asked (:class:`ClosedResult`)."""
         L, R = self.L, r.R
         # (loops, not comprehensions: a comprehension is a call in Python 3.11)
-        inputs: dict[str, float] = {}
-        for actuator, i in self.commanded:
-            inputs[actuator] = float(vals[i])
-        if self.read_inputs:
-            inputs.update((a, read(R)) for a, read in self.read_inputs)
-            inputs = {a: inputs[a] for a in self.input_order}
-        # ``total``: every float of the Result summed as it is made (the finiteness test below)
-        joints: dict[str, float] = {}
-        worst = total = 0.0
-        for name, child, parent, offset, p, prot, pT, crot, cT, preg, creg in self.revolutes:
-            a = offset + R[child] - R[parent]
-            if not -_PI < a <= _PI:
-                a = _wrap_one(a)
-            joints[name] = a
-            total += a
-            d = (R[preg] if preg >= 0 else R[prot] * p + R[pT]) - (
-                R[creg] if creg >= 0 else R[crot] * p + R[cT]
-            )
-            # the largest component (a NaN one makes the Result refused whatever the residual)
-            a = abs(d.real)
+        worst = 0.0  # the largest component of a closure miss (m); NaN ones are not counted
+        for p, reg, crot, cT in self.closure_parent_set:
+            d = R[reg] - (R[crot] * p + R[cT])
+            a = d.real
+            if a < 0.0:  # abs(a), without the call (NaN stays NaN)
+                a = -a
+            if a > worst:  # max(worst, a), likewise
+                worst = a
+            a = d.imag
+            if a < 0.0:
+                a = -a
             if a > worst:
                 worst = a
-            a = abs(d.imag)
+        for p, prot, pT, reg in self.closure_child_set:
+            d = (R[prot] * p + R[pT]) - R[reg]
+            a = d.real
+            if a < 0.0:
+                a = -a
             if a > worst:
                 worst = a
-        for name, read, p, normal, sphi, srot, sT, gphi, grot, gT, face in self.slides:
-            joints[name] = a = read(R)
-            total += a
+            a = d.imag
+            if a < 0.0:
+                a = -a
+            if a > worst:
+                worst = a
+        for p, prot, pT, crot, cT in self.closure_neither_set:
+            d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
+            a = d.real
+            if a < 0.0:
+                a = -a
+            if a > worst:
+                worst = a
+            a = d.imag
+            if a < 0.0:
+                a = -a
+            if a > worst:
+                worst = a
+        # ``total``: the values of the Result that may not be finite, summed (the test below)
+        total = 0.0
+        for _, read, p, normal, sphi, srot, sT, gphi, grot, gT, face in self.slides:
+            total += read(R)
             off = (R[srot] * p + R[sT]) - (R[grot] * p + R[gT])
             nrm = R[grot] * normal
             # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
             across = off.real * nrm.real + off.imag * nrm.imag
             a = abs(abs(across + face) - abs(face)) if face else abs(across)
-            if a > worst:  # max(worst, a), without the call
+            if a > worst:
                 worst = a
             a = R[sphi] - R[gphi]
             if not -_PI < a <= _PI:
@@ -209,25 +250,15 @@ class SlotReadout:
             a = L * abs(a)
             if a > worst:
                 worst = a
-        links: dict[str, float] = {}
-        for l, i, ref in self.links:
-            a = ref + R[i]
-            if not -_PI < a <= _PI:
-                a = _wrap_one(a)
-            links[l] = a
-            total += a
-        for i, ia, ib, off in self.angle_knowns:  # _slot_reader's angle, _wrap inlined
+        for wrapped, ia, ib, off in self.angle_knowns:  # _slot_reader's angle, _wrap inlined
             got = R[ia] - R[ib] + off
             if not -_PI < got <= _PI:
                 got = _wrap_one(got)
-            v = vals[i]
-            if not -_PI < v <= _PI:  # reduce v exactly first
-                v = _wrap_one(v)
-            a = got - v
+            a = got - R[wrapped]  # (the value reduced exactly first, by the run)
             if not -_PI < a <= _PI:
                 a = _wrap_one(a)
             a = L * abs(a)
-            if a > worst:  # max(worst, a)
+            if a > worst:
                 worst = a
         for i, kind, read in self.knowns:
             got, v = read(R), vals[i]
@@ -235,52 +266,117 @@ class SlotReadout:
                 a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
             else:
                 a = abs(got - v)
-            if a > worst:  # max(worst, a)
+            if a > worst:
                 worst = a
         residual = worst / L
-        names = self.point_names
-        points: dict[str, tuple[float, float]] = {}
-        zsum = 0j
-        for point, z in zip(names, R):
-            points[point] = (z.real, z.imag)
-            zsum += z
-        margin = float(r.margin)
+        margin = r.margin  # (a float: 1.0, or a dyad's)
         defined = True
         if signs:  # branch_identity_defined (result.py), inlined
             defined = margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
-        # one sum is finite when every term is (it may overflow only at ~1e308 scales, where
-        # the exact check below runs)
-        total += sum(inputs.values()) + (zsum.real + zsum.imag) + residual + margin
-        if total - total != 0.0 and not all(
-            math.isfinite(v)
-            for v in [
-                *joints.values(),
-                *links.values(),
-                *inputs.values(),
-                *(c for p in points.values() for c in p),
-                residual,
-                margin,
-            ]
-        ):
+        # Every value is finite when these are: a joint or link angle is one of the placed
+        # links' angles (bounded) less another plus a constant, a point its register, an input
+        # commanded (parsed: finite) or read here. One sum is finite when every term is (it
+        # may overflow only at ~1e308 scales, where the exact check below runs).
+        if self.read_inputs:
+            for _, read in self.read_inputs:
+                total += read(R)
+        zsum = sum(R[: self.n_set], 0j)
+        total += zsum.real + zsum.imag + residual + margin
+        if total - total != 0.0 and not self._all_finite(R, vals, residual, margin):
             return Result(
                 False, 'internal error: non-finite value in the solution', solver=_CLOSED_FORM
             )
-        return Result(
-            True,
-            None,
-            inputs,
-            {},
-            joints,
-            links,
-            points,
-            residual,
-            0,
-            _CLOSED_FORM,
-            self._branch_texts.get(signs) or self.branch_text(signs),
-            defined,
-            margin,
-            None,
+        res = _new_closed(ClosedResult)
+        res._source = (self, R, vals)
+        res.success, res.solver = True, _CLOSED_FORM
+        res.residual, res.margin, res.branch_defined = residual, margin, defined
+        res.branch = self._branch_texts.get(signs) or self.branch_text(signs)
+        return res
+
+    def fill(self, d: dict[str, Any], R: list[Any], vals: Values) -> None:
+        """The name-keyed values of a run that closed into ``d`` (a Result's ``__dict__``),
+        where it has none of its own: inputs, joints, links, points (and targets, none)."""
+        inputs: dict[str, float] = {}
+        for actuator, i in self.commanded:
+            inputs[actuator] = float(vals[i])
+        if self.read_inputs:
+            inputs.update((a, read(R)) for a, read in self.read_inputs)
+            inputs = {a: inputs[a] for a in self.input_order}
+        joints: dict[str, float] = {}
+        for name, child, parent, offset in self.revolute_angles:
+            a = offset + R[child] - R[parent]
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            joints[name] = a
+        for slide in self.slides:
+            joints[slide[0]] = slide[1](R)
+        links: dict[str, float] = {}
+        for l, i, ref in self.links:
+            a = ref + R[i]
+            if not -_PI < a <= _PI:
+                a = _wrap_one(a)
+            links[l] = a
+        points: dict[str, tuple[float, float]] = {}
+        for point, z in zip(self.point_names, R):
+            points[point] = (z.real, z.imag)
+        got = {'inputs': inputs, 'targets': {}, 'joints': joints, 'links': links, 'points': points}
+        got.update(d)  # (what the Result was given meanwhile stays)
+        d.update(got)
+
+    def _all_finite(self, R: list[Any], vals: Values, residual: float, margin: float) -> bool:
+        """Every value of the Result finite (the exact check where the sum overflowed)."""
+        d: dict[str, Any] = {}
+        self.fill(d, R, vals)
+        return all(
+            math.isfinite(v)
+            for v in [
+                *d['joints'].values(),
+                *d['links'].values(),
+                *d['inputs'].values(),
+                *(c for p in d['points'].values() for c in p),
+                residual,
+                margin,
+            ]
         )
+
+    def lean_command(
+        self, cont: Continuity, values: Mapping[str, Any], commit: bool = True
+    ) -> Result | None:
+        """:func:`~linkage_ros.core.solver.one.solve_one` of a forward closed-form solve for
+        the common command (a dict of one finite float per known) that assembles: the same
+        Result by the same steps, without the general path's checks of what this command
+        is not. None, having changed nothing, for any other command or answer: solve_one
+        answers those (it refuses them, or echoes other kinds of values)."""
+        if type(values) is not dict or len(values) != len(self.known_names):
+            return None
+        vals: Values = []
+        try:
+            for name in self.known_names:
+                v = values[name]
+                if type(v) is not float or v - v != 0.0:  # (an int, NaN, ...)
+                    return None
+                vals.append(v)
+        except KeyError:
+            return None
+        c = self.c
+        if self.limited and c.limit_refusal(vals):
+            return None
+        history = cont.history
+        r = self.prog.run_parsed(
+            vals,
+            cont.signs(self.plan),
+            history[-1].margins if history else None,
+            lambda: cont.prediction(c, vals),
+        )
+        if r.failure >= 0:
+            return None
+        signs = tuple(r.used)
+        res = self.result(r, vals, signs)
+        if not (res.success and res.residual <= self.closure_limit):  # type: ignore[operator]
+            return None
+        if commit:
+            cont.commit(SlotState(vals, signs, tuple(r.margins), self.prog, r.R))
+        return res
 
 
 def readout(c: CompiledSolve) -> SlotReadout:
@@ -291,6 +387,106 @@ def readout(c: CompiledSolve) -> SlotReadout:
     if got is None:
         got = c.__dict__['_slot_readout'] = SlotReadout(c, program(c.plan))
     return got
+
+
+class LeanCommand:
+    """``command(cont, values, commit)``: :meth:`SlotReadout.lean_command` of a compiled
+    solve, its readout made on the first command (a solver that never solves one never pays
+    for it)."""
+
+    command: Callable[[Continuity, Mapping[str, Any], bool], Result | None]
+
+    def __init__(self, c: CompiledSolve):
+        self._c = c
+        self.command = self._first
+
+    def _first(self, cont: Continuity, values: Mapping[str, Any], commit: bool) -> Result | None:
+        self.command = readout(self._c).lean_command
+        return self.command(cont, values, commit)
+
+
+def lean_command(c: CompiledSolve) -> LeanCommand | None:
+    """The lean path of ``c``'s commands where it has one: a forward closed-form solve (every
+    known an actuator's angle or slide), else None."""
+    if c.mode is not _CLOSED_FORM or c.inverse or c.point_pairs:
+        return None
+    if any(isinstance(s, PointSpec) for s in c.specs):
+        return None
+    return LeanCommand(c)
+
+
+#: the Result fields ClosedResult reads off the registers on first use
+_LAZY = ('inputs', 'targets', 'joints', 'links', 'points')
+_LAZY_SET = frozenset(_LAZY)
+_FIELD_NAMES = tuple(f.name for f in fields(Result))
+
+
+class _Filled:
+    """A field of a :class:`ClosedResult` made on first read: the name-keyed dicts read off
+    its run, or another field's default. A non-data descriptor: once in the instance's
+    ``__dict__`` (filled, or given) the value there is read, at the cost of any attribute."""
+
+    def __init__(self, name: str, default: Callable[[], Any] | None = None):
+        self.name, self.default = name, default
+
+    def __get__(self, obj: ClosedResult | None, owner: type | None = None) -> Any:
+        if obj is None:
+            return self
+        d = _instance_dict(obj)
+        if self.default is not None:
+            value = d[self.name] = self.default()
+            return value
+        read, R, vals = obj._source
+        read.fill(d, R, vals)
+        return d[self.name]
+
+
+class ClosedResult(Result):
+    """A closed-form answer whose name-keyed dicts (inputs, targets, joints, links, points)
+    are read off its run's registers when first asked, by the readout's very operations: most
+    callers read a few values, many none (a node publishing one output, a bench). Every other
+    field is set when it is made (or is Result's default). It reads, compares (equal to a
+    Result of the same values), copies and pickles (as a plain Result) as the Result it is."""
+
+    __slots__ = ('_source',)
+    _source: tuple[SlotReadout, list[Any], Values]  # what fills the dicts: readout, run
+
+    @property
+    def __dict__(self) -> dict[str, Any]:  # type: ignore[override]
+        """The instance's attributes, the dicts filled first: ``vars(result)`` and
+        ``Result(**result.__dict__)`` see every value (attribute reads do not come here)."""
+        d: dict[str, Any] = _instance_dict(self)
+        if not d.keys() >= _LAZY_SET:
+            read, R, vals = self._source
+            read.fill(d, R, vals)
+        return d
+
+    def _values(self) -> tuple[Any, ...]:
+        return tuple(getattr(self, n) for n in _FIELD_NAMES)
+
+    def __eq__(self, other: object) -> bool:
+        if isinstance(other, Result):
+            return self._values() == tuple(getattr(other, n) for n in _FIELD_NAMES)
+        return NotImplemented
+
+    __hash__ = None  # type: ignore[assignment]  # (a Result is mutable: unhashable)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return Result, self._values()
+
+
+for _f in fields(Result):  # every field a Result makes with a factory, made on first read
+    if _f.default_factory is not MISSING:
+        setattr(
+            ClosedResult,
+            _f.name,
+            _Filled(_f.name, None if _f.name in _LAZY else _f.default_factory),
+        )
+
+
+_new_closed = object.__new__
+#: an instance's own attribute dict (ClosedResult.__dict__ fills it first)
+_instance_dict = Result.__dict__['__dict__'].__get__
 
 
 class SlotState(State):
@@ -305,12 +501,14 @@ class SlotState(State):
         margins: tuple[float, ...],
         prog: ScalarProgram,
         registers: list[Any],
-    ):  # State's fields set here, points and poses on first use
-        self.values, self.x_all, self.signs, self.det_sign = values, None, signs, 0
-        self.margins, self.x_lu = margins, None
+    ):  # State's other fields are the class's defaults below (fewer stores per command)
+        self.values, self.signs, self.margins = values, signs, margins
         self._prog, self._registers = prog, registers
-        self._points: dict[str, complex] | None = None
-        self._poses: LinkPoses | None = None
+
+    x_all = None
+    det_sign = 0
+    _points: dict[str, complex] | None = None
+    _poses: LinkPoses | None = None
 
     @property
     def points(self) -> dict[str, complex]:
@@ -342,12 +540,11 @@ def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     """The dyad plan on one command, on the branch ``cont`` chooses."""
     read = readout(c)
     prog, history = read.prog, cont.history
-    r = prog.execute(
+    r = prog.run_parsed(
         vals,
         cont.signs(c.plan),
-        None,
         history[-1].margins if history else None,
-        predict=lambda: cont.prediction(c, vals),
+        lambda: cont.prediction(c, vals),
     )
     if r.failure >= 0:
         reason = c.dyad_reason(r.failure, r.violation)

@@ -30,6 +30,7 @@ from ..newton import LoopSystem
 from ..plan import Plan, Spec, limit_violation
 from ..quantities import ScalarSpec
 from .batch import BatchResult, solve_batch
+from .closed_form import lean_command
 from .compiled import CompiledSolve, SolveMode, Values
 from .compiling import compile_solve
 from .continuity import BranchRule, Continuity, State, parse_branch
@@ -59,6 +60,7 @@ class Solver:
         self.continuity = Continuity(parse_branch(c.plan, branch, labels))
         self._newton: CompiledSolve | None = None  # the mode search's, made on first use
         self._forward: CompiledSolve | None = None  # reads the mechanism's mode, likewise
+        self._lean = lean_command(c)  # a forward closed form's common command (closed_form)
 
     # -- what was compiled (read-only views of ``compiled``) ------------------------------------
     @property
@@ -193,6 +195,10 @@ class Solver:
     def solve(self, values: Mapping[str, Any], commit: bool = True) -> Result:
         """Solve one command. On success (and commit) the answer becomes the new 'previous
         configuration' for continuity; on failure nothing changes."""
+        if self._lean is not None:  # (None from it: the general path answers)
+            res = self._lean.command(self.continuity, values, commit)
+            if res is not None:
+                return res
         return solve_one(self.compiled, self.continuity, values, commit)
 
     def solve_batch(

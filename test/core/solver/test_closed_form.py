@@ -94,3 +94,87 @@ def test_a_closed_form_state_reads_like_one_built_by_name_and_pickles():
     b.restore(pickle.loads(pickle.dumps(a.snapshot())))
     for c in cmds[30:]:
         assert a.solve(c).to_dict(mech) == b.solve(c).to_dict(mech)
+
+
+def _commands(mech, rng):
+    """A warm sweep with jumps (some beyond reach or limits), and commands the lean path of a
+    forward closed-form solve does not take: ints, numpy floats, NaN, a missing, an unknown
+    and an extra name."""
+    cmds = sweep_inputs(mech, 60)
+    for j in range(0, len(cmds), 7):
+        cmds[j] = {k: v + float(rng.normal(0, 0.8)) for k, v in cmds[j].items()}
+    first = next(iter(cmds[0]))
+    odd = [
+        {**cmds[5], first: int(round(cmds[5][first]))},
+        {k: np.float64(v) for k, v in cmds[6].items()},
+        {**cmds[7], first: math.nan},
+        {k: v for k, v in cmds[8].items() if k != first},
+        {**cmds[9], 'no_such_name': 0.0},
+    ]
+    return [*cmds[:30], *odd, *cmds[30:]]
+
+
+@pytest.mark.parametrize('scene', SCENES)
+def test_the_lean_command_answers_what_the_general_path_answers(scene):
+    """Solver.solve of a forward closed form takes a lean path for a plain dict of finite
+    floats (closed_form.lean_command); anything else goes the general way (solve_one), as a
+    command given as another Mapping always does. Both answer the same Result, refusal words
+    included, and leave the same continuity behind (commit=False: none)."""
+    from types import MappingProxyType
+
+    mech = (
+        Scene.from_dict(scenes.nut_cracker()).mechanism
+        if scene == 'nut_cracker'
+        else scenes.load(scene)
+    )
+    lean, general = Solver(mech, method='closed_form'), Solver(mech, method='closed_form')
+    if lean.compiled.inverse:
+        pytest.skip('the lean path is for a forward solve')
+    cmds = _commands(mech, np.random.default_rng(7))
+    solved = 0
+    for k, c in enumerate(cmds):
+        commit = k % 5 != 3
+        a, b = lean.solve(c, commit), general.solve(MappingProxyType(c), commit)
+        assert a.to_dict(mech) == b.to_dict(mech), (scene, k, c)
+        assert a == b and b == a
+        assert lean.current_signs == general.current_signs
+        assert [s.margins for s in lean.snapshot()] == [s.margins for s in general.snapshot()]
+        solved += a.success
+    assert solved >= 20
+
+
+def test_a_closed_form_result_is_a_result_in_every_use():
+    """The lean Result fills its dicts on first read; it compares equal to a Result with the
+    same values (either way round), copies and pickles as a plain Result, keeps a value given
+    before its first read, and dataclasses.replace and asdict see every field. Its values are
+    the hand-written math four-bar's (bench.core_speed: theta3 and the coupler point)."""
+    import copy
+    import dataclasses
+    import pickle
+
+    from linkage_ros.bench.core_speed import _four_bar_dims, math_four_bar
+    from linkage_ros.core.solver import Result
+
+    mech = scenes.load('four_bar')
+    dims = _four_bar_dims(mech)
+    solver = Solver(mech)
+    for t in np.linspace(-3.0, 9.0, 25).tolist():
+        r = solver.solve({'crank': t})
+        assert r.success
+        t3, _, x, y = math_four_bar(t, **dims)
+        a, b = r.points['A'], r.points['B']
+        assert abs(math.remainder(t3 - math.atan2(b[1] - a[1], b[0] - a[0]), 2 * math.pi)) < 1e-12
+        assert math.dist((x, y), r.points['P']) < 1e-12 * mech.length_scale
+        assert r.inputs == {'crank': t}
+        plain = Result(**{f.name: getattr(r, f.name) for f in dataclasses.fields(Result)})
+        assert r == plain and plain == r
+        assert r != dataclasses.replace(plain, branch='x')
+        for twin in (pickle.loads(pickle.dumps(r)), copy.copy(r), copy.deepcopy(r)):
+            assert type(twin) is Result and twin == plain
+        assert dataclasses.asdict(r) == dataclasses.asdict(plain)
+        assert Result(**r.__dict__) == plain and vars(r).keys() >= {'points', 'joints'}
+        assert dataclasses.replace(r, reason='why') == dataclasses.replace(plain, reason='why')
+    fresh = solver.solve({'crank': 1.0})
+    fresh.targets = {'given': 1.0}
+    fresh.points = {}
+    assert fresh.targets == {'given': 1.0} and fresh.points == {} and fresh.links
