@@ -185,7 +185,8 @@ def _rrr_point_common(
 ) -> RrrPoint | None:
     """solve_rrr_dyad_batch's formulas where every row is finite and closes, then dyad_point's
     (same operations, same order: each comment names the expression it computes); None as
-    soon as a row is not of that kind (the caller takes the general kernel)."""
+    soon as a row is not of that kind (the caller takes the general kernel). Arrays are let go
+    (del) as soon as they are read for the last time: the batch's peak of fresh memory."""
     x1, y1, x2, y2 = c1.re, c1.im, c2.re, c2.im
     if not (isinstance(x1, np.ndarray) and x1.ndim == 1 and x1.size):
         return None
@@ -194,15 +195,13 @@ def _rrr_point_common(
     cm2 = np.abs(x2)
     np.maximum(cm2, np.abs(y2), out=cm2)
     np.maximum(big, cm2, out=big)
+    del cm2
     np.maximum(big, np.maximum(abs(r1), abs(r2)), out=big)
-    # max propagates NaN: a finite top and a positive bottom are every row finite and > 0
-    if not (big.max() < np.inf and big.min() > 0):
+    # every row finite and > 0 (max propagates NaN) and a normal number
+    if not (big.max() < np.inf and big.min() >= _MIN_NORMAL):
         return None
-    _, expo = np.frexp(big)
-    expo -= 1
-    expo >>= 1
-    expo <<= 1
-    S = pow2(expo)  # _pow2_scale(big)
+    S = _even_pow2_below(big)  # _pow2_scale(big)
+    del big
     x1n, y1n = x1 / S, y1 / S
     dx, dy = x2 / S, y2 / S
     dx -= x1n
@@ -213,8 +212,10 @@ def _rrr_point_common(
     lo, hi = np.minimum(d, r1n), np.maximum(d, r1n)
     longest, small = np.maximum(hi, r2n), np.minimum(lo, r2n)
     mid = np.maximum(lo, np.minimum(hi, r2n, out=hi), out=lo)
-    _, expo = np.frexp(longest)
-    scale = pow2(expo)
+    del lo, hi
+    if not longest.min() >= _MIN_NORMAL:
+        return None
+    scale = _pow2_above(longest)  # pow2(frexp(longest)[1])
     longest /= scale
     mid /= scale
     small /= scale
@@ -225,11 +226,14 @@ def _rrr_point_common(
     np.sqrt(four_area_n, out=four_area_n)
     f = np.maximum(neg_factor, 0.0)
     four_area_n *= np.sqrt(f, out=f)
+    del f
     np.add(small, big_mid, out=big_mid)
     four_area_n *= np.sqrt(big_mid, out=big_mid)
+    del big_mid
     np.subtract(mid, small, out=mid)
     mid += longest
     four_area_n *= np.sqrt(mid, out=mid)
+    del mid
     violation_n = np.negative(neg_factor, out=neg_factor)
     dn = d / scale
     # ok in every row: finite & (dn > 0) & (r1n > 0) & (r2n > 0) & (violation_n <= tol * longest_n)
@@ -237,21 +241,27 @@ def _rrr_point_common(
         return None
     if not np.all(violation_n <= np.multiply(longest, tol, out=small)):
         return None
+    del small
     ux, uy = np.divide(dx, d, out=dx), np.divide(dy, d, out=dy)
     along = r1n - r2n
     along /= d
     along *= r1n + r2n
     along += d
     along *= 0.5
-    along = np.clip(along, -abs(r1n), abs(r1n), out=along)
+    # np.clip(along, -|r1n|, |r1n|): r1n > 0, so no bound is a zero of either sign and the
+    # maximum and minimum passes give clip's values
+    np.maximum(along, -r1n, out=along)
+    np.minimum(along, r1n, out=along)
     # on_toggle needs violation_n >= -TOGGLE_BAND * longest_n, longest_n < 1: none below
     toggle = None
     if not violation_n.max() < -TOGGLE_BAND:
         smallest_n = np.minimum(np.minimum(dn, r1n / scale), r2n / scale)
         toggle = (violation_n >= -TOGGLE_BAND * longest) & (-violation_n < 0.5 * smallest_n)
+    del violation_n, longest
     # h = 0.5 * scale * (four_area_n / dn)
     h = np.multiply(scale, 0.5, out=scale)
     h *= np.divide(four_area_n, dn, out=four_area_n)
+    del four_area_n, dn
     if toggle is not None and toggle.any():
         h = np.where(~toggle, h, 0.0)
     if not h.max() < np.inf:  # (0 * h below is then no zero)
@@ -259,12 +269,13 @@ def _rrr_point_common(
     # margin = clip((h / r1n) * (d / r2n)), NaN as 0
     margin = h / r1n
     margin *= np.divide(d, r2n, out=d)
+    del d
     if np.isnan(margin.max()):
         margin = np.where(margin == margin, margin, 0.0)
     np.clip(margin, 0.0, 1.0, out=margin)
     # dyad_point: (base + (along + sign * (0 h + i h)) * u) * S; 0.0 * (h * sign) is
     # (0.0 * h) * sign for a finite h, the zero of the same sign
-    w_im = h * sign
+    w_im = np.multiply(h, sign, out=h)
     w_re = np.multiply(w_im, 0.0)
     w_re += along
     px = w_re * ux
@@ -272,6 +283,7 @@ def _rrr_point_common(
     px -= t
     py = np.multiply(w_re, uy, out=w_re)
     py += np.multiply(w_im, ux, out=t)
+    del w_im, t, ux, uy
     px += x1n
     py += y1n
     px *= S
@@ -279,3 +291,27 @@ def _rrr_point_common(
     if not (np.isfinite(px).all() and np.isfinite(py).all()):
         return None
     return RrrPoint(CArray(px, py), np.ones(px.shape, bool), margin, np.zeros(px.shape), True)
+
+
+#: the smallest positive normal float (the exponent-bit forms below need normal numbers)
+_MIN_NORMAL = float(np.finfo(float).tiny)
+
+
+def _even_pow2_below(m: np.ndarray) -> np.ndarray:
+    """_pow2_scale(m) for positive normal finite m, from m's exponent bits: 2**k with
+    k = ((e - 1) >> 1) << 1, frexp's exponent e = biased - 1022 (k + 1023 in [1, 2045])."""
+    b = m.view(np.int64) >> 52
+    b -= 1023
+    b >>= 1
+    b <<= 1
+    b += 1023
+    b <<= 52
+    return b.view(np.float64)
+
+
+def _pow2_above(m: np.ndarray) -> np.ndarray:
+    """pow2(frexp(m)[1]) for positive normal m < 2**1023 (here < 16): 2**(biased - 1022)."""
+    b = m.view(np.int64) >> 52
+    b += 1
+    b <<= 52
+    return b.view(np.float64)

@@ -297,7 +297,9 @@ class PlanExecutor:
                     pts[x] = got.point
                     used.append(sg)
                     margins.append(got.margin)
-                    margin_all = ops.minimum(margin_all, got.margin)
+                    # min(1, m) is m itself for the first dyad (m in [+0, 1], no NaN, no -0.0)
+                    first = isinstance(margin_all, float)
+                    margin_all = got.margin if first else ops.minimum(margin_all, got.margin)
                     if not got.all_ok:
                         newly = ok_all & ops.not_(got.ok)
                         if newly.any():
