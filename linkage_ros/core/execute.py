@@ -216,7 +216,8 @@ class PlanExecutor:
         def frame(bi: int) -> _Frame:
             f = frames.get(bi)
             if f is None:
-                f = frames[bi] = self._frame(ops, bi, values, zero)
+                # the root's pose 0-d (the identity in every row: taken once for the batch)
+                f = frames[bi] = self._frame(ops, bi, values, _ZERO_0D)
             return f
 
         def local_pt(bi: int, p: str) -> Any:
