@@ -21,8 +21,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from .dyads import TOGGLE_BAND, DyadPair, dyad_point
-from .ops import BATCH
-from .ops import CArray
+from .ops import BATCH, CArray
 
 _FLOAT_MAX = float(np.finfo(float).max)
 _MIN_NORMAL_EXP, _MAX_EXP = -1022, 1023
@@ -180,9 +179,7 @@ def rrr_point_batch(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: Any) -
     return RrrPoint(z, ok, pair.margin, pair.violation, bool(np.all(ok)))
 
 
-def _rrr_point_common(
-    c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int
-) -> RrrPoint | None:
+def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int) -> RrrPoint | None:
     """solve_rrr_dyad_batch's formulas where every row is finite and closes, then dyad_point's
     (same operations, same order: each comment names the expression it computes); None as
     soon as a row is not of that kind (the caller takes the general kernel). Arrays are let go

@@ -6,6 +6,13 @@ of the plan (which link carries a point, reference positions, slide directions) 
 per plan, so a solve does only its arithmetic. One command runs on the plan's one-command
 program (:mod:`linkage_ros.core.scalar_plan`, a measured twin tested equal to this executor
 row for row), which holds the continuity rule through tangent configurations.
+
+A batch's cost is mostly whole-batch passes and the fresh memory they write (a 20,000-row
+float array is 160 kB: page faults as well as its pass). So values the same in every row are
+taken once, 0-d (a body frame's root, the ground body at rest), the arithmetic on arrays a step
+owns is done in place, and the RRR dyad with its point is one fused kernel
+(:func:`~linkage_ros.core.dyads_batch.rrr_point_batch`): the same float operations in the same
+order, every answer bit for bit what the plain operators give.
 """
 
 from __future__ import annotations
@@ -64,7 +71,9 @@ class PlanRun:
     step that did not close (-1) and the run stops there. A batch: ``ok``, ``failure``,
     ``violation`` and ``margin`` are (n,) arrays and every row runs to the end (finite
     placeholders where not ok). ``signs`` and ``margins`` hold one entry per branching step
-    taken (the sign used, the dyad's margin)."""
+    taken (the sign used, the dyad's margin). Of a batch, values the same in every row (the
+    ground body's poses and points, ``failure`` and ``violation`` where every row closes) are
+    read-only views of the one value: they cost no memory (copy one to write into it)."""
 
     ok: Any
     poses: LinkPoses
@@ -213,6 +222,16 @@ class PlanExecutor:
         failure: Any = None
         violation_all: Any = None
 
+        def closes(k: int, okk: Any, violation: Any) -> None:
+            """Rows step k closes (okk); the others fail here unless they failed before."""
+            nonlocal ok_all, failure, violation_all
+            newly = ok_all & ops.not_(okk)
+            if newly.any():
+                failure = np.where(newly, k, -1.0 if failure is None else failure)
+                before = 0.0 if violation_all is None else violation_all
+                violation_all = np.where(newly, violation, before)
+            ok_all = ok_all & okk
+
         def frame(bi: int) -> _Frame:
             f = frames.get(bi)
             if f is None:
@@ -302,13 +321,7 @@ class PlanExecutor:
                     first = isinstance(margin_all, float)
                     margin_all = got.margin if first else ops.minimum(margin_all, got.margin)
                     if not got.all_ok:
-                        newly = ok_all & ops.not_(got.ok)
-                        if newly.any():
-                            failure = np.where(newly, k, -1.0 if failure is None else failure)
-                            violation_all = np.where(
-                                newly, got.violation, 0.0 if violation_all is None else violation_all
-                            )
-                        ok_all = ok_all & got.ok
+                        closes(k, got.ok, got.violation)
                     continue
                 else:
                     b1, p1, jname = st.args.body, st.args.centre, st.args.joint
@@ -323,13 +336,7 @@ class PlanExecutor:
                 used.append(sg)
                 margins.append(pair.margin)
                 margin_all = ops.minimum(margin_all, pair.margin)
-                newly = ok_all & ops.not_(okk)
-                if newly.any():
-                    failure = np.where(newly, k, -1.0 if failure is None else failure)
-                    violation_all = np.where(
-                        newly, pair.violation, 0.0 if violation_all is None else violation_all
-                    )
-                ok_all = ok_all & okk
+                closes(k, okk, pair.violation)
             elif op is _GROUND:
                 # e^{i 0} = 1 exactly on both backends
                 # (0-d: each value the same in every row, made once; see place_body)
@@ -376,13 +383,7 @@ class PlanExecutor:
                 used.append(sg)
                 margins.append(dy.margin)
                 margin_all = ops.minimum(margin_all, dy.margin)
-                newly = ok_all & ops.not_(dy.ok)
-                if newly.any():
-                    failure = np.where(newly, k, -1.0 if failure is None else failure)
-                    violation_all = np.where(
-                        newly, dy.violation, 0.0 if violation_all is None else violation_all
-                    )
-                ok_all = ok_all & dy.ok
+                closes(k, dy.ok, dy.violation)
             elif op is _SIDE:
                 sg = signs[len(used)]
                 side_shift[st.args.joint] = self._side_shift(st.args, sg)
