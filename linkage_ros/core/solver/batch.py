@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import dyads
 from ..assemble import Assembly
+from ..assemble_batch import assemble_batch
 from ..execute import LinkPoses, executor
 from ..ops import BATCH
 from ..plan import (
@@ -154,7 +155,7 @@ def solve_batch(
         for i in not_closed:
             out.reason[i] = c.dyad_reason(int(failure[i]), float(violation[i]))
     with np.errstate(all='ignore'):
-        got = c.assembler(run.poses.phi)(BATCH, _assembly_poses(c.plan, run.poses), safe)
+        got = assemble_batch(c.assembler(run.poses.phi), _assembly_poses(c.plan, run.poses), safe)
     # the poses are read: let their arrays go before the answers are written (a batch's
     # arrays are most of its cost in fresh memory, page faults included)
     points, margin, signs = run.points, run.margin, run.signs
@@ -461,7 +462,7 @@ def _assembly_poses(plan: Plan, poses: LinkPoses) -> LinkPoses:
 def _batch_assembly(c: CompiledSolve, poses: Poses, arrays: list[np.ndarray]) -> Assembly:
     """ResultAssembler on batched (n, 2)-coordinate poses."""
     with np.errstate(all='ignore'):
-        return c.assembler(poses.phi)(BATCH, link_poses(poses), arrays)
+        return assemble_batch(c.assembler(poses.phi), link_poses(poses), arrays)
 
 
 def _batch_poses(c: CompiledSolve, x: np.ndarray) -> Poses:
