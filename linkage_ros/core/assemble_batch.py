@@ -119,9 +119,11 @@ class _Buffers:
         b = self.placed(rot_c, T_c, p, self.b_re, self.b_im)
         if not (b.re is self.b_re or a.re is self.a_re):  # both one value: rows of it
             d = a - b
-            return np.maximum(np.abs(d.real), np.abs(d.imag), out=self.a_re)
+            both: np.ndarray = np.maximum(np.abs(d.real), np.abs(d.imag), out=self.a_re)
+            return both
         out_re = self.b_re if b.re is self.b_re else self.a_re
         out_im = self.b_im if b.re is self.b_re else self.a_im
         d_re = np.subtract(a.re, b.re, out=out_re)
         d_im = np.subtract(a.im, b.im, out=out_im)
-        return np.maximum(np.abs(d_re, out=d_re), np.abs(d_im, out=d_im), out=d_re)
+        m: np.ndarray = np.maximum(np.abs(d_re, out=d_re), np.abs(d_im, out=d_im), out=d_re)
+        return m

@@ -161,10 +161,10 @@ class RrrPoint(NamedTuple):
     the dyad's margin and violation ((n,)), as ``dyad_point`` and :class:`DyadPair` give them;
     ``all_ok``: ``ok`` holds in every row."""
 
-    point: CArray
-    ok: np.ndarray
-    margin: np.ndarray
-    violation: np.ndarray
+    point: Any  # CArray
+    ok: Any
+    margin: Any
+    violation: Any
     all_ok: bool
 
 
