@@ -56,11 +56,17 @@ def assemble_batch(asm: ResultAssembler, poses: Any, values: Sequence[Any]) -> A
         worst = mx(worst, m) if isinstance(worst, float) else mx(worst, m, out=worst)
     for name, slider, guide, read, p, normal, face in asm.slides:
         joints[name] = reading(read)
-        off = (rot[slider] * p + T[slider]) - (rot[guide] * p + T[guide])
-        nrm = rot[guide] * normal
-        across = off.real * nrm.real + off.imag * nrm.imag
-        worst = mx(worst, abs(abs(across + face) - abs(face)))
-        worst = mx(worst, L * abs(wrap(phi[slider] - phi[guide])))
+        if work is None:
+            work = _Buffers(np.shape(joints[name])[0])
+        # abs(abs(across + face) - abs(face)), across = off . nrm, off = (rot[slider] p +
+        # T[slider]) - (rot[guide] p + T[guide]), nrm = rot[guide] normal
+        m = work.face_miss(rot[slider], T[slider], rot[guide], T[guide], p, normal, face)
+        worst = mx(worst, m) if isinstance(worst, float) else mx(worst, m, out=worst)
+        turn = phi[slider] - phi[guide]  # L * abs(wrap(phi[slider] - phi[guide]))
+        turn = _wrapped(turn)
+        np.abs(turn, out=turn)
+        turn *= L
+        worst = mx(worst, turn) if isinstance(worst, float) else mx(worst, turn, out=worst)
     links = {}
     for l, ref in asm.links:
         v = phi[l] + ref  # ref + phi[l]
@@ -113,17 +119,36 @@ class _Buffers:
         im += T.im
         return CArray(re, im)
 
-    def miss(self, rot_p: Any, T_p: Any, rot_c: Any, T_c: Any, p: complex) -> np.ndarray:
-        """max(|d.real|, |d.imag|) of d = (rot_p p + T_p) - (rot_c p + T_c), into a buffer."""
+    def difference(self, rot_p: Any, T_p: Any, rot_c: Any, T_c: Any, p: complex) -> Any:
+        """d = (rot_p p + T_p) - (rot_c p + T_c) as two (n,) buffers (re, im)."""
         a = self.placed(rot_p, T_p, p, self.a_re, self.a_im)
         b = self.placed(rot_c, T_c, p, self.b_re, self.b_im)
-        if not (b.re is self.b_re or a.re is self.a_re):  # both one value: rows of it
+        if not (b.re is self.b_re or a.re is self.a_re):  # neither in a buffer: rows of d
             d = a - b
-            both: np.ndarray = np.maximum(np.abs(d.real), np.abs(d.imag), out=self.a_re)
-            return both
+            np.copyto(self.a_re, d.real)
+            np.copyto(self.a_im, d.imag)
+            return self.a_re, self.a_im
         out_re = self.b_re if b.re is self.b_re else self.a_re
         out_im = self.b_im if b.re is self.b_re else self.a_im
-        d_re = np.subtract(a.re, b.re, out=out_re)
-        d_im = np.subtract(a.im, b.im, out=out_im)
+        return np.subtract(a.re, b.re, out=out_re), np.subtract(a.im, b.im, out=out_im)
+
+    def miss(self, rot_p: Any, T_p: Any, rot_c: Any, T_c: Any, p: complex) -> np.ndarray:
+        """max(|d.real|, |d.imag|) of d = (rot_p p + T_p) - (rot_c p + T_c), into a buffer."""
+        d_re, d_im = self.difference(rot_p, T_p, rot_c, T_c, p)
         m: np.ndarray = np.maximum(np.abs(d_re, out=d_re), np.abs(d_im, out=d_im), out=d_re)
+        return m
+
+    def face_miss(
+        self, rot_s: Any, T_s: Any, rot_g: Any, T_g: Any, p: complex, normal: complex, face: float
+    ) -> np.ndarray:
+        """abs(abs(across + face) - abs(face)), across = off.real nrm.real + off.imag nrm.imag,
+        off = (rot_s p + T_s) - (rot_g p + T_g), nrm = rot_g * normal; into a buffer."""
+        off_re, off_im = self.difference(rot_s, T_s, rot_g, T_g, p)
+        nrm = rot_g * normal
+        np.multiply(off_re, nrm.real, out=off_re)
+        off_re += np.multiply(off_im, nrm.imag, out=off_im)
+        off_re += face
+        np.abs(off_re, out=off_re)
+        off_re -= abs(face)
+        m: np.ndarray = np.abs(off_re, out=off_re)
         return m

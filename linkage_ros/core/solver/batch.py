@@ -162,7 +162,7 @@ def solve_batch(
     del run
     every = bool(np.all(ok))
     # (the where passes skipped where every row is ok: they would copy)
-    residual = got.residual if every else np.where(ok, got.residual, 0.0)
+    residual = _owned_where(ok, got.residual, every)
     far = ok & ~(residual <= c.closure_limit)  # as solve_one: no false assembly
     for i in np.flatnonzero(far).tolist():
         out.reason[i] = c.closure_reason(float(residual[i]))
