@@ -6,16 +6,22 @@ skips the passes that change nothing: ``where`` on a mask that holds for every r
 finite, every dyad closed: the common batch) and the generic backend's dispatch. Powers of two
 are built from their exponent bits where they are normal numbers (``np.ldexp`` costs ~15
 times as much), ``np.ldexp`` elsewhere.
+
+:func:`rrr_point_batch` is what the plan executor calls: the dyad and the point of one branch
+in one go, for the common batch (every centre and radius finite, every row closing, every
+point representable), the same float operations again but written into arrays it owns (each
+new 160 kB array of a 20,000-row batch costs page faults as well as its pass), and without the
+placeholders no row needs; any other batch takes the general kernel and ``dyad_point``.
 """
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
-from .dyads import TOGGLE_BAND, DyadPair
-from .ops import CArray
+from .dyads import TOGGLE_BAND, DyadPair, dyad_point
+from .ops import BATCH, CArray
 
 _FLOAT_MAX = float(np.finfo(float).max)
 _MIN_NORMAL_EXP, _MAX_EXP = -1022, 1023
@@ -148,3 +154,161 @@ def solve_rrr_dyad_batch(c1: Any, r1: Any, c2: Any, r2: Any, tol: float) -> Dyad
         hs,
         CArray(fx, fy),
     )
+
+
+class RrrPoint(NamedTuple):
+    """One branch of an RRR dyad over a batch: the point (CArray), where it closes (bool (n,)),
+    the dyad's margin and violation ((n,)), as ``dyad_point`` and :class:`DyadPair` give them;
+    ``all_ok``: ``ok`` holds in every row."""
+
+    point: Any  # CArray
+    ok: Any
+    margin: Any
+    violation: Any
+    all_ok: bool
+
+
+def rrr_point_batch(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: Any) -> RrrPoint:
+    """``dyad_point(BATCH, solve_rrr_dyad_batch(c1, r1, c2, r2, tol), sign)`` with the pair's
+    margin and violation, bit for bit, in fewer passes where every row closes (module)."""
+    got = _rrr_point_common(c1, r1, c2, r2, tol, sign) if isinstance(sign, int) else None
+    if got is not None:
+        return got
+    pair = solve_rrr_dyad_batch(c1, r1, c2, r2, tol)
+    z, ok = dyad_point(BATCH, pair, sign)
+    return RrrPoint(z, ok, pair.margin, pair.violation, bool(np.all(ok)))
+
+
+def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int) -> RrrPoint | None:
+    """solve_rrr_dyad_batch's formulas where every row is finite and closes, then dyad_point's
+    (same operations, same order: each comment names the expression it computes); None as
+    soon as a row is not of that kind (the caller takes the general kernel). Arrays are let go
+    (del) as soon as they are read for the last time: the batch's peak of fresh memory."""
+    x1, y1, x2, y2 = c1.re, c1.im, c2.re, c2.im
+    if not (isinstance(x1, np.ndarray) and x1.ndim == 1 and x1.size):
+        return None
+    big = np.abs(x1)
+    np.maximum(big, np.abs(y1), out=big)
+    cm2 = np.abs(x2)
+    np.maximum(cm2, np.abs(y2), out=cm2)
+    np.maximum(big, cm2, out=big)
+    del cm2
+    np.maximum(big, np.maximum(abs(r1), abs(r2)), out=big)
+    # every row finite and > 0 (max propagates NaN) and a normal number
+    if not (big.max() < np.inf and big.min() >= _MIN_NORMAL):
+        return None
+    S = _even_pow2_below(big)  # _pow2_scale(big)
+    del big
+    x1n, y1n = x1 / S, y1 / S
+    dx, dy = x2 / S, y2 / S
+    dx -= x1n
+    dy -= y1n
+    r1n, r2n = r1 / S, r2 / S
+    d = np.hypot(dx, dy)
+    # _kahan(d, r1n, r2n), every side finite
+    lo, hi = np.minimum(d, r1n), np.maximum(d, r1n)
+    longest, small = np.maximum(hi, r2n), np.minimum(lo, r2n)
+    mid = np.maximum(lo, np.minimum(hi, r2n, out=hi), out=lo)
+    del lo, hi
+    if not longest.min() >= _MIN_NORMAL:
+        return None
+    scale = _pow2_above(longest)  # pow2(frexp(longest)[1])
+    longest /= scale
+    mid /= scale
+    small /= scale
+    big_mid = longest - mid
+    neg_factor = small - big_mid
+    four_area_n = mid + small
+    four_area_n += longest
+    np.sqrt(four_area_n, out=four_area_n)
+    f = np.maximum(neg_factor, 0.0)
+    four_area_n *= np.sqrt(f, out=f)
+    del f
+    np.add(small, big_mid, out=big_mid)
+    four_area_n *= np.sqrt(big_mid, out=big_mid)
+    del big_mid
+    np.subtract(mid, small, out=mid)
+    mid += longest
+    four_area_n *= np.sqrt(mid, out=mid)
+    del mid
+    violation_n = np.negative(neg_factor, out=neg_factor)
+    dn = d / scale
+    # ok in every row: finite & (dn > 0) & (r1n > 0) & (r2n > 0) & (violation_n <= tol * longest_n)
+    if not (dn.min() > 0 and np.min(r1n) > 0 and np.min(r2n) > 0):
+        return None
+    if not np.all(violation_n <= np.multiply(longest, tol, out=small)):
+        return None
+    del small
+    ux, uy = np.divide(dx, d, out=dx), np.divide(dy, d, out=dy)
+    along = r1n - r2n
+    along /= d
+    along *= r1n + r2n
+    along += d
+    along *= 0.5
+    # np.clip(along, -|r1n|, |r1n|): r1n > 0, so no bound is a zero of either sign and the
+    # maximum and minimum passes give clip's values
+    np.maximum(along, -r1n, out=along)
+    np.minimum(along, r1n, out=along)
+    # on_toggle needs violation_n >= -TOGGLE_BAND * longest_n, longest_n < 1: none below
+    toggle = None
+    if not violation_n.max() < -TOGGLE_BAND:
+        smallest_n = np.minimum(np.minimum(dn, r1n / scale), r2n / scale)
+        toggle = (violation_n >= -TOGGLE_BAND * longest) & (-violation_n < 0.5 * smallest_n)
+    del violation_n, longest
+    # h = 0.5 * scale * (four_area_n / dn)
+    h = np.multiply(scale, 0.5, out=scale)
+    h *= np.divide(four_area_n, dn, out=four_area_n)
+    del four_area_n, dn
+    if toggle is not None and toggle.any():
+        h = np.where(~toggle, h, 0.0)
+    if not h.max() < np.inf:  # (0 * h below is then no zero)
+        return None
+    # margin = clip((h / r1n) * (d / r2n)), NaN as 0
+    margin = h / r1n
+    margin *= np.divide(d, r2n, out=d)
+    del d
+    if np.isnan(margin.max()):
+        margin = np.where(margin == margin, margin, 0.0)
+    np.clip(margin, 0.0, 1.0, out=margin)
+    # dyad_point: (base + (along + sign * (0 h + i h)) * u) * S; 0.0 * (h * sign) is
+    # (0.0 * h) * sign for a finite h, the zero of the same sign
+    w_im = np.multiply(h, sign, out=h)
+    w_re = np.multiply(w_im, 0.0)
+    w_re += along
+    px = w_re * ux
+    t = np.multiply(w_im, uy, out=along)
+    px -= t
+    py = np.multiply(w_re, uy, out=w_re)
+    py += np.multiply(w_im, ux, out=t)
+    del w_im, t, ux, uy
+    px += x1n
+    py += y1n
+    px *= S
+    py *= S
+    if not (np.isfinite(px).all() and np.isfinite(py).all()):
+        return None
+    return RrrPoint(CArray(px, py), np.ones(px.shape, bool), margin, np.zeros(px.shape), True)
+
+
+#: the smallest positive normal float (the exponent-bit forms below need normal numbers)
+_MIN_NORMAL = float(np.finfo(float).tiny)
+
+
+def _even_pow2_below(m: np.ndarray) -> np.ndarray:
+    """_pow2_scale(m) for positive normal finite m, from m's exponent bits: 2**k with
+    k = ((e - 1) >> 1) << 1, frexp's exponent e = biased - 1022 (k + 1023 in [1, 2045])."""
+    b = m.view(np.int64) >> 52
+    b -= 1023
+    b >>= 1
+    b <<= 1
+    b += 1023
+    b <<= 52
+    return b.view(np.float64)
+
+
+def _pow2_above(m: np.ndarray) -> np.ndarray:
+    """pow2(frexp(m)[1]) for positive normal m < 2**1023 (here < 16): 2**(biased - 1022)."""
+    b = m.view(np.int64) >> 52
+    b += 1
+    b <<= 52
+    return b.view(np.float64)

@@ -6,6 +6,13 @@ of the plan (which link carries a point, reference positions, slide directions) 
 per plan, so a solve does only its arithmetic. One command runs on the plan's one-command
 program (:mod:`linkage_ros.core.scalar_plan`, a measured twin tested equal to this executor
 row for row), which holds the continuity rule through tangent configurations.
+
+A batch's cost is mostly whole-batch passes and the fresh memory they write (a 20,000-row
+float array is 160 kB: page faults as well as its pass). So values the same in every row are
+taken once, 0-d (a body frame's root, the ground body at rest), the arithmetic on arrays a step
+owns is done in place, and the RRR dyad with its point is one fused kernel
+(:func:`~linkage_ros.core.dyads_batch.rrr_point_batch`): the same float operations in the same
+order, every answer bit for bit what the plain operators give.
 """
 
 from __future__ import annotations
@@ -18,9 +25,9 @@ import numpy as np
 
 from . import dyads
 from .dyads import dyad_point, rpr_direction, solve_rpr_dyad, solve_rrp_dyad
-from .dyads_batch import solve_rrr_dyad_batch
+from .dyads_batch import rrr_point_batch
 from .errors import PlanError
-from .ops import BATCH, SCALAR, to_complex
+from .ops import BATCH, SCALAR, CArray, to_complex
 from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
 from .steps import RollerSide, StepKind
@@ -64,7 +71,9 @@ class PlanRun:
     step that did not close (-1) and the run stops there. A batch: ``ok``, ``failure``,
     ``violation`` and ``margin`` are (n,) arrays and every row runs to the end (finite
     placeholders where not ok). ``signs`` and ``margins`` hold one entry per branching step
-    taken (the sign used, the dyad's margin)."""
+    taken (the sign used, the dyad's margin). Of a batch, values the same in every row (the
+    ground body's poses and points, ``failure`` and ``violation`` where every row closes) are
+    read-only views of the one value: they cost no memory (copy one to write into it)."""
 
     ok: Any
     poses: LinkPoses
@@ -123,11 +132,15 @@ class PlanExecutor:
             v = values[w.spec_index]
             vphi, vrot, vT = frame[w.via]
             if isinstance(s, AngleSpec):
-                rel = ops.wrap(v) - s.offset  # phi[s.link] - phi[s.reference]
-                phi = vphi + (rel if w.link == s.link else -rel)
+                # phi[s.link] - phi[s.reference] (wrap's array is a new one: worked in place)
+                rel = ops.wrap(v)
+                rel -= s.offset
+                if w.link != s.link:
+                    np.negative(rel, out=rel)
+                phi = np.add(vphi, rel, out=rel)  # vphi + rel
                 rot = ops.expi(phi)
                 p = self.ref[w.shared_point]
-                frame[w.link] = (phi, rot, (vrot * p + vT) - rot * p)
+                frame[w.link] = (phi, rot, _minus_rotated(vrot * p + vT, rot, p))
             else:
                 pj = mech.prismatics[s.joint]
                 x_ref = self.ref[pj.point]
@@ -204,14 +217,26 @@ class PlanExecutor:
         margins: list[Any] = []
         single, body_points = self.single, self.body_points
         ok_all: Any = zero == zero
-        margin_all: Any = zero + 1.0
-        failure: Any = zero - 1.0
-        violation_all: Any = zero + 0.0
+        # 1 and -1 / 0 in every row until a dyad gives them rows of their own
+        margin_all: Any = 1.0
+        failure: Any = None
+        violation_all: Any = None
+
+        def closes(k: int, okk: Any, violation: Any) -> None:
+            """Rows step k closes (okk); the others fail here unless they failed before."""
+            nonlocal ok_all, failure, violation_all
+            newly = ok_all & ops.not_(okk)
+            if newly.any():
+                failure = np.where(newly, k, -1.0 if failure is None else failure)
+                before = 0.0 if violation_all is None else violation_all
+                violation_all = np.where(newly, violation, before)
+            ok_all = ok_all & okk
 
         def frame(bi: int) -> _Frame:
             f = frames.get(bi)
             if f is None:
-                f = frames[bi] = self._frame(ops, bi, values, zero)
+                # the root's pose 0-d (the identity in every row: taken once for the batch)
+                f = frames[bi] = self._frame(ops, bi, values, _ZERO_0D)
             return f
 
         def local_pt(bi: int, p: str) -> Any:
@@ -224,22 +249,29 @@ class PlanExecutor:
             """Body bi at angle phi (rot = e^{i phi}, made once by the caller) and offset Tb;
             ``at_rest``: phi = 0 and rot = 1 exactly (the ground's body), so each member keeps
             its frame's rot (1 * r is r to the bit: no frame angle is -0.0) and T + Tb."""
-            if single[bi]:  # a single link: its frame is the identity
+            if single[bi] and not at_rest:  # a single link: its frame is the identity
                 ((link, members),) = body_points[bi]
                 phi_of[link], rot_of[link], T_of[link] = phi, rot, Tb
                 for p, r in members:
                     if p not in pts:
-                        pts[p] = rot * r + Tb
+                        pts[p] = _affine(rot, r, Tb)
                 return
-            f = frame(bi)
+            # at rest: the frame's values as they are (its root's are 0-d, taken once for the
+            # whole batch, then written out)
+            f = self._frame(ops, bi, values, _ZERO_0D) if at_rest else frame(bi)
+            n = zero.shape[0]
             for link, members in body_points[bi]:
                 lphi, lrot, lT = f[link]
-                lr = lrot if at_rest else rot * lrot
-                lt = (lT if at_rest else rot * lT) + Tb
-                phi_of[link], rot_of[link], T_of[link] = phi + lphi, lr, lt
+                lr = lrot if at_rest else _times(rot, lrot)
+                lt = _plus_rest(lT) if at_rest else _affine(rot, lT, Tb)
+                phi_of[link], rot_of[link], T_of[link] = (
+                    _full(n, phi + lphi),
+                    _full_c(n, lr),
+                    _full_c(n, lt),
+                )
                 for p, r in members:
                     if p not in pts:
-                        pts[p] = lr * r + lt
+                        pts[p] = _full_c(n, _affine(lr, r, lt))
 
         for k, st in enumerate(plan.steps):
             op = st.op
@@ -250,20 +282,28 @@ class PlanExecutor:
                 b = pts[q] - pts[p]
                 nb = ops.cabs(b)
                 # unit first: 1e-300 lengths would underflow (the where pass skipped when no
-                # length is 0: the common case)
-                b = b / (nb if _all_positive(nb) else ops.where(nb > 0, nb, 1.0))
+                # length is 0: the common case); b is this step's own: divided in place
+                nb = nb if _all_positive(nb) else ops.where(nb > 0, nb, 1.0)
+                np.divide(b.re, nb, out=b.re)
+                np.divide(b.im, nb, out=b.im)
                 a = self.unit_between.get(k)
                 if a is None:
                     lp = local_pt(bi, p)
                     a = local_pt(bi, q) - lp
                     na = ops.cabs(a)
                     a = a / (na if _all_positive(na) else ops.where(na > 0, na, 1.0))
-                else:
+                    cross = a.real * b.imag - a.imag * b.real
+                    dot = a.real * b.real + a.imag * b.imag
+                else:  # a constant: the same products, written into two arrays
                     lp = ref[p]
-                cross = a.real * b.imag - a.imag * b.real
-                phi = ops.atan2(cross, a.real * b.real + a.imag * b.imag)
+                    cross = b.im * a.real
+                    t = b.re * a.imag
+                    cross -= t
+                    dot = b.re * a.real
+                    dot += np.multiply(b.im, a.imag, out=t)
+                phi = ops.atan2(cross, dot)
                 rot = ops.expi(phi)
-                place_body(bi, phi, pts[p] - rot * lp, rot)
+                place_body(bi, phi, _minus_rotated(pts[p], rot, lp), rot)
             elif op is _RRR or op is _RRP:
                 x = st.point
                 if op is _RRR:
@@ -271,29 +311,36 @@ class PlanExecutor:
                     b1, p1, b2, p2 = a.body_a, a.centre_a, a.body_b, a.centre_b
                     r1 = self._radius(ops, b1, x, p1, frame)
                     r2 = self._radius(ops, b2, x, p2, frame)
-                    # dyads.solve_rrr_dyad in fewer passes
-                    pair = solve_rrr_dyad_batch(pts[p1], r1, pts[p2], r2, tol)
+                    # dyads.solve_rrr_dyad and dyad_point in fewer passes
+                    sg = signs[len(used)]
+                    got = rrr_point_batch(pts[p1], r1, pts[p2], r2, tol, sg)
+                    pts[x] = got.point
+                    used.append(sg)
+                    margins.append(got.margin)
+                    # min(1, m) is m itself for the first dyad (m in [+0, 1], no NaN, no -0.0)
+                    first = isinstance(margin_all, float)
+                    margin_all = got.margin if first else ops.minimum(margin_all, got.margin)
+                    if not got.all_ok:
+                        closes(k, got.ok, got.violation)
+                    continue
                 else:
                     b1, p1, jname = st.args.body, st.args.centre, st.args.joint
                     g = mech.prismatics[jname].guide
                     r = self._radius(ops, b1, x, p1, frame)
                     on_line = ref[x] if jname not in side_shift else ref[x] + side_shift[jname]
-                    p0 = rot_of[g] * on_line + T_of[g]
-                    u = rot_of[g] * self.direction[jname]
+                    p0 = _affine(rot_of[g], on_line, T_of[g])
+                    u = _times(rot_of[g], self.direction[jname])
                     pair = solve_rrp_dyad(ops, pts[p1], r, p0, u, tol)
                 sg = signs[len(used)]
                 pts[x], okk = dyad_point(ops, pair, sg)
                 used.append(sg)
                 margins.append(pair.margin)
                 margin_all = ops.minimum(margin_all, pair.margin)
-                newly = ok_all & ops.not_(okk)
-                if newly.any():
-                    failure = np.where(newly, k, failure)
-                    violation_all = np.where(newly, pair.violation, violation_all)
-                ok_all = ok_all & okk
+                closes(k, okk, pair.violation)
             elif op is _GROUND:
                 # e^{i 0} = 1 exactly on both backends
-                place_body(st.body, zero, ops.cplx(zero, zero), ops.cplx(zero + 1.0, zero), True)
+                # (0-d: each value the same in every row, made once; see place_body)
+                place_body(st.body, zero, _REST_T, _REST_ROT, True)
             elif op is _KNOWN_POINT:
                 v = values[st.args.spec_index]
                 pts[st.point] = v
@@ -336,11 +383,7 @@ class PlanExecutor:
                 used.append(sg)
                 margins.append(dy.margin)
                 margin_all = ops.minimum(margin_all, dy.margin)
-                newly = ok_all & ops.not_(dy.ok)
-                if newly.any():
-                    failure = np.where(newly, k, failure)
-                    violation_all = np.where(newly, dy.violation, violation_all)
-                ok_all = ok_all & dy.ok
+                closes(k, dy.ok, dy.violation)
             elif op is _SIDE:
                 sg = signs[len(used)]
                 side_shift[st.args.joint] = self._side_shift(st.args, sg)
@@ -348,6 +391,11 @@ class PlanExecutor:
                 margins.append(zero + 1.0)  # never near a toggle: the face lies between sides
             else:
                 raise PlanError(f'internal: unknown plan step {op!r}')
+        n = zero.shape[0]
+        if failure is None:  # every row closed: read-only views of the one value
+            failure, violation_all = _full(n, -1.0), _full(n, 0.0)
+        if np.ndim(margin_all) == 0:  # no dyad: an array of the caller's own
+            margin_all = np.full(n, margin_all)
         return PlanRun(
             ok_all, poses, pts, margin_all, tuple(used), failure, violation_all, tuple(margins)
         )
@@ -358,6 +406,89 @@ class PlanExecutor:
         in the face (twice the drawn offset, across). Either backend (``sign`` +-1 or (n,))."""
         d = side.drawn_offset
         return (sign * abs(d) - d) * (1j * self.direction[side.joint])
+
+
+#: the pose of a body at rest, 0-d: the same in every row (see place_body)
+_ZERO_0D = np.zeros(())
+_REST_ROT, _REST_T = CArray(np.ones(()), np.zeros(())), CArray(np.zeros(()), np.zeros(()))
+
+
+def _full(n: int, v: Any) -> Any:
+    """A 0-d value as an (n,) array of it (anything else as it is): a read-only view of the
+    one value, which costs no memory."""
+    if np.ndim(v):
+        return v
+    # (np.broadcast_to does the same at ~10x the cost of this constructor)
+    view = np.ndarray((n,), np.float64, np.array([v], np.float64), 0, (0,))
+    view.flags.writeable = False
+    return view
+
+
+def _full_c(n: int, z: Any) -> Any:
+    """A 0-d point (CArray) as (n,) arrays of it (read-only views, see _full)."""
+    if isinstance(z, CArray) and np.ndim(z.re) == 0:
+        return CArray(_full(n, z.re), _full(n, z.im))
+    return z
+
+
+def _plus_rest(T: Any) -> Any:
+    """T + _REST_T (x + 0.0 and y + 0.0, as CArray's + computes it), in place where T is an
+    at-rest frame's own (n,) arrays."""
+    if not _rows(T):
+        return T + _REST_T
+    np.add(T.re, 0.0, out=T.re)
+    np.add(T.im, 0.0, out=T.im)
+    return T
+
+
+def _rows(z: Any) -> bool:
+    """A CArray of (n,) float arrays (what the in-place forms below write into)."""
+    return isinstance(z, CArray) and isinstance(z.re, np.ndarray) and z.re.ndim == 1
+
+
+def _point(r: Any) -> bool:
+    """A complex constant or a CArray (a point CArray's * multiplies as complex numbers)."""
+    return isinstance(r, (complex, CArray))
+
+
+def _times(rot: Any, r: Any) -> Any:
+    """rot * r, as CArray's operators compute it (r a point), into two arrays."""
+    if not (_rows(rot) and _point(r)):
+        return rot * r
+    re = rot.re * r.real
+    t = rot.im * r.imag
+    re -= t
+    im = rot.re * r.imag
+    im += np.multiply(rot.im, r.real, out=t)
+    return CArray(re, im)
+
+
+def _affine(rot: Any, r: Any, T: Any) -> Any:
+    """rot * r + T, as CArray's operators compute it (r a point), into two arrays."""
+    if not (_rows(rot) and _point(r)):
+        return rot * r + T
+    tre, tim = CArray._parts(T)
+    re = rot.re * r.real
+    t = rot.im * r.imag
+    re -= t
+    im = rot.re * r.imag
+    im += np.multiply(rot.im, r.real, out=t)
+    re += tre
+    if tim is not None:  # (a real T moves x only, as CArray's + does)
+        im += tim
+    return CArray(re, im)
+
+
+def _minus_rotated(P: Any, rot: Any, r: Any) -> Any:
+    """P - rot * r, as CArray's operators compute it (r a point), into two arrays."""
+    if not (_rows(rot) and isinstance(P, CArray) and _point(r)):
+        return P - rot * r
+    re = rot.re * r.real
+    t = rot.im * r.imag
+    re -= t
+    im = rot.re * r.imag
+    im += np.multiply(rot.im, r.real, out=t)
+    return CArray(np.subtract(P.re, re, out=re), np.subtract(P.im, im, out=im))
 
 
 def _all_positive(x: Any) -> bool:

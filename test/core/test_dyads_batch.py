@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from linkage_ros.core import dyads
-from linkage_ros.core.dyads_batch import pow2, solve_rrr_dyad_batch
+from linkage_ros.core.dyads_batch import pow2, rrr_point_batch, solve_rrr_dyad_batch
 from linkage_ros.core.ops import BATCH, CArray
 from linkage_ros.core.plan import limit_violation
 from linkage_ros.core.quantities import PointSpec
@@ -86,6 +86,55 @@ def test_batch_rrr_dyad_on_closing_batches_and_stated_lengths():
             got = _batch(c1, r1 * scale, c2, r2 * scale)
             want = _generic(c1, r1 * scale, c2, r2 * scale)
             _assert_same_pair(got, want)
+
+
+def _assert_point_is_generic(c1, r1, c2, r2, sign, tol=dyads.TANGENCY_TOL):
+    """rrr_point_batch: the generic kernel's point of branch ``sign`` (dyad_point), its ok
+    mask, and the pair's margin and violation, bit for bit."""
+    with np.errstate(all='ignore'):
+        got = rrr_point_batch(c1, r1, c2, r2, tol, sign)
+        want = _generic(c1, r1, c2, r2, tol)
+        z, ok = dyads.dyad_point(BATCH, want, sign)
+    assert _same(got.point.re, z.re) and _same(got.point.im, z.im)
+    assert _same(got.ok, ok) and got.all_ok == bool(np.all(ok))
+    assert _same(got.margin, want.margin) and _same(got.violation, want.violation)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.lists(st.tuples(_coord, _coord, _coord, _coord, _radius, _radius), min_size=1, max_size=12),
+    st.sampled_from([1, -1, 'rows']),
+)
+def test_rrr_point_is_the_generic_kernel_and_dyad_point_bit_for_bit(rows, sign):
+    """Any mix of rows, and a branch sign for the batch or per row: the generic answer."""
+    a = np.array(rows, float)
+    c1, c2 = CArray(a[:, 0], a[:, 1]), CArray(a[:, 2], a[:, 3])
+    sg = np.where(np.arange(len(a)) % 2 == 0, 1, -1) if sign == 'rows' else sign
+    _assert_point_is_generic(c1, a[:, 4], c2, a[:, 5], sg)
+
+
+def test_rrr_point_on_closing_batches_at_every_scale_and_at_the_toggle():
+    """The common batch (every row closes: the in-place form), radii stated as floats or
+    given per row, centres near 1e-300 (subnormal scales) to 1e300, tangent dyads (the toggle
+    band) and a row at the far side: the generic answer, bit for bit."""
+    rng = np.random.default_rng(27)
+    n = 3000
+    for scale in (1e-310, 1e-300, 1e-9, 1.0, 1e9, 1e300):
+        t = rng.uniform(-math.pi, math.pi, n)
+        c1 = CArray(0.1 * scale * np.cos(t), 0.1 * scale * np.sin(t))
+        c2 = CArray(np.full(n, 0.3 * scale), np.zeros(n))
+        for r1, r2 in ((0.25, 0.2), (0.15, 0.25), (0.2 + 0.1 - 1e-17, 0.1), (0.1, 0.2)):
+            for sign in (1, -1):
+                _assert_point_is_generic(c1, r1 * scale, c2, r2 * scale, sign)
+                radii = rng.uniform(0.9, 1.1, n) * r1 * scale
+                _assert_point_is_generic(c1, radii, c2, r2 * scale, sign)
+    # exactly tangent rows: |c2 - c1| = r1 + r2 (a toggle in every row)
+    t = rng.uniform(-math.pi, math.pi, n)
+    c1 = CArray(np.zeros(n), np.zeros(n))
+    c2 = CArray(0.5 * np.cos(t), 0.5 * np.sin(t))
+    for sign in (1, -1):
+        _assert_point_is_generic(c1, 0.25, c2, 0.25, sign)
+        _assert_point_is_generic(c1, 0.375, c2, 0.125, sign)
 
 
 def test_pow2_is_ldexp_over_the_whole_exponent_range():

@@ -11,6 +11,7 @@ import numpy as np
 
 from .. import dyads
 from ..assemble import Assembly
+from ..assemble_batch import assemble_batch
 from ..execute import LinkPoses, executor
 from ..ops import BATCH
 from ..plan import (
@@ -148,42 +149,63 @@ def solve_batch(
     closed = np.asarray(run.ok, bool)
     valid = finite & ~limit_bad
     ok = closed & valid
-    failure = np.asarray(run.failure).astype(int)
-    violation = np.asarray(run.violation, float)
-    for i in np.flatnonzero(~closed & valid).tolist():
-        out.reason[i] = c.dyad_reason(int(failure[i]), float(violation[i]))
+    not_closed = np.flatnonzero(~closed & valid).tolist()
+    if not_closed:
+        failure = np.asarray(run.failure).astype(int)
+        violation = np.asarray(run.violation, float)
+        for i in not_closed:
+            out.reason[i] = c.dyad_reason(int(failure[i]), float(violation[i]))
     with np.errstate(all='ignore'):
-        got = c.assembler(run.poses.phi)(BATCH, _assembly_poses(c.plan, run.poses), safe)
-    residual = np.where(ok, got.residual, 0.0)
+        got = assemble_batch(c.assembler(run.poses.phi), _assembly_poses(c.plan, run.poses), safe)
+    # the poses are read: let their arrays go before the answers are written (a batch's
+    # arrays are most of its cost in fresh memory, page faults included)
+    points, margin, signs = run.points, run.margin, run.signs
+    del run
+    every = bool(np.all(ok))
+    # (the where passes skipped where every row is ok: they would copy)
+    residual = _owned_where(ok, got.residual, every)
     far = ok & ~(residual <= c.closure_limit)  # as solve_one: no false assembly
     for i in np.flatnonzero(far).tolist():
         out.reason[i] = c.closure_reason(float(residual[i]))
     ok &= ~far
-    _fill(out, c, run.points, arrays, finite, ok, got)
-    out.margin = np.where(out.ok, run.margin, 0.0)
+    _fill(out, c, points, arrays, finite, ok, got)
+    every = bool(np.all(out.ok))
+    out.margin = _owned_where(out.ok, margin, every)
     out.signs = np.zeros((n, len(c.plan.branch_steps)), int)
-    for b, sg in enumerate(run.signs):
+    for b, sg in enumerate(signs):
         out.signs[:, b] = sg
-    out.residual = np.where(out.ok, residual, 0.0)
+    out.residual = _owned_where(out.ok, residual, every)
     out.iterations = np.zeros(n, int)
     out.solver = SolveMode.CLOSED_FORM
     return out
 
 
+def _owned_where(ok: np.ndarray, v: Any, every: bool) -> np.ndarray:
+    """np.where(ok, v, 0.0); ``v`` itself where every row is ok and it is an (n,) float array
+    (an array the caller owns: nothing else holds it)."""
+    if every and isinstance(v, np.ndarray) and v.shape == ok.shape and v.dtype == np.float64:
+        return v
+    return np.where(ok, v, 0.0)
+
+
 def _fill(
     out: BatchResult,
     c: CompiledSolve,
-    pts: Mapping[str, np.ndarray],
+    pts: dict[str, Any],
     arrays: list[np.ndarray],
     finite: np.ndarray,
     ok: np.ndarray,
     got: Assembly,
 ) -> None:
     """points, links, joints and inputs of the rows ``ok`` from their assembly (0 elsewhere);
-    an inverse solve's actuator beyond its limits turns its row into a failure."""
+    an inverse solve's actuator beyond its limits turns its row into a failure. ``pts`` (the
+    solved points, complex or (n, 2)) is emptied as its points are written."""
     every = bool(np.all(ok))
     taken: set[int] = set()  # arrays handed out as they are: each to one output only
-    out.points = {p: _points_where(ok, z, every) for p, z in pts.items()}
+    # each point's (n, 2) array made as its complex form is let go (pts is the caller's own)
+    out.points = {}
+    for p in list(pts):
+        out.points[p] = _points_where(ok, pts.pop(p), every)
     out.links = {l: _where_ok(ok, v, every, taken) for l, v in got.links.items()}
     out.joints = {j: _where_ok(ok, v, every, taken) for j, v in got.joints.items()}
     out.inputs = {a: _where_ok(ok, v, every, taken) for a, v in got.inputs.items()}
@@ -442,7 +464,7 @@ def _assembly_poses(plan: Plan, poses: LinkPoses) -> LinkPoses:
 def _batch_assembly(c: CompiledSolve, poses: Poses, arrays: list[np.ndarray]) -> Assembly:
     """ResultAssembler on batched (n, 2)-coordinate poses."""
     with np.errstate(all='ignore'):
-        return c.assembler(poses.phi)(BATCH, link_poses(poses), arrays)
+        return assemble_batch(c.assembler(poses.phi), link_poses(poses), arrays)
 
 
 def _batch_poses(c: CompiledSolve, x: np.ndarray) -> Poses:

@@ -171,28 +171,37 @@ class ResultTable:
             if i < take:
                 self.reason[g0 + i] = why
         self.ok[sl] = ok
-        self.residual[sl] = np.where(ok, batch.residual[:take], np.nan)
-        self.margin[sl] = np.where(ok, batch.margin[:take], np.nan)
-        self.iterations[sl] = np.where(ok, batch.iterations[:take], 0)
+        # np.where(ok, answer, refused): the answer itself where every row is ok (the common
+        # batch: one pass, not a where pass and a copy)
+        every = bool(np.all(ok))
+
+        def pick(answer: Any, refused: Any) -> Any:
+            return answer if every else np.where(ok, answer, refused)
+
+        self.residual[sl] = pick(batch.residual[:take], np.nan)
+        self.margin[sl] = pick(batch.margin[:take], np.nan)
+        self.iterations[sl] = pick(batch.iterations[:take], 0)
         self.cond[sl] = np.nan
-        self.branch_code[sl] = np.where(ok, self._branch_codes(batch.signs[:take]), 0)
+        self.branch_code[sl] = pick(self._branch_codes(batch.signs[:take]), 0)
         nsg = int(np.shape(batch.signs)[1]) if np.ndim(batch.signs) == 2 else 0
         self.branch_defined[sl] = (
-            np.where(ok, branch_identity_defined(batch.margin[:take], batch.residual[:take]), True)
+            pick(branch_identity_defined(batch.margin[:take], batch.residual[:take]), True)
             if nsg
             else True
         )
-        self.solver_code[sl] = np.where(ok, self.solver_code_of(str(batch.solver)), 0)
+        self.solver_code[sl] = pick(self.solver_code_of(str(batch.solver)), 0)
         for nm, arr in batch.inputs.items():
             if nm in self.inputs:
-                self.inputs[nm][sl] = np.where(ok, arr[:take], self.inputs[nm][sl])
+                self.inputs[nm][sl] = pick(arr[:take], self.inputs[nm][sl])
         for columns, got in ((self.joints, batch.joints), (self.links, batch.links)):
             for nm, arr in got.items():
                 if nm in columns:
-                    columns[nm][sl] = np.where(ok, arr[:take], np.nan)
+                    columns[nm][sl] = pick(arr[:take], np.nan)
         for nm, arr in batch.points.items():
             if nm in self.points:
-                self.points[nm][sl] = np.where(ok[:, None], arr[:take], np.nan)
+                self.points[nm][sl] = (
+                    arr[:take] if every else np.where(ok[:, None], arr[:take], np.nan)
+                )
 
     def _branch_codes(self, signs: np.ndarray) -> np.ndarray:
         """The branch code of each row of (rows, k) branch signs (one text per distinct row)."""
