@@ -45,6 +45,7 @@ from .core.errors import SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import Result
 from .engine import Engine, max_request_names
+from .heap import keep_large_buffers
 from .node_demo import DemoRunner
 from .node_requests import Requests
 from .node_runtime import (
@@ -401,6 +402,7 @@ def main(args: Sequence[str] | None = None) -> int:
     and SIGTERM; 1 bad configuration)."""
     stop = StopOnSignal()
     stop.install()  # before rclpy.init: a signal during start-up is a clean stop too
+    keep_large_buffers()  # a 2 MB request must not fault its buffers in anew (heap.py)
     try:
         rclpy.init(
             args=None if args is None else list(args),

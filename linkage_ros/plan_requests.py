@@ -32,7 +32,7 @@ from .trajectory import (
 )
 
 #: how often finished plans are looked for while plans are in flight (s)
-PLAN_POLL_S = 0.005
+PLAN_POLL_S = 0.02
 
 
 class PlanRequests:
@@ -42,6 +42,7 @@ class PlanRequests:
         self.node = node
         self._poll: Any = None  # the timer publishing finished plans, while any are in flight
         self.worker = PlanWorker()
+        self.worker.start()  # now, not beside the first plan's commands
         #: the engine served and its generation (a robot description replaces it: +1)
         self._engine: Any = None
         self._generation = 0

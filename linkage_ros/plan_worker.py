@@ -8,12 +8,17 @@ plan, still serialised, to a :class:`PlanWorker`:
   full is dropped for load, and the node's status says so;
 * a process of its own (not a thread: a Python thread holds the interpreter lock the command
   thread needs, and measured beside a 10 Hz flood of 10^4-point trajectories the node lost
-  most of its 500 Hz commands), at a lower CPU priority (:data:`PLAN_NICE`), so that the
-  command thread is served first when the two compete for a core;
+  most of its 500 Hz commands), started with the node (its interpreter start-up and imports,
+  ~1 s of CPU, are not paid beside the first plan's commands) and scheduled only on CPU time
+  nothing else wants (:func:`lower_priority`: SCHED_IDLE), so that the command thread, and
+  whatever the node's clients run on the same cores, are served first;
 * it reads the bytes (plan_cdr.py), solves the plan on an engine of its own started from the
   command engine's last good state as it was when the plan arrived (the command engine is
   never touched: a plan cannot interleave with commands), and sends back the status values
-  and the solved trajectory as bytes (:class:`PlanDone`).
+  and the solved trajectory as bytes (:class:`PlanDone`);
+* those answers are read from the pipe by a thread of the node's (:func:`read_answers`), never
+  by the command thread: an answer is MBs, written in pipe-sized pieces by a process that runs
+  only when a core is idle, and reading it on the command thread would wait on that process.
 """
 
 from __future__ import annotations
@@ -25,6 +30,7 @@ import multiprocessing
 import os
 import queue
 import signal
+import threading
 import traceback
 from dataclasses import dataclass
 from typing import Any
@@ -43,11 +49,12 @@ from .trajectory import (
 
 #: plans waiting beside the one being solved; one more is dropped for load
 PLAN_QUEUE = 2
-#: the worker's CPU priority (nice): below the node's, where the two compete for a core; not
-#: the lowest (19), which on a machine busy with other work barely ran plans at all
-PLAN_NICE = 5
+#: the worker's CPU priority where SCHED_IDLE is not available (nice)
+PLAN_NICE = 19
 #: how often the worker looks whether the node is still there (s)
 PARENT_CHECK_S = 1.0
+#: how long a stopping node waits for the worker to end before it is terminated (s)
+STOP_WAIT_S = 0.1
 
 
 @dataclass(frozen=True)
@@ -80,6 +87,10 @@ class PlanDone:
     error: str = ''  # an internal error's traceback, for the node's log
 
 
+class WorkerGone:
+    """What :func:`read_answers` hands on after the worker's last answer: it has exited."""
+
+
 class PlanWorker:
     """A worker process and a bounded queue of :class:`PlanJob` (see the module docstring).
     Used from one thread (the node's executor)."""
@@ -91,16 +102,45 @@ class PlanWorker:
         self._offered: collections.deque[PlanJob] = collections.deque()
         self._proc: Any = None
         self._jobs: Any = None
-        self._done: Any = None
+        #: the answers read_answers has read (a PlanDone each, then WorkerGone)
+        self._answers: queue.SimpleQueue[PlanDone | WorkerGone] = queue.SimpleQueue()
         self._generation_sent: int | None = None
+
+    def start(self) -> None:
+        """Start the worker process now, if it is not running (the node does at start-up;
+        :meth:`offer` does for a plan after a worker that died)."""
+        if self._proc is not None:
+            return
+        ctx = multiprocessing.get_context('spawn')  # a fork of a process with DDS threads hangs
+        self._jobs = ctx.Queue()  # its feeder thread writes the plans: never the command thread
+        answers_in, answers_out = ctx.Pipe(duplex=False)
+        self._answers = queue.SimpleQueue()
+        self._proc = ctx.Process(
+            target=serve_plans,
+            args=(self._jobs, answers_out, os.getpid()),
+            name='linkage_plans',
+            daemon=True,
+        )
+        self._proc.start()
+        # its priority lowered from its first instruction: its start-up (importing numpy and
+        # the engine, ~1 s of CPU) must not compete with commands either
+        lower_priority(self._proc.pid)
+        answers_out.close()  # the worker holds the only write end: its exit ends the reader
+        threading.Thread(
+            target=read_answers,
+            args=(answers_in, self._answers),
+            name='linkage_plan_answers',
+            daemon=True,
+        ).start()
 
     def offer(self, job: PlanJob, engine: Engine) -> bool:
         """Queue ``job`` (of ``engine``'s mechanism); False, queueing nothing, when the queue
         is full (dropped for load)."""
         if self.pending > self.depth:
             return False
-        if self._proc is None:
-            self._start()
+        if self._proc is not None and not self._proc.is_alive():  # died while idle
+            self.stop()
+        self.start()
         if self._generation_sent != job.generation:
             job = dataclasses.replace(job, mechanism=(engine.mech, engine.settings))
             self._generation_sent = job.generation
@@ -110,19 +150,25 @@ class PlanWorker:
         return True
 
     def collect(self) -> list[PlanDone]:
-        """The plans finished since the last call (never waits). If the worker process
-        died, the plans it had are answered as internal errors and the next plan starts a
-        new one."""
-        out = []
-        while self._done is not None:
+        """The plans finished since the last call (never waits: the answers were read from the
+        pipe by another thread). If the worker process died, the plans it had are answered as
+        internal errors and the next plan starts a new one."""
+        out: list[PlanDone] = []
+        gone = False
+        while True:
             try:
-                out.append(self._done.get_nowait())
+                answer = self._answers.get_nowait()
             except queue.Empty:
                 break
+            if isinstance(answer, WorkerGone):
+                gone = True
+                break
+            out.append(answer)
         for _ in out:
             self._offered.popleft()
         self.pending -= len(out)
-        if self._proc is not None and self._offered and not self._proc.is_alive():
+        if gone and self._proc is not None:
+            self._proc.join(STOP_WAIT_S)
             why = (
                 f'internal error: the plan worker exited (exit code {self._proc.exitcode}); '
                 'the next plan starts a new one'
@@ -134,42 +180,54 @@ class PlanWorker:
             self.stop()
         return out
 
-    def _start(self) -> None:
-        ctx = multiprocessing.get_context('spawn')  # a fork of a process with DDS threads hangs
-        self._jobs, self._done = ctx.Queue(), ctx.Queue()
-        self._proc = ctx.Process(
-            target=serve_plans,
-            args=(self._jobs, self._done, os.getpid()),
-            name='linkage_plans',
-            daemon=True,
-        )
-        self._proc.start()
-        # its priority lowered from its first instruction: its start-up (importing numpy and
-        # the engine, ~1 s of CPU) must not compete with commands as an equal
-        with contextlib.suppress(OSError):
-            os.setpriority(os.PRIO_PROCESS, self._proc.pid, PLAN_NICE)
-
-    def stop(self, timeout: float = 2.0) -> None:
-        """End the worker process (the plan it solves is not answered)."""
+    def stop(self) -> None:
+        """End the worker process (the plan it solves is not answered): asked to, and
+        terminated if it has not ended within STOP_WAIT_S (it may be in a plan of seconds)."""
         if self._proc is None:
             return
         with contextlib.suppress(Exception):
             self._jobs.put(None)
-        self._proc.join(timeout)
+        self._proc.join(STOP_WAIT_S)
         if self._proc.is_alive():
             self._proc.terminate()
-            self._proc.join(timeout)
-        for q in (self._jobs, self._done):
-            q.close()
-            q.cancel_join_thread()
-        self._proc = self._jobs = self._done = None
+            self._proc.join(2.0)
+        self._jobs.close()
+        self._jobs.cancel_join_thread()
+        self._proc = self._jobs = None
+        self._answers = queue.SimpleQueue()  # the old reader's, if any is left, go nowhere
         self.pending = 0
         self._offered.clear()
         self._generation_sent = None  # a new worker needs the mechanism again
 
 
-def serve_plans(jobs: Any, done: Any, parent: int) -> None:
-    """The worker process: solve each job in turn, until None or the node is gone."""
+def lower_priority(pid: int) -> None:
+    """Let process ``pid`` (its main thread, and the threads it starts later) run only on CPU
+    time no other process wants: SCHED_IDLE, where Linux has it, else nice PLAN_NICE. nice 5
+    was tried first: on a busy 2-core machine the worker then still took a quarter of a core
+    from the node's command thread and from the clients timing it."""
+    try:
+        os.sched_setscheduler(pid, os.SCHED_IDLE, os.sched_param(0))
+    except (AttributeError, OSError):
+        with contextlib.suppress(OSError):
+            os.setpriority(os.PRIO_PROCESS, pid, PLAN_NICE)
+
+
+def read_answers(answers: Any, into: queue.SimpleQueue[PlanDone | WorkerGone]) -> None:
+    """A thread of the node: read each answer from the worker's pipe (waiting in the read with
+    the interpreter lock released) into ``into``, then WorkerGone when the worker has exited."""
+    try:
+        while True:
+            into.put(answers.recv())
+    except (EOFError, OSError):
+        pass
+    finally:
+        answers.close()
+        into.put(WorkerGone())
+
+
+def serve_plans(jobs: Any, answers: Any, parent: int) -> None:
+    """The worker process: solve each job in turn and send its PlanDone on ``answers``, until
+    None or the node is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (Ctrl-C reaches both)
     engine: Engine | None = None
     while True:
@@ -200,7 +258,10 @@ def serve_plans(jobs: Any, done: Any, parent: int) -> None:
                 None,
                 traceback.format_exc(),
             )
-        done.put(result)
+        try:
+            answers.send(result)
+        except (BrokenPipeError, OSError):  # the node is gone
+            return
 
 
 def solve_job(job: PlanJob, engine: Engine) -> PlanDone:

@@ -202,3 +202,29 @@ def test_a_plan_worker_that_dies_is_answered_for_and_replaced(ros, four_bar):
     assert ros.spin_until(lambda: len(plan_statuses(s)) >= 1 and len(solved) >= 1, 60.0)
     assert plan_statuses(s)[0].level == OK
     assert len(solved.last.points) == 20
+
+
+def test_the_plan_worker_runs_from_start_up_on_idle_cpu_only(ros, four_bar):
+    """The worker is started with the node (its interpreter start-up and imports are not paid
+    beside the first plan's commands) and scheduled SCHED_IDLE, the scheduler's promise that
+    it runs only on CPU time no other process wants (not nice 5, which still took a quarter of
+    a contended core from the commands). Read from the kernel, not from the node's code."""
+    import os
+
+    worker = four_bar.node.plans.worker
+    assert worker._proc is not None and worker._proc.is_alive(), 'no worker before any plan'
+    pid = worker._proc.pid
+    if hasattr(os, 'SCHED_IDLE'):
+        assert os.sched_getscheduler(pid) == os.SCHED_IDLE
+    # and the threads it starts inherit it: every thread of the worker process
+    for tid in os.listdir(f'/proc/{pid}/task'):
+        with open(f'/proc/{pid}/task/{tid}/sched') as fh:
+            policy = next(line for line in fh if line.startswith('policy'))
+        assert int(policy.split(':')[1]) == getattr(os, 'SCHED_IDLE', 5), (tid, policy)
+    # a plan is still solved (the machine has idle moments: the test waits for them)
+    solved = solved_collector(four_bar)
+    four_bar.clear()
+    ros.publish(four_bar.pub('trajectory', JointTrajectory), crank_turns(50))
+    assert ros.spin_until(lambda: len(plan_statuses(four_bar)) >= 1 and len(solved) >= 1, 120.0)
+    assert plan_statuses(four_bar)[0].level == OK
+    assert worker._proc.pid == pid, 'the plan was not solved by the worker started with the node'
