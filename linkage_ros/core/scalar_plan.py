@@ -7,7 +7,8 @@ first) is resolved here once per plan into indices of one list of registers (poi
 poses, welded bodies' frames, body orientations) and constants, and each step becomes a
 closure over them. A run copies the register template (the constants already in it) and
 builds the name-keyed dicts of a :class:`~linkage_ros.core.execute.PlanRun` only when asked,
-once. The dyads are :mod:`linkage_ros.core.scalar_dyads`.
+once. The dyad steps are :mod:`linkage_ros.core.scalar_dyad_steps` (over
+:mod:`linkage_ros.core.scalar_dyads`).
 
 The arithmetic is the batch executor's, operation for operation (the same floats, the sign of
 a zero aside: see scalar_dyads); continuity is the one-command rule of the executor: where a
@@ -28,7 +29,6 @@ passes of 20 commands of the warm sweep, load ~7; core/solver/closed_form.py).
 from __future__ import annotations
 
 import math
-from cmath import isfinite as _cfinite
 from collections.abc import Callable, Mapping, Sequence
 from math import atan2, cos, sin
 from typing import Any
@@ -39,16 +39,14 @@ from .execute import CONTINUITY_MARGIN, LinkPoses, PlanRun
 from .ops import _cabs_one, _wrap_one
 from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
-from .scalar_dyads import rpr_angle, rrp_point, rrr_fallback, solve_rpr, solve_rrp, solve_rrr
+from .scalar_dyad_steps import rpr_step, rrp_step, rrr_step, side_step
 from .scalar_run import (
     Refused,
     SlotRun,
     Step,
-    coincident,
     slide_weld,
     turn_weld,
     welded_placer,
-    wrap,
 )
 from .steps import (
     AngleFrom,
@@ -400,137 +398,42 @@ class ScalarProgram:
         return angle
 
     def _rrr(self, k: int, x: str, a: RRRDyad) -> Step:
-        sx, s1, s2 = self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b]
-        r1_const, r1_of = self._radius(a.body_a, x, a.centre_a)
-        r2_const, r2_of = self._radius(a.body_b, x, a.centre_b)
-        ref_off = self.ref[x] - self.ref[a.centre_a]
-        k_step = k
-        # both radii constant (most dyads): their larger one and their difference are too
-        fixed = r1_of is None and r2_of is None
-        big_fixed = r2_const if r2_const > r1_const else r1_const
-        gap_fixed = abs(r1_const - r2_const)
-
-        def rrr(r: SlotRun) -> None:
-            R = r.R
-            if fixed:
-                r1, r2, big, gap = r1_const, r2_const, big_fixed, gap_fixed
-            else:
-                r1 = r1_const if r1_of is None else r1_of(R)
-                r2 = r2_const if r2_of is None else r2_of(R)
-                big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
-                gap = abs(r1 - r2)
-            c1, c2, tol = R[s1], R[s2], r.tol
-            # (the cheap test first: equal radii are rare)
-            if gap <= tol * big and _cabs_one(c1 - c2) <= tol * big:
-                coincident(r, k_step, x, sx, c1, r1, ref_off)
-                return
-            pair = solve_rrr(c1, r1, c2, r2, tol)
-            base, u, along, h, S, margin, ok, violation, _ = pair
-            if not ok:
-                R[sx] = rrr_fallback(pair, c1)
-                raise Refused(k_step, violation)
-            sg = r.signs[len(r.used)]
-            spread = complex(0.0 * h, h)
-            if (margin < _CM or r.prev_small) and r.decide(margin, x):
-                target = r.prefer[x]  # type: ignore[index]
-                plus = (base + (along + 1 * spread) * u) * S
-                plus = plus if _cfinite(plus) else rrr_fallback(pair, c1)
-                minus = (base + (along + -1 * spread) * u) * S
-                minus = minus if _cfinite(minus) else rrr_fallback(pair, c1)
-                sg = 1 if _cabs_one(plus - target) <= _cabs_one(minus - target) else -1
-            z = (base + (along + sg * spread) * u) * S
-            if not _cfinite(z):  # beyond the float range
-                R[sx] = rrr_fallback(pair, c1)
-                raise Refused(k_step, 0.0)
-            R[sx] = z
-            r.used.append(sg)
-            r.margins.append(margin)
-            if margin < r.margin:
-                r.margin = margin
-
-        return rrr
+        return rrr_step(
+            k,
+            x,
+            (self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b]),
+            self._radius(a.body_a, x, a.centre_a),
+            self._radius(a.body_b, x, a.centre_b),
+            self.ref[x] - self.ref[a.centre_a],
+        )
 
     def _side(self, a: RollerSide) -> Step:
-        """The roller's side (the executor's SIDE step): its sign moves the roller's line to
-        the mirror of the drawn one in the face, or leaves it; never near a toggle."""
-        i, d, across = self.ishift[a.joint], a.drawn_offset, 1j * self.direction[a.joint]
-
-        def side(r: SlotRun) -> None:
-            sg = r.signs[len(r.used)]
-            r.R[i] = (sg * abs(d) - d) * across
-            r.taken(sg, 1.0)
-
-        return side
+        return side_step(self.ishift[a.joint], a.drawn_offset, 1j * self.direction[a.joint])
 
     def _rrp(self, k: int, x: str, a: RRPDyad) -> Step:
         pj = self.plan.mech.prismatics[a.joint]
-        sx, s1 = self.ip[x], self.ip[a.centre]
-        grot, gT = self.irot[pj.guide], self.iT[pj.guide]
-        r_const, r_of = self._radius(a.body, x, a.centre)
-        xref, d = self.ref[x], self.direction[a.joint]
-        ish = self.ishift.get(a.joint)
-
-        def rrp(r: SlotRun) -> None:
-            R = r.R
-            rad = r_const if r_of is None else r_of(R)
-            rot = R[grot]
-            on_line = xref if ish is None else xref + R[ish]
-            pair = solve_rrp(R[s1], rad, rot * on_line + R[gT], rot * d, r.tol)
-            margin = pair[4]
-            if not pair[5]:
-                raise Refused(k, pair[6])
-            sg = r.signs[len(r.used)]
-            if (margin < _CM or r.prev_small) and r.decide(margin, x):
-                target = r.prefer[x]  # type: ignore[index]
-                plus, _ = rrp_point(pair, 1)
-                minus, _ = rrp_point(pair, -1)
-                sg = 1 if _cabs_one(plus - target) <= _cabs_one(minus - target) else -1
-            z, ok = rrp_point(pair, sg)
-            R[sx] = z
-            if not ok:  # beyond the float range
-                raise Refused(k, 0.0)
-            r.taken(sg, margin)
-
-        return rrp
+        return rrp_step(
+            k,
+            x,
+            (self.ip[x], self.ip[a.centre], self.irot[pj.guide], self.iT[pj.guide]),
+            self._radius(a.body, x, a.centre),
+            (self.ref[x], self.direction[a.joint]),
+            self.ishift.get(a.joint),
+        )
 
     def _rpr(self, k: int, st: Any, a: RPRDyad, set_pts: set[str], placed: set[str]) -> Step:
         bi = st.body
         pj = self.plan.mech.prismatics[a.joint]
-        sx, sp, ang = self.ip[st.point], self.ip[a.pivot], self.iang[bi]
-        single = self.single[bi]
-        gphi, grot, gT = self.ifphi[pj.guide], self.ifrot[pj.guide], self.ifT[pj.guide]
-        lp_of = self._local(bi, a.pivot)
-        xref, d, key = self.ref[st.point], self.direction[a.joint], '@' + pj.guide
-        ish = self.ishift.get(a.joint)
-        place = self._placer(bi, set_pts, placed)
-
-        def rpr(r: SlotRun) -> None:
-            R = r.R
-            if single:
-                fphi, frot, fT = 0.0, complex(1.0, 0.0), complex(0.0, 0.0)
-            else:
-                fphi, frot, fT = R[gphi], R[grot], R[gT]
-            lp = lp_of(R)
-            u = frot * d
-            w = (frot * (xref if ish is None else xref + R[ish]) + fT) - lp
-            e = u.real * w.imag - u.imag * w.real  # signed offset of the pivot
-            psi0 = atan2(u.imag, u.real)
-            pair = solve_rpr(R[sp], R[sx], e, r.tol)
-            margin = pair[3]
-            if not pair[4]:
-                raise Refused(k, pair[5])
-            sg = r.signs[len(r.used)]
-            if (margin < _CM or r.prev_small) and r.decide(margin, key):
-                last = r.prefer[key]  # type: ignore[index]
-                miss_p = abs(wrap(rpr_angle(pair, 1) - psi0 + fphi - last))
-                sg = 1 if miss_p <= abs(wrap(rpr_angle(pair, -1) - psi0 + fphi - last)) else -1
-            phi = rpr_angle(pair, sg) - psi0
-            R[ang] = phi
-            rot = complex(cos(phi), sin(phi))
-            place(R, phi, rot, R[sp] - rot * lp)
-            r.taken(sg, margin)
-
-        return rpr
+        guide = (self.ifphi[pj.guide], self.ifrot[pj.guide], self.ifT[pj.guide])
+        return rpr_step(
+            k,
+            (self.ip[st.point], self.ip[a.pivot], self.iang[bi]),
+            None if self.single[bi] else guide,
+            self._local(bi, a.pivot),
+            (self.ref[st.point], self.direction[a.joint], '@' + pj.guide),
+            self.ishift.get(a.joint),
+            self._placer(bi, set_pts, placed),
+        )
 
     # -- a run ---------------------------------------------------------------------------------
     def execute(
