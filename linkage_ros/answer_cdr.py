@@ -125,7 +125,7 @@ class StatusBytes:
         self._blocks: dict[str, bytes] = {}
         #: a key and its value's text as one block pair, by (key, value): what repeats from
         #: answer to answer (a branch, a solver, an iteration count, the request)
-        self._pairs: dict[tuple[str, Any], bytes] = {}
+        self._pairs: dict[tuple[str, Any], tuple[type, bytes]] = {}
         #: everything before the key/values of an OK 'ok' status
         self._ok_head = b''.join(
             [
@@ -154,12 +154,15 @@ class StatusBytes:
         parts = [self._ok_head, _COUNT.pack(len(values))]
         for item in values.items():
             hit = pairs.get(item)
-            if hit is None:
-                key, value = item
-                hit = self._block(key, True) + string_block(status_text(value))
+            key, value = item
+            # (the value's type too: 0 == 0.0 == False, but each is written its own way)
+            if hit is None or hit[0] is not type(value):
+                block = self._block(key, True) + string_block(status_text(value))
                 if not isinstance(value, float) and len(pairs) < STATUS_BLOCK_CACHE:
-                    pairs[item] = hit
-            parts.append(hit)
+                    pairs[item] = (type(value), block)
+                parts.append(block)
+            else:
+                parts.append(hit[1])
         return b''.join(parts)
 
     def write(self, level: int, message: str, values: Mapping[str, str]) -> bytes:

@@ -6,8 +6,10 @@ subscribed that cost the node about as much as the answer's solve. ``~/command``
 taken serialised and only the fields a command uses are read here: the stamp, the names, the
 positions and the velocities (the frame id and the efforts are skipped, as the message path
 ignores them). Whatever this reader does not take for a plain XCDR1 JointState (another
-encoding, a cut message, a name that is not UTF-8) it leaves to rclpy's deserialiser, so a
-message is never answered differently for having been read here.
+encoding, a cut message, a name that is not UTF-8) it leaves to rclpy's deserialiser. A name
+is read whole, up to its length: ``crank\x00x`` is one (unknown) name, as rosbags, ``linkage
+bag`` and the plan topics read it, where rclpy's deserialiser ends a name at its first NUL (so
+in a message of another encoding it would read ``crank``).
 
 The layout is checked against rclpy's own serialiser in test/node/test_command_cdr.py.
 """
@@ -35,10 +37,10 @@ class JointStateFields:
     velocities: tuple[float, ...]
 
 
-def read_joint_state(raw: bytes) -> JointStateFields | None:
-    """The command fields of a CDR-serialised JointState, or None where this reader does not
-    take the bytes (rclpy's deserialiser then says what they are). Offsets count from after the
-    4-byte encapsulation header, as CDR aligns; an empty float64 sequence has no padding."""
+def _head(raw: bytes) -> tuple[str, int, int, int, int] | None:
+    """(byte order, stamp s, stamp ns, number of names, offset of the first name) of a
+    CDR-serialised JointState; None if the bytes are too short or not plain XCDR1. Offsets
+    count from after the 4-byte encapsulation header, as CDR aligns."""
     if len(raw) < 8 or raw[0] != 0 or raw[1] not in _ORDER:
         return None
     e = _ORDER[raw[1]]
@@ -49,13 +51,41 @@ def read_joint_state(raw: bytes) -> JointStateFields | None:
         pos = 16 + flen  # the frame id: not read
         pos += -(pos - 4) % 4
         (count,) = word(raw, pos)
-        pos += 4
+    except struct.error:
+        return None
+    return e, sec, nanosec, count, pos + 4
+
+
+def joint_state_peek(raw: bytes) -> tuple[int, int, int] | None:
+    """(stamp s, stamp ns, number of names) of a CDR-serialised JointState, read off its first
+    bytes without reading the names (a 10^5-name message costs the node ~10 ms to turn into
+    Python objects: refused on its count, it is never read); None if the bytes are too short
+    or not CDR."""
+    head = _head(raw)
+    return None if head is None else (head[1], head[2], head[3])
+
+
+def read_joint_state(raw: bytes) -> JointStateFields | None:
+    """The command fields of a CDR-serialised JointState, or None where this reader does not
+    take the bytes (rclpy's deserialiser then says what they are). An empty float64 sequence
+    has no padding; an empty string may come without its NUL (length 0), as plan_cdr reads
+    it."""
+    head = _head(raw)
+    if head is None:
+        return None
+    e, sec, nanosec, count, pos = head
+    word = _WORD[e].unpack_from
+    try:
         names = []
         for _ in range(count):
             pos += -(pos - 4) % 4
             (k,) = word(raw, pos)
+            if k == 0:  # some serialisers write an empty string without its NUL
+                names.append('')
+                pos += 4
+                continue
             end = pos + 4 + k
-            if k == 0 or end > len(raw) or raw[end - 1] != 0:
+            if end > len(raw) or raw[end - 1] != 0:
                 return None
             names.append(raw[pos + 4 : end - 1].decode())
             pos = end

@@ -9,7 +9,6 @@ diagnostic_msgs/DiagnosticStatus). Units are REP-103: radians and metres.
 from __future__ import annotations
 
 import math
-import struct
 from collections.abc import Container, Iterable, Mapping, Sequence
 
 from builtin_interfaces.msg import Time
@@ -26,7 +25,6 @@ from .engine import request_rates, request_values, status_texts
 
 __all__ = [
     'joint_state_to_command',
-    'joint_state_peek',
     'joint_state_pick',
     'point_stamped_to_xy',
     'is_zero_stamp',
@@ -86,22 +84,6 @@ def joint_state_pick(
         {n: float(msg.velocity[i]) for i, n in picked} if len(msg.velocity) == len(names) else None
     )
     return values, rates
-
-
-def joint_state_peek(raw: bytes) -> tuple[int, int, int] | None:
-    """(stamp sec, stamp nanosec, number of names) of a CDR-serialised JointState, read off
-    its first bytes without deserialising it (a 10^5-name message costs the node ~10 ms to
-    turn into Python objects); None if the bytes are too short or not CDR."""
-    if len(raw) < 20 or raw[0] != 0 or raw[1] not in (0, 1):
-        return None
-    e = '<' if raw[1] == 1 else '>'
-    sec, nanosec, flen = struct.unpack_from(e + 'iII', raw, 4)
-    pos = 16 + flen
-    pos += (-(pos - 4)) % 4  # CDR alignment counts from after the 4-byte header
-    if pos + 4 > len(raw):
-        return None
-    (count,) = struct.unpack_from(e + 'I', raw, pos)
-    return sec, nanosec, count
 
 
 def point_stamped_to_xy(

@@ -36,7 +36,6 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter
 from rclpy.signals import SignalHandlerOptions
-from rclpy.task import Future
 from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from trajectory_msgs.msg import JointTrajectory
@@ -49,13 +48,13 @@ from .heap import keep_large_buffers
 from .node_demo import DemoRunner
 from .node_requests import Requests
 from .node_runtime import (
-    STOP_POLL_S,
     NameClashCheck,
     StopOnSignal,
     declare_parameters,
     log_mechanism,
     make_executor,
     one_line,
+    spin_until_stopped,
 )
 from .params import (
     DEMO_RATE_MAX,
@@ -420,11 +419,7 @@ def main(args: Sequence[str] | None = None) -> int:
         # start-up objects (modules, the scene, compiled plans) live as long as the process:
         # move them out of the collector's sight so a full collection does not stall a command
         gc.freeze()
-        # the executor runs every ready callback for STOP_POLL_S, then the stop flag is looked
-        # at: one Python call per poll, not one per callback (a command costs one callback)
-        never = Future()
-        while stop.requested is None and rclpy.ok():
-            executor.spin_until_future_complete(never, timeout_sec=STOP_POLL_S)
+        spin_until_stopped(executor, stop)
     except (ConfigError, SceneError) as exc:
         rclpy.logging.get_logger(NODE_NAME).fatal(f'cannot start: {exc}')
         return 1

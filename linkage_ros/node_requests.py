@@ -12,10 +12,9 @@ from builtin_interfaces.msg import Time
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
-from .command_cdr import read_joint_state
+from .command_cdr import joint_state_peek, read_joint_state
 from .conversions import (
     is_zero_stamp,
-    joint_state_peek,
     joint_state_pick,
     joint_state_rates,
     joint_state_to_command,

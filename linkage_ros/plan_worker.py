@@ -105,6 +105,14 @@ class PlanWorker:
         #: the answers read_answers has read (a PlanDone each, then WorkerGone)
         self._answers: queue.SimpleQueue[PlanDone | WorkerGone] = queue.SimpleQueue()
         self._generation_sent: int | None = None
+        self._reader: threading.Thread | None = None
+        #: answers owed from a worker that exited, handed on by the next :meth:`collect`
+        self._owed: list[PlanDone] = []
+
+    @property
+    def pid(self) -> int | None:
+        """The worker process's pid; None when none is running (before start, after stop)."""
+        return None if self._proc is None else int(self._proc.pid)
 
     def start(self) -> None:
         """Start the worker process now, if it is not running (the node does at start-up;
@@ -126,20 +134,26 @@ class PlanWorker:
         # the engine, ~1 s of CPU) must not compete with commands either
         lower_priority(self._proc.pid)
         answers_out.close()  # the worker holds the only write end: its exit ends the reader
-        threading.Thread(
+        self._reader = threading.Thread(
             target=read_answers,
             args=(answers_in, self._answers),
             name='linkage_plan_answers',
             daemon=True,
-        ).start()
+        )
+        self._reader.start()
 
     def offer(self, job: PlanJob, engine: Engine) -> bool:
         """Queue ``job`` (of ``engine``'s mechanism); False, queueing nothing, when the queue
         is full (dropped for load)."""
         if self.pending > self.depth:
             return False
-        if self._proc is not None and not self._proc.is_alive():  # died while idle
-            self.stop()
+        if self._proc is not None and not self._proc.is_alive():
+            # it exited (idle, or holding plans): what it held is answered first, by the next
+            # collect, and a new worker takes this plan
+            if self._reader is not None:
+                self._reader.join(STOP_WAIT_S)  # it ends at the dead worker's last answer
+            self._drain(self._owed)
+            self._owed += self._bury()
         self.start()
         if self._generation_sent != job.generation:
             job = dataclasses.replace(job, mechanism=(engine.mech, engine.settings))
@@ -153,32 +167,41 @@ class PlanWorker:
         """The plans finished since the last call (never waits: the answers were read from the
         pipe by another thread). If the worker process died, the plans it had are answered as
         internal errors and the next plan starts a new one."""
-        out: list[PlanDone] = []
-        gone = False
+        out, self._owed = self._owed, []
+        if self._drain(out) and self._proc is not None:
+            out += self._bury()
+        return out
+
+    def _drain(self, out: list[PlanDone]) -> bool:
+        """Move the answers read so far into ``out`` (their plans no longer pending); True
+        when the worker's last answer was among them (it has exited)."""
         while True:
             try:
                 answer = self._answers.get_nowait()
             except queue.Empty:
-                break
+                return False
             if isinstance(answer, WorkerGone):
-                gone = True
-                break
+                return True
             out.append(answer)
-        for _ in out:
             self._offered.popleft()
-        self.pending -= len(out)
-        if gone and self._proc is not None:
-            self._proc.join(STOP_WAIT_S)
-            why = (
-                f'internal error: the plan worker exited (exit code {self._proc.exitcode}); '
-                'the next plan starts a new one'
-            )
-            out += [
-                PlanDone(j.request, j.generation, j.stamp, False, why, {'request': j.request}, None)
-                for j in self._offered
-            ]
-            self.stop()
-        return out
+            self.pending -= 1
+
+    def _bury(self) -> list[PlanDone]:
+        """The plans an exited worker still held, each answered as an internal error; the
+        worker stopped (the next plan starts a new one)."""
+        if self._proc is None:
+            return []
+        self._proc.join(STOP_WAIT_S)
+        why = (
+            f'internal error: the plan worker exited (exit code {self._proc.exitcode}); '
+            'the next plan starts a new one'
+        )
+        lost = [
+            PlanDone(j.request, j.generation, j.stamp, False, why, {'request': j.request}, None)
+            for j in self._offered
+        ]
+        self.stop()
+        return lost
 
     def stop(self) -> None:
         """End the worker process (the plan it solves is not answered): asked to, and
@@ -193,7 +216,7 @@ class PlanWorker:
             self._proc.join(2.0)
         self._jobs.close()
         self._jobs.cancel_join_thread()
-        self._proc = self._jobs = None
+        self._proc = self._jobs = self._reader = None
         self._answers = queue.SimpleQueue()  # the old reader's, if any is left, go nowhere
         self.pending = 0
         self._offered.clear()

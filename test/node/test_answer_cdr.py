@@ -35,7 +35,7 @@ from linkage_ros.conversions import (  # noqa: E402
 )
 from linkage_ros.core.model import Scene  # noqa: E402
 from linkage_ros.core.solver import Result  # noqa: E402
-from linkage_ros.engine import Engine, EngineSettings  # noqa: E402
+from linkage_ros.engine import Engine, EngineSettings, status_text  # noqa: E402
 from linkage_ros.resources import scene_path  # noqa: E402
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
@@ -180,3 +180,38 @@ def test_a_joint_state_of_the_wrong_size_is_refused():
     writer = JointStateBytes('w', ['a', 'b'])
     with pytest.raises(ValueError, match='2 names given 1 positions'):
         writer.write(0, 0, [1.0])
+
+
+#: status values as engine.status_values gives them, with the equal-but-different ones
+#: (0, 0.0, False; 1, 1.0, True) that a cache keyed by value alone mixes up
+status_value = st.one_of(
+    st.sampled_from([0, 0.0, -0.0, False, 1, 1.0, True, None, '', 'ok', 'newton']),
+    st.integers(-5, 5),
+    st.floats(allow_nan=True, allow_infinity=True),
+    texts,
+)
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    answers=st.lists(
+        st.dictionaries(
+            st.sampled_from(['residual', 'branch', 'iterations', 'held']), status_value
+        ),
+        min_size=1,
+        max_size=6,
+    )
+)
+def test_an_ok_status_of_values_is_the_status_of_their_texts(answers):
+    """write_ok (the OK answer's fast path, with repeating key/values kept) writes, answer
+    after answer on one writer, the bytes rclpy gives the status of engine.status_text's
+    texts: a value kept for one answer never answers for an equal one of another type."""
+    from diagnostic_msgs.msg import KeyValue
+
+    writer = StatusBytes('node: x', 'four_bar')
+    for values in answers:
+        msg = DiagnosticStatus(
+            level=bytes([0]), name='node: x', message='ok', hardware_id='four_bar'
+        )
+        msg.values = [KeyValue(key=k, value=status_text(v)) for k, v in values.items()]
+        assert deserialize_message(writer.write_ok(values), DiagnosticStatus) == msg

@@ -17,7 +17,7 @@ from rosbags.typesys import Stores, get_typestore  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Header  # noqa: E402
 
-from linkage_ros.command_cdr import read_joint_state  # noqa: E402
+from linkage_ros.command_cdr import joint_state_peek, read_joint_state  # noqa: E402
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 T = TYPESTORE.types
@@ -134,3 +134,72 @@ def test_another_encoding_is_left_to_rclpy(head):
     assert read_joint_state(raw) is not None
     assert read_joint_state(head + raw[2:]) is None
     assert read_joint_state(b'') is None
+
+
+@pytest.mark.parametrize('little_endian', [True, False])
+def test_a_name_with_a_nul_is_read_whole_as_the_bag_reads_it(little_endian):
+    """`crank\\x00x` is one name, as rosbags (and so `linkage bag`) and the plan topics read
+    it: an unknown name the request checks refuse, not `crank` (rclpy's deserialiser ends a
+    name at its first NUL)."""
+    m = dict(
+        sec=1,
+        nanosec=2,
+        frame='',
+        names=['crank\x00x', 'b'],
+        positions=[0.5, 0.25],
+        velocities=[],
+        efforts=[],
+    )
+    raw = rosbags_bytes(m, little_endian)
+    got = read_joint_state(raw)
+    assert got is not None
+    want = TYPESTORE.deserialize_cdr(raw, 'sensor_msgs/msg/JointState')
+    assert list(got.names) == list(want.name) == ['crank\x00x', 'b']
+
+
+@settings(max_examples=60, deadline=None)
+@given(m=joint_states(), little_endian=st.booleans())
+def test_the_peek_reads_the_stamp_and_name_count_of_any_joint_state(m, little_endian):
+    """joint_state_peek (what a request is refused on before it is read): the stamp and the
+    number of names of rosbags' bytes, either byte order; None for bytes cut inside them."""
+    raw = rosbags_bytes(m, little_endian)
+    assert joint_state_peek(raw) == (m['sec'], m['nanosec'], len(m['names']))
+    assert joint_state_peek(raw[:15]) is None
+    assert joint_state_peek(b'\x00\x07' + raw[2:]) is None  # another encapsulation
+
+
+def _empty_name_message(little_endian: bool) -> bytes:
+    """A JointState whose one name is written as length 0 with no NUL (as some serialisers
+    write an empty string): stamp (1, 2), frame '', position [0.5], no velocity or effort."""
+    import struct
+
+    e = '<' if little_endian else '>'
+    head = b'\x00\x01\x00\x00' if little_endian else b'\x00\x00\x00\x00'
+    return (
+        head
+        + struct.pack(e + 'iI', 1, 2)
+        + struct.pack(e + 'I', 1)
+        + b'\x00\x00\x00\x00'  # the frame id's NUL and padding
+        + struct.pack(e + 'II', 1, 0)  # one name, of length 0
+        + struct.pack(e + 'I', 1)
+        + b'\x00' * 4  # padding to 8
+        + struct.pack(e + 'd', 0.5)
+        + struct.pack(e + 'II', 0, 0)
+    )
+
+
+@pytest.mark.parametrize('little_endian', [True, False])
+def test_an_empty_name_without_its_nul_is_read_as_rclpy_and_the_plan_topics_read_it(
+    little_endian,
+):
+    """One rule for a string of length 0 in every request reader: '' (rclpy's deserialiser
+    reads it so, and plan_cdr a trajectory's names; rosbags refuses such a message)."""
+    from rclpy.serialization import deserialize_message
+
+    raw = _empty_name_message(little_endian)
+    want = deserialize_message(raw, JointState)
+    got = read_joint_state(raw)
+    assert got is not None
+    assert list(got.names) == list(want.name) == ['']
+    assert got.positions == (0.5,) and got.velocities == ()
+    assert (got.sec, got.nanosec) == (1, 2)
