@@ -38,6 +38,13 @@ def keep_large_buffers(environ: Mapping[str, str] = os.environ) -> bool:
         return False
     if 'glibc.malloc.' in environ.get('GLIBC_TUNABLES', ''):
         return False
+    return set_malloc_thresholds(MMAP_THRESHOLD_BYTES, TRIM_THRESHOLD_BYTES)
+
+
+def set_malloc_thresholds(mmap_bytes: int, trim_bytes: int) -> bool:
+    """Set glibc malloc's mmap threshold (buffers up to it come from the heap) and trim
+    threshold (free memory kept at the top of the heap) for this process, in bytes. True when
+    set; False, changing nothing, where the C library is not glibc."""
     if platform.libc_ver()[0] != 'glibc':
         return False
     try:
@@ -47,7 +54,4 @@ def keep_large_buffers(environ: Mapping[str, str] = os.environ) -> bool:
     mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
     mallopt.restype = ctypes.c_int
     # the mmap threshold first: setting either one ends glibc's own adjustment of both
-    return bool(
-        mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)
-        and mallopt(_M_TRIM_THRESHOLD, TRIM_THRESHOLD_BYTES)
-    )
+    return bool(mallopt(_M_MMAP_THRESHOLD, mmap_bytes) and mallopt(_M_TRIM_THRESHOLD, trim_bytes))

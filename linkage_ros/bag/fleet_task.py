@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from ..heap import set_malloc_thresholds
 from .common import BagError
 from .fleet_inputs import BagTask
 from .plans import PlanRequest, decoded_plans, path_point, plan_topics, read_plan_requests
@@ -218,8 +219,7 @@ def _remove(paths: list[Path]) -> None:
                 p.unlink()
 
 
-#: glibc's mallopt parameters (malloc.h) and the sizes a bag's analysis works well with
-_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD = -1, -3
+#: the malloc thresholds a bag's analysis works well with (bytes)
 _MMAP_THRESHOLD_BYTES = 32 << 20
 _TRIM_THRESHOLD_BYTES = 64 << 20
 
@@ -230,17 +230,8 @@ def _undo_malloc_trim() -> None:
     makes beyond that is a fresh mmap, and a bag took 2.5x as long on a worker as in a process
     pool (4 bags of 100,000 commands: 4.6-5.5 s each against 1.9-2.8 s). Where that variable is
     set, raise both thresholds again for this process (glibc only; elsewhere nothing)."""
-    if 'MALLOC_TRIM_THRESHOLD_' not in os.environ:
-        return
-    import ctypes
-    import ctypes.util
-
-    try:
-        libc = ctypes.CDLL(ctypes.util.find_library('c') or 'libc.so.6')
-        libc.mallopt(_M_MMAP_THRESHOLD, _MMAP_THRESHOLD_BYTES)
-        libc.mallopt(_M_TRIM_THRESHOLD, _TRIM_THRESHOLD_BYTES)
-    except (OSError, AttributeError):  # not glibc: its environment variable meant nothing
-        return
+    if 'MALLOC_TRIM_THRESHOLD_' in os.environ:
+        set_malloc_thresholds(_MMAP_THRESHOLD_BYTES, _TRIM_THRESHOLD_BYTES)
 
 
 #: this process's line for per-bag progress bars (0: none): set in a local pool's workers
