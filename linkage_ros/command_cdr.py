@@ -37,10 +37,24 @@ class JointStateFields:
     velocities: tuple[float, ...]
 
 
-def _head(raw: bytes) -> tuple[str, int, int, int, int] | None:
-    """(byte order, stamp s, stamp ns, number of names, offset of the first name) of a
-    CDR-serialised JointState; None if the bytes are too short or not plain XCDR1. Offsets
-    count from after the 4-byte encapsulation header, as CDR aligns."""
+@dataclass(frozen=True, slots=True)
+class JointStateHead:
+    """The first fields of a CDR-serialised JointState: ``header.stamp`` (s, ns) and the number
+    of names; ``order`` its struct byte order and ``names_at`` the offset of its first name
+    (offsets count from after the 4-byte encapsulation header, as CDR aligns)."""
+
+    order: str
+    sec: int
+    nanosec: int
+    count: int
+    names_at: int
+
+
+def joint_state_peek(raw: bytes) -> JointStateHead | None:
+    """The stamp and the number of names of a CDR-serialised JointState, read off its first
+    bytes without reading the names (a 10^5-name message costs the node ~10 ms to turn into
+    Python objects: refused on its count, it is never read); None if the bytes are too short
+    or not plain XCDR1."""
     if len(raw) < 8 or raw[0] != 0 or raw[1] not in _ORDER:
         return None
     e = _ORDER[raw[1]]
@@ -53,31 +67,23 @@ def _head(raw: bytes) -> tuple[str, int, int, int, int] | None:
         (count,) = word(raw, pos)
     except struct.error:
         return None
-    return e, sec, nanosec, count, pos + 4
+    return JointStateHead(e, sec, nanosec, count, pos + 4)
 
 
-def joint_state_peek(raw: bytes) -> tuple[int, int, int] | None:
-    """(stamp s, stamp ns, number of names) of a CDR-serialised JointState, read off its first
-    bytes without reading the names (a 10^5-name message costs the node ~10 ms to turn into
-    Python objects: refused on its count, it is never read); None if the bytes are too short
-    or not CDR."""
-    head = _head(raw)
-    return None if head is None else (head[1], head[2], head[3])
-
-
-def read_joint_state(raw: bytes) -> JointStateFields | None:
-    """The command fields of a CDR-serialised JointState, or None where this reader does not
-    take the bytes (rclpy's deserialiser then says what they are). An empty float64 sequence
-    has no padding; an empty string may come without its NUL (length 0), as plan_cdr reads
-    it."""
-    head = _head(raw)
+def read_joint_state(raw: bytes, head: JointStateHead | None = None) -> JointStateFields | None:
+    """The command fields of a CDR-serialised JointState (``head``: its joint_state_peek, where
+    the caller has it), or None where this reader does not take the bytes (rclpy's
+    deserialiser then says what they are). An empty float64 sequence has no padding; an empty
+    string may come without its NUL (length 0), as plan_cdr reads it."""
     if head is None:
-        return None
-    e, sec, nanosec, count, pos = head
+        head = joint_state_peek(raw)
+        if head is None:
+            return None
+    e, pos = head.order, head.names_at
     word = _WORD[e].unpack_from
     try:
         names = []
-        for _ in range(count):
+        for _ in range(head.count):
             pos += -(pos - 4) % 4
             (k,) = word(raw, pos)
             if k == 0:  # some serialisers write an empty string without its NUL
@@ -108,4 +114,4 @@ def read_joint_state(raw: bytes) -> JointStateFields | None:
             return None
     except (struct.error, UnicodeDecodeError):
         return None
-    return JointStateFields(sec, nanosec, tuple(names), sequences[0], sequences[1])
+    return JointStateFields(head.sec, head.nanosec, tuple(names), sequences[0], sequences[1])

@@ -103,12 +103,12 @@ class Requests:
         without the Python message rclpy would build; what the reader does not take goes
         through rclpy's deserialiser to :meth:`on_command`. Answers exactly as that would."""
         peek = joint_state_peek(raw)
-        if peek is not None and peek[2] > self.node.max_names:  # refused on its count alone
-            sec, nanosec, count = peek
-            why = name_count_error(count, self.node.max_names)
-            self.answer('command', Time(sec=sec, nanosec=nanosec), lambda: Result(False, why))
+        if peek is not None and peek.count > self.node.max_names:  # refused on its count alone
+            why = name_count_error(peek.count, self.node.max_names)
+            stamp = Time(sec=peek.sec, nanosec=peek.nanosec)
+            self.answer('command', stamp, lambda: Result(False, why))
             return
-        fields = read_joint_state(raw)
+        fields = None if peek is None else read_joint_state(raw, peek)
         if fields is None:
             try:
                 msg = deserialize_message(raw, JointState)
@@ -151,10 +151,10 @@ class Requests:
             return
         # the count of names first (the words of every front end), then the length
         peek = joint_state_peek(raw)
-        if peek is not None and peek[2] > self.node.max_names:
-            sec, nanosec, count = peek
-            why = name_count_error(count, self.node.max_names)
-            self.answer(request, Time(sec=sec, nanosec=nanosec), lambda: Result(False, why))
+        if peek is not None and peek.count > self.node.max_names:
+            why = name_count_error(peek.count, self.node.max_names)
+            stamp = Time(sec=peek.sec, nanosec=peek.nanosec)
+            self.answer(request, stamp, lambda: Result(False, why))
             return
         if len(raw) > self.node.max_request_bytes:  # its length says enough: refused unread
             too_big = (
@@ -162,7 +162,7 @@ class Requests:
                 f'{self.served_mech().name!r} is at most {self.node.max_request_bytes} bytes '
                 '(every name the scene has, with a position, velocity and effort each)'
             )
-            stamp = Time() if peek is None else Time(sec=peek[0], nanosec=peek[1])
+            stamp = Time() if peek is None else Time(sec=peek.sec, nanosec=peek.nanosec)
             self.answer(request, stamp, lambda: Result(False, too_big))
             return
         try:

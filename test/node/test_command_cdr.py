@@ -163,7 +163,9 @@ def test_the_peek_reads_the_stamp_and_name_count_of_any_joint_state(m, little_en
     """joint_state_peek (what a request is refused on before it is read): the stamp and the
     number of names of rosbags' bytes, either byte order; None for bytes cut inside them."""
     raw = rosbags_bytes(m, little_endian)
-    assert joint_state_peek(raw) == (m['sec'], m['nanosec'], len(m['names']))
+    peek = joint_state_peek(raw)
+    assert peek is not None
+    assert (peek.sec, peek.nanosec, peek.count) == (m['sec'], m['nanosec'], len(m['names']))
     assert joint_state_peek(raw[:15]) is None
     assert joint_state_peek(b'\x00\x07' + raw[2:]) is None  # another encapsulation
 
