@@ -47,16 +47,17 @@ def rrr_step(
 
     def rrr(r: SlotRun) -> None:
         R = r.R
+        c1, c2, tol = R[s1], R[s2], r.tol
+        # (the cheap test first: equal radii are rare)
         if fixed:
-            r1, r2, big, gap = r1_const, r2_const, big_fixed, gap_fixed
+            r1, r2 = r1_const, r2_const
+            near = gap_fixed <= tol * big_fixed and _cabs_one(c1 - c2) <= tol * big_fixed
         else:
             r1 = r1_const if r1_of is None else r1_of(R)
             r2 = r2_const if r2_of is None else r2_of(R)
             big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
-            gap = abs(r1 - r2)
-        c1, c2, tol = R[s1], R[s2], r.tol
-        # (the cheap test first: equal radii are rare)
-        if gap <= tol * big and _cabs_one(c1 - c2) <= tol * big:
+            near = abs(r1 - r2) <= tol * big and _cabs_one(c1 - c2) <= tol * big
+        if near:
             coincident(r, k_step, x, sx, c1, r1, ref_off)
             return
         pair = solve_rrr(c1, r1, c2, r2, tol)
@@ -64,7 +65,8 @@ def rrr_step(
         if not ok:
             R[sx] = rrr_fallback(pair, c1)
             raise Refused(k_step, violation)
-        sg = r.signs[len(r.used)]
+        used = r.used
+        sg = r.signs[len(used)]
         spread = complex(0.0 * h, h)
         if (margin < _CM or r.prev_small) and r.decide(margin, x):
             target = r.prefer[x]  # type: ignore[index]
@@ -78,7 +80,7 @@ def rrr_step(
             R[sx] = rrr_fallback(pair, c1)
             raise Refused(k_step, 0.0)
         R[sx] = z
-        r.used.append(sg)
+        used.append(sg)  # (SlotRun.taken, inlined)
         r.margins.append(margin)
         if margin < r.margin:
             r.margin = margin

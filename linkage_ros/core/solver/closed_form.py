@@ -19,13 +19,21 @@ Measured in one process on the packaged four-bar's warm sweep (thread CPU time, 
 interleaved passes of 20 commands; 2-core machine shared with other agents, load ~7):
 ``CompiledSolve.build_result`` over the assembler 16.6 us, this readout's Result 3.6 us (7.2
 us with its dicts read), the program's run 8.9 us, a whole ``Solver.solve`` 18.5 us, the
-hand-written ``math`` four-bar of bench/core_speed.py 2.0 us.
+hand-written ``math`` four-bar of bench/core_speed.py 2.0 us. Since then (Continuity's signs and
+commit inline here, a known slide's miss read with its joint's slide, the crank's turn and
+placement one step): ``Solver.solve`` 16.5 us where the code before took 17.9 us and the
+``math`` four-bar 1.58 us (10.5x; every value read 22.5 us, 14.2x; the excavator 54.4 us, 3.3x
+the four-bar), in one process, old and new interleaved (process time, best of 80 passes of the
+200-command sweep; load ~3-5). In that flow the Result costs about 6 us of the 16.5 (the
+closure checks of the four joints and the known angle about 2.5, the finiteness sum, the
+ClosedResult and its branch text most of the rest: stubbing each out), the run about 8 (its
+RRR dyad 3.1, two placements 2.1, the crank 0.95), lean_command and the commit about 2.5.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import MISSING, fields
 from typing import Any
 
@@ -38,16 +46,18 @@ from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
 from ..steps import branch_text
 from .compiled import CompiledSolve, SolveMode, Values
-from .continuity import Continuity, State
+from .continuity import BranchRule, Continuity, State
 from .result import _EPS, Result
 
 _PI = math.pi
+_NEG_PI = -math.pi  # (one load where -_PI is two)
 _CLOSED_FORM = SolveMode.CLOSED_FORM
 _POINT = ReadKind.POINT
+_CONTINUOUS = BranchRule.CONTINUOUS
 
 
 def _wrap(a: float) -> float:
-    return a if -_PI < a <= _PI else _wrap_one(a)
+    return a if _NEG_PI < a <= _PI else _wrap_one(a)
 
 
 def _slot_reader(read: SpecReader, prog: ScalarProgram) -> Callable[[list[Any]], Any]:
@@ -140,29 +150,51 @@ class SlotReadout:
                 self.closure_child_set.append((p, prot, pT, creg))
             else:
                 self.closure_neither_set.append((p, prot, pT, crot, cT))
-        self.slides = [
-            (
-                pj.name,
-                _slot_reader(spec_reader(mech, SlideSpec(pj.name, pj.name)), prog),
-                _c(mech.points[pj.point]),
-                1j * _c(pj.direction),
-                iphi[pj.slider],
-                irot[pj.slider],
-                iT[pj.slider],
-                iphi[pj.guide],
-                irot[pj.guide],
-                iT[pj.guide],
-                roller_offset(mech, pj.name),
-            )  # fmt: skip
-            for pj in mech.prismatics.values()
-            if pj.guide in have and pj.slider in have
-        ]
-        self.links = [(l, iphi[l], mech.links[l].angle_ref) for l in mech.links if l in have]
         read_knowns = [
             (i, spec_reader(mech, s))
             for i, s in enumerate(specs)
             if all(l in have for l in spec_links(s))
         ]
+        # a known that reads as a joint's slide (an actuator's, usually) is read there once
+        slide_known: dict[str, int] = {}
+        for pj in mech.prismatics.values():
+            joint_read = spec_reader(mech, SlideSpec(pj.name, pj.name))
+            for i, read in read_knowns:
+                if read == joint_read and pj.name not in slide_known:
+                    slide_known[pj.name] = i
+        #: each slide: its joint, reader, point, the guide's normal, the slider's and guide's
+        #: (phi, rot, T) registers, its roller face offset, the known it is (-1: none) and
+        #: what its reader reads (the rot and T registers of the slider point's link, the
+        #: point, the guide's origin and direction: result() reads it inline)
+        self.slides: list[tuple[Any, ...]] = []
+        for pj in mech.prismatics.values():
+            if pj.guide not in have or pj.slider not in have:
+                continue
+            read = spec_reader(mech, SlideSpec(pj.name, pj.name))
+            self.slides.append(
+                (
+                    pj.name,
+                    _slot_reader(read, prog),
+                    _c(mech.points[pj.point]),
+                    1j * _c(pj.direction),
+                    iphi[pj.slider],
+                    irot[pj.slider],
+                    iT[pj.slider],
+                    iphi[pj.guide],
+                    irot[pj.guide],
+                    iT[pj.guide],
+                    roller_offset(mech, pj.name),
+                    slide_known.get(pj.name, -1),
+                    irot[read.link],
+                    iT[read.link],
+                    read.p_ref,
+                    read.origin,
+                    read.direction,
+                )  # fmt: skip
+            )
+            assert read.reference == pj.guide  # (the guide's registers above)
+        read_slide = {sl[11] for sl in self.slides}
+        self.links = [(l, iphi[l], mech.links[l].angle_ref) for l in mech.links if l in have]
         #: the known angles read inline (the register of the value wrapped, their link's and
         #: reference's phi registers, offset)
         self.angle_knowns = [
@@ -173,7 +205,7 @@ class SlotReadout:
         self.knowns = [
             (i, read.kind, _slot_reader(read, prog))
             for i, read in read_knowns
-            if read.kind is not ReadKind.ANGLE
+            if read.kind is not ReadKind.ANGLE and i not in read_slide
         ]
         self.point_names = prog.point_names
         #: the registers of the points a run sets and of the placed links' angles, the first
@@ -199,44 +231,42 @@ class SlotReadout:
         worst = 0.0  # the largest component of a closure miss (m); NaN ones are not counted
         for p, reg, crot, cT in self.closure_parent_set:
             d = R[reg] - (R[crot] * p + R[cT])
-            a = d.real
-            if a < 0.0:  # abs(a), without the call (NaN stays NaN)
-                a = -a
-            if a > worst:  # max(worst, a), likewise
+            a = abs(d.real)
+            if a > worst:  # max(worst, a), without the call (NaN is never greater)
                 worst = a
-            a = d.imag
-            if a < 0.0:
-                a = -a
+            a = abs(d.imag)
             if a > worst:
                 worst = a
         for p, prot, pT, reg in self.closure_child_set:
             d = (R[prot] * p + R[pT]) - R[reg]
-            a = d.real
-            if a < 0.0:
-                a = -a
-            if a > worst:
+            a = abs(d.real)
+            if a > worst:  # max(worst, a), without the call (NaN is never greater)
                 worst = a
-            a = d.imag
-            if a < 0.0:
-                a = -a
+            a = abs(d.imag)
             if a > worst:
                 worst = a
         for p, prot, pT, crot, cT in self.closure_neither_set:
             d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
-            a = d.real
-            if a < 0.0:
-                a = -a
-            if a > worst:
+            a = abs(d.real)
+            if a > worst:  # max(worst, a), without the call (NaN is never greater)
                 worst = a
-            a = d.imag
-            if a < 0.0:
-                a = -a
+            a = abs(d.imag)
             if a > worst:
                 worst = a
         # ``total``: the values of the Result that may not be finite, summed (the test below)
         total = 0.0
-        for _, read, p, normal, sphi, srot, sT, gphi, grot, gT, face in self.slides:
-            total += read(R)
+        for (_, _, p, normal, sphi, srot, sT, gphi, grot, gT, face, known,
+             xrot, xT, x_ref, origin, direction) in self.slides:  # fmt: skip
+            # the slide's value: _slot_reader's slide, inlined
+            g = R[grot]
+            v = (R[xrot] * x_ref + R[xT]) - (g * origin + R[gT])
+            d = g * direction
+            got = v.real * d.real + v.imag * d.imag
+            total += got
+            if known >= 0:  # the slide is a known: its miss (the knowns' loop below, once)
+                a = abs(got - vals[known])
+                if a > worst:
+                    worst = a
             off = (R[srot] * p + R[sT]) - (R[grot] * p + R[gT])
             nrm = R[grot] * normal
             # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
@@ -245,17 +275,17 @@ class SlotReadout:
             if a > worst:
                 worst = a
             a = R[sphi] - R[gphi]
-            if not -_PI < a <= _PI:
+            if not _NEG_PI < a <= _PI:
                 a = _wrap_one(a)
             a = L * abs(a)
             if a > worst:
                 worst = a
         for wrapped, ia, ib, off in self.angle_knowns:  # _slot_reader's angle, _wrap inlined
             got = R[ia] - R[ib] + off
-            if not -_PI < got <= _PI:
+            if not _NEG_PI < got <= _PI:
                 got = _wrap_one(got)
             a = got - R[wrapped]  # (the value reduced exactly first, by the run)
-            if not -_PI < a <= _PI:
+            if not _NEG_PI < a <= _PI:
                 a = _wrap_one(a)
             a = L * abs(a)
             if a > worst:
@@ -305,7 +335,7 @@ class SlotReadout:
         joints: dict[str, float] = {}
         for name, child, parent, offset in self.revolute_angles:
             a = offset + R[child] - R[parent]
-            if not -_PI < a <= _PI:
+            if not _NEG_PI < a <= _PI:
                 a = _wrap_one(a)
             joints[name] = a
         for slide in self.slides:
@@ -313,7 +343,7 @@ class SlotReadout:
         links: dict[str, float] = {}
         for l, i, ref in self.links:
             a = ref + R[i]
-            if not -_PI < a <= _PI:
+            if not _NEG_PI < a <= _PI:
                 a = _wrap_one(a)
             links[l] = a
         points: dict[str, tuple[float, float]] = {}
@@ -362,20 +392,23 @@ class SlotReadout:
         if self.limited and c.limit_refusal(vals):
             return None
         history = cont.history
-        r = self.prog.run_parsed(
-            vals,
-            cont.signs(self.plan),
-            history[-1].margins if history else None,
-            lambda: cont.prediction(c, vals),
-        )
+        prev_margins: Sequence[float] | None
+        if history and cont.branch.rule is _CONTINUOUS:  # Continuity.signs, inlined
+            last = history[-1]
+            start, prev_margins = last.signs, last.margins
+        else:
+            start = cont.signs(self.plan)
+            prev_margins = history[-1].margins if history else None
+        r = self.prog.run_parsed(vals, start, prev_margins, lambda: cont.prediction(c, vals))
         if r.failure >= 0:
             return None
         signs = tuple(r.used)
         res = self.result(r, vals, signs)
         if not (res.success and res.residual <= self.closure_limit):  # type: ignore[operator]
             return None
-        if commit:
-            cont.commit(SlotState(vals, signs, tuple(r.margins), self.prog, r.R))
+        if commit:  # Continuity.commit, inlined (the last answer and this one)
+            state = SlotState(vals, signs, tuple(r.margins), self.prog, r.R)
+            cont.history = [history[-1], state] if history else [state]
         return res
 
 
