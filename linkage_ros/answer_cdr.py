@@ -152,17 +152,22 @@ class StatusBytes:
         once."""
         pairs = self._pairs
         parts = [self._ok_head, _COUNT.pack(len(values))]
+        append = parts.append
         for item in values.items():
-            hit = pairs.get(item)
             key, value = item
-            # (the value's type too: 0 == 0.0 == False, but each is written its own way)
+            if isinstance(value, float):  # new with every answer: not looked up, not kept
+                append(self._block(key, True))
+                append(string_block(status_text(value)))
+                continue
+            hit = pairs.get(item)
+            # (the value's type too: 0 == False, but each is written its own way)
             if hit is None or hit[0] is not type(value):
                 block = self._block(key, True) + string_block(status_text(value))
-                if not isinstance(value, float) and len(pairs) < STATUS_BLOCK_CACHE:
+                if len(pairs) < STATUS_BLOCK_CACHE:
                     pairs[item] = (type(value), block)
-                parts.append(block)
+                append(block)
             else:
-                parts.append(hit[1])
+                append(hit[1])
         return b''.join(parts)
 
     def write(self, level: int, message: str, values: Mapping[str, str]) -> bytes:

@@ -32,12 +32,18 @@ def write_encoded(buf: bytearray, encoded: bytes) -> None:
     buf += encoded
 
 
+#: a little-endian uint32 (a string's or a sequence's length)
+_UINT32 = struct.Struct('<I')
+#: the NUL and the padding after a string of each length modulo 4 (index: bytes + 1, mod 4)
+_STRING_ENDS = tuple(b'\x00' * (1 + (-k) % 4) for k in range(4))
+
+
 def string_block(s: str) -> bytes:
     """A CDR string that starts 4-aligned, padded so that what follows starts 4-aligned too:
     a message of such blocks (and 4-byte words) needs no offset bookkeeping."""
     b = s.encode()
     k = len(b) + 1
-    return struct.pack('<I', k) + b + b'\x00' * (1 + (-k) % 4)
+    return _UINT32.pack(k) + b + _STRING_ENDS[k % 4]
 
 
 def write_string(buf: bytearray, s: str) -> None:

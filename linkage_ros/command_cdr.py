@@ -70,11 +70,28 @@ def joint_state_peek(raw: bytes) -> JointStateHead | None:
     return JointStateHead(e, sec, nanosec, count, pos + 4)
 
 
-def read_joint_state(raw: bytes, head: JointStateHead | None = None) -> JointStateFields | None:
+class NamesMemo:
+    """The names of the last JointState read and their bytes: a client names the same
+    actuators in every command, so their bytes recur and need not be decoded again. The names
+    start 4-aligned in every message (after the stamp, the frame id and the count), so equal
+    bytes there are equal names and end at the same place."""
+
+    __slots__ = ('count', 'block', 'names')
+
+    def __init__(self) -> None:
+        self.count = -1
+        self.block = b''
+        self.names: tuple[str, ...] = ()
+
+
+def read_joint_state(
+    raw: bytes, head: JointStateHead | None = None, memo: NamesMemo | None = None
+) -> JointStateFields | None:
     """The command fields of a CDR-serialised JointState (``head``: its joint_state_peek, where
-    the caller has it), or None where this reader does not take the bytes (rclpy's
-    deserialiser then says what they are). An empty float64 sequence has no padding; an empty
-    string may come without its NUL (length 0), as plan_cdr reads it."""
+    the caller has it; ``memo``: the names of the last message read by the caller, updated
+    here), or None where this reader does not take the bytes (rclpy's deserialiser then says
+    what they are). An empty float64 sequence has no padding; an empty string may come without
+    its NUL (length 0), as plan_cdr reads it."""
     if head is None:
         head = joint_state_peek(raw)
         if head is None:
@@ -82,18 +99,20 @@ def read_joint_state(raw: bytes, head: JointStateHead | None = None) -> JointSta
     e, pos = head.order, head.names_at
     word = _WORD[e].unpack_from
     try:
-        names = []
-        for _ in range(head.count):
-            pos += -(pos - 4) % 4
-            (k,) = word(raw, pos)
-            if k == 0:  # some serialisers write an empty string without its NUL
-                names.append('')
-                pos += 4
-                continue
-            end = pos + 4 + k
-            if end > len(raw) or raw[end - 1] != 0:
+        if (
+            memo is not None
+            and memo.count == head.count
+            and memo.block
+            and raw.startswith(memo.block, pos)
+        ):
+            names, pos = memo.names, pos + len(memo.block)
+        else:
+            read = _read_names(raw, head)
+            if read is None:
                 return None
-            names.append(raw[pos + 4 : end - 1].decode())
+            names, end = read
+            if memo is not None:
+                memo.count, memo.block, memo.names = head.count, raw[pos:end], names
             pos = end
         sequences = []
         for _ in range(2):  # position, velocity
@@ -114,4 +133,26 @@ def read_joint_state(raw: bytes, head: JointStateHead | None = None) -> JointSta
             return None
     except (struct.error, UnicodeDecodeError):
         return None
-    return JointStateFields(head.sec, head.nanosec, tuple(names), sequences[0], sequences[1])
+    return JointStateFields(head.sec, head.nanosec, names, sequences[0], sequences[1])
+
+
+def _read_names(raw: bytes, head: JointStateHead) -> tuple[tuple[str, ...], int] | None:
+    """The names of a JointState (from ``head.names_at``) and the offset just after the last
+    one, or None where they run past the end or one lacks its NUL. Raises struct.error or
+    UnicodeDecodeError on bytes that are no names."""
+    pos = head.names_at
+    word = _WORD[head.order].unpack_from
+    names = []
+    for _ in range(head.count):
+        pos += -(pos - 4) % 4
+        (k,) = word(raw, pos)
+        if k == 0:  # some serialisers write an empty string without its NUL
+            names.append('')
+            pos += 4
+            continue
+        end = pos + 4 + k
+        if end > len(raw) or raw[end - 1] != 0:
+            return None
+        names.append(raw[pos + 4 : end - 1].decode())
+        pos = end
+    return tuple(names), pos

@@ -12,7 +12,7 @@ from builtin_interfaces.msg import Time
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
-from .command_cdr import joint_state_peek, read_joint_state
+from .command_cdr import NamesMemo, joint_state_peek, read_joint_state
 from .conversions import (
     is_zero_stamp,
     joint_state_pick,
@@ -42,6 +42,8 @@ class Requests:
 
     def __init__(self, node: ServingNode):
         self.node = node
+        #: the names of the last ~/command read (a client sends the same ones each time)
+        self.command_names = NamesMemo()
 
     def request_stamp(self, stamp: Time) -> tuple[Time, str | None]:
         """The stamp a request's answers carry (an unset one: the node clock's now), and why
@@ -108,7 +110,7 @@ class Requests:
             stamp = Time(sec=peek.sec, nanosec=peek.nanosec)
             self.answer('command', stamp, lambda: Result(False, why))
             return
-        fields = None if peek is None else read_joint_state(raw, peek)
+        fields = None if peek is None else read_joint_state(raw, peek, self.command_names)
         if fields is None:
             try:
                 msg = deserialize_message(raw, JointState)

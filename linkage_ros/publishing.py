@@ -46,14 +46,14 @@ LISTENED_RECHECK_S = 0.05
 class Listened:
     """Whether ``pub`` has subscribers: asked of rmw on every call while it has none (a new
     subscriber gets the next answer), at most every LISTENED_RECHECK_S while it has (one that
-    left gets answers for that long more: a publish nobody takes, nothing else)."""
+    left gets answers for that long more: a publish nobody takes, nothing else). ``now``:
+    time.monotonic() (s), read once per answer for all its outputs."""
 
     def __init__(self, pub: Publisher):
         self.pub = pub
         self._until = -math.inf
 
-    def __call__(self) -> bool:
-        now = time.monotonic()
+    def __call__(self, now: float) -> bool:
         if now < self._until:
             return True
         if self.pub.get_subscription_count():
@@ -223,12 +223,15 @@ class Outputs:
         """Publish the answer to one request: on success joint_states, the subscribed points
         and an OK status; on failure only an ERROR status."""
         self.last_ok = result.success
+        now = time.monotonic()
         if result.success:
             self.answered += 1
-            self._publish_state(result, stamp)
+            sec, nanosec = stamp.sec, stamp.nanosec
+            answers = self.answers
+            self._publish_state(result, sec, nanosec)
             for name, pub, listened in self._points_listened:
-                if listened():
-                    pub.publish(self.answers.point(result, name, stamp.sec, stamp.nanosec))
+                if listened(now):
+                    pub.publish(answers.point(result, name, sec, nanosec))
             self._marker_state = (result, stamp)
             m = result.margin
             if (
@@ -240,7 +243,7 @@ class Outputs:
         else:
             self.refused += 1
             self.last_error = f'{request}: {result.reason}'
-        if self._status_listened():
+        if self._status_listened(now):
             self.pub_status.publish(self.answers.status(result, request))
 
     def answer_trajectory(
@@ -272,8 +275,8 @@ class Outputs:
         self.last_error = f'{request}: {reason}'
         self.pub_status.publish(self.answers.error(reason, request))
 
-    def _publish_state(self, result: Result, stamp: Time) -> None:
-        self.pub_joints.publish(self.answers.joint_state(result, stamp.sec, stamp.nanosec))
+    def _publish_state(self, result: Result, sec: int, nanosec: int) -> None:
+        self.pub_joints.publish(self.answers.joint_state(result, sec, nanosec))
         self._answered_since_tick = True
 
     # -- timers -----------------------------------------------------------------------------------
@@ -287,7 +290,8 @@ class Outputs:
             return
         if last.velocity is not None:  # the rates of a past command are not the state's now
             last = Result(True, joints=last.joints)
-        self._publish_state(last, self.now())
+        now = self.now()
+        self._publish_state(last, now.sec, now.nanosec)
         self._answered_since_tick = False
 
     def _draw(self) -> None:

@@ -17,7 +17,7 @@ from rosbags.typesys import Stores, get_typestore  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Header  # noqa: E402
 
-from linkage_ros.command_cdr import joint_state_peek, read_joint_state  # noqa: E402
+from linkage_ros.command_cdr import NamesMemo, joint_state_peek, read_joint_state  # noqa: E402
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
 T = TYPESTORE.types
@@ -81,8 +81,8 @@ def same_floats(got, want) -> bool:
     )
 
 
-def check(raw: bytes, m) -> None:
-    fields = read_joint_state(raw)
+def check(raw: bytes, m, memo: NamesMemo | None = None) -> None:
+    fields = read_joint_state(raw, memo=memo)
     assert fields is not None
     assert (fields.sec, fields.nanosec) == (m['sec'], m['nanosec'])
     assert fields.names == tuple(m['names'])
@@ -205,3 +205,30 @@ def test_an_empty_name_without_its_nul_is_read_as_rclpy_and_the_plan_topics_read
     assert list(got.names) == list(want.name) == ['']
     assert got.positions == (0.5,) and got.velocities == ()
     assert (got.sec, got.nanosec) == (1, 2)
+
+
+@st.composite
+def streams(draw):
+    """Commands as one client or several send them: names repeat, change, share a prefix or
+    a count; frame ids of different lengths shift where the names start."""
+    pool = draw(st.lists(st.lists(texts, max_size=4), min_size=1, max_size=3))
+    out = []
+    for _ in range(draw(st.integers(1, 8))):
+        m = draw(joint_states())
+        m['names'] = draw(st.sampled_from(pool))
+        n = len(m['names'])
+        m['positions'] = draw(st.lists(doubles, min_size=n, max_size=n))
+        m['sec'] = abs(m['sec'])
+        out.append(m)
+    return out
+
+
+@settings(max_examples=100, deadline=None)
+@given(stream=streams(), little_endian=st.booleans())
+def test_names_remembered_from_the_last_message_read_as_each_message_says(stream, little_endian):
+    """One NamesMemo over a stream of commands (rclpy's and rosbags' bytes mixed): every
+    message reads as itself, whether its names are the last one's or not."""
+    memo = NamesMemo()
+    for k, m in enumerate(stream):
+        raw = rclpy_bytes(m) if k % 2 else rosbags_bytes(m, little_endian)
+        check(raw, m, memo)
