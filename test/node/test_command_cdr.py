@@ -218,7 +218,8 @@ def streams(draw):
         m['names'] = draw(st.sampled_from(pool))
         n = len(m['names'])
         m['positions'] = draw(st.lists(doubles, min_size=n, max_size=n))
-        m['sec'] = abs(m['sec'])
+        if m['sec'] < 0:  # rclpy's Time refuses a negative sec (and -(-2**31) is no int32)
+            m['sec'] = -m['sec'] - 1
         out.append(m)
     return out
 
