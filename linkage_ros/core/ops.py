@@ -72,8 +72,20 @@ def _wrap_one(a: float) -> float:
 def _wrap_many(v: Any) -> Any:
     """_wrap_one elementwise on an array (the same float operations)."""
     out = np.array(v, float)
-    if out.size and out.min() > -math.pi and out.max() <= math.pi:  # (NaN: min is NaN)
+    if not out.size:
+        return out
+    lo, hi = out.min(), out.max()  # (NaN: both NaN)
+    if lo > -math.pi and hi <= math.pi:
         return out  # every angle already in (-pi, pi]: the common case, two passes
+    if lo >= -WRAP_REDUCE_LIMIT and hi <= WRAP_REDUCE_LIMIT:
+        # every angle finite and within the three-part reduction (a warm solve's angle rows a
+        # turn or so off): all reduced in one pass, each exactly as below; k = 0 (in range)
+        # keeps the angle itself (-0.0 too)
+        k = np.rint(out / (2 * math.pi))
+        r = ((out - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
+        if np.abs(r).max() < math.pi:  # else a k rounded off by one: the full path
+            reduced: np.ndarray = np.where(k == 0.0, out, r)
+            return reduced
     wide = ~((out > -math.pi) & (out <= math.pi))  # NaN and inf included
     if not wide.any():
         return out

@@ -33,6 +33,24 @@ def test_one_angle_wrap_on_both_backends():
     assert np.all(np.isnan(BATCH.wrap(np.array([math.nan, math.inf, -math.inf]))))
 
 
+def test_angle_wrap_of_arrays_within_the_three_part_range():
+    """Arrays whose angles are all finite and within WRAP_REDUCE_LIMIT (a warm batch's angle
+    rows: reduced in one pass over the whole array) wrap bit for bit as the scalar wrap does,
+    the sign of a zero included: a turn or so off, up to the limit, odd multiples of pi (k
+    rounded off by one) and angles already in range mixed in."""
+    rng = np.random.default_rng(4)
+    odd = np.array([math.pi, -math.pi, 3 * math.pi, -3 * math.pi, 2.0**21, -(2.0**21)])
+    for v in (
+        rng.uniform(-7.0, 7.0, 1000),
+        np.concatenate([rng.uniform(-math.pi, math.pi, 50), [0.0, -0.0, 4.0, -4.0]]),
+        rng.uniform(-(2.0**21), 2.0**21, 1000),
+        np.concatenate([rng.uniform(-7.0, 7.0, 50), odd]),
+    ):
+        got = BATCH.wrap(v)
+        want = np.array([SCALAR.wrap(a) for a in v.tolist()])
+        assert np.array_equal(got, want) and np.array_equal(np.signbit(got), np.signbit(want))
+
+
 def test_angle_wrap_is_exact_reduction():
     """Against a 50-digit reduction of the float itself: within 2 ulps of the true value in
     [-pi, pi], up to 1e300 rad."""

@@ -5,7 +5,7 @@ the stack algebra (det signs, steps, condition numbers) is plain functions."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -22,6 +22,7 @@ from .blocks import (
     parts_inverse_norms,
     parts_steps,
 )
+from .linalg import det_signs, newton_steps
 from .results import (
     COND_EXACT,
     FAST_FLOOR,
@@ -33,6 +34,15 @@ from .results import (
     BatchSolve,
 )
 from .rows import AngleRow, LineRow, angle_row, line_row, point_rows, revolute_rows
+from .schur import (
+    SchurForm,
+    reduced_steps,
+    schur_answer,
+    schur_back,
+    schur_form,
+    schur_inverse_norms,
+    schur_reduce,
+)
 from .tables import LoopTables, jacobian_pattern
 
 
@@ -135,6 +145,11 @@ class BatchTables:
     j_tpl: np.ndarray  # the scale-free J's constant entries, flat (m * n,)
     form: BlockForm | None  # J's block-triangular form (None: not square, or singular)
     packed: PackedJacobian | None  # how the batched solve stores J (None: not square)
+    schur: SchurForm | None  # ... or, where it is smaller, reduced to its varying columns
+
+
+def _largest_block(form: BlockForm | None, n: int) -> int:
+    return n if form is None else max(len(bl.cols) for bl in form.blocks)
 
 
 def batch_tables(t: LoopTables) -> BatchTables:
@@ -190,8 +205,29 @@ def batch_tables(t: LoopTables) -> BatchTables:
         return a.astype(np.intp)
 
     real = t.jpos != t.m * t.n  # entries of fixed links are dropped
+    tpl = t.tpl_s[:-1]
+    if t.jpos_unique and len(ln):
+        # a line row's entries on its slider's translations are its guide's direction: constant
+        # where the guide is not free (the ground at rest), so they join the template (the
+        # same float operations as line_row: the same bits)
+        fixed_at = idx(ln[:, 2]) - len(t.free)
+        on_fixed = np.flatnonzero(fixed_at >= 0)
+        if on_fixed.size:
+            cos_g, sin_g = _fixed_cos_sin(fixed, fixed_at[on_fixed])
+            u0x, u0y = ln[on_fixed, 4], ln[on_fixed, 5]
+            jv = idx(ln[on_fixed, 1])
+            tpl = tpl.copy()
+            ux, uy = cos_g * u0x - sin_g * u0y, sin_g * u0x + cos_g * u0y
+            for entries, value in ((jv + 4, ux), (jv + 5, uy)):
+                live = real[entries]
+                tpl[t.jpos[entries[live]]] = value[live]
+                real[entries] = False
     form = block_form(jacobian_pattern(t))
-    packed = packed_jacobian(form, t.n, t.tpl_s[:-1], t.jpos[real]) if t.m == t.n and t.n else None
+    square = t.m == t.n and t.n
+    packed = packed_jacobian(form, t.n, tpl, t.jpos[real]) if square else None
+    schur = schur_form(tpl.reshape(t.m, t.n), t.jpos[real]) if square else None
+    if schur is not None and schur.a >= _largest_block(form, t.n):
+        schur = None  # the blocks are smaller: no gain
     return BatchTables(
         n_cols=zero + 1,
         cols=cols,
@@ -218,10 +254,16 @@ def batch_tables(t: LoopTables) -> BatchTables:
         pt_val=idx(pt[:, 5]),
         jv_real=np.flatnonzero(real),
         j_pos=t.jpos[real],
-        j_tpl=t.tpl_s[:-1],
+        j_tpl=tpl,
         form=form,
         packed=packed,
+        schur=schur,
     )
+
+
+def _fixed_cos_sin(fixed: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(cos, sin) of the fixed slots ``at`` (indices among the non-free slots)."""
+    return fixed[1, 0, at], fixed[2, 0, at]
 
 
 def _pose(
@@ -233,32 +275,6 @@ def _pose(
 
 
 # ---- the algebra of a stack of square matrices ------------------------------------------------
-def det_signs(J: np.ndarray) -> np.ndarray:
-    """(K,) int sign of det of a (K, n, n) stack; 0 where singular or not finite."""
-    if J.shape[0] == 0:
-        return np.zeros(0, int)
-    # LAPACK's LU takes NaN and inf without failing (the log|det| comes out NaN): no copy of
-    # the finite rows needed
-    with np.errstate(invalid='ignore', divide='ignore'):
-        s, logdet = np.linalg.slogdet(J)
-    signs: np.ndarray = np.where(np.isfinite(logdet), s, 0.0).astype(int)
-    return signs
-
-
-def newton_steps(J: np.ndarray, F: np.ndarray) -> np.ndarray:
-    """dy (K, n) solving J dy = -F for a (K, n, n) stack; NaN rows where J is singular (one
-    singular matrix makes np.linalg.solve raise for the whole stack: then solve the rest)."""
-    try:
-        steps: np.ndarray = np.linalg.solve(J, -F[:, :, None])[:, :, 0]
-        return steps
-    except np.linalg.LinAlgError:
-        dy = np.full(F.shape, math.nan)
-        regular = det_signs(J) != 0
-        if regular.any():
-            dy[regular] = np.linalg.solve(J[regular], -F[regular][:, :, None])[:, :, 0]
-        return dy
-
-
 def scaled_conds(J: np.ndarray) -> np.ndarray:
     """linalg.scaled_cond of each matrix of a finite (K, m, n) stack (inf if an SVD fails)."""
     if J.shape[0] == 0 or J.shape[1] * J.shape[2] == 0:
@@ -282,9 +298,8 @@ def batch_conds(J: np.ndarray, inverse_norms: np.ndarray | None = None) -> np.nd
     ||J^-1||_1 if given, else from a dense inverse; the scalar path takes LAPACK's estimate of
     it) where that is below COND_EXACT, else scaled_cond. Only the rows above pay for an SVD
     (an SVD costs ~5 LUs: the batch's largest cost)."""
-    out = np.full(J.shape[0], math.inf)
     if J.shape[0] == 0:
-        return out
+        return np.full(0, math.inf)
     if inverse_norms is None:
         try:
             inverse = np.linalg.inv(J)
@@ -293,10 +308,17 @@ def batch_conds(J: np.ndarray, inverse_norms: np.ndarray | None = None) -> np.nd
         inverse_norms = np.abs(inverse).sum(axis=1).max(axis=1)
     with np.errstate(invalid='ignore', over='ignore'):
         c1 = np.abs(J).sum(axis=1).max(axis=1) * inverse_norms
+    return exact_or_scaled(c1, lambda rows: J[rows])
+
+
+def exact_or_scaled(c1: np.ndarray, dense_rows: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """The 1-norm condition numbers ``c1`` where below COND_EXACT, else scaled_cond of the
+    dense matrices ``dense_rows(mask)`` gives for the other rows (batch_conds)."""
+    out = np.full(c1.shape[0], math.inf)
     small = c1 < COND_EXACT  # False for NaN
     out[small] = c1[small]
     if not small.all():
-        out[~small] = scaled_conds(J[~small])
+        out[~small] = scaled_conds(dense_rows(~small))
     return out
 
 
@@ -314,33 +336,65 @@ class BatchNewton:
             self._tables = batch_tables(self.t)
         return self._tables
 
-    def _packed(self) -> PackedJacobian:
-        packed = self.tables().packed
-        assert packed is not None, 'the batched solve takes square systems only'
-        return packed
+    def layout(self) -> PackedJacobian | SchurForm:
+        """How the batched solve stores J: reduced to its varying columns where that is
+        smaller than its blocks (SchurForm), else block by block (PackedJacobian)."""
+        tab = self.tables()
+        if tab.schur is not None:
+            return tab.schur
+        assert tab.packed is not None, 'the batched solve takes square systems only'
+        return tab.packed
 
     def det_signs(self, Jp: np.ndarray) -> np.ndarray:
-        """det_signs of a packed (K, size) stack of this system's Jacobians, block by block."""
-        packed = self._packed()
-        if packed.whole or not Jp.shape[0]:
-            return det_signs(packed.unpack(Jp))
-        return parts_det_signs(packed.form, packed.parts(Jp))
+        """det_signs of a packed (K, size) stack of this system's Jacobians, block by block
+        (or from the reduced matrix M)."""
+        layout = self.layout()
+        if isinstance(layout, SchurForm):
+            signs: np.ndarray = det_signs(layout.reduced(Jp)[1]) * layout.parity
+            return signs
+        if layout.whole or not Jp.shape[0]:
+            return det_signs(layout.unpack(Jp))
+        return parts_det_signs(layout.form, layout.parts(Jp))
 
     def conds(self, Jp: np.ndarray) -> np.ndarray:
         """batch_conds of a packed (K, size) stack of this system's Jacobians, ||J^-1||_1
-        found block by block (parts_inverse_norms)."""
-        packed = self._packed()
-        blocks = not packed.whole and Jp.shape[0]
-        norms = parts_inverse_norms(packed.form, packed.parts(Jp)) if blocks else None
-        return batch_conds(packed.unpack(Jp), norms)
+        found block by block (parts_inverse_norms) or from M (schur_inverse_norms)."""
+        layout = self.layout()
+        if isinstance(layout, SchurForm):
+            norms = schur_inverse_norms(layout, Jp) if Jp.shape[0] else None
+            if norms is None:
+                return batch_conds(layout.unpack(Jp))
+            with np.errstate(invalid='ignore', over='ignore'):
+                c1 = layout.j_norms(Jp) * norms
+            return exact_or_scaled(c1, lambda rows: layout.unpack(Jp[rows]))
+        blocks = not layout.whole and Jp.shape[0]
+        norms = parts_inverse_norms(layout.form, layout.parts(Jp)) if blocks else None
+        return batch_conds(layout.unpack(Jp), norms)
+
+    def answer_checks(self, Jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(det_signs, conds) of a packed (K, size) stack: what an answer is checked by,
+        from one reduction where J is reduced to its varying columns."""
+        layout = self.layout()
+        if not isinstance(layout, SchurForm) or not Jp.shape[0]:
+            return self.det_signs(Jp), self.conds(Jp)
+        signs, norms = schur_answer(layout, Jp)
+        if norms is None:
+            return signs, batch_conds(layout.unpack(Jp))
+        with np.errstate(invalid='ignore', over='ignore'):
+            c1 = layout.j_norms(Jp) * norms
+        return signs, exact_or_scaled(c1, lambda rows: layout.unpack(Jp[rows]))
 
     def newton_steps(self, Jp: np.ndarray, F: np.ndarray) -> np.ndarray:
         """newton_steps for a packed (K, size) stack of this system's Jacobians: forward
-        substitution through its blocks, densely where a block of some matrix is singular."""
-        packed = self._packed()
-        blocks = not packed.whole and Jp.shape[0]
-        dy = parts_steps(packed.form, packed.parts(Jp), F) if blocks else None
-        return newton_steps(packed.unpack(Jp), F) if dy is None else dy
+        substitution through its blocks, densely where a block of some matrix is singular;
+        or the reduced step (NaN rows where M, so J, is singular)."""
+        layout = self.layout()
+        if isinstance(layout, SchurForm):
+            M, r = schur_reduce(layout, Jp, F)
+            return schur_back(layout, Jp, F, reduced_steps(M, r))
+        blocks = not layout.whole and Jp.shape[0]
+        dy = parts_steps(layout.form, layout.parts(Jp), F) if blocks else None
+        return newton_steps(layout.unpack(Jp), F) if dy is None else dy
 
     def values(self, values: Sequence[Any], N: int) -> np.ndarray:
         """(N, columns) matrix of the values (angles wrapped as evaluate.residual_rows wraps
@@ -440,7 +494,7 @@ class BatchNewton:
             res[~np.isfinite(res)] = math.inf
         if Jv is None:
             return F, None, res
-        layout = self._packed() if packed else None
+        layout = self.layout() if packed else None
         tpl, pos = (tab.j_tpl, tab.j_pos) if layout is None else (layout.tpl, layout.pos)
         J = np.empty((N, len(tpl)))
         J[:] = tpl
@@ -549,10 +603,21 @@ class BatchNewton:
         # branch; rows still at X0 were checked there) and off folds (else the scalar path
         # polishes)
         check = done if start_checked else done & (iterations > 0)
-        done[check] = self.det_signs(_rows_of(J, check)) == sign0[check]
+        answers = np.flatnonzero(done)
+        signs, conds = self.answer_checks(_rows_of(J, done))
         cond = np.full(N, math.inf)
-        cond[done] = self.conds(_rows_of(J, done))
+        cond[answers] = conds
+        done[answers] = ~check[answers] | (signs == sign0[answers])
         ok = done & (cond < POLISH_COND) & np.isfinite(x).all(axis=1) & np.isfinite(res)
+        if ok.all():  # the common case: no where passes (and x never the caller's X0)
+            return BatchSolve(
+                x=x.copy() if x is X0 else x,
+                ok=ok,
+                iterations=iterations,
+                residual=res.copy() if res is res0 else res,
+                det_sign=sign0,
+                cond=cond,
+            )
         return BatchSolve(
             x=np.where(ok[:, None], x, X0),
             ok=ok,

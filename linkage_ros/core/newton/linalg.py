@@ -90,3 +90,30 @@ def sign_of(J: np.ndarray, fac: LUFactor | None) -> int:
     if fac is None:
         return 0
     return fac[2] if cond(J, fac) < SINGULAR_COND else 0
+
+
+# ---- the same on a stack of square matrices (the batched solve) ---------------------------------
+def det_signs(J: np.ndarray) -> np.ndarray:
+    """(K,) int sign of det of a (K, n, n) stack; 0 where singular or not finite."""
+    if J.shape[0] == 0:
+        return np.zeros(0, int)
+    # LAPACK's LU takes NaN and inf without failing (the log|det| comes out NaN): no copy of
+    # the finite rows needed
+    with np.errstate(invalid='ignore', divide='ignore'):
+        s, logdet = np.linalg.slogdet(J)
+    signs: np.ndarray = np.where(np.isfinite(logdet), s, 0.0).astype(int)
+    return signs
+
+
+def newton_steps(J: np.ndarray, F: np.ndarray) -> np.ndarray:
+    """dy (K, n) solving J dy = -F for a (K, n, n) stack; NaN rows where J is singular (one
+    singular matrix makes np.linalg.solve raise for the whole stack: then solve the rest)."""
+    try:
+        steps: np.ndarray = np.linalg.solve(J, -F[:, :, None])[:, :, 0]
+        return steps
+    except np.linalg.LinAlgError:
+        dy = np.full(F.shape, math.nan)
+        regular = det_signs(J) != 0
+        if regular.any():
+            dy[regular] = np.linalg.solve(J[regular], -F[regular][:, :, None])[:, :, 0]
+        return dy

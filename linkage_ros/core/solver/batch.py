@@ -9,19 +9,16 @@ from typing import Any
 
 import numpy as np
 
-from .. import dyads
 from ..assemble import Assembly
 from ..assemble_batch import assemble_batch
 from ..execute import LinkPoses, executor
-from ..ops import BATCH
+from ..ops import BATCH, CArray
 from ..plan import (
     Plan,
-    Poses,
     Spec,
-    branch_geometry_batch,
+    branch_geometry_of,
     branch_geometry_one,
     limit_violation,
-    link_poses,
     needs_beyond_limits,
 )
 from ..quantities import AngleSpec, PointSpec, ScalarSpec
@@ -272,40 +269,56 @@ def _newton(
     det_sign = np.zeros(n, int)
     cond = np.full(n, np.inf)
     if len(eligible):
+        every = len(eligible) == n  # the common case: no gathers, no scatters
         # start.det_sign is det J's sign at start.x, checked when that batch was solved
         bs = system.solve_batch(
-            start.x[eligible],
-            [a[eligible] for a in safe],
-            start.det_sign[eligible],
+            start.x if every else start.x[eligible],
+            safe if every else [a[eligible] for a in safe],
+            start.det_sign if every else start.det_sign[eligible],
             tol=c.tol,
             start_checked=True,
             warm=True,  # start.x: solutions at the batch before
         )
-        rows = eligible[bs.ok]
-        x[rows], iterations[eligible] = bs.x[bs.ok], bs.iterations
-        residual[rows], det_sign[rows], cond[rows] = (
-            bs.residual[bs.ok],
-            bs.det_sign[bs.ok],
-            bs.cond[bs.ok],
-        )
+        if every and bs.ok.all():  # bs's arrays are its own (not start's)
+            x, iterations, residual, det_sign, cond = (
+                bs.x,
+                bs.iterations,
+                bs.residual,
+                bs.det_sign,
+                bs.cond,
+            )
+            rows = eligible
+        else:
+            rows = eligible[bs.ok]
+            x[rows], iterations[eligible] = bs.x[bs.ok], bs.iterations
+            residual[rows], det_sign[rows], cond[rows] = (
+                bs.residual[bs.ok],
+                bs.det_sign[bs.ok],
+                bs.cond[bs.ok],
+            )
         # solve_one checks the closed form can assemble unless the answer is provably on its
         # branch: well conditioned for its residual (Newton-Kantorovich) and the dyads on the
         # start's sides. A row that needs that check (or changed sides) goes there too.
         accepted[rows] = cond[rows] ** 2 * residual[rows] * system.n <= 1e-2
-    poses = _batch_poses(c, x)
-    pts = {p: poses.world(l, p, c.mech) for p, l, _ in system.point_owner}
+    poses, pts = _newton_poses(c, x)
     signs = np.zeros((n, k), int)
     margin = np.where(accepted, 1.0 / np.maximum(cond, 1.0), 0.0)
     if branches:
-        signs, margins = branch_geometry_batch(plan, pts, poses)
+        # (plan.branch_geometry_batch, on the complex poses and points it would convert to)
+        with np.errstate(all='ignore'):
+            sides, margins = branch_geometry_of(BATCH, plan, pts, poses)
+        dyad_margins = np.zeros((n, k))
+        for j in range(k):
+            signs[:, j], dyad_margins[:, j] = sides[j], margins[j]
         accepted &= np.all(signs == start.signs, axis=1)
-        margin = np.min(margins, axis=1)
+        margin = np.min(dyad_margins, axis=1)
     rule = cont.branch.rule
     if rule is BranchRule.EXPLICIT:
         accepted &= np.all(signs == np.asarray(cont.branch.signs, int), axis=1)
     elif rule is BranchRule.REFERENCE and branches:
         accepted &= np.all(signs == np.asarray(plan.reference_signs, int), axis=1)
-    got = _batch_assembly(c, poses, safe)
+    with np.errstate(all='ignore'):
+        got = assemble_batch(c.assembler(poses.phi), poses, safe)
     _fill(out, c, pts, arrays, valid, accepted.copy(), got)
     out.x, out.det_sign = x, np.where(out.ok, det_sign, 0)
     out.signs = np.where(out.ok[:, None], signs, 0)
@@ -461,24 +474,61 @@ def _assembly_poses(plan: Plan, poses: LinkPoses) -> LinkPoses:
     return LinkPoses(poses.phi, rot, poses.T)
 
 
-def _batch_assembly(c: CompiledSolve, poses: Poses, arrays: list[np.ndarray]) -> Assembly:
-    """ResultAssembler on batched (n, 2)-coordinate poses."""
-    with np.errstate(all='ignore'):
-        return assemble_batch(c.assembler(poses.phi), link_poses(poses), arrays)
-
-
-def _batch_poses(c: CompiledSolve, x: np.ndarray) -> Poses:
-    """Poses of every link from newton unknowns x (n, 3 per moving link: phi and the world
-    position of the link's reference centroid o, so T = c - R(phi) o); the ground at rest."""
-    system, n = c.system, x.shape[0]
-    poses = Poses({c.mech.ground: np.zeros(n)}, {c.mech.ground: np.zeros((n, 2))})
+def _newton_poses(c: CompiledSolve, x: np.ndarray) -> tuple[LinkPoses, dict[str, CArray]]:
+    """Complex poses of every link and every point's world position (read off the first link
+    that carries it) from newton unknowns x (n, 3 per moving link: phi and the world position
+    of the link's reference centroid o, so T = c - R(phi) o); the ground at rest. Every link
+    and point in one pass each (columns of one array), in the float operations of
+    Poses.world and link_poses."""
+    system, n, ground = c.system, x.shape[0], c.mech.ground
+    table = _pose_table(c)
+    phi = x[:, 0::3]
+    cos, sin = np.cos(phi), np.sin(phi)
+    ox, oy = table.centroids
+    Tx = x[:, 1::3] - (cos * ox - sin * oy)
+    Ty = x[:, 2::3] - (sin * ox + cos * oy)
+    zero = np.zeros(n)
+    poses = LinkPoses()
+    poses.set(ground, zero, CArray(zero, zero), CArray(np.ones(n), zero))
     for l, i in system.index.items():
-        phi = x[:, 3 * i]
-        poses.phi[l] = phi
-        poses.T[l] = x[:, 3 * i + 1 : 3 * i + 3] - dyads.rotate(
-            np.broadcast_to(system.centroid[l], (n, 2)), phi
-        )
-    return poses
+        poses.set(l, phi[:, i], CArray(Tx[:, i], Ty[:, i]), CArray(cos[:, i], sin[:, i]))
+    # a column per point: its owner's slot (the ground's last: at rest)
+    cos_g = np.concatenate([cos, np.ones((n, 1))], axis=1)[:, table.owner]
+    sin_g = np.concatenate([sin, zero[:, None]], axis=1)[:, table.owner]
+    px, py = table.points
+    re = (cos_g * px - sin_g * py) + np.concatenate([Tx, zero[:, None]], axis=1)[:, table.owner]
+    im = (sin_g * px + cos_g * py) + np.concatenate([Ty, zero[:, None]], axis=1)[:, table.owner]
+    pts = {p: CArray(re[:, j], im[:, j]) for j, p in enumerate(table.names)}
+    return poses, pts
+
+
+@dataclass(frozen=True)
+class _PoseTable:
+    """What _newton_poses reads a solve's configurations with: each moving link's reference
+    centroid (m), each point's owner slot (moving links in the unknowns' order, then the
+    ground) and reference position (m)."""
+
+    centroids: tuple[np.ndarray, np.ndarray]
+    owner: np.ndarray
+    points: tuple[np.ndarray, np.ndarray]
+    names: tuple[str, ...]
+
+
+def _pose_table(c: CompiledSolve) -> _PoseTable:
+    """The _PoseTable of c (a few small arrays: made per batch)."""
+    system, mech = c.system, c.mech
+    slots = dict(system.index)
+    cen = np.array([system.centroid[l] for l in system.index], float).reshape(-1, 2)
+    owner = [slots.get(l, len(slots)) for _, l, _ in system.point_owner]
+    # every link but the ground is a Newton unknown
+    assert all(l in slots or l == mech.ground for _, l, _ in system.point_owner)
+    ref = np.array([mech.points[p] for p, _, _ in system.point_owner], float).reshape(-1, 2)
+    return _PoseTable(
+        (cen[:, 0], cen[:, 1]),
+        np.array(owner, np.intp),
+        (ref[:, 0], ref[:, 1]),
+        tuple(p for p, _, _ in system.point_owner),
+    )
 
 
 def _columns(c: CompiledSolve, columns: Mapping[str, Any]) -> tuple[list[np.ndarray], int]:
