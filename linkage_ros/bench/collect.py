@@ -354,10 +354,13 @@ def _flood_targets(floods: list[dict]) -> list[dict]:
                 }
             )
             continue
+        worker = fl.get('target_children_cpu_ms')
         measured = (
             f'{fl["lost"]} lost of {fl["sent"]} commands, p99 {_fmt_ms_plain(fl["p99_ms"])} '
             f'(achieved send rate {fl["achieved_rate"]:.0f} Hz; {fl["flood_sent"]} flood '
-            f'requests; {_gap(fl)})'
+            f'requests; {_gap(fl)}'
+            + ('' if worker is None else f'; the plan worker used {worker:.0f} ms of CPU')
+            + ')'
         )
         sent_ok = fl['achieved_rate'] >= 0.95 * fl['rate']
         ref = runs.get(refs.get(kind, ''))

@@ -72,6 +72,7 @@ def run(topic: str, kind: str, rate: float, seconds: float, out: Path) -> int:
     )
     pub = node.create_publisher(msg_type, topic, qos)
     sent = 0
+    sent_ns: list[int] = []  # when each request went out (wall clock, ns)
     try:
         t_end = time.monotonic() + 20.0
         while pub.get_subscription_count() < 1:
@@ -89,8 +90,11 @@ def run(topic: str, kind: str, rate: float, seconds: float, out: Path) -> int:
                 time.sleep(min(due - now, 0.01))
                 continue
             pub.publish(raw if raw is not None else new_set(sent))
+            sent_ns.append(time.time_ns())
             sent += 1
-        out.write_text(json.dumps({'sent': sent, 'seconds': time.perf_counter() - t0}))
+        out.write_text(
+            json.dumps({'sent': sent, 'seconds': time.perf_counter() - t0, 'sent_ns': sent_ns})
+        )
     finally:
         node.destroy_node()
         rclpy.try_shutdown()

@@ -253,6 +253,8 @@ class Driver:
         sched = {label: main_thread_sched(pid) for label, pid in pids.items()}
         cpu_start = process_cpu_s(target_pid) if target_pid else None
         cpu_last: list[float | None] = [cpu_start]
+        kids_start = children_cpu_s(target_pid) if target_pid else None
+        kids_last: list[float | None] = [kids_start]
         n = max(1, int(round(rate * seconds)))
         period = 1.0 / rate
         stamps = []
@@ -270,12 +272,12 @@ class Driver:
         send_seconds = time.perf_counter() - t0
         sched_run = sched_during(sched, pids)
         if target_pid:  # the target's CPU up to its last answer (not the drain's idle wait)
-            self._drain(
-                link.recv,
-                stamps,
-                drain_timeout,
-                lambda: cpu_last.__setitem__(0, process_cpu_s(target_pid)),
-            )
+
+            def on_progress() -> None:
+                cpu_last[0] = process_cpu_s(target_pid)
+                kids_last[0] = children_cpu_s(target_pid)
+
+            self._drain(link.recv, stamps, drain_timeout, on_progress)
         else:
             self._drain(link.recv, stamps, drain_timeout)
         got = [link.recv[s] - s for s in stamps if s in link.recv]
@@ -295,10 +297,16 @@ class Driver:
         cpu_run = (
             cpu_last[0] - cpu_start if cpu_start is not None and cpu_last[0] is not None else None
         )
+        kids_run = (
+            kids_last[0] - kids_start
+            if kids_start is not None and kids_last[0] is not None
+            else None
+        )
         return {
             **answer_gaps(stamps, got_at),
             **sched_run,
             'target_process_cpu_ms': None if cpu_run is None else cpu_run * 1e3,
+            'target_children_cpu_ms': None if kids_run is None else kids_run * 1e3,
             'target_cpu_per_answer_us': None
             if cpu_run is None or not got
             else cpu_run * 1e6 / len(got),
@@ -353,6 +361,20 @@ def process_cpu_s(pid: int) -> float | None:
         return (int(fields[11]) + int(fields[12])) / os.sysconf('SC_CLK_TCK')
     except (OSError, ValueError, IndexError):
         return None
+
+
+def children_cpu_s(pid: int) -> float | None:
+    """CPU seconds the child processes of ``pid`` running now have used so far (the node's
+    plan worker; /proc/<pid>/task/*/children), or None where the kernel does not say."""
+    try:
+        kids = [
+            int(k)
+            for task in os.listdir(f'/proc/{pid}/task')
+            for k in Path(f'/proc/{pid}/task/{task}/children').read_text().split()
+        ]
+    except (OSError, ValueError):
+        return None
+    return sum(process_cpu_s(k) or 0.0 for k in kids)
 
 
 def sched_during(before: dict[str, tuple[int, int] | None], pids: dict[str, int]) -> dict:

@@ -439,6 +439,40 @@ def test_flood_targets_compare_each_flood_with_its_reference():
     floods[-1] = run('trajectory', 8, 4.0)
     (traj,) = [t for t in _flood_targets(floods) if 'trajectory' in t['target']]
     assert traj['met'] is True
+    assert 'plan worker' not in traj['measured']  # a run that did not record it says nothing
+    floods[-1] = {**run('trajectory', 8, 4.0), 'target_children_cpu_ms': 1234.4}
+    (traj,) = [t for t in _flood_targets(floods) if 'trajectory' in t['target']]
+    assert 'the plan worker used 1234 ms of CPU' in traj['measured']
+
+
+def test_children_cpu_counts_the_cpu_of_a_child_process():
+    """The plan worker's CPU in a flood run: the CPU of the target's child processes, here a
+    child that burns a known amount (its own process_time, printed) and then waits."""
+    import os
+    import subprocess
+    import sys
+
+    from linkage_ros.bench.ros_driver import children_cpu_s
+
+    burn = (
+        'import sys, time\n'
+        't = time.process_time()\n'
+        'while time.process_time() - t < 0.3: pass\n'
+        'print(time.process_time(), flush=True)\n'
+        'sys.stdin.read()\n'
+    )
+    child = subprocess.Popen(
+        [sys.executable, '-c', burn], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True
+    )
+    try:
+        assert child.stdout is not None
+        used = float(child.stdout.readline())
+        got = children_cpu_s(os.getpid())
+        # /proc counts in clock ticks (10 ms); other children of this process can only add
+        assert got is not None and got >= used - 0.02
+    finally:
+        child.communicate('')
+    assert children_cpu_s(2**22 + 12345) is None  # no such process
 
 
 def test_bench_cases_select_measurements_and_refuse_unknown_ones(capsys):
