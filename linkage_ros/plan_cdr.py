@@ -21,7 +21,7 @@ size bound limits how many.
 from __future__ import annotations
 
 import struct
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from .cdr import CDR_LE, write_doubles, write_string
@@ -258,8 +258,11 @@ def peek_plan(raw: bytes | memoryview, path: bool, max_names: int) -> PlanPeek:
     return PlanPeek(header.stamp, r.u32('points' if not path else 'poses'))
 
 
-def read_joint_trajectory(raw: bytes | memoryview) -> JointTrajectoryRequest:
-    """A serialised trajectory_msgs/JointTrajectory; CdrError where it is not one."""
+def read_joint_trajectory(
+    raw: bytes | memoryview, pace: Callable[[], None] | None = None
+) -> JointTrajectoryRequest:
+    """A serialised trajectory_msgs/JointTrajectory; CdrError where it is not one. ``pace`` is
+    called after every point (the plan worker's Pacer)."""
     r = _Reader(raw)
     header = r.header('header')
     names = tuple(r.string(f'joint_names[{i}]') for i in range(r.count('joint_names', r.n // 4)))
@@ -275,11 +278,14 @@ def read_joint_trajectory(raw: bytes | memoryview) -> JointTrajectoryRequest:
                 r.stamp(f'{what}.time_from_start'),
             )
         )
+        if pace is not None:
+            pace()
     return JointTrajectoryRequest(header, names, tuple(points))
 
 
-def read_path(raw: bytes | memoryview) -> PathRequest:
-    """A serialised nav_msgs/Path; CdrError where it is not one."""
+def read_path(raw: bytes | memoryview, pace: Callable[[], None] | None = None) -> PathRequest:
+    """A serialised nav_msgs/Path; CdrError where it is not one. ``pace`` is called after
+    every pose (the plan worker's Pacer)."""
     r = _Reader(raw)
     header = r.header('header')
     poses = []
@@ -289,6 +295,8 @@ def read_path(raw: bytes | memoryview) -> PathRequest:
         x, y, z = r.fixed_doubles(3, f'{what}.pose.position')
         r.fixed_doubles(4, f'{what}.pose.orientation')  # a path point's position is its target
         poses.append(PoseStamped(pose_header, Pose(Position(x, y, z))))
+        if pace is not None:
+            pace()
     return PathRequest(header, tuple(poses))
 
 
@@ -300,10 +308,11 @@ def joint_trajectory_bytes(
     frame_id: str,
     joint_names: Sequence[str],
     rows: Sequence[tuple[Sequence[float], Sequence[float], int, int]],
+    pace: Callable[[], None] | None = None,
 ) -> bytes:
     """A trajectory_msgs/JointTrajectory serialised (CDR, little-endian) from its rows
-    (positions, velocities, time_from_start sec, nanosec; TrajectoryAnswer.rows): written in
-    Python so that the plan worker yields the interpreter to commands while it writes."""
+    (positions, velocities, time_from_start sec, nanosec; TrajectoryAnswer.rows); ``pace`` is
+    called after every row (the plan worker's Pacer)."""
     buf = bytearray(CDR_LE)
     buf += struct.pack('<iI', stamp.sec, stamp.nanosec)
     write_string(buf, frame_id)
@@ -318,4 +327,6 @@ def joint_trajectory_bytes(
         write_doubles(buf, velocities)
         buf += b'\x00' * ((-(len(buf) - 4)) % 4)
         buf += struct.pack('<IIiI', 0, 0, sec, nanosec)  # no accelerations, no effort
+        if pace is not None:
+            pace()
     return bytes(buf)

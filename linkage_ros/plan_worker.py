@@ -12,6 +12,15 @@ plan, still serialised, to a :class:`PlanWorker`:
   ~1 s of CPU, are not paid beside the first plan's commands) and scheduled only on CPU time
   nothing else wants (:func:`lower_priority`: SCHED_IDLE), so that the command thread, and
   whatever the node's clients run on the same cores, are served first;
+* paced (:class:`Pacer`): after a first :data:`PLAN_BURST_S` it runs at most
+  :data:`PLAN_SHARE` of the time, in slices of :data:`PLAN_SLICE_S`, and sleeps the rest
+  ("work sliced between commands"). SCHED_IDLE alone did not keep a busy worker from the
+  commands: beside a 10 Hz flood of 10^4-point trajectories on the shared 2-core host, the same
+  node with its worker stopped (SIGSTOP) answered its 500 Hz commands as without a flood, and
+  with the worker solving did worse in 5 of 5 paired runs (p99 188-1132 ms against 8.7-23.9
+  ms at load 4-5; the quiet bench run before: 10.9 ms against 2.0 ms). Whatever the way (the
+  worker's CPU time, or the node's threads that move its jobs and answers), it grows with how
+  much the worker runs; pacing bounds that. Its benefit is not yet shown (BENCHMARKS.md);
 * it reads the bytes (plan_cdr.py), solves the plan on an engine of its own started from the
   command engine's last good state as it was when the plan arrived (the command engine is
   never touched: a plan cannot interleave with commands), and sends back the status values
@@ -31,7 +40,9 @@ import os
 import queue
 import signal
 import threading
+import time
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -55,6 +66,12 @@ PLAN_NICE = 19
 PARENT_CHECK_S = 1.0
 #: how long a stopping node waits for the worker to end before it is terminated (s)
 STOP_WAIT_S = 0.1
+#: the share of the time the worker may run over a long plan (the rest it sleeps)
+PLAN_SHARE = 0.2
+#: the time a plan may run unpaced after the worker was idle (s): a short plan is not slowed
+PLAN_BURST_S = 0.1
+#: how long the worker runs between two pauses once it is paced (s)
+PLAN_SLICE_S = 0.005
 
 
 @dataclass(frozen=True)
@@ -223,6 +240,51 @@ class PlanWorker:
         self._generation_sent = None  # a new worker needs the mechanism again
 
 
+class Pacer:
+    """Called between the steps of a plan (a point read, solved or written): sleeps so that,
+    after a burst of ``burst_s`` (refilled while the worker waits for plans), the worker runs
+    at most ``share`` of the wall-clock time, in slices of ``slice_s``. Time is wall-clock, not
+    CPU: a worker that waits for a core is taking one from the run queue all the same.
+    ``clock`` and ``sleep`` are time.monotonic and time.sleep (seconds)."""
+
+    def __init__(
+        self,
+        share: float = PLAN_SHARE,
+        burst_s: float = PLAN_BURST_S,
+        slice_s: float = PLAN_SLICE_S,
+        clock: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], None] = time.sleep,
+    ):
+        if not 0.0 < share <= 1.0:
+            raise ValueError(f'share must be in (0, 1], got {share}')
+        # the budget holds at least one slice: a burst shorter than a slice would pause the
+        # worker after every step
+        self.share, self.burst_s, self.slice_s = share, max(burst_s, slice_s), slice_s
+        self._clock, self._sleep = clock, sleep
+        #: seconds the worker may still run before it pauses (a token bucket, at most burst_s)
+        self.budget_s = self.burst_s
+        self._since = clock()  # when the budget was last brought up to date
+
+    def idle(self) -> None:
+        """The worker waited for a plan until now: the wait refills the budget."""
+        now = self._clock()
+        self.budget_s = min(self.burst_s, self.budget_s + self.share * (now - self._since))
+        self._since = now
+
+    def __call__(self) -> None:
+        """The worker ran since the last call: spend that time; when the budget is gone,
+        sleep until it holds one slice again."""
+        now = self._clock()
+        ran = now - self._since
+        # running earns share of the time it takes and spends all of it
+        self.budget_s = min(self.burst_s, self.budget_s - (1.0 - self.share) * ran)
+        self._since = now
+        if self.budget_s >= 0.0:
+            return
+        self._sleep((self.slice_s - self.budget_s) / self.share)
+        self.budget_s, self._since = self.slice_s, self._clock()
+
+
 def lower_priority(pid: int) -> None:
     """Let process ``pid`` (its main thread, and the threads it starts later) run only on CPU
     time no other process wants: SCHED_IDLE, where Linux has it, else nice PLAN_NICE. nice 5
@@ -253,6 +315,7 @@ def serve_plans(jobs: Any, answers: Any, parent: int) -> None:
     None or the node is gone."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (Ctrl-C reaches both)
     engine: Engine | None = None
+    pace = Pacer()
     while True:
         try:
             job = jobs.get(timeout=PARENT_CHECK_S)
@@ -262,13 +325,14 @@ def serve_plans(jobs: Any, answers: Any, parent: int) -> None:
             continue
         if job is None:
             return
+        pace.idle()
         try:
             if job.mechanism is not None:
                 engine = Engine(*job.mechanism)
             assert engine is not None
             if job.start is not None and engine.forward.adopt(job.start):
                 engine.record(engine.forward, job.start)
-            result = solve_job(job, engine)
+            result = solve_job(job, engine, pace)
         except Exception as exc:  # a bug must not end the worker: the status says so
             why = f'internal error: {exc!r}'
             result = PlanDone(
@@ -287,19 +351,23 @@ def serve_plans(jobs: Any, answers: Any, parent: int) -> None:
             return
 
 
-def solve_job(job: PlanJob, engine: Engine) -> PlanDone:
-    """Read, solve and write one plan on ``engine`` (its state is the same after)."""
+def solve_job(job: PlanJob, engine: Engine, pace: Callable[[], None] | None = None) -> PlanDone:
+    """Read, solve and write one plan on ``engine`` (its state is the same after); ``pace`` is
+    called between its steps (a :class:`Pacer`)."""
     try:
-        msg = read_joint_trajectory(job.raw) if job.point is None else read_path(job.raw)
+        if job.point is None:
+            msg: Any = read_joint_trajectory(job.raw, pace)
+        else:
+            msg = read_path(job.raw, pace)
     except CdrError as exc:
         kind = 'JointTrajectory' if job.point is None else 'Path'
         answer, times = TrajectoryAnswer(False, f'not a {kind}: {exc}'), list[int]()
     else:
         try:
             if job.point is None:
-                answer, times = answer_trajectory_msg(engine, msg, job.frame_id)
+                answer, times = answer_trajectory_msg(engine, msg, job.frame_id, pace)
             else:
-                answer, times = answer_path_msg(engine, job.point, msg, job.frame_id)
+                answer, times = answer_path_msg(engine, job.point, msg, job.frame_id, pace)
         except CommandError as exc:
             answer, times = TrajectoryAnswer(False, str(exc)), []
     solved = None
@@ -309,7 +377,8 @@ def solve_job(job: PlanJob, engine: Engine) -> PlanDone:
             job.stamp,
             job.frame_id,
             [job.prefix + j for j in mech.output_joint_names],
-            answer.rows(mech, times),
+            answer.rows(mech, times, pace),
+            pace,
         )
     ok, message, values = trajectory_status_values(answer, job.request)
     return PlanDone(job.request, job.generation, job.stamp, ok, message, values, solved)

@@ -13,7 +13,7 @@ engine's state is the same after it as before.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -48,11 +48,12 @@ class TrajectoryAnswer:
         return all(r.velocity is not None and r.velocity.success for r in self.results)
 
     def rows(
-        self, mech: Mechanism, times_ns: Sequence[int]
+        self, mech: Mechanism, times_ns: Sequence[int], pace: Callable[[], None] | None = None
     ) -> list[tuple[list[float], list[float], int, int]]:
         """Per point: every published joint's position (mech.output_joint_names), their
         velocities (empty unless :attr:`has_velocities`) and time_from_start as (sec,
-        nanosec): what ~/solved_trajectory carries, for the node's message and the bag's alike."""
+        nanosec): what ~/solved_trajectory carries, for the node's message and the bag's alike.
+        ``pace`` is called after every point (the plan worker's Pacer)."""
         rates = self.has_velocities
         out = []
         for r, t in zip(self.results, times_ns):
@@ -65,6 +66,8 @@ class TrajectoryAnswer:
                 else []
             )
             out.append((positions, velocities, sec, nanosec))
+            if pace is not None:
+                pace()
         return out
 
     @property
@@ -228,8 +231,10 @@ def solve_trajectory(
     positions: Sequence[Sequence[float]],
     velocities: Sequence[Sequence[float]] = (),
     times_ns: Sequence[int] | None = None,
+    pace: Callable[[], None] | None = None,
 ) -> TrajectoryAnswer:
-    """Solve every point (see the module docstring); the engine's state is unchanged after."""
+    """Solve every point (see the module docstring); the engine's state is unchanged after.
+    ``pace`` is called after every point (the plan worker's Pacer)."""
     times = list(times_ns) if times_ns is not None else list(range(len(positions)))
     bad = check_shape(engine, names, positions, velocities, times)
     if bad is not None:
@@ -265,6 +270,8 @@ def solve_trajectory(
                 )
             before = after if after is not None else before
             results.append(r)
+            if pace is not None:
+                pace()
     finally:
         engine.rollback(token)
     return TrajectoryAnswer(True, results=results, inverse=not forward)
@@ -312,11 +319,15 @@ def path_targets(
 
 
 def answer_trajectory_msg(
-    engine: Engine, msg: Any, frame_id: str | None = None
+    engine: Engine,
+    msg: Any,
+    frame_id: str | None = None,
+    pace: Callable[[], None] | None = None,
 ) -> tuple[TrajectoryAnswer, list[int]]:
     """A trajectory_msgs/JointTrajectory (any message with its fields) solved: the answer and
     each point's time_from_start (ns). With ``frame_id`` (the node's), a trajectory of point
-    coordinates (``<point>.x``) stamped in another frame is refused, as a path is."""
+    coordinates (``<point>.x``) stamped in another frame is refused, as a path is. ``pace``:
+    as for :func:`solve_trajectory`."""
     try:
         names, positions, velocities, times = joint_trajectory_request(msg)
     except CommandError as exc:
@@ -326,14 +337,19 @@ def answer_trajectory_msg(
         foreign = frame_error('trajectory of point coordinates', given, frame_id)
         if foreign:
             return TrajectoryAnswer(False, str(foreign)), times
-    return solve_trajectory(engine, names, positions, velocities, times), times
+    return solve_trajectory(engine, names, positions, velocities, times, pace), times
 
 
 def answer_path_msg(
-    engine: Engine, point: str, msg: Any, frame_id: str
+    engine: Engine,
+    point: str,
+    msg: Any,
+    frame_id: str,
+    pace: Callable[[], None] | None = None,
 ) -> tuple[TrajectoryAnswer, list[int]]:
     """A nav_msgs/Path of ``point`` (any message with its fields) solved as a trajectory of
-    point targets: the answer and each pose's time from the first (ns)."""
+    point targets: the answer and each pose's time from the first (ns). ``pace``: as for
+    :func:`solve_trajectory`."""
     try:
         xy, times = path_request(msg, point, frame_id, engine.mech)
     except CommandError as exc:
@@ -345,4 +361,4 @@ def answer_path_msg(
         return TrajectoryAnswer(False, 'empty path: no poses'), times
     names = list(targets[0])
     rows = [[t[n] for n in names] for t in targets]
-    return solve_trajectory(engine, names, rows), times
+    return solve_trajectory(engine, names, rows, pace=pace), times

@@ -66,3 +66,48 @@ def _alive(pid: int) -> bool:
             return fh.read().rsplit(')', 1)[1].split()[0] != 'Z'
     except FileNotFoundError:
         return False
+
+
+def test_a_long_plan_takes_at_most_its_share_of_a_core():
+    """A plan of seconds is paced (Pacer): the worker's CPU time over the plan (/proc) is at
+    most PLAN_SHARE of the wall-clock time it took, plus the burst and the unpaced steps
+    around it. CPU time never exceeds the time running, so this holds on a busy machine too."""
+    from linkage_ros.bench.ros_driver import process_cpu_s
+    from linkage_ros.plan_cdr import joint_trajectory_bytes
+    from linkage_ros.plan_worker import PLAN_BURST_S, PLAN_SHARE
+
+    engine = Engine(scenes.load('four_bar'), EngineSettings())
+    engine.command({'crank': 1.0})
+    n = 3000  # about half a second of solving unpaced
+    rows = [([1.0 + 0.001 * k], [], 0, (k + 1) * 1_000_000) for k in range(n)]
+    raw = joint_trajectory_bytes(Stamp(2, 0), '', ['crank'], rows)
+    worker = PlanWorker()
+    worker.start()
+    try:
+        # the first plan carries the mechanism and meets a worker still importing: not timed
+        assert worker.offer(_job(engine, 1), engine)
+        first = _answers(worker, 1)
+        assert first[0].stamp.sec == 1
+        pid = worker.pid
+        assert pid is not None
+        cpu0, t0 = process_cpu_s(pid), time.monotonic()
+        job = PlanJob('trajectory', raw, 1, engine.last, 'base', '', None, Stamp(2, 0))
+        assert worker.offer(job, engine)
+        (done,) = _answers(worker, 1)
+        t1, cpu1 = time.monotonic(), process_cpu_s(pid)
+        assert done.ok and done.values['points'] == str(n), done.message
+        assert cpu0 is not None and cpu1 is not None
+        # 0.03 s: the unpaced steps (the job's and the answer's pickling) and /proc's ticks
+        assert cpu1 - cpu0 <= PLAN_SHARE * (t1 - t0) + PLAN_BURST_S + 0.03, (cpu1 - cpu0, t1 - t0)
+    finally:
+        worker.stop()
+
+
+def _answers(worker: PlanWorker, n: int) -> list:
+    deadline = time.monotonic() + ANSWER_WAIT_S
+    got: list = []
+    while len(got) < n:
+        assert time.monotonic() < deadline, f'{len(got)} of {n} answers'
+        got += worker.collect()
+        time.sleep(0.01)
+    return got
