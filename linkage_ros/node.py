@@ -71,6 +71,7 @@ from .params import (
 )
 from .plan_cdr import joint_state_bytes_bound
 from .plan_requests import PlanRequests
+from .plan_worker import CommandClock
 from .publishing import Channels, Outputs, Waiting, latched_qos, topic_qos
 
 __all__ = [
@@ -128,7 +129,9 @@ class LinkageNode(Node):
         self.state_inputs: frozenset[str] = frozenset()
         self.state_followers: frozenset[str] = frozenset()
         self.demo = DemoRunner(self)
-        self.requests = Requests(self)
+        # when a request was last answered: the plan worker paces itself while they come
+        commands = CommandClock()
+        self.requests = Requests(self, commands)
         # the publishers every mechanism shares (and the waiting state answers on)
         self.channels = Channels(self, cfg)
         # ~/command and ~/target keep rclpy's default QoS-event warnings; the others carry none
@@ -153,7 +156,7 @@ class LinkageNode(Node):
         )
         # plans (trajectories, paths): many requests answered as one, solved beside the
         # commands by a worker (plan_requests.py); taken serialised, refused by size first
-        self.plans = PlanRequests(self)
+        self.plans = PlanRequests(self, commands)
         self.create_subscription(
             JointTrajectory,
             '~/trajectory',

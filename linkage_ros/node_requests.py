@@ -26,6 +26,7 @@ from .core.model import Mechanism
 from .core.solver import Result
 from .engine import Engine, name_count_error, request_rates, request_values
 from .node_protocol import ServingNode
+from .plan_worker import CommandClock
 from .point_coordinates import pose_target
 from .stamps import frame_error, stamp_error
 
@@ -40,8 +41,11 @@ class Requests:
     mechanism it serves (its ``engine``, ``mech`` and ``outputs``; while it waits for a robot
     description, ``waiting`` refuses every request)."""
 
-    def __init__(self, node: ServingNode):
+    def __init__(self, node: ServingNode, commands: CommandClock | None = None):
         self.node = node
+        #: when a request was last answered, shared with the plan worker (it paces itself
+        #: while requests come: plan_worker.Pacer)
+        self.commands = commands if commands is not None else CommandClock()
         #: the names of the last ~/command read (a client sends the same ones each time)
         self.command_names = NamesMemo()
 
@@ -62,6 +66,7 @@ class Requests:
         raises."""
         if self.node.outputs is None:  # no robot description yet
             return self.refuse_waiting(request)
+        self.commands.stamp()
         try:
             stamp, bad_stamp = self.request_stamp(stamp)
             if bad_stamp:

@@ -23,7 +23,7 @@ from .plan_cdr import (
     size_refusal,
     trajectory_bytes_bound,
 )
-from .plan_worker import PLAN_QUEUE, PlanJob, PlanWorker
+from .plan_worker import PLAN_QUEUE, CommandClock, PlanJob, PlanWorker
 from .trajectory import (
     MAX_TRAJECTORY_POINTS,
     TrajectoryAnswer,
@@ -38,10 +38,11 @@ PLAN_POLL_S = 0.02
 class PlanRequests:
     """Plan requests of one node (see the module docstring). :meth:`destroy` ends the worker."""
 
-    def __init__(self, node: ServingNode):
+    def __init__(self, node: ServingNode, commands: CommandClock | None = None):
         self.node = node
         self._poll: Any = None  # the timer publishing finished plans, while any are in flight
-        self.worker = PlanWorker()
+        #: ``commands``: when the node last answered a request (its worker paces itself by it)
+        self.worker = PlanWorker(commands=commands)
         self.worker.start()  # now, not beside the first plan's commands
         #: the engine served and its generation (a robot description replaces it: +1)
         self._engine: Any = None

@@ -12,15 +12,16 @@ plan, still serialised, to a :class:`PlanWorker`:
   ~1 s of CPU, are not paid beside the first plan's commands) and scheduled only on CPU time
   nothing else wants (:func:`lower_priority`: SCHED_IDLE), so that the command thread, and
   whatever the node's clients run on the same cores, are served first;
-* paced (:class:`Pacer`): after a first :data:`PLAN_BURST_S` it runs at most
-  :data:`PLAN_SHARE` of the time, in slices of :data:`PLAN_SLICE_S`, and sleeps the rest
-  ("work sliced between commands"). SCHED_IDLE alone did not keep a busy worker from the
-  commands: beside a 10 Hz flood of 10^4-point trajectories on the shared 2-core host, the same
-  node with its worker stopped (SIGSTOP) answered its 500 Hz commands as without a flood, and
-  with the worker solving did worse in 5 of 5 paired runs (p99 188-1132 ms against 8.7-23.9
-  ms at load 4-5; the quiet bench run before: 10.9 ms against 2.0 ms). Whatever the way (the
+* paced (:class:`Pacer`) while the node is answering commands (one came in the last
+  :data:`COMMANDS_RECENT_S`, :class:`CommandClock`): after a first :data:`PLAN_BURST_S` it runs
+  at most :data:`PLAN_SHARE` of the time, in slices of :data:`PLAN_SLICE_S`, and sleeps the rest
+  ("work sliced between commands"); with no commands coming it runs at full speed. SCHED_IDLE
+  alone did not keep a busy worker from the commands: beside a 10 Hz flood of 10^4-point
+  trajectories on the shared 2-core host, the same node with its worker stopped (SIGSTOP)
+  answered its 500 Hz commands as without a flood, and with the worker solving did worse in 5
+  of 5 paired runs (p99 188-1132 ms against 8.7-23.9 ms at load 4-5). Whatever the way (the
   worker's CPU time, or the node's threads that move its jobs and answers), it grows with how
-  much the worker runs; pacing bounds that. Its benefit is not yet shown (BENCHMARKS.md);
+  much the worker runs; pacing bounds that (BENCHMARKS.md: the measured effect);
 * it reads the bytes (plan_cdr.py), solves the plan on an engine of its own started from the
   command engine's last good state as it was when the plan arrived (the command engine is
   never touched: a plan cannot interleave with commands), and sends back the status values
@@ -35,6 +36,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import dataclasses
+import math
 import multiprocessing
 import os
 import queue
@@ -72,6 +74,29 @@ PLAN_SHARE = 0.2
 PLAN_BURST_S = 0.1
 #: how long the worker runs between two pauses once it is paced (s)
 PLAN_SLICE_S = 0.005
+#: the worker is paced only while the node answered a request (a command, a target) this
+#: recently (s): with no commands to protect, a plan runs at full speed
+COMMANDS_RECENT_S = 0.2
+
+
+class CommandClock:
+    """When the node last answered a request (time.monotonic, s; the clock is system-wide),
+    in memory shared with the plan worker: the worker paces itself only while commands come
+    (:class:`Pacer`). Written by the node's executor thread, read by the worker; a torn read
+    is impossible for an aligned double on the platforms ROS supports, and a stale one only
+    paces a little more or less."""
+
+    def __init__(self) -> None:
+        ctx = multiprocessing.get_context('spawn')
+        self.shared = ctx.RawValue('d', -math.inf)  # inherited by the worker at its start
+
+    def stamp(self) -> None:
+        """A request is being answered now."""
+        self.shared.value = time.monotonic()
+
+    def last(self) -> float:
+        """When the last request was answered (-inf: none yet)."""
+        return float(self.shared.value)
 
 
 @dataclass(frozen=True)
@@ -112,8 +137,10 @@ class PlanWorker:
     """A worker process and a bounded queue of :class:`PlanJob` (see the module docstring).
     Used from one thread (the node's executor)."""
 
-    def __init__(self, depth: int = PLAN_QUEUE):
+    def __init__(self, depth: int = PLAN_QUEUE, commands: CommandClock | None = None):
         self.depth = depth
+        #: when the node last answered a request, shared with every worker it starts
+        self.commands = commands if commands is not None else CommandClock()
         self.pending = 0  # offered and not collected: waiting, being solved or done
         #: those jobs in order, without their bytes (the worker answers in order)
         self._offered: collections.deque[PlanJob] = collections.deque()
@@ -142,7 +169,7 @@ class PlanWorker:
         self._answers = queue.SimpleQueue()
         self._proc = ctx.Process(
             target=serve_plans,
-            args=(self._jobs, answers_out, os.getpid()),
+            args=(self._jobs, answers_out, os.getpid(), self.commands),
             name='linkage_plans',
             daemon=True,
         )
@@ -245,7 +272,9 @@ class Pacer:
     after a burst of ``burst_s`` (refilled while the worker waits for plans), the worker runs
     at most ``share`` of the wall-clock time, in slices of ``slice_s``. Time is wall-clock, not
     CPU: a worker that waits for a core is taking one from the run queue all the same.
-    ``clock`` and ``sleep`` are time.monotonic and time.sleep (seconds)."""
+    ``clock`` and ``sleep`` are time.monotonic and time.sleep (seconds). With ``commands_at``
+    (when the node last answered a request, on the same clock) it paces only while one came
+    within :data:`COMMANDS_RECENT_S`."""
 
     def __init__(
         self,
@@ -254,6 +283,7 @@ class Pacer:
         slice_s: float = PLAN_SLICE_S,
         clock: Callable[[], float] = time.monotonic,
         sleep: Callable[[float], None] = time.sleep,
+        commands_at: Callable[[], float] | None = None,
     ):
         if not 0.0 < share <= 1.0:
             raise ValueError(f'share must be in (0, 1], got {share}')
@@ -261,6 +291,8 @@ class Pacer:
         # worker after every step
         self.share, self.burst_s, self.slice_s = share, max(burst_s, slice_s), slice_s
         self._clock, self._sleep = clock, sleep
+        #: when the node last answered a request (CommandClock.last); None: always paced
+        self._commands_at = commands_at
         #: seconds the worker may still run before it pauses (a token bucket, at most burst_s)
         self.budget_s = self.burst_s
         self._since = clock()  # when the budget was last brought up to date
@@ -275,6 +307,10 @@ class Pacer:
         """The worker ran since the last call: spend that time; when the budget is gone,
         sleep until it holds one slice again."""
         now = self._clock()
+        if self._commands_at is not None and now - self._commands_at() > COMMANDS_RECENT_S:
+            # no commands to protect: run unpaced, the budget full for when they come
+            self.budget_s, self._since = self.burst_s, now
+            return
         ran = now - self._since
         # running earns share of the time it takes and spends all of it
         self.budget_s = min(self.burst_s, self.budget_s - (1.0 - self.share) * ran)
@@ -310,12 +346,13 @@ def read_answers(answers: Any, into: queue.SimpleQueue[PlanDone | WorkerGone]) -
         into.put(WorkerGone())
 
 
-def serve_plans(jobs: Any, answers: Any, parent: int) -> None:
+def serve_plans(jobs: Any, answers: Any, parent: int, commands: CommandClock | None = None) -> None:
     """The worker process: solve each job in turn and send its PlanDone on ``answers``, until
-    None or the node is gone."""
+    None or the node is gone; paced while ``commands`` says the node is answering requests
+    (always, without one)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (Ctrl-C reaches both)
     engine: Engine | None = None
-    pace = Pacer()
+    pace = Pacer(commands_at=None if commands is None else commands.last)
     while True:
         try:
             job = jobs.get(timeout=PARENT_CHECK_S)

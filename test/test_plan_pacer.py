@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from linkage_ros.plan_worker import Pacer
+from linkage_ros.plan_worker import COMMANDS_RECENT_S, Pacer
 
 
 class Timeline:
@@ -89,3 +89,59 @@ def test_back_to_back_plans_share_one_budget():
 def test_a_share_outside_0_1_is_refused(share):
     with pytest.raises(ValueError, match='share'):
         Pacer(share)
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    step_s=st.floats(1e-5, 1e-3),
+    steps=st.integers(500, 5000),
+    quiet_for=st.floats(COMMANDS_RECENT_S * 1.01, 100.0),
+)
+def test_with_no_commands_coming_a_plan_is_not_paced(step_s, steps, quiet_for):
+    # the node answered its last request quiet_for seconds before the plan: nothing to protect
+    line = Timeline()
+    last = line.now - quiet_for
+    pacer = Pacer(0.2, 0.1, 0.005, clock=line.clock, sleep=line.sleep, commands_at=lambda: last)
+    run_plan(pacer, line, steps, step_s)
+    assert line.sleeps == []
+
+
+@settings(max_examples=60, deadline=None)
+@given(step_s=st.floats(1e-5, 1e-3), steps=st.integers(500, 5000))
+def test_while_commands_come_a_plan_is_paced(step_s, steps):
+    # the node answers a request every 2 ms of the plan (500 Hz): paced as without the gate
+    line = Timeline()
+    start = line.now
+    pacer = Pacer(
+        0.2, 0.1, 0.005, clock=line.clock, sleep=line.sleep, commands_at=lambda: line.now - 0.002
+    )
+    ran = run_plan(pacer, line, steps, step_s)
+    assert ran <= 0.2 * (line.now - start) + 0.1 / 0.8 + step_s + 1e-9
+
+
+def test_commands_stopping_mid_plan_unpace_it():
+    # commands for the first 2 s of the plan, none after: paced, then at full speed
+    line = Timeline()
+    stop = line.now + 2.0
+    began: list[float] = []
+    sleep = line.sleep
+
+    def sleep_logged(seconds: float) -> None:
+        began.append(line.now)
+        sleep(seconds)
+
+    pacer = Pacer(
+        0.2,
+        0.1,
+        0.005,
+        clock=line.clock,
+        sleep=sleep_logged,
+        commands_at=lambda: min(line.now, stop),
+    )
+    start = line.now
+    ran = run_plan(pacer, line, 5000, 1e-3)  # 5 s of steps
+    assert began and min(began) < stop  # paced while the commands came
+    assert max(began) <= stop + COMMANDS_RECENT_S + 1e-3  # and never once they had stopped
+    # the steps after the commands stopped ran back to back: the plan ended as soon as it could
+    done_by_stop = 0.2 * (stop - start) + 0.1 / 0.8
+    assert line.now - stop <= ran - done_by_stop + COMMANDS_RECENT_S + 0.02

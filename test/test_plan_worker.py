@@ -16,7 +16,7 @@ import scenes
 
 from linkage_ros.engine import Engine, EngineSettings
 from linkage_ros.plan_cdr import Stamp
-from linkage_ros.plan_worker import PlanJob, PlanWorker
+from linkage_ros.plan_worker import CommandClock, PlanJob, PlanWorker
 
 #: long enough for a new worker's start-up (interpreter and imports) on a busy machine
 ANSWER_WAIT_S = 120.0
@@ -68,8 +68,9 @@ def _alive(pid: int) -> bool:
         return False
 
 
-def test_a_long_plan_takes_at_most_its_share_of_a_core():
-    """A plan of seconds is paced (Pacer): the worker's CPU time over the plan (/proc) is at
+def test_a_long_plan_takes_at_most_its_share_of_a_core_while_commands_come():
+    """A plan of seconds beside commands (the node's CommandClock stamped every 10 ms, as a
+    100 Hz client makes it) is paced (Pacer): the worker's CPU time over the plan (/proc) is at
     most PLAN_SHARE of the wall-clock time it took, plus the burst and the unpaced steps
     around it. CPU time never exceeds the time running, so this holds on a busy machine too."""
     from linkage_ros.bench.ros_driver import process_cpu_s
@@ -81,7 +82,8 @@ def test_a_long_plan_takes_at_most_its_share_of_a_core():
     n = 3000  # about half a second of solving unpaced
     rows = [([1.0 + 0.001 * k], [], 0, (k + 1) * 1_000_000) for k in range(n)]
     raw = joint_trajectory_bytes(Stamp(2, 0), '', ['crank'], rows)
-    worker = PlanWorker()
+    commands = CommandClock()
+    worker = PlanWorker(commands=commands)
     worker.start()
     try:
         # the first plan carries the mechanism and meets a worker still importing: not timed
@@ -90,10 +92,11 @@ def test_a_long_plan_takes_at_most_its_share_of_a_core():
         assert first[0].stamp.sec == 1
         pid = worker.pid
         assert pid is not None
+        commands.stamp()
         cpu0, t0 = process_cpu_s(pid), time.monotonic()
         job = PlanJob('trajectory', raw, 1, engine.last, 'base', '', None, Stamp(2, 0))
         assert worker.offer(job, engine)
-        (done,) = _answers(worker, 1)
+        (done,) = _answers(worker, 1, commands)
         t1, cpu1 = time.monotonic(), process_cpu_s(pid)
         assert done.ok and done.values['points'] == str(n), done.message
         assert cpu0 is not None and cpu1 is not None
@@ -103,11 +106,15 @@ def test_a_long_plan_takes_at_most_its_share_of_a_core():
         worker.stop()
 
 
-def _answers(worker: PlanWorker, n: int) -> list:
+def _answers(worker: PlanWorker, n: int, commands: CommandClock | None = None) -> list:
+    """The next ``n`` answers; while waiting, ``commands`` is stamped every 10 ms (a node
+    answering a 100 Hz client)."""
     deadline = time.monotonic() + ANSWER_WAIT_S
     got: list = []
     while len(got) < n:
         assert time.monotonic() < deadline, f'{len(got)} of {n} answers'
+        if commands is not None:
+            commands.stamp()
         got += worker.collect()
         time.sleep(0.01)
     return got
