@@ -74,11 +74,12 @@ class NamesMemo:
     """The names of the last JointState read and their bytes: a client names the same
     actuators in every command, so their bytes recur and need not be decoded again. The names
     start 4-aligned in every message (after the stamp, the frame id and the count), so equal
-    bytes there are equal names and end at the same place."""
+    bytes there, in the same byte order, are equal names and end at the same place."""
 
-    __slots__ = ('count', 'block', 'names')
+    __slots__ = ('order', 'count', 'block', 'names')
 
     def __init__(self) -> None:
+        self.order = ''  # the struct byte order they were read in
         self.count = -1
         self.block = b''
         self.names: tuple[str, ...] = ()
@@ -102,6 +103,7 @@ def read_joint_state(
         if (
             memo is not None
             and memo.count == head.count
+            and memo.order == head.order
             and memo.block
             and raw.startswith(memo.block, pos)
         ):
@@ -112,7 +114,8 @@ def read_joint_state(
                 return None
             names, end = read
             if memo is not None:
-                memo.count, memo.block, memo.names = head.count, raw[pos:end], names
+                memo.order, memo.count = head.order, head.count
+                memo.block, memo.names = raw[pos:end], names
             pos = end
         sequences = []
         for _ in range(2):  # position, velocity

@@ -49,7 +49,10 @@ class DemoRunner:
         last = engine.last
         values = dict(last.inputs) if last else {a: 0.0 for a in mech.actuators}
         values[sweep.name] = sweep.next()
-        result = node.requests.answer('demo', Time(), lambda: engine.command(values))
+        # the node's own sweep: no client waits on it, so it does not pace plans
+        result = node.requests.answer(
+            'demo', Time(), lambda: engine.command(values), from_client=False
+        )
         log = node.get_logger()
         if result.success:
             self.failures = 0

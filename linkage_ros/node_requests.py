@@ -60,13 +60,17 @@ class Requests:
         # every consumer of the answer: refuse the request instead
         return stamp, stamp_error(stamp.sec, stamp.nanosec)
 
-    def answer(self, request: str, stamp, solve: Callable[[], Result]) -> Result:
+    def answer(
+        self, request: str, stamp, solve: Callable[[], Result], from_client: bool = True
+    ) -> Result:
         """Run one request and publish its answer (Outputs.answer: on success joint_states,
         the subscribed points and an OK status; on failure only an ERROR status). Never
-        raises."""
+        raises. A request ``from_client`` (not the node's own demo sweep) stamps the command
+        clock: the plan worker paces itself while those come."""
         if self.node.outputs is None:  # no robot description yet
             return self.refuse_waiting(request)
-        self.commands.stamp()
+        if from_client:
+            self.commands.stamp()
         try:
             stamp, bad_stamp = self.request_stamp(stamp)
             if bad_stamp:

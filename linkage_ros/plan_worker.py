@@ -70,9 +70,11 @@ PARENT_CHECK_S = 1.0
 STOP_WAIT_S = 0.1
 #: the share of the time the worker may run over a long plan (the rest it sleeps)
 PLAN_SHARE = 0.2
-#: the time a plan may run unpaced after the worker was idle (s): a short plan is not slowed
+#: the budget a plan may spend unpaced after the worker was idle (s): a short plan is not
+#: slowed (running spends 1 - PLAN_SHARE of its time: the burst lasts 0.125 s of running)
 PLAN_BURST_S = 0.1
-#: how long the worker runs between two pauses once it is paced (s)
+#: the budget a paced worker runs on between two pauses (s: 6.25 ms of running, then a
+#: 25 ms pause)
 PLAN_SLICE_S = 0.005
 #: the worker is paced only while the node answered a request (a command, a target) this
 #: recently (s): with no commands to protect, a plan runs at full speed

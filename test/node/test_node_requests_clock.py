@@ -1,5 +1,6 @@
-"""Every request the node answers stamps its CommandClock (the plan worker paces itself by
-it: plan_worker.Pacer); a request refused while no robot description is served does not."""
+"""Every client request the node answers stamps its CommandClock (the plan worker paces
+itself by it: plan_worker.Pacer); the node's own demo sweep and a request refused while no
+robot description is served do not."""
 
 from __future__ import annotations
 
@@ -33,6 +34,16 @@ def test_an_answered_request_stamps_the_command_clock():
     after = time.monotonic()
     assert outputs.answered == ['command']
     assert before <= clock.last() <= after
+
+
+def test_the_demo_sweep_leaves_the_clock_alone():
+    # the node's own sweep (node_demo) is no client's command: plans run at full speed beside it
+    node = SimpleNamespace(outputs=_Outputs())
+    clock = CommandClock()
+    Requests(node, clock).answer(  # type: ignore[arg-type]
+        'demo', Time(sec=1), lambda: Result(False, 'x'), from_client=False
+    )
+    assert clock.last() == -math.inf
 
 
 def test_a_request_before_any_robot_description_leaves_the_clock_alone():

@@ -373,11 +373,25 @@ class BatchNewton:
 
     def answer_checks(self, Jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(det_signs, conds) of a packed (K, size) stack: what an answer is checked by,
-        from one reduction where J is reduced to its varying columns."""
+        from one reduction where J is reduced to its varying columns. An exactly singular
+        matrix (det sign 0) gets cond inf and is left out of the others' inverses: in the
+        stack it would fail every row's inverse and turn every cond into scaled_cond."""
         layout = self.layout()
-        if not isinstance(layout, SchurForm) or not Jp.shape[0]:
-            return self.det_signs(Jp), self.conds(Jp)
-        signs, norms = schur_answer(layout, Jp)
+        reduced = isinstance(layout, SchurForm) and Jp.shape[0]
+        if reduced:
+            assert isinstance(layout, SchurForm)
+            signs, norms = schur_answer(layout, Jp)
+        else:
+            signs, norms = self.det_signs(Jp), None
+        singular = signs == 0
+        if singular.any():
+            conds = np.full(Jp.shape[0], math.inf)
+            if not singular.all():
+                conds[~singular] = self.conds(Jp[~singular])
+            return signs, conds
+        if not reduced:
+            return signs, self.conds(Jp)
+        assert isinstance(layout, SchurForm)
         if norms is None:
             return signs, batch_conds(layout.unpack(Jp))
         with np.errstate(invalid='ignore', over='ignore'):

@@ -42,7 +42,7 @@ class BlockForm:
     parity: int
 
 
-def _permutation_sign(order: np.ndarray) -> int:
+def permutation_sign(order: np.ndarray) -> int:
     """+1 / -1: the sign of a permutation of range(len(order)) (from its cycle count)."""
     seen = np.zeros(len(order), bool)
     cycles = 0
@@ -105,7 +105,7 @@ def block_form(pattern: np.ndarray) -> BlockForm | None:
         blocks.append(Block(rows, cols, np.setdiff1d(used, cols)))
     row_order = np.concatenate([bl.rows for bl in blocks])
     col_order = np.concatenate([bl.cols for bl in blocks])
-    return BlockForm(tuple(blocks), _permutation_sign(row_order) * _permutation_sign(col_order))
+    return BlockForm(tuple(blocks), permutation_sign(row_order) * permutation_sign(col_order))
 
 
 #: each block's diagonal part (K, b, b) and the part left of it (K, b, e) of a stack of J:

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .blocks import _permutation_sign
+from .blocks import permutation_sign
 from .linalg import det_signs, newton_steps
 
 #: a constant C = J[S, T] worse conditioned than this is not used (the dense path instead):
@@ -124,7 +124,7 @@ def schur_form(const: np.ndarray, jpos: np.ndarray) -> SchurForm | None:
     t_part = np.zeros((n, n))
     t_part[:, t_cols] = const[:, t_cols]
     g = const[np.ix_(r_rows, t_cols)] @ c_inv
-    orderings = _permutation_sign(order) * _permutation_sign(np.concatenate([t_cols, a_cols]))
+    orderings = permutation_sign(order) * permutation_sign(np.concatenate([t_cols, a_cols]))
     return SchurForm(
         n=n,
         t_cols=t_cols,
@@ -167,7 +167,7 @@ def inverse_3x3(M: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def reduced_steps(M: np.ndarray, r: np.ndarray) -> np.ndarray:
     """dA solving M dA = -r for a (K, a, a) stack; NaN rows where M is singular (see
-    batch.newton_steps: the dense LU, except 3 x 3 stacks: inverse_3x3)."""
+    linalg.newton_steps: the dense LU, except 3 x 3 stacks: inverse_3x3)."""
     if M.shape[1] != 3:
         return newton_steps(M, r)
     inverse, det = inverse_3x3(M)

@@ -20,11 +20,11 @@ from linkage_ros.core.model import Scene
 from linkage_ros.core.newton.batch import newton_steps
 from linkage_ros.core.newton.blocks import (
     DENSE_BLOCK,
-    _permutation_sign,
     block_det_signs,
     block_form,
     block_inverse_norms,
     block_steps,
+    permutation_sign,
 )
 from linkage_ros.core.newton.tables import jacobian_pattern
 from linkage_ros.core.solver import Solver
@@ -47,9 +47,9 @@ def random_jacobians(sy, rng, N=64):
 
 
 @pytest.mark.parametrize('order', list(itertools.permutations(range(4))))
-def test_permutation_sign(order):
+def testpermutation_sign(order):
     eye = np.eye(4)
-    assert _permutation_sign(np.array(order)) == round(np.linalg.det(eye[list(order)]))
+    assert permutation_sign(np.array(order)) == round(np.linalg.det(eye[list(order)]))
 
 
 @pytest.mark.parametrize('name', ALL_SCENES)

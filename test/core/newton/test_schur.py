@@ -156,3 +156,21 @@ def test_no_form_without_constant_columns_or_with_a_singular_c():
     const[:, 3] = [1.0, -1.0, 2.0, 0.5]
     form = schur_form(const, varying)
     assert form is not None and list(form.t_cols) == [2, 3] and form.a == 2
+
+
+@pytest.mark.parametrize('name', ['peaucellier', 'excavator', 'four_bar'])
+def test_one_singular_answer_leaves_the_others_conds_alone(name):
+    """The answer checks of a stack with one exactly singular Jacobian: that row's det sign is
+    0 and its cond inf, every other row's cond is what it is without it (np.linalg.cond(J, 1)
+    where exact), not the scaled_cond a failed inverse of the whole stack falls back to."""
+    sy = system(name)
+    Jp, dense, _ = packed_jacobians(sy, np.random.default_rng(11), N=6)
+    _, alone = sy.batch.answer_checks(Jp[1:])
+    Jp = Jp.copy()
+    Jp[0] = 0.0  # every entry, constant ones too: J[0] is the zero matrix
+    signs, conds = sy.batch.answer_checks(Jp)
+    assert signs[0] == 0 and conds[0] == np.inf
+    # the same to rounding (the four-bar's 3 x 3 rows may take the other inverse's route)
+    np.testing.assert_allclose(conds[1:], alone, rtol=1e-12)
+    exact = alone < 1e8
+    np.testing.assert_allclose(alone[exact], np.linalg.cond(dense[1:][exact], 1), rtol=1e-9)
