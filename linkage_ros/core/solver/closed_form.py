@@ -19,9 +19,10 @@ Measured in one process on the packaged four-bar's warm sweep (thread CPU time, 
 interleaved passes of 20 commands; 2-core machine shared with other agents, load ~7):
 ``CompiledSolve.build_result`` over the assembler 16.6 us, this readout's Result 3.6 us (7.2
 us with its dicts read), the program's run 8.9 us, a whole ``Solver.solve`` 18.5 us, the
-hand-written ``math`` four-bar of bench/core_speed.py 2.0 us. Since then (Continuity's signs and
-commit inline here, a known slide's miss read with its joint's slide, the crank's turn and
-placement one step): ``Solver.solve`` 16.5 us where the code before took 17.9 us and the
+hand-written ``math`` four-bar of bench/core_speed.py 2.0 us. Since then (a known slide's miss
+read with its joint's slide, the crank's turn and placement one step; Continuity's signs and
+commit were inlined here too for that figure, and are called again: one rule, ~0.2 us):
+``Solver.solve`` 16.5 us where the code before took 17.9 us and the
 ``math`` four-bar 1.58 us (10.5x; every value read 22.5 us, 14.2x; the excavator 54.4 us, 3.3x
 the four-bar), in one process, old and new interleaved (process time, best of 80 passes of the
 200-command sweep; load ~3-5). In that flow the Result costs about 6 us of the 16.5 (the
@@ -33,7 +34,7 @@ RRR dyad 3.1, two placements 2.1, the crank 0.95), lean_command and the commit a
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from dataclasses import MISSING, fields
 from typing import Any
 
@@ -46,14 +47,13 @@ from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
 from ..steps import branch_text
 from .compiled import CompiledSolve, SolveMode, Values
-from .continuity import BranchRule, Continuity, State
+from .continuity import Continuity, State
 from .result import _EPS, Result
 
 _PI = math.pi
 _NEG_PI = -math.pi  # (one load where -_PI is two)
 _CLOSED_FORM = SolveMode.CLOSED_FORM
 _POINT = ReadKind.POINT
-_CONTINUOUS = BranchRule.CONTINUOUS
 
 
 def _wrap(a: float) -> float:
@@ -392,13 +392,8 @@ class SlotReadout:
         if self.limited and c.limit_refusal(vals):
             return None
         history = cont.history
-        prev_margins: Sequence[float] | None
-        if history and cont.branch.rule is _CONTINUOUS:  # Continuity.signs, inlined
-            last = history[-1]
-            start, prev_margins = last.signs, last.margins
-        else:
-            start = cont.signs(self.plan)
-            prev_margins = history[-1].margins if history else None
+        start = cont.signs(self.plan)
+        prev_margins = history[-1].margins if history else None
         r = self.prog.run_parsed(vals, start, prev_margins, lambda: cont.prediction(c, vals))
         if r.failure >= 0:
             return None
@@ -406,9 +401,8 @@ class SlotReadout:
         res = self.result(r, vals, signs)
         if not (res.success and res.residual <= self.closure_limit):  # type: ignore[operator]
             return None
-        if commit:  # Continuity.commit, inlined (the last answer and this one)
-            state = SlotState(vals, signs, tuple(r.margins), self.prog, r.R)
-            cont.history = [history[-1], state] if history else [state]
+        if commit:
+            cont.commit(SlotState(vals, signs, tuple(r.margins), self.prog, r.R))
         return res
 
 
