@@ -17,7 +17,6 @@ import numpy as np
 import pytest
 
 from linkage_ros.core.model import Scene
-from linkage_ros.core.newton.batch import newton_steps
 from linkage_ros.core.newton.blocks import (
     DENSE_BLOCK,
     block_det_signs,
@@ -26,6 +25,7 @@ from linkage_ros.core.newton.blocks import (
     block_steps,
     permutation_sign,
 )
+from linkage_ros.core.newton.linalg import newton_steps
 from linkage_ros.core.newton.tables import jacobian_pattern
 from linkage_ros.core.solver import Solver
 from linkage_ros.resources import config_dir, scene_path

@@ -35,7 +35,7 @@ from linkage_ros.core.newton import (
     POLISH_COND,
     LoopSystem,
 )
-from linkage_ros.core.newton.batch import PackedJacobian
+from linkage_ros.core.newton.batch_tables import PackedJacobian
 from linkage_ros.core.quantities import AngleSpec, PointSpec, SlideSpec
 from linkage_ros.core.solver import Solver
 from linkage_ros.core.solver.newton_path import branch_of
