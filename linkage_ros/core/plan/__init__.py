@@ -27,7 +27,6 @@ from .compile import (  # noqa: F401
     run_one,
 )
 from .geometry import (  # noqa: F401
-    branch_geometry_batch,
     branch_geometry_of,
     branch_geometry_one,
     rollers_off_drawn_side,

@@ -5,15 +5,13 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-import numpy as np
-
 from ..dyads import circle_side, line_side, unit_vector
 from ..execute import LinkPoses
 from ..model import Mechanism
-from ..ops import BATCH, SCALAR, BatchOps, ScalarOps, to_complex
+from ..ops import SCALAR, BatchOps, ScalarOps
 from ..steps import BranchArgs, RollerSide, RRRDyad, anchor_of
 from .compile import Plan, Step
-from .poses import Poses, ScalarPoses, link_poses
+from .poses import ScalarPoses
 from .spec import _c
 
 
@@ -73,22 +71,6 @@ def branch_geometry_one(
     """branch_geometry_of on one configuration: (signs tuple, margins list)."""
     signs, margins = branch_geometry_of(SCALAR, plan, pts, poses)
     return tuple(signs), margins
-
-
-def branch_geometry_batch(
-    plan: Plan, pts: Mapping[str, np.ndarray], poses: Poses
-) -> tuple[np.ndarray, np.ndarray]:
-    """branch_geometry_of over a batch: points {name: (n, 2)} and batched poses -> signs (n, k)
-    (+1 / -1) and margins (n, k) of the plan's k branching steps."""
-    n = poses.phi[plan.mech.ground].shape[0]
-    k = len(plan.branch_steps)
-    zs = {p: to_complex(v) for p, v in pts.items()}
-    with np.errstate(all='ignore'):
-        sg, mg = branch_geometry_of(BATCH, plan, zs, link_poses(poses))
-    signs, margins = np.zeros((n, k), int), np.zeros((n, k))
-    for j in range(k):
-        signs[:, j], margins[:, j] = sg[j], mg[j]
-    return signs, margins
 
 
 def rollers_off_drawn_side(

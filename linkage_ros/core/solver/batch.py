@@ -12,7 +12,7 @@ import numpy as np
 from ..assemble import Assembly
 from ..assemble_batch import assemble_batch
 from ..execute import LinkPoses, executor
-from ..ops import BATCH, CArray
+from ..ops import BATCH
 from ..plan import (
     Plan,
     Spec,
@@ -25,6 +25,7 @@ from ..quantities import AngleSpec, PointSpec, ScalarSpec
 from ..steps import StepKind
 from .compiled import CompiledSolve, SolveMode
 from .continuity import BranchRule, Continuity, state_of
+from .newton_poses import newton_poses
 from .one import solve_one
 from .point_pairs import pair_columns
 from .result import Result, branch_identity_defined, branch_signs, branch_text
@@ -300,11 +301,11 @@ def _newton(
         # branch: well conditioned for its residual (Newton-Kantorovich) and the dyads on the
         # start's sides. A row that needs that check (or changed sides) goes there too.
         accepted[rows] = cond[rows] ** 2 * residual[rows] * system.n <= 1e-2
-    poses, pts = _newton_poses(c, x)
+    poses, pts = newton_poses(c, x)
     signs = np.zeros((n, k), int)
     margin = np.where(accepted, 1.0 / np.maximum(cond, 1.0), 0.0)
     if branches:
-        # (plan.branch_geometry_batch, on the complex poses and points it would convert to)
+        # (plan.branch_geometry_of on the complex poses and points of newton_poses)
         with np.errstate(all='ignore'):
             sides, margins = branch_geometry_of(BATCH, plan, pts, poses)
         dyad_margins = np.zeros((n, k))
@@ -472,63 +473,6 @@ def _assembly_poses(plan: Plan, poses: LinkPoses) -> LinkPoses:
         return poses
     rot = {l: (BATCH.expi(poses.phi[l]) if l in welded else r) for l, r in poses.rot.items()}
     return LinkPoses(poses.phi, rot, poses.T)
-
-
-def _newton_poses(c: CompiledSolve, x: np.ndarray) -> tuple[LinkPoses, dict[str, CArray]]:
-    """Complex poses of every link and every point's world position (read off the first link
-    that carries it) from newton unknowns x (n, 3 per moving link: phi and the world position
-    of the link's reference centroid o, so T = c - R(phi) o); the ground at rest. Every link
-    and point in one pass each (columns of one array), in the float operations of
-    Poses.world and link_poses."""
-    system, n, ground = c.system, x.shape[0], c.mech.ground
-    table = _pose_table(c)
-    phi = x[:, 0::3]
-    cos, sin = np.cos(phi), np.sin(phi)
-    ox, oy = table.centroids
-    Tx = x[:, 1::3] - (cos * ox - sin * oy)
-    Ty = x[:, 2::3] - (sin * ox + cos * oy)
-    zero = np.zeros(n)
-    poses = LinkPoses()
-    poses.set(ground, zero, CArray(zero, zero), CArray(np.ones(n), zero))
-    for l, i in system.index.items():
-        poses.set(l, phi[:, i], CArray(Tx[:, i], Ty[:, i]), CArray(cos[:, i], sin[:, i]))
-    # a column per point: its owner's slot (the ground's last: at rest)
-    cos_g = np.concatenate([cos, np.ones((n, 1))], axis=1)[:, table.owner]
-    sin_g = np.concatenate([sin, zero[:, None]], axis=1)[:, table.owner]
-    px, py = table.points
-    re = (cos_g * px - sin_g * py) + np.concatenate([Tx, zero[:, None]], axis=1)[:, table.owner]
-    im = (sin_g * px + cos_g * py) + np.concatenate([Ty, zero[:, None]], axis=1)[:, table.owner]
-    pts = {p: CArray(re[:, j], im[:, j]) for j, p in enumerate(table.names)}
-    return poses, pts
-
-
-@dataclass(frozen=True)
-class _PoseTable:
-    """What _newton_poses reads a solve's configurations with: each moving link's reference
-    centroid (m), each point's owner slot (moving links in the unknowns' order, then the
-    ground) and reference position (m)."""
-
-    centroids: tuple[np.ndarray, np.ndarray]
-    owner: np.ndarray
-    points: tuple[np.ndarray, np.ndarray]
-    names: tuple[str, ...]
-
-
-def _pose_table(c: CompiledSolve) -> _PoseTable:
-    """The _PoseTable of c (a few small arrays: made per batch)."""
-    system, mech = c.system, c.mech
-    slots = dict(system.index)
-    cen = np.array([system.centroid[l] for l in system.index], float).reshape(-1, 2)
-    owner = [slots.get(l, len(slots)) for _, l, _ in system.point_owner]
-    # every link but the ground is a Newton unknown
-    assert all(l in slots or l == mech.ground for _, l, _ in system.point_owner)
-    ref = np.array([mech.points[p] for p, _, _ in system.point_owner], float).reshape(-1, 2)
-    return _PoseTable(
-        (cen[:, 0], cen[:, 1]),
-        np.array(owner, np.intp),
-        (ref[:, 0], ref[:, 1]),
-        tuple(p for p, _, _ in system.point_owner),
-    )
 
 
 def _columns(c: CompiledSolve, columns: Mapping[str, Any]) -> tuple[list[np.ndarray], int]:
