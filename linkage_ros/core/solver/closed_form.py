@@ -36,7 +36,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import MISSING, fields
-from typing import Any
+from typing import Any, NamedTuple
 
 from ..assemble import roller_offset
 from ..execute import LinkPoses
@@ -88,6 +88,29 @@ def _slot_reader(read: SpecReader, prog: ScalarProgram) -> Callable[[list[Any]],
 
 def _c(v: Any) -> complex:
     return complex(float(v[0]), float(v[1]))
+
+
+class SlideRead(NamedTuple):
+    """What SlotReadout.result reads of one prismatic joint, by register (a NamedTuple: the
+    loop unpacks it as plainly as a tuple, yet each field has a name)."""
+
+    joint: str
+    reader: Callable[[list[Any]], float]  # its slide value from the registers (m)
+    point: complex  # the slider point's reference position (m)
+    normal: complex  # the guide's normal (i times its direction)
+    slider_phi: int
+    slider_rot: int
+    slider_T: int
+    guide_phi: int
+    guide_rot: int
+    guide_T: int
+    face: float  # a roller's drawn offset from its face (m; 0: a plain slider)
+    known: int  # the known value it is (index), -1: none
+    read_rot: int  # the rot and T registers of the link carrying the slider point
+    read_T: int
+    read_ref: complex  # the point, the guide's origin and direction the slide is read with
+    origin: complex
+    direction: complex
 
 
 class SlotReadout:
@@ -162,17 +185,13 @@ class SlotReadout:
             for i, read in read_knowns:
                 if read == joint_read and pj.name not in slide_known:
                     slide_known[pj.name] = i
-        #: each slide: its joint, reader, point, the guide's normal, the slider's and guide's
-        #: (phi, rot, T) registers, its roller face offset, the known it is (-1: none) and
-        #: what its reader reads (the rot and T registers of the slider point's link, the
-        #: point, the guide's origin and direction: result() reads it inline)
-        self.slides: list[tuple[Any, ...]] = []
+        self.slides: list[SlideRead] = []
         for pj in mech.prismatics.values():
             if pj.guide not in have or pj.slider not in have:
                 continue
             read = spec_reader(mech, SlideSpec(pj.name, pj.name))
             self.slides.append(
-                (
+                SlideRead(
                     pj.name,
                     _slot_reader(read, prog),
                     _c(mech.points[pj.point]),
@@ -193,7 +212,7 @@ class SlotReadout:
                 )  # fmt: skip
             )
             assert read.reference == pj.guide  # (the guide's registers above)
-        read_slide = {sl[11] for sl in self.slides}
+        read_slide = {sl.known for sl in self.slides}
         self.links = [(l, iphi[l], mech.links[l].angle_ref) for l in mech.links if l in have]
         #: the known angles read inline (the register of the value wrapped, their link's and
         #: reference's phi registers, offset)
@@ -339,7 +358,7 @@ class SlotReadout:
                 a = _wrap_one(a)
             joints[name] = a
         for slide in self.slides:
-            joints[slide[0]] = slide[1](R)
+            joints[slide.joint] = slide.reader(R)
         links: dict[str, float] = {}
         for l, i, ref in self.links:
             a = ref + R[i]
