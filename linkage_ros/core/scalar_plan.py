@@ -23,11 +23,11 @@ load ~10): the generic executor 32 us, this program 8.6 us (14 us with the name-
 that ``run_one`` returns), a hand-written ``math`` four-bar 1.6 us. Since then (each known
 angle wrapped once per run, constant RRR radii resolved once, one register run tested for
 finiteness): a run 8.9 us against the ``math`` four-bar's 2.0 us (thread CPU time, best of 500
-passes of 20 commands of the warm sweep, load ~7; core/solver/closed_form.py). A welded ground
-turned by known angles (a crank on its frame) is now one step (turned_ground: 0.95 us where its
-frame and placement steps took 1.07 us), and a welded body's two-point placement reads its
-points' frames inline: a run of the four-bar 7.2 us (process time, best of 40 passes of the
-200-command sweep, the registers pre-filled so each step can be timed alone; load ~4).
+passes of 20 commands of the warm sweep, load ~7; core/solver/closed_form.py). A welded
+body's two-point placement reads its points' frames inline. (A welded ground turned by known
+angles, a crank on its frame, was measured as one fused step: 0.95 us where its frame and
+placement steps take 1.07 us, under 1% of a solve; not kept, as it restated turn_weld and
+welded_placer.)
 """
 
 from __future__ import annotations
@@ -50,7 +50,6 @@ from .scalar_run import (
     Step,
     slide_weld,
     turn_weld,
-    turned_ground,
     welded_placer,
 )
 from .steps import (
@@ -145,21 +144,8 @@ class ScalarProgram:
         self._wrap_regs = tuple(self.iwrap.items())
         #: the steps of a run: the frames of the welded bodies it uses, then the plan's
         self.steps: list[Step] = []
-        #: a welded body placed by GROUND whose welds are all by angle: its frame and its
-        #: placement are one step (turned_ground), at the GROUND step
-        self._turned: set[int] = {
-            st.body
-            for st in plan.steps
-            if st.op is StepKind.GROUND
-            and not self.single[st.body]
-            and all(
-                isinstance(plan.specs[w.spec_index], AngleSpec) for w in plan.bodies[st.body].welds
-            )
-        }
         for b in sorted(used_bodies):
-            if b in self._turned:
-                self._root_frame(b)
-            elif not self.single[b]:
+            if not self.single[b]:
                 self.steps.extend(self._frame_of(b))
         set_pts: set[str] = set()
         placed: set[str] = set()
@@ -176,20 +162,16 @@ class ScalarProgram:
                 self.steps.append(step)
 
     # -- compile time --------------------------------------------------------------------------
-    def _root_frame(self, bi: int) -> None:
-        """The frame registers of a welded body's root: the identity (constants)."""
-        root, R = self.plan.bodies[bi].root, self.template
-        R[self.ifphi[root]] = 0.0
-        R[self.ifrot[root]] = complex(1.0, 0.0)
-        R[self.ifT[root]] = complex(0.0, 0.0)
-
     def _frame_of(self, bi: int) -> list[Step]:
         """Fill the frame registers of a welded body's members (its root at the identity): a
         weld by a known angle turns a member about the shared point, by a known slide moves it
         along the slide. The root's are constants (in the template)."""
         plan, mech = self.plan, self.plan.mech
         body = plan.bodies[bi]
-        self._root_frame(bi)
+        R = self.template
+        R[self.ifphi[body.root]] = 0.0
+        R[self.ifrot[body.root]] = complex(1.0, 0.0)
+        R[self.ifT[body.root]] = complex(0.0, 0.0)
         steps: list[Step] = []
         for w in body.welds:
             s = plan.specs[w.spec_index]
@@ -221,40 +203,6 @@ class ScalarProgram:
                     )  # fmt: skip
                 )
         return steps
-
-    def _turned_ground(
-        self, bi: int, rest: list[Any], rot0: complex, T0: complex
-    ) -> Step:  # fmt: skip
-        """turned_ground of a GROUND body (see _turned): its welds' turn_weld arguments (as
-        _frame_of gives them) each with the placement of the member it turns."""
-        plan = self.plan
-        body = plan.bodies[bi]
-        placing = {m[4]: m for m in rest}  # by the member's frame phi register
-        turns = []
-        for w in body.welds:
-            s = plan.specs[w.spec_index]
-            assert isinstance(s, AngleSpec) and w.shared_point is not None
-            iphi, irot, iT, pts, fphi, frot, fT = placing.pop(self.ifphi[w.link])
-            turns.append(
-                (
-                    self.iwrap[w.spec_index],
-                    s.offset,
-                    w.link == s.link,
-                    self.ref[w.shared_point],
-                    self.ifphi[w.via],
-                    self.ifrot[w.via],
-                    self.ifT[w.via],
-                    fphi,
-                    frot,
-                    fT,
-                    iphi,
-                    irot,
-                    iT,
-                    pts,
-                )  # fmt: skip
-            )
-        assert not placing  # every member but the root is welded once
-        return turned_ground(turns, rot0, T0)
 
     def _placer(self, bi: int, set_pts: set[str], placed: set[str]) -> Callable[..., None]:
         """place(R, phi, rot, T): the body's members posed and the points it sets first."""
@@ -336,8 +284,6 @@ class ScalarProgram:
             # the root's frame is the identity: its pose and points are constants too
             root, *rest = self._members[st.body]
             welded_placer([root])(self.template, 0.0, rot0, T0)
-            if st.body in self._turned:
-                return self._turned_ground(st.body, rest, rot0, T0)
             place = welded_placer(rest)
 
             def ground(r: SlotRun) -> None:
@@ -415,17 +361,11 @@ class ScalarProgram:
         def two_points(r: SlotRun) -> None:
             R = r.R
             b = R[sq] - R[sp]
-            try:  # (ops' cabs, inlined: inf beyond the float range)
-                nb = abs(b)
-            except OverflowError:
-                nb = math.inf
+            nb = _cabs_one(b)
             b = b / (nb if nb > 0 else 1.0)
             lp = R[prot] * p_ref + R[pT]
             u = (R[qrot] * q_ref + R[qT]) - lp
-            try:
-                nu = abs(u)
-            except OverflowError:
-                nu = math.inf
+            nu = _cabs_one(u)
             u = u / (nu if nu > 0 else 1.0)
             phi = atan2(u.real * b.imag - u.imag * b.real, u.real * b.real + u.imag * b.imag)
             rot = complex(cos(phi), sin(phi))

@@ -122,34 +122,6 @@ def turn_weld(
     return turn
 
 
-def turned_ground(
-    turns: list[tuple[Any, ...]], rot0: complex, T0: complex
-) -> Step:  # fmt: skip
-    """A welded ground body whose welds are all by known angles (a crank on the frame), in one
-    step: each member turned about its shared point into its frame registers (turn_weld) and
-    placed at once (welded_placer at the ground's pose rot0, T0), by the same operations in
-    the same order. ``turns``: per weld, in weld order, turn_weld's arguments flattened
-    (wrapped, offset, forward, p, via's and out's registers) then the member's placement
-    (its phi, rot and T registers and the points it sets first)."""
-
-    def ground(r: SlotRun) -> None:
-        R = r.R
-        for (wrapped, offset, forward, p, vphi, vrot, vT,
-             lphi, lrot, lT, iphi, irot, iT, pts) in turns:  # fmt: skip
-            rel = R[wrapped] - offset
-            phi = R[vphi] + (rel if forward else -rel)
-            rot = complex(cos(phi), sin(phi))
-            T = (R[vrot] * p + R[vT]) - rot * p
-            R[lphi], R[lrot], R[lT] = phi, rot, T
-            lr = rot0 * rot
-            lt = rot0 * T + T0
-            R[iphi], R[irot], R[iT] = 0.0 + phi, lr, lt
-            for s, ref in pts:
-                R[s] = lr * ref + lt
-
-    return ground
-
-
 def slide_weld(
     i: int, ref_value: float, forward: bool, x_ref: complex, u: complex,
     via: tuple[int, int, int], out: tuple[int, int, int],

@@ -20,15 +20,16 @@ interleaved passes of 20 commands; 2-core machine shared with other agents, load
 ``CompiledSolve.build_result`` over the assembler 16.6 us, this readout's Result 3.6 us (7.2
 us with its dicts read), the program's run 8.9 us, a whole ``Solver.solve`` 18.5 us, the
 hand-written ``math`` four-bar of bench/core_speed.py 2.0 us. Since then (a known slide's miss
-read with its joint's slide, the crank's turn and placement one step; Continuity's signs and
-commit were inlined here too for that figure, and are called again: one rule, ~0.2 us):
+read with its joint's slide; the crank's turn and placement fused into one step and
+Continuity's signs and commit inlined here were part of that figure, and are undone: each
+restated a rule kept elsewhere, for about 0.1 and 0.2 us):
 ``Solver.solve`` 16.5 us where the code before took 17.9 us and the
 ``math`` four-bar 1.58 us (10.5x; every value read 22.5 us, 14.2x; the excavator 54.4 us, 3.3x
 the four-bar), in one process, old and new interleaved (process time, best of 80 passes of the
 200-command sweep; load ~3-5). In that flow the Result costs about 6 us of the 16.5 (the
 closure checks of the four joints and the known angle about 2.5, the finiteness sum, the
 ClosedResult and its branch text most of the rest: stubbing each out), the run about 8 (its
-RRR dyad 3.1, two placements 2.1, the crank 0.95), lean_command and the commit about 2.5.
+RRR dyad 3.1, two placements 2.1, the crank about 1), lean_command and the commit about 2.5.
 """
 
 from __future__ import annotations
