@@ -69,6 +69,12 @@ def _wrap_one(a: float) -> float:
     return r
 
 
+def _reduce_many(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(k, a - k 2 pi) elementwise, k = round(a / 2 pi): _wrap_one's three-part reduction."""
+    k = np.rint(a / (2 * math.pi))
+    return k, ((a - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
+
+
 def _wrap_many(v: Any) -> Any:
     """_wrap_one elementwise on an array (the same float operations)."""
     out = np.array(v, float)
@@ -81,8 +87,7 @@ def _wrap_many(v: Any) -> Any:
         # every angle finite and within the three-part reduction (a warm solve's angle rows a
         # turn or so off): all reduced in one pass, each exactly as below; k = 0 (in range)
         # keeps the angle itself (-0.0 too)
-        k = np.rint(out / (2 * math.pi))
-        r = ((out - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
+        k, r = _reduce_many(out)
         if np.abs(r).max() < math.pi:  # else a k rounded off by one: the full path
             reduced: np.ndarray = np.where(k == 0.0, out, r)
             return reduced
@@ -91,8 +96,7 @@ def _wrap_many(v: Any) -> Any:
         return out
     w = out[wide]
     with np.errstate(invalid='ignore', over='ignore'):
-        k = np.rint(w / (2 * math.pi))
-        r = ((w - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
+        _, r = _reduce_many(w)
     r = np.where(r > math.pi, r - 2 * math.pi, np.where(r < -math.pi, r + 2 * math.pi, r))
     huge = np.isfinite(w) & (np.abs(w) > WRAP_REDUCE_LIMIT)
     if huge.any():
