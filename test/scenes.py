@@ -56,6 +56,27 @@ def slider_crank(r: float, rod: float, e: float = 0.0, direction: float = 0.0, *
     return Scene.from_dict({'slider_crank': spec}).mechanism
 
 
+# ---- loop systems (the Newton solver's equations) -------------------------------------------
+def newton_system(stem: str) -> Any:
+    """The LoopSystem of a shipped scene's Newton solver."""
+    from linkage_ros.core.solver import Solver
+
+    return Solver(load(stem), method='newton').system
+
+
+def around_reference(sy: Any, rng: Any, N: int) -> tuple[Any, list[Any]]:
+    """N configurations of loop system ``sy`` spread around its reference pose (x, (N, n)) and
+    the reference values as batch columns: where the Jacobian tests evaluate."""
+    import numpy as np
+
+    from linkage_ros.core.solver import Solver
+
+    X = sy.reference_x() + rng.normal(size=(N, sy.n)) * 0.5 * sy.step_scale
+    ref = Solver(sy.mech, method='newton').compiled.ref_values
+    cols = [np.broadcast_to(np.asarray(v, float), (N, *np.shape(v))) for v in ref]
+    return X, cols
+
+
 # ---- a roller on a flat face: the nut-cracker (issue 27) ------------------------------------
 
 NUT_RADIUS = 0.01

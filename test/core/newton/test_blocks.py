@@ -15,8 +15,8 @@ import itertools
 
 import numpy as np
 import pytest
+import scenes
 
-from linkage_ros.core.model import Scene
 from linkage_ros.core.newton.blocks import (
     DENSE_BLOCK,
     block_det_signs,
@@ -27,21 +27,17 @@ from linkage_ros.core.newton.blocks import (
 )
 from linkage_ros.core.newton.linalg import newton_steps
 from linkage_ros.core.newton.tables import jacobian_pattern
-from linkage_ros.core.solver import Solver
-from linkage_ros.resources import config_dir, scene_path
+from linkage_ros.resources import config_dir
 
 ALL_SCENES = sorted(p.stem for p in config_dir().glob('*.yaml'))
 
 
-def system(name):
-    return Solver(Scene.from_yaml(scene_path(name)).mechanism, method='newton').system
+system = scenes.newton_system
 
 
 def random_jacobians(sy, rng, N=64):
     """J (N, n, n) and F (N, n) at configurations spread around the reference pose."""
-    X = sy.reference_x() + rng.normal(size=(N, sy.n)) * 0.5 * sy.step_scale
-    ref = Solver(sy.mech, method='newton').compiled.ref_values
-    cols = [np.broadcast_to(np.asarray(v, float), (N, *np.shape(v))) for v in ref]
+    X, cols = scenes.around_reference(sy, rng, N)
     F, J, _ = sy.evaluate_batch(X, cols)
     return J, F
 

@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import scenes
 
-from linkage_ros.core.model import Scene
 from linkage_ros.core.newton.linalg import newton_steps
 from linkage_ros.core.newton.schur import (
     SchurForm,
@@ -28,21 +28,17 @@ from linkage_ros.core.newton.schur import (
     schur_inverse_norms,
     schur_reduce,
 )
-from linkage_ros.core.solver import Solver
-from linkage_ros.resources import config_dir, scene_path
+from linkage_ros.resources import config_dir
 
 ALL_SCENES = sorted(p.stem for p in config_dir().glob('*.yaml'))
 
 
-def system(name):
-    return Solver(Scene.from_yaml(scene_path(name)).mechanism, method='newton').system
+system = scenes.newton_system
 
 
 def packed_jacobians(sy, rng, N=48):
     """(packed J, dense J, F) at configurations spread around the reference pose."""
-    X = sy.reference_x() + rng.normal(size=(N, sy.n)) * 0.5 * sy.step_scale
-    ref = Solver(sy.mech, method='newton').compiled.ref_values
-    cols = [np.broadcast_to(np.asarray(v, float), (N, *np.shape(v))) for v in ref]
+    X, cols = scenes.around_reference(sy, rng, N)
     V = sy.batch.values(cols, N)
     F, Jp, _ = sy.batch.evaluate(X, V, True, packed=True)
     return Jp, sy.batch.layout().unpack(Jp), F
