@@ -142,6 +142,10 @@ class ScalarProgram:
                 self.iwrap[i] = len(self.template)
                 self.template.append(0.0)
         self._wrap_regs = tuple(self.iwrap.items())
+        #: pairs of links whose angle and rotation registers a run sets to the very same floats
+        #: (a weld by a slide moves its member along the slide, and a welded body's placement
+        #: turns every member alike): a readout need not compare them
+        self.same_turn: set[frozenset[str]] = set()
         #: the steps of a run: the frames of the welded bodies it uses, then the plan's
         self.steps: list[Step] = []
         for b in sorted(used_bodies):
@@ -156,6 +160,9 @@ class ScalarProgram:
             if isinstance(st.args, RollerSide):
                 self.ishift[st.args.joint] = len(self.template)
                 self.template.append(complex(0.0, 0.0))
+        #: the branching steps so far (each takes one sign, in plan order: a dyad step's index
+        #: into the run's signs is fixed when it is compiled)
+        self._branches = 0
         for k, st in enumerate(plan.steps):
             step = self._compile(k, st, set_pts, placed)
             if step is not None:
@@ -174,6 +181,8 @@ class ScalarProgram:
         R[self.ifT[body.root]] = complex(0.0, 0.0)
         steps: list[Step] = []
         for w in body.welds:
+            if not isinstance(plan.specs[w.spec_index], AngleSpec):  # slide_weld: not turned
+                self.same_turn.add(frozenset((w.via, w.link)))
             s = plan.specs[w.spec_index]
             via = (self.ifphi[w.via], self.ifrot[w.via], self.ifT[w.via])
             out = (self.ifphi[w.link], self.ifrot[w.link], self.ifT[w.link])
@@ -404,9 +413,14 @@ class ScalarProgram:
 
         return angle
 
+    def _branch(self) -> int:
+        """The index of the next branching step's sign (each takes one)."""
+        self._branches += 1
+        return self._branches - 1
+
     def _rrr(self, k: int, x: str, a: RRRDyad) -> Step:
         return rrr_step(
-            k,
+            (k, self._branch()),
             x,
             (self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b]),
             self._radius(a.body_a, x, a.centre_a),
@@ -415,12 +429,14 @@ class ScalarProgram:
         )
 
     def _side(self, a: RollerSide) -> Step:
-        return side_step(self.ishift[a.joint], a.drawn_offset, 1j * self.direction[a.joint])
+        return side_step(
+            self._branch(), self.ishift[a.joint], a.drawn_offset, 1j * self.direction[a.joint]
+        )
 
     def _rrp(self, k: int, x: str, a: RRPDyad) -> Step:
         pj = self.plan.mech.prismatics[a.joint]
         return rrp_step(
-            k,
+            (k, self._branch()),
             x,
             (self.ip[x], self.ip[a.centre], self.irot[pj.guide], self.iT[pj.guide]),
             self._radius(a.body, x, a.centre),
@@ -433,7 +449,7 @@ class ScalarProgram:
         pj = self.plan.mech.prismatics[a.joint]
         guide = (self.ifphi[pj.guide], self.ifrot[pj.guide], self.ifT[pj.guide])
         return rpr_step(
-            k,
+            (k, self._branch()),
             (self.ip[st.point], self.ip[a.pivot], self.iang[bi]),
             None if self.single[bi] else guide,
             self._local(bi, a.pivot),

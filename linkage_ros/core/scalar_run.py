@@ -146,18 +146,20 @@ def slide_weld(
 
 
 def coincident(
-    r: SlotRun, k: int, x: str, sx: int, c1: complex, r1: float, ref_off: complex
+    r: SlotRun, at: tuple[int, int], x: str, sx: int, c1: complex, r1: float, ref_off: complex
 ) -> None:
     """Coincident circles (a change point, e.g. a rhombus folded flat) leave x anywhere on the
     circle: keep it where continuity predicts, else where the reference pose has it relative to
-    the first centre. Branch identity is undefined there (margin 0)."""
+    the first centre. Branch identity is undefined there (margin 0). ``at``: (the plan step's
+    index, the index of its sign)."""
+    k, b = at
     prefer = r.prediction()
     guess = prefer.get(x) if prefer else None
     off = (guess - c1) if guess is not None else ref_off
     n = _cabs_one(off)
     off = off / n if 0 < n < math.inf else 1 + 0j
     foot = c1 + r1 * off
-    sg = r.signs[len(r.used)]
+    sg = r.signs[b]
     if r.decide(0.0, x):
         sg = 1  # both branches are the one point
     z = (foot + (0.0 + sg * 0.0) * 1.0) * 1.0
