@@ -466,12 +466,14 @@ class ScalarProgram:
         prefer: Mapping[str, Any] | None = None,
         prev_margins: Sequence[float] | None = None,
         tol: float = TANGENCY_TOL,
-        predict: Callable[[], Mapping[str, Any] | None] | None = None,
+        predict: Callable[[Any, list[Any]], Mapping[str, Any] | None] | None = None,
+        predict_from: Any = None,
     ) -> SlotRun:
         """Execute the plan on one command (``values[i]`` a float, or an (x, y) pair for a
         point) with branch ``signs`` (default: the reference pose's); ``prefer`` maps point
         names to predicted complex positions and '@link' to predicted link angles (continuity,
-        see the module), or ``predict`` makes them where a step first needs them;
+        see the module), or ``predict(predict_from, values)`` makes them where a step first
+        needs them;
         ``prev_margins`` are the previous answer's dyad margins. Returns the
         run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
         if self.any_point:
@@ -483,6 +485,7 @@ class ScalarProgram:
             self.plan.reference_signs if signs is None else signs,
             prev_margins,
             predict,
+            predict_from,
             prefer,
             tol,
         )
@@ -492,7 +495,8 @@ class ScalarProgram:
         values: list[Any],
         signs: Sequence[int],
         prev_margins: Sequence[float] | None = None,
-        predict: Callable[[], Mapping[str, Any] | None] | None = None,
+        predict: Callable[[Any, list[Any]], Mapping[str, Any] | None] | None = None,
+        predict_from: Any = None,
         prefer: Mapping[str, Any] | None = None,
         tol: float = TANGENCY_TOL,
     ) -> SlotRun:
@@ -503,16 +507,20 @@ class ScalarProgram:
         for i, reg in self._wrap_regs:
             v = values[i]
             R[reg] = v if -_PI < v <= _PI else _wrap_one(v)
-        r.values, r.signs, r.prefer, r.predict, r.prev_margins, r.tol = (
-            values,
-            signs,
-            prefer,
-            predict,
-            prev_margins,
-            tol,
-        )
+        # (one store a field: a tuple assignment of many builds and unpacks a tuple)
+        r.values = values
+        r.signs = signs
+        r.prefer = prefer
+        r.predict = predict
+        r.predict_from = predict_from
+        r.prev_margins = prev_margins
+        r.tol = tol
         r.prev_small = min(prev_margins) < _CM if prev_margins else False
-        r.used, r.margins, r.margin, r.failure, r.violation = [], [], 1.0, -1, 0.0
+        r.used = []
+        r.margins = []
+        r.margin = 1.0
+        r.failure = -1
+        r.violation = 0.0
         try:
             for step in self.steps:
                 step(r)

@@ -31,7 +31,10 @@ class SlotRun:
     values: list[Any]
     signs: Sequence[int]
     prefer: Mapping[str, Any] | None  # made on first use by predict, if given
-    predict: Callable[[], Mapping[str, Any] | None] | None
+    #: predict(predict_from, values) makes ``prefer`` (a function and its first argument, not
+    #: a closure over them: nothing is made per run for the prediction most runs never ask)
+    predict: Callable[[Any, list[Any]], Mapping[str, Any] | None] | None
+    predict_from: Any
     prev_small: bool  # some previous margin is below CONTINUITY_MARGIN
     prev_margins: Sequence[float] | None
     tol: float
@@ -47,6 +50,7 @@ class SlotRun:
         'signs',
         'prefer',
         'predict',
+        'predict_from',
         'prev_small',
         'prev_margins',
         'tol',
@@ -60,7 +64,7 @@ class SlotRun:
     def prediction(self) -> Mapping[str, Any] | None:
         """Where continuity expects this configuration (None: nowhere), made on first use."""
         if self.predict is not None:
-            self.prefer, self.predict = self.predict(), None
+            self.prefer, self.predict = self.predict(self.predict_from, self.values), None
         return self.prefer
 
     def decide(self, margin: float, key: str) -> bool:

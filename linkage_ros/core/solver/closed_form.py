@@ -41,8 +41,8 @@ from typing import Any, NamedTuple
 
 from ..assemble import roller_offset
 from ..execute import LinkPoses
-from ..ops import _wrap_one
 from ..model.limits import limit_interval
+from ..ops import _wrap_one
 from ..plan import ReadKind, SpecReader, limit_violation, spec_reader
 from ..quantities import PointSpec, ScalarSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
@@ -433,12 +433,12 @@ class SlotReadout:
                 if limit_violation(spec, vals[i]) is not None:
                     return None
         history = cont.history
-        c = self.c
         r = self.prog.run_parsed(
             vals,
             cont.signs(self.plan),
             history[-1].margins if history else None,
-            lambda: cont.prediction(c, vals),
+            cont.prediction,
+            self.c,
         )
         if r.failure >= 0:
             return None
@@ -616,7 +616,8 @@ def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         vals,
         cont.signs(c.plan),
         history[-1].margins if history else None,
-        lambda: cont.prediction(c, vals),
+        cont.prediction,
+        c,
     )
     if r.failure >= 0:
         reason = c.dyad_reason(r.failure, r.violation)
