@@ -187,13 +187,22 @@ def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int)
     x1, y1, x2, y2 = c1.re, c1.im, c2.re, c2.im
     if not (isinstance(x1, np.ndarray) and x1.ndim == 1 and x1.size):
         return None
-    big = np.abs(x1)
-    np.maximum(big, np.abs(y1), out=big)
-    cm2 = np.abs(x2)
-    np.maximum(cm2, np.abs(y2), out=cm2)
-    np.maximum(big, cm2, out=big)
-    del cm2
-    np.maximum(big, np.maximum(abs(r1), abs(r2)), out=big)
+    # max(|x1|, |y1|, |x2|, |y2|, |r1|, |r2|): a centre the same in every row (a ground
+    # point: a read-only view of one value) taken once (max of magnitudes: the order of its
+    # arguments changes nothing but a NaN's payload, and a NaN row leaves below)
+    cm1, cm2 = _cmax(x1, y1), _cmax(x2, y2)
+    if np.ndim(cm1) == 0:
+        cm1, cm2 = cm2, cm1
+    radii = np.maximum(abs(r1), abs(r2))
+    if np.ndim(cm1):
+        big = cm1
+        np.maximum(big, cm2, out=big)
+        np.maximum(big, radii, out=big)
+    else:  # both centres one value: the radii make the rows
+        big = np.maximum(np.maximum(cm1, cm2), radii)
+    del cm1, cm2, radii
+    if np.ndim(big) == 0:  # one dyad in every row: the general kernel
+        return None
     # every row finite and > 0 (max propagates NaN) and a normal number
     if not (big.max() < np.inf and big.min() >= _MIN_NORMAL):
         return None
@@ -288,6 +297,16 @@ def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int)
     if not (np.isfinite(px).all() and np.isfinite(py).all()):
         return None
     return RrrPoint(CArray(px, py), np.ones(px.shape, bool), margin, np.zeros(px.shape), True)
+
+
+def _cmax(x: np.ndarray, y: np.ndarray) -> Any:
+    """max(|x|, |y|) elementwise into an array of its own; one value (0-d) where x and y are
+    each one value in every row (stride-0 views)."""
+    if x.strides == (0,) and y.strides == (0,):
+        return np.maximum(np.abs(x[0]), np.abs(y[0]))
+    m = np.abs(x)
+    np.maximum(m, np.abs(y), out=m)
+    return m
 
 
 #: the smallest positive normal float (the exponent-bit forms below need normal numbers)

@@ -135,9 +135,15 @@ class PlanExecutor:
                 # phi[s.link] - phi[s.reference] (wrap's array is a new one: worked in place)
                 rel = ops.wrap(v)
                 rel -= s.offset
-                if w.link != s.link:
+                negated = w.link != s.link
+                if negated:
                     np.negative(rel, out=rel)
-                phi = np.add(vphi, rel, out=rel)  # vphi + rel
+                # phi = vphi + rel; skipped where vphi is the root's +0.0 and rel = x - offset,
+                # offset != 0: no entry of rel is -0.0 then (x - offset is +0.0 where the two
+                # are equal, else not zero), so 0.0 + rel is rel to the bit (NaN too)
+                if negated or vphi is not _ZERO_0D or s.offset == 0.0:
+                    np.add(vphi, rel, out=rel)
+                phi = rel
                 rot = ops.expi(phi)
                 p = self.ref[w.shared_point]
                 frame[w.link] = (phi, rot, _minus_rotated(vrot * p + vT, rot, p))
@@ -265,7 +271,7 @@ class PlanExecutor:
                 lr = lrot if at_rest else _times(rot, lrot)
                 lt = _plus_rest(lT) if at_rest else _affine(rot, lT, Tb)
                 phi_of[link], rot_of[link], T_of[link] = (
-                    _full(n, phi + lphi),
+                    _rest_angle(n, lphi) if at_rest else _full(n, phi + lphi),
                     _full_c(n, lr),
                     _full_c(n, lt),
                 )
@@ -429,6 +435,16 @@ def _full_c(n: int, z: Any) -> Any:
     if isinstance(z, CArray) and np.ndim(z.re) == 0:
         return CArray(_full(n, z.re), _full(n, z.im))
     return z
+
+
+def _rest_angle(n: int, phi: Any) -> Any:
+    """0.0 + phi (a member's angle in a body at rest) as (n,) values: a read-only view of a
+    0-d angle, and an array of the frame's own as it is: no frame angle is -0.0 (each is
+    0.0 + rel, or rel = x - offset with offset != 0, or a sum of such, and a float sum is
+    -0.0 only where both terms are), so 0.0 + phi is phi to the bit (NaN too)."""
+    if np.ndim(phi) == 0:
+        return _full(n, 0.0 + phi)
+    return phi
 
 
 def _plus_rest(T: Any) -> Any:

@@ -154,7 +154,9 @@ def solve_batch(
         for i in not_closed:
             out.reason[i] = c.dyad_reason(int(failure[i]), float(violation[i]))
     with np.errstate(all='ignore'):
-        got = assemble_batch(c.assembler(run.poses.phi), _assembly_poses(c.plan, run.poses), safe)
+        poses = _assembly_poses(c.plan, run.poses)
+        got = assemble_batch(c.assembler(run.poses.phi), poses, safe, release=True)
+        del poses
     # the poses are read: let their arrays go before the answers are written (a batch's
     # arrays are most of its cost in fresh memory, page faults included)
     points, margin, signs = run.points, run.margin, run.signs
