@@ -307,9 +307,13 @@ class PlanExecutor:
                     cross -= t
                     dot = b.re * a.real
                     dot += np.multiply(b.im, a.imag, out=t)
+                    del t
+                del b, nb, a
                 phi = ops.atan2(cross, dot)
+                del cross, dot  # (a step's arrays let go before the next step makes its own)
                 rot = ops.expi(phi)
                 place_body(bi, phi, _minus_rotated(pts[p], rot, lp), rot)
+                del phi, rot
             elif op is _RRR or op is _RRP:
                 x = st.point
                 if op is _RRR:
@@ -328,6 +332,7 @@ class PlanExecutor:
                     margin_all = got.margin if first else ops.minimum(margin_all, got.margin)
                     if not got.all_ok:
                         closes(k, got.ok, got.violation)
+                    del got
                     continue
                 else:
                     b1, p1, jname = st.args.body, st.args.centre, st.args.joint
