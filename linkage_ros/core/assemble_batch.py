@@ -169,7 +169,7 @@ class _Buffers:
         the same in every row."""
         if not (isinstance(rot, CArray) and isinstance(T, CArray)):
             return rot * p + T
-        if all(_uniform(x) for x in (rot.re, rot.im, T.re, T.im)):
+        if _uniform(rot.re) and _uniform(rot.im) and _uniform(T.re) and _uniform(T.im):
             one = CArray(rot.re[0], rot.im[0]) * p + CArray(T.re[0], T.im[0])
             return CArray(np.float64(one.re), np.float64(one.im))
         t = self.t

@@ -122,8 +122,8 @@ def solve_batch(
     source = batch_source(c)
     out = BatchResult(n, arrays, source, [None] * n)
     finite = np.ones(n, bool)
-    for a in arrays:
-        finite &= np.all(np.isfinite(a.reshape(n, -1 if n else 1)), axis=1)
+    for a in arrays:  # (a point's rows: both coordinates)
+        finite &= np.isfinite(a) if a.ndim == 1 else np.all(np.isfinite(a), axis=1)
     for i in np.flatnonzero(~finite).tolist():
         out.reason[i] = 'value must be finite (NaN or inf in the command)'
     # non-finite values as 0 (their rows are refused); read only from here on
