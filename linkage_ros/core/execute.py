@@ -17,6 +17,7 @@ order, every answer bit for bit what the plain operators give.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -501,7 +502,11 @@ def _affine(rot: Any, r: Any, T: Any) -> Any:
 
 
 def _minus_rotated(P: Any, rot: Any, r: Any) -> Any:
-    """P - rot * r, as CArray's operators compute it (r a point), into two arrays."""
+    """P - rot * r, as CArray's operators compute it (r a point), into two arrays; P itself
+    where that is P to the bit in every row (_turned_about_origin: a body turned about its
+    frame's origin, as a crank about a ground pivot at (0, 0))."""
+    if r == 0 and _turned_about_origin(P, rot):
+        return P
     if not (_rows(rot) and isinstance(P, CArray) and _point(r)):
         return P - rot * r
     re = rot.re * r.real
@@ -510,6 +515,22 @@ def _minus_rotated(P: Any, rot: Any, r: Any) -> Any:
     im = rot.re * r.imag
     im += np.multiply(rot.im, r.real, out=t)
     return CArray(np.subtract(P.re, re, out=re), np.subtract(P.im, im, out=im))
+
+
+def _turned_about_origin(P: Any, rot: Any) -> bool:
+    """P - rot * 0 is P to the bit in every row: P one value (0-d) with no part -0.0, and
+    every rot finite. rot * 0 is then a zero of either sign in each part (inf * 0 would be
+    NaN), and p - z for a zero z is p itself unless p is -0.0 (-0.0 - -0.0 is +0.0)."""
+    if not (isinstance(P, CArray) and np.ndim(P.re) == 0 and np.ndim(P.im) == 0):
+        return False
+    if any(v == 0.0 and math.copysign(1.0, v) < 0 for v in (float(P.re), float(P.im))):
+        return False
+    if not (_rows(rot) and rot.re.size):
+        return False
+    # (max and min propagate NaN; -inf + inf is NaN, and a sum beyond the float range only
+    # sends a finite batch the long way)
+    spread = rot.re.max() + rot.re.min() + rot.im.max() + rot.im.min()
+    return bool(np.isfinite(spread))
 
 
 def _all_positive(x: Any) -> bool:
