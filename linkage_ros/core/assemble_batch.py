@@ -115,7 +115,8 @@ _INPUTS = -1
 def _pose_last_reads(asm: ResultAssembler) -> dict[int, list[str]]:
     """The links whose rot and T no stage of assemble_batch reads after stage k, by k: the
     input readings (_INPUTS), each revolute miss (its index), each slide (len(revolutes) +
-    its index); a link a known's point or slide reading needs (read last) never."""
+    its index); a link a known's point or slide reading needs (read last, unless read
+    before) never."""
     last: dict[str, int] = {}
 
     def reads(r: SpecReader) -> tuple[str, ...]:
@@ -131,7 +132,9 @@ def _pose_last_reads(asm: ResultAssembler) -> dict[int, list[str]]:
     for k, (_, slider, guide, r, *_) in enumerate(asm.slides, len(asm.revolutes)):
         last[slider] = last[guide] = k
         last.update(dict.fromkeys(reads(r), k))
-    keep = {l for _, r in asm.knowns for l in reads(r)}
+    # a known's reading made before (the same reader: read once) needs no pose at the end
+    earlier = {r for _, i, r in asm.inputs if i is None} | {s[3] for s in asm.slides}
+    keep = {l for _, r in asm.knowns if r not in earlier for l in reads(r)}
     by_stage: dict[int, list[str]] = {}
     for link, k in last.items():
         if link not in keep:

@@ -279,6 +279,9 @@ class PlanExecutor:
                 for p, r in members:
                     if p not in pts:
                         pts[p] = _full_c(n, _affine(lr, r, lt))
+            # the body is placed: its frame let go (a later step that asks for it makes it
+            # again, to the same bits); the executor's peak of memory is its frames and poses
+            frames.pop(bi, None)
 
         for k, st in enumerate(plan.steps):
             op = st.op
