@@ -315,19 +315,27 @@ _MIN_NORMAL = float(np.finfo(float).tiny)
 
 def _even_pow2_below(m: np.ndarray) -> np.ndarray:
     """_pow2_scale(m) for positive normal finite m, from m's exponent bits: 2**k with
-    k = ((e - 1) >> 1) << 1, frexp's exponent e = biased - 1022 (k + 1023 in [1, 2045])."""
-    b = m.view(np.int64) >> 52
-    b -= 1023
-    b >>= 1
-    b <<= 1
-    b += 1023
-    b <<= 52
+    k = ((e - 1) >> 1) << 1, frexp's exponent e = biased - 1022 (k + 1023 in [1, 2045]).
+    k = (biased - 1023) with its lowest bit cleared (floor to even), so k << 52 is m's bits
+    less 1023 << 52 with the mantissa and the exponent's lowest bit cleared (the mantissa,
+    below 2**52, never carries into the floor): three passes."""
+    b = m.view(np.int64) - _EXP_ONE
+    b &= _EVEN_EXP
+    b += _EXP_ONE
     return b.view(np.float64)
 
 
 def _pow2_above(m: np.ndarray) -> np.ndarray:
-    """pow2(frexp(m)[1]) for positive normal m < 2**1023 (here < 16): 2**(biased - 1022)."""
-    b = m.view(np.int64) >> 52
-    b += 1
-    b <<= 52
+    """pow2(frexp(m)[1]) for positive normal m < 2**1023 (here < 16): 2**(biased - 1022),
+    whose bits are m's exponent field plus one exponent step (two passes)."""
+    b = m.view(np.int64) & _EXP_FIELD
+    b += _EXP_STEP
     return b.view(np.float64)
+
+
+#: exponent-field constants of a float64's bits: one step, the field, 1.0's, and the mask that
+#: clears the mantissa and the exponent's lowest bit
+_EXP_STEP = np.int64(1 << 52)
+_EXP_FIELD = np.int64(0x7FF << 52)
+_EXP_ONE = np.int64(1023 << 52)
+_EVEN_EXP = np.int64(-2 << 52)
