@@ -145,7 +145,7 @@ class PlanExecutor:
                 if negated or vphi is not _ZERO_0D or s.offset == 0.0:
                     np.add(vphi, rel, out=rel)
                 phi = rel
-                rot = ops.expi(phi)
+                rot = _expi(phi)
                 p = self.ref[w.shared_point]
                 frame[w.link] = (phi, rot, _minus_rotated(vrot * p + vT, rot, p))
             else:
@@ -315,7 +315,7 @@ class PlanExecutor:
                 del b, nb, a
                 phi = ops.atan2(cross, dot)
                 del cross, dot  # (a step's arrays let go before the next step makes its own)
-                rot = ops.expi(phi)
+                rot = _expi(phi)
                 place_body(bi, phi, _minus_rotated(pts[p], rot, lp), rot)
                 del phi, rot
             elif op is _RRR or op is _RRP:
@@ -518,6 +518,14 @@ def _minus_rotated(P: Any, rot: Any, r: Any) -> Any:
     im = rot.re * r.imag
     im += np.multiply(rot.im, r.real, out=t)
     return CArray(np.subtract(P.re, re, out=re), np.subtract(P.im, im, out=im))
+
+
+def _expi(phi: Any) -> Any:
+    """ops.expi (e^{i phi}: cos and sin) of an (n,) float array without its broadcast (a
+    few us of Python per call: the two arrays have phi's shape already)."""
+    if isinstance(phi, np.ndarray) and phi.ndim == 1 and phi.dtype == np.float64:
+        return CArray(np.cos(phi), np.sin(phi))
+    return BATCH.expi(phi)
 
 
 def _turned_about_origin(P: Any, rot: Any) -> bool:
