@@ -11,6 +11,10 @@ ground's: a read-only view of one value, see core.execute) once, and keeps a wra
 array where every angle is in (-pi, pi] already (what ``ops.wrap`` returns then, copied). Every
 value is the generic reading's bit for bit (test/core/test_assemble_batch.py, every packaged
 scene, hostile rows included).
+
+The batch solve's peak of fresh memory was here (its poses, the answers and these buffers at
+once): with ``release`` the misses come first and each link's rot and T are let go after the
+last one that reads them, and the joint and link angles (phi only) are written after.
 """
 
 from __future__ import annotations

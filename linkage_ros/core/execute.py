@@ -12,7 +12,9 @@ float array is 160 kB: page faults as well as its pass). So values the same in e
 taken once, 0-d (a body frame's root, the ground body at rest), the arithmetic on arrays a step
 owns is done in place, and the RRR dyad with its point is one fused kernel
 (:func:`~linkage_ros.core.dyads_batch.rrr_point_batch`): the same float operations in the same
-order, every answer bit for bit what the plain operators give.
+order, every answer bit for bit what the plain operators give. A step's arrays, and a placed
+body's frame, are let go before the next step makes its own (the page faults of a batch in a
+fresh process follow its peak of memory, not its total).
 """
 
 from __future__ import annotations
