@@ -11,6 +11,10 @@ ground's: a read-only view of one value, see core.execute) once, and keeps a wra
 array where every angle is in (-pi, pi] already (what ``ops.wrap`` returns then, copied). Every
 value is the generic reading's bit for bit (test/core/test_assemble_batch.py, every packaged
 scene, hostile rows included).
+
+The batch solve's peak of fresh memory was here (its poses, the answers and these buffers at
+once): with ``release`` the misses come first and each link's rot and T are let go after the
+last one that reads them, and the joint and link angles (phi only) are written after.
 """
 
 from __future__ import annotations
@@ -26,12 +30,23 @@ from .ops import BATCH, CArray
 from .plan import ReadKind, SpecReader
 
 
-def assemble_batch(asm: ResultAssembler, poses: Any, values: Sequence[Any]) -> Assembly:
+def assemble_batch(
+    asm: ResultAssembler, poses: Any, values: Sequence[Any], release: bool = False
+) -> Assembly:
     """``asm(BATCH, poses, values)``, bit for bit (module docstring): ``poses`` complex batch
-    link poses (CArray), ``values`` the (n,) / (n, 2) command arrays."""
+    link poses (CArray), ``values`` the (n,) / (n, 2) command arrays. ``release``: the caller
+    is done with ``poses``' rotations and offsets: each link's ``rot`` and ``T`` are taken out
+    of them as soon as the last miss or reading that needs them is written (the batch's peak
+    of memory, and so its page faults, is here: the poses, the answers and the buffers)."""
     L, phi, rot, T = asm.L, poses.phi, poses.rot, poses.T
     mx, wrap = np.maximum, BATCH.wrap
     read_once: dict[SpecReader, Any] = {}
+    done_after = _pose_last_reads(asm) if release else {}
+
+    def done(stage: int) -> None:
+        for link in done_after.get(stage, ()):
+            rot.pop(link, None)
+            T.pop(link, None)
 
     def reading(read: SpecReader) -> Any:
         got = read_once.get(read)
@@ -42,22 +57,25 @@ def assemble_batch(asm: ResultAssembler, poses: Any, values: Sequence[Any]) -> A
     inputs = {}
     for a, i, read in asm.inputs:
         inputs[a] = values[i] if i is not None else reading(read)
-    joints: dict[str, Any] = {}
     worst: Any = 0.0
     work: _Buffers | None = None
-    for name, child, parent, offset, p in asm.revolutes:
-        j = phi[child] + offset  # offset + phi[child] - phi[parent]
-        j -= phi[parent]
-        joints[name] = _wrapped(j)
+    done(_INPUTS)
+    # the misses first, each link's rot and T let go after its last (release); the joint
+    # angles, which need phi only, after them: fewer arrays held at once
+    for k, (_, child, parent, _, p) in enumerate(asm.revolutes):
         if work is None:
-            work = _Buffers(j.shape[0])
+            work = _Buffers(np.shape(phi[child])[0])
         # max(|d.real|, |d.imag|) of d = (rot[parent] p + T[parent]) - (rot[child] p + T[child])
         m = work.miss(rot[parent], T[parent], rot[child], T[child], p)
         worst = mx(worst, m) if isinstance(worst, float) else mx(worst, m, out=worst)
-    for name, slider, guide, read, p, normal, face in asm.slides:
-        joints[name] = reading(read)
+        done(k)
+    slid: dict[str, Any] = {}
+    for k, (name, slider, guide, read, p, normal, face) in enumerate(
+        asm.slides, len(asm.revolutes)
+    ):
+        slid[name] = reading(read)
         if work is None:
-            work = _Buffers(np.shape(joints[name])[0])
+            work = _Buffers(np.shape(slid[name])[0])
         # abs(abs(across + face) - abs(face)), across = off . nrm, off = (rot[slider] p +
         # T[slider]) - (rot[guide] p + T[guide]), nrm = rot[guide] normal
         m = work.face_miss(rot[slider], T[slider], rot[guide], T[guide], p, normal, face)
@@ -67,6 +85,14 @@ def assemble_batch(asm: ResultAssembler, poses: Any, values: Sequence[Any]) -> A
         np.abs(turn, out=turn)
         turn *= L
         worst = mx(worst, turn) if isinstance(worst, float) else mx(worst, turn, out=worst)
+        done(k)
+    del work  # (the buffers let go before the angles below are written)
+    joints: dict[str, Any] = {}
+    for name, child, parent, offset, _ in asm.revolutes:
+        j = phi[child] + offset  # offset + phi[child] - phi[parent]
+        j -= phi[parent]
+        joints[name] = _wrapped(j)
+    joints.update(slid)
     links = {}
     for l, ref in asm.links:
         v = phi[l] + ref  # ref + phi[l]
@@ -75,11 +101,49 @@ def assemble_batch(asm: ResultAssembler, poses: Any, values: Sequence[Any]) -> A
         got, v = reading(read), values[i]
         if read.kind is ReadKind.POINT:
             worst = mx(worst, mx(abs(got.real - v[:, 0]), abs(got.imag - v[:, 1])))
-        elif read.kind is ReadKind.ANGLE:
-            worst = mx(worst, L * abs(wrap(got - wrap(v))))
+        elif read.kind is ReadKind.ANGLE:  # L * abs(wrap(got - wrap(v))), in one array
+            want = wrap(v)  # (a new array: wrap's copy)
+            miss = _wrapped(np.subtract(got, want, out=want) if _rows_of(want, got) else got - want)
+            np.abs(miss, out=miss)
+            np.multiply(miss, L, out=miss)
+            worst = mx(worst, miss) if isinstance(worst, float) else mx(worst, miss, out=worst)
         else:
             worst = mx(worst, abs(got - v))
     return Assembly(inputs, joints, links, worst / L)
+
+
+#: the stage of the input readings (before the first miss; see _pose_last_reads)
+_INPUTS = -1
+
+
+def _pose_last_reads(asm: ResultAssembler) -> dict[int, list[str]]:
+    """The links whose rot and T no stage of assemble_batch reads after stage k, by k: the
+    input readings (_INPUTS), each revolute miss (its index), each slide (len(revolutes) +
+    its index); a link a known's point or slide reading needs (read last, unless read
+    before) never."""
+    last: dict[str, int] = {}
+
+    def reads(r: SpecReader) -> tuple[str, ...]:
+        if r.kind is ReadKind.ANGLE:
+            return ()
+        return (r.link,) if r.kind is ReadKind.POINT else (r.link, r.reference)
+
+    for _, i, r in asm.inputs:
+        if i is None:
+            last.update(dict.fromkeys(reads(r), _INPUTS))
+    for k, (_, child, parent, _, _) in enumerate(asm.revolutes):
+        last[child] = last[parent] = k
+    for k, (_, slider, guide, r, *_) in enumerate(asm.slides, len(asm.revolutes)):
+        last[slider] = last[guide] = k
+        last.update(dict.fromkeys(reads(r), k))
+    # a known's reading made before (the same reader: read once) needs no pose at the end
+    earlier = {r for _, i, r in asm.inputs if i is None} | {s[3] for s in asm.slides}
+    keep = {l for _, r in asm.knowns if r not in earlier for l in reads(r)}
+    by_stage: dict[int, list[str]] = {}
+    for link, k in last.items():
+        if link not in keep:
+            by_stage.setdefault(k, []).append(link)
+    return by_stage
 
 
 def _wrapped(v: np.ndarray) -> np.ndarray:
@@ -89,6 +153,11 @@ def _wrapped(v: np.ndarray) -> np.ndarray:
         return v
     out: np.ndarray = BATCH.wrap(v)
     return out
+
+
+def _rows_of(a: Any, b: Any) -> bool:
+    """a is an (n,) float array b's shape: what b - a can be written into."""
+    return isinstance(a, np.ndarray) and a.ndim == 1 and np.shape(b) == a.shape and a.dtype == float
 
 
 def _uniform(x: Any) -> bool:
@@ -107,7 +176,7 @@ class _Buffers:
         the same in every row."""
         if not (isinstance(rot, CArray) and isinstance(T, CArray)):
             return rot * p + T
-        if all(_uniform(x) for x in (rot.re, rot.im, T.re, T.im)):
+        if _uniform(rot.re) and _uniform(rot.im) and _uniform(T.re) and _uniform(T.im):
             one = CArray(rot.re[0], rot.im[0]) * p + CArray(T.re[0], T.im[0])
             return CArray(np.float64(one.re), np.float64(one.im))
         t = self.t

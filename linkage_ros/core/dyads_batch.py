@@ -187,13 +187,22 @@ def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int)
     x1, y1, x2, y2 = c1.re, c1.im, c2.re, c2.im
     if not (isinstance(x1, np.ndarray) and x1.ndim == 1 and x1.size):
         return None
-    big = np.abs(x1)
-    np.maximum(big, np.abs(y1), out=big)
-    cm2 = np.abs(x2)
-    np.maximum(cm2, np.abs(y2), out=cm2)
-    np.maximum(big, cm2, out=big)
-    del cm2
-    np.maximum(big, np.maximum(abs(r1), abs(r2)), out=big)
+    # max(|x1|, |y1|, |x2|, |y2|, |r1|, |r2|): a centre the same in every row (a ground
+    # point: a read-only view of one value) taken once (max of magnitudes: the order of its
+    # arguments changes nothing but a NaN's payload, and a NaN row leaves below)
+    cm1, cm2 = _cmax(x1, y1), _cmax(x2, y2)
+    if np.ndim(cm1) == 0:
+        cm1, cm2 = cm2, cm1
+    radii = np.maximum(abs(r1), abs(r2))
+    if np.ndim(cm1):
+        big = cm1
+        np.maximum(big, cm2, out=big)
+        np.maximum(big, radii, out=big)
+    else:  # both centres one value: the radii make the rows
+        big = np.maximum(np.maximum(cm1, cm2), radii)
+    del cm1, cm2, radii
+    if np.ndim(big) == 0:  # one dyad in every row: the general kernel
+        return None
     # every row finite and > 0 (max propagates NaN) and a normal number
     if not (big.max() < np.inf and big.min() >= _MIN_NORMAL):
         return None
@@ -290,25 +299,43 @@ def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int)
     return RrrPoint(CArray(px, py), np.ones(px.shape, bool), margin, np.zeros(px.shape), True)
 
 
+def _cmax(x: np.ndarray, y: np.ndarray) -> Any:
+    """max(|x|, |y|) elementwise into an array of its own; one value (0-d) where x and y are
+    each one value in every row (stride-0 views)."""
+    if x.strides == (0,) and y.strides == (0,):
+        return np.maximum(np.abs(x[0]), np.abs(y[0]))
+    m = np.abs(x)
+    np.maximum(m, np.abs(y), out=m)
+    return m
+
+
 #: the smallest positive normal float (the exponent-bit forms below need normal numbers)
 _MIN_NORMAL = float(np.finfo(float).tiny)
 
 
 def _even_pow2_below(m: np.ndarray) -> np.ndarray:
     """_pow2_scale(m) for positive normal finite m, from m's exponent bits: 2**k with
-    k = ((e - 1) >> 1) << 1, frexp's exponent e = biased - 1022 (k + 1023 in [1, 2045])."""
-    b = m.view(np.int64) >> 52
-    b -= 1023
-    b >>= 1
-    b <<= 1
-    b += 1023
-    b <<= 52
+    k = ((e - 1) >> 1) << 1, frexp's exponent e = biased - 1022 (k + 1023 in [1, 2045]).
+    k = (biased - 1023) with its lowest bit cleared (floor to even), so k << 52 is m's bits
+    less 1023 << 52 with the mantissa and the exponent's lowest bit cleared (the mantissa,
+    below 2**52, never carries into the floor): three passes."""
+    b = m.view(np.int64) - _EXP_ONE
+    b &= _EVEN_EXP
+    b += _EXP_ONE
     return b.view(np.float64)
 
 
 def _pow2_above(m: np.ndarray) -> np.ndarray:
-    """pow2(frexp(m)[1]) for positive normal m < 2**1023 (here < 16): 2**(biased - 1022)."""
-    b = m.view(np.int64) >> 52
-    b += 1
-    b <<= 52
+    """pow2(frexp(m)[1]) for positive normal m < 2**1023 (here < 16): 2**(biased - 1022),
+    whose bits are m's exponent field plus one exponent step (two passes)."""
+    b = m.view(np.int64) & _EXP_FIELD
+    b += _EXP_STEP
     return b.view(np.float64)
+
+
+#: exponent-field constants of a float64's bits: one step, the field, 1.0's, and the mask that
+#: clears the mantissa and the exponent's lowest bit
+_EXP_STEP = np.int64(1 << 52)
+_EXP_FIELD = np.int64(0x7FF << 52)
+_EXP_ONE = np.int64(1023 << 52)
+_EVEN_EXP = np.int64(-2 << 52)

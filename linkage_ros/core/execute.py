@@ -12,11 +12,14 @@ float array is 160 kB: page faults as well as its pass). So values the same in e
 taken once, 0-d (a body frame's root, the ground body at rest), the arithmetic on arrays a step
 owns is done in place, and the RRR dyad with its point is one fused kernel
 (:func:`~linkage_ros.core.dyads_batch.rrr_point_batch`): the same float operations in the same
-order, every answer bit for bit what the plain operators give.
+order, every answer bit for bit what the plain operators give. A step's arrays, and a placed
+body's frame, are let go before the next step makes its own (the page faults of a batch in a
+fresh process follow its peak of memory, not its total).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -135,10 +138,16 @@ class PlanExecutor:
                 # phi[s.link] - phi[s.reference] (wrap's array is a new one: worked in place)
                 rel = ops.wrap(v)
                 rel -= s.offset
-                if w.link != s.link:
+                negated = w.link != s.link
+                if negated:
                     np.negative(rel, out=rel)
-                phi = np.add(vphi, rel, out=rel)  # vphi + rel
-                rot = ops.expi(phi)
+                # phi = vphi + rel; skipped where vphi is the root's +0.0 and rel = x - offset,
+                # offset != 0: no entry of rel is -0.0 then (x - offset is +0.0 where the two
+                # are equal, else not zero), so 0.0 + rel is rel to the bit (NaN too)
+                if negated or vphi is not _ZERO_0D or s.offset == 0.0:
+                    np.add(vphi, rel, out=rel)
+                phi = rel
+                rot = _expi(phi)
                 p = self.ref[w.shared_point]
                 frame[w.link] = (phi, rot, _minus_rotated(vrot * p + vT, rot, p))
             else:
@@ -265,13 +274,16 @@ class PlanExecutor:
                 lr = lrot if at_rest else _times(rot, lrot)
                 lt = _plus_rest(lT) if at_rest else _affine(rot, lT, Tb)
                 phi_of[link], rot_of[link], T_of[link] = (
-                    _full(n, phi + lphi),
+                    _rest_angle(n, lphi) if at_rest else _full(n, phi + lphi),
                     _full_c(n, lr),
                     _full_c(n, lt),
                 )
                 for p, r in members:
                     if p not in pts:
                         pts[p] = _full_c(n, _affine(lr, r, lt))
+            # the body is placed: its frame let go (a later step that asks for it makes it
+            # again, to the same bits); the executor's peak of memory is its frames and poses
+            frames.pop(bi, None)
 
         for k, st in enumerate(plan.steps):
             op = st.op
@@ -301,9 +313,13 @@ class PlanExecutor:
                     cross -= t
                     dot = b.re * a.real
                     dot += np.multiply(b.im, a.imag, out=t)
+                    del t
+                del b, nb, a
                 phi = ops.atan2(cross, dot)
-                rot = ops.expi(phi)
+                del cross, dot  # (a step's arrays let go before the next step makes its own)
+                rot = _expi(phi)
                 place_body(bi, phi, _minus_rotated(pts[p], rot, lp), rot)
+                del phi, rot
             elif op is _RRR or op is _RRP:
                 x = st.point
                 if op is _RRR:
@@ -322,6 +338,7 @@ class PlanExecutor:
                     margin_all = got.margin if first else ops.minimum(margin_all, got.margin)
                     if not got.all_ok:
                         closes(k, got.ok, got.violation)
+                    del got
                     continue
                 else:
                     b1, p1, jname = st.args.body, st.args.centre, st.args.joint
@@ -431,6 +448,16 @@ def _full_c(n: int, z: Any) -> Any:
     return z
 
 
+def _rest_angle(n: int, phi: Any) -> Any:
+    """0.0 + phi (a member's angle in a body at rest) as (n,) values: a read-only view of a
+    0-d angle, and an array of the frame's own as it is: no frame angle is -0.0 (each is
+    0.0 + rel, or rel = x - offset with offset != 0, or a sum of such, and a float sum is
+    -0.0 only where both terms are), so 0.0 + phi is phi to the bit (NaN too)."""
+    if np.ndim(phi) == 0:
+        return _full(n, 0.0 + phi)
+    return phi
+
+
 def _plus_rest(T: Any) -> Any:
     """T + _REST_T (x + 0.0 and y + 0.0, as CArray's + computes it), in place where T is an
     at-rest frame's own (n,) arrays."""
@@ -480,7 +507,11 @@ def _affine(rot: Any, r: Any, T: Any) -> Any:
 
 
 def _minus_rotated(P: Any, rot: Any, r: Any) -> Any:
-    """P - rot * r, as CArray's operators compute it (r a point), into two arrays."""
+    """P - rot * r, as CArray's operators compute it (r a point), into two arrays; P itself
+    where that is P to the bit in every row (_turned_about_origin: a body turned about its
+    frame's origin, as a crank about a ground pivot at (0, 0))."""
+    if r == 0 and _turned_about_origin(P, rot):
+        return P
     if not (_rows(rot) and isinstance(P, CArray) and _point(r)):
         return P - rot * r
     re = rot.re * r.real
@@ -489,6 +520,30 @@ def _minus_rotated(P: Any, rot: Any, r: Any) -> Any:
     im = rot.re * r.imag
     im += np.multiply(rot.im, r.real, out=t)
     return CArray(np.subtract(P.re, re, out=re), np.subtract(P.im, im, out=im))
+
+
+def _expi(phi: Any) -> Any:
+    """ops.expi (e^{i phi}: cos and sin) of an (n,) float array without its broadcast (a
+    few us of Python per call: the two arrays have phi's shape already)."""
+    if isinstance(phi, np.ndarray) and phi.ndim == 1 and phi.dtype == np.float64:
+        return CArray(np.cos(phi), np.sin(phi))
+    return BATCH.expi(phi)
+
+
+def _turned_about_origin(P: Any, rot: Any) -> bool:
+    """P - rot * 0 is P to the bit in every row: P one value (0-d) with no part -0.0, and
+    every rot finite. rot * 0 is then a zero of either sign in each part (inf * 0 would be
+    NaN), and p - z for a zero z is p itself unless p is -0.0 (-0.0 - -0.0 is +0.0)."""
+    if not (isinstance(P, CArray) and np.ndim(P.re) == 0 and np.ndim(P.im) == 0):
+        return False
+    if any(v == 0.0 and math.copysign(1.0, v) < 0 for v in (float(P.re), float(P.im))):
+        return False
+    if not (_rows(rot) and rot.re.size):
+        return False
+    # (max and min propagate NaN; -inf + inf is NaN, and a sum beyond the float range only
+    # sends a finite batch the long way)
+    spread = rot.re.max() + rot.re.min() + rot.im.max() + rot.im.min()
+    return bool(np.isfinite(spread))
 
 
 def _all_positive(x: Any) -> bool:

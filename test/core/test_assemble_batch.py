@@ -13,7 +13,7 @@ from linkage_ros.core.assemble_batch import assemble_batch
 from linkage_ros.core.errors import PlanError
 from linkage_ros.core.execute import LinkPoses, executor
 from linkage_ros.core.ops import BATCH, CArray
-from linkage_ros.core.plan import Poses, link_poses
+from linkage_ros.core.plan import Poses, ReadKind, link_poses
 from linkage_ros.core.quantities import PointSpec
 from linkage_ros.core.solver import Solver
 
@@ -84,8 +84,31 @@ def test_batch_reading_is_the_generic_reading_bit_for_bit(stem):
                 poses.T,
             )
             _assert_same(assemble_batch(asm, wide, values), asm(BATCH, wide, values))
+            _assert_releases(asm, poses, values)
         tried += 1
     assert tried
+
+
+def _assert_releases(asm, poses, values):
+    """release=True (the batch solve's: its poses are done with after the reading) gives the
+    same reading, and takes out of the poses the rot and T of every link, but those the
+    knowns' point and slide readings need (read last, unless read before); phi stays whole."""
+    mine = LinkPoses(dict(poses.phi), dict(poses.rot), dict(poses.T))
+    want = asm(BATCH, poses, values)
+    _assert_same(assemble_batch(asm, mine, values, release=True), want)
+    kept = set()
+    earlier = {r for _, i, r in asm.inputs if i is None} | {s[3] for s in asm.slides}
+    for _, read in asm.knowns:
+        if read in earlier:  # read before (once): its value kept, not its poses
+            continue
+        if read.kind is ReadKind.POINT:
+            kept.add(read.link)
+        elif read.kind is ReadKind.SLIDE:
+            kept |= {read.link, read.reference}
+    read_links = {l for _, child, parent, *_ in asm.revolutes for l in (child, parent)}
+    read_links |= {l for _, slider, guide, *_ in asm.slides for l in (slider, guide)}
+    assert set(mine.rot) == set(mine.T) == (set(poses.rot) - read_links) | (kept & set(poses.rot))
+    assert mine.phi == poses.phi
 
 
 def test_batch_reading_of_one_pose_in_every_row():

@@ -137,6 +137,31 @@ def test_rrr_point_on_closing_batches_at_every_scale_and_at_the_toggle():
         _assert_point_is_generic(c1, 0.375, c2, 0.125, sign)
 
 
+def _one_value(v, n):
+    """v in every one of n rows as the executor gives a ground point: a read-only view."""
+    return np.broadcast_to(np.float64(v), (n,))
+
+
+@pytest.mark.parametrize('which', ['first', 'second', 'both'])
+def test_rrr_point_with_a_centre_the_same_in_every_row(which):
+    """A centre that is one value in every row (a ground point: a stride-0 view, taken once
+    by the kernel), the other per row or one value too, radii stated or per row, hostile
+    values in the one-value centre: the generic answer, bit for bit."""
+    rng = np.random.default_rng(29)
+    n = 500
+    t = rng.uniform(-math.pi, math.pi, n)
+    rows = CArray(0.1 * np.cos(t), 0.1 * np.sin(t))
+    for x, y in ((0.3, 0.0), (-0.2, 0.25), (0.0, -0.0), (1e300, 0.0), (math.nan, 0.0)):
+        one = CArray(_one_value(x, n), _one_value(y, n))
+        if which == 'both':
+            c1, c2 = CArray(_one_value(0.05, n), _one_value(-0.02, n)), one
+        else:
+            c1, c2 = (one, rows) if which == 'first' else (rows, one)
+        for r1 in (0.25, rng.uniform(0.2, 0.3, n)):
+            for sign in (1, -1):
+                _assert_point_is_generic(c1, r1, c2, 0.2, sign)
+
+
 def test_pow2_is_ldexp_over_the_whole_exponent_range():
     k = np.arange(-1100, 1100)
     with np.errstate(over='ignore'):  # 2 ** 1024 and beyond: inf on both

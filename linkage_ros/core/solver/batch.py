@@ -122,12 +122,12 @@ def solve_batch(
     source = batch_source(c)
     out = BatchResult(n, arrays, source, [None] * n)
     finite = np.ones(n, bool)
-    for a in arrays:
-        finite &= np.all(np.isfinite(a.reshape(n, -1 if n else 1)), axis=1)
-    for i in np.flatnonzero(~finite).tolist():
+    for a in arrays:  # (a point's rows: both coordinates)
+        finite &= np.isfinite(a) if a.ndim == 1 else np.all(np.isfinite(a), axis=1)
+    every_finite = bool(np.all(finite))
+    for i in () if every_finite else np.flatnonzero(~finite).tolist():
         out.reason[i] = 'value must be finite (NaN or inf in the command)'
     # non-finite values as 0 (their rows are refused); read only from here on
-    every_finite = bool(np.all(finite))
     safe = arrays if every_finite else [np.where(np.isfinite(a), a, 0.0) for a in arrays]
     limit_bad = np.zeros(n, bool)
     for s, a in zip(c.specs, safe):
@@ -147,14 +147,18 @@ def solve_batch(
     closed = np.asarray(run.ok, bool)
     valid = finite & ~limit_bad
     ok = closed & valid
-    not_closed = np.flatnonzero(~closed & valid).tolist()
+    # (the index lists made only where a row needs words: the common batch has none)
+    every_closed = bool(closed.all())
+    not_closed = [] if every_closed else np.flatnonzero(~closed & valid).tolist()
     if not_closed:
         failure = np.asarray(run.failure).astype(int)
         violation = np.asarray(run.violation, float)
         for i in not_closed:
             out.reason[i] = c.dyad_reason(int(failure[i]), float(violation[i]))
     with np.errstate(all='ignore'):
-        got = assemble_batch(c.assembler(run.poses.phi), _assembly_poses(c.plan, run.poses), safe)
+        poses = _assembly_poses(c.plan, run.poses)
+        got = assemble_batch(c.assembler(run.poses.phi), poses, safe, release=True)
+        del poses
     # the poses are read: let their arrays go before the answers are written (a batch's
     # arrays are most of its cost in fresh memory, page faults included)
     points, margin, signs = run.points, run.margin, run.signs
@@ -163,7 +167,7 @@ def solve_batch(
     # (the where passes skipped where every row is ok: they would copy)
     residual = _owned_where(ok, got.residual, every)
     far = ok & ~(residual <= c.closure_limit)  # as solve_one: no false assembly
-    for i in np.flatnonzero(far).tolist():
+    for i in np.flatnonzero(far).tolist() if far.any() else ():
         out.reason[i] = c.closure_reason(float(residual[i]))
     ok &= ~far
     _fill(out, c, points, arrays, finite, ok, got)
