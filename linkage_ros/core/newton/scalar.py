@@ -23,7 +23,7 @@ the bench sweep, 2-core machine shared with other jobs, load ~5.5): solve_from_g
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
@@ -32,6 +32,7 @@ from ..execute import LinkPoses
 from ..ops import _wrap_one
 from ..quantities import AngleSpec, SlideSpec
 from .evaluate import evaluate, evaluate_rows_scaled, evaluate_scaled, jacobian
+from .lean import LeanSolve
 from .linalg import cond, factor, lapack, lu_step, scaled_cond, side_ok, sign_of
 from .results import (
     COND_EXACT,
@@ -127,13 +128,69 @@ def predict(
 ) -> np.ndarray | None:
     """Predicted solution at ``vals`` from the solution x_last at vals_last and its
     rate_factor ``lu_last`` (an LUFactor: the tangent T = dx/dvalue is its inverse applied to
-    -dF/dvalue). h = value_step(vals_last, vals); alone: x_last + T h. Given the solution before
-    (x_prev at vals_prev, hp the step since, s = h.hp / hp.hp, w = h - s hp): along hp the cubic
-    Hermite extrapolation through both solutions and their tangents (with ``lu_prev``),
-    else the quadratic one (the curvature the tangent missed over hp, times s^2), plus
-    T w off that line. None if it moves an unknown by more than MAX_PREDICTION (rad, or
-    length scales)."""
-    getrs = lapack().getrs
+    -dF/dvalue), and optionally the solution before (see extrapolate). None if it moves an
+    unknown by more than MAX_PREDICTION (rad, or length scales)."""
+    getrs, n = lapack().getrs, t.n
+    lu_last_d = dense_factor(t, lu_last)
+    if lu_last_d is None:
+        return None
+    lu_prev = None if lu_prev is None else dense_factor(t, lu_prev)
+
+    def solve(lu: tuple[Any, ...], rhs: list[float]) -> list[float]:
+        y, info = getrs(lu[0], lu[1], np.array(rhs))
+        out: list[float] = y.tolist() if info == 0 else [math.nan] * n
+        return out
+
+    got = extrapolate(
+        t,
+        solve,
+        x_last.tolist(),
+        lu_last_d,
+        vals_last,
+        vals,
+        None if x_prev is None else x_prev.tolist(),
+        vals_prev,
+        lu_prev,
+    )
+    return None if got is None else np.array(got)
+
+
+def dense_factor(t: LoopTables, lu: tuple[Any, ...]) -> tuple[Any, ...] | None:
+    """An LUFactor as predict() takes it: ``lu`` itself, or the dense J's at a lean answer
+    (lean.LeanSolve: its varying entries give the J the dense fast path would have factorised
+    there; None if it is singular)."""
+    if isinstance(lu, LeanSolve):
+        return factor(jacobian(t, lu.jv, t.tpl_s))
+    return lu
+
+
+def answer_cond(t: LoopTables, jv: Sequence[float]) -> float:
+    """The condition number finish() reports at an answer whose J has the varying entries
+    ``jv`` (evaluate_rows_scaled's): the same function of the same J."""
+    J = jacobian(t, jv, t.tpl_s)
+    return _cond(J, factor(J))
+
+
+def extrapolate(
+    t: LoopTables,
+    solve: Callable[[Any, list[float]], list[float]],
+    xl: list[float],
+    lu_last: Any,
+    vals_last: Sequence[Any],
+    vals: Sequence[Any],
+    x_prev: list[float] | None = None,
+    vals_prev: Sequence[Any] | None = None,
+    lu_prev: Any = None,
+) -> list[float] | None:
+    """The continuation predictor (predict, lean.predict_lean) over plain floats: the solution
+    at ``vals`` predicted from the solution ``xl`` at vals_last, where ``solve(lu, rhs)`` is
+    J^-1 rhs at that solution (``lu_last`` its factorisation in the caller's form). h =
+    value_step(vals_last, vals); alone: xl + T h, with T = dx/dvalue = J^-1 (-dF/dvalue).
+    Given the solution before (x_prev at vals_prev, hp the step since, s = h.hp / hp.hp,
+    w = h - s hp): along hp the cubic Hermite extrapolation through both solutions and their
+    tangents (with ``lu_prev``), else the quadratic one (the curvature the tangent missed over
+    hp, times s^2), plus T w off that line. None if it moves an unknown by more than
+    MAX_PREDICTION (rad, or length scales)."""
     h = value_step(t, vals_last, vals)
     c_last: list[float] = h
     c_prev: list[float] | None = None
@@ -155,28 +212,25 @@ def predict(
 
     n, rows = t.n, t.val_rows or ()
 
-    def tangent(lu: tuple[Any, ...], c: list[float]) -> list[float]:  # T c, scale-free
+    def tangent(lu: Any, c: list[float]) -> list[float]:  # T c, scale-free
         rhs = [0.0] * n
         for i, v in zip(rows, c):
             rhs[i] = v  # -dF/dvalue (scale-free) times c
-        y, info = getrs(lu[0], lu[1], np.array(rhs))
-        out: list[float] = y.tolist() if info == 0 else [math.nan] * n
-        return out
+        return solve(lu, rhs)
 
     # plain Python on these short vectors: a dozen numpy calls would cost more
     dy = tangent(lu_last, c_last)
     if c_prev is not None and lu_prev is not None:
         dy = [a + b for a, b in zip(dy, tangent(lu_prev, c_prev))]
-    xl: list[float] = x_last.tolist()
     if k_back and x_prev is not None:
-        back = [a - b for a, b in zip(x_prev.tolist(), xl)]
+        back = [a - b for a, b in zip(x_prev, xl)]
         for j in range(0, n, 3):
             if abs(back[j]) > _PI:  # angles a turn apart
                 back[j] = math.remainder(back[j], 2 * math.pi)
         dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
     if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
         return None
-    return np.array([x + d * w for x, d, w in zip(xl, dy, t.step_list)])
+    return [x + d * w for x, d, w in zip(xl, dy, t.step_list)]
 
 
 def rates(

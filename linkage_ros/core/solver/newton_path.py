@@ -16,6 +16,7 @@ from ..quantities import AngleSpec, PointSpec
 from ..steps import RollerSide
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import BranchRule, Continuity, State, state_of
+from .newton_lean import branch_jump, lean_newton
 from .reading import jacobian_sign, mode_label
 from .result import CLOSURE_LIMIT, NEAR_SINGULAR_COND, WALK_BUDGET, Result, branch_text
 
@@ -141,14 +142,6 @@ def near_singular(c: CompiledSolve, x: np.ndarray, fixed: LinkPoses | None, valu
     return c.system.scaled_cond(J) > NEAR_SINGULAR_COND
 
 
-def branch_jump(ga: Geometry, gb: Geometry) -> bool:
-    """True when a dyad changed side between two configurations (their _branch_of) while
-    far from its singularity: only a jump (not a continuous motion) does that."""
-    return any(
-        a != b and min(p, q) >= CONTINUITY_MARGIN for a, b, p, q in zip(ga[0], gb[0], ga[1], gb[1])
-    )
-
-
 def interpolate(c: CompiledSolve, a: Values, b: Values, t: float) -> Values:
     """The command a fraction t of the way from a to b (angles the short way round)."""
     out = []
@@ -194,6 +187,11 @@ def roller_side_refusal(c: CompiledSolve, cont: Continuity) -> str | None:
 
 def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
     """One command by Newton (continuation from the last answer, branch checks)."""
+    lean = lean_newton(c)
+    if lean is not None:
+        got = lean.command(cont, vals)
+        if got is not None:
+            return got
     solver_name = 'newton' if c.mode is SolveMode.NEWTON else 'hybrid'
     # the closed form's branch signs for the check below (reference ones without a history)
     check_signs = cont.signs(c.plan) if c.full_plan is c.plan else None
