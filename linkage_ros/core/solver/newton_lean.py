@@ -92,13 +92,14 @@ class LeanNewton:
             return None
         x = np.array(r.x)
         poses, pts = c.system.configuration(x)
-        signs, margins = branch_geometry_one(c.full_plan, pts, poses)
-        signs = tuple(signs)
-        if len(last.margins) == self.n_steps:
-            signs_0, margins_0 = last.signs, last.margins
-        else:
-            signs_0, margins_0 = branch_geometry_one(c.full_plan, last.points, last.poses)
-        if branch_jump((signs_0, margins_0), (signs, margins)):
+        got_signs, margins = branch_geometry_one(c.full_plan, pts, poses)
+        signs = tuple(got_signs)
+        before = (
+            (last.signs, last.margins)
+            if len(last.margins) == self.n_steps
+            else branch_geometry_one(c.full_plan, last.points, last.poses)
+        )
+        if branch_jump(before, (signs, margins)):
             return None
         rule = cont.branch.rule
         check = cont.signs(c.plan) if self.same_plan else None
@@ -144,16 +145,13 @@ def branch_jump(ga: tuple[Any, ...], gb: tuple[Any, ...]) -> bool:
 
 def lean_newton(c: CompiledSolve) -> LeanNewton | None:
     """The lean Newton command of ``c`` where it has one (see the module), made on first use
-    and kept on it; None otherwise."""
-    got = c.__dict__.get('_lean_newton', False)
-    if got is False:
-        got = None
-        if (
-            c.mode is _NEWTON
-            and c.full_plan.complete
-            and c.full_plan.branch_steps
-            and not c.mech.rollers
-        ):
+    and kept on it (as closed_form keeps its readout); None otherwise."""
+    if _KEY in c.__dict__:
+        known: LeanNewton | None = c.__dict__[_KEY]
+        return known
+    got: LeanNewton | None = None
+    if c.mode is _NEWTON and c.full_plan.complete and c.full_plan.branch_steps:
+        if not c.mech.rollers:  # (Newton holds a roller on its drawn side: solve_newton)
             try:
                 tabs = c.system.batch.tables()
             except ValueError:  # (a system the batched tables do not take)
@@ -161,5 +159,8 @@ def lean_newton(c: CompiledSolve) -> LeanNewton | None:
             if tabs is not None:
                 ls = make_lean_schur(c.system.tables, tabs.schur, tabs.jv_real.tolist())
                 got = None if ls is None else LeanNewton(c, ls)
-        c.__dict__['_lean_newton'] = got
+    c.__dict__[_KEY] = got
     return got
+
+
+_KEY = '_lean_newton'
