@@ -44,14 +44,15 @@ class LeanFactor(NamedTuple):
 
 class LeanSolve(NamedTuple):
     """A converged fast-path answer: x (phi rad, centroid m per free link) as floats, the steps
-    taken, max|F| / L there, the factor at x and J's varying entries at x (scalar.jacobian
-    builds the dense J from them)."""
+    taken, max|F| / L there, the factor at x, J's varying entries at x (scalar.jacobian
+    builds the dense J from them) and the bound of J's condition number there (cond_bound)."""
 
     x: list[float]
     iterations: int
     residual: float
     factor: LeanFactor
     jv: list[float]
+    cond_bound: float
 
 
 class LeanSchur:
@@ -263,6 +264,7 @@ def lean_from_guess(
         fac = ls.factor(jv)
         if fac.sign == 0 or (start_sign and fac.sign != start_sign):
             return None
-    if not ls.cond_bound(fac) < COND_EXACT:
+    bound = ls.cond_bound(fac)
+    if not bound < COND_EXACT:
         return None
-    return LeanSolve(x, it, res, fac, jv)
+    return LeanSolve(x, it, res, fac, jv, bound)

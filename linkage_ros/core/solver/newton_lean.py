@@ -103,7 +103,7 @@ class LeanNewton:
             return None
         rule = cont.branch.rule
         check = cont.signs(c.plan) if self.same_plan else None
-        bound = ls.cond_bound(r.factor)
+        bound = r.cond_bound
         if not bound * bound * r.residual * t.n <= 1e-2:
             return None  # the dense path runs the closed-form check: leave it
         if signs != tuple(check or self.reference_signs):
