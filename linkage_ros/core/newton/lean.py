@@ -23,12 +23,24 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any, NamedTuple
+from typing import Any, NamedTuple, Protocol
 
 from .evaluate import residual_rows
 from .results import COND_EXACT, FAST_FLOOR, FAST_MARGIN, FAST_RATE, FAST_STEPS
 from .schur import SchurForm
 from .tables import LoopTables
+
+
+class Kernel(Protocol):
+    """The linear algebra lean_from_guess runs on: LeanSchur (a 3 x 3 reduction, plain floats)
+    or scalar.DenseKernel (LAPACK's LU of the dense J). A factor has a ``sign``: det J's, 0
+    where J is singular."""
+
+    def factor(self, jv: Sequence[float]) -> Any: ...
+
+    def solve(self, fac: Any, F: Sequence[float]) -> list[float]: ...
+
+    def cond_bound(self, fac: Any) -> float: ...
 
 
 class LeanFactor(NamedTuple):
@@ -50,7 +62,7 @@ class LeanSolve(NamedTuple):
     x: list[float]
     iterations: int
     residual: float
-    factor: LeanFactor
+    factor: Any  # the kernel's factor (LeanFactor, scalar.DenseFactor)
     jv: list[float]
     cond_bound: float
 
@@ -223,7 +235,7 @@ def evaluate_lean(
 
 def lean_from_guess(
     t: LoopTables,
-    ls: LeanSchur,
+    ls: Kernel,
     guess: list[float],
     values: Sequence[Any],
     *,
@@ -231,8 +243,8 @@ def lean_from_guess(
     max_iter: int,
     start_sign: int,
 ) -> LeanSolve | None:
-    """scalar.solve_from_guess's fast path by the LeanSchur: one Newton step from the guess,
-    chord steps on its factor, the factor again at the answer. None (the caller takes the
+    """scalar.solve_from_guess's fast path by a Kernel on plain floats: one Newton step from
+    the guess, chord steps on its factor, the factor again at the answer. None (the caller takes the
     dense path) wherever that path would decline, polish or read the answer as singular: J
     not regular with det sign ``start_sign`` at the guess or at the answer, steps not
     cutting max|F| FAST_RATE-fold to ``tol`` within min(FAST_STEPS, max_iter), or the

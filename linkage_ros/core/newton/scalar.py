@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -168,7 +168,44 @@ def answer_cond(t: LoopTables, jv: Sequence[float]) -> float:
     """The condition number finish() reports at an answer whose J has the varying entries
     ``jv`` (evaluate_rows_scaled's): the same function of the same J."""
     J = jacobian(t, jv, t.tpl_s)
-    return _cond(J, factor(J))
+    return cond_estimate(J, factor(J))
+
+
+class DenseFactor(NamedTuple):
+    """One linearisation point of the DenseKernel: LAPACK's LU of the scale-free J (lu, piv),
+    det J's sign (0: singular) and J itself (its condition estimate)."""
+
+    lu: np.ndarray
+    piv: np.ndarray
+    sign: int
+    J: np.ndarray
+
+
+class DenseKernel:
+    """lean.Kernel by LAPACK's LU of the dense J, for systems without a 3 x 3 reduction: the
+    linear algebra of solve_from_guess (getrf, getrs, the condition estimate finish()
+    reports), the rest of the lean path on plain floats."""
+
+    def __init__(self, t: LoopTables):
+        self.t, self.n = t, t.n
+
+    def factor(self, jv: Sequence[float]) -> DenseFactor:
+        J = jacobian(self.t, jv, self.t.tpl_s)
+        fac = factor(J) if math.isfinite(float(J.sum())) else None
+        if fac is None:
+            return DenseFactor(J, J, 0, J)
+        return DenseFactor(fac[0], fac[1], fac[2], J)
+
+    def solve(self, fac: DenseFactor, F: Sequence[float]) -> list[float]:
+        y, info = lapack().getrs(fac.lu, fac.piv, np.array(F))
+        out: list[float] = y.tolist() if info == 0 else [math.nan] * self.n
+        return out
+
+    def cond_bound(self, fac: DenseFactor) -> float:
+        """The condition number finish() reports (not a bound: the same number)."""
+        if not fac.sign:
+            return math.inf
+        return cond_estimate(fac.J, (fac.lu, fac.piv, fac.sign))
 
 
 def extrapolate(
@@ -448,7 +485,7 @@ def solve_from_guess(
 _DECLINED = 'the predicted start did not qualify'
 
 
-def _cond(J: np.ndarray, fac: LUFactor | None) -> float:
+def cond_estimate(J: np.ndarray, fac: LUFactor | None) -> float:
     """linalg.cond with LAPACK's 1-norm of J (dlange) for numpy's three reductions: the same
     column sums in the same order (one call instead of three)."""
     if fac is not None:
@@ -485,7 +522,7 @@ def finish(
     """The result at x (marked a success: the caller decides): condition number, det J
     sign and, if ``polish`` (converged) and near a fold, polishing steps."""
     square = t.m == t.n
-    c = _cond(J, fac)
+    c = cond_estimate(J, fac)
     nj = 0
     if polish and c > POLISH_COND:
         # near a toggle Newton converges only linearly and the configuration error is
@@ -508,6 +545,6 @@ def finish(
             fac = factor(J)
             nj += 1
             it += 1
-        c = _cond(J, fac)
+        c = cond_estimate(J, fac)
     det = fac[2] if fac is not None and c < SINGULAR_COND else 0  # 0: singular, no sign
     return SolveResult(x, True, it, res, None, c, det, fac, nj)

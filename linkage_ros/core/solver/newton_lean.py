@@ -19,9 +19,9 @@ from typing import Any
 import numpy as np
 
 from ..execute import CONTINUITY_MARGIN
-from ..newton.lean import LeanFactor, LeanSchur, LeanSolve, evaluate_lean, lean_from_guess
+from ..newton.lean import Kernel, LeanSolve, evaluate_lean, lean_from_guess
 from ..newton.lean import lean_schur as make_lean_schur
-from ..newton.scalar import extrapolate
+from ..newton.scalar import DenseKernel, extrapolate
 from ..plan import branch_geometry_one
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import BranchRule, Continuity, State, state_of
@@ -35,7 +35,7 @@ _CONTINUOUS = BranchRule.CONTINUOUS
 class LeanNewton:
     """The lean Newton command of one compiled solve (lean_newton makes it)."""
 
-    def __init__(self, c: CompiledSolve, ls: LeanSchur):
+    def __init__(self, c: CompiledSolve, ls: Kernel):
         self.c, self.ls = c, ls
         self.t = c.system.tables
         self.n_steps = len(c.full_plan.branch_steps)
@@ -43,7 +43,7 @@ class LeanNewton:
         self.same_plan = c.full_plan is c.plan
         self.branch_texts: dict[tuple[int, ...], str] = {}
 
-    def factor_of(self, s: State) -> LeanFactor | None:
+    def factor_of(self, s: State) -> Any:
         """The lean factor at a committed answer: its own, or (a dense path's answer) made
         from J there; None where the dense path would not predict from it."""
         lu = s.x_lu
@@ -150,15 +150,22 @@ def lean_newton(c: CompiledSolve) -> LeanNewton | None:
         known: LeanNewton | None = c.__dict__[_KEY]
         return known
     got: LeanNewton | None = None
-    if c.mode is _NEWTON and c.full_plan.complete and c.full_plan.branch_steps:
-        if not c.mech.rollers:  # (Newton holds a roller on its drawn side: solve_newton)
-            try:
-                tabs = c.system.batch.tables()
-            except ValueError:  # (a system the batched tables do not take)
-                tabs = None
-            if tabs is not None:
-                ls = make_lean_schur(c.system.tables, tabs.schur, tabs.jv_real.tolist())
-                got = None if ls is None else LeanNewton(c, ls)
+    t = c.system.tables
+    if (
+        c.mode is _NEWTON
+        and c.full_plan.complete
+        and c.full_plan.branch_steps
+        and t.m == t.n
+        and t.val_rows is not None
+        and not c.mech.rollers  # (Newton holds a roller on its drawn side: solve_newton)
+    ):
+        kernel: Kernel | None = None
+        try:
+            tabs = c.system.batch.tables()
+            kernel = make_lean_schur(t, tabs.schur, tabs.jv_real.tolist())
+        except ValueError:  # (a system the batched tables do not take)
+            pass
+        got = LeanNewton(c, kernel or DenseKernel(t))
     c.__dict__[_KEY] = got
     return got
 
