@@ -24,12 +24,21 @@ import scenes
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from linkage_ros.bench.tradeoff import sweep_inputs
 from linkage_ros.core.solver import Solver
 from linkage_ros.core.solver.newton_lean import lean_newton
 from linkage_ros.core.solver.newton_result import NewtonResult
 from linkage_ros.core.solver.result import Result
 
-LEAN_SCENES = ['four_bar', 'slider_crank', 'four_bar_double_crank', 'scott_russell']
+#: the Schur kernel's scenes, then two of the dense kernel's (the bench's larger scenes)
+LEAN_SCENES = [
+    'four_bar',
+    'slider_crank',
+    'four_bar_double_crank',
+    'scott_russell',
+    'peaucellier',
+    'excavator',
+]
 
 
 def _pair(mech):
@@ -82,14 +91,14 @@ def _same(a, b, L):
 def test_a_sweep_answers_as_the_dense_path(name):
     mech = scenes.load(name)
     lean, dense = _pair(mech)
-    cmds = _commands(lean, [0.02] * 200 + [-0.05] * 60)
+    cmds = sweep_inputs(mech, 260)  # the bench's warm sweep through every actuator's range
     answered = solved = 0
     for c in cmds:
         a, b = lean.solve(c), dense.solve(c)
         _same(a, b, mech.length_scale)
         answered += isinstance(a, NewtonResult)
         solved += b.success
-    assert solved >= 30 and answered >= 0.9 * solved  # the lean path answers warm commands
+    assert solved == len(cmds) and answered >= 0.9 * solved  # the lean path answers them
 
 
 def test_the_four_bar_sweep_is_the_closed_form():
