@@ -29,7 +29,8 @@ from .newton_result import NewtonSource, newton_result
 from .result import Result, branch_identity_defined, branch_text
 
 _NEWTON = SolveMode.NEWTON
-_CONTINUOUS = BranchRule.CONTINUOUS
+#: the rules whose branch a Newton answer must be on (solve_newton refuses it otherwise)
+_ASKED = (BranchRule.EXPLICIT, BranchRule.REFERENCE)
 
 
 class LeanNewton:
@@ -108,7 +109,7 @@ class LeanNewton:
             return None  # the dense path runs the closed-form check: leave it
         if signs != tuple(check or self.reference_signs):
             return None
-        if rule is not _CONTINUOUS and self.same_plan and signs != tuple(cont.signs(c.plan)):
+        if rule in _ASKED and self.same_plan and signs != tuple(cont.signs(c.plan)):
             return None  # refused on the asked branch by the dense path
         margin = min(margins)
         if not math.isfinite(margin + sum(r.x)):

@@ -41,10 +41,10 @@ LEAN_SCENES = [
 ]
 
 
-def _pair(mech):
+def _pair(mech, branch='continuous'):
     """(lean solver, dense solver) of one mechanism."""
-    lean = Solver(mech, method='newton', tol=1e-12)
-    dense = Solver(mech, method='newton', tol=1e-12)
+    lean = Solver(mech, method='newton', tol=1e-12, branch=branch)
+    dense = Solver(mech, method='newton', tol=1e-12, branch=branch)
     dense.compiled.__dict__['_lean_newton'] = None  # the dense path alone (as before)
     assert lean_newton(lean.compiled) is not None
     return lean, dense
@@ -117,17 +117,18 @@ def test_the_four_bar_sweep_is_the_closed_form():
 @settings(max_examples=25, deadline=None)
 @given(
     name=st.sampled_from(['four_bar', 'slider_crank']),
+    branch=st.sampled_from(['continuous', 'reference', '+', '-']),
     steps=st.lists(
         st.one_of(st.floats(-0.2, 0.2), st.sampled_from([1.5, -2.5, 3.0, 0.0])),
         min_size=5,
         max_size=40,
     ),
 )
-def test_any_command_sequence_answers_as_the_dense_path(name, steps):
-    # jumps past the prediction's reach, standing still, reversals: wherever the lean path
-    # leaves a command to the dense path, the two solvers stay the same
+def test_any_command_sequence_answers_as_the_dense_path(name, branch, steps):
+    # jumps past the prediction's reach, standing still, reversals, each branch rule: wherever
+    # the lean path leaves a command to the dense path, the two solvers stay the same
     mech = scenes.load(name)
-    lean, dense = _pair(mech)
+    lean, dense = _pair(mech, branch)
     for c in _commands(lean, steps):
         _same(lean.solve(c), dense.solve(c), mech.length_scale)
 
