@@ -3,12 +3,16 @@ matrix (schur.py: the four-bar's and the slider-crank's 9 x 9 J): the prediction
 and the answer's checks without a numpy array or a LAPACK call.
 
 Why a plain-float twin of schur.py's batched elimination: one row of the batched arithmetic is
-~30 numpy calls (~1 us each), the dense path (scalar.py) two getrf, three getrs, gecon and
-dlange per command. Measured on the bench's warm four-bar sweep (CPU time, interleaved, best of
-7 x 200 commands, 2-core machine shared with other jobs, load ~2.5): the kernel of one command
-(prediction, fast steps, det J sign and the condition bound at the answer) 73 -> 21 us; the
-steps are the dense ones to rounding (test/core/newton/test_lean.py holds them to numpy's dense
-solve and to schur.py's batched elimination on every scene with a 3 x 3 M, over random poses).
+~30 numpy calls (~1 us each); the dense path (scalar.py) takes per command three getrs, two
+getrf and an array per evaluation. Measured on the bench's warm sweeps, one command's kernel
+(prediction, fast steps, det J sign and the condition bound at the answer; CPU time, best of 7
+x 300 interleaved in one process, 2-core machine shared with other jobs, load 3.1-3.4): dense
+(scalar.predict + solve_from_guess) against lean (extrapolate + lean_from_guess), four-bar
+105 / 121 -> 81 / 91 us, slider-crank 112 / 193 -> 87 / 130 us; with the DenseKernel (the same
+LAPACK calls, the rest on lists) Peaucellier 169 / 180 -> 161 / 158 us, excavator 239 / 447 ->
+227 / 428 us (two runs each). The steps are the dense ones to rounding
+(test/core/newton/test_lean.py holds them to numpy's dense solve and to schur.py's batched
+elimination on every scene with a 3 x 3 M, over random poses; the DenseKernel's bit for bit).
 
 What it decides, and how it stays the dense path's decision: det J's sign is parity * sign(det M)
 (exact, as schur.schur_answer); the fast path's rule is scalar.solve_from_guess's (FAST_STEPS,
@@ -25,6 +29,7 @@ import math
 from collections.abc import Sequence
 from typing import Any, NamedTuple, Protocol
 
+from ..execute import LinkPoses
 from .evaluate import residual_rows
 from .results import COND_EXACT, FAST_FLOOR, FAST_MARGIN, FAST_RATE, FAST_STEPS
 from .schur import SchurForm
@@ -221,16 +226,82 @@ def lean_schur(t: LoopTables, sf: SchurForm | None, jv_real: Sequence[int]) -> L
 
 
 def evaluate_lean(
-    t: LoopTables, x: Sequence[float], values: Sequence[Any]
+    t: LoopTables, x: Sequence[float], values: Sequence[Any], fixed: LinkPoses | None = None
 ) -> tuple[list[float], list[float], float]:
     """evaluate.evaluate_rows_scaled on a list, F left a list: (F / L, J's varying entries,
-    max|F / L|, inf if not finite). The ground is the only non-free link."""
-    F, jv = residual_rows(t, x, values, None, True, 1.0 / t.L)
+    max|F / L|, inf if not finite)."""
+    F, jv = residual_rows(t, x, values, fixed, True, 1.0 / t.L)
     res = max(map(abs, F), default=0.0)
     total = sum(F)
     if total - total != 0.0:  # a NaN or inf
         res = math.inf
     return F, jv, res
+
+
+class FastSteps(NamedTuple):
+    """What fast_steps did: ``ok`` (converged on the start's side of det J = 0; else declined),
+    the last point x it reached (floats), the steps taken, max|F| / L at x, the kernel's factor
+    at x (the guess's where it took no step), J's varying entries and F / L at x, and how many
+    Jacobians it factorised."""
+
+    ok: bool
+    x: list[float]
+    iterations: int
+    residual: float
+    factor: Any
+    jv: list[float]
+    F: list[float]
+    factors: int
+
+
+def fast_steps(
+    t: LoopTables,
+    kernel: Kernel,
+    guess: list[float],
+    values: Sequence[Any],
+    fixed: LinkPoses | None = None,
+    *,
+    tol: float,
+    max_iter: int,
+    start_sign: int,
+) -> FastSteps:
+    """The fast path's rule, once for the dense path (scalar.solve_from_guess, by the
+    DenseKernel) and the lean one (lean_from_guess): one Newton step from a predicted guess,
+    then chord steps on its factorisation, J factorised again at the answer. Steps go on to
+    FAST_MARGIN * tol (or FAST_FLOOR) while each cuts max|F| FAST_RATE-fold (an answer just
+    inside ``tol`` would leave angles read off its points off by ~tol / link length). Declines
+    (ok False) unless J is regular at the guess and at the answer with det sign ``start_sign``
+    (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
+    F, jv, res = evaluate_lean(t, guess, values, fixed)
+    fac = kernel.factor(jv)
+    steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
+    if fac.sign == 0 or res == math.inf or (start_sign and fac.sign != start_sign):
+        return FastSteps(False, guess, it, res, fac, jv, F, nj)
+    target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
+    x, lin, fresh = guess, fac, True
+    scale = t.step_list
+    while res > target:
+        cut = False
+        if it < steps:
+            # J^-1 F, the step's negative to the bit (LAPACK's solve is odd in its right side)
+            y = kernel.solve(lin, F)
+            total = sum(y)
+            if total - total == 0.0:
+                xn = [a - b * s for a, b, s in zip(x, y, scale)]
+                Fn, jvn, rn = evaluate_lean(t, xn, values, fixed)
+                it += 1
+                cut = rn <= FAST_RATE * res
+        if not cut:
+            if res <= tol:  # converged; the rounding floor is above the margin
+                break
+            return FastSteps(False, x, it, res, fac, jv, F, nj)
+        x, F, jv, res, fresh = xn, Fn, jvn, rn, False
+    if not fresh:  # J at the answer: its det sign, cond and factorisation
+        fac = kernel.factor(jv)
+        nj += 1
+        if fac.sign == 0 or (start_sign and fac.sign != start_sign):
+            return FastSteps(False, x, it, res, fac, jv, F, nj)
+    return FastSteps(True, x, it, res, fac, jv, F, nj)
 
 
 def lean_from_guess(
@@ -243,40 +314,13 @@ def lean_from_guess(
     max_iter: int,
     start_sign: int,
 ) -> LeanSolve | None:
-    """scalar.solve_from_guess's fast path by a Kernel on plain floats: one Newton step from
-    the guess, chord steps on its factor, the factor again at the answer. None (the caller takes the
-    dense path) wherever that path would decline, polish or read the answer as singular: J
-    not regular with det sign ``start_sign`` at the guess or at the answer, steps not
-    cutting max|F| FAST_RATE-fold to ``tol`` within min(FAST_STEPS, max_iter), or the
-    condition bound at the answer at or above COND_EXACT."""
-    F, jv, res = evaluate_lean(t, guess, values)
-    fac = ls.factor(jv)
-    if fac.sign == 0 or res == math.inf or (start_sign and fac.sign != start_sign):
+    """The fast path (fast_steps) for the lean command: its answer, or None (the caller takes
+    the dense path) wherever that path would decline, polish or read the answer as singular:
+    fast_steps declines, or the condition bound at the answer is at or above COND_EXACT."""
+    got = fast_steps(t, ls, guess, values, tol=tol, max_iter=max_iter, start_sign=start_sign)
+    if not got.ok:
         return None
-    steps, it = min(FAST_STEPS, max_iter), 0
-    target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
-    x, lin, fresh = guess, fac, True
-    scale = t.step_list
-    while res > target:
-        cut = False
-        if it < steps:
-            y = ls.solve(lin, F)
-            total = sum(y)
-            if total - total == 0.0:
-                xn = [a - b * s for a, b, s in zip(x, y, scale)]
-                Fn, jvn, rn = evaluate_lean(t, xn, values)
-                it += 1
-                cut = rn <= FAST_RATE * res
-        if not cut:
-            if res <= tol:  # converged; the rounding floor is above the margin
-                break
-            return None
-        x, F, jv, res, fresh = xn, Fn, jvn, rn, False
-    if not fresh:
-        fac = ls.factor(jv)
-        if fac.sign == 0 or (start_sign and fac.sign != start_sign):
-            return None
-    bound = ls.cond_bound(fac)
+    bound = ls.cond_bound(got.factor)
     if not bound < COND_EXACT:
         return None
-    return LeanSolve(x, it, res, fac, jv, bound)
+    return LeanSolve(got.x, got.iterations, got.residual, got.factor, got.jv, bound)

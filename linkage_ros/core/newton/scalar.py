@@ -31,15 +31,11 @@ import numpy as np
 from ..execute import LinkPoses
 from ..ops import _wrap_one
 from ..quantities import AngleSpec, SlideSpec
-from .evaluate import evaluate, evaluate_rows_scaled, evaluate_scaled, jacobian
-from .lean import LeanSolve
+from .evaluate import evaluate, evaluate_scaled, jacobian
+from .lean import LeanSolve, fast_steps
 from .linalg import cond, factor, lapack, lu_step, scaled_cond, side_ok, sign_of
 from .results import (
     COND_EXACT,
-    FAST_FLOOR,
-    FAST_MARGIN,
-    FAST_RATE,
-    FAST_STEPS,
     MAX_PREDICTION,
     POLISH_COND,
     POLISH_STEPS,
@@ -435,47 +431,37 @@ def solve_from_guess(
     max_iter: int = 50,
     start_sign: int = 0,
 ) -> SolveResult:
-    """The fast path: one Newton step from a predicted guess, then chord steps on its
-    factorisation, J factorised again at the answer. Steps go on to FAST_MARGIN * tol (or
-    FAST_FLOOR) while each cuts max|F| FAST_RATE-fold (an answer just inside ``tol`` would
-    leave angles read off its points off by ~tol / link length). Declines (success False,
-    the steps spent counted) unless J is regular at the guess and at the answer with det
-    sign ``start_sign`` (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
-    x = guess = np.array(guess, float)  # the result never aliases the caller's array
-    F, Jv, res = evaluate_rows_scaled(t, x, values, fixed)
-    J = jacobian(t, Jv, t.tpl_s)
-    fac = factor(J)
-    steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
-    if fac is None or not math.isfinite(res) or (start_sign and fac[2] != start_sign):
-        return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)
-    lin = fac
-    at_answer: LUFactor | None = fac
-    target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
-    getrs, step = lapack().getrs, t.step_scale
-    while res > target:
-        cut = False
-        if it < steps:
-            # J^-1 F, the step's negative to the bit (LAPACK's solve is odd in its right side)
-            y, info = getrs(lin[0], lin[1], F)
-            if info == 0 and math.isfinite(float(y.sum())):
-                xn = x - y * step
-                Fn, Jvn, rn = evaluate_rows_scaled(t, xn, values, fixed)
-                it += 1
-                cut = rn <= FAST_RATE * res
-        if not cut:
-            if res <= tol:  # converged; the rounding floor is above the margin
-                break
-            return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)
-        x, F, Jv, res, at_answer = xn, Fn, Jvn, rn, None
-    if at_answer is None:  # J at the answer: its det sign, cond and factorisation
-        J = jacobian(t, Jv, t.tpl_s)
-        at_answer = factor(J)
-        nj += 1
-        if at_answer is None or (start_sign and at_answer[2] != start_sign):
-            return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)
-    r = finish(t, x, F, J, at_answer, res, it, values, fixed)
-    if start_sign and r.det_sign not in (0, start_sign):
-        return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)  # polished over a fold
+    """The fast path (lean.fast_steps, its rule; here by LAPACK's LU of the dense J), then
+    finish() at its answer. Declines (success False, the steps spent counted) where
+    fast_steps does, or where polishing the answer crossed a fold (det J's sign changed)."""
+    guess = np.array(guess, float)  # the result never aliases the caller's array
+    got = fast_steps(
+        t,
+        DenseKernel(t),
+        guess.tolist(),
+        values,
+        fixed,
+        tol=tol,
+        max_iter=max_iter,
+        start_sign=start_sign,
+    )
+    nj = got.factors
+    if not got.ok:
+        return SolveResult(guess, False, got.iterations, got.residual, _DECLINED, jacobians=nj)
+    fac = got.factor
+    r = finish(
+        t,
+        np.array(got.x),
+        np.array(got.F),
+        fac.J,
+        (fac.lu, fac.piv, fac.sign),
+        got.residual,
+        got.iterations,
+        values,
+        fixed,
+    )
+    if start_sign and r.det_sign not in (0, start_sign):  # polished over a fold
+        return SolveResult(guess, False, got.iterations, got.residual, _DECLINED, jacobians=nj)
     r.jacobians += nj
     r.predicted = True
     return r
