@@ -1,4 +1,5 @@
-"""The warm scalar Newton solve over plain floats, for systems whose Jacobian reduces to a 3 x 3
+"""The warm scalar Newton solve over plain floats: the fast path's rule (fast_steps) over a
+linear-algebra Kernel, and LeanSchur, the kernel for systems whose Jacobian reduces to a 3 x 3
 matrix (schur.py: the four-bar's and the slider-crank's 9 x 9 J): the prediction, the fast path
 and the answer's checks without a numpy array or a LAPACK call.
 
@@ -15,8 +16,8 @@ LAPACK calls, the rest on lists) Peaucellier 169 / 180 -> 161 / 158 us, excavato
 elimination on every scene with a 3 x 3 M, over random poses; the DenseKernel's bit for bit).
 
 What it decides, and how it stays the dense path's decision: det J's sign is parity * sign(det M)
-(exact, as schur.schur_answer); the fast path's rule is scalar.solve_from_guess's (FAST_STEPS,
-FAST_RATE, FAST_MARGIN, FAST_FLOOR); where the answer would be polished or read singular by the
+(exact, as schur.schur_answer); the fast path's rule is fast_steps, which the dense path runs
+too (scalar.solve_from_guess, by scalar.DenseKernel); where the answer would be polished or read singular by the
 dense path (its cond above POLISH_COND, or above COND_EXACT where the dense path reads the
 2-norm) this path declines, deciding by an upper bound of the 1-norm condition number
 (cond_bound) that is never below the exact one, so never below LAPACK's estimate of it. The

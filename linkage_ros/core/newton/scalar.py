@@ -18,7 +18,13 @@ process against the code before (CPU time, interleaved best of 9 x 300 calls at 
 the bench sweep, 2-core machine shared with other jobs, load ~5.5): solve_from_guess four_bar
 77.3 -> 65.5 us, slider_crank 88.5 -> 70.5, peaucellier 114.5 -> 106.8, excavator 228 -> 240
 (noise: its time is the rows' Python); the answers are the same to the last bit
-(test_fast_path_answer_reads_as_its_configuration_does holds each to its configuration)."""
+(test_fast_path_answer_reads_as_its_configuration_does holds each to its configuration).
+
+The fast path's rule is written once, in lean.fast_steps, over a linear-algebra kernel:
+solve_from_guess runs it by the DenseKernel here (getrf / getrs on the dense J, the same
+calls as before on the same floats), the lean Newton command (solver/newton_lean.py) by
+lean.LeanSchur where J reduces to a 3 x 3. The predictor is one too: extrapolate, over either
+kernel's solve (predict: LAPACK's)."""
 
 from __future__ import annotations
 
