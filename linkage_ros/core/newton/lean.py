@@ -13,16 +13,17 @@ x 300 interleaved in one process, 2-core machine shared with other jobs, load 3.
 LAPACK calls, the rest on lists) Peaucellier 169 / 180 -> 161 / 158 us, excavator 239 / 447 ->
 227 / 428 us (two runs each). The steps are the dense ones to rounding
 (test/core/newton/test_lean.py holds them to numpy's dense solve and to schur.py's batched
-elimination on every scene with a 3 x 3 M, over random poses; the DenseKernel's bit for bit).
+elimination on every scene with a 3 x 3 M, over random poses).
 
 What it decides, and how it stays the dense path's decision: det J's sign is parity * sign(det M)
 (exact, as schur.schur_answer); the fast path's rule is fast_steps, which the dense path runs
-too (scalar.solve_from_guess, by scalar.DenseKernel); where the answer would be polished or read singular by the
-dense path (its cond above POLISH_COND, or above COND_EXACT where the dense path reads the
-2-norm) this path declines, deciding by an upper bound of the 1-norm condition number
-(cond_bound) that is never below the exact one, so never below LAPACK's estimate of it. The
-condition number a Result reports is not computed here: the caller reads it off the dense J at
-the answer by the dense path's own function when asked (scalar.answer_cond)."""
+too (scalar.solve_from_guess, by scalar.DenseKernel); where the answer would be polished or
+read singular by the dense path (its cond above POLISH_COND, or above COND_EXACT where the
+dense path reads the 2-norm) this path declines, deciding by an upper bound of the 1-norm
+condition number (cond_bound) that is never below the exact one, so never below LAPACK's
+estimate of it. The condition number a Result reports is not computed here: the caller reads
+it off the dense J at the answer by the dense path's own function when asked
+(scalar.answer_cond)."""
 
 from __future__ import annotations
 
