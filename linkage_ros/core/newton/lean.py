@@ -196,17 +196,15 @@ class LeanSchur:
         P, X = fac.P, fac.X
         if not fac.sign:
             return math.inf
-        j_norm, b_norm, e = self.t_col_norms, 0.0, 3 * self.nt
-        for j in range(3):  # the A columns' sums (the T columns' are constant)
-            b = 0.0
-            for v in P[j:e:3]:
-                b += abs(v)
-            if b > b_norm:
-                b_norm = b
-            for v in P[e + j :: 3]:
-                b += abs(v)
-            if b > j_norm:
-                j_norm = b
+        e = 3 * self.nt  # the A columns' sums over B, then over all of J (T columns': constant)
+        b0, b1, b2 = sum(map(abs, P[0:e:3])), sum(map(abs, P[1:e:3])), sum(map(abs, P[2:e:3]))
+        b_norm = max(b0, b1, b2)
+        j_norm = max(
+            self.t_col_norms,
+            b0 + sum(map(abs, P[e::3])),
+            b1 + sum(map(abs, P[e + 1 :: 3])),
+            b2 + sum(map(abs, P[e + 2 :: 3])),
+        )
         x_norm = max(
             abs(X[0]) + abs(X[3]) + abs(X[6]),
             abs(X[1]) + abs(X[4]) + abs(X[7]),
