@@ -132,20 +132,13 @@ def predict(
     rate_factor ``lu_last`` (an LUFactor: the tangent T = dx/dvalue is its inverse applied to
     -dF/dvalue), and optionally the solution before (see extrapolate). None if it moves an
     unknown by more than MAX_PREDICTION (rad, or length scales)."""
-    getrs, n = lapack().getrs, t.n
     lu_last_d = dense_factor(t, lu_last)
     if lu_last_d is None:
         return None
     lu_prev = None if lu_prev is None else dense_factor(t, lu_prev)
-
-    def solve(lu: tuple[Any, ...], rhs: list[float]) -> list[float]:
-        y, info = getrs(lu[0], lu[1], np.array(rhs))
-        out: list[float] = y.tolist() if info == 0 else [math.nan] * n
-        return out
-
     got = extrapolate(
         t,
-        solve,
+        DenseKernel(t).solve,
         x_last.tolist(),
         lu_last_d,
         vals_last,
@@ -184,9 +177,9 @@ class DenseFactor(NamedTuple):
 
 
 class DenseKernel:
-    """lean.Kernel by LAPACK's LU of the dense J, for systems without a 3 x 3 reduction: the
-    linear algebra of solve_from_guess (getrf, getrs, the condition estimate finish()
-    reports), the rest of the lean path on plain floats."""
+    """lean.Kernel by LAPACK's LU of the dense J: the linear algebra of solve_from_guess and
+    predict (getrf, getrs, the condition estimate finish() reports), and the lean command's
+    where J does not reduce to a 3 x 3."""
 
     def __init__(self, t: LoopTables):
         self.t, self.n = t, t.n
@@ -198,8 +191,9 @@ class DenseKernel:
             return DenseFactor(J, J, 0, J)
         return DenseFactor(fac[0], fac[1], fac[2], J)
 
-    def solve(self, fac: DenseFactor, F: Sequence[float]) -> list[float]:
-        y, info = lapack().getrs(fac.lu, fac.piv, np.array(F))
+    def solve(self, fac: tuple[Any, ...], F: Sequence[float]) -> list[float]:
+        """J^-1 F from a DenseFactor or an LUFactor (NaN entries where LAPACK refuses)."""
+        y, info = lapack().getrs(fac[0], fac[1], np.array(F))
         out: list[float] = y.tolist() if info == 0 else [math.nan] * self.n
         return out
 
