@@ -27,7 +27,7 @@ Radius = tuple[float, Callable[[list[Any]], float] | None]
 
 
 def rrr_step(
-    k: int,
+    at: tuple[int, int],
     x: str,
     regs: tuple[int, int, int],
     radius_a: Radius,
@@ -35,11 +35,12 @@ def rrr_step(
     ref_off: complex,
 ) -> Step:
     """Point ``x`` (register regs[0]) at radius_a from centre A (regs[1]) and radius_b from
-    centre B (regs[2]); ``ref_off``: x less A in the reference pose (for coincident circles)."""
+    centre B (regs[2]); ``ref_off``: x less A in the reference pose (for coincident circles);
+    ``at``: (the plan step's index, the index of its sign among the branching steps')."""
     sx, s1, s2 = regs
     r1_const, r1_of = radius_a
     r2_const, r2_of = radius_b
-    k_step = k
+    k_step, b = at
     # both radii constant (most dyads): their larger one and their difference are too
     fixed = r1_of is None and r2_of is None
     big_fixed = r2_const if r2_const > r1_const else r1_const
@@ -58,15 +59,14 @@ def rrr_step(
             big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
             near = abs(r1 - r2) <= tol * big and _cabs_one(c1 - c2) <= tol * big
         if near:
-            coincident(r, k_step, x, sx, c1, r1, ref_off)
+            coincident(r, at, x, sx, c1, r1, ref_off)
             return
         pair = solve_rrr(c1, r1, c2, r2, tol)
         base, u, along, h, S, margin, ok, violation, _ = pair
         if not ok:
             R[sx] = rrr_fallback(pair, c1)
             raise Refused(k_step, violation)
-        used = r.used
-        sg = r.signs[len(used)]
+        sg = r.signs[b]
         spread = complex(0.0 * h, h)
         if (margin < _CM or r.prev_small) and r.decide(margin, x):
             target = r.prefer[x]  # type: ignore[index]
@@ -80,7 +80,7 @@ def rrr_step(
             R[sx] = rrr_fallback(pair, c1)
             raise Refused(k_step, 0.0)
         R[sx] = z
-        used.append(sg)  # (SlotRun.taken, inlined)
+        r.used.append(sg)  # (SlotRun.taken, inlined)
         r.margins.append(margin)
         if margin < r.margin:
             r.margin = margin
@@ -88,14 +88,14 @@ def rrr_step(
     return rrr
 
 
-def side_step(shift: int, drawn_offset: float, across: complex) -> Step:
+def side_step(b: int, shift: int, drawn_offset: float, across: complex) -> Step:
     """The roller's side (the executor's SIDE step): its sign moves the roller's line
     (register ``shift``) to the mirror of the drawn one in the face, or leaves it; never near a
-    toggle. ``across``: the unit normal of the slide direction."""
+    toggle. ``across``: the unit normal of the slide direction; ``b``: the index of its sign."""
     d = drawn_offset
 
     def side(r: SlotRun) -> None:
-        sg = r.signs[len(r.used)]
+        sg = r.signs[b]
         r.R[shift] = (sg * abs(d) - d) * across
         r.taken(sg, 1.0)
 
@@ -103,7 +103,7 @@ def side_step(shift: int, drawn_offset: float, across: complex) -> Step:
 
 
 def rrp_step(
-    k: int,
+    at: tuple[int, int],
     x: str,
     regs: tuple[int, int, int, int],
     radius: Radius,
@@ -112,8 +112,10 @@ def rrp_step(
 ) -> Step:
     """Point ``x`` (regs[0]) at ``radius`` from its centre (regs[1]) on a slide's line: through
     line[0] (x's reference position, moved by the shift register where the slide has one)
-    along line[1], both in the guide's frame (its rotation regs[2], translation regs[3])."""
+    along line[1], both in the guide's frame (its rotation regs[2], translation regs[3]);
+    ``at``: (the plan step's index, the index of its sign)."""
     sx, s1, grot, gT = regs
+    k, b = at
     r_const, r_of = radius
     xref, d = line
     ish = shift
@@ -127,7 +129,7 @@ def rrp_step(
         margin = pair[4]
         if not pair[5]:
             raise Refused(k, pair[6])
-        sg = r.signs[len(r.used)]
+        sg = r.signs[b]
         if (margin < _CM or r.prev_small) and r.decide(margin, x):
             target = r.prefer[x]  # type: ignore[index]
             plus, _ = rrp_point(pair, 1)
@@ -143,7 +145,7 @@ def rrp_step(
 
 
 def rpr_step(
-    k: int,
+    at: tuple[int, int],
     regs: tuple[int, int, int],
     guide: tuple[int, int, int] | None,
     local_pivot: Callable[[list[Any]], complex],
@@ -155,8 +157,10 @@ def rpr_step(
     the pivot, the body's orientation register); ``guide``: the guide's (angle, rotation,
     translation) registers in its welded body's frame, None where the body is a single link
     (the identity); line = (the point's reference position, the slide direction, the
-    continuity key); ``place(R, phi, rot, T)`` sets the body's links."""
+    continuity key); ``place(R, phi, rot, T)`` sets the body's links; ``at``: (the plan step's
+    index, the index of its sign)."""
     sx, sp, ang = regs
+    k, b = at
     xref, d, key = line
     ish = shift
 
@@ -175,7 +179,7 @@ def rpr_step(
         margin = pair[3]
         if not pair[4]:
             raise Refused(k, pair[5])
-        sg = r.signs[len(r.used)]
+        sg = r.signs[b]
         if (margin < _CM or r.prev_small) and r.decide(margin, key):
             last = r.prefer[key]  # type: ignore[index]
             miss_p = abs(wrap(rpr_angle(pair, 1) - psi0 + fphi - last))

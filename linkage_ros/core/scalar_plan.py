@@ -142,6 +142,10 @@ class ScalarProgram:
                 self.iwrap[i] = len(self.template)
                 self.template.append(0.0)
         self._wrap_regs = tuple(self.iwrap.items())
+        #: pairs of links whose angle and rotation registers a run sets to the very same floats
+        #: (a weld by a slide moves its member along the slide, and a welded body's placement
+        #: turns every member alike): a readout need not compare them
+        self.same_turn: set[frozenset[str]] = set()
         #: the steps of a run: the frames of the welded bodies it uses, then the plan's
         self.steps: list[Step] = []
         for b in sorted(used_bodies):
@@ -156,6 +160,9 @@ class ScalarProgram:
             if isinstance(st.args, RollerSide):
                 self.ishift[st.args.joint] = len(self.template)
                 self.template.append(complex(0.0, 0.0))
+        #: the branching steps so far (each takes one sign, in plan order: a dyad step's index
+        #: into the run's signs is fixed when it is compiled)
+        self._branches = 0
         for k, st in enumerate(plan.steps):
             step = self._compile(k, st, set_pts, placed)
             if step is not None:
@@ -174,6 +181,8 @@ class ScalarProgram:
         R[self.ifT[body.root]] = complex(0.0, 0.0)
         steps: list[Step] = []
         for w in body.welds:
+            if not isinstance(plan.specs[w.spec_index], AngleSpec):  # slide_weld: not turned
+                self.same_turn.add(frozenset((w.via, w.link)))
             s = plan.specs[w.spec_index]
             via = (self.ifphi[w.via], self.ifrot[w.via], self.ifT[w.via])
             out = (self.ifphi[w.link], self.ifrot[w.link], self.ifT[w.link])
@@ -404,9 +413,14 @@ class ScalarProgram:
 
         return angle
 
+    def _branch(self) -> int:
+        """The index of the next branching step's sign (each takes one)."""
+        self._branches += 1
+        return self._branches - 1
+
     def _rrr(self, k: int, x: str, a: RRRDyad) -> Step:
         return rrr_step(
-            k,
+            (k, self._branch()),
             x,
             (self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b]),
             self._radius(a.body_a, x, a.centre_a),
@@ -415,12 +429,14 @@ class ScalarProgram:
         )
 
     def _side(self, a: RollerSide) -> Step:
-        return side_step(self.ishift[a.joint], a.drawn_offset, 1j * self.direction[a.joint])
+        return side_step(
+            self._branch(), self.ishift[a.joint], a.drawn_offset, 1j * self.direction[a.joint]
+        )
 
     def _rrp(self, k: int, x: str, a: RRPDyad) -> Step:
         pj = self.plan.mech.prismatics[a.joint]
         return rrp_step(
-            k,
+            (k, self._branch()),
             x,
             (self.ip[x], self.ip[a.centre], self.irot[pj.guide], self.iT[pj.guide]),
             self._radius(a.body, x, a.centre),
@@ -433,7 +449,7 @@ class ScalarProgram:
         pj = self.plan.mech.prismatics[a.joint]
         guide = (self.ifphi[pj.guide], self.ifrot[pj.guide], self.ifT[pj.guide])
         return rpr_step(
-            k,
+            (k, self._branch()),
             (self.ip[st.point], self.ip[a.pivot], self.iang[bi]),
             None if self.single[bi] else guide,
             self._local(bi, a.pivot),
@@ -450,12 +466,14 @@ class ScalarProgram:
         prefer: Mapping[str, Any] | None = None,
         prev_margins: Sequence[float] | None = None,
         tol: float = TANGENCY_TOL,
-        predict: Callable[[], Mapping[str, Any] | None] | None = None,
+        predict: Callable[[Any, list[Any]], Mapping[str, Any] | None] | None = None,
+        predict_from: Any = None,
     ) -> SlotRun:
         """Execute the plan on one command (``values[i]`` a float, or an (x, y) pair for a
         point) with branch ``signs`` (default: the reference pose's); ``prefer`` maps point
         names to predicted complex positions and '@link' to predicted link angles (continuity,
-        see the module), or ``predict`` makes them where a step first needs them;
+        see the module), or ``predict(predict_from, values)`` makes them where a step first
+        needs them;
         ``prev_margins`` are the previous answer's dyad margins. Returns the
         run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
         if self.any_point:
@@ -467,6 +485,7 @@ class ScalarProgram:
             self.plan.reference_signs if signs is None else signs,
             prev_margins,
             predict,
+            predict_from,
             prefer,
             tol,
         )
@@ -476,7 +495,8 @@ class ScalarProgram:
         values: list[Any],
         signs: Sequence[int],
         prev_margins: Sequence[float] | None = None,
-        predict: Callable[[], Mapping[str, Any] | None] | None = None,
+        predict: Callable[[Any, list[Any]], Mapping[str, Any] | None] | None = None,
+        predict_from: Any = None,
         prefer: Mapping[str, Any] | None = None,
         tol: float = TANGENCY_TOL,
     ) -> SlotRun:
@@ -487,16 +507,20 @@ class ScalarProgram:
         for i, reg in self._wrap_regs:
             v = values[i]
             R[reg] = v if -_PI < v <= _PI else _wrap_one(v)
-        r.values, r.signs, r.prefer, r.predict, r.prev_margins, r.tol = (
-            values,
-            signs,
-            prefer,
-            predict,
-            prev_margins,
-            tol,
-        )
+        # (one store a field: a tuple assignment of many builds and unpacks a tuple)
+        r.values = values
+        r.signs = signs
+        r.prefer = prefer
+        r.predict = predict
+        r.predict_from = predict_from
+        r.prev_margins = prev_margins
+        r.tol = tol
         r.prev_small = min(prev_margins) < _CM if prev_margins else False
-        r.used, r.margins, r.margin, r.failure, r.violation = [], [], 1.0, -1, 0.0
+        r.used = []
+        r.margins = []
+        r.margin = 1.0
+        r.failure = -1
+        r.violation = 0.0
         try:
             for step in self.steps:
                 step(r)

@@ -31,7 +31,10 @@ class SlotRun:
     values: list[Any]
     signs: Sequence[int]
     prefer: Mapping[str, Any] | None  # made on first use by predict, if given
-    predict: Callable[[], Mapping[str, Any] | None] | None
+    #: predict(predict_from, values) makes ``prefer`` (a function and its first argument, not
+    #: a closure over them: nothing is made per run for the prediction most runs never ask)
+    predict: Callable[[Any, list[Any]], Mapping[str, Any] | None] | None
+    predict_from: Any
     prev_small: bool  # some previous margin is below CONTINUITY_MARGIN
     prev_margins: Sequence[float] | None
     tol: float
@@ -47,6 +50,7 @@ class SlotRun:
         'signs',
         'prefer',
         'predict',
+        'predict_from',
         'prev_small',
         'prev_margins',
         'tol',
@@ -60,7 +64,7 @@ class SlotRun:
     def prediction(self) -> Mapping[str, Any] | None:
         """Where continuity expects this configuration (None: nowhere), made on first use."""
         if self.predict is not None:
-            self.prefer, self.predict = self.predict(), None
+            self.prefer, self.predict = self.predict(self.predict_from, self.values), None
         return self.prefer
 
     def decide(self, margin: float, key: str) -> bool:
@@ -146,18 +150,20 @@ def slide_weld(
 
 
 def coincident(
-    r: SlotRun, k: int, x: str, sx: int, c1: complex, r1: float, ref_off: complex
+    r: SlotRun, at: tuple[int, int], x: str, sx: int, c1: complex, r1: float, ref_off: complex
 ) -> None:
     """Coincident circles (a change point, e.g. a rhombus folded flat) leave x anywhere on the
     circle: keep it where continuity predicts, else where the reference pose has it relative to
-    the first centre. Branch identity is undefined there (margin 0)."""
+    the first centre. Branch identity is undefined there (margin 0). ``at``: (the plan step's
+    index, the index of its sign)."""
+    k, b = at
     prefer = r.prediction()
     guess = prefer.get(x) if prefer else None
     off = (guess - c1) if guess is not None else ref_off
     n = _cabs_one(off)
     off = off / n if 0 < n < math.inf else 1 + 0j
     foot = c1 + r1 * off
-    sg = r.signs[len(r.used)]
+    sg = r.signs[b]
     if r.decide(0.0, x):
         sg = 1  # both branches are the one point
     z = (foot + (0.0 + sg * 0.0) * 1.0) * 1.0

@@ -92,3 +92,41 @@ def test_a_run_equals_its_batch_row(scene):
                     else:
                         assert abs(got - want) <= 1e-13 * scale, (knowns, i, got, want)
     assert compared >= 16, f'{scene}: too few closing commands compared ({compared})'
+
+
+def test_links_a_run_turns_alike_have_the_very_same_angle_and_rotation():
+    """ScalarProgram.same_turn names the links a slide weld joins (the member moved along the
+    slide, not turned) within a welded body: every run sets their angle and rotation registers
+    to the same floats, so the readout skips their angle's miss (closed_form). Over the knowns
+    of every shipped scene with such a weld, on commands spread wide around the reference."""
+    rng = np.random.default_rng(11)
+    pairs_seen = 0
+    for scene in SCENES:
+        mech = _mech(scene)
+        for knowns in scenes.knowns_sets(mech):
+            try:
+                s = Solver(mech, knowns=knowns, method='closed_form', branch='reference')
+            except PlanError:
+                continue
+            plan = s.compiled.full_plan
+            if not plan.complete:
+                continue
+            prog = program(plan)
+            if not prog.same_turn:
+                continue
+            for _ in range(12):
+                vals = [
+                    np.asarray(v, float) + rng.normal(0, 0.1 * mech.length_scale, 2)
+                    if np.ndim(v)
+                    else float(v) + float(rng.normal(0, 0.3))
+                    for v in s.compiled.ref_values
+                ]
+                run = program(plan).run(vals)
+                if not run.ok:
+                    continue
+                for pair in prog.same_turn:
+                    a, b = sorted(pair)
+                    pairs_seen += 1
+                    assert run.poses.phi[a] == run.poses.phi[b], (scene, knowns, pair)
+                    assert run.poses.rot[a] == run.poses.rot[b], (scene, knowns, pair)
+    assert pairs_seen >= 20

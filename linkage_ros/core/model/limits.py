@@ -33,6 +33,18 @@ def on_arc(value: float, lo: float, hi: float, slack: float = 0.0) -> bool:
     return lo + (value - lo) % (2 * math.pi) <= hi + slack
 
 
+def limit_interval(
+    lo: float | None, hi: float | None, periodic: bool
+) -> tuple[float, float] | None:
+    """The values :func:`limit_violation` allows, as the closed interval [a, b] (-inf / inf
+    for a missing limit), where they are one: the limits of a value that is not an angle
+    (``periodic``), whose rule is ``lo <= value <= hi`` (a finite value); None for an angle's,
+    which compare on the circle. Lets a caller judge a finite value with two comparisons."""
+    if periodic:
+        return None
+    return (-math.inf if lo is None else lo, math.inf if hi is None else hi)
+
+
 def limit_violation(
     name: str, value: float, lo: float | None, hi: float | None, unit: str, periodic: bool
 ) -> str | None:

@@ -30,6 +30,19 @@ the four-bar), in one process, old and new interleaved (process time, best of 80
 closure checks of the four joints and the known angle about 2.5, the finiteness sum, the
 ClosedResult and its branch text most of the rest: stubbing each out), the run about 8 (its
 RRR dyad 3.1, two placements 2.1, the crank about 1), lean_command and the commit about 2.5.
+
+Since then (limits judged by their interval, each dyad's sign index fixed when compiled, the
+State the Result's source, the prediction a function and its argument rather than a closure
+per command, a slide's read point computed once and a slide weld's angle miss, 0.0 by
+construction, not computed): the four-bar 16.5 us where the code before took 17.2 and the
+``math`` four-bar 1.57 us (10.5x), the excavator 52.1 us where it took 55.3 (3.2x the
+four-bar; same flow, best of 100 passes, load ~2.7). Where the 16.5 us go (stubbing out, in
+that flow): the run's steps about 7.6, their registers and the Result's arithmetic (closure
+misses, the known angle, the finiteness sum) 2.5 more (11.2 in all: 7.1x the ``math``
+four-bar); the Result and State objects, continuity's signs and commit and the lean checks
+2.7 (a copy of all of it fused into one function took 13.9 us, 8.9x); the Solver facade's
+call about 0.5. 8x would need the residual read lazily, which needs a proven bound on it
+before the success test (it decides success, so it is computed eagerly).
 """
 
 from __future__ import annotations
@@ -41,9 +54,10 @@ from typing import Any, NamedTuple
 
 from ..assemble import roller_offset
 from ..execute import LinkPoses
+from ..model.limits import limit_interval
 from ..ops import _wrap_one
-from ..plan import ReadKind, SpecReader, spec_reader
-from ..quantities import PointSpec, SlideSpec
+from ..plan import ReadKind, SpecReader, limit_violation, spec_reader
+from ..quantities import PointSpec, ScalarSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
 from ..steps import branch_text
@@ -112,6 +126,12 @@ class SlideRead(NamedTuple):
     read_ref: complex  # the point, the guide's origin and direction the slide is read with
     origin: complex
     direction: complex
+    #: the slide is read at the slider point as the slider places it (the registers and the
+    #: point above): that one complex serves both
+    read_at_point: bool
+    #: the slider and the guide may be turned apart (else the run sets their angles to the
+    #: same floats: ScalarProgram.same_turn, and the angle's miss is 0.0)
+    turned: bool
 
 
 class SlotReadout:
@@ -126,6 +146,16 @@ class SlotReadout:
         self.L = mech.length_scale
         self.closure_limit = c.closure_limit
         self.limited = bool(c.limited)
+        #: the limited knowns whose limits are an interval of values (index, lower, upper: a
+        #: slide's, limits.limit_interval), and the others (an angle's: on the circle)
+        self.limit_intervals: list[tuple[int, float, float]] = []
+        self.limit_arcs: list[tuple[int, ScalarSpec]] = []
+        for i, spec in c.limited:
+            interval = limit_interval(spec.minimum, spec.maximum, spec.periodic)
+            if interval is None:
+                self.limit_arcs.append((i, spec))
+            else:
+                self.limit_intervals.append((i, *interval))
         #: the names of a command's values, in spec order (lean_command's parse)
         self.known_names = tuple(s.name for s in specs)
         commanded = {s.name: i for i, s in enumerate(specs)}
@@ -160,20 +190,21 @@ class SlotReadout:
             for rj in revolutes
         ]
         # each revolute's closure (its point placed by the parent minus by the child), split by
-        # which side's placement set the point's register (that side's point is the register)
-        self.closure_parent_set: list[tuple[complex, int, int, int]] = []
-        self.closure_child_set: list[tuple[complex, int, int, int]] = []
-        self.closure_neither_set: list[tuple[complex, int, int, int, int]] = []
+        # whether one side's placement set the point's register (that side's point is the
+        # register: the miss is the register less the other side's point, negated where the
+        # child set it, which changes no component's magnitude) or neither did
+        self.closure_one_side: list[tuple[complex, int, int, int]] = []
+        self.closure_two_sides: list[tuple[complex, int, int, int, int]] = []
         for rj in revolutes:
             p = _c(mech.points[rj.point])
             preg, creg = reg(rj.point, rj.parent), reg(rj.point, rj.child)
             prot, pT, crot, cT = irot[rj.parent], iT[rj.parent], irot[rj.child], iT[rj.child]
             if preg >= 0:
-                self.closure_parent_set.append((p, preg, crot, cT))
+                self.closure_one_side.append((p, preg, crot, cT))
             elif creg >= 0:
-                self.closure_child_set.append((p, prot, pT, creg))
+                self.closure_one_side.append((p, creg, prot, pT))
             else:
-                self.closure_neither_set.append((p, prot, pT, crot, cT))
+                self.closure_two_sides.append((p, prot, pT, crot, cT))
         read_knowns = [
             (i, spec_reader(mech, s))
             for i, s in enumerate(specs)
@@ -210,6 +241,9 @@ class SlotReadout:
                     read.p_ref,
                     read.origin,
                     read.direction,
+                    (irot[read.link], iT[read.link], read.p_ref)
+                    == (irot[pj.slider], iT[pj.slider], _c(mech.points[pj.point])),
+                    frozenset((pj.slider, pj.guide)) not in prog.same_turn,
                 )  # fmt: skip
             )
             assert read.reference == pj.guide  # (the guide's registers above)
@@ -241,34 +275,27 @@ class SlotReadout:
                 self._branch_texts[signs] = text
         return text
 
-    def result(self, r: SlotRun, vals: Values, signs: tuple[int, ...]) -> Result:
-        """The Result of a run that closed (refused if any value is not finite). What decides
-        it is computed here: the loop-closure residual, the margin and branch, whether every
-        value is finite; the name-keyed dicts (inputs, joints, links, points) are read off the
-        registers when first asked (:class:`ClosedResult`)."""
-        L, R = self.L, r.R
+    def result(self, r: SlotRun, state: SlotState) -> Result:
+        """The Result of a run that closed (refused if any value is not finite), ``state`` its
+        State. What decides it is computed here: the loop-closure residual, the margin and
+        branch, whether every value is finite; the name-keyed dicts (inputs, joints, links,
+        points) are read off the registers when first asked (:class:`ClosedResult`, from the
+        State: one object holds what both read)."""
+        L, R, vals, signs = self.L, r.R, state.values, state.signs
         # (loops, not comprehensions: a comprehension is a call in Python 3.11)
         worst = 0.0  # the largest component of a closure miss (m); NaN ones are not counted
-        for p, reg, crot, cT in self.closure_parent_set:
-            d = R[reg] - (R[crot] * p + R[cT])
+        for p, reg, rot, T in self.closure_one_side:
+            d = R[reg] - (R[rot] * p + R[T])
             a = abs(d.real)
             if a > worst:  # max(worst, a), without the call (NaN is never greater)
                 worst = a
             a = abs(d.imag)
             if a > worst:
                 worst = a
-        for p, prot, pT, reg in self.closure_child_set:
-            d = (R[prot] * p + R[pT]) - R[reg]
-            a = abs(d.real)
-            if a > worst:  # max(worst, a), without the call (NaN is never greater)
-                worst = a
-            a = abs(d.imag)
-            if a > worst:
-                worst = a
-        for p, prot, pT, crot, cT in self.closure_neither_set:
+        for p, prot, pT, crot, cT in self.closure_two_sides:
             d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
             a = abs(d.real)
-            if a > worst:  # max(worst, a), without the call (NaN is never greater)
+            if a > worst:
                 worst = a
             a = abs(d.imag)
             if a > worst:
@@ -276,10 +303,11 @@ class SlotReadout:
         # ``total``: the values of the Result that may not be finite, summed (the test below)
         total = 0.0
         for (_, _, p, normal, sphi, srot, sT, gphi, grot, gT, face, known,
-             xrot, xT, x_ref, origin, direction) in self.slides:  # fmt: skip
+             xrot, xT, x_ref, origin, direction, at_point, turned) in self.slides:  # fmt: skip
             # the slide's value: _slot_reader's slide, inlined
             g = R[grot]
-            v = (R[xrot] * x_ref + R[xT]) - (g * origin + R[gT])
+            x = R[xrot] * x_ref + R[xT]
+            v = x - (g * origin + R[gT])
             d = g * direction
             got = v.real * d.real + v.imag * d.imag
             total += got
@@ -287,19 +315,20 @@ class SlotReadout:
                 a = abs(got - vals[known])
                 if a > worst:
                     worst = a
-            off = (R[srot] * p + R[sT]) - (R[grot] * p + R[gT])
+            off = (x if at_point else R[srot] * p + R[sT]) - (g * p + R[gT])
             nrm = R[grot] * normal
             # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
             across = off.real * nrm.real + off.imag * nrm.imag
             a = abs(abs(across + face) - abs(face)) if face else abs(across)
             if a > worst:
                 worst = a
-            a = R[sphi] - R[gphi]
-            if not _NEG_PI < a <= _PI:
-                a = _wrap_one(a)
-            a = L * abs(a)
-            if a > worst:
-                worst = a
+            if turned:
+                a = R[sphi] - R[gphi]
+                if not _NEG_PI < a <= _PI:
+                    a = _wrap_one(a)
+                a = L * abs(a)
+                if a > worst:
+                    worst = a
         for wrapped, ia, ib, off in self.angle_knowns:  # _slot_reader's angle, _wrap inlined
             got = R[ia] - R[ib] + off
             if not _NEG_PI < got <= _PI:
@@ -337,7 +366,7 @@ class SlotReadout:
                 False, 'internal error: non-finite value in the solution', solver=_CLOSED_FORM
             )
         res = _new_closed(ClosedResult)
-        res._source = (self, R, vals)
+        res._source = state
         res.success, res.solver = True, _CLOSED_FORM
         res.residual, res.margin, res.branch_defined = residual, margin, defined
         res.branch = self._branch_texts.get(signs) or self.branch_text(signs)
@@ -397,32 +426,41 @@ class SlotReadout:
         Result by the same steps, without the general path's checks of what this command
         is not. None, having changed nothing, for any other command or answer: solve_one
         answers those (it refuses them, or echoes other kinds of values)."""
-        if type(values) is not dict or len(values) != len(self.known_names):
+        names = self.known_names
+        if type(values) is not dict or len(values) != len(names):
             return None
         vals: Values = []
         try:
-            for name in self.known_names:
+            for name in names:
                 v = values[name]
                 if type(v) is not float or v - v != 0.0:  # (an int, NaN, ...)
                     return None
                 vals.append(v)
         except KeyError:
             return None
-        c = self.c
-        if self.limited and c.limit_refusal(vals):
-            return None
+        if self.limited:  # (the interval test is limit_violation's None: limit_interval)
+            for i, lo, hi in self.limit_intervals:
+                if not lo <= vals[i] <= hi:
+                    return None
+            for i, spec in self.limit_arcs:
+                if limit_violation(spec, vals[i]) is not None:
+                    return None
         history = cont.history
-        start = cont.signs(self.plan)
-        prev_margins = history[-1].margins if history else None
-        r = self.prog.run_parsed(vals, start, prev_margins, lambda: cont.prediction(c, vals))
+        r = self.prog.run_parsed(
+            vals,
+            cont.signs(self.plan),
+            history[-1].margins if history else None,
+            cont.prediction,
+            self.c,
+        )
         if r.failure >= 0:
             return None
-        signs = tuple(r.used)
-        res = self.result(r, vals, signs)
+        state = SlotState(vals, tuple(r.used), tuple(r.margins), self, r.R)
+        res = self.result(r, state)
         if not (res.success and res.residual <= self.closure_limit):  # type: ignore[operator]
             return None
         if commit:
-            cont.commit(SlotState(vals, signs, tuple(r.margins), self.prog, r.R))
+            cont.commit(state)
         return res
 
 
@@ -483,8 +521,8 @@ class _Filled:
         if self.default is not None:
             value = d[self.name] = self.default()
             return value
-        read, R, vals = obj._source
-        read.fill(d, R, vals)
+        st = obj._source
+        st._read.fill(d, st._registers, st.values)
         return d[self.name]
 
 
@@ -496,7 +534,7 @@ class ClosedResult(Result):
     Result of the same values), copies and pickles (as a plain Result) as the Result it is."""
 
     __slots__ = ('_source',)
-    _source: tuple[SlotReadout, list[Any], Values]  # what fills the dicts: readout, run
+    _source: SlotState  # what fills the dicts: the readout, the run's registers and values
 
     @property
     def __dict__(self) -> dict[str, Any]:  # type: ignore[override]
@@ -504,8 +542,8 @@ class ClosedResult(Result):
         ``Result(**result.__dict__)`` see every value (attribute reads do not come here)."""
         d: dict[str, Any] = _instance_dict(self)
         if not d.keys() >= _LAZY_SET:
-            read, R, vals = self._source
-            read.fill(d, R, vals)
+            st = self._source
+            st._read.fill(d, st._registers, st.values)
         return d
 
     def _values(self) -> tuple[Any, ...]:
@@ -546,11 +584,11 @@ class SlotState(State):
         values: Values,
         signs: tuple[int, ...],
         margins: tuple[float, ...],
-        prog: ScalarProgram,
+        read: SlotReadout,
         registers: list[Any],
     ):  # State's other fields are the class's defaults below (fewer stores per command)
         self.values, self.signs, self.margins = values, signs, margins
-        self._prog, self._registers = prog, registers
+        self._read, self._registers = read, registers
 
     x_all = None
     det_sign = 0
@@ -560,7 +598,7 @@ class SlotState(State):
     @property
     def points(self) -> dict[str, complex]:
         if self._points is None:
-            self._points = self._prog.points_closed(self._registers)
+            self._points = self._read.prog.points_closed(self._registers)
         return self._points
 
     @points.setter
@@ -570,7 +608,7 @@ class SlotState(State):
     @property
     def poses(self) -> LinkPoses:
         if self._poses is None:
-            self._poses = self._prog.poses_closed(self._registers)
+            self._poses = self._read.prog.poses_closed(self._registers)
         return self._poses
 
     @poses.setter
@@ -591,11 +629,11 @@ def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         vals,
         cont.signs(c.plan),
         history[-1].margins if history else None,
-        lambda: cont.prediction(c, vals),
+        cont.prediction,
+        c,
     )
     if r.failure >= 0:
         reason = c.dyad_reason(r.failure, r.violation)
         return c.fail(reason, c.echo(vals), _CLOSED_FORM), None
-    signs = tuple(r.used)
-    res = read.result(r, vals, signs)
-    return res, SlotState(vals, signs, tuple(r.margins), prog, r.R)
+    state = SlotState(vals, tuple(r.used), tuple(r.margins), read, r.R)
+    return read.result(r, state), state

@@ -11,7 +11,7 @@ import scenes
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from linkage_ros.core.model.limits import angle_limit_arc, limit_violation
+from linkage_ros.core.model.limits import angle_limit_arc, limit_interval, limit_violation
 from linkage_ros.core.motion import actuator_range
 
 angles = st.floats(-2 * math.pi, 2 * math.pi, allow_nan=False)
@@ -47,6 +47,34 @@ def test_the_arc_allows_exactly_the_angles_the_check_allows(lo, width, value, si
     allowed = limit_violation('a', value, lo_, hi_, 'rad', periodic=True) is None
     assert allowed == inside_documented(value, lo_, hi_)
     assert allowed == inside_arc(value, angle_limit_arc(lo_, hi_))
+
+
+lengths = st.floats(-1e6, 1e6, allow_nan=False)
+
+
+@settings(max_examples=400, deadline=None)
+@given(
+    lo=st.none() | lengths,
+    width=st.floats(0.0, 2e6),
+    value=st.floats(-2e6, 2e6, allow_nan=False) | st.sampled_from([0.0, 1.0, 1.5]),
+    upper=st.booleans(),
+    periodic=st.booleans(),
+)
+def test_the_interval_allows_exactly_the_values_the_check_allows(lo, width, value, upper, periodic):
+    """limit_interval (the closed-form path's two comparisons) is the rule itself for a value
+    that is not an angle, limits at the values' own floats included; an angle's limits are
+    no interval (they compare on the circle)."""
+    hi = (1.5 if lo is None else lo + width) if upper else None
+    for v in (value, lo, hi):  # on each limit, exactly
+        if v is None:
+            continue
+        interval = limit_interval(lo, hi, periodic)
+        if periodic:
+            assert interval is None
+            continue
+        assert interval is not None
+        allowed = limit_violation('z', v, lo, hi, 'm', periodic=False) is None
+        assert allowed == (interval[0] <= v <= interval[1]), (lo, hi, v)
 
 
 def test_limits_a_full_turn_apart_allow_every_angle():
