@@ -8,22 +8,19 @@ Why a plain-float twin of schur.py's batched elimination: one row of the batched
 getrf and an array per evaluation. Measured on the bench's warm sweeps, one command's kernel
 (prediction, fast steps, det J sign and the condition bound at the answer; CPU time, best of 7
 x 300 interleaved in one process, 2-core machine shared with other jobs, load 3.1-3.4): dense
-(scalar.predict + solve_from_guess) against lean (extrapolate + lean_from_guess), four-bar
+(scalar.predict + solve_from_guess) against lean (extrapolate + fast_steps by LeanSchur), four-bar
 105 / 121 -> 81 / 91 us, slider-crank 112 / 193 -> 87 / 130 us; with the DenseKernel (the same
 LAPACK calls, the rest on lists) Peaucellier 169 / 180 -> 161 / 158 us, excavator 239 / 447 ->
 227 / 428 us (two runs each). The steps are the dense ones to rounding
 (test/core/newton/test_lean.py holds them to numpy's dense solve and to schur.py's batched
 elimination on every scene with a 3 x 3 M, over random poses).
 
-What it decides, and how it stays the dense path's decision: det J's sign is parity * sign(det M)
-(exact, as schur.schur_answer); the fast path's rule is fast_steps, which the dense path runs
-too (scalar.solve_from_guess, by scalar.DenseKernel); where the answer would be polished or
-read singular by the dense path (its cond above POLISH_COND, or above COND_EXACT where the
-dense path reads the 2-norm) this path declines, deciding by an upper bound of the 1-norm
-condition number (cond_bound) that is never below the exact one, so never below LAPACK's
-estimate of it. The condition number a Result reports is not computed here: the caller reads
-it off the dense J at the answer by the dense path's own function when asked
-(scalar.answer_cond)."""
+What it decides: det J's sign is parity * sign(det M) (exact, as schur.schur_answer); the
+condition number is bounded (cond_bound: never below the exact 1-norm one, so never below
+LAPACK's estimate of it, the number finish() reports). scalar.solve_from_guess decides by the
+bound where it settles the question (below COND_EXACT: no polish, not singular) and reads the
+estimate off the dense J otherwise; the number a Result reports is that estimate, read when
+asked (scalar.cond_of). One Newton flow runs on either kernel: newton_path.solve_newton."""
 
 from __future__ import annotations
 
@@ -33,15 +30,18 @@ from typing import Any, NamedTuple, Protocol
 
 from ..execute import LinkPoses
 from .evaluate import residual_rows
-from .results import COND_EXACT, FAST_FLOOR, FAST_MARGIN, FAST_RATE, FAST_STEPS
+from .results import FAST_FLOOR, FAST_MARGIN, FAST_RATE, FAST_STEPS
 from .schur import SchurForm
 from .tables import LoopTables
 
 
 class Kernel(Protocol):
-    """The linear algebra lean_from_guess runs on: LeanSchur (a 3 x 3 reduction, plain floats)
-    or scalar.DenseKernel (LAPACK's LU of the dense J). A factor has a ``sign``: det J's, 0
-    where J is singular."""
+    """The linear algebra fast_steps and the predictor run on: LeanSchur (a 3 x 3 reduction,
+    plain floats) or scalar.DenseKernel (LAPACK's LU of the dense J). A factor has a
+    ``sign``: det J's, 0 where J is singular."""
+
+    #: whether cond_bound is the condition number finish() reports (not only a bound of it)
+    cond_exact: bool
 
     def factor(self, jv: Sequence[float]) -> Any: ...
 
@@ -59,19 +59,6 @@ class LeanFactor(NamedTuple):
     P: list[float]
     X: list[float]
     sign: int
-
-
-class LeanSolve(NamedTuple):
-    """A converged fast-path answer: x (phi rad, centroid m per free link) as floats, the steps
-    taken, max|F| / L there, the factor at x, J's varying entries at x (scalar.jacobian
-    builds the dense J from them) and the bound of J's condition number there (cond_bound)."""
-
-    x: list[float]
-    iterations: int
-    residual: float
-    factor: Any  # the kernel's factor (LeanFactor, scalar.DenseFactor)
-    jv: list[float]
-    cond_bound: float
 
 
 class LeanSchur:
@@ -96,6 +83,7 @@ class LeanSchur:
         'r_plan',
         't_plan',
     )
+    cond_exact = False  # cond_bound: an upper bound of the exact 1-norm condition number
 
     def __init__(self, sf: SchurForm, jv_real: Sequence[int]):
         assert sf.a == 3, 'the lean path inverts a 3 x 3 M by its adjugate'
@@ -265,8 +253,8 @@ def fast_steps(
     max_iter: int,
     start_sign: int,
 ) -> FastSteps:
-    """The fast path's rule, once for the dense path (scalar.solve_from_guess, by the
-    DenseKernel) and the lean one (lean_from_guess): one Newton step from a predicted guess,
+    """The fast path's rule (scalar.solve_from_guess runs it, by the Newton path's kernel:
+    newton_path.newton_kernel): one Newton step from a predicted guess,
     then chord steps on its factorisation, J factorised again at the answer. Steps go on to
     FAST_MARGIN * tol (or FAST_FLOOR) while each cuts max|F| FAST_RATE-fold (an answer just
     inside ``tol`` would leave angles read off its points off by ~tol / link length). Declines
@@ -302,25 +290,3 @@ def fast_steps(
         if fac.sign == 0 or (start_sign and fac.sign != start_sign):
             return FastSteps(False, x, it, res, fac, jv, F, nj)
     return FastSteps(True, x, it, res, fac, jv, F, nj)
-
-
-def lean_from_guess(
-    t: LoopTables,
-    ls: Kernel,
-    guess: list[float],
-    values: Sequence[Any],
-    *,
-    tol: float,
-    max_iter: int,
-    start_sign: int,
-) -> LeanSolve | None:
-    """The fast path (fast_steps) for the lean command: its answer, or None (the caller takes
-    the dense path) wherever that path would decline, polish or read the answer as singular:
-    fast_steps declines, or the condition bound at the answer is at or above COND_EXACT."""
-    got = fast_steps(t, ls, guess, values, tol=tol, max_iter=max_iter, start_sign=start_sign)
-    if not got.ok:
-        return None
-    bound = ls.cond_bound(got.factor)
-    if not bound < COND_EXACT:
-        return None
-    return LeanSolve(got.x, got.iterations, got.residual, got.factor, got.jv, bound)

@@ -38,7 +38,7 @@ from ..execute import LinkPoses
 from ..ops import _wrap_one
 from ..quantities import AngleSpec, SlideSpec
 from .evaluate import evaluate, evaluate_scaled, jacobian
-from .lean import LeanSolve, fast_steps
+from .lean import Kernel, fast_steps
 from .linalg import cond, factor, lapack, lu_step, scaled_cond, side_ok, sign_of
 from .results import (
     COND_EXACT,
@@ -115,7 +115,8 @@ def rate_factor(t: LoopTables, r: SolveResult) -> LUFactor | None:
     meaningful where no fixed link moves with the values (the Solver: newton mode)."""
     if not r.success or r.factor is None or t.val_rows is None:
         return None
-    return r.factor
+    fac: LUFactor = r.factor
+    return fac
 
 
 def predict(
@@ -132,15 +133,11 @@ def predict(
     rate_factor ``lu_last`` (an LUFactor: the tangent T = dx/dvalue is its inverse applied to
     -dF/dvalue), and optionally the solution before (see extrapolate). None if it moves an
     unknown by more than MAX_PREDICTION (rad, or length scales)."""
-    lu_last_d = dense_factor(t, lu_last)
-    if lu_last_d is None:
-        return None
-    lu_prev = None if lu_prev is None else dense_factor(t, lu_prev)
     got = extrapolate(
         t,
         DenseKernel(t).solve,
         x_last.tolist(),
-        lu_last_d,
+        lu_last,
         vals_last,
         vals,
         None if x_prev is None else x_prev.tolist(),
@@ -150,20 +147,20 @@ def predict(
     return None if got is None else np.array(got)
 
 
-def dense_factor(t: LoopTables, lu: tuple[Any, ...]) -> tuple[Any, ...] | None:
-    """An LUFactor as predict() takes it: ``lu`` itself, or the dense J's at a lean answer
-    (lean.LeanSolve: its varying entries give the J the dense fast path would have factorised
-    there; None if it is singular)."""
-    if isinstance(lu, LeanSolve):
-        return factor(jacobian(t, lu.jv, t.tpl_s))
-    return lu
-
-
 def answer_cond(t: LoopTables, jv: Sequence[float]) -> float:
     """The condition number finish() reports at an answer whose J has the varying entries
     ``jv`` (evaluate_rows_scaled's): the same function of the same J."""
     J = jacobian(t, jv, t.tpl_s)
     return cond_estimate(J, factor(J))
+
+
+def cond_of(t: LoopTables, r: SolveResult) -> float:
+    """``r.cond``, the condition number finish() reports at the answer: read off J there
+    (answer_cond) and kept where the fast path left it unread (nan; r.cond_bound bounds it)."""
+    c = r.cond
+    if c != c and r.jv is not None:
+        c = r.cond = answer_cond(t, r.jv)
+    return c
 
 
 class DenseFactor(NamedTuple):
@@ -177,9 +174,12 @@ class DenseFactor(NamedTuple):
 
 
 class DenseKernel:
-    """lean.Kernel by LAPACK's LU of the dense J: the linear algebra of solve_from_guess and
-    predict (getrf, getrs, the condition estimate finish() reports), and the lean command's
-    where J does not reduce to a 3 x 3."""
+    """lean.Kernel by LAPACK's LU of the dense J (getrf, getrs, the condition estimate
+    finish() reports): solve_from_guess's and predict's by default, and the Newton path's
+    where J does not reduce to a 3 x 3 (solver/newton_path.newton_kernel)."""
+
+    #: cond_bound is the condition number finish() reports itself
+    cond_exact = True
 
     def __init__(self, t: LoopTables):
         self.t, self.n = t, t.n
@@ -423,45 +423,67 @@ def solve(
 
 def solve_from_guess(
     t: LoopTables,
-    guess: np.ndarray,
+    guess: np.ndarray | list[float],
     values: Sequence[Any],
     fixed: LinkPoses | None = None,
     *,
     tol: float = 1e-12,
     max_iter: int = 50,
     start_sign: int = 0,
+    kernel: Kernel | None = None,
 ) -> SolveResult:
-    """The fast path (lean.fast_steps, its rule; here by LAPACK's LU of the dense J), then
-    finish() at its answer. Declines (success False, the steps spent counted) where
-    fast_steps does, or where polishing the answer crossed a fold (det J's sign changed)."""
-    guess = np.array(guess, float)  # the result never aliases the caller's array
+    """The fast path (lean.fast_steps, its rule) by ``kernel`` (LAPACK's LU of the dense J
+    where None), then finish() at its answer. Declines (success False, the steps spent
+    counted) where fast_steps does, or where polishing the answer crossed a fold (det J's sign
+    changed).
+
+    finish() is not run where the kernel's condition bound at the answer is below COND_EXACT:
+    the condition number finish() reports (LAPACK's 1-norm estimate, never above the exact
+    1-norm condition number, which the bound is never below) is then below COND_EXACT <
+    POLISH_COND < SINGULAR_COND, so finish would neither polish nor read J as singular: the
+    answer is the kernel's, its det sign the factor's. Its ``cond`` is then the bound where
+    the kernel's bound is the estimate itself (DenseKernel), else nan, read when asked
+    (cond_of); ``jv`` and ``factor`` are J's varying entries and the kernel's factor there."""
+    start = guess if isinstance(guess, list) else np.asarray(guess, float).tolist()
+    kern = kernel if kernel is not None else DenseKernel(t)
     got = fast_steps(
-        t,
-        DenseKernel(t),
-        guess.tolist(),
-        values,
-        fixed,
-        tol=tol,
-        max_iter=max_iter,
-        start_sign=start_sign,
+        t, kern, start, values, fixed, tol=tol, max_iter=max_iter, start_sign=start_sign
     )
     nj = got.factors
     if not got.ok:
-        return SolveResult(guess, False, got.iterations, got.residual, _DECLINED, jacobians=nj)
+        return SolveResult(
+            np.array(start), False, got.iterations, got.residual, _DECLINED, jacobians=nj
+        )
     fac = got.factor
+    bound = kern.cond_bound(fac)
+    if bound < COND_EXACT:
+        return SolveResult(
+            np.array(got.x),
+            True,
+            got.iterations,
+            got.residual,
+            None,
+            bound if kern.cond_exact else math.nan,
+            fac.sign,
+            fac,
+            nj,
+            True,
+            bound,
+            got.jv,
+        )
+    lu: LUFactor | None
+    if isinstance(fac, DenseFactor):
+        J, lu = fac.J, (fac.lu, fac.piv, fac.sign)
+    else:
+        J = jacobian(t, got.jv, t.tpl_s)
+        lu = factor(J)
     r = finish(
-        t,
-        np.array(got.x),
-        np.array(got.F),
-        fac.J,
-        (fac.lu, fac.piv, fac.sign),
-        got.residual,
-        got.iterations,
-        values,
-        fixed,
+        t, np.array(got.x), np.array(got.F), J, lu, got.residual, got.iterations, values, fixed
     )
     if start_sign and r.det_sign not in (0, start_sign):  # polished over a fold
-        return SolveResult(guess, False, got.iterations, got.residual, _DECLINED, jacobians=nj)
+        return SolveResult(
+            np.array(start), False, got.iterations, got.residual, _DECLINED, jacobians=nj
+        )
     r.jacobians += nj
     r.predicted = True
     return r
