@@ -3,7 +3,7 @@
 Oracles: numpy's dense LU on the same Jacobian (np.linalg.solve, np.linalg.slogdet, np.linalg.inv
 for ||J^-1||_1), schur.py's batched elimination of the same matrices (the algorithm this kernel
 is the one-row twin of), LAPACK's condition estimate (scalar._cond, what a Result reports), and
-the dense fast path (scalar.solve_from_guess) on the same guesses.
+the fast path by the dense kernel (scalar.solve_from_guess) on the same guesses.
 
 Would fail if: a step, a tangent or det J's sign differed from the dense ones beyond rounding, the
 condition bound were ever below the exact 1-norm condition number (the lean path would then keep
@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 
 from linkage_ros.core.newton import scalar
 from linkage_ros.core.newton.evaluate import jacobian
-from linkage_ros.core.newton.lean import evaluate_lean, lean_from_guess, lean_schur
+from linkage_ros.core.newton.lean import evaluate_lean, lean_schur
 from linkage_ros.core.newton.linalg import factor
 from linkage_ros.core.newton.schur import reduced_steps, schur_answer, schur_back, schur_reduce
 from linkage_ros.resources import config_dir
@@ -111,9 +111,9 @@ def _ref_values(sy):
 
 @pytest.mark.parametrize(('name', 'sy', 'ls'), LEAN, ids=IDS)
 def test_the_fast_path_decides_and_steps_as_the_dense_one(name, sy, ls):
-    # guesses at growing distances from a solution: the lean fast path accepts exactly where the
-    # dense one (LAPACK's LU of the dense J) does, with the same steps, det sign and answer to
-    # rounding
+    # guesses at growing distances from a solution: the fast path by the Schur kernel accepts
+    # exactly where the one by LAPACK's LU of the dense J does, with the same steps, det sign,
+    # answer and reported cond to rounding
     from linkage_ros.core.solver import Solver
 
     s = Solver(sy.mech, method='newton')
@@ -126,18 +126,17 @@ def test_the_fast_path_decides_and_steps_as_the_dense_one(name, sy, ls):
     for spread in np.geomspace(1e-9, 0.3, 60):
         guess = x0 + rng.normal(size=sy.n) * spread * sy.step_scale
         dense = scalar.solve_from_guess(t, guess, values, tol=1e-12, start_sign=sign)
-        lean = lean_from_guess(
-            t, ls, guess.tolist(), values, tol=1e-12, max_iter=50, start_sign=sign
+        lean = scalar.solve_from_guess(
+            t, guess, values, tol=1e-12, max_iter=50, start_sign=sign, kernel=ls
         )
-        if lean is None:
-            # the lean path declines where the dense one does, or where it would polish
-            assert not dense.success or dense.cond >= 1e4 / 40
+        assert lean.success == dense.success
+        if not dense.success:
             continue
         accepted += 1
-        assert dense.success and dense.iterations == lean.iterations
-        assert dense.det_sign == lean.factor.sign
+        assert dense.iterations == lean.iterations and dense.det_sign == lean.det_sign
         np.testing.assert_allclose(lean.x, dense.x, rtol=0, atol=1e-12 * max(1.0, t.L))
         assert abs(lean.residual - dense.residual) <= 1e-14
+        assert scalar.cond_of(t, lean) == pytest.approx(dense.cond, rel=1e-6)
         agreed += 1
     assert accepted >= 20 and agreed == accepted
 
