@@ -22,8 +22,9 @@ the bench sweep, 2-core machine shared with other jobs, load ~5.5): solve_from_g
 
 The fast path's rule is written once, in lean.fast_steps, over a linear-algebra kernel:
 solve_from_guess runs it by the DenseKernel here (getrf / getrs on the dense J, the same
-calls as before on the same floats), the lean Newton command (solver/newton_lean.py) by
-lean.LeanSchur where J reduces to a 3 x 3. The predictor is one too: extrapolate, over either
+calls as before on the same floats) where no kernel is given; the Newton path
+(solver/newton_path.py) passes its compiled solve's kernel, lean.LeanSchur where J reduces to a
+3 x 3. The predictor is one too: extrapolate, over either
 kernel's solve (predict: LAPACK's)."""
 
 from __future__ import annotations

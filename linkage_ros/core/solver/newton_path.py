@@ -23,7 +23,7 @@ from ..dyads import wrap_angle
 from ..execute import CONTINUITY_MARGIN, LinkPoses
 from ..newton.lean import Kernel, evaluate_lean, lean_schur
 from ..newton.results import SolveResult
-from ..newton.scalar import DenseKernel, cond_of, extrapolate
+from ..newton.scalar import DenseKernel, cond_of, extrapolate, solve_from_guess
 from ..plan import branch_geometry_one, rollers_off_drawn_side, run_one
 from ..quantities import AngleSpec, PointSpec
 from ..steps import RollerSide
@@ -198,6 +198,20 @@ def branch_jump(ga: Geometry, gb: Geometry) -> bool:
     )
 
 
+def _branch_text(signs: Sequence[int]) -> str:
+    """branch_text, kept for the few modes a mechanism meets (never more than 64)."""
+    key = tuple(signs)
+    text = _BRANCH_TEXTS.get(key)
+    if text is None:
+        text = branch_text(key)
+        if len(_BRANCH_TEXTS) < 64:
+            _BRANCH_TEXTS[key] = text
+    return text
+
+
+_BRANCH_TEXTS: dict[tuple[int, ...], str] = {}
+
+
 def interpolate(c: CompiledSolve, a: Values, b: Values, t: float) -> Values:
     """The command a fraction t of the way from a to b (angles the short way round)."""
     out = []
@@ -291,55 +305,6 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     ) -> bool:
         return branches and branch_jump(geometry(xa, fixed_a), geometry(xb, fixed_b))
 
-    def walk(
-        va: Values, xa: np.ndarray, vb: Values, depth: int, sign_a: int | None = None
-    ) -> tuple[SolveResult | None, str | None, LinkPoses | None]:
-        fixed_a = c.fixed_poses(va)[0]
-        if sign_a is None:  # det J sign at the start; 0 where it is singular
-            sign_a = c.system.start_sign(xa, va, fixed_a)
-        r, reason, fixed = newton_at(c, vb, xa, sign_a)
-        jumped = False
-        if r is not None:
-            total_iter[0] += r.iterations
-            since_progress[0] += r.iterations
-            if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
-                # det J keeps its sign when two dyads flip together: compare dyad sides too
-                jumped = jump(xa, fixed_a, r.x, fixed)
-                if not jumped:
-                    since_progress[0] = 0
-                    return r, None, fixed
-            if sign_a != 0 and near_singular(c, xa, fixed_a, va):
-                # det J may change sign only by passing a singular configuration, and one is
-                # near: step without the sign guard, keep it if no dyad jumped sides
-                r2, _, fixed2 = newton_at(c, vb, xa, 0)  # placed as r was: r2 is not None
-                total_iter[0] += r2.iterations if r2 is not None else 0
-                if r2 is not None and r2.success and not jump(xa, fixed_a, r2.x, fixed2):
-                    since_progress[0] = 0
-                    return r2, None, fixed2
-        if depth >= 10 or since_progress[0] > WALK_BUDGET * c.max_iter:
-            if r is None:
-                return None, reason, None
-            if jumped:
-                return (
-                    None,
-                    (
-                        'Newton could only reach this input in another assembly mode '
-                        '(a branch jump): it is not reachable on the current branch '
-                        'without crossing a singularity'
-                    ),
-                    None,
-                )
-            why: str | None = r.reason or (
-                'the sign of det J changed: a singularity (toggle or change '
-                'point) lies between the previous configuration and this input'
-            )
-            return None, why, None
-        vm = interpolate(c, va, vb, 0.5)
-        rm, why, fm = walk(va, xa, vm, depth + 1, sign_a)
-        if rm is None:
-            return None, why, None
-        return walk(vm, rm.x, vb, depth + 1, rm.det_sign)
-
     known = (
         last.det_sign
         if last is not None and last.x_all is not None and last.det_sign != 0
@@ -348,8 +313,8 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     r = fixed = None
     if guess is not None and known is not None:
         # newton mode: the fast path from the predicted solution, kept if no dyad jumped sides
-        rf = c.system.solve_from_guess(
-            guess, vals, None, tol=c.tol, max_iter=c.max_iter, start_sign=known, kernel=kernel
+        rf = solve_from_guess(
+            t, guess, vals, None, tol=c.tol, max_iter=c.max_iter, start_sign=known, kernel=kernel
         )
         total_iter[0] += rf.iterations
         if rf.success and not jump(x0, None, rf.x, None):
@@ -374,6 +339,57 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         if bad is not None:
             return bad, None
     if r is None:
+        # the careful path (defined here: a recursive closure is a reference cycle, which
+        # the fast path need not leave to the garbage collector)
+        def walk(
+            va: Values, xa: np.ndarray, vb: Values, depth: int, sign_a: int | None = None
+        ) -> tuple[SolveResult | None, str | None, LinkPoses | None]:
+            fixed_a = c.fixed_poses(va)[0]
+            if sign_a is None:  # det J sign at the start; 0 where it is singular
+                sign_a = c.system.start_sign(xa, va, fixed_a)
+            r, reason, fixed = newton_at(c, vb, xa, sign_a)
+            jumped = False
+            if r is not None:
+                total_iter[0] += r.iterations
+                since_progress[0] += r.iterations
+                if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
+                    # det J keeps its sign when two dyads flip together: compare dyad sides too
+                    jumped = jump(xa, fixed_a, r.x, fixed)
+                    if not jumped:
+                        since_progress[0] = 0
+                        return r, None, fixed
+                if sign_a != 0 and near_singular(c, xa, fixed_a, va):
+                    # det J may change sign only by passing a singular configuration, and one is
+                    # near: step without the sign guard, keep it if no dyad jumped sides
+                    r2, _, fixed2 = newton_at(c, vb, xa, 0)  # placed as r was: r2 is not None
+                    total_iter[0] += r2.iterations if r2 is not None else 0
+                    if r2 is not None and r2.success and not jump(xa, fixed_a, r2.x, fixed2):
+                        since_progress[0] = 0
+                        return r2, None, fixed2
+            if depth >= 10 or since_progress[0] > WALK_BUDGET * c.max_iter:
+                if r is None:
+                    return None, reason, None
+                if jumped:
+                    return (
+                        None,
+                        (
+                            'Newton could only reach this input in another assembly mode '
+                            '(a branch jump): it is not reachable on the current branch '
+                            'without crossing a singularity'
+                        ),
+                        None,
+                    )
+                why: str | None = r.reason or (
+                    'the sign of det J changed: a singularity (toggle or change '
+                    'point) lies between the previous configuration and this input'
+                )
+                return None, why, None
+            vm = interpolate(c, va, vb, 0.5)
+            rm, why, fm = walk(va, xa, vm, depth + 1, sign_a)
+            if rm is None:
+                return None, why, None
+            return walk(vm, rm.x, vb, depth + 1, rm.det_sign)
+
         r, reason, fixed = walk(v0, x0, vals, 0, known)
     if r is None:
         res = c.fail(refusal_at(c, vals, x0, reason), c.echo(vals), solver_name)
@@ -428,7 +444,8 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     # known whose links are placed, / L); in newton mode those are exactly the Newton rows, so
     # it is their max|F| / L at the answer; in hybrid mode the rows are a part: read them all
     residual = r.residual if c.mode is SolveMode.NEWTON else src.assembly().residual
-    if not math.isfinite(margin + residual + sum(v.real + v.imag for v in pts.values())):
+    # (the points are functions of x and the closed form's finite poses: finite with x)
+    if not math.isfinite(margin + residual + sum(r.x.tolist())):
         return c.fail(
             'internal error: non-finite value in the solution', c.echo(vals), solver_name
         ), None
@@ -437,7 +454,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         solver=solver_name,
         residual=residual,
         iterations=total_iter[0],
-        branch=branch_text(signs_t) if label is None else label,
+        branch=_branch_text(signs_t) if label is None else label,
         branch_defined=(
             bool(branch_identity_defined(margin, residual)) if signs_t or label else True
         ),
