@@ -19,7 +19,9 @@ Two paths. The *fast* path starts from a predicted guess (:meth:`LoopSystem.pred
 Hermite extrapolation from the last two solutions and their tangents dx/dvalue): one Newton step,
 then chord steps reusing that factorisation, the Jacobian factorised again only at the answer; it
 is taken only if the guess and the answer have the start's det J sign and every step cuts max|F|
-tenfold. Otherwise the *careful* path runs from the previous solution: Newton steps with a
+tenfold (lean.py: the same rule on plain floats, the linear algebra through schur.py's
+elimination of the centroid columns, where that leaves a 3 x 3 matrix: the four-bar, the
+slider-crank). Otherwise the *careful* path runs from the previous solution: Newton steps with a
 backtracking line search, the sign of det J checked at every accepted point (a flip means a branch
 jump or a singularity crossed, so the step is shortened), and Levenberg-Marquardt where Newton
 steps stop reducing the residual (near singularities).
@@ -33,8 +35,9 @@ Its linear algebra goes block by block where J's fixed sparsity makes it block t
 
 Modules (no one imports back): tables (the equations compiled once: a frozen LoopTables),
 evaluate (one configuration's rows), linalg (LU, det sign, cond), scalar (the one-configuration
-solves and the predictor), batch (N at once), blocks (J's block-triangular form for the batch),
-results (outcomes and constants); system's LoopSystem is the facade the solver uses.
+solves and the predictor), lean (the warm fast path on plain floats), batch (N at once), blocks
+(J's block-triangular form for the batch), results (outcomes and constants); system's
+LoopSystem is the facade the solver uses.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TypeAlias
+from typing import Any, TypeAlias
 
 import numpy as np
 
@@ -22,11 +22,17 @@ class SolveResult:
     iterations: int  # steps taken (Newton, chord, line-search, LM and polish)
     residual: float  # max |F| / length scale
     reason: str | None = None
-    cond: float = float('inf')  # condition number of the scale-free Jacobian (see linalg.cond)
+    #: condition number of the scale-free Jacobian (see linalg.cond); nan where the fast path
+    #: left it unread (scalar.cond_of reads it; cond_bound bounds it)
+    cond: float = float('inf')
     det_sign: int = 0
-    factor: LUFactor | None = None  # LU and det sign of the scale-free J at x
+    #: LU and det sign of the scale-free J at x (an LUFactor; the kernel's factor, with a
+    #: ``sign``, where the fast path answered without finish: scalar.solve_from_guess)
+    factor: Any = None
     jacobians: int = 0  # Jacobians evaluated and factorised
     predicted: bool = False  # converged by the fast path from the predicted guess
+    cond_bound: float = float('inf')  # an upper bound of cond (the fast path's kernel's)
+    jv: list[float] | None = None  # J's varying entries at x (the fast path's answer)
 
 
 @dataclass

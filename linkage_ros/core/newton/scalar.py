@@ -18,27 +18,31 @@ process against the code before (CPU time, interleaved best of 9 x 300 calls at 
 the bench sweep, 2-core machine shared with other jobs, load ~5.5): solve_from_guess four_bar
 77.3 -> 65.5 us, slider_crank 88.5 -> 70.5, peaucellier 114.5 -> 106.8, excavator 228 -> 240
 (noise: its time is the rows' Python); the answers are the same to the last bit
-(test_fast_path_answer_reads_as_its_configuration_does holds each to its configuration)."""
+(test_fast_path_answer_reads_as_its_configuration_does holds each to its configuration).
+
+The fast path's rule is written once, in lean.fast_steps, over a linear-algebra kernel:
+solve_from_guess runs it by the DenseKernel here (getrf / getrs on the dense J, the same
+calls as before on the same floats) where no kernel is given; the Newton path
+(solver/newton_path.py) passes its compiled solve's kernel, lean.LeanSchur where J reduces to a
+3 x 3. The predictor is one too: extrapolate, over either
+kernel's solve (predict: LAPACK's)."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from ..execute import LinkPoses
 from ..ops import _wrap_one
 from ..quantities import AngleSpec, SlideSpec
-from .evaluate import evaluate, evaluate_rows_scaled, evaluate_scaled, jacobian
+from .evaluate import evaluate, evaluate_scaled, jacobian
+from .lean import Kernel, fast_steps
 from .linalg import cond, factor, lapack, lu_step, scaled_cond, side_ok, sign_of
 from .results import (
     COND_EXACT,
-    FAST_FLOOR,
-    FAST_MARGIN,
-    FAST_RATE,
-    FAST_STEPS,
     MAX_PREDICTION,
     POLISH_COND,
     POLISH_STEPS,
@@ -112,7 +116,8 @@ def rate_factor(t: LoopTables, r: SolveResult) -> LUFactor | None:
     meaningful where no fixed link moves with the values (the Solver: newton mode)."""
     if not r.success or r.factor is None or t.val_rows is None:
         return None
-    return r.factor
+    fac: LUFactor = r.factor
+    return fac
 
 
 def predict(
@@ -127,13 +132,99 @@ def predict(
 ) -> np.ndarray | None:
     """Predicted solution at ``vals`` from the solution x_last at vals_last and its
     rate_factor ``lu_last`` (an LUFactor: the tangent T = dx/dvalue is its inverse applied to
-    -dF/dvalue). h = value_step(vals_last, vals); alone: x_last + T h. Given the solution before
-    (x_prev at vals_prev, hp the step since, s = h.hp / hp.hp, w = h - s hp): along hp the cubic
-    Hermite extrapolation through both solutions and their tangents (with ``lu_prev``),
-    else the quadratic one (the curvature the tangent missed over hp, times s^2), plus
-    T w off that line. None if it moves an unknown by more than MAX_PREDICTION (rad, or
-    length scales)."""
-    getrs = lapack().getrs
+    -dF/dvalue), and optionally the solution before (see extrapolate). None if it moves an
+    unknown by more than MAX_PREDICTION (rad, or length scales)."""
+    got = extrapolate(
+        t,
+        DenseKernel(t).solve,
+        x_last.tolist(),
+        lu_last,
+        vals_last,
+        vals,
+        None if x_prev is None else x_prev.tolist(),
+        vals_prev,
+        lu_prev,
+    )
+    return None if got is None else np.array(got)
+
+
+def answer_cond(t: LoopTables, jv: Sequence[float]) -> float:
+    """The condition number finish() reports at an answer whose J has the varying entries
+    ``jv`` (evaluate_rows_scaled's): the same function of the same J."""
+    J = jacobian(t, jv, t.tpl_s)
+    return cond_estimate(J, factor(J))
+
+
+def cond_of(t: LoopTables, r: SolveResult) -> float:
+    """``r.cond``, the condition number finish() reports at the answer: read off J there
+    (answer_cond) and kept where the fast path left it unread (nan; r.cond_bound bounds it)."""
+    c = r.cond
+    if c != c and r.jv is not None:
+        c = r.cond = answer_cond(t, r.jv)
+    return c
+
+
+class DenseFactor(NamedTuple):
+    """One linearisation point of the DenseKernel: LAPACK's LU of the scale-free J (lu, piv),
+    det J's sign (0: singular) and J itself (its condition estimate)."""
+
+    lu: np.ndarray
+    piv: np.ndarray
+    sign: int
+    J: np.ndarray
+
+
+class DenseKernel:
+    """lean.Kernel by LAPACK's LU of the dense J (getrf, getrs, the condition estimate
+    finish() reports): solve_from_guess's and predict's by default, and the Newton path's
+    where J does not reduce to a 3 x 3 (solver/newton_path.newton_kernel)."""
+
+    #: cond_bound is the condition number finish() reports itself
+    cond_exact = True
+
+    def __init__(self, t: LoopTables):
+        self.t, self.n = t, t.n
+
+    def factor(self, jv: Sequence[float]) -> DenseFactor:
+        J = jacobian(self.t, jv, self.t.tpl_s)
+        fac = factor(J)  # (as solve_from_guess: a point with non-finite rows is declined)
+        if fac is None:
+            return DenseFactor(J, J, 0, J)
+        return DenseFactor(fac[0], fac[1], fac[2], J)
+
+    def solve(self, fac: tuple[Any, ...], F: Sequence[float]) -> list[float]:
+        """J^-1 F from a DenseFactor or an LUFactor (NaN entries where LAPACK refuses)."""
+        y, info = lapack().getrs(fac[0], fac[1], np.array(F))
+        out: list[float] = y.tolist() if info == 0 else [math.nan] * self.n
+        return out
+
+    def cond_bound(self, fac: DenseFactor) -> float:
+        """The condition number finish() reports (not a bound: the same number)."""
+        if not fac.sign:
+            return math.inf
+        return cond_estimate(fac.J, (fac.lu, fac.piv, fac.sign))
+
+
+def extrapolate(
+    t: LoopTables,
+    solve: Callable[[Any, list[float]], list[float]],
+    xl: list[float],
+    lu_last: Any,
+    vals_last: Sequence[Any],
+    vals: Sequence[Any],
+    x_prev: list[float] | None = None,
+    vals_prev: Sequence[Any] | None = None,
+    lu_prev: Any = None,
+) -> list[float] | None:
+    """The continuation predictor (predict, lean.predict_lean) over plain floats: the solution
+    at ``vals`` predicted from the solution ``xl`` at vals_last, where ``solve(lu, rhs)`` is
+    J^-1 rhs at that solution (``lu_last`` its factorisation in the caller's form). h =
+    value_step(vals_last, vals); alone: xl + T h, with T = dx/dvalue = J^-1 (-dF/dvalue).
+    Given the solution before (x_prev at vals_prev, hp the step since, s = h.hp / hp.hp,
+    w = h - s hp): along hp the cubic Hermite extrapolation through both solutions and their
+    tangents (with ``lu_prev``), else the quadratic one (the curvature the tangent missed over
+    hp, times s^2), plus T w off that line. None if it moves an unknown by more than
+    MAX_PREDICTION (rad, or length scales)."""
     h = value_step(t, vals_last, vals)
     c_last: list[float] = h
     c_prev: list[float] | None = None
@@ -155,28 +246,25 @@ def predict(
 
     n, rows = t.n, t.val_rows or ()
 
-    def tangent(lu: tuple[Any, ...], c: list[float]) -> list[float]:  # T c, scale-free
+    def tangent(lu: Any, c: list[float]) -> list[float]:  # T c, scale-free
         rhs = [0.0] * n
         for i, v in zip(rows, c):
             rhs[i] = v  # -dF/dvalue (scale-free) times c
-        y, info = getrs(lu[0], lu[1], np.array(rhs))
-        out: list[float] = y.tolist() if info == 0 else [math.nan] * n
-        return out
+        return solve(lu, rhs)
 
     # plain Python on these short vectors: a dozen numpy calls would cost more
     dy = tangent(lu_last, c_last)
     if c_prev is not None and lu_prev is not None:
         dy = [a + b for a, b in zip(dy, tangent(lu_prev, c_prev))]
-    xl: list[float] = x_last.tolist()
     if k_back and x_prev is not None:
-        back = [a - b for a, b in zip(x_prev.tolist(), xl)]
+        back = [a - b for a, b in zip(x_prev, xl)]
         for j in range(0, n, 3):
             if abs(back[j]) > _PI:  # angles a turn apart
                 back[j] = math.remainder(back[j], 2 * math.pi)
         dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
     if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
         return None
-    return np.array([x + d * w for x, d, w in zip(xl, dy, t.step_list)])
+    return [x + d * w for x, d, w in zip(xl, dy, t.step_list)]
 
 
 def rates(
@@ -336,55 +424,67 @@ def solve(
 
 def solve_from_guess(
     t: LoopTables,
-    guess: np.ndarray,
+    guess: np.ndarray | list[float],
     values: Sequence[Any],
     fixed: LinkPoses | None = None,
     *,
     tol: float = 1e-12,
     max_iter: int = 50,
     start_sign: int = 0,
+    kernel: Kernel | None = None,
 ) -> SolveResult:
-    """The fast path: one Newton step from a predicted guess, then chord steps on its
-    factorisation, J factorised again at the answer. Steps go on to FAST_MARGIN * tol (or
-    FAST_FLOOR) while each cuts max|F| FAST_RATE-fold (an answer just inside ``tol`` would
-    leave angles read off its points off by ~tol / link length). Declines (success False,
-    the steps spent counted) unless J is regular at the guess and at the answer with det
-    sign ``start_sign`` (0: any) and min(FAST_STEPS, max_iter) such steps reach ``tol``."""
-    x = guess = np.array(guess, float)  # the result never aliases the caller's array
-    F, Jv, res = evaluate_rows_scaled(t, x, values, fixed)
-    J = jacobian(t, Jv, t.tpl_s)
-    fac = factor(J)
-    steps, it, nj = min(FAST_STEPS, max_iter), 0, 1
-    if fac is None or not math.isfinite(res) or (start_sign and fac[2] != start_sign):
-        return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)
-    lin = fac
-    at_answer: LUFactor | None = fac
-    target = min(tol, max(FAST_MARGIN * tol, FAST_FLOOR))
-    getrs, step = lapack().getrs, t.step_scale
-    while res > target:
-        cut = False
-        if it < steps:
-            # J^-1 F, the step's negative to the bit (LAPACK's solve is odd in its right side)
-            y, info = getrs(lin[0], lin[1], F)
-            if info == 0 and math.isfinite(float(y.sum())):
-                xn = x - y * step
-                Fn, Jvn, rn = evaluate_rows_scaled(t, xn, values, fixed)
-                it += 1
-                cut = rn <= FAST_RATE * res
-        if not cut:
-            if res <= tol:  # converged; the rounding floor is above the margin
-                break
-            return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)
-        x, F, Jv, res, at_answer = xn, Fn, Jvn, rn, None
-    if at_answer is None:  # J at the answer: its det sign, cond and factorisation
-        J = jacobian(t, Jv, t.tpl_s)
-        at_answer = factor(J)
-        nj += 1
-        if at_answer is None or (start_sign and at_answer[2] != start_sign):
-            return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)
-    r = finish(t, x, F, J, at_answer, res, it, values, fixed)
-    if start_sign and r.det_sign not in (0, start_sign):
-        return SolveResult(guess, False, it, res, _DECLINED, jacobians=nj)  # polished over a fold
+    """The fast path (lean.fast_steps, its rule) by ``kernel`` (LAPACK's LU of the dense J
+    where None), then finish() at its answer. Declines (success False, the steps spent
+    counted) where fast_steps does, or where polishing the answer crossed a fold (det J's sign
+    changed).
+
+    finish() is not run where the kernel's condition bound at the answer is below COND_EXACT:
+    the condition number finish() reports (LAPACK's 1-norm estimate, never above the exact
+    1-norm condition number, which the bound is never below) is then below COND_EXACT <
+    POLISH_COND < SINGULAR_COND, so finish would neither polish nor read J as singular: the
+    answer is the kernel's, its det sign the factor's. Its ``cond`` is then the bound where
+    the kernel's bound is the estimate itself (DenseKernel), else nan, read when asked
+    (cond_of); ``jv`` and ``factor`` are J's varying entries and the kernel's factor there."""
+    start = guess if isinstance(guess, list) else np.asarray(guess, float).tolist()
+    kern = kernel if kernel is not None else DenseKernel(t)
+    got = fast_steps(
+        t, kern, start, values, fixed, tol=tol, max_iter=max_iter, start_sign=start_sign
+    )
+    nj = got.factors
+    if not got.ok:
+        return SolveResult(
+            np.array(start), False, got.iterations, got.residual, _DECLINED, jacobians=nj
+        )
+    fac = got.factor
+    bound = kern.cond_bound(fac)
+    if bound < COND_EXACT:
+        return SolveResult(
+            np.array(got.x),
+            True,
+            got.iterations,
+            got.residual,
+            None,
+            bound if kern.cond_exact else math.nan,
+            fac.sign,
+            fac,
+            nj,
+            True,
+            bound,
+            got.jv,
+        )
+    lu: LUFactor | None
+    if isinstance(fac, DenseFactor):
+        J, lu = fac.J, (fac.lu, fac.piv, fac.sign)
+    else:
+        J = jacobian(t, got.jv, t.tpl_s)
+        lu = factor(J)
+    r = finish(
+        t, np.array(got.x), np.array(got.F), J, lu, got.residual, got.iterations, values, fixed
+    )
+    if start_sign and r.det_sign not in (0, start_sign):  # polished over a fold
+        return SolveResult(
+            np.array(start), False, got.iterations, got.residual, _DECLINED, jacobians=nj
+        )
     r.jacobians += nj
     r.predicted = True
     return r
@@ -394,7 +494,7 @@ def solve_from_guess(
 _DECLINED = 'the predicted start did not qualify'
 
 
-def _cond(J: np.ndarray, fac: LUFactor | None) -> float:
+def cond_estimate(J: np.ndarray, fac: LUFactor | None) -> float:
     """linalg.cond with LAPACK's 1-norm of J (dlange) for numpy's three reductions: the same
     column sums in the same order (one call instead of three)."""
     if fac is not None:
@@ -431,7 +531,7 @@ def finish(
     """The result at x (marked a success: the caller decides): condition number, det J
     sign and, if ``polish`` (converged) and near a fold, polishing steps."""
     square = t.m == t.n
-    c = _cond(J, fac)
+    c = cond_estimate(J, fac)
     nj = 0
     if polish and c > POLISH_COND:
         # near a toggle Newton converges only linearly and the configuration error is
@@ -454,6 +554,6 @@ def finish(
             fac = factor(J)
             nj += 1
             it += 1
-        c = _cond(J, fac)
+        c = cond_estimate(J, fac)
     det = fac[2] if fac is not None and c < SINGULAR_COND else 0  # 0: singular, no sign
     return SolveResult(x, True, it, res, None, c, det, fac, nj)

@@ -17,6 +17,7 @@ from ..quantities import Spec
 from . import evaluate as ev
 from . import linalg, scalar
 from .batch import BatchNewton
+from .lean import Kernel
 from .results import FAST_STEPS, BatchSolve, LUFactor, SolveResult
 from .tables import LoopTables, PointOwner, compile_tables, jacobian_pattern, spec_links
 
@@ -216,19 +217,28 @@ class LoopSystem:
 
     def solve_from_guess(
         self,
-        guess: np.ndarray,
+        guess: np.ndarray | list[float],
         values: Sequence[Any],
         fixed: LinkPoses | None = None,
         *,
         tol: float = 1e-12,
         max_iter: int = 50,
         start_sign: int = 0,
+        kernel: Kernel | None = None,
     ) -> SolveResult:
-        """The fast path (scalar.solve_from_guess): one Newton step from a predicted guess,
-        then chord steps on its factorisation; declines (success False) unless it stays on
-        the det J side ``start_sign`` (0: any) and converges quickly."""
+        """The fast path (scalar.solve_from_guess, by ``kernel``, LAPACK's LU where None): one
+        Newton step from a predicted guess, then chord steps on its factorisation; declines
+        (success False) unless it stays on the det J side ``start_sign`` (0: any) and
+        converges quickly."""
         return scalar.solve_from_guess(
-            self.tables, guess, values, fixed, tol=tol, max_iter=max_iter, start_sign=start_sign
+            self.tables,
+            guess,
+            values,
+            fixed,
+            tol=tol,
+            max_iter=max_iter,
+            start_sign=start_sign,
+            kernel=kernel,
         )
 
     def solve_batch(

@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import MISSING, fields
 from typing import Any, NamedTuple
 
 from ..assemble import roller_offset
@@ -63,6 +62,7 @@ from ..scalar_run import SlotRun
 from ..steps import branch_text
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity, State
+from .lazy_result import LazyResult
 from .result import _EPS, Result
 
 _PI = math.pi
@@ -500,78 +500,22 @@ def lean_command(c: CompiledSolve) -> LeanCommand | None:
     return LeanCommand(c)
 
 
-#: the Result fields ClosedResult reads off the registers on first use
-_LAZY = ('inputs', 'targets', 'joints', 'links', 'points')
-_LAZY_SET = frozenset(_LAZY)
-_FIELD_NAMES = tuple(f.name for f in fields(Result))
-
-
-class _Filled:
-    """A field of a :class:`ClosedResult` made on first read: the name-keyed dicts read off
-    its run, or another field's default. A non-data descriptor: once in the instance's
-    ``__dict__`` (filled, or given) the value there is read, at the cost of any attribute."""
-
-    def __init__(self, name: str, default: Callable[[], Any] | None = None):
-        self.name, self.default = name, default
-
-    def __get__(self, obj: ClosedResult | None, owner: type | None = None) -> Any:
-        if obj is None:
-            return self
-        d = _instance_dict(obj)
-        if self.default is not None:
-            value = d[self.name] = self.default()
-            return value
-        st = obj._source
-        st._read.fill(d, st._registers, st.values)
-        return d[self.name]
-
-
-class ClosedResult(Result):
+class ClosedResult(LazyResult):
     """A closed-form answer whose name-keyed dicts (inputs, targets, joints, links, points)
-    are read off its run's registers when first asked, by the readout's very operations: most
-    callers read a few values, many none (a node publishing one output, a bench). Every other
-    field is set when it is made (or is Result's default). It reads, compares (equal to a
-    Result of the same values), copies and pickles (as a plain Result) as the Result it is."""
+    are read off its run's registers when first asked, by the readout's very operations
+    (lazy_result.LazyResult: the machinery). Every other field is set when it is made (or is
+    Result's default)."""
 
-    __slots__ = ('_source',)
+    __slots__ = ()
     _source: SlotState  # what fills the dicts: the readout, the run's registers and values
+    _LAZY = frozenset(('inputs', 'targets', 'joints', 'links', 'points'))
 
-    @property
-    def __dict__(self) -> dict[str, Any]:  # type: ignore[override]
-        """The instance's attributes, the dicts filled first: ``vars(result)`` and
-        ``Result(**result.__dict__)`` see every value (attribute reads do not come here)."""
-        d: dict[str, Any] = _instance_dict(self)
-        if not d.keys() >= _LAZY_SET:
-            st = self._source
-            st._read.fill(d, st._registers, st.values)
-        return d
-
-    def _values(self) -> tuple[Any, ...]:
-        return tuple(getattr(self, n) for n in _FIELD_NAMES)
-
-    def __eq__(self, other: object) -> bool:
-        if isinstance(other, Result):
-            return self._values() == tuple(getattr(other, n) for n in _FIELD_NAMES)
-        return NotImplemented
-
-    __hash__ = None  # type: ignore[assignment]  # (a Result is mutable: unhashable)
-
-    def __reduce__(self) -> tuple[Any, ...]:
-        return Result, self._values()
-
-
-for _f in fields(Result):  # every field a Result makes with a factory, made on first read
-    if _f.default_factory is not MISSING:
-        setattr(
-            ClosedResult,
-            _f.name,
-            _Filled(_f.name, None if _f.name in _LAZY else _f.default_factory),
-        )
+    def _fill(self, d: dict[str, Any], name: str) -> None:
+        st = self._source
+        st._read.fill(d, st._registers, st.values)
 
 
 _new_closed = object.__new__
-#: an instance's own attribute dict (ClosedResult.__dict__ fills it first)
-_instance_dict = Result.__dict__['__dict__'].__get__
 
 
 class SlotState(State):

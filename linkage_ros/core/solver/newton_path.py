@@ -1,5 +1,16 @@
 """The Newton path of a solve (Newton alone, or the hybrid remainder the dyad plan cannot place):
-warm start, continuation with branch checks, a careful fallback."""
+warm start, continuation with branch checks, a careful fallback.
+
+A Newton solve's prediction and fast path run on the compiled solve's kernel (newton_kernel:
+lean.LeanSchur, plain floats, where J reduces to a 3 x 3; else scalar.DenseKernel, LAPACK's
+LU), whose factor at each answer the State keeps for the next prediction; the walk (careful
+path) stays on the dense J. Its decisions read one definition each, whatever the kernel:
+``cond`` is the condition number finish() reports (LAPACK's 1-norm estimate off the dense J,
+scalar.cond_of), decided by the kernel's upper bound of it where that settles the question; the
+Result's residual is the assembler's (build_result's) metric, read as max|F| / L over the Newton
+rows at the answer where those are all the closures it reads (SolveResult.residual: the
+rows of a Newton solve are every joint's and known's closure, as the assembler reads them off the
+poses; a hybrid solve's residual is the assembler's)."""
 
 from __future__ import annotations
 
@@ -10,14 +21,24 @@ import numpy as np
 
 from ..dyads import wrap_angle
 from ..execute import CONTINUITY_MARGIN, LinkPoses
+from ..newton.lean import Kernel, evaluate_lean, lean_schur
 from ..newton.results import SolveResult
+from ..newton.scalar import DenseKernel, cond_of, extrapolate, solve_from_guess
 from ..plan import branch_geometry_one, rollers_off_drawn_side, run_one
 from ..quantities import AngleSpec, PointSpec
 from ..steps import RollerSide
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import BranchRule, Continuity, State, state_of
+from .newton_result import NewtonSource, newton_result
 from .reading import jacobian_sign, mode_label
-from .result import CLOSURE_LIMIT, NEAR_SINGULAR_COND, WALK_BUDGET, Result, branch_text
+from .result import (
+    CLOSURE_LIMIT,
+    NEAR_SINGULAR_COND,
+    WALK_BUDGET,
+    Result,
+    branch_identity_defined,
+    branch_text,
+)
 
 #: what a configuration's branch geometry is: (signs, margins, poses, points)
 Geometry = tuple[tuple[int, ...], Sequence[float], LinkPoses, dict[str, complex]]
@@ -34,22 +55,50 @@ def newton_at(
     return r, None, fixed
 
 
+def newton_kernel(c: CompiledSolve) -> Kernel | None:
+    """The linear algebra of ``c``'s prediction and fast path: lean.LeanSchur where its J
+    reduces to a 3 x 3, else scalar.DenseKernel; None where it predicts nothing (hybrid mode,
+    a non-square J, a value without a row). Made on first use and kept on ``c``."""
+    if _KERNEL in c.__dict__:
+        known: Kernel | None = c.__dict__[_KERNEL]
+        return known
+    got: Kernel | None = None
+    t = c.system.tables
+    if c.mode is SolveMode.NEWTON and t.n and t.m == t.n and t.val_rows is not None:
+        try:
+            tabs = c.system.batch.tables()
+            got = lean_schur(t, tabs.schur, tabs.jv_real.tolist())
+        except ValueError:  # (a system the batched tables do not take)
+            pass
+        if got is None:
+            got = DenseKernel(t)
+    c.__dict__[_KERNEL] = got
+    return got
+
+
+_KERNEL = '_newton_kernel'
+
+
 def start(
-    c: CompiledSolve, cont: Continuity, vals: Values
-) -> tuple[Values, np.ndarray, np.ndarray | None]:
+    c: CompiledSolve, cont: Continuity, vals: Values, kernel: Kernel | None
+) -> tuple[Values, np.ndarray, list[float] | None]:
     """Warm start (values, x): the previous solution, else the reference pose; and the
-    predicted solution at ``vals`` (newton mode, after a Newton solve: LoopSystem.predict)."""
+    predicted solution at ``vals`` (newton mode, after a Newton solve: scalar.extrapolate by
+    ``kernel`` from the factors the States keep)."""
     last = cont.last
     if last is not None and last.x_all is not None:
         guess = None
-        if last.x_lu is not None and c.mode is SolveMode.NEWTON:
+        if last.x_lu is not None and kernel is not None:
             prev = cont.history[-2] if len(cont.history) == 2 else None
             before = (
-                (prev.x_all, prev.values, prev.x_lu)
+                (prev.x_all.tolist(), prev.values, prev.x_lu)
                 if prev is not None and prev.x_all is not None
                 else ()
             )
-            guess = c.system.predict(last.x_all, last.x_lu, last.values, vals, *before)
+            t = c.system.tables
+            guess = extrapolate(
+                t, kernel.solve, last.x_all.tolist(), last.x_lu, last.values, vals, *before
+            )
         return last.values, c.sub_x(last.x_all), guess
     x_all = c.check_system.reference_x()
     if (
@@ -149,6 +198,20 @@ def branch_jump(ga: Geometry, gb: Geometry) -> bool:
     )
 
 
+def _branch_text(signs: Sequence[int]) -> str:
+    """branch_text, kept for the few modes a mechanism meets (never more than 64)."""
+    key = tuple(signs)
+    text = _BRANCH_TEXTS.get(key)
+    if text is None:
+        text = branch_text(key)
+        if len(_BRANCH_TEXTS) < 64:
+            _BRANCH_TEXTS[key] = text
+    return text
+
+
+_BRANCH_TEXTS: dict[tuple[int, ...], str] = {}
+
+
 def interpolate(c: CompiledSolve, a: Values, b: Values, t: float) -> Values:
     """The command a fraction t of the way from a to b (angles the short way round)."""
     out = []
@@ -212,7 +275,9 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     side = roller_side_refusal(c, cont)
     if side is not None:
         return c.fail(side, c.echo(vals), solver_name), None
-    v0, x0, guess = start(c, cont, vals)
+    kernel = newton_kernel(c)
+    t = c.system.tables
+    v0, x0, guess = start(c, cont, vals, kernel)
     total_iter = [0]
     since_progress = [0]  # iterations since the last substep that succeeded
     branches = bool(c.full_plan.complete and c.full_plan.branch_steps)
@@ -240,55 +305,6 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     ) -> bool:
         return branches and branch_jump(geometry(xa, fixed_a), geometry(xb, fixed_b))
 
-    def walk(
-        va: Values, xa: np.ndarray, vb: Values, depth: int, sign_a: int | None = None
-    ) -> tuple[SolveResult | None, str | None, LinkPoses | None]:
-        fixed_a = c.fixed_poses(va)[0]
-        if sign_a is None:  # det J sign at the start; 0 where it is singular
-            sign_a = c.system.start_sign(xa, va, fixed_a)
-        r, reason, fixed = newton_at(c, vb, xa, sign_a)
-        jumped = False
-        if r is not None:
-            total_iter[0] += r.iterations
-            since_progress[0] += r.iterations
-            if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
-                # det J keeps its sign when two dyads flip together: compare dyad sides too
-                jumped = jump(xa, fixed_a, r.x, fixed)
-                if not jumped:
-                    since_progress[0] = 0
-                    return r, None, fixed
-            if sign_a != 0 and near_singular(c, xa, fixed_a, va):
-                # det J may change sign only by passing a singular configuration, and one is
-                # near: step without the sign guard, keep it if no dyad jumped sides
-                r2, _, fixed2 = newton_at(c, vb, xa, 0)  # placed as r was: r2 is not None
-                total_iter[0] += r2.iterations if r2 is not None else 0
-                if r2 is not None and r2.success and not jump(xa, fixed_a, r2.x, fixed2):
-                    since_progress[0] = 0
-                    return r2, None, fixed2
-        if depth >= 10 or since_progress[0] > WALK_BUDGET * c.max_iter:
-            if r is None:
-                return None, reason, None
-            if jumped:
-                return (
-                    None,
-                    (
-                        'Newton could only reach this input in another assembly mode '
-                        '(a branch jump): it is not reachable on the current branch '
-                        'without crossing a singularity'
-                    ),
-                    None,
-                )
-            why: str | None = r.reason or (
-                'the sign of det J changed: a singularity (toggle or change '
-                'point) lies between the previous configuration and this input'
-            )
-            return None, why, None
-        vm = interpolate(c, va, vb, 0.5)
-        rm, why, fm = walk(va, xa, vm, depth + 1, sign_a)
-        if rm is None:
-            return None, why, None
-        return walk(vm, rm.x, vb, depth + 1, rm.det_sign)
-
     known = (
         last.det_sign
         if last is not None and last.x_all is not None and last.det_sign != 0
@@ -297,18 +313,23 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     r = fixed = None
     if guess is not None and known is not None:
         # newton mode: the fast path from the predicted solution, kept if no dyad jumped sides
-        rf = c.system.solve_from_guess(
-            guess, vals, None, tol=c.tol, max_iter=c.max_iter, start_sign=known
+        rf = solve_from_guess(
+            t, guess, vals, None, tol=c.tol, max_iter=c.max_iter, start_sign=known, kernel=kernel
         )
         total_iter[0] += rf.iterations
         if rf.success and not jump(x0, None, rf.x, None):
             r = rf
     # the closed-form check is skipped only where it must pass: the answer is on the
     # check's branch and well-conditioned enough for its residual (cond^2 residual n small:
-    # Newton-Kantorovich) that an exact assembly on that branch lies next to it
+    # Newton-Kantorovich) that an exact assembly on that branch lies next to it (cond: the
+    # reported one, cond_of; the kernel's bound of it decides where it suffices)
+    n = c.system.n
     if (
         r is None
-        or not r.cond * r.cond * r.residual * c.system.n <= 1e-2
+        or not (
+            r.cond_bound * r.cond_bound * r.residual * n <= 1e-2
+            or cond_of(t, r) * cond_of(t, r) * r.residual * n <= 1e-2
+        )
         or (
             branches
             and tuple(geometry(r.x, None)[0]) != tuple(check_signs or c.full_plan.reference_signs)
@@ -318,6 +339,57 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         if bad is not None:
             return bad, None
     if r is None:
+        # the careful path (defined here: a recursive closure is a reference cycle, which
+        # the fast path need not leave to the garbage collector)
+        def walk(
+            va: Values, xa: np.ndarray, vb: Values, depth: int, sign_a: int | None = None
+        ) -> tuple[SolveResult | None, str | None, LinkPoses | None]:
+            fixed_a = c.fixed_poses(va)[0]
+            if sign_a is None:  # det J sign at the start; 0 where it is singular
+                sign_a = c.system.start_sign(xa, va, fixed_a)
+            r, reason, fixed = newton_at(c, vb, xa, sign_a)
+            jumped = False
+            if r is not None:
+                total_iter[0] += r.iterations
+                since_progress[0] += r.iterations
+                if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
+                    # det J keeps its sign when two dyads flip together: compare dyad sides too
+                    jumped = jump(xa, fixed_a, r.x, fixed)
+                    if not jumped:
+                        since_progress[0] = 0
+                        return r, None, fixed
+                if sign_a != 0 and near_singular(c, xa, fixed_a, va):
+                    # det J may change sign only by passing a singular configuration, and one is
+                    # near: step without the sign guard, keep it if no dyad jumped sides
+                    r2, _, fixed2 = newton_at(c, vb, xa, 0)  # placed as r was: r2 is not None
+                    total_iter[0] += r2.iterations if r2 is not None else 0
+                    if r2 is not None and r2.success and not jump(xa, fixed_a, r2.x, fixed2):
+                        since_progress[0] = 0
+                        return r2, None, fixed2
+            if depth >= 10 or since_progress[0] > WALK_BUDGET * c.max_iter:
+                if r is None:
+                    return None, reason, None
+                if jumped:
+                    return (
+                        None,
+                        (
+                            'Newton could only reach this input in another assembly mode '
+                            '(a branch jump): it is not reachable on the current branch '
+                            'without crossing a singularity'
+                        ),
+                        None,
+                    )
+                why: str | None = r.reason or (
+                    'the sign of det J changed: a singularity (toggle or change '
+                    'point) lies between the previous configuration and this input'
+                )
+                return None, why, None
+            vm = interpolate(c, va, vb, 0.5)
+            rm, why, fm = walk(va, xa, vm, depth + 1, sign_a)
+            if rm is None:
+                return None, why, None
+            return walk(vm, rm.x, vb, depth + 1, rm.det_sign)
+
         r, reason, fixed = walk(v0, x0, vals, 0, known)
     if r is None:
         res = c.fail(refusal_at(c, vals, x0, reason), c.echo(vals), solver_name)
@@ -366,19 +438,34 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
             r, det = alt, want_det
             poses, pts = c.check_system.configuration(alt.x)
         label = mode_label(c, (det,)) if det else ''
-    margin = min(margins) if margins else 1.0 / max(r.cond, 1.0)
-    res = c.build_result(
-        poses,
-        pts,
-        vals,
+    margin = min(margins) if margins else 1.0 / max(cond_of(t, r), 1.0)
+    src = NewtonSource(c, poses, pts, vals, t, r)
+    # the residual: the assembler's (the largest loop-closure component over every joint and
+    # known whose links are placed, / L); in newton mode those are exactly the Newton rows, so
+    # it is their max|F| / L at the answer; in hybrid mode the rows are a part: read them all
+    residual = r.residual if c.mode is SolveMode.NEWTON else src.assembly().residual
+    # (the points are functions of x and the closed form's finite poses: finite with x)
+    if not math.isfinite(margin + residual + sum(r.x.tolist())):
+        return c.fail(
+            'internal error: non-finite value in the solution', c.echo(vals), solver_name
+        ), None
+    res = newton_result(
+        src,
         solver=solver_name,
+        residual=residual,
         iterations=total_iter[0],
-        signs=signs_t,
-        margin=margin,
-        cond=r.cond,
-        label=label,
+        branch=_branch_text(signs_t) if label is None else label,
+        branch_defined=(
+            bool(branch_identity_defined(margin, residual)) if signs_t or label else True
+        ),
+        margin=float(margin),
     )
-    newton = c.mode is SolveMode.NEWTON  # x is then x_all, and predicts the next solve
+    x_lu = None
+    if kernel is not None and r.success:  # (newton mode: x is x_all, and predicts the next)
+        fac = (
+            r.factor if r.jv is not None else kernel.factor(evaluate_lean(t, r.x.tolist(), vals)[1])
+        )
+        x_lu = fac if fac.sign else None
     return res, state_of(
         c,
         vals,
@@ -387,6 +474,6 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         signs_t,
         r.det_sign,
         margins,
-        x_all=r.x if newton else None,
-        x_lu=c.system.rate_factor(r) if newton else None,
+        x_all=r.x if c.mode is SolveMode.NEWTON else None,
+        x_lu=x_lu,
     )
