@@ -140,7 +140,11 @@ class BatchNewton:
             return exact_or_scaled(c1, lambda rows: layout.unpack(Jp[rows]))
         blocks = not layout.whole and Jp.shape[0]
         norms = parts_inverse_norms(layout.form, layout.parts(Jp)) if blocks else None
-        return batch_conds(layout.unpack(Jp), norms)
+        if norms is None:
+            return batch_conds(layout.unpack(Jp))
+        with np.errstate(invalid='ignore', over='ignore'):
+            c1 = layout.j_norms(Jp) * norms
+        return exact_or_scaled(c1, lambda rows: layout.unpack(Jp[rows]))
 
     def answer_checks(self, Jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(det_signs, conds) of a packed (K, size) stack: what an answer is checked by,

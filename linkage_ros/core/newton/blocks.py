@@ -184,17 +184,22 @@ def block_inverse_norms(form: BlockForm, J: np.ndarray) -> np.ndarray | None:
 
 
 def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None:
-    """block_inverse_norms from the stack's BlockParts. J^-1 is kept with its rows (unknowns)
+    """block_inverse_norms from the stack's BlockParts. J^-1 is taken with its rows (unknowns)
     and columns (residual rows) both in block order, where it is block lower triangular: each
-    block's rows are found on the columns of the blocks up to it only, as slices."""
+    block's rows X_b (K, b, w) are found on the w columns of the blocks up to it only, and
+    added into the column sums at once; the rows a later block needs (its ``earlier``
+    unknowns') are gathered from the blocks that hold them. No (K, n, n) inverse is formed:
+    on the excavator that dense array and its |.| were most of the cost (fresh memory, page
+    faults included). The same float operations as the dense form, in the same order: the
+    sums go row by row, as a sum over a dense J^-1's rows (its zeros add nothing)."""
     K = parts[0][0].shape[0]
     n = sum(len(bl.cols) for bl in form.blocks)
-    at_row = np.empty(n, np.intp)  # each unknown's row in the block-ordered inverse
-    at_row[np.concatenate([bl.cols for bl in form.blocks])] = np.arange(n)
-    inv = np.zeros((K, n, n))
+    held: dict[int, tuple[int, int]] = {}  # unknown -> (its block, its row there)
+    rows_of: list[np.ndarray] = []  # each block's X_b
+    sums = np.zeros((K, n))
     at = 0
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
-        for bl, (diag, left) in zip(form.blocks, parts):
+        for b, (bl, (diag, left)) in enumerate(zip(form.blocks, parts)):
             size = len(bl.cols)
             if size == 1:
                 d_inv = 1.0 / diag
@@ -203,11 +208,26 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
                     d_inv = np.linalg.inv(diag)
                 except np.linalg.LinAlgError:
                     return None
-            if bl.earlier.size:  # minus d_inv times the blocks left of it times their rows
-                rows = inv[:, at : at + size, :at]
-                np.matmul(d_inv, left @ inv[:, at_row[bl.earlier], :at], out=rows)
-                np.negative(rows, out=rows)
-            inv[:, at : at + size, at : at + size] = d_inv  # the identity's rows
+            if bl.earlier.size:  # [-d_inv (left X_earlier), d_inv]
+                X = np.empty((K, size, at + size))
+                earlier = np.zeros((K, bl.earlier.size, at))
+                for k, u in enumerate(bl.earlier.tolist()):
+                    src, row = held[u]
+                    width = rows_of[src].shape[2]
+                    earlier[:, k, :width] = rows_of[src][:, row, :]
+                lower = X[:, :, :at]
+                np.matmul(d_inv, left @ earlier, out=lower)
+                np.negative(lower, out=lower)
+                X[:, :, at:] = d_inv
+            else:  # the columns before it are zero
+                X = np.zeros((K, size, at + size))
+                X[:, :, at:] = d_inv
+            rows_of.append(X)
+            for row, u in enumerate(bl.cols.tolist()):
+                held[u] = (b, row)
+            magnitudes = np.abs(X)
+            for row in range(size):
+                sums[:, : at + size] += magnitudes[:, row, :]
             at += size
-        norms: np.ndarray = np.abs(inv).sum(axis=1).max(axis=1)
+        norms: np.ndarray = sums.max(axis=1)
     return norms
