@@ -82,6 +82,14 @@ def batch_conds(J: np.ndarray, inverse_norms: np.ndarray | None = None) -> np.nd
     return exact_or_scaled(c1, lambda rows: J[rows])
 
 
+#: the batched solve keeps up to this many of its packed-J arrays between batches, each of up
+#: to SPARE_BYTES, for the next batch of the same size: fresh memory costs page faults (on the
+#: bench machine about a fifth of the excavator's batch: its 200 x 405 J is 648 kB, made
+#: four times a batch), reused memory does not
+SPARE_ARRAYS = 3
+SPARE_BYTES = 4 << 20
+
+
 def exact_or_scaled(c1: np.ndarray, dense_rows: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
     """The 1-norm condition numbers ``c1`` where below COND_EXACT, else scaled_cond of the
     dense matrices ``dense_rows(mask)`` gives for the other rows (batch_conds)."""
@@ -100,6 +108,23 @@ class BatchNewton:
     def __init__(self, t: LoopTables):
         self.t = t
         self._tables: BatchTables | None = None
+        # packed-J arrays of earlier batches, free for the next (taken and given back whole:
+        # a list's pop and append are atomic, so two threads never share one)
+        self._spare: list[np.ndarray] = []
+
+    def _take(self, N: int, size: int) -> np.ndarray:
+        """An (N, size) float array to write over: a spare one of that shape, else new."""
+        spare = self._spare
+        while spare:
+            a = spare.pop()
+            if a.shape == (N, size):
+                return a
+        return np.empty((N, size))
+
+    def _give_back(self, a: np.ndarray) -> None:
+        """Keep ``a`` (a packed J nothing else holds any more) for a later batch."""
+        if a.nbytes <= SPARE_BYTES and len(self._spare) < SPARE_ARRAYS:
+            self._spare.append(a)
 
     def tables(self) -> BatchTables:
         """The BatchTables (ValueError for a hybrid system: see batch_tables)."""
@@ -210,11 +235,17 @@ class BatchNewton:
         return V
 
     def evaluate(
-        self, X: np.ndarray, V: np.ndarray, jacobian: bool, packed: bool = False
+        self,
+        X: np.ndarray,
+        V: np.ndarray,
+        jacobian: bool,
+        packed: bool = False,
+        out: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """evaluate_scaled for the rows of X (N, n) with the value matrix V (values()):
-        F (N, m), J (N, m, n) (``packed``: (N, size) as PackedJacobian stores it) or None,
-        res (N,). The formulas are core.newton.rows', as in evaluate.residual_rows."""
+        F (N, m), J (N, m, n) (``packed``: (N, size) as PackedJacobian stores it, written
+        into ``out`` if given) or None, res (N,). The formulas are core.newton.rows', as in
+        evaluate.residual_rows."""
         t, tab = self.t, self.tables()
         N, m, nf = X.shape[0], t.m, len(t.free)
         k = 1.0 / t.L
@@ -285,7 +316,7 @@ class BatchNewton:
             return F, None, res
         layout = self.layout() if packed else None
         tpl, pos = (tab.j_tpl, tab.j_pos) if layout is None else (layout.tpl, layout.pos)
-        J = np.empty((N, len(tpl)))
+        J = np.empty((N, len(tpl))) if out is None else out
         J[:] = tpl
         if t.jpos_unique:
             J[:, pos] = Jv[:, tab.jv_real]
@@ -307,7 +338,8 @@ class BatchNewton:
     def _evaluate_jac(
         self, X: np.ndarray, V: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        F, J, res = self.evaluate(X, V, True, packed=True)
+        out = self._take(X.shape[0], self.layout().size)
+        F, J, res = self.evaluate(X, V, True, packed=True, out=out)
         assert J is not None
         return F, J, res
 
@@ -370,6 +402,7 @@ class BatchNewton:
                 else:
                     cut = rn <= FAST_RATE * ra  # False for NaN
             if every and cut.all():
+                self._give_back(J)
                 x, F, J, res = xn, Fn, Jn, rn
                 there = rn <= target
                 active &= ~there
@@ -379,9 +412,11 @@ class BatchNewton:
             active[stalled] = False
             done[stalled] = ra[~cut] <= tol  # at the rounding floor already: converged
             moved = rows[cut]
-            if x is X0:  # the first scatter: own copies, the start is not written to
-                x, F, J, res = x.copy(), F.copy(), J.copy(), res.copy()
+            if x is X0:  # the first scatter: own copies, the start is not written to (F
+                # and J are this call's own already; res0 keeps the start's residuals)
+                x, res = x.copy(), res.copy()
             x[moved], F[moved], J[moved], res[moved] = xn[cut], Fn[cut], Jn[cut], rn[cut]
+            self._give_back(Jn)
             there = moved[rn[cut] <= target]
             active[there] = False
             done[there] = True
@@ -394,6 +429,7 @@ class BatchNewton:
         check = done if start_checked else done & (iterations > 0)
         answers = np.flatnonzero(done)
         signs, conds = self.answer_checks(_rows_of(J, done))
+        self._give_back(J)  # nothing below reads J
         cond = np.full(N, math.inf)
         cond[answers] = conds
         done[answers] = ~check[answers] | (signs == sign0[answers])
