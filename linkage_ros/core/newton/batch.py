@@ -12,7 +12,7 @@ import numpy as np
 
 from ..ops import BATCH
 from ..quantities import AngleSpec, PointSpec
-from .batch_tables import BatchTables, PackedJacobian, batch_tables
+from .batch_tables import BatchTables, PackedJacobian, PoseTable, batch_tables, pose_table
 from .blocks import parts_det_signs, parts_inverse_norms, parts_steps
 from .linalg import det_signs, newton_steps
 from .results import (
@@ -108,6 +108,7 @@ class BatchNewton:
     def __init__(self, t: LoopTables):
         self.t = t
         self._tables: BatchTables | None = None
+        self._poses: PoseTable | None = None
         # packed-J arrays of earlier batches, free for the next (taken and given back whole:
         # a list's pop and append are atomic, so two threads never share one)
         self._spare: list[np.ndarray] = []
@@ -131,6 +132,12 @@ class BatchNewton:
         if self._tables is None:
             self._tables = batch_tables(self.t)
         return self._tables
+
+    def pose_table(self) -> PoseTable:
+        """The PoseTable configurations are read with (built on first use)."""
+        if self._poses is None:
+            self._poses = pose_table(self.t)
+        return self._poses
 
     def layout(self) -> PackedJacobian | SchurForm:
         """How the batched solve stores J: reduced to its varying columns where that is
@@ -391,7 +398,10 @@ class BatchNewton:
             dy = self.newton_steps(Ja, Fa)
             xn = (x if every else x[rows]) + dy * t.step_scale
             Fn, Jn, rn = self._evaluate_jac(xn, V if every else V[rows])
-            iterations[rows] += 1
+            if every:
+                iterations += 1
+            else:
+                iterations[rows] += 1
             ra = res if every else res[rows]
             with np.errstate(invalid='ignore'):
                 if warm and step == 0:
@@ -427,12 +437,16 @@ class BatchNewton:
         # branch; rows still at X0 were checked there) and off folds (else the scalar path
         # polishes)
         check = done if start_checked else done & (iterations > 0)
-        answers = np.flatnonzero(done)
-        signs, conds = self.answer_checks(_rows_of(J, done))
+        if done.all():  # the common case: no gathers, no scatters
+            signs, cond = self.answer_checks(J)
+            done = ~check | (signs == sign0)
+        else:
+            answers = np.flatnonzero(done)
+            signs, conds = self.answer_checks(J[done])
+            cond = np.full(N, math.inf)
+            cond[answers] = conds
+            done[answers] = ~check[answers] | (signs == sign0[answers])
         self._give_back(J)  # nothing below reads J
-        cond = np.full(N, math.inf)
-        cond[answers] = conds
-        done[answers] = ~check[answers] | (signs == sign0[answers])
         ok = done & (cond < POLISH_COND) & np.isfinite(x).all(axis=1) & np.isfinite(res)
         if ok.all():  # the common case: no where passes (and x never the caller's X0)
             return BatchSolve(

@@ -259,3 +259,31 @@ def batch_tables(t: LoopTables) -> BatchTables:
 def _fixed_cos_sin(fixed: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(cos, sin) of the fixed slots ``at`` (indices among the non-free slots)."""
     return fixed[1, 0, at], fixed[2, 0, at]
+
+
+@dataclass(frozen=True, slots=True)
+class PoseTable:
+    """What a batched solve's configurations are read with (core.solver.newton_poses): each
+    free link's reference centroid (m), each point's owner slot (free links in the unknowns'
+    order, then the ground) and reference position (m), the points in the tables' order."""
+
+    centroids: tuple[np.ndarray, np.ndarray]
+    owner: np.ndarray
+    points: tuple[np.ndarray, np.ndarray]
+    names: tuple[str, ...]
+
+
+def pose_table(t: LoopTables) -> PoseTable:
+    """The PoseTable of a system whose every link but the ground is free (ValueError else)."""
+    slots = dict(t.index)
+    if not all(l in slots or l == t.mech.ground for _, l, _ in t.point_owner):
+        raise ValueError('reading poses off the unknowns needs every link but the ground free')
+    cen = np.array([t.centroid[l] for l in t.index], float).reshape(-1, 2)
+    owner = [slots.get(l, len(slots)) for _, l, _ in t.point_owner]
+    ref = np.array([t.mech.points[p] for p, _, _ in t.point_owner], float).reshape(-1, 2)
+    return PoseTable(
+        (cen[:, 0], cen[:, 1]),
+        np.array(owner, np.intp),
+        (ref[:, 0], ref[:, 1]),
+        tuple(p for p, _, _ in t.point_owner),
+    )

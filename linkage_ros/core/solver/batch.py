@@ -303,7 +303,6 @@ def _newton(
         accepted[rows] = cond[rows] ** 2 * residual[rows] * system.n <= 1e-2
     poses, pts = newton_poses(c, x)
     signs = np.zeros((n, k), int)
-    margin = np.where(accepted, 1.0 / np.maximum(cond, 1.0), 0.0)
     if branches:
         # (plan.branch_geometry_of on the complex poses and points of newton_poses)
         with np.errstate(all='ignore'):
@@ -313,6 +312,8 @@ def _newton(
             signs[:, j], dyad_margins[:, j] = sides[j], margins[j]
         accepted &= np.all(signs == start.signs, axis=1)
         margin = np.min(dyad_margins, axis=1)
+    else:
+        margin = np.where(accepted, 1.0 / np.maximum(cond, 1.0), 0.0)
     rule = cont.branch.rule
     if rule is BranchRule.EXPLICIT:
         accepted &= np.all(signs == np.asarray(cont.branch.signs, int), axis=1)
@@ -321,11 +322,16 @@ def _newton(
     with np.errstate(all='ignore'):
         got = assemble_batch(c.assembler(poses.phi), poses, safe)
     _fill(out, c, pts, arrays, valid, accepted.copy(), got)
-    out.x, out.det_sign = x, np.where(out.ok, det_sign, 0)
-    out.signs = np.where(out.ok[:, None], signs, 0)
-    out.margin = np.where(out.ok, margin, 0.0)
-    out.iterations = np.where(out.ok, iterations, 0)
-    out.residual = np.where(out.ok, np.maximum(residual, got.residual), 0.0)
+    residual = np.maximum(residual, got.residual)
+    if out.ok.all():  # the common case: the arrays are this call's own, no where passes
+        out.x, out.det_sign, out.signs = x, det_sign, signs
+        out.margin, out.iterations, out.residual = margin, iterations, residual
+    else:
+        out.x, out.det_sign = x, np.where(out.ok, det_sign, 0)
+        out.signs = np.where(out.ok[:, None], signs, 0)
+        out.margin = np.where(out.ok, margin, 0.0)
+        out.iterations = np.where(out.ok, iterations, 0)
+        out.residual = np.where(out.ok, residual, 0.0)
     out.solver = c.mode
     out.careful = valid & ~accepted
     for i in np.flatnonzero(out.careful).tolist():
