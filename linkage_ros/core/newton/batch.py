@@ -282,7 +282,9 @@ class BatchNewton:
                 F[:, 0 : 2 * nrev : 2] = fx
                 F[:, 1 : 2 * nrev : 2] = fy
                 if Jv is not None:
-                    Jv[:, : 4 * nrev] = np.stack(jv, axis=-1).reshape(N, 4 * nrev)
+                    # each entry into its columns (np.stack would cost several of these)
+                    for e, entry in enumerate(jv):
+                        Jv[:, e : 4 * nrev : 4] = entry
             if len(tab.line_row):  # line rows: u . (w_S(X) - w_G(base)) [- value]
                 f, jl = line_row(
                     *_pose(P, tab.line_g),
@@ -293,7 +295,8 @@ class BatchNewton:
                 )
                 F[:, tab.line_row] = f
                 if Jv is not None:
-                    Jv[:, tab.line_jv] = np.stack(jl, axis=-1)
+                    for e, entry in enumerate(jl):
+                        Jv[:, tab.line_jv[:, e]] = entry
             if len(tab.ang_row):  # angle rows: L * wrap(phi_a - phi_b - (value - off))
                 F[:, tab.ang_row] = angle_row(
                     P[0][:, tab.ang_a],
@@ -314,7 +317,8 @@ class BatchNewton:
                 F[:, tab.pt_row] = fx
                 F[:, tab.pt_row + 1] = fy
                 if Jv is not None:
-                    Jv[:, tab.pt_jv] = np.stack(jp, axis=-1)
+                    for e, entry in enumerate(jp):
+                        Jv[:, tab.pt_jv[:, e]] = entry
         res = np.abs(F).max(axis=1) if m else np.zeros(N)  # NaN where F has one
         total = float(res.sum())
         if total - total != 0.0:  # a row with NaN or inf: inf (rare)

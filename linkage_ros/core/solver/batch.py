@@ -117,9 +117,9 @@ def solve_batch(
     well conditioned); the other rows take ``solve_one``'s careful path from their start, so
     the answers are those ``solve_one`` would give from that start."""
     arrays, n = _columns(c, columns)
-    if start is not None:
-        _check_start(c, start, n)
     source = batch_source(c)
+    if start is not None:
+        _check_start(c, start, n, source)
     out = BatchResult(n, arrays, source, [None] * n)
     finite = np.ones(n, bool)
     for a in arrays:
@@ -505,8 +505,9 @@ def _columns(c: CompiledSolve, columns: Mapping[str, Any]) -> tuple[list[np.ndar
     return arrays, n or 0
 
 
-def _check_start(c: CompiledSolve, start: BatchResult, n: int) -> None:
-    """ValueError unless ``start`` is a newton batch of this solve with n rows."""
+def _check_start(c: CompiledSolve, start: BatchResult, n: int, source: tuple[Any, ...]) -> None:
+    """ValueError unless ``start`` is a newton batch of this solve (its batch_source:
+    ``source``) with n rows."""
     if c.mode is not SolveMode.NEWTON:
         raise ValueError(f'start= warm-starts newton batches; this solver is {c.mode}')
     if not isinstance(start, BatchResult) or start.x is None:
@@ -519,7 +520,7 @@ def _check_start(c: CompiledSolve, start: BatchResult, n: int) -> None:
             f'start has {start.n} rows but this batch has {n}: row i starts from row i'
         )
     theirs = start.source
-    if theirs != batch_source(c):
+    if theirs != source:
         what = f'{theirs[0]!r} with knowns {list(theirs[1])}' if theirs else 'unknown'
         raise ValueError(
             'start must be a newton BatchResult of a solver of this '
