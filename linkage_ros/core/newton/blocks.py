@@ -187,19 +187,18 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
     """block_inverse_norms from the stack's BlockParts. J^-1 is taken with its rows (unknowns)
     and columns (residual rows) both in block order, where it is block lower triangular: each
     block's rows X_b (K, b, w) are found on the w columns of the blocks up to it only, and
-    added into the column sums at once; the rows a later block needs (its ``earlier``
-    unknowns') are gathered from the blocks that hold them. No (K, n, n) inverse is formed:
-    on the excavator that dense array and its |.| were most of the cost (fresh memory, page
-    faults included). The same float operations as the dense form, in the same order: the
+    added into the column sums at once (|X_b| in place); the rows a later block needs (its
+    ``earlier`` unknowns') are kept aside first. No (K, n, n) inverse is formed: on the
+    excavator that dense array and its |.| were most of the cost (fresh memory: page faults). The same float operations as the dense form, in the same order: the
     sums go row by row, as a sum over a dense J^-1's rows (its zeros add nothing)."""
     K = parts[0][0].shape[0]
     n = sum(len(bl.cols) for bl in form.blocks)
-    held: dict[int, tuple[int, int]] = {}  # unknown -> (its block, its row there)
-    rows_of: list[np.ndarray] = []  # each block's X_b
+    needed = {u for bl in form.blocks for u in bl.earlier.tolist()}
+    held: dict[int, np.ndarray] = {}  # the rows of J^-1 later blocks need, by unknown
     sums = np.zeros((K, n))
     at = 0
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
-        for b, (bl, (diag, left)) in enumerate(zip(form.blocks, parts)):
+        for bl, (diag, left) in zip(form.blocks, parts):
             size = len(bl.cols)
             if size == 1:
                 d_inv = 1.0 / diag
@@ -212,9 +211,7 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
                 X = np.empty((K, size, at + size))
                 earlier = np.zeros((K, bl.earlier.size, at))
                 for k, u in enumerate(bl.earlier.tolist()):
-                    src, row = held[u]
-                    width = rows_of[src].shape[2]
-                    earlier[:, k, :width] = rows_of[src][:, row, :]
+                    earlier[:, k, : held[u].shape[1]] = held[u]
                 lower = X[:, :, :at]
                 np.matmul(d_inv, left @ earlier, out=lower)
                 np.negative(lower, out=lower)
@@ -222,10 +219,10 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
             else:  # the columns before it are zero
                 X = np.zeros((K, size, at + size))
                 X[:, :, at:] = d_inv
-            rows_of.append(X)
             for row, u in enumerate(bl.cols.tolist()):
-                held[u] = (b, row)
-            magnitudes = np.abs(X)
+                if u in needed:
+                    held[u] = X[:, row, :].copy()
+            magnitudes = np.abs(X, out=X)  # X itself is read no more
             for row in range(size):
                 sums[:, : at + size] += magnitudes[:, row, :]
             at += size
