@@ -189,8 +189,9 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
     block's rows X_b (K, b, w) are found on the w columns of the blocks up to it only, and
     added into the column sums at once (|X_b| in place); the rows a later block needs (its
     ``earlier`` unknowns') are kept aside first. No (K, n, n) inverse is formed: on the
-    excavator that dense array and its |.| were most of the cost (fresh memory: page faults). The same float operations as the dense form, in the same order: the
-    sums go row by row, as a sum over a dense J^-1's rows (its zeros add nothing)."""
+    excavator that dense array and its |.| were most of the cost (fresh memory: page faults).
+    The same float operations as the dense form, in the same order: the sums go row by row,
+    as a sum over a dense J^-1's rows (its zeros add nothing)."""
     K = parts[0][0].shape[0]
     n = sum(len(bl.cols) for bl in form.blocks)
     needed = {u for bl in form.blocks for u in bl.earlier.tolist()}
