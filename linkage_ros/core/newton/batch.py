@@ -116,16 +116,25 @@ class BatchNewton:
     def _take(self, N: int, size: int) -> np.ndarray:
         """An (N, size) float array to write over: a spare one of that shape, else new."""
         spare = self._spare
-        while spare:
-            a = spare.pop()
+        if spare and spare[-1].shape == (N, size):
+            try:
+                a = spare.pop()
+            except IndexError:  # another thread took the last one
+                return np.empty((N, size))
             if a.shape == (N, size):
                 return a
         return np.empty((N, size))
 
     def _give_back(self, a: np.ndarray) -> None:
-        """Keep ``a`` (a packed J nothing else holds any more) for a later batch."""
-        if a.nbytes <= SPARE_BYTES and len(self._spare) < SPARE_ARRAYS:
-            self._spare.append(a)
+        """Keep ``a`` (a whole batch's packed J, nothing else holds it any more) for a later
+        batch; the spares of another batch size are let go."""
+        if a.nbytes > SPARE_BYTES:
+            return
+        spare = self._spare
+        if spare and spare[0].shape != a.shape:
+            spare.clear()
+        if len(spare) < SPARE_ARRAYS:
+            spare.append(a)
 
     def tables(self) -> BatchTables:
         """The BatchTables (ValueError for a hybrid system: see batch_tables)."""
@@ -430,7 +439,8 @@ class BatchNewton:
                 # and J are this call's own already; res0 keeps the start's residuals)
                 x, res = x.copy(), res.copy()
             x[moved], F[moved], J[moved], res[moved] = xn[cut], Fn[cut], Jn[cut], rn[cut]
-            self._give_back(Jn)
+            if every:  # (a part's Jn is let go: the spares are whole batches')
+                self._give_back(Jn)
             there = moved[rn[cut] <= target]
             active[there] = False
             done[there] = True
