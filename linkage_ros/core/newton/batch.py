@@ -402,11 +402,18 @@ class BatchNewton:
             live[live] = self.det_signs(_rows_of(J, live)) == sign0[live]
         done = live & (res <= target)  # converged (pending det sign and cond at the answer)
         active = live & ~done  # still stepping
+        # every row stepping (the common case): the rows are not listed, nor the masks
+        # written, until one row stops
+        all_stepping = N > 0 and bool(active.all())
+        rows = np.arange(N)
         for step in range(max_steps):
-            rows = np.flatnonzero(active)
-            if not rows.size:
-                break
-            every = rows.size == N
+            if all_stepping:
+                every = True
+            else:
+                rows = np.flatnonzero(active)
+                if not rows.size:
+                    break
+                every = rows.size == N
             Ja, Fa = (J, F) if every else (J[rows], F[rows])
             dy = self.newton_steps(Ja, Fa)
             xn = (x if every else x[rows]) + dy * t.step_scale
@@ -428,9 +435,12 @@ class BatchNewton:
                 self._give_back(J)
                 x, F, J, res = xn, Fn, Jn, rn
                 there = rn <= target
-                active &= ~there
-                done |= there
+                if there.any():
+                    active &= ~there
+                    done |= there
+                    all_stepping = False
                 continue
+            all_stepping = False
             stalled = rows[~cut]
             active[stalled] = False
             done[stalled] = ra[~cut] <= tol  # at the rounding floor already: converged
