@@ -29,17 +29,23 @@ class PackedJacobian:
     tpl: np.ndarray  # (size,) the scale-free J's constant entries
     pos: np.ndarray  # the packed position of each varying entry of a free link
     dense: np.ndarray  # (size,) each packed entry's flat position in the (m, n) J
-    by_column: np.ndarray  # (r, n) each column's packed entries in row order, padded with
-    # size (a zero entry past the end): j_norms' gather
+    by_column: tuple[np.ndarray, ...]  # j_norms' layers: layer i the packed position of the
+    # i-th entry (in row order) of each column that has one, the columns ordered by entry
+    # count, most first (so layer i covers a leading run of them)
 
     def j_norms(self, Jp: np.ndarray) -> np.ndarray:
         """(K,) ||J||_1 (the largest column sum of magnitudes) of a packed (K, size) stack,
-        without the dense J: each column's entries summed in row order, as a sum over the
-        dense J's rows does (its zeros add nothing), so the same floats."""
-        magnitudes = np.empty((Jp.shape[0], self.size + 1))
-        np.abs(Jp, out=magnitudes[:, : self.size])
-        magnitudes[:, self.size] = 0.0
-        norms: np.ndarray = magnitudes[:, self.by_column].sum(axis=1).max(axis=1)
+        without the dense J: each column's entries summed in row order, layer by layer, as a
+        sum over the dense J's rows does (its zeros add nothing), so the same floats; no
+        temporary larger than J itself (a (K, entries, n) gather page-faulted)."""
+        first, *rest = self.by_column
+        if not first.size:  # no entries at all: J is 0
+            return np.zeros(Jp.shape[0])
+        magnitudes = np.abs(Jp)
+        sums = magnitudes[:, first]
+        for layer in rest:
+            sums[:, : len(layer)] += magnitudes[:, layer]
+        norms: np.ndarray = sums.max(axis=1)
         return norms
 
     def parts(self, Jp: np.ndarray) -> BlockParts:
@@ -88,21 +94,22 @@ def packed_jacobian(
     # the blocks cover every entry that can be nonzero (jacobian_pattern): none is lost
     assert np.all(packed_pos >= 0) and np.count_nonzero(tpl) == np.count_nonzero(tpl[dense])
     return PackedJacobian(
-        form, whole, tuple(at), size, tpl[dense], packed_pos, dense, _by_column(dense, n, size)
+        form, whole, tuple(at), size, tpl[dense], packed_pos, dense, _by_column(dense, n)
     )
 
 
-def _by_column(dense: np.ndarray, n: int, size: int) -> np.ndarray:
-    """(r, n): for each column of an (n, n) J, the packed entries in it (``dense``: each
-    packed entry's flat position) in row order, padded with ``size``."""
+def _by_column(dense: np.ndarray, n: int) -> tuple[np.ndarray, ...]:
+    """PackedJacobian.by_column: ``dense`` each packed entry's flat position in the (n, n) J.
+    A column without entries (only in a J singular everywhere) is left out: its sum, 0, is
+    never above the others'."""
     row, col = np.divmod(dense, n)
-    order = np.lexsort((row, col))  # by column, then row
     counts = np.bincount(col, minlength=n)
-    out = np.full((max(int(counts.max(initial=0)), 1), n), size, np.intp)
-    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-    for j in range(n):
-        out[: counts[j], j] = order[starts[j] : starts[j] + counts[j]]
-    return out
+    columns = np.argsort(-counts, kind='stable')  # most entries first
+    entries = [np.flatnonzero(col == j)[np.argsort(row[col == j], kind='stable')] for j in columns]
+    depth = int(counts.max(initial=0))
+    return tuple(
+        np.array([e[i] for e in entries if len(e) > i], np.intp) for i in range(depth)
+    ) or (np.zeros(0, np.intp),)
 
 
 @dataclass(frozen=True, slots=True)
