@@ -197,6 +197,9 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
     needed = {u for bl in form.blocks for u in bl.earlier.tolist()}
     held: dict[int, np.ndarray] = {}  # the rows of J^-1 later blocks need, by unknown
     sums = np.zeros((K, n))
+    # one array for every block's X_b and one for the rows it needs (fewer fresh pages)
+    rows_space = np.empty((K, max(len(bl.cols) for bl in form.blocks), n))
+    earlier_space = np.empty((K, max(bl.earlier.size for bl in form.blocks), n))
     at = 0
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         for bl, (diag, left) in zip(form.blocks, parts):
@@ -208,18 +211,18 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
                     d_inv = np.linalg.inv(diag)
                 except np.linalg.LinAlgError:
                     return None
+            X = rows_space[:, :size, : at + size]
+            lower = X[:, :, :at]
             if bl.earlier.size:  # [-d_inv (left X_earlier), d_inv]
-                X = np.empty((K, size, at + size))
-                earlier = np.zeros((K, bl.earlier.size, at))
+                earlier = earlier_space[:, : bl.earlier.size, :at]
+                earlier.fill(0.0)
                 for k, u in enumerate(bl.earlier.tolist()):
                     earlier[:, k, : held[u].shape[1]] = held[u]
-                lower = X[:, :, :at]
                 np.matmul(d_inv, left @ earlier, out=lower)
                 np.negative(lower, out=lower)
-                X[:, :, at:] = d_inv
             else:  # the columns before it are zero
-                X = np.zeros((K, size, at + size))
-                X[:, :, at:] = d_inv
+                lower.fill(0.0)
+            X[:, :, at:] = d_inv
             for row, u in enumerate(bl.cols.tolist()):
                 if u in needed:
                     held[u] = X[:, row, :].copy()
