@@ -12,7 +12,7 @@ import numpy as np
 
 from ..ops import BATCH
 from ..quantities import AngleSpec, PointSpec
-from .batch_tables import BatchTables, PackedJacobian, batch_tables
+from .batch_tables import BatchTables, PackedJacobian, PoseTable, batch_tables, pose_table
 from .blocks import parts_det_signs, parts_inverse_norms, parts_steps
 from .linalg import det_signs, newton_steps
 from .results import (
@@ -82,6 +82,14 @@ def batch_conds(J: np.ndarray, inverse_norms: np.ndarray | None = None) -> np.nd
     return exact_or_scaled(c1, lambda rows: J[rows])
 
 
+#: the batched solve keeps up to this many of its packed-J arrays between batches, each of up
+#: to SPARE_BYTES, for the next batch of the same size: fresh memory costs page faults (on the
+#: bench machine about a fifth of the excavator's batch: its 200 x 405 J is 648 kB, made
+#: four times a batch), reused memory does not
+SPARE_ARRAYS = 3
+SPARE_BYTES = 4 << 20
+
+
 def exact_or_scaled(c1: np.ndarray, dense_rows: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
     """The 1-norm condition numbers ``c1`` where below COND_EXACT, else scaled_cond of the
     dense matrices ``dense_rows(mask)`` gives for the other rows (batch_conds)."""
@@ -100,12 +108,45 @@ class BatchNewton:
     def __init__(self, t: LoopTables):
         self.t = t
         self._tables: BatchTables | None = None
+        self._poses: PoseTable | None = None
+        # packed-J arrays of earlier batches, free for the next (taken and given back whole:
+        # a list's pop and append are atomic, so two threads never share one)
+        self._spare: list[np.ndarray] = []
+
+    def _take(self, N: int, size: int) -> np.ndarray:
+        """An (N, size) float array to write over: a spare one of that shape, else new."""
+        spare = self._spare
+        if spare and spare[-1].shape == (N, size):
+            try:
+                a = spare.pop()
+            except IndexError:  # another thread took the last one
+                return np.empty((N, size))
+            if a.shape == (N, size):
+                return a
+        return np.empty((N, size))
+
+    def _give_back(self, a: np.ndarray) -> None:
+        """Keep ``a`` (a whole batch's packed J, nothing else holds it any more) for a later
+        batch; the spares of another batch size are let go."""
+        if a.nbytes > SPARE_BYTES:
+            return
+        spare = self._spare
+        if spare and spare[0].shape != a.shape:
+            spare.clear()
+        if len(spare) < SPARE_ARRAYS:
+            spare.append(a)
 
     def tables(self) -> BatchTables:
         """The BatchTables (ValueError for a hybrid system: see batch_tables)."""
         if self._tables is None:
             self._tables = batch_tables(self.t)
         return self._tables
+
+    def pose_table(self) -> PoseTable:
+        """The PoseTable configurations are read with (built on first use)."""
+        if self._poses is None:
+            self._poses = pose_table(self.t)
+        return self._poses
 
     def layout(self) -> PackedJacobian | SchurForm:
         """How the batched solve stores J: reduced to its varying columns where that is
@@ -140,7 +181,11 @@ class BatchNewton:
             return exact_or_scaled(c1, lambda rows: layout.unpack(Jp[rows]))
         blocks = not layout.whole and Jp.shape[0]
         norms = parts_inverse_norms(layout.form, layout.parts(Jp)) if blocks else None
-        return batch_conds(layout.unpack(Jp), norms)
+        if norms is None:
+            return batch_conds(layout.unpack(Jp))
+        with np.errstate(invalid='ignore', over='ignore'):
+            c1 = layout.j_norms(Jp) * norms
+        return exact_or_scaled(c1, lambda rows: layout.unpack(Jp[rows]))
 
     def answer_checks(self, Jp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(det_signs, conds) of a packed (K, size) stack: what an answer is checked by,
@@ -206,11 +251,17 @@ class BatchNewton:
         return V
 
     def evaluate(
-        self, X: np.ndarray, V: np.ndarray, jacobian: bool, packed: bool = False
+        self,
+        X: np.ndarray,
+        V: np.ndarray,
+        jacobian: bool,
+        packed: bool = False,
+        out: np.ndarray | None = None,
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """evaluate_scaled for the rows of X (N, n) with the value matrix V (values()):
-        F (N, m), J (N, m, n) (``packed``: (N, size) as PackedJacobian stores it) or None,
-        res (N,). The formulas are core.newton.rows', as in evaluate.residual_rows."""
+        F (N, m), J (N, m, n) (``packed``: (N, size) as PackedJacobian stores it, written
+        into ``out`` if given) or None, res (N,). The formulas are core.newton.rows', as in
+        evaluate.residual_rows."""
         t, tab = self.t, self.tables()
         N, m, nf = X.shape[0], t.m, len(t.free)
         k = 1.0 / t.L
@@ -240,7 +291,9 @@ class BatchNewton:
                 F[:, 0 : 2 * nrev : 2] = fx
                 F[:, 1 : 2 * nrev : 2] = fy
                 if Jv is not None:
-                    Jv[:, : 4 * nrev] = np.stack(jv, axis=-1).reshape(N, 4 * nrev)
+                    # each entry into its columns (np.stack would cost several of these)
+                    for e, entry in enumerate(jv):
+                        Jv[:, e : 4 * nrev : 4] = entry
             if len(tab.line_row):  # line rows: u . (w_S(X) - w_G(base)) [- value]
                 f, jl = line_row(
                     *_pose(P, tab.line_g),
@@ -251,7 +304,8 @@ class BatchNewton:
                 )
                 F[:, tab.line_row] = f
                 if Jv is not None:
-                    Jv[:, tab.line_jv] = np.stack(jl, axis=-1)
+                    for e, entry in enumerate(jl):
+                        Jv[:, tab.line_jv[:, e]] = entry
             if len(tab.ang_row):  # angle rows: L * wrap(phi_a - phi_b - (value - off))
                 F[:, tab.ang_row] = angle_row(
                     P[0][:, tab.ang_a],
@@ -272,7 +326,8 @@ class BatchNewton:
                 F[:, tab.pt_row] = fx
                 F[:, tab.pt_row + 1] = fy
                 if Jv is not None:
-                    Jv[:, tab.pt_jv] = np.stack(jp, axis=-1)
+                    for e, entry in enumerate(jp):
+                        Jv[:, tab.pt_jv[:, e]] = entry
         res = np.abs(F).max(axis=1) if m else np.zeros(N)  # NaN where F has one
         total = float(res.sum())
         if total - total != 0.0:  # a row with NaN or inf: inf (rare)
@@ -281,7 +336,7 @@ class BatchNewton:
             return F, None, res
         layout = self.layout() if packed else None
         tpl, pos = (tab.j_tpl, tab.j_pos) if layout is None else (layout.tpl, layout.pos)
-        J = np.empty((N, len(tpl)))
+        J = np.empty((N, len(tpl))) if out is None else out
         J[:] = tpl
         if t.jpos_unique:
             J[:, pos] = Jv[:, tab.jv_real]
@@ -303,7 +358,8 @@ class BatchNewton:
     def _evaluate_jac(
         self, X: np.ndarray, V: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        F, J, res = self.evaluate(X, V, True, packed=True)
+        out = self._take(X.shape[0], self.layout().size)
+        F, J, res = self.evaluate(X, V, True, packed=True, out=out)
         assert J is not None
         return F, J, res
 
@@ -346,16 +402,26 @@ class BatchNewton:
             live[live] = self.det_signs(_rows_of(J, live)) == sign0[live]
         done = live & (res <= target)  # converged (pending det sign and cond at the answer)
         active = live & ~done  # still stepping
+        # every row stepping (the common case): the rows are not listed, nor the masks
+        # written, until one row stops
+        all_stepping = N > 0 and bool(active.all())
+        rows = np.arange(N)
         for step in range(max_steps):
-            rows = np.flatnonzero(active)
-            if not rows.size:
-                break
-            every = rows.size == N
+            if all_stepping:
+                every = True
+            else:
+                rows = np.flatnonzero(active)
+                if not rows.size:
+                    break
+                every = rows.size == N
             Ja, Fa = (J, F) if every else (J[rows], F[rows])
             dy = self.newton_steps(Ja, Fa)
             xn = (x if every else x[rows]) + dy * t.step_scale
             Fn, Jn, rn = self._evaluate_jac(xn, V if every else V[rows])
-            iterations[rows] += 1
+            if every:
+                iterations += 1
+            else:
+                iterations[rows] += 1
             ra = res if every else res[rows]
             with np.errstate(invalid='ignore'):
                 if warm and step == 0:
@@ -366,18 +432,25 @@ class BatchNewton:
                 else:
                     cut = rn <= FAST_RATE * ra  # False for NaN
             if every and cut.all():
+                self._give_back(J)
                 x, F, J, res = xn, Fn, Jn, rn
                 there = rn <= target
-                active &= ~there
-                done |= there
+                if there.any():
+                    active &= ~there
+                    done |= there
+                    all_stepping = False
                 continue
+            all_stepping = False
             stalled = rows[~cut]
             active[stalled] = False
             done[stalled] = ra[~cut] <= tol  # at the rounding floor already: converged
             moved = rows[cut]
-            if x is X0:  # the first scatter: own copies, the start is not written to
-                x, F, J, res = x.copy(), F.copy(), J.copy(), res.copy()
+            if x is X0:  # the first scatter: own copies, the start is not written to (F
+                # and J are this call's own already; res0 keeps the start's residuals)
+                x, res = x.copy(), res.copy()
             x[moved], F[moved], J[moved], res[moved] = xn[cut], Fn[cut], Jn[cut], rn[cut]
+            if every:  # (a part's Jn is let go: the spares are whole batches')
+                self._give_back(Jn)
             there = moved[rn[cut] <= target]
             active[there] = False
             done[there] = True
@@ -388,11 +461,16 @@ class BatchNewton:
         # branch; rows still at X0 were checked there) and off folds (else the scalar path
         # polishes)
         check = done if start_checked else done & (iterations > 0)
-        answers = np.flatnonzero(done)
-        signs, conds = self.answer_checks(_rows_of(J, done))
-        cond = np.full(N, math.inf)
-        cond[answers] = conds
-        done[answers] = ~check[answers] | (signs == sign0[answers])
+        if done.all():  # the common case: no gathers, no scatters
+            signs, cond = self.answer_checks(J)
+            done = ~check | (signs == sign0)
+        else:
+            answers = np.flatnonzero(done)
+            signs, conds = self.answer_checks(J[done])
+            cond = np.full(N, math.inf)
+            cond[answers] = conds
+            done[answers] = ~check[answers] | (signs == sign0[answers])
+        self._give_back(J)  # nothing below reads J
         ok = done & (cond < POLISH_COND) & np.isfinite(x).all(axis=1) & np.isfinite(res)
         if ok.all():  # the common case: no where passes (and x never the caller's X0)
             return BatchSolve(

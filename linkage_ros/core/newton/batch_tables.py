@@ -29,6 +29,24 @@ class PackedJacobian:
     tpl: np.ndarray  # (size,) the scale-free J's constant entries
     pos: np.ndarray  # the packed position of each varying entry of a free link
     dense: np.ndarray  # (size,) each packed entry's flat position in the (m, n) J
+    by_column: tuple[np.ndarray, ...]  # j_norms' layers: layer i the packed position of the
+    # i-th entry (in row order) of each column that has one, the columns ordered by entry
+    # count, most first (so layer i covers a leading run of them)
+
+    def j_norms(self, Jp: np.ndarray) -> np.ndarray:
+        """(K,) ||J||_1 (the largest column sum of magnitudes) of a packed (K, size) stack,
+        without the dense J: each column's entries summed in row order, layer by layer, as a
+        sum over the dense J's rows does (its zeros add nothing), so the same floats; no
+        temporary larger than J itself (a (K, entries, n) gather page-faulted)."""
+        first, *rest = self.by_column
+        if not first.size:  # no entries at all: J is 0
+            return np.zeros(Jp.shape[0])
+        magnitudes = np.abs(Jp)
+        sums = magnitudes[:, first]
+        for layer in rest:
+            sums[:, : len(layer)] += magnitudes[:, layer]
+        norms: np.ndarray = sums.max(axis=1)
+        return norms
 
     def parts(self, Jp: np.ndarray) -> BlockParts:
         """The BlockParts of a packed (K, size) stack: views, no copies."""
@@ -75,7 +93,23 @@ def packed_jacobian(
     packed_pos = packed_of[pos]
     # the blocks cover every entry that can be nonzero (jacobian_pattern): none is lost
     assert np.all(packed_pos >= 0) and np.count_nonzero(tpl) == np.count_nonzero(tpl[dense])
-    return PackedJacobian(form, whole, tuple(at), size, tpl[dense], packed_pos, dense)
+    return PackedJacobian(
+        form, whole, tuple(at), size, tpl[dense], packed_pos, dense, _by_column(dense, n)
+    )
+
+
+def _by_column(dense: np.ndarray, n: int) -> tuple[np.ndarray, ...]:
+    """PackedJacobian.by_column: ``dense`` each packed entry's flat position in the (n, n) J.
+    A column without entries (only in a J singular everywhere) is left out: its sum, 0, is
+    never above the others'."""
+    row, col = np.divmod(dense, n)
+    counts = np.bincount(col, minlength=n)
+    columns = np.argsort(-counts, kind='stable')  # most entries first
+    entries = [np.flatnonzero(col == j)[np.argsort(row[col == j], kind='stable')] for j in columns]
+    depth = int(counts.max(initial=0))
+    return tuple(
+        np.array([e[i] for e in entries if len(e) > i], np.intp) for i in range(depth)
+    ) or (np.zeros(0, np.intp),)
 
 
 @dataclass(frozen=True, slots=True)
@@ -232,3 +266,31 @@ def batch_tables(t: LoopTables) -> BatchTables:
 def _fixed_cos_sin(fixed: np.ndarray, at: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(cos, sin) of the fixed slots ``at`` (indices among the non-free slots)."""
     return fixed[1, 0, at], fixed[2, 0, at]
+
+
+@dataclass(frozen=True, slots=True)
+class PoseTable:
+    """What a batched solve's configurations are read with (core.solver.newton_poses): each
+    free link's reference centroid (m), each point's owner slot (free links in the unknowns'
+    order, then the ground) and reference position (m), the points in the tables' order."""
+
+    centroids: tuple[np.ndarray, np.ndarray]
+    owner: np.ndarray
+    points: tuple[np.ndarray, np.ndarray]
+    names: tuple[str, ...]
+
+
+def pose_table(t: LoopTables) -> PoseTable:
+    """The PoseTable of a system whose every link but the ground is free (ValueError else)."""
+    slots = dict(t.index)
+    if not all(l in slots or l == t.mech.ground for _, l, _ in t.point_owner):
+        raise ValueError('reading poses off the unknowns needs every link but the ground free')
+    cen = np.array([t.centroid[l] for l in t.index], float).reshape(-1, 2)
+    owner = [slots.get(l, len(slots)) for _, l, _ in t.point_owner]
+    ref = np.array([t.mech.points[p] for p, _, _ in t.point_owner], float).reshape(-1, 2)
+    return PoseTable(
+        (cen[:, 0], cen[:, 1]),
+        np.array(owner, np.intp),
+        (ref[:, 0], ref[:, 1]),
+        tuple(p for p, _, _ in t.point_owner),
+    )

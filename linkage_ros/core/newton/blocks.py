@@ -184,14 +184,22 @@ def block_inverse_norms(form: BlockForm, J: np.ndarray) -> np.ndarray | None:
 
 
 def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None:
-    """block_inverse_norms from the stack's BlockParts. J^-1 is kept with its rows (unknowns)
+    """block_inverse_norms from the stack's BlockParts. J^-1 is taken with its rows (unknowns)
     and columns (residual rows) both in block order, where it is block lower triangular: each
-    block's rows are found on the columns of the blocks up to it only, as slices."""
+    block's rows X_b (K, b, w) are found on the w columns of the blocks up to it only, and
+    added into the column sums at once (|X_b| in place); the rows a later block needs (its
+    ``earlier`` unknowns') are kept aside first. No (K, n, n) inverse is formed: on the
+    excavator that dense array and its |.| were most of the cost (fresh memory: page faults).
+    The same float operations as the dense form, in the same order: the sums go row by row,
+    as a sum over a dense J^-1's rows (its zeros add nothing)."""
     K = parts[0][0].shape[0]
     n = sum(len(bl.cols) for bl in form.blocks)
-    at_row = np.empty(n, np.intp)  # each unknown's row in the block-ordered inverse
-    at_row[np.concatenate([bl.cols for bl in form.blocks])] = np.arange(n)
-    inv = np.zeros((K, n, n))
+    needed = {u for bl in form.blocks for u in bl.earlier.tolist()}
+    held: dict[int, np.ndarray] = {}  # the rows of J^-1 later blocks need, by unknown
+    sums = np.zeros((K, n))
+    # one array for every block's X_b and one for the rows it needs (fewer fresh pages)
+    rows_space = np.empty((K, max(len(bl.cols) for bl in form.blocks), n))
+    earlier_space = np.empty((K, max(bl.earlier.size for bl in form.blocks), n))
     at = 0
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         for bl, (diag, left) in zip(form.blocks, parts):
@@ -203,11 +211,24 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
                     d_inv = np.linalg.inv(diag)
                 except np.linalg.LinAlgError:
                     return None
-            if bl.earlier.size:  # minus d_inv times the blocks left of it times their rows
-                rows = inv[:, at : at + size, :at]
-                np.matmul(d_inv, left @ inv[:, at_row[bl.earlier], :at], out=rows)
-                np.negative(rows, out=rows)
-            inv[:, at : at + size, at : at + size] = d_inv  # the identity's rows
+            X = rows_space[:, :size, : at + size]
+            lower = X[:, :, :at]
+            if bl.earlier.size:  # [-d_inv (left X_earlier), d_inv]
+                earlier = earlier_space[:, : bl.earlier.size, :at]
+                earlier.fill(0.0)
+                for k, u in enumerate(bl.earlier.tolist()):
+                    earlier[:, k, : held[u].shape[1]] = held[u]
+                np.matmul(d_inv, left @ earlier, out=lower)
+                np.negative(lower, out=lower)
+            else:  # the columns before it are zero
+                lower.fill(0.0)
+            X[:, :, at:] = d_inv
+            for row, u in enumerate(bl.cols.tolist()):
+                if u in needed:
+                    held[u] = X[:, row, :].copy()
+            magnitudes = np.abs(X, out=X)  # X itself is read no more
+            for row in range(size):
+                sums[:, : at + size] += magnitudes[:, row, :]
             at += size
-        norms: np.ndarray = np.abs(inv).sum(axis=1).max(axis=1)
+        norms: np.ndarray = sums.max(axis=1)
     return norms

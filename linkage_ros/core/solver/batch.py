@@ -117,9 +117,9 @@ def solve_batch(
     well conditioned); the other rows take ``solve_one``'s careful path from their start, so
     the answers are those ``solve_one`` would give from that start."""
     arrays, n = _columns(c, columns)
-    if start is not None:
-        _check_start(c, start, n)
     source = batch_source(c)
+    if start is not None:
+        _check_start(c, start, n, source)
     out = BatchResult(n, arrays, source, [None] * n)
     finite = np.ones(n, bool)
     for a in arrays:  # (a point's rows: both coordinates)
@@ -307,7 +307,6 @@ def _newton(
         accepted[rows] = cond[rows] ** 2 * residual[rows] * system.n <= 1e-2
     poses, pts = newton_poses(c, x)
     signs = np.zeros((n, k), int)
-    margin = np.where(accepted, 1.0 / np.maximum(cond, 1.0), 0.0)
     if branches:
         # (plan.branch_geometry_of on the complex poses and points of newton_poses)
         with np.errstate(all='ignore'):
@@ -317,6 +316,8 @@ def _newton(
             signs[:, j], dyad_margins[:, j] = sides[j], margins[j]
         accepted &= np.all(signs == start.signs, axis=1)
         margin = np.min(dyad_margins, axis=1)
+    else:
+        margin = np.where(accepted, 1.0 / np.maximum(cond, 1.0), 0.0)
     rule = cont.branch.rule
     if rule is BranchRule.EXPLICIT:
         accepted &= np.all(signs == np.asarray(cont.branch.signs, int), axis=1)
@@ -325,11 +326,16 @@ def _newton(
     with np.errstate(all='ignore'):
         got = assemble_batch(c.assembler(poses.phi), poses, safe)
     _fill(out, c, pts, arrays, valid, accepted.copy(), got)
-    out.x, out.det_sign = x, np.where(out.ok, det_sign, 0)
-    out.signs = np.where(out.ok[:, None], signs, 0)
-    out.margin = np.where(out.ok, margin, 0.0)
-    out.iterations = np.where(out.ok, iterations, 0)
-    out.residual = np.where(out.ok, np.maximum(residual, got.residual), 0.0)
+    residual = np.maximum(residual, got.residual)
+    if out.ok.all():  # the common case: the arrays are this call's own, no where passes
+        out.x, out.det_sign, out.signs = x, det_sign, signs
+        out.margin, out.iterations, out.residual = margin, iterations, residual
+    else:
+        out.x, out.det_sign = x, np.where(out.ok, det_sign, 0)
+        out.signs = np.where(out.ok[:, None], signs, 0)
+        out.margin = np.where(out.ok, margin, 0.0)
+        out.iterations = np.where(out.ok, iterations, 0)
+        out.residual = np.where(out.ok, residual, 0.0)
     out.solver = c.mode
     out.careful = valid & ~accepted
     for i in np.flatnonzero(out.careful).tolist():
@@ -503,8 +509,9 @@ def _columns(c: CompiledSolve, columns: Mapping[str, Any]) -> tuple[list[np.ndar
     return arrays, n or 0
 
 
-def _check_start(c: CompiledSolve, start: BatchResult, n: int) -> None:
-    """ValueError unless ``start`` is a newton batch of this solve with n rows."""
+def _check_start(c: CompiledSolve, start: BatchResult, n: int, source: tuple[Any, ...]) -> None:
+    """ValueError unless ``start`` is a newton batch of this solve (its batch_source:
+    ``source``) with n rows."""
     if c.mode is not SolveMode.NEWTON:
         raise ValueError(f'start= warm-starts newton batches; this solver is {c.mode}')
     if not isinstance(start, BatchResult) or start.x is None:
@@ -517,7 +524,7 @@ def _check_start(c: CompiledSolve, start: BatchResult, n: int) -> None:
             f'start has {start.n} rows but this batch has {n}: row i starts from row i'
         )
     theirs = start.source
-    if theirs != batch_source(c):
+    if theirs != source:
         what = f'{theirs[0]!r} with knowns {list(theirs[1])}' if theirs else 'unknown'
         raise ValueError(
             'start must be a newton BatchResult of a solver of this '

@@ -3,8 +3,6 @@ link and every point's world position, in one pass each (solve_batch's Newton pa
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from ..execute import LinkPoses
@@ -19,7 +17,7 @@ def newton_poses(c: CompiledSolve, x: np.ndarray) -> tuple[LinkPoses, dict[str, 
     and point in one pass each (columns of one array), in the float operations of
     Poses.world and link_poses."""
     system, n, ground = c.system, x.shape[0], c.mech.ground
-    table = _pose_table(c)
+    table = system.batch.pose_table()
     phi = x[:, 0::3]
     cos, sin = np.cos(phi), np.sin(phi)
     ox, oy = table.centroids
@@ -38,32 +36,3 @@ def newton_poses(c: CompiledSolve, x: np.ndarray) -> tuple[LinkPoses, dict[str, 
     im = (sin_g * px + cos_g * py) + np.concatenate([Ty, zero[:, None]], axis=1)[:, table.owner]
     pts = {p: CArray(re[:, j], im[:, j]) for j, p in enumerate(table.names)}
     return poses, pts
-
-
-@dataclass(frozen=True)
-class _PoseTable:
-    """What newton_poses reads a solve's configurations with: each moving link's reference
-    centroid (m), each point's owner slot (moving links in the unknowns' order, then the
-    ground) and reference position (m)."""
-
-    centroids: tuple[np.ndarray, np.ndarray]
-    owner: np.ndarray
-    points: tuple[np.ndarray, np.ndarray]
-    names: tuple[str, ...]
-
-
-def _pose_table(c: CompiledSolve) -> _PoseTable:
-    """The _PoseTable of c (a few small arrays: made per batch)."""
-    system, mech = c.system, c.mech
-    slots = dict(system.index)
-    cen = np.array([system.centroid[l] for l in system.index], float).reshape(-1, 2)
-    owner = [slots.get(l, len(slots)) for _, l, _ in system.point_owner]
-    # every link but the ground is a Newton unknown
-    assert all(l in slots or l == mech.ground for _, l, _ in system.point_owner)
-    ref = np.array([mech.points[p] for p, _, _ in system.point_owner], float).reshape(-1, 2)
-    return _PoseTable(
-        (cen[:, 0], cen[:, 1]),
-        np.array(owner, np.intp),
-        (ref[:, 0], ref[:, 1]),
-        tuple(p for p, _, _ in system.point_owner),
-    )

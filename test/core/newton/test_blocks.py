@@ -188,3 +188,34 @@ def test_structurally_singular_or_not_square_has_no_form():
     assert block_form(pattern) is None
     assert block_form(np.ones((3, 4), bool)) is None
     assert block_form(np.zeros((0, 0), bool)) is None
+
+
+@pytest.mark.parametrize('name', ALL_SCENES)
+def test_packed_j_norms_are_the_dense_ones(name):
+    """Every packaged scene whose batched solve keeps J block by block: ||J||_1 read off the
+    packed stack (PackedJacobian.j_norms, no dense J) is the dense J's column-sum norm bit for
+    bit, NaN and inf rows included; and the answer's conds (BatchNewton.conds) are numpy's
+    dense 1-norm condition numbers (the scalar path's scaled_cond above COND_EXACT)."""
+    from linkage_ros.core.newton.batch_tables import PackedJacobian
+    from linkage_ros.core.newton.linalg import scaled_cond
+    from linkage_ros.core.newton.results import COND_EXACT
+
+    sy = system(name)
+    layout = sy.batch.layout()
+    if not isinstance(layout, PackedJacobian):
+        return
+    X, cols = scenes.around_reference(sy, np.random.default_rng(11), 40)
+    F, Jp, _ = sy.batch.evaluate(X, sy.batch.values(cols, len(X)), True, packed=True)
+    Jp[3, 0] = np.nan
+    Jp[5, -1] = np.inf
+    J = layout.unpack(Jp)
+    np.testing.assert_array_equal(layout.j_norms(Jp), np.abs(J).sum(axis=1).max(axis=1))
+    finite = np.isfinite(Jp).all(axis=1)
+    Jf = J[finite]
+    dense = np.linalg.cond(Jf, 1)
+    exact = dense < COND_EXACT / 2  # well clear of the switch (rounding on either side)
+    assert exact.any()
+    got = sy.batch.conds(Jp[finite])
+    np.testing.assert_allclose(got[exact], dense[exact], rtol=1e-12 * dense[exact].max())
+    wide = dense > 2 * COND_EXACT
+    np.testing.assert_allclose(got[wide], [scaled_cond(j) for j in Jf[wide]], rtol=1e-12)

@@ -767,3 +767,30 @@ def test_start_checked_skips_only_the_start_sign(name):
     for i in range(0, len(xs), 37):
         _, Js, _ = sy.evaluate_scaled(xs[i], vals[i], None)
         assert int(np.linalg.slogdet(Js)[0]) == signs[i] != -signs[i]
+
+
+@pytest.mark.parametrize('name', ['four_bar', 'excavator'])
+def test_batches_on_one_system_do_not_share_state(name):
+    """The batched solve keeps its packed-J arrays for the next batch of the same size:
+    batches of several sizes and with a declined row (the gather and scatter path), one after
+    another on one system, give exactly what each gives on a system of its own, and the scalar
+    sweep's answers; no later batch writes into an earlier one's answers."""
+    sy, xs, signs, vals = scalar_sweep(name, 300)
+    cases = []
+    for lo, hi in ((0, 120), (120, 299), (5, 125), (0, 120)):
+        X0, start = xs[lo:hi].copy(), signs[lo:hi].copy()
+        start[3] = -start[3]  # a wrong start sign: declined
+        cases.append((lo, X0, stack(sy, vals[lo + 1 : hi + 1]), start))
+    fields = ('x', 'ok', 'iterations', 'residual', 'det_sign', 'cond')
+    answers = []
+    for lo, X0, values, start in cases:
+        got = sy.solve_batch(X0, values, start, tol=TOL)
+        alone = LoopSystem(sy.mech, sy.specs, sy.free).solve_batch(X0, values, start, tol=TOL)
+        for field in fields:
+            assert np.array_equal(getattr(got, field), getattr(alone, field)), field
+        assert not got.ok[3] and got.ok.mean() >= 0.98
+        check_against_sweep(sy, xs, signs, vals, got, np.arange(lo, lo + len(X0)))
+        answers.append((got, {f: getattr(got, f).copy() for f in fields}))
+    for got, copies in answers:
+        for field in fields:
+            assert np.array_equal(getattr(got, field), copies[field]), field
