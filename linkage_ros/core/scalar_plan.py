@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from math import atan2, cos, sin
+from math import atan2, cos, sin, sqrt
 from typing import Any
 
 from .dyads import TANGENCY_TOL
@@ -354,8 +354,11 @@ class ScalarProgram:
                 except OverflowError:  # beyond the float range (as ops' cabs)
                     nb = math.inf
                 b = b / (nb if nb > 0 else 1.0)  # unit first: 1e-300 lengths would underflow
-                phi = atan2(ux * b.imag - uy * b.real, ux * b.real + uy * b.imag)
-                rot = complex(cos(phi), sin(phi))
+                cross, dot = ux * b.imag - uy * b.real, ux * b.real + uy * b.imag
+                phi = atan2(cross, dot)
+                # the unit vector of (dot, cross): execute._unit_rotation, float for float
+                h = sqrt(dot * dot + cross * cross)
+                rot = complex(dot / h, cross / h) if h > 0 else complex(cos(phi), sin(phi))
                 T = p - rot * lp
                 R[iphi], R[irot], R[iT] = phi, rot, T
                 for s, ref in pts:
@@ -376,8 +379,10 @@ class ScalarProgram:
             u = (R[qrot] * q_ref + R[qT]) - lp
             nu = _cabs_one(u)
             u = u / (nu if nu > 0 else 1.0)
-            phi = atan2(u.real * b.imag - u.imag * b.real, u.real * b.real + u.imag * b.imag)
-            rot = complex(cos(phi), sin(phi))
+            cross, dot = u.real * b.imag - u.imag * b.real, u.real * b.real + u.imag * b.imag
+            phi = atan2(cross, dot)
+            h = sqrt(dot * dot + cross * cross)  # (as two_points_single)
+            rot = complex(dot / h, cross / h) if h > 0 else complex(cos(phi), sin(phi))
             place(R, phi, rot, R[sp] - rot * lp)
 
         return two_points
