@@ -349,12 +349,13 @@ class ScalarProgram:
                 R = r.R
                 p = R[sp]
                 b = R[sq] - p
-                try:
-                    nb = abs(b)
-                except OverflowError:  # beyond the float range (as ops' cabs)
-                    nb = math.inf
-                b = b / (nb if nb > 0 else 1.0)  # unit first: 1e-300 lengths would underflow
-                cross, dot = ux * b.imag - uy * b.real, ux * b.real + uy * b.imag
+                # scaled first (execute._max_part_one: its larger part 1; NaN rows NaN after
+                # either way, whichever part max() keeps)
+                x, y = b.real, b.imag
+                c = max(abs(x), abs(y))
+                if c > 0:
+                    x, y = x / c, y / c
+                cross, dot = ux * y - uy * x, ux * x + uy * y
                 phi = atan2(cross, dot)
                 # the unit vector of (dot, cross): execute._unit_rotation, float for float
                 h = sqrt(dot * dot + cross * cross)
@@ -373,13 +374,17 @@ class ScalarProgram:
         def two_points(r: SlotRun) -> None:
             R = r.R
             b = R[sq] - R[sp]
-            nb = _cabs_one(b)
-            b = b / (nb if nb > 0 else 1.0)
+            x, y = b.real, b.imag
+            c = max(abs(x), abs(y))  # (as two_points_single)
+            if c > 0:
+                x, y = x / c, y / c
             lp = R[prot] * p_ref + R[pT]
             u = (R[qrot] * q_ref + R[qT]) - lp
-            nu = _cabs_one(u)
-            u = u / (nu if nu > 0 else 1.0)
-            cross, dot = u.real * b.imag - u.imag * b.real, u.real * b.real + u.imag * b.imag
+            ux, uy = u.real, u.imag
+            c = max(abs(ux), abs(uy))
+            if c > 0:
+                ux, uy = ux / c, uy / c
+            cross, dot = ux * y - uy * x, ux * x + uy * y
             phi = atan2(cross, dot)
             h = sqrt(dot * dot + cross * cross)  # (as two_points_single)
             rot = complex(dot / h, cross / h) if h > 0 else complex(cos(phi), sin(phi))
