@@ -349,17 +349,25 @@ class ScalarProgram:
                 R = r.R
                 p = R[sp]
                 b = R[sq] - p
-                # scaled first (execute._max_part_one: its larger part 1; NaN rows NaN after
-                # either way, whichever part max() keeps)
-                x, y = b.real, b.imag
-                c = max(abs(x), abs(y))
+                # scaled first: execute._max_part_one, float for float (a NaN row is NaN
+                # after either way); written out, as builtins' calls cost more here
+                x = b.real
+                y = b.imag
+                ax = -x if x < 0.0 else x
+                ay = -y if y < 0.0 else y
+                c = ax if ax > ay else ay
                 if c > 0:
-                    x, y = x / c, y / c
-                cross, dot = ux * y - uy * x, ux * x + uy * y
+                    x /= c
+                    y /= c
+                cross = ux * y - uy * x
+                dot = ux * x + uy * y
                 phi = atan2(cross, dot)
                 # the unit vector of (dot, cross): execute._unit_rotation, float for float
                 h = sqrt(dot * dot + cross * cross)
-                rot = complex(dot / h, cross / h) if h > 0 else complex(cos(phi), sin(phi))
+                if h > 0:
+                    rot = complex(dot / h, cross / h)
+                else:
+                    rot = complex(cos(phi), sin(phi))
                 T = p - rot * lp
                 R[iphi], R[irot], R[iT] = phi, rot, T
                 for s, ref in pts:
@@ -374,20 +382,32 @@ class ScalarProgram:
         def two_points(r: SlotRun) -> None:
             R = r.R
             b = R[sq] - R[sp]
-            x, y = b.real, b.imag
-            c = max(abs(x), abs(y))  # (as two_points_single)
+            x = b.real  # (scaled and turned as in two_points_single)
+            y = b.imag
+            ax = -x if x < 0.0 else x
+            ay = -y if y < 0.0 else y
+            c = ax if ax > ay else ay
             if c > 0:
-                x, y = x / c, y / c
+                x /= c
+                y /= c
             lp = R[prot] * p_ref + R[pT]
             u = (R[qrot] * q_ref + R[qT]) - lp
-            ux, uy = u.real, u.imag
-            c = max(abs(ux), abs(uy))
+            ux = u.real
+            uy = u.imag
+            ax = -ux if ux < 0.0 else ux
+            ay = -uy if uy < 0.0 else uy
+            c = ax if ax > ay else ay
             if c > 0:
-                ux, uy = ux / c, uy / c
-            cross, dot = ux * y - uy * x, ux * x + uy * y
+                ux /= c
+                uy /= c
+            cross = ux * y - uy * x
+            dot = ux * x + uy * y
             phi = atan2(cross, dot)
-            h = sqrt(dot * dot + cross * cross)  # (as two_points_single)
-            rot = complex(dot / h, cross / h) if h > 0 else complex(cos(phi), sin(phi))
+            h = sqrt(dot * dot + cross * cross)
+            if h > 0:
+                rot = complex(dot / h, cross / h)
+            else:
+                rot = complex(cos(phi), sin(phi))
             place(R, phi, rot, R[sp] - rot * lp)
 
         return two_points
