@@ -14,7 +14,11 @@ owns is done in place, and the RRR dyad with its point is one fused kernel
 (:func:`~linkage_ros.core.dyads_batch.rrr_point_batch`): the same float operations in the same
 order, every answer bit for bit what the plain operators give. A step's arrays, and a placed
 body's frame, are let go before the next step makes its own (the page faults of a batch in a
-fresh process follow its peak of memory, not its total).
+fresh process follow its peak of memory, not its total). A two-point step scales its vectors
+by their larger part (not their hypot length) and takes its rotation as the unit vector of
+their dot and cross products (not cos and sin of their atan2, which still gives the angle):
+IEEE operations only, so the one-command twin gives the same floats on any CPU; on the
+four-bar in one process, interleaved, 324 -> 240 ns per input at n = 20,000 (load 1.5-2).
 """
 
 from __future__ import annotations
