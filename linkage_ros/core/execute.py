@@ -15,10 +15,8 @@ owns is done in place, and the RRR dyad with its point is one fused kernel
 order, every answer bit for bit what the plain operators give. A step's arrays, and a placed
 body's frame, are let go before the next step makes its own (the page faults of a batch in a
 fresh process follow its peak of memory, not its total). A two-point step scales its vectors
-by their larger part (not their hypot length) and takes its rotation as the unit vector of
-their dot and cross products (not cos and sin of their atan2, which still gives the angle):
-IEEE operations only, so the one-command twin gives the same floats on any CPU; on the
-four-bar in one process, interleaved, 324 -> 240 ns per input at n = 20,000 (load 1.5-2).
+by their larger part, not their hypot length (atan2 does not see a scale): two absolute values
+and a maximum, IEEE operations the one-command twin repeats to the bit.
 """
 
 from __future__ import annotations
@@ -314,9 +312,13 @@ class PlanExecutor:
                     del t
                 del b, a
                 phi = ops.atan2(cross, dot)
-                # (a step's arrays let go before the next step makes its own)
-                rot = _unit_rotation(dot, cross, phi)
-                del cross, dot
+                del cross, dot  # (a step's arrays let go before the next step makes its own)
+                # e^{i phi} as cos + i sin of phi: the unit vector of (dot, cross) instead (a
+                # square root and two divisions, about 15 ns a row less at n = 20,000) was built
+                # and measured: its length is 1 to about 1 eps where cos and sin give 0.34 eps,
+                # and the four-bar's coupler point error against the 50-digit oracle grew 4-6%
+                # on average (15,000 inputs); not kept
+                rot = _expi(phi)
                 place_body(bi, phi, _minus_rotated(pts[p], rot, lp), rot)
                 del phi, rot
             elif op is _RRR or op is _RRP:
@@ -531,12 +533,12 @@ def _expi(phi: Any) -> Any:
 
 def _max_part_one(z: Any) -> Any:
     """z / max(|z.real|, |z.imag|) (each part divided; z itself where that is not > 0: a zero
-    vector stays 0, NaN stays NaN). A two-point step needs only the direction of z, at a
-    scale where its products and squares neither overflow nor underflow: the rotation is made
-    unit after (_unit_rotation), and atan2 does not see a scale. Two absolute values and a
-    maximum cost less than np.hypot (about 12 ns a row against 22, divisions included, at
-    n = 20,000), and there is no |z| to overflow (a hypot beyond the float range took a finite
-    z to 0: coincident points). An (n,) CArray of the caller's own is scaled in place."""
+    vector stays 0, NaN stays NaN). A two-point step needs only the direction of z, at a scale
+    where its products neither overflow nor underflow; atan2 does not see a scale. Two
+    absolute values and a maximum cost less than np.hypot (about 12 ns a row against 22,
+    divisions included, at n = 20,000), and there is no |z| to overflow (a hypot beyond the
+    float range took a finite z to 0: coincident points). An (n,) CArray of the caller's own
+    is scaled in place."""
     if not _rows(z):
         re, im = z.real, z.imag
         c = np.maximum(np.abs(re), np.abs(im))
@@ -549,35 +551,6 @@ def _max_part_one(z: Any) -> Any:
     np.divide(z.re, c, out=z.re)
     np.divide(z.im, c, out=z.im)
     return z
-
-
-def _unit_rotation(dot: Any, cross: Any, phi: Any) -> Any:
-    """e^{i phi} of a two-point step, phi = atan2(cross, dot): w / |w| for w = dot + i cross,
-    |w| = sqrt(dot^2 + cross^2); e^{i phi} as cos + i sin in the rows where |w| is not > 0
-    (coincident points: phi 0 or +-pi; NaN stays NaN). dot and cross come from two vectors
-    whose larger part is 1 (_max_part_one; or a zero one), so |w| is in [1, 2], exactly 0, or
-    NaN: the squares neither overflow nor lose a part that matters, and sqrt needs no hypot.
-    Measured at n = 20,000: the square root and two divisions about 17 ns a row, cos and sin
-    32. Five IEEE operations, correctly rounded on every CPU: the one-command twin
-    (scalar_plan) gives the same floats. dot and cross are this step's own: the answer is
-    written into them."""
-    if not all(isinstance(v, np.ndarray) and v.ndim == 1 for v in (dot, cross, phi)):
-        # (not met by a run, whose rows are (n,) arrays: arrays of the step's own made here)
-        dot, cross, phi = (np.array(v, float, ndmin=1) for v in (dot, cross, phi))
-    h = np.multiply(dot, dot)
-    h += cross * cross
-    np.sqrt(h, out=h)
-    if _all_positive(h):
-        np.divide(dot, h, out=dot)
-        np.divide(cross, h, out=cross)
-        return CArray(dot, cross)
-    flat = ~(h > 0)
-    h[flat] = 1.0
-    np.divide(dot, h, out=dot)
-    np.divide(cross, h, out=cross)
-    dot[flat] = np.cos(phi[flat])
-    cross[flat] = np.sin(phi[flat])
-    return CArray(dot, cross)
 
 
 def _turned_about_origin(P: Any, rot: Any) -> bool:

@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from math import atan2, cos, sin, sqrt
+from math import atan2, cos, sin
 from typing import Any
 
 from .dyads import TANGENCY_TOL
@@ -362,12 +362,7 @@ class ScalarProgram:
                 cross = ux * y - uy * x
                 dot = ux * x + uy * y
                 phi = atan2(cross, dot)
-                # the unit vector of (dot, cross): execute._unit_rotation, float for float
-                h = sqrt(dot * dot + cross * cross)
-                if h > 0:
-                    rot = complex(dot / h, cross / h)
-                else:
-                    rot = complex(cos(phi), sin(phi))
+                rot = complex(cos(phi), sin(phi))
                 T = p - rot * lp
                 R[iphi], R[irot], R[iT] = phi, rot, T
                 for s, ref in pts:
@@ -403,11 +398,7 @@ class ScalarProgram:
             cross = ux * y - uy * x
             dot = ux * x + uy * y
             phi = atan2(cross, dot)
-            h = sqrt(dot * dot + cross * cross)
-            if h > 0:
-                rot = complex(dot / h, cross / h)
-            else:
-                rot = complex(cos(phi), sin(phi))
+            rot = complex(cos(phi), sin(phi))
             place(R, phi, rot, R[sp] - rot * lp)
 
         return two_points

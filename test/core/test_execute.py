@@ -1,13 +1,14 @@
 """core.execute's two-point step (a body placed from two of its known points) against a 50-digit
-oracle, and its one-command twin (core.scalar_plan) against it float for float.
+oracle, and its one-command twin (core.scalar_plan) against it (float for float where numpy's
+sin, cos and arctan2 round as libm's).
 
-The step's rotation is the unit vector of (dot, cross), the cosine and sine of the angle from
-the two points' reference direction to their placed one, divided by its length (not cos and sin
-of that angle's atan2): it must be of unit length to a few ulps and turn the reference
-direction onto the placed one to a few ulps, on mechanisms drawn at any scale of the float
-range (2**-1000 to 2**1000 m: the products and squares of the step must neither overflow nor
-underflow). Where the two points coincide (a row that did not close upstream) the rotation is
-e^{i phi} of atan2's angle of the zero vector, finite, and the row is refused as one command is.
+The step's rotation (e^{i phi}, phi the angle from the two points' reference direction to
+their placed one) must be of unit length to a few ulps and turn the reference direction onto
+the placed one to a few ulps, on mechanisms drawn at any scale of the float range (2**-1000 to
+2**1000 m: the step scales the points' difference by its larger part, and its products must
+neither overflow nor underflow). Where the two points coincide (a row that did not close
+upstream) the rotation is e^{i phi} of atan2's angle of the zero vector, finite, and the row
+is refused as one command is.
 """
 
 from __future__ import annotations
@@ -28,8 +29,8 @@ from linkage_ros.core.solver import Solver
 from linkage_ros.core.steps import StepKind
 
 #: |rot| - 1 and the rotation's miss of the placed direction, in units of the double epsilon
-#: (the unit vectors of the two point pairs each a few half-ulps off, their dot and cross
-#: products one rounding more, the division by the length one more)
+#: (the scaled point pairs each a half-ulp off, their dot and cross products a rounding
+#: more, atan2, cos and sin one each; measured: 0.34 and 1.3)
 ULPS = 4
 
 
@@ -71,8 +72,11 @@ def test_two_point_rotation_is_the_unit_placed_direction(crank, coupler, rocker,
         one = program(plan).run([angles[i]], plan.reference_signs)
         for first, second, link in links:
             rot = _cplx(run.poses.rot[link], i)
-            # the twin: the same floats
-            assert one.poses.rot[link] == rot, (first, second, link)
+            # the twin: the same floats where numpy's trigonometry rounds as libm's here
+            phi = float(run.poses.phi[link][i])
+            twin = one.poses.rot[link]
+            assert twin == rot or not oracles.trig_is_libm(np.array([phi])), link
+            assert abs(twin - rot) <= 2 * oracles.EPS, link
             p, q = _cplx(run.points[first], i), _cplx(run.points[second], i)
             ref = mech.points[second] - mech.points[first]
             with mp.workdps(oracles.DPS):
