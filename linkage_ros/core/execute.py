@@ -14,9 +14,7 @@ owns is done in place, and the RRR dyad with its point is one fused kernel
 (:func:`~linkage_ros.core.dyads_batch.rrr_point_batch`): the same float operations in the same
 order, every answer bit for bit what the plain operators give. A step's arrays, and a placed
 body's frame, are let go before the next step makes its own (the page faults of a batch in a
-fresh process follow its peak of memory, not its total). A two-point step scales its vectors
-by their larger part, not their hypot length (atan2 does not see a scale): two absolute values
-and a maximum, IEEE operations the one-command twin repeats to the bit.
+fresh process follow its peak of memory, not its total).
 """
 
 from __future__ import annotations
@@ -293,13 +291,19 @@ class PlanExecutor:
             if op is _TWO_POINTS:
                 p, q = st.args.first, st.args.second
                 bi = st.body
-                # b scaled first (1e-300 lengths would underflow, 1e300 ones overflow the
-                # squares of _unit_rotation); b is this step's own: scaled in place
-                b = _max_part_one(pts[q] - pts[p])
+                b = pts[q] - pts[p]
+                nb = ops.cabs(b)
+                # unit first: 1e-300 lengths would underflow (the where pass skipped when no
+                # length is 0: the common case); b is this step's own: divided in place
+                nb = nb if _all_positive(nb) else ops.where(nb > 0, nb, 1.0)
+                np.divide(b.re, nb, out=b.re)
+                np.divide(b.im, nb, out=b.im)
                 a = self.unit_between.get(k)
                 if a is None:
                     lp = local_pt(bi, p)
-                    a = _max_part_one(local_pt(bi, q) - lp)
+                    a = local_pt(bi, q) - lp
+                    na = ops.cabs(a)
+                    a = a / (na if _all_positive(na) else ops.where(na > 0, na, 1.0))
                     cross = a.real * b.imag - a.imag * b.real
                     dot = a.real * b.real + a.imag * b.imag
                 else:  # a constant: the same products, written into two arrays
@@ -310,14 +314,16 @@ class PlanExecutor:
                     dot = b.re * a.real
                     dot += np.multiply(b.im, a.imag, out=t)
                     del t
-                del b, a
+                del b, nb, a
                 phi = ops.atan2(cross, dot)
                 del cross, dot  # (a step's arrays let go before the next step makes its own)
-                # e^{i phi} as cos + i sin of phi: the unit vector of (dot, cross) instead (a
-                # square root and two divisions, about 15 ns a row less at n = 20,000) was built
-                # and measured: its length is 1 to about 1 eps where cos and sin give 0.34 eps,
-                # and the four-bar's coupler point error against the 50-digit oracle grew 4-6%
-                # on average (15,000 inputs); not kept
+                # Measured and not kept (branch rotunit, both in the scalar twin alike, float
+                # for float): rot as the unit vector (dot + i cross) / sqrt(dot^2 + cross^2),
+                # 324 -> 240 ns per four-bar input with the scaling below, but |rot| 1 to about
+                # 1 eps (cos, sin: 0.34) and the coupler point's mean error against the
+                # 50-digit oracle 4-6% larger (15,000 inputs); b and a scaled by their larger
+                # part instead of their hypot length, 333 -> 286 ns, the four-bar's errors as
+                # before or lower but the excavator's bench median 6.4e-16 -> 6.9e-16.
                 rot = _expi(phi)
                 place_body(bi, phi, _minus_rotated(pts[p], rot, lp), rot)
                 del phi, rot
@@ -529,28 +535,6 @@ def _expi(phi: Any) -> Any:
     if isinstance(phi, np.ndarray) and phi.ndim == 1 and phi.dtype == np.float64:
         return CArray(np.cos(phi), np.sin(phi))
     return BATCH.expi(phi)
-
-
-def _max_part_one(z: Any) -> Any:
-    """z / max(|z.real|, |z.imag|) (each part divided; z itself where that is not > 0: a zero
-    vector stays 0, NaN stays NaN). A two-point step needs only the direction of z, at a scale
-    where its products neither overflow nor underflow; atan2 does not see a scale. Two
-    absolute values and a maximum cost less than np.hypot (about 12 ns a row against 22,
-    divisions included, at n = 20,000), and there is no |z| to overflow (a hypot beyond the
-    float range took a finite z to 0: coincident points). An (n,) CArray of the caller's own
-    is scaled in place."""
-    if not _rows(z):
-        re, im = z.real, z.imag
-        c = np.maximum(np.abs(re), np.abs(im))
-        c = np.where(c > 0, c, 1.0)
-        return CArray(np.asarray(re / c, float), np.asarray(im / c, float))
-    c = np.abs(z.re)
-    np.maximum(c, np.abs(z.im), out=c)
-    if not _all_positive(c):  # (the common batch has no zero length: the pass skipped)
-        c[~(c > 0)] = 1.0
-    np.divide(z.re, c, out=z.re)
-    np.divide(z.im, c, out=z.im)
-    return z
 
 
 def _turned_about_origin(P: Any, rot: Any) -> bool:

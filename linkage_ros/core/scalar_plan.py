@@ -349,19 +349,12 @@ class ScalarProgram:
                 R = r.R
                 p = R[sp]
                 b = R[sq] - p
-                # scaled first: execute._max_part_one, float for float (a NaN row is NaN
-                # after either way); written out, as builtins' calls cost more here
-                x = b.real
-                y = b.imag
-                ax = -x if x < 0.0 else x
-                ay = -y if y < 0.0 else y
-                c = ax if ax > ay else ay
-                if c > 0:
-                    x /= c
-                    y /= c
-                cross = ux * y - uy * x
-                dot = ux * x + uy * y
-                phi = atan2(cross, dot)
+                try:
+                    nb = abs(b)
+                except OverflowError:  # beyond the float range (as ops' cabs)
+                    nb = math.inf
+                b = b / (nb if nb > 0 else 1.0)  # unit first: 1e-300 lengths would underflow
+                phi = atan2(ux * b.imag - uy * b.real, ux * b.real + uy * b.imag)
                 rot = complex(cos(phi), sin(phi))
                 T = p - rot * lp
                 R[iphi], R[irot], R[iT] = phi, rot, T
@@ -377,27 +370,13 @@ class ScalarProgram:
         def two_points(r: SlotRun) -> None:
             R = r.R
             b = R[sq] - R[sp]
-            x = b.real  # (scaled and turned as in two_points_single)
-            y = b.imag
-            ax = -x if x < 0.0 else x
-            ay = -y if y < 0.0 else y
-            c = ax if ax > ay else ay
-            if c > 0:
-                x /= c
-                y /= c
+            nb = _cabs_one(b)
+            b = b / (nb if nb > 0 else 1.0)
             lp = R[prot] * p_ref + R[pT]
             u = (R[qrot] * q_ref + R[qT]) - lp
-            ux = u.real
-            uy = u.imag
-            ax = -ux if ux < 0.0 else ux
-            ay = -uy if uy < 0.0 else uy
-            c = ax if ax > ay else ay
-            if c > 0:
-                ux /= c
-                uy /= c
-            cross = ux * y - uy * x
-            dot = ux * x + uy * y
-            phi = atan2(cross, dot)
+            nu = _cabs_one(u)
+            u = u / (nu if nu > 0 else 1.0)
+            phi = atan2(u.real * b.imag - u.imag * b.real, u.real * b.real + u.imag * b.imag)
             rot = complex(cos(phi), sin(phi))
             place(R, phi, rot, R[sp] - rot * lp)
 
