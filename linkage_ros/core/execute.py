@@ -317,6 +317,13 @@ class PlanExecutor:
                 del b, nb, a
                 phi = ops.atan2(cross, dot)
                 del cross, dot  # (a step's arrays let go before the next step makes its own)
+                # Measured and not kept (branch rotunit, both in the scalar twin alike, float
+                # for float): rot as the unit vector (dot + i cross) / sqrt(dot^2 + cross^2),
+                # 324 -> 240 ns per four-bar input with the scaling below, but |rot| 1 to about
+                # 1 eps (cos, sin: 0.34) and the coupler point's mean error against the
+                # 50-digit oracle 4-6% larger (15,000 inputs); b and a scaled by their larger
+                # part instead of their hypot length, 333 -> 286 ns, the four-bar's errors as
+                # before or lower but the excavator's bench median 6.4e-16 -> 6.9e-16.
                 rot = _expi(phi)
                 place_body(bi, phi, _minus_rotated(pts[p], rot, lp), rot)
                 del phi, rot
