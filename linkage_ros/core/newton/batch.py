@@ -1,6 +1,13 @@
 """N configurations at once: the same rows and Jacobian in numpy, Newton on the stack.
 BatchNewton holds a system's tables regrouped by row kind (BatchTables, built on first use);
-the stack algebra (det signs, steps, condition numbers) is plain functions."""
+the stack algebra (det signs, steps, condition numbers) is plain functions.
+
+Every step is a full Newton step (J evaluated at each new point). The scalar fast path's chord
+steps (one J kept while each step cuts max|F| tenfold) were measured here and are slower
+batched: a chord step converges as e^3 where Newton's second gives e^4, so each scene took one
+step more, and at 200 rows an evaluation with J costs little more than one without (four-bar:
+169 against 146 us, a Newton step 124 against a chord step's 45): 0.92x the four-bar, 0.87x the
+slider-crank (CPU time, interleaved, load 0.6)."""
 
 from __future__ import annotations
 

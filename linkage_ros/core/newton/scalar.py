@@ -216,9 +216,10 @@ def extrapolate(
     vals_prev: Sequence[Any] | None = None,
     lu_prev: Any = None,
 ) -> list[float] | None:
-    """The continuation predictor (predict, lean.predict_lean) over plain floats: the solution
-    at ``vals`` predicted from the solution ``xl`` at vals_last, where ``solve(lu, rhs)`` is
-    J^-1 rhs at that solution (``lu_last`` its factorisation in the caller's form). h =
+    """The continuation predictor (predict's, and the Newton path's over its kernel) over plain
+    floats: the solution at ``vals`` predicted from the solution ``xl`` at vals_last, where
+    ``solve(lu, rhs)`` is J^-1 rhs at that solution (``lu_last`` its factorisation in the
+    caller's form). h =
     value_step(vals_last, vals); alone: xl + T h, with T = dx/dvalue = J^-1 (-dF/dvalue).
     Given the solution before (x_prev at vals_prev, hp the step since, s = h.hp / hp.hp,
     w = h - s hp): along hp the cubic Hermite extrapolation through both solutions and their

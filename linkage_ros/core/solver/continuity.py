@@ -90,7 +90,7 @@ class State:
     signs: tuple[int, ...]
     det_sign: int
     margins: tuple[float, ...] = ()
-    x_lu: tuple[Any, ...] | None = None  # Newton: LU of the Jacobian at x_all (the predictor)
+    x_lu: tuple[Any, ...] | None = None  # Newton: the kernel's factor of J at x_all (the predictor)
 
 
 def state_of(

@@ -36,6 +36,8 @@ class _Lazy:
             value = d[self.name] = self.default()
             return value
         obj._fill(d, self.name)
+        if d.keys() >= obj._LAZY:
+            obj._source = None  # every field read: what they were read from is let go
         return d[self.name]
 
 
@@ -44,7 +46,7 @@ class LazyResult(Result):
     and define ``_fill``; instances are made by ``object.__new__`` and their fields stored."""
 
     __slots__ = ('_source',)
-    _source: Any
+    _source: Any  # None once every lazy field is filled
     #: the fields the source fills (every other field a Result makes by a factory is made from
     #: that factory on first read)
     _LAZY: ClassVar[frozenset[str]] = frozenset()
@@ -71,6 +73,7 @@ class LazyResult(Result):
             for name in self._LAZY:
                 if name not in d:
                     self._fill(d, name)
+            self._source = None
         return d
 
     def _values(self) -> tuple[Any, ...]:

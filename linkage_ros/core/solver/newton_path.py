@@ -444,8 +444,12 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     # known whose links are placed, / L); in newton mode those are exactly the Newton rows, so
     # it is their max|F| / L at the answer; in hybrid mode the rows are a part: read them all
     residual = r.residual if c.mode is SolveMode.NEWTON else src.assembly().residual
-    # (the points are functions of x and the closed form's finite poses: finite with x)
-    if not math.isfinite(margin + residual + sum(r.x.tolist())):
+    # (the points are functions of x and the closed form's finite poses: finite with x; the
+    # one sum may overflow only at ~1e308 length scales, where every value is looked at)
+    xs = r.x.tolist()
+    if not math.isfinite(margin + residual + sum(xs)) and not all(
+        map(math.isfinite, [margin, residual, *xs])
+    ):
         return c.fail(
             'internal error: non-finite value in the solution', c.echo(vals), solver_name
         ), None

@@ -16,7 +16,7 @@ from typing import Any
 from ..assemble import Assembly
 from ..execute import LinkPoses
 from ..newton.results import SolveResult
-from ..newton.scalar import cond_of
+from ..newton.scalar import answer_cond
 from ..newton.tables import LoopTables
 from ..ops import SCALAR
 from .compiled import CompiledSolve, Values
@@ -25,9 +25,11 @@ from .lazy_result import LazyResult
 
 class NewtonSource:
     """What a NewtonResult's lazy fields are read from: the solved configuration (poses,
-    points), the command, and the solve's answer (its cond) over its loop tables."""
+    points), the command, and the answer's cond (or, where the fast path left it unread, J's
+    varying entries there to read it from: not the solve's factor or J, which a Result kept by a
+    caller would otherwise keep alive)."""
 
-    __slots__ = ('c', 'poses', 'points', 'vals', 'tables', 'answer', '_assembly')
+    __slots__ = ('c', 'poses', 'points', 'vals', 'tables', 'cond', 'jv', '_assembly')
 
     def __init__(
         self,
@@ -39,7 +41,8 @@ class NewtonSource:
         answer: SolveResult,
     ):
         self.c, self.poses, self.points, self.vals = c, poses, points, vals
-        self.tables, self.answer = tables, answer
+        self.tables, self.cond = tables, answer.cond
+        self.jv = answer.jv if answer.cond != answer.cond else None  # (nan: unread)
         self._assembly: Assembly | None = None
 
     def assembly(self) -> Assembly:
@@ -60,7 +63,9 @@ class NewtonResult(LazyResult):
     def _fill(self, d: dict[str, Any], name: str) -> None:
         src = self._source
         if name == 'cond':
-            c = cond_of(src.tables, src.answer)
+            c = src.cond
+            if c != c and src.jv is not None:  # (scalar.cond_of's reading)
+                c = answer_cond(src.tables, src.jv)
             d['cond'] = c if math.isfinite(c) else None
             return
         got = src.assembly()

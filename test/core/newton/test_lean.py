@@ -2,8 +2,8 @@
 
 Oracles: numpy's dense LU on the same Jacobian (np.linalg.solve, np.linalg.slogdet, np.linalg.inv
 for ||J^-1||_1), schur.py's batched elimination of the same matrices (the algorithm this kernel
-is the one-row twin of), LAPACK's condition estimate (scalar._cond, what a Result reports), and
-the fast path by the dense kernel (scalar.solve_from_guess) on the same guesses.
+is the one-row twin of), LAPACK's condition estimate (scalar.cond_estimate, what a Result
+reports), and the fast path by the dense kernel (scalar.solve_from_guess) on the same guesses.
 
 Would fail if: a step, a tangent or det J's sign differed from the dense ones beyond rounding, the
 condition bound were ever below the exact 1-norm condition number (the lean path would then keep
