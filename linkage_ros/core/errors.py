@@ -17,6 +17,12 @@ def echo(value: object, limit: int = ECHO_CHARS) -> str:
     return text if len(text) <= limit else text[: limit - 3] + '...'
 
 
+def not_finite(name: str, value: object) -> str:
+    """The refusal of a commanded value that is NaN or infinite: a single solve's, and a batch
+    row's (its first such value)."""
+    return f'{name}: value must be finite (got {echo(value)})'
+
+
 class LinkageError(Exception):
     """Base class of every error raised by linkage_ros."""
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..assemble import Assembly
 from ..assemble_batch import assemble_batch
+from ..errors import not_finite
 from ..execute import LinkPoses, executor
 from ..ops import BATCH
 from ..plan import (
@@ -126,7 +127,12 @@ def solve_batch(
         finite &= np.isfinite(a) if a.ndim == 1 else np.all(np.isfinite(a), axis=1)
     every_finite = bool(np.all(finite))
     for i in () if every_finite else np.flatnonzero(~finite).tolist():
-        out.reason[i] = 'value must be finite (NaN or inf in the command)'
+        # the single solve's refusal: the row's first value that is not finite, named
+        for s, a in zip(c.specs, arrays):
+            v = a[i].tolist()
+            if not all(map(math.isfinite, v if isinstance(v, list) else [v])):
+                out.reason[i] = not_finite(s.name, tuple(v) if isinstance(v, list) else v)
+                break
     # non-finite values as 0 (their rows are refused); read only from here on
     safe = arrays if every_finite else [np.where(np.isfinite(a), a, 0.0) for a in arrays]
     limit_bad = np.zeros(n, bool)

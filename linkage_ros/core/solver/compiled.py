@@ -19,7 +19,7 @@ from typing import Any, NoReturn
 import numpy as np
 
 from ..assemble import ResultAssembler
-from ..errors import echo
+from ..errors import echo, not_finite
 from ..execute import LinkPoses
 from ..model import Mechanism
 from ..newton import LoopSystem
@@ -269,5 +269,5 @@ def _parse_number(s: Spec, v: Any) -> float:
     except OverflowError:  # a Python int beyond the float range
         fv = math.inf
     if not math.isfinite(fv):
-        raise ValueError(f'{s.name}: value must be finite (got {echo(v)})')
+        raise ValueError(not_finite(s.name, v))
     return fv

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import echo
+from ..errors import echo, not_finite
 from ..model import Mechanism
 from ..plan import Spec
 from ..quantities import PointSpec
@@ -93,7 +93,7 @@ def parse_point(name: str, value: Any) -> np.ndarray:
     if arr.shape != (2,):
         raise ValueError(f'{name}: a point needs two numbers x, y (got {echo(value)})')
     if not np.all(np.isfinite(arr)):
-        raise ValueError(f'{name}: value must be finite (got {echo(value)})')
+        raise ValueError(not_finite(name, value))
     return arr
 
 
