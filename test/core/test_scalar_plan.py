@@ -36,20 +36,24 @@ def _mech(scene):
     return scenes.load(scene)
 
 
+def _complete_plans(mech):
+    """(closed-form Solver, its complete plan) for every knowns set of ``mech`` that has one."""
+    for knowns in scenes.knowns_sets(mech):
+        try:
+            s = Solver(mech, knowns=knowns, method='closed_form', branch='reference')
+        except PlanError:
+            continue
+        if s.compiled.full_plan.complete:
+            yield s, s.compiled.full_plan
+
+
 @pytest.mark.parametrize('scene', SCENES)
 def test_a_run_equals_its_batch_row(scene):
     mech = _mech(scene)
     L = mech.length_scale
     rng = np.random.default_rng(3)
     n, compared, kinds = 16, 0, set()
-    for knowns in scenes.knowns_sets(mech):
-        try:
-            s = Solver(mech, knowns=knowns, method='closed_form', branch='reference')
-        except PlanError:
-            continue
-        plan = s.compiled.full_plan
-        if not plan.complete:
-            continue
+    for s, plan in _complete_plans(mech):
         kinds |= {st.op for st in plan.steps}
         ref = s.compiled.ref_values
         cols = []
@@ -68,9 +72,9 @@ def test_a_run_equals_its_batch_row(scene):
                     # a change point (coincident circles: a rhombus folded flat) or an exact
                     # toggle: one command keeps the point continuity predicts, a batch has no
                     # such rule; both see the configuration as degenerate
-                    assert not info['ok'][i] or info['margin'][i] < 1e-6, (knowns, i)
+                    assert not info['ok'][i] or info['margin'][i] < 1e-6, (s.knowns, i)
                     continue
-                assert run.ok == bool(info['ok'][i]), (knowns, i)
+                assert run.ok == bool(info['ok'][i]), (s.knowns, i)
                 if not run.ok:
                     assert run.failure == info['failure'][i]
                     assert run.violation == info['violation'][i] or not exact
@@ -88,9 +92,9 @@ def test_a_run_equals_its_batch_row(scene):
                     pairs += [(T.real, poses.T[link][i, 0], L), (T.imag, poses.T[link][i, 1], L)]
                 for got, want, scale in pairs:
                     if exact:
-                        assert got == want, (knowns, i, got, want)
+                        assert got == want, (s.knowns, i, got, want)
                     else:
-                        assert abs(got - want) <= 1e-13 * scale, (knowns, i, got, want)
+                        assert abs(got - want) <= 1e-13 * scale, (s.knowns, i, got, want)
     assert compared >= 16, f'{scene}: too few closing commands compared ({compared})'
 
 
@@ -103,14 +107,7 @@ def test_links_a_run_turns_alike_have_the_very_same_angle_and_rotation():
     pairs_seen = 0
     for scene in SCENES:
         mech = _mech(scene)
-        for knowns in scenes.knowns_sets(mech):
-            try:
-                s = Solver(mech, knowns=knowns, method='closed_form', branch='reference')
-            except PlanError:
-                continue
-            plan = s.compiled.full_plan
-            if not plan.complete:
-                continue
+        for s, plan in _complete_plans(mech):
             prog = program(plan)
             if not prog.same_turn:
                 continue
@@ -127,6 +124,6 @@ def test_links_a_run_turns_alike_have_the_very_same_angle_and_rotation():
                 for pair in prog.same_turn:
                     a, b = sorted(pair)
                     pairs_seen += 1
-                    assert run.poses.phi[a] == run.poses.phi[b], (scene, knowns, pair)
-                    assert run.poses.rot[a] == run.poses.rot[b], (scene, knowns, pair)
+                    assert run.poses.phi[a] == run.poses.phi[b], (scene, s.knowns, pair)
+                    assert run.poses.rot[a] == run.poses.rot[b], (scene, s.knowns, pair)
     assert pairs_seen >= 20

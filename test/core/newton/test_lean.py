@@ -114,11 +114,8 @@ def test_the_fast_path_decides_and_steps_as_the_dense_one(name, sy, ls):
     # guesses at growing distances from a solution: the fast path by the Schur kernel accepts
     # exactly where the one by LAPACK's LU of the dense J does, with the same steps, det sign,
     # answer and reported cond to rounding
-    from linkage_ros.core.solver import Solver
-
-    s = Solver(sy.mech, method='newton')
     t = sy.tables
-    values = list(s.compiled.ref_values)
+    values = list(_ref_values(sy))
     x0 = sy.reference_x()
     sign = sy.start_sign(x0, values)
     rng = np.random.default_rng(3)
@@ -144,11 +141,8 @@ def test_the_fast_path_decides_and_steps_as_the_dense_one(name, sy, ls):
 @pytest.mark.parametrize(('name', 'sy', 'ls'), LEAN, ids=IDS)
 def test_the_prediction_is_the_dense_one(name, sy, ls):
     # the tangent extrapolation through the kernel and through LAPACK's LU of the same J
-    from linkage_ros.core.solver import Solver
-
-    s = Solver(sy.mech, method='newton')
     t = sy.tables
-    values = list(s.compiled.ref_values)
+    values = list(_ref_values(sy))
     x0 = sy.reference_x()
     F, jv, J, fac = _at(sy, ls, x0, values)
     lu = factor(J)
