@@ -15,6 +15,8 @@ from linkage_ros.core.model import Mechanism, Scene
 
 REPO = Path(__file__).resolve().parent.parent
 CONFIG = REPO / 'config'
+#: the file stems of the shipped scenes (config/*.yaml), sorted
+SHIPPED = sorted(p.stem for p in CONFIG.glob('*.yaml'))
 
 
 def knowns_sets(mech: Mechanism) -> list[list[str] | None]:

@@ -17,7 +17,7 @@ from linkage_ros.core.plan import Poses, ReadKind, link_poses
 from linkage_ros.core.quantities import PointSpec
 from linkage_ros.core.solver import Solver
 
-_STEMS = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
+_STEMS = scenes.SHIPPED
 _HOSTILE = [math.nan, math.inf, -math.inf, 1e300, -1e300, 5e-324, -0.0, 1e-310, 7.0, -40.0]
 
 

@@ -25,7 +25,7 @@ from linkage_ros.core.model import Scene
 from linkage_ros.core.scalar_plan import program
 from linkage_ros.core.solver import Solver
 
-SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
+SHIPPED = scenes.SHIPPED
 #: and a roller on a flat face (its SIDE step: both sides of the face)
 SCENES = [*SHIPPED, 'nut_cracker']
 

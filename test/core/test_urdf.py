@@ -44,7 +44,7 @@ from linkage_ros.core.urdf import (
 )
 from linkage_ros.params import ConfigError, make_config
 
-SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
+SHIPPED = scenes.SHIPPED
 
 
 # ---- the oracle: URDF forward kinematics from the XML alone -------------------------------------

@@ -17,7 +17,7 @@ from linkage_ros.core.solver import Solver
 from linkage_ros.core.velocity import velocities
 from linkage_ros.engine import Engine, EngineSettings
 
-SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
+SHIPPED = scenes.SHIPPED
 
 
 @pytest.mark.parametrize('stem', SHIPPED)

@@ -27,9 +27,8 @@ from linkage_ros.core.newton.blocks import (
 )
 from linkage_ros.core.newton.linalg import newton_steps
 from linkage_ros.core.newton.tables import jacobian_pattern
-from linkage_ros.resources import config_dir
 
-ALL_SCENES = sorted(p.stem for p in config_dir().glob('*.yaml'))
+ALL_SCENES = scenes.SHIPPED
 
 
 system = scenes.newton_system

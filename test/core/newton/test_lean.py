@@ -26,9 +26,8 @@ from linkage_ros.core.newton.evaluate import jacobian
 from linkage_ros.core.newton.lean import evaluate_lean, lean_schur
 from linkage_ros.core.newton.linalg import factor
 from linkage_ros.core.newton.schur import reduced_steps, schur_answer, schur_back, schur_reduce
-from linkage_ros.resources import config_dir
 
-ALL_SCENES = sorted(p.stem for p in config_dir().glob('*.yaml'))
+ALL_SCENES = scenes.SHIPPED
 
 
 def _lean(name):

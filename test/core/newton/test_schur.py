@@ -28,9 +28,8 @@ from linkage_ros.core.newton.schur import (
     schur_inverse_norms,
     schur_reduce,
 )
-from linkage_ros.resources import config_dir
 
-ALL_SCENES = sorted(p.stem for p in config_dir().glob('*.yaml'))
+ALL_SCENES = scenes.SHIPPED
 
 
 system = scenes.newton_system

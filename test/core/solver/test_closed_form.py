@@ -22,7 +22,7 @@ from linkage_ros.bench.tradeoff import sweep_inputs
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
 
-SHIPPED = sorted(p.stem for p in scenes.CONFIG.glob('*.yaml'))
+SHIPPED = scenes.SHIPPED
 #: and a roller on a flat face (its residual closes on either side)
 SCENES = [*SHIPPED, 'nut_cracker']
 
