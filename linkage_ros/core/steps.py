@@ -139,8 +139,20 @@ def branch_signs(text: str) -> tuple[int, ...]:
 
 
 def branch_text(signs: Iterable[float]) -> str:
-    """Branch signs as the status shows them: '+-' for (+1, -1)."""
-    return ''.join('+' if s > 0 else '-' for s in signs)
+    """Branch signs as the status shows them: '+-' for (+1, -1). A tuple's text is kept (every
+    answer names its mode, and a mechanism meets a handful of them)."""
+    key = signs if type(signs) is tuple else None
+    if key is not None:
+        text = _BRANCH_TEXTS.get(key)
+        if text is not None:
+            return text
+    text = ''.join('+' if s > 0 else '-' for s in signs)
+    if key is not None and len(_BRANCH_TEXTS) < 256:  # (bounded: never grows with the input)
+        _BRANCH_TEXTS[key] = text
+    return text
+
+
+_BRANCH_TEXTS: dict[tuple[float, ...], str] = {}
 
 
 def sign_combinations(branch_count: int) -> Iterator[tuple[int, ...]]:

@@ -265,15 +265,6 @@ class SlotReadout:
         #: the registers of the points a run sets and of the placed links' angles, the first
         #: of the register list (ScalarProgram)
         self.n_set = prog.n_set
-        self._branch_texts: dict[tuple[int, ...], str] = {}
-
-    def branch_text(self, signs: tuple[int, ...]) -> str:
-        text = self._branch_texts.get(signs)
-        if text is None:
-            text = branch_text(signs)
-            if len(self._branch_texts) < 64:  # a handful of modes occur; never grow unbounded
-                self._branch_texts[signs] = text
-        return text
 
     def result(self, r: SlotRun, state: SlotState) -> Result:
         """The Result of a run that closed (refused if any value is not finite), ``state`` its
@@ -369,7 +360,7 @@ class SlotReadout:
         res._source = state
         res.success, res.solver = True, _CLOSED_FORM
         res.residual, res.margin, res.branch_defined = residual, margin, defined
-        res.branch = self._branch_texts.get(signs) or self.branch_text(signs)
+        res.branch = branch_text(signs)
         return res
 
     def fill(self, d: dict[str, Any], R: list[Any], vals: Values) -> None:

@@ -198,20 +198,6 @@ def branch_jump(ga: Geometry, gb: Geometry) -> bool:
     )
 
 
-def _branch_text(signs: Sequence[int]) -> str:
-    """branch_text, kept for the few modes a mechanism meets (never more than 64)."""
-    key = tuple(signs)
-    text = _BRANCH_TEXTS.get(key)
-    if text is None:
-        text = branch_text(key)
-        if len(_BRANCH_TEXTS) < 64:
-            _BRANCH_TEXTS[key] = text
-    return text
-
-
-_BRANCH_TEXTS: dict[tuple[int, ...], str] = {}
-
-
 def interpolate(c: CompiledSolve, a: Values, b: Values, t: float) -> Values:
     """The command a fraction t of the way from a to b (angles the short way round)."""
     out = []
@@ -458,7 +444,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         solver=solver_name,
         residual=residual,
         iterations=total_iter[0],
-        branch=_branch_text(signs_t) if label is None else label,
+        branch=branch_text(tuple(signs_t)) if label is None else label,
         branch_defined=(
             bool(branch_identity_defined(margin, residual)) if signs_t or label else True
         ),
