@@ -27,7 +27,7 @@ from ..ops import SCALAR
 from ..plan import Plan, Spec, limit_violation, run_one
 from ..quantities import PointSpec, ScalarSpec
 from .point_pairs import PointPair, pair_values, parse_point
-from .result import Result, branch_identity_defined, branch_text, dyad_reason
+from .result import Result, answer_branch, dyad_reason
 
 #: one command's known values in spec order: a float (rad or m) or an (x, y) point array (m)
 Values = list[Any]
@@ -230,8 +230,7 @@ class CompiledSolve:
             residual,
             iterations,
             solver,
-            branch_text(signs) if label is None else label,
-            bool(branch_identity_defined(margin, residual)) if signs or label else True,
+            *answer_branch(signs, label, margin, residual),
             float(margin),
             cond if cond is None or math.isfinite(cond) else None,
         )

@@ -36,7 +36,7 @@ from .result import (
     NEAR_SINGULAR_COND,
     WALK_BUDGET,
     Result,
-    branch_identity_defined,
+    answer_branch,
     branch_text,
 )
 
@@ -439,15 +439,14 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         return c.fail(
             'internal error: non-finite value in the solution', c.echo(vals), solver_name
         ), None
+    branch, defined = answer_branch(signs_t, label, margin, residual)
     res = newton_result(
         src,
         solver=solver_name,
         residual=residual,
         iterations=total_iter[0],
-        branch=branch_text(tuple(signs_t)) if label is None else label,
-        branch_defined=(
-            bool(branch_identity_defined(margin, residual)) if signs_t or label else True
-        ),
+        branch=branch,
+        branch_defined=defined,
         margin=float(margin),
     )
     x_lu = None

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
@@ -41,6 +42,16 @@ def branch_identity_defined(margin: _FloatOrArray, residual: _FloatOrArray) -> b
     """True where ``margin`` is above the noise bound of :func:`branch_undefined_below`
     (scalar or array, elementwise)."""
     return margin > branch_undefined_below(residual)
+
+
+def answer_branch(
+    signs: Sequence[int], label: str | None, margin: float, residual: float
+) -> tuple[str, bool]:
+    """A solved configuration's (branch, branch_defined): its dyad signs' text, or ``label``
+    where the signs do not name its mode (reading.mode_label); defined where the margin is
+    above the noise bound, and always where there is no branch to name."""
+    text = branch_text(tuple(signs)) if label is None else label
+    return text, bool(branch_identity_defined(margin, residual)) if signs or label else True
 
 
 #: a dyad margin below which its branch sign is not read as the assembly mode: at (or within
