@@ -25,7 +25,8 @@ asked (scalar.cond_of). One Newton flow runs on either kernel: newton_path.solve
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from operator import itemgetter
 from typing import Any, NamedTuple, Protocol
 
 from ..execute import LinkPoses
@@ -82,6 +83,8 @@ class LeanSchur:
         'n',
         'r_plan',
         't_plan',
+        'gather',
+        's_get',
     )
     cond_exact = False  # cond_bound: an upper bound of the exact 1-norm condition number
 
@@ -91,6 +94,12 @@ class LeanSchur:
         self.tpl: list[float] = sf.tpl.tolist()
         #: (index in residual_rows' varying entries, packed position)
         self.put: list[tuple[int, int]] = list(zip(list(jv_real), sf.pos.tolist()))
+        #: P read off [*tpl, *jv] in one C-level pass: position p takes tpl[p], or jv[k]
+        #: (at len(tpl) + k) where put places it (the last put wins, as the loop it replaces)
+        gather = list(range(len(self.tpl)))
+        for k, p in self.put:
+            gather[p] = len(self.tpl) + k
+        self.gather = gather
         self.nt = len(sf.t_cols)
         #: G's and C^-1's nonzero entries per row: (column, value)
         self.g_rows = [[(k, v) for k, v in enumerate(row) if v != 0.0] for row in sf.g.tolist()]
@@ -98,6 +107,12 @@ class LeanSchur:
             [(k, v) for k, v in enumerate(row) if v != 0.0] for row in sf.c_inv.tolist()
         ]
         self.s_rows: list[int] = sf.s_rows.tolist()
+        #: F's S rows as a sequence (itemgetter of one index returns the item, not a tuple)
+        self.s_get: Callable[[Sequence[float]], Sequence[float]] = (
+            itemgetter(*self.s_rows)
+            if len(self.s_rows) > 1
+            else (lambda F, rows=tuple(self.s_rows): [F[i] for i in rows])
+        )
         self.r_rows: list[int] = sf.r_rows.tolist()
         self.t_cols: list[int] = sf.t_cols.tolist()
         self.a_cols: list[int] = sf.a_cols.tolist()
@@ -114,9 +129,7 @@ class LeanSchur:
 
     def factor(self, jv: Sequence[float]) -> LeanFactor:
         """The LeanFactor of the J whose varying entries are ``jv`` (residual_rows' order)."""
-        P = self.tpl[:]
-        for k, p in self.put:
-            P[p] = jv[k]
+        P = list(map([*self.tpl, *jv].__getitem__, self.gather))
         e = 3 * self.nt
         M: list[float] = []
         for g_row in self.g_rows:  # M = E - G B
@@ -149,7 +162,7 @@ class LeanSchur:
     def solve(self, fac: LeanFactor, F: Sequence[float]) -> list[float]:
         """y solving J y = F at the factor's point (NaN entries where it is singular)."""
         P, X = fac.P, fac.X
-        FS = [F[i] for i in self.s_rows]
+        FS = self.s_get(F)
         (i0, g0), (i1, g1), (i2, g2) = self.r_plan
         r0, r1, r2 = F[i0], F[i1], F[i2]  # r = F_R - G F_S
         for k, g in g0:
@@ -185,13 +198,14 @@ class LeanSchur:
         if not fac.sign:
             return math.inf
         e = 3 * self.nt  # the A columns' sums over B, then over all of J (T columns': constant)
-        b0, b1, b2 = sum(map(abs, P[0:e:3])), sum(map(abs, P[1:e:3])), sum(map(abs, P[2:e:3]))
+        A = list(map(abs, P))
+        b0, b1, b2 = sum(A[0:e:3]), sum(A[1:e:3]), sum(A[2:e:3])
         b_norm = max(b0, b1, b2)
         j_norm = max(
             self.t_col_norms,
-            b0 + sum(map(abs, P[e::3])),
-            b1 + sum(map(abs, P[e + 1 :: 3])),
-            b2 + sum(map(abs, P[e + 2 :: 3])),
+            b0 + sum(A[e::3]),
+            b1 + sum(A[e + 1 :: 3]),
+            b2 + sum(A[e + 2 :: 3]),
         )
         x_norm = max(
             abs(X[0]) + abs(X[3]) + abs(X[6]),
