@@ -108,11 +108,7 @@ class LeanSchur:
         ]
         self.s_rows: list[int] = sf.s_rows.tolist()
         #: F's S rows as a sequence (itemgetter of one index returns the item, not a tuple)
-        self.s_get: Callable[[Sequence[float]], Sequence[float]] = (
-            itemgetter(*self.s_rows)
-            if len(self.s_rows) > 1
-            else (lambda F, rows=tuple(self.s_rows): [F[i] for i in rows])
-        )
+        self.s_get = _rows_getter(self.s_rows)
         self.r_rows: list[int] = sf.r_rows.tolist()
         self.t_cols: list[int] = sf.t_cols.tolist()
         self.a_cols: list[int] = sf.a_cols.tolist()
@@ -214,6 +210,18 @@ class LeanSchur:
         )
         bound = j_norm * (self.cinv_norm + (self.cinv_norm * b_norm + 1.0) * x_norm * self.gi_norm)
         return bound if bound - bound == 0.0 else math.inf
+
+
+def _rows_getter(rows: list[int]) -> Callable[[Sequence[float]], Sequence[float]]:
+    """F's entries at ``rows`` in one call (itemgetter: of one index it returns the item)."""
+    if len(rows) > 1:
+        got: Callable[[Sequence[float]], Sequence[float]] = itemgetter(*rows)
+        return got
+
+    def one(F: Sequence[float]) -> Sequence[float]:
+        return [F[i] for i in rows]
+
+    return one
 
 
 #: X of a singular factor
