@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from operator import mul
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -244,8 +245,8 @@ def extrapolate(
     if x_prev is not None and vals_prev is not None:
         if hp is None:
             hp = value_step(t, vals_prev, vals_last)
-        den = sum(v * v for v in hp)
-        s = sum(u * v for u, v in zip(h, hp)) / den if den > 0 else math.inf
+        den = sum(map(mul, hp, hp))  # (the products and sums of a generator, without one)
+        s = sum(map(mul, h, hp)) / den if den > 0 else math.inf
         if lu_prev is not None and -1.0 <= s <= 1.5:
             tt = 1.0 + s  # Hermite on tt in [0, 1] from x_prev to x_last
             t2, t3 = tt * tt, tt * tt * tt
