@@ -94,12 +94,12 @@ class LeanSchur:
         self.tpl: list[float] = sf.tpl.tolist()
         #: (index in residual_rows' varying entries, packed position)
         self.put: list[tuple[int, int]] = list(zip(list(jv_real), sf.pos.tolist()))
-        #: P read off [*tpl, *jv] in one C-level pass: position p takes tpl[p], or jv[k]
+        #: P read off [*tpl, *jv] by one itemgetter: position p takes tpl[p], or jv[k]
         #: (at len(tpl) + k) where put places it (the last put wins, as the loop it replaces)
         gather = list(range(len(self.tpl)))
         for k, p in self.put:
             gather[p] = len(self.tpl) + k
-        self.gather = gather
+        self.gather = itemgetter(*gather)
         self.nt = len(sf.t_cols)
         #: G's and C^-1's nonzero entries per row: (column, value)
         self.g_rows = [[(k, v) for k, v in enumerate(row) if v != 0.0] for row in sf.g.tolist()]
@@ -125,7 +125,7 @@ class LeanSchur:
 
     def factor(self, jv: Sequence[float]) -> LeanFactor:
         """The LeanFactor of the J whose varying entries are ``jv`` (residual_rows' order)."""
-        P = list(map([*self.tpl, *jv].__getitem__, self.gather))
+        P = list(self.gather([*self.tpl, *jv]))
         e = 3 * self.nt
         M: list[float] = []
         for g_row in self.g_rows:  # M = E - G B
@@ -194,14 +194,13 @@ class LeanSchur:
         if not fac.sign:
             return math.inf
         e = 3 * self.nt  # the A columns' sums over B, then over all of J (T columns': constant)
-        A = list(map(abs, P))
-        b0, b1, b2 = sum(A[0:e:3]), sum(A[1:e:3]), sum(A[2:e:3])
+        b0, b1, b2 = sum(map(abs, P[0:e:3])), sum(map(abs, P[1:e:3])), sum(map(abs, P[2:e:3]))
         b_norm = max(b0, b1, b2)
         j_norm = max(
             self.t_col_norms,
-            b0 + sum(A[e::3]),
-            b1 + sum(A[e + 1 :: 3]),
-            b2 + sum(A[e + 2 :: 3]),
+            b0 + sum(map(abs, P[e::3])),
+            b1 + sum(map(abs, P[e + 1 :: 3])),
+            b2 + sum(map(abs, P[e + 2 :: 3])),
         )
         x_norm = max(
             abs(X[0]) + abs(X[3]) + abs(X[6]),
