@@ -2,13 +2,14 @@
 warm start, continuation with branch checks, a careful fallback.
 
 A Newton solve's prediction and fast path run on the compiled solve's kernel (newton_kernel:
-lean.LeanSchur, plain floats, where J reduces to a 3 x 3; else scalar.DenseKernel, LAPACK's
-LU), whose factor at each answer the State keeps for the next prediction; the walk (careful
-path) stays on the dense J. Its decisions read one definition each, whatever the kernel:
-``cond`` is the condition number finish() reports (LAPACK's 1-norm estimate off the dense J,
-scalar.cond_of), decided by the kernel's upper bound of it where that settles the question; the
-Result's residual is the assembler's (build_result's) metric, read as max|F| / L over the Newton
-rows at the answer where those are all the closures it reads (SolveResult.residual: the
+lean.LeanSchur, plain floats, where J reduces to a 3 x 3; else scalar.DenseKernel, LAPACK's LU),
+whose factor at each answer the State keeps for the next prediction (a Linearisation: with the Schur
+kernel also the tangent dx/dvalue there, solved once rather than by each of the next two
+predictions); the walk (careful path) stays on the dense J. Its decisions read one definition each,
+whatever the kernel: ``cond`` is the condition number finish() reports (LAPACK's 1-norm estimate off
+the dense J, scalar.cond_of), decided by the kernel's upper bound of it where that settles the
+question; the Result's residual is the assembler's (build_result's) metric, read as max|F| / L over
+the Newton rows at the answer where those are all the closures it reads (SolveResult.residual: the
 rows of a Newton solve are every joint's and known's closure, as the assembler reads them off the
 poses; a hybrid solve's residual is the assembler's)."""
 
