@@ -50,7 +50,10 @@ def residual_rows(
 ) -> tuple[list[float], list[float]]:
     """The residual rows (a list) times k and, if jac, the varying Jacobian entries (a list
     in jpos order), those of rotation columns times k."""
-    xs: list[float] = x.tolist() if isinstance(x, np.ndarray) else [float(v) for v in x]
+    # (a list is the scalar solve's own, of floats: read as it is)
+    xs: list[float] = (
+        x if type(x) is list else x.tolist() if isinstance(x, np.ndarray) else list(map(float, x))
+    )
     cos, sin = math.cos, math.sin
     phis = xs[0::3]
     try:

@@ -25,7 +25,8 @@ asked (scalar.cond_of). One Newton flow runs on either kernel: newton_path.solve
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from operator import itemgetter
 from typing import Any, NamedTuple, Protocol
 
 from ..execute import LinkPoses
@@ -82,6 +83,8 @@ class LeanSchur:
         'n',
         'r_plan',
         't_plan',
+        'gather',
+        's_get',
     )
     cond_exact = False  # cond_bound: an upper bound of the exact 1-norm condition number
 
@@ -91,6 +94,12 @@ class LeanSchur:
         self.tpl: list[float] = sf.tpl.tolist()
         #: (index in residual_rows' varying entries, packed position)
         self.put: list[tuple[int, int]] = list(zip(list(jv_real), sf.pos.tolist()))
+        #: P read off [*tpl, *jv] by one itemgetter: position p takes tpl[p], or jv[k]
+        #: (at len(tpl) + k) where put places it (the last put wins, as the loop it replaces)
+        gather = list(range(len(self.tpl)))
+        for k, p in self.put:
+            gather[p] = len(self.tpl) + k
+        self.gather = itemgetter(*gather)
         self.nt = len(sf.t_cols)
         #: G's and C^-1's nonzero entries per row: (column, value)
         self.g_rows = [[(k, v) for k, v in enumerate(row) if v != 0.0] for row in sf.g.tolist()]
@@ -98,6 +107,8 @@ class LeanSchur:
             [(k, v) for k, v in enumerate(row) if v != 0.0] for row in sf.c_inv.tolist()
         ]
         self.s_rows: list[int] = sf.s_rows.tolist()
+        #: F's S rows as a sequence (itemgetter of one index returns the item, not a tuple)
+        self.s_get = _rows_getter(self.s_rows)
         self.r_rows: list[int] = sf.r_rows.tolist()
         self.t_cols: list[int] = sf.t_cols.tolist()
         self.a_cols: list[int] = sf.a_cols.tolist()
@@ -114,9 +125,7 @@ class LeanSchur:
 
     def factor(self, jv: Sequence[float]) -> LeanFactor:
         """The LeanFactor of the J whose varying entries are ``jv`` (residual_rows' order)."""
-        P = self.tpl[:]
-        for k, p in self.put:
-            P[p] = jv[k]
+        P = list(self.gather([*self.tpl, *jv]))
         e = 3 * self.nt
         M: list[float] = []
         for g_row in self.g_rows:  # M = E - G B
@@ -149,7 +158,7 @@ class LeanSchur:
     def solve(self, fac: LeanFactor, F: Sequence[float]) -> list[float]:
         """y solving J y = F at the factor's point (NaN entries where it is singular)."""
         P, X = fac.P, fac.X
-        FS = [F[i] for i in self.s_rows]
+        FS = self.s_get(F)
         (i0, g0), (i1, g1), (i2, g2) = self.r_plan
         r0, r1, r2 = F[i0], F[i1], F[i2]  # r = F_R - G F_S
         for k, g in g0:
@@ -200,6 +209,18 @@ class LeanSchur:
         )
         bound = j_norm * (self.cinv_norm + (self.cinv_norm * b_norm + 1.0) * x_norm * self.gi_norm)
         return bound if bound - bound == 0.0 else math.inf
+
+
+def _rows_getter(rows: list[int]) -> Callable[[Sequence[float]], Sequence[float]]:
+    """F's entries at ``rows`` in one call (itemgetter: of one index it returns the item)."""
+    if len(rows) > 1:
+        got: Callable[[Sequence[float]], Sequence[float]] = itemgetter(*rows)
+        return got
+
+    def one(F: Sequence[float]) -> Sequence[float]:
+        return [F[i] for i in rows]
+
+    return one
 
 
 #: X of a singular factor

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from operator import mul
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -215,6 +216,11 @@ def extrapolate(
     x_prev: list[float] | None = None,
     vals_prev: Sequence[Any] | None = None,
     lu_prev: Any = None,
+    *,
+    h: list[float] | None = None,
+    hp: list[float] | None = None,
+    unit_last: list[float] | None = None,
+    unit_prev: list[float] | None = None,
 ) -> list[float] | None:
     """The continuation predictor (predict's, and the Newton path's over its kernel) over plain
     floats: the solution at ``vals`` predicted from the solution ``xl`` at vals_last, where
@@ -225,15 +231,22 @@ def extrapolate(
     w = h - s hp): along hp the cubic Hermite extrapolation through both solutions and their
     tangents (with ``lu_prev``), else the quadratic one (the curvature the tangent missed over
     hp, times s^2), plus T w off that line. None if it moves an unknown by more than
-    MAX_PREDICTION (rad, or length scales)."""
-    h = value_step(t, vals_last, vals)
+    MAX_PREDICTION (rad, or length scales).
+
+    What a caller already has it may give (the Newton path keeps them with each answer, so a
+    warm command solves for no tangent): ``h`` and ``hp`` (value_step's, the same lists), and
+    where the values have one component, ``unit_last`` / ``unit_prev``: unit_tangent at that
+    solution (T c is then c times it: the same to rounding)."""
+    if h is None:
+        h = value_step(t, vals_last, vals)
     c_last: list[float] = h
     c_prev: list[float] | None = None
     k_back = 0.0
     if x_prev is not None and vals_prev is not None:
-        hp = value_step(t, vals_prev, vals_last)
-        den = sum(v * v for v in hp)
-        s = sum(u * v for u, v in zip(h, hp)) / den if den > 0 else math.inf
+        if hp is None:
+            hp = value_step(t, vals_prev, vals_last)
+        den = sum(map(mul, hp, hp))  # (the products and sums of a generator, without one)
+        s = sum(map(mul, h, hp)) / den if den > 0 else math.inf
         if lu_prev is not None and -1.0 <= s <= 1.5:
             tt = 1.0 + s  # Hermite on tt in [0, 1] from x_prev to x_last
             t2, t3 = tt * tt, tt * tt * tt
@@ -247,16 +260,28 @@ def extrapolate(
 
     n, rows = t.n, t.val_rows or ()
 
-    def tangent(lu: Any, c: list[float]) -> list[float]:  # T c, scale-free
+    def tangent(lu: Any, c: list[float], unit: list[float] | None) -> list[float]:
+        if unit is not None:  # T c, scale-free
+            k = c[0]
+            return [k * u for u in unit]
         rhs = [0.0] * n
         for i, v in zip(rows, c):
             rhs[i] = v  # -dF/dvalue (scale-free) times c
         return solve(lu, rhs)
 
     # plain Python on these short vectors: a dozen numpy calls would cost more
-    dy = tangent(lu_last, c_last)
-    if c_prev is not None and lu_prev is not None:
-        dy = [a + b for a, b in zip(dy, tangent(lu_prev, c_prev))]
+    if c_prev is None or lu_prev is None:
+        dy = tangent(lu_last, c_last, unit_last)
+    elif unit_last is not None and unit_prev is not None:  # the two below in one pass
+        kl, kp = c_last[0], c_prev[0]
+        dy = [kl * a + kp * b for a, b in zip(unit_last, unit_prev)]
+    else:
+        dy = [
+            a + b
+            for a, b in zip(
+                tangent(lu_last, c_last, unit_last), tangent(lu_prev, c_prev, unit_prev)
+            )
+        ]
     if k_back and x_prev is not None:
         back = [a - b for a, b in zip(x_prev, xl)]
         for j in range(0, n, 3):
@@ -266,6 +291,20 @@ def extrapolate(
     if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
         return None
     return [x + d * w for x, d, w in zip(xl, dy, t.step_list)]
+
+
+def unit_tangent(
+    t: LoopTables, solve: Callable[[Any, list[float]], list[float]], lu: Any
+) -> list[float] | None:
+    """dx/dvalue (scale-free) at a solution of a system whose values have one component: J^-1
+    times -dF/dvalue, by ``solve(lu, rhs)`` (extrapolate's tangent for c = 1); None where the
+    values have more components (or none), or a value has no row."""
+    rows = t.val_rows
+    if rows is None or len(rows) != 1:
+        return None
+    rhs = [0.0] * t.n
+    rhs[rows[0]] = 1.0
+    return solve(lu, rhs)
 
 
 def rates(

@@ -2,13 +2,14 @@
 warm start, continuation with branch checks, a careful fallback.
 
 A Newton solve's prediction and fast path run on the compiled solve's kernel (newton_kernel:
-lean.LeanSchur, plain floats, where J reduces to a 3 x 3; else scalar.DenseKernel, LAPACK's
-LU), whose factor at each answer the State keeps for the next prediction; the walk (careful
-path) stays on the dense J. Its decisions read one definition each, whatever the kernel:
-``cond`` is the condition number finish() reports (LAPACK's 1-norm estimate off the dense J,
-scalar.cond_of), decided by the kernel's upper bound of it where that settles the question; the
-Result's residual is the assembler's (build_result's) metric, read as max|F| / L over the Newton
-rows at the answer where those are all the closures it reads (SolveResult.residual: the
+lean.LeanSchur, plain floats, where J reduces to a 3 x 3; else scalar.DenseKernel, LAPACK's LU),
+whose factor at each answer the State keeps for the next prediction (a Linearisation: with the Schur
+kernel also the tangent dx/dvalue there, solved once rather than by each of the next two
+predictions); the walk (careful path) stays on the dense J. Its decisions read one definition each,
+whatever the kernel: ``cond`` is the condition number finish() reports (LAPACK's 1-norm estimate off
+the dense J, scalar.cond_of), decided by the kernel's upper bound of it where that settles the
+question; the Result's residual is the assembler's (build_result's) metric, read as max|F| / L over
+the Newton rows at the answer where those are all the closures it reads (SolveResult.residual: the
 rows of a Newton solve are every joint's and known's closure, as the assembler reads them off the
 poses; a hybrid solve's residual is the assembler's)."""
 
@@ -16,14 +17,22 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
 
 from ..dyads import wrap_angle
 from ..execute import CONTINUITY_MARGIN, LinkPoses
-from ..newton.lean import Kernel, evaluate_lean, lean_schur
+from ..newton.lean import Kernel, LeanSchur, evaluate_lean, lean_schur
 from ..newton.results import SolveResult
-from ..newton.scalar import DenseKernel, cond_of, extrapolate, solve_from_guess
+from ..newton.scalar import (
+    DenseKernel,
+    cond_of,
+    extrapolate,
+    solve_from_guess,
+    unit_tangent,
+    value_step,
+)
 from ..plan import branch_geometry_one, rollers_off_drawn_side, run_one
 from ..quantities import AngleSpec, PointSpec
 from ..steps import RollerSide
@@ -79,27 +88,55 @@ def newton_kernel(c: CompiledSolve) -> Kernel | None:
 _KERNEL = '_newton_kernel'
 
 
+class Linearisation(NamedTuple):
+    """What a Newton answer leaves the next command's prediction (State.x_lu): the kernel's
+    factor of J there, scalar.unit_tangent there (None: values of more than one component),
+    and the value step that led to it (scalar.value_step from ``step_from``, the values of the
+    answer before, to its own): computed once, each read by the next two predictions."""
+
+    factor: Any
+    unit: list[float] | None
+    step_from: Values | None
+    step: list[float] | None
+
+
 def start(
     c: CompiledSolve, cont: Continuity, vals: Values, kernel: Kernel | None
-) -> tuple[Values, np.ndarray, list[float] | None]:
-    """Warm start (values, x): the previous solution, else the reference pose; and the
-    predicted solution at ``vals`` (newton mode, after a Newton solve: scalar.extrapolate by
-    ``kernel`` from the factors the States keep)."""
+) -> tuple[Values, np.ndarray, list[float] | None, list[float] | None]:
+    """Warm start (values, x): the previous solution, else the reference pose; the predicted
+    solution at ``vals`` (newton mode, after a Newton solve: scalar.extrapolate by ``kernel``
+    from the Linearisations the States keep) and the value step it predicted over."""
     last = cont.last
     if last is not None and last.x_all is not None:
-        guess = None
-        if last.x_lu is not None and kernel is not None:
-            prev = cont.history[-2] if len(cont.history) == 2 else None
-            before = (
-                (prev.x_all.tolist(), prev.values, prev.x_lu)
-                if prev is not None and prev.x_all is not None
-                else ()
-            )
+        guess = h = None
+        lin = last.x_lu
+        if isinstance(lin, Linearisation) and kernel is not None:
             t = c.system.tables
-            guess = extrapolate(
-                t, kernel.solve, last.x_all.tolist(), last.x_lu, last.values, vals, *before
-            )
-        return last.values, c.sub_x(last.x_all), guess
+            h = value_step(t, last.values, vals)
+            prev = cont.history[-2] if len(cont.history) == 2 else None
+            if prev is not None and prev.x_all is not None:
+                before = prev.x_lu if isinstance(prev.x_lu, Linearisation) else None
+                guess = extrapolate(
+                    t,
+                    kernel.solve,
+                    last.x_all.tolist(),
+                    lin.factor,
+                    last.values,
+                    vals,
+                    prev.x_all.tolist(),
+                    prev.values,
+                    None if before is None else before.factor,
+                    h=h,
+                    hp=lin.step if lin.step_from is prev.values else None,
+                    unit_last=lin.unit,
+                    unit_prev=None if before is None else before.unit,
+                )
+            else:
+                guess = extrapolate(
+                    t, kernel.solve, last.x_all.tolist(), lin.factor, last.values, vals,
+                    h=h, unit_last=lin.unit,
+                )  # fmt: skip
+        return last.values, c.sub_x(last.x_all), guess, h
     x_all = c.check_system.reference_x()
     if (
         cont.branch.rule is BranchRule.EXPLICIT
@@ -112,7 +149,7 @@ def start(
             x_all = c.check_system.x_from_poses(run.poses)
     if cont.branch.rule is BranchRule.JACOBIAN and cont.branch.det_sign is not None:
         x_all = jacobian_mode_start(c, cont.branch.det_sign, x_all)
-    return list(c.ref_values), c.sub_x(x_all), None
+    return list(c.ref_values), c.sub_x(x_all), None, None
 
 
 #: Newton starts tried for a configuration in a requested Jacobian mode
@@ -263,7 +300,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         return c.fail(side, c.echo(vals), solver_name), None
     kernel = newton_kernel(c)
     t = c.system.tables
-    v0, x0, guess = start(c, cont, vals, kernel)
+    v0, x0, guess, step = start(c, cont, vals, kernel)
     total_iter = [0]
     since_progress = [0]  # iterations since the last substep that succeeded
     branches = bool(c.full_plan.complete and c.full_plan.branch_steps)
@@ -449,12 +486,17 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         branch_defined=defined,
         margin=float(margin),
     )
-    x_lu = None
+    x_lu: Linearisation | None = None
     if kernel is not None and r.success:  # (newton mode: x is x_all, and predicts the next)
         fac = (
             r.factor if r.jv is not None else kernel.factor(evaluate_lean(t, r.x.tolist(), vals)[1])
         )
-        x_lu = fac if fac.sign else None
+        if fac.sign:
+            # the tangent once here where J is LeanSchur's; the DenseKernel's solved per
+            # command as predict() does: its answers' cond (LAPACK's estimate, which moves by
+            # tens of % between answers a rounding apart) then keeps its bits
+            unit = unit_tangent(t, kernel.solve, fac) if isinstance(kernel, LeanSchur) else None
+            x_lu = Linearisation(fac, unit, v0 if step is not None else None, step)
     return res, state_of(
         c,
         vals,

@@ -153,3 +153,66 @@ def test_the_prediction_is_the_dense_one(name, sy, ls):
         if want is not None:
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * max(1.0, t.L))
     assert math.isfinite(ls.cond_bound(fac))
+
+
+@pytest.mark.parametrize(('name', 'sy', 'ls'), LEAN, ids=IDS)
+def test_the_kept_unit_tangent_is_dx_dvalue(name, sy, ls):
+    # scalar.unit_tangent (what a Newton answer keeps for the next two predictions) against
+    # numpy's dense solve of J T = -dF/dvalue, dF/dvalue by central differences of F in the
+    # value (scale-free: a step of h rad, or h length scales)
+    t = sy.tables
+    if t.val_rows is None or len(t.val_rows) != 1:
+        pytest.skip('values of more than one component: no kept tangent')
+    values = list(_ref_values(sy))
+    x0 = sy.reference_x()
+    _, _, J, fac = _at(sy, ls, x0, values)
+    h = 1e-6
+    step = h if np.ndim(values[0]) == 0 and sy.tables.specs[0].unit == 'rad' else h * t.L
+    F_up = np.array(evaluate_lean(t, x0.tolist(), [values[0] + step])[0])
+    F_down = np.array(evaluate_lean(t, x0.tolist(), [values[0] - step])[0])
+    want = np.linalg.solve(J, -(F_up - F_down) / (2 * h))
+    got = scalar.unit_tangent(t, ls.solve, fac)
+    assert got is not None
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-7 * max(1.0, float(np.abs(want).max())))
+
+
+@pytest.mark.parametrize(('name', 'sy', 'ls'), LEAN, ids=IDS)
+def test_the_prediction_from_kept_tangents_is_the_solved_one(name, sy, ls):
+    # extrapolate given the kept unit tangents and value steps (the Newton path's warm
+    # command) against extrapolate solving both tangents itself (predict's), through two
+    # solutions (the cubic Hermite, and the quadratic where the step turns back)
+    t = sy.tables
+    if t.val_rows is None or len(t.val_rows) != 1:
+        pytest.skip('values of more than one component: no kept tangent')
+    v0 = list(_ref_values(sy))
+    is_angle = sy.tables.specs[0].unit == 'rad'
+    scale = 1.0 if is_angle else t.L
+    x_prev = sy.reference_x()
+    for d1, d2 in ((0.01, 0.012), (0.02, -0.01), (0.005, 0.03)):
+        v1 = [v0[0] + d1 * scale]
+        v2 = [v1[0] + d2 * scale]
+        pred = sy.solve(x_prev, v1, None, tol=1e-13)
+        assert pred.success
+        x_last = pred.x
+        fac_prev = ls.factor(evaluate_lean(t, x_prev.tolist(), v0)[1])
+        fac_last = ls.factor(evaluate_lean(t, x_last.tolist(), v1)[1])
+        want = scalar.extrapolate(
+            t, ls.solve, x_last.tolist(), fac_last, v1, v2, x_prev.tolist(), v0, fac_prev
+        )
+        got = scalar.extrapolate(
+            t,
+            ls.solve,
+            x_last.tolist(),
+            fac_last,
+            v1,
+            v2,
+            x_prev.tolist(),
+            v0,
+            fac_prev,
+            h=scalar.value_step(t, v1, v2),
+            hp=scalar.value_step(t, v0, v1),
+            unit_last=scalar.unit_tangent(t, ls.solve, fac_last),
+            unit_prev=scalar.unit_tangent(t, ls.solve, fac_prev),
+        )
+        assert want is not None and got is not None
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-14 * max(1.0, t.L))

@@ -115,6 +115,34 @@ def test_a_warm_sweep_is_the_closed_form(name):
             _is_closed_form(a, mech, command)
 
 
+@pytest.mark.parametrize('name', SCENES)
+def test_a_warm_command_solves_its_steps_and_one_tangent(name, monkeypatch):
+    # the tangent a prediction extrapolates along is solved once, at the answer it starts from
+    # (kept in the State), not again by each of the next two predictions: a warm command on
+    # the Schur kernel solves J y = F for its Newton and chord steps and for its answer's
+    # tangent only (an answer it took no step for: none)
+    from linkage_ros.bench.tradeoff import sweep_inputs
+
+    mech = scenes.load(name)
+    s = Solver(mech, method='newton', tol=1e-12)
+    cmds = sweep_inputs(mech, 60)
+    for command in cmds[:3]:
+        assert s.solve(command).success
+    calls = [0]
+    solve = LeanSchur.solve
+
+    def counted(self, fac, F):
+        calls[0] += 1
+        return solve(self, fac, F)
+
+    monkeypatch.setattr(LeanSchur, 'solve', counted)
+    for command in cmds[3:]:
+        calls[0] = 0
+        r = s.solve(command)
+        assert r.success
+        assert calls[0] == r.iterations + 1, (calls[0], r.iterations)
+
+
 def test_the_four_bar_and_slider_crank_sweeps_are_the_50_digit_answers():
     l1, l2, l3, l4 = 4.0, 1.5, 4.5, 3.0  # Grashof crank-rocker
     fb = Solver(four_bar(l1, l2, l3, l4), method='newton', tol=1e-12)
