@@ -119,22 +119,27 @@ class BatchNewton:
         # packed-J arrays of earlier batches, free for the next (taken and given back whole:
         # a list's pop and append are atomic, so two threads never share one)
         self._spare: list[np.ndarray] = []
+        # J^-1 rows arrays of earlier answer checks (parts_inverse_norms' work: zero right of
+        # each block, which stays so), taken and given back whole as the spares
+        self._inverse_rows: list[np.ndarray] = []
 
-    def _take(self, N: int, size: int) -> np.ndarray:
-        """An (N, size) float array to write over: a spare one of that shape, else new."""
+    def _take(self, N: int, size: int) -> tuple[np.ndarray, bool]:
+        """An (N, size) float array to write over: a spare one of that shape (True: a packed J,
+        its constant entries in place), else new (False)."""
         spare = self._spare
         if spare and spare[-1].shape == (N, size):
             try:
                 a = spare.pop()
             except IndexError:  # another thread took the last one
-                return np.empty((N, size))
+                return np.empty((N, size)), False
             if a.shape == (N, size):
-                return a
-        return np.empty((N, size))
+                return a, True
+        return np.empty((N, size)), False
 
     def _give_back(self, a: np.ndarray) -> None:
-        """Keep ``a`` (a whole batch's packed J, nothing else holds it any more) for a later
-        batch; the spares of another batch size are let go."""
+        """Keep ``a`` (a whole batch's packed J, nothing else holds it any more: every entry
+        evaluate wrote, the constant ones never written over) for a later batch; the spares
+        of another batch size are let go."""
         if a.nbytes > SPARE_BYTES:
             return
         spare = self._spare
@@ -186,8 +191,20 @@ class BatchNewton:
             with np.errstate(invalid='ignore', over='ignore'):
                 c1 = layout.j_norms(Jp) * norms
             return exact_or_scaled(c1, lambda rows: layout.unpack(Jp[rows]))
-        blocks = not layout.whole and Jp.shape[0]
-        norms = parts_inverse_norms(layout.form, layout.parts(Jp)) if blocks else None
+        if layout.whole or not Jp.shape[0]:
+            return batch_conds(layout.unpack(Jp))
+        K, n = Jp.shape[0], self.t.n
+        kept = self._inverse_rows
+        try:
+            work = kept.pop() if kept and kept[-1].shape == (K, n, n) else None
+        except IndexError:  # another thread took it
+            work = None
+        if work is None:
+            work = np.zeros((K, n, n))
+        norms = parts_inverse_norms(layout.form, layout.parts(Jp), work)
+        if work.nbytes <= SPARE_BYTES:
+            kept.clear()  # (one kept: of the latest batch size)
+            kept.append(work)
         if norms is None:
             return batch_conds(layout.unpack(Jp))
         with np.errstate(invalid='ignore', over='ignore'):
@@ -264,11 +281,13 @@ class BatchNewton:
         jacobian: bool,
         packed: bool = False,
         out: np.ndarray | None = None,
+        templated: bool = False,
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """evaluate_scaled for the rows of X (N, n) with the value matrix V (values()):
         F (N, m), J (N, m, n) (``packed``: (N, size) as PackedJacobian stores it, written
-        into ``out`` if given) or None, res (N,). The formulas are core.newton.rows', as in
-        evaluate.residual_rows."""
+        into ``out`` if given; ``templated``: ``out`` is such a J already, its constant
+        entries in place, so only the varying ones are written) or None, res (N,). The
+        formulas are core.newton.rows', as in evaluate.residual_rows."""
         t, tab = self.t, self.tables()
         N, m, nf = X.shape[0], t.m, len(t.free)
         k = 1.0 / t.L
@@ -344,10 +363,12 @@ class BatchNewton:
         layout = self.layout() if packed else None
         tpl, pos = (tab.j_tpl, tab.j_pos) if layout is None else (layout.tpl, layout.pos)
         J = np.empty((N, len(tpl))) if out is None else out
-        J[:] = tpl
         if t.jpos_unique:
+            if out is None or not templated:
+                J[:] = tpl
             J[:, pos] = Jv[:, tab.jv_real]
         else:
+            J[:] = tpl
             # numpy's stubs take no tuple index for ufunc.at
             np.add.at(J, (slice(None), pos), Jv[:, tab.jv_real])  # type: ignore[arg-type]
         return F, (J if packed else J.reshape(N, m, t.n)), res
@@ -365,8 +386,8 @@ class BatchNewton:
     def _evaluate_jac(
         self, X: np.ndarray, V: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        out = self._take(X.shape[0], self.layout().size)
-        F, J, res = self.evaluate(X, V, True, packed=True, out=out)
+        out, templated = self._take(X.shape[0], self.layout().size)
+        F, J, res = self.evaluate(X, V, True, packed=True, out=out, templated=templated)
         assert J is not None
         return F, J, res
 
