@@ -196,11 +196,11 @@ class BatchNewton:
         K, n = Jp.shape[0], self.t.n
         kept = self._inverse_rows
         try:
-            work = kept.pop() if kept and kept[-1].shape == (K, n, n) else None
+            work = kept.pop() if kept and kept[-1].shape == (n, K, n) else None
         except IndexError:  # another thread took it
             work = None
         if work is None:
-            work = np.zeros((K, n, n))
+            work = np.zeros((n, K, n))
         norms = parts_inverse_norms(layout.form, layout.parts(Jp), work)
         if work.nbytes <= SPARE_BYTES:
             kept.clear()  # (one kept: of the latest batch size)
