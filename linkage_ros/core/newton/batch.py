@@ -44,12 +44,9 @@ from .schur import (
 from .tables import LoopTables
 
 
-def _pose(
-    P: np.ndarray, slots: np.ndarray
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(cos, sin, cx, cy) of the given slots, each (N, k), from the slot table P (5, N, slots)."""
-    c, s, x, y = P[1:, :, slots]
-    return c, s, x, y
+def _columns(constants: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """Each (k,) table of per-row constants as a (k, 1) column (evaluate's rows are (k, N))."""
+    return [c[:, None] for c in constants]
 
 
 # ---- the algebra of a stack of square matrices ------------------------------------------------
@@ -251,13 +248,14 @@ class BatchNewton:
         return newton_steps(layout.unpack(Jp), F) if dy is None else dy
 
     def values(self, values: Sequence[Any], N: int) -> np.ndarray:
-        """(N, columns) matrix of the values (angles wrapped as evaluate.residual_rows wraps
-        them, rad; slides and points m), then a zero column: what the batched rows subtract."""
+        """(columns, N) matrix of the values (angles wrapped as evaluate.residual_rows wraps
+        them, rad; slides and points m), then a zero row: what the batched rows subtract (a
+        value column of the commands a row of it, as evaluate lays its rows out)."""
         tab = self.tables()
         specs = self.t.specs
         if len(values) != len(specs):
             raise ValueError(f'{len(values)} value arrays for {len(specs)} specs')
-        V = np.zeros((N, tab.n_cols))
+        V = np.zeros((tab.n_cols, N))
         for s, v, c in zip(specs, values, tab.cols):
             shape = (N, 2) if isinstance(s, PointSpec) else (N,)
             try:
@@ -267,11 +265,11 @@ class BatchNewton:
                     f'values for {s.name!r} ({s.unit}) must have shape {shape}, got {np.shape(v)}'
                 ) from None
             if isinstance(s, PointSpec):
-                V[:, c : c + 2] = arr
+                V[c : c + 2] = arr.T
             elif isinstance(s, AngleSpec):
-                V[:, c] = BATCH.wrap(arr)
+                V[c] = BATCH.wrap(arr)
             else:
-                V[:, c] = arr
+                V[c] = arr
         return V
 
     def evaluate(
@@ -292,73 +290,81 @@ class BatchNewton:
         N, m, nf = X.shape[0], t.m, len(t.free)
         k = 1.0 / t.L
         kL = t.L * k  # as residual_rows: not exactly 1
+        # every array below is slot- or row-major, (k, N): each formula's operation one run
+        # over the N configurations of each row, a (k,) table a column, and the (N, k) layout
+        # came out of the slot gathers strided (1.5-3x the time per operation, the same floats)
         with np.errstate(invalid='ignore', over='ignore'):
-            # slots (free links, then the ground): phi, cos, sin, cx, cy
-            P = np.empty((5, N, nf + len(t.others)))
-            phi = X[:, 0::3]
-            P[0, :, :nf] = phi
-            np.cos(phi, out=P[1, :, :nf])
-            np.sin(phi, out=P[2, :, :nf])
-            P[3, :, :nf] = X[:, 1::3]
-            P[4, :, :nf] = X[:, 2::3]
-            P[:, :, nf:] = tab.fixed
+            # slots (free links, then the ground) x configurations: phi, cos, sin, cx, cy
+            P = np.empty((5, nf + len(t.others), N))
+            phi = X[:, 0::3].T
+            P[0, :nf] = phi
+            np.cos(phi, out=P[1, :nf])
+            np.sin(phi, out=P[2, :nf])
+            P[3, :nf] = X[:, 1::3].T
+            P[4, :nf] = X[:, 2::3].T
+            P[:, nf:] = tab.fixed.transpose(0, 2, 1)
             total = float(phi.sum())
             if total - total != 0.0:  # a NaN or inf angle somewhere: look closer (rare)
-                blown = np.isinf(phi).any(axis=1)
+                blown = np.isinf(phi).any(axis=0)
                 # as residual_rows, where math.cos raises: NaN free slots
-                P[:, blown, :nf] = math.nan
-            F = np.empty((N, m))
-            Jv = np.empty((N, len(t.jpos))) if jacobian else None
+                P[:, :nf, blown] = math.nan
+            FT = np.empty((m, N))
+            JvT = np.empty((len(t.jpos), N)) if jacobian else None
             nrev = len(tab.rev_a)
             if nrev:  # revolute rows: w_a(P) - w_b(P)
                 fx, fy, jv = revolute_rows(
-                    *_pose(P, tab.rev_a), *tab.rev_la, *_pose(P, tab.rev_b), *tab.rev_lb, k
-                )
-                F[:, 0 : 2 * nrev : 2] = fx
-                F[:, 1 : 2 * nrev : 2] = fy
-                if Jv is not None:
-                    # each entry into its columns (np.stack would cost several of these)
-                    for e, entry in enumerate(jv):
-                        Jv[:, e : 4 * nrev : 4] = entry
-            if len(tab.line_row):  # line rows: u . (w_S(X) - w_G(base)) [- value]
-                f, jl = line_row(
-                    *_pose(P, tab.line_g),
-                    *_pose(P, tab.line_s),
-                    *tab.line_k,
-                    V[:, tab.line_val],
+                    *P[1:, tab.rev_a],
+                    *_columns(tab.rev_la),
+                    *P[1:, tab.rev_b],
+                    *_columns(tab.rev_lb),
                     k,
                 )
-                F[:, tab.line_row] = f
-                if Jv is not None:
+                FT[0 : 2 * nrev : 2] = fx
+                FT[1 : 2 * nrev : 2] = fy
+                if JvT is not None:
+                    # each entry into its rows (np.stack would cost several of these)
+                    for e, entry in enumerate(jv):
+                        JvT[e : 4 * nrev : 4] = entry
+            if len(tab.line_row):  # line rows: u . (w_S(X) - w_G(base)) [- value]
+                f, jl = line_row(
+                    *P[1:, tab.line_g],
+                    *P[1:, tab.line_s],
+                    *_columns(tab.line_k),
+                    V[tab.line_val],
+                    k,
+                )
+                FT[tab.line_row] = f
+                if JvT is not None:
                     for e, entry in enumerate(jl):
-                        Jv[:, tab.line_jv[:, e]] = entry
+                        JvT[tab.line_jv[:, e]] = entry
             if len(tab.ang_row):  # angle rows: L * wrap(phi_a - phi_b - (value - off))
-                F[:, tab.ang_row] = angle_row(
-                    P[0][:, tab.ang_a],
-                    P[0][:, tab.ang_b],
-                    V[:, tab.ang_val],
-                    tab.ang_off,
+                FT[tab.ang_row] = angle_row(
+                    P[0][tab.ang_a],
+                    P[0][tab.ang_b],
+                    V[tab.ang_val],
+                    tab.ang_off[:, None],
                     kL,
                     BATCH.wrap,
                 )
             if len(tab.pt_row):  # point rows: w(X) - (x, y)
                 fx, fy, jp = point_rows(
-                    *_pose(P, tab.pt_link),
-                    *tab.pt_lever,
-                    V[:, tab.pt_val],
-                    V[:, tab.pt_val + 1],
+                    *P[1:, tab.pt_link],
+                    *_columns(tab.pt_lever),
+                    V[tab.pt_val],
+                    V[tab.pt_val + 1],
                     k,
                 )
-                F[:, tab.pt_row] = fx
-                F[:, tab.pt_row + 1] = fy
-                if Jv is not None:
+                FT[tab.pt_row] = fx
+                FT[tab.pt_row + 1] = fy
+                if JvT is not None:
                     for e, entry in enumerate(jp):
-                        Jv[:, tab.pt_jv[:, e]] = entry
-        res = np.abs(F).max(axis=1) if m else np.zeros(N)  # NaN where F has one
+                        JvT[tab.pt_jv[:, e]] = entry
+        res = np.abs(FT).max(axis=0) if m else np.zeros(N)  # NaN where F has one
         total = float(res.sum())
         if total - total != 0.0:  # a row with NaN or inf: inf (rare)
             res[~np.isfinite(res)] = math.inf
-        if Jv is None:
+        F = np.ascontiguousarray(FT.T)
+        if JvT is None:
             return F, None, res
         layout = self.layout() if packed else None
         tpl, pos = (tab.j_tpl, tab.j_pos) if layout is None else (layout.tpl, layout.pos)
@@ -366,11 +372,11 @@ class BatchNewton:
         if t.jpos_unique:
             if out is None or not templated:
                 J[:] = tpl
-            J[:, pos] = Jv[:, tab.jv_real]
+            J[:, pos] = JvT[tab.jv_real].T
         else:
             J[:] = tpl
             # numpy's stubs take no tuple index for ufunc.at
-            np.add.at(J, (slice(None), pos), Jv[:, tab.jv_real])  # type: ignore[arg-type]
+            np.add.at(J, (slice(None), pos), JvT[tab.jv_real].T)  # type: ignore[arg-type]
         return F, (J if packed else J.reshape(N, m, t.n)), res
 
     def evaluate_batch(
@@ -445,7 +451,7 @@ class BatchNewton:
             Ja, Fa = (J, F) if every else (J[rows], F[rows])
             dy = self.newton_steps(Ja, Fa)
             xn = (x if every else x[rows]) + dy * t.step_scale
-            Fn, Jn, rn = self._evaluate_jac(xn, V if every else V[rows])
+            Fn, Jn, rn = self._evaluate_jac(xn, V if every else V[:, rows])
             if every:
                 iterations += 1
             else:
