@@ -44,9 +44,17 @@ from .schur import (
 from .tables import LoopTables
 
 
-def _columns(constants: Sequence[np.ndarray]) -> list[np.ndarray]:
-    """Each (k,) table of per-row constants as a (k, 1) column (evaluate's rows are (k, N))."""
-    return [c[:, None] for c in constants]
+def _pose(
+    P: np.ndarray, slots: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(cos, sin, cx, cy) of the given slots, each (k, N), from the slot table P (5, slots, N)."""
+    c, s, x, y = P[1:, slots]
+    return c, s, x, y
+
+
+def _pair(constants: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """A pair of (k,) per-row constants as (k, 1) columns (evaluate's rows are (k, N))."""
+    return constants[0][:, None], constants[1][:, None]
 
 
 # ---- the algebra of a stack of square matrices ------------------------------------------------
@@ -313,10 +321,10 @@ class BatchNewton:
             nrev = len(tab.rev_a)
             if nrev:  # revolute rows: w_a(P) - w_b(P)
                 fx, fy, jv = revolute_rows(
-                    *P[1:, tab.rev_a],
-                    *_columns(tab.rev_la),
-                    *P[1:, tab.rev_b],
-                    *_columns(tab.rev_lb),
+                    *_pose(P, tab.rev_a),
+                    *_pair(tab.rev_la),
+                    *_pose(P, tab.rev_b),
+                    *_pair(tab.rev_lb),
                     k,
                 )
                 FT[0 : 2 * nrev : 2] = fx
@@ -327,9 +335,11 @@ class BatchNewton:
                         JvT[e : 4 * nrev : 4] = entry
             if len(tab.line_row):  # line rows: u . (w_S(X) - w_G(base)) [- value]
                 f, jl = line_row(
-                    *P[1:, tab.line_g],
-                    *P[1:, tab.line_s],
-                    *_columns(tab.line_k),
+                    *_pose(P, tab.line_g),
+                    *_pose(P, tab.line_s),
+                    *_pair(tab.line_k[0:2]),
+                    *_pair(tab.line_k[2:4]),
+                    *_pair(tab.line_k[4:6]),
                     V[tab.line_val],
                     k,
                 )
@@ -348,8 +358,8 @@ class BatchNewton:
                 )
             if len(tab.pt_row):  # point rows: w(X) - (x, y)
                 fx, fy, jp = point_rows(
-                    *P[1:, tab.pt_link],
-                    *_columns(tab.pt_lever),
+                    *_pose(P, tab.pt_link),
+                    *_pair(tab.pt_lever),
                     V[tab.pt_val],
                     V[tab.pt_val + 1],
                     k,
