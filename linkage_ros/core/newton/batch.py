@@ -47,9 +47,14 @@ from .tables import LoopTables
 def _pose(
     P: np.ndarray, slots: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(cos, sin, cx, cy) of the given slots, each (N, k), from the slot table P (5, N, slots)."""
-    c, s, x, y = P[1:, :, slots]
+    """(cos, sin, cx, cy) of the given slots, each (k, N), from the slot table P (5, slots, N)."""
+    c, s, x, y = P[1:, slots]
     return c, s, x, y
+
+
+def _pair(constants: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    """A pair of (k,) per-row constants as (k, 1) columns (evaluate's rows are (k, N))."""
+    return constants[0][:, None], constants[1][:, None]
 
 
 # ---- the algebra of a stack of square matrices ------------------------------------------------
@@ -119,22 +124,27 @@ class BatchNewton:
         # packed-J arrays of earlier batches, free for the next (taken and given back whole:
         # a list's pop and append are atomic, so two threads never share one)
         self._spare: list[np.ndarray] = []
+        # J^-1 rows arrays of earlier answer checks (parts_inverse_norms' work: zero right of
+        # each block, which stays so), taken and given back whole as the spares
+        self._inverse_rows: list[np.ndarray] = []
 
-    def _take(self, N: int, size: int) -> np.ndarray:
-        """An (N, size) float array to write over: a spare one of that shape, else new."""
+    def _take(self, N: int, size: int) -> tuple[np.ndarray, bool]:
+        """An (N, size) float array to write over: a spare one of that shape (True: a packed J,
+        its constant entries in place), else new (False)."""
         spare = self._spare
         if spare and spare[-1].shape == (N, size):
             try:
                 a = spare.pop()
             except IndexError:  # another thread took the last one
-                return np.empty((N, size))
+                return np.empty((N, size)), False
             if a.shape == (N, size):
-                return a
-        return np.empty((N, size))
+                return a, True
+        return np.empty((N, size)), False
 
     def _give_back(self, a: np.ndarray) -> None:
-        """Keep ``a`` (a whole batch's packed J, nothing else holds it any more) for a later
-        batch; the spares of another batch size are let go."""
+        """Keep ``a`` (a whole batch's packed J, nothing else holds it any more: every entry
+        evaluate wrote, the constant ones never written over) for a later batch; the spares
+        of another batch size are let go."""
         if a.nbytes > SPARE_BYTES:
             return
         spare = self._spare
@@ -186,8 +196,20 @@ class BatchNewton:
             with np.errstate(invalid='ignore', over='ignore'):
                 c1 = layout.j_norms(Jp) * norms
             return exact_or_scaled(c1, lambda rows: layout.unpack(Jp[rows]))
-        blocks = not layout.whole and Jp.shape[0]
-        norms = parts_inverse_norms(layout.form, layout.parts(Jp)) if blocks else None
+        if layout.whole or not Jp.shape[0]:
+            return batch_conds(layout.unpack(Jp))
+        K, n = Jp.shape[0], self.t.n
+        kept = self._inverse_rows
+        try:
+            work = kept.pop() if kept and kept[-1].shape == (n, K, n) else None
+        except IndexError:  # another thread took it
+            work = None
+        if work is None:
+            work = np.zeros((n, K, n))
+        norms = parts_inverse_norms(layout.form, layout.parts(Jp), work)
+        if work.nbytes <= SPARE_BYTES:
+            kept.clear()  # (one kept: of the latest batch size)
+            kept.append(work)
         if norms is None:
             return batch_conds(layout.unpack(Jp))
         with np.errstate(invalid='ignore', over='ignore'):
@@ -234,13 +256,14 @@ class BatchNewton:
         return newton_steps(layout.unpack(Jp), F) if dy is None else dy
 
     def values(self, values: Sequence[Any], N: int) -> np.ndarray:
-        """(N, columns) matrix of the values (angles wrapped as evaluate.residual_rows wraps
-        them, rad; slides and points m), then a zero column: what the batched rows subtract."""
+        """(columns, N) matrix of the values (angles wrapped as evaluate.residual_rows wraps
+        them, rad; slides and points m), then a zero row: what the batched rows subtract (a
+        value column of the commands a row of it, as evaluate lays its rows out)."""
         tab = self.tables()
         specs = self.t.specs
         if len(values) != len(specs):
             raise ValueError(f'{len(values)} value arrays for {len(specs)} specs')
-        V = np.zeros((N, tab.n_cols))
+        V = np.zeros((tab.n_cols, N))
         for s, v, c in zip(specs, values, tab.cols):
             shape = (N, 2) if isinstance(s, PointSpec) else (N,)
             try:
@@ -250,11 +273,11 @@ class BatchNewton:
                     f'values for {s.name!r} ({s.unit}) must have shape {shape}, got {np.shape(v)}'
                 ) from None
             if isinstance(s, PointSpec):
-                V[:, c : c + 2] = arr
+                V[c : c + 2] = arr.T
             elif isinstance(s, AngleSpec):
-                V[:, c] = BATCH.wrap(arr)
+                V[c] = BATCH.wrap(arr)
             else:
-                V[:, c] = arr
+                V[c] = arr
         return V
 
     def evaluate(
@@ -264,92 +287,106 @@ class BatchNewton:
         jacobian: bool,
         packed: bool = False,
         out: np.ndarray | None = None,
+        templated: bool = False,
     ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray]:
         """evaluate_scaled for the rows of X (N, n) with the value matrix V (values()):
         F (N, m), J (N, m, n) (``packed``: (N, size) as PackedJacobian stores it, written
-        into ``out`` if given) or None, res (N,). The formulas are core.newton.rows', as in
-        evaluate.residual_rows."""
+        into ``out`` if given; ``templated``: ``out`` is such a J already, its constant
+        entries in place, so only the varying ones are written) or None, res (N,). The
+        formulas are core.newton.rows', as in evaluate.residual_rows."""
         t, tab = self.t, self.tables()
         N, m, nf = X.shape[0], t.m, len(t.free)
         k = 1.0 / t.L
         kL = t.L * k  # as residual_rows: not exactly 1
+        # every array below is slot- or row-major, (k, N): each formula's operation one run
+        # over the N configurations of each row, a (k,) table a column, and the (N, k) layout
+        # came out of the slot gathers strided (1.5-3x the time per operation, the same floats)
         with np.errstate(invalid='ignore', over='ignore'):
-            # slots (free links, then the ground): phi, cos, sin, cx, cy
-            P = np.empty((5, N, nf + len(t.others)))
-            phi = X[:, 0::3]
-            P[0, :, :nf] = phi
-            np.cos(phi, out=P[1, :, :nf])
-            np.sin(phi, out=P[2, :, :nf])
-            P[3, :, :nf] = X[:, 1::3]
-            P[4, :, :nf] = X[:, 2::3]
-            P[:, :, nf:] = tab.fixed
+            # slots (free links, then the ground) x configurations: phi, cos, sin, cx, cy
+            P = np.empty((5, nf + len(t.others), N))
+            phi = X[:, 0::3].T
+            P[0, :nf] = phi
+            np.cos(phi, out=P[1, :nf])
+            np.sin(phi, out=P[2, :nf])
+            P[3, :nf] = X[:, 1::3].T
+            P[4, :nf] = X[:, 2::3].T
+            P[:, nf:] = tab.fixed.transpose(0, 2, 1)
             total = float(phi.sum())
             if total - total != 0.0:  # a NaN or inf angle somewhere: look closer (rare)
-                blown = np.isinf(phi).any(axis=1)
+                blown = np.isinf(phi).any(axis=0)
                 # as residual_rows, where math.cos raises: NaN free slots
-                P[:, blown, :nf] = math.nan
-            F = np.empty((N, m))
-            Jv = np.empty((N, len(t.jpos))) if jacobian else None
+                P[:, :nf, blown] = math.nan
+            FT = np.empty((m, N))
+            JvT = np.empty((len(t.jpos), N)) if jacobian else None
             nrev = len(tab.rev_a)
             if nrev:  # revolute rows: w_a(P) - w_b(P)
                 fx, fy, jv = revolute_rows(
-                    *_pose(P, tab.rev_a), *tab.rev_la, *_pose(P, tab.rev_b), *tab.rev_lb, k
+                    *_pose(P, tab.rev_a),
+                    *_pair(tab.rev_la),
+                    *_pose(P, tab.rev_b),
+                    *_pair(tab.rev_lb),
+                    k,
                 )
-                F[:, 0 : 2 * nrev : 2] = fx
-                F[:, 1 : 2 * nrev : 2] = fy
-                if Jv is not None:
-                    # each entry into its columns (np.stack would cost several of these)
+                FT[0 : 2 * nrev : 2] = fx
+                FT[1 : 2 * nrev : 2] = fy
+                if JvT is not None:
+                    # each entry into its rows (np.stack would cost several of these)
                     for e, entry in enumerate(jv):
-                        Jv[:, e : 4 * nrev : 4] = entry
+                        JvT[e : 4 * nrev : 4] = entry
             if len(tab.line_row):  # line rows: u . (w_S(X) - w_G(base)) [- value]
                 f, jl = line_row(
                     *_pose(P, tab.line_g),
                     *_pose(P, tab.line_s),
-                    *tab.line_k,
-                    V[:, tab.line_val],
+                    *_pair(tab.line_k[0:2]),
+                    *_pair(tab.line_k[2:4]),
+                    *_pair(tab.line_k[4:6]),
+                    V[tab.line_val],
                     k,
                 )
-                F[:, tab.line_row] = f
-                if Jv is not None:
+                FT[tab.line_row] = f
+                if JvT is not None:
                     for e, entry in enumerate(jl):
-                        Jv[:, tab.line_jv[:, e]] = entry
+                        JvT[tab.line_jv[:, e]] = entry
             if len(tab.ang_row):  # angle rows: L * wrap(phi_a - phi_b - (value - off))
-                F[:, tab.ang_row] = angle_row(
-                    P[0][:, tab.ang_a],
-                    P[0][:, tab.ang_b],
-                    V[:, tab.ang_val],
-                    tab.ang_off,
+                FT[tab.ang_row] = angle_row(
+                    P[0][tab.ang_a],
+                    P[0][tab.ang_b],
+                    V[tab.ang_val],
+                    tab.ang_off[:, None],
                     kL,
                     BATCH.wrap,
                 )
             if len(tab.pt_row):  # point rows: w(X) - (x, y)
                 fx, fy, jp = point_rows(
                     *_pose(P, tab.pt_link),
-                    *tab.pt_lever,
-                    V[:, tab.pt_val],
-                    V[:, tab.pt_val + 1],
+                    *_pair(tab.pt_lever),
+                    V[tab.pt_val],
+                    V[tab.pt_val + 1],
                     k,
                 )
-                F[:, tab.pt_row] = fx
-                F[:, tab.pt_row + 1] = fy
-                if Jv is not None:
+                FT[tab.pt_row] = fx
+                FT[tab.pt_row + 1] = fy
+                if JvT is not None:
                     for e, entry in enumerate(jp):
-                        Jv[:, tab.pt_jv[:, e]] = entry
-        res = np.abs(F).max(axis=1) if m else np.zeros(N)  # NaN where F has one
+                        JvT[tab.pt_jv[:, e]] = entry
+        res = np.abs(FT).max(axis=0) if m else np.zeros(N)  # NaN where F has one
         total = float(res.sum())
         if total - total != 0.0:  # a row with NaN or inf: inf (rare)
             res[~np.isfinite(res)] = math.inf
-        if Jv is None:
+        F = np.ascontiguousarray(FT.T)
+        if JvT is None:
             return F, None, res
         layout = self.layout() if packed else None
         tpl, pos = (tab.j_tpl, tab.j_pos) if layout is None else (layout.tpl, layout.pos)
         J = np.empty((N, len(tpl))) if out is None else out
-        J[:] = tpl
         if t.jpos_unique:
-            J[:, pos] = Jv[:, tab.jv_real]
+            if out is None or not templated:
+                J[:] = tpl
+            J[:, pos] = JvT[tab.jv_real].T
         else:
+            J[:] = tpl
             # numpy's stubs take no tuple index for ufunc.at
-            np.add.at(J, (slice(None), pos), Jv[:, tab.jv_real])  # type: ignore[arg-type]
+            np.add.at(J, (slice(None), pos), JvT[tab.jv_real].T)  # type: ignore[arg-type]
         return F, (J if packed else J.reshape(N, m, t.n)), res
 
     def evaluate_batch(
@@ -365,8 +402,8 @@ class BatchNewton:
     def _evaluate_jac(
         self, X: np.ndarray, V: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        out = self._take(X.shape[0], self.layout().size)
-        F, J, res = self.evaluate(X, V, True, packed=True, out=out)
+        out, templated = self._take(X.shape[0], self.layout().size)
+        F, J, res = self.evaluate(X, V, True, packed=True, out=out, templated=templated)
         assert J is not None
         return F, J, res
 
@@ -424,7 +461,7 @@ class BatchNewton:
             Ja, Fa = (J, F) if every else (J[rows], F[rows])
             dy = self.newton_steps(Ja, Fa)
             xn = (x if every else x[rows]) + dy * t.step_scale
-            Fn, Jn, rn = self._evaluate_jac(xn, V if every else V[rows])
+            Fn, Jn, rn = self._evaluate_jac(xn, V if every else V[:, rows])
             if every:
                 iterations += 1
             else:

@@ -14,7 +14,7 @@ there a call's fixed cost (a few us) outweighs the arithmetic."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -40,6 +40,20 @@ class BlockForm:
 
     blocks: tuple[Block, ...]
     parity: int
+    #: the residual rows and the unknowns in block order, and each unknown's place in it
+    row_order: np.ndarray = field(init=False, repr=False, compare=False)
+    col_order: np.ndarray = field(init=False, repr=False, compare=False)
+    place: np.ndarray = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        rows = [bl.rows for bl in self.blocks]
+        cols = [bl.cols for bl in self.blocks]
+        col_order = np.concatenate(cols) if cols else np.zeros(0, np.intp)
+        place = np.empty(len(col_order), np.intp)
+        place[col_order] = np.arange(len(col_order))
+        object.__setattr__(self, 'row_order', np.concatenate(rows) if rows else col_order)
+        object.__setattr__(self, 'col_order', col_order)
+        object.__setattr__(self, 'place', place)
 
 
 def permutation_sign(order: np.ndarray) -> int:
@@ -127,17 +141,25 @@ def block_det_signs(form: BlockForm, J: np.ndarray) -> np.ndarray:
 
 
 def parts_det_signs(form: BlockForm, parts: BlockParts) -> np.ndarray:
-    """block_det_signs from the stack's BlockParts."""
+    """block_det_signs from the stack's BlockParts: the product of the blocks' signs, 0 where
+    some block's log|det| is not finite (a singular block's is -inf, a NaN one's NaN: so is
+    their sum; finite ones sum to a finite value), tested once on the sum."""
     K = parts[0][0].shape[0]
     sign = np.full(K, form.parity, float)
-    with np.errstate(invalid='ignore', divide='ignore'):
+    logdets = np.zeros(K)
+    with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         for bl, (diag, _) in zip(form.blocks, parts):
             if len(bl.cols) == 1:
                 a = diag[:, 0, 0]
-                sign *= np.where(np.isfinite(a), np.sign(a), 0.0)
+                sign *= np.sign(a)  # NaN for NaN
+                logdets += np.log(np.abs(a))  # -inf for 0, inf for inf
             else:
                 s, logdet = np.linalg.slogdet(diag)
-                sign *= np.where(np.isfinite(logdet), s, 0.0)
+                sign *= s
+                logdets += logdet
+        total = float(logdets.sum())
+        if total - total != 0.0:  # some matrix singular or not finite: 0 there (rare)
+            sign[~np.isfinite(logdets)] = 0.0
     out: np.ndarray = sign.astype(int)
     return out
 
@@ -150,24 +172,33 @@ def block_steps(form: BlockForm, J: np.ndarray, F: np.ndarray) -> np.ndarray | N
 
 
 def parts_steps(form: BlockForm, parts: BlockParts, F: np.ndarray) -> np.ndarray | None:
-    """block_steps from the stack's BlockParts."""
+    """block_steps from the stack's BlockParts. The right-hand sides are taken in block order
+    at once (one gather of -F) and the steps found in block order (each block's earlier steps
+    one gather of them), put in the unknowns' order at the end (one scatter): fewer numpy
+    calls than a gather and a scatter per block, the same float operations."""
     K, n = F.shape
-    dy = np.empty((K, n))
+    rhs_all = np.negative(F[:, form.row_order])
+    ys = np.empty((K, n))  # the steps, in block order
+    at = 0
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         for bl, (diag, left) in zip(form.blocks, parts):
-            rhs = -F[:, bl.rows]
+            size = len(bl.cols)
+            rhs = rhs_all[:, at : at + size]
             if bl.earlier.size:
-                rhs -= np.einsum('kij,kj->ki', left, dy[:, bl.earlier])
-            if len(bl.cols) == 1:
+                rhs -= np.einsum('kij,kj->ki', left, ys[:, form.place[bl.earlier]])
+            if size == 1:
                 a = diag[:, 0, 0]
                 if not np.all(a != 0.0):
                     return None
-                dy[:, bl.cols[0]] = rhs[:, 0] / a
+                ys[:, at] = rhs[:, 0] / a
             else:
                 try:
-                    dy[:, bl.cols] = np.linalg.solve(diag, rhs[..., None])[..., 0]
+                    ys[:, at : at + size] = np.linalg.solve(diag, rhs[..., None])[..., 0]
                 except np.linalg.LinAlgError:
                     return None
+            at += size
+    dy = np.empty((K, n))
+    dy[:, form.col_order] = ys
     return dy
 
 
@@ -183,23 +214,26 @@ def block_inverse_norms(form: BlockForm, J: np.ndarray) -> np.ndarray | None:
     return parts_inverse_norms(form, dense_parts(form, J))
 
 
-def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None:
+def parts_inverse_norms(
+    form: BlockForm, parts: BlockParts, work: np.ndarray | None = None
+) -> np.ndarray | None:
     """block_inverse_norms from the stack's BlockParts. J^-1 is taken with its rows (unknowns)
     and columns (residual rows) both in block order, where it is block lower triangular: each
-    block's rows X_b (K, b, w) are found on the w columns of the blocks up to it only, and
-    added into the column sums at once (|X_b| in place); the rows a later block needs (its
-    ``earlier`` unknowns') are kept aside first. No (K, n, n) inverse is formed: on the
-    excavator that dense array and its |.| were most of the cost (fresh memory: page faults).
-    The same float operations as the dense form, in the same order: the sums go row by row,
-    as a sum over a dense J^-1's rows (its zeros add nothing)."""
+    block's rows X_b (K, b, w) are found on the w columns of the blocks up to it only (the
+    rows it needs of earlier blocks gathered in one call) and written into ``work``, J^-1's
+    rows in block order as an (n, K, n) array (row, matrix, column) whose entries right of
+    each block's columns are zero (np.zeros, or an array an earlier call with this form
+    wrote: those entries stay zero; a kept one costs no fresh pages and no zeroing); then
+    |J^-1| in place and its column sums in one reduction over the first axis (each of its
+    slices a whole row of every matrix: a third of the time of reducing the (K, n, n) middle
+    axis). The same float operations as the dense form, in the same order: each column
+    summed row by row, a dense J^-1's zeros adding nothing. Against summing each block's rows
+    one at a time, about a third of the numpy calls (the excavator: 25 against 78)."""
     K = parts[0][0].shape[0]
     n = sum(len(bl.cols) for bl in form.blocks)
-    needed = {u for bl in form.blocks for u in bl.earlier.tolist()}
-    held: dict[int, np.ndarray] = {}  # the rows of J^-1 later blocks need, by unknown
-    sums = np.zeros((K, n))
-    # one array for every block's X_b and one for the rows it needs (fewer fresh pages)
-    rows_space = np.empty((K, max(len(bl.cols) for bl in form.blocks), n))
-    earlier_space = np.empty((K, max(bl.earlier.size for bl in form.blocks), n))
+    if work is None or work.shape != (n, K, n):
+        work = np.zeros((n, K, n))
+    place = form.place  # each unknown's row of J^-1 in the block order
     at = 0
     with np.errstate(invalid='ignore', divide='ignore', over='ignore'):
         for bl, (diag, left) in zip(form.blocks, parts):
@@ -211,24 +245,16 @@ def parts_inverse_norms(form: BlockForm, parts: BlockParts) -> np.ndarray | None
                     d_inv = np.linalg.inv(diag)
                 except np.linalg.LinAlgError:
                     return None
-            X = rows_space[:, :size, : at + size]
+            X = work[at : at + size].transpose(1, 0, 2)  # (K, b, n) view
             lower = X[:, :, :at]
             if bl.earlier.size:  # [-d_inv (left X_earlier), d_inv]
-                earlier = earlier_space[:, : bl.earlier.size, :at]
-                earlier.fill(0.0)
-                for k, u in enumerate(bl.earlier.tolist()):
-                    earlier[:, k, : held[u].shape[1]] = held[u]
+                earlier = work[place[bl.earlier], :, :at].transpose(1, 0, 2)
                 np.matmul(d_inv, left @ earlier, out=lower)
                 np.negative(lower, out=lower)
             else:  # the columns before it are zero
                 lower.fill(0.0)
-            X[:, :, at:] = d_inv
-            for row, u in enumerate(bl.cols.tolist()):
-                if u in needed:
-                    held[u] = X[:, row, :].copy()
-            magnitudes = np.abs(X, out=X)  # X itself is read no more
-            for row in range(size):
-                sums[:, : at + size] += magnitudes[:, row, :]
+            X[:, :, at : at + size] = d_inv
             at += size
-        norms: np.ndarray = sums.max(axis=1)
+        magnitudes = np.abs(work, out=work)
+        norms: np.ndarray = np.add.reduce(magnitudes, axis=0).max(axis=1)
     return norms

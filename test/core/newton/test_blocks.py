@@ -23,6 +23,8 @@ from linkage_ros.core.newton.blocks import (
     block_form,
     block_inverse_norms,
     block_steps,
+    dense_parts,
+    parts_inverse_norms,
     permutation_sign,
 )
 from linkage_ros.core.newton.linalg import newton_steps
@@ -93,6 +95,30 @@ def test_scene_inverse_norms_block_by_block(name):
     assert got is not None
     cond = np.linalg.cond(J)
     assert np.all(np.abs(got / dense_inverse_norms(J) - 1) <= 1e-13 * cond)
+
+
+@pytest.mark.parametrize('name', ['excavator', 'front_loader'])
+def test_inverse_norms_reuse_a_kept_work_array(name):
+    """parts_inverse_norms with one (n, K, n) work array kept across calls, as BatchNewton
+    keeps it: each stack gets the dense inverse's norms (to rounding, relative to cond)
+    whatever the call before left in the array (another stack's rows of J^-1, NaN matrices,
+    whose norms are NaN)."""
+    sy = system(name)
+    form = block_form(jacobian_pattern(sy.tables))
+    assert form is not None
+    rng = np.random.default_rng(9)
+    first, _ = random_jacobians(sy, rng)
+    second, _ = random_jacobians(sy, rng)
+    broken = first.copy()
+    broken[::4] = np.nan
+    work = np.zeros((sy.n, len(first), sy.n))
+    for J in (first, broken, second, first):
+        got = parts_inverse_norms(form, dense_parts(form, J), work)
+        assert got is not None
+        finite = np.isfinite(J).all(axis=(1, 2))
+        assert np.all(np.isnan(got[~finite]))
+        cond = np.linalg.cond(J[finite])
+        assert np.all(np.abs(got[finite] / dense_inverse_norms(J[finite]) - 1) <= 1e-13 * cond)
 
 
 def test_inverse_norms_with_one_by_one_blocks_and_a_singular_block():

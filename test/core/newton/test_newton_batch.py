@@ -342,6 +342,28 @@ def test_solve_batch_reproduces_the_scalar_sweep(name):
     assert np.all(b.det_sign[~b.ok] == 0) and np.all(np.isinf(b.cond[~b.ok]))
 
 
+@pytest.mark.parametrize('name', ['four_bar', 'excavator'])
+def test_kept_arrays_leave_the_answers_alone(name):
+    """The batched solve keeps its packed J arrays (their constant entries not written again)
+    and its J^-1 rows array for the next batch of the same size: a batch solved after others
+    (of this size with NaN and noisy starts, of another size) is the batch a fresh system
+    solves, bit for bit, and the scalar sweep's answers."""
+    sy, xs, signs, vals = scalar_sweep(name, 200)
+    X0, V, S = xs[:-1], stack(sy, vals[1:]), signs[:-1]
+    fresh = Solver(scene(name), method='newton').system.solve_batch(X0, V, S, tol=TOL)
+    used = Solver(scene(name), method='newton').system
+    rng = np.random.default_rng(17)
+    noisy = X0 + rng.normal(size=X0.shape) * 0.05 * used.step_scale
+    noisy[::7] = np.nan
+    used.solve_batch(noisy, V, S, tol=TOL)
+    used.solve_batch(X0[:50], pick(V, slice(0, 50)), S[:50], tol=TOL)
+    used.solve_batch(noisy, V, S, tol=TOL)
+    again = used.solve_batch(X0, V, S, tol=TOL)
+    for field in ('x', 'ok', 'iterations', 'residual', 'det_sign', 'cond'):
+        assert np.array_equal(getattr(again, field), getattr(fresh, field)), field
+    check_against_sweep(used, xs, signs, vals, again, np.arange(len(xs) - 1))
+
+
 @pytest.mark.parametrize('name', SWEEP_SCENES)
 def test_coarse_steps_are_declined_or_right(name):
     """A 60-command sweep (steps too big for some rows to converge FAST_RATE per step): every
