@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..outputs import written_whole
-from .collect import _setting
+from .collect import _setting, batch_vs_scipy
 from .core_speed import core_speed_markdown
 from .fleet import render_fleet
 from .report_node import node_interpretation, node_markdown
@@ -319,7 +319,7 @@ def interpretation(report: dict) -> str:
             '(`Solver.solve_batch(start=)`: one numpy Newton for all rows, the same branch '
             'proofs per row) the per-solve cost drops to '
             + ', '.join(
-                f'{a["scene"]} {a["batch_us"]:.0f} us ({b["scalar_us"] / a["batch_us"]:.1f}x scipy)'
+                f'{a["scene"]} {a["batch_us"]:.0f} us ({batch_vs_scipy(a, b)[0]:.1f}x scipy)'
                 for a, b in pairs
                 if a.get('batch_us')
             )

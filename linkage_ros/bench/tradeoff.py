@@ -66,6 +66,10 @@ class SettingResult:
     batch_err_max: float | None = None
     batch_failures: int | None = None
     batch_careful: int | None = None  # newton batches: rows that took Solver.solve's careful path
+    #: Newton 1e-12 batches: scipy root's time per solve over its tight-xtol sweep divided by the
+    #: batch's per solve, each batch paired with a scipy sweep right after it (median of the
+    #: pairs): both sides timed at the same moment, which a ratio of two phases is not
+    batch_vs_scipy: float | None = None
     failures: int = 0
     n: int = 0
     iterations: float | None = None
@@ -457,7 +461,11 @@ def _newton_batch(row: SettingResult, mech, cmds: list[dict], repeats: int, name
     """Warm-started Newton vectorised over instances: the sweep's n inputs as n independent
     instances, instance i warm-started from its answer at the input before it on the closed
     sweep (the same start the scalar sweep has), all solved by one Solver.solve_batch(start=).
-    Time per solve = median batch time / n; errors against the same 50-digit reference."""
+    Time per solve = median batch time / n; errors against the same 50-digit reference. At tol
+    1e-12 each batch is followed by a warm scipy root sweep (hybr, xtol 1e-12) over the same
+    inputs, and ``batch_vs_scipy`` is the median of the pairs' ratios (per solve): the two sides
+    timed at the same moment. (The scalar settings' scipy median comes from another phase of
+    the run; on a shared machine the host's speed moves between phases by up to 2x.)"""
     from ..core.solver import Solver
 
     n = len(cmds)
@@ -466,12 +474,21 @@ def _newton_batch(row: SettingResult, mech, cmds: list[dict], repeats: int, name
     cols = {a: np.array([c[a] for c in cmds], float) for a in mech.actuators}
     before = {a: np.roll(v, 1) for a, v in cols.items()}  # instance i was at input i - 1
     start = solver.solve_batch(before)  # a path, solved one by one
-    ts = []
+    paired = row.tol == 1e-12 and 1e-12 in SCIPY_XTOLS
+    scipy = ScipyStepper(mech, 1e-12, n) if paired else None
+    ts, ratios = [], []
     for _ in range(max(repeats, 3)):
         t0 = time.perf_counter_ns()
         res = solver.solve_batch(cols, start=start)
-        ts.append((time.perf_counter_ns() - t0) / n)
+        per_solve = (time.perf_counter_ns() - t0) / n
+        ts.append(per_solve)
+        if scipy is not None:
+            scipy.ts = []
+            for i, c in enumerate(cmds):
+                scipy.step(i, c, False)
+            ratios.append(float(np.median(scipy.ts)) / per_solve)
     row.batch_us = float(np.median(ts)) / 1e3
+    row.batch_vs_scipy = float(np.median(ratios)) if ratios else None
     pts = np.stack([res.points[p] for p in names], axis=1)
     e = point_errors(np.where(res.ok[:, None, None], pts, np.nan), hi, lo, mech.length_scale)
     row.batch_err_max = float(np.nanmax(e)) if np.any(~np.isnan(e)) else None

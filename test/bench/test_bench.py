@@ -120,6 +120,9 @@ def test_report_structure(quick_run):
     newton = [r for r in rep['settings'] if r['family'] == 'newton']
     assert newton and all(r['batch_us'] > 0 and r['batch_failures'] == 0 for r in newton)
     assert all(r['batch_err_max'] <= 100 * max(r['tol'], 1e-13) for r in newton)
+    # the batched 1e-12 solve is timed paired with scipy sweeps (the same moment), the rest not
+    assert all((r['batch_vs_scipy'] or 0) > 0 for r in newton if r['tol'] == 1e-12)
+    assert all(r['batch_vs_scipy'] is None for r in newton if r['tol'] != 1e-12)
     assert all(t['met'] in (True, False, None) for t in rep['targets'])
     # the fleet case: the three runs of the real command give the same bytes, Parquet is smaller
     fleet = rep['fleet']
@@ -482,3 +485,14 @@ def test_bench_cases_select_measurements_and_refuse_unknown_ones(capsys):
     assert "unknown case(s) ['nonsense']" in capsys.readouterr().err
     assert main(['bench', '--cases', 'throughput', '--write', 'x.md']) == 2
     assert '--write takes a whole run' in capsys.readouterr().err
+
+
+def test_batched_newton_ratio_reads_the_pairs_and_falls_back_for_old_dumps():
+    """The batched-Newton target divides by the paired scipy timing when the run has it; a
+    dump from before (no batch_vs_scipy) gives the two-phase ratio, saying so."""
+    from linkage_ros.bench.collect import batch_vs_scipy
+
+    sp = {'scalar_us': 400.0}
+    assert batch_vs_scipy({'batch_us': 20.0, 'batch_vs_scipy': 17.5}, sp)[0] == 17.5
+    ratio, against = batch_vs_scipy({'batch_us': 20.0}, sp)
+    assert ratio == 20.0 and against == '400 us'
