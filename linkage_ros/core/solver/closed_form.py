@@ -60,6 +60,7 @@ from ..quantities import PointSpec, ScalarSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
 from ..steps import branch_text
+from .closure_bound import ConstructedChecks
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity, State
 from .lazy_result import LazyResult
@@ -138,7 +139,9 @@ class SlotReadout:
     """What to read off a program's runs for one compiled solve, resolved once (see the
     module)."""
 
-    def __init__(self, c: CompiledSolve, prog: ScalarProgram):
+    def __init__(self, c: CompiledSolve, prog: ScalarProgram, defer: bool = True):
+        """``defer``: leave the checks the plan satisfies by construction for when the
+        residual is read (closure_bound); False: every check when the Result is made."""
         mech, specs = c.mech, c.specs
         self.c, self.prog, self.plan = c, prog, c.plan
         have = set(prog.link_names)
@@ -192,19 +195,36 @@ class SlotReadout:
         # each revolute's closure (its point placed by the parent minus by the child), split by
         # whether one side's placement set the point's register (that side's point is the
         # register: the miss is the register less the other side's point, negated where the
-        # child set it, which changes no component's magnitude) or neither did
+        # child set it, which changes no component's magnitude) or neither did; the checks the
+        # plan satisfies by construction (closure_bound) apart, with their bounds
+        # (not with a known point: its miss may be a numpy float, whose type the residual and
+        # branch_defined then take where it is the largest, which only the checks tell)
+        if any(isinstance(s, PointSpec) for s in specs):
+            defer = False
+        constructed = ConstructedChecks(c.plan, prog) if defer else None
+        bounds: list[float] = []
         self.closure_one_side: list[tuple[complex, int, int, int]] = []
         self.closure_two_sides: list[tuple[complex, int, int, int, int]] = []
+        #: the one-side checks and known angles read back left for when the residual is read
+        self.closure_one_side_lazy: list[tuple[complex, int, int, int]] = []
+        self.angle_knowns_lazy: list[tuple[int, int, int, float]] = []
         for rj in revolutes:
             p = _c(mech.points[rj.point])
             preg, creg = reg(rj.point, rj.parent), reg(rj.point, rj.child)
             prot, pT, crot, cT = irot[rj.parent], iT[rj.parent], irot[rj.child], iT[rj.child]
             if preg >= 0:
-                self.closure_one_side.append((p, preg, crot, cT))
+                check, setter, checker = (p, preg, crot, cT), rj.parent, rj.child
             elif creg >= 0:
-                self.closure_one_side.append((p, creg, prot, pT))
+                check, setter, checker = (p, creg, prot, pT), rj.child, rj.parent
             else:
                 self.closure_two_sides.append((p, prot, pT, crot, cT))
+                continue
+            bound = constructed.joint(rj.point, p, setter, checker) if constructed else None
+            if bound is None:
+                self.closure_one_side.append(check)
+            else:
+                self.closure_one_side_lazy.append(check)
+                bounds.append(bound)
         read_knowns = [
             (i, spec_reader(mech, s))
             for i, s in enumerate(specs)
@@ -251,11 +271,34 @@ class SlotReadout:
         self.links = [(l, iphi[l], mech.links[l].angle_ref) for l in mech.links if l in have]
         #: the known angles read inline (the register of the value wrapped, their link's and
         #: reference's phi registers, offset)
-        self.angle_knowns = [
-            (prog.iwrap[i], iphi[read.link], iphi[read.reference], read.offset)
-            for i, read in read_knowns
-            if read.kind is ReadKind.ANGLE
-        ]
+        self.angle_knowns: list[tuple[int, int, int, float]] = []
+        for i, read in read_knowns:
+            if read.kind is ReadKind.ANGLE:
+                angle = (prog.iwrap[i], iphi[read.link], iphi[read.reference], read.offset)
+                bound = (
+                    constructed.angle(i, read.link, read.reference, read.offset, self.L)
+                    if constructed
+                    else None
+                )
+                if bound is None:
+                    self.angle_knowns.append(angle)
+                else:
+                    self.angle_knowns_lazy.append(angle)
+                    bounds.append(bound)
+        #: the most any check left for later can miss (m; closure_bound's proof), or None: no
+        #: check is left (none is rounding alone, or their bound is no use against the limit)
+        self.miss_bound: float | None = max(bounds) if bounds else None
+        if self.miss_bound is not None and not self.miss_bound / self.L <= self.closure_limit:
+            self.closure_one_side += self.closure_one_side_lazy
+            self.angle_knowns += self.angle_knowns_lazy
+            self.closure_one_side_lazy, self.angle_knowns_lazy = [], []
+            self.miss_bound = None
+        #: the residual the bound allows, and the branch noise bound at it (result.py's
+        #: branch_undefined_below, as result() computes it)
+        self.bound_residual = self.bound_noise = math.inf
+        if self.miss_bound is not None:
+            self.bound_residual = self.miss_bound / self.L
+            self.bound_noise = 4.0 * (2.0 * (self.bound_residual + 32.0 * _EPS)) ** 0.5
         self.knowns = [
             (i, read.kind, _slot_reader(read, prog))
             for i, read in read_knowns
@@ -275,14 +318,8 @@ class SlotReadout:
         L, R, vals, signs = self.L, r.R, state.values, state.signs
         # (loops, not comprehensions: a comprehension is a call in Python 3.11)
         worst = 0.0  # the largest component of a closure miss (m); NaN ones are not counted
-        for p, reg, rot, T in self.closure_one_side:
-            d = R[reg] - (R[rot] * p + R[T])
-            a = abs(d.real)
-            if a > worst:  # max(worst, a), without the call (NaN is never greater)
-                worst = a
-            a = abs(d.imag)
-            if a > worst:
-                worst = a
+        if self.closure_one_side:  # (the order of the checks changes no maximum)
+            worst = _one_side_worst(self.closure_one_side, R, worst)
         for p, prot, pT, crot, cT in self.closure_two_sides:
             d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
             a = abs(d.real)
@@ -320,16 +357,8 @@ class SlotReadout:
                 a = L * abs(a)
                 if a > worst:
                     worst = a
-        for wrapped, ia, ib, off in self.angle_knowns:  # _slot_reader's angle, _wrap inlined
-            got = R[ia] - R[ib] + off
-            if not _NEG_PI < got <= _PI:
-                got = _wrap_one(got)
-            a = got - R[wrapped]  # (the value reduced exactly first, by the run)
-            if not _NEG_PI < a <= _PI:
-                a = _wrap_one(a)
-            a = L * abs(a)
-            if a > worst:
-                worst = a
+        if self.angle_knowns:
+            worst = _angle_worst(self.angle_knowns, R, worst, L)
         for i, kind, read in self.knowns:
             got, v = read(R), vals[i]
             if kind is _POINT:
@@ -338,11 +367,7 @@ class SlotReadout:
                 a = abs(got - v)
             if a > worst:
                 worst = a
-        residual = worst / L
         margin = r.margin  # (a float: 1.0, or a dyad's)
-        defined = True
-        if signs:  # branch_identity_defined (result.py), inlined
-            defined = margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
         # Every value is finite when these are: a joint or link angle is one of the placed
         # links' angles (bounded) less another plus a constant, a point its register, an input
         # commanded (parsed: finite) or read here. One sum is finite when every term is (it
@@ -351,7 +376,35 @@ class SlotReadout:
             for _, read in self.read_inputs:
                 total += read(R)
         zsum = sum(R[: self.n_set], 0j)
-        total += zsum.real + zsum.imag + residual + margin
+        total += zsum.real + zsum.imag + margin
+        bound = self.miss_bound
+        if bound is not None:
+            # The checks left out miss by at most ``bound`` on finite registers
+            # (closure_bound), so the residual is at most ``high``: where that passes the
+            # closure limit and puts the margin above the noise bound (monotone in the
+            # residual), success and branch_defined are what the residual itself would give,
+            # and it is computed when read (ClosedLazyResidual); else it is computed now.
+            if worst > bound:
+                high = worst / L
+                noise = 4.0 * (2.0 * (high + 32.0 * _EPS)) ** 0.5
+            else:  # (the same floats, computed once)
+                high, noise = self.bound_residual, self.bound_noise
+            defined = True
+            if signs:  # (the comparison's own type: a numpy margin gives numpy's bool)
+                defined = margin > noise
+            if defined and high <= self.closure_limit and total - total == 0.0:
+                lazy = _new_closed(ClosedLazyResidual)
+                lazy._source, lazy._worst = state, worst
+                lazy.success, lazy.solver = True, _CLOSED_FORM
+                lazy.margin, lazy.branch_defined = margin, defined
+                lazy.branch = branch_text(signs)
+                return lazy
+            worst = self.lazy_worst(R, worst)
+        residual = worst / L
+        defined = True
+        if signs:  # branch_identity_defined (result.py), inlined
+            defined = margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
+        total += residual
         if total - total != 0.0 and not self._all_finite(R, vals, residual, margin):
             return Result(
                 False, 'internal error: non-finite value in the solution', solver=_CLOSED_FORM
@@ -362,6 +415,14 @@ class SlotReadout:
         res.residual, res.margin, res.branch_defined = residual, margin, defined
         res.branch = branch_text(signs)
         return res
+
+    def lazy_worst(self, R: list[Any], worst: float) -> float:
+        """``worst`` (m) and the misses of the checks left for when the residual is read."""
+        if self.closure_one_side_lazy:
+            worst = _one_side_worst(self.closure_one_side_lazy, R, worst)
+        if self.angle_knowns_lazy:
+            worst = _angle_worst(self.angle_knowns_lazy, R, worst, self.L)
+        return worst
 
     def fill(self, d: dict[str, Any], R: list[Any], vals: Values) -> None:
         """The name-keyed values of a run that closed into ``d`` (a Result's ``__dict__``),
@@ -448,7 +509,10 @@ class SlotReadout:
             return None
         state = SlotState(vals, tuple(r.used), tuple(r.margins), self, r.R)
         res = self.result(r, state)
-        if not (res.success and res.residual <= self.closure_limit):  # type: ignore[operator]
+        if not res.success:
+            return None
+        # (a residual left for later is within the limit: SlotReadout.result)
+        if type(res) is not ClosedLazyResidual and not res.residual <= self.closure_limit:  # type: ignore[operator]
             return None
         if commit:
             cont.commit(state)
@@ -504,6 +568,57 @@ class ClosedResult(LazyResult):
     def _fill(self, d: dict[str, Any], name: str) -> None:
         st = self._source
         st._read.fill(d, st._registers, st.values)
+
+
+class ClosedLazyResidual(ClosedResult):
+    """A ClosedResult whose residual too is computed when first read, from its run's
+    registers, by the very operations SlotReadout.result would have used (closure_bound: the
+    checks its plan satisfies by construction)."""
+
+    __slots__ = ('_worst',)
+    _worst: float  # the largest miss of the checks made when it was made (m)
+    _LAZY = ClosedResult._LAZY | {'residual'}
+
+    def _fill(self, d: dict[str, Any], name: str) -> None:
+        if name != 'residual':
+            super()._fill(d, name)
+            return
+        st = self._source
+        read = st._read
+        d['residual'] = read.lazy_worst(st._registers, self._worst) / read.L
+
+
+def _one_side_worst(checks: list[tuple[complex, int, int, int]], R: list[Any], worst: float) -> (
+    float
+):  # fmt: skip
+    """``worst`` (m) and the largest component of each one-side closure miss: a point's
+    register less the point as the other link places it (NaN ones not counted)."""
+    for p, reg, rot, T in checks:
+        d = R[reg] - (R[rot] * p + R[T])
+        a = abs(d.real)
+        if a > worst:  # max(worst, a), without the call (NaN is never greater)
+            worst = a
+        a = abs(d.imag)
+        if a > worst:
+            worst = a
+    return worst
+
+
+def _angle_worst(
+    checks: list[tuple[int, int, int, float]], R: list[Any], worst: float, L: float
+) -> float:
+    """``worst`` (m) and each known angle's miss read back off the placed links (times L)."""
+    for wrapped, ia, ib, off in checks:  # _slot_reader's angle, _wrap inlined
+        got = R[ia] - R[ib] + off
+        if not _NEG_PI < got <= _PI:
+            got = _wrap_one(got)
+        a = got - R[wrapped]  # (the value reduced exactly first, by the run)
+        if not _NEG_PI < a <= _PI:
+            a = _wrap_one(a)
+        a = L * abs(a)
+        if a > worst:
+            worst = a
+    return worst
 
 
 _new_closed = object.__new__
