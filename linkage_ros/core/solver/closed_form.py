@@ -15,124 +15,52 @@ registers when first asked (:class:`ClosedResult`), and a closed-form answer's S
 form (a dict of one finite float per actuator that assembles): no general checks of what that
 command is not, no per-command dicts; any other command or answer goes the general way.
 
-Measured in one process on the packaged four-bar's warm sweep (thread CPU time, best of 500
-interleaved passes of 20 commands; 2-core machine shared with other agents, load ~7):
-``CompiledSolve.build_result`` over the assembler 16.6 us, this readout's Result 3.6 us (7.2
-us with its dicts read), the program's run 8.9 us, a whole ``Solver.solve`` 18.5 us, the
-hand-written ``math`` four-bar of bench/core_speed.py 2.0 us. Since then (a known slide's miss
-read with its joint's slide; the crank's turn and placement fused into one step and
-Continuity's signs and commit inlined here were part of that figure, and are undone: each
-restated a rule kept elsewhere, for about 0.1 and 0.2 us):
-``Solver.solve`` 16.5 us where the code before took 17.9 us and the
-``math`` four-bar 1.58 us (10.5x; every value read 22.5 us, 14.2x; the excavator 54.4 us, 3.3x
-the four-bar), in one process, old and new interleaved (process time, best of 80 passes of the
-200-command sweep; load ~3-5). In that flow the Result costs about 6 us of the 16.5 (the
-closure checks of the four joints and the known angle about 2.5, the finiteness sum, the
-ClosedResult and its branch text most of the rest: stubbing each out), the run about 8 (its
-RRR dyad 3.1, two placements 2.1, the crank about 1), lean_command and the commit about 2.5.
+The closure checks a plan satisfies by construction (a one-link body's first point, a weld
+to the ground's root, its known angle read back: rounding alone) are left for when
+``Result.residual`` is read (:class:`ClosedLazyResidual`): closure_bound proves how much they
+can miss, and that bound decides success and branch_defined wherever it settles them (else
+every check runs, as before). Every field of every Result is the one every check gives, bit for
+bit (test/core/solver/test_closure_bound.py; and old against new over every packaged scene's
+warm sweep and hostile commands when it was made).
 
-Since then (limits judged by their interval, each dyad's sign index fixed when compiled, the
-State the Result's source, the prediction a function and its argument rather than a closure
-per command, a slide's read point computed once and a slide weld's angle miss, 0.0 by
-construction, not computed): the four-bar 16.5 us where the code before took 17.2 and the
-``math`` four-bar 1.57 us (10.5x), the excavator 52.1 us where it took 55.3 (3.2x the
-four-bar; same flow, best of 100 passes, load ~2.7). Where the 16.5 us go (stubbing out, in
-that flow): the run's steps about 7.6, their registers and the Result's arithmetic (closure
-misses, the known angle, the finiteness sum) 2.5 more (11.2 in all: 7.1x the ``math``
-four-bar); the Result and State objects, continuity's signs and commit and the lean checks
-2.7 (a copy of all of it fused into one function took 13.9 us, 8.9x); the Solver facade's
-call about 0.5. 8x would need the residual read lazily, which needs a proven bound on it
-before the success test (it decides success, so it is computed eagerly).
+Measured (one process, old and new interleaved, process time, best of the 200-command warm
+sweep's passes; 2-core machine shared with other agents): before that, ``Solver.solve`` of the
+four-bar 16.5 us, the ``math`` four-bar of bench/core_speed.py 1.57 us (10.5x): the run's steps
+about 7.6 us (its RRR dyad 3.1, two placements 2.1, the crank about 1), the Result's closure
+checks, known angle and finiteness sum 2.5, the Result and State objects, continuity's signs and
+commit and the lean checks 2.7 (a throw-away copy of all of it fused into one function took 13.9
+us), the facade 0.5; every value read 22.5 us; the excavator 52.1 us. With the constructed checks
+left for later: MEASURED_HERE. The joint a dyad's point closes (the four-bar's B) stays eager: a
+bound on it needs the RRR kernel's error in the point (Kahan's area, the tangency tolerance, the
+toggle band) carried through the two placements, not proven here.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from typing import Any, NamedTuple
+from typing import Any
 
 from ..assemble import roller_offset
 from ..execute import LinkPoses
 from ..model.limits import limit_interval
 from ..ops import _wrap_one
-from ..plan import ReadKind, SpecReader, limit_violation, spec_reader
+from ..plan import ReadKind, limit_violation, spec_reader
 from ..quantities import PointSpec, ScalarSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
 from ..steps import branch_text
-from .closure_bound import ConstructedChecks
+from .closure_bound import ConstructedChecks, angle_worst, one_side_worst
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity, State
 from .lazy_result import LazyResult
 from .result import _EPS, Result
+from .slot_reads import SlideRead, as_complex, slot_reader
 
 _PI = math.pi
 _NEG_PI = -math.pi  # (one load where -_PI is two)
 _CLOSED_FORM = SolveMode.CLOSED_FORM
 _POINT = ReadKind.POINT
-
-
-def _wrap(a: float) -> float:
-    return a if _NEG_PI < a <= _PI else _wrap_one(a)
-
-
-def _slot_reader(read: SpecReader, prog: ScalarProgram) -> Callable[[list[Any]], Any]:
-    """SpecReader.__call__ on a run's registers: an angle (rad, wrapped), a slide (m) or a
-    point (complex)."""
-    if read.kind is ReadKind.ANGLE:
-        a, b, off = prog.iphi[read.link], prog.iphi[read.reference], read.offset
-        return lambda R: _wrap(R[a] - R[b] + off)
-    rot, T, p_ref = prog.irot[read.link], prog.iT[read.link], read.p_ref
-    if read.kind is ReadKind.POINT:
-        return lambda R: R[rot] * p_ref + R[T]
-    grot, gT, origin, direction = (
-        prog.irot[read.reference],
-        prog.iT[read.reference],
-        read.origin,
-        read.direction,
-    )
-
-    def slide(R: list[Any]) -> float:
-        x = R[rot] * p_ref + R[T]
-        g = R[grot]
-        v = x - (g * origin + R[gT])
-        d = g * direction
-        return v.real * d.real + v.imag * d.imag  # type: ignore[no-any-return]
-
-    return slide
-
-
-def _c(v: Any) -> complex:
-    return complex(float(v[0]), float(v[1]))
-
-
-class SlideRead(NamedTuple):
-    """What SlotReadout.result reads of one prismatic joint, by register (a NamedTuple: the
-    loop unpacks it as plainly as a tuple, yet each field has a name)."""
-
-    joint: str
-    reader: Callable[[list[Any]], float]  # its slide value from the registers (m)
-    point: complex  # the slider point's reference position (m)
-    normal: complex  # the guide's normal (i times its direction)
-    slider_phi: int
-    slider_rot: int
-    slider_T: int
-    guide_phi: int
-    guide_rot: int
-    guide_T: int
-    face: float  # a roller's drawn offset from its face (m; 0: a plain slider)
-    known: int  # the known value it is (index), -1: none
-    read_rot: int  # the rot and T registers of the link carrying the slider point
-    read_T: int
-    read_ref: complex  # the point, the guide's origin and direction the slide is read with
-    origin: complex
-    direction: complex
-    #: the slide is read at the slider point as the slider places it (the registers and the
-    #: point above): that one complex serves both
-    read_at_point: bool
-    #: the slider and the guide may be turned apart (else the run sets their angles to the
-    #: same floats: ScalarProgram.same_turn, and the angle's miss is 0.0)
-    turned: bool
 
 
 class SlotReadout:
@@ -165,7 +93,7 @@ class SlotReadout:
         #: (actuator, index of its commanded value), and the others' readers
         self.commanded = [(a, commanded[a]) for a in mech.actuators if a in commanded]
         self.read_inputs = [
-            (a, _slot_reader(spec_reader(mech, s), prog))
+            (a, slot_reader(spec_reader(mech, s), prog))
             for a, s in zip(mech.actuators, c.actuator_specs)
             if a not in commanded and all(l in have for l in spec_links(s))
         ]
@@ -209,7 +137,7 @@ class SlotReadout:
         self.closure_one_side_lazy: list[tuple[complex, int, int, int]] = []
         self.angle_knowns_lazy: list[tuple[int, int, int, float]] = []
         for rj in revolutes:
-            p = _c(mech.points[rj.point])
+            p = as_complex(mech.points[rj.point])
             preg, creg = reg(rj.point, rj.parent), reg(rj.point, rj.child)
             prot, pT, crot, cT = irot[rj.parent], iT[rj.parent], irot[rj.child], iT[rj.child]
             if preg >= 0:
@@ -245,9 +173,9 @@ class SlotReadout:
             self.slides.append(
                 SlideRead(
                     pj.name,
-                    _slot_reader(read, prog),
-                    _c(mech.points[pj.point]),
-                    1j * _c(pj.direction),
+                    slot_reader(read, prog),
+                    as_complex(mech.points[pj.point]),
+                    1j * as_complex(pj.direction),
                     iphi[pj.slider],
                     irot[pj.slider],
                     iT[pj.slider],
@@ -262,7 +190,7 @@ class SlotReadout:
                     read.origin,
                     read.direction,
                     (irot[read.link], iT[read.link], read.p_ref)
-                    == (irot[pj.slider], iT[pj.slider], _c(mech.points[pj.point])),
+                    == (irot[pj.slider], iT[pj.slider], as_complex(mech.points[pj.point])),
                     frozenset((pj.slider, pj.guide)) not in prog.same_turn,
                 )  # fmt: skip
             )
@@ -300,7 +228,7 @@ class SlotReadout:
             self.bound_residual = self.miss_bound / self.L
             self.bound_noise = 4.0 * (2.0 * (self.bound_residual + 32.0 * _EPS)) ** 0.5
         self.knowns = [
-            (i, read.kind, _slot_reader(read, prog))
+            (i, read.kind, slot_reader(read, prog))
             for i, read in read_knowns
             if read.kind is not ReadKind.ANGLE and i not in read_slide
         ]
@@ -319,7 +247,7 @@ class SlotReadout:
         # (loops, not comprehensions: a comprehension is a call in Python 3.11)
         worst = 0.0  # the largest component of a closure miss (m); NaN ones are not counted
         if self.closure_one_side:  # (the order of the checks changes no maximum)
-            worst = _one_side_worst(self.closure_one_side, R, worst)
+            worst = one_side_worst(self.closure_one_side, R, worst)
         for p, prot, pT, crot, cT in self.closure_two_sides:
             d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
             a = abs(d.real)
@@ -332,7 +260,7 @@ class SlotReadout:
         total = 0.0
         for (_, _, p, normal, sphi, srot, sT, gphi, grot, gT, face, known,
              xrot, xT, x_ref, origin, direction, at_point, turned) in self.slides:  # fmt: skip
-            # the slide's value: _slot_reader's slide, inlined
+            # the slide's value: slot_reads.slot_reader's slide, inlined
             g = R[grot]
             x = R[xrot] * x_ref + R[xT]
             v = x - (g * origin + R[gT])
@@ -358,7 +286,7 @@ class SlotReadout:
                 if a > worst:
                     worst = a
         if self.angle_knowns:
-            worst = _angle_worst(self.angle_knowns, R, worst, L)
+            worst = angle_worst(self.angle_knowns, R, worst, L)
         for i, kind, read in self.knowns:
             got, v = read(R), vals[i]
             if kind is _POINT:
@@ -419,9 +347,9 @@ class SlotReadout:
     def lazy_worst(self, R: list[Any], worst: float) -> float:
         """``worst`` (m) and the misses of the checks left for when the residual is read."""
         if self.closure_one_side_lazy:
-            worst = _one_side_worst(self.closure_one_side_lazy, R, worst)
+            worst = one_side_worst(self.closure_one_side_lazy, R, worst)
         if self.angle_knowns_lazy:
-            worst = _angle_worst(self.angle_knowns_lazy, R, worst, self.L)
+            worst = angle_worst(self.angle_knowns_lazy, R, worst, self.L)
         return worst
 
     def fill(self, d: dict[str, Any], R: list[Any], vals: Values) -> None:
@@ -586,39 +514,6 @@ class ClosedLazyResidual(ClosedResult):
         st = self._source
         read = st._read
         d['residual'] = read.lazy_worst(st._registers, self._worst) / read.L
-
-
-def _one_side_worst(checks: list[tuple[complex, int, int, int]], R: list[Any], worst: float) -> (
-    float
-):  # fmt: skip
-    """``worst`` (m) and the largest component of each one-side closure miss: a point's
-    register less the point as the other link places it (NaN ones not counted)."""
-    for p, reg, rot, T in checks:
-        d = R[reg] - (R[rot] * p + R[T])
-        a = abs(d.real)
-        if a > worst:  # max(worst, a), without the call (NaN is never greater)
-            worst = a
-        a = abs(d.imag)
-        if a > worst:
-            worst = a
-    return worst
-
-
-def _angle_worst(
-    checks: list[tuple[int, int, int, float]], R: list[Any], worst: float, L: float
-) -> float:
-    """``worst`` (m) and each known angle's miss read back off the placed links (times L)."""
-    for wrapped, ia, ib, off in checks:  # _slot_reader's angle, _wrap inlined
-        got = R[ia] - R[ib] + off
-        if not _NEG_PI < got <= _PI:
-            got = _wrap_one(got)
-        a = got - R[wrapped]  # (the value reduced exactly first, by the run)
-        if not _NEG_PI < a <= _PI:
-            a = _wrap_one(a)
-        a = L * abs(a)
-        if a > worst:
-            worst = a
-    return worst
 
 
 _new_closed = object.__new__

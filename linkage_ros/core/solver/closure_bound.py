@@ -60,6 +60,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from ..ops import _wrap_one
 from ..quantities import AngleSpec
 from ..scalar_plan import ScalarProgram
 from ..steps import StepKind, TwoPoints
@@ -69,6 +70,8 @@ from .result import _EPS
 _GROWTH = 1.0 + 2.0**-40
 #: a known angle's offset beyond this (rad) is not bounded here (step 3 needs |o| <= 2^20)
 _OFFSET_LIMIT = 2.0**20
+_PI = math.pi
+_NEG_PI = -math.pi
 
 
 def _norm1(z: complex) -> float:
@@ -148,3 +151,36 @@ class ConstructedChecks:
             ):
                 return L * _EPS * (8.0 * math.pi + abs(offset))
         return None
+
+
+def one_side_worst(checks: list[tuple[complex, int, int, int]], R: list[Any], worst: float) -> (
+    float
+):  # fmt: skip
+    """``worst`` (m) and the largest component of each one-side closure miss: a point's
+    register less the point as the other link places it (NaN ones not counted)."""
+    for p, reg, rot, T in checks:
+        d = R[reg] - (R[rot] * p + R[T])
+        a = abs(d.real)
+        if a > worst:  # max(worst, a), without the call (NaN is never greater)
+            worst = a
+        a = abs(d.imag)
+        if a > worst:
+            worst = a
+    return worst
+
+
+def angle_worst(
+    checks: list[tuple[int, int, int, float]], R: list[Any], worst: float, L: float
+) -> float:
+    """``worst`` (m) and each known angle's miss read back off the placed links (times L)."""
+    for wrapped, ia, ib, off in checks:  # slot_reads.slot_reader's angle, its wrap inlined
+        got = R[ia] - R[ib] + off
+        if not _NEG_PI < got <= _PI:
+            got = _wrap_one(got)
+        a = got - R[wrapped]  # (the value reduced exactly first, by the run)
+        if not _NEG_PI < a <= _PI:
+            a = _wrap_one(a)
+        a = L * abs(a)
+        if a > worst:
+            worst = a
+    return worst
