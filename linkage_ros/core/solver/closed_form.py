@@ -7,9 +7,9 @@ values by the same float operations (every commanded actuator as given, every ot
 joint and link whose links are placed, and the loop-closure residual as a fraction of the
 length scale), with every name resolved to a slot of :class:`~linkage_ros.core.scalar_plan.
 ScalarProgram` once. What decides the answer is computed with it (the residual, the margin and
-branch, whether every value is finite); the Result's name-keyed dicts are read off the
-registers when first asked (:class:`ClosedResult`), and a closed-form answer's State
-(:class:`SlotState`) reads its points and poses only when continuity asks.
+branch_defined, whether every value is finite); the Result's name-keyed dicts and branch
+text are read off the registers when first asked (:class:`ClosedResult`), and a closed-form
+answer's State (:class:`SlotState`) reads its points and poses only when continuity asks.
 
 :meth:`SlotReadout.lean_command` is ``solve_one`` for the common command of a forward closed
 form (a dict of one finite float per actuator that assembles): no general checks of what that
@@ -243,9 +243,10 @@ class SlotReadout:
 
     def result(self, r: SlotRun, state: SlotState) -> Result:
         """The Result of a run that closed (refused if any value is not finite), ``state`` its
-        State. What decides it is computed here: the loop-closure residual, the margin and
-        branch, whether every value is finite; the name-keyed dicts (inputs, joints, links,
-        points) are read off the registers when first asked (:class:`ClosedResult`, from the
+        State. What decides it is computed here: the loop-closure residual (or a bound that
+        settles what it decides: closure_bound), the margin and branch_defined, whether every
+        value is finite; the name-keyed dicts (inputs, joints, links, points) and the branch
+        text are read off the registers when first asked (:class:`ClosedResult`, from the
         State: one object holds what both read)."""
         L, R, vals, signs = self.L, r.R, state.values, state.signs
         # (loops, not comprehensions: a comprehension is a call in Python 3.11)
@@ -329,7 +330,6 @@ class SlotReadout:
                 lazy._source, lazy._worst = state, worst
                 lazy.success, lazy.solver = True, _CLOSED_FORM
                 lazy.margin, lazy.branch_defined = margin, defined
-                lazy.branch = branch_text(signs)
                 return lazy
             worst = self.lazy_worst(R, worst)
         residual = worst / L
@@ -345,7 +345,6 @@ class SlotReadout:
         res._source = state
         res.success, res.solver = True, _CLOSED_FORM
         res.residual, res.margin, res.branch_defined = residual, margin, defined
-        res.branch = branch_text(signs)
         return res
 
     def lazy_worst(self, R: list[Any], worst: float) -> float:
@@ -489,17 +488,20 @@ def lean_command(c: CompiledSolve) -> LeanCommand | None:
 
 class ClosedResult(LazyResult):
     """A closed-form answer whose name-keyed dicts (inputs, targets, joints, links, points)
-    are read off its run's registers when first asked, by the readout's very operations
-    (lazy_result.LazyResult: the machinery). Every other field is set when it is made (or is
-    Result's default)."""
+    are read off its run's registers when first asked, by the readout's very operations, and
+    its branch text off its signs (lazy_result.LazyResult: the machinery). Every other field
+    is set when it is made (or is Result's default)."""
 
     __slots__ = ()
     _source: SlotState  # what fills the dicts: the readout, the run's registers and values
-    _LAZY = frozenset(('inputs', 'targets', 'joints', 'links', 'points'))
+    _LAZY = frozenset(('inputs', 'targets', 'joints', 'links', 'points', 'branch'))
 
     def _fill(self, d: dict[str, Any], name: str) -> None:
         st = self._source
-        st._read.fill(d, st._registers, st.values)
+        if name == 'branch':  # (the text decides nothing: most callers never read it)
+            d['branch'] = branch_text(st.signs)
+        else:
+            st._read.fill(d, st._registers, st.values)
 
 
 class ClosedLazyResidual(ClosedResult):
