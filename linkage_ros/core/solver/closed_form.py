@@ -248,7 +248,8 @@ class SlotReadout:
         value is finite; the name-keyed dicts (inputs, joints, links, points) and the branch
         text are read off the registers when first asked (:class:`ClosedResult`, from the
         State: one object holds what both read)."""
-        L, R, vals, signs = self.L, r.R, state.values, state.signs
+        L, R = self.L, r.R  # (pairs: a wider tuple assignment builds a tuple)
+        vals, signs = state.values, state.signs
         # (loops, not comprehensions: a comprehension is a call in Python 3.11)
         worst = 0.0  # the largest component of a closure miss (m); NaN ones are not counted
         if self.closure_one_side:  # (the order of the checks changes no maximum)
@@ -292,7 +293,7 @@ class SlotReadout:
                     worst = a
         if self.angle_knowns:
             worst = angle_worst(self.angle_knowns, R, worst, L)
-        for i, kind, read in self.knowns:
+        for i, kind, read in self.knowns:  # (empty in a forward solve: the loop's set-up only)
             got, v = read(R), vals[i]
             if kind is _POINT:
                 a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
