@@ -31,12 +31,13 @@ checks, known angle and finiteness sum 2.5, the Result and State objects, contin
 commit and the lean checks 2.7 (a throw-away copy of all of it fused into one function took 13.9
 us), the facade 0.5; every value read 22.5 us; the excavator 52.1 us. With the constructed checks
 left for later (the four-bar's three other joints and its crank angle; the excavator's one
-ground joint) and the RRR dyad's powers of two looked up: the four-bar 14.4 us where the code
-before took 17.3 and the ``math`` four-bar 1.62 us (8.9x against 10.7x in that flow, 0.83 of
-the time; load ~4.5 on the 2 cores, so both ratios read high), the excavator 53.0 against 53.2
-us. The joint a dyad's point closes (the four-bar's B) stays eager: a
-bound on it needs the RRR kernel's error in the point (Kahan's area, the tangency tolerance, the
-toggle band) carried through the two placements, not proven here.
+ground joint), the branch text read when asked and the RRR dyad's powers of two looked up: the
+four-bar 13.1-13.5 us where the code before took 16.3 and the ``math`` four-bar 1.6 us (8.2-8.3x
+against 10.1-10.2x; 0.77-0.82 of the time in three runs of 200 passes, load ~2), the excavator
+49.8-50.6 against 50.9-51.7 us (3.8x the four-bar, target 4x). The joint a dyad's point
+closes (the four-bar's B, about 0.5 us) stays eager: a bound on it needs the RRR kernel's error
+in the point (Kahan's area, the tangency tolerance, the toggle band) carried through both
+placements' atan2, cos and sin, not proven here.
 """
 
 from __future__ import annotations
