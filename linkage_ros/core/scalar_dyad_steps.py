@@ -67,7 +67,7 @@ def rrr_step(
             R[sx] = rrr_fallback(pair, c1)
             raise Refused(k_step, violation)
         sg = r.signs[b]
-        spread = complex(0.0 * h, h)
+        spread = 1j * h  # complex(0.0 * h, h) bit for bit: h is finite and >= +0.0 here
         if (margin < _CM or r.prev_small) and r.decide(margin, x):
             target = r.prefer[x]  # type: ignore[index]
             plus = (base + (along + 1 * spread) * u) * S

@@ -38,6 +38,12 @@ from .dyads import TANGENCY_TOL, TOGGLE_BAND
 from .ops import _max, _min
 
 _FLOAT_MAX = sys.float_info.max
+#: ops.pow2_scale's power of two by the exponent frexp gives a positive finite float (its even
+#: power with big / S in [1, 4)), and plain 2**e for the Kahan area's scale: the very floats
+#: ldexp makes (a power of two is exact), looked up where ldexp is a call. Every exponent a
+#: positive finite float has is there; the area's longest side is at most ~16 once scaled by S.
+_EVEN_POW2 = {e: ldexp(1.0, ((e - 1) >> 1) << 1) for e in range(-1073, 1025)}
+_POW2 = {e: ldexp(1.0, e) for e in range(-1074, 1024)}
 
 #: see the module docstring
 RrrPair = tuple[complex, complex, float, float, float, float, bool, float, bool]
@@ -54,7 +60,7 @@ def solve_rrr(c1: complex, r1: float, c2: complex, r2: float, tol: float = TANGE
     # ops.pow2_scale of the largest magnitude (finite here, so the plain max is the
     # NaN-propagating one): the even power of two S with big / S in [1, 4)
     big = max(abs(c1.real), abs(c1.imag), abs(c2.real), abs(c2.imag), abs(r1), abs(r2))
-    S = ldexp(1.0, ((frexp(big)[1] - 1) >> 1) << 1) if big > 0.0 else 1.0
+    S = _EVEN_POW2[frexp(big)[1]] if big > 0.0 else 1.0
     c1n = c1 / S
     dv = c2 / S - c1n
     r1n, r2n = r1 / S, r2 / S
@@ -64,7 +70,7 @@ def solve_rrr(c1: complex, r1: float, c2: complex, r2: float, tol: float = TANGE
     longest, small = (hi if hi >= r2n else r2n), (lo if lo <= r2n else r2n)
     m = hi if hi <= r2n else r2n
     mid = lo if lo >= m else m
-    scale = ldexp(1.0, frexp(longest)[1])
+    scale = _POW2[frexp(longest)[1]]
     longest, mid, small = longest / scale, mid / scale, small / scale
     neg_factor = small - (longest - mid)  # -violation_n
     dn = d / scale

@@ -7,63 +7,60 @@ values by the same float operations (every commanded actuator as given, every ot
 joint and link whose links are placed, and the loop-closure residual as a fraction of the
 length scale), with every name resolved to a slot of :class:`~linkage_ros.core.scalar_plan.
 ScalarProgram` once. What decides the answer is computed with it (the residual, the margin and
-branch, whether every value is finite); the Result's name-keyed dicts are read off the
-registers when first asked (:class:`ClosedResult`), and a closed-form answer's State
-(:class:`SlotState`) reads its points and poses only when continuity asks.
+branch_defined, whether every value is finite); the Result's name-keyed dicts and branch
+text are read off the registers when first asked (:class:`ClosedResult`), and a closed-form
+answer's State (:class:`SlotState`) reads its points and poses only when continuity asks.
 
 :meth:`SlotReadout.lean_command` is ``solve_one`` for the common command of a forward closed
 form (a dict of one finite float per actuator that assembles): no general checks of what that
 command is not, no per-command dicts; any other command or answer goes the general way.
 
-Measured in one process on the packaged four-bar's warm sweep (thread CPU time, best of 500
-interleaved passes of 20 commands; 2-core machine shared with other agents, load ~7):
-``CompiledSolve.build_result`` over the assembler 16.6 us, this readout's Result 3.6 us (7.2
-us with its dicts read), the program's run 8.9 us, a whole ``Solver.solve`` 18.5 us, the
-hand-written ``math`` four-bar of bench/core_speed.py 2.0 us. Since then (a known slide's miss
-read with its joint's slide; the crank's turn and placement fused into one step and
-Continuity's signs and commit inlined here were part of that figure, and are undone: each
-restated a rule kept elsewhere, for about 0.1 and 0.2 us):
-``Solver.solve`` 16.5 us where the code before took 17.9 us and the
-``math`` four-bar 1.58 us (10.5x; every value read 22.5 us, 14.2x; the excavator 54.4 us, 3.3x
-the four-bar), in one process, old and new interleaved (process time, best of 80 passes of the
-200-command sweep; load ~3-5). In that flow the Result costs about 6 us of the 16.5 (the
-closure checks of the four joints and the known angle about 2.5, the finiteness sum, the
-ClosedResult and its branch text most of the rest: stubbing each out), the run about 8 (its
-RRR dyad 3.1, two placements 2.1, the crank about 1), lean_command and the commit about 2.5.
+The closure checks a plan satisfies by construction (a one-link body's first point, a weld
+to the ground's root, its known angle read back: rounding alone) are left for when
+``Result.residual`` is read (:class:`ClosedLazyResidual`): closure_bound proves how much they
+can miss, and that bound decides success and branch_defined wherever it settles them (else
+every check runs, as before). Every field of every Result is the one every check gives, bit for
+bit (test/core/solver/test_closure_bound.py; and old against new over every packaged scene's
+warm sweep and hostile commands when it was made).
 
-Since then (limits judged by their interval, each dyad's sign index fixed when compiled, the
-State the Result's source, the prediction a function and its argument rather than a closure
-per command, a slide's read point computed once and a slide weld's angle miss, 0.0 by
-construction, not computed): the four-bar 16.5 us where the code before took 17.2 and the
-``math`` four-bar 1.57 us (10.5x), the excavator 52.1 us where it took 55.3 (3.2x the
-four-bar; same flow, best of 100 passes, load ~2.7). Where the 16.5 us go (stubbing out, in
-that flow): the run's steps about 7.6, their registers and the Result's arithmetic (closure
-misses, the known angle, the finiteness sum) 2.5 more (11.2 in all: 7.1x the ``math``
-four-bar); the Result and State objects, continuity's signs and commit and the lean checks
-2.7 (a copy of all of it fused into one function took 13.9 us, 8.9x); the Solver facade's
-call about 0.5. 8x would need the residual read lazily, which needs a proven bound on it
-before the success test (it decides success, so it is computed eagerly).
+Measured (one process, old and new interleaved, process time, best of the 200-command warm
+sweep's passes; 2-core machine shared with other agents): before that, ``Solver.solve`` of the
+four-bar 16.5 us, the ``math`` four-bar of bench/core_speed.py 1.57 us (10.5x): the run's steps
+about 7.6 us (its RRR dyad 3.1, two placements 2.1, the crank about 1), the Result's closure
+checks, known angle and finiteness sum 2.5, the Result and State objects, continuity's signs and
+commit and the lean checks 2.7 (a throw-away copy of all of it fused into one function took 13.9
+us), the facade 0.5; every value read 22.5 us; the excavator 52.1 us. With the constructed checks
+left for later (the four-bar's three other joints and its crank angle; the excavator's one
+ground joint), the branch text read when asked and the RRR dyad's powers of two looked up: the
+four-bar 13.1-13.5 us where the code before took 16.3 and the ``math`` four-bar 1.6 us (8.2-8.3x
+against 10.1-10.2x; 0.77-0.82 of the time in three runs of 200 passes, load ~2), the excavator
+49.8-50.6 against 50.9-51.7 us (3.8x the four-bar, target 4x). The joint a dyad's point
+closes (the four-bar's B, about 0.5 us) stays eager: a bound on it needs the RRR kernel's error
+in the point (Kahan's area, the tangency tolerance, the toggle band) carried through both
+placements' atan2, cos and sin, not proven here.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from typing import Any, NamedTuple
+from typing import Any
 
 from ..assemble import roller_offset
 from ..execute import LinkPoses
 from ..model.limits import limit_interval
 from ..ops import _wrap_one
-from ..plan import ReadKind, SpecReader, limit_violation, spec_reader
+from ..plan import ReadKind, limit_violation, spec_reader
 from ..quantities import PointSpec, ScalarSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
 from ..steps import branch_text
+from .closure_bound import ConstructedChecks, angle_worst, one_side_worst
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity, State
 from .lazy_result import LazyResult
 from .result import _EPS, Result
+from .slot_reads import SlideRead, as_complex, slot_reader
 
 _PI = math.pi
 _NEG_PI = -math.pi  # (one load where -_PI is two)
@@ -71,74 +68,13 @@ _CLOSED_FORM = SolveMode.CLOSED_FORM
 _POINT = ReadKind.POINT
 
 
-def _wrap(a: float) -> float:
-    return a if _NEG_PI < a <= _PI else _wrap_one(a)
-
-
-def _slot_reader(read: SpecReader, prog: ScalarProgram) -> Callable[[list[Any]], Any]:
-    """SpecReader.__call__ on a run's registers: an angle (rad, wrapped), a slide (m) or a
-    point (complex)."""
-    if read.kind is ReadKind.ANGLE:
-        a, b, off = prog.iphi[read.link], prog.iphi[read.reference], read.offset
-        return lambda R: _wrap(R[a] - R[b] + off)
-    rot, T, p_ref = prog.irot[read.link], prog.iT[read.link], read.p_ref
-    if read.kind is ReadKind.POINT:
-        return lambda R: R[rot] * p_ref + R[T]
-    grot, gT, origin, direction = (
-        prog.irot[read.reference],
-        prog.iT[read.reference],
-        read.origin,
-        read.direction,
-    )
-
-    def slide(R: list[Any]) -> float:
-        x = R[rot] * p_ref + R[T]
-        g = R[grot]
-        v = x - (g * origin + R[gT])
-        d = g * direction
-        return v.real * d.real + v.imag * d.imag  # type: ignore[no-any-return]
-
-    return slide
-
-
-def _c(v: Any) -> complex:
-    return complex(float(v[0]), float(v[1]))
-
-
-class SlideRead(NamedTuple):
-    """What SlotReadout.result reads of one prismatic joint, by register (a NamedTuple: the
-    loop unpacks it as plainly as a tuple, yet each field has a name)."""
-
-    joint: str
-    reader: Callable[[list[Any]], float]  # its slide value from the registers (m)
-    point: complex  # the slider point's reference position (m)
-    normal: complex  # the guide's normal (i times its direction)
-    slider_phi: int
-    slider_rot: int
-    slider_T: int
-    guide_phi: int
-    guide_rot: int
-    guide_T: int
-    face: float  # a roller's drawn offset from its face (m; 0: a plain slider)
-    known: int  # the known value it is (index), -1: none
-    read_rot: int  # the rot and T registers of the link carrying the slider point
-    read_T: int
-    read_ref: complex  # the point, the guide's origin and direction the slide is read with
-    origin: complex
-    direction: complex
-    #: the slide is read at the slider point as the slider places it (the registers and the
-    #: point above): that one complex serves both
-    read_at_point: bool
-    #: the slider and the guide may be turned apart (else the run sets their angles to the
-    #: same floats: ScalarProgram.same_turn, and the angle's miss is 0.0)
-    turned: bool
-
-
 class SlotReadout:
     """What to read off a program's runs for one compiled solve, resolved once (see the
     module)."""
 
-    def __init__(self, c: CompiledSolve, prog: ScalarProgram):
+    def __init__(self, c: CompiledSolve, prog: ScalarProgram, defer: bool = True):
+        """``defer``: leave the checks the plan satisfies by construction for when the
+        residual is read (closure_bound); False: every check when the Result is made."""
         mech, specs = c.mech, c.specs
         self.c, self.prog, self.plan = c, prog, c.plan
         have = set(prog.link_names)
@@ -162,7 +98,7 @@ class SlotReadout:
         #: (actuator, index of its commanded value), and the others' readers
         self.commanded = [(a, commanded[a]) for a in mech.actuators if a in commanded]
         self.read_inputs = [
-            (a, _slot_reader(spec_reader(mech, s), prog))
+            (a, slot_reader(spec_reader(mech, s), prog))
             for a, s in zip(mech.actuators, c.actuator_specs)
             if a not in commanded and all(l in have for l in spec_links(s))
         ]
@@ -192,19 +128,36 @@ class SlotReadout:
         # each revolute's closure (its point placed by the parent minus by the child), split by
         # whether one side's placement set the point's register (that side's point is the
         # register: the miss is the register less the other side's point, negated where the
-        # child set it, which changes no component's magnitude) or neither did
+        # child set it, which changes no component's magnitude) or neither did; the checks the
+        # plan satisfies by construction (closure_bound) apart, with their bounds
+        # (not with a known point: its miss may be a numpy float, whose type the residual and
+        # branch_defined then take where it is the largest, which only the checks tell)
+        if any(isinstance(s, PointSpec) for s in specs):
+            defer = False
+        constructed = ConstructedChecks(c.plan, prog) if defer else None
+        bounds: list[float] = []
         self.closure_one_side: list[tuple[complex, int, int, int]] = []
         self.closure_two_sides: list[tuple[complex, int, int, int, int]] = []
+        #: the one-side checks and known angles read back left for when the residual is read
+        self.closure_one_side_lazy: list[tuple[complex, int, int, int]] = []
+        self.angle_knowns_lazy: list[tuple[int, int, int, float]] = []
         for rj in revolutes:
-            p = _c(mech.points[rj.point])
+            p = as_complex(mech.points[rj.point])
             preg, creg = reg(rj.point, rj.parent), reg(rj.point, rj.child)
             prot, pT, crot, cT = irot[rj.parent], iT[rj.parent], irot[rj.child], iT[rj.child]
             if preg >= 0:
-                self.closure_one_side.append((p, preg, crot, cT))
+                check, setter, checker = (p, preg, crot, cT), rj.parent, rj.child
             elif creg >= 0:
-                self.closure_one_side.append((p, creg, prot, pT))
+                check, setter, checker = (p, creg, prot, pT), rj.child, rj.parent
             else:
                 self.closure_two_sides.append((p, prot, pT, crot, cT))
+                continue
+            bound = constructed.joint(rj.point, p, setter, checker) if constructed else None
+            if bound is None:
+                self.closure_one_side.append(check)
+            else:
+                self.closure_one_side_lazy.append(check)
+                bounds.append(bound)
         read_knowns = [
             (i, spec_reader(mech, s))
             for i, s in enumerate(specs)
@@ -225,9 +178,9 @@ class SlotReadout:
             self.slides.append(
                 SlideRead(
                     pj.name,
-                    _slot_reader(read, prog),
-                    _c(mech.points[pj.point]),
-                    1j * _c(pj.direction),
+                    slot_reader(read, prog),
+                    as_complex(mech.points[pj.point]),
+                    1j * as_complex(pj.direction),
                     iphi[pj.slider],
                     irot[pj.slider],
                     iT[pj.slider],
@@ -242,7 +195,7 @@ class SlotReadout:
                     read.origin,
                     read.direction,
                     (irot[read.link], iT[read.link], read.p_ref)
-                    == (irot[pj.slider], iT[pj.slider], _c(mech.points[pj.point])),
+                    == (irot[pj.slider], iT[pj.slider], as_complex(mech.points[pj.point])),
                     frozenset((pj.slider, pj.guide)) not in prog.same_turn,
                 )  # fmt: skip
             )
@@ -251,13 +204,36 @@ class SlotReadout:
         self.links = [(l, iphi[l], mech.links[l].angle_ref) for l in mech.links if l in have]
         #: the known angles read inline (the register of the value wrapped, their link's and
         #: reference's phi registers, offset)
-        self.angle_knowns = [
-            (prog.iwrap[i], iphi[read.link], iphi[read.reference], read.offset)
-            for i, read in read_knowns
-            if read.kind is ReadKind.ANGLE
-        ]
+        self.angle_knowns: list[tuple[int, int, int, float]] = []
+        for i, read in read_knowns:
+            if read.kind is ReadKind.ANGLE:
+                angle = (prog.iwrap[i], iphi[read.link], iphi[read.reference], read.offset)
+                bound = (
+                    constructed.angle(i, read.link, read.reference, read.offset, self.L)
+                    if constructed
+                    else None
+                )
+                if bound is None:
+                    self.angle_knowns.append(angle)
+                else:
+                    self.angle_knowns_lazy.append(angle)
+                    bounds.append(bound)
+        #: the most any check left for later can miss (m; closure_bound's proof), or None: no
+        #: check is left (none is rounding alone, or their bound is no use against the limit)
+        self.miss_bound: float | None = max(bounds) if bounds else None
+        if self.miss_bound is not None and not self.miss_bound / self.L <= self.closure_limit:
+            self.closure_one_side += self.closure_one_side_lazy
+            self.angle_knowns += self.angle_knowns_lazy
+            self.closure_one_side_lazy, self.angle_knowns_lazy = [], []
+            self.miss_bound = None
+        #: the residual the bound allows, and the branch noise bound at it (result.py's
+        #: branch_undefined_below, as result() computes it)
+        self.bound_residual = self.bound_noise = math.inf
+        if self.miss_bound is not None:
+            self.bound_residual = self.miss_bound / self.L
+            self.bound_noise = 4.0 * (2.0 * (self.bound_residual + 32.0 * _EPS)) ** 0.5
         self.knowns = [
-            (i, read.kind, _slot_reader(read, prog))
+            (i, read.kind, slot_reader(read, prog))
             for i, read in read_knowns
             if read.kind is not ReadKind.ANGLE and i not in read_slide
         ]
@@ -268,21 +244,17 @@ class SlotReadout:
 
     def result(self, r: SlotRun, state: SlotState) -> Result:
         """The Result of a run that closed (refused if any value is not finite), ``state`` its
-        State. What decides it is computed here: the loop-closure residual, the margin and
-        branch, whether every value is finite; the name-keyed dicts (inputs, joints, links,
-        points) are read off the registers when first asked (:class:`ClosedResult`, from the
+        State. What decides it is computed here: the loop-closure residual (or a bound that
+        settles what it decides: closure_bound), the margin and branch_defined, whether every
+        value is finite; the name-keyed dicts (inputs, joints, links, points) and the branch
+        text are read off the registers when first asked (:class:`ClosedResult`, from the
         State: one object holds what both read)."""
-        L, R, vals, signs = self.L, r.R, state.values, state.signs
+        L, R = self.L, r.R  # (pairs: a wider tuple assignment builds a tuple)
+        vals, signs = state.values, state.signs
         # (loops, not comprehensions: a comprehension is a call in Python 3.11)
         worst = 0.0  # the largest component of a closure miss (m); NaN ones are not counted
-        for p, reg, rot, T in self.closure_one_side:
-            d = R[reg] - (R[rot] * p + R[T])
-            a = abs(d.real)
-            if a > worst:  # max(worst, a), without the call (NaN is never greater)
-                worst = a
-            a = abs(d.imag)
-            if a > worst:
-                worst = a
+        if self.closure_one_side:  # (the order of the checks changes no maximum)
+            worst = one_side_worst(self.closure_one_side, R, worst)
         for p, prot, pT, crot, cT in self.closure_two_sides:
             d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
             a = abs(d.real)
@@ -295,7 +267,7 @@ class SlotReadout:
         total = 0.0
         for (_, _, p, normal, sphi, srot, sT, gphi, grot, gT, face, known,
              xrot, xT, x_ref, origin, direction, at_point, turned) in self.slides:  # fmt: skip
-            # the slide's value: _slot_reader's slide, inlined
+            # the slide's value: slot_reads.slot_reader's slide, inlined
             g = R[grot]
             x = R[xrot] * x_ref + R[xT]
             v = x - (g * origin + R[gT])
@@ -320,17 +292,9 @@ class SlotReadout:
                 a = L * abs(a)
                 if a > worst:
                     worst = a
-        for wrapped, ia, ib, off in self.angle_knowns:  # _slot_reader's angle, _wrap inlined
-            got = R[ia] - R[ib] + off
-            if not _NEG_PI < got <= _PI:
-                got = _wrap_one(got)
-            a = got - R[wrapped]  # (the value reduced exactly first, by the run)
-            if not _NEG_PI < a <= _PI:
-                a = _wrap_one(a)
-            a = L * abs(a)
-            if a > worst:
-                worst = a
-        for i, kind, read in self.knowns:
+        if self.angle_knowns:
+            worst = angle_worst(self.angle_knowns, R, worst, L)
+        for i, kind, read in self.knowns:  # (empty in a forward solve: the loop's set-up only)
             got, v = read(R), vals[i]
             if kind is _POINT:
                 a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
@@ -338,11 +302,7 @@ class SlotReadout:
                 a = abs(got - v)
             if a > worst:
                 worst = a
-        residual = worst / L
         margin = r.margin  # (a float: 1.0, or a dyad's)
-        defined = True
-        if signs:  # branch_identity_defined (result.py), inlined
-            defined = margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
         # Every value is finite when these are: a joint or link angle is one of the placed
         # links' angles (bounded) less another plus a constant, a point its register, an input
         # commanded (parsed: finite) or read here. One sum is finite when every term is (it
@@ -351,7 +311,34 @@ class SlotReadout:
             for _, read in self.read_inputs:
                 total += read(R)
         zsum = sum(R[: self.n_set], 0j)
-        total += zsum.real + zsum.imag + residual + margin
+        total += zsum.real + zsum.imag + margin
+        bound = self.miss_bound
+        if bound is not None:
+            # The checks left out miss by at most ``bound`` on finite registers
+            # (closure_bound), so the residual is at most ``high``: where that passes the
+            # closure limit and puts the margin above the noise bound (monotone in the
+            # residual), success and branch_defined are what the residual itself would give,
+            # and it is computed when read (ClosedLazyResidual); else it is computed now.
+            if worst > bound:
+                high = worst / L
+                noise = 4.0 * (2.0 * (high + 32.0 * _EPS)) ** 0.5
+            else:  # (the same floats, computed once)
+                high, noise = self.bound_residual, self.bound_noise
+            defined = True
+            if signs:  # (the comparison's own type: a numpy margin gives numpy's bool)
+                defined = margin > noise
+            if defined and high <= self.closure_limit and total - total == 0.0:
+                lazy = _new_closed(ClosedLazyResidual)
+                lazy._source, lazy._worst = state, worst
+                lazy.success, lazy.solver = True, _CLOSED_FORM
+                lazy.margin, lazy.branch_defined = margin, defined
+                return lazy
+            worst = self.lazy_worst(R, worst)
+        residual = worst / L
+        defined = True
+        if signs:  # branch_identity_defined (result.py), inlined
+            defined = margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
+        total += residual
         if total - total != 0.0 and not self._all_finite(R, vals, residual, margin):
             return Result(
                 False, 'internal error: non-finite value in the solution', solver=_CLOSED_FORM
@@ -360,8 +347,15 @@ class SlotReadout:
         res._source = state
         res.success, res.solver = True, _CLOSED_FORM
         res.residual, res.margin, res.branch_defined = residual, margin, defined
-        res.branch = branch_text(signs)
         return res
+
+    def lazy_worst(self, R: list[Any], worst: float) -> float:
+        """``worst`` (m) and the misses of the checks left for when the residual is read."""
+        if self.closure_one_side_lazy:
+            worst = one_side_worst(self.closure_one_side_lazy, R, worst)
+        if self.angle_knowns_lazy:
+            worst = angle_worst(self.angle_knowns_lazy, R, worst, self.L)
+        return worst
 
     def fill(self, d: dict[str, Any], R: list[Any], vals: Values) -> None:
         """The name-keyed values of a run that closed into ``d`` (a Result's ``__dict__``),
@@ -448,7 +442,10 @@ class SlotReadout:
             return None
         state = SlotState(vals, tuple(r.used), tuple(r.margins), self, r.R)
         res = self.result(r, state)
-        if not (res.success and res.residual <= self.closure_limit):  # type: ignore[operator]
+        if not res.success:
+            return None
+        # (a residual left for later is within the limit: SlotReadout.result)
+        if type(res) is not ClosedLazyResidual and not res.residual <= self.closure_limit:  # type: ignore[operator]
             return None
         if commit:
             cont.commit(state)
@@ -493,17 +490,38 @@ def lean_command(c: CompiledSolve) -> LeanCommand | None:
 
 class ClosedResult(LazyResult):
     """A closed-form answer whose name-keyed dicts (inputs, targets, joints, links, points)
-    are read off its run's registers when first asked, by the readout's very operations
-    (lazy_result.LazyResult: the machinery). Every other field is set when it is made (or is
-    Result's default)."""
+    are read off its run's registers when first asked, by the readout's very operations, and
+    its branch text off its signs (lazy_result.LazyResult: the machinery). Every other field
+    is set when it is made (or is Result's default)."""
 
     __slots__ = ()
     _source: SlotState  # what fills the dicts: the readout, the run's registers and values
-    _LAZY = frozenset(('inputs', 'targets', 'joints', 'links', 'points'))
+    _LAZY = frozenset(('inputs', 'targets', 'joints', 'links', 'points', 'branch'))
 
     def _fill(self, d: dict[str, Any], name: str) -> None:
         st = self._source
-        st._read.fill(d, st._registers, st.values)
+        if name == 'branch':  # (the text decides nothing: most callers never read it)
+            d['branch'] = branch_text(st.signs)
+        else:
+            st._read.fill(d, st._registers, st.values)
+
+
+class ClosedLazyResidual(ClosedResult):
+    """A ClosedResult whose residual too is computed when first read, from its run's
+    registers, by the very operations SlotReadout.result would have used (closure_bound: the
+    checks its plan satisfies by construction)."""
+
+    __slots__ = ('_worst',)
+    _worst: float  # the largest miss of the checks made when it was made (m)
+    _LAZY = ClosedResult._LAZY | {'residual'}
+
+    def _fill(self, d: dict[str, Any], name: str) -> None:
+        if name != 'residual':
+            super()._fill(d, name)
+            return
+        st = self._source
+        read = st._read
+        d['residual'] = read.lazy_worst(st._registers, self._worst) / read.L
 
 
 _new_closed = object.__new__
