@@ -208,12 +208,22 @@ def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int)
         return None
     S = _even_pow2_below(big)  # _pow2_scale(big)
     del big
-    x1n, y1n = x1 / S, y1 / S
-    dx, dy = x2 / S, y2 / S
-    dx -= x1n
-    dy -= y1n
     r1n, r2n = r1 / S, r2 / S
-    d = np.hypot(dx, dy)
+    if x1.strides == y1.strides == x2.strides == y2.strides == (0,) and S.min() == S.max():
+        # both centres one value in every row (two ground pivots) and one scale: x1n, y1n,
+        # dx, dy and d one value each, taken once (each row's float operations are these;
+        # numpy's hypot is libm's, element by element: the same bits on one value)
+        s0 = S[0]
+        x1n, y1n = x1[0] / s0, y1[0] / s0
+        dx0, dy0 = x2[0] / s0 - x1n, y2[0] / s0 - y1n
+        n = S.shape[0]
+        dx, dy, d = np.full(n, dx0), np.full(n, dy0), np.full(n, np.hypot(dx0, dy0))
+    else:
+        x1n, y1n = x1 / S, y1 / S
+        dx, dy = x2 / S, y2 / S
+        dx -= x1n
+        dy -= y1n
+        d = np.hypot(dx, dy)
     # _kahan(d, r1n, r2n), every side finite
     lo, hi = np.minimum(d, r1n), np.maximum(d, r1n)
     longest, small = np.maximum(hi, r2n), np.minimum(lo, r2n)
