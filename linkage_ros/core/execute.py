@@ -286,15 +286,23 @@ class PlanExecutor:
             # whole batch, then written out)
             f = self._frame(ops, bi, values, _ZERO_0D) if at_rest else frame(bi)
             n = zero.shape[0]
+            # members of one frame angle and rotation (a slide weld keeps its via's: a
+            # cylinder's rod turns with its barrel) share one world angle and rotation,
+            # made once (the same operations on the same values; poses are never written)
+            turned: dict[int, Any] = {}
             for link, members in body_points[bi]:
                 lphi, lrot, lT = f[link]
-                lr = lrot if at_rest else _times(rot, lrot)
-                lt = _plus_rest(lT) if at_rest else _affine(rot, lT, Tb)
-                phi_of[link], rot_of[link], T_of[link] = (
-                    _rest_angle(n, lphi) if at_rest else _full(n, phi + lphi),
-                    _full_c(n, lr),
-                    _full_c(n, lt),
-                )
+                if at_rest:
+                    lr, lt, lp = lrot, _plus_rest(lT), _rest_angle(n, lphi)
+                else:
+                    lr = turned.get(id(lrot))
+                    if lr is None:
+                        lr = turned[id(lrot)] = _times(rot, lrot)
+                    lp = turned.get(id(lphi))
+                    if lp is None:
+                        lp = turned[id(lphi)] = _full(n, phi + lphi)
+                    lt = _affine(rot, lT, Tb)
+                phi_of[link], rot_of[link], T_of[link] = lp, _full_c(n, lr), _full_c(n, lt)
                 for p, r in members:
                     if p not in pts:
                         pts[p] = _full_c(n, _affine(lr, r, lt))
