@@ -586,6 +586,10 @@ def _slide_offset(
     takes the operators then)."""
     if not (_owned_rows(dv, dv) and isinstance(vrot, CArray) and isinstance(vT, CArray)):
         return None
+    # (checked before dv is written into: the caller's operators read it otherwise)
+    parts = (vrot.re, vrot.im, vT.re, vT.im)
+    if np.broadcast_shapes(dv.shape, *map(np.shape, parts)) != dv.shape:
+        return None
     are = dv * u.real
     aim = np.multiply(dv, u.imag, out=dv)
     are += x_ref.real  # x_ref + CArray: CArray.__add__ (its part first)
@@ -593,8 +597,6 @@ def _slide_offset(
     # vrot * along: (vrot.re are - vrot.im aim) + i (vrot.re aim + vrot.im are)
     t = np.multiply(vrot.im, aim)
     re = np.multiply(vrot.re, are)
-    if re.shape != dv.shape or t.shape != dv.shape:  # (vrot wider than the rows: never)
-        return None
     re -= t
     im = np.multiply(vrot.re, aim, out=aim)
     im += np.multiply(vrot.im, are, out=are)
