@@ -208,12 +208,32 @@ def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int)
         return None
     S = _even_pow2_below(big)  # _pow2_scale(big)
     del big
-    x1n, y1n = x1 / S, y1 / S
-    dx, dy = x2 / S, y2 / S
-    dx -= x1n
-    dy -= y1n
-    r1n, r2n = r1 / S, r2 / S
-    d = np.hypot(dx, dy)
+    # one scale in every row (the common batch: its lengths within a factor 4 of one
+    # another): a 0-d divisor, the same division in each row; a scale of 1 divides nothing
+    # (x / 1.0 and x * 1.0 are x to the bit: every value here is finite), so x1n, y1n, r1n and
+    # r2n are the caller's values, read and never written
+    if S.min() == S.max():
+        S = S[0]
+    unscaled = np.ndim(S) == 0 and S == 1.0
+    r1n, r2n = (r1, r2) if unscaled else (r1 / S, r2 / S)
+    if x1.strides == y1.strides == x2.strides == y2.strides == (0,) and np.ndim(S) == 0:
+        # both centres one value in every row (two ground pivots): x1n, y1n, dx, dy and d
+        # one value each, taken once (each row's float operations are these; numpy's hypot
+        # is libm's, element by element: the same bits on one value)
+        x1n, y1n = x1[0] / S, y1[0] / S
+        dx0, dy0 = x2[0] / S - x1n, y2[0] / S - y1n
+        n = x1.shape[0]
+        dx, dy, d = np.full(n, dx0), np.full(n, dy0), np.full(n, np.hypot(dx0, dy0))
+    elif unscaled:
+        x1n, y1n = x1, y1
+        dx, dy = np.subtract(x2, x1), np.subtract(y2, y1)
+        d = np.hypot(dx, dy)
+    else:
+        x1n, y1n = x1 / S, y1 / S
+        dx, dy = x2 / S, y2 / S
+        dx -= x1n
+        dy -= y1n
+        d = np.hypot(dx, dy)
     # _kahan(d, r1n, r2n), every side finite
     lo, hi = np.minimum(d, r1n), np.maximum(d, r1n)
     longest, small = np.maximum(hi, r2n), np.minimum(lo, r2n)
@@ -292,8 +312,9 @@ def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int)
     del w_im, t, ux, uy
     px += x1n
     py += y1n
-    px *= S
-    py *= S
+    if not unscaled:
+        px *= S
+        py *= S
     if not (np.isfinite(px).all() and np.isfinite(py).all()):
         return None
     return RrrPoint(CArray(px, py), np.ones(px.shape, bool), margin, np.zeros(px.shape), True)

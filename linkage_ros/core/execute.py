@@ -154,11 +154,16 @@ class PlanExecutor:
                 pj = mech.prismatics[s.joint]
                 x_ref = self.ref[pj.point]
                 u, dv = self.direction[pj.name], v - pj.ref_value
-                along = x_ref + ops.cplx(dv * u.real, dv * u.imag)
-                if w.link == pj.slider:  # guide placed: the slider point on its line
-                    T = (vrot * along + vT) - vrot * x_ref
-                else:  # slider placed: hang the guide off it
-                    T = (vrot * x_ref + vT) - vrot * along
+                # guide placed: the slider point on its line; slider placed: the guide hung
+                # off it (in place where it can be, the same operations: _slide_offset)
+                slider = w.link == pj.slider
+                T = _slide_offset(vrot, vT, dv, u, x_ref, slider)
+                if T is None:
+                    along = x_ref + ops.cplx(dv * u.real, dv * u.imag)
+                    if slider:
+                        T = (vrot * along + vT) - vrot * x_ref
+                    else:
+                        T = (vrot * x_ref + vT) - vrot * along
                 frame[w.link] = (vphi, vrot, T)
         return frame
 
@@ -182,10 +187,14 @@ class PlanExecutor:
         with np.errstate(all='ignore'):
             return self._run(vals, np.zeros(n), signs, tol)
 
-    def _radius(self, ops: Any, bi: int, x: str, p: str, frame: Any) -> Any:
+    def _radius(
+        self, ops: Any, bi: int, x: str, p: str, local_pt: Any, between: dict[Any, Any]
+    ) -> Any:
         """|x - p| within body bi: the length the scene states for a link that carries both
         points (exactly as given), else their constant distance in a one-link body, else the
-        distance in the body's frame (``frame()`` gives it)."""
+        distance in the body's frame (``local_pt`` gives each point there); a distance
+        measured is kept in ``between`` under (bi, p, x) with the vector x - p, for the
+        TWO_POINTS step that places bi from p to x (the same vector: one hypot)."""
         key = (bi, x, p)
         d = self._stated.get(key, False)
         if d is False:
@@ -204,10 +213,11 @@ class PlanExecutor:
             self._stated[key] = d
         if d is not None:
             return d
-        f = frame(bi)
-        _, rx, tx = f[self.carrier[(bi, x)]]
-        _, rp, tp = f[self.carrier[(bi, p)]]
-        return ops.cabs((rx * self.ref[x] + tx) - (rp * self.ref[p] + tp))
+        # (local_pt's rot * ref + T, each as CArray's operators compute it)
+        v = local_pt(bi, x) - local_pt(bi, p)
+        length = ops.cabs(v)
+        between[(bi, p, x)] = (v, length)
+        return length
 
     def _run(
         self, values: Sequence[Any], zero: np.ndarray, signs: Sequence[Any] | None, tol: float
@@ -219,6 +229,10 @@ class PlanExecutor:
         phi_of, rot_of, T_of = poses.phi, poses.rot, poses.T
         pts: dict[str, Any] = {}
         frames: dict[int, _Frame] = {}
+        # a body's points in its frame, and (_radius) vectors between two with their length,
+        # each made once: the same bits wherever they are read again
+        locals_of: dict[tuple[int, str], Any] = {}
+        between: dict[tuple[int, str, str], Any] = {}
         angles: dict[int, Any] = {}  # body root orientation when known before placing
         # a roller's line moved to the side chosen (guide's reference frame, m): SIDE steps
         side_shift: dict[str, Any] = {}
@@ -251,8 +265,11 @@ class PlanExecutor:
         def local_pt(bi: int, p: str) -> Any:
             if single[bi]:  # a single link at the identity
                 return ref[p]
-            _, rot, T = frame(bi)[self.carrier[(bi, p)]]
-            return rot * ref[p] + T
+            got = locals_of.get((bi, p))
+            if got is None:  # (_affine: rot * ref[p] + T as CArray's operators give it)
+                _, rot, T = frame(bi)[self.carrier[(bi, p)]]
+                got = locals_of[(bi, p)] = _affine(rot, ref[p], T)
+            return got
 
         def place_body(bi: int, phi: Any, Tb: Any, rot: Any, at_rest: bool = False) -> None:
             """Body bi at angle phi (rot = e^{i phi}, made once by the caller) and offset Tb;
@@ -269,21 +286,32 @@ class PlanExecutor:
             # whole batch, then written out)
             f = self._frame(ops, bi, values, _ZERO_0D) if at_rest else frame(bi)
             n = zero.shape[0]
+            # members of one frame angle and rotation (a slide weld keeps its via's: a
+            # cylinder's rod turns with its barrel) share one world angle and rotation,
+            # made once (the same operations on the same values; poses are never written)
+            turned: dict[int, Any] = {}
             for link, members in body_points[bi]:
                 lphi, lrot, lT = f[link]
-                lr = lrot if at_rest else _times(rot, lrot)
-                lt = _plus_rest(lT) if at_rest else _affine(rot, lT, Tb)
-                phi_of[link], rot_of[link], T_of[link] = (
-                    _rest_angle(n, lphi) if at_rest else _full(n, phi + lphi),
-                    _full_c(n, lr),
-                    _full_c(n, lt),
-                )
+                if at_rest:
+                    lr, lt, lp = lrot, _plus_rest(lT), _rest_angle(n, lphi)
+                else:
+                    lr = turned.get(id(lrot))
+                    if lr is None:
+                        lr = turned[id(lrot)] = _times(rot, lrot)
+                    lp = turned.get(id(lphi))
+                    if lp is None:
+                        lp = turned[id(lphi)] = _full(n, phi + lphi)
+                    lt = _affine(rot, lT, Tb)
+                phi_of[link], rot_of[link], T_of[link] = lp, _full_c(n, lr), _full_c(n, lt)
                 for p, r in members:
                     if p not in pts:
                         pts[p] = _full_c(n, _affine(lr, r, lt))
             # the body is placed: its frame let go (a later step that asks for it makes it
             # again, to the same bits); the executor's peak of memory is its frames and poses
             frames.pop(bi, None)
+            if locals_of:
+                for key in [key for key in locals_of if key[0] == bi]:
+                    del locals_of[key]
 
         for k, st in enumerate(plan.steps):
             op = st.op
@@ -301,11 +329,28 @@ class PlanExecutor:
                 a = self.unit_between.get(k)
                 if a is None:
                     lp = local_pt(bi, p)
-                    a = local_pt(bi, q) - lp
-                    na = ops.cabs(a)
-                    a = a / (na if _all_positive(na) else ops.where(na > 0, na, 1.0))
-                    cross = a.real * b.imag - a.imag * b.real
-                    dot = a.real * b.real + a.imag * b.imag
+                    # the vector and length _radius measured for this body's dyad, if it did
+                    # (local_pt(q) - lp exactly: the same points)
+                    a, na = between.pop((bi, p, q), (None, None))
+                    if a is None:
+                        a = local_pt(bi, q) - lp
+                        na = ops.cabs(a)
+                    na = na if _all_positive(na) else ops.where(na > 0, na, 1.0)
+                    if _rows(a):
+                        # a is this step's own (a difference just made): divided in place,
+                        # then the same products as below, into two arrays
+                        np.divide(a.re, na, out=a.re)
+                        np.divide(a.im, na, out=a.im)
+                        cross = a.re * b.im
+                        t = a.im * b.re
+                        cross -= t
+                        dot = np.multiply(a.re, b.re, out=t)
+                        dot += np.multiply(a.im, b.im, out=a.im)
+                        del t
+                    else:
+                        a = a / na
+                        cross = a.real * b.imag - a.imag * b.real
+                        dot = a.real * b.real + a.imag * b.imag
                 else:  # a constant: the same products, written into two arrays
                     lp = ref[p]
                     cross = b.im * a.real
@@ -315,7 +360,9 @@ class PlanExecutor:
                     dot += np.multiply(b.im, a.imag, out=t)
                     del t
                 del b, nb, a
-                phi = ops.atan2(cross, dot)
+                # (into cross, an (n,) array of this step's own: the same values)
+                owned = _owned_rows(cross, dot)
+                phi = np.arctan2(cross, dot, out=cross) if owned else ops.atan2(cross, dot)
                 del cross, dot  # (a step's arrays let go before the next step makes its own)
                 # Measured and not kept (branch rotunit, both in the scalar twin alike, float
                 # for float): rot as the unit vector (dot + i cross) / sqrt(dot^2 + cross^2),
@@ -332,8 +379,8 @@ class PlanExecutor:
                 if op is _RRR:
                     a = st.args
                     b1, p1, b2, p2 = a.body_a, a.centre_a, a.body_b, a.centre_b
-                    r1 = self._radius(ops, b1, x, p1, frame)
-                    r2 = self._radius(ops, b2, x, p2, frame)
+                    r1 = self._radius(ops, b1, x, p1, local_pt, between)
+                    r2 = self._radius(ops, b2, x, p2, local_pt, between)
                     # dyads.solve_rrr_dyad and dyad_point in fewer passes
                     sg = signs[len(used)]
                     got = rrr_point_batch(pts[p1], r1, pts[p2], r2, tol, sg)
@@ -350,7 +397,7 @@ class PlanExecutor:
                 else:
                     b1, p1, jname = st.args.body, st.args.centre, st.args.joint
                     g = mech.prismatics[jname].guide
-                    r = self._radius(ops, b1, x, p1, frame)
+                    r = self._radius(ops, b1, x, p1, local_pt, between)
                     on_line = ref[x] if jname not in side_shift else ref[x] + side_shift[jname]
                     p0 = _affine(rot_of[g], on_line, T_of[g])
                     u = _times(rot_of[g], self.direction[jname])
@@ -529,6 +576,44 @@ def _minus_rotated(P: Any, rot: Any, r: Any) -> Any:
     return CArray(np.subtract(P.re, re, out=re), np.subtract(P.im, im, out=im))
 
 
+def _slide_offset(
+    vrot: Any, vT: Any, dv: Any, u: complex, x_ref: complex, slider: bool
+) -> CArray | None:
+    """A slide weld's member offset, as CArray's operators compute it, into arrays of its own:
+    along = x_ref + (dv u.real + i dv u.imag), then (vrot along + vT) - vrot x_ref for the
+    slider (``slider``), else (vrot x_ref + vT) - vrot along. None unless dv is an (n,)
+    float array of the caller's own (written into) and vrot and vT CArrays (the caller
+    takes the operators then)."""
+    if not (_owned_rows(dv, dv) and isinstance(vrot, CArray) and isinstance(vT, CArray)):
+        return None
+    # (checked before dv is written into: the caller's operators read it otherwise)
+    parts = (vrot.re, vrot.im, vT.re, vT.im)
+    if np.broadcast_shapes(dv.shape, *map(np.shape, parts)) != dv.shape:
+        return None
+    are = dv * u.real
+    aim = np.multiply(dv, u.imag, out=dv)
+    are += x_ref.real  # x_ref + CArray: CArray.__add__ (its part first)
+    aim += x_ref.imag
+    # vrot * along: (vrot.re are - vrot.im aim) + i (vrot.re aim + vrot.im are)
+    t = np.multiply(vrot.im, aim)
+    re = np.multiply(vrot.re, are)
+    re -= t
+    im = np.multiply(vrot.re, aim, out=aim)
+    im += np.multiply(vrot.im, are, out=are)
+    del t, are, aim
+    fixed = vrot * x_ref  # (one value where vrot is: the body's root)
+    if slider:
+        re += vT.re
+        im += vT.im
+        re -= fixed.re
+        im -= fixed.im
+        return CArray(re, im)
+    fixed = fixed + vT
+    np.subtract(fixed.re, re, out=re)
+    np.subtract(fixed.im, im, out=im)
+    return CArray(re, im)
+
+
 def _expi(phi: Any) -> Any:
     """ops.expi (e^{i phi}: cos and sin) of an (n,) float array without its broadcast (a
     few us of Python per call: the two arrays have phi's shape already)."""
@@ -551,6 +636,17 @@ def _turned_about_origin(P: Any, rot: Any) -> bool:
     # sends a finite batch the long way)
     spread = rot.re.max() + rot.re.min() + rot.im.max() + rot.im.min()
     return bool(np.isfinite(spread))
+
+
+def _owned_rows(a: Any, b: Any) -> bool:
+    """a is an (n,) float array (written into: the caller's own) and b has its shape."""
+    return (
+        isinstance(a, np.ndarray)
+        and a.ndim == 1
+        and a.dtype == np.float64
+        and a.flags.writeable
+        and np.shape(b) == a.shape
+    )
 
 
 def _all_positive(x: Any) -> bool:

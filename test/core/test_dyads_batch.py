@@ -162,6 +162,28 @@ def test_rrr_point_with_a_centre_the_same_in_every_row(which):
                 _assert_point_is_generic(c1, r1, c2, 0.2, sign)
 
 
+@pytest.mark.parametrize('centres', ['rows', 'one value'])
+def test_rrr_point_with_one_scale_in_every_row(centres):
+    """Every length in [1, 4) (a scale of 1 in every row: the kernel divides nothing), in
+    [4, 16) (one scale, not 1) and straddling 4 (two scales), centres per row or both one
+    value (two ground pivots: d taken once), radii stated or per row: the generic answer,
+    bit for bit."""
+    rng = np.random.default_rng(31)
+    n = 400
+    for scale in (1.0, 4.0, 3.0):
+        t = rng.uniform(-math.pi, math.pi, n)
+        if centres == 'rows':
+            c1 = CArray(scale * 1.2 * np.cos(t), scale * 1.2 * np.sin(t))
+            c2 = CArray(scale * (1.2 * np.cos(t) + 1.5), scale * 1.2 * np.sin(t))
+        else:
+            c1 = CArray(_one_value(scale * 1.1, n), _one_value(scale * 1.05, n))
+            c2 = CArray(_one_value(scale * 2.3, n), _one_value(scale * 1.7, n))
+        for r1 in (scale * 1.3, scale * rng.uniform(1.1, 1.4, n)):
+            for r2 in (scale * 1.0, scale * rng.uniform(1.0, 1.2, n)):
+                for sign in (1, -1):
+                    _assert_point_is_generic(c1, r1, c2, r2, sign)
+
+
 def test_pow2_is_ldexp_over_the_whole_exponent_range():
     k = np.arange(-1100, 1100)
     with np.errstate(over='ignore'):  # 2 ** 1024 and beyond: inf on both

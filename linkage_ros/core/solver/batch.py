@@ -161,14 +161,16 @@ def solve_batch(
         violation = np.asarray(run.violation, float)
         for i in not_closed:
             out.reason[i] = c.dyad_reason(int(failure[i]), float(violation[i]))
-    with np.errstate(all='ignore'):
-        poses = _assembly_poses(c.plan, run.poses)
-        got = assemble_batch(c.assembler(run.poses.phi), poses, safe, release=True)
-        del poses
-    # the poses are read: let their arrays go before the answers are written (a batch's
-    # arrays are most of its cost in fresh memory, page faults included)
-    points, margin, signs = run.points, run.margin, run.signs
+    # what the answers need of the run taken out, the rest (each dyad's margin, the failure
+    # and violation rows) let go before the poses are read: the batch's peak of memory is
+    # there (a batch's arrays are most of its cost in fresh memory, page faults included)
+    run_poses, points, margin, signs = run.poses, run.points, run.margin, run.signs
     del run
+    with np.errstate(all='ignore'):
+        poses = _assembly_poses(c.plan, run_poses)
+        got = assemble_batch(c.assembler(run_poses.phi), poses, safe, release=True)
+        # the poses are read: their arrays let go before the answers are written
+        del poses, run_poses
     every = bool(np.all(ok))
     # (the where passes skipped where every row is ok: they would copy)
     residual = _owned_where(ok, got.residual, every)
