@@ -18,15 +18,13 @@ point) keep the point where continuity predicts it.
 
 Why a twin: the generic executor on the one-command backend looks every name up per step and
 calls an ops function per where / max. Measured in one process (CPU time, best of 15 x 2000
-runs of the packaged four-bar's plan at one command; 2-core machine shared with other jobs,
-load ~10): the generic executor 32 us, this program 8.6 us (14 us with the name-keyed PlanRun
-that ``run_one`` returns), a hand-written ``math`` four-bar 1.6 us. Since then (each known
-angle wrapped once per run, constant RRR radii resolved once, one register run tested for
-finiteness): a run 8.9 us against the ``math`` four-bar's 2.0 us (thread CPU time, best of 500
-passes of 20 commands of the warm sweep, load ~7; core/solver/closed_form.py). A welded
-body's two-point placement reads its points' frames inline. (A welded ground turned by known
-angles, a crank on its frame, was measured as one fused step: 0.95 us where its frame and
-placement steps take 1.07 us, under 1% of a solve; not kept, as it restated turn_weld and
+runs of the packaged four-bar's plan at one command, load ~10): the generic executor 32 us,
+this program 8.6 us, a hand-written ``math`` four-bar 1.6 us. Constants are resolved when the
+program is made: RRR radii, each known angle wrapped once per run, a welded body's points
+carried by its root (or by a member slid off it, whose frame rotation is the root's constant)
+computed once by the very float operations a run would make, the welded ground's step the
+partial of its placer. (A welded ground turned by known angles, a crank on its frame, was
+measured as one fused step: under 1% of a solve; not kept, as it restated turn_weld and
 welded_placer.)
 """
 
@@ -34,6 +32,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from math import atan2, cos, sin
 from typing import Any
 
@@ -44,14 +43,7 @@ from .ops import _cabs_one, _wrap_one
 from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
 from .scalar_dyad_steps import rpr_step, rrp_step, rrr_step, side_step
-from .scalar_run import (
-    Refused,
-    SlotRun,
-    Step,
-    slide_weld,
-    turn_weld,
-    welded_placer,
-)
+from .scalar_run import Refused, SlotRun, Step, slide_weld, turn_weld, welded_placer
 from .steps import (
     AngleFrom,
     KnownPoint,
@@ -66,6 +58,7 @@ from .steps import (
 
 _CM = CONTINUITY_MARGIN
 _PI = math.pi
+_NEG_PI = -math.pi  # (one load where -_PI is two)
 _PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, StepKind.RPR)
 
 
@@ -146,6 +139,9 @@ class ScalarProgram:
         #: (a weld by a slide moves its member along the slide, and a welded body's placement
         #: turns every member alike): a readout need not compare them
         self.same_turn: set[frozenset[str]] = set()
+        #: a welded body's member -> its frame rotation where every run sets the same
+        #: constant (the root's identity, and a member slid off it: _frame_of)
+        self.fixed_rot: dict[str, complex] = {}
         #: the steps of a run: the frames of the welded bodies it uses, then the plan's
         self.steps: list[Step] = []
         for b in sorted(used_bodies):
@@ -179,42 +175,31 @@ class ScalarProgram:
         R[self.ifphi[body.root]] = 0.0
         R[self.ifrot[body.root]] = complex(1.0, 0.0)
         R[self.ifT[body.root]] = complex(0.0, 0.0)
+        self.fixed_rot[body.root] = R[self.ifrot[body.root]]
         steps: list[Step] = []
         for w in body.welds:
             if not isinstance(plan.specs[w.spec_index], AngleSpec):  # slide_weld: not turned
                 self.same_turn.add(frozenset((w.via, w.link)))
+                if w.via in self.fixed_rot:  # (slide_weld copies its via's rotation)
+                    self.fixed_rot[w.link] = self.fixed_rot[w.via]
             s = plan.specs[w.spec_index]
             via = (self.ifphi[w.via], self.ifrot[w.via], self.ifT[w.via])
+            # a weld to the root: the via's frame is the template's constants (the identity)
+            fixed = (R[via[1]], R[via[2]]) if w.via == body.root else None
             out = (self.ifphi[w.link], self.ifrot[w.link], self.ifT[w.link])
             if isinstance(s, AngleSpec):
                 assert w.shared_point is not None  # an angle weld turns about a shared point
-                steps.append(
-                    turn_weld(
-                        self.iwrap[w.spec_index],
-                        s.offset,
-                        w.link == s.link,
-                        self.ref[w.shared_point],
-                        via,
-                        out,
-                    )
-                )
+                turn = self.iwrap[w.spec_index], s.offset, w.link == s.link
+                steps.append(turn_weld(*turn, self.ref[w.shared_point], via, out, fixed))
             else:
                 pj = mech.prismatics[s.joint]
-                steps.append(
-                    slide_weld(
-                        w.spec_index,
-                        pj.ref_value,
-                        w.link == pj.slider,
-                        self.ref[pj.point],
-                        self.direction[pj.name],
-                        via,
-                        out,
-                    )  # fmt: skip
-                )
+                line = self.ref[pj.point], self.direction[pj.name]
+                slide = w.spec_index, pj.ref_value, w.link == pj.slider
+                steps.append(slide_weld(*slide, *line, via, out, fixed))
         return steps
 
     def _placer(self, bi: int, set_pts: set[str], placed: set[str]) -> Callable[..., None]:
-        """place(R, phi, rot, T): the body's members posed and the points it sets first."""
+        """place(phi, rot, T, r): the body's members posed and the points it sets first."""
         mech = self.plan.mech
         members = []
         for link in self.plan.bodies[bi].links:
@@ -226,22 +211,14 @@ class ScalarProgram:
             for p in mech.links[link].points:
                 if self.ip[p] in {i for i, _ in new}:
                     self.set_by[p] = link
-            members.append(
-                (
-                    self.iphi[link],
-                    self.irot[link],
-                    self.iT[link],
-                    new,
-                    self.ifphi[link],
-                    self.ifrot[link],
-                    self.ifT[link],
-                )  # fmt: skip
-            )
+            members.append((self.iphi[link], self.irot[link], self.iT[link], new,
+                            self.ifphi[link], self.ifrot[link], self.ifT[link]))  # fmt: skip
         self._members[bi] = members
         if self.single[bi]:
             ((iphi, irot, iT, pts, _, _, _),) = members
 
-            def place_single(R: list[Any], phi: float, rot: complex, Tb: complex) -> None:
+            def place_single(phi: float, rot: complex, Tb: complex, r: SlotRun) -> None:
+                R = r.R
                 R[iphi], R[irot], R[iT] = phi, rot, Tb
                 for s, ref in pts:
                     R[s] = rot * ref + Tb
@@ -255,9 +232,32 @@ class ScalarProgram:
         ref = self.ref[p]
         if self.single[bi]:
             return lambda R: ref
+        at_root = self._at_root(bi, p)
+        if at_root is not None:
+            return lambda R: at_root
         carrier = self.carrier[(bi, p)]
         frot, fT = self.ifrot[carrier], self.ifT[carrier]
         return lambda R: R[frot] * ref + R[fT]
+
+    def _at_root(self, bi: int, p: str) -> complex | None:
+        """A point of welded body bi in the body's frame where its root carries it: the
+        frame's rot * p_ref + T on the root's frame registers, constants of the template that
+        no step writes (_frame_of), computed once here by the very float operations a run
+        would; else None."""
+        root = self.plan.bodies[bi].root
+        if self.single[bi] or self.carrier[(bi, p)] != root:
+            return None
+        at: complex = self.template[self.ifrot[root]] * self.ref[p] + self.template[self.ifT[root]]
+        return at
+
+    def _turned(self, bi: int, p: str) -> complex | None:
+        """rot * p_ref of a point of welded body bi whose carrier's frame rotation is a
+        constant of every run (fixed_rot), computed once here by the very float operation a
+        run would; else None."""
+        if self.single[bi]:
+            return None
+        rot = self.fixed_rot.get(self.carrier[(bi, p)])
+        return None if rot is None else rot * self.ref[p]
 
     def _radius(self, bi: int, x: str, p: str) -> tuple[float, Callable[[list[Any]], float] | None]:
         """|x - p| within body bi: the length the scene states for a link that carries both
@@ -279,7 +279,15 @@ class ScalarProgram:
         cx, cp = self.carrier[(bi, x)], self.carrier[(bi, p)]
         rx, tx, rp, tp = self.ifrot[cx], self.ifT[cx], self.ifrot[cp], self.ifT[cp]
         x_ref, p_ref = self.ref[x], self.ref[p]
-        return 0.0, lambda R: _cabs_one((R[rx] * x_ref + R[tx]) - (R[rp] * p_ref + R[tp]))
+        p_at = self._at_root(bi, p)  # (a cylinder's: its barrel's end at the root)
+        x_turned = self._turned(bi, x)  # (and its rod's end, slid off the root)
+
+        def radius(R: list[Any]) -> float:
+            xr = x_turned if x_turned is not None else R[rx] * x_ref
+            pa = p_at if p_at is not None else R[rp] * p_ref + R[tp]
+            return _cabs_one((xr + R[tx]) - pa)
+
+        return 0.0, radius
 
     def _compile(self, k: int, st: Any, set_pts: set[str], placed: set[str]) -> Step | None:
         a = st.args
@@ -287,18 +295,16 @@ class ScalarProgram:
         if op is StepKind.GROUND:
             place = self._placer(st.body, set_pts, placed)
             rot0, T0 = complex(cos(0.0), sin(0.0)), complex(0.0, 0.0)
+            at_compile = SlotRun()
+            at_compile.R = self.template
             if self.single[st.body]:  # a constant: placed once, in the template
-                place(self.template, 0.0, rot0, T0)
+                place(0.0, rot0, T0, at_compile)
                 return None
             # the root's frame is the identity: its pose and points are constants too
             root, *rest = self._members[st.body]
-            welded_placer([root])(self.template, 0.0, rot0, T0)
-            place = welded_placer(rest)
-
-            def ground(r: SlotRun) -> None:
-                place(r.R, 0.0, rot0, T0)
-
-            return ground
+            welded_placer([root])(0.0, rot0, T0, at_compile)
+            # the step is the placer at the identity pose (a partial: no frame of its own)
+            return partial(welded_placer(rest), 0.0, rot0, T0)
         if op is StepKind.KNOWN_POINT and isinstance(a, KnownPoint):
             s, i = self.ip[st.point], a.spec_index
             set_pts.add(st.point)
@@ -318,7 +324,7 @@ class ScalarProgram:
                 R = r.R
                 phi = R[ang]
                 rot = complex(cos(phi), sin(phi))
-                place(R, phi, rot, R[sp] - rot * lp_of(R))
+                place(phi, rot, R[sp] - rot * lp_of(R), r)
 
             return point_angle
         if op is StepKind.ANGLE and isinstance(a, AngleFrom):
@@ -354,7 +360,8 @@ class ScalarProgram:
                 except OverflowError:  # beyond the float range (as ops' cabs)
                     nb = math.inf
                 b = b / (nb if nb > 0 else 1.0)  # unit first: 1e-300 lengths would underflow
-                phi = atan2(ux * b.imag - uy * b.real, ux * b.real + uy * b.imag)
+                bx, by = b.real, b.imag  # (each read once: a complex's attribute is slow)
+                phi = atan2(ux * by - uy * bx, ux * bx + uy * by)
                 rot = complex(cos(phi), sin(phi))
                 T = p - rot * lp
                 R[iphi], R[irot], R[iT] = phi, rot, T
@@ -366,19 +373,23 @@ class ScalarProgram:
         cp, cq = self.carrier[(bi, a.first)], self.carrier[(bi, a.second)]
         prot, pT, p_ref = self.ifrot[cp], self.ifT[cp], self.ref[a.first]
         qrot, qT, q_ref = self.ifrot[cq], self.ifT[cq], self.ref[a.second]
+        p_at = self._at_root(bi, a.first)
+        q_turned = self._turned(bi, a.second)
 
         def two_points(r: SlotRun) -> None:
             R = r.R
             b = R[sq] - R[sp]
             nb = _cabs_one(b)
             b = b / (nb if nb > 0 else 1.0)
-            lp = R[prot] * p_ref + R[pT]
-            u = (R[qrot] * q_ref + R[qT]) - lp
+            lp = p_at if p_at is not None else R[prot] * p_ref + R[pT]
+            u = ((q_turned if q_turned is not None else R[qrot] * q_ref) + R[qT]) - lp
             nu = _cabs_one(u)
             u = u / (nu if nu > 0 else 1.0)
-            phi = atan2(u.real * b.imag - u.imag * b.real, u.real * b.real + u.imag * b.imag)
+            ux, uy = u.real, u.imag  # (each read once: a complex's attribute is slow)
+            bx, by = b.real, b.imag
+            phi = atan2(ux * by - uy * bx, ux * bx + uy * by)
             rot = complex(cos(phi), sin(phi))
-            place(R, phi, rot, R[sp] - rot * lp)
+            place(phi, rot, R[sp] - rot * lp, r)
 
         return two_points
 
@@ -480,15 +491,8 @@ class ScalarProgram:
             vals = [v if pt else float(v) for pt, v in zip(self.point_specs, values)]
         else:  # no comprehension's frame for the common command
             vals = list(map(float, values))
-        return self.run_parsed(
-            vals,
-            self.plan.reference_signs if signs is None else signs,
-            prev_margins,
-            predict,
-            predict_from,
-            prefer,
-            tol,
-        )
+        signs = self.plan.reference_signs if signs is None else signs
+        return self.run_parsed(vals, signs, prev_margins, predict, predict_from, prefer, tol)
 
     def run_parsed(
         self,
@@ -506,7 +510,7 @@ class ScalarProgram:
         r.R = R = self.template.copy()
         for i, reg in self._wrap_regs:
             v = values[i]
-            R[reg] = v if -_PI < v <= _PI else _wrap_one(v)
+            R[reg] = v if _NEG_PI < v <= _PI else _wrap_one(v)
         # (one store a field: a tuple assignment of many builds and unpacks a tuple)
         r.values = values
         r.signs = signs

@@ -93,10 +93,24 @@ Step = Callable[[SlotRun], None]
 
 
 def welded_placer(members: list[Any]) -> Callable[..., None]:
-    """place(R, phi, rot, T) of a welded body's members: each posed from its frame registers,
-    and the points it sets first."""
+    """place(phi, rot, T, r) of a welded body's members: each posed from its frame registers,
+    and the points it sets first (one member, a welded ground's crank: its loop unrolled at
+    compile time)."""
+    if len(members) == 1:
+        ((iphi1, irot1, iT1, pts1, fphi1, frot1, fT1),) = members
 
-    def place_welded(R: list[Any], phi: float, rot: complex, Tb: complex) -> None:
+        def place_member(phi: float, rot: complex, Tb: complex, r: SlotRun) -> None:
+            R = r.R
+            lr = rot * R[frot1]
+            lt = rot * R[fT1] + Tb
+            R[iphi1], R[irot1], R[iT1] = phi + R[fphi1], lr, lt
+            for s, ref in pts1:
+                R[s] = lr * ref + lt
+
+        return place_member
+
+    def place_welded(phi: float, rot: complex, Tb: complex, r: SlotRun) -> None:
+        R = r.R
         for iphi, irot, iT, pts, fphi, frot, fT in members:
             lr = rot * R[frot]
             lt = rot * R[fT] + Tb
@@ -109,19 +123,22 @@ def welded_placer(members: list[Any]) -> Callable[..., None]:
 
 def turn_weld(
     wrapped: int, offset: float, forward: bool, p: complex, via: tuple[int, int, int],
-    out: tuple[int, int, int],
+    out: tuple[int, int, int], fixed: tuple[complex, complex] | None = None,
 ) -> Step:  # fmt: skip
     """A weld by a known angle (its value wrapped to (-pi, pi] in register ``wrapped``): the
-    member turned about the shared point p."""
+    member turned about the shared point p. ``fixed``: the via's frame rotation and
+    translation where they are constants (the root's), its point p computed once here."""
     vphi, vrot, vT = via
     lphi, lrot, lT = out
+    at = None if fixed is None else fixed[0] * p + fixed[1]  # (the very floats a run makes)
 
     def turn(r: SlotRun) -> None:
         R = r.R
         rel = R[wrapped] - offset
         phi = R[vphi] + (rel if forward else -rel)
         rot = complex(cos(phi), sin(phi))
-        R[lphi], R[lrot], R[lT] = phi, rot, (R[vrot] * p + R[vT]) - rot * p
+        pv = at if at is not None else R[vrot] * p + R[vT]
+        R[lphi], R[lrot], R[lT] = phi, rot, pv - rot * p
 
     return turn
 
@@ -129,21 +146,26 @@ def turn_weld(
 def slide_weld(
     i: int, ref_value: float, forward: bool, x_ref: complex, u: complex,
     via: tuple[int, int, int], out: tuple[int, int, int],
+    fixed: tuple[complex, complex] | None = None,
 ) -> Step:  # fmt: skip
     """A weld by known slide ``values[i]``: the member moved along the slide (``forward``: the
-    slider placed off its guide, else the guide off its slider)."""
+    slider placed off its guide, else the guide off its slider). ``fixed``: as turn_weld's
+    (x_ref in the via's frame computed once)."""
     vphi, vrot, vT = via
     lphi, lrot, lT = out
+    at = None if fixed is None else fixed[0] * x_ref
+    ux, uy = u.real, u.imag
 
     def slide(r: SlotRun) -> None:
         R = r.R
         dv = r.values[i] - ref_value
-        along = x_ref + complex(dv * u.real, dv * u.imag)
+        along = x_ref + complex(dv * ux, dv * uy)
         vr = R[vrot]
+        vx = at if at is not None else vr * x_ref
         if forward:  # guide placed: the slider point on its line
-            T = (vr * along + R[vT]) - vr * x_ref
+            T = (vr * along + R[vT]) - vx
         else:  # slider placed: hang the guide off it
-            T = (vr * x_ref + R[vT]) - vr * along
+            T = (vx + R[vT]) - vr * along
         R[lphi], R[lrot], R[lT] = R[vphi], vr, T
 
     return slide

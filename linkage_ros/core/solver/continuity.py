@@ -127,7 +127,8 @@ class Continuity:
         return self.history[-1] if self.history else None
 
     def commit(self, state: State) -> None:
-        self.history = [*self.history[-1:], state]
+        last = self.history  # (the last answer and this one, without a slice's list)
+        self.history = [last[-1], state] if last else [state]
 
     def signs(self, plan: Plan) -> tuple[int, ...]:
         """The branch signs the next solve starts from."""

@@ -21,7 +21,7 @@ from linkage_ros.core.errors import SceneError
 from linkage_ros.core.model import Scene
 from linkage_ros.core.scalar_plan import program
 from linkage_ros.core.solver import Solver
-from linkage_ros.core.solver.closed_form import ClosedLazyResidual, SlotReadout, SlotState
+from linkage_ros.core.solver.closed_form import ClosedLazyResidual, SlotReadout, slot_state
 from linkage_ros.core.solver.result import Result
 
 coordinate = st.floats(-1e3, 1e3, allow_nan=False)
@@ -74,7 +74,7 @@ def _runs(mech, commands):
         )
         solver.solve({name: v})  # (the continuity the next command starts from)
         if r.failure < 0:
-            yield lazy, eager, r, SlotState([v], tuple(r.used), tuple(r.margins), lazy, r.R)
+            yield lazy, eager, r, slot_state([v], tuple(r.used), tuple(r.margins), lazy, r.R)
 
 
 def _bits(v):
@@ -100,7 +100,7 @@ def _check(mech, commands):
             got = math.remainder(R[ia] - R[ib] + off - R[wrapped], 2 * math.pi)
             assert lazy.L * abs(got) <= lazy.miss_bound, got
         got = lazy.result(r, state)
-        want = eager.result(r, SlotState(state.values, state.signs, state.margins, eager, R))
+        want = eager.result(r, slot_state(state.values, state.signs, state.margins, eager, R))
         deferred += type(got) is ClosedLazyResidual
         for f in fields(Result):
             assert _bits(getattr(got, f.name)) == _bits(getattr(want, f.name)), f.name
