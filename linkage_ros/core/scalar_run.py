@@ -94,20 +94,7 @@ Step = Callable[[SlotRun], None]
 
 def welded_placer(members: list[Any]) -> Callable[..., None]:
     """place(phi, rot, T, r) of a welded body's members: each posed from its frame registers,
-    and the points it sets first (one member, a welded ground's crank: its loop unrolled at
-    compile time)."""
-    if len(members) == 1:
-        ((iphi1, irot1, iT1, pts1, fphi1, frot1, fT1),) = members
-
-        def place_member(phi: float, rot: complex, Tb: complex, r: SlotRun) -> None:
-            R = r.R
-            lr = rot * R[frot1]
-            lt = rot * R[fT1] + Tb
-            R[iphi1], R[irot1], R[iT1] = phi + R[fphi1], lr, lt
-            for s, ref in pts1:
-                R[s] = lr * ref + lt
-
-        return place_member
+    and the points it sets first."""
 
     def place_welded(phi: float, rot: complex, Tb: complex, r: SlotRun) -> None:
         R = r.R
