@@ -155,14 +155,21 @@ def test_the_prediction_is_the_dense_one(name, sy, ls):
     assert math.isfinite(ls.cond_bound(fac))
 
 
+def _kept_tangent_tables(sy):
+    """The loop tables of a system whose values have one component (the Newton path keeps a
+    unit tangent for those); the test is skipped for the others."""
+    t = sy.tables
+    if t.val_rows is None or len(t.val_rows) != 1:
+        pytest.skip('values of more than one component: no kept tangent')
+    return t
+
+
 @pytest.mark.parametrize(('name', 'sy', 'ls'), LEAN, ids=IDS)
 def test_the_kept_unit_tangent_is_dx_dvalue(name, sy, ls):
     # scalar.unit_tangent (what a Newton answer keeps for the next two predictions) against
     # numpy's dense solve of J T = -dF/dvalue, dF/dvalue by central differences of F in the
     # value (scale-free: a step of h rad, or h length scales)
-    t = sy.tables
-    if t.val_rows is None or len(t.val_rows) != 1:
-        pytest.skip('values of more than one component: no kept tangent')
+    t = _kept_tangent_tables(sy)
     values = list(_ref_values(sy))
     x0 = sy.reference_x()
     _, _, J, fac = _at(sy, ls, x0, values)
@@ -181,9 +188,7 @@ def test_the_prediction_from_kept_tangents_is_the_solved_one(name, sy, ls):
     # extrapolate given the kept unit tangents and value steps (the Newton path's warm
     # command) against extrapolate solving both tangents itself (predict's), through two
     # solutions (the cubic Hermite, and the quadratic where the step turns back)
-    t = sy.tables
-    if t.val_rows is None or len(t.val_rows) != 1:
-        pytest.skip('values of more than one component: no kept tangent')
+    t = _kept_tangent_tables(sy)
     v0 = list(_ref_values(sy))
     is_angle = sy.tables.specs[0].unit == 'rad'
     scale = 1.0 if is_angle else t.L
