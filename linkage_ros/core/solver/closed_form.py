@@ -23,20 +23,14 @@ every check runs, as before). Every field of every Result is the one every check
 bit (test/core/solver/test_closure_bound.py; and old against new over every packaged scene's
 warm sweep and hostile commands when it was made).
 
-Measured (one process, old and new interleaved, process time, best of the 200-command warm
-sweep's passes; 2-core machine shared with other agents): before that, ``Solver.solve`` of the
-four-bar 16.5 us, the ``math`` four-bar of bench/core_speed.py 1.57 us (10.5x): the run's steps
-about 7.6 us (its RRR dyad 3.1, two placements 2.1, the crank about 1), the Result's closure
-checks, known angle and finiteness sum 2.5, the Result and State objects, continuity's signs and
-commit and the lean checks 2.7 (a throw-away copy of all of it fused into one function took 13.9
-us), the facade 0.5; every value read 22.5 us; the excavator 52.1 us. With the constructed checks
-left for later (the four-bar's three other joints and its crank angle; the excavator's one
-ground joint), the branch text read when asked and the RRR dyad's powers of two looked up: the
-four-bar 13.1-13.5 us where the code before took 16.3 and the ``math`` four-bar 1.6 us (8.2-8.3x
-against 10.1-10.2x; 0.77-0.82 of the time in three runs of 200 passes, load ~2), the excavator
-49.8-50.6 against 50.9-51.7 us (3.8x the four-bar, target 4x). The joint a dyad's point
-closes (the four-bar's B, about 0.5 us) stays eager: a bound on it needs the RRR kernel's error
-in the point (Kahan's area, the tangency tolerance, the toggle band) carried through both
+Measured (process time, best of the 200-command warm sweep's passes, old and new interleaved;
+2-core machine shared with other agents, load ~2): the four-bar's ``Solver.solve`` 16.3-16.5 us
+before (the run's steps about 7.6, the Result's checks and finiteness sum 2.5, objects,
+continuity and the lean checks 2.7, the facade 0.5; the ``math`` four-bar of bench/core_speed.py
+1.6 us), 13.1-13.5 us with the constructed checks left for later, the branch text read when
+asked and the RRR dyad's powers of two looked up; the excavator 51 -> 50 us. The joint a dyad's
+point closes (the four-bar's B, about 0.5 us) stays eager: its bound needs the RRR kernel's
+error (Kahan's area, the tangency tolerance, the toggle band) carried through both
 placements' atan2, cos and sin, not proven here.
 """
 
@@ -229,6 +223,11 @@ class SlotReadout:
         #: the residual the bound allows, and the branch noise bound at it (result.py's
         #: branch_undefined_below, as result() computes it)
         self.bound_residual = self.bound_noise = math.inf
+        #: the frame registers (rot, T) those checks read: the bound needs them finite too, and
+        #: the finiteness sum of points and angles does not read them (a T at ~1e308 m)
+        self.lazy_frames = sorted(
+            {i for _, _, rot, T in self.closure_one_side_lazy for i in (rot, T)}
+        )
         if self.miss_bound is not None:
             self.bound_residual = self.miss_bound / self.L
             self.bound_noise = 4.0 * (2.0 * (self.bound_residual + 32.0 * _EPS)) ** 0.5
@@ -327,7 +326,8 @@ class SlotReadout:
             defined = True
             if signs:  # (the comparison's own type: a numpy margin gives numpy's bool)
                 defined = margin > noise
-            if defined and high <= self.closure_limit and total - total == 0.0:
+            fz = sum(map(R.__getitem__, self.lazy_frames), total)  # (finite: fz - fz == 0)
+            if defined and high <= self.closure_limit and fz - fz == 0.0:
                 lazy = _new_closed(ClosedLazyResidual)
                 lazy._source, lazy._worst = state, worst
                 lazy.success, lazy.solver = True, _CLOSED_FORM

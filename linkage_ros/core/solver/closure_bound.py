@@ -47,12 +47,14 @@ u):
    small difference. In every case the miss is <= L u (11 pi + |o|)(1 + 11 u) <= L EPS (8 pi +
    |o|).
 
-The bounds need only that the run's registers are finite (the readout's finiteness test runs
-first, and any non-finite value takes the exact path): no dyad, no command value enters them
-but through the wrapped angle w. A check of any other kind (a dyad's point, a second point of a
-TWO_POINTS step, a weld of a weld, a slide, a known point, a joint no step constructs) is not
-bounded here and stays eager. test/core/solver/test_closure_bound.py checks the bounds against
-the misses themselves over hypothesis-drawn four-bars and commands.
+The bounds need only that the registers a check reads are finite: the readout tests its
+points and angles and, for these checks, their links' rot and T (a T = a - y can overflow
+where a and y are finite, in a scene drawn at ~1e308 m); any non-finite value takes the exact
+path. No dyad, no command value enters them but through the wrapped angle w. A check of any
+other kind (a dyad's point, a second point of a TWO_POINTS step, a weld of a weld, a slide, a
+known point, a joint no step constructs) is not bounded here and stays eager.
+test/core/solver/test_closure_bound.py checks the bounds against the misses themselves over
+hypothesis-drawn four-bars and commands, and a four-bar at ~1e308 m whose frame overflows.
 """
 
 from __future__ import annotations

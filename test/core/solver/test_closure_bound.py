@@ -9,6 +9,7 @@ zeros), solved warm in sequence."""
 
 from __future__ import annotations
 
+import cmath
 import math
 from dataclasses import fields
 
@@ -91,14 +92,17 @@ def _check(mech, commands):
     deferred = 0
     for lazy, eager, r, state in _runs(mech, commands):
         R = r.R
-        # every check left out misses by no more than the bound (its definition, here)
+        # every check left out misses by no more than the bound (its definition, here), on
+        # the finite registers the proof asks for
         assert lazy.miss_bound is not None
-        for p, reg, rot, T in lazy.closure_one_side_lazy:
-            d = R[reg] - (R[rot] * p + R[T])
-            assert max(abs(d.real), abs(d.imag)) <= lazy.miss_bound, (p, d)
-        for wrapped, ia, ib, off in lazy.angle_knowns_lazy:
-            got = math.remainder(R[ia] - R[ib] + off - R[wrapped], 2 * math.pi)
-            assert lazy.L * abs(got) <= lazy.miss_bound, got
+        frames = [R[i] for i in lazy.lazy_frames]
+        if all(map(cmath.isfinite, [*R[: lazy.n_set], *frames])):
+            for p, reg, rot, T in lazy.closure_one_side_lazy:
+                d = R[reg] - (R[rot] * p + R[T])
+                assert max(abs(d.real), abs(d.imag)) <= lazy.miss_bound, (p, d)
+            for wrapped, ia, ib, off in lazy.angle_knowns_lazy:
+                got = math.remainder(R[ia] - R[ib] + off - R[wrapped], 2 * math.pi)
+                assert lazy.L * abs(got) <= lazy.miss_bound, got
         got = lazy.result(r, state)
         want = eager.result(r, slot_state(state.values, state.signs, state.margins, eager, R))
         deferred += type(got) is ClosedLazyResidual
@@ -125,3 +129,30 @@ def test_a_packaged_sweep_defers_the_constructed_checks_with_the_same_result(ste
     commands = [ref + 0.05 * k for k in range(-60, 60)] + [ref + 1e6, -1e300, math.pi]
     deferred = _check(mech, commands)
     assert deferred >= 60, deferred
+
+
+def test_a_frame_beyond_the_float_range_is_not_left_out():
+    """A four-bar drawn at ~1e308 m (found by an adversarial review): at some crank angles the
+    rocker's frame translation T = O4 - rot * O4 overflows while every point and angle is
+    finite. The check left out that reads it misses by inf, beyond any bound; the readout must
+    see the frame is not finite and refuse as the eager one does (it had answered success with
+    residual inf)."""
+    spec = {
+        'crank': 7.656575355795126e307,
+        'coupler': 1.6435386351495646e308,
+        'rocker': 8.500727404515487e307,
+        'pivots': {'O2': [-0.0, 0.0], 'O4': [9.176223879932598e307, 7.230594129681548e307]},
+        'branch': -1,
+        'input': -0.2537961206461272,
+    }
+    mech = Scene.from_dict({'four_bar': spec}).mechanism
+    ref = Solver(mech).reference_values()['crank']
+    commands = [ref + 2 * math.pi * i / 72 for i in range(73)]
+    _check(mech, commands)
+    refused = 0
+    for lazy, _, r, state in _runs(mech, commands):
+        if not all(map(cmath.isfinite, [r.R[i] for i in lazy.lazy_frames])):
+            got = lazy.result(r, state)
+            assert not got.success and 'non-finite' in got.reason, got
+            refused += 1
+    assert refused, 'no run with a frame beyond the float range: the scene no longer tests it'
