@@ -19,7 +19,6 @@ fresh process follow its peak of memory, not its total).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -27,10 +26,27 @@ from typing import Any
 import numpy as np
 
 from . import dyads
+from .batch_inplace import (
+    REST_ROT,
+    REST_T,
+    ZERO_0D,
+    affine,
+    all_positive,
+    expi_rows,
+    full,
+    full_c,
+    minus_rotated,
+    owned_rows,
+    plus_rest,
+    rest_angle,
+    rows_of,
+    slide_offset,
+    times,
+)
 from .dyads import dyad_point, rpr_direction, solve_rpr_dyad, solve_rrp_dyad
 from .dyads_batch import rrr_point_batch
 from .errors import PlanError
-from .ops import BATCH, SCALAR, CArray, to_complex
+from .ops import BATCH, SCALAR, to_complex
 from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
 from .steps import RollerSide, StepKind
@@ -144,20 +160,20 @@ class PlanExecutor:
                 # phi = vphi + rel; skipped where vphi is the root's +0.0 and rel = x - offset,
                 # offset != 0: no entry of rel is -0.0 then (x - offset is +0.0 where the two
                 # are equal, else not zero), so 0.0 + rel is rel to the bit (NaN too)
-                if negated or vphi is not _ZERO_0D or s.offset == 0.0:
+                if negated or vphi is not ZERO_0D or s.offset == 0.0:
                     np.add(vphi, rel, out=rel)
                 phi = rel
-                rot = _expi(phi)
+                rot = expi_rows(phi)
                 p = self.ref[w.shared_point]
-                frame[w.link] = (phi, rot, _minus_rotated(vrot * p + vT, rot, p))
+                frame[w.link] = (phi, rot, minus_rotated(vrot * p + vT, rot, p))
             else:
                 pj = mech.prismatics[s.joint]
                 x_ref = self.ref[pj.point]
                 u, dv = self.direction[pj.name], v - pj.ref_value
                 # guide placed: the slider point on its line; slider placed: the guide hung
-                # off it (in place where it can be, the same operations: _slide_offset)
+                # off it (in place where it can be, the same operations: slide_offset)
                 slider = w.link == pj.slider
-                T = _slide_offset(vrot, vT, dv, u, x_ref, slider)
+                T = slide_offset(vrot, vT, dv, u, x_ref, slider)
                 if T is None:
                     along = x_ref + ops.cplx(dv * u.real, dv * u.imag)
                     if slider:
@@ -259,16 +275,16 @@ class PlanExecutor:
             f = frames.get(bi)
             if f is None:
                 # the root's pose 0-d (the identity in every row: taken once for the batch)
-                f = frames[bi] = self._frame(ops, bi, values, _ZERO_0D)
+                f = frames[bi] = self._frame(ops, bi, values, ZERO_0D)
             return f
 
         def local_pt(bi: int, p: str) -> Any:
             if single[bi]:  # a single link at the identity
                 return ref[p]
             got = locals_of.get((bi, p))
-            if got is None:  # (_affine: rot * ref[p] + T as CArray's operators give it)
+            if got is None:  # (affine: rot * ref[p] + T as CArray's operators give it)
                 _, rot, T = frame(bi)[self.carrier[(bi, p)]]
-                got = locals_of[(bi, p)] = _affine(rot, ref[p], T)
+                got = locals_of[(bi, p)] = affine(rot, ref[p], T)
             return got
 
         def place_body(bi: int, phi: Any, Tb: Any, rot: Any, at_rest: bool = False) -> None:
@@ -280,11 +296,11 @@ class PlanExecutor:
                 phi_of[link], rot_of[link], T_of[link] = phi, rot, Tb
                 for p, r in members:
                     if p not in pts:
-                        pts[p] = _affine(rot, r, Tb)
+                        pts[p] = affine(rot, r, Tb)
                 return
             # at rest: the frame's values as they are (its root's are 0-d, taken once for the
             # whole batch, then written out)
-            f = self._frame(ops, bi, values, _ZERO_0D) if at_rest else frame(bi)
+            f = self._frame(ops, bi, values, ZERO_0D) if at_rest else frame(bi)
             n = zero.shape[0]
             # members of one frame angle and rotation (a slide weld keeps its via's: a
             # cylinder's rod turns with its barrel) share one world angle and rotation,
@@ -293,19 +309,19 @@ class PlanExecutor:
             for link, members in body_points[bi]:
                 lphi, lrot, lT = f[link]
                 if at_rest:
-                    lr, lt, lp = lrot, _plus_rest(lT), _rest_angle(n, lphi)
+                    lr, lt, lp = lrot, plus_rest(lT), rest_angle(n, lphi)
                 else:
                     lr = turned.get(id(lrot))
                     if lr is None:
-                        lr = turned[id(lrot)] = _times(rot, lrot)
+                        lr = turned[id(lrot)] = times(rot, lrot)
                     lp = turned.get(id(lphi))
                     if lp is None:
-                        lp = turned[id(lphi)] = _full(n, phi + lphi)
-                    lt = _affine(rot, lT, Tb)
-                phi_of[link], rot_of[link], T_of[link] = lp, _full_c(n, lr), _full_c(n, lt)
+                        lp = turned[id(lphi)] = full(n, phi + lphi)
+                    lt = affine(rot, lT, Tb)
+                phi_of[link], rot_of[link], T_of[link] = lp, full_c(n, lr), full_c(n, lt)
                 for p, r in members:
                     if p not in pts:
-                        pts[p] = _full_c(n, _affine(lr, r, lt))
+                        pts[p] = full_c(n, affine(lr, r, lt))
             # the body is placed: its frame let go (a later step that asks for it makes it
             # again, to the same bits); the executor's peak of memory is its frames and poses
             frames.pop(bi, None)
@@ -323,7 +339,7 @@ class PlanExecutor:
                 nb = ops.cabs(b)
                 # unit first: 1e-300 lengths would underflow (the where pass skipped when no
                 # length is 0: the common case); b is this step's own: divided in place
-                nb = nb if _all_positive(nb) else ops.where(nb > 0, nb, 1.0)
+                nb = nb if all_positive(nb) else ops.where(nb > 0, nb, 1.0)
                 np.divide(b.re, nb, out=b.re)
                 np.divide(b.im, nb, out=b.im)
                 a = self.unit_between.get(k)
@@ -335,8 +351,8 @@ class PlanExecutor:
                     if a is None:
                         a = local_pt(bi, q) - lp
                         na = ops.cabs(a)
-                    na = na if _all_positive(na) else ops.where(na > 0, na, 1.0)
-                    if _rows(a):
+                    na = na if all_positive(na) else ops.where(na > 0, na, 1.0)
+                    if rows_of(a):
                         # a is this step's own (a difference just made): divided in place,
                         # then the same products as below, into two arrays
                         np.divide(a.re, na, out=a.re)
@@ -361,7 +377,7 @@ class PlanExecutor:
                     del t
                 del b, nb, a
                 # (into cross, an (n,) array of this step's own: the same values)
-                owned = _owned_rows(cross, dot)
+                owned = owned_rows(cross, dot)
                 phi = np.arctan2(cross, dot, out=cross) if owned else ops.atan2(cross, dot)
                 del cross, dot  # (a step's arrays let go before the next step makes its own)
                 # Measured and not kept (branch rotunit, both in the scalar twin alike, float
@@ -371,8 +387,8 @@ class PlanExecutor:
                 # 50-digit oracle 4-6% larger (15,000 inputs); b and a scaled by their larger
                 # part instead of their hypot length, 333 -> 286 ns, the four-bar's errors as
                 # before or lower but the excavator's bench median 6.4e-16 -> 6.9e-16.
-                rot = _expi(phi)
-                place_body(bi, phi, _minus_rotated(pts[p], rot, lp), rot)
+                rot = expi_rows(phi)
+                place_body(bi, phi, minus_rotated(pts[p], rot, lp), rot)
                 del phi, rot
             elif op is _RRR or op is _RRP:
                 x = st.point
@@ -399,8 +415,8 @@ class PlanExecutor:
                     g = mech.prismatics[jname].guide
                     r = self._radius(ops, b1, x, p1, local_pt, between)
                     on_line = ref[x] if jname not in side_shift else ref[x] + side_shift[jname]
-                    p0 = _affine(rot_of[g], on_line, T_of[g])
-                    u = _times(rot_of[g], self.direction[jname])
+                    p0 = affine(rot_of[g], on_line, T_of[g])
+                    u = times(rot_of[g], self.direction[jname])
                     pair = solve_rrp_dyad(ops, pts[p1], r, p0, u, tol)
                 sg = signs[len(used)]
                 pts[x], okk = dyad_point(ops, pair, sg)
@@ -411,7 +427,7 @@ class PlanExecutor:
             elif op is _GROUND:
                 # e^{i 0} = 1 exactly on both backends
                 # (0-d: each value the same in every row, made once; see place_body)
-                place_body(st.body, zero, _REST_T, _REST_ROT, True)
+                place_body(st.body, zero, REST_T, REST_ROT, True)
             elif op is _KNOWN_POINT:
                 v = values[st.args.spec_index]
                 pts[st.point] = v
@@ -464,7 +480,7 @@ class PlanExecutor:
                 raise PlanError(f'internal: unknown plan step {op!r}')
         n = zero.shape[0]
         if failure is None:  # every row closed: read-only views of the one value
-            failure, violation_all = _full(n, -1.0), _full(n, 0.0)
+            failure, violation_all = full(n, -1.0), full(n, 0.0)
         if np.ndim(margin_all) == 0:  # no dyad: an array of the caller's own
             margin_all = np.full(n, margin_all)
         return PlanRun(
@@ -477,181 +493,6 @@ class PlanExecutor:
         in the face (twice the drawn offset, across). Either backend (``sign`` +-1 or (n,))."""
         d = side.drawn_offset
         return (sign * abs(d) - d) * (1j * self.direction[side.joint])
-
-
-#: the pose of a body at rest, 0-d: the same in every row (see place_body)
-_ZERO_0D = np.zeros(())
-_REST_ROT, _REST_T = CArray(np.ones(()), np.zeros(())), CArray(np.zeros(()), np.zeros(()))
-
-
-def _full(n: int, v: Any) -> Any:
-    """A 0-d value as an (n,) array of it (anything else as it is): a read-only view of the
-    one value, which costs no memory."""
-    if np.ndim(v):
-        return v
-    # (np.broadcast_to does the same at ~10x the cost of this constructor)
-    view = np.ndarray((n,), np.float64, np.array([v], np.float64), 0, (0,))
-    view.flags.writeable = False
-    return view
-
-
-def _full_c(n: int, z: Any) -> Any:
-    """A 0-d point (CArray) as (n,) arrays of it (read-only views, see _full)."""
-    if isinstance(z, CArray) and np.ndim(z.re) == 0:
-        return CArray(_full(n, z.re), _full(n, z.im))
-    return z
-
-
-def _rest_angle(n: int, phi: Any) -> Any:
-    """0.0 + phi (a member's angle in a body at rest) as (n,) values: a read-only view of a
-    0-d angle, and an array of the frame's own as it is: no frame angle is -0.0 (each is
-    0.0 + rel, or rel = x - offset with offset != 0, or a sum of such, and a float sum is
-    -0.0 only where both terms are), so 0.0 + phi is phi to the bit (NaN too)."""
-    if np.ndim(phi) == 0:
-        return _full(n, 0.0 + phi)
-    return phi
-
-
-def _plus_rest(T: Any) -> Any:
-    """T + _REST_T (x + 0.0 and y + 0.0, as CArray's + computes it), in place where T is an
-    at-rest frame's own (n,) arrays."""
-    if not _rows(T):
-        return T + _REST_T
-    np.add(T.re, 0.0, out=T.re)
-    np.add(T.im, 0.0, out=T.im)
-    return T
-
-
-def _rows(z: Any) -> bool:
-    """A CArray of (n,) float arrays (what the in-place forms below write into)."""
-    return isinstance(z, CArray) and isinstance(z.re, np.ndarray) and z.re.ndim == 1
-
-
-def _point(r: Any) -> bool:
-    """A complex constant or a CArray (a point CArray's * multiplies as complex numbers)."""
-    return isinstance(r, (complex, CArray))
-
-
-def _times(rot: Any, r: Any) -> Any:
-    """rot * r, as CArray's operators compute it (r a point), into two arrays."""
-    if not (_rows(rot) and _point(r)):
-        return rot * r
-    re = rot.re * r.real
-    t = rot.im * r.imag
-    re -= t
-    im = rot.re * r.imag
-    im += np.multiply(rot.im, r.real, out=t)
-    return CArray(re, im)
-
-
-def _affine(rot: Any, r: Any, T: Any) -> Any:
-    """rot * r + T, as CArray's operators compute it (r a point), into two arrays."""
-    if not (_rows(rot) and _point(r)):
-        return rot * r + T
-    tre, tim = CArray._parts(T)
-    re = rot.re * r.real
-    t = rot.im * r.imag
-    re -= t
-    im = rot.re * r.imag
-    im += np.multiply(rot.im, r.real, out=t)
-    re += tre
-    if tim is not None:  # (a real T moves x only, as CArray's + does)
-        im += tim
-    return CArray(re, im)
-
-
-def _minus_rotated(P: Any, rot: Any, r: Any) -> Any:
-    """P - rot * r, as CArray's operators compute it (r a point), into two arrays; P itself
-    where that is P to the bit in every row (_turned_about_origin: a body turned about its
-    frame's origin, as a crank about a ground pivot at (0, 0))."""
-    if r == 0 and _turned_about_origin(P, rot):
-        return P
-    if not (_rows(rot) and isinstance(P, CArray) and _point(r)):
-        return P - rot * r
-    re = rot.re * r.real
-    t = rot.im * r.imag
-    re -= t
-    im = rot.re * r.imag
-    im += np.multiply(rot.im, r.real, out=t)
-    return CArray(np.subtract(P.re, re, out=re), np.subtract(P.im, im, out=im))
-
-
-def _slide_offset(
-    vrot: Any, vT: Any, dv: Any, u: complex, x_ref: complex, slider: bool
-) -> CArray | None:
-    """A slide weld's member offset, as CArray's operators compute it, into arrays of its own:
-    along = x_ref + (dv u.real + i dv u.imag), then (vrot along + vT) - vrot x_ref for the
-    slider (``slider``), else (vrot x_ref + vT) - vrot along. None unless dv is an (n,)
-    float array of the caller's own (written into) and vrot and vT CArrays (the caller
-    takes the operators then)."""
-    if not (_owned_rows(dv, dv) and isinstance(vrot, CArray) and isinstance(vT, CArray)):
-        return None
-    # (checked before dv is written into: the caller's operators read it otherwise)
-    parts = (vrot.re, vrot.im, vT.re, vT.im)
-    if np.broadcast_shapes(dv.shape, *map(np.shape, parts)) != dv.shape:
-        return None
-    are = dv * u.real
-    aim = np.multiply(dv, u.imag, out=dv)
-    are += x_ref.real  # x_ref + CArray: CArray.__add__ (its part first)
-    aim += x_ref.imag
-    # vrot * along: (vrot.re are - vrot.im aim) + i (vrot.re aim + vrot.im are)
-    t = np.multiply(vrot.im, aim)
-    re = np.multiply(vrot.re, are)
-    re -= t
-    im = np.multiply(vrot.re, aim, out=aim)
-    im += np.multiply(vrot.im, are, out=are)
-    del t, are, aim
-    fixed = vrot * x_ref  # (one value where vrot is: the body's root)
-    if slider:
-        re += vT.re
-        im += vT.im
-        re -= fixed.re
-        im -= fixed.im
-        return CArray(re, im)
-    fixed = fixed + vT
-    np.subtract(fixed.re, re, out=re)
-    np.subtract(fixed.im, im, out=im)
-    return CArray(re, im)
-
-
-def _expi(phi: Any) -> Any:
-    """ops.expi (e^{i phi}: cos and sin) of an (n,) float array without its broadcast (a
-    few us of Python per call: the two arrays have phi's shape already)."""
-    if isinstance(phi, np.ndarray) and phi.ndim == 1 and phi.dtype == np.float64:
-        return CArray(np.cos(phi), np.sin(phi))
-    return BATCH.expi(phi)
-
-
-def _turned_about_origin(P: Any, rot: Any) -> bool:
-    """P - rot * 0 is P to the bit in every row: P one value (0-d) with no part -0.0, and
-    every rot finite. rot * 0 is then a zero of either sign in each part (inf * 0 would be
-    NaN), and p - z for a zero z is p itself unless p is -0.0 (-0.0 - -0.0 is +0.0)."""
-    if not (isinstance(P, CArray) and np.ndim(P.re) == 0 and np.ndim(P.im) == 0):
-        return False
-    if any(v == 0.0 and math.copysign(1.0, v) < 0 for v in (float(P.re), float(P.im))):
-        return False
-    if not (_rows(rot) and rot.re.size):
-        return False
-    # (max and min propagate NaN; -inf + inf is NaN, and a sum beyond the float range only
-    # sends a finite batch the long way)
-    spread = rot.re.max() + rot.re.min() + rot.im.max() + rot.im.min()
-    return bool(np.isfinite(spread))
-
-
-def _owned_rows(a: Any, b: Any) -> bool:
-    """a is an (n,) float array (written into: the caller's own) and b has its shape."""
-    return (
-        isinstance(a, np.ndarray)
-        and a.ndim == 1
-        and a.dtype == np.float64
-        and a.flags.writeable
-        and np.shape(b) == a.shape
-    )
-
-
-def _all_positive(x: Any) -> bool:
-    """Every entry of a batch's array > 0 (False for NaN, and for no entries)."""
-    return isinstance(x, np.ndarray) and x.size > 0 and bool(x.min() > 0)
 
 
 def executor(plan: Any) -> PlanExecutor:
