@@ -46,11 +46,9 @@ def factor(J: np.ndarray) -> LUFactor | None:
     for v in lu.diagonal().tolist():
         if v < 0.0:
             flips += 1
-    row = 0
-    for p in piv.tolist():
+    for row, p in enumerate(piv.tolist()):
         if p != row:
             flips += 1
-        row += 1
     return lu, piv, (-1 if flips % 2 else 1)
 
 

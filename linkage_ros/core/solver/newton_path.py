@@ -230,9 +230,10 @@ def near_singular(c: CompiledSolve, x: np.ndarray, fixed: LinkPoses | None, valu
 def branch_jump(ga: Geometry, gb: Geometry) -> bool:
     """True when a dyad changed side between two configurations (their _branch_of) while
     far from its singularity: only a jump (not a continuous motion) does that."""
-    return any(
-        a != b and min(p, q) >= CONTINUITY_MARGIN for a, b, p, q in zip(ga[0], gb[0], ga[1], gb[1])
-    )
+    for a, b, p, q in zip(ga[0], gb[0], ga[1], gb[1]):  # (a loop: any() of a generator costs more)
+        if a != b and min(p, q) >= CONTINUITY_MARGIN:
+            return True
+    return False
 
 
 def interpolate(c: CompiledSolve, a: Values, b: Values, t: float) -> Values:
@@ -384,9 +385,14 @@ def closed_form_refusal(
     return c.fail(reason, c.echo(vals), solver_name)
 
 
+#: the branch rules that ask for given signs (an answer in another mode is refused)
+_SIGNS_ASKED = (BranchRule.EXPLICIT, BranchRule.REFERENCE)
+
+
 def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
     """One command by Newton (continuation from the last answer, branch checks)."""
-    solver_name = 'newton' if c.mode is SolveMode.NEWTON else 'hybrid'
+    newton_mode = c.mode is SolveMode.NEWTON  # (else hybrid)
+    solver_name = 'newton' if newton_mode else 'hybrid'
     # the closed form's branch signs for the check below (reference ones without a history)
     check_signs = cont.signs(c.plan) if c.full_plan is c.plan else None
     side = roller_side_refusal(c, cont)
@@ -454,11 +460,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         signs_t, margins = (
             branch_geometry_one(c.full_plan, pts, poses) if c.full_plan.complete else ((), [])
         )
-    if (
-        cont.branch.rule in (BranchRule.EXPLICIT, BranchRule.REFERENCE)
-        and c.full_plan.complete
-        and c.full_plan is c.plan
-    ):
+    if cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete and c.full_plan is c.plan:
         want = tuple(cont.signs(c.plan))
         if signs_t != want:
             return c.fail(
@@ -495,7 +497,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     # the residual: the assembler's (the largest loop-closure component over every joint and
     # known whose links are placed, / L); in newton mode those are exactly the Newton rows, so
     # it is their max|F| / L at the answer; in hybrid mode the rows are a part: read them all
-    residual = r.residual if c.mode is SolveMode.NEWTON else src.assembly().residual
+    residual = r.residual if newton_mode else src.assembly().residual
     # (the points are functions of x and the closed form's finite poses: finite with x; the
     # one sum may overflow only at ~1e308 length scales, where every value is looked at)
     xs = r.x.tolist()
@@ -534,6 +536,6 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         signs_t,
         r.det_sign,
         margins,
-        x_all=r.x if c.mode is SolveMode.NEWTON else None,
+        x_all=r.x if newton_mode else None,
         x_lu=x_lu,
     )
