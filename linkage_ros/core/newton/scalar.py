@@ -225,8 +225,7 @@ def extrapolate(
     """The continuation predictor (predict's, and the Newton path's over its kernel) over plain
     floats: the solution at ``vals`` predicted from the solution ``xl`` at vals_last, where
     ``solve(lu, rhs)`` is J^-1 rhs at that solution (``lu_last`` its factorisation in the
-    caller's form). h =
-    value_step(vals_last, vals); alone: xl + T h, with T = dx/dvalue = J^-1 (-dF/dvalue).
+    caller's form). h = value_step(vals_last, vals); alone: xl + T h (``tangent``).
     Given the solution before (x_prev at vals_prev, hp the step since, s = h.hp / hp.hp,
     w = h - s hp): along hp the cubic Hermite extrapolation through both solutions and their
     tangents (with ``lu_prev``), else the quadratic one (the curvature the tangent missed over
@@ -302,11 +301,7 @@ def unit_tangent(
     rows = t.val_rows
     if rows is None or len(rows) != 1:
         return None
-    return tangent(t, solve, lu, _ONE)
-
-
-#: the value step of unit_tangent
-_ONE = (1.0,)
+    return tangent(t, solve, lu, (1.0,))
 
 
 def rates(
