@@ -228,7 +228,7 @@ def near_singular(c: CompiledSolve, x: np.ndarray, fixed: LinkPoses | None, valu
 
 
 def branch_jump(ga: Geometry, gb: Geometry) -> bool:
-    """True when a dyad changed side between two configurations (their _branch_of) while
+    """True when a dyad changed side between two configurations (branch_of: their geometry) while
     far from its singularity: only a jump (not a continuous motion) does that."""
     for a, b, p, q in zip(ga[0], gb[0], ga[1], gb[1]):  # (a loop: any() of a generator costs more)
         if a != b and min(p, q) >= CONTINUITY_MARGIN:
