@@ -16,6 +16,7 @@ from .tables import FixedSlots, LoopTables
 
 #: dyads.wrap_angle's function itself: one Python call less per angle row and value
 _wrap = SCALAR.wrap
+_PI = math.pi
 
 
 def fixed_slots(t: LoopTables, fixed: LinkPoses | None) -> FixedSlots:
@@ -84,7 +85,9 @@ def residual_rows(
                 Jv += jl
         elif isinstance(row, AngleRow):
             ia, ib, vi, off = row
-            v = 0.0 if vi is None else _wrap(float(values[vi]))
+            v = 0.0 if vi is None else float(values[vi])
+            if not -_PI < v <= _PI:  # (wrap's own first test: in range it is v itself)
+                v = _wrap(v)
             F.append(angle_row(phis[ia], phis[ib], v, off, kL, _wrap))
         else:
             i, lx, ly, vp_i = row

@@ -40,8 +40,15 @@ def factor(J: np.ndarray) -> LUFactor | None:
     lu, piv, info = lapack().getrf(J)
     if info != 0:
         return None
-    flips = sum(v < 0.0 for v in lu.diagonal().tolist())
-    flips += sum(p != i for i, p in enumerate(piv.tolist()))
+    # det J's sign: a negative pivot or a row swap flips it (plain loops: generators summed
+    # cost ~1.5 us more per factor on a 9 x 9)
+    flips = 0
+    for v in lu.diagonal().tolist():
+        if v < 0.0:
+            flips += 1
+    for row, p in enumerate(piv.tolist()):
+        if p != row:
+            flips += 1
     return lu, piv, (-1 if flips % 2 else 1)
 
 

@@ -225,8 +225,7 @@ def extrapolate(
     """The continuation predictor (predict's, and the Newton path's over its kernel) over plain
     floats: the solution at ``vals`` predicted from the solution ``xl`` at vals_last, where
     ``solve(lu, rhs)`` is J^-1 rhs at that solution (``lu_last`` its factorisation in the
-    caller's form). h =
-    value_step(vals_last, vals); alone: xl + T h, with T = dx/dvalue = J^-1 (-dF/dvalue).
+    caller's form). h = value_step(vals_last, vals); alone: xl + T h (``tangent``).
     Given the solution before (x_prev at vals_prev, hp the step since, s = h.hp / hp.hp,
     w = h - s hp): along hp the cubic Hermite extrapolation through both solutions and their
     tangents (with ``lu_prev``), else the quadratic one (the curvature the tangent missed over
@@ -258,33 +257,13 @@ def extrapolate(
             k_back = s * s
             c_last = [u + k_back * v for u, v in zip(h, hp)]
 
-    n, rows = t.n, t.val_rows or ()
-
-    def tangent(lu: Any, c: list[float], unit: list[float] | None) -> list[float]:
-        if unit is not None:  # T c, scale-free
-            k = c[0]
-            return [k * u for u in unit]
-        rhs = [0.0] * n
-        for i, v in zip(rows, c):
-            rhs[i] = v  # -dF/dvalue (scale-free) times c
-        return solve(lu, rhs)
-
     # plain Python on these short vectors: a dozen numpy calls would cost more
-    if c_prev is None or lu_prev is None:
-        dy = tangent(lu_last, c_last, unit_last)
-    elif unit_last is not None and unit_prev is not None:  # the two below in one pass
-        kl, kp = c_last[0], c_prev[0]
-        dy = [kl * a + kp * b for a, b in zip(unit_last, unit_prev)]
-    else:
-        dy = [
-            a + b
-            for a, b in zip(
-                tangent(lu_last, c_last, unit_last), tangent(lu_prev, c_prev, unit_prev)
-            )
-        ]
+    dy = tangent(t, solve, lu_last, c_last, unit_last)
+    if c_prev is not None:  # (set only with lu_prev)
+        dy = [a + b for a, b in zip(dy, tangent(t, solve, lu_prev, c_prev, unit_prev))]
     if k_back and x_prev is not None:
         back = [a - b for a, b in zip(x_prev, xl)]
-        for j in range(0, n, 3):
+        for j in range(0, t.n, 3):
             if abs(back[j]) > _PI:  # angles a turn apart
                 back[j] = math.remainder(back[j], 2 * math.pi)
         dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
@@ -293,18 +272,36 @@ def extrapolate(
     return [x + d * w for x, d, w in zip(xl, dy, t.step_list)]
 
 
+def tangent(
+    t: LoopTables,
+    solve: Callable[[Any, list[float]], list[float]],
+    lu: Any,
+    c: Sequence[float],
+    unit: list[float] | None = None,
+) -> list[float]:
+    """T c, T = dx/dvalue (scale-free) at a solution: J^-1 times -dF/dvalue c (scale-free: c on
+    the value rows), by ``solve(lu, rhs)`` at that solution; where ``unit`` is given (T of a
+    single value component: unit_tangent's), c[0] times it. extrapolate's tangents, and
+    unit_tangent's for c = 1."""
+    if unit is not None:
+        k = c[0]
+        return [k * u for u in unit]
+    rhs = [0.0] * t.n
+    for i, v in zip(t.val_rows or (), c):
+        rhs[i] = v
+    return solve(lu, rhs)
+
+
 def unit_tangent(
     t: LoopTables, solve: Callable[[Any, list[float]], list[float]], lu: Any
 ) -> list[float] | None:
-    """dx/dvalue (scale-free) at a solution of a system whose values have one component: J^-1
-    times -dF/dvalue, by ``solve(lu, rhs)`` (extrapolate's tangent for c = 1); None where the
-    values have more components (or none), or a value has no row."""
+    """dx/dvalue (scale-free) at a solution of a system whose values have one component: the
+    tangent for c = 1; None where the values have more components (or none), or a value has no
+    row."""
     rows = t.val_rows
     if rows is None or len(rows) != 1:
         return None
-    rhs = [0.0] * t.n
-    rhs[rows[0]] = 1.0
-    return solve(lu, rhs)
+    return tangent(t, solve, lu, (1.0,))
 
 
 def rates(

@@ -228,11 +228,12 @@ def near_singular(c: CompiledSolve, x: np.ndarray, fixed: LinkPoses | None, valu
 
 
 def branch_jump(ga: Geometry, gb: Geometry) -> bool:
-    """True when a dyad changed side between two configurations (their _branch_of) while
+    """True when a dyad changed side between two configurations (branch_of: their geometry) while
     far from its singularity: only a jump (not a continuous motion) does that."""
-    return any(
-        a != b and min(p, q) >= CONTINUITY_MARGIN for a, b, p, q in zip(ga[0], gb[0], ga[1], gb[1])
-    )
+    for a, b, p, q in zip(ga[0], gb[0], ga[1], gb[1]):  # (a loop: any() of a generator costs more)
+        if a != b and min(p, q) >= CONTINUITY_MARGIN:
+            return True
+    return False
 
 
 def interpolate(c: CompiledSolve, a: Values, b: Values, t: float) -> Values:
@@ -278,70 +279,151 @@ def roller_side_refusal(c: CompiledSolve, cont: Continuity) -> str | None:
     )
 
 
+def resumed_geometry(c: CompiledSolve, last: State) -> Geometry:
+    """The branch geometry of the configuration a warm solve starts from, the previous answer:
+    its points and poses are known, and a Newton answer (x_lu set) also left its dyads' sides
+    and margins (full plan: see solve_newton's end)."""
+    if last.x_lu is not None and len(last.margins) == len(c.full_plan.branch_steps):
+        return last.signs, last.margins, last.poses, last.points
+    return (*branch_geometry_one(c.full_plan, last.points, last.poses), last.poses, last.points)
+
+
+class CarefulPath:
+    """The careful path of one command: continuation by halving the value step, each substep a
+    Newton solve guarded by det J's sign and by the dyads' sides (branch_jump), with the
+    iterations it spends. Made only where the fast path declined; its walk recurses on plain
+    methods (a recursive closure would be a reference cycle the garbage collector collects)."""
+
+    __slots__ = ('c', 'branches', 'iterations', 'since_progress', 'seen')
+
+    def __init__(self, c: CompiledSolve, branches: bool, iterations: int):
+        self.c, self.branches = c, branches
+        self.iterations = iterations  # every Newton iteration of the command
+        self.since_progress = 0  # iterations since the last substep that succeeded
+        #: branch geometry of the configurations met, by id (the array kept: ids stay unique)
+        self.seen: dict[int, tuple[np.ndarray, Geometry]] = {}
+
+    def know(self, x: np.ndarray, geo: Geometry) -> None:
+        """The branch geometry of ``x`` is ``geo`` (read elsewhere: not read again)."""
+        self.seen[id(x)] = (x, geo)
+
+    def geometry(self, x: np.ndarray, fixed: LinkPoses | None) -> Geometry:
+        g = self.seen.get(id(x))
+        if g is None or g[0] is not x:
+            g = self.seen[id(x)] = (x, branch_of(self.c, x, fixed))
+        return g[1]
+
+    def jump(
+        self, xa: np.ndarray, fixed_a: LinkPoses | None, xb: np.ndarray, fixed_b: LinkPoses | None
+    ) -> bool:
+        return self.branches and branch_jump(self.geometry(xa, fixed_a), self.geometry(xb, fixed_b))
+
+    def walk(
+        self, va: Values, xa: np.ndarray, vb: Values, depth: int, sign_a: int | None = None
+    ) -> tuple[SolveResult | None, str | None, LinkPoses | None]:
+        """Newton from the solution xa at va to vb, halving the step where it fails: (answer,
+        None, its fixed poses) or (None, why, None)."""
+        c = self.c
+        fixed_a = c.fixed_poses(va)[0]
+        if sign_a is None:  # det J sign at the start; 0 where it is singular
+            sign_a = c.system.start_sign(xa, va, fixed_a)
+        r, reason, fixed = newton_at(c, vb, xa, sign_a)
+        jumped = False
+        if r is not None:
+            self.iterations += r.iterations
+            self.since_progress += r.iterations
+            if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
+                # det J keeps its sign when two dyads flip together: compare dyad sides too
+                jumped = self.jump(xa, fixed_a, r.x, fixed)
+                if not jumped:
+                    self.since_progress = 0
+                    return r, None, fixed
+            if sign_a != 0 and near_singular(c, xa, fixed_a, va):
+                # det J may change sign only by passing a singular configuration, and one is
+                # near: step without the sign guard, keep it if no dyad jumped sides
+                r2, _, fixed2 = newton_at(c, vb, xa, 0)  # placed as r was: r2 is not None
+                self.iterations += r2.iterations if r2 is not None else 0
+                if r2 is not None and r2.success and not self.jump(xa, fixed_a, r2.x, fixed2):
+                    self.since_progress = 0
+                    return r2, None, fixed2
+        if depth >= 10 or self.since_progress > WALK_BUDGET * c.max_iter:
+            if r is None:
+                return None, reason, None
+            if jumped:
+                return (
+                    None,
+                    (
+                        'Newton could only reach this input in another assembly mode '
+                        '(a branch jump): it is not reachable on the current branch '
+                        'without crossing a singularity'
+                    ),
+                    None,
+                )
+            why: str | None = r.reason or (
+                'the sign of det J changed: a singularity (toggle or change '
+                'point) lies between the previous configuration and this input'
+            )
+            return None, why, None
+        vm = interpolate(c, va, vb, 0.5)
+        rm, why, fm = self.walk(va, xa, vm, depth + 1, sign_a)
+        if rm is None:
+            return None, why, None
+        return self.walk(vm, rm.x, vb, depth + 1, rm.det_sign)
+
+
+def closed_form_refusal(
+    c: CompiledSolve, vals: Values, check_signs: Sequence[int] | None, solver_name: str
+) -> Result | None:
+    """An input the closed form cannot assemble on the current branch cannot be reached by
+    continuation either: refuse at once (Newton would grind to its caps first)."""
+    if not c.full_plan.complete:
+        return None
+    run = run_one(c.full_plan, vals, check_signs, None)
+    if run.ok:
+        return None
+    reason = c.dyad_reason(run.failure, run.violation, c.full_plan)
+    return c.fail(reason, c.echo(vals), solver_name)
+
+
+#: the branch rules that ask for given signs (an answer in another mode is refused)
+_SIGNS_ASKED = (BranchRule.EXPLICIT, BranchRule.REFERENCE)
+
+
 def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
     """One command by Newton (continuation from the last answer, branch checks)."""
-    solver_name = 'newton' if c.mode is SolveMode.NEWTON else 'hybrid'
+    newton_mode = c.mode is SolveMode.NEWTON  # (else hybrid)
+    solver_name = 'newton' if newton_mode else 'hybrid'
     # the closed form's branch signs for the check below (reference ones without a history)
     check_signs = cont.signs(c.plan) if c.full_plan is c.plan else None
-
-    def refusal() -> Result | None:
-        """An input the closed form cannot assemble on the current branch cannot be reached
-        by continuation either: refuse at once (Newton would grind to its caps first)."""
-        if not c.full_plan.complete:
-            return None
-        run = run_one(c.full_plan, vals, check_signs, None)
-        if run.ok:
-            return None
-        reason = c.dyad_reason(run.failure, run.violation, c.full_plan)
-        return c.fail(reason, c.echo(vals), solver_name)
-
     side = roller_side_refusal(c, cont)
     if side is not None:
         return c.fail(side, c.echo(vals), solver_name), None
     kernel = newton_kernel(c)
     t = c.system.tables
     v0, x0, guess, step = start(c, cont, vals, kernel)
-    total_iter = [0]
-    since_progress = [0]  # iterations since the last substep that succeeded
+    iterations = 0
     branches = bool(c.full_plan.complete and c.full_plan.branch_steps)
-    # branch geometry of the configurations met in this solve
-    seen: dict[int, tuple[np.ndarray, Geometry]] = {}
     last = cont.last
-    if branches and last is not None and last.x_all is not None:
-        # x0 is the previous answer: its points and poses are known, and a Newton answer
-        # (x_lu set) also left its dyads' sides and margins (full plan: see the end)
-        known_geo = (
-            (last.signs, last.margins)
-            if last.x_lu is not None and len(last.margins) == len(c.full_plan.branch_steps)
-            else branch_geometry_one(c.full_plan, last.points, last.poses)
-        )
-        seen[id(x0)] = (x0, (*known_geo, last.poses, last.points))
-
-    def geometry(x: np.ndarray, fixed: LinkPoses | None) -> Geometry:
-        g = seen.get(id(x))
-        if g is None or g[0] is not x:
-            g = seen[id(x)] = (x, branch_of(c, x, fixed))
-        return g[1]
-
-    def jump(
-        xa: np.ndarray, fixed_a: LinkPoses | None, xb: np.ndarray, fixed_b: LinkPoses | None
-    ) -> bool:
-        return branches and branch_jump(geometry(xa, fixed_a), geometry(xb, fixed_b))
-
-    known = (
-        last.det_sign
-        if last is not None and last.x_all is not None and last.det_sign != 0
-        else None
-    )
-    r = fixed = None
-    if guess is not None and known is not None:
+    warm = last is not None and last.x_all is not None
+    known = last.det_sign if last is not None and warm and last.det_sign != 0 else None
+    r: SolveResult | None = None
+    fixed: LinkPoses | None = None
+    geo: Geometry | None = None  # the answer's branch geometry, read once
+    if guess is not None and known is not None and last is not None:
         # newton mode: the fast path from the predicted solution, kept if no dyad jumped sides
         rf = solve_from_guess(
             t, guess, vals, None, tol=c.tol, max_iter=c.max_iter, start_sign=known, kernel=kernel
         )
-        total_iter[0] += rf.iterations
-        if rf.success and not jump(x0, None, rf.x, None):
-            r = rf
+        iterations += rf.iterations
+        if rf.success:
+            if not branches:
+                r = rf
+            else:
+                geo = branch_of(c, rf.x, None)
+                if branch_jump(resumed_geometry(c, last), geo):
+                    geo = None
+                else:
+                    r = rf
     # the closed-form check is skipped only where it must pass: the answer is on the
     # check's branch and well-conditioned enough for its residual (cond^2 residual n small:
     # Newton-Kantorovich) that an exact assembly on that branch lies next to it (cond: the
@@ -353,83 +435,32 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
             r.cond_bound * r.cond_bound * r.residual * n <= 1e-2
             or cond_of(t, r) * cond_of(t, r) * r.residual * n <= 1e-2
         )
-        or (
-            branches
-            and tuple(geometry(r.x, None)[0]) != tuple(check_signs or c.full_plan.reference_signs)
-        )
+        or (geo is not None and tuple(geo[0]) != tuple(check_signs or c.full_plan.reference_signs))
     ):
-        bad = refusal()
+        bad = closed_form_refusal(c, vals, check_signs, solver_name)
         if bad is not None:
             return bad, None
+    reason: str | None = None
     if r is None:
-        # the careful path (defined here: a recursive closure is a reference cycle, which
-        # the fast path need not leave to the garbage collector)
-        def walk(
-            va: Values, xa: np.ndarray, vb: Values, depth: int, sign_a: int | None = None
-        ) -> tuple[SolveResult | None, str | None, LinkPoses | None]:
-            fixed_a = c.fixed_poses(va)[0]
-            if sign_a is None:  # det J sign at the start; 0 where it is singular
-                sign_a = c.system.start_sign(xa, va, fixed_a)
-            r, reason, fixed = newton_at(c, vb, xa, sign_a)
-            jumped = False
-            if r is not None:
-                total_iter[0] += r.iterations
-                since_progress[0] += r.iterations
-                if r.success and (sign_a == 0 or r.det_sign == sign_a or r.det_sign == 0):
-                    # det J keeps its sign when two dyads flip together: compare dyad sides too
-                    jumped = jump(xa, fixed_a, r.x, fixed)
-                    if not jumped:
-                        since_progress[0] = 0
-                        return r, None, fixed
-                if sign_a != 0 and near_singular(c, xa, fixed_a, va):
-                    # det J may change sign only by passing a singular configuration, and one is
-                    # near: step without the sign guard, keep it if no dyad jumped sides
-                    r2, _, fixed2 = newton_at(c, vb, xa, 0)  # placed as r was: r2 is not None
-                    total_iter[0] += r2.iterations if r2 is not None else 0
-                    if r2 is not None and r2.success and not jump(xa, fixed_a, r2.x, fixed2):
-                        since_progress[0] = 0
-                        return r2, None, fixed2
-            if depth >= 10 or since_progress[0] > WALK_BUDGET * c.max_iter:
-                if r is None:
-                    return None, reason, None
-                if jumped:
-                    return (
-                        None,
-                        (
-                            'Newton could only reach this input in another assembly mode '
-                            '(a branch jump): it is not reachable on the current branch '
-                            'without crossing a singularity'
-                        ),
-                        None,
-                    )
-                why: str | None = r.reason or (
-                    'the sign of det J changed: a singularity (toggle or change '
-                    'point) lies between the previous configuration and this input'
-                )
-                return None, why, None
-            vm = interpolate(c, va, vb, 0.5)
-            rm, why, fm = walk(va, xa, vm, depth + 1, sign_a)
-            if rm is None:
-                return None, why, None
-            return walk(vm, rm.x, vb, depth + 1, rm.det_sign)
-
-        r, reason, fixed = walk(v0, x0, vals, 0, known)
+        path = CarefulPath(c, branches, iterations)
+        if branches and warm and last is not None:
+            path.know(x0, resumed_geometry(c, last))
+        r, reason, fixed = path.walk(v0, x0, vals, 0, known)
+        iterations = path.iterations
+        if r is not None and branches:
+            geo = path.geometry(r.x, fixed)
     if r is None:
         res = c.fail(refusal_at(c, vals, x0, reason), c.echo(vals), solver_name)
-        res.iterations = total_iter[0]
+        res.iterations = iterations
         return res, None
-    if branches:
-        signs_t, margins, poses, pts = geometry(r.x, fixed)
+    if geo is not None:
+        signs_t, margins, poses, pts = geo
     else:
         poses, pts = c.system.configuration(r.x, fixed)
         signs_t, margins = (
             branch_geometry_one(c.full_plan, pts, poses) if c.full_plan.complete else ((), [])
         )
-    if (
-        cont.branch.rule in (BranchRule.EXPLICIT, BranchRule.REFERENCE)
-        and c.full_plan.complete
-        and c.full_plan is c.plan
-    ):
+    if cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete and c.full_plan is c.plan:
         want = tuple(cont.signs(c.plan))
         if signs_t != want:
             return c.fail(
@@ -457,7 +488,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
                     c.echo(vals),
                     solver_name,
                 ), None
-            total_iter[0] += alt.iterations
+            iterations += alt.iterations
             r, det = alt, want_det
             poses, pts = c.check_system.configuration(alt.x)
         label = mode_label(c, (det,)) if det else ''
@@ -466,7 +497,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     # the residual: the assembler's (the largest loop-closure component over every joint and
     # known whose links are placed, / L); in newton mode those are exactly the Newton rows, so
     # it is their max|F| / L at the answer; in hybrid mode the rows are a part: read them all
-    residual = r.residual if c.mode is SolveMode.NEWTON else src.assembly().residual
+    residual = r.residual if newton_mode else src.assembly().residual
     # (the points are functions of x and the closed form's finite poses: finite with x; the
     # one sum may overflow only at ~1e308 length scales, where every value is looked at)
     xs = r.x.tolist()
@@ -481,7 +512,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         src,
         solver=solver_name,
         residual=residual,
-        iterations=total_iter[0],
+        iterations=iterations,
         branch=branch,
         branch_defined=defined,
         margin=float(margin),
@@ -505,6 +536,6 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         signs_t,
         r.det_sign,
         margins,
-        x_all=r.x if c.mode is SolveMode.NEWTON else None,
+        x_all=r.x if newton_mode else None,
         x_lu=x_lu,
     )
