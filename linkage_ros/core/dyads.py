@@ -331,13 +331,12 @@ def unit_vector(ops: Any, z: Any) -> Any:
     return z / ops.where(r > 0, r, 1.0)
 
 
-def circle_side(ops: Any, c1: Any, c2: Any, x: Any) -> Any:
+def circle_side(ops: Any, c1: Any, c2: Any, x: Any, unit_c1_x: Any = None) -> Any:
     """Which side of the line c1 -> c2 the point x lies (complex points): the cross product of
-    the unit vectors c1 -> c2 and c1 -> x, > 0 on the left (an RRR dyad's branch +1)."""
-    ab, ax = (
-        unit_vector(ops, c2 - c1),
-        unit_vector(ops, x - c1),
-    )  # units: products of 1e200 overflow
+    the unit vectors c1 -> c2 and c1 -> x, > 0 on the left (an RRR dyad's branch +1).
+    ``unit_c1_x``: ``unit_vector(ops, x - c1)`` where the caller has it already."""
+    ab = unit_vector(ops, c2 - c1)  # units: products of 1e200 overflow
+    ax = unit_vector(ops, x - c1) if unit_c1_x is None else unit_c1_x
     return ab.real * ax.imag - ab.imag * ax.real
 
 

@@ -40,8 +40,8 @@ def step_geometry(
         return side, ops.where(side == side, 1.0, 1.0)  # 1 also where a row failed (NaN)
     if isinstance(args, RRRDyad):
         a, b = pts[args.centre_a], pts[args.centre_b]
-        side = circle_side(ops, a, b, x)
         ax, vb = unit_vector(ops, x - a), unit_vector(ops, x - b)
+        side = circle_side(ops, a, b, x, unit_c1_x=ax)
         m = abs(ax.real * vb.imag - ax.imag * vb.real)
     else:
         pj = mech.prismatics[args.joint]
