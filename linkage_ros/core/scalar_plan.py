@@ -17,15 +17,11 @@ CONTINUITY_MARGIN) the branch nearest the prediction is taken, and coincident ci
 point) keep the point where continuity predicts it.
 
 Why a twin: the generic executor on the one-command backend looks every name up per step and
-calls an ops function per where / max. Measured in one process (CPU time, best of 15 x 2000
-runs of the packaged four-bar's plan at one command, load ~10): the generic executor 32 us,
-this program 8.6 us, a hand-written ``math`` four-bar 1.6 us. Constants are resolved when the
-program is made: RRR radii, each known angle wrapped once per run, a welded body's points
-carried by its root (or by a member slid off it, whose frame rotation is the root's constant)
-computed once by the very float operations a run would make, the welded ground's step the
-partial of its placer. (A welded ground turned by known angles, a crank on its frame, was
-measured as one fused step: under 1% of a solve; not kept, as it restated turn_weld and
-welded_placer.)
+calls an ops function per where / max (measured, load ~10: the generic executor 32 us a run of
+the four-bar's plan, this program 8.6 us, a ``math`` four-bar 1.6 us). Constants are resolved
+when the program is made: RRR radii, each known angle wrapped once per run, a welded body's
+points carried by its root (or by a member slid off it) computed once by the very float
+operations a run would make, the welded ground's step the partial of its placer.
 """
 
 from __future__ import annotations
@@ -75,12 +71,8 @@ class ScalarProgram:
         self.plan = plan
         mech = plan.mech
         look = plan_lookup(plan)
-        self.ref, self.direction, self.single, self.carrier = (
-            look.ref,
-            look.direction,
-            look.single,
-            look.carrier,
-        )
+        self.ref, self.direction = look.ref, look.direction
+        self.single, self.carrier = look.single, look.carrier
         point_order: list[str] = []
         link_order: list[str] = []
         for st in plan.steps:
@@ -156,6 +148,9 @@ class ScalarProgram:
             if isinstance(st.args, RollerSide):
                 self.ishift[st.args.joint] = len(self.template)
                 self.template.append(complex(0.0, 0.0))
+        #: an RRR dyad's point -> its scale S's register; (its args, radii (m)) where constant
+        self.iscale: dict[str, int] = {}
+        self.rrr_fixed: dict[str, tuple[RRRDyad, float, float]] = {}
         #: the branching steps so far (each takes one sign, in plan order: a dyad step's index
         #: into the run's signs is fixed when it is compiled)
         self._branches = 0
@@ -430,12 +425,21 @@ class ScalarProgram:
         return self._branches - 1
 
     def _rrr(self, k: int, x: str, a: RRRDyad) -> Step:
+        radius_a, radius_b = (
+            self._radius(a.body_a, x, a.centre_a),
+            self._radius(a.body_b, x, a.centre_b),
+        )
+        # the dyad's power-of-two scale S where its kernel placed x (NaN where it did not)
+        self.iscale[x] = len(self.template)
+        self.template.append(math.nan)
+        if radius_a[1] is None and radius_b[1] is None:
+            self.rrr_fixed[x] = (a, radius_a[0], radius_b[0])
         return rrr_step(
             (k, self._branch()),
             x,
-            (self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b]),
-            self._radius(a.body_a, x, a.centre_a),
-            self._radius(a.body_b, x, a.centre_b),
+            (self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b], self.iscale[x]),
+            radius_a,
+            radius_b,
             self.ref[x] - self.ref[a.centre_a],
         )
 
@@ -484,9 +488,8 @@ class ScalarProgram:
         point) with branch ``signs`` (default: the reference pose's); ``prefer`` maps point
         names to predicted complex positions and '@link' to predicted link angles (continuity,
         see the module), or ``predict(predict_from, values)`` makes them where a step first
-        needs them;
-        ``prev_margins`` are the previous answer's dyad margins. Returns the
-        run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
+        needs them; ``prev_margins`` are the previous answer's dyad margins. Returns the run
+        as it is: ``failure`` is the index of the step that did not close (-1: none)."""
         if self.any_point:
             vals = [v if pt else float(v) for pt, v in zip(self.point_specs, values)]
         else:  # no comprehension's frame for the common command
@@ -550,11 +553,8 @@ class ScalarProgram:
         poses = LinkPoses()
         for l in names:
             if R[self.iphi[l]] is not None:
-                poses.phi[l], poses.rot[l], poses.T[l] = (
-                    R[self.iphi[l]],
-                    R[self.irot[l]],
-                    R[self.iT[l]],
-                )
+                poses.phi[l] = R[self.iphi[l]]
+                poses.rot[l], poses.T[l] = R[self.irot[l]], R[self.iT[l]]
         return poses
 
     def poses_closed(self, R: list[Any]) -> LinkPoses:

@@ -74,6 +74,14 @@ _GROWTH = 1.0 + 2.0**-40
 _OFFSET_LIMIT = 2.0**20
 _PI = math.pi
 _NEG_PI = -math.pi
+#: step 4: a dyad joint's miss grows by at most this times the dyad's scale S (>= 2 (1 + u)
+#: 400 u = 800.1 u), and each side's constant part by this times its 1-norms (>= 36 u)
+DYAD_SCALE_GROWTH = 2.0**-43
+_SIDE_ROUNDING = 2.0**-46
+#: underflow's absolute errors (subnormal results), rounded up generously
+_UNDERFLOW = 2.0**-1058
+#: reference points and scales beyond this (m) are not bounded here (no product overflows)
+_REF_LIMIT = 2.0**1000
 
 
 def _norm1(z: complex) -> float:
@@ -111,8 +119,10 @@ class ConstructedChecks:
             elif link in self.root_welds:
                 p0 = ref[self.root_welds[link].shared_point]
                 self.magnitude[point] = (_norm1(ref[point]) + 2.0 * _norm1(p0)) * _GROWTH
-        #: one-link bodies placed by TWO_POINTS: link -> its first point
+        #: one-link bodies placed by TWO_POINTS: link -> its first point; and (its body, its
+        #: second point)
         self.anchor: dict[str, str] = {}
+        self.placed_to: dict[str, tuple[int, str]] = {}
         for st in plan.steps:
             if (
                 st.op is StepKind.TWO_POINTS
@@ -121,6 +131,7 @@ class ConstructedChecks:
             ):
                 (link,) = plan.bodies[st.body].links
                 self.anchor[link] = st.args.first
+                self.placed_to[link] = (st.body, st.args.second)
 
     def joint(self, point: str, p: complex, setter: str, checker: str) -> float | None:
         """The bound (m) on the check of a revolute joint at ``point`` (reference position p, as
@@ -136,6 +147,39 @@ class ConstructedChecks:
         if setter == self.root and weld is not None and weld.shared_point == point:  # root weld
             return 2.0 * _EPS * max(_norm1(ref), lp)
         return None
+
+    def dyad_joint(self, point: str, p: complex, links: tuple[str, str]) -> (
+        tuple[float, int] | None
+    ):  # fmt: skip
+        """(K0 (m), the register of the dyad's scale S) where the revolute at ``point``
+        (reference position p, as the readout uses it) between ``links`` is a second point of
+        both their placements after an RRR dyad with constant radii placed it (step 4 of the
+        module: its check misses by at most K0 + DYAD_SCALE_GROWTH * S), else None."""
+        prog = self.prog
+        ref = prog.ref.get(point)
+        fixed = prog.rrr_fixed.get(point)
+        if fixed is None or ref is None or ref != p or _norm1(ref) > _REF_LIMIT:
+            return None
+        a, r1, r2 = fixed
+        k0 = 0.0
+        for link in links:
+            body, second = self.placed_to.get(link, (-1, ''))
+            first = self.anchor.get(link)
+            if second != point:
+                return None
+            if first == a.centre_a and body == a.body_a:
+                r = r1
+            elif first == a.centre_b and body == a.body_b:
+                r = r2
+            else:
+                return None
+            q = prog.ref[first]
+            v = ref - q
+            if _norm1(q) > _REF_LIMIT or not math.isfinite(_norm1(v)):
+                return None
+            # (|v| less r: the drawn length's difference from the stated one, and its rounding)
+            k0 += abs(abs(v) - r) + _SIDE_ROUNDING * (_norm1(v) + _norm1(q) + _norm1(ref))
+        return k0 * _GROWTH + _UNDERFLOW, prog.iscale[point]
 
     def angle(self, spec_index: int, link: str, reference: str, offset: float, L: float) -> (
         float | None
@@ -153,6 +197,22 @@ class ConstructedChecks:
             ):
                 return L * _EPS * (8.0 * math.pi + abs(offset))
         return None
+
+
+def two_sides_worst(
+    checks: list[tuple[complex, int, int, int, int]], R: list[Any], worst: float
+) -> float:
+    """``worst`` (m) and the largest component of each two-side closure miss: the point as one
+    link places it less as the other does (NaN ones not counted)."""
+    for p, prot, pT, crot, cT in checks:
+        d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
+        a = abs(d.real)
+        if a > worst:
+            worst = a
+        a = abs(d.imag)
+        if a > worst:
+            worst = a
+    return worst
 
 
 def one_side_worst(checks: list[tuple[complex, int, int, int]], R: list[Any], worst: float) -> (
@@ -185,4 +245,42 @@ def angle_worst(
         a = L * abs(a)
         if a > worst:
             worst = a
+    return worst
+
+
+#: a dyad joint is left for later where its bound at S is at most this fraction of the length
+#: scale (the residual it allows keeps the branch noise bound low: ~1e-5)
+_DYAD_TARGET = 2.0**-38
+
+
+def scale_caps(
+    joints: list[tuple[tuple[complex, int, int, int, int], float, int]],
+    L: float,
+    eager: list[tuple[complex, int, int, int, int]],
+    bounds: list[float],
+) -> list[tuple[int, float, tuple[complex, int, int, int, int]]]:
+    """(S's register, the largest S its bound is taken at, the check) of each dyad joint (the
+    check, K0, S's register: ConstructedChecks.dyad_joint) whose bound K0 + DYAD_SCALE_GROWTH S
+    is within _DYAD_TARGET L for some S, its bound at that S appended to ``bounds``; the
+    others' checks are appended to ``eager``."""
+    out = []
+    target = _DYAD_TARGET * L
+    for two, k0, i_scale in joints:
+        if not k0 <= 0.5 * target:
+            eager.append(two)
+            continue
+        cap = min(_REF_LIMIT, (target - k0) / DYAD_SCALE_GROWTH * (1.0 - 2.0**-50))
+        bounds.append((k0 + DYAD_SCALE_GROWTH * cap) * (1.0 + 2.0**-50))
+        out.append((i_scale, cap, two))
+    return out
+
+
+def scales_worst(
+    scales: list[tuple[int, float, tuple[complex, int, int, int, int]]], R: list[Any], worst: float
+) -> float:
+    """``worst`` (m) and the check of each dyad joint whose scale S is beyond the one its
+    bound was taken at (or NaN: the kernel did not place the point)."""
+    for i_scale, cap, two in scales:
+        if not R[i_scale] <= cap:
+            worst = two_sides_worst([two], R, worst)
     return worst
