@@ -45,9 +45,9 @@ from .closed_result import ClosedLazyResidual, ClosedResult, SlotState, slot_sta
 from .closure_bound import (
     ConstructedChecks,
     angle_worst,
+    frames_bounded,
     one_side_worst,
     scale_caps,
-    scales_worst,
     two_sides_worst,
 )
 from .compiled import CompiledSolve, SolveMode, Values
@@ -135,6 +135,7 @@ class SlotReadout:
         #: the one-side checks and known angles read back left for when the residual is read
         self.closure_one_side_lazy: list[tuple[complex, int, int, int]] = []
         self.closure_two_sides_lazy: list[tuple[complex, int, int, int, int]] = []
+        frames: set[int] = set()
         dyad_joints: list[tuple[tuple[complex, int, int, int, int], float, int]] = []
         self.angle_knowns_lazy: list[tuple[int, int, int, float]] = []
         for rj in revolutes:
@@ -163,6 +164,8 @@ class SlotReadout:
             else:
                 self.closure_one_side_lazy.append(check)
                 bounds.append(bound)
+                if not frames_bounded(bound):  # (its rot and T tested on every run)
+                    frames.update(check[2:])
         read_knowns = [
             (i, spec_reader(mech, s))
             for i, s in enumerate(specs)
@@ -240,12 +243,10 @@ class SlotReadout:
         #: the residual the bound allows, and the branch noise bound at it (result.py's
         #: branch_undefined_below, as result() computes it)
         self.bound_residual = self.bound_noise = math.inf
-        #: the frame registers (rot, T) those checks read: the bound needs them finite too, and
-        #: the finiteness sum of points and angles does not read them (a T at ~1e308 m)
-        self.lazy_frames = sorted(
-            {i for _, _, rot, T in self.closure_one_side_lazy for i in (rot, T)}
-            | {i for two in self.closure_two_sides_lazy for i in two[1:]}
-        )
+        #: the frame registers (rot, T) those checks read where their bound needs them tested
+        #: finite (the finiteness sum of points and angles does not read them: a T at ~1e308
+        #: m; closure_bound.frames_bounded, and a dyad joint's step 4: finite where bounded)
+        self.lazy_frames = sorted(frames)
         if self.miss_bound is not None:
             self.bound_residual = self.miss_bound / self.L
             self.bound_noise = 4.0 * (2.0 * (self.bound_residual + 32.0 * _EPS)) ** 0.5
@@ -331,8 +332,9 @@ class SlotReadout:
         total += zsum.real + zsum.imag + margin
         bound = self.miss_bound
         if bound is not None:
-            if self.dyad_scales:  # (a dyad whose S is beyond its bound's: its check now)
-                worst = scales_worst(self.dyad_scales, R, worst)
+            for i_scale, cap, two in self.dyad_scales:  # (a dyad's S beyond its bound's,
+                if not R[i_scale] <= cap:  # or NaN where the kernel did not place it: now)
+                    worst = two_sides_worst([two], R, worst)
             # The checks left out miss by at most ``bound`` on finite registers
             # (closure_bound), so the residual is at most ``high``: where that passes the
             # closure limit and puts the margin above the noise bound (monotone in the
@@ -346,7 +348,7 @@ class SlotReadout:
             defined = True
             if signs:  # (the comparison's own type: a numpy margin gives numpy's bool)
                 defined = margin > noise
-            fz = sum(map(R.__getitem__, self.lazy_frames), total)  # (finite: fz - fz == 0)
+            fz = sum(map(R.__getitem__, self.lazy_frames), total) if self.lazy_frames else total
             if defined and high <= self.closure_limit and fz - fz == 0.0:
                 lazy = _new_closed(ClosedLazyResidual)
                 lazy._source, lazy._worst = state, worst

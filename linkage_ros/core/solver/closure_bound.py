@@ -5,8 +5,9 @@ bound instead (exactly as it would with the checks: see there).
 
 A closure check compares a joint's point as one link places it with the point as the other
 places it (or a known angle read back off the placed links with its commanded value). Most
-only the run's geometry decides (a dyad's point, a body turned to it), and those stay eager.
-Three kinds are rounding alone, whatever the command, and are the ones bounded here:
+only the run's geometry decides (a body turned to a slide, a known point), and those stay
+eager. Three kinds are rounding alone, whatever the command, and a fourth is rounding and the
+scene's own drawn lengths; those four are bounded here:
 
 * **anchored**: link L, a one-link body, is placed by a TWO_POINTS step whose first point is
   the joint point p, and the other link K (of the ground body, see below) set p's register:
@@ -21,7 +22,13 @@ Three kinds are rounding alone, whatever the command, and are the ones bounded h
 * **weld angle**: a known angle that is such a root weld, read back: the member's angle
   register is ``0.0 + (0.0 + rel)`` (or ``-rel``), the root's ``0.0``, ``rel = w - o`` with ``w``
   the command wrapped to [-pi, pi] and ``o`` the spec's offset, so the read-back is ``g = (w -
-  o) + o`` (the reader's offset is the spec's: checked) and the check ``L |wrap(wrap(g) - w)|``.
+  o) + o`` (the reader's offset is the spec's: checked) and the check ``L |wrap(wrap(g) - w)|``;
+* **dyad joint**: an RRR dyad with constant radii r1, r2 (scalar_dyads ``solve_rrr``) placed
+  the joint point x, and each of the joint's two links, a one-link body, is placed by a
+  TWO_POINTS step from one of the dyad's centres q (the one whose radius r is its length) to
+  x: the check compares ``rot_K * x + T_K`` of the two links, each of which is x to within
+  the dyad's radial error, the drawn length's difference from r and the rotation's rounding
+  (step 4: its bound grows with the dyad's scale S, read from a register per solve).
 
 The proof (u = 2^-53, the unit roundoff of round-to-nearest doubles; CPython's complex + and -
 are componentwise, so each component is one rounded float operation; fl(x) = x (1 + d), |d| <=
@@ -47,12 +54,56 @@ u):
    small difference. In every case the miss is <= L u (11 pi + |o|)(1 + 11 u) <= L EPS (8 pi +
    |o|).
 
+4. Dyad joint. Units: u as above; all quantities of the kernel are in S units (S its power of
+   two, every input |component| < 4 S, so r1n, r2n < 4, d <= r1n + r2n < 8); the scaling is
+   exact but where a result is subnormal (an absolute 2^-1075 each, collected in the
+   2^-1058 below). The check is deferred only where the run's margin, the least of its dyads',
+   is above the branch noise bound (> 0), so this dyad's margin is > 0: h > 0, not the toggle
+   (h = 0 there), not coincident circles (margin 0), and the computed Kahan factor
+   s - (l - m) is > 0. Then m >= l / 2 (else s <= m < l / 2 <= fl(l - m) and the factor would
+   be <= 0), l - m is exact (Sterbenz), so (d, r1n, r2n) -- d the float the kernel computed --
+   are the sides of a true triangle: |r1n - r2n| <= d <= r1n + r2n. Let A = (d^2 + r1n^2 -
+   r2n^2) / (2 d) and H its altitude: A^2 + H^2 = r1n^2, (d - A)^2 + H^2 = r2n^2, |A| <= r1n,
+   |d - A| <= r2n, H <= min(r1n, r2n).
+   (a) ``along``: t = fl(fl(fl(r1n - r2n) / d) fl(r1n + r2n)) is t*(1 + 4.01 u) with |t*| =
+   |r1n - r2n| (r1n + r2n) / d <= r1n + r2n (the triangle: no 1/d growth), so the computed
+   foot has |E_a| = |along - A| <= 0.5 u (d + 5.02 |t*|) <= 3.01 u (r1n + r2n); clipping to
+   [-r1n, r1n] (which holds A) only shrinks it. (b) ``h`` = H (1 + E_h): Heron's four
+   factors on the sorted scaled sides have relative errors 2.01u, u, u, 2.01u (l - m exact),
+   their square roots half that plus u each, three products and the division by dn: |E_h|
+   <= 12 u. (c) Radial error about c1: x - r1n^2 = along^2 + h^2 - r1n^2 = 2 A E_a + E_a^2 +
+   H^2 (2 E_h + E_h^2); dividing by sqrt(x) + r1n >= r1n (and E_a^2 / (sqrt(x) + r1n) <= 2
+   |E_a|: sqrt(x) >= |along| >= |E_a| - r1n) gives |sqrt(x) - r1n| <= 4 |E_a| + 25 u r1n;
+   about c2 the same with d - along = (d - A) - E_a and r2n. (d) The point: the kernel forms
+   ``(c1n + (along + s i h) u_vec) S`` with u_vec = fl(dv / d) (|u_vec| = 1 +- 4 u; c2n - c1n
+   = d u_vec + e_D, |e_D| <= 2.01 u d), one complex product (error <= 4.1 u r1n a
+   component) and one sum (<= u (4 + 2 r1n)). So |X - Q| for Q = c1 or c2 is r S within
+   (20.4 u (r1n + r2n) + 40 u r_max + 6 u + 2.01 u d sqrt 2) S <= 350 u S.
+   (e) The placement of link K from q (register Q) to x: b = fl(X - Q) / fl(|.|) and the
+   constant unit vector of v = x_ref - q_ref are each within 2.01 u of their directions;
+   cross and dot within 2.02 u each, so their angle within 2.9 u; atan2 within 2^-49 (16 u),
+   cos and sin within 2^-50: phi is the angle from v to X - Q within 24 u and rot is e^{i
+   phi} within 8 u a component. Hence P = rot x_ref + (Q - rot q_ref), as the check computes
+   it, is Q + e^{i phi} v within 8 u |v|_1 + 4 u (|q_ref|_1 + |x_ref|_1 + |Q|_inf) (four
+   roundings), and |Q + e^{i phi} v - X| <= ||v| - |X - Q|| + 24 u |v| <= ||v| - r| + 350 u S
+   + 24 u |v|. With |Q|_inf < 4 S and ||v| - r| <= |fl|fl(v)| - r| (1 + u) + 3 u |v|: each
+   side's point is within (|fl|v| - r| + 128 u (|v|_1 + |q_ref|_1 + |x_ref|_1)) (1 + 2^-40) +
+   400 u S of X a component (2^-46 = 128 u), and the check, their difference rounded once,
+   misses by at most K0 + 2 (1 + u) 400 u S <= K0 + 2^-43 S (K0: the sum of both sides'
+   constants, plus 2^-1058). X - Q = 0 is covered too (then |Q + e^{i phi} v - X| = |v|).
+   No product overflows where every |reference component| and S are <= 2^1000 (checked; a
+   larger S runs the check), so the rotations and translations read are finite (not tested).
+   The readout takes the bound at the largest S for which it is <= 2^-38 L (a scene whose
+   drawn lengths miss their stated ones by more than half that keeps the check eager).
+
 The bounds need only that the registers a check reads are finite: the readout tests its
-points and angles and, for these checks, their links' rot and T (a T = a - y can overflow
+points and angles and, for these checks where their magnitudes are not bounded (below), their
+links' rot and T (a T = a - y can overflow
 where a and y are finite, in a scene drawn at ~1e308 m); any non-finite value takes the exact
-path. No dyad, no command value enters them but through the wrapped angle w. A check of any
-other kind (a dyad's point, a second point of a TWO_POINTS step, a weld of a weld, a slide, a
-known point, a joint no step constructs) is not bounded here and stays eager.
+path. No command value enters steps 1-3 but through the wrapped angle w, and step 4 only
+through the dyad's scale S. A check of any other kind (a dyad with a radius that varies, a
+welded body's placement, a weld of a weld, a slide, a known point, a joint no step
+constructs) is not bounded here and stays eager.
 test/core/solver/test_closure_bound.py checks the bounds against the misses themselves over
 hypothesis-drawn four-bars and commands, and a four-bar at ~1e308 m whose frame overflows.
 """
@@ -82,6 +133,15 @@ _SIDE_ROUNDING = 2.0**-46
 _UNDERFLOW = 2.0**-1058
 #: reference points and scales beyond this (m) are not bounded here (no product overflows)
 _REF_LIMIT = 2.0**1000
+
+
+def frames_bounded(bound: float) -> bool:
+    """Whether the frames a check of steps 1-2 reads are finite wherever its points and
+    angles are (then the readout need not test them): its bound is 2 EPS max(M_a, |lp|_1
+    GROWTH), and where that max is <= 2^1000 every register it reads (a, y = rot lp, T = a -
+    y, rot p + T; rot is the cosine and sine of a finite angle, or their product with (1, 0))
+    is below 2^1002 in magnitude. (Step 3 reads angles only; step 4 bounds its own.)"""
+    return bound <= 2.0 * _EPS * _REF_LIMIT
 
 
 def _norm1(z: complex) -> float:
@@ -273,14 +333,3 @@ def scale_caps(
         bounds.append((k0 + DYAD_SCALE_GROWTH * cap) * (1.0 + 2.0**-50))
         out.append((i_scale, cap, two))
     return out
-
-
-def scales_worst(
-    scales: list[tuple[int, float, tuple[complex, int, int, int, int]]], R: list[Any], worst: float
-) -> float:
-    """``worst`` (m) and the check of each dyad joint whose scale S is beyond the one its
-    bound was taken at (or NaN: the kernel did not place the point)."""
-    for i_scale, cap, two in scales:
-        if not R[i_scale] <= cap:
-            worst = two_sides_worst([two], R, worst)
-    return worst
