@@ -9,11 +9,14 @@ only the run's geometry decides (a body turned to a slide, a known point), and t
 eager. Three kinds are rounding alone, whatever the command, and a fourth is rounding and the
 scene's own drawn lengths; those four are bounded here:
 
-* **anchored**: link L, a one-link body, is placed by a TWO_POINTS step whose first point is
-  the joint point p, and the other link K (of the ground body, see below) set p's register:
+* **anchored**: link L, a one-link body or the root of a welded one, is placed by a
+  TWO_POINTS step whose first point is the joint point p, and the other link K set p's
+  register, K of the ground body (see below) or placed from a point bounded so (step 2):
   the placement (scalar_plan ``two_points_single``) computes ``y = rot * lp`` and ``T = a - y``
   with ``a = R[p]`` and ``lp`` p's reference position, and the check computes ``a - (rot * p +
-  T)``; with ``p == lp`` (the same float pair: checked) ``rot * p`` is ``y`` bit for bit;
+  T)``; with ``p == lp`` (the same float pair: checked) ``rot * p`` is ``y`` bit for bit (a
+  welded root's frame is the identity: its link pose ``rot * (1 + 0i)`` and ``rot * 0 + T``
+  have rot's and T's values, only the sign of a zero may change; ``lp`` is ``1 * p + 0``);
 * **root weld**: L is welded to the ground body's root by a known angle that turns it about the
   joint point p (scalar_run ``turn_weld``: frame translation ``T = (1 * p + 0) - y``, ``y = rot *
   p``), the root set p's register (the template: ``1 * p + 0``, p's value) and the GROUND step
@@ -43,8 +46,12 @@ u):
    of fl(rot * z) is <= |z|_1 (1 + u)^2 (1 + 2^-50). Hence |y| <= |lp|_1 (1 + 2^-40). The root's
    points are their reference values (template); a member welded to the root about p0 has frame
    translation components <= 2 |p0|_1 (1 + u)^3 (1 + 2^-50) and its points components <= (|q|_1
-   + 2 |p0|_1)(1 + 2^-40). So every anchored or root-weld miss is at most 4u max(M_a, |lp|_1 (1 +
-   2^-40)), M_a the bound of p's register: ``2 EPS max(...)`` below (EPS = 2u).
+   + 2 |p0|_1)(1 + 2^-40). A point that a TWO_POINTS placement from a point q of components
+   <= M_q sets (its one link's, or its welded root's: the identity frame) is ``rot * r + (Q -
+   rot * q_ref)``: components <= (M_q + |q_ref|_1 + |r|_1)(1 + u)^3 (1 + 2^-50) <= (...)(1 +
+   2^-40), bounded in plan order from the ground's. So every anchored or root-weld miss is at
+   most 4u max(M_a, |lp|_1 (1 + 2^-40)), M_a the bound of p's register: ``2 EPS max(...)``
+   below (EPS = 2u).
 3. Weld angle: |w| <= pi(1 + 4u) (ops._wrap_one returns [-pi, pi]); |g - w| <= u(2|w| + |o|)(1 +
    u) =: e. With |o| <= 2^20, e << 1, so g is within e of [-pi, pi]: either the readout's test
    finds g in (-pi, pi] and the miss is fl(L |fl(g - w)|) <= L e (1 + u)^2, or g is just outside,
@@ -179,19 +186,26 @@ class ConstructedChecks:
             elif link in self.root_welds:
                 p0 = ref[self.root_welds[link].shared_point]
                 self.magnitude[point] = (_norm1(ref[point]) + 2.0 * _norm1(p0)) * _GROWTH
-        #: one-link bodies placed by TWO_POINTS: link -> its first point; and (its body, its
-        #: second point)
+        #: bodies placed by TWO_POINTS: their one link or their root (where it carries the
+        #: first point) -> the first point; a one-link body's -> (its body, the second point);
+        #: and the points such a placement sets from a first point of bounded magnitude
+        #: (step 2), in plan order
         self.anchor: dict[str, str] = {}
         self.placed_to: dict[str, tuple[int, str]] = {}
         for st in plan.steps:
-            if (
-                st.op is StepKind.TWO_POINTS
-                and isinstance(st.args, TwoPoints)
-                and prog.single[st.body]
-            ):
-                (link,) = plan.bodies[st.body].links
-                self.anchor[link] = st.args.first
-                self.placed_to[link] = (st.body, st.args.second)
+            if not (st.op is StepKind.TWO_POINTS and isinstance(st.args, TwoPoints)):
+                continue
+            body, first = plan.bodies[st.body], st.args.first
+            if prog.single[st.body]:
+                self.placed_to[body.root] = (st.body, st.args.second)
+            elif prog.carrier[(st.body, first)] != body.root:
+                continue
+            self.anchor[body.root] = first
+            if first in self.magnitude:
+                grown = self.magnitude[first] + _norm1(ref[first])
+                for point, link in prog.set_by.items():
+                    if link == body.root:
+                        self.magnitude[point] = (grown + _norm1(ref[point])) * _GROWTH
 
     def joint(self, point: str, p: complex, setter: str, checker: str) -> float | None:
         """The bound (m) on the check of a revolute joint at ``point`` (reference position p, as
