@@ -238,9 +238,7 @@ def scaled_four_bars(draw):
 
 @settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(scaled_four_bars(), st.lists(st.floats(-4.0, 4.0), min_size=1, max_size=8), st.data())
-def test_a_dyad_joint_misses_by_no_more_than_its_bound_and_keeps_the_result(
-    mech, commands, data
-):
+def test_a_dyad_joint_misses_by_no_more_than_its_bound_and_keeps_the_result(mech, commands, data):
     """The dyad joint's miss is within K0 + DYAD_SCALE_GROWTH S at every scale, near its
     toggles (commands within a few ulps of them) and with its centres close; the Result made
     with it left out is the eager one."""
@@ -248,7 +246,7 @@ def test_a_dyad_joint_misses_by_no_more_than_its_bound_and_keeps_the_result(
         return
     near = []
     for t in _toggles(mech):
-        for k in data.draw(st.lists(st.integers(-2**20, 2**20), max_size=3)):
+        for k in data.draw(st.lists(st.integers(-(2**20), 2**20), max_size=3)):
             near.append(t + k * 2.0**-52)
     runs = [*commands, *near]
     misses = list(_dyad_misses(mech, runs))
