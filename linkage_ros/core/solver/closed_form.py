@@ -22,10 +22,11 @@ closure_bound proves how much they can miss, and that bound decides success and
 branch_defined wherever it settles them (else every check runs). Every field of every Result
 is the one every check gives, bit for bit (test/core/solver/test_closure_bound.py; and old
 against new over every packaged scene's warm sweep and hostile commands when it was made).
-Measured (process time, best of the 200-command warm sweep's passes, old and new interleaved,
-load ~2): the four-bar's ``Solver.solve`` 16.3-16.5 us before any, 13.1-13.5 us with the
-constructed checks left out (the ``math`` four-bar 1.6 us); the dyad's point (the four-bar's
-B) about 0.5 us more (see closure_bound for the figures).
+Measured (CPU time, best of 200-300 passes of the 200-command warm sweep, old and new
+interleaved in one process, load 1.9-2.9): the four-bar's ``Solver.solve`` 16.3-16.5 us before
+any, 14.0-14.7 us with the first three kinds left out, 12.6-13.3 us with the dyad joint too
+and their frames not tested where bounded (the ``math`` four-bar 1.6 us); the excavator
+50.2-51.2 -> 47.7-48.1 us (its links' and cylinders' first points, its bucket's dyad joint).
 """
 
 from __future__ import annotations
