@@ -29,15 +29,16 @@ Radius = tuple[float, Callable[[list[Any]], float] | None]
 def rrr_step(
     at: tuple[int, int],
     x: str,
-    regs: tuple[int, int, int],
+    regs: tuple[int, int, int, int],
     radius_a: Radius,
     radius_b: Radius,
     ref_off: complex,
 ) -> Step:
     """Point ``x`` (register regs[0]) at radius_a from centre A (regs[1]) and radius_b from
-    centre B (regs[2]); ``ref_off``: x less A in the reference pose (for coincident circles);
-    ``at``: (the plan step's index, the index of its sign among the branching steps')."""
-    sx, s1, s2 = regs
+    centre B (regs[2]), the kernel's scale S in regs[3] (closure_bound reads it); ``ref_off``:
+    x less A in the reference pose (for coincident circles); ``at``: (the plan step's index,
+    the index of its sign among the branching steps')."""
+    sx, s1, s2, s_scale = regs
     r1_const, r1_of = radius_a
     r2_const, r2_of = radius_b
     k_step, b = at
@@ -80,6 +81,7 @@ def rrr_step(
             R[sx] = rrr_fallback(pair, c1)
             raise Refused(k_step, 0.0)
         R[sx] = z
+        R[s_scale] = S
         r.used.append(sg)  # (SlotRun.taken, inlined)
         r.margins.append(margin)
         if margin < r.margin:

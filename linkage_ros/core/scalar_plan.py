@@ -1,31 +1,25 @@
 """A closed-form plan compiled for one command: slot-indexed steps over plain floats.
 
 :class:`ScalarProgram` is the one-command twin of :class:`~linkage_ros.core.execute.PlanExecutor`
-(which runs a batch): everything a step looks up by name there (which link carries a point,
-reference positions, slide directions, stated lengths, which points a body placement sets
-first) is resolved here once per plan into indices of one list of registers (points, link
-poses, welded bodies' frames, body orientations) and constants, and each step becomes a
-closure over them. A run copies the register template (the constants already in it) and
-builds the name-keyed dicts of a :class:`~linkage_ros.core.execute.PlanRun` only when asked,
-once. The dyad steps are :mod:`linkage_ros.core.scalar_dyad_steps` (over
-:mod:`linkage_ros.core.scalar_dyads`).
+(which runs a batch): everything a step looks up by name there is resolved here once per plan
+into indices of one list of registers (points, link poses, welded bodies' frames, body
+orientations) and constants, and each step becomes a closure over them. A run copies the
+register template and builds the name-keyed dicts of a PlanRun only when asked. The dyad steps
+are :mod:`linkage_ros.core.scalar_dyad_steps` (over :mod:`linkage_ros.core.scalar_dyads`).
 
 The arithmetic is the batch executor's, operation for operation (the same floats, the sign of
 a zero aside: see scalar_dyads); continuity is the one-command rule of the executor: where a
 dyad is near its singularity (its margin now or in the previous answer below
 CONTINUITY_MARGIN) the branch nearest the prediction is taken, and coincident circles (a change
-point) keep the point where continuity predicts it.
+point) keep the point where continuity predicts it. A dyad's radius measured on every run (a
+cylinder's) keeps its vector for the body's placement, which measures the same floats.
 
 Why a twin: the generic executor on the one-command backend looks every name up per step and
-calls an ops function per where / max. Measured in one process (CPU time, best of 15 x 2000
-runs of the packaged four-bar's plan at one command, load ~10): the generic executor 32 us,
-this program 8.6 us, a hand-written ``math`` four-bar 1.6 us. Constants are resolved when the
-program is made: RRR radii, each known angle wrapped once per run, a welded body's points
-carried by its root (or by a member slid off it, whose frame rotation is the root's constant)
-computed once by the very float operations a run would make, the welded ground's step the
-partial of its placer. (A welded ground turned by known angles, a crank on its frame, was
-measured as one fused step: under 1% of a solve; not kept, as it restated turn_weld and
-welded_placer.)
+calls an ops function per where / max (measured, load ~10: the generic executor 32 us a run of
+the four-bar's plan, this program 8.6 us, a ``math`` four-bar 1.6 us). Constants are resolved
+when the program is made: RRR radii, each known angle wrapped once per run, a welded body's
+points carried by its root (or by a member slid off it) computed once by the very float
+operations a run would make, the welded ground's step the partial of its placer.
 """
 
 from __future__ import annotations
@@ -65,22 +59,17 @@ _PLACES_BODY = (StepKind.GROUND, StepKind.TWO_POINTS, StepKind.POINT_ANGLE, Step
 class ScalarProgram:
     """One plan, compiled for one command at a time (made once per plan: see :func:`program`).
 
-    Registers: ``ip[point]`` its complex position; ``iphi``, ``irot``, ``iT`` [link] its pose
-    (angle from the reference pose in rad, e^{i phi}, translation); ``ifphi``, ``ifrot``,
-    ``ifT`` [link] its pose in its welded body's frame (root at the identity); ``iang[body]`` the
-    body's orientation where known before it is placed. Points and links are numbered in the
-    order a run sets them (the order of the PlanRun's dicts)."""
+    Registers: ``ip[point]`` its position; ``iphi``, ``irot``, ``iT`` [link] its pose (angle
+    from the reference pose, rad; e^{i phi}; translation); ``ifphi``, ``ifrot``, ``ifT`` [link]
+    the same in its welded body's frame; ``iang[body]`` the body's orientation where known
+    before it is placed. Points and links are numbered in the order a run sets them."""
 
     def __init__(self, plan: Any):
         self.plan = plan
         mech = plan.mech
         look = plan_lookup(plan)
-        self.ref, self.direction, self.single, self.carrier = (
-            look.ref,
-            look.direction,
-            look.single,
-            look.carrier,
-        )
+        self.ref, self.direction = look.ref, look.direction
+        self.single, self.carrier = look.single, look.carrier
         point_order: list[str] = []
         link_order: list[str] = []
         for st in plan.steps:
@@ -92,9 +81,8 @@ class ScalarProgram:
                 point_order.append(st.point)
         self.point_names = tuple(point_order)
         self.link_names = tuple(link_order)
-        # the registers: the points a run sets and the angles of the links it places first
-        # (one run of the list: what a Result's finiteness test sums), then the other points
-        # and links' angles, then every link's rot, T and frame, then the bodies' orientations
+        # registers: the points a run sets and its links' angles first (what a Result's
+        # finiteness test sums), the others, every link's rot, T and frame, bodies' angles
         rest_points = [p for p in mech.points if p not in point_order]
         rest_links = [l for l in mech.links if l not in link_order]
         links = [*link_order, *rest_links]
@@ -127,8 +115,7 @@ class ScalarProgram:
                     used_bodies.add(b)
             if isinstance(a, AngleFrom):
                 used_bodies.add(plan.body_of[a.source])
-        #: each known angle's value wrapped to (-pi, pi] (spec index -> register): the run
-        #: wraps it once, for every step (and a readout) that uses it
+        #: each known angle's value wrapped to (-pi, pi] once per run (spec index -> register)
         self.iwrap: dict[int, int] = {}
         for i, s in enumerate(plan.specs):
             if isinstance(s, AngleSpec):
@@ -136,11 +123,9 @@ class ScalarProgram:
                 self.template.append(0.0)
         self._wrap_regs = tuple(self.iwrap.items())
         #: pairs of links whose angle and rotation registers a run sets to the very same floats
-        #: (a weld by a slide moves its member along the slide, and a welded body's placement
-        #: turns every member alike): a readout need not compare them
+        #: (a weld by a slide, a welded body's placement): a readout need not compare them
         self.same_turn: set[frozenset[str]] = set()
-        #: a welded body's member -> its frame rotation where every run sets the same
-        #: constant (the root's identity, and a member slid off it: _frame_of)
+        #: a welded member -> its frame rotation where it is a constant (_frame_of)
         self.fixed_rot: dict[str, complex] = {}
         #: the steps of a run: the frames of the welded bodies it uses, then the plan's
         self.steps: list[Step] = []
@@ -150,14 +135,18 @@ class ScalarProgram:
         set_pts: set[str] = set()
         placed: set[str] = set()
         #: a roller's line shift for the side its SIDE step chose (complex, m, in its guide's
-        #: reference frame): one register per roller, 0 (the drawn side) in the template
+        #: frame; 0, the drawn side, in the template)
         self.ishift: dict[str, int] = {}
         for st in plan.steps:
             if isinstance(st.args, RollerSide):
                 self.ishift[st.args.joint] = len(self.template)
                 self.template.append(complex(0.0, 0.0))
-        #: the branching steps so far (each takes one sign, in plan order: a dyad step's index
-        #: into the run's signs is fixed when it is compiled)
+        #: an RRR dyad's point -> its scale S's register; (its args, radii (m)) where constant
+        self.iscale: dict[str, int] = {}
+        self.rrr_fixed: dict[str, tuple[RRRDyad, float, float]] = {}
+        #: (body, x, p) -> the registers of x - p in the body's frame and its length (_radius)
+        self.measured: dict[tuple[int, str, str], int] = {}
+        #: the branching steps so far (a dyad step's index into the run's signs, fixed here)
         self._branches = 0
         for k, st in enumerate(plan.steps):
             step = self._compile(k, st, set_pts, placed)
@@ -166,9 +155,9 @@ class ScalarProgram:
 
     # -- compile time --------------------------------------------------------------------------
     def _frame_of(self, bi: int) -> list[Step]:
-        """Fill the frame registers of a welded body's members (its root at the identity): a
-        weld by a known angle turns a member about the shared point, by a known slide moves it
-        along the slide. The root's are constants (in the template)."""
+        """Fill the frame registers of a welded body's members (its root at the identity, the
+        template's constants): a weld by a known angle turns a member about the shared point,
+        by a known slide moves it along the slide."""
         plan, mech = self.plan, self.plan.mech
         body = plan.bodies[bi]
         R = self.template
@@ -240,10 +229,8 @@ class ScalarProgram:
         return lambda R: R[frot] * ref + R[fT]
 
     def _at_root(self, bi: int, p: str) -> complex | None:
-        """A point of welded body bi in the body's frame where its root carries it: the
-        frame's rot * p_ref + T on the root's frame registers, constants of the template that
-        no step writes (_frame_of), computed once here by the very float operations a run
-        would; else None."""
+        """A point of welded body bi in the body's frame where its root carries it (its frame's
+        constants, _frame_of, computed once by a run's very float operations), else None."""
         root = self.plan.bodies[bi].root
         if self.single[bi] or self.carrier[(bi, p)] != root:
             return None
@@ -252,8 +239,7 @@ class ScalarProgram:
 
     def _turned(self, bi: int, p: str) -> complex | None:
         """rot * p_ref of a point of welded body bi whose carrier's frame rotation is a
-        constant of every run (fixed_rot), computed once here by the very float operation a
-        run would; else None."""
+        constant (fixed_rot), computed once by a run's very float operation; else None."""
         if self.single[bi]:
             return None
         rot = self.fixed_rot.get(self.carrier[(bi, p)])
@@ -282,10 +268,18 @@ class ScalarProgram:
         p_at = self._at_root(bi, p)  # (a cylinder's: its barrel's end at the root)
         x_turned = self._turned(bi, x)  # (and its rod's end, slid off the root)
 
+        # (the vector and its length kept for the body's TWO_POINTS placement from p to x,
+        # which measures the very same floats: _two_points)
+        iu = self.measured[(bi, x, p)] = len(self.template)
+        self.template += [None, None]
+        inorm = iu + 1
+
         def radius(R: list[Any]) -> float:
             xr = x_turned if x_turned is not None else R[rx] * x_ref
             pa = p_at if p_at is not None else R[rp] * p_ref + R[tp]
-            return _cabs_one((xr + R[tx]) - pa)
+            R[iu] = u = (xr + R[tx]) - pa
+            R[inorm] = n = _cabs_one(u)
+            return n
 
         return 0.0, radius
 
@@ -375,6 +369,9 @@ class ScalarProgram:
         qrot, qT, q_ref = self.ifrot[cq], self.ifT[cq], self.ref[a.second]
         p_at = self._at_root(bi, a.first)
         q_turned = self._turned(bi, a.second)
+        # where a dyad's radius measured this body's second point from its first in this run
+        # (the same expression on the same registers), its vector and length (-1: none)
+        iu = self.measured.get((bi, a.second, a.first), -1)
 
         def two_points(r: SlotRun) -> None:
             R = r.R
@@ -382,8 +379,11 @@ class ScalarProgram:
             nb = _cabs_one(b)
             b = b / (nb if nb > 0 else 1.0)
             lp = p_at if p_at is not None else R[prot] * p_ref + R[pT]
-            u = ((q_turned if q_turned is not None else R[qrot] * q_ref) + R[qT]) - lp
-            nu = _cabs_one(u)
+            if iu >= 0:
+                u, nu = R[iu], R[iu + 1]
+            else:
+                u = ((q_turned if q_turned is not None else R[qrot] * q_ref) + R[qT]) - lp
+                nu = _cabs_one(u)
             u = u / (nu if nu > 0 else 1.0)
             ux, uy = u.real, u.imag  # (each read once: a complex's attribute is slow)
             bx, by = b.real, b.imag
@@ -430,12 +430,18 @@ class ScalarProgram:
         return self._branches - 1
 
     def _rrr(self, k: int, x: str, a: RRRDyad) -> Step:
+        radius_a = self._radius(a.body_a, x, a.centre_a)
+        radius_b = self._radius(a.body_b, x, a.centre_b)
+        self.iscale[x] = len(self.template)  # (S where its kernel placed x, else NaN)
+        self.template.append(math.nan)
+        if radius_a[1] is None and radius_b[1] is None:
+            self.rrr_fixed[x] = (a, radius_a[0], radius_b[0])
         return rrr_step(
             (k, self._branch()),
             x,
-            (self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b]),
-            self._radius(a.body_a, x, a.centre_a),
-            self._radius(a.body_b, x, a.centre_b),
+            (self.ip[x], self.ip[a.centre_a], self.ip[a.centre_b], self.iscale[x]),
+            radius_a,
+            radius_b,
             self.ref[x] - self.ref[a.centre_a],
         )
 
@@ -480,13 +486,11 @@ class ScalarProgram:
         predict: Callable[[Any, list[Any]], Mapping[str, Any] | None] | None = None,
         predict_from: Any = None,
     ) -> SlotRun:
-        """Execute the plan on one command (``values[i]`` a float, or an (x, y) pair for a
-        point) with branch ``signs`` (default: the reference pose's); ``prefer`` maps point
-        names to predicted complex positions and '@link' to predicted link angles (continuity,
-        see the module), or ``predict(predict_from, values)`` makes them where a step first
-        needs them;
-        ``prev_margins`` are the previous answer's dyad margins. Returns the
-        run as it is: ``failure`` is the index of the step that did not close (-1: none)."""
+        """Execute the plan on one command (``values[i]`` a float, or an (x, y) pair) with
+        branch ``signs`` (default: the reference pose's); ``prefer`` maps points to predicted
+        positions and '@link' to predicted angles (continuity), or ``predict(predict_from,
+        values)`` makes them when first needed; ``prev_margins``: the previous answer's dyad
+        margins. Returns the run (``failure``: the step that did not close, -1: none)."""
         if self.any_point:
             vals = [v if pt else float(v) for pt, v in zip(self.point_specs, values)]
         else:  # no comprehension's frame for the common command
@@ -550,11 +554,8 @@ class ScalarProgram:
         poses = LinkPoses()
         for l in names:
             if R[self.iphi[l]] is not None:
-                poses.phi[l], poses.rot[l], poses.T[l] = (
-                    R[self.iphi[l]],
-                    R[self.irot[l]],
-                    R[self.iT[l]],
-                )
+                poses.phi[l] = R[self.iphi[l]]
+                poses.rot[l], poses.T[l] = R[self.irot[l]], R[self.iT[l]]
         return poses
 
     def poses_closed(self, R: list[Any]) -> LinkPoses:
@@ -579,15 +580,10 @@ class ScalarProgram:
     ) -> PlanRun:
         """:meth:`execute` as a :class:`~linkage_ros.core.execute.PlanRun` (name-keyed)."""
         r = self.execute(values, signs, prefer, prev_margins, tol)
+        poses, points, used, margins = self.poses_of(r), self.points_of(r), r.used, r.margins
+        ok = r.failure < 0
         return PlanRun(
-            r.failure < 0,
-            self.poses_of(r),
-            self.points_of(r),
-            r.margin,
-            tuple(r.used),
-            r.failure,
-            r.violation,
-            tuple(r.margins),
+            ok, poses, points, r.margin, tuple(used), r.failure, r.violation, tuple(margins)
         )
 
 

@@ -16,22 +16,17 @@ form (a dict of one finite float per actuator that assembles): no general checks
 command is not, no per-command dicts; any other command or answer goes the general way.
 
 The closure checks a plan satisfies by construction (a one-link body's first point, a weld
-to the ground's root, its known angle read back: rounding alone) are left for when
-``Result.residual`` is read (:class:`ClosedLazyResidual`): closure_bound proves how much they
-can miss, and that bound decides success and branch_defined wherever it settles them (else
-every check runs, as before). Every field of every Result is the one every check gives, bit for
-bit (test/core/solver/test_closure_bound.py; and old against new over every packaged scene's
-warm sweep and hostile commands when it was made).
-
-Measured (process time, best of the 200-command warm sweep's passes, old and new interleaved;
-2-core machine shared with other agents, load ~2): the four-bar's ``Solver.solve`` 16.3-16.5 us
-before (the run's steps about 7.6, the Result's checks and finiteness sum 2.5, objects,
-continuity and the lean checks 2.7, the facade 0.5; the ``math`` four-bar of bench/core_speed.py
-1.6 us), 13.1-13.5 us with the constructed checks left for later, the branch text read when
-asked and the RRR dyad's powers of two looked up; the excavator 51 -> 50 us. The joint a dyad's
-point closes (the four-bar's B, about 0.5 us) stays eager: its bound needs the RRR kernel's
-error (Kahan's area, the tangency tolerance, the toggle band) carried through both
-placements' atan2, cos and sin, not proven here.
+to the ground's root, its known angle read back, a dyad's point where both its links'
+placements end) are left for when ``Result.residual`` is read (:class:`ClosedLazyResidual`):
+closure_bound proves how much they can miss, and that bound decides success and
+branch_defined wherever it settles them (else every check runs). Every field of every Result
+is the one every check gives, bit for bit (test/core/solver/test_closure_bound.py; and old
+against new over every packaged scene's warm sweep and hostile commands when it was made).
+Measured (CPU time, best of 200-300 passes of the 200-command warm sweep, old and new
+interleaved in one process, load 1.9-2.9): the four-bar's ``Solver.solve`` 16.3-16.5 us before
+any, 14.0-14.7 us with the first three kinds left out, 12.6-13.3 us with the dyad joint too
+and their frames not tested where bounded (the ``math`` four-bar 1.6 us); the excavator
+50.2-51.2 -> 47.7-48.1 us (its links' and cylinders' first points, its bucket's dyad joint).
 """
 
 from __future__ import annotations
@@ -41,18 +36,23 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from ..assemble import roller_offset
-from ..execute import LinkPoses
 from ..model.limits import limit_interval
 from ..ops import _wrap_one
 from ..plan import ReadKind, limit_violation, spec_reader
 from ..quantities import PointSpec, ScalarSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
-from ..steps import branch_text
-from .closure_bound import ConstructedChecks, angle_worst, one_side_worst
+from .closed_result import ClosedLazyResidual, ClosedResult, SlotState, slot_state
+from .closure_bound import (
+    ConstructedChecks,
+    angle_worst,
+    frames_bounded,
+    one_side_worst,
+    scale_caps,
+    two_sides_worst,
+)
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity, State
-from .lazy_result import LazyResult
 from .result import _EPS, Result
 from .slot_reads import SlideRead, as_complex, slot_reader
 
@@ -60,6 +60,7 @@ _PI = math.pi
 _NEG_PI = -math.pi  # (one load where -_PI is two)
 _CLOSED_FORM = SolveMode.CLOSED_FORM
 _POINT = ReadKind.POINT
+_new_closed = object.__new__
 
 
 class SlotReadout:
@@ -134,6 +135,9 @@ class SlotReadout:
         self.closure_two_sides: list[tuple[complex, int, int, int, int]] = []
         #: the one-side checks and known angles read back left for when the residual is read
         self.closure_one_side_lazy: list[tuple[complex, int, int, int]] = []
+        self.closure_two_sides_lazy: list[tuple[complex, int, int, int, int]] = []
+        frames: set[int] = set()
+        dyad_joints: list[tuple[tuple[complex, int, int, int, int], float, int]] = []
         self.angle_knowns_lazy: list[tuple[int, int, int, float]] = []
         for rj in revolutes:
             p = as_complex(mech.points[rj.point])
@@ -143,8 +147,17 @@ class SlotReadout:
                 check, setter, checker = (p, preg, crot, cT), rj.parent, rj.child
             elif creg >= 0:
                 check, setter, checker = (p, creg, prot, pT), rj.child, rj.parent
-            else:
-                self.closure_two_sides.append((p, prot, pT, crot, cT))
+            else:  # (a dyad's point, where both its links' placements end: closure_bound)
+                two = (p, prot, pT, crot, cT)
+                dyad = (
+                    constructed.dyad_joint(rj.point, p, (rj.parent, rj.child))
+                    if constructed
+                    else None
+                )
+                if dyad is None:
+                    self.closure_two_sides.append(two)
+                else:
+                    dyad_joints.append((two, *dyad))
                 continue
             bound = constructed.joint(rj.point, p, setter, checker) if constructed else None
             if bound is None:
@@ -152,6 +165,8 @@ class SlotReadout:
             else:
                 self.closure_one_side_lazy.append(check)
                 bounds.append(bound)
+                if not frames_bounded(bound):  # (its rot and T tested on every run)
+                    frames.update(check[2:])
         read_knowns = [
             (i, spec_reader(mech, s))
             for i, s in enumerate(specs)
@@ -212,22 +227,27 @@ class SlotReadout:
                 else:
                     self.angle_knowns_lazy.append(angle)
                     bounds.append(bound)
+        #: the dyad joints left for later: (S's register, the largest S their bound allows, the
+        #: check: run now where S is larger); their bound is this S's
+        self.dyad_scales = scale_caps(dyad_joints, self.L, self.closure_two_sides, bounds)
+        self.closure_two_sides_lazy = [two for _, _, two in self.dyad_scales]
         #: the most any check left for later can miss (m; closure_bound's proof), or None: no
         #: check is left (none is rounding alone, or their bound is no use against the limit)
         self.miss_bound: float | None = max(bounds) if bounds else None
         if self.miss_bound is not None and not self.miss_bound / self.L <= self.closure_limit:
             self.closure_one_side += self.closure_one_side_lazy
             self.angle_knowns += self.angle_knowns_lazy
+            self.closure_two_sides += self.closure_two_sides_lazy
             self.closure_one_side_lazy, self.angle_knowns_lazy = [], []
+            self.closure_two_sides_lazy, self.dyad_scales = [], []
             self.miss_bound = None
         #: the residual the bound allows, and the branch noise bound at it (result.py's
         #: branch_undefined_below, as result() computes it)
         self.bound_residual = self.bound_noise = math.inf
-        #: the frame registers (rot, T) those checks read: the bound needs them finite too, and
-        #: the finiteness sum of points and angles does not read them (a T at ~1e308 m)
-        self.lazy_frames = sorted(
-            {i for _, _, rot, T in self.closure_one_side_lazy for i in (rot, T)}
-        )
+        #: the frame registers (rot, T) those checks read where their bound needs them tested
+        #: finite (the finiteness sum of points and angles does not read them: a T at ~1e308
+        #: m; closure_bound.frames_bounded, and a dyad joint's step 4: finite where bounded)
+        self.lazy_frames = sorted(frames)
         if self.miss_bound is not None:
             self.bound_residual = self.miss_bound / self.L
             self.bound_noise = 4.0 * (2.0 * (self.bound_residual + 32.0 * _EPS)) ** 0.5
@@ -240,6 +260,7 @@ class SlotReadout:
         #: the registers of the points a run sets and of the placed links' angles, the first
         #: of the register list (ScalarProgram)
         self.n_set = prog.n_set
+        self.n_points = len(prog.point_names)  # (complex; the links' angles after them)
 
     def result(self, r: SlotRun, state: SlotState) -> Result:
         """The Result of a run that closed (refused if any value is not finite), ``state`` its
@@ -309,10 +330,14 @@ class SlotReadout:
         if self.read_inputs:
             for _, read in self.read_inputs:
                 total += read(R)
-        zsum = sum(R[: self.n_set], 0j)
-        total += zsum.real + zsum.imag + margin
+        # (the angles apart: sum's float loop is several times faster than its general one)
+        zsum = sum(R[: self.n_points], 0j)
+        total += zsum.real + zsum.imag + sum(R[self.n_points : self.n_set], margin)
         bound = self.miss_bound
         if bound is not None:
+            for i_scale, cap, two in self.dyad_scales:  # (a dyad's S beyond its bound's,
+                if not R[i_scale] <= cap:  # or NaN where the kernel did not place it: now)
+                    worst = two_sides_worst([two], R, worst)
             # The checks left out miss by at most ``bound`` on finite registers
             # (closure_bound), so the residual is at most ``high``: where that passes the
             # closure limit and puts the margin above the noise bound (monotone in the
@@ -326,7 +351,7 @@ class SlotReadout:
             defined = True
             if signs:  # (the comparison's own type: a numpy margin gives numpy's bool)
                 defined = margin > noise
-            fz = sum(map(R.__getitem__, self.lazy_frames), total)  # (finite: fz - fz == 0)
+            fz = sum(map(R.__getitem__, self.lazy_frames), total) if self.lazy_frames else total
             if defined and high <= self.closure_limit and fz - fz == 0.0:
                 lazy = _new_closed(ClosedLazyResidual)
                 lazy._source, lazy._worst = state, worst
@@ -353,6 +378,8 @@ class SlotReadout:
         """``worst`` (m) and the misses of the checks left for when the residual is read."""
         if self.closure_one_side_lazy:
             worst = one_side_worst(self.closure_one_side_lazy, R, worst)
+        if self.closure_two_sides_lazy:
+            worst = two_sides_worst(self.closure_two_sides_lazy, R, worst)
         if self.angle_knowns_lazy:
             worst = angle_worst(self.angle_knowns_lazy, R, worst, self.L)
         return worst
@@ -486,99 +513,6 @@ def lean_command(c: CompiledSolve) -> LeanCommand | None:
     if any(isinstance(s, PointSpec) for s in c.specs):
         return None
     return LeanCommand(c)
-
-
-class ClosedResult(LazyResult):
-    """A closed-form answer whose name-keyed dicts (inputs, targets, joints, links, points)
-    are read off its run's registers when first asked, by the readout's very operations, and
-    its branch text off its signs (lazy_result.LazyResult: the machinery). Every other field
-    is set when it is made (or is Result's default)."""
-
-    __slots__ = ()
-    _source: SlotState  # what fills the dicts: the readout, the run's registers and values
-    _LAZY = frozenset(('inputs', 'targets', 'joints', 'links', 'points', 'branch'))
-
-    def _fill(self, d: dict[str, Any], name: str) -> None:
-        st = self._source
-        if name == 'branch':  # (the text decides nothing: most callers never read it)
-            d['branch'] = branch_text(st.signs)
-        else:
-            st._read.fill(d, st._registers, st.values)
-
-
-class ClosedLazyResidual(ClosedResult):
-    """A ClosedResult whose residual too is computed when first read, from its run's
-    registers, by the very operations SlotReadout.result would have used (closure_bound: the
-    checks its plan satisfies by construction)."""
-
-    __slots__ = ('_worst',)
-    _worst: float  # the largest miss of the checks made when it was made (m)
-    _LAZY = ClosedResult._LAZY | {'residual'}
-
-    def _fill(self, d: dict[str, Any], name: str) -> None:
-        if name != 'residual':
-            super()._fill(d, name)
-            return
-        st = self._source
-        read = st._read
-        d['residual'] = read.lazy_worst(st._registers, self._worst) / read.L
-
-
-_new_closed = object.__new__
-
-
-class SlotState(State):
-    """The State of a closed-form answer whose points and poses (name-keyed, as State holds
-    them) are read off the run's registers on first use: most commands never ask (continuity
-    reads them near a singular dyad only). Made by :func:`slot_state`; pickles as a plain
-    State."""
-
-    _read: SlotReadout
-    _registers: list[Any]
-    # State's other fields are the class's defaults below (fewer stores per command)
-    x_all = None
-    det_sign = 0
-    _points: dict[str, complex] | None = None
-    _poses: LinkPoses | None = None
-
-    @property
-    def points(self) -> dict[str, complex]:
-        if self._points is None:
-            self._points = self._read.prog.points_closed(self._registers)
-        return self._points
-
-    @points.setter
-    def points(self, value: dict[str, complex]) -> None:
-        self._points = value
-
-    @property
-    def poses(self) -> LinkPoses:
-        if self._poses is None:
-            self._poses = self._read.prog.poses_closed(self._registers)
-        return self._poses
-
-    @poses.setter
-    def poses(self, value: LinkPoses) -> None:
-        self._poses = value
-
-    def __reduce__(self) -> tuple[Any, ...]:
-        return State, (
-            self.values, None, self.points, self.poses, self.signs, 0, self.margins, None
-        )  # fmt: skip
-
-
-def slot_state(
-    values: Values,
-    signs: tuple[int, ...],
-    margins: tuple[float, ...],
-    read: SlotReadout,
-    registers: list[Any],
-) -> SlotState:
-    """The SlotState of a run's answer (a function: a class's call costs ~1/3 more)."""
-    state: SlotState = _new_closed(SlotState)
-    state.values, state.signs, state.margins = values, signs, margins
-    state._read, state._registers = read, registers
-    return state
 
 
 def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:

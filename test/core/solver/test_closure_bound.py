@@ -5,16 +5,20 @@ for bit (residual, success, branch_defined and its type included).
 
 Drawn by hypothesis: four-bars with their pivots anywhere within 1e3 m and lengths over four
 decades, slider-cranks, and crank commands over the whole float range (near +-pi, huge, signed
-zeros), solved warm in sequence."""
+zeros), solved warm in sequence; and for the dyad joint (the point an RRR dyad places, where
+both its links' placements end) four-bars scaled by 2^-500..2^500, driven to within rounding
+of their toggles, and with the coupler's and rocker's pivots passing close to each other."""
 
 from __future__ import annotations
 
 import cmath
 import math
+import random
 from dataclasses import fields
 
 import pytest
 import scenes
+import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -23,6 +27,7 @@ from linkage_ros.core.model import Scene
 from linkage_ros.core.scalar_plan import program
 from linkage_ros.core.solver import Solver
 from linkage_ros.core.solver.closed_form import ClosedLazyResidual, SlotReadout, slot_state
+from linkage_ros.core.solver.closure_bound import DYAD_SCALE_GROWTH, ConstructedChecks
 from linkage_ros.core.solver.result import Result
 
 coordinate = st.floats(-1e3, 1e3, allow_nan=False)
@@ -62,20 +67,21 @@ def _runs(mech, commands):
     c = solver.compiled
     prog = program(c.plan)
     lazy, eager = SlotReadout(c, prog), SlotReadout(c, prog, defer=False)
-    name = c.specs[0].name
+    names = [s.name for s in c.specs]
     for v in commands:
+        v = list(v) if isinstance(v, tuple) else [v]  # (a tuple: one value per known)
         cont = solver.continuity
         history = cont.history
         r = prog.run_parsed(
-            [v],
+            v,
             cont.signs(c.plan),
             history[-1].margins if history else None,
             cont.prediction,
             c,
         )
-        solver.solve({name: v})  # (the continuity the next command starts from)
+        solver.solve(dict(zip(names, v)))  # (the continuity the next command starts from)
         if r.failure < 0:
-            yield lazy, eager, r, slot_state([v], tuple(r.used), tuple(r.margins), lazy, r.R)
+            yield lazy, eager, r, slot_state(v, tuple(r.used), tuple(r.margins), lazy, r.R)
 
 
 def _bits(v):
@@ -100,6 +106,10 @@ def _check(mech, commands):
             for p, reg, rot, T in lazy.closure_one_side_lazy:
                 d = R[reg] - (R[rot] * p + R[T])
                 assert max(abs(d.real), abs(d.imag)) <= lazy.miss_bound, (p, d)
+            for i_scale, cap, (p, prot, pT, crot, cT) in lazy.dyad_scales:
+                if R[i_scale] <= cap:  # (beyond: the check ran with the others)
+                    d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
+                    assert max(abs(d.real), abs(d.imag)) <= lazy.miss_bound, (p, d)
             for wrapped, ia, ib, off in lazy.angle_knowns_lazy:
                 got = math.remainder(R[ia] - R[ib] + off - R[wrapped], 2 * math.pi)
                 assert lazy.L * abs(got) <= lazy.miss_bound, got
@@ -156,3 +166,126 @@ def test_a_frame_beyond_the_float_range_is_not_left_out():
             assert not got.success and 'non-finite' in got.reason, got
             refused += 1
     assert refused, 'no run with a frame beyond the float range: the scene no longer tests it'
+
+
+def _dyad_misses(mech, commands):
+    """(the miss, the per-solve bound K0 + DYAD_SCALE_GROWTH S) of each dyad joint of each
+    run whose dyads all have a margin > 0 (the proof's premise: the readout defers nothing
+    else), on finite registers."""
+    for lazy, _, r, _ in _runs(mech, commands):
+        R = r.R
+        if not (r.margin > 0 and all(map(cmath.isfinite, R[: lazy.n_set]))):
+            continue
+        checks = ConstructedChecks(lazy.plan, lazy.prog)
+        for rj in mech.revolutes:
+            p = complex(*map(float, mech.points[rj.point]))
+            got = checks.dyad_joint(rj.point, p, (rj.parent, rj.child))
+            if got is None:
+                continue
+            k0, i_scale = got
+            S = R[i_scale]
+            rot_p, T_p = R[lazy.prog.irot[rj.parent]], R[lazy.prog.iT[rj.parent]]
+            rot_c, T_c = R[lazy.prog.irot[rj.child]], R[lazy.prog.iT[rj.child]]
+            d = (rot_p * p + T_p) - (rot_c * p + T_c)
+            yield max(abs(d.real), abs(d.imag)), k0 + DYAD_SCALE_GROWTH * S
+
+
+def _toggles(mech):
+    """The crank angles (rad, from +x) at which the four-bar's A is at distance coupler +
+    rocker or |coupler - rocker| from O4 (its toggles, where they exist)."""
+    sc = mech.shortcut
+    o2 = complex(*map(float, mech.points['O2']))
+    o4 = complex(*map(float, mech.points['O4']))
+    g, a = abs(o4 - o2), sc['crank']
+    base = cmath.phase(o4 - o2)
+    out = []
+    for target in (sc['coupler'] + sc['rocker'], abs(sc['coupler'] - sc['rocker'])):
+        c = (a * a + g * g - target * target) / (2 * a * g)
+        if -1 <= c <= 1:
+            out += [base + math.acos(c), base - math.acos(c)]
+    return out
+
+
+@st.composite
+def scaled_four_bars(draw):
+    """A four-bar of lengths 0.1-10 (times 2^k, k in -500..500), its pivots anywhere within
+    100 lengths; sometimes with ground ~ crank (A passes close to O4) and coupler ~ rocker
+    (the dyad's centres close while its triangle stays valid)."""
+    scale = 2.0 ** draw(st.integers(-500, 500))
+    unit = st.floats(0.1, 10.0)
+    crank, ground = draw(unit), draw(unit)
+    coupler, rocker = draw(unit), draw(unit)
+    if draw(st.booleans()):
+        ground = crank * (1 + draw(st.floats(-1e-3, 1e-3)))
+        rocker = coupler * (1 + draw(st.floats(-1e-3, 1e-3)))
+    o2 = (draw(st.floats(-100, 100)) * scale, draw(st.floats(-100, 100)) * scale)
+    gang = draw(st.floats(-math.pi, math.pi))
+    ground *= scale
+    o4 = (o2[0] + ground * math.cos(gang), o2[1] + ground * math.sin(gang))
+    spec = {
+        'crank': crank * scale,
+        'coupler': coupler * scale,
+        'rocker': rocker * scale,
+        'pivots': {'O2': list(o2), 'O4': list(o4)},
+        'branch': draw(st.sampled_from([1, -1])),
+        'input': draw(st.floats(-math.pi, math.pi)),
+    }
+    try:
+        return Scene.from_dict({'four_bar': spec}).mechanism
+    except (ValueError, SceneError):
+        return None
+
+
+@settings(max_examples=80, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(scaled_four_bars(), st.lists(st.floats(-4.0, 4.0), min_size=1, max_size=8), st.data())
+def test_a_dyad_joint_misses_by_no_more_than_its_bound_and_keeps_the_result(mech, commands, data):
+    """The dyad joint's miss is within K0 + DYAD_SCALE_GROWTH S at every scale, near its
+    toggles (commands within a few ulps of them) and with its centres close; the Result made
+    with it left out is the eager one."""
+    if mech is None:
+        return
+    near = []
+    for t in _toggles(mech):
+        for k in data.draw(st.lists(st.integers(-(2**20), 2**20), max_size=3)):
+            near.append(t + k * 2.0**-52)
+    runs = [*commands, *near]
+    misses = list(_dyad_misses(mech, runs))
+    for miss, bound in misses:
+        assert miss <= bound, (miss, bound)
+    _check(mech, runs)
+
+
+@pytest.mark.parametrize('stem', ['four_bar', 'four_bar_non_grashof'])
+def test_a_packaged_four_bar_leaves_its_dyad_joint_for_later(stem):
+    """The packaged four-bars' B (the coupler and rocker both end there) is left for later on
+    their warm sweep, within its bound, with the eager Result."""
+    mech = scenes.load(stem)
+    solver = Solver(mech)
+    lazy = SlotReadout(solver.compiled, program(solver.compiled.plan))
+    assert len(lazy.dyad_scales) == 1 and not lazy.closure_two_sides
+    ref = solver.reference_values()['crank']
+    commands = [ref + 0.05 * k for k in range(-60, 60)] + _toggles(mech)
+    misses = list(_dyad_misses(mech, commands))
+    assert misses and all(miss <= bound for miss, bound in misses)
+    assert _check(mech, commands) >= 60
+
+
+@pytest.mark.parametrize('power', [-400, -30, 0, 30, 400])
+def test_an_excavator_s_anchored_checks_keep_their_bound_at_any_scale(power):
+    """The packaged excavator scaled by 2^power: its cylinders' and links' first points
+    (placed from points bounded in plan order: closure_bound step 2) and its bucket's dyad
+    joint are left for later, each within its bound, with the eager Result; random cylinder
+    lengths over their whole range, solved warm in sequence."""
+    with open(scenes.CONFIG / 'excavator.yaml') as f:
+        data = yaml.safe_load(f)
+    k = 2.0**power
+    data['points'] = {n: [k * x for x in xy] for n, xy in data['points'].items()}
+    for cyl in data['cylinders'].values():
+        cyl['min'], cyl['max'] = k * cyl['min'], k * cyl['max']
+    mech = Scene.from_dict(data).mechanism
+    lazy = SlotReadout(Solver(mech).compiled, program(Solver(mech).compiled.plan))
+    assert len(lazy.closure_one_side_lazy) >= 7 and len(lazy.dyad_scales) == 1
+    rng = random.Random(power)
+    limits = [(cyl['min'], cyl['max']) for cyl in data['cylinders'].values()]
+    commands = [tuple(rng.uniform(lo, hi) for lo, hi in limits) for _ in range(40)]
+    assert _check(mech, commands) >= 30
