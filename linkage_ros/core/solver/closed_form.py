@@ -42,7 +42,13 @@ from ..plan import ReadKind, limit_violation, spec_reader
 from ..quantities import PointSpec, ScalarSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
-from .closed_result import ClosedLazyResidual, ClosedResult, SlotState, slot_state
+from .closed_result import (
+    ClosedLazyResidual,
+    SlotState,
+    closed_result,
+    lazy_residual_result,
+    slot_state,
+)
 from .closure_bound import (
     ConstructedChecks,
     angle_worst,
@@ -60,7 +66,6 @@ _PI = math.pi
 _NEG_PI = -math.pi  # (one load where -_PI is two)
 _CLOSED_FORM = SolveMode.CLOSED_FORM
 _POINT = ReadKind.POINT
-_new_closed = object.__new__
 
 
 class SlotReadout:
@@ -353,11 +358,7 @@ class SlotReadout:
                 defined = margin > noise
             fz = sum(map(R.__getitem__, self.lazy_frames), total) if self.lazy_frames else total
             if defined and high <= self.closure_limit and fz - fz == 0.0:
-                lazy = _new_closed(ClosedLazyResidual)
-                lazy._source, lazy._worst = state, worst
-                lazy.success, lazy.solver = True, _CLOSED_FORM
-                lazy.margin, lazy.branch_defined = margin, defined
-                return lazy
+                return lazy_residual_result(state, worst, margin, defined)
             worst = self.lazy_worst(R, worst)
         residual = worst / L
         defined = True
@@ -368,11 +369,7 @@ class SlotReadout:
             return Result(
                 False, 'internal error: non-finite value in the solution', solver=_CLOSED_FORM
             )
-        res = _new_closed(ClosedResult)
-        res._source = state
-        res.success, res.solver = True, _CLOSED_FORM
-        res.residual, res.margin, res.branch_defined = residual, margin, defined
-        return res
+        return closed_result(state, residual, margin, defined)
 
     def lazy_worst(self, R: list[Any], worst: float) -> float:
         """``worst`` (m) and the misses of the checks left for when the residual is read."""

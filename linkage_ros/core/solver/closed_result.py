@@ -8,7 +8,7 @@ from typing import Any, Protocol
 from ..execute import LinkPoses
 from ..scalar_plan import ScalarProgram
 from ..steps import branch_text
-from .compiled import Values
+from .compiled import SolveMode, Values
 from .continuity import State
 from .lazy_result import LazyResult
 
@@ -61,6 +61,28 @@ class ClosedLazyResidual(ClosedResult):
 
 
 _new_closed = object.__new__
+_CLOSED_FORM = SolveMode.CLOSED_FORM
+
+
+def closed_result(state: SlotState, residual: float, margin: float, defined: bool) -> ClosedResult:
+    """A successful closed-form Result whose dicts and branch text are read off ``state``."""
+    res: ClosedResult = _new_closed(ClosedResult)
+    res._source = state
+    res.success, res.solver = True, _CLOSED_FORM
+    res.residual, res.margin, res.branch_defined = residual, margin, defined
+    return res
+
+
+def lazy_residual_result(
+    state: SlotState, worst: float, margin: float, defined: bool
+) -> ClosedLazyResidual:
+    """closed_result whose residual too is read off ``state`` when asked, ``worst`` (m) the
+    largest miss of the checks already made."""
+    res: ClosedLazyResidual = _new_closed(ClosedLazyResidual)
+    res._source, res._worst = state, worst
+    res.success, res.solver = True, _CLOSED_FORM
+    res.margin, res.branch_defined = margin, defined
+    return res
 
 
 class SlotState(State):
