@@ -153,10 +153,15 @@ class Engine:
         self._synced[key] = self.version
         return adopted
 
+    def cached_solvers(self) -> list[Solver]:
+        """The solvers the engine keeps for targets (the forward one not counted), least
+        recently used first: a caller that keeps something per solver forgets the others'."""
+        return [v for v in self._solvers.values() if not isinstance(v, str)]
+
     def checkpoint(self) -> tuple[Any, ...]:
         """The engine's state (last good state, versions, every solver's continuity), opaque:
         :meth:`rollback` returns to it (a trajectory is solved, then the state restored)."""
-        solvers = [self.forward, *(v for v in self._solvers.values() if not isinstance(v, str))]
+        solvers = [self.forward, *self.cached_solvers()]
         return (self._last, self.version, dict(self._synced), [(s, s.snapshot()) for s in solvers])
 
     def rollback(self, token: tuple[Any, ...]) -> None:

@@ -216,7 +216,13 @@ class LinkageNode(Node):
         outputs = None
         try:
             outputs = Outputs(
-                self, engine, cfg, frame_id, self.channels, self._source(), clear_markers=replacing
+                self,
+                engine,
+                cfg,
+                frame_id,
+                self.channels,
+                self.source_text(),
+                clear_markers=replacing,
             )
             self._subscribe_mechanism(mech, subs)
         except BaseException:
@@ -254,7 +260,9 @@ class LinkageNode(Node):
                 )
                 self.set_parameters([Parameter('demo_sweep', value=False)])
 
-    def _source(self) -> str:
+    def source_text(self) -> str:
+        """Where the served mechanism comes from, for logs: the description topic (resolved)
+        or the scene's file or parameter."""
         cfg = self.config
         if cfg.robot_description_topic:
             return self.resolve_topic_name(cfg.robot_description_topic)
@@ -393,7 +401,7 @@ class LinkageNode(Node):
         if mech is not None and not mech.actuators:  # none yet: starts on arrival
             fail_setting(
                 'demo_sweep',
-                f'scene {mech.name!r} from {self._source()} has no actuator to sweep (a '
+                f'scene {mech.name!r} from {self.source_text()} has no actuator to sweep (a '
                 'structure: 0 DOF)',
                 True,
             )

@@ -70,7 +70,7 @@ def log_mechanism(node: Any, scene: Scene, replacing: bool) -> None:
     assert engine is not None and node.outputs is not None
     log.info(
         ('robot description replaced: ' if replacing else '')
-        + f'scene {mech.name!r} from {node._source()}: {mech.dof} DOF, '
+        + f'scene {mech.name!r} from {node.source_text()}: {mech.dof} DOF, '
         f'actuators {list(mech.actuators)}, joints {mech.output_joint_names}, outputs '
         f'{list(mech.outputs)}, frame {node.frame_id!r}, solver '
         f'{engine.forward.mode}, branch {cfg.branch}'

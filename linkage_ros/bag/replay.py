@@ -63,7 +63,7 @@ class _Engine:
         if ctx is None or ctx.solver is not solver:  # new, or rebuilt after the LRU dropped it
             ctx = self._contexts[key] = _Context(self.engine, solver)
             if len(self._contexts) > 2 * SOLVER_CACHE:  # forget the dropped solvers' histories
-                live = {id(v) for v in self.engine._solvers.values()}
+                live = {id(v) for v in self.engine.cached_solvers()}
                 self._contexts = {k: c for k, c in self._contexts.items() if id(c.solver) in live}
         return ctx
 

@@ -242,7 +242,7 @@ def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
     # dedupe
     res: list[float] = []
     for v in sorted(out):
-        if not res or not line._same(res[-1], v):
+        if not res or not line.same(res[-1], v):
             res.append(v)
     return res
 

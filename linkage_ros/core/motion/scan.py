@@ -238,7 +238,7 @@ class _Line:
             return max(v, 1e-6 * self.scale)  # a cylinder's pin-to-pin length stays > 0
         return v
 
-    def _same(self, a: float, b: float) -> bool:
+    def same(self, a: float, b: float) -> bool:
         if self.periodic:
             return abs(wrap_angle(a - b)) <= 1e-9
         return abs(a - b) <= 1e-9 * self.scale
@@ -284,7 +284,7 @@ class _Line:
                 continue
             lo, hi, lo_end, hi_end = comp
             if any(
-                s.signs == signs and not s.full and self._same(s.lo, lo) and self._same(s.hi, hi)
+                s.signs == signs and not s.full and self.same(s.lo, lo) and self.same(s.hi, hi)
                 for s in segs
             ):
                 continue
