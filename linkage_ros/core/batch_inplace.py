@@ -1,8 +1,10 @@
 """The batch executor's arithmetic in place: CArray products and sums written into arrays of
 their own (a batch's peak of fresh memory, and fewer whole-batch passes), each giving exactly
-the floats CArray's operators give (ops.CArray), and the read-only (n,) views of a value that
-is the same in every row. Each function's docstring says when it writes in place and why the
-bits are the same; :class:`~linkage_ros.core.execute.PlanExecutor` is their one user."""
+the floats CArray's operators give (ops.CArray); the read-only (n,) views of a value that is
+the same in every row; a batch's finiteness test in one pass per column. Each function's
+docstring says when it writes in place and why the bits are the same; their users are
+:class:`~linkage_ros.core.execute.PlanExecutor` and the closed-form batch solve
+(core.solver.batch)."""
 
 from __future__ import annotations
 
@@ -186,3 +188,11 @@ def owned_rows(a: Any, b: Any) -> bool:
 def all_positive(x: Any) -> bool:
     """Every entry of a batch's array > 0 (False for NaN, and for no entries)."""
     return isinstance(x, np.ndarray) and x.size > 0 and bool(x.min() > 0)
+
+
+def every_finite_in(arrays: Any) -> bool:
+    """Every value of every array finite, in one summing pass per array: a sum is finite only
+    if each of its terms is (inf and NaN carry through a sum: inf - inf is NaN); a sum that
+    is not finite (overflowed, or not) is answered value by value."""
+    with np.errstate(over='ignore', invalid='ignore'):
+        return all(math.isfinite(a.sum()) or bool(np.isfinite(a).all()) for a in arrays)

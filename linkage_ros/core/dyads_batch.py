@@ -263,7 +263,7 @@ def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int)
     violation_n = np.negative(neg_factor, out=neg_factor)
     dn = d / scale
     # ok in every row: finite & (dn > 0) & (r1n > 0) & (r2n > 0) & (violation_n <= tol * longest_n)
-    if not (dn.min() > 0 and np.min(r1n) > 0 and np.min(r2n) > 0):
+    if not (dn.min() > 0 and _least(r1n) > 0 and _least(r2n) > 0):
         return None
     if not np.all(violation_n <= np.multiply(longest, tol, out=small)):
         return None
@@ -318,6 +318,12 @@ def _rrr_point_common(c1: Any, r1: Any, c2: Any, r2: Any, tol: float, sign: int)
     if not (np.isfinite(px).all() and np.isfinite(py).all()):
         return None
     return RrrPoint(CArray(px, py), np.ones(px.shape, bool), margin, np.zeros(px.shape), True)
+
+
+def _least(x: Any) -> Any:
+    """np.min(x): a radius one value (a float) as it is (np.min's array call costs more than
+    the comparison it feeds)."""
+    return x if isinstance(x, float) else np.min(x)
 
 
 def _cmax(x: np.ndarray, y: np.ndarray) -> Any:

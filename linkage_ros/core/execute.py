@@ -434,8 +434,8 @@ class PlanExecutor:
             elif op is _POINT_ANGLE:
                 p = st.args.point
                 phi = angles[st.body]
-                rot = ops.expi(phi)
-                place_body(st.body, phi, pts[p] - rot * local_pt(st.body, p), rot)
+                rot = expi_rows(phi)  # (ops.expi; P - rot * r below as the operators give it)
+                place_body(st.body, phi, minus_rotated(pts[p], rot, local_pt(st.body, p)), rot)
             elif op is _ANGLE:
                 here, there, spec_i = st.args.link, st.args.source, st.args.spec_index
                 if there in phi_of:
@@ -465,8 +465,8 @@ class PlanExecutor:
                 sg = signs[len(used)]
                 phi = rpr_direction(ops, dy, sg) - psi0
                 angles[bi] = phi
-                rot = ops.expi(phi)
-                place_body(bi, phi, pts[p] - rot * lp, rot)
+                rot = expi_rows(phi)
+                place_body(bi, phi, minus_rotated(pts[p], rot, lp), rot)
                 used.append(sg)
                 margins.append(dy.margin)
                 margin_all = ops.minimum(margin_all, dy.margin)

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..assemble import Assembly
 from ..assemble_batch import assemble_batch
+from ..batch_inplace import every_finite_in, expi_rows
 from ..errors import not_finite
 from ..execute import LinkPoses, executor
 from ..ops import BATCH
@@ -122,10 +123,10 @@ def solve_batch(
     if start is not None:
         _check_start(c, start, n, source)
     out = BatchResult(n, arrays, source, [None] * n)
+    every_finite = every_finite_in(arrays)
     finite = np.ones(n, bool)
-    for a in arrays:  # (a point's rows: both coordinates)
+    for a in () if every_finite else arrays:  # (a point's rows: both coordinates)
         finite &= np.isfinite(a) if a.ndim == 1 else np.all(np.isfinite(a), axis=1)
-    every_finite = bool(np.all(finite))
     for i in () if every_finite else np.flatnonzero(~finite).tolist():
         # the single solve's refusal: the row's first value that is not finite, named
         for s, a in zip(c.specs, arrays):
@@ -174,12 +175,15 @@ def solve_batch(
     every = bool(np.all(ok))
     # (the where passes skipped where every row is ok: they would copy)
     residual = _owned_where(ok, got.residual, every)
-    far = ok & ~(residual <= c.closure_limit)  # as solve_one: no false assembly
-    for i in np.flatnonzero(far).tolist() if far.any() else ():
-        out.reason[i] = c.closure_reason(float(residual[i]))
-    ok &= ~far
-    _fill(out, c, points, arrays, finite, ok, got)
-    every = bool(np.all(out.ok))
+    # as solve_one: no false assembly (every row within the limit where the largest residual
+    # is: max propagates NaN, which fails <= as each row's test does)
+    if not (every and n and residual.max() <= c.closure_limit):
+        far = ok & ~(residual <= c.closure_limit)
+        for i in np.flatnonzero(far).tolist() if far.any() else ():
+            out.reason[i] = c.closure_reason(float(residual[i]))
+        ok &= ~far
+        every = bool(np.all(ok))
+    every = _fill(out, c, points, arrays, finite, ok, got, every)
     out.margin = _owned_where(out.ok, margin, every)
     out.signs = np.zeros((n, len(c.plan.branch_steps)), int)
     for b, sg in enumerate(signs):
@@ -206,11 +210,14 @@ def _fill(
     finite: np.ndarray,
     ok: np.ndarray,
     got: Assembly,
-) -> None:
+    every: bool | None = None,
+) -> bool:
     """points, links, joints and inputs of the rows ``ok`` from their assembly (0 elsewhere);
     an inverse solve's actuator beyond its limits turns its row into a failure. ``pts`` (the
-    solved points, complex or (n, 2)) is emptied as its points are written."""
-    every = bool(np.all(ok))
+    solved points, complex or (n, 2)) is emptied as its points are written. ``every``: ok
+    holds in every row (taken from ``ok`` when not given); returns whether out.ok does."""
+    if every is None:
+        every = bool(np.all(ok))
     taken: set[int] = set()  # arrays handed out as they are: each to one output only
     # each point's (n, 2) array made as its complex form is let go (pts is the caller's own)
     out.points = {}
@@ -231,7 +238,9 @@ def _fill(
                     if why:
                         ok[i] = False
                         out.reason[i] = why
+                        every = False
     out.ok = ok
+    return every
 
 
 #: |limit| (rad) up to which a periodic angle inside [minimum, maximum] as written is inside
@@ -489,7 +498,7 @@ def _assembly_poses(plan: Plan, poses: LinkPoses) -> LinkPoses:
     }
     if not welded:
         return poses
-    rot = {l: (BATCH.expi(poses.phi[l]) if l in welded else r) for l, r in poses.rot.items()}
+    rot = {l: (expi_rows(poses.phi[l]) if l in welded else r) for l, r in poses.rot.items()}
     return LinkPoses(poses.phi, rot, poses.T)
 
 
