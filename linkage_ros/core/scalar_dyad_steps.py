@@ -82,8 +82,8 @@ def rrr_step(
             raise Refused(k_step, 0.0)
         R[sx] = z
         R[s_scale] = S
-        r.used.append(sg)  # (SlotRun.taken, inlined)
-        r.margins.append(margin)
+        r.used += (sg,)  # (SlotRun.taken, inlined)
+        r.margins += (margin,)
         if margin < r.margin:
             r.margin = margin
 

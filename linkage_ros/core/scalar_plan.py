@@ -515,20 +515,21 @@ class ScalarProgram:
         for i, reg in self._wrap_regs:
             v = values[i]
             R[reg] = v if _NEG_PI < v <= _PI else _wrap_one(v)
-        # (one store a field: a tuple assignment of many builds and unpacks a tuple)
+        # (one store a field: a tuple assignment of many builds and unpacks a tuple; prefer,
+        # tol, failure and violation the class's values unless given or refused)
         r.values = values
         r.signs = signs
-        r.prefer = prefer
+        if prefer is not None:
+            r.prefer = prefer
         r.predict = predict
         r.predict_from = predict_from
         r.prev_margins = prev_margins
-        r.tol = tol
+        if tol != TANGENCY_TOL:
+            r.tol = tol
         r.prev_small = min(prev_margins) < _CM if prev_margins else False
-        r.used = []
-        r.margins = []
+        r.used = ()
+        r.margins = ()
         r.margin = 1.0
-        r.failure = -1
-        r.violation = 0.0
         try:
             for step in self.steps:
                 step(r)
@@ -582,9 +583,7 @@ class ScalarProgram:
         r = self.execute(values, signs, prefer, prev_margins, tol)
         poses, points, used, margins = self.poses_of(r), self.points_of(r), r.used, r.margins
         ok = r.failure < 0
-        return PlanRun(
-            ok, poses, points, r.margin, tuple(used), r.failure, r.violation, tuple(margins)
-        )
+        return PlanRun(ok, poses, points, r.margin, used, r.failure, r.violation, margins)
 
 
 def program(plan: Any) -> ScalarProgram:

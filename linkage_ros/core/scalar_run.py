@@ -10,6 +10,7 @@ from collections.abc import Callable, Mapping, Sequence
 from math import cos, sin
 from typing import Any
 
+from .dyads import TANGENCY_TOL
 from .execute import CONTINUITY_MARGIN
 from .ops import _cabs_one, _wrap_one
 
@@ -25,40 +26,42 @@ class Refused(Exception):
 
 
 class SlotRun:
-    """One run: its registers and its continuity inputs and outputs."""
+    """One run: its registers and its continuity inputs and outputs. What most runs leave as
+    it starts (no prediction given, the default tolerance, nothing refused) is the class's
+    value, stored on a run only where it differs (fewer stores per command)."""
 
     R: list[Any]  # the registers (see ScalarProgram: points, poses, frames, orientations)
     values: list[Any]
     signs: Sequence[int]
-    prefer: Mapping[str, Any] | None  # made on first use by predict, if given
+    #: made on first use by predict, if given
+    prefer: Mapping[str, Any] | None = None
     #: predict(predict_from, values) makes ``prefer`` (a function and its first argument, not
     #: a closure over them: nothing is made per run for the prediction most runs never ask)
     predict: Callable[[Any, list[Any]], Mapping[str, Any] | None] | None
     predict_from: Any
     prev_small: bool  # some previous margin is below CONTINUITY_MARGIN
     prev_margins: Sequence[float] | None
-    tol: float
-    used: list[int]  # the branch sign taken at each branching step so far
-    margins: list[float]  # and the dyad's margin
+    tol: float = TANGENCY_TOL
+    #: the branch sign taken at each branching step so far, and the dyad's margin (tuples: a
+    #: State keeps them as they are)
+    used: tuple[int, ...]
+    margins: tuple[float, ...]
     margin: float  # the least of them (1.0 without a branching step)
-    failure: int  # the step that did not close, or -1
-    violation: float  # by how much it misses (m)
+    failure: int = -1  # the step that did not close, or -1
+    violation: float = 0.0  # by how much it misses (m)
 
     __slots__ = (
         'R',
         'values',
         'signs',
-        'prefer',
         'predict',
         'predict_from',
         'prev_small',
         'prev_margins',
-        'tol',
         'used',
         'margins',
         'margin',
-        'failure',
-        'violation',
+        '__dict__',  # (the class's values above where a run differs)
     )
 
     def prediction(self) -> Mapping[str, Any] | None:
@@ -78,8 +81,8 @@ class SlotRun:
         return prefer is not None and key in prefer
 
     def taken(self, sign: int, margin: float) -> None:
-        self.used.append(sign)
-        self.margins.append(margin)
+        self.used += (sign,)
+        self.margins += (margin,)
         if margin < self.margin:
             self.margin = margin
 

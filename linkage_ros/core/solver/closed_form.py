@@ -464,7 +464,7 @@ class SlotReadout:
         )
         if r.failure >= 0:
             return None
-        state = slot_state(vals, tuple(r.used), tuple(r.margins), self, r.R)
+        state = slot_state(vals, r.used, r.margins, self, r.R)
         res = self.result(r, state)
         if not res.success:
             return None
@@ -526,5 +526,5 @@ def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     if r.failure >= 0:
         reason = c.dyad_reason(r.failure, r.violation)
         return c.fail(reason, c.echo(vals), _CLOSED_FORM), None
-    state = slot_state(vals, tuple(r.used), tuple(r.margins), read, r.R)
+    state = slot_state(vals, r.used, r.margins, read, r.R)
     return read.result(r, state), state
