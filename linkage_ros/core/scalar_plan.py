@@ -19,14 +19,13 @@ calls an ops function per where / max (measured, load ~10: the generic executor 
 the four-bar's plan, this program 8.6 us, a ``math`` four-bar 1.6 us). Constants are resolved
 when the program is made: RRR radii, each known angle wrapped once per run, a welded body's
 points carried by its root (or by a member slid off it) computed once by the very float
-operations a run would make, the welded ground's step the partial of its placer.
+operations a run would make, the welded ground's step its placer at the identity pose.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from functools import partial
 from math import atan2, cos, sin
 from typing import Any
 
@@ -188,7 +187,7 @@ class ScalarProgram:
         return steps
 
     def _placer(self, bi: int, set_pts: set[str], placed: set[str]) -> Callable[..., None]:
-        """place(phi, rot, T, r): the body's members posed and the points it sets first."""
+        """place(r, phi, rot, T): the body's members posed and the points it sets first."""
         mech = self.plan.mech
         members = []
         for link in self.plan.bodies[bi].links:
@@ -206,7 +205,7 @@ class ScalarProgram:
         if self.single[bi]:
             ((iphi, irot, iT, pts, _, _, _),) = members
 
-            def place_single(phi: float, rot: complex, Tb: complex, r: SlotRun) -> None:
+            def place_single(r: SlotRun, phi: float, rot: complex, Tb: complex) -> None:
                 R = r.R
                 R[iphi], R[irot], R[iT] = phi, rot, Tb
                 for s, ref in pts:
@@ -292,13 +291,13 @@ class ScalarProgram:
             at_compile = SlotRun()
             at_compile.R = self.template
             if self.single[st.body]:  # a constant: placed once, in the template
-                place(0.0, rot0, T0, at_compile)
+                place(at_compile, 0.0, rot0, T0)
                 return None
             # the root's frame is the identity: its pose and points are constants too
             root, *rest = self._members[st.body]
-            welded_placer([root])(0.0, rot0, T0, at_compile)
-            # the step is the placer at the identity pose (a partial: no frame of its own)
-            return partial(welded_placer(rest), 0.0, rot0, T0)
+            welded_placer([root])(at_compile, 0.0, rot0, T0)
+            # the step is the placer at the identity pose (no frame of its own)
+            return welded_placer(rest, (0.0, rot0, T0))
         if op is StepKind.KNOWN_POINT and isinstance(a, KnownPoint):
             s, i = self.ip[st.point], a.spec_index
             set_pts.add(st.point)
@@ -318,7 +317,7 @@ class ScalarProgram:
                 R = r.R
                 phi = R[ang]
                 rot = complex(cos(phi), sin(phi))
-                place(phi, rot, R[sp] - rot * lp_of(R), r)
+                place(r, phi, rot, R[sp] - rot * lp_of(R))
 
             return point_angle
         if op is StepKind.ANGLE and isinstance(a, AngleFrom):
@@ -389,7 +388,7 @@ class ScalarProgram:
             bx, by = b.real, b.imag
             phi = atan2(ux * by - uy * bx, ux * bx + uy * by)
             rot = complex(cos(phi), sin(phi))
-            place(phi, rot, R[sp] - rot * lp, r)
+            place(r, phi, rot, R[sp] - rot * lp)
 
         return two_points
 

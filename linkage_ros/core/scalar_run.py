@@ -95,11 +95,15 @@ def wrap(a: float) -> float:
 Step = Callable[[SlotRun], None]
 
 
-def welded_placer(members: list[Any]) -> Callable[..., None]:
-    """place(phi, rot, T, r) of a welded body's members: each posed from its frame registers,
-    and the points it sets first."""
+def welded_placer(
+    members: list[Any], pose: tuple[float, complex, complex] = (0.0, 1 + 0j, 0j)
+) -> Callable[..., None]:
+    """place(r, phi, rot, T) of a welded body's members: each posed from its frame registers,
+    and the points it sets first. ``pose``: the pose place(r) takes (the ground's: its step is
+    the placer itself, no partial's call in between)."""
+    phi0, rot0, T0 = pose
 
-    def place_welded(phi: float, rot: complex, Tb: complex, r: SlotRun) -> None:
+    def place_welded(r: SlotRun, phi: float = phi0, rot: complex = rot0, Tb: complex = T0) -> None:
         R = r.R
         for iphi, irot, iT, pts, fphi, frot, fT in members:
             lr = rot * R[frot]

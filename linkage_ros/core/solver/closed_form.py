@@ -266,6 +266,14 @@ class SlotReadout:
         #: of the register list (ScalarProgram)
         self.n_set = prog.n_set
         self.n_points = len(prog.point_names)  # (complex; the links' angles after them)
+        #: any check made on every run (result's first loops)
+        self.eager = bool(
+            self.closure_one_side
+            or self.closure_two_sides
+            or self.slides
+            or self.angle_knowns
+            or self.knowns
+        )
 
     def result(self, r: SlotRun, state: SlotState) -> Result:
         """The Result of a run that closed (refused if any value is not finite), ``state`` its
@@ -278,55 +286,56 @@ class SlotReadout:
         vals, signs = state.values, state.signs
         # (loops, not comprehensions: a comprehension is a call in Python 3.11)
         worst = 0.0  # the largest component of a closure miss (m); NaN ones are not counted
-        if self.closure_one_side:  # (the order of the checks changes no maximum)
-            worst = one_side_worst(self.closure_one_side, R, worst)
-        for p, prot, pT, crot, cT in self.closure_two_sides:
-            d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
-            a = abs(d.real)
-            if a > worst:
-                worst = a
-            a = abs(d.imag)
-            if a > worst:
-                worst = a
         # ``total``: the values of the Result that may not be finite, summed (the test below)
         total = 0.0
-        for (_, _, p, normal, sphi, srot, sT, gphi, grot, gT, face, known,
-             xrot, xT, x_ref, origin, direction, at_point, turned) in self.slides:  # fmt: skip
-            # the slide's value: slot_reads.slot_reader's slide, inlined
-            g = R[grot]
-            x = R[xrot] * x_ref + R[xT]
-            v = x - (g * origin + R[gT])
-            d = g * direction
-            got = v.real * d.real + v.imag * d.imag
-            total += got
-            if known >= 0:  # the slide is a known: its miss (the knowns' loop below, once)
-                a = abs(got - vals[known])
+        if self.eager:  # (none in a one-loop forward plan such as the four-bar's)
+            if self.closure_one_side:  # (the order of the checks changes no maximum)
+                worst = one_side_worst(self.closure_one_side, R, worst)
+            for p, prot, pT, crot, cT in self.closure_two_sides:
+                d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
+                a = abs(d.real)
                 if a > worst:
                     worst = a
-            off = (x if at_point else R[srot] * p + R[sT]) - (g * p + R[gT])
-            nrm = g * normal
-            # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
-            across = off.real * nrm.real + off.imag * nrm.imag
-            a = abs(abs(across + face) - abs(face)) if face else abs(across)
-            if a > worst:
-                worst = a
-            if turned:
-                a = R[sphi] - R[gphi]
-                if not _NEG_PI < a <= _PI:
-                    a = _wrap_one(a)
-                a = L * abs(a)
+                a = abs(d.imag)
                 if a > worst:
                     worst = a
-        if self.angle_knowns:
-            worst = angle_worst(self.angle_knowns, R, worst, L)
-        for i, kind, read in self.knowns:  # (empty in a forward solve: the loop's set-up only)
-            got, v = read(R), vals[i]
-            if kind is _POINT:
-                a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
-            else:
-                a = abs(got - v)
-            if a > worst:
-                worst = a
+            for (_, _, p, normal, sphi, srot, sT, gphi, grot, gT, face, known,
+                 xrot, xT, x_ref, origin, direction, at_point, turned) in self.slides:  # fmt: skip
+                # the slide's value: slot_reads.slot_reader's slide, inlined
+                g = R[grot]
+                x = R[xrot] * x_ref + R[xT]
+                v = x - (g * origin + R[gT])
+                d = g * direction
+                got = v.real * d.real + v.imag * d.imag
+                total += got
+                if known >= 0:  # the slide is a known: its miss (the knowns' loop below, once)
+                    a = abs(got - vals[known])
+                    if a > worst:
+                        worst = a
+                off = (x if at_point else R[srot] * p + R[sT]) - (g * p + R[gT])
+                nrm = g * normal
+                # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
+                across = off.real * nrm.real + off.imag * nrm.imag
+                a = abs(abs(across + face) - abs(face)) if face else abs(across)
+                if a > worst:
+                    worst = a
+                if turned:
+                    a = R[sphi] - R[gphi]
+                    if not _NEG_PI < a <= _PI:
+                        a = _wrap_one(a)
+                    a = L * abs(a)
+                    if a > worst:
+                        worst = a
+            if self.angle_knowns:
+                worst = angle_worst(self.angle_knowns, R, worst, L)
+            for i, kind, read in self.knowns:  # (empty in a forward solve)
+                got, v = read(R), vals[i]
+                if kind is _POINT:
+                    a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
+                else:
+                    a = abs(got - v)
+                if a > worst:
+                    worst = a
         margin = r.margin  # (a float: 1.0, or a dyad's)
         # Every value is finite when these are: a joint or link angle is one of the placed
         # links' angles (bounded) less another plus a constant, a point its register, an input
