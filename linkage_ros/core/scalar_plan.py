@@ -277,7 +277,11 @@ class ScalarProgram:
             xr = x_turned if x_turned is not None else R[rx] * x_ref
             pa = p_at if p_at is not None else R[rp] * p_ref + R[tp]
             R[iu] = u = (xr + R[tx]) - pa
-            R[inorm] = n = _cabs_one(u)
+            try:  # (ops' cabs, inlined: a call per run saved)
+                n = abs(u)
+            except OverflowError:
+                n = math.inf
+            R[inorm] = n
             return n
 
         return 0.0, radius
@@ -375,14 +379,20 @@ class ScalarProgram:
         def two_points(r: SlotRun) -> None:
             R = r.R
             b = R[sq] - R[sp]
-            nb = _cabs_one(b)
+            try:  # (ops' cabs, inlined)
+                nb = abs(b)
+            except OverflowError:
+                nb = math.inf
             b = b / (nb if nb > 0 else 1.0)
             lp = p_at if p_at is not None else R[prot] * p_ref + R[pT]
             if iu >= 0:
                 u, nu = R[iu], R[iu + 1]
             else:
                 u = ((q_turned if q_turned is not None else R[qrot] * q_ref) + R[qT]) - lp
-                nu = _cabs_one(u)
+                try:
+                    nu = abs(u)
+                except OverflowError:
+                    nu = math.inf
             u = u / (nu if nu > 0 else 1.0)
             ux, uy = u.real, u.imag  # (each read once: a complex's attribute is slow)
             bx, by = b.real, b.imag
