@@ -94,6 +94,7 @@ class SlotReadout:
                 self.limit_intervals.append((i, *interval))
         #: the names of a command's values, in spec order (lean_command's parse)
         self.known_names = tuple(s.name for s in specs)
+        self.n_known = len(self.known_names)
         commanded = {s.name: i for i, s in enumerate(specs)}
         #: (actuator, index of its commanded value), and the others' readers
         self.commanded = [(a, commanded[a]) for a in mech.actuators if a in commanded]
@@ -445,7 +446,7 @@ class SlotReadout:
         is not. None, having changed nothing, for any other command or answer: solve_one
         answers those (it refuses them, or echoes other kinds of values)."""
         names = self.known_names
-        if type(values) is not dict or len(values) != len(names):
+        if type(values) is not dict or len(values) != self.n_known:
             return None
         vals: Values = []
         try:
