@@ -278,7 +278,7 @@ class ScalarProgram:
             pa = p_at if p_at is not None else R[rp] * p_ref + R[tp]
             R[iu] = u = (xr + R[tx]) - pa
             try:  # (ops' cabs, inlined: a call per run saved)
-                n = abs(u)
+                n: float = abs(u)
             except OverflowError:
                 n = math.inf
             R[inorm] = n
