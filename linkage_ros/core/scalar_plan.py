@@ -389,10 +389,7 @@ class ScalarProgram:
                 u, nu = R[iu], R[iu + 1]
             else:
                 u = ((q_turned if q_turned is not None else R[qrot] * q_ref) + R[qT]) - lp
-                try:
-                    nu = abs(u)
-                except OverflowError:
-                    nu = math.inf
+                nu = _cabs_one(u)
             u = u / (nu if nu > 0 else 1.0)
             ux, uy = u.real, u.imag  # (each read once: a complex's attribute is slow)
             bx, by = b.real, b.imag
@@ -590,9 +587,8 @@ class ScalarProgram:
     ) -> PlanRun:
         """:meth:`execute` as a :class:`~linkage_ros.core.execute.PlanRun` (name-keyed)."""
         r = self.execute(values, signs, prefer, prev_margins, tol)
-        poses, points, used, margins = self.poses_of(r), self.points_of(r), r.used, r.margins
-        ok = r.failure < 0
-        return PlanRun(ok, poses, points, r.margin, used, r.failure, r.violation, margins)
+        poses, points, ok = self.poses_of(r), self.points_of(r), r.failure < 0
+        return PlanRun(ok, poses, points, r.margin, r.used, r.failure, r.violation, r.margins)
 
 
 def program(plan: Any) -> ScalarProgram:
