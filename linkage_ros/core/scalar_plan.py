@@ -521,8 +521,8 @@ class ScalarProgram:
         for i, reg in self._wrap_regs:
             v = values[i]
             R[reg] = v if _NEG_PI < v <= _PI else _wrap_one(v)
-        # (one store a field: a tuple assignment of many builds and unpacks a tuple; prefer,
-        # tol, failure and violation the class's values unless given or refused)
+        # (one store a field: a tuple assignment of many builds and unpacks a tuple; prefer and
+        # violation the class's values unless given or refused)
         r.values = values
         r.signs = signs
         if prefer is not None:
@@ -530,12 +530,12 @@ class ScalarProgram:
         r.predict = predict
         r.predict_from = predict_from
         r.prev_margins = prev_margins
-        if tol != TANGENCY_TOL:
-            r.tol = tol
+        r.tol = tol
         r.prev_small = min(prev_margins) < _CM if prev_margins else False
         r.used = ()
         r.margins = ()
         r.margin = 1.0
+        r.failure = -1
         try:
             for step in self.steps:
                 step(r)

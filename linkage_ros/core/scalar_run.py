@@ -10,7 +10,6 @@ from collections.abc import Callable, Mapping, Sequence
 from math import cos, sin
 from typing import Any
 
-from .dyads import TANGENCY_TOL
 from .execute import CONTINUITY_MARGIN
 from .ops import _cabs_one, _wrap_one
 
@@ -26,9 +25,10 @@ class Refused(Exception):
 
 
 class SlotRun:
-    """One run: its registers and its continuity inputs and outputs. What most runs leave as
-    it starts (no prediction given, the default tolerance, nothing refused) is the class's
-    value, stored on a run only where it differs (fewer stores per command)."""
+    """One run: its registers and its continuity inputs and outputs. What most runs never set
+    or read (a prediction given, by how much a refused step misses) is the class's value, stored
+    on a run only where it differs (fewer stores per command; what every run reads is a slot:
+    a class value is read ~3x slower through an instance)."""
 
     R: list[Any]  # the registers (see ScalarProgram: points, poses, frames, orientations)
     values: list[Any]
@@ -41,13 +41,13 @@ class SlotRun:
     predict_from: Any
     prev_small: bool  # some previous margin is below CONTINUITY_MARGIN
     prev_margins: Sequence[float] | None
-    tol: float = TANGENCY_TOL
+    tol: float
     #: the branch sign taken at each branching step so far, and the dyad's margin (tuples: a
     #: State keeps them as they are)
     used: tuple[int, ...]
     margins: tuple[float, ...]
     margin: float  # the least of them (1.0 without a branching step)
-    failure: int = -1  # the step that did not close, or -1
+    failure: int  # the step that did not close, or -1
     violation: float = 0.0  # by how much it misses (m)
 
     __slots__ = (
@@ -58,9 +58,11 @@ class SlotRun:
         'predict_from',
         'prev_small',
         'prev_margins',
+        'tol',
         'used',
         'margins',
         'margin',
+        'failure',
         '__dict__',  # (the class's values above where a run differs)
     )
 
