@@ -29,9 +29,9 @@ and their frames not tested where bounded (the ``math`` four-bar 1.6 us); the ex
 50.2-51.2 -> 47.7-48.1 us (its links' and cylinders' first points, its bucket's dyad joint).
 Then fewer operations per run (the same floats: a run's rare fields on its class, its signs and
 margins tuples, the welded ground's placer called as the step, the every-run checks behind one
-flag, ops' wrap with its range test first; best of 120 passes interleaved in one process, load
-3.2-4.5): the four-bar 12.9-13.7 -> 11.8-12.9 us (7.6-8.0x -> 7.0-7.4x the ``math`` four-bar),
-the excavator 45.7-47.2 -> 45.5-47.7 us (its cost is its dyads' kernels and eager checks).
+flag, ops' wrap with its range test first; best of 150 passes interleaved in one process, load
+2.9-3.1): the four-bar 12.7-14.5 -> 11.6-12.8 us (7.5-8.5x -> 6.9-7.7x the ``math`` four-bar),
+the excavator 45.1-52.8 -> 45.0-47.9 us (its cost is its dyads' kernels and eager checks).
 """
 
 from __future__ import annotations
