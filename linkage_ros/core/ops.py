@@ -48,25 +48,33 @@ _TWO_PI_HI, _TWO_PI_MID, _TWO_PI_LO = _two_pi_parts()
 WRAP_REDUCE_LIMIT = 2.0**21
 
 
+_PI = math.pi
+_NEG_PI = -math.pi
+_TWO_PI = 2 * math.pi
+_NEG_WRAP_REDUCE_LIMIT = -WRAP_REDUCE_LIMIT
+_atan2, _sin, _cos = math.atan2, math.sin, math.cos
+
+
 def _wrap_one(a: float) -> float:
     """The angle wrap, one float: (-pi, pi] as it is (exact, and the common case), others
     reduced exactly to within an ulp or so (Cody-Waite with a three-part 2 pi; atan2 of sin and
     cos beyond WRAP_REDUCE_LIMIT, so 1e300 rad keeps full precision too); NaN if not finite.
-    The batch form runs exactly these float operations elementwise."""
-    if -math.pi < a <= math.pi:
+    The batch form runs exactly these float operations elementwise. (Module constants, and the
+    reduction's range tested first: one chained comparison, False for NaN and inf.)"""
+    if _NEG_PI < a <= _PI:
         return a
-    if not math.isfinite(a):
+    if _NEG_WRAP_REDUCE_LIMIT <= a <= WRAP_REDUCE_LIMIT:
+        k = float(round(a / _TWO_PI))
+        r = ((a - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
+        # k rounded off by one at an odd multiple of pi: back into [-pi, pi] (as atan2 returns)
+        if r > _PI:
+            return r - _TWO_PI
+        if r < _NEG_PI:
+            return r + _TWO_PI
+        return r
+    if not math.isfinite(a):  # (not a - a: a numpy inf would warn)
         return math.nan
-    if abs(a) > WRAP_REDUCE_LIMIT:
-        return math.atan2(math.sin(a), math.cos(a))
-    k = float(round(a / (2 * math.pi)))
-    r = ((a - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
-    # k rounded off by one at an odd multiple of pi: back into [-pi, pi] (as atan2 returns)
-    if r > math.pi:
-        return r - 2 * math.pi
-    if r < -math.pi:
-        return r + 2 * math.pi
-    return r
+    return _atan2(_sin(a), _cos(a))
 
 
 def _reduce_many(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

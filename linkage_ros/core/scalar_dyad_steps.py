@@ -82,8 +82,8 @@ def rrr_step(
             raise Refused(k_step, 0.0)
         R[sx] = z
         R[s_scale] = S
-        r.used.append(sg)  # (SlotRun.taken, inlined)
-        r.margins.append(margin)
+        r.used += (sg,)  # (SlotRun.taken, inlined)
+        r.margins += (margin,)
         if margin < r.margin:
             r.margin = margin
 
@@ -159,7 +159,7 @@ def rpr_step(
     the pivot, the body's orientation register); ``guide``: the guide's (angle, rotation,
     translation) registers in its welded body's frame, None where the body is a single link
     (the identity); line = (the point's reference position, the slide direction, the
-    continuity key); ``place(phi, rot, T, r)`` sets the body's links; ``at``: (the plan step's
+    continuity key); ``place(r, phi, rot, T)`` sets the body's links; ``at``: (the plan step's
     index, the index of its sign)."""
     sx, sp, ang = regs
     k, b = at
@@ -189,7 +189,7 @@ def rpr_step(
         phi = rpr_angle(pair, sg) - psi0
         R[ang] = phi
         rot = complex(cos(phi), sin(phi))
-        place(phi, rot, R[sp] - rot * lp, r)
+        place(r, phi, rot, R[sp] - rot * lp)
         r.taken(sg, margin)
 
     return rpr

@@ -19,14 +19,13 @@ calls an ops function per where / max (measured, load ~10: the generic executor 
 the four-bar's plan, this program 8.6 us, a ``math`` four-bar 1.6 us). Constants are resolved
 when the program is made: RRR radii, each known angle wrapped once per run, a welded body's
 points carried by its root (or by a member slid off it) computed once by the very float
-operations a run would make, the welded ground's step the partial of its placer.
+operations a run would make, the welded ground's step its placer at the identity pose.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
-from functools import partial
 from math import atan2, cos, sin
 from typing import Any
 
@@ -188,7 +187,7 @@ class ScalarProgram:
         return steps
 
     def _placer(self, bi: int, set_pts: set[str], placed: set[str]) -> Callable[..., None]:
-        """place(phi, rot, T, r): the body's members posed and the points it sets first."""
+        """place(r, phi, rot, T): the body's members posed and the points it sets first."""
         mech = self.plan.mech
         members = []
         for link in self.plan.bodies[bi].links:
@@ -206,7 +205,7 @@ class ScalarProgram:
         if self.single[bi]:
             ((iphi, irot, iT, pts, _, _, _),) = members
 
-            def place_single(phi: float, rot: complex, Tb: complex, r: SlotRun) -> None:
+            def place_single(r: SlotRun, phi: float, rot: complex, Tb: complex) -> None:
                 R = r.R
                 R[iphi], R[irot], R[iT] = phi, rot, Tb
                 for s, ref in pts:
@@ -278,7 +277,11 @@ class ScalarProgram:
             xr = x_turned if x_turned is not None else R[rx] * x_ref
             pa = p_at if p_at is not None else R[rp] * p_ref + R[tp]
             R[iu] = u = (xr + R[tx]) - pa
-            R[inorm] = n = _cabs_one(u)
+            try:  # (ops' cabs, inlined: a call per run saved)
+                n: float = abs(u)
+            except OverflowError:
+                n = math.inf
+            R[inorm] = n
             return n
 
         return 0.0, radius
@@ -292,13 +295,13 @@ class ScalarProgram:
             at_compile = SlotRun()
             at_compile.R = self.template
             if self.single[st.body]:  # a constant: placed once, in the template
-                place(0.0, rot0, T0, at_compile)
+                place(at_compile, 0.0, rot0, T0)
                 return None
             # the root's frame is the identity: its pose and points are constants too
             root, *rest = self._members[st.body]
-            welded_placer([root])(0.0, rot0, T0, at_compile)
-            # the step is the placer at the identity pose (a partial: no frame of its own)
-            return partial(welded_placer(rest), 0.0, rot0, T0)
+            welded_placer([root])(at_compile, 0.0, rot0, T0)
+            # the step is the placer at the identity pose (no frame of its own)
+            return welded_placer(rest, (0.0, rot0, T0))
         if op is StepKind.KNOWN_POINT and isinstance(a, KnownPoint):
             s, i = self.ip[st.point], a.spec_index
             set_pts.add(st.point)
@@ -318,7 +321,7 @@ class ScalarProgram:
                 R = r.R
                 phi = R[ang]
                 rot = complex(cos(phi), sin(phi))
-                place(phi, rot, R[sp] - rot * lp_of(R), r)
+                place(r, phi, rot, R[sp] - rot * lp_of(R))
 
             return point_angle
         if op is StepKind.ANGLE and isinstance(a, AngleFrom):
@@ -376,7 +379,10 @@ class ScalarProgram:
         def two_points(r: SlotRun) -> None:
             R = r.R
             b = R[sq] - R[sp]
-            nb = _cabs_one(b)
+            try:  # (ops' cabs, inlined)
+                nb = abs(b)
+            except OverflowError:
+                nb = math.inf
             b = b / (nb if nb > 0 else 1.0)
             lp = p_at if p_at is not None else R[prot] * p_ref + R[pT]
             if iu >= 0:
@@ -389,7 +395,7 @@ class ScalarProgram:
             bx, by = b.real, b.imag
             phi = atan2(ux * by - uy * bx, ux * bx + uy * by)
             rot = complex(cos(phi), sin(phi))
-            place(phi, rot, R[sp] - rot * lp, r)
+            place(r, phi, rot, R[sp] - rot * lp)
 
         return two_points
 
@@ -515,20 +521,21 @@ class ScalarProgram:
         for i, reg in self._wrap_regs:
             v = values[i]
             R[reg] = v if _NEG_PI < v <= _PI else _wrap_one(v)
-        # (one store a field: a tuple assignment of many builds and unpacks a tuple)
+        # (one store a field: a tuple assignment of many builds and unpacks a tuple; prefer and
+        # violation the class's values unless given or refused)
         r.values = values
         r.signs = signs
-        r.prefer = prefer
+        if prefer is not None:
+            r.prefer = prefer
         r.predict = predict
         r.predict_from = predict_from
         r.prev_margins = prev_margins
         r.tol = tol
         r.prev_small = min(prev_margins) < _CM if prev_margins else False
-        r.used = []
-        r.margins = []
+        r.used = ()
+        r.margins = ()
         r.margin = 1.0
         r.failure = -1
-        r.violation = 0.0
         try:
             for step in self.steps:
                 step(r)
@@ -580,11 +587,8 @@ class ScalarProgram:
     ) -> PlanRun:
         """:meth:`execute` as a :class:`~linkage_ros.core.execute.PlanRun` (name-keyed)."""
         r = self.execute(values, signs, prefer, prev_margins, tol)
-        poses, points, used, margins = self.poses_of(r), self.points_of(r), r.used, r.margins
-        ok = r.failure < 0
-        return PlanRun(
-            ok, poses, points, r.margin, tuple(used), r.failure, r.violation, tuple(margins)
-        )
+        poses, points, ok = self.poses_of(r), self.points_of(r), r.failure < 0
+        return PlanRun(ok, poses, points, r.margin, r.used, r.failure, r.violation, r.margins)
 
 
 def program(plan: Any) -> ScalarProgram:

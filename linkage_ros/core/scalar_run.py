@@ -25,12 +25,16 @@ class Refused(Exception):
 
 
 class SlotRun:
-    """One run: its registers and its continuity inputs and outputs."""
+    """One run: its registers and its continuity inputs and outputs. What most runs never set
+    or read (a prediction given, by how much a refused step misses) is the class's value, stored
+    on a run only where it differs (fewer stores per command; what every run reads is a slot:
+    a class value is read ~3x slower through an instance)."""
 
     R: list[Any]  # the registers (see ScalarProgram: points, poses, frames, orientations)
     values: list[Any]
     signs: Sequence[int]
-    prefer: Mapping[str, Any] | None  # made on first use by predict, if given
+    #: made on first use by predict, if given
+    prefer: Mapping[str, Any] | None = None
     #: predict(predict_from, values) makes ``prefer`` (a function and its first argument, not
     #: a closure over them: nothing is made per run for the prediction most runs never ask)
     predict: Callable[[Any, list[Any]], Mapping[str, Any] | None] | None
@@ -38,17 +42,18 @@ class SlotRun:
     prev_small: bool  # some previous margin is below CONTINUITY_MARGIN
     prev_margins: Sequence[float] | None
     tol: float
-    used: list[int]  # the branch sign taken at each branching step so far
-    margins: list[float]  # and the dyad's margin
+    #: the branch sign taken at each branching step so far, and the dyad's margin (tuples: a
+    #: State keeps them as they are)
+    used: tuple[int, ...]
+    margins: tuple[float, ...]
     margin: float  # the least of them (1.0 without a branching step)
     failure: int  # the step that did not close, or -1
-    violation: float  # by how much it misses (m)
+    violation: float = 0.0  # by how much it misses (m)
 
     __slots__ = (
         'R',
         'values',
         'signs',
-        'prefer',
         'predict',
         'predict_from',
         'prev_small',
@@ -58,7 +63,7 @@ class SlotRun:
         'margins',
         'margin',
         'failure',
-        'violation',
+        '__dict__',  # (the class's values above where a run differs)
     )
 
     def prediction(self) -> Mapping[str, Any] | None:
@@ -78,8 +83,8 @@ class SlotRun:
         return prefer is not None and key in prefer
 
     def taken(self, sign: int, margin: float) -> None:
-        self.used.append(sign)
-        self.margins.append(margin)
+        self.used += (sign,)
+        self.margins += (margin,)
         if margin < self.margin:
             self.margin = margin
 
@@ -92,11 +97,27 @@ def wrap(a: float) -> float:
 Step = Callable[[SlotRun], None]
 
 
-def welded_placer(members: list[Any]) -> Callable[..., None]:
-    """place(phi, rot, T, r) of a welded body's members: each posed from its frame registers,
-    and the points it sets first."""
+def welded_placer(
+    members: list[Any], pose: tuple[float, complex, complex] = (0.0, 1 + 0j, 0j)
+) -> Callable[..., None]:
+    """place(r, phi, rot, T) of a welded body's members: each posed from its frame registers,
+    and the points it sets first. ``pose``: the pose place(r) takes (the ground's: its step is
+    the placer itself, no partial's call in between)."""
+    phi0, rot0, T0 = pose
+    if len(members) == 1:  # (a one-member weld, the four-bar's crank: no loop over members)
+        ((iphi1, irot1, iT1, pts1, fphi1, frot1, fT1),) = members
 
-    def place_welded(phi: float, rot: complex, Tb: complex, r: SlotRun) -> None:
+        def place_one(r: SlotRun, phi: float = phi0, rot: complex = rot0, Tb: complex = T0) -> None:
+            R = r.R
+            lr = rot * R[frot1]
+            lt = rot * R[fT1] + Tb
+            R[iphi1], R[irot1], R[iT1] = phi + R[fphi1], lr, lt
+            for s, ref in pts1:
+                R[s] = lr * ref + lt
+
+        return place_one
+
+    def place_welded(r: SlotRun, phi: float = phi0, rot: complex = rot0, Tb: complex = T0) -> None:
         R = r.R
         for iphi, irot, iT, pts, fphi, frot, fT in members:
             lr = rot * R[frot]

@@ -64,6 +64,32 @@ def test_angle_wrap_is_exact_reduction():
             assert abs(mp.mpf(g) - r) <= 2 * math.ulp(max(abs(float(r)), 1e-300)), a
 
 
+def test_scalar_wrap_at_the_edges_of_its_branches():
+    """The one-float wrap where it changes method (its in-range test, the three-part reduction's
+    limit, atan2 beyond), on ints and numpy scalars too: within 2 ulps of a 50-digit reduction,
+    and NaN for NaN and inf (a numpy inf too, with no warning raised)."""
+    import warnings
+
+    from linkage_ros.core.ops import WRAP_REDUCE_LIMIT, _wrap_one
+
+    edges = []
+    for x in (math.pi, 3 * math.pi, WRAP_REDUCE_LIMIT, 1e300):
+        for y in (x, math.nextafter(x, 0.0), math.nextafter(x, math.inf)):
+            edges += [y, -y, np.float64(y)]
+    edges += [7, -7, 2**21, 10**30]
+    with mp.workdps(400):
+        for a in edges:
+            g = _wrap_one(a)
+            x = mp.mpf(float(a))
+            r = x - 2 * mp.pi * mp.nint(x / (2 * mp.pi))
+            assert abs(g) <= math.pi
+            assert abs(mp.mpf(float(g)) - r) <= 2 * math.ulp(max(abs(float(r)), 1e-300)), a
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')
+        for a in (math.nan, math.inf, -math.inf, np.float64(math.inf), np.float64(math.nan)):
+            assert math.isnan(_wrap_one(a))
+
+
 def test_carray_arithmetic_is_pythons_complex_arithmetic():
     """CArray (a batch of complex points as two real arrays) rounds exactly as Python's complex
     numbers do, operation by operation: the batch and the one-command backend agree bitwise."""

@@ -27,6 +27,11 @@ interleaved in one process, load 1.9-2.9): the four-bar's ``Solver.solve`` 16.3-
 any, 14.0-14.7 us with the first three kinds left out, 12.6-13.3 us with the dyad joint too
 and their frames not tested where bounded (the ``math`` four-bar 1.6 us); the excavator
 50.2-51.2 -> 47.7-48.1 us (its links' and cylinders' first points, its bucket's dyad joint).
+Then fewer operations per run (the same floats: a run's rare fields on its class, its signs and
+margins tuples, the welded ground's placer called as the step, the every-run checks behind one
+flag, ops' wrap with its range test first; best of 150 passes interleaved in one process, load
+2.9-3.1): the four-bar 12.7-14.5 -> 11.6-12.8 us (7.5-8.5x -> 6.9-7.7x the ``math`` four-bar),
+the excavator 45.1-52.8 -> 45.0-47.9 us (its cost is its dyads' kernels and eager checks).
 """
 
 from __future__ import annotations
@@ -94,6 +99,7 @@ class SlotReadout:
                 self.limit_intervals.append((i, *interval))
         #: the names of a command's values, in spec order (lean_command's parse)
         self.known_names = tuple(s.name for s in specs)
+        self.n_known = len(self.known_names)
         commanded = {s.name: i for i, s in enumerate(specs)}
         #: (actuator, index of its commanded value), and the others' readers
         self.commanded = [(a, commanded[a]) for a in mech.actuators if a in commanded]
@@ -266,6 +272,14 @@ class SlotReadout:
         #: of the register list (ScalarProgram)
         self.n_set = prog.n_set
         self.n_points = len(prog.point_names)  # (complex; the links' angles after them)
+        #: any check made on every run (result's first loops)
+        self.eager = bool(
+            self.closure_one_side
+            or self.closure_two_sides
+            or self.slides
+            or self.angle_knowns
+            or self.knowns
+        )
 
     def result(self, r: SlotRun, state: SlotState) -> Result:
         """The Result of a run that closed (refused if any value is not finite), ``state`` its
@@ -278,55 +292,56 @@ class SlotReadout:
         vals, signs = state.values, state.signs
         # (loops, not comprehensions: a comprehension is a call in Python 3.11)
         worst = 0.0  # the largest component of a closure miss (m); NaN ones are not counted
-        if self.closure_one_side:  # (the order of the checks changes no maximum)
-            worst = one_side_worst(self.closure_one_side, R, worst)
-        for p, prot, pT, crot, cT in self.closure_two_sides:
-            d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
-            a = abs(d.real)
-            if a > worst:
-                worst = a
-            a = abs(d.imag)
-            if a > worst:
-                worst = a
         # ``total``: the values of the Result that may not be finite, summed (the test below)
         total = 0.0
-        for (_, _, p, normal, sphi, srot, sT, gphi, grot, gT, face, known,
-             xrot, xT, x_ref, origin, direction, at_point, turned) in self.slides:  # fmt: skip
-            # the slide's value: slot_reads.slot_reader's slide, inlined
-            g = R[grot]
-            x = R[xrot] * x_ref + R[xT]
-            v = x - (g * origin + R[gT])
-            d = g * direction
-            got = v.real * d.real + v.imag * d.imag
-            total += got
-            if known >= 0:  # the slide is a known: its miss (the knowns' loop below, once)
-                a = abs(got - vals[known])
+        if self.eager:  # (none in a one-loop forward plan such as the four-bar's)
+            if self.closure_one_side:  # (the order of the checks changes no maximum)
+                worst = one_side_worst(self.closure_one_side, R, worst)
+            for p, prot, pT, crot, cT in self.closure_two_sides:
+                d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
+                a = abs(d.real)
                 if a > worst:
                     worst = a
-            off = (x if at_point else R[srot] * p + R[sT]) - (g * p + R[gT])
-            nrm = g * normal
-            # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
-            across = off.real * nrm.real + off.imag * nrm.imag
-            a = abs(abs(across + face) - abs(face)) if face else abs(across)
-            if a > worst:
-                worst = a
-            if turned:
-                a = R[sphi] - R[gphi]
-                if not _NEG_PI < a <= _PI:
-                    a = _wrap_one(a)
-                a = L * abs(a)
+                a = abs(d.imag)
                 if a > worst:
                     worst = a
-        if self.angle_knowns:
-            worst = angle_worst(self.angle_knowns, R, worst, L)
-        for i, kind, read in self.knowns:  # (empty in a forward solve: the loop's set-up only)
-            got, v = read(R), vals[i]
-            if kind is _POINT:
-                a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
-            else:
-                a = abs(got - v)
-            if a > worst:
-                worst = a
+            for (_, _, p, normal, sphi, srot, sT, gphi, grot, gT, face, known,
+                 xrot, xT, x_ref, origin, direction, at_point, turned) in self.slides:  # fmt: skip
+                # the slide's value: slot_reads.slot_reader's slide, inlined
+                g = R[grot]
+                x = R[xrot] * x_ref + R[xT]
+                v = x - (g * origin + R[gT])
+                d = g * direction
+                got = v.real * d.real + v.imag * d.imag
+                total += got
+                if known >= 0:  # the slide is a known: its miss (the knowns' loop below, once)
+                    a = abs(got - vals[known])
+                    if a > worst:
+                        worst = a
+                off = (x if at_point else R[srot] * p + R[sT]) - (g * p + R[gT])
+                nrm = g * normal
+                # ResultAssembler's rule: a roller (face: its drawn offset) closes on either side
+                across = off.real * nrm.real + off.imag * nrm.imag
+                a = abs(abs(across + face) - abs(face)) if face else abs(across)
+                if a > worst:
+                    worst = a
+                if turned:
+                    a = R[sphi] - R[gphi]
+                    if not _NEG_PI < a <= _PI:
+                        a = _wrap_one(a)
+                    a = L * abs(a)
+                    if a > worst:
+                        worst = a
+            if self.angle_knowns:
+                worst = angle_worst(self.angle_knowns, R, worst, L)
+            for i, kind, read in self.knowns:  # (empty in a forward solve)
+                got, v = read(R), vals[i]
+                if kind is _POINT:
+                    a = max(abs(got.real - v[0]), abs(got.imag - v[1]))
+                else:
+                    a = abs(got - v)
+                if a > worst:
+                    worst = a
         margin = r.margin  # (a float: 1.0, or a dyad's)
         # Every value is finite when these are: a joint or link angle is one of the placed
         # links' angles (bounded) less another plus a constant, a point its register, an input
@@ -436,7 +451,7 @@ class SlotReadout:
         is not. None, having changed nothing, for any other command or answer: solve_one
         answers those (it refuses them, or echoes other kinds of values)."""
         names = self.known_names
-        if type(values) is not dict or len(values) != len(names):
+        if type(values) is not dict or len(values) != self.n_known:
             return None
         vals: Values = []
         try:
@@ -464,7 +479,7 @@ class SlotReadout:
         )
         if r.failure >= 0:
             return None
-        state = slot_state(vals, tuple(r.used), tuple(r.margins), self, r.R)
+        state = slot_state(vals, r.used, r.margins, self, r.R)
         res = self.result(r, state)
         if not res.success:
             return None
@@ -526,5 +541,5 @@ def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     if r.failure >= 0:
         reason = c.dyad_reason(r.failure, r.violation)
         return c.fail(reason, c.echo(vals), _CLOSED_FORM), None
-    state = slot_state(vals, tuple(r.used), tuple(r.margins), read, r.R)
+    state = slot_state(vals, r.used, r.margins, read, r.R)
     return read.result(r, state), state
