@@ -69,9 +69,11 @@ class LoopSystem:
             x[3 * i + 1 : 3 * i + 3] = self.centroid[l]
         return x
 
-    def poses_from_x(self, x: np.ndarray, fixed: LinkPoses | None = None) -> LinkPoses:
-        """Configuration of every link: free ones from x, the rest from ``fixed`` (ground at
-        the reference pose)."""
+    def poses_from_x(
+        self, x: np.ndarray | list[float], fixed: LinkPoses | None = None
+    ) -> LinkPoses:
+        """Configuration of every link: free ones from x (an array, or its list of floats: a
+        Newton answer read once), the rest from ``fixed`` (ground at the reference pose)."""
         phi: dict[str, Any] = {}
         rot: dict[str, Any] = {}
         T: dict[str, Any] = {}
@@ -83,7 +85,7 @@ class LoopSystem:
             phi[ground], rot[ground], T[ground] = 0.0, 1 + 0j, 0j
         # plain floats and complex numbers: the warm Newton solve reads every configuration
         # it checks through here (a dozen numpy scalar reads per link would cost more)
-        xs: list[float] = x.tolist()
+        xs: list[float] = x if isinstance(x, list) else x.tolist()
         cos, sin = math.cos, math.sin
         for l, i, o in self._centroid_z:
             p = xs[3 * i]
@@ -92,7 +94,7 @@ class LoopSystem:
         return LinkPoses(phi, rot, T)
 
     def configuration(
-        self, x: np.ndarray, fixed: LinkPoses | None = None
+        self, x: np.ndarray | list[float], fixed: LinkPoses | None = None
     ) -> tuple[LinkPoses, dict[str, complex]]:
         """(poses, points): poses_from_x and every point's world position (complex), each read
         off the first link that carries it."""
