@@ -91,19 +91,18 @@ def least_miss(
 
 
 # -- continuation: predictor ------------------------------------------------------------------
-def _wrap(a: float) -> float:
-    """wrap_angle without its two Python calls for an angle already in (-pi, pi] (the same
-    float either way)."""
-    return a if -_PI < a <= _PI else _wrap_one(a)
-
-
 def value_step(t: LoopTables, a: Sequence[Any], b: Sequence[Any]) -> list[float]:
     """b - a per value component in scale-free units (rad, length scales)."""
     out: list[float] = []
     L = t.L
     for s, va, vb in zip(t.specs, a, b):
         if type(s) is AngleSpec:  # reduce first: vb - va may overflow
-            out.append(_wrap(_wrap(float(vb)) - _wrap(float(va))))
+            # (each wrap's own first test inline: an angle in (-pi, pi] is itself, no call)
+            fb, fa = float(vb), float(va)
+            d = (fb if -_PI < fb <= _PI else _wrap_one(fb)) - (
+                fa if -_PI < fa <= _PI else _wrap_one(fa)
+            )
+            out.append(d if -_PI < d <= _PI else _wrap_one(d))
         elif type(s) is SlideSpec:
             out.append(float(vb) / L - float(va) / L)
         else:

@@ -42,9 +42,9 @@ class LoopSystem:
         self.col_scale: np.ndarray = t.col_scale
         self.step_scale: np.ndarray = t.step_scale
         self.point_owner: list[PointOwner] = t.point_owner
-        #: (free link, its index, its reference centroid as a complex number, m)
-        self._centroid_z: list[tuple[str, int, complex]] = [
-            (l, i, complex(float(t.centroid[l][0]), float(t.centroid[l][1])))
+        #: (free link, where its phi, cx and cy are in x, its reference centroid (complex, m))
+        self._centroid_z: list[tuple[str, int, int, int, complex]] = [
+            (l, 3 * i, 3 * i + 1, 3 * i + 2, complex(*map(float, t.centroid[l])))
             for l, i in t.index.items()
         ]
 
@@ -87,10 +87,10 @@ class LoopSystem:
         # it checks through here (a dozen numpy scalar reads per link would cost more)
         xs: list[float] = x if isinstance(x, list) else x.tolist()
         cos, sin = math.cos, math.sin
-        for l, i, o in self._centroid_z:
-            p = xs[3 * i]
+        for l, ip, ix, iy, o in self._centroid_z:
+            p = xs[ip]
             r = complex(cos(p), sin(p))
-            phi[l], rot[l], T[l] = p, r, complex(xs[3 * i + 1], xs[3 * i + 2]) - r * o
+            phi[l], rot[l], T[l] = p, r, complex(xs[ix], xs[iy]) - r * o
         return LinkPoses(phi, rot, T)
 
     def configuration(
