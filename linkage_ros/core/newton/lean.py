@@ -194,13 +194,14 @@ class LeanSchur:
         if not fac.sign:
             return math.inf
         e = 3 * self.nt  # the A columns' sums over B, then over all of J (T columns': constant)
-        b0, b1, b2 = sum(map(abs, P[0:e:3])), sum(map(abs, P[1:e:3])), sum(map(abs, P[2:e:3]))
+        A = list(map(abs, P))  # (|P| once: the same sums, in the same order, as per column)
+        b0, b1, b2 = sum(A[0:e:3]), sum(A[1:e:3]), sum(A[2:e:3])
         b_norm = max(b0, b1, b2)
         j_norm = max(
             self.t_col_norms,
-            b0 + sum(map(abs, P[e::3])),
-            b1 + sum(map(abs, P[e + 1 :: 3])),
-            b2 + sum(map(abs, P[e + 2 :: 3])),
+            b0 + sum(A[e::3]),
+            b1 + sum(A[e + 1 :: 3]),
+            b2 + sum(A[e + 2 :: 3]),
         )
         x_norm = max(
             abs(X[0]) + abs(X[3]) + abs(X[6]),

@@ -91,19 +91,18 @@ def least_miss(
 
 
 # -- continuation: predictor ------------------------------------------------------------------
-def _wrap(a: float) -> float:
-    """wrap_angle without its two Python calls for an angle already in (-pi, pi] (the same
-    float either way)."""
-    return a if -_PI < a <= _PI else _wrap_one(a)
-
-
 def value_step(t: LoopTables, a: Sequence[Any], b: Sequence[Any]) -> list[float]:
     """b - a per value component in scale-free units (rad, length scales)."""
     out: list[float] = []
     L = t.L
     for s, va, vb in zip(t.specs, a, b):
         if type(s) is AngleSpec:  # reduce first: vb - va may overflow
-            out.append(_wrap(_wrap(float(vb)) - _wrap(float(va))))
+            # (each wrap's own first test inline: an angle in (-pi, pi] is itself, no call)
+            fb, fa = float(vb), float(va)
+            d = (fb if -_PI < fb <= _PI else _wrap_one(fb)) - (
+                fa if -_PI < fa <= _PI else _wrap_one(fa)
+            )
+            out.append(d if -_PI < d <= _PI else _wrap_one(d))
         elif type(s) is SlideSpec:
             out.append(float(vb) / L - float(va) / L)
         else:
@@ -136,16 +135,9 @@ def predict(
     -dF/dvalue), and optionally the solution before (see extrapolate). None if it moves an
     unknown by more than MAX_PREDICTION (rad, or length scales)."""
     got = extrapolate(
-        t,
-        DenseKernel(t).solve,
-        x_last.tolist(),
-        lu_last,
-        vals_last,
-        vals,
-        None if x_prev is None else x_prev.tolist(),
-        vals_prev,
-        lu_prev,
-    )
+        t, DenseKernel(t).solve, x_last.tolist(), lu_last, vals_last, vals,
+        None if x_prev is None else x_prev.tolist(), vals_prev, lu_prev,
+    )  # fmt: skip
     return None if got is None else np.array(got)
 
 
@@ -258,15 +250,23 @@ def extrapolate(
             c_last = [u + k_back * v for u, v in zip(h, hp)]
 
     # plain Python on these short vectors: a dozen numpy calls would cost more
-    dy = tangent(t, solve, lu_last, c_last, unit_last)
-    if c_prev is not None:  # (set only with lu_prev)
-        dy = [a + b for a, b in zip(dy, tangent(t, solve, lu_prev, c_prev, unit_prev))]
+    back: list[float] | None = None
     if k_back and x_prev is not None:
         back = [a - b for a, b in zip(x_prev, xl)]
         for j in range(0, t.n, 3):
             if abs(back[j]) > _PI:  # angles a turn apart
                 back[j] = math.remainder(back[j], 2 * math.pi)
-        dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
+    if c_prev is not None and back is not None and unit_last and unit_prev:
+        # a single value's Hermite step, both tangents units: the three sums below in one
+        # pass (the same float operations in the same order)
+        kl, kp, ul, up, inv = c_last[0], c_prev[0], unit_last, unit_prev, t.inv_step_list
+        dy = [(kl * u + kp * v) + k_back * b * w for u, v, b, w in zip(ul, up, back, inv)]
+    else:
+        dy = tangent(t, solve, lu_last, c_last, unit_last)
+        if c_prev is not None:  # (set only with lu_prev)
+            dy = [a + b for a, b in zip(dy, tangent(t, solve, lu_prev, c_prev, unit_prev))]
+        if back is not None:
+            dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
     if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
         return None
     return [x + d * w for x, d, w in zip(xl, dy, t.step_list)]

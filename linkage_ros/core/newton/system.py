@@ -42,9 +42,9 @@ class LoopSystem:
         self.col_scale: np.ndarray = t.col_scale
         self.step_scale: np.ndarray = t.step_scale
         self.point_owner: list[PointOwner] = t.point_owner
-        #: (free link, its index, its reference centroid as a complex number, m)
-        self._centroid_z: list[tuple[str, int, complex]] = [
-            (l, i, complex(float(t.centroid[l][0]), float(t.centroid[l][1])))
+        #: (free link, where its phi, cx and cy are in x, its reference centroid (complex, m))
+        self._centroid_z: list[tuple[str, int, int, int, complex]] = [
+            (l, 3 * i, 3 * i + 1, 3 * i + 2, complex(*map(float, t.centroid[l])))
             for l, i in t.index.items()
         ]
 
@@ -69,9 +69,11 @@ class LoopSystem:
             x[3 * i + 1 : 3 * i + 3] = self.centroid[l]
         return x
 
-    def poses_from_x(self, x: np.ndarray, fixed: LinkPoses | None = None) -> LinkPoses:
-        """Configuration of every link: free ones from x, the rest from ``fixed`` (ground at
-        the reference pose)."""
+    def poses_from_x(
+        self, x: np.ndarray | list[float], fixed: LinkPoses | None = None
+    ) -> LinkPoses:
+        """Configuration of every link: free ones from x (an array, or its list of floats: a
+        Newton answer read once), the rest from ``fixed`` (ground at the reference pose)."""
         phi: dict[str, Any] = {}
         rot: dict[str, Any] = {}
         T: dict[str, Any] = {}
@@ -83,16 +85,16 @@ class LoopSystem:
             phi[ground], rot[ground], T[ground] = 0.0, 1 + 0j, 0j
         # plain floats and complex numbers: the warm Newton solve reads every configuration
         # it checks through here (a dozen numpy scalar reads per link would cost more)
-        xs: list[float] = x.tolist()
+        xs: list[float] = x if isinstance(x, list) else x.tolist()
         cos, sin = math.cos, math.sin
-        for l, i, o in self._centroid_z:
-            p = xs[3 * i]
+        for l, ip, ix, iy, o in self._centroid_z:
+            p = xs[ip]
             r = complex(cos(p), sin(p))
-            phi[l], rot[l], T[l] = p, r, complex(xs[3 * i + 1], xs[3 * i + 2]) - r * o
+            phi[l], rot[l], T[l] = p, r, complex(xs[ix], xs[iy]) - r * o
         return LinkPoses(phi, rot, T)
 
     def configuration(
-        self, x: np.ndarray, fixed: LinkPoses | None = None
+        self, x: np.ndarray | list[float], fixed: LinkPoses | None = None
     ) -> tuple[LinkPoses, dict[str, complex]]:
         """(poses, points): poses_from_x and every point's world position (complex), each read
         off the first link that carries it."""

@@ -89,11 +89,13 @@ _KERNEL = '_newton_kernel'
 
 
 class Linearisation(NamedTuple):
-    """What a Newton answer leaves the next command's prediction (State.x_lu): the kernel's
-    factor of J there, scalar.unit_tangent there (None: values of more than one component),
-    and the value step that led to it (scalar.value_step from ``step_from``, the values of the
-    answer before, to its own): computed once, each read by the next two predictions."""
+    """What a Newton answer leaves the next command's prediction (State.x_lu): its unknowns as
+    floats (State.x_all's, as the predictor reads them), the kernel's factor of J there,
+    scalar.unit_tangent there (None: values of more than one component), and the value step
+    that led to it (scalar.value_step from ``step_from``, the values of the answer before, to
+    its own): computed once, each read by the next two predictions."""
 
+    x: list[float]
     factor: Any
     unit: list[float] | None
     step_from: Values | None
@@ -119,11 +121,11 @@ def start(
                 guess = extrapolate(
                     t,
                     kernel.solve,
-                    last.x_all.tolist(),
+                    lin.x,
                     lin.factor,
                     last.values,
                     vals,
-                    prev.x_all.tolist(),
+                    prev.x_all.tolist() if before is None else before.x,
                     prev.values,
                     None if before is None else before.factor,
                     h=h,
@@ -133,7 +135,7 @@ def start(
                 )
             else:
                 guess = extrapolate(
-                    t, kernel.solve, last.x_all.tolist(), lin.factor, last.values, vals,
+                    t, kernel.solve, lin.x, lin.factor, last.values, vals,
                     h=h, unit_last=lin.unit,
                 )  # fmt: skip
         return last.values, c.sub_x(last.x_all), guess, h
@@ -212,8 +214,9 @@ def refusal_at(c: CompiledSolve, vals: Values, x0: np.ndarray, walk_reason: str 
     )
 
 
-def branch_of(c: CompiledSolve, x: np.ndarray, fixed: LinkPoses | None) -> Geometry:
-    """(signs, margins, poses, points) of configuration x: its dyads' sides and margins."""
+def branch_of(c: CompiledSolve, x: np.ndarray | list[float], fixed: LinkPoses | None) -> Geometry:
+    """(signs, margins, poses, points) of configuration x (an array, or its list of floats):
+    its dyads' sides and margins."""
     poses, pts = c.system.configuration(x, fixed)
     return (*branch_geometry_one(c.full_plan, pts, poses), poses, pts)
 
@@ -407,6 +410,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     warm = last is not None and last.x_all is not None
     known = last.det_sign if last is not None and warm and last.det_sign != 0 else None
     r: SolveResult | None = None
+    xs: list[float] = []  # r.x as floats, read once (set with r on the fast path)
     fixed: LinkPoses | None = None
     geo: Geometry | None = None  # the answer's branch geometry, read once
     if guess is not None and known is not None and last is not None:
@@ -416,10 +420,11 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
         )
         iterations += rf.iterations
         if rf.success:
+            xs = rf.x.tolist()
             if not branches:
                 r = rf
             else:
-                geo = branch_of(c, rf.x, None)
+                geo = branch_of(c, xs, None)
                 if branch_jump(resumed_geometry(c, last), geo):
                     geo = None
                 else:
@@ -447,8 +452,10 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
             path.know(x0, resumed_geometry(c, last))
         r, reason, fixed = path.walk(v0, x0, vals, 0, known)
         iterations = path.iterations
-        if r is not None and branches:
-            geo = path.geometry(r.x, fixed)
+        if r is not None:
+            xs = r.x.tolist()
+            if branches:
+                geo = path.geometry(r.x, fixed)
     if r is None:
         res = c.fail(refusal_at(c, vals, x0, reason), c.echo(vals), solver_name)
         res.iterations = iterations
@@ -456,7 +463,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     if geo is not None:
         signs_t, margins, poses, pts = geo
     else:
-        poses, pts = c.system.configuration(r.x, fixed)
+        poses, pts = c.system.configuration(xs, fixed)
         signs_t, margins = (
             branch_geometry_one(c.full_plan, pts, poses) if c.full_plan.complete else ((), [])
         )
@@ -489,7 +496,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
                     solver_name,
                 ), None
             iterations += alt.iterations
-            r, det = alt, want_det
+            r, det, xs = alt, want_det, alt.x.tolist()
             poses, pts = c.check_system.configuration(alt.x)
         label = mode_label(c, (det,)) if det else ''
     margin = min(margins) if margins else 1.0 / max(cond_of(t, r), 1.0)
@@ -500,7 +507,6 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     residual = r.residual if newton_mode else src.assembly().residual
     # (the points are functions of x and the closed form's finite poses: finite with x; the
     # one sum may overflow only at ~1e308 length scales, where every value is looked at)
-    xs = r.x.tolist()
     if not math.isfinite(margin + residual + sum(xs)) and not all(
         map(math.isfinite, [margin, residual, *xs])
     ):
@@ -519,15 +525,13 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
     )
     x_lu: Linearisation | None = None
     if kernel is not None and r.success:  # (newton mode: x is x_all, and predicts the next)
-        fac = (
-            r.factor if r.jv is not None else kernel.factor(evaluate_lean(t, r.x.tolist(), vals)[1])
-        )
+        fac = r.factor if r.jv is not None else kernel.factor(evaluate_lean(t, xs, vals)[1])
         if fac.sign:
             # the tangent once here where J is LeanSchur's; the DenseKernel's solved per
             # command as predict() does: its answers' cond (LAPACK's estimate, which moves by
             # tens of % between answers a rounding apart) then keeps its bits
             unit = unit_tangent(t, kernel.solve, fac) if isinstance(kernel, LeanSchur) else None
-            x_lu = Linearisation(fac, unit, v0 if step is not None else None, step)
+            x_lu = Linearisation(xs, fac, unit, v0 if step is not None else None, step)
     return res, state_of(
         c,
         vals,
