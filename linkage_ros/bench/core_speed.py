@@ -35,6 +35,13 @@ TARGET_EXCAVATOR_VS_FOUR_BAR = 4.0
 TARGET_NEWTON_VS_TEXTBOOK_SCIPY = 1.0
 #: Solver.solve_batch throughput at least this fraction of the numpy four-bar's
 TARGET_BATCH_VS_NUMPY = 0.5
+#: interleaved passes per pair, the best one kept (a full run: about 2 s of passes in all).
+#: Few passes let one disturbance of a long pass (ours: 200 solves of 13 us) decide a ratio
+#: against a short one (the math four-bar's 200 calls of 1.6 us): 3-9 passes read the same
+#: code 7.1-8.9x on this shared host.
+SCALAR_PASSES = 45
+NEWTON_PASSES = 15
+BATCH_PASSES = 15
 
 
 def _four_bar_dims(mech: Any) -> dict[str, float]:
@@ -148,7 +155,7 @@ def _scalar(sizes: Sizes) -> dict[str, Any]:
             'Solver.solve excavator': excavator,
             'Solver.solve four_bar, every value read': ours_read,
         },
-        max(3, sizes.repeats * 3),
+        SCALAR_PASSES if sizes.repeats > 1 else 3,
     )
     return {
         'us': {k: v * 1e6 for k, v in per.items()},
@@ -206,7 +213,10 @@ def _newton(sizes: Sizes) -> dict[str, Any]:
             x = root(f, x, args=(t,), method='hybr', options={'xtol': 1e-12}).x
         return len(crank)
 
-    per = _interleaved({'scipy root (2 equations)': scipy_root, 'Solver newton': ours}, 3)
+    per = _interleaved(
+        {'scipy root (2 equations)': scipy_root, 'Solver newton': ours},
+        NEWTON_PASSES if sizes.repeats > 1 else 3,
+    )
     return {
         'us': {k: v * 1e6 for k, v in per.items()},
         'speedup_vs_scipy': per['scipy root (2 equations)'] / per['Solver newton'],
@@ -249,7 +259,7 @@ def _batch(sizes: Sizes) -> dict[str, Any]:
             'solve_batch four_bar': ours,
             'solve_batch excavator': excavator,
         },
-        max(3, sizes.batch_repeats),
+        BATCH_PASSES if sizes.batch_repeats > 1 else 3,
     )
     return {
         'n': n,
@@ -323,7 +333,9 @@ def core_speed_markdown(w: Callable[[str], None], core: dict[str, Any]) -> None:
     s, nw, b = core['scalar'], core['newton'], core['batch']
     w('## The solver core against hand-written baselines\n')
     w(
-        'Each pair timed interleaved in this run, best pass (bench/core_speed.py): the scalar '
+        f'Each pair timed interleaved in this run, the best of {SCALAR_PASSES} passes (scalar), '
+        f'{NEWTON_PASSES} (Newton) and {BATCH_PASSES} (batch) in a full run, 3 with --quick '
+        '(bench/core_speed.py): the scalar '
         '`Solver.solve` (its full Result: every input, joint, link angle and point, residual, '
         'margin; a closed-form Result fills its name-keyed dicts when first read, so a second '
         'row reads every value of each) on the warm four-bar sweep against a hand-written '
