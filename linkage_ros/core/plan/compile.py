@@ -345,7 +345,6 @@ class Plan:
     ) -> Step | None:
         mech = self.mech
         ref = mech.points
-        refc = {p: _cx(v) for p, v in ref.items()}  # the reference pose, complex
         # RRR: an unknown point shared by two unplaced bodies, each with one known point
         for x, owners in pt_bodies.items():
             if x in known_pts:
@@ -357,7 +356,7 @@ class Plan:
                     p1, p2 = known_of(b1)[0], known_of(b2)[0]
                     if p1 == p2 or np.hypot(*(ref[p1] - ref[p2])) == 0:
                         continue  # concentric circles: no dyad
-                    sign = side_sign(circle_side(SCALAR, refc[p1], refc[p2], refc[x]))
+                    sign = side_sign(circle_side(SCALAR, _cx(ref[p1]), _cx(ref[p2]), _cx(ref[x])))
                     return Step(
                         StepKind.RRR,
                         point=x,
@@ -379,7 +378,7 @@ class Plan:
                 if bi in placed or bi == sb or not known_of(bi):
                     continue
                 p1 = known_of(bi)[0]
-                sign = side_sign(line_side(SCALAR, refc[p1], refc[x], _cx(pj.direction)))
+                sign = side_sign(line_side(SCALAR, _cx(ref[p1]), _cx(ref[x]), _cx(pj.direction)))
                 return Step(
                     StepKind.RRP,
                     point=x,
@@ -398,7 +397,7 @@ class Plan:
             if not kp:
                 continue
             p = kp[0]
-            sign = side_sign(line_side(SCALAR, refc[p], refc[x], _cx(pj.direction)))
+            sign = side_sign(line_side(SCALAR, _cx(ref[p]), _cx(ref[x]), _cx(pj.direction)))
             return Step(
                 StepKind.RPR,
                 body=gb,
