@@ -198,11 +198,31 @@ class Plan:
             for p in b.points:
                 pt_bodies.setdefault(p, []).append(b.index)
 
+        # The bodies to look at again: only a point becoming known or a body getting its angle
+        # can let a body be placed, so a pass skips the others (it would find nothing for
+        # them, as in the pass before): the same steps in the same order, in linear time.
+        dirty: set[int] = {b.index for b in self.bodies}
+        angle_partners: dict[int, set[int]] = {}
+        for link_a, link_b, _ in self.relations:
+            ba, bb = self.body_of[link_a], self.body_of[link_b]
+            angle_partners.setdefault(ba, set()).add(bb)
+            angle_partners.setdefault(bb, set()).add(ba)
+
+        def learn_points(points: Iterable[str]) -> None:
+            for p in points:
+                if p not in known_pts:
+                    known_pts.add(p)
+                    dirty.update(pt_bodies.get(p, ()))
+
+        def learn_angle(bi: int) -> None:
+            angled.add(bi)
+            dirty.update(angle_partners.get(bi, ()))
+
         def place(step: Step, bi: int) -> None:
             steps.append(step)
             placed.add(bi)
-            angled.add(bi)
-            known_pts.update(self.bodies[bi].points)
+            learn_angle(bi)
+            learn_points(self.bodies[bi].points)
 
         gb = self.body_of[mech.ground]
         place(Step(StepKind.GROUND, body=gb, gives=(('pose', gb),)), gb)
@@ -233,8 +253,9 @@ class Plan:
             # non-branching steps first
             for b in self.bodies:
                 bi = b.index
-                if bi in placed:
+                if bi in placed or bi not in dirty:
                     continue
+                dirty.discard(bi)  # (marked again below where it changes)
                 kp = known_of(bi)
                 two = self._two_distinct(bi, kp)
                 if two:
@@ -276,7 +297,8 @@ class Plan:
                                 gives=(('angle', bi),),
                             )
                         )
-                        angled.add(bi)
+                        learn_angle(bi)
+                        dirty.add(bi)  # (it may now be placed from a point and its angle)
                         progress = True
             if progress:
                 continue
@@ -290,11 +312,11 @@ class Plan:
             if step.op == StepKind.RPR:
                 assert step.body is not None  # an RPR step names the body it orients
                 placed.add(step.body)
-                angled.add(step.body)
-                known_pts.update(self.bodies[step.body].points)
+                learn_angle(step.body)
+                learn_points(self.bodies[step.body].points)
             else:
                 assert step.point is not None  # an RRR / RRP step names the point it solves
-                known_pts.add(step.point)
+                learn_points((step.point,))
         self.steps_all = steps
 
     def _roller_side(self, dyad: Step) -> Step | None:
