@@ -1,0 +1,42 @@
+"""Compiling a plan looks at each body a bounded number of times: a scene of n independent
+four-bars compiles in work linear in n (issue 27's big scenes: `linkage check` builds one
+Solver of the whole mechanism). Counted, not timed: the bodies the search examines."""
+
+from __future__ import annotations
+
+import tempfile
+from pathlib import Path
+
+import yaml
+
+from linkage_ros.bench.scaling import four_bars_scene
+from linkage_ros.core.model import Scene
+from linkage_ros.core.plan.compile import Plan
+from linkage_ros.core.solver import Solver
+
+
+def _examined(n: int, monkeypatch) -> int:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / 'scene.yaml'
+        path.write_text(yaml.safe_dump(four_bars_scene(n)))
+        mech = Scene.from_yaml(path).mechanism
+    calls = 0
+    original = Plan._two_distinct
+
+    def counted(self, bi, kp):
+        nonlocal calls
+        calls += 1
+        return original(self, bi, kp)
+
+    monkeypatch.setattr(Plan, '_two_distinct', counted)
+    Solver(mech, branch='reference')
+    monkeypatch.undo()
+    return calls
+
+
+def test_a_plan_of_n_four_bars_examines_its_bodies_a_linear_number_of_times(monkeypatch):
+    small, large = _examined(10, monkeypatch), _examined(80, monkeypatch)
+    assert small > 0
+    # linear: 8x the four-bars, about 8x the work (the search before looked at every body
+    # after each step: 64x)
+    assert large <= 10 * small, (small, large)
