@@ -104,18 +104,6 @@ def welded_placer(
     and the points it sets first. ``pose``: the pose place(r) takes (the ground's: its step is
     the placer itself, no partial's call in between)."""
     phi0, rot0, T0 = pose
-    if len(members) == 1:  # (a one-member weld, the four-bar's crank: no loop over members)
-        ((iphi1, irot1, iT1, pts1, fphi1, frot1, fT1),) = members
-
-        def place_one(r: SlotRun, phi: float = phi0, rot: complex = rot0, Tb: complex = T0) -> None:
-            R = r.R
-            lr = rot * R[frot1]
-            lt = rot * R[fT1] + Tb
-            R[iphi1], R[irot1], R[iT1] = phi + R[fphi1], lr, lt
-            for s, ref in pts1:
-                R[s] = lr * ref + lt
-
-        return place_one
 
     def place_welded(r: SlotRun, phi: float = phi0, rot: complex = rot0, Tb: complex = T0) -> None:
         R = r.R

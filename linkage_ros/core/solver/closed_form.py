@@ -297,14 +297,8 @@ class SlotReadout:
         if self.eager:  # (none in a one-loop forward plan such as the four-bar's)
             if self.closure_one_side:  # (the order of the checks changes no maximum)
                 worst = one_side_worst(self.closure_one_side, R, worst)
-            for p, prot, pT, crot, cT in self.closure_two_sides:
-                d = (R[prot] * p + R[pT]) - (R[crot] * p + R[cT])
-                a = abs(d.real)
-                if a > worst:
-                    worst = a
-                a = abs(d.imag)
-                if a > worst:
-                    worst = a
+            if self.closure_two_sides:
+                worst = two_sides_worst(self.closure_two_sides, R, worst)
             for (_, _, p, normal, sphi, srot, sT, gphi, grot, gT, face, known,
                  xrot, xT, x_ref, origin, direction, at_point, turned) in self.slides:  # fmt: skip
                 # the slide's value: slot_reads.slot_reader's slide, inlined
