@@ -256,17 +256,11 @@ def extrapolate(
         for j in range(0, t.n, 3):
             if abs(back[j]) > _PI:  # angles a turn apart
                 back[j] = math.remainder(back[j], 2 * math.pi)
-    if c_prev is not None and back is not None and unit_last and unit_prev:
-        # a single value's Hermite step, both tangents units: the three sums below in one
-        # pass (the same float operations in the same order)
-        kl, kp, ul, up, inv = c_last[0], c_prev[0], unit_last, unit_prev, t.inv_step_list
-        dy = [(kl * u + kp * v) + k_back * b * w for u, v, b, w in zip(ul, up, back, inv)]
-    else:
-        dy = tangent(t, solve, lu_last, c_last, unit_last)
-        if c_prev is not None:  # (set only with lu_prev)
-            dy = [a + b for a, b in zip(dy, tangent(t, solve, lu_prev, c_prev, unit_prev))]
-        if back is not None:
-            dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
+    dy = tangent(t, solve, lu_last, c_last, unit_last)
+    if c_prev is not None:  # (set only with lu_prev)
+        dy = [a + b for a, b in zip(dy, tangent(t, solve, lu_prev, c_prev, unit_prev))]
+    if back is not None:
+        dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
     if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
         return None
     return [x + d * w for x, d, w in zip(xl, dy, t.step_list)]
