@@ -72,12 +72,18 @@ def times(rot: Any, r: Any) -> Any:
     """rot * r, as CArray's operators compute it (r a point), into two arrays."""
     if not (rows_of(rot) and is_point(r)):
         return rot * r
+    return CArray(*_rotated(rot, r))
+
+
+def _rotated(rot: CArray, r: Any) -> tuple[np.ndarray, np.ndarray]:
+    """The parts of rot * r (rot (n,) rows, r a point) as CArray's * computes them: (rot.re
+    r.real - rot.im r.imag, rot.re r.imag + rot.im r.real), into two new arrays."""
     re = rot.re * r.real
     t = rot.im * r.imag
     re -= t
     im = rot.re * r.imag
     im += np.multiply(rot.im, r.real, out=t)
-    return CArray(re, im)
+    return re, im
 
 
 def affine(rot: Any, r: Any, T: Any) -> Any:
@@ -85,11 +91,7 @@ def affine(rot: Any, r: Any, T: Any) -> Any:
     if not (rows_of(rot) and is_point(r)):
         return rot * r + T
     tre, tim = CArray._parts(T)
-    re = rot.re * r.real
-    t = rot.im * r.imag
-    re -= t
-    im = rot.re * r.imag
-    im += np.multiply(rot.im, r.real, out=t)
+    re, im = _rotated(rot, r)
     re += tre
     if tim is not None:  # (a real T moves x only, as CArray's + does)
         im += tim
@@ -104,11 +106,7 @@ def minus_rotated(P: Any, rot: Any, r: Any) -> Any:
         return P
     if not (rows_of(rot) and isinstance(P, CArray) and is_point(r)):
         return P - rot * r
-    re = rot.re * r.real
-    t = rot.im * r.imag
-    re -= t
-    im = rot.re * r.imag
-    im += np.multiply(rot.im, r.real, out=t)
+    re, im = _rotated(rot, r)
     return CArray(np.subtract(P.re, re, out=re), np.subtract(P.im, im, out=im))
 
 
