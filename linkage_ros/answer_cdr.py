@@ -247,3 +247,8 @@ class AnswerBytes:
         return self.status_writer.write(
             STATUS_ERROR, str(reason), status_texts(Result(False, reason), request)
         )
+
+    def plan_status(self, ok: bool, message: str, values: Mapping[str, str]) -> bytes:
+        """The one status answering a trajectory or path (OK or ERROR, its message and
+        key/values: trajectory.trajectory_status_values)."""
+        return self.status_writer.write(STATUS_OK if ok else STATUS_ERROR, message, values)

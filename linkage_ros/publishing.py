@@ -34,7 +34,6 @@ from .core.solver import Result
 from .engine import Engine
 from .marker_cdr import MarkerBytes
 from .params import NodeConfig
-from .trajectory_io import trajectory_status
 
 #: /diagnostics period (s): the diagnostic_updater convention
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -265,9 +264,7 @@ class Outputs:
         else:
             self.refused += 1
             self.last_error = f'{request}: {message}'
-        self.pub_status.publish(
-            trajectory_status(ok, message, values, self.status_name, self.mech.name)
-        )
+        self.pub_status.publish(self.answers.plan_status(ok, message, values))
 
     def internal_error(self, reason: str, request: str) -> None:
         self.refused += 1

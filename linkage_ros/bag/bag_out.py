@@ -402,9 +402,9 @@ def _rows_bytes(arr: np.ndarray) -> list[bytes]:
 
 
 def _trajectory_msg(ts: Any, req: PlanRequest, mech: Any, frame_id: str) -> Any:
-    """The node's ~/solved_trajectory for a recorded request (trajectory_io's, as rosbags
-    objects): every joint at every point, stamp and time_from_start of the request,
-    velocities when every point has them."""
+    """The node's ~/solved_trajectory for a recorded request (what
+    plan_cdr.joint_trajectory_bytes writes, as rosbags objects): every joint at every point,
+    stamp and time_from_start of the request, velocities when every point has them."""
     t = ts.types
     ans = req.answer
     assert ans is not None

@@ -163,6 +163,33 @@ def test_answers_are_the_messages_conversions_build(scene):
     assert got_err == want_err == error_status('no such actuator', 'node: x', 'target', mech.name)
 
 
+def test_a_plan_status_is_the_diagnostic_status_of_its_values():
+    """A trajectory's or path's one status (OK with its fields, or ERROR with the reason and
+    failed_index), as trajectory.trajectory_status_values gives them, reads back as the
+    DiagnosticStatus built field by field."""
+    from diagnostic_msgs.msg import KeyValue
+
+    from linkage_ros.trajectory import TrajectoryAnswer, trajectory_status_values
+
+    mech = Scene.from_yaml(scene_path('four_bar')).mechanism
+    engine = Engine(mech, EngineSettings())
+    answers = AnswerBytes(mech, 'f', 'node: x')
+    ok_answer = TrajectoryAnswer(True, 'ok', results=[engine.last, engine.last])
+    refused = TrajectoryAnswer(False, 'point 3 does not close', failed_index=3)
+    for answer, level in ((ok_answer, 0), (refused, 2)):
+        ok, message, values = trajectory_status_values(answer, 'trajectory')
+        want = DiagnosticStatus(
+            level=bytes([level]), name='node: x', message=message, hardware_id=mech.name
+        )
+        want.values = [KeyValue(key=k, value=v) for k, v in values.items()]
+        got = deserialize_message(answers.plan_status(ok, message, values), DiagnosticStatus)
+        assert got == want
+    assert dict((v.key, v.value) for v in got.values) == {
+        'failed_index': '3',
+        'request': 'trajectory',
+    }
+
+
 def test_omitted_joints_are_left_out():
     mech = Scene.from_yaml(scene_path('four_bar')).mechanism
     engine = Engine(mech, EngineSettings())
