@@ -90,7 +90,7 @@ def affine(rot: Any, r: Any, T: Any) -> Any:
     """rot * r + T, as CArray's operators compute it (r a point), into two arrays."""
     if not (rows_of(rot) and is_point(r)):
         return rot * r + T
-    tre, tim = CArray._parts(T)
+    tre, tim = CArray.parts(T)
     re, im = _rotated(rot, r)
     re += tre
     if tim is not None:  # (a real T moves x only, as CArray's + does)

@@ -236,7 +236,9 @@ class CArray:
         return len(self.re)
 
     @staticmethod
-    def _parts(o: Any) -> tuple[Any, Any]:
+    def parts(o: Any) -> tuple[Any, Any]:
+        """An operand's (real, imaginary) parts; imaginary None for a real one (a real operand
+        moves x only)."""
         if isinstance(o, CArray):
             return o.re, o.im
         if isinstance(o, complex):
@@ -246,24 +248,24 @@ class CArray:
         return o, None
 
     def __add__(self, o: Any) -> CArray:
-        ore, oim = self._parts(o)
+        ore, oim = self.parts(o)
         return CArray(self.re + ore, self.im if oim is None else self.im + oim)
 
     __radd__ = __add__
 
     def __sub__(self, o: Any) -> CArray:
-        ore, oim = self._parts(o)
+        ore, oim = self.parts(o)
         return CArray(self.re - ore, self.im if oim is None else self.im - oim)
 
     def __rsub__(self, o: Any) -> CArray:
-        ore, oim = self._parts(o)
+        ore, oim = self.parts(o)
         return CArray(ore - self.re, -self.im if oim is None else oim - self.im)
 
     def __neg__(self) -> CArray:
         return CArray(-self.re, -self.im)
 
     def __mul__(self, o: Any) -> CArray:
-        ore, oim = self._parts(o)
+        ore, oim = self.parts(o)
         if oim is None:
             return CArray(self.re * ore, self.im * ore)
         return CArray(self.re * ore - self.im * oim, self.re * oim + self.im * ore)
@@ -271,7 +273,7 @@ class CArray:
     __rmul__ = __mul__
 
     def __truediv__(self, o: Any) -> CArray:
-        ore, oim = self._parts(o)
+        ore, oim = self.parts(o)
         if oim is not None:
             raise TypeError('CArray divides by real values only')
         return CArray(self.re / ore, self.im / ore)
@@ -283,8 +285,8 @@ class CArray:
 def _batch_where(cond: Any, a: Any, b: Any) -> Any:
     """np.where, for complex points (CArray or Python complex) too."""
     if isinstance(a, (CArray, complex)) or isinstance(b, (CArray, complex)):
-        are, aim = CArray._parts(a)
-        bre, bim = CArray._parts(b)
+        are, aim = CArray.parts(a)
+        bre, bim = CArray.parts(b)
         aim = 0.0 if aim is None else aim
         bim = 0.0 if bim is None else bim
         return CArray(np.where(cond, are, bre), np.where(cond, aim, bim))
