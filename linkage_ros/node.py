@@ -241,6 +241,7 @@ class LinkageNode(Node):
             self.waiting.destroy()
             self.waiting = None
         self.scene, self.engine, self.mech, self.outputs = scene, engine, mech, outputs
+        self.plans.serve(engine)  # the plan worker builds its engine now, not beside commands
         self._mech_subs = subs
         self.frame_id = frame_id
         self.max_names = max_request_names(mech)  # a longer request is refused at once

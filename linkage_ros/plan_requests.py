@@ -14,6 +14,7 @@ from typing import Any
 
 from builtin_interfaces.msg import Time
 
+from .engine import Engine
 from .node_protocol import ServingNode
 from .plan_cdr import (
     CdrError,
@@ -45,7 +46,7 @@ class PlanRequests:
         self.worker = PlanWorker(commands=commands)
         self.worker.start()  # now, not beside the first plan's commands
         #: the engine served and its generation (a robot description replaces it: +1)
-        self._engine: Any = None
+        self._engine: Engine | None = None
         self._generation = 0
         self.dropped = 0  # plans dropped for load
 
@@ -54,6 +55,13 @@ class PlanRequests:
         if self._poll is not None:
             self.node.destroy_timer(self._poll)
             self._poll = None
+
+    def serve(self, engine: Engine) -> None:
+        """The node serves ``engine`` now (at start-up, or a new robot description): a new
+        generation, whose mechanism the worker gets at once (PlanWorker.prepare)."""
+        if engine is not self._engine:
+            self._engine, self._generation = engine, self._generation + 1
+        self.worker.prepare(self._generation, engine)
 
     def on_trajectory(self, raw: bytes) -> None:
         self._offer('trajectory', raw, None)
@@ -103,8 +111,6 @@ class PlanRequests:
         if bad_stamp:
             self._refuse(request, bad_stamp)
             return
-        if engine is not self._engine:
-            self._engine, self._generation = engine, self._generation + 1
         job = PlanJob(
             request,
             raw,

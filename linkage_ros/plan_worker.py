@@ -22,8 +22,9 @@ plan, still serialised, to a :class:`PlanWorker`:
   of 5 paired runs (p99 188-1132 ms against 8.7-23.9 ms at load 4-5). Whatever the way (the
   worker's CPU time, or the node's threads that move its jobs and answers), it grows with how
   much the worker runs; pacing bounds that (BENCHMARKS.md: the measured effect);
-* it reads the bytes (plan_cdr.py), solves the plan on an engine of its own started from the
-  command engine's last good state as it was when the plan arrived (the command engine is
+* it reads the bytes (plan_cdr.py), solves the plan on an engine of its own (built when the
+  node serves the mechanism: :class:`PlanMechanism`) started from the command engine's last
+  good state as it was when the plan arrived (the command engine is
   never touched: a plan cannot interleave with commands), and sends back the status values
   and the solved trajectory as bytes (:class:`PlanDone`);
 * those answers are read from the pipe by a thread of the node's (:func:`read_answers`), never
@@ -118,6 +119,17 @@ class PlanJob:
 
 
 @dataclass(frozen=True)
+class PlanMechanism:
+    """A mechanism the node now serves, sent to the worker as soon as the node serves it: the
+    worker builds its engine then (half a second of CPU for the four-bar), not when the first
+    plan arrives beside a stream of commands."""
+
+    generation: int
+    mechanism: Mechanism
+    settings: EngineSettings
+
+
+@dataclass(frozen=True)
 class PlanDone:
     """A solved (or refused) plan: its one status and, on success, ~/solved_trajectory."""
 
@@ -187,6 +199,14 @@ class PlanWorker:
             daemon=True,
         )
         self._reader.start()
+
+    def prepare(self, generation: int, engine: Engine) -> None:
+        """Send ``engine``'s mechanism (generation ``generation``) to the worker now, starting
+        it if it is not running: it builds its engine while no plan waits."""
+        self.start()
+        if self._generation_sent != generation:
+            self._jobs.put(PlanMechanism(generation, engine.mech, engine.settings))
+            self._generation_sent = generation
 
     def offer(self, job: PlanJob, engine: Engine) -> bool:
         """Queue ``job`` (of ``engine``'s mechanism); False, queueing nothing, when the queue
@@ -364,6 +384,10 @@ def serve_plans(jobs: Any, answers: Any, parent: int, commands: CommandClock | N
             continue
         if job is None:
             return
+        if isinstance(job, PlanMechanism):
+            # built unpaced, before any plan of it: a build is one call, not steps to pace
+            engine = Engine(job.mechanism, job.settings)
+            continue
         pace.idle()
         try:
             if job.mechanism is not None:

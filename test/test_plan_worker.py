@@ -66,6 +66,27 @@ def test_a_plan_held_by_a_worker_that_died_is_answered_when_the_next_arrives_fir
         worker.stop()
 
 
+def test_the_worker_builds_its_engine_when_the_mechanism_is_served():
+    """prepare() hands the worker the mechanism before any plan (the node does when it serves
+    one): the plans after it carry none, and are solved on the engine built from it."""
+    from linkage_ros.plan_cdr import joint_trajectory_bytes
+
+    engine = Engine(scenes.load('four_bar'), EngineSettings())
+    worker = PlanWorker()
+    try:
+        worker.prepare(1, engine)
+        assert worker.pid is not None  # started by prepare
+        rows = [([1.0 + 0.01 * k], [], 0, (k + 1) * 1_000_000) for k in range(5)]
+        raw = joint_trajectory_bytes(Stamp(3, 0), '', ['crank'], rows)
+        job = PlanJob('trajectory', raw, 1, engine.last, 'base', '', None, Stamp(3, 0))
+        assert worker.offer(job, engine)
+        (done,) = _answers(worker, 1)
+        assert done.ok and done.values['points'] == '5', (done.message, done.error)
+        assert done.generation == 1
+    finally:
+        worker.stop()
+
+
 def _alive(pid: int) -> bool:
     """True while ``pid`` has not died (a zombie, or no process at all, counts as dead)."""
     try:
