@@ -114,15 +114,14 @@ class PlanJob:
     prefix: str  # the node's joint-name prefix (the solved trajectory's joint names)
     point: str | None  # a path's point; None for a trajectory
     stamp: Stamp  # the stamp the answers carry
-    #: the mechanism and settings, when the worker has not had this generation's yet
-    mechanism: tuple[Mechanism, EngineSettings] | None = None
 
 
 @dataclass(frozen=True)
 class PlanMechanism:
-    """A mechanism the node now serves, sent to the worker as soon as the node serves it: the
-    worker builds its engine then (half a second of CPU for the four-bar), not when the first
-    plan arrives beside a stream of commands."""
+    """A mechanism the node now serves, sent to the worker as soon as the node serves it (and
+    again to a worker started after one died): the worker builds its engine then (half a
+    second of CPU for the four-bar), not when the first plan arrives beside a stream of
+    commands. The plans after it are solved on that engine."""
 
     generation: int
     mechanism: Mechanism
@@ -220,12 +219,9 @@ class PlanWorker:
                 self._reader.join(STOP_WAIT_S)  # it ends at the dead worker's last answer
             self._drain(self._owed)
             self._owed += self._bury()
-        self.start()
-        if self._generation_sent != job.generation:
-            job = dataclasses.replace(job, mechanism=(engine.mech, engine.settings))
-            self._generation_sent = job.generation
+        self.prepare(job.generation, engine)  # a new worker has not had the mechanism yet
         self._jobs.put(job)
-        self._offered.append(dataclasses.replace(job, raw=b'', start=None, mechanism=None))
+        self._offered.append(dataclasses.replace(job, raw=b'', start=None))
         self.pending += 1
         return True
 
@@ -374,6 +370,7 @@ def serve_plans(jobs: Any, answers: Any, parent: int, commands: CommandClock | N
     (always, without one)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (Ctrl-C reaches both)
     engine: Engine | None = None
+    build_error: Exception | None = None  # why the last mechanism's engine was not built
     pace = Pacer(commands_at=None if commands is None else commands.last)
     while True:
         try:
@@ -386,13 +383,16 @@ def serve_plans(jobs: Any, answers: Any, parent: int, commands: CommandClock | N
             return
         if isinstance(job, PlanMechanism):
             # built unpaced, before any plan of it: a build is one call, not steps to pace
-            engine = Engine(job.mechanism, job.settings)
+            try:
+                engine, build_error = Engine(job.mechanism, job.settings), None
+            except Exception as exc:  # each plan of it is answered with why (below)
+                engine, build_error = None, exc
             continue
         pace.idle()
         try:
-            if job.mechanism is not None:
-                engine = Engine(*job.mechanism)
-            assert engine is not None
+            if engine is None:
+                why = f'the plan worker could not build the engine: {build_error!r}'
+                raise RuntimeError(why) from build_error
             if job.start is not None and engine.forward.adopt(job.start):
                 engine.record(engine.forward, job.start)
             result = solve_job(job, engine, pace)
