@@ -113,10 +113,15 @@ def test_a_long_plan_takes_at_most_its_share_of_a_core_while_commands_come():
     worker = PlanWorker(commands=commands)
     worker.start()
     try:
-        # the first plan carries the mechanism and meets a worker still importing: not timed
-        assert worker.offer(_job(engine, 1), engine)
+        # the first plan meets a worker still importing and building its engine, and makes
+        # its first solves (the first use of each code path: single steps of tens of ms that
+        # no pacing can split): a short plan of its own, not timed
+        warm = joint_trajectory_bytes(Stamp(1, 0), '', ['crank'], rows[:20])
+        assert worker.offer(
+            PlanJob('trajectory', warm, 1, engine.last, 'base', '', None, Stamp(1, 0)), engine
+        )
         first = _answers(worker, 1)
-        assert first[0].stamp.sec == 1
+        assert first[0].stamp.sec == 1 and first[0].ok, first[0].message
         pid = worker.pid
         assert pid is not None
         commands.stamp()
