@@ -37,6 +37,7 @@ from __future__ import annotations
 import collections
 import contextlib
 import dataclasses
+import gc
 import math
 import multiprocessing
 import os
@@ -382,11 +383,8 @@ def serve_plans(jobs: Any, answers: Any, parent: int, commands: CommandClock | N
         if job is None:
             return
         if isinstance(job, PlanMechanism):
-            # built unpaced, before any plan of it: a build is one call, not steps to pace
-            try:
-                engine, build_error = Engine(job.mechanism, job.settings), None
-            except Exception as exc:  # each plan of it is answered with why (below)
-                engine, build_error = None, exc
+            engine = None  # (the last mechanism's engine let go before the next is built)
+            engine, build_error = build_engine(job)
             continue
         pace.idle()
         try:
@@ -412,6 +410,27 @@ def serve_plans(jobs: Any, answers: Any, parent: int, commands: CommandClock | N
             answers.send(result)
         except (BrokenPipeError, OSError):  # the node is gone
             return
+
+
+def build_engine(mechanism: PlanMechanism) -> tuple[Engine | None, Exception | None]:
+    """The worker's engine for ``mechanism``, or None and why it could not be built (each
+    plan of it is answered with that). Built unpaced, before any plan of it: a build is one
+    call, not steps to pace.
+
+    The engine (its compiled plans) and the modules live until the next mechanism: they are
+    taken out of the collector's sight (gc.freeze, as the node does at start-up). A full
+    collection over them is one step that no pacing can split: 42-48 ms in a 3000-point
+    four-bar plan (gc callbacks), against 2-8 ms frozen, and the plan's CPU time 0.54-0.56 s
+    against 0.32 s. The last mechanism's objects are let back in and collected first (the
+    caller has let its engine go): an engine holds reference cycles."""
+    gc.unfreeze()
+    gc.collect()
+    try:
+        engine, why = Engine(mechanism.mechanism, mechanism.settings), None
+    except Exception as exc:
+        engine, why = None, exc
+    gc.freeze()
+    return engine, why
 
 
 def solve_job(job: PlanJob, engine: Engine, pace: Callable[[], None] | None = None) -> PlanDone:
@@ -443,5 +462,5 @@ def solve_job(job: PlanJob, engine: Engine, pace: Callable[[], None] | None = No
             answer.rows(mech, times, pace),
             pace,
         )
-    ok, message, values = trajectory_status_values(answer, job.request)
+    ok, message, values = trajectory_status_values(answer, job.request, pace)
     return PlanDone(job.request, job.generation, job.stamp, ok, message, values, solved)

@@ -70,15 +70,24 @@ class TrajectoryAnswer:
                 pace()
         return out
 
-    @property
-    def smallest_margin(self) -> float | None:
-        margins = [r.margin for r in self.results if r.margin is not None]
-        return min(margins) if margins else None
-
-    @property
-    def largest_residual(self) -> float | None:
-        res = [r.residual for r in self.results if r.residual is not None]
-        return max(res) if res else None
+    def residual_and_margin(
+        self, pace: Callable[[], None] | None = None
+    ) -> tuple[float | None, float | None]:
+        """The points' largest residual and smallest margin (None where no point has one).
+        ``pace`` is called after every point: a closed-form Result works out its residual when
+        it is first read (core.solver.closure_bound), about 12 us a four-bar point, so this was
+        the plan worker's longest unpaced step (36 ms for 3000 points)."""
+        largest: float | None = None
+        smallest: float | None = None
+        for r in self.results:
+            res, m = r.residual, r.margin
+            if res is not None and (largest is None or res > largest):
+                largest = res
+            if m is not None and (smallest is None or m < smallest):
+                smallest = m
+            if pace is not None:
+                pace()
+        return largest, smallest
 
 
 # ---- reading requests (trajectory_msgs/JointTrajectory, nav_msgs/Path: rclpy's messages in the
@@ -160,20 +169,22 @@ def path_request(
 
 
 def trajectory_status_values(
-    answer: TrajectoryAnswer, request: str
+    answer: TrajectoryAnswer, request: str, pace: Callable[[], None] | None = None
 ) -> tuple[bool, str, dict[str, str]]:
     """(ok, message, key-values) of the one status answering a trajectory or path: OK with
     points, largest residual, smallest margin, solver and velocity (ok / none); or ERROR with
-    the reason (naming the first failing point) and failed_index when there is one."""
+    the reason (naming the first failing point) and failed_index when there is one. ``pace``
+    is called after every point read (the plan worker's Pacer)."""
     if not answer.success:
         values: dict[str, Any] = {'request': request}
         if answer.failed_index is not None:
             values = {'failed_index': answer.failed_index, **values}
         return False, answer.reason, {k: str(v) for k, v in values.items()}
+    residual, margin = answer.residual_and_margin(pace)
     values = {
         'points': len(answer.results),
-        'residual': answer.largest_residual,
-        'margin': answer.smallest_margin,
+        'residual': residual,
+        'margin': margin,
         'solver': answer.results[-1].solver,
         'velocity': 'ok' if answer.has_velocities else 'none',
         'request': request,

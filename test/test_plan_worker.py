@@ -22,7 +22,10 @@ from linkage_ros.plan_worker import (
     PLAN_BURST_S,
     CommandClock,
     PlanJob,
+    PlanMechanism,
     PlanWorker,
+    build_engine,
+    solve_job,
 )
 
 #: long enough for a new worker's start-up (interpreter and imports) on a busy machine
@@ -85,6 +88,51 @@ def test_the_worker_builds_its_engine_when_the_mechanism_is_served():
         assert done.generation == 1
     finally:
         worker.stop()
+
+
+def test_the_worker_keeps_its_engine_out_of_the_collectors_sight():
+    """build_engine freezes what the build made (gc.freeze): a full collection over the engine
+    is a step of tens of ms that no pacing can split, in a plan beside commands. The next build
+    lets the last engine back into the collector's sight and collects it (an engine holds
+    reference cycles: frozen, it would never be freed)."""
+    import gc
+    import weakref
+
+    mech = PlanMechanism(1, scenes.load('four_bar'), EngineSettings())
+    try:
+        first, why = build_engine(mech)
+        assert first is not None and why is None
+        assert gc.get_freeze_count() > 0
+        assert not any(o is first for o in gc.get_objects()), 'the engine is not frozen'
+        gone = weakref.ref(first)
+        del first
+        second, _ = build_engine(mech)
+        assert gone() is None, 'the last engine was kept'
+        assert not any(o is second for o in gc.get_objects()), 'the new engine is not frozen'
+    finally:
+        gc.unfreeze()
+
+
+def test_every_pass_over_a_plan_is_paced_the_status_included():
+    """solve_job calls the pacer after each point of every pass over the plan: reading it,
+    solving it, the status's largest residual and smallest margin, the solved rows and their
+    bytes. (The status's pass was not paced: a closed-form point works out its residual when it
+    is first read, so a 3000-point four-bar plan ended with 36 ms in one step.) The status
+    values are the points' own largest residual and smallest margin."""
+    from linkage_ros.plan_cdr import joint_trajectory_bytes
+
+    engine = Engine(scenes.load('four_bar'), EngineSettings())
+    n = 40
+    rows = [([1.0 + 0.01 * k], [], 0, (k + 1) * 1_000_000) for k in range(n)]
+    raw = joint_trajectory_bytes(Stamp(4, 0), '', ['crank'], rows)
+    calls = []
+    job = PlanJob('trajectory', raw, 1, engine.last, 'base', '', None, Stamp(4, 0))
+    done = solve_job(job, engine, lambda: calls.append(1))
+    assert done.ok, done.message
+    assert len(calls) == 5 * n
+    results = [engine.command({'crank': 1.0 + 0.01 * k}) for k in range(n)]
+    assert float(done.values['residual']) == max(r.residual for r in results)
+    assert float(done.values['margin']) == min(r.margin for r in results)
 
 
 def _alive(pid: int) -> bool:
