@@ -23,6 +23,7 @@ from .conversions import (
 )
 from .core.errors import CommandError
 from .core.model import Mechanism
+from .core.model.names import depends_on_frame
 from .core.solver import Result
 from .engine import Engine, name_count_error, request_rates, request_values
 from .node_protocol import ServingNode
@@ -182,13 +183,21 @@ class Requests:
             bad = f'not a JointState: {exc}'
             self.answer(request, Time(), lambda: Result(False, bad))
             return
-        self.answer(
-            request,
-            msg.header.stamp,
-            lambda: self.served_engine().target(
-                joint_state_to_command(msg, self.node.max_names), allow_mode_change=any_mode
-            ),
-        )
+
+        def solve() -> Result:
+            values = joint_state_to_command(msg, self.node.max_names)
+            # a point coordinate or a link angle means something only in the node's frame
+            if any(depends_on_frame(self.served_mech(), n) for n in values):
+                foreign = frame_error(
+                    'target of point coordinates or link angles',
+                    msg.header.frame_id,
+                    self.node.frame_id,
+                )
+                if foreign:
+                    return Result(False, foreign)
+            return self.served_engine().target(values, allow_mode_change=any_mode)
+
+        self.answer(request, msg.header.stamp, solve)
 
     def on_target_pose(self, link: str, msg):
         def solve():

@@ -19,6 +19,7 @@ from typing import Any
 
 from .core.errors import CommandError, echo
 from .core.model import Mechanism
+from .core.model.names import depends_on_frame
 from .core.solver import Result
 from .core.solver.mode_rule import mode_differs
 from .core.solver.result import branch_text
@@ -29,6 +30,10 @@ from .stamps import frame_error
 
 #: the most points one trajectory may have (a 10 s trajectory at 1 kHz)
 MAX_TRAJECTORY_POINTS = 10_000
+#: the times a builtin_interfaces/Duration can carry (ns): int32 seconds, nanoseconds below 1e9
+#: (a solved trajectory's time_from_start)
+DURATION_MIN_NS = -(2**31) * 1_000_000_000
+DURATION_MAX_NS = (2**31 - 1) * 1_000_000_000 + 999_999_999
 
 
 @dataclass
@@ -165,7 +170,16 @@ def path_request(
     stamps = [duration_ns(p.header.stamp) for p in msg.poses]
     timed = all(b > a for a, b in zip(stamps, stamps[1:]))
     times = [s - stamps[0] for s in stamps] if stamps and timed else [0] * len(stamps)
+    if times and times[-1] > DURATION_MAX_NS:  # (they increase: the last is the largest)
+        raise CommandError(
+            f"pose {len(times) - 1}: its stamp is {times[-1] * 1e-9:.9g} s after pose 0's, "
+            f'beyond what a time_from_start can hold ({_duration_range()})'
+        )
     return xy, times
+
+
+def _duration_range() -> str:
+    return f'{DURATION_MIN_NS // 10**9} s to {DURATION_MAX_NS // 10**9}.999999999 s'
 
 
 def trajectory_status_values(
@@ -220,6 +234,12 @@ def check_shape(
             return _refused(
                 f'point {i} has {len(vel)} velocities for {len(names)} joint_names: give one '
                 'per name or none',
+                i,
+            )
+        if not DURATION_MIN_NS <= times_ns[i] <= DURATION_MAX_NS:
+            return _refused(
+                f'point {i}: time_from_start {times_ns[i] * 1e-9:.10g} s is outside what a '
+                f'Duration can hold ({_duration_range()})',
                 i,
             )
         if i and times_ns[i] <= times_ns[i - 1]:
@@ -337,15 +357,16 @@ def answer_trajectory_msg(
 ) -> tuple[TrajectoryAnswer, list[int]]:
     """A trajectory_msgs/JointTrajectory (any message with its fields) solved: the answer and
     each point's time_from_start (ns). With ``frame_id`` (the node's), a trajectory of point
-    coordinates (``<point>.x``) stamped in another frame is refused, as a path is. ``pace``:
+    coordinates (``<point>.x``) or link angles (absolute: from the frame's +x) stamped in
+    another frame is refused, as a path is. ``pace``:
     as for :func:`solve_trajectory`."""
     try:
         names, positions, velocities, times = joint_trajectory_request(msg)
     except CommandError as exc:
         return TrajectoryAnswer(False, str(exc)), []
     given = msg.header.frame_id
-    if frame_id is not None and given and any('.' in n for n in names):
-        foreign = frame_error('trajectory of point coordinates', given, frame_id)
+    if frame_id is not None and given and any(depends_on_frame(engine.mech, n) for n in names):
+        foreign = frame_error('trajectory of point coordinates or link angles', given, frame_id)
         if foreign:
             return TrajectoryAnswer(False, str(foreign)), times
     return solve_trajectory(engine, names, positions, velocities, times, pace), times

@@ -110,6 +110,9 @@ def test_a_bin_path_comes_back_as_throws_that_reproduce_it():
         (['rocker'], [[1.9], [1.91]], [[0.0], [math.nan]], [0, 1], 'point 1: velocity', 1),
         (['crank', 'crank'], [[0.1, 0.1]], (), [0], 'more than once', None),
         (['wrench'], [[0.1]], (), [0], "point 0: unknown name 'wrench'", 0),
+        # a solved trajectory's time_from_start is a Duration: int32 seconds
+        (['crank'], [[0.1]], (), [(2**31 - 1) * 10**9 + 4 * 10**9], 'outside what a Duration', 0),
+        (['crank'], [[0.1]], (), [-(2**31) * 10**9 - 1], 'outside what a Duration', 0),
     ],
 )
 def test_bad_trajectories_get_one_clear_reason_and_change_nothing(
@@ -126,7 +129,8 @@ def test_bad_trajectories_get_one_clear_reason_and_change_nothing(
 
 
 def test_a_trajectory_of_point_coordinates_in_another_frame_is_refused():
-    """As a path is: the node has no tf lookup. Joint and actuator values have no frame."""
+    """As a path is: the node has no tf lookup. Joint and actuator values have no frame; point
+    coordinates and link angles have."""
     from builtin_interfaces.msg import Duration
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -146,6 +150,9 @@ def test_a_trajectory_of_point_coordinates_in_another_frame_is_refused():
         return msg
 
     answer, _ = answer_trajectory_msg(engine, trajectory(['P.x'], [0.1], 'map'), 'base_link')
+    assert not answer.success and "in frame 'map'" in answer.reason
+    # a link's angle is absolute (from the frame's +x): it has a frame too
+    answer, _ = answer_trajectory_msg(engine, trajectory(['coupler'], [0.1], 'map'), 'base_link')
     assert not answer.success and "in frame 'map'" in answer.reason
     answer, _ = answer_trajectory_msg(engine, trajectory(['crank'], [0.1, 0.2], 'map'), 'base_link')
     assert answer.success, answer.reason
@@ -175,3 +182,28 @@ def test_malformed_accelerations_or_effort_are_refused_not_ignored():
         engine, JointTrajectory(joint_names=['crank'], points=[point])
     )
     assert answer.success, answer.reason
+
+
+def test_a_path_whose_stamps_span_more_than_a_duration_is_refused():
+    """A path's times are its stamps less the first's; they become the solved trajectory's
+    time_from_start (int32 seconds), so a span beyond that is refused, not a crash."""
+    from builtin_interfaces.msg import Time
+    from geometry_msgs.msg import PoseStamped
+    from nav_msgs.msg import Path
+
+    from linkage_ros.core.errors import CommandError
+    from linkage_ros.trajectory import path_request
+
+    def path(secs):
+        msg = Path()
+        for s in secs:
+            pose = PoseStamped()
+            pose.header.stamp = Time(sec=s)
+            pose.pose.position.x = 0.1
+            msg.poses.append(pose)
+        return msg
+
+    with pytest.raises(CommandError, match='beyond what a time_from_start can hold'):
+        path_request(path([-(2**31), 2**31 - 1]), 'P', '')
+    xy, times = path_request(path([-(2**30), 2**30 - 1]), 'P', '')
+    assert times == [0, (2**31 - 1) * 10**9]  # the longest span a Duration holds

@@ -74,6 +74,11 @@ def joint_state(names, positions, stamp=(0, 0), velocity=(), effort=()) -> Joint
     return msg
 
 
+def in_frame(msg: JointState, frame_id: str) -> JointState:
+    msg.header.frame_id = frame_id
+    return msg
+
+
 def point_stamped(x, y, z=0.0, stamp=(0, 0), frame_id='') -> PointStamped:
     msg = PointStamped()
     msg.header.stamp = Time(sec=stamp[0], nanosec=stamp[1])
@@ -410,6 +415,12 @@ def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
         ('target', cmd({'bucket': 0.1, 'stick': 0.2, 'boom': math.nan}), ['boom', 'finite']),
         ('target', cmd({'bucket': 0.1, 'stick': 0.2, 'shovel': 0.3}), ["'shovel'"]),
         ('target', cmd({'bucket': 0.1, 'stick': 0.2, 'ground': 0.3}), ['ground link']),
+        # link angles are absolute: from +x of the frame they are given in
+        (
+            'target',
+            in_frame(cmd({'bucket': 0.1, 'stick': 0.2, 'boom': 0.3}), 'map'),
+            ["'map'", mech.frame_id],
+        ),
         (
             'target',
             cmd({'Z1': 1.5, 'Z2': 1.9, 'Z3': 1.2, 'bucket': 0.0}),

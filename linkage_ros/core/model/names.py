@@ -95,3 +95,16 @@ def point_coordinate(mech: Mechanism, name: str) -> tuple[str, int] | None:
     if not dot or axis not in AXES or point not in mech.points:
         return None
     return point, AXES.index(axis)
+
+
+def depends_on_frame(mech: Mechanism, name: str) -> bool:
+    """Whether the value of ``name`` depends on the frame it is given in: a point coordinate
+    (m) or a link's angle (rad, absolute: from the frame's +x). An actuator's or a joint's value
+    is relative (one link against another): the same in every frame. An unknown name: False
+    (it is refused by name, where it is solved)."""
+    if point_coordinate(mech, name) is not None:
+        return True
+    try:
+        return resolve_name(mech, name).kind in (NameKind.LINK, NameKind.POINT)
+    except PlanError:
+        return False
