@@ -290,6 +290,21 @@ def _check_outputs(outs: list[str], plot: str | None):
         checked.append((kind, p, _check_parent(p, what)))
     if len({str(full) for _, _, full in checked}) != len(checked):
         raise BagError('the same --out path is given twice')
+    # a command CSV's trajectories go beside it (out.trajectories.csv): not an --out of its own
+    for kind, p, full in checked:
+        if kind != 'csv':
+            continue
+        beside = Path(plans_csv_path(full))
+        if any(beside == other for _, _, other in checked):
+            raise BagError(
+                f'output {plans_csv_path(p)}: is where the trajectories and paths of --out {p} '
+                'are written; give the other output another name'
+            )
+        if beside.is_dir():
+            raise BagError(
+                f'output {plans_csv_path(p)} (the trajectories and paths of --out {p}): is a '
+                'directory'
+            )
     if plot is not None:
         what = f'--plot {plot}'
         full = _check_parent(Path(plot), what)

@@ -1031,6 +1031,25 @@ def test_plot_path_is_checked_before_any_work(tmp_path, scene, capsys):
     assert 'does not exist' in _bad([*common, '--plot', tmp_path / 'no' / 'p.png'], capsys)
 
 
+def test_an_out_path_where_a_csv_puts_its_trajectories_is_refused_before_any_work(
+    tmp_path, scene, capsys
+):
+    """out.csv writes its trajectories and paths to out.trajectories.csv: that path as another
+    --out (both wrote one temporary file: a corrupt mix was left), or a folder there, is a usage
+    error up front, and nothing is written."""
+    src = _small_bag(tmp_path)
+    out_csv, beside = tmp_path / 'r.csv', tmp_path / 'r.trajectories.csv'
+    common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
+    for outs in (['--out', out_csv, '--out', beside], ['--out', beside, '--out', out_csv]):
+        err = _bad([*common, *outs], capsys)
+        assert 'r.trajectories.csv: is where the trajectories and paths of --out' in err, err
+        assert not out_csv.exists() and not beside.exists()
+    beside.mkdir()
+    err = _bad([*common, '--out', out_csv], capsys)
+    assert 'r.trajectories.csv (the trajectories and paths of --out' in err, err
+    assert 'is a directory' in err and not out_csv.exists()
+
+
 def test_plot_without_extension_writes_the_named_file(tmp_path, scene, capsys):
     """matplotlib appends '.png' to a name without extension: the summary named a file that was
     never written. The image is written exactly where --plot says, as PNG."""
