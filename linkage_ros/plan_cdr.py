@@ -14,8 +14,8 @@ The node takes ``~/trajectory`` (trajectory_msgs/JointTrajectory) and ``~/target
 * strings are read whole, as rosbags (hence ``linkage bag``) reads them: a joint name
   ``crank\\x00x`` is that name, not ``crank`` (rclpy's reader stops at the first NUL).
 
-Bytes after the message are accepted, as rclpy leaves a few of them (its size estimate); the
-size bound limits how many.
+Up to :data:`SLACK_BYTES` after the message are accepted, as rclpy leaves a few of them (its
+size estimate); more are refused (:func:`trailing_error`, the bag's reader too).
 """
 
 from __future__ import annotations
@@ -33,10 +33,26 @@ from .engine import max_request_names
 MAX_FRAME_ID_BYTES = 1024
 #: bytes a serialiser may leave after a message (rclpy's size estimate leaves a few dozen)
 SLACK_BYTES = 256
+#: and per point or pose: rclpy's estimate counts 8 bytes of padding for each empty array of a
+#: trajectory point (16 bytes a point measured; a point has 4 arrays)
+SLACK_PER_ITEM_BYTES = 32
 
 
 class CdrError(ValueError):
     """The bytes are not a message of the expected type (the text says where they fail)."""
+
+
+def trailing_error(extra: int, items: int) -> str | None:
+    """Why ``extra`` bytes after a plan message of ``items`` points or poses make it no
+    message of its type, or None (a serialiser's slack: SLACK_BYTES and SLACK_PER_ITEM_BYTES
+    an item)."""
+    most = SLACK_BYTES + SLACK_PER_ITEM_BYTES * items
+    if extra <= most:
+        return None
+    return (
+        f'{extra} bytes follow the message (a serialiser leaves at most {most} after one of '
+        f'{items} points or poses)'
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -219,6 +235,13 @@ class _Reader:
         self.pos += 8 * k
         return v
 
+    def end(self, items: int) -> None:
+        """The message of ``items`` points or poses is read: CdrError where more bytes follow
+        than a serialiser leaves."""
+        why = trailing_error(self.n - self.pos, items)
+        if why:
+            raise CdrError(why)
+
     def header(self, what: str) -> Header:
         stamp = self.stamp(f'{what}.stamp')
         return Header(stamp, self.string(f'{what}.frame_id'))
@@ -280,6 +303,7 @@ def read_joint_trajectory(
         )
         if pace is not None:
             pace()
+    r.end(len(points))
     return JointTrajectoryRequest(header, names, tuple(points))
 
 
@@ -297,6 +321,7 @@ def read_path(raw: bytes | memoryview, pace: Callable[[], None] | None = None) -
         poses.append(PoseStamped(pose_header, Pose(Position(x, y, z))))
         if pace is not None:
             pace()
+    r.end(len(poses))
     return PathRequest(header, tuple(poses))
 
 

@@ -25,6 +25,7 @@ from ..plan_cdr import (
     path_bytes_bound,
     peek_plan,
     size_refusal,
+    trailing_error,
     trajectory_bytes_bound,
 )
 from ..stamps import stamp_error
@@ -101,7 +102,8 @@ def path_point(topic: str) -> str:
 
 def _decode(raw: bytes | memoryview, typename: str, typestore: Any) -> Any:
     """CDR -> a rosbags message, accepting the slack bytes rclpy's serialiser leaves after a
-    message (rosbags' deserialize_cdr refuses them: every recorded bag)."""
+    message (rosbags' deserialize_cdr refuses them: every recorded bag), and no more than the
+    node takes (plan_cdr.trailing_error)."""
     data = memoryview(raw)
     if len(data) < 4 or bytes(data[:2]) not in (b'\x00\x00', b'\x00\x01'):
         raise ValueError('not a CDR message (unknown encapsulation)')
@@ -110,6 +112,10 @@ def _decode(raw: bytes | memoryview, typename: str, typestore: Any) -> Any:
     msg, pos = func(data[4:], 0, msgdef.cls, typestore)
     if pos > len(data) - 4:
         raise ValueError('the message is cut short')
+    items = len(msg.points) if typename == TRAJECTORY else len(msg.poses)
+    too_long = trailing_error(len(data) - 4 - pos, items)
+    if too_long:
+        raise ValueError(too_long)
     return msg
 
 

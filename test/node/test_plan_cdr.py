@@ -155,6 +155,37 @@ def test_bytes_that_are_not_a_plan_are_refused_saying_where():
     assert deserialize_message(raw, JointTrajectory).joint_names == ['crank']
 
 
+def test_more_bytes_after_a_plan_than_a_serialiser_leaves_are_refused():
+    """rclpy leaves bytes after a message (its size estimate: 16 a trajectory point with
+    empty arrays); 1 MB after a one-point trajectory or path is no such message, in the node's
+    reader and the bag's alike. What rclpy leaves after 3000 points is taken."""
+    from rosbags.typesys import Stores, get_typestore
+
+    from linkage_ros.bag.plans import _decode
+    from linkage_ros.plan_cdr import SLACK_BYTES, read_path
+
+    store = get_typestore(Stores.ROS2_JAZZY)
+    trajectory = JointTrajectory(joint_names=['crank'])
+    trajectory.points = [JointTrajectoryPoint(positions=[0.1])]
+    path = Path()
+    path.poses = [PoseStamped()]
+    for msg, read, typename in (
+        (trajectory, read_joint_trajectory, 'trajectory_msgs/msg/JointTrajectory'),
+        (path, read_path, 'nav_msgs/msg/Path'),
+    ):
+        raw = serialize_message(msg)  # (with rclpy's own slack after the message)
+        assert read(raw + bytes(SLACK_BYTES // 2))
+        _decode(raw + bytes(SLACK_BYTES // 2), typename, store)
+        with pytest.raises(CdrError, match='bytes follow the message'):
+            read(raw + b'\xff' * 2**20)
+        with pytest.raises(ValueError, match='bytes follow the message'):
+            _decode(raw + b'\xff' * 2**20, typename, store)
+    trajectory.points = [JointTrajectoryPoint(positions=[0.1])] * 3000
+    raw = serialize_message(trajectory)
+    assert len(read_joint_trajectory(raw).points) == 3000
+    assert len(_decode(raw, 'trajectory_msgs/msg/JointTrajectory', store).points) == 3000
+
+
 def test_size_bounds_hold_the_largest_request_a_scene_takes():
     """The largest well-formed trajectory for the scene (every name it has, as long as its
     longest, 10^4 points with every array full) fits its bound, with few bytes to spare."""
