@@ -211,15 +211,15 @@ class PlanWorker:
     def offer(self, job: PlanJob, engine: Engine) -> bool:
         """Queue ``job`` (of ``engine``'s mechanism); False, queueing nothing, when the queue
         is full (dropped for load)."""
-        if self.pending > self.depth:
-            return False
         if self._proc is not None and not self._proc.is_alive():
             # it exited (idle, or holding plans): what it held is answered first, by the next
-            # collect, and a new worker takes this plan
+            # collect, and a new worker takes this plan (its queue is not full: it is gone)
             if self._reader is not None:
                 self._reader.join(STOP_WAIT_S)  # it ends at the dead worker's last answer
             self._drain(self._owed)
             self._owed += self._bury()
+        if self.pending > self.depth:
+            return False
         self.prepare(job.generation, engine)  # a new worker has not had the mechanism yet
         self._jobs.put(job)
         self._offered.append(dataclasses.replace(job, raw=b'', start=None))

@@ -69,6 +69,36 @@ def test_a_plan_held_by_a_worker_that_died_is_answered_when_the_next_arrives_fir
         worker.stop()
 
 
+def test_a_full_queue_of_a_worker_that_died_is_not_a_load_refusal():
+    """The worker dies holding a full queue: the next plan is not 'dropped for load' (nothing
+    waits any more) but taken by a new worker; the held ones are answered as internal errors."""
+    engine = Engine(scenes.load('four_bar'), EngineSettings())
+    worker = PlanWorker()
+    worker.start()
+    try:
+        first = worker.pid
+        assert first is not None
+        os.kill(first, signal.SIGSTOP)
+        held = worker.depth + 1
+        assert all(worker.offer(_job(engine, k), engine) for k in range(1, held + 1))
+        assert not worker.offer(_job(engine, 99), engine)  # full while it lives
+        os.kill(first, signal.SIGKILL)
+        deadline = time.monotonic() + ANSWER_WAIT_S
+        while _alive(first):
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        assert worker.offer(_job(engine, held + 1), engine), 'refused for load by a dead worker'
+        got = []
+        while len(got) < held + 1 and time.monotonic() < deadline:
+            got += worker.collect()
+            time.sleep(0.02)
+        assert [d.stamp.sec for d in got] == list(range(1, held + 2)), got
+        assert all('the plan worker exited' in d.message for d in got[:held])
+        assert 'the plan worker exited' not in got[-1].message, got[-1].message
+    finally:
+        worker.stop()
+
+
 def test_the_worker_builds_its_engine_when_the_mechanism_is_served():
     """prepare() hands the worker the mechanism before any plan (the node does when it serves
     one): the plans after it carry none, and are solved on the engine built from it."""
