@@ -113,17 +113,18 @@ def duration_ns(d: Any) -> int:
 
 
 def joint_trajectory_request(
-    msg: Any,
+    msg: Any, pace: Callable[[], None] | None = None
 ) -> tuple[list[str], list[Sequence[float]], list[Sequence[float]], list[int]]:
     """(joint_names, positions per point, velocities per point, time_from_start ns per point);
-    CommandError for more points than one request may have (checked before any copy)."""
+    CommandError for more points than one request may have (checked before any copy).
+    ``pace`` is called after every point (the plan worker's Pacer)."""
     if len(msg.points) > MAX_TRAJECTORY_POINTS:
         raise CommandError(too_many_points('trajectory', len(msg.points), 'points'))
     names = list(msg.joint_names)
-    pts = msg.points
-    # accelerations and effort are not used (kinematics only), but a malformed one is a broken
-    # request, refused as a malformed velocity is rather than ignored without a word
-    for i, p in enumerate(pts):
+    positions, velocities, times = [], [], []
+    for i, p in enumerate(msg.points):
+        # accelerations and effort are not used (kinematics only), but a malformed one is a
+        # broken request, refused as a malformed velocity is rather than ignored without a word
         for what in ('accelerations', 'effort'):
             got = getattr(p, what, ())
             if len(got) and len(got) != len(names):
@@ -133,22 +134,26 @@ def joint_trajectory_request(
                 )
             if len(got) and not all(math.isfinite(float(v)) for v in got):
                 raise CommandError(f'point {i}: {what} are not all finite')
-    return (
-        names,
-        [p.positions for p in pts],
-        [p.velocities for p in pts],
-        [duration_ns(p.time_from_start) for p in pts],
-    )
+        positions.append(p.positions)
+        velocities.append(p.velocities)
+        times.append(duration_ns(p.time_from_start))
+        if pace is not None:
+            pace()
+    return names, positions, velocities, times
 
 
 def path_request(
-    msg: Any, point: str, frame_id: str, mech: Mechanism | None = None
+    msg: Any,
+    point: str,
+    frame_id: str,
+    mech: Mechanism | None = None,
+    pace: Callable[[], None] | None = None,
 ) -> tuple[list[tuple[float, float]], list[int]]:
     """The (x, y) of every pose (m; with ``mech``, its position projected into the
     mechanism's plane: a robot description's chain lies in a plane of its 3-D frame) and each
     pose's time from the first (ns: its stamp less the first's when the stamps increase
     strictly, else 0: a path has no timing); CommandError for a frame other than the node's or
-    a non-finite coordinate."""
+    a non-finite coordinate. ``pace`` is called after every pose (the plan worker's Pacer)."""
     if len(msg.poses) > MAX_TRAJECTORY_POINTS:
         raise CommandError(too_many_points('path', len(msg.poses), 'poses'))
     frames = {msg.header.frame_id} | {p.header.frame_id for p in msg.poses}
@@ -167,6 +172,8 @@ def path_request(
             xy.append((float(p.x), float(p.y)))
         else:
             xy.append(mech.plane_xy(float(p.x), float(p.y), float(p.z)))
+        if pace is not None:
+            pace()
     stamps = [duration_ns(p.header.stamp) for p in msg.poses]
     timed = all(b > a for a, b in zip(stamps, stamps[1:]))
     times = [s - stamps[0] for s in stamps] if stamps and timed else [0] * len(stamps)
@@ -329,24 +336,31 @@ def path_targets(
     """A point's successive positions -> one target per position (``<point>.x``, ``<point>.y``
     and, with more than 2 degrees of freedom, the ``target_point_hold`` names at their values in
     the last good state, as ``~/target_point/<point>`` holds them); or why not."""
+    held = path_hold(engine, point)
+    if isinstance(held, str):
+        return held
+    return [{f'{point}.x': x, f'{point}.y': y, **held} for x, y in xy]
+
+
+def path_hold(engine: Engine, point: str) -> dict[str, Any] | str:
+    """What a path of ``point`` holds beside it (path_targets), or why it cannot be one."""
     mech = engine.mech
     if point not in mech.points:
         return f'unknown point {echo(point)} of {mech.name!r}'
     hold = engine.point_hold(point)
-    held: dict[str, Any] = {}
     if hold:
-        now = engine.held_now(hold)
-        if isinstance(now, str):
-            return now
-        held = now
+        held = engine.held_now(hold)
+        if isinstance(held, str):
+            return held
         if any(isinstance(v, tuple) for v in held.values()):
             return 'a held point cannot be part of a path target; hold joints, links or actuators'
-    elif mech.dof > 2:
+        return held
+    if mech.dof > 2:
         return (
             f'a path of {point!r} fixes 2 of the {mech.dof} degrees of freedom: set the '
             'parameter target_point_hold'
         )
-    return [{f'{point}.x': x, f'{point}.y': y, **held} for x, y in xy]
+    return {}
 
 
 def answer_trajectory_msg(
@@ -361,7 +375,7 @@ def answer_trajectory_msg(
     another frame is refused, as a path is. ``pace``:
     as for :func:`solve_trajectory`."""
     try:
-        names, positions, velocities, times = joint_trajectory_request(msg)
+        names, positions, velocities, times = joint_trajectory_request(msg, pace)
     except CommandError as exc:
         return TrajectoryAnswer(False, str(exc)), []
     given = msg.header.frame_id
@@ -383,14 +397,18 @@ def answer_path_msg(
     point targets: the answer and each pose's time from the first (ns). ``pace``: as for
     :func:`solve_trajectory`."""
     try:
-        xy, times = path_request(msg, point, frame_id, engine.mech)
+        xy, times = path_request(msg, point, frame_id, engine.mech, pace)
     except CommandError as exc:
         return TrajectoryAnswer(False, str(exc)), []
-    targets = path_targets(engine, point, xy)
-    if isinstance(targets, str):
-        return TrajectoryAnswer(False, targets), times
-    if not targets:
+    held = path_hold(engine, point)  # (path_targets' rows, paced)
+    if isinstance(held, str):
+        return TrajectoryAnswer(False, held), times
+    if not xy:
         return TrajectoryAnswer(False, 'empty path: no poses'), times
-    names = list(targets[0])
-    rows = [[t[n] for n in names] for t in targets]
+    names = [f'{point}.x', f'{point}.y', *held]
+    rows = []
+    for x, y in xy:
+        rows.append([x, y, *held.values()])
+        if pace is not None:
+            pace()
     return solve_trajectory(engine, names, rows, pace=pace), times

@@ -145,9 +145,10 @@ def test_the_worker_keeps_its_engine_out_of_the_collectors_sight():
 
 def test_every_pass_over_a_plan_is_paced_the_status_included():
     """solve_job calls the pacer after each point of every pass over the plan: reading it,
-    solving it, the status's largest residual and smallest margin, the solved rows and their
-    bytes. (The status's pass was not paced: a closed-form point works out its residual when it
-    is first read, so a 3000-point four-bar plan ended with 36 ms in one step.) The status
+    taking its values, solving it, the status's largest residual and smallest margin, the
+    solved rows and their bytes, and between the chunks it lets go. (The status's pass was not
+    paced: a closed-form point works out its residual when it is first read, so a 3000-point
+    four-bar plan ended with 36 ms in one step; freeing 10^4 points took 40-80 ms.) The status
     values are the points' own largest residual and smallest margin."""
     from linkage_ros.plan_cdr import joint_trajectory_bytes
 
@@ -159,10 +160,56 @@ def test_every_pass_over_a_plan_is_paced_the_status_included():
     job = PlanJob('trajectory', raw, 1, engine.last, 'base', '', None, Stamp(4, 0))
     done = solve_job(job, engine, lambda: calls.append(1))
     assert done.ok, done.message
-    assert len(calls) == 5 * n
+    # read, converted, solved, the status, the rows, their bytes; then the rows and the
+    # Results let go a chunk at a time (one chunk each here)
+    assert len(calls) == 6 * n + 2
     results = [engine.command({'crank': 1.0 + 0.01 * k}) for k in range(n)]
     assert float(done.values['residual']) == max(r.residual for r in results)
     assert float(done.values['margin']) == min(r.margin for r in results)
+
+
+def test_the_worker_never_collects_garbage_inside_a_plan():
+    """serve_plans (run here in-process) turns the automatic collector off: its passes over a
+    10^4-point plan's live Results took 10-120 ms each, steps no pacing splits. It collects
+    when it builds an engine and after each plan is answered, never between."""
+    import gc
+    import queue as queue_module
+
+    from linkage_ros.plan_cdr import joint_trajectory_bytes
+    from linkage_ros.plan_worker import serve_plans
+
+    engine = Engine(scenes.load('four_bar'), EngineSettings())
+    rows = [([1.0 + 0.001 * k], [], 0, (k + 1) * 1_000_000) for k in range(300)]
+    raw = joint_trajectory_bytes(Stamp(5, 0), '', ['crank'], rows)
+    jobs: queue_module.Queue = queue_module.Queue()
+    jobs.put(PlanMechanism(1, engine.mech, engine.settings))
+    jobs.put(PlanJob('trajectory', raw, 1, engine.last, 'base', '', None, Stamp(5, 0)))
+    jobs.put(None)
+    collections: list[int] = []
+    sent: list = []
+
+    class Answers:
+        def send(self, done):
+            sent.append((done, len(collections)))
+
+    def count(phase, info):
+        if phase == 'start':
+            collections.append(info['generation'])
+
+    handler = signal.getsignal(signal.SIGINT)
+    gc.callbacks.append(count)
+    try:
+        serve_plans(jobs, Answers(), os.getppid())
+        assert not gc.isenabled()
+    finally:
+        gc.callbacks.remove(count)
+        gc.enable()
+        gc.unfreeze()
+        signal.signal(signal.SIGINT, handler)
+    ((done, before_send),) = sent
+    assert done.ok and done.values['points'] == '300', done.message
+    assert collections[:before_send] == [2], 'a collection ran inside the plan'
+    assert collections[before_send:] == [2], 'no collection after the plan'
 
 
 def _alive(pid: int) -> bool:
