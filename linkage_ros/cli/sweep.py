@@ -5,7 +5,9 @@ every actuator and joint as CSV: the answers go into the core's results table, t
 from __future__ import annotations
 
 import csv
+import os
 import sys
+from pathlib import Path
 
 import numpy as np
 
@@ -27,6 +29,45 @@ from .described import request_echo, scene_command
 # ---- sweep -------------------------------------------------------------------------------------
 
 
+class _Table:
+    """The table (or JSON lines) on stdout. A reader that stops early (``| head``) ends the
+    table, not the sweep, when a --csv file is asked for: the file is still written whole."""
+
+    def __init__(self) -> None:
+        self.open = True
+
+    def print(self, text: str) -> None:
+        if not self.open:
+            return
+        try:
+            print(text)
+        except BrokenPipeError:
+            self.close()
+
+    def flush(self) -> None:
+        if self.open:
+            try:
+                sys.stdout.flush()
+            except BrokenPipeError:
+                self.close()
+
+    def close(self) -> None:
+        self.open = False
+        sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 no second error when Python flushes at exit
+
+
+def _check_csv_path(path: str) -> None:
+    """A --csv path whose folder cannot take it is refused before any solve."""
+    target = Path(path)
+    folder = target.parent
+    if target.is_dir():
+        raise UsageError(f'--csv {path}: is a directory')
+    if not folder.is_dir():
+        raise UsageError(f'--csv {path}: folder {folder} does not exist')
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise UsageError(f'--csv {path}: folder {folder} is not writable (permission denied)')
+
+
 def _cell(v) -> str:
     if isinstance(v, (list, tuple)):
         return f'{v[0]:.6g},{v[1]:.6g}'
@@ -38,6 +79,9 @@ def cmd_sweep(args) -> int:
         args.scene, args.dimension, args.closures, args.actuated, notes=not args.json
     )
     _, axes, solver = build_solve(mech, args, allow_range=True)
+    if args.csv:
+        _check_csv_path(args.csv)
+    out = _Table()
     names = [n for n, _ in axes]
     outs = [p for p in mech.outputs]
     solved_inputs = [a for a in mech.output_input_names if a not in names]
@@ -50,7 +94,7 @@ def cmd_sweep(args) -> int:
             + [f'{p}.x,{p}.y' for p in outs]
             + ['residual', 'branch', 'margin']
         )
-        print('\t'.join(head))
+        out.print('\t'.join(head))
     engine = None
     if solver.inverse and args.branch == 'continuous':  # targets as a node answers them
         engine = target_engine(mech, args)
@@ -74,22 +118,31 @@ def cmd_sweep(args) -> int:
         if args.json:
             d['index'] = i
             d['command'] = {k: list(v) if isinstance(v, tuple) else v for k, v in command.items()}
-            print(dumps(d))
-            continue
-        row = [str(i)] + [_cell(command[n]) for n in names] + [d['status']]
-        if res.success:
-            row += [_cell(d['inputs'][a]) if a in d['inputs'] else '-' for a in solved_inputs]
-            row += [_cell(d['points'][p]) if p in d['points'] else '-' for p in outs]
-            row += [_f(d['residual'], '.2g'), d['branch'] or '-', _f(d['margin'], '.4g')]
+            out.print(dumps(d))
         else:
-            row += [d['reason'] or 'refused']
-        print('\t'.join(row))
-    sys.stdout.flush()
+            out.print('\t'.join(_row(i, command, names, d, res.success, solved_inputs, outs)))
+        if not out.open and table is None:  # the reader has stopped and no file is asked for
+            break
+    out.flush()
+    if not out.open and table is None:  # (as a reader that stops early expects: no more words)
+        return OK
     if table is not None:
         _write_csv(args.csv, mech, table)
     total = n_ok + n_err
     print(f'linkage sweep: {total} command(s), {n_ok} ok, {n_err} error(s)', file=sys.stderr)
     return REFUSED if args.strict and n_err else OK
+
+
+def _row(i, command, names, d, ok, solved_inputs, outs) -> list[str]:
+    """One line of the table: the command, its status and what was solved (or why not)."""
+    row = [str(i)] + [_cell(command[n]) for n in names] + [d['status']]
+    if ok:
+        row += [_cell(d['inputs'][a]) if a in d['inputs'] else '-' for a in solved_inputs]
+        row += [_cell(d['points'][p]) if p in d['points'] else '-' for p in outs]
+        row += [_f(d['residual'], '.2g'), d['branch'] or '-', _f(d['margin'], '.4g')]
+    else:
+        row += [d['reason'] or 'refused']
+    return row
 
 
 def _csv_rows(mech, table: ResultTable) -> list[list]:

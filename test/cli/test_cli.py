@@ -663,7 +663,25 @@ def test_sweep_csv_is_the_actuator_trajectory_of_a_path(capsys, tmp_path):
     rc, _, err = run(
         capsys, 'sweep', 'four_bar', '--set', 'crank=0:1:3', '--csv', tmp_path / 'no' / 'x.csv'
     )
-    assert rc == 2 and '--csv: cannot write' in err
+    assert rc == 2 and 'folder' in err and 'does not exist' in err
+    assert '0\t0' not in capsys.readouterr().out  # refused before any solve
+
+
+def test_sweep_csv_is_written_whole_when_the_reader_stops_early(scenes, tmp_path):
+    """`linkage sweep ... --csv FILE | head -1`: the reader stopping ends the table, not the
+    sweep: the CSV is written with every row (it was lost, with exit 0 and no word)."""
+    exe = Path(sys.executable).parent / 'linkage'
+    out = tmp_path / 'p.csv'
+    cmd = [str(exe), 'sweep', scenes['four_bar'], '--set', 'crank=0:6:5000', '--csv', str(out)]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert proc.stdout is not None and proc.stderr is not None
+    first = proc.stdout.readline()
+    proc.stdout.close()  # as `| head -1` does
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 0, err
+    assert first.startswith(b'#\tcrank') and '5000 command(s)' in err, err
+    with out.open() as fh:
+        assert sum(1 for _ in fh) == 5001  # the header and every row
 
 
 def test_check_prints_declared_limits_beside_a_tighter_computed_range(capsys, tmp_path):
