@@ -222,7 +222,7 @@ def add_scene_argument(p: argparse.ArgumentParser, flag: bool = False) -> None:
 
 #: a robot description's file names (core.description.importer.DESCRIPTION_SUFFIXES, which
 #: the CLI does not import for a scene file: the readers add 0.05 s to every command's start)
-DESCRIPTION_SUFFIXES = ('.urdf', '.sdf', '.xml')
+DESCRIPTION_SUFFIXES = ('.urdf', '.sdf', '.xml', '.xacro')
 
 
 def add_description_arguments(p: argparse.ArgumentParser) -> None:

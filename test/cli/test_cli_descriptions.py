@@ -391,6 +391,21 @@ def test_import_writes_whole_or_not_at_all(capsys, tmp_path):
 # ---- the options, the notes, the errors -----------------------------------------------------
 
 
+def test_a_xacro_file_is_refused_as_unexpanded_xacro_by_its_name(capsys, tmp_path):
+    """robot.urdf.xacro (as Robotiq's description ships, with the wiki.ros.org namespace) was
+    read as a scene file ('a scene must be a YAML mapping') and refused by `linkage import` as
+    no robot description: it is one, unexpanded."""
+    xacro = tmp_path / 'gripper_macro.urdf.xacro'
+    xacro.write_text(
+        '<?xml version="1.0"?>\n<robot xmlns:xacro="http://wiki.ros.org/xacro" name="g">\n'
+        '  <xacro:include filename="$(find robotiq_description)/urdf/g.xacro"/>\n</robot>\n'
+    )
+    for argv in (['check', xacro], ['import', xacro], ['solve', xacro, '--set', 'j=0']):
+        rc, _, err = run(capsys, *argv)
+        assert rc == 2 and 'an unexpanded xacro file (xacro:include' in err, err
+        assert 'run xacro on it first' in err, err
+
+
 def test_closures_on_a_scene_file_is_a_usage_error(capsys, tmp_path):
     for argv in (
         ['solve', 'four_bar', '--closures', DRAKE_CLOSURES, '--set', 'crank=0.5'],

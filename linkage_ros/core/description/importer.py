@@ -35,7 +35,7 @@ ASSEMBLY_STARTS = 24
 #: miss is far from zero; a chain that closes is found closed from most starts)
 FAR_OPEN_STARTS = 6
 FAR_OPEN = 1e-3
-DESCRIPTION_SUFFIXES = ('.urdf', '.sdf', '.xml')
+DESCRIPTION_SUFFIXES = ('.urdf', '.sdf', '.xml', '.xacro')
 
 
 @dataclass(frozen=True, eq=False)

@@ -17,8 +17,12 @@ MAX_DESCRIPTION_BYTES = 4 << 20
 MAX_ELEMENTS = 5000
 
 _COMMENT = re.compile(r'<!--.*?-->', re.DOTALL)
-_XACRO_NS = 'http://ros.org/wiki/xacro'
-_XACRO_NS2 = 'http://www.ros.org/wiki/xacro'
+#: the namespaces xacro files declare (the ROS wiki's addresses over the years)
+_XACRO_NAMESPACES = (
+    'http://ros.org/wiki/xacro',
+    'http://www.ros.org/wiki/xacro',
+    'http://wiki.ros.org/xacro',
+)
 
 
 def parse_xml(text: str, source: str) -> ET.Element:
@@ -46,7 +50,7 @@ def parse_xml(text: str, source: str) -> ET.Element:
         'xacro:' + el.tag.split('}', 1)[1]
         for el in root.iter()
         if isinstance(el.tag, str)
-        and el.tag.startswith(('{' + _XACRO_NS + '}', '{' + _XACRO_NS2 + '}'))
+        and el.tag.startswith(tuple('{' + ns + '}' for ns in _XACRO_NAMESPACES))
     ]
     unexpanded = xacro or [
         f'{el.tag} {k}="{v}"'
