@@ -30,7 +30,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         '--quick',
         action='store_true',
-        help='tiny sizes (a smoke run of the machinery, < 20 s); numbers are not meaningful',
+        help='tiny sizes (a smoke run of the machinery: about 15 s with --no-node, 10 s with '
+        '--no-node --no-fleet, 1-2 min with the node cases on a 2-core machine); numbers are '
+        'not meaningful',
     )
     parser.add_argument(
         '--write',
