@@ -501,6 +501,7 @@ def write_text_output(prog: str, text: str, path: str | None) -> int:
         else:
             sys.stdout.write(text)
     except OSError as exc:
-        print(f'{prog}: error: cannot write {path}: {exc.strerror or exc}', file=sys.stderr)
+        where = path or 'standard output'
+        print(f'{prog}: error: cannot write {where}: {exc.strerror or exc}', file=sys.stderr)
         return USAGE_ERROR
     return OK

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import sys
@@ -290,6 +291,10 @@ def standalone_main(prog: str, add_arguments, run, argv: Sequence[str] | None = 
     return run(args)
 
 
+#: write errors of a standard output that cannot take more (a full disk, a quota, /dev/full)
+_STDOUT_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     parser, broken = build_parser()
@@ -305,13 +310,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         return exc.code if isinstance(exc.code, int) else USAGE_ERROR
     prog = f'linkage {args.command}'
     try:
-        return int(args.func(args))
+        code = int(args.func(args))
+        sys.stdout.flush()  # (here: a write error is this command's, not the interpreter's exit)
+        return code
     except (UsageError, LinkageError) as exc:
         print(f'{prog}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
     except BrokenPipeError:  # `linkage sweep ... | head`
         sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 no second error when Python flushes at exit
         return OK
+    except OSError as exc:
+        if exc.errno not in _STDOUT_FULL:
+            raise
+        # stdout on a full disk (or /dev/full): the files a command writes say so themselves
+        print(f'{prog}: error: cannot write standard output: {exc.strerror}', file=sys.stderr)
+        sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 (as above)
+        return USAGE_ERROR
     except KeyboardInterrupt:  # Ctrl-C: the shell's convention, no traceback
         print(f'\n{prog}: interrupted', file=sys.stderr)
         return INTERRUPTED

@@ -667,6 +667,23 @@ def test_sweep_csv_is_the_actuator_trajectory_of_a_path(capsys, tmp_path):
     assert '0\t0' not in capsys.readouterr().out  # refused before any solve
 
 
+@pytest.mark.skipif(not Path('/dev/full').exists(), reason='needs /dev/full')
+@pytest.mark.parametrize(
+    'argv', [['solve', 'four_bar', '--set', 'crank=1'], ['check', 'four_bar'], ['urdf', 'four_bar']]
+)
+def test_a_standard_output_that_cannot_be_written_is_one_error_line(argv):
+    """stdout on a full disk (/dev/full): one line naming it and exit 2 (a usage error), not
+    a traceback with exit 1 (which says 'solve refused')."""
+    exe = Path(sys.executable).parent / 'linkage'
+    with open('/dev/full', 'w') as full:
+        proc = subprocess.run(
+            [str(exe), *argv], stdout=full, stderr=subprocess.PIPE, text=True, timeout=60
+        )
+    assert proc.returncode == 2, proc.stderr
+    assert proc.stderr.strip().endswith('cannot write standard output: No space left on device')
+    assert 'Traceback' not in proc.stderr and proc.stderr.count('\n') == 1, proc.stderr
+
+
 def test_sweep_csv_is_written_whole_when_the_reader_stops_early(scenes, tmp_path):
     """`linkage sweep ... --csv FILE | head -1`: the reader stopping ends the table, not the
     sweep: the CSV is written with every row (it was lost, with exit 0 and no word)."""
