@@ -6,6 +6,9 @@ bag), or a ``.mcap`` / ``.db3`` file outside such a folder. A bag's name (its ou
 under ``--out-dir``, without the format's suffix) is its path relative to the input folder it
 was found in, or its own name when it was given itself, with a storage file's ``.mcap`` /
 ``.db3`` dropped: ``fleet/day1/run3/`` -> ``day1/run3``, ``fleet/day1/b.mcap`` -> ``day1/b``.
+A glob pattern's match is named from the pattern's leading folders (those before the first
+with a wildcard): ``'archive/2026-*/**/*.mcap'`` matching ``archive/2026-01/l3/run.mcap``
+-> ``2026-01/l3/run``.
 """
 
 from __future__ import annotations
@@ -91,15 +94,22 @@ def _search(folder: Path) -> list[tuple[Path, str]]:
     return found
 
 
-def _expand(item: str) -> list[str]:
-    """A glob pattern's matches (``**`` for any depth), or the item itself when it names an
-    existing path or has no pattern characters."""
-    if os.path.lexists(item) or not any(c in item for c in '*?['):
-        return [item]
+def _expand(item: str) -> list[tuple[str, Path | None]]:
+    """A glob pattern's matches (``**`` for any depth), each with the folder its name is taken
+    relative to (the pattern's leading folders, before the first with a wildcard); or the item
+    itself (None) when it names an existing path or has no pattern characters."""
+    if os.path.lexists(item) or not glob.has_magic(item):
+        return [(item, None)]
     matches = sorted(glob.glob(item, recursive=True))
     if not matches:
         raise BagError(f'input {item}: the pattern matches nothing')
-    return matches
+    fixed = []
+    for part in Path(item).parts[:-1]:
+        if glob.has_magic(part):
+            break
+        fixed.append(part)
+    base = Path(*fixed) if fixed else Path('.')
+    return [(m, base) for m in matches]
 
 
 def find_bags(inputs: Sequence[str]) -> list[BagTask]:
@@ -109,14 +119,18 @@ def find_bags(inputs: Sequence[str]) -> list[BagTask]:
     seen: dict[str, str] = {}  # resolved source -> name
     names: dict[str, str] = {}  # name -> source
     for item in inputs:
-        for path in _expand(item):
+        for path, base in _expand(item):
             p = Path(path)
             if not p.exists():
                 raise BagError(f'input {path}: no such file or folder')
+            # a match of a pattern is named from the pattern's folder (two days' run/ apart)
+            at = Path(p.name) if base is None else p.relative_to(base)
             if _is_bag_folder(p) or _is_storage_file(p):
-                found = [(p, _bag_name(Path(p.name), p.is_file()))]
+                found = [(p, _bag_name(at, p.is_file()))]
             elif p.is_dir():
                 found = _search(p)
+                if base is not None:
+                    found = [(bag, f'{at.as_posix()}/{name}') for bag, name in found]
                 if not found:
                     raise BagError(
                         f'input {path}: no bag in this folder or below (a bag is a folder '

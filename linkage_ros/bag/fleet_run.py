@@ -56,7 +56,8 @@ def add_fleet_arguments(parser: argparse.ArgumentParser) -> None:
         metavar='DIR',
         default=None,
         help='analyse every bag of the inputs; outputs go to DIR/<bag path relative to its '
-        'input folder>.<format>, beside summary.csv and summary.json',
+        'input folder (a glob: its folders before the first wildcard)>.<format>, beside '
+        'summary.csv and summary.json',
     )
     g.add_argument(
         '--format',

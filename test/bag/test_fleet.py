@@ -328,8 +328,17 @@ def test_bag_discovery_folders_globs_and_names(fleet, tmp_path):
     root, _ = fleet
     names = [t.name for t in find_bags([str(root)])]
     assert names == ['day1/a', 'day1/b', 'day2/c', 'day2/damaged']
+    # a pattern's matches are named from its folder before the first wildcard: two days'
+    # bags of one name stay apart (they were named a, b, ... alone, and clashed)
     by_glob = find_bags([str(root / 'day*' / '*')])
-    assert sorted(t.name for t in by_glob) == ['a', 'b', 'c', 'damaged']
+    assert sorted(t.name for t in by_glob) == ['day1/a', 'day1/b', 'day2/c', 'day2/damaged']
+    assert [t.name for t in find_bags([str(root / 'day*')])] == names
+    shutil.copytree(root / 'day1' / 'a', tmp_path / 'days' / '2026-01' / 'run')
+    shutil.copytree(root / 'day2' / 'c', tmp_path / 'days' / '2026-02' / 'run')
+    by_glob = find_bags([str(tmp_path / 'days' / '2026-*' / '**' / '*.mcap')])
+    assert [t.name for t in by_glob] == ['2026-02/run/c']  # (day2/c's storage file)
+    by_glob = find_bags([str(tmp_path / 'days' / '2026-*' / 'run')])
+    assert [t.name for t in by_glob] == ['2026-01/run', '2026-02/run']
     assert [t.name for t in find_bags([str(root / 'day2'), str(root / 'day2' / 'c')])] == [
         'c',
         'damaged',
