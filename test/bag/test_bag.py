@@ -778,6 +778,17 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
     empty = tmp_path / 'emptydir'
     empty.mkdir()
     assert 'not a rosbag2' in _bad([empty, *common], capsys)
+    # a folder holding one storage file and more bags below it: not that one bag alone (only
+    # the file was read, the others left out without a word)
+    holder = tmp_path / 'recordings'
+    holder.mkdir()
+    shutil.copy(good / 'in_mcap.mcap', holder / 'single.mcap')
+    shutil.copytree(good, holder / 'day1' / 'run')
+    err = _bad([holder, *common], capsys)
+    assert 'more bags below it (day1/run, ...)' in err and '--out-dir' in err, err
+    shutil.rmtree(holder / 'day1')
+    code, cap = run_bag([holder, *common, '--no-progress'], capsys)
+    assert code == 0, cap.err  # the one file alone is that bag, as before
     # a .mcap that is not MCAP at all
     fake = tmp_path / 'fake.mcap'
     fake.write_bytes(b'not an mcap file' * 10)
