@@ -66,10 +66,11 @@ def run(args) -> int:
             for name in sorted(call(client.list_parameters()).result.names):
                 print(name)
             return OK
+        values = call(client.get_parameters([args.name])).values
+        if not values or values[0].type == 0:  # none, or PARAMETER_NOT_SET
+            # (rclpy's refusal of a set says 'Invalid access to undeclared parameter(s): []')
+            raise UsageError(f'{node_name} has no parameter {args.name!r}')
         if args.action == 'get':
-            values = call(client.get_parameters([args.name])).values
-            if not values or values[0].type == 0:  # none, or PARAMETER_NOT_SET
-                raise UsageError(f'{node_name} has no parameter {args.name!r}')
             value = plain(parameter_value_to_python(values[0]))
             print(json.dumps(value) if isinstance(value, list) else value)
             return OK

@@ -182,5 +182,9 @@ def test_param_get_and_set_go_through_the_node_checks(node):
     assert float(linkage('param', 'get', name, 'demo_rate').stdout) == 5.0  # nothing changed
     unknown = linkage('param', 'get', name, 'no_such_parameter')
     assert unknown.returncode == 2 and 'no_such_parameter' in unknown.stderr
+    # a misspelt name to set: said as for get (rclpy's words were 'undeclared parameter(s): []')
+    typo = linkage('param', 'set', name, 'demo_ratee', '5')
+    assert typo.returncode == 2, typo.stdout + typo.stderr
+    assert "has no parameter 'demo_ratee'" in typo.stderr, typo.stderr
     listed = linkage('param', 'list', name)
     assert 'demo_rate' in listed.stdout.split() and 'scene' in listed.stdout.split()
