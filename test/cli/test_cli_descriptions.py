@@ -406,6 +406,12 @@ def test_a_xacro_file_is_refused_as_unexpanded_xacro_by_its_name(capsys, tmp_pat
         assert 'run xacro on it first' in err, err
 
 
+def test_a_missing_closure_file_is_named_as_one(capsys, tmp_path):
+    """--closures naming no file: 'closure file not found' (it read 'scene file not found')."""
+    rc, _, err = run(capsys, 'check', DRAKE, '--closures', tmp_path / 'nosuch.yaml')
+    assert rc == 2 and 'nosuch.yaml: closure file not found' in err, err
+
+
 def test_closures_on_a_scene_file_is_a_usage_error(capsys, tmp_path):
     for argv in (
         ['solve', 'four_bar', '--closures', DRAKE_CLOSURES, '--set', 'crank=0.5'],

@@ -81,7 +81,9 @@ def import_description(
     """Read ``description`` (a path, or URDF/SDF text with ``text``), add the closures of the
     side file ``closures``, and assemble at ``values`` of the actuated joints (default 0)."""
     source = '<robot_description>' if text else description
-    body = description if text else read_file(description, MAX_DESCRIPTION_BYTES)
+    body = (
+        description if text else read_file(description, MAX_DESCRIPTION_BYTES, 'robot description')
+    )
     desc = read_description(body, source)
     if closures:
         desc = apply_side_file(desc, load_side_file(closures), closures)

@@ -25,11 +25,11 @@ _TYPES = {'revolute': ClosureType.REVOLUTE, 'prismatic': ClosureType.PRISMATIC}
 _TOP_KEYS = {'closures', 'actuated', 'limits', 'dimensions', 'assemble_at'}
 
 
-def read_file(path: str, limit: int) -> str:
-    """A description's or side file's text (bounded, UTF-8); a file that cannot be read is a
-    DescriptionError like every other refusal of a description."""
+def read_file(path: str, limit: int, kind: str) -> str:
+    """A description's or side file's text (bounded, UTF-8; ``kind`` names it in the refusal);
+    a file that cannot be read is a DescriptionError like every other refusal of one."""
     try:
-        return read_text(path, limit)
+        return read_text(path, limit, kind)
     except SceneError as exc:
         err = DescriptionError(str(exc))
         err.file, err.key, err.value = exc.file, exc.key, exc.value
@@ -37,7 +37,7 @@ def read_file(path: str, limit: int) -> str:
 
 
 def load_side_file(path: str) -> Mapping[str, Any]:
-    text = read_file(path, MAX_SIDE_FILE_BYTES)
+    text = read_file(path, MAX_SIDE_FILE_BYTES, 'closure file')
     try:
         data = yaml.load(text, Loader=_UniqueKeyLoader)
     except yaml.YAMLError as exc:

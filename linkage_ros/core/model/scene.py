@@ -103,22 +103,23 @@ _KINDS = (
 )
 
 
-def read_text(path: str, limit: int | None = None) -> str:
+def read_text(path: str, limit: int | None = None, kind: str = 'scene file') -> str:
     """A scene file's text, bounded: a regular file only (opened without blocking, so a FIFO or
     a device is refused at once), at most ``limit`` bytes (MAX_SCENE_BYTES), UTF-8. Robot
-    descriptions and their side files are read with it too."""
+    descriptions and their side files are read with it too (``kind`` names the file in the
+    refusals: 'robot description', 'closure file')."""
     limit = MAX_SCENE_BYTES if limit is None else limit
     try:
         fd = os.open(path, os.O_RDONLY | getattr(os, 'O_NONBLOCK', 0) | getattr(os, 'O_NOCTTY', 0))
     except FileNotFoundError:
-        raise SceneError('scene file not found', file=path) from None
+        raise SceneError(f'{kind} not found', file=path) from None
     except OSError as exc:
-        raise SceneError(f'cannot read scene file: {exc.strerror or exc}', file=path) from None
+        raise SceneError(f'cannot read {kind}: {exc.strerror or exc}', file=path) from None
     try:
         mode = os.fstat(fd).st_mode
         if not stat.S_ISREG(mode):
-            kind = next((what for test, what in _KINDS if test(mode)), 'not a regular file')
-            raise SceneError(f'is {kind}, not a scene file (a regular file)', file=path)
+            what = next((what for test, what in _KINDS if test(mode)), 'not a regular file')
+            raise SceneError(f'is {what}, not a {kind} (a regular file)', file=path)
         chunks, size = [], 0
         while size <= limit:
             chunk = os.read(fd, limit + 1 - size)
@@ -127,7 +128,7 @@ def read_text(path: str, limit: int | None = None) -> str:
             chunks.append(chunk)
             size += len(chunk)
     except OSError as exc:
-        raise SceneError(f'cannot read scene file: {exc.strerror or exc}', file=path) from None
+        raise SceneError(f'cannot read {kind}: {exc.strerror or exc}', file=path) from None
     finally:
         os.close(fd)
     if size > limit:
