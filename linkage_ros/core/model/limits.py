@@ -73,7 +73,18 @@ def limit_violation(
         v = math.remainder(value, 2 * math.pi)
         v = math.pi if v == -math.pi else v
     if lo is not None and v < lo:
-        return f'{name} = {value:.9g} {unit} is below its minimum {lo:g} by {lo - v:.3g} {unit}'
+        got, limit = _apart(value, lo)
+        return f'{name} = {got} {unit} is below its minimum {limit} by {lo - v:.3g} {unit}'
     if hi is not None and v > hi:
-        return f'{name} = {value:.9g} {unit} is beyond its maximum {hi:g} by {v - hi:.3g} {unit}'
+        got, limit = _apart(value, hi)
+        return f'{name} = {got} {unit} is beyond its maximum {limit} by {v - hi:.3g} {unit}'
     return None
+
+
+def _apart(value: float, limit: float) -> tuple[str, str]:
+    """``value`` and ``limit`` as text that shows them apart: 9 significant digits and the
+    limit as short as it goes, or both whole where those read alike (1.12 below 1.12)."""
+    got, text = f'{value:.9g}', f'{limit:g}'
+    if got == f'{limit:.9g}':
+        return repr(value), repr(limit)
+    return got, text

@@ -132,3 +132,18 @@ def test_an_angle_with_one_limit_is_judged_as_reported_by_the_solve_and_the_rang
         assert not r.success and 'below its minimum -1 by 1.28' in r.reason, r.reason
     for taken in (2.0, 2.0 + 2 * math.pi):
         assert solver.solve({name: taken}).success
+
+
+def test_a_value_a_hair_beyond_its_limit_reads_apart_from_it():
+    """1.12 - 7.55e-14 m against a minimum of 1.12 m read 'Z3 = 1.12 m is below its minimum
+    1.12': the two are written whole where nine digits read alike."""
+    from linkage_ros.core.model.limits import limit_violation
+
+    below = 1.12 - 7.55e-14
+    why = limit_violation('Z3', below, 1.12, 2.0, 'm', False)
+    assert why == f'Z3 = {below!r} m is below its minimum 1.12 by 7.55e-14 m', why
+    why = limit_violation('Z3', 2.0 + 1e-12, 1.12, 2.0, 'm', False)
+    assert why is not None and f'{2.0 + 1e-12!r} m is beyond its maximum 2.0 by' in why, why
+    assert limit_violation('Z3', 1.0, 1.12, 2.0, 'm', False) == (
+        'Z3 = 1 m is below its minimum 1.12 by 0.12 m'
+    )
