@@ -930,7 +930,7 @@ def test_a_target_in_the_other_assembly_mode_is_refused_unless_asked_for(serve):
         ['target is reachable only in assembly mode -', 'the mechanism is in mode +'],
         ('command', joint_state(['crank'], [1.0], (93, 0))),
     )
-    assert 'ask for the change explicitly' in msg
+    assert 'ask for the change explicitly' in msg and '~/target_any_mode' in msg
     assert s.good('command', joint_state(['crank'], [1.0], (94, 0))) == fresh
     status = s.send('target_any_mode', joint_state(['B'], [-1.2], (95, 0)))
     assert status.level == OK, status.message

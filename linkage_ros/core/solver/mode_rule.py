@@ -120,7 +120,7 @@ class ModeKeeper:
                 f'target is reachable only in assembly mode {self.label(after)} '
                 f'{self._of_what()}; the mechanism is in mode {self.label(before)} and cannot '
                 'change mode without being taken apart (ask for the change explicitly to '
-                'allow it)',
+                'allow it: ~/target_any_mode on the node, --any-mode on the command line)',
                 solver=result.solver,
             )
             return TargetAnswer(refusal, False)
