@@ -33,7 +33,8 @@ Outputs (``--out`` may be given twice):
   solver, iterations, and ``velocity`` (``ok (cond C)`` or why there is none) for a command
   that gave velocities; ERROR with the reason). A command's joint_states then carry every
   joint's velocity, as the node's do. Header stamps are the commands' (a zero stamp
-  becomes the bag receive time), frame_id is the scene's, and each message is logged at its
+  becomes the bag receive time), frame_id is the scene's (or ``--frame-id``, the node's
+  parameter of that name), and each message is logged at its
   command's bag time.
 
 Speed: a closed-form scene is solved in vectorised chunks (``Solver.solve_batch`` with the branch

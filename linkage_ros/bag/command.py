@@ -73,6 +73,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "topic's last name), answered like trajectories; may be given more than once",
     )
     parser.add_argument(
+        '--frame-id',
+        default='',
+        metavar='FRAME',
+        help="as the node's frame_id parameter in the run recorded (default: the scene's): "
+        'the frame of the outputs, and the one requests in another frame are refused in',
+    )
+    parser.add_argument(
         '--target-point-hold',
         action='append',
         default=[],
@@ -202,7 +209,7 @@ def _run(args) -> int:
         outputs = _run_outputs(outs, args, scene, opts)
         try:
             data, res, plans = replay_input(
-                engine, mech, source, opts, progress, scene.frame_id, marks, outputs
+                engine, mech, source, opts, progress, opts.frame(scene), marks, outputs
             )
             t_read, t_solve = marks[0], time.perf_counter()
             outputs.finish(data, res, progress)
@@ -237,7 +244,7 @@ def _run_outputs(outs, args, scene, opts) -> RunOutputs:
     return RunOutputs(
         table,
         scene.mechanism,
-        scene.frame_id,
+        opts.frame(scene),
         plans_csvs=[Path(plans_csv_path(p)) for p in csvs],
         remap=dict(opts.remap),
         all_or_none=False,  # as before streaming: a finished --out stays when a later one fails

@@ -65,10 +65,16 @@ class BagOptions:
     out_format: str  # storage of the single-bag --out bag (unused by --format)
     out_dir: str
     remap: tuple[tuple[str, str], ...] = ()  # output bag topic renames (--remap)
+    #: the node's frame_id parameter in the run recorded (--frame-id); '' = the scene's
+    frame_id: str = ''
 
     @property
     def topics(self) -> list[str]:
         return [self.command_topic] + ([self.target_topic] if self.target_topic else [])
+
+    def frame(self, scene: Any) -> str:
+        """The frame the recorded node worked in: --frame-id, else the scene's."""
+        return self.frame_id or str(scene.frame_id)
 
 
 @dataclass(frozen=True)
@@ -204,7 +210,7 @@ def _outputs(task: BagTask, opts: BagOptions, scene: Any) -> RunOutputs:
     return RunOutputs(
         outs,
         scene.mechanism,
-        scene.frame_id,
+        opts.frame(scene),
         plans_csvs=[task.trajectories(opts.out_dir)] if tables else [],
         remap=dict(opts.remap),
     )
@@ -270,7 +276,7 @@ def analyse_bag(
         outputs = _outputs(task, opts, scene)
         try:
             data, res, plans = replay_input(
-                engine, mech, task.source, opts, progress, scene.frame_id, outputs=outputs
+                engine, mech, task.source, opts, progress, opts.frame(scene), outputs=outputs
             )
             written = outputs.finish(data, res)
         except BaseException:

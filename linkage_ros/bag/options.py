@@ -39,6 +39,12 @@ def check_options(args: argparse.Namespace) -> Any:
                 if opt == '--target-topic'
                 else f'{opt}: empty topic name'
             )
+    frame = args.frame_id
+    if any(c.isspace() for c in frame) or frame.startswith('/'):
+        raise BagError(
+            f"--frame-id {frame!r}: a tf2 frame name, without whitespace or a leading '/' (as "
+            "the node's frame_id parameter)"
+        )
     if args.command_topic == args.target_topic:
         raise BagError('--command-topic and --target-topic must be different topics')
     if not (isinstance(args.tol, float) and math.isfinite(args.tol) and args.tol > 0):
@@ -84,4 +90,5 @@ def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: 
         out_format=args.out_format,
         out_dir=out_dir,
         remap=tuple((old, new) for old, _, new in (a.partition(':=') for a in args.remap)),
+        frame_id=args.frame_id,
     )

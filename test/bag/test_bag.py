@@ -1826,3 +1826,66 @@ def test_a_path_topic_must_name_a_point_and_a_trajectory_topic_its_type(tmp_path
     assert code == 2 and 'topic /cmd has type sensor_msgs/msg/JointState' in cap.err
     assert 'expected trajectory_msgs/msg/JointTrajectory' in cap.err
     assert not (tmp_path / 'a.csv').exists() and not (tmp_path / 'b.csv').exists()
+
+
+def test_frame_id_is_the_frame_the_recorded_node_worked_in(tmp_path, capsys):
+    """A node run with frame_id:=world answered paths stamped 'world'; the bag, in the scene's
+    frame, refused them. --frame-id world answers them as the node did (the same joints as
+    an unstamped path) and writes its outputs in that frame; a frame tf2 refuses is a usage
+    error."""
+    from scenes import CONFIG
+
+    from linkage_ros.engine import Engine, EngineSettings
+
+    scene = CONFIG / 'plagiograph.yaml'
+    mech = Scene.from_yaml(scene).mechanism
+    start = Engine(mech, EngineSettings())
+    x0, y0 = start.last.points['E']
+    T = TS.types
+
+    def path(frame):
+        hdr = T['std_msgs/msg/Header'](
+            stamp=T['builtin_interfaces/msg/Time'](sec=5, nanosec=0), frame_id=frame
+        )
+        poses = [
+            T['geometry_msgs/msg/PoseStamped'](
+                header=hdr,
+                pose=T['geometry_msgs/msg/Pose'](
+                    position=T['geometry_msgs/msg/Point'](x=x0 + 1e-3 * k, y=y0, z=0.0),
+                    orientation=T['geometry_msgs/msg/Quaternion'](x=0.0, y=0.0, z=0.0, w=1.0),
+                ),
+            )
+            for k in range(3)
+        ]
+        return TS.serialize_cdr(
+            T['nav_msgs/msg/Path'](header=hdr, poses=poses), 'nav_msgs/msg/Path'
+        )
+
+    acts = list(mech.actuators)
+    folder = tmp_path / 'in'
+    with Writer(folder, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        c_cmd = w.add_connection('/cmd', JS, typestore=TS)
+        c_path = w.add_connection('/n/target_path/E', 'nav_msgs/msg/Path', typestore=TS)
+        values = [start.last.inputs[a] for a in acts]
+        w.write(c_cmd, 10**9, TS.serialize_cdr(joint_state(acts, values, sec=1), JS))
+        w.write(c_path, 2 * 10**9, path('world'))
+        w.write(c_path, 3 * 10**9, path(''))
+    common = [folder, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
+    common += ['--path-topic', '/n/target_path/E']
+    code, cap = run_bag([*common, '--out', tmp_path / 'a.csv'], capsys)
+    rows = read_csv(tmp_path / 'a.trajectories.csv')
+    assert code == 0 and [r['status'] for r in rows] == ['error'] + ['ok'] * 3, cap.err
+    assert "in frame 'world' but this node works in 'plagiograph'" in rows[0]['reason']
+    code, cap = run_bag(
+        [*common, '--frame-id', 'world', '--out', tmp_path / 'b.csv', '--out', tmp_path / 'b'],
+        capsys,
+    )
+    assert code == 0, cap.err
+    rows = read_csv(tmp_path / 'b.trajectories.csv')
+    assert [r['status'] for r in rows] == ['ok'] * 6
+    joints = [c for c in rows[0] if c.startswith('joint.')]
+    assert [[r[c] for c in joints] for r in rows[:3]] == [[r[c] for c in joints] for r in rows[3:]]
+    out, _ = read_out_bag(tmp_path / 'b')
+    assert {m.header.frame_id for _, m in out['/joint_states']} == {'world'}
+    code, cap = run_bag([*common, '--frame-id', '/world', '--out', tmp_path / 'c.csv'], capsys)
+    assert code == 2 and "--frame-id '/world'" in cap.err and not (tmp_path / 'c.csv').exists()
