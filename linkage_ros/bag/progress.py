@@ -78,7 +78,12 @@ def _summary(data, res, outs, plot, t0, t_read, t_solve, t_end):
         lines.append(f'    {c} x {cls}')
     if len(counts) > 8:
         lines.append(f'    ... and {len(counts) - 8} other kind(s) of refusal')
-    lines.append(f'  vectorised rows {res.batched}, one-by-one rows {res.sequential}')
+    # (rows refused from the message alone, as NaN or an unknown name, reach no solver)
+    unsolved = n - res.batched - res.sequential
+    lines.append(
+        f'  vectorised rows {res.batched}, one-by-one rows {res.sequential}'
+        + (f', refused before any solve {unsolved}' if unsolved else '')
+    )
     for kind, path in outs:
         lines.append(f'  wrote {path} ({"csv" if kind == "csv" else "rosbag2"})')
     if plot:

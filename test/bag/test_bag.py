@@ -487,6 +487,10 @@ def test_matches_node_engine_on_jumpy_mixed_stream(tmp_path, scene, branch, caps
     )
     assert code == 0, cap.err
     assert _summary_count(cap.out, 'vectorised rows') > 0.8 * len(rows)
+    # every row is counted once: batched, one by one, or refused as the message stands
+    ways = ('vectorised rows', 'one-by-one rows', 'refused before any solve')
+    counted = [_summary_count(cap.out, w) if f'{w} ' in cap.out else 0 for w in ways]
+    assert sum(counted) == len(rows), cap.out
     table = read_csv(out_csv)
     assert len(table) == len(rows)
     assert _compare_with_engine(table, rows, engine) > 0  # velocities compared too
@@ -1889,3 +1893,19 @@ def test_frame_id_is_the_frame_the_recorded_node_worked_in(tmp_path, capsys):
     assert {m.header.frame_id for _, m in out['/joint_states']} == {'world'}
     code, cap = run_bag([*common, '--frame-id', '/world', '--out', tmp_path / 'c.csv'], capsys)
     assert code == 2 and "--frame-id '/world'" in cap.err and not (tmp_path / 'c.csv').exists()
+
+
+def test_the_summary_counts_every_row_once(tmp_path, scene, capsys):
+    """A command refused as the message stands (an unknown name) reaches no solver: the
+    summary's row counts said 'vectorised rows 0, one-by-one rows 49' of 50 commands; they now
+    add up, naming those rows."""
+    msgs = [('/cmd', 10**9 + i * 10**6, joint_state(['crank'], [0.05 * i])) for i in range(30)]
+    msgs[7] = ('/cmd', msgs[7][1], joint_state(['wrench'], [0.1]))
+    src = make_input(tmp_path, 'mcap', msgs)
+    code, cap = run_bag(
+        [src, '--scene', scene, '--command-topic', '/cmd', '--out', tmp_path / 'o.csv'], capsys
+    )
+    assert code == 0, cap.err
+    assert 'solved 29, refused 1' in cap.out and 'refused before any solve 1' in cap.out, cap.out
+    ways = ('vectorised rows', 'one-by-one rows', 'refused before any solve')
+    assert sum(_summary_count(cap.out, w) for w in ways) == 30, cap.out
