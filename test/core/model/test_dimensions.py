@@ -357,3 +357,18 @@ def test_a_shortcut_that_cannot_assemble_with_its_dimensions_names_them():
 
     with pytest.raises(SceneError, match=r'with the dimensions crank\.O2-A=1e\+308'):
         Scene.from_yaml(scenes.CONFIG / 'four_bar.yaml', {'crank.O2-A': 1e308})
+
+
+def test_a_length_far_from_its_drawing_is_named_as_a_likely_unit_slip():
+    """crank.O2-A = 16 meant as mm (the drawing's is 0.1 m): the refusal says how far it is
+    from the drawn length and that lengths are in m. A length near its drawing gets no hint."""
+    from linkage_ros.core.errors import SceneError
+    from linkage_ros.core.model import Scene
+
+    with pytest.raises(SceneError) as info:
+        Scene.from_yaml(scenes.CONFIG / 'four_bar.yaml', {'crank.O2-A': 16.0})
+    assert 'crank.O2-A = 16 m is 160x its drawn 0.1 m: lengths are in m' in str(info.value)
+    assert 'write 16mm for millimetres' in str(info.value)
+    with pytest.raises(SceneError) as info:  # 10x: no assembly, and no unit slip
+        Scene.from_yaml(scenes.CONFIG / 'four_bar.yaml', {'crank.O2-A': 1.0})
+    assert 'with the dimensions crank.O2-A=1)' in str(info.value), str(info.value)
