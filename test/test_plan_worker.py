@@ -13,6 +13,7 @@ import signal
 import time
 from pathlib import Path
 
+import pytest
 import scenes
 
 from linkage_ros.engine import Engine, EngineSettings
@@ -39,64 +40,52 @@ def _job(engine: Engine, sec: int) -> PlanJob:
     )
 
 
-def test_a_plan_held_by_a_worker_that_died_is_answered_when_the_next_arrives_first():
+@pytest.fixture
+def stopped_worker():
+    """(engine, worker, pid): a four-bar engine and a started worker, stopped (SIGSTOP) so
+    that it holds the plans offered to it unanswered; the worker is ended after the test."""
     engine = Engine(scenes.load('four_bar'), EngineSettings())
     worker = PlanWorker()
     worker.start()
     try:
-        first = worker.pid
-        assert first is not None
-        os.kill(first, signal.SIGSTOP)  # it holds the next plan, unanswered
-        assert worker.offer(_job(engine, 1), engine)
-        os.kill(first, signal.SIGKILL)
-        deadline = time.monotonic() + ANSWER_WAIT_S
-        while _alive(first):
-            assert time.monotonic() < deadline
-            time.sleep(0.01)
-        # the next plan arrives before anyone looked for answers
-        assert worker.offer(_job(engine, 2), engine)
-        assert worker.pid not in (None, first), 'no new worker took the next plan'
-        got = []
-        while len(got) < 2 and time.monotonic() < deadline:
-            got += worker.collect()
-            time.sleep(0.02)
-        assert [d.stamp.sec for d in got] == [1, 2], got
-        held, after = got
-        assert not held.ok and 'the plan worker exited' in held.message, held.message
-        assert 'the plan worker exited' not in after.message, after.message
-        assert worker.pending == 0
+        pid = worker.pid
+        assert pid is not None
+        os.kill(pid, signal.SIGSTOP)
+        yield engine, worker, pid
     finally:
         worker.stop()
 
 
-def test_a_full_queue_of_a_worker_that_died_is_not_a_load_refusal():
+def test_a_plan_held_by_a_worker_that_died_is_answered_when_the_next_arrives_first(
+    stopped_worker,
+):
+    engine, worker, first = stopped_worker
+    assert worker.offer(_job(engine, 1), engine)
+    deadline = _killed(first)
+    # the next plan arrives before anyone looked for answers
+    assert worker.offer(_job(engine, 2), engine)
+    assert worker.pid not in (None, first), 'no new worker took the next plan'
+    got = _collected(worker, 2, deadline)
+    assert [d.stamp.sec for d in got] == [1, 2], got
+    held, after = got
+    assert not held.ok and 'the plan worker exited' in held.message, held.message
+    assert 'the plan worker exited' not in after.message, after.message
+    assert worker.pending == 0
+
+
+def test_a_full_queue_of_a_worker_that_died_is_not_a_load_refusal(stopped_worker):
     """The worker dies holding a full queue: the next plan is not 'dropped for load' (nothing
     waits any more) but taken by a new worker; the held ones are answered as internal errors."""
-    engine = Engine(scenes.load('four_bar'), EngineSettings())
-    worker = PlanWorker()
-    worker.start()
-    try:
-        first = worker.pid
-        assert first is not None
-        os.kill(first, signal.SIGSTOP)
-        held = worker.depth + 1
-        assert all(worker.offer(_job(engine, k), engine) for k in range(1, held + 1))
-        assert not worker.offer(_job(engine, 99), engine)  # full while it lives
-        os.kill(first, signal.SIGKILL)
-        deadline = time.monotonic() + ANSWER_WAIT_S
-        while _alive(first):
-            assert time.monotonic() < deadline
-            time.sleep(0.01)
-        assert worker.offer(_job(engine, held + 1), engine), 'refused for load by a dead worker'
-        got = []
-        while len(got) < held + 1 and time.monotonic() < deadline:
-            got += worker.collect()
-            time.sleep(0.02)
-        assert [d.stamp.sec for d in got] == list(range(1, held + 2)), got
-        assert all('the plan worker exited' in d.message for d in got[:held])
-        assert 'the plan worker exited' not in got[-1].message, got[-1].message
-    finally:
-        worker.stop()
+    engine, worker, first = stopped_worker
+    held = worker.depth + 1
+    assert all(worker.offer(_job(engine, k), engine) for k in range(1, held + 1))
+    assert not worker.offer(_job(engine, 99), engine)  # full while it lives
+    deadline = _killed(first)
+    assert worker.offer(_job(engine, held + 1), engine), 'refused for load by a dead worker'
+    got = _collected(worker, held + 1, deadline)
+    assert [d.stamp.sec for d in got] == list(range(1, held + 2)), got
+    assert all('the plan worker exited' in d.message for d in got[:held])
+    assert 'the plan worker exited' not in got[-1].message, got[-1].message
 
 
 def test_the_worker_builds_its_engine_when_the_mechanism_is_served():
@@ -210,6 +199,25 @@ def test_the_worker_never_collects_garbage_inside_a_plan():
     assert done.ok and done.values['points'] == '300', done.message
     assert collections[:before_send] == [2], 'a collection ran inside the plan'
     assert collections[before_send:] == [2], 'no collection after the plan'
+
+
+def _killed(pid: int) -> float:
+    """Kill process ``pid`` and wait until it is dead; the deadline for the answers after."""
+    os.kill(pid, signal.SIGKILL)
+    deadline = time.monotonic() + ANSWER_WAIT_S
+    while _alive(pid):
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    return deadline
+
+
+def _collected(worker: PlanWorker, n: int, deadline: float) -> list:
+    """The worker's answers until there are ``n`` (or the deadline)."""
+    got: list = []
+    while len(got) < n and time.monotonic() < deadline:
+        got += worker.collect()
+        time.sleep(0.02)
+    return got
 
 
 def _alive(pid: int) -> bool:
