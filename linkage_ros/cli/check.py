@@ -242,6 +242,8 @@ def format_motion(m: dict | None) -> list[str]:
         if o.get('time_ratio') is not None:
             line += f'  time ratio {_f(o["time_ratio"], ".6g")}'
         out.append(line)
+    for name in m.get('turns_fully', ()):
+        out.append(f'  {name.partition(":")[2]} (angle)  turns fully (no swing, no time ratio)')
     for key, t in m['transmission_angle'].items():
         out.append(
             f'  transmission angle {key}  min {_f(t["min"], ".6g")} rad '

@@ -21,10 +21,11 @@ import numpy as np
 from ..model import AngleActuator, Mechanism
 from ..model.names import NameKind, resolve_name
 from ..solver import Result, Solver
-from ..solver.result import named_value
+from ..solver.result import branch_text, named_value
 from ..steps import RRRDyad
 from ..velocity import Velocities, velocities
-from .ranges import _golden_min, input_ranges
+from .ranges import _golden_min, _scan_circuit, input_ranges
+from .scan import _held_reference
 
 #: a refined extreme may exceed the best sample by no more than this fraction (rounding)
 _LEVEL = 1e-15
@@ -65,6 +66,8 @@ class InputSweep:
     outputs: dict[str, Extreme]  # link:<name> angle (rad; min in (-pi, pi]), joint:<name> value
     transmission: dict[str, Extreme]  # |mu| of each RRR dyad, the classical angle in [0, pi]
     time_ratio: dict[str, float]  # full turn only: slower / faster stroke of each output
+    #: the link:<name> outputs that turn fully (no extremes: a double-crank's follower)
+    turns_fully: tuple[str, ...] = ()
 
 
 def _value(mech: Mechanism, r: Result, output: str) -> float:
@@ -135,50 +138,103 @@ def _rate_root(
     return float(x) if math.isfinite(x) else None
 
 
+@dataclass
+class _Piece:
+    """One branch's stretch of the input's circuit: its solver (the branch's signs), the input
+    samples where it assembles and their solutions."""
+
+    solver: Solver
+    grid: np.ndarray
+    results: list[Result]
+
+
+def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece]]:
+    """(full turn, pieces): the input's circuit within its limits, through its toggles and so
+    every branch it passes (ranges._scan_circuit, as ``linkage range --links`` follows it: a
+    non-Grashof crank's swing one way in one assembly mode and back in the other), sampled
+    ``samples`` times a piece."""
+    held = _held_reference(mech, act, None)
+    _, x0, segs, _ = _scan_circuit(mech, act, held, samples)
+    # the range the input may take (its toggles within its limits: input_ranges)
+    periodic = isinstance(mech.actuators[act], AngleActuator)
+    rlo, rhi = input_ranges(mech)[act]
+    bounds = None if rlo is None or rhi is None else (rlo, rhi)
+    full = len(segs) == 1 and segs[0].full and bounds is None
+    pieces = []
+    for seg in segs:
+        lo, hi = seg.lo, seg.hi
+        if bounds is not None and seg.full:  # a crank that could turn fully, stopped by limits
+            lo, hi = bounds
+        elif bounds is not None:  # the range on the turn of the piece (toggle to toggle)
+            mid = (bounds[0] + bounds[1]) / 2
+            turn = round((lo + hi - 2 * mid) / (4 * math.pi)) * 2 * math.pi if periodic else 0.0
+            lo, hi = max(lo, bounds[0] + turn), min(hi, bounds[1] + turn)
+        if full:
+            grid = x0 + np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
+        elif math.isfinite(lo) and math.isfinite(hi) and lo < hi:
+            grid = np.linspace(lo, hi, samples)
+        else:
+            raise ValueError(f'{act!r} has no bounded range to sweep')
+        branch = branch_text(seg.signs) if seg.signs else 'continuous'
+        solver = Solver(mech, branch=branch)
+        kept, results = [], []
+        for k, v in enumerate(grid):
+            r = solver.solve({act: float(v)})
+            if r.success:
+                kept.append(k)
+                results.append(r)
+            elif 0 < k < len(grid) - 1:  # (an end is a toggle: it may miss by rounding)
+                raise ValueError(f'{act} = {v:.9g} does not assemble: {r.reason}')
+        pieces.append(_Piece(solver, grid[kept], results))
+    if not any(p.results for p in pieces):
+        raise ValueError(f'{act!r} has no range to sweep')
+    return full, pieces
+
+
+def _arc_start(raw: list[np.ndarray]) -> float | None:
+    """The angle (rad) where the arc that the angles ``raw`` (one array per piece, each in
+    input order) cover begins: just after their largest gap around the circle. None where no
+    gap is wider than one step between neighbouring samples: the angle turns fully."""
+    step = max((float(np.max(np.abs(np.remainder(np.diff(a) + math.pi, 2 * math.pi) - math.pi)))
+                for a in raw if a.size > 1), default=0.0)  # fmt: skip
+    around = np.sort(np.mod(np.concatenate(raw), 2 * math.pi))
+    gaps = np.diff(np.append(around, around[0] + 2 * math.pi))
+    j = int(np.argmax(gaps))
+    if gaps[j] <= 1.5 * step:
+        return None
+    return float(around[(j + 1) % around.size])
+
+
 def input_sweep(
     mech: Mechanism, outputs: list[str], samples: int = 1440, tol: float = 1e-12
 ) -> InputSweep:
-    """Sweep the only actuator of a 1-DOF mechanism over its range (a full turn when it turns
-    fully) in the reference pose's assembly mode: each output's extremes and the input values
-    there, the transmission angles' extremes, and for a full turn the time ratio of each output
-    (the crank turn from its minimum to its maximum against the turn back, the larger over the
+    """Sweep the only actuator of a 1-DOF mechanism over its circuit (:func:`_circuit`: a full
+    turn when it turns fully, else its range one way and back, through the toggles at its ends
+    into the other assembly mode where the circuit goes there): each output's extremes and the
+    input values there (an angle that turns fully has none: :attr:`InputSweep.turns_fully`),
+    the transmission angles' extremes, and for a full turn the time ratio of each output (the
+    crank turn from its minimum to its maximum against the turn back, the larger over the
     smaller: 1 for a symmetric motion). An extreme inside the range is the root of the
     quantity's rate d(quantity)/d(input) (the exact Jacobian velocities), found by Brent's
-    method between the samples around the best one: the input there to a few ulps, so the
-    dead-centre inputs, swing, stroke and time ratio are exact to about 1e-15 relative (tested
-    to 1e-12 against the closed forms for ten drawings each). Where the rate does not change
-    sign between those samples (an extreme at an end of the range, where the input toggles)
-    the value is minimised by golden-section search to ``tol`` of the input instead (about
-    1e-8 of the input where the quantity is flat there). ValueError for a mechanism with more
-    than one actuator."""
+    method between the samples around the best one, on that sample's branch: the input there to
+    a few ulps, so the dead-centre inputs, swing, stroke and time ratio are exact to about 1e-15
+    relative (tested to 1e-12 against the closed forms for ten drawings each). Where the rate
+    does not change sign between those samples (an extreme at an end of the range, where the
+    input toggles) the value is minimised by golden-section search to ``tol`` of the input
+    instead (about 1e-8 of the input where the quantity is flat there). ValueError for a
+    mechanism with more than one actuator."""
     if len(mech.actuators) != 1:
         raise ValueError(f'{mech.name!r} has {len(mech.actuators)} actuators; this needs one')
     (act,) = mech.actuators
-    lo, hi = input_ranges(mech)[act]
-    solver = Solver(mech, branch='continuous')
-    ref = solver.reference_values()[act]
-    full = lo is None and hi is None and isinstance(mech.actuators[act], AngleActuator)
-    if full:
-        grid = ref + np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
-    elif lo is None or hi is None:
-        raise ValueError(f'{act!r} has no bounded range to sweep')
-    else:
-        grid = np.linspace(lo, hi, samples)
-    results = []
-    for v in grid:
-        r = solver.solve({act: float(v)})
-        if not r.success:
-            raise ValueError(f'{act} = {v:.9g} does not assemble: {r.reason}')
-        results.append(r)
-    signs = results[0].branch
-    exact = Solver(mech, branch=signs) if signs else Solver(mech)
-
+    full, pieces = _circuit(mech, act, samples)
     scale = 1.0 if isinstance(mech.actuators[act], AngleActuator) else mech.length_scale
 
     def refine(
-        series: np.ndarray, f_of: ValueNear, rate_of: RateOf, i: int, sign: float
+        piece: _Piece, series: np.ndarray, f_of: ValueNear, rate_of: RateOf, i: int, sign: float
     ) -> tuple[float, float]:
-        """The extreme near sample i of ``series`` (sign +1 min, -1 max): (input, value)."""
+        """The extreme near sample i of a piece's ``series`` (sign +1 min, -1 max): (input,
+        value), on the piece's branch."""
+        grid, exact = piece.grid, piece.solver
         n = len(grid)
         if full:
             a, b = grid[i] - (grid[1] - grid[0]), grid[i] + (grid[1] - grid[0])
@@ -206,22 +262,35 @@ def input_sweep(
             x = math.remainder(x, 2 * math.pi)
         return x, sign * fx
 
-    def extreme(series: np.ndarray, f_of: ValueNear, rate_of: RateOf) -> Extreme:
-        i_min, i_max = int(np.argmin(series)), int(np.argmax(series))
-        (x_lo, v_lo), (x_hi, v_hi) = (
-            refine(series, f_of, rate_of, i_min, 1.0),
-            refine(series, f_of, rate_of, i_max, -1.0),
-        )
+    def extreme(series: list[np.ndarray], f_of: ValueNear, rate_of: RateOf) -> Extreme:
+        """The least and greatest of ``series`` (one array per piece), each refined."""
+        ends = []
+        for sign in (1.0, -1.0):  # the least, then the greatest: (piece, sample) of the best
+            k, i = min(
+                ((k, int(np.argmin(sign * a))) for k, a in enumerate(series) if a.size),
+                key=lambda ki: sign * float(series[ki[0]][ki[1]]),
+            )
+            ends.append(refine(pieces[k], series[k], f_of, rate_of, i, sign))
+        (x_lo, v_lo), (x_hi, v_hi) = ends
         return Extreme(v_lo, v_hi, x_lo, x_hi)
 
     out: dict[str, Extreme] = {}
     ratios: dict[str, float] = {}
+    turning: list[str] = []
     for name in outputs:
         if not name.startswith(('link:', 'joint:')):
             raise ValueError(f'output {name!r}: name it link:<name> or joint:<name>')
-        raw = np.array([_value(mech, r, name) for r in results])
+        raw = [np.array([_value(mech, r, name) for r in p.results]) for p in pieces]
         angle = name.startswith('link:')
-        series = np.unwrap(raw) if angle else raw
+        if angle:
+            start = _arc_start(raw)
+            if start is None:
+                turning.append(name)
+                continue
+            # every angle on the turn from the arc's start: the arc is [start, start + swing]
+            series = [start + np.mod(a - start, 2 * math.pi) for a in raw]
+        else:
+            series = raw
 
         def f_of(r: Result, near: float, name: str = name, angle: bool = angle) -> float:
             v = _value(mech, r, name)
@@ -240,15 +309,16 @@ def input_sweep(
             short = min(forward, back)
             ratios[name] = max(forward, back) / short if short else math.inf
     trans: dict[str, Extreme] = {}
-    angles = [transmission_angles(solver, r) for r in results]  # once per sample
-    for key in angles[0]:
-        series = np.array([abs(a[key]) for a in angles])
+    angles = [[transmission_angles(p.solver, r) for r in p.results] for p in pieces]
+    keys = next(iter(a[0] for a in angles if a))
+    for key in keys:
+        mus = [np.array([abs(a[key]) for a in piece]) for piece in angles]
 
         def mu_of(r: Result, near: float, key: str = key) -> float:
-            return abs(transmission_angles(exact, r)[key])
+            return abs(transmission_angles(pieces[0].solver, r)[key])
 
-        trans[key] = extreme(series, mu_of, _transmission_rate(exact, key))
-    return InputSweep(act, full, out, trans, ratios)
+        trans[key] = extreme(mus, mu_of, _transmission_rate(pieces[0].solver, key))
+    return InputSweep(act, full, out, trans, ratios, tuple(turning))
 
 
 def classical_outputs(mech: Mechanism) -> list[str]:
@@ -294,5 +364,6 @@ def quantities_report(mech: Mechanism) -> dict[str, Any] | None:
             n: {**ext(e), 'stroke': e.maximum - e.minimum, 'time_ratio': sweep.time_ratio.get(n)}
             for n, e in sweep.outputs.items()
         },
+        'turns_fully': list(sweep.turns_fully),
         'transmission_angle': {k: ext(e) for k, e in sweep.transmission.items()},
     }

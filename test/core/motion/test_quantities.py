@@ -114,3 +114,48 @@ def test_slotted_lever_quick_return_against_its_closed_form():
     assert sweep.time_ratio['link:lever'] == pytest.approx(
         (math.pi + 2 * alpha) / (math.pi - 2 * alpha), rel=1e-7
     )
+
+
+def _rocker_at(l1: float, l4: float, d: float) -> float:
+    """The rocker angle (rad, in [0, pi]) where |B - O2| = d: the cosine rule in the triangle
+    O2 O4 B (O2 at the origin, O4 = (l1, 0), B = O4 + l4 e^{i theta4})."""
+    return math.acos((d * d - l1 * l1 - l4 * l4) / (2 * l1 * l4))
+
+
+@pytest.mark.parametrize(
+    'scene, lengths, ends',
+    [
+        # non-Grashof: one circuit through both signs, the rocker's extremes where crank and
+        # coupler are extended in line (|B - O2| = l2 + l3), mirrored about the ground line
+        ('four_bar_non_grashof', (0.30, 0.20, 0.25, 0.22), 'mirror'),
+        # Grashof double-rocker: its loop runs through both signs too, the extremes where crank
+        # and coupler are in line, extended (l2 + l3) and folded (l2 - l3)
+        ('four_bar_grashof_double_rocker', (0.30, 0.20, 0.10, 0.25), 'in line'),
+    ],
+)
+def test_a_crank_stopped_by_toggles_sweeps_the_whole_circuit(scene, lengths, ends):
+    """Seed 000: a crank driven from toggle to toggle comes back in the dyad's other sign; the
+    rocker's range is the circuit's, as `linkage range --links` and the scene file say. check
+    gave the half one sign reaches (non-Grashof swing 2.36 rad for 4.16), and refined one end in
+    the other mode (2.48..2.82 for 2.00..2.82)."""
+    l1, l2, l3, l4 = lengths
+    if ends == 'mirror':
+        low = _rocker_at(l1, l4, l2 + l3)
+        want = (low, 2 * math.pi - low)
+    else:
+        want = (_rocker_at(l1, l4, l2 + l3), _rocker_at(l1, l4, l2 - l3))
+    sweep = input_sweep(load(scene), ['link:rocker'])
+    got = sweep.outputs['link:rocker']
+    assert not sweep.full_turn and not sweep.turns_fully
+    assert abs(got.minimum - want[0]) < 1e-12 and abs(got.maximum - want[1]) < 1e-12, got
+
+
+def test_a_follower_that_turns_fully_has_no_swing_and_no_time_ratio():
+    """A double-crank's follower turns fully with the crank (seed 000: 'theta4 also goes from 0
+    to 2 pi'): no extremes, no time ratio (check printed a swing of 6.29 rad, over 2 pi, and a
+    time ratio of 1439)."""
+    sweep = input_sweep(load('four_bar_double_crank'), ['link:rocker'])
+    assert sweep.full_turn and sweep.turns_fully == ('link:rocker',)
+    assert 'link:rocker' not in sweep.outputs and 'link:rocker' not in sweep.time_ratio
+    rep = quantities_report(load('four_bar_double_crank'))
+    assert rep is not None and rep['turns_fully'] == ['link:rocker'] and not rep['outputs']
