@@ -102,6 +102,11 @@ PLAIN_LISTENER_LABEL = 'node_plain_listener'
 LISTENER_EXECUTORS = ('events', 'single')
 
 
+def ready_file(out: Path) -> Path:
+    """The file the listener writing its counts to ``out`` creates when it is ready."""
+    return out.with_suffix('.ready')
+
+
 def listen(
     scene: str, ns: str, out: Path, quiet_s: float = 0.5, executor_kind: str = 'events'
 ) -> int:
@@ -150,6 +155,11 @@ def listen(
         executor = SingleThreadedExecutor()
     executor.add_node(node)
     try:
+        # ready (a file beside ``out``) once every reader has matched the node's writer: the
+        # graph seen from the driver says only that the readers exist
+        while not stop and not all(sub.get_publisher_count() >= 1 for sub in subs):
+            executor.spin_once(timeout_sec=0.05)
+        ready_file(out).touch()
         while not stop or time.monotonic() - last[0] < quiet_s:
             executor.spin_once(timeout_sec=0.05)
         tmp = out.with_suffix('.tmp')
@@ -244,7 +254,8 @@ def bench_all_outputs(
                         work,
                         f'all_{scene}_listener_{executor}',
                     )
-                    why = _await_listener(driver, scene, ns_node)
+                    ready_file(counts_file).unlink(missing_ok=True)
+                    why = _await_listener(driver, scene, ns_node, ready=ready_file(counts_file))
                     if why is not None:
                         res[label] = {'ok': False, 'reason': f'{why}; {listener.tail()}'}
                         continue
@@ -274,10 +285,17 @@ def bench_all_outputs(
 
 
 def _await_listener(
-    driver: Driver, scene: str, ns: str, timeout: float = 20.0, gone: bool = False
+    driver: Driver,
+    scene: str,
+    ns: str,
+    timeout: float = 20.0,
+    gone: bool = False,
+    ready: Path | None = None,
 ) -> str | None:
-    """Wait until every output topic has a subscriber (the listener; the driver has none), or
-    with ``gone`` until none has (the listener stopped: the next one starts alone)."""
+    """Wait until every output topic has a subscriber (the listener; the driver has none) and
+    the listener says its readers have matched the node's writers (``ready``, a file it
+    creates), or with ``gone`` until no topic has one (the listener stopped: the next one
+    starts alone)."""
     topics = [topic for _, topic, _ in outputs_of(scene, ns)]
     t_end = time.monotonic() + timeout
     while True:
@@ -290,6 +308,8 @@ def _await_listener(
             driver.spin_for(0.05)
             continue
         missing = [t for t in topics if driver.node.count_subscribers(t) < 1]
+        if ready is not None and not ready.exists():
+            missing.append(f'(the listener has not matched every writer: {ready.name})')
         if not missing:
             driver.spin_for(
                 2.0
