@@ -235,15 +235,16 @@ class JointMap:
 
 
 def _fit(v: Any, o: OutputJoint) -> Any:
-    """A wrapped angle moved by 2 pi into the joint's limits where that fits."""
+    """A wrapped angle moved by 2 pi into the joint's limits where that fits (one value or an
+    array: the same rule; a limit of 0 is a limit)."""
+    lo = -math.inf if o.lower is None else o.lower
+    hi = math.inf if o.upper is None else o.upper
     if isinstance(v, np.ndarray):
-        lo = -math.inf if o.lower is None else o.lower
-        hi = math.inf if o.upper is None else o.upper
         v = np.where((v < lo) & (v + 2.0 * math.pi <= hi), v + 2.0 * math.pi, v)
         return np.where((v > hi) & (v - 2.0 * math.pi >= lo), v - 2.0 * math.pi, v)
-    if o.lower is not None and v < o.lower and v + 2.0 * math.pi <= (o.upper or math.inf):
+    if v < lo and v + 2.0 * math.pi <= hi:
         return v + 2.0 * math.pi
-    if o.upper is not None and v > o.upper and v - 2.0 * math.pi >= (o.lower or -math.inf):
+    if v > hi and v - 2.0 * math.pi >= lo:
         return v - 2.0 * math.pi
     return v
 

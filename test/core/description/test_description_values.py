@@ -121,3 +121,23 @@ def test_points_are_placed_in_the_ground_links_3d_frame():
         assert np.linalg.norm(p3 - data.oMi[model.getJointId(name)].translation) < 1e-12
         assert np.allclose(mech.plane_xy(*p3), r.points[name], rtol=0, atol=1e-15)
         assert again.point_3d(name, *r.points[name]) == pytest.approx(tuple(p3), abs=1e-15)
+
+
+@pytest.mark.parametrize('lower, upper', [(0.0, 0.3), (-0.3, 0.0)])
+def test_a_limit_of_zero_is_a_limit_for_one_value_and_a_batch_alike(lower, upper):
+    """A passive joint limited to [0, 0.3] (or [-0.3, 0]) at 0.3318 rad (or -0.3318): moving it
+    by 2 pi does not bring it into its limits, so it stays where it is. One value read the
+    limit 0 as none and moved it to -5.95 (or 5.95) rad, while a batch kept it."""
+    import numpy as np
+
+    from linkage_ros.core.model.joint_map import JointMap, OutputJoint, OutputKind
+
+    out = OutputJoint('joint2', OutputKind.JOINT, 'B', lower=lower, upper=upper)
+    jm = JointMap([out], [])
+    v = 0.3318 if upper > 0 else -0.3318
+    (one,) = jm.positions({'B': v})
+    (batch,) = jm.positions({'B': np.array([v, v - 2 * math.pi])})
+    assert abs(one - v) < 1e-15 and np.all(np.abs(batch - v) < 1e-15), (one, batch)
+    # where 2 pi does bring it in, it is moved: [0, 0.3] takes 0.1 - 2 pi as 0.1
+    (moved,) = jm.positions({'B': (0.1 if upper > 0 else -0.1) - 2 * math.pi})
+    assert abs(moved - (0.1 if upper > 0 else -0.1)) < 1e-15
