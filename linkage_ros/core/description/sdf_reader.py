@@ -28,7 +28,7 @@ from .records import (
     inverse,
     transform,
 )
-from .xml_text import numbers, optional_number, required, unit_axis
+from .xml_text import limits_of, numbers, optional_number, required, unit_axis
 
 _MODEL = '__model__'
 _JOINT_TYPES = {
@@ -245,9 +245,7 @@ def _joint(el: ET.Element, frames: _Frames, source: str) -> TreeJoint:
             axis = (x_joint[:3, :3].T @ frames.pose(frame)[:3, :3]) @ axis
         lim = axis_el.find('limit')
         if lim is not None:
-            lower = optional_number(_text(lim, 'lower'), source, f'{where} limit lower')
-            upper = optional_number(_text(lim, 'upper'), source, f'{where} limit upper')
-            limits = Limits(lower, upper)
+            limits = limits_of(_text(lim, 'lower'), _text(lim, 'upper'), source, where)
             effort = optional_number(_text(lim, 'effort'), source, f'{where} limit effort')
             if effort == 0.0:
                 independent = False

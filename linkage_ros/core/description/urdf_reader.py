@@ -19,7 +19,7 @@ from .records import (
     Mimic,
     TreeJoint,
 )
-from .xml_text import optional_number, origin_of, required, unit_axis
+from .xml_text import limits_of, optional_number, origin_of, required, unit_axis
 
 _JOINT_TYPES = {
     'revolute': JointType.REVOLUTE,
@@ -107,9 +107,7 @@ def _joint(el: ET.Element, source: str, links: set[str]) -> TreeJoint:
     lim = el.find('limit')
     limits = Limits()
     if lim is not None and kind != 'continuous':
-        lower = optional_number(lim.get('lower'), source, f'{where} limit lower')
-        upper = optional_number(lim.get('upper'), source, f'{where} limit upper')
-        limits = Limits(lower, upper)
+        limits = limits_of(lim.get('lower'), lim.get('upper'), source, where)
     mimic = None
     mel = el.find('mimic')
     if mel is not None:

@@ -9,7 +9,7 @@ import xml.etree.ElementTree as ET
 
 import numpy as np
 
-from .records import DescriptionError, transform
+from .records import DescriptionError, Limits, transform
 
 #: the largest description read (bytes): expanded URDFs of whole robots are a few hundred kB
 MAX_DESCRIPTION_BYTES = 4 << 20
@@ -115,6 +115,20 @@ def optional_number(text: str | None, source: str, where: str) -> float | None:
     if text is None or not text.strip():
         return None
     return numbers(text, 1, source, where, ())[0]
+
+
+def limits_of(lower_text: str | None, upper_text: str | None, source: str, where: str) -> Limits:
+    """A joint's ``<limit>`` lower and upper (rad or m; either may be missing); a lower above
+    the upper is refused (it was read as the interval between them, silently)."""
+    lower = optional_number(lower_text, source, f'{where} limit lower')
+    upper = optional_number(upper_text, source, f'{where} limit upper')
+    if lower is not None and upper is not None and lower > upper:
+        raise DescriptionError(
+            f'limit lower {lower:g} is above upper {upper:g}: no value fits; swap them',
+            file=source,
+            key=f'{where} limit',
+        )
+    return Limits(lower, upper)
 
 
 def required(el: ET.Element, attr: str, source: str, where: str) -> str:

@@ -349,3 +349,20 @@ def test_a_closure_file_with_a_yaml_bomb(tmp_path):
 def test_a_side_file_that_is_not_a_mapping(tmp_path):
     path = side(tmp_path, 'list.yaml', '- closures\n')
     refused(path, 'mapping', args=[str(FOUR_BAR)], closures=path)
+
+
+def test_a_limit_whose_lower_is_above_its_upper_is_refused_naming_the_joint():
+    """lower="1" upper="-1" was read as the interval [-1, 1] without a word; no value fits
+    it as written. The SDFormat reader refuses it alike."""
+    text = four_bar_text()
+    first = text.index('lower="-13.14" upper="13.14"')
+    swapped = (
+        text[:first] + 'lower="1" upper="-1"' + text[first + len('lower="-13.14" upper="13.14"') :]
+    )
+    refused(TEXT, 'limit lower 1 is above upper -1', 'swap them', args=[swapped], text=True)
+    sdf = DRAKE.read_text()
+    joint = sdf.index('<axis>')
+    bad = sdf[:joint] + sdf[joint:].replace(
+        '<axis>', '<axis><limit><lower>2</lower><upper>0.5</upper></limit>', 1
+    )
+    refused(TEXT, 'limit lower 2 is above upper 0.5', args=[bad], text=True)
