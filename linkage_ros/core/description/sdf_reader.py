@@ -243,6 +243,9 @@ def _joint(el: ET.Element, frames: _Frames, source: str) -> TreeJoint:
                     'axis expressed_in an unknown frame', file=source, key=where, value=frame
                 )
             axis = (x_joint[:3, :3].T @ frames.pose(frame)[:3, :3]) @ axis
+        elif (_text(axis_el, 'use_parent_model_frame') or '').lower() in ('true', '1'):
+            # SDFormat 1.6 and older: the axis is in the model frame (1.7: expressed_in)
+            axis = x_joint[:3, :3].T @ axis
         lim = axis_el.find('limit')
         if lim is not None:
             limits = limits_of(_text(lim, 'lower'), _text(lim, 'upper'), source, where)

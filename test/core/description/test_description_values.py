@@ -141,3 +141,60 @@ def test_a_limit_of_zero_is_a_limit_for_one_value_and_a_batch_alike(lower, upper
     # where 2 pi does bring it in, it is moved: [0, 0.3] takes 0.1 - 2 pi as 0.1
     (moved,) = jm.positions({'B': (0.1 if upper > 0 else -0.1) - 2 * math.pi})
     assert abs(moved - (0.1 if upper > 0 else -0.1)) < 1e-15
+
+
+def _sdf_four_bar(roll: float, version: str) -> str:
+    """A four-bar in SDFormat, its rocker link rolled by ``roll`` (rad) and its axes in the
+    model frame: 1.6 says so with use_parent_model_frame, 1.7 with expressed_in."""
+    a, b, c, d, t2 = 0.2, 0.5, 0.45, 0.4, 1.0
+    ax, ay = a * math.cos(t2), a * math.sin(t2)
+    dx, dy = d - ax, -ay
+    span = math.hypot(dx, dy)
+    t3 = math.atan2(dy, dx) + math.acos((b * b + span * span - c * c) / (2 * b * span))
+    bx, by = ax + b * math.cos(t3), ay + b * math.sin(t3)
+    t4 = math.atan2(by, bx - d)
+    if version == '1.6':
+        axis = '<xyz>0 0 1</xyz><use_parent_model_frame>true</use_parent_model_frame>'
+    else:
+        axis = '<xyz expressed_in="__model__">0 0 1</xyz>'
+
+    def joint(name, parent, child, pose='0 0 0 0 0 0', extra=''):
+        return (
+            f'<joint name="{name}" type="revolute"><parent>{parent}</parent><child>{child}'
+            f'</child><pose>{pose}</pose><axis>{axis}{extra}</axis></joint>'
+        )
+
+    passive = '<limit><effort>0</effort></limit>'  # (no effort: not actuated)
+
+    return (
+        f'<?xml version="1.0"?><sdf version="{version}"><model name="fb">'
+        '<link name="base"/>'
+        f'<link name="crank"><pose>0 0 0 0 0 {t2}</pose></link>'
+        f'<link name="coupler"><pose>{ax} {ay} 0 0 0 {t3}</pose></link>'
+        f'<link name="rocker"><pose>{d} 0 0 {roll} 0 {t4}</pose></link>'
+        + joint('j1', 'base', 'crank')
+        + joint('j2', 'crank', 'coupler', extra=passive)
+        + joint('j3', 'base', 'rocker', extra=passive)
+        + joint('loop', 'coupler', 'rocker', f'{c} 0 0 0 0 0')
+        + '</model></sdf>'
+    )
+
+
+def test_an_sdformat_1_6_axis_in_the_model_frame_is_read_as_1_7_expresses_it(tmp_path):
+    """use_parent_model_frame (SDFormat 1.6) puts the axis in the model frame, as 1.7's
+    expressed_in="__model__" does: with the rocker link rolled by pi, 1.6 gave its joint the
+    opposite sign (-0.577 rad for 0.577) without a word."""
+    got = {}
+    for version in ('1.6', '1.7'):
+        for roll in (0.0, math.pi):
+            path = tmp_path / f'fb_{version}_{roll:.1f}.sdf'
+            path.write_text(_sdf_four_bar(roll, version))
+            mech = import_description(str(path)).mechanism
+            engine = Engine(mech, EngineSettings())
+            r = engine.command({'j1': 1.3})
+            assert r.success, r.reason
+            got[version, roll] = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))
+    want = got['1.7', 0.0]
+    for key, joints in got.items():
+        for name in ('j2', 'j3'):
+            assert abs(joints[name] - want[name]) < 1e-12, (key, name, joints, want)
