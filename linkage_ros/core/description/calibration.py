@@ -89,18 +89,25 @@ def calibrate_joint_map(
         )
     outputs += _cut_joints(chain, poses, ref.joints, lname, names, scene_pin)
     published = {o.name for o in outputs}
-    for tj in desc.joints:  # mimics outside the chain follow their published leader
-        if tj.mimic is not None and tj.name not in published and tj.mimic.joint in published:
-            outputs.append(
-                OutputJoint(
-                    tj.name,
-                    OutputKind.MIMIC,
-                    scale=tj.mimic.multiplier,
-                    offset=tj.mimic.offset,
-                    leader=tj.mimic.joint,
+    # mimics outside the chain follow their published leader, which may itself be such a mimic
+    # declared after them: passes until none is added (each after its leader: positions
+    # reads the leader's value first)
+    added = True
+    while added:
+        added = False
+        for tj in desc.joints:
+            if tj.mimic is not None and tj.name not in published and tj.mimic.joint in published:
+                outputs.append(
+                    OutputJoint(
+                        tj.name,
+                        OutputKind.MIMIC,
+                        scale=tj.mimic.multiplier,
+                        offset=tj.mimic.offset,
+                        leader=tj.mimic.joint,
+                    )
                 )
-            )
-            published.add(tj.name)
+                published.add(tj.name)
+                added = True
     plane = Plane(
         _vec3(chain.basis[0]),
         _vec3(chain.basis[1]),

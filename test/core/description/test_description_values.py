@@ -198,3 +198,26 @@ def test_an_sdformat_1_6_axis_in_the_model_frame_is_read_as_1_7_expresses_it(tmp
     for key, joints in got.items():
         for name in ('j2', 'j3'):
             assert abs(joints[name] - want[name]) < 1e-12, (key, name, joints, want)
+
+
+def test_a_mimic_of_a_mimic_declared_before_its_leader_is_published(tmp_path):
+    """Mimics outside the chain follow their published leader: padB follows padA, which
+    follows the passive joint2 and is declared after padB. padB was left out (one pass)."""
+    text = (REPO / 'test/fixtures/robot_descriptions/grbda_four_bar.urdf').read_text()
+    pads = (
+        '<link name="pa"/><link name="pb"/>'
+        '<joint name="padB" type="revolute"><parent link="pa"/><child link="pb"/>'
+        '<axis xyz="0 0 1"/><limit lower="-9" upper="9" effort="1" velocity="1"/>'
+        '<mimic joint="padA" multiplier="2"/></joint>'
+        '<joint name="padA" type="revolute"><parent link="link3"/><child link="pa"/>'
+        '<axis xyz="0 0 1"/><limit lower="-9" upper="9" effort="1" velocity="1"/>'
+        '<mimic joint="joint2" multiplier="1" offset="0.1"/></joint>'
+    )
+    path = tmp_path / 'pads.urdf'
+    path.write_text(text.replace('</robot>', pads + '</robot>'))
+    mech = import_description(str(path)).mechanism
+    r = Engine(mech, EngineSettings()).command({'joint1': 0.4})
+    assert r.success, r.reason
+    joints = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))
+    assert abs(joints['padA'] - (joints['joint2'] + 0.1)) < 1e-15
+    assert abs(joints['padB'] - 2 * joints['padA']) < 1e-15
