@@ -87,6 +87,14 @@ def import_description(
     desc = read_description(body, source)
     if closures:
         desc = apply_side_file(desc, load_side_file(closures), closures)
+    for c in desc.closures:  # (a closure's pin and a joint's of one name would be one point)
+        if desc.joint(c.name) is not None:
+            raise DescriptionError(
+                f'closure {c.name!r} has the name of a joint of the description: give the '
+                'closure a name of its own',
+                file=closures or source,
+                value=c.name,
+            )
     if actuated:
         for n in actuated:
             if desc.joint(n) is None:

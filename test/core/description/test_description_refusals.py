@@ -366,3 +366,10 @@ def test_a_limit_whose_lower_is_above_its_upper_is_refused_naming_the_joint():
         '<axis>', '<axis><limit><lower>2</lower><upper>0.5</upper></limit>', 1
     )
     refused(TEXT, 'limit lower 2 is above upper 0.5', args=[bad], text=True)
+
+
+def test_a_closure_with_a_joints_name_is_refused_naming_the_clash():
+    """A <loop> named like a tree joint made their two pins one scene point, and the refusal
+    spoke of a motion left free, not of the name."""
+    clash = edited('<loop name="loop1"', '<loop name="joint2"')
+    refused(TEXT, "closure 'joint2' has the name of a joint", args=[clash], text=True)
