@@ -414,7 +414,7 @@ def serve_plans(jobs: Any, answers: Any, parent: int, commands: CommandClock | N
             answers.send(result)
         except (BrokenPipeError, OSError):  # the node is gone
             return
-        # the collector runs here, between plans, never inside one (below)
+        # the collector runs here, between plans, never inside one (gc.disable above)
         del job, result
         gc.collect()
 
