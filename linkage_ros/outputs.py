@@ -27,3 +27,15 @@ def written_whole(path: str | os.PathLike[str]) -> Iterator[Path]:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+def folder_refusal(path: str | os.PathLike[str]) -> str | None:
+    """Why the folder of ``path`` cannot take a new file ('folder F does not exist', ... is not
+    a folder, ... is not writable), or None: checked before any work, so a run is not lost
+    at its end (the CLI's --csv, the bag tool's outputs)."""
+    parent = Path(path).parent
+    if not parent.is_dir():
+        return f'folder {parent} ' + ('is not a folder' if parent.exists() else 'does not exist')
+    if not os.access(parent, os.W_OK | os.X_OK):
+        return f'folder {parent} is not writable (permission denied)'
+    return None

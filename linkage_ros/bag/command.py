@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from collections.abc import Sequence
@@ -14,6 +13,7 @@ from ..cli.common import (
     add_scene_argument,
 )
 from ..core.errors import LinkageError
+from ..outputs import folder_refusal
 from .common import BagError
 from .fleet_run import add_fleet_arguments
 from .fleet_task import REFUSED_HINT
@@ -268,14 +268,9 @@ def _resolved(path: Path, what: str) -> Path:
 
 def _check_parent(path: Path, what: str) -> Path:
     full = _resolved(path, what)
-    parent = full.parent
-    if not parent.is_dir():
-        raise BagError(
-            f'{what}: folder {parent} '
-            + ('is not a folder' if parent.exists() else 'does not exist')
-        )
-    if not os.access(parent, os.W_OK | os.X_OK):
-        raise BagError(f'{what}: folder {parent} is not writable (permission denied)')
+    why = folder_refusal(full)
+    if why:
+        raise BagError(f'{what}: {why}')
     return full
 
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.solver.table import ResultTable
-from ..outputs import written_whole
+from ..outputs import folder_refusal, written_whole
 from .common import (
     OK,
     REFUSED,
@@ -58,14 +58,11 @@ class _Table:
 
 def _check_csv_path(path: str) -> None:
     """A --csv path whose folder cannot take it is refused before any solve."""
-    target = Path(path)
-    folder = target.parent
-    if target.is_dir():
+    if Path(path).is_dir():
         raise UsageError(f'--csv {path}: is a directory')
-    if not folder.is_dir():
-        raise UsageError(f'--csv {path}: folder {folder} does not exist')
-    if not os.access(folder, os.W_OK | os.X_OK):
-        raise UsageError(f'--csv {path}: folder {folder} is not writable (permission denied)')
+    why = folder_refusal(path)
+    if why:
+        raise UsageError(f'--csv {path}: {why}')
 
 
 def _cell(v) -> str:
