@@ -15,6 +15,7 @@ from ..cli.common import (
 from ..core.errors import LinkageError
 from ..outputs import folder_refusal
 from .common import BagError
+from .fleet_inputs import bags_in
 from .fleet_run import add_fleet_arguments
 from .fleet_task import REFUSED_HINT
 from .options import bag_options, check_options
@@ -195,6 +196,7 @@ def _run(args) -> int:
     if not args.out:
         raise BagError('no output: give --out OUTPUT (one bag) or --out-dir DIR (many)')
     source = args.input[0]
+    _one_bag(source)
     scene = check_options(args)
     mech = scene.mechanism
     outs = _check_outputs(args.out, args.plot)
@@ -272,6 +274,22 @@ def _check_parent(path: Path, what: str) -> Path:
     if why:
         raise BagError(f'{what}: {why}')
     return full
+
+
+def _one_bag(source: str) -> None:
+    """A folder (no bag itself) holding one storage file is read as that bag; holding more
+    bags below it too, it is refused (the others would be left out without a word)."""
+    p = Path(source)
+    if not p.is_dir() or (p / 'metadata.yaml').is_file():
+        return
+    found = bags_in(p)
+    top = [bag for bag, _ in found if bag.parent == p]
+    below = [name for bag, name in found if bag.parent != p]
+    if len(top) == 1 and below:
+        raise BagError(
+            f'input {source}: a folder holding {top[0].name} and more bags below it '
+            f'({below[0]}, ...): several bags need --out-dir DIR, or give one of them'
+        )
 
 
 def _check_outputs(outs: list[str], plot: str | None):

@@ -70,7 +70,7 @@ def _bag_name(rel: Path, is_file: bool) -> str:
     return '/'.join(parts)
 
 
-def _search(folder: Path) -> list[tuple[Path, str]]:
+def bags_in(folder: Path) -> list[tuple[Path, str]]:
     """Every bag under ``folder`` (recursively, sorted, symlinked folders not followed)."""
     found: list[tuple[Path, str]] = []
 
@@ -128,7 +128,7 @@ def find_bags(inputs: Sequence[str]) -> list[BagTask]:
             if _is_bag_folder(p) or _is_storage_file(p):
                 found = [(p, _bag_name(at, p.is_file()))]
             elif p.is_dir():
-                found = _search(p)
+                found = bags_in(p)
                 if base is not None:
                     found = [(bag, f'{at.as_posix()}/{name}') for bag, name in found]
                 if not found:

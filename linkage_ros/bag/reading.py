@@ -4,7 +4,6 @@ the node's message-shape check."""
 from __future__ import annotations
 
 import contextlib
-import os
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -102,28 +101,6 @@ def _reader_class():
 STORAGE_SUFFIXES = ('.mcap', '.db3')
 
 
-def _bags_below(folder: Path) -> list[str]:
-    """The storage files and bag folders (metadata.yaml) in the subfolders of ``folder``, as
-    paths relative to it (the first few; unreadable folders skipped)."""
-    found: list[str] = []
-    for root, dirs, files in os.walk(folder):
-        here = Path(root)
-        if here != folder:
-            rel = here.relative_to(folder)
-            if 'metadata.yaml' in files:
-                found.append(str(rel))
-            else:
-                found += [
-                    str(rel / f)
-                    for f in sorted(files)
-                    if Path(f).suffix.lower() in STORAGE_SUFFIXES
-                ]
-        dirs.sort()
-        if len(found) >= 3:
-            break
-    return found
-
-
 def _open_reader(path: str):
     Reader = _reader_class()
     p = Path(path)
@@ -139,12 +116,6 @@ def _open_reader(path: str):
             raise BagError(
                 f'input {path}: cannot list the folder ({exc.strerror or exc})'
             ) from None
-        below = _bags_below(p) if len(files) == 1 else []
-        if below:
-            raise BagError(
-                f'input {path}: a folder holding {files[0].name} and more bags below it '
-                f'({below[0]}, ...): several bags need --out-dir DIR, or give one of them'
-            )
         if len(files) == 1:
             p = files[0]
         else:
