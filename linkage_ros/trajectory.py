@@ -331,36 +331,38 @@ def _target_rates(
 
 
 def path_targets(
-    engine: Engine, point: str, xy: Sequence[tuple[float, float]]
-) -> list[dict[str, Any]] | str:
-    """A point's successive positions -> one target per position (``<point>.x``, ``<point>.y``
-    and, with more than 2 degrees of freedom, the ``target_point_hold`` names at their values in
-    the last good state, as ``~/target_point/<point>`` holds them); or why not."""
-    held = path_hold(engine, point)
-    if isinstance(held, str):
-        return held
-    return [{f'{point}.x': x, f'{point}.y': y, **held} for x, y in xy]
-
-
-def path_hold(engine: Engine, point: str) -> dict[str, Any] | str:
-    """What a path of ``point`` holds beside it (path_targets), or why it cannot be one."""
+    engine: Engine,
+    point: str,
+    xy: Sequence[tuple[float, float]],
+    pace: Callable[[], None] | None = None,
+) -> tuple[list[str], list[list[float]]] | str:
+    """A point's successive positions -> the target names (``<point>.x``, ``<point>.y`` and,
+    with more than 2 degrees of freedom, the ``target_point_hold`` names) and one row of
+    values per position (the held names at their values in the last good state, as
+    ``~/target_point/<point>`` holds them); or why not. ``pace`` is called after every row."""
     mech = engine.mech
     if point not in mech.points:
         return f'unknown point {echo(point)} of {mech.name!r}'
     hold = engine.point_hold(point)
+    held: dict[str, Any] = {}
     if hold:
-        held = engine.held_now(hold)
-        if isinstance(held, str):
-            return held
+        now = engine.held_now(hold)
+        if isinstance(now, str):
+            return now
+        held = now
         if any(isinstance(v, tuple) for v in held.values()):
             return 'a held point cannot be part of a path target; hold joints, links or actuators'
-        return held
-    if mech.dof > 2:
+    elif mech.dof > 2:
         return (
             f'a path of {point!r} fixes 2 of the {mech.dof} degrees of freedom: set the '
             'parameter target_point_hold'
         )
-    return {}
+    rows = []
+    for x, y in xy:
+        rows.append([x, y, *held.values()])
+        if pace is not None:
+            pace()
+    return [f'{point}.x', f'{point}.y', *held], rows
 
 
 def answer_trajectory_msg(
@@ -400,15 +402,10 @@ def answer_path_msg(
         xy, times = path_request(msg, point, frame_id, engine.mech, pace)
     except CommandError as exc:
         return TrajectoryAnswer(False, str(exc)), []
-    held = path_hold(engine, point)  # (path_targets' rows, paced)
-    if isinstance(held, str):
-        return TrajectoryAnswer(False, held), times
-    if not xy:
+    targets = path_targets(engine, point, xy, pace)
+    if isinstance(targets, str):
+        return TrajectoryAnswer(False, targets), times
+    names, rows = targets
+    if not rows:
         return TrajectoryAnswer(False, 'empty path: no poses'), times
-    names = [f'{point}.x', f'{point}.y', *held]
-    rows = []
-    for x, y in xy:
-        rows.append([x, y, *held.values()])
-        if pace is not None:
-            pace()
     return solve_trajectory(engine, names, rows, pace=pace), times

@@ -82,9 +82,9 @@ def test_a_bin_path_comes_back_as_throws_that_reproduce_it():
     path = [(lip[0] + 0.3 * s, lip[1] - 0.2 * s + 0.1 * s * s) for s in np.linspace(0, 1, 25)]
     targets = path_targets(e, 'L', path)
     assert not isinstance(targets, str)
-    names = list(targets[0])
+    names, rows = targets
     assert names == ['L.x', 'L.y', 'bucket']
-    ans = solve_trajectory(e, names, [[t[n] for n in names] for t in targets])
+    ans = solve_trajectory(e, names, rows)
     assert ans.success, ans.reason
     fwd = engine('excavator')
     for (x, y), r in zip(path, ans.results):
