@@ -23,13 +23,12 @@ from .conversions import (
 )
 from .core.errors import CommandError
 from .core.model import Mechanism
-from .core.model.names import depends_on_frame
 from .core.solver import Result
 from .engine import Engine, name_count_error, request_rates, request_values
 from .node_protocol import ServingNode
 from .plan_worker import CommandClock
 from .point_coordinates import pose_target
-from .stamps import frame_error, stamp_error
+from .stamps import frame_error, names_frame_error, stamp_error
 
 ZERO_CLOCK = (
     "header.stamp is 0, and so is the node clock's now: use_sim_time is true and no "
@@ -186,15 +185,11 @@ class Requests:
 
         def solve() -> Result:
             values = joint_state_to_command(msg, self.node.max_names)
-            # a point coordinate or a link angle means something only in the node's frame
-            if any(depends_on_frame(self.served_mech(), n) for n in values):
-                foreign = frame_error(
-                    'target of point coordinates or link angles',
-                    msg.header.frame_id,
-                    self.node.frame_id,
-                )
-                if foreign:
-                    return Result(False, foreign)
+            foreign = names_frame_error(
+                'target', self.served_mech(), values, msg.header.frame_id, self.node.frame_id
+            )
+            if foreign:
+                return Result(False, foreign)
             return self.served_engine().target(values, allow_mode_change=any_mode)
 
         self.answer(request, msg.header.stamp, solve)

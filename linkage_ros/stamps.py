@@ -4,9 +4,12 @@ is refused for the same reason the node refused it)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from typing import Any
 
 from .core.errors import echo
+from .core.model import Mechanism
+from .core.model.names import depends_on_frame
 
 #: a builtin_interfaces/Time nanosec field is valid in [0, 1e9)
 NSEC_PER_SEC = 1_000_000_000
@@ -50,3 +53,14 @@ def frame_error(
         f'{what} is in frame {echo(frame)} but this node works in {node_frame!r}; transform it '
         f'first (or leave {field} empty to mean the node frame)'
     )
+
+
+def names_frame_error(
+    what: str, mech: Mechanism, names: Iterable[str], frame: str, node_frame: str
+) -> str | None:
+    """:func:`frame_error` for a request of ``names``: only point coordinates and link angles
+    have a frame (core.model.names.depends_on_frame); joint and actuator values are the same
+    in every frame."""
+    if not frame or not any(depends_on_frame(mech, n) for n in names):
+        return None
+    return frame_error(f'{what} of point coordinates or link angles', frame, node_frame)

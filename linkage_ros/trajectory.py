@@ -19,14 +19,13 @@ from typing import Any
 
 from .core.errors import CommandError, echo
 from .core.model import Mechanism
-from .core.model.names import depends_on_frame
 from .core.solver import Result
 from .core.solver.mode_rule import mode_differs
 from .core.solver.result import branch_text
 from .core.velocity import velocities
 from .engine import Engine, max_request_names, rates_error, request_shape_error
 from .point_coordinates import group_point_coordinates
-from .stamps import frame_error
+from .stamps import frame_error, names_frame_error
 
 #: the most points one trajectory may have (a 10 s trajectory at 1 kHz)
 MAX_TRAJECTORY_POINTS = 10_000
@@ -380,11 +379,10 @@ def answer_trajectory_msg(
         names, positions, velocities, times = joint_trajectory_request(msg, pace)
     except CommandError as exc:
         return TrajectoryAnswer(False, str(exc)), []
-    given = msg.header.frame_id
-    if frame_id is not None and given and any(depends_on_frame(engine.mech, n) for n in names):
-        foreign = frame_error('trajectory of point coordinates or link angles', given, frame_id)
+    if frame_id is not None:
+        foreign = names_frame_error('trajectory', engine.mech, names, msg.header.frame_id, frame_id)
         if foreign:
-            return TrajectoryAnswer(False, str(foreign)), times
+            return TrajectoryAnswer(False, foreign), times
     return solve_trajectory(engine, names, positions, velocities, times, pace), times
 
 
