@@ -178,3 +178,27 @@ def apply_to_shortcut(
     out = {k: v for k, v in data.items() if k != 'dimensions'}
     out[form] = spec
     return out
+
+
+#: a stated length this many times its drawn one (or its inverse) is a unit slip, likely
+_UNIT_SLIP = 100.0
+
+
+def unit_slips(points: Mapping[str, Any], dims: Mapping[str, float]) -> list[str]:
+    """'crank.O2-A = 16 m is 160x its drawn 0.1 m: ...' for each stated link length far from
+    the drawing's (``points``: the drawn positions, m; 16 meant as mm)."""
+    slips = []
+    for name, value in dims.items():
+        dim = parse_name(name)
+        if not isinstance(dim, LinkDistance):
+            continue
+        p, q = points.get(dim.p), points.get(dim.q)
+        if p is None or q is None:
+            continue
+        length = math.dist(p, q)
+        if length > 0 and not 1 / _UNIT_SLIP < value / length < _UNIT_SLIP:
+            slips.append(
+                f'{name} = {value:.6g} m is {value / length:.3g}x its drawn {length:.3g} m: '
+                f'lengths are in m (write {value:g}mm for millimetres)'
+            )
+    return slips

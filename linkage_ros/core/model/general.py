@@ -15,7 +15,14 @@ from ..units import Quantity
 from .actuators import _limits, _read_actuators
 from .checks import TOP_KEYS, _Ctx
 from .constraints import expand_constraints
-from .dimensions import SHORTCUT_KEYS, LinkDistance, apply_to_shortcut, merge, parse_name
+from .dimensions import (
+    SHORTCUT_KEYS,
+    LinkDistance,
+    apply_to_shortcut,
+    merge,
+    parse_name,
+    unit_slips,
+)
 from .limits import limit_violation
 from .mechanism import (
     SOLVERS,
@@ -30,29 +37,6 @@ from .mechanism import (
 from .points import read_points
 from .redraw import RedrawRefused, redraw
 from .shortcuts import _four_bar_to_general, _slider_crank_to_general
-
-#: a stated length this many times its drawn one (or its inverse) is a unit slip, likely
-_UNIT_SLIP = 100.0
-
-
-def _unit_hints(drawn: Mechanism, dims: Mapping[str, float]) -> str:
-    """'; crank.O2-A = 16 m is 160x its drawn 0.1 m: ...' for each stated link length far
-    from the drawing's (16 meant as mm), or ''."""
-    hints = []
-    for name, value in dims.items():
-        dim = parse_name(name)
-        if not isinstance(dim, LinkDistance):
-            continue
-        p, q = drawn.points.get(dim.p), drawn.points.get(dim.q)
-        if p is None or q is None:
-            continue
-        length = math.dist(p, q)
-        if length > 0 and not 1 / _UNIT_SLIP < value / length < _UNIT_SLIP:
-            hints.append(
-                f'{name} = {value:.6g} m is {value / length:.3g}x its drawn {length:.3g} m: '
-                f'lengths are in m (write {value:g}mm for millimetres)'
-            )
-    return ''.join(f'; {h}' for h in hints)
 
 
 def build_mechanism(
@@ -176,18 +160,17 @@ def _with_dimensions(
             )
         except SceneError as exc:  # the drawn scene loads: the stated dimensions are why
             stated = ', '.join(f'{k}={v:.12g}' for k, v in dims.items())
-            raise SceneError(
-                f'{exc} (with the dimensions {stated}{_unit_hints(drawn, dims)})'
-            ) from None
+            hints = ''.join(f'; {h}' for h in unit_slips(drawn.points, dims))
+            raise SceneError(f'{exc} (with the dimensions {stated}{hints})') from None
         mech.stated = dict(dims)
         return mech
     try:
         new = redraw(drawn, dims)
     except RedrawRefused as exc:
         if drawn.actuators or drawn.dof != 0:
-            hints = _unit_hints(drawn, dims)
-            if hints:
-                raise RedrawRefused(f'{exc} ({hints[2:]})') from None
+            slips = unit_slips(drawn.points, dims)
+            if slips:
+                raise RedrawRefused(f'{exc} ({"; ".join(slips)})') from None
             raise
         # a structure has no input to hold: whether it assembles with the stated lengths is
         # its solve's question (refused there with the miss), not a scene error
