@@ -90,11 +90,14 @@ def test_a_run_equals_its_batch_row(scene):
                     T = run.poses.T[link]
                     pairs += [(phi, poses.phi[link][i], math.pi)]
                     pairs += [(T.real, poses.T[link][i, 0], L), (T.imag, poses.T[link][i, 1], L)]
+                # where numpy's trigonometry is not libm's, the last bits differ and a dyad
+                # near its toggle magnifies them as 1 / margin (|sin| of its transmission angle)
+                near = 1.0 / min(1.0, max(run.margin, 1e-6))
                 for got, want, scale in pairs:
                     if exact:
                         assert got == want, (s.knowns, i, got, want)
                     else:
-                        assert abs(got - want) <= 1e-13 * scale, (s.knowns, i, got, want)
+                        assert abs(got - want) <= 1e-13 * scale * near, (s.knowns, i, got, want)
     assert compared >= 16, f'{scene}: too few closing commands compared ({compared})'
 
 
