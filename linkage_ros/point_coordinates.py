@@ -4,8 +4,9 @@ A ``~/target`` (sensor_msgs/JointState) carries one number per name, so a point 
 mechanism is given as two names, ``J.x`` and ``J.y`` (scene names are identifiers: no dot, so
 nothing else is named so). Together with other names this gives every inverse problem the
 lectures pose in one request: two points of one link (``J.x, J.y, K.x, K.y``: the excavator bin
-by its hinges), a point and a link angle (``L.x, L.y, bucket``), a point and an actuator. The
-node and the bag tool both group them here, so both answer the same request alike.
+by its hinges), a point and a link angle (``L.x, L.y, bucket``), a point and an actuator, or
+one coordinate and a link angle (``D.x, bin``: the other coordinate is solved). The node and
+the bag tool both group them here, so both answer the same request alike.
 """
 
 from __future__ import annotations
@@ -22,8 +23,10 @@ from .core.model.names import AXES, point_coordinate
 
 def group_point_coordinates(mech: Mechanism, values: Mapping[str, Any]) -> dict[str, Any]:
     """``{'J.x': x, 'J.y': y, ...}`` -> ``{'point:J': (x, y), ...}`` (numbers or equal-length
-    arrays: then an (n, 2) column); other names unchanged, in order. CommandError for a
-    coordinate of a point the scene does not have, or one axis without the other."""
+    arrays: then an (n, 2) column); other names unchanged, in order, a coordinate given
+    without the other axis among them (one coordinate is a known of its own: the lecture's
+    loader bin by its hinge's x and its angle). CommandError for a coordinate of a point the
+    scene does not have."""
     if not any('.' in name for name in values):
         return dict(values)
     out: dict[str, Any] = {}
@@ -42,8 +45,9 @@ def group_point_coordinates(mech: Mechanism, values: Mapping[str, Any]) -> dict[
         if key in out:
             continue
         other = f'{point}.{AXES[1 - axis]}'
-        if other not in values:
-            raise CommandError(f'{name} is given without {other}: a point target needs both')
+        if other not in values:  # one coordinate: a known of its own (the other one solved)
+            out[name] = value
+            continue
         x, y = values[f'{point}.x'], values[f'{point}.y']
         if np.ndim(x):
             out[key] = np.stack([np.asarray(x, float), np.asarray(y, float)], axis=-1)

@@ -13,6 +13,7 @@ from typing import Any
 
 from ..core.errors import CommandError
 from ..core.model import SlideActuator
+from ..core.model.names import point_coordinate
 from ..core.quantities import AngleSpec, PointSpec
 from ..core.units import Quantity, Reading, UnitError, degrees_warning, expect, parse_text
 
@@ -433,9 +434,12 @@ def _angle(v) -> str:
 
 
 def _unit_of(mech, name: str) -> str:
-    """'m' for prismatic joints and slide actuators, 'rad' otherwise (a robot description's
-    joint: by its type)."""
+    """'m' for prismatic joints, slide actuators and point coordinates (``D.x``), 'rad'
+    otherwise (a robot description's joint: by its type)."""
     from .described import unit_of
+
+    if point_coordinate(mech, name) is not None:
+        return 'm'
 
     unit = unit_of(mech, name)
     if unit is not None:

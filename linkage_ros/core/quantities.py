@@ -47,7 +47,24 @@ class PointSpec:
     unit: ClassVar[str] = 'm'
 
 
+@dataclass(frozen=True)
+class CoordinateSpec:
+    """One world coordinate of ``point`` (m; 1 value): x (``axis`` 0) or y (1), the other left
+    to the mechanism, as the loader lecture poses its bin: "only the x-coordinate and the
+    orientation of this bin, and the y-coordinate will be automatically decided". No limits
+    (the fields are there so every one-value known reads alike)."""
+
+    name: str
+    point: str
+    axis: int
+    minimum: None = None
+    maximum: None = None
+    size: ClassVar[int] = 1
+    unit: ClassVar[str] = 'm'
+    periodic: ClassVar[bool] = False
+
+
 #: one known (or wanted) quantity of a mechanism
-Spec = AngleSpec | SlideSpec | PointSpec
-#: a known with one value (angle or slide), which may carry limits
-ScalarSpec = AngleSpec | SlideSpec
+Spec = AngleSpec | SlideSpec | PointSpec | CoordinateSpec
+#: a known with one value (angle, slide or one coordinate); angles and slides may carry limits
+ScalarSpec = AngleSpec | SlideSpec | CoordinateSpec

@@ -299,6 +299,37 @@ def test_unreachable_input_is_refused_without_nan(capsys, scenes):
     assert rc == 1 and 'status     error' in out and 'reason' in out and 'nan' not in out.lower()
 
 
+def test_one_coordinate_and_a_link_angle_place_the_loader_bin(capsys):
+    """Seed 003: the bin by its hinge's x and its angle, the y decided; the coordinate is a
+    length (a unit of angle is refused, naming it)."""
+    rc, out, err = run(
+        capsys, 'solve', 'front_loader', '--target', 'D.x=2200mm', '--target', 'bin=2.3', '--json'
+    )
+    assert rc == 0, err
+    d = loads(out)
+    assert d['status'] == 'ok' and d['targets'] == {'D.x': 2.2, 'bin': 2.3}
+    assert d['points']['D'][0] == pytest.approx(2.2, abs=1e-12)
+    assert math.remainder(d['links']['bin']['angle'] - 2.3, 2 * math.pi) == pytest.approx(
+        0.0, abs=1e-12
+    )
+    rigid = [('C', 'D'), ('C', 'T'), ('D', 'T'), ('O4', 'C'), ('E', 'D')]
+    ref = {
+        'O4': (0.0, 1.9),
+        'C': (2.7893, 2.144),
+        'D': (2.8393, 2.644),
+        'T': (3.7393, 1.794),
+        'E': (2.0623, 1.9643),
+    }
+    for u, v in rigid:  # the links' lengths, from the scene's drawing
+        assert math.dist(d['points'][u], d['points'][v]) == pytest.approx(
+            math.dist(ref[u], ref[v]), abs=1e-12
+        )
+    rc, _, err = run(
+        capsys, 'solve', 'front_loader', '--target', 'D.x=30deg', '--target', 'bin=2.3'
+    )
+    assert rc == 2 and "'D.x' is a length" in err
+
+
 def test_unreachable_target_is_refused(capsys, scenes):
     rc, out, _ = run(capsys, 'solve', scenes['four_bar'], '--target', 'rocker=0.2', '--json')
     assert rc == 1

@@ -586,6 +586,63 @@ def test_front_loader_bin_hinge_d_to_d1_matches_the_seed_construction():
         Solver(mech, knowns=['point:D', 'bin'])
 
 
+@pytest.mark.parametrize('axis', [0, 1])
+def test_front_loader_bin_by_one_coordinate_of_its_hinge_and_its_angle(axis):
+    """Seed 003 example 4: the bin's two coordinates can be given as 'only the x-coordinate and
+    the orientation of this bin and the y-coordinate will be automatically decided' (and so
+    the y-coordinate, the x decided). The construction: with the bin's turn known, CD is a known
+    vector; C is on the circle about O4 (radius O4C) with C.x = D.x - CD.x (C.y = D.y - CD.y),
+    so the boom's angle is an arc cosine (arc sine) on the reference pose's side of the fold;
+    D = C + CD; then A, B, E, F as in the D -> D1 construction above."""
+    mech = load('front_loader')
+    p = {k: c(v) for k, v in mech.points.items()}
+    radius = abs(p['C'] - p['O4'])
+    psi0 = cmath.phase(p['C'] - p['O4'])  # the boom's line O4 -> C in the drawing, +5 deg
+    name = f'D.{"xy"[axis]}'
+    # (boom turn, bin turn) from the drawing (rad): poses with both throws within their limits
+    for boom_turn, bin_turn in (
+        (-0.03, 0.1),
+        (0.05, 0.2),
+        (0.1, 0.25),
+        (0.25, 0.45),
+        (0.45, 0.7),
+        (0.7, 0.95),
+    ):
+        cd = cmath.exp(1j * bin_turn) * (p['D'] - p['C'])
+        d_true = p['O4'] + radius * cmath.exp(1j * (psi0 + boom_turn)) + cd
+        known = (d_true - cd - p['O4']).real if axis == 0 else (d_true - cd - p['O4']).imag
+        # the seed's construction from the one coordinate alone (d_true is not used below)
+        psi = math.acos(known / radius) if axis == 0 else math.asin(known / radius)
+        C1 = p['O4'] + radius * cmath.exp(1j * psi)
+        D1 = C1 + cd
+        A1 = transfer(p['O4'], p['C'], p['O4'], C1, p['A'])
+        B1 = transfer(p['O4'], p['C'], p['O4'], C1, p['B'])
+        E1 = meet(
+            D1, abs(p['E'] - p['D']), B1, abs(p['E'] - p['B']), side_of(p['D'], p['B'], p['E'])
+        )
+        F1 = transfer(p['B'], p['E'], B1, E1, p['F'])
+        assert abs(D1 - d_true) <= EXACT * mech.length_scale  # the construction is the pose
+        bin_angle = mech.links['bin'].angle_ref + bin_turn
+        value = D1.real if axis == 0 else D1.imag
+        for method in ('auto', 'newton'):
+            res = Solver(mech, knowns=[name, 'bin'], method=method).solve(
+                {name: value, 'bin': bin_angle}
+            )
+            assert res.success, (boom_turn, method, res.reason)
+            # the answer's error is its residual times the condition of the loop equations
+            # (the fold of the x known, where the boom is horizontal, is 3 deg from the first)
+            bound = max(EXACT, 10 * res.residual * res.cond) * mech.length_scale
+            for point, want in (('C', C1), ('A', A1), ('B', B1), ('E', E1), ('F', F1), ('D', D1)):
+                assert abs(c(res.points[point]) - want) <= bound, point
+            assert res.inputs['Z1'] == pytest.approx(abs(A1 - p['O2']), abs=bound)
+            assert res.inputs['Z2'] == pytest.approx(abs(F1 - p['O7']), abs=bound)
+            assert circ(res.links['bin'], bin_angle) <= 1e-12
+    with pytest.raises(PlanError, match='degree'):
+        Solver(mech, knowns=[name, 'point:D'])
+    with pytest.raises(PlanError, match='fixed by the ground'):
+        Solver(mech, knowns=['O4.x', 'bin'])
+
+
 # ================================================================================================
 # Seed 003, example 6: the earth-moving machinery
 # ================================================================================================

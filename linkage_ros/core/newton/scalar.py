@@ -38,7 +38,7 @@ import numpy as np
 
 from ..execute import LinkPoses
 from ..ops import _wrap_one
-from ..quantities import AngleSpec, SlideSpec
+from ..quantities import AngleSpec, PointSpec
 from .evaluate import evaluate, evaluate_scaled, jacobian
 from .lean import Kernel, fast_steps
 from .linalg import cond, factor, lapack, lu_step, scaled_cond, side_ok, sign_of
@@ -103,7 +103,7 @@ def value_step(t: LoopTables, a: Sequence[Any], b: Sequence[Any]) -> list[float]
                 fa if -_PI < fa <= _PI else _wrap_one(fa)
             )
             out.append(d if -_PI < d <= _PI else _wrap_one(d))
-        elif type(s) is SlideSpec:
+        elif type(s) is not PointSpec:  # a slide or one coordinate (m)
             out.append(float(vb) / L - float(va) / L)
         else:
             out += [float(vb[0]) / L - float(va[0]) / L, float(vb[1]) / L - float(va[1]) / L]

@@ -13,7 +13,7 @@ import numpy as np
 
 # the module, not the package: core.model's redraw compiles these tables (no import circle)
 from ..model.mechanism import Mechanism, PrismaticJoint
-from ..quantities import AngleSpec, SlideSpec, Spec
+from ..quantities import AngleSpec, CoordinateSpec, SlideSpec, Spec
 from .rows import (
     AngleRow,
     EquationRows,
@@ -100,6 +100,8 @@ def spec_links(mech: Mechanism, s: Spec) -> list[str]:
     if isinstance(s, SlideSpec):
         pj = mech.prismatics[s.joint]
         return [pj.guide, pj.slider]
+    if isinstance(s, CoordinateSpec):
+        return [mech.ground, mech.links_of_point(s.point)[0]]
     return [mech.links_of_point(s.point)[0]]
 
 
@@ -206,8 +208,9 @@ def compile_tables(
             const(rr, link, k, v)
         r += 2
 
-    def line(r: int, pj: PrismaticJoint, u0: object, base: object, vi: int | None) -> None:
-        G, S = pj.guide, pj.slider
+    def line(r: int, G: str, S: str, point: str, u0: object, base: object, vi: int | None) -> None:
+        """u0 . (point on S - base on G) [- value]: a slide, a slot's line, or one world
+        coordinate of a point (G the ground, base its origin, u0 the axis)."""
         u = np.asarray(u0, float)
         tail.append(
             LineRow(
@@ -215,7 +218,7 @@ def compile_tables(
                 s_of(S),
                 float(u[0]),
                 float(u[1]),
-                *lever(S, on(S, pj.point)),
+                *lever(S, on(S, point)),
                 *lever(G, base),
                 vi,
             )
@@ -233,7 +236,7 @@ def compile_tables(
         if isinstance(row, PrismaticRows):
             pj = row.joint
             d0 = pj.direction
-            line(r, pj, (-d0[1], d0[0]), line_base(pj), None)
+            line(r, pj.guide, pj.slider, pj.point, (-d0[1], d0[0]), line_base(pj), None)
             angle(r + 1, pj.slider, pj.guide, None, 0.0)
             r += 2
         elif isinstance(row, SpecRows):
@@ -245,7 +248,12 @@ def compile_tables(
                 r += 1
             elif isinstance(s, SlideSpec):
                 pj = mech.prismatics[s.joint]
-                line(r, pj, pj.direction, pj.origin, i)
+                line(r, pj.guide, pj.slider, pj.point, pj.direction, pj.origin, i)
+                r += 1
+            elif isinstance(s, CoordinateSpec):
+                owner = mech.links_of_point(s.point)[0]
+                axis = (1.0, 0.0) if s.axis == 0 else (0.0, 1.0)
+                line(r, mech.ground, owner, s.point, axis, (0.0, 0.0), i)
                 r += 1
             else:
                 owner = mech.links_of_point(s.point)[0]

@@ -17,9 +17,9 @@ from ..execute import LinkPoses
 from ..model import Mechanism, SlideActuator
 from ..model.limits import limit_violation as _limit_violation
 from ..model.names import KNOWN_KINDS as KNOWN_KINDS
-from ..model.names import NameKind, resolve_name
+from ..model.names import NameKind, point_coordinate, resolve_name
 from ..ops import BATCH, SCALAR, to_xy
-from ..quantities import AngleSpec, PointSpec, ScalarSpec, SlideSpec, Spec
+from ..quantities import AngleSpec, CoordinateSpec, PointSpec, ScalarSpec, SlideSpec, Spec
 from .poses import Poses, ScalarPoses, link_poses
 
 # ---- known-quantity specs --------------------------------------------------------------------
@@ -28,7 +28,16 @@ from .poses import Poses, ScalarPoses, link_poses
 def spec_for(mech: Mechanism, name: str) -> Spec:
     """Resolve a user-facing name (the one rule: model.names.resolve_name: actuator, then
     joint, then link (its angle), then point; ``point:D`` picks the kind explicitly) to its
-    spec. The spec keeps the name exactly as given, so command dicts use the same key."""
+    spec. The spec keeps the name exactly as given, so command dicts use the same key. A
+    coordinate name ``D.x`` / ``D.y`` (scene names have no dot) is one coordinate of a point."""
+    coordinate = point_coordinate(mech, name)
+    if coordinate is not None:
+        point, axis = coordinate
+        if point in mech.links[mech.ground].points:
+            raise PlanError(
+                f'known {name!r}: point {point!r} is fixed by the ground; it cannot be a target'
+            )
+        return CoordinateSpec(name, point, axis)
     named = resolve_name(mech, name)
     spec = _spec_of(mech, named.kind, named.name)
     return replace(spec, name=name) if named.given != named.name else spec
@@ -83,12 +92,14 @@ class ReadKind(Enum):
     ANGLE = 'angle'
     SLIDE = 'slide'
     POINT = 'point'
+    COORDINATE = 'coordinate'
 
 
 @dataclass(frozen=True)
 class SpecReader:
     """How to read one spec's value off solved complex link poses, resolved once: an angle
-    (rad, wrapped to (-pi, pi]), a slide (m) or a point's complex position."""
+    (rad, wrapped to (-pi, pi]), a slide (m), a point's complex position or one of its
+    coordinates (m)."""
 
     kind: ReadKind
     link: str = ''  # angle: the link; slide: the slider's point's link; point: its link
@@ -97,6 +108,7 @@ class SpecReader:
     p_ref: complex = 0j  # slide / point: the point in the reference pose
     origin: complex = 0j  # slide: the origin on the guide
     direction: complex = 0j  # slide: the direction (reference pose)
+    axis: int = 0  # coordinate: 0 x, 1 y
 
     def __call__(self, ops: Any, poses: LinkPoses) -> Any:
         if self.kind is ReadKind.ANGLE:
@@ -104,6 +116,8 @@ class SpecReader:
         x = poses.rot[self.link] * self.p_ref + poses.T[self.link]
         if self.kind is ReadKind.POINT:
             return x
+        if self.kind is ReadKind.COORDINATE:
+            return x.imag if self.axis else x.real
         rot = poses.rot[self.reference]
         v = x - (rot * self.origin + poses.T[self.reference])
         d = rot * self.direction
@@ -129,6 +143,13 @@ def spec_reader(mech: Mechanism, spec: Spec) -> SpecReader:
                 ReadKind.POINT,
                 mech.links_of_point(spec.point)[0],
                 p_ref=_c(mech.points[spec.point]),
+            )
+        case CoordinateSpec():
+            return SpecReader(
+                ReadKind.COORDINATE,
+                mech.links_of_point(spec.point)[0],
+                p_ref=_c(mech.points[spec.point]),
+                axis=spec.axis,
             )
 
 

@@ -128,9 +128,15 @@ def test_node_names_for_points_and_mixed_targets(excavator):
     e = Engine(mech, EngineSettings(branch='continuous'))
     r = e.target({'L.x': lx, 'L.y': ly, 'bucket': src.links['bucket']})
     assert r.success and math.dist(r.points['L'], (lx, ly)) < 1e-9 * mech.length_scale
+    # one coordinate is a known of its own: J.x and K place the bin, J.y is solved
+    e = Engine(mech, EngineSettings(branch='continuous'))
+    r = e.target({'J.x': jx, 'K.x': kx, 'K.y': ky})
+    assert r.success, r.reason
+    assert math.dist(r.points['J'], (jx, jy)) < 1e-9 * mech.length_scale
+    assert all(abs(r.inputs[a] - v) < 1e-9 for a, v in cmd.items())
     before = e.last
     for bad, why in (
-        ({'J.x': jx, 'K.x': kx, 'K.y': ky}, 'J.x is given without J.y'),
+        ({'J.x': jx, 'K.x': kx}, 'degree(s) of freedom'),
         ({'Q.x': 1.0, 'Q.y': 2.0, 'bucket': 0.1}, "unknown name 'Q.x'"),
         ({'J.z': 1.0, 'J.x': jx, 'J.y': jy}, "unknown name 'J.z'"),
     ):

@@ -1,0 +1,90 @@
+"""One coordinate of a point as a known (``D.x`` / ``D.y``, m): seed 003 poses the loader's bin
+by "only the x-coordinate and the orientation of this bin, and the y-coordinate will be
+automatically decided" (the construction itself: test_seed_coverage.py).
+
+Oracles: forward closed-form solves of in-limit throws (a different algorithm from the Newton
+rows a coordinate known adds), and the known's own definition read off the answer's points."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scenes import load
+
+from linkage_ros.core.errors import PlanError
+from linkage_ros.core.plan import spec_for
+from linkage_ros.core.quantities import CoordinateSpec
+from linkage_ros.core.solver import Solver
+
+
+@pytest.fixture(scope='module')
+def loader():
+    return load('front_loader')
+
+
+def _configurations(mech):
+    """Forward closed-form answers along a throw path inside the limits, in the drawing's
+    assembly mode and on the drawing's side of the fold of D.x (the boom above horizontal)."""
+    fwd = Solver(mech, method='closed_form', branch='reference')
+    z1 = np.linspace(1.62, 2.2, 9)
+    z2 = np.linspace(1.75, 2.0, 9)
+    out = [fwd.solve({'Z1': a, 'Z2': b}, commit=False) for a, b in zip(z1, z2)]
+    assert all(r.success for r in out)
+    return out
+
+
+def test_a_coordinate_name_is_its_own_known(loader):
+    assert spec_for(loader, 'D.x') == CoordinateSpec('D.x', 'D', 0)
+    assert spec_for(loader, 'T.y') == CoordinateSpec('T.y', 'T', 1)
+    with pytest.raises(PlanError, match="point 'O7' is fixed by the ground"):
+        spec_for(loader, 'O7.y')
+    with pytest.raises(PlanError, match="unknown name 'D.z'"):
+        spec_for(loader, 'D.z')
+
+
+@pytest.mark.parametrize('axis', ['x', 'y'])
+def test_a_batch_of_coordinate_targets_is_the_forward_answers_and_each_one_by_one(loader, axis):
+    """Each row of a batch (D.<axis>, bin) gives back the throws it came from, its D.<axis> and
+    bin as asked, and the very answer of a one-command solve of that row."""
+    name, k = f'D.{axis}', 'xy'.index(axis)
+    src = _configurations(loader)
+    cols = {
+        name: np.array([r.points['D'][k] for r in src]),
+        'bin': np.array([r.links['bin'] for r in src]),
+    }
+    solver = Solver(loader, knowns=[name, 'bin'])
+    batch = solver.solve_batch(cols)
+    L = loader.length_scale
+    for i, r in enumerate(src):
+        assert batch.ok[i], batch.reason[i]
+        for a in ('Z1', 'Z2'):
+            assert batch.inputs[a][i] == pytest.approx(r.inputs[a], abs=1e-10 * L)
+        assert batch.points['D'][i, k] == pytest.approx(cols[name][i], abs=1e-12 * L)
+        one = Solver(loader, knowns=[name, 'bin']).solve(
+            {name: cols[name][i], 'bin': cols['bin'][i]}
+        )
+        assert one.success, one.reason
+        for p, xy in one.points.items():
+            assert math.dist(xy, batch.points[p][i]) <= 1e-10 * L, p
+        assert math.remainder(one.links['bin'] - cols['bin'][i], 2 * math.pi) == pytest.approx(
+            0.0, abs=1e-12
+        )
+
+
+def test_a_coordinate_known_needs_newton_and_says_so_for_the_closed_form(loader):
+    with pytest.raises(PlanError, match='no closed-form dyad plan'):
+        Solver(loader, knowns=['D.x', 'bin'], method='closed_form')
+    assert Solver(loader, knowns=['D.x', 'bin']).compiled.mode.value in ('hybrid', 'newton')
+
+
+def test_a_sequence_of_coordinate_targets_follows_the_mechanism(loader):
+    """One solver answering the path in order (each solve continues from the last): the throws
+    of the source path, step by step."""
+    solver = Solver(loader, knowns=['D.y', 'bin'])
+    for r in _configurations(loader):
+        got = solver.solve({'D.y': r.points['D'][1], 'bin': r.links['bin']})
+        assert got.success, got.reason
+        assert got.inputs['Z1'] == pytest.approx(r.inputs['Z1'], abs=1e-10)
+        assert got.inputs['Z2'] == pytest.approx(r.inputs['Z2'], abs=1e-10)
