@@ -40,6 +40,12 @@ class Commands:
     #: vel_start[i] to vel_start[i + 1] (a row may have none; rows of one key may differ)
     vel_values: np.ndarray = field(default_factory=lambda: np.zeros(0))
     vel_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
+    #: each key's header.frame_id (empty: made without frames, every frame '')
+    frames: list[str] = field(default_factory=list)
+
+    def frame(self, key: int) -> str:
+        """The header.frame_id of the rows of ``key``."""
+        return self.frames[key] if key < len(self.frames) else ''
 
     @property
     def n(self) -> int:
@@ -208,8 +214,9 @@ def read_commands(
         log_ns = log_ns[order]
         topic = topic[order]
     rates: list[tuple[np.ndarray, np.ndarray]] = []
+    frames: list[str] = []
     sec, nanosec, key, keys, npos, values, start = decode_joint_states(
-        raws, topic, topics, log_ns, rates
+        raws, topic, topics, log_ns, rates, frames
     )
     counts = np.zeros(n, np.int64)
     for rows, vel in rates:
@@ -233,6 +240,7 @@ def read_commands(
         missing,
         vel_values,
         vel_start,
+        frames,
     )
 
 
@@ -328,6 +336,7 @@ def _check_sqlite(path: str) -> None:
 class _Layout:
     little: bool
     names: tuple[str, ...]
+    frame: str  # header.frame_id
     sec_off: int
     arrays: list[tuple[int, int]]  # (offset, count) of position, velocity, effort
     structural: np.ndarray  # byte indices that must match for the same layout
@@ -376,7 +385,7 @@ def _parse_layout(raw: bytes) -> _Layout:
     need(8)
     sec_off = pos
     pos += 8
-    string()  # frame_id
+    frame = string()
     count = u32()
     if count > n:
         raise ValueError(f'implausible name count {count}')
@@ -406,7 +415,7 @@ def _parse_layout(raw: bytes) -> _Layout:
         if n - pos > 16:
             found.append(ValueError(f'{n - pos} unexpected bytes after the message'))
             continue
-        return _Layout(little, names, sec_off, arrays, np.asarray(struct_idx, np.intp), pos)
+        return _Layout(little, names, frame, sec_off, arrays, np.asarray(struct_idx, np.intp), pos)
     raise found[0]
 
 
@@ -416,6 +425,7 @@ def decode_joint_states(
     topics: list[str],
     log_ns: np.ndarray,
     rates: list[tuple[np.ndarray, np.ndarray]] | None = None,
+    frames: list[str] | None = None,
 ):
     """Stamps, name sets and positions of CDR JointState messages.
 
@@ -426,7 +436,8 @@ def decode_joint_states(
     start[i] to start[i + 1]): a malformed message with thousands of positions costs its own
     size, not that width for every row. ``rates``, when given, gets (rows, (m, k) velocities)
     of the rows that have velocities (a key is the names and the number of positions: rows
-    with and without velocities share one).
+    with and without velocities share one). ``frames``, when given, gets each key's
+    header.frame_id (a key is then the names, the number of positions and the frame).
     """
     n = len(raws)
     sec = np.zeros(n, np.int64)
@@ -486,11 +497,13 @@ def decode_joint_states(
                     .astype(float)
                 )
                 rates.append((g_rows, vel))
-            k = (lay.names, count)
+            k = (lay.names, count, lay.frame if frames is not None else '')
             if k not in key_of:
                 key_of[k] = len(keys)
                 keys.append(lay.names)
                 npos.append(count)
+                if frames is not None:
+                    frames.append(lay.frame)
             key[g_rows] = key_of[k]
             counts[g_rows] = count
             positions.append((g_rows, vals))

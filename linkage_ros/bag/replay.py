@@ -20,7 +20,7 @@ from ..engine import (
     request_shape_error,
 )
 from ..point_coordinates import group_point_coordinates
-from ..stamps import stamp_error, stamp_valid
+from ..stamps import names_frame_error, stamp_error, stamp_valid
 from .easy_rows import easy_prefix
 from .history import _Context, _Entry
 from .plans import PlanRequest, answer_plan
@@ -39,6 +39,9 @@ class _Engine:
 
     def __init__(self, mech, method, tol, max_iter, branch, hold=()):
         self.mech, self.branch = mech, branch
+        #: the node's frame_id in the run recorded (solve_all's; '': not known, a recorded
+        #: target's frame is not checked)
+        self.frame_id = ''
         self.max_names = max_request_names(mech)
         # the command solver exists from the start (a bad --solver/--branch fails here)
         self.engine = Engine(mech, EngineSettings(method, tol, max_iter, branch, tuple(hold)))
@@ -82,8 +85,11 @@ class _Engine:
         them left (bag.plans.answer_plan). ``decoded`` gives the same plans one at a time with
         their messages (bag.plans.decoded_plans; default: ``plans``, decoded already). Each
         answered plan goes to ``on_plan`` (the outputs), which leaves it only its outcome:
-        one plan's message and answer are held at a time."""
+        one plan's message and answer are held at a time. ``frame_id``: the node's, which a
+        recorded target of point coordinates or link angles must be in (or have none), as the
+        node refuses it otherwise ('': not checked)."""
         progress = progress or _Progress(False)
+        self.frame_id = frame_id
         n = data.n
         self.res = res = Results.empty(self.mech, n)
         self.progress = progress
@@ -149,6 +155,11 @@ class _Engine:
         if why:  # conversions.joint_state_to_command
             self._refuse_all(a, b, why)
             return
+        if int(data.topic[a]) == 1 and self.frame_id:  # node_requests.on_target: no tf
+            why = names_frame_error('target', self.mech, names, data.frame(k), self.frame_id)
+            if why:
+                self._refuse_all(a, b, why)
+                return
         # a command's velocities (conversions.joint_state_rates; a target's are not read)
         rates, refused = run_rates(data, a, b, names) if int(data.topic[a]) == 0 else (None, {})
         for i, why in refused.items():

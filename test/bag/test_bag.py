@@ -87,11 +87,11 @@ def four_bar(theta2: float) -> dict:
     }
 
 
-def joint_state(names, positions, sec=0, nanosec=0, velocity=()):
+def joint_state(names, positions, sec=0, nanosec=0, velocity=(), frame=''):
     m = TS.types
     return m[JS](
         header=m['std_msgs/msg/Header'](
-            stamp=m['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec), frame_id=''
+            stamp=m['builtin_interfaces/msg/Time'](sec=sec, nanosec=nanosec), frame_id=frame
         ),
         name=list(names),
         position=np.asarray(positions, float),
@@ -1891,6 +1891,40 @@ def test_frame_id_is_the_frame_the_recorded_node_worked_in(tmp_path, capsys):
     assert {m.header.frame_id for _, m in out['/joint_states']} == {'world'}
     code, cap = run_bag([*common, '--frame-id', '/world', '--out', tmp_path / 'c.csv'], capsys)
     assert code == 2 and "--frame-id '/world'" in cap.err and not (tmp_path / 'c.csv').exists()
+
+
+def test_a_recorded_target_in_a_foreign_frame_is_refused_as_the_node_refused_it(tmp_path, capsys):
+    """The node refuses a ~/target naming link angles or point coordinates in a frame other
+    than its own (no tf lookup); joint values have no frame. The bag answered such a recorded
+    target in its own frame. Now the same refusal, the same words; --frame-id map answers it."""
+    from scenes import CONFIG
+
+    from linkage_ros.engine import Engine, EngineSettings
+    from linkage_ros.stamps import names_frame_error
+
+    scene = CONFIG / 'four_bar.yaml'
+    mech = Scene.from_yaml(scene).mechanism
+    ref = Engine(mech, EngineSettings()).last
+    rocker, b = ref.links['rocker'], ref.joints['B']
+    msgs = [
+        ('/cmd', 10**8, joint_state(['crank'], [ref.inputs['crank']])),
+        ('/tgt', 10**9, joint_state(['rocker'], [rocker], sec=1, frame='map')),
+        ('/tgt', 2 * 10**9, joint_state(['rocker'], [rocker], sec=2, frame='base_link')),
+        ('/tgt', 3 * 10**9, joint_state(['B'], [b], sec=3, frame='map')),
+        ('/tgt', 4 * 10**9, joint_state(['rocker'], [rocker], sec=4)),
+    ]
+    src = make_input(tmp_path, 'mcap', msgs)
+    common = [src, '--scene', scene, '--command-topic', '/cmd', '--target-topic', '/tgt']
+    common.append('--no-progress')
+    code, cap = run_bag([*common, '--out', tmp_path / 'a.csv'], capsys)
+    assert code == 0, cap.err
+    rows = read_csv(tmp_path / 'a.csv')[1:]  # after the command
+    assert [r['status'] for r in rows] == ['error', 'ok', 'ok', 'ok'], [r['reason'] for r in rows]
+    node_says = names_frame_error('target', mech, ['rocker'], 'map', 'base_link')
+    assert rows[0]['reason'] == node_says and "in frame 'map'" in node_says
+    code, cap = run_bag([*common, '--frame-id', 'map', '--out', tmp_path / 'b.csv'], capsys)
+    assert code == 0, cap.err
+    assert [r['status'] for r in read_csv(tmp_path / 'b.csv')[1:]] == ['ok', 'error', 'ok', 'ok']
 
 
 def test_the_summary_counts_every_row_once(tmp_path, scene, capsys):
