@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -45,8 +44,7 @@ def _figure(width=7.0, height=6.0):
 
 def _save(fig, path) -> str:
     path = str(path)
-    Path(path).parent.mkdir(parents=True, exist_ok=True)
-    with written_whole(path) as tmp:
+    with written_whole(path) as tmp:  # (its folder checked before the work: cli/range.py)
         fig.savefig(tmp, format='png', bbox_inches='tight')
     return path
 

@@ -36,6 +36,7 @@ from typing import Any
 
 from ..core.errors import LinkageError
 from ..core.model import SlideActuator
+from ..outputs import folder_refusal
 from .common import UsageError, add_scene_argument, load_mechanism
 from .described import InputValues
 
@@ -128,6 +129,10 @@ def _check(args, mech):
         )
     if args.samples < 2:
         raise UsageError('--samples must be at least 2')
+    for option, path in (('--plot', args.plot), ('--curves', args.curves)):
+        why = folder_refusal(path) if path else None
+        if why:  # before the analysis, as --csv and the bag's outputs: no run lost at its end
+            raise UsageError(f'{option} {path}: {why}')
     acts = None
     if args.actuators:
         acts = [a.strip() for a in args.actuators.split(',') if a.strip()]

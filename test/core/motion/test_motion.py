@@ -481,6 +481,14 @@ def test_cli_range_json_region_tilt_and_plots(hyd, tmp_path, capsys):
     assert main([path, '--tilt', 'bin']) == 2
     assert 'go together' in capsys.readouterr().err
     assert main([path, '--point', 'nope']) == 2
+    # a plot into a folder that does not exist: refused before the analysis, nothing made
+    # (it made the folder, where --csv and the bag's outputs refuse it)
+    for option in ('--plot', '--curves'):
+        missing = tmp_path / 'no' / 'such' / 'x.png'
+        extra = ['--input', 'Z2', '--output', 'arm'] if option == '--curves' else []
+        assert main([path, '--point', 'P', option, str(missing), *extra]) == 2
+        assert f'folder {missing.parent} does not exist' in capsys.readouterr().err
+        assert not (tmp_path / 'no').exists()
     # registered as `linkage range`
     from linkage_ros import cli
 
