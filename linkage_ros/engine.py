@@ -332,7 +332,9 @@ class Engine:
         full = {a: values[a] if a in values else last.inputs[a] for a in acts}
         return full, held
 
-    def target(self, values: Mapping[str, float], allow_mode_change: bool = False) -> Result:
+    def target(
+        self, values: Mapping[str, float], allow_mode_change: bool = False, replace: bool = True
+    ) -> Result:
         """Inverse kinematics: ``{joint/link/actuator name: value}`` (DOF values in all), in
         the mechanism's current assembly mode (see :meth:`solve_target`). A point is given as
         ``<point>.x`` and ``<point>.y`` (point_coordinates)."""
@@ -340,7 +342,7 @@ class Engine:
             knowns = group_point_coordinates(self.mech, self.to_scene(values))
         except CommandError as exc:
             return Result(False, str(exc))
-        return self.solve_target(self.solver_for(list(knowns)), knowns, allow_mode_change)
+        return self.solve_target(self.solver_for(list(knowns)), knowns, allow_mode_change, replace)
 
     # -- the assembly-mode rule for targets ------------------------------------------------------
     def mode(self, result: Result | None) -> Mode | None:
@@ -348,10 +350,16 @@ class Engine:
         return self.keeper.mode(result)
 
     def solve_target(
-        self, solver: Solver | str, values: Mapping[str, Any], allow_mode_change: bool = False
+        self,
+        solver: Solver | str,
+        values: Mapping[str, Any],
+        allow_mode_change: bool = False,
+        replace: bool = True,
     ) -> Result:
         """A target in the current assembly mode (the rule: core.solver.mode_rule; under
-        ``branch: continuous`` only, other branch settings choose the mode themselves)."""
+        ``branch: continuous`` only, other branch settings choose the mode themselves).
+        ``replace=False`` (a trajectory's next point): the inverse solver's continuous answer
+        only, never a solution elsewhere in the mode (that would be a jump)."""
         if isinstance(solver, str):
             return Result(False, solver)
         if self.settings.branch != 'continuous':
@@ -361,7 +369,7 @@ class Engine:
         before = self.mode(last)
         if before is None or last is None:
             return self._out_of_reach(solver, values, self.solve(solver, values))
-        answer = self.keeper.target(solver, values, last, before, allow_mode_change)
+        answer = self.keeper.target(solver, values, last, before, allow_mode_change, replace)
         if answer.commit:
             solver.adopt(answer.result)
             self.record(solver, answer.result)

@@ -290,8 +290,8 @@ def solve_trajectory(
                 return _refused(f'point {i}: {bad_rates}', i)
             if forward:
                 r = engine.command(values, rates)
-            else:
-                r = engine.target(values)
+            else:  # after the first point, the continuous answer only (no jump in mode)
+                r = engine.target(values, replace=not results)
                 if r.success and rates is not None:
                     r.velocity = _target_rates(engine, values, rates, r)
             if not r.success:

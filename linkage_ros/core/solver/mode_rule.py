@@ -4,9 +4,12 @@ being taken apart, so an inverse solve (a target) answers in the mechanism's cur
 :class:`ModeKeeper` applies the rule for one mechanism (the engine's targets, and any front end
 that asks): an answer in another mode (or one refused on a limit) is replaced by a solution in
 the current mode within limits where one exists (the inverse plan's other branches are tried;
-where Newton places the rest, restarts spread over the actuator ranges in that mode); if only
-other modes reach the target it is refused, naming the mode that would, unless the caller
-allows the change (the answer then says ``mode_change``).
+where Newton places the rest, restarts spread over the actuator ranges in that mode, then a
+multi-start search of the target's solutions: a Newton inverse may have several in one mode,
+such as the two roots either side of the fold of one point coordinate); if only other modes
+reach the target it is refused, naming the mode that would, unless the caller allows the
+change (the answer then says ``mode_change``). A trajectory's next point takes no such
+replacement (``replace=False``): it would be a jump, not a motion.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from typing import Any
 from ..model import Mechanism
 from ..quantities import AngleSpec
 from .compiled import SolveMode
+from .modes import newton_modes
 from .reading import mode_label
 from .result import SIGN_MARGIN, Result, branch_identity_defined, branch_text
 from .solver import Solver
@@ -35,6 +39,9 @@ MAX_BRANCHES = 6
 MAX_STARTS = 16
 #: variants (other branch signs, Newton only) kept per keeper; the oldest dropped beyond it
 MAX_VARIANTS = 128
+#: starts of the last search for a solution in the current mode (modes.newton_modes), tried
+#: where the restarts found none and the target was not refused as unreachable
+SEARCH_STARTS = 64
 
 
 def mode_differs(before: Mode, after: Mode | None) -> bool:
@@ -100,16 +107,22 @@ class ModeKeeper:
         last: Result,
         before: Mode,
         allow_mode_change: bool = False,
+        replace: bool = True,
     ) -> TargetAnswer:
         """``solver`` (brought up to ``last``, the mechanism's state in mode ``before``) on a
-        target, under the rule."""
+        target, under the rule. ``replace=False``: only the inverse solver's own continuous
+        answer (a trajectory's next point), as it is, committed only in mode."""
         result = solver.solve(values, commit=False)
         after = self.mode(result) if result.success else None
         if result.success and not mode_differs(before, after):
             return self._answer(result, after or before)  # the inverse solver's continuity
+        if not replace:
+            return TargetAnswer(result, False)
         # another mode, or refused (a limit): the solution in mode nearest the last good state
         # among the inverse plan's other branches
         alt = self.in_mode(solver, values, before, last)
+        if alt is None and _worth_a_search(solver, result):
+            alt = self._searched(solver, values, before, last)
         if alt is not None:
             return self._answer(alt, self.mode(alt) or before)
         if not result.success or after is None:
@@ -170,6 +183,16 @@ class ModeKeeper:
         if best is not None or closed:
             return None if best is None else best[1]
         return self._multi_start(self._newton_for(solver), values, before, last)
+
+    def _searched(
+        self, solver: Solver, values: Mapping[str, Any], before: Mode, last: Result | None
+    ) -> Result | None:
+        """The solution in mode ``before`` within limits nearest ``last`` among those a
+        multi-start Newton search finds (modes.newton_modes from SEARCH_STARTS starts), or
+        None."""
+        found = newton_modes(self._newton_for(solver).compiled, values, starts=SEARCH_STARTS)
+        in_mode = [r for r in found.results if r.success and not mode_differs(before, self.mode(r))]
+        return min(in_mode, key=lambda r: configuration_distance(last, r), default=None)
 
     def _with_signs(self, solver: Solver, code: int, k: int) -> Solver:
         """The inverse solver of ``solver``'s knowns with the branch signs of bit pattern
@@ -237,3 +260,13 @@ class ModeKeeper:
                     starts.append(r)
             self._starts[signs] = starts
         return sorted(starts, key=lambda r: configuration_distance(last, r))
+
+
+def _worth_a_search(solver: Solver, result: Result) -> bool:
+    """Whether a target the restarts did not place in mode is worth the multi-start search:
+    Newton places some of it (a closed-form plan has no solutions beyond its branches), and it
+    was answered in another mode or refused on a limit or from where the mechanism is, not
+    as out of reach (that search would find nothing, at a search's cost per request)."""
+    if solver.mode is SolveMode.CLOSED_FORM:
+        return False
+    return result.success or not (result.reason or '').startswith('cannot assemble')
