@@ -337,7 +337,7 @@ def build_solve(mech, args, allow_range: bool):
     built from ``axes`` goes through :func:`described.scene_command` before the solver."""
     from ..core.plan import spec_for
     from ..core.solver import Solver
-    from .described import commanded, scene_names
+    from .described import commanded, grouped_knowns, scene_names
 
     acts = commanded(mech)  # mech.actuators, or the description's commanded actuated joints
     items = getattr(args, 'knowns', None) or []
@@ -388,7 +388,7 @@ def build_solve(mech, args, allow_range: bool):
             raise UsageError(f'missing --set for actuator(s) {", ".join(missing)} of {mech.name!r}')
     solver = Solver(
         mech,
-        knowns=knowns,
+        knowns=grouped_knowns(mech, knowns),  # P.x and P.y: the point, as the node takes them
         method=args.solver,
         tol=args.tol,
         max_iter=args.max_iter,

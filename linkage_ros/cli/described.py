@@ -14,6 +14,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..core.model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
+from ..core.model.names import point_coordinate
+from ..point_coordinates import group_point_coordinates
 
 TURN = 2.0 * math.pi
 
@@ -39,9 +41,24 @@ def scene_names(mech, name: str) -> list[str]:
 
 
 def scene_command(mech, command: Mapping[str, Any]) -> dict[str, Any]:
-    """A command line's knowns (the description's names and values) -> the solver's."""
+    """A command line's knowns (the description's names and values) -> the solver's, a
+    point's two coordinates ``P.x``, ``P.y`` as the point ``point:P`` (as the node's Engine
+    groups them: point_coordinates)."""
     jc = mech.joint_coordinates
-    return dict(command) if jc is None else jc.to_scene(command)
+    return group_point_coordinates(mech, dict(command) if jc is None else jc.to_scene(command))
+
+
+def grouped_knowns(mech, knowns: Sequence[str]) -> list[str]:
+    """The solver's knowns of a command line's: ``P.x`` and ``P.y`` both given are the point
+    ``point:P`` (in the place of the first), as :func:`scene_command` groups their values."""
+    out: list[str] = []
+    for name in knowns:
+        coordinate = point_coordinate(mech, name)
+        if coordinate is None or f'{coordinate[0]}.{"yx"[coordinate[1]]}' not in knowns:
+            out.append(name)
+        elif f'point:{coordinate[0]}' not in out:
+            out.append(f'point:{coordinate[0]}')
+    return out
 
 
 def request_echo(mech, d: dict[str, Any], command: Mapping[str, Any]) -> dict[str, Any]:

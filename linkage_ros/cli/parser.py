@@ -29,7 +29,8 @@ from .sweep import cmd_sweep
 KNOWN_HELP = """\
 knowns (in command-line order; with `sweep` that order is the grid order):
   --set NAME=VALUE          an actuator value (rad or m; or with a unit: 30deg, 16mm)
-  --target NAME=VALUE       a joint value, a link's angle (from +x) or an actuator: inverse solve
+  --target NAME=VALUE       a joint value, a link's angle (from +x), an actuator, or one
+                            coordinate of a point, P.x or P.y (m): inverse solve
   --target-point NAME=X,Y   a point's position (m): inverse solve
   --set and --target may be combined: the knowns are all the names given, and they must fix
   every degree of freedom (e.g. one actuator and one joint angle of the 2-DOF plagiograph).
@@ -139,7 +140,8 @@ def _add_solve_options(p, default_branch: str, ranges: bool):
         action=_Known,
         metavar=f'NAME=VALUE{r}',
         dest='knowns',
-        help='joint / link angle / actuator to reach: inverse solve (repeatable)',
+        help='joint / link angle / actuator / point coordinate (P.x, P.y: m) to reach: '
+        'inverse solve (repeatable)',
     )
     g.add_argument(
         '--target-point',

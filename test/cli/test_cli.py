@@ -328,6 +328,19 @@ def test_one_coordinate_and_a_link_angle_place_the_loader_bin(capsys):
         capsys, 'solve', 'front_loader', '--target', 'D.x=30deg', '--target', 'bin=2.3'
     )
     assert rc == 2 and "'D.x' is a length" in err
+    # both coordinates of one point are the point, as the node takes them: the closed form
+    xy = d['points']['D']
+    rc, out, _ = run(
+        capsys, 'solve', 'front_loader', '--target-point', f'D={xy[0]},{xy[1]}', '--json'
+    )
+    as_point = loads(out)
+    rc2, out, _ = run(
+        capsys, 'solve', 'front_loader', '--target', f'D.x={xy[0]}', '--target', f'D.y={xy[1]}',
+        '--json',
+    )  # fmt: skip
+    as_pair = loads(out)
+    assert rc == rc2 == 0 and as_pair['solver'] == as_point['solver'] == 'closed_form'
+    assert as_pair['inputs'] == as_point['inputs'] and as_pair['margin'] == as_point['margin']
 
 
 def test_unreachable_target_is_refused(capsys, scenes):

@@ -369,6 +369,27 @@ def solve(
         if r.success:
             return r
         spent, nj = r.iterations, r.jacobians
+    # the careful path: a request far out of range (a coordinate of 1e154 m) overflows F @ F
+    # and its steps to inf; the refusal says so, numpy need not
+    with np.errstate(over='ignore', invalid='ignore'):
+        return _careful(t, x, values, fixed, tol, max_iter, square, sign0, at_x0, spent, nj)
+
+
+def _careful(
+    t: LoopTables,
+    x: np.ndarray,
+    values: Sequence[Any],
+    fixed: LinkPoses | None,
+    tol: float,
+    max_iter: int,
+    square: bool,
+    sign0: int,
+    at_x0: tuple[np.ndarray, np.ndarray, float, LUFactor | None] | None,
+    spent: int,
+    nj: int,
+) -> SolveResult:
+    """solve()'s Newton from x with a line search on det-sign flips and an LM fallback
+    (``spent`` iterations and ``nj`` Jacobians spent before it)."""
     if at_x0 is None:
         F0, J0, res0 = evaluate_scaled(t, x, values, fixed)
         at_x0 = F0, J0, res0, factor(J0)

@@ -223,10 +223,19 @@ def _check_determined(c: CompiledSolve, n_values: int) -> None:
         if cs.scaled_cond(J) < UNDETERMINED_COND:
             return
     if seen:
+        singular = (
+            f'singular in every pose tried: condition number {cond:.2g} in the reference pose'
+        )
+        if len(c.knowns) == 1:  # one known that fixes nothing: a constant of the geometry
+            raise PlanError(
+                f'the known {c.knowns[0]!r} does not determine {mech.name!r}: it does not '
+                'change as the mechanism moves (a quantity its geometry keeps constant, such '
+                f'as one coordinate of a point that moves on a straight line; its equation is '
+                f'{singular}); choose a known that moves with the mechanism'
+            )
         raise PlanError(
             f'the knowns {list(c.knowns)} do not determine {mech.name!r}: they give '
             f'{n_values} value(s) for its {mech.dof} degree(s) of freedom, but two '
             'of them fix the same motion and leave another free (their equations are '
-            f'singular in every pose tried: condition number {cond:.2g} in the reference '
-            'pose); choose knowns that each fix a different degree of freedom'
+            f'{singular}); choose knowns that each fix a different degree of freedom'
         )

@@ -110,3 +110,15 @@ def test_a_target_beyond_the_fold_is_found_in_mode_within_limits():
         assert got.success, (scene, got.reason)
         for a, v in throws.items():
             assert got.inputs[a] == pytest.approx(v, abs=1e-9), (scene, a)
+
+
+@pytest.mark.parametrize(
+    ('scene', 'name'), [('scott_russell', 'C.x'), ('quick_return', 'C.y'), ('peaucellier', 'Q.x')]
+)
+def test_a_coordinate_the_mechanism_keeps_constant_is_refused_as_such(scene, name):
+    """The straight-line point of Scott-Russell, the slotted lever's slider on its line and
+    Peaucellier's Q keep one coordinate whatever the input (seed 001): as the one known it fixes
+    nothing. The refusal said 'two of them fix the same motion' of a single known."""
+    with pytest.raises(PlanError, match=f"the known '{name}' does not determine") as err:
+        Solver(load(scene), knowns=[name])
+    assert 'does not change as the mechanism moves' in str(err.value)
