@@ -317,16 +317,22 @@ def solve_trajectory(
 def _target_rates(
     engine: Engine, values: Mapping[str, Any], rates: Mapping[str, float], result: Result
 ) -> Any:
-    """Every joint's rate for the rates of a target's names (the same Jacobian as a command's)."""
-    if any('.' in n for n in rates):  # point coordinate rates: no point-velocity known yet
-        return None
-    solver = engine.solver_for(list(group_point_coordinates(engine.mech, values)))
+    """Every joint's rate for the rates of a target's names (the same Jacobian as a command's):
+    a point's two coordinates' rates are its velocity (vx, vy), one coordinate's a rate of its
+    own (m/s). None where the solver's knowns are not the names' (two points of one link: the
+    plan solves the first point and the link's angle)."""
+    mech = engine.mech
+    knowns = group_point_coordinates(mech, values)
+    solver = engine.solver_for(list(knowns))
     if isinstance(solver, str):
         return None
     bad = [n for n, v in rates.items() if not math.isfinite(v)]
     if bad:
         return None
-    return velocities(solver, result, values, rates)
+    known_rates = group_point_coordinates(mech, rates)
+    if {s.name for s in solver.specs} != set(known_rates):
+        return None
+    return velocities(solver, result, knowns, known_rates)
 
 
 def path_targets(

@@ -232,3 +232,28 @@ def test_a_trajectory_through_the_fold_of_a_coordinate_never_jumps():
             assert step < 20 * source_step
     else:
         assert 'below its minimum 1.7' in ans.reason and ans.failed_index > 300, ans.reason
+
+
+@pytest.mark.parametrize('names', [['D.x', 'bin'], ['D.x', 'D.y']])
+def test_point_coordinate_velocities_give_the_throw_rates(names):
+    """A trajectory of point coordinates with velocities answers every joint's rate, as a
+    command's (it dropped them: '.' names had no rates). Oracle: the throw path Z1 = 1.9 + s,
+    Z2 = 1.85 + s / 2, its targets' rates by central differences in s."""
+    from linkage_ros.core.solver import Solver
+
+    e = engine('front_loader')
+    fwd = Solver(e.mech, method='closed_form', branch='reference')
+
+    def targets(s):
+        r = fwd.solve({'Z1': 1.9 + s, 'Z2': 1.85 + s / 2}, commit=False)
+        return np.array([r.points['D'][0] if n == 'D.x' else r.points['D'][1] if n == 'D.y'
+                         else r.links[n] for n in names])  # fmt: skip
+
+    h = 1e-6
+    rate = (targets(h) - targets(-h)) / (2 * h)
+    ans = solve_trajectory(e, names, [list(targets(0.0))], [list(rate)])
+    assert ans.success, ans.reason
+    v = ans.results[0].velocity
+    assert v is not None and v.success, v
+    assert v.joints['Z1'] == pytest.approx(1.0, abs=1e-6)
+    assert v.joints['Z2'] == pytest.approx(0.5, abs=1e-6)
