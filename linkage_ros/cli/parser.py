@@ -223,8 +223,10 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
         '--all-branches',
         action='store_true',
         help='every assembly mode of the command (ignores --branch): each sign combination '
-        'of the dyad plan; where Newton places the mechanism, the modes a search from 128 '
-        'starts finds, said to be possibly incomplete (JSON: modes_complete)',
+        'of the dyad plan; where Newton places the mechanism, the solutions a search from '
+        '128 starts finds, each labelled with its mode (a mode may have more than one: the '
+        "roots either side of one coordinate's extreme), said to be possibly incomplete "
+        '(JSON: modes_complete)',
     )
     p.add_argument(
         '--any-mode',

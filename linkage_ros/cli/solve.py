@@ -74,9 +74,18 @@ def cmd_solve(args) -> int:
     if args.json:
         print(dumps(dicts if args.all_branches else dicts[0]))
     else:
+        # a search may find more than one solution in one mode (a Newton inverse: the two
+        # roots either side of one coordinate's extreme): then it lists solutions
+        labels = {d['branch'] for d in dicts}
+        each = 'assembly mode' if len(labels) == len(dicts) or labels == {''} else 'solution'
         if modes is not None and not modes.complete:
             print(
-                f'assembly modes: {len(dicts)} found ({modes.method})'
+                (
+                    f'assembly modes: {len(dicts)} found ({modes.method})'
+                    if each == 'assembly mode'
+                    else f'solutions: {len(dicts)} found in {len(labels)} assembly mode(s) '
+                    f'{", ".join(sorted(labels))} ({modes.method})'
+                )
                 + (
                     f'; {modes.singular} start(s) ended on a continuum of solutions (singular: '
                     'e.g. a folded cell), not listed'
@@ -89,7 +98,7 @@ def cmd_solve(args) -> int:
         for i, d in enumerate(dicts):
             if args.all_branches:
                 print(
-                    f'--- assembly mode {i + 1} of {len(dicts)}'
+                    f'--- {each} {i + 1} of {len(dicts)}'
                     + (f' (branch {d["branch"]})' if d['branch'] else '')
                     + (' (as drawn)' if d.get('drawn_mode') else '')
                 )

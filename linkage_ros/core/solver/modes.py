@@ -124,7 +124,7 @@ def modes_of(
     if newton is None or newton.mode is not SolveMode.NEWTON:
         raise ValueError('the modes of a Newton solve need a Newton-only compile of its knowns')
     found = newton_modes(newton, values, cont if newton is c else None)
-    if forward is not None and not forward.full_plan.complete:
+    if forward is not None:  # each answer labelled with the mechanism's mode
         for r in found.results:
             mode = mode_of(forward, r) if r.success else None
             if mode is not None and mode[0]:

@@ -122,3 +122,26 @@ def test_a_coordinate_the_mechanism_keeps_constant_is_refused_as_such(scene, nam
     with pytest.raises(PlanError, match=f"the known '{name}' does not determine") as err:
         Solver(load(scene), knowns=[name])
     assert 'does not change as the mechanism moves' in str(err.value)
+
+
+def test_the_solutions_of_one_coordinate_carry_the_mode_they_are_in(capsys):
+    """The four-bar's coupler point P at a given x: four solutions, two in each assembly mode
+    (either side of the extreme of P.x in each). Each is labelled with its mode (it showed no
+    branch, and the CLI called each one an assembly mode); oracle: the forward closed form at
+    its crank angle in that mode places P at the same point."""
+    from linkage_ros.cli import main
+
+    mech = load('four_bar')
+    found = Solver(mech, knowns=['P.x']).modes({'P.x': 0.1})
+    assert len(found.results) == 4
+    assert sorted(r.branch for r in found.results) == ['+', '+', '-', '-']
+    for r in found.results:
+        fwd = Solver(mech, method='closed_form', branch=r.branch).solve(
+            {'crank': r.inputs['crank']}
+        )
+        assert math.dist(fwd.points['P'], r.points['P']) <= 1e-12 * mech.length_scale
+        assert r.points['P'][0] == pytest.approx(0.1, abs=1e-12)
+    assert main(['solve', 'four_bar', '--target', 'P.x=0.1', '--all-branches']) == 0
+    out = capsys.readouterr().out
+    assert out.startswith('solutions: 4 found in 2 assembly mode(s) +, - (Newton')
+    assert '--- solution 1 of 4 (branch ' in out
