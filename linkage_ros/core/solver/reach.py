@@ -4,7 +4,8 @@ straight line), the last reachable position, found by bisection with the target'
 
 A refusal can then say what is true in the user's terms: ``point L = (9, -0.25) m is out of
 reach: on the straight way there from the current configuration it is reachable up to
-(6.61, 0.12) m, 2.42 m short``.
+(6.61, 0.12) m, 2.42 m short``; for one coordinate known, ``D.x = 10 m is out of reach: ...
+reachable up to D.x = 2.475 m, 7.525 m short``.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ..quantities import PointSpec
+from ..quantities import CoordinateSpec, PointSpec
 from .newton_path import interpolate
 from .reading import configuration_of, known_values
 from .result import Result
@@ -26,35 +27,45 @@ EDGE_STEPS = 40
 
 @dataclass(frozen=True)
 class ReachEdge:
-    """The reachable edge toward a point target: its position (m) and how far short of the
+    """The reachable edge toward a point target (or one coordinate's: ``coordinate`` its
+    name, ``target`` and ``edge`` one value each): its position (m) and how far short of the
     target it is (m)."""
 
     point: str
-    target: tuple[float, float]
-    edge: tuple[float, float]
+    target: tuple[float, ...]
+    edge: tuple[float, ...]
     short_m: float
+    coordinate: str = ''
 
     def describe(self) -> str:
+        way = 'is out of reach: on the straight way there from the current configuration it is'
+        if self.coordinate:
+            name = self.coordinate
+            return (
+                f'{name} = {self.target[0]:.6g} m {way} reachable up to {name} = '
+                f'{self.edge[0]:.6g} m, {self.short_m:.6g} m short'
+            )
         (tx, ty), (ex, ey) = self.target, self.edge
         return (
-            f'point {self.point} = ({tx:.6g}, {ty:.6g}) m is out of reach: on the straight way '
-            f'there from the current configuration it is reachable up to ({ex:.6g}, {ey:.6g}) m, '
-            f'{self.short_m:.6g} m short'
+            f'point {self.point} = ({tx:.6g}, {ty:.6g}) m {way} reachable up to ({ex:.6g}, '
+            f'{ey:.6g}) m, {self.short_m:.6g} m short'
         )
 
 
 def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> ReachEdge | None:
-    """Where the (first) point target of ``values`` (a command of ``solver``, refused) stops
-    being reachable on the way from ``here`` (the current configuration, a Result of this
-    mechanism) to the target, every known moved together (angles the short way round); None
-    when the solve has no point target, gives two points of one link, or ``here`` is not a
-    configuration of the mechanism."""
+    """Where the (first) point target of ``values`` (a command of ``solver``, refused), else its
+    first coordinate known, stops being reachable on the way from ``here`` (the current
+    configuration, a Result of this mechanism) to the target, every known moved together
+    (angles the short way round); None when the solve has neither, gives two points of one
+    link, or ``here`` is not a configuration of the mechanism."""
     c = solver.compiled
     k = next((i for i, s in enumerate(c.specs) if isinstance(s, PointSpec)), None)
+    if k is None:
+        k = next((i for i, s in enumerate(c.specs) if isinstance(s, CoordinateSpec)), None)
     if k is None or c.point_pairs:
         return None
     spec = c.specs[k]
-    assert isinstance(spec, PointSpec)
+    assert isinstance(spec, PointSpec | CoordinateSpec)
     got = configuration_of(c, here)
     try:
         target = c.parse(values)
@@ -83,6 +94,9 @@ def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> Reach
             lo = mid
         else:
             hi = mid
+    if isinstance(spec, CoordinateSpec):
+        e, t = float(command(lo)[spec.name]), float(target[k])
+        return ReachEdge(spec.point, (t,), (e,), abs(t - e), coordinate=spec.name)
     ex, ey = command(lo)[spec.name]
     tx, ty = (float(v) for v in target[k])
     return ReachEdge(spec.point, (tx, ty), (ex, ey), math.hypot(tx - ex, ty - ey))

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 
 from linkage_ros.core.model import Scene
@@ -76,3 +77,26 @@ def test_the_node_and_cli_refusal_names_the_point_and_the_edge_first():
     assert 'does not close' in r.reason  # the solver's own reason follows
     ok = engine.target({'P.x': 0.16, 'P.y': 0.31})
     assert ok.success and 'out of reach' not in (ok.reason or '')
+
+
+def test_a_coordinate_target_out_of_reach_names_the_coordinate_and_its_edge():
+    """One coordinate known (the four-bar's P.x, 1 DOF) beyond the coupler curve: the refusal
+    said only how far the loops missed closing. Its edge is the largest P.x of the circuit the
+    mechanism is on (a Grashof crank-rocker: the crank turns fully in its mode), the oracle a
+    dense sweep of the forward closed form."""
+    from scenes import load
+
+    mech = load('four_bar')
+    engine = Engine(mech, EngineSettings())
+    r = engine.target({'P.x': 10.0})
+    assert not r.success
+    assert r.reason.startswith('P.x = 10 m is out of reach: on the straight way there')
+    fwd = Solver(mech, method='closed_form', branch='reference')
+    crank = np.linspace(-math.pi, math.pi, 200001)
+    xs = fwd.solve_batch({'crank': crank}).points['P'][:, 0]
+    solver = Solver(mech, knowns=['P.x'])
+    edge = reach_edge(solver, {'P.x': 10.0}, engine.last)
+    assert edge is not None and edge.coordinate == 'P.x'
+    assert edge.edge[0] == pytest.approx(float(np.max(xs)), abs=1e-7)
+    assert edge.short_m == pytest.approx(10.0 - edge.edge[0], abs=1e-12)
+    assert f'reachable up to P.x = {edge.edge[0]:.6g} m' in r.reason
