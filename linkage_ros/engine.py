@@ -122,6 +122,8 @@ class Engine:
             self.forward,
             lambda knowns, branch, method: self.new_solver(knowns, branch, method),
         )
+        #: the drawing's assembly mode (what ``branch: reference`` keeps targets in)
+        self._reference_mode = self.keeper.mode(ref if ref.success else None)
 
     # -- the good state ----------------------------------------------------------------------------
     @property
@@ -174,15 +176,20 @@ class Engine:
     def new_solver(
         self, knowns: Sequence[str] | None, branch: str | None = None, method: str | None = None
     ) -> Solver:
-        """A solver with the engine's settings (``branch``, ``method``: instead of theirs)."""
+        """A solver with the engine's settings (``branch``, ``method``: instead of theirs). The
+        ``branch`` setting names a mode of the forward plan: a target's solver follows its own
+        plan continuously, and the target rule keeps its answers in that mode."""
         s = self.settings
+        if branch is None:
+            forward = knowns is None or set(knowns) == set(self.mech.actuators)
+            branch = s.branch if forward else 'continuous'
         return Solver(
             self.mech,
             knowns=knowns,
             method=s.solver if method is None else method,
             tol=s.tolerance,
             max_iter=s.max_iterations,
-            branch=s.branch if branch is None else branch,
+            branch=branch,
         )
 
     def solver_for(self, knowns: Sequence[str]) -> Solver | str:
@@ -356,24 +363,43 @@ class Engine:
         allow_mode_change: bool = False,
         replace: bool = True,
     ) -> Result:
-        """A target in the current assembly mode (the rule: core.solver.mode_rule; under
-        ``branch: continuous`` only, other branch settings choose the mode themselves).
+        """A target in the current assembly mode (the rule: core.solver.mode_rule); under an
+        explicit ``branch`` setting (or ``reference``) in the mode it names (the drawing's),
+        which no request changes.
         ``replace=False`` (a trajectory's next point): the inverse solver's continuous answer
         only, never a solution elsewhere in the mode (that would be a jump)."""
         if isinstance(solver, str):
             return Result(False, solver)
-        if self.settings.branch != 'continuous':
-            return self._out_of_reach(solver, values, self.solve(solver, values))
         self.bring_up_to_date(solver)
         last = self.last
-        before = self.mode(last)
+        fixed = self.fixed_mode()
+        before = self.mode(last) if fixed is None else fixed
         if before is None or last is None:
             return self._out_of_reach(solver, values, self.solve(solver, values))
-        answer = self.keeper.target(solver, values, last, before, allow_mode_change, replace)
+        answer = self.keeper.target(
+            solver,
+            values,
+            last,
+            before,
+            allow_mode_change and fixed is None,
+            replace,
+            held_by='' if fixed is None else f'branch setting {self.settings.branch!r}',
+        )
         if answer.commit:
             solver.adopt(answer.result)
             self.record(solver, answer.result)
         return self._out_of_reach(solver, values, answer.result)
+
+    def fixed_mode(self) -> Mode | None:
+        """The assembly mode the ``branch`` setting fixes (the forward dyads' signs, or the loop
+        Jacobian's sign 'J+' / 'J-'; 'reference': the drawing's), None under 'continuous'."""
+        branch = self.settings.branch
+        if branch == 'continuous':
+            return None
+        if branch == 'reference':
+            return self._reference_mode
+        signs = tuple(1 if ch == '+' else -1 for ch in branch.removeprefix('J'))
+        return signs, [1.0] * len(signs)
 
     def _out_of_reach(self, solver: Solver, values: Mapping[str, Any], result: Result) -> Result:
         """A point target that cannot be assembled, said in the user's terms first: where the

@@ -386,24 +386,38 @@ def build_solve(mech, args, allow_range: bool):
         missing = [a for a in acts if a not in options]
         if missing:
             raise UsageError(f'missing --set for actuator(s) {", ".join(missing)} of {mech.name!r}')
+    inverse = not all(options[n] == '--set' for n, _ in axes)
     solver = Solver(
         mech,
         knowns=grouped_knowns(mech, knowns),  # P.x and P.y: the point, as the node takes them
         method=args.solver,
         tol=args.tol,
         max_iter=args.max_iter,
-        branch=args.branch,
+        # signs name a mode of the forward plan: a target's solver follows its own plan, and
+        # the target rule (target_engine) keeps its answers in that mode
+        branch='continuous' if inverse and _signs(args.branch) else args.branch,
     )  # PlanError: exit 2
     return knowns, axes, solver
 
 
+def _signs(branch: str) -> bool:
+    return branch not in ('continuous', 'reference')
+
+
 def target_engine(mech, args):
-    """The node's engine for the command line's solver options, in the reference pose's
-    assembly mode (branch continuous): targets are answered as a node answers them."""
+    """The node's engine for the command line's solver options: targets are answered as a
+    node answers them, in the reference pose's assembly mode (branch continuous from it) or in
+    the mode --branch names."""
     from ..engine import Engine, EngineSettings
 
+    if getattr(args, 'any_mode', False) and _signs(args.branch):
+        raise UsageError(f'--any-mode and --branch {args.branch} go against each other: the '
+                         'signs keep every answer in their mode')  # fmt: skip
     settings = EngineSettings(
-        solver=args.solver, tolerance=args.tol, max_iterations=args.max_iter, branch='continuous'
+        solver=args.solver,
+        tolerance=args.tol,
+        max_iterations=args.max_iter,
+        branch=args.branch if _signs(args.branch) else 'continuous',
     )
     return Engine(mech, settings)
 

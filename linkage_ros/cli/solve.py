@@ -51,8 +51,9 @@ def cmd_solve(args) -> int:
     if args.all_branches:
         modes = solver.modes(command)
         results = modes.results
-    elif solver.inverse and args.branch == 'reference':
-        # the assembly mode of the reference pose, kept as a real mechanism keeps it
+    elif solver.inverse:
+        # the assembly mode of the reference pose (or the one --branch names), kept as a real
+        # mechanism keeps it
         engine = target_engine(mech, args)
         results = [engine.solve_target(solver, command, allow_mode_change=args.any_mode)]
     else:

@@ -93,7 +93,7 @@ def cmd_sweep(args) -> int:
         )
         out.print('\t'.join(head))
     engine = None
-    if solver.inverse and args.branch == 'continuous':  # targets as a node answers them
+    if solver.inverse:  # targets as a node answers them (in the mode --branch names)
         engine = target_engine(mech, args)
     # lazy: a 10^9-point grid starts printing at once (only --csv, which keeps every answer
     # for its table, lists it first)

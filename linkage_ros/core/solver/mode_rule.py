@@ -108,10 +108,13 @@ class ModeKeeper:
         before: Mode,
         allow_mode_change: bool = False,
         replace: bool = True,
+        held_by: str = '',
     ) -> TargetAnswer:
         """``solver`` (brought up to ``last``, the mechanism's state in mode ``before``) on a
         target, under the rule. ``replace=False``: only the inverse solver's own continuous
-        answer (a trajectory's next point), as it is, committed only in mode."""
+        answer (a trajectory's next point), as it is, committed only in mode. ``held_by``: what
+        holds the mode (a branch setting), named in a refusal instead of how to ask for a
+        change."""
         result = solver.solve(values, commit=False)
         after = self.mode(result) if result.success else None
         if result.success and not mode_differs(before, after):
@@ -128,12 +131,17 @@ class ModeKeeper:
         if not result.success or after is None:
             return TargetAnswer(result, False)
         if not allow_mode_change:
+            why = (
+                f'the {held_by} keeps the mechanism in mode {self.label(before)}'
+                if held_by
+                else f'the mechanism is in mode {self.label(before)} and cannot change mode '
+                'without being taken apart (ask for the change explicitly to allow it: '
+                '~/target_any_mode on the node, --any-mode on the command line)'
+            )
             refusal = Result(
                 False,
                 f'target is reachable only in assembly mode {self.label(after)} '
-                f'{self._of_what()}; the mechanism is in mode {self.label(before)} and cannot '
-                'change mode without being taken apart (ask for the change explicitly to '
-                'allow it: ~/target_any_mode on the node, --any-mode on the command line)',
+                f'{self._of_what()}; {why}',
                 solver=result.solver,
             )
             return TargetAnswer(refusal, False)

@@ -120,17 +120,30 @@ def modes_of(
     ``branch`` is the mechanism's mode label as ``forward`` (a forward compile) reads it
     (reading.mode_label: the loop Jacobian's determinant sign, 'J+' or 'J-')."""
     if c.mode is SolveMode.CLOSED_FORM:
-        return _described(c, ModeList(closed_form_modes(c, cont, values)))
+        listed = ModeList(closed_form_modes(c, cont, values))
+        if not c.inverse or forward is None:
+            return _described(c, listed)
+        # a target's answers in the mechanism's modes (the forward dyads' signs, as a
+        # command's status shows them), not the inverse plan's own signs
+        _label_modes(forward, listed.results)
+        return _described(forward, listed) if forward.full_plan.complete else listed
     if newton is None or newton.mode is not SolveMode.NEWTON:
         raise ValueError('the modes of a Newton solve need a Newton-only compile of its knowns')
     found = newton_modes(newton, values, cont if newton is c else None)
     if forward is not None:  # each answer labelled with the mechanism's mode
-        for r in found.results:
-            mode = mode_of(forward, r) if r.success else None
-            if mode is not None and mode[0]:
-                r.branch = mode_label(forward, mode[0])
-                r.branch_defined = mode[1][0] > SIGN_MARGIN
+        _label_modes(forward, found.results)
     return found
+
+
+def _label_modes(forward: CompiledSolve, results: Sequence[Result]) -> None:
+    """Each answer's ``branch``: the mechanism's assembly mode there, as ``forward`` (a
+    forward compile) reads it (reading.mode_label: the forward dyads' signs, or the loop
+    Jacobian's determinant sign where Newton places the mechanism)."""
+    for r in results:
+        mode = mode_of(forward, r) if r.success else None
+        if mode is not None and mode[0]:
+            r.branch = mode_label(forward, mode[0])
+            r.branch_defined = min(mode[1]) > SIGN_MARGIN
 
 
 def closed_form_modes(
