@@ -341,6 +341,15 @@ def _read_cylinders(
         length = float(np.hypot(*axis))
         if not length > 0:
             ctx.fail(key, 'pins `from` and `to` coincide in the reference pose', [a, b])
+        both = [ln.name for ln in links.values() if a in ln.points and b in ln.points]
+        if both:  # a rigid length: it drives nothing (and leaves the mechanism undriven)
+            ctx.fail(
+                key,
+                f'pins `from` and `to` are both points of link {both[0]!r}, so their distance '
+                'is fixed and the cylinder drives nothing; pin its ends on two links that move '
+                'relative to each other',
+                [a, b],
+            )
         barrel, rod = f'{cname}_barrel', f'{cname}_rod'
         for ln in (barrel, rod):
             if ln in links:

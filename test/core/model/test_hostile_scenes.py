@@ -155,6 +155,22 @@ def test_a_cylinder_named_like_a_link_is_refused(tmp_path):
     refused_fast(path, f'cylinders.{link}', 'is the name of a link')
 
 
+@pytest.mark.parametrize(('ends', 'link'), [(('O', 'P'), 'ground'), (('O', 'Q'), 'boom')])
+def test_a_cylinder_pinned_twice_on_one_link_is_refused_naming_it(tmp_path, ends, link):
+    """Both ends on the ground (or on one moving link): its length cannot change, so it drives
+    nothing. `check` said the scene had 0 degrees of freedom, or warned of a toggle and reported
+    the cylinder's range as 0.65 .. 0.65 m."""
+    a, b = ends
+    path = tmp_path / 'boom.yaml'
+    path.write_text(
+        'name: boom\npoints: {O: [0, 0], P: [0.4, -0.1], Q: [0.6, 0.25], T: [1.2, 0.3]}\n'
+        'links: {ground: [O, P], boom: [O, Q, T]}\n'
+        f'cylinders: {{lift: {{from: {a}, to: {b}, min: 0.3, max: 0.7}}}}\n'
+    )
+    err = refused_fast(path, 'cylinders.lift', f'both points of link {link!r}')
+    assert 'drives nothing' in str(err)
+
+
 def test_cyclic_relative_to_names_the_file_and_the_key(tmp_path):
     data = yaml.safe_load((CONFIG / 'plagiograph.yaml').read_text())
     data['actuators']['theta_A']['relative_to'] = 'crank_C'
