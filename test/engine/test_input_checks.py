@@ -126,7 +126,7 @@ def test_link_whose_first_two_points_coincide_is_refused():
     'edit, key, why',
     [
         (
-            {'cylinders': {'Z1': {'from': 'O2', 'to': 'A', 'min': 0.5, 'max': 0.6}}},
+            {'cylinders': {'Z1': {'from': 'O4', 'to': 'A', 'min': 0.5, 'max': 0.6}}},
             'cylinders.Z1',
             'm is below its minimum 0.5 by',
         ),
@@ -158,7 +158,7 @@ def test_a_reference_pose_outside_its_own_limits_is_refused(edit, key, why):
         'rocker': ['O4', 'B'],
     }
     data = general(points=pts, links=links)
-    if 'cylinders' in edit:  # a ram from O2 to A replaces the crank's angle as the input
+    if 'cylinders' in edit:  # a ram from O4 to A replaces the crank's angle as the input
         data = general(
             points={**pts, 'C': [0.0, 0.05]},
             links={**links, 'crank': ['O2', 'A', 'C']},

@@ -32,6 +32,9 @@ class _Ctx:
     def fail(
         self, key: str, message: str, value: object = None, has_value: bool = True
     ) -> NoReturn:
+        if value is None and has_value:  # an absent key reads as None (and so does `key:`)
+            what = f'it {message}' if message.startswith('must') else message
+            message, has_value = f'is missing or empty: {what}', False
         raise SceneError(message, file=self.source, key=key, value=value, has_value=has_value)
 
     def reading(self, key: str, value: object, quantity: Quantity | None) -> Reading:
