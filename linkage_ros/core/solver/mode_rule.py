@@ -118,6 +118,13 @@ class ModeKeeper:
         result = solver.solve(values, commit=False)
         after = self.mode(result) if result.success else None
         if result.success and not mode_differs(before, after):
+            if replace and _folded(after) and not _folded(before):
+                # a dyad at its toggle is in every mode, and a fold may be where the inverse
+                # plan lands while the mode has a regular solution (a Peaucellier cell with A
+                # on B, P anywhere): that one, where there is one
+                alt = self.in_mode(solver, values, before, last)
+                if alt is not None and not _folded(self.mode(alt)):
+                    return self._answer(alt, self.mode(alt) or before)
             return self._answer(result, after or before)  # the inverse solver's continuity
         if not replace:
             return TargetAnswer(result, False)
@@ -178,18 +185,19 @@ class ModeKeeper:
         closed = solver.mode is SolveMode.CLOSED_FORM
         if not closed:
             alternatives = alternatives or [solver]
-        best: tuple[float, Result] | None = None
+        best: tuple[bool, float, Result] | None = None
         for alt in alternatives:
             if alt.mode is not SolveMode.CLOSED_FORM and last is not None:
                 alt.adopt(last)  # Newton starts from the mechanism's state
             r = alt.solve(values, commit=False)
-            if not r.success or mode_differs(before, self.mode(r)):
+            mode = self.mode(r) if r.success else None
+            if not r.success or mode_differs(before, mode):
                 continue
-            d = configuration_distance(last, r)
-            if best is None or d < best[0]:
-                best = (d, r)
+            key = (_folded(mode), configuration_distance(last, r))  # a regular one first
+            if best is None or key < best[:2]:
+                best = (*key, r)
         if best is not None or closed:
-            return None if best is None else best[1]
+            return None if best is None else best[2]
         return self._multi_start(self._newton_for(solver), values, before, last)
 
     def _searched(
@@ -278,3 +286,8 @@ def _worth_a_search(solver: Solver, result: Result) -> bool:
     if solver.mode is SolveMode.CLOSED_FORM:
         return False
     return result.success or not (result.reason or '').startswith('cannot assemble')
+
+
+def _folded(mode: Mode | None) -> bool:
+    """A configuration with a dyad at its toggle (its sign not read as the mode)."""
+    return mode is not None and any(m <= SIGN_MARGIN for m in mode[1])

@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 import random
 
+import numpy as np
 import pytest
 from oracles import fourbar as oracle
 from scenes import CONFIG, load
@@ -160,3 +161,45 @@ def test_random_target_sequences_answer_in_mode_or_say_why(stem):
     # rod angle is reached at crank angles t and pi - t alike): the answer is the solution
     # nearest the last good state, which for these small steps is almost always the source.
     assert in_mode >= 10 and matched >= 0.9 * in_mode, (matched, in_mode, refused)
+
+
+PEAUCELLIER_CELL = """
+name: peaucellier_cell
+points:
+  O: [0.0, 0.0]
+  A: [0.08794443942928294, 0.12151450766665346]
+  B: [0.13543566474467272, -0.0644762027043204]
+  P: [0.08449121528506677, 0.021574149237189134]
+  Q: [0.1388888888888889, 0.03546415572514393]
+ground: ground
+links: {ground: [O], OA: [O, A], OB: [O, B], PA: [P, A], BP: [B, P], AQ: [A, Q], QB: [Q, B]}
+actuators:
+  a1: {type: angle, link: OA, pivot: O}
+  a2: {type: angle, link: OB, pivot: O}
+outputs: [Q, P]
+"""
+
+
+def test_a_peaucellier_cell_target_inside_the_fold_is_the_inversion_not_the_fold(tmp_path):
+    """Seed 001: 'however Q moves, O, P and Q remain on one line and OP * OQ is constant'
+    (l^2 - s^2). Q taken along a line that passes |OQ| = sqrt(l^2 - s^2): the dyad placing A
+    folded onto B there, and the answers after it were A on B with P anywhere on its circle,
+    status OK (margin 0, OP * OQ 0.0071-0.0084). The rule now prefers the regular solution in
+    the mode over a fold, where there is one."""
+    from linkage_ros.core.model import Scene
+    from linkage_ros.engine import Engine, EngineSettings
+
+    path = tmp_path / 'cell.yaml'
+    path.write_text(PEAUCELLIER_CELL)
+    mech = Scene.from_yaml(path).mechanism
+    e = Engine(mech, EngineSettings())
+    l, s = 0.15, 0.10
+    for t in np.linspace(0.0, 1.0, 15):
+        q = (0.13 - 0.07 * t, 0.06 - 0.11 * t)
+        r = e.target({'Q.x': q[0], 'Q.y': q[1]})
+        assert r.success, r.reason
+        (px, py), (qx, qy) = r.points['P'], r.points['Q']
+        assert math.dist((qx, qy), q) <= 1e-12
+        assert math.hypot(px, py) * math.hypot(qx, qy) == pytest.approx(l * l - s * s, abs=1e-12)
+        assert abs(px * qy - py * qx) <= 1e-12  # O, P, Q on one line
+        assert r.margin > 1e-6
