@@ -21,6 +21,7 @@ from typing import Any, Protocol
 from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
 from .core.model.names import Named, NameKind, resolve_name
+from .core.motion.circuits import Circuit, reference_circuit
 from .core.solver import Result, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
@@ -121,7 +122,10 @@ class Engine:
             mech,
             self.forward,
             lambda knowns, branch, method: self.new_solver(knowns, branch, method),
+            self._one_circuit,
         )
+        #: the reference pose's circuit (core.motion.circuits), scanned when first asked
+        self._circuit: Circuit | None | bool = False
         #: the drawing's assembly mode (what ``branch: reference`` keeps targets in)
         self._reference_mode = self.keeper.mode(ref if ref.success else None)
 
@@ -389,6 +393,26 @@ class Engine:
             solver.adopt(answer.result)
             self.record(solver, answer.result)
         return self._out_of_reach(solver, values, answer.result)
+
+    def _one_circuit(self, a: Result, b: Result) -> bool:
+        """Whether two configurations lie on the reference pose's circuit (a one-actuator
+        mechanism whose circuit passes its toggles: the two signs of a non-Grashof four-bar's
+        dyad are one motion, not two modes)."""
+        if self._circuit is False:
+            self._circuit = reference_circuit(self.mech)
+        c = self._circuit
+        if not isinstance(c, Circuit) or not c.crosses_signs:
+            return False
+        for r in (a, b):
+            mode, value = self.mode(r), r.inputs.get(c.actuator)
+            if mode is None or value is None or not c.holds(mode[0], float(value)):
+                return False
+        return True
+
+    def mode_changes(self, before: Mode, here: Result | None, result: Result) -> bool:
+        """Whether ``result`` is in another assembly mode than ``before`` (that of ``here``):
+        other dyad signs clear of their toggles, not on one circuit with ``here``."""
+        return self.keeper.changes_mode(before, here, result)
 
     def fixed_mode(self) -> Mode | None:
         """The assembly mode the ``branch`` setting fixes (the forward dyads' signs, or the loop

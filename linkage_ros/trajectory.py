@@ -4,7 +4,8 @@ A trajectory is a sequence of requests with the same names, one per point: actua
 (forward kinematics; a partial set holds the others as a command does) or target values (inverse
 kinematics: joints, links, actuators and points as ``<point>.x``, ``<point>.y``). It is solved
 point by point from the engine's last good state, the assembly mode followed continuously: a
-step that changes mode (a branch jump, a toggle crossed) is refused, as is any point that is
+step that changes mode (a branch jump, a toggle crossed into another circuit; a toggle the
+circuit itself passes, as a non-Grashof four-bar's, is motion) is refused, as is any point that is
 unreachable, and then the whole trajectory is refused with the first failing index and why (a
 robot must never execute half of a trajectory). A trajectory is a plan, not a motion: the
 engine's state is the same after it as before.
@@ -297,7 +298,12 @@ def solve_trajectory(
             if not r.success:
                 return _refused(f'point {i}: {r.reason}', i)
             after = engine.mode(r)
-            if before is not None and mode_differs(before, after):
+            here = results[-1] if results else engine.last
+            if before is not None and (
+                engine.mode_changes(before, here, r)
+                if engine.fixed_mode() is None
+                else mode_differs(before, after)  # a branch setting holds the signs
+            ):
                 assert after is not None
                 return _refused(
                     f'point {i}: the assembly mode changes from {branch_text(before[0])} to '

@@ -68,6 +68,9 @@ def configuration_distance(a: Result | None, b: Result) -> float:
 #: makes a solver with the caller's settings: (knowns or None for the actuators, branch or None,
 #: method or None) -> Solver
 SolverMaker = Callable[[Sequence[str] | None, str | None, str | None], Solver]
+#: whether two configurations lie on one circuit of the mechanism (core.motion.circuits: a
+#: non-Grashof four-bar passes its toggles, so its dyad's two signs are one mode)
+OneCircuit = Callable[[Result, Result], bool]
 
 
 @dataclass(frozen=True)
@@ -83,8 +86,17 @@ class ModeKeeper:
     """The target rule for one mechanism (see the module); ``make`` builds solvers with the
     caller's settings, ``forward`` reads a configuration's mode."""
 
-    def __init__(self, mech: Mechanism, forward: Solver, make: SolverMaker):
+    def __init__(
+        self,
+        mech: Mechanism,
+        forward: Solver,
+        make: SolverMaker,
+        one_circuit: OneCircuit | None = None,
+    ):
         self.mech, self.forward, self.make = mech, forward, make
+        self.one_circuit = one_circuit
+        #: the configuration the mode of the target being answered is read at (changes_mode)
+        self._here: Result | None = None
         #: (target names, branch signs or 'newton') -> that variant of the names' inverse solver
         self._variants: dict[tuple[frozenset[str], str], Solver] = {}
         #: assembly mode -> forward configurations spread over the actuator ranges in it
@@ -99,6 +111,14 @@ class ModeKeeper:
         the forward solver's dyads there. None where it is not defined (no closed-form forward
         plan, no configuration)."""
         return None if result is None else self.forward.mode_of(result)
+
+    def changes_mode(self, before: Mode, here: Result | None, result: Result) -> bool:
+        """Whether ``result`` is in another mode than ``before`` (the mode of ``here``): its
+        forward dyads' signs differ clear of their toggles, and it is not on the circuit of
+        ``here`` (one_circuit: a motion through a toggle reaches it)."""
+        if not mode_differs(before, self.mode(result)):
+            return False
+        return not (here is not None and self.one_circuit and self.one_circuit(here, result))
 
     def target(
         self,
@@ -117,7 +137,9 @@ class ModeKeeper:
         change."""
         result = solver.solve(values, commit=False)
         after = self.mode(result) if result.success else None
-        if result.success and not mode_differs(before, after):
+        # a branch setting holds the signs themselves; else a circuit's toggles are no change
+        self._here = None if held_by else last
+        if result.success and not self.changes_mode(before, self._here, result):
             if replace and _folded(after) and not _folded(before):
                 # a dyad at its toggle is in every mode, and a fold may be where the inverse
                 # plan lands while the mode has a regular solution (a Peaucellier cell with A
@@ -135,6 +157,12 @@ class ModeKeeper:
             alt = self._searched(solver, values, before, last)
         if alt is not None:
             return self._answer(alt, self.mode(alt) or before)
+        if not result.success and solver.mode is SolveMode.CLOSED_FORM:
+            # refused from here, and no solution in mode: does another mode reach it? (the
+            # inverse plan's every branch, nearest the last good state first)
+            other = self._other_mode(solver, values, last)
+            if other is not None:
+                result, after = other, self.mode(other)
         if not result.success or after is None:
             return TargetAnswer(result, False)
         if not allow_mode_change:
@@ -191,7 +219,7 @@ class ModeKeeper:
                 alt.adopt(last)  # Newton starts from the mechanism's state
             r = alt.solve(values, commit=False)
             mode = self.mode(r) if r.success else None
-            if not r.success or mode_differs(before, mode):
+            if not r.success or self.changes_mode(before, self._here, r):
                 continue
             key = (_folded(mode), configuration_distance(last, r))  # a regular one first
             if best is None or key < best[:2]:
@@ -200,6 +228,14 @@ class ModeKeeper:
             return None if best is None else best[2]
         return self._multi_start(self._newton_for(solver), values, before, last)
 
+    def _other_mode(
+        self, solver: Solver, values: Mapping[str, Any], last: Result | None
+    ) -> Result | None:
+        """The solution of a closed-form inverse in any mode nearest ``last`` (each branch of
+        the inverse plan), or None."""
+        found = [r for r in solver.solve_all(values) if r.success]
+        return min(found, key=lambda r: configuration_distance(last, r), default=None)
+
     def _searched(
         self, solver: Solver, values: Mapping[str, Any], before: Mode, last: Result | None
     ) -> Result | None:
@@ -207,7 +243,9 @@ class ModeKeeper:
         multi-start Newton search finds (modes.newton_modes from SEARCH_STARTS starts), or
         None."""
         found = newton_modes(self._newton_for(solver).compiled, values, starts=SEARCH_STARTS)
-        in_mode = [r for r in found.results if r.success and not mode_differs(before, self.mode(r))]
+        in_mode = [
+            r for r in found.results if r.success and not self.changes_mode(before, self._here, r)
+        ]
         return min(in_mode, key=lambda r: configuration_distance(last, r), default=None)
 
     def _with_signs(self, solver: Solver, code: int, k: int) -> Solver:
@@ -243,7 +281,7 @@ class ModeKeeper:
             for start in self._mode_starts(before[0], last)[:MAX_STARTS]:
                 solver.adopt(start)
                 r = solver.solve(values, commit=False)
-                if r.success and not mode_differs(before, self.mode(r)):
+                if r.success and not self.changes_mode(before, self._here, r):
                     found = r
                     break
         finally:

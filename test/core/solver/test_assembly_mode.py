@@ -203,3 +203,46 @@ def test_a_peaucellier_cell_target_inside_the_fold_is_the_inversion_not_the_fold
         assert math.hypot(px, py) * math.hypot(qx, qy) == pytest.approx(l * l - s * s, abs=1e-12)
         assert abs(px * qy - py * qx) <= 1e-12  # O, P, Q on one line
         assert r.margin > 1e-6
+
+
+def test_a_non_grashof_four_bar_has_one_mode_through_its_toggles():
+    """Seed 000: for a non-Grashof linkage 'there is only one curve, because there is only one
+    mode of assembly ... the mirror image configuration can be taken up by the same assembly';
+    seed 002: its two solutions 'are not two distinct assembly modes'. A target the mechanism
+    reaches by moving its crank through a toggle was refused as 'reachable only in assembly
+    mode -'. Oracle: the mpmath four-bar in the dyad's other sign at crank 60 deg. The
+    crank-rocker's two signs are two circuits: still refused."""
+    from oracles import fourbar, fourbar_toggles
+
+    mech = load('four_bar_non_grashof')
+    e = Engine(mech, EngineSettings())
+    want = fourbar(0.30, 0.20, 0.25, 0.22, math.radians(60), branch=-1)
+    r = e.target({'rocker': float(want['theta4'])})
+    assert r.success, r.reason
+    assert r.inputs['crank'] == pytest.approx(math.radians(60), abs=1e-9)
+    assert r.branch == '-'
+    # and a trajectory of commands through the toggle at 2.43 rad and back is one motion
+    from linkage_ros.trajectory import solve_trajectory
+
+    e = Engine(mech, EngineSettings())
+    toggle = float(fourbar_toggles(0.30, 0.20, 0.25, 0.22)[0][0])  # 2.43027 rad
+    rows = [[c] for c in np.linspace(1.0, toggle, 40)] + [[c] for c in np.linspace(toggle, 1.0, 40)]
+    ans = solve_trajectory(e, ['crank'], rows)
+    assert ans.success, ans.reason
+    assert {x.branch for x in ans.results} == {'+', '-'}
+    # the crank-rocker: its two signs are two circuits
+    r = Engine(load('four_bar'), EngineSettings()).target({'B': -1.2})
+    assert not r.success and 'reachable only in assembly mode -' in r.reason
+
+
+def test_a_grashof_double_rocker_loop_holds_both_signs():
+    """Seed 000: the Grashof double-rocker has 'two loops', each through both signs of its
+    dyad (the crank swings between two toggles). A target on the drawing's loop in the other
+    sign was refused as another assembly mode. Oracle: the mpmath four-bar at crank 1.0."""
+    from oracles import fourbar
+
+    want = fourbar(0.30, 0.20, 0.10, 0.25, 1.0, branch=-1)
+    e = Engine(load('four_bar_grashof_double_rocker'), EngineSettings())
+    r = e.target({'rocker': float(want['theta4'])})
+    assert r.success, r.reason
+    assert r.inputs['crank'] == pytest.approx(1.0, abs=1e-9) and r.branch == '-'

@@ -260,9 +260,11 @@ def test_a_batch_takes_the_side_its_branch_says(mech, branch):
 def test_a_target_answers_in_the_mode_roller_side_included(mech):
     # the target rule reads the roller's side as one of the mode's signs: a jaw angle reached
     # here only in another mode is refused, naming both; allowed on request, later commands
-    # keep the new mode, roller side included
+    # keep the new mode, roller side included. (The drawing's circuit passes the first
+    # dyad's toggles, so its jaw angles are those of +++ and -++: 1.88 .. 3.10 rad; +-+
+    # reaches none beyond them, +-- reaches -0.61 rad at handle -1.5.)
     modes = Solver(mech).modes({'handle': -1.5})
-    flipped = next(r for r in modes.results if r.branch == '+-+')
+    flipped = next(r for r in modes.results if r.branch == '+--')
     e = Engine(mech, EngineSettings('auto', 1e-12, 50, 'continuous'))
     t = e.target({'O6': flipped.joints['O6']})
     assert not t.success and 'the mechanism is in mode +++' in t.reason

@@ -1,0 +1,78 @@
+"""The circuit through the reference pose of a one-actuator mechanism: which configurations the
+mechanism reaches from its drawing by moving its actuator, through toggles (the scan of
+ranges._scan_circuit, within the actuator's limits).
+
+A dyad's branch sign names the assembly mode only where its toggle is never crossed. A
+non-Grashof four-bar passes its toggles and takes up the mirror configuration on one circuit
+(seed 000: "there is only one curve, because there is only one mode of assembly"); a Grashof
+double-rocker has two circuits, each through both signs. The target rule (core.solver.mode_rule)
+asks a Circuit whether two configurations of different signs are one motion apart.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ..model import AngleActuator, Mechanism
+from .ranges import _scan_circuit
+
+#: how far past a stretch's end (rad or m) a value still counts as on it: its toggle ends are
+#: refined to about 1e-12, and a configuration at a toggle is on both stretches
+END_SLACK = 1e-9
+
+
+@dataclass(frozen=True)
+class Stretch:
+    """The circuit in one sign combination of the forward dyads: the actuator over [lo, hi]
+    (angles unwrapped), or every value (``full``)."""
+
+    signs: tuple[int, ...]
+    lo: float
+    hi: float
+    full: bool
+
+
+@dataclass(frozen=True)
+class Circuit:
+    """The circuit through the reference pose of actuator ``actuator`` (see the module)."""
+
+    actuator: str
+    periodic: bool
+    stretches: tuple[Stretch, ...]
+
+    def holds(self, signs: tuple[int, ...], value: float) -> bool:
+        """Whether the configuration with forward dyad signs ``signs`` at actuator ``value``
+        (rad or m) lies on the circuit."""
+        for s in self.stretches:
+            if s.signs != tuple(signs):
+                continue
+            if s.full:
+                return True
+            v = value
+            if self.periodic:  # the turn of value nearest the stretch's middle
+                v -= 2 * math.pi * round((value - 0.5 * (s.lo + s.hi)) / (2 * math.pi))
+            if s.lo - END_SLACK <= v <= s.hi + END_SLACK:
+                return True
+        return False
+
+    @property
+    def crosses_signs(self) -> bool:
+        """Whether the circuit takes up more than one sign combination (passes a toggle)."""
+        return len({s.signs for s in self.stretches}) > 1
+
+
+def reference_circuit(mech: Mechanism, samples: int = 720) -> Circuit | None:
+    """The reference pose's circuit, or None where it is not scanned: more than one actuator
+    or degree of freedom, no closed-form scan of the actuator."""
+    if len(mech.actuators) != 1 or mech.dof != 1:
+        return None
+    name = next(iter(mech.actuators))
+    line, _x0, segments, _bracket = _scan_circuit(mech, name, {}, samples)
+    if line is None or not segments:
+        return None
+    return Circuit(
+        name,
+        isinstance(mech.actuators[name], AngleActuator),
+        tuple(Stretch(tuple(s.signs), s.lo, s.hi, s.full) for s in segments),
+    )
