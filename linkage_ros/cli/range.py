@@ -1,7 +1,7 @@
 """Motion limits: input ranges and toggles, reachable region of a point, tilt of a link, plots.
 
     linkage range SCENE [--json] [--point NAME [--actuators A,B] [--samples N]]
-                        [--tilt LINK --lip POINT [--hold X,Y]] [--links]
+                        [--tilt LINK --lip POINT [--hold X,Y] [--tilt-from ANGLE]] [--links]
                         [--plot out.png] [--curves out.png --input NAME --output NAME]
                         [--motion]
 
@@ -9,7 +9,8 @@ Input ranges are found with the other actuators held at their reference-pose val
 bound is a toggle of the assembly, refined to 1e-12, or the scene's limit). ``--point`` adds the
 region the point reaches while the actuators that move it run over their limits (the four
 extreme arcs for two actuators); ``--tilt LINK --lip POINT`` the largest rotation of LINK about
-POINT held at its reference position (or ``--hold X,Y``) within the actuator limits; ``--links``
+POINT held at its reference position (or ``--hold X,Y``, from the link's angle ``--tilt-from``)
+within the actuator limits; ``--links``
 the oscillation range of every moving link; ``--plot`` draws the region (of ``--point``, else of
 the scene's first output point) and ``--curves`` an output versus an input with every assembly
 mode. Angles are radians (degrees in parentheses), lengths metres.
@@ -36,6 +37,7 @@ from typing import Any
 
 from ..core.errors import LinkageError
 from ..core.model import SlideActuator
+from ..core.units import Quantity, UnitError, degrees_warning, expect, parse_text
 from ..outputs import folder_refusal
 from .common import UsageError, add_scene_argument, load_mechanism
 from .described import InputValues
@@ -69,6 +71,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument('--tilt', metavar='LINK', help='largest rotation of LINK about --lip held')
     p.add_argument('--lip', metavar='POINT', help='point of the tilted link that is held')
     p.add_argument('--hold', metavar='X,Y', help='where the lip is held (default: reference)')
+    p.add_argument(
+        '--tilt-from',
+        metavar='ANGLE',
+        help="the tilted link's angle to start from (rad, or with a unit: --tilt-from=-45deg; "
+        'default: its reference angle), with the lip held there',
+    )
     p.add_argument(
         '--links',
         action='store_true',
@@ -108,8 +116,8 @@ def _fmt(v, unit=''):
 def _check(args, mech):
     if (args.tilt is None) != (args.lip is None):
         raise UsageError('--tilt LINK and --lip POINT go together')
-    if args.hold and args.tilt is None:
-        raise UsageError('--hold needs --tilt and --lip')
+    if (args.hold or args.tilt_from) and args.tilt is None:
+        raise UsageError('--hold and --tilt-from need --tilt and --lip')
     if args.curves and not args.output:
         raise UsageError(
             '--curves needs --output NAME (and --input NAME when there are several actuators)'
@@ -150,6 +158,20 @@ def _check(args, mech):
         if len(hold) != 2 or not all(math.isfinite(v) for v in hold):
             raise UsageError(f'--hold must be X,Y (two numbers), got {args.hold!r}')
     return acts, hold
+
+
+def _tilt_from(args) -> float | None:
+    """--tilt-from in rad (the unit grammar of core.units: a bare number is rad)."""
+    if args.tilt_from is None:
+        return None
+    try:
+        reading = expect(parse_text(args.tilt_from), Quantity.ANGLE)
+    except UnitError as exc:
+        raise UsageError(f'--tilt-from {args.tilt_from!r} {exc}') from None
+    warning = degrees_warning('--tilt-from', reading)
+    if warning:
+        print(f'warning: {warning}', file=sys.stderr)
+    return reading.value
 
 
 def analyse(args, mech) -> tuple[dict, int]:
@@ -197,7 +219,9 @@ def analyse(args, mech) -> tuple[dict, int]:
         region_full = reg
     if args.tilt is not None:
         try:
-            tilt = motion.max_tilt(mech, args.lip, args.tilt, hold_point=hold)
+            tilt = motion.max_tilt(
+                mech, args.lip, args.tilt, hold_point=hold, start_angle=_tilt_from(args)
+            )
         except ValueError as exc:
             raise UsageError(str(exc)) from None
         report['tilt'] = tilt

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from scenes import CONFIG
+from scenes import CONFIG, load
 from scenes import four_bar as fourbar
 
 from linkage_ros.core import motion
@@ -494,6 +494,31 @@ def test_cli_range_json_region_tilt_and_plots(hyd, tmp_path, capsys):
 
     assert cli.main(['range', path, '--json']) == 0
     assert set(json.loads(capsys.readouterr().out)['inputs']) == {'Z1', 'Z2', 'Z3'}
+
+
+def test_cli_tilt_starts_from_the_angle_given(capsys):
+    """Seed 003 example 6, part 3: the bin tilted about its lip held at L2, from the pose the
+    hinges J2, K2 gave it (bucket -0.79323 rad), not from the drawing's angle (from which the
+    same lip position needs Z3 below its minimum: refused at the start). The CLI had no way to
+    say the start; its answer is the API's."""
+    from linkage_ros.cli.range import main
+    from linkage_ros.core.motion import max_tilt
+
+    mech = load('excavator')
+    hold = (1.867934199, -0.169618455)
+    argv = ['excavator', '--tilt', 'bucket', '--lip', 'L', '--hold', f'{hold[0]},{hold[1]}']
+    assert main([*argv, '--json']) == 1  # from the drawing's angle: refused at the start
+    capsys.readouterr()
+    assert main([*argv, '--tilt-from=-0.79323', '--json']) == 0
+    got = json.loads(capsys.readouterr().out)['tilt']
+    want = max_tilt(mech, 'L', 'bucket', hold_point=hold, start_angle=-0.79323)
+    assert got['tilt_up'] == pytest.approx(want['tilt_up'], abs=1e-12)
+    assert got['tilt_down'] == pytest.approx(want['tilt_down'], abs=1e-12)
+    assert main([*argv, '--tilt-from=-45.449deg', '--json']) == 0
+    capsys.readouterr()
+    assert main([*argv, '--tilt-from', '2m']) == 2
+    assert "'m'), but an angle" in capsys.readouterr().err
+    assert main(['excavator', '--tilt-from', '1.0']) == 2
 
 
 def test_plots_write_pngs_with_both_branches(tmp_path):
