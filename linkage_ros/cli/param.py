@@ -18,11 +18,15 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 
 import yaml
 
 from .common import OK, REFUSED, UsageError
 from .ros_graph import DEFAULT_WAIT, plain, ros_session, spin_until
+
+#: numbers YAML 1.1 reads as strings (an exponent without a dot or a sign: 1e1, 1.0e1, -2E-3)
+_YAML_TEXT_NUMBER = re.compile(r'[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)[eE][+-]?[0-9]+')
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -75,6 +79,8 @@ def run(args) -> int:
             print(json.dumps(value) if isinstance(value, list) else value)
             return OK
         value = yaml.safe_load(args.value)
+        if isinstance(value, str) and _YAML_TEXT_NUMBER.fullmatch(args.value.strip()):
+            value = float(value)  # YAML 1.1 reads 1e1 (no dot) as text: a number is meant
         (result,) = call(client.set_parameters([Parameter(args.name, value=value)])).results
         if not result.successful:
             print(f'linkage param: {node_name} refused {args.name}: {result.reason}')

@@ -2,7 +2,8 @@
 
     linkage record TOPIC [TOPIC ...] -o BAG [--storage mcap|sqlite3] [--duration S] [--wait S]
 
-Each topic's type is read from the graph (it must have a publisher within --wait seconds); the
+Each topic's type is read from the graph (it must be there, with a publisher or a subscription,
+within --wait seconds: the node's ~/command is, before anyone publishes on it); the
 messages are written as received (serialized CDR, no decoding) with their receive time, by
 rosbags, the library `linkage bag` reads with. The subscriptions match the publishers' QoS
 (a latched topic's last message is recorded too); each publisher matched is reported on
@@ -11,7 +12,7 @@ stderr, and a topic's messages are recorded from then on. Recording stops on Ctr
 written in a hidden `.BAG.PID.partial` folder beside BAG, so a run that fails leaves nothing
 under BAG. An existing BAG is refused. A one-line summary goes to stderr.
 
-Exit status: 0 recorded; 2 a usage error (BAG exists, a topic with no publisher, a type not
+Exit status: 0 recorded; 2 a usage error (BAG exists, a topic not in the graph, a type not
 installed or not known to rosbags' Jazzy type store).
 """
 
@@ -53,7 +54,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=float,
         default=DEFAULT_WAIT,
         metavar='S',
-        help=f'wait up to S seconds for every topic to be published (default {DEFAULT_WAIT:g})',
+        help=f'wait up to S seconds for every topic to be in the graph, published or subscribed '
+        f'(default {DEFAULT_WAIT:g})',
     )
 
 

@@ -55,7 +55,8 @@ def spin_until(node: Any, done: Callable[[], bool], seconds: float | None) -> bo
 
 def topic_types(node: Any, topics: Sequence[str], wait: float) -> dict[str, str]:
     """Each topic's type ('sensor_msgs/msg/JointState') from the graph, waiting up to ``wait``
-    s for all to be published; UsageError naming a topic with no publisher, or two types."""
+    s for all to be in it (a publisher or a subscription: the node's ~/command is there before
+    anyone publishes on it); UsageError naming a topic not in the graph, or two types."""
     names = [t if t.startswith('/') else f'/{t}' for t in topics]
     end = time.monotonic() + wait
     while True:
@@ -67,7 +68,8 @@ def topic_types(node: Any, topics: Sequence[str], wait: float) -> dict[str, str]
     if missing:
         seen = ', '.join(sorted(graph)) or 'none'
         raise UsageError(
-            f'no publisher of {", ".join(missing)} appeared within {wait:g} s (same '
+            f'no publisher or subscription of {", ".join(missing)} appeared within {wait:g} s '
+            '(same '
             f'ROS_DOMAIN_ID and discovery range? topics seen: {seen})'
         )
     out = {}

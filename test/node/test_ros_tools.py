@@ -177,6 +177,11 @@ def test_param_get_and_set_go_through_the_node_checks(node):
     assert done.returncode == 0, done.stderr
     got = linkage('param', 'get', name, 'demo_rate')
     assert got.returncode == 0 and float(got.stdout) == 5.0, got.stdout + got.stderr
+    # 1e1 and 1.0e1 are numbers (YAML 1.1 reads them as text: they were refused as not a number)
+    done = linkage('param', 'set', name, 'demo_rate', '1.0e1')
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert float(linkage('param', 'get', name, 'demo_rate').stdout) == 10.0
+    done = linkage('param', 'set', name, 'demo_rate', '5')
     refused = linkage('param', 'set', name, 'demo_rate', '-3')
     assert refused.returncode == 1 and 'demo_rate' in refused.stdout, refused.stdout
     assert float(linkage('param', 'get', name, 'demo_rate').stdout) == 5.0  # nothing changed
