@@ -64,6 +64,12 @@ def build_mechanism(
         return mech
     if isinstance(data, Mapping) and ('dimensions' in data or dimensions):
         return _with_dimensions(ctx, data, dimensions)
+    if data is None:
+        ctx.fail(
+            '',
+            'the scene is empty: it must be a YAML mapping (see docs/SCENES.md)',
+            has_value=False,
+        )
     if not isinstance(data, Mapping):
         ctx.fail('', 'a scene must be a YAML mapping', type(data).__name__)
     ctx.only('', data, TOP_KEYS)
