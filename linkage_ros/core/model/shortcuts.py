@@ -57,6 +57,8 @@ def _reference_input(
         theta = ctx.number(f'{key}.input', spec['input'], quantity=Quantity.ANGLE)
         pts = assemble(theta)
         if pts is None:
+            if not intervals():  # no crank angle at all: the lengths are what is wrong
+                ctx.fail(key, 'these lengths do not assemble at any crank angle', lengths)
             ctx.fail(f'{key}.input', 'the mechanism does not assemble at this crank angle', theta)
         return pts
     steps = np.repeat(np.linspace(0.01, np.pi, 315), 2) * np.tile([1, -1], 315)

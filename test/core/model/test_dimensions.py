@@ -372,3 +372,13 @@ def test_a_length_far_from_its_drawing_is_named_as_a_likely_unit_slip():
     with pytest.raises(SceneError) as info:  # 10x: no assembly, and no unit slip
         Scene.from_yaml(scenes.CONFIG / 'four_bar.yaml', {'crank.O2-A': 1.0})
     assert 'with the dimensions crank.O2-A=1)' in str(info.value), str(info.value)
+
+
+def test_a_shortcut_whose_lengths_never_close_blames_the_lengths_not_its_input():
+    """A coupler longer than the other three links together closes at no crank angle: the
+    refusal named the scene's `input` ('does not assemble at this crank angle')."""
+    with pytest.raises(SceneError) as err:
+        Scene.from_yaml(scenes.CONFIG / 'four_bar.yaml', dimensions={'coupler.A-B': 1.5})
+    text = str(err.value)
+    assert 'these lengths do not assemble at any crank angle' in text
+    assert 'four_bar.input' not in text
