@@ -90,8 +90,9 @@ AXES = ('x', 'y')
 
 def point_coordinate(mech: Mechanism, name: str) -> tuple[str, int] | None:
     """(point, axis index) of a coordinate name ``<point>.x`` / ``<point>.y`` of a point of
-    ``mech``, or None for any other name."""
-    point, dot, axis = name.rpartition('.')
+    ``mech`` (``point:<point>.x`` too: the prefix that picks a point), or None for any other
+    name."""
+    point, dot, axis = name.removeprefix('point:').rpartition('.')
     if not dot or axis not in AXES or point not in mech.points:
         return None
     return point, AXES.index(axis)

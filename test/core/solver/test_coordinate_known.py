@@ -145,3 +145,9 @@ def test_the_solutions_of_one_coordinate_carry_the_mode_they_are_in(capsys):
     out = capsys.readouterr().out
     assert out.startswith('solutions: 4 found in 2 assembly mode(s) +, - (Newton')
     assert '--- solution 1 of 4 (branch ' in out
+
+
+def test_a_coordinate_takes_the_point_prefix(loader):
+    """`point:D.x` is D.x (the prefix docs/TOPICS.md gives for a point named like a joint): it
+    was refused as 'has no point named D.x'."""
+    assert spec_for(loader, 'point:D.x') == CoordinateSpec('point:D.x', 'D', 0)
