@@ -122,7 +122,7 @@ class Engine:
             mech,
             self.forward,
             lambda knowns, branch, method: self.new_solver(knowns, branch, method),
-            self._one_circuit,
+            self._on_circuit,
         )
         #: the reference pose's circuit (core.motion.circuits), scanned when first asked
         self._circuit: Circuit | None | bool = False
@@ -394,20 +394,20 @@ class Engine:
             self.record(solver, answer.result)
         return self._out_of_reach(solver, values, answer.result)
 
-    def _one_circuit(self, a: Result, b: Result) -> bool:
-        """Whether two configurations lie on the reference pose's circuit (a one-actuator
-        mechanism whose circuit passes its toggles: the two signs of a non-Grashof four-bar's
-        dyad are one motion, not two modes)."""
+    def _on_circuit(self, r: Result) -> bool | None:
+        """Whether a configuration lies on the reference pose's circuit, where that circuit
+        passes its toggles (a one-actuator mechanism: a non-Grashof four-bar's two dyad signs
+        are one motion; a Grashof double-rocker's mirror loop is another circuit with the same
+        signs); None where not known (no such circuit, or no mode read)."""
         if self._circuit is False:
             self._circuit = reference_circuit(self.mech)
         c = self._circuit
         if not isinstance(c, Circuit) or not c.crosses_signs:
-            return False
-        for r in (a, b):
-            mode, value = self.mode(r), r.inputs.get(c.actuator)
-            if mode is None or value is None or not c.holds(mode[0], float(value)):
-                return False
-        return True
+            return None
+        mode, value = self.mode(r), r.inputs.get(c.actuator)
+        if mode is None or value is None:
+            return None
+        return c.holds(mode[0], float(value))
 
     def mode_changes(self, before: Mode, here: Result | None, result: Result) -> bool:
         """Whether ``result`` is in another assembly mode than ``before`` (that of ``here``):

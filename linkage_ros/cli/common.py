@@ -395,7 +395,7 @@ def build_solve(mech, args, allow_range: bool):
         max_iter=args.max_iter,
         # signs name a mode of the forward plan: a target's solver follows its own plan, and
         # the target rule (target_engine) keeps its answers in that mode
-        branch='continuous' if inverse and _signs(args.branch) else args.branch,
+        branch='continuous' if inverse else args.branch,
     )  # PlanError: exit 2
     return knowns, axes, solver
 
@@ -404,10 +404,11 @@ def _signs(branch: str) -> bool:
     return branch not in ('continuous', 'reference')
 
 
-def target_engine(mech, args):
+def target_engine(mech, args, single: bool = False):
     """The node's engine for the command line's solver options: targets are answered as a
-    node answers them, in the reference pose's assembly mode (branch continuous from it) or in
-    the mode --branch names."""
+    node with that ``branch`` parameter answers them. ``single`` (`linkage solve`, one request
+    from the drawing): ``reference`` is the engine's start, continuous from the drawing (its
+    mode, or its circuit through a toggle: --any-mode may change it)."""
     from ..engine import Engine, EngineSettings
 
     if getattr(args, 'any_mode', False) and _signs(args.branch):
@@ -417,7 +418,7 @@ def target_engine(mech, args):
         solver=args.solver,
         tolerance=args.tol,
         max_iterations=args.max_iter,
-        branch=args.branch if _signs(args.branch) else 'continuous',
+        branch='continuous' if single and args.branch == 'reference' else args.branch,
     )
     return Engine(mech, settings)
 

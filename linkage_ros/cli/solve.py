@@ -54,7 +54,7 @@ def cmd_solve(args) -> int:
     elif solver.inverse:
         # the assembly mode of the reference pose (or the one --branch names), kept as a real
         # mechanism keeps it
-        engine = target_engine(mech, args)
+        engine = target_engine(mech, args, single=True)
         results = [engine.solve_target(solver, command, allow_mode_change=args.any_mode)]
     else:
         results = [solver.solve(command)]

@@ -68,9 +68,10 @@ def configuration_distance(a: Result | None, b: Result) -> float:
 #: makes a solver with the caller's settings: (knowns or None for the actuators, branch or None,
 #: method or None) -> Solver
 SolverMaker = Callable[[Sequence[str] | None, str | None, str | None], Solver]
-#: whether two configurations lie on one circuit of the mechanism (core.motion.circuits: a
-#: non-Grashof four-bar passes its toggles, so its dyad's two signs are one mode)
-OneCircuit = Callable[[Result, Result], bool]
+#: whether a configuration lies on the circuit through the reference pose (core.motion.circuits:
+#: a non-Grashof four-bar passes its toggles, so its dyad's two signs are one mode; a Grashof
+#: double-rocker's mirror loop has the same signs and is another), None where not known
+OnCircuit = Callable[[Result], bool | None]
 
 
 @dataclass(frozen=True)
@@ -91,10 +92,10 @@ class ModeKeeper:
         mech: Mechanism,
         forward: Solver,
         make: SolverMaker,
-        one_circuit: OneCircuit | None = None,
+        on_circuit: OnCircuit | None = None,
     ):
         self.mech, self.forward, self.make = mech, forward, make
-        self.one_circuit = one_circuit
+        self.on_circuit = on_circuit
         #: the configuration the mode of the target being answered is read at (changes_mode)
         self._here: Result | None = None
         #: (target names, branch signs or 'newton') -> that variant of the names' inverse solver
@@ -113,12 +114,17 @@ class ModeKeeper:
         return None if result is None else self.forward.mode_of(result)
 
     def changes_mode(self, before: Mode, here: Result | None, result: Result) -> bool:
-        """Whether ``result`` is in another mode than ``before`` (the mode of ``here``): its
-        forward dyads' signs differ clear of their toggles, and it is not on the circuit of
-        ``here`` (one_circuit: a motion through a toggle reaches it)."""
-        if not mode_differs(before, self.mode(result)):
-            return False
-        return not (here is not None and self.one_circuit and self.one_circuit(here, result))
+        """Whether ``result`` is in another mode than ``before`` (the mode of ``here``): on
+        another circuit than ``here`` where the circuit is known (on_circuit), one circuit
+        through its toggles whatever the signs; else its forward dyads' signs differ clear of
+        their toggles."""
+        if here is not None and self.on_circuit is not None:
+            a, b = self.on_circuit(here), self.on_circuit(result)
+            if a is not None and b is not None and a != b:
+                return True  # another circuit: the actuator cannot take the mechanism there
+            if a and b:
+                return False
+        return mode_differs(before, self.mode(result))
 
     def target(
         self,
@@ -173,14 +179,19 @@ class ModeKeeper:
                 'without being taken apart (ask for the change explicitly to allow it: '
                 '~/target_any_mode on the node, --any-mode on the command line)'
             )
+            where = (
+                f'assembly mode {self.label(after)} {self._of_what()}'
+                if self.label(after) != self.label(before)
+                else f'another circuit of the mechanism (signs {self.label(after)}, a loop its '
+                'actuator does not reach from the current one)'
+            )
             refusal = Result(
-                False,
-                f'target is reachable only in assembly mode {self.label(after)} '
-                f'{self._of_what()}; {why}',
-                solver=result.solver,
+                False, f'target is reachable only in {where}; {why}', solver=result.solver
             )
             return TargetAnswer(refusal, False)
-        result.mode_change = f'{self.label(before)} -> {self.label(after)}'
+        result.mode_change = f'{self.label(before)} -> {self.label(after)}' + (
+            ' (another circuit)' if self.label(before) == self.label(after) else ''
+        )
         return self._answer(result, after)
 
     def _answer(self, result: Result, mode: Mode) -> TargetAnswer:

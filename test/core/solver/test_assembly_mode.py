@@ -5,6 +5,7 @@ is the 50-digit four-bar of test/oracles.py, written apart from the core."""
 
 from __future__ import annotations
 
+import json
 import math
 import random
 
@@ -246,3 +247,41 @@ def test_a_grashof_double_rocker_loop_holds_both_signs():
     r = e.target({'rocker': float(want['theta4'])})
     assert r.success, r.reason
     assert r.inputs['crank'] == pytest.approx(1.0, abs=1e-9) and r.branch == '-'
+
+
+def test_the_double_rockers_mirror_loop_is_another_circuit_with_the_same_signs(tmp_path):
+    """Seed 000: a Grashof double-rocker has two loops, 'you can never pass on from one ... to
+    the other'. Without crank limits, a target only the mirror loop reaches (crank -0.80) was
+    answered in the same signs with no mode change. Now refused as another circuit; allowed on
+    request, the change says so. Oracle: the mpmath four-bar at crank -0.80."""
+    from oracles import fourbar
+
+    from linkage_ros.core.model import Scene
+
+    text = (CONFIG / 'four_bar_grashof_double_rocker.yaml').read_text()
+    path = tmp_path / 'dr.yaml'
+    path.write_text('\n'.join(ln for ln in text.splitlines() if 'crank_limits' not in ln))
+    mech = Scene.from_yaml(path).mechanism
+    mirror = fourbar(0.30, 0.20, 0.10, 0.25, -0.80, branch=1)
+    e = Engine(mech, EngineSettings())
+    r = e.target({'rocker': float(mirror['theta4'])})
+    assert not r.success and 'reachable only in another circuit' in r.reason, r.reason
+    r = e.target({'rocker': float(mirror['theta4'])}, allow_mode_change=True)
+    assert r.success and r.mode_change.endswith('(another circuit)')
+    assert r.inputs['crank'] == pytest.approx(-0.80, abs=1e-9)
+
+
+def test_the_cli_sweeps_targets_in_the_drawings_mode_under_branch_reference(capsys):
+    """`linkage sweep --branch reference` answers targets as a node with branch: reference
+    does (the drawing's mode, every target); `linkage solve` from the drawing follows its
+    circuit (a non-Grashof four-bar: both signs)."""
+    from linkage_ros.cli import main
+
+    argv = ['sweep', 'four_bar_non_grashof', '--target', 'rocker=4.0', '--json']
+    main([*argv, '--branch', 'reference'])
+    d = json.loads(capsys.readouterr().out.splitlines()[0])
+    assert d['status'] == 'error'
+    assert "the branch setting 'reference' keeps the mechanism in mode +" in d['reason']
+    main([*argv, '--branch', 'continuous'])
+    assert json.loads(capsys.readouterr().out.splitlines()[0])['status'] == 'ok'
+    assert main(['solve', 'four_bar_non_grashof', '--target', 'rocker=4.0']) == 0
