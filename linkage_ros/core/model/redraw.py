@@ -295,8 +295,9 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
             raise RedrawRefused(
                 f'the drawn pose cannot be closed with {names}: at {lam:.0%} of the way from '
                 f'the drawn lengths the mechanism stops closing{held} (it would not assemble, '
-                'or would pass a toggle position and change assembly mode); redraw the '
-                'reference pose nearer the new dimensions',
+                'or would pass a toggle position and change assembly mode); if these lengths '
+                'close in some pose, redraw the reference pose nearer it (a coupler longer '
+                'than the other links together closes in none)',
                 file=mech.source,
                 key='dimensions',
                 value=dict(dims),
