@@ -18,7 +18,8 @@ mode. Angles are radians (degrees in parentheses), lengths metres.
 JSON: {"scene", "inputs": {name: {"min", "max", "min_source", "max_source", "full_turn",
 "assembly", "reference", "unit"}}, "toggles": {name: [...]}, "region": {point: {"boundary":
 [[x, y], ...], "area", "method", "actuators", "limits", "hull_check"}}, "tilt": {...},
-"oscillation": {"input", "links": {link: {"min", "max", "full_turn"}}}, "motion": {"actuator",
+"oscillation": {"input", "links": {link: {"min", "max", "full_turn"[, "without_limits":
+{...}: a limited crank's whole circuit]}}}, "motion": {"actuator",
 "full_turn", "outputs": {...}, "transmission_angle": {...}} (``--motion``, as linkage check's),
 "plots": {...}}.
 
@@ -29,6 +30,7 @@ Exit status: 0 ok; 1 a requested analysis was refused (the tilt's start pose doe
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import sys
@@ -36,7 +38,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..core.errors import LinkageError
-from ..core.model import SlideActuator
+from ..core.model import AngleActuator, SlideActuator
 from ..core.units import Quantity, UnitError, degrees_warning, expect, parse_text
 from ..outputs import folder_refusal
 from .common import UsageError, add_scene_argument, load_mechanism
@@ -160,6 +162,16 @@ def _check(args, mech):
     return acts, hold
 
 
+def _limits_lifted(mech, name: str):
+    """``mech`` with crank ``name``'s limits lifted, or None where it has none (or is a slide:
+    a cylinder's stroke is its body, not a setting a circuit could pass)."""
+    act = mech.actuators[name]
+    if not isinstance(act, AngleActuator) or (act.min is None and act.max is None):
+        return None
+    lifted = dataclasses.replace(act, min=None, max=None)
+    return dataclasses.replace(mech, actuators={**mech.actuators, name: lifted})
+
+
 def _tilt_from(args) -> float | None:
     """--tilt-from in rad (the unit grammar of core.units: a bare number is rad)."""
     if args.tilt_from is None:
@@ -229,18 +241,24 @@ def analyse(args, mech) -> tuple[dict, int]:
             status = REFUSED
     if args.links:
         inp = args.input or next(iter(mech.actuators))
-        osc = {}
+        osc: dict[str, dict[str, Any]] = {}
         cyl = {
             l
             for a in mech.actuators.values()
             if isinstance(a, SlideActuator) and a.cylinder
             for l in (mech.prismatics[a.joint].guide, mech.prismatics[a.joint].slider)
         }
+        free = _limits_lifted(mech, inp)  # the input's limits lifted, where it has them
         for link in mech.moving_links:
             if link in cyl or len(mech.links[link].points) < 2:
                 continue
             lo, hi = motion.oscillation_range(mech, link, inp)
             osc[link] = {'min': lo, 'max': hi, 'full_turn': lo is None}
+            if free is not None:
+                # the lectures' question ("through what angle can link 4 oscillate") is the
+                # whole circuit, through the toggles the limits keep the input short of
+                flo, fhi = motion.oscillation_range(free, link, inp)
+                osc[link]['without_limits'] = {'min': flo, 'max': fhi, 'full_turn': flo is None}
         report['oscillation'] = {'input': inp, 'links': osc}
     if args.motion:
         from ..core.motion.quantities import quantities_report
@@ -348,6 +366,14 @@ def _print_human(r: dict, mech) -> None:
                 else f'{_fmt(v["min"], "rad")} .. {_fmt(v["max"], "rad")} '
                 f'(swing {math.degrees(v["max"] - v["min"]):.4g} deg)'
             )
+            free = v.get('without_limits')
+            if free is not None and free != {k: v[k] for k in ('min', 'max', 'full_turn')}:
+                text += "; without the input's limits (through its toggles): " + (
+                    'turns fully'
+                    if free['full_turn']
+                    else f'{_fmt(free["min"], "rad")} .. {_fmt(free["max"], "rad")} '
+                    f'(swing {math.degrees(free["max"] - free["min"]):.4g} deg)'
+                )
             p(f'  {link:<12} {text}')
     if r.get('motion') is not None:
         from .check import format_motion

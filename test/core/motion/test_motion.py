@@ -521,6 +521,27 @@ def test_cli_tilt_starts_from_the_angle_given(capsys):
     assert main(['excavator', '--tilt-from', '1.0']) == 2
 
 
+def test_links_report_the_whole_circuit_where_crank_limits_stop_short_of_the_toggles(capsys):
+    """Seed 003 example 5: 'find the angle through which link number 2 and link number 4 can
+    oscillate' in the non-Grashof 3R-1P. The shipped scene's crank limits sit 0.01 rad inside its
+    toggles, so `--links` gave the rocker 127.1 deg (half its circuit) and nothing said so. The
+    report adds the swing without the crank's limits. Oracle: A on the slide line at distance
+    e = 0.14 from O4, 0.2 cos(theta - psi) = 0.14 + 0.3 cos(psi), closes while cos(psi) <= 0.2:
+    psi in [acos 0.2, 2 pi - acos 0.2], 203.1 deg."""
+    from linkage_ros.cli.range import main
+
+    assert main(['inverted_slider_crank_oscillating', '--links', '--json']) == 0
+    rocker = json.loads(capsys.readouterr().out)['oscillation']['links']['rocker']
+    free = rocker['without_limits']
+    assert free['min'] == pytest.approx(math.acos(0.2), abs=1e-9)
+    assert free['max'] == pytest.approx(2 * math.pi - math.acos(0.2), abs=1e-9)
+    assert rocker['max'] - rocker['min'] < free['max'] - free['min'] - 1.0  # the limits' half
+    assert main(['inverted_slider_crank_oscillating', '--links']) == 0
+    assert "without the input's limits (through its toggles)" in capsys.readouterr().out
+    assert main(['four_bar', '--links']) == 0  # no limits: nothing added
+    assert 'without the input' not in capsys.readouterr().out
+
+
 def test_plots_write_pngs_with_both_branches(tmp_path):
     from linkage_ros.plots import plot_output_vs_input, plot_region
 
