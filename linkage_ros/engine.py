@@ -11,6 +11,7 @@ with the same words and reports the same fields.
 from __future__ import annotations
 
 import collections
+import functools
 import math
 import time
 from collections import OrderedDict
@@ -124,8 +125,6 @@ class Engine:
             lambda knowns, branch, method: self.new_solver(knowns, branch, method),
             self._on_circuit,
         )
-        #: the reference pose's circuit (core.motion.circuits), scanned when first asked
-        self._circuit: Circuit | None | bool = False
         #: the drawing's assembly mode (what ``branch: reference`` keeps targets in)
         self._reference_mode = self.keeper.mode(ref if ref.success else None)
 
@@ -394,15 +393,18 @@ class Engine:
             self.record(solver, answer.result)
         return self._out_of_reach(solver, values, answer.result)
 
+    @functools.cached_property
+    def _reference_circuit(self) -> Circuit | None:
+        """The reference pose's circuit (core.motion.circuits), scanned when first asked."""
+        return reference_circuit(self.mech)
+
     def _on_circuit(self, r: Result) -> bool | None:
         """Whether a configuration lies on the reference pose's circuit, where that circuit
         passes its toggles (a one-actuator mechanism: a non-Grashof four-bar's two dyad signs
         are one motion; a Grashof double-rocker's mirror loop is another circuit with the same
         signs); None where not known (no such circuit, or no mode read)."""
-        if self._circuit is False:
-            self._circuit = reference_circuit(self.mech)
-        c = self._circuit
-        if not isinstance(c, Circuit) or not c.crosses_signs:
+        c = self._reference_circuit
+        if c is None or not c.crosses_signs:
             return None
         mode, value = self.mode(r), r.inputs.get(c.actuator)
         if mode is None or value is None:
@@ -411,8 +413,9 @@ class Engine:
 
     def mode_changes(self, before: Mode, here: Result | None, result: Result) -> bool:
         """Whether ``result`` is in another assembly mode than ``before`` (that of ``here``):
-        other dyad signs clear of their toggles, not on one circuit with ``here``."""
-        return self.keeper.changes_mode(before, here, result)
+        other dyad signs clear of their toggles, not on one circuit with ``here`` (under a
+        branch setting, the signs alone: it holds them)."""
+        return self.keeper.changes_mode(before, here if self.fixed_mode() is None else None, result)
 
     def fixed_mode(self) -> Mode | None:
         """The assembly mode the ``branch`` setting fixes (the forward dyads' signs, or the loop

@@ -21,7 +21,6 @@ from typing import Any
 from .core.errors import CommandError, echo
 from .core.model import Mechanism
 from .core.solver import Result
-from .core.solver.mode_rule import mode_differs
 from .core.solver.result import branch_text
 from .core.velocity import velocities
 from .engine import Engine, max_request_names, rates_error, request_shape_error
@@ -299,11 +298,7 @@ def solve_trajectory(
                 return _refused(f'point {i}: {r.reason}', i)
             after = engine.mode(r)
             here = results[-1] if results else engine.last
-            if before is not None and (
-                engine.mode_changes(before, here, r)
-                if engine.fixed_mode() is None
-                else mode_differs(before, after)  # a branch setting holds the signs
-            ):
+            if before is not None and engine.mode_changes(before, here, r):
                 assert after is not None
                 return _refused(
                     f'point {i}: the assembly mode changes from {branch_text(before[0])} to '

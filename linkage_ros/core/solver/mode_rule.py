@@ -96,8 +96,6 @@ class ModeKeeper:
     ):
         self.mech, self.forward, self.make = mech, forward, make
         self.on_circuit = on_circuit
-        #: the configuration the mode of the target being answered is read at (changes_mode)
-        self._here: Result | None = None
         #: (target names, branch signs or 'newton') -> that variant of the names' inverse solver
         self._variants: dict[tuple[frozenset[str], str], Solver] = {}
         #: assembly mode -> forward configurations spread over the actuator ranges in it
@@ -144,13 +142,13 @@ class ModeKeeper:
         result = solver.solve(values, commit=False)
         after = self.mode(result) if result.success else None
         # a branch setting holds the signs themselves; else a circuit's toggles are no change
-        self._here = None if held_by else last
-        if result.success and not self.changes_mode(before, self._here, result):
+        here = None if held_by else last
+        if result.success and not self.changes_mode(before, here, result):
             if replace and _folded(after) and not _folded(before):
                 # a dyad at its toggle is in every mode, and a fold may be where the inverse
                 # plan lands while the mode has a regular solution (a Peaucellier cell with A
                 # on B, P anywhere): that one, where there is one
-                alt = self.in_mode(solver, values, before, last)
+                alt = self.in_mode(solver, values, before, last, here)
                 if alt is not None and not _folded(self.mode(alt)):
                     return self._answer(alt, self.mode(alt) or before)
             return self._answer(result, after or before)  # the inverse solver's continuity
@@ -158,9 +156,9 @@ class ModeKeeper:
             return TargetAnswer(result, False)
         # another mode, or refused (a limit): the solution in mode nearest the last good state
         # among the inverse plan's other branches
-        alt = self.in_mode(solver, values, before, last)
+        alt = self.in_mode(solver, values, before, last, here)
         if alt is None and _worth_a_search(solver, result):
-            alt = self._searched(solver, values, before, last)
+            alt = self._searched(solver, values, before, last, here)
         if alt is not None:
             return self._answer(alt, self.mode(alt) or before)
         if not result.success and solver.mode is SolveMode.CLOSED_FORM:
@@ -209,14 +207,20 @@ class ModeKeeper:
         return "(the sign of the loop Jacobian's determinant)"
 
     def in_mode(
-        self, solver: Solver, values: Mapping[str, Any], before: Mode, last: Result | None
+        self,
+        solver: Solver,
+        values: Mapping[str, Any],
+        before: Mode,
+        last: Result | None,
+        here: Result | None,
     ) -> Result | None:
         """The solution of the target in assembly mode ``before`` within limits nearest
         ``last``: every branch of the inverse plan's dyads is tried (a closed-form plan has no
         other solutions); where Newton places the rest (hybrid, newton), each branch is solved
         from ``last`` and then, if none is in mode, restarted from configurations spread over
         the actuator ranges in that mode (a Newton root depends on its start). None if none is
-        found."""
+        found. ``here``: the configuration whose circuit counts as the mode (changes_mode;
+        None: the signs alone, as a branch setting holds them)."""
         k = solver.branch_count
         if k > MAX_BRANCHES:
             return None
@@ -230,14 +234,14 @@ class ModeKeeper:
                 alt.adopt(last)  # Newton starts from the mechanism's state
             r = alt.solve(values, commit=False)
             mode = self.mode(r) if r.success else None
-            if not r.success or self.changes_mode(before, self._here, r):
+            if not r.success or self.changes_mode(before, here, r):
                 continue
             key = (_folded(mode), configuration_distance(last, r))  # a regular one first
             if best is None or key < best[:2]:
                 best = (*key, r)
         if best is not None or closed:
             return None if best is None else best[2]
-        return self._multi_start(self._newton_for(solver), values, before, last)
+        return self._multi_start(self._newton_for(solver), values, before, last, here)
 
     def _other_mode(
         self, solver: Solver, values: Mapping[str, Any], last: Result | None
@@ -248,15 +252,18 @@ class ModeKeeper:
         return min(found, key=lambda r: configuration_distance(last, r), default=None)
 
     def _searched(
-        self, solver: Solver, values: Mapping[str, Any], before: Mode, last: Result | None
+        self,
+        solver: Solver,
+        values: Mapping[str, Any],
+        before: Mode,
+        last: Result | None,
+        here: Result | None,
     ) -> Result | None:
         """The solution in mode ``before`` within limits nearest ``last`` among those a
         multi-start Newton search finds (modes.newton_modes from SEARCH_STARTS starts), or
         None."""
         found = newton_modes(self._newton_for(solver).compiled, values, starts=SEARCH_STARTS)
-        in_mode = [
-            r for r in found.results if r.success and not self.changes_mode(before, self._here, r)
-        ]
+        in_mode = [r for r in found.results if r.success and not self.changes_mode(before, here, r)]
         return min(in_mode, key=lambda r: configuration_distance(last, r), default=None)
 
     def _with_signs(self, solver: Solver, code: int, k: int) -> Solver:
@@ -280,7 +287,12 @@ class ModeKeeper:
         return alt
 
     def _multi_start(
-        self, solver: Solver, values: Mapping[str, Any], before: Mode, last: Result | None
+        self,
+        solver: Solver,
+        values: Mapping[str, Any],
+        before: Mode,
+        last: Result | None,
+        here: Result | None,
     ) -> Result | None:
         """A Newton (or hybrid) inverse solve converges to the root nearest its start, which
         may lie in another mode or beyond a limit while the target has a solution in the
@@ -292,7 +304,7 @@ class ModeKeeper:
             for start in self._mode_starts(before[0], last)[:MAX_STARTS]:
                 solver.adopt(start)
                 r = solver.solve(values, commit=False)
-                if r.success and not self.changes_mode(before, self._here, r):
+                if r.success and not self.changes_mode(before, here, r):
                     found = r
                     break
         finally:
