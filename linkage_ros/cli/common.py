@@ -382,11 +382,11 @@ def build_solve(mech, args, allow_range: bool):
             given[known] = name
             knowns.append(known)
         axes.append((name, values))
-    if all(options[n] == '--set' for n, _ in axes):
+    inverse = not all(options[n] == '--set' for n, _ in axes)
+    if not inverse:
         missing = [a for a in acts if a not in options]
         if missing:
             raise UsageError(f'missing --set for actuator(s) {", ".join(missing)} of {mech.name!r}')
-    inverse = not all(options[n] == '--set' for n, _ in axes)
     solver = Solver(
         mech,
         knowns=grouped_knowns(mech, knowns),  # P.x and P.y: the point, as the node takes them

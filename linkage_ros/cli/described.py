@@ -14,7 +14,6 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from ..core.model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
-from ..core.model.names import point_coordinate
 from ..point_coordinates import group_point_coordinates
 
 TURN = 2.0 * math.pi
@@ -50,15 +49,9 @@ def scene_command(mech, command: Mapping[str, Any]) -> dict[str, Any]:
 
 def grouped_knowns(mech, knowns: Sequence[str]) -> list[str]:
     """The solver's knowns of a command line's: ``P.x`` and ``P.y`` both given are the point
-    ``point:P`` (in the place of the first), as :func:`scene_command` groups their values."""
-    out: list[str] = []
-    for name in knowns:
-        coordinate = point_coordinate(mech, name)
-        if coordinate is None or f'{coordinate[0]}.{"yx"[coordinate[1]]}' not in knowns:
-            out.append(name)
-        elif f'point:{coordinate[0]}' not in out:
-            out.append(f'point:{coordinate[0]}')
-    return out
+    ``point:P`` (in the place of the first), by the rule :func:`scene_command` groups their
+    values with (point_coordinates)."""
+    return list(group_point_coordinates(mech, dict.fromkeys(knowns, 0.0)))
 
 
 def request_echo(mech, d: dict[str, Any], command: Mapping[str, Any]) -> dict[str, Any]:

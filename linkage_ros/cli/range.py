@@ -162,6 +162,20 @@ def _check(args, mech):
     return acts, hold
 
 
+def _swing(lo: float | None, hi: float | None) -> dict[str, Any]:
+    """A link's oscillation as the report gives it (lo None: it turns fully)."""
+    return {'min': lo, 'max': hi, 'full_turn': lo is None}
+
+
+def _swing_text(v: dict[str, Any]) -> str:
+    if v['full_turn']:
+        return 'turns fully'
+    return (
+        f'{_fmt(v["min"], "rad")} .. {_fmt(v["max"], "rad")} '
+        f'(swing {math.degrees(v["max"] - v["min"]):.4g} deg)'
+    )
+
+
 def _limits_lifted(mech, name: str):
     """``mech`` with crank ``name``'s limits lifted, or None where it has none (or is a slide:
     a cylinder's stroke is its body, not a setting a circuit could pass)."""
@@ -252,13 +266,11 @@ def analyse(args, mech) -> tuple[dict, int]:
         for link in mech.moving_links:
             if link in cyl or len(mech.links[link].points) < 2:
                 continue
-            lo, hi = motion.oscillation_range(mech, link, inp)
-            osc[link] = {'min': lo, 'max': hi, 'full_turn': lo is None}
+            osc[link] = _swing(*motion.oscillation_range(mech, link, inp))
             if free is not None:
                 # the lectures' question ("through what angle can link 4 oscillate") is the
                 # whole circuit, through the toggles the limits keep the input short of
-                flo, fhi = motion.oscillation_range(free, link, inp)
-                osc[link]['without_limits'] = {'min': flo, 'max': fhi, 'full_turn': flo is None}
+                osc[link]['without_limits'] = _swing(*motion.oscillation_range(free, link, inp))
         report['oscillation'] = {'input': inp, 'links': osc}
     if args.motion:
         from ..core.motion.quantities import quantities_report
@@ -360,20 +372,10 @@ def _print_human(r: dict, mech) -> None:
     if o is not None:
         p(f'link oscillation while {o["input"]} runs over its range:')
         for link, v in o['links'].items():
-            text = (
-                'turns fully'
-                if v['full_turn']
-                else f'{_fmt(v["min"], "rad")} .. {_fmt(v["max"], "rad")} '
-                f'(swing {math.degrees(v["max"] - v["min"]):.4g} deg)'
-            )
+            text = _swing_text(v)
             free = v.get('without_limits')
-            if free is not None and free != {k: v[k] for k in ('min', 'max', 'full_turn')}:
-                text += "; without the input's limits (through its toggles): " + (
-                    'turns fully'
-                    if free['full_turn']
-                    else f'{_fmt(free["min"], "rad")} .. {_fmt(free["max"], "rad")} '
-                    f'(swing {math.degrees(free["max"] - free["min"]):.4g} deg)'
-                )
+            if free is not None and free != _swing(v['min'], v['max']):
+                text += f"; without the input's limits (through its toggles): {_swing_text(free)}"
             p(f'  {link:<12} {text}')
     if r.get('motion') is not None:
         from .check import format_motion

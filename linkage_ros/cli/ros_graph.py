@@ -69,8 +69,7 @@ def topic_types(node: Any, topics: Sequence[str], wait: float) -> dict[str, str]
         seen = ', '.join(sorted(graph)) or 'none'
         raise UsageError(
             f'no publisher or subscription of {", ".join(missing)} appeared within {wait:g} s '
-            '(same '
-            f'ROS_DOMAIN_ID and discovery range? topics seen: {seen})'
+            f'(same ROS_DOMAIN_ID and discovery range? topics seen: {seen})'
         )
     out = {}
     for t in names:
