@@ -22,7 +22,8 @@ from typing import Any, Protocol
 from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
 from .core.model.names import Named, NameKind, resolve_name
-from .core.motion.circuits import Circuit, reference_circuit
+from .core.motion.circuits import Circuit
+from .core.motion.circuits import reference_circuit as scan_reference_circuit
 from .core.solver import Result, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
@@ -123,10 +124,12 @@ class Engine:
             mech,
             self.forward,
             lambda knowns, branch, method: self.new_solver(knowns, branch, method),
-            self._on_circuit,
+            self.on_circuit,
         )
         #: the drawing's assembly mode (what ``branch: reference`` keeps targets in)
         self._reference_mode = self.keeper.mode(ref if ref.success else None)
+        # the circuit scan now (about 0.1 s where it passes toggles), not in the first command
+        _ = self.circuit_checked
 
     # -- the good state ----------------------------------------------------------------------------
     @property
@@ -294,11 +297,65 @@ class Engine:
         bad_rates = rates_error(rates)
         if bad_rates:
             return Result(False, bad_rates)
-        result = self.solve(self.forward, values)
+        result = self.forward_solve(values)
         if rates is not None and result.success:
             result.velocity = velocities(self.forward, result, values, rates)
         result.held = held
         return result
+
+    def forward_solve(self, values: Mapping[str, Any]) -> Result:
+        """The forward solver on a complete command in the scene's names (Engine.command's
+        solve, and the command line's): brought up to date, solved, refused if the actuator
+        cannot move the mechanism there (forward_refusal), and on success the new last good
+        state."""
+        solver = self.forward
+        self.bring_up_to_date(solver)
+        if not self.circuit_checked:
+            result = solver.solve(values)
+        else:
+            before, snap = self.last, solver.snapshot()
+            result = solver.solve(values)
+            refusal = self.forward_refusal(before, result)
+            if refusal is not None:
+                solver.restore(snap)  # a refused request changes nothing
+                return refusal
+        if result.success:
+            self.record(solver, result)
+        return result
+
+    @functools.cached_property
+    def circuit_checked(self) -> bool:
+        """Whether forward answers are checked against the reference pose's circuit: a
+        one-actuator mechanism whose circuit passes its toggles (forward_refusal)."""
+        c = self.reference_circuit
+        return c is not None and c.crosses_signs
+
+    def forward_refusal(self, before: Result | None, result: Result) -> Result | None:
+        """A forward answer on another circuit than the reference pose's while the state
+        ``before`` it is on that circuit, refused: a Grashof double-rocker's mirror loop has
+        the same dyad signs over the mirrored input interval, and "you can never pass on from
+        one mode of assembly to the other" (seed 000); ``linkage check`` gives the circuit's
+        interval as the input's reachable range. None for any other answer, or where the state
+        is off that circuit already (a target allowed to change the mode moved it: its own
+        circuit is not known)."""
+        if not result.success or self.on_circuit(result) is not False:
+            return None
+        if before is not None and self.on_circuit(before) is False:
+            return None
+        c = self.reference_circuit
+        assert c is not None  # (on_circuit answered)
+        unit = 'rad' if c.periodic else 'm'
+        where = ', '.join(f'{lo:.6g}..{hi:.6g} {unit}' for lo, hi in c.intervals())
+        value = result.inputs.get(c.actuator, math.nan)
+        return Result(
+            False,
+            f'{c.actuator} = {value:.6g} {unit} is reachable only on the other loop of the '
+            f'mechanism (another assembly mode): from its drawing the actuator moves it over '
+            f'{c.actuator} {where} (its reachable range), and it cannot pass from one loop to '
+            'the other without being taken apart',
+            inputs=dict(result.inputs),
+            solver=result.solver,
+        )
 
     def not_actuators(self, values: Mapping[str, Any]) -> str | None:
         """Why a command naming a joint, link or point (not an actuator) is refused, with the
@@ -394,16 +451,16 @@ class Engine:
         return self._out_of_reach(solver, values, answer.result)
 
     @functools.cached_property
-    def _reference_circuit(self) -> Circuit | None:
+    def reference_circuit(self) -> Circuit | None:
         """The reference pose's circuit (core.motion.circuits), scanned when first asked."""
-        return reference_circuit(self.mech)
+        return scan_reference_circuit(self.mech)
 
-    def _on_circuit(self, r: Result) -> bool | None:
+    def on_circuit(self, r: Result) -> bool | None:
         """Whether a configuration lies on the reference pose's circuit, where that circuit
         passes its toggles (a one-actuator mechanism: a non-Grashof four-bar's two dyad signs
         are one motion; a Grashof double-rocker's mirror loop is another circuit with the same
         signs); None where not known (no such circuit, or no mode read)."""
-        c = self._reference_circuit
+        c = self.reference_circuit
         if c is None or not c.crosses_signs:
             return None
         mode, value = self.mode(r), r.inputs.get(c.actuator)

@@ -300,9 +300,16 @@ def solve_trajectory(
             here = results[-1] if results else engine.last
             if before is not None and engine.mode_changes(before, here, r):
                 assert after is not None
+                signs, signs_after = branch_text(before[0]), branch_text(after[0])
+                on = (engine.on_circuit(here), engine.on_circuit(r)) if here is not None else ()
+                change = (
+                    f'the mechanism changes circuit (signs {signs} -> {signs_after}, onto a loop '
+                    'its actuator does not reach from the other)'
+                    if len(on) == 2 and None not in on and on[0] != on[1]
+                    else f'the assembly mode changes from {signs} to {signs_after}'
+                )
                 return _refused(
-                    f'point {i}: the assembly mode changes from {branch_text(before[0])} to '
-                    f'{branch_text(after[0])} between points {i - 1} and {i} (a branch jump or a '
+                    f'point {i}: {change} between points {i - 1} and {i} (a branch jump or a '
                     'toggle crossed); a mechanism cannot follow that',
                     i,
                 )

@@ -262,9 +262,19 @@ class _Engine:
     def _sequential(self, ctx: _Context, columns, a, b, i0, i1, rates: RunRates | None = None):
         ctx.sync()
         S = ctx.solver
+        engine = self.engine
+        checked = engine.circuit_checked  # Engine.forward_solve's circuit rule
         for i in range(i0, i1):
             cmd = command_row(columns, i)
-            r = S.solve(cmd)
+            if checked:
+                before, snap = engine.last, S.snapshot()
+                r = S.solve(cmd)
+                refusal = engine.forward_refusal(before, r)
+                if refusal is not None:
+                    S.restore(snap)
+                    r = refusal
+            else:
+                r = S.solve(cmd)
             self.res.put_result(a + i, r)
             if r.success:
                 ctx.push(_Entry('solve', cmd=cmd, signs=branch_signs(r.branch), result=r))
@@ -307,6 +317,8 @@ class _Engine:
                 if continuous
                 else end - pos
             )
+            if take and self.engine.circuit_checked:
+                take = self._on_circuit_prefix(B, cols, take)
             # next to a tangency the batched and single dyad formulas may disagree on closing
             near = np.flatnonzero(
                 np.asarray(B.ok[:take]) & (np.asarray(B.margin[:take]) < NEAR_TANGENT)
@@ -330,6 +342,22 @@ class _Engine:
                 stretch = SEQUENTIAL_STRETCH // 2
                 chunk = min(CHUNK_MAX, chunk * 4)
             self.progress.update(self.done + pos)
+
+    def _on_circuit_prefix(self, B, cols, take: int) -> int:
+        """How many of the first ``take`` batch rows Engine.forward_solve answers as the
+        batch does: up to the first answer on another circuit than the reference pose's while
+        the state is on it (that row is refused, one by one)."""
+        engine = self.engine
+        last = engine.last
+        circuit = engine.reference_circuit
+        if circuit is None or (last is not None and engine.on_circuit(last) is False):
+            return take
+        values = np.asarray(cols[circuit.actuator], float)
+        ok = np.asarray(B.ok[:take], bool)
+        for i in np.flatnonzero(ok).tolist():
+            if not circuit.holds(tuple(int(v) for v in B.signs[i]), float(values[i])):
+                return i
+        return take
 
     def _accept(self, ctx, solver, B, cols, g0, take) -> int:
         """Copy the first ``take`` batch rows into the results; returns how many were taken

@@ -423,6 +423,18 @@ def target_engine(mech, args, single: bool = False):
     return Engine(mech, settings)
 
 
+def forward_engine(mech, args):
+    """The node's engine for a forward solve or sweep with the command line's solver options:
+    its commands are answered as the node answers ~/command (Engine.forward_solve: on the
+    drawing's circuit, continuous from the drawing)."""
+    from ..engine import Engine, EngineSettings
+
+    settings = EngineSettings(
+        solver=args.solver, tolerance=args.tol, max_iterations=args.max_iter, branch=args.branch
+    )
+    return Engine(mech, settings)
+
+
 def clean(obj: Any) -> Any:
     """JSON-safe copy: tuples -> lists, numpy scalars -> Python, non-finite floats -> None."""
     if isinstance(obj, dict):

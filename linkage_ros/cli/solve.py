@@ -18,6 +18,7 @@ from .common import (
     build_solve,
     dumps,
     format_result,
+    forward_engine,
     load_mechanism,
     target_engine,
 )
@@ -56,8 +57,8 @@ def cmd_solve(args) -> int:
         # mechanism keeps it
         engine = target_engine(mech, args, single=True)
         results = [engine.solve_target(solver, command, allow_mode_change=args.any_mode)]
-    else:
-        results = [solver.solve(command)]
+    else:  # as the node answers ~/command from its drawing
+        results = [forward_engine(mech, args).forward_solve(command)]
     dicts = [request_echo(mech, r.to_dict(mech), given) for r in results]
     for d, r in zip(dicts, results):
         if r.mode_change:

@@ -21,6 +21,7 @@ from .common import (
     _grid,
     build_solve,
     dumps,
+    forward_engine,
     load_mechanism,
     target_engine,
 )
@@ -92,9 +93,9 @@ def cmd_sweep(args) -> int:
             + ['residual', 'branch', 'margin']
         )
         out.print('\t'.join(head))
-    engine = None
-    if solver.inverse:  # targets as a node answers them (in the mode --branch names)
-        engine = target_engine(mech, args)
+    # targets and commands as a node answers them (in the mode --branch names; commands on
+    # the drawing's circuit)
+    engine = target_engine(mech, args) if solver.inverse else forward_engine(mech, args)
     # lazy: a 10^9-point grid starts printing at once (only --csv, which keeps every answer
     # for its table, lists it first)
     grid = _grid([vals for _, vals in axes])
@@ -106,7 +107,7 @@ def cmd_sweep(args) -> int:
     for i, combo in enumerate(grid):
         command = dict(zip(names, combo))
         known = scene_command(mech, command)  # a robot description's names and values
-        res = engine.solve_target(solver, known) if engine else solver.solve(known)
+        res = engine.solve_target(solver, known) if solver.inverse else engine.forward_solve(known)
         if table is not None:
             table.put_result(i, res)
         n_ok += res.success

@@ -56,6 +56,17 @@ class Circuit:
                 return True
         return False
 
+    def intervals(self) -> list[tuple[float, float]]:
+        """The actuator values (rad or m, unwrapped) the circuit spans, its stretches' intervals
+        merged where they meet (within END_SLACK), in increasing order."""
+        merged: list[tuple[float, float]] = []
+        for lo, hi in sorted((s.lo, s.hi) for s in self.stretches):
+            if merged and lo <= merged[-1][1] + END_SLACK:
+                merged[-1] = (merged[-1][0], max(merged[-1][1], hi))
+            else:
+                merged.append((lo, hi))
+        return merged
+
     @property
     def crosses_signs(self) -> bool:
         """Whether the circuit takes up more than one sign combination (passes a toggle)."""

@@ -1,0 +1,148 @@
+"""A command answers on the circuit the actuator moves the mechanism through, as targets are.
+
+Seed 000: a Grashof double-rocker has "two distinct loops for two different modes of assembly
+... you can never pass on from one mode of assembly to the other"; a non-Grashof four-bar has
+"only one curve" that takes up the mirror configuration. A limit-free double-rocker drawn on
+one loop answered a command on the mirror loop (same dyad sign, mirrored input interval) with
+status OK, while `linkage check` gave the drawing's loop as the input's reachable range: the
+published pose jumped to a configuration the machine cannot reach without being taken apart.
+
+Oracle: the cosine rule. With ground g, crank c, coupler b and rocker r, the crank angle t
+closes where |r - b| <= |A - O4| <= r + b, |A - O4|^2 = g^2 + c^2 - 2 g c cos t: for the
+double-rocker (0.30, 0.20, 0.10, 0.25) that is acos(0.8958..) <= |t| <= acos(0.0625), one
+interval for each loop; the drawing (t = 60 deg) is on the upper one."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scenes import four_bar
+
+from linkage_ros import bag
+from linkage_ros.cli import main as cli_main
+from linkage_ros.engine import Engine, EngineSettings
+
+G, C, B, R = 0.30, 0.20, 0.10, 0.25
+
+
+def _crank_interval(g: float, c: float, b: float, r: float) -> tuple[float, float]:
+    """The crank angles (rad, 0..pi) where the four-bar closes, by the cosine rule."""
+    lo = (g * g + c * c - (r - b) ** 2) / (2 * g * c)  # |A - O4| = |r - b|
+    hi = (g * g + c * c - (r + b) ** 2) / (2 * g * c)  # |A - O4| = r + b
+    return math.acos(min(1.0, lo)), math.acos(max(-1.0, hi))
+
+
+def _double_rocker():
+    return four_bar(G, C, B, R, input=math.radians(60.0), branch=1)
+
+
+def test_a_command_on_the_mirror_loop_is_refused_and_changes_nothing():
+    lo, hi = _crank_interval(G, C, B, R)
+    e = Engine(_double_rocker(), EngineSettings())
+    inside = [lo + 1e-6, 0.5 * (lo + hi), hi - 1e-6]
+    for t in inside:
+        assert e.command({'crank': t}).success, t
+    last = e.last
+    for t in (-0.5 * (lo + hi), -lo - 1e-3, -hi + 1e-3):
+        r = e.command({'crank': t})
+        assert not r.success, t
+        assert 'reachable only on the other loop of the mechanism' in r.reason
+        assert f'{lo:.6g}..{hi:.6g} rad (its reachable range)' in r.reason, r.reason
+        assert r.inputs == {'crank': t}  # the request is echoed
+        assert e.last is last  # nothing changed
+    # the next command continues from the last good state, on the drawing's loop: as if the
+    # refused ones had not been sent
+    untouched = Engine(_double_rocker(), EngineSettings())
+    for t in inside:
+        untouched.command({'crank': t})
+    again = e.command({'crank': inside[1]})
+    assert again.success and again.points == untouched.command({'crank': inside[1]}).points
+    # where the cosine rule does not close at all, the reason stays the closure's
+    assert e.command({'crank': 0.0}).reason.startswith('cannot assemble')
+
+
+def test_a_non_grashof_four_bar_answers_its_whole_range_through_its_toggles():
+    """One circuit: every crank angle that closes is answered, in both signs (the commands pass
+    the toggles at +-t_max, where |A - O4| = coupler + rocker)."""
+    g, c, b, r = 0.30, 0.20, 0.25, 0.22  # s + l = 0.5 > p + q = 0.47: non-Grashof
+    t_max = math.acos((g * g + c * c - (b + r) ** 2) / (2 * g * c))
+    e = Engine(four_bar(g, c, b, r, input=math.radians(60.0), branch=1), EngineSettings())
+    path = np.concatenate(
+        [np.linspace(1.0, t_max - 1e-4, 40), np.linspace(t_max - 1e-4, -t_max + 1e-4, 120)]
+    )
+    signs = set()
+    for t in path.tolist():
+        res = e.command({'crank': t})
+        assert res.success, (t, res.reason)
+        signs.add(res.branch)
+    assert signs == {'+', '-'}  # the toggle was passed: the mirror configuration, one circuit
+
+
+def test_the_command_line_refuses_the_mirror_loop_too(tmp_path, capsys):
+    scene = tmp_path / 'dr.yaml'
+    scene.write_text(
+        f'four_bar: {{ground: {G}, crank: {C}, coupler: {B}, rocker: {R}, '
+        f'input: {math.radians(60.0)!r}, branch: 1}}\n'
+    )
+    lo, hi = _crank_interval(G, C, B, R)
+    assert cli_main(['solve', str(scene), '--set', 'crank=-1.0']) == 1
+    assert 'reachable only on the other loop' in capsys.readouterr().out
+    assert cli_main(['solve', str(scene), '--set', 'crank=1.0']) == 0
+    capsys.readouterr()
+    cli_main(['sweep', str(scene), '--set', f'crank={hi - 1e-3}:{-hi + 1e-3}:21', '--json'])
+    import json
+
+    rows = [json.loads(ln) for ln in capsys.readouterr().out.splitlines() if ln.startswith('{')]
+    assert len(rows) == 21
+    for row in rows:
+        t = row['inputs']['crank']
+        want = lo <= t <= hi
+        assert (row['status'] == 'ok') == want, (t, row.get('reason'))
+        if t < 0 and -hi <= t <= -lo:
+            assert 'other loop' in row['reason']
+
+
+def test_the_bag_answers_as_the_node(tmp_path):
+    """The bag's vectorised replay stops at the first answer on the mirror loop and refuses it
+    as Engine.command does (rows 0..99: in, mirror, in)."""
+    from bag.test_bag_node_semantics import make_bag
+
+    lo, hi = _crank_interval(G, C, B, R)
+    values = (
+        list(np.linspace(lo + 0.01, hi - 0.01, 40))
+        + list(np.linspace(-hi + 0.01, -lo - 0.01, 20))
+        + list(np.linspace(hi - 0.01, lo + 0.01, 40))
+    )
+    src = make_bag(tmp_path / 'in', values)
+    mech = _double_rocker()
+    data = bag.read_commands(str(src), ['/cmd'])
+    res = bag.solve_commands(mech, data)
+    e = Engine(mech, EngineSettings())
+    for i, t in enumerate(values):
+        want = e.command({'crank': float(t)})
+        assert bool(res.ok[i]) == want.success, (i, t)
+        if not want.success:
+            assert res.reason[i] == want.reason
+    assert res.ok.tolist() == [True] * 40 + [False] * 20 + [True] * 40
+
+
+def test_a_trajectory_onto_the_mirror_loop_is_refused_saying_so():
+    """Forward: the mirror point is refused as a command is. Inverse (the rocker's angle, which
+    the reflection in the ground line negates): the status says the circuit changes (it said
+    'the assembly mode changes from + to -', which the drawing's loop passes through itself)."""
+    from linkage_ros.trajectory import solve_trajectory
+
+    lo, hi = _crank_interval(G, C, B, R)
+    e = Engine(_double_rocker(), EngineSettings())
+    before = e.last
+    mid = 0.5 * (lo + hi)
+    ans = solve_trajectory(e, ['crank'], [[mid], [-mid]], (), [0, 1])
+    assert not ans.success and ans.failed_index == 1
+    assert 'reachable only on the other loop' in ans.reason
+    phi = e.command({'crank': mid}).links['rocker']
+    e = Engine(_double_rocker(), EngineSettings())
+    ans = solve_trajectory(e, ['rocker'], [[phi], [-phi]], (), [0, 1])
+    assert not ans.success and ans.failed_index == 1, ans.reason
+    assert 'point 1: the mechanism changes circuit (signs + -> ' in ans.reason, ans.reason
+    assert e.last.points == before.points
