@@ -261,17 +261,6 @@ class Engine:
             )
 
     # -- requests ----------------------------------------------------------------------------------
-    def solve(self, solver: Solver | str, values: Mapping[str, Any]) -> Result:
-        """One request on one solver (or the reason there is none): brought up to date,
-        solved, and on success the new last good state."""
-        if isinstance(solver, str):
-            return Result(False, solver)
-        self.bring_up_to_date(solver)
-        result = solver.solve(values)
-        if result.success:
-            self.record(solver, result)
-        return result
-
     def command(
         self, values: Mapping[str, float], rates: Mapping[str, float] | None = None
     ) -> Result:
@@ -435,7 +424,15 @@ class Engine:
         fixed = self.fixed_mode()
         before = self.mode(last) if fixed is None else fixed
         if before is None or last is None:
-            return self._out_of_reach(solver, values, self.solve(solver, values))
+            snap = solver.snapshot()
+            result = solver.solve(values)
+            broken = self.broken_mimic(result)
+            if broken is not None:
+                solver.restore(snap)
+                return broken
+            if result.success:
+                self.record(solver, result)
+            return self._out_of_reach(solver, values, result)
         answer = self.keeper.target(
             solver,
             values,
@@ -445,10 +442,30 @@ class Engine:
             replace,
             held_by='' if fixed is None else f'branch setting {self.settings.branch!r}',
         )
+        broken = self.broken_mimic(answer.result)
+        if broken is not None:
+            return broken
         if answer.commit:
             solver.adopt(answer.result)
             self.record(solver, answer.result)
         return self._out_of_reach(solver, values, answer.result)
+
+    def broken_mimic(self, result: Result) -> Result | None:
+        """A target's answer refused where it breaks a <mimic> between the description's
+        actuated joints (JointCoordinates.broken_mimic): a command sets the follower from its
+        leader, but an inverse solve moves them apart (a gripper's two knuckles)."""
+        coords = self.mech.joint_coordinates
+        if not result.success or coords is None:
+            return None
+        why = coords.broken_mimic(result.inputs)
+        if why is None:
+            return None
+        return Result(
+            False,
+            f'target cannot be reached: {why} (give targets that keep the <mimic>, or command '
+            'the leader)',
+            solver=result.solver,
+        )
 
     @functools.cached_property
     def reference_circuit(self) -> Circuit | None:

@@ -316,15 +316,13 @@ def load_mechanism(
     dimensions: Sequence[tuple[str, float]] = (),
     closures: str | None = None,
     actuated: Sequence[str] = (),
-    notes: bool = True,
 ):
     """The scene's mechanism and its path; ``dimensions`` override its stated dimensions; a
-    robot description takes ``closures`` and ``actuated``. The scene's notes go to stderr
-    (``notes``: text output; JSON output leaves them out)."""
+    robot description takes ``closures`` and ``actuated``. The scene's warnings and notes go
+    to stderr, with --json too (its answer is stdout's)."""
     loaded = load_scene_file(scene, dimensions, closures, actuated)
     print_warnings(loaded.warnings)
-    if notes:
-        print_notes(loaded.notes)
+    print_notes(loaded.notes)
     return loaded.mechanism, str(loaded.path)
 
 

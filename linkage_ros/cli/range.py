@@ -421,9 +421,7 @@ def described(report: dict, mech) -> dict:
 
 def run(args) -> int:
     try:
-        mech, _path = load_mechanism(
-            args.scene, args.dimension, args.closures, args.actuated, notes=not args.json
-        )
+        mech, _path = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
         values = InputValues(mech)  # a robot description's actuated joints name its actuators
         if args.input is not None:
             args.input = values.actuator(args.input)

@@ -40,9 +40,7 @@ def roller_legend(modes: ModeList) -> str:
 
 
 def cmd_solve(args) -> int:
-    mech, _ = load_mechanism(
-        args.scene, args.dimension, args.closures, args.actuated, notes=not args.json
-    )
+    mech, _ = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
     knowns, axes, solver = build_solve(mech, args, allow_range=False)
     given = {n: vals[0] for n, vals in axes}
     command = scene_command(mech, given)  # a robot description's names and values -> the scene's

@@ -73,9 +73,7 @@ def _cell(v) -> str:
 
 
 def cmd_sweep(args) -> int:
-    mech, _ = load_mechanism(
-        args.scene, args.dimension, args.closures, args.actuated, notes=not args.json
-    )
+    mech, _ = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
     _, axes, solver = build_solve(mech, args, allow_range=True)
     if args.csv:
         _check_csv_path(args.csv)

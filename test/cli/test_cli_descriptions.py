@@ -545,3 +545,64 @@ def test_a_dimension_given_twice_or_with_an_underscore_is_refused(capsys):
     code = main(['solve', 'four_bar', '--set', 'crank=0.3', '--dimension', 'crank.O2-A=1_0'])
     err = capsys.readouterr().err
     assert code == 2 and "'1_0' is not a number" in err
+
+
+@pytest.mark.parametrize('command', ['solve', 'sweep', 'range'])
+def test_json_output_keeps_the_load_notes_on_stderr(command, capsys):
+    """What loading did (the Robotiq's <mimic>s superseded by the closures) reaches a script
+    too: --json answered on stdout dropped the notes altogether."""
+    args = {
+        'solve': ['--set', f'{LEFT_KNUCKLE}=0.5'],
+        'sweep': ['--set', f'{LEFT_KNUCKLE}=0.1:0.5:3'],
+        'range': [],
+    }[command]
+    code = main([command, str(ROBOTIQ), '--closures', str(ROBOTIQ_CLOSURES), *args, '--json'])
+    cap = capsys.readouterr()
+    assert code == 0, cap.err
+    assert 'note: <mimic> of ' in cap.err and 'superseded' in cap.err
+    assert 'note:' not in cap.out
+    # stdout is still the JSON (range's one indented document; solve's and sweep's lines)
+    json.loads(cap.out) if command == 'range' else json.loads(cap.out.splitlines()[0])
+
+
+def test_a_target_that_breaks_the_grippers_mimic_is_refused_and_one_that_keeps_it_closes(
+    capsys,
+):
+    """The Robotiq's right knuckle follows the left by its <mimic> (multiplier -1): a command
+    sets both. Two finger-tip targets that do not agree answered OK with the knuckles at 0.3
+    and -0.5, a pose the one-motor gripper cannot take and robot_state_publisher draws as sent.
+    Oracle: the URDF's <mimic> rule, and Pinocchio closing both closures."""
+    case = CASES['robotiq_2f_85']
+    tip = 'robotiq_85_{}_finger_tip_joint'
+    rc, out, err = run(
+        capsys,
+        'solve',
+        *description_args(case),
+        '--target', f'{tip.format("left")}=-0.3', '--target', f'{tip.format("right")}=0.5',
+        '--json',
+    )  # fmt: skip
+    d = loads(out)
+    assert rc == 1 and d['status'] == 'error'
+    assert f'{RIGHT_KNUCKLE} follows {LEFT_KNUCKLE} by its <mimic>' in d['reason'], d['reason']
+    d = solve_json(
+        capsys,
+        *description_args(case),
+        '--target', f'{tip.format("left")}=-0.3', '--target', f'{tip.format("right")}=0.3',
+    )  # fmt: skip
+    joints = d['joints']
+    assert abs(joints[RIGHT_KNUCKLE] + joints[LEFT_KNUCKLE]) <= 1e-12
+    assert max(pinocchio_misses(case, joints)) <= CLOSED * size_of(d['points'])
+
+
+def test_the_engine_keeps_its_state_when_a_target_breaks_the_mimic():
+    from linkage_ros.core.loading import load_scene
+    from linkage_ros.engine import Engine, EngineSettings
+
+    mech = load_scene(str(ROBOTIQ), closures=str(ROBOTIQ_CLOSURES)).mechanism
+    e = Engine(mech, EngineSettings())
+    assert e.command({LEFT_KNUCKLE: 0.4}).success
+    last = e.last
+    tip = 'robotiq_85_{}_finger_tip_joint'
+    r = e.target({tip.format('left'): -0.3, tip.format('right'): 0.5})
+    assert not r.success and 'by its <mimic>' in r.reason
+    assert e.last is last

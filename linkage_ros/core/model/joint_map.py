@@ -168,6 +168,28 @@ class JointMap:
             out.append(v)
         return out
 
+    def broken_mimic(self, inputs: Mapping[str, float]) -> str | None:
+        """Why the scene's actuator values ``inputs`` (a solved configuration's) break a
+        <mimic> between actuated joints (a gripper's second knuckle follows the first: an
+        inverse solve does not know it), in the description's names and values; None where
+        every follower is at multiplier * leader + offset (to 1e-9 rad or m)."""
+        values = dict(zip(self.actuated, self.actuated_values(inputs)))
+        for name in self.actuated:
+            entry = self.inputs[name]
+            if not entry.leader or entry.leader not in values:
+                continue
+            want = entry.multiplier * values[entry.leader] + entry.mimic_offset
+            got = values[name]
+            miss = wrap(got - want) if entry.revolute else got - want
+            if not abs(miss) <= 1e-9:
+                return (
+                    f'{name} follows {entry.leader} by its <mimic> ({name} = '
+                    f'{entry.multiplier:g} * {entry.leader} + {entry.mimic_offset:g}), and this '
+                    f'answer has {entry.leader} = {values[entry.leader]:.9g}, {name} = '
+                    f'{got:.9g}: a pose the one actuator cannot give'
+                )
+        return None
+
     # -- in: the description's names and values -> the scene's knowns -------------------------
     def to_scene(
         self, values: Mapping[str, Any], rates: bool = False, command: bool = False

@@ -124,6 +124,8 @@ class JointCoordinates(Protocol):
         self, values: Mapping[str, Any], rates: bool = False, command: bool = False
     ) -> dict[str, Any]: ...
 
+    def broken_mimic(self, inputs: Mapping[str, float]) -> str | None: ...
+
 
 @dataclass
 class Mechanism:
