@@ -606,3 +606,29 @@ def test_the_engine_keeps_its_state_when_a_target_breaks_the_mimic():
     r = e.target({tip.format('left'): -0.3, tip.format('right'): 0.5})
     assert not r.success and 'by its <mimic>' in r.reason
     assert e.last is last
+
+
+@pytest.mark.parametrize('axes', ['0 0 1', '0 0 -1'])
+def test_a_points_plane_coordinates_are_its_ground_frame_coordinates_whichever_way_joints_turn(
+    capsys, tmp_path, axes
+):
+    """`<point>.x` / `<point>.y` on a target are the ground frame's x and y (the doc's e1, e2)
+    for joints about +z and about -z alike. With every axis -z the plane was turned over (e2 =
+    -y), so `loop1.y=0.3` put the pin at y = -0.3, where `~/target_point` (a 3-D point) put it
+    at +0.3. Oracle: Pinocchio's forward kinematics of the answer's joint values."""
+    case = dict(CASES['grbda_four_bar'])
+    text = case['path'].read_text().replace('<axis xyz="0 0 1"/>', f'<axis xyz="{axes}"/>')
+    path = tmp_path / 'four_bar.urdf'
+    path.write_text(text)
+    case['path'] = path
+    for target, want in (('loop1.y=0.3', (None, 0.3)), ('loop1.x=1.2', (1.2, None))):
+        d = solve_json(capsys, path, '--target', target)
+        model, data = pinocchio_placements(path, d['joints'])
+        (la, pa), (lb, pb) = case['pins'][0]
+        pin_a = data.oMf[model.getFrameId(la)].act(np.array(pa))
+        assert max(pinocchio_misses(case, d['joints'])) <= CLOSED * size_of(d['points'])
+        for k, w in enumerate(want):
+            if w is not None:
+                assert abs(pin_a[k] - w) <= 1e-12, (target, pin_a)
+        # the JSON's plane points are the same coordinates
+        assert np.allclose(d['points']['loop1'], pin_a[:2], atol=1e-12)

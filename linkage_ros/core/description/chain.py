@@ -223,16 +223,10 @@ def find_chain(desc: Description) -> Chain:
             )
     zero = _zero_poses(desc, ground, ordered, body_of)
     normal = _normal(desc, ordered, zero, body_of)
+    # the plane's axes are the ground frame's (x, y for an xy chain, x and z for an xz one),
+    # whichever way the joints turn: a point's plane coordinates are then its coordinates in
+    # that frame, as ~/target_point reads them; a joint turning about -n has its value negated
     basis = _basis(normal)
-    # the plane's sense: counter-clockwise about the axis most revolute joints turn about, so
-    # their values are the scene's angles as they are (not negated)
-    senses = [
-        float(_world_axis(j, zero, body_of) @ np.cross(basis[0], basis[1]))
-        for j in ordered
-        if j.type is JointType.REVOLUTE
-    ]
-    if sum(1.0 if s > 0 else -1.0 for s in senses) < 0:
-        basis = np.array([basis[0], -basis[1]])
     normal = np.cross(basis[0], basis[1])
     chain = Chain(
         desc,
