@@ -9,6 +9,19 @@ from typing import ClassVar
 
 
 @dataclass(frozen=True)
+class Shown:
+    """How a robot description writes an actuator's value: ``scale * (value - offset)``
+    (scale +-1: its joint turns about the plane's normal or against it; offset: its zero
+    pose). Refusals quote limits and values this way (core.plan.spec.limit_violation)."""
+
+    scale: float
+    offset: float
+
+    def __call__(self, value: float) -> float:
+        return self.scale * (value - self.offset)
+
+
+@dataclass(frozen=True)
 class AngleSpec:
     """phi[link] - phi[reference] = value - offset (rad; 1 value). ``minimum``/``maximum``:
     an actuator's limits (compared on the circle)."""
@@ -19,6 +32,8 @@ class AngleSpec:
     offset: float = 0.0
     minimum: float | None = None
     maximum: float | None = None
+    #: a robot description's own value of this actuator (None: the scene's is the user's)
+    shown: Shown | None = None
     size: ClassVar[int] = 1
     unit: ClassVar[str] = 'rad'
     periodic: ClassVar[bool] = True
@@ -32,6 +47,8 @@ class SlideSpec:
     joint: str
     minimum: float | None = None
     maximum: float | None = None
+    #: a robot description's own value of this actuator (None: the scene's is the user's)
+    shown: Shown | None = None
     size: ClassVar[int] = 1
     unit: ClassVar[str] = 'm'
     periodic: ClassVar[bool] = False
@@ -59,6 +76,7 @@ class CoordinateSpec:
     axis: int
     minimum: None = None
     maximum: None = None
+    shown: None = None
     size: ClassVar[int] = 1
     unit: ClassVar[str] = 'm'
     periodic: ClassVar[bool] = False

@@ -632,3 +632,26 @@ def test_a_points_plane_coordinates_are_its_ground_frame_coordinates_whichever_w
                 assert abs(pin_a[k] - w) <= 1e-12, (target, pin_a)
         # the JSON's plane points are the same coordinates
         assert np.allclose(d['points']['loop1'], pin_a[:2], atol=1e-12)
+
+
+@pytest.mark.parametrize('axis', ['0 0 1', '0 0 -1'])
+def test_limit_refusals_quote_the_descriptions_own_values_and_limits(capsys, tmp_path, axis):
+    """joint1 limited to [-0.3, 0.4] in the description: a refusal quotes that interval and the
+    value given, whichever way the joint turns about the plane's normal (about -z it said
+    'joint1 = 0.35 rad is beyond its maximum 0.3' for a command of -0.35)."""
+    text = CASES['grbda_four_bar']['path'].read_text()
+    head, tail = text.split('<joint name="joint1"', 1)
+    joint1, rest = tail.split('</joint>', 1)
+    joint1 = joint1.replace('<axis xyz="0 0 1"/>', f'<axis xyz="{axis}"/>')
+    joint1 = joint1.replace('lower="-13.14" upper="13.14"', 'lower="-0.3" upper="0.4"')
+    path = tmp_path / 'four_bar.urdf'
+    path.write_text(f'{head}<joint name="joint1"{joint1}</joint>{rest}')
+    for value, want in (
+        (-0.35, 'joint1 = -0.35 rad is below its minimum -0.3 by 0.05 rad'),
+        (0.45, 'joint1 = 0.45 rad is beyond its maximum 0.4 by 0.05 rad'),
+    ):
+        rc, out, _ = run(capsys, 'solve', path, '--set', f'joint1={value}', '--json')
+        assert rc == 1 and loads(out)['reason'] == want
+    assert solve_json(capsys, path, '--set', 'joint1=0.35')['joints']['joint1'] == pytest.approx(
+        0.35, abs=1e-12
+    )

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import CommandError
+from ..quantities import Shown
 from .checks import Fail
 
 
@@ -167,6 +168,14 @@ class JointMap:
                     v = _fit(v, limits[a])
             out.append(v)
         return out
+
+    def shown(self, actuator: str) -> Shown | None:
+        """How the description writes the scene's actuator ``actuator`` (its actuated joint's
+        value: ``scale * (scene - offset)``), None where it is the scene's value."""
+        entry = self.inputs.get(actuator)
+        if entry is None or entry.scene_name != actuator or (entry.scale, entry.offset) == (1, 0):
+            return None
+        return Shown(entry.scale, entry.offset)
 
     def broken_mimic(self, inputs: Mapping[str, float]) -> str | None:
         """Why the scene's actuator values ``inputs`` (a solved configuration's) break a

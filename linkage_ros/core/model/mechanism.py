@@ -11,6 +11,7 @@ from typing import Any, ClassVar, Protocol
 import numpy as np
 
 from ..dyads import wrap_angle
+from ..quantities import Shown
 
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
 SOLVERS = ('auto', 'closed_form', 'newton')
@@ -125,6 +126,8 @@ class JointCoordinates(Protocol):
     ) -> dict[str, Any]: ...
 
     def broken_mimic(self, inputs: Mapping[str, float]) -> str | None: ...
+
+    def shown(self, actuator: str) -> Shown | None: ...
 
 
 @dataclass

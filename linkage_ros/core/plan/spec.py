@@ -47,8 +47,10 @@ def _spec_of(mech: Mechanism, kind: NameKind, name: str) -> Spec:
     match kind:
         case NameKind.ACTUATOR:
             act = mech.actuators[name]
+            coords = mech.joint_coordinates
+            shown = None if coords is None else coords.shown(name)
             if isinstance(act, SlideActuator):
-                return SlideSpec(name, act.joint, minimum=act.min, maximum=act.max)
+                return SlideSpec(name, act.joint, minimum=act.min, maximum=act.max, shown=shown)
             link = mech.links[act.link]
             v = mech.points[act.toward] - mech.points[act.pivot]
             d0 = math.atan2(v[1], v[0])
@@ -60,6 +62,7 @@ def _spec_of(mech: Mechanism, kind: NameKind, name: str) -> Spec:
                 offset=d0 - ref_angle,
                 minimum=act.min,
                 maximum=act.max,
+                shown=shown,
             )
         case NameKind.JOINT:
             for rj in mech.revolutes:
@@ -173,8 +176,14 @@ def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
 
 
 def limit_violation(spec: ScalarSpec, value: float) -> str | None:
-    """Why ``value`` is outside ``spec``'s limits (the one rule: model.limits), or None."""
-    return _limit_violation(spec.name, value, spec.minimum, spec.maximum, spec.unit, spec.periodic)
+    """Why ``value`` is outside ``spec``'s limits (the one rule: model.limits), or None; for a
+    robot description's actuator, in its own values (``spec.shown``: the same interval)."""
+    lo, hi, shown = spec.minimum, spec.maximum, spec.shown
+    if shown is not None and (lo is not None or hi is not None):
+        ends = [None if v is None else shown(v) for v in (lo, hi)]
+        lo, hi = ends if shown.scale > 0 else ends[::-1]
+        value = shown(value)
+    return _limit_violation(spec.name, value, lo, hi, spec.unit, spec.periodic)
 
 
 def needs_beyond_limits(spec: ScalarSpec, value: float) -> str | None:
