@@ -146,3 +146,21 @@ def test_a_trajectory_onto_the_mirror_loop_is_refused_saying_so():
     assert not ans.success and ans.failed_index == 1, ans.reason
     assert 'point 1: the mechanism changes circuit (signs + -> ' in ans.reason, ans.reason
     assert e.last.points == before.points
+
+
+def test_a_target_on_the_mirror_loop_is_named_as_another_circuit_whatever_its_signs():
+    """The mirror loop holds both signs: a target there whose answer has the other sign was
+    refused as 'reachable only in assembly mode -' (a sign the drawing's loop takes up too),
+    and allowed with mode_change '+ -> -' without '(another circuit)'."""
+    lo, hi = _crank_interval(G, C, B, R)
+    e = Engine(_double_rocker(), EngineSettings())
+    for t in np.linspace(lo + 0.01, hi - 0.01, 7).tolist():
+        phi = e.command({'crank': t}).links['rocker']
+        e.command({'crank': math.radians(60.0)})
+        r = e.target({'rocker': -phi})  # the reflection in the ground line: the mirror loop
+        assert not r.success
+        assert 'reachable only in another circuit of the mechanism' in r.reason, r.reason
+        moved = e.target({'rocker': -phi}, allow_mode_change=True)
+        assert moved.success and moved.mode_change.endswith('(another circuit)')
+        assert -hi - 1e-9 <= moved.inputs['crank'] <= -lo + 1e-9  # the cosine rule's other loop
+        e = Engine(_double_rocker(), EngineSettings())

@@ -111,17 +111,24 @@ class ModeKeeper:
         plan, no configuration)."""
         return None if result is None else self.forward.mode_of(result)
 
+    def _changes_circuit(self, here: Result | None, result: Result) -> bool:
+        """Whether ``result`` lies on another circuit than ``here``, both known (on_circuit):
+        the change is the loop, whatever the signs say."""
+        if here is None or self.on_circuit is None:
+            return False
+        a, b = self.on_circuit(here), self.on_circuit(result)
+        return a is not None and b is not None and a != b
+
     def changes_mode(self, before: Mode, here: Result | None, result: Result) -> bool:
         """Whether ``result`` is in another mode than ``before`` (the mode of ``here``): on
         another circuit than ``here`` where the circuit is known (on_circuit), one circuit
         through its toggles whatever the signs; else its forward dyads' signs differ clear of
         their toggles."""
-        if here is not None and self.on_circuit is not None:
-            a, b = self.on_circuit(here), self.on_circuit(result)
-            if a is not None and b is not None and a != b:
-                return True  # another circuit: the actuator cannot take the mechanism there
-            if a and b:
-                return False
+        if self._changes_circuit(here, result):
+            return True  # another circuit: the actuator cannot take the mechanism there
+        on = self.on_circuit
+        if here is not None and on is not None and on(here) and on(result):
+            return False  # one circuit through its toggles: any signs
         return mode_differs(before, self.mode(result))
 
     def target(
@@ -177,18 +184,20 @@ class ModeKeeper:
                 'without being taken apart (ask for the change explicitly to allow it: '
                 '~/target_any_mode on the node, --any-mode on the command line)'
             )
+            circuit = self._changes_circuit(here, result) or self.label(after) == self.label(before)
             where = (
-                f'assembly mode {self.label(after)} {self._of_what()}'
-                if self.label(after) != self.label(before)
-                else f'another circuit of the mechanism (signs {self.label(after)}, a loop its '
+                f'another circuit of the mechanism (signs {self.label(after)}, a loop its '
                 'actuator does not reach from the current one)'
+                if circuit
+                else f'assembly mode {self.label(after)} {self._of_what()}'
             )
             refusal = Result(
                 False, f'target is reachable only in {where}; {why}', solver=result.solver
             )
             return TargetAnswer(refusal, False)
+        circuit = self._changes_circuit(here, result) or self.label(before) == self.label(after)
         result.mode_change = f'{self.label(before)} -> {self.label(after)}' + (
-            ' (another circuit)' if self.label(before) == self.label(after) else ''
+            ' (another circuit)' if circuit else ''
         )
         return self._answer(result, after)
 
