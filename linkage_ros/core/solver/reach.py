@@ -88,6 +88,14 @@ def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> Reach
     if not reaches(0.0):
         return None
     lo, hi = 0.0, 1.0
+    # a target far beyond the mechanism (1e300 m): bisect from where the point could be at
+    # most, or the steps' 2^-40 of the line would be wider than the mechanism
+    far = _extent(c.mech) / max(_span(spec, start[k], target[k]), 1e-300)
+    if far < 1.0:
+        if reaches(far):
+            lo = far
+        else:
+            hi = far
     for _ in range(EDGE_STEPS):
         mid = 0.5 * (lo + hi)
         if reaches(mid):
@@ -100,3 +108,24 @@ def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> Reach
     ex, ey = command(lo)[spec.name]
     tx, ty = (float(v) for v in target[k])
     return ReachEdge(spec.point, (tx, ty), (ex, ey), math.hypot(tx - ex, ty - ey))
+
+
+def _span(spec: PointSpec | CoordinateSpec, start: Any, target: Any) -> float:
+    """How far the target's point moves on the line (m)."""
+    if isinstance(spec, CoordinateSpec):
+        return abs(float(target) - float(start))
+    return math.hypot(float(target[0]) - float(start[0]), float(target[1]) - float(start[1]))
+
+
+def _extent(mech: Any) -> float:
+    """Four times the mechanism's span: the sum over its links of each link's largest distance
+    between two of its points (m); no point of a mechanism of fixed-length links is further
+    from a ground point, and no configuration moves a point further than twice it."""
+    total = 0.0
+    for link in mech.links.values():
+        pts = [mech.points[p] for p in link.points]
+        total += max(
+            (math.dist(tuple(map(float, a)), tuple(map(float, b))) for a in pts for b in pts),
+            default=0.0,
+        )
+    return 4.0 * total

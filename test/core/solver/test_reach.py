@@ -100,3 +100,21 @@ def test_a_coordinate_target_out_of_reach_names_the_coordinate_and_its_edge():
     assert edge.edge[0] == pytest.approx(float(np.max(xs)), abs=1e-7)
     assert edge.short_m == pytest.approx(10.0 - edge.edge[0], abs=1e-12)
     assert f'reachable up to P.x = {edge.edge[0]:.6g} m' in r.reason
+
+
+@pytest.mark.parametrize('far', [1e20, 1e300])
+def test_a_target_far_beyond_the_mechanism_gets_the_same_edge(far):
+    """The bisection's 2^-40 of a 1e300 m line is wider than the mechanism: P.x = 1e300 was
+    said reachable up to the current P.x (0.160 m) where the edge is 0.1707 m. Oracle: the
+    dense sweep of the forward closed form, as above."""
+    from scenes import load
+
+    mech = load('four_bar')
+    engine = Engine(mech, EngineSettings())
+    fwd = Solver(mech, method='closed_form', branch='reference')
+    crank = np.linspace(-math.pi, math.pi, 200001)
+    top = float(np.max(fwd.solve_batch({'crank': crank}).points['P'][:, 0]))
+    edge = reach_edge(Solver(mech, knowns=['P.x']), {'P.x': far}, engine.last)
+    assert edge is not None and edge.edge[0] == pytest.approx(top, abs=1e-7)
+    r = engine.target({'P.x': far})
+    assert f'reachable up to P.x = {top:.6g} m' in r.reason, r.reason
