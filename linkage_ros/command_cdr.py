@@ -139,6 +139,16 @@ def read_joint_state(
     return JointStateFields(head.sec, head.nanosec, names, sequences[0], sequences[1])
 
 
+def joint_state_names(raw: bytes, head: JointStateHead) -> tuple[str, ...] | None:
+    """The names of a CDR-serialised JointState read whole (a NUL inside a name kept, where
+    rclpy's deserialiser ends the name there), or None where they are not plain names."""
+    try:
+        read = _read_names(raw, head)
+    except (struct.error, UnicodeDecodeError):
+        return None
+    return None if read is None else read[0]
+
+
 def _read_names(raw: bytes, head: JointStateHead) -> tuple[tuple[str, ...], int] | None:
     """The names of a JointState (from ``head.names_at``) and the offset just after the last
     one, or None where they run past the end or one lacks its NUL. Raises struct.error or

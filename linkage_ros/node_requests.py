@@ -12,7 +12,7 @@ from builtin_interfaces.msg import Time
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import JointState
 
-from .command_cdr import NamesMemo, joint_state_peek, read_joint_state
+from .command_cdr import NamesMemo, joint_state_names, joint_state_peek, read_joint_state
 from .conversions import (
     is_zero_stamp,
     joint_state_pick,
@@ -182,6 +182,10 @@ class Requests:
             bad = f'not a JointState: {exc}'
             self.answer(request, Time(), lambda: Result(False, bad))
             return
+        # names read whole, as ~/command and linkage bag read them (rclpy ends one at a NUL)
+        whole = None if peek is None else joint_state_names(raw, peek)
+        if whole is not None and tuple(msg.name) != whole:
+            msg.name = list(whole)
 
         def solve() -> Result:
             values = joint_state_to_command(msg, self.node.max_names)

@@ -379,8 +379,9 @@ def _parse_layout(raw: bytes) -> _Layout:
         s = raw[pos : pos + k]
         struct_idx.extend(range(pos, pos + k))
         pos += k
-        # as rclpy (hence the node) reads a string: up to its first NUL, bad UTF-8 replaced
-        return s.split(b'\x00', 1)[0].decode('utf-8', errors='replace')
+        # whole, as the node reads its requests' names (command_cdr: a NUL inside is part of
+        # the name, where rclpy's deserialiser would end it there); bad UTF-8 replaced
+        return (s[:-1] if s.endswith(b'\x00') else s).decode('utf-8', errors='replace')
 
     need(8)
     sec_off = pos

@@ -1511,14 +1511,17 @@ def test_a_corrupt_sqlite_page_fails_quick_check(tmp_path, scene, capsys):
     'name', ['crank\x00junk', 'crank\x00', '\x00crank', 'cr\x00\x00', 'cr\u00e9nk', 'crank' * 40]
 )
 def test_names_decode_as_the_node_reads_them(name):
-    """One engine, one answer: a name with a NUL in it used to be read differently by the bag
-    tool (trailing NULs stripped) and by the node (rclpy reads a string up to its first NUL).
-    The oracle is rclpy's own deserialisation, the node's."""
-    from rclpy.serialization import deserialize_message
-    from sensor_msgs.msg import JointState
+    """One engine, one answer: a name with a NUL in it is read whole by the node's ~/command
+    reader (command_cdr: `crank\x00x` is an unknown name, not `crank`), and the bag cut it at
+    the NUL as rclpy's deserialiser does. The oracle is the node's reader; the name as the
+    message holds it (rosbags' own serialisation) is the same."""
+    from linkage_ros.command_cdr import read_joint_state
 
     raw = bytes(TS.serialize_cdr(joint_state([name], [0.5], sec=3), JS))
-    node_reads = deserialize_message(raw, JointState).name[0]
+    fields = read_joint_state(raw)
+    assert fields is not None
+    node_reads = fields.names[0]
+    assert node_reads == name
     _s, _ns, key, keys, _np, _v, _st = bag.reading.decode_joint_states(
         [raw], np.zeros(1, np.int8), ['/cmd'], np.zeros(1, np.int64)
     )

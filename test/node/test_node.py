@@ -441,6 +441,29 @@ def test_target_with_wrong_number_of_values_is_rejected(four_bar):
     four_bar.assert_single_error(status, 'degree')
 
 
+def test_a_target_name_is_read_whole_as_a_command_name_is(four_bar):
+    """`rocker\x00x` is one (unknown) name on ~/target as on ~/command and in `linkage bag`
+    (TOPICS); rclpy's deserialiser ended it at the NUL and the node answered it as `rocker`.
+    The message is the bytes rosbags serialises (rclpy's own serialiser cannot write the NUL)."""
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_JAZZY)
+    t = ts.types
+    msg = t['sensor_msgs/msg/JointState'](
+        header=t['std_msgs/msg/Header'](
+            stamp=t['builtin_interfaces/msg/Time'](sec=5, nanosec=0), frame_id=''
+        ),
+        name=['rocker\x00x'],
+        position=np.array([2.0]),
+        velocity=np.zeros(0),
+        effort=np.zeros(0),
+    )
+    raw = bytes(ts.serialize_cdr(msg, 'sensor_msgs/msg/JointState'))
+    status = four_bar.request(raw, topic='~/target')
+    four_bar.assert_single_error(status, 'unknown name', 'rocker')
+    assert 'x00x' in status.message
+
+
 BAD_COMMANDS = {
     'nan': (['crank'], [math.nan], 'finite'),
     'inf': (['crank'], [math.inf], 'finite'),
