@@ -30,7 +30,7 @@ import numpy as np
 
 from ..heap import set_malloc_thresholds
 from .common import BagError
-from .fleet_inputs import BagTask
+from .fleet_inputs import FORMATS, BagTask
 from .plans import PlanRequest, decoded_plans, path_point, plan_topics, read_plan_requests
 from .progress import _Progress
 from .reading import Commands, _exc_text, read_commands
@@ -369,11 +369,34 @@ def finished_row(task: BagTask, out_dir: str, fingerprint: str) -> BagRow | None
     return _with(row, resumed=True)
 
 
+#: the formats whose output is a bag folder (the others' are files)
+FOLDER_FORMATS = ('mcap', 'sqlite3')
+
+
 def stale_outputs(task: BagTask, opts: BagOptions) -> list[Path]:
-    """The bag's outputs (and manifest) that exist already under --out-dir."""
-    paths = [task.output(opts.out_dir, f) for f in opts.formats]
-    paths += [task.trajectories(opts.out_dir), task.manifest(opts.out_dir)]
-    return [p for p in paths if p.exists() or p.is_symlink()]
+    """What an earlier run left of the bag under --out-dir: its outputs in every format (not
+    only this run's: a format no longer asked for would sit beside the new answers), its
+    manifest, and the staging leftovers of a killed run (``.NAME.PID.partial``); BagError for
+    a folder where a file output goes (not the tool's: never removed)."""
+    finals = [task.output(opts.out_dir, f) for f in FORMATS]
+    finals += [task.trajectories(opts.out_dir), task.manifest(opts.out_dir)]
+    found = [p for p in finals if p.exists() or p.is_symlink()]
+    for p in found:
+        if p.is_dir() and not p.is_symlink() and p.suffix[1:] not in FOLDER_FORMATS:
+            raise BagError(
+                f'--out-dir: {p} is a folder where a file output of bag {task.name} goes; it is '
+                "not the tool's and is left alone: move it away"
+            )
+    parents = {p.parent for p in finals}
+    for parent in sorted(parents):
+        if parent.is_dir():
+            names = {f'.{p.name}.' for p in finals if p.parent == parent}
+            found += sorted(
+                q
+                for q in parent.iterdir()
+                if q.name.endswith('.partial') and any(q.name.startswith(n) for n in names)
+            )
+    return found
 
 
 def remove_outputs(paths: list[Path]) -> None:

@@ -67,12 +67,13 @@ def check_options(args: argparse.Namespace) -> Any:
 
 def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: str = '') -> Any:
     """The options every bag is solved with, as plain data (fleet_task.BagOptions)."""
-    from ..resources import scene_path
     from .fleet_task import BagOptions
 
-    scene = scene_path(args.scene)
+    # a scene file goes to the workers by its absolute path; a packaged scene by its name,
+    # which each worker finds in its own installation (FLEET.md)
+    given = Path(args.scene)
     return BagOptions(
-        scene=str(scene.resolve()) if scene.exists() else args.scene,
+        scene=str(given.resolve()) if given.exists() else args.scene,
         dimensions=tuple(args.dimension),
         closures=str(Path(args.closures).resolve()) if args.closures else None,
         actuated=tuple(args.actuated),

@@ -418,3 +418,54 @@ def test_each_bag_gets_its_plot_with_format_png(fleet, tmp_path, capsys):
         [root / 'day1', *COMMON, '--out-dir', tmp_path / 'x', '--plot', 'p.png'], capsys
     )
     assert code == 2 and '--format png' in got.err
+
+
+def test_a_packaged_scene_goes_to_the_workers_by_its_name(tmp_path, monkeypatch):
+    """FLEET.md: a worker finds "a packaged scene's name (`excavator`) ... in its own
+    installation". The options sent to the workers held the client's absolute path of
+    config/four_bar.yaml, which a worker installed elsewhere does not have (every bag failed
+    'scene file not found'). A scene file still goes by its absolute path."""
+    import argparse
+
+    from linkage_ros.bag.command import add_arguments
+    from linkage_ros.bag.options import bag_options
+
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    monkeypatch.chdir(tmp_path)  # no file named four_bar here
+    args = parser.parse_args(['x.mcap', '--scene', 'four_bar', '--command-topic', '/cmd'])
+    assert bag_options(args).scene == 'four_bar'
+    local = tmp_path / 'mine.yaml'
+    shutil.copy(SCENE, local)
+    args = parser.parse_args(['x.mcap', '--scene', 'mine.yaml', '--command-topic', '/cmd'])
+    assert bag_options(args).scene == str(local.resolve())
+
+
+def test_resume_removes_every_leftover_of_the_bag_and_nothing_else(fleet, tmp_path, capsys):
+    """--resume redoing a bag removes its outputs in formats no longer asked for (an MCAP beside
+    a new CSV told of another input) and a killed run's staging leftovers (.NAME.PID.partial:
+    they stayed forever), and refuses a folder of the user's where a file output goes (it was
+    deleted with everything in it)."""
+    root, _ = fleet
+    out = tmp_path / 'out'
+    base = [root, *COMMON, '--out-dir', out, '--jobs', 1]
+    code, _ = run([*base, '--format', 'csv', '--format', 'mcap'], capsys)
+    assert code == 3 and (out / 'day1' / 'a.mcap').is_dir()
+    (out / 'day1' / 'a.done.json').unlink()  # day1/a to be redone
+    stage = out / 'day1' / '.a.csv.4242.partial'
+    stage.write_text('half')
+    bag_stage = out / 'day1' / '.a.mcap.4242.partial'
+    bag_stage.mkdir()
+    code, cap = run([*base, '--format', 'csv', '--resume'], capsys)
+    assert code == 3, cap.err
+    assert (out / 'day1' / 'a.csv').is_file()
+    assert not (out / 'day1' / 'a.mcap').exists()  # the old answer in the dropped format
+    assert not stage.exists() and not bag_stage.exists()
+    (out / 'day1' / 'a.done.json').unlink()
+    (out / 'day1' / 'a.csv').unlink()
+    mine = out / 'day1' / 'a.csv'
+    mine.mkdir()
+    (mine / 'precious.txt').write_text('keep')
+    code, cap = run([*base, '--format', 'csv', '--resume'], capsys)
+    assert code == 2 and f'{mine} is a folder where a file output of bag day1/a goes' in cap.err
+    assert (mine / 'precious.txt').read_text() == 'keep'
