@@ -300,7 +300,8 @@ def analyse_bag(
         if isinstance(exc, BagError | LinkageError):
             reason = str(exc)
         elif isinstance(exc, OSError):
-            reason = f'cannot write an output ({exc.strerror or exc})'
+            where = f' {exc.filename}' if exc.filename else ''
+            reason = f'cannot write an output{where} ({exc.strerror or exc})'
         else:
             reason = f'{type(exc).__name__}: {_exc_text(exc)}'
         return BagRow(

@@ -215,9 +215,12 @@ def read_commands(
         topic = topic[order]
     rates: list[tuple[np.ndarray, np.ndarray]] = []
     frames: list[str] = []
-    sec, nanosec, key, keys, npos, values, start = decode_joint_states(
-        raws, topic, topics, log_ns, rates, frames
-    )
+    try:
+        sec, nanosec, key, keys, npos, values, start = decode_joint_states(
+            raws, topic, topics, log_ns, rates, frames
+        )
+    except BagError as exc:  # a message that is no JointState: named with its bag
+        raise BagError(f'input {path}: {exc}') from None
     counts = np.zeros(n, np.int64)
     for rows, vel in rates:
         counts[rows] = vel.shape[1]

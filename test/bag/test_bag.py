@@ -1310,7 +1310,7 @@ def test_error_after_a_progress_bar_starts_on_its_own_line(tmp_path, scene, caps
     assert code == 2
     assert 'reading' in err  # the bar was shown
     last = err.split('\r')[-1]
-    assert last.startswith('linkage bag: error: message 6 on /cmd'), repr(err)
+    assert last.startswith(f'linkage bag: error: input {src}: message 6 on /cmd'), repr(err)
     assert 'not a valid JointState' in last and last.count('\n') == 1
 
 

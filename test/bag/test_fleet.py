@@ -469,3 +469,29 @@ def test_resume_removes_every_leftover_of_the_bag_and_nothing_else(fleet, tmp_pa
     code, cap = run([*base, '--format', 'csv', '--resume'], capsys)
     assert code == 2 and f'{mine} is a folder where a file output of bag day1/a goes' in cap.err
     assert (mine / 'precious.txt').read_text() == 'keep'
+
+
+def test_a_message_that_is_no_joint_state_and_an_unwritable_output_are_named(
+    fleet, tmp_path, capsys
+):
+    """README: a bag's error is "one line naming the bag, the topic and the first bad message";
+    a corrupt JointState's named the topic only. A fleet bag whose output cannot be written
+    said 'cannot write an output (File exists)' without the path."""
+    bad = tmp_path / 'garbage'
+    with Writer(bad, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        c = w.add_connection('/cmd', JS, typestore=TS)
+        w.write(c, T0, TS.serialize_cdr(joint_state(['crank'], [0.1]), JS))
+        w.write(c, T0 + 10**7, b'\x00\x01\x00\x00' + b'\xff' * 40)
+    code, cap = run([bad, *COMMON[:4], '--out', tmp_path / 'x.csv'], capsys)
+    assert code == 2
+    (line,) = cap.err.strip().splitlines()
+    assert f'input {bad}' in line and 'message 2 on /cmd' in line and 'JointState' in line, line
+    root, _ = fleet
+    out = tmp_path / 'out'
+    out.mkdir()
+    (out / 'day1').write_text('x')  # a file where day1's folder goes
+    code, cap = run([root, *COMMON, '--format', 'csv', '--out-dir', out, '--jobs', 1], capsys)
+    assert code == 3
+    rows, _ = summary_rows(out)
+    assert rows['day1/a']['status'] == 'failed'
+    assert str(out / 'day1') in rows['day1/a']['reason'], rows['day1/a']['reason']
