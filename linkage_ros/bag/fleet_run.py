@@ -172,7 +172,7 @@ def _pool(
     todo: list[tuple[int, BagTask, str]], opts: BagOptions, jobs: int, bars: bool
 ) -> Iterator[tuple[int, BagRow]]:
     import multiprocessing as mp
-    from concurrent.futures import ProcessPoolExecutor, as_completed
+    from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 
     # fork: a worker starts in milliseconds with the package already imported (no threads run
     # in this process before the pool starts); spawn where there is no fork
@@ -186,18 +186,33 @@ def _pool(
         )
     else:
         ex = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
-    # submitted now, before the progress bar exists (its monitor thread must not be forked)
-    futures = {ex.submit(analyse_bag, t, opts, fp): (i, t) for i, t, fp in todo}
+    # one bag per worker in flight, the next submitted as one ends: on Ctrl-C no bag waits in
+    # the pool's queue to be started anyway (all submitted at once, the queue's bags ran to the
+    # end before the exit). The first ones now, before the progress bar exists: they fork the
+    # workers, and the bar's monitor thread must not be forked
+    pending = iter(todo)
+    futures: dict[Future[BagRow], tuple[int, BagTask]] = {}
+
+    def submit_next() -> None:
+        for i, t, fp in pending:
+            futures[ex.submit(analyse_bag, t, opts, fp)] = (i, t)
+            return
+
+    for _ in range(jobs):
+        submit_next()
 
     def results() -> Iterator[tuple[int, BagRow]]:
         try:
-            for f in as_completed(futures):
-                i, t = futures[f]
-                try:
-                    yield i, f.result()
-                except Exception as exc:  # noqa: BLE001 - the worker died (killed, OOM)
-                    why = f'the worker process was lost ({type(exc).__name__}: {exc})'
-                    yield i, _failed(t, why)
+            while futures:
+                done, _ = wait(list(futures), return_when=FIRST_COMPLETED)
+                for f in done:
+                    i, t = futures.pop(f)
+                    submit_next()
+                    try:
+                        yield i, f.result()
+                    except Exception as exc:  # noqa: BLE001 - the worker died (killed, OOM)
+                        why = f'the worker process was lost ({type(exc).__name__}: {exc})'
+                        yield i, _failed(t, why)
         finally:
             ex.shutdown(wait=True, cancel_futures=True)
 

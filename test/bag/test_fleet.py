@@ -495,3 +495,38 @@ def test_a_message_that_is_no_joint_state_and_an_unwritable_output_are_named(
     rows, _ = summary_rows(out)
     assert rows['day1/a']['status'] == 'failed'
     assert str(out / 'day1') in rows['day1/a']['reason'], rows['day1/a']['reason']
+
+
+def test_ctrl_c_starts_no_further_bag(tmp_path):
+    """README: Ctrl-C ends a run with 130. With --jobs 2 every bag was queued in the pool at
+    once, and the queued ones were started and written after the interrupt (two more bags,
+    2.5 s later); now the pool holds one bag per worker and nothing is written after it."""
+    import os
+    import signal
+    import time
+
+    root = tmp_path / 'bags'
+    for k in range(6):
+        write_fleet_bag(root / f'b{k}', 'mcap', 20000, 0.1 * k)
+    out = tmp_path / 'out'
+    cmd = [sys.executable, '-m', 'linkage_ros.cli', 'bag', str(root), '--scene', str(SCENE)]
+    cmd += ['--command-topic', '/cmd', '--solver', 'newton', '--out-dir', str(out)]
+    cmd += ['--format', 'csv', '--jobs', '2', '--no-progress']
+    proc = subprocess.Popen(
+        cmd,
+        start_new_session=True,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
+    )
+    # the two workers are at their first bags once the folder exists (made before the pool)
+    end = time.monotonic() + 60
+    while not out.exists() and time.monotonic() < end and proc.poll() is None:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    before = sorted(p.name for p in out.iterdir())
+    os.killpg(proc.pid, signal.SIGINT)
+    output, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130, output.decode()
+    after = sorted(p.name for p in out.iterdir())
+    assert [n for n in after if n not in before and not n.startswith('summary')] == [], after
