@@ -166,6 +166,15 @@ class LinkageNode(Node):
             raw=True,
         )
         if cfg.joint_states_in:
+            own = self.resolve_topic_name('joint_states')
+            if cfg.publish_inputs and self.resolve_topic_name(cfg.joint_states_in) == own:
+                fail_setting(
+                    'publish_inputs',
+                    f"joint_states_in {cfg.joint_states_in!r} is the node's own joint_states "
+                    f'({own}): with the inputs published there the node would command itself; '
+                    'give the hardware stream another topic',
+                    True,
+                )
             self.create_subscription(
                 JointState, cfg.joint_states_in, self.requests.on_joint_states_in, qos
             )
@@ -248,7 +257,8 @@ class LinkageNode(Node):
         self.max_request_bytes = joint_state_bytes_bound(mech)  # and a larger ~/target
         self.state_inputs = frozenset(mech.commanded_input_names)
         self.state_followers = frozenset(mech.output_input_names) - self.state_inputs
-        if cfg.joint_states_in:  # the hardware publishes the inputs: joint_states carries the rest
+        if cfg.joint_states_in and not cfg.publish_inputs:
+            # the hardware publishes the inputs: joint_states carries the rest
             outputs.set_omit_joints(self.state_inputs)
         log_mechanism(self, scene, replacing)
         if cfg.demo_sweep:

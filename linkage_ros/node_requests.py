@@ -248,7 +248,8 @@ class Requests:
             # no input: not the hardware's (the node's own joint_states carries a follower)
             return
         followers = self.node.state_followers.intersection(values)
-        if followers - self.node.outputs.omit_joints:  # the hardware publishes a mimic follower too
+        if followers - self.node.outputs.omit_joints and not self.node.config.publish_inputs:
+            # the hardware publishes a mimic follower too
             self.node.outputs.set_omit_joints(self.node.outputs.omit_joints | followers)
         # joint_state_broadcaster fills a joint without a velocity interface with NaN: such
         # rates are no rates, positions alone command

@@ -196,6 +196,14 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         "publishes them) and carries the passive ones. '' = off.",
         constraints="'' | a topic name",
     ),
+    ParamSpec(
+        'publish_inputs',
+        False,
+        'State completion: joint_states carries the inputs taken from joint_states_in too '
+        '(every joint of the chain), for a robot_state_publisher that reads the node alone '
+        '(a description whose chain is faked by <mimic>: the hardware stream goes to the '
+        'node only). joint_states_in must then be another topic than joint_states.',
+    ),
 )
 
 
@@ -225,6 +233,7 @@ class NodeConfig:
     robot_description: str = ''
     robot_description_topic: str = ''
     joint_states_in: str = ''
+    publish_inputs: bool = False
 
     @property
     def source(self) -> str:
@@ -377,6 +386,13 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         fail_setting('dimensions', str(exc), list(dims))
     closures, actuated, description, description_topic = _description_settings(v)
     joint_states_in = check_topic('joint_states_in', v['joint_states_in'])
+    publish_inputs = v['publish_inputs']
+    if not isinstance(publish_inputs, bool):
+        fail_setting('publish_inputs', 'must be true or false', publish_inputs)
+    if publish_inputs and not joint_states_in:
+        fail_setting(
+            'publish_inputs', 'it applies to state completion: set joint_states_in too', True
+        )
     path = scene_path(scene)
     if not (description or description_topic) and not path.exists():
         from .resources import config_dir
@@ -411,6 +427,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         robot_description=description,
         robot_description_topic=description_topic,
         joint_states_in=joint_states_in,
+        publish_inputs=publish_inputs,
     )
 
 

@@ -307,6 +307,9 @@ def procs(tmp_path_factory):
     params['completion_robotiq'] = dict(
         CASES['robotiq_2f_85']['params'], joint_states_in='joint_states'
     )
+    params['completion_all'] = dict(
+        completion_params(), joint_states_in='hw_joint_states', publish_inputs=True
+    )
     started = {
         name: NodeProcess(workdir / name, DOMAIN_ID, p).start() for name, p in params.items()
     }
@@ -493,6 +496,30 @@ def test_robot_description_topic_waits_serves_replaces_and_refuses(ros, procs):
 # ---- state completion ------------------------------------------------------------------------
 
 
+def test_state_completion_with_publish_inputs_publishes_every_joint(ros, procs):
+    """publish_inputs: the hardware stream (another topic) goes to the node alone, and the
+    node's joint_states carry the inputs too, for a robot_state_publisher that reads only the
+    node (a chain faked by <mimic>, TOPICS). Oracle: Pinocchio closes the loops with the
+    hardware's values as published by the node."""
+    proc = procs['completion_all']
+    node = Node(ros, proc).ready()
+    mech = load_scene(fixture('grbda_six_bar.urdf')).mechanism
+    hardware = node.publisher(JointState, 'hw_joint_states')
+    q = {'joint1': 0.2, 'joint2': -0.1, 'joint3': 0.3}
+    node.clear()
+    ros.publish(hardware, joint_state(dict(q, arm_joint=1.0), (), (55, 7)))
+    assert ros.spin_until(lambda: len(node.joints) > 0, ANSWER_TIMEOUT, proc)
+    answer = node.joints.last
+    assert list(answer.name) == mech.output_joint_names  # the inputs too
+    assert (answer.header.stamp.sec, answer.header.stamp.nanosec) == (55, 7)
+    joints = dict(zip(answer.name, answer.position))
+    for k, v in q.items():
+        assert joints[k] == pytest.approx(v, abs=1e-12)
+    closures = CASES['grbda_six_bar']['closures']
+    six_bar = text_of('grbda_six_bar.urdf')
+    assert max(pinocchio_closure_misses(six_bar, joints, closures)) < 1e-9 * mech.length_scale
+
+
 def test_state_completion_publishes_the_passive_joints_the_hardware_does_not(ros, procs):
     proc = procs['completion']
     node = Node(ros, proc).ready()
@@ -593,6 +620,11 @@ def test_description_parameters_are_checked_before_anything_loads(tmp_path):
         ),
         'topic name': ({'robot_description_topic': 'robot description'}, 'topic name'),
         'joint_states_in': ({'joint_states_in': '/joint_states/'}, 'topic name'),
+        'publish_inputs alone': ({'publish_inputs': True}, 'set joint_states_in too'),
+        'publish_inputs not a bool': (
+            {'joint_states_in': 'hw', 'publish_inputs': 'yes'},
+            'must be true or false',
+        ),
     }
     for case, (params, fragment) in bad.items():
         with pytest.raises(ConfigError, match=fragment):
