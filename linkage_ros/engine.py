@@ -24,7 +24,7 @@ from .core.model import Mechanism
 from .core.model.names import Named, NameKind, resolve_name
 from .core.motion.circuits import Circuit
 from .core.motion.circuits import reference_circuit as scan_reference_circuit
-from .core.solver import Result, Solver
+from .core.solver import Result, SolveMode, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
 from .core.solver.result import named_value
@@ -516,6 +516,10 @@ class Engine:
         edge = reach_edge(solver, values, last)
         if edge is not None:
             result.reason = f'{edge.describe()}; {result.reason}'
+            if solver.mode is not SolveMode.CLOSED_FORM:  # (a closed form searched them all)
+                result.reason += (
+                    '; other assembly modes are searched on request (~/target_any_mode, --any-mode)'
+                )
         return result
 
     def point_hold(self, point: str) -> list[str]:

@@ -174,6 +174,17 @@ class ModeKeeper:
             other = self._other_mode(solver, values, last)
             if other is not None:
                 result, after = other, self.mode(other)
+        elif not result.success and allow_mode_change:
+            # Newton places the target: a change of mode asked for searches every mode (the
+            # multi-start search, 0.1-0.6 s: only on request; a plain refusal says so)
+            found = newton_modes(self._newton_for(solver).compiled, values, starts=SEARCH_STARTS)
+            other = min(
+                (r for r in found.results if r.success),
+                key=lambda r: configuration_distance(last, r),
+                default=None,
+            )
+            if other is not None:
+                result, after = other, self.mode(other)
         if not result.success or after is None:
             return TargetAnswer(result, False)
         if not allow_mode_change:

@@ -151,3 +151,26 @@ def test_a_coordinate_takes_the_point_prefix(loader):
     """`point:D.x` is D.x (the prefix docs/TOPICS.md gives for a point named like a joint): it
     was refused as 'has no point named D.x'."""
     assert spec_for(loader, 'point:D.x') == CoordinateSpec('point:D.x', 'D', 0)
+
+
+@pytest.mark.parametrize('target', [{'P.x': 0.2}, {'P.y': 0.0}])
+def test_a_coordinate_only_the_other_mode_reaches_is_found_on_request(target):
+    """four_bar's coupler point: mode + covers P.x in [0.0034, 0.1707]; P.x = 0.2 (and P.y = 0)
+    only mode - reaches. ~/target_any_mode / --any-mode refused it as out of reach (no search
+    of the other modes for a target Newton places); now it is answered there with its
+    mode_change, and a plain target's refusal says the other modes are searched on request.
+    Oracle: the 50-digit four-bar at the answer's crank angle in mode - puts P there."""
+    from oracles import fourbar
+
+    from linkage_ros.engine import Engine, EngineSettings
+
+    e = Engine(load('four_bar'), EngineSettings())
+    plain = e.target(target)
+    assert not plain.success and 'searched on request (~/target_any_mode' in plain.reason
+    r = e.target(target, allow_mode_change=True)
+    assert r.success and r.mode_change == '+ -> -', (r.reason, r.mode_change)
+    want = fourbar(0.3, 0.1, 0.25, 0.2, r.inputs['crank'], branch=-1, coupler_point=(0.18, 0.45))
+    ((name, value),) = target.items()
+    axis = 0 if name.endswith('.x') else 1
+    assert abs(float(want['P'][axis]) - value) <= 1e-12 * 0.3
+    assert math.dist(r.points['P'], [float(c) for c in want['P']]) <= 1e-12 * 0.3
