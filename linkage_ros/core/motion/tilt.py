@@ -9,7 +9,8 @@ from typing import Any
 import numpy as np
 
 from ..model import Mechanism
-from ..solver import Solver
+from ..solver import Result, Solver
+from ..solver.mode_rule import ModeKeeper
 from .common import link_key, point_key, reference_scalar
 from .walk import _walk
 
@@ -63,9 +64,11 @@ def max_tilt(
         raise ValueError(f'hold exactly {extra} actuator(s) of {mech.name!r} (got {held})')
     pk, lk = point_key(mech, lip), link_key(mech, link)
     current = {a: reference_scalar(mech, a) for a in mech.actuators}
+    forward = Solver(mech, method=method)
+    fwd = forward.solve(current, commit=False)
     if inputs:
         current.update({k: float(v) for k, v in inputs.items()})
-        fwd = Solver(mech, method=method).solve(current)
+        fwd = forward.solve(current, commit=False)
         if not fwd.success:
             return {
                 'ok': False,
@@ -96,7 +99,10 @@ def max_tilt(
         'start': a0,
         'held': {h: float(current[h]) for h in held},
     }
-    start = solver.solve(command(a0), commit=False)
+    # the start pose in the mechanism's assembly mode (the target rule, as ~/target answers
+    # it): a continuous solve from the drawing may land in another mode with the same lip and
+    # angle, whose limits are not this mechanism's as it stands
+    start = _start_in_mode(mech, forward, solver, fwd, command(a0), method)
     if not start.success:
         return {
             **base,
@@ -117,3 +123,34 @@ def max_tilt(
     res['tilt_up'] = None if res['max'] is None else res['max'] - a0
     res['tilt_down'] = None if res['min'] is None else a0 - res['min']
     return res
+
+
+def _start_in_mode(
+    mech: Mechanism,
+    forward: Solver,
+    solver: Solver,
+    now: Result,
+    values: Mapping[str, Any],
+    method: str | None,
+) -> Result:
+    """The tilt's start (``values``: the lip, the angle, the held actuators) in the assembly
+    mode of the configuration ``now`` (core.solver.mode_rule's target rule), or why not."""
+    if not now.success:
+        return solver.solve(values, commit=False)
+
+    def make(knowns: Sequence[str] | None, branch: str | None, how: str | None) -> Solver:
+        return Solver(
+            mech, knowns=knowns, method=how or method, branch=branch or 'continuous', max_iter=200
+        )
+
+    keeper = ModeKeeper(mech, forward, make)
+    before = keeper.mode(now)
+    if before is None:
+        return solver.solve(values, commit=False)
+    solver.reset()
+    solver.adopt(now)
+    answer = keeper.target(
+        solver, values, now, before, held_by='tilt, which starts from the mechanism as it stands,'
+    ).result
+    solver.reset()
+    return answer

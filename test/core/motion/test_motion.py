@@ -733,3 +733,39 @@ def test_unreachable_and_beyond_limit_targets_are_refused_with_a_reason(scene, k
     res = Solver(mech, knowns=keys, branch='reference').solve(target)
     assert not res.success
     assert a in res.reason and 'maximum' in res.reason, res.reason
+
+
+def test_the_tilt_is_of_the_mechanism_as_it_stands_in_its_assembly_mode():
+    """A tilt's start (lip held, bin at an angle) solved continuously from the drawing may land
+    in another assembly mode with the same lip and angle: the excavator held at this lip
+    position and angle was tilted 1.212 .. 1.398 rad in mode +-++, limited by Z3 there, while
+    the mechanism is in +--+. Oracle: the forward closed form in the drawing's mode at the
+    actuator values of each bound puts the lip at the hold point and the bin at the bound's
+    angle; the start that only another mode reaches is refused naming it."""
+    from linkage_ros.core.motion import max_tilt
+    from linkage_ros.core.solver import Solver
+
+    mech = load('excavator')
+    odd = max_tilt(
+        mech, 'L', 'bucket', hold_point=(3.2629924685627913, -0.2834644322931385),
+        start_angle=1.3675331280709948,
+    )  # fmt: skip
+    assert not odd['ok'] and 'reachable only in assembly mode +-++' in odd['reason']['start']
+    forward = Solver(mech, method='closed_form', branch='reference')
+    rng = np.random.default_rng(7)
+    checked = 0
+    for _ in range(12):
+        z = {a: rng.uniform(act.min, act.max) for a, act in mech.actuators.items()}
+        pose = forward.solve(z, commit=False)
+        hold = pose.points['L']
+        res = max_tilt(mech, 'L', 'bucket', hold_point=hold, start_angle=pose.links['bucket'])
+        assert res['ok'], res['reason']
+        for key in ('min', 'max'):
+            if res[key] is None:
+                continue
+            at = forward.solve(res['inputs_at'][key], commit=False)
+            assert at.success and math.dist(at.points['L'], hold) <= 1e-9
+            turn = math.remainder(at.links['bucket'] - res[key], 2 * math.pi)
+            assert abs(turn) <= 1e-6, (key, turn)
+            checked += 1
+    assert checked >= 12
