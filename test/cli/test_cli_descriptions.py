@@ -655,3 +655,43 @@ def test_limit_refusals_quote_the_descriptions_own_values_and_limits(capsys, tmp
     assert solve_json(capsys, path, '--set', 'joint1=0.35')['joints']['joint1'] == pytest.approx(
         0.35, abs=1e-12
     )
+
+
+TOGGLE_AT_ZERO = """<?xml version="1.0"?>
+<robot name="tog">
+  <link name="base_link"/><link name="crank_l"/><link name="coupler_l"/><link name="rocker_l"/>
+  <joint name="crank" type="continuous"><parent link="base_link"/><child link="crank_l"/>
+    <origin xyz="0 0 0"/><axis xyz="0 0 1"/></joint>
+  <joint name="cj" type="continuous" independent="false"><parent link="crank_l"/>
+    <child link="coupler_l"/><origin xyz="0.3 0 0"/><axis xyz="0 0 1"/></joint>
+  <joint name="rj" type="continuous" independent="false"><parent link="base_link"/>
+    <child link="rocker_l"/><origin xyz="1 0 0" rpy="0 0 0.5"/><axis xyz="0 0 1"/></joint>
+  <loop name="pin" type="revolute"><predecessor link="coupler_l"><origin xyz="0.9 0 0"/>
+    </predecessor><successor link="rocker_l"><origin xyz="0.2 0 0"/></successor>
+    <axis xyz="0 0 1"/></loop>
+</robot>
+"""
+
+
+def test_a_description_assembled_at_a_toggle_is_calibrated_exactly(capsys, tmp_path):
+    """Drawn open, this four-bar assembles at crank = 0 in its toggle (|A O4| = 0.7 = coupler -
+    rocker), where the least-squares assembly is good only to the root of rounding: the joint
+    map's offsets took that 2e-8 rad error into every answer (rj 0.5015629016 for 0.5015628786)
+    with residual 8e-17. Oracle: the circle intersection in plain math, and Pinocchio."""
+    import cmath
+
+    path = tmp_path / 'tog.urdf'
+    path.write_text(TOGGLE_AT_ZERO)
+    for t in (0.8, 0.3, 1.5):
+        d = solve_json(capsys, path, '--set', f'crank={t!r}')
+        a = complex(0.3 * math.cos(t), 0.3 * math.sin(t))
+        far = abs(1 - a)
+        along = (0.9**2 - 0.2**2 + far * far) / (2 * far)
+        b = a + (along + 1j * math.sqrt(0.9**2 - along * along)) * (1 - a) / far
+        want = math.remainder(cmath.phase(b - 1) - 0.5, 2 * math.pi)
+        assert abs(math.remainder(d['joints']['rj'] - want, 2 * math.pi)) <= 1e-12, t
+        case = {
+            'path': path,
+            'pins': [(('coupler_l', (0.9, 0.0, 0.0)), ('rocker_l', (0.2, 0.0, 0.0)))],
+        }
+        assert max(pinocchio_misses(case, d['joints'])) <= 1e-12

@@ -34,6 +34,14 @@ def calibrate_joint_map(
             f'the imported scene does not solve at its reference pose: {ref.reason}',
             file=chain.description.source,
         )
+    # the drawing's own revolute values (the scene is drawn in the pose q describes: each link
+    # at its reference angle). Paired with q they make every offset exact; the closed form's
+    # re-solve of the reference is exact too, but of the closed pose, which at a toggle lies
+    # ~1e-8 rad (the root of rounding) from the least-squares assembly q came from
+    drawn = dict(ref.joints)
+    for rj in mech.revolutes:
+        child, parent = mech.links[rj.child], mech.links[rj.parent]
+        drawn[rj.name] = math.remainder(child.angle_ref - parent.angle_ref, 2.0 * math.pi)
     desc = chain.description
     poses = chain.poses(q)
     outputs: list[OutputJoint] = []
@@ -53,7 +61,7 @@ def calibrate_joint_map(
             scale = sigma * j.sign  # q = sign * (angle(child) - angle(parent)) + const
         else:
             name, scale = names.of[('point', j.name)], 1.0  # the slider's name
-        offset = _offset(q[j.name] - scale * ref.joints[name], j.revolute)
+        offset = _offset(q[j.name] - scale * drawn[name], j.revolute)
         outputs.append(
             OutputJoint(
                 j.name,
@@ -87,7 +95,7 @@ def calibrate_joint_map(
                 mimic_offset=mimic.offset if leader and mimic else 0.0,
             )
         )
-    outputs += _cut_joints(chain, poses, ref.joints, lname, names, scene_pin)
+    outputs += _cut_joints(chain, poses, drawn, lname, names, scene_pin)
     published = {o.name for o in outputs}
     # mimics outside the chain follow their published leader, which may itself be such a mimic
     # declared after them: passes until none is added (each after its leader: positions
