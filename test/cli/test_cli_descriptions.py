@@ -695,3 +695,40 @@ def test_a_description_assembled_at_a_toggle_is_calibrated_exactly(capsys, tmp_p
             'pins': [(('coupler_l', (0.9, 0.0, 0.0)), ('rocker_l', (0.2, 0.0, 0.0)))],
         }
         assert max(pinocchio_misses(case, d['joints'])) <= 1e-12
+
+
+def test_a_mimic_coupled_description_assembled_elsewhere_is_not_called_open(capsys, tmp_path):
+    """The Robotiq at assemble_at knuckle = 0.3: its <mimic> rule closes both fingers there
+    (drawn as parallelograms), but the note said 'open by 0.0226 m' (the passive joints held at
+    0, not where the description puts them)."""
+    closures = tmp_path / 'at.yaml'
+    closures.write_text(ROBOTIQ_CLOSURES.read_text() + f'assemble_at: {{{LEFT_KNUCKLE}: 0.3}}\n')
+    rc, _, err = run(capsys, 'check', ROBOTIQ, '--closures', closures)
+    assert rc == 0 and 'superseded' in err
+    assert 'is open by' not in err, err
+
+
+@pytest.mark.parametrize(
+    'at, said',
+    [
+        (
+            {LEFT_KNUCKLE: 0.9},
+            f'assemble_at: {LEFT_KNUCKLE} = 0.9 is outside its <limit> [0, 0.8]',
+        ),
+        (
+            {'robotiq_85_left_inner_knuckle_joint': 0.3},
+            f'not an actuated joint (the closed chain places the others); give values of '
+            f'{LEFT_KNUCKLE}\n',
+        ),
+    ],
+)
+def test_assemble_at_refusals_name_the_closure_files_own_terms(capsys, tmp_path, at, said):
+    """A value beyond the <limit> was blamed on 'actuators.<joint>' (a key of the scene made
+    inside) with the advice to use assemble_at, the key at fault; a passive joint was answered
+    with a list naming the right knuckle too, which follows the left by its <mimic>."""
+    closures = tmp_path / 'at.yaml'
+    ((name, value),) = at.items()
+    closures.write_text(ROBOTIQ_CLOSURES.read_text() + f'assemble_at: {{{name}: {value}}}\n')
+    rc, _, err = run(capsys, 'check', ROBOTIQ, '--closures', closures)
+    assert rc == 2 and said in err, err
+    assert 'actuators.' not in err

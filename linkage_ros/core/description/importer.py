@@ -196,14 +196,20 @@ def _assembly_values(
     caller's): a passive joint is refused (the loops place it), and a mimic follower takes its
     leader's value by the mimic (stating it otherwise is refused)."""
     given = {**desc.assemble_at, **(values or {})}
+    by_name = {j.name: j for j in chain.joints}
+
+    def leader_of(name: str) -> str | None:
+        mimic = by_name[name].joint.mimic
+        return mimic.joint if mimic is not None and mimic.joint in acts else None
+
     for name in given:
         if name not in acts:
+            settable = [a for a in acts if leader_of(a) is None]
             raise DescriptionError(
                 f'assemble_at: {name!r} is not an actuated joint (the closed chain places the '
-                f'others); give values of {", ".join(acts)}',
+                f'others); give values of {", ".join(settable)}',
                 file=desc.source,
             )
-    by_name = {j.name: j for j in chain.joints}
     for name in acts:
         mimic = by_name[name].joint.mimic
         if mimic is None or mimic.joint not in acts:
@@ -216,6 +222,18 @@ def _assembly_values(
                 file=desc.source,
             )
         given[name] = want
+    for name, value in desc.assemble_at.items():  # within the description's limits
+        lim = desc.limits.get(name, by_name[name].joint.limits)
+        low, high = lim.lower, lim.upper
+        if (low is not None and value < low) or (high is not None and value > high):
+            lo_text = '-inf' if low is None else f'{low:g}'
+            span = f'[{lo_text}, {"inf" if high is None else f"{high:g}"}]'
+            raise DescriptionError(
+                f'assemble_at: {name} = {value:.9g} is outside its <limit> {span}: the '
+                'assembled pose is the reference pose, the first state; give a value within '
+                'the limits (or state wider ones in the closure file)',
+                file=desc.source,
+            )
     return given
 
 
@@ -230,6 +248,13 @@ def _assemble(
     desc = chain.description
     passive = [j for j in chain.joints if j.name not in acts]
     base = {j.name: float(given.get(j.name, 0.0)) for j in chain.joints}
+    # a passive joint the description gives by <mimic> is where its rule puts it (the
+    # description's own pose, whose gap the note reports), else at 0
+    for _ in passive:
+        for j in passive:
+            m = j.joint.mimic
+            if m is not None and m.joint in base:
+                base[j.name] = m.multiplier * base[m.joint] + m.offset
     scale = chain.length_scale
 
     def residual(x: np.ndarray) -> np.ndarray:
