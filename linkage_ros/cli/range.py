@@ -10,10 +10,10 @@ bound is a toggle of the assembly, refined to 1e-12, or the scene's limit). ``--
 region the point reaches while the actuators that move it run over their limits (the four
 extreme arcs for two actuators); ``--tilt LINK --lip POINT`` the largest rotation of LINK about
 POINT held at its reference position (or ``--hold X,Y``, from the link's angle ``--tilt-from``)
-within the actuator limits; ``--links``
-the oscillation range of every moving link; ``--plot`` draws the region (of ``--point``, else of
-the scene's first output point) and ``--curves`` an output versus an input with every assembly
-mode. Angles are radians (degrees in parentheses), lengths metres.
+within the actuator limits; ``--links`` the oscillation range of every moving link of two points
+or more; ``--plot`` draws the region (of ``--point``, else of the scene's first output point)
+and ``--curves`` an output versus an input with every assembly mode. Angles are radians (degrees
+in parentheses), lengths metres.
 
 JSON: {"scene", "inputs": {name: {"min", "max", "min_source", "max_source", "full_turn",
 "assembly", "reference", "unit"}}, "toggles": {name: [...]}, "region": {point: {"boundary":
@@ -82,7 +82,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         '--links',
         action='store_true',
-        help='oscillation range of every moving link (first actuator, or --input)',
+        help='oscillation range of every moving link drawn with two points or more (first '
+        'actuator, or --input); a one-point slider block turns with its guide and a '
+        "cylinder's barrel and rod with their pins, so they are not listed",
     )
     p.add_argument('--plot', metavar='PNG', help='draw the reachable region to this PNG')
     p.add_argument(
