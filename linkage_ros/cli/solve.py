@@ -25,6 +25,9 @@ from .common import (
 from .described import request_echo, scene_command
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from ..core.solver import Result
     from ..core.solver.modes import ModeList
 
 # ---- solve -------------------------------------------------------------------------------------
@@ -37,6 +40,27 @@ def roller_legend(modes: ModeList) -> str:
         f'face (+ left of its direction, - right); drawn {c.drawn}'
         for c in modes.rollers
     )
+
+
+def _drawn_mode_rule(mech, modes: ModeList) -> Callable[[Result], bool]:
+    """Whether a solution of ``modes`` is in the drawing's assembly mode: on the drawing's
+    circuit where that circuit passes its toggles (a non-Grashof four-bar's two signs are one
+    mode; a Grashof double-rocker's mirror loop, in the drawn signs, is another:
+    core.motion.circuits), else in the drawn branch signs."""
+    from ..core.motion.circuits import reference_circuit
+    from ..core.steps import branch_signs
+
+    circuit = reference_circuit(mech)
+    if circuit is None or not circuit.crosses_signs:
+        return lambda r: r.branch == modes.drawn
+
+    def on_circuit(r: Result) -> bool:
+        value = r.inputs.get(circuit.actuator)
+        if value is None or len(r.branch) != len(modes.drawn) or '?' in r.branch:
+            return r.branch == modes.drawn
+        return circuit.holds(branch_signs(r.branch), float(value))
+
+    return on_circuit
 
 
 def cmd_solve(args) -> int:
@@ -58,13 +82,15 @@ def cmd_solve(args) -> int:
     else:  # as the node answers ~/command from its drawing
         results = [forward_engine(mech, args).forward_solve(command)]
     dicts = [request_echo(mech, r.to_dict(mech), given) for r in results]
+    in_drawn_mode = _drawn_mode_rule(mech, modes) if modes is not None else None
     for d, r in zip(dicts, results):
         if r.mode_change:
             d['mode_change'] = r.mode_change
         if modes is not None:  # whether the list is provably every assembly mode
             d['modes_complete'] = modes.complete
-            if modes.drawn:  # the mode the drawing is in, and each roller's side of its face
-                d['drawn_mode'] = d['branch'] == modes.drawn
+            if modes.drawn and in_drawn_mode is not None:
+                # the mode the drawing is in, and each roller's side of its face
+                d['drawn_mode'] = in_drawn_mode(r)
             if modes.rollers:
                 sides = modes.roller_sides(r)
                 d['rollers'] = {

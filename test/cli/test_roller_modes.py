@@ -65,9 +65,11 @@ def test_all_branches_lists_both_roller_sides_as_json(capsys, scene):
     for i, a in enumerate(modes):
         for b in modes[i + 1 :]:
             assert max(_dist(a['points'][k], b['points'][k]) for k in a['points']) > 1e-6
-    # exactly one is the drawing's mode, with the roller on its drawn side
-    (d,) = [m for m in modes if m['drawn_mode']]
-    assert d['rollers']['face']['side'] == 'left'
+    # the drawing's mode: its circuit passes the arm's toggles (test_roller_side), so the arm's
+    # two signs with the roller on its drawn side, and only they
+    drawn = [m for m in modes if m['drawn_mode']]
+    assert sorted(m['branch'] for m in drawn) == ['+++', '-++']
+    assert all(m['rollers']['face']['side'] == 'left' for m in drawn)
     assert len({m['branch'] for m in modes}) == 8
 
 
@@ -77,7 +79,8 @@ def test_all_branches_text_names_the_roller_sign_and_the_drawn_mode(capsys, scen
     assert out.count('--- assembly mode') == 8
     assert 'roller face: branch sign 2 of 3 is the side of its face' in out
     assert 'drawn left' in out
-    assert out.count('(as drawn)\n') == 1 + 4  # the drawn mode, and the 4 with the drawn side
+    # the drawing's circuit (+++ and -++, through the arm's toggles), the 4 with the drawn side
+    assert out.count('(as drawn)\n') == 2 + 4
     assert out.count('roller face: right of its face (not drawn)') == 4
 
 
@@ -104,5 +107,5 @@ def test_the_scene_doc_nut_cracker_lists_eight_modes(capsys, tmp_path):
     rc, out, _ = run(capsys, 'solve', p, '--set', 'handle=1.2', '--all-branches', '--json')
     modes = json.loads(out)
     assert rc == 0 and len(modes) == 8 and all(m['status'] == 'ok' for m in modes)
-    assert [m['branch'] for m in modes if m['drawn_mode']] == ['+++']
+    assert [m['branch'] for m in modes if m['drawn_mode']] == ['+++', '-++']
     assert {m['rollers']['face']['side'] for m in modes} == {'left', 'right'}

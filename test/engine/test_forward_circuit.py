@@ -164,3 +164,34 @@ def test_a_target_on_the_mirror_loop_is_named_as_another_circuit_whatever_its_si
         assert moved.success and moved.mode_change.endswith('(another circuit)')
         assert -hi - 1e-9 <= moved.inputs['crank'] <= -lo + 1e-9  # the cosine rule's other loop
         e = Engine(_double_rocker(), EngineSettings())
+
+
+def test_all_branches_marks_as_drawn_the_solutions_on_the_drawings_circuit(tmp_path, capsys):
+    """`--all-branches` marked a solution '(as drawn)' by its signs alone: the non-Grashof
+    four-bar's solutions in sign - (on the drawing's one circuit: seed 000's "only one mode
+    of assembly") were not, and the double-rocker's mirror-loop solution in the drawn sign was.
+    Oracle: the cosine rule's crank intervals (the drawing's loop is lo..hi)."""
+    import json
+
+    assert (
+        cli_main(
+            ['solve', 'four_bar_non_grashof', '--target', 'rocker=4.0', '--all-branches', '--json']
+        )
+        == 0
+    )
+    rows = json.loads(capsys.readouterr().out)
+    assert {r['branch'] for r in rows} == {'-'} and all(r['drawn_mode'] for r in rows)
+    scene = tmp_path / 'dr.yaml'
+    scene.write_text(
+        f'four_bar: {{ground: {G}, crank: {C}, coupler: {B}, rocker: {R}, '
+        f'input: {math.radians(60.0)!r}, branch: 1}}\n'
+    )
+    lo, hi = _crank_interval(G, C, B, R)
+    for t in (-0.5 * (lo + hi), 0.5 * (lo + hi)):
+        assert (
+            cli_main(['solve', str(scene), '--set', f'crank={t!r}', '--all-branches', '--json'])
+            == 0
+        )
+        rows = json.loads(capsys.readouterr().out)
+        assert len(rows) == 2
+        assert all(r['drawn_mode'] == (lo <= t <= hi) for r in rows), (t, rows)
