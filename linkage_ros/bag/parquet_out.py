@@ -6,7 +6,8 @@ the CSV's ``time``), ``receive_time_ns`` (bag time, int64 ns), ``topic`` (dictio
 velocities), ``<point>.x``, ``<point>.y`` (float64),
 ``residual``, ``margin`` (float64), ``branch``, ``status`` (dictionary: ``ok`` / ``error``),
 ``reason`` (string). Where the CSV leaves a field empty the column is null (a refused row's
-joints and points; an actuator a refused request did not name); a commanded NaN stays NaN.
+joints, points and branch, an OK row's reason; an actuator a refused request did not name); a
+commanded NaN stays NaN.
 One row group per ``block`` rows, so a reader streams a file of any size; written to a
 temporary file and renamed into place when complete (nothing half-written).
 """
@@ -46,7 +47,7 @@ def parquet_schema(mech: Any, rates: bool = False) -> Any:
     fields += [pa.field(f'{p}.{c}', f64) for p in mech.points for c in ('x', 'y')]
     fields += [pa.field('residual', f64), pa.field('margin', f64)]
     fields += [
-        pa.field('branch', pa.dictionary(pa.int32(), pa.string()), nullable=False),
+        pa.field('branch', pa.dictionary(pa.int32(), pa.string())),
         pa.field('status', pa.dictionary(pa.int8(), pa.string()), nullable=False),
         pa.field('reason', pa.string()),
     ]
@@ -61,11 +62,19 @@ def _float(values: Any, null: np.ndarray | None = None) -> Any:
     return pa.array(v, pa.float64(), mask=np.isnan(v) if null is None else null)
 
 
-def _dictionary(codes: np.ndarray, names: list[str], index_type: Any) -> Any:
+def _dictionary(
+    codes: np.ndarray, names: list[str], index_type: Any, empty_is_null: bool = False
+) -> Any:
+    """A dictionary column of ``codes`` into ``names``; ``empty_is_null``: a row whose name is
+    '' is null (as the CSV leaves the field empty)."""
     import pyarrow as pa
 
+    codes = np.asarray(codes)
+    mask = None
+    if empty_is_null and '' in names:
+        mask = codes == names.index('')
     return pa.DictionaryArray.from_arrays(
-        pa.array(np.asarray(codes), index_type), pa.array(list(names), pa.string())
+        pa.array(codes, index_type, mask=mask), pa.array(list(names), pa.string())
     )
 
 
@@ -109,7 +118,9 @@ def write_parquet(
             for p in mech.points:
                 cols += [_float(res.points[p][sl, 0]), _float(res.points[p][sl, 1])]
             cols += [_float(res.residual[sl]), _float(res.margin[sl])]
-            cols.append(_dictionary(res.branch_code[sl], res.branch_names, pa.int32()))
+            cols.append(
+                _dictionary(res.branch_code[sl], res.branch_names, pa.int32(), empty_is_null=True)
+            )
             cols.append(_dictionary(ok.astype(np.int8), list(STATUS_NAMES), pa.int8()))
             reasons = [
                 None if good else (res.reason[a + i] or '') for i, good in enumerate(ok.tolist())

@@ -239,6 +239,10 @@ def test_parquet_reads_back_with_typed_columns(fleet, serial):
         for col in ('joint.O4', 'P.y', 'margin'):
             want = [float(r[col]) if r[col] else None for r in rows]
             assert table.column(col).to_pylist() == want, col
+        # text fields: null where the CSV's is empty (a refused row's branch, an OK row's
+        # reason), one convention (a refused row's branch was '')
+        for col in ('branch', 'reason'):
+            assert table.column(col).to_pylist() == [r[col] or None for r in rows], col
 
 
 def test_one_row_group_per_block(tmp_path, fleet):
