@@ -51,6 +51,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help='sensor_msgs/msg/JointState commands naming the actuators',
     )
     parser.add_argument(
+        '--state-completion',
+        action='store_true',
+        help="read --command-topic as the node's joint_states_in reads a hardware JointState "
+        "(a robot's recorded /joint_states): each message's values of the mechanism's inputs "
+        'command it, its other joints are not read, and a message with none of the inputs is '
+        'skipped (docs/TOPICS.md, State completion)',
+    )
+    parser.add_argument(
         '--target-topic',
         metavar='TOPIC',
         default=None,

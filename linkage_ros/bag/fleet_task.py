@@ -36,6 +36,7 @@ from .progress import _Progress
 from .reading import Commands, _exc_text, read_commands
 from .results import Results
 from .run_outputs import Output, OutputKind, RunOutputs
+from .state_completion import completed_commands
 
 #: manifest layout version (a manifest of another version is not trusted)
 MANIFEST_VERSION = 1
@@ -67,6 +68,8 @@ class BagOptions:
     remap: tuple[tuple[str, str], ...] = ()  # output bag topic renames (--remap)
     #: the node's frame_id parameter in the run recorded (--frame-id); '' = the scene's
     frame_id: str = ''
+    #: the command topic read as the node's joint_states_in (--state-completion)
+    state_completion: bool = False
 
     @property
     def topics(self) -> list[str]:
@@ -125,6 +128,11 @@ def replay_input(
     placed first and decoded one at a time when answered; with ``outputs`` each answered plan
     goes to them at once and keeps only its outcome (one plan in memory at a time)."""
     data = read_commands(source, opts.topics, progress, accept_missing=opts.accept_missing)
+    refused: dict[int, str] = {}
+    if opts.state_completion:  # as joint_states_in: the inputs of each hardware message
+        inputs = list(mech.commanded_input_names)
+        followers = [n for n in mech.output_input_names if n not in inputs]
+        data, refused = completed_commands(data, inputs, followers)
     for topic in opts.path_topics:
         if path_point(topic) not in mech.points:
             raise BagError(
@@ -141,6 +149,8 @@ def replay_input(
     topics = plan_topics(opts.trajectory_topics, opts.path_topics)
     decoded = decoded_plans(source, topics, plans)
     res = engine.solve_all(data, progress, plans, frame_id, decoded=decoded, on_plan=on_plan)
+    for i, why in refused.items():  # (their rows name nothing: refused, the state unchanged)
+        res.reason[i] = why
     return data, res, plans
 
 

@@ -87,6 +87,7 @@ def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: 
         tol=args.tol,
         max_iter=args.max_iter,
         accept_missing=args.accept_missing,
+        state_completion=args.state_completion,
         formats=tuple(formats),
         out_format=args.out_format,
         out_dir=out_dir,

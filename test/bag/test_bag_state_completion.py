@@ -1,0 +1,109 @@
+"""`linkage bag --state-completion`: a robot's recorded /joint_states (joint_state_broadcaster:
+every joint of the robot, NaN velocities where a joint has no velocity interface) read as the
+node's joint_states_in reads it. Without it every row was refused ('not an actuator').
+
+Oracles: the node's own rule, the engine answering each message's inputs as a command
+(Engine.command, as node_requests.on_joint_states_in does), and the 50-digit four-bar for
+the rocker."""
+
+from __future__ import annotations
+
+import math
+
+from scenes import CONFIG
+from test_bag import joint_state, make_input, read_csv, run_bag
+
+from linkage_ros.core.loading import load_scene
+from linkage_ros.engine import Engine, EngineSettings
+
+SCENE = CONFIG / 'four_bar.yaml'
+
+
+def test_a_robots_joint_states_command_the_mechanism_by_its_inputs(tmp_path, capsys):
+    from oracles import fourbar
+
+    msgs = []
+    t = 10**9
+    cranks = [0.3 + 0.05 * k for k in range(40)]
+    for k, c in enumerate(cranks):
+        vel = [0.5, float('nan')] if k % 3 == 0 else [0.5, 0.2]
+        msgs.append(('/joint_states', t, joint_state(['arm', 'crank'], [1.0, c], 1 + k, 0, vel)))
+        t += 10**7
+        if k % 10 == 4:  # another robot's message: no input, no row
+            msgs.append(('/joint_states', t, joint_state(['wrist'], [0.1], 1 + k, 5)))
+            t += 10**7
+    # names and positions that do not pair up: refused in the node's words
+    msgs.append(('/joint_states', t, joint_state(['arm', 'crank'], [1.0], 99, 0)))
+    src = make_input(tmp_path, 'mcap', msgs)
+    out = tmp_path / 'o.csv'
+    args = [src, '--scene', SCENE, '--command-topic', '/joint_states', '--out', out]
+    code, cap = run_bag([*args, '--no-progress'], capsys)
+    assert code == 1  # without it every row is refused ('arm' is not an actuator)
+    code, cap = run_bag([*args, '--state-completion', '--no-progress'], capsys)
+    assert code == 0, cap.err  # (one row refused of 41)
+    rows = read_csv(out)
+    assert len(rows) == len(cranks) + 1  # the other robot's messages have no row
+    mech = load_scene(str(SCENE)).mechanism
+    node = Engine(mech, EngineSettings())
+    for k, (row, c) in enumerate(zip(rows, cranks)):
+        rate = None if k % 3 == 0 else {'crank': 0.2}  # a NaN velocity: positions alone
+        want = node.command({'crank': c}, rate)
+        assert row['status'] == 'ok', row['reason']
+        for j in mech.joint_names:
+            assert math.isclose(float(row[f'joint.{j}']), want.joints[j], abs_tol=1e-12), j
+        exact = fourbar(0.3, 0.1, 0.25, 0.2, c, branch=1)
+        assert (
+            abs(math.remainder(want.links['rocker'] - float(exact['theta4']), 2 * math.pi)) < 1e-12
+        )
+        if rate is None:
+            assert row['velocity.O4'] == ''
+        else:
+            assert math.isclose(
+                float(row['velocity.O4']), want.velocity.joints['O4'], abs_tol=1e-12
+            )
+    last = rows[-1]
+    assert last['status'] == 'error'
+    assert last['reason'] == "JointState has 2 name(s) but 1 position(s): cannot read ['crank']"
+
+
+def test_a_descriptions_full_joint_states_take_its_actuated_joints(tmp_path, capsys):
+    """The six-bar's hardware publishes every joint it has, passive ones too (stale values):
+    the actuated joints command it, the passive ones are the node's to give. Oracle: the
+    engine on the actuated values, published as the node publishes them."""
+    from scenes import REPO
+
+    urdf = REPO / 'test' / 'fixtures' / 'robot_descriptions' / 'grbda_six_bar.urdf'
+    qs = [(0.2 + 0.01 * k, 0.3 - 0.01 * k, -0.2) for k in range(40)]
+    msgs = [
+        (
+            '/joint_states',
+            10**9 + k * 10**7,
+            joint_state(
+                ['joint1', 'joint2', 'joint3', 'joint4', 'joint5', 'wrist'],
+                [*q, 0.0, 0.0, 0.7],
+                1 + k,
+            ),
+        )
+        for k, q in enumerate(qs)
+    ]
+    src = make_input(tmp_path, 'mcap', msgs)
+    out = tmp_path / 'o.csv'
+    code, cap = run_bag(
+        [src, '--scene', urdf, '--command-topic', '/joint_states', '--state-completion',
+         '--out', out, '--no-progress'],
+        capsys,
+    )  # fmt: skip
+    assert code == 0, cap.err
+    rows = read_csv(out)
+    mech = load_scene(str(urdf)).mechanism
+    node = Engine(mech, EngineSettings())
+    names = list(mech.output_joint_names)
+    for row, q in zip(rows, qs, strict=True):
+        want = node.command(dict(zip(('joint1', 'joint2', 'joint3'), q)))
+        assert row['status'] == 'ok' and want.success
+        got = {n: float(row[f'joint.{n}']) for n in names}
+        coords = mech.joint_coordinates
+        published = dict(zip(coords.names, coords.positions(want.joints)))
+        for n in names:
+            assert abs(math.remainder(got[n] - published[n], 2 * math.pi)) <= 1e-12, n
+        assert got['joint4'] != 0.0  # the loop's, not the stale recorded 0
