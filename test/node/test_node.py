@@ -385,25 +385,35 @@ def test_zero_stamp_is_replaced_by_now(four_bar):
     assert stamp_of(four_bar.points['P'].last) == (sec, nsec)
 
 
-@pytest.mark.parametrize('little_endian', [True, False])
-def test_command_bytes_of_another_writer_are_read_as_the_message(four_bar, little_endian):
-    """~/command is read off its bytes: a command serialised by rosbags (either byte order,
-    with a frame id and efforts the node skips) is answered as the same message would be."""
-    import numpy as np
+def rosbags_joint_state(names, positions, stamp, frame='', effort=(), little_endian=True) -> bytes:
+    """A JointState serialised by rosbags (another writer than rclpy: it can write a NUL
+    inside a name, either byte order)."""
     from rosbags.typesys import Stores, get_typestore
 
     store = get_typestore(Stores.ROS2_JAZZY)
     t = store.types
     msg = t['sensor_msgs/msg/JointState'](
         header=t['std_msgs/msg/Header'](
-            stamp=t['builtin_interfaces/msg/Time'](sec=4321, nanosec=765), frame_id='odd frame'
+            stamp=t['builtin_interfaces/msg/Time'](sec=stamp[0], nanosec=stamp[1]),
+            frame_id=frame,
         ),
-        name=['crank'],
-        position=np.array([0.9]),
-        velocity=np.array([], dtype=float),
-        effort=np.array([1.0, 2.0, 3.0]),
+        name=list(names),
+        position=np.array(positions, float),
+        velocity=np.zeros(0),
+        effort=np.array(effort, float),
     )
-    raw = bytes(store.serialize_cdr(msg, 'sensor_msgs/msg/JointState', little_endian=little_endian))
+    return bytes(
+        store.serialize_cdr(msg, 'sensor_msgs/msg/JointState', little_endian=little_endian)
+    )
+
+
+@pytest.mark.parametrize('little_endian', [True, False])
+def test_command_bytes_of_another_writer_are_read_as_the_message(four_bar, little_endian):
+    """~/command is read off its bytes: a command serialised by rosbags (either byte order,
+    with a frame id and efforts the node skips) is answered as the same message would be."""
+    raw = rosbags_joint_state(
+        ['crank'], [0.9], (4321, 765), 'odd frame', [1.0, 2.0, 3.0], little_endian
+    )
     joints = four_bar.assert_single_ok(four_bar.request(raw))
     for name, value in four_bar.oracle.solve(0.9)['joints'].items():
         assert angle_diff(joints[name], value) < ANGLE_TOL
@@ -445,20 +455,7 @@ def test_a_target_name_is_read_whole_as_a_command_name_is(four_bar):
     """`rocker\x00x` is one (unknown) name on ~/target as on ~/command and in `linkage bag`
     (TOPICS); rclpy's deserialiser ended it at the NUL and the node answered it as `rocker`.
     The message is the bytes rosbags serialises (rclpy's own serialiser cannot write the NUL)."""
-    from rosbags.typesys import Stores, get_typestore
-
-    ts = get_typestore(Stores.ROS2_JAZZY)
-    t = ts.types
-    msg = t['sensor_msgs/msg/JointState'](
-        header=t['std_msgs/msg/Header'](
-            stamp=t['builtin_interfaces/msg/Time'](sec=5, nanosec=0), frame_id=''
-        ),
-        name=['rocker\x00x'],
-        position=np.array([2.0]),
-        velocity=np.zeros(0),
-        effort=np.zeros(0),
-    )
-    raw = bytes(ts.serialize_cdr(msg, 'sensor_msgs/msg/JointState'))
+    raw = rosbags_joint_state(['rocker\x00x'], [2.0], (5, 0))
     status = four_bar.request(raw, topic='~/target')
     four_bar.assert_single_error(status, 'unknown name', 'rocker')
     assert 'x00x' in status.message
