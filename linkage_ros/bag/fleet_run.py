@@ -125,7 +125,10 @@ def _prepare(args: argparse.Namespace) -> tuple[BagOptions, list[BagTask]]:
     except OSError as exc:
         raise BagError(f'--out-dir {out_dir}: cannot create it ({exc.strerror or exc})') from None
     if not os.access(out_dir, os.W_OK | os.X_OK):
-        raise BagError(f'--out-dir {out_dir}: is not writable (permission denied)')
+        raise BagError(
+            f'--out-dir {out_dir}: is not writable (no write permission, or a read-only file '
+            'system)'
+        )
     return opts, tasks
 
 

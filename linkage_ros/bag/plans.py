@@ -279,6 +279,10 @@ def plans_summary(plans: Sequence[PlanRequest]) -> list[str]:
         return []
     ok = sum(1 for p in plans if p.succeeded)
     lines = [f'  trajectories and paths: {len(plans)} read, solved {ok}, refused {len(plans) - ok}']
+    per_topic: dict[str, int] = {}
+    for p in plans:  # each plan topic's count, as the command topics' above
+        per_topic[p.topic] = per_topic.get(p.topic, 0) + 1
+    lines += [f'    {topic}: {count}' for topic, count in per_topic.items()]
     for p in plans:
         if not p.succeeded:
             lines.append(f'    {p.topic} at {p.log_ns}: {echo(p.reason)}')

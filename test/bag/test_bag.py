@@ -1811,6 +1811,8 @@ def test_recorded_trajectories_and_paths_get_the_nodes_answers(tmp_path, capsys)
     assert [r['status'] for r in plan_rows] == ['ok'] * 12 + ['error'] + ['ok'] * 8
     assert plan_rows[12]['failed_index'] == '1' and 'point 1: ' in plan_rows[12]['reason']
     assert 'trajectories and paths: 3 read, solved 2, refused 1' in cap.out
+    # each plan topic counted, as the command topics are
+    assert '    /traj: 2\n' in cap.out and '    /n/target_path/L: 1\n' in cap.out
 
 
 def test_a_path_topic_must_name_a_point_and_a_trajectory_topic_its_type(tmp_path, capsys):
