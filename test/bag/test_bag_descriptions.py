@@ -89,3 +89,26 @@ def test_the_bag_refuses_what_the_node_refuses_in_the_descriptions_terms(tmp_pat
     for msg, row in zip(msgs[1:], rows[1:]):
         name, value = msg[2].name[0], float(msg[2].position[0])
         assert engine.command({name: value}).reason == row['reason']
+
+
+def test_a_descriptions_recorded_inputs_come_back_as_recorded(tmp_path, capsys):
+    """The bag turned a description's command into the scene's value and back through an array
+    wrap that shifted by pi and back: input.joint1 read 0.04999999999999982 for a command of
+    0.05 (the node, on floats, 0.05). Oracle: the recorded values themselves, and
+    math.remainder for the array wrap."""
+    from linkage_ros.core.model.joint_map import wrap
+
+    values = [0.05, 0.1, -0.3, 1.2, 2.9, -2.9]
+    msgs = [('/cmd', (k + 1) * 10**6, joint_state(['joint1'], [v])) for k, v in enumerate(values)]
+    folder = tmp_path / 'in'
+    write_bag(folder, 'mcap', msgs)
+    out = tmp_path / 'out.csv'
+    urdf = FIXTURES / 'grbda_four_bar.urdf'
+    args = [folder, '--scene', urdf, '--command-topic', '/cmd', '--out', out, '--no-progress']
+    code, cap = run_bag(args, capsys)
+    assert code == 0, cap.err
+    rows = read_csv(out)
+    assert [r['input.joint1'] for r in rows] == [repr(v) for v in values]
+    rng = np.random.default_rng(5)
+    x = np.concatenate([rng.uniform(-40.0, 40.0, 20000), [math.pi, -math.pi, 0.0, 7.0, -7.0]])
+    assert wrap(x).tolist() == [math.remainder(v, 2 * math.pi) for v in x.tolist()]

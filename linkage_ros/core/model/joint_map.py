@@ -64,9 +64,14 @@ class InputJoint:
 
 
 def wrap(angle: Any) -> Any:
-    """``angle`` in [-pi, pi] (a float, or elementwise for a batch's array)."""
+    """``angle`` in [-pi, pi] (a float, or elementwise for a batch's array), exactly as
+    math.remainder gives it: fmod is exact, and moving its result by 2 pi into [-pi, pi] is
+    too (Sterbenz), where shifting by pi first and back rounded (0.05 came back
+    0.04999999999999982, a bag's inputs unlike the node's)."""
     if isinstance(angle, np.ndarray):
-        return np.remainder(angle + math.pi, 2.0 * math.pi) - math.pi
+        turn = 2.0 * math.pi
+        f = np.fmod(angle, turn)
+        return np.where(f > math.pi, f - turn, np.where(f < -math.pi, f + turn, f))
     return math.remainder(angle, 2.0 * math.pi)
 
 
