@@ -42,8 +42,11 @@ SOLVE_EPILOG = (
     KNOWN_HELP
     + """
 assembly mode: an inverse solve (default --branch reference) is answered in the reference pose's
-assembly mode within the actuator limits, as a node answers its first target; a target only
-another mode reaches is refused naming that mode, unless --any-mode.
+assembly mode within the actuator limits, as a node (branch continuous, its default) answers its
+first target: where the actuator takes the drawing through a toggle, both signs of that circuit
+are its mode. A target only another mode reaches is refused naming that mode, unless
+--any-mode. (`linkage sweep --branch reference` and a node with branch:=reference hold the
+drawn signs themselves: their commands are solved in them.)
 
 exit status: 0 solved; 1 refused (status "error" with a reason; with --all-branches: no mode
 closes); 2 usage error.
