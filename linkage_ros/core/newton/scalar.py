@@ -75,6 +75,9 @@ def least_miss(
 
     if not t.n:
         return float(np.max(np.abs(fun(x0)), initial=0.0)) * t.L
+    start = fun(np.asarray(x0, float))
+    if not np.all(np.isfinite(start)):  # a value at ~1e308 m overflows the rows: no closing
+        return math.inf
     with np.errstate(all='ignore'):
         sol = least_squares(
             fun,

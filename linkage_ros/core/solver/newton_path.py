@@ -203,6 +203,11 @@ def refusal_at(c: CompiledSolve, vals: Values, x0: np.ndarray, walk_reason: str 
     L = c.mech.length_scale
     miss = c.system.least_miss(x0, vals, fixed)
     walked = f'; continuation from the current configuration stopped: {walk_reason}'
+    if math.isinf(miss):
+        return (
+            'cannot assemble at this input: its loop-closure equations overflow (a value '
+            f'near the largest double){walked}'
+        )
     if not miss <= max(CLOSURE_LIMIT, 10 * c.tol) * L:
         return (
             f'cannot assemble at this input: the nearest configuration misses closing by '

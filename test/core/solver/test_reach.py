@@ -118,3 +118,16 @@ def test_a_target_far_beyond_the_mechanism_gets_the_same_edge(far):
     assert edge is not None and edge.edge[0] == pytest.approx(top, abs=1e-7)
     r = engine.target({'P.x': far})
     assert f'reachable up to P.x = {top:.6g} m' in r.reason, r.reason
+
+
+@pytest.mark.parametrize('far', [1e308, -1.7e308])
+def test_a_target_near_the_largest_double_is_refused_not_raised(far):
+    """P.x = 1e308 overflowed the loop rows and scipy's least squares raised ('Residuals are
+    not finite in the initial point') through the solve: a traceback, where any other value
+    gets a refusal."""
+    from scenes import load
+
+    engine = Engine(load('four_bar'), EngineSettings())
+    r = engine.target({'P.x': far})
+    assert not r.success and 'is out of reach' in r.reason
+    assert 'loop-closure equations overflow' in r.reason
