@@ -22,12 +22,14 @@ from typing import Any, Protocol
 from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
 from .core.model.names import Named, NameKind, resolve_name
+from .core.motion.circuit_rule import CircuitKeeper
 from .core.motion.circuits import Circuit
 from .core.motion.circuits import reference_circuit as scan_reference_circuit
 from .core.solver import Result, SolveMode, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
 from .core.solver.result import named_value
+from .core.steps import branch_text
 from .core.velocity import Velocities, velocities
 from .point_coordinates import group_point_coordinates
 
@@ -128,6 +130,8 @@ class Engine:
         )
         #: the drawing's assembly mode (what ``branch: reference`` keeps targets in)
         self._reference_mode = self.keeper.mode(ref if ref.success else None)
+        #: forward solvers per branch sign combination (keep_circuit's)
+        self._sign_solvers: dict[str, Solver] = {}
         # the circuit scan now (about 0.1 s where it passes toggles), not in the first command
         _ = self.circuit_checked
 
@@ -304,47 +308,54 @@ class Engine:
         else:
             before, snap = self.last, solver.snapshot()
             result = solver.solve(values)
-            refusal = self.forward_refusal(before, result)
-            if refusal is not None:
+            kept = self.keep_circuit(before, result, values)
+            if kept is not result:  # the circuit's own configuration, or refused
                 solver.restore(snap)  # a refused request changes nothing
-                return refusal
+                if not kept.success:
+                    return kept
+                solver.adopt(kept)
+                result = kept
         if result.success:
             self.record(solver, result)
         return result
 
     @functools.cached_property
-    def circuit_checked(self) -> bool:
-        """Whether forward answers are checked against the reference pose's circuit: a
-        one-actuator mechanism whose circuit passes its toggles (forward_refusal)."""
+    def _circuit_keeper(self) -> CircuitKeeper | None:
+        """The forward half of the mode rule (core.motion.circuit_rule), for a one-actuator
+        mechanism whose drawing's circuit passes its toggles."""
         c = self.reference_circuit
-        return c is not None and c.crosses_signs
+        if c is None or not c.crosses_signs or len(c.stretches[0].signs) != 1:
+            # (one branching dyad: a four-bar's or a slider-crank's circuits are its loops. A
+            # scan through an inversor's fold, where two dyads degenerate at once, branches
+            # into sign combinations that are no loop of its own: Peaucellier's took up 60
+            # stretches; there the rule stays the targets' alone)
+            return None
+        coords = self.mech.joint_coordinates
+        shown = None if coords is None else coords.shown(c.actuator)
+        return CircuitKeeper(c, self.on_circuit, self._solve_in_signs, shown)
 
-    def forward_refusal(self, before: Result | None, result: Result) -> Result | None:
-        """A forward answer on another circuit than the reference pose's while the state
-        ``before`` it is on that circuit, refused: a Grashof double-rocker's mirror loop has
-        the same dyad signs over the mirrored input interval, and "you can never pass on from
-        one mode of assembly to the other" (seed 000); ``linkage check`` gives the circuit's
-        interval as the input's reachable range. None for any other answer, or where the state
-        is off that circuit already (a target allowed to change the mode moved it: its own
-        circuit is not known)."""
-        if not result.success or self.on_circuit(result) is not False:
-            return None
-        if before is not None and self.on_circuit(before) is False:
-            return None
-        c = self.reference_circuit
-        assert c is not None  # (on_circuit answered)
-        unit = 'rad' if c.periodic else 'm'
-        where = ', '.join(f'{lo:.6g}..{hi:.6g} {unit}' for lo, hi in c.intervals())
-        value = result.inputs.get(c.actuator, math.nan)
-        return Result(
-            False,
-            f'{c.actuator} = {value:.6g} {unit} is reachable only on the other loop of the '
-            f'mechanism (another assembly mode): from its drawing the actuator moves it over '
-            f'{c.actuator} {where} (its reachable range), and it cannot pass from one loop to '
-            'the other without being taken apart',
-            inputs=dict(result.inputs),
-            solver=result.solver,
-        )
+    @property
+    def circuit_checked(self) -> bool:
+        """Whether forward answers are held to the drawing's circuit (keep_circuit)."""
+        return self._circuit_keeper is not None
+
+    def keep_circuit(
+        self, before: Result | None, result: Result, values: Mapping[str, Any]
+    ) -> Result:
+        """A forward answer to ``values`` from the state ``before`` held to the drawing's
+        circuit (core.motion.circuit_rule.CircuitKeeper.keep): as it is, the circuit's own
+        configuration at that input, or refused."""
+        keeper = self._circuit_keeper
+        return result if keeper is None else keeper.keep(before, result, values)
+
+    def _solve_in_signs(self, signs: tuple[int, ...], values: Mapping[str, Any]) -> Result:
+        """A forward solve of ``values`` in branch ``signs`` (a solver per sign combination,
+        kept), not committed."""
+        text = branch_text(signs)
+        solver = self._sign_solvers.get(text)
+        if solver is None:
+            solver = self._sign_solvers[text] = self.new_solver(None, text)
+        return solver.solve(values, commit=False)
 
     def not_actuators(self, values: Mapping[str, Any]) -> str | None:
         """Why a command naming a joint, link or point (not an actuator) is refused, with the
@@ -445,10 +456,29 @@ class Engine:
         broken = self.broken_mimic(answer.result)
         if broken is not None:
             return broken
+        off = self._off_circuit_under(fixed, last, answer.result)
+        if off is not None:
+            return off
         if answer.commit:
             solver.adopt(answer.result)
             self.record(solver, answer.result)
         return self._out_of_reach(solver, values, answer.result)
+
+    def _off_circuit_under(self, fixed: Mode | None, last: Result, result: Result) -> Result | None:
+        """Under a branch setting (which holds signs, not circuits), a target's answer on
+        another circuit than the state's, refused as a command there is (keep_circuit): the
+        double-rocker's mirror loop has the setting's signs too."""
+        if fixed is None or not result.success or self._circuit_keeper is None:
+            return None
+        if self.on_circuit(last) is not True or self.on_circuit(result) is not False:
+            return None
+        return Result(
+            False,
+            f'target is reachable only in another circuit of the mechanism (signs '
+            f'{result.branch}, a loop its actuator does not reach from the current one); the '
+            f'branch setting {self.settings.branch!r} keeps the mechanism in its mode',
+            solver=result.solver,
+        )
 
     def broken_mimic(self, result: Result) -> Result | None:
         """A target's answer refused where it breaks a <mimic> between the description's
@@ -516,7 +546,8 @@ class Engine:
         edge = reach_edge(solver, values, last)
         if edge is not None:
             result.reason = f'{edge.describe()}; {result.reason}'
-            if solver.mode is not SolveMode.CLOSED_FORM:  # (a closed form searched them all)
+            if solver.mode is not SolveMode.CLOSED_FORM and self.fixed_mode() is None:
+                # (a closed form searched them all; a branch setting allows no other mode)
                 result.reason += (
                     '; other assembly modes are searched on request (~/target_any_mode, --any-mode)'
                 )

@@ -388,14 +388,17 @@ def stale_outputs(task: BagTask, opts: BagOptions) -> list[Path]:
     """What an earlier run left of the bag under --out-dir: its outputs in every format (not
     only this run's: a format no longer asked for would sit beside the new answers), its
     manifest, and the staging leftovers of a killed run (``.NAME.PID.partial``); BagError for
-    a folder where a file output goes (not the tool's: never removed)."""
+    a folder where a file output goes, or a file where an output bag (a folder) goes: not the
+    tool's, never removed."""
     finals = [task.output(opts.out_dir, f) for f in FORMATS]
     finals += [task.trajectories(opts.out_dir), task.manifest(opts.out_dir)]
     found = [p for p in finals if p.exists() or p.is_symlink()]
     for p in found:
-        if p.is_dir() and not p.is_symlink() and p.suffix[1:] not in FOLDER_FORMATS:
+        folder = p.is_dir() and not p.is_symlink()
+        if folder != (p.suffix[1:] in FOLDER_FORMATS):  # (an output bag is a folder)
+            what, goes = ('a folder', 'a file') if folder else ('a file', 'a folder (a bag)')
             raise BagError(
-                f'--out-dir: {p} is a folder where a file output of bag {task.name} goes; it is '
+                f'--out-dir: {p} is {what} where {goes} output of bag {task.name} goes; it is '
                 "not the tool's and is left alone: move it away"
             )
     parents = {p.parent for p in finals}

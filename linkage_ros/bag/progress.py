@@ -64,7 +64,14 @@ def _reason_class(reason: str) -> str:
 
 def _summary(data, res, outs, plot, t0, t_read, t_solve, t_end):
     n = data.n
-    lines = [f'linkage bag: {n} message(s) read from {data.source}']
+    lines = [
+        f'linkage bag: {n + data.skipped} message(s) read from {data.source}'
+        + (
+            f" ({data.skipped} without the mechanism's inputs skipped: --state-completion)"
+            if data.skipped
+            else ''
+        )
+    ]
     for k, topic in enumerate(data.topics):
         lost = data.missing.get(topic)
         lines.append(

@@ -42,6 +42,8 @@ class Commands:
     vel_start: np.ndarray = field(default_factory=lambda: np.zeros(1, np.int64))
     #: each key's header.frame_id (empty: made without frames, every frame '')
     frames: list[str] = field(default_factory=list)
+    #: messages read but not rows: without the mechanism's inputs (--state-completion)
+    skipped: int = 0
 
     def frame(self, key: int) -> str:
         """The header.frame_id of the rows of ``key``."""

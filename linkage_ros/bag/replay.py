@@ -266,18 +266,25 @@ class _Engine:
         checked = engine.circuit_checked  # Engine.forward_solve's circuit rule
         for i in range(i0, i1):
             cmd = command_row(columns, i)
+            adopted = False
             if checked:
                 before, snap = engine.last, S.snapshot()
                 r = S.solve(cmd)
-                refusal = engine.forward_refusal(before, r)
-                if refusal is not None:
+                kept = engine.keep_circuit(before, r, cmd)
+                if kept is not r:  # as Engine.forward_solve: refused, or the circuit's own
                     S.restore(snap)
-                    r = refusal
+                    if kept.success:
+                        S.adopt(kept)
+                        adopted = True
+                    r = kept
             else:
                 r = S.solve(cmd)
             self.res.put_result(a + i, r)
             if r.success:
-                ctx.push(_Entry('solve', cmd=cmd, signs=branch_signs(r.branch), result=r))
+                if adopted:
+                    ctx.push(_Entry('adopt', result=r, signs=_adopted_signs(S)))
+                else:
+                    ctx.push(_Entry('solve', cmd=cmd, signs=branch_signs(r.branch), result=r))
                 rate = None if rates is None else rates.row(i)
                 if rate is not None:  # Engine.command: the answer's velocity
                     self.res.store_velocity(a + i, velocities(S, r, cmd, rate))

@@ -112,5 +112,6 @@ def completed_commands(
         vel_values=np.concatenate(vels) if vels else np.zeros(0),
         vel_start=vel_start,
         frames=frames,
+        skipped=data.skipped + n - len(rows),
     )
     return completed, refused

@@ -43,6 +43,9 @@ def test_a_robots_joint_states_command_the_mechanism_by_its_inputs(tmp_path, cap
     assert code == 0, cap.err  # (one row refused of 41)
     rows = read_csv(out)
     assert len(rows) == len(cranks) + 1  # the other robot's messages have no row
+    skipped = len(msgs) - len(rows)
+    assert f'{len(msgs)} message(s) read from' in cap.out
+    assert f"({skipped} without the mechanism's inputs skipped: --state-completion)" in cap.out
     mech = load_scene(str(SCENE)).mechanism
     node = Engine(mech, EngineSettings())
     for k, (row, c) in enumerate(zip(rows, cranks)):

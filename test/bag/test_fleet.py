@@ -473,6 +473,13 @@ def test_resume_removes_every_leftover_of_the_bag_and_nothing_else(fleet, tmp_pa
     code, cap = run([*base, '--format', 'csv', '--resume'], capsys)
     assert code == 2 and f'{mine} is a folder where a file output of bag day1/a goes' in cap.err
     assert (mine / 'precious.txt').read_text() == 'keep'
+    # a file where an output bag (a folder) would go: not the tool's either
+    shutil.rmtree(mine)
+    loose = out / 'day1' / 'a.mcap'
+    loose.write_text('a recording of my own')
+    code, cap = run([*base, '--format', 'csv', '--resume'], capsys)
+    assert code == 2 and f'{loose} is a file where a folder (a bag) output' in cap.err, cap.err
+    assert loose.read_text() == 'a recording of my own'
 
 
 def test_a_message_that_is_no_joint_state_and_an_unwritable_output_are_named(

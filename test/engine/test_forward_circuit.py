@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from scenes import four_bar
 
 from linkage_ros import bag
@@ -195,3 +196,112 @@ def test_all_branches_marks_as_drawn_the_solutions_on_the_drawings_circuit(tmp_p
         rows = json.loads(capsys.readouterr().out)
         assert len(rows) == 2
         assert all(r['drawn_mode'] == (lo <= t <= hi) for r in rows), (t, rows)
+
+
+@pytest.mark.parametrize(
+    'stem, fold_deg, line_x',
+    [('hart', 132.8, 0.0528), ('peaucellier', 112.5, 0.1388888888888889)],
+)
+def test_jumpy_commands_of_a_limit_free_inversor_stay_on_its_straight_line(
+    tmp_path, stem, fold_deg, line_x
+):
+    """Without crank limits the circuit scan passes the inversor's folds, where two dyads
+    degenerate at once, and branches into sign combinations that are no loop of it; the
+    circuit rule then refused commands with a reason quoting a range that contained them. The
+    forward rule is for one-dyad circuits (the four-bar's loops); here commands are answered
+    by continuity, as before. Oracle: the seed's inversion, Q on the straight line x = OT
+    (scene comments) for every crank short of the folds; and the bag answers as the engine."""
+    import yaml
+    from bag.test_bag_node_semantics import make_bag
+    from scenes import CONFIG
+
+    data = yaml.safe_load((CONFIG / f'{stem}.yaml').read_text())
+    for act in data['actuators'].values():
+        act.pop('min', None)
+        act.pop('max', None)
+    scene = tmp_path / f'{stem}.yaml'
+    scene.write_text(yaml.safe_dump(data))
+    from linkage_ros.core.model import Scene
+
+    mech = Scene.from_yaml(scene).mechanism
+    e = Engine(mech, EngineSettings())
+    rng = np.random.default_rng(3)
+    edge = math.radians(fold_deg) - 0.3  # (a jump that ends at a fold may take either branch)
+    values = rng.uniform(-edge, edge, 300).tolist()
+    answers = [e.command({'crank': t}) for t in values]
+    for t, r in zip(values, answers):
+        assert r.success, (t, r.reason)
+        assert abs(r.points['Q'][0] - line_x) <= 1e-12, (t, r.branch, r.points['Q'])
+    res = bag.solve_commands(
+        mech, bag.read_commands(str(make_bag(tmp_path / 'in', values)), ['/cmd'])
+    )
+    assert res.ok.all()
+    assert np.allclose(res.points['Q'][:, 0], line_x, rtol=0, atol=1e-12)
+    # a command at the fold's edge, then back to the drawing's crank: answered (the rule refused
+    # the second, 'reachable only on the other loop ... over crank -2.31856..2.31856 rad')
+    e2 = Engine(mech, EngineSettings())
+    for t in (math.radians(fold_deg) - 1e-4, 0.6):
+        assert e2.command({'crank': t}).success, t
+
+
+GDR_MINUS_Z = """<?xml version="1.0"?>
+<robot name="fb">
+  <link name="base_link"/><link name="link1"/><link name="link2"/><link name="link3"/>
+  <joint name="joint1" type="revolute" independent="true">
+    <parent link="base_link"/><child link="link1"/><origin xyz="0 0 0" rpy="0 0 1"/>
+    <axis xyz="0 0 -1"/><limit effort="1" velocity="1" lower="-100" upper="100"/></joint>
+  <joint name="joint2" type="revolute" independent="false">
+    <parent link="link1"/><child link="link2"/><origin xyz="0.2 0 0"/>
+    <axis xyz="0 0 -1"/><limit effort="1" velocity="1" lower="-100" upper="100"/></joint>
+  <joint name="joint3" type="revolute" independent="false">
+    <parent link="base_link"/><child link="link3"/><origin xyz="0.3 0 0" rpy="0 0 2"/>
+    <axis xyz="0 0 -1"/><limit effort="1" velocity="1" lower="-100" upper="100"/></joint>
+  <loop name="loop1" type="revolute">
+    <predecessor link="link2"><origin xyz="0.1 0 0"/></predecessor>
+    <successor link="link3"><origin xyz="0.25 0 0"/></successor><axis xyz="0 0 1"/></loop>
+</robot>
+"""
+
+
+def test_the_mirror_loop_refusal_speaks_the_descriptions_values(tmp_path, capsys):
+    """The double-rocker as a description whose joints turn about -z, crank drawn at yaw 1:
+    joint1 = 1 - (the crank's angle from +x). The refusal quoted the scene's values (joint1 =
+    -2 for a command of 2, the interval turned over). Oracle: the cosine rule's interval,
+    mapped by joint1 = 1 - angle."""
+    path = tmp_path / 'gdr.urdf'
+    path.write_text(GDR_MINUS_Z)
+    lo, hi = _crank_interval(G, C, B, R)
+    assert cli_main(['solve', str(path), '--set', 'joint1=2.0']) == 1
+    out = capsys.readouterr().out
+    assert 'joint1 = 2 rad is reachable only on the other loop' in out, out
+    assert f'over joint1 {1 - hi:.6g}..{1 - lo:.6g} rad (its reachable range)' in out, out
+
+
+@pytest.mark.parametrize('branch', ['+', 'reference'])
+def test_under_a_branch_setting_targets_keep_the_circuit_as_commands_do(branch):
+    """A branch setting holds signs; the mirror loop has them too. A target there was answered
+    (crank on the mirror interval) while the command for the same pose was refused. Oracle:
+    the cosine rule's interval of the drawing's loop."""
+    lo, hi = _crank_interval(G, C, B, R)
+    e = Engine(_double_rocker(), EngineSettings(branch=branch))
+    # rocker -2.8197 rad: only the mirror loop reaches it, its nearest solution in sign +
+    free = Engine(_double_rocker(), EngineSettings())
+    there = free.target({'rocker': -2.8197}, allow_mode_change=True)
+    assert there.success and -hi <= there.inputs['crank'] <= -lo and there.branch == '+'
+    r = e.target({'rocker': -2.8197})
+    assert not r.success and 'reachable only in another circuit' in r.reason, r.reason
+    assert e.command({'crank': there.inputs['crank']}).success is False  # as the command
+    mid = 0.5 * (lo + hi)
+    ok = e.target({'rocker': e.command({'crank': mid}).links['rocker']})
+    assert ok.success and lo <= ok.inputs['crank'] <= hi
+
+
+def test_a_branch_setting_refusal_does_not_advise_another_mode():
+    """Under --branch + (or the node's branch parameter) ~/target_any_mode changes nothing and
+    --any-mode is refused: the out-of-reach reason no longer advises them."""
+    from scenes import load
+
+    e = Engine(load('four_bar'), EngineSettings(branch='+'))
+    r = e.target({'P.x': 0.2})
+    assert not r.success and 'is out of reach' in r.reason
+    assert 'searched on request' not in r.reason
