@@ -124,11 +124,12 @@ class ModeKeeper:
         another circuit than ``here`` where the circuit is known (on_circuit), one circuit
         through its toggles whatever the signs; else its forward dyads' signs differ clear of
         their toggles."""
-        if self._changes_circuit(here, result):
-            return True  # another circuit: the actuator cannot take the mechanism there
-        on = self.on_circuit
-        if here is not None and on is not None and on(here) and on(result):
-            return False  # one circuit through its toggles: any signs
+        if here is not None and self.on_circuit is not None:
+            a, b = self.on_circuit(here), self.on_circuit(result)  # (each read once)
+            if a is not None and b is not None and a != b:
+                return True  # another circuit: the actuator cannot take the mechanism there
+            if a and b:
+                return False  # one circuit through its toggles: any signs
         return mode_differs(before, self.mode(result))
 
     def target(
@@ -164,8 +165,10 @@ class ModeKeeper:
         # another mode, or refused (a limit): the solution in mode nearest the last good state
         # among the inverse plan's other branches
         alt = self.in_mode(solver, values, before, last, here)
+        found: list[Result] | None = None  # the multi-start search's solutions, made once
         if alt is None and _worth_a_search(solver, result):
-            alt = self._searched(solver, values, before, last, here)
+            found = self._search(solver, values)
+            alt = self._nearest([r for r in found if not self.changes_mode(before, here, r)], last)
         if alt is not None:
             return self._answer(alt, self.mode(alt) or before)
         if not result.success and solver.mode is SolveMode.CLOSED_FORM:
@@ -177,12 +180,7 @@ class ModeKeeper:
         elif not result.success and allow_mode_change:
             # Newton places the target: a change of mode asked for searches every mode (the
             # multi-start search, 0.1-0.6 s: only on request; a plain refusal says so)
-            found = newton_modes(self._newton_for(solver).compiled, values, starts=SEARCH_STARTS)
-            other = min(
-                (r for r in found.results if r.success),
-                key=lambda r: configuration_distance(last, r),
-                default=None,
-            )
+            other = self._nearest(self._search(solver, values) if found is None else found, last)
             if other is not None:
                 result, after = other, self.mode(other)
         if not result.success or after is None:
@@ -268,23 +266,18 @@ class ModeKeeper:
     ) -> Result | None:
         """The solution of a closed-form inverse in any mode nearest ``last`` (each branch of
         the inverse plan), or None."""
-        found = [r for r in solver.solve_all(values) if r.success]
-        return min(found, key=lambda r: configuration_distance(last, r), default=None)
+        return self._nearest([r for r in solver.solve_all(values) if r.success], last)
 
-    def _searched(
-        self,
-        solver: Solver,
-        values: Mapping[str, Any],
-        before: Mode,
-        last: Result | None,
-        here: Result | None,
-    ) -> Result | None:
-        """The solution in mode ``before`` within limits nearest ``last`` among those a
-        multi-start Newton search finds (modes.newton_modes from SEARCH_STARTS starts), or
-        None."""
+    def _search(self, solver: Solver, values: Mapping[str, Any]) -> list[Result]:
+        """The target's solutions within limits a multi-start Newton search finds
+        (modes.newton_modes from SEARCH_STARTS starts), in any mode."""
         found = newton_modes(self._newton_for(solver).compiled, values, starts=SEARCH_STARTS)
-        in_mode = [r for r in found.results if r.success and not self.changes_mode(before, here, r)]
-        return min(in_mode, key=lambda r: configuration_distance(last, r), default=None)
+        return [r for r in found.results if r.success]
+
+    @staticmethod
+    def _nearest(found: Sequence[Result], last: Result | None) -> Result | None:
+        """The one of ``found`` nearest ``last`` (configuration_distance), or None."""
+        return min(found, key=lambda r: configuration_distance(last, r), default=None)
 
     def _with_signs(self, solver: Solver, code: int, k: int) -> Solver:
         """The inverse solver of ``solver``'s knowns with the branch signs of bit pattern
