@@ -20,7 +20,7 @@ from typing import Any
 from .cdr import CDR_LE, encoded_string, padding, string_block, write_encoded
 from .core.model import Mechanism
 from .core.solver import Result
-from .engine import status_text, status_texts, status_values
+from .request_checks import status_text, status_texts, status_values
 
 #: diagnostic_msgs/DiagnosticStatus levels (its byte constants)
 STATUS_OK = 0
@@ -146,10 +146,10 @@ class StatusBytes:
         return hit
 
     def write_ok(self, values: Mapping[str, Any]) -> bytes:
-        """An OK 'ok' status of ``values`` as engine.status_values gives them (each written
-        as engine.status_text says): the same bytes as ``write`` of their texts, with a value
-        that repeats (not a float: residual, margin, cond change with every answer) written
-        once."""
+        """An OK 'ok' status of ``values`` as request_checks.status_values gives them (each
+        written as request_checks.status_text says): the same bytes as ``write`` of their
+        texts, with a value that repeats (not a float: residual, margin, cond change with every
+        answer) written once."""
         pairs = self._pairs
         parts = [self._ok_head, _COUNT.pack(len(values))]
         append = parts.append

@@ -21,7 +21,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from .core.errors import CommandError, echo
 from .core.model import Mechanism, SlideActuator
 from .core.solver import Result
-from .engine import request_rates, request_values, status_texts
+from .request_checks import request_rates, request_values, status_texts
 
 __all__ = [
     'joint_state_to_command',

@@ -3,16 +3,13 @@
 An :class:`Engine` holds one mechanism's solvers and its one 'last good state': the forward
 solver for commands, inverse solvers compiled on demand per set of target names (an LRU cache),
 each brought up to the last good state before use, so FK and IK continue from the same
-configuration. A refused request changes nothing. The request checks (a JointState's shape)
-and the status fields of an answer live here too, so every front end refuses the same requests
-with the same words and reports the same fields.
+configuration. A refused request changes nothing. The request checks and the status fields
+every front end shares are request_checks'.
 """
 
 from __future__ import annotations
 
-import collections
 import functools
-import math
 import time
 from collections import OrderedDict
 from collections.abc import Mapping, Sequence
@@ -30,8 +27,9 @@ from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
 from .core.solver.result import named_value
 from .core.steps import branch_text
-from .core.velocity import Velocities, velocities
+from .core.velocity import velocities
 from .point_coordinates import group_point_coordinates
+from .request_checks import rates_error
 
 #: inverse solvers kept per engine (one per set of target names); least recently used dropped
 SOLVER_CACHE = 32
@@ -586,141 +584,3 @@ class Engine:
             )
         values[key] = xy
         return self.solve_target(solver, values)
-
-
-# ---- request checks and status fields (every front end) ----------------------------------------
-
-
-def rates_error(rates: Mapping[str, float] | None) -> str | None:
-    """Why a request's velocities cannot be used (one not finite), or None: the one rule of
-    commands and of forward and inverse trajectories."""
-    bad = [] if rates is None else [n for n, v in rates.items() if not math.isfinite(v)]
-    if not bad:
-        return None
-    return (
-        f'velocity of {echo(bad)} is not finite: give finite rates (rad/s, m/s) for every '
-        'name, or no velocity at all'
-    )
-
-
-def name_count_error(count: int, max_names: int) -> str | None:
-    """Why a request with ``count`` names is refused before any per-name work, or None."""
-    if count <= max_names:
-        return None
-    return (
-        f'JointState has {count} name(s); the scene has only {max_names} names '
-        '(actuators, joints, links, and points as <point>.x and <point>.y) to give values for'
-    )
-
-
-def request_shape_error(
-    names: Sequence[str], npos: int, max_names: int | None = None
-) -> str | None:
-    """Why a JointState request (its names and its number of positions) is malformed, or None.
-
-    Only the message's own shape: at least one name, as many positions as names, no empty or
-    repeated name. Whether the names and values make sense for the mechanism (unknown or
-    missing names, NaN, inf, limits, reachability) is the solver's call. ``max_names``
-    (:func:`max_request_names`): more names than that are refused first, before any per-name
-    work, so a 10^5-name message costs what a short one does.
-    """
-    too_many = None if max_names is None else name_count_error(len(names), max_names)
-    if too_many:
-        return too_many
-    if names and len(names) == npos and all(names) and len(set(names)) == len(names):
-        return None  # well formed (every command): no per-name diagnosis
-    names = list(names)
-    if not names and not npos:
-        return 'empty JointState: name and position are both empty'
-    if len(names) != npos:
-        return (
-            f'JointState has {len(names)} name(s) {echo(names)} but {npos} position(s); they must '
-            'pair up one to one'
-        )
-    empty = [i for i, n in enumerate(names) if not n]
-    if empty:
-        return f'JointState name[{empty[0]}] is an empty string'
-    dups = [n for n, count in collections.Counter(names).items() if count > 1]
-    if dups:
-        return f'JointState names {echo(sorted(set(dups)))} more than once'
-    return None
-
-
-def max_request_names(mech: Mechanism) -> int:
-    """The most names a request may carry: every name the scene has (a longer one must repeat
-    a name or name something unknown); a point counts twice (``<point>.x``, ``<point>.y``)."""
-    return len(mech.actuators) + len(mech.joint_names) + len(mech.links) + 2 * len(mech.points)
-
-
-def request_values(
-    names: Sequence[str], positions: Sequence[float], max_names: int | None = None
-) -> dict[str, float]:
-    """``{name: position}`` of a JointState request; CommandError if it is malformed."""
-    why = request_shape_error(names, len(positions), max_names)
-    if why:
-        raise CommandError(why)
-    return {n: float(p) for n, p in zip(names, positions)}
-
-
-def request_rates(names: Sequence[str], velocity: Sequence[float]) -> dict[str, float] | None:
-    """``{name: velocity}`` of a JointState command (None when velocity is empty, as
-    JointState allows); CommandError unless there is one velocity per name."""
-    if not len(velocity):
-        return None
-    if len(velocity) != len(names):
-        raise CommandError(
-            f'JointState has {len(names)} name(s) but {len(velocity)} velocities; give one '
-            'velocity per name (rad/s or m/s) or none'
-        )
-    return {n: float(v) for n, v in zip(names, velocity)}
-
-
-def status_values(result: Result, request: str) -> dict[str, Any]:
-    """The key/values of the status answering a request, in order. Success: residual
-    (fraction of the length scale), branch, branch_defined, margin, solver, iterations, cond
-    (Newton only), mode_change (when a target changed it), velocity (when the request gave
-    rates: 'ok (cond C)' or why there is none) and request. Failure: request (the reason is
-    the status message)."""
-    if not result.success:
-        return {'request': request}
-    values: dict[str, Any] = {
-        'residual': result.residual,
-        'branch': result.branch,
-        'branch_defined': result.branch_defined,
-        'margin': result.margin,
-        'solver': result.solver,
-        'iterations': result.iterations,
-    }
-    if result.cond is not None:
-        values['cond'] = result.cond
-    if result.mode_change:
-        values['mode_change'] = result.mode_change
-    if result.held:
-        values['held'] = ', '.join(result.held)
-    if result.velocity is not None:
-        values['velocity'] = velocity_status(result.velocity)
-    values['request'] = request
-    return values
-
-
-def status_text(value: Any) -> str:
-    """A status value as the status carries it: '' for none, true / false, a float's repr
-    (every digit), else str."""
-    if value is None:
-        return ''
-    if isinstance(value, bool):
-        return 'true' if value else 'false'
-    if isinstance(value, float):
-        return repr(value) if math.isfinite(value) else str(value)
-    return str(value)
-
-
-def status_texts(result: Result, request: str) -> dict[str, str]:
-    """:func:`status_values` as the status's key/value texts."""
-    return {k: status_text(v) for k, v in status_values(result, request).items()}
-
-
-def velocity_status(vel: Velocities) -> str:
-    """The status's 'velocity' value of an answer with rates: 'ok (cond C)' (C the scaled
-    condition number of the loop-closure Jacobian) or why there are no velocities."""
-    return f'ok (cond {vel.cond:.3g})' if vel.success else str(vel.reason)

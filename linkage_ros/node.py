@@ -43,7 +43,7 @@ from trajectory_msgs.msg import JointTrajectory
 from .core.errors import SceneError
 from .core.model import Mechanism, Scene
 from .core.solver import Result
-from .engine import Engine, max_request_names
+from .engine import Engine
 from .heap import keep_large_buffers
 from .node_demo import DemoRunner
 from .node_requests import Requests
@@ -73,6 +73,7 @@ from .plan_cdr import joint_state_bytes_bound
 from .plan_requests import PlanRequests
 from .plan_worker import CommandClock
 from .publishing import Channels, Outputs, Waiting, latched_qos, topic_qos
+from .request_checks import max_request_names
 
 __all__ = [
     'DEMO_RATE_MAX',

@@ -24,10 +24,11 @@ from .conversions import (
 from .core.errors import CommandError
 from .core.model import Mechanism
 from .core.solver import Result
-from .engine import Engine, name_count_error, request_rates, request_values
+from .engine import Engine
 from .node_protocol import ServingNode
 from .plan_worker import CommandClock
 from .point_coordinates import pose_target
+from .request_checks import name_count_error, request_rates, request_values
 from .stamps import frame_error, names_frame_error, stamp_error
 
 ZERO_CLOCK = (

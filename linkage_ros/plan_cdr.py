@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 from .cdr import CDR_LE, write_doubles, write_string
 from .core.model import Mechanism
-from .engine import max_request_names
+from .request_checks import max_request_names
 
 #: the most bytes of a header.frame_id a plan request may carry (a ROS frame id is a short
 #: name; TF refuses none, so the bound is generous)
@@ -145,7 +145,7 @@ def _header_bytes(frame_bytes: int) -> int:
 
 def joint_state_bytes_bound(mech: Mechanism) -> int:
     """The most bytes a sensor_msgs/JointState request to ``mech`` can take: every name the
-    scene has (engine.max_request_names), each as long as its longest, with a position,
+    scene has (request_checks.max_request_names), each as long as its longest, with a position,
     velocity and effort each."""
     n = max_request_names(mech)
     names = 4 + n * _string_bytes(_longest_name_bytes(mech))

@@ -23,8 +23,9 @@ from .core.model import Mechanism
 from .core.solver import Result
 from .core.solver.result import branch_text
 from .core.velocity import velocities
-from .engine import Engine, max_request_names, rates_error, request_shape_error
+from .engine import Engine
 from .point_coordinates import group_point_coordinates
+from .request_checks import max_request_names, rates_error, request_shape_error
 from .stamps import frame_error, names_frame_error
 
 #: the most points one trajectory may have (a 10 s trajectory at 1 kHz)

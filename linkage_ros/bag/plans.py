@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..core.errors import echo
-from ..engine import Engine, max_request_names
+from ..engine import Engine
 from ..plan_cdr import (
     CdrError,
     path_bytes_bound,
@@ -28,6 +28,7 @@ from ..plan_cdr import (
     trailing_error,
     trajectory_bytes_bound,
 )
+from ..request_checks import max_request_names
 from ..stamps import stamp_error
 from ..trajectory import (
     MAX_TRAJECTORY_POINTS,

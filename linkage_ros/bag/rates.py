@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from ..core.errors import CommandError
-from ..engine import rates_error, request_rates
+from ..request_checks import rates_error, request_rates
 from .reading import Commands
 
 

@@ -12,14 +12,9 @@ from ..core.errors import CommandError
 from ..core.solver import SolveMode, Solver
 from ..core.solver.result import branch_signs
 from ..core.velocity import velocities
-from ..engine import (
-    SOLVER_CACHE,
-    Engine,
-    EngineSettings,
-    max_request_names,
-    request_shape_error,
-)
+from ..engine import SOLVER_CACHE, Engine, EngineSettings
 from ..point_coordinates import group_point_coordinates
+from ..request_checks import max_request_names, request_shape_error
 from ..stamps import names_frame_error, stamp_error, stamp_valid
 from .easy_rows import easy_prefix
 from .history import _Context, _Entry

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..core.solver.table import ResultTable
 from ..core.velocity import Velocities
-from ..engine import velocity_status
+from ..request_checks import velocity_status
 
 
 @dataclass(eq=False)  # numpy columns: no field-wise ==
@@ -23,7 +23,7 @@ class Results(ResultTable):
     #: (n,) bool per actuator: the request named this actuator
     input_given: dict[str, np.ndarray] = field(default_factory=dict)
     #: the status's 'velocity' value of each solved command that gave velocities, by row
-    #: ('ok (cond C)' or why there is none: engine.status_values' words); empty: no rates
+    #: ('ok (cond C)' or why there is none: request_checks.status_values' words); empty: no rates
     velocity_note: dict[int, str] = field(default_factory=dict)
     #: joint rates (rad/s, m/s; NaN where none) and the rows that have them: allocated by the
     #: first command with velocities (a bag without any costs nothing more)

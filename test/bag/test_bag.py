@@ -342,7 +342,7 @@ def test_csv_and_bag_outputs(tmp_path, scene, storage, capsys):
         if row['status'] == 'ok':
             assert st.level == 0 and st.message == 'ok'
             assert kv['branch'] == '+' and kv['solver'] == 'closed_form'
-            # the status of an answer with velocities says so (engine.status_values)
+            # the status of an answer with velocities says so (request_checks.status_values)
             assert ('velocity' in kv) == bool(row['velocity.O2'])
             assert kv.get('velocity', 'ok (cond ').startswith('ok (cond ')
             assert float(kv['residual']) == float(row['residual'])

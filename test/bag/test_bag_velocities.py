@@ -21,7 +21,8 @@ from test_bag import joint_state, make_input, read_out_bag, run_bag
 from linkage_ros.core.errors import CommandError
 from linkage_ros.core.loading import load_scene
 from linkage_ros.core.model import Scene
-from linkage_ros.engine import Engine, EngineSettings, status_values
+from linkage_ros.engine import Engine, EngineSettings
+from linkage_ros.request_checks import status_values
 
 JS = 'sensor_msgs/msg/JointState'
 SCENE = CONFIG / 'four_bar.yaml'

@@ -35,7 +35,8 @@ from linkage_ros.conversions import (  # noqa: E402
 )
 from linkage_ros.core.model import Scene  # noqa: E402
 from linkage_ros.core.solver import Result  # noqa: E402
-from linkage_ros.engine import Engine, EngineSettings, status_text  # noqa: E402
+from linkage_ros.engine import Engine, EngineSettings  # noqa: E402
+from linkage_ros.request_checks import status_text  # noqa: E402
 from linkage_ros.resources import scene_path  # noqa: E402
 
 TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
@@ -209,7 +210,7 @@ def test_a_joint_state_of_the_wrong_size_is_refused():
         writer.write(0, 0, [1.0])
 
 
-#: status values as engine.status_values gives them, with the equal-but-different ones
+#: status values as request_checks.status_values gives them, with the equal-but-different ones
 #: (0, 0.0, False; 1, 1.0, True) that a cache keyed by value alone mixes up
 status_value = st.one_of(
     st.sampled_from([0, 0.0, -0.0, False, 1, 1.0, True, None, '', 'ok', 'newton']),
@@ -231,7 +232,7 @@ status_value = st.one_of(
 )
 def test_an_ok_status_of_values_is_the_status_of_their_texts(answers):
     """write_ok (the OK answer's fast path, with repeating key/values kept) writes, answer
-    after answer on one writer, the bytes rclpy gives the status of engine.status_text's
+    after answer on one writer, the bytes rclpy gives the status of request_checks.status_text's
     texts: a value kept for one answer never answers for an equal one of another type."""
     from diagnostic_msgs.msg import KeyValue
 

@@ -888,7 +888,7 @@ def test_a_request_with_more_names_than_the_scene_has_is_refused_at_once(serve):
     """A 10^5-name message used to be checked name by name (and its reason listed them all);
     now the count alone refuses it, before any per-name work, on the node and in the bag tool
     alike (the same engine check), with a short reason; the state is unchanged."""
-    from linkage_ros.engine import max_request_names, request_shape_error
+    from linkage_ros.request_checks import max_request_names, request_shape_error
 
     s = serve(scene='four_bar')
     limit = max_request_names(s.mech)

@@ -15,7 +15,6 @@ from rclpy.serialization import deserialize_message, serialize_message
 from scenes import load
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from linkage_ros.engine import max_request_names
 from linkage_ros.plan_cdr import (
     CdrError,
     Stamp,
@@ -26,6 +25,7 @@ from linkage_ros.plan_cdr import (
     read_path,
     trajectory_bytes_bound,
 )
+from linkage_ros.request_checks import max_request_names
 
 names = st.text(st.characters(blacklist_characters='\x00', codec='utf-8'), max_size=12)
 floats = st.floats(allow_nan=False, width=64)
