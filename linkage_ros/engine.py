@@ -297,25 +297,32 @@ class Engine:
     def forward_solve(self, values: Mapping[str, Any]) -> Result:
         """The forward solver on a complete command in the scene's names (Engine.command's
         solve, and the command line's): brought up to date, solved, refused if the actuator
-        cannot move the mechanism there (forward_refusal), and on success the new last good
+        cannot move the mechanism there (solve_on_circuit), and on success the new last good
         state."""
         solver = self.forward
         self.bring_up_to_date(solver)
-        if not self.circuit_checked:
-            result = solver.solve(values)
-        else:
-            before, snap = self.last, solver.snapshot()
-            result = solver.solve(values)
-            kept = self.keep_circuit(before, result, values)
-            if kept is not result:  # the circuit's own configuration, or refused
-                solver.restore(snap)  # a refused request changes nothing
-                if not kept.success:
-                    return kept
-                solver.adopt(kept)
-                result = kept
+        result, _adopted = self.solve_on_circuit(solver, values)
         if result.success:
             self.record(solver, result)
         return result
+
+    def solve_on_circuit(self, solver: Solver, values: Mapping[str, Any]) -> tuple[Result, bool]:
+        """The forward ``solver`` (up to date) on ``values``, held to the drawing's circuit
+        (keep_circuit): its answer, committed to it; the circuit's own configuration, adopted
+        by it (True); or the refusal, the solver as it was. The caller records a success (the
+        bag's replay keeps its own history of them)."""
+        if not self.circuit_checked:
+            return solver.solve(values), False
+        before, snap = self.last, solver.snapshot()
+        result = solver.solve(values)
+        kept = self.keep_circuit(before, result, values)
+        if kept is result:
+            return result, False
+        solver.restore(snap)  # a refused request changes nothing
+        if not kept.success:
+            return kept, False
+        solver.adopt(kept)
+        return kept, True
 
     @functools.cached_property
     def _circuit_keeper(self) -> CircuitKeeper | None:

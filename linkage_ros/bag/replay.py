@@ -258,22 +258,9 @@ class _Engine:
         ctx.sync()
         S = ctx.solver
         engine = self.engine
-        checked = engine.circuit_checked  # Engine.forward_solve's circuit rule
         for i in range(i0, i1):
             cmd = command_row(columns, i)
-            adopted = False
-            if checked:
-                before, snap = engine.last, S.snapshot()
-                r = S.solve(cmd)
-                kept = engine.keep_circuit(before, r, cmd)
-                if kept is not r:  # as Engine.forward_solve: refused, or the circuit's own
-                    S.restore(snap)
-                    if kept.success:
-                        S.adopt(kept)
-                        adopted = True
-                    r = kept
-            else:
-                r = S.solve(cmd)
+            r, adopted = engine.solve_on_circuit(S, cmd)  # as Engine.forward_solve
             self.res.put_result(a + i, r)
             if r.success:
                 if adopted:
