@@ -18,10 +18,10 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import ColorRGBA, Header
 from visualization_msgs.msg import Marker, MarkerArray
 
-from .core.errors import CommandError, echo
+from .core.errors import CommandError
 from .core.model import Mechanism, SlideActuator
 from .core.solver import Result
-from .request_checks import request_rates, request_values, status_texts
+from .request_checks import pick_refusal, request_rates, request_values, status_texts
 
 __all__ = [
     'joint_state_to_command',
@@ -71,14 +71,9 @@ def joint_state_pick(
     picked = [(i, n) for i, n in enumerate(names) if n in wanted]
     if not picked:
         return {}, None
-    found = [n for _, n in picked]
-    if len(msg.position) != len(names):
-        raise CommandError(
-            f'JointState has {len(names)} name(s) but {len(msg.position)} position(s): '
-            f'cannot read {echo(found)}'
-        )
-    if len(set(found)) != len(found):
-        raise CommandError(f'JointState names {echo(sorted(set(found)))} more than once')
+    why = pick_refusal(names, len(msg.position), wanted)
+    if why:
+        raise CommandError(why)
     values = {n: float(msg.position[i]) for i, n in picked}
     rates = (
         {n: float(msg.velocity[i]) for i, n in picked} if len(msg.velocity) == len(names) else None

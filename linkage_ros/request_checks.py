@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import collections
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Container, Mapping, Sequence
 from typing import Any
 
 from .core.errors import CommandError, echo
@@ -67,6 +67,23 @@ def request_shape_error(
     dups = [n for n, count in collections.Counter(names).items() if count > 1]
     if dups:
         return f'JointState names {echo(sorted(set(dups)))} more than once'
+    return None
+
+
+def pick_refusal(names: Sequence[str], npos: int, wanted: Container[str]) -> str | None:
+    """Why a hardware JointState that carries some of the ``wanted`` names (state completion:
+    the mechanism's inputs among any number of other joints) cannot be read, or None: its
+    positions do not pair up with its names, or it names a wanted one twice. A message that
+    carries none of them is no request (None)."""
+    found = [n for n in names if n in wanted]
+    if not found:
+        return None
+    if npos != len(names):
+        return (
+            f'JointState has {len(names)} name(s) but {npos} position(s): cannot read {echo(found)}'
+        )
+    if len(set(found)) != len(found):
+        return f'JointState names {echo(sorted(set(found)))} more than once'
     return None
 
 

@@ -5,7 +5,7 @@ the node's own joint_states) is skipped without a row. Velocities are taken only
 message has one per name and every input's is finite (joint_state_broadcaster fills a joint
 without a velocity interface with NaN: positions alone command). A message whose positions do
 not pair up with its names, or that names an input twice, is refused as the node refuses it
-(conversions.joint_state_pick's words)."""
+(request_checks.pick_refusal, its rule)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..core.errors import echo
+from ..request_checks import pick_refusal
 from .reading import Commands
 
 
@@ -32,15 +32,7 @@ def completed_commands(
     # for target rows (at index len(keys) + k)
     reduced: list[tuple[tuple[int, ...], tuple[str, ...], str]] = []
     for k, names in enumerate(data.keys):
-        found = [n for n in names if n in picked_names]
-        why = ''
-        if found and data.npos[k] != len(names):
-            why = (
-                f'JointState has {len(names)} name(s) but {data.npos[k]} position(s): '
-                f'cannot read {echo(found)}'
-            )
-        elif len(set(found)) != len(found):
-            why = f'JointState names {echo(sorted(set(found)))} more than once'
+        why = pick_refusal(names, data.npos[k], picked_names) or ''  # the node's rule
         cols = () if why else tuple(i for i, n in enumerate(names) if n in wanted)
         reduced.append((cols, tuple(names[i] for i in cols), why))
     whole = len(reduced)
