@@ -19,7 +19,8 @@ from scenes import CONFIG, raw
 
 from linkage_ros.core.errors import ECHO_CHARS, CommandError, SceneError
 from linkage_ros.core.model import Scene
-from linkage_ros.engine import Engine, EngineSettings, max_request_names, request_values
+from linkage_ros.engine import Engine, EngineSettings
+from linkage_ros.request_checks import max_request_names, request_values
 
 LONG = os.environ.get('LINKAGE_FUZZ') == 'long'
 FUZZ = settings(
