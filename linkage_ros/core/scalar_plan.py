@@ -69,21 +69,23 @@ class ScalarProgram:
         look = plan_lookup(plan)
         self.ref, self.direction = look.ref, look.direction
         self.single, self.carrier = look.single, look.carrier
-        point_order: list[str] = []
+        points_set: dict[str, None] = {}  # (ordered: dict keys, linear in a big scene)
         link_order: list[str] = []
         for st in plan.steps:
             if st.op in _PLACES_BODY:
                 for link in plan.bodies[st.body].links:
                     link_order.append(link)
-                    point_order.extend(p for p in mech.links[link].points if p not in point_order)
-            elif st.point is not None and st.point not in point_order:
-                point_order.append(st.point)
+                    points_set.update(dict.fromkeys(mech.links[link].points))
+            elif st.point is not None:
+                points_set[st.point] = None
+        point_order = list(points_set)
         self.point_names = tuple(point_order)
         self.link_names = tuple(link_order)
         # registers: the points a run sets and its links' angles first (what a Result's
         # finiteness test sums), the others, every link's rot, T and frame, bodies' angles
-        rest_points = [p for p in mech.points if p not in point_order]
-        rest_links = [l for l in mech.links if l not in link_order]
+        rest_points = [p for p in mech.points if p not in points_set]
+        links_set = set(link_order)
+        rest_links = [l for l in mech.links if l not in links_set]
         links = [*link_order, *rest_links]
         nl = len(links)
         self.n_set = len(point_order) + len(link_order)
@@ -196,8 +198,9 @@ class ScalarProgram:
             )
             set_pts.update(mech.links[link].points)
             placed.add(link)
+            new_at = {i for i, _ in new}
             for p in mech.links[link].points:
-                if self.ip[p] in {i for i, _ in new}:
+                if self.ip[p] in new_at:
                     self.set_by[p] = link
             members.append((self.iphi[link], self.irot[link], self.iT[link], new,
                             self.ifphi[link], self.ifrot[link], self.ifT[link]))  # fmt: skip

@@ -11,8 +11,10 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
+
 from ..disjoint import DisjointSets
-from ..model import AngleActuator, Link, Mechanism
+from ..model import Actuator, AngleActuator, Link, Mechanism, PrismaticJoint, RevoluteJoint
 
 
 def _driven_link(mech: Mechanism, actuator: str) -> str:
@@ -55,43 +57,94 @@ def _link_groups(mech: Mechanism) -> dict[str, str]:
     return {l: find(l) for l in mech.moving_links}
 
 
-def _part(mech: Mechanism, links: set[str]) -> Mechanism:
-    """The mechanism of the ground and ``links`` (one independent part)."""
-    ground = mech.links[mech.ground]
-    used = {p for l in links for p in mech.links[l].points}
+def _parts(mech: Mechanism, members: dict[str, set[str]]) -> dict[str, Mechanism]:
+    """{root: the mechanism of the ground and the links of ``members[root]``} (the independent
+    parts), each element of the scene looked at once: linear in a scene of many parts. What
+    joins the ground to itself goes into every part."""
+    ground_name = mech.ground
+    root_of = {l: root for root, links in members.items() for l in links}
+
+    def roots(*links: str) -> list[str]:
+        """The parts an element on ``links`` belongs to: the one part of its moving links (none
+        if they are in no part, or in two), every part where all are the ground."""
+        moving = {root_of.get(l) for l in links if l != ground_name}
+        if not moving:
+            return list(members)
+        return [r for r in moving if r is not None] if len(moving) == 1 else []
+
+    ground = mech.links[ground_name]
     # the ground keeps its axis points, first and in order (its axis, when not named, is its
-    # first two points), and the pivots of this part
-    keep_ground = set(ground.axis or ground.points[:2]) | used
-    ground_part = Link(
-        ground.name,
-        tuple(p for p in ground.points if p in keep_ground),
-        ground.angle_ref,
-        ground.axis,
-    )
-    kept = links | {mech.ground}
-    points = used | set(ground_part.points)
-    prismatics = {
-        n: pj for n, pj in mech.prismatics.items() if pj.guide in kept and pj.slider in kept
+    # first two points), and the pivots of the part
+    axis = set(ground.axis or ground.points[:2])
+    ground_at = {p: k for k, p in enumerate(ground.points)}
+    used: dict[str, set[str]] = {root: set() for root in members}
+    for root, links in members.items():
+        for l in links:
+            used[root].update(mech.links[l].points)
+    points_of = {root: used[root] | {p for p in axis if p in ground_at} for root in members}
+    ground_parts = {
+        root: Link(
+            ground.name,
+            tuple(
+                sorted((p for p in points_of[root] if p in ground_at), key=ground_at.__getitem__)
+            ),
+            ground.angle_ref,
+            ground.axis,
+        )
+        for root in members
     }
-    actuators = {
-        n: a
-        for n, a in mech.actuators.items()
-        if (a.link in links if isinstance(a, AngleActuator) else a.joint in prismatics)
+    point_parts: dict[str, list[str]] = {}
+    for root, pts in points_of.items():
+        for p in pts:
+            point_parts.setdefault(p, []).append(root)
+    kept_links: dict[str, dict[str, Link]] = {root: {} for root in members}
+    for n, body in mech.links.items():
+        for root in roots(n):
+            kept_links[root][n] = ground_parts[root] if n == ground_name else body
+    revolutes: dict[str, list[RevoluteJoint]] = {root: [] for root in members}
+    for j in mech.revolutes:
+        for root in roots(j.parent, j.child):
+            revolutes[root].append(j)
+    prismatics: dict[str, dict[str, PrismaticJoint]] = {root: {} for root in members}
+    for n, pj in mech.prismatics.items():
+        for root in roots(pj.guide, pj.slider):
+            prismatics[root][n] = pj
+    actuators: dict[str, dict[str, Actuator]] = {root: {} for root in members}
+    for n, a in mech.actuators.items():
+        if isinstance(a, AngleActuator):
+            if a.link in root_of:
+                actuators[root_of[a.link]][n] = a
+        else:
+            for root in roots(mech.prismatics[a.joint].guide, mech.prismatics[a.joint].slider):
+                if a.joint in prismatics[root]:
+                    actuators[root][n] = a
+    point_values: dict[str, dict[str, np.ndarray]] = {root: {} for root in members}
+    for p, xy in mech.points.items():
+        for root in point_parts.get(p, ()):
+            point_values[root][p] = xy
+    outputs: dict[str, list[str]] = {root: [] for root in members}
+    for o in mech.outputs:
+        for root in point_parts.get(o, ()):
+            outputs[root].append(o)
+    dimensions: dict[str, dict[tuple[str, str, str], float]] = {root: {} for root in members}
+    for k, v in mech.dimensions.items():
+        for root in roots(k[0]):
+            dimensions[root][k] = v
+    return {
+        root: dataclasses.replace(
+            mech,
+            name=mech.name,
+            points=point_values[root],
+            links=kept_links[root],
+            revolutes=revolutes[root],
+            prismatics=prismatics[root],
+            actuators=actuators[root],
+            outputs=tuple(outputs[root]),
+            dimensions=dimensions[root],
+            joint_coordinates=None,
+        )
+        for root in members
     }
-    return dataclasses.replace(
-        mech,
-        name=mech.name,
-        points={p: v for p, v in mech.points.items() if p in points},
-        links={
-            n: (ground_part if n == mech.ground else l) for n, l in mech.links.items() if n in kept
-        },
-        revolutes=[j for j in mech.revolutes if j.parent in kept and j.child in kept],
-        prismatics=prismatics,
-        actuators=actuators,
-        outputs=tuple(o for o in mech.outputs if o in points),
-        dimensions={k: v for k, v in mech.dimensions.items() if k[0] in kept},
-        joint_coordinates=None,
-    )
 
 
 def actuator_parts(mech: Mechanism) -> dict[str, Mechanism]:
@@ -104,11 +157,6 @@ def actuator_parts(mech: Mechanism) -> dict[str, Mechanism]:
     members: dict[str, set[str]] = {}
     for link, root in groups.items():
         members.setdefault(root, set()).add(link)
-    parts: dict[str, Mechanism] = {}
-    out = {}
-    for a in mech.actuators:
-        root = groups[_driven_link(mech, a)]
-        if root not in parts:
-            parts[root] = _part(mech, members[root])
-        out[a] = parts[root]
-    return out
+    driven = {a: groups[_driven_link(mech, a)] for a in mech.actuators}
+    parts = _parts(mech, {root: members[root] for root in dict.fromkeys(driven.values())})
+    return {a: parts[root] for a, root in driven.items()}

@@ -19,7 +19,7 @@ from . import linalg, scalar
 from .batch import BatchNewton
 from .lean import Kernel
 from .results import FAST_STEPS, BatchSolve, LUFactor, SolveResult
-from .tables import LoopTables, PointOwner, compile_tables, jacobian_pattern, spec_links
+from .tables import LoopTables, PointOwner, compile_tables, pattern_positions, spec_links
 
 
 class LoopSystem:
@@ -350,9 +350,9 @@ class LoopSystem:
         t = self.tables
         if t.m != t.n or not t.n:
             return []
-        rows = maximum_bipartite_matching(
-            csr_matrix(jacobian_pattern(t).astype(float)), perm_type='column'
-        )
+        at = pattern_positions(t)  # sparse: a big scene's J is mostly zeros
+        pattern = csr_matrix((np.ones(len(at)), (at // t.n, at % t.n)), shape=(t.m, t.n))
+        rows = maximum_bipartite_matching(pattern, perm_type='column')
         matched = set(rows[rows >= 0].tolist())
         return list(dict.fromkeys(t.free[c // 3] for c in range(t.n) if c not in matched))
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 from typing import NamedTuple
 
 import numpy as np
@@ -55,16 +56,43 @@ class PointOwner(NamedTuple):
     reference: complex
 
 
+class ConstTemplate:
+    """The constant entries of an (m, n) Jacobian, kept sparse (flat position -> value, raw
+    units); the dense template (m * n + 1 floats, the last the dummy entry) is built when a
+    dense solve first asks for it. A large mechanism's check system only reads the pattern:
+    a dense template of its 2700 x 2700 J would be quadratic in the links."""
+
+    def __init__(self, m: int, n: int, entries: Mapping[int, float], col_scale: np.ndarray):
+        self.m, self.n = m, n
+        self.positions = np.fromiter(entries.keys(), np.intp, len(entries))
+        self.values = np.fromiter(entries.values(), float, len(entries))
+        self._col_scale = col_scale
+
+    @cached_property
+    def raw(self) -> np.ndarray:
+        """(m * n + 1,) the constant entries (m and rad units), zero elsewhere."""
+        tpl = np.zeros(self.m * self.n + 1)
+        tpl[self.positions] = self.values
+        return tpl
+
+    @cached_property
+    def scaled(self) -> np.ndarray:
+        """``raw`` in scale-free units: each column times col_scale."""
+        tpl = np.zeros(self.m * self.n + 1)
+        tpl[self.positions] = self.values * self._col_scale[self.positions % max(self.n, 1)]
+        return tpl
+
+
 @dataclass(frozen=True, slots=True)
 class LoopTables:
     """The loop-closure equations of ``mech`` with ``specs`` known, unknowns the pose (phi rad,
     centroid m) of each link of ``free``. Link *slots*: the free links first (slot = index),
     then ``others``, the non-free links the rows name. Residual rows: the revolute ones first
     (``revs``, two each), then ``tail`` (line, angle and point rows in equation order). The
-    Jacobian (m, n) flattened, plus one dummy entry at m * n: ``tpl`` holds its constant entries
-    (``tpl_s`` the same in scale-free units: columns times ``col_scale``), ``jpos`` the flat
-    position of each varying entry in evaluation order (the dummy for entries of non-free
-    links, dropped)."""
+    Jacobian (m, n) flattened, plus one dummy entry at m * n: ``template`` holds its constant
+    entries (``tpl``, dense; ``tpl_s`` the same in scale-free units: columns times
+    ``col_scale``), ``jpos`` the flat position of each varying entry in evaluation order (the
+    dummy for entries of non-free links, dropped)."""
 
     mech: Mechanism
     specs: tuple[Spec, ...]
@@ -84,13 +112,22 @@ class LoopTables:
     tail: tuple[TailRow, ...]
     val_rows: tuple[int, ...] | None  # the row of each value component; None: a value moves
     # a non-free link (no prediction)
-    tpl: np.ndarray
-    tpl_s: np.ndarray
+    template: ConstTemplate
     jpos: np.ndarray
     jpos_unique: bool  # no two varying entries land on one position (assignment, not add)
     ground_slots: FixedSlots | None  # the non-free slots with no fixed poses given (only
     # the ground, at its reference pose); None where others has any other link
     point_owner: list[PointOwner]
+
+    @property
+    def tpl(self) -> np.ndarray:
+        """The dense template of J's constant entries (m * n + 1,)."""
+        return self.template.raw
+
+    @property
+    def tpl_s(self) -> np.ndarray:
+        """``tpl`` in scale-free units."""
+        return self.template.scaled
 
 
 def spec_links(mech: Mechanism, s: Spec) -> list[str]:
@@ -162,7 +199,7 @@ def compile_tables(
         return slot[link]
 
     dummy = m * n  # varying entries of fixed links land here (dropped)
-    tpl = np.zeros(m * n + 1)
+    consts: dict[int, float] = {}
     jpos: list[int] = []
 
     def var(r: int, link: str, k: int = 0) -> None:
@@ -172,7 +209,8 @@ def compile_tables(
     def const(r: int, link: str, k: int, v: float) -> None:
         i = index.get(link)
         if i is not None:
-            tpl[r * n + 3 * i + k] += v
+            pos = r * n + 3 * i + k
+            consts[pos] = consts.get(pos, 0.0) + v
 
     def lever(link: str, p: object) -> tuple[float, float]:
         v = np.asarray(p, float) - cen[link]
@@ -302,8 +340,7 @@ def compile_tables(
         revs=tuple(revs),
         tail=tuple(tail),
         val_rows=val_rows,
-        tpl=tpl,
-        tpl_s=tpl * np.append(np.tile(col_scale, m), 1.0),
+        template=ConstTemplate(m, n, consts, col_scale),
         jpos=np.array(jpos, np.intp),
         jpos_unique=len(set(real)) == len(real),
         ground_slots=ground_slots,
@@ -311,11 +348,18 @@ def compile_tables(
     )
 
 
+def pattern_positions(t: LoopTables) -> np.ndarray:
+    """The flat positions (each once, sorted) of the entries of J that can be nonzero at some
+    configuration (the varying ones of free links and the nonzero constants): the same at
+    every configuration. Linear in the entries, not in m * n."""
+    dummy = t.m * t.n
+    const = t.template.positions[t.template.values != 0]
+    return np.unique(np.concatenate([t.jpos[t.jpos != dummy], const]))
+
+
 def jacobian_pattern(t: LoopTables) -> np.ndarray:
-    """(m, n) bool: the entries of J that can be nonzero at some configuration (the varying
-    ones of free links and the nonzero constants): the same at every configuration."""
-    pattern = np.zeros(t.m * t.n + 1, bool)
-    pattern[t.jpos] = True
-    pattern[:-1] |= t.tpl_s[:-1] != 0
-    out: np.ndarray = pattern[:-1].reshape(t.m, t.n)
+    """(m, n) bool: pattern_positions as a dense matrix."""
+    pattern = np.zeros(t.m * t.n, bool)
+    pattern[pattern_positions(t)] = True
+    out: np.ndarray = pattern.reshape(t.m, t.n)
     return out

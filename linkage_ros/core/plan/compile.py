@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import heapq
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -157,11 +158,14 @@ class Plan:
         groups: dict[str, list[str]] = {}
         for n in mech.links:
             groups.setdefault(find(n), []).append(n)
+        group_edges: dict[str, list[tuple[str, str, int, str | None]]] = {}
+        for e in edges:  # (each group's edges in one pass: linear in a scene of many bodies)
+            group_edges.setdefault(find(e[0]), []).append(e)
         self.bodies: list[Body] = []
         self.body_of: dict[str, int] = {}
-        for members in groups.values():
+        for group, members in groups.items():
             root = mech.ground if mech.ground in members else members[0]
-            placed, welds, todo = [root], [], [e for e in edges if find(e[0]) == find(root)]
+            placed, welds, todo = [root], [], list(group_edges.get(group, ()))
             while todo:
                 progressed = False
                 for e in list(todo):
@@ -178,9 +182,7 @@ class Plan:
                     progressed = True
                 if not progressed:
                     break
-            pts = []
-            for n in placed:
-                pts += [p for p in mech.links[n].points if p not in pts]
+            pts = list(dict.fromkeys(p for n in placed for p in mech.links[n].points))
             body = Body(len(self.bodies), root, placed, welds, pts)
             self.bodies.append(body)
             for n in placed:
@@ -202,21 +204,30 @@ class Plan:
         # can let a body be placed, so a pass skips the others (it would find nothing for
         # them, as in the pass before): the same steps in the same order, in linear time.
         dirty: set[int] = {b.index for b in self.bodies}
+        ahead: list[int] = []  # this pass's dirty bodies after `at` (a heap: index order)
+        at = -1  # the body this pass is at
         angle_partners: dict[int, set[int]] = {}
         for link_a, link_b, _ in self.relations:
             ba, bb = self.body_of[link_a], self.body_of[link_b]
             angle_partners.setdefault(ba, set()).add(bb)
             angle_partners.setdefault(bb, set()).add(ba)
 
+        def mark(bodies: Iterable[int]) -> None:
+            for bi in bodies:
+                if bi not in dirty:
+                    dirty.add(bi)
+                    if bi > at:  # (the pass reaches it; else the next pass does)
+                        heapq.heappush(ahead, bi)
+
         def learn_points(points: Iterable[str]) -> None:
             for p in points:
                 if p not in known_pts:
                     known_pts.add(p)
-                    dirty.update(pt_bodies.get(p, ()))
+                    mark(pt_bodies.get(p, ()))
 
         def learn_angle(bi: int) -> None:
             angled.add(bi)
-            dirty.update(angle_partners.get(bi, ()))
+            mark(angle_partners.get(bi, ()))
 
         def place(step: Step, bi: int) -> None:
             steps.append(step)
@@ -250,12 +261,14 @@ class Plan:
 
         while len(placed) < len(self.bodies):
             progress = False
-            # non-branching steps first
-            for b in self.bodies:
-                bi = b.index
-                if bi in placed or bi not in dirty:
-                    continue
+            # non-branching steps first, over the dirty bodies in index order
+            ahead[:] = sorted(dirty)
+            at = -1
+            while ahead:
+                bi = at = heapq.heappop(ahead)
                 dirty.discard(bi)  # (marked again below where it changes)
+                if bi in placed:
+                    continue
                 kp = known_of(bi)
                 two = self._two_distinct(bi, kp)
                 if two:
@@ -298,7 +311,7 @@ class Plan:
                             )
                         )
                         learn_angle(bi)
-                        dirty.add(bi)  # (it may now be placed from a point and its angle)
+                        mark((bi,))  # (it may now be placed from a point and its angle)
                         progress = True
             if progress:
                 continue

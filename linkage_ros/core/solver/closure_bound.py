@@ -192,6 +192,9 @@ class ConstructedChecks:
         #: (step 2), in plan order
         self.anchor: dict[str, str] = {}
         self.placed_to: dict[str, tuple[int, str]] = {}
+        set_by_link: dict[str, list[str]] = {}  # (each link's points once: linear in a big
+        for point, link in prog.set_by.items():  # scene)
+            set_by_link.setdefault(link, []).append(point)
         for st in plan.steps:
             if not (st.op is StepKind.TWO_POINTS and isinstance(st.args, TwoPoints)):
                 continue
@@ -203,9 +206,8 @@ class ConstructedChecks:
             self.anchor[body.root] = first
             if first in self.magnitude:
                 grown = self.magnitude[first] + _norm1(ref[first])
-                for point, link in prog.set_by.items():
-                    if link == body.root:
-                        self.magnitude[point] = (grown + _norm1(ref[point])) * _GROWTH
+                for point in set_by_link.get(body.root, ()):
+                    self.magnitude[point] = (grown + _norm1(ref[point])) * _GROWTH
 
     def joint(self, point: str, p: complex, setter: str, checker: str) -> float | None:
         """The bound (m) on the check of a revolute joint at ``point`` (reference position p, as
