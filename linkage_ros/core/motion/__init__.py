@@ -57,8 +57,6 @@ from .oscillation import (  # noqa: F401
 )
 from .ranges import (  # noqa: F401
     _dedupe,
-    _flat_centre,
-    _golden_min,
     _scan_circuit,
     _segment_toggles,
     _source,
@@ -85,6 +83,10 @@ from .scan import (  # noqa: F401
 )
 from .tilt import (  # noqa: F401
     max_tilt,
+)
+from .touches import (  # noqa: F401
+    _flat_centre,
+    _golden_min,
 )
 from .walk import (  # noqa: F401
     _walk,

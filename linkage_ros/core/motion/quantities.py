@@ -24,8 +24,9 @@ from ..solver import Result, Solver
 from ..solver.result import branch_text, named_value
 from ..steps import RRRDyad
 from ..velocity import Velocities, velocities
-from .ranges import _golden_min, _scan_circuit, input_ranges
-from .scan import _held_reference
+from .ranges import _scan_circuit, input_ranges
+from .scan import _held_reference, turns_fully
+from .touches import _golden_min
 
 #: a refined extreme may exceed the best sample by no more than this fraction (rounding)
 _LEVEL = 1e-15
@@ -159,7 +160,7 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
     periodic = isinstance(mech.actuators[act], AngleActuator)
     rlo, rhi = input_ranges(mech)[act]
     bounds = None if rlo is None or rhi is None else (rlo, rhi)
-    full = len(segs) == 1 and segs[0].full and bounds is None
+    full = periodic and turns_fully(segs) and bounds is None
     pieces = []
     for seg in segs:
         lo, hi = seg.lo, seg.hi
@@ -169,10 +170,12 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
             mid = (bounds[0] + bounds[1]) / 2
             turn = round((lo + hi - 2 * mid) / (4 * math.pi)) * 2 * math.pi if periodic else 0.0
             lo, hi = max(lo, bounds[0] + turn), min(hi, bounds[1] + turn)
-        if full:
+        if full and seg.full:
             grid = x0 + np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
         elif math.isfinite(lo) and math.isfinite(hi) and lo < hi:
             grid = np.linspace(lo, hi, samples)
+        elif bounds is not None and not seg.full and lo >= hi:
+            continue  # a stretch past a change point outside the limits
         else:
             raise ValueError(f'{act!r} has no bounded range to sweep')
         branch = branch_text(seg.signs) if seg.signs else 'continuous'
@@ -205,6 +208,16 @@ def _arc_start(raw: list[np.ndarray]) -> float | None:
     return float(around[(j + 1) % around.size])
 
 
+def _wrapped(e: Extreme) -> Extreme:
+    """``e`` with its inputs (crank angles on the circuit, unwrapped) in (-pi, pi]."""
+    return Extreme(
+        e.minimum,
+        e.maximum,
+        math.remainder(e.input_at_min, 2 * math.pi),
+        math.remainder(e.input_at_max, 2 * math.pi),
+    )
+
+
 def input_sweep(
     mech: Mechanism, outputs: list[str], samples: int = 1440, tol: float = 1e-12
 ) -> InputSweep:
@@ -228,6 +241,11 @@ def input_sweep(
     (act,) = mech.actuators
     full, pieces = _circuit(mech, act, samples)
     scale = 1.0 if isinstance(mech.actuators[act], AngleActuator) else mech.length_scale
+    # the input's travel before the motion repeats: one turn, or the stretches' sum where the
+    # circuit passes change points (a change-point four-bar's takes two turns: seed 000)
+    # (whole turns: the change points' positions are found to ~1e-8)
+    travel = sum(float(p.grid[-1] - p.grid[0]) for p in pieces if p.grid.size)
+    period = 2 * math.pi * (1 if len(pieces) == 1 else max(1, round(travel / (2 * math.pi))))
 
     def refine(
         piece: _Piece, series: np.ndarray, f_of: ValueNear, rate_of: RateOf, i: int, sign: float
@@ -258,9 +276,7 @@ def input_sweep(
             x, fx = _golden_min(f, float(a), float(b), tol)
         if not fx <= sign * series[i]:  # an end of the range, or a flat top
             x, fx = float(grid[i]), sign * float(series[i])
-        if full:  # a crank angle in (-pi, pi]
-            x = math.remainder(x, 2 * math.pi)
-        return x, sign * fx
+        return x, sign * fx  # (unwrapped: the circuit's own input coordinate)
 
     def extreme(series: list[np.ndarray], f_of: ValueNear, rate_of: RateOf) -> Extreme:
         """The least and greatest of ``series`` (one array per piece), each refined."""
@@ -303,11 +319,12 @@ def input_sweep(
                 ext.minimum - shift, ext.maximum - shift, ext.input_at_min, ext.input_at_max
             )
         out[name] = ext
-        if full:
-            forward = (ext.input_at_max - ext.input_at_min) % (2 * math.pi)
-            back = 2 * math.pi - forward
+        if full:  # over the circuit's period: a turn, or more where it passes change points
+            forward = (ext.input_at_max - ext.input_at_min) % period
+            back = period - forward
             short = min(forward, back)
             ratios[name] = max(forward, back) / short if short else math.inf
+            out[name] = _wrapped(ext)
     trans: dict[str, Extreme] = {}
     angles = [[transmission_angles(p.solver, r) for r in p.results] for p in pieces]
     keys = next(iter(a[0] for a in angles if a))
@@ -318,6 +335,8 @@ def input_sweep(
             return abs(transmission_angles(pieces[0].solver, r)[key])
 
         trans[key] = extreme(mus, mu_of, _transmission_rate(pieces[0].solver, key))
+        if full:
+            trans[key] = _wrapped(trans[key])
     return InputSweep(act, full, out, trans, ratios, tuple(turning))
 
 

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -11,14 +11,20 @@ import numpy as np
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
 from ..model.mechanism import actuator_kind
-from .common import TOUCHED_TOGGLE_MARGIN, TWO_PI, _clip_periodic, reference_scalar
+from .common import TWO_PI, _clip_periodic, reference_scalar
 from .components import actuator_parts
-from .scan import Bracket, End, Signs, _held_reference, _Line, _Segment, _slide_bracket
+from .scan import (
+    Bracket,
+    End,
+    Signs,
+    _held_reference,
+    _Line,
+    _Segment,
+    _slide_bracket,
+    turns_fully,
+)
+from .touches import TOUCH_RESOLUTION, touch_points
 from .walk import _walk_range
-
-#: a sampled local minimum of a dyad's margin below this is refined (golden section) to see
-#: whether it touches a toggle (below TOUCHED_TOGGLE_MARGIN): a candidate, not a toggle
-DIP_MARGIN = 0.05
 
 # ---- actuator ranges --------------------------------------------------------------------------
 
@@ -98,7 +104,7 @@ def actuator_range(
     full = any(s.full for s in segs)
     lo = min(s.lo for s in segs)
     hi = max(s.hi for s in segs)
-    if periodic and (full or hi - lo >= TWO_PI - 1e-12):
+    if periodic and (full or hi - lo >= TWO_PI - 1e-12 or turns_fully(segs)):
         full = True
     lo_seg = min(segs, key=lambda s: s.lo)
     hi_seg = max(segs, key=lambda s: s.hi)
@@ -166,9 +172,9 @@ def actuator_range(
 def _dedupe(values: Sequence[float], periodic: bool) -> list[float]:
     res: list[float] = []
     for v in values:
-        if not res or abs(v - res[-1]) > 1e-9:
+        if not res or abs(v - res[-1]) > TOUCH_RESOLUTION:
             res.append(float(v))
-    if periodic and len(res) > 1 and abs(res[0] + TWO_PI - res[-1]) <= 1e-9:
+    if periodic and len(res) > 1 and abs(res[0] + TWO_PI - res[-1]) <= TOUCH_RESOLUTION:
         res.pop()
     return res
 
@@ -177,72 +183,24 @@ def _source(end: End) -> str | None:
     return {'toggle': 'toggle', 'limit': 'limit', 'bracket': 'bracket'}.get(end[0])
 
 
-def _golden_min(f: Callable[[float], float], a: float, b: float, tol: float) -> tuple[float, float]:
-    """Golden-section minimum of a unimodal f on [a, b] (robust on the V-shaped margin at a
-    tangency, where parabolic steps stall at sqrt(eps))."""
-    g = (math.sqrt(5.0) - 1.0) / 2.0
-    c, d = b - g * (b - a), a + g * (b - a)
-    fc, fd = f(c), f(d)
-    for _ in range(200):
-        if abs(b - a) <= tol:
-            break
-        if fc <= fd:
-            b, d, fd = d, c, fc
-            c = b - g * (b - a)
-            fc = f(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + g * (b - a)
-            fd = f(d)
-    return (c, fc) if fc <= fd else (d, fd)
-
-
-def _flat_centre(f: Callable[[float], float], a: float, x: float, b: float, fx: float) -> float:
-    """Centre of the zone around x where f stays at its floor fx (a tangency's margin is
-    |linear| in the input but rounds to its floor over ~sqrt(eps): the centre is the toggle)."""
-    tau = fx + 1e-14
-
-    def edge(inside: float, outside: float) -> float:
-        for _ in range(200):
-            mid = 0.5 * (inside + outside)
-            if mid in (inside, outside):
-                break
-            if f(mid) <= tau:
-                inside = mid
-            else:
-                outside = mid
-        return inside
-
-    if f(a) <= tau or f(b) <= tau:
-        return x
-    return 0.5 * (edge(x, a) + edge(x, b))
-
-
 def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
-    """Assembly-limited segment ends plus interior points where a dyad margin touches zero."""
+    """Assembly-limited segment ends, the change points where the circuit crosses into the
+    other assembly mode and interior points where a dyad margin touches zero."""
     out = []
     for s in segs:
         for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end)):
-            if e[0] == 'toggle':
+            if e[0] in ('toggle', 'crossing'):
                 out.append(v)
         n = max(64, line.samples // (1 if s.full else 2))
-        xs = np.linspace(s.lo, s.hi, n)
-        m = line.margins(xs, s.signs)
-        inner = m[1:-1]  # local minima of the margin below DIP_MARGIN (NaN compares False)
-        dips = np.flatnonzero((inner < DIP_MARGIN) & (inner <= m[:-2]) & (inner <= m[2:])) + 1
-        for i in dips:
 
-            def f(x: float, signs: Signs = s.signs) -> float:
-                v = line.margins([x], signs)[0]
-                return 1.0 if not np.isfinite(v) else float(v)
+        def margins(xs: np.ndarray, signs: Signs = s.signs) -> np.ndarray:
+            return line.margins(xs, signs)
 
-            x, fx = _golden_min(f, xs[i - 1], xs[i + 1], line.tol)
-            if fx < TOUCHED_TOGGLE_MARGIN:
-                out.append(_flat_centre(f, xs[i - 1], x, xs[i + 1], fx))
-    # dedupe
+        out += touch_points(margins, s.lo, s.hi, n, line.tol)
+    # one value per toggle: a touch is found from each stretch it bounds, to TOUCH_RESOLUTION
     res: list[float] = []
     for v in sorted(out):
-        if not res or not line.same(res[-1], v):
+        if not res or not line.same(res[-1], v, TOUCH_RESOLUTION):
             res.append(v)
     return res
 

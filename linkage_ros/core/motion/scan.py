@@ -25,14 +25,19 @@ from .common import (
     reference_value,
     without_limits,
 )
+from .touches import TOUCH_RESOLUTION, crosses, touch_points
 
+#: how close (of the length scale) the two solutions of a dyad are at a change point found to
+#: ~1e-9 of the input: they part as |input - change point| times the points' speed
+_MEET = 1e-6
 #: how far inside an assembly edge its toggle's margin is sampled (rad, or of the length scale):
 #: well clear of the tangency clamp (1e-12) and close enough for a parabola in margin^2 to be
 #: exact to rounding
 _TOGGLE_PROBE = 1e-6
 
-#: a segment end: ('toggle', the branching dyad that fails beyond or None), ('limit', None),
-#: ('bracket', None) or ('full', None)
+#: a segment end: ('toggle', the branching dyad that fails beyond or None), ('crossing', the
+#: dyad whose other sign the motion goes on in, or None where the segment starts at one: a
+#: change point, touches.py), ('limit', None), ('bracket', None) or ('full', None)
 End: TypeAlias = tuple[str, int | None]
 #: one branch sign per branching dyad of the plan
 Signs: TypeAlias = tuple[int, ...]
@@ -62,6 +67,14 @@ class _Segment:
     seed: float
     parent: int | None = None
     full: bool = False
+
+
+def turns_fully(segs: Sequence[_Segment]) -> bool:
+    """Whether the circuit ``segs`` of an angle takes every input value with no end: one full
+    turn, or stretches joined only at change points."""
+    return bool(segs) and all(
+        s.full or (s.lo_end[0] == 'crossing' and s.hi_end[0] == 'crossing') for s in segs
+    )
 
 
 class _Line:
@@ -238,10 +251,11 @@ class _Line:
             return max(v, 1e-6 * self.scale)  # a cylinder's pin-to-pin length stays > 0
         return v
 
-    def same(self, a: float, b: float) -> bool:
+    def same(self, a: float, b: float, tol: float = 1e-9) -> bool:
+        """Whether two inputs are one within ``tol`` (rad, or of the length scale)."""
         if self.periodic:
-            return abs(wrap_angle(a - b)) <= 1e-9
-        return abs(a - b) <= 1e-9 * self.scale
+            return abs(wrap_angle(a - b)) <= tol
+        return abs(a - b) <= tol * self.scale
 
     # -- circuits
     def within(self, v: float, limits: Limits) -> bool:
@@ -256,18 +270,78 @@ class _Line:
         tol = 1e-12 * self.scale
         return (lo is None or v >= lo - tol) and (hi is None or v <= hi + tol)
 
+    def crossings(self, lo: float, hi: float, signs: Signs) -> list[tuple[float, int]]:
+        """The change points in (lo, hi) on ``signs`` where the motion crosses into the other
+        sign of one dyad (see touches.py): (input, that dyad's index), in increasing order.
+        The dyad is the one whose two solutions meet there (its flip leaves every point)."""
+        n = max(64, int(self.samples * (hi - lo) / (TWO_PI if self.periodic else hi - lo)) + 1)
+
+        def margins(xs: np.ndarray) -> np.ndarray:
+            return self.margins(xs, signs)
+
+        scale = 1.0 if self.periodic else self.scale
+        out = []
+        for x in touch_points(margins, lo, hi, n, self.tol):
+            if not crosses(margins, x, scale):
+                continue
+            here = self.run([x], signs)[1]
+            gaps = []
+            for k in range(len(signs)):
+                flipped = [*signs]
+                flipped[k] = -flipped[k]
+                there = self.run([x], flipped)[1]
+                gaps.append(max(float(np.max(np.abs(here[p] - there[p]))) for p in here))
+            if gaps and min(gaps) <= _MEET * self.scale:
+                out.append((x, int(np.argmin(gaps))))
+        return out
+
+    def _piece(
+        self, comp: Component, seed: float, signs: Signs, way: int
+    ) -> tuple[float, float, End, End] | None:
+        """The stretch of ``comp`` (the assembling interval around ``seed``; None: a full turn)
+        that the motion follows on ``signs`` from ``seed``: both ways (``way`` 0) or onward
+        from a change point at ``seed`` (+1 up, -1 down), to the next change point or the
+        component's end. None: a full turn with no change point."""
+        assert comp != 'empty'
+        lo_end: End
+        hi_end: End
+        if comp is None:
+            lo, hi, lo_end, hi_end = seed - math.pi, seed + math.pi, ('full', None), ('full', None)
+            # a turn and a quarter each side: a change point on the turn's seam is inside
+            found = self.crossings(seed - 1.25 * math.pi, seed + 1.25 * math.pi, signs)
+            found = [(x + t, k) for x, k in found for t in (-TWO_PI, 0.0, TWO_PI)]
+        else:
+            lo, hi, lo_end, hi_end = comp
+            found = self.crossings(lo, hi, signs)
+        # the seed's own change point, found again from this side, is not the next one
+        eps = TOUCH_RESOLUTION * (1.0 if self.periodic else self.scale)
+        up = [(x, k) for x, k in found if x > seed + eps]
+        down = [(x, k) for x, k in found if x < seed - eps]
+        if comp is None and not found:
+            return None
+        a, a_end = (max(down)[0], ('crossing', max(down)[1])) if down else (lo, lo_end)
+        b, b_end = (min(up)[0], ('crossing', min(up)[1])) if up else (hi, hi_end)
+        if way > 0:
+            a, a_end = seed, ('crossing', None)
+        elif way < 0:
+            b, b_end = seed, ('crossing', None)
+        return a, b, a_end, b_end
+
     def circuit(self, x0: float, limits: Limits = None) -> list[_Segment]:
         """Follow the motion from ``x0`` in the reference assembly mode through every toggle
-        (only toggles inside ``limits``: the motion cannot reach the others)."""
+        and change point (only those inside ``limits``: the motion cannot reach the others)."""
         ref = tuple(self.plan.reference_signs)
         segs: list[_Segment] = []
-        queue: list[tuple[tuple[int, ...], float, int | None]] = [(ref, float(x0), None)]
+        # (signs, seed, the segment it came from, way: 0 both ways, +1 / -1 onward from a
+        # change point at seed)
+        queue: list[tuple[Signs, float, int | None, int]] = [(ref, float(x0), None, 0)]
         while queue and len(segs) < _MAX_SEGMENTS:
-            signs, seed, parent = queue.pop(0)
+            signs, seed, parent, way = queue.pop(0)
             comp = self.component(seed, signs)
             if comp == 'empty':
                 continue
-            if comp is None:
+            piece = self._piece(comp, seed, signs, way)
+            if piece is None:
                 if not any(s.full and s.signs == signs for s in segs):
                     segs.append(
                         _Segment(
@@ -282,19 +356,26 @@ class _Line:
                         )
                     )
                 continue
-            lo, hi, lo_end, hi_end = comp
-            if any(
-                s.signs == signs and not s.full and self.same(s.lo, lo) and self.same(s.hi, hi)
+            lo, hi, lo_end, hi_end = piece
+            if any(  # (a change point is found from each stretch it joins: to ~1e-8)
+                s.signs == signs
+                and not s.full
+                and self.same(s.lo, lo, TOUCH_RESOLUTION)
+                and self.same(s.hi, hi, TOUCH_RESOLUTION)
                 for s in segs
             ):
                 continue
             segs.append(_Segment(signs, lo, hi, lo_end, hi_end, seed, parent))
             me = len(segs) - 1
-            for end, (kind, k) in ((lo, lo_end), (hi, hi_end)):
-                if kind == 'toggle' and k is not None and self.within(end, limits):
-                    flipped = list(signs)
-                    flipped[k] = -flipped[k]
-                    queue.append((tuple(flipped), end, me))
+            for end, (kind, k), onward in ((lo, lo_end, -1), (hi, hi_end, 1)):
+                if k is None or not self.within(end, limits):
+                    continue
+                flipped = list(signs)
+                flipped[k] = -flipped[k]
+                if kind == 'toggle':
+                    queue.append((tuple(flipped), end, me, 0))
+                elif kind == 'crossing':
+                    queue.append((tuple(flipped), end, me, onward))
         return segs
 
     # -- sampled quantities

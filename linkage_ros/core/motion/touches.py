@@ -1,0 +1,104 @@
+"""Where a dyad's margin touches zero inside a scanned stretch (a toggle the motion touches and
+passes) and whether the motion crosses into the other assembly mode there.
+
+A touch is a change point (seed 000's s + l = p + q, the Scott-Russell's equal links): the two
+solutions of a dyad meet and part again. Where its margin is V-shaped (|g| of a g that changes
+sign: the two solutions cross), the smooth motion carries on in the other sign, as the
+continuous solve (core.solver.continuity) and a real mechanism do; the fixed-sign solution
+turns a corner there onto the other curve."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from .common import TOUCHED_TOGGLE_MARGIN
+
+#: a sampled local minimum of a dyad's margin below this is refined (golden section) to see
+#: whether it touches a toggle (below TOUCHED_TOGGLE_MARGIN): a candidate, not a toggle
+DIP_MARGIN = 0.05
+#: how far apart two touches must be to be two (rad, or of the length scale): a touch's margin
+#: rounds to its floor over ~1e-8 of the input, so one touch found from the two stretches it
+#: joins may differ by that much
+TOUCH_RESOLUTION = 1e-7
+#: the margin's growth from a touch at one probe step to two: 2 where it is |linear| (the
+#: solutions cross), 4 where it is quadratic (they touch and turn back); crossing below this
+CROSSING_GROWTH = 3.0
+#: probe steps from a touch for its shape (rad, or of the length scale): well clear of the
+#: touch's position error (~1e-9) and well inside its dip (grid steps ~1e-2)
+_SHAPE_PROBE = 1e-5
+
+
+def _golden_min(f: Callable[[float], float], a: float, b: float, tol: float) -> tuple[float, float]:
+    """Golden-section minimum of a unimodal f on [a, b] (robust on the V-shaped margin at a
+    tangency, where parabolic steps stall at sqrt(eps))."""
+    g = (math.sqrt(5.0) - 1.0) / 2.0
+    c, d = b - g * (b - a), a + g * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(200):
+        if abs(b - a) <= tol:
+            break
+        if fc <= fd:
+            b, d, fd = d, c, fc
+            c = b - g * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + g * (b - a)
+            fd = f(d)
+    return (c, fc) if fc <= fd else (d, fd)
+
+
+def _flat_centre(f: Callable[[float], float], a: float, x: float, b: float, fx: float) -> float:
+    """Centre of the zone around x where f stays at its floor fx (a tangency's margin is
+    |linear| in the input but rounds to its floor over ~sqrt(eps): the centre is the toggle)."""
+    tau = fx + 1e-14
+
+    def edge(inside: float, outside: float) -> float:
+        for _ in range(200):
+            mid = 0.5 * (inside + outside)
+            if mid in (inside, outside):
+                break
+            if f(mid) <= tau:
+                inside = mid
+            else:
+                outside = mid
+        return inside
+
+    if f(a) <= tau or f(b) <= tau:
+        return x
+    return 0.5 * (edge(x, a) + edge(x, b))
+
+
+def touch_points(
+    margins: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, n: int, tol: float
+) -> list[float]:
+    """The inputs in (lo, hi) where the margin (``margins``: inputs -> margins, NaN where the
+    plan fails) touches zero: its sampled local minima below DIP_MARGIN, refined."""
+    xs = np.linspace(lo, hi, n)
+    m = margins(xs)
+    inner = m[1:-1]  # local minima of the margin below DIP_MARGIN (NaN compares False)
+    dips = np.flatnonzero((inner < DIP_MARGIN) & (inner <= m[:-2]) & (inner <= m[2:])) + 1
+    out = []
+    for i in dips:
+
+        def f(x: float) -> float:
+            v = margins(np.array([x]))[0]
+            return 1.0 if not np.isfinite(v) else float(v)
+
+        x, fx = _golden_min(f, xs[i - 1], xs[i + 1], tol)
+        if fx < TOUCHED_TOGGLE_MARGIN:
+            out.append(_flat_centre(f, xs[i - 1], x, xs[i + 1], fx))
+    return out
+
+
+def crosses(margins: Callable[[np.ndarray], np.ndarray], x: float, scale: float) -> bool:
+    """Whether the margin at the touch ``x`` is V-shaped on both sides (the two solutions cross
+    there), not quadratic (they touch and part on the same side)."""
+    h = _SHAPE_PROBE * scale
+    m = margins(np.array([x - 2 * h, x - h, x + h, x + 2 * h]))
+    if not np.all(np.isfinite(m)) or not np.all(m > 0):
+        return False
+    return bool(m[0] < CROSSING_GROWTH * m[1] and m[3] < CROSSING_GROWTH * m[2])

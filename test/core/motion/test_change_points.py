@@ -1,0 +1,159 @@
+"""Change points: where a dyad's two solutions cross (seed 000's s + l = p + q; seed 001's
+Scott-Russell with O2A = AB = AC), the motion carries on smoothly into the other sign, as the
+continuous solve and a real mechanism do. `linkage check` / `range` follow the motion there, not
+the fixed sign that turns a corner onto the other curve. Checked against formulas written here:
+B = 2 a cos(theta) for the Scott-Russell, the cosine rule at crank and coupler in line for a
+change-point four-bar (its smooth motion takes two crank turns to repeat), a parallelogram's
+rocker turning with its crank."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from scenes import four_bar
+
+from linkage_ros.core.model import Scene
+from linkage_ros.core.motion import toggle_positions
+from linkage_ros.core.motion.circuits import reference_circuit
+from linkage_ros.core.motion.quantities import quantities_report
+from linkage_ros.core.solver import Solver
+
+
+def scott_russell(a: float, drawn_at: float) -> Scene:
+    """O2A = AB = AC = a (m), the slider on the x axis through O2, drawn at crank ``drawn_at``
+    (rad, |drawn_at| < pi / 2: B = 2 a cos on the positive side), the crank unlimited."""
+    ax, ay = a * math.cos(drawn_at), a * math.sin(drawn_at)
+    bx = 2 * a * math.cos(drawn_at)
+    return Scene.from_dict(
+        {
+            'name': 'scott_russell_free',
+            'points': {'O2': [0.0, 0.0], 'A': [ax, ay], 'B': [bx, 0.0], 'C': [2 * ax - bx, 2 * ay]},
+            'links': {
+                'ground': ['O2'],
+                'crank': ['O2', 'A'],
+                'rod': ['B', 'A', 'C'],
+                'slider': ['B'],
+            },
+            'sliders': [
+                {
+                    'name': 's',
+                    'guide': 'ground',
+                    'slider': 'slider',
+                    'point': 'B',
+                    'direction': 0.0,
+                    'origin': 'O2',
+                }  # fmt: skip
+            ],
+            'actuators': {
+                'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
+            },
+        }
+    )
+
+
+@pytest.mark.parametrize(('a', 'drawn_at'), [(0.1, math.pi / 3), (0.037, -1.2), (2.5, 0.1)])
+def test_scott_russell_through_a_full_turn_strokes_4a_with_time_ratio_1(a, drawn_at):
+    mech = scott_russell(a, drawn_at).mechanism
+    report = quantities_report(mech)
+    assert report is not None and report['full_turn']
+    s = report['outputs']['joint:s']
+    # B = 2 a cos(theta): 2a at theta = 0, -2a at theta = pi (the fixed sign parks B on O2
+    # past +-90 deg: stroke 2a, time ratio 2.98)
+    assert s['max'] == pytest.approx(2 * a, rel=1e-12)
+    assert s['min'] == pytest.approx(-2 * a, rel=1e-12)
+    assert abs(math.remainder(s['input_at_max'], 2 * math.pi)) < 1e-6
+    assert abs(math.remainder(s['input_at_min'] - math.pi, 2 * math.pi)) < 1e-6
+    assert s['time_ratio'] == pytest.approx(1.0, abs=1e-9)
+    # the two change points, once each
+    toggles = toggle_positions(mech, 'crank')
+    assert len(toggles) == 2
+    assert sorted(abs(math.remainder(t, 2 * math.pi)) for t in toggles) == pytest.approx(
+        [math.pi / 2] * 2, abs=1e-7
+    )
+
+
+def test_scott_russell_past_ninety_degrees_the_drawing_goes_on_in_a_straight_line():
+    """Seed 001: C "will generate a vertical straight line". At 100 deg the drawing's circuit
+    holds the other sign, where C.x = 0; the drawn sign there has B parked on O2."""
+    a = 0.1
+    mech = scott_russell(a, math.pi / 3).mechanism
+    circuit = reference_circuit(mech)
+    assert circuit is not None
+    theta = math.radians(100)
+    on = {b for b in ('+', '-') if circuit.holds((1 if b == '+' else -1,), theta)}
+    assert len(on) == 1
+    (branch,) = on
+    r = Solver(mech, branch=branch).solve({'crank': theta})
+    assert r.success
+    assert r.points['C'][0] == pytest.approx(0.0, abs=1e-15)
+    assert r.points['B'][0] == pytest.approx(2 * a * math.cos(theta), abs=1e-15)
+
+
+def _change_point_oracle(g, a, b, c, drawn_at):
+    """(swing, crank at the rocker's min, at its max, time ratio) of a change-point four-bar
+    (ground g, crank a, coupler b, rocker c; O2 = 0, O4 = (g, 0)) over its smooth motion from
+    the drawing at crank ``drawn_at`` on the side of A -> O4 the shortcut draws (left): one
+    sign for a crank turn, then the other (it crosses at the flat pose, crank 0). Sampled, then
+    each extreme taken from the cosine rule at crank and coupler in line (|O2 B| = b +- a)."""
+    th = np.linspace(0.0, 2 * math.pi, 400001)[1:-1]
+
+    def rocker(theta, side):
+        A = np.stack([a * np.cos(theta), a * np.sin(theta)], -1)
+        d_vec = np.array([g, 0.0]) - A
+        d = np.hypot(d_vec[:, 0], d_vec[:, 1])
+        u = d_vec / d[:, None]
+        along = (b * b - c * c + d * d) / (2 * d)
+        off = np.sqrt(np.maximum(b * b - along * along, 0.0))
+        B = A + along[:, None] * u + side * off[:, None] * np.stack([-u[:, 1], u[:, 0]], -1)
+        return np.arctan2(B[:, 1], B[:, 0] - g)
+
+    u = np.concatenate([th, th + 2 * math.pi])
+    r = np.unwrap(np.concatenate([rocker(th, 1.0), rocker(th, -1.0)]))
+    exact = []  # (crank, rocker angle) at crank and coupler in line
+    for l, folded in ((b + a, False), (b - a, True)):
+        phi = math.acos(max(-1.0, min(1.0, (g * g + c * c - l * l) / (2 * g * c))))
+        for psi in (math.pi - phi, math.pi + phi):
+            B = (g + c * math.cos(psi), c * math.sin(psi))
+            exact.append((math.atan2(B[1], B[0]) + (math.pi if folded else 0.0), psi))
+
+    def refined(i):
+        crank, ang = min(
+            exact, key=lambda e: abs(math.remainder(e[0] - u[i], 2 * math.pi))
+            + abs(math.remainder(e[1] - r[i], 2 * math.pi)),
+        )  # fmt: skip
+        return u[i] + math.remainder(crank - u[i], 2 * math.pi), r[i] + math.remainder(
+            ang - r[i], 2 * math.pi
+        )
+
+    (u_max, r_max), (u_min, r_min) = refined(int(np.argmax(r))), refined(int(np.argmin(r)))
+    fwd = (u_max - u_min) % (4 * math.pi)
+    return r_max - r_min, u_min, u_max, max(fwd, 4 * math.pi - fwd) / min(fwd, 4 * math.pi - fwd)
+
+
+@pytest.mark.parametrize(
+    ('lengths', 'drawn_at'), [((0.5, 0.2, 0.6, 0.3), 1.745), ((0.5, 0.2, 0.6, 0.3), -2.0)]
+)
+def test_a_change_point_four_bar_swings_over_two_crank_turns(lengths, drawn_at):
+    g, a, b, c = lengths
+    assert min(lengths) + max(lengths) == pytest.approx(sum(lengths) - min(lengths) - max(lengths))
+    mech = four_bar(*lengths, input=drawn_at)
+    report = quantities_report(mech)
+    assert report is not None and report['full_turn']
+    rocker = report['outputs']['link:rocker']
+    swing, at_min, at_max, ratio = _change_point_oracle(g, a, b, c, drawn_at)
+    # the fixed sign's swing is 2.214 rad, its time ratio 1
+    assert rocker['stroke'] == pytest.approx(swing, rel=1e-12)
+    assert abs(math.remainder(rocker['input_at_min'] - at_min, 2 * math.pi)) < 1e-6
+    assert abs(math.remainder(rocker['input_at_max'] - at_max, 2 * math.pi)) < 1e-6
+    assert rocker['time_ratio'] == pytest.approx(ratio, rel=1e-6)
+
+
+def test_a_parallelogram_rocker_turns_with_its_crank():
+    """Ground = coupler, crank = rocker: the parallelogram's rocker turns fully (the fixed
+    sign becomes the anti-parallelogram at the flat poses and swings pi)."""
+    report = quantities_report(four_bar(0.4, 0.2, 0.4, 0.2, input=1.0))
+    assert report is not None and report['full_turn']
+    assert 'link:rocker' in report['turns_fully']
+    assert 'link:rocker' not in report['outputs']
