@@ -165,8 +165,12 @@ def format_check(r: dict) -> str:
             for end in ('input', 'output')
             if g[f'{end}_fully_rotates'] is not None
         ]
+        klass = g['class']
+        if klass == 'crank-rocker' and g['output_fully_rotates'] and not g['input_fully_rotates']:
+            # seed 000's crank-rocker has its input turning: here the output is the crank
+            klass = 'crank-rocker, its output the crank (a rocker-crank)'
         out.append(
-            f'grashof    {g["chain"]} {g["class"]}: {g["rule"]}'
+            f'grashof    {g["chain"]} {klass}: {g["rule"]}'
             + (f' ({", ".join(turns)})' if turns else '')
         )
     out.append('inputs')

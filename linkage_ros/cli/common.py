@@ -201,10 +201,17 @@ def dimension_overrides(pairs: Sequence[tuple[str, float]]) -> dict[str, float] 
         raise UsageError(f'--dimension: {exc}') from None
 
 
-def add_scene_argument(p: argparse.ArgumentParser, flag: bool = False) -> None:
+def add_scene_argument(
+    p: argparse.ArgumentParser, flag: bool = False, descriptions: bool = True
+) -> None:
     """SCENE (or --scene), the repeatable --dimension NAME=VALUE that overrides its stated
-    dimensions by name, and the robot description's --closures FILE and --actuated NAME."""
-    what = 'scene file, packaged scene name, or robot description (.urdf, .sdf, .xml)'
+    dimensions by name, and (unless ``descriptions`` is False: a command that refuses robot
+    descriptions) the robot description's --closures FILE and --actuated NAME."""
+    what = (
+        'scene file, packaged scene name, or robot description (.urdf, .sdf, .xml)'
+        if descriptions
+        else 'scene file or packaged scene name'
+    )
     if flag:
         p.add_argument('--scene', required=True, help=what)
     else:
@@ -218,7 +225,8 @@ def add_scene_argument(p: argparse.ArgumentParser, flag: bool = False) -> None:
         help='a dimension used exactly instead of the drawing (m): LINK.P-Q, the distance '
         'between two points of a link, or SLIDER.offset (repeatable; see docs/SCENES.md)',
     )
-    add_description_arguments(p)
+    if descriptions:
+        add_description_arguments(p)
 
 
 #: a robot description's file names (core.description.importer.DESCRIPTION_SUFFIXES, which

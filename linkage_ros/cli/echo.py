@@ -2,13 +2,14 @@
 
     linkage echo TOPIC [--count N] [--wait S] [--json]
 
-The topic's type is read from the graph (it must have a publisher within --wait seconds) and
-the subscription matches the publishers' QoS (a latched topic's last message is printed too).
+The topic's type is read from the graph (it must be there, with a publisher or a subscription,
+within --wait seconds) and the subscription matches the publishers' QoS (a latched topic's last
+message is printed too).
 Each message is printed as a YAML document (`---` between them, as `ros2 topic echo` does: a
 byte field such as DiagnosticStatus.level as its number), or with --json as one JSON object per
 line. It stops after --count messages or on Ctrl-C.
 
-Exit status: 0; 2 a usage error (no publisher of TOPIC, a type not installed).
+Exit status: 0; 2 a usage error (TOPIC not in the graph, a type not installed).
 """
 
 from __future__ import annotations
@@ -36,7 +37,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=float,
         default=DEFAULT_WAIT,
         metavar='S',
-        help=f'wait up to S seconds for a publisher of TOPIC (default {DEFAULT_WAIT:g})',
+        help=f'wait up to S seconds for TOPIC to appear: a publisher or a subscription of it '
+        f'(default {DEFAULT_WAIT:g})',
     )
     p.add_argument('--json', action='store_true', help='one JSON object per line')
 

@@ -58,7 +58,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.description = "Write the scene as a URDF tree (joint names = the node's joint_states)."
     p.epilog = __doc__.split('\n', 2)[2].rstrip() + '\n'
     p.formatter_class = argparse.RawDescriptionHelpFormatter
-    add_scene_argument(p)
+    add_scene_argument(p, descriptions=False)  # (a robot description is refused: run())
     p.add_argument(
         '--prefix',
         default='',
@@ -88,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
         why = name_error(args.frame_id) if args.frame_id is not None else None
         if why:
             raise UsageError(f'--frame-id {why}')
-        mech, _path = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
+        mech, _path = load_mechanism(args.scene, args.dimension)
         _check_assembles(mech)
         text = urdf_document(mech, prefix=args.prefix, frame_id=args.frame_id)
     except (UsageError, LinkageError) as exc:

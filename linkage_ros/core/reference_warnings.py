@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING
 
 from .plan import branch_geometry_one
 from .quantities import PointSpec
-from .solver.modes import reference_toggle_warnings, toggle_warnings
+from .solver.modes import reference_toggle_warnings, toggle_remedy, toggle_warnings
 from .solver.result import SIGN_MARGIN
 from .velocity import velocities
 
@@ -48,6 +48,7 @@ def reference_pose_warnings(solver: Solver) -> list[str]:
         out.append(
             f'the reference pose is at a singular position of the loop closure (Jacobian '
             f'condition {v.cond:.3g}: a toggle, or a cell folded flat): its assembly mode there '
-            'is not chosen by the drawing; draw the pose off it to choose it'
+            'is not chosen by the drawing; '
+            + toggle_remedy(solver.mech.joint_coordinates is not None)
         )
     return out

@@ -515,6 +515,19 @@ def test_check_crank_rocker(capsys, scenes):
         assert word in out
 
 
+def test_check_names_a_crank_rocker_whose_output_is_the_crank(capsys, tmp_path):
+    """Seed 000's crank-rocker turns its input: with the shortest link the output (rocker 20 of
+    50 / 45 / 60 / 20) the input rocks and the output is the crank, and check says so."""
+    scene = tmp_path / 'rc.yaml'
+    scene.write_text(
+        'name: rc\nfour_bar: {ground: 50, crank: 45, coupler: 60, rocker: 20, input: 100deg}\n'
+    )
+    rc, out, _ = run(capsys, 'check', scene)
+    (line,) = [ln for ln in out.splitlines() if ln.startswith('grashof')]
+    assert rc == 0 and 'its output the crank (a rocker-crank)' in line
+    assert 'input fully rotates: no, output fully rotates: yes' in line
+
+
 def test_check_double_rocker_limits_are_the_toggle_angles(capsys, scenes):
     rc, out, _ = run(capsys, 'check', scenes['double_rocker'], '--json')
     assert rc == 0

@@ -418,12 +418,14 @@ def test_closures_on_a_scene_file_is_a_usage_error(capsys, tmp_path):
         ['check', 'four_bar', '--closures', DRAKE_CLOSURES],
         ['sweep', 'four_bar', '--actuated', 'crank', '--set', 'crank=0:1:3'],
         ['range', 'four_bar', '--closures', DRAKE_CLOSURES],
-        ['urdf', 'four_bar', '--closures', DRAKE_CLOSURES],
     ):
         rc, out, err = run(capsys, *argv)
         assert rc == 2, argv
         assert out == '' and err.count('\n') == 1, err
         assert 'applies to a robot description' in err
+    # urdf takes no robot description, so it has no such option
+    rc, out, err = run(capsys, 'urdf', 'four_bar', '--closures', DRAKE_CLOSURES)
+    assert rc == 2 and out == '' and 'unrecognized arguments: --closures' in err
     # the bag tool refuses it before reading the bag
     rc, _, err = run(
         capsys, 'bag', tmp_path / 'none', '--scene', 'four_bar', '--closures', DRAKE_CLOSURES,
@@ -534,6 +536,14 @@ def test_linkage_urdf_refuses_a_description_naming_the_description_itself(capsys
     lines = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and all(line.startswith('note: ') for line in lines[:-1])
     assert 'give robot_state_publisher that description itself' in lines[-1]
+
+
+def test_linkage_urdf_offers_no_description_options(capsys):
+    """urdf refuses every robot description, so its help offers none of their options."""
+    assert main(['urdf', '--help']) == 0
+    help_text = capsys.readouterr().out
+    assert '--closures' not in help_text and '--actuated' not in help_text
+    assert 'robot description' not in help_text.split('positional arguments')[1]
 
 
 def test_a_dimension_given_twice_or_with_an_underscore_is_refused(capsys):
@@ -732,3 +742,14 @@ def test_assemble_at_refusals_name_the_closure_files_own_terms(capsys, tmp_path,
     rc, _, err = run(capsys, 'check', ROBOTIQ, '--closures', closures)
     assert rc == 2 and said in err, err
     assert 'actuators.' not in err
+
+
+def test_a_description_at_a_toggle_is_told_the_remedies_it_has(capsys):
+    """A robot description's reference pose is its joints' zeros: the integrator does not redraw
+    it, so the toggle warning names assemble_at and the branch setting instead (the GRBDA
+    four-bar's zeros are its parallelogram folded flat)."""
+    code, out, _ = run(capsys, 'check', str(FIXTURES / 'grbda_four_bar.urdf'))
+    assert code == 0
+    (warning,) = [line for line in out.splitlines() if 'toggle of' in line]
+    assert 'assemble_at in a closure file' in warning and '--branch' in warning
+    assert 'draw the pose' not in warning

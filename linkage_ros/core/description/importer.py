@@ -177,7 +177,11 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
             f'{len(chain.closures)} closure(s)) but {len(acts)} joint(s) are actuated '
             f'({", ".join(acts) or "none"}'
             + (
-                '; a joint without an independent mark counts as actuated'
+                (
+                    '; a joint without <effort>0</effort> in its limit counts as actuated'
+                    if desc.source.lower().endswith('.sdf')
+                    else '; a joint without an independent mark counts as actuated'
+                )
                 if desc.actuated is None
                 else ''
             )

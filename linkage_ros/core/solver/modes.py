@@ -239,8 +239,20 @@ def toggle_warnings(plan: Plan, margins: Sequence[float]) -> list[str]:
     of the closed-form and the hybrid plans."""
     return [
         f'the reference pose is at the toggle of {step.describe(plan)} (margin {margin:.3g}): '
-        'its assembly mode there is not chosen by the drawing; draw the pose off the toggle to '
-        'choose it'
+        'its assembly mode there is not chosen by the drawing; '
+        + toggle_remedy(plan.mech.joint_coordinates is not None)
         for step, margin in zip(plan.branch_steps, margins)
         if margin < SIGN_MARGIN
     ]
+
+
+def toggle_remedy(description: bool) -> str:
+    """How to choose the assembly mode of a reference pose at a toggle: a scene's drawing is
+    redrawn; a robot description's pose is its joints' zeros, which the integrator does not
+    redraw (docs/ROBOT_DESCRIPTIONS.md)."""
+    if description:
+        return (
+            'assemble it at other actuated joint values (assemble_at in a closure file) or '
+            'choose the mode with the branch setting (--branch, the branch parameter)'
+        )
+    return 'draw the pose off the toggle to choose it'

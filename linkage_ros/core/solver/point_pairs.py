@@ -121,7 +121,8 @@ def pair_values(
                 f'{p.first} and {p.second} are both on link {p.link!r}, {p.distance_m:.9g} m '
                 f'apart, but the target puts them {given:.9g} m apart (off by '
                 f'{abs(given - p.distance_m):.3g} m, more than the solve tolerance '
-                f'{tolerance_m:.3g} m)'
+                f'{tolerance_m:.3g} m; points read off a drawing need a looser tolerance: '
+                '--tol, the tolerance parameter)'
             )
         del out[p.second]
         out[p.link_known] = math.atan2(d[1], d[0]) - p.direction_rad

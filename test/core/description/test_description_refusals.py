@@ -238,6 +238,13 @@ def test_actuated_joints_that_do_not_match_the_freedom():
     refused(TEXT, '1 degree', '3 joint(s) are actuated', args=[unmarked], text=True)
 
 
+def test_an_sdf_is_told_its_own_passive_mark():
+    """SDF has no independent= attribute: a passive SDF joint is one with <effort>0</effort> in
+    its limit (Drake's mark); the Drake four-bar without its closure file marks none."""
+    err = refused(str(DRAKE), '3 joint(s) are actuated', '<effort>0</effort>', args=[str(DRAKE)])
+    assert 'independent mark' not in str(err)
+
+
 def test_actuated_joints_that_are_not_there(tmp_path):
     refused('actuated', 'joint9', args=[str(FOUR_BAR)], actuated=['joint9'])
     refused('values', 'joint9', args=[str(FOUR_BAR)], values={'joint9': 0.1})

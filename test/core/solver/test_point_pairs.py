@@ -111,6 +111,8 @@ def test_hinges_whose_distance_is_not_the_bins_are_refused_with_both_distances(e
         assert not r.success
         assert f'{true_d:.9g} m apart' in r.reason, r.reason
         assert f'the target puts them {true_d + stretch:.9g} m apart' in r.reason, r.reason
+        assert '--tol, the tolerance parameter' in r.reason, r.reason  # (seed 003 ex. 6 reads
+        # J2 and K2 off a drawing)
     # within the solve tolerance the pair is accepted (a rounding of the given coordinates)
     k_ok = j2 + (k2 - j2) * (1 + 1e-13)
     assert solver.solve({'point:J': tuple(j2), 'point:K': tuple(k_ok)}).success
