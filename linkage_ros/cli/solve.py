@@ -9,6 +9,7 @@ allows that mode, as the node's ``~/target_any_mode`` does. ``--all-branches`` l
 
 from __future__ import annotations
 
+import sys
 from typing import TYPE_CHECKING
 
 from .common import (
@@ -63,6 +64,33 @@ def _drawn_mode_rule(mech, modes: ModeList) -> Callable[[Result], bool]:
     return on_circuit
 
 
+def _note_twin(mech, solver, command, r: Result) -> None:
+    """Given one coordinate of a point, a Newton inverse has two solutions in one assembly
+    mode, either side of that coordinate's extreme (seed 003's loader: D.x and the bin angle,
+    "D.y will be automatically decided"): where the answer has such a twin, a note on stderr
+    names it (the node answers with the one nearest its last state)."""
+    from ..core.quantities import CoordinateSpec
+
+    if not r.success or not any(isinstance(s, CoordinateSpec) for s in solver.specs):
+        return
+    far = 1e-6 * mech.length_scale
+    for other in solver.modes(command).results:
+        if other.branch != r.branch or not other.success:
+            continue
+        gap = max(
+            (abs(other.points[p][k] - r.points[p][k]) for p in r.points for k in (0, 1)),
+            default=0.0,
+        )
+        if gap > far:
+            values = ', '.join(f'{a} = {v:.9g}' for a, v in other.inputs.items())
+            print(
+                f'note: another solution in assembly mode {r.branch or "(one mode)"}: {values}; '
+                '--all-branches lists every solution',
+                file=sys.stderr,
+            )
+            return
+
+
 def cmd_solve(args) -> int:
     mech, _ = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
     knowns, axes, solver = build_solve(mech, args, allow_range=False)
@@ -79,6 +107,7 @@ def cmd_solve(args) -> int:
         # mechanism keeps it
         engine = target_engine(mech, args, single=True)
         results = [engine.solve_target(solver, command, allow_mode_change=args.any_mode)]
+        _note_twin(mech, solver, command, results[0])
     else:  # as the node answers ~/command from its drawing
         results = [forward_engine(mech, args).forward_solve(command)]
     dicts = [request_echo(mech, r.to_dict(mech), given) for r in results]

@@ -16,6 +16,8 @@ import pytest
 
 from linkage_ros import cli
 from linkage_ros.cli import main
+from linkage_ros.core.model import Scene
+from linkage_ros.core.solver import Solver
 
 # four-bar lengths (m): ground l1, crank l2, coupler l3, rocker l4
 CR = dict(l1=0.4, l2=0.1, l3=0.35, l4=0.3)  # Grashof crank-rocker (crank shortest)
@@ -526,6 +528,56 @@ def test_check_names_a_crank_rocker_whose_output_is_the_crank(capsys, tmp_path):
     (line,) = [ln for ln in out.splitlines() if ln.startswith('grashof')]
     assert rc == 0 and 'its output the crank (a rocker-crank)' in line
     assert 'input fully rotates: no, output fully rotates: yes' in line
+
+
+LOADER_WIDE = """name: loader
+points:
+  O2: [1.0, 0.5]
+  O4: [0.0, 2.0]
+  O7: [0.2, 2.5]
+  A: [0.9, 1.9]
+  B: [2.0, 2.6]
+  C: [3.0, 2.2]
+  E: [2.2, 2.0]
+  F: [1.9, 3.1]
+  D: [3.05, 2.75]
+  T: [3.9, 1.9]
+links:
+  ground: [O2, O4, O7]
+  boom: [O4, A, B, C]
+  bell: [B, E, F]
+  tilt: [E, D]
+  bin: [C, D, T]
+cylinders:
+  Z1: {from: O2, to: A, min: 0.8, max: 2.6}
+  Z2: {from: O7, to: F, min: 1.2, max: 2.6}
+"""
+
+
+def test_a_target_with_a_twin_in_its_mode_names_the_twin(capsys, tmp_path):
+    """Seed 003: given D.x and the bin's angle, "D.y will be automatically decided", but a
+    Newton inverse has two such solutions in one mode (either side of D.x's extreme): the
+    answer is one, and a note names the other. Checked by the closed-form forward solve at the
+    note's cylinder lengths: D.x and the bin angle are the target's, D.y differs."""
+    import re
+
+    scene = tmp_path / 'loader.yaml'
+    scene.write_text(LOADER_WIDE)
+    rc, out, err = run(
+        capsys, 'solve', scene, '--target', 'D.x=3.1', '--target', 'bin=70deg', '--json'
+    )
+    assert rc == 0
+    answer = json.loads(out)
+    (note,) = [ln for ln in err.splitlines() if 'another solution' in ln]
+    assert f'assembly mode {answer["branch"]}' in note and '--all-branches' in note
+    twin = {k: float(v) for k, v in re.findall(r'(Z\d) = ([-0-9.e]+)', note)}
+    assert set(twin) == {'Z1', 'Z2'}
+    mech = Scene.from_yaml(scene).mechanism
+    r = Solver(mech, branch=answer['branch']).solve(twin, commit=False)
+    assert r.success
+    assert r.points['D'][0] == pytest.approx(3.1, abs=1e-7)  # (the note's 9 digits)
+    assert math.degrees(r.links['bin']) == pytest.approx(70.0, abs=1e-5)
+    assert abs(r.points['D'][1] - answer['points']['D'][1]) > 0.1
 
 
 def test_check_double_rocker_limits_are_the_toggle_angles(capsys, scenes):
