@@ -25,7 +25,7 @@ from .common import (
     reference_value,
     without_limits,
 )
-from .touches import TOUCH_RESOLUTION, crosses, touch_points
+from .touches import TOUCH_RESOLUTION, crosses, crossing_root, touch_points
 
 #: how close (of the length scale) the two solutions of a dyad are at a change point found to
 #: ~1e-9 of the input: they part as |input - change point| times the points' speed
@@ -284,6 +284,7 @@ class _Line:
         for x in touch_points(margins, lo, hi, n, self.tol):
             if not crosses(margins, x, scale):
                 continue
+            x = crossing_root(margins, x, scale)
             here = self.run([x], signs)[1]
             gaps = []
             for k in range(len(signs)):

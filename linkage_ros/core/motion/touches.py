@@ -29,6 +29,10 @@ CROSSING_GROWTH = 3.0
 #: probe steps from a touch for its shape (rad, or of the length scale): well clear of the
 #: touch's position error (~1e-9) and well inside its dip (grid steps ~1e-2)
 _SHAPE_PROBE = 1e-5
+#: probe step for a crossing's root (rad, or of the length scale): well past the ~1e-8 a touch
+#: is found to, large enough that the margins there (~1e-4, a difference of squares near the
+#: tangency) carry about eight digits; g's curvature is extrapolated away
+_ROOT_PROBE = 1e-4
 
 
 def _golden_min(f: Callable[[float], float], a: float, b: float, tol: float) -> tuple[float, float]:
@@ -92,6 +96,22 @@ def touch_points(
         if fx < TOUCHED_TOGGLE_MARGIN:
             out.append(_flat_centre(f, xs[i - 1], x, xs[i + 1], fx))
     return out
+
+
+def crossing_root(margins: Callable[[np.ndarray], np.ndarray], x: float, scale: float) -> float:
+    """The change point near ``x`` (a crossing found to ~1e-8) to ~1e-12 of the input. The
+    margin is |g| with g smooth and changing sign there: the root of the line through the
+    margins at x -+ h (the left one negated) is off by (g'' / 2 g') h^2, so the roots for h and
+    2 h are extrapolated (Richardson) to remove it. ``x`` itself where the probes do not
+    bracket it (no V there at this scale)."""
+    h = _ROOT_PROBE * scale
+    m = margins(np.array([x - 2 * h, x - h, x + h, x + 2 * h]))
+    if not (np.all(np.isfinite(m)) and m[1] + m[2] > 0 and m[0] + m[3] > 0):
+        return x
+    near = x - h + 2 * h * float(m[1]) / float(m[1] + m[2])
+    wide = x - 2 * h + 4 * h * float(m[0]) / float(m[0] + m[3])
+    root = (4 * near - wide) / 3
+    return root if abs(root - x) < h else x
 
 
 def crosses(margins: Callable[[np.ndarray], np.ndarray], x: float, scale: float) -> bool:

@@ -69,8 +69,9 @@ def test_scott_russell_through_a_full_turn_strokes_4a_with_time_ratio_1(a, drawn
     # the two change points, once each
     toggles = toggle_positions(mech, 'crank')
     assert len(toggles) == 2
+    # (a crossing's root: Richardson-extrapolated line roots of the V-shaped margin)
     assert sorted(abs(math.remainder(t, 2 * math.pi)) for t in toggles) == pytest.approx(
-        [math.pi / 2] * 2, abs=1e-7
+        [math.pi / 2] * 2, abs=1e-11
     )
 
 
@@ -153,7 +154,14 @@ def test_a_change_point_four_bar_swings_over_two_crank_turns(lengths, drawn_at):
 def test_a_parallelogram_rocker_turns_with_its_crank():
     """Ground = coupler, crank = rocker: the parallelogram's rocker turns fully (the fixed
     sign becomes the anti-parallelogram at the flat poses and swings pi)."""
-    report = quantities_report(four_bar(0.4, 0.2, 0.4, 0.2, input=1.0))
+    mech = four_bar(0.4, 0.2, 0.4, 0.2, input=1.0)
+    report = quantities_report(mech)
     assert report is not None and report['full_turn']
+    # its change points: the flat poses, crank 0 and pi
+    toggles = toggle_positions(mech, 'crank')
+    assert len(toggles) == 2
+    assert sorted(abs(math.remainder(t, 2 * math.pi)) for t in toggles) == pytest.approx(
+        [0.0, math.pi], abs=1e-11
+    )
     assert 'link:rocker' in report['turns_fully']
     assert 'link:rocker' not in report['outputs']
