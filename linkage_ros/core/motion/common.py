@@ -90,6 +90,16 @@ def reference_point(mech: Mechanism, name: str) -> np.ndarray:
     return v
 
 
+def reachable_piece(
+    lo: float, hi: float, seed: float, lim: tuple[float, float]
+) -> list[tuple[float, float, bool, bool]]:
+    """The piece of [lo, hi] inside the circular interval ``lim`` that holds ``seed`` (where
+    a stretch of the motion starts: the motion within the limits cannot leave it), as a list
+    of at most one :func:`_clip_periodic` piece."""
+    tol = 1e-9 * max(1.0, abs(seed))
+    return [p for p in _clip_periodic(lo, hi, lim) if p[0] - tol <= seed <= p[1] + tol][:1]
+
+
 def _clip_periodic(
     lo: float, hi: float, lim: tuple[float, float]
 ) -> list[tuple[float, float, bool, bool]]:

@@ -11,7 +11,7 @@ import numpy as np
 from ..dyads import wrap_angle
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
-from .common import TWO_PI, _clip_periodic
+from .common import TWO_PI, reachable_piece
 from .ranges import _scan_circuit
 from .scan import Signs, _held_reference
 
@@ -65,11 +65,11 @@ def oscillation_range(
             ang = ang + TWO_PI * round((pang[j] - ang[i]) / TWO_PI)
         stitch[k] = (xs, ang)
         # clip to the limits
-        if arc is not None:
+        if arc is not None:  # (the piece the motion reaches: where the stretch starts)
             keep = np.zeros(xs.size, bool)
-            for a, b, _, _ in _clip_periodic(s.lo, s.hi, arc):
+            for a, b, _, _ in reachable_piece(s.lo, s.hi, s.seed, arc):
                 keep |= (xs >= a) & (xs <= b)
-            for a, b, _, _ in _clip_periodic(s.lo, s.hi, arc):
+            for a, b, _, _ in reachable_piece(s.lo, s.hi, s.seed, arc):
                 # make sure the exact limit values are sampled
                 for v in (a, b):
                     va = line.link_angle([v], s.signs, link)[0]

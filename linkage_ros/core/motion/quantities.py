@@ -166,9 +166,11 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
         lo, hi = seg.lo, seg.hi
         if bounds is not None and seg.full:  # a crank that could turn fully, stopped by limits
             lo, hi = bounds
-        elif bounds is not None:  # the range on the turn of the piece (toggle to toggle)
+        elif bounds is not None:  # the range on the turn of the piece's start (its seed:
+            # the reference value, the toggle or change point it starts from): a piece through a
+            # change point spans a turn, the limits' arc on its other turn is not reached
             mid = (bounds[0] + bounds[1]) / 2
-            turn = round((lo + hi - 2 * mid) / (4 * math.pi)) * 2 * math.pi if periodic else 0.0
+            turn = round((seg.seed - mid) / (2 * math.pi)) * 2 * math.pi if periodic else 0.0
             lo, hi = max(lo, bounds[0] + turn), min(hi, bounds[1] + turn)
         if full and seg.full:
             grid = x0 + np.linspace(0.0, 2 * math.pi, samples, endpoint=False)

@@ -165,16 +165,19 @@ def actuator_range(
         )
         # the assembly's own ends (unknown beyond a scene limit: the scan stops there)
         out['assembly'] = [lo if lo_src == 'toggle' else None, hi if hi_src == 'toggle' else None]
-        out['toggles'] = _dedupe(sorted(toggles), False)
+        out['toggles'] = _dedupe(sorted(toggles), False, mech.length_scale)
     return out
 
 
-def _dedupe(values: Sequence[float], periodic: bool) -> list[float]:
+def _dedupe(values: Sequence[float], periodic: bool, scale: float = 1.0) -> list[float]:
+    """``values`` (sorted) with those within TOUCH_RESOLUTION (rad, or of the length
+    ``scale`` for slides) of the one before dropped."""
+    tol = TOUCH_RESOLUTION * (1.0 if periodic else scale)
     res: list[float] = []
     for v in values:
-        if not res or abs(v - res[-1]) > TOUCH_RESOLUTION:
+        if not res or abs(v - res[-1]) > tol:
             res.append(float(v))
-    if periodic and len(res) > 1 and abs(res[0] + TWO_PI - res[-1]) <= TOUCH_RESOLUTION:
+    if periodic and len(res) > 1 and abs(res[0] + TWO_PI - res[-1]) <= tol:
         res.pop()
     return res
 

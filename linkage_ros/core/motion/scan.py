@@ -314,10 +314,11 @@ class _Line:
         else:
             lo, hi, lo_end, hi_end = comp
             found = self.crossings(lo, hi, signs)
-        # the seed's own change point, found again from this side, is not the next one
+        # the seed's own change point, found again from this side, is not the next one; a
+        # drawing on a change point (way 0) starts the stretch up from it
         eps = TOUCH_RESOLUTION * (1.0 if self.periodic else self.scale)
         up = [(x, k) for x, k in found if x > seed + eps]
-        down = [(x, k) for x, k in found if x < seed - eps]
+        down = [(x, k) for x, k in found if x < seed - eps or (way == 0 and x <= seed + eps)]
         if comp is None and not found:
             return None
         a, a_end = (max(down)[0], ('crossing', max(down)[1])) if down else (lo, lo_end)

@@ -15,9 +15,10 @@ import pytest
 from scenes import four_bar
 
 from linkage_ros.core.model import Scene
-from linkage_ros.core.motion import toggle_positions
+from linkage_ros.core.motion import actuator_range, oscillation_range, toggle_positions
 from linkage_ros.core.motion.circuits import reference_circuit
 from linkage_ros.core.motion.quantities import quantities_report
+from linkage_ros.core.motion.touches import crosses, crossing_root
 from linkage_ros.core.solver import Solver
 
 
@@ -92,12 +93,12 @@ def test_scott_russell_past_ninety_degrees_the_drawing_goes_on_in_a_straight_lin
     assert r.points['B'][0] == pytest.approx(2 * a * math.cos(theta), abs=1e-15)
 
 
-def _change_point_oracle(g, a, b, c, drawn_at):
+def _change_point_oracle(g, a, b, c):
     """(swing, crank at the rocker's min, at its max, time ratio) of a change-point four-bar
-    (ground g, crank a, coupler b, rocker c; O2 = 0, O4 = (g, 0)) over its smooth motion from
-    the drawing at crank ``drawn_at`` on the side of A -> O4 the shortcut draws (left): one
-    sign for a crank turn, then the other (it crosses at the flat pose, crank 0). Sampled, then
-    each extreme taken from the cosine rule at crank and coupler in line (|O2 B| = b +- a)."""
+    (ground g, crank a, coupler b, rocker c; O2 = 0, O4 = (g, 0)) over its smooth motion: one
+    side of A -> O4 for a crank turn, then the other (it crosses at the flat pose, crank 0).
+    The same two-turn loop from any drawing. Sampled, then each extreme taken from the cosine
+    rule at crank and coupler in line (|O2 B| = b +- a)."""
     th = np.linspace(0.0, 2 * math.pi, 400001)[1:-1]
 
     def rocker(theta, side):
@@ -143,12 +144,12 @@ def test_a_change_point_four_bar_swings_over_two_crank_turns(lengths, drawn_at):
     report = quantities_report(mech)
     assert report is not None and report['full_turn']
     rocker = report['outputs']['link:rocker']
-    swing, at_min, at_max, ratio = _change_point_oracle(g, a, b, c, drawn_at)
+    swing, at_min, at_max, ratio = _change_point_oracle(g, a, b, c)
     # the fixed sign's swing is 2.214 rad, its time ratio 1
     assert rocker['stroke'] == pytest.approx(swing, rel=1e-12)
     assert abs(math.remainder(rocker['input_at_min'] - at_min, 2 * math.pi)) < 1e-6
     assert abs(math.remainder(rocker['input_at_max'] - at_max, 2 * math.pi)) < 1e-6
-    assert rocker['time_ratio'] == pytest.approx(ratio, rel=1e-6)
+    assert rocker['time_ratio'] == pytest.approx(ratio, rel=1e-12)
 
 
 def test_a_parallelogram_rocker_turns_with_its_crank():
@@ -165,3 +166,103 @@ def test_a_parallelogram_rocker_turns_with_its_crank():
     )
     assert 'link:rocker' in report['turns_fully']
     assert 'link:rocker' not in report['outputs']
+
+
+def _rocker(g, a, b, c, theta, side):
+    """The four-bar's rocker angle (rad) at crank ``theta``, B on the ``side`` (+1: left) of
+    A -> O4 (the cosine rule; O2 = 0, O4 = (g, 0))."""
+    ax, ay = a * math.cos(theta), a * math.sin(theta)
+    dx, dy = g - ax, -ay
+    d = math.hypot(dx, dy)
+    along = (b * b - c * c + d * d) / (2 * d)
+    off = math.sqrt(max(b * b - along * along, 0.0))
+    bx, by = ax + (along * dx - side * off * dy) / d, ay + (along * dy + side * off * dx) / d
+    return math.atan2(by, bx - g)
+
+
+def test_a_change_point_inside_the_crank_limits():
+    """Limits -0.5 .. 1.5 rad around the change point at crank 0: from the drawing (0.3, the
+    left side) the rocker runs on the left side up to 1.5 and, past 0, on the right side down
+    to -0.5; both extremes are at the limits. The report had taken the limits' arc on the
+    other turn of the stretch past the change point (swing 3.18 rad, an input of -4.78)."""
+    lengths = (0.5, 0.2, 0.6, 0.3)
+    mech = four_bar(*lengths, input=0.3, crank_limits={'min': -0.5, 'max': 1.5})
+    top, bottom = _rocker(*lengths, 1.5, 1.0), _rocker(*lengths, -0.5, -1.0)
+    assert bottom < _rocker(*lengths, 0.0, 1.0) < top  # (the extremes are the limits')
+    report = quantities_report(mech)
+    assert report is not None and not report['full_turn']
+    rocker = report['outputs']['link:rocker']
+    assert rocker['max'] == pytest.approx(top, abs=1e-12)
+    assert rocker['min'] == pytest.approx(bottom, abs=1e-12)
+    assert (rocker['input_at_min'], rocker['input_at_max']) == pytest.approx((-0.5, 1.5))
+    lo, hi = oscillation_range(mech, 'rocker')
+    assert (lo, hi) == pytest.approx((bottom, top), abs=1e-12)
+
+
+@pytest.mark.parametrize('drawn_at', [0.0, 1e-9, 5e-8, -1e-9])
+def test_a_change_point_four_bar_drawn_on_its_change_point(drawn_at):
+    """The drawing on (or within 1e-7 of) the change point: the motion from it is the same
+    two-turn circuit (it had merged two stretches into one sign: time ratio 2.77)."""
+    lengths = (0.5, 0.2, 0.6, 0.3)
+    report = quantities_report(four_bar(*lengths, input=drawn_at))
+    assert report is not None
+    swing, _, _, ratio = _change_point_oracle(*lengths)
+    rocker = report['outputs']['link:rocker']
+    assert rocker['stroke'] == pytest.approx(swing, rel=1e-12)
+    assert rocker['time_ratio'] == pytest.approx(ratio, rel=1e-12)
+
+
+def test_toggles_of_a_micro_scale_slide_are_two():
+    """A slide-driven slider-crank (crank 4e-8 m, rod 1e-6 m): its two toggles (the slide at
+    rod -+ crank, the crank along the line) are 8e-8 m apart; they were merged by a 1e-7 m
+    dedupe. The same at 1000x scale for comparison."""
+
+    def slider_crank(r, rod):
+        th = 1.0
+        ax, ay = r * math.cos(th), r * math.sin(th)
+        bx = ax + math.sqrt(rod**2 - ay**2)
+        return Scene.from_dict(
+            {
+                'name': 'micro',
+                'points': {'O2': [0.0, 0.0], 'A': [ax, ay], 'B': [bx, 0.0]},
+                'links': {
+                    'ground': ['O2'],
+                    'crank': ['O2', 'A'],
+                    'rod': ['A', 'B'],
+                    'slider': ['B'],
+                },  # fmt: skip
+                'sliders': [
+                    {
+                        'name': 's',
+                        'guide': 'ground',
+                        'slider': 'slider',
+                        'point': 'B',
+                        'direction': 0.0,
+                        'origin': 'O2',
+                    }
+                ],  # fmt: skip
+                'actuators': {'s': {'type': 'slide', 'joint': 's'}},
+            }
+        ).mechanism
+
+    for r, rod in ((4e-8, 1e-6), (4e-5, 1e-3)):
+        toggles = actuator_range(slider_crank(r, rod), 's')['toggles']
+        assert toggles == pytest.approx([rod - r, rod + r], rel=1e-9), (r, rod, toggles)
+
+
+def test_a_crossing_is_a_v_and_its_root_is_found_to_the_last_digits():
+    """touches.crosses tells a V-shaped margin (|g|, g changing sign: the solutions cross) from
+    a U-shaped one (g^2: they touch and part on one side); crossing_root finds g's root from a
+    start 1e-8 off, through g's curvature."""
+    root = 0.7
+
+    def v(xs):
+        g = (xs - root) * (1.0 + 3.0 * (xs - root))  # curved, changing sign at root
+        return np.abs(g)
+
+    def u(xs):
+        return (xs - root) ** 2
+
+    assert crosses(v, root + 1e-8, 1.0)
+    assert not crosses(u, root + 1e-8, 1.0)
+    assert crossing_root(v, root + 1e-8, 1.0) == pytest.approx(root, abs=1e-13)
