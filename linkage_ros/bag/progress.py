@@ -85,7 +85,8 @@ def _summary(data, res, outs, plot, t0, t_read, t_solve, t_end):
         lines.append(f'    {c} x {cls}')
     if len(counts) > 8:
         lines.append(f'    ... and {len(counts) - 8} other kind(s) of refusal')
-    # (rows refused from the message alone, as NaN or an unknown name, reach no solver)
+    # (rows refused from the message alone reach no solver: a NaN value or velocity, an
+    # unknown name, a bad stamp or shape)
     unsolved = n - res.batched - res.sequential
     lines.append(
         f'  vectorised rows {res.batched}, one-by-one rows {res.sequential}'

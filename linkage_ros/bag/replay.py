@@ -3,7 +3,7 @@ identical."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -24,6 +24,12 @@ from .rates import RunRates, run_rates, stretches
 from .reading import Commands
 from .results import Results
 from .rows import command_row, finite_rows
+
+
+def _solved_rows(columns: Mapping[str, Any], i0: int, i1: int) -> int:
+    """How many of rows i0..i1 reach a solve: those whose values are all finite (a NaN row is
+    refused as it stands, before any solve: the summary counts it so)."""
+    return int(np.count_nonzero(finite_rows({n: c[i0:i1] for n, c in columns.items()}, i1 - i0)))
 
 
 class _Engine:
@@ -251,7 +257,7 @@ class _Engine:
                 ctx.synced = True
             if not i & 0xFF:
                 self.progress.update(self.done + i)
-        self.res.sequential += b - a
+        self.res.sequential += _solved_rows(columns, 0, b - a)
 
     # -- one by one ------------------------------------------------------------------------------
     def _sequential(self, ctx: _Context, columns, a, b, i0, i1, rates: RunRates | None = None):
@@ -272,7 +278,7 @@ class _Engine:
                     self.res.store_velocity(a + i, velocities(S, r, cmd, rate))
             if not i & 0xFF:
                 self.progress.update(self.done + i)
-        self.res.sequential += i1 - i0
+        self.res.sequential += _solved_rows(columns, i0, i1)
 
     # -- vectorised ------------------------------------------------------------------------------
     def _vectorised(self, ctx: _Context, columns, a, b, rates: RunRates | None):
@@ -390,7 +396,7 @@ class _Engine:
                     )
                 )
             ctx.synced = False
-        res.batched += take
+        res.batched += int(np.count_nonzero(finite[:take]))  # (a NaN row reaches no solve)
         return take
 
     def _batch_rates(self, ctx: _Context, B, cols, rates: RunRates, a, pos, take) -> None:

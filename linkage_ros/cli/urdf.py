@@ -28,6 +28,7 @@ from collections.abc import Sequence
 from ..core.errors import LinkageError
 from ..core.urdf import name_error, prefix_error, urdf_document
 from .common import (
+    DESCRIPTION_SUFFIXES,
     USAGE_ERROR,
     UsageError,
     add_scene_argument,
@@ -88,6 +89,11 @@ def run(args: argparse.Namespace) -> int:
         why = name_error(args.frame_id) if args.frame_id is not None else None
         if why:
             raise UsageError(f'--frame-id {why}')
+        if args.scene.lower().endswith(DESCRIPTION_SUFFIXES):
+            # refused before it is read: its import would ask for options urdf does not take
+            from ..core.urdf import DESCRIPTION_REFUSAL
+
+            raise UsageError(f'{args.scene}: {DESCRIPTION_REFUSAL}')
         mech, _path = load_mechanism(args.scene, args.dimension)
         _check_assembles(mech)
         text = urdf_document(mech, prefix=args.prefix, frame_id=args.frame_id)

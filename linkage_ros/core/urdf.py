@@ -503,6 +503,15 @@ def _origin(parent: ET.Element, xyz: Iterable[float], rpy: Iterable[float]) -> N
     )
 
 
+#: why no URDF is written for a robot description (linkage urdf refuses one before reading it)
+DESCRIPTION_REFUSAL = (
+    "publishes a robot description's own joint names and values: give robot_state_publisher "
+    'that description itself (its URDF), which these joint_states drive; linkage urdf writes '
+    'the URDF of a scene in its own joint names (for a scene written by linkage import: '
+    'without its joint_coordinates key)'
+)
+
+
 def urdf_document(mech: Mechanism, prefix: str = '', frame_id: str | None = None) -> str:
     """The URDF (XML text) of ``mech``; see the module docstring for its frames and joints.
     A mechanism read from a robot description publishes that description's own joint names and
@@ -510,13 +519,7 @@ def urdf_document(mech: Mechanism, prefix: str = '', frame_id: str | None = None
     (SceneError)."""
 
     if mech.joint_coordinates is not None:
-        raise SceneError(
-            "publishes a robot description's own joint names and values: give "
-            'robot_state_publisher that description itself (its URDF), which these joint_states '
-            'drive; linkage urdf writes the URDF of a scene in its own joint names (for a scene '
-            'written by linkage import: without its joint_coordinates key)',
-            file=mech.source,
-        )
+        raise SceneError(DESCRIPTION_REFUSAL, file=mech.source)
 
     root_name = frame_id or mech.frame_id
     tree, joints, _carrier = build_joints(mech, prefix, frame_id)

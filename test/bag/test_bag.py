@@ -578,7 +578,7 @@ def test_newton_solver_is_sequential_and_matches_node(tmp_path, scene, capsys):
         capsys,
     )
     assert code == 0, cap.err
-    assert 'one-by-one rows 25' in cap.out
+    assert 'one-by-one rows 24, refused before any solve 1' in cap.out  # (row 6: NaN)
     table = read_csv(out_csv)
     assert _compare_with_engine(table, rows, engine) > 0  # velocities compared too
     # the status messages are the node's (conversions.result_to_status), cond included
@@ -1946,3 +1946,19 @@ def test_the_summary_counts_every_row_once(tmp_path, scene, capsys):
     assert 'solved 29, refused 1' in cap.out and 'refused before any solve 1' in cap.out, cap.out
     ways = ('vectorised rows', 'one-by-one rows', 'refused before any solve')
     assert sum(_summary_count(cap.out, w) for w in ways) == 30, cap.out
+
+
+@pytest.mark.parametrize('n', [30, 2000])
+def test_the_summary_counts_a_nan_command_as_refused_before_any_solve(tmp_path, scene, capsys, n):
+    """A NaN command is refused as the message stands (README: `refused before any solve`); it
+    was counted as a vectorised or one-by-one row (n = 2000: the batch path, 30: one by one)."""
+    msgs = [('/cmd', 10**9 + i * 10**6, joint_state(['crank'], [0.001 * i])) for i in range(n)]
+    msgs[7] = ('/cmd', msgs[7][1], joint_state(['crank'], [math.nan]))
+    src = make_input(tmp_path, 'mcap', msgs)
+    code, cap = run_bag(
+        [src, '--scene', scene, '--command-topic', '/cmd', '--out', tmp_path / 'o.csv'], capsys
+    )
+    assert code == 0, cap.err
+    assert f'solved {n - 1}, refused 1' in cap.out and 'refused before any solve 1' in cap.out
+    ways = ('vectorised rows', 'one-by-one rows', 'refused before any solve')
+    assert sum(_summary_count(cap.out, w) for w in ways) == n, cap.out

@@ -536,6 +536,12 @@ def test_linkage_urdf_refuses_a_description_naming_the_description_itself(capsys
     lines = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and all(line.startswith('note: ') for line in lines[:-1])
     assert 'give robot_state_publisher that description itself' in lines[-1]
+    # a description its import would need --closures / --actuated for (options urdf does not
+    # take): refused before it is read, with the same reason
+    code = main(['urdf', str(DRAKE)])
+    err = capsys.readouterr().err
+    assert code == 2 and 'give robot_state_publisher that description itself' in err
+    assert '--actuated' not in err and '--closures' not in err
 
 
 def test_linkage_urdf_offers_no_description_options(capsys):

@@ -179,7 +179,7 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
             + (
                 (
                     '; a joint without <effort>0</effort> in its limit counts as actuated'
-                    if desc.source.lower().endswith('.sdf')
+                    if desc.format == 'sdf'
                     else '; a joint without an independent mark counts as actuated'
                 )
                 if desc.actuated is None

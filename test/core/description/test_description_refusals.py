@@ -243,6 +243,9 @@ def test_an_sdf_is_told_its_own_passive_mark():
     its limit (Drake's mark); the Drake four-bar without its closure file marks none."""
     err = refused(str(DRAKE), '3 joint(s) are actuated', '<effort>0</effort>', args=[str(DRAKE)])
     assert 'independent mark' not in str(err)
+    # by its format, not its file name: the same SDF as text (the node's robot_description)
+    err = refused(TEXT, '<effort>0</effort>', args=[DRAKE.read_text()], text=True)
+    assert 'independent mark' not in str(err)
 
 
 def test_actuated_joints_that_are_not_there(tmp_path):
