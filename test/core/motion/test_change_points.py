@@ -27,16 +27,22 @@ def scott_russell(a: float, drawn_at: float) -> Scene:
     (rad, |drawn_at| < pi / 2: B = 2 a cos on the positive side), the crank unlimited."""
     ax, ay = a * math.cos(drawn_at), a * math.sin(drawn_at)
     bx = 2 * a * math.cos(drawn_at)
+    return _slider_on_x(
+        'scott_russell_free',
+        {'O2': [0.0, 0.0], 'A': [ax, ay], 'B': [bx, 0.0], 'C': [2 * ax - bx, 2 * ay]},
+        ['B', 'A', 'C'],
+        {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}},
+    )
+
+
+def _slider_on_x(name: str, points: dict, rod: list, actuators: dict) -> Scene:
+    """A slider-crank scene: crank O2 A, a rod through ``rod``'s points, the slider B on the x
+    axis through O2 (the slide ``s``, measured from O2)."""
     return Scene.from_dict(
         {
-            'name': 'scott_russell_free',
-            'points': {'O2': [0.0, 0.0], 'A': [ax, ay], 'B': [bx, 0.0], 'C': [2 * ax - bx, 2 * ay]},
-            'links': {
-                'ground': ['O2'],
-                'crank': ['O2', 'A'],
-                'rod': ['B', 'A', 'C'],
-                'slider': ['B'],
-            },
+            'name': name,
+            'points': points,
+            'links': {'ground': ['O2'], 'crank': ['O2', 'A'], 'rod': rod, 'slider': ['B']},
             'sliders': [
                 {
                     'name': 's',
@@ -47,9 +53,7 @@ def scott_russell(a: float, drawn_at: float) -> Scene:
                     'origin': 'O2',
                 }  # fmt: skip
             ],
-            'actuators': {
-                'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
-            },
+            'actuators': actuators,
         }
     )
 
@@ -221,28 +225,11 @@ def test_toggles_of_a_micro_scale_slide_are_two():
         th = 1.0
         ax, ay = r * math.cos(th), r * math.sin(th)
         bx = ax + math.sqrt(rod**2 - ay**2)
-        return Scene.from_dict(
-            {
-                'name': 'micro',
-                'points': {'O2': [0.0, 0.0], 'A': [ax, ay], 'B': [bx, 0.0]},
-                'links': {
-                    'ground': ['O2'],
-                    'crank': ['O2', 'A'],
-                    'rod': ['A', 'B'],
-                    'slider': ['B'],
-                },  # fmt: skip
-                'sliders': [
-                    {
-                        'name': 's',
-                        'guide': 'ground',
-                        'slider': 'slider',
-                        'point': 'B',
-                        'direction': 0.0,
-                        'origin': 'O2',
-                    }
-                ],  # fmt: skip
-                'actuators': {'s': {'type': 'slide', 'joint': 's'}},
-            }
+        return _slider_on_x(
+            'micro',
+            {'O2': [0.0, 0.0], 'A': [ax, ay], 'B': [bx, 0.0]},
+            ['A', 'B'],
+            {'s': {'type': 'slide', 'joint': 's'}},
         ).mechanism
 
     for r, rod in ((4e-8, 1e-6), (4e-5, 1e-3)):

@@ -10,63 +10,51 @@ from pathlib import Path
 import yaml
 
 from linkage_ros.bench.scaling import four_bars_scene
+from linkage_ros.core.disjoint import DisjointSets
 from linkage_ros.core.model import Scene
 from linkage_ros.core.plan.compile import Plan
 from linkage_ros.core.solver import Solver
 
 
-def _examined(n: int, monkeypatch) -> int:
+def _four_bars(n: int):
     with tempfile.TemporaryDirectory() as tmp:
         path = Path(tmp) / 'scene.yaml'
         path.write_text(yaml.safe_dump(four_bars_scene(n)))
-        mech = Scene.from_yaml(path).mechanism
-    calls = 0
-    original = Plan._two_distinct
+        return Scene.from_yaml(path).mechanism
 
-    def counted(self, bi, kp):
+
+def _calls(n: int, owner: type, method: str, monkeypatch) -> int:
+    """How many times one whole-scene Solver's build of ``n`` four-bars calls
+    ``owner.method``."""
+    mech = _four_bars(n)
+    calls = 0
+    original = getattr(owner, method)
+
+    def counted(self, *args):
         nonlocal calls
         calls += 1
-        return original(self, bi, kp)
+        return original(self, *args)
 
-    monkeypatch.setattr(Plan, '_two_distinct', counted)
+    monkeypatch.setattr(owner, method, counted)
     Solver(mech, branch='reference')
     monkeypatch.undo()
     return calls
 
 
 def test_a_plan_of_n_four_bars_examines_its_bodies_a_linear_number_of_times(monkeypatch):
-    small, large = _examined(10, monkeypatch), _examined(80, monkeypatch)
+    small = _calls(10, Plan, '_two_distinct', monkeypatch)
+    large = _calls(80, Plan, '_two_distinct', monkeypatch)
     assert small > 0
     # linear: 8x the four-bars, about 8x the work (the search before looked at every body
     # after each step: 64x)
     assert large <= 10 * small, (small, large)
 
 
-def _finds(n: int, monkeypatch) -> int:
-    """DisjointSets.find calls of one whole-scene Solver's build (grouping links into bodies:
-    the search before looked at every known's edge for every body, n * n)."""
-    from linkage_ros.core.disjoint import DisjointSets
-
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / 'scene.yaml'
-        path.write_text(yaml.safe_dump(four_bars_scene(n)))
-        mech = Scene.from_yaml(path).mechanism
-    calls = 0
-    original = DisjointSets.find
-
-    def counted(self, x):
-        nonlocal calls
-        calls += 1
-        return original(self, x)
-
-    monkeypatch.setattr(DisjointSets, 'find', counted)
-    Solver(mech, branch='reference')
-    monkeypatch.undo()
-    return calls
-
-
 def test_grouping_the_links_of_n_four_bars_is_linear(monkeypatch):
-    small, large = _finds(10, monkeypatch), _finds(80, monkeypatch)
+    """DisjointSets.find calls (grouping links into bodies: the search before looked at every
+    known's edge for every body, n * n)."""
+    small = _calls(10, DisjointSets, 'find', monkeypatch)
+    large = _calls(80, DisjointSets, 'find', monkeypatch)
     assert small > 0
     assert large <= 10 * small, (small, large)
 
@@ -74,11 +62,7 @@ def test_grouping_the_links_of_n_four_bars_is_linear(monkeypatch):
 def test_a_big_scene_builds_no_dense_jacobian_template():
     """The whole-scene check system of 200 four-bars (a 1800 x 1800 J) is read for its pattern
     only: its template stays sparse (3.2M dense floats would be quadratic in the links)."""
-    with tempfile.TemporaryDirectory() as tmp:
-        path = Path(tmp) / 'scene.yaml'
-        path.write_text(yaml.safe_dump(four_bars_scene(200)))
-        mech = Scene.from_yaml(path).mechanism
-    solver = Solver(mech)
+    solver = Solver(_four_bars(200))
     template = solver.compiled.check_system.tables.template
     assert template.m * template.n == 1800 * 1800
     assert 'raw' not in vars(template) and 'scaled' not in vars(template)
