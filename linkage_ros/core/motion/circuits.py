@@ -1,6 +1,7 @@
 """The circuit through the reference pose of a one-actuator mechanism: which configurations the
 mechanism reaches from its drawing by moving its actuator, through toggles (the scan of
-ranges._scan_circuit, within the actuator's limits).
+ranges._scan_circuit, each stretch clipped to the actuator's limits where its motion reaches
+them).
 
 A dyad's branch sign names the assembly mode only where its toggle is never crossed. A
 non-Grashof four-bar passes its toggles and takes up the mirror configuration on one circuit
@@ -15,6 +16,8 @@ import math
 from dataclasses import dataclass
 
 from ..model import AngleActuator, Mechanism
+from ..model.limits import angle_limit_arc
+from .common import reachable_piece
 from .ranges import _scan_circuit
 
 #: how far past a stretch's end (rad or m) a value still counts as on it: its toggle ends are
@@ -82,8 +85,19 @@ def reference_circuit(mech: Mechanism, samples: int = 720) -> Circuit | None:
     line, _x0, segments, _bracket = _scan_circuit(mech, name, {}, samples)
     if line is None or not segments:
         return None
-    return Circuit(
-        name,
-        isinstance(mech.actuators[name], AngleActuator),
-        tuple(Stretch(tuple(s.signs), s.lo, s.hi, s.full) for s in segments),
-    )
+    act = mech.actuators[name]
+    periodic = isinstance(act, AngleActuator)
+    arc = angle_limit_arc(act.min, act.max) if periodic else None
+    stretches = []
+    for s in segments:  # each within the limits, the piece its motion reaches from its start
+        if arc is not None:
+            for lo, hi, _, _ in reachable_piece(s.lo, s.hi, s.seed, arc):
+                stretches.append(Stretch(tuple(s.signs), lo, hi, False))
+        elif not periodic and (act.min is not None or act.max is not None):
+            lo = s.lo if act.min is None else max(s.lo, act.min)
+            hi = s.hi if act.max is None else min(s.hi, act.max)
+            if lo <= hi:
+                stretches.append(Stretch(tuple(s.signs), lo, hi, False))
+        else:
+            stretches.append(Stretch(tuple(s.signs), s.lo, s.hi, s.full))
+    return Circuit(name, periodic, tuple(stretches)) if stretches else None

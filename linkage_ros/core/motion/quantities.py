@@ -28,6 +28,9 @@ from .ranges import _scan_circuit, input_ranges
 from .scan import _held_reference, turns_fully
 from .touches import _golden_min
 
+#: an output whose swing (rad) or stroke (of the length scale) is no more than this does not
+#: move (it rounds): it has no time ratio
+STILL = 1e-9
 #: a refined extreme may exceed the best sample by no more than this fraction (rounding)
 _LEVEL = 1e-15
 
@@ -321,11 +324,13 @@ def input_sweep(
                 ext.minimum - shift, ext.maximum - shift, ext.input_at_min, ext.input_at_max
             )
         out[name] = ext
-        if full:  # over the circuit's period: a turn, or more where it passes change points
+        still = ext.maximum - ext.minimum <= STILL * (1.0 if angle else mech.length_scale)
+        if full and not still:  # over the circuit's period: a turn, or more past change points
             forward = (ext.input_at_max - ext.input_at_min) % period
             back = period - forward
             short = min(forward, back)
             ratios[name] = max(forward, back) / short if short else math.inf
+        if full:
             out[name] = _wrapped(ext)
     trans: dict[str, Extreme] = {}
     angles = [[transmission_angles(p.solver, r) for r in p.results] for p in pieces]

@@ -24,8 +24,11 @@ DIP_MARGIN = 0.05
 #: joins may differ by that much
 TOUCH_RESOLUTION = 1e-7
 #: the margin's growth from a touch at one probe step to two: 2 where it is |linear| (the
-#: solutions cross), 4 where it is quadratic (they touch and turn back); crossing below this
+#: solutions cross), 4 where it is quadratic (they touch and turn back), 1 where the probes
+#: sit on the dyads' tangency floor (a touch flatter still: a higher-order one); a crossing
+#: between the two
 CROSSING_GROWTH = 3.0
+PLATEAU_GROWTH = 1.5
 #: probe steps from a touch for its shape (rad, or of the length scale): well clear of the
 #: touch's position error (~1e-9) and well inside its dip (grid steps ~1e-2)
 _SHAPE_PROBE = 1e-5
@@ -116,9 +119,12 @@ def crossing_root(margins: Callable[[np.ndarray], np.ndarray], x: float, scale: 
 
 def crosses(margins: Callable[[np.ndarray], np.ndarray], x: float, scale: float) -> bool:
     """Whether the margin at the touch ``x`` is V-shaped on both sides (the two solutions cross
-    there), not quadratic (they touch and part on the same side)."""
+    there), not quadratic or flat (they touch and part on the same side)."""
     h = _SHAPE_PROBE * scale
     m = margins(np.array([x - 2 * h, x - h, x + h, x + 2 * h]))
     if not np.all(np.isfinite(m)) or not np.all(m > 0):
         return False
-    return bool(m[0] < CROSSING_GROWTH * m[1] and m[3] < CROSSING_GROWTH * m[2])
+    return bool(
+        PLATEAU_GROWTH * m[1] < m[0] < CROSSING_GROWTH * m[1]
+        and PLATEAU_GROWTH * m[2] < m[3] < CROSSING_GROWTH * m[2]
+    )

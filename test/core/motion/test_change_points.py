@@ -250,6 +250,37 @@ def test_a_crossing_is_a_v_and_its_root_is_found_to_the_last_digits():
     def u(xs):
         return (xs - root) ** 2
 
+    def floor(xs):  # a touch flatter than the probes see: the dyads' tangency floor
+        return np.maximum(u(xs) ** 2, 5.95e-8)
+
     assert crosses(v, root + 1e-8, 1.0)
     assert not crosses(u, root + 1e-8, 1.0)
+    assert not crosses(floor, root + 1e-8, 1.0)
     assert crossing_root(v, root + 1e-8, 1.0) == pytest.approx(root, abs=1e-13)
+
+
+def test_an_output_that_does_not_move_has_no_time_ratio():
+    """A kite folded onto its ground (ground = rocker 0.5, crank = coupler 0.3, B on O2): the
+    rocker stands still while the crank turns (its swing rounds to ~1e-12); it had a time
+    ratio of 1.27e9 (the ratio of two rounding-level inputs)."""
+    report = quantities_report(four_bar(0.5, 0.3, 0.3, 0.5, input=1.0, branch=-1))
+    assert report is not None and report['full_turn']
+    rocker = report['outputs']['link:rocker']
+    assert rocker['stroke'] < 1e-9
+    assert rocker['time_ratio'] is None
+
+
+def test_the_drawn_mode_past_a_change_point_is_only_where_the_limits_let_it_go():
+    """Limits -1 .. 2.5 around the change point at crank 0, drawn at 1.745 on the left side:
+    the right side is reached only for crank in [-1, 0]. At crank 1.0 the drawing's circuit
+    holds the left side alone (it held both, through the stretch's other turn); at -0.5 the
+    right side alone. The mode there by the cosine rule: the rocker angle of that side."""
+    lengths = (0.5, 0.2, 0.6, 0.3)
+    mech = four_bar(*lengths, input=1.745, crank_limits={'min': -1.0, 'max': 2.5})
+    circuit = reference_circuit(mech)
+    assert circuit is not None
+    for crank, side in ((1.0, 1.0), (-0.5, -1.0), (2.4, 1.0), (-0.9, -1.0)):
+        on = [signs for signs in ((1,), (-1,)) if circuit.holds(signs, crank)]
+        assert len(on) == 1, (crank, on)
+        r = Solver(mech, branch='+' if on[0] == (1,) else '-').solve({'crank': crank})
+        assert r.links['rocker'] == pytest.approx(_rocker(*lengths, crank, side), abs=1e-12)
