@@ -85,7 +85,6 @@ from .tilt import (  # noqa: F401
     max_tilt,
 )
 from .touches import (  # noqa: F401
-    _flat_centre,
     _golden_min,
 )
 from .walk import (  # noqa: F401

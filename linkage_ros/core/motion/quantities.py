@@ -259,9 +259,9 @@ def input_sweep(
         value), on the piece's branch."""
         grid, exact = piece.grid, piece.solver
         n = len(grid)
-        if full:
+        if full and len(pieces) == 1:  # one turn's grid: its neighbours wrap around
             a, b = grid[i] - (grid[1] - grid[0]), grid[i] + (grid[1] - grid[0])
-        else:
+        else:  # (a stretch between change points: past its end the sign is the other curve)
             a, b = grid[max(i - 1, 0)], grid[min(i + 1, n - 1)]
         x = _rate_root(exact, act, rate_of, float(a), float(b), sign, scale)
         fx = math.inf

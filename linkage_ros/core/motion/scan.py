@@ -22,6 +22,7 @@ from .common import (
     ANGLE_TOL,
     LENGTH_TOL,
     TWO_PI,
+    reachable_piece,
     reference_value,
     without_limits,
 )
@@ -329,6 +330,31 @@ class _Line:
             b, b_end = seed, ('crossing', None)
         return a, b, a_end, b_end
 
+    def _reached(self, lo: float, hi: float, seed: float, limits: Limits) -> tuple[float, float]:
+        """The values of the stretch [lo, hi] the motion from ``seed`` reaches: all of them,
+        or for an angle with limits the piece on the limits' arc around the seed."""
+        if not self.periodic or limits is None:
+            return lo, hi
+        a, b = limits
+        assert a is not None and b is not None  # an arc has both ends
+        piece = reachable_piece(lo, hi, seed, (a, b))
+        return (piece[0][0], piece[0][1]) if piece else (seed, seed)
+
+    def reaches(self, lo: float, hi: float, seed: float, end: float, limits: Limits) -> bool:
+        """Whether the motion on the stretch [lo, hi] from ``seed`` reaches its ``end`` within
+        ``limits``: an angle's on the limits' arc around the seed (the stretch past a change
+        point spans a turn, and the same change point a turn away is not reached), a slide's
+        between them."""
+        if not self.periodic or limits is None:
+            return self.within(end, limits)
+        lo_lim, hi_lim = limits
+        assert lo_lim is not None and hi_lim is not None  # an arc has both ends
+        tol = 1e-12 + 1e-9 * abs(end)
+        return any(
+            a - tol <= end <= b + tol
+            for a, b, _, _ in reachable_piece(lo, hi, seed, (lo_lim, hi_lim))
+        )
+
     def circuit(self, x0: float, limits: Limits = None) -> list[_Segment]:
         """Follow the motion from ``x0`` in the reference assembly mode through every toggle
         and change point (only those inside ``limits``: the motion cannot reach the others)."""
@@ -337,6 +363,7 @@ class _Line:
         # (signs, seed, the segment it came from, way: 0 both ways, +1 / -1 onward from a
         # change point at seed)
         queue: list[tuple[Signs, float, int | None, int]] = [(ref, float(x0), None, 0)]
+        keys: list[tuple[float, float]] = []  # each segment's reached values (_reached)
         while queue and len(segs) < _MAX_SEGMENTS:
             signs, seed, parent, way = queue.pop(0)
             comp = self.component(seed, signs)
@@ -359,18 +386,23 @@ class _Line:
                     )
                 continue
             lo, hi, lo_end, hi_end = piece
-            if any(  # (a change point is found from each stretch it joins: to ~1e-8)
+            # a stretch seen before: the same signs over the same reached values (a turn apart
+            # is the same where nothing limits the angle; within limits, what the motion
+            # reaches from each seed)
+            key = self._reached(lo, hi, seed, limits)
+            if any(
                 s.signs == signs
                 and not s.full
-                and self.same(s.lo, lo, TOUCH_RESOLUTION)
-                and self.same(s.hi, hi, TOUCH_RESOLUTION)
-                for s in segs
+                and self.same(k[0], key[0], TOUCH_RESOLUTION)
+                and self.same(k[1], key[1], TOUCH_RESOLUTION)
+                for s, k in zip(segs, keys)
             ):
                 continue
             segs.append(_Segment(signs, lo, hi, lo_end, hi_end, seed, parent))
+            keys.append(key)
             me = len(segs) - 1
             for end, (kind, k), onward in ((lo, lo_end, -1), (hi, hi_end, 1)):
-                if k is None or not self.within(end, limits):
+                if k is None or not self.reaches(lo, hi, seed, end, limits):
                     continue
                 flipped = list(signs)
                 flipped[k] = -flipped[k]

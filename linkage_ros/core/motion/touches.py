@@ -19,6 +19,8 @@ from .common import TOUCHED_TOGGLE_MARGIN
 #: a sampled local minimum of a dyad's margin below this is refined (golden section) to see
 #: whether it touches a toggle (below TOUCHED_TOGGLE_MARGIN): a candidate, not a toggle
 DIP_MARGIN = 0.05
+#: points a refinement round evaluates in one plan run
+_KARY = 16
 #: how far apart two touches must be to be two (rad, or of the length scale): a touch's margin
 #: rounds to its floor over ~1e-8 of the input, so one touch found from the two stretches it
 #: joins may differ by that much
@@ -58,23 +60,46 @@ def _golden_min(f: Callable[[float], float], a: float, b: float, tol: float) -> 
     return (c, fc) if fc <= fd else (d, fd)
 
 
-def _flat_centre(f: Callable[[float], float], a: float, x: float, b: float, fx: float) -> float:
-    """Centre of the zone around x where f stays at its floor fx (a tangency's margin is
-    |linear| in the input but rounds to its floor over ~sqrt(eps): the centre is the toggle)."""
+def _kary_min(
+    margins: Callable[[np.ndarray], np.ndarray], a: float, b: float, tol: float
+) -> tuple[float, float]:
+    """The minimum of a unimodal margin on [a, b] (NaN counted as 1: the plan fails there),
+    _KARY points a round: one plan run evaluates them all (a run of one point costs about as
+    much as one of sixteen: _golden_min's point-by-point rounds took seconds per scan)."""
+    best_x, best_f = a, math.inf
+    for _ in range(100):
+        xs = np.linspace(a, b, _KARY + 2)
+        fs = np.nan_to_num(margins(xs), nan=1.0)
+        i = int(np.argmin(fs))
+        if fs[i] < best_f:
+            best_x, best_f = float(xs[i]), float(fs[i])
+        a, b = float(xs[max(i - 1, 0)]), float(xs[min(i + 1, _KARY + 1)])
+        if b - a <= tol:
+            break
+    return best_x, best_f
+
+
+def _flat_centre(
+    margins: Callable[[np.ndarray], np.ndarray], a: float, x: float, b: float, fx: float
+) -> float:
+    """Centre of the zone around x where the margin stays at its floor fx (a tangency's margin
+    is |linear| in the input but rounds to its floor over ~sqrt(eps): the centre is the
+    toggle); each edge to float resolution, _KARY points a round."""
     tau = fx + 1e-14
 
+    def above(xs: np.ndarray) -> np.ndarray:
+        return np.asarray(np.nan_to_num(margins(xs), nan=1.0) > tau)
+
     def edge(inside: float, outside: float) -> float:
-        for _ in range(200):
-            mid = 0.5 * (inside + outside)
-            if mid in (inside, outside):
-                break
-            if f(mid) <= tau:
-                inside = mid
-            else:
-                outside = mid
+        for _ in range(100):
+            xs = np.linspace(inside, outside, _KARY + 2)
+            j = int(np.argmax(above(xs)[1:])) + 1  # the first sample past the floor
+            if (xs[j - 1], xs[j]) == (inside, outside):
+                break  # (float resolution)
+            inside, outside = float(xs[j - 1]), float(xs[j])
         return inside
 
-    if f(a) <= tau or f(b) <= tau:
+    if above(np.array([a, b])).sum() < 2:
         return x
     return 0.5 * (edge(x, a) + edge(x, b))
 
@@ -83,21 +108,17 @@ def touch_points(
     margins: Callable[[np.ndarray], np.ndarray], lo: float, hi: float, n: int, tol: float
 ) -> list[float]:
     """The inputs in (lo, hi) where the margin (``margins``: inputs -> margins, NaN where the
-    plan fails) touches zero: its sampled local minima below DIP_MARGIN, refined."""
+    plan fails) touches zero: its sampled local minima below DIP_MARGIN, refined to the
+    centre of the margin's floor there."""
     xs = np.linspace(lo, hi, n)
     m = margins(xs)
     inner = m[1:-1]  # local minima of the margin below DIP_MARGIN (NaN compares False)
     dips = np.flatnonzero((inner < DIP_MARGIN) & (inner <= m[:-2]) & (inner <= m[2:])) + 1
     out = []
     for i in dips:
-
-        def f(x: float) -> float:
-            v = margins(np.array([x]))[0]
-            return 1.0 if not np.isfinite(v) else float(v)
-
-        x, fx = _golden_min(f, xs[i - 1], xs[i + 1], tol)
+        x, fx = _kary_min(margins, xs[i - 1], xs[i + 1], tol)
         if fx < TOUCHED_TOGGLE_MARGIN:
-            out.append(_flat_centre(f, xs[i - 1], x, xs[i + 1], fx))
+            out.append(_flat_centre(margins, xs[i - 1], x, xs[i + 1], fx))
     return out
 
 

@@ -8,6 +8,7 @@ rocker turning with its crank."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -20,6 +21,7 @@ from linkage_ros.core.motion.circuits import reference_circuit
 from linkage_ros.core.motion.quantities import quantities_report
 from linkage_ros.core.motion.touches import crosses, crossing_root
 from linkage_ros.core.solver import Solver
+from linkage_ros.engine import Engine, EngineSettings
 
 
 def scott_russell(a: float, drawn_at: float) -> Scene:
@@ -284,3 +286,46 @@ def test_the_drawn_mode_past_a_change_point_is_only_where_the_limits_let_it_go()
         assert len(on) == 1, (crank, on)
         r = Solver(mech, branch='+' if on[0] == (1,) else '-').solve({'crank': crank})
         assert r.links['rocker'] == pytest.approx(_rocker(*lengths, crank, side), abs=1e-12)
+
+
+@pytest.mark.parametrize('drawn_at', [-0.3, -1.2])
+def test_moving_up_through_a_change_point_inside_the_limits(drawn_at):
+    """The documented example mirrored: drawn below the change point at crank 0 on the right
+    side, limits -1.5 .. 0.5. Moving up, the motion crosses at 0 onto the left side. The
+    stretch past the change point spans a turn, and the same change point a turn below is not
+    reached: the node had refused crank 0.1 .. 0.5 ("reachable only on the other loop"), and
+    check had put the rocker's maximum at crank -7.78 (outside the limits)."""
+    lengths = (0.5, 0.2, 0.6, 0.3)
+    mech = four_bar(*lengths, input=drawn_at, branch=-1, crank_limits={'min': -1.5, 'max': 0.5})
+    e = Engine(mech, EngineSettings())
+    for crank in np.linspace(drawn_at, 0.5, 41):
+        r = e.command({'crank': float(crank)})
+        assert r.success, (crank, r.reason)
+        side = -1.0 if crank < -1e-9 else 1.0
+        if abs(crank) > 1e-6:
+            assert r.links['rocker'] == pytest.approx(_rocker(*lengths, crank, side), abs=1e-12)
+    report = quantities_report(mech)
+    assert report is not None
+    rocker = report['outputs']['link:rocker']
+    top, bottom = _rocker(*lengths, 0.5, 1.0), _rocker(*lengths, -1.5, -1.0)
+    assert (rocker['min'], rocker['max']) == pytest.approx((bottom, top), abs=1e-12)
+    assert (rocker['input_at_min'], rocker['input_at_max']) == pytest.approx((-1.5, 0.5))
+    assert oscillation_range(mech, 'rocker') == pytest.approx((bottom, top), abs=1e-12)
+
+
+def test_a_scott_russell_through_both_change_points_inside_its_limits():
+    """Limits -2 .. 2 rad, drawn at 0.5: the slider follows B = 2 a cos(theta) over the whole
+    range, through +-pi/2 (the node had refused crank 2: the stretch past pi/2 was taken for
+    the one past -pi/2, a turn away)."""
+    a = 0.1
+    mech = scott_russell(a, 0.5).mechanism
+    mech = dataclasses.replace(
+        mech, actuators={'crank': dataclasses.replace(mech.actuators['crank'], min=-2.0, max=2.0)}
+    )
+    e = Engine(mech, EngineSettings())
+    for crank in [*np.linspace(0.5, 2.0, 31), *np.linspace(2.0, -2.0, 81)]:
+        r = e.command({'crank': float(crank)})
+        assert r.success, (crank, r.reason)
+        assert r.points['B'][0] == pytest.approx(2 * a * math.cos(crank), abs=1e-15)
+    s = quantities_report(mech)['outputs']['joint:s']
+    assert (s['min'], s['max']) == pytest.approx((2 * a * math.cos(2.0), 2 * a), abs=1e-15)
