@@ -17,7 +17,6 @@ from dataclasses import dataclass
 
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
-from .common import reachable_piece
 from .ranges import _scan_circuit
 
 #: how far past a stretch's end (rad or m) a value still counts as on it: its toggle ends are
@@ -87,17 +86,10 @@ def reference_circuit(mech: Mechanism, samples: int = 720) -> Circuit | None:
         return None
     act = mech.actuators[name]
     periodic = isinstance(act, AngleActuator)
-    arc = angle_limit_arc(act.min, act.max) if periodic else None
+    limits = angle_limit_arc(act.min, act.max) if periodic else (act.min, act.max)
     stretches = []
-    for s in segments:  # each within the limits, the piece its motion reaches from its start
-        if arc is not None:
-            for lo, hi, _, _ in reachable_piece(s.lo, s.hi, s.seed, arc):
-                stretches.append(Stretch(tuple(s.signs), lo, hi, False))
-        elif not periodic and (act.min is not None or act.max is not None):
-            lo = s.lo if act.min is None else max(s.lo, act.min)
-            hi = s.hi if act.max is None else min(s.hi, act.max)
-            if lo <= hi:
-                stretches.append(Stretch(tuple(s.signs), lo, hi, False))
-        else:
-            stretches.append(Stretch(tuple(s.signs), s.lo, s.hi, s.full))
+    for s in segments:  # each within the limits: what its motion reaches from its start
+        reached = line.reached(s.lo, s.hi, s.seed, limits)
+        if reached is not None:
+            stretches.append(Stretch(tuple(s.signs), *reached, s.full and reached == (s.lo, s.hi)))
     return Circuit(name, periodic, tuple(stretches)) if stretches else None

@@ -330,30 +330,27 @@ class _Line:
             b, b_end = seed, ('crossing', None)
         return a, b, a_end, b_end
 
-    def _reached(self, lo: float, hi: float, seed: float, limits: Limits) -> tuple[float, float]:
+    def reached(
+        self, lo: float, hi: float, seed: float, limits: Limits
+    ) -> tuple[float, float] | None:
         """The values of the stretch [lo, hi] the motion from ``seed`` reaches: all of them,
-        or for an angle with limits the piece on the limits' arc around the seed."""
+        or for an angle with limits the piece on the limits' arc around the seed (the stretch
+        past a change point spans a turn, and its part a turn away is not reached); None where
+        the seed is off that arc."""
         if not self.periodic or limits is None:
             return lo, hi
         a, b = limits
         assert a is not None and b is not None  # an arc has both ends
         piece = reachable_piece(lo, hi, seed, (a, b))
-        return (piece[0][0], piece[0][1]) if piece else (seed, seed)
+        return (piece[0][0], piece[0][1]) if piece else None
 
-    def reaches(self, lo: float, hi: float, seed: float, end: float, limits: Limits) -> bool:
-        """Whether the motion on the stretch [lo, hi] from ``seed`` reaches its ``end`` within
-        ``limits``: an angle's on the limits' arc around the seed (the stretch past a change
-        point spans a turn, and the same change point a turn away is not reached), a slide's
-        between them."""
+    def _reaches(self, reached: tuple[float, float] | None, end: float, limits: Limits) -> bool:
+        """Whether the motion gets to a stretch's ``end`` within ``limits``: an angle's within
+        the values it ``reached`` (:meth:`reached`), a slide's between the limits."""
         if not self.periodic or limits is None:
             return self.within(end, limits)
-        lo_lim, hi_lim = limits
-        assert lo_lim is not None and hi_lim is not None  # an arc has both ends
         tol = 1e-12 + 1e-9 * abs(end)
-        return any(
-            a - tol <= end <= b + tol
-            for a, b, _, _ in reachable_piece(lo, hi, seed, (lo_lim, hi_lim))
-        )
+        return reached is not None and reached[0] - tol <= end <= reached[1] + tol
 
     def circuit(self, x0: float, limits: Limits = None) -> list[_Segment]:
         """Follow the motion from ``x0`` in the reference assembly mode through every toggle
@@ -363,7 +360,7 @@ class _Line:
         # (signs, seed, the segment it came from, way: 0 both ways, +1 / -1 onward from a
         # change point at seed)
         queue: list[tuple[Signs, float, int | None, int]] = [(ref, float(x0), None, 0)]
-        keys: list[tuple[float, float]] = []  # each segment's reached values (_reached)
+        keys: list[tuple[float, float]] = []  # each segment's reached values (reached)
         while queue and len(segs) < _MAX_SEGMENTS:
             signs, seed, parent, way = queue.pop(0)
             comp = self.component(seed, signs)
@@ -389,7 +386,8 @@ class _Line:
             # a stretch seen before: the same signs over the same reached values (a turn apart
             # is the same where nothing limits the angle; within limits, what the motion
             # reaches from each seed)
-            key = self._reached(lo, hi, seed, limits)
+            reached = self.reached(lo, hi, seed, limits)
+            key = reached or (seed, seed)
             if any(
                 s.signs == signs
                 and not s.full
@@ -402,7 +400,7 @@ class _Line:
             keys.append(key)
             me = len(segs) - 1
             for end, (kind, k), onward in ((lo, lo_end, -1), (hi, hi_end, 1)):
-                if k is None or not self.reaches(lo, hi, seed, end, limits):
+                if k is None or not self._reaches(reached, end, limits):
                     continue
                 flipped = list(signs)
                 flipped[k] = -flipped[k]

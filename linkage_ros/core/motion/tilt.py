@@ -65,10 +65,10 @@ def max_tilt(
     pk, lk = point_key(mech, lip), link_key(mech, link)
     current = {a: reference_scalar(mech, a) for a in mech.actuators}
     forward = Solver(mech, method=method)
-    fwd = forward.solve(current, commit=False)
     if inputs:
         current.update({k: float(v) for k, v in inputs.items()})
-        fwd = forward.solve(current, commit=False)
+    fwd = forward.solve(current, commit=False)  # (the mechanism as it stands)
+    if inputs:
         if not fwd.success:
             return {
                 'ok': False,
