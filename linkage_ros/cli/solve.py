@@ -43,25 +43,18 @@ def roller_legend(modes: ModeList) -> str:
     )
 
 
-def _drawn_mode_rule(mech, modes: ModeList) -> Callable[[Result], bool]:
+def _drawn_mode_rule(mech, args, modes: ModeList) -> Callable[[Result], bool]:
     """Whether a solution of ``modes`` is in the drawing's assembly mode: on the drawing's
-    circuit where that circuit passes its toggles (a non-Grashof four-bar's two signs are one
-    mode; a Grashof double-rocker's mirror loop, in the drawn signs, is another:
-    core.motion.circuits), else in the drawn branch signs."""
-    from ..core.motion.circuits import reference_circuit
-    from ..core.steps import branch_signs
+    circuit where that circuit passes its toggles (Engine.on_circuit: a non-Grashof four-bar's
+    two signs are one mode; a Grashof double-rocker's mirror loop, in the drawn signs, is
+    another), else in the drawn branch signs."""
+    engine = forward_engine(mech, args)
 
-    circuit = reference_circuit(mech)
-    if circuit is None or not circuit.crosses_signs:
-        return lambda r: r.branch == modes.drawn
+    def in_drawn_mode(r: Result) -> bool:
+        on = engine.on_circuit(r)
+        return r.branch == modes.drawn if on is None else on
 
-    def on_circuit(r: Result) -> bool:
-        value = r.inputs.get(circuit.actuator)
-        if value is None or len(r.branch) != len(modes.drawn) or '?' in r.branch:
-            return r.branch == modes.drawn
-        return circuit.holds(branch_signs(r.branch), float(value))
-
-    return on_circuit
+    return in_drawn_mode
 
 
 def _note_twin(mech, solver, command, r: Result) -> None:
@@ -111,7 +104,9 @@ def cmd_solve(args) -> int:
     else:  # as the node answers ~/command from its drawing
         results = [forward_engine(mech, args).forward_solve(command)]
     dicts = [request_echo(mech, r.to_dict(mech), given) for r in results]
-    in_drawn_mode = _drawn_mode_rule(mech, modes) if modes is not None else None
+    in_drawn_mode = (
+        _drawn_mode_rule(mech, args, modes) if modes is not None and modes.drawn else None
+    )
     for d, r in zip(dicts, results):
         if r.mode_change:
             d['mode_change'] = r.mode_change
