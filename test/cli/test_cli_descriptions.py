@@ -759,3 +759,29 @@ def test_a_description_at_a_toggle_is_told_the_remedies_it_has(capsys):
     (warning,) = [line for line in out.splitlines() if 'toggle of' in line]
     assert 'assemble_at in a closure file' in warning and '--branch' in warning
     assert 'draw the pose' not in warning
+
+
+@pytest.mark.parametrize('crank', [0.5, 2.0, -0.5, -2.0])
+def test_a_flat_drawn_four_bar_answers_the_branch_asked_for(capsys, crank):
+    """grbda_four_bar.urdf is drawn flat, on its change point (joint1 = 0), where the
+    parallelogram's motion and the anti-parallelogram's cross: the drawing chooses neither
+    circuit. Each --branch answers its own signs (the parallelogram joint2 = -joint1, joint3 =
+    joint1; the anti-parallelogram joint2 = joint3: ROBOT_DESCRIPTIONS.md), and a continuous
+    first command takes the parallelogram, nearest the flat drawing. A circuit scanned from
+    the drawing had turned --branch - into + (the anti-parallelogram) at every crank."""
+    case = CASES['grbda_four_bar']
+    parallelogram = '-' if crank > 0 else '+'
+    for branch in ('+', '-', 'continuous'):
+        d = solve_json(
+            capsys, *description_args(case), '--set', f'joint1={crank}', '--branch', branch
+        )
+        j = d['joints']
+        assert max(pinocchio_misses(case, j)) < CLOSED * size_of(d['points'])
+        want = parallelogram if branch == 'continuous' else branch
+        assert d['branch'] == want, branch
+        if want == parallelogram:
+            assert j['joint2'] == pytest.approx(-crank, abs=1e-12)
+            assert j['joint3'] == pytest.approx(crank, abs=1e-12)
+        else:
+            assert j['joint2'] == pytest.approx(j['joint3'], abs=1e-12)
+            assert abs(j['joint2'] + crank) > 0.1

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
 from .ranges import _scan_circuit
+from .touches import TOUCH_RESOLUTION
 
 #: how far past a stretch's end (rad or m) a value still counts as on it: its toggle ends are
 #: refined to about 1e-12, and a configuration at a toggle is on both stretches
@@ -76,13 +77,19 @@ class Circuit:
 
 
 def reference_circuit(mech: Mechanism, samples: int = 720) -> Circuit | None:
-    """The reference pose's circuit, or None where it is not scanned: more than one actuator
-    or degree of freedom, no closed-form scan of the actuator."""
+    """The reference pose's circuit, or None where it is not scanned (more than one actuator
+    or degree of freedom, no closed-form scan of the actuator) or the drawing does not choose
+    it: drawn on a change point, two circuits pass through the pose (a parallelogram drawn
+    folded flat lies on the parallelogram's motion and on the anti-parallelogram's; the scan
+    follows one of them, which the drawing does not name)."""
     if len(mech.actuators) != 1 or mech.dof != 1:
         return None
     name = next(iter(mech.actuators))
-    line, _x0, segments, _bracket = _scan_circuit(mech, name, {}, samples)
+    line, x0, segments, _bracket = _scan_circuit(mech, name, {}, samples)
     if line is None or not segments:
+        return None
+    drawn = segments[0]  # (the scan's first segment is the drawing's)
+    if drawn.lo_end[0] == 'crossing' and line.same(drawn.lo, x0, TOUCH_RESOLUTION):
         return None
     act = mech.actuators[name]
     periodic = isinstance(act, AngleActuator)
