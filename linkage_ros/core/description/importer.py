@@ -379,13 +379,13 @@ def _scene(
             s['point'] = names.alias[s['point']]
     outputs = [p for p in points if sum(p in members[b] for b in chain.bodies[1:]) == 1]
     outputs = [p for p in outputs if p not in members[chain.ground]]
-    # each body's axis (its first two points) along its frame's e1 at all values zero: then a
-    # link's angle is its rotation from the description's zero pose, and every joint and
+    # each body's axis (its first two points) along its frame's x: then a link's angle is
+    # the angle its frame's x makes with e1, as tf shows the frame, and every joint and
     # actuator value is the description's own (negated where a joint turns the other way)
     scale = chain.length_scale
     for b in chain.bodies:
         first = members[b][0]
-        phi = poses[b][1]
+        phi = poses[b][1] + _frame_x_angle(chain, b)
         mark = names('point', f'{b}_axis')
         for length in (AXIS_MARK * scale * f for f in (1.0, 0.6, 1.7, 0.35, 2.9)):
             at = [
@@ -445,6 +445,19 @@ def _scene(
     if dims:
         scene['dimensions'] = dims
     return scene, names
+
+
+def _frame_x_angle(chain: Chain, body: str) -> float:
+    """The angle (rad, from e1 about n) of ``body``'s frame x at all joint values zero; 0
+    where that x is along n (a frame turned out of the plane: no direction in it)."""
+    x = chain.project(chain.zero_poses[body][:3, 0])
+    if math.hypot(float(x[0]), float(x[1])) < _OUT_OF_PLANE:
+        return 0.0
+    return math.atan2(float(x[1]), float(x[0]))
+
+
+#: a frame x whose part in the plane is shorter than this lies along n (a unit vector)
+_OUT_OF_PLANE = 1e-6
 
 
 def _angle(points: Mapping[str, list[float]], a: str, b: str) -> float:

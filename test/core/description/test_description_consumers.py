@@ -651,3 +651,71 @@ def test_assembled_at_given_values_closes_and_is_the_reference():
             assert set(got) == set(imported.values)
             for name, value in imported.values.items():
                 assert angle_diff(got[name], value) <= 1e-9, (path.name, name, got)
+
+
+# ---- link angles: each link frame's x in the plane, as tf shows the frame ------------------
+
+
+def _revolute_axis(path: Path, joint: str) -> np.ndarray:
+    """A revolute joint's axis in its own frame, read off the URDF text (default +x)."""
+    for el in ET.fromstring(path.read_text()).iter('joint'):
+        if el.get('name') == joint:
+            axis = el.find('axis')
+            xyz = '1 0 0' if axis is None else axis.get('xyz', '1 0 0')
+            return np.array([float(v) for v in xyz.split()])
+    raise KeyError(joint)
+
+
+LINK_ANGLE_CASES = {
+    'grbda_four_bar': (FOUR_BAR, None, 'joint1', [{'joint1': 0.5}, {'joint1': -2.0}]),
+    'grbda_six_bar': (
+        SIX_BAR,
+        None,
+        'joint1',
+        [
+            {'joint1': 0.2, 'joint2': 0.3, 'joint3': -0.2},
+            {'joint1': -0.4, 'joint2': 0.1, 'joint3': 0.3},
+        ],
+    ),
+    'gepetto': (
+        GEPETTO,
+        GEPETTO_SIDE,
+        'mot1',
+        [{'mot1': 0.3, 'mot2': -0.2}, {'mot1': -0.5, 'mot2': 0.4}],
+    ),
+    'robotiq': (
+        ROBOTIQ,
+        ROBOTIQ_SIDE,
+        ROBOTIQ_KNUCKLE,
+        [{ROBOTIQ_KNUCKLE: 0.2}, {ROBOTIQ_KNUCKLE: 0.7}],
+    ),
+}
+
+
+@pytest.mark.parametrize('name', list(LINK_ANGLE_CASES))
+def test_a_links_angle_is_its_frames_x_in_the_plane(name):
+    """ROBOT_DESCRIPTIONS.md: each link's axis lies along its frame's x, so a link's angle
+    (answers, link targets, range --links) is the angle tf shows its frame at. Pinocchio places
+    the frames at the answer's joint values; the plane's axes e1, e2 are the first two of the
+    ground frame's x, y, z not along a revolute axis. Gepetto's rods have joint origins turned
+    by pi and pi/2 about the normal: their angles were their rotation from the zero pose, off
+    the frames by that much."""
+    path, side, revolute, commands = LINK_ANGLE_CASES[name]
+    mech = import_description(str(path), closures=str(side) if side else None).mechanism
+    robot = PinocchioRobot(path)
+    solver = Solver(mech)
+    for cmd in commands:
+        result = solver.solve(mech.joint_coordinates.to_scene(cmd))
+        robot.place(described(mech, result))
+        ground = robot.frame(mech.ground).rotation
+        jid = robot.model.getJointId(revolute)
+        n = robot.data.oMi[jid].rotation @ _revolute_axis(path, revolute)
+        e1, e2 = [ground[:, k] for k in range(3) if abs(ground[:, k] @ n) < 0.5][:2]
+        checked = 0
+        for link, angle in result.links.items():
+            if link == mech.ground:
+                continue
+            x = robot.frame(link).rotation[:, 0]
+            assert angle_diff(angle, math.atan2(x @ e2, x @ e1)) <= 1e-9, (cmd, link, angle)
+            checked += 1
+        assert checked >= 3
