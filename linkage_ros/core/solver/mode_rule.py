@@ -25,7 +25,7 @@ from ..quantities import AngleSpec, CoordinateSpec
 from .compiled import SolveMode
 from .modes import newton_modes
 from .reading import mode_label
-from .result import SIGN_MARGIN, Result, branch_identity_defined, branch_text
+from .result import SIGN_MARGIN, Effort, Result, branch_identity_defined, branch_text
 from .solver import Solver
 
 #: an assembly mode: the branch sign and margin (|sin| of its transmission angle) of each
@@ -164,7 +164,7 @@ class ModeKeeper:
             return TargetAnswer(result, False)
         # another mode, or refused (a limit): the solution in mode nearest the last good state
         # among the inverse plan's other branches
-        alt = self.in_mode(solver, values, before, last, here)
+        alt = self.in_mode(solver, values, before, last, here, restarts=not _out_of_reach(result))
         found: list[Result] | None = None  # the multi-start search's solutions, made once
         if alt is None and _worth_a_search(solver, result):
             found = self._search(solver, values)
@@ -231,14 +231,15 @@ class ModeKeeper:
         before: Mode,
         last: Result | None,
         here: Result | None,
+        restarts: bool = True,
     ) -> Result | None:
         """The solution of the target in assembly mode ``before`` within limits nearest
         ``last``: every branch of the inverse plan's dyads is tried (a closed-form plan has no
         other solutions); where Newton places the rest (hybrid, newton), each branch is solved
-        from ``last`` and then, if none is in mode, restarted from configurations spread over
-        the actuator ranges in that mode (a Newton root depends on its start). None if none is
-        found. ``here``: the configuration whose circuit counts as the mode (changes_mode;
-        None: the signs alone, as a branch setting holds them)."""
+        from ``last`` and then, if none is in mode and ``restarts``, restarted from
+        configurations spread over the actuator ranges in that mode (a Newton root depends on
+        its start). None if none is found. ``here``: the configuration whose circuit counts as
+        the mode (changes_mode; None: the signs alone, as a branch setting holds them)."""
         k = solver.branch_count
         if k > MAX_BRANCHES:
             return None
@@ -250,14 +251,14 @@ class ModeKeeper:
         for alt in alternatives:
             if alt.mode is not SolveMode.CLOSED_FORM and last is not None:
                 alt.adopt(last)  # Newton starts from the mechanism's state
-            r = alt.solve(values, commit=False)
+            r = alt.solve(values, commit=False, effort=Effort.UNEXPLAINED)
             mode = self.mode(r) if r.success else None
             if not r.success or self.changes_mode(before, here, r):
                 continue
             key = (_folded(mode), configuration_distance(last, r))  # a regular one first
             if best is None or key < best[:2]:
                 best = (*key, r)
-        if best is not None or closed:
+        if best is not None or closed or not restarts:
             return None if best is None else best[2]
         return self._multi_start(self._newton_for(solver), values, before, last, here)
 
@@ -316,7 +317,7 @@ class ModeKeeper:
         try:
             for start in self._mode_starts(before[0], last)[:MAX_STARTS]:
                 solver.adopt(start)
-                r = solver.solve(values, commit=False)
+                r = solver.solve(values, commit=False, effort=Effort.UNEXPLAINED)
                 if r.success and not self.changes_mode(before, here, r):
                     found = r
                     break
@@ -363,7 +364,16 @@ def _worth_a_search(solver: Solver, result: Result) -> bool:
         return False
     if not any(isinstance(s, CoordinateSpec) for s in solver.specs):
         return False
-    return result.success or not (result.reason or '').startswith('cannot assemble')
+    return not _out_of_reach(result)
+
+
+def _out_of_reach(result: Result) -> bool:
+    """Whether a target was refused as out of reach: its loops do not close at the target
+    (the nearest configuration misses), not refused on a limit or from where the mechanism is.
+    Neither the restarts (16 Newton walks from elsewhere in the mode, seconds on the
+    excavator) nor the multi-start search would find it a solution: a refusal on the command
+    thread must stay short."""
+    return not result.success and (result.reason or '').startswith('cannot assemble')
 
 
 def _folded(mode: Mode | None) -> bool:

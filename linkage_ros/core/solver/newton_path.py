@@ -42,8 +42,10 @@ from .newton_result import NewtonSource, newton_result
 from .reading import jacobian_sign, mode_label
 from .result import (
     CLOSURE_LIMIT,
+    MAX_HALVINGS,
     NEAR_SINGULAR_COND,
     WALK_BUDGET,
+    Effort,
     Result,
     answer_branch,
     branch_text,
@@ -219,6 +221,12 @@ def refusal_at(c: CompiledSolve, vals: Values, x0: np.ndarray, walk_reason: str 
     )
 
 
+def _unexplained(walk_reason: str | None) -> str:
+    """A refusal by less than Effort.FULL: the walk's own reason, about the last input it
+    tried, not measured at the input asked for."""
+    return f'not reached from the current configuration: {walk_reason}'
+
+
 def branch_of(c: CompiledSolve, x: np.ndarray | list[float], fixed: LinkPoses | None) -> Geometry:
     """(signs, margins, poses, points) of configuration x (an array, or its list of floats):
     its dyads' sides and margins."""
@@ -302,10 +310,11 @@ class CarefulPath:
     iterations it spends. Made only where the fast path declined; its walk recurses on plain
     methods (a recursive closure would be a reference cycle the garbage collector collects)."""
 
-    __slots__ = ('c', 'branches', 'iterations', 'since_progress', 'seen')
+    __slots__ = ('c', 'branches', 'iterations', 'since_progress', 'seen', 'halvings')
 
-    def __init__(self, c: CompiledSolve, branches: bool, iterations: int):
+    def __init__(self, c: CompiledSolve, branches: bool, iterations: int, halvings: int):
         self.c, self.branches = c, branches
+        self.halvings = halvings  # how deep the walk halves the step
         self.iterations = iterations  # every Newton iteration of the command
         self.since_progress = 0  # iterations since the last substep that succeeded
         #: branch geometry of the configurations met, by id (the array kept: ids stay unique)
@@ -354,7 +363,7 @@ class CarefulPath:
                 if r2 is not None and r2.success and not self.jump(xa, fixed_a, r2.x, fixed2):
                     self.since_progress = 0
                     return r2, None, fixed2
-        if depth >= 10 or self.since_progress > WALK_BUDGET * c.max_iter:
+        if depth >= self.halvings or self.since_progress > WALK_BUDGET * c.max_iter:
             if r is None:
                 return None, reason, None
             if jumped:
@@ -397,8 +406,11 @@ def closed_form_refusal(
 _SIGNS_ASKED = (BranchRule.EXPLICIT, BranchRule.REFERENCE)
 
 
-def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
-    """One command by Newton (continuation from the last answer, branch checks)."""
+def solve_newton(
+    c: CompiledSolve, cont: Continuity, vals: Values, effort: Effort = Effort.FULL
+) -> tuple[Result, State | None]:
+    """One command by Newton (continuation from the last answer, branch checks), as hard as
+    ``effort`` says (result.Effort)."""
     newton_mode = c.mode is SolveMode.NEWTON  # (else hybrid)
     solver_name = 'newton' if newton_mode else 'hybrid'
     # the closed form's branch signs for the check below (reference ones without a history)
@@ -452,7 +464,7 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
             return bad, None
     reason: str | None = None
     if r is None:
-        path = CarefulPath(c, branches, iterations)
+        path = CarefulPath(c, branches, iterations, 0 if effort is Effort.DIRECT else MAX_HALVINGS)
         if branches and warm and last is not None:
             path.know(x0, resumed_geometry(c, last))
         r, reason, fixed = path.walk(v0, x0, vals, 0, known)
@@ -462,7 +474,8 @@ def solve_newton(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Resu
             if branches:
                 geo = path.geometry(r.x, fixed)
     if r is None:
-        res = c.fail(refusal_at(c, vals, x0, reason), c.echo(vals), solver_name)
+        why = refusal_at(c, vals, x0, reason) if effort is Effort.FULL else _unexplained(reason)
+        res = c.fail(why, c.echo(vals), solver_name)
         res.iterations = iterations
         return res, None
     if geo is not None:

@@ -10,16 +10,20 @@ from .closed_form import solve_closed
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity
 from .newton_path import solve_newton
-from .result import Result
+from .result import Effort, Result
 
 _CLOSED_FORM = SolveMode.CLOSED_FORM  # (an enum member's lookup costs ~0.1 us per command)
 
 
 def solve_one(
-    c: CompiledSolve, cont: Continuity, values: Mapping[str, Any], commit: bool = True
+    c: CompiledSolve,
+    cont: Continuity,
+    values: Mapping[str, Any],
+    commit: bool = True,
+    effort: Effort = Effort.FULL,
 ) -> Result:
     """Solve one command. On success (and commit) the answer becomes the new 'previous
-    configuration' of ``cont``; on failure nothing changes."""
+    configuration' of ``cont``; on failure nothing changes (``effort``: Solver.solve's)."""
     try:
         vals = c.parse(values)
     except ValueError as exc:
@@ -30,7 +34,7 @@ def solve_one(
     if c.mode is _CLOSED_FORM:
         res, state = solve_closed(c, cont, vals)
     else:
-        res, state = solve_newton(c, cont, vals)
+        res, state = solve_newton(c, cont, vals, effort)
     if c.inverse:  # the targets echoed as given (a forward solve's knowns are all inputs)
         given = _given(c, vals, values)
         res.targets = {k: v for k, v in given.items() if k not in c.mech.actuators}

@@ -15,40 +15,53 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from ..plan import Spec
 from ..quantities import CoordinateSpec, PointSpec
 from .newton_path import interpolate
 from .reading import configuration_of, known_values
-from .result import Result
+from .result import Effort, Result
 from .solver import Solver
 
-#: bisection steps along the line (the edge to 2^-40 of the line's length)
+#: the edge is found to 2^-EDGE_STEPS of the line's length
 EDGE_STEPS = 40
+#: the first step of the march along the line (a fraction of it)
+FIRST_STEP = 1.0 / 64
 
 
 @dataclass(frozen=True)
 class ReachEdge:
     """The reachable edge toward a point target (or one coordinate's: ``coordinate`` its
-    name, ``target`` and ``edge`` one value each): its position (m) and how far short of the
-    target it is (m)."""
+    name, ``target`` and ``edge`` one value each): its position (m), how far short of the
+    target it is (m), the target's other knowns (moved along with the point) and how much of
+    the way (0..1) is reached."""
 
     point: str
     target: tuple[float, ...]
     edge: tuple[float, ...]
     short_m: float
     coordinate: str = ''
+    others: tuple[str, ...] = ()
+    fraction: float = 0.0
 
     def describe(self) -> str:
-        way = 'is out of reach: on the straight way there from the current configuration it is'
         if self.coordinate:
             name = self.coordinate
-            return (
-                f'{name} = {self.target[0]:.6g} m {way} reachable up to {name} = '
-                f'{self.edge[0]:.6g} m, {self.short_m:.6g} m short'
-            )
-        (tx, ty), (ex, ey) = self.target, self.edge
+            asked, at = f'{name} = {self.target[0]:.6g} m', f'{name} = {self.edge[0]:.6g} m'
+        else:
+            (tx, ty), (ex, ey) = self.target, self.edge
+            asked = f'point {self.point} = ({tx:.6g}, {ty:.6g}) m'
+            at = f'({ex:.6g}, {ey:.6g}) m'
+        way = 'on the straight way there from the current configuration'
+        if not self.others:
+            short = f'{self.short_m:.6g} m short'
+            return f'{asked} is out of reach: {way} it is reachable up to {at}, {short}'
+        others = ', '.join(self.others)
+        # (the other knowns moved too: where the point hardly moves, they are what is out of
+        # reach, and the point's edge would read as its own value "1e-15 m short")
         return (
-            f'point {self.point} = ({tx:.6g}, {ty:.6g}) m {way} reachable up to ({ex:.6g}, '
-            f'{ey:.6g}) m, {self.short_m:.6g} m short'
+            f'{asked} with {others} as given is out of reach: {way}, every known moved '
+            f'together, it is reachable {self.fraction:.6g} of the way (up to {at}, '
+            f'{self.short_m:.6g} m short)'
         )
 
 
@@ -83,38 +96,56 @@ def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> Reach
         }
 
     def reaches(s: float) -> bool:
-        return solver.solve(command(s), commit=False).success
+        # a probe: Newton straight from the last value reached, committed (the march
+        # continues from it; the solver's state is restored below). A probe past a fold fails
+        # within max_iter iterations, where a walk halving its step grinds ten times as long
+        return solver.solve(command(s), commit=True, effort=Effort.DIRECT).success
 
-    if not reaches(0.0):
-        return None
-    lo, hi = 0.0, 1.0
-    # a target far beyond the mechanism (1e300 m): bisect from where the point could be at
-    # most, or the steps' 2^-40 of the line would be wider than the mechanism
-    far = _extent(c.mech) / max(_span(spec, start[k], target[k]), 1e-300)
-    if far < 1.0:
-        if reaches(far):
-            lo = far
-        else:
-            hi = far
-    for _ in range(EDGE_STEPS):
-        mid = 0.5 * (lo + hi)
-        if reaches(mid):
-            lo = mid
-        else:
-            hi = mid
+    snap = solver.snapshot()
+    try:
+        if not reaches(0.0):
+            return None
+        lo, hi = 0.0, 1.0
+        # a target far beyond the mechanism (1e300 m): march only as far as the point could
+        # be at most, or the steps' 2^-40 of the line would be wider than the mechanism
+        far = _extent(c.mech) / max(_span(spec, start[k], target[k]), 1e-300)
+        if far < 1.0:
+            if reaches(far):
+                lo = far
+            else:
+                hi = far
+        # march toward the target (continuation: each step from the last value reached), the
+        # step doubled after a value reached and halved after one not, to 2^-EDGE_STEPS of the
+        # way: the edge of what is reached lies in [lo, hi]
+        step, smallest = FIRST_STEP * (hi - lo), (hi - lo) * 2.0**-EDGE_STEPS
+        while hi - lo > smallest:
+            s = lo + min(step, 0.5 * (hi - lo))
+            if reaches(s):
+                lo, step = s, 2.0 * step
+            else:
+                hi, step = s, 0.5 * step
+    finally:
+        solver.restore(snap)
+    # the other knowns that move on the way (a known held where it is leaves the point alone)
+    moved = interpolate(c, start, target, 1.0)
+    others = tuple(
+        sp.name
+        for i, sp in enumerate(c.specs)
+        if i != k and _span(sp, start[i], moved[i]) > 1e-12 * max(1.0, _span(sp, 0.0, moved[i]))
+    )
     if isinstance(spec, CoordinateSpec):
         e, t = float(command(lo)[spec.name]), float(target[k])
-        return ReachEdge(spec.point, (t,), (e,), abs(t - e), coordinate=spec.name)
+        return ReachEdge(spec.point, (t,), (e,), abs(t - e), spec.name, others, lo)
     ex, ey = command(lo)[spec.name]
     tx, ty = (float(v) for v in target[k])
-    return ReachEdge(spec.point, (tx, ty), (ex, ey), math.hypot(tx - ex, ty - ey))
+    return ReachEdge(spec.point, (tx, ty), (ex, ey), math.hypot(tx - ex, ty - ey), '', others, lo)
 
 
-def _span(spec: PointSpec | CoordinateSpec, start: Any, target: Any) -> float:
-    """How far the target's point moves on the line (m)."""
-    if isinstance(spec, CoordinateSpec):
-        return abs(float(target) - float(start))
-    return math.hypot(float(target[0]) - float(start[0]), float(target[1]) - float(start[1]))
+def _span(spec: Spec, start: Any, target: Any) -> float:
+    """How far a known moves on the line (m, or rad the short way round)."""
+    if isinstance(spec, PointSpec):
+        return math.hypot(float(target[0]) - float(start[0]), float(target[1]) - float(start[1]))
+    return abs(float(target) - float(start))
 
 
 def _extent(mech: Any) -> float:

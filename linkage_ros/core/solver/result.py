@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from enum import Enum
 from typing import Any, TypeVar
 
 import numpy as np
@@ -63,6 +64,23 @@ METHODS = ('auto', 'closed_form', 'newton')
 #: a continuation walk gives up after this many times max_iter Newton iterations without a
 #: successful substep (an unreachable target would otherwise be bisected 10 levels deep)
 WALK_BUDGET = 6
+#: how deep a continuation walk halves its step (to 2^-10 of the way) before it gives up
+MAX_HALVINGS = 10
+
+
+class Effort(Enum):
+    """How hard a solve tries, for callers that read only whether it succeeded."""
+
+    #: the continuation walk, and a refusal measured at the input (the nearest
+    #: configuration's miss: a least-squares search, ~0.1 s on the excavator)
+    FULL = 'full'
+    #: the walk, a refusal without that measure
+    UNEXPLAINED = 'unexplained'
+    #: Newton straight from the previous configuration, no halved steps (a march's probe: one
+    #: past a fold fails within max_iter iterations, a walk grinds ten times as long)
+    DIRECT = 'direct'
+
+
 #: without a dyad plan, a scaled cond(J) above this counts as near a singular configuration
 NEAR_SINGULAR_COND = 1e6
 #: no answer leaves a solver with a loop-closure residual above max(CLOSURE_LIMIT, 10 * tol)

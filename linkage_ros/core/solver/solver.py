@@ -38,7 +38,7 @@ from .modes import ModeList, modes_of
 from .one import solve_one
 from .point_pairs import PointPair
 from .reading import adopt, configuration_of, mode_of
-from .result import Result
+from .result import Effort, Result
 
 
 class Solver:
@@ -192,14 +192,17 @@ class Solver:
         """Why ``value`` is outside ``spec``'s limits (plan.limit_violation), or None."""
         return limit_violation(spec, value)
 
-    def solve(self, values: Mapping[str, Any], commit: bool = True) -> Result:
+    def solve(
+        self, values: Mapping[str, Any], commit: bool = True, effort: Effort = Effort.FULL
+    ) -> Result:
         """Solve one command. On success (and commit) the answer becomes the new 'previous
-        configuration' for continuity; on failure nothing changes."""
+        configuration' for continuity; on failure nothing changes. ``effort``: less than FULL
+        for a caller that reads only whether it succeeded (result.Effort)."""
         if self._lean is not None:  # (None from it: the general path answers)
             res = self._lean.command(self.continuity, values, commit)
             if res is not None:
                 return res
-        return solve_one(self.compiled, self.continuity, values, commit)
+        return solve_one(self.compiled, self.continuity, values, commit, effort)
 
     def solve_batch(
         self, columns: Mapping[str, Any], start: BatchResult | None = None
