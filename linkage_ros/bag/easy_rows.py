@@ -111,7 +111,7 @@ def easy_prefix(
     limited = [
         (k, s)
         for k, s in enumerate(solver.specs)
-        if not isinstance(s, PointSpec) and (s.minimum is not None or s.maximum is not None)
+        if not isinstance(s, PointSpec) and s.bounded
     ]
     if limited:
         for i in np.flatnonzero(~easy & ~okb).tolist():

@@ -38,6 +38,11 @@ class AngleSpec:
     unit: ClassVar[str] = 'rad'
     periodic: ClassVar[bool] = True
 
+    @property
+    def bounded(self) -> bool:
+        """Whether some values are refused (limit_violation): it has a limit."""
+        return self.minimum is not None or self.maximum is not None
+
 
 @dataclass(frozen=True)
 class SlideSpec:
@@ -49,9 +54,16 @@ class SlideSpec:
     maximum: float | None = None
     #: a robot description's own value of this actuator (None: the scene's is the user's)
     shown: Shown | None = None
+    #: a cylinder's pin-to-pin length: > 0 whatever its limits say
+    length: bool = False
     size: ClassVar[int] = 1
     unit: ClassVar[str] = 'm'
     periodic: ClassVar[bool] = False
+
+    @property
+    def bounded(self) -> bool:
+        """Whether some values are refused (limit_violation): a limit, or a length."""
+        return self.length or self.minimum is not None or self.maximum is not None
 
 
 @dataclass(frozen=True)
@@ -80,6 +92,7 @@ class CoordinateSpec:
     size: ClassVar[int] = 1
     unit: ClassVar[str] = 'm'
     periodic: ClassVar[bool] = False
+    bounded: ClassVar[bool] = False
 
 
 #: one known (or wanted) quantity of a mechanism

@@ -50,7 +50,14 @@ def _spec_of(mech: Mechanism, kind: NameKind, name: str) -> Spec:
             coords = mech.joint_coordinates
             shown = None if coords is None else coords.shown(name)
             if isinstance(act, SlideActuator):
-                return SlideSpec(name, act.joint, minimum=act.min, maximum=act.max, shown=shown)
+                return SlideSpec(
+                    name,
+                    act.joint,
+                    minimum=act.min,
+                    maximum=act.max,
+                    shown=shown,
+                    length=act.cylinder,
+                )
             link = mech.links[act.link]
             v = mech.points[act.toward] - mech.points[act.pivot]
             d0 = math.atan2(v[1], v[0])
@@ -178,6 +185,11 @@ def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
 def limit_violation(spec: ScalarSpec, value: float) -> str | None:
     """Why ``value`` is outside ``spec``'s limits (the one rule: model.limits), or None; for a
     robot description's actuator, in its own values (``spec.shown``: the same interval)."""
+    if isinstance(spec, SlideSpec) and spec.length and not value > 0:
+        return (
+            f"{spec.name} = {value:.9g} m is not a length: a cylinder's pin-to-pin length is "
+            'more than 0'
+        )
     lo, hi, shown = spec.minimum, spec.maximum, spec.shown
     if shown is not None and (lo is not None or hi is not None):
         ends = [None if v is None else shown(v) for v in (lo, hi)]

@@ -23,7 +23,7 @@ from ..plan import (
     limit_violation,
     needs_beyond_limits,
 )
-from ..quantities import AngleSpec, PointSpec, ScalarSpec
+from ..quantities import AngleSpec, PointSpec, ScalarSpec, SlideSpec
 from ..steps import StepKind
 from .compiled import CompiledSolve, SolveMode
 from .continuity import BranchRule, Continuity, state_of
@@ -138,7 +138,7 @@ def solve_batch(
     safe = arrays if every_finite else [np.where(np.isfinite(a), a, 0.0) for a in arrays]
     limit_bad = np.zeros(n, bool)
     for s, a in zip(c.specs, safe):
-        if not isinstance(s, PointSpec) and (s.minimum is not None or s.maximum is not None):
+        if not isinstance(s, PointSpec) and s.bounded:
             for i in np.flatnonzero(finite & ~limit_bad & _limit_suspects(s, a)).tolist():
                 why = limit_violation(s, float(a[i]))
                 if why:
@@ -231,7 +231,7 @@ def _fill(
             out.inputs[s.name] = a.copy() if every else np.where(ok, a, np.where(finite, a, 0.0))
     if c.inverse:
         for s in c.actuator_specs:
-            if s.name in out.inputs and (s.minimum is not None or s.maximum is not None):
+            if s.name in out.inputs and s.bounded:
                 a = out.inputs[s.name]
                 for i in np.flatnonzero(ok & _limit_suspects(s, a)).tolist():
                     why = needs_beyond_limits(s, float(a[i]))
@@ -265,6 +265,8 @@ def _limit_suspects(s: ScalarSpec, a: np.ndarray) -> np.ndarray:
         suspect |= a < lo
     if hi is not None:
         suspect |= a > hi
+    if isinstance(s, SlideSpec) and s.length:
+        suspect |= ~(a > 0)
     return suspect
 
 

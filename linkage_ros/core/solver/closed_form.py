@@ -96,7 +96,10 @@ class SlotReadout:
             if interval is None:
                 self.limit_arcs.append((i, spec))
             else:
-                self.limit_intervals.append((i, *interval))
+                lo, hi = interval
+                if isinstance(spec, SlideSpec) and spec.length:  # > 0: from the least double
+                    lo = max(lo, math.ulp(0.0))
+                self.limit_intervals.append((i, lo, hi))
         #: the names of a command's values, in spec order (lean_command's parse)
         self.known_names = tuple(s.name for s in specs)
         self.n_known = len(self.known_names)

@@ -125,7 +125,7 @@ def compile_solve(
         limited=tuple(
             (i, s)
             for i, s in enumerate(specs)
-            if not isinstance(s, PointSpec) and (s.minimum is not None or s.maximum is not None)
+            if not isinstance(s, PointSpec) and s.bounded
         ),
     )
     if c.inverse:
