@@ -1,4 +1,5 @@
-"""The one rule for an input's limits: a value is inside [min, max]; an angle with both limits
+"""The one rule for an input's limits: a value is inside [min, max] (within LIMIT_SLACK, the
+rounding of its own arithmetic, on either side); an angle with both limits
 compares on the circle (brought into [min, min + 2 pi) first, and a refusal names the nearer
 limit); an angle with one limit compares as reported, brought into (-pi, pi] first.
 
@@ -10,9 +11,15 @@ from __future__ import annotations
 
 import math
 
-#: a value this close to the maximum (relative) still counts as inside: the rounding of the
-#: value's own arithmetic
+#: a value this close to a limit (relative to max(1, |limit|)) still counts as inside, on
+#: either side: the rounding of the value's own arithmetic (an inverse answer at a limit, a
+#: value read back off a solved pose, carries it)
 LIMIT_SLACK = 1e-12
+
+
+def slack(limit: float) -> float:
+    """How far past ``limit`` a value still counts as inside (LIMIT_SLACK)."""
+    return LIMIT_SLACK * max(1.0, abs(limit))
 
 
 def angle_limit_arc(lo: float | None, hi: float | None) -> tuple[float, float] | None:
@@ -42,7 +49,7 @@ def limit_interval(
     which compare on the circle. Lets a caller judge a finite value with two comparisons."""
     if periodic:
         return None
-    return (-math.inf if lo is None else lo, math.inf if hi is None else hi)
+    return (-math.inf if lo is None else lo - slack(lo), math.inf if hi is None else hi + slack(hi))
 
 
 def limit_violation(
@@ -54,11 +61,13 @@ def limit_violation(
     v = value
     if periodic and lo is not None and hi is not None:
         # (limits a full turn apart take every angle: the arc is the whole circle)
-        if on_arc(value, lo, hi, LIMIT_SLACK * max(1.0, abs(hi))):
+        if on_arc(value, lo, hi, slack(hi)):
             return None
         v = lo + (value - lo) % (2 * math.pi)
         over_hi = v - hi
         under_lo = lo + 2 * math.pi - v
+        if under_lo <= slack(lo):  # (just below the minimum: brought a turn up, to ~lo + 2 pi)
+            return None
         # equally far from both (a value half a turn from the middle of [lo, hi], e.g. -pi/2
         # for [0, pi]): the side the value was written on, not "beyond" a maximum it is not
         tied = abs(under_lo - over_hi) <= LIMIT_SLACK * 2 * math.pi
@@ -72,10 +81,10 @@ def limit_violation(
         # -2.28 rad, below a minimum of -1 however it is written)
         v = math.remainder(value, 2 * math.pi)
         v = math.pi if v == -math.pi else v
-    if lo is not None and v < lo:
+    if lo is not None and v < lo - slack(lo):
         got, limit = _apart(value, lo)
         return f'{name} = {got} {unit} is below its minimum {limit} by {lo - v:.3g} {unit}'
-    if hi is not None and v > hi:
+    if hi is not None and v > hi + slack(hi):
         got, limit = _apart(value, hi)
         return f'{name} = {got} {unit} is beyond its maximum {limit} by {v - hi:.3g} {unit}'
     return None

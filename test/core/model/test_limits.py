@@ -136,14 +136,53 @@ def test_an_angle_with_one_limit_is_judged_as_reported_by_the_solve_and_the_rang
 
 def test_a_value_a_hair_beyond_its_limit_reads_apart_from_it():
     """1.12 - 7.55e-14 m against a minimum of 1.12 m read 'Z3 = 1.12 m is below its minimum
-    1.12': the two are written whole where nine digits read alike."""
+    1.12': the two are written whole where nine digits read alike. (Within LIMIT_SLACK, the
+    rounding of a value's own arithmetic, it is inside: an inverse answer at the limit.)"""
     from linkage_ros.core.model.limits import limit_violation
 
-    below = 1.12 - 7.55e-14
+    assert limit_violation('Z3', 1.12 - 7.55e-14, 1.12, 2.0, 'm', False) is None
+    below = 1.12 - 5e-12
     why = limit_violation('Z3', below, 1.12, 2.0, 'm', False)
-    assert why == f'Z3 = {below!r} m is below its minimum 1.12 by 7.55e-14 m', why
-    why = limit_violation('Z3', 2.0 + 1e-12, 1.12, 2.0, 'm', False)
-    assert why is not None and f'{2.0 + 1e-12!r} m is beyond its maximum 2.0 by' in why, why
+    assert why == f'Z3 = {below!r} m is below its minimum 1.12 by 5e-12 m', why
+    why = limit_violation('Z3', 2.0 + 5e-12, 1.12, 2.0, 'm', False)
+    assert why is not None and f'{2.0 + 5e-12!r} m is beyond its maximum 2.0 by' in why, why
     assert limit_violation('Z3', 1.0, 1.12, 2.0, 'm', False) == (
         'Z3 = 1 m is below its minimum 1.12 by 0.12 m'
     )
+
+
+@pytest.mark.parametrize('periodic', [False, True])
+@pytest.mark.parametrize(('lo', 'hi'), [(0.7, 2.0), (-2.5, -0.3), (0.3, 0.5), (-40.0, 30.0)])
+def test_the_slack_is_the_same_on_both_sides(lo, hi, periodic):
+    """A value within LIMIT_SLACK of either limit is inside, one past it is refused naming that
+    limit and a distance that is not 0 (an angle just below its minimum had been refused "by
+    0 rad" while one as far past its maximum was taken). Oracle: the rule's own words, value
+    against limit +- LIMIT_SLACK * max(1, |limit|)."""
+    from linkage_ros.core.model.limits import LIMIT_SLACK, limit_violation
+
+    if periodic and hi - lo >= 2 * math.pi:
+        pytest.skip('a full turn: every angle')
+    for limit, side in ((lo, -1.0), (hi, 1.0)):
+        s = LIMIT_SLACK * max(1.0, abs(limit))
+        assert limit_violation('a', limit + side * 0.5 * s, lo, hi, 'u', periodic) is None
+        assert limit_violation('a', limit - side * 0.5 * s, lo, hi, 'u', periodic) is None
+        why = limit_violation('a', limit + side * 3 * s, lo, hi, 'u', periodic)
+        assert why is not None, (limit, side)
+        assert ('below its minimum' if side < 0 else 'beyond its maximum') in why, why
+        assert not why.endswith(' by 0 u'), why
+
+
+def test_an_inverse_answer_at_a_limit_is_taken():
+    """The crank-rocker limited to crank [0.7, 2]: the rocker angle the forward solve gives at
+    crank 0.7 (and at 2), asked as a target, needs the crank at its limit to rounding; it was
+    refused "crank = 0.7 rad is below its minimum 0.7 by 1.78e-15 rad"."""
+    from linkage_ros.core.solver import Solver
+
+    mech = scenes.four_bar(0.3, 0.1, 0.25, 0.2, input=1.35, crank_limits={'min': 0.7, 'max': 2.0})
+    fwd = Solver(mech)
+    inv = Solver(mech, knowns=['rocker'])
+    for crank in (0.7, 2.0):
+        rocker = fwd.solve({'crank': crank}).links['rocker']
+        r = inv.solve({'rocker': rocker})
+        assert r.success, r.reason
+        assert r.inputs['crank'] == pytest.approx(crank, abs=1e-12)
