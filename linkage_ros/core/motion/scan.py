@@ -36,10 +36,15 @@ _MEET = 1e-6
 #: exact to rounding
 _TOGGLE_PROBE = 1e-6
 
-#: a segment end: ('toggle', the branching dyad that fails beyond or None), ('crossing', the
-#: dyad whose other sign the motion goes on in, or None where the segment starts at one: a
-#: change point, touches.py), ('limit', None), ('bracket', None) or ('full', None)
-End: TypeAlias = tuple[str, int | None]
+#: a dyad margin below this at a toggle found to ~1e-12 of the input: that dyad is at its
+#: toggle too (the margin grows as the square root of the distance from it)
+_AT_TOGGLE = 1e-4
+#: a segment end: ('toggle', the branching dyads at their toggle, beyond which the first fails,
+#: or None), ('crossing', the
+#: dyads whose other signs the motion goes on in, or None where the segment starts at one: a
+#: change point, touches.py; a symmetric mechanism's two halves cross at one input),
+#: ('limit', None), ('bracket', None) or ('full', None)
+End: TypeAlias = tuple[str, tuple[int, ...] | None]
 #: one branch sign per branching dyad of the plan
 Signs: TypeAlias = tuple[int, ...]
 #: a slide's scan bracket: (lo, hi, lo is a hard limit, hi is a hard limit) (m)
@@ -198,7 +203,28 @@ class _Line:
             down += 1
         hi, kh = self.refine(seed + up * dt, seed + (up + 1) * dt, signs)
         lo, kl = self.refine(seed - down * dt, seed - (down + 1) * dt, signs)
-        return lo, hi, ('toggle', kl), ('toggle', kh)
+        return (
+            lo,
+            hi,
+            ('toggle', self._toggling(lo, seed - down * dt, signs, kl)),
+            ('toggle', self._toggling(hi, seed + up * dt, signs, kh)),
+        )
+
+    def _toggling(
+        self, x: float, inside: float, signs: Sequence[int], k: int | None
+    ) -> tuple[int, ...] | None:
+        """The branching dyads at their toggle at ``x`` (the toggle of dyad ``k``, found from
+        the assembling value ``inside``): ``k`` and any other whose margin is below _AT_TOGGLE
+        there (a symmetric gripper's two halves reach their toggles at one input, and the
+        motion turns back through both)."""
+        if k is None:
+            return None
+        for at in (x, inside):
+            _, _, info = self.run([at], signs)
+            if info['ok'][0]:
+                low = np.flatnonzero(info['margins'][0] < _AT_TOGGLE).tolist()
+                return tuple(sorted({k, *low}))
+        return (k,)
 
     def _component_line(self, seed: float, signs: Sequence[int]) -> Component:
         assert self.bracket is not None, 'a slide scan needs its bracket'
@@ -232,18 +258,18 @@ class _Line:
                     blo = self._soft_low(blo - w)
                 continue
             break
-        hi_end: tuple[str, int | None]
-        lo_end: tuple[str, int | None]
+        hi_end: End
+        lo_end: End
         if i == xs.size - 1:
             hi, hi_end = float(xs[-1]), ('limit' if hard_hi else 'bracket', None)
         else:
             hi, k = self.refine(float(xs[i]), float(xs[i + 1]), signs)
-            hi_end = ('toggle', k)
+            hi_end = ('toggle', self._toggling(hi, float(xs[i]), signs, k))
         if j == 0:
             lo, lo_end = float(xs[0]), ('limit' if hard_lo else 'bracket', None)
         else:
             lo, k = self.refine(float(xs[j]), float(xs[j - 1]), signs)
-            lo_end = ('toggle', k)
+            lo_end = ('toggle', self._toggling(lo, float(xs[j]), signs, k))
         return lo, hi, lo_end, hi_end
 
     def _soft_low(self, v: float) -> float:
@@ -271,10 +297,12 @@ class _Line:
         tol = 1e-12 * self.scale
         return (lo is None or v >= lo - tol) and (hi is None or v <= hi + tol)
 
-    def crossings(self, lo: float, hi: float, signs: Signs) -> list[tuple[float, int]]:
+    def crossings(self, lo: float, hi: float, signs: Signs) -> list[tuple[float, tuple[int, ...]]]:
         """The change points in (lo, hi) on ``signs`` where the motion crosses into the other
-        sign of one dyad (see touches.py): (input, that dyad's index), in increasing order.
-        The dyad is the one whose two solutions meet there (its flip leaves every point)."""
+        sign of a dyad (see touches.py): (input, the dyads' indices), in increasing order. The
+        dyads are those whose two solutions meet there (each one's flip leaves every point):
+        one, or more where they cross at one input (a symmetric gripper's two parallelograms,
+        which the motion carries on through together)."""
         n = max(64, int(self.samples * (hi - lo) / (TWO_PI if self.periodic else hi - lo)) + 1)
 
         def margins(xs: np.ndarray) -> np.ndarray:
@@ -293,8 +321,9 @@ class _Line:
                 flipped[k] = -flipped[k]
                 there = self.run([x], flipped)[1]
                 gaps.append(max(float(np.max(np.abs(here[p] - there[p]))) for p in here))
-            if gaps and min(gaps) <= _MEET * self.scale:
-                out.append((x, int(np.argmin(gaps))))
+            meet = tuple(k for k, gap in enumerate(gaps) if gap <= _MEET * self.scale)
+            if meet:
+                out.append((x, meet))
         return out
 
     def _piece(
@@ -403,7 +432,8 @@ class _Line:
                 if k is None or not self._reaches(reached, end, limits):
                     continue
                 flipped = list(signs)
-                flipped[k] = -flipped[k]
+                for i in k:
+                    flipped[i] = -flipped[i]
                 if kind == 'toggle':
                     queue.append((tuple(flipped), end, me, 0))
                 elif kind == 'crossing':

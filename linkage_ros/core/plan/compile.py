@@ -504,7 +504,8 @@ class Plan:
 
         ``values[i]`` is the value array of spec i ((n,) or (n, 2)). ``signs`` overrides the
         branch signs (one per branching step). Returns (poses, points, info) where info has
-        ok (n,), margin (n,), signs (n, k), failure (step index or -1) and violation (n,).
+        ok (n,), margin (n,) (the least), margins (n, k) (each branching dyad's), signs (n, k),
+        failure (step index or -1) and violation (n,).
         """
 
         r = executor(self).run(values, n, signs, tol=tol)
@@ -512,9 +513,13 @@ class Plan:
         used = np.zeros((n, k), int)
         for b, sg in enumerate(r.signs):
             used[:, b] = sg
+        margins = np.zeros((n, k))
+        for b, m in enumerate(r.margins[:k]):
+            margins[:, b] = m
         info = {
             'ok': np.asarray(r.ok, bool),
             'margin': np.asarray(r.margin, float),
+            'margins': margins,
             'signs': used,
             'failure': np.asarray(r.failure).astype(int),
             'violation': np.asarray(r.violation, float),

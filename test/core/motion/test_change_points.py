@@ -329,3 +329,69 @@ def test_a_scott_russell_through_both_change_points_inside_its_limits():
         assert r.points['B'][0] == pytest.approx(2 * a * math.cos(crank), abs=1e-15)
     s = quantities_report(mech)['outputs']['joint:s']
     assert (s['min'], s['max']) == pytest.approx((2 * a * math.cos(2.0), 2 * a), abs=1e-15)
+
+
+def _gripper(halves: str = 'LR') -> Scene:
+    """A parallel gripper (a new user's): a pusher P sliding on the y axis drives each finger's
+    parallelogram (upper link G1-F1, lower G2-F2, jaw F1-F2) through a drive link P-F1; the two
+    fingers are mirror images in the y axis. Each parallelogram has change points, both at one
+    push (the halves' are the same), and the drive dyads reach their toggles at one push too."""
+    pts: dict[str, list[float]] = {'P': [0.0, 0.06]}
+    links: dict[str, list[str]] = {'pusher': ['P']}
+    ground: list[str] = []
+    for h in halves:
+        s = -1.0 if h == 'L' else 1.0
+        pts |= {
+            f'G1{h}': [0.02 * s, 0.0],
+            f'G2{h}': [0.02 * s, -0.03],
+            f'F1{h}': [0.045 * s, 0.04330127],
+            f'F2{h}': [0.045 * s, 0.01330127],
+        }
+        ground += [f'G1{h}', f'G2{h}']
+        links |= {
+            f'upper{h}': [f'G1{h}', f'F1{h}'],
+            f'lower{h}': [f'G2{h}', f'F2{h}'],
+            f'jaw{h}': [f'F1{h}', f'F2{h}'],
+            f'drive{h}': ['P', f'F1{h}'],
+        }
+    data = {
+        'name': 'gripper',
+        'points': pts,
+        'links': {'ground': ground, **links},
+        'sliders': [
+            {
+                'name': 'push',
+                'guide': 'ground',
+                'slider': 'pusher',
+                'point': 'P',
+                'direction': [0, 1],
+                'origin': [0, 0],
+            }
+        ],  # fmt: skip
+        'actuators': {'push': {'type': 'slide', 'joint': 'push'}},
+    }
+    return Scene.from_dict(data)
+
+
+def test_a_symmetric_grippers_halves_move_as_mirror_images():
+    """Both parallelograms cross their change points at one push, and both drive dyads reach
+    their toggles at one push: the motion carries both on together. The scan had flipped one
+    dyad at each (the one it met first), so the right finger was taken onto its
+    anti-parallelogram: upperR swung 3.53 rad against upperL's 4.33, a transmission angle's
+    least 11.8 deg against 0. Oracles: mirror symmetry (a right angle is pi minus the left
+    one's, at the same push) and each finger alone, as the same scan sees it."""
+    both = quantities_report(_gripper().mechanism)
+    left = quantities_report(_gripper('L').mechanism)
+    for link in ('upper', 'lower'):
+        lo_l, lo_r = both['outputs'][f'link:{link}L'], both['outputs'][f'link:{link}R']
+        alone = left['outputs'][f'link:{link}L']
+        assert lo_r['stroke'] == pytest.approx(lo_l['stroke'], abs=1e-9)
+        assert lo_l['stroke'] == pytest.approx(alone['stroke'], abs=1e-9)
+        assert lo_r['min'] == pytest.approx(math.pi - lo_l['max'], abs=1e-9)
+        assert lo_r['max'] == pytest.approx(math.pi - lo_l['min'], abs=1e-9)
+        assert lo_r['input_at_min'] == pytest.approx(lo_l['input_at_max'], abs=1e-9)
+    angles = both['transmission_angle']
+    for name in ('G1L-F1L-P', 'G2L-F2L-F1L'):
+        mirror = name.replace('L', 'R')
+        for key in ('min', 'max'):
+            assert angles[mirror][key] == pytest.approx(angles[name][key], abs=1e-9), name
