@@ -785,3 +785,26 @@ def test_a_flat_drawn_four_bar_answers_the_branch_asked_for(capsys, crank):
         else:
             assert j['joint2'] == pytest.approx(j['joint3'], abs=1e-12)
             assert abs(j['joint2'] + crank) > 0.1
+
+
+def test_closure_file_limits_upside_down_or_broken_are_named_as_the_files(capsys, tmp_path):
+    """limits {lower: 0.5, upper: 0.2} in a closure file was read on ("crank = 0 rad is below
+    its minimum 0.2"), and assemble_at outside the file's limits was called outside a <limit>
+    (an outside integrator): the pair is refused as the URDF reader refuses one, and the
+    refusal of an assemble_at names the closure file's limits."""
+    inverted = tmp_path / 'inverted.yaml'
+    inverted.write_text(
+        ROBOTIQ_CLOSURES.read_text() + f'limits: {{{LEFT_KNUCKLE}: {{lower: 0.5, upper: 0.2}}}}\n'
+    )
+    rc, _, err = run(capsys, 'check', ROBOTIQ, '--closures', inverted)
+    assert rc == 2 and 'lower 0.5 is above upper 0.2: no value fits; swap them' in err, err
+    assert f'limits.{LEFT_KNUCKLE}' in err
+    outside = tmp_path / 'outside.yaml'
+    outside.write_text(
+        ROBOTIQ_CLOSURES.read_text()
+        + f'limits: {{{LEFT_KNUCKLE}: {{lower: 0.1, upper: 0.4}}}}\n'
+        + f'assemble_at: {{{LEFT_KNUCKLE}: 0.6}}\n'
+    )
+    rc, _, err = run(capsys, 'check', ROBOTIQ, '--closures', outside)
+    assert rc == 2
+    assert f'{LEFT_KNUCKLE} = 0.6 is outside its limits in the closure file [0.1, 0.4]' in err, err

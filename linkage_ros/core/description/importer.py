@@ -232,8 +232,9 @@ def _assembly_values(
         if (low is not None and value < low) or (high is not None and value > high):
             lo_text = '-inf' if low is None else f'{low:g}'
             span = f'[{lo_text}, {"inf" if high is None else f"{high:g}"}]'
+            whose = 'limits in the closure file' if name in desc.limits else '<limit>'
             raise DescriptionError(
-                f'assemble_at: {name} = {value:.9g} is outside its <limit> {span}: the '
+                f'assemble_at: {name} = {value:.9g} is outside its {whose} {span}: the '
                 'assembled pose is the reference pose, the first state; give a value within '
                 'the limits (or state wider ones in the closure file)',
                 file=desc.source,

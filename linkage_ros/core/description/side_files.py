@@ -77,6 +77,12 @@ def apply_side_file(desc: Description, data: Mapping[str, Any], path: str) -> De
         if not isinstance(lim, Mapping) or set(map(str, lim)) - {'lower', 'upper'}:
             raise DescriptionError('must be {lower: .., upper: ..}', file=path, key=key, value=lim)
         lower, upper = (_number(lim.get(k), path, f'{key}.{k}') for k in ('lower', 'upper'))
+        if lower is not None and upper is not None and lower > upper:
+            raise DescriptionError(
+                f'lower {lower:g} is above upper {upper:g}: no value fits; swap them',
+                file=path,
+                key=key,
+            )
         limits[str(name)] = Limits(lower, upper)
     dims = {}
     for name, value in (data.get('dimensions') or {}).items():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -25,6 +26,7 @@ from .dimensions import (
 )
 from .limits import limit_violation
 from .mechanism import (
+    NAME_RE,
     SOLVERS,
     Actuator,
     Link,
@@ -124,7 +126,9 @@ def build_mechanism(
     if form != 'points' and 'outputs' in data:
         general['outputs'] = data['outputs']  # a shortcut may name its published points
     default_name = (
-        Path(source).stem if source != '<scene>' else ('mechanism' if form == 'points' else form)
+        _stem_name(Path(source).stem)
+        if source != '<scene>'
+        else ('mechanism' if form == 'points' else form)
     )
     name = ctx.name('name', data.get('name', default_name))
     # a shortcut's values were read (and warned about) above: its general form is not again
@@ -320,6 +324,14 @@ def _read_links(
         links[lname] = _make_link(lname, tuple(members), points)
 
     return ground, links
+
+
+def _stem_name(stem: str) -> str:
+    """A scene file's stem as the mechanism's default name: every character that is not a
+    letter, digit or _ as _, and ``scene_`` before one that does not start with a letter
+    (`four_bar.v2.yaml` is four_bar_v2, `4bar.yaml` scene_4bar)."""
+    name = re.sub(r'[^A-Za-z0-9_]', '_', stem)
+    return name if NAME_RE.match(name) else f'scene_{name}'
 
 
 def _read_cylinders(

@@ -239,3 +239,15 @@ def test_extreme_scenes_give_clean_errors_or_answers_and_no_warnings(tmp_path):
                 assert r.success or r.reason, (method, r)
             r = Solver(mech, knowns=['rocker'], method='newton').solve({'rocker': 1.0})
             assert r.success or r.reason
+
+
+@pytest.mark.parametrize(
+    ('stem', 'name'),
+    [('four_bar.v2', 'four_bar_v2'), ('4bar', 'scene_4bar'), ('my-gripper', 'my_gripper')],
+)
+def test_a_file_stem_that_is_no_name_gives_a_name(tmp_path, stem, name):
+    """A scene without `name:` is named after its file (SCENES.md: "default: file stem"):
+    `four_bar.v2.yaml` was refused, naming the key `name`, which the file does not have."""
+    path = tmp_path / f'{stem}.yaml'
+    path.write_text('four_bar: {ground: 0.3, crank: 0.1, coupler: 0.25, rocker: 0.2}\n')
+    assert Scene.from_yaml(path).mechanism.name == name
