@@ -65,4 +65,21 @@ def pose_target(
     if link not in mech.links or link == mech.ground:
         raise CommandError(f'unknown link {echo(link)}: a pose target names a moving link')
     point = mech.links[link].points[0]
+    if point in mech.links[mech.ground].points:
+        # pinned at a ground pivot: its pose is the pivot's position and its angle, a target
+        # the angle alone (the position a known point no target may name)
+        px, py = (float(v) for v in mech.points[point])
+        off = float(np.hypot(xy[0] - px, xy[1] - py))
+        if not off <= POSE_PIVOT_TOL * mech.length_scale:
+            raise CommandError(
+                f'the pose of {echo(link)} turns about its ground pivot {point} at ({px:.6g}, '
+                f'{py:.6g}) m: a pose at ({xy[0]:.6g}, {xy[1]:.6g}) m is {off:.3g} m off it '
+                f'(send the pivot as the position, or the angle alone: link {link} on ~/target)'
+            )
+        return {f'link:{link}': yaw_rad}
     return {f'{point}.x': xy[0], f'{point}.y': xy[1], f'link:{link}': yaw_rad}
+
+
+#: how far (of the length scale) a pose target's position may be from the ground pivot its
+#: link turns about: a pose read off tf carries the rounding of its transforms
+POSE_PIVOT_TOL = 1e-9
