@@ -57,6 +57,8 @@ class Requests:
             stamp = self.node.get_clock().now().to_msg()
             if is_zero_stamp(stamp):  # sim time before the first /clock
                 return stamp, ZERO_CLOCK
+            if self.node.outputs is not None:  # (after the joint_states before it)
+                stamp = self.node.outputs.after_last(stamp)
         # a stamp rclpy / rclcpp cannot turn into a time (negative, nanosec >= 1e9) would reach
         # every consumer of the answer: refuse the request instead
         return stamp, stamp_error(stamp.sec, stamp.nanosec)

@@ -34,6 +34,7 @@ from .core.solver import Result
 from .engine import Engine
 from .marker_cdr import MarkerBytes
 from .params import NodeConfig
+from .stamps import NSEC_PER_SEC
 
 #: /diagnostics period (s): the diagnostic_updater convention
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -180,6 +181,8 @@ class Outputs:
         self.last_ok = True
         self.smallest_margin: float | None = None
         self._answered_since_tick = False
+        #: the stamp of the last joint_states (ns): the node's own stamps come after it
+        self.stamped_ns = -1
         #: the newest state not drawn yet: at start-up the reference pose
         self._marker_state: tuple[Result, Time] | None = (
             None if engine.last is None else (engine.last, self.now())
@@ -275,6 +278,18 @@ class Outputs:
     def _publish_state(self, result: Result, sec: int, nanosec: int) -> None:
         self.pub_joints.publish(self.answers.joint_state(result, sec, nanosec))
         self._answered_since_tick = True
+        self.stamped_ns = sec * NSEC_PER_SEC + nanosec
+
+    def after_last(self, stamp: Time) -> Time:
+        """``stamp`` (the clock's now, for a request left unstamped), or 1 ns after the last
+        joint_states if that is not earlier: a paused sim clock would give an answer the
+        stamp of the republished pose before it, and tf keeps the first transform of a stamp
+        (TF_REPEATED_DATA), so robot_state_publisher would show the old pose."""
+        ns = stamp.sec * NSEC_PER_SEC + stamp.nanosec
+        if ns > self.stamped_ns:
+            return stamp
+        after = self.stamped_ns + 1
+        return Time(sec=after // NSEC_PER_SEC, nanosec=after % NSEC_PER_SEC)
 
     # -- timers -----------------------------------------------------------------------------------
     def _republish(self) -> None:
@@ -288,6 +303,8 @@ class Outputs:
         if last.velocity is not None:  # the rates of a past command are not the state's now
             last = Result(True, joints=last.joints)
         now = self.now()
+        if now.sec * NSEC_PER_SEC + now.nanosec <= self.stamped_ns:
+            return  # a paused (sim) clock: the state went out at this time already
         self._publish_state(last, now.sec, now.nanosec)
         self._answered_since_tick = False
 

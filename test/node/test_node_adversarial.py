@@ -312,6 +312,34 @@ def test_zero_stamp_under_sim_time_before_the_first_clock(ros, serve):
     assert_close_angles(s.joints.last.position, FourBar.joints(0.7))
 
 
+def test_an_answer_under_a_paused_sim_clock_comes_after_the_pose_before_it(ros, serve):
+    """A sim clock at 101.1 s, then paused: the republication timer sent the pose at 101.1 and
+    a zero-stamped command was answered at 101.1 too, the same stamp; tf keeps the first
+    transform of a stamp (TF_REPEATED_DATA), so robot_state_publisher kept the old pose (an
+    outside adversary). The answer now comes 1 ns after, and the paused clock republishes
+    nothing at a stamp it has sent."""
+    s = serve(scene='four_bar', use_sim_time=True, publish_rate=10.0)
+    clock_pub = ros.node.create_publisher(Clock, '/clock', 10)
+    assert ros.spin_until(lambda: clock_pub.get_subscription_count() > 0, TIMEOUT)
+    paused = (101, 100_000_000)
+    assert ros.spin_until(
+        lambda: (
+            clock_pub.publish(Clock(clock=Time(sec=paused[0], nanosec=paused[1])))
+            or any(stamp_of(m) == paused for m in s.joints.messages)
+        ),
+        TIMEOUT,
+    ), 'no republication at the sim time'
+    ros.node.destroy_publisher(clock_pub)
+    status = s.send('command', joint_state(['crank'], [1.3]))
+    assert status.level == OK, status.message
+    assert ros.spin_until(lambda: len(s.joints) >= 1, TIMEOUT)
+    answer = s.joints.messages[0]
+    assert stamp_of(answer) == (paused[0], paused[1] + 1)
+    assert_close_angles(answer.position, FourBar.joints(1.3))
+    ros.spin_until(lambda: False, 0.5)  # (five republication periods, were the clock running)
+    assert [stamp_of(m) for m in s.joints.messages] == [stamp_of(answer)]
+
+
 # ---- non-finite point targets ---------------------------------------------------------------
 
 

@@ -184,18 +184,21 @@ def spec_value_at(mech: Mechanism, spec: Spec, poses: Poses) -> np.ndarray:
 
 def limit_violation(spec: ScalarSpec, value: float) -> str | None:
     """Why ``value`` is outside ``spec``'s limits (the one rule: model.limits), or None; for a
-    robot description's actuator, in its own values (``spec.shown``: the same interval)."""
-    if isinstance(spec, SlideSpec) and spec.length and not value > 0:
-        return (
-            f"{spec.name} = {value:.9g} m is not a length: a cylinder's pin-to-pin length is "
-            'more than 0'
-        )
+    robot description's actuator, in its own values (``spec.shown``: the same interval); a
+    cylinder's length of 0 or less, which its limits (a min > 0) name first where it has one."""
     lo, hi, shown = spec.minimum, spec.maximum, spec.shown
+    given = value
     if shown is not None and (lo is not None or hi is not None):
         ends = [None if v is None else shown(v) for v in (lo, hi)]
         lo, hi = ends if shown.scale > 0 else ends[::-1]
         value = shown(value)
-    return _limit_violation(spec.name, value, lo, hi, spec.unit, spec.periodic)
+    why = _limit_violation(spec.name, value, lo, hi, spec.unit, spec.periodic)
+    if why is None and isinstance(spec, SlideSpec) and spec.length and not given > 0:
+        return (
+            f"{spec.name} = {given:.9g} m is not a length: a cylinder's pin-to-pin length is "
+            'more than 0'
+        )
+    return why
 
 
 def needs_beyond_limits(spec: ScalarSpec, value: float) -> str | None:
