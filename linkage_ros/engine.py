@@ -311,16 +311,23 @@ class Engine:
         (keep_circuit): its answer, committed to it; the circuit's own configuration, adopted
         by it (True); or the refusal, the solver as it was. The caller records a success (the
         bag's replay keeps its own history of them)."""
-        if not self.circuit_checked:
-            return solver.solve(values), False
         before, snap = self.last, solver.snapshot()
         result = solver.solve(values)
+        beyond = self.beyond_passive_limits(result)
+        if beyond is not None:
+            solver.restore(snap)  # a refused request changes nothing
+            return beyond, False
+        if not self.circuit_checked:
+            return result, False
         kept = self.keep_circuit(before, result, values)
         if kept is result:
             return result, False
-        solver.restore(snap)  # a refused request changes nothing
+        solver.restore(snap)
         if not kept.success:
             return kept, False
+        beyond = self.beyond_passive_limits(kept)
+        if beyond is not None:
+            return beyond, False
         solver.adopt(kept)
         return kept, True
 
@@ -442,7 +449,7 @@ class Engine:
         if before is None or last is None:
             snap = solver.snapshot()
             result = solver.solve(values)
-            broken = self.broken_mimic(result)
+            broken = self.broken_mimic(result) or self.beyond_passive_limits(result)
             if broken is not None:
                 solver.restore(snap)
                 return broken
@@ -458,7 +465,7 @@ class Engine:
             replace,
             held_by='' if fixed is None else f'branch setting {self.settings.branch!r}',
         )
-        broken = self.broken_mimic(answer.result)
+        broken = self.broken_mimic(answer.result) or self.beyond_passive_limits(answer.result)
         if broken is not None:
             return broken
         off = self._off_circuit_under(fixed, last, answer.result)
@@ -484,6 +491,18 @@ class Engine:
             f'branch setting {self.settings.branch!r} keeps the mechanism in its mode',
             solver=result.solver,
         )
+
+    def beyond_passive_limits(self, result: Result) -> Result | None:
+        """An answer refused where it puts a passive joint of the robot description beyond
+        its <limit> (JointMap.passive_beyond): the chain closes there, but the robot cannot
+        take the pose (a slider's travel, a knuckle's stop)."""
+        coords = self.mech.joint_coordinates
+        if not result.success or coords is None:
+            return None
+        why = coords.passive_beyond(result.joints)
+        if why is None:
+            return None
+        return Result(False, f'cannot be reached: {why}', solver=result.solver)
 
     def broken_mimic(self, result: Result) -> Result | None:
         """A target's answer refused where it breaks a <mimic> between the description's

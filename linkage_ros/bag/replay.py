@@ -314,6 +314,8 @@ class _Engine:
             )
             if take and self.engine.circuit_checked:
                 take = self._on_circuit_prefix(B, cols, take)
+            if take and self.mech.joint_coordinates is not None:
+                take = self._within_passive_limits_prefix(B, take)
             # next to a tangency the batched and single dyad formulas may disagree on closing
             near = np.flatnonzero(
                 np.asarray(B.ok[:take]) & (np.asarray(B.margin[:take]) < NEAR_TANGENT)
@@ -353,6 +355,16 @@ class _Engine:
             if not circuit.holds(tuple(int(v) for v in B.signs[i]), float(values[i])):
                 return i
         return take
+
+    def _within_passive_limits_prefix(self, B, take: int) -> int:
+        """How many of the first ``take`` batch rows keep the description's passive joints
+        within their <limit>s, as Engine.forward_solve requires (the first that does not is
+        refused, one by one)."""
+        coords = self.mech.joint_coordinates
+        joints = {j: np.asarray(v[:take], float) for j, v in B.joints.items()}
+        beyond = np.asarray(coords.passive_beyond_rows(joints), bool) & np.asarray(B.ok[:take])
+        bad = np.flatnonzero(beyond)
+        return int(bad[0]) if bad.size else take
 
     def _accept(self, ctx, solver, B, cols, g0, take) -> int:
         """Copy the first ``take`` batch rows into the results; returns how many were taken

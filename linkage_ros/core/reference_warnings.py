@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING
 from .plan import branch_geometry_one
 from .quantities import PointSpec
 from .solver.modes import reference_toggle_warnings, toggle_remedy, toggle_warnings
-from .solver.result import SIGN_MARGIN
+from .solver.result import SIGN_MARGIN, Result
 from .velocity import velocities
 
 if TYPE_CHECKING:
@@ -31,13 +31,14 @@ def reference_pose_warnings(solver: Solver) -> list[str]:
     plan: each branching closed-form dyad drawn at its toggle, else a loop-closure Jacobian
     singular there (its condition). Empty for a drawing clear of both, or one that does not
     solve (its solve says why)."""
-    if solver.mode == 'closed_form':
-        return reference_toggle_warnings(solver.compiled)
     values = solver.reference_values()
     ref = solver.solve(values, commit=False)
+    passive = _passive_limit_warnings(solver, ref)
+    if solver.mode == 'closed_form':
+        return reference_toggle_warnings(solver.compiled) + passive
     if not ref.success:
         return []
-    out = []
+    out = passive
     got = solver.configuration_of(ref)
     if got is not None and solver.mode != 'newton' and solver.plan.branch_steps:
         _, margins = branch_geometry_one(solver.plan, *got)
@@ -52,3 +53,19 @@ def reference_pose_warnings(solver: Solver) -> list[str]:
             + toggle_remedy(solver.mech.joint_coordinates is not None)
         )
     return out
+
+
+def _passive_limit_warnings(solver: Solver, ref: Result) -> list[str]:
+    """A robot description assembled where a passive joint is beyond its <limit>: every
+    command near the drawing is refused for it (Engine.beyond_passive_limits)."""
+    coords = solver.mech.joint_coordinates
+    if coords is None or not ref.success:
+        return []
+    why = coords.passive_beyond(ref.joints)
+    if why is None:
+        return []
+    return [
+        f"the reference pose is beyond a passive joint's limit ({why.removeprefix('the answer puts ')}"
+        '): commands there are refused; assemble it within the limits (assemble_at in a '
+        'closure file)'
+    ]

@@ -112,3 +112,29 @@ def test_a_descriptions_recorded_inputs_come_back_as_recorded(tmp_path, capsys):
     rng = np.random.default_rng(5)
     x = np.concatenate([rng.uniform(-40.0, 40.0, 20000), [math.pi, -math.pi, 0.0, 7.0, -7.0]])
     assert wrap(x).tolist() == [math.remainder(v, 2 * math.pi) for v in x.tolist()]
+
+
+def test_a_command_beyond_a_passive_limit_is_refused_as_the_node_refuses_it(tmp_path, capsys):
+    """The batch's rows are cut where a passive joint leaves its <limit>: that row is refused
+    one by one, with the engine's reason, and the rows around it are answered."""
+    from core.description.test_passive_limits import SLIDER, slide
+
+    desc = tmp_path / 'slider_limited.urdf'
+    desc.write_text(SLIDER)
+    closures = tmp_path / 'slider_limited.yaml'
+    closures.write_text('actuated: [crank_joint]\n')
+    # a long run (the batch path): down through the limit and back up
+    cranks = np.concatenate([np.linspace(1.4, -0.2, 400), np.linspace(-0.2, 1.4, 400)])
+    msgs = [
+        ('/cmd', (k + 1) * 10**6, joint_state(['crank_joint'], [float(v)]))
+        for k, v in enumerate(cranks)
+    ]
+    rows = _run(tmp_path, capsys, desc, closures, msgs)
+    beyond = [slide(float(q)) < -0.03 - 1e-12 for q in cranks]
+    assert any(beyond) and not all(beyond)
+    for r, q, out in zip(rows, cranks, beyond):
+        if out:
+            assert r['status'] == 'error' and 'passive joint slide_joint' in r['reason'], q
+        else:
+            assert r['status'] == 'ok', (q, r['reason'])
+            assert abs(float(r['joint.slide_joint']) - slide(float(q))) < 1e-12

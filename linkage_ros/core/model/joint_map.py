@@ -10,6 +10,7 @@ solver never learns URDF frames.
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -21,6 +22,7 @@ import numpy as np
 from ..errors import CommandError
 from ..quantities import Shown
 from .checks import Fail
+from .limits import slack
 
 
 class OutputKind(Enum):
@@ -145,6 +147,45 @@ class JointMap:
                     v = _fit(wrap(v), o)
             out[o.name] = v
         return [out[n] for n in self.names]
+
+    def passive_beyond_rows(self, joints: Mapping[str, Any]) -> Any:
+        """Where the published passive joints break their <limit>s (beyond LIMIT_SLACK): a
+        bool, or per row of a batch's arrays (the actuated joints' limits are the actuators',
+        checked before any solve)."""
+        values = dict(zip(self.names, self.positions(joints)))
+        beyond: Any = False
+        for o, lo, hi in self._passive_limits:
+            v = values[o.name]
+            beyond = beyond | (v < lo - slack(lo)) | (v > hi + slack(hi))
+        return beyond
+
+    def passive_beyond(self, joints: Mapping[str, float]) -> str | None:
+        """Why an answer's passive joints break a <limit> (the first that does), or None."""
+        values = dict(zip(self.names, self.positions(joints)))
+        for o, lo, hi in self._passive_limits:
+            v = float(values[o.name])
+            if v < lo - slack(lo) or v > hi + slack(hi):
+                unit = 'rad' if o.revolute else 'm'
+                return (
+                    f'the answer puts passive joint {o.name} at {v:.9g} {unit}, beyond its '
+                    f'<limit> [{lo:g}, {hi:g}] {unit}'
+                )
+        return None
+
+    @functools.cached_property
+    def _passive_limits(self) -> tuple[tuple[OutputJoint, float, float], ...]:
+        """The passive published joints with a <limit>, and its two ends (-inf / inf)."""
+        return tuple(
+            (
+                o,
+                -math.inf if o.lower is None else o.lower,
+                math.inf if o.upper is None else o.upper,
+            )
+            for o in self.outputs
+            if o.kind is OutputKind.JOINT
+            and o.name not in self.actuated
+            and (o.lower is not None or o.upper is not None)
+        )
 
     def velocities(self, joints: Mapping[str, Any]) -> list[Any]:
         """Every published joint's rate (rad/s, m/s) from a result's scene joint rates."""
