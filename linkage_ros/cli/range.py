@@ -6,7 +6,9 @@
                         [--motion]
 
 Input ranges are found with the other actuators held at their reference-pose values (each
-bound is a toggle of the assembly, refined to 1e-12, or the scene's limit). ``--point`` adds the
+bound is a toggle of the assembly, refined to 1e-12 in closed form; where Newton places the
+scene, the last value its solve closes to its tolerance, up to ~1e-10 past the toggle; or the
+scene's limit). ``--point`` adds the
 region the point reaches while the actuators that move it run over their limits (the four
 extreme arcs for two actuators); ``--tilt LINK --lip POINT`` the largest rotation of LINK about
 POINT held at its reference position (or ``--hold X,Y``, from the link's angle ``--tilt-from``)

@@ -213,7 +213,8 @@ def input_ranges(
 ) -> dict[str, tuple[float | None, float | None]]:
     """{actuator: (min or None, max or None)} with the other actuators held at their
     reference-pose values: the toggle positions where the assembly ends (refined to 1e-12 rad or
-    1e-12 of the length scale), intersected with the actuator's own min / max.
+    1e-12 of the length scale; where Newton places the scene, to where its solve still closes,
+    up to ~1e-10 past), intersected with the actuator's own min / max.
 
     An angle that turns fully without limits gives (None, None); a reachable set spanning angle
     pi (or 0/2pi) is one interval min < max with max possibly > pi (see the module docstring).
