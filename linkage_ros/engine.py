@@ -19,7 +19,7 @@ from typing import Any, Protocol
 from .core.errors import CommandError, LinkageError, PlanError, echo
 from .core.model import Mechanism
 from .core.model.names import Named, NameKind, resolve_name
-from .core.motion.circuit_rule import CircuitKeeper
+from .core.motion.circuit_rule import CircuitKeeper, reachable_text
 from .core.motion.circuits import Circuit
 from .core.motion.circuits import reference_circuit as scan_reference_circuit
 from .core.solver import Result, SolveMode, Solver
@@ -304,6 +304,16 @@ class Engine:
         result, _adopted = self.solve_on_circuit(solver, values)
         if result.success:
             self.record(solver, result)
+        elif (result.reason or '').startswith('cannot assemble'):
+            # what the actuator does reach, where one actuator moves the mechanism
+            c = self.reference_circuit
+            if c is not None and not all(s.full for s in c.stretches):
+                coords = self.mech.joint_coordinates
+                shown = None if coords is None else coords.shown(c.actuator)
+                result.reason += (
+                    f'; from its drawing the actuator moves it over {reachable_text(c, shown)} '
+                    '(its reachable range)'
+                )
         return result
 
     def solve_on_circuit(self, solver: Solver, values: Mapping[str, Any]) -> tuple[Result, bool]:

@@ -305,3 +305,19 @@ def test_a_branch_setting_refusal_does_not_advise_another_mode():
     r = e.target({'P.x': 0.2})
     assert not r.success and 'is out of reach' in r.reason
     assert 'searched on request' not in r.reason
+
+
+def test_a_command_that_does_not_close_names_the_reachable_range():
+    """A command inside the actuator's declared limits but beyond the assembly's reach was
+    refused with the dyad's miss alone (a new user's landing gear at its cylinder's min); the
+    refusal now also names what the actuator does reach from the drawing, as `linkage check`
+    gives it. Oracle: the cosine rule's crank interval of the double-rocker's drawn loop."""
+    lo, hi = _crank_interval(G, C, B, R)
+    e = Engine(_double_rocker(), EngineSettings())
+    r = e.command({'crank': 0.5 * lo})  # (|A - O4| below |r - b|: no assembly)
+    assert not r.success
+    assert r.reason.startswith('cannot assemble'), r.reason
+    assert r.reason.endswith(
+        f'from its drawing the actuator moves it over crank {lo:.6g}..{hi:.6g} rad '
+        '(its reachable range)'
+    ), r.reason

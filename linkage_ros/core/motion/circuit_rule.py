@@ -63,15 +63,21 @@ class CircuitKeeper:
         (in a robot description's own values, where it has them)."""
         c = self.circuit
         unit = 'rad' if c.periodic else 'm'
-        spans = c.intervals()
-        shown = self.shown
-        if shown is not None:  # (scale -1 turns each interval round)
-            value = shown(value)
-            spans = sorted((min(shown(a), shown(b)), max(shown(a), shown(b))) for a, b in spans)
-        where = ', '.join(f'{lo:.6g}..{hi:.6g} {unit}' for lo, hi in spans)
+        if self.shown is not None:
+            value = self.shown(value)
         return (
             f'{c.actuator} = {value:.6g} {unit} is reachable only on the other loop of the '
             f'mechanism (another assembly mode): from its drawing the actuator moves it over '
-            f'{c.actuator} {where} (its reachable range), and it cannot pass from one loop to '
-            'the other without being taken apart'
+            f'{reachable_text(c, self.shown)} (its reachable range), and it cannot pass from '
+            'one loop to the other without being taken apart'
         )
+
+
+def reachable_text(c: Circuit, shown: Shown | None = None) -> str:
+    """The actuator values the circuit spans, as a refusal names them (`crank 0.4..1.2 rad`;
+    in a robot description's own values where ``shown`` converts them)."""
+    unit = 'rad' if c.periodic else 'm'
+    spans = c.intervals()
+    if shown is not None:  # (scale -1 turns each interval round)
+        spans = sorted((min(shown(a), shown(b)), max(shown(a), shown(b))) for a, b in spans)
+    return f'{c.actuator} ' + ', '.join(f'{lo:.6g}..{hi:.6g} {unit}' for lo, hi in spans)

@@ -37,6 +37,12 @@ Mode = tuple[tuple[int, ...], list[float]]
 MAX_BRANCHES = 6
 #: the most restarts of a Newton inverse solve that looks for a solution in the current mode
 MAX_STARTS = 16
+#: Newton iterations the restarts may spend on starts that fail, in units of max_iter: a
+#: target the mechanism cannot reach walks into a fold from every start (300-600 iterations
+#: each on the loader, ~0.1 s), on the node's command thread; the restarts that place a
+#: reachable target do it within the first few (nearest first: at most three failed walks
+#: before it, over 100 random loader targets)
+RESTART_BUDGET = 40
 #: variants (other branch signs, Newton only) kept per keeper; the oldest dropped beyond it
 MAX_VARIANTS = 128
 #: starts of the last search for a solution in the current mode (modes.newton_modes), tried
@@ -164,7 +170,7 @@ class ModeKeeper:
             return TargetAnswer(result, False)
         # another mode, or refused (a limit): the solution in mode nearest the last good state
         # among the inverse plan's other branches
-        alt = self.in_mode(solver, values, before, last, here, restarts=not _out_of_reach(result))
+        alt = self.in_mode(solver, values, before, last, here)
         found: list[Result] | None = None  # the multi-start search's solutions, made once
         if alt is None and _worth_a_search(solver, result):
             found = self._search(solver, values)
@@ -231,15 +237,15 @@ class ModeKeeper:
         before: Mode,
         last: Result | None,
         here: Result | None,
-        restarts: bool = True,
     ) -> Result | None:
         """The solution of the target in assembly mode ``before`` within limits nearest
         ``last``: every branch of the inverse plan's dyads is tried (a closed-form plan has no
         other solutions); where Newton places the rest (hybrid, newton), each branch is solved
-        from ``last`` and then, if none is in mode and ``restarts``, restarted from
-        configurations spread over the actuator ranges in that mode (a Newton root depends on
-        its start). None if none is found. ``here``: the configuration whose circuit counts as
-        the mode (changes_mode; None: the signs alone, as a branch setting holds them)."""
+        from ``last`` and then, if none is in mode, restarted from configurations spread over
+        the actuator ranges in that mode (a Newton root depends on its start; RESTART_BUDGET
+        bounds the failed ones). None if none is found. ``here``: the configuration whose
+        circuit counts as the mode (changes_mode; None: the signs alone, as a branch setting
+        holds them)."""
         k = solver.branch_count
         if k > MAX_BRANCHES:
             return None
@@ -258,7 +264,7 @@ class ModeKeeper:
             key = (_folded(mode), configuration_distance(last, r))  # a regular one first
             if best is None or key < best[:2]:
                 best = (*key, r)
-        if best is not None or closed or not restarts:
+        if best is not None or closed:
             return None if best is None else best[2]
         return self._multi_start(self._newton_for(solver), values, before, last, here)
 
@@ -314,13 +320,17 @@ class ModeKeeper:
         ranges in the current mode (nearest ``last`` first) and return the first solution in
         mode within limits; None if none of MAX_STARTS starts reaches one."""
         found = None
+        budget = RESTART_BUDGET * solver.compiled.max_iter
         try:
             for start in self._mode_starts(before[0], last)[:MAX_STARTS]:
+                if budget <= 0:
+                    break
                 solver.adopt(start)
                 r = solver.solve(values, commit=False, effort=Effort.UNEXPLAINED)
                 if r.success and not self.changes_mode(before, here, r):
                     found = r
                     break
+                budget -= r.iterations
         finally:
             if last is not None:
                 solver.adopt(last)
@@ -370,9 +380,9 @@ def _worth_a_search(solver: Solver, result: Result) -> bool:
 def _out_of_reach(result: Result) -> bool:
     """Whether a target was refused as out of reach: its loops do not close at the target
     (the nearest configuration misses), not refused on a limit or from where the mechanism is.
-    Neither the restarts (16 Newton walks from elsewhere in the mode, seconds on the
-    excavator) nor the multi-start search would find it a solution: a refusal on the command
-    thread must stay short."""
+    The multi-start search would find it no solution (a refusal on the command thread must
+    stay short); the restarts still run, within RESTART_BUDGET (a walk stalled in a local
+    least-squares minimum reads alike, and a start elsewhere places it)."""
     return not result.success and (result.reason or '').startswith('cannot assemble')
 
 
