@@ -11,6 +11,7 @@ the bag tool both group them here, so both answer the same request alike.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from typing import Any
 
@@ -64,17 +65,27 @@ def pose_target(
     the axis direction from +x): 3 values, the pose of a rigid body in the plane."""
     if link not in mech.links or link == mech.ground:
         raise CommandError(f'unknown link {echo(link)}: a pose target names a moving link')
-    point = mech.links[link].points[0]
-    if point in mech.links[mech.ground].points:
-        # pinned at a ground pivot: its pose is the pivot's position and its angle, a target
-        # the angle alone (the position a known point no target may name)
-        px, py = (float(v) for v in mech.points[point])
+    members = mech.links[link].points
+    point = members[0]
+    ground = mech.links[mech.ground].points
+    pivot = next((p for p in members if p in ground), None)
+    if pivot is not None:
+        # it turns about a ground pivot: its pose is fixed by its angle, and a target is the
+        # angle alone, the first point where that angle puts it (m) checked against the pose's
+        g = mech.points[pivot]
+        turn = yaw_rad - mech.links[link].angle_ref
+        rel = mech.points[point] - g
+        px = float(g[0] + math.cos(turn) * rel[0] - math.sin(turn) * rel[1])
+        py = float(g[1] + math.sin(turn) * rel[0] + math.cos(turn) * rel[1])
         off = float(np.hypot(xy[0] - px, xy[1] - py))
         if not off <= POSE_PIVOT_TOL * mech.length_scale:
+            at = 'the pivot' if pivot == point else 'where that angle puts it'
+
             raise CommandError(
-                f'the pose of {echo(link)} turns about its ground pivot {point} at ({px:.6g}, '
-                f'{py:.6g}) m: a pose at ({xy[0]:.6g}, {xy[1]:.6g}) m is {off:.3g} m off it '
-                f'(send the pivot as the position, or the angle alone: link {link} on ~/target)'
+                f'the pose of {echo(link)} turns about its ground pivot {pivot}: its first point '
+                f'{point} is at ({px:.6g}, {py:.6g}) m, {at}, and a pose at ({xy[0]:.6g}, '
+                f'{xy[1]:.6g}) m is {off:.3g} m off it (send that position, or the angle alone: '
+                f'link {link} on ~/target)'
             )
         return {f'link:{link}': yaw_rad}
     return {f'{point}.x': xy[0], f'{point}.y': xy[1], f'link:{link}': yaw_rad}

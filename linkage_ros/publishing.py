@@ -278,7 +278,8 @@ class Outputs:
     def _publish_state(self, result: Result, sec: int, nanosec: int) -> None:
         self.pub_joints.publish(self.answers.joint_state(result, sec, nanosec))
         self._answered_since_tick = True
-        self.stamped_ns = sec * NSEC_PER_SEC + nanosec
+        # (the latest sent: a client's stamp in the past must not bring it back)
+        self.stamped_ns = max(self.stamped_ns, sec * NSEC_PER_SEC + nanosec)
 
     def after_last(self, stamp: Time) -> Time:
         """``stamp`` (the clock's now, for a request left unstamped), or 1 ns after the last

@@ -29,7 +29,7 @@ def test_a_crank_pose_at_its_pivot_is_its_angle():
 
 def test_a_pose_off_the_pivot_is_refused_naming_it():
     mech = load('four_bar')
-    with pytest.raises(CommandError, match=r"turns about its ground pivot O2 at \(0, 0\) m"):
+    with pytest.raises(CommandError, match=r'ground pivot O2: its first point O2 is at \(0, 0\) m'):
         pose_target(mech, 'crank', (0.0, 0.5), 0.7)
 
 
@@ -39,3 +39,18 @@ def test_a_pinned_link_of_a_three_dof_arm_is_refused_by_its_own_count():
     r = Engine(mech, EngineSettings()).target(pose_target(mech, 'boom', o4, -1.2))
     assert not r.success
     assert "the knowns ['link:boom'] give 1 value(s)" in r.reason, r.reason
+
+
+def test_a_link_whose_ground_pivot_is_not_its_first_point_is_its_angle():
+    """Hart's link AD carries A, O, D with O on the ground: its pose at the current state is
+    answered as its angle (it was refused by a count naming 'point:A'), and a pose whose
+    position is not where that angle puts A is refused naming it. Oracle: the state itself."""
+    mech = load('hart')
+    engine = Engine(mech, EngineSettings())
+    here = engine.last
+    a_now = tuple(float(v) for v in here.points['A'])
+    r = engine.target(pose_target(mech, 'AD', a_now, here.links['AD']))
+    assert r.success, r.reason
+    assert r.points['A'] == pytest.approx(a_now, abs=1e-12)
+    with pytest.raises(CommandError, match='where that angle puts it'):
+        pose_target(mech, 'AD', (a_now[0] + 0.01, a_now[1]), here.links['AD'])

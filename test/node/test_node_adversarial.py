@@ -338,6 +338,13 @@ def test_an_answer_under_a_paused_sim_clock_comes_after_the_pose_before_it(ros, 
     assert_close_angles(answer.position, FourBar.joints(1.3))
     ros.spin_until(lambda: False, 0.5)  # (five republication periods, were the clock running)
     assert [stamp_of(m) for m in s.joints.messages] == [stamp_of(answer)]
+    # a client's stamp in the past is echoed, and the next zero-stamped answer still comes
+    # after every stamp sent (a review: it had come back to 101.1 s)
+    s.good('command', joint_state(['crank'], [1.2], (100, 0)))
+    status = s.send('command', joint_state(['crank'], [1.1]))
+    assert status.level == OK, status.message
+    assert ros.spin_until(lambda: len(s.joints) >= 1, TIMEOUT)
+    assert stamp_of(s.joints.messages[0]) == (paused[0], paused[1] + 2)
 
 
 # ---- non-finite point targets ---------------------------------------------------------------

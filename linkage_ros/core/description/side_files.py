@@ -17,6 +17,7 @@ from ..errors import SceneError
 from ..model.scene import _UniqueKeyLoader, read_text
 from .records import Closure, ClosureType, Description, DescriptionError, Limits, LinkFrame
 from .records import transform as make_transform
+from .xml_text import upside_down
 
 #: the largest side file read (bytes)
 MAX_SIDE_FILE_BYTES = 1 << 20
@@ -77,12 +78,9 @@ def apply_side_file(desc: Description, data: Mapping[str, Any], path: str) -> De
         if not isinstance(lim, Mapping) or set(map(str, lim)) - {'lower', 'upper'}:
             raise DescriptionError('must be {lower: .., upper: ..}', file=path, key=key, value=lim)
         lower, upper = (_number(lim.get(k), path, f'{key}.{k}') for k in ('lower', 'upper'))
-        if lower is not None and upper is not None and lower > upper:
-            raise DescriptionError(
-                f'lower {lower:g} is above upper {upper:g}: no value fits; swap them',
-                file=path,
-                key=key,
-            )
+        why = upside_down(lower, upper)
+        if why:
+            raise DescriptionError(why, file=path, key=key)
         limits[str(name)] = Limits(lower, upper)
     dims = {}
     for name, value in (data.get('dimensions') or {}).items():

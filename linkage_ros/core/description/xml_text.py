@@ -117,17 +117,22 @@ def optional_number(text: str | None, source: str, where: str) -> float | None:
     return numbers(text, 1, source, where, ())[0]
 
 
+def upside_down(lower: float | None, upper: float | None) -> str | None:
+    """Why limits ``lower`` > ``upper`` (a URDF <limit>, a closure file's limits) allow no
+    value, or None."""
+    if lower is not None and upper is not None and lower > upper:
+        return f'lower {lower:g} is above upper {upper:g}: no value fits; swap them'
+    return None
+
+
 def limits_of(lower_text: str | None, upper_text: str | None, source: str, where: str) -> Limits:
     """A joint's ``<limit>`` lower and upper (rad or m; either may be missing); a lower above
     the upper is refused (it was read as the interval between them, silently)."""
     lower = optional_number(lower_text, source, f'{where} limit lower')
     upper = optional_number(upper_text, source, f'{where} limit upper')
-    if lower is not None and upper is not None and lower > upper:
-        raise DescriptionError(
-            f'limit lower {lower:g} is above upper {upper:g}: no value fits; swap them',
-            file=source,
-            key=f'{where} limit',
-        )
+    why = upside_down(lower, upper)
+    if why:
+        raise DescriptionError(f'limit {why}', file=source, key=f'{where} limit')
     return Limits(lower, upper)
 
 

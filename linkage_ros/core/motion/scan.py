@@ -12,7 +12,7 @@ import numpy.typing as npt
 
 from ..dyads import wrap_angle
 from ..model import Mechanism, SlideActuator
-from ..model.limits import on_arc
+from ..model.limits import limit_violation
 from ..plan import Poses
 from ..quantities import AngleSpec, PointSpec
 from ..solver import SolveMode, Solver
@@ -291,11 +291,8 @@ class _Line:
         if limits is None:
             return True
         lo, hi = limits
-        if self.periodic:
-            assert lo is not None and hi is not None  # an arc has both ends
-            return on_arc(v, lo, hi, 1e-12)  # the limit rule's arc (model.limits)
-        tol = 1e-12 * self.scale
-        return (lo is None or v >= lo - tol) and (hi is None or v <= hi + tol)
+        # the limit rule itself (model.limits: an angle on the arc, each side with its slack)
+        return limit_violation('', v, lo, hi, '', self.periodic) is None
 
     def crossings(self, lo: float, hi: float, signs: Signs) -> list[tuple[float, tuple[int, ...]]]:
         """The change points in (lo, hi) on ``signs`` where the motion crosses into the other

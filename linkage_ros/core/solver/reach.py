@@ -142,7 +142,8 @@ def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> Reach
 
 
 def _span(spec: Spec, start: Any, target: Any) -> float:
-    """How far a known moves on the line (m, or rad the short way round)."""
+    """How far a known moves between two of its values (m, or rad: callers pass the end of
+    the short way round, interpolate's)."""
     if isinstance(spec, PointSpec):
         return math.hypot(float(target[0]) - float(start[0]), float(target[1]) - float(start[1]))
     return abs(float(target) - float(start))

@@ -47,9 +47,10 @@ def _side_flips(t0: float, t: float, period: float) -> int:
     ],
 )
 def test_newton_moves_on_through_a_change_point_as_the_motion_does(name, samples):
-    """(A step that lands on neither side within the dyad's near-toggle zone keeps its sign in
-    both solvers: the parallelogram's ten steps from -1 to 1 take it from the anti-parallelogram
-    onto the parallelogram at crank 0. SCENES.md says so.)"""
+    """(A step that lands on neither side within the dyad's near-toggle zone may land on the
+    other curve: the parallelogram's ten steps from -1 to 1 take it from the anti-parallelogram
+    onto the parallelogram at crank 0. SCENES.md says so: steps through a change point must be
+    fine.)"""
     lengths, period = CASES[name]
     t0 = math.pi / 3 if samples > 10 else -1.0
     t1 = t0 + (4 * math.pi if samples > 10 else 2.0)
