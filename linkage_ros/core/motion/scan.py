@@ -39,6 +39,8 @@ _TOGGLE_PROBE = 1e-6
 #: a dyad margin below this at a toggle found to ~1e-12 of the input: that dyad is at its
 #: toggle too (the margin grows as the square root of the distance from it)
 _AT_TOGGLE = 1e-4
+#: a dyad margin below this at a crossing found to ~1e-8: a candidate for meeting there
+_NEAR_CROSSING = 1e-3
 #: a segment end: ('toggle', the branching dyads at their toggle, beyond which the first fails,
 #: or None), ('crossing', the
 #: dyads whose other signs the motion goes on in, or None where the segment starts at one: a
@@ -310,15 +312,23 @@ class _Line:
         for x in touch_points(margins, lo, hi, n, self.tol):
             if not crosses(margins, x, scale):
                 continue
-            x = crossing_root(margins, x, scale)
-            here = self.run([x], signs)[1]
-            gaps = []
-            for k in range(len(signs)):
-                flipped = [*signs]
-                flipped[k] = -flipped[k]
-                there = self.run([x], flipped)[1]
-                gaps.append(max(float(np.max(np.abs(here[p] - there[p]))) for p in here))
-            meet = tuple(k for k, gap in enumerate(gaps) if gap <= _MEET * self.scale)
+            # the dyads whose two solutions meet there (margins ~0): two in series (a double
+            # parallelogram) or side by side (a symmetric gripper) cross together, and flipping
+            # one alone leaves the other's circles apart. The root is the first one's (in plan
+            # order: the others follow it), found on its own margin: the least of several is
+            # no |linear| V where a later one's slope differs on the two sides
+            near = self.run([x], signs)[2]['margins'][0]
+            candidates = np.flatnonzero(near < _NEAR_CROSSING).tolist()
+            if not candidates:
+                continue
+            first = candidates[0]
+
+            def own(xs: np.ndarray, k: int = first) -> np.ndarray:
+                return self.run(xs, signs)[2]['margins'][:, k]
+
+            x = crossing_root(own, x, scale)
+            at = self.run([x], signs)[2]['margins'][0]
+            meet = tuple(k for k in candidates if at[k] < _AT_TOGGLE)
             if meet:
                 out.append((x, meet))
         return out

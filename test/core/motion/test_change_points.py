@@ -395,3 +395,40 @@ def test_a_symmetric_grippers_halves_move_as_mirror_images():
         mirror = name.replace('L', 'R')
         for key in ('min', 'max'):
             assert angles[mirror][key] == pytest.approx(angles[name][key], abs=1e-9), name
+
+
+def test_a_double_parallelograms_couplers_stay_level():
+    """Two parallelograms in series (O2-A-B-O4, then B-C-O6 driven by the first's rocker)
+    reach their change points together at crank 0 and pi. The scan flipped one dyad there (or
+    missed pi: flipped alone, the other's circles part), and the least of the two margins,
+    whose V is lopsided, put the crossing 2.3e-5 rad off pi: range --links swung the first
+    coupler 78 deg (an outside adversary). Oracle: a parallelogram's coupler keeps its drawn
+    direction (level) at every crank."""
+    c = 0.1 * math.sqrt(0.5)
+    data = {
+        'name': 'double_parallelogram',
+        'points': {
+            'O2': [0.0, 0.0],
+            'O4': [0.3, 0.0],
+            'O6': [0.6, 0.0],
+            'A': [c, c],
+            'B': [0.3 + c, c],
+            'C': [0.6 + c, c],
+        },  # fmt: skip
+        'links': {
+            'ground': ['O2', 'O4', 'O6'],
+            'crank': ['O2', 'A'],
+            'coupler': ['A', 'B'],
+            'rocker': ['O4', 'B'],
+            'coupler2': ['B', 'C'],
+            'rocker2': ['O6', 'C'],
+        },
+        'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
+    }
+    mech = Scene.from_dict(data).mechanism
+    for link in ('coupler', 'coupler2'):
+        lo, hi = oscillation_range(mech, link)
+        assert lo is not None and hi is not None
+        assert max(abs(lo), abs(hi)) < 1e-7, (link, lo, hi)
+    # the rockers turn fully with the crank
+    assert set(quantities_report(mech)['turns_fully']) == {'link:rocker', 'link:rocker2'}
