@@ -310,9 +310,9 @@ class Engine:
             if c is not None and not all(s.full for s in c.stretches):
                 coords = self.mech.joint_coordinates
                 shown = None if coords is None else coords.shown(c.actuator)
-                result.reason += (
-                    f'; from its drawing the actuator moves it over {reachable_text(c, shown)} '
-                    '(its reachable range)'
+                result.reason = (
+                    f'{result.reason}; from its drawing the actuator moves it over '
+                    f'{reachable_text(c, shown)} (its reachable range)'
                 )
         return result
 

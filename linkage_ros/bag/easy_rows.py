@@ -109,9 +109,7 @@ def easy_prefix(
     easy |= ~finite
     # refused on an input limit: the node checks limits before any branch choice
     limited = [
-        (k, s)
-        for k, s in enumerate(solver.specs)
-        if not isinstance(s, PointSpec) and s.bounded
+        (k, s) for k, s in enumerate(solver.specs) if not isinstance(s, PointSpec) and s.bounded
     ]
     if limited:
         for i in np.flatnonzero(~easy & ~okb).tolist():

@@ -178,6 +178,11 @@ class _Engine:
                 return
             names = list(columns)
         held: tuple[str, ...] | str = ()
+        if int(data.topic[a]) == 0:  # Engine.command: a joint, link or point is ~/target's
+            misplaced = self.engine.not_actuators({nm: 0.0 for nm in names})
+            if misplaced is not None:
+                self._refuse_all(a, b, misplaced)
+                return
         if int(data.topic[a]) == 0:  # Engine.command: a partial command holds the others
             # the run's held values: its rows hold the same actuators at the same last values
             full, held = self.engine.held_values({nm: 0.0 for nm in names})

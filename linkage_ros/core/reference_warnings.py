@@ -65,7 +65,8 @@ def _passive_limit_warnings(solver: Solver, ref: Result) -> list[str]:
     if why is None:
         return []
     return [
-        f"the reference pose is beyond a passive joint's limit ({why.removeprefix('the answer puts ')}"
-        '): commands there are refused; assemble it within the limits (assemble_at in a '
+        "the reference pose is beyond a passive joint's limit ("
+        + why.removeprefix('the answer puts ')
+        + '): commands there are refused; assemble it within the limits (assemble_at in a '
         'closure file)'
     ]

@@ -1962,3 +1962,31 @@ def test_the_summary_counts_a_nan_command_as_refused_before_any_solve(tmp_path, 
     assert f'solved {n - 1}, refused 1' in cap.out and 'refused before any solve 1' in cap.out
     ways = ('vectorised rows', 'one-by-one rows', 'refused before any solve')
     assert sum(_summary_count(cap.out, w) for w in ways) == n, cap.out
+
+
+def test_a_command_naming_a_joint_link_or_point_is_refused_in_the_nodes_words(tmp_path, capsys):
+    """A recorded ~/command naming a point (or a link) is the node's `... not an actuator of
+    'four_bar' ...: use ~/target ...`; the bag said `unknown name(s) ['P']; this solve takes
+    ['crank']` (a new user: "P" is no unknown name). Oracle: the engine's own refusal."""
+    from scenes import load
+
+    from linkage_ros.engine import Engine, EngineSettings
+
+    engine = Engine(load('four_bar'), EngineSettings())
+    cases = [(['crank', 'P'], [0.4, 0.1]), (['rocker'], [0.3]), (['crank'], [0.4])]
+    msgs = [('/cmd', (k + 1) * 10**6, joint_state(n, v)) for k, (n, v) in enumerate(cases)]
+    folder = tmp_path / 'in'
+    write_bag(folder, 'mcap', msgs)
+    out = tmp_path / 'out.csv'
+    code, cap = run_bag(
+        [folder, '--scene', 'four_bar', '--command-topic', '/cmd', '--out', out, '--no-progress'],
+        capsys,
+    )
+    assert code == 0, cap.err
+    rows = read_csv(out)
+    for row, (names, values) in zip(rows, cases):
+        want = engine.command(dict(zip(names, values)))
+        assert row['status'] == ('ok' if want.success else 'error')
+        if not want.success:
+            assert row['reason'] == want.reason, row['reason']
+            assert 'not an actuator' in row['reason']

@@ -10,7 +10,8 @@ lists of floats); nothing prints.
   (angles) or over the scene's [min, max] (slides; a generous bracket around the reference throw
   when a side has no limit), each boundary is refined to 1e-12 rad / 1e-12 of the length scale
   (a toggle position; where Newton places the scene, the last value its solve closes to its
-  tolerance: up to ~1e-10 past the toggle, where Newton still converges on the far side), and the result is intersected with the actuator's own limits.
+  tolerance: up to ~1e-10 past the toggle, where Newton still converges on the far side),
+  and the result is intersected with the actuator's own limits.
 * :func:`toggle_positions`: input values where a dyad of the assembly has a toggle (margin -> 0).
 * :func:`oscillation_range`: the range of a link's angle while an input runs over its range (the
   oscillation of a rocker, of both links of a non-Grashof chain, ...).

@@ -123,9 +123,7 @@ def compile_solve(
         inverse=any(s.name not in mech.actuators for s in specs),
         ref_values=ref_values,
         limited=tuple(
-            (i, s)
-            for i, s in enumerate(specs)
-            if not isinstance(s, PointSpec) and s.bounded
+            (i, s) for i, s in enumerate(specs) if not isinstance(s, PointSpec) and s.bounded
         ),
     )
     if c.inverse:
