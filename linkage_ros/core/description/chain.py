@@ -341,13 +341,11 @@ def _normal(
 
 
 def _basis(n: np.ndarray) -> np.ndarray:
-    """In-plane axes e1, e2: the first two of the ground frame's x, y, z that are not along n
-    (an excavator's xz plane gives x forward, z up), projected and made orthonormal."""
+    """In-plane axes e1, e2: the two of the ground frame's x, y, z most nearly in the plane
+    (in that order: an excavator's xz plane gives x forward, z up; a plane turned about z by a
+    mount keeps z up), projected and made orthonormal."""
     eye = np.eye(3)
-    picks = [k for k in range(3) if abs(float(eye[k] @ n)) < 0.9][:2]
-    if len(picks) < 2:
-        picks = sorted(range(3), key=lambda k: abs(float(eye[k] @ n)))[:2]
-        picks.sort()
+    picks = sorted(sorted(range(3), key=lambda k: abs(float(eye[k] @ n)))[:2])
     e1 = eye[picks[0]] - (eye[picks[0]] @ n) * n
     e1 /= np.linalg.norm(e1)
     e2 = np.cross(n, e1)
