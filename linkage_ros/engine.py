@@ -304,16 +304,22 @@ class Engine:
         result, _adopted = self.solve_on_circuit(solver, values)
         if result.success:
             self.record(solver, result)
-        elif (result.reason or '').startswith('cannot assemble'):
-            # what the actuator does reach, where one actuator moves the mechanism
-            c = self.reference_circuit
-            if c is not None and not all(s.full for s in c.stretches):
-                coords = self.mech.joint_coordinates
-                shown = None if coords is None else coords.shown(c.actuator)
-                result.reason = (
-                    f'{result.reason}; from its drawing the actuator moves it over '
-                    f'{reachable_text(c, shown)} (its reachable range)'
-                )
+        return result
+
+    def with_reach(self, result: Result) -> Result:
+        """A forward refusal that does not assemble (``result``, changed) told what the
+        actuator does reach from the drawing, where one actuator moves the mechanism (the
+        range `linkage check` gives)."""
+        if result.success or not (result.reason or '').startswith('cannot assemble'):
+            return result
+        c = self.reference_circuit
+        if c is not None and not all(s.full for s in c.stretches):
+            coords = self.mech.joint_coordinates
+            shown = None if coords is None else coords.shown(c.actuator)
+            result.reason = (
+                f'{result.reason}; from its drawing the actuator moves it over '
+                f'{reachable_text(c, shown)} (its reachable range)'
+            )
         return result
 
     def solve_on_circuit(self, solver: Solver, values: Mapping[str, Any]) -> tuple[Result, bool]:
@@ -322,7 +328,7 @@ class Engine:
         by it (True); or the refusal, the solver as it was. The caller records a success (the
         bag's replay keeps its own history of them)."""
         before, snap = self.last, solver.snapshot()
-        result = solver.solve(values)
+        result = self.with_reach(solver.solve(values))
         beyond = self.beyond_passive_limits(result)
         if beyond is not None:
             solver.restore(snap)  # a refused request changes nothing

@@ -391,7 +391,7 @@ class _Engine:
             if r.success:  # a tangency the batch refused: leave it to Solver
                 take = i
                 break
-            reasons[i] = r.reason
+            reasons[i] = self.engine.with_reach(r).reason or ''
             if keyb is not None:
                 cache[keyb] = r.reason
         if not take:

@@ -36,7 +36,6 @@ from ..newton.scalar import (
 from ..plan import branch_geometry_one, rollers_off_drawn_side, run_one
 from ..quantities import AngleSpec, PointSpec
 from ..steps import RollerSide
-from .closed_form import solve_closed
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import BranchRule, Continuity, State, state_of
 from .newton_result import NewtonSource, newton_result
@@ -226,23 +225,6 @@ def _unexplained(walk_reason: str | None) -> str:
     """A refusal by less than Effort.FULL: the walk's own reason, about the last input it
     tried, not measured at the input asked for."""
     return f'not reached from the current configuration: {walk_reason}'
-
-
-def _closed_form_branch(
-    c: CompiledSolve, cont: Continuity, vals: Values, geo: Geometry
-) -> tuple[SolveResult, list[float], LinkPoses | None, Geometry] | None:
-    """Newton's answer in the dyad signs the closed form's continuity takes at ``vals`` (its
-    answer, refined from there), where those are not the signs of Newton's answer (geometry
-    ``geo``): (answer, its floats, fixed poses, geometry); else None."""
-    closed, state = solve_closed(c, cont, vals)
-    if not closed.success or state is None or tuple(state.signs) == tuple(geo[0]):
-        return None
-    rc, _, fc = newton_at(c, vals, c.system.x_from_poses(state.poses), 0)
-    if rc is None or not rc.success:
-        return None
-    xc = rc.x.tolist()
-    gc = branch_of(c, xc, fc)
-    return (rc, xc, fc, gc) if tuple(gc[0]) == tuple(state.signs) else None
 
 
 def branch_of(c: CompiledSolve, x: np.ndarray | list[float], fixed: LinkPoses | None) -> Geometry:
@@ -496,23 +478,6 @@ def solve_newton(
         res = c.fail(why, c.echo(vals), solver_name)
         res.iterations = iterations
         return res, None
-    if (
-        geo is not None
-        and last is not None
-        and c.full_plan is c.plan
-        and cont.branch.rule is BranchRule.CONTINUOUS
-        and min(*last.margins, *geo[1], 1.0) < CONTINUITY_MARGIN
-    ):
-        # near a dyad's toggle, where two solution curves meet (at a change point they cross
-        # and the smooth motion goes on in the other sign), the closed form's continuity takes
-        # the branch nearest its prediction; Newton from the last answer stays on the curve
-        # that turns back at a crossing (the det J guard), and its own predictor is blind at
-        # the crossing (J singular there): where the plan is complete, the closed form's
-        # continuous choice decides, and Newton answers in it
-        in_closed = _closed_form_branch(c, cont, vals, geo)
-        if in_closed is not None:
-            iterations += in_closed[0].iterations
-            r, xs, fixed, geo = in_closed
     if geo is not None:
         signs_t, margins, poses, pts = geo
     else:
