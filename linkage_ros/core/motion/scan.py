@@ -39,6 +39,10 @@ _TOGGLE_PROBE = 1e-6
 #: a dyad margin below this at a toggle found to ~1e-12 of the input: that dyad is at its
 #: toggle too (the margin grows as the square root of the distance from it)
 _AT_TOGGLE = 1e-4
+#: where a scan of a cylinder without a min starts (of the length scale): a length is more
+#: than 0, and a command down to this is on the circuit the scan finds (at 1e-6 a command of
+#: 1e-6 m on a 1 m boom was refused as "the other loop")
+CYLINDER_FLOOR = 1e-12
 #: a dyad margin below this at a crossing found to ~1e-8: a candidate for meeting there
 _NEAR_CROSSING = 1e-3
 #: a segment end: ('toggle', the branching dyads at their toggle, beyond which the first fails,
@@ -277,7 +281,7 @@ class _Line:
     def _soft_low(self, v: float) -> float:
         act = self.mech.actuators.get(self.scan)
         if isinstance(act, SlideActuator) and act.cylinder:
-            return max(v, 1e-6 * self.scale)  # a cylinder's pin-to-pin length stays > 0
+            return max(v, CYLINDER_FLOOR * self.scale)  # a pin-to-pin length stays > 0
         return v
 
     def same(self, a: float, b: float, tol: float = 1e-9) -> bool:
@@ -477,5 +481,5 @@ def _slide_bracket(mech: Mechanism, name: str, x0: float) -> Bracket:
     blo = lo if lo is not None else x0 - w
     bhi = hi if hi is not None else x0 + w
     if lo is None and isinstance(act, SlideActuator) and act.cylinder:
-        blo = max(blo, 1e-6 * mech.length_scale)
+        blo = max(blo, CYLINDER_FLOOR * mech.length_scale)
     return blo, bhi, lo is not None, hi is not None

@@ -66,3 +66,20 @@ def test_the_engine_refuses_it_and_keeps_its_state(mech):
     r = engine.command({'lift': -0.3})
     assert not r.success and NOT_A_LENGTH in r.reason
     assert engine.last.inputs == before
+
+
+def test_a_length_near_zero_the_geometry_allows_is_answered():
+    """A boom O4-A (1 m) about O4 = (1, 0) and a cylinder from O2 = (0, 0) to A, no limits: its
+    length runs from 0 (A on O2) to 2 m. The scan of a cylinder without a min started at 1e-6
+    of the length scale, so 1e-6 m was refused as "reachable only on the other loop" while
+    2e-6 m was answered (an outside adversary). Oracle: |A - O2| at the length."""
+    data = {
+        'points': {'O2': [0.0, 0.0], 'O4': [1.0, 0.0], 'A': [1.0, 1.0]},
+        'links': {'ground': ['O2', 'O4'], 'boom': ['O4', 'A']},
+        'cylinders': {'Z': {'from': 'O2', 'to': 'A'}},
+    }
+    engine = Engine(Scene.from_dict(data).mechanism, EngineSettings())
+    for length in (1.0, 1e-3, 2e-6, 1e-6, 1e-9):
+        r = engine.command({'Z': length})
+        assert r.success, (length, r.reason)
+        assert math.hypot(*r.points['A']) == pytest.approx(length, rel=1e-6)
