@@ -146,3 +146,30 @@ def test_a_target_a_restart_places_is_answered():
     assert r.success, r.reason
     for a in ('Z1', 'Z2'):
         assert r.inputs[a] == pytest.approx(made.inputs[a], abs=1e-9)
+
+
+def test_a_target_of_two_points_out_of_reach_is_refused_not_raised():
+    """Two two-link arms (4 degrees of freedom), P1 sent beyond its arm's reach beside a
+    reachable P2: the refusal measured how far each other known moves by its size taken as a
+    number, and a point's raised TypeError inside Engine.target (a review of this change).
+    Oracle: the arm's reach, |O1 P1| <= 0.3 + 0.2 m < 3 m."""
+    from linkage_ros.core.model import Scene
+
+    pts, links, acts = {}, {}, {}
+    for s, x in ((1, 0.0), (2, 2.0)):
+        pts |= {f'O{s}': [x, 0.0], f'A{s}': [x, 0.3], f'P{s}': [x + 0.2, 0.3]}
+        links |= {f'upper{s}': [f'O{s}', f'A{s}'], f'fore{s}': [f'A{s}', f'P{s}']}
+        acts |= {
+            f'shoulder{s}': {'type': 'angle', 'link': f'upper{s}', 'pivot': f'O{s}'},
+            f'elbow{s}': {
+                'type': 'angle',
+                'link': f'fore{s}',
+                'pivot': f'A{s}',
+                'relative_to': f'upper{s}',
+            },
+        }
+    data = {'points': pts, 'links': {'ground': ['O1', 'O2'], **links}, 'actuators': acts}
+    engine = Engine(Scene.from_dict(data).mechanism, EngineSettings())
+    r = engine.target({'P1.x': 3.0, 'P1.y': 0.0, 'P2.x': 2.3, 'P2.y': 0.1})
+    assert not r.success
+    assert r.reason.startswith('point P1 = (3, 0) m with point:P2 as given is out of reach')

@@ -15,6 +15,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
 from ..plan import Spec
 from ..quantities import CoordinateSpec, PointSpec
 from .newton_path import interpolate
@@ -131,7 +133,7 @@ def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> Reach
     others = tuple(
         sp.name
         for i, sp in enumerate(c.specs)
-        if i != k and _span(sp, start[i], moved[i]) > 1e-12 * max(1.0, _span(sp, 0.0, moved[i]))
+        if i != k and _span(sp, start[i], moved[i]) > 1e-12 * max(1.0, _size(moved[i]))
     )
     if isinstance(spec, CoordinateSpec):
         e, t = float(command(lo)[spec.name]), float(target[k])
@@ -147,6 +149,11 @@ def _span(spec: Spec, start: Any, target: Any) -> float:
     if isinstance(spec, PointSpec):
         return math.hypot(float(target[0]) - float(start[0]), float(target[1]) - float(start[1]))
     return abs(float(target) - float(start))
+
+
+def _size(value: Any) -> float:
+    """A known's value's largest magnitude (m or rad; a point's coordinates)."""
+    return float(np.max(np.abs(np.asarray(value, float))))
 
 
 def _extent(mech: Any) -> float:
