@@ -25,7 +25,7 @@ from .core.motion.circuits import reference_circuit as scan_reference_circuit
 from .core.solver import Result, SolveMode, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
-from .core.solver.result import named_value
+from .core.solver.result import does_not_assemble, named_value
 from .core.steps import branch_text
 from .core.velocity import velocities
 from .point_coordinates import group_point_coordinates
@@ -310,7 +310,7 @@ class Engine:
         """A forward refusal that does not assemble (``result``, changed) told what the
         actuator does reach from the drawing, where one actuator moves the mechanism (the
         range `linkage check` gives)."""
-        if result.success or not (result.reason or '').startswith('cannot assemble'):
+        if not does_not_assemble(result):
             return result
         c = self.reference_circuit
         if c is not None and not all(s.full for s in c.stretches):
@@ -577,11 +577,7 @@ class Engine:
         point stops being reachable on the line toward the target (core.solver.reach), then
         the solver's own reason (the dyad or loop that does not close, with its miss)."""
         last = self.last
-        if (
-            result.success
-            or last is None
-            or not (result.reason or '').startswith('cannot assemble')
-        ):
+        if last is None or not does_not_assemble(result):
             return result
         edge = reach_edge(solver, values, last)
         if edge is not None:

@@ -80,7 +80,6 @@ def pose_target(
         off = float(np.hypot(xy[0] - px, xy[1] - py))
         if not off <= POSE_PIVOT_TOL * mech.length_scale:
             at = 'the pivot' if pivot == point else 'where that angle puts it'
-
             raise CommandError(
                 f'the pose of {echo(link)} turns about its ground pivot {pivot}: its first point '
                 f'{point} is at ({px:.6g}, {py:.6g}) m, {at}, and a pose at ({xy[0]:.6g}, '

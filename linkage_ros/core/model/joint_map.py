@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import CommandError
 from ..quantities import Shown
 from .checks import Fail
-from .limits import slack
+from .limits import limit_interval
 
 
 class OutputKind(Enum):
@@ -154,18 +154,20 @@ class JointMap:
         checked before any solve)."""
         values = dict(zip(self.names, self.positions(joints)))
         beyond: Any = False
-        for o, lo, hi in self._passive_limits:
+        for o, (a, b) in self._passive_limits:
             v = values[o.name]
-            beyond = beyond | (v < lo - slack(lo)) | (v > hi + slack(hi))
+            beyond = beyond | (v < a) | (v > b)
         return beyond
 
     def passive_beyond(self, joints: Mapping[str, float]) -> str | None:
         """Why an answer's passive joints break a <limit> (the first that does), or None."""
         values = dict(zip(self.names, self.positions(joints)))
-        for o, lo, hi in self._passive_limits:
+        for o, (a, b) in self._passive_limits:
             v = float(values[o.name])
-            if v < lo - slack(lo) or v > hi + slack(hi):
+            if v < a or v > b:
                 unit = 'rad' if o.revolute else 'm'
+                lo = -math.inf if o.lower is None else o.lower
+                hi = math.inf if o.upper is None else o.upper
                 return (
                     f'the answer puts passive joint {o.name} at {v:.9g} {unit}, beyond its '
                     f'<limit> [{lo:g}, {hi:g}] {unit}'
@@ -173,18 +175,17 @@ class JointMap:
         return None
 
     @functools.cached_property
-    def _passive_limits(self) -> tuple[tuple[OutputJoint, float, float], ...]:
-        """The passive published joints with a <limit>, and its two ends (-inf / inf)."""
+    def _passive_limits(self) -> tuple[tuple[OutputJoint, tuple[float, float]], ...]:
+        """The passive published joints with a <limit>, and the values it allows (the limit
+        rule's interval, its slack on each side; a revolute value is already brought into
+        the limits where it fits: _fit)."""
         return tuple(
-            (
-                o,
-                -math.inf if o.lower is None else o.lower,
-                math.inf if o.upper is None else o.upper,
-            )
+            (o, interval)
             for o in self.outputs
             if o.kind is OutputKind.JOINT
             and o.name not in self.actuated
             and (o.lower is not None or o.upper is not None)
+            and (interval := limit_interval(o.lower, o.upper, False)) is not None
         )
 
     def velocities(self, joints: Mapping[str, Any]) -> list[Any]:

@@ -28,9 +28,6 @@ from .common import (
 )
 from .touches import TOUCH_RESOLUTION, crosses, crossing_root, touch_points
 
-#: how close (of the length scale) the two solutions of a dyad are at a change point found to
-#: ~1e-9 of the input: they part as |input - change point| times the points' speed
-_MEET = 1e-6
 #: how far inside an assembly edge its toggle's margin is sampled (rad, or of the length scale):
 #: well clear of the tangency clamp (1e-12) and close enough for a parabola in margin^2 to be
 #: exact to rounding
@@ -46,10 +43,9 @@ CYLINDER_FLOOR = 1e-12
 #: a dyad margin below this at a crossing found to ~1e-8: a candidate for meeting there
 _NEAR_CROSSING = 1e-3
 #: a segment end: ('toggle', the branching dyads at their toggle, beyond which the first fails,
-#: or None), ('crossing', the
-#: dyads whose other signs the motion goes on in, or None where the segment starts at one: a
-#: change point, touches.py; a symmetric mechanism's two halves cross at one input),
-#: ('limit', None), ('bracket', None) or ('full', None)
+#: or None), ('crossing', the dyads whose other signs the motion goes on in, or None where the
+#: segment starts at one: a change point, touches.py; a symmetric mechanism's two halves cross
+#: at one input), ('limit', None), ('bracket', None) or ('full', None)
 End: TypeAlias = tuple[str, tuple[int, ...] | None]
 #: one branch sign per branching dyad of the plan
 Signs: TypeAlias = tuple[int, ...]

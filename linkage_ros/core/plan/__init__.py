@@ -58,4 +58,5 @@ from .spec import (  # noqa: F401
     spec_value_at,
     spec_value_of,
     spec_value_one,
+    value_interval,
 )

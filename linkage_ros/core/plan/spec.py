@@ -15,6 +15,7 @@ import numpy.typing as npt
 from ..errors import PlanError
 from ..execute import LinkPoses
 from ..model import Mechanism, SlideActuator
+from ..model.limits import limit_interval as _limit_interval
 from ..model.limits import limit_violation as _limit_violation
 from ..model.names import KNOWN_KINDS as KNOWN_KINDS
 from ..model.names import NameKind, point_coordinate, resolve_name
@@ -199,6 +200,20 @@ def limit_violation(spec: ScalarSpec, value: float) -> str | None:
             'more than 0'
         )
     return why
+
+
+def value_interval(spec: ScalarSpec) -> tuple[float, float] | None:
+    """The values :func:`limit_violation` allows ``spec``, as the closed interval [a, b] (the
+    slack included: model.limits.limit_interval), where they are one: not an angle's, which
+    compare on the circle. A cylinder's length starts at the least double above 0. Lets a
+    caller judge a finite value with two comparisons."""
+    interval = _limit_interval(spec.minimum, spec.maximum, spec.periodic)
+    if interval is None:
+        return None
+    lo, hi = interval
+    if isinstance(spec, SlideSpec) and spec.length:
+        lo = max(lo, math.ulp(0.0))
+    return lo, hi
 
 
 def needs_beyond_limits(spec: ScalarSpec, value: float) -> str | None:

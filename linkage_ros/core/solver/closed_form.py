@@ -41,9 +41,8 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from ..assemble import roller_offset
-from ..model.limits import limit_interval
 from ..ops import _wrap_one
-from ..plan import ReadKind, limit_violation, spec_reader
+from ..plan import ReadKind, limit_violation, spec_reader, value_interval
 from ..quantities import PointSpec, ScalarSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
 from ..scalar_run import SlotRun
@@ -88,18 +87,15 @@ class SlotReadout:
         self.closure_limit = c.closure_limit
         self.limited = bool(c.limited)
         #: the limited knowns whose limits are an interval of values (index, lower, upper: a
-        #: slide's, limits.limit_interval), and the others (an angle's: on the circle)
+        #: slide's, plan.value_interval), and the others (an angle's: on the circle)
         self.limit_intervals: list[tuple[int, float, float]] = []
         self.limit_arcs: list[tuple[int, ScalarSpec]] = []
         for i, spec in c.limited:
-            interval = limit_interval(spec.minimum, spec.maximum, spec.periodic)
+            interval = value_interval(spec)
             if interval is None:
                 self.limit_arcs.append((i, spec))
             else:
-                lo, hi = interval
-                if isinstance(spec, SlideSpec) and spec.length:  # > 0: from the least double
-                    lo = max(lo, math.ulp(0.0))
-                self.limit_intervals.append((i, lo, hi))
+                self.limit_intervals.append((i, *interval))
         #: the names of a command's values, in spec order (lean_command's parse)
         self.known_names = tuple(s.name for s in specs)
         self.n_known = len(self.known_names)
@@ -459,7 +455,7 @@ class SlotReadout:
                 vals.append(v)
         except KeyError:
             return None
-        if self.limited:  # (the interval test is limit_violation's None: limit_interval)
+        if self.limited:  # (the interval test is limit_violation's None: value_interval)
             for i, lo, hi in self.limit_intervals:
                 if not lo <= vals[i] <= hi:
                     return None

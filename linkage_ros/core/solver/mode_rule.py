@@ -25,7 +25,14 @@ from ..quantities import AngleSpec, CoordinateSpec
 from .compiled import SolveMode
 from .modes import newton_modes
 from .reading import mode_label
-from .result import SIGN_MARGIN, Effort, Result, branch_identity_defined, branch_text
+from .result import (
+    SIGN_MARGIN,
+    Effort,
+    Result,
+    branch_identity_defined,
+    branch_text,
+    does_not_assemble,
+)
 from .solver import Solver
 
 #: an assembly mode: the branch sign and margin (|sin| of its transmission angle) of each
@@ -374,16 +381,7 @@ def _worth_a_search(solver: Solver, result: Result) -> bool:
         return False
     if not any(isinstance(s, CoordinateSpec) for s in solver.specs):
         return False
-    return not _out_of_reach(result)
-
-
-def _out_of_reach(result: Result) -> bool:
-    """Whether a target was refused as out of reach: its loops do not close at the target
-    (the nearest configuration misses), not refused on a limit or from where the mechanism is.
-    The multi-start search would find it no solution (a refusal on the command thread must
-    stay short); the restarts still run, within RESTART_BUDGET (a walk stalled in a local
-    least-squares minimum reads alike, and a start elsewhere places it)."""
-    return not result.success and (result.reason or '').startswith('cannot assemble')
+    return not does_not_assemble(result)
 
 
 def _folded(mode: Mode | None) -> bool:

@@ -81,6 +81,12 @@ class Effort(Enum):
     DIRECT = 'direct'
 
 
+def does_not_assemble(result: Result) -> bool:
+    """Whether ``result`` was refused because the mechanism does not close at its input (the
+    reason the solvers give then starts 'cannot assemble'), not on a limit, a name or a mode."""
+    return not result.success and (result.reason or '').startswith('cannot assemble')
+
+
 #: without a dyad plan, a scaled cond(J) above this counts as near a singular configuration
 NEAR_SINGULAR_COND = 1e6
 #: no answer leaves a solver with a loop-closure residual above max(CLOSURE_LIMIT, 10 * tol)
