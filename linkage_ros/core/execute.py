@@ -56,6 +56,13 @@ from .steps import RollerSide, StepKind
 #: change by passing through the dyad's singular (tangent) configuration.
 CONTINUITY_MARGIN = 0.1
 
+#: A dyad that continuity would move to its other branch between two commands does so only if
+#: its margin comes this near 0 somewhere between them (core.solver.crossing): at a change point
+#: it reaches 0 (to rounding: ~1e-8), while a mechanism a relative 1e-12 or more from one keeps
+#: a margin above ~5e-7 (0.55 sqrt(eps) for a crank-rocker at s + l = p + q - eps) and cannot
+#: leave its circuit, however coarse the steps that pass it.
+CROSSING_MARGIN = 1e-6
+
 _GROUND, _KNOWN_POINT, _TWO_POINTS = StepKind.GROUND, StepKind.KNOWN_POINT, StepKind.TWO_POINTS
 _POINT_ANGLE, _ANGLE = StepKind.POINT_ANGLE, StepKind.ANGLE
 _RRR, _RRP, _RPR = StepKind.RRR, StepKind.RRP, StepKind.RPR

@@ -63,6 +63,7 @@ from .closure_bound import (
 )
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity, State
+from .crossing import kept_signs
 from .result import _EPS, Result
 from .slot_reads import SlideRead, as_complex, slot_reader
 
@@ -462,14 +463,7 @@ class SlotReadout:
             for i, spec in self.limit_arcs:
                 if limit_violation(spec, vals[i]) is not None:
                     return None
-        history = cont.history
-        r = self.prog.run_parsed(
-            vals,
-            cont.signs(self.plan),
-            history[-1].margins if history else None,
-            cont.prediction,
-            self.c,
-        )
+        r = run_command(self.prog, self.c, cont, vals)
         if r.failure >= 0:
             return None
         state = slot_state(vals, r.used, r.margins, self, r.R)
@@ -523,16 +517,26 @@ def lean_command(c: CompiledSolve) -> LeanCommand | None:
 def solve_closed(c: CompiledSolve, cont: Continuity, vals: Values) -> tuple[Result, State | None]:
     """The dyad plan on one command, on the branch ``cont`` chooses."""
     read = readout(c)
-    prog, history = read.prog, cont.history
-    r = prog.run_parsed(
-        vals,
-        cont.signs(c.plan),
-        history[-1].margins if history else None,
-        cont.prediction,
-        c,
-    )
+    r = run_command(read.prog, c, cont, vals)
     if r.failure >= 0:
         reason = c.dyad_reason(r.failure, r.violation)
         return c.fail(reason, c.echo(vals), _CLOSED_FORM), None
     state = slot_state(vals, r.used, r.margins, read, r.R)
     return read.result(r, state), state
+
+
+def run_command(prog: ScalarProgram, c: CompiledSolve, cont: Continuity, vals: Values) -> SlotRun:
+    """The plan's run on one command, on the branch ``cont`` chooses: near a dyad's
+    singularity the continuity rule's nearest candidate, and a dyad it moves to its other
+    branch put back where the motion from the last answer does not pass through the
+    singularity (crossing.kept_signs)."""
+    history = cont.history
+    signs = cont.signs(c.plan)
+    r = prog.run_parsed(vals, signs, history[-1].margins if history else None, cont.prediction, c)
+    if r.used == signs or r.failure >= 0 or not history:  # (the common run: no move)
+        return r
+    kept = kept_signs(prog, c, history[-1].values, vals, signs, r.used)
+    if kept is None:
+        return r
+    back = prog.run_parsed(vals, kept)
+    return back if back.failure < 0 else r

@@ -21,7 +21,6 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..dyads import wrap_angle
 from ..execute import CONTINUITY_MARGIN, LinkPoses
 from ..newton.lean import Kernel, LeanSchur, evaluate_lean, lean_schur
 from ..newton.results import SolveResult
@@ -34,10 +33,10 @@ from ..newton.scalar import (
     value_step,
 )
 from ..plan import branch_geometry_one, rollers_off_drawn_side, run_one
-from ..quantities import AngleSpec, PointSpec
 from ..steps import RollerSide
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import BranchRule, Continuity, State, state_of
+from .crossing import interpolate
 from .newton_result import NewtonSource, newton_result
 from .reading import jacobian_sign, mode_label
 from .result import (
@@ -250,19 +249,6 @@ def branch_jump(ga: Geometry, gb: Geometry) -> bool:
         if a != b and min(p, q) >= CONTINUITY_MARGIN:
             return True
     return False
-
-
-def interpolate(c: CompiledSolve, a: Values, b: Values, t: float) -> Values:
-    """The command a fraction t of the way from a to b (angles the short way round)."""
-    out = []
-    for s, va, vb in zip(c.specs, a, b):
-        if isinstance(s, AngleSpec):
-            out.append(wrap_angle(va) + t * wrap_angle(wrap_angle(vb) - wrap_angle(va)))
-        elif isinstance(s, PointSpec):
-            out.append(np.asarray(va) + t * (np.asarray(vb) - np.asarray(va)))
-        else:
-            out.append(va + t * (vb - va))
-    return out
 
 
 def roller_side_refusal(c: CompiledSolve, cont: Continuity) -> str | None:

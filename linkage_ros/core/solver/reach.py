@@ -19,7 +19,7 @@ import numpy as np
 
 from ..plan import Spec
 from ..quantities import CoordinateSpec, PointSpec
-from .newton_path import interpolate
+from .crossing import interpolate
 from .reading import configuration_of, known_values
 from .result import Effort, Result
 from .solver import Solver
