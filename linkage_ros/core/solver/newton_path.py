@@ -21,7 +21,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..execute import CONTINUITY_MARGIN, LinkPoses
+from ..execute import CONTINUITY_MARGIN, CROSSING_MARGIN, LinkPoses
 from ..newton.lean import Kernel, LeanSchur, evaluate_lean, lean_schur
 from ..newton.results import SolveResult
 from ..newton.scalar import (
@@ -110,6 +110,9 @@ def start(
     solution at ``vals`` (newton mode, after a Newton solve: scalar.extrapolate by ``kernel``
     from the Linearisations the States keep) and the value step it predicted over."""
     last = cont.last
+    explicit = cont.branch.rule is BranchRule.EXPLICIT and c.full_plan.complete
+    if explicit and last is not None and last.margins and min(last.margins) <= CROSSING_MARGIN:
+        last = None  # (on a fold, as a drawing on a change point: in either mode, see below)
     if last is not None and last.x_all is not None:
         guess = h = None
         lin = last.x_lu
@@ -141,15 +144,14 @@ def start(
                 )  # fmt: skip
         return last.values, c.sub_x(last.x_all), guess, h
     x_all = c.check_system.reference_x()
-    if (
-        cont.branch.rule is BranchRule.EXPLICIT
-        and cont.branch.signs != tuple(c.plan.reference_signs)
-        and c.full_plan.complete
-    ):
-        # another assembly mode: start from the dyad plan's answer at the reference input
-        run = run_one(c.full_plan, list(c.ref_values), cont.branch.signs, None)
-        if run.ok:
-            x_all = c.check_system.x_from_poses(run.poses)
+    if explicit:
+        # the asked mode, where the dyad plan has it: its answer at this command (a drawing
+        # on a change point is in both modes, and Newton from it may take either), else at
+        # the reference input (another mode than the drawing's)
+        for at in (vals, list(c.ref_values)):
+            run = run_one(c.full_plan, at, cont.branch.signs, None)
+            if run.ok:
+                return at, c.sub_x(c.check_system.x_from_poses(run.poses)), None, None
     if cont.branch.rule is BranchRule.JACOBIAN and cont.branch.det_sign is not None:
         x_all = jacobian_mode_start(c, cont.branch.det_sign, x_all)
     return list(c.ref_values), c.sub_x(x_all), None, None
