@@ -57,10 +57,10 @@ from .steps import RollerSide, StepKind
 CONTINUITY_MARGIN = 0.1
 
 #: A dyad that continuity would move to its other branch between two commands does so only if
-#: its margin comes this near 0 somewhere between them (core.solver.crossing): at a change point
-#: it reaches 0 (to rounding: ~1e-8), while a mechanism a relative 1e-12 or more from one keeps
-#: a margin above ~5e-7 (0.55 sqrt(eps) for a crank-rocker at s + l = p + q - eps) and cannot
-#: leave its circuit, however coarse the steps that pass it.
+#: its margin comes within this of 0 somewhere between them (core.solver.crossing): at a change
+#: point it reaches 0 (to rounding: ~1e-8). One whose margin stays above it keeps its sign: a
+#: crank-rocker at s + l = p + q - eps dips to about sqrt(eps / l), so one nearer the Grashof
+#: limit than ~1e-12 of its lengths is taken as on it, and any further as off it.
 CROSSING_MARGIN = 1e-6
 
 _GROUND, _KNOWN_POINT, _TWO_POINTS = StepKind.GROUND, StepKind.KNOWN_POINT, StepKind.TWO_POINTS

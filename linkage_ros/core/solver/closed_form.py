@@ -535,7 +535,7 @@ def run_command(prog: ScalarProgram, c: CompiledSolve, cont: Continuity, vals: V
     r = prog.run_parsed(vals, signs, history[-1].margins if history else None, cont.prediction, c)
     if r.used == signs or r.failure >= 0 or not history:  # (the common run: no move)
         return r
-    kept = kept_signs(prog, c, history[-1].values, vals, signs, r.used)
+    kept = kept_signs(prog, c, history, vals, signs, r.used)
     if kept is None:
         return r
     back = prog.run_parsed(vals, kept)

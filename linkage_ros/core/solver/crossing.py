@@ -15,17 +15,21 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from ..dyads import wrap_angle
-from ..execute import CROSSING_MARGIN
+from ..execute import CONTINUITY_MARGIN, CROSSING_MARGIN
 from ..quantities import AngleSpec, PointSpec
 from ..scalar_plan import ScalarProgram
 from .compiled import CompiledSolve, Values
+from .continuity import State
 
-#: commands tried along the way before the lowest is refined: a margin has one dip between
-#: commands a stream sends, and 16 intervals find the one of a step taken from far away
-_SAMPLES = 17
-#: the refinement's resolution in s: a margin falls at most ~1 per rad of input near its zero,
-#: so a zero is read below CROSSING_MARGIN for any step under ~1e6 rad
-_S_TOL = 1e-12
+#: commands tried along the way before each dyad's lowest is refined: a margin has one dip
+#: between the commands of a stream, and 8 intervals find the one of a step taken from far away
+_SAMPLES = 9
+#: the refinement's resolutions in s: the square of a margin is smooth, ~a (s - s0)^2 near a
+#: zero, so s to 1e-9 reads a zero's margin below CROSSING_MARGIN wherever the margin changes
+#: less than 1e3 per unit s (a step under ~300 rad); the coarse pass settles a dip that bottoms
+#: out far above it (_SETTLED times CROSSING_MARGIN: its best is within ~1e-6 of the bottom)
+_S_TOLS = (1e-6, 1e-9)
+_SETTLED = 100.0
 
 
 def interpolate(c: CompiledSolve, a: Values, b: Values, t: float) -> Values:
@@ -51,48 +55,78 @@ def lowest_margins(
 ) -> dict[int, float]:
     """The lowest margin of each branching dyad in ``dyads`` (indices into the plan's
     branching steps) on the commands between ``start`` and ``end``, on branch ``signs``: 0.0
-    where some command between does not assemble (the dyad folded on the way)."""
+    where some command between does not assemble (the dyad folded on the way). A dyad's is
+    found to CROSSING_MARGIN only where it is below it (a search stops there)."""
+    seen: dict[float, tuple[float, ...] | None] = {}
 
     def margins(s: float) -> tuple[float, ...] | None:
-        r = prog.run_parsed(interpolate(c, start, end, s), signs)
-        return None if r.failure >= 0 else r.margins
+        # (one run gives every dyad's margin: each search's runs serve the others')
+        if s not in seen:
+            r = prog.run_parsed(interpolate(c, start, end, s), signs)
+            seen[s] = None if r.failure >= 0 else r.margins
+        return seen[s]
 
-    grid = np.linspace(0.0, 1.0, _SAMPLES)
-    rows = [margins(float(s)) for s in grid]
-    if any(m is None for m in rows):
+    grid = [float(s) for s in np.linspace(0.0, 1.0, _SAMPLES)]
+    if any(margins(s) is None for s in grid):
         return dict.fromkeys(dyads, 0.0)
+
+    def lowest(b: int) -> tuple[float, float]:
+        """(dyad b's lowest margin of the commands run so far, the s of it)"""
+        return min((m[b], s) for s, m in seen.items() if m is not None)
+
     out: dict[int, float] = {}
-    for b in dyads:
-        along = [m[b] for m in rows if m is not None]
-        k = int(np.argmin(along))
-        if along[k] <= CROSSING_MARGIN:
-            out[b] = along[k]
-            continue
-        lo, hi = float(grid[max(k - 1, 0)]), float(grid[min(k + 1, _SAMPLES - 1)])
+    # (the lowest first: their searches run where the others dip too, as often they do)
+    for b in sorted(dyads, key=lambda b: lowest(b)[0]):
+        low, at = lowest(b)
+        for xatol in _S_TOLS:
+            if low <= CROSSING_MARGIN or (xatol < _S_TOLS[0] and low > _SETTLED * CROSSING_MARGIN):
+                break
+            # between the commands run next to its lowest, where a dip's bottom is (one dip;
+            # the searches before leave them close where dips coincide: loops in series)
+            lo = max((s for s in seen if s < at), default=0.0)
+            hi = min((s for s in seen if s > at), default=1.0)
 
-        def margin_at(s: float, b: int = b) -> float:
-            m = margins(s)
-            return 0.0 if m is None else m[b]
+            def square(s: float, b: int = b) -> float:
+                # the margin squared: smooth through a zero (Brent's parabolas then converge)
+                m = margins(s)
+                return 0.0 if m is None else m[b] * m[b]
 
-        found = minimize_scalar(margin_at, bounds=(lo, hi), method='bounded',
-                                options={'xatol': _S_TOL})  # fmt: skip
-        out[b] = min(along[k], float(found.fun))
+            minimize_scalar(square, bounds=(lo, hi), method='bounded', options={'xatol': xatol})
+            if any(m is None for m in seen.values()):
+                return dict.fromkeys(dyads, 0.0)
+            low, at = lowest(b)
+        out[b] = low
     return out
 
 
 def kept_signs(
     prog: ScalarProgram,
     c: CompiledSolve,
-    start: Values,
+    history: Sequence[State],
     end: Values,
     before: Sequence[int],
     after: Sequence[int],
 ) -> tuple[int, ...] | None:
     """The branch signs of the command ``end`` once every dyad continuity moved (``before`` ->
-    ``after``) without passing through its singularity on the way from ``start`` is put back
-    on its sign of ``before``; None where every move passed through one (``after`` stands)."""
+    ``after``) without passing through its singularity on the way is put back on its sign of
+    ``before``; None where every move passed through one (``after`` stands). The way: from the
+    last answer's command (history[-1]) to ``end``, and from the one before (history[-2]),
+    which the prediction extrapolates from, for a dyad that step left near its singularity
+    (below CONTINUITY_MARGIN): a step that passed a change point keeping its sign lands on the
+    other solution curve there, and the next step's move back onto the motion's own is that
+    crossing's."""
     moved = [b for b, (u, v) in enumerate(zip(before, after)) if u != v]
-    low = lowest_margins(prog, c, start, end, before, moved)
+    last = history[-1]
+    low = lowest_margins(prog, c, last.values, end, before, moved)
+    if len(history) > 1:
+        near = [
+            b
+            for b in moved
+            if low[b] > CROSSING_MARGIN
+            and (b >= len(last.margins) or last.margins[b] < CONTINUITY_MARGIN)
+        ]
+        if near:
+            low.update(lowest_margins(prog, c, history[-2].values, last.values, before, near))
     back = {b for b in moved if low[b] > CROSSING_MARGIN}
     if not back:
         return None
