@@ -21,7 +21,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from ..execute import CONTINUITY_MARGIN, CROSSING_MARGIN, LinkPoses
+from ..execute import CONTINUITY_MARGIN, LinkPoses
 from ..newton.lean import Kernel, LeanSchur, evaluate_lean, lean_schur
 from ..newton.results import SolveResult
 from ..newton.scalar import (
@@ -111,7 +111,7 @@ def start(
     from the Linearisations the States keep) and the value step it predicted over."""
     last = cont.last
     explicit = cont.branch.rule is BranchRule.EXPLICIT and c.full_plan.complete
-    if explicit and last is not None and last.margins and min(last.margins) <= CROSSING_MARGIN:
+    if explicit and last is not None and last.margins and min(last.margins) <= fold_margin(c):
         last = None  # (on a fold, as a drawing on a change point: in either mode, see below)
     if last is not None and last.x_all is not None:
         guess = h = None
@@ -390,6 +390,14 @@ def closed_form_refusal(
     return c.fail(reason, c.echo(vals), solver_name)
 
 
+def fold_margin(c: CompiledSolve) -> float:
+    """The dyad margin up to which a Newton answer is on a fold (a toggle or change point),
+    where its sign is either: there the loop closure's residual grows as the square of the
+    distance from the fold, so Newton to ``c.tol`` places a fold's answer only to ~sqrt(tol)
+    (a change point's at tol 1e-12: margin ~2e-6)."""
+    return 10.0 * math.sqrt(c.tol)
+
+
 #: the branch rules that ask for given signs (an answer in another mode is refused)
 _SIGNS_ASKED = (BranchRule.EXPLICIT, BranchRule.REFERENCE)
 
@@ -475,6 +483,10 @@ def solve_newton(
         )
     if cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete and c.full_plan is c.plan:
         want = tuple(cont.signs(c.plan))
+        if signs_t != want and all(
+            s == w or m <= fold_margin(c) for s, w, m in zip(signs_t, want, margins)
+        ):
+            signs_t = want  # (on a fold: this configuration is in either mode, as Newton has it)
         if signs_t != want:
             return c.fail(
                 f'Newton converged to assembly mode {branch_text(signs_t)}, not the '

@@ -1,0 +1,64 @@
+"""Newton with explicit branch signs where a dyad is on a fold (a change point, or a mode whose
+dyad is degenerate): the answer is the configuration the closed form gives on those signs,
+never 'converged to the other mode ... without crossing a singularity'. Oracles: the
+parallelogram relations of the GRBDA four-bar (ROBOT_DESCRIPTIONS.md: the parallelogram
+joint2 = -joint1, joint3 = joint1; the anti-parallelogram joint2 = joint3) and the closed form
+on the same signs."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import pytest
+from scenes import REPO, load
+
+from linkage_ros.core.description import import_description
+from linkage_ros.core.solver import Solver
+from linkage_ros.engine import Engine, EngineSettings
+
+GRBDA = REPO / 'test' / 'fixtures' / 'robot_descriptions' / 'grbda_four_bar.urdf'
+
+
+def _relation_holds(branch: str, crank: float, j: dict) -> None:
+    """The GRBDA four-bar's joints against its two circuits: the parallelogram for '-' at
+    positive crank and '+' at negative, the anti-parallelogram otherwise; both at crank 0
+    (folded flat)."""
+    parallelogram = (branch == '-') == (crank > 0) or crank == 0
+    anti = (branch == '+') == (crank > 0) or crank == 0
+    if parallelogram:
+        assert j['joint2'] == pytest.approx(-crank, abs=1e-5)
+        assert j['joint3'] == pytest.approx(crank, abs=1e-5)
+    if anti:
+        assert j['joint2'] == pytest.approx(j['joint3'], abs=1e-5)
+
+
+@pytest.mark.parametrize('branch', ['+', '-'])
+def test_a_stream_through_the_change_point_keeps_the_asked_signs(branch):
+    """0.2 -> 0 -> -0.2 and on, Newton, explicit signs: each answer in the asked mode. The
+    answer at crank 0 has a margin ~2e-6 (Newton places a fold only to ~sqrt(tol)); Newton
+    went on from it into the other mode and refused -0.2 as 'not reachable on that branch
+    without crossing a singularity'."""
+    mech = import_description(str(GRBDA)).mechanism
+    e = Engine(mech, EngineSettings(solver='newton', branch=branch))
+    for crank in (0.2, 0.0, -0.2, -0.0, 1e-9, -1e-9, 0.5, 2 * math.pi, -0.3):
+        r = e.command({'joint1': crank})
+        assert r.success, (crank, r.reason)
+        assert r.branch == branch, crank
+        _relation_holds(branch, math.remainder(crank, 2 * math.pi), r.joints)
+
+
+@pytest.mark.parametrize('signs', [''.join(s) for s in itertools.product('+-', repeat=3)])
+def test_every_peaucellier_mode_is_the_closed_forms(signs):
+    """Every sign string of Peaucellier's three dyads at crank 0.5: Newton answers what the
+    closed form answers on it, labelled the same. Modes +++ and ++- put A on B (Q's dyad
+    degenerate, its margin 0): Newton was refused in them as 'converged to ++-' after 0
+    iterations."""
+    mech = load('peaucellier')
+    cf = Solver(mech, method='closed_form', branch=signs).solve({'crank': 0.5})
+    nw = Solver(mech, method='newton', branch=signs).solve({'crank': 0.5})
+    assert nw.success == cf.success, (nw.reason, cf.reason)
+    if cf.success:
+        assert nw.branch == cf.branch == signs
+        for name, v in cf.joints.items():
+            assert abs(math.remainder(nw.joints[name] - v, 2 * math.pi)) < 1e-9, name
