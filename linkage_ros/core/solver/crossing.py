@@ -9,10 +9,10 @@ stays above CROSSING_MARGIN keeps its sign."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Callable, Sequence
 
 import numpy as np
-from scipy.optimize import minimize_scalar
 
 from ..dyads import wrap_angle
 from ..execute import CONTINUITY_MARGIN, CROSSING_MARGIN
@@ -87,11 +87,11 @@ def lowest_margins(
             hi = min((s for s in seen if s > at), default=1.0)
 
             def square(s: float, b: int = b) -> float:
-                # the margin squared: smooth through a zero (Brent's parabolas then converge)
+                # the margin squared: smooth through a zero (Brent's parabolas converge)
                 m = margins(s)
                 return 0.0 if m is None else m[b] * m[b]
 
-            minimize_scalar(square, bounds=(lo, hi), method='bounded', options={'xatol': xatol})
+            brent_minimum(square, lo, hi, xatol)
             if any(m is None for m in seen.values()):
                 return dict.fromkeys(dyads, 0.0)
             low, at = lowest(b)
@@ -114,20 +114,91 @@ def kept_signs(
     which the prediction extrapolates from, for a dyad that step left near its singularity
     (below CONTINUITY_MARGIN): a step that passed a change point keeping its sign lands on the
     other solution curve there, and the next step's move back onto the motion's own is that
-    crossing's."""
+    crossing's. Where the input turned back (or held) at the last command, the way goes on
+    from it the way it came, as far as the longer step: a toggle there (the input's limit:
+    the plan stops assembling, or the margin reaches 0) is passed through, the circuit turning
+    back with the input (a triple-rocker driven up to its toggle and back comes back in the
+    other sign)."""
     moved = [b for b, (u, v) in enumerate(zip(before, after)) if u != v]
     last = history[-1]
     low = lowest_margins(prog, c, last.values, end, before, moved)
-    if len(history) > 1:
-        near = [
-            b
-            for b in moved
-            if low[b] > CROSSING_MARGIN
-            and (b >= len(last.margins) or last.margins[b] < CONTINUITY_MARGIN)
-        ]
-        if near:
-            low.update(lowest_margins(prog, c, history[-2].values, last.values, before, near))
+    near = [
+        b
+        for b in moved
+        if low[b] > CROSSING_MARGIN
+        and (b >= len(last.margins) or last.margins[b] < CONTINUITY_MARGIN)
+    ]
+    came: list[float] = []  # the step before, scale-free (none: unknown)
+    if near and len(history) > 1:
+        prev = history[-2].values
+        came = c.check_system.value_step(prev, last.values)
+        if any(came):
+            low.update(lowest_margins(prog, c, prev, last.values, before, near))
+            near = [b for b in near if low[b] > CROSSING_MARGIN]
+    if near:
+        goes = c.check_system.value_step(last.values, end)
+        step = math.sqrt(sum(v * v for v in goes))
+        if step > 0.0 and sum(a * b for a, b in zip(came, goes)) <= 0.0:
+            # the input turned back (or held) at the last command: through a toggle there
+            # (the input's limit: the plan stops assembling or the margin reaches 0), if one
+            # lies on the way on from it, as far as the longer of the two steps
+            reach = max(step, math.sqrt(sum(v * v for v in came)))
+            beyond = interpolate(c, end, last.values, 1.0 + reach / step)
+            low.update(lowest_margins(prog, c, last.values, beyond, before, near))
     back = {b for b in moved if low[b] > CROSSING_MARGIN}
     if not back:
         return None
     return tuple(before[b] if b in back else v for b, v in enumerate(after))
+
+
+#: the golden section's shorter part, (3 - sqrt 5) / 2
+_GOLD = 0.5 * (3.0 - math.sqrt(5.0))
+_SQRT_EPS = math.sqrt(2.0**-52)
+
+
+def brent_minimum(
+    f: Callable[[float], float], a: float, b: float, xatol: float, max_calls: int = 100
+) -> tuple[float, float]:
+    """(x, f(x)) at a minimum of ``f`` on [a, b], to ``xatol`` in x: Brent's method, parabolic
+    steps through the three best points with golden sections where they do not shrink the
+    bracket, as scipy.optimize.fminbound takes them (its tolerances too). Written out: the
+    crossing test runs on a live node's command path, and importing scipy.optimize there
+    would stall the first command that moves a sign for ~0.4 s."""
+    x = w = v = a + _GOLD * (b - a)
+    fx = fw = fv = f(x)
+    d = e = 0.0
+    for _ in range(max_calls - 1):
+        mid = 0.5 * (a + b)
+        tol1 = _SQRT_EPS * abs(x) + xatol / 3.0
+        tol2 = 2.0 * tol1
+        if abs(x - mid) <= tol2 - 0.5 * (b - a):
+            break
+        golden = True
+        if abs(e) > tol1:  # a parabola through x, w and v
+            r = (x - w) * (fx - fv)
+            q = (x - v) * (fx - fw)
+            p = (x - v) * q - (x - w) * r
+            q = 2.0 * (q - r)
+            p = -p if q > 0.0 else p
+            q = abs(q)
+            r, e = e, d
+            if abs(p) < abs(0.5 * q * r) and q * (a - x) < p < q * (b - x):
+                d = p / q
+                if (x + d) - a < tol2 or b - (x + d) < tol2:
+                    d = tol1 if x < mid else -tol1
+                golden = False
+        if golden:
+            e = (b - x) if x < mid else (a - x)
+            d = _GOLD * e
+        u = x + (d if abs(d) >= tol1 else math.copysign(tol1, d))
+        fu = f(u)
+        if fu <= fx:
+            a, b = (a, x) if u < x else (x, b)
+            v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
+        else:
+            a, b = (u, b) if u < x else (a, u)
+            if fu <= fw or w == x:
+                v, fv, w, fw = w, fw, u, fu
+            elif fu <= fv or v in (x, w):
+                v, fv = u, fu
+    return x, fx

@@ -110,8 +110,8 @@ def start(
     solution at ``vals`` (newton mode, after a Newton solve: scalar.extrapolate by ``kernel``
     from the Linearisations the States keep) and the value step it predicted over."""
     last = cont.last
-    explicit = cont.branch.rule is BranchRule.EXPLICIT and c.full_plan.complete
-    if explicit and last is not None and last.margins and min(last.margins) <= fold_margin(c):
+    asked = cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete  # (the mode is given)
+    if asked and last is not None and last.margins and min(last.margins) <= fold_margin(c):
         last = None  # (on a fold, as a drawing on a change point: in either mode, see below)
     if last is not None and last.x_all is not None:
         guess = h = None
@@ -144,12 +144,13 @@ def start(
                 )  # fmt: skip
         return last.values, c.sub_x(last.x_all), guess, h
     x_all = c.check_system.reference_x()
-    if explicit:
+    if asked:
         # the asked mode, where the dyad plan has it: its answer at this command (a drawing
         # on a change point is in both modes, and Newton from it may take either), else at
         # the reference input (another mode than the drawing's)
+        signs = tuple(cont.signs(c.plan))
         for at in (vals, list(c.ref_values)):
-            run = run_one(c.full_plan, at, cont.branch.signs, None)
+            run = run_one(c.full_plan, at, signs, None)
             if run.ok:
                 return at, c.sub_x(c.check_system.x_from_poses(run.poses)), None, None
     if cont.branch.rule is BranchRule.JACOBIAN and cont.branch.det_sign is not None:
@@ -487,6 +488,10 @@ def solve_newton(
             s == w or m <= fold_margin(c) for s, w, m in zip(signs_t, want, margins)
         ):
             signs_t = want  # (on a fold: this configuration is in either mode, as Newton has it)
+        if signs_t != want and cont.history:
+            # the walk from the last answer ended in another mode (across a near-fold, where
+            # the modes pass close): the asked mode's answer from the closed form's in it
+            return solve_newton(c, Continuity(cont.branch), vals, effort)
         if signs_t != want:
             return c.fail(
                 f'Newton converged to assembly mode {branch_text(signs_t)}, not the '

@@ -13,13 +13,13 @@ import oracles as orc
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scenes import four_bar
+from scenes import four_bar, load
 
 from linkage_ros.core.execute import CROSSING_MARGIN
 from linkage_ros.core.model import Scene
 from linkage_ros.core.scalar_plan import program
 from linkage_ros.core.solver import Solver
-from linkage_ros.core.solver.crossing import lowest_margins
+from linkage_ros.core.solver.crossing import brent_minimum, lowest_margins
 
 #: s + l = p + q - eps: the crank-rocker's dyad margin dips to ~0.55 sqrt(eps) at crank 0
 NEAR = [1e-4, 1e-6, 1e-8, 1e-10]
@@ -161,3 +161,51 @@ def test_a_coarse_step_past_a_change_point_is_taken_back_onto_the_motion(steps, 
         for link in ('coupler', 'coupler2'):
             worst = max(worst, abs(math.remainder(r.links[link], 2 * math.pi)))
     assert worst <= level
+
+
+@pytest.mark.parametrize('short', [1e-4, 1e-6, 1e-9, 1e-11])
+def test_a_triple_rocker_driven_to_its_toggle_and_back_comes_back_mirrored(short):
+    """config/four_bar_non_grashof.yaml: 'Driving the crank up to a toggle and back, the
+    linkage comes back in the other sign of the dyad, so it reaches the mirror image'. The
+    crank stops `short` of its limit acos((0.13 - 0.47^2) / 0.12) and turns back: the way on
+    from there reaches the toggle (the plan stops assembling), so continuity's move to the
+    other sign stands (the crossing test alone kept the sign from 1e-11 rad short). Oracle:
+    back at crank 2.0, B is the mirror in the line A -> O4 of where it started (the circles
+    about A and O4 meet there too)."""
+    lim = math.acos((0.13 - 0.47**2) / 0.12)
+    s = Solver(load('four_bar_non_grashof'), method='closed_form')
+    up = list(np.linspace(2.0, lim - short, 20))
+    first = s.solve({'crank': 2.0})
+    for t in up + up[::-1]:
+        r = s.solve({'crank': float(t)})
+        assert r.success, (t, r.reason)
+    assert r.branch != first.branch
+    a = np.array([0.2 * math.cos(2.0), 0.2 * math.sin(2.0)])
+    u = np.array([0.3, 0.0]) - a
+    u /= np.linalg.norm(u)
+    b = np.array(first.points['B']) - a
+    mirror = a + 2 * (b @ u) * u - b
+    assert np.allclose(r.points['B'], mirror, rtol=0, atol=1e-9), (r.points['B'], mirror)
+
+
+@settings(max_examples=80, deadline=None)
+@given(
+    c=st.floats(-3.0, 3.0),
+    lo=st.floats(-5.0, 0.0),
+    width=st.floats(1e-3, 8.0),
+    depth=st.floats(0.0, 1.0),
+    kink=st.booleans(),
+)
+def test_brent_finds_the_bottom_of_one_dip(c, lo, width, depth, kink):
+    """brent_minimum against the dip's own bottom: (x - c)^2 + depth, or |x - c| + depth (a
+    V, the margin at a crossing), on any bracket: the bottom to xatol where it lies inside,
+    the nearer end where it does not (scipy.optimize.fminbound's contract)."""
+    hi = lo + width
+
+    def f(x):
+        return (abs(x - c) if kink else (x - c) ** 2) + depth
+
+    x, fx = brent_minimum(f, lo, hi, 1e-9)
+    want = min(max(c, lo), hi)
+    assert abs(x - want) <= 1e-6 + 1e-8 * abs(want)
+    assert fx == f(x)

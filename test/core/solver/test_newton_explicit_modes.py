@@ -10,8 +10,10 @@ from __future__ import annotations
 import itertools
 import math
 
+import numpy as np
+import oracles as orc
 import pytest
-from scenes import REPO, load
+from scenes import REPO, four_bar, load
 
 from linkage_ros.core.description import import_description
 from linkage_ros.core.solver import Solver
@@ -33,19 +35,47 @@ def _relation_holds(branch: str, crank: float, j: dict) -> None:
         assert j['joint2'] == pytest.approx(j['joint3'], abs=1e-5)
 
 
-@pytest.mark.parametrize('branch', ['+', '-'])
+@pytest.mark.parametrize('branch', ['+', '-', 'reference'])
 def test_a_stream_through_the_change_point_keeps_the_asked_signs(branch):
     """0.2 -> 0 -> -0.2 and on, Newton, explicit signs: each answer in the asked mode. The
     answer at crank 0 has a margin ~2e-6 (Newton places a fold only to ~sqrt(tol)); Newton
     went on from it into the other mode and refused -0.2 as 'not reachable on that branch
-    without crossing a singularity'."""
+    without crossing a singularity'; with 'reference' (the drawing's '+', linkage solve's
+    default) it refused 0.2 from the flat drawing."""
     mech = import_description(str(GRBDA)).mechanism
     e = Engine(mech, EngineSettings(solver='newton', branch=branch))
+    signs = '+' if branch == 'reference' else branch
     for crank in (0.2, 0.0, -0.2, -0.0, 1e-9, -1e-9, 0.5, 2 * math.pi, -0.3):
         r = e.command({'joint1': crank})
         assert r.success, (crank, r.reason)
-        assert r.branch == branch, crank
-        _relation_holds(branch, math.remainder(crank, 2 * math.pi), r.joints)
+        assert r.branch == signs, crank
+        _relation_holds(signs, math.remainder(crank, 2 * math.pi), r.joints)
+
+
+@pytest.mark.parametrize('eps', [1e-6, 1e-8])
+def test_newton_in_a_given_mode_turns_a_near_change_point_crank_rocker_fully(eps):
+    """A crank-rocker a hair inside the Grashof limit, mode '+', Newton, two turns in steps
+    of 12 deg: the '+' circuit turns fully, and every answer is the 50-digit four-bar's on it
+    (to Newton's tolerance, as test_newton_fast's sweep past a toggle holds it).
+    Newton's walk jumped to the other circuit after passing near the fold (its margin dips to
+    ~5e-4) and refused 28 of 61 commands as 'converged to assembly mode -'."""
+    L = (4.0, 1.5, 5.5 - eps, 3.0)
+    e = Engine(four_bar(L), EngineSettings(solver='newton', branch='+'))
+    side = None
+    for t in np.linspace(-math.pi, 3 * math.pi, 61):
+        r = e.command({'crank': float(t)})
+        assert r.success and r.branch == '+', (t, r.reason)
+        here = min((1, -1), key=lambda b: _gap(orc.fourbar(*L, float(t), b)['B'], r.points['B']))
+        side = here if side is None else side
+        assert here == side, t
+        want = orc.fourbar(*L, float(t), side)['B']
+        # (Newton's answer to its tolerance rho: near a fold a miss of rho moves B rho / margin)
+        rho = max(r.residual, 2.0**-52)
+        assert _gap(want, r.points['B']) / 5.5 <= 1e-9 + 8 * rho / math.sqrt(r.margin**2 + rho), t
+
+
+def _gap(p, q) -> float:
+    return math.hypot(float(p[0]) - q[0], float(p[1]) - q[1])
 
 
 @pytest.mark.parametrize('signs', [''.join(s) for s in itertools.product('+-', repeat=3)])
