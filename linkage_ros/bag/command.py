@@ -106,7 +106,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         '--out-format',
         choices=('mcap', 'sqlite3'),
-        default='mcap',
+        default=None,  # (mcap; None: not given, which --out-dir needs to know)
         help='storage of an output bag (default mcap)',
     )
     parser.add_argument(
@@ -245,7 +245,11 @@ def _run(args) -> int:
 def _run_outputs(outs, args, scene, opts) -> RunOutputs:
     """One bag's --out files (a CSV's trajectories beside it) and --plot."""
     table = [
-        Output(OutputKind.CSV if kind == 'csv' else OutputKind.BAG, Path(path), args.out_format)
+        Output(
+            OutputKind.CSV if kind == 'csv' else OutputKind.BAG,
+            Path(path),
+            args.out_format or 'mcap',
+        )
         for kind, path in outs
     ]
     if args.plot:

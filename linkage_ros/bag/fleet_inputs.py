@@ -70,8 +70,10 @@ def _bag_name(rel: Path, is_file: bool) -> str:
     return '/'.join(parts)
 
 
-def bags_in(folder: Path) -> list[tuple[Path, str]]:
-    """Every bag under ``folder`` (recursively, sorted, symlinked folders not followed)."""
+def bags_in(folder: Path, skip: Path | None = None) -> list[tuple[Path, str]]:
+    """Every bag under ``folder`` (recursively, sorted, symlinked folders not followed),
+    except under the folder ``skip`` (resolved: the run's own --out-dir, whose output bags
+    are not inputs)."""
     found: list[tuple[Path, str]] = []
 
     def fail(exc: OSError) -> None:
@@ -82,6 +84,8 @@ def bags_in(folder: Path) -> list[tuple[Path, str]]:
         dirs.sort()
         keep = []
         for d in dirs:
+            if skip is not None and (here / d).resolve() == skip:
+                continue
             if _is_bag_folder(here / d):
                 found.append((here / d, _bag_name((here / d).relative_to(folder), False)))
             else:
@@ -112,9 +116,11 @@ def _expand(item: str) -> list[tuple[str, Path | None]]:
     return [(m, base) for m in matches]
 
 
-def find_bags(inputs: Sequence[str]) -> list[BagTask]:
-    """The bags of the inputs in the order given (each folder's in sorted order), each once;
-    BagError for a missing input, a folder holding no bag, or two bags of the same name."""
+def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
+    """The bags of the inputs in the order given (each folder's in sorted order), each once,
+    none from under the folder ``skip`` (resolved: the run's --out-dir, which an input folder
+    may hold); BagError for a missing input, a folder holding no bag, or two bags of the same
+    name."""
     tasks: list[BagTask] = []
     seen: dict[str, str] = {}  # resolved source -> name
     names: dict[str, str] = {}  # name -> source
@@ -128,7 +134,7 @@ def find_bags(inputs: Sequence[str]) -> list[BagTask]:
             if _is_bag_folder(p) or _is_storage_file(p):
                 found = [(p, _bag_name(at, p.is_file()))]
             elif p.is_dir():
-                found = bags_in(p)
+                found = bags_in(p, skip)
                 if base is not None:
                     found = [(bag, f'{at.as_posix()}/{name}') for bag, name in found]
                 if not found:
@@ -148,7 +154,8 @@ def find_bags(inputs: Sequence[str]) -> list[BagTask]:
                 if name in names:
                     raise BagError(
                         f'two bags would write the same outputs {name}.*: {names[name]} and '
-                        f'{source} (give their folders separately, or rename one)'
+                        f'{source} (rename one, or give the folder above them both: names '
+                        'are taken from the folder given)'
                     )
                 seen[source], names[name] = name, source
                 tasks.append(BagTask(source, name))

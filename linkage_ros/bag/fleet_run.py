@@ -106,11 +106,16 @@ def _prepare(args: argparse.Namespace) -> tuple[BagOptions, list[BagTask]]:
         raise BagError(f'--jobs must be >= 1 (got {args.jobs})')
     if args.jobs is not None and args.scheduler:
         raise BagError("--jobs and --scheduler: the cluster's workers set how many bags run")
+    if args.out_format is not None:
+        raise BagError(
+            '--out-format names the storage of the one bag --out writes; with --out-dir give '
+            "--format sqlite3 (or mcap): each bag's output bag beside its other outputs"
+        )
     formats = list(dict.fromkeys(args.format or ['csv']))
     out_dir = Path(args.out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise BagError(f'--out-dir {out_dir}: is not a folder')
-    tasks = find_bags(args.input)
+    tasks = find_bags(args.input, out_dir.resolve())
     check_options(args)
     opts = bag_options(args, formats, str(out_dir.resolve()))
     reserved = {str(Path(opts.out_dir, n)) for n in SUMMARY_NAMES}
@@ -154,6 +159,12 @@ def _plan(
             )
         remove_outputs(stale)
         todo.append((i, t, fp))
+    summaries = [n for n in SUMMARY_NAMES if Path(opts.out_dir, n).exists()]
+    if summaries and not resume:  # (an earlier run's, of other bags: its record of them)
+        raise BagError(
+            f'--out-dir {opts.out_dir} holds outputs of an earlier run ({summaries[0]}): '
+            '--resume finishes that run, or choose an empty folder'
+        )
     return todo, done
 
 

@@ -89,7 +89,7 @@ def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: 
         accept_missing=args.accept_missing,
         state_completion=args.state_completion,
         formats=tuple(formats),
-        out_format=args.out_format,
+        out_format=args.out_format or 'mcap',
         out_dir=out_dir,
         remap=tuple((old, new) for old, _, new in (a.partition(':=') for a in args.remap)),
         frame_id=args.frame_id,

@@ -58,7 +58,8 @@ _NUM = re.compile(r'(?<![A-Za-z_0-9.])[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?'
 
 
 def _reason_class(reason: str) -> str:
-    """A reason with its numbers blanked, so refusals of one kind count together."""
+    """A reason with its numbers blanked, so refusals of one kind count together (the
+    summary shows each kind by its first refusal, numbers and all)."""
     return _NUM.sub('#', reason)
 
 
@@ -76,13 +77,23 @@ def _summary(data, res, outs, plot, t0, t_read, t_solve, t_end):
         lost = data.missing.get(topic)
         lines.append(
             f'  {topic}: {int(np.count_nonzero(data.topic == k))}'
-            + (f' (MISSING {lost} more that the bag counts: --accept-missing)' if lost else '')
+            + (f' (MISSING {lost} more than the bag counts: --accept-missing)' if lost else '')
         )
+    if not n + data.skipped:  # (a wrong topic reads as an empty bag: say so)
+        lines.append('  nothing to solve: no message on the topics given (the right topic?)')
     solved = int(np.count_nonzero(res.ok))
     lines.append(f'  solved {solved}, refused {n - solved}')
-    counts = Counter(_reason_class(r) for r, ok in zip(res.reason, res.ok) if not ok)
+    counts: Counter[str] = Counter()
+    example: dict[str, str] = {}  # each kind's first refusal, as the rows say it
+    varied: set[str] = set()  # the kinds whose refusals differ in their numbers
+    for r, ok in zip(res.reason, res.ok):
+        if not ok:
+            cls = _reason_class(r)
+            counts[cls] += 1
+            if example.setdefault(cls, r) != r:
+                varied.add(cls)
     for cls, c in counts.most_common(8):
-        lines.append(f'    {c} x {cls}')
+        lines.append(f'    {c} x {"e.g. " if cls in varied else ""}{example[cls]}')
     if len(counts) > 8:
         lines.append(f'    ... and {len(counts) - 8} other kind(s) of refusal')
     # (rows refused from the message alone reach no solver: a NaN value or velocity, an

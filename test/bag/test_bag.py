@@ -922,6 +922,44 @@ def test_nan_commands_are_refused_rows(tmp_path, scene, capsys):
     assert '40 x crank: value must be finite (got nan)' in cap.out
 
 
+def test_the_summary_shows_each_kind_of_refusal_by_a_real_one(tmp_path, capsys):
+    """Refusals count together by kind (their numbers blanked), and the summary printed the
+    blanked kind: 'Z1 = # m is beyond its maximum # by # m', with every number in the advice
+    text a '#' too (an outside new user). Each kind is now shown by its first refusal, 'e.g.'
+    where the numbers differ; a bag with nothing on the topics given says so."""
+    path = tmp_path / 'limited.yaml'
+    path.write_text(SCENE_YAML.replace('}}', '}, crank_limits: {min: -1.5, max: 1.5}}'))
+    values = [0.5, 2.0, 3.0, 2.0, float('nan')]
+    msgs = [('/cmd', 100 + i, joint_state(['crank'], [v])) for i, v in enumerate(values)]
+    src = make_input(tmp_path, 'sqlite3', msgs)
+    code, cap = run_bag(
+        [
+            src,
+            '--scene',
+            path,
+            '--command-topic',
+            '/cmd',
+            '--out',
+            tmp_path / 'l.csv',
+            '--no-progress',
+        ],
+        capsys,
+    )
+    assert code == 0, cap.err
+    assert '#' not in cap.out
+    lines = [line.strip() for line in cap.out.splitlines()]
+    assert '3 x e.g. crank = 2 rad is beyond its maximum 1.5 by 0.5 rad' in lines, cap.out
+    assert '1 x crank: value must be finite (got nan)' in lines, cap.out
+    empty = tmp_path / 'empty'
+    with Writer(empty, version=9, storage_plugin=StoragePlugin.SQLITE3) as w:
+        w.add_connection('/cmd', JS, typestore=TS)  # (the topic, and not one message on it)
+    code, cap = run_bag(
+        [empty, '--scene', path, '--command-topic', '/cmd', '--out', tmp_path / 'e.csv'],
+        capsys,
+    )
+    assert code == 0 and 'nothing to solve: no message on the topics given' in cap.out
+
+
 # ---- plot, progress, number text ---------------------------------------------------------------
 
 
@@ -1483,7 +1521,7 @@ def test_a_message_lost_from_the_middle_is_an_error(tmp_path, scene, capsys, dam
     assert 'counts 200 message(s) but 199 could be read' in line and '1 are missing' in line
     code, cap = run_bag([*common, '--accept-missing'], capsys)
     assert code == 0, cap.err
-    assert '/cmd: 199 (MISSING 1 more that the bag counts' in cap.out
+    assert '/cmd: 199 (MISSING 1 more than the bag counts' in cap.out
     assert len(read_csv(out)) == 199
 
 

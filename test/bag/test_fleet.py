@@ -365,6 +365,8 @@ def test_usage_errors_before_any_work(fleet, tmp_path, capsys):
         (['--jobs', 0], '--jobs must be >= 1'),
         (['--jobs', 2, '--scheduler', 'tcp://127.0.0.1:1'], '--jobs and --scheduler'),
         (['--plot', tmp_path / 'p.png'], '--plot names one file (for one bag)'),
+        # (it was ignored: each output bag was mcap whatever it said)
+        (['--out-format', 'sqlite3'], '--out-format names the storage of the one bag --out'),
     ]:
         code, cap = run([root, *COMMON, '--out-dir', out, *extra], capsys)
         assert code == 2 and why in cap.err, cap.err
@@ -541,3 +543,37 @@ def test_ctrl_c_starts_no_further_bag(tmp_path):
     assert proc.returncode == 130, output.decode()
     after = sorted(p.name for p in out.iterdir())
     assert [n for n in after if n not in before and not n.startswith('summary')] == [], after
+
+
+def test_a_run_of_other_bags_into_the_folder_of_an_earlier_run_is_refused(fleet, tmp_path, capsys):
+    """A second run of other bags into an --out-dir replaced the first run's summary.csv and
+    summary.json with its own, silently (an outside new user): FLEET.md says an earlier run's
+    outputs are an error without --resume, and the summaries are outputs too."""
+    root, _ = fleet
+    out = tmp_path / 'out'
+    code, _ = run([root / 'day1' / 'a', *COMMON, '--out-dir', out], capsys)
+    assert code == 0
+    before = {n: (out / n).read_bytes() for n in ('summary.csv', 'summary.json')}
+    code, cap = run([root / 'day2' / 'c', *COMMON, '--out-dir', out], capsys)
+    assert code == 2 and 'summary.csv' in cap.err and '--resume' in cap.err, cap.err
+    assert {n: (out / n).read_bytes() for n in before} == before
+    assert not (out / 'c.csv').exists()
+
+
+def test_an_out_dir_inside_the_input_folder_is_not_read_as_input(fleet, tmp_path, capsys):
+    """--out-dir inside the folder of bags: the first run was accepted, and --resume then
+    read its output bags as inputs and refused ('bag .../analysis/a.sqlite3 is inside
+    --out-dir'): the run could not be finished (an outside new user)."""
+    root, _ = fleet
+    rec = tmp_path / 'rec'
+    shutil.copytree(root / 'day1', rec)
+    out = rec / 'analysis'
+    args = [rec, *COMMON, '--format', 'sqlite3', '--format', 'csv', '--out-dir', out]
+    code, cap = run(args, capsys)
+    assert code == 0, cap.err
+    (out / 'a.done.json').unlink()  # a lost worker
+    code, cap = run([*args, '--resume'], capsys)
+    assert code == 0, cap.err
+    assert '1 bag(s) complete already' in cap.out and '1 bag(s) analysed' in cap.out
+    rows, _ = summary_rows(out)
+    assert sorted(rows) == ['a', 'b']
