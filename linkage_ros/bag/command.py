@@ -14,7 +14,7 @@ from ..cli.common import (
 )
 from ..core.errors import LinkageError
 from ..outputs import folder_refusal
-from .common import BagError
+from .common import DEFAULT_OUT_FORMAT, BagError
 from .fleet_inputs import bags_in
 from .fleet_run import add_fleet_arguments
 from .fleet_task import REFUSED_HINT
@@ -106,8 +106,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         '--out-format',
         choices=('mcap', 'sqlite3'),
-        default=None,  # (mcap; None: not given, which --out-dir needs to know)
-        help='storage of an output bag (default mcap)',
+        default=None,  # (DEFAULT_OUT_FORMAT; None: not given, which --out-dir needs to know)
+        help=f'storage of an output bag (default {DEFAULT_OUT_FORMAT})',
     )
     parser.add_argument(
         '--remap',
@@ -248,7 +248,7 @@ def _run_outputs(outs, args, scene, opts) -> RunOutputs:
         Output(
             OutputKind.CSV if kind == 'csv' else OutputKind.BAG,
             Path(path),
-            args.out_format or 'mcap',
+            args.out_format or DEFAULT_OUT_FORMAT,
         )
         for kind, path in outs
     ]

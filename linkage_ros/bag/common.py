@@ -8,6 +8,9 @@ JOINT_STATE = 'sensor_msgs/msg/JointState'
 POINT_STAMPED = 'geometry_msgs/msg/PointStamped'
 DIAGNOSTIC_STATUS = 'diagnostic_msgs/msg/DiagnosticStatus'
 
+#: the storage of a result bag --out writes where --out-format is not given
+DEFAULT_OUT_FORMAT = 'mcap'
+
 #: the node's name: its status messages are named '<NODE_NAME>: <scene name>'
 NODE_NAME = 'linkage_node'
 

@@ -149,8 +149,8 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
                 )
             for bag, name in found:
                 source = str(bag.resolve())
-                if source in seen:
-                    continue
+                if source in seen or (skip is not None and skip in Path(source).parents):
+                    continue  # (once; and a pattern's match in --out-dir is a result bag)
                 if name in names:
                     raise BagError(
                         f'two bags would write the same outputs {name}.*: {names[name]} and '

@@ -10,7 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from ..cli.common import description_options_error, dimension_overrides, print_notes
-from .common import BagError, output_topics, parse_remaps
+from .common import DEFAULT_OUT_FORMAT, BagError, output_topics, parse_remaps
 from .plans import path_point
 from .replay import _Engine
 
@@ -89,7 +89,7 @@ def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: 
         accept_missing=args.accept_missing,
         state_completion=args.state_completion,
         formats=tuple(formats),
-        out_format=args.out_format or 'mcap',
+        out_format=args.out_format or DEFAULT_OUT_FORMAT,
         out_dir=out_dir,
         remap=tuple((old, new) for old, _, new in (a.partition(':=') for a in args.remap)),
         frame_id=args.frame_id,

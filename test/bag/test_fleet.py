@@ -577,3 +577,13 @@ def test_an_out_dir_inside_the_input_folder_is_not_read_as_input(fleet, tmp_path
     assert '1 bag(s) complete already' in cap.out and '1 bag(s) analysed' in cap.out
     rows, _ = summary_rows(out)
     assert sorted(rows) == ['a', 'b']
+    # the same by a pattern that matches the result bags too (FLEET.md's own form of input)
+    out2 = rec / 'analysis2'
+    pattern = str(rec / '**' / '*.mcap')
+    args = [pattern, *COMMON, '--format', 'mcap', '--format', 'csv', '--out-dir', out2]
+    code, cap = run(args, capsys)
+    assert code == 0, cap.err
+    (out2 / 'b.done.json').unlink()
+    code, cap = run([*args, '--resume'], capsys)
+    assert code == 0, cap.err
+    assert '1 bag(s) analysed' in cap.out

@@ -538,5 +538,7 @@ def run_command(prog: ScalarProgram, c: CompiledSolve, cont: Continuity, vals: V
     kept = kept_signs(prog, c, history, vals, signs, r.used)
     if kept is None:
         return r
+    # (the kept signs as given: a dyad after one put back keeps the sign continuity chose for
+    # it with that one moved, where it has a choice at all)
     back = prog.run_parsed(vals, kept)
     return back if back.failure < 0 else r

@@ -10,10 +10,11 @@ stays above CROSSING_MARGIN keeps its sign."""
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
 import numpy as np
 
+from ..brent import brent_minimum
 from ..dyads import wrap_angle
 from ..execute import CONTINUITY_MARGIN, CROSSING_MARGIN
 from ..quantities import AngleSpec, PointSpec
@@ -24,10 +25,10 @@ from .continuity import State
 #: commands tried along the way before each dyad's lowest is refined: a margin has one dip
 #: between the commands of a stream, and 8 intervals find the one of a step taken from far away
 _SAMPLES = 9
-#: the refinement's resolutions in s: the square of a margin is smooth, ~a (s - s0)^2 near a
-#: zero, so s to 1e-9 reads a zero's margin below CROSSING_MARGIN wherever the margin changes
-#: less than 1e3 per unit s (a step under ~300 rad); the coarse pass settles a dip that bottoms
-#: out far above it (_SETTLED times CROSSING_MARGIN: its best is within ~1e-6 of the bottom)
+#: the refinement's resolutions in s (Brent's: within xatol / 3 + 1.5e-8 s of the bottom): the
+#: square of a margin is smooth, ~a (s - s0)^2 near a zero, and Brent's parabolas land on the
+#: bottom of one, so a zero is read below CROSSING_MARGIN for any step under a few rad; the
+#: coarse pass settles a dip that bottoms out far above it (_SETTLED times CROSSING_MARGIN)
 _S_TOLS = (1e-6, 1e-9)
 _SETTLED = 100.0
 
@@ -55,24 +56,25 @@ def lowest_margins(
 ) -> dict[int, float]:
     """The lowest margin of each branching dyad in ``dyads`` (indices into the plan's
     branching steps) on the commands between ``start`` and ``end``, on branch ``signs``: 0.0
-    where some command between does not assemble (the dyad folded on the way). A dyad's is
-    found to CROSSING_MARGIN only where it is below it (a search stops there)."""
-    seen: dict[float, tuple[float, ...] | None] = {}
+    where, at some command between, the plan stops assembling at that dyad or at one before
+    it (where it folded on the way, or cannot be told). A dyad's is found to CROSSING_MARGIN
+    only where it is below it (its search stops there)."""
+    seen: dict[float, tuple[float, ...]] = {}
+    n = len(signs)
 
-    def margins(s: float) -> tuple[float, ...] | None:
+    def margins(s: float) -> tuple[float, ...]:
         # (one run gives every dyad's margin: each search's runs serve the others')
         if s not in seen:
-            r = prog.run_parsed(interpolate(c, start, end, s), signs)
-            seen[s] = None if r.failure >= 0 else r.margins
+            seen[s] = dyad_margins(prog, interpolate(c, start, end, s), signs, n)
         return seen[s]
 
     grid = [float(s) for s in np.linspace(0.0, 1.0, _SAMPLES)]
-    if any(margins(s) is None for s in grid):
-        return dict.fromkeys(dyads, 0.0)
+    for s in grid:
+        margins(s)
 
     def lowest(b: int) -> tuple[float, float]:
         """(dyad b's lowest margin of the commands run so far, the s of it)"""
-        return min((m[b], s) for s, m in seen.items() if m is not None)
+        return min((m[b], s) for s, m in seen.items())
 
     out: dict[int, float] = {}
     # (the lowest first: their searches run where the others dip too, as often they do)
@@ -88,14 +90,54 @@ def lowest_margins(
 
             def square(s: float, b: int = b) -> float:
                 # the margin squared: smooth through a zero (Brent's parabolas converge)
-                m = margins(s)
-                return 0.0 if m is None else m[b] * m[b]
+                return margins(s)[b] ** 2
 
             brent_minimum(square, lo, hi, xatol)
-            if any(m is None for m in seen.values()):
-                return dict.fromkeys(dyads, 0.0)
             low, at = lowest(b)
         out[b] = low
+    return out
+
+
+def dyad_margins(
+    prog: ScalarProgram, vals: Values, signs: Sequence[int], n: int
+) -> tuple[float, ...]:
+    """Each branching dyad's margin at command ``vals`` on branch ``signs`` (``n`` of them):
+    0.0 for the dyad where the plan stops assembling and every dyad after it."""
+    r = prog.run_parsed(vals, signs)
+    m: tuple[float, ...] = r.margins
+    return m + (0.0,) * (n - len(m)) if r.failure >= 0 else m
+
+
+#: how far on past a turn-back a toggle is looked for: this many of the longer step at most
+_AHEAD_STEPS = 64
+
+
+def toggles_ahead(
+    prog: ScalarProgram,
+    c: CompiledSolve,
+    last: Values,
+    towards: Values,
+    signs: Sequence[int],
+    dyads: Sequence[int],
+) -> list[int]:
+    """The dyads of ``dyads`` that fold ahead of the command ``last``, in steps of the way to
+    ``towards`` (the way the input was going): the plan stops assembling at the dyad itself
+    before its margin rises again (from the turn-back in its near-toggle zone, the margin falls
+    to the toggle, where the input's range ends; a dip short of 0 rises again, and a limit of
+    another loop is not this dyad's toggle)."""
+    out = []
+    for b in dyads:
+        low = math.inf
+        for k in range(1, _AHEAD_STEPS + 1):
+            r = prog.run_parsed(interpolate(c, last, towards, float(k)), signs)
+            if r.failure >= 0 and len(r.margins) <= b:
+                if len(r.margins) == b:  # (the run stopped at this dyad: its toggle)
+                    out.append(b)
+                break
+            m = r.margins[b]  # (placed: the run went on past this dyad)
+            if m >= low or m >= CONTINUITY_MARGIN:  # rising again, or out of the zone
+                break
+            low = m
     return out
 
 
@@ -114,11 +156,12 @@ def kept_signs(
     which the prediction extrapolates from, for a dyad that step left near its singularity
     (below CONTINUITY_MARGIN): a step that passed a change point keeping its sign lands on the
     other solution curve there, and the next step's move back onto the motion's own is that
-    crossing's. Where the input turned back (or held) at the last command, the way goes on
-    from it the way it came, as far as the longer step: a toggle there (the input's limit:
-    the plan stops assembling, or the margin reaches 0) is passed through, the circuit turning
-    back with the input (a triple-rocker driven up to its toggle and back comes back in the
-    other sign)."""
+    crossing's. Where the input turned back (or held) at the last command, in a dyad's
+    near-toggle zone with its toggle ahead (toggles_ahead: the way it came, or with no step
+    before, the other way from the new step), continuity's choice stands as at the toggle:
+    the circuit turns back there with the input (a triple-rocker driven up to its toggle and
+    back comes back in the other sign); a turn-back short of the toggle may so come back in
+    either sign, by how near it came and how large the steps."""
     moved = [b for b, (u, v) in enumerate(zip(before, after)) if u != v]
     last = history[-1]
     low = lowest_margins(prog, c, last.values, end, before, moved)
@@ -128,77 +171,24 @@ def kept_signs(
         if low[b] > CROSSING_MARGIN
         and (b >= len(last.margins) or last.margins[b] < CONTINUITY_MARGIN)
     ]
-    came: list[float] = []  # the step before, scale-free (none: unknown)
-    if near and len(history) > 1:
-        prev = history[-2].values
+    came: list[float] = []  # the step before, scale-free (none: no answer before the last)
+    prev = history[-2].values if len(history) > 1 else None
+    if near and prev is not None:
         came = c.check_system.value_step(prev, last.values)
         if any(came):
             low.update(lowest_margins(prog, c, prev, last.values, before, near))
             near = [b for b in near if low[b] > CROSSING_MARGIN]
     if near:
         goes = c.check_system.value_step(last.values, end)
-        step = math.sqrt(sum(v * v for v in goes))
-        if step > 0.0 and sum(a * b for a, b in zip(came, goes)) <= 0.0:
-            # the input turned back (or held) at the last command: through a toggle there
-            # (the input's limit: the plan stops assembling or the margin reaches 0), if one
-            # lies on the way on from it, as far as the longer of the two steps
-            reach = max(step, math.sqrt(sum(v * v for v in came)))
-            beyond = interpolate(c, end, last.values, 1.0 + reach / step)
-            low.update(lowest_margins(prog, c, last.values, beyond, before, near))
+        if any(goes) and sum(a * b for a, b in zip(came, goes)) <= 0.0:  # turned back, or held
+            # (a step on the way it came: from the one before, or back from the new one)
+            if prev is not None and any(came):
+                ahead = interpolate(c, prev, last.values, 2.0)
+            else:
+                ahead = interpolate(c, end, last.values, 2.0)
+            for b in toggles_ahead(prog, c, last.values, ahead, before, near):
+                low[b] = 0.0
     back = {b for b in moved if low[b] > CROSSING_MARGIN}
     if not back:
         return None
     return tuple(before[b] if b in back else v for b, v in enumerate(after))
-
-
-#: the golden section's shorter part, (3 - sqrt 5) / 2
-_GOLD = 0.5 * (3.0 - math.sqrt(5.0))
-_SQRT_EPS = math.sqrt(2.0**-52)
-
-
-def brent_minimum(
-    f: Callable[[float], float], a: float, b: float, xatol: float, max_calls: int = 100
-) -> tuple[float, float]:
-    """(x, f(x)) at a minimum of ``f`` on [a, b], to ``xatol`` in x: Brent's method, parabolic
-    steps through the three best points with golden sections where they do not shrink the
-    bracket, as scipy.optimize.fminbound takes them (its tolerances too). Written out: the
-    crossing test runs on a live node's command path, and importing scipy.optimize there
-    would stall the first command that moves a sign for ~0.4 s."""
-    x = w = v = a + _GOLD * (b - a)
-    fx = fw = fv = f(x)
-    d = e = 0.0
-    for _ in range(max_calls - 1):
-        mid = 0.5 * (a + b)
-        tol1 = _SQRT_EPS * abs(x) + xatol / 3.0
-        tol2 = 2.0 * tol1
-        if abs(x - mid) <= tol2 - 0.5 * (b - a):
-            break
-        golden = True
-        if abs(e) > tol1:  # a parabola through x, w and v
-            r = (x - w) * (fx - fv)
-            q = (x - v) * (fx - fw)
-            p = (x - v) * q - (x - w) * r
-            q = 2.0 * (q - r)
-            p = -p if q > 0.0 else p
-            q = abs(q)
-            r, e = e, d
-            if abs(p) < abs(0.5 * q * r) and q * (a - x) < p < q * (b - x):
-                d = p / q
-                if (x + d) - a < tol2 or b - (x + d) < tol2:
-                    d = tol1 if x < mid else -tol1
-                golden = False
-        if golden:
-            e = (b - x) if x < mid else (a - x)
-            d = _GOLD * e
-        u = x + (d if abs(d) >= tol1 else math.copysign(tol1, d))
-        fu = f(u)
-        if fu <= fx:
-            a, b = (a, x) if u < x else (x, b)
-            v, fv, w, fw, x, fx = w, fw, x, fx, u, fu
-        else:
-            a, b = (u, b) if u < x else (a, u)
-            if fu <= fw or w == x:
-                v, fv, w, fw = w, fw, u, fu
-            elif fu <= fv or v in (x, w):
-                v, fv = u, fu
-    return x, fx

@@ -103,16 +103,36 @@ class Linearisation(NamedTuple):
     step: list[float] | None
 
 
+def asked_signs(c: CompiledSolve, cont: Continuity) -> tuple[int, ...] | None:
+    """The dyad signs the branch rule asks for (explicit or the reference pose's), where they
+    are the signs of the whole mechanism's dyad plan (not a plan pruned to some outputs)."""
+    if cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete and c.full_plan is c.plan:
+        return tuple(cont.signs(c.plan))
+    return None
+
+
+def resumed_state(c: CompiledSolve, cont: Continuity) -> State | None:
+    """The answer Newton walks on from: the last, unless the mode is asked and that answer is
+    on a fold (a drawing on a change point), where it is in either mode and a walk from it
+    may take either (start() then starts from the closed form's answer in the asked mode)."""
+    last = cont.last
+    if last is None or last.x_all is None:
+        return None
+    if asked_signs(c, cont) is not None and last.margins and min(last.margins) <= fold_margin(c):
+        return None
+    return last
+
+
 def start(
     c: CompiledSolve, cont: Continuity, vals: Values, kernel: Kernel | None
 ) -> tuple[Values, np.ndarray, list[float] | None, list[float] | None]:
-    """Warm start (values, x): the previous solution, else the reference pose; the predicted
-    solution at ``vals`` (newton mode, after a Newton solve: scalar.extrapolate by ``kernel``
-    from the Linearisations the States keep) and the value step it predicted over."""
-    last = cont.last
-    asked = cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete  # (the mode is given)
-    if asked and last is not None and last.margins and min(last.margins) <= fold_margin(c):
-        last = None  # (on a fold, as a drawing on a change point: in either mode, see below)
+    """Warm start (values, x): the resumed answer (resumed_state); else, where the mode is
+    asked (asked_signs), the dyad plan's answer in it at ``vals`` or at the reference input;
+    else the reference pose (a Jacobian mode's start, for a J+ / J- branch). Then the
+    predicted solution at ``vals`` (newton mode, after a Newton solve: scalar.extrapolate by
+    ``kernel`` from the Linearisations the States keep) and the value step it predicted
+    over."""
+    last = resumed_state(c, cont)
     if last is not None and last.x_all is not None:
         guess = h = None
         lin = last.x_lu
@@ -144,11 +164,11 @@ def start(
                 )  # fmt: skip
         return last.values, c.sub_x(last.x_all), guess, h
     x_all = c.check_system.reference_x()
-    if asked:
+    signs = asked_signs(c, cont)
+    if signs is not None:
         # the asked mode, where the dyad plan has it: its answer at this command (a drawing
         # on a change point is in both modes, and Newton from it may take either), else at
         # the reference input (another mode than the drawing's)
-        signs = tuple(cont.signs(c.plan))
         for at in (vals, list(c.ref_values)):
             run = run_one(c.full_plan, at, signs, None)
             if run.ok:
@@ -395,7 +415,8 @@ def fold_margin(c: CompiledSolve) -> float:
     """The dyad margin up to which a Newton answer is on a fold (a toggle or change point),
     where its sign is either: there the loop closure's residual grows as the square of the
     distance from the fold, so Newton to ``c.tol`` places a fold's answer only to ~sqrt(tol)
-    (a change point's at tol 1e-12: margin ~2e-6)."""
+    (a change point's at tol 1e-12: margin ~2e-6). The closed form's own test of a fold
+    passed is execute.CROSSING_MARGIN: its answers are exact to rounding."""
     return 10.0 * math.sqrt(c.tol)
 
 
@@ -420,7 +441,7 @@ def solve_newton(
     v0, x0, guess, step = start(c, cont, vals, kernel)
     iterations = 0
     branches = bool(c.full_plan.complete and c.full_plan.branch_steps)
-    last = cont.last
+    last = resumed_state(c, cont)  # (what start() walks on from)
     warm = last is not None and last.x_all is not None
     known = last.det_sign if last is not None and warm and last.det_sign != 0 else None
     r: SolveResult | None = None
@@ -482,16 +503,19 @@ def solve_newton(
         signs_t, margins = (
             branch_geometry_one(c.full_plan, pts, poses) if c.full_plan.complete else ((), [])
         )
-    if cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete and c.full_plan is c.plan:
-        want = tuple(cont.signs(c.plan))
+    want = asked_signs(c, cont)
+    if want is not None:
         if signs_t != want and all(
             s == w or m <= fold_margin(c) for s, w, m in zip(signs_t, want, margins)
         ):
             signs_t = want  # (on a fold: this configuration is in either mode, as Newton has it)
-        if signs_t != want and cont.history:
+        if signs_t != want and last is not None:
             # the walk from the last answer ended in another mode (across a near-fold, where
-            # the modes pass close): the asked mode's answer from the closed form's in it
-            return solve_newton(c, Continuity(cont.branch), vals, effort)
+            # the modes pass close): the asked mode's answer from the closed form's in it (no
+            # history: start() takes it; once, as that walk has no last answer)
+            res, state = solve_newton(c, Continuity(cont.branch), vals, effort)
+            res.iterations += iterations
+            return res, state
         if signs_t != want:
             return c.fail(
                 f'Newton converged to assembly mode {branch_text(signs_t)}, not the '

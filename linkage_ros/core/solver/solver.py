@@ -10,7 +10,8 @@ Methods: ``closed_form`` (the dyad plan; refused when the knowns have no closed-
 ``newton`` (loop-closure Newton on every link), ``auto`` (the dyad plan places what it can and
 Newton places the rest).
 Branch: ``continuous`` (start in the reference pose's assembly mode, then keep the mode nearest
-the previous configuration; a dyad changes sign only through its singularity, crossing.py),
+the previous configuration; a dyad changes sign only through its singularity or turning back
+near a toggle, crossing.py),
 ``reference`` (the reference pose's signs, always) or an explicit sign
 string such as ``+-`` (one sign per branching dyad of the plan, in plan order).
 

@@ -15,11 +15,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scenes import four_bar, load
 
+from linkage_ros.core.brent import brent_minimum
 from linkage_ros.core.execute import CROSSING_MARGIN
 from linkage_ros.core.model import Scene
 from linkage_ros.core.scalar_plan import program
 from linkage_ros.core.solver import Solver
-from linkage_ros.core.solver.crossing import brent_minimum, lowest_margins
+from linkage_ros.core.solver.crossing import lowest_margins
 
 #: s + l = p + q - eps: the crank-rocker's dyad margin dips to ~0.55 sqrt(eps) at crank 0
 NEAR = [1e-4, 1e-6, 1e-8, 1e-10]
@@ -163,20 +164,23 @@ def test_a_coarse_step_past_a_change_point_is_taken_back_onto_the_motion(steps, 
     assert worst <= level
 
 
-@pytest.mark.parametrize('short', [1e-4, 1e-6, 1e-9, 1e-11])
-def test_a_triple_rocker_driven_to_its_toggle_and_back_comes_back_mirrored(short):
+@pytest.mark.parametrize('turn', ['held', 'turned'])
+@pytest.mark.parametrize('steps', [5, 20, 200])
+@pytest.mark.parametrize('short', [1e-6, 1e-9, 1e-11])
+def test_a_triple_rocker_driven_to_its_toggle_and_back_comes_back_mirrored(short, steps, turn):
     """config/four_bar_non_grashof.yaml: 'Driving the crank up to a toggle and back, the
     linkage comes back in the other sign of the dyad, so it reaches the mirror image'. The
-    crank stops `short` of its limit acos((0.13 - 0.47^2) / 0.12) and turns back: the way on
-    from there reaches the toggle (the plan stops assembling), so continuity's move to the
-    other sign stands (the crossing test alone kept the sign from 1e-11 rad short). Oracle:
+    crank stops `short` of its limit acos((0.13 - 0.47^2) / 0.12) in 5 to 200 steps and turns
+    back (at once, or after holding there): the way on from there reaches the toggle (the
+    plan stops assembling), so continuity's move to the other sign stands (the crossing test
+    alone kept the sign from 1e-11 rad short). Oracle:
     back at crank 2.0, B is the mirror in the line A -> O4 of where it started (the circles
     about A and O4 meet there too)."""
     lim = math.acos((0.13 - 0.47**2) / 0.12)
     s = Solver(load('four_bar_non_grashof'), method='closed_form')
-    up = list(np.linspace(2.0, lim - short, 20))
+    up = list(np.linspace(2.0, lim - short, steps))
     first = s.solve({'crank': 2.0})
-    for t in up + up[::-1]:
+    for t in up + (up[::-1] if turn == 'held' else up[-2::-1]):
         r = s.solve({'crank': float(t)})
         assert r.success, (t, r.reason)
     assert r.branch != first.branch
@@ -209,3 +213,46 @@ def test_brent_finds_the_bottom_of_one_dip(c, lo, width, depth, kink):
     want = min(max(c, lo), hi)
     assert abs(x - want) <= 1e-6 + 1e-8 * abs(want)
     assert fx == f(x)
+
+
+@pytest.mark.parametrize('eps', [1e-4, 1e-8, 1e-10])
+@pytest.mark.parametrize('steps', [3, 12, 100])
+@pytest.mark.parametrize('turn_at', [-0.02, -1e-3, 0.0, 1e-3, 0.02])
+def test_a_crank_rocker_turned_back_near_a_change_point_keeps_its_circuit(eps, steps, turn_at):
+    """Driven from -0.5 to ``turn_at`` (near the fold at crank 0, where the margin dips to
+    ~sqrt(eps)), held there, back to -0.5, on to 0.5 and back: a turn-back in the near-toggle
+    zone looks for a toggle ahead, and there is none (the margin rises again), so the circuit
+    is kept. Oracle: every B is the 50-digit four-bar's on the first answer's branch."""
+    L = lengths(eps)
+    s = Solver(four_bar(L), method='closed_form')
+    way = list(np.linspace(-0.5, turn_at, steps))
+    back = list(np.linspace(turn_at, -0.5, steps))
+    on = list(np.linspace(-0.5, 0.5, steps))
+    first = s.solve({'crank': -0.5})
+    b = oracle_branch(L, -0.5, first.points['B'])
+    for t in way + [turn_at] + back + on + on[::-1]:
+        r = s.solve({'crank': float(t)})
+        assert r.success and r.branch == first.branch, (t, r.branch)
+        want = orc.fourbar(*L, float(t), b)['B']
+        assert _gap(want, r.points['B']) <= 1e-9 * 5.5 / max(r.margin, 1e-6), t
+
+
+@settings(max_examples=40, deadline=None)
+@given(c=st.floats(-3.0, 3.0), lo=st.floats(-5.0, 0.0), width=st.floats(1e-3, 8.0))
+def test_brent_takes_fminbounds_steps(c, lo, width):
+    """brent_minimum is scipy.optimize.fminbound's method, written out (the node must not
+    import scipy.optimize on its command path): the same evaluations, to rounding, on a
+    smooth dip."""
+    from scipy.optimize import fminbound
+
+    mine: list[float] = []
+    theirs: list[float] = []
+
+    def f(x, log):
+        log.append(x)
+        return math.cosh(x - c)
+
+    brent_minimum(lambda x: f(x, mine), lo, lo + width, 1e-9)
+    fminbound(f, lo, lo + width, args=(theirs,), xtol=1e-9, maxfun=100)
+    assert len(mine) == len(theirs)
+    assert np.allclose(mine, theirs, rtol=0, atol=1e-12)

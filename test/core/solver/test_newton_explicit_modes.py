@@ -92,3 +92,17 @@ def test_every_peaucellier_mode_is_the_closed_forms(signs):
         assert nw.branch == cf.branch == signs
         for name, v in cf.joints.items():
             assert abs(math.remainder(nw.joints[name] - v, 2 * math.pi)) < 1e-9, name
+
+
+def test_a_solve_pruned_to_some_outputs_takes_the_reference_signs_without_a_crash():
+    """Solver(mech, outputs=[...]) prunes the dyad plan to what the outputs need, whose signs
+    are not the whole mechanism's: Newton in 'reference' started from the whole plan's answer
+    in the pruned plan's signs and raised IndexError (a review of this change). It answers
+    OB as the closed form does."""
+    mech = load('peaucellier')
+    nw = Solver(mech, outputs=['OB'], method='newton', branch='reference').solve({'crank': 0.5})
+    cf = Solver(mech, outputs=['OB'], method='closed_form', branch='reference').solve(
+        {'crank': 0.5}
+    )
+    assert nw.success and cf.success, (nw.reason, cf.reason)
+    assert abs(math.remainder(nw.links['OB'] - cf.links['OB'], 2 * math.pi)) < 1e-9
