@@ -51,6 +51,34 @@ def four_bar(*lengths: Any, **extra: Any) -> Mechanism:
     return Scene.from_dict({'four_bar': spec}).mechanism
 
 
+def double_parallelogram() -> Mechanism:
+    """Two parallelograms in series (O2-A-B-O4, then B-C-O6 driven by the first's rocker),
+    crank O2A: both reach their change points at crank 0 and pi together."""
+    c = 0.1 * math.sqrt(0.5)
+    return Scene.from_dict(
+        {
+            'name': 'double_parallelogram',
+            'points': {
+                'O2': [0.0, 0.0],
+                'O4': [0.3, 0.0],
+                'O6': [0.6, 0.0],
+                'A': [c, c],
+                'B': [0.3 + c, c],
+                'C': [0.6 + c, c],
+            },  # fmt: skip
+            'links': {
+                'ground': ['O2', 'O4', 'O6'],
+                'crank': ['O2', 'A'],
+                'coupler': ['A', 'B'],
+                'rocker': ['O4', 'B'],
+                'coupler2': ['B', 'C'],
+                'rocker2': ['O6', 'C'],
+            },
+            'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
+        }
+    ).mechanism
+
+
 def slider_crank(r: float, rod: float, e: float = 0.0, direction: float = 0.0, **extra: Any):
     """The slider_crank shortcut from crank, rod, offset and stroke direction."""
     spec = {'crank': r, 'rod': rod, 'offset': e, 'direction': direction}

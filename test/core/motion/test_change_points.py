@@ -13,7 +13,7 @@ import math
 
 import numpy as np
 import pytest
-from scenes import four_bar
+from scenes import double_parallelogram, four_bar
 
 from linkage_ros.core.model import Scene
 from linkage_ros.core.motion import actuator_range, oscillation_range, toggle_positions
@@ -404,28 +404,7 @@ def test_a_double_parallelograms_couplers_stay_level():
     whose V is lopsided, put the crossing 2.3e-5 rad off pi: range --links swung the first
     coupler 78 deg (an outside adversary). Oracle: a parallelogram's coupler keeps its drawn
     direction (level) at every crank."""
-    c = 0.1 * math.sqrt(0.5)
-    data = {
-        'name': 'double_parallelogram',
-        'points': {
-            'O2': [0.0, 0.0],
-            'O4': [0.3, 0.0],
-            'O6': [0.6, 0.0],
-            'A': [c, c],
-            'B': [0.3 + c, c],
-            'C': [0.6 + c, c],
-        },  # fmt: skip
-        'links': {
-            'ground': ['O2', 'O4', 'O6'],
-            'crank': ['O2', 'A'],
-            'coupler': ['A', 'B'],
-            'rocker': ['O4', 'B'],
-            'coupler2': ['B', 'C'],
-            'rocker2': ['O6', 'C'],
-        },
-        'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
-    }
-    mech = Scene.from_dict(data).mechanism
+    mech = double_parallelogram()
     for link in ('coupler', 'coupler2'):
         lo, hi = oscillation_range(mech, link)
         assert lo is not None and hi is not None

@@ -13,11 +13,10 @@ import oracles as orc
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from scenes import four_bar, load
+from scenes import double_parallelogram, four_bar, load
 
 from linkage_ros.core.brent import brent_minimum
 from linkage_ros.core.execute import CROSSING_MARGIN
-from linkage_ros.core.model import Scene
 from linkage_ros.core.scalar_plan import program
 from linkage_ros.core.solver import Solver
 from linkage_ros.core.solver.crossing import lowest_margins
@@ -118,34 +117,6 @@ def test_lowest_margin_on_any_step_over_the_fold(eps, a, b, backwards):
     assert (low <= CROSSING_MARGIN) == (eps == 0.0)
 
 
-def _double_parallelogram():
-    """Two parallelograms in series (O2-A-B-O4, then B-C-O6 driven by the first's rocker):
-    both reach their change points at crank 0 and pi together."""
-    c = 0.1 * math.sqrt(0.5)
-    return Scene.from_dict(
-        {
-            'name': 'double_parallelogram',
-            'points': {
-                'O2': [0.0, 0.0],
-                'O4': [0.3, 0.0],
-                'O6': [0.6, 0.0],
-                'A': [c, c],
-                'B': [0.3 + c, c],
-                'C': [0.6 + c, c],
-            },  # fmt: skip
-            'links': {
-                'ground': ['O2', 'O4', 'O6'],
-                'crank': ['O2', 'A'],
-                'coupler': ['A', 'B'],
-                'rocker': ['O4', 'B'],
-                'coupler2': ['B', 'C'],
-                'rocker2': ['O6', 'C'],
-            },
-            'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
-        }
-    ).mechanism
-
-
 @pytest.mark.parametrize(('steps', 'level'), [(361, 1e-9), (73, 5e-3)])
 def test_a_coarse_step_past_a_change_point_is_taken_back_onto_the_motion(steps, level):
     """Two turns of a double parallelogram in 361 or 73 steps. At 73 a command lands 0.002 rad
@@ -154,7 +125,7 @@ def test_a_coarse_step_past_a_change_point_is_taken_back_onto_the_motion(steps, 
     the step before made, so it stands (it was put back when only the last step was
     followed, and the couplers swung 0.68 rad). Oracle: a parallelogram's coupler stays
     level; the one command past the crossing is off by its own step's miss (~0.002 rad)."""
-    s = Solver(_double_parallelogram(), method='closed_form')
+    s = Solver(double_parallelogram(), method='closed_form')
     worst = 0.0
     for t in np.linspace(0.7, 0.7 + 4 * math.pi, steps):
         r = s.solve({'crank': float(t)})
