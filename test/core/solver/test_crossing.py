@@ -34,6 +34,13 @@ def oracle_branch(L, t: float, point: tuple[float, float]) -> int:
     return min((1, -1), key=lambda b: _gap(orc.fourbar(*L, t, b)['B'], point))
 
 
+def _side(r) -> float:
+    """The side of B from A -> O4 (O4 = (4, 0)): the four-bar's circuit, which a crank-rocker
+    never leaves."""
+    (ax, ay), (bx, by) = r.points['A'], r.points['B']
+    return math.copysign(1.0, (4.0 - ax) * (by - ay) - (0.0 - ay) * (bx - ax))
+
+
 def _gap(p, q) -> float:
     return math.hypot(float(p[0]) - q[0], float(p[1]) - q[1])
 
@@ -51,11 +58,13 @@ def test_near_a_change_point_the_circuit_is_kept(eps, steps, method):
     first = s.solve({'crank': ts[0]})
     assert first.success
     b = oracle_branch(L, ts[0], first.points['B'])
+    side = _side(first)
     low = 1.0
     for t in ts:
         r = s.solve({'crank': t})
         assert r.success, (t, r.reason)
         assert r.branch == first.branch, (t, r.branch)
+        assert _side(r) == side, t  # (the circuit, where B's two places are close to tell)
         want = orc.fourbar(*L, t, b)['B']
         assert _gap(want, r.points['B']) <= 1e-9 * 5.5 / max(r.margin, 1e-6), (t, r.margin)
         low = min(low, r.margin)

@@ -81,9 +81,9 @@ def _gap(p, q) -> float:
 @pytest.mark.parametrize('signs', [''.join(s) for s in itertools.product('+-', repeat=3)])
 def test_every_peaucellier_mode_is_the_closed_forms(signs):
     """Every sign string of Peaucellier's three dyads at crank 0.5: Newton answers what the
-    closed form answers on it, labelled the same. Modes +++ and ++- put A on B (Q's dyad
-    degenerate, its margin 0): Newton was refused in them as 'converged to ++-' after 0
-    iterations."""
+    closed form answers on it, labelled the same, with the drawing's link lengths (and the
+    inversion where the rhombus is open). Modes +++ and ++- put A on B (Q's dyad degenerate,
+    its margin 0): Newton was refused in them as 'converged to ++-' after 0 iterations."""
     mech = load('peaucellier')
     cf = Solver(mech, method='closed_form', branch=signs).solve({'crank': 0.5})
     nw = Solver(mech, method='newton', branch=signs).solve({'crank': 0.5})
@@ -92,6 +92,18 @@ def test_every_peaucellier_mode_is_the_closed_forms(signs):
         assert nw.branch == cf.branch == signs
         for name, v in cf.joints.items():
             assert abs(math.remainder(nw.joints[name] - v, 2 * math.pi)) < 1e-9, name
+    # the drawing's link lengths (config/peaucellier.yaml) in every mode, and in the inversor's
+    # own modes (the rhombus PAQB open, A and B either side of OP) the inversion itself:
+    # O, P, Q in line and OP . OQ = OA^2 - PA^2 (the lecture's straight-line motion)
+    p = {k: np.array(v) for k, v in nw.points.items()}
+    drawn = {k: np.array(mech.points[k], float) for k in ('O', 'P', 'A', 'Q', 'B')}
+    for a, b in [('O', 'A'), ('O', 'B'), ('P', 'A'), ('A', 'Q'), ('Q', 'B'), ('B', 'P')]:
+        want = np.linalg.norm(drawn[a] - drawn[b])
+        assert np.linalg.norm(p[a] - p[b]) == pytest.approx(want, abs=1e-12), (a, b)
+    if signs in ('+--', '-++'):
+        oa, pa = np.linalg.norm(drawn['A']), np.linalg.norm(drawn['A'] - drawn['P'])
+        assert abs(p['P'][0] * p['Q'][1] - p['P'][1] * p['Q'][0]) < 1e-12
+        assert float(p['P'] @ p['Q']) == pytest.approx(oa * oa - pa * pa, abs=1e-12)
 
 
 def test_a_solve_pruned_to_some_outputs_takes_the_reference_signs_without_a_crash():
