@@ -70,10 +70,8 @@ def _bag_name(rel: Path, is_file: bool) -> str:
     return '/'.join(parts)
 
 
-def bags_in(folder: Path, skip: Path | None = None) -> list[tuple[Path, str]]:
-    """Every bag under ``folder`` (recursively, sorted, symlinked folders not followed),
-    except under the folder ``skip`` (resolved: the run's own --out-dir, whose output bags
-    are not inputs)."""
+def bags_in(folder: Path) -> list[tuple[Path, str]]:
+    """Every bag under ``folder`` (recursively, sorted, symlinked folders not followed)."""
     found: list[tuple[Path, str]] = []
 
     def fail(exc: OSError) -> None:
@@ -84,8 +82,6 @@ def bags_in(folder: Path, skip: Path | None = None) -> list[tuple[Path, str]]:
         dirs.sort()
         keep = []
         for d in dirs:
-            if skip is not None and (here / d).resolve() == skip:
-                continue
             if _is_bag_folder(here / d):
                 found.append((here / d, _bag_name((here / d).relative_to(folder), False)))
             else:
@@ -117,10 +113,17 @@ def _expand(item: str) -> list[tuple[str, Path | None]]:
 
 
 def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
-    """The bags of the inputs in the order given (each folder's in sorted order), each once,
-    none from under the folder ``skip`` (resolved: the run's --out-dir, which an input folder
-    may hold); BagError for a missing input, a folder holding no bag, or two bags of the same
-    name."""
+    """The bags of the inputs in the order given (each folder's in sorted order), each once;
+    of a folder's or a pattern's, none from under the folder ``skip`` (resolved: the run's
+    --out-dir, whose result bags are not inputs; a bag named itself is kept, for the caller
+    to refuse); BagError for a missing input, a folder holding no bag, or two bags of the
+    same name."""
+
+    def kept(found: list[tuple[Path, str]]) -> list[tuple[Path, str]]:
+        if skip is None:
+            return found
+        return [(bag, name) for bag, name in found if skip not in bag.resolve().parents]
+
     tasks: list[BagTask] = []
     seen: dict[str, str] = {}  # resolved source -> name
     names: dict[str, str] = {}  # name -> source
@@ -133,8 +136,10 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
             at = Path(p.name) if base is None else p.relative_to(base)
             if _is_bag_folder(p) or _is_storage_file(p):
                 found = [(p, _bag_name(at, p.is_file()))]
+                if base is not None:  # (a pattern's match)
+                    found = kept(found)
             elif p.is_dir():
-                found = bags_in(p, skip)
+                found = kept(bags_in(p))
                 if base is not None:
                     found = [(bag, f'{at.as_posix()}/{name}') for bag, name in found]
                 if not found:
@@ -149,8 +154,8 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
                 )
             for bag, name in found:
                 source = str(bag.resolve())
-                if source in seen or (skip is not None and skip in Path(source).parents):
-                    continue  # (once; and a pattern's match in --out-dir is a result bag)
+                if source in seen:
+                    continue
                 if name in names:
                     raise BagError(
                         f'two bags would write the same outputs {name}.*: {names[name]} and '

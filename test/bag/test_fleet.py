@@ -587,3 +587,6 @@ def test_an_out_dir_inside_the_input_folder_is_not_read_as_input(fleet, tmp_path
     code, cap = run([*args, '--resume'], capsys)
     assert code == 0, cap.err
     assert '1 bag(s) analysed' in cap.out
+    # a bag inside --out-dir named itself is still refused, naming it
+    code, cap = run([out / 'a.sqlite3', *COMMON, '--out-dir', out], capsys)
+    assert code == 2 and 'is inside --out-dir' in cap.err, cap.err
