@@ -60,12 +60,11 @@ def lowest_margins(
     it (where it folded on the way, or cannot be told). A dyad's is found to CROSSING_MARGIN
     only where it is below it (its search stops there)."""
     seen: dict[float, tuple[float, ...]] = {}
-    n = len(signs)
 
     def margins(s: float) -> tuple[float, ...]:
         # (one run gives every dyad's margin: each search's runs serve the others')
         if s not in seen:
-            seen[s] = dyad_margins(prog, interpolate(c, start, end, s), signs, n)
+            seen[s] = dyad_margins(prog, interpolate(c, start, end, s), signs)
         return seen[s]
 
     grid = [float(s) for s in np.linspace(0.0, 1.0, _SAMPLES)]
@@ -98,14 +97,12 @@ def lowest_margins(
     return out
 
 
-def dyad_margins(
-    prog: ScalarProgram, vals: Values, signs: Sequence[int], n: int
-) -> tuple[float, ...]:
-    """Each branching dyad's margin at command ``vals`` on branch ``signs`` (``n`` of them):
+def dyad_margins(prog: ScalarProgram, vals: Values, signs: Sequence[int]) -> tuple[float, ...]:
+    """Each branching dyad's margin at command ``vals`` on branch ``signs`` (one per sign):
     0.0 for the dyad where the plan stops assembling and every dyad after it."""
     r = prog.run_parsed(vals, signs)
     m: tuple[float, ...] = r.margins
-    return m + (0.0,) * (n - len(m)) if r.failure >= 0 else m
+    return m + (0.0,) * (len(signs) - len(m)) if r.failure >= 0 else m
 
 
 #: how far on past a turn-back a toggle is looked for: this many of the longer step at most
@@ -182,7 +179,7 @@ def kept_signs(
         goes = c.check_system.value_step(last.values, end)
         if any(goes) and sum(a * b for a, b in zip(came, goes)) <= 0.0:  # turned back, or held
             # (a step on the way it came: from the one before, or back from the new one)
-            if prev is not None and any(came):
+            if prev is not None and any(came):  # (came is the step from prev)
                 ahead = interpolate(c, prev, last.values, 2.0)
             else:
                 ahead = interpolate(c, end, last.values, 2.0)

@@ -111,28 +111,35 @@ def asked_signs(c: CompiledSolve, cont: Continuity) -> tuple[int, ...] | None:
     return None
 
 
-def resumed_state(c: CompiledSolve, cont: Continuity) -> State | None:
-    """The answer Newton walks on from: the last, unless the mode is asked and that answer is
-    on a fold (a drawing on a change point), where it is in either mode and a walk from it
-    may take either (start() then starts from the closed form's answer in the asked mode)."""
+def resumed_state(
+    c: CompiledSolve, cont: Continuity, asked: tuple[int, ...] | None
+) -> State | None:
+    """The answer Newton walks on from: the last, unless the mode is asked (``asked``:
+    asked_signs) and that answer is on a fold (a drawing on a change point), where it is in
+    either mode and a walk from it may take either (start() then starts from the closed
+    form's answer in the asked mode)."""
     last = cont.last
     if last is None or last.x_all is None:
         return None
-    if asked_signs(c, cont) is not None and last.margins and min(last.margins) <= fold_margin(c):
+    if asked is not None and last.margins and min(last.margins) <= fold_margin(c):
         return None
     return last
 
 
 def start(
-    c: CompiledSolve, cont: Continuity, vals: Values, kernel: Kernel | None
+    c: CompiledSolve,
+    cont: Continuity,
+    vals: Values,
+    kernel: Kernel | None,
+    last: State | None,
+    asked: tuple[int, ...] | None,
 ) -> tuple[Values, np.ndarray, list[float] | None, list[float] | None]:
-    """Warm start (values, x): the resumed answer (resumed_state); else, where the mode is
-    asked (asked_signs), the dyad plan's answer in it at ``vals`` or at the reference input;
-    else the reference pose (a Jacobian mode's start, for a J+ / J- branch). Then the
-    predicted solution at ``vals`` (newton mode, after a Newton solve: scalar.extrapolate by
-    ``kernel`` from the Linearisations the States keep) and the value step it predicted
-    over."""
-    last = resumed_state(c, cont)
+    """Warm start (values, x): the resumed answer ``last`` (resumed_state); else, where the
+    mode is asked (``asked``: asked_signs), the dyad plan's answer in it at ``vals`` or at the
+    reference input; else the reference pose (a Jacobian mode's start, for a J+ / J- branch).
+    Then the predicted solution at ``vals`` (newton mode, after a Newton solve:
+    scalar.extrapolate by ``kernel`` from the Linearisations the States keep) and the value
+    step it predicted over."""
     if last is not None and last.x_all is not None:
         guess = h = None
         lin = last.x_lu
@@ -164,13 +171,12 @@ def start(
                 )  # fmt: skip
         return last.values, c.sub_x(last.x_all), guess, h
     x_all = c.check_system.reference_x()
-    signs = asked_signs(c, cont)
-    if signs is not None:
+    if asked is not None:
         # the asked mode, where the dyad plan has it: its answer at this command (a drawing
         # on a change point is in both modes, and Newton from it may take either), else at
         # the reference input (another mode than the drawing's)
         for at in (vals, list(c.ref_values)):
-            run = run_one(c.full_plan, at, signs, None)
+            run = run_one(c.full_plan, at, asked, None)
             if run.ok:
                 return at, c.sub_x(c.check_system.x_from_poses(run.poses)), None, None
     if cont.branch.rule is BranchRule.JACOBIAN and cont.branch.det_sign is not None:
@@ -438,10 +444,11 @@ def solve_newton(
         return c.fail(side, c.echo(vals), solver_name), None
     kernel = newton_kernel(c)
     t = c.system.tables
-    v0, x0, guess, step = start(c, cont, vals, kernel)
+    want = asked_signs(c, cont)
+    last = resumed_state(c, cont, want)
+    v0, x0, guess, step = start(c, cont, vals, kernel, last, want)
     iterations = 0
     branches = bool(c.full_plan.complete and c.full_plan.branch_steps)
-    last = resumed_state(c, cont)  # (what start() walks on from)
     warm = last is not None and last.x_all is not None
     known = last.det_sign if last is not None and warm and last.det_sign != 0 else None
     r: SolveResult | None = None
@@ -503,7 +510,6 @@ def solve_newton(
         signs_t, margins = (
             branch_geometry_one(c.full_plan, pts, poses) if c.full_plan.complete else ((), [])
         )
-    want = asked_signs(c, cont)
     if want is not None:
         if signs_t != want and all(
             s == w or m <= fold_margin(c) for s, w, m in zip(signs_t, want, margins)
