@@ -34,7 +34,7 @@ from .core.solver import Result
 from .engine import Engine
 from .marker_cdr import MarkerBytes
 from .params import NodeConfig
-from .stamps import NSEC_PER_SEC
+from .stamps import NSEC_PER_SEC, stamp_ns
 
 #: /diagnostics period (s): the diagnostic_updater convention
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -279,14 +279,14 @@ class Outputs:
         self.pub_joints.publish(self.answers.joint_state(result, sec, nanosec))
         self._answered_since_tick = True
         # (the latest sent: a client's stamp in the past must not bring it back)
-        self.stamped_ns = max(self.stamped_ns, _ns(sec, nanosec))
+        self.stamped_ns = max(self.stamped_ns, stamp_ns(sec, nanosec))
 
     def after_last(self, stamp: Time) -> Time:
         """``stamp`` (the clock's now, for a request left unstamped), or 1 ns after the last
         joint_states if that is not earlier: a paused sim clock would give an answer the
         stamp of the republished pose before it, and tf keeps the first transform of a stamp
         (TF_REPEATED_DATA), so robot_state_publisher would show the old pose."""
-        if _ns(stamp.sec, stamp.nanosec) > self.stamped_ns:
+        if stamp_ns(stamp.sec, stamp.nanosec) > self.stamped_ns:
             return stamp
         after = self.stamped_ns + 1
         return Time(sec=after // NSEC_PER_SEC, nanosec=after % NSEC_PER_SEC)
@@ -303,7 +303,7 @@ class Outputs:
         if last.velocity is not None:  # the rates of a past command are not the state's now
             last = Result(True, joints=last.joints)
         now = self.now()
-        if _ns(now.sec, now.nanosec) <= self.stamped_ns:
+        if stamp_ns(now.sec, now.nanosec) <= self.stamped_ns:
             return  # a paused (sim) clock: the state went out at this time already
         self._publish_state(last, now.sec, now.nanosec)
         self._answered_since_tick = False
@@ -388,8 +388,3 @@ class Waiting:
     def destroy(self) -> None:
         self.timer.cancel()
         self.node.destroy_timer(self.timer)
-
-
-def _ns(sec: int, nanosec: int) -> int:
-    """A stamp as nanoseconds (the order joint_states stamps must keep)."""
-    return sec * NSEC_PER_SEC + nanosec

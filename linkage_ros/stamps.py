@@ -15,6 +15,11 @@ from .core.model.names import depends_on_frame
 NSEC_PER_SEC = 1_000_000_000
 
 
+def stamp_ns(sec: int, nanosec: int) -> int:
+    """A stamp (or duration) as nanoseconds: the order of stamps, a duration's length."""
+    return sec * NSEC_PER_SEC + nanosec
+
+
 def stamp_valid(sec: Any, nanosec: Any) -> Any:
     """Can a request stamp (sec, nanosec) be echoed: a ROS time, 0 <= sec, 0 <= nanosec < 1e9?
     Works on ints and on numpy arrays (elementwise); nanosec is unsigned in the message."""

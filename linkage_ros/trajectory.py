@@ -26,7 +26,7 @@ from .core.velocity import velocities
 from .engine import Engine
 from .point_coordinates import group_point_coordinates
 from .request_checks import max_request_names, rates_error, request_shape_error
-from .stamps import frame_error, names_frame_error
+from .stamps import frame_error, names_frame_error, stamp_ns
 
 #: the most points one trajectory may have (a 10 s trajectory at 1 kHz)
 MAX_TRAJECTORY_POINTS = 10_000
@@ -109,7 +109,7 @@ def too_many_points(what: str, n: int, items: str) -> str:
 
 def duration_ns(d: Any) -> int:
     """A builtin_interfaces/Duration (or Time) in ns."""
-    return int(d.sec) * 1_000_000_000 + int(d.nanosec)
+    return stamp_ns(int(d.sec), int(d.nanosec))
 
 
 def joint_trajectory_request(
