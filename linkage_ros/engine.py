@@ -16,9 +16,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
-from .core.errors import CommandError, LinkageError, PlanError, echo
+from .core.errors import CommandError, PlanError, echo
 from .core.model import Mechanism
-from .core.model.names import Named, NameKind, resolve_name
+from .core.model.names import NameKind, resolve_name
 from .core.motion.circuit_rule import CircuitKeeper, reachable_text
 from .core.motion.circuits import Circuit
 from .core.motion.circuits import reference_circuit as scan_reference_circuit
@@ -30,22 +30,10 @@ from .core.steps import branch_text
 from .core.velocity import velocities
 from .point_coordinates import group_point_coordinates
 from .request_checks import rates_error
+from .setting_checks import check_point_hold
 
 #: inverse solvers kept per engine (one per set of target names); least recently used dropped
 SOLVER_CACHE = 32
-
-
-class ConfigError(LinkageError):
-    """A setting (node parameter) is invalid: the message names it and the value."""
-
-
-#: the most characters of a refused setting's value a message quotes (a scene path is one)
-SETTING_ECHO_CHARS = 4096
-
-
-def fail_setting(name: str, message: str, value: Any) -> None:
-    # a path is quoted whole (up to PATH_MAX); a 10^5-character value is not
-    raise ConfigError(f'parameter {name!r}: {message} (got {echo(value, SETTING_ECHO_CHARS)})')
 
 
 @dataclass(frozen=True)
@@ -67,16 +55,6 @@ class GoodState(Protocol):
     replay keeps batch rows unmaterialised)."""
 
     def result(self) -> Result: ...
-
-
-def _held_name(mech: Mechanism, name: str) -> Named | None:
-    """``name`` resolved as a held value takes it (the one rule: model.names), or None: unknown,
-    or the ground link (its angle is fixed)."""
-    try:
-        named = resolve_name(mech, name)
-    except PlanError:
-        return None
-    return None if named.kind is NameKind.LINK and named.name == mech.ground else named
 
 
 def _kind_of(mech: Mechanism, name: str) -> NameKind | None:
@@ -107,7 +85,7 @@ class Engine:
         #: asks; Solver.knowns builds a new list each time)
         self._actuators = tuple(self.forward.knowns)
         self._forward_key = frozenset(self._actuators)
-        self._check_hold()
+        check_point_hold(mech, settings.target_point_hold)
         self._solvers: OrderedDict[frozenset[str], Solver | str] = OrderedDict()
         #: known-set -> the state version that solver last saw (lazy adopt before use)
         self._synced: dict[frozenset[str], int] = {}
@@ -238,29 +216,6 @@ class Engine:
             )
         self._tokens -= 1.0
         return None
-
-    def _check_hold(self) -> None:
-        mech, hold = self.mech, self.settings.target_point_hold
-        if not hold:
-            return
-        resolved = [_held_name(mech, h) for h in hold]
-        bad = [h for h, named in zip(hold, resolved) if named is None]
-        if bad:
-            fail_setting(
-                'target_point_hold',
-                f'unknown name(s) {bad} in scene {mech.name!r}; '
-                'expected actuator, joint, (moving) link or point names',
-                list(hold),
-            )
-        size = sum(named.values for named in resolved if named is not None)
-        if 2 + size != mech.dof:
-            fail_setting(
-                'target_point_hold',
-                f'a point target (2 values) plus these held names '
-                f'({size} value(s)) must give the {mech.dof} degree(s) of freedom of '
-                f'{mech.name!r}',
-                list(hold),
-            )
 
     # -- requests ----------------------------------------------------------------------------------
     def command(

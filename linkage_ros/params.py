@@ -16,8 +16,9 @@ from .core.model import Scene
 from .core.model.dimensions import overrides, parse_assignment
 from .core.solver import METHODS
 from .core.urdf import PREFIX_RULE, prefix_error
-from .engine import ConfigError, Engine, EngineSettings, fail_setting
+from .engine import Engine, EngineSettings
 from .resources import scene_path
+from .setting_checks import ConfigError, fail_setting
 
 NODE_NAME = 'linkage_node'
 BRANCH_MODES = ('continuous', 'reference')

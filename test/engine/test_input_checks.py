@@ -624,8 +624,8 @@ def test_a_huge_value_or_frame_is_not_echoed_whole():
     """Messages quote at most ECHO_CHARS of what they were given (a 10^5-character frame id or
     parameter value was echoed whole)."""
     from linkage_ros.core.errors import ECHO_CHARS
-    from linkage_ros.engine import SETTING_ECHO_CHARS
     from linkage_ros.params import ConfigError, make_config
+    from linkage_ros.setting_checks import SETTING_ECHO_CHARS
     from linkage_ros.stamps import frame_error
 
     huge = 'x' * 100_000

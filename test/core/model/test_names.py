@@ -20,7 +20,8 @@ from linkage_ros.core.quantities import AngleSpec, PointSpec, SlideSpec
 from linkage_ros.core.solver import Solver
 from linkage_ros.core.solver.reading import configuration_of
 from linkage_ros.core.solver.result import named_value
-from linkage_ros.engine import ConfigError, Engine, EngineSettings
+from linkage_ros.engine import Engine, EngineSettings
+from linkage_ros.setting_checks import ConfigError
 
 SHIPPED = ['four_bar', 'excavator', 'quick_return', 'slider_crank', 'peaucellier']
 
