@@ -14,6 +14,7 @@ import math
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import StrEnum
+from functools import cached_property
 from typing import Any, NoReturn
 
 import numpy as np
@@ -82,6 +83,29 @@ class CompiledSolve:
     def branch_count(self) -> int:
         """Branching dyads of the plan (one sign each in a branch string)."""
         return len(self.plan.branch_steps)
+
+    @cached_property
+    def branch_positions(self) -> tuple[int, ...]:
+        """Where each branching dyad of ``plan`` is among ``full_plan``'s (its index there): a
+        plan pruned to some outputs keeps some of the whole mechanism's dyads. Both plans
+        compile the same steps (``steps_all``, in one order) and prune them differently."""
+        full, plan = self.full_plan, self.plan
+        if plan is full:
+            return tuple(range(len(plan.branch_steps)))
+        full_at = {id(s): k for k, s in enumerate(full.steps_all)}
+        position = {full_at[id(s)]: j for j, s in enumerate(full.branch_steps)}
+        at = {id(s): k for k, s in enumerate(plan.steps_all)}
+        return tuple(position[at[id(s)]] for s in plan.branch_steps)
+
+    def full_signs(self, signs: Sequence[int]) -> tuple[int, ...]:
+        """``signs`` of ``plan``'s branching dyads as signs of ``full_plan``'s: a dyad a plan
+        pruned to some outputs leaves out keeps its sign in the reference pose."""
+        if self.plan is self.full_plan:
+            return tuple(signs)
+        out = list(self.full_plan.reference_signs)
+        for j, sign in zip(self.branch_positions, signs):
+            out[j] = sign
+        return tuple(out)
 
     @property
     def pair_tolerance_m(self) -> float:

@@ -104,11 +104,25 @@ class Linearisation(NamedTuple):
 
 
 def asked_signs(c: CompiledSolve, cont: Continuity) -> tuple[int, ...] | None:
-    """The dyad signs the branch rule asks for (explicit or the reference pose's), where they
-    are the signs of the whole mechanism's dyad plan (not a plan pruned to some outputs)."""
-    if cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete and c.full_plan is c.plan:
-        return tuple(cont.signs(c.plan))
+    """The dyad signs the branch rule asks for (explicit or the reference pose's), as signs of
+    the whole mechanism's dyad plan (full_plan_signs); None where it asks for none, or the
+    mechanism has no closed-form plan to read them on."""
+    if cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete:
+        return full_plan_signs(c, cont)
     return None
+
+
+def full_plan_signs(c: CompiledSolve, cont: Continuity) -> tuple[int, ...]:
+    """The signs the next solve starts from (Continuity.signs) as signs of the whole
+    mechanism's dyad plan, which Newton's answers are read on: continuity's last answer's are
+    already; the branch rule's own (explicit, reference) are of ``c.plan``'s dyads, fewer
+    where it is pruned to some outputs (CompiledSolve.full_signs)."""
+    history = cont.history
+    if cont.branch.rule is BranchRule.CONTINUOUS and history:
+        signs = tuple(history[-1].signs)
+        if len(signs) == len(c.full_plan.branch_steps):
+            return signs
+    return c.full_signs(cont.signs(c.plan))
 
 
 def resumed_state(
@@ -438,7 +452,7 @@ def solve_newton(
     newton_mode = c.mode is SolveMode.NEWTON  # (else hybrid)
     solver_name = 'newton' if newton_mode else 'hybrid'
     # the closed form's branch signs for the check below (reference ones without a history)
-    check_signs = cont.signs(c.plan) if c.full_plan is c.plan else None
+    check_signs = full_plan_signs(c, cont) if c.full_plan.complete else None
     side = roller_side_refusal(c, cont)
     if side is not None:
         return c.fail(side, c.echo(vals), solver_name), None

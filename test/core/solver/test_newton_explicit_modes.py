@@ -13,7 +13,7 @@ import math
 import numpy as np
 import oracles as orc
 import pytest
-from scenes import REPO, four_bar, load
+from scenes import REPO, SHIPPED, four_bar, load
 
 from linkage_ros.core.description import import_description
 from linkage_ros.core.solver import Solver
@@ -118,3 +118,50 @@ def test_a_solve_pruned_to_some_outputs_takes_the_reference_signs_without_a_cras
     )
     assert nw.success and cf.success, (nw.reason, cf.reason)
     assert abs(math.remainder(nw.links['OB'] - cf.links['OB'], 2 * math.pi)) < 1e-9
+
+
+def _pruned_cases() -> list[tuple[str, str]]:
+    """(scene, point) of each shipped scene's forward solve whose closed form is complete,
+    one wanted point each: every point the scene draws."""
+    cases = []
+    for stem in SHIPPED:
+        mech = load(stem)
+        if Solver(mech).compiled.full_plan.complete:
+            cases += [(stem, p) for p in mech.points]
+    return cases
+
+
+@pytest.mark.parametrize(('stem', 'point'), _pruned_cases())
+def test_newton_pruned_to_one_point_answers_in_every_asked_mode(stem, point):
+    """Solver(mech, outputs=[point], branch=signs), Newton: the pruned plan's dyads (some of
+    the whole mechanism's) must come out in the asked signs, the rest in the drawing's. Newton
+    ignored the asked signs where the plan was pruned and answered the four-bar's '-' in '+'
+    with status OK. Oracle: the closed form of the whole mechanism in the same signs (the
+    pruned dyads' asked, the others' the drawing's); its point, to 1e-9 of the length scale.
+    Each asked mode is solved from the reference pose (a fresh solver): a mode Newton cannot
+    reach from the drawing at the drawing's own input is refused, never answered in another
+    mode."""
+    mech = load(stem)
+    probe = Solver(mech, method='closed_form', outputs=[point])
+    c = probe.compiled
+    full, k = c.full_plan, c.branch_count
+    # the pruned plan's dyads are the whole plan's at branch_positions (the same steps)
+    assert [s.describe(c.plan) for s in c.plan.branch_steps] == [
+        full.branch_steps[j].describe(full) for j in c.branch_positions
+    ]
+    values = probe.reference_values()
+    for combo in itertools.product('+-', repeat=k) if k <= 4 else [('+',) * k, ('-',) * k]:
+        signs = ''.join(combo)
+        whole = list(full.reference_signs)
+        for j, s in zip(c.branch_positions, combo):
+            whole[j] = 1 if s == '+' else -1
+        whole_text = ''.join('+' if s > 0 else '-' for s in whole)
+        cf = Solver(mech, method='closed_form', branch=whole_text).solve(values)
+        nw = Solver(mech, method='newton', outputs=[point], branch=signs).solve(values)
+        if not nw.success:
+            assert 'assembly mode' in nw.reason or not cf.success, (signs, nw.reason)
+            continue
+        assert cf.success, (signs, cf.reason)
+        assert nw.branch == cf.branch, signs
+        miss = math.dist(nw.points[point], cf.points[point])
+        assert miss <= 1e-9 * mech.length_scale, (signs, miss)
