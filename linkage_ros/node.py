@@ -62,10 +62,8 @@ from .params import (
     NODE_NAME,
     PARAMETERS,
     QUEUE_DEPTH_MAX,
-    ConfigError,
     NodeConfig,
     check_demo_rate,
-    fail_setting,
     load_engine,
     make_config,
 )
@@ -74,6 +72,7 @@ from .plan_requests import PlanRequests
 from .plan_worker import CommandClock
 from .publishing import Channels, Outputs, Waiting, latched_qos, topic_qos
 from .request_checks import max_request_names
+from .setting_checks import ConfigError, fail_setting
 
 __all__ = [
     'DEMO_RATE_MAX',

@@ -16,7 +16,8 @@ from rclpy.task import Future
 
 from .core.model import Scene
 from .core.reference_warnings import reference_pose_warnings
-from .params import PARAMETERS, ConfigError
+from .params import PARAMETERS
+from .setting_checks import ConfigError
 
 
 def declare_parameters(node: Node) -> dict[str, Any]:

@@ -35,55 +35,36 @@ Why the formulation looks the way it does:
 
 from __future__ import annotations
 
-from .blocks import (  # noqa: F401
-    _BLOCK,
-    _HI,
-    _LO,
-    _LO2,
-    _atan2,
-    _blocked,
-    _good,
-    _in_range,
-    _rrr,
-    _shaped,
-    _Work,
-    _zero_where_not,
-)
-from .common import (  # noqa: F401
-    _NONFINITE_RESIDUAL,
+from .common import (
     FourBarInverseSolution,
     FourBarSolution,
     SliderCrankInverseSolution,
     SliderCrankSolution,
-    _f,
-    _out,
-    _sign,
     angle_opposite,
     circle_intersection,
     triangle_area,
 )
-from .four_r import (  # noqa: F401
-    _atan2_general,
-    _closure_residual,
-    _finish,
-    _fourbar_forward_fast,
-    _fourbar_forward_general,
-    _fourbar_inverse_fast,
-    _fourbar_inverse_general,
-    _general_inputs,
-    _longest,
-    _normalised,
-    _transmission_sin,
+from .four_r import (
     fourbar_forward,
     fourbar_inverse,
 )
-from .slider import (  # noqa: F401
-    _slider_forward_fast,
-    _slider_forward_general,
-    _slider_inverse_fast,
-    _slider_inverse_general,
-    _slider_residual,
+from .slider import (
     slider_crank_forward,
     slider_crank_inverse,
     slider_crank_stroke,
 )
+
+__all__ = [
+    'angle_opposite',
+    'circle_intersection',
+    'fourbar_forward',
+    'fourbar_inverse',
+    'FourBarInverseSolution',
+    'FourBarSolution',
+    'slider_crank_forward',
+    'slider_crank_inverse',
+    'slider_crank_stroke',
+    'SliderCrankInverseSolution',
+    'SliderCrankSolution',
+    'triangle_area',
+]

@@ -12,18 +12,13 @@ validator serves every scene. See docs/SCENES.md for the file format.
 
 from __future__ import annotations
 
-from .actuators import _limits  # noqa: F401
-from .checks import (  # noqa: F401
+from .checks import (
     TOP_KEYS,
-    _Ctx,
 )
-from .general import (  # noqa: F401
-    _build_general,
-    _length_scale,
-    _make_link,
+from .general import (
     build_mechanism,
 )
-from .mechanism import (  # noqa: F401
+from .mechanism import (
     NAME_RE,
     SOLVERS,
     Actuator,
@@ -34,17 +29,27 @@ from .mechanism import (  # noqa: F401
     RevoluteJoint,
     SlideActuator,
 )
-from .scene import (  # noqa: F401
+from .scene import (
     MAX_NUMBER_CHARS,
     MAX_SCENE_BYTES,
     MAX_SCENE_DEPTH,
     Scene,
-    _UniqueKeyLoader,
 )
-from .shortcuts import (  # noqa: F401
-    _branch,
-    _crank_actuator,
-    _four_bar_to_general,
-    _reference_input,
-    _slider_crank_to_general,
-)
+
+__all__ = [
+    'Actuator',
+    'AngleActuator',
+    'build_mechanism',
+    'Link',
+    'MAX_NUMBER_CHARS',
+    'MAX_SCENE_BYTES',
+    'MAX_SCENE_DEPTH',
+    'Mechanism',
+    'NAME_RE',
+    'PrismaticJoint',
+    'RevoluteJoint',
+    'Scene',
+    'SlideActuator',
+    'SOLVERS',
+    'TOP_KEYS',
+]

@@ -18,21 +18,21 @@ caller per (mechanism, knowns, outputs). Execution is vectorised over a leading 
 
 from __future__ import annotations
 
-from .compile import (  # noqa: F401
+from ..quantities import AngleSpec, PointSpec, ScalarSpec, SlideSpec, Spec
+from .compile import (
     Body,
     Plan,
     Step,
     Weld,
-    _norm,
     run_one,
 )
-from .geometry import (  # noqa: F401
+from .geometry import (
     branch_geometry_of,
     branch_geometry_one,
     rollers_off_drawn_side,
     step_geometry,
 )
-from .poses import (  # noqa: F401
+from .poses import (
     Poses,
     ScalarPoses,
     ScalarRun,
@@ -40,16 +40,10 @@ from .poses import (  # noqa: F401
     link_poses,
     reference_poses,
 )
-from .spec import (  # noqa: F401
+from .spec import (
     KNOWN_KINDS,
-    AngleSpec,
-    PointSpec,
     ReadKind,
-    ScalarSpec,
-    SlideSpec,
-    Spec,
     SpecReader,
-    _c,
     limit_violation,
     needs_beyond_limits,
     spec_for,
@@ -60,3 +54,38 @@ from .spec import (  # noqa: F401
     spec_value_one,
     value_interval,
 )
+
+__all__ = [
+    'AngleSpec',
+    'batch_poses',
+    'Body',
+    'branch_geometry_of',
+    'branch_geometry_one',
+    'KNOWN_KINDS',
+    'limit_violation',
+    'link_poses',
+    'needs_beyond_limits',
+    'Plan',
+    'PointSpec',
+    'Poses',
+    'ReadKind',
+    'reference_poses',
+    'rollers_off_drawn_side',
+    'run_one',
+    'ScalarPoses',
+    'ScalarRun',
+    'ScalarSpec',
+    'SlideSpec',
+    'Spec',
+    'spec_for',
+    'spec_point_link',
+    'spec_reader',
+    'spec_value_at',
+    'spec_value_of',
+    'spec_value_one',
+    'SpecReader',
+    'Step',
+    'step_geometry',
+    'value_interval',
+    'Weld',
+]

@@ -17,7 +17,7 @@ from ..errors import PlanError
 from ..execute import PlanRun, executor
 from ..model import Mechanism
 from ..ops import SCALAR, to_xy
-from ..quantities import AngleSpec, PointSpec, SlideSpec
+from ..quantities import AngleSpec, PointSpec, SlideSpec, Spec
 from ..scalar_plan import program
 from ..steps import (
     BRANCHING,
@@ -34,7 +34,6 @@ from ..steps import (
     branch_text,
 )
 from .poses import Poses, batch_poses
-from .spec import Spec
 
 # ---- bodies ----------------------------------------------------------------------------------
 
