@@ -7,7 +7,7 @@ import signal
 from typing import Any
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
+from rcl_interfaces.msg import ParameterDescriptor, ParameterType
 from rclpy.exceptions import InvalidParameterTypeException, ParameterException
 from rclpy.executors import Executor, SingleThreadedExecutor
 from rclpy.node import Node
@@ -28,15 +28,19 @@ def declare_parameters(node: Node) -> dict[str, Any]:
         # a double takes a whole number too (ROS users write `-p publish_rate:=0`): typed
         # dynamically, then checked to be a number and converted (make_config)
         number = isinstance(p.default, float)
+        strings = p.default == 'string_array'
         desc = ParameterDescriptor(
             description=p.description,
-            read_only=p.read_only,
+            # (a string array is made read-only once it holds its value: see below)
+            read_only=p.read_only and not strings,
             additional_constraints=p.constraints,
             dynamic_typing=number,
         )
-        default = Parameter.Type.STRING_ARRAY if p.default == 'string_array' else p.default
+        default = Parameter.Type.STRING_ARRAY if strings else p.default
         try:
             param = node.declare_parameter(p.name, default, desc)
+            if strings:
+                param = _empty_string_array(node, param, desc, p.read_only)
         except InvalidParameterTypeException as exc:
             kind = (
                 type(p.default).__name__
@@ -62,6 +66,28 @@ def declare_parameters(node: Node) -> dict[str, Any]:
             value = float(value)
         values[p.name] = value
     return values
+
+
+def _empty_string_array(
+    node: Node, param: Parameter, desc: ParameterDescriptor, read_only: bool
+) -> Parameter:
+    """A string array parameter not given at start-up set to [] (rclpy takes an empty list
+    for a byte array, so it is declared by its type and has no value: ``param get`` and ros2
+    param then answer that it is not set, not its documented default []); made read-only
+    after that where it is."""
+    if param.type_ is Parameter.Type.NOT_SET:
+        node.set_parameters([Parameter(param.name, Parameter.Type.STRING_ARRAY, [])])
+    if read_only:  # (a new descriptor: rclpy keeps the one it was declared with)
+        node.set_descriptor(
+            param.name,
+            ParameterDescriptor(
+                description=desc.description,
+                read_only=True,
+                additional_constraints=desc.additional_constraints,
+                type=ParameterType.PARAMETER_STRING_ARRAY,
+            ),
+        )
+    return node.get_parameter(param.name)
 
 
 def log_mechanism(node: Any, scene: Scene, replacing: bool) -> None:

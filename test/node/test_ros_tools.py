@@ -193,3 +193,18 @@ def test_param_get_and_set_go_through_the_node_checks(node):
     assert "has no parameter 'demo_ratee'" in typo.stderr, typo.stderr
     listed = linkage('param', 'list', name)
     assert 'demo_rate' in listed.stdout.split() and 'scene' in listed.stdout.split()
+
+
+@pytest.mark.parametrize('param', ['actuated', 'dimensions', 'target_point_hold'])
+def test_param_get_answers_an_empty_string_array_with_its_default(node, param):
+    """The string arrays not given at start-up read as their documented default [] (TOPICS.md):
+    declared by their type alone they had no value, and `param get` (as ros2 param get) said
+    the node had no such parameter. They stay read-only."""
+    name = node.topic('~/')[:-1].rstrip('/')
+    got = linkage('param', 'get', name, param)
+    assert got.returncode == 0, got.stdout + got.stderr
+    assert got.stdout.strip() == '[]', got.stdout
+    refused = linkage('param', 'set', name, param, '[x]')
+    assert refused.returncode != 0, refused.stdout + refused.stderr
+    assert 'read-only' in refused.stdout + refused.stderr, refused.stdout + refused.stderr
+    assert linkage('param', 'get', name, param).stdout.strip() == '[]'
