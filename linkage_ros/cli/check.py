@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import math
 
+from ..core.mechanism import actuator_kind
 from ..core.model import AngleActuator
-from ..core.model.mechanism import actuator_kind
 from .common import OK, _f, dumps, load_scene_file, print_notes
 from .described import InputValues
 

@@ -22,7 +22,7 @@ import numpy.typing as npt
 
 from .dyads import TANGENCY_TOL
 from .fourbar import angle_opposite
-from .model.mechanism import AngleActuator, Mechanism
+from .mechanism import AngleActuator, Mechanism
 
 #: Relative tolerance (of the sum of the four lengths) for the Grashof equality s + l = p + q.
 GRASHOF_TOL = 1e-12

@@ -10,8 +10,8 @@ from typing import Any, ClassVar, Protocol
 
 import numpy as np
 
-from ..dyads import wrap_angle
-from ..quantities import Shown
+from .dyads import wrap_angle
+from .quantities import Shown
 
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
 SOLVERS = ('auto', 'closed_form', 'newton')

@@ -24,8 +24,8 @@ import numpy as np
 import pytest
 from scenes import load, raw
 
+from linkage_ros.core.mechanism import actuator_kind
 from linkage_ros.core.model import SlideActuator
-from linkage_ros.core.model.mechanism import actuator_kind
 from linkage_ros.core.solver import Solver
 
 SCENES = ('peaucellier', 'hart', 'plagiograph', 'front_loader', 'excavator')

@@ -8,17 +8,15 @@ pin-to-pin length). Link geometry and the default assembly mode come from the re
 
 Shortcut forms (``four_bar``, ``slider_crank``) compile into the same general form, so one
 validator serves every scene. See docs/SCENES.md for the file format.
+
+The types (Mechanism, links, joints, actuators) live in core.mechanism, a leaf the Newton module
+reads too: building a scene may redraw it on the Newton module (model.redraw), and Newton must
+not import this package back (no import circle, test_import_graph).
 """
 
 from __future__ import annotations
 
-from .checks import (
-    TOP_KEYS,
-)
-from .general import (
-    build_mechanism,
-)
-from .mechanism import (
+from ..mechanism import (
     NAME_RE,
     SOLVERS,
     Actuator,
@@ -28,6 +26,12 @@ from .mechanism import (
     PrismaticJoint,
     RevoluteJoint,
     SlideActuator,
+)
+from .checks import (
+    TOP_KEYS,
+)
+from .general import (
+    build_mechanism,
 )
 from .scene import (
     MAX_NUMBER_CHARS,

@@ -6,9 +6,9 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
+from ..mechanism import Actuator, AngleActuator, Link, PrismaticJoint, SlideActuator
 from ..units import Quantity, degrees_warning, span_warning
 from .checks import _Ctx
-from .mechanism import Actuator, AngleActuator, Link, PrismaticJoint, SlideActuator
 
 
 def _read_actuators(

@@ -8,8 +8,8 @@ from typing import Any, NoReturn
 import numpy as np
 
 from ..errors import SceneError
+from ..mechanism import NAME_RE
 from ..units import Quantity, Reading, UnitError, WrongUnit, degrees_warning, read_value
-from .mechanism import NAME_RE
 
 #: a validator's error: raises SceneError naming (key, message, value); never returns
 Fail = Callable[..., NoReturn]

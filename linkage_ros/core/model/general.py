@@ -12,6 +12,17 @@ from typing import Any
 import numpy as np
 
 from ..errors import SceneError, echo
+from ..mechanism import (
+    NAME_RE,
+    SOLVERS,
+    Actuator,
+    Link,
+    Mechanism,
+    PrismaticJoint,
+    RevoluteJoint,
+    SlideActuator,
+    reference_value,
+)
 from ..units import Quantity
 from .actuators import _limits, _read_actuators
 from .checks import TOP_KEYS, _Ctx
@@ -25,17 +36,6 @@ from .dimensions import (
     unit_slips,
 )
 from .limits import limit_violation
-from .mechanism import (
-    NAME_RE,
-    SOLVERS,
-    Actuator,
-    Link,
-    Mechanism,
-    PrismaticJoint,
-    RevoluteJoint,
-    SlideActuator,
-    reference_value,
-)
 from .points import read_points
 from .redraw import RedrawRefused, redraw
 from .shortcuts import _four_bar_to_general, _slider_crank_to_general

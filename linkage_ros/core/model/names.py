@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from enum import Enum
 
 from ..errors import PlanError
-from .mechanism import Mechanism
+from ..mechanism import Mechanism
 
 
 class NameKind(Enum):

@@ -26,11 +26,14 @@ import numpy as np
 
 from ..dyads import circle_side, dyad_point, side_sign, solve_rrr_dyad
 from ..errors import SceneError
+from ..mechanism import AngleActuator, Mechanism, SlideActuator
+from ..newton.results import FAST_FLOOR
+from ..newton.scalar import solve, solve_from_guess
+from ..newton.tables import LinkShapes, compile_tables
 from ..ops import SCALAR
 from ..quantities import AngleSpec, SlideSpec
 from .checks import Fail
 from .dimensions import LinkDistance, SliderOffset, parse_name
-from .mechanism import AngleActuator, Mechanism, SlideActuator
 
 #: the largest closure miss accepted at each continuation step (fraction of the length scale)
 CLOSURE_TOL = 1e-12
@@ -206,9 +209,6 @@ class _Closure:
         """Compile the closure with the shapes at blend ``lam``: an angle actuator holds its
         arm's drawn direction, so its known turn is offset by how far the new shape turned the
         arm in the link's frame."""
-        # imported here: the core.newton package imports core.model, which imports this module
-        from ..newton.tables import LinkShapes, compile_tables
-
         mech = self.mech
         self.local = {l: self.shapes.local(l, lam) for l in mech.links}
         specs: list[AngleSpec | SlideSpec] = []
@@ -329,9 +329,6 @@ def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
     as well as floating point allows, not just inside the tolerance."""
     if not len(x0):
         return x0
-    from ..newton.results import FAST_FLOOR  # here: see _Closure.set_blend
-    from ..newton.scalar import solve, solve_from_guess
-
     with np.errstate(all='ignore'):
         got = solve(
             closure.tables,

@@ -14,9 +14,9 @@ from typing import Any, NoReturn
 import yaml
 
 from ..errors import SceneError, echo
+from ..mechanism import Mechanism
 from .general import build_mechanism
 from .joint_map import joint_map_from_dict
-from .mechanism import Mechanism
 
 
 @dataclass

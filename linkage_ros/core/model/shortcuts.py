@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from ..analysis import fourbar_input_intervals
 from ..units import Quantity
 from .actuators import _limits
 from .checks import _Ctx
@@ -135,8 +136,6 @@ def _four_bar_to_general(
         return (a, b) if ok and np.hypot(*(b - a)) > 0 else None
 
     def intervals() -> list[tuple[float, float]]:
-        from ..analysis import fourbar_input_intervals
-
         try:
             ivs = fourbar_input_intervals(l1, l2, l3, l4)
         except ValueError:  # assembles nowhere

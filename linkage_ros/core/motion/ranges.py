@@ -8,9 +8,9 @@ from typing import Any
 
 import numpy as np
 
+from ..mechanism import actuator_kind
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
-from ..model.mechanism import actuator_kind
 from .common import TWO_PI, _clip_periodic, reference_scalar
 from .components import actuator_parts
 from .scan import (

@@ -11,7 +11,7 @@ from typing import NamedTuple, TypeVar
 
 import numpy as np
 
-from ..model.mechanism import PrismaticJoint  # the module: see tables.py
+from ..mechanism import PrismaticJoint
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from typing import Any, Literal, overload
 import numpy as np
 
 from ..execute import LinkPoses
-from ..model import Mechanism
+from ..mechanism import Mechanism
 from ..quantities import Spec
 from . import evaluate as ev
 from . import linalg, scalar

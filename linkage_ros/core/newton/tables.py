@@ -12,8 +12,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-# the module, not the package: core.model's redraw compiles these tables (no import circle)
-from ..model.mechanism import Mechanism, PrismaticJoint
+from ..mechanism import Mechanism, PrismaticJoint
 from ..quantities import AngleSpec, CoordinateSpec, SlideSpec, Spec
 from .rows import (
     AngleRow,

@@ -12,7 +12,8 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from linkage_ros.bench.scaling import LENGTHS, four_bars_scene
-from linkage_ros.core.model import Scene
+from linkage_ros.core.model import redraw
+from linkage_ros.core.model.scene import Scene
 from linkage_ros.core.newton import scalar
 
 TOL = 1e-12  # of the length scale: the Newton solves' closure tolerance, per residual row
@@ -35,7 +36,8 @@ def newton_only(monkeypatch):
     def refused(*args, **kwargs):
         raise AssertionError('a redraw closed its loops with scipy least_squares')
 
-    monkeypatch.setattr(scalar, 'solve', counted)
+    assert redraw.solve is scalar.solve  # the Newton module's own, as the redraw calls it
+    monkeypatch.setattr(redraw, 'solve', counted)
     monkeypatch.setattr(scipy.optimize, 'least_squares', refused)
     return calls
 
