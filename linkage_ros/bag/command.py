@@ -17,7 +17,7 @@ from ..outputs import folder_refusal
 from .common import DEFAULT_OUT_FORMAT, BagError
 from .fleet_inputs import bags_in
 from .fleet_run import add_fleet_arguments
-from .fleet_task import REFUSED_HINT
+from .fleet_task import unanswered
 from .options import bag_options, check_options
 from .plans import plans_csv_path, plans_summary
 from .plot import _plot_format
@@ -235,9 +235,9 @@ def _run(args) -> int:
     for kind, path in outs:
         if kind == 'csv' and plans:
             print(f'  wrote {plans_csv_path(path)} (csv: the trajectories and paths)')
-    answered = int(res.ok.sum()) + sum(1 for p in plans if p.succeeded)
-    if data.n + len(plans) and not answered:
-        print(f'linkage bag: {REFUSED_HINT}', file=sys.stderr)
+    why = unanswered(data, res, plans)
+    if why is not None:
+        print(f'linkage bag: {why}', file=sys.stderr)
         return ALL_REFUSED
     return OK
 
@@ -374,8 +374,9 @@ many bags (--out-dir DIR; docs/FLEET.md):
   writes DIR/<bag path relative to its input folder>.<format> per bag, DIR/summary.csv and
   DIR/summary.json (one row per bag; a damaged bag fails alone, its row says why).
 
-exit status: 0 done (refused commands are rows, not failures); 1 every request refused (the
-outputs are written; a wrong --scene or topic?); 2 unusable input, output or
+exit status: 0 done (refused commands are rows, not failures); 1 every request refused, or
+every message skipped by --state-completion (the outputs are written; a wrong --scene or
+topic?); 2 unusable input, output or
 options (missing file, not a bag, missing topic, wrong type, truncated or corrupt bag); with
 --out-dir: 1 some bag had every request refused, 3 some bags failed (the others are complete).
 """

@@ -187,7 +187,7 @@ def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanReque
     return BagRow(
         bag=task.name,
         source=task.source,
-        status=REFUSED if messages and not answered else OK,
+        status=REFUSED if unanswered(data, res, plans) else OK,
         messages=messages,
         answered=answered,
         refused=messages - answered,
@@ -196,13 +196,31 @@ def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanReque
         max_residual=float(residuals.max()) if residuals.size else None,
         first_stamp_ns=min(stamps) if stamps else None,
         last_stamp_ns=max(stamps) if stamps else None,
-        reason=REFUSED_HINT if messages and not answered else '',
+        reason=unanswered(data, res, plans) or '',
     )
+
+
+def unanswered(data: Commands, res: Results, plans: list[PlanRequest]) -> str | None:
+    """Why a bag whose messages were read got no answer at all (its exit status is 1, its
+    fleet row 'all refused'), or None: some message was answered, or none was read."""
+    if int(np.count_nonzero(res.ok)) + sum(1 for p in plans if p.succeeded):
+        return None
+    if data.n or plans:
+        return REFUSED_HINT
+    if data.skipped:
+        return SKIPPED_HINT.format(data.skipped)
+    return None
 
 
 REFUSED_HINT = (
     'every request was refused: is --scene the mechanism that was recorded, and '
     '--command-topic its commands? (the first reasons are in the outputs)'
+)
+#: every message skipped by --state-completion: none named the mechanism's inputs
+SKIPPED_HINT = (
+    "none of the {} message(s) read carried the mechanism's inputs (--state-completion "
+    'skipped them all): is --scene the mechanism that was recorded, and --command-topic its '
+    'joint states?'
 )
 
 

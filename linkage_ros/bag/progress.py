@@ -75,9 +75,17 @@ def _summary(data, res, outs, plot, t0, t_read, t_solve, t_end):
     ]
     for k, topic in enumerate(data.topics):
         lost = data.missing.get(topic)
+        # (only the command topic's messages are skipped: state_completion)
+        skipped = data.skipped if k == 0 else 0
+        read = int(np.count_nonzero(data.topic == k)) + skipped
         lines.append(
-            f'  {topic}: {int(np.count_nonzero(data.topic == k))}'
-            + (f' (MISSING {lost} more than the bag counts: --accept-missing)' if lost else '')
+            f'  {topic}: {read}'
+            + (f' ({skipped} skipped)' if skipped else '')
+            + (
+                f' (MISSING {lost} of the {read + lost} the bag counts: --accept-missing)'
+                if lost
+                else ''
+            )
         )
     if not n + data.skipped:  # (a wrong topic reads as an empty bag: say so)
         lines.append('  nothing to solve: no message on the topics given (the right topic?)')

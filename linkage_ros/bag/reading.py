@@ -296,7 +296,8 @@ def _shortfall(path: str, conns: list, read: dict[int, int], accept: bool) -> di
                 + (
                     'it holds messages its index does not know'
                     if got > counted
-                    else f'{counted - got} are missing (a damaged or edited bag; '
+                    else f'{counted - got} {"is" if counted - got == 1 else "are"} missing (a '
+                    'damaged or edited bag; '
                     '--accept-missing reads it anyway and says how many are missing)'
                 )
             )

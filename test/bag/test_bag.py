@@ -1518,10 +1518,11 @@ def test_a_message_lost_from_the_middle_is_an_error(tmp_path, scene, capsys, dam
     assert code == 2 and not out.exists()
     (line,) = cap.err.strip().splitlines()
     assert str(folder) in line and 'topic /cmd' in line, line
-    assert 'counts 200 message(s) but 199 could be read' in line and '1 are missing' in line
+    assert 'counts 200 message(s) but 199 could be read' in line and '1 is missing' in line
     code, cap = run_bag([*common, '--accept-missing'], capsys)
     assert code == 0, cap.err
-    assert '/cmd: 199 (MISSING 1 more than the bag counts' in cap.out
+    # (it read 1 fewer than the index counts: said as it was, not as '1 more')
+    assert '/cmd: 199 (MISSING 1 of the 200 the bag counts: --accept-missing)' in cap.out
     assert len(read_csv(out)) == 199
 
 

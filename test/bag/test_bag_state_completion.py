@@ -46,6 +46,7 @@ def test_a_robots_joint_states_command_the_mechanism_by_its_inputs(tmp_path, cap
     skipped = len(msgs) - len(rows)
     assert f'{len(msgs)} message(s) read from' in cap.out
     assert f"({skipped} without the mechanism's inputs skipped: --state-completion)" in cap.out
+    assert f'  /joint_states: {len(msgs)} ({skipped} skipped)' in cap.out  # read, not rows
     mech = load_scene(str(SCENE)).mechanism
     node = Engine(mech, EngineSettings())
     for k, (row, c) in enumerate(zip(rows, cranks)):
@@ -110,3 +111,23 @@ def test_a_descriptions_full_joint_states_take_its_actuated_joints(tmp_path, cap
         for n in names:
             assert abs(math.remainder(got[n] - published[n], 2 * math.pi)) <= 1e-12, n
         assert got['joint4'] != 0.0  # the loop's, not the stale recorded 0
+
+
+def test_a_bag_whose_every_message_is_skipped_is_no_success(tmp_path, capsys):
+    """--state-completion on joint states that never name the scene's input (another robot,
+    or the wrong --scene): every message is skipped. It exited 0 with a header-only CSV and
+    '/joint_states: 0'; now exit 1 (as for a bag whose every command is refused) with the
+    reason, and the summary counts the messages read."""
+    msgs = [
+        ('/joint_states', 10**9 + k * 10**7, joint_state(['wrist', 'elbow'], [0.1, 0.2], 1 + k, 0))
+        for k in range(29)
+    ]
+    src = make_input(tmp_path, 'mcap', msgs)
+    out = tmp_path / 'o.csv'
+    args = [src, '--scene', SCENE, '--command-topic', '/joint_states', '--out', out]
+    code, cap = run_bag([*args, '--state-completion', '--no-progress'], capsys)
+    assert code == 1, cap.out + cap.err
+    assert "none of the 29 message(s) read carried the mechanism's inputs" in cap.err
+    assert '--scene' in cap.err
+    assert '  /joint_states: 29 (29 skipped)' in cap.out
+    assert read_csv(out) == []  # the outputs are written, as for every refused bag
