@@ -6,12 +6,13 @@ identity (sign +1, offset 0 to rounding) for every joint turning the way most jo
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
 from scenes import REPO
 
-from linkage_ros.core.description import import_description
+from linkage_ros.core.description import DescriptionError, import_description
 from linkage_ros.engine import Engine, EngineSettings
 
 D = REPO / 'test' / 'fixtures' / 'robot_descriptions'
@@ -211,6 +212,40 @@ def test_an_sdformat_1_6_axis_in_the_model_frame_is_read_as_1_7_expresses_it(tmp
     for key, joints in got.items():
         for name in ('j2', 'j3'):
             assert abs(joints[name] - want[name]) < 1e-12, (key, name, joints, want)
+
+
+@pytest.mark.parametrize('word', ['true', 'True', '1', ' TRUE '])
+def test_an_sdf_pose_in_degrees_reads_every_sdformat_true(tmp_path, word):
+    """SDFormat's bools are true or 1 in any case: a four-bar whose link poses are written in
+    degrees answers as the same four-bar in radians. degrees="1" was read as radians (j2 off by
+    0.1 rad for crank 0.2), with no word. A word that is no bool is refused, naming it."""
+    rad = _sdf_four_bar(0.0, '1.7')
+    deg = re.sub(
+        r'<pose>([^<]*)</pose>',
+        lambda m: (
+            f'<pose degrees="{word}">'
+            + ' '.join(
+                f'{math.degrees(float(v)) if k >= 3 else float(v)!r}'
+                for k, v in enumerate(m.group(1).split())
+            )
+            + '</pose>'
+        ),
+        rad,
+    )
+    got = {}
+    for name, text in (('rad', rad), ('deg', deg)):
+        path = tmp_path / f'{name}.sdf'
+        path.write_text(text)
+        mech = import_description(str(path)).mechanism
+        r = Engine(mech, EngineSettings()).command({'j1': 0.2})
+        assert r.success, r.reason
+        got[name] = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))
+    for j in ('j2', 'j3'):
+        assert abs(got['deg'][j] - got['rad'][j]) < 1e-12, (j, got)
+    path = tmp_path / 'bad.sdf'
+    path.write_text(deg.replace(f'degrees="{word}"', 'degrees="yes"', 1))
+    with pytest.raises(DescriptionError, match="'yes' is not a bool"):
+        import_description(str(path))
 
 
 def test_a_mimic_of_a_mimic_declared_before_its_leader_is_published(tmp_path):
