@@ -34,6 +34,9 @@ from .records import (
 #: axes within this angle (rad) of parallel (or perpendicular) count as such: descriptions
 #: written with 16-digit rpy values agree to ~1e-16; CAD exports to ~1e-12
 AXIS_TOLERANCE = 1e-9
+#: axes further than AXIS_TOLERANCE from parallel but within this (rad) look like a rounded
+#: rpy (3.14159 for pi is 2.7e-6 off), and the refusal says so
+_ROUNDED = 1e-3
 
 #: link -> (its body, the link's pose in the body: 4x4)
 _BodyOf = Mapping[str, tuple[str, np.ndarray]]
@@ -325,7 +328,14 @@ def _normal(
         if angle > AXIS_TOLERANCE:
             raise DescriptionError(
                 f'not a planar chain: the axes of joints {first.name!r} and {j.name!r} are '
-                f'{math.degrees(angle):.6g} deg from parallel',
+                f'{math.degrees(angle):.6g} deg from parallel'
+                + (
+                    f' (axes count as parallel within {AXIS_TOLERANCE:g} rad: an <origin> rpy '
+                    'rounded to a few digits, 3.14159 for pi, is this far off; write it to 16 '
+                    'digits, 3.141592653589793)'
+                    if angle < _ROUNDED
+                    else ''
+                ),
                 file=src,
             )
     for j, a in prismatic:

@@ -87,7 +87,16 @@ def import_description(
     desc = read_description(body, source)
     if closures:
         desc = apply_side_file(desc, load_side_file(closures), closures)
+    seen: set[str] = set()
     for c in desc.closures:  # (a closure's pin and a joint's of one name would be one point)
+        if c.name in seen:
+            raise DescriptionError(
+                f'two closures are named {c.name!r} (<loop>, <constraint> or closure file '
+                'entries): give each a name of its own',
+                file=closures or source,
+                value=c.name,
+            )
+        seen.add(c.name)
         if desc.joint(c.name) is not None:
             raise DescriptionError(
                 f'closure {c.name!r} has the name of a joint of the description: give the '
@@ -387,7 +396,7 @@ def _scene(
     for b in chain.bodies:
         first = members[b][0]
         phi = poses[b][1] + _frame_x_angle(chain, b)
-        mark = names('point', f'{b}_axis')
+        mark = names('axis', f'{b}_axis')  # (its own kind: a joint may be named b_axis)
         for length in (AXIS_MARK * scale * f for f in (1.0, 0.6, 1.7, 0.35, 2.9)):
             at = [
                 points[first][0] + length * math.cos(phi),

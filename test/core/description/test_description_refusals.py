@@ -180,6 +180,19 @@ def test_non_parallel_axes_name_both_joints():
     )
     err = refused(TEXT, 'not a planar chain', "'joint1'", "'joint3'", 'deg', args=[bad], text=True)
     assert '5.71' in str(err)  # atan(0.1): how far from parallel
+    assert 'rounded' not in str(err)  # (not a rounding: no hint about one)
+
+
+def test_axes_a_rounded_rpy_apart_say_how_to_write_it():
+    """joint3 turned over by rpy 3.14159 (pi to 6 digits) with its axis flipped: its axis is
+    2.65e-6 rad off joint1's, beyond the 1e-9 rad that count as parallel. The refusal says why
+    such a description is refused and how to write the rpy."""
+    bad = edited(
+        '<origin xyz="1.0 0.0 0.0"/>\n        <axis xyz="0 0 1"/>',
+        '<origin xyz="1.0 0.0 0.0" rpy="3.14159 0 0"/>\n        <axis xyz="0 0 -1"/>',
+    )
+    refused(TEXT, 'not a planar chain', '0.000152', 'within 1e-09 rad', '3.141592653589793',
+            args=[bad], text=True)  # fmt: skip
 
 
 def test_a_loop_axis_across_the_plane():
@@ -383,3 +396,31 @@ def test_a_closure_with_a_joints_name_is_refused_naming_the_clash():
     spoke of a motion left free, not of the name."""
     clash = edited('<loop name="loop1"', '<loop name="joint2"')
     refused(TEXT, "closure 'joint2' has the name of a joint", args=[clash], text=True)
+
+
+def test_two_closures_of_one_name_are_refused_naming_it(tmp_path):
+    """A closure file entry named as the description's <loop> (or two <loop>s of one name):
+    both pins became one scene point and the refusal spoke of 0 degrees of freedom
+    (Kutzbach) and assemble_at."""
+    entry = (
+        'closures:\n  - {name: loop1, type: revolute, a: {link: link2, xyz: [1, 0, 0]},\n'
+        '     b: {link: link3, xyz: [0.5, 0, 0]}}\n'
+    )
+    path = side(tmp_path, 'dup.yaml', entry)
+    refused(path, "two closures are named 'loop1'", args=[str(FOUR_BAR)], closures=path)
+
+
+def test_a_joint_named_as_a_links_axis_mark_is_a_joint_like_any(tmp_path):
+    """Each link's axis mark is a scene point named <link>_axis; a joint of that name (here
+    joint2 renamed link2_axis) was merged with the mark and refused as 'shares points with
+    link ...: one rigid link'. The mark takes another name; the joint answers as joint2 did.
+    Oracle: the parallelogram relation of the GRBDA four-bar in the drawing's mode."""
+    from linkage_ros.engine import Engine, EngineSettings
+
+    text = four_bar_text().replace('name="joint2"', 'name="link2_axis"')
+    assert text.count('link2_axis') == 1
+    mech = import_description(text, text=True).mechanism
+    r = Engine(mech, EngineSettings(branch='-')).command({'joint1': 0.4})
+    assert r.success, r.reason
+    joints = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))
+    assert abs(joints['link2_axis'] + 0.4) < 1e-12 and abs(joints['joint3'] - 0.4) < 1e-12
