@@ -146,7 +146,10 @@ def _csv_rows(mech, table: ResultTable) -> list[list]:
     n = table.n
     columns = [
         np.broadcast_to(np.asarray(v, float), (n,)).tolist()
-        for v in (*mech.output_inputs(table.inputs), *mech.output_joints(table.joints))
+        for v in (
+            *mech.output_inputs(table.inputs),
+            *mech.output_joints(table.joints, table.inputs),
+        )
     ]
     blank = [''] * len(columns)
     rows = []
