@@ -729,7 +729,8 @@ def test_a_mimic_coupled_description_assembled_elsewhere_is_not_called_open(caps
     [
         (
             {LEFT_KNUCKLE: 0.9},
-            f'assemble_at: {LEFT_KNUCKLE} = 0.9 is outside its <limit> [0, 0.8]',
+            f'{LEFT_KNUCKLE} = 0.9 rad is beyond its maximum 0.8 by 0.1 rad where the '
+            'description is assembled (assemble_at; <limit>: [0, 0.8])',
         ),
         (
             {'robotiq_85_left_inner_knuckle_joint': 0.3},
@@ -817,4 +818,7 @@ def test_closure_file_limits_upside_down_or_broken_are_named_as_the_files(capsys
     )
     rc, _, err = run(capsys, 'check', ROBOTIQ, '--closures', outside)
     assert rc == 2
-    assert f'{LEFT_KNUCKLE} = 0.6 is outside its limits in the closure file [0.1, 0.4]' in err, err
+    assert (
+        f'{LEFT_KNUCKLE} = 0.6 rad is beyond its maximum 0.4 by 0.2 rad where the description '
+        'is assembled (assemble_at; limits in the closure file: [0.1, 0.4])'
+    ) in err, err

@@ -14,6 +14,7 @@ import numpy as np
 from ..errors import SceneError
 from ..model import Mechanism, Scene
 from ..model.joint_map import JointMap, wrap
+from ..model.limits import limit_violation
 from .calibration import calibrate_joint_map
 from .chain import Chain, find_chain, rot
 from .records import Description, DescriptionError
@@ -235,20 +236,42 @@ def _assembly_values(
                 file=desc.source,
             )
         given[name] = want
-    for name, value in desc.assemble_at.items():  # within the description's limits
+    for name in acts:  # within the description's limits, by the one limit rule
+        value = given.get(name, 0.0)
         lim = desc.limits.get(name, by_name[name].joint.limits)
-        low, high = lim.lower, lim.upper
-        if (low is not None and value < low) or (high is not None and value > high):
-            lo_text = '-inf' if low is None else f'{low:g}'
-            span = f'[{lo_text}, {"inf" if high is None else f"{high:g}"}]'
-            whose = 'limits in the closure file' if name in desc.limits else '<limit>'
-            raise DescriptionError(
-                f'assemble_at: {name} = {value:.9g} is outside its {whose} {span}: the '
-                'assembled pose is the reference pose, the first state; give a value within '
-                'the limits (or state wider ones in the closure file)',
-                file=desc.source,
-            )
+        unit = 'rad' if by_name[name].revolute else 'm'
+        why = limit_violation(name, value, lim.lower, lim.upper, unit, by_name[name].revolute)
+        if why is None:
+            continue
+        whose = 'limits in the closure file' if name in desc.limits else '<limit>'
+        lo_text = '-inf' if lim.lower is None else f'{lim.lower:g}'
+        span = f'[{lo_text}, {"inf" if lim.upper is None else f"{lim.upper:g}"}]'
+        stated = (
+            'assemble_at'
+            if name in desc.assemble_at
+            else 'the value asked'
+            if name in given
+            else 'no assemble_at: 0'
+        )
+        raise DescriptionError(
+            f'{why} where the description is assembled ({stated}; {whose}: {span}): '
+            'the assembled pose is the reference pose, the first state; give a value within '
+            f'the limits (assemble_at: {{{name}: {_inside(lim.lower, lim.upper):.6g}}} in a '
+            'closure file), or state wider limits there',
+            file=desc.source,
+        )
     return given
+
+
+def _inside(lower: float | None, upper: float | None) -> float:
+    """A value within the limits [lower, upper] to suggest: their middle, else next to the one
+    there is."""
+    if lower is not None and upper is not None:
+        return 0.5 * (lower + upper)
+    if lower is not None:
+        return lower + 0.1 * max(1.0, abs(lower))
+    assert upper is not None  # (a violation needs a limit)
+    return upper - 0.1 * max(1.0, abs(upper))
 
 
 def _assemble(
