@@ -11,7 +11,7 @@ import numpy as np
 from ..model import Mechanism
 from ..model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, Plane
 from .chain import Chain
-from .records import DescriptionError, JointType
+from .records import ClosureType, DescriptionError, JointType
 from .scene_names import SceneNames
 
 
@@ -139,7 +139,7 @@ def _cut_joints(
 ) -> list[OutputJoint]:
     """The joints whose frames a closure names (Gepetto's dummy closure joints): the first held
     at 0, the second turned with the closure's pin so that the two frames coincide."""
-    from .chain import angle_about_normal, frame_rotation
+    from .chain import angle_about_normal, frame_rotation, tilts
 
     out: list[OutputJoint] = []
     desc = chain.description
@@ -156,10 +156,14 @@ def _cut_joints(
             continue
         other = c.closure.a if end is c.closure.b else c.closure.b
         mine, theirs = chain.body_of[end.link][0], chain.body_of[other.link][0]
+        turn = frame_rotation(chain, end) @ frame_rotation(chain, other).T
+        if c.closure.type is ClosureType.REVOLUTE and tilts(chain, turn):
+            # a pin (Gepetto's '3d') makes only the origins meet: frames that tilt apart never
+            # coincide, and no value of this joint is the closure's; it is held at 0
+            out.append(OutputJoint(joint.name, OutputKind.CONSTANT, offset=0.0))
+            continue
         # frames equal: Rot(n, phi_mine + s q - phi_theirs) = R_theirs0 R_mine0^T
-        delta = angle_about_normal(
-            chain, frame_rotation(chain, end) @ frame_rotation(chain, other).T, c.closure.element
-        )
+        delta = angle_about_normal(chain, turn, c.closure.element)
         w = frame_rotation(chain, end) @ joint.axis
         s = 1.0 if float(w @ chain.normal) > 0 else -1.0
         q_ref = s * (poses[theirs][1] - poses[mine][1] - delta)

@@ -380,10 +380,15 @@ def frame_rotation(chain: Chain, end: LinkFrame) -> np.ndarray:
     return rotation
 
 
+def tilts(chain: Chain, r: np.ndarray) -> bool:
+    """Rotation ``r`` turns the chain's normal (it is not a turn about the normal only)."""
+    n = chain.normal
+    return float(np.linalg.norm(r @ n - n)) > 1e-6
+
+
 def angle_about_normal(chain: Chain, r: np.ndarray, what: str) -> float:
     """The angle of rotation ``r`` about the chain's normal; refuses a rotation that tilts."""
-    n = chain.normal
-    if float(np.linalg.norm(r @ n - n)) > 1e-6:
+    if tilts(chain, r):
         raise DescriptionError(
             f'{what}: its two frames are not turned about the plane normal '
             'only (they tilt out of the plane)',

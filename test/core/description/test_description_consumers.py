@@ -719,3 +719,40 @@ def test_a_links_angle_is_its_frames_x_in_the_plane(name):
             assert angle_diff(angle, math.atan2(x @ e2, x @ e1)) <= 1e-9, (cmd, link, angle)
             checked += 1
         assert checked >= 3
+
+
+TILTED_PIN = """<robot name="g3">
+<link name="l0"/><link name="l1"/><link name="l2"/><link name="l3"/>
+<link name="dA"/><link name="dB"/>
+<joint name="j1" type="continuous"><parent link="l0"/><child link="l1"/><axis xyz="0 0 1"/></joint>
+<joint name="j2" type="continuous"><parent link="l1"/><child link="l2"/><origin xyz="0.3 0 0"/>
+<axis xyz="0 0 1"/></joint>
+<joint name="j3" type="continuous"><parent link="l0"/><child link="l3"/><origin xyz="0.8 0 0"/>
+<axis xyz="0 0 1"/></joint>
+<joint name="cA" type="continuous"><parent link="l2"/><child link="dA"/><origin xyz="0.6 0.4 0"/>
+<axis xyz="0 0 1"/></joint>
+<joint name="cB" type="continuous"><parent link="l3"/><child link="dB"/>
+<origin xyz="0.1 0.4 0" rpy="0.5 0 0"/><axis xyz="0 0 1"/></joint>
+</robot>"""
+
+
+@pytest.mark.parametrize('crank', [0.2, 1.0, -0.7])
+def test_a_gepetto_pin_between_tilted_joint_frames_meets_in_pinocchio(tmp_path, crank):
+    """A Gepetto '3d' closure (a pin: only the origins meet) between dummy joints whose frames
+    tilt apart (cB rolled 0.5 rad): it was refused as 'its two frames are not turned about the
+    plane normal only', which only a '6d' closure needs. The dummy joints are held at 0; the
+    pin's two origins meet in Pinocchio's kinematics of the description itself."""
+    path = tmp_path / 'g3.urdf'
+    path.write_text(TILTED_PIN)
+    side = tmp_path / 'g3.yaml'
+    side.write_text("closed_loop: [['cA', 'cB']]\ntype: ['3d']\nname_mot: ['j1']\n")
+    mech = import_description(str(path), closures=str(side)).mechanism
+    result = Solver(mech).solve(mech.joint_coordinates.to_scene({'j1': crank}))
+    assert result.success, result.reason
+    values = described(mech, result)
+    assert values['cA'] == values['cB'] == 0.0
+    robot = PinocchioRobot(path)
+    robot.place(values)
+    a, b = robot.frame('dA').translation, robot.frame('dB').translation
+    assert np.linalg.norm(a - b) <= CLOSE, (crank, values, a, b)
+    assert angle_diff(values['j1'], crank) <= EXACT
