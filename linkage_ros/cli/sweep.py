@@ -5,6 +5,7 @@ every actuator and joint as CSV: the answers go into the core's results table, t
 from __future__ import annotations
 
 import csv
+import math
 import os
 import sys
 from pathlib import Path
@@ -142,22 +143,22 @@ def _row(i, command, names, d, ok, solved_inputs, outs) -> list[str]:
 
 
 def _csv_rows(mech, table: ResultTable) -> list[list]:
-    """index, status, reason, every input and joint of each row (empty on a refused row)."""
+    """index, status, reason, every input and joint of each row; a refused row keeps the
+    inputs it was commanded (as linkage bag's CSV does), its other cells empty."""
     n = table.n
-    columns = [
-        np.broadcast_to(np.asarray(v, float), (n,)).tolist()
-        for v in (
-            *mech.output_inputs(table.inputs),
-            *mech.output_joints(table.joints, table.inputs),
-        )
-    ]
-    blank = [''] * len(columns)
+
+    def listed(values) -> list[list[float]]:
+        return [np.broadcast_to(np.asarray(v, float), (n,)).tolist() for v in values]
+
+    inputs = listed(mech.output_inputs(table.inputs))
+    joints = listed(mech.output_joints(table.joints, table.inputs))
     rows = []
     for i in range(n):
         if not table.ok[i]:
-            rows.append([i, 'error', table.reason[i] or 'refused'] + blank)
+            given = [repr(c[i]) if math.isfinite(c[i]) else '' for c in inputs]
+            rows.append([i, 'error', table.reason[i] or 'refused', *given] + [''] * len(joints))
             continue
-        rows.append([i, 'ok', ''] + [repr(c[i]) for c in columns])
+        rows.append([i, 'ok', ''] + [repr(c[i]) for c in (*inputs, *joints)])
     return rows
 
 

@@ -1119,6 +1119,25 @@ def test_an_out_path_where_a_csv_puts_its_trajectories_is_refused_before_any_wor
     assert 'is a directory' in err and not out_csv.exists()
 
 
+@pytest.mark.parametrize(
+    ('name', 'said'),
+    [
+        ('r.parquet', '--out-dir DIR --format parquet'),
+        ('r.PNG', '--plot FILE.png'),
+        ('r.json', 'summary.json'),
+    ],
+)
+def test_an_out_named_as_a_file_it_does_not_write_is_refused(tmp_path, scene, capsys, name, said):
+    """--out r.parquet wrote a rosbag2 folder named r.parquet without a word (a new user's
+    find): --out writes a CSV or a bag folder. A name that says another file is refused up
+    front, saying what writes that file, and nothing is written."""
+    src = _small_bag(tmp_path)
+    out = tmp_path / name
+    err = _bad([src, '--scene', scene, '--command-topic', '/cmd', '--out', out], capsys)
+    assert f'output {out}: --out writes a CSV (*.csv) or a rosbag2 folder' in err, err
+    assert said in err and not out.exists()
+
+
 def test_plot_without_extension_writes_the_named_file(tmp_path, scene, capsys):
     """matplotlib appends '.png' to a name without extension: the summary named a file that was
     never written. The image is written exactly where --plot says, as PNG."""

@@ -737,6 +737,24 @@ def test_ctrl_c_is_one_line_and_exit_130(capsys, monkeypatch):
     assert err.strip() == 'linkage check: interrupted' and 'Traceback' not in err
 
 
+def test_a_refused_sweep_row_keeps_its_commanded_input(capsys, tmp_path):
+    """A double-rocker swept past its limits: the refused rows' CSV keeps the crank value it
+    was commanded (as linkage bag's CSV does; it was empty, so which command failed showed only
+    by its index), the joints empty; the answered rows are as before."""
+    import csv as _csv
+
+    out = tmp_path / 'dr.csv'
+    rc, _, err = run(
+        capsys, 'sweep', 'four_bar_grashof_double_rocker', '--set', 'crank=0:2:5', '--csv', out
+    )
+    assert rc == 0 and '3 ok, 2 error(s)' in err, err
+    rows = list(_csv.DictReader(out.open()))
+    assert [r['status'] for r in rows] == ['error', 'ok', 'ok', 'ok', 'error']
+    assert [float(r['input.crank']) for r in rows] == [0.0, 0.5, 1.0, 1.5, 2.0]
+    assert rows[0]['joint.O4'] == rows[4]['joint.O4'] == ''
+    assert 'minimum' in rows[0]['reason'] and 'maximum' in rows[4]['reason']
+
+
 def test_sweep_csv_is_the_actuator_trajectory_of_a_path(capsys, tmp_path):
     """`linkage sweep --target-point L=... --target bucket=... --csv FILE`: the CSV's actuator
     values, solved forward, put the lip L on the path (what a controller would be fed)."""
