@@ -26,7 +26,7 @@ setup(
     entry_points={
         'console_scripts': [
             'linkage_node = linkage_ros.node:main',
-            'linkage = linkage_ros.cli:main',
+            'linkage = linkage_ros.cli.parser:main',
         ],
     },
 )

@@ -69,7 +69,7 @@ def test_setup_installs_marker_package_xml_scenes_and_params_for_colcon():
     )
     scripts = ast.unparse(kw['entry_points'])
     assert 'linkage_node = linkage_ros.node:main' in scripts
-    assert 'linkage = linkage_ros.cli:main' in scripts
+    assert 'linkage = linkage_ros.cli.parser:main' in scripts
 
 
 def test_ci_runs_the_readme_test_command():
@@ -145,7 +145,7 @@ def test_launch_file_names_executables_and_files_that_exist():
     }
     _, kw = _data_files()
     scripts = ast.unparse(kw['entry_points'])
-    assert 'linkage_node = ' in scripts and 'linkage = linkage_ros.cli:main' in scripts
+    assert 'linkage_node = ' in scripts and 'linkage = linkage_ros.cli.parser:main' in scripts
     # robot_description comes from the CLI, run as an argument list (not a string launch splits)
     assert 'urdf_argv(scene, prefix, frame_id)' in source and 'OpaqueFunction' in source
     assert 'Command(' not in source

@@ -161,7 +161,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Stand-alone entry point: ``python -m linkage_ros.bag ...``."""
-    from ..cli import standalone_main
+    from ..cli.standalone import standalone_main
 
     return standalone_main('linkage bag', add_arguments, run, argv)
 

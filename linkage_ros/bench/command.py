@@ -163,6 +163,6 @@ def _fleet_only(args: argparse.Namespace, sizes: Sizes) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """``python -m linkage_ros.bench ...``: the same as ``linkage bench ...``."""
-    from ..cli import standalone_main
+    from ..cli.standalone import standalone_main
 
     return standalone_main('linkage bench', add_arguments, run, argv)

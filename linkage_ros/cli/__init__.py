@@ -18,65 +18,9 @@ Exit status: 0 ok; 1 a solve was refused (the answer has status "error" and a re
 error); 2 a usage error (bad syntax, unknown name, missing scene, SceneError, PlanError), reported
 as one line on stderr; 130 interrupted by Ctrl-C (one line, no traceback).
 
-The CLI only parses, calls the core and prints: no kinematics lives here. More subcommands plug in
-through :data:`EXTERNAL_COMMANDS` (modules with ``add_arguments(parser)`` and
-``run(args) -> int``).
+The CLI only parses, calls the core and prints: no kinematics lives here. The parser and entry
+point are cli.parser (``main``); more subcommands plug in through its
+:data:`~linkage_ros.cli.parser.EXTERNAL_COMMANDS` (modules with ``add_arguments(parser)`` and
+``run(args) -> int``, run on their own by cli.standalone). This package imports nothing: a
+subcommand module imports its neighbours (cli.common, ...) without the parser that loads it.
 """
-
-from __future__ import annotations
-
-from .check import (  # noqa: F401
-    check_report,
-    cmd_check,
-    format_check,
-    input_ranges,
-)
-from .common import (  # noqa: F401
-    INTERRUPTED,
-    OK,
-    REFUSED,
-    USAGE_ERROR,
-    UsageError,
-    _angle,
-    _count,
-    _f,
-    _grid,
-    _Known,
-    _Linspace,
-    _linspace,
-    _number,
-    _Parser,
-    _point,
-    _unit_of,
-    _value,
-    add_description_arguments,
-    add_scene_argument,
-    build_solve,
-    clean,
-    dumps,
-    format_result,
-    load_mechanism,
-    load_scene_file,
-    parse_known,
-    print_notes,
-)
-from .parser import (  # noqa: F401
-    CHECK_EPILOG,
-    EXTERNAL_COMMANDS,
-    KNOWN_HELP,
-    MAIN_EPILOG,
-    SOLVE_EPILOG,
-    SWEEP_EPILOG,
-    _add_solve_options,
-    _load_external,
-    build_parser,
-    main,
-    standalone_main,
-)
-from .solve import (  # noqa: F401
-    cmd_solve,
-)
-from .sweep import (  # noqa: F401
-    _cell,
-    cmd_sweep,
-)

@@ -110,14 +110,14 @@ def _linspace(a, b, n):
     return _Linspace(a, b, n)
 
 
-def _grid(axes):
+def command_grid(axes):
     """The sweep grid lazily, first axis slowest: itertools.product would copy every axis into
     a tuple before yielding anything."""
     if not axes:
         yield ()
         return
     for v in axes[0]:
-        for rest in _grid(axes[1:]):
+        for rest in command_grid(axes[1:]):
             yield (v,) + rest
 
 

@@ -284,20 +284,6 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
     return parser, broken
 
 
-def standalone_main(prog: str, add_arguments, run, argv: Sequence[str] | None = None) -> int:
-    """Run one subcommand module on its own (``python -m linkage_ros.bag ...``): its parser,
-    then run(args); argparse's usage errors become exit status 2 instead of SystemExit."""
-    parser = argparse.ArgumentParser(
-        prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
-    add_arguments(parser)
-    try:
-        args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
-    except SystemExit as exc:
-        return exc.code if isinstance(exc.code, int) else 2
-    return run(args)
-
-
 #: write errors of a standard output that cannot take more (a full disk, a quota, /dev/full)
 _STDOUT_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO)
 

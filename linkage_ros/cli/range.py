@@ -448,7 +448,7 @@ def run(args) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Stand-alone entry point: ``python -m linkage_ros.cli.range ...``."""
-    from .parser import standalone_main
+    from .standalone import standalone_main
 
     return standalone_main(PROG, add_arguments, run, argv)
 

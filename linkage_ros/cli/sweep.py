@@ -19,8 +19,8 @@ from .common import (
     REFUSED,
     UsageError,
     _f,
-    _grid,
     build_solve,
+    command_grid,
     dumps,
     forward_engine,
     load_mechanism,
@@ -97,7 +97,7 @@ def cmd_sweep(args) -> int:
     engine = target_engine(mech, args) if solver.inverse else forward_engine(mech, args)
     # lazy: a 10^9-point grid starts printing at once (only --csv, which keeps every answer
     # for its table, lists it first)
-    grid = _grid([vals for _, vals in axes])
+    grid = command_grid([vals for _, vals in axes])
     table = None
     if args.csv:
         grid = list(grid)

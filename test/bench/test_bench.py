@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from linkage_ros import bench
-from linkage_ros.cli import main as cli_main
+from linkage_ros.cli.parser import main as cli_main
 from linkage_ros.core.model import Scene
 from linkage_ros.resources import scene_path
 
@@ -479,7 +479,7 @@ def test_children_cpu_counts_the_cpu_of_a_child_process():
 
 
 def test_bench_cases_select_measurements_and_refuse_unknown_ones(capsys):
-    from linkage_ros.cli import main
+    from linkage_ros.cli.parser import main
 
     assert main(['bench', '--cases', 'node_floods,nonsense']) == 2
     assert "unknown case(s) ['nonsense']" in capsys.readouterr().err

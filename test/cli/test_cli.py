@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from linkage_ros import cli
-from linkage_ros.cli import main
+from linkage_ros.cli import parser as cli_parser
+from linkage_ros.cli.parser import main
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
 
@@ -660,7 +660,7 @@ def test_external_commands_register_when_importable(capsys, tmp_path, monkeypatc
     (tmp_path / 'cli_plugin_broken.py').write_text('import no_such_dependency_xyz\n')
     monkeypatch.syspath_prepend(str(tmp_path))
     monkeypatch.setattr(
-        cli.parser,
+        cli_parser,
         'EXTERNAL_COMMANDS',
         {'hello': 'cli_plugin_ok', 'broken': 'cli_plugin_broken', 'absent': 'cli_plugin_absent'},
     )
@@ -726,12 +726,12 @@ def test_check_has_no_chain_class_for_multi_loop_scenes(capsys):
 def test_ctrl_c_is_one_line_and_exit_130(capsys, monkeypatch):
     """Ctrl-C during a command (here inside the check) ends with the shell's SIGINT status and
     one line on stderr, not a traceback."""
-    from linkage_ros import cli as cli_module
+    from linkage_ros.cli import check
 
     def interrupted(*a, **k):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli_module.check, 'check_report', interrupted)
+    monkeypatch.setattr(check, 'check_report', interrupted)
     rc, out, err = run(capsys, 'check', 'four_bar')
     assert rc == 130
     assert err.strip() == 'linkage check: interrupted' and 'Traceback' not in err

@@ -20,7 +20,7 @@ import pinocchio as pin
 import pytest
 from scenes import REPO
 
-from linkage_ros.cli import main
+from linkage_ros.cli.parser import main
 
 FIXTURES = REPO / 'test' / 'fixtures' / 'robot_descriptions'
 DRAKE = FIXTURES / 'drake_four_bar_loop.sdf'

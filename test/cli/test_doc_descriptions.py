@@ -10,7 +10,7 @@ import shlex
 import pytest
 from scenes import REPO
 
-from linkage_ros.cli import main
+from linkage_ros.cli.parser import main
 from linkage_ros.params import PARAMETERS
 
 DOC = REPO / 'docs' / 'ROBOT_DESCRIPTIONS.md'

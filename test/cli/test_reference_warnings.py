@@ -12,7 +12,7 @@ import pytest
 import yaml
 from scenes import CONFIG, raw
 
-from linkage_ros.cli import main as cli_main
+from linkage_ros.cli.parser import main as cli_main
 
 R, L, S = 0.045, 0.15, 0.10  # config/peaucellier.yaml: crank, long links, rhombus side (m)
 

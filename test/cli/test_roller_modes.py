@@ -17,7 +17,7 @@ import pytest
 import scenes
 import yaml
 
-from linkage_ros.cli import main
+from linkage_ros.cli.parser import main
 
 THETA = 1.2  # rad, the handle (it reaches within about +-1.69)
 

@@ -12,7 +12,7 @@ import re
 import pytest
 import yaml
 
-from linkage_ros.cli import main as cli_main
+from linkage_ros.cli.parser import main as cli_main
 
 D, R1, R2 = 0.4, 0.1, 0.2  # pivots apart, stated bar lengths (m): 0.1 + 0.2 < 0.4
 DRAWN_P = [0.15, 0.2]  # the drawing closes; the stated lengths do not

@@ -21,7 +21,7 @@ import pytest
 from scenes import four_bar
 
 from linkage_ros import bag
-from linkage_ros.cli import main as cli_main
+from linkage_ros.cli.parser import main as cli_main
 from linkage_ros.engine import Engine, EngineSettings
 
 G, C, B, R = 0.30, 0.20, 0.10, 0.25

@@ -14,7 +14,8 @@ import pytest
 import scenes
 from scenes import CONFIG
 
-from linkage_ros import cli
+from linkage_ros.cli import common as cli_common
+from linkage_ros.cli.parser import main as cli_main
 from linkage_ros.core.analysis import (
     fourbar_input_intervals,
     fourbar_input_range,
@@ -73,7 +74,7 @@ def test_coincident_points_of_a_link_are_refused_at_load(tmp_path):
     msg = scene_error(tmp_path, text)
     assert 'links.coupler' in msg and 'coincide' in msg and "['A', 'B']" in msg
     # through the CLI: one line, exit 2, no traceback
-    rc = cli.main(['check', str(tmp_path / 'scene.yaml')])
+    rc = cli_main(['check', str(tmp_path / 'scene.yaml')])
     assert rc == 2
 
 
@@ -483,11 +484,11 @@ def test_transmission_angle_refuses_bad_arguments(pos, bad):
 
 
 def test_sweep_range_values_are_lazy():
-    name, values, readings = cli.parse_known('--set', 'crank=0:1:1000000000001', True)
+    name, values, readings = cli_common.parse_known('--set', 'crank=0:1:1000000000001', True)
     assert name == 'crank' and all(r.unit is None for r in readings)
     assert len(values) == 10**12 + 1
     assert values[0] == 0.0 and values[-1] == 1.0 and values[1] == 1e-12
-    assert list(cli.parse_known('--set', 'crank=0:3:7', True)[1]) == [
+    assert list(cli_common.parse_known('--set', 'crank=0:3:7', True)[1]) == [
         0.0,
         0.5,
         1.0,
@@ -496,7 +497,7 @@ def test_sweep_range_values_are_lazy():
         2.5,
         3.0,
     ]
-    _, pts, _ = cli.parse_known('--target-point', 'P=0,0:1,2:3', True)
+    _, pts, _ = cli_common.parse_known('--target-point', 'P=0,0:1,2:3', True)
     assert list(pts) == [(0.0, 0.0), (0.5, 1.0), (1.0, 2.0)]
 
 
@@ -523,7 +524,7 @@ def test_huge_sweep_starts_printing_at_once(monkeypatch):
     out = _FewLines(4)
     monkeypatch.setattr(sys, 'stdout', out)
     with pytest.raises(_Stop):
-        cli.main(['sweep', 'four_bar', '--set', 'crank=0:1:1000000000'])
+        cli_main(['sweep', 'four_bar', '--set', 'crank=0:1:1000000000'])
     text = ''.join(out.lines).splitlines()
     assert text[0].startswith('#\tcrank\tstatus')
     assert text[1].startswith('0\t0\tok') and text[2].startswith('1\t1e-09\tok')
@@ -532,12 +533,12 @@ def test_huge_sweep_starts_printing_at_once(monkeypatch):
 def test_sweep_grid_is_lazy_and_first_axis_slowest():
     import itertools
 
-    huge = cli.parse_known('--set', 'a=0:1:1000000000001', True)[1]
-    head = list(itertools.islice(cli._grid([huge, [5.0, 6.0], [7.0]]), 3))
+    huge = cli_common.parse_known('--set', 'a=0:1:1000000000001', True)[1]
+    head = list(itertools.islice(cli_common.command_grid([huge, [5.0, 6.0], [7.0]]), 3))
     assert head == [(0.0, 5.0, 7.0), (0.0, 6.0, 7.0), (1e-12, 5.0, 7.0)]
-    small = [[1, 2], cli.parse_known('--set', 'b=0:1:3', True)[1]]
-    assert list(cli._grid(small)) == list(itertools.product(*small))
-    assert list(cli._grid([])) == [()]
+    small = [[1, 2], cli_common.parse_known('--set', 'b=0:1:3', True)[1]]
+    assert list(cli_common.command_grid(small)) == list(itertools.product(*small))
+    assert list(cli_common.command_grid([])) == [()]
 
 
 def test_two_known_points_on_one_link_are_its_pose_and_more_knowns_are_refused():

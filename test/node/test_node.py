@@ -824,7 +824,7 @@ def test_throw_sweep_trajectory_over_dds_equals_the_cli(three_dof, capsys):
     change nothing."""
     import json
 
-    from linkage_ros.cli import main as cli_main
+    from linkage_ros.cli.parser import main as cli_main
 
     mech = three_dof.mech
     mid = _mid_command(mech)

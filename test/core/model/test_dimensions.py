@@ -17,7 +17,7 @@ import oracles
 import pytest
 import scenes
 
-from linkage_ros.cli import main as cli_main
+from linkage_ros.cli.parser import main as cli_main
 from linkage_ros.core.errors import SceneError
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver

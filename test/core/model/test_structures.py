@@ -12,7 +12,7 @@ import pytest
 from ros_harness import NodeProcess, RosHarness, random_domain_id
 from sensor_msgs.msg import JointState
 
-from linkage_ros.cli import main as cli_main
+from linkage_ros.cli.parser import main as cli_main
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
 

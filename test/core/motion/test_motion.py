@@ -490,9 +490,9 @@ def test_cli_range_json_region_tilt_and_plots(hyd, tmp_path, capsys):
         assert f'folder {missing.parent} does not exist' in capsys.readouterr().err
         assert not (tmp_path / 'no').exists()
     # registered as `linkage range`
-    from linkage_ros import cli
+    from linkage_ros.cli.parser import main as cli_main
 
-    assert cli.main(['range', path, '--json']) == 0
+    assert cli_main(['range', path, '--json']) == 0
     assert set(json.loads(capsys.readouterr().out)['inputs']) == {'Z1', 'Z2', 'Z3'}
 
 

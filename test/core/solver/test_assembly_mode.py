@@ -275,7 +275,7 @@ def test_the_cli_sweeps_targets_in_the_drawings_mode_under_branch_reference(caps
     """`linkage sweep --branch reference` answers targets as a node with branch: reference
     does (the drawing's mode, every target); `linkage solve` from the drawing follows its
     circuit (a non-Grashof four-bar: both signs)."""
-    from linkage_ros.cli import main
+    from linkage_ros.cli.parser import main
 
     argv = ['sweep', 'four_bar_non_grashof', '--target', 'rocker=4.0', '--json']
     main([*argv, '--branch', 'reference'])

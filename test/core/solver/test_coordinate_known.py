@@ -129,7 +129,7 @@ def test_the_solutions_of_one_coordinate_carry_the_mode_they_are_in(capsys):
     (either side of the extreme of P.x in each). Each is labelled with its mode (it showed no
     branch, and the CLI called each one an assembly mode); oracle: the forward closed form at
     its crank angle in that mode places P at the same point."""
-    from linkage_ros.cli import main
+    from linkage_ros.cli.parser import main
 
     mech = load('four_bar')
     found = Solver(mech, knowns=['P.x']).modes({'P.x': 0.1})

@@ -13,7 +13,7 @@ import math
 import pytest
 from scenes import load
 
-from linkage_ros.cli import main as cli_main
+from linkage_ros.cli.parser import main as cli_main
 from linkage_ros.core.solver import Solver
 
 CASES = [
