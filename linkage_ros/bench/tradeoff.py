@@ -262,10 +262,11 @@ def batch_columns(cmds: list[dict], n: int) -> dict[str, np.ndarray]:
 def _direct(mech):
     """(scalar fn(theta) -> raw result, batch fn(theta array), points(raw) -> (n, P, 2))."""
     from ..core import fourbar
+    from ..core.mechanism import SceneForm
 
     sc = mech.shortcut
     names = list(mech.points)
-    if mech.form == 'four_bar':
+    if mech.form is SceneForm.FOUR_BAR:
         if sc['ground_angle'] != 0.0:
             raise NotImplementedError('direct closed form: ground_angle must be 0')
         l1, l2, l3, l4, br = sc['ground'], sc['crank'], sc['coupler'], sc['rocker'], sc['branch']
@@ -301,7 +302,7 @@ def _direct(mech):
             return out
 
         return scalar, scalar, points
-    if mech.form == 'slider_crank':
+    if mech.form is SceneForm.SLIDER_CRANK:
         if sc['direction'] != 0.0:
             raise NotImplementedError('direct closed form: direction must be 0')
         r, rod, e, br = sc['crank'], sc['rod'], sc['offset'], sc['branch']

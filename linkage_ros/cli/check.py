@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-from ..core.mechanism import actuator_kind
+from ..core.mechanism import SceneForm, actuator_kind
 from ..core.model import AngleActuator
 from .common import OK, _f, dumps, load_scene_file, print_notes
 from .described import InputValues
@@ -24,7 +24,7 @@ def input_ranges(mech) -> dict[str, tuple[float | None, float | None]]:
         return ranges(mech)
     out = {a.name: (a.min, a.max) for a in mech.actuators.values()}
     sc = mech.shortcut
-    if mech.form == 'four_bar' and out.get('crank') == (None, None):
+    if mech.form is SceneForm.FOUR_BAR and out.get('crank') == (None, None):
         from ..core.analysis import fourbar_input_range
 
         r = fourbar_input_range(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'])
@@ -78,7 +78,7 @@ def check_report(
     return {
         'scene': path,
         'name': mech.name,
-        'form': mech.form,
+        'form': mech.form.value,
         'links': desc['links'],
         # the reference pose (m): a point placed by distances on the wrong side shows here
         'points': {p: [float(xy[0]), float(xy[1])] for p, xy in mech.points.items()},
@@ -92,7 +92,7 @@ def check_report(
         'grashof': grashof,
         'inputs': inputs,
         'plan': {
-            'solver': solver.method,
+            'solver': solver.method.value,
             'mode': solver.mode,
             'knowns': list(solver.knowns),
             'closed_form_steps': [] if solver.mode is SolveMode.NEWTON else solver.plan.describe(),

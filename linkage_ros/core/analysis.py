@@ -22,7 +22,7 @@ import numpy.typing as npt
 
 from .dyads import TANGENCY_TOL
 from .fourbar import angle_opposite
-from .mechanism import AngleActuator, Mechanism
+from .mechanism import AngleActuator, Mechanism, SceneForm
 
 #: Relative tolerance (of the sum of the four lengths) for the Grashof equality s + l = p + q.
 GRASHOF_TOL = 1e-12
@@ -397,7 +397,7 @@ def four_link_chain_info(mech: Mechanism) -> ChainInfo | None:
     output = next(q.other for q in pairs[ground] if q.other != driven)
     coupler = next(l for l in links if l not in (ground, driven, output))
     if not mech.prismatics:
-        if getattr(mech, 'form', None) == 'four_bar':  # the lengths as the scene gives them
+        if mech.form is SceneForm.FOUR_BAR:  # the lengths as the scene gives them
             sc = mech.shortcut
             l1, l2, l3, l4 = sc['ground'], sc['crank'], sc['coupler'], sc['rocker']
         else:

@@ -6,6 +6,7 @@ import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
+from enum import StrEnum
 from typing import Any, ClassVar, Protocol
 
 import numpy as np
@@ -14,7 +15,26 @@ from .dyads import wrap_angle
 from .quantities import Shown
 
 NAME_RE = re.compile(r'^[A-Za-z][A-Za-z0-9_]*$')
-SOLVERS = ('auto', 'closed_form', 'newton')
+
+
+class SolveMethod(StrEnum):
+    """The solver a solve is asked for (a scene's ``solver``, the ``solver`` setting)."""
+
+    AUTO = 'auto'  # the closed form where the dyad plan places every link, else Newton
+    CLOSED_FORM = 'closed_form'
+    NEWTON = 'newton'
+
+
+#: the solver names a scene or a setting takes
+METHODS = tuple(m.value for m in SolveMethod)
+
+
+class SceneForm(StrEnum):
+    """How a scene file states its mechanism (its one form key)."""
+
+    GENERAL = 'general'  # points, links, sliders, ... (the ``points`` key)
+    FOUR_BAR = 'four_bar'
+    SLIDER_CRANK = 'slider_crank'
 
 
 @dataclass(frozen=True)
@@ -150,7 +170,7 @@ class Mechanism:
     solver: str = 'auto'
     source: str = '<scene>'
     length_scale: float = 1.0
-    form: str = 'general'
+    form: SceneForm = SceneForm.GENERAL
     shortcut: dict[str, Any] = field(default_factory=dict)
     #: lengths the scene states (m), by (link, point, point): used exactly wherever the solver
     #: needs that distance, instead of the distance of the drawn reference coordinates (which

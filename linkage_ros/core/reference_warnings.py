@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 from .plan import branch_geometry_one
 from .quantities import PointSpec
+from .solver.compiled import SolveMode
 from .solver.modes import reference_toggle_warnings, toggle_remedy, toggle_warnings
 from .solver.result import SIGN_MARGIN, Result
 from .velocity import velocities
@@ -34,13 +35,13 @@ def reference_pose_warnings(solver: Solver) -> list[str]:
     values = solver.reference_values()
     ref = solver.solve(values, commit=False)
     passive = _passive_limit_warnings(solver, ref)
-    if solver.mode == 'closed_form':
+    if solver.mode is SolveMode.CLOSED_FORM:
         return reference_toggle_warnings(solver.compiled) + passive
     if not ref.success:
         return []
     out = passive
     got = solver.configuration_of(ref)
-    if got is not None and solver.mode != 'newton' and solver.plan.branch_steps:
+    if got is not None and solver.mode is not SolveMode.NEWTON and solver.plan.branch_steps:
         _, margins = branch_geometry_one(solver.plan, *got)
         out += toggle_warnings(solver.plan, margins)
     rates = {s.name: (1.0, 0.0) if isinstance(s, PointSpec) else 1.0 for s in solver.specs}

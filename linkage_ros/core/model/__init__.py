@@ -17,15 +17,17 @@ not import this package back (no import circle, test_import_graph).
 from __future__ import annotations
 
 from ..mechanism import (
+    METHODS,
     NAME_RE,
-    SOLVERS,
     Actuator,
     AngleActuator,
     Link,
     Mechanism,
     PrismaticJoint,
     RevoluteJoint,
+    SceneForm,
     SlideActuator,
+    SolveMethod,
 )
 from .checks import (
     TOP_KEYS,
@@ -54,6 +56,8 @@ __all__ = [
     'RevoluteJoint',
     'Scene',
     'SlideActuator',
-    'SOLVERS',
+    'METHODS',
+    'SceneForm',
+    'SolveMethod',
     'TOP_KEYS',
 ]

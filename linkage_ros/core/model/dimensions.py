@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..errors import SceneError, echo
+from ..mechanism import SceneForm
 from ..units import Quantity, UnitError, expect, parse_text, read_value
 
 #: ``link.P-Q`` (a distance, m) or ``slider.offset`` (m)
@@ -54,13 +55,13 @@ Dimension = LinkDistance | SliderOffset
 
 #: the shortcut forms' own length parameters, by dimension name
 SHORTCUT_KEYS = {
-    'four_bar': {
+    SceneForm.FOUR_BAR: {
         'ground.O2-O4': 'ground',
         'crank.O2-A': 'crank',
         'coupler.A-B': 'coupler',
         'rocker.O4-B': 'rocker',
     },
-    'slider_crank': {'crank.O2-A': 'crank', 'rod.A-B': 'rod', 'slider.offset': 'offset'},
+    SceneForm.SLIDER_CRANK: {'crank.O2-A': 'crank', 'rod.A-B': 'rod', 'slider.offset': 'offset'},
 }
 
 
@@ -147,24 +148,26 @@ def merge(source: str, stated: object, overrides: Mapping[str, float] | None) ->
 
 
 def apply_to_shortcut(
-    source: str, form: str, data: Mapping[str, Any], dims: Mapping[str, float]
+    source: str, form: SceneForm, data: Mapping[str, Any], dims: Mapping[str, float]
 ) -> dict[str, Any]:
-    """A shortcut scene with its length parameters replaced by the stated dimensions."""
+    """A shortcut scene (``form``: a shortcut's, under its key) with its length parameters
+    replaced by the stated dimensions."""
     keys = dict(SHORTCUT_KEYS[form])
-    spec = dict(data[form]) if isinstance(data[form], Mapping) else data[form]
-    cp = spec.get('coupler_point') if form == 'four_bar' else None
+    key = form.value
+    spec = dict(data[key]) if isinstance(data[key], Mapping) else data[key]
+    cp = spec.get('coupler_point') if form is SceneForm.FOUR_BAR else None
     if isinstance(cp, Mapping):  # the coupler point's distance from A
         keys[f'coupler.A-{cp.get("name", "P")}'] = 'coupler_point'
     for name, value in dims.items():
         if name not in keys:
             raise SceneError(
-                f'is not a dimension of the {form} shortcut (its dimensions: '
+                f'is not a dimension of the {key} shortcut (its dimensions: '
                 f'{", ".join(keys)}); for others write the scene in the general form',
                 file=source,
                 key=f'dimensions.{name}',
                 value=value,
             )
-        if form == 'four_bar' and keys[name] == 'ground' and 'pivots' in spec:
+        if form is SceneForm.FOUR_BAR and keys[name] == 'ground' and 'pivots' in spec:
             raise SceneError(
                 'the four_bar gives its ground by pivots: move O2 or O4 instead',
                 file=source,
@@ -176,7 +179,7 @@ def apply_to_shortcut(
         else:
             spec[keys[name]] = value
     out = {k: v for k, v in data.items() if k != 'dimensions'}
-    out[form] = spec
+    out[key] = spec
     return out
 
 

@@ -13,13 +13,14 @@ import numpy as np
 
 from ..errors import SceneError, echo
 from ..mechanism import (
+    METHODS,
     NAME_RE,
-    SOLVERS,
     Actuator,
     Link,
     Mechanism,
     PrismaticJoint,
     RevoluteJoint,
+    SceneForm,
     SlideActuator,
     reference_value,
 )
@@ -28,7 +29,6 @@ from .actuators import _limits, _read_actuators
 from .checks import TOP_KEYS, _Ctx
 from .constraints import expand_constraints
 from .dimensions import (
-    SHORTCUT_KEYS,
     LinkDistance,
     apply_to_shortcut,
     merge,
@@ -95,10 +95,10 @@ def build_mechanism(
             frame_id,
         )
     solver = data.get('solver', 'auto')
-    if solver not in SOLVERS:
-        ctx.fail('solver', f'must be one of {list(SOLVERS)}', solver)
-    form = forms[0]
-    if form != 'points':
+    if solver not in METHODS:
+        ctx.fail('solver', f'must be one of {list(METHODS)}', solver)
+    form = SceneForm.GENERAL if forms[0] == 'points' else SceneForm(forms[0])
+    if form is not SceneForm.GENERAL:
         general_keys = (
             'links',
             'ground',
@@ -117,33 +117,33 @@ def build_mechanism(
                 has_value=False,
             )
     shortcut: dict[str, Any] = {}
-    if form == 'four_bar':
+    if form is SceneForm.FOUR_BAR:
         general, shortcut = _four_bar_to_general(ctx, data)
-    elif form == 'slider_crank':
+    elif form is SceneForm.SLIDER_CRANK:
         general, shortcut = _slider_crank_to_general(ctx, data)
     else:
         general = dict(data)
-    if form != 'points' and 'outputs' in data:
+    if form is not SceneForm.GENERAL and 'outputs' in data:
         general['outputs'] = data['outputs']  # a shortcut may name its published points
     default_name = (
         _stem_name(Path(source).stem)
         if source != '<scene>'
-        else ('mechanism' if form == 'points' else form)
+        else ('mechanism' if form is SceneForm.GENERAL else form.value)
     )
     name = ctx.name('name', data.get('name', default_name))
     # a shortcut's values were read (and warned about) above: its general form is not again
-    built = ctx if form == 'points' else _Ctx(source)
+    built = ctx if form is SceneForm.GENERAL else _Ctx(source)
     mech = _build_general(built, general, name=name, frame_id=frame_id, solver=solver)
-    mech.form = form if form != 'points' else 'general'
+    mech.form = form
     mech.shortcut = shortcut
     _check_reference_limits(ctx, mech, form, data)
-    if form == 'four_bar':
+    if form is SceneForm.FOUR_BAR:
         mech.dimensions = {
             ('crank', 'O2', 'A'): shortcut['crank'],
             ('coupler', 'A', 'B'): shortcut['coupler'],
             ('rocker', 'O4', 'B'): shortcut['rocker'],
         }
-    elif form == 'slider_crank':
+    elif form is SceneForm.SLIDER_CRANK:
         mech.dimensions = {
             ('crank', 'O2', 'A'): shortcut['crank'],
             ('rod', 'A', 'B'): shortcut['rod'],
@@ -163,7 +163,7 @@ def _with_dimensions(
     drawn = build_mechanism(plain, ctx.source, warnings=ctx.warnings)  # every other key first
     if not dims:
         return drawn
-    if drawn.form in SHORTCUT_KEYS:
+    if drawn.form is not SceneForm.GENERAL:
         try:
             mech = build_mechanism(
                 apply_to_shortcut(ctx.source, drawn.form, plain, dims), ctx.source
@@ -581,7 +581,9 @@ def _length_scale(
     return best
 
 
-def _check_reference_limits(ctx: _Ctx, mech: Mechanism, form: str, data: Mapping[str, Any]) -> None:
+def _check_reference_limits(
+    ctx: _Ctx, mech: Mechanism, form: SceneForm, data: Mapping[str, Any]
+) -> None:
     """The reference pose must be one the actuators can reach: it is the node's first state and
     it chooses the assembly mode. An actuator whose reference value is outside its own limits
     is refused, naming the key and both."""
@@ -592,10 +594,8 @@ def _check_reference_limits(ctx: _Ctx, mech: Mechanism, form: str, data: Mapping
         bad = limit_violation(name, value, act.min, act.max, act.unit, act.periodic)
         if bad is None:
             continue
-        if form == 'four_bar':
-            key = 'four_bar.input'
-        elif form == 'slider_crank':
-            key = 'slider_crank.input'
+        if form is not SceneForm.GENERAL:
+            key = f'{form.value}.input'
         elif name in (data.get('cylinders') or {}):
             key = f'cylinders.{name}'
         else:

@@ -19,6 +19,7 @@ from .result import (
     WALK_BUDGET,
     Effort,
     Result,
+    SolveMethod,
     branch_identity_defined,
     branch_undefined_below,
 )
@@ -36,6 +37,7 @@ __all__ = [
     'CompiledSolve',
     'Continuity',
     'Effort',
+    'SolveMethod',
     'SolveMode',
     'compile_solve',
     'Result',

@@ -28,7 +28,7 @@ from ..ops import SCALAR
 from ..plan import Plan, Spec, limit_violation, run_one
 from ..quantities import PointSpec, ScalarSpec
 from .point_pairs import PointPair, pair_values, parse_point
-from .result import Result, answer_branch, dyad_reason
+from .result import Result, SolveMethod, answer_branch, dyad_reason
 
 #: one command's known values in spec order: a float (rad or m) or an (x, y) point array (m)
 Values = list[Any]
@@ -59,7 +59,7 @@ class CompiledSolve:
     #: the dyad plan of the wanted outputs, and of every link (the same object without outputs)
     plan: Plan
     full_plan: Plan
-    method: str
+    method: SolveMethod
     mode: SolveMode
     #: Newton over the links the dyad plan does not place, and over every moving link
     system: LoopSystem

@@ -20,7 +20,7 @@ from .continuity import Continuity
 from .one import solve_one
 from .point_pairs import find_point_pairs, replaced_knowns
 from .reading import configuration_of
-from .result import CLOSURE_LIMIT, METHODS
+from .result import CLOSURE_LIMIT, METHODS, SolveMethod
 
 #: the condition number of an inverse solve's equations at the reference pose above which its
 #: knowns are taken not to determine the mechanism (rounding alone gives ~1e16; a generic
@@ -32,15 +32,16 @@ def compile_solve(
     mech: Mechanism,
     knowns: Sequence[str] | None = None,
     outputs: Sequence[str] | None = None,
-    method: str | None = None,
+    method: str | None = None,  # a SolveMethod's value (METHODS); None: the scene's
     tol: float = 1e-12,
     max_iter: int = 50,
 ) -> CompiledSolve:
     """Compile a solve of ``mech`` from ``knowns`` (default: its actuators) for ``outputs``
     (default: everything); PlanError naming what makes it unsolvable."""
-    method = method or mech.solver
-    if method not in METHODS:
-        raise PlanError(f'unknown solver {method!r}; expected one of {list(METHODS)}')
+    asked = method or mech.solver
+    if asked not in METHODS:
+        raise PlanError(f'unknown solver {asked!r}; expected one of {list(METHODS)}')
+    how = SolveMethod(asked)
     if isinstance(tol, bool) or not (
         isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0
     ):
@@ -75,12 +76,12 @@ def compile_solve(
     wanted_links, wanted_points = _wanted(mech, outputs)
     plan = Plan(mech, specs, wanted_links, wanted_points)
     full_plan = plan if wanted_links is None else Plan(mech, specs, None, None)
-    if method == 'closed_form' and not plan.complete:
+    if how is SolveMethod.CLOSED_FORM and not plan.complete:
         raise PlanError(
             f'no closed-form dyad plan for knowns {known_names} of '
             f'{mech.name!r}; use solver newton or auto'
         )
-    if method == 'newton':
+    if how is SolveMethod.NEWTON:
         mode = SolveMode.NEWTON
     elif plan.complete:
         mode = SolveMode.CLOSED_FORM
@@ -112,7 +113,7 @@ def compile_solve(
         point_pairs=tuple(pairs),
         plan=plan,
         full_plan=full_plan,
-        method=method,
+        method=how,
         mode=mode,
         system=system,
         check_system=check_system,
@@ -198,7 +199,9 @@ def _check_determined(c: CompiledSolve, n_values: int) -> None:
     # singular in the reference pose: a drawing at a dead point is singular there only;
     # undetermined knowns are singular everywhere. Look at poses the actuators move to.
     mech = c.mech
-    fwd = compile_solve(mech, method='closed_form' if c.plan.complete else 'auto')
+    fwd = compile_solve(
+        mech, method=SolveMethod.CLOSED_FORM if c.plan.complete else SolveMethod.AUTO
+    )
     ref = fwd.reference_values()
     scale = mech.length_scale
     seen = False

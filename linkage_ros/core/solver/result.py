@@ -9,6 +9,8 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from ..mechanism import METHODS as METHODS  # re-exported: the solver's vocabulary
+from ..mechanism import SolveMethod as SolveMethod
 from ..model import Mechanism
 from ..model.names import NameKind, resolve_name
 from ..steps import branch_signs as branch_signs  # re-exported: the solver's vocabulary
@@ -60,7 +62,7 @@ def answer_branch(
 #: rule (mode_rule) and the reference-pose toggle warning (modes) use it.
 SIGN_MARGIN = 1e-9
 
-METHODS = ('auto', 'closed_form', 'newton')
+
 #: a continuation walk gives up after this many times max_iter Newton iterations without a
 #: successful substep (an unreachable target would otherwise be bisected 10 levels deep)
 WALK_BUDGET = 6

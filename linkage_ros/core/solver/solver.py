@@ -40,7 +40,7 @@ from .modes import ModeList, modes_of
 from .one import solve_one
 from .point_pairs import PointPair
 from .reading import adopt, configuration_of, mode_of
-from .result import Effort, Result
+from .result import Effort, Result, SolveMethod
 
 
 class Solver:
@@ -106,7 +106,7 @@ class Solver:
         return self.compiled.check_system
 
     @property
-    def method(self) -> str:
+    def method(self) -> SolveMethod:
         return self.compiled.method
 
     @property
@@ -227,7 +227,9 @@ class Solver:
             newton = c
         elif c.mode is SolveMode.HYBRID:
             if self._newton is None:
-                self._newton = compile_solve(c.mech, c.knowns, None, 'newton', c.tol, c.max_iter)
+                self._newton = compile_solve(
+                    c.mech, c.knowns, None, SolveMethod.NEWTON, c.tol, c.max_iter
+                )
             newton = self._newton
         return modes_of(c, self.continuity, values, newton, self.forward_compile())
 
@@ -238,7 +240,7 @@ class Solver:
         if not c.inverse and set(c.knowns) == set(c.mech.actuators):
             return c
         if self._forward is None:  # an inverse closed form may have a forward that is not
-            method = 'auto' if c.method == 'closed_form' else c.method
+            method = SolveMethod.AUTO if c.method is SolveMethod.CLOSED_FORM else c.method
             self._forward = compile_solve(c.mech, None, None, method, c.tol, c.max_iter)
         return self._forward
 
