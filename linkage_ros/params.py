@@ -15,13 +15,13 @@ from .core.loading import load_scene
 from .core.model import Scene
 from .core.model.dimensions import overrides, parse_assignment
 from .core.solver import METHODS
+from .core.steps import read_branch
 from .core.urdf import PREFIX_RULE, prefix_error
 from .engine import Engine, EngineSettings
 from .resources import scene_path
 from .setting_checks import ConfigError, fail_setting
 
 NODE_NAME = 'linkage_node'
-BRANCH_MODES = ('continuous', 'reference')
 #: the executors the node can run on (parameter ``executor``)
 EXECUTORS = ('events', 'single_threaded')
 #: demo_rate bounds (Hz): the timer period must be a positive whole number of nanoseconds that
@@ -331,9 +331,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
     if isinstance(it, bool) or not isinstance(it, int) or it <= 0:
         fail_setting('max_iterations', 'must be an integer > 0', it)
     branch = v['branch']
-    if not isinstance(branch, str) or not (
-        branch in BRANCH_MODES or branch in ('J+', 'J-') or (branch and set(branch) <= {'+', '-'})
-    ):
+    if not isinstance(branch, str) or not branch or read_branch(branch) is None:
         fail_setting(
             'branch',
             "must be 'continuous', 'reference', a string of + and - signs, or J+ / J- (a "

@@ -10,6 +10,7 @@ import numpy as np
 
 from ..core.errors import CommandError
 from ..core.solver import SolveMode, Solver
+from ..core.solver.continuity import BranchRule
 from ..core.solver.result import branch_signs
 from ..core.velocity import velocities
 from ..engine import SOLVER_CACHE, Engine, EngineSettings
@@ -289,11 +290,7 @@ class _Engine:
     def _vectorised(self, ctx: _Context, columns, a, b, rates: RunRates | None):
         S = ctx.solver
         m = b - a
-        continuous = (
-            S.branch_mode == 'continuous'
-            if hasattr(S, 'branch_mode')
-            else self.branch == 'continuous'
-        )
+        continuous = S.branch_mode is BranchRule.CONTINUOUS
         pos = 0
         chunk = CHUNK_START
         stretch = SEQUENTIAL_STRETCH // 2

@@ -15,6 +15,7 @@ from ..core.errors import CommandError
 from ..core.model import SlideActuator
 from ..core.model.names import point_coordinate
 from ..core.quantities import AngleSpec, PointSpec
+from ..core.steps import BranchRule, read_branch
 from ..core.units import Quantity, Reading, UnitError, degrees_warning, expect, parse_text
 
 USAGE_ERROR, REFUSED, OK = 2, 1, 0
@@ -407,7 +408,9 @@ def build_solve(mech, args, allow_range: bool):
 
 
 def _signs(branch: str) -> bool:
-    return branch not in ('continuous', 'reference')
+    """The branch setting names a mode itself (signs, or a Jacobian sign)."""
+    rule = read_branch(branch)
+    return rule is not None and rule.rule in (BranchRule.EXPLICIT, BranchRule.JACOBIAN)
 
 
 def target_engine(mech, args, single: bool = False):

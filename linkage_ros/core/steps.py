@@ -155,6 +155,41 @@ def branch_text(signs: Iterable[float]) -> str:
 _BRANCH_TEXTS: dict[tuple[float, ...], str] = {}
 
 
+# ---- the branch setting: which assembly mode a solve takes ------------------------------------
+
+
+class BranchRule(StrEnum):
+    """Which assembly mode a solve takes."""
+
+    CONTINUOUS = 'continuous'  # the reference pose's first, then the one nearest the last answer
+    REFERENCE = 'reference'  # the reference pose's signs, always
+    EXPLICIT = 'explicit'  # given signs, one per branching dyad of the plan
+    JACOBIAN = 'jacobian'  # where Newton places the mechanism: a loop Jacobian determinant sign
+
+
+@dataclass(frozen=True)
+class Branch:
+    """A branch rule and, for an explicit one, its signs (+1 / -1 per branching dyad)."""
+
+    rule: BranchRule = BranchRule.CONTINUOUS
+    signs: tuple[int, ...] | None = None
+    #: JACOBIAN: the sign (+1 / -1) of the loop Jacobian's determinant over every moving link
+    det_sign: int | None = None
+
+
+def read_branch(text: object) -> Branch | None:
+    """A branch setting's text as its rule (the one reading of it): 'continuous', 'reference',
+    'J+' / 'J-' (the loop Jacobian's determinant sign) or a string of + and - (one sign per
+    branching dyad; how many a plan has, parse_branch checks); None for anything else."""
+    if text in ('continuous', 'reference'):
+        return Branch(BranchRule(text))
+    if text in ('J+', 'J-'):
+        return Branch(BranchRule.JACOBIAN, det_sign=1 if text == 'J+' else -1)
+    if isinstance(text, str) and set(text) <= {'+', '-'}:
+        return Branch(BranchRule.EXPLICIT, branch_signs(text))
+    return None
+
+
 def sign_combinations(branch_count: int) -> Iterator[tuple[int, ...]]:
     """Every assembly mode of a dyad plan with ``branch_count`` branching steps, as branch
     signs: (+1, ..., +1) first, then in the order of :func:`itertools.product` over (+1, -1)

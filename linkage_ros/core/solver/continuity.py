@@ -6,7 +6,6 @@ from __future__ import annotations
 import collections.abc
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
-from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -15,68 +14,42 @@ from ..errors import PlanError
 from ..execute import CONTINUITY_MARGIN, LinkPoses
 from ..ops import BATCH
 from ..plan import Plan
+from ..steps import Branch as Branch  # re-exported: the solver's vocabulary
+from ..steps import BranchRule as BranchRule
+from ..steps import read_branch
 from .compiled import CompiledSolve, SolveMode, Values
-from .result import branch_signs
-
-
-class BranchRule(StrEnum):
-    """Which assembly mode a solve takes."""
-
-    CONTINUOUS = 'continuous'  # the reference pose's first, then the one nearest the last answer
-    REFERENCE = 'reference'  # the reference pose's signs, always
-    EXPLICIT = 'explicit'  # given signs, one per branching dyad of the plan
-    JACOBIAN = 'jacobian'  # where Newton places the mechanism: a loop Jacobian determinant sign
-
 
 #: the rules as module constants: an enum member's attribute lookup costs ~0.1 us per command
 _EXPLICIT, _CONTINUOUS = BranchRule.EXPLICIT, BranchRule.CONTINUOUS
 
 
-@dataclass(frozen=True)
-class Branch:
-    """A branch rule and, for an explicit one, its signs (+1 / -1 per branching dyad)."""
-
-    rule: BranchRule = BranchRule.CONTINUOUS
-    signs: tuple[int, ...] | None = None
-    #: JACOBIAN: the sign (+1 / -1) of the loop Jacobian's determinant over every moving link
-    det_sign: int | None = None
-
-
 def parse_branch(plan: Plan, branch: Any, newton_labels: bool = False) -> Branch:
-    """'continuous', 'reference' or a string of + and - (one per branching dyad of ``plan``);
-    with ``newton_labels`` (a forward solve that Newton places) also 'J+' or 'J-', the sign of
-    the loop Jacobian's determinant (reading.mode_label); PlanError naming the dyads for
-    anything else."""
+    """read_branch's rule, checked against ``plan``: one sign per branching dyad; with
+    ``newton_labels`` (a forward solve that Newton places) also 'J+' or 'J-'
+    (reading.mode_label); PlanError naming the dyads for anything else."""
     k = len(plan.branch_steps)
-    if branch in ('continuous', 'reference'):
-        return Branch(BranchRule(branch))
-    if branch in ('J+', 'J-'):
-        if not newton_labels:
-            raise PlanError(
-                f'branch {branch!r} names an assembly mode of a scene Newton places (the sign of '
-                "its loop Jacobian's determinant); this solve's modes are "
-                + (
-                    f'the signs of its {k} branching dyad(s), e.g. {"+" * k!r}'
-                    if k
-                    else 'not selectable (no branching dyad)'
-                )
+    got = read_branch(branch)
+    if got is None:
+        raise PlanError(
+            f"branch must be 'continuous', 'reference' or a string of + and - (got {branch!r})"
+        )
+    if got.rule is BranchRule.JACOBIAN and not newton_labels:
+        raise PlanError(
+            f'branch {branch!r} names an assembly mode of a scene Newton places (the sign of '
+            "its loop Jacobian's determinant); this solve's modes are "
+            + (
+                f'the signs of its {k} branching dyad(s), e.g. {"+" * k!r}'
+                if k
+                else 'not selectable (no branching dyad)'
             )
-        return Branch(BranchRule.JACOBIAN, det_sign=1 if branch == 'J+' else -1)
-    if isinstance(branch, str) and set(branch) <= {'+', '-'}:
-        if len(branch) != k:
-            dyads = '; '.join(s.describe(plan) for s in plan.branch_steps)
-            raise PlanError(
-                f'branch {branch!r} has {len(branch)} sign(s) but this solve has '
-                + (
-                    f'{k} branching dyad(s): {dyads}'
-                    if k
-                    else 'no branching dyad (no sign to give)'
-                )
-            )
-        return Branch(BranchRule.EXPLICIT, branch_signs(branch))
-    raise PlanError(
-        f"branch must be 'continuous', 'reference' or a string of + and - (got {branch!r})"
-    )
+        )
+    if got.rule is BranchRule.EXPLICIT and got.signs is not None and len(got.signs) != k:
+        dyads = '; '.join(s.describe(plan) for s in plan.branch_steps)
+        raise PlanError(
+            f'branch {branch!r} has {len(got.signs)} sign(s) but this solve has '
+            + (f'{k} branching dyad(s): {dyads}' if k else 'no branching dyad (no sign to give)')
+        )
+    return got
 
 
 @dataclass
