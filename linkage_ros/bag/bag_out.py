@@ -279,10 +279,8 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: _Pro
         js = _stamped_rows(js_t, okr, sec, nsec)
         if joints and okr.size:
             scene = {j: res.joints[j][okr] for j in mech.joint_names}
-            given = {x: res.inputs[x][okr] for x in mech.actuators}
             vals = np.stack(
-                [np.broadcast_to(v, okr.shape) for v in mech.output_joints(scene, given)],
-                axis=1,
+                [np.broadcast_to(v, okr.shape) for v in mech.output_joints(scene)], axis=1
             ).astype('<f8')
             js[:, js_off : js_off + 8 * len(joints)] = vals.view(np.uint8).reshape(okr.size, -1)
         js_rows = _rows_bytes(js)
@@ -291,10 +289,9 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: _Pro
             vrows = okr[rated]
             jv = _stamped_rows(jv_t, vrows, sec, nsec)
             scene = {j: res.joints[j][vrows] for j in mech.joint_names}
-            given = {x: res.inputs[x][vrows] for x in mech.actuators}
             rates = {j: res.joint_rates[j][vrows] for j in mech.joint_names}
             for off, cols in (
-                (jv_pos, mech.output_joints(scene, given)),
+                (jv_pos, mech.output_joints(scene)),
                 (jv_vel, mech.output_joint_rates(rates)),
             ):
                 vals = np.stack([np.broadcast_to(v, vrows.shape) for v in cols], axis=1).astype(

@@ -46,9 +46,7 @@ class PlansCsvWriter:
             return
         output_joints = self.mech.output_joints
         self._w.writerows(
-            base
-            + ['ok', '', '', i, t]
-            + [repr(float(v)) for v in output_joints(r.joints, r.inputs)]
+            base + ['ok', '', '', i, t] + [repr(float(v)) for v in output_joints(r.joints)]
             for i, (r, t) in enumerate(zip(ans.results, req.times_ns))
         )
 

@@ -252,7 +252,8 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
         '--csv',
         metavar='FILE',
         help='also write the trajectory as CSV: index, status, reason, input.<actuator>... and '
-        'joint.<joint>... (full precision; empty on refused rows), written whole or not at all',
+        'joint.<joint>... (full precision; a refused row has its inputs, angles wrapped as answers '
+        'give them, and no joints), written whole or not at all',
     )
     p.set_defaults(func=cmd_sweep)
 

@@ -144,14 +144,15 @@ def _row(i, command, names, d, ok, solved_inputs, outs) -> list[str]:
 
 def _csv_rows(mech, table: ResultTable) -> list[list]:
     """index, status, reason, every input and joint of each row; a refused row keeps the
-    inputs it was commanded (as linkage bag's CSV does), its other cells empty."""
+    inputs it was commanded (as linkage bag's CSV does; angles wrapped as the answers give
+    them), its other cells empty."""
     n = table.n
 
     def listed(values) -> list[list[float]]:
         return [np.broadcast_to(np.asarray(v, float), (n,)).tolist() for v in values]
 
     inputs = listed(mech.output_inputs(table.inputs))
-    joints = listed(mech.output_joints(table.joints, table.inputs))
+    joints = listed(mech.output_joints(table.joints))
     rows = []
     for i in range(n):
         if not table.ok[i]:

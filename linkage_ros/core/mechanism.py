@@ -131,9 +131,7 @@ class JointCoordinates(Protocol):
     @property
     def commanded(self) -> tuple[str, ...]: ...
 
-    def positions(
-        self, joints: Mapping[str, Any], inputs: Mapping[str, Any] | None = None
-    ) -> list[Any]: ...
+    def positions(self, joints: Mapping[str, Any]) -> list[Any]: ...
 
     def velocities(self, joints: Mapping[str, Any]) -> list[Any]: ...
 
@@ -206,16 +204,13 @@ class Mechanism:
         jc = self.joint_coordinates
         return list(jc.names) if jc is not None else self.joint_names
 
-    def output_joints(
-        self, joints: Mapping[str, Any], inputs: Mapping[str, Any] | None = None
-    ) -> list[Any]:
+    def output_joints(self, joints: Mapping[str, Any]) -> list[Any]:
         """The published joints' values (rad, m) from a result's scene joint values (floats,
-        or a batch's arrays); ``inputs``, the actuator values as commanded, where the caller
-        has them (a <mimic> of an actuated joint follows its commanded value: JointMap)."""
+        or a batch's arrays)."""
         jc = self.joint_coordinates
         if jc is None:
             return [joints[j] for j in self.joint_names]
-        return jc.positions(joints, inputs)
+        return jc.positions(joints)
 
     def output_joint_rates(self, joints: Mapping[str, Any]) -> list[Any]:
         """The published joints' rates (rad/s, m/s) from a result's scene joint rates."""

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..model import Mechanism, Scene
-from ..model.joint_map import JointMap, wrap
+from ..model.joint_map import JointMap, OutputKind, wrap
 from ..model.limits import limit_violation
 from .calibration import calibrate_joint_map
 from .chain import Chain, find_chain, rot
@@ -156,6 +156,7 @@ def import_description(
     mimics = [j.name for j in chain.joints if j.joint.mimic is not None and j.name not in acts]
     if mimics:
         notes.append(f'<mimic> of {", ".join(mimics)} superseded: the closures give their values')
+    notes += _turning_mimics(jmap)
     return Imported(desc, chain, scene, mech, jmap, acts, q, gap, tuple(notes))
 
 
@@ -201,6 +202,27 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
             file=desc.source,
         )
     return tuple(acts)
+
+
+def _turning_mimics(jmap: JointMap) -> list[str]:
+    """A note for each published <mimic> whose multiplier is not a whole number and whose
+    leader turns further than a full turn (continuous, or limits 2 pi apart or more): the
+    leader is published wrapped, and so the follower jumps where the leader passes its wrap."""
+    leaders = {o.name: o for o in jmap.outputs}
+    notes = []
+    for o in jmap.outputs:
+        lead = leaders.get(o.leader) if o.kind is OutputKind.MIMIC else None
+        if lead is None or not lead.revolute or float(o.scale).is_integer():
+            continue
+        lo, hi = lead.lower, lead.upper
+        if lo is None or hi is None or hi - lo >= 2 * math.pi:
+            notes.append(
+                f'<mimic> {o.name} = {o.scale:g} * {o.leader} + {o.offset:g}: {o.leader} turns '
+                f'fully and is published wrapped (into (-pi, pi] or its limits), so {o.name} '
+                f'follows that value and jumps where {o.leader} passes its wrap; turns are not '
+                'counted'
+            )
+    return notes
 
 
 def _assembly_values(
@@ -253,19 +275,29 @@ def _assembly_values(
             if name in given
             else 'no assemble_at: 0'
         )
+        mimic = by_name[name].joint.mimic
+        if leader_of(name) is not None and mimic is not None:  # (set by its leader's value)
+            stated = f'{name} = {mimic.multiplier:g} * {mimic.joint} + {mimic.offset:g}'
+            remedy = f'give {mimic.joint} a value that puts {name} within them (assemble_at'
+        else:
+            inside = _inside(lim.lower, lim.upper, by_name[name].revolute)
+            remedy = f'give a value within the limits (assemble_at: {{{name}: {inside:.6g}}}'
         raise DescriptionError(
             f'{why} where the description is assembled ({stated}; {whose}: {span}): '
-            'the assembled pose is the reference pose, the first state; give a value within '
-            f'the limits (assemble_at: {{{name}: {_inside(lim.lower, lim.upper):.6g}}} in a '
+            f'the assembled pose is the reference pose, the first state; {remedy} in a '
             'closure file), or state wider limits there',
             file=desc.source,
         )
     return given
 
 
-def _inside(lower: float | None, upper: float | None) -> float:
-    """A value within the limits [lower, upper] to suggest: their middle, else next to the one
-    there is."""
+def _inside(lower: float | None, upper: float | None, revolute: bool) -> float:
+    """A value within the limits [lower, upper] to suggest: their middle; with one limit, an
+    angle's arc to +-pi (the limit rule reads a one-sided angle in (-pi, pi]), a length's
+    value a little inside it."""
+    if revolute:
+        lower = -math.pi if lower is None else lower
+        upper = math.pi if upper is None else upper
     if lower is not None and upper is not None:
         return 0.5 * (lower + upper)
     if lower is not None:
@@ -450,17 +482,20 @@ def _scene(
                 points, members[j.parent], j.parent == chain.ground
             )
             k = math.remainder(v_ref - j.sign * q[a], 2.0 * math.pi)
-            if (
-                lim.lower is not None
-                and lim.upper is not None
-                and lim.upper - lim.lower < (2 * math.pi)
-            ):
-                lo, hi = sorted((j.sign * lim.lower + k, j.sign * lim.upper + k))
-                spec.update(min=lo, max=hi)
+            if lim.lower is not None or lim.upper is not None:
+                # one limit bounds the angle as reported, in (-pi, pi] (the limit rule): the
+                # arc to +-pi, mapped as two limits are
+                lower = -math.pi if lim.lower is None else lim.lower
+                upper = math.pi if lim.upper is None else lim.upper
+                if upper - lower < 2 * math.pi:
+                    lo, hi = sorted((j.sign * lower + k, j.sign * upper + k))
+                    spec.update(min=lo, max=hi)
         else:
             spec = {'type': 'slide', 'joint': names('point', a)}
-            if lim.lower is not None and lim.upper is not None:
-                spec.update(min=lim.lower, max=lim.upper)
+            if lim.lower is not None:
+                spec['min'] = lim.lower
+            if lim.upper is not None:
+                spec['max'] = lim.upper
         actuators[names('point', a)] = spec
     scene: dict[str, Any] = {
         'name': names('scene', desc.name),

@@ -132,38 +132,21 @@ class JointMap:
         return (x, y) if self.plane is None else self.plane.plane_xy(x, y, z)
 
     # -- out: a solved result -> the description's joint values --------------------------------
-    def positions(
-        self, joints: Mapping[str, Any], inputs: Mapping[str, Any] | None = None
-    ) -> list[Any]:
+    def positions(self, joints: Mapping[str, Any]) -> list[Any]:
         """Every published joint's value from a result's scene joint values (floats, or a
-        batch's arrays). ``inputs`` (the scene's actuator values as commanded): a <mimic> of
-        an actuated revolute joint follows its value as commanded, not as published (wrapped
-        into (-pi, pi] or its limits): a follower geared 1:2 to a continuous crank at 4 rad is
-        at 2 rad, not at half of 4 - 2 pi."""
+        batch's arrays)."""
         out: dict[str, Any] = {}
-        commanded = self._commanded_values(inputs) if inputs is not None else {}
         for o in self.outputs:
             if o.kind is OutputKind.CONSTANT:
                 v = o.offset
             elif o.kind is OutputKind.MIMIC:
-                lead = commanded.get(o.leader)
-                v = o.scale * (out[o.leader] if lead is None else lead) + o.offset
+                v = o.scale * out[o.leader] + o.offset
             else:
                 v = o.scale * joints[o.scene_joint] + o.offset
                 if o.revolute:
                     v = _fit(wrap(v), o)
             out[o.name] = v
         return [out[n] for n in self.names]
-
-    def _commanded_values(self, inputs: Mapping[str, Any]) -> dict[str, Any]:
-        """The actuated revolute joints' values as commanded (description units, not wrapped)
-        from the scene's actuator values, where ``inputs`` has them."""
-        out = {}
-        for a in self.actuated:
-            entry = self.inputs[a]
-            if entry.revolute and entry.scene_name in inputs:
-                out[a] = entry.scale * (inputs[entry.scene_name] - entry.offset)  # scale is +-1
-        return out
 
     def passive_beyond_rows(self, joints: Mapping[str, Any]) -> Any:
         """Where the published passive joints break their <limit>s (beyond LIMIT_SLACK): a
@@ -311,16 +294,16 @@ class JointMap:
 
     @staticmethod
     def _convert(entry: InputJoint, value: Any, rates: bool) -> Any:
-        """scale * value + offset (a rate: scale * value); a float or an array of them;
-        anything else unchanged (the engine's checks name a bad value). An angle is not
-        wrapped: a scene's input keeps the turns it was commanded with (as a scene file's
-        does), which a <mimic> of it follows (positions); the answers publish it wrapped."""
+        """scale * value + offset (a rate: scale * value), an angle wrapped; a float or an
+        array of them; anything else unchanged (the engine's checks name a bad value)."""
         offset = 0.0 if rates else entry.offset
         if isinstance(value, np.ndarray):
-            return entry.scale * np.asarray(value, np.float64) + offset
+            v = entry.scale * np.asarray(value, np.float64) + offset
+            return np.asarray(wrap(v), np.float64) if entry.revolute and not rates else v
         if isinstance(value, bool) or not isinstance(value, int | float):
             return value
-        return entry.scale * float(value) + offset
+        x = entry.scale * float(value) + offset
+        return wrap(x) if entry.revolute and not rates and math.isfinite(x) else x
 
     def describe(self) -> dict[str, Any]:
         return {
