@@ -27,6 +27,7 @@ from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
 from .core.solver.result import does_not_assemble, named_value
 from .core.steps import BranchRule, branch_text, read_branch
+from .core.tolerances import NEWTON_TOL
 from .core.velocity import velocities
 from .point_coordinates import group_point_coordinates
 from .request_checks import rates_error
@@ -41,7 +42,7 @@ class EngineSettings:
     """How the engine solves (the node's parameters of the same names)."""
 
     solver: str | None = None  # auto, closed_form, newton; None = the scene's
-    tolerance: float = 1e-12  # Newton tolerance, fraction of the length scale
+    tolerance: float = NEWTON_TOL  # Newton tolerance, fraction of the length scale
     max_iterations: int = 50
     branch: str = 'continuous'  # continuous, reference or explicit signs such as '+-'
     target_point_hold: tuple[str, ...] = ()  # held by a point target (DOF > 2)

@@ -16,6 +16,7 @@ from .core.model import Scene
 from .core.model.dimensions import overrides, parse_assignment
 from .core.solver import METHODS
 from .core.steps import read_branch
+from .core.tolerances import NEWTON_TOL
 from .core.urdf import PREFIX_RULE, prefix_error
 from .engine import Engine, EngineSettings
 from .resources import scene_path
@@ -96,7 +97,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec(
         'tolerance',
-        1e-12,
+        NEWTON_TOL,
         'Newton tolerance on the loop-closure residual, as a fraction '
         'of the mechanism length scale.',
         constraints='> 0',
@@ -216,7 +217,7 @@ class NodeConfig:
     scene_path: str = ''
     dimensions: tuple[tuple[str, float], ...] = ()
     solver: str | None = None
-    tolerance: float = 1e-12
+    tolerance: float = NEWTON_TOL
     max_iterations: int = 50
     branch: str = 'continuous'
     frame_id: str = ''

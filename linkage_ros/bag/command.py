@@ -13,6 +13,7 @@ from ..cli.common import (
     add_scene_argument,
 )
 from ..core.errors import LinkageError
+from ..core.tolerances import NEWTON_TOL
 from ..outputs import folder_refusal
 from .common import DEFAULT_OUT_FORMAT, BagError
 from .fleet_inputs import bags_in
@@ -132,8 +133,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         '--tol',
         type=float,
-        default=1e-12,
-        help='Newton tolerance relative to the length scale (default 1e-12)',
+        default=NEWTON_TOL,
+        help=f'Newton tolerance relative to the length scale (default {NEWTON_TOL:g})',
     )
     parser.add_argument(
         '--max-iter', type=int, default=50, help='Newton iteration cap (default 50)'

@@ -12,6 +12,7 @@ from ..core.errors import CommandError
 from ..core.solver import SolveMode, Solver
 from ..core.solver.continuity import BranchRule
 from ..core.solver.result import branch_signs
+from ..core.tolerances import NEWTON_TOL
 from ..core.velocity import velocities
 from ..engine import SOLVER_CACHE, Engine, EngineSettings
 from ..point_coordinates import group_point_coordinates
@@ -433,7 +434,7 @@ def _adopted_signs(S: Solver) -> tuple[int, ...]:
 
 
 def solve_commands(
-    mech, data: Commands, method=None, tol=1e-12, max_iter=50, branch='continuous'
+    mech, data: Commands, method=None, tol=NEWTON_TOL, max_iter=50, branch='continuous'
 ) -> Results:
     """Solve decoded commands in order as the node would (library entry point)."""
     return _Engine(mech, method, tol, max_iter, branch).solve_all(data)

@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..core.errors import LinkageError
+from ..core.tolerances import NEWTON_TOL
 from .check import cmd_check
 from .common import (
     INTERRUPTED,
@@ -170,8 +171,8 @@ def _add_solve_options(p, default_branch: str, ranges: bool):
     s.add_argument(
         '--tol',
         type=float,
-        default=1e-12,
-        help='Newton tolerance, relative to the length scale (default 1e-12)',
+        default=NEWTON_TOL,
+        help=f'Newton tolerance, relative to the length scale (default {NEWTON_TOL:g})',
     )
     s.add_argument('--max-iter', type=int, default=50, help='Newton iteration cap (default 50)')
     p.add_argument('--json', action='store_true', help='machine-readable output')

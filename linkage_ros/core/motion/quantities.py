@@ -21,7 +21,7 @@ import numpy as np
 from ..model import AngleActuator, Mechanism
 from ..model.names import NameKind, resolve_name
 from ..solver import Result, Solver
-from ..solver.result import branch_text, named_value
+from ..solver.result import NEWTON_TOL, branch_text, named_value
 from ..steps import RRRDyad
 from ..velocity import Velocities, velocities
 from .ranges import _scan_circuit, input_ranges
@@ -224,7 +224,7 @@ def _wrapped(e: Extreme) -> Extreme:
 
 
 def input_sweep(
-    mech: Mechanism, outputs: list[str], samples: int = 1440, tol: float = 1e-12
+    mech: Mechanism, outputs: list[str], samples: int = 1440, tol: float = NEWTON_TOL
 ) -> InputSweep:
     """Sweep the only actuator of a 1-DOF mechanism over its circuit (:func:`_circuit`: a full
     turn when it turns fully, else its range one way and back, through the toggles at its ends

@@ -11,6 +11,7 @@ import numpy as np
 from ..model import Mechanism
 from ..solver import Result, Solver
 from ..solver.mode_rule import ModeKeeper
+from ..solver.result import NEWTON_TOL
 from .common import link_key, point_key, reference_scalar
 from .walk import _walk
 
@@ -27,7 +28,7 @@ def max_tilt(
     held: Sequence[str] | None = None,
     step: float = math.radians(1.0),
     max_rotation: float = math.pi,
-    tol: float = 1e-12,
+    tol: float = NEWTON_TOL,
     method: str | None = None,
 ) -> dict[str, Any]:
     """Largest rotation of ``link`` (the bin) about its point ``lip`` (L) held fixed, within the

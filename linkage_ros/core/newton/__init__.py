@@ -30,7 +30,8 @@ steps stop reducing the residual (near singularities).
 Batched (:meth:`LoopSystem.evaluate_batch`, :meth:`LoopSystem.solve_batch`): the same residual and
 Jacobian for N configurations at once in numpy, and full Newton steps on the N x n x n stack from
 warm starts, accepting a row only where the fast path would (FAST_RATE per step, det J sign at
-start and answer, cond below POLISH_COND); the rows it declines go to the scalar careful path.
+start and answer, cond below NEAR_SINGULAR_COND); the rows it declines go to the scalar careful
+path.
 Its linear algebra goes block by block where J's fixed sparsity makes it block triangular
 (blocks.py: the excavator's 33 x 33 J is four blocks of at most 9).
 
@@ -50,7 +51,7 @@ from .results import (
     FAST_RATE,
     FAST_STEPS,
     MAX_PREDICTION,
-    POLISH_COND,
+    NEAR_SINGULAR_COND,
     POLISH_STEPS,
     SINGULAR_COND,
     BatchSolve,
@@ -65,7 +66,7 @@ __all__ = [
     'FAST_RATE',
     'FAST_STEPS',
     'MAX_PREDICTION',
-    'POLISH_COND',
+    'NEAR_SINGULAR_COND',
     'POLISH_STEPS',
     'SINGULAR_COND',
     'BatchSolve',

@@ -29,7 +29,8 @@ from .results import (
     FAST_RATE,
     FAST_STEPS,
     MAX_PREDICTION,
-    POLISH_COND,
+    NEAR_SINGULAR_COND,
+    NEWTON_TOL,
     BatchSolve,
 )
 from .rows import angle_row, line_row, point_rows, revolute_rows
@@ -413,7 +414,7 @@ class BatchNewton:
         values: Sequence[Any],
         start_sign: int | np.ndarray | Sequence[int],
         *,
-        tol: float = 1e-12,
+        tol: float = NEWTON_TOL,
         max_steps: int = FAST_STEPS + 2,
         start_checked: bool = False,
         warm: bool = False,
@@ -515,7 +516,7 @@ class BatchNewton:
             cond[answers] = conds
             done[answers] = ~check[answers] | (signs == sign0[answers])
         self._give_back(J)  # nothing below reads J
-        ok = done & (cond < POLISH_COND) & np.isfinite(x).all(axis=1) & np.isfinite(res)
+        ok = done & (cond < NEAR_SINGULAR_COND) & np.isfinite(x).all(axis=1) & np.isfinite(res)
         if ok.all():  # the common case: no where passes (and x never the caller's X0)
             return BatchSolve(
                 x=x.copy() if x is X0 else x,

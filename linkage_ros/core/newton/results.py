@@ -7,6 +7,8 @@ from typing import Any, TypeAlias
 
 import numpy as np
 
+from ..tolerances import NEWTON_TOL as NEWTON_TOL  # re-exported: Newton's default
+
 #: LAPACK's LU of a square J: (lu, piv, det sign), getrf's packed L and U, its row pivots and
 #: the sign of det J (+1 / -1) read off them. A plain tuple, not a NamedTuple: the scalar solve
 #: builds two per command, and a NamedTuple's constructor (a Python call) costs ~0.5 us each
@@ -49,8 +51,9 @@ class BatchSolve:
     cond: np.ndarray  # (N,) cond(J) at x (as linalg.cond reports it) where ok, else inf
 
 
-#: at convergence, a scaled cond(J) above this means a near-singular configuration: polish
-POLISH_COND = 1e6
+#: a scaled cond(J) above this is a near-singular configuration (Newton polishes its answer;
+#: without a dyad plan it counts as near a singularity)
+NEAR_SINGULAR_COND = 1e6
 POLISH_STEPS = 40
 #: a scaled cond(J) above this is a singular configuration (rank-deficient to rounding)
 SINGULAR_COND = 1e10

@@ -45,7 +45,8 @@ from .linalg import cond, factor, lapack, lu_step, scaled_cond, side_ok, sign_of
 from .results import (
     COND_EXACT,
     MAX_PREDICTION,
-    POLISH_COND,
+    NEAR_SINGULAR_COND,
+    NEWTON_TOL,
     POLISH_STEPS,
     SINGULAR_COND,
     LUFactor,
@@ -344,7 +345,7 @@ def solve(
     values: Sequence[Any],
     fixed: LinkPoses | None = None,
     *,
-    tol: float = 1e-12,
+    tol: float = NEWTON_TOL,
     max_iter: int = 50,
     keep_det_sign: bool = True,
     start_sign: int | None = None,
@@ -483,7 +484,7 @@ def solve_from_guess(
     values: Sequence[Any],
     fixed: LinkPoses | None = None,
     *,
-    tol: float = 1e-12,
+    tol: float = NEWTON_TOL,
     max_iter: int = 50,
     start_sign: int = 0,
     kernel: Kernel | None = None,
@@ -496,7 +497,7 @@ def solve_from_guess(
     finish() is not run where the kernel's condition bound at the answer is below COND_EXACT:
     the condition number finish() reports (LAPACK's 1-norm estimate, never above the exact
     1-norm condition number, which the bound is never below) is then below COND_EXACT <
-    POLISH_COND < SINGULAR_COND, so finish would neither polish nor read J as singular: the
+    NEAR_SINGULAR_COND < SINGULAR_COND, so finish would neither polish nor read J as singular: the
     answer is the kernel's, its det sign the factor's. Its ``cond`` is then the bound where
     the kernel's bound is the estimate itself (DenseKernel), else nan, read when asked
     (cond_of); ``jv`` and ``factor`` are J's varying entries and the kernel's factor there."""
@@ -588,7 +589,7 @@ def finish(
     square = t.m == t.n
     c = cond_estimate(J, fac)
     nj = 0
-    if polish and c > POLISH_COND:
+    if polish and c > NEAR_SINGULAR_COND:
         # near a toggle Newton converges only linearly and the configuration error is
         # ~sqrt(residual): polish while it still pays, so margins and branch signs read off
         # the answer are as exact as floating point allows

@@ -18,7 +18,7 @@ from . import evaluate as ev
 from . import linalg, scalar
 from .batch import BatchNewton
 from .lean import Kernel
-from .results import FAST_STEPS, BatchSolve, LUFactor, SolveResult
+from .results import FAST_STEPS, NEWTON_TOL, BatchSolve, LUFactor, SolveResult
 from .tables import LoopTables, PointOwner, compile_tables, pattern_positions, spec_links
 
 
@@ -194,7 +194,7 @@ class LoopSystem:
         values: Sequence[Any],
         fixed: LinkPoses | None = None,
         *,
-        tol: float = 1e-12,
+        tol: float = NEWTON_TOL,
         max_iter: int = 50,
         keep_det_sign: bool = True,
         start_sign: int | None = None,
@@ -223,7 +223,7 @@ class LoopSystem:
         values: Sequence[Any],
         fixed: LinkPoses | None = None,
         *,
-        tol: float = 1e-12,
+        tol: float = NEWTON_TOL,
         max_iter: int = 50,
         start_sign: int = 0,
         kernel: Kernel | None = None,
@@ -249,7 +249,7 @@ class LoopSystem:
         values: Sequence[Any],
         start_sign: int | np.ndarray | Sequence[int],
         *,
-        tol: float = 1e-12,
+        tol: float = NEWTON_TOL,
         max_steps: int = FAST_STEPS + 2,
         start_checked: bool = False,
         warm: bool = False,
@@ -266,7 +266,7 @@ class LoopSystem:
         FAST_RATE-fold down to min(tol, max(FAST_MARGIN * tol, FAST_FLOOR)) within ``max_steps``
         (a step that does not, taken from a point already within ``tol``, leaves the row there,
         converged); det J at the answer has the start's sign (else it crossed det J = 0, maybe
-        onto another assembly mode); the answer is off folds (cond < POLISH_COND, else the
+        onto another assembly mode); the answer is off folds (cond < NEAR_SINGULAR_COND, else the
         scalar path polishes it; cond as linalg.cond reports it: see batch.batch_conds) and
         finite. Otherwise the row is *declined*, not failed: ok False, x its X0 row, residual
         max|F| / L at X0, det_sign 0, cond inf; the caller solves it another way (solve(): the

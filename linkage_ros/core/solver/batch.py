@@ -31,7 +31,13 @@ from .continuity import BranchRule, Continuity, state_of
 from .newton_poses import newton_poses
 from .one import solve_one
 from .point_pairs import pair_columns
-from .result import Result, branch_identity_defined, branch_signs, branch_text
+from .result import (
+    KANTOROVICH_BOUND,
+    Result,
+    branch_identity_defined,
+    branch_signs,
+    branch_text,
+)
 from .table import ResultTable
 
 
@@ -326,7 +332,7 @@ def _newton(
         # solve_one checks the closed form can assemble unless the answer is provably on its
         # branch: well conditioned for its residual (Newton-Kantorovich) and the dyads on the
         # start's sides. A row that needs that check (or changed sides) goes there too.
-        accepted[rows] = cond[rows] ** 2 * residual[rows] * system.n <= 1e-2
+        accepted[rows] = cond[rows] ** 2 * residual[rows] * system.n <= KANTOROVICH_BOUND
     poses, pts = newton_poses(c, x)
     signs = np.zeros((n, k), int)
     if branches:

@@ -20,7 +20,7 @@ from .continuity import Continuity
 from .one import solve_one
 from .point_pairs import find_point_pairs, replaced_knowns
 from .reading import configuration_of
-from .result import CLOSURE_LIMIT, METHODS, SolveMethod
+from .result import CLOSURE_LIMIT, METHODS, NEWTON_TOL, SolveMethod
 
 #: the condition number of an inverse solve's equations at the reference pose above which its
 #: knowns are taken not to determine the mechanism (rounding alone gives ~1e16; a generic
@@ -33,7 +33,7 @@ def compile_solve(
     knowns: Sequence[str] | None = None,
     outputs: Sequence[str] | None = None,
     method: str | None = None,  # a SolveMethod's value (METHODS); None: the scene's
-    tol: float = 1e-12,
+    tol: float = NEWTON_TOL,
     max_iter: int = 50,
 ) -> CompiledSolve:
     """Compile a solve of ``mech`` from ``knowns`` (default: its actuators) for ``outputs``

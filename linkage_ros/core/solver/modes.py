@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from ..newton.results import SINGULAR_COND
 from ..plan import Plan, limit_violation
 from ..steps import RollerSide, sign_combinations
 from .compiled import CompiledSolve, SolveMode
@@ -28,10 +29,6 @@ from .result import SIGN_MARGIN, Result, branch_text
 
 #: Newton starts of the search (the first is the scene's reference pose)
 MODE_STARTS = 128
-#: a root whose scale-free Jacobian is this ill-conditioned is not an isolated assembly mode but
-#: a point of a continuum of solutions (a folded cell, a dyad with coincident centres): such
-#: roots are counted, not listed (a regular mode here has a condition number of order 10-1e4)
-SINGULAR_MODE_COND = 1e10
 
 
 @dataclass
@@ -205,7 +202,10 @@ def newton_modes(
         )
         if not (res.success and res.residual is not None and res.residual <= c.closure_limit):
             continue
-        if not r.cond < SINGULAR_MODE_COND:
+        # a root this ill-conditioned (SINGULAR_COND) is no isolated assembly mode but a point
+        # of a continuum of solutions (a folded cell, a dyad with coincident centres): counted,
+        # not listed (a regular mode here has a condition number of order 10-1e4)
+        if not r.cond < SINGULAR_COND:
             found.singular += 1
             continue
         if c.inverse and any(

@@ -41,6 +41,7 @@ from .newton_result import NewtonSource, newton_result
 from .reading import jacobian_sign, mode_label
 from .result import (
     CLOSURE_LIMIT,
+    KANTOROVICH_BOUND,
     MAX_HALVINGS,
     NEAR_SINGULAR_COND,
     WALK_BUDGET,
@@ -493,8 +494,8 @@ def solve_newton(
     if (
         r is None
         or not (
-            r.cond_bound * r.cond_bound * r.residual * n <= 1e-2
-            or cond_of(t, r) * cond_of(t, r) * r.residual * n <= 1e-2
+            r.cond_bound * r.cond_bound * r.residual * n <= KANTOROVICH_BOUND
+            or cond_of(t, r) * cond_of(t, r) * r.residual * n <= KANTOROVICH_BOUND
         )
         or (geo is not None and tuple(geo[0]) != tuple(check_signs or c.full_plan.reference_signs))
     ):

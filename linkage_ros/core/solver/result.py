@@ -13,8 +13,10 @@ from ..mechanism import METHODS as METHODS  # re-exported: the solver's vocabula
 from ..mechanism import SolveMethod as SolveMethod
 from ..model import Mechanism
 from ..model.names import NameKind, resolve_name
+from ..newton.results import NEAR_SINGULAR_COND as NEAR_SINGULAR_COND  # re-exported
 from ..steps import branch_signs as branch_signs  # re-exported: the solver's vocabulary
 from ..steps import branch_text as branch_text
+from ..tolerances import NEWTON_TOL as NEWTON_TOL
 
 #: machine epsilon (float64): the unit of rounding in branch_identity_defined
 _EPS = float(np.finfo(float).eps)
@@ -89,8 +91,9 @@ def does_not_assemble(result: Result) -> bool:
     return not result.success and (result.reason or '').startswith('cannot assemble')
 
 
-#: without a dyad plan, a scaled cond(J) above this counts as near a singular configuration
-NEAR_SINGULAR_COND = 1e6
+#: an answer with cond(J)^2 * residual * n at most this has an exact assembly on its branch next
+#: to it (Newton-Kantorovich): the closed-form check of a Newton answer is skipped there
+KANTOROVICH_BOUND = 1e-2
 #: no answer leaves a solver with a loop-closure residual above max(CLOSURE_LIMIT, 10 * tol)
 #: (fraction of the length scale): a last guard against a false assembly, e.g. a known point
 #: beyond its link's reach placed by the closed-form part of a hybrid solve. The closed forms

@@ -40,7 +40,7 @@ from .modes import ModeList, modes_of
 from .one import solve_one
 from .point_pairs import PointPair
 from .reading import adopt, configuration_of, mode_of
-from .result import Effort, Result, SolveMethod
+from .result import NEWTON_TOL, Effort, Result, SolveMethod
 
 
 class Solver:
@@ -52,7 +52,7 @@ class Solver:
         knowns: Sequence[str] | None = None,
         outputs: Sequence[str] | None = None,
         method: str | None = None,
-        tol: float = 1e-12,
+        tol: float = NEWTON_TOL,
         max_iter: int = 50,
         branch: str = 'continuous',
     ):

@@ -32,7 +32,7 @@ from linkage_ros.core.newton import (
     FAST_MARGIN,
     FAST_RATE,
     MAX_PREDICTION,
-    POLISH_COND,
+    NEAR_SINGULAR_COND,
     LoopSystem,
 )
 from linkage_ros.core.newton.batch_tables import PackedJacobian
@@ -319,7 +319,7 @@ def check_against_sweep(sy, xs, signs, vals, b, rows):
         assert b.residual[i] == pytest.approx(rs, rel=1e-12, abs=2e-15)
         assert b.det_sign[i] == int(np.linalg.slogdet(Js)[0])
         assert b.cond[i] == pytest.approx(reported_cond(sy, Js), rel=1e-10)
-        assert b.cond[i] < POLISH_COND
+        assert b.cond[i] < NEAR_SINGULAR_COND
 
 
 @pytest.mark.parametrize('name', SWEEP_SCENES)
@@ -409,7 +409,7 @@ def rule(sy, x0, vals, sign, tol=TOL, max_steps=6, warm=False):
         res <= tol
         and s1 == sign
         and math.isfinite(logdet)
-        and sy.scaled_cond(J) < POLISH_COND
+        and sy.scaled_cond(J) < NEAR_SINGULAR_COND
         and np.all(np.isfinite(x))
     )
     return ok, (x if ok else x0), steps, stalled and ok
@@ -703,8 +703,8 @@ def test_start_on_the_other_assembly_mode_is_declined():
 def test_answers_near_a_fold_are_declined():
     """A double rocker driven towards an input toggle (10^-e rad from it, e = 1 .. 13) by the
     scalar Solver, which polishes near the fold: its answers as starts, at their own inputs and
-    det J signs. Rows whose exact scaled cond is below POLISH_COND are ok, on the same branch,
-    at B where the 50-digit oracle puts it to within the conditioning (the scalar answers
+    det J signs. Rows whose exact scaled cond is below NEAR_SINGULAR_COND are ok, on the same
+    branch, at B where the 50-digit oracle puts it to within the conditioning (the scalar answers
     within tol are only cond * tol accurate: Newton goes on to the target); the two nearest the
     fold (cond 2.6e6, 8e6, still with a det sign) are declined, for the scalar path to polish."""
     L = (4.0, 3.0, 1.5, 4.5)
@@ -729,7 +729,7 @@ def test_answers_near_a_fold_are_declined():
         )  # exact, not estimated
         ts.append(t)
     xs, conds = np.array(xs), np.array(conds)
-    near = conds >= POLISH_COND
+    near = conds >= NEAR_SINGULAR_COND
     assert near[-2:].all() and not near[:-2].any()
     b = sy.solve_batch(xs, [np.array(ts)], np.array(signs))
     assert np.array_equal(b.ok, ~near)
