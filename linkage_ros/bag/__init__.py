@@ -164,10 +164,10 @@ from .replay import (  # noqa: F401
     MIN_BATCH,
     NEAR_TANGENT,
     SEQUENTIAL_STRETCH,
+    HistoryEntry,
+    SolverContext,
     _adopted_signs,
-    _Context,
     _Engine,
-    _Entry,
     solve_commands,
 )
 from .results import (  # noqa: F401

@@ -234,7 +234,7 @@ def _run(args) -> int:
     for line in plans_summary(plans):
         print(line)
     for kind, path in outs:
-        if kind == 'csv' and plans:
+        if kind is OutputKind.CSV and plans:
             print(f'  wrote {plans_csv_path(path)} (csv: the trajectories and paths)')
     why = unanswered(data, res, plans)
     if why is not None:
@@ -247,7 +247,7 @@ def _run_outputs(outs, args, scene, opts) -> RunOutputs:
     """One bag's --out files (a CSV's trajectories beside it) and --plot."""
     table = [
         Output(
-            OutputKind.CSV if kind == 'csv' else OutputKind.BAG,
+            kind,
             Path(path),
             args.out_format or DEFAULT_OUT_FORMAT,
         )
@@ -255,7 +255,7 @@ def _run_outputs(outs, args, scene, opts) -> RunOutputs:
     ]
     if args.plot:
         table.append(Output(OutputKind.PLOT, Path(args.plot)))
-    csvs = [path for kind, path in outs if kind == 'csv']
+    csvs = [path for kind, path in outs if kind is OutputKind.CSV]
     return RunOutputs(
         table,
         scene.mechanism,
@@ -325,13 +325,13 @@ def _check_outputs(outs: list[str], plot: str | None):
         p = Path(path)
         what = f'output {path}'
         if p.suffix.lower() == '.csv':
-            kind = 'csv'
+            kind = OutputKind.CSV
             if p.is_dir():
                 raise BagError(f'{what}: is a directory')
         elif p.suffix.lower() in _NOT_A_BAG:
             raise BagError(f'{what}: {_NOT_A_BAG[p.suffix.lower()]}')
         else:
-            kind = 'bag'
+            kind = OutputKind.BAG
             if p.exists() or p.is_symlink():
                 raise BagError(
                     f'{what}: exists already (an output bag must be a new folder; not overwriting)'
@@ -341,7 +341,7 @@ def _check_outputs(outs: list[str], plot: str | None):
         raise BagError('the same --out path is given twice')
     # a command CSV's trajectories go beside it (out.trajectories.csv): not an --out of its own
     for kind, p, full in checked:
-        if kind != 'csv':
+        if kind is not OutputKind.CSV:
             continue
         beside = Path(plans_csv_path(full))
         if any(beside == other for _, _, other in checked):

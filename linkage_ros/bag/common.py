@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from enum import StrEnum
+
 from ..core.errors import LinkageError
 
 JOINT_STATE = 'sensor_msgs/msg/JointState'
@@ -64,3 +66,12 @@ def parse_remaps(items: list[str], topics: list[str]) -> dict[str, str]:
 
 class BagError(LinkageError):
     """The input bag or an output path cannot be used; one message, exit status 2."""
+
+
+class OutputKind(StrEnum):
+    """What a bag run writes: a table (CSV, Parquet), a plot, or a result bag."""
+
+    CSV = 'csv'
+    PARQUET = 'parquet'
+    PLOT = 'plot'
+    BAG = 'bag'

@@ -20,7 +20,7 @@ from ..core.quantities import PointSpec
 from ..core.solver import Solver
 from ..core.solver.continuity import keeps_sign, nearer_angle, nearer_for_every_ratio
 from ..core.steps import RPRDyad, RRPDyad, RRRDyad, anchor_of
-from .history import _Entry
+from .history import HistoryEntry
 from .rows import finite_rows
 
 #: how much clearer (m per length scale, rad, or margin) than a tie the rule must decide a row
@@ -28,7 +28,7 @@ EASY_MARGIN = 1e-9
 
 
 def easy_prefix(
-    mech: Any, hist: list[_Entry], solver: Solver, B: Any, cols: dict[str, Any], m: int
+    mech: Any, hist: list[HistoryEntry], solver: Solver, B: Any, cols: dict[str, Any], m: int
 ) -> int:
     """How many leading rows of batch ``B`` (its commands ``cols``, ``m`` rows, solved by
     ``solver`` with the signs of ``hist[-1]``, the node's last good configuration) the node's

@@ -4,6 +4,7 @@ solves one by one."""
 
 from __future__ import annotations
 
+from enum import Enum
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -15,9 +16,17 @@ if TYPE_CHECKING:
     from ..engine import Engine
 
 
-class _Entry:
+class EntryKind(Enum):
+    """How a configuration came into a solver's continuity history."""
+
+    ADOPT = 'adopt'  # a result adopted after switching solvers
+    SOLVE = 'solve'  # a command the solver answered (its signs replay it)
+
+
+class HistoryEntry:
     """One configuration in a solver's continuity history, as the node's solver holds it:
-    ('adopt', result) after switching solvers, or ('solve', command, signs) after a success."""
+    adopted (ADOPT, its result) after switching solvers, or solved (SOLVE, its command and
+    signs) after a success."""
 
     __slots__ = ('kind', 'cmd', 'signs', '_result', 'batch', 'i', 'solver')
 
@@ -41,7 +50,7 @@ class _Entry:
         return float(self.result().links[l])
 
 
-class _Context:
+class SolverContext:
     """One of the engine's solvers (one set of knowns) and its node-equivalent continuity
     history, kept as entries so batch rows need not be materialised."""
 
@@ -49,7 +58,7 @@ class _Context:
         self.engine = engine  # the replay's session (its solvers and last good state)
         self.solver = solver
         self.knowns = list(solver.knowns)
-        self.hist: list[_Entry] = []
+        self.hist: list[HistoryEntry] = []
         self.synced = True  # the solver's own history equals self.hist
         self._explicit: dict[tuple, Solver] = {}
 
@@ -60,7 +69,7 @@ class _Context:
             s = self._explicit[signs] = self.engine.new_solver(self.knowns, branch_text(signs))
         return s
 
-    def push(self, entry: _Entry):
+    def push(self, entry: HistoryEntry):
         """A success of this solver: the engine's new last good state."""
         self.hist = (self.hist + [entry])[-2:]
         self.engine.record(self.solver, entry)
@@ -73,7 +82,7 @@ class _Context:
         S.reset()
         states = []
         for e in self.hist:
-            if e.kind == 'adopt':
+            if e.kind is EntryKind.ADOPT:
                 S.adopt(e.result())
                 states.append(S.snapshot()[-1])
             else:

@@ -9,6 +9,8 @@ from collections import Counter
 import numpy as np
 from tqdm import tqdm
 
+from .common import OutputKind
+
 # ---- progress and summary ----------------------------------------------------------------------
 
 
@@ -112,7 +114,7 @@ def _summary(data, res, outs, plot, t0, t_read, t_solve, t_end):
         + (f', refused before any solve {unsolved}' if unsolved else '')
     )
     for kind, path in outs:
-        lines.append(f'  wrote {path} ({"csv" if kind == "csv" else "rosbag2"})')
+        lines.append(f'  wrote {path} ({"csv" if kind is OutputKind.CSV else "rosbag2"})')
     if plot:
         lines.append(f'  wrote {plot} (plot)')
     total = t_end - t0

@@ -19,7 +19,7 @@ from ..point_coordinates import group_point_coordinates
 from ..request_checks import max_request_names, request_shape_error
 from ..stamps import names_frame_error, stamp_error, stamp_valid
 from .easy_rows import easy_prefix
-from .history import _Context, _Entry
+from .history import EntryKind, HistoryEntry, SolverContext
 from .plans import PlanRequest, answer_plan
 from .progress import _Progress
 from .rates import RunRates, run_rates, stretches
@@ -48,16 +48,18 @@ class _Engine:
         self.max_names = max_request_names(mech)
         # the command solver exists from the start (a bad --solver/--branch fails here)
         self.engine = Engine(mech, EngineSettings(method, tol, max_iter, branch, tuple(hold)))
-        self.forward = _Context(self.engine, self.engine.forward)
-        self._contexts: dict[frozenset, _Context] = {}
+        self.forward = SolverContext(self.engine, self.engine.forward)
+        self._contexts: dict[frozenset, SolverContext] = {}
         ref = self.engine.last
         if ref is not None:
             reference = self.engine.forward.reference_values()
             self.forward.hist = [
-                _Entry('solve', cmd=reference, signs=branch_signs(ref.branch), result=ref)
+                HistoryEntry(
+                    EntryKind.SOLVE, cmd=reference, signs=branch_signs(ref.branch), result=ref
+                )
             ]
 
-    def context_for(self, names) -> _Context | str:
+    def context_for(self, names) -> SolverContext | str:
         """The engine's solver for these names (with its replay history), or why not."""
         solver = self.engine.solver_for(names)
         if isinstance(solver, str):
@@ -67,7 +69,7 @@ class _Engine:
         key = frozenset(names)
         ctx = self._contexts.get(key)
         if ctx is None or ctx.solver is not solver:  # new, or rebuilt after the LRU dropped it
-            ctx = self._contexts[key] = _Context(self.engine, solver)
+            ctx = self._contexts[key] = SolverContext(self.engine, solver)
             if len(self._contexts) > 2 * SOLVER_CACHE:  # forget the dropped solvers' histories
                 live = {id(v) for v in self.engine.cached_solvers()}
                 self._contexts = {k: c for k, c in self._contexts.items() if id(c.solver) in live}
@@ -237,7 +239,9 @@ class _Engine:
         S = ctx.solver
         # the engine's solve: adopt the last good state if another solver moved on
         if self.engine.bring_up_to_date(S):
-            ctx.hist = [_Entry('adopt', result=self.engine.last, signs=_adopted_signs(S))]
+            ctx.hist = [
+                HistoryEntry(EntryKind.ADOPT, result=self.engine.last, signs=_adopted_signs(S))
+            ]
             ctx.synced = True
         if set(columns) != set(ctx.knowns):
             # wrong names: the solver's own message (it depends on the names only)
@@ -251,7 +255,7 @@ class _Engine:
         else:
             self._sequential(ctx, columns, a, b, 0, b - a, rates)
 
-    def _targets(self, ctx: _Context, columns, a, b):
+    def _targets(self, ctx: SolverContext, columns, a, b):
         """Target rows as the node answers ~/target: Engine.solve_target (a solution in the
         current assembly mode, else refused), which commits a success by adoption."""
         ctx.sync()
@@ -260,14 +264,14 @@ class _Engine:
             r = self.engine.solve_target(S, command_row(columns, i))
             self.res.put_result(a + i, r)
             if r.success:
-                ctx.hist = [_Entry('adopt', result=r, signs=_adopted_signs(S))]
+                ctx.hist = [HistoryEntry(EntryKind.ADOPT, result=r, signs=_adopted_signs(S))]
                 ctx.synced = True
             if not i & 0xFF:
                 self.progress.update(self.done + i)
         self.res.sequential += _solved_rows(columns, 0, b - a)
 
     # -- one by one ------------------------------------------------------------------------------
-    def _sequential(self, ctx: _Context, columns, a, b, i0, i1, rates: RunRates | None = None):
+    def _sequential(self, ctx: SolverContext, columns, a, b, i0, i1, rates: RunRates | None = None):
         ctx.sync()
         S = ctx.solver
         engine = self.engine
@@ -277,9 +281,13 @@ class _Engine:
             self.res.put_result(a + i, r)
             if r.success:
                 if adopted:
-                    ctx.push(_Entry('adopt', result=r, signs=_adopted_signs(S)))
+                    ctx.push(HistoryEntry(EntryKind.ADOPT, result=r, signs=_adopted_signs(S)))
                 else:
-                    ctx.push(_Entry('solve', cmd=cmd, signs=branch_signs(r.branch), result=r))
+                    ctx.push(
+                        HistoryEntry(
+                            EntryKind.SOLVE, cmd=cmd, signs=branch_signs(r.branch), result=r
+                        )
+                    )
                 rate = None if rates is None else rates.row(i)
                 if rate is not None:  # Engine.command: the answer's velocity
                     self.res.store_velocity(a + i, velocities(S, r, cmd, rate))
@@ -288,7 +296,7 @@ class _Engine:
         self.res.sequential += _solved_rows(columns, i0, i1)
 
     # -- vectorised ------------------------------------------------------------------------------
-    def _vectorised(self, ctx: _Context, columns, a, b, rates: RunRates | None):
+    def _vectorised(self, ctx: SolverContext, columns, a, b, rates: RunRates | None):
         S = ctx.solver
         m = b - a
         continuous = S.branch_mode is BranchRule.CONTINUOUS
@@ -401,8 +409,8 @@ class _Engine:
             self.engine.version += okr.size - min(okr.size, 2)
             for i in okr[-2:].tolist():
                 ctx.push(
-                    _Entry(
-                        'solve',
+                    HistoryEntry(
+                        EntryKind.SOLVE,
                         cmd=command_row(cols, i),
                         signs=tuple(B.signs[i]),
                         batch=B,
@@ -414,7 +422,7 @@ class _Engine:
         res.batched += int(np.count_nonzero(finite[:take]))  # (a NaN row reaches no solve)
         return take
 
-    def _batch_rates(self, ctx: _Context, B, cols, rates: RunRates, a, pos, take) -> None:
+    def _batch_rates(self, ctx: SolverContext, B, cols, rates: RunRates, a, pos, take) -> None:
         """The velocities of the batch rows just taken (rows pos.. of the run starting at a)
         whose commands gave some, each from its row's solution as Engine.command gives them:
         core.velocity on the engine's solver (positions stay vectorised; rated rows pay for

@@ -11,23 +11,16 @@ import contextlib
 import shutil
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from enum import StrEnum
 from pathlib import Path
 from typing import Any, NoReturn
 
 from .bag_out import ResultBag
+from .common import OutputKind as OutputKind  # re-exported: an Output's kind
 from .plans import PlanRequest
 from .plans_out import PlansCsvWriter
 from .progress import _Progress
 from .reading import Commands
 from .results import Results
-
-
-class OutputKind(StrEnum):
-    CSV = 'csv'
-    PARQUET = 'parquet'
-    PLOT = 'plot'
-    BAG = 'bag'
 
 
 @dataclass(frozen=True)
