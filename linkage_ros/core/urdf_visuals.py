@@ -108,14 +108,14 @@ def _hull(points: list[np.ndarray]) -> list[np.ndarray]:
     return [np.array(p) for p in lower[:-1] + upper[:-1]]
 
 
-def _cylinder_parts(mech: Mechanism) -> dict[str, tuple[str, str]]:
-    """{barrel or rod link: ('barrel' or 'rod', cylinder joint)}."""
+def _cylinder_parts(mech: Mechanism) -> dict[str, tuple[bool, str]]:
+    """{barrel or rod link: (True for the barrel, False for the rod; its cylinder joint)}."""
     out = {}
     for act in mech.actuators.values():
         if isinstance(act, SlideActuator) and act.cylinder:
             pj = mech.prismatics[act.joint]
-            out[pj.guide] = ('barrel', act.joint)
-            out[pj.slider] = ('rod', act.joint)
+            out[pj.guide] = (True, act.joint)
+            out[pj.slider] = (False, act.joint)
     return out
 
 
@@ -130,13 +130,13 @@ def link_visuals(mech: Mechanism, link: str, frame: Pose2D) -> list[Visual]:
     out: list[Visual | None] = []
     part = _cylinder_parts(mech).get(link)
     if part is not None:
-        kind, joint = part
+        barrel, joint = part
         pj = mech.prismatics[joint]
         act = mech.actuators[joint]
         tube = act.min if act.min is not None else 0.6 * pj.ref_value
         d = np.array(Pose2D(0.0, 0.0, frame.yaw).local(*pj.direction))
         (pin,) = local.values()
-        if kind == 'barrel':  # from its pin toward the rod's pin
+        if barrel:  # from its pin toward the rod's pin
             out.append(_bar(pin, pin + 0.95 * tube * d, 2.2 * BAR_RADIUS * L, 'linkage_barrel'))
         else:  # from its pin back into the barrel
             out.append(_bar(pin, pin - 0.95 * tube * d, 1.1 * BAR_RADIUS * L, 'linkage_rod'))
