@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
 from .ranges import _scan_circuit
+from .scan import EndKind
 from .touches import TOUCH_RESOLUTION
 
 #: how far past a stretch's end (rad or m) a value still counts as on it: its toggle ends are
@@ -89,7 +90,7 @@ def reference_circuit(mech: Mechanism, samples: int = 720) -> Circuit | None:
     if line is None or not segments:
         return None
     drawn = segments[0]  # (the scan's first segment is the drawing's)
-    if drawn.lo_end[0] == 'crossing' and line.same(drawn.lo, x0, TOUCH_RESOLUTION):
+    if drawn.lo_end[0] is EndKind.CROSSING and line.same(drawn.lo, x0, TOUCH_RESOLUTION):
         return None
     act = mech.actuators[name]
     periodic = isinstance(act, AngleActuator)

@@ -14,8 +14,10 @@ from ..model.limits import angle_limit_arc
 from .common import TWO_PI, _clip_periodic, reference_scalar
 from .components import actuator_parts
 from .scan import (
+    NOWHERE,
     Bracket,
     End,
+    EndKind,
     Signs,
     _held_reference,
     _Line,
@@ -42,7 +44,7 @@ def _scan_circuit(
         limits = angle_limit_arc(act.min, act.max) if periodic else (act.min, act.max)
         return line, x0, line.circuit(x0, limits), bracket
     comp = _walk_range(mech, name, held, x0, periodic, bracket)
-    if comp == 'empty':
+    if comp is NOWHERE:
         return None, x0, [], bracket
     if comp is None:
         return (
@@ -53,8 +55,8 @@ def _scan_circuit(
                     (),
                     x0 - math.pi,
                     x0 + math.pi,
-                    ('full', None),
-                    ('full', None),
+                    (EndKind.FULL, None),
+                    (EndKind.FULL, None),
                     x0,
                     None,
                     full=True,
@@ -113,7 +115,12 @@ def actuator_range(
     toggles = (
         _segment_toggles(line, segs)
         if line is not None
-        else [v for s in segs for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end)) if e[0] == 'toggle']
+        else [
+            v
+            for s in segs
+            for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end))
+            if e[0] is EndKind.TOGGLE
+        ]
     )
     if periodic:
         lim = angle_limit_arc(act.min, act.max)
@@ -183,7 +190,8 @@ def _dedupe(values: Sequence[float], periodic: bool, scale: float = 1.0) -> list
 
 
 def _source(end: End) -> str | None:
-    return {'toggle': 'toggle', 'limit': 'limit', 'bracket': 'bracket'}.get(end[0])
+    kind = end[0]
+    return kind.value if kind in (EndKind.TOGGLE, EndKind.LIMIT, EndKind.BRACKET) else None
 
 
 def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
@@ -192,7 +200,7 @@ def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
     out = []
     for s in segs:
         for v, e in ((s.lo, s.lo_end), (s.hi, s.hi_end)):
-            if e[0] in ('toggle', 'crossing'):
+            if e[0] in (EndKind.TOGGLE, EndKind.CROSSING):
                 out.append(v)
         n = max(64, line.samples // (1 if s.full else 2))
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from enum import Enum, StrEnum
 from typing import Any, Literal, TypeAlias
 
 import numpy as np
@@ -42,18 +43,39 @@ _AT_TOGGLE = 1e-4
 CYLINDER_FLOOR = 1e-12
 #: a dyad margin below this at a crossing found to ~1e-8: a candidate for meeting there
 _NEAR_CROSSING = 1e-3
-#: a segment end: ('toggle', the branching dyads at their toggle, beyond which the first fails,
-#: or None), ('crossing', the dyads whose other signs the motion goes on in, or None where the
+
+
+class EndKind(StrEnum):
+    """Why a stretch of a circuit ends where it does (its value names the end in a report)."""
+
+    TOGGLE = 'toggle'  # the assembly ends: a branching dyad at its toggle
+    CROSSING = 'crossing'  # the motion goes on in other dyad signs (a change point, touches.py)
+    LIMIT = 'limit'  # the scene's limit
+    BRACKET = 'bracket'  # the scan's own bracket (no limit there)
+    FULL = 'full'  # a full turn: no end
+
+
+class Nowhere(Enum):
+    """A scan's answer where nothing assembles at the seed."""
+
+    EMPTY = 'empty'
+
+
+#: nothing assembles at the seed (a Component)
+NOWHERE = Nowhere.EMPTY
+
+#: a segment end: (TOGGLE, the branching dyads at their toggle, beyond which the first fails,
+#: or None), (CROSSING, the dyads whose other signs the motion goes on in, or None where the
 #: segment starts at one: a change point, touches.py; a symmetric mechanism's two halves cross
-#: at one input), ('limit', None), ('bracket', None) or ('full', None)
-End: TypeAlias = tuple[str, tuple[int, ...] | None]
+#: at one input), (LIMIT, None), (BRACKET, None) or (FULL, None)
+End: TypeAlias = tuple[EndKind, tuple[int, ...] | None]
 #: one branch sign per branching dyad of the plan
 Signs: TypeAlias = tuple[int, ...]
 #: a slide's scan bracket: (lo, hi, lo is a hard limit, hi is a hard limit) (m)
 Bracket: TypeAlias = tuple[float, float, bool, bool]
 #: the assembling interval around a seed: (lo, hi, lo_end, hi_end); None for a full turn, or
-#: 'empty' where nothing assembles
-Component: TypeAlias = tuple[float, float, End, End] | None | Literal['empty']
+#: NOWHERE where nothing assembles
+Component: TypeAlias = tuple[float, float, End, End] | None | Literal[Nowhere.EMPTY]
 #: limits a scan respects: a circular (lo, hi) arc or None (angles), (lo, hi) with None sides
 #: (slides)
 Limits: TypeAlias = tuple[float | None, float | None] | None
@@ -64,8 +86,7 @@ Limits: TypeAlias = tuple[float | None, float | None] | None
 @dataclass
 class _Segment:
     """A stretch of the circuit on one assembly mode: the scanned known over [lo, hi] (unwrapped
-    for angles), or the full turn; ends are ('toggle', branch) / ('limit', None) / ('bracket',
-    None) / ('full', None)."""
+    for angles), or the full turn; its ends are End pairs (EndKind and the dyads there)."""
 
     signs: Signs
     lo: float
@@ -81,7 +102,8 @@ def turns_fully(segs: Sequence[_Segment]) -> bool:
     """Whether the circuit ``segs`` of an angle takes every input value with no end: one full
     turn, or stretches joined only at change points."""
     return bool(segs) and all(
-        s.full or (s.lo_end[0] == 'crossing' and s.hi_end[0] == 'crossing') for s in segs
+        s.full or (s.lo_end[0] is EndKind.CROSSING and s.hi_end[0] is EndKind.CROSSING)
+        for s in segs
     )
 
 
@@ -208,8 +230,8 @@ class _Line:
         return (
             lo,
             hi,
-            ('toggle', self._toggling(lo, seed - down * dt, signs, kl)),
-            ('toggle', self._toggling(hi, seed + up * dt, signs, kh)),
+            (EndKind.TOGGLE, self._toggling(lo, seed - down * dt, signs, kl)),
+            (EndKind.TOGGLE, self._toggling(hi, seed + up * dt, signs, kh)),
         )
 
     def _toggling(
@@ -242,7 +264,7 @@ class _Line:
                 # a seed outside the limits (or on a toggle's wrong side): nearest assembling sample
                 good = np.flatnonzero(ok)
                 if good.size == 0:
-                    return 'empty'
+                    return NOWHERE
                 c = int(good[np.argmin(np.abs(good - c))])
             i = c
             while i + 1 < xs.size and ok[i + 1]:
@@ -263,15 +285,15 @@ class _Line:
         hi_end: End
         lo_end: End
         if i == xs.size - 1:
-            hi, hi_end = float(xs[-1]), ('limit' if hard_hi else 'bracket', None)
+            hi, hi_end = float(xs[-1]), (EndKind.LIMIT if hard_hi else EndKind.BRACKET, None)
         else:
             hi, k = self.refine(float(xs[i]), float(xs[i + 1]), signs)
-            hi_end = ('toggle', self._toggling(hi, float(xs[i]), signs, k))
+            hi_end = (EndKind.TOGGLE, self._toggling(hi, float(xs[i]), signs, k))
         if j == 0:
-            lo, lo_end = float(xs[0]), ('limit' if hard_lo else 'bracket', None)
+            lo, lo_end = float(xs[0]), (EndKind.LIMIT if hard_lo else EndKind.BRACKET, None)
         else:
             lo, k = self.refine(float(xs[j]), float(xs[j - 1]), signs)
-            lo_end = ('toggle', self._toggling(lo, float(xs[j]), signs, k))
+            lo_end = (EndKind.TOGGLE, self._toggling(lo, float(xs[j]), signs, k))
         return lo, hi, lo_end, hi_end
 
     def _soft_low(self, v: float) -> float:
@@ -340,11 +362,16 @@ class _Line:
         that the motion follows on ``signs`` from ``seed``: both ways (``way`` 0) or onward
         from a change point at ``seed`` (+1 up, -1 down), to the next change point or the
         component's end. None: a full turn with no change point."""
-        assert comp != 'empty'
+        assert comp is not NOWHERE
         lo_end: End
         hi_end: End
         if comp is None:
-            lo, hi, lo_end, hi_end = seed - math.pi, seed + math.pi, ('full', None), ('full', None)
+            lo, hi, lo_end, hi_end = (
+                seed - math.pi,
+                seed + math.pi,
+                (EndKind.FULL, None),
+                (EndKind.FULL, None),
+            )
             # a turn and a quarter each side: a change point on the turn's seam is inside
             found = self.crossings(seed - 1.25 * math.pi, seed + 1.25 * math.pi, signs)
             found = [(x + t, k) for x, k in found for t in (-TWO_PI, 0.0, TWO_PI)]
@@ -358,12 +385,12 @@ class _Line:
         down = [(x, k) for x, k in found if x < seed - eps or (way == 0 and x <= seed + eps)]
         if comp is None and not found:
             return None
-        a, a_end = (max(down)[0], ('crossing', max(down)[1])) if down else (lo, lo_end)
-        b, b_end = (min(up)[0], ('crossing', min(up)[1])) if up else (hi, hi_end)
+        a, a_end = (max(down)[0], (EndKind.CROSSING, max(down)[1])) if down else (lo, lo_end)
+        b, b_end = (min(up)[0], (EndKind.CROSSING, min(up)[1])) if up else (hi, hi_end)
         if way > 0:
-            a, a_end = seed, ('crossing', None)
+            a, a_end = seed, (EndKind.CROSSING, None)
         elif way < 0:
-            b, b_end = seed, ('crossing', None)
+            b, b_end = seed, (EndKind.CROSSING, None)
         return a, b, a_end, b_end
 
     def reached(
@@ -400,7 +427,7 @@ class _Line:
         while queue and len(segs) < _MAX_SEGMENTS:
             signs, seed, parent, way = queue.pop(0)
             comp = self.component(seed, signs)
-            if comp == 'empty':
+            if comp is NOWHERE:
                 continue
             piece = self._piece(comp, seed, signs, way)
             if piece is None:
@@ -410,8 +437,8 @@ class _Line:
                             signs,
                             seed - math.pi,
                             seed + math.pi,
-                            ('full', None),
-                            ('full', None),
+                            (EndKind.FULL, None),
+                            (EndKind.FULL, None),
                             seed,
                             parent,
                             full=True,
@@ -441,9 +468,9 @@ class _Line:
                 flipped = list(signs)
                 for i in k:
                     flipped[i] = -flipped[i]
-                if kind == 'toggle':
+                if kind is EndKind.TOGGLE:
                     queue.append((tuple(flipped), end, me, 0))
-                elif kind == 'crossing':
+                elif kind is EndKind.CROSSING:
                     queue.append((tuple(flipped), end, me, onward))
         return segs
 

@@ -9,7 +9,7 @@ from typing import Any
 from ..model import Mechanism
 from ..solver import Result, Solver
 from .common import ANGLE_TOL, LENGTH_TOL, TWO_PI, without_limits
-from .scan import Bracket, Component
+from .scan import NOWHERE, Bracket, Component, EndKind
 
 # ---- walks with the solver (Newton / hybrid plans, inverse problems with limits) --------------
 
@@ -76,7 +76,7 @@ def _walk_range(
 
     start = solver.solve(command(x0), commit=False)
     if not start.success:
-        return 'empty'
+        return NOWHERE
     if periodic:
         step = step or math.radians(2.0)
         tol = ANGLE_TOL
@@ -86,13 +86,21 @@ def _walk_range(
             ends.append(b)
         if ends[0] is None or ends[1] is None:
             return None
-        return ends[1], ends[0], ('toggle', None), ('toggle', None)
+        return ends[1], ends[0], (EndKind.TOGGLE, None), (EndKind.TOGGLE, None)
     assert bracket is not None, 'a slide walk needs its bracket'
     blo, bhi, hard_lo, hard_hi = bracket
     step = step or (bhi - blo) / 360.0
     tol = LENGTH_TOL * mech.length_scale
     hi, _, _ = _walk(solver, command, start, x0, 1, step, bhi - x0, tol)
     lo, _, _ = _walk(solver, command, start, x0, -1, step, x0 - blo, tol)
-    hi_end = ('toggle', None) if hi is not None else ('limit' if hard_hi else 'bracket', None)
-    lo_end = ('toggle', None) if lo is not None else ('limit' if hard_lo else 'bracket', None)
+    hi_end = (
+        (EndKind.TOGGLE, None)
+        if hi is not None
+        else (EndKind.LIMIT if hard_hi else EndKind.BRACKET, None)
+    )
+    lo_end = (
+        (EndKind.TOGGLE, None)
+        if lo is not None
+        else (EndKind.LIMIT if hard_lo else EndKind.BRACKET, None)
+    )
     return (blo if lo is None else lo), (bhi if hi is None else hi), lo_end, hi_end
