@@ -63,7 +63,8 @@ class PlanRequest:
 
     log_ns: int  # bag receive time
     topic: str
-    request: str  # 'trajectory' or 'target_path/<point>' (the status's request key)
+    #: the path's point (a ~/target_path/<point> message); None for a trajectory
+    point: str | None
     msg: Any  # the decoded message while it is answered; None before, after, and when refused
     answer: TrajectoryAnswer | None = None
     #: why the message was refused before it was decoded (its size, its point count)
@@ -74,6 +75,11 @@ class PlanRequest:
     number: int = 0
     ordinal: int = 0
     outcome: PlanOutcome | None = None
+
+    @property
+    def request(self) -> str:
+        """The status's request key: 'trajectory' or 'target_path/<point>'."""
+        return 'trajectory' if self.point is None else f'target_path/{self.point}'
 
     @property
     def succeeded(self) -> bool:
@@ -143,16 +149,12 @@ def read_plan_requests(
         read: dict[int, int] = {}
         for i, (conn, t, raw) in enumerate(reader.messages([c for g in conns for c in g])):
             check_log_time(path, i, conn.topic, t)
-            request = (
-                'trajectory'
-                if conn.msgtype == TRAJECTORY
-                else f'target_path/{path_point(conn.topic)}'
-            )
+            point = None if conn.msgtype == TRAJECTORY else path_point(conn.topic)
             refused = '' if mech is None else _refusal(raw, conn.msgtype, mech, frame_id)
             read[conn.id] = read.get(conn.id, 0) + 1
             out.append(
                 PlanRequest(
-                    t, conn.topic, request, None, refused=refused, number=read[conn.id], ordinal=i
+                    t, conn.topic, point, None, refused=refused, number=read[conn.id], ordinal=i
                 )
             )
         missing = _shortfall(path, conns, read, accept_missing)
@@ -261,11 +263,10 @@ def answer_plan(engine: Engine, req: PlanRequest, frame_id: str) -> None:
     bad = stamp_error(sec, nanosec)
     if bad:
         req.answer, req.times_ns = TrajectoryAnswer(False, bad), []
-    elif req.request == 'trajectory':
+    elif req.point is None:
         req.answer, req.times_ns = answer_trajectory_msg(engine, req.msg, frame_id)
     else:
-        point = req.request.split('/', 1)[1]
-        req.answer, req.times_ns = answer_path_msg(engine, point, req.msg, frame_id)
+        req.answer, req.times_ns = answer_path_msg(engine, req.point, req.msg, frame_id)
 
 
 def plans_csv_path(csv_path: Any) -> str:

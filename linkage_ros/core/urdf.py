@@ -65,6 +65,15 @@ class JointKind(enum.Enum):
     PRISMATIC = 'prismatic'
 
 
+class UrdfJointType(enum.StrEnum):
+    """A URDF joint's ``type`` attribute, as written."""
+
+    CONTINUOUS = 'continuous'
+    REVOLUTE = 'revolute'
+    PRISMATIC = 'prismatic'
+    FIXED = 'fixed'
+
+
 @dataclass(frozen=True)
 class TreeJoint:
     """One scene joint as an edge of the tree: ``parent`` -> ``child`` are tree links;
@@ -133,7 +142,7 @@ class UrdfJoint:
     """One URDF joint: ``origin`` (parent frame -> joint frame) and ``axis`` (joint frame)."""
 
     name: str
-    type: str  # continuous, revolute, prismatic or fixed
+    type: UrdfJointType
     parent: str
     child: str
     origin: Pose2D
@@ -173,13 +182,13 @@ def tree_joint(
     if tj.kind is JointKind.REVOLUTE:
         motion = Pose2D(0.0, 0.0, sign * q_ref)
         axis = (0.0, 0.0, sign)
-        kind = 'continuous' if limits is None else 'revolute'
+        kind = UrdfJointType.CONTINUOUS if limits is None else UrdfJointType.REVOLUTE
     else:
         d = mech.prismatics[tj.name].direction
         ax, ay = Pose2D(0.0, 0.0, child.yaw).local(sign * d[0], sign * d[1])
         motion = Pose2D(ax * q_ref, ay * q_ref, 0.0)
         axis = (ax, ay, 0.0)
-        kind = 'prismatic'
+        kind = UrdfJointType.PRISMATIC
     origin = parent.inverse() @ child @ motion.inverse()
     return UrdfJoint(name, kind, tj.parent, tj.child, origin, axis, limits)
 
@@ -461,7 +470,7 @@ def build_joints(
     joints = [
         UrdfJoint(
             _unique(f'{prefix}{root}_to_{mech.ground}', taken),
-            'fixed',
+            UrdfJointType.FIXED,
             root,
             lf[mech.ground],
             Pose2D(),
@@ -481,7 +490,7 @@ def build_joints(
         joints.append(
             UrdfJoint(
                 _unique(f'{prefix}{link}_to_{point_frame(p)}', taken),
-                'fixed',
+                UrdfJointType.FIXED,
                 lf[link],
                 point_frame(p, prefix),
                 Pose2D(x, y, 0.0),
@@ -564,11 +573,11 @@ def urdf_document(mech: Mechanism, prefix: str = '', frame_id: str | None = None
     for p in mech.points:
         ET.SubElement(robot, 'link', name=point_frame(p, prefix))
     for j in joints:
-        el = ET.SubElement(robot, 'joint', name=j.name, type=j.type)
+        el = ET.SubElement(robot, 'joint', name=j.name, type=j.type.value)
         _origin(el, (j.origin.x, j.origin.y, 0.0), (0.0, 0.0, j.origin.yaw))
         ET.SubElement(el, 'parent', link=j.parent)
         ET.SubElement(el, 'child', link=j.child)
-        if j.type != 'fixed':
+        if j.type is not UrdfJointType.FIXED:
             ET.SubElement(el, 'axis', xyz=' '.join(_num(v) for v in j.axis))
         if j.limits is not None:
             # kinematics only: no effort or velocity limit is known (URDF requires the keys)

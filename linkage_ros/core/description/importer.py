@@ -17,7 +17,7 @@ from ..model.joint_map import JointMap, OutputKind, wrap
 from ..model.limits import limit_violation
 from .calibration import calibrate_joint_map
 from .chain import Chain, find_chain, rot
-from .records import Description, DescriptionError
+from .records import Description, DescriptionError, DescriptionFormat
 from .scene_names import SceneNames
 from .sdf_reader import read_sdf
 from .side_files import apply_side_file, load_side_file, read_file
@@ -190,7 +190,7 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
             + (
                 (
                     '; a joint without <effort>0</effort> in its limit counts as actuated'
-                    if desc.format == 'sdf'
+                    if desc.format is DescriptionFormat.SDF
                     else '; a joint without an independent mark counts as actuated'
                 )
                 if desc.actuated is None

@@ -31,6 +31,13 @@ class JointType(Enum):
     OTHER = 'other'  # floating, planar, ball, screw, ...: not in a planar closed chain
 
 
+class DescriptionFormat(Enum):
+    """The format a description was read from."""
+
+    URDF = 'urdf'  # URDF, with <loop> or <constraint> closures
+    SDF = 'sdf'
+
+
 class ClosureType(Enum):
     """What a closure makes coincide (in the plane of the chain)."""
 
@@ -119,7 +126,7 @@ class Description:
     assemble_at: dict[str, float] = field(default_factory=dict)
     #: limits a side file states, overriding the description's ``<limit>``
     limits: dict[str, Limits] = field(default_factory=dict)
-    format: str = 'urdf'
+    format: DescriptionFormat = DescriptionFormat.URDF
 
     def joint(self, name: str) -> TreeJoint | None:
         return next((j for j in self.joints if j.name == name), None)

@@ -21,6 +21,7 @@ from .records import (
     ClosureType,
     Description,
     DescriptionError,
+    DescriptionFormat,
     JointType,
     Limits,
     LinkFrame,
@@ -148,7 +149,7 @@ def read_sdf(root: ET.Element, source: str) -> Description:
             if tag == 'frame'
         },
         closures=tuple(closures),
-        format='sdf',
+        format=DescriptionFormat.SDF,
     )
 
 

@@ -13,6 +13,7 @@ from .records import (
     ClosureType,
     Description,
     DescriptionError,
+    DescriptionFormat,
     JointType,
     Limits,
     LinkFrame,
@@ -62,7 +63,7 @@ def read_urdf(root: ET.Element, source: str) -> Description:
         joints=tuple(joints),
         frames={j.name: LinkFrame(j.parent, j.parent_to_joint, joint=j.name) for j in joints},
         closures=tuple(closures),
-        format='urdf',
+        format=DescriptionFormat.URDF,
     )
 
 
