@@ -12,7 +12,7 @@ from __future__ import annotations
 import functools
 import time
 from collections import OrderedDict
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Protocol
 
@@ -78,7 +78,13 @@ class Engine:
     next solve.
     """
 
-    def __init__(self, mech: Mechanism, settings: EngineSettings):
+    def __init__(
+        self,
+        mech: Mechanism,
+        settings: EngineSettings,
+        clock: Callable[[], float] = time.monotonic,
+    ):
+        """``clock`` (s): what the compile budget (settings.compile_rate) is timed by."""
         self.mech = mech
         self.settings = settings
         self.forward = self.new_solver(None)  # PlanError: a branch or solver that does not fit
@@ -96,7 +102,7 @@ class Engine:
         if ref.success:
             self._last = ref
         self._synced[self._forward_key] = self.version
-        self._clock = time.monotonic
+        self._clock = clock
         self._tokens, self._t_tokens = float(SOLVER_CACHE), self._clock()
         #: the target rule: answers keep the assembly mode (core.solver.mode_rule)
         self.keeper = ModeKeeper(

@@ -116,12 +116,12 @@ from .csv_out import (  # noqa: F401
     _csv_field,
     _digits17,
     _exact_value,
-    _stamp_text,
     _table,
     _two_prod,
     csv_header,
     format_floats,
     format_ints,
+    stamp_text,
     write_csv,
 )
 from .easy_rows import (  # noqa: F401
@@ -131,9 +131,9 @@ from .easy_rows import (  # noqa: F401
     easy_prefix,
 )
 from .plot import (  # noqa: F401
-    _isolated,
     _plot_format,
     _series,
+    isolated_rows,
     plot_figure,
     plot_formats,
     write_plot,
@@ -165,9 +165,9 @@ from .replay import (  # noqa: F401
     NEAR_TANGENT,
     SEQUENTIAL_STRETCH,
     HistoryEntry,
+    ReplayEngine,
     SolverContext,
     _adopted_signs,
-    _Engine,
     solve_commands,
 )
 from .results import (  # noqa: F401

@@ -24,7 +24,7 @@ from .plans import plans_csv_path, plans_summary
 from .plot import _plot_format
 from .progress import _Progress, _summary
 from .reading import _exc_text
-from .replay import _Engine
+from .replay import ReplayEngine
 from .run_outputs import Output, OutputKind, RunOutputs
 
 # ---- command line ------------------------------------------------------------------------------
@@ -212,7 +212,7 @@ def _run(args) -> int:
     progress = _Progress(enabled=not args.no_progress and sys.stderr.isatty())
 
     try:
-        engine = _Engine(
+        engine = ReplayEngine(
             mech, args.solver, args.tol, args.max_iter, args.branch, args.target_point_hold
         )
         marks: list[float] = []

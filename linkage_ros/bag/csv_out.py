@@ -235,7 +235,7 @@ def format_ints(values) -> np.ndarray:
     return np.concatenate([(neg * np.uint8(45))[:, None], dig], axis=1)
 
 
-def _stamp_text(sec, nsec) -> np.ndarray:
+def stamp_text(sec, nsec) -> np.ndarray:
     """'sec.nnnnnnnnn' (exact decimal seconds of sec + nsec * 1e-9) as a byte array; a negative
     time is '-' and its magnitude ('-4.999999999' for sec -5, nsec 1), and a nanosec field of a
     second or more (not normalised) carries into the seconds, as rclpy's Time reads a stamp."""
@@ -307,9 +307,9 @@ def write_csv(
                 newline = np.full((m, 1), 10, np.uint8)
             ns = data.log_ns[sl]
             cols = [
-                _stamp_text(data.sec[sl], data.nanosec[sl]),
+                stamp_text(data.sec[sl], data.nanosec[sl]),
                 comma,
-                _stamp_text(0, ns),
+                stamp_text(0, ns),
                 comma,
                 _table(topics, data.topic[sl]),
                 comma,

@@ -123,7 +123,7 @@ def replay_input(
     marks: list[float] | None = None,
     outputs: RunOutputs | None = None,
 ) -> tuple[Commands, Results, list[PlanRequest]]:
-    """Read a bag's requests and answer them in bag order on ``engine`` (bag.replay._Engine);
+    """Read a bag's requests and answer them in bag order on ``engine`` (bag.replay.ReplayEngine);
     the time reading ended (perf_counter) is appended to ``marks``. The recorded plans are
     placed first and decoded one at a time when answered; with ``outputs`` each answered plan
     goes to them at once and keeps only its outcome (one plan in memory at a time)."""
@@ -290,7 +290,7 @@ def analyse_bag(
     terminal line of this bag's progress bar, below the fleet's."""
     from ..core.errors import LinkageError
     from ..outputs import written_whole
-    from .replay import _Engine
+    from .replay import ReplayEngine
 
     _undo_malloc_trim()
     t0 = time.perf_counter()
@@ -298,7 +298,7 @@ def analyse_bag(
     try:
         scene = load_options_scene(opts)
         mech = scene.mechanism
-        engine = _Engine(mech, opts.solver, opts.tol, opts.max_iter, opts.branch, opts.hold)
+        engine = ReplayEngine(mech, opts.solver, opts.tol, opts.max_iter, opts.branch, opts.hold)
         line = _PROGRESS_LINE if progress_line is None else progress_line
         progress = _Progress(line > 0, position=line, prefix=f'{task.name}: ')
         outputs = _outputs(task, opts, scene)

@@ -12,7 +12,7 @@ from typing import Any
 from ..cli.common import description_options_error, dimension_overrides, print_notes
 from .common import DEFAULT_OUT_FORMAT, BagError, output_topics, parse_remaps
 from .plans import path_point
-from .replay import _Engine
+from .replay import ReplayEngine
 
 
 def check_options(args: argparse.Namespace) -> Any:
@@ -59,7 +59,7 @@ def check_options(args: argparse.Namespace) -> Any:
             )
     parse_remaps(args.remap, output_topics(list(scene.mechanism.outputs), True))
     # PlanError / ConfigError (a bad --solver, --branch) before any bag is read
-    _Engine(
+    ReplayEngine(
         scene.mechanism, args.solver, args.tol, args.max_iter, args.branch, args.target_point_hold
     )
     return scene

@@ -107,7 +107,7 @@ def path_point(topic: str) -> str:
     return topic.rstrip('/').rsplit('/', 1)[-1]
 
 
-def _decode(raw: bytes | memoryview, typename: str, typestore: Any) -> Any:
+def decode_plan(raw: bytes | memoryview, typename: str, typestore: Any) -> Any:
     """CDR -> a rosbags message, accepting the slack bytes rclpy's serialiser leaves after a
     message (rosbags' deserialize_cdr refuses them: every recorded bag), and no more than the
     node takes (plan_cdr.trailing_error)."""
@@ -150,7 +150,7 @@ def read_plan_requests(
         for i, (conn, t, raw) in enumerate(reader.messages([c for g in conns for c in g])):
             check_log_time(path, i, conn.topic, t)
             point = None if conn.msgtype == TRAJECTORY else path_point(conn.topic)
-            refused = '' if mech is None else _refusal(raw, conn.msgtype, mech, frame_id)
+            refused = '' if mech is None else plan_refusal(raw, conn.msgtype, mech, frame_id)
             read[conn.id] = read.get(conn.id, 0) + 1
             out.append(
                 PlanRequest(
@@ -218,7 +218,7 @@ def decoded_plans(
                 raise BagError(f'input {path}: the bag changed while it was read')
             if not req.refused:
                 try:
-                    req.msg = _decode(raw, conn.msgtype, ts)
+                    req.msg = decode_plan(raw, conn.msgtype, ts)
                 except Exception as exc:  # noqa: BLE001 - a damaged message
                     raise BagError(
                         f'input {path}: message {req.number} on {conn.topic} is not '
@@ -228,7 +228,7 @@ def decoded_plans(
             yield req
 
 
-def _refusal(raw: bytes | memoryview, msgtype: str, mech: Any, frame_id: str) -> str:
+def plan_refusal(raw: bytes | memoryview, msgtype: str, mech: Any, frame_id: str) -> str:
     """Why the node would refuse this plan message from its size or first bytes, or ''."""
     path = msgtype != TRAJECTORY
     kind = 'path' if path else 'trajectory'

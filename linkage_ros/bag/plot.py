@@ -14,7 +14,7 @@ from .results import Results
 # ---- plot --------------------------------------------------------------------------------------
 
 
-def _isolated(ok: np.ndarray) -> np.ndarray:
+def isolated_rows(ok: np.ndarray) -> np.ndarray:
     """The ok samples without an ok neighbour: a line broken at the refused rows (NaN) has no
     segment through them, so they need a marker of their own."""
     prev = np.concatenate(([False], ok[:-1]))
@@ -40,7 +40,7 @@ def _series(ax, x, y, ok, angle: bool = False, **style):
     if angle:
         xs, ys = _broken_at_wraps(xs, ys)
     (line,) = ax.plot(xs, ys, **style)
-    lone = _isolated(ok)
+    lone = isolated_rows(ok)
     if lone.any():
         ax.plot(x[lone], y[lone], '.', ms=6, color=line.get_color())
 

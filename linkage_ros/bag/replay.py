@@ -34,7 +34,7 @@ def _solved_rows(columns: Mapping[str, Any], i0: int, i1: int) -> int:
     return int(np.count_nonzero(finite_rows({n: c[i0:i1] for n, c in columns.items()}, i1 - i0)))
 
 
-class _Engine:
+class ReplayEngine:
     """Solves the commands in order with the node's semantics, on the node's own session
     (linkage_ros.engine.Engine: its forward solver, its solver per set of target names, its
     last good state that a solver adopts when another one has succeeded since it last ran,
@@ -445,7 +445,7 @@ def solve_commands(
     mech, data: Commands, method=None, tol=NEWTON_TOL, max_iter=50, branch='continuous'
 ) -> Results:
     """Solve decoded commands in order as the node would (library entry point)."""
-    return _Engine(mech, method, tol, max_iter, branch).solve_all(data)
+    return ReplayEngine(mech, method, tol, max_iter, branch).solve_all(data)
 
 
 CHUNK_MIN, CHUNK_START, CHUNK_MAX = 256, 8192, 65536

@@ -301,7 +301,7 @@ def evaluate_targets(report: dict) -> list[dict]:
                     'value': at['lost'],
                 }
             )
-        out.extend(_flood_targets(nd.get('floods', [])))
+        out.extend(flood_targets(nd.get('floods', [])))
         deep = tg.get('node_deep', {})
         at = next((r for r in deep.get('runs', []) if r['rate'] == TARGET_RATE_HZ), None)
         if at is not None:
@@ -339,7 +339,7 @@ def _gap(run: dict) -> str:
     )
 
 
-def _flood_targets(floods: list[dict]) -> list[dict]:
+def flood_targets(floods: list[dict]) -> list[dict]:
     """Commands beside floods: none lost beside the small new-name flood; beside the 2 MB
     flood, lost and p99 within 2x of the small new-name flood's; beside the 10 Hz 10^4-point
     trajectories, within 2x of the run without a flood (the same node, just before)."""

@@ -44,7 +44,7 @@ NEWTON_PASSES = 15
 BATCH_PASSES = 15
 
 
-def _four_bar_dims(mech: Any) -> dict[str, float]:
+def four_bar_dims(mech: Any) -> dict[str, float]:
     """The packaged four-bar's lengths and its coupler point P in the coupler's frame (x along
     A -> B), read off the scene's reference pose."""
     sc = mech.shortcut
@@ -111,7 +111,7 @@ def _scalar(sizes: Sizes) -> dict[str, Any]:
     from ..core.solver import Solver
 
     fb = load_scene('four_bar')
-    dims = _four_bar_dims(fb)
+    dims = four_bar_dims(fb)
     cmds = sweep_inputs(fb, sizes.sweep)
     crank = [c['crank'] for c in cmds]
     solver = Solver(fb)
@@ -167,7 +167,7 @@ def _scalar(sizes: Sizes) -> dict[str, Any]:
     }
 
 
-def _textbook_closure(dims: dict[str, float]) -> Callable[..., Any]:
+def textbook_closure(dims: dict[str, float]) -> Callable[..., Any]:
     l1, l2, l3, l4 = dims['l1'], dims['l2'], dims['l3'], dims['l4']
 
     def residual(x: np.ndarray, t2: float) -> list[float]:
@@ -186,11 +186,11 @@ def _newton(sizes: Sizes) -> dict[str, Any]:
     from ..core.solver import Solver
 
     fb = load_scene('four_bar')
-    dims = _four_bar_dims(fb)
+    dims = four_bar_dims(fb)
     cmds = sweep_inputs(fb, sizes.sweep)
     crank = [c['crank'] for c in cmds]
     newton = Solver(fb, method='newton', tol=1e-12)
-    f = _textbook_closure(dims)
+    f = textbook_closure(dims)
     t3, t4, _, _ = math_four_bar(crank[0], **dims)
     start = np.array([t3, t4])
     worst = 0.0
@@ -228,7 +228,7 @@ def _batch(sizes: Sizes) -> dict[str, Any]:
     from ..core.solver import Solver
 
     fb = load_scene('four_bar')
-    dims = _four_bar_dims(fb)
+    dims = four_bar_dims(fb)
     n = sizes.batch
     rng = np.random.default_rng(25)
     theta = rng.uniform(-math.pi, math.pi, n)

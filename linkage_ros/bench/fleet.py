@@ -144,14 +144,14 @@ def _table_formats(root: Path, scene: str, n: int) -> dict[str, Any]:
     from ..bag.csv_out import write_csv
     from ..bag.parquet_out import write_parquet
     from ..bag.reading import read_commands
-    from ..bag.replay import _Engine
+    from ..bag.replay import ReplayEngine
     from ..core.loading import load_scene
 
     _log(f'fleet: Parquet vs CSV, {n:,} rows')
     _write_bag(root / 'big', n)
     mech = load_scene(scene).mechanism
     data = read_commands(str(root / 'big'), ['/cmd'])
-    res = _Engine(mech, None, 1e-12, 50, 'continuous').solve_all(data)
+    res = ReplayEngine(mech, None, 1e-12, 50, 'continuous').solve_all(data)
     result: dict[str, Any] = {'rows': n}
     for fmt, write in (('csv', write_csv), ('parquet', write_parquet)):
         path = root / f'big.{fmt}'

@@ -55,7 +55,7 @@ _NEG_WRAP_REDUCE_LIMIT = -WRAP_REDUCE_LIMIT
 _atan2, _sin, _cos = math.atan2, math.sin, math.cos
 
 
-def _wrap_one(a: float) -> float:
+def wrap_one(a: float) -> float:
     """The angle wrap, one float: (-pi, pi] as it is (exact, and the common case), others
     reduced exactly to within an ulp or so (Cody-Waite with a three-part 2 pi; atan2 of sin and
     cos beyond WRAP_REDUCE_LIMIT, so 1e300 rad keeps full precision too); NaN if not finite.
@@ -78,13 +78,13 @@ def _wrap_one(a: float) -> float:
 
 
 def _reduce_many(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """(k, a - k 2 pi) elementwise, k = round(a / 2 pi): _wrap_one's three-part reduction."""
+    """(k, a - k 2 pi) elementwise, k = round(a / 2 pi): wrap_one's three-part reduction."""
     k = np.rint(a / (2 * math.pi))
     return k, ((a - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
 
 
 def _wrap_many(v: Any) -> Any:
-    """_wrap_one elementwise on an array (the same float operations)."""
+    """wrap_one elementwise on an array (the same float operations)."""
     out = np.array(v, float)
     if not out.size:
         return out
@@ -108,7 +108,7 @@ def _wrap_many(v: Any) -> Any:
     r = np.where(r > math.pi, r - 2 * math.pi, np.where(r < -math.pi, r + 2 * math.pi, r))
     huge = np.isfinite(w) & (np.abs(w) > WRAP_REDUCE_LIMIT)
     if huge.any():
-        r[huge] = [_wrap_one(a) for a in w[huge].tolist()]
+        r[huge] = [wrap_one(a) for a in w[huge].tolist()]
     r[~np.isfinite(w)] = math.nan
     out[wide] = r
     return out
@@ -182,7 +182,7 @@ class ScalarOps:
     def cplx(x: float, y: float) -> complex:
         return complex(x, y)
 
-    wrap = staticmethod(_wrap_one)
+    wrap = staticmethod(wrap_one)
     cabs = staticmethod(_cabs_one)  # |z| of a point, inf beyond the float range
 
     @staticmethod

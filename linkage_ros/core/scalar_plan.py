@@ -32,7 +32,7 @@ from typing import Any
 from .dyads import TANGENCY_TOL
 from .errors import PlanError
 from .execute import CONTINUITY_MARGIN, LinkPoses, PlanRun
-from .ops import _cabs_one, _wrap_one
+from .ops import _cabs_one, wrap_one
 from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
 from .scalar_dyad_steps import rpr_step, rrp_step, rrr_step, side_step
@@ -523,7 +523,7 @@ class ScalarProgram:
         r.R = R = self.template.copy()
         for i, reg in self._wrap_regs:
             v = values[i]
-            R[reg] = v if _NEG_PI < v <= _PI else _wrap_one(v)
+            R[reg] = v if _NEG_PI < v <= _PI else wrap_one(v)
         # (one store a field: a tuple assignment of many builds and unpacks a tuple; prefer and
         # violation the class's values unless given or refused)
         r.values = values

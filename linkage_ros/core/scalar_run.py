@@ -11,7 +11,7 @@ from math import cos, sin
 from typing import Any
 
 from .execute import CONTINUITY_MARGIN
-from .ops import _cabs_one, _wrap_one
+from .ops import _cabs_one, wrap_one
 
 _PI = math.pi
 _CM = CONTINUITY_MARGIN
@@ -91,7 +91,7 @@ class SlotRun:
 
 def wrap(a: float) -> float:
     """The angle wrap (ops), its common case inline."""
-    return a if -_PI < a <= _PI else _wrap_one(a)
+    return a if -_PI < a <= _PI else wrap_one(a)
 
 
 Step = Callable[[SlotRun], None]

@@ -1004,7 +1004,7 @@ def test_plot_shows_an_accepted_row_between_refused_ones(tmp_path, scene):
     data = bag.read_commands(str(src), ['/cmd'])
     res = bag.solve_commands(mech, data)
     assert res.ok.tolist() == [not math.isnan(v) for v in values]
-    assert bag._isolated(res.ok).tolist() == [False, False, False, True, False, False, False]
+    assert bag.isolated_rows(res.ok).tolist() == [False, False, False, True, False, False, False]
     fig = bag.plot_figure(data, res, mech)
     try:
         trace, joints = fig.axes
@@ -1223,7 +1223,7 @@ def test_csv_time_of_negative_and_unnormalised_stamps(tmp_path, scene, capsys):
         if ok
     ]
     # negative bag receive times too
-    text = bag._stamp_text(np.zeros(3, np.int64), np.array([-1, -(10**9) - 5, 10**18 + 1]))
+    text = bag.stamp_text(np.zeros(3, np.int64), np.array([-1, -(10**9) - 5, 10**18 + 1]))
     assert [bytes(r[r != 0]).decode() for r in text] == [
         '-0.000000001',
         '-1.000000005',

@@ -129,7 +129,7 @@ def test_the_plot_breaks_angles_at_wraps_and_marks_refusals_on_the_time_axis(tmp
     import matplotlib.pyplot as plt
 
     from linkage_ros.bag.reading import read_commands
-    from linkage_ros.bag.replay import _Engine
+    from linkage_ros.bag.replay import ReplayEngine
     from linkage_ros.core.model import Scene
 
     # two crank turns in 0.42 rad steps (wrapping at +-pi), every 7th command refused (NaN)
@@ -137,7 +137,7 @@ def test_the_plot_breaks_angles_at_wraps_and_marks_refusals_on_the_time_axis(tmp
     src = make_bag(tmp_path / 'in', commands)
     mech = Scene.from_yaml(SCENE).mechanism
     data = read_commands(str(src), ['/cmd'])
-    res = _Engine(mech, None, 1e-12, 50, 'continuous').solve_all(data)
+    res = ReplayEngine(mech, None, 1e-12, 50, 'continuous').solve_all(data)
     fig = bag.plot_figure(data, res, mech)
     try:
         ax = fig.axes[1]

@@ -19,13 +19,13 @@ def test_oversized_plans_are_refused_unread(tmp_path, monkeypatch, capsys):
     ok = [[0.1 * k] for k in range(5)]
     tf.write_fleet_bag(tmp_path / 'bag', 'mcap', 50, 0.3, trajs=[ok, many])
     decoded = []
-    real = plans._decode
+    real = plans.decode_plan
 
     def counting(raw, typename, ts):
         decoded.append(len(raw))
         return real(raw, typename, ts)
 
-    monkeypatch.setattr(plans, '_decode', counting)
+    monkeypatch.setattr(plans, 'decode_plan', counting)
     out = tmp_path / 'out.csv'
     code = main(
         [
@@ -47,5 +47,5 @@ def test_the_size_bound_is_the_nodes():
     mech = Scene.from_yaml(tf.SCENE).mechanism
     bound = trajectory_bytes_bound(mech, MAX_TRAJECTORY_POINTS)
     raw = b'\x00\x01\x00\x00' + bytes(bound)  # longer than any request to the scene
-    why = plans._refusal(raw, tf.TRAJ, mech, 'base_link')
+    why = plans.plan_refusal(raw, tf.TRAJ, mech, 'base_link')
     assert why == size_refusal('trajectory', len(raw), mech.name, bound, MAX_TRAJECTORY_POINTS)

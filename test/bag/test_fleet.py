@@ -251,13 +251,13 @@ def test_one_row_group_per_block(tmp_path, fleet):
 
     from linkage_ros.bag.parquet_out import write_parquet
     from linkage_ros.bag.reading import read_commands
-    from linkage_ros.bag.replay import _Engine
+    from linkage_ros.bag.replay import ReplayEngine
     from linkage_ros.core.model import Scene
 
     root, info = fleet
     mech = Scene.from_yaml(SCENE).mechanism
     data = read_commands(str(root / 'day1' / 'a'), ['/cmd'])
-    res = _Engine(mech, None, 1e-12, 50, 'continuous').solve_all(data)
+    res = ReplayEngine(mech, None, 1e-12, 50, 'continuous').solve_all(data)
     write_parquet(tmp_path / 'x.parquet', data, res, mech, block=64)
     meta = pq.ParquetFile(tmp_path / 'x.parquet').metadata
     assert meta.num_rows == 400 and meta.num_row_groups == math.ceil(400 / 64)

@@ -418,7 +418,7 @@ def test_answer_gaps_name_the_longest_silence_and_the_sends_around_it():
 def test_flood_targets_compare_each_flood_with_its_reference():
     """The 2 MB flood against the small new-name flood, the trajectory flood against the run
     without one: within 2x in lost commands and p99, both."""
-    from linkage_ros.bench.collect import _flood_targets
+    from linkage_ros.bench.collect import flood_targets
 
     def run(kind, lost, p99):
         return {
@@ -434,17 +434,17 @@ def test_flood_targets_compare_each_flood_with_its_reference():
         }
 
     floods = [run('none', 4, 2.0), run('new_sets', 1, 1.5), run('huge', 2, 3.0)]
-    met = [t['met'] for t in _flood_targets(floods)]
+    met = [t['met'] for t in flood_targets(floods)]
     assert met == [False, True]  # the small flood must lose none; the 2 MB one within 2x of it
     floods += [run('trajectory', 9, 3.0)]
-    (traj,) = [t for t in _flood_targets(floods) if 'trajectory' in t['target']]
+    (traj,) = [t for t in flood_targets(floods) if 'trajectory' in t['target']]
     assert traj['met'] is False and 'largest gap between answers 12 ms' in traj['measured']
     floods[-1] = run('trajectory', 8, 4.0)
-    (traj,) = [t for t in _flood_targets(floods) if 'trajectory' in t['target']]
+    (traj,) = [t for t in flood_targets(floods) if 'trajectory' in t['target']]
     assert traj['met'] is True
     assert 'plan worker' not in traj['measured']  # a run that did not record it says nothing
     floods[-1] = {**run('trajectory', 8, 4.0), 'target_children_cpu_ms': 1234.4}
-    (traj,) = [t for t in _flood_targets(floods) if 'trajectory' in t['target']]
+    (traj,) = [t for t in flood_targets(floods) if 'trajectory' in t['target']]
     assert 'the plan worker used 1234 ms of CPU' in traj['measured']
 
 

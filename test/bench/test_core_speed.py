@@ -8,11 +8,11 @@ import math
 import numpy as np
 
 from linkage_ros.bench.core_speed import (
-    _four_bar_dims,
-    _textbook_closure,
     core_speed_targets,
+    four_bar_dims,
     math_four_bar,
     numpy_four_bar,
+    textbook_closure,
 )
 from linkage_ros.bench.tradeoff import load_scene
 from linkage_ros.core.solver import Solver
@@ -20,7 +20,7 @@ from linkage_ros.core.solver import Solver
 
 def test_the_math_and_numpy_four_bars_are_the_solvers_four_bar():
     mech = load_scene('four_bar')
-    dims = _four_bar_dims(mech)
+    dims = four_bar_dims(mech)
     solver = Solver(mech)
     angles = np.linspace(-3.0, 3.0, 13)
     t3n, t4n, xn, yn = numpy_four_bar(angles, **dims)
@@ -38,7 +38,7 @@ def test_the_math_and_numpy_four_bars_are_the_solvers_four_bar():
             (t3n[k], t4n[k], xn[k], yn[k]), (t3, t4, x, y), rtol=0, atol=1e-14
         )
         # the textbook closure vanishes at the answer
-        assert np.max(np.abs(_textbook_closure(dims)(np.array([t3, t4]), t))) < 1e-15
+        assert np.max(np.abs(textbook_closure(dims)(np.array([t3, t4]), t))) < 1e-15
 
 
 def test_the_targets_say_met_or_not_with_the_numbers():

@@ -70,7 +70,7 @@ def test_scalar_wrap_at_the_edges_of_its_branches():
     and NaN for NaN and inf (a numpy inf too, with no warning raised)."""
     import warnings
 
-    from linkage_ros.core.ops import WRAP_REDUCE_LIMIT, _wrap_one
+    from linkage_ros.core.ops import WRAP_REDUCE_LIMIT, wrap_one
 
     edges = []
     for x in (math.pi, 3 * math.pi, WRAP_REDUCE_LIMIT, 1e300):
@@ -79,7 +79,7 @@ def test_scalar_wrap_at_the_edges_of_its_branches():
     edges += [7, -7, 2**21, 10**30]
     with mp.workdps(400):
         for a in edges:
-            g = _wrap_one(a)
+            g = wrap_one(a)
             x = mp.mpf(float(a))
             r = x - 2 * mp.pi * mp.nint(x / (2 * mp.pi))
             assert abs(g) <= math.pi
@@ -87,7 +87,7 @@ def test_scalar_wrap_at_the_edges_of_its_branches():
     with warnings.catch_warnings():
         warnings.simplefilter('error')
         for a in (math.nan, math.inf, -math.inf, np.float64(math.inf), np.float64(math.nan)):
-            assert math.isnan(_wrap_one(a))
+            assert math.isnan(wrap_one(a))
 
 
 def test_carray_arithmetic_is_pythons_complex_arithmetic():

@@ -16,10 +16,12 @@ def test_a_flood_of_new_target_name_sets_is_bounded_by_the_compile_budget():
     compiles at most compile_rate new sets per second (after a burst of the cache's size) and
     refuses the rest with the reason; sets already compiled are answered whatever the rate."""
     mech = load('excavator')
-    e = Engine(mech, EngineSettings('auto', 1e-12, 50, 'continuous', compile_rate=5.0))
     now = [100.0]
-    e._clock = lambda: now[0]
-    e._t_tokens = now[0]
+    e = Engine(
+        mech,
+        EngineSettings('auto', 1e-12, 50, 'continuous', compile_rate=5.0),
+        clock=lambda: now[0],
+    )
     names = [n for n in list(mech.joint_names) + list(mech.links) if n != mech.ground]
     sets = [list(c) for c in itertools.islice(itertools.combinations(names, 3), 60)]
     got = [e.solver_for(s) for s in sets[: SOLVER_CACHE + 3]]

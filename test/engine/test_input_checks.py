@@ -330,10 +330,10 @@ def test_exponent_forms_read_as_numbers(tmp_path):
 def test_exponent_resolver_leaves_other_scalars_alone(tmp_path):
     import yaml
 
-    from linkage_ros.core.model.scene import _UniqueKeyLoader
+    from linkage_ros.core.model.scene import UniqueKeyLoader
 
     data = yaml.load(
-        '{a: 1e3, b: e3, c: 1e, d: 12, e: 1.5, f: E5x, g: -2e3, h: 1_0e2}', Loader=_UniqueKeyLoader
+        '{a: 1e3, b: e3, c: 1e, d: 12, e: 1.5, f: E5x, g: -2e3, h: 1_0e2}', Loader=UniqueKeyLoader
     )
     assert data == {
         'a': 1000.0,

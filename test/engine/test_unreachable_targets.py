@@ -37,7 +37,7 @@ def counted(monkeypatch):
     counts['restart_iterations'] = 0
     inside = []
     least_miss = newton_system.LoopSystem.least_miss
-    multi_start = mode_rule.ModeKeeper._multi_start
+    multi_start = mode_rule.ModeKeeper.multi_start
     solve = Solver.solve
 
     def count_least_miss(self, *a, **k):
@@ -60,7 +60,7 @@ def counted(monkeypatch):
         return r
 
     monkeypatch.setattr(newton_system.LoopSystem, 'least_miss', count_least_miss)
-    monkeypatch.setattr(mode_rule.ModeKeeper, '_multi_start', count_restarts)
+    monkeypatch.setattr(mode_rule.ModeKeeper, 'multi_start', count_restarts)
     monkeypatch.setattr(Solver, 'solve', count_solve)
     return counts
 

@@ -158,14 +158,14 @@ def test_a_trajectory_name_with_a_nul_is_refused_as_the_bag_refuses_it(ros, four
     strings whole) refuses it. Now the node reads it whole too: the same refusal."""
     from rosbags.typesys import Stores, get_typestore
 
-    from linkage_ros.bag.plans import TRAJECTORY, _decode
+    from linkage_ros.bag.plans import TRAJECTORY, decode_plan
 
     s = four_bar
     s.good('command', joint_state(['crank'], [0.4], (next(_stamp), 0)))
     msg = crank_turns(2)
     msg.joint_names = ['crankQx']
     raw = serialize_message(msg).replace(b'crankQx', b'crank\x00x')
-    bag_msg = _decode(raw, TRAJECTORY, get_typestore(Stores.ROS2_JAZZY))
+    bag_msg = decode_plan(raw, TRAJECTORY, get_typestore(Stores.ROS2_JAZZY))
     assert list(bag_msg.joint_names) == ['crank\x00x']
     want, _ = answer_trajectory_msg(Engine(s.mech, EngineSettings()), bag_msg, s.node.frame_id)
     assert not want.success

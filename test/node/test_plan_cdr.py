@@ -161,7 +161,7 @@ def test_more_bytes_after_a_plan_than_a_serialiser_leaves_are_refused():
     reader and the bag's alike. What rclpy leaves after 3000 points is taken."""
     from rosbags.typesys import Stores, get_typestore
 
-    from linkage_ros.bag.plans import _decode
+    from linkage_ros.bag.plans import decode_plan
     from linkage_ros.plan_cdr import SLACK_BYTES, read_path
 
     store = get_typestore(Stores.ROS2_JAZZY)
@@ -175,15 +175,15 @@ def test_more_bytes_after_a_plan_than_a_serialiser_leaves_are_refused():
     ):
         raw = serialize_message(msg)  # (with rclpy's own slack after the message)
         assert read(raw + bytes(SLACK_BYTES // 2))
-        _decode(raw + bytes(SLACK_BYTES // 2), typename, store)
+        decode_plan(raw + bytes(SLACK_BYTES // 2), typename, store)
         with pytest.raises(CdrError, match='bytes follow the message'):
             read(raw + b'\xff' * 2**20)
         with pytest.raises(ValueError, match='bytes follow the message'):
-            _decode(raw + b'\xff' * 2**20, typename, store)
+            decode_plan(raw + b'\xff' * 2**20, typename, store)
     trajectory.points = [JointTrajectoryPoint(positions=[0.1])] * 3000
     raw = serialize_message(trajectory)
     assert len(read_joint_trajectory(raw).points) == 3000
-    assert len(_decode(raw, 'trajectory_msgs/msg/JointTrajectory', store).points) == 3000
+    assert len(decode_plan(raw, 'trajectory_msgs/msg/JointTrajectory', store).points) == 3000
 
 
 def test_size_bounds_hold_the_largest_request_a_scene_takes():

@@ -14,7 +14,7 @@ import numpy as np
 import yaml
 
 from ..errors import SceneError
-from ..model.scene import _UniqueKeyLoader, read_text
+from ..model.scene import UniqueKeyLoader, read_text
 from .records import Closure, ClosureType, Description, DescriptionError, Limits, LinkFrame
 from .records import transform as make_transform
 from .xml_text import upside_down
@@ -40,7 +40,7 @@ def read_file(path: str, limit: int, kind: str) -> str:
 def load_side_file(path: str) -> Mapping[str, Any]:
     text = read_file(path, MAX_SIDE_FILE_BYTES, 'closure file')
     try:
-        data = yaml.load(text, Loader=_UniqueKeyLoader)
+        data = yaml.load(text, Loader=UniqueKeyLoader)
     except yaml.YAMLError as exc:
         raise DescriptionError(f'invalid YAML: {getattr(exc, "problem", exc)}', file=path) from None
     if not isinstance(data, Mapping):

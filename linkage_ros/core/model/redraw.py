@@ -304,7 +304,7 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
             )
         nxt = min(1.0, lam + step)
         closure.set_blend(nxt)
-        got = _close(closure, x)
+        got = close_redraw(closure, x)
         if got is None or (sign != 0 and _orientation(closure, got) != sign):
             step, failed = step / 2, True
             continue
@@ -315,7 +315,7 @@ def redraw(mech: Mechanism, dims: Mapping[str, float]) -> Redrawn:
     return _read(closure, x)
 
 
-def _close(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
+def close_redraw(closure: _Closure, x0: np.ndarray) -> np.ndarray | None:
     """The closed pose nearest ``x0`` at the current blend, or None where it does not close.
     Solved by the Newton module (core.newton.scalar.solve over the loop tables): Newton steps on
     the analytic Jacobian with a backtracking line search, Levenberg-Marquardt where they stall

@@ -43,7 +43,7 @@ class Scene:
         path = str(path)
         text = read_text(path)
         try:
-            data = yaml.load(text, Loader=_UniqueKeyLoader)
+            data = yaml.load(text, Loader=UniqueKeyLoader)
         except _OutOfBounds as exc:
             raise SceneError(str(exc), file=path, key=exc.key) from None
         except yaml.YAMLError as exc:
@@ -168,7 +168,7 @@ def _key_label(index: object) -> str | None:
     return None
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
+class UniqueKeyLoader(yaml.SafeLoader):
     """safe_load that refuses a key given twice in one mapping (YAML's last-one-wins would build
     a different mechanism than the file shows) and reads 1e-3 as a number (YAML 1.2), not as the
     string YAML 1.1 makes of an exponent without a dot."""
@@ -255,7 +255,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
 
 
 # YAML 1.1 floats need a dot and a signed exponent (1.0e+3); also take 1e-3, 1E5, 2.5e3, .5e3.
-_UniqueKeyLoader.add_implicit_resolver(
+UniqueKeyLoader.add_implicit_resolver(
     'tag:yaml.org,2002:float',
     re.compile(r'^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$'),
     list('-+0123456789.'),

@@ -37,7 +37,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ..execute import LinkPoses
-from ..ops import _wrap_one
+from ..ops import wrap_one
 from ..quantities import AngleSpec, PointSpec
 from .evaluate import evaluate, evaluate_scaled, jacobian
 from .lean import Kernel, fast_steps
@@ -103,10 +103,10 @@ def value_step(t: LoopTables, a: Sequence[Any], b: Sequence[Any]) -> list[float]
         if type(s) is AngleSpec:  # reduce first: vb - va may overflow
             # (each wrap's own first test inline: an angle in (-pi, pi] is itself, no call)
             fb, fa = float(vb), float(va)
-            d = (fb if -_PI < fb <= _PI else _wrap_one(fb)) - (
-                fa if -_PI < fa <= _PI else _wrap_one(fa)
+            d = (fb if -_PI < fb <= _PI else wrap_one(fb)) - (
+                fa if -_PI < fa <= _PI else wrap_one(fa)
             )
-            out.append(d if -_PI < d <= _PI else _wrap_one(d))
+            out.append(d if -_PI < d <= _PI else wrap_one(d))
         elif type(s) is not PointSpec:  # a slide or one coordinate (m)
             out.append(float(vb) / L - float(va) / L)
         else:

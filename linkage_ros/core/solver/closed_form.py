@@ -41,7 +41,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from ..assemble import roller_offset
-from ..ops import _wrap_one
+from ..ops import wrap_one
 from ..plan import ReadKind, limit_violation, spec_reader, value_interval
 from ..quantities import PointSpec, ScalarSpec, SlideSpec
 from ..scalar_plan import ScalarProgram, program
@@ -322,7 +322,7 @@ class SlotReadout:
                 if turned:
                     a = R[sphi] - R[gphi]
                     if not _NEG_PI < a <= _PI:
-                        a = _wrap_one(a)
+                        a = wrap_one(a)
                     a = L * abs(a)
                     if a > worst:
                         worst = a
@@ -403,7 +403,7 @@ class SlotReadout:
         for name, child, parent, offset in self.revolute_angles:
             a = offset + R[child] - R[parent]
             if not _NEG_PI < a <= _PI:
-                a = _wrap_one(a)
+                a = wrap_one(a)
             joints[name] = a
         for slide in self.slides:
             joints[slide.joint] = slide.reader(R)
@@ -411,7 +411,7 @@ class SlotReadout:
         for l, i, ref in self.links:
             a = ref + R[i]
             if not _NEG_PI < a <= _PI:
-                a = _wrap_one(a)
+                a = wrap_one(a)
             links[l] = a
         points: dict[str, tuple[float, float]] = {}
         for point, z in zip(self.point_names, R):

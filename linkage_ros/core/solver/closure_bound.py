@@ -52,10 +52,10 @@ u):
    2^-40), bounded in plan order from the ground's. So every anchored or root-weld miss is at
    most 4u max(M_a, |lp|_1 (1 + 2^-40)), M_a the bound of p's register: ``2 EPS max(...)``
    below (EPS = 2u).
-3. Weld angle: |w| <= pi(1 + 4u) (ops._wrap_one returns [-pi, pi]); |g - w| <= u(2|w| + |o|)(1 +
+3. Weld angle: |w| <= pi(1 + 4u) (ops.wrap_one returns [-pi, pi]); |g - w| <= u(2|w| + |o|)(1 +
    u) =: e. With |o| <= 2^20, e << 1, so g is within e of [-pi, pi]: either the readout's test
    finds g in (-pi, pi] and the miss is fl(L |fl(g - w)|) <= L e (1 + u)^2, or g is just outside,
-   ``_wrap_one(g)`` (Cody-Waite, |k| = 1 or 0, the final +-2 pi) is g -+ 2 pi within 6 u pi
+   ``wrap_one(g)`` (Cody-Waite, |k| = 1 or 0, the final +-2 pi) is g -+ 2 pi within 6 u pi
    (one exact Sterbenz subtraction, two roundings of a value <= pi, 2 pi's float off by <= 2 u
    pi), fl(wrap(g) - w) is -+2 pi + (g - w) within 8.1 u pi, and its wrap within a few u of that
    small difference. In every case the miss is <= L u (11 pi + |o|)(1 + 11 u) <= L EPS (8 pi +
@@ -120,7 +120,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ..ops import _wrap_one
+from ..ops import wrap_one
 from ..quantities import AngleSpec
 from ..scalar_plan import ScalarProgram
 from ..steps import StepKind, TwoPoints
@@ -314,10 +314,10 @@ def angle_worst(
     for wrapped, ia, ib, off in checks:  # slot_reads.slot_reader's angle, its wrap inlined
         got = R[ia] - R[ib] + off
         if not _NEG_PI < got <= _PI:
-            got = _wrap_one(got)
+            got = wrap_one(got)
         a = got - R[wrapped]  # (the value reduced exactly first, by the run)
         if not _NEG_PI < a <= _PI:
-            a = _wrap_one(a)
+            a = wrap_one(a)
         a = L * abs(a)
         if a > worst:
             worst = a

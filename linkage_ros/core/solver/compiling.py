@@ -128,7 +128,7 @@ def compile_solve(
         ),
     )
     if c.inverse:
-        _check_determined(c, n_values)
+        check_determined(c, n_values)
     return c
 
 
@@ -186,7 +186,7 @@ def _wanted(
     return sorted(links), sorted(pts)
 
 
-def _check_determined(c: CompiledSolve, n_values: int) -> None:
+def check_determined(c: CompiledSolve, n_values: int) -> None:
     """Knowns whose equations are singular at the reference pose do not fix the configuration
     (two of them fix the same motion, another stays free) even where the sparsity pattern says
     they might: a solve would return an arbitrary point of a curve of solutions. Refused here,

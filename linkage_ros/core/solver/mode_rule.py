@@ -273,7 +273,7 @@ class ModeKeeper:
                 best = (*key, r)
         if best is not None or closed:
             return None if best is None else best[2]
-        return self._multi_start(self._newton_for(solver), values, before, last, here)
+        return self.multi_start(self._newton_for(solver), values, before, last, here)
 
     def _other_mode(
         self, solver: Solver, values: Mapping[str, Any], last: Result | None
@@ -313,7 +313,7 @@ class ModeKeeper:
                 self._variants.pop(next(iter(self._variants)))
         return alt
 
-    def _multi_start(
+    def multi_start(
         self,
         solver: Solver,
         values: Mapping[str, Any],

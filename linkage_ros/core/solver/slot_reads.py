@@ -8,7 +8,7 @@ import math
 from collections.abc import Callable
 from typing import Any, NamedTuple
 
-from ..ops import _wrap_one
+from ..ops import wrap_one
 from ..plan import ReadKind, SpecReader
 from ..scalar_plan import ScalarProgram
 
@@ -17,7 +17,7 @@ _NEG_PI = -math.pi
 
 
 def _wrap(a: float) -> float:
-    return a if _NEG_PI < a <= _PI else _wrap_one(a)
+    return a if _NEG_PI < a <= _PI else wrap_one(a)
 
 
 def slot_reader(read: SpecReader, prog: ScalarProgram) -> Callable[[list[Any]], Any]:

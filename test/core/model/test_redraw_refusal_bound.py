@@ -20,13 +20,13 @@ SHORT_ROCKER = 0.01  # m: four-bar 0's rocker stated far too short to reach B
 
 def _attempts(monkeypatch) -> list[int]:
     calls = [0]
-    close = redraw._close
+    close = redraw.close_redraw
 
     def counted(closure, x0):
         calls[0] += 1
         return close(closure, x0)
 
-    monkeypatch.setattr(redraw, '_close', counted)
+    monkeypatch.setattr(redraw, 'close_redraw', counted)
     return calls
 
 

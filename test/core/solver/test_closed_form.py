@@ -152,11 +152,11 @@ def test_a_closed_form_result_is_a_result_in_every_use():
     import dataclasses
     import pickle
 
-    from linkage_ros.bench.core_speed import _four_bar_dims, math_four_bar
+    from linkage_ros.bench.core_speed import four_bar_dims, math_four_bar
     from linkage_ros.core.solver import Result
 
     mech = scenes.load('four_bar')
-    dims = _four_bar_dims(mech)
+    dims = four_bar_dims(mech)
     solver = Solver(mech)
     for t in np.linspace(-3.0, 9.0, 25).tolist():
         r = solver.solve({'crank': t})

@@ -1226,7 +1226,7 @@ def test_closure_guard_refuses_a_false_assembly(monkeypatch):
     from linkage_ros.core.newton import LoopSystem
 
     monkeypatch.setattr(LoopSystem, 'unfixed_links', lambda self: [])
-    monkeypatch.setattr(compiling, '_check_determined', lambda c, n: None)
+    monkeypatch.setattr(compiling, 'check_determined', lambda c, n: None)
     mech = Scene.from_yaml(CONFIG / 'plagiograph.yaml').mechanism
     solver = Solver(mech, knowns=['point:A'])
     assert solver.mode == 'hybrid'
