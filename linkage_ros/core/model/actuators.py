@@ -8,11 +8,11 @@ from typing import Any
 
 from ..mechanism import Actuator, AngleActuator, Link, PrismaticJoint, SlideActuator
 from ..units import Quantity, degrees_warning, span_warning
-from .checks import _Ctx
+from .checks import SceneContext
 
 
 def _read_actuators(
-    ctx: _Ctx,
+    ctx: SceneContext,
     data: Mapping[str, Any],
     ground: str,
     links: Mapping[str, Link],
@@ -31,7 +31,7 @@ def _read_actuators(
         spec = ctx.mapping(key, spec)
         kind = spec.get('type')
         if kind == 'angle':
-            lo, hi = _limits(ctx, key, spec, Quantity.ANGLE)
+            lo, hi = read_limits(ctx, key, spec, Quantity.ANGLE)
             ctx.only(key, spec, {'type', 'link', 'pivot', 'toward', 'relative_to', 'min', 'max'})
             link = spec.get('link')
             if not ctx.known(link, links) or link == ground:
@@ -71,7 +71,7 @@ def _read_actuators(
             )
         elif kind == 'slide':
             ctx.only(key, spec, {'type', 'joint', 'min', 'max'})
-            lo, hi = _limits(ctx, key, spec, Quantity.LENGTH)
+            lo, hi = read_limits(ctx, key, spec, Quantity.LENGTH)
             joint = spec.get('joint')
             if not ctx.known(joint, prismatics):
                 ctx.fail(f'{key}.joint', 'must name a prismatic joint (sliders)', joint)
@@ -111,8 +111,8 @@ class _AngleGraph:
         return None
 
 
-def _limits(
-    ctx: _Ctx, key: str, spec: Mapping[str, Any], quantity: Quantity
+def read_limits(
+    ctx: SceneContext, key: str, spec: Mapping[str, Any], quantity: Quantity
 ) -> tuple[float | None, float | None]:
     """``min`` and ``max`` of ``spec`` (rad or m, by ``quantity``; either may be absent).
     Angle limits of bare numbers spanning more than a full turn, or beyond one, are read with

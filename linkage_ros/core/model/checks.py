@@ -17,7 +17,7 @@ Fail = Callable[..., NoReturn]
 # ---- validation helpers ----------------------------------------------------------------------
 
 
-class _Ctx:
+class SceneContext:
     """The file being read and the warnings its reading collects (a bare angle beyond a full
     turn: likely degrees); ``warnings`` may be shared by the nested builds of one scene."""
 

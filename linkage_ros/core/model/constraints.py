@@ -22,11 +22,11 @@ from typing import Any
 import numpy as np
 
 from ..units import Quantity
-from .checks import _Ctx
+from .checks import SceneContext
 
 
 def expand_constraints(
-    ctx: _Ctx, data: Mapping[str, Any], points: Mapping[str, np.ndarray]
+    ctx: SceneContext, data: Mapping[str, Any], points: Mapping[str, np.ndarray]
 ) -> tuple[dict[str, Any], dict[str, float], frozenset[str]]:
     """The scene with its ``slots`` and ``distances`` compiled into links and sliders, the
     dimensions they state (name -> m), and the slots that are rollers (a ``radius`` > 0: the
@@ -154,7 +154,7 @@ def expand_constraints(
     return out, stated, frozenset(rollers)
 
 
-def _entries(ctx: _Ctx, data: Mapping[str, Any], key: str) -> list[Mapping[str, Any]]:
+def _entries(ctx: SceneContext, data: Mapping[str, Any], key: str) -> list[Mapping[str, Any]]:
     raw = data.get(key) or []
     if not isinstance(raw, list):
         ctx.fail(key, 'must be a list of mappings', raw)

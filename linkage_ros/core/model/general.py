@@ -21,12 +21,10 @@ from ..mechanism import (
     PrismaticJoint,
     RevoluteJoint,
     SceneForm,
-    SlideActuator,
     reference_value,
 )
-from ..units import Quantity
-from .actuators import _limits, _read_actuators
-from .checks import TOP_KEYS, _Ctx
+from .actuators import _read_actuators
+from .checks import TOP_KEYS, SceneContext
 from .constraints import expand_constraints
 from .dimensions import (
     LinkDistance,
@@ -37,6 +35,7 @@ from .dimensions import (
 )
 from .limits import limit_violation
 from .points import read_points
+from .prismatics import read_cylinders, read_sliders
 from .redraw import RedrawRefused, redraw
 from .shortcuts import _four_bar_to_general, _slider_crank_to_general
 
@@ -53,7 +52,7 @@ def build_mechanism(
     of the same name; stated dimensions are used exactly and the drawing is redrawn to them.
     ``warnings`` (if given) collects what loads but is likely wrong (a bare angle beyond a
     full turn: degrees read as radians)."""
-    ctx = _Ctx(source, warnings)
+    ctx = SceneContext(source, warnings)
     if isinstance(data, Mapping) and 'points' in data and ('slots' in data or 'distances' in data):
         expanded, stated, rollers = expand_constraints(ctx, data, read_points(ctx, data))
         own = data.get('dimensions')
@@ -132,7 +131,7 @@ def build_mechanism(
     )
     name = ctx.name('name', data.get('name', default_name))
     # a shortcut's values were read (and warned about) above: its general form is not again
-    built = ctx if form is SceneForm.GENERAL else _Ctx(source)
+    built = ctx if form is SceneForm.GENERAL else SceneContext(source)
     mech = _build_general(built, general, name=name, frame_id=frame_id, solver=solver)
     mech.form = form
     mech.shortcut = shortcut
@@ -152,7 +151,7 @@ def build_mechanism(
 
 
 def _with_dimensions(
-    ctx: _Ctx, data: Mapping[str, Any], overrides: Mapping[str, float] | None
+    ctx: SceneContext, data: Mapping[str, Any], overrides: Mapping[str, float] | None
 ) -> Mechanism:
     """The scene with its stated dimensions: a shortcut takes them as its own parameters; a
     general-form scene is built as drawn, redrawn to them (same assembly mode, actuators at
@@ -215,7 +214,7 @@ def _stated_lengths(dims: Mapping[str, float]) -> dict[tuple[str, str, str], flo
 
 
 def _build_general(
-    ctx: _Ctx, data: Mapping[str, Any], *, name: str, frame_id: str, solver: str
+    ctx: SceneContext, data: Mapping[str, Any], *, name: str, frame_id: str, solver: str
 ) -> Mechanism:
     """The general form, in passes: each reads one key of the scene (checking it against what
     the earlier passes built) and names the key of anything wrong."""
@@ -223,8 +222,8 @@ def _build_general(
     ground, links = _read_links(ctx, data, points)
     prismatics: dict[str, PrismaticJoint] = {}
     actuators: dict[str, Actuator] = {}
-    _read_cylinders(ctx, data, points, links, prismatics, actuators)
-    _read_sliders(ctx, data, points, links, prismatics)
+    read_cylinders(ctx, data, points, links, prismatics, actuators)
+    read_sliders(ctx, data, points, links, prismatics)
     revolutes = _revolute_joints(ctx, points, links, prismatics)
     _read_actuators(ctx, data, ground, links, prismatics, actuators)
     outputs = _read_outputs(ctx, data, points, ground, links)
@@ -279,7 +278,7 @@ def _coinciding(members: Sequence[str], points: Mapping[str, np.ndarray]) -> lis
 
 
 def _read_links(
-    ctx: _Ctx, data: Mapping[str, Any], points: Mapping[str, np.ndarray]
+    ctx: SceneContext, data: Mapping[str, Any], points: Mapping[str, np.ndarray]
 ) -> tuple[str, dict[str, Link]]:
     """ground and links: name -> the points it carries (ground first)."""
     ground = data.get('ground', 'ground')
@@ -334,136 +333,8 @@ def _stem_name(stem: str) -> str:
     return name if NAME_RE.match(name) else f'scene_{name}'
 
 
-def _read_cylinders(
-    ctx: _Ctx,
-    data: Mapping[str, Any],
-    points: Mapping[str, np.ndarray],
-    links: dict[str, Link],
-    prismatics: dict[str, PrismaticJoint],
-    actuators: dict[str, Actuator],
-) -> None:
-    """cylinders: each adds a barrel and a rod link, their prismatic joint and its actuator."""
-    # cylinders: barrel pinned at `from`, rod pinned at `to`, a prismatic pair between them
-    cyl_raw = data.get('cylinders') or {}
-    ctx.mapping('cylinders', cyl_raw)
-    for cname, spec in cyl_raw.items():
-        key = f'cylinders.{cname}'
-        ctx.name(key, cname)
-        if cname in links:
-            ctx.fail(key, 'is the name of a link; a cylinder needs a name of its own', cname)
-        spec = ctx.mapping(key, spec)
-        ctx.only(key, spec, {'from', 'to', 'min', 'max'})
-        a = ctx.member(f'{key}.from', spec.get('from'), points, 'must name a point')
-        b = ctx.member(f'{key}.to', spec.get('to'), points, 'must name a point')
-        axis = points[b] - points[a]
-        length = float(np.hypot(*axis))
-        if not length > 0:
-            ctx.fail(key, 'pins `from` and `to` coincide in the reference pose', [a, b])
-        both = [ln.name for ln in links.values() if a in ln.points and b in ln.points]
-        if both:  # a rigid length: it drives nothing (and leaves the mechanism undriven)
-            ctx.fail(
-                key,
-                f'pins `from` and `to` are both points of link {both[0]!r}, so their distance '
-                'is fixed and the cylinder drives nothing; pin its ends on two links that move '
-                'relative to each other',
-                [a, b],
-            )
-        barrel, rod = f'{cname}_barrel', f'{cname}_rod'
-        for ln in (barrel, rod):
-            if ln in links:
-                ctx.fail(key, f'link name {ln!r} (made for the cylinder) is already used', ln)
-        ang = math.atan2(axis[1], axis[0])
-        links[barrel] = Link(barrel, (a,), angle_ref=ang)
-        links[rod] = Link(rod, (b,), angle_ref=ang)
-        u = axis / length
-        prismatics[cname] = PrismaticJoint(
-            cname,
-            barrel,
-            rod,
-            b,
-            (float(u[0]), float(u[1])),
-            (float(points[a][0]), float(points[a][1])),
-            length,
-        )
-        lo, hi = _limits(ctx, key, spec, Quantity.LENGTH)
-        if lo is not None and lo <= 0:
-            ctx.fail(f'{key}.min', 'a cylinder length must be > 0', lo)
-        actuators[cname] = SlideActuator(cname, joint=cname, min=lo, max=hi, cylinder=True)
-
-
-def _read_sliders(
-    ctx: _Ctx,
-    data: Mapping[str, Any],
-    points: Mapping[str, np.ndarray],
-    links: Mapping[str, Link],
-    prismatics: dict[str, PrismaticJoint],
-) -> None:
-    """sliders: prismatic joints between two links."""
-    sliders_raw = data.get('sliders') or []
-    if not isinstance(sliders_raw, list):
-        ctx.fail('sliders', 'must be a list of prismatic joints', sliders_raw)
-    for i, spec in enumerate(sliders_raw):
-        key = f'sliders[{i}]'
-        spec = ctx.mapping(key, spec)
-        ctx.only(key, spec, {'name', 'guide', 'slider', 'point', 'direction', 'origin'})
-        jname = ctx.name(f'{key}.name', spec.get('name'))
-        key = f'sliders.{jname}'
-        if jname in prismatics:
-            ctx.fail(key, 'duplicate prismatic joint name', jname)
-        guide_v, slider_v, point_v = spec.get('guide'), spec.get('slider'), spec.get('point')
-        roles = {'guide': 'the link the slide line is fixed in', 'slider': 'the link that slides'}
-        for k, v in (('guide', guide_v), ('slider', slider_v)):
-            if v is None:  # not "(got None)": say what is missing
-                ctx.fail(f'{key}.{k}', f'is missing: name {roles[k]}', has_value=False)
-        guide = ctx.member(f'{key}.guide', guide_v, links, f'must name a link ({roles["guide"]})')
-        slider = ctx.member(
-            f'{key}.slider', slider_v, links, f'must name a link ({roles["slider"]})'
-        )
-        if guide == slider:
-            ctx.fail(f'{key}.slider', 'must differ from the guide link', slider)
-        if point_v is None:
-            ctx.fail(
-                f'{key}.point',
-                f'is missing: name the point of {slider!r} that runs on the line',
-                has_value=False,
-            )
-        point = ctx.member(
-            f'{key}.point',
-            point_v,
-            links[slider].points,
-            f'must be a point of the slider link {slider!r}',
-        )
-        d = spec.get('direction', 0.0)
-        if isinstance(d, (list, tuple)):
-            dv = ctx.xy(f'{key}.direction', d, quantity=None)
-        else:
-            ang = ctx.number(f'{key}.direction', d, quantity=Quantity.ANGLE)
-            dv = np.array([math.cos(ang), math.sin(ang)])
-        n = float(np.hypot(*dv))
-        if not n > 0:
-            ctx.fail(f'{key}.direction', 'must be a non-zero vector', d)
-        dv = dv / n
-        o = spec.get('origin', point)
-        if isinstance(o, str):
-            if not ctx.known(o, points):
-                ctx.fail(f'{key}.origin', 'must name a point or be [x, y]', o)
-            ov = points[o]
-        else:
-            ov = ctx.xy(f'{key}.origin', o)
-        ref_value = float(np.dot(points[point] - ov, dv))
-        prismatics[jname] = PrismaticJoint(
-            jname,
-            guide,
-            slider,
-            point,
-            (float(dv[0]), float(dv[1])),
-            (float(ov[0]), float(ov[1])),
-            ref_value,
-        )
-
-
 def _revolute_joints(
-    ctx: _Ctx,
+    ctx: SceneContext,
     points: Mapping[str, np.ndarray],
     links: Mapping[str, Link],
     prismatics: Mapping[str, PrismaticJoint],
@@ -509,7 +380,7 @@ def _revolute_joints(
 
 
 def _read_outputs(
-    ctx: _Ctx,
+    ctx: SceneContext,
     data: Mapping[str, Any],
     points: Mapping[str, np.ndarray],
     ground: str,
@@ -537,7 +408,10 @@ def _read_outputs(
 
 
 def _check_one_point_links(
-    ctx: _Ctx, ground: str, links: Mapping[str, Link], prismatics: Mapping[str, PrismaticJoint]
+    ctx: SceneContext,
+    ground: str,
+    links: Mapping[str, Link],
+    prismatics: Mapping[str, PrismaticJoint],
 ) -> None:
     for lname, link in links.items():
         if (
@@ -582,7 +456,7 @@ def _length_scale(
 
 
 def _check_reference_limits(
-    ctx: _Ctx, mech: Mechanism, form: SceneForm, data: Mapping[str, Any]
+    ctx: SceneContext, mech: Mechanism, form: SceneForm, data: Mapping[str, Any]
 ) -> None:
     """The reference pose must be one the actuators can reach: it is the node's first state and
     it chooses the assembly mode. An actuator whose reference value is outside its own limits

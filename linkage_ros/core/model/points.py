@@ -11,10 +11,10 @@ import numpy as np
 
 from ..dyads import circle_circle
 from ..units import Quantity
-from .checks import _Ctx
+from .checks import SceneContext
 
 
-def read_points(ctx: _Ctx, data: Mapping[str, Any]) -> dict[str, np.ndarray]:
+def read_points(ctx: SceneContext, data: Mapping[str, Any]) -> dict[str, np.ndarray]:
     """points: name -> [x, y] (m), the reference pose."""
     pts_raw = ctx.mapping('points', data.get('points'))
     if not pts_raw:
@@ -55,7 +55,7 @@ def read_points(ctx: _Ctx, data: Mapping[str, Any]) -> dict[str, np.ndarray]:
 
 
 def _point_from_distances(
-    ctx: _Ctx, name: str, spec: Mapping[str, Any], points: Mapping[str, np.ndarray]
+    ctx: SceneContext, name: str, spec: Mapping[str, Any], points: Mapping[str, np.ndarray]
 ) -> np.ndarray:
     """``{distances: {A: r1, B: r2}, side: left | right}``: the point r1 from A and r2 from B
     (m), on the given side of the line A -> B (the two-circle construction). Tangent circles

@@ -10,8 +10,8 @@ import numpy as np
 
 from ..analysis import fourbar_input_intervals
 from ..units import Quantity
-from .actuators import _limits
-from .checks import _Ctx
+from .actuators import read_limits
+from .checks import SceneContext
 
 #: a crank's reference points (A and the output point), (2,) arrays in m
 _Points = tuple[np.ndarray, np.ndarray]
@@ -19,7 +19,7 @@ _Points = tuple[np.ndarray, np.ndarray]
 # ---- shortcut forms --------------------------------------------------------------------------
 
 
-def _branch(ctx: _Ctx, key: str, value: object) -> int:
+def _branch(ctx: SceneContext, key: str, value: object) -> int:
     if isinstance(value, bool):  # True == 1: `branch: true` must not pass for +1
         ctx.fail(key, "must be +1 or -1 (or '+' / '-')", value)
     if value in (1, '+', '+1'):
@@ -30,19 +30,19 @@ def _branch(ctx: _Ctx, key: str, value: object) -> int:
     return 1
 
 
-def _crank_actuator(ctx: _Ctx, key: str, spec: Mapping[str, Any]) -> dict[str, Any]:
+def _crank_actuator(ctx: SceneContext, key: str, spec: Mapping[str, Any]) -> dict[str, Any]:
     """The shortcut forms' crank: the angle of O2 -> A, with optional crank_limits."""
     crank: dict[str, Any] = {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
     if 'crank_limits' in spec:
         lim = ctx.mapping(f'{key}.crank_limits', spec['crank_limits'])
         ctx.only(f'{key}.crank_limits', lim, {'min', 'max'})
-        lo, hi = _limits(ctx, f'{key}.crank_limits', lim, Quantity.ANGLE)
+        lo, hi = read_limits(ctx, f'{key}.crank_limits', lim, Quantity.ANGLE)
         crank.update({k: v for k, v in (('min', lo), ('max', hi)) if v is not None})
     return crank
 
 
 def _reference_input(
-    ctx: _Ctx,
+    ctx: SceneContext,
     key: str,
     spec: Mapping[str, Any],
     start: float,
@@ -78,7 +78,7 @@ def _reference_input(
 
 
 def _four_bar_to_general(
-    ctx: _Ctx, data: Mapping[str, Any]
+    ctx: SceneContext, data: Mapping[str, Any]
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     from ..dyads import circle_circle
 
@@ -195,7 +195,7 @@ def _four_bar_to_general(
 
 
 def _slider_crank_to_general(
-    ctx: _Ctx, data: Mapping[str, Any]
+    ctx: SceneContext, data: Mapping[str, Any]
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     sc = ctx.mapping('slider_crank', data['slider_crank'])
     ctx.only(
