@@ -61,7 +61,7 @@ CONTINUITY_MARGIN = 0.1
 #: point it reaches 0 (to rounding: ~1e-8). One whose margin stays above it keeps its sign: a
 #: crank-rocker at s + l = p + q - eps dips to about sqrt(eps / l), so one nearer the Grashof
 #: limit than ~1e-12 of its lengths is taken as on it, and any further as off it. (Newton places
-#: a fold only to ~sqrt(tol): its own threshold is core.solver.newton_path.fold_margin.)
+#: a fold only to ~sqrt(tol): its own threshold is core.solver.asked_mode.fold_margin.)
 CROSSING_MARGIN = 1e-6
 
 _GROUND, _KNOWN_POINT, _TWO_POINTS = StepKind.GROUND, StepKind.KNOWN_POINT, StepKind.TWO_POINTS
