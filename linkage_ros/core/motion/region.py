@@ -5,6 +5,7 @@ from __future__ import annotations
 import itertools
 import math
 from collections.abc import Mapping, Sequence
+from enum import Enum
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,15 @@ from .common import point_key, reference_point, reference_scalar
 from .ranges import actuator_range
 
 # ---- reachable regions ------------------------------------------------------------------------
+
+
+class Boundary(Enum):
+    """How a reachable region's boundary was found (the report's ``method``)."""
+
+    POINT = 'point'  # the point does not move
+    PATH = 'path'  # one actuator: the path itself
+    EXTREME_ARCS = 'extreme_arcs'  # the closed-form extremes, joined in order
+    CONCAVE_HULL = 'concave_hull'  # the cloud's concave hull
 
 
 def _actuator_limits(mech: Mechanism, name: str, samples: int) -> tuple[float, float]:
@@ -210,7 +220,7 @@ def reachable_region(
             area=0.0,
             cloud=[list(map(float, p))],
             arcs=[],
-            method='point',
+            method=Boundary.POINT.value,
             hull_check={
                 'outside': 0,
                 'max_outside': 0.0,
@@ -241,7 +251,7 @@ def reachable_region(
         xs = np.linspace(lims[a][0], lims[a][1], ne)
         okp, pp = solve({a: xs})
         boundary, binputs = pp[okp], {a: xs[okp].tolist()}
-        method = 'path'
+        method = Boundary.PATH
         area = 0.0
     elif len(acts) == 2:
         a1, a2 = acts
@@ -275,10 +285,10 @@ def reachable_region(
             ins2.append(cols[a2][sel])
         boundary = np.concatenate(verts)
         binputs = {a1: np.concatenate(ins1).tolist(), a2: np.concatenate(ins2).tolist()}
-        method = 'extreme_arcs' if complete else 'concave_hull'
+        method = Boundary.EXTREME_ARCS if complete else Boundary.CONCAVE_HULL
         area = _polygon_area(boundary)
     else:
-        boundary, binputs, method, area = None, {}, 'concave_hull', 0.0
+        boundary, binputs, method, area = None, {}, Boundary.CONCAVE_HULL, 0.0
     # hull check: the cloud must lie inside the boundary
     spacing = _grid_spacing(P, ok, n, len(acts))
     tolerance = 1e-9 * scale
@@ -291,14 +301,14 @@ def reachable_region(
         except Exception:  # noqa: BLE001 - degenerate cloud
             hull_area = 0.0
     outside, max_out = 0, 0.0
-    if method == 'extreme_arcs':
+    if method is Boundary.EXTREME_ARCS:
         inside = points_in_polygon(cloud, boundary)
         d = distance_to_polygon(cloud[~inside], boundary) if (~inside).any() else np.zeros(0)
         outside = int(np.sum(d > tolerance))
         max_out = float(d.max()) if d.size else 0.0
         if outside:
-            method = 'concave_hull'
-    if method == 'concave_hull':
+            method = Boundary.CONCAVE_HULL
+    if method is Boundary.CONCAVE_HULL:
         pts = np.concatenate(
             [cloud] + [np.asarray(a['points'], float).reshape(-1, 2) for a in arcs]
         )
@@ -310,7 +320,7 @@ def reachable_region(
         boundary_inputs=binputs,
         area=float(area),
         arcs=arcs,
-        method=method,
+        method=method.value,
         hull_check={
             'outside': outside,
             'max_outside': max_out,
