@@ -13,7 +13,14 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ..core.model.joint_map import InputJoint, JointMap, OutputJoint, OutputKind, wrap
+from ..core.model.joint_map import (
+    InputJoint,
+    JointMap,
+    OutputJoint,
+    OutputKind,
+    fit_to_limits,
+    wrap,
+)
 from ..point_coordinates import group_point_coordinates
 
 TURN = 2.0 * math.pi
@@ -133,7 +140,10 @@ class InputValues:
             return v
         entry, out = found
         q = entry.scale * (v - entry.offset)
-        return _published(wrap(q), out) if entry.revolute else q
+        if not entry.revolute:
+            return q
+        # (the published rule: wrapped, moved by 2 pi into the joint's limits where that fits)
+        return wrap(q) if out is None else fit_to_limits(wrap(q), out)
 
     def interval(
         self, actuator: str, lo: float | None, hi: float | None
@@ -167,16 +177,3 @@ class InputValues:
             v = self.value(actuator, reference_scalar(self.mech, actuator))
             self._reference[actuator] = float(v)  # type: ignore[arg-type]
         return self._reference[actuator]
-
-
-def _published(v: float, out: OutputJoint | None) -> float:
-    """A wrapped angle moved by 2 pi into the joint's limits where that fits (as joint_states)."""
-    if out is None:
-        return v
-    lo = -math.inf if out.lower is None else out.lower
-    hi = math.inf if out.upper is None else out.upper
-    if v < lo and v + TURN <= hi:
-        return v + TURN
-    if v > hi and v - TURN >= lo:
-        return v - TURN
-    return v

@@ -144,7 +144,7 @@ class JointMap:
             else:
                 v = o.scale * joints[o.scene_joint] + o.offset
                 if o.revolute:
-                    v = _fit(wrap(v), o)
+                    v = fit_to_limits(wrap(v), o)
             out[o.name] = v
         return [out[n] for n in self.names]
 
@@ -178,7 +178,7 @@ class JointMap:
     def _passive_limits(self) -> tuple[tuple[OutputJoint, tuple[float, float]], ...]:
         """The passive published joints with a <limit>, and the values it allows (the limit
         rule's interval, its slack on each side; a revolute value is already brought into
-        the limits where it fits: _fit)."""
+        the limits where it fits: fit_to_limits)."""
         return tuple(
             (o, interval)
             for o in self.outputs
@@ -212,7 +212,7 @@ class JointMap:
             if entry.revolute:
                 v = wrap(v)
                 if a in limits:
-                    v = _fit(v, limits[a])
+                    v = fit_to_limits(v, limits[a])
             out.append(v)
         return out
 
@@ -312,7 +312,7 @@ class JointMap:
         }
 
 
-def _fit(v: Any, o: OutputJoint) -> Any:
+def fit_to_limits(v: Any, o: OutputJoint) -> Any:
     """A wrapped angle moved by 2 pi into the joint's limits where that fits (one value or an
     array: the same rule; a limit of 0 is a limit)."""
     lo = -math.inf if o.lower is None else o.lower
