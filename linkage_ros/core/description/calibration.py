@@ -111,6 +111,7 @@ def calibrate_joint_map(
                         OutputKind.MIMIC,
                         scale=tj.mimic.multiplier,
                         offset=tj.mimic.offset,
+                        revolute=tj.type is not JointType.PRISMATIC,
                         leader=tj.mimic.joint,
                     )
                 )

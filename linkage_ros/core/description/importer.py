@@ -156,7 +156,7 @@ def import_description(
     mimics = [j.name for j in chain.joints if j.joint.mimic is not None and j.name not in acts]
     if mimics:
         notes.append(f'<mimic> of {", ".join(mimics)} superseded: the closures give their values')
-    notes += _turning_mimics(jmap)
+    notes += _turning_mimics(jmap, desc)
     return Imported(desc, chain, scene, mech, jmap, acts, q, gap, tuple(notes))
 
 
@@ -204,17 +204,19 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
     return tuple(acts)
 
 
-def _turning_mimics(jmap: JointMap) -> list[str]:
-    """A note for each published <mimic> whose multiplier is not a whole number and whose
-    leader turns further than a full turn (continuous, or limits 2 pi apart or more): the
-    leader is published wrapped, and so the follower jumps where the leader passes its wrap."""
+def _turning_mimics(jmap: JointMap, desc: Description) -> list[str]:
+    """A note for each published <mimic> that jumps where its leader wraps: the leader turns
+    further than a full turn (continuous, or limits, the closure file's first, 2 pi apart or
+    more) and is published wrapped, and the follower is a length, or an angle by a multiplier
+    that is not a whole number (a whole number of turns is no jump for an angle)."""
     leaders = {o.name: o for o in jmap.outputs}
     notes = []
     for o in jmap.outputs:
         lead = leaders.get(o.leader) if o.kind is OutputKind.MIMIC else None
-        if lead is None or not lead.revolute or float(o.scale).is_integer():
+        if lead is None or not lead.revolute or (o.revolute and float(o.scale).is_integer()):
             continue
-        lo, hi = lead.lower, lead.upper
+        stated = desc.limits.get(lead.name)
+        lo, hi = (stated.lower, stated.upper) if stated is not None else (lead.lower, lead.upper)
         if lo is None or hi is None or hi - lo >= 2 * math.pi:
             notes.append(
                 f'<mimic> {o.name} = {o.scale:g} * {o.leader} + {o.offset:g}: {o.leader} turns '
@@ -261,6 +263,13 @@ def _assembly_values(
     for name in acts:  # within the description's limits, by the one limit rule
         value = given.get(name, 0.0)
         lim = desc.limits.get(name, by_name[name].joint.limits)
+        if by_name[name].revolute and (lim.lower is None) != (lim.upper is None):
+            # (URDF gives a revolute joint both; a closure file may give one)
+            raise DescriptionError(
+                f'limits of the actuated joint {name}: an angle needs both lower and upper (its '
+                'range is an arc of the circle); state both in the closure file',
+                file=desc.source,
+            )
         unit = 'rad' if by_name[name].revolute else 'm'
         why = limit_violation(name, value, lim.lower, lim.upper, unit, by_name[name].revolute)
         if why is None:
@@ -280,7 +289,7 @@ def _assembly_values(
             stated = f'{name} = {mimic.multiplier:g} * {mimic.joint} + {mimic.offset:g}'
             remedy = f'give {mimic.joint} a value that puts {name} within them (assemble_at'
         else:
-            inside = _inside(lim.lower, lim.upper, by_name[name].revolute)
+            inside = _inside(lim.lower, lim.upper)
             remedy = f'give a value within the limits (assemble_at: {{{name}: {inside:.6g}}}'
         raise DescriptionError(
             f'{why} where the description is assembled ({stated}; {whose}: {span}): '
@@ -291,13 +300,9 @@ def _assembly_values(
     return given
 
 
-def _inside(lower: float | None, upper: float | None, revolute: bool) -> float:
-    """A value within the limits [lower, upper] to suggest: their middle; with one limit, an
-    angle's arc to +-pi (the limit rule reads a one-sided angle in (-pi, pi]), a length's
-    value a little inside it."""
-    if revolute:
-        lower = -math.pi if lower is None else lower
-        upper = math.pi if upper is None else upper
+def _inside(lower: float | None, upper: float | None) -> float:
+    """A value within the limits [lower, upper] to suggest: their middle; with one limit (a
+    length's), a value a little inside it."""
     if lower is not None and upper is not None:
         return 0.5 * (lower + upper)
     if lower is not None:
@@ -482,14 +487,13 @@ def _scene(
                 points, members[j.parent], j.parent == chain.ground
             )
             k = math.remainder(v_ref - j.sign * q[a], 2.0 * math.pi)
-            if lim.lower is not None or lim.upper is not None:
-                # one limit bounds the angle as reported, in (-pi, pi] (the limit rule): the
-                # arc to +-pi, mapped as two limits are
-                lower = -math.pi if lim.lower is None else lim.lower
-                upper = math.pi if lim.upper is None else lim.upper
-                if upper - lower < 2 * math.pi:
-                    lo, hi = sorted((j.sign * lower + k, j.sign * upper + k))
-                    spec.update(min=lo, max=hi)
+            if (
+                lim.lower is not None
+                and lim.upper is not None
+                and lim.upper - lim.lower < (2 * math.pi)
+            ):  # (one limit alone is refused: _assembly_values)
+                lo, hi = sorted((j.sign * lim.lower + k, j.sign * lim.upper + k))
+                spec.update(min=lo, max=hi)
         else:
             spec = {'type': 'slide', 'joint': names('point', a)}
             if lim.lower is not None:

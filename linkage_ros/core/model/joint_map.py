@@ -364,7 +364,7 @@ def joint_map_to_dict(jmap: JointMap) -> dict[str, Any]:
             item['mimic'] = o.leader
         else:
             item['joint'] = o.scene_joint
-            item['revolute'] = o.revolute
+        item['revolute'] = o.revolute
         item.update(scale=o.scale, offset=o.offset)
         if o.lower is not None:
             item['lower'] = o.lower
@@ -429,6 +429,7 @@ def joint_map_from_dict(
                     OutputKind.MIMIC,
                     scale=_num(item.get('scale', 1.0), where, fail),
                     offset=_num(item.get('offset', 0.0), where, fail),
+                    revolute=bool(item.get('revolute', True)),
                     leader=item['mimic'],
                 )
             )

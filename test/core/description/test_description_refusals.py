@@ -442,28 +442,15 @@ def test_an_assembly_outside_a_turned_joints_limit_is_said_in_the_descriptions_v
     assert '-3' not in str(err) and '= 2 rad' not in str(err), err
 
 
-@pytest.mark.parametrize(
-    ('limits', 'inside', 'outside'),
-    [('{upper: -0.5}', -0.6, 0.0), ('{lower: 3.1}', 3.12, 0.0)],
-)
-def test_a_one_sided_limit_bounds_commands_as_the_assembly(tmp_path, limits, inside, outside):
-    """A closure file's one-sided limit on the GRBDA four-bar's crank (an angle: read as
-    reported, in (-pi, pi], the arc to +-pi). The import judged the assembly by it, but the
-    scene's actuator took no limit from it, so commands beyond it were answered (a review's
-    find); and the value the refusal suggested for a lower limit of 3.1 (3.41) was itself
-    outside. Now the suggestion assembles, and a command beyond the limit is refused."""
-    from linkage_ros.engine import Engine, EngineSettings
-
-    base = side(tmp_path, 'only.yaml', f'limits: {{joint1: {limits}}}\n')
-    err = refused('where the description is assembled', args=[str(FOUR_BAR)], closures=base)
-    suggested = float(str(err).split('assemble_at: {joint1: ')[1].split('}')[0])
-    at = side(
-        tmp_path,
-        'at.yaml',
-        f'limits: {{joint1: {limits}}}\nassemble_at: {{joint1: {suggested!r}}}\n',
+@pytest.mark.parametrize('limits', ['{upper: -0.5}', '{lower: 3.1}', '{lower: 4}'])
+def test_an_actuated_angle_with_one_limit_is_refused_naming_it(tmp_path, limits):
+    """A closure file's one limit on the GRBDA four-bar's actuated crank: the import judged the
+    assembly by it while the commands took no limit from it (answered beyond it), and bounding
+    the commands by the arc to +-pi named a +-pi limit nobody wrote (reviews' finds). An angle's
+    range is an arc: both ends are asked for."""
+    path = side(tmp_path, 'one.yaml', f'limits: {{joint1: {limits}}}\n')
+    refused(
+        'limits of the actuated joint joint1: an angle needs both lower and upper',
+        args=[str(FOUR_BAR)],
+        closures=path,
     )
-    mech = import_description(str(FOUR_BAR), closures=at).mechanism
-    engine = Engine(mech, EngineSettings())
-    assert engine.command({'joint1': inside}).success
-    beyond = engine.command({'joint1': outside})
-    assert not beyond.success and 'joint1 = 0 rad' in beyond.reason, beyond.reason

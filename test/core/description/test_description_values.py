@@ -263,15 +263,39 @@ GEARED_FLAG = """<robot name="crm"><link name="base"/><link name="crank"/><link 
 </successor></loop></robot>"""
 
 
-@pytest.mark.parametrize(('mult', 'noted'), [('0.5', True), ('2', False), ('-1', False)])
-def test_a_mimic_geared_to_a_continuous_crank_is_noted_where_it_wraps(tmp_path, mult, noted):
+@pytest.mark.parametrize(
+    ('mult', 'kind', 'limits', 'noted'),
+    [
+        ('0.5', 'continuous', '', True),
+        ('2', 'continuous', '', False),
+        ('-1', 'continuous', '', False),
+        ('1', 'prismatic', '', True),  # a length jumps by 2 pi m where the crank wraps
+        ('0.5', 'continuous', 'limits: {j1: {lower: -3, upper: 3}}', False),  # it cannot wrap
+    ],
+)
+def test_a_mimic_geared_to_a_continuous_crank_is_noted_where_it_wraps(
+    tmp_path, mult, kind, limits, noted
+):
     """flag_joint follows the continuous crank j1 by MULT j1 + 0.1. The crank is published
     wrapped, and the follower follows that value: for a multiplier that is not a whole number
     (a 2:1 gear) the follower jumps where the crank wraps, which the import says (an
     adversary's find: it was silent). Oracle: the <mimic> rule on the published crank."""
     path = tmp_path / 'crm.urdf'
-    path.write_text(GEARED_FLAG.replace('MULT', mult))
-    imported = import_description(str(path), actuated=['j1'])
+    text = GEARED_FLAG.replace('MULT', mult)
+    if kind == 'prismatic':
+        text = text.replace(
+            'name="flag_joint" type="continuous"', 'name="flag_joint" type="prismatic"'
+        )
+        text = text.replace('<axis xyz="0 0 1"/><mimic', '<axis xyz="1 0 0"/><limit lower="-9" '
+                            'upper="9" effort="1" velocity="1"/><mimic')  # fmt: skip
+    path.write_text(text)
+    closures = None
+    if limits:
+        closures = tmp_path / 'limits.yaml'
+        closures.write_text(limits + '\n')
+    imported = import_description(
+        str(path), closures=None if closures is None else str(closures), actuated=['j1']
+    )
     said = [n for n in imported.notes if 'flag_joint' in n]
     assert bool(said) == noted, imported.notes
     if noted:
