@@ -454,3 +454,21 @@ def test_an_actuated_angle_with_one_limit_is_refused_naming_it(tmp_path, limits)
         args=[str(FOUR_BAR)],
         closures=path,
     )
+
+
+def test_a_urdf_limit_with_one_end_takes_urdfdoms_zero_for_the_other():
+    """URDF's <limit upper="1.5"/> on a revolute joint is [0, 1.5] (urdfdom's default lower is
+    0): the GRBDA four-bar's crank so limited answers 0.7 and refuses -0.2 (below 0); read as
+    one limit alone it was refused as an angle without both limits."""
+    from linkage_ros.engine import Engine, EngineSettings
+
+    text = edited(
+        '<limit effort="30" velocity="1.0" lower="-13.14" upper="13.14"/>\n    </joint>\n\n'
+        '    <joint name="joint2"',
+        '<limit effort="30" velocity="1.0" upper="1.5"/>\n    </joint>\n\n    <joint name="joint2"',
+    )
+    mech = import_description(text, text=True).mechanism
+    engine = Engine(mech, EngineSettings())
+    assert engine.command({'joint1': 0.7}).success
+    low = engine.command({'joint1': -0.2})
+    assert not low.success and 'minimum 0' in low.reason, low.reason
