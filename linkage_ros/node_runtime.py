@@ -16,7 +16,7 @@ from rclpy.task import Future
 
 from .core.model import Scene
 from .core.reference_warnings import reference_pose_warnings
-from .params import PARAMETERS
+from .params import PARAMETERS, STRING_ARRAY
 from .setting_checks import ConfigError
 
 
@@ -28,7 +28,7 @@ def declare_parameters(node: Node) -> dict[str, Any]:
         # a double takes a whole number too (ROS users write `-p publish_rate:=0`): typed
         # dynamically, then checked to be a number and converted (make_config)
         number = isinstance(p.default, float)
-        strings = p.default == 'string_array'
+        strings = p.default is STRING_ARRAY
         desc = ParameterDescriptor(
             description=p.description,
             # (a string array is made read-only once it holds its value: see below)
@@ -44,7 +44,7 @@ def declare_parameters(node: Node) -> dict[str, Any]:
         except InvalidParameterTypeException as exc:
             kind = (
                 type(p.default).__name__
-                if p.default != 'string_array'
+                if not strings
                 else f'list of strings (write {p.name}:=[a, b])'
             )
             kind = {

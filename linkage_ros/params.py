@@ -7,6 +7,7 @@ import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass
+from enum import Enum
 from pathlib import Path
 from typing import Any
 
@@ -37,10 +38,20 @@ QUEUE_DEPTH_MAX = 2**31 - 1
 # ---- configuration -----------------------------------------------------------------------------
 
 
+class ParamType(Enum):
+    """A parameter type no default value can say: rclpy reads an empty list as bytes."""
+
+    STRING_ARRAY = 'string_array'
+
+
+#: the default of a string-array parameter: an empty array of strings
+STRING_ARRAY = ParamType.STRING_ARRAY
+
+
 @dataclass(frozen=True)
 class ParamSpec:
     name: str
-    default: Any  # a value, or 'string_array' for an empty string array
+    default: Any  # a value, or STRING_ARRAY: an empty array of strings
     description: str
     read_only: bool = True
     constraints: str = ''
@@ -63,7 +74,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec(
         'actuated',
-        'string_array',
+        STRING_ARRAY,
         "The robot description's actuated joints, where neither it nor `closures` marks them. "
         "[] (or ['']) = the description's own.",
     ),
@@ -84,7 +95,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec(
         'dimensions',
-        'string_array',
+        STRING_ARRAY,
         "Dimensions used exactly instead of the scene's drawing, as NAME=VALUE (m): "
         'LINK.P-Q (the distance between two points of a link) or SLIDER.offset, e.g. '
         "['crank.O2-A=0.016']; they override the scene's own `dimensions` (docs/SCENES.md).",
@@ -143,7 +154,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ),
     ParamSpec(
         'target_point_hold',
-        'string_array',
+        STRING_ARRAY,
         'Names (actuators, joints, links or points) held at their current value when a '
         '~/target_point/<point> request arrives on a mechanism with more than 2 degrees of '
         "freedom, e.g. ['bucket'] for an excavator (point + held values = DOF).",
@@ -309,7 +320,7 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
     Pure: checks types and ranges and resolves the scene name to a path; it does not load the
     scene (see :class:`Engine` for the checks that need the mechanism).
     """
-    v = {p.name: ([] if p.default == 'string_array' else p.default) for p in PARAMETERS}
+    v = {p.name: ([] if p.default is STRING_ARRAY else p.default) for p in PARAMETERS}
     unknown = sorted(set(values) - set(v))
     if unknown:
         raise ConfigError(f'unknown parameter(s) {unknown}; expected {sorted(v)}')

@@ -407,10 +407,15 @@ def build_solve(mech, args, allow_range: bool):
     return knowns, axes, solver
 
 
+def _rule(branch: str) -> BranchRule | None:
+    """The branch setting's rule (read_branch), None for text that is no setting."""
+    read = read_branch(branch)
+    return None if read is None else read.rule
+
+
 def _signs(branch: str) -> bool:
     """The branch setting names a mode itself (signs, or a Jacobian sign)."""
-    rule = read_branch(branch)
-    return rule is not None and rule.rule in (BranchRule.EXPLICIT, BranchRule.JACOBIAN)
+    return _rule(branch) in (BranchRule.EXPLICIT, BranchRule.JACOBIAN)
 
 
 def target_engine(mech, args, single: bool = False):
@@ -427,7 +432,9 @@ def target_engine(mech, args, single: bool = False):
         solver=args.solver,
         tolerance=args.tol,
         max_iterations=args.max_iter,
-        branch='continuous' if single and args.branch == 'reference' else args.branch,
+        branch='continuous'
+        if single and _rule(args.branch) is BranchRule.REFERENCE
+        else args.branch,
     )
     return Engine(mech, settings)
 
