@@ -17,7 +17,6 @@ from ..core.model.joint_map import (
     InputJoint,
     JointMap,
     OutputJoint,
-    OutputKind,
     fit_to_limits,
     wrap,
 )
@@ -84,12 +83,7 @@ def unit_of(mech, name: str) -> str | None:
     entry = jm.inputs.get(name)
     if entry is not None:
         return 'rad' if entry.revolute else 'm'
-    outputs = {o.name: o for o in jm.outputs}
-    seen: set[str] = set()
-    out = outputs.get(name)
-    while out is not None and out.kind is OutputKind.MIMIC and out.name not in seen:
-        seen.add(out.name)
-        out = outputs.get(out.leader)
+    out = next((o for o in jm.outputs if o.name == name), None)
     if out is None:
         return None
     return 'rad' if out.revolute else 'm'

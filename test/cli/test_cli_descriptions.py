@@ -822,3 +822,21 @@ def test_closure_file_limits_upside_down_or_broken_are_named_as_the_files(capsys
         f'{LEFT_KNUCKLE} = 0.6 rad is beyond its maximum 0.4 by 0.2 rad where the description '
         'is assembled (assemble_at; limits in the closure file: [0.1, 0.4])'
     ) in err, err
+
+
+def test_a_prismatic_mimic_follower_is_printed_in_metres(capsys, tmp_path):
+    """A prismatic joint following the GRBDA four-bar's crank by <mimic> (0.1 m per rad +
+    0.05 m) is printed in metres: linkage solve printed 'mslide 0.300000000 rad 17.18873 deg'
+    (the unit of the joint it follows; a review's find). Oracle: the <mimic> rule."""
+    text = (FIXTURES / 'grbda_four_bar.urdf').read_text()
+    slide = (
+        '<link name="slid"/><joint name="mslide" type="prismatic"><parent link="base_link"/>'
+        '<child link="slid"/><axis xyz="1 0 0"/><limit lower="-9" upper="9" effort="1" '
+        'velocity="1"/><mimic joint="joint1" multiplier="0.1" offset="0.05"/></joint>'
+    )
+    path = tmp_path / 'mimic.urdf'
+    path.write_text(text.replace('</robot>', slide + '</robot>'))
+    rc, out, err = run(capsys, 'solve', path, '--set', 'joint1=2.5')
+    assert rc == 0, err
+    (line,) = [ln for ln in out.splitlines() if ln.split()[:1] == ['mslide']]
+    assert line.split()[1:] == ['0.300000000', 'm'], line

@@ -121,7 +121,7 @@ def import_description(
         desc = replace(desc, actuated=tuple(actuated))
     chain = find_chain(desc)
     acts = _actuated(chain)
-    q, gap = _assemble(chain, acts, _assembly_values(chain, acts, desc, values))
+    q, gap = _assemble(chain, acts, _assembly_values(chain, acts, desc, values, closures))
     scene, names = _scene(chain, acts, q, dimensions)
     try:
         mech = Scene.from_dict(scene, source=source).mechanism
@@ -228,11 +228,16 @@ def _turning_mimics(jmap: JointMap, desc: Description) -> list[str]:
 
 
 def _assembly_values(
-    chain: Chain, acts: Sequence[str], desc: Description, values: Mapping[str, float] | None
+    chain: Chain,
+    acts: Sequence[str],
+    desc: Description,
+    values: Mapping[str, float] | None,
+    side: str | None = None,
 ) -> dict[str, float]:
     """The actuated joints' values to assemble at (a closure file's assemble_at, then the
-    caller's): a passive joint is refused (the loops place it), and a mimic follower takes its
-    leader's value by the mimic (stating it otherwise is refused)."""
+    caller's; ``side``: the closure file, which a refusal of its limits names): a passive
+    joint is refused (the loops place it), and a mimic follower takes its leader's value by the
+    mimic (stating it otherwise is refused)."""
     given = {**desc.assemble_at, **(values or {})}
     by_name = {j.name: j for j in chain.joints}
 
@@ -264,12 +269,16 @@ def _assembly_values(
         value = given.get(name, 0.0)
         lim = desc.limits.get(name, by_name[name].joint.limits)
         if by_name[name].revolute and (lim.lower is None) != (lim.upper is None):
-            # (URDF gives a revolute joint both; a closure file may give one)
-            raise DescriptionError(
-                f'limits of the actuated joint {name}: an angle needs both lower and upper (its '
-                'range is an arc of the circle); state both in the closure file',
-                file=desc.source,
-            )
+            # an angle's range is an arc: one end bounds nothing (a description's own single
+            # end is read so, as its commands are); a closure file is asked for both
+            if name in desc.limits:
+                raise DescriptionError(
+                    f'limits of the actuated joint {name}: an angle needs both lower and upper '
+                    '(its range is an arc of the circle); state both',
+                    file=side or desc.source,
+                    key=f'limits.{name}',
+                )
+            continue
         unit = 'rad' if by_name[name].revolute else 'm'
         why = limit_violation(name, value, lim.lower, lim.upper, unit, by_name[name].revolute)
         if why is None:

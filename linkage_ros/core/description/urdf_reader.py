@@ -108,10 +108,7 @@ def _joint(el: ET.Element, source: str, links: set[str]) -> TreeJoint:
     lim = el.find('limit')
     limits = Limits()
     if lim is not None and kind != 'continuous':
-        lower, upper = lim.get('lower'), lim.get('upper')
-        if (lower is None) != (upper is None):  # urdfdom reads the one not given as 0
-            lower, upper = lower or '0', upper or '0'
-        limits = limits_of(lower, upper, source, where)
+        limits = limits_of(lim.get('lower'), lim.get('upper'), source, where)
     mimic = None
     mel = el.find('mimic')
     if mel is not None:

@@ -451,15 +451,18 @@ def test_an_actuated_angle_with_one_limit_is_refused_naming_it(tmp_path, limits)
     path = side(tmp_path, 'one.yaml', f'limits: {{joint1: {limits}}}\n')
     refused(
         'limits of the actuated joint joint1: an angle needs both lower and upper',
+        'one.yaml',  # (the closure file, not the description, states them)
         args=[str(FOUR_BAR)],
         closures=path,
     )
 
 
-def test_a_urdf_limit_with_one_end_takes_urdfdoms_zero_for_the_other():
-    """URDF's <limit upper="1.5"/> on a revolute joint is [0, 1.5] (urdfdom's default lower is
-    0): the GRBDA four-bar's crank so limited answers 0.7 and refuses -0.2 (below 0); read as
-    one limit alone it was refused as an angle without both limits."""
+def test_a_descriptions_single_limit_end_on_an_actuated_angle_bounds_nothing(tmp_path):
+    """A description's <limit> with one end on its actuated angle (URDF upper="1.5" alone; an
+    SDF <lower> alone) bounds no command: an angle's range is an arc and one end is none, as
+    the description's commands were read before this stop. Refusing it (a review's find: valid
+    URDF and SDF were refused) or reading urdfdom's 0 for the other end (a lower of 0.02 became
+    [0.02, 0]: refused as upside down) were both wrong."""
     from linkage_ros.engine import Engine, EngineSettings
 
     text = edited(
@@ -469,6 +472,12 @@ def test_a_urdf_limit_with_one_end_takes_urdfdoms_zero_for_the_other():
     )
     mech = import_description(text, text=True).mechanism
     engine = Engine(mech, EngineSettings())
-    assert engine.command({'joint1': 0.7}).success
-    low = engine.command({'joint1': -0.2})
-    assert not low.success and 'minimum 0' in low.reason, low.reason
+    for crank in (0.7, -0.2, 2.0):
+        assert engine.command({'joint1': crank}).success, crank
+    sdf = DRAKE.read_text()
+    axis = sdf.index('<axis>', sdf.index('name="world_driver"'))
+    sdf = sdf[:axis] + '<axis><limit><lower>-1</lower></limit>' + sdf[axis + len('<axis>') :]
+    path = tmp_path / 'one_end.sdf'
+    path.write_text(sdf)
+    side_file = str(DRAKE).replace('.sdf', '.closures.yaml')
+    assert import_description(str(path), closures=side_file).mechanism is not None
