@@ -26,7 +26,7 @@ from .core.solver import Result, SolveMode, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
 from .core.solver.result import does_not_assemble, named_value
-from .core.steps import BranchRule, branch_text, read_branch
+from .core.steps import BranchRule, branch_text
 from .core.tolerances import NEWTON_TOL
 from .core.velocity import velocities
 from .point_coordinates import group_point_coordinates
@@ -526,12 +526,12 @@ class Engine:
     def fixed_mode(self) -> Mode | None:
         """The assembly mode the ``branch`` setting fixes (the forward dyads' signs, or the loop
         Jacobian's sign 'J+' / 'J-'; 'reference': the drawing's), None under 'continuous'."""
-        rule = read_branch(self.settings.branch)
-        if rule is None or rule.rule is BranchRule.CONTINUOUS:  # (None: the solver refused it)
+        branch = self.forward.continuity.branch  # (the setting, as the forward solver read it)
+        if branch.rule is BranchRule.CONTINUOUS:
             return None
-        if rule.rule is BranchRule.REFERENCE:
+        if branch.rule is BranchRule.REFERENCE:
             return self._reference_mode
-        signs = (rule.det_sign,) if rule.det_sign is not None else rule.signs or ()
+        signs = (branch.det_sign,) if branch.det_sign is not None else branch.signs or ()
         return signs, [1.0] * len(signs)
 
     def _out_of_reach(self, solver: Solver, values: Mapping[str, Any], result: Result) -> Result:

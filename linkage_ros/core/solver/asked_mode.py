@@ -11,13 +11,12 @@ from .compiled import CompiledSolve
 from .continuity import Continuity, State
 
 
-def asked_signs(c: CompiledSolve, cont: Continuity) -> tuple[int, ...] | None:
-    """The dyad signs the branch rule asks for (explicit or the reference pose's), as signs of
-    the whole mechanism's dyad plan (full_plan_signs); None where it asks for none, or the
-    mechanism has no closed-form plan to read them on."""
-    if cont.branch.rule in _SIGNS_ASKED and c.full_plan.complete:
-        return full_plan_signs(c, cont)
-    return None
+def asked_signs(cont: Continuity, full: tuple[int, ...] | None) -> tuple[int, ...] | None:
+    """The dyad signs the branch rule asks for (explicit or the reference pose's): ``full``,
+    the signs the solve starts from on the whole mechanism's dyad plan (full_plan_signs; None
+    where the mechanism has no closed-form plan to read them on), where the rule asks for
+    given signs; else None."""
+    return full if cont.branch.rule in _SIGNS_ASKED else None
 
 
 def full_plan_signs(c: CompiledSolve, cont: Continuity) -> tuple[int, ...]:

@@ -410,7 +410,7 @@ def solve_newton(
         return c.fail(side, c.echo(vals), solver_name), None
     kernel = newton_kernel(c)
     t = c.system.tables
-    want = asked_signs(c, cont)
+    want = asked_signs(cont, check_signs)
     last = resumed_state(c, cont, want)
     v0, x0, guess, step = start(c, cont, vals, kernel, last, want)
     iterations = 0
