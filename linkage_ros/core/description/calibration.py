@@ -55,7 +55,7 @@ def calibrate_joint_map(
         return r.name, 1.0 if r.child == a else -1.0
 
     for j in chain.joints:
-        lim = desc.limits.get(j.name, j.joint.limits)
+        lim = desc.limits_of(j.joint)
         if j.revolute:
             name, sigma = scene_pin(names.point(j.name), lname[j.child], lname[j.parent])
             scale = sigma * j.sign  # q = sign * (angle(child) - angle(parent)) + const

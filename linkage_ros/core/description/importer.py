@@ -141,7 +141,7 @@ def import_description(
             f'{_values_text(acts, q)}: assembled (the loops closed)'
         )
     for j in chain.joints:
-        lim = desc.limits.get(j.name, j.joint.limits)
+        lim = desc.limits_of(j.joint)
         if (
             j.name in acts
             and j.revolute
@@ -156,7 +156,7 @@ def import_description(
     mimics = [j.name for j in chain.joints if j.joint.mimic is not None and j.name not in acts]
     if mimics:
         notes.append(f'<mimic> of {", ".join(mimics)} superseded: the closures give their values')
-    notes += _turning_mimics(jmap, desc)
+    notes += _turning_mimics(jmap)
     return Imported(desc, chain, scene, mech, jmap, acts, q, gap, tuple(notes))
 
 
@@ -204,19 +204,18 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
     return tuple(acts)
 
 
-def _turning_mimics(jmap: JointMap, desc: Description) -> list[str]:
+def _turning_mimics(jmap: JointMap) -> list[str]:
     """A note for each published <mimic> that jumps where its leader wraps: the leader turns
-    further than a full turn (continuous, or limits, the closure file's first, 2 pi apart or
-    more) and is published wrapped, and the follower is a length, or an angle by a multiplier
-    that is not a whole number (a whole number of turns is no jump for an angle)."""
+    further than a full turn (continuous, or its published limits, the closure file's where it
+    states them, 2 pi apart or more) and is published wrapped, and the follower is a length, or
+    an angle by a multiplier that is not a whole number (a whole number of turns is no jump)."""
     leaders = {o.name: o for o in jmap.outputs}
     notes = []
     for o in jmap.outputs:
         lead = leaders.get(o.leader) if o.kind is OutputKind.MIMIC else None
         if lead is None or not lead.revolute or (o.revolute and float(o.scale).is_integer()):
             continue
-        stated = desc.limits.get(lead.name)
-        lo, hi = (stated.lower, stated.upper) if stated is not None else (lead.lower, lead.upper)
+        lo, hi = lead.lower, lead.upper
         if lo is None or hi is None or hi - lo >= 2 * math.pi:
             notes.append(
                 f'<mimic> {o.name} = {o.scale:g} * {o.leader} + {o.offset:g}: {o.leader} turns '
@@ -267,7 +266,7 @@ def _assembly_values(
         given[name] = want
     for name in acts:  # within the description's limits, by the one limit rule
         value = given.get(name, 0.0)
-        lim = desc.limits.get(name, by_name[name].joint.limits)
+        lim = desc.limits_of(by_name[name].joint)
         if by_name[name].revolute and (lim.lower is None) != (lim.upper is None):
             # an angle's range is an arc: one end bounds nothing (a description's own single
             # end is read so, as its commands are); a closure file is asked for both
@@ -480,7 +479,7 @@ def _scene(
     by_name = {j.name: j for j in chain.joints}
     for a in acts:
         j = by_name[a]
-        lim = desc.limits.get(a, j.joint.limits)
+        lim = desc.limits_of(j.joint)
         if j.revolute:
             pivot, toward = members[j.child][:2]  # the child's axis: its angle
             spec: dict[str, Any] = {

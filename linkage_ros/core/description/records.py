@@ -131,6 +131,10 @@ class Description:
     def joint(self, name: str) -> TreeJoint | None:
         return next((j for j in self.joints if j.name == name), None)
 
+    def limits_of(self, joint: TreeJoint) -> Limits:
+        """``joint``'s limits: a side file's where it states them, else its ``<limit>``."""
+        return self.limits.get(joint.name, joint.limits)
+
 
 # ---- transforms -----------------------------------------------------------------------------
 
