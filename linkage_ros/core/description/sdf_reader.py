@@ -29,7 +29,7 @@ from .records import (
     inverse,
     transform,
 )
-from .xml_text import limits_of, numbers, optional_number, required, unit_axis
+from .xml_text import limits_of, numbers, optional_bool, optional_number, required, unit_axis
 
 _MODEL = '__model__'
 _JOINT_TYPES = {
@@ -244,7 +244,7 @@ def _joint(el: ET.Element, frames: _Frames, source: str) -> TreeJoint:
                     'axis expressed_in an unknown frame', file=source, key=where, value=frame
                 )
             axis = (x_joint[:3, :3].T @ frames.pose(frame)[:3, :3]) @ axis
-        elif _sdf_bool(
+        elif optional_bool(
             _text(axis_el, 'use_parent_model_frame'), source, f'{where} use_parent_model_frame'
         ):
             # SDFormat 1.6 and older: the axis is in the model frame (1.7: expressed_in)
@@ -274,21 +274,6 @@ def _text(el: ET.Element, tag: str) -> str | None:
     return None if sub is None or sub.text is None else sub.text.strip()
 
 
-#: SDFormat's words for a bool (sdf::Param reads them in any case)
-_SDF_TRUE, _SDF_FALSE = ('true', '1'), ('false', '0')
-
-
-def _sdf_bool(text: str | None, source: str, where: str) -> bool:
-    """An SDFormat bool attribute: true or 1, false or 0 (any case; absent: false); anything
-    else refused naming it (degrees="1" was read as radians)."""
-    word = (text or 'false').strip().lower()
-    if word not in _SDF_TRUE + _SDF_FALSE:
-        raise DescriptionError(
-            f'{where}: {text!r} is not a bool (true, false, 1 or 0)', file=source, key=where
-        )
-    return word in _SDF_TRUE
-
-
 def _pose_of(el: ET.Element | None, source: str, where: str) -> np.ndarray:
     if el is None or not (el.text or '').strip():
         return np.eye(4)
@@ -296,6 +281,8 @@ def _pose_of(el: ET.Element | None, source: str, where: str) -> np.ndarray:
     if (el.get('rotation_format') or 'euler_rpy') != 'euler_rpy':
         raise DescriptionError('only euler_rpy poses are read', file=source, key=where)
     scale = (
-        math.pi / 180.0 if _sdf_bool(el.get('degrees'), source, f'{where} pose degrees') else 1.0
+        math.pi / 180.0
+        if optional_bool(el.get('degrees'), source, f'{where} pose degrees')
+        else 1.0
     )
     return transform(v[:3], (v[3] * scale, v[4] * scale, v[5] * scale))  # type: ignore[arg-type]

@@ -20,7 +20,7 @@ from .records import (
     Mimic,
     TreeJoint,
 )
-from .xml_text import limits_of, optional_number, origin_of, required, unit_axis
+from .xml_text import limits_of, optional_bool, optional_number, origin_of, required, unit_axis
 
 _JOINT_TYPES = {
     'revolute': JointType.REVOLUTE,
@@ -119,7 +119,7 @@ def _joint(el: ET.Element, source: str, links: set[str]) -> TreeJoint:
             multiplier=1.0 if multiplier is None else multiplier,
             offset=offset or 0.0,
         )
-    independent = _independent(el.get('independent'), source, where)
+    independent = optional_bool(el.get('independent'), source, f'{where} independent')
     return TreeJoint(
         name=name,
         type=_JOINT_TYPES[kind],
@@ -133,17 +133,6 @@ def _joint(el: ET.Element, source: str, links: set[str]) -> TreeJoint:
         independent=independent,
         element=where,
     )
-
-
-def _independent(text: str | None, source: str, where: str) -> bool | None:
-    if text is None:
-        return None
-    value = text.strip().lower()
-    if value not in ('true', 'false', '1', '0'):
-        raise DescriptionError(
-            "independent must be 'true' or 'false'", file=source, key=where, value=text
-        )
-    return value in ('true', '1')
 
 
 def _link_of(el: ET.Element, tag: str, source: str, where: str, links: set[str]) -> str:

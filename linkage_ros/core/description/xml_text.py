@@ -111,6 +111,23 @@ def unit_axis(
     return v / norm
 
 
+#: the words of an XML bool (URDF+'s independent, SDFormat's bools), read in any case
+_TRUE, _FALSE = ('true', '1'), ('false', '0')
+
+
+def optional_bool(text: str | None, source: str, where: str) -> bool | None:
+    """An XML bool attribute or element text: true or 1, false or 0 (any case; None where it
+    is absent); anything else is refused naming it (an SDF degrees="1" was read as radians)."""
+    if text is None:
+        return None
+    word = text.strip().lower()
+    if word not in _TRUE + _FALSE:
+        raise DescriptionError(
+            f'{where}: {text!r} is not a bool (true, false, 1 or 0)', file=source, key=where
+        )
+    return word in _TRUE
+
+
 def optional_number(text: str | None, source: str, where: str) -> float | None:
     if text is None or not text.strip():
         return None
