@@ -308,14 +308,9 @@ def _one_bag(source: str) -> None:
 #: --out names whose suffix says a file --out does not write (it would be a bag folder of
 #: that name): what writes it instead
 _NOT_A_BAG = {
-    '.parquet': '--out writes a CSV (*.csv) or a rosbag2 folder; Parquet is written per bag '
-    'with --out-dir DIR --format parquet',
-    '.json': '--out writes a CSV (*.csv) or a rosbag2 folder; a JSON summary is written with '
-    '--out-dir DIR (DIR/summary.json)',
-    **dict.fromkeys(
-        ('.png', '.svg', '.pdf'),
-        '--out writes a CSV (*.csv) or a rosbag2 folder; a plot is --plot FILE.png or .svg',
-    ),
+    '.parquet': 'Parquet is written per bag with --out-dir DIR --format parquet',
+    '.json': 'a JSON summary is written with --out-dir DIR (DIR/summary.json)',
+    **dict.fromkeys(('.png', '.svg', '.pdf'), 'a plot is --plot FILE.png or .svg'),
 }
 
 
@@ -329,7 +324,10 @@ def _check_outputs(outs: list[str], plot: str | None):
             if p.is_dir():
                 raise BagError(f'{what}: is a directory')
         elif p.suffix.lower() in _NOT_A_BAG:
-            raise BagError(f'{what}: {_NOT_A_BAG[p.suffix.lower()]}')
+            raise BagError(
+                f'{what}: --out writes a CSV (*.csv) or a rosbag2 folder; '
+                f'{_NOT_A_BAG[p.suffix.lower()]}'
+            )
         else:
             kind = OutputKind.BAG
             if p.exists() or p.is_symlink():

@@ -184,10 +184,11 @@ def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanReque
     residuals = residuals[~np.isnan(residuals)]
     stamps = [int(t) for t in data.log_ns[[0, -1]]] if data.n else []
     stamps += [p.log_ns for p in plans]
+    why = unanswered(data, res, plans)
     return BagRow(
         bag=task.name,
         source=task.source,
-        status=REFUSED if unanswered(data, res, plans) else OK,
+        status=REFUSED if why else OK,
         messages=messages,
         answered=answered,
         refused=messages - answered,
@@ -196,7 +197,7 @@ def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanReque
         max_residual=float(residuals.max()) if residuals.size else None,
         first_stamp_ns=min(stamps) if stamps else None,
         last_stamp_ns=max(stamps) if stamps else None,
-        reason=unanswered(data, res, plans) or '',
+        reason=why or '',
     )
 
 
