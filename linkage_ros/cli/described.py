@@ -16,9 +16,6 @@ from typing import Any
 from ..core.model.joint_map import (
     InputJoint,
     JointMap,
-    OutputJoint,
-    fit_to_limits,
-    wrap,
 )
 from ..point_coordinates import group_point_coordinates
 
@@ -100,23 +97,23 @@ class InputValues:
     def __init__(self, mech):
         self.mech = mech
         self.jm = joint_map(mech)
-        self._entries: dict[str, tuple[InputJoint, OutputJoint | None]] = {}
+        #: scene actuator -> the description's actuated joint it is
+        self._entries: dict[str, InputJoint] = {}
         if self.jm is not None:
-            outputs = {o.name: o for o in self.jm.outputs}
             for name in self.jm.actuated:
                 entry = self.jm.inputs.get(name)
                 if entry is not None and entry.scene_name in mech.actuators:
-                    self._entries[entry.scene_name] = (entry, outputs.get(name))
+                    self._entries[entry.scene_name] = entry
         self._reference: dict[str, float] = {}
 
     def name(self, actuator: str) -> str:
         """The description's joint name of a scene actuator (itself for a scene)."""
         found = self._entries.get(actuator)
-        return actuator if found is None else found[0].name
+        return actuator if found is None else found.name
 
     def actuator(self, name: str) -> str:
         """The scene actuator a description joint name drives (the name itself otherwise)."""
-        for act, (entry, _) in self._entries.items():
+        for act, entry in self._entries.items():
             if entry.name == name:
                 return act
         return name
@@ -125,29 +122,24 @@ class InputValues:
         """Whether the description's joint turns against the scene's actuator (a range's ends
         swap)."""
         found = self._entries.get(actuator)
-        return found is not None and found[0].scale < 0
+        return found is not None and found.scale < 0
 
     def value(self, actuator: str, v: float | None) -> float | None:
         """One value (a toggle, the reference, an extreme's input), as published."""
         found = self._entries.get(actuator)
         if found is None or v is None:
             return v
-        entry, out = found
-        q = entry.scale * (v - entry.offset)
-        if not entry.revolute:
-            return q
-        # (the published rule: wrapped, moved by 2 pi into the joint's limits where that fits)
-        return wrap(q) if out is None else fit_to_limits(wrap(q), out)
+        assert self.jm is not None  # (an entry is the joint map's)
+        return float(self.jm.actuated_value(found.name, v))
 
     def interval(
         self, actuator: str, lo: float | None, hi: float | None
     ) -> tuple[float | None, float | None]:
         """A range (None: open on that side) around the reference as published; a reversed
         joint swaps its ends."""
-        found = self._entries.get(actuator)
-        if found is None:
+        entry = self._entries.get(actuator)
+        if entry is None:
             return lo, hi
-        entry = found[0]
         a, b = (None if v is None else entry.scale * (v - entry.offset) for v in (lo, hi))
         if entry.scale < 0:
             a, b = b, a

@@ -204,17 +204,25 @@ class JointMap:
     def actuated_values(self, inputs: Mapping[str, Any]) -> list[Any]:
         """The actuated joints' values from the scene's actuator values (floats or arrays;
         a refused request's given inputs too)."""
-        limits = {o.name: o for o in self.outputs}
-        out = []
-        for a in self.actuated:
-            entry = self.inputs[a]
-            v = entry.scale * (inputs[entry.scene_name] - entry.offset)  # scale is +-1
-            if entry.revolute:
-                v = wrap(v)
-                if a in limits:
-                    v = fit_to_limits(v, limits[a])
-            out.append(v)
-        return out
+        return [self.actuated_value(a, inputs[self.inputs[a].scene_name]) for a in self.actuated]
+
+    def actuated_value(self, joint: str, scene_value: Any) -> Any:
+        """The actuated joint ``joint``'s value as published, from its scene actuator's (a
+        float or an array): scale * (scene - offset), an angle wrapped and moved by 2 pi into
+        the joint's limits where that fits."""
+        entry = self.inputs[joint]
+        v = entry.scale * (scene_value - entry.offset)  # scale is +-1
+        if entry.revolute:
+            v = wrap(v)
+            out = self._output_of.get(joint)
+            if out is not None:
+                v = fit_to_limits(v, out)
+        return v
+
+    @functools.cached_property
+    def _output_of(self) -> dict[str, OutputJoint]:
+        """Each published joint by name."""
+        return {o.name: o for o in self.outputs}
 
     def shown(self, actuator: str) -> Shown | None:
         """How the description writes the scene's actuator ``actuator`` (its actuated joint's
