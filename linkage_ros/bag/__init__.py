@@ -74,25 +74,12 @@ from __future__ import annotations
 
 from . import fleet_task  # noqa: F401
 from .bag_out import (  # noqa: F401
-    _LEN,
-    _PAD,
-    _float_blocks,
-    _joint_state_template,
-    _point_template,
-    _rows_bytes,
-    _stamped_rows,
-    _status_rows,
-    _StatusWriter,
     write_bag,
 )
 from .command import (  # noqa: F401
     BAG_EPILOG,
     OK,
     USAGE_ERROR,
-    _check_outputs,
-    _check_parent,
-    _resolved,
-    _run,
     add_arguments,
     main,
     run,
@@ -105,19 +92,7 @@ from .common import (  # noqa: F401
     BagError,
 )
 from .csv_out import (  # noqa: F401
-    _KEEPW,
-    _LUT4,
-    _LUT4W,
-    _P10,
-    _SPLIT,
-    _TZ4,
-    _U4,
     FLOAT_WIDTH,
-    _csv_field,
-    _digits17,
-    _exact_value,
-    _table,
-    _two_prod,
     csv_header,
     format_floats,
     format_ints,
@@ -126,35 +101,25 @@ from .csv_out import (  # noqa: F401
 )
 from .easy_rows import (  # noqa: F401
     EASY_MARGIN,
-    _step_inputs,
-    _step_margin,
     easy_prefix,
 )
 from .plot import (  # noqa: F401
-    _plot_format,
-    _series,
     isolated_rows,
     plot_figure,
+    plot_format,
     plot_formats,
     write_plot,
 )
 from .progress import (  # noqa: F401
-    _NUM,
-    _Progress,
-    _reason_class,
-    _summary,
+    Progress,
+    summary_text,
 )
 from .reading import (  # noqa: F401
     STORAGE_SUFFIXES,
     Commands,
-    _AnyCase,
-    _exc_text,
-    _fmt_time,
-    _Layout,
-    _open_reader,
-    _parse_layout,
-    _reader_class,
     decode_joint_states,
+    exc_text,
+    open_reader,
     read_commands,
 )
 from .replay import (  # noqa: F401
@@ -167,7 +132,6 @@ from .replay import (  # noqa: F401
     HistoryEntry,
     ReplayEngine,
     SolverContext,
-    _adopted_signs,
     solve_commands,
 )
 from .results import (  # noqa: F401

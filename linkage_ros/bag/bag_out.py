@@ -24,8 +24,8 @@ from .common import (
     node_topic,
 )
 from .plans import TRAJECTORY, PlanRequest
-from .progress import _Progress
-from .reading import Commands, _exc_text
+from .progress import Progress
+from .reading import Commands, exc_text
 from .results import Results
 
 # ---- writing: rosbag2 ----------------------------------------------------------------------
@@ -184,7 +184,7 @@ class ResultBag:
             self.writer.open()
         except Exception as exc:  # noqa: BLE001
             shutil.rmtree(stage, ignore_errors=True)
-            raise BagError(f'output {path}: cannot create the bag ({_exc_text(exc)})') from None
+            raise BagError(f'output {path}: cannot create the bag ({exc_text(exc)})') from None
         names = dict(remap or {})
 
         def topic(default: str) -> str:
@@ -216,7 +216,7 @@ class ResultBag:
                 raise
             # sqlite3 ('database or disk is full'), rosbags' WriterError, ...
             raise BagError(
-                f'output {self.path}: cannot write the bag ({_exc_text(exc)}); nothing was kept'
+                f'output {self.path}: cannot write the bag ({exc_text(exc)}); nothing was kept'
             ) from None
 
     def add_plan(self, req: PlanRequest) -> None:
@@ -236,13 +236,13 @@ class ResultBag:
         self,
         data: Commands,
         res: Results,
-        progress: _Progress | None = None,
+        progress: Progress | None = None,
         block: int = 100_000,
     ) -> None:
         """One set of messages per command, each logged at its command's bag time, in the
         node's order (joint_states, points, status)."""
         with self._failing():
-            _write_commands(self, data, res, progress or _Progress(False), block)
+            _write_commands(self, data, res, progress or Progress(False), block)
 
     def close(self) -> None:
         """The bag, complete, under its name."""
@@ -258,7 +258,7 @@ class ResultBag:
         shutil.rmtree(self.stage, ignore_errors=True)
 
 
-def _write_commands(out: ResultBag, data: Commands, res: Results, progress: _Progress, block):
+def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Progress, block):
     mech, frame_id = out.mech, out.frame_id
     n = data.n
     joints = mech.output_joint_names  # a robot description's own names where it has them
@@ -330,7 +330,7 @@ def write_bag(
     mech,
     frame_id: str,
     storage: str | None,
-    progress: _Progress | None = None,
+    progress: Progress | None = None,
     status_name: str | None = None,
     block: int = 100_000,
     plans: Sequence[PlanRequest] = (),

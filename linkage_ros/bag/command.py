@@ -21,9 +21,9 @@ from .fleet_run import add_fleet_arguments
 from .fleet_task import unanswered
 from .options import bag_options, check_options
 from .plans import plans_csv_path, plans_summary
-from .plot import _plot_format
-from .progress import _Progress, _summary
-from .reading import _exc_text
+from .plot import plot_format
+from .progress import Progress, summary_text
+from .reading import exc_text
 from .replay import ReplayEngine
 from .run_outputs import Output, OutputKind, RunOutputs
 
@@ -209,7 +209,7 @@ def _run(args) -> int:
     scene = check_options(args)
     mech = scene.mechanism
     outs = _check_outputs(args.out, args.plot)
-    progress = _Progress(enabled=not args.no_progress and sys.stderr.isatty())
+    progress = Progress(enabled=not args.no_progress and sys.stderr.isatty())
 
     try:
         engine = ReplayEngine(
@@ -230,7 +230,7 @@ def _run(args) -> int:
         t_end = time.perf_counter()
     finally:
         progress.clear()  # an error message starts on a line of its own
-    _summary(data, res, outs, args.plot, t_start, t_read, t_solve, t_end)
+    summary_text(data, res, outs, args.plot, t_start, t_read, t_solve, t_end)
     for line in plans_summary(plans):
         print(line)
     for kind, path in outs:
@@ -278,7 +278,7 @@ def _resolved(path: Path, what: str) -> Path:
     try:
         return path.resolve()
     except (RuntimeError, OSError) as exc:  # Python < 3.13: RuntimeError on a loop
-        raise BagError(f'{what}: cannot use this path ({_exc_text(exc)})') from None
+        raise BagError(f'{what}: cannot use this path ({exc_text(exc)})') from None
 
 
 def _check_parent(path: Path, what: str) -> Path:
@@ -359,7 +359,7 @@ def _check_outputs(outs: list[str], plot: str | None):
             raise BagError(f'{what}: is a directory')
         if any(full == out for _, _, out in checked):
             raise BagError(f'{what}: is also an --out path')
-        _plot_format(plot)
+        plot_format(plot)
     return [(kind, p) for kind, p, _ in checked]
 
 

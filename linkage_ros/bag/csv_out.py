@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..outputs import written_whole
-from .progress import _Progress
+from .progress import Progress
 from .reading import Commands
 from .results import Results
 
@@ -285,11 +285,11 @@ def write_csv(
     data: Commands,
     res: Results,
     mech,
-    progress: _Progress | None = None,
+    progress: Progress | None = None,
     block: int = 50_000,
 ):
     """One row per command, in bag order (see the module docstring for the columns)."""
-    progress = progress or _Progress(False)
+    progress = progress or Progress(False)
     n = data.n
     progress.start('csv', n)
     comma = None

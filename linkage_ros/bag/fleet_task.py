@@ -32,8 +32,8 @@ from ..heap import set_malloc_thresholds
 from .common import BagError
 from .fleet_inputs import FORMATS, BagTask
 from .plans import PlanRequest, decoded_plans, path_point, plan_topics, read_plan_requests
-from .progress import _Progress
-from .reading import Commands, _exc_text, read_commands
+from .progress import Progress
+from .reading import Commands, exc_text, read_commands
 from .results import Results
 from .run_outputs import Output, OutputKind, RunOutputs
 from .state_completion import completed_commands
@@ -118,7 +118,7 @@ def replay_input(
     mech: Any,
     source: str,
     opts: BagOptions,
-    progress: _Progress,
+    progress: Progress,
     frame_id: str,
     marks: list[float] | None = None,
     outputs: RunOutputs | None = None,
@@ -301,7 +301,7 @@ def analyse_bag(
         mech = scene.mechanism
         engine = ReplayEngine(mech, opts.solver, opts.tol, opts.max_iter, opts.branch, opts.hold)
         line = _PROGRESS_LINE if progress_line is None else progress_line
-        progress = _Progress(line > 0, position=line, prefix=f'{task.name}: ')
+        progress = Progress(line > 0, position=line, prefix=f'{task.name}: ')
         outputs = _outputs(task, opts, scene)
         try:
             data, res, plans = replay_input(
@@ -332,7 +332,7 @@ def analyse_bag(
             where = f' {exc.filename}' if exc.filename else ''
             reason = f'cannot write an output{where} ({exc.strerror or exc})'
         else:
-            reason = f'{type(exc).__name__}: {_exc_text(exc)}'
+            reason = f'{type(exc).__name__}: {exc_text(exc)}'
         return BagRow(
             bag=task.name,
             source=task.source,

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from ..outputs import written_whole
-from .progress import _Progress
+from .progress import Progress
 from .reading import Commands
 from .results import Results
 
@@ -83,14 +83,14 @@ def write_parquet(
     data: Commands,
     res: Results,
     mech: Any,
-    progress: _Progress | None = None,
+    progress: Progress | None = None,
     block: int = ROW_GROUP,
 ) -> None:
     """One row per command, in bag order, as the CSV (module docstring for the columns)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    progress = progress or _Progress(False)
+    progress = progress or Progress(False)
     n = data.n
     progress.start('parquet', n)
     rates = res.has_rates

@@ -38,7 +38,7 @@ from ..trajectory import (
     too_many_points,
 )
 from .common import BagError
-from .reading import _exc_text, _open_reader, _shortfall, check_log_time, topic_connections
+from .reading import check_log_time, exc_text, open_reader, shortfall, topic_connections
 
 TRAJECTORY = 'trajectory_msgs/msg/JointTrajectory'
 PATH = 'nav_msgs/msg/Path'
@@ -157,7 +157,7 @@ def read_plan_requests(
                     t, conn.topic, point, None, refused=refused, number=read[conn.id], ordinal=i
                 )
             )
-        missing = _shortfall(path, conns, read, accept_missing)
+        missing = shortfall(path, conns, read, accept_missing)
     out.sort(key=lambda r: r.log_ns)
     return out, missing
 
@@ -172,14 +172,14 @@ def plan_topics(
 def _plan_reader(path: str) -> Iterator[Any]:
     """The bag open for reading its plan topics, closed after; a failure to read it (not a
     BagError already) as a BagError saying the bag is truncated or corrupt."""
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         yield reader
     except BagError:
         raise
     except Exception as exc:  # noqa: BLE001 - truncated chunk, corrupt database, ...
         raise BagError(
-            f'input {path}: cannot read the trajectory topics ({_exc_text(exc)}); the bag is '
+            f'input {path}: cannot read the trajectory topics ({exc_text(exc)}); the bag is '
             'truncated or corrupt'
         ) from None
     finally:
@@ -222,7 +222,7 @@ def decoded_plans(
                 except Exception as exc:  # noqa: BLE001 - a damaged message
                     raise BagError(
                         f'input {path}: message {req.number} on {conn.topic} is not '
-                        f'a {conn.msgtype} ({_exc_text(exc)})'
+                        f'a {conn.msgtype} ({exc_text(exc)})'
                     ) from None
             del raw
             yield req

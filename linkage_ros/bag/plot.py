@@ -8,7 +8,7 @@ import numpy as np
 
 from ..outputs import written_whole
 from .common import BagError
-from .reading import Commands, _exc_text
+from .reading import Commands, exc_text
 from .results import Results
 
 # ---- plot --------------------------------------------------------------------------------------
@@ -110,7 +110,7 @@ def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 
     line is broken where it wraps at +-pi)."""
     import matplotlib.pyplot as plt
 
-    fmt = _plot_format(str(path))  # the file named is the file written (no '.png' added)
+    fmt = plot_format(str(path))  # the file named is the file written (no '.png' added)
     fig = plot_figure(data, res, mech, max_points)
     try:
         with written_whole(path) as tmp:
@@ -118,7 +118,7 @@ def write_plot(path: str, data: Commands, res: Results, mech, max_points: int = 
     except OSError as exc:
         raise BagError(f'--plot {path}: {exc.strerror or exc}') from None
     except Exception as exc:  # noqa: BLE001 - e.g. a format whose writer is missing (pgf: LaTeX)
-        raise BagError(f'--plot {path}: cannot write the image ({_exc_text(exc)})') from None
+        raise BagError(f'--plot {path}: cannot write the image ({exc_text(exc)})') from None
     finally:
         plt.close(fig)
 
@@ -130,7 +130,7 @@ def plot_formats() -> list[str]:
     return sorted(FigureCanvasBase.get_supported_filetypes())
 
 
-def _plot_format(path: str) -> str:
+def plot_format(path: str) -> str:
     """The image format of a --plot path: its extension, or PNG for a name without one."""
     ext = Path(path).suffix.lower().lstrip('.')
     if not ext:

@@ -14,7 +14,7 @@ from .common import OutputKind
 # ---- progress and summary ----------------------------------------------------------------------
 
 
-class _Progress:
+class Progress:
     """A tqdm progress bar on stderr, one phase at a time (reading, solving, writing); only when
     enabled (stderr is a terminal and --no-progress was not given)."""
 
@@ -65,7 +65,7 @@ def _reason_class(reason: str) -> str:
     return _NUM.sub('#', reason)
 
 
-def _summary(data, res, outs, plot, t0, t_read, t_solve, t_end):
+def summary_text(data, res, outs, plot, t0, t_read, t_solve, t_end):
     n = data.n
     lines = [
         f'linkage bag: {n + data.skipped} message(s) read from {data.source}'

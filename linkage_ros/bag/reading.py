@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core.errors import echo
 from .common import JOINT_STATE, BagError
-from .progress import _Progress
+from .progress import Progress
 
 # ---- reading -----------------------------------------------------------------------------------
 
@@ -109,7 +109,7 @@ def _reader_class():
 STORAGE_SUFFIXES = ('.mcap', '.db3')
 
 
-def _open_reader(path: str):
+def open_reader(path: str):
     Reader = _reader_class()
     p = Path(path)
     if not p.exists():
@@ -145,13 +145,13 @@ def _open_reader(path: str):
         reader.open()
     except Exception as exc:  # noqa: BLE001 - every rosbags/sqlite/OS failure is "unreadable"
         raise BagError(
-            f'input {path}: cannot open the bag ({_exc_text(exc)}); it is truncated, '
+            f'input {path}: cannot open the bag ({exc_text(exc)}); it is truncated, '
             f'corrupt or not a rosbag2'
         ) from None
     return reader
 
 
-def _exc_text(exc: BaseException) -> str:
+def exc_text(exc: BaseException) -> str:
     text = ' '.join(str(exc).split()) or type(exc).__name__
     return text if len(text) < 300 else text[:300] + '...'
 
@@ -163,7 +163,7 @@ MAX_LOG_NS = 2**63 - 1
 def read_commands(
     path: str,
     topics: list[str],
-    progress: _Progress | None = None,
+    progress: Progress | None = None,
     accept_missing: bool = False,
 ) -> Commands:
     """Read the JointState messages of ``topics`` from a bag, in bag time order, decoded.
@@ -174,9 +174,9 @@ def read_commands(
     matches, a damaged record) is a BagError naming the topic, unless ``accept_missing``, when
     the shortfall per topic is kept in ``Commands.missing``. A .db3 file must pass SQLite's
     quick_check first."""
-    progress = progress or _Progress(False)
+    progress = progress or Progress(False)
     _check_sqlite(path)
-    reader = _open_reader(path)
+    reader = open_reader(path)
     try:
         conns = topic_connections(reader, path, [(t, JOINT_STATE) for t in topics])
         index = {c.id: k for k, group in enumerate(conns) for c in group}
@@ -200,10 +200,10 @@ def read_commands(
         except Exception as exc:  # noqa: BLE001 - truncated chunk, corrupt database, ...
             raise BagError(
                 f'input {path}: cannot read message {len(raws) + 1} '
-                f'({_exc_text(exc)}); the bag is truncated or corrupt'
+                f'({exc_text(exc)}); the bag is truncated or corrupt'
             ) from None
         progress.finish()
-        missing = _shortfall(path, conns, read, accept_missing)
+        missing = shortfall(path, conns, read, accept_missing)
     finally:
         with contextlib.suppress(Exception):
             reader.close()
@@ -255,7 +255,7 @@ def topic_connections(reader: Any, path: str, topics: list[tuple[str, str]]) -> 
     try:
         available = {c.topic: c.msgtype for c in reader.connections}
     except Exception as exc:  # noqa: BLE001
-        raise BagError(f'input {path}: cannot list topics ({_exc_text(exc)})') from None
+        raise BagError(f'input {path}: cannot list topics ({exc_text(exc)})') from None
     conns = []
     for topic, want in topics:
         if topic not in available:
@@ -281,7 +281,7 @@ def check_log_time(path: str, i: int, topic: str, t: Any) -> None:
         )
 
 
-def _shortfall(path: str, conns: list, read: dict[int, int], accept: bool) -> dict[str, int]:
+def shortfall(path: str, conns: list, read: dict[int, int], accept: bool) -> dict[str, int]:
     """Messages the bag's index counts per topic but that were not read: a BagError, or (with
     ``accept``) {topic: how many}. More read than counted is always an error (made up rows)."""
     missing: dict[str, int] = {}
@@ -321,7 +321,7 @@ def _check_sqlite(path: str) -> None:
                 con.close()
         except sqlite3.Error as exc:
             raise BagError(
-                f'input {path}: {f.name} fails SQLite quick_check ({_exc_text(exc)}); '
+                f'input {path}: {f.name} fails SQLite quick_check ({exc_text(exc)}); '
                 'the bag is truncated or corrupt'
             ) from None
         if rows != [('ok',)]:

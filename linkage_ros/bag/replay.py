@@ -21,7 +21,7 @@ from ..stamps import names_frame_error, stamp_error, stamp_valid
 from .easy_rows import easy_prefix
 from .history import EntryKind, HistoryEntry, SolverContext
 from .plans import PlanRequest, answer_plan
-from .progress import _Progress
+from .progress import Progress
 from .rates import RunRates, run_rates, stretches
 from .reading import Commands
 from .results import Results
@@ -79,7 +79,7 @@ class ReplayEngine:
     def solve_all(
         self,
         data: Commands,
-        progress: _Progress | None = None,
+        progress: Progress | None = None,
         plans: Sequence[PlanRequest] = (),
         frame_id: str = '',
         decoded: Iterable[PlanRequest] | None = None,
@@ -93,7 +93,7 @@ class ReplayEngine:
         one plan's message and answer are held at a time. ``frame_id``: the node's, which a
         recorded target of point coordinates or link angles must be in (or have none), as the
         node refuses it otherwise ('': not checked)."""
-        progress = progress or _Progress(False)
+        progress = progress or Progress(False)
         self.frame_id = frame_id
         n = data.n
         self.res = res = Results.empty(self.mech, n)

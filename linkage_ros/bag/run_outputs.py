@@ -18,7 +18,7 @@ from .bag_out import ResultBag
 from .common import OutputKind as OutputKind  # re-exported: an Output's kind
 from .plans import PlanRequest
 from .plans_out import PlansCsvWriter
-from .progress import _Progress
+from .progress import Progress
 from .reading import Commands
 from .results import Results
 
@@ -92,7 +92,7 @@ class RunOutputs:
         self,
         data: Commands,
         res: Results,
-        progress: _Progress | None = None,
+        progress: Progress | None = None,
     ) -> list[Path]:
         """The commands' outputs, each whole, and every output closed; the paths written (the
         trajectories' CSVs last)."""

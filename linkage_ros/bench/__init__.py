@@ -13,13 +13,12 @@ from __future__ import annotations
 
 from .all_outputs import PLAIN_LISTENER_LABEL  # noqa: F401
 from .collect import (  # noqa: F401
-    _cpu_seconds,
-    _hz,
-    _setting,
     code_version,
     collect,
     evaluate_targets,
+    find_setting,
     machine_info,
+    rate_text,
 )
 from .command import (  # noqa: F401
     add_arguments,
@@ -33,27 +32,23 @@ from .reference import (  # noqa: F401
 )
 from .report import (  # noqa: F401
     DEFAULT_INTRO,
-    _fmt_err,
-    _fmt_us,
-    _met,
     interpretation,
+    met_text,
     render_markdown,
     save_plot,
     write_report,
 )
 from .report_node import (  # noqa: F401
-    _deep_queue_sentence,
-    _fmt_ms,
     node_interpretation,
     node_markdown,
 )
 from .ros_driver import (  # noqa: F401
     Driver,
-    _Link,
-    _Proc,
-    _ros_env,
+    Link,
+    Proc,
     process_cpu_s,
     relay_script,
+    ros_env,
 )
 from .ros_latency import bench_node, sustained_rate  # noqa: F401
 from .settings import (  # noqa: F401
@@ -71,7 +66,7 @@ from .settings import (  # noqa: F401
     TARGET_NEWTON_VS_SCIPY,
     TARGET_RATE_HZ,
     Sizes,
-    _log,
+    log,
 )
 from .throughput import (  # noqa: F401
     bench_outputs,
@@ -85,10 +80,6 @@ from .tradeoff import (  # noqa: F401
     SettingResult,
     SolverStepper,
     Stepper,
-    _direct,
-    _median_us,
-    _newton_batch,
-    _result_points,
     batch_columns,
     bench_scene,
     load_scene,

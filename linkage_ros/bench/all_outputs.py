@@ -24,8 +24,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from .ros_driver import Driver, _Link, _Proc, relay_script
-from .settings import DEFAULT_DEPTH, _log
+from .ros_driver import Driver, Link, Proc, relay_script
+from .settings import DEFAULT_DEPTH, log
 
 
 def all_output_scenes(chosen: tuple[str, ...] = ()) -> tuple[str, ...]:
@@ -194,7 +194,7 @@ def bench_all_outputs(
         names, value = command_values(scene)
         ns_node, ns_relay = f'/{tag}_all_{scene}', f'/{tag}_allrelay_{scene}'
         procs = {
-            'node': _Proc(
+            'node': Proc(
                 [sys.executable, '-m', 'linkage_ros.node']
                 + ['--ros-args', '-r', f'__ns:={ns_node}', '-p', f'scene:={scene}'],
                 env,
@@ -203,14 +203,14 @@ def bench_all_outputs(
             )
         }
         if script is not None:
-            procs['relay'] = _Proc(
+            procs['relay'] = Proc(
                 [sys.executable, str(script), '--depth', str(DEFAULT_DEPTH)]
                 + ['--ros-args', '-r', f'__ns:={ns_relay}'],
                 env,
                 work,
                 f'allrelay_{scene}',
             )
-        links: dict[str, _Link] = {}
+        links: dict[str, Link] = {}
         res: dict[str, Any] = {'actuators': names}
         try:
             if 'relay' in procs:
@@ -246,7 +246,7 @@ def bench_all_outputs(
                 listener = None
                 if executor is not None:  # every other output subscribed, by another process
                     counts_file = work / f'all_{scene}_{executor}_counts.json'
-                    listener = procs[f'listener_{executor}'] = _Proc(
+                    listener = procs[f'listener_{executor}'] = Proc(
                         [sys.executable, '-m', 'linkage_ros.bench.all_outputs']
                         + ['--scene', scene, '--ns', ns_node, '--out', str(counts_file)]
                         + ['--executor', executor],
@@ -259,7 +259,7 @@ def bench_all_outputs(
                     if why is not None:
                         res[label] = {'ok': False, 'reason': f'{why}; {listener.tail()}'}
                         continue
-                _log(f'node benchmark: every output on, {scene}, {label} at {rate:g} Hz')
+                log(f'node benchmark: every output on, {scene}, {label} at {rate:g} Hz')
                 pid = procs[target].proc.pid
                 run = driver.rate_run(links[target], rate, seconds, target_pid=pid)
                 if listener is not None:

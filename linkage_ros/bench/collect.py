@@ -29,7 +29,7 @@ from .settings import (
     TARGET_NODE_CPU_RATIO,
     TARGET_RATE_HZ,
     Sizes,
-    _log,
+    log,
 )
 from .throughput import bench_outputs, bench_throughput
 from .tradeoff import bench_scene
@@ -152,22 +152,22 @@ def collect(
     }
     for name in scenes if 'tradeoff' in cases else ():
         t0 = time.perf_counter()
-        _log(f'scene {name}: solver settings and the {REF_DPS}-digit reference')
+        log(f'scene {name}: solver settings and the {REF_DPS}-digit reference')
         rows, info = bench_scene(name, sizes)
         info['seconds'] = time.perf_counter() - t0
         report['settings'] += [r.as_dict() for r in rows]
         report['scenes'][name] = info
     if 'throughput' in cases:
-        _log('four-bar throughput vs the numpy circle-intersection baseline')
+        log('four-bar throughput vs the numpy circle-intersection baseline')
         report['throughput'] = bench_throughput(sizes)
     if 'core_speed' in cases:
-        _log('solver core vs hand-written math / numpy four-bars and scipy root')
+        log('solver core vs hand-written math / numpy four-bars and scipy root')
         report['core_speed'] = bench_core_speed(sizes)
     if 'outputs' in cases:
-        _log('excavator: one output vs all')
+        log('excavator: one output vs all')
         report['outputs'] = bench_outputs(sizes)
     if 'scaling' in cases:
-        _log('big scenes: independent four-bars on one ground, time per actuator')
+        log('big scenes: independent four-bars on one ground, time per actuator')
         report['scaling'] = bench_scaling(sizes.scaling)
     parts = [p for p in NODE_PARTS if f'node_{p}' in cases]
     if node and parts:
@@ -198,7 +198,7 @@ def batch_vs_scipy(nw: dict[str, Any], sp: dict[str, Any]) -> tuple[float, str]:
     return sp['scalar_us'] / nw['batch_us'], f'{sp["scalar_us"]:.0f} us'
 
 
-def _setting(report, scene, family, tol=None):
+def find_setting(report, scene, family, tol=None):
     for r in report['settings']:
         if r['scene'] == scene and r['family'] == family and (tol is None or r['tol'] == tol):
             return r
@@ -226,9 +226,9 @@ def evaluate_targets(report: dict) -> list[dict]:
         )
     # (b) Newton 1e-12 >= 20x faster than scipy root per solve
     for scene in report['scenes']:
-        nw = _setting(report, scene, 'newton', 1e-12)
-        sp = _setting(report, scene, 'scipy', 1e-12)
-        kn = _setting(report, scene, 'kernel', 1e-12)
+        nw = find_setting(report, scene, 'newton', 1e-12)
+        sp = find_setting(report, scene, 'scipy', 1e-12)
+        kn = find_setting(report, scene, 'kernel', 1e-12)
         if nw and sp and nw['scalar_us'] and sp['scalar_us']:
             ratio = sp['scalar_us'] / nw['scalar_us']
             kr = sp['scalar_us'] / kn['scalar_us'] if kn and kn['scalar_us'] else None
@@ -296,7 +296,7 @@ def evaluate_targets(report: dict) -> list[dict]:
                     'target': f'node sustains {TARGET_RATE_HZ:g} Hz with zero loss',
                     'measured': f'{at["lost"]} lost of {at["sent"]} at {at["rate"]:g} Hz '
                     f'(achieved send rate {at["achieved_rate"]:.0f} Hz); highest '
-                    f'loss-free rate: node {_hz(sr)}, relay {_hz(rr)}',
+                    f'loss-free rate: node {rate_text(sr)}, relay {rate_text(rr)}',
                     'met': met,
                     'value': at['lost'],
                 }
@@ -487,5 +487,5 @@ def _all_outputs_targets(node: dict) -> list[dict]:
     return out
 
 
-def _hz(v) -> str:
+def rate_text(v) -> str:
     return 'none of the rates tried' if v is None else f'{v:g} Hz'

@@ -13,8 +13,8 @@ from ..cli.common import UsageError
 from ..outputs import written_whole
 from .collect import CASES, collect
 from .fleet import render_fleet
-from .report import _met, render_markdown, save_plot, write_report
-from .settings import FULL, QUICK, SCENES, Sizes, _log
+from .report import met_text, render_markdown, save_plot, write_report
+from .settings import FULL, QUICK, SCENES, Sizes, log
 
 # =============================================================================================
 # command line
@@ -124,14 +124,14 @@ def run(args) -> int:
     body = render_markdown(report, command, plot_rel)
     if args.write:
         write_report(Path(args.write), body)
-        _log(f'wrote {args.write}' + (f' and {plot}' if plot else ''))
+        log(f'wrote {args.write}' + (f' and {plot}' if plot else ''))
     else:
         print(body)
     if args.json:
         with written_whole(args.json) as tmp:
             tmp.write_text(json.dumps(report, indent=1, default=float))
     for t in report['targets']:
-        print(f'{_met(t["met"]).strip("*"):8} {t["target"]}: {t["measured"]}')
+        print(f'{met_text(t["met"]).strip("*"):8} {t["target"]}: {t["measured"]}')
     print(f'linkage bench: {report["seconds"]:.0f} s')
     return 0
 
@@ -139,7 +139,7 @@ def run(args) -> int:
 def _fleet_only(args: argparse.Namespace, sizes: Sizes) -> int:
     """``--fleet-only``: the fleet measurement, its section and targets on stdout."""
     if args.write or args.render or args.no_fleet:
-        _log('--fleet-only goes without --write, --render and --no-fleet')
+        log('--fleet-only goes without --write, --render and --no-fleet')
         return 2
     report = collect(sizes, (), node=False, cases=['fleet'])
     m = report['machine']
@@ -157,7 +157,7 @@ def _fleet_only(args: argparse.Namespace, sizes: Sizes) -> int:
         with written_whole(args.json) as tmp:
             tmp.write_text(json.dumps(report, indent=1, default=float))
     for t in report['targets']:
-        print(f'{_met(t["met"]).strip("*"):8} {t["target"]}: {t["measured"]}')
+        print(f'{met_text(t["met"]).strip("*"):8} {t["target"]}: {t["measured"]}')
     return 0
 
 

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .settings import TARGET_FLEET_SPEEDUP, Sizes, _log
+from .settings import TARGET_FLEET_SPEEDUP, Sizes, log
 
 
 def _write_bag(folder: Path, n: int) -> None:
@@ -96,7 +96,7 @@ def bench_fleet(sizes: Sizes) -> dict[str, Any]:
     out: dict[str, Any] = {'bags': sizes.fleet_bags, 'commands': sizes.fleet_commands}
     with tempfile.TemporaryDirectory(prefix='linkage-fleet-bench-') as tmp:
         root = Path(tmp)
-        _log(f'fleet: writing {sizes.fleet_bags} bags of {sizes.fleet_commands:,} commands')
+        log(f'fleet: writing {sizes.fleet_bags} bags of {sizes.fleet_commands:,} commands')
         _write_bag(root / 'one', sizes.fleet_commands)
         for k in range(sizes.fleet_bags):
             shutil.copytree(root / 'one', root / 'fleet' / f'machine{k:02d}')
@@ -112,7 +112,7 @@ def bench_fleet(sizes: Sizes) -> dict[str, Any]:
                 'loadavg_before': round(load0, 2),
                 'loadavg_after': round(os.getloadavg()[0], 2),
             }
-            _log(f'fleet: {label}: {seconds:.2f} s (exit {code})')
+            log(f'fleet: {label}: {seconds:.2f} s (exit {code})')
 
         _write_bag(root / 'warm' / 'w', 200)
         _warm_worker(str(root / 'warm'), scene)
@@ -147,7 +147,7 @@ def _table_formats(root: Path, scene: str, n: int) -> dict[str, Any]:
     from ..bag.replay import ReplayEngine
     from ..core.loading import load_scene
 
-    _log(f'fleet: Parquet vs CSV, {n:,} rows')
+    log(f'fleet: Parquet vs CSV, {n:,} rows')
     _write_bag(root / 'big', n)
     mech = load_scene(scene).mechanism
     data = read_commands(str(root / 'big'), ['/cmd'])

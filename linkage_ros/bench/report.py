@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..outputs import written_whole
-from .collect import _setting, batch_vs_scipy
+from .collect import batch_vs_scipy, find_setting
 from .core_speed import core_speed_markdown
 from .fleet import render_fleet
 from .report_node import node_interpretation, node_markdown
@@ -35,7 +35,7 @@ def _fmt_err(v) -> str:
     return f'{v:.1e}'
 
 
-def _met(m) -> str:
+def met_text(m) -> str:
     return 'n/a' if m is None else ('**met**' if m else '**not met**')
 
 
@@ -94,7 +94,7 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
     w('| target | measured | status |')
     w('|---|---|---|')
     for t in report['targets']:
-        w(f'| {t["target"]} | {t["measured"]} | {_met(t["met"])} |')
+        w(f'| {t["target"]} | {t["measured"]} | {met_text(t["met"])} |')
     w('')
     w('## Speed against accuracy\n')
     w(
@@ -154,7 +154,7 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
     )
     w('|---|---:|---:|---:|---:|---:|---|---|')
     for scene in report['scenes']:
-        nw, kn, sp = (_setting(report, scene, f, 1e-12) for f in ('newton', 'kernel', 'scipy'))
+        nw, kn, sp = (find_setting(report, scene, f, 1e-12) for f in ('newton', 'kernel', 'scipy'))
         if not (nw and sp):
             continue
         w(

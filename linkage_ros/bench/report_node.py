@@ -4,7 +4,7 @@ lines of the interpretation (prose, not library code)."""
 from __future__ import annotations
 
 from .all_outputs import PLAIN_LISTENER_LABEL
-from .collect import _hz
+from .collect import rate_text
 from .settings import DEFAULT_DEPTH
 
 
@@ -86,7 +86,7 @@ def node_markdown(node: dict) -> str:
             if res.get('ok'):
                 w(
                     f'- {label} (queue depth {res.get("depth", DEFAULT_DEPTH)}): highest loss-free '
-                    f'rate {_hz(res.get("sustained_rate"))} of those tried'
+                    f'rate {rate_text(res.get("sustained_rate"))} of those tried'
                 )
         w('')
         all_out = node.get('all_outputs')
@@ -168,8 +168,9 @@ def node_interpretation(node: dict) -> list[str]:
             lines.append(
                 f'- **Node**: one command costs {nl["p50_ms"]:.2f} ms p50 end to end against '
                 f'{rl["p50_ms"]:.2f} ms for a bare relay ({nl["p50_ms"] - rl["p50_ms"]:+.2f} ms); '
-                f'the node stays loss-free up to {_hz(tg["node"].get("sustained_rate"))} (relay: '
-                f"{_hz(tg['relay'].get('sustained_rate'))}). The difference is the node's "
+                'the node stays loss-free up to '
+                f'{rate_text(tg["node"].get("sustained_rate"))} (relay: '
+                f"{rate_text(tg['relay'].get('sustained_rate'))}). The difference is the node's "
                 'own work per command: parse and check the command, solve it (dyad plan, '
                 'continuity, residual, branch and margin) and fill joint_states. Subscribing to '
                 '~/points/<p> or ~/status adds their construction to every command; ~/markers '

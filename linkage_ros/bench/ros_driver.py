@@ -21,7 +21,7 @@ def relay_script() -> Path | None:
     return p if p.is_file() else None
 
 
-class _Proc:
+class Proc:
     """A ROS process started (and stopped) by the benchmark; output goes to files."""
 
     def __init__(self, argv: list[str], env: dict, workdir: Path, label: str):
@@ -66,7 +66,7 @@ class _Proc:
         self.err.close()
 
 
-def _ros_env(domain: int) -> dict:
+def ros_env(domain: int) -> dict:
     env = dict(os.environ)
     for k in ('ROS_LOCALHOST_ONLY', 'ROS_STATIC_PEERS'):
         env.pop(k, None)
@@ -82,7 +82,7 @@ def _ros_env(domain: int) -> dict:
     return env
 
 
-class _Link:
+class Link:
     """One target under test as the driver sees it: a command publisher, an answer subscription
     and the arrival time of every answer, keyed by the command stamp (ns)."""
 
@@ -166,15 +166,15 @@ class Driver:
         finally:
             self.rclpy.try_shutdown(context=self.ctx)
 
-    def link(self, label, cmd_topic, out_topic, **kw) -> _Link:
-        return _Link(self, label, cmd_topic, out_topic, **kw)
+    def link(self, label, cmd_topic, out_topic, **kw) -> Link:
+        return Link(self, label, cmd_topic, out_topic, **kw)
 
     def spin_for(self, seconds: float):
         t_end = time.monotonic() + seconds
         while time.monotonic() < t_end:
             self.exec.spin_once(timeout_sec=0.005)
 
-    def connect(self, link: _Link, warmup: int, timeout: float = 20.0) -> str | None:
+    def connect(self, link: Link, warmup: int, timeout: float = 20.0) -> str | None:
         """Wait for discovery both ways, then until ``warmup`` commands have been answered (the
         first ones pay for lazy set-up). Returns None, or why the target is not usable."""
         t_end = time.monotonic() + timeout
@@ -199,7 +199,7 @@ class Driver:
         return None
 
     def ping_pong(
-        self, links: Sequence[_Link], n: int, period: float = 0.005, timeout: float = 0.5
+        self, links: Sequence[Link], n: int, period: float = 0.005, timeout: float = 0.5
     ) -> dict[str, dict]:
         """Latency without queueing: one command outstanding at a time, the targets taking turns
         (paired samples under the same conditions), a new command every ``period`` s."""
@@ -236,7 +236,7 @@ class Driver:
 
     def rate_run(
         self,
-        link: _Link,
+        link: Link,
         rate: float,
         seconds: float,
         drain_timeout: float = 2.0,

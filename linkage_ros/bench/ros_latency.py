@@ -13,8 +13,8 @@ from pathlib import Path
 from typing import Any
 
 from .all_outputs import bench_all_outputs
-from .ros_driver import Driver, _Link, _Proc, _ros_env, relay_script
-from .settings import DEFAULT_DEPTH, Sizes, _log
+from .ros_driver import Driver, Link, Proc, relay_script, ros_env
+from .settings import DEFAULT_DEPTH, Sizes, log
 
 # =============================================================================================
 # (c) node latency and loss-free rate vs a bare rclpy relay
@@ -61,7 +61,7 @@ def bench_node(
     except Exception as exc:  # noqa: BLE001
         return {'skipped': f'rclpy / sensor_msgs unavailable: {exc}'}
     domain = random.Random(os.getpid() ^ time.time_ns()).randint(1, 200)
-    env = _ros_env(domain)
+    env = ros_env(domain)
     work = Path(tempfile.mkdtemp(prefix='linkage_bench_'))
     tag = f'lkb{os.getpid()}'
     out: dict[str, Any] = {
@@ -136,15 +136,15 @@ def bench_node(
         driver = Driver(domain, ['crank'], lambda k: [1.0 + 0.0105 * (k % 600)])
     except Exception as exc:  # noqa: BLE001
         return {'skipped': f'cannot start an rclpy context: {exc}'}
-    procs: dict[str, _Proc] = {}
-    links: dict[str, _Link] = {}
+    procs: dict[str, Proc] = {}
+    links: dict[str, Link] = {}
     try:
         for label, argv, _cmd_topic, _out_topic, depth in specs:
-            _log(
+            log(
                 f'node benchmark: starting {label} ({" ".join(Path(a).name for a in argv[:3])}, '
                 f'queue depth {depth}) on ROS domain {domain}'
             )
-            procs[label] = _Proc(argv, env, work, label)
+            procs[label] = Proc(argv, env, work, label)
         for label, _argv, cmd_topic, out_topic, depth in specs:
             link = driver.link(label, cmd_topic, out_topic)
             why = driver.connect(link, sizes.node_warmup)
@@ -160,7 +160,7 @@ def bench_node(
             out['targets'][label] = {'ok': True, 'runs': [], 'depth': depth}
         main = {k: v for k, v in links.items() if not k.endswith('_deep')}
         if main and 'rates' in parts:
-            _log(f'node benchmark: paired latency ({sizes.node_ping} commands each)')
+            log(f'node benchmark: paired latency ({sizes.node_ping} commands each)')
             for label, res in driver.ping_pong(list(main.values()), sizes.node_ping).items():
                 out['targets'][label]['latency'] = res
         for rate in sorted(set(sizes.node_rates) | set(sizes.node_deep_rates)):
@@ -168,7 +168,7 @@ def bench_node(
                 break
             for label, link in links.items():  # targets alternate: same conditions
                 if rate in (sizes.node_deep_rates if label.endswith('_deep') else sizes.node_rates):
-                    _log(f'node benchmark: {label} at {rate:g} Hz')
+                    log(f'node benchmark: {label} at {rate:g} Hz')
                     out['targets'][label]['runs'].append(
                         driver.rate_run(
                             link, rate, sizes.node_seconds, target_pid=procs[label].proc.pid
@@ -217,18 +217,18 @@ def bench_node(
 
 
 def _floods(
-    driver: Driver, link: _Link, ns: str, seconds: float, env: dict, work: Path, pid: int
+    driver: Driver, link: Link, ns: str, seconds: float, env: dict, work: Path, pid: int
 ) -> list[dict]:
     """Commands at FLOOD_COMMAND_HZ alone (kind 'none': the reference), then beside each of
     FLOODS, one after another on the same node; each flood from a process of its own
     (flood.py), started and matched before the commands start and running past their end."""
-    _log(f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz, no flood (the reference)')
+    log(f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz, no flood (the reference)')
     run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds, target_pid=pid)
     run.update(flood_rate=0.0, flood_sent=0, flood_kind='none')
     runs = [run]
     for kind, topic, rate in FLOODS:
         sent_file = work / f'flood_{kind}.json'
-        proc = _Proc(
+        proc = Proc(
             [sys.executable, '-m', 'linkage_ros.bench.flood']
             + ['--topic', f'{ns}/linkage_node/{topic}', '--kind', kind, '--rate', f'{rate:g}']
             + ['--seconds', f'{seconds + 0.5:g}', '--out', str(sent_file)],
@@ -241,7 +241,7 @@ def _floods(
             if why is not None:
                 runs.append({'flood_kind': kind, 'ok': False, 'reason': why})
                 continue
-            _log(
+            log(
                 f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz beside a {rate:g} Hz '
                 f'~/{topic} flood ({kind})'
             )
@@ -259,7 +259,7 @@ def _floods(
     return runs
 
 
-def _await_ready(driver: Driver, proc: _Proc, timeout: float = 30.0) -> str | None:
+def _await_ready(driver: Driver, proc: Proc, timeout: float = 30.0) -> str | None:
     """Wait for a flood process's 'ready' (its publisher matched the node)."""
     t_end = time.monotonic() + timeout
     while 'ready' not in Path(proc.out.name).read_text(errors='replace'):

@@ -21,7 +21,7 @@ from typing import Any
 
 import yaml
 
-from .settings import _log
+from .settings import log
 
 #: config/four_bar.yaml: ground, crank, coupler, rocker (m)
 LENGTHS = (0.30, 0.10, 0.25, 0.20)
@@ -95,7 +95,7 @@ def bench_scaling(sizes: Sequence[int]) -> list[dict[str, Any]]:
                 _time_range(path)
                 _time_check(path)
             repeats = max(1, round(_REPEAT_ACTUATORS / n))
-            _log(f'scaling: {n} independent four-bars (range, check; best of {repeats})')
+            log(f'scaling: {n} independent four-bars (range, check; best of {repeats})')
             out.append(
                 {
                     'actuators': n,

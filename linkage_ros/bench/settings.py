@@ -105,5 +105,5 @@ QUICK = Sizes(
 )
 
 
-def _log(msg: str) -> None:
+def log(msg: str) -> None:
     print(f'[bench] {msg}', file=sys.stderr, flush=True)

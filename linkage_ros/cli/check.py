@@ -6,7 +6,7 @@ import math
 
 from ..core.mechanism import SceneForm, actuator_kind
 from ..core.model import AngleActuator
-from .common import OK, _f, dumps, load_scene_file, print_notes
+from .common import OK, dumps, fmt_value, load_scene_file, print_notes
 from .described import InputValues
 
 # ---- check -------------------------------------------------------------------------------------
@@ -178,7 +178,7 @@ def format_check(r: dict) -> str:
         rng = (
             'unlimited'
             if v['min'] is None and v['max'] is None
-            else f'min {_f(v["min"], ".9g")}  max {_f(v["max"], ".9g")} {v["unit"]}'
+            else f'min {fmt_value(v["min"], ".9g")}  max {fmt_value(v["max"], ".9g")} {v["unit"]}'
         )
         if v['unit'] == 'rad' and v['min'] is not None and v['max'] is not None:
             rng += f'  ({math.degrees(v["min"]):.4f} .. {math.degrees(v["max"]):.4f} deg)'
@@ -187,7 +187,7 @@ def format_check(r: dict) -> str:
             said = (
                 'none'
                 if declared == (None, None)
-                else f'min {_f(declared[0], ".9g")}  max {_f(declared[1], ".9g")}'
+                else f'min {fmt_value(declared[0], ".9g")}  max {fmt_value(declared[1], ".9g")}'
             )
             rng += f'  [reachable range, computed; declared limits: {said}]'
         out.append(f'  {k:<{w}}  {v["kind"]:<5}  {rng}')
@@ -238,21 +238,21 @@ def format_motion(m: dict | None) -> list[str]:
         kind, _, bare = name.partition(':')
         unit = 'rad' if kind == 'link' else 'm'
         line = (
-            f'  {bare} ({"angle" if kind == "link" else "slide"})  min {_f(o["min"], ".9g")} '
-            f'at {act} {_f(o["input_at_min"], ".9g")}  max {_f(o["max"], ".9g")} at {act} '
-            f'{_f(o["input_at_max"], ".9g")}  {"swing" if unit == "rad" else "stroke"} '
-            f'{_f(o["stroke"], ".9g")} {unit}'
+            f'  {bare} ({"angle" if kind == "link" else "slide"})  min {fmt_value(o["min"])} '
+            f'at {act} {fmt_value(o["input_at_min"])}  max {fmt_value(o["max"])} at {act} '
+            f'{fmt_value(o["input_at_max"])}  {"swing" if unit == "rad" else "stroke"} '
+            f'{fmt_value(o["stroke"])} {unit}'
         )
         if o.get('time_ratio') is not None:
-            line += f'  time ratio {_f(o["time_ratio"], ".6g")}'
+            line += f'  time ratio {fmt_value(o["time_ratio"], ".6g")}'
         out.append(line)
     for name in m.get('turns_fully', ()):
         out.append(f'  {name.partition(":")[2]} (angle)  turns fully (no swing, no time ratio)')
     for key, t in m['transmission_angle'].items():
         out.append(
-            f'  transmission angle {key}  min {_f(t["min"], ".6g")} rad '
-            f'({math.degrees(t["min"]):.3f} deg) at {act} {_f(t["input_at_min"], ".9g")}  '
-            f'max {_f(t["max"], ".6g")} rad ({math.degrees(t["max"]):.3f} deg) at {act} '
-            f'{_f(t["input_at_max"], ".9g")}'
+            f'  transmission angle {key}  min {fmt_value(t["min"], ".6g")} rad '
+            f'({math.degrees(t["min"]):.3f} deg) at {act} {fmt_value(t["input_at_min"], ".9g")}  '
+            f'max {fmt_value(t["max"], ".6g")} rad ({math.degrees(t["max"]):.3f} deg) at {act} '
+            f'{fmt_value(t["input_at_max"], ".9g")}'
         )
     return out

@@ -26,14 +26,14 @@ class UsageError(Exception):
     """A command line that cannot be run; printed as one line, exit status 2."""
 
 
-class _Parser(argparse.ArgumentParser):
+class OneLineErrorParser(argparse.ArgumentParser):
     """argparse, but a usage error is one line on stderr (exit 2)."""
 
     def error(self, message):
         self.exit(USAGE_ERROR, f'{self.prog}: error: {message} (see {self.prog} --help)\n')
 
 
-class _Known(argparse.Action):
+class KnownAction(argparse.Action):
     """--set / --target / --target-point all append (option, text) to one list, keeping the
     command-line order (it is the sweep grid order)."""
 
@@ -468,7 +468,7 @@ def dumps(obj: Any) -> str:
     return json.dumps(clean(obj), allow_nan=False)
 
 
-def _f(v, spec='.9g') -> str:
+def fmt_value(v, spec='.9g') -> str:
     return '-' if v is None else format(v, spec)
 
 
@@ -524,14 +524,14 @@ def format_result(d: dict, mech) -> str:
         out.append(f'points     {"x (m)":>14} {"y (m)":>14}')
         out += [f'  {k:<{w}}  {x:14.9f} {y:14.9f}' for k, (x, y) in d['points'].items()]
     if d['status'] == 'ok':
-        out.append(f'residual   {_f(d["residual"], ".3g")} (of the length scale)')
+        out.append(f'residual   {fmt_value(d["residual"], ".3g")} (of the length scale)')
         out.append(
             f'branch     {d["branch"] or "(none)"}'
             + ('' if d['branch_defined'] else '  (undefined: at a toggle)')
         )
-        out.append(f'margin     {_f(d["margin"], ".6g")}')
+        out.append(f'margin     {fmt_value(d["margin"], ".6g")}')
         if d.get('cond') is not None:
-            out.append(f'cond(J)    {_f(d["cond"], ".6g")}')
+            out.append(f'cond(J)    {fmt_value(d["cond"], ".6g")}')
     out.append(f'solver     {d["solver"]}   iterations {d["iterations"]}')
     return '\n'.join(out)
 

@@ -17,9 +17,9 @@ from .common import (
     INTERRUPTED,
     OK,
     USAGE_ERROR,
+    KnownAction,
+    OneLineErrorParser,
     UsageError,
-    _Known,
-    _Parser,
     add_scene_argument,
 )
 from .solve import cmd_solve
@@ -134,14 +134,14 @@ def _add_solve_options(p, default_branch: str, ranges: bool):
     r = '[:STOP:COUNT]' if ranges else ''
     g.add_argument(
         '--set',
-        action=_Known,
+        action=KnownAction,
         metavar=f'NAME=VALUE{r}',
         dest='knowns',
         help='actuator value' + (' or range' if ranges else '') + ' (repeatable)',
     )
     g.add_argument(
         '--target',
-        action=_Known,
+        action=KnownAction,
         metavar=f'NAME=VALUE{r}',
         dest='knowns',
         help='joint / link angle / actuator / point coordinate (P.x, P.y: m) to reach: '
@@ -149,7 +149,7 @@ def _add_solve_options(p, default_branch: str, ranges: bool):
     )
     g.add_argument(
         '--target-point',
-        action=_Known,
+        action=KnownAction,
         dest='knowns',
         metavar='NAME=X,Y' + ('[:X1,Y1:COUNT]' if ranges else ''),
         help='point position to reach: inverse solve (repeatable)',
@@ -204,13 +204,13 @@ def _load_external() -> tuple[dict[str, Any], dict[str, str]]:
 def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
     external, broken = _load_external()
     epilog = MAIN_EPILOG + ''.join(f'unavailable: {k} ({v})\n' for k, v in broken.items())
-    parser = _Parser(
+    parser = OneLineErrorParser(
         prog='linkage',
         description='Solve, sweep and check planar linkage scenes.',
         epilog=epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=_Parser)
+    sub = parser.add_subparsers(dest='command', metavar='COMMAND', parser_class=OneLineErrorParser)
     sub.required = True
     fmt = argparse.RawDescriptionHelpFormatter
 

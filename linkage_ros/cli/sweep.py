@@ -18,10 +18,10 @@ from .common import (
     OK,
     REFUSED,
     UsageError,
-    _f,
     build_solve,
     command_grid,
     dumps,
+    fmt_value,
     forward_engine,
     load_mechanism,
     target_engine,
@@ -136,7 +136,7 @@ def _row(i, command, names, d, ok, solved_inputs, outs) -> list[str]:
     if ok:
         row += [_cell(d['inputs'][a]) if a in d['inputs'] else '-' for a in solved_inputs]
         row += [_cell(d['points'][p]) if p in d['points'] else '-' for p in outs]
-        row += [_f(d['residual'], '.2g'), d['branch'] or '-', _f(d['margin'], '.4g')]
+        row += [fmt_value(d['residual'], '.2g'), d['branch'] or '-', fmt_value(d['margin'], '.4g')]
     else:
         row += [d['reason'] or 'refused']
     return row

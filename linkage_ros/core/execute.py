@@ -505,7 +505,7 @@ class PlanExecutor:
 
 def executor(plan: Any) -> PlanExecutor:
     """The plan's executor, made on first use and kept on the plan."""
-    ex: PlanExecutor | None = plan.__dict__.get('_executor')
+    ex: PlanExecutor | None = plan.derived.get(PlanExecutor)
     if ex is None:
-        ex = plan._executor = PlanExecutor(plan)
+        ex = plan.derived[PlanExecutor] = PlanExecutor(plan)
     return ex

@@ -114,12 +114,12 @@ def _wrap_many(v: Any) -> Any:
     return out
 
 
-def _max(a: Any, b: Any) -> Any:
+def nan_max(a: Any, b: Any) -> Any:
     """max propagating NaN from either side, like np.maximum (Python's max does not)."""
     return a if (a >= b or a != a) else b
 
 
-def _min(a: Any, b: Any) -> Any:
+def nan_min(a: Any, b: Any) -> Any:
     return a if (a <= b or a != a) else b
 
 
@@ -135,7 +135,7 @@ def _pow2_scale(ops: Any, m: Any) -> Any:
     return ops.ldexp(1.0, ((expo - 1) >> 1) << 1)
 
 
-def _cabs_one(z: Any) -> float:
+def cabs_one(z: Any) -> float:
     """|z| of a Python complex, inf where it overflows (abs() raises OverflowError there,
     numpy returns inf: a kernel must not depend on which)."""
     try:
@@ -158,8 +158,8 @@ class ScalarOps:
     frexp = staticmethod(math.frexp)
     ldexp = staticmethod(math.ldexp)
     isfinite = staticmethod(cmath.isfinite)  # real or complex
-    maximum = staticmethod(_max)
-    minimum = staticmethod(_min)
+    maximum = staticmethod(nan_max)
+    minimum = staticmethod(nan_min)
 
     @staticmethod
     def where(cond: Any, a: Any, b: Any) -> Any:
@@ -171,7 +171,7 @@ class ScalarOps:
 
     @staticmethod
     def clip(x: Any, lo: Any, hi: Any) -> Any:
-        return _min(_max(x, lo), hi)
+        return nan_min(nan_max(x, lo), hi)
 
     @staticmethod
     def expi(phi: float) -> complex:
@@ -183,7 +183,7 @@ class ScalarOps:
         return complex(x, y)
 
     wrap = staticmethod(wrap_one)
-    cabs = staticmethod(_cabs_one)  # |z| of a point, inf beyond the float range
+    cabs = staticmethod(cabs_one)  # |z| of a point, inf beyond the float range
 
     @staticmethod
     def cmax(z: complex) -> float:

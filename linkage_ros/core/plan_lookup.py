@@ -23,7 +23,7 @@ class PlanLookup:
 
 def plan_lookup(plan: Any) -> PlanLookup:
     """The lookups of ``plan`` (made on first use and kept on the plan)."""
-    got: PlanLookup | None = plan.__dict__.get('_lookup')
+    got: PlanLookup | None = plan.derived.get(PlanLookup)
     if got is not None:
         return got
     mech = plan.mech
@@ -32,7 +32,7 @@ def plan_lookup(plan: Any) -> PlanLookup:
         for link in b.links:
             for p in mech.links[link].points:
                 carrier.setdefault((b.index, p), link)
-    got = plan._lookup = PlanLookup(
+    got = plan.derived[PlanLookup] = PlanLookup(
         {p: complex(float(v[0]), float(v[1])) for p, v in mech.points.items()},
         {
             j: complex(float(pj.direction[0]), float(pj.direction[1]))

@@ -16,7 +16,7 @@ from math import atan2, cos, sin
 from typing import Any
 
 from .execute import CONTINUITY_MARGIN
-from .ops import _cabs_one
+from .ops import cabs_one
 from .scalar_dyads import rpr_angle, rrp_point, rrr_fallback, solve_rpr, solve_rrp, solve_rrr
 from .scalar_run import Refused, SlotRun, Step, coincident, wrap
 
@@ -53,12 +53,12 @@ def rrr_step(
         # (the cheap test first: equal radii are rare)
         if fixed:
             r1, r2 = r1_const, r2_const
-            near = gap_fixed <= tol * big_fixed and _cabs_one(c1 - c2) <= tol * big_fixed
+            near = gap_fixed <= tol * big_fixed and cabs_one(c1 - c2) <= tol * big_fixed
         else:
             r1 = r1_const if r1_of is None else r1_of(R)
             r2 = r2_const if r2_of is None else r2_of(R)
             big = r2 if r2 > r1 else r1  # max(r1, r2), without the call
-            near = abs(r1 - r2) <= tol * big and _cabs_one(c1 - c2) <= tol * big
+            near = abs(r1 - r2) <= tol * big and cabs_one(c1 - c2) <= tol * big
         if near:
             coincident(r, at, x, sx, c1, r1, ref_off)
             return
@@ -75,7 +75,7 @@ def rrr_step(
             plus = plus if _cfinite(plus) else rrr_fallback(pair, c1)
             minus = (base + (along + -1 * spread) * u) * S
             minus = minus if _cfinite(minus) else rrr_fallback(pair, c1)
-            sg = 1 if _cabs_one(plus - target) <= _cabs_one(minus - target) else -1
+            sg = 1 if cabs_one(plus - target) <= cabs_one(minus - target) else -1
         z = (base + (along + sg * spread) * u) * S
         if not _cfinite(z):  # beyond the float range
             R[sx] = rrr_fallback(pair, c1)
@@ -136,7 +136,7 @@ def rrp_step(
             target = r.prefer[x]  # type: ignore[index]
             plus, _ = rrp_point(pair, 1)
             minus, _ = rrp_point(pair, -1)
-            sg = 1 if _cabs_one(plus - target) <= _cabs_one(minus - target) else -1
+            sg = 1 if cabs_one(plus - target) <= cabs_one(minus - target) else -1
         z, ok = rrp_point(pair, sg)
         R[sx] = z
         if not ok:  # beyond the float range

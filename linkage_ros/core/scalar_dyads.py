@@ -35,7 +35,7 @@ from cmath import isfinite as _cfinite
 from math import frexp, ldexp, sqrt
 
 from .dyads import TANGENCY_TOL, TOGGLE_BAND
-from .ops import _max, _min
+from .ops import nan_max, nan_min
 
 _FLOAT_MAX = sys.float_info.max
 #: ops.pow2_scale's power of two by the exponent frexp gives a positive finite float (its even
@@ -147,8 +147,8 @@ def _rrr_open(
     along = 0.0
     if d > 0:
         along = 0.5 * (d + ((r1n - r2n) / dsafe) * (r1n + r2n))
-        along = _min(_max(along, -abs(r1n)), abs(r1n))  # NaN-propagating, as ops.clip
-    violation = _min(_max(violation_n * (scale * S), 0.0), _FLOAT_MAX)
+        along = nan_min(nan_max(along, -abs(r1n)), abs(r1n))  # NaN-propagating, as ops.clip
+    violation = nan_min(nan_max(violation_n * (scale * S), 0.0), _FLOAT_MAX)
     return c1n, dv / dsafe, along, 0.0, S, 0.0, False, violation, True
 
 
@@ -177,14 +177,14 @@ def solve_rrp(c: complex, r: float, p0: complex, u: complex, tol: float = TANGEN
     s0 = w.real * u.real + w.imag * u.imag
     dist = abs(u.real * w.imag - u.imag * w.real)
     violation = dist - r
-    scale = _max(r, dist)
+    scale = nan_max(r, dist)
     ok = (violation <= tol * (scale if scale > 0 else 1.0)) and r > 0
     off = r - dist if r - dist > TOGGLE_BAND * scale else 0.0
     k = margin = 0.0
     if ok:
         k = sqrt(off) * sqrt(r + dist)
-        margin = _min(_max(k / r, 0.0), 1.0)
-    return p0, u, s0, k, margin, ok, _max(violation, 0.0)
+        margin = nan_min(nan_max(k / r, 0.0), 1.0)
+    return p0, u, s0, k, margin, ok, nan_max(violation, 0.0)
 
 
 def rrp_point(pair: RrpPair, sign: int) -> tuple[complex, bool]:
@@ -203,15 +203,15 @@ def solve_rpr(p: complex, x: complex, offset: float, tol: float = TANGENCY_TOL) 
     rho = abs(w)
     ae = abs(offset)
     violation = ae - rho
-    scale = _max(rho, ae)
+    scale = nan_max(rho, ae)
     ok = rho > 0 and (violation <= tol * (scale if scale > 0 else 1.0))
     off = rho - ae if rho - ae > TOGGLE_BAND * scale else 0.0
     along, margin = 1.0, 0.0
     if ok:
         along = sqrt(off) * sqrt(rho + ae)
-        margin = _min(_max(along / rho, 0.0), 1.0)
+        margin = nan_min(nan_max(along / rho, 0.0), 1.0)
     beta = math.atan2(w.imag, w.real)
-    return beta, along, (offset if ok else 0.0), margin, ok, _max(violation, 0.0)
+    return beta, along, (offset if ok else 0.0), margin, ok, nan_max(violation, 0.0)
 
 
 def rpr_angle(pair: RprPair, sign: int) -> float:

@@ -32,7 +32,7 @@ from typing import Any
 from .dyads import TANGENCY_TOL
 from .errors import PlanError
 from .execute import CONTINUITY_MARGIN, LinkPoses, PlanRun
-from .ops import _cabs_one, wrap_one
+from .ops import cabs_one, wrap_one
 from .plan_lookup import plan_lookup
 from .quantities import AngleSpec, PointSpec
 from .scalar_dyad_steps import rpr_step, rrp_step, rrr_step, side_step
@@ -261,7 +261,7 @@ class ScalarProgram:
             None,
         )
         if d is None and self.single[bi]:
-            d = _cabs_one(self.ref[x] - self.ref[p])
+            d = cabs_one(self.ref[x] - self.ref[p])
         if d is not None:
             return float(d), None
         cx, cp = self.carrier[(bi, x)], self.carrier[(bi, p)]
@@ -347,7 +347,7 @@ class ScalarProgram:
         if self.single[bi]:  # the unit vector between the points in the link's frame: constant
             ((iphi, irot, iT, pts, _, _, _),) = self._members[bi]
             v = self.ref[a.second] - self.ref[a.first]
-            nv = _cabs_one(v)
+            nv = cabs_one(v)
             unit, lp = (v / nv if nv > 0 else v), self.ref[a.first]
             ux, uy = unit.real, unit.imag
 
@@ -392,7 +392,7 @@ class ScalarProgram:
                 u, nu = R[iu], R[iu + 1]
             else:
                 u = ((q_turned if q_turned is not None else R[qrot] * q_ref) + R[qT]) - lp
-                nu = _cabs_one(u)
+                nu = cabs_one(u)
             u = u / (nu if nu > 0 else 1.0)
             ux, uy = u.real, u.imag  # (each read once: a complex's attribute is slow)
             bx, by = b.real, b.imag
@@ -596,7 +596,7 @@ class ScalarProgram:
 
 def program(plan: Any) -> ScalarProgram:
     """The plan's one-command program, made on first use and kept on the plan."""
-    prog: ScalarProgram | None = plan.__dict__.get('_scalar_program')
+    prog: ScalarProgram | None = plan.derived.get(ScalarProgram)
     if prog is None:
-        prog = plan._scalar_program = ScalarProgram(plan)
+        prog = plan.derived[ScalarProgram] = ScalarProgram(plan)
     return prog

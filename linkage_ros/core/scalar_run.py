@@ -11,7 +11,7 @@ from math import cos, sin
 from typing import Any
 
 from .execute import CONTINUITY_MARGIN
-from .ops import _cabs_one, wrap_one
+from .ops import cabs_one, wrap_one
 
 _PI = math.pi
 _CM = CONTINUITY_MARGIN
@@ -178,7 +178,7 @@ def coincident(
     prefer = r.prediction()
     guess = prefer.get(x) if prefer else None
     off = (guess - c1) if guess is not None else ref_off
-    n = _cabs_one(off)
+    n = cabs_one(off)
     off = off / n if 0 < n < math.inf else 1 + 0j
     foot = c1 + r1 * off
     sg = r.signs[b]

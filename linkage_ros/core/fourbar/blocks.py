@@ -12,7 +12,7 @@ from typing import Literal, TypeVar
 
 import numpy as np
 
-from .common import _out
+from .common import scalar_out
 
 # --------------------------------------------------------------------------- fast block kernels
 #
@@ -24,7 +24,7 @@ from .common import _out
 #
 # Why the kernels look the way they do: whole-array numpy streams every temporary of a large
 # batch through memory, and each fresh temporary page-faults again; a block's arrays stay in
-# cache, are written in place (ufunc ``out=``) and come from a _Work that outlives the call.
+# cache, are written in place (ufunc ``out=``) and come from a BlockWork that outlives the call.
 # Every ufunc call also costs about a microsecond however short its array, so x and y
 # components travel together as the rows of one (2, m) array (one call for both) and checks
 # that rarely fire are block-level reductions.
@@ -46,7 +46,7 @@ Good = Literal[True] | np.ndarray
 _Solution = TypeVar('_Solution')
 
 
-class _Work:
+class BlockWork:
     """Named work arrays shared by the blocks of a call (``m`` = the current block length)."""
 
     def __init__(self, size: int):
@@ -56,12 +56,12 @@ class _Work:
     _full = threading.local()
 
     @classmethod
-    def get(cls, n: int) -> _Work:
+    def get(cls, n: int) -> BlockWork:
         """The work arrays for a call over n elements.  Full-size ones are kept per thread for
         the next call: allocating them afresh page-faults a few MB again on every call."""
         if n < _BLOCK:
             return cls(n)
-        ws: _Work | None = getattr(cls._full, 'ws', None)
+        ws: BlockWork | None = getattr(cls._full, 'ws', None)
         if ws is None or ws.size != _BLOCK:
             ws = cls._full.ws = cls(_BLOCK)
         ws.m = ws.size
@@ -75,7 +75,7 @@ class _Work:
         return a if self.m == self.size else a[..., : self.m]
 
 
-def _atan2(y: np.ndarray, x: np.ndarray, out: np.ndarray, ws: _Work) -> None:
+def fast_atan2(y: np.ndarray, x: np.ndarray, out: np.ndarray, ws: BlockWork) -> None:
     """arctan2 into ``out``, as atan(y / x) plus the quadrant: half the cost of np.arctan2
     (glibc), within about an ulp of it (the rounding of y / x and of the added +-pi).  Signed
     zeros and x = +-0 follow atan2, except that -pi comes out as +pi (the range is (-pi, pi]);
@@ -93,8 +93,8 @@ def _atan2(y: np.ndarray, x: np.ndarray, out: np.ndarray, ws: _Work) -> None:
         np.copyto(out, np.pi, where=out == -np.pi)
 
 
-def _rrr(
-    w: np.ndarray, r1: Num, r2: Num, sgn: Num, tol: float, ok: np.ndarray, ws: _Work
+def rrr_block(
+    w: np.ndarray, r1: Num, r2: Num, sgn: Num, tol: float, ok: np.ndarray, ws: BlockWork
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, Good]:
     """Circle (c1, r1) and circle (c2, r2), w = c2 - c1 as a (2, m) array, on one block.
 
@@ -104,7 +104,7 @@ def _rrr(
     ok the point of circle 1 nearest circle 2 on the centre line); area4 = 4 * area of the
     triangle (d, r1, r2), 0 where not ok or clamped; mis = |r1 v1/|v1| - r2 v2/|v2| - w|, the
     misclosure of the loop c1 -> X -> c2 drawn with the exact radii along the solved
-    directions; ``good`` as :func:`_good`.
+    directions; ``good`` as :func:`good_mask`.
     """
     p, d2, d = ws('p', 2), ws('d2'), ws('d')
     np.multiply(w, w, out=p)
@@ -180,10 +180,10 @@ def _rrr(
     r *= r
     mis = np.add(r[0], r[1], out=big)
     np.sqrt(mis, out=mis)
-    return v, area4, mis, _good(mis, d2, ws)
+    return v, area4, mis, good_mask(mis, d2, ws)
 
 
-def _good(res: np.ndarray, d2: np.ndarray | None, ws: _Work) -> Good:
+def good_mask(res: np.ndarray, d2: np.ndarray | None, ws: BlockWork) -> Good:
     """True, or the mask of the elements the fast formulas hold for: ``res`` finite (NaN or inf
     anywhere upstream reaches it) and, if given, d2 = |w|^2 >= _LO2.  Block-level reductions
     first: the per-element mask is only formed for a block that needs it."""
@@ -195,7 +195,7 @@ def _good(res: np.ndarray, d2: np.ndarray | None, ws: _Work) -> Good:
     return good
 
 
-def _zero_where_not(ok: np.ndarray, *arrays: np.ndarray) -> None:
+def zero_where_not(ok: np.ndarray, *arrays: np.ndarray) -> None:
     """The placeholders: 0 where not ok (in place, along the last axis)."""
     if not ok.all():
         bad = ~ok
@@ -219,7 +219,7 @@ def _in_range(a: np.ndarray, kind: FastRange) -> Good:
     return (a >= lo) & (a <= _HI)
 
 
-def _blocked(
+def run_blocked(
     fast: Callable[..., Good],
     general: Callable[..., Sequence[np.ndarray]],
     args: Sequence[np.ndarray],
@@ -256,7 +256,7 @@ def _blocked(
     if not fast_ok or n == 0:
         return [np.asarray(o).reshape(-1) for o in general(*flat, tol)], shape
     outs = [np.empty((2, n)), np.empty(n, bool)] + [np.empty(n) for _ in range(nout)]
-    ws = _Work.get(n)
+    ws = BlockWork.get(n)
     for s in range(0, n, ws.size):
         ws.m = min(ws.size, n - s)
         sl = slice(s, s + ws.m)
@@ -280,7 +280,7 @@ def _blocked(
     return [outs[0][0], outs[0][1]] + outs[1:], shape
 
 
-def _shaped(
+def shaped_solution(
     cls: Callable[..., _Solution], outs: Sequence[np.ndarray], shape: tuple[int, ...]
 ) -> _Solution:
-    return cls(*(_out(o.reshape(shape)) for o in outs))
+    return cls(*(scalar_out(o.reshape(shape)) for o in outs))

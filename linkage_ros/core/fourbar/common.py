@@ -11,7 +11,7 @@ from ..dyads import TANGENCY_TOL, circle_circle, kahan_four_area
 
 # Residual reported for non-finite inputs, where no misclosure can be measured: one full
 # link length, i.e. "completely wrong", while keeping every output finite.
-_NONFINITE_RESIDUAL = 1.0
+NONFINITE_RESIDUAL = 1.0
 
 
 class FourBarSolution(NamedTuple):
@@ -57,18 +57,18 @@ class SliderCrankInverseSolution(NamedTuple):
 # --------------------------------------------------------------------------- helpers
 
 
-def _f(x: npt.ArrayLike) -> np.ndarray:
+def as_float_array(x: npt.ArrayLike) -> np.ndarray:
     return np.asarray(x, dtype=float)
 
 
-def _out(x: np.ndarray) -> Any:
+def scalar_out(x: np.ndarray) -> Any:
     """Turn 0-d arrays into numpy scalars so scalar calls give scalar-like results."""
     return x[()] if isinstance(x, np.ndarray) and x.ndim == 0 else x
 
 
-def _sign(s: npt.ArrayLike) -> np.ndarray:
+def branch_sign(s: npt.ArrayLike) -> np.ndarray:
     """Branch / sign argument -> exactly +1.0 or -1.0 (negative means -1, anything else +1)."""
-    return np.where(_f(s) < 0, -1.0, 1.0)
+    return np.where(as_float_array(s) < 0, -1.0, 1.0)
 
 
 def triangle_area(a: npt.ArrayLike, b: npt.ArrayLike, c: npt.ArrayLike) -> np.ndarray:
@@ -79,7 +79,9 @@ def triangle_area(a: npt.ArrayLike, b: npt.ArrayLike, c: npt.ArrayLike) -> np.nd
     """
     with np.errstate(invalid='ignore', over='ignore'):
         four_area_n, _, _, scale = kahan_four_area(a, b, c)
-        area: np.ndarray = _out(0.25 * four_area_n * scale * scale)  # (a numpy scalar for 0-d)
+        area: np.ndarray = scalar_out(
+            0.25 * four_area_n * scale * scale
+        )  # (a numpy scalar for 0-d)
         return area
 
 
@@ -92,11 +94,13 @@ def angle_opposite(
     cosine rule, but accurate near 0 and pi where arccos loses half of its digits).
     Out-of-range sides give 0 or pi, i.e. the clipped cosine rule.
     """
-    a, b, c = np.broadcast_arrays(_f(side_a), _f(side_b), _f(opposite))
+    a, b, c = np.broadcast_arrays(
+        as_float_array(side_a), as_float_array(side_b), as_float_array(opposite)
+    )
     with np.errstate(invalid='ignore'):
         four_area_n, _, _, scale = kahan_four_area(a, b, c)
         an, bn, cn = a / scale, b / scale, c / scale
-        angle: np.ndarray = _out(np.arctan2(four_area_n, (an * an + bn * bn) - cn * cn))
+        angle: np.ndarray = scalar_out(np.arctan2(four_area_n, (an * an + bn * bn) - cn * cn))
         return angle
 
 
@@ -137,5 +141,5 @@ def circle_intersection(
         The circles intersect (within the tangency clamp).  d == 0 (concentric) is never ok: the
         intersection is then either empty or a whole circle.
     """
-    sol = circle_circle(c1, r1, c2, r2, _sign(sign), tangency_tol)
-    return sol.point, _out(sol.height), _out(sol.ok)
+    sol = circle_circle(c1, r1, c2, r2, branch_sign(sign), tangency_tol)
+    return sol.point, scalar_out(sol.height), scalar_out(sol.ok)

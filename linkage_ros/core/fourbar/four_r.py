@@ -8,13 +8,23 @@ import numpy as np
 import numpy.typing as npt
 
 from ..dyads import TANGENCY_TOL, pow2_scale
-from .blocks import FastRange, Good, Num, _atan2, _blocked, _rrr, _shaped, _Work, _zero_where_not
+from .blocks import (
+    BlockWork,
+    FastRange,
+    Good,
+    Num,
+    fast_atan2,
+    rrr_block,
+    run_blocked,
+    shaped_solution,
+    zero_where_not,
+)
 from .common import (
-    _NONFINITE_RESIDUAL,
+    NONFINITE_RESIDUAL,
     FourBarInverseSolution,
     FourBarSolution,
-    _f,
-    _sign,
+    as_float_array,
+    branch_sign,
     circle_intersection,
 )
 
@@ -61,7 +71,7 @@ def _transmission_sin(
     return tsin
 
 
-def _atan2_general(y: npt.ArrayLike, x: npt.ArrayLike) -> np.ndarray:
+def atan2_half_open(y: npt.ArrayLike, x: npt.ArrayLike) -> np.ndarray:
     """np.arctan2 with -pi (y = -0 or a tiny negative y, x < 0) returned as +pi: (-pi, pi]."""
     a = np.arctan2(y, x)
     return np.where(a == -np.pi, np.pi, a)
@@ -79,13 +89,13 @@ def _normalised(*lengths: np.ndarray) -> tuple[list[np.ndarray], np.ndarray]:
     return [v / S for v in lengths], S
 
 
-def _general_inputs(
+def general_inputs(
     args: Sequence[Num], scaled: int
 ) -> tuple[list[np.ndarray], np.ndarray, np.ndarray]:
     """The general forms' arguments (the branch last) broadcast to one shape, the mask of the
     elements whose other arguments are all finite, and the first ``scaled`` of them (the
     lengths) divided by the power of four S of :func:`_normalised`: (args, finite, S)."""
-    arrays = np.broadcast_arrays(*(_f(a) for a in args))
+    arrays = np.broadcast_arrays(*(as_float_array(a) for a in args))
     finite = np.isfinite(arrays[0])
     for a in arrays[1:-1]:
         finite = finite & np.isfinite(a)
@@ -94,16 +104,16 @@ def _general_inputs(
     return [*lengths, *arrays[scaled:]], finite, S
 
 
-def _finish(
+def finish_outputs(
     values: Iterable[np.ndarray], ok: np.ndarray, finite: np.ndarray, residual: np.ndarray
 ) -> tuple[list[np.ndarray], np.ndarray]:
     """Zero the placeholders where not ok and make the residual finite."""
     vals = [np.where(ok, v, 0.0) for v in values]
-    res = np.where(finite & np.isfinite(residual), residual, _NONFINITE_RESIDUAL)
+    res = np.where(finite & np.isfinite(residual), residual, NONFINITE_RESIDUAL)
     return vals, res
 
 
-def _longest(*lengths: Num) -> Num:
+def longest_length(*lengths: Num) -> Num:
     if all(isinstance(v, float) for v in lengths):
         return max(lengths)  # scalars: no ufunc call per block
     m = lengths[0]
@@ -121,7 +131,7 @@ def _fourbar_forward_fast(
     sgn: Num,
     tol: float,
     out: Sequence[np.ndarray],
-    ws: _Work,
+    ws: BlockWork,
 ) -> Good:
     angles, ok, tsin, res = out  # angles = (theta3, theta4)
     w = ws('w', 2)  # w = O4 - A
@@ -130,20 +140,20 @@ def _fourbar_forward_fast(
     w *= -l2
     w[0] += l1
     # B from circle (A, l3) and circle (O4, l4): v = (B - A, B - O4)
-    v, area4, mis, good = _rrr(w, l3, l4, sgn, tol, ok, ws)
-    _atan2(v[:, 1], v[:, 0], angles, ws)
+    v, area4, mis, good = rrr_block(w, l3, l4, sgn, tol, ok, ws)
+    fast_atan2(v[:, 1], v[:, 0], angles, ws)
     # |sin mu| = 2 * area(A, B, O4) / (l3 l4), the Kahan area: accurate near the toggles too
     np.multiply(area4, 0.5 / (l3 * l4), out=tsin)
     np.minimum(tsin, 1.0, out=tsin)
-    np.divide(mis, _longest(l1, l2, l3, l4), out=res)
-    _zero_where_not(ok, angles)
+    np.divide(mis, longest_length(l1, l2, l3, l4), out=res)
+    zero_where_not(ok, angles)
     return good
 
 
 def _fourbar_forward_general(
     l1: Num, l2: Num, l3: Num, l4: Num, t2: Num, br: Num, tangency_tol: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    (l1, l2, l3, l4, t2, br), finite, _ = _general_inputs((l1, l2, l3, l4, t2, br), 4)
+    (l1, l2, l3, l4, t2, br), finite, _ = general_inputs((l1, l2, l3, l4, t2, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
         ax, ay = l2 * np.cos(t2), l2 * np.sin(t2)
         o4x, o4y = l1, np.zeros_like(l1)
@@ -152,11 +162,11 @@ def _fourbar_forward_general(
         )
         ok = np.asarray(ok) & finite & (l1 >= 0) & (l2 >= 0)
         bx, by = b[..., 0], b[..., 1]
-        t3 = _atan2_general(by - ay, bx - ax)
-        t4 = _atan2_general(by - o4y, bx - o4x)
+        t3 = atan2_half_open(by - ay, bx - ax)
+        t4 = atan2_half_open(by - o4y, bx - o4x)
         tsin = _transmission_sin(ax, ay, bx, by, o4x, o4y, l3, l4)
         residual = _closure_residual(l1, l2, l3, l4, t2, t3, t4)
-    (t3, t4, tsin), residual = _finish((t3, t4, tsin), ok, finite, residual)
+    (t3, t4, tsin), residual = finish_outputs((t3, t4, tsin), ok, finite, residual)
     return t3, t4, ok, tsin, residual
 
 
@@ -193,9 +203,16 @@ def fourbar_forward(
         transmission_sin are 0 and the residual is the misclosure of the closest-approach
         configuration (about the gap between the two circles / longest link, so > 0).
     """
-    args = (_f(l1), _f(l2), _f(l3), _f(l4), _f(theta2), _sign(branch))
+    args = (
+        as_float_array(l1),
+        as_float_array(l2),
+        as_float_array(l3),
+        as_float_array(l4),
+        as_float_array(theta2),
+        branch_sign(branch),
+    )
     with np.errstate(all='ignore'):
-        outs, shape = _blocked(
+        outs, shape = run_blocked(
             _fourbar_forward_fast,
             _fourbar_forward_general,
             args,
@@ -203,7 +220,7 @@ def fourbar_forward(
             2,
             float(tangency_tol),
         )
-    return _shaped(FourBarSolution, outs, shape)
+    return shaped_solution(FourBarSolution, outs, shape)
 
 
 def _fourbar_inverse_fast(
@@ -215,7 +232,7 @@ def _fourbar_inverse_fast(
     sgn: Num,
     tol: float,
     out: Sequence[np.ndarray],
-    ws: _Work,
+    ws: BlockWork,
 ) -> Good:
     angles, ok, tsin, res = out  # angles = (theta2, theta3)
     cs, w = ws('cs', 2), ws('w', 2)
@@ -224,10 +241,10 @@ def _fourbar_inverse_fast(
     np.multiply(cs, -l4, out=w)  # w = O2 - B = -(O4 + l4 (c4, s4))
     w[0] -= l1
     # A from circle (B, l3) and circle (O2, l2): v = (A - B, A - O2)
-    v, _, mis, good = _rrr(w, l3, l2, sgn, tol, ok, ws)
+    v, _, mis, good = rrr_block(w, l3, l2, sgn, tol, ok, ws)
     np.negative(v[0], out=v[0])  # B - A
     v = v[::-1]  # (A - O2, B - A): theta2, theta3
-    _atan2(v[:, 1], v[:, 0], angles, ws)
+    fast_atan2(v[:, 1], v[:, 0], angles, ws)
     # |sin mu| = |cross(B - A, B - O4)| / (l3 l4), B - O4 = l4 (c4, s4)
     ba = v[1]
     ba *= cs[::-1]
@@ -235,15 +252,15 @@ def _fourbar_inverse_fast(
     np.abs(tsin, out=tsin)
     tsin /= l3
     np.minimum(tsin, 1.0, out=tsin)
-    np.divide(mis, _longest(l1, l2, l3, l4), out=res)
-    _zero_where_not(ok, angles, tsin)
+    np.divide(mis, longest_length(l1, l2, l3, l4), out=res)
+    zero_where_not(ok, angles, tsin)
     return good
 
 
 def _fourbar_inverse_general(
     l1: Num, l2: Num, l3: Num, l4: Num, t4: Num, br: Num, tangency_tol: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    (l1, l2, l3, l4, t4, br), finite, _ = _general_inputs((l1, l2, l3, l4, t4, br), 4)
+    (l1, l2, l3, l4, t4, br), finite, _ = general_inputs((l1, l2, l3, l4, t4, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
         o4x, o4y = l1, np.zeros_like(l1)
         bx, by = o4x + l4 * np.cos(t4), o4y + l4 * np.sin(t4)
@@ -252,11 +269,11 @@ def _fourbar_inverse_general(
         )
         ok = np.asarray(ok) & finite & (l1 >= 0) & (l4 >= 0)
         ax, ay = a[..., 0], a[..., 1]
-        t2 = _atan2_general(ay, ax)
-        t3 = _atan2_general(by - ay, bx - ax)
+        t2 = atan2_half_open(ay, ax)
+        t3 = atan2_half_open(by - ay, bx - ax)
         tsin = _transmission_sin(ax, ay, bx, by, o4x, o4y, l3, l4)
         residual = _closure_residual(l1, l2, l3, l4, t2, t3, t4)
-    (t2, t3, tsin), residual = _finish((t2, t3, tsin), ok, finite, residual)
+    (t2, t3, tsin), residual = finish_outputs((t2, t3, tsin), ok, finite, residual)
     return t2, t3, ok, tsin, residual
 
 
@@ -280,9 +297,16 @@ def fourbar_inverse(
         Same conventions as :func:`fourbar_forward` (transmission angle still taken at B,
         between coupler and rocker).
     """
-    args = (_f(l1), _f(l2), _f(l3), _f(l4), _f(theta4), _sign(branch))
+    args = (
+        as_float_array(l1),
+        as_float_array(l2),
+        as_float_array(l3),
+        as_float_array(l4),
+        as_float_array(theta4),
+        branch_sign(branch),
+    )
     with np.errstate(all='ignore'):
-        outs, shape = _blocked(
+        outs, shape = run_blocked(
             _fourbar_inverse_fast,
             _fourbar_inverse_general,
             args,
@@ -290,4 +314,4 @@ def fourbar_inverse(
             2,
             float(tangency_tol),
         )
-    return _shaped(FourBarInverseSolution, outs, shape)
+    return shaped_solution(FourBarInverseSolution, outs, shape)

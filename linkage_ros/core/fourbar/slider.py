@@ -9,26 +9,26 @@ import numpy.typing as npt
 
 from ..dyads import TANGENCY_TOL
 from .blocks import (
+    BlockWork,
     FastRange,
     Good,
     Num,
-    _atan2,
-    _blocked,
-    _good,
-    _rrr,
-    _shaped,
-    _Work,
-    _zero_where_not,
+    fast_atan2,
+    good_mask,
+    rrr_block,
+    run_blocked,
+    shaped_solution,
+    zero_where_not,
 )
 from .common import (
-    _NONFINITE_RESIDUAL,
+    NONFINITE_RESIDUAL,
     SliderCrankInverseSolution,
     SliderCrankSolution,
-    _f,
-    _sign,
+    as_float_array,
+    branch_sign,
     circle_intersection,
 )
-from .four_r import _atan2_general, _finish, _general_inputs, _longest
+from .four_r import atan2_half_open, finish_outputs, general_inputs, longest_length
 
 # --------------------------------------------------------------------------- slider-crank
 
@@ -47,7 +47,7 @@ def _slider_residual(
 
 
 def _slider_forward_fast(
-    r: Num, l: Num, e: Num, t2: Num, sgn: Num, tol: float, out: Sequence[np.ndarray], ws: _Work
+    r: Num, l: Num, e: Num, t2: Num, sgn: Num, tol: float, out: Sequence[np.ndarray], ws: BlockWork
 ) -> Good:
     xt3, ok, res = out  # xt3 = (x, theta3)
     x, t3 = xt3
@@ -60,7 +60,7 @@ def _slider_forward_fast(
     ady, gap = ws('ady'), ws('gap')
     np.abs(dy, out=ady)
     np.subtract(l, ady, out=gap)  # > 0: the rod reaches the line; factored, no l**2 - dy**2
-    scale = _longest(r, l, np.abs(e))
+    scale = longest_length(r, l, np.abs(e))
     np.greater_equal(gap, np.multiply(scale, -tol), out=ok)
     # |B_x - A_x| = sqrt((l - |dy|)(l + |dy|)); 0 where clamped or not ok (gap <= 0 there)
     np.maximum(gap, 0.0, out=gap)
@@ -69,7 +69,7 @@ def _slider_forward_fast(
     np.sqrt(gap, out=hx)
     hx *= sgn
     np.add(a[0], hx, out=x)
-    _atan2(dy, hx, t3, ws)  # where not ok: the rod pointing straight at the line (+-pi/2)
+    fast_atan2(dy, hx, t3, ws)  # where not ok: the rod pointing straight at the line (+-pi/2)
     # misclosure of the rod drawn with length l along its solved direction
     q, k = ws('q', 2), ws('k')
     np.multiply(rod, rod, out=q)
@@ -84,14 +84,14 @@ def _slider_forward_fast(
     np.add(rod[0], rod[1], out=k)
     np.sqrt(k, out=k)
     np.divide(k, scale, out=res)
-    _zero_where_not(ok, t3)
-    return _good(res, None, ws)
+    zero_where_not(ok, t3)
+    return good_mask(res, None, ws)
 
 
 def _slider_forward_general(
     r: Num, l: Num, e: Num, t2: Num, br: Num, tangency_tol: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    (r, l, e, t2, br), finite, S = _general_inputs((r, l, e, t2, br), 3)
+    (r, l, e, t2, br), finite, S = general_inputs((r, l, e, t2, br), 3)
     with np.errstate(invalid='ignore', over='ignore'):
         ax, ay = r * np.cos(t2), r * np.sin(t2)
         dy = e - ay
@@ -103,7 +103,7 @@ def _slider_forward_general(
         half = np.where(ok & (gap > 0), np.sqrt(np.maximum(gap, 0.0)) * np.sqrt(l + ady), 0.0)
         x = np.where(ok, ax + br * half, ax)
         # closest approach when not ok: rod pointing straight at the line (angle +-pi/2)
-        t3 = np.where(ok, _atan2_general(dy, br * half), np.arctan2(dy, 0.0))
+        t3 = np.where(ok, atan2_half_open(dy, br * half), np.arctan2(dy, 0.0))
         residual = _slider_residual(r, l, e, t2, t3, x)
         # back to length units; an x beyond the float range (r + l near 1.8e308) is not
         # representable: not ok, x = A_x (finite: |A_x| <= r) and the residual of a wrong answer
@@ -111,8 +111,8 @@ def _slider_forward_general(
         beyond = ok & ~np.isfinite(x)
         ok &= ~beyond
         x = np.where(beyond, ax, x)
-        residual = np.where(beyond, _NONFINITE_RESIDUAL, residual)
-    (t3,), residual = _finish((t3,), ok, finite, residual)
+        residual = np.where(beyond, NONFINITE_RESIDUAL, residual)
+    (t3,), residual = finish_outputs((t3,), ok, finite, residual)
     x = np.where(finite, x, 0.0)
     return x, t3, ok, residual
 
@@ -149,9 +149,15 @@ def slider_crank_forward(
         configuration (rod pointing at the line).  A slider position beyond the float range
         (r + l near 1.8e308) is not ok either, with x = A_x and residual 1.
     """
-    args = (_f(r), _f(l), _f(e), _f(theta2), _sign(branch))
+    args = (
+        as_float_array(r),
+        as_float_array(l),
+        as_float_array(e),
+        as_float_array(theta2),
+        branch_sign(branch),
+    )
     with np.errstate(all='ignore'):
-        outs, shape = _blocked(
+        outs, shape = run_blocked(
             _slider_forward_fast,
             _slider_forward_general,
             args,
@@ -159,39 +165,39 @@ def slider_crank_forward(
             1,
             float(tangency_tol),
         )
-    return _shaped(SliderCrankSolution, outs, shape)
+    return shaped_solution(SliderCrankSolution, outs, shape)
 
 
 def _slider_inverse_fast(
-    r: Num, l: Num, e: Num, x: Num, sgn: Num, tol: float, out: Sequence[np.ndarray], ws: _Work
+    r: Num, l: Num, e: Num, x: Num, sgn: Num, tol: float, out: Sequence[np.ndarray], ws: BlockWork
 ) -> Good:
     angles, ok, res = out  # angles = (theta2, theta3)
     w = ws('w', 2)  # w = B - O2 = (x, e)
     np.copyto(w[0], x)
     np.copyto(w[1], e)
     # A from circle (O2, r) and circle (B, l): v = (A - O2, A - B)
-    v, _, mis, good = _rrr(w, r, l, sgn, tol, ok, ws)
+    v, _, mis, good = rrr_block(w, r, l, sgn, tol, ok, ws)
     np.negative(v[1], out=v[1])  # B - A
-    _atan2(v[:, 1], v[:, 0], angles, ws)
-    np.divide(mis, _longest(r, l, np.abs(e)), out=res)
-    _zero_where_not(ok, angles)
+    fast_atan2(v[:, 1], v[:, 0], angles, ws)
+    np.divide(mis, longest_length(r, l, np.abs(e)), out=res)
+    zero_where_not(ok, angles)
     return good
 
 
 def _slider_inverse_general(
     r: Num, l: Num, e: Num, x: Num, br: Num, tangency_tol: float
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    (r, l, e, x, br), finite, _ = _general_inputs((r, l, e, x, br), 4)
+    (r, l, e, x, br), finite, _ = general_inputs((r, l, e, x, br), 4)
     with np.errstate(invalid='ignore', over='ignore'):
         a, _, ok = circle_intersection(
             np.zeros(x.shape + (2,)), r, np.stack([x, e], -1), l, br, tangency_tol
         )
         ok = np.asarray(ok) & finite
         ax, ay = a[..., 0], a[..., 1]
-        t2 = _atan2_general(ay, ax)
-        t3 = _atan2_general(e - ay, x - ax)
+        t2 = atan2_half_open(ay, ax)
+        t3 = atan2_half_open(e - ay, x - ax)
         residual = _slider_residual(r, l, e, t2, t3, x)
-    (t2, t3), residual = _finish((t2, t3), ok, finite, residual)
+    (t2, t3), residual = finish_outputs((t2, t3), ok, finite, residual)
     return t2, t3, ok, residual
 
 
@@ -215,9 +221,15 @@ def slider_crank_inverse(
     SliderCrankInverseSolution(theta2, theta3, ok, residual)
         Angles in (-pi, pi], 0 where not ok; residual as in :func:`slider_crank_forward`.
     """
-    args = (_f(r), _f(l), _f(e), _f(x), _sign(branch))
+    args = (
+        as_float_array(r),
+        as_float_array(l),
+        as_float_array(e),
+        as_float_array(x),
+        branch_sign(branch),
+    )
     with np.errstate(all='ignore'):
-        outs, shape = _blocked(
+        outs, shape = run_blocked(
             _slider_inverse_fast,
             _slider_inverse_general,
             args,
@@ -225,7 +237,7 @@ def slider_crank_inverse(
             1,
             float(tangency_tol),
         )
-    return _shaped(SliderCrankInverseSolution, outs, shape)
+    return shaped_solution(SliderCrankInverseSolution, outs, shape)
 
 
 def slider_crank_stroke(r: float, l: float, e: float) -> tuple[float, float]:

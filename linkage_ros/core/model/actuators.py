@@ -11,7 +11,7 @@ from ..units import Quantity, degrees_warning, span_warning
 from .checks import SceneContext
 
 
-def _read_actuators(
+def read_actuators(
     ctx: SceneContext,
     data: Mapping[str, Any],
     ground: str,

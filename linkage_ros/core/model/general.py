@@ -23,7 +23,7 @@ from ..mechanism import (
     SceneForm,
     reference_value,
 )
-from .actuators import _read_actuators
+from .actuators import read_actuators
 from .checks import TOP_KEYS, SceneContext
 from .constraints import expand_constraints
 from .dimensions import (
@@ -37,7 +37,7 @@ from .limits import limit_violation
 from .points import read_points
 from .prismatics import read_cylinders, read_sliders
 from .redraw import RedrawRefused, redraw
-from .shortcuts import _four_bar_to_general, _slider_crank_to_general
+from .shortcuts import four_bar_to_general, slider_crank_to_general
 
 
 def build_mechanism(
@@ -117,9 +117,9 @@ def build_mechanism(
             )
     shortcut: dict[str, Any] = {}
     if form is SceneForm.FOUR_BAR:
-        general, shortcut = _four_bar_to_general(ctx, data)
+        general, shortcut = four_bar_to_general(ctx, data)
     elif form is SceneForm.SLIDER_CRANK:
-        general, shortcut = _slider_crank_to_general(ctx, data)
+        general, shortcut = slider_crank_to_general(ctx, data)
     else:
         general = dict(data)
     if form is not SceneForm.GENERAL and 'outputs' in data:
@@ -225,7 +225,7 @@ def _build_general(
     read_cylinders(ctx, data, points, links, prismatics, actuators)
     read_sliders(ctx, data, points, links, prismatics)
     revolutes = _revolute_joints(ctx, points, links, prismatics)
-    _read_actuators(ctx, data, ground, links, prismatics, actuators)
+    read_actuators(ctx, data, ground, links, prismatics, actuators)
     outputs = _read_outputs(ctx, data, points, ground, links)
     _check_one_point_links(ctx, ground, links, prismatics)
     scale = _length_scale(points, links, prismatics)

@@ -77,7 +77,7 @@ def _reference_input(
     ctx.fail(key, 'these lengths do not assemble at any crank angle', lengths)
 
 
-def _four_bar_to_general(
+def four_bar_to_general(
     ctx: SceneContext, data: Mapping[str, Any]
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     from ..dyads import circle_circle
@@ -194,7 +194,7 @@ def _four_bar_to_general(
     }
 
 
-def _slider_crank_to_general(
+def slider_crank_to_general(
     ctx: SceneContext, data: Mapping[str, Any]
 ) -> tuple[dict[str, Any], dict[str, Any]]:
     sc = ctx.mapping('slider_crank', data['slider_crank'])

@@ -39,14 +39,13 @@ A full turn without limits is (None, None).
 from __future__ import annotations
 
 from .common import (  # noqa: F401
-    _KARY,
-    _MAX_SEGMENTS,
     ANGLE_TOL,
+    KARY,
     LENGTH_TOL,
+    MAX_SEGMENTS,
     TOUCHED_TOGGLE_MARGIN,
     TWO_PI,
-    _clip_periodic,
-    _identity_poses,
+    clip_periodic,
     link_key,
     point_key,
     reference_point,
@@ -58,40 +57,32 @@ from .oscillation import (  # noqa: F401
     oscillation_range,
 )
 from .ranges import (  # noqa: F401
-    _dedupe,
-    _scan_circuit,
-    _segment_toggles,
-    _source,
     actuator_range,
     actuator_ranges,
     input_ranges,
+    scan_circuit,
     toggle_positions,
 )
 from .region import (  # noqa: F401
-    _actuator_limits,
-    _concave_hull,
-    _grid_spacing,
-    _moving_actuators,
-    _polygon_area,
     distance_to_polygon,
     points_in_polygon,
     reachable_region,
 )
 from .scan import (  # noqa: F401
-    _held_reference,
-    _Line,
-    _Segment,
-    _slide_bracket,
+    ScanLine,
+    Segment,
+    held_reference,
+    slide_bracket,
 )
 from .tilt import (  # noqa: F401
     max_tilt,
 )
 from .touches import (  # noqa: F401
-    _golden_min,
+    golden_min,
 )
 from .walk import (  # noqa: F401
-    _walk,
-    _walk_range,
+    walk_commands,
+    walk_range,
 )
 
 __all__ = [

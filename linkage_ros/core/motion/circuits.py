@@ -1,6 +1,6 @@
 """The circuit through the reference pose of a one-actuator mechanism: which configurations the
 mechanism reaches from its drawing by moving its actuator, through toggles (the scan of
-ranges._scan_circuit, each stretch clipped to the actuator's limits where its motion reaches
+ranges.scan_circuit, each stretch clipped to the actuator's limits where its motion reaches
 them).
 
 A dyad's branch sign names the assembly mode only where its toggle is never crossed. A
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
-from .ranges import _scan_circuit
+from .ranges import scan_circuit
 from .scan import EndKind
 from .touches import TOUCH_RESOLUTION
 
@@ -86,7 +86,7 @@ def reference_circuit(mech: Mechanism, samples: int = 720) -> Circuit | None:
     if len(mech.actuators) != 1 or mech.dof != 1:
         return None
     name = next(iter(mech.actuators))
-    line, x0, segments, _bracket = _scan_circuit(mech, name, {}, samples)
+    line, x0, segments, _bracket = scan_circuit(mech, name, {}, samples)
     if line is None or not segments:
         return None
     drawn = segments[0]  # (the scan's first segment is the drawing's)

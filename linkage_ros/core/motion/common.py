@@ -18,13 +18,13 @@ TWO_PI = 2.0 * math.pi
 ANGLE_TOL = 1e-12
 LENGTH_TOL = 1e-12
 #: points evaluated per refinement round (a 17-ary search: ~9 rounds from a grid step to 1e-12)
-_KARY = 16
+KARY = 16
 #: a local minimum of a dyad's margin along a scanned input, refined to the input tolerance,
 #: below this is a toggle the circuit touches (a change point): the refined margin of a true
 #: touch is ~sqrt of the input tolerance. Not the assembly-mode threshold (result.SIGN_MARGIN)
 TOUCHED_TOGGLE_MARGIN = 1e-7
 #: cap on circuit segments followed through assembly-mode changes
-_MAX_SEGMENTS = 64
+MAX_SEGMENTS = 64
 
 
 # ---- small helpers ----------------------------------------------------------------------------
@@ -95,12 +95,12 @@ def reachable_piece(
 ) -> list[tuple[float, float, bool, bool]]:
     """The piece of [lo, hi] inside the circular interval ``lim`` that holds ``seed`` (where
     a stretch of the motion starts: the motion within the limits cannot leave it), as a list
-    of at most one :func:`_clip_periodic` piece."""
+    of at most one :func:`clip_periodic` piece."""
     tol = 1e-9 * max(1.0, abs(seed))
-    return [p for p in _clip_periodic(lo, hi, lim) if p[0] - tol <= seed <= p[1] + tol][:1]
+    return [p for p in clip_periodic(lo, hi, lim) if p[0] - tol <= seed <= p[1] + tol][:1]
 
 
-def _clip_periodic(
+def clip_periodic(
     lo: float, hi: float, lim: tuple[float, float]
 ) -> list[tuple[float, float, bool, bool]]:
     """Pieces of the unwrapped interval [lo, hi] inside the circular interval lim = (a, b)."""

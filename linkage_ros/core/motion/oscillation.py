@@ -12,8 +12,8 @@ from ..dyads import wrap_angle
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
 from .common import TWO_PI, reachable_piece
-from .ranges import _scan_circuit
-from .scan import Signs, _held_reference
+from .ranges import scan_circuit
+from .scan import Signs, held_reference
 
 # ---- link oscillation -------------------------------------------------------------------------
 
@@ -37,8 +37,8 @@ def oscillation_range(
     actuator = actuator or next(iter(mech.actuators))
     act = mech.actuators[actuator]
     periodic = isinstance(act, AngleActuator)
-    held = _held_reference(mech, actuator, held)
-    line, x0, segs, _ = _scan_circuit(mech, actuator, held, samples)
+    held = held_reference(mech, actuator, held)
+    line, x0, segs, _ = scan_circuit(mech, actuator, held, samples)
     if line is None:
         raise ValueError(f'oscillation_range needs a closed-form plan for {actuator!r}')
     if not segs:

@@ -24,9 +24,9 @@ from ..solver import Result, Solver
 from ..solver.result import NEWTON_TOL, branch_text, named_value
 from ..steps import RRRDyad
 from ..velocity import Velocities, velocities
-from .ranges import _scan_circuit, input_ranges
-from .scan import _held_reference, turns_fully
-from .touches import _golden_min
+from .ranges import input_ranges, scan_circuit
+from .scan import held_reference, turns_fully
+from .touches import golden_min
 
 #: an output whose swing (rad) or stroke (of the length scale) is no more than this does not
 #: move (it rounds): it has no time ratio
@@ -154,11 +154,11 @@ class _Piece:
 
 def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece]]:
     """(full turn, pieces): the input's circuit within its limits, through its toggles and so
-    every branch it passes (ranges._scan_circuit, as ``linkage range --links`` follows it: a
+    every branch it passes (ranges.scan_circuit, as ``linkage range --links`` follows it: a
     non-Grashof crank's swing one way in one assembly mode and back in the other), sampled
     ``samples`` times a piece."""
-    held = _held_reference(mech, act, None)
-    _, x0, segs, _ = _scan_circuit(mech, act, held, samples)
+    held = held_reference(mech, act, None)
+    _, x0, segs, _ = scan_circuit(mech, act, held, samples)
     # the range the input may take (its toggles within its limits: input_ranges)
     periodic = isinstance(mech.actuators[act], AngleActuator)
     rlo, rhi = input_ranges(mech)[act]
@@ -278,7 +278,7 @@ def input_sweep(
 
             # no sign change of the rate on the grid step: an end of the range (a toggle of the
             # input, where the rate has no value) or a flat top; the least value found there
-            x, fx = _golden_min(f, float(a), float(b), tol)
+            x, fx = golden_min(f, float(a), float(b), tol)
         if not fx <= sign * series[i]:  # an end of the range, or a flat top
             x, fx = float(grid[i]), sign * float(series[i])
         return x, sign * fx  # (unwrapped: the circuit's own input coordinate)

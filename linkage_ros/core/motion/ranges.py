@@ -11,39 +11,39 @@ import numpy as np
 from ..mechanism import actuator_kind
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
-from .common import TWO_PI, _clip_periodic, reference_scalar
+from .common import TWO_PI, clip_periodic, reference_scalar
 from .components import actuator_parts
 from .scan import (
     NOWHERE,
     Bracket,
     End,
     EndKind,
+    ScanLine,
+    Segment,
     Signs,
-    _held_reference,
-    _Line,
-    _Segment,
-    _slide_bracket,
+    held_reference,
+    slide_bracket,
     turns_fully,
 )
 from .touches import TOUCH_RESOLUTION, touch_points
-from .walk import _walk_range
+from .walk import walk_range
 
 # ---- actuator ranges --------------------------------------------------------------------------
 
 
-def _scan_circuit(
+def scan_circuit(
     mech: Mechanism, name: str, held: Mapping[str, Any], samples: int
-) -> tuple[_Line | None, float, list[_Segment], Bracket | None]:
+) -> tuple[ScanLine | None, float, list[Segment], Bracket | None]:
     """(line, x0, segments, bracket) of one scanned actuator; line None for a walk."""
     x0 = reference_scalar(mech, name)
     act = mech.actuators[name]
     periodic = isinstance(act, AngleActuator)
-    bracket = None if periodic else _slide_bracket(mech, name, x0)
-    line = _Line(mech, name, held, samples, bracket)
+    bracket = None if periodic else slide_bracket(mech, name, x0)
+    line = ScanLine(mech, name, held, samples, bracket)
     if line.closed:
         limits = angle_limit_arc(act.min, act.max) if periodic else (act.min, act.max)
         return line, x0, line.circuit(x0, limits), bracket
-    comp = _walk_range(mech, name, held, x0, periodic, bracket)
+    comp = walk_range(mech, name, held, x0, periodic, bracket)
     if comp is NOWHERE:
         return None, x0, [], bracket
     if comp is None:
@@ -51,7 +51,7 @@ def _scan_circuit(
             None,
             x0,
             [
-                _Segment(
+                Segment(
                     (),
                     x0 - math.pi,
                     x0 + math.pi,
@@ -65,7 +65,7 @@ def _scan_circuit(
             bracket,
         )
     lo, hi, le, he = comp
-    return None, x0, [_Segment((), lo, hi, le, he, x0)], bracket
+    return None, x0, [Segment((), lo, hi, le, he, x0)], bracket
 
 
 def actuator_range(
@@ -85,8 +85,8 @@ def actuator_range(
         )
     act = mech.actuators[name]
     periodic = isinstance(act, AngleActuator)
-    held = _held_reference(mech, name, held)
-    line, x0, segs, _ = _scan_circuit(mech, name, held, samples)
+    held = held_reference(mech, name, held)
+    line, x0, segs, _ = scan_circuit(mech, name, held, samples)
     out: dict[str, Any] = {
         'name': name,
         'kind': actuator_kind(act),
@@ -132,7 +132,7 @@ def actuator_range(
             if lim is None:
                 pieces = [(lo, hi, False, False)]
             else:
-                pieces = _clip_periodic(lo, hi, lim)
+                pieces = clip_periodic(lo, hi, lim)
             if not pieces:
                 out['assembles'] = False
                 return out
@@ -194,7 +194,7 @@ def _source(end: End) -> str | None:
     return kind.value if kind in (EndKind.TOGGLE, EndKind.LIMIT, EndKind.BRACKET) else None
 
 
-def _segment_toggles(line: _Line, segs: Sequence[_Segment]) -> list[float]:
+def _segment_toggles(line: ScanLine, segs: Sequence[Segment]) -> list[float]:
     """Assembly-limited segment ends, the change points where the circuit crosses into the
     other assembly mode and interior points where a dyad margin touches zero."""
     out = []

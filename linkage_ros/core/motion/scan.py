@@ -18,10 +18,10 @@ from ..plan import Poses
 from ..quantities import AngleSpec, PointSpec
 from ..solver import SolveMode, Solver
 from .common import (
-    _KARY,
-    _MAX_SEGMENTS,
     ANGLE_TOL,
+    KARY,
     LENGTH_TOL,
+    MAX_SEGMENTS,
     TWO_PI,
     reachable_piece,
     reference_value,
@@ -84,7 +84,7 @@ Limits: TypeAlias = tuple[float | None, float | None] | None
 
 
 @dataclass
-class _Segment:
+class Segment:
     """A stretch of the circuit on one assembly mode: the scanned known over [lo, hi] (unwrapped
     for angles), or the full turn; its ends are End pairs (EndKind and the dyads there)."""
 
@@ -98,7 +98,7 @@ class _Segment:
     full: bool = False
 
 
-def turns_fully(segs: Sequence[_Segment]) -> bool:
+def turns_fully(segs: Sequence[Segment]) -> bool:
     """Whether the circuit ``segs`` of an angle takes every input value with no end: one full
     turn, or stretches joined only at change points."""
     return bool(segs) and all(
@@ -107,7 +107,7 @@ def turns_fully(segs: Sequence[_Segment]) -> bool:
     )
 
 
-class _Line:
+class ScanLine:
     """The mechanism along one scanned known with every other known held (closed-form plan)."""
 
     def __init__(
@@ -173,7 +173,7 @@ class _Line:
         for _ in range(200):
             if abs(bad - good) <= self.tol:
                 break
-            xs = good + (bad - good) * np.arange(1, _KARY + 1) / (_KARY + 1)
+            xs = good + (bad - good) * np.arange(1, KARY + 1) / (KARY + 1)
             okk = self.ok(xs, signs)
             fails = np.flatnonzero(~okk)
             if fails.size == 0:
@@ -415,16 +415,16 @@ class _Line:
         tol = 1e-12 + 1e-9 * abs(end)
         return reached is not None and reached[0] - tol <= end <= reached[1] + tol
 
-    def circuit(self, x0: float, limits: Limits = None) -> list[_Segment]:
+    def circuit(self, x0: float, limits: Limits = None) -> list[Segment]:
         """Follow the motion from ``x0`` in the reference assembly mode through every toggle
         and change point (only those inside ``limits``: the motion cannot reach the others)."""
         ref = tuple(self.plan.reference_signs)
-        segs: list[_Segment] = []
+        segs: list[Segment] = []
         # (signs, seed, the segment it came from, way: 0 both ways, +1 / -1 onward from a
         # change point at seed)
         queue: list[tuple[Signs, float, int | None, int]] = [(ref, float(x0), None, 0)]
         keys: list[tuple[float, float]] = []  # each segment's reached values (reached)
-        while queue and len(segs) < _MAX_SEGMENTS:
+        while queue and len(segs) < MAX_SEGMENTS:
             signs, seed, parent, way = queue.pop(0)
             comp = self.component(seed, signs)
             if comp is NOWHERE:
@@ -433,7 +433,7 @@ class _Line:
             if piece is None:
                 if not any(s.full and s.signs == signs for s in segs):
                     segs.append(
-                        _Segment(
+                        Segment(
                             signs,
                             seed - math.pi,
                             seed + math.pi,
@@ -459,7 +459,7 @@ class _Line:
                 for s, k in zip(segs, keys)
             ):
                 continue
-            segs.append(_Segment(signs, lo, hi, lo_end, hi_end, seed, parent))
+            segs.append(Segment(signs, lo, hi, lo_end, hi_end, seed, parent))
             keys.append(key)
             me = len(segs) - 1
             for end, (kind, k), onward in ((lo, lo_end, -1), (hi, hi_end, 1)):
@@ -485,7 +485,7 @@ class _Line:
         return np.where(info['ok'], ang, np.nan)
 
 
-def _held_reference(mech: Mechanism, scan: str, held: Mapping[str, Any] | None) -> dict[str, Any]:
+def held_reference(mech: Mechanism, scan: str, held: Mapping[str, Any] | None) -> dict[str, Any]:
     """The other actuators' values a scan holds: ``held``'s, else the reference pose's."""
     out: dict[str, Any] = {}
     for a in mech.actuators:
@@ -495,7 +495,7 @@ def _held_reference(mech: Mechanism, scan: str, held: Mapping[str, Any] | None) 
     return out
 
 
-def _slide_bracket(mech: Mechanism, name: str, x0: float) -> Bracket:
+def slide_bracket(mech: Mechanism, name: str, x0: float) -> Bracket:
     """Where a slide's scan looks (m): its limits, else 4 length scales either side."""
     act = mech.actuators.get(name)
     lo = act.min if act is not None else None

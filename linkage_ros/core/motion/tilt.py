@@ -13,7 +13,7 @@ from ..solver import Result, Solver
 from ..solver.mode_rule import ModeKeeper
 from ..solver.result import NEWTON_TOL
 from .common import link_key, point_key, reference_scalar
-from .walk import _walk
+from .walk import walk_commands
 
 # ---- tilt of a link about a held point --------------------------------------------------------
 
@@ -117,7 +117,7 @@ def max_tilt(
         }
     res: dict[str, Any] = {**base, 'ok': True, 'reason': {}, 'inputs_at': {}}
     for d, key in ((1, 'max'), (-1, 'min')):
-        b, why, last = _walk(solver, command, start, a0, d, step, max_rotation, tol)
+        b, why, last = walk_commands(solver, command, start, a0, d, step, max_rotation, tol)
         res[key] = b
         res['reason'][key] = why
         res['inputs_at'][key] = dict(last.inputs)

@@ -40,7 +40,7 @@ _SHAPE_PROBE = 1e-5
 _ROOT_PROBE = 1e-4
 
 
-def _golden_min(f: Callable[[float], float], a: float, b: float, tol: float) -> tuple[float, float]:
+def golden_min(f: Callable[[float], float], a: float, b: float, tol: float) -> tuple[float, float]:
     """Golden-section minimum of a unimodal f on [a, b] (robust on the V-shaped margin at a
     tangency, where parabolic steps stall at sqrt(eps))."""
     g = (math.sqrt(5.0) - 1.0) / 2.0
@@ -65,7 +65,7 @@ def _kary_min(
 ) -> tuple[float, float]:
     """The minimum of a unimodal margin on [a, b] (NaN counted as 1: the plan fails there),
     _KARY points a round: one plan run evaluates them all (a run of one point costs about as
-    much as one of sixteen: _golden_min's point-by-point rounds took seconds per scan)."""
+    much as one of sixteen: golden_min's point-by-point rounds took seconds per scan)."""
     best_x, best_f = a, math.inf
     for _ in range(100):
         xs = np.linspace(a, b, _KARY + 2)

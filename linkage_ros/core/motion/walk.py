@@ -14,7 +14,7 @@ from .scan import NOWHERE, Bracket, Component, EndKind
 # ---- walks with the solver (Newton / hybrid plans, inverse problems with limits) --------------
 
 
-def _walk(
+def walk_commands(
     solver: Solver,
     command: Callable[[float], dict[str, Any]],
     start: Result,
@@ -57,7 +57,7 @@ def _walk(
         return good, why, last
 
 
-def _walk_range(
+def walk_range(
     mech: Mechanism,
     scan: str,
     held: Mapping[str, Any],
@@ -82,7 +82,7 @@ def _walk_range(
         tol = ANGLE_TOL
         ends = []
         for d in (1, -1):
-            b, why, _ = _walk(solver, command, start, x0, d, step, TWO_PI, tol)
+            b, why, _ = walk_commands(solver, command, start, x0, d, step, TWO_PI, tol)
             ends.append(b)
         if ends[0] is None or ends[1] is None:
             return None
@@ -91,8 +91,8 @@ def _walk_range(
     blo, bhi, hard_lo, hard_hi = bracket
     step = step or (bhi - blo) / 360.0
     tol = LENGTH_TOL * mech.length_scale
-    hi, _, _ = _walk(solver, command, start, x0, 1, step, bhi - x0, tol)
-    lo, _, _ = _walk(solver, command, start, x0, -1, step, x0 - blo, tol)
+    hi, _, _ = walk_commands(solver, command, start, x0, 1, step, bhi - x0, tol)
+    lo, _, _ = walk_commands(solver, command, start, x0, -1, step, x0 - blo, tol)
     hi_end = (
         (EndKind.TOGGLE, None)
         if hi is not None

@@ -121,6 +121,9 @@ class Plan:
     ):
         self.mech = mech
         self.specs = list(specs)
+        #: what other modules derive from this plan once (its batch executor, its one-command
+        #: program, its lookups), keyed by the derived object's class: made on first use
+        self.derived: dict[type, Any] = {}
         self._build_bodies()
         self._compile()
         self._prune(wanted_links, wanted_points)

@@ -12,7 +12,7 @@ from ..ops import SCALAR, BatchOps, ScalarOps
 from ..steps import BranchArgs, RollerSide, RRRDyad, anchor_of
 from .compile import Plan, Step
 from .poses import ScalarPoses
-from .spec import _c
+from .spec import point_complex
 
 
 def step_geometry(
@@ -34,7 +34,7 @@ def step_geometry(
     x = pts[st.point]
     if isinstance(args, RollerSide):
         rot_g = rot[mech.prismatics[args.joint].guide]
-        u = rot_g * _c(mech.prismatics[args.joint].direction)
+        u = rot_g * point_complex(mech.prismatics[args.joint].direction)
         w = x - (pts[args.anchor] + rot_g * args.face)
         side = u.real * w.imag - u.imag * w.real
         return side, ops.where(side == side, 1.0, 1.0)  # 1 also where a row failed (NaN)
@@ -45,7 +45,7 @@ def step_geometry(
         m = abs(ax.real * vb.imag - ax.imag * vb.real)
     else:
         pj = mech.prismatics[args.joint]
-        side = line_side(ops, pts[anchor_of(args)], x, rot[pj.guide] * _c(pj.direction))
+        side = line_side(ops, pts[anchor_of(args)], x, rot[pj.guide] * point_complex(pj.direction))
         m = abs(side)
     return side, ops.clip(m, 0.0, 1.0)
 
@@ -85,9 +85,9 @@ def rollers_off_drawn_side(
         if pj.guide not in poses.rot or pj.point not in pts:
             continue
         rot = poses.rot[pj.guide]
-        u, origin = _c(pj.direction), _c(pj.origin)
+        u, origin = point_complex(pj.direction), point_complex(pj.origin)
         now = ((rot * u).conjugate() * (pts[pj.point] - (rot * origin + poses.T[pj.guide]))).imag
-        drawn = (u.conjugate() * (_c(mech.points[pj.point]) - origin)).imag
+        drawn = (u.conjugate() * (point_complex(mech.points[pj.point]) - origin)).imag
         if now * drawn < 0:
             out.append(j)
     return out

@@ -95,7 +95,7 @@ def spec_point_link(mech: Mechanism, point: str, preferred: str) -> str:
     return preferred if point in mech.links[preferred].points else mech.links_of_point(point)[0]
 
 
-def _c(v: Sequence[float] | npt.NDArray[np.float64]) -> complex:
+def point_complex(v: Sequence[float] | npt.NDArray[np.float64]) -> complex:
     return complex(float(v[0]), float(v[1]))
 
 
@@ -145,21 +145,21 @@ def spec_reader(mech: Mechanism, spec: Spec) -> SpecReader:
                 ReadKind.SLIDE,
                 spec_point_link(mech, pj.point, pj.slider),
                 pj.guide,
-                p_ref=_c(mech.points[pj.point]),
-                origin=_c(pj.origin),
-                direction=_c(pj.direction),
+                p_ref=point_complex(mech.points[pj.point]),
+                origin=point_complex(pj.origin),
+                direction=point_complex(pj.direction),
             )
         case PointSpec():
             return SpecReader(
                 ReadKind.POINT,
                 mech.links_of_point(spec.point)[0],
-                p_ref=_c(mech.points[spec.point]),
+                p_ref=point_complex(mech.points[spec.point]),
             )
         case CoordinateSpec():
             return SpecReader(
                 ReadKind.COORDINATE,
                 mech.links_of_point(spec.point)[0],
-                p_ref=_c(mech.points[spec.point]),
+                p_ref=point_complex(mech.points[spec.point]),
                 axis=spec.axis,
             )
 

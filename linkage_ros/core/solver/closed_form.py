@@ -64,7 +64,7 @@ from .closure_bound import (
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import Continuity, State
 from .crossing import kept_signs
-from .result import _EPS, Result
+from .result import EPS, Result
 from .slot_reads import SlideRead, as_complex, slot_reader
 
 _PI = math.pi
@@ -261,7 +261,7 @@ class SlotReadout:
         self.lazy_frames = sorted(frames)
         if self.miss_bound is not None:
             self.bound_residual = self.miss_bound / self.L
-            self.bound_noise = 4.0 * (2.0 * (self.bound_residual + 32.0 * _EPS)) ** 0.5
+            self.bound_noise = 4.0 * (2.0 * (self.bound_residual + 32.0 * EPS)) ** 0.5
         self.knowns = [
             (i, read.kind, slot_reader(read, prog))
             for i, read in read_knowns
@@ -359,7 +359,7 @@ class SlotReadout:
             # and it is computed when read (ClosedLazyResidual); else it is computed now.
             if worst > bound:
                 high = worst / L
-                noise = 4.0 * (2.0 * (high + 32.0 * _EPS)) ** 0.5
+                noise = 4.0 * (2.0 * (high + 32.0 * EPS)) ** 0.5
             else:  # (the same floats, computed once)
                 high, noise = self.bound_residual, self.bound_noise
             defined = True
@@ -372,7 +372,7 @@ class SlotReadout:
         residual = worst / L
         defined = True
         if signs:  # branch_identity_defined (result.py), inlined
-            defined = margin > 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
+            defined = margin > 4.0 * (2.0 * (residual + 32.0 * EPS)) ** 0.5
         total += residual
         if total - total != 0.0 and not self._all_finite(R, vals, residual, margin):
             return Result(
@@ -478,13 +478,16 @@ class SlotReadout:
         return res
 
 
+_READOUT = 'readout'
+
+
 def readout(c: CompiledSolve) -> SlotReadout:
     """The compiled solve's readout, made on first use and kept on it (as ``program`` keeps
     the program on its plan: a dict lookup per command, where a WeakKeyDictionary's made a
     weak reference each time)."""
-    got: SlotReadout | None = c.__dict__.get('_slot_readout')
+    got: SlotReadout | None = c.derived.get(_READOUT)
     if got is None:
-        got = c.__dict__['_slot_readout'] = SlotReadout(c, program(c.plan))
+        got = c.derived[_READOUT] = SlotReadout(c, program(c.plan))
     return got
 
 

@@ -124,7 +124,7 @@ from ..ops import wrap_one
 from ..quantities import AngleSpec
 from ..scalar_plan import ScalarProgram
 from ..steps import StepKind, TwoPoints
-from .result import _EPS
+from .result import EPS
 
 #: magnitudes through one placement: the (1 + u)^k (1 + 2^-50) factors of the proof, rounded up
 _GROWTH = 1.0 + 2.0**-40
@@ -148,7 +148,7 @@ def frames_bounded(bound: float) -> bool:
     GROWTH), and where that max is <= 2^1000 every register it reads (a, y = rot lp, T = a -
     y, rot p + T; rot is the cosine and sine of a finite angle, or their product with (1, 0))
     is below 2^1002 in magnitude. (Step 3 reads angles only; step 4 bounds its own.)"""
-    return bound <= 2.0 * _EPS * _REF_LIMIT
+    return bound <= 2.0 * EPS * _REF_LIMIT
 
 
 def _norm1(z: complex) -> float:
@@ -218,10 +218,10 @@ class ConstructedChecks:
             return None
         lp = _norm1(ref) * _GROWTH  # |rot * lp| (step 2)
         if self.anchor.get(checker) == point and point in self.magnitude:  # anchored
-            return 2.0 * _EPS * max(self.magnitude[point], lp)
+            return 2.0 * EPS * max(self.magnitude[point], lp)
         weld = self.root_welds.get(checker)
         if setter == self.root and weld is not None and weld.shared_point == point:  # root weld
-            return 2.0 * _EPS * max(_norm1(ref), lp)
+            return 2.0 * EPS * max(_norm1(ref), lp)
         return None
 
     def dyad_joint(self, point: str, p: complex, links: tuple[str, str]) -> (
@@ -271,7 +271,7 @@ class ConstructedChecks:
                 and {member, w.via} == {link, reference}
                 and (s.link, s.reference) == (link, reference)
             ):
-                return L * _EPS * (8.0 * math.pi + abs(offset))
+                return L * EPS * (8.0 * math.pi + abs(offset))
         return None
 
 

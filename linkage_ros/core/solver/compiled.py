@@ -77,6 +77,10 @@ class CompiledSolve:
     limited: tuple[tuple[int, ScalarSpec], ...]
     #: result assembly per set of placed links (a handful occur: bounded, see assembler)
     _assemblers: dict[tuple[str, ...], ResultAssembler] = field(default_factory=dict, repr=False)
+    #: what the solve paths derive from this compiled solve once (the closed form's readout,
+    #: the Newton path's kernel), keyed by what it is: made on first use (the dict is not
+    #: frozen; a lookup per command)
+    derived: dict[str, Any] = field(default_factory=dict, repr=False)
 
     # -- facts ---------------------------------------------------------------------------------
     @property

@@ -71,8 +71,8 @@ def newton_kernel(c: CompiledSolve) -> Kernel | None:
     """The linear algebra of ``c``'s prediction and fast path: lean.LeanSchur where its J
     reduces to a 3 x 3, else scalar.DenseKernel; None where it predicts nothing (hybrid mode,
     a non-square J, a value without a row). Made on first use and kept on ``c``."""
-    if _KERNEL in c.__dict__:
-        known: Kernel | None = c.__dict__[_KERNEL]
+    if _KERNEL in c.derived:
+        known: Kernel | None = c.derived[_KERNEL]
         return known
     got: Kernel | None = None
     t = c.system.tables
@@ -84,11 +84,11 @@ def newton_kernel(c: CompiledSolve) -> Kernel | None:
             pass
         if got is None:
             got = DenseKernel(t)
-    c.__dict__[_KERNEL] = got
+    c.derived[_KERNEL] = got
     return got
 
 
-_KERNEL = '_newton_kernel'
+_KERNEL = 'newton_kernel'
 
 
 class Linearisation(NamedTuple):

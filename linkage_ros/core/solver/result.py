@@ -19,7 +19,7 @@ from ..steps import branch_text as branch_text
 from ..tolerances import NEWTON_TOL as NEWTON_TOL
 
 #: machine epsilon (float64): the unit of rounding in branch_identity_defined
-_EPS = float(np.finfo(float).eps)
+EPS = float(np.finfo(float).eps)
 
 #: one command's float or a batch's array: the bounds below run the same on either
 _FloatOrArray = TypeVar('_FloatOrArray', float, np.ndarray)
@@ -39,7 +39,7 @@ def branch_undefined_below(residual: _FloatOrArray) -> _FloatOrArray:
     SIMD path computed the answer: every kernel is within a few eps of exact rounding.
     """
     # ** 0.5: the same square root on a float (no numpy call per command) or an array
-    bound: _FloatOrArray = 4.0 * (2.0 * (residual + 32.0 * _EPS)) ** 0.5
+    bound: _FloatOrArray = 4.0 * (2.0 * (residual + 32.0 * EPS)) ** 0.5
     return bound
 
 

@@ -58,11 +58,10 @@ def _commands(s, steps):
     return out
 
 
-def _is_closed_form(a, mech, command):
-    """A successful Newton Result ``a`` is the closed form's answer on the branch it reports,
-    its cond at most numpy's exact 1-norm one and its residual the assembler's. (Its poses are
-    taken first: a Result read in full lets them go.)"""
-    poses = a._source.poses
+def _is_closed_form(a, poses, mech, command):
+    """A successful Newton Result ``a`` (its link ``poses``: the solver's state after it) is
+    the closed form's answer on the branch it reports, its cond at most numpy's exact 1-norm
+    one and its residual the assembler's."""
     s = Solver(mech, method='newton')
     closed = Solver(mech, method='closed_form', branch=a.branch).solve(command)
     assert closed.success and closed.branch == a.branch
@@ -106,13 +105,13 @@ def test_a_warm_sweep_is_the_closed_form(name):
         a = s.solve(command)
         assert a.success, (i, a.reason)
         assert isinstance(a, NewtonResult)
-        # the residual is build_result's: the assembler's over every joint and known (read
-        # off the answer's poses before a field is: a Result read in full lets them go)
-        src = a._source
-        got = s.compiled.assembler(src.poses.phi)(SCALAR, src.poses, src.vals)
+        # the residual is build_result's: the assembler's over every joint and known, read
+        # off the answer's poses (the state the solver keeps after it)
+        poses = s.snapshot()[-1].poses
+        got = s.compiled.assembler(poses.phi)(SCALAR, poses, s.parse(command))
         assert abs(a.residual - got.residual) <= 4e-15
         if i % 7 == 0:  # (the closed-form solver per answer is the slow part)
-            _is_closed_form(a, mech, command)
+            _is_closed_form(a, poses, mech, command)
 
 
 @pytest.mark.parametrize('name', SCENES)
@@ -184,7 +183,7 @@ def test_any_command_sequence_answers_on_its_branch(name, branch, steps):
         if branch in ('+', '-'):
             assert a.branch == branch
         assert isinstance(a, NewtonResult)  # (every Newton answer: the walk's too)
-        _is_closed_form(a, mech, command)
+        _is_closed_form(a, s.snapshot()[-1].poses, mech, command)
 
 
 def test_the_lazy_result_is_the_result_it_stands_for():
@@ -193,7 +192,7 @@ def test_the_lazy_result_is_the_result_it_stands_for():
     for command in _commands(s, [0.02] * 5):
         a = s.solve(command)
     assert isinstance(a, NewtonResult)
-    _is_closed_form(a, mech, command)
+    _is_closed_form(a, s.snapshot()[-1].poses, mech, command)
     given = a.links['crank']
     plain = Result(**vars(a))
     assert type(plain) is Result and plain == a and a == plain
@@ -216,7 +215,7 @@ def test_snapshots_continue_from_kernel_factors():
     for command in cmds[20:]:
         a, b = other.solve(command), s.solve(command)
         assert a.success and isinstance(a, NewtonResult)
-        _is_closed_form(a, mech, command)
+        _is_closed_form(a, other.snapshot()[-1].poses, mech, command)
         assert a.iterations == b.iterations  # the restored State predicts as the kept one
 
 
