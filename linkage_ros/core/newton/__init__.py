@@ -15,7 +15,7 @@ getrf) of the scale-free Jacobian per linearisation point: it gives the Newton s
 of det J (from the U diagonal and the pivots). At the answer LAPACK's 1-norm estimate of the
 condition number is taken; the exact one (an SVD) only where that estimate is large.
 
-Two paths. The *fast* path starts from a predicted guess (scalar.extrapolate over the solve's
+Two paths. The *fast* path starts from a predicted guess (predictor.extrapolate over the solve's
 kernel, as :meth:`LoopSystem.predict` over LAPACK's LU: cubic
 Hermite extrapolation from the last two solutions and their tangents dx/dvalue): one Newton step,
 then chord steps reusing that factorisation, the Jacobian factorised again only at the answer; it

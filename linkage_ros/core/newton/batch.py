@@ -471,7 +471,7 @@ class BatchNewton:
             with np.errstate(invalid='ignore'):
                 if warm and step == 0:
                     # the first step from a solution at earlier values is the tangent
-                    # prediction the scalar path takes (scalar.predict): judged as it is
+                    # prediction the scalar path takes (predictor.predict): judged as it is
                     # judged there, by how far it moves (MAX_PREDICTION); the rate from the next
                     cut = (np.abs(dy).max(axis=1) <= MAX_PREDICTION) & np.isfinite(rn)
                 else:

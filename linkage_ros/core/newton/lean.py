@@ -8,9 +8,9 @@ Why a plain-float twin of schur.py's batched elimination: one row of the batched
 getrf and an array per evaluation. Measured on the bench's warm sweeps, one command's kernel
 (prediction, fast steps, det J sign and the condition bound at the answer; CPU time, best of 7
 x 300 interleaved in one process, 2-core machine shared with other jobs, load 3.1-3.4): dense
-(scalar.predict + solve_from_guess) against lean (extrapolate + fast_steps by LeanSchur), four-bar
-105 / 121 -> 81 / 91 us, slider-crank 112 / 193 -> 87 / 130 us; with the DenseKernel (the same
-LAPACK calls, the rest on lists) Peaucellier 169 / 180 -> 161 / 158 us, excavator 239 / 447 ->
+(predictor.predict + solve_from_guess) against lean (extrapolate + fast_steps by LeanSchur),
+four-bar 105 / 121 -> 81 / 91 us, slider-crank 112 / 193 -> 87 / 130 us; with the DenseKernel (the
+same LAPACK calls, the rest on lists) Peaucellier 169 / 180 -> 161 / 158 us, excavator 239 / 447 ->
 227 / 428 us (two runs each). The steps are the dense ones to rounding
 (test/core/newton/test_lean.py holds them to numpy's dense solve and to schur.py's batched
 elimination on every scene with a 3 x 3 M, over random poses).

@@ -1,5 +1,6 @@
-"""Solving one configuration over the compiled tables: the continuation predictor, the fast
-and careful Newton paths, the rates at a solution and the closest miss where none closes.
+"""Solving one configuration over the compiled tables: the fast and careful Newton paths, the
+rates at a solution and the closest miss where none closes (the continuation predictor they
+start from: predictor.py).
 
 Why one configuration is not a batch of one (batch.py): the same fast-path rule on numpy
 arrays costs a fixed ~150 numpy calls whatever N is. Measured on the warm four-bar and
@@ -24,27 +25,24 @@ The fast path's rule is written once, in lean.fast_steps, over a linear-algebra 
 solve_from_guess runs it by the DenseKernel here (getrf / getrs on the dense J, the same
 calls as before on the same floats) where no kernel is given; the Newton path
 (solver/newton_path.py) passes its compiled solve's kernel, lean.LeanSchur where J reduces to a
-3 x 3. The predictor is one too: extrapolate, over either
-kernel's solve (predict: LAPACK's)."""
+3 x 3. The predictor is one too: predictor.extrapolate, over either kernel's solve
+(predictor.predict: LAPACK's)."""
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
-from operator import mul
+from collections.abc import Sequence
 from typing import Any, NamedTuple
 
 import numpy as np
 
 from ..execute import LinkPoses
-from ..ops import wrap_one
-from ..quantities import AngleSpec, PointSpec
+from ..quantities import AngleSpec
 from .evaluate import evaluate, evaluate_scaled, jacobian
 from .lean import Kernel, fast_steps
 from .linalg import cond, factor, lapack, lu_step, scaled_cond, side_ok, sign_of
 from .results import (
     COND_EXACT,
-    MAX_PREDICTION,
     NEAR_SINGULAR_COND,
     NEWTON_TOL,
     POLISH_STEPS,
@@ -94,57 +92,6 @@ def least_miss(
     return float(np.max(np.abs(fun(sol.x)), initial=0.0)) * t.L
 
 
-# -- continuation: predictor ------------------------------------------------------------------
-def value_step(t: LoopTables, a: Sequence[Any], b: Sequence[Any]) -> list[float]:
-    """b - a per value component in scale-free units (rad, length scales)."""
-    out: list[float] = []
-    L = t.L
-    for s, va, vb in zip(t.specs, a, b):
-        if type(s) is AngleSpec:  # reduce first: vb - va may overflow
-            # (each wrap's own first test inline: an angle in (-pi, pi] is itself, no call)
-            fb, fa = float(vb), float(va)
-            d = (fb if -_PI < fb <= _PI else wrap_one(fb)) - (
-                fa if -_PI < fa <= _PI else wrap_one(fa)
-            )
-            out.append(d if -_PI < d <= _PI else wrap_one(d))
-        elif type(s) is not PointSpec:  # a slide or one coordinate (m)
-            out.append(float(vb) / L - float(va) / L)
-        else:
-            out += [float(vb[0]) / L - float(va[0]) / L, float(vb[1]) / L - float(va[1]) / L]
-    return out
-
-
-def rate_factor(t: LoopTables, r: SolveResult) -> LUFactor | None:
-    """What predict() needs of a solution: its Jacobian's factorisation (dx/dvalue there is
-    its inverse applied to -dF/dvalue); None if it failed or a value has no row here. Only
-    meaningful where no fixed link moves with the values (the Solver: newton mode)."""
-    if not r.success or r.factor is None or t.val_rows is None:
-        return None
-    fac: LUFactor = r.factor
-    return fac
-
-
-def predict(
-    t: LoopTables,
-    x_last: np.ndarray,
-    lu_last: tuple[Any, ...],
-    vals_last: Sequence[Any],
-    vals: Sequence[Any],
-    x_prev: np.ndarray | None = None,
-    vals_prev: Sequence[Any] | None = None,
-    lu_prev: tuple[Any, ...] | None = None,
-) -> np.ndarray | None:
-    """Predicted solution at ``vals`` from the solution x_last at vals_last and its
-    rate_factor ``lu_last`` (an LUFactor: the tangent T = dx/dvalue is its inverse applied to
-    -dF/dvalue), and optionally the solution before (see extrapolate). None if it moves an
-    unknown by more than MAX_PREDICTION (rad, or length scales)."""
-    got = extrapolate(
-        t, DenseKernel(t).solve, x_last.tolist(), lu_last, vals_last, vals,
-        None if x_prev is None else x_prev.tolist(), vals_prev, lu_prev,
-    )  # fmt: skip
-    return None if got is None else np.array(got)
-
-
 def answer_cond(t: LoopTables, jv: Sequence[float]) -> float:
     """The condition number finish() reports at an answer whose J has the varying entries
     ``jv`` (evaluate_rows_scaled's): the same function of the same J."""
@@ -173,7 +120,7 @@ class DenseFactor(NamedTuple):
 
 class DenseKernel:
     """lean.Kernel by LAPACK's LU of the dense J (getrf, getrs, the condition estimate
-    finish() reports): solve_from_guess's and predict's by default, and the Newton path's
+    finish() reports): solve_from_guess's and predictor.predict's by default, and the Newton path's
     where J does not reduce to a 3 x 3 (solver/newton_path.newton_kernel)."""
 
     #: cond_bound is the condition number finish() reports itself
@@ -202,114 +149,15 @@ class DenseKernel:
         return cond_estimate(fac.J, (fac.lu, fac.piv, fac.sign))
 
 
-def extrapolate(
-    t: LoopTables,
-    solve: Callable[[Any, list[float]], list[float]],
-    xl: list[float],
-    lu_last: Any,
-    vals_last: Sequence[Any],
-    vals: Sequence[Any],
-    x_prev: list[float] | None = None,
-    vals_prev: Sequence[Any] | None = None,
-    lu_prev: Any = None,
-    *,
-    h: list[float] | None = None,
-    hp: list[float] | None = None,
-    unit_last: list[float] | None = None,
-    unit_prev: list[float] | None = None,
-) -> list[float] | None:
-    """The continuation predictor (predict's, and the Newton path's over its kernel) over plain
-    floats: the solution at ``vals`` predicted from the solution ``xl`` at vals_last, where
-    ``solve(lu, rhs)`` is J^-1 rhs at that solution (``lu_last`` its factorisation in the
-    caller's form). h = value_step(vals_last, vals); alone: xl + T h (``tangent``).
-    Given the solution before (x_prev at vals_prev, hp the step since, s = h.hp / hp.hp,
-    w = h - s hp): along hp the cubic Hermite extrapolation through both solutions and their
-    tangents (with ``lu_prev``), else the quadratic one (the curvature the tangent missed over
-    hp, times s^2), plus T w off that line. None if it moves an unknown by more than
-    MAX_PREDICTION (rad, or length scales).
-
-    What a caller already has it may give (the Newton path keeps them with each answer, so a
-    warm command solves for no tangent): ``h`` and ``hp`` (value_step's, the same lists), and
-    where the values have one component, ``unit_last`` / ``unit_prev``: unit_tangent at that
-    solution (T c is then c times it: the same to rounding)."""
-    if h is None:
-        h = value_step(t, vals_last, vals)
-    c_last: list[float] = h
-    c_prev: list[float] | None = None
-    k_back = 0.0
-    if x_prev is not None and vals_prev is not None:
-        if hp is None:
-            hp = value_step(t, vals_prev, vals_last)
-        den = sum(map(mul, hp, hp))  # (the products and sums of a generator, without one)
-        s = sum(map(mul, h, hp)) / den if den > 0 else math.inf
-        if lu_prev is not None and -1.0 <= s <= 1.5:
-            tt = 1.0 + s  # Hermite on tt in [0, 1] from x_prev to x_last
-            t2, t3 = tt * tt, tt * tt * tt
-            w = [u - s * v for u, v in zip(h, hp)]
-            k_back = 2 * t3 - 3 * t2 + 1
-            c_prev = [(t3 - 2 * t2 + tt) * v - s * u for u, v in zip(w, hp)]
-            c_last = [(t3 - t2) * v + tt * u for u, v in zip(w, hp)]
-        elif abs(s) <= 2.0:
-            k_back = s * s
-            c_last = [u + k_back * v for u, v in zip(h, hp)]
-
-    # plain Python on these short vectors: a dozen numpy calls would cost more
-    back: list[float] | None = None
-    if k_back and x_prev is not None:
-        back = [a - b for a, b in zip(x_prev, xl)]
-        for j in range(0, t.n, 3):
-            if abs(back[j]) > _PI:  # angles a turn apart
-                back[j] = math.remainder(back[j], 2 * math.pi)
-    dy = tangent(t, solve, lu_last, c_last, unit_last)
-    if c_prev is not None:  # (set only with lu_prev)
-        dy = [a + b for a, b in zip(dy, tangent(t, solve, lu_prev, c_prev, unit_prev))]
-    if back is not None:
-        dy = [d + k_back * b * w for d, b, w in zip(dy, back, t.inv_step_list)]
-    if not (max(map(abs, dy), default=0.0) <= MAX_PREDICTION and math.isfinite(sum(dy))):
-        return None
-    return [x + d * w for x, d, w in zip(xl, dy, t.step_list)]
-
-
-def tangent(
-    t: LoopTables,
-    solve: Callable[[Any, list[float]], list[float]],
-    lu: Any,
-    c: Sequence[float],
-    unit: list[float] | None = None,
-) -> list[float]:
-    """T c, T = dx/dvalue (scale-free) at a solution: J^-1 times -dF/dvalue c (scale-free: c on
-    the value rows), by ``solve(lu, rhs)`` at that solution; where ``unit`` is given (T of a
-    single value component: unit_tangent's), c[0] times it. extrapolate's tangents, and
-    unit_tangent's for c = 1."""
-    if unit is not None:
-        k = c[0]
-        return [k * u for u in unit]
-    rhs = [0.0] * t.n
-    for i, v in zip(t.val_rows or (), c):
-        rhs[i] = v
-    return solve(lu, rhs)
-
-
-def unit_tangent(
-    t: LoopTables, solve: Callable[[Any, list[float]], list[float]], lu: Any
-) -> list[float] | None:
-    """dx/dvalue (scale-free) at a solution of a system whose values have one component: the
-    tangent for c = 1; None where the values have more components (or none), or a value has no
-    row."""
-    rows = t.val_rows
-    if rows is None or len(rows) != 1:
-        return None
-    return tangent(t, solve, lu, (1.0,))
-
-
 def rates(
     t: LoopTables, x: np.ndarray, values: Sequence[Any], value_rates: Sequence[float]
 ) -> tuple[np.ndarray | None, float]:
     """(dx/dt, cond): the unknowns' rates (per free link: rad/s, then its centroid's m/s)
     for the knowns' rates ``value_rates`` (one per value component: rad/s or m/s), from the
-    analytic Jacobian at the solution x: J dx = -dF/dvalue * rates, the tangent predict()
-    extrapolates along (scale-free units, then scaled back). cond is J's scaled condition
-    number; dx is None where J is singular (a toggle) or a value has no row here."""
+    analytic Jacobian at the solution x: J dx = -dF/dvalue * rates, the tangent
+    predictor.predict() extrapolates along (scale-free units, then scaled back). cond is J's
+    scaled condition number; dx is None where J is singular (a toggle) or a value has no row
+    here."""
     F, J, _ = evaluate_scaled(t, x, values, None)
     c = scaled_cond(J)
     fac = factor(J) if t.val_rows is not None else None

@@ -15,7 +15,7 @@ from ..execute import LinkPoses
 from ..mechanism import Mechanism
 from ..quantities import Spec
 from . import evaluate as ev
-from . import linalg, scalar
+from . import linalg, predictor, scalar
 from .batch import BatchNewton
 from .lean import Kernel
 from .results import FAST_STEPS, NEWTON_TOL, BatchSolve, LUFactor, SolveResult
@@ -280,7 +280,7 @@ class LoopSystem:
 
         ``warm``: the caller vouches that X0[i] is a solution at earlier values (a BatchResult's
         x), so the first step from it is the tangent prediction the scalar path takes there
-        (scalar.predict: J at the last solution times the change of the values): it is judged
+        (predictor.predict: J at the last solution times the change of the values): it is judged
         as the prediction is, by moving no unknown further than MAX_PREDICTION (rad, or length
         scales) to a finite residual, and the FAST_RATE rule holds from the second step on."""
         return self.batch.solve_batch(
@@ -303,11 +303,11 @@ class LoopSystem:
     # -- continuation -------------------------------------------------------------------------
     def value_step(self, a: Sequence[Any], b: Sequence[Any]) -> list[float]:
         """b - a per value component in scale-free units (rad, length scales)."""
-        return scalar.value_step(self.tables, a, b)
+        return predictor.value_step(self.tables, a, b)
 
     def rate_factor(self, r: SolveResult) -> LUFactor | None:
-        """What predict() needs of a solution (see scalar.rate_factor)."""
-        return scalar.rate_factor(self.tables, r)
+        """What predict() needs of a solution (see predictor.rate_factor)."""
+        return predictor.rate_factor(self.tables, r)
 
     def predict(
         self,
@@ -320,8 +320,8 @@ class LoopSystem:
         lu_prev: tuple[Any, ...] | None = None,
     ) -> np.ndarray | None:
         """Predicted solution at ``vals`` from the solution x_last at vals_last and its
-        rate_factor ``lu_last``, and optionally the one before (see scalar.predict)."""
-        return scalar.predict(
+        rate_factor ``lu_last``, and optionally the one before (see predictor.predict)."""
+        return predictor.predict(
             self.tables, x_last, lu_last, vals_last, vals, x_prev, vals_prev, lu_prev
         )
 

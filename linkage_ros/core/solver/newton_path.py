@@ -23,15 +23,9 @@ import numpy as np
 
 from ..execute import CONTINUITY_MARGIN, LinkPoses
 from ..newton.lean import Kernel, LeanSchur, evaluate_lean, lean_schur
+from ..newton.predictor import extrapolate, unit_tangent, value_step
 from ..newton.results import SolveResult
-from ..newton.scalar import (
-    DenseKernel,
-    cond_of,
-    extrapolate,
-    solve_from_guess,
-    unit_tangent,
-    value_step,
-)
+from ..newton.scalar import DenseKernel, cond_of, solve_from_guess
 from ..plan import branch_geometry_one, rollers_off_drawn_side, run_one
 from ..steps import RollerSide
 from .asked_mode import asked_signs, fold_margin, full_plan_signs, resumed_state
@@ -94,8 +88,8 @@ _KERNEL = 'newton_kernel'
 class Linearisation(NamedTuple):
     """What a Newton answer leaves the next command's prediction (State.x_lu): its unknowns as
     floats (State.x_all's, as the predictor reads them), the kernel's factor of J there,
-    scalar.unit_tangent there (None: values of more than one component), and the value step
-    that led to it (scalar.value_step from ``step_from``, the values of the answer before, to
+    predictor.unit_tangent there (None: values of more than one component), and the value step
+    that led to it (predictor.value_step from ``step_from``, the values of the answer before, to
     its own): computed once, each read by the next two predictions."""
 
     x: list[float]
@@ -117,7 +111,7 @@ def start(
     mode is asked (``asked``: asked_signs), the dyad plan's answer in it at ``vals`` or at the
     reference input; else the reference pose (a Jacobian mode's start, for a J+ / J- branch).
     Then the predicted solution at ``vals`` (newton mode, after a Newton solve:
-    scalar.extrapolate by ``kernel`` from the Linearisations the States keep) and the value
+    predictor.extrapolate by ``kernel`` from the Linearisations the States keep) and the value
     step it predicted over."""
     if last is not None and last.x_all is not None:
         guess = h = None

@@ -21,7 +21,7 @@ import scenes
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from linkage_ros.core.newton import scalar
+from linkage_ros.core.newton import predictor, scalar
 from linkage_ros.core.newton.evaluate import jacobian
 from linkage_ros.core.newton.lean import evaluate_lean, lean_schur
 from linkage_ros.core.newton.linalg import factor
@@ -147,8 +147,8 @@ def test_the_prediction_is_the_dense_one(name, sy, ls):
     lu = factor(J)
     for delta in (1e-4, 1e-2, 0.1):
         moved = [v + delta if np.ndim(v) == 0 else np.asarray(v) + delta for v in values]
-        want = scalar.predict(t, x0, lu, values, moved)
-        got = scalar.extrapolate(t, ls.solve, x0.tolist(), fac, values, moved)
+        want = predictor.predict(t, x0, lu, values, moved)
+        got = predictor.extrapolate(t, ls.solve, x0.tolist(), fac, values, moved)
         assert (want is None) == (got is None)
         if want is not None:
             np.testing.assert_allclose(got, want, rtol=0, atol=1e-13 * max(1.0, t.L))
@@ -166,7 +166,7 @@ def _kept_tangent_tables(sy):
 
 @pytest.mark.parametrize(('name', 'sy', 'ls'), LEAN, ids=IDS)
 def test_the_kept_unit_tangent_is_dx_dvalue(name, sy, ls):
-    # scalar.unit_tangent (what a Newton answer keeps for the next two predictions) against
+    # predictor.unit_tangent (what a Newton answer keeps for the next two predictions) against
     # numpy's dense solve of J T = -dF/dvalue, dF/dvalue by central differences of F in the
     # value (scale-free: a step of h rad, or h length scales)
     t = _kept_tangent_tables(sy)
@@ -178,7 +178,7 @@ def test_the_kept_unit_tangent_is_dx_dvalue(name, sy, ls):
     F_up = np.array(evaluate_lean(t, x0.tolist(), [values[0] + step])[0])
     F_down = np.array(evaluate_lean(t, x0.tolist(), [values[0] - step])[0])
     want = np.linalg.solve(J, -(F_up - F_down) / (2 * h))
-    got = scalar.unit_tangent(t, ls.solve, fac)
+    got = predictor.unit_tangent(t, ls.solve, fac)
     assert got is not None
     np.testing.assert_allclose(got, want, rtol=0, atol=1e-7 * max(1.0, float(np.abs(want).max())))
 
@@ -201,10 +201,10 @@ def test_the_prediction_from_kept_tangents_is_the_solved_one(name, sy, ls):
         x_last = pred.x
         fac_prev = ls.factor(evaluate_lean(t, x_prev.tolist(), v0)[1])
         fac_last = ls.factor(evaluate_lean(t, x_last.tolist(), v1)[1])
-        want = scalar.extrapolate(
+        want = predictor.extrapolate(
             t, ls.solve, x_last.tolist(), fac_last, v1, v2, x_prev.tolist(), v0, fac_prev
         )
-        got = scalar.extrapolate(
+        got = predictor.extrapolate(
             t,
             ls.solve,
             x_last.tolist(),
@@ -214,10 +214,10 @@ def test_the_prediction_from_kept_tangents_is_the_solved_one(name, sy, ls):
             x_prev.tolist(),
             v0,
             fac_prev,
-            h=scalar.value_step(t, v1, v2),
-            hp=scalar.value_step(t, v0, v1),
-            unit_last=scalar.unit_tangent(t, ls.solve, fac_last),
-            unit_prev=scalar.unit_tangent(t, ls.solve, fac_prev),
+            h=predictor.value_step(t, v1, v2),
+            hp=predictor.value_step(t, v0, v1),
+            unit_last=predictor.unit_tangent(t, ls.solve, fac_last),
+            unit_prev=predictor.unit_tangent(t, ls.solve, fac_prev),
         )
         assert want is not None and got is not None
         np.testing.assert_allclose(got, want, rtol=0, atol=1e-14 * max(1.0, t.L))
