@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from .ros_driver import Driver, Link, Proc, relay_script
-from .settings import DEFAULT_DEPTH, log
+from .settings import DEFAULT_DEPTH, ListenerExecutor, log
 
 
 def all_output_scenes(chosen: tuple[str, ...] = ()) -> tuple[str, ...]:
@@ -97,9 +97,6 @@ def _count_one(count: Callable[[str], None], topic: str, _msg: bytes) -> None:
 
 #: the every-output node run whose listener is a plain rclpy one (SingleThreadedExecutor)
 PLAIN_LISTENER_LABEL = 'node_plain_listener'
-#: the listener's executors: rclpy's EventsExecutor (the bench's own listener: it stands in
-#: for a C++ display) or a plain SingleThreadedExecutor (what a Python tool would use)
-LISTENER_EXECUTORS = ('events', 'single')
 
 
 def ready_file(out: Path) -> Path:
@@ -108,11 +105,15 @@ def ready_file(out: Path) -> Path:
 
 
 def listen(
-    scene: str, ns: str, out: Path, quiet_s: float = 0.5, executor_kind: str = 'events'
+    scene: str,
+    ns: str,
+    out: Path,
+    quiet_s: float = 0.5,
+    executor_kind: ListenerExecutor = ListenerExecutor.EVENTS,
 ) -> int:
     """The listener process: count every message of ``outputs_of(scene, ns)`` until SIGINT or
     SIGTERM, then take what is still queued (until none arrived for ``quiet_s``) and write the
-    counts to ``out``. ``executor_kind``: one of LISTENER_EXECUTORS."""
+    counts to ``out``. ``executor_kind``: which rclpy executor it spins."""
     import rclpy
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
@@ -144,7 +145,9 @@ def listen(
         for kind, topic, qos in outputs_of(scene, ns)
     ]
     executor: Any = None
-    if executor_kind == 'events':  # the cheapest executor rclpy has: a C++ display's stand-in
+    if (
+        executor_kind is ListenerExecutor.EVENTS
+    ):  # the cheapest executor rclpy has: a C++ display's stand-in
         try:
             from rclpy.experimental import EventsExecutor
 
@@ -235,8 +238,11 @@ def bench_all_outputs(
                     unusable[label] = f'{why}; {procs[label].tail()}'
                     res[label] = {'ok': False, 'reason': unusable[label]}
             # the relay, then the node with each listener: the same conditions
-            runs = [('relay', 'relay', None), ('node', 'node', 'events')]
-            runs.append((PLAIN_LISTENER_LABEL, 'node', 'single'))
+            runs: list[tuple[str, str, ListenerExecutor | None]] = [
+                ('relay', 'relay', None),
+                ('node', 'node', ListenerExecutor.EVENTS),
+                (PLAIN_LISTENER_LABEL, 'node', ListenerExecutor.SINGLE),
+            ]
             for label, target, executor in runs:
                 if target not in links:
                     continue
@@ -329,12 +335,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--out', required=True, type=Path, help='JSON file for the counts')
     parser.add_argument(
         '--executor',
-        choices=LISTENER_EXECUTORS,
-        default='events',
+        choices=[e.value for e in ListenerExecutor],
+        default=ListenerExecutor.EVENTS.value,
         help="rclpy's EventsExecutor (default) or a plain SingleThreadedExecutor",
     )
     opts = parser.parse_args(argv)
-    return listen(opts.scene, opts.ns, opts.out, executor_kind=opts.executor)
+    return listen(opts.scene, opts.ns, opts.out, executor_kind=ListenerExecutor(opts.executor))
 
 
 if __name__ == '__main__':

@@ -28,6 +28,8 @@ from .settings import (
     TARGET_NEWTON_VS_SCIPY,
     TARGET_NODE_CPU_RATIO,
     TARGET_RATE_HZ,
+    FloodKind,
+    SettingFamily,
     Sizes,
     log,
 )
@@ -198,7 +200,7 @@ def batch_vs_scipy(nw: dict[str, Any], sp: dict[str, Any]) -> tuple[float, str]:
     return sp['scalar_us'] / nw['batch_us'], f'{sp["scalar_us"]:.0f} us'
 
 
-def find_setting(report, scene, family, tol=None):
+def find_setting(report, scene, family: SettingFamily, tol=None):
     for r in report['settings']:
         if r['scene'] == scene and r['family'] == family and (tol is None or r['tol'] == tol):
             return r
@@ -226,9 +228,9 @@ def evaluate_targets(report: dict) -> list[dict]:
         )
     # (b) Newton 1e-12 >= 20x faster than scipy root per solve
     for scene in report['scenes']:
-        nw = find_setting(report, scene, 'newton', 1e-12)
-        sp = find_setting(report, scene, 'scipy', 1e-12)
-        kn = find_setting(report, scene, 'kernel', 1e-12)
+        nw = find_setting(report, scene, SettingFamily.NEWTON, 1e-12)
+        sp = find_setting(report, scene, SettingFamily.SCIPY, 1e-12)
+        kn = find_setting(report, scene, SettingFamily.KERNEL, 1e-12)
         if nw and sp and nw['scalar_us'] and sp['scalar_us']:
             ratio = sp['scalar_us'] / nw['scalar_us']
             kr = sp['scalar_us'] / kn['scalar_us'] if kn and kn['scalar_us'] else None
@@ -343,16 +345,16 @@ def flood_targets(floods: list[dict]) -> list[dict]:
     """Commands beside floods: none lost beside the small new-name flood; beside the 2 MB
     flood, lost and p99 within 2x of the small new-name flood's; beside the 10 Hz 10^4-point
     trajectories, within 2x of the run without a flood (the same node, just before)."""
-    runs = {fl['flood_kind']: fl for fl in floods}
+    runs = {FloodKind(fl['flood_kind']): fl for fl in floods}
     what = {
-        'new_sets': 'hostile ~/target requests, each naming a new set of names',
-        'huge': 'hostile ~/target requests, each with 10^5 names, 2 MB',
-        'trajectory': '~/trajectory requests of 10^4 points each',
+        FloodKind.NEW_SETS: 'hostile ~/target requests, each naming a new set of names',
+        FloodKind.HUGE: 'hostile ~/target requests, each with 10^5 names, 2 MB',
+        FloodKind.TRAJECTORY: '~/trajectory requests of 10^4 points each',
     }
-    refs = {'huge': 'new_sets', 'trajectory': 'none'}
+    refs = {FloodKind.HUGE: FloodKind.NEW_SETS, FloodKind.TRAJECTORY: FloodKind.NONE}
     out: list[dict] = []
     for kind, fl in runs.items():
-        if kind == 'none':
+        if kind is FloodKind.NONE:
             continue
         if fl.get('ok') is False:
             out.append(
@@ -372,7 +374,7 @@ def flood_targets(floods: list[dict]) -> list[dict]:
             + ')'
         )
         sent_ok = fl['achieved_rate'] >= 0.95 * fl['rate']
-        ref = runs.get(refs.get(kind, ''))
+        ref = runs.get(refs[kind]) if kind in refs else None
         if ref is None:
             target = (
                 f'node loses no ~/command answer at {fl["rate"]:g} Hz beside a '
@@ -382,7 +384,7 @@ def flood_targets(floods: list[dict]) -> list[dict]:
         else:
             name = (
                 'the run without a flood'
-                if ref['flood_kind'] == 'none'
+                if ref['flood_kind'] == FloodKind.NONE
                 else ('the small new-name flood')
             )
             target = (

@@ -22,19 +22,25 @@ import time
 from pathlib import Path
 from typing import Any
 
+from .settings import FloodKind
+
 #: the kinds of flood and the node topic each goes to
-KINDS = {'new_sets': 'target', 'huge': 'target', 'trajectory': 'trajectory'}
+KINDS = {
+    FloodKind.NEW_SETS: 'target',
+    FloodKind.HUGE: 'target',
+    FloodKind.TRAJECTORY: 'trajectory',
+}
 #: the points of a 'trajectory' flood request
 TRAJECTORY_POINTS = 10_000
 
 
-def payload(kind: str) -> tuple[Any, bytes | None]:
+def payload(kind: FloodKind) -> tuple[Any, bytes | None]:
     """(message type, the serialised request sent every time; None: a new one each time)."""
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import JointState
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-    if kind == 'trajectory':
+    if kind is FloodKind.TRAJECTORY:
         plan = JointTrajectory(joint_names=['crank'])
         plan.points = [
             JointTrajectoryPoint(positions=[1.0 + 0.001 * k]) for k in range(TRAJECTORY_POINTS)
@@ -43,7 +49,7 @@ def payload(kind: str) -> tuple[Any, bytes | None]:
             sec, nanosec = divmod((k + 1) * 1_000_000, 1_000_000_000)
             point.time_from_start.sec, point.time_from_start.nanosec = sec, nanosec
         return JointTrajectory, serialize_message(plan)
-    if kind == 'huge':
+    if kind is FloodKind.HUGE:
         big = JointState()
         big.name = [f'n{k}' for k in range(10**5)]
         big.position = [0.5] * len(big.name)
@@ -57,7 +63,7 @@ def new_set(j: int) -> Any:
     return JointState(name=[f'flood_{j}_a', f'flood_{j}_b'], position=[0.1, 0.2])
 
 
-def run(topic: str, kind: str, rate: float, seconds: float, out: Path) -> int:
+def run(topic: str, kind: FloodKind, rate: float, seconds: float, out: Path) -> int:
     import rclpy
     from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 
@@ -105,7 +111,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument('--seconds', type=float, required=True)
     parser.add_argument('--out', type=Path, required=True, help='JSON file: how many were sent')
     opts = parser.parse_args(argv)
-    return run(opts.topic, opts.kind, opts.rate, opts.seconds, opts.out)
+    return run(opts.topic, FloodKind(opts.kind), opts.rate, opts.seconds, opts.out)
 
 
 if __name__ == '__main__':

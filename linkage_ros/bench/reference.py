@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -13,6 +14,84 @@ from .settings import REF_DPS
 # =============================================================================================
 # 50-digit reference, independent of the code under test
 # =============================================================================================
+
+
+# The equations (mpmath numbers; points by name, unknown or on the ground). Each is one residual
+# row, Rigid two.
+@dataclass(frozen=True)
+class Distance:
+    """|q - p|^2 = d2 (m^2)."""
+
+    p: str
+    q: str
+    d2: Any
+
+
+@dataclass(frozen=True)
+class Rigid:
+    """pj = p0 + a (p1 - p0) + b perp(p1 - p0): a further point of a rigid link."""
+
+    p0: str
+    p1: str
+    pj: str
+    a: Any
+    b: Any
+
+
+@dataclass(frozen=True)
+class OnLine:
+    """normal . p = c (m): a point on a fixed line, or a slide's value along it."""
+
+    p: str
+    normal: tuple[Any, Any]
+    c: Any
+
+
+@dataclass(frozen=True)
+class Direction:
+    """-sin v (q - p)_x + cos v (q - p)_y = 0: p -> q points along the angle v."""
+
+    p: str
+    q: str
+    minus_sin: Any
+    cos: Any
+
+
+Equation = Distance | Rigid | OnLine | Direction
+
+
+# The inputs: where an actuator's value sets an equation (``row``: its index in the list).
+@dataclass(frozen=True)
+class AngleInput:
+    """An angle actuator measured from the ground: pivot -> toward along the value (rad)."""
+
+    actuator: str
+    row: int
+    pivot: str
+    toward: str
+
+
+@dataclass(frozen=True)
+class CylinderInput:
+    """A cylinder's throw (m): the distance between its barrel pin and its rod pin."""
+
+    actuator: str
+    row: int
+    barrel_pin: str
+    rod_pin: str
+
+
+@dataclass(frozen=True)
+class SlideInput:
+    """A slide on a fixed line: direction . X = value + direction . origin (m)."""
+
+    actuator: str
+    row: int
+    direction: tuple[Any, Any]
+    origin_along: Any
+
+
+Input = AngleInput | CylinderInput | SlideInput
 
 
 class MpReference:
@@ -53,20 +132,20 @@ class MpReference:
                 p: (mpmath.mpf(float(v[0])), mpmath.mpf(float(v[1])))
                 for p, v in mech.points.items()
             }
-            self.eqs: list[tuple[Any, ...] | None] = []  # None: an input's row, set per solve
+            self.eqs: list[Equation | None] = []  # None: an input's row, set per solve
             for lname, link in mech.links.items():
                 if lname == mech.ground or len(link.points) < 2:
                     continue
                 p0, p1 = link.points[0], link.points[1]
                 ux, uy = ref[p1][0] - ref[p0][0], ref[p1][1] - ref[p0][1]
-                self.eqs.append(('dist', p0, p1, ux * ux + uy * uy))
+                self.eqs.append(Distance(p0, p1, ux * ux + uy * uy))
                 n2 = ux * ux + uy * uy
                 for pj in link.points[2:]:
                     vx, vy = ref[pj][0] - ref[p0][0], ref[pj][1] - ref[p0][1]
                     a = (vx * ux + vy * uy) / n2
                     b = (ux * vy - uy * vx) / n2
-                    self.eqs.append(('rigid', p0, p1, pj, a, b))
-            self.inputs: list[tuple] = []  # (actuator name, equation index)
+                    self.eqs.append(Rigid(p0, p1, pj, a, b))
+            self.inputs: list[Input] = []
             actuated_joint = {
                 a.joint: name for name, a in mech.actuators.items() if isinstance(a, SlideActuator)
             }
@@ -76,13 +155,11 @@ class MpReference:
                 if pj.guide == mech.ground and len(s.points) == 1:
                     d = (mpmath.mpf(pj.direction[0]), mpmath.mpf(pj.direction[1]))
                     X = pj.point
-                    self.eqs.append(
-                        ('line', X, (-d[1], d[0]), -d[1] * ref[X][0] + d[0] * ref[X][1])
-                    )
+                    self.eqs.append(OnLine(X, (-d[1], d[0]), -d[1] * ref[X][0] + d[0] * ref[X][1]))
                     if act is not None:
                         o = pj.origin
                         self.inputs.append(
-                            (act, len(self.eqs), 'slide_fixed', d, d[0] * o[0] + d[1] * o[1])
+                            SlideInput(act, len(self.eqs), d, d[0] * o[0] + d[1] * o[1])
                         )
                         self.eqs.append(None)
                 elif len(g.points) == 1 and len(s.points) == 1:
@@ -96,7 +173,7 @@ class MpReference:
                         )
                     if act is None:
                         continue  # a free cylinder: no constraint between its two pins
-                    self.inputs.append((act, len(self.eqs), 'cylinder', base, pj.point))
+                    self.inputs.append(CylinderInput(act, len(self.eqs), base, pj.point))
                     self.eqs.append(None)
                 else:
                     raise NotImplementedError(f'prismatic joint {pj.name!r} of this shape')
@@ -105,28 +182,31 @@ class MpReference:
                     continue
                 if a.reference != mech.ground:
                     raise NotImplementedError(f'angle actuator {name!r} relative to a moving link')
-                self.inputs.append((name, len(self.eqs), 'angle', a.pivot, a.toward))
+                self.inputs.append(AngleInput(name, len(self.eqs), a.pivot, a.toward))
                 self.eqs.append(None)
-            n_rows = sum(2 if e is not None and e[0] == 'rigid' else 1 for e in self.eqs)
+            n_rows = sum(2 if isinstance(e, Rigid) else 1 for e in self.eqs)
             if n_rows != 2 * len(self.unknown):
                 raise NotImplementedError(
                     f'{mech.name}: {n_rows} equations for {2 * len(self.unknown)} unknowns'
                 )
             self.n = n_rows
 
-    def _equations(self, values: dict[str, float]) -> list[tuple[Any, ...] | None]:
+    def _equations(self, values: dict[str, float]) -> list[Equation]:
         mpf = self.mpmath.mpf
         eqs = list(self.eqs)
         for item in self.inputs:
-            name, k, kind = item[0], item[1], item[2]
-            v = mpf(float(values[name]))
-            if kind == 'angle':
-                eqs[k] = ('dir', item[3], item[4], -self.mpmath.sin(v), self.mpmath.cos(v))
-            elif kind == 'cylinder':
-                eqs[k] = ('dist', item[3], item[4], v * v)
-            else:  # slide on a fixed line: d . X = value + d . origin
-                eqs[k] = ('line', self._slide_point(name), item[3], v + item[4])
-        return eqs
+            v = mpf(float(values[item.actuator]))
+            match item:
+                case AngleInput(pivot=p, toward=q):
+                    eqs[item.row] = Direction(p, q, -self.mpmath.sin(v), self.mpmath.cos(v))
+                case CylinderInput(barrel_pin=p, rod_pin=q):
+                    eqs[item.row] = Distance(p, q, v * v)
+                case SlideInput(direction=d, origin_along=o):
+                    eqs[item.row] = OnLine(self._slide_point(item.actuator), d, v + o)
+        missing = [k for k, e in enumerate(eqs) if e is None]
+        if missing:
+            raise ValueError(f'input rows {missing} without an input')
+        return [e for e in eqs if e is not None]
 
     def _slide_point(self, actuator: str) -> str:
         return self.mech.prismatics[self.mech.actuators[actuator].joint].point
@@ -149,41 +229,37 @@ class MpReference:
 
         r = 0
         for e in eqs:
-            kind = e[0]
-            if kind == 'dist':
-                _, p, q, d2 = e
-                (px, py), (qx, qy) = P(p), P(q)
-                dx, dy = qx - px, qy - py
-                F[r] = dx * dx + dy * dy - d2
-                add(r, q, 2 * dx, 2 * dy)
-                add(r, p, -2 * dx, -2 * dy)
-                r += 1
-            elif kind == 'rigid':
-                _, p0, p1, pj, a, b = e
-                (x0, y0), (x1, y1), (xj, yj) = P(p0), P(p1), P(pj)
-                ux, uy = x1 - x0, y1 - y0
-                F[r] = xj - x0 - a * ux + b * uy
-                F[r + 1] = yj - y0 - a * uy - b * ux
-                add(r, pj, 1, 0)
-                add(r, p0, -1 + a, -b)
-                add(r, p1, -a, b)
-                add(r + 1, pj, 0, 1)
-                add(r + 1, p0, b, -1 + a)
-                add(r + 1, p1, -b, -a)
-                r += 2
-            elif kind == 'line':
-                _, p, nrm, c = e
-                x, y = P(p)
-                F[r] = nrm[0] * x + nrm[1] * y - c
-                add(r, p, nrm[0], nrm[1])
-                r += 1
-            elif kind == 'dir':
-                _, p, q, ms, c = e
-                (px, py), (qx, qy) = P(p), P(q)
-                F[r] = ms * (qx - px) + c * (qy - py)
-                add(r, q, ms, c)
-                add(r, p, -ms, -c)
-                r += 1
+            match e:
+                case Distance(p, q, d2):
+                    (px, py), (qx, qy) = P(p), P(q)
+                    dx, dy = qx - px, qy - py
+                    F[r] = dx * dx + dy * dy - d2
+                    add(r, q, 2 * dx, 2 * dy)
+                    add(r, p, -2 * dx, -2 * dy)
+                    r += 1
+                case Rigid(p0, p1, pj, a, b):
+                    (x0, y0), (x1, y1), (xj, yj) = P(p0), P(p1), P(pj)
+                    ux, uy = x1 - x0, y1 - y0
+                    F[r] = xj - x0 - a * ux + b * uy
+                    F[r + 1] = yj - y0 - a * uy - b * ux
+                    add(r, pj, 1, 0)
+                    add(r, p0, -1 + a, -b)
+                    add(r, p1, -a, b)
+                    add(r + 1, pj, 0, 1)
+                    add(r + 1, p0, b, -1 + a)
+                    add(r + 1, p1, -b, -a)
+                    r += 2
+                case OnLine(p, nrm, c):
+                    x, y = P(p)
+                    F[r] = nrm[0] * x + nrm[1] * y - c
+                    add(r, p, nrm[0], nrm[1])
+                    r += 1
+                case Direction(p, q, ms, c):
+                    (px, py), (qx, qy) = P(p), P(q)
+                    F[r] = ms * (qx - px) + c * (qy - py)
+                    add(r, q, ms, c)
+                    add(r, p, -ms, -c)
+                    r += 1
         return F, J
 
     def solve(self, values: dict[str, float], start: dict[str, tuple[float, float]]):

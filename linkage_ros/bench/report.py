@@ -16,6 +16,7 @@ from .settings import (
     NEWTON_TOLS,
     REF_DPS,
     TARGET_NEWTON_VS_SCIPY,
+    SettingFamily,
 )
 
 # ---- markdown ----------------------------------------------------------------------------------
@@ -154,7 +155,10 @@ def render_markdown(report: dict, command: str, plot_rel: str | None) -> str:
     )
     w('|---|---:|---:|---:|---:|---:|---|---|')
     for scene in report['scenes']:
-        nw, kn, sp = (find_setting(report, scene, f, 1e-12) for f in ('newton', 'kernel', 'scipy'))
+        nw, kn, sp = (
+            find_setting(report, scene, f, 1e-12)
+            for f in (SettingFamily.NEWTON, SettingFamily.KERNEL, SettingFamily.SCIPY)
+        )
         if not (nw and sp):
             continue
         w(
@@ -240,12 +244,16 @@ def interpretation(report: dict) -> str:
     lines = []
     s = report['settings']
 
-    def pick(family, tol=None):
+    def pick(family: SettingFamily, tol=None):
         return [r for r in s if r['family'] == family and (tol is None or r['tol'] == tol)]
 
-    dy, d = pick('dyad'), pick('direct')
-    n12, n8, n4 = pick('newton', 1e-12), pick('newton', 1e-8), pick('newton', 1e-4)
-    n14 = pick('newton', 1e-14)
+    dy, d = pick(SettingFamily.DYAD), pick(SettingFamily.DIRECT)
+    n12, n8, n4 = (
+        pick(SettingFamily.NEWTON, 1e-12),
+        pick(SettingFamily.NEWTON, 1e-8),
+        pick(SettingFamily.NEWTON, 1e-4),
+    )
+    n14 = pick(SettingFamily.NEWTON, 1e-14)
 
     def rng(rows, key):
         vals = [r[key] for r in rows if r[key] is not None]
@@ -279,12 +287,12 @@ def interpretation(report: dict) -> str:
         f'gives {rng(n8, "err_max")}. 1e-14 is at the rounding floor ({rng(n14, "scalar_us")} '
         f'us, {sum(r["failures"] for r in n14)} failure(s) in the sweeps).'
     )
-    sp = pick('scipy', 1e-12)
+    sp = pick(SettingFamily.SCIPY, 1e-12)
     pairs = [(a, b) for a in n12 for b in sp if a['scene'] == b['scene']]
     if pairs:
         lo = min(pairs, key=lambda p: p[1]['scalar_us'] / p[0]['scalar_us'])
         hi = max(pairs, key=lambda p: p[1]['scalar_us'] / p[0]['scalar_us'])
-        kern = {r['scene']: r for r in pick('kernel', 1e-12)}
+        kern = {r['scene']: r for r in pick(SettingFamily.KERNEL, 1e-12)}
         kr = [
             b['scalar_us'] / kern[a['scene']]['scalar_us']
             for a, b in pairs
@@ -371,18 +379,18 @@ def save_plot(report: dict, path: Path) -> None:
     colors = dict(
         zip(scenes, ['tab:blue', 'tab:orange', 'tab:green', 'tab:red', 'tab:purple', 'tab:brown'])
     )
-    markers = {'direct': 's', 'dyad': 'D', 'scipy': 'X'}
+    markers = {SettingFamily.DIRECT: 's', SettingFamily.DYAD: 'D', SettingFamily.SCIPY: 'X'}
     nmark = dict(zip(NEWTON_TOLS, ['v', '^', 'o', 'P']))
     fig, ax = plt.subplots(figsize=(8.5, 5.6))
     labels_used = {}
     for r in report['settings']:
         if r['err_max'] is None or r['scalar_us'] is None:
             continue
-        fam = r['family']
-        mk = nmark.get(r['tol'], 'o') if fam == 'newton' else markers.get(fam, 'o')
-        if fam == 'scipy':
+        fam = SettingFamily(r['family'])
+        mk = nmark.get(r['tol'], 'o') if fam is SettingFamily.NEWTON else markers.get(fam, 'o')
+        if fam is SettingFamily.SCIPY:
             mk = 'X' if r['tol'] == 1e-12 else 'x'
-        lab = r['setting'] if fam != 'direct' else 'direct closed form'
+        lab = r['setting'] if fam is not SettingFamily.DIRECT else 'direct closed form'
         y = max(r['err_max'], ERROR_FLOOR)
         ax.scatter(
             r['scalar_us'],

@@ -14,7 +14,7 @@ from typing import Any
 
 from .all_outputs import bench_all_outputs
 from .ros_driver import Driver, Link, Proc, relay_script, ros_env
-from .settings import DEFAULT_DEPTH, Sizes, log
+from .settings import DEFAULT_DEPTH, FloodKind, Sizes, log
 
 # =============================================================================================
 # (c) node latency and loss-free rate vs a bare rclpy relay
@@ -26,9 +26,9 @@ FLOOD_COMMAND_HZ = 500.0
 FLOOD_RATE_HZ = 100.0
 #: (kind, the node's topic, requests per second): flood.KINDS
 FLOODS = (
-    ('new_sets', 'target', FLOOD_RATE_HZ),
-    ('huge', 'target', FLOOD_RATE_HZ),
-    ('trajectory', 'trajectory', 10.0),
+    (FloodKind.NEW_SETS, 'target', FLOOD_RATE_HZ),
+    (FloodKind.HUGE, 'target', FLOOD_RATE_HZ),
+    (FloodKind.TRAJECTORY, 'trajectory', 10.0),
 )
 #: the parts of the node measurement ``parts`` selects from
 NODE_PARTS = ('rates', 'floods', 'all_outputs')
@@ -224,7 +224,7 @@ def _floods(
     (flood.py), started and matched before the commands start and running past their end."""
     log(f'node benchmark: node at {FLOOD_COMMAND_HZ:g} Hz, no flood (the reference)')
     run = driver.rate_run(link, FLOOD_COMMAND_HZ, seconds, target_pid=pid)
-    run.update(flood_rate=0.0, flood_sent=0, flood_kind='none')
+    run.update(flood_rate=0.0, flood_sent=0, flood_kind=FloodKind.NONE)
     runs = [run]
     for kind, topic, rate in FLOODS:
         sent_file = work / f'flood_{kind}.json'
@@ -255,7 +255,7 @@ def _floods(
             runs.append(run)
         finally:
             proc.stop()
-        driver.spin_for(2.0 if kind != 'trajectory' else 8.0)  # the node catches up
+        driver.spin_for(2.0 if kind is not FloodKind.TRAJECTORY else 8.0)  # the node catches up
     return runs
 
 

@@ -4,14 +4,17 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from .reference import MpReference, point_errors, reference_points
-from .settings import NEWTON_TOLS, SCIPY_XTOLS, Sizes
+from .settings import NEWTON_TOLS, SCIPY_XTOLS, SettingFamily, Sizes
+
+#: a batch function's label (time_batches)
+K = TypeVar('K', bound=Hashable)
 
 # =============================================================================================
 # scenes, inputs and settings
@@ -57,7 +60,7 @@ def sweep_inputs(mech, n: int) -> list[dict[str, float]]:
 class SettingResult:
     scene: str
     setting: str
-    family: str  # direct | dyad | newton | kernel | scipy
+    family: SettingFamily
     tol: float | None = None
     scalar_us: float | None = None
     batch_us: float | None = None
@@ -240,9 +243,9 @@ def run_interleaved(steppers: Sequence[Stepper], cmds: list[dict], repeats: int)
                 steppers[(off + j) % k].step(i, c, last)
 
 
-def time_batches(fns: dict[str, Callable[[], Any]], n: int, repeats: int) -> dict[str, float]:
+def time_batches(fns: dict[K, Callable[[], Any]], n: int, repeats: int) -> dict[K, float]:
     """Median time per input (us) of each batch function, the functions taking turns."""
-    ts: dict[str, list[float]] = {k: [] for k in fns}
+    ts: dict[K, list[float]] = {k: [] for k in fns}
     for _ in range(repeats):
         for k, fn in fns.items():
             t0 = time.perf_counter_ns()
@@ -380,14 +383,14 @@ def bench_scene(name: str, sizes: Sizes) -> tuple[list[SettingResult], dict]:
         scalar, batch, points = direct
         settings.append(
             (
-                SettingResult(name, 'direct closed form (core.fourbar)', 'direct'),
+                SettingResult(name, 'direct closed form (core.fourbar)', SettingFamily.DIRECT),
                 DirectStepper(scalar, points, mech, n),
                 True,
             )
         )
     settings.append(
         (
-            SettingResult(name, 'dyad plan (Solver closed_form)', 'dyad'),
+            SettingResult(name, 'dyad plan (Solver closed_form)', SettingFamily.DYAD),
             SolverStepper(Solver(mech, method='closed_form'), n),
             True,
         )
@@ -395,7 +398,7 @@ def bench_scene(name: str, sizes: Sizes) -> tuple[list[SettingResult], dict]:
     for tol in NEWTON_TOLS:
         settings.append(
             (
-                SettingResult(name, f'Newton tol {tol:g}', 'newton', tol=tol),
+                SettingResult(name, f'Newton tol {tol:g}', SettingFamily.NEWTON, tol=tol),
                 SolverStepper(Solver(mech, method='newton', tol=tol), n),
                 True,
             )
@@ -405,7 +408,7 @@ def bench_scene(name: str, sizes: Sizes) -> tuple[list[SettingResult], dict]:
             SettingResult(
                 name,
                 'Newton kernel tol 1e-12 (LoopSystem.solve)',
-                'kernel',
+                SettingFamily.KERNEL,
                 tol=1e-12,
                 note='no Result assembly; error not measured',
             ),
@@ -419,7 +422,7 @@ def bench_scene(name: str, sizes: Sizes) -> tuple[list[SettingResult], dict]:
                 SettingResult(
                     name,
                     f'scipy root hybr xtol {xtol:.3g}',
-                    'scipy',
+                    SettingFamily.SCIPY,
                     tol=xtol,
                     note='iterations = function evaluations',
                 ),
@@ -437,22 +440,22 @@ def bench_scene(name: str, sizes: Sizes) -> tuple[list[SettingResult], dict]:
     cols = batch_columns(cmds, sizes.batch)
     exact = {a: np.array([c[a] for c in cmds]) for a in mech.actuators}
     sb = Solver(mech, method='closed_form')
-    fns = {'dyad': lambda: sb.solve_batch(cols)}
+    fns = {SettingFamily.DYAD: lambda: sb.solve_batch(cols)}
     if direct is not None:
-        fns['direct'] = lambda: batch(cols['crank'])
+        fns[SettingFamily.DIRECT] = lambda: batch(cols['crank'])
     per = time_batches(fns, sizes.batch, sizes.batch_repeats)
     for row, st, has_pts in settings:
-        if row.family == 'direct':
-            row.batch_us = per['direct']
+        if row.family is SettingFamily.DIRECT:
+            row.batch_us = per[SettingFamily.DIRECT]
             e = point_errors(points(exact['crank'], batch(exact['crank'])), hi, lo, L)
             row.batch_err_max = float(np.nanmax(e))
-        elif row.family == 'dyad':
-            row.batch_us = per['dyad']
+        elif row.family is SettingFamily.DYAD:
+            row.batch_us = per[SettingFamily.DYAD]
             br = sb.solve_batch(exact)
             bpts = np.stack([br.points[p] for p in names], axis=1)
             e = point_errors(np.where(br.ok[:, None, None], bpts, np.nan), hi, lo, L)
             row.batch_err_max = float(np.nanmax(e)) if np.any(~np.isnan(e)) else None
-        elif row.family == 'newton':
+        elif row.family is SettingFamily.NEWTON:
             _newton_batch(row, mech, cmds, sizes.batch_repeats, names, hi, lo)
         add(row, st.pts if has_pts else None)
     return rows, info
