@@ -1,0 +1,184 @@
+"""`linkage check` and `linkage range --motion`: the mobility, the Grashof class, the input
+ranges (declared and computed), the reference-pose warnings and the motion of a one-input
+mechanism.
+
+Ranges are checked against the toggle angles by the cosine rule (cli_helpers.toggles).
+"""
+
+import math
+
+import pytest
+from cli_helpers import DR, loads, run
+from cli_helpers import toggles as _toggles
+
+
+def test_check_crank_rocker(capsys, scenes):
+    rc, out, _ = run(capsys, 'check', scenes['four_bar'], '--json')
+    assert rc == 0
+    d = loads(out)
+    assert d['dof'] == 1 and d['n_links'] == 4 and d['n_joints'] == 4
+    assert d['dof_matches_actuators'] is True
+    assert d['inputs']['crank']['min'] is None and d['inputs']['crank']['max'] is None
+    assert d['grashof']['class'] == 'crank-rocker' and d['grashof']['input_fully_rotates']
+    assert d['links']['coupler'] == ['A', 'B', 'P']
+    assert d['joints']['B'] == {
+        'type': 'revolute',
+        'point': 'B',
+        'parent': 'coupler',
+        'child': 'rocker',
+    }
+    plan = d['plan']
+    assert plan['mode'] == 'closed_form' and plan['newton_links'] == []
+    assert set(plan['closed_form_links']) == {'crank', 'coupler', 'rocker'}
+    assert any('RRR' in s for s in plan['closed_form_steps'])
+    rc, out, _ = run(capsys, 'check', scenes['four_bar'])
+    assert rc == 0
+    for word in ('Kutzbach', '1 DOF', 'crank-rocker', 'unlimited', 'placed by Newton'):
+        assert word in out
+
+
+def test_check_names_a_crank_rocker_whose_output_is_the_crank(capsys, tmp_path):
+    """Seed 000's crank-rocker turns its input: with the shortest link the output (rocker 20 of
+    50 / 45 / 60 / 20) the input rocks and the output is the crank, and check says so."""
+    scene = tmp_path / 'rc.yaml'
+    scene.write_text(
+        'name: rc\nfour_bar: {ground: 50, crank: 45, coupler: 60, rocker: 20, input: 100deg}\n'
+    )
+    rc, out, _ = run(capsys, 'check', scene)
+    (line,) = [ln for ln in out.splitlines() if ln.startswith('grashof')]
+    assert rc == 0 and 'its output the crank (a rocker-crank)' in line
+    assert 'input fully rotates: no, output fully rotates: yes' in line
+
+
+def test_check_double_rocker_limits_are_the_toggle_angles(capsys, scenes):
+    rc, out, _ = run(capsys, 'check', scenes['double_rocker'], '--json')
+    assert rc == 0
+    d = loads(out)
+    assert d['grashof']['class'] == 'grashof-double-rocker'
+    lo, hi = _toggles(*DR.values())  # the reference pose (input 0.8) is on this circuit
+    assert d['inputs']['crank']['min'] == pytest.approx(lo, abs=1e-9)
+    assert d['inputs']['crank']['max'] == pytest.approx(hi, abs=1e-9)
+
+
+def test_check_five_bar_newton_plan_and_slider_crank(capsys, scenes):
+    rc, out, _ = run(capsys, 'check', scenes['five_bar'], '--solver', 'newton', '--json')
+    d = loads(out)
+    assert rc == 0 and d['dof'] == 2 and set(d['inputs']) == {'a1', 'a2'}
+    assert d['grashof'] is None
+    assert d['plan']['mode'] == 'newton'
+    assert set(d['plan']['newton_links']) == {'l1', 'l2', 'l3', 'l4'}
+    rc, out, _ = run(capsys, 'check', scenes['slider_crank'], '--json')
+    d = loads(out)
+    assert rc == 0 and d['joints']['slider']['type'] == 'prismatic'
+
+
+@pytest.mark.parametrize(
+    'scene,line',
+    [
+        (
+            'inverted_slider_crank_oscillating',
+            'grashof    3R-1P non-grashof: lmin + e = 0.34 > lmax = 0.3 (input fully rotates: no, '
+            'output fully rotates: no)',
+        ),
+        (
+            'slider_crank',
+            'grashof    3R-1P grashof: lmin + e = 0.06 < lmax = 0.18 (input fully rotates: yes)',
+        ),
+        (
+            'four_bar',
+            'grashof    4R crank-rocker: s + l = 0.4 < p + q = 0.45 (input fully rotates: '
+            'yes, output fully rotates: no)',
+        ),
+    ],
+)
+def test_check_prints_the_chain_class_line(capsys, scene, line):
+    """Lecture 003 example 5 'first verifies that this is a non-Grashof 3R-1P linkage':
+    lmin + e = 0.20 + 0.14 > lmax = 0.30 (the scene file's dimensions)."""
+    rc, out, _ = run(capsys, 'check', scene)
+    assert rc == 0
+    assert line in out.splitlines()
+    rc, out, _ = run(capsys, 'check', scene, '--json')
+    d = loads(out)
+    assert d['grashof']['chain'] == line.split()[1]
+
+
+def test_check_has_no_chain_class_for_multi_loop_scenes(capsys):
+    rc, out, _ = run(capsys, 'check', 'excavator', '--json')
+    assert rc == 0 and loads(out)['grashof'] is None
+
+
+def test_check_prints_declared_limits_beside_a_tighter_computed_range(capsys, tmp_path):
+    """Issue 18: `linkage check` replaced a declared limit by a tighter computed one without
+    saying so. The reachable range of this non-Grashof crank (the toggle angles, from the cosine
+    rule written here) is printed with the declared limits beside it, in text and JSON."""
+    scene = tmp_path / 'wide.yaml'
+    scene.write_text(
+        'name: wide\nfour_bar: {ground: 0.30, crank: 0.20, coupler: 0.25, rocker: 0.22,\n'
+        '           input: 1.0, crank_limits: {min: -3.0, max: 3.0}}\n'
+    )
+    l1, l2, l3, l4 = 0.30, 0.20, 0.25, 0.22
+    toggle = math.acos((l1 * l1 + l2 * l2 - (l3 + l4) ** 2) / (2 * l1 * l2))
+    rc, out, _ = run(capsys, 'check', scene, '--json')
+    d = loads(out)['inputs']['crank']
+    assert rc == 0 and d['declared_min'] == -3.0 and d['declared_max'] == 3.0
+    assert d['min'] == pytest.approx(-toggle, abs=1e-9) and d['max'] == pytest.approx(
+        toggle, abs=1e-9
+    )
+    rc, out, _ = run(capsys, 'check', scene)
+    (line,) = [ln for ln in out.splitlines() if ln.strip().startswith('crank    angle')]
+    assert '[reachable range, computed; declared limits: min -3  max 3]' in line, line
+    rc, out, _ = run(capsys, 'check', 'four_bar')  # nothing computed: nothing added
+    assert 'declared limits' not in out
+
+
+def test_check_warns_about_a_reference_pose_drawn_at_a_toggle(capsys, tmp_path):
+    """Issue 18: a drawing at a toggle (coupler and rocker stretched out in line: the circles
+    about A and O4 touch, 0.15 + 0.15 = |A O4| = 0.3) loaded silently, its assembly mode left to
+    rounding. `linkage check` warns naming the dyad; a drawing off the toggle gets no warning."""
+    scene = tmp_path / 'flat.yaml'
+    text = (
+        'name: flat\n'
+        'points: {{O2: [0, 0], A: [0.1, 0], B: [0.25, {y}], O4: [0.4, 0]}}\n'
+        'links: {{ground: [O2, O4], crank: [O2, A], coupler: [A, B], rocker: [O4, B]}}\n'
+        'actuators: {{crank: {{type: angle, link: crank, pivot: O2}}}}\n'
+    )
+    scene.write_text(text.format(y=0))
+    rc, out, _ = run(capsys, 'check', scene, '--json')
+    (warning,) = loads(out)['warnings']
+    assert rc == 0 and 'at the toggle of RRR dyad: B from circles about A' in warning
+    rc, out, _ = run(capsys, 'check', scene)
+    assert 'warning    the reference pose is at the toggle' in out
+    scene.write_text(text.format(y=0.05))
+    rc, out, _ = run(capsys, 'check', scene, '--json')
+    assert rc == 0 and loads(out)['warnings'] == []
+
+
+def test_check_prints_the_motion_of_a_one_input_mechanism(capsys):
+    """`linkage check` (text and JSON): the rocker's swing with the crank angles at its ends,
+    the time ratio and the transmission angle extremes (their values are checked against the
+    closed forms in test_quantities)."""
+    rc, out, _ = run(capsys, 'check', 'four_bar', '--json')
+    m = loads(out)['motion']
+    assert rc == 0 and m['actuator'] == 'crank' and m['full_turn'] is True
+    rocker = m['outputs']['link:rocker']
+    assert rocker['stroke'] == pytest.approx(rocker['max'] - rocker['min'])
+    assert rocker['time_ratio'] > 1.0
+    mu = m['transmission_angle']['A-B-O4']
+    assert 0 < mu['min'] < mu['max'] < math.pi
+    rc, out, _ = run(capsys, 'check', 'four_bar')
+    assert 'motion     crank over a full turn' in out
+    assert '  rocker (angle)  min ' in out and 'time ratio ' in out
+    assert '  transmission angle A-B-O4  min ' in out
+    rc, out, _ = run(capsys, 'check', 'excavator', '--json')
+    assert loads(out)['motion'] is None
+
+
+def test_range_motion_gives_what_check_gives(capsys):
+    rc, out, _ = run(capsys, 'range', 'quick_return', '--motion', '--json')
+    motion = loads(out)['motion']
+    rc2, out2, _ = run(capsys, 'check', 'quick_return', '--json')
+    assert rc == rc2 == 0 and motion == loads(out2)['motion']
+    rc, out, _ = run(capsys, 'range', 'quick_return', '--motion')
+    assert 'lever (angle)  min ' in out and 'time ratio 1.55215' in out
+    rc, _, err = run(capsys, 'range', 'excavator', '--motion')
+    assert rc == 2 and '--motion needs a scene with one actuator' in err

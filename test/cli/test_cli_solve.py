@@ -1,0 +1,395 @@
+"""`linkage solve`: forward and inverse solves, the assembly modes and the refusals.
+
+main(argv) runs in-process (stdout/stderr captured with capsys). Numbers are checked against
+independent geometry written here and in cli_helpers (circle intersection, Freudenstein's
+equation), never against the core's own formulas.
+"""
+
+import json
+import math
+
+import pytest
+from cli_helpers import CP, CR, freudenstein_residual, loads, run
+
+from linkage_ros.core.model import Scene
+from linkage_ros.core.solver import Solver
+
+# ---- independent geometry ----------------------------------------------------------------------
+
+
+def circle_intersections(c1, r1, c2, r2):
+    """Both intersections of two circles (or [] when they miss)."""
+    dx, dy = c2[0] - c1[0], c2[1] - c1[1]
+    d = math.hypot(dx, dy)
+    a = (r1 * r1 - r2 * r2 + d * d) / (2 * d)
+    h2 = r1 * r1 - a * a
+    if h2 < 0:
+        return []
+    h = math.sqrt(h2)
+    mx, my = c1[0] + a * dx / d, c1[1] + a * dy / d
+    return [(mx - h * dy / d, my + h * dx / d), (mx + h * dy / d, my - h * dx / d)]
+
+
+def fourbar_B(theta2, l1, l2, l3, l4):
+    a = (l2 * math.cos(theta2), l2 * math.sin(theta2))
+    return a, circle_intersections(a, l3, (l1, 0.0), l4)
+
+
+def cross(o, a, b):
+    return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+
+def close(p, q, tol=1e-9):
+    return math.hypot(p[0] - q[0], p[1] - q[1]) < tol
+
+
+def wrap(a):
+    return math.atan2(math.sin(a), math.cos(a))
+
+
+# ---- solve -------------------------------------------------------------------------------------
+
+
+SCHEMA_KEYS = {
+    'status',
+    'reason',
+    'inputs',
+    'joints',
+    'links',
+    'points',
+    'residual',
+    'branch',
+    'branch_defined',
+    'margin',
+    'solver',
+    'iterations',
+    'cond',
+}
+
+
+def test_solve_json_schema_and_values_match_independent_fourbar(capsys, scenes):
+    theta2 = 0.5
+    rc, out, err = run(capsys, 'solve', scenes['four_bar'], '--set', f'crank={theta2}', '--json')
+    assert rc == 0 and err == ''
+    d = loads(out)  # exactly one JSON object
+    assert isinstance(d, dict) and set(d) >= SCHEMA_KEYS
+    assert d['status'] == 'ok' and d['reason'] is None
+    assert d['inputs'] == {'crank': theta2}
+    assert set(d['links']) == {'ground', 'crank', 'coupler', 'rocker'}
+    assert d['links']['coupler']['points'] == ['A', 'B', 'P']
+    assert set(d['points']) == {'O2', 'A', 'B', 'O4', 'P'}
+    assert d['residual'] < 1e-12 and d['branch'] == '+' and d['margin'] > 0
+    assert d['solver'] == 'closed_form'
+
+    l1, l2, l3, l4 = CR.values()
+    a, bs = fourbar_B(theta2, l1, l2, l3, l4)
+    assert close(d['points']['A'], a) and close(d['points']['O4'], (l1, 0.0))
+    b = d['points']['B']
+    assert any(close(b, c) for c in bs)
+    # default branch 'reference': the '+' assembly, B left of the line A -> O4 (the reference pose)
+    assert cross(a, (l1, 0.0), b) > 0
+    t4 = d['links']['rocker']['angle']
+    assert t4 == pytest.approx(math.atan2(b[1], b[0] - l1), abs=1e-12)
+    assert abs(freudenstein_residual(theta2, t4, l1, l2, l3, l4)) < 1e-12
+    t3 = math.atan2(b[1] - a[1], b[0] - a[0])
+    assert d['links']['coupler']['angle'] == pytest.approx(t3, abs=1e-12)
+    p = (
+        a[0] + CP['distance'] * math.cos(t3 + CP['angle']),
+        a[1] + CP['distance'] * math.sin(t3 + CP['angle']),
+    )
+    assert close(d['points']['P'], p)
+    # revolute joint value = child angle - parent angle
+    assert d['joints']['O4'] == pytest.approx(t4, abs=1e-12)
+    assert d['joints']['B'] == pytest.approx(wrap(t4 - t3), abs=1e-12)
+
+
+def test_solve_table_output(capsys, scenes):
+    rc, out, err = run(capsys, 'solve', scenes['four_bar'], '--set', 'crank=30deg')
+    assert rc == 0
+    for word in (
+        'status     ok',
+        'inputs',
+        'joints',
+        'links',
+        'points',
+        'residual',
+        'branch',
+        'margin',
+        'solver',
+        'iterations',
+        '30.00000 deg',
+        '[A B P]',
+    ):
+        assert word in out
+    assert '0.523598776 rad' in out  # 30deg was converted to radians
+
+
+def test_all_branches_gives_two_distinct_assemblies(capsys, scenes):
+    theta2 = 1.0
+    rc, out, _ = run(
+        capsys, 'solve', scenes['four_bar'], '--set', f'crank={theta2}', '--all-branches', '--json'
+    )
+    assert rc == 0
+    modes = loads(out)
+    assert isinstance(modes, list) and len(modes) == 2
+    assert all(m['status'] == 'ok' for m in modes)
+    assert {m['branch'] for m in modes} == {'+', '-'}
+    _, bs = fourbar_B(theta2, *CR.values())
+    got = [m['points']['B'] for m in modes]
+    assert not close(got[0], got[1], 1e-6)
+    for c in bs:  # each exact assembly appears once
+        assert sum(close(g, c) for g in got) == 1
+
+
+def test_inverse_solve_target_rocker_reproduces_it(capsys, scenes):
+    l1, l2, l3, l4 = CR.values()
+    theta4 = 1.9
+    rc, out, _ = run(capsys, 'solve', scenes['four_bar'], '--target', f'rocker={theta4}', '--json')
+    assert rc == 0
+    d = loads(out)
+    assert d['status'] == 'ok' and d['targets'] == {'rocker': theta4}
+    theta2 = d['inputs']['crank']
+    # independent check: with this crank, |A B| = coupler where B is the rocker tip at theta4
+    a = (l2 * math.cos(theta2), l2 * math.sin(theta2))
+    b = (l1 + l4 * math.cos(theta4), l4 * math.sin(theta4))
+    assert math.hypot(b[0] - a[0], b[1] - a[1]) == pytest.approx(l3, abs=1e-12)
+    assert abs(freudenstein_residual(theta2, theta4, l1, l2, l3, l4)) < 1e-12
+    # and the forward solve at that crank (same branch) gives the rocker back
+    rc, out, _ = run(
+        capsys,
+        'solve',
+        scenes['four_bar'],
+        '--set',
+        f'crank={theta2!r}',
+        '--branch',
+        d['branch'],
+        '--json',
+    )
+    assert rc == 0
+    assert loads(out)['links']['rocker']['angle'] == pytest.approx(theta4, abs=1e-9)
+
+
+def test_target_point_on_five_bar(capsys, scenes):
+    target = (0.12, 0.33)
+    rc, out, _ = run(
+        capsys,
+        'solve',
+        scenes['five_bar'],
+        '--target-point',
+        f'T={target[0]},{target[1]}',
+        '--json',
+    )
+    assert rc == 0
+    d = loads(out)
+    assert d['status'] == 'ok' and d['targets'] == {'point:T': list(target)}
+    pts = d['points']
+    assert close(pts['T'], target)
+    # link lengths from the reference pose are preserved
+    ref = {
+        'O2': (0, 0),
+        'O5': (0.3, 0),
+        'A': (0.0, 0.15),
+        'P': (0.15, 0.3),
+        'B': (0.3, 0.15),
+        'T': (0.1, 0.35),
+    }
+    for u, v in [('O2', 'A'), ('A', 'P'), ('A', 'T'), ('P', 'T'), ('P', 'B'), ('O5', 'B')]:
+        assert math.dist(pts[u], pts[v]) == pytest.approx(math.dist(ref[u], ref[v]), abs=1e-12)
+    a1, a2 = d['inputs']['a1'], d['inputs']['a2']
+    assert a1 == pytest.approx(math.atan2(pts['A'][1], pts['A'][0]), abs=1e-12)
+    assert a2 == pytest.approx(math.atan2(pts['B'][1], pts['B'][0] - 0.3), abs=1e-12)
+    # forward solve with the actuator values found, in the answer's assembly mode (its branch:
+    # the forward dyads' signs), puts T on the target
+    rc, out, _ = run(
+        capsys,
+        'solve',
+        scenes['five_bar'],
+        '--set',
+        f'a1={a1!r}',
+        '--set',
+        f'a2={a2!r}',
+        '--branch',
+        d['branch'],
+        '--json',
+    )
+    assert rc == 0 and close(loads(out)['points']['T'], target)
+
+
+def test_unreachable_input_is_refused_without_nan(capsys, scenes):
+    rc, out, err = run(capsys, 'solve', scenes['double_rocker'], '--set', 'crank=2.0', '--json')
+    assert rc == 1
+    d = loads(out)  # raises on NaN / Infinity
+    assert d['status'] == 'error' and d['reason'] and 'assemble' in d['reason']
+    assert d['points'] == {} and d['inputs'] == {'crank': 2.0}
+    rc, out, _ = run(capsys, 'solve', scenes['double_rocker'], '--set', 'crank=2.0')
+    assert rc == 1 and 'status     error' in out and 'reason' in out and 'nan' not in out.lower()
+
+
+def test_one_coordinate_and_a_link_angle_place_the_loader_bin(capsys):
+    """Seed 003: the bin by its hinge's x and its angle, the y decided; the coordinate is a
+    length (a unit of angle is refused, naming it)."""
+    rc, out, err = run(
+        capsys, 'solve', 'front_loader', '--target', 'D.x=2200mm', '--target', 'bin=2.3', '--json'
+    )
+    assert rc == 0, err
+    d = loads(out)
+    assert d['status'] == 'ok' and d['targets'] == {'D.x': 2.2, 'bin': 2.3}
+    assert d['points']['D'][0] == pytest.approx(2.2, abs=1e-12)
+    assert math.remainder(d['links']['bin']['angle'] - 2.3, 2 * math.pi) == pytest.approx(
+        0.0, abs=1e-12
+    )
+    rigid = [('C', 'D'), ('C', 'T'), ('D', 'T'), ('O4', 'C'), ('E', 'D')]
+    ref = {
+        'O4': (0.0, 1.9),
+        'C': (2.7893, 2.144),
+        'D': (2.8393, 2.644),
+        'T': (3.7393, 1.794),
+        'E': (2.0623, 1.9643),
+    }
+    for u, v in rigid:  # the links' lengths, from the scene's drawing
+        assert math.dist(d['points'][u], d['points'][v]) == pytest.approx(
+            math.dist(ref[u], ref[v]), abs=1e-12
+        )
+    rc, _, err = run(
+        capsys, 'solve', 'front_loader', '--target', 'D.x=30deg', '--target', 'bin=2.3'
+    )
+    assert rc == 2 and "'D.x' is a length" in err
+    # both coordinates of one point are the point, as the node takes them: the closed form
+    xy = d['points']['D']
+    rc, out, _ = run(
+        capsys, 'solve', 'front_loader', '--target-point', f'D={xy[0]},{xy[1]}', '--json'
+    )
+    as_point = loads(out)
+    rc2, out, _ = run(
+        capsys, 'solve', 'front_loader', '--target', f'D.x={xy[0]}', '--target', f'D.y={xy[1]}',
+        '--json',
+    )  # fmt: skip
+    as_pair = loads(out)
+    assert rc == rc2 == 0 and as_pair['solver'] == as_point['solver'] == 'closed_form'
+    assert as_pair['inputs'] == as_point['inputs'] and as_pair['margin'] == as_point['margin']
+
+
+def test_unreachable_target_is_refused(capsys, scenes):
+    rc, out, _ = run(capsys, 'solve', scenes['four_bar'], '--target', 'rocker=0.2', '--json')
+    assert rc == 1
+    d = loads(out)
+    assert d['status'] == 'error' and d['reason'] and d['targets'] == {'rocker': 0.2}
+
+
+def test_solve_keeps_the_reference_mode_and_any_mode_allows_the_other(capsys):
+    """four_bar: B = -1.2 is reached only in the other assembly mode (issue 19): refused by
+    default naming the mode; --any-mode solves it and says the mode changed."""
+    rc, out, _ = run(capsys, 'solve', 'four_bar', '--target', 'B=-1.2', '--json')
+    d = loads(out)
+    assert rc == 1 and d['reason'].startswith('target is reachable only in assembly mode -')
+    assert '--any-mode on the command line' in d['reason']  # the flag that allows it, named
+    rc, out, _ = run(capsys, 'solve', 'four_bar', '--target', 'B=-1.2', '--any-mode', '--json')
+    d = loads(out)
+    assert rc == 0 and d['mode_change'] == '+ -> -'
+    assert abs(math.remainder(d['joints']['B'] + 1.2, 2 * math.pi)) < 1e-9
+    rc, _, err = run(capsys, 'solve', 'four_bar', '--set', 'crank=1', '--any-mode')
+    assert rc == 2 and '--any-mode' in err
+
+
+def test_solve_answers_excavator_targets_taken_from_in_limit_configurations(capsys):
+    """Issue 19: `linkage solve excavator --target ...` with three link/joint/actuator values
+    read off an in-limits forward solve was refused in 4 of 60 cases ("target needs Z1 = 0.893 m
+    is below its minimum") although the source configuration is a solution within limits: the
+    inverse plan's own branch landed elsewhere. Every such target must now be solved, at a
+    configuration that has the target values, within limits, in the reference mode, or be
+    refused for not determining the mechanism (an honest reason)."""
+    import random
+
+    from linkage_ros.core.model import Scene
+    from linkage_ros.core.solver import Solver
+    from linkage_ros.resources import scene_path
+
+    mech = Scene.from_yaml(scene_path('excavator')).mechanism
+    fwd = Solver(mech, branch='reference')
+    ref_mode = fwd.solve(fwd.reference_values()).branch
+    rng = random.Random('cli-excavator-targets')
+    acts = list(mech.actuators)
+    every = list(mech.joint_names) + list(mech.links) + acts
+    names = [n for n in dict.fromkeys(every) if n != mech.ground]  # a cylinder is both
+    solved = 0
+    for _ in range(100):
+        cmd = {}
+        for a in acts:
+            s = next(sp for sp in fwd.specs if sp.name == a)
+            cmd[a] = rng.uniform(s.minimum, s.maximum)
+        f = fwd.solve(cmd, commit=False)
+        if not f.success or f.branch != ref_mode:
+            continue
+        picked = rng.sample(names, 3)
+        argv = ['solve', 'excavator', '--json']
+        for n in picked:
+            v = f.links[n] if n in mech.links else (f.inputs[n] if n in acts else f.joints[n])
+            argv += ['--target', f'{n}={v!r}']
+        rc, out, err = run(capsys, *argv)
+        if rc == 2:  # name sets that fix no configuration are refused when the solver is made
+            assert 'do not determine' in err or 'over-constrains' in err, (picked, err)
+            continue
+        d = loads(out)
+        assert rc == 0, (picked, d['reason'])
+        solved += 1
+        for n in picked:
+            got = (
+                d['links'][n]['angle']
+                if n in mech.links
+                else (d['inputs'][n] if n in acts else d['joints'][n])
+            )
+            want = f.links[n] if n in mech.links else (f.inputs[n] if n in acts else f.joints[n])
+            assert abs(math.remainder(got - want, 2 * math.pi)) < 1e-9, (n, got, want)
+        for s in fwd.specs:  # within limits
+            assert s.minimum - 1e-12 <= d['inputs'][s.name] <= s.maximum + 1e-12
+    assert solved >= 40, solved
+
+
+LOADER_WIDE = """name: loader
+points:
+  O2: [1.0, 0.5]
+  O4: [0.0, 2.0]
+  O7: [0.2, 2.5]
+  A: [0.9, 1.9]
+  B: [2.0, 2.6]
+  C: [3.0, 2.2]
+  E: [2.2, 2.0]
+  F: [1.9, 3.1]
+  D: [3.05, 2.75]
+  T: [3.9, 1.9]
+links:
+  ground: [O2, O4, O7]
+  boom: [O4, A, B, C]
+  bell: [B, E, F]
+  tilt: [E, D]
+  bin: [C, D, T]
+cylinders:
+  Z1: {from: O2, to: A, min: 0.8, max: 2.6}
+  Z2: {from: O7, to: F, min: 1.2, max: 2.6}
+"""
+
+
+def test_a_target_with_a_twin_in_its_mode_names_the_twin(capsys, tmp_path):
+    """Seed 003: given D.x and the bin's angle, "D.y will be automatically decided", but a
+    Newton inverse has two such solutions in one mode (either side of D.x's extreme): the
+    answer is one, and a note names the other. Checked by the closed-form forward solve at the
+    note's cylinder lengths: D.x and the bin angle are the target's, D.y differs."""
+    import re
+
+    scene = tmp_path / 'loader.yaml'
+    scene.write_text(LOADER_WIDE)
+    rc, out, err = run(
+        capsys, 'solve', scene, '--target', 'D.x=3.1', '--target', 'bin=70deg', '--json'
+    )
+    assert rc == 0
+    answer = json.loads(out)
+    (note,) = [ln for ln in err.splitlines() if 'another solution' in ln]
+    assert f'assembly mode {answer["branch"]}' in note and '--all-branches' in note
+    twin = {k: float(v) for k, v in re.findall(r'(Z\d) = ([-0-9.e]+)', note)}
+    assert set(twin) == {'Z1', 'Z2'}
+    mech = Scene.from_yaml(scene).mechanism
+    r = Solver(mech, branch=answer['branch']).solve(twin, commit=False)
+    assert r.success
+    assert r.points['D'][0] == pytest.approx(3.1, abs=1e-7)  # (the note's 9 digits)
+    assert math.degrees(r.links['bin']) == pytest.approx(70.0, abs=1e-5)
+    assert abs(r.points['D'][1] - answer['points']['D'][1]) > 0.1
