@@ -8,8 +8,7 @@ Ranges are checked against the toggle angles by the cosine rule (cli_helpers.tog
 import math
 
 import pytest
-from cli_helpers import DR, loads, run
-from cli_helpers import toggles as _toggles
+from cli_helpers import DR, loads, run, toggles
 
 
 def test_check_crank_rocker(capsys, scenes):
@@ -55,7 +54,7 @@ def test_check_double_rocker_limits_are_the_toggle_angles(capsys, scenes):
     assert rc == 0
     d = loads(out)
     assert d['grashof']['class'] == 'grashof-double-rocker'
-    lo, hi = _toggles(*DR.values())  # the reference pose (input 0.8) is on this circuit
+    lo, hi = toggles(*DR.values())  # the reference pose (input 0.8) is on this circuit
     assert d['inputs']['crank']['min'] == pytest.approx(lo, abs=1e-9)
     assert d['inputs']['crank']['max'] == pytest.approx(hi, abs=1e-9)
 

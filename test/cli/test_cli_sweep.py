@@ -11,8 +11,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from cli_helpers import CR, DR, freudenstein_residual, loads, run
-from cli_helpers import toggles as _toggles
+from cli_helpers import CR, DR, freudenstein_residual, loads, run, toggles
 
 
 def test_sweep_line_count_includes_error_lines(capsys, scenes):
@@ -20,7 +19,7 @@ def test_sweep_line_count_includes_error_lines(capsys, scenes):
     assert rc == 0  # the sweep ran: errors are lines
     lines = [loads(x) for x in out.splitlines()]
     assert len(lines) == 7
-    lo, hi = _toggles(*DR.values())
+    lo, hi = toggles(*DR.values())
     for i, (line, theta) in enumerate(zip(lines, [0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0])):
         assert line['index'] == i and line['command'] == {'crank': pytest.approx(theta)}
         assert line['status'] == ('ok' if lo < theta < hi else 'error')
