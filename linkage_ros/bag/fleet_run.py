@@ -31,11 +31,10 @@ from typing import Any
 from .common import BagError
 from .fleet_inputs import FORMATS, SUMMARY_NAMES, BagTask, find_bags
 from .fleet_task import (
-    FAILED,
-    REFUSED,
     SUMMARY_FIELDS,
     BagOptions,
     BagRow,
+    BagStatus,
     analyse_bag,
     bag_fingerprint,
     finished_row,
@@ -172,7 +171,7 @@ def _plan(
 
 
 def _failed(task: BagTask, why: str) -> BagRow:
-    return BagRow(bag=task.name, source=task.source, status=FAILED, reason=why)
+    return BagRow(bag=task.name, source=task.source, status=BagStatus.FAILED, reason=why)
 
 
 def _serial(
@@ -287,9 +286,9 @@ def summary_csv_text(rows: Sequence[BagRow]) -> str:
 def totals(rows: Sequence[BagRow]) -> dict[str, int]:
     return {
         'bags': len(rows),
-        'ok': sum(r.status == 'ok' for r in rows),
-        'all_refused': sum(r.status == REFUSED for r in rows),
-        'failed': sum(r.status == FAILED for r in rows),
+        'ok': sum(r.status is BagStatus.OK for r in rows),
+        'all_refused': sum(r.status is BagStatus.REFUSED for r in rows),
+        'failed': sum(r.status is BagStatus.FAILED for r in rows),
         'resumed': sum(r.resumed for r in rows),
         'messages': sum(r.messages for r in rows),
         'answered': sum(r.answered for r in rows),
@@ -350,7 +349,7 @@ def run_fleet(args: argparse.Namespace) -> int:
             bar.update(1)
             rate = commands / max(time.perf_counter() - t0, 1e-9)
             bar.set_postfix_str(f'{commands:,} commands, {rate:,.0f}/s')
-            if row.status == FAILED:
+            if row.status is BagStatus.FAILED:
                 bar.write(f'linkage bag: {row.bag}: failed: {row.reason}', file=sys.stderr)
     ordered = [rows[i] for i in range(len(tasks))]
     written = write_summary(opts.out_dir, ordered)
@@ -374,7 +373,7 @@ def _print_summary(
         f'  {ran} bag(s) analysed on {where} in {seconds:.2f} s',
     ]
     for r in rows:
-        if r.status != 'ok' and not r.resumed:
+        if r.status is not BagStatus.OK and not r.resumed:
             lines.append(f'  {r.bag}: {r.status}: {r.reason}')
     lines += [f'  wrote {p}' for p in written]
     print('\n'.join(lines))

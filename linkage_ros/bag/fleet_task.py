@@ -23,6 +23,7 @@ import os
 import shutil
 import time
 from dataclasses import asdict, dataclass, field
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
@@ -41,7 +42,14 @@ from .state_completion import completed_commands
 #: manifest layout version (a manifest of another version is not trusted)
 MANIFEST_VERSION = 1
 
-OK, REFUSED, FAILED = 'ok', 'all refused', 'failed'
+
+class BagStatus(StrEnum):
+    """A bag's outcome in the fleet summary (its value is what the summary and the manifest
+    say)."""
+
+    OK = 'ok'  # some command answered
+    REFUSED = 'all refused'  # every command refused (or none to answer): exit status 1
+    FAILED = 'failed'  # the bag could not be analysed: exit status 3
 
 
 @dataclass(frozen=True)
@@ -87,7 +95,7 @@ class BagRow:
 
     bag: str
     source: str
-    status: str  # OK, REFUSED (every command refused) or FAILED
+    status: BagStatus
     messages: int = 0
     answered: int = 0
     refused: int = 0
@@ -188,7 +196,7 @@ def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanReque
     return BagRow(
         bag=task.name,
         source=task.source,
-        status=REFUSED if why else OK,
+        status=BagStatus.REFUSED if why else BagStatus.OK,
         messages=messages,
         answered=answered,
         refused=messages - answered,
@@ -336,7 +344,7 @@ def analyse_bag(
         return BagRow(
             bag=task.name,
             source=task.source,
-            status=FAILED,
+            status=BagStatus.FAILED,
             wall_s=time.perf_counter() - t0,
             reason=reason,
         )
@@ -391,6 +399,7 @@ def finished_row(task: BagTask, out_dir: str, fingerprint: str) -> BagRow | None
             return None
         d = dict(manifest['row'])
         d['outputs'] = tuple(d.get('outputs', ()))
+        d['status'] = BagStatus(d['status'])  # (ValueError: not a status; run the bag again)
         row = BagRow(**d)
     except (OSError, ValueError, KeyError, TypeError):
         return None

@@ -319,6 +319,8 @@ def test_resume_skips_finished_bags_and_redoes_the_rest(fleet, tmp_path, capsys)
     rows, doc = summary_rows(out)
     assert [rows[n]['resumed'] for n in sorted(rows)] == ['true', 'false', 'true', 'false']
     assert doc['totals']['resumed'] == 2
+    # the resumed bags count as what their manifests say: three answered, one failed
+    assert (doc['totals']['ok'], doc['totals']['failed']) == (3, 1), doc['totals']
     # a bag changed since: redone
     code, cap = run([*args, '--resume'], capsys)
     assert '3 bag(s) complete already' in cap.out
