@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.model import AngleActuator
 from ..outputs import written_whole
 from .common import BagError
 from .reading import Commands, exc_text
@@ -72,7 +73,7 @@ def plot_figure(data: Commands, res: Results, mech, max_points: int = 20000):
     # every angle drawn alike: wrapped to +-pi as the node gives joints (an input as commanded
     # may be any number of turns), each line broken where it wraps
     for a, act in mech.actuators.items():
-        angle = act.unit == 'rad'
+        angle = isinstance(act, AngleActuator)
         y = res.inputs[a][idx]
         if angle:
             y = np.arctan2(np.sin(y), np.cos(y))
