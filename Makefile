@@ -13,7 +13,8 @@ export PYTHONDONTWRITEBYTECODE := 1
 
 # Suites at the numerical extremes: run again under these OpenBLAS kernels (their answers must
 # hold under any BLAS kernel / SIMD path, not only the one this machine picks).
-EXTREME_TESTS := test/core/test_stability.py test/core/motion/test_vectorised_extremes.py \
+EXTREME_TESTS := test/core/test_stability.py test/core/test_stability_inputs.py \
+  test/core/test_stability_newton.py test/core/motion/test_vectorised_extremes.py \
   test/core/motion/test_extremes_to_the_last_digit.py
 OPENBLAS_KERNELS := Haswell Sandybridge
 

@@ -1,41 +1,39 @@
-"""Tests of linkage_ros.core.fourbar against independent oracles.
+"""Tests of linkage_ros.core.fourbar's four-bar forward and inverse solutions against
+independent oracles (circle_intersection: test_fourbar_circles.py; slider-crank:
+test_fourbar_slider_crank.py).
 
 Oracles used (never the code's own output):
 * the loop-closure equations written out by hand,
-* 50-digit mpmath solutions of the Freudenstein equation / circle intersections,
+* 50-digit mpmath solutions of the Freudenstein equation,
 * reachability conditions derived directly from the triangle inequality.
 """
-
-import math
 
 import mpmath as mp
 import numpy as np
 import pytest
+from fourbar_helpers import DPS, wrap
 from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from linkage_ros.core.analysis import fourbar_input_range, fourbar_output_range
 from linkage_ros.core.fourbar import (
-    circle_intersection,
     fourbar_forward,
     fourbar_inverse,
     slider_crank_forward,
     slider_crank_inverse,
-    slider_crank_stroke,
 )
 
-DPS = 50
 CRANK_ROCKER = (4.0, 1.5, 4.5, 3.0)  # s + l = 6 < 7, shortest is the input
+
 DOUBLE_CRANK = (1.5, 4.0, 4.5, 3.0)  # shortest is the ground
+
 TRIPLE_ROCKER_PI = (4.0, 3.0, 5.0, 2.5)  # non-Grashof, input range symmetric about pi
+
 TRIPLE_ROCKER_0 = (5.0, 4.0, 2.5, 3.0)  # non-Grashof, input range symmetric about 0
+
 GRASHOF_DOUBLE_ROCKER = (4.0, 3.0, 1.5, 4.5)  # shortest is the coupler
+
 LINKAGES = [CRANK_ROCKER, DOUBLE_CRANK, TRIPLE_ROCKER_PI, TRIPLE_ROCKER_0, GRASHOF_DOUBLE_ROCKER]
-
-
-def wrap(a):
-    """Wrap angles to [-pi, pi)."""
-    return (np.asarray(a, float) + np.pi) % (2 * np.pi) - np.pi
 
 
 def closure(l1, l2, l3, l4, t2, t3, t4):
@@ -88,101 +86,6 @@ def mp_fourbar_roots(l1, l2, l3, l4, t2):
 def nearest_root(sol, roots):
     """Index of the mpmath root closest (in wrapped theta4) to a float solution."""
     return int(np.argmin([abs(wrap(sol.theta4 - r[1])) for r in roots]))
-
-
-# ----------------------------------------------------------------------------- circle_intersection
-
-
-def mp_circle_intersection(c1, r1, c2, r2, sign):
-    with mp.workdps(DPS):
-        x1, y1, x2, y2 = (mp.mpf(float(v)) for v in (*c1, *c2))
-        r1, r2 = mp.mpf(float(r1)), mp.mpf(float(r2))
-        dx, dy = x2 - x1, y2 - y1
-        d = mp.sqrt(dx**2 + dy**2)
-        a = (d**2 + r1**2 - r2**2) / (2 * d)
-        h = mp.sqrt(r1**2 - a**2)
-        px = x1 + a * dx / d - sign * h * dy / d
-        py = y1 + a * dy / d + sign * h * dx / d
-        return float(px), float(py), float(h)
-
-
-def test_circle_intersection_matches_mpmath_and_side_convention():
-    rng = np.random.default_rng(1)
-    n = 300
-    c1 = rng.uniform(-5, 5, (n, 2))
-    c2 = rng.uniform(-5, 5, (n, 2))
-    d = np.hypot(*(c2 - c1).T)
-    r1 = rng.uniform(0.1, 1.0, n) * (d + 1)
-    # choose r2 strictly inside the intersecting band so every case is a proper crossing
-    lo, hi = np.abs(d - r1), d + r1
-    r2 = lo + rng.uniform(0.05, 0.95, n) * (hi - lo)
-    sign = rng.choice([-1.0, 1.0], n)
-    p, h, ok = circle_intersection(c1, r1, c2, r2, sign)
-    assert p.shape == (n, 2) and h.shape == (n,) and ok.all()
-    for i in range(n):
-        px, py, hm = mp_circle_intersection(c1[i], r1[i], c2[i], r2[i], sign[i])
-        scale = max(d[i], r1[i], r2[i])
-        assert abs(p[i, 0] - px) <= 1e-13 * scale and abs(p[i, 1] - py) <= 1e-13 * scale
-        assert abs(h[i] - hm) <= 1e-13 * scale
-    # sign +1 is the left (counter-clockwise) side of c1 -> c2: positive cross product
-    cross = (c2 - c1)[:, 0] * (p - c1)[:, 1] - (c2 - c1)[:, 1] * (p - c1)[:, 0]
-    assert np.all(np.sign(cross) == sign)
-
-
-def test_circle_intersection_needle_triangle_keeps_relative_accuracy():
-    # d = 2 - 1e-10 with r1 = r2 = 1: h ~ 1e-5.  sqrt(r1^2 - a^2) would lose ~10 digits here.
-    for gap in (1e-6, 1e-10, 1e-14):
-        d = 2.0 - gap
-        _, h, ok = circle_intersection([0.0, 0.0], 1.0, [d, 0.0], 1.0, 1)
-        _, _, hm = mp_circle_intersection((0.0, 0.0), 1.0, (d, 0.0), 1.0, 1)
-        assert ok and h > 0
-        assert abs(h - hm) <= 1e-13 * hm
-
-
-@pytest.mark.parametrize('k', [1e-200, 2.0**-600, 1.0, 3e150, 1e300])
-def test_circle_intersection_extreme_scales(k):
-    # needle triangle and ordinary triangle, both scaled by k: no under/overflow, same digits
-    for c2x, r1, r2 in ((2.0 - 1e-10, 1.0, 1.0), (1.3, 0.9, 0.7), (1e-100, 1.0, 1.0)):
-        p, h, ok = circle_intersection([0.0, 0.0], k * r1, [k * c2x, 0.0], k * r2, 1)
-        px, py, hm = mp_circle_intersection((0.0, 0.0), k * r1, (k * c2x, 0.0), k * r2, 1)
-        assert ok and np.all(np.isfinite(p))
-        assert abs(h - hm) <= 1e-13 * hm
-        assert abs(p[0] - px) <= 1e-13 * k and abs(p[1] - py) <= 1e-13 * k
-
-
-def test_circle_intersection_tangency_clamp_and_failures_are_finite():
-    # external tangency: d = r1 + r2 exactly
-    p, h, ok = circle_intersection([0.0, 0.0], 1.0, [3.0, 0.0], 2.0, 1)
-    assert ok and h == 0.0 and np.allclose(p, [1.0, 0.0], atol=1e-15)
-    # internal tangency: d = r1 - r2
-    p, h, ok = circle_intersection([0.0, 0.0], 3.0, [1.0, 0.0], 2.0, -1)
-    assert ok and h == 0.0 and np.allclose(p, [3.0, 0.0], atol=1e-15)
-    # violated by 0.5e-12 of the scale (3.0): still tangent; by 1e-9: no intersection
-    _, h, ok = circle_intersection([0.0, 0.0], 1.0, [3.0 + 1.5e-12, 0.0], 2.0, 1)
-    assert ok and h == 0.0
-    p, h, ok = circle_intersection([0.0, 0.0], 1.0, [3.0 + 1e-9, 0.0], 2.0, 1)
-    assert not ok and h == 0.0
-    assert np.array_equal(p, [1.0, 0.0])  # fill: the point of circle 1 nearest to circle 2
-    # nested, far apart, concentric, zero distance, negative radius, non-finite input
-    c1 = np.array([[0, 0], [0, 0], [0, 0], [1, 1], [0, 0], [np.nan, 0], [0, 0]], float)
-    c2 = np.array([[0.5, 0], [10, 0], [0, 0], [1, 1], [1, 0], [1, 0], [np.inf, 0]], float)
-    r1 = np.array([3, 1, 1, 1, -1, 1, 1], float)
-    r2 = np.array([1, 1, 1, 1, 1, 1, 1], float)
-    with np.errstate(all='raise'):  # no floating-point warnings leak out either
-        p, h, ok = circle_intersection(c1, r1, c2, r2, np.ones(7))
-    assert not ok.any()
-    assert np.all(np.isfinite(p)) and np.all(np.isfinite(h)) and np.all(h == 0)
-
-
-def test_circle_intersection_broadcasts():
-    c1 = np.zeros((3, 1, 2))
-    c2 = np.stack([np.linspace(1, 2, 4), np.zeros(4)], -1)  # (4, 2)
-    p, h, ok = circle_intersection(c1, np.array([1.0, 1.5, 2.0])[:, None], c2, 1.0, 1)
-    assert p.shape == (3, 4, 2) and h.shape == (3, 4) and ok.shape == (3, 4)
-    assert ok.all()
-    # every point lies on both circles
-    assert np.allclose(np.hypot(*np.moveaxis(p, -1, 0)), np.array([1.0, 1.5, 2.0])[:, None])
-    assert np.allclose(np.hypot(*np.moveaxis(p - c2, -1, 0)), 1.0)
 
 
 # ----------------------------------------------------------------------------- forward
@@ -485,148 +388,3 @@ def test_extreme_ratio_with_tiny_rocker_closes_the_loop():
         assert sol.ok.all()
         ex, ey = closure(*lengths, t2, sol.theta3, sol.theta4)
         assert np.max(np.hypot(ex, ey)) <= 1e-12 * max(lengths)
-
-
-# ----------------------------------------------------------------------------- slider-crank
-
-SLIDERS = [(1.0, 3.0, 0.5), (1.0, 3.0, -0.7), (2.0, 2.5, 0.5), (1.0, 4.0, 0.0), (0.5, 1.0, 0.5)]
-
-
-@pytest.mark.parametrize('r,l,e', SLIDERS)
-def test_slider_forward_satisfies_rod_length(r, l, e):
-    t2 = np.linspace(-np.pi, np.pi, 721)
-    scale = max(r, l, abs(e))
-    for branch in (1, -1):
-        sol = slider_crank_forward(r, l, e, t2, branch)
-        ax, ay = r * np.cos(t2), r * np.sin(t2)
-        expected_ok = np.abs(e - ay) <= l
-        clear = np.abs(np.abs(e - ay) - l) > 1e-9
-        assert np.array_equal(sol.ok[clear], expected_ok[clear])
-        ok = sol.ok
-        assert np.all(np.isfinite(sol.x)) and np.all(np.isfinite(sol.theta3))
-        # (x - r cos t2)^2 + (e - r sin t2)^2 = l^2
-        assert np.max(np.abs(np.hypot(sol.x - ax, e - ay) - l)[ok]) <= 1e-12 * scale
-        # branch +1: B ahead of A; -1 behind
-        assert np.all(branch * (sol.x - ax)[ok] >= 0)
-        # rod angle consistent with the positions
-        assert np.max(np.abs(ax + l * np.cos(sol.theta3) - sol.x)[ok]) <= 1e-12 * scale
-        assert np.max(np.abs(ay + l * np.sin(sol.theta3) - e)[ok]) <= 1e-12 * scale
-        assert np.all(sol.residual[ok] <= 1e-12)
-
-
-def test_slider_forward_matches_mpmath_near_reach_limit():
-    # r = l, e = 0: at theta2 = pi/2 the rod is perpendicular to the slide line and
-    # x - A_x = sqrt((l - dy)(l + dy)) ~ |theta2 - pi/2| is small.  The factored form keeps the
-    # error at ~eps/|theta2 - pi/2| (dy itself is rounded), i.e. <= 1e-12 for offsets >= 1e-3.
-    r, l, e = 1.0, 1.0, 0.0
-    for dt in (0.0, 1e-3, -1e-3, 1e-2, 1e-1):
-        t2 = np.pi / 2 + dt
-        for branch in (1, -1):
-            sol = slider_crank_forward(r, l, e, t2, branch)
-            assert sol.ok
-            with mp.workdps(DPS):
-                tt = mp.mpf(t2)
-                dy = e - r * mp.sin(tt)
-                want = r * mp.cos(tt) + branch * mp.sqrt(max(l**2 - dy**2, 0))
-            assert abs(sol.x - float(want)) <= 1e-12 * max(r, l)
-
-
-def test_slider_forward_tangency_clamp():
-    # e = 2, r = l = 1: the rod reaches the line only at theta2 = pi/2, perpendicular to it
-    r, l, e = 1.0, 1.0, 2.0
-    sol = slider_crank_forward(r, l, e, np.pi / 2, 1, tangency_tol=0.0)
-    assert sol.ok and abs(sol.x) <= 1e-15 and sol.theta3 == pytest.approx(np.pi / 2, abs=1e-15)
-    # missing the line by 1e-13 (< 1e-12 of the scale 2) is clamped; by 1e-9 it is not
-    assert slider_crank_forward(r, l, e + 1e-13, np.pi / 2).ok
-    assert not slider_crank_forward(r, l, e + 1e-13, np.pi / 2, tangency_tol=0.0).ok
-    sol = slider_crank_forward(r, l, e + 1e-9, np.pi / 2)
-    assert not sol.ok and np.isfinite(sol.x) and sol.theta3 == 0.0
-    assert sol.residual == pytest.approx(1e-9 / (e + 1e-9), rel=1e-6)  # the gap / max(r, l, |e|)
-
-
-def _sweep_extremes(r, l, e, n=100_001):
-    """Stroke oracle: dense sweep of branch +1, x(t) = r cos t + sqrt(l^2 - (e - r sin t)^2).
-
-    The sweep only locates the extremes; they are then refined at 40 digits (x has a
-    square-root singularity at the limits of assembly, so no float evaluation near them is
-    good to better than ~1e-8): golden-section search around interior extremes and bisection
-    on the assembly condition for the limits.
-    """
-    with mp.workdps(40):
-        R, L, E = mp.mpf(r), mp.mpf(l), mp.mpf(e)
-
-        def slack(t):
-            return L**2 - (E - R * mp.sin(t)) ** 2
-
-        def x_of(t):
-            return R * mp.cos(t) + mp.sqrt(max(slack(t), 0))
-
-        t = np.linspace(-np.pi, np.pi, n)
-        dy = e - r * np.sin(t)
-        feas = np.abs(dy) <= l
-        x = np.where(feas, r * np.cos(t) + np.sqrt(np.clip(l * l - dy * dy, 0, None)), np.nan)
-        cands = []
-        for sgn in (1, -1):
-            i = int(np.nanargmax(sgn * x))
-            a, b = mp.mpf(t[max(i - 1, 0)]), mp.mpf(t[min(i + 1, n - 1)])
-            if slack(a) >= 0 and slack(b) >= 0:
-                g = (mp.sqrt(5) - 1) / 2
-                for _ in range(160):
-                    c, d = b - g * (b - a), a + g * (b - a)
-                    if sgn * x_of(c) > sgn * x_of(d):
-                        b = d
-                    else:
-                        a = c
-                cands.append(x_of((a + b) / 2))
-            if slack(mp.mpf(t[i])) >= 0:
-                cands.append(x_of(mp.mpf(t[i])))
-        for i in np.nonzero(feas[:-1] != feas[1:])[0]:
-            a, b = mp.mpf(t[i]), mp.mpf(t[i + 1])
-            inside_a = bool(feas[i])
-            for _ in range(130):
-                m = (a + b) / 2
-                if (slack(m) >= 0) == inside_a:
-                    a = m
-                else:
-                    b = m
-            cands.append(x_of(a if inside_a else b))
-        return float(min(cands)), float(max(cands))
-
-
-@pytest.mark.parametrize('r,l,e', SLIDERS + [(2.0, 1.0, 0.0), (2.0, 1.5, 1.0)])
-def test_slider_stroke_equals_sweep_extremes(r, l, e):
-    lo, hi = slider_crank_stroke(r, l, e)
-    want_lo, want_hi = _sweep_extremes(r, l, e)
-    assert abs(lo - want_lo) <= 1e-9 * max(r, l) and abs(hi - want_hi) <= 1e-9 * max(r, l)
-    if abs(e) + r <= l:  # full rotation: the dead-centre formulas
-        assert hi == pytest.approx(math.sqrt((l + r) ** 2 - e**2), rel=1e-14)
-        assert lo == pytest.approx(math.sqrt((l - r) ** 2 - e**2), rel=1e-14, abs=1e-15)
-
-
-def test_slider_stroke_rejects_impossible():
-    with pytest.raises(ValueError):
-        slider_crank_stroke(1.0, 1.0, 3.0)
-    with pytest.raises(ValueError):
-        slider_crank_stroke(-1.0, 1.0, 0.0)
-
-
-@pytest.mark.parametrize('r,l,e', SLIDERS)
-def test_slider_inverse_of_forward(r, l, e):
-    t2 = np.random.default_rng(3).uniform(-np.pi, np.pi, 3000)
-    for branch in (1, -1):
-        fwd = slider_crank_forward(r, l, e, t2, branch)
-        ax, ay = r * np.cos(t2), r * np.sin(t2)
-        # side of A relative to the vector O2 -> B, computed here
-        cross = fwd.x * ay - e * ax
-        well = fwd.ok & (np.abs(cross) > 1e-3 * r * np.hypot(fwd.x, e))
-        inv = slider_crank_inverse(r, l, e, fwd.x, np.sign(cross))
-        assert inv.ok[well].all()
-        assert np.max(np.abs(wrap(inv.theta2 - t2))[well]) <= 1e-12
-        assert np.max(np.abs(wrap(inv.theta3 - fwd.theta3))[well]) <= 1e-12
-        assert np.all(inv.residual[well] <= 1e-12)
-    # documented side: e = 0, x > 0 -> branch +1 gives theta2 in (0, pi)
-    inv = slider_crank_inverse(1.0, 3.0, 0.0, np.array([2.5, 3.5]), 1)
-    assert np.all((inv.theta2 > 0) & (inv.theta2 < np.pi))
-    # out of reach: flagged, finite
-    bad = slider_crank_inverse(1.0, 3.0, 0.0, np.array([4.5, 1.5, np.nan]))
-    assert not bad.ok.any() and all(np.all(np.isfinite(v)) for v in bad)

@@ -1,6 +1,6 @@
 """One coordinate of a point as a known (``D.x`` / ``D.y``, m): seed 003 poses the loader's bin
 by "only the x-coordinate and the orientation of this bin, and the y-coordinate will be
-automatically decided" (the construction itself: test_seed_coverage.py).
+automatically decided" (the construction itself: test_seed_coverage_loaders.py).
 
 Oracles: forward closed-form solves of in-limit throws (a different algorithm from the Newton
 rows a coordinate known adds), and the known's own definition read off the answer's points."""

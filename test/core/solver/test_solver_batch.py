@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import scenes
 from scenes import CONFIG, four_bar, slider_crank
-from test_solver_core import AGREE, CRANK_ROCKER, TIGHT, TRIPLE_ROCKER
+from solver_core_helpers import AGREE, CRANK_ROCKER, TIGHT, TRIPLE_ROCKER
 
 from linkage_ros.core.errors import PlanError
 from linkage_ros.core.model import Scene
