@@ -1,14 +1,16 @@
-"""No module of the package imports another module's private name (a leading underscore): what
-one module uses of another is that module's public interface, named so. Modules keep their own
-helpers private; a helper two modules share is public where it is defined (issue 25: no private
-reach-ins across modules)."""
+"""No module of the package or its tests imports another module's private name (a leading
+underscore): what one module uses of another is that module's public interface, named so.
+Modules keep their own helpers private; a helper two modules share is public where it is
+defined (issue 25: no private reach-ins across modules)."""
 
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
-PACKAGE = Path(__file__).resolve().parents[1] / 'linkage_ros'
+ROOT = Path(__file__).resolve().parents[1]
+#: the package, and the tests (their shared helper modules are imported by name)
+TREES = (ROOT / 'linkage_ros', ROOT / 'test')
 
 
 def private_imports(source: str) -> list[tuple[str, str]]:
@@ -27,8 +29,9 @@ def private_imports(source: str) -> list[tuple[str, str]]:
 
 def test_no_module_imports_a_private_name_of_another():
     offenders = [
-        f'{path.relative_to(PACKAGE.parent)}: from {module} import {name}'
-        for path in sorted(PACKAGE.rglob('*.py'))
+        f'{path.relative_to(ROOT)}: from {module} import {name}'
+        for tree in TREES
+        for path in sorted(tree.rglob('*.py'))
         for module, name in private_imports(path.read_text())
     ]
     assert not offenders, 'private names imported across modules:\n' + '\n'.join(offenders)

@@ -152,11 +152,11 @@ def stamp_ns(msg) -> int:
     return msg.header.stamp.sec * 10**9 + msg.header.stamp.nanosec
 
 
-def _summary_count(text: str, what: str) -> int:
+def summary_count(text: str, what: str) -> int:
     return int(text.split(f'{what} ')[1].split(',')[0].split()[0])
 
 
-def _bad(args, capsys):
+def refused_stderr(args, capsys):
     code = bag.main([str(a) for a in args])
     err = capsys.readouterr().err.strip()
     assert code == 2

@@ -18,7 +18,6 @@ from test_bag import (
     JS,
     TOL,
     TS,
-    _summary_count,
     four_bar,
     four_bar_rates,
     joint_state,
@@ -30,6 +29,7 @@ from test_bag import (
     run_bag,
     stamp_ns,
     stream_messages,
+    summary_count,
     wrap,
 )
 
@@ -139,10 +139,10 @@ def test_matches_node_engine_on_jumpy_mixed_stream(tmp_path, scene, branch, caps
         capsys,
     )
     assert code == 0, cap.err
-    assert _summary_count(cap.out, 'vectorised rows') > 0.8 * len(rows)
+    assert summary_count(cap.out, 'vectorised rows') > 0.8 * len(rows)
     # every row is counted once: batched, one by one, or refused as the message stands
     ways = ('vectorised rows', 'one-by-one rows', 'refused before any solve')
-    counted = [_summary_count(cap.out, w) if f'{w} ' in cap.out else 0 for w in ways]
+    counted = [summary_count(cap.out, w) if f'{w} ' in cap.out else 0 for w in ways]
     assert sum(counted) == len(rows), cap.out
     table = read_csv(out_csv)
     assert len(table) == len(rows)
@@ -199,8 +199,8 @@ def test_matches_node_engine_through_toggles(tmp_path, linkage, capsys):
     assert code == 0, cap.err
     # (a coarse step near a fold goes one by one: 48 of 300 near the change point)
     share = 0.8 if linkage == 'near_change_point' else 0.9
-    assert _summary_count(cap.out, 'vectorised rows') > share * len(rows)
-    assert _summary_count(cap.out, 'one-by-one rows') > 0  # near the singularities
+    assert summary_count(cap.out, 'vectorised rows') > share * len(rows)
+    assert summary_count(cap.out, 'one-by-one rows') > 0  # near the singularities
     table = read_csv(out_csv)
     if linkage == 'triple_rocker':
         assert sum(r['status'] == 'error' for r in table) > 50  # beyond the toggles
@@ -391,7 +391,7 @@ def test_vectorised_path_matches_one_by_one_solver(tmp_path, scene, capsys):
     )
     elapsed = time.perf_counter() - t0
     assert code == 0, cap.err
-    assert _summary_count(cap.out, 'vectorised rows') >= 0.99 * n, cap.out
+    assert summary_count(cap.out, 'vectorised rows') >= 0.99 * n, cap.out
     assert elapsed < 30.0, f'{n} commands took {elapsed:.1f} s'
     with open(out_csv, newline='') as fh:
         reader = csv.reader(fh)

@@ -14,10 +14,10 @@ from test_bag import (  # noqa: F401
     JS,
     SCENE_YAML,
     TS,
-    _bad,
     joint_state,
     make_input,
     read_csv,
+    refused_stderr,
     run_bag,
     write_bag,
 )
@@ -36,21 +36,21 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
     )
     common = ['--scene', scene, '--command-topic', '/cmd', '--out', tmp_path / 'x.csv']
     # missing
-    assert 'no such file' in _bad([tmp_path / 'nothing_here', *common], capsys)
+    assert 'no such file' in refused_stderr([tmp_path / 'nothing_here', *common], capsys)
     # not a bag: a text file, a folder without metadata and storage
     text = tmp_path / 'notes.txt'
     text.write_text('hello')
-    assert 'not a rosbag2' in _bad([text, *common], capsys)
+    assert 'not a rosbag2' in refused_stderr([text, *common], capsys)
     empty = tmp_path / 'emptydir'
     empty.mkdir()
-    assert 'not a rosbag2' in _bad([empty, *common], capsys)
+    assert 'not a rosbag2' in refused_stderr([empty, *common], capsys)
     # a folder holding one storage file and more bags below it: not that one bag alone (only
     # the file was read, the others left out without a word)
     holder = tmp_path / 'recordings'
     holder.mkdir()
     shutil.copy(good / 'in_mcap.mcap', holder / 'single.mcap')
     shutil.copytree(good, holder / 'day1' / 'run')
-    err = _bad([holder, *common], capsys)
+    err = refused_stderr([holder, *common], capsys)
     assert 'more bags below it (day1/run, ...)' in err and '--out-dir' in err, err
     shutil.rmtree(holder / 'day1')
     code, cap = run_bag([holder, *common, '--no-progress'], capsys)
@@ -58,13 +58,13 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
     # a .mcap that is not MCAP at all
     fake = tmp_path / 'fake.mcap'
     fake.write_bytes(b'not an mcap file' * 10)
-    assert 'cannot open' in _bad([fake, *common], capsys)
+    assert 'cannot open' in refused_stderr([fake, *common], capsys)
     # missing topic: the topics that exist are listed
-    err = _bad(
+    err = refused_stderr(
         [good, '--scene', scene, '--command-topic', '/nope', '--out', tmp_path / 'x.csv'], capsys
     )
     assert 'topic /nope is not in the bag' in err and '/cmd (sensor_msgs/msg/JointState)' in err
-    err = _bad([good, *common, '--target-topic', '/missing'], capsys)
+    err = refused_stderr([good, *common, '--target-topic', '/missing'], capsys)
     assert '/missing' in err and '/cmd' in err
     # wrong message type: expected and found named
     typed = tmp_path / 'typed'
@@ -75,7 +75,7 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
         [('/cmd', 5, joint_state(['crank'], [0.2]))],
         extra_topics=[('/words', 'std_msgs/msg/String', string)],
     )
-    err = _bad(
+    err = refused_stderr(
         [typed, '--scene', scene, '--command-topic', '/words', '--out', tmp_path / 'x.csv'], capsys
     )
     assert 'std_msgs/msg/String' in err and 'expected sensor_msgs/msg/JointState' in err
@@ -85,10 +85,10 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
     shutil.copytree(good, cut)
     data = mcap.read_bytes()
     (cut / mcap.name).write_bytes(data[: len(data) // 2])
-    assert 'truncated' in _bad([cut, *common], capsys)
+    assert 'truncated' in refused_stderr([cut, *common], capsys)
     cutfile = tmp_path / 'cut.mcap'
     cutfile.write_bytes(data[: len(data) // 2])
-    err = _bad([cutfile, *common], capsys)
+    err = refused_stderr([cutfile, *common], capsys)
     assert 'truncated' in err or 'corrupt' in err
     # corrupt sqlite3 database
     sq = tmp_path / 'sq'
@@ -99,13 +99,13 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
     raw = bytearray(db.read_bytes())
     raw[100 : len(raw)] = os.urandom(len(raw) - 100)
     db.write_bytes(bytes(raw))
-    err = _bad([sq, *common], capsys)
+    err = refused_stderr([sq, *common], capsys)
     assert 'corrupt' in err or 'truncated' in err
     # unreadable metadata: still one line
     meta = tmp_path / 'meta'
     shutil.copytree(good, meta)
     (meta / 'metadata.yaml').write_text('rosbag2_bagfile_information: {version: [')
-    assert 'cannot open the bag' in _bad([meta, *common], capsys)
+    assert 'cannot open the bag' in refused_stderr([meta, *common], capsys)
     # a message whose CDR is cut short
     short = tmp_path / 'short'
     write_bag(
@@ -113,16 +113,16 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
         'mcap',
         [('/cmd', 7, bytes(TS.serialize_cdr(joint_state(['crank'], [0.3]), JS))[:30])],
     )
-    err = _bad([short, *common], capsys)
+    err = refused_stderr([short, *common], capsys)
     assert 'not a valid JointState' in err and 'corrupt' in err
     # outputs: an existing output bag is not overwritten
     exists = tmp_path / 'exists'
     exists.mkdir()
-    assert 'exists already' in _bad(
+    assert 'exists already' in refused_stderr(
         [good, '--scene', scene, '--command-topic', '/cmd', '--out', exists], capsys
     )
     # a bad scene or branch is a usage error too
-    assert 'scene file not found' in _bad(
+    assert 'scene file not found' in refused_stderr(
         [
             good,
             '--scene',
@@ -134,7 +134,7 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
         ],
         capsys,
     )
-    assert 'branch' in _bad([good, *common, '--branch', '+-+'], capsys)
+    assert 'branch' in refused_stderr([good, *common, '--branch', '+-+'], capsys)
 
 
 def test_nan_commands_are_refused_rows(tmp_path, scene, capsys):

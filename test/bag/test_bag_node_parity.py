@@ -11,13 +11,13 @@ from rosbags.rosbag2.enums import StoragePlugin
 from test_bag import (  # noqa: F401
     JS,
     TS,
-    _summary_count,
     four_bar,
     joint_state,
     make_input,
     read_csv,
     read_out_bag,
     run_bag,
+    summary_count,
     write_bag,
 )
 
@@ -441,7 +441,7 @@ def test_the_summary_counts_every_row_once(tmp_path, scene, capsys):
     assert code == 0, cap.err
     assert 'solved 29, refused 1' in cap.out and 'refused before any solve 1' in cap.out, cap.out
     ways = ('vectorised rows', 'one-by-one rows', 'refused before any solve')
-    assert sum(_summary_count(cap.out, w) for w in ways) == 30, cap.out
+    assert sum(summary_count(cap.out, w) for w in ways) == 30, cap.out
 
 
 @pytest.mark.parametrize('n', [30, 2000])
@@ -457,7 +457,7 @@ def test_the_summary_counts_a_nan_command_as_refused_before_any_solve(tmp_path, 
     assert code == 0, cap.err
     assert f'solved {n - 1}, refused 1' in cap.out and 'refused before any solve 1' in cap.out
     ways = ('vectorised rows', 'one-by-one rows', 'refused before any solve')
-    assert sum(_summary_count(cap.out, w) for w in ways) == n, cap.out
+    assert sum(summary_count(cap.out, w) for w in ways) == n, cap.out
 
 
 def test_a_command_naming_a_joint_link_or_point_is_refused_in_the_nodes_words(tmp_path, capsys):

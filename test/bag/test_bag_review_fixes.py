@@ -15,12 +15,12 @@ from test_bag import (  # noqa: F401
     JS,
     TOL,
     TS,
-    _bad,
     four_bar,
     joint_state,
     make_input,
     read_csv,
     read_out_bag,
+    refused_stderr,
     run_bag,
     wrap,
 )
@@ -43,12 +43,14 @@ def test_plot_path_is_checked_before_any_work(tmp_path, scene, capsys):
     src = _small_bag(tmp_path)
     out_csv = tmp_path / 'r.csv'
     common = [src, '--scene', scene, '--command-topic', '/cmd', '--out', out_csv, '--no-progress']
-    err = _bad([*common, '--plot', tmp_path / 'run.txt'], capsys)
+    err = refused_stderr([*common, '--plot', tmp_path / 'run.txt'], capsys)
     assert 'cannot write a .txt image' in err and 'png' in err
     assert not out_csv.exists()  # nothing was written
-    assert 'is a directory' in _bad([*common, '--plot', tmp_path], capsys)
-    assert 'is also an --out path' in _bad([*common, '--plot', out_csv], capsys)
-    assert 'does not exist' in _bad([*common, '--plot', tmp_path / 'no' / 'p.png'], capsys)
+    assert 'is a directory' in refused_stderr([*common, '--plot', tmp_path], capsys)
+    assert 'is also an --out path' in refused_stderr([*common, '--plot', out_csv], capsys)
+    assert 'does not exist' in refused_stderr(
+        [*common, '--plot', tmp_path / 'no' / 'p.png'], capsys
+    )
 
 
 def test_an_out_path_where_a_csv_puts_its_trajectories_is_refused_before_any_work(
@@ -61,11 +63,11 @@ def test_an_out_path_where_a_csv_puts_its_trajectories_is_refused_before_any_wor
     out_csv, beside = tmp_path / 'r.csv', tmp_path / 'r.trajectories.csv'
     common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
     for outs in (['--out', out_csv, '--out', beside], ['--out', beside, '--out', out_csv]):
-        err = _bad([*common, *outs], capsys)
+        err = refused_stderr([*common, *outs], capsys)
         assert 'r.trajectories.csv: is where the trajectories and paths of --out' in err, err
         assert not out_csv.exists() and not beside.exists()
     beside.mkdir()
-    err = _bad([*common, '--out', out_csv], capsys)
+    err = refused_stderr([*common, '--out', out_csv], capsys)
     assert 'r.trajectories.csv (the trajectories and paths of --out' in err, err
     assert 'is a directory' in err and not out_csv.exists()
 
@@ -84,7 +86,7 @@ def test_an_out_named_as_a_file_it_does_not_write_is_refused(tmp_path, scene, ca
     front, saying what writes that file, and nothing is written."""
     src = _small_bag(tmp_path)
     out = tmp_path / name
-    err = _bad([src, '--scene', scene, '--command-topic', '/cmd', '--out', out], capsys)
+    err = refused_stderr([src, '--scene', scene, '--command-topic', '/cmd', '--out', out], capsys)
     assert f'output {out}: --out writes a CSV (*.csv) or a rosbag2 folder' in err, err
     assert said in err and not out.exists()
 
@@ -257,18 +259,20 @@ def test_unusable_output_paths_are_clear_errors(tmp_path, scene, capsys):
     common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
     for name in ('loop.csv', 'loopbag'):
         (tmp_path / name).symlink_to(tmp_path / name)
-    assert 'cannot use this path' in _bad([*common, '--out', tmp_path / 'loop.csv'], capsys)
-    err = _bad([*common, '--out', tmp_path / 'loopbag'], capsys)
+    assert 'cannot use this path' in refused_stderr(
+        [*common, '--out', tmp_path / 'loop.csv'], capsys
+    )
+    err = refused_stderr([*common, '--out', tmp_path / 'loopbag'], capsys)
     assert 'exists already' in err or 'cannot use this path' in err
-    assert 'cannot use this path' in _bad(
+    assert 'cannot use this path' in refused_stderr(
         [*common, '--out', tmp_path / 'r.csv', '--plot', tmp_path / 'loop.csv'], capsys
     )
     afile = tmp_path / 'afile'
     afile.write_text('x')
-    err = _bad([*common, '--out', afile / 'r.csv'], capsys)
+    err = refused_stderr([*common, '--out', afile / 'r.csv'], capsys)
     assert f'folder {afile} is not a folder' in err
     (tmp_path / 'dangling').symlink_to(tmp_path / 'nowhere')
-    assert 'exists already' in _bad([*common, '--out', tmp_path / 'dangling'], capsys)
+    assert 'exists already' in refused_stderr([*common, '--out', tmp_path / 'dangling'], capsys)
 
 
 def test_failed_bag_write_is_one_error_and_leaves_no_half_bag(tmp_path, scene, capsys, monkeypatch):
@@ -301,7 +305,7 @@ def test_failed_bag_write_is_one_error_and_leaves_no_half_bag(tmp_path, scene, c
         return real_write(self, *a, **k)
 
     monkeypatch.setattr(rwriter.Writer, 'write', failing_write)
-    err = _bad(args, capsys)
+    err = refused_stderr(args, capsys)
     assert f'output {out}: cannot write the bag (database or disk is full)' in err
     assert not out.exists()
     monkeypatch.setattr(rwriter.Writer, 'write', real_write)
@@ -360,7 +364,7 @@ def test_unwritable_output_folder_is_refused_before_any_work(tmp_path, scene, ca
         ['--out', locked / 'answers'],
         ['--out', tmp_path / 'r.csv', '--plot', locked / 'p.png'],
     ):
-        err = _bad([*common, *extra], capsys)
+        err = refused_stderr([*common, *extra], capsys)
         assert f'folder {locked.resolve()} is not writable' in err
     assert reads == []
 
@@ -372,9 +376,9 @@ def test_empty_topic_names_are_usage_errors(tmp_path, scene, capsys):
     src = _small_bag(tmp_path)
     out_csv = tmp_path / 'r.csv'
     common = [src, '--scene', scene, '--out', out_csv, '--no-progress']
-    err = _bad([*common, '--command-topic', '/cmd', '--target-topic', ''], capsys)
+    err = refused_stderr([*common, '--command-topic', '/cmd', '--target-topic', ''], capsys)
     assert '--target-topic: empty topic name' in err
-    err = _bad([*common, '--command-topic', ' '], capsys)
+    err = refused_stderr([*common, '--command-topic', ' '], capsys)
     assert '--command-topic: empty topic name' in err
     assert not out_csv.exists()
     code, cap = run_bag([*common, '--command-topic', '/cmd'], capsys)  # and the same run works

@@ -95,7 +95,7 @@ def pin_miss(robot: PinocchioRobot, values, pins) -> float:
     return max(float(np.linalg.norm(robot.point(*a) - robot.point(*b))) for a, b in pins)
 
 
-def _axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
+def axis_rotation(axis: np.ndarray, angle: float) -> np.ndarray:
     """Rotation about a unit axis (matrix exponential of the skew matrix, by its series)."""
     k = np.array([[0, -axis[2], axis[1]], [axis[2], 0, -axis[0]], [-axis[1], axis[0], 0]])
     out, term = np.eye(3), np.eye(3)
@@ -178,7 +178,7 @@ class SdfModel:
                     frame = xyz.get('expressed_in', name)
                     axis = (self.initial(name)[:3, :3].T @ self.initial(frame)[:3, :3]) @ axis
                     axis /= np.linalg.norm(axis)
-                    motion = homogeneous(_axis_rotation(axis, values[name]), [0, 0, 0])
+                    motion = homogeneous(axis_rotation(axis, values[name]), [0, 0, 0])
                     placed[child] = x_wp @ motion @ np.linalg.inv(x_cj)
                     pending.remove(j)
                     progress = True

@@ -44,7 +44,7 @@ def side(a, b, x):
     return 1 if cross(b - a, x - a) > 0 else -1
 
 
-def _scene(name):
+def named_scene(name):
     path = CONFIG / f'{name}.yaml'
     if not path.exists():
         pytest.skip(f'{name}.yaml not shipped yet')

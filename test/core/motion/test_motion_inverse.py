@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 import pytest
-from motion_helpers import _scene, circ
+from motion_helpers import circ, named_scene
 
 from linkage_ros.core import motion
 from linkage_ros.core.plan import spec_for
@@ -50,7 +50,7 @@ ROUND_TRIPS = [
 
 @pytest.mark.parametrize('scene,knowns', ROUND_TRIPS)
 def test_inverse_kinematics_round_trip_on_shipped_scenes(scene, knowns):
-    mech = _scene(scene)
+    mech = named_scene(scene)
     keys = knowns(mech)
     fwd = Solver(mech, branch='reference')
     inv = Solver(mech, knowns=keys, branch='reference')
@@ -91,7 +91,7 @@ def test_inverse_kinematics_round_trip_on_shipped_scenes(scene, knowns):
 
 @pytest.mark.parametrize('scene,knowns', ROUND_TRIPS)
 def test_unreachable_and_beyond_limit_targets_are_refused_with_a_reason(scene, knowns):
-    mech = _scene(scene)
+    mech = named_scene(scene)
     keys = knowns(mech)
     inv = Solver(mech, knowns=keys)
     # unreachable: points far away, link / slider values outside the motion

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from motion_helpers import TWO_PI, _scene, ang, circ, circle_meet
+from motion_helpers import TWO_PI, ang, circ, circle_meet, named_scene
 from scenes import CONFIG
 from scenes import four_bar as fourbar
 
@@ -275,7 +275,7 @@ def test_plots_write_pngs_with_both_branches(tmp_path):
 def test_link_oscillation_matches_a_continuous_sweep_within_the_limits(scene):
     """Within its limits (away from the toggles) the crank cannot change assembly mode: every
     link's range is what a fine, branch-continuous sweep of the crank shows."""
-    mech = _scene(scene)
+    mech = named_scene(scene)
     act = mech.actuators['crank']
     x0 = motion.reference_value(mech, 'crank')
     ends = (act.max, act.min) if act.min is not None else (x0 + math.pi, x0 - math.pi)
@@ -302,7 +302,7 @@ def test_link_oscillation_matches_a_continuous_sweep_within_the_limits(scene):
 
 
 def test_shipped_plagiograph_toggles_where_the_parallelogram_folds():
-    mech = _scene('plagiograph')
+    mech = named_scene('plagiograph')
     # theta_C held: O2A and O2C collinear (theta_A = theta_C or theta_C + pi) flattens the
     # parallelogram O2ABC, the dyad A-B-C toggles there
     tc = motion.reference_value(mech, 'theta_C')
