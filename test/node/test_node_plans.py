@@ -3,7 +3,7 @@
 for load with a status that says so, requests larger than the scene's bound are refused
 unread, and a name with a NUL is refused as ``linkage bag`` refuses it.
 
-The node runs in this process (test_node_adversarial.Served: its own namespace, a random
+The node runs in this process (adversary_helpers.Served: its own namespace, a random
 domain, answers awaited, never slept for). Orderings and counts are asserted, not durations.
 """
 
@@ -12,11 +12,11 @@ from __future__ import annotations
 import math
 
 import pytest
+from adversary_helpers import TIMEOUT, FourBar, Served, assert_close_angles, joint_state
 from builtin_interfaces.msg import Duration
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.serialization import serialize_message
 from ros_harness import RosHarness, random_domain_id
-from test_node_adversarial import TIMEOUT, FourBar, Served, assert_close_angles, joint_state
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 from linkage_ros.engine import Engine, EngineSettings
