@@ -73,7 +73,7 @@ def test_the_cli_solves_a_structure_with_no_knowns(capsys, tmp_path):
 
 def test_the_node_publishes_a_structure(tmp_path):
     """The node shows a structure: its reference pose on joint_states (publish_rate), and a
-    demo sweep has nothing to sweep (refused at start-up, test_node)."""
+    demo sweep has nothing to sweep (refused at start-up, test_node_startup)."""
     scene = tmp_path / 'truss.yaml'
     scene.write_text(TRUSS.format(d=0.4, px=0.15, py=0.2))
     domain = random_domain_id()
