@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 from builtin_interfaces.msg import Time
-from description_helpers import CASES, fixture, mechanism_of, text_of
+from node_description_helpers import CASES, fixture, mechanism_of, text_of
 
 from linkage_ros.core.loading import load_scene
 

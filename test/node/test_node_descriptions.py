@@ -10,7 +10,7 @@
   the description published transient-local, is replaced whole by a second one, and refuses a
   malformed one while the previous mechanism keeps answering.
 
-Each node is a subprocess (description_helpers) in its own namespace on this module's random
+Each node is a subprocess (node_description_helpers) in its own namespace on this module's random
 ROS domain; every node of the module is started at once and stopped at the end, each checked
 for a clean exit.
 """
@@ -24,7 +24,8 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pinocchio as pin
 import pytest
-from description_helpers import (
+from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from node_description_helpers import (
     ANSWER_TIMEOUT,
     CASES,
     CLOSURE_TOL,
@@ -38,7 +39,6 @@ from description_helpers import (
     text_of,
     wrap,
 )
-from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rclpy.duration import Duration
 from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSProfile, ReliabilityPolicy
 from ros_harness import random_domain_id

@@ -5,7 +5,7 @@ hardware's values (Pinocchio's forward kinematics of the URDF), and never reads 
 back; with ``publish_inputs`` it publishes every joint. Also the picking of the wanted names
 out of a JointState.
 
-Each node is a subprocess (description_helpers) in its own namespace on this module's random
+Each node is a subprocess (node_description_helpers) in its own namespace on this module's random
 ROS domain; every node of the module is started at once and stopped at the end, each checked
 for a clean exit.
 """
@@ -13,7 +13,8 @@ for a clean exit.
 from __future__ import annotations
 
 import pytest
-from description_helpers import (
+from diagnostic_msgs.msg import DiagnosticStatus
+from node_description_helpers import (
     ANSWER_TIMEOUT,
     CASES,
     CLOSURE_TOL,
@@ -28,7 +29,6 @@ from description_helpers import (
     text_of,
     wrap,
 )
-from diagnostic_msgs.msg import DiagnosticStatus
 from ros_harness import random_domain_id
 from sensor_msgs.msg import JointState
 
