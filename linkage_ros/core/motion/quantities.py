@@ -31,8 +31,15 @@ from .touches import golden_min
 #: an output whose swing (rad) or stroke (of the length scale) is no more than this does not
 #: move (it rounds): it has no time ratio
 STILL = 1e-9
-#: a refined extreme may exceed the best sample by no more than this fraction (rounding)
-_LEVEL = 1e-15
+#: a refined extreme may exceed the best sample by no more than this fraction of the largest
+#: value the quantity takes (rounding: both are computed to a few ulps of the terms that make
+#: them, and the best sample may sit on the extreme itself, where the two differ by rounding
+#: alone; a value near 0, a slider's end at x = 0, is computed from terms of the mechanism's
+#: size, so the band is not a fraction of the value itself)
+_LEVEL = 1e-13
+#: the steps the two grid steps around an extreme are cut into where the rate does not change
+#: sign across them
+_FINER = 16
 
 
 def transmission_angles(solver: Solver, result: Result) -> dict[str, float]:
@@ -199,18 +206,45 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
     return full, pieces
 
 
-def _arc_start(raw: list[np.ndarray]) -> float | None:
+def _arc_start(raw: list[np.ndarray], closed: bool) -> float | None:
     """The angle (rad) where the arc that the angles ``raw`` (one array per piece, each in
-    input order) cover begins: just after their largest gap around the circle. None where no
-    gap is wider than one step between neighbouring samples: the angle turns fully."""
-    step = max((float(np.max(np.abs(np.remainder(np.diff(a) + math.pi, 2 * math.pi) - math.pi)))
-                for a in raw if a.size > 1), default=0.0)  # fmt: skip
-    around = np.sort(np.mod(np.concatenate(raw), 2 * math.pi))
-    gaps = np.diff(np.append(around, around[0] + 2 * math.pi))
+    input order; ``closed``: one piece over a full turn of the input, its last sample followed
+    by its first) cover begins: just after their largest gap around the circle. None where the
+    angle turns fully: a step between neighbouring samples, taken the short way (each is less
+    than half a turn), passes through that gap. Where the gap lies between the ends of two
+    pieces (their toggle, where an end sample may be missing: it did not assemble by rounding)
+    no step joins them, and a gap no wider than 1.5 steps there is passed too. The steps are
+    read where they are taken, not compared with the largest step anywhere: a lever whose pivot
+    the crank pin passes close by (a slotted lever with r/d near 1) swings through nearly pi
+    within one input step, next to its extremes, and still swings."""
+    around: list[float] = []
+    at_end: list[float] = []  # per sample: its step into the piece if it ends one, else 0
+    crossings: list[tuple[float, float]] = []  # per step: (from, signed short-way change)
+    for a in raw:
+        if not a.size:
+            continue
+        seq = np.append(a, a[0]) if closed and a.size > 1 else a
+        d = np.remainder(np.diff(seq) + math.pi, 2 * math.pi) - math.pi
+        ends = np.zeros(a.size)
+        if not closed and a.size > 1:
+            ends[0], ends[-1] = abs(d[0]), abs(d[-1])
+        around += np.mod(a, 2 * math.pi).tolist()
+        at_end += ends.tolist()
+        crossings += list(zip(seq[:-1].tolist(), d.tolist()))
+    order = np.argsort(around)
+    at = np.asarray(around)[order]
+    end_step = np.asarray(at_end)[order]
+    gaps = np.diff(np.append(at, at[0] + 2 * math.pi))
     j = int(np.argmax(gaps))
-    if gaps[j] <= 1.5 * step:
+    k = (j + 1) % at.size
+    if gaps[j] <= 1.5 * max(end_step[j], end_step[k]):
         return None
-    return float(around[(j + 1) % around.size])
+    mid = at[j] + gaps[j] / 2
+    for start, change in crossings:  # a step through the gap: the angle passes it
+        into = math.remainder(mid - start, 2 * math.pi)
+        if (0.0 < into < change) or (change < into < 0.0):
+            return None
+    return float(at[k])
 
 
 def _wrapped(e: Extreme) -> Extreme:
@@ -236,9 +270,12 @@ def input_sweep(
     quantity's rate d(quantity)/d(input) (the exact Jacobian velocities), found by Brent's
     method between the samples around the best one, on that sample's branch: the input there to
     a few ulps, so the dead-centre inputs, swing, stroke and time ratio are exact to about 1e-15
-    relative (tested to 1e-12 against the closed forms for ten drawings each). Where the rate
-    does not change sign between those samples (an extreme at an end of the range, where the
-    input toggles) the value is minimised by golden-section search to ``tol`` of the input
+    relative (tested to 1e-12 against the closed forms for ten drawings each; where the closed
+    form is ill-conditioned, as a quick-return's time ratio with r/d near 1, to its condition
+    number times a few eps). Where the rate does not change sign between those samples it is
+    looked for in sixteen finer steps between them (a lever that flips between its extremes
+    within one step); where it changes sign in none (an extreme at an end of the range, where
+    the input toggles) the value is minimised by golden-section search to ``tol`` of the input
     instead (about 1e-8 of the input where the quantity is flat there). ValueError for a
     mechanism with more than one actuator."""
     if len(mech.actuators) != 1:
@@ -268,20 +305,35 @@ def input_sweep(
         if x is not None:
             r = exact.solve({act: x}, commit=False)
             fx = sign * f_of(r, series[i]) if r.success else math.inf
-        if x is None or not fx <= sign * series[i] + _LEVEL * abs(series[i]):
+        else:
+            # no sign change across the two steps: the rate may turn back within them (a lever
+            # flipping between its two extremes within one step, r/d near 1): the roots in
+            # finer steps, the best of them
+            edges = np.linspace(float(a), float(b), _FINER + 1).tolist()
+            for lo, hi in zip(edges[:-1], edges[1:]):
+                got = _rate_root(exact, act, rate_of, lo, hi, sign, scale)
+                if got is None:
+                    continue
+                at = exact.solve({act: got}, commit=False)
+                if at.success and sign * f_of(at, series[i]) < fx:
+                    x, fx = got, sign * f_of(at, series[i])
+        # the root kept where its value is the sample's or better, to rounding (a sample on the
+        # extreme itself is as low, and the root is where it is to a few ulps)
+        if x is not None and fx <= sign * series[i] + _LEVEL * float(np.max(np.abs(series))):
+            return x, sign * fx  # (unwrapped: the circuit's own input coordinate)
 
-            def f(x: float) -> float:
-                r = exact.solve({act: x}, commit=False)
-                if not r.success:
-                    return math.inf
-                return sign * f_of(r, series[i])
+        def f(x: float) -> float:
+            r = exact.solve({act: x}, commit=False)
+            if not r.success:
+                return math.inf
+            return sign * f_of(r, series[i])
 
-            # no sign change of the rate on the grid step: an end of the range (a toggle of the
-            # input, where the rate has no value) or a flat top; the least value found there
-            x, fx = golden_min(f, float(a), float(b), tol)
+        # no sign change of the rate on the grid step: an end of the range (a toggle of the
+        # input, where the rate has no value) or a flat top; the least value found there
+        x, fx = golden_min(f, float(a), float(b), tol)
         if not fx <= sign * series[i]:  # an end of the range, or a flat top
             x, fx = float(grid[i]), sign * float(series[i])
-        return x, sign * fx  # (unwrapped: the circuit's own input coordinate)
+        return x, sign * fx
 
     def extreme(series: list[np.ndarray], f_of: ValueNear, rate_of: RateOf) -> Extreme:
         """The least and greatest of ``series`` (one array per piece), each refined."""
@@ -304,7 +356,7 @@ def input_sweep(
         raw = [np.array([_value(mech, r, name) for r in p.results]) for p in pieces]
         angle = name.startswith('link:')
         if angle:
-            start = _arc_start(raw)
+            start = _arc_start(raw, full and len(pieces) == 1)
             if start is None:
                 turning.append(name)
                 continue

@@ -185,3 +185,95 @@ def test_quick_return_extremes_for_every_drawing(drawn):
     near_angle(ram.input_at_max, -alpha, 'crank at the ram forward end')
     near_angle(ram.input_at_min, math.pi + alpha, 'crank at the ram back end')
     near(sweep.time_ratio['joint:ram'], want, 'ram time ratio')
+
+
+# ---- found by an adversary: a lever flipping within one input step, a sample on the extreme ----
+
+
+def slotted_lever(r: float, d: float, theta: float) -> Scene:
+    """A crank-and-slotted-lever: the lever's pivot O4 at the origin, the crank's O2 at d above
+    it, the crank (r) drawn at ``theta``; the lever's angle is the slot's (O4 -> A)."""
+    ax, ay = r * math.cos(theta), d + r * math.sin(theta)
+    return Scene.from_dict(
+        {
+            'name': 'slotted_lever',
+            'points': {'O2': [0.0, d], 'O4': [0.0, 0.0], 'A': [ax, ay], 'F': [2 * ax, 2 * ay]},
+            'links': {
+                'ground': ['O2', 'O4'],
+                'crank': ['O2', 'A'],
+                'block': ['A'],
+                'lever': ['O4', 'F'],
+            },  # fmt: skip
+            'sliders': [
+                {
+                    'name': 'slot',
+                    'guide': 'lever',
+                    'slider': 'block',
+                    'point': 'A',
+                    'direction': [ax, ay],
+                    'origin': 'O4',
+                }  # fmt: skip
+            ],
+            'actuators': {
+                'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
+            },
+        }
+    )
+
+
+@pytest.mark.parametrize('drawn', DRAWN_AT)
+@pytest.mark.parametrize('r', [0.9999, 0.999998])
+def test_a_slotted_lever_with_r_near_d_swings_for_every_drawing(drawn, r):
+    # r / d = 0.9999: the crank pin passes 1e-4 d from the lever's pivot, and the lever swings
+    # through nearly pi within one of the sweep's input steps; it does not turn fully (it was
+    # reported so for drawings whose samples fell either side of that flip). At 0.999998 both
+    # of its extremes (0.004 rad of crank apart) can fall within one step of the sweep (0.0044)
+    d = 1.0
+    sweep = input_sweep(slotted_lever(r, d, drawn).mechanism, ['link:lever'])
+    assert sweep.turns_fully == ()
+    lever = sweep.outputs['link:lever']
+    alpha = math.asin(r / d)
+    near(lever.maximum - lever.minimum, 2 * alpha, 'lever swing 2 asin(r/d)')
+    near_angle(lever.minimum, math.pi / 2 - alpha, 'lever minimum')
+    near_angle(lever.input_at_min, -alpha, 'crank at the lever minimum')
+    near_angle(lever.input_at_max, math.pi + alpha, 'crank at the lever maximum')
+    # the time ratio (pi + 2 alpha) / (pi - 2 alpha) is ill-conditioned here: a relative change
+    # u of r moves it by K u relative, K = r / ratio * d(ratio)/dr (about 5000): held to 64 eps K
+    want = (math.pi + 2 * alpha) / (math.pi - 2 * alpha)
+    k = r / want * 4 * math.pi / (math.pi - 2 * alpha) ** 2 / math.sqrt(d * d - r * r)
+    got = sweep.time_ratio['link:lever']
+    assert abs(got - want) <= 64 * 2.2e-16 * k * want, (got, want, k)
+
+
+def test_an_extreme_on_a_sample_is_found_to_the_last_digit():
+    # the drawing puts a sample of the sweep on the extreme itself (the crank along the ground:
+    # the least transmission angle); its rate's root there was refused for exceeding the
+    # sample's value by rounding, and a golden-section search gave the input to ~1e-9
+    mech = Scene.from_dict(
+        {
+            'four_bar': {
+                'ground': 0.4,
+                'crank': 0.1,
+                'coupler': 1.0,
+                'rocker': 1.0,
+                'ground_angle': 0.5,
+                'input': 0.5,
+            }
+        }  # fmt: skip
+    ).mechanism
+    (mu,) = input_sweep(mech, ['link:rocker']).transmission.values()
+    near_angle(mu.input_at_min, 0.5, 'crank along the ground toward O4')
+    near_angle(mu.input_at_max, 0.5 + math.pi, 'crank along the ground away from O4')
+    # a centred slider-crank whose inner dead centre is a sample (its direction + pi), and a
+    # slider end near x = 0 (the value's own size is no measure of its rounding)
+    r, rod, direction = 0.0006101141558570248, 0.0009026643839761656, -2.4363481515639385
+    mech = Scene.from_dict(
+        {'slider_crank': {'crank': r, 'rod': rod, 'offset': 0, 'direction': direction}}
+    ).mechanism
+    (name,) = classical_outputs(mech)
+    sweep = input_sweep(mech, [name])
+    out = sweep.outputs[name]
+    near_angle(out.input_at_min, direction + math.pi, 'crank at the inner dead centre')
+    near_angle(out.input_at_max, direction, 'crank at the outer dead centre')
+    near(out.maximum - out.minimum, 2 * r, 'stroke')
+    near(sweep.time_ratio[name], 1.0, 'time ratio of a centred slider-crank')
