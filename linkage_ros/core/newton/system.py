@@ -1,7 +1,7 @@
 """LoopSystem: the public face of a mechanism's loop-closure equations. It compiles them once
 (tables.compile_tables) and hands every call to the module that does it: evaluate (one
-configuration), scalar (the Newton solves of one), batch (N at once), linalg (factorisation,
-det J sign, condition number)."""
+configuration), scalar (the Newton solves of one), predictor (the continuation predictor),
+batch (N at once), linalg (factorisation, det J sign, condition number)."""
 
 from __future__ import annotations
 
