@@ -37,9 +37,9 @@ Its linear algebra goes block by block where J's fixed sparsity makes it block t
 
 Modules (no one imports back): tables (the equations compiled once: a frozen LoopTables),
 evaluate (one configuration's rows), linalg (LU, det sign, cond), scalar (the one-configuration
-solves), predictor (the continuation predictor they start from), lean (the warm fast path on plain floats), batch (N at once), blocks
-(J's block-triangular form for the batch), results (outcomes and constants); system's
-LoopSystem is the facade the solver uses.
+solves), predictor (the continuation predictor they start from), lean (the warm fast path on
+plain floats), batch (N at once), blocks (J's block-triangular form for the batch), results
+(outcomes and constants); system's LoopSystem is the facade the solver uses.
 """
 
 from __future__ import annotations
