@@ -242,6 +242,13 @@ class Engine:
         misplaced = self.not_actuators(values)
         if misplaced is not None:
             return Result(False, misplaced)
+        unasked = [] if rates is None else [n for n in rates if n not in values]
+        if unasked:
+            return Result(
+                False,
+                f'velocity of {echo(unasked)} without a value: give velocities for the names '
+                'the command gives (an actuator it holds keeps its value, at rate 0)',
+            )
         values, held = self.held_values(values)
         if isinstance(held, str):
             return Result(False, held)

@@ -5,7 +5,11 @@ Exact to rounding: one linear solve with the analytic Jacobian of the loop-closu
 at the solved configuration (J dx/dt = -dF/dvalue * rates), not a finite difference. Near a
 toggle J becomes singular and the velocities grow without bound (as the mechanism's do: a
 finite input rate drives an output at an unbounded rate there); ``cond`` says how near, and at
-a singular J there is no answer (``success`` False with the reason).
+a singular J there is no answer (``success`` False with the reason): singular to rounding, its
+condition number above SINGULAR_COND (the rates' rounding error is about cond * 1e-16 of their
+size: all of it at a toggle itself, where a finite answer would be noise). Rates that are not
+finite, or an answer beyond the float range (a rate near the largest double), are refused
+saying so.
 """
 
 from __future__ import annotations
@@ -15,6 +19,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+
+from .newton.results import SINGULAR_COND
 from .quantities import PointSpec
 
 if TYPE_CHECKING:
@@ -53,14 +60,19 @@ def velocities(
     for s in solver.specs:
         r = rates[s.name]
         comps += [float(r[0]), float(r[1])] if isinstance(s, PointSpec) else [float(r)]
+    bad = [s.name for s in solver.specs if not all(map(math.isfinite, _parts(rates[s.name])))]
+    if bad:
+        return Velocities(False, f'no velocity: the rate of {bad} is not finite')
     dx, cond = system.rates(x, solver.parse(values), comps)
-    if dx is None:
+    if not cond <= SINGULAR_COND:  # (NaN too)
         return Velocities(
             False,
             f'no velocity: the loop-closure Jacobian is singular here (condition {cond:.3g}; '
             'a toggle, where a finite input rate drives the mechanism at an unbounded rate)',
             cond=cond,
         )
+    if dx is None:
+        return Velocities(False, _OVERFLOW, cond=cond)
     omega = {mech.ground: 0.0}
     centre = {mech.ground: (0j, 0j)}  # (centroid position, its velocity)
     for link, i in system.index.items():
@@ -88,4 +100,21 @@ def velocities(
         du = 1j * omega[pj.guide] * u
         d = at - origin
         joints[pj.name] = (u.conjugate() * dv).real + (du.conjugate() * d).real
+    every = [*omega.values(), *joints.values(), *(c for v in points.values() for c in v)]
+    if not all(map(math.isfinite, every)):
+        return Velocities(False, _OVERFLOW, cond=cond)
     return Velocities(True, None, omega, joints, points, cond)
+
+
+#: why a finite rate at a regular configuration has no answer
+_OVERFLOW = (
+    'no velocity: the rates are beyond the float range (a rate near the largest double; '
+    'the Jacobian is regular here)'
+)
+
+
+def _parts(rate: Any) -> list[float]:
+    """A known's rate as floats: one, or a point's (vx, vy)."""
+    if isinstance(rate, (list, tuple)) or np.ndim(rate):
+        return [float(c) for c in rate]
+    return [float(rate)]

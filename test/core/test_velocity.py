@@ -119,3 +119,63 @@ def test_engine_fills_velocity_and_refuses_non_finite_rates():
     assert engine.last is before  # nothing changed
     plain = engine.command({'Z1': 1.6, 'Z2': 1.8, 'Z3': 1.3})
     assert plain.success and plain.velocity is None
+
+
+def test_a_jacobian_singular_to_rounding_has_no_velocity():
+    # a parallelogram at its change point (crank along the ground): J is singular to rounding
+    # (cond ~1e16), and a finite answer there is on neither branch (the parallelogram's rocker
+    # turns at 1 rad/s, the anti-parallelogram's at -3; rounding gave 0 with OK)
+    mech = scenes.four_bar(2.0, 1.0, 2.0, 1.0, input=1.0)
+    solver = Solver(mech, knowns=['crank'])
+    r = solver.solve({'crank': 0.0}, commit=False)
+    assert r.success, r.reason
+    vel = velocities(solver, r, {'crank': 0.0}, {'crank': 1.0})
+    assert not vel.success and 'singular' in vel.reason and vel.cond > 1e10, vel
+    # the Grashof double-rocker's crank at the float nearest its toggle (7.6e-18 rad inside):
+    # the exact rocker rate there is -2.17e7 rad/s, rounding gave +2.28e15 with OK
+    mech = scenes.load('four_bar_grashof_double_rocker')
+    solver = Solver(mech, knowns=['crank'])
+    theta = 1.508255564998405
+    r = solver.solve({'crank': theta}, commit=False)
+    assert r.success, r.reason
+    vel = velocities(solver, r, {'crank': theta}, {'crank': 1.0})
+    assert not vel.success and 'singular' in vel.reason and vel.cond > 1e10, vel
+
+
+def test_rates_beyond_the_float_range_are_refused_for_what_they_are():
+    # a regular configuration (cond ~5 to ~100): an answer beyond the float range is not a
+    # toggle, and no answer carries an inf with success
+    for stem, command, rates in (
+        ('four_bar', {'crank': 1.0}, {'crank': 1.7e308}),
+        ('excavator', None, {'Z1': 1e308, 'Z2': 0.0, 'Z3': 0.0}),
+    ):
+        mech = scenes.load(stem)
+        engine = Engine(mech, EngineSettings())
+        values = command or dict(engine.forward.reference_values())
+        r = engine.command(values, rates)
+        assert r.success and not r.velocity.success, (stem, r.velocity)
+        assert 'float range' in r.velocity.reason and 'singular' not in r.velocity.reason
+        assert r.velocity.cond < 1e3
+    # the core function names a rate that is not finite (the engine refuses it before)
+    mech = scenes.load('four_bar')
+    solver = Solver(mech, knowns=['crank'])
+    ref = solver.reference_values()
+    r = solver.solve(ref, commit=False)
+    for bad in (math.nan, math.inf, -math.inf):
+        vel = velocities(solver, r, ref, {'crank': bad})
+        assert not vel.success and "['crank']" in vel.reason and 'not finite' in vel.reason
+
+
+def test_a_rate_for_a_name_the_command_does_not_give_is_refused():
+    # (the Python engine: a JointState's velocities come one per name) a rate for a held
+    # actuator, or for a name that is nowhere, was dropped silently
+    engine = Engine(scenes.load('excavator'), EngineSettings())
+    before = engine.last
+    for rates in ({'Z1': 0.1, 'Z2': 5.0}, {'Z1': 0.1, 'bogus': 1.0}):
+        r = engine.command({'Z1': 1.5}, rates)
+        assert not r.success and 'without a value' in r.reason, r.reason
+        assert repr(next(n for n in rates if n != 'Z1')) in r.reason
+    assert engine.last is before
+    ok = engine.command({'Z1': 1.5}, {'Z1': 0.1})
+    assert ok.success and ok.velocity.success
+    assert ok.velocity.joints['Z2'] == pytest.approx(0.0, abs=1e-12)  # held: rate 0
