@@ -15,6 +15,7 @@ from ..model.names import Named, NameKind, resolve_name
 from ..newton import LoopSystem
 from ..plan import Plan, Spec, reference_poses, spec_for, spec_value_one
 from ..quantities import AngleSpec, PointSpec, ScalarSpec
+from ..steps import Branch, BranchRule, branch_text, sign_combinations
 from .compiled import CompiledSolve, SolveMode
 from .continuity import Continuity
 from .one import solve_one
@@ -186,6 +187,50 @@ def _wanted(
     return sorted(links), sorted(pts)
 
 
+def _determined_in(c: CompiledSolve, fwd: CompiledSolve, cont: Continuity) -> bool | None:
+    """Whether ``c``'s knowns fix the configuration at some pose the actuators move to on
+    ``cont``'s branch (their equations well-conditioned there); None where no such pose
+    assembled."""
+    cs, mech = c.check_system, c.mech
+    ref = fwd.reference_values()
+    scale = mech.length_scale
+    seen: bool | None = None
+    for step in (0.05, -0.05, 0.3, -0.3):
+        # a different step for each actuator: equal steps keep a symmetric drawing symmetric
+        cmd = {
+            s.name: ref[s.name]
+            + (-1) ** k
+            * (1 + 0.37 * k)
+            * (step if isinstance(s, AngleSpec) else step * 0.1 * scale)
+            for k, s in enumerate(fwd.specs)
+        }
+        r = solve_one(fwd, Continuity(cont.branch), cmd, commit=False)
+        got = configuration_of(c, r) if r.success else None
+        if got is None:
+            continue
+        seen = False
+        poses = got[1]
+        _, J = cs.evaluate(cs.x_from_poses(poses), [_value(mech, s, poses) for s in c.specs])
+        if cs.scaled_cond(J) < UNDETERMINED_COND:
+            return True
+    return seen
+
+
+def _modes_determined(c: CompiledSolve, fwd: CompiledSolve) -> list[str]:
+    """The assembly modes of the forward dyad plan, other than the drawn one, in which ``c``'s
+    knowns do fix the configuration (their branch text)."""
+    plan = fwd.full_plan
+    if not (plan.complete and plan.branch_steps):
+        return []
+    drawn = tuple(plan.reference_signs)
+    return [
+        branch_text(signs)
+        for signs in sign_combinations(len(plan.branch_steps))
+        if signs != drawn
+        and _determined_in(c, fwd, Continuity(Branch(BranchRule.EXPLICIT, signs))) is True
+    ]
+
+
 def check_determined(c: CompiledSolve, n_values: int) -> None:
     """Knowns whose equations are singular at the reference pose do not fix the configuration
     (two of them fix the same motion, another stays free) even where the sparsity pattern says
@@ -202,37 +247,29 @@ def check_determined(c: CompiledSolve, n_values: int) -> None:
     fwd = compile_solve(
         mech, method=SolveMethod.CLOSED_FORM if c.plan.complete else SolveMethod.AUTO
     )
-    ref = fwd.reference_values()
-    scale = mech.length_scale
-    seen = False
-    for step in (0.05, -0.05, 0.3, -0.3):
-        # a different step for each actuator: equal steps keep a symmetric drawing symmetric
-        cmd = {
-            s.name: ref[s.name]
-            + (-1) ** k
-            * (1 + 0.37 * k)
-            * (step if isinstance(s, AngleSpec) else step * 0.1 * scale)
-            for k, s in enumerate(fwd.specs)
-        }
-        r = solve_one(fwd, Continuity(), cmd, commit=False)
-        got = configuration_of(c, r) if r.success else None
-        if got is None:
-            continue
-        seen = True
-        poses = got[1]
-        _, J = cs.evaluate(cs.x_from_poses(poses), [_value(mech, s, poses) for s in c.specs])
-        if cs.scaled_cond(J) < UNDETERMINED_COND:
-            return
-    if seen:
+    seen = _determined_in(c, fwd, Continuity())
+    if seen is True:
+        return
+    if seen is not None:
         singular = (
             f'singular in every pose tried: condition number {cond:.2g} in the reference pose'
         )
         if len(c.knowns) == 1:  # one known that fixes nothing: a constant of the geometry
+            # (in the drawn assembly mode: in another it may move, as the x of a straight-line
+            # linkage's tracing point does where its cell folds the other way)
+            others = _modes_determined(c, fwd)
+            elsewhere = (
+                f' It does change in assembly mode(s) {", ".join(others)}, but a solve for it '
+                'starts from the drawn one, where it fixes nothing.'
+                if others
+                else ''
+            )
             raise PlanError(
                 f'the known {c.knowns[0]!r} does not determine {mech.name!r}: it does not '
-                'change as the mechanism moves (a quantity its geometry keeps constant, such '
-                f'as one coordinate of a point that moves on a straight line; its equation is '
-                f'{singular}); choose a known that moves with the mechanism'
+                'change as the mechanism moves in its drawn assembly mode (a quantity its '
+                'geometry keeps constant there, such as one coordinate of a point that moves '
+                f'on a straight line; its equation is {singular}); choose a known that moves '
+                f'with the mechanism.{elsewhere}'
             )
         raise PlanError(
             f'the knowns {list(c.knowns)} do not determine {mech.name!r}: they give '

@@ -124,6 +124,26 @@ def test_a_coordinate_the_mechanism_keeps_constant_is_refused_as_such(scene, nam
     assert 'does not change as the mechanism moves' in str(err.value)
 
 
+def test_the_refusal_of_a_constant_coordinate_names_the_modes_it_moves_in():
+    """Hart's Q moves on a straight line in the drawn assembly mode, so Q.x fixes nothing
+    there; where the cell closes the other way (modes ++ and --) Q.x moves with the crank. The
+    refusal said it 'does not change as the mechanism moves' of every mode (an adversary's
+    finding); oracle: the forward closed form in each mode at two crank angles."""
+    mech = load('hart')
+    with pytest.raises(PlanError, match="the known 'Q.x' does not determine") as err:
+        Solver(mech, knowns=['Q.x'])
+    text = str(err.value)
+    assert 'in its drawn assembly mode' in text
+    drawn = Solver(mech, method='closed_form').reference_values()['crank']
+    moving = []
+    for mode in ('++', '+-', '-+', '--'):
+        fwd = Solver(mech, method='closed_form', branch=mode)
+        a, b = (fwd.solve({'crank': drawn + d}, commit=False) for d in (0.1, 0.3))
+        if a.success and b.success and abs(a.points['Q'][0] - b.points['Q'][0]) > 1e-6:
+            moving.append(mode)
+    assert moving and f'assembly mode(s) {", ".join(moving)},' in text, (moving, text)
+
+
 def test_the_solutions_of_one_coordinate_carry_the_mode_they_are_in(capsys):
     """The four-bar's coupler point P at a given x: four solutions, two in each assembly mode
     (either side of the extreme of P.x in each). Each is labelled with its mode (it showed no
