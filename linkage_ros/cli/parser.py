@@ -45,8 +45,10 @@ SOLVE_EPILOG = (
 assembly mode: an inverse solve (default --branch reference) is answered in the reference pose's
 assembly mode within the actuator limits, as a node (branch continuous, its default) answers its
 first target: where the actuator takes the drawing through a toggle, both signs of that circuit
-are its mode. A target only another mode reaches is refused naming that mode, unless
---any-mode. (`linkage sweep --branch reference` and a node with branch:=reference hold the
+are its mode. A target only another mode reaches is refused, unless --any-mode: naming
+that mode where the closed form places the target; where Newton places it (a single point
+coordinate), saying that --any-mode searches the other modes (a multi-start search, run
+only when asked). (`linkage sweep --branch reference` and a node with branch:=reference hold the
 drawn signs themselves: their commands are solved in them.)
 
 exit status: 0 solved; 1 refused (status "error" with a reason; with --all-branches: no mode
@@ -236,7 +238,8 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
         '--any-mode',
         action='store_true',
         help='inverse solve: accept a target that only another assembly mode than the '
-        "reference pose's reaches (by default it is refused, naming that mode)",
+        "reference pose's reaches (by default it is refused: naming that mode where the "
+        'closed form places the target, else saying --any-mode searches the others)',
     )
     p.set_defaults(func=cmd_solve)
 
