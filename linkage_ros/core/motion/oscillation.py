@@ -13,7 +13,7 @@ from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
 from .common import TWO_PI, reachable_piece
 from .ranges import scan_circuit
-from .scan import Signs, held_reference
+from .scan import EndKind, ScanLine, Signs, held_reference
 
 # ---- link oscillation -------------------------------------------------------------------------
 
@@ -54,6 +54,14 @@ def oscillation_range(
         )
         xs = np.linspace(s.lo, s.hi, n)
         ang = line.link_angle(xs, s.signs, link)
+        # a toggle end is found to rounding, a few ulps inside or out, and near it the angle
+        # moves like the square root of the distance (1e-15 of input: 3e-8 rad): read there
+        # a few ulps outward, where the dyad's tangency tolerance places it at the toggle itself
+        for at, end, outward in ((0, s.lo_end, -1.0), (-1, s.hi_end, 1.0)):
+            if end[0] is EndKind.TOGGLE:
+                exact = _at_toggle(line, float(xs[at]), outward, s.signs, link)
+                if exact is not None:
+                    ang[at] = exact
         good = np.isfinite(ang)
         xs, ang = xs[good], np.unwrap(ang[good])
         if xs.size == 0:
@@ -101,7 +109,10 @@ def oscillation_range(
             vals = sign * ang
             i = int(np.argmax(vals))
             best = max(best, float(vals[i]))
-            if 0 < i < xs.size - 1:
+            if xs.size > 1:
+                # the step either side of the best sample; at an end (a limit, a toggle) the
+                # step inside it: an extreme just inside a limit beats the value at the limit
+                a_i, b_i = max(i - 1, 0), min(i + 1, xs.size - 1)
                 centre = float(ang[i])
 
                 def f(x: float, signs: Signs = signs, centre: float = centre) -> float:
@@ -111,7 +122,7 @@ def oscillation_range(
                     return -sign * (centre + float(wrap_angle(v - centre)))
 
                 r = minimize_scalar(
-                    f, bounds=(xs[i - 1], xs[i + 1]), method='bounded', options={'xatol': 1e-13}
+                    f, bounds=(xs[a_i], xs[b_i]), method='bounded', options={'xatol': 1e-13}
                 )
                 if np.isfinite(r.fun):
                     best = max(best, -float(r.fun))
@@ -120,3 +131,20 @@ def oscillation_range(
     hi, lo = extreme(1), extreme(-1)
     shift = -TWO_PI * math.floor((lo + math.pi) / TWO_PI)
     return lo + shift, hi + shift
+
+
+#: how far past a toggle found to rounding its angle is read (multiples of the input's ulp)
+_TOGGLE_NUDGES = (4.0, 64.0, 1024.0)
+
+
+def _at_toggle(line: ScanLine, x: float, outward: float, signs: Signs, link: str) -> float | None:
+    """The link's angle at the toggle found at input ``x``: read a few ulps outward of it
+    (``outward`` +1 past its upper end, -1 past its lower), where the circles miss by less than
+    the tangency tolerance and the dyad is placed at its tangency; None if none of those reads
+    assembles."""
+    ulp = math.ulp(max(abs(x), 1.0))
+    for k in _TOGGLE_NUDGES:
+        v = line.link_angle([x + outward * k * ulp], signs, link)[0]
+        if np.isfinite(v):
+            return float(v)
+    return None
