@@ -25,7 +25,7 @@ from ..solver.result import NEWTON_TOL, branch_text, named_value
 from ..steps import RRRDyad
 from ..velocity import Velocities, velocities
 from .ranges import input_ranges, scan_circuit
-from .scan import held_reference, turns_fully
+from .scan import EndKind, held_reference, turns_fully
 from .touches import golden_min
 
 #: an output whose swing (rad) or stroke (of the length scale) is no more than this does not
@@ -40,6 +40,8 @@ _LEVEL = 1e-13
 #: the steps the two grid steps around an extreme are cut into where the rate does not change
 #: sign across them
 _FINER = 16
+#: how far past a toggle found to rounding a piece's end is read (multiples of the input's ulp)
+_TOGGLE_NUDGES = (4.0, 64.0, 1024.0)
 
 
 def transmission_angles(solver: Solver, result: Result) -> dict[str, float]:
@@ -192,8 +194,21 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
             raise ValueError(f'{act!r} has no bounded range to sweep')
         branch = branch_text(seg.signs) if seg.signs else 'continuous'
         solver = Solver(mech, branch=branch)
+        # an end of the piece at its toggle: found to rounding, where the configuration is off
+        # the toggle's by the square root of that (1e-15 of input: 3e-8 rad); read a few ulps
+        # past it, where the dyad's tangency tolerance places it at the toggle itself
+        toggle_at = {
+            0: -1.0 if seg.lo_end[0] is EndKind.TOGGLE and grid[0] == seg.lo else 0.0,
+            len(grid) - 1: 1.0 if seg.hi_end[0] is EndKind.TOGGLE and grid[-1] == seg.hi else 0.0,
+        }
         kept, results = [], []
         for k, v in enumerate(grid):
+            outward = toggle_at.get(k, 0.0)
+            for nudge in _TOGGLE_NUDGES if outward else ():
+                past = float(v) + outward * nudge * math.ulp(max(abs(float(v)), 1.0))
+                if solver.solve({act: past}, commit=False).success:
+                    grid[k] = v = past
+                    break
             r = solver.solve({act: float(v)})
             if r.success:
                 kept.append(k)

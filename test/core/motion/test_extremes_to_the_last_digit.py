@@ -277,3 +277,22 @@ def test_an_extreme_on_a_sample_is_found_to_the_last_digit():
     near_angle(out.input_at_max, direction, 'crank at the outer dead centre')
     near(out.maximum - out.minimum, 2 * r, 'stroke')
     near(sweep.time_ratio[name], 1.0, 'time ratio of a centred slider-crank')
+
+
+def test_a_transmission_angle_at_a_toggle_is_its_closed_form():
+    # a Grashof double-rocker's crank rocks between two toggles, where coupler and rocker fold
+    # (mu = 0) and stretch out (mu = pi); the least mu read 4.6e-8 rad, the square root of the
+    # toggle's rounding (an adversary's finding): the ends are read at the toggles themselves
+    ground, crank, coupler, rocker = 1.0, 0.9, 0.2, 0.8
+    mech = Scene.from_dict(
+        {'four_bar': {'ground': ground, 'crank': crank, 'coupler': coupler, 'rocker': rocker}}
+    ).mechanism
+    (mu,) = input_sweep(mech, ['link:rocker']).transmission.values()
+
+    def crank_at(reach: float) -> float:  # |A O4| = reach, by the cosine rule
+        return math.acos((ground**2 + crank**2 - reach**2) / (2 * ground * crank))
+
+    near(mu.minimum, 0.0, 'mu folded')
+    near(mu.maximum, math.pi, 'mu stretched out')
+    near_angle(mu.input_at_min, crank_at(rocker - coupler), 'crank at the folded toggle')
+    near_angle(mu.input_at_max, crank_at(rocker + coupler), 'crank at the stretched toggle')
