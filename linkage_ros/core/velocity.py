@@ -19,8 +19,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
 from .newton.results import SINGULAR_COND
 from .quantities import PointSpec
 
@@ -57,10 +55,13 @@ def velocities(
     poses = got[1]
     x = system.x_from_poses(poses)
     comps: list[float] = []
+    bad: list[str] = []
     for s in solver.specs:
         r = rates[s.name]
-        comps += [float(r[0]), float(r[1])] if isinstance(s, PointSpec) else [float(r)]
-    bad = [s.name for s in solver.specs if not all(map(math.isfinite, _parts(rates[s.name])))]
+        parts = [float(r[0]), float(r[1])] if isinstance(s, PointSpec) else [float(r)]
+        comps += parts
+        if not all(map(math.isfinite, parts)):
+            bad.append(s.name)
     if bad:
         return Velocities(False, f'no velocity: the rate of {bad} is not finite')
     dx, cond = system.rates(x, solver.parse(values), comps)
@@ -111,10 +112,3 @@ _OVERFLOW = (
     'no velocity: the rates are beyond the float range (a rate near the largest double; '
     'the Jacobian is regular here)'
 )
-
-
-def _parts(rate: Any) -> list[float]:
-    """A known's rate as floats: one, or a point's (vx, vy)."""
-    if isinstance(rate, (list, tuple)) or np.ndim(rate):
-        return [float(c) for c in rate]
-    return [float(rate)]

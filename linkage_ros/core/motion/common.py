@@ -25,6 +25,18 @@ KARY = 16
 TOUCHED_TOGGLE_MARGIN = 1e-7
 #: cap on circuit segments followed through assembly-mode changes
 MAX_SEGMENTS = 64
+#: how far past a toggle found to rounding it is read (multiples of the input's ulp)
+TOGGLE_NUDGES = (4.0, 64.0, 1024.0)
+
+
+def past_toggle(x: float, outward: float) -> list[float]:
+    """Inputs a few ulps past a toggle found at ``x`` (``outward`` +1 past an upper end of the
+    input's range, -1 past a lower one), nearest first. Found to rounding, the toggle may lie a
+    few ulps inside or out, and near it a configuration moves like the square root of the
+    distance (1e-15 of input: 3e-8 rad); read past it by less than the tangency tolerance, the
+    dyad is placed at its tangency: the toggle itself."""
+    ulp = math.ulp(max(abs(x), 1.0))
+    return [x + outward * k * ulp for k in TOGGLE_NUDGES]
 
 
 # ---- small helpers ----------------------------------------------------------------------------

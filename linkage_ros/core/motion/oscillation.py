@@ -11,7 +11,7 @@ import numpy as np
 from ..dyads import wrap_angle
 from ..model import AngleActuator, Mechanism
 from ..model.limits import angle_limit_arc
-from .common import TWO_PI, reachable_piece
+from .common import TWO_PI, past_toggle, reachable_piece
 from .ranges import scan_circuit
 from .scan import EndKind, ScanLine, Signs, held_reference
 
@@ -54,9 +54,7 @@ def oscillation_range(
         )
         xs = np.linspace(s.lo, s.hi, n)
         ang = line.link_angle(xs, s.signs, link)
-        # a toggle end is found to rounding, a few ulps inside or out, and near it the angle
-        # moves like the square root of the distance (1e-15 of input: 3e-8 rad): read there
-        # a few ulps outward, where the dyad's tangency tolerance places it at the toggle itself
+        # a toggle end read at the toggle itself (common.past_toggle)
         for at, end, outward in ((0, s.lo_end, -1.0), (-1, s.hi_end, 1.0)):
             if end[0] is EndKind.TOGGLE:
                 exact = _at_toggle(line, float(xs[at]), outward, s.signs, link)
@@ -133,18 +131,11 @@ def oscillation_range(
     return lo + shift, hi + shift
 
 
-#: how far past a toggle found to rounding its angle is read (multiples of the input's ulp)
-_TOGGLE_NUDGES = (4.0, 64.0, 1024.0)
-
-
 def _at_toggle(line: ScanLine, x: float, outward: float, signs: Signs, link: str) -> float | None:
-    """The link's angle at the toggle found at input ``x``: read a few ulps outward of it
-    (``outward`` +1 past its upper end, -1 past its lower), where the circles miss by less than
-    the tangency tolerance and the dyad is placed at its tangency; None if none of those reads
-    assembles."""
-    ulp = math.ulp(max(abs(x), 1.0))
-    for k in _TOGGLE_NUDGES:
-        v = line.link_angle([x + outward * k * ulp], signs, link)[0]
+    """The link's angle at the toggle found at input ``x`` (``outward``: common.past_toggle),
+    None if no read past it assembles."""
+    for past in past_toggle(x, outward):
+        v = line.link_angle([past], signs, link)[0]
         if np.isfinite(v):
             return float(v)
     return None

@@ -24,6 +24,7 @@ from ..solver import Result, Solver
 from ..solver.result import NEWTON_TOL, branch_text, named_value
 from ..steps import RRRDyad
 from ..velocity import Velocities, velocities
+from .common import past_toggle
 from .ranges import input_ranges, scan_circuit
 from .scan import EndKind, held_reference, turns_fully
 from .touches import golden_min
@@ -40,8 +41,6 @@ _LEVEL = 1e-13
 #: the steps the two grid steps around an extreme are cut into where the rate does not change
 #: sign across them
 _FINER = 16
-#: how far past a toggle found to rounding a piece's end is read (multiples of the input's ulp)
-_TOGGLE_NUDGES = (4.0, 64.0, 1024.0)
 
 
 def transmission_angles(solver: Solver, result: Result) -> dict[str, float]:
@@ -194,9 +193,7 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
             raise ValueError(f'{act!r} has no bounded range to sweep')
         branch = branch_text(seg.signs) if seg.signs else 'continuous'
         solver = Solver(mech, branch=branch)
-        # an end of the piece at its toggle: found to rounding, where the configuration is off
-        # the toggle's by the square root of that (1e-15 of input: 3e-8 rad); read a few ulps
-        # past it, where the dyad's tangency tolerance places it at the toggle itself
+        # an end of the piece at its toggle: read at the toggle itself (common.past_toggle)
         toggle_at = {
             0: -1.0 if seg.lo_end[0] is EndKind.TOGGLE and grid[0] == seg.lo else 0.0,
             len(grid) - 1: 1.0 if seg.hi_end[0] is EndKind.TOGGLE and grid[-1] == seg.hi else 0.0,
@@ -204,8 +201,7 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
         kept, results = [], []
         for k, v in enumerate(grid):
             outward = toggle_at.get(k, 0.0)
-            for nudge in _TOGGLE_NUDGES if outward else ():
-                past = float(v) + outward * nudge * math.ulp(max(abs(float(v)), 1.0))
+            for past in past_toggle(float(v), outward) if outward else ():
                 if solver.solve({act: past}, commit=False).success:
                     grid[k] = v = past
                     break
