@@ -12,6 +12,7 @@ from typing import Any
 
 from ..core.errors import LinkageError
 from ..core.tolerances import NEWTON_TOL
+from ..heap import keep_large_buffers
 from .check import cmd_check
 from .common import (
     INTERRUPTED,
@@ -295,6 +296,9 @@ _STDOUT_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO)
 
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
+    # batches of 10^4 rows and more (sweep, bag, range, bench) make arrays of 100s of kB, which
+    # glibc's defaults give back to the kernel and fault in again for each one (heap.py)
+    keep_large_buffers()
     parser, broken = build_parser()
     if argv and argv[0] in broken:
         print(
