@@ -527,7 +527,12 @@ def format_result(d: dict, mech) -> str:
         out.append(f'residual   {fmt_value(d["residual"], ".3g")} (of the length scale)')
         out.append(
             f'branch     {d["branch"] or "(none)"}'
-            + ('' if d['branch_defined'] else '  (undefined: at a toggle)')
+            + (
+                ''
+                if d['branch_defined']
+                else '  (undefined: at a toggle, or where two circles coincide and a point '
+                'may turn about them)'
+            )
         )
         out.append(f'margin     {fmt_value(d["margin"], ".6g")}')
         if d.get('cond') is not None:

@@ -393,3 +393,16 @@ def test_a_target_with_a_twin_in_its_mode_names_the_twin(capsys, tmp_path):
     assert r.points['D'][0] == pytest.approx(3.1, abs=1e-7)  # (the note's 9 digits)
     assert math.degrees(r.links['bin']) == pytest.approx(70.0, abs=1e-5)
     assert abs(r.points['D'][1] - answer['points']['D'][1]) > 0.1
+
+
+def test_a_mode_whose_circles_coincide_says_why_its_branch_is_undefined(capsys):
+    """Peaucellier's mode +++ folds the cell shut (A on B): the dyad placing Q then has two
+    coincident circles and Q may turn about them. The answer says so, not 'at a toggle'."""
+    rc, out, _ = run(capsys, 'solve', 'peaucellier', '--set', 'crank=0.3', '--branch', '+++')
+    assert rc == 0
+    pts = {
+        line.split()[0]: complex(float(line.split()[1]), float(line.split()[2]))
+        for line in out.split('points', 1)[1].splitlines()[1:7]
+    }
+    assert abs(pts['A'] - pts['B']) < 1e-12  # the cell folded shut
+    assert 'branch     +++  (undefined: at a toggle, or where two circles coincide' in out
