@@ -350,7 +350,7 @@ def _print_human(r: dict, mech) -> None:
             p(
                 '  boundary: the concave hull of the samples, which bridges notches narrower '
                 "than 2.5 sample spacings: its area may exceed the region's by a few % "
-                '(measured: excavator L 0.9 %, front_loader T 2.1 %)'
+                '(measured: excavator L 0.9 %)'
             )
         if reg['method'] == 'concave_hull' and hc.get('outside'):
             p(

@@ -378,8 +378,8 @@ def test_closed_form_and_newton_agree_along_a_sweep(name):
 def test_closed_form_continuity_keeps_the_mode_over_a_coarse_step():
     mech = load('front_loader')
     solver = Solver(mech)  # closed form, branch='continuous'
-    assert solver.solve({'Z1': 1.30, 'Z2': 2.05}).success
-    res = solver.solve({'Z1': 1.4667, 'Z2': 2.05})  # boom turns ~12 deg; still far from a toggle
+    assert solver.solve({'Z1': 1.50, 'Z2': 2.05}).success
+    res = solver.solve({'Z1': 1.6667, 'Z2': 2.05})  # boom turns ~12 deg; still far from a toggle
     assert res.success and res.margin > 0.5
     # the bin's dyad triangle E-C-D keeps the orientation of the reference pose
     ref = {p: np.asarray(v, float) for p, v in raw('front_loader')['points'].items()}

@@ -49,9 +49,9 @@ def test_front_loader_bin_hinge_d_to_d1_matches_the_seed_construction():
     p = {k: c(v) for k, v in mech.points.items()}
     solver = Solver(mech, knowns=['point:D'])
     for d1 in (
-        p['D'] + complex(-0.24, 0.06),
-        p['D'] + complex(-0.10, -0.30),
-        p['D'] + complex(-0.05, -0.50),
+        p['D'] + complex(0.10, -0.20),
+        p['D'] + complex(0.20, -0.10),
+        p['D'] + complex(0.15, 0.30),
     ):
         C1 = meet(
             p['O4'],
@@ -78,6 +78,34 @@ def test_front_loader_bin_hinge_d_to_d1_matches_the_seed_construction():
         Solver(mech, knowns=['point:D', 'bin'])
 
 
+def test_front_loader_assignment_z1_held_z2_to_three_fourths():
+    """Seed 003 example 4, the assignment: "Assume the actuator Z1 is held fixed, that is the
+    distance O2A is not changing and the actuator Z2 is activated to change the distance O7F
+    to three-fourths of its present value, then what will be the corresponding rotation of the
+    bin." The construction: the boom stays (O4, A, B, C); F1 is where the circle about O7
+    (radius 3/4 O7F) meets the circle about B (radius BF), on the drawing's side; E1 by tracing
+    paper from (B, F); D1 where the circles about E1 (ED) and C (CD) meet; the bin turns by the
+    angle between CD and CD1. The drawn pose's Z2 and its limits leave room for it, clear of
+    the tilt linkage's toggles."""
+    mech = load('front_loader')
+    p = {k: c(v) for k, v in mech.points.items()}
+    z1, z2 = abs(p['A'] - p['O2']), abs(p['F'] - p['O7'])
+    z2_new = 0.75 * z2
+    F1 = meet(p['O7'], z2_new, p['B'], abs(p['F'] - p['B']), side_of(p['O7'], p['B'], p['F']))
+    E1 = transfer(p['B'], p['F'], p['B'], F1, p['E'])
+    D1 = meet(E1, abs(p['D'] - p['E']), p['C'], abs(p['D'] - p['C']), side_of(E1, p['C'], p['D']))
+    turn = cmath.phase((D1 - p['C']) / (p['D'] - p['C']))
+    for method in ('closed_form', 'newton'):
+        solver = Solver(mech, method=method)
+        res = solver.solve({'Z1': z1, 'Z2': z2_new})
+        assert res.success, res.reason
+        assert res.margin > 0.2, res.margin  # the mode's dyads clear of their toggles
+        assert circ(res.links['bin'] - mech.links['bin'].angle_ref, turn) <= 1e-12
+        for name, want in (('F', F1), ('E', E1), ('D', D1), ('C', p['C'])):
+            assert abs(c(res.points[name]) - want) <= EXACT * mech.length_scale, name
+    assert -1.2 < turn < -1.1  # the bin dumps by about 65 deg
+
+
 @pytest.mark.parametrize('axis', [0, 1])
 def test_front_loader_bin_by_one_coordinate_of_its_hinge_and_its_angle(axis):
     """Seed 003 example 4: the bin's two coordinates can be given as 'only the x-coordinate and
@@ -93,12 +121,12 @@ def test_front_loader_bin_by_one_coordinate_of_its_hinge_and_its_angle(axis):
     name = f'D.{"xy"[axis]}'
     # (boom turn, bin turn) from the drawing (rad): poses with both throws within their limits
     for boom_turn, bin_turn in (
-        (-0.03, 0.1),
-        (0.05, 0.2),
-        (0.1, 0.25),
-        (0.25, 0.45),
-        (0.45, 0.7),
-        (0.7, 0.95),
+        (-0.03, -0.6),
+        (0.05, -0.5),
+        (0.1, -0.3),
+        (0.25, -0.2),
+        (0.45, 0.1),
+        (0.7, 0.3),
     ):
         cd = cmath.exp(1j * bin_turn) * (p['D'] - p['C'])
         d_true = p['O4'] + radius * cmath.exp(1j * (psi0 + boom_turn)) + cd

@@ -175,7 +175,7 @@ def reachable_region(
       cloud does not lie inside the arcs (the map folds, or a corner of the throw box does not
       assemble), the concave hull of the cloud ('concave_hull': edges up to 2.5 sample
       spacings, so it bridges narrower notches and its area may exceed the region's by a few
-      %: the excavator's L by 0.9 %, the front loader's T by 2.1 %, against a finer grid's
+      %: the excavator's L by 0.9 %, against a finer grid's
       union of cell images);
     * ``area``, ``cloud`` (sampled points on a grid of the throws), ``arcs`` (each with ``fixed``
       = [actuator, 'min'|'max', value], ``sweep`` and ``points``), ``limits``, ``held``;

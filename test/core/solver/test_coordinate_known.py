@@ -92,14 +92,14 @@ def test_a_sequence_of_coordinate_targets_follows_the_mechanism(loader):
 
 def test_a_target_beyond_the_fold_is_found_in_mode_within_limits():
     """Given one coordinate, a Newton inverse has two roots in one assembly mode, either side of
-    the coordinate's fold (the loader's boom horizontal for B.x). The continuous answer from
-    the drawing is the root beyond a limit; the rule (mode_rule: a solution in the current
-    mode within limits where one exists) must find the other, the throws the target came
-    from, not refuse the target as needing a throw it does not need."""
+    the coordinate's fold (the loader's boom line O4 C horizontal for C.x). The continuous
+    answer from the drawing is the root beyond a limit; the rule (mode_rule: a solution in the
+    current mode within limits where one exists) must find the other, the throws the target
+    came from, not refuse the target as needing a throw it does not need."""
     from linkage_ros.engine import Engine, EngineSettings
 
     for scene, throws, names in (
-        ('front_loader', {'Z1': 1.376, 'Z2': 1.754}, ('B.x', 'bin')),
+        ('front_loader', {'Z1': 1.50, 'Z2': 1.6}, ('C.x', 'bin')),
         ('excavator', {'Z1': 1.1674, 'Z2': 2.0951, 'Z3': 1.436}, ('L.x', 'stick', 'bucket')),
     ):
         mech = load(scene)
