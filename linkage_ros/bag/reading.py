@@ -311,6 +311,8 @@ def _check_sqlite(path: str) -> None:
     import sqlite3
 
     p = Path(path)
+    if not p.exists():  # (sqlite3 would call a missing file a database it cannot open)
+        raise BagError(f'input {path}: no such file or folder')
     files = sorted(p.glob('*.db3')) if p.is_dir() else [p] if p.suffix.lower() == '.db3' else []
     for f in files:
         try:

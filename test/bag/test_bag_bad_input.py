@@ -37,6 +37,10 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
     common = ['--scene', scene, '--command-topic', '/cmd', '--out', tmp_path / 'x.csv']
     # missing
     assert 'no such file' in refused_stderr([tmp_path / 'nothing_here', *common], capsys)
+    # a missing .db3 (rosbag2's own name for a split file, run_0.db3, guessed) is missing, not
+    # a corrupt database (sqlite3 cannot open it either)
+    err = refused_stderr([tmp_path / 'run_0.db3', *common], capsys)
+    assert 'no such file or folder' in err and 'quick_check' not in err, err
     # not a bag: a text file, a folder without metadata and storage
     text = tmp_path / 'notes.txt'
     text.write_text('hello')
