@@ -72,10 +72,10 @@ def limit_violation(
         # for [0, pi]): the side the value was written on, not "beyond" a maximum it is not
         tied = abs(under_lo - over_hi) <= LIMIT_SLACK * 2 * math.pi
         if under_lo < over_hi if not tied else value < lo:
-            return (
-                f'{name} = {value:.9g} {unit} is below its minimum {lo:g} by {under_lo:.3g} {unit}'
-            )
-        return f'{name} = {value:.9g} {unit} is beyond its maximum {hi:g} by {over_hi:.3g} {unit}'
+            at = _on_circle(value, lo - under_lo, unit)
+            return f'{name} = {at} is below its minimum {lo:g} by {under_lo:.3g} {unit}'
+        at = _on_circle(value, v, unit)
+        return f'{name} = {at} is beyond its maximum {hi:g} by {over_hi:.3g} {unit}'
     if periodic:
         # one limit: the angle as reported, in (-pi, pi] (a command of 4 rad is the angle
         # -2.28 rad, below a minimum of -1 however it is written)
@@ -83,11 +83,23 @@ def limit_violation(
         v = math.pi if v == -math.pi else v
     if lo is not None and v < lo - slack(lo):
         got, limit = _apart(value, lo)
-        return f'{name} = {got} {unit} is below its minimum {limit} by {lo - v:.3g} {unit}'
+        at = _on_circle(value, v, unit, got) if periodic else f'{got} {unit}'
+        return f'{name} = {at} is below its minimum {limit} by {lo - v:.3g} {unit}'
     if hi is not None and v > hi + slack(hi):
         got, limit = _apart(value, hi)
-        return f'{name} = {got} {unit} is beyond its maximum {limit} by {v - hi:.3g} {unit}'
+        at = _on_circle(value, v, unit, got) if periodic else f'{got} {unit}'
+        return f'{name} = {at} is beyond its maximum {limit} by {v - hi:.3g} {unit}'
     return None
+
+
+def _on_circle(value: float, compared: float, unit: str, text: str | None = None) -> str:
+    """An angle as written (``text``, else 9 digits) and, where a whole turn apart from it, the
+    angle on the circle it was compared as: '4.5 rad (-1.78318531 rad on the circle)' (a
+    bare 'crank = 4.5 rad is below its minimum 0.46 by 2.24 rad' reads as wrong arithmetic)."""
+    got = f'{value:.9g}' if text is None else text
+    if abs(compared - value) < math.pi:  # the same angle as written (to rounding)
+        return f'{got} {unit}'
+    return f'{got} {unit} ({compared:.9g} {unit} on the circle)'
 
 
 def _apart(value: float, limit: float) -> tuple[str, str]:

@@ -186,3 +186,26 @@ def test_an_inverse_answer_at_a_limit_is_taken():
         r = inv.solve({'rocker': rocker})
         assert r.success, r.reason
         assert r.inputs['crank'] == pytest.approx(crank, abs=1e-12)
+
+
+@pytest.mark.parametrize(
+    ('value', 'lo', 'hi', 'shown', 'by'),
+    [
+        (4.5, 0.460493, 1.508256, 4.5 - 2 * math.pi, 0.460493 - (4.5 - 2 * math.pi)),
+        (7.9, 0.460493, 1.508256, 7.9 - 2 * math.pi, 7.9 - 2 * math.pi - 1.508256),
+        (4.0, -1.0, None, 4.0 - 2 * math.pi, -1.0 - (4.0 - 2 * math.pi)),
+    ],
+)
+def test_a_refused_angle_written_a_turn_away_shows_the_angle_it_was_judged_as(
+    value, lo, hi, shown, by
+):
+    """'crank = 4.5 rad is below its minimum 0.460493 by 2.24 rad' read as wrong arithmetic (a
+    new user's find): the angle on the circle it was compared as is shown beside it, and the
+    distance is that angle's from the limit."""
+    why = limit_violation('crank', value, lo, hi, 'rad', True)
+    assert why is not None
+    assert f'crank = {value:g} rad ({shown:.9g} rad on the circle)' in why, why
+    assert why.endswith(f'by {by:.3g} rad'), why
+    # written on the circle already: as before, no second value
+    plain = limit_violation('crank', shown, lo, hi, 'rad', True)
+    assert plain is not None and 'on the circle' not in plain
