@@ -223,8 +223,9 @@ def add_scene_argument(
         default=[],
         type=dimension_argument,
         metavar='NAME=VALUE',
-        help='a dimension used exactly instead of the drawing (m): LINK.P-Q, the distance '
-        'between two points of a link, or SLIDER.offset (repeatable; see docs/SCENES.md)',
+        help='a dimension used exactly instead of the drawing (m, or with a unit: 16mm): '
+        'LINK.P-Q, the distance between two points of a link, or SLIDER.offset (repeatable; '
+        'see docs/SCENES.md)',
     )
     if descriptions:
         add_description_arguments(p)
