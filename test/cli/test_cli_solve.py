@@ -221,6 +221,8 @@ def test_unreachable_input_is_refused_without_nan(capsys, scenes):
     d = loads(out)  # raises on NaN / Infinity
     assert d['status'] == 'error' and d['reason'] and 'assemble' in d['reason']
     assert d['points'] == {} and d['inputs'] == {'crank': 2.0}
+    # no branch, so neither defined nor undefined (it said true beside an empty branch)
+    assert d['branch'] == '' and d['branch_defined'] is None and d['margin'] is None
     rc, out, _ = run(capsys, 'solve', scenes['double_rocker'], '--set', 'crank=2.0')
     assert rc == 1 and 'status     error' in out and 'reason' in out and 'nan' not in out.lower()
 

@@ -142,7 +142,8 @@ class Result:
             'points': {k: [v[0], v[1]] for k, v in self.points.items()},
             'residual': self.residual,
             'branch': self.branch,
-            'branch_defined': self.branch_defined,
+            # (a refused solve has no branch to be defined or not)
+            'branch_defined': self.branch_defined if self.success else None,
             'margin': self.margin,
             'solver': self.solver,
             'iterations': self.iterations,
