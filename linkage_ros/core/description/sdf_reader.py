@@ -225,8 +225,12 @@ def _joint(el: ET.Element, frames: _Frames, source: str) -> TreeJoint:
     parent, child = frames.link_of(parent_ref), frames.link_of(child_ref)
     x_joint = frames.pose(name)  # initial pose of the joint frame in the model frame
     child_to_joint = inverse(frames.pose(child)) @ x_joint
+    # the joint frame as the model is assembled at value 0: the named frame itself where the
+    # parent is a frame (the child is joined to it), else its drawn pose
+    x_assembled = x_joint
     if frames.kind(parent_ref) == 'frame':  # the named frame itself is the parent side
-        parent_to_joint = inverse(frames.pose(parent)) @ frames.pose(parent_ref)
+        x_assembled = frames.pose(parent_ref)
+        parent_to_joint = inverse(frames.pose(parent)) @ x_assembled
     else:
         parent_to_joint = inverse(frames.pose(parent)) @ x_joint
     axis_el = el.find('axis')
@@ -243,12 +247,14 @@ def _joint(el: ET.Element, frames: _Frames, source: str) -> TreeJoint:
                 raise DescriptionError(
                     'axis expressed_in an unknown frame', file=source, key=where, value=frame
                 )
-            axis = (x_joint[:3, :3].T @ frames.pose(frame)[:3, :3]) @ axis
+            # (the joint frame where the model is assembled: an axis expressed_in __model__ is
+            # the model's direction however the child was drawn before it was joined)
+            axis = (x_assembled[:3, :3].T @ frames.pose(frame)[:3, :3]) @ axis
         elif optional_bool(
             _text(axis_el, 'use_parent_model_frame'), source, f'{where} use_parent_model_frame'
         ):
             # SDFormat 1.6 and older: the axis is in the model frame (1.7: expressed_in)
-            axis = x_joint[:3, :3].T @ axis
+            axis = x_assembled[:3, :3].T @ axis
         lim = axis_el.find('limit')
         if lim is not None:
             limits = limits_of(_text(lim, 'lower'), _text(lim, 'upper'), source, where)

@@ -176,7 +176,11 @@ class SdfModel:
                     xyz = j.find('axis/xyz')
                     axis = np.array([float(v) for v in xyz.text.split()])
                     frame = xyz.get('expressed_in', name)
-                    axis = (self.initial(name)[:3, :3].T @ self.initial(frame)[:3, :3]) @ axis
+                    # the joint frame where the model is assembled: the parent <frame> itself
+                    # (its child is joined to it), else the joint frame's initial pose
+                    joint_frame = parent_ref if self.tag.get(parent_ref) == 'frame' else name
+                    R_J = self.initial(joint_frame)[:3, :3]
+                    axis = (R_J.T @ self.initial(frame)[:3, :3]) @ axis
                     axis /= np.linalg.norm(axis)
                     motion = homogeneous(axis_rotation(axis, values[name]), [0, 0, 0])
                     placed[child] = x_wp @ motion @ np.linalg.inv(x_cj)

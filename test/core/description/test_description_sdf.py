@@ -116,3 +116,31 @@ def test_an_assembled_sdf_in_the_xz_plane_closes_in_the_sdf_evaluator():
             values = described(mech, result)
             assert model.loop_miss(values) <= CLOSE, (branch, q, values)
             assert angle_diff(values['crank_joint'], q) <= EXACT
+
+
+def test_an_axis_in_the_model_frame_turns_about_the_models_direction(tmp_path):
+    """Drake's four-bar with its driver's parent frame Wd turned over (rpy pi, 0, pi/6): the
+    driver is joined to Wd as it stands and turns about the model's +z, as its axis says
+    (expressed_in __model__). Oracle: the driver's coupler pin at Wd + Rz(q) R_Wd (0, 1, 0)
+    (the pin is 1 m along the driver's y), and the loop closed in the SDF evaluator. It had
+    turned about -z: the axis was read in the child's drawn joint frame, which the joining
+    then turned over (an outside reviewer's find: the loop open by 1.5 m in an FK of its own)."""
+    flipped = DRAKE.read_text().replace(
+        '<pose relative_to="world">-2 0 0 0 0 0</pose>',
+        '<pose relative_to="world">-2 0 0 3.141592653589793 0 0.5235987755982988</pose>',
+    )
+    assert flipped != DRAKE.read_text()
+    path = tmp_path / 'drake_four_bar_wd_turned_over.sdf'
+    path.write_text(flipped)
+    mech = import_description(str(path), closures=str(DRAKE_SIDE)).mechanism
+    model = SdfModel(flipped)
+    solver = Solver(mech)
+    rz = lambda a: np.array([[math.cos(a), -math.sin(a)], [math.sin(a), math.cos(a)]])  # noqa: E731
+    # R_Wd (0, 1, 0): the x turn takes y to -y, then the pi/6 yaw
+    pin_at_zero = rz(math.pi / 6) @ np.array([0.0, -1.0])
+    for q in (0.3, 1.0, -0.7):
+        result = solver.solve(mech.joint_coordinates.to_scene({'world_driver': q}))
+        assert result.success, result.reason
+        want = np.array([-2.0, 0.0]) + rz(q) @ pin_at_zero
+        assert math.dist(result.points['driver_coupler'], want) <= EXACT * 4.8, q
+        assert model.loop_miss(described(mech, result)) <= CLOSE * 4.8, q
