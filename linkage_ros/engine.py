@@ -235,10 +235,13 @@ class Engine:
         (their rates 0): the answer's ``held`` names them. A mechanism read from a robot
         description takes its own joint names and values (mech.joint_coordinates)."""
         try:
+            beyond = self.beyond_limits(values)
             values = self.to_scene(values, command=True)
             rates = None if rates is None else self.to_scene(rates, rates=True, command=True)
         except CommandError as exc:
             return Result(False, str(exc))
+        if beyond is not None:
+            return Result(False, beyond)
         misplaced = self.not_actuators(values)
         if misplaced is not None:
             return Result(False, misplaced)
@@ -369,6 +372,13 @@ class Engine:
             '~/target_point/<point> for points'
         )
 
+    def beyond_limits(self, values: Mapping[str, Any]) -> str | None:
+        """Why a request in a robot description's values gives a joint a value beyond its
+        <limit> (JointMap.refusal: as given, not on the circle), or None (a scene file's:
+        its actuators' limits are checked on the circle by the solver)."""
+        coords = self.mech.joint_coordinates
+        return None if coords is None else coords.refusal(values)
+
     def to_scene(
         self, values: Mapping[str, Any], rates: bool = False, command: bool = False
     ) -> dict[str, Any]:
@@ -403,9 +413,12 @@ class Engine:
         the mechanism's current assembly mode (see :meth:`solve_target`). A point is given as
         ``<point>.x`` and ``<point>.y`` (point_coordinates)."""
         try:
+            beyond = self.beyond_limits(values)
             knowns = group_point_coordinates(self.mech, self.to_scene(values))
         except CommandError as exc:
             return Result(False, str(exc))
+        if beyond is not None:
+            return Result(False, beyond)
         return self.solve_target(self.solver_for(list(knowns)), knowns, allow_mode_change, replace)
 
     # -- the assembly-mode rule for targets ------------------------------------------------------

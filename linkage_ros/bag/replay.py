@@ -173,6 +173,9 @@ class ReplayEngine:
         columns = {nm: vals[:, j] for j, nm in enumerate(names)}
         coords = self.engine.mech.joint_coordinates
         if coords is not None:  # the description's names and values, as the engine takes them
+            # (Engine.command / target: a value beyond its joint's <limit> as given)
+            for i, why in coords.rows_beyond_limits(columns).items():
+                refused.setdefault(i, why)
             try:
                 columns = coords.to_scene(columns, command=int(data.topic[a]) == 0)
                 if rates is not None:
@@ -204,7 +207,8 @@ class ReplayEngine:
                 self.res.inputs[nm][a:b] = col
                 self.res.input_given[nm][a:b] = nm not in held
         if rates is not None:  # Engine.command refuses a rate that is not finite before solving
-            refused.update(rates.refusals())
+            for i, why in rates.refusals().items():
+                refused.setdefault(i, why)
         if not refused:
             self._answer_run(columns, int(data.topic[a]), a, b, rates)
             return
@@ -215,7 +219,7 @@ class ReplayEngine:
         for i0, i1 in stretches(skip):  # the rows between are solved as a run
             self._answer_run(
                 {nm: c[i0:i1] for nm, c in columns.items()},
-                0,
+                int(data.topic[a]),
                 a + i0,
                 a + i1,
                 None if rates is None else rates.rows(i0, i1),

@@ -50,6 +50,14 @@ def scene_command(mech, command: Mapping[str, Any]) -> dict[str, Any]:
     return group_point_coordinates(mech, dict(command) if jc is None else jc.to_scene(command))
 
 
+def beyond_limits(mech, command: Mapping[str, Any]) -> str | None:
+    """Why a command line's knowns (a robot description's names and values) give a joint a
+    value beyond its <limit> (as given, not on the circle: JointMap.refusal, as the node's
+    Engine refuses it), or None; None for a scene file."""
+    jc = mech.joint_coordinates
+    return None if jc is None else jc.refusal(command)
+
+
 def grouped_knowns(mech, knowns: Sequence[str]) -> list[str]:
     """The solver's knowns of a command line's: ``P.x`` and ``P.y`` both given are the point
     ``point:P`` (in the place of the first), by the rule :func:`scene_command` groups their

@@ -12,6 +12,7 @@ from __future__ import annotations
 import sys
 from typing import TYPE_CHECKING
 
+from ..core.solver import Result
 from .common import (
     OK,
     REFUSED,
@@ -23,12 +24,11 @@ from .common import (
     load_mechanism,
     target_engine,
 )
-from .described import request_echo, scene_command
+from .described import beyond_limits, request_echo, scene_command
 
 if TYPE_CHECKING:
     from collections.abc import Callable
 
-    from ..core.solver import Result
     from ..core.solver.modes import ModeList
 
 # ---- solve -------------------------------------------------------------------------------------
@@ -92,7 +92,10 @@ def cmd_solve(args) -> int:
     if args.any_mode and (args.all_branches or not solver.inverse):
         raise UsageError('--any-mode applies to an inverse solve (--target, --target-point)')
     modes = None
-    if args.all_branches:
+    beyond = beyond_limits(mech, given)
+    if beyond is not None:  # (as the node refuses it: before any solve)
+        results = [Result(False, beyond)]
+    elif args.all_branches:
         modes = solver.modes(command)
         results = modes.results
     elif solver.inverse:

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..core.solver import Result
 from ..core.solver.table import ResultTable
 from ..outputs import folder_refusal, written_whole
 from .common import (
@@ -26,7 +27,7 @@ from .common import (
     load_mechanism,
     target_engine,
 )
-from .described import request_echo, scene_command
+from .described import beyond_limits, request_echo, scene_command
 
 # ---- sweep -------------------------------------------------------------------------------------
 
@@ -106,7 +107,13 @@ def cmd_sweep(args) -> int:
     for i, combo in enumerate(grid):
         command = dict(zip(names, combo))
         known = scene_command(mech, command)  # a robot description's names and values
-        res = engine.solve_target(solver, known) if solver.inverse else engine.forward_solve(known)
+        beyond = beyond_limits(mech, command)
+        if beyond is not None:
+            res = Result(False, beyond)
+        elif solver.inverse:
+            res = engine.solve_target(solver, known)
+        else:
+            res = engine.forward_solve(known)
         if table is not None:
             table.put_result(i, res)
         n_ok += res.success

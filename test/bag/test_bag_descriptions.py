@@ -138,3 +138,30 @@ def test_a_command_beyond_a_passive_limit_is_refused_as_the_node_refuses_it(tmp_
         else:
             assert r['status'] == 'ok', (q, r['reason'])
             assert abs(float(r['joint.slide_joint']) - slide(float(q))) < 1e-12
+
+
+def test_a_value_beyond_a_revolute_joints_limits_is_refused_as_the_node_refuses_it(
+    tmp_path, capsys
+):
+    """The knuckle's <limit> is [0, 0.8]: a recorded 6.3 rad (its wrap, 0.017, within) is
+    refused in the engine's words, row by row, and the rows around it are answered at their
+    values."""
+    name = 'robotiq_85_left_knuckle_joint'
+    values = [0.2, 6.3, 0.4, -6.0, 0.9, 0.6, 0.3, 6.5, 0.35]
+    topics = ['/cmd'] * 6 + ['/tgt'] * 3  # (a run of targets refused on one row too)
+    msgs = [
+        (t, (k + 1) * 10**6, joint_state([name], [v]))
+        for k, (t, v) in enumerate(zip(topics, values))
+    ]
+    rows = _run(tmp_path, capsys, ROBOTIQ, ROBOTIQ_CLOSURES, msgs, targets=True)
+    scene = load_scene(str(ROBOTIQ), closures=str(ROBOTIQ_CLOSURES))
+    engine = Engine(scene.mechanism, EngineSettings())
+    statuses = ['ok', 'error', 'ok', 'error', 'error', 'ok', 'ok', 'error', 'ok']
+    assert [r['status'] for r in rows] == statuses
+    for r, v, t in zip(rows, values, topics):
+        want = engine.command({name: v}) if t == '/cmd' else engine.target({name: v})
+        if want.success:
+            assert abs(float(r[f'joint.{name}']) - v) < 1e-12
+        else:
+            assert r['reason'] == want.reason, (r['reason'], want.reason)
+            assert 'its maximum 0.8' in want.reason or 'its minimum 0' in want.reason

@@ -22,7 +22,7 @@ import numpy as np
 from ..errors import CommandError
 from ..quantities import Shown
 from .checks import Fail
-from .limits import limit_interval
+from .limits import limit_interval, limit_violation
 
 
 class OutputKind(Enum):
@@ -276,6 +276,61 @@ class JointMap:
                 q = follower.multiplier * v + (0.0 if rates else follower.mimic_offset)
                 out[follower.scene_name] = self._convert(follower, q, rates)
         return out
+
+    def beyond_limit(self, name: str, value: Any) -> str | None:
+        """Why the value a request gives the description's revolute joint ``name`` (as given,
+        not on the circle) is outside its limits (its <limit>, or the closure file's): such a
+        joint turns between them, so a value a turn away is not the angle it wraps to (6.3 rad
+        against [0, 0.8] is not 0.017 rad there); None where it is within, or the joint has
+        no limit or one end only (a continuous one) or is prismatic (its actuator's own check
+        reads those values as they are). Array rows: :meth:`rows_beyond_limits`."""
+        if not self._bounded(name) or not isinstance(value, int | float):
+            return None
+        out = self._output_of[name]
+        return limit_violation(name, float(value), out.lower, out.upper, 'rad', False)
+
+    def _bounded(self, name: str) -> bool:
+        """Whether ``name`` is a revolute input joint with both limit ends less than a turn
+        apart (one end bounds no angle: an arc needs two; limits a turn or more apart are no
+        limit: docs/ROBOT_DESCRIPTIONS.md)."""
+        entry, out = self.inputs.get(name), self._output_of.get(name)
+        if entry is None or out is None or not entry.revolute:
+            return False
+        if out.lower is None or out.upper is None:
+            return False
+        return out.upper - out.lower < 2.0 * math.pi
+
+    def refusal(self, values: Mapping[str, Any]) -> str | None:
+        """Why a request (the description's names and values, before :meth:`to_scene`) is
+        refused as it stands: the first value beyond its joint's limit (:meth:`beyond_limit`),
+        or None. The engine and the command line refuse it before any solve."""
+        for name, value in values.items():
+            why = self.beyond_limit(name, value)
+            if why is not None:
+                return why
+        return None
+
+    def rows_beyond_limits(self, columns: Mapping[str, Any]) -> dict[int, str]:
+        """:meth:`beyond_limit` over a recorded bag's columns (an array per request name):
+        {row: its first reason, in the columns' order}; the rows found by the same interval
+        (model.limits.limit_interval: the limits and their rounding slack), each reason by
+        :meth:`beyond_limit` itself."""
+        refused: dict[int, str] = {}
+        for name, col in columns.items():
+            if not self._bounded(name):
+                continue
+            out = self._output_of[name]
+            interval = limit_interval(out.lower, out.upper, False)
+            assert interval is not None  # (not an angle's rule: periodic False)
+            lo, hi = interval
+            v = np.asarray(col, np.float64)
+            with np.errstate(invalid='ignore'):
+                rows = np.flatnonzero((v < lo) | (v > hi))  # (NaN: neither)
+            for i in rows.tolist():
+                why = self.beyond_limit(name, float(v[i]))
+                if why is not None:
+                    refused.setdefault(i, why)
+        return refused
 
     def _entry(self, name: str, command: bool) -> InputJoint | None:
         """The input ``name`` stands for (None: not the description's joint), or why it cannot

@@ -301,7 +301,11 @@ def test_a_mimic_geared_to_a_continuous_crank_is_noted_where_it_wraps(
     if noted:
         assert 'jumps where j1 passes its wrap' in said[0]
     mech = imported.mechanism
-    r = Engine(mech, EngineSettings()).command({'j1': 4.0})
+    engine = Engine(mech, EngineSettings())
+    if limits:  # j1 turns between -3 and 3 rad: 4 rad is beyond them, its wrap within
+        beyond = engine.command({'j1': 4.0})
+        assert beyond.reason == 'j1 = 4 rad is beyond its maximum 3 by 1 rad', beyond.reason
+    r = engine.command({'j1': 4.0 - 2 * math.pi if limits else 4.0})
     assert r.success, r.reason
     joints = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))
     assert abs(joints['j1'] - (4.0 - 2 * math.pi)) < 1e-12
@@ -379,3 +383,47 @@ def test_a_plane_turned_by_a_mount_keeps_the_ground_frames_z_up(tmp_path):
     got = mech.points['crank_j']
     assert got[1] == pytest.approx(0.3, abs=1e-12)
     assert got[0] == pytest.approx(float(pivot @ e1), abs=1e-12)
+
+
+def test_a_command_beyond_a_revolute_joints_limits_is_refused_as_given(tmp_path, capsys):
+    """A revolute joint with both limits turns between them: a value a turn away is not the
+    angle it wraps to (an outside reviewer's finds). The Robotiq's knuckle, [0, 0.8]: 6.3 rad
+    was answered at 0.0168 rad, -6 at 0.283. A four-bar crank limited to [0, 6.2]: -0.05 was
+    'beyond its maximum 6.2 by 0.0332 rad' (judged on the circle) and 6.25 quoted as
+    -0.0331853072 rad. Each is refused in the description's values as given, by the engine
+    (node, trajectories) and the command line alike; a value within is answered at it."""
+    from linkage_ros.cli.parser import main
+
+    engine = Engine(_mech('robotiq'), EngineSettings())
+    knuckle = 'robotiq_85_left_knuckle_joint'
+    for value, why in (
+        (6.3, 'is beyond its maximum 0.8 by 5.5 rad'),
+        (-6.0, 'is below its minimum 0 by 6 rad'),
+        (0.9, 'is beyond its maximum 0.8 by 0.1 rad'),
+    ):
+        r = engine.command({knuckle: value})
+        assert not r.success and r.reason == f'{knuckle} = {value:g} rad {why}', r.reason
+    r = engine.command({knuckle: 0.5})
+    assert r.success, r.reason
+    mech = engine.mech
+    got = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))
+    assert abs(got[knuckle] - 0.5) < 1e-12
+    text = (D / 'grbda_four_bar.urdf').read_text()
+    text = text.replace('lower="-13.14" upper="13.14"', 'lower="0" upper="6.2"', 1)
+    path = tmp_path / 'four_bar_0_to_6.2.urdf'
+    path.write_text(text)
+    engine = Engine(import_description(str(path)).mechanism, EngineSettings())
+    for value, why in (
+        (-0.05, 'joint1 = -0.05 rad is below its minimum 0 by 0.05 rad'),
+        (6.25, 'joint1 = 6.25 rad is beyond its maximum 6.2 by 0.05 rad'),
+    ):
+        assert engine.command({'joint1': value}).reason == why
+        assert engine.target({'joint1': value}).reason == why
+        assert main(['solve', str(path), '--set', f'joint1={value}', '--json']) == 1
+        assert why in capsys.readouterr().out
+    for value in (0.05, 3.5, 6.15):  # within: answered at that value
+        r = engine.command({'joint1': value})
+        assert r.success, (value, r.reason)
+        mech = engine.mech
+        got = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))
+        assert abs(got['joint1'] - value) < 1e-12, (value, got['joint1'])
