@@ -120,8 +120,9 @@ def test_check_prints_the_notes_and_the_descriptions_joints(capsys):
     rc, out, err = run(capsys, 'check', SIX_BAR)
     assert rc == 0
     notes = [l for l in err.splitlines() if l.startswith('note: ')]
-    assert len(notes) == 1
+    assert len(notes) == 2  # open, and drawn flat between two assembly modes
     assert notes[0].startswith('note: the description is open by 0.3 m at joint1 = 0')
+    assert notes[1].startswith("note: the description's pose is as near two assembly modes")
     assert 'joint4 (scene joint1_link4)' in out
     rc, out, err = run(capsys, 'check', SIX_BAR, '--json')
     assert rc == 0 and err == ''

@@ -13,8 +13,9 @@ import numpy as np
 
 from ..errors import SceneError
 from ..model import Mechanism, Scene
-from ..model.joint_map import JointMap, OutputKind, wrap
+from ..model.joint_map import JointMap, OutputKind
 from ..model.limits import limit_violation
+from .assembly import CLOSED, assemble_chain, values_text
 from .calibration import calibrate_joint_map
 from .chain import Chain, find_chain, rot
 from .records import Description, DescriptionError, DescriptionFormat
@@ -24,18 +25,8 @@ from .side_files import apply_side_file, load_side_file, read_file
 from .urdf_reader import read_urdf
 from .xml_text import MAX_DESCRIPTION_BYTES, parse_xml
 
-#: a description's loops count as closed when they miss by at most this fraction of its size
-#: (the solver's own closure limit)
-CLOSED = 1e-10
 #: the length of each link's axis mark (its second point) as a fraction of the chain's size
 AXIS_MARK = 0.25
-#: random restarts of the assembly before a description is refused as unassemblable
-ASSEMBLY_STARTS = 24
-#: ... or this many, when the best of them still misses by more than FAR_OPEN of the chain's
-#: size (a loop a finite distance too long or short for its links: every local minimum of the
-#: miss is far from zero; a chain that closes is found closed from most starts)
-FAR_OPEN_STARTS = 6
-FAR_OPEN = 1e-3
 DESCRIPTION_SUFFIXES = ('.urdf', '.sdf', '.xml', '.xacro')
 
 
@@ -121,7 +112,9 @@ def import_description(
         desc = replace(desc, actuated=tuple(actuated))
     chain = find_chain(desc)
     acts = _actuated(chain)
-    q, gap = _assemble(chain, acts, _assembly_values(chain, acts, desc, values, closures))
+    q, gap, tied = assemble_chain(
+        chain, acts, _assembly_values(chain, acts, desc, values, closures)
+    )
     scene, names = _scene(chain, acts, q, dimensions)
     try:
         mech = Scene.from_dict(scene, source=source).mechanism
@@ -138,7 +131,15 @@ def import_description(
     if gap > CLOSED * chain.length_scale:
         notes.append(
             f'the description is open by {gap:.6g} m at '
-            f'{_values_text(acts, q)}: assembled (the loops closed)'
+            f'{values_text(acts, q)}: assembled (the loops closed)'
+        )
+    if tied:
+        notes.append(
+            "the description's pose is as near two assembly modes (starts a hair either side "
+            'of it close the loops in each): the one taken was chosen by rounding, and a '
+            'frame convention that does not change the robot may choose the other. State the '
+            "mode: --branch (the node's branch parameter) with the signs linkage check "
+            'prints, or assemble_at values nearer the one meant'
         )
     for j in chain.joints:
         lim = desc.limits_of(j.joint)
@@ -158,10 +159,6 @@ def import_description(
         notes.append(f'<mimic> of {", ".join(mimics)} superseded: the closures give their values')
     notes += _turning_mimics(jmap)
     return Imported(desc, chain, scene, mech, jmap, acts, q, gap, tuple(notes))
-
-
-def _values_text(acts: Sequence[str], q: Mapping[str, float]) -> str:
-    return ', '.join(f'{a} = {q[a]:.6g}' for a in acts) or 'its pose'
 
 
 def _actuated(chain: Chain) -> tuple[str, ...]:
@@ -317,72 +314,6 @@ def _inside(lower: float | None, upper: float | None) -> float:
         return lower + 0.1 * max(1.0, abs(lower))
     assert upper is not None  # (a violation needs a limit)
     return upper - 0.1 * max(1.0, abs(upper))
-
-
-def _assemble(
-    chain: Chain, acts: Sequence[str], given: dict[str, float]
-) -> tuple[dict[str, float], float]:
-    """Every chain joint's value with the loops closed at the actuated values ``given``
-    (actuated joints only: _assembly_values checked them); and the gap (m) the loops had
-    before."""
-    from scipy.optimize import least_squares
-
-    desc = chain.description
-    passive = [j for j in chain.joints if j.name not in acts]
-    base = {j.name: float(given.get(j.name, 0.0)) for j in chain.joints}
-    # a passive joint the description gives by <mimic> is where its rule puts it (the
-    # description's own pose, whose gap the note reports), else at 0
-    for _ in passive:
-        for j in passive:
-            m = j.joint.mimic
-            if m is not None and m.joint in base:
-                base[j.name] = m.multiplier * base[m.joint] + m.offset
-    scale = chain.length_scale
-
-    def residual(x: np.ndarray) -> np.ndarray:
-        vals = dict(base)
-        vals.update({j.name: float(v) for j, v in zip(passive, x)})
-        return chain.closure_residual(chain.poses(vals)) / scale
-
-    x0 = np.array([base[j.name] for j in passive])
-    gap = float(np.linalg.norm(residual(x0))) * scale
-    best_x, best = x0, math.inf
-    rng = np.random.default_rng(0)
-    for k in range(ASSEMBLY_STARTS):
-        start = (
-            x0
-            if k == 0
-            else x0
-            + np.array(
-                [
-                    rng.uniform(-math.pi, math.pi) if j.revolute else rng.normal(0, scale)
-                    for j in passive
-                ]
-            )
-        )
-        if not passive:
-            break
-        fit = least_squares(residual, start, xtol=1e-15, ftol=1e-15, gtol=1e-15, method='lm')
-        miss = float(np.linalg.norm(fit.fun))
-        if miss < best:
-            best_x, best = fit.x, miss
-        if best <= CLOSED:
-            break
-        if k + 1 >= FAR_OPEN_STARTS and best > FAR_OPEN:
-            break  # every start so far stopped far from closing: the loops cannot close
-    miss = float(np.linalg.norm(residual(best_x))) * scale
-    if miss > CLOSED * scale:
-        raise DescriptionError(
-            f'cannot assemble at {_values_text(acts, base)}: the nearest configuration misses '
-            f'closing by {miss:.6g} m ({miss / scale:.3g} of its size)',
-            file=desc.source,
-        )
-    q = dict(base)
-    q.update({j.name: float(v) for j, v in zip(passive, best_x)})
-    for j in passive:
-        if j.revolute:
-            q[j.name] = wrap(q[j.name])
-    return q, gap
 
 
 def _scene(
