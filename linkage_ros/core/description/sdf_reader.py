@@ -275,6 +275,21 @@ def _joint(el: ET.Element, frames: _Frames, source: str) -> TreeJoint:
     )
 
 
+def _quaternion_pose(v: Sequence[float], source: str, where: str) -> np.ndarray:
+    """The 4x4 transform of a quat_xyzw pose (x y z qx qy qz qw), the quaternion normalised (a
+    zero one is no rotation: refused)."""
+    from scipy.spatial.transform import Rotation
+
+    q = np.array(v[3:], float)
+    norm = float(np.linalg.norm(q))
+    if not norm > 0.0:
+        raise DescriptionError('pose quaternion of length 0', file=source, key=where)
+    t = np.eye(4)
+    t[:3, :3] = Rotation.from_quat(q / norm).as_matrix()  # scalar last, as SDFormat writes it
+    t[:3, 3] = v[:3]
+    return t
+
+
 def _text(el: ET.Element, tag: str) -> str | None:
     sub = el.find(tag)
     return None if sub is None or sub.text is None else sub.text.strip()
@@ -283,9 +298,16 @@ def _text(el: ET.Element, tag: str) -> str | None:
 def _pose_of(el: ET.Element | None, source: str, where: str) -> np.ndarray:
     if el is None or not (el.text or '').strip():
         return np.eye(4)
+    fmt = el.get('rotation_format') or 'euler_rpy'
+    if fmt == 'quat_xyzw':  # SDFormat 1.9: x y z, then the quaternion qx qy qz qw
+        return _quaternion_pose(numbers(el.text, 7, source, f'{where} pose', ()), source, where)
+    if fmt != 'euler_rpy':
+        raise DescriptionError(
+            f'pose rotation_format {fmt!r}: SDFormat has euler_rpy and quat_xyzw',
+            file=source,
+            key=where,
+        )
     v = numbers(el.text, 6, source, f'{where} pose', ())
-    if (el.get('rotation_format') or 'euler_rpy') != 'euler_rpy':
-        raise DescriptionError('only euler_rpy poses are read', file=source, key=where)
     scale = (
         math.pi / 180.0
         if optional_bool(el.get('degrees'), source, f'{where} pose degrees')
