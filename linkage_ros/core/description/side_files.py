@@ -15,7 +15,15 @@ import yaml
 
 from ..errors import SceneError
 from ..model.scene import UniqueKeyLoader, read_text
-from .records import Closure, ClosureType, Description, DescriptionError, Limits, LinkFrame
+from .records import (
+    Closure,
+    ClosureType,
+    Description,
+    DescriptionError,
+    JointType,
+    Limits,
+    LinkFrame,
+)
 from .records import transform as make_transform
 from .xml_text import upside_down
 
@@ -141,6 +149,17 @@ def _frame(desc: Description, name: Any, path: str, key: str) -> LinkFrame:
     if joint is not None:
         return LinkFrame(joint.parent, joint.parent_to_joint, joint=name)
     if name in desc.links:
+        # a link's frame that is its parent revolute joint's moving frame (URDF's child frame
+        # always is) is that joint's frame, as if named by the joint: Gepetto's closures name
+        # either ('sphere' or the dummy joint closedloop1_A above it); by the link a '6d'
+        # pair was refused as welding two bodies no joint turns (an outside reviewer's find)
+        above = next((j for j in desc.joints if j.child == name), None)
+        if (
+            above is not None
+            and above.type is JointType.REVOLUTE
+            and np.allclose(above.child_to_joint, np.eye(4), rtol=0.0, atol=1e-12)
+        ):
+            return LinkFrame(above.parent, above.parent_to_joint, joint=above.name)
         return LinkFrame(name, np.eye(4))
     if name in desc.frames:
         return desc.frames[name]

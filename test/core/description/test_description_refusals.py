@@ -320,10 +320,13 @@ def test_a_gepetto_side_file_with_a_bad_type_or_motor(tmp_path):
 
 
 def test_a_6d_pair_of_frames_no_joint_turns_would_weld(tmp_path):
+    """The effector (fixed to end_rod) and the base link 'built': no joint turns either frame.
+    (Links below revolute joints, such as sphere and sphere_2, have those joints' frames: a
+    6d pair of them closes; test_description_frames.py.)"""
     path = side(
         tmp_path,
         'weld.yaml',
-        "closed_loop: [['sphere', 'sphere_2']]\ntype: ['6d']\nname_mot: [mot1, mot2]\n",
+        "closed_loop: [['effector', 'built']]\ntype: ['6d']\nname_mot: [mot1, mot2]\n",
     )
     refused('closed_loop[0]', '6d', 'weld', args=[str(GEPETTO)], closures=path)
 
