@@ -133,6 +133,15 @@ def import_description(
             f'the description is open by {gap:.6g} m at '
             f'{values_text(acts, q)}: assembled (the loops closed)'
         )
+    for pc in chain.closures:  # the plane's motion never moves a frame along its normal
+        c = pc.closure
+        apart = abs(chain.depth(c.a.link, c.a.pose) - chain.depth(c.b.link, c.b.pose))
+        if apart > CLOSED * chain.length_scale:
+            notes.append(
+                f'closure {c.name!r} closes in the plane only: its two frames are {apart:.6g} m '
+                "apart along the plane's normal in every configuration (a tool that reads the "
+                'description in 3-D sees the loop open by that much)'
+            )
     if tied:
         notes.append(
             "the description's pose is as near two assembly modes (starts a hair either side "
