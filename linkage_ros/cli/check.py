@@ -42,6 +42,7 @@ def check_report(
 ) -> dict:
     """The check of a loaded mechanism (JSON-ready). ``notes`` and ``warnings``: the scene's
     own (what loading did; what loads but is likely wrong)."""
+    from ..core.motion import input_limits_lifted
     from ..core.motion.quantities import quantities_report
     from ..core.reference_warnings import reference_pose_warnings
     from ..core.solver import SolveMode, Solver
@@ -75,6 +76,7 @@ def check_report(
         }
     solver = Solver(mech, method=solver_method, branch='reference')
     n_act = len(mech.actuators)
+    free = input_limits_lifted(mech, next(iter(mech.actuators))) if n_act == 1 else None
     return {
         'scene': path,
         'name': mech.name,
@@ -106,6 +108,10 @@ def check_report(
             *_structure_warnings(mech, solver),
         ],
         'motion': described_motion(quantities_report(mech), values),
+        # the motion through the toggles a crank's limits stop short of (None: no such limits)
+        'motion_without_limits': described_motion(
+            None if free is None else quantities_report(free), values
+        ),
         'notes': list(notes),  # what loading did (a robot description assembled, ...)
         # a robot description's joints as published, and the scene known each request
         # name stands for (None: a scene file, published as it is)
@@ -211,7 +217,7 @@ def format_check(r: dict) -> str:
                 k if k == v else f'{k} (scene {v})' for k, v in sorted(jc['inputs'].items())
             )
         )
-    out += format_motion(r.get('motion'))
+    out += format_motion(r.get('motion'), r.get('motion_without_limits'))
     out += [f'warning    {w}' for w in r.get('warnings', [])]
     return '\n'.join(out)
 
@@ -227,8 +233,10 @@ def cmd_check(args) -> int:
     return OK
 
 
-def format_motion(m: dict | None) -> list[str]:
-    """The text lines of a quantities_report (``linkage check`` and ``linkage range --motion``)."""
+def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
+    """The text lines of a quantities_report (``linkage check`` and ``linkage range --motion``);
+    ``free``: the report without the input's limits, whose extremes are added where they differ
+    (the lectures' oscillation of a link is its whole circuit, through the toggles)."""
     if not m:
         return []
     out = []
@@ -246,6 +254,13 @@ def format_motion(m: dict | None) -> list[str]:
         if o.get('time_ratio') is not None:
             line += f'  time ratio {fmt_value(o["time_ratio"], ".6g")}'
         out.append(line)
+        whole = (free or {}).get('outputs', {}).get(name)
+        if whole is not None and (whole['min'], whole['max']) != (o['min'], o['max']):
+            out.append(
+                f"    without the input's limits (through its toggles): min "
+                f'{fmt_value(whole["min"])}  max {fmt_value(whole["max"])}  '
+                f'{"swing" if unit == "rad" else "stroke"} {fmt_value(whole["stroke"])} {unit}'
+            )
     for name in m.get('turns_fully', ()):
         out.append(f'  {name.partition(":")[2]} (angle)  turns fully (no swing, no time ratio)')
     for key, t in m['transmission_angle'].items():

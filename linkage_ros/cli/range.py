@@ -33,7 +33,6 @@ Exit status: 0 ok; 1 a requested analysis was refused (the tilt's start pose doe
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import math
 import sys
@@ -41,7 +40,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from ..core.errors import LinkageError
-from ..core.model import AngleActuator, SlideActuator
+from ..core.model import SlideActuator
 from ..core.units import Quantity, UnitError, degrees_warning, expect, parse_text
 from ..outputs import folder_refusal
 from .common import UsageError, add_scene_argument, load_mechanism
@@ -181,16 +180,6 @@ def _swing_text(v: dict[str, Any]) -> str:
     )
 
 
-def _limits_lifted(mech, name: str):
-    """``mech`` with crank ``name``'s limits lifted, or None where it has none (or is a slide:
-    a cylinder's stroke is its body, not a setting a circuit could pass)."""
-    act = mech.actuators[name]
-    if not isinstance(act, AngleActuator) or (act.min is None and act.max is None):
-        return None
-    lifted = dataclasses.replace(act, min=None, max=None)
-    return dataclasses.replace(mech, actuators={**mech.actuators, name: lifted})
-
-
 def _tilt_from(args) -> float | None:
     """--tilt-from in rad (the unit grammar of core.units: a bare number is rad)."""
     if args.tilt_from is None:
@@ -267,7 +256,7 @@ def analyse(args, mech) -> tuple[dict, int]:
             if isinstance(a, SlideActuator) and a.cylinder
             for l in (mech.prismatics[a.joint].guide, mech.prismatics[a.joint].slider)
         }
-        free = _limits_lifted(mech, inp)  # the input's limits lifted, where it has them
+        free = motion.input_limits_lifted(mech, inp)  # (None: the input has no limits)
         for link in mech.moving_links:
             if link in cyl or len(mech.links[link].points) < 2:
                 continue
@@ -286,6 +275,9 @@ def analyse(args, mech) -> tuple[dict, int]:
                 f'{len(mech.actuators)})'
             )
         report['motion'] = quantities_report(mech)
+        free_mech = motion.input_limits_lifted(mech, next(iter(mech.actuators)))
+        if free_mech is not None:
+            report['motion_without_limits'] = quantities_report(free_mech)
     plots = {}
     if args.plot:
         from ..plots import plot_region
@@ -391,7 +383,7 @@ def _print_human(r: dict, mech) -> None:
     if r.get('motion') is not None:
         from .check import format_motion
 
-        for line in format_motion(r['motion']):
+        for line in format_motion(r['motion'], r.get('motion_without_limits')):
             p(line)
     for k, v in (r.get('plots') or {}).items():
         p(f'wrote {k} plot: {v}')
@@ -427,6 +419,10 @@ def described(report: dict, mech) -> dict:
         from .check import described_motion
 
         report['motion'] = described_motion(report['motion'], values)
+        if report.get('motion_without_limits'):
+            report['motion_without_limits'] = described_motion(
+                report['motion_without_limits'], values
+            )
     return report
 
 

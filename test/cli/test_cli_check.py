@@ -181,3 +181,30 @@ def test_range_motion_gives_what_check_gives(capsys):
     assert 'lever (angle)  min ' in out and 'time ratio 1.55215' in out
     rc, _, err = run(capsys, 'range', 'excavator', '--motion')
     assert rc == 2 and '--motion needs a scene with one actuator' in err
+
+
+def test_check_gives_a_links_whole_oscillation_where_the_cranks_limits_stop_short():
+    """Seed 003 example 5, stated as the lecture states it: 'determine the ranges of
+    oscillation of these links 2 and 4' of the non-Grashof 3R-1P. The shipped scene's crank
+    limits sit 0.01 rad inside its toggles, so `linkage check` gave link 4 a swing of 2.219 rad
+    (half its circuit) and nothing more (an outside reviewer's find). It now adds the swing
+    through the toggles. Oracle: the slide line through A at distance e = 0.14 from O4 meets the
+    crank circle (O2, 0.2) while cos(psi) <= (0.2 - 0.14) / 0.3 = 0.2: psi in
+    [acos 0.2, 2 pi - acos 0.2], a swing of 2 pi - 2 acos 0.2 = 3.5443 rad (203.07 deg)."""
+    import io
+    from contextlib import redirect_stdout
+
+    from linkage_ros.cli.parser import main
+
+    with redirect_stdout(io.StringIO()) as out:
+        assert main(['check', 'inverted_slider_crank_oscillating', '--json']) == 0
+    whole = loads(out.getvalue())['motion_without_limits']['outputs']['link:rocker']
+    assert whole['min'] == pytest.approx(math.acos(0.2), abs=1e-9)
+    assert whole['max'] == pytest.approx(2 * math.pi - math.acos(0.2), abs=1e-9)
+    assert whole['stroke'] == pytest.approx(2 * math.pi - 2 * math.acos(0.2), abs=1e-9)
+    with redirect_stdout(io.StringIO()) as out:
+        assert main(['check', 'inverted_slider_crank_oscillating']) == 0
+    assert "without the input's limits (through its toggles): min 1.36943841" in out.getvalue()
+    with redirect_stdout(io.StringIO()) as out:  # no limits: nothing added
+        assert main(['check', 'four_bar', '--json']) == 0
+    assert loads(out.getvalue())['motion_without_limits'] is None

@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 
-from ..model import Mechanism
+from ..model import AngleActuator, Mechanism
 from ..model.names import NameKind, known_name
 from ..plan import Poses, spec_for, spec_value_at
 from ..quantities import PointSpec
@@ -66,6 +66,19 @@ def without_limits(mech: Mechanism) -> Mechanism:
     free.actuators = {
         n: dataclasses.replace(a, min=None, max=None) for n, a in mech.actuators.items()
     }
+    return free
+
+
+def input_limits_lifted(mech: Mechanism, name: str) -> Mechanism | None:
+    """``mech`` with angle actuator ``name``'s limits lifted, or None where it has none (or is a
+    slide: a cylinder's stroke is its body, not a setting a circuit could pass). The lectures'
+    "through what angle can link 4 oscillate" is the whole circuit, through the toggles a
+    scene's crank limits may keep its input short of."""
+    act = mech.actuators[name]
+    if not isinstance(act, AngleActuator) or (act.min is None and act.max is None):
+        return None
+    free = copy.copy(mech)
+    free.actuators = {**mech.actuators, name: dataclasses.replace(act, min=None, max=None)}
     return free
 
 
