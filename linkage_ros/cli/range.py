@@ -20,10 +20,11 @@ in parentheses), lengths metres.
 
 JSON: {"scene", "inputs": {name: {"min", "max", "min_source", "max_source", "full_turn",
 "assembly", "reference", "unit"}}, "toggles": {name: [...]}, "region": {point: {"boundary":
-[[x, y], ...], "area", "method", "actuators", "limits", "hull_check"}}, "tilt": {...},
+[[x, y], ...], "area", "extent", "method", "actuators", "limits", "hull_check"}}, "tilt": {...},
 "oscillation": {"input", "links": {link: {"min", "max", "full_turn"[, "without_limits":
 {...}: a limited crank's whole circuit]}}}, "motion": {"actuator",
-"full_turn", "outputs": {...}, "transmission_angle": {...}} (``--motion``, as linkage check's),
+"full_turn", "outputs": {...}, "transmission_angle": {...}} (``--motion``, as linkage check's,
+and "motion_without_limits" likewise where a crank's limits stop short of its toggles),
 "plots": {...}}.
 
 Exit status: 0 ok; 1 a requested analysis was refused (the tilt's start pose does not solve);
@@ -233,7 +234,16 @@ def analyse(args, mech) -> tuple[dict, int]:
         report['region'] = {
             region_point: {
                 k: reg[k]
-                for k in ('boundary', 'area', 'method', 'actuators', 'limits', 'held', 'hull_check')
+                for k in (
+                    'boundary',
+                    'area',
+                    'extent',
+                    'method',
+                    'actuators',
+                    'limits',
+                    'held',
+                    'hull_check',
+                )
             }
         }
         region_full = reg
@@ -328,12 +338,11 @@ def _print_human(r: dict, mech) -> None:
         p(f'  {name:<10} ' + (', '.join(_fmt(v, unit) for v in t) if t else 'none'))
     for pt, reg in (r.get('region') or {}).items():
         b = reg['boundary']
-        xs = [v[0] for v in b] or [0.0]
-        ys = [v[1] for v in b] or [0.0]
+        (x0, x1), (y0, y1) = reg['extent'] or [[0.0, 0.0], [0.0, 0.0]]
         p(
             f'region of {pt} ({", ".join(reg["actuators"]) or "no actuator moves it"}): '
             f'{reg["method"]}, area {reg["area"]:.6g} m^2, {len(b)} boundary vertices, '
-            f'x {min(xs):.6g} .. {max(xs):.6g} m, y {min(ys):.6g} .. {max(ys):.6g} m'
+            f'x {x0:.6g} .. {x1:.6g} m, y {y0:.6g} .. {y1:.6g} m'
         )
         for a, lim in reg['limits'].items():
             p(f'  {a} over {lim[0]:.9g} .. {lim[1]:.9g}')

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from enum import Enum
 from typing import Any
 
@@ -63,10 +63,89 @@ def _moving_actuators(mech: Mechanism, point: str, solver: Solver) -> list[str]:
 
 
 def _polygon_area(poly: np.ndarray) -> float:
+    return abs(_signed_area(poly))
+
+
+def _signed_area(poly: np.ndarray) -> float:
+    """The shoelace area of a closed polygon (first vertex not repeated), counter-clockwise
+    positive."""
     if len(poly) < 3:
         return 0.0
     x, y = poly[:, 0], poly[:, 1]
-    return 0.5 * abs(float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+    return 0.5 * (float(np.dot(x, np.roll(y, -1)) - np.dot(y, np.roll(x, -1))))
+
+
+def _arcs_area(boundary: np.ndarray, arcs: Sequence[np.ndarray]) -> float:
+    """The area inside smooth arcs, each sampled at evenly spaced values of its sweep and
+    joined end to end into ``boundary``: the shoelace area of the polygon through the samples
+    (the chords: short by O(h^2) of the area) plus, per pair of samples, a third of their
+    triangle: the area between a chord and the parabola through its two ends and the sample
+    between them is 4/3 of that triangle (the tangent there is parallel to the chord), Simpson's
+    rule on Green's integral, O(h^4). An arc of an odd sample count leaves its last chord as it
+    is. Measured on the excavator's zone of K (four circular arcs, 160 samples each): the
+    polygon 7.147223 m^2, this 7.1473047, the exact circular integral 7.14730469."""
+    bulge = 0.0
+    for pts in arcs:
+        for k in range(0, len(pts) - 2, 2):
+            d1, d2 = pts[k + 1] - pts[k], pts[k + 2] - pts[k]
+            bulge += 0.5 * float(d1[0] * d2[1] - d1[1] * d2[0]) / 3.0
+    return abs(_signed_area(boundary) + bulge)
+
+
+#: rounds of successive parabolic interpolation that refine a boundary arc's extreme
+EXTREME_ROUNDS = 6
+
+Solve = Callable[[Mapping[str, np.ndarray]], tuple[np.ndarray, np.ndarray]]
+
+
+def _arcs_extent(arcs: Sequence[Mapping[str, Any]], solve: Solve) -> list[list[float]]:
+    """[[x min, x max], [y min, y max]] of the region inside the boundary arcs (each sampled at
+    evenly spaced values of its sweep, the other actuator held): the extreme sample of each,
+    refined where the extreme lies between samples by successive parabolic interpolation in
+    the sweep value, each new point solved. The samples alone fall short by O(h^2) (the
+    excavator's K: 3.995004 from 81 samples per arc, 3.9950847 from their parabola's vertex;
+    the true largest x is 3.9950868)."""
+    out = []
+    for axis in (0, 1):
+        ends = []
+        for sign in (-1.0, 1.0):
+            ends.append(sign * max(_arc_extreme(a, axis, sign, solve) for a in arcs))
+        out.append(ends)
+    return out
+
+
+def _arc_extreme(arc: Mapping[str, Any], axis: int, sign: float, solve: Solve) -> float:
+    """max of sign * (coordinate ``axis``) over one boundary arc (see _arcs_extent)."""
+    s = np.asarray(arc['inputs'], float)
+    v = sign * np.asarray(arc['points'], float).reshape(-1, 2)[:, axis]
+    k = int(np.argmax(v))
+    best = float(v[k])
+    if len(v) < 3:
+        return best
+    j = min(max(k, 1), len(v) - 2)
+    pts = [(float(s[i]), float(v[i])) for i in (j - 1, j, j + 1)]
+    fixed, _, held = arc['fixed']
+    lo, hi = sorted((float(s[0]), float(s[-1])))
+    for _ in range(EXTREME_ROUNDS):
+        (x0, y0), (x1, y1), (x2, y2) = sorted(pts)
+        num = (x1 - x0) ** 2 * (y1 - y2) - (x1 - x2) ** 2 * (y1 - y0)
+        den = (x1 - x0) * (y1 - y2) - (x1 - x2) * (y1 - y0)
+        if den == 0.0:
+            break
+        xv = min(max(x1 - 0.5 * num / den, lo), hi)
+        if any(xv == x for x, _ in pts):
+            break
+        ok, at = solve({fixed: np.array([float(held)]), arc['sweep']: np.array([xv])})
+        if not ok[0]:
+            break
+        yv = sign * float(at[0][axis])
+        best = max(best, yv)
+        # the three points about the best so far: the new one and its two neighbours
+        ranked = sorted([*pts, (xv, yv)])
+        i = max(range(4), key=lambda m: ranked[m][1])
+        i = min(max(i, 1), 2)
+        pts = ranked[i - 1 : i + 2]
+    return best
 
 
 def points_in_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
@@ -289,7 +368,7 @@ def reachable_region(
         boundary = np.concatenate(verts)
         binputs = {a1: np.concatenate(ins1).tolist(), a2: np.concatenate(ins2).tolist()}
         method = Boundary.EXTREME_ARCS if complete else Boundary.CONCAVE_HULL
-        area = _polygon_area(boundary)
+        area = _arcs_area(boundary, [np.asarray(a['points'], float) for a in arcs])
     else:
         boundary, binputs, method, area = None, {}, Boundary.CONCAVE_HULL, 0.0
     # hull check: the cloud must lie inside the boundary
@@ -318,10 +397,19 @@ def reachable_region(
         boundary = _concave_hull(pts, 2.5 * spacing)
         binputs = {}
         area = _polygon_area(boundary)
+    bpts = np.asarray(boundary, float).reshape(-1, 2)
+    extent = (
+        _arcs_extent(arcs, solve)
+        if method is Boundary.EXTREME_ARCS
+        else [[float(bpts[:, i].min()), float(bpts[:, i].max())] for i in (0, 1)]
+        if len(bpts)
+        else []
+    )
     out.update(
-        boundary=np.asarray(boundary, float).tolist(),
+        boundary=bpts.tolist(),
         boundary_inputs=binputs,
         area=float(area),
+        extent=extent,
         arcs=arcs,
         method=method.value,
         hull_check={
