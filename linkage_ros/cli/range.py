@@ -25,7 +25,7 @@ JSON: {"scene", "inputs": {name: {"min", "max", "min_source", "max_source", "ful
 {...}: a limited crank's whole circuit]}}}, "motion": {"actuator",
 "full_turn", "outputs": {...}, "transmission_angle": {...}} (``--motion``, as linkage check's,
 and "motion_without_limits" likewise where a crank's limits stop short of its toggles),
-"plots": {...}}.
+"plots": {...}[, "without_limits": [actuator, ...]]}.
 
 Exit status: 0 ok; 1 a requested analysis was refused (the tilt's start pose does not solve);
 2 a usage error (bad option, unknown name, scene error).
@@ -81,6 +81,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         metavar='ANGLE',
         help="the tilted link's angle to start from (rad, or with a unit: --tilt-from=-45deg; "
         'default: its reference angle), with the lip held there',
+    )
+    p.add_argument(
+        '--without-limits',
+        metavar='A,B',
+        help='actuators whose limits the analyses lift (a what-if: seed 003 states the '
+        "excavator's Z1 and Z2 ranges only, and its tilt about the lip is K's zone's)",
     )
     p.add_argument(
         '--links',
@@ -313,6 +319,8 @@ def _print_human(r: dict, mech) -> None:
         f'{r["scene"]}: {r["dof"]} DOF, actuators {", ".join(r["actuators"])}'
         + (' (each range with the others held at the reference pose)' if r['dof'] > 1 else '')
     )
+    if r.get('without_limits'):
+        p(f'limits lifted (--without-limits): {", ".join(r["without_limits"])}')
     p('input ranges:')
     for name, i in r['inputs'].items():
         unit = i['unit']
@@ -443,7 +451,21 @@ def run(args) -> int:
             args.input = values.actuator(args.input)
         if args.actuators:
             args.actuators = ','.join(values.actuator(a.strip()) for a in args.actuators.split(','))
+        lifted = []
+        if args.without_limits:
+            lifted = [values.actuator(a.strip()) for a in args.without_limits.split(',')]
+            unknown = [a for a in lifted if a not in mech.actuators]
+            if unknown:
+                raise UsageError(
+                    f'--without-limits {", ".join(unknown)}: not an actuator of {mech.name!r} '
+                    f'({", ".join(mech.actuators)})'
+                )
+            from ..core.motion import limits_lifted
+
+            mech = limits_lifted(mech, lifted)
         report, status = analyse(args, mech)
+        if lifted:
+            report['without_limits'] = [values.name(a) for a in lifted]
         report = described(report, mech)
     except UsageError as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)

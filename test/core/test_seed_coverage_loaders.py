@@ -353,3 +353,48 @@ def test_excavator_bin_tilt_about_the_lip_stops_where_k_meets_the_zone_edge():
     A3 = transfer(p['O4'], p['D'], p['O4'], D3, p['A'])
     assert res['inputs_at']['min']['Z1'] == pytest.approx(abs(A3 - p['O2']), abs=1e-8)
     assert 1.1 <= abs(A3 - p['O2']) <= 1.8
+
+
+def test_excavator_bin_tilt_about_the_lip_at_l2_with_only_the_seeds_ranges():
+    """Seed 003 example 6, third part as the lecture states it: the lip held at L2 (the README's
+    1.867934199, -0.169618455, the bin at -0.79323 rad), the bin turned until K reaches the edge
+    of its zone, the four arcs of the Z1 and Z2 ranges, the only ranges the seed gives. The
+    scene's own Z3 range stops the bin first both ways (an outside reviewer's find: the README
+    called that the seed's answer); with Z3's limits lifted (linkage range --without-limits Z3)
+    the tilts are the construction's: K on the circle about L2 (radius LK) meets an arc."""
+    mech = load('excavator')
+    p = {k: c(v) for k, v in mech.points.items()}
+    L2, start = complex(1.867934199, -0.169618455), -0.79323
+    K0 = L2 + cmath.exp(1j * (start - mech.links['bucket'].angle_ref)) * (p['K'] - p['L'])
+    lk, dk = abs(p['K'] - p['L']), abs(p['K'] - p['D'])
+    ups, downs = [], []
+    for held, value, sweep in (
+        ('Z1', 1.1, (1.5, 1.95, 2.4)),
+        ('Z1', 1.8, (1.5, 1.95, 2.4)),
+        ('Z2', 1.5, (1.1, 1.45, 1.8)),
+        ('Z2', 2.4, (1.1, 1.45, 1.8)),
+    ):
+        on = [excavator_k(p, value, z) if held == 'Z1' else excavator_k(p, z, value) for z in sweep]
+        centre = on[0][0] if held == 'Z1' else p['O4']  # D stays where Z1 holds it
+        radius = dk if held == 'Z1' else abs(on[0][1] - p['O4'])
+        a0 = cmath.phase(on[0][1] - centre)
+        mid, end = ((cmath.phase(k - centre) - a0) % (2 * math.pi) for _, k in on[1:])
+        for side in (1, -1):
+            q = meet(L2, lk, centre, radius, side)
+            if abs(abs(q - centre) - radius) > 1e-9 or abs(abs(q - L2) - lk) > 1e-9:
+                continue  # the circles do not meet
+            at = (cmath.phase(q - centre) - a0) % (2 * math.pi)
+            if not (at <= end if mid < end else at >= end):  # not on the arc's stretch
+                continue
+            turn = cmath.phase((q - L2) / (K0 - L2))
+            (ups if turn > 0 else downs).append(abs(turn))
+    hold = (L2.real, L2.imag)
+    lifted = motion.max_tilt(
+        motion.limits_lifted(mech, ['Z3']), 'L', 'bucket', hold_point=hold, start_angle=start
+    )
+    assert lifted['ok']
+    assert lifted['tilt_up'] == pytest.approx(min(ups), abs=1e-9)
+    assert lifted['tilt_down'] == pytest.approx(min(downs), abs=1e-9)
+    scene = motion.max_tilt(mech, 'L', 'bucket', hold_point=hold, start_angle=start)
+    assert 'Z3' in scene['reason']['max'] and 'Z3' in scene['reason']['min']
+    assert scene['tilt_up'] < min(ups) and scene['tilt_down'] < min(downs)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+from collections.abc import Iterable
 
 import numpy as np
 
@@ -62,9 +63,17 @@ def link_key(mech: Mechanism, name: str) -> str:
 
 def without_limits(mech: Mechanism) -> Mechanism:
     """A shallow copy of ``mech`` whose actuators have no min / max (to probe the assembly)."""
+    return limits_lifted(mech, mech.actuators)
+
+
+def limits_lifted(mech: Mechanism, names: Iterable[str]) -> Mechanism:
+    """A shallow copy of ``mech`` whose actuators ``names`` have no min / max (a cylinder's
+    length stays above 0: its spec says so whatever its limits)."""
+    lift = set(names)
     free = copy.copy(mech)
     free.actuators = {
-        n: dataclasses.replace(a, min=None, max=None) for n, a in mech.actuators.items()
+        n: dataclasses.replace(a, min=None, max=None) if n in lift else a
+        for n, a in mech.actuators.items()
     }
     return free
 
@@ -77,9 +86,7 @@ def input_limits_lifted(mech: Mechanism, name: str) -> Mechanism | None:
     act = mech.actuators[name]
     if not isinstance(act, AngleActuator) or (act.min is None and act.max is None):
         return None
-    free = copy.copy(mech)
-    free.actuators = {**mech.actuators, name: dataclasses.replace(act, min=None, max=None)}
-    return free
+    return limits_lifted(mech, [name])
 
 
 def _identity_poses(mech: Mechanism) -> Poses:

@@ -310,3 +310,20 @@ def test_shipped_plagiograph_toggles_where_the_parallelogram_folds():
     assert len(tog) == 2
     for t in (tc, tc + math.pi):
         assert min(circ(t, v) for v in tog) < 1e-7
+
+
+def test_range_without_limits_lifts_the_named_actuators_limits(capsys):
+    """--without-limits Z3: Z3's range is the geometry's (its toggles), not the scene's 1.12 ..
+    1.62 m, the report says which were lifted, and a name that is no actuator is refused."""
+    from linkage_ros.cli.range import main
+
+    assert main(['excavator', '--without-limits', 'Z3', '--json']) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r['without_limits'] == ['Z3']
+    z3 = r['inputs']['Z3']
+    assert z3['min'] < 1.12 and z3['max'] > 1.62
+    assert (z3['min_source'], z3['max_source']) == ('toggle', 'toggle')
+    assert main(['excavator', '--json']) == 0
+    assert json.loads(capsys.readouterr().out)['inputs']['Z3']['min'] == 1.12
+    assert main(['excavator', '--without-limits', 'Z9']) == 2
+    assert "--without-limits Z9: not an actuator of 'excavator'" in capsys.readouterr().err
