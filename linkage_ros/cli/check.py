@@ -62,6 +62,7 @@ def check_report(
         }
     ranges = input_ranges(mech)
     values = InputValues(mech)  # a robot description's: its joint names and values
+    drawn = Solver(mech, branch='reference').reference_values() if mech.actuators else {}
     inputs = {}
     for name, act in mech.actuators.items():
         lo, hi = values.interval(name, *ranges.get(name, (None, None)))
@@ -73,6 +74,8 @@ def check_report(
             'max': hi,
             'declared_min': declared[0],  # the scene's own limits (None: none given)
             'declared_max': declared[1],
+            # its value in the drawing (the reference pose): a lecture's "present value"
+            'drawn': values.value(name, float(drawn[name])) if name in drawn else None,
         }
     solver = Solver(mech, method=solver_method, branch='reference')
     n_act = len(mech.actuators)
@@ -196,6 +199,8 @@ def format_check(r: dict) -> str:
                 else f'min {fmt_value(declared[0], ".9g")}  max {fmt_value(declared[1], ".9g")}'
             )
             rng += f'  [reachable range, computed; declared limits: {said}]'
+        if v.get('drawn') is not None:
+            rng += f'  drawn {fmt_value(v["drawn"], ".9g")}'
         out.append(f'  {k:<{w}}  {v["kind"]:<5}  {rng}')
     p = r['plan']
     out.append(

@@ -393,8 +393,17 @@ def build_solve(mech, args, allow_range: bool):
     inverse = not all(options[n] == '--set' for n, _ in axes)
     if not inverse:
         missing = [a for a in acts if a not in options]
-        if missing:
-            raise UsageError(f'missing --set for actuator(s) {", ".join(missing)} of {mech.name!r}')
+        if missing:  # held where the drawing has them, as the node holds what a command omits
+            for name, value in _drawn_values(mech, missing).items():
+                for known in scene_names(mech, name):
+                    knowns.append(known)
+                axes.append((name, [value]))
+                unit = 'rad' if spec_for(mech, scene_names(mech, name)[0]).unit == 'rad' else 'm'
+                print(
+                    f'note: {name} held at its drawn value {value:.9g} {unit} (no --set for '
+                    'it: as the node holds an actuator a command leaves out)',
+                    file=sys.stderr,
+                )
     solver = Solver(
         mech,
         knowns=grouped_knowns(mech, knowns),  # P.x and P.y: the point, as the node takes them
@@ -406,6 +415,22 @@ def build_solve(mech, args, allow_range: bool):
         branch='continuous' if inverse else args.branch,
     )  # PlanError: exit 2
     return knowns, axes, solver
+
+
+def _drawn_values(mech, names: Sequence[str]) -> dict[str, float]:
+    """The drawing's (reference pose's) value of each commanded input ``names``, in the
+    command line's terms (a robot description's joint values)."""
+    from ..core.solver import Solver
+    from .described import InputValues
+
+    values = InputValues(mech)
+    drawn = Solver(mech, branch='reference').reference_values()
+    out = {}
+    for name in names:
+        v = values.value(values.actuator(name), float(drawn[values.actuator(name)]))
+        assert v is not None
+        out[name] = v
+    return out
 
 
 def _rule(branch: str) -> BranchRule | None:

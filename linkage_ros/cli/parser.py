@@ -36,6 +36,8 @@ knowns (in command-line order; with `sweep` that order is the grid order):
   --target-point NAME=X,Y   a point's position (m): inverse solve
   --set and --target may be combined: the knowns are all the names given, and they must fix
   every degree of freedom (e.g. one actuator and one joint angle of the 2-DOF plagiograph).
+  --set alone for some actuators holds the others at their drawn values (linkage check
+  prints them), as the node holds an actuator a command leaves out.
   For a robot description the names and values are its own joints' (--set an actuated joint,
   --target any joint it can set), as the node takes them; the answer's inputs and joints too.
 """

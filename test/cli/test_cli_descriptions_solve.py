@@ -218,8 +218,10 @@ def test_mimic_follower_and_closure_frames_cannot_be_set(capsys):
         'closedloop1_A=0.1',
     )  # fmt: skip
     assert rc == 2 and 'cannot be commanded' in err.strip().splitlines()[-1]
-    rc, _, err = run(capsys, 'solve', *description_args(case), '--set', 'mot1=0.1')
-    assert rc == 2 and 'missing --set for actuator(s) mot2' in err
+    # an actuated joint left out is held at its drawn value, in the description's terms
+    rc, out, err = run(capsys, 'solve', *description_args(case), '--set', 'mot1=0.1', '--json')
+    assert rc == 0 and 'note: mot2 held at its drawn value 0 rad' in err, err
+    assert loads(out)['inputs'] == {'mot1': 0.1, 'mot2': 0.0}
 
 
 def test_sweep_csv_columns_are_the_descriptions_joints(capsys, tmp_path):

@@ -408,3 +408,27 @@ def test_a_mode_whose_circles_coincide_says_why_its_branch_is_undefined(capsys):
     }
     assert abs(pts['A'] - pts['B']) < 1e-12  # the cell folded shut
     assert 'branch     +++  (undefined: at a toggle, or where two circles coincide' in out
+
+
+def test_the_loader_assignment_on_the_command_line_holds_z1_where_it_is_drawn(capsys):
+    """Seed 003's assignment as the lecture states it: "Z1 is held fixed ... Z2 to
+    three-fourths of its present value". `linkage check` gives the drawn (present) values; a
+    solve that sets Z2 alone holds Z1 at its drawn value (a note says so), as the node holds an
+    actuator a command leaves out: the answer is the full command's. It was refused as
+    'missing --set for actuator(s) Z1' (an outside reviewer's find)."""
+    rc, out, _ = run(capsys, 'check', 'front_loader', '--json')
+    assert rc == 0
+    drawn = {a: v['drawn'] for a, v in loads(out)['inputs'].items()}
+    z2 = 0.75 * drawn['Z2']
+    rc, out, err = run(capsys, 'solve', 'front_loader', '--set', f'Z2={z2!r}', '--json')
+    assert rc == 0 and f'note: Z1 held at its drawn value {drawn["Z1"]:.9g} m' in err, err
+    held = loads(out)
+    rc, out, _ = run(
+        capsys, 'solve', 'front_loader', '--set', f"Z1={drawn['Z1']!r}", '--set', f'Z2={z2!r}',
+        '--json',
+    )  # fmt: skip
+    full = loads(out)
+    assert held['status'] == full['status'] == 'ok'
+    assert held['inputs'] == full['inputs'] and held['points'] == full['points']
+    rc, out, _ = run(capsys, 'check', 'front_loader')
+    assert f'drawn {drawn["Z2"]:.9g}' in out
