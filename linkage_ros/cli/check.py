@@ -43,6 +43,7 @@ def check_report(
     """The check of a loaded mechanism (JSON-ready). ``notes`` and ``warnings``: the scene's
     own (what loading did; what loads but is likely wrong)."""
     from ..core.motion import input_limits_lifted
+    from ..core.motion.other_circuits import other_circuits
     from ..core.motion.quantities import quantities_report
     from ..core.reference_warnings import reference_pose_warnings
     from ..core.solver import SolveMode, Solver
@@ -76,6 +77,8 @@ def check_report(
             'declared_max': declared[1],
             # its value in the drawing (the reference pose): a lecture's "present value"
             'drawn': values.value(name, float(drawn[name])) if name in drawn else None,
+            # where it assembles apart from the drawing's circuit (another circuit)
+            'other_circuits': [list(values.interval(name, *c)) for c in other_circuits(mech, name)],
         }
     solver = Solver(mech, method=solver_method, branch='reference')
     n_act = len(mech.actuators)
@@ -202,6 +205,12 @@ def format_check(r: dict) -> str:
         if v.get('drawn') is not None:
             rng += f'  drawn {fmt_value(v["drawn"], ".9g")}'
         out.append(f'  {k:<{w}}  {v["kind"]:<5}  {rng}')
+        for lo, hi in v.get('other_circuits') or ():
+            out.append(
+                f'  {"":<{w}}  also assembles over {fmt_value(lo, ".9g")} .. '
+                f'{fmt_value(hi, ".9g")} {v["unit"]}: another circuit (reached only by taking '
+                'the linkage apart)'
+            )
     p = r['plan']
     out.append(
         f'plan       solver {p["solver"]} -> mode {p["mode"]}; '

@@ -208,3 +208,32 @@ def test_check_gives_a_links_whole_oscillation_where_the_cranks_limits_stop_shor
     with redirect_stdout(io.StringIO()) as out:  # no limits: nothing added
         assert main(['check', 'four_bar', '--json']) == 0
     assert loads(out.getvalue())['motion_without_limits'] is None
+
+
+def test_check_names_a_grashof_double_rockers_other_circuit(tmp_path):
+    """A Grashof double-rocker's input assembles over two intervals, mirror images about the
+    ground line, each a circuit of its own (the lectures describe both); `linkage check` gave
+    the drawing's alone as the 'reachable range' (an outside reviewer's find). Oracle, the
+    cosine rule: the crank (O2A = 0.2, ground 0.3) assembles where 0.10 - 0.25 <= |AO4| <=
+    0.10 + 0.25, cos(theta) in [0.0625, 0.8958]: the drawn circuit (0.4605 .. 1.5083) and its
+    mirror."""
+    import io
+    from contextlib import redirect_stdout
+
+    from linkage_ros.cli.parser import main
+
+    scene = tmp_path / 'gdr.yaml'
+    scene.write_text(
+        'name: gdr\nfour_bar: {ground: 0.30, crank: 0.20, coupler: 0.10, rocker: 0.25}\n'
+    )
+    lo, hi = math.acos((0.13 - 0.35**2) / 0.12), math.acos((0.13 - 0.15**2) / 0.12)
+    with redirect_stdout(io.StringIO()) as out:
+        assert main(['check', str(scene), '--json']) == 0
+    crank = loads(out.getvalue())['inputs']['crank']
+    assert (crank['min'], crank['max']) == pytest.approx((hi, lo), abs=1e-9)
+    ((a, b),) = crank['other_circuits']
+    assert (a, b) == pytest.approx((-lo, -hi), abs=1e-9)
+    for name in ('four_bar', 'four_bar_non_grashof', 'four_bar_grashof_double_rocker'):
+        with redirect_stdout(io.StringIO()) as out:  # one circuit; or limits that say which
+            assert main(['check', name, '--json']) == 0
+        assert loads(out.getvalue())['inputs']['crank']['other_circuits'] == [], name
