@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from ..core.mechanism import SceneForm, actuator_kind
 from ..core.model import AngleActuator
@@ -83,6 +84,7 @@ def check_report(
     solver = Solver(mech, method=solver_method, branch='reference')
     n_act = len(mech.actuators)
     free = input_limits_lifted(mech, next(iter(mech.actuators))) if n_act == 1 else None
+    motion = quantities_report(mech)
     return {
         'scene': path,
         'name': mech.name,
@@ -113,11 +115,10 @@ def check_report(
             *reference_pose_warnings(solver),
             *_structure_warnings(mech, solver),
         ],
-        'motion': described_motion(quantities_report(mech), values),
-        # the motion through the toggles a crank's limits stop short of (None: no such limits)
-        'motion_without_limits': described_motion(
-            None if free is None else quantities_report(free), values
-        ),
+        'motion': described_motion(motion, values),
+        # the motion through the toggles a crank's limits stop short of (None: no such limits,
+        # or limits that take in the whole circuit)
+        'motion_without_limits': described_motion(through_toggles(motion, free), values),
         'notes': list(notes),  # what loading did (a robot description assembled, ...)
         # a robot description's joints as published, and the scene known each request
         # name stands for (None: a scene file, published as it is)
@@ -247,6 +248,28 @@ def cmd_check(args) -> int:
     return OK
 
 
+def through_toggles(motion: dict | None, free: Any) -> dict | None:
+    """The quantities_report of ``free`` (the mechanism with its input's limits lifted) where
+    an output's extremes differ from ``motion``'s (the limits stop short of the toggles), else
+    None."""
+    from ..core.motion.quantities import quantities_report
+
+    if motion is None or free is None:
+        return None
+    whole = quantities_report(free)
+    if whole is None:
+        return None
+    for name, o in motion['outputs'].items():
+        w = whole['outputs'].get(name)
+        if w is not None and not (_same(w['min'], o['min']) and _same(w['max'], o['max'])):
+            return whole
+    return None
+
+
+def _same(a: float, b: float) -> bool:
+    return abs(a - b) <= 1e-12 * max(1.0, abs(a), abs(b))
+
+
 def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
     """The text lines of a quantities_report (``linkage check`` and ``linkage range --motion``);
     ``free``: the report without the input's limits, whose extremes are added where they differ
@@ -269,7 +292,9 @@ def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
             line += f'  time ratio {fmt_value(o["time_ratio"], ".6g")}'
         out.append(line)
         whole = (free or {}).get('outputs', {}).get(name)
-        if whole is not None and (whole['min'], whole['max']) != (o['min'], o['max']):
+        if whole is not None and not (
+            _same(whole['min'], o['min']) and _same(whole['max'], o['max'])
+        ):
             out.append(
                 f"    without the input's limits (through its toggles): min "
                 f'{fmt_value(whole["min"])}  max {fmt_value(whole["max"])}  '

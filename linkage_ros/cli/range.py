@@ -5,18 +5,20 @@
                         [--plot out.png] [--curves out.png --input NAME --output NAME]
                         [--motion]
 
-Input ranges are found with the other actuators held at their reference-pose values (each
-bound is a toggle of the assembly, refined to 1e-12 in closed form; where Newton places the
-scene, the last value its solve closes to its tolerance, up to ~1e-10 past the toggle; or the
-scene's limit). ``--point`` adds the region the point reaches while the actuators that move
-it run over their limits (the four extreme arcs for two actuators; else the samples' concave
-hull, whose area may exceed the region's by a few %: it bridges notches narrower than 2.5
-sample spacings); ``--tilt LINK --lip POINT`` the largest rotation of LINK about POINT held
-at its reference position (or ``--hold X,Y``, from the link's angle ``--tilt-from``)
-within the actuator limits; ``--links`` the oscillation range of every moving link of two points
-or more; ``--plot`` draws the region (of ``--point``, else of the scene's first output point)
-and ``--curves`` an output versus an input with every assembly mode. Angles are radians (degrees
-in parentheses), lengths metres.
+Input ranges are found with the other actuators held at their reference-pose values (each bound
+is a toggle of the assembly, refined to 1e-12 in closed form; where Newton places the scene, the
+last value its solve closes to its tolerance, up to ~1e-10 past the toggle; or the scene's
+limit). ``--point`` adds the region the point reaches while the actuators that move it run over
+their limits (the four extreme arcs for two actuators: area and extent to about 1e-9; else the
+samples' concave hull, an estimate: it bridges notches narrower than 2.5 sample spacings and
+fills holes, and its extent is the samples': measured off by 0.9 % (the excavator's L) to 37 %
+(a folding map at the default --samples 41), a hole filled in whole; more --samples bring it
+closer except over a hole); ``--tilt LINK --lip POINT`` the largest rotation of LINK about POINT
+held at its reference position (or ``--hold X,Y``, from the link's angle ``--tilt-from``) within
+the actuator limits; ``--links`` the oscillation range of every moving link of two points or
+more; ``--plot`` draws the region (of ``--point``, else of the scene's first output point) and
+``--curves`` an output versus an input with every assembly mode. Angles are radians (degrees in
+parentheses), lengths metres.
 
 JSON: {"scene", "inputs": {name: {"min", "max", "min_source", "max_source", "full_turn",
 "assembly", "reference", "unit"}}, "toggles": {name: [...]}, "region": {point: {"boundary":
@@ -71,7 +73,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         default=41,
         metavar='N',
-        help='region grid samples per actuator (default 41)',
+        help='region grid samples per actuator (default 41, at least 3)',
     )
     p.add_argument('--tilt', metavar='LINK', help='largest rotation of LINK about --lip held')
     p.add_argument('--lip', metavar='POINT', help='point of the tilted link that is held')
@@ -290,10 +292,13 @@ def analyse(args, mech) -> tuple[dict, int]:
                 f'--motion needs a scene with one actuator ({mech.name!r} has '
                 f'{len(mech.actuators)})'
             )
+        from .check import through_toggles
+
         report['motion'] = quantities_report(mech)
         free_mech = motion.input_limits_lifted(mech, next(iter(mech.actuators)))
-        if free_mech is not None:
-            report['motion_without_limits'] = quantities_report(free_mech)
+        whole = through_toggles(report['motion'], free_mech)
+        if whole is not None:
+            report['motion_without_limits'] = whole
     plots = {}
     if args.plot:
         from ..plots import plot_region
@@ -357,9 +362,11 @@ def _print_human(r: dict, mech) -> None:
         hc = reg['hull_check']
         if reg['method'] == 'concave_hull':
             p(
-                '  boundary: the concave hull of the samples, which bridges notches narrower '
-                "than 2.5 sample spacings: its area may exceed the region's by a few % "
-                '(measured: excavator L 0.9 %)'
+                '  boundary: the concave hull of the samples, an estimate: it bridges notches '
+                'narrower than 2.5 sample spacings and fills holes, and its extent is the '
+                "samples'; its area may be off by a few % (measured: excavator L 0.9 %), by "
+                'tens of % where the map folds at few samples (--samples brings it closer), '
+                'or by a whole hole'
             )
         if reg['method'] == 'concave_hull' and hc.get('outside'):
             p(

@@ -183,7 +183,7 @@ def test_range_motion_gives_what_check_gives(capsys):
     assert rc == 2 and '--motion needs a scene with one actuator' in err
 
 
-def test_check_gives_a_links_whole_oscillation_where_the_cranks_limits_stop_short():
+def test_check_gives_a_links_whole_oscillation_where_the_cranks_limits_stop_short(tmp_path):
     """Seed 003 example 5, stated as the lecture states it: 'determine the ranges of
     oscillation of these links 2 and 4' of the non-Grashof 3R-1P. The shipped scene's crank
     limits sit 0.01 rad inside its toggles, so `linkage check` gave link 4 a swing of 2.219 rad
@@ -207,6 +207,16 @@ def test_check_gives_a_links_whole_oscillation_where_the_cranks_limits_stop_shor
     assert "without the input's limits (through its toggles): min 1.36943841" in out.getvalue()
     with redirect_stdout(io.StringIO()) as out:  # no limits: nothing added
         assert main(['check', 'four_bar', '--json']) == 0
+    assert loads(out.getvalue())['motion_without_limits'] is None
+    # limits that take in the whole circuit (a double-rocker's toggles 0.46 and 1.51 inside
+    # 0.3 .. 6): nothing added either (it printed the same motion again)
+    scene = tmp_path / 'wide_limits.yaml'
+    scene.write_text(
+        'name: wide\nfour_bar: {ground: 0.3, crank: 0.2, coupler: 0.1, rocker: 0.25, input: 1.0, '
+        'branch: 1, crank_limits: {min: 0.3, max: 6.0}}\n'
+    )
+    with redirect_stdout(io.StringIO()) as out:
+        assert main(['check', str(scene), '--json']) == 0
     assert loads(out.getvalue())['motion_without_limits'] is None
 
 
@@ -233,6 +243,16 @@ def test_check_names_a_grashof_double_rockers_other_circuit(tmp_path):
     assert (crank['min'], crank['max']) == pytest.approx((hi, lo), abs=1e-9)
     ((a, b),) = crank['other_circuits']
     assert (a, b) == pytest.approx((-lo, -hi), abs=1e-9)
+    # with limits, the part of the other circuit they admit (-1 .. 1 holds -1 .. -hi of it)
+    limited = tmp_path / 'gdr_limited.yaml'
+    limited.write_text(
+        'name: gdr_limited\nfour_bar: {ground: 0.30, crank: 0.20, coupler: 0.10, rocker: 0.25, '
+        'input: 1.0, branch: 1, crank_limits: {min: -1.0, max: 1.0}}\n'
+    )
+    with redirect_stdout(io.StringIO()) as out:
+        assert main(['check', str(limited), '--json']) == 0
+    ((a, b),) = loads(out.getvalue())['inputs']['crank']['other_circuits']
+    assert (a, b) == pytest.approx((-1.0, -hi), abs=1e-9)
     for name in ('four_bar', 'four_bar_non_grashof', 'four_bar_grashof_double_rocker'):
         with redirect_stdout(io.StringIO()) as out:  # one circuit; or limits that say which
             assert main(['check', name, '--json']) == 0

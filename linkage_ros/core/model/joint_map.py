@@ -305,10 +305,20 @@ class JointMap:
         refused as it stands: the first value beyond its joint's limit (:meth:`beyond_limit`),
         or None. The engine and the command line refuse it before any solve."""
         for name, value in values.items():
-            why = self.beyond_limit(name, value)
-            if why is not None:
-                return why
+            for joint, q in self._with_follower(name, value):
+                why = self.beyond_limit(joint, q)
+                if why is not None:
+                    return why
         return None
+
+    def _with_follower(self, name: str, value: Any) -> list[tuple[str, Any]]:
+        """(joint, value) of a request's ``name`` and of the actuated joint that follows it by
+        its <mimic> (multiplier * value + offset: the value it is given, as to_scene gives it)."""
+        out = [(name, value)]
+        follower = self._followers.get(name)
+        if follower is not None and isinstance(value, int | float | np.ndarray):
+            out.append((follower.name, follower.multiplier * value + follower.mimic_offset))
+        return out
 
     def rows_beyond_limits(self, columns: Mapping[str, Any]) -> dict[int, str]:
         """:meth:`beyond_limit` over a recorded bag's columns (an array per request name):
@@ -316,7 +326,8 @@ class JointMap:
         (model.limits.limit_interval: the limits and their rounding slack), each reason by
         :meth:`beyond_limit` itself."""
         refused: dict[int, str] = {}
-        for name, col in columns.items():
+        pairs = [jq for name, col in columns.items() for jq in self._with_follower(name, col)]
+        for name, col in pairs:
             if not self._bounded(name):
                 continue
             out = self._output_of[name]
