@@ -398,7 +398,7 @@ def build_solve(mech, args, allow_range: bool):
                 for known in scene_names(mech, name):
                     knowns.append(known)
                 axes.append((name, [value]))
-                unit = 'rad' if spec_for(mech, scene_names(mech, name)[0]).unit == 'rad' else 'm'
+                unit = spec_for(mech, scene_names(mech, name)[0]).unit
                 print(
                     f'note: {name} held at its drawn value {value:.9g} {unit} (no --set for '
                     'it: as the node holds an actuator a command leaves out)',
