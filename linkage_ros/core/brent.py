@@ -1,5 +1,6 @@
 """Brent's bounded minimisation of a function of one variable (the crossing test's search
-for the bottom of a dyad's margin between two commands)."""
+for the bottom of a dyad's margin between two commands; a region's extreme between the samples
+of its boundary arc)."""
 
 from __future__ import annotations
 
