@@ -64,7 +64,8 @@ def check_report(
         }
     ranges = input_ranges(mech)
     values = InputValues(mech)  # a robot description's: its joint names and values
-    drawn = Solver(mech, branch='reference').reference_values() if mech.actuators else {}
+    solver = Solver(mech, method=solver_method, branch='reference')
+    drawn = solver.reference_values()
     inputs = {}
     for name, act in mech.actuators.items():
         lo, hi = values.interval(name, *ranges.get(name, (None, None)))
@@ -81,7 +82,6 @@ def check_report(
             # where it assembles apart from the drawing's circuit (another circuit)
             'other_circuits': [list(values.interval(name, *c)) for c in other_circuits(mech, name)],
         }
-    solver = Solver(mech, method=solver_method, branch='reference')
     n_act = len(mech.actuators)
     free = input_limits_lifted(mech, next(iter(mech.actuators))) if n_act == 1 else None
     motion = quantities_report(mech)
@@ -259,15 +259,18 @@ def through_toggles(motion: dict | None, free: Any) -> dict | None:
     whole = quantities_report(free)
     if whole is None:
         return None
-    for name, o in motion['outputs'].items():
-        w = whole['outputs'].get(name)
-        if w is not None and not (_same(w['min'], o['min']) and _same(w['max'], o['max'])):
-            return whole
-    return None
+    moved = any(_moved(o, whole['outputs'].get(name)) for name, o in motion['outputs'].items())
+    return whole if moved else None
 
 
-def _same(a: float, b: float) -> bool:
-    return abs(a - b) <= 1e-12 * max(1.0, abs(a), abs(b))
+def _moved(o: dict, whole: dict | None) -> bool:
+    """Whether an output's extremes without the input's limits (``whole``) differ from its
+    extremes within them (``o``) beyond rounding."""
+
+    def same(a: float, b: float) -> bool:
+        return abs(a - b) <= 1e-12 * max(1.0, abs(a), abs(b))
+
+    return whole is not None and not (same(whole['min'], o['min']) and same(whole['max'], o['max']))
 
 
 def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
@@ -292,9 +295,8 @@ def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
             line += f'  time ratio {fmt_value(o["time_ratio"], ".6g")}'
         out.append(line)
         whole = (free or {}).get('outputs', {}).get(name)
-        if whole is not None and not (
-            _same(whole['min'], o['min']) and _same(whole['max'], o['max'])
-        ):
+        if _moved(o, whole):
+            assert whole is not None
             out.append(
                 f"    without the input's limits (through its toggles): min "
                 f'{fmt_value(whole["min"])}  max {fmt_value(whole["max"])}  '
