@@ -37,8 +37,6 @@ def assemble_chain(
     """Every chain joint's value with the loops closed at the actuated values ``given``
     (actuated joints only: the importer checked them); the gap (m) the loops had before;
     and whether the description's pose ties two assembly modes (_tied)."""
-    from scipy.optimize import least_squares
-
     desc = chain.description
     passive = [j for j in chain.joints if j.name not in acts]
     base = {j.name: float(given.get(j.name, 0.0)) for j in chain.joints}
@@ -74,7 +72,7 @@ def assemble_chain(
         )
         if not passive:
             break
-        fit = least_squares(residual, start, xtol=1e-15, ftol=1e-15, gtol=1e-15, method='lm')
+        fit = _fit(residual, start)
         miss = float(np.linalg.norm(fit.fun))
         if miss < best:
             best_x, best, best_k = fit.x, miss, k
@@ -117,8 +115,6 @@ def _tied(
     loops in two configurations apart. A drawing flat on a dyad's centre line (generalized_rbda's
     six-bar) is such a ridge: which side it closes to is rounding's choice, and a frame turned
     by 1e-6 rad, the same robot, flips it (an outside reviewer's find)."""
-    from scipy.optimize import least_squares
-
     if not len(x0):
         return False
     u = np.random.default_rng(1).normal(size=len(x0))
@@ -126,7 +122,7 @@ def _tied(
     u *= np.array([1.0 if j.revolute else scale for j in passive])
     ends = []
     for start in (x0 + u, x0 - u):
-        fit = least_squares(residual, start, xtol=1e-15, ftol=1e-15, gtol=1e-15, method='lm')
+        fit = _fit(residual, start)
         if float(np.linalg.norm(fit.fun)) > CLOSED:
             return False
         ends.append(fit.x)
@@ -137,3 +133,11 @@ def _tied(
         np.abs(ends[0] - ends[1]) / scale,
     )
     return bool(apart.max() > TIE_APART)
+
+
+def _fit(residual: Callable[[np.ndarray], np.ndarray], start: np.ndarray) -> Any:
+    """Least squares over the passive joints from ``start``: Levenberg-Marquardt to the last
+    digits (the assembly and the tie test alike)."""
+    from scipy.optimize import least_squares
+
+    return least_squares(residual, start, xtol=1e-15, ftol=1e-15, gtol=1e-15, method='lm')

@@ -225,14 +225,10 @@ def _joint(el: ET.Element, frames: _Frames, source: str) -> TreeJoint:
     parent, child = frames.link_of(parent_ref), frames.link_of(child_ref)
     x_joint = frames.pose(name)  # initial pose of the joint frame in the model frame
     child_to_joint = inverse(frames.pose(child)) @ x_joint
-    # the joint frame as the model is assembled at value 0: the named frame itself where the
-    # parent is a frame (the child is joined to it), else its drawn pose
-    x_assembled = x_joint
-    if frames.kind(parent_ref) == 'frame':  # the named frame itself is the parent side
-        x_assembled = frames.pose(parent_ref)
-        parent_to_joint = inverse(frames.pose(parent)) @ x_assembled
-    else:
-        parent_to_joint = inverse(frames.pose(parent)) @ x_joint
+    # the joint frame as the model is assembled at value 0, its parent side: the named frame
+    # itself where the parent is a frame (the child is joined to it), else its drawn pose
+    x_assembled = frames.pose(parent_ref) if frames.kind(parent_ref) == 'frame' else x_joint
+    parent_to_joint = inverse(frames.pose(parent)) @ x_assembled
     axis_el = el.find('axis')
     axis = np.array([0.0, 0.0, 1.0])
     limits, independent = Limits(), None
