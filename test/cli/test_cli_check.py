@@ -183,7 +183,7 @@ def test_range_motion_gives_what_check_gives(capsys):
     assert rc == 2 and '--motion needs a scene with one actuator' in err
 
 
-def test_check_gives_a_links_whole_oscillation_where_the_cranks_limits_stop_short(tmp_path):
+def test_check_gives_a_links_whole_oscillation_where_the_cranks_limits_stop_short(capsys, tmp_path):
     """Seed 003 example 5, stated as the lecture states it: 'determine the ranges of
     oscillation of these links 2 and 4' of the non-Grashof 3R-1P. The shipped scene's crank
     limits sit 0.01 rad inside its toggles, so `linkage check` gave link 4 a swing of 2.219 rad
@@ -191,23 +191,18 @@ def test_check_gives_a_links_whole_oscillation_where_the_cranks_limits_stop_shor
     through the toggles. Oracle: the slide line through A at distance e = 0.14 from O4 meets the
     crank circle (O2, 0.2) while cos(psi) <= (0.2 - 0.14) / 0.3 = 0.2: psi in
     [acos 0.2, 2 pi - acos 0.2], a swing of 2 pi - 2 acos 0.2 = 3.5443 rad (203.07 deg)."""
-    import io
-    from contextlib import redirect_stdout
-
-    from linkage_ros.cli.parser import main
-
-    with redirect_stdout(io.StringIO()) as out:
-        assert main(['check', 'inverted_slider_crank_oscillating', '--json']) == 0
-    whole = loads(out.getvalue())['motion_without_limits']['outputs']['link:rocker']
+    rc, out, _ = run(capsys, 'check', 'inverted_slider_crank_oscillating', '--json')
+    assert rc == 0
+    whole = loads(out)['motion_without_limits']['outputs']['link:rocker']
     assert whole['min'] == pytest.approx(math.acos(0.2), abs=1e-9)
     assert whole['max'] == pytest.approx(2 * math.pi - math.acos(0.2), abs=1e-9)
     assert whole['stroke'] == pytest.approx(2 * math.pi - 2 * math.acos(0.2), abs=1e-9)
-    with redirect_stdout(io.StringIO()) as out:
-        assert main(['check', 'inverted_slider_crank_oscillating']) == 0
-    assert "without the input's limits (through its toggles): min 1.36943841" in out.getvalue()
-    with redirect_stdout(io.StringIO()) as out:  # no limits: nothing added
-        assert main(['check', 'four_bar', '--json']) == 0
-    assert loads(out.getvalue())['motion_without_limits'] is None
+    rc, out, _ = run(capsys, 'check', 'inverted_slider_crank_oscillating')
+    assert rc == 0
+    assert "without the input's limits (through its toggles): min 1.36943841" in out
+    rc, out, _ = run(capsys, 'check', 'four_bar', '--json')  # no limits: nothing added
+    assert rc == 0
+    assert loads(out)['motion_without_limits'] is None
     # limits that take in the whole circuit (a double-rocker's toggles 0.46 and 1.51 inside
     # 0.3 .. 6): nothing added either (it printed the same motion again)
     scene = tmp_path / 'wide_limits.yaml'
@@ -215,31 +210,26 @@ def test_check_gives_a_links_whole_oscillation_where_the_cranks_limits_stop_shor
         'name: wide\nfour_bar: {ground: 0.3, crank: 0.2, coupler: 0.1, rocker: 0.25, input: 1.0, '
         'branch: 1, crank_limits: {min: 0.3, max: 6.0}}\n'
     )
-    with redirect_stdout(io.StringIO()) as out:
-        assert main(['check', str(scene), '--json']) == 0
-    assert loads(out.getvalue())['motion_without_limits'] is None
+    rc, out, _ = run(capsys, 'check', str(scene), '--json')
+    assert rc == 0
+    assert loads(out)['motion_without_limits'] is None
 
 
-def test_check_names_a_grashof_double_rockers_other_circuit(tmp_path):
+def test_check_names_a_grashof_double_rockers_other_circuit(capsys, tmp_path):
     """A Grashof double-rocker's input assembles over two intervals, mirror images about the
     ground line, each a circuit of its own (the lectures describe both); `linkage check` gave
     the drawing's alone as the 'reachable range' (an outside reviewer's find). Oracle, the
     cosine rule: the crank (O2A = 0.2, ground 0.3) assembles where 0.10 - 0.25 <= |AO4| <=
     0.10 + 0.25, cos(theta) in [0.0625, 0.8958]: the drawn circuit (0.4605 .. 1.5083) and its
     mirror."""
-    import io
-    from contextlib import redirect_stdout
-
-    from linkage_ros.cli.parser import main
-
     scene = tmp_path / 'gdr.yaml'
     scene.write_text(
         'name: gdr\nfour_bar: {ground: 0.30, crank: 0.20, coupler: 0.10, rocker: 0.25}\n'
     )
     lo, hi = math.acos((0.13 - 0.35**2) / 0.12), math.acos((0.13 - 0.15**2) / 0.12)
-    with redirect_stdout(io.StringIO()) as out:
-        assert main(['check', str(scene), '--json']) == 0
-    crank = loads(out.getvalue())['inputs']['crank']
+    rc, out, _ = run(capsys, 'check', str(scene), '--json')
+    assert rc == 0
+    crank = loads(out)['inputs']['crank']
     assert (crank['min'], crank['max']) == pytest.approx((hi, lo), abs=1e-9)
     ((a, b),) = crank['other_circuits']
     assert (a, b) == pytest.approx((-lo, -hi), abs=1e-9)
@@ -249,11 +239,11 @@ def test_check_names_a_grashof_double_rockers_other_circuit(tmp_path):
         'name: gdr_limited\nfour_bar: {ground: 0.30, crank: 0.20, coupler: 0.10, rocker: 0.25, '
         'input: 1.0, branch: 1, crank_limits: {min: -1.0, max: 1.0}}\n'
     )
-    with redirect_stdout(io.StringIO()) as out:
-        assert main(['check', str(limited), '--json']) == 0
-    ((a, b),) = loads(out.getvalue())['inputs']['crank']['other_circuits']
+    rc, out, _ = run(capsys, 'check', str(limited), '--json')
+    assert rc == 0
+    ((a, b),) = loads(out)['inputs']['crank']['other_circuits']
     assert (a, b) == pytest.approx((-1.0, -hi), abs=1e-9)
     for name in ('four_bar', 'four_bar_non_grashof', 'four_bar_grashof_double_rocker'):
-        with redirect_stdout(io.StringIO()) as out:  # one circuit; or limits that say which
-            assert main(['check', name, '--json']) == 0
-        assert loads(out.getvalue())['inputs']['crank']['other_circuits'] == [], name
+        rc, out, _ = run(capsys, 'check', name, '--json')  # one circuit; or limits that say which
+        assert rc == 0
+        assert loads(out)['inputs']['crank']['other_circuits'] == [], name
