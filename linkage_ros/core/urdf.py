@@ -208,8 +208,12 @@ def _revolute_limits(mech: Mechanism, tj: TreeJoint) -> tuple[float, float] | No
             continue
         assert act.link is not None and act.pivot is not None and act.toward is not None
         p, t = mech.points[act.pivot], mech.points[act.toward]
-        # actuator angle = direction(pivot -> toward) - reference angle = joint value + c
+        # actuator angle = direction(pivot -> toward) - reference angle = joint value + c: the
+        # link's direction is its axis turned by c, and an actuator measured from the ground
+        # counts from +x where the joint counts from the ground's axis (its angle_ref)
         c = math.atan2(t[1] - p[1], t[0] - p[0]) - mech.links[act.link].angle_ref
+        if act.reference == mech.ground:
+            c += mech.links[mech.ground].angle_ref
         lo, hi = (act.min - c, act.max - c) if act.link == rj.child else (c - act.max, c - act.min)
         if hi - lo >= 2.0 * math.pi:
             return None
@@ -419,13 +423,6 @@ def _comment(text: str) -> str:
 def check_frame_names(mech: Mechanism, frame_id: str, prefix: str = '') -> None:
     """URDF links (the root, links, point frames) and joints must all have names of their own:
     consumers such as Pinocchio keep both in one namespace of frames."""
-    clash = sorted(set(mech.points) & set(mech.links))
-    if clash:
-        raise SceneError(
-            f'{clash} name both a point and a link; the URDF names joints after points and a '
-            'frame after each link, so the names must differ (rename one)',
-            file=mech.source,
-        )
     names = list(link_frames(mech, prefix).values())
     names += [point_frame(p, prefix) for p in mech.points]
     names += [prefix + j for j in mech.joint_names]

@@ -201,7 +201,9 @@ def test_urdf_limits_are_the_scene_limits():
     )
 
 
-def test_point_and_link_of_one_name_are_refused():
+def test_a_link_named_like_a_point_or_a_joint_gets_a_frame_of_its_own():
+    """SCENES.md: a link named like a joint is framed ``link_<link>`` (it was refused as naming
+    "both a point and a link"); the oracle FK still puts every point frame on the solver's."""
     mech = Scene.from_dict(
         {
             'name': 'clash',
@@ -209,17 +211,94 @@ def test_point_and_link_of_one_name_are_refused():
             'ground': 'ground',
             'links': {
                 'ground': ['O2', 'O4'],
-                'crank': ['O2', 'A'],
+                'A': ['O2', 'A'],
                 'coupler': ['A', 'crank'],
-                'rocker': ['O4', 'crank'],
+                'crank': ['O4', 'crank'],
             },
-            'actuators': {
-                'theta': {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'toward': 'A'}
-            },
+            'actuators': {'theta': {'type': 'angle', 'link': 'A', 'pivot': 'O2', 'toward': 'A'}},
         }
     ).mechanism
-    with pytest.raises(SceneError, match=r"\['crank'\] name both a point and a link"):
-        urdf_document(mech)
+    robot = ET.fromstring(urdf_document(mech))
+    links = [l.get('name') for l in robot.findall('link')]
+    joints = [j.get('name') for j in robot.findall('joint')]
+    # (the pin at point 'crank' closes the loop: a comment, not a URDF joint)
+    assert {'link_A', 'link_crank'} <= set(links) and 'A' in joints
+    assert len(set(links + joints)) == len(links) + len(joints)  # one namespace, no repeats
+    text = urdf_document(mech)
+    for theta in (1.3, 2.0, -1.0):
+        r = Solver(mech).solve({'theta': theta})
+        assert r.success
+        msg = result_to_joint_state(r, mech, Time(), mech.frame_id)
+        fk = urdf_fk(text, dict(zip(msg.name, msg.position)))
+        for p, (x, y) in r.points.items():
+            t = fk[point_frame(p)]
+            assert max(abs(t[0, 3] - x), abs(t[1, 3] - y)) <= 1e-12, (theta, p)
+
+
+#: angle actuators measured from +x beside a ground whose axis is not +x (the ground's
+#: reported angle, which joint values count from): shortcut, general and pivots forms
+TILTED_GROUNDS = {
+    'shortcut ground_angle': {
+        'four_bar': {
+            'ground': 0.3,
+            'crank': 0.1,
+            'coupler': 0.25,
+            'rocker': 0.2,
+            'ground_angle': '10deg',
+            'input': '60deg',
+            'crank_limits': {'min': '-90deg', 'max': '170deg'},
+        }
+    },
+    'general tilted ground': {
+        'points': {'O2': [0, 0], 'A': [0.05, 0.0866], 'B': [0.3, 0.25], 'O4': [0.3, 0.1]},
+        'links': {
+            'ground': ['O2', 'O4'],
+            'crank': ['O2', 'A'],
+            'coupler': ['A', 'B'],
+            'rocker': ['O4', 'B'],
+        },
+        'actuators': {
+            'crank': {
+                'type': 'angle',
+                'link': 'crank',
+                'pivot': 'O2',
+                'min': '-20deg',
+                'max': '90deg',
+            }
+        },
+    },
+    'shortcut pivots': {
+        'four_bar': {
+            'crank': 0.1,
+            'coupler': 0.25,
+            'rocker': 0.2,
+            'pivots': {'O2': [1.0, 1.0], 'O4': [1.3, 0.9]},
+            'input': '20deg',
+            'crank_limits': {'min': '-30deg', 'max': '100deg'},
+        }
+    },
+}
+
+
+@pytest.mark.parametrize('case', sorted(TILTED_GROUNDS))
+def test_a_limited_crank_beside_a_tilted_ground_has_the_joint_limits_it_is_published_with(case):
+    """The crank's URDF <limit> are the joint values published at its limits (the joint counts
+    from the ground's axis, the actuator from +x: the limits were written unshifted, so a
+    command at the lower limit was published below the URDF's lower limit)."""
+    mech = Scene.from_dict(TILTED_GROUNDS[case]).mechanism
+    assert mech.links[mech.ground].angle_ref != 0.0  # the premise: a tilted ground
+    lo, hi = _limits(urdf_document(mech))['O2']
+    act = mech.actuators['crank']
+    solver = Solver(mech, branch='continuous')
+    published = []
+    for v in np.linspace(act.min, act.max, 41):
+        r = solver.solve({'crank': float(v)})
+        assert r.success, (v, r.reason)
+        msg = result_to_joint_state(r, mech, Time(), mech.frame_id)
+        published.append(dict(zip(msg.name, msg.position))['O2'])
+    assert published[0] == pytest.approx(lo, abs=1e-12)
+    assert published[-1] == pytest.approx(hi, abs=1e-12)
+    assert all(lo - 1e-12 <= q <= hi + 1e-12 for q in published)
     with pytest.raises(SceneError, match="frame_id 'A' is also the name"):
         urdf_document(scenes.load('four_bar'), frame_id='A')
     with pytest.raises(SceneError, match="frame_id 'point_A' is also the name"):
