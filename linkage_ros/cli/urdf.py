@@ -14,8 +14,8 @@ point_P, prefixed. Loop-closing joints are left out of the tree and listed in a 
 parameter takes the same).
 
 Exit status: 0 written; 2 a usage error (a prefix or frame id that cannot name frames) or a
-scene the URDF cannot name (a point and a link of one name, a frame_id or names that would name
-two frames) or draw (a structure that does not assemble with its stated dimensions), one line
+scene the URDF cannot name (a frame_id or names that would name two frames: a link named
+point_P beside a point P) or draw (a structure that does not assemble with its stated dimensions), one line
 on stderr.
 """
 
