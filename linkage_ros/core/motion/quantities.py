@@ -54,9 +54,20 @@ def transmission_angles(solver: Solver, result: Result) -> dict[str, float]:
         x = np.asarray(result.points[step.point], float)
         u = np.asarray(result.points[a.centre_a], float) - x
         v = np.asarray(result.points[a.centre_b], float) - x
+        u, v = u * _unit_scale(u), v * _unit_scale(v)  # the angle does not depend on either
         key = f'{a.centre_a}-{step.point}-{a.centre_b}'
         out[key] = math.atan2(u[0] * v[1] - u[1] * v[0], u[0] * v[0] + u[1] * v[1])
     return out
+
+
+def _unit_scale(*vectors: np.ndarray) -> float:
+    """The power of two that brings the vectors' largest component into [0.5, 1): products
+    of mechanisms drawn at 1e-170 m underflow and at 1e160 m overflow, while a power of two
+    scales them exactly (the same bits at every other size). 1 for zero or non-finite ones."""
+    peak = max(float(np.max(np.abs(w))) for w in vectors)
+    if not 0.0 < peak < math.inf:
+        return 1.0
+    return math.ldexp(1.0, -math.frexp(peak)[1])
 
 
 @dataclass
@@ -112,6 +123,9 @@ def _transmission_rate(solver: Solver, key: str) -> RateOf:
         x, a, b = (np.asarray(r.points[p], float) for p in (point, centre_a, centre_b))
         vx, va, vb = (np.asarray(v.points[p], float) for p in (point, centre_a, centre_b))
         u, w, du, dw = a - x, b - x, va - vx, vb - vx
+        # d_mu has the fourth power of a length above and below: scaled alike, exactly
+        k = _unit_scale(u, w)
+        u, w, du, dw = u * k, w * k, du * k, dw * k
         cross, dot = u[0] * w[1] - u[1] * w[0], u @ w
         d_cross = du[0] * w[1] - du[1] * w[0] + u[0] * dw[1] - u[1] * dw[0]
         d_dot = du @ w + u @ dw

@@ -159,3 +159,24 @@ def test_a_follower_that_turns_fully_has_no_swing_and_no_time_ratio():
     assert 'link:rocker' not in sweep.outputs and 'link:rocker' not in sweep.time_ratio
     rep = quantities_report(load('four_bar_double_crank'))
     assert rep is not None and rep['turns_fully'] == ['link:rocker'] and not rep['outputs']
+
+
+@pytest.mark.parametrize('size', [1e-300, 1e-170, 1e-150, 1.0, 1e160, 1e300])
+def test_transmission_angles_at_every_size_of_the_drawing(size):
+    """SCENES.md takes sizes from 2.2e-308 m to 1e308 m: the transmission angle's extremes are
+    the cosine rule's at every size (its cross and dot products of lengths underflowed to 0 at
+    1e-170 m, overflowed to NaN at 1e160 m; the rocker's swing was right at both)."""
+    import warnings
+
+    from scenes import four_bar
+
+    mech = four_bar(L1 * size, L2 * size, L3 * size, L4 * size)
+    with warnings.catch_warnings():
+        warnings.simplefilter('error')  # no overflow warnings on the way either
+        sweep = input_sweep(mech, ['link:rocker'])
+    (mu,) = sweep.transmission.values()
+    mu_min = math.acos((L3 * L3 + L4 * L4 - (L1 - L2) ** 2) / (2 * L3 * L4))
+    mu_max = math.acos((L3 * L3 + L4 * L4 - (L1 + L2) ** 2) / (2 * L3 * L4))
+    assert mu.minimum == pytest.approx(mu_min, abs=1e-12)
+    assert mu.maximum == pytest.approx(mu_max, abs=1e-12)
+    assert close_angle(mu.input_at_min, 0.0, 1e-6) and close_angle(mu.input_at_max, math.pi, 1e-6)
