@@ -15,8 +15,8 @@ parameter takes the same).
 
 Exit status: 0 written; 2 a usage error (a prefix or frame id that cannot name frames) or a
 scene the URDF cannot name (a frame_id or names that would name two frames: a link named
-point_P beside a point P) or draw (a structure that does not assemble with its stated dimensions), one line
-on stderr.
+point_P beside a point P) or draw (a structure that does not assemble with its stated
+dimensions), one line on stderr.
 """
 
 from __future__ import annotations
