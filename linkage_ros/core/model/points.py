@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from ..dyads import circle_circle
+from ..dyads import TOGGLE_BAND, circle_circle
 from ..units import Quantity
 from .checks import SceneContext
 
@@ -75,9 +75,10 @@ def _point_from_distances(
     pa, pb = points[a], points[b]
     if np.array_equal(pa, pb):
         ctx.fail(f'{key}.distances', f'{a} and {b} coincide: no line to place it from', list(dist))
-    # the dyad solver's own circle-circle construction; tol 0: circles that miss by any amount
-    # do not meet (a tangency within rounding lands on it)
-    sol = circle_circle(pa, r1, pb, r2, 1.0 if side == 'left' else -1.0, tol=0.0)
+    # the dyad solver's own circle-circle construction: circles that miss by more than the
+    # toggle band do not meet; a tangency within it (decimal coordinates a rounding apart:
+    # SCENES.md) lands on it
+    sol = circle_circle(pa, r1, pb, r2, 1.0 if side == 'left' else -1.0, tol=TOGGLE_BAND)
     if not bool(sol.ok):
         d = float(math.hypot(*(pb - pa)))
         ctx.fail(

@@ -78,6 +78,35 @@ def test_tangent_circles_give_their_one_point_and_circles_apart_are_refused():
 
 
 @pytest.mark.parametrize(
+    'a, b, r1, r2',
+    [
+        ((0.1, 0.7), (0.4, 1.1), 0.2, 0.3),  # 0.5 apart as written, 0.5000000000000001 in floats
+        ((0.3, 0.4), (0.3, 0.55), 0.1, 0.05),  # 0.15 apart as written, 0.15000000000000002
+    ],
+)
+def test_circles_tangent_as_written_in_decimals_give_their_one_point(a, b, r1, r2):
+    """SCENES.md: a dyad within one unit of rounding of a tangency lands on it; decimal
+    coordinates put these circles (r1 + r2 = their distance as written) a rounding apart, and
+    they were refused as "do not meet". The point is the tangency's, on the line through the
+    centres (50-digit oracle of the decimals as written)."""
+    scene = {
+        'name': 'tangent',
+        'points': {'A': list(a), 'B': list(b), 'Q': {'distances': {'A': r1, 'B': r2}}},
+        'links': {'ground': ['A', 'B', 'Q']},
+    }
+    got = Scene.from_dict(scene).mechanism.points['Q']
+    with mp.workdps(50):
+        ax, ay, bx, by, r = (mp.mpf(str(v)) for v in (*a, *b, r1))
+        d = mp.sqrt((bx - ax) ** 2 + (by - ay) ** 2)
+        want = (float(ax + r * (bx - ax) / d), float(ay + r * (by - ay) / d))
+    assert math.dist(tuple(float(v) for v in got), want) <= 1e-15
+    # a real miss, far beyond rounding, is still refused
+    scene['points']['Q'] = {'distances': {'A': r1 * (1 - 1e-9), 'B': r2}}
+    with pytest.raises(SceneError, match=r'points\.Q\.distances: circles of .* do not meet'):
+        Scene.from_dict(scene)
+
+
+@pytest.mark.parametrize(
     'spec, match',
     [
         (
