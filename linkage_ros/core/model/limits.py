@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import math
 
+from ..ops import wrap_one
+
 #: a value this close to a limit (relative to max(1, |limit|)) still counts as inside, on
 #: either side: the rounding of the value's own arithmetic (an inverse answer at a limit, a
 #: value read back off a solved pose, carries it)
@@ -59,11 +61,14 @@ def limit_violation(
     if lo is None and hi is None:
         return None
     v = value
+    # an angle is judged as the solve turns it: reduced exactly (float % 2 pi of 1e8 rad is
+    # off by ~4e-9 rad, past the slack; of 1e16 rad by radians) before any arithmetic on it
+    turned = wrap_one(value) if periodic and math.isfinite(value) else value
     if periodic and lo is not None and hi is not None:
         # (limits a full turn apart take every angle: the arc is the whole circle)
-        if on_arc(value, lo, hi, slack(hi)):
+        if on_arc(turned, lo, hi, slack(hi)):
             return None
-        v = lo + (value - lo) % (2 * math.pi)
+        v = lo + (turned - lo) % (2 * math.pi)
         over_hi = v - hi
         under_lo = lo + 2 * math.pi - v
         if under_lo <= slack(lo):  # (just below the minimum: brought a turn up, to ~lo + 2 pi)
@@ -79,8 +84,7 @@ def limit_violation(
     if periodic:
         # one limit: the angle as reported, in (-pi, pi] (a command of 4 rad is the angle
         # -2.28 rad, below a minimum of -1 however it is written)
-        v = math.remainder(value, 2 * math.pi)
-        v = math.pi if v == -math.pi else v
+        v = math.pi if turned == -math.pi else turned
     if lo is not None and v < lo - slack(lo):
         got, limit = _apart(value, lo)
         at = _on_circle(value, v, unit, got) if periodic else f'{got} {unit}'

@@ -209,3 +209,34 @@ def test_a_refused_angle_written_a_turn_away_shows_the_angle_it_was_judged_as(
     # written on the circle already: as before, no second value
     plain = limit_violation('crank', shown, lo, hi, 'rad', True)
     assert plain is not None and 'on the circle' not in plain
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    turns=st.integers(-(10**15), 10**15),
+    at=st.floats(-math.pi, math.pi, allow_nan=False),
+    limits=st.sampled_from([(-1.45, 1.45), (0.4, 5.9), (-1.0, None), (None, 2.0)]),
+)
+def test_a_large_angle_is_judged_as_the_solve_turns_it(turns, at, limits):
+    """An angle of many turns (a crank commanded by its accumulated angle) is judged at its
+    exact place on the circle, as the solve's exactly reduced sin and cos place it: float % 2 pi
+    of 1e8 rad is off by ~4e-9 rad (past the 1e-12 slack), of 1e16 rad by radians, so in-limit
+    commands were refused and out-of-limit ones let through. Oracle: the double's exact
+    remainder at 400 digits (values within 1e-9 of a limit are skipped: either answer is
+    rounding)."""
+    import mpmath as mp
+
+    lo, hi = limits
+    value = float(mp.mpf(at) + turns * 2 * mp.pi)
+    with mp.workdps(400):
+        exact = float(mp.mpf(value) - 2 * mp.pi * mp.nint(mp.mpf(value) / (2 * mp.pi)))
+    if lo is not None and hi is not None:
+        on = lo + (exact - lo) % (2 * math.pi)
+        inside, gap = on <= hi, min(abs(on - hi), abs(on - lo), abs(on - lo - 2 * math.pi))
+    else:
+        inside = (lo is None or exact >= lo) and (hi is None or exact <= hi)
+        gap = min(abs(exact - b) for b in (lo, hi) if b is not None)
+    if gap < 1e-9 or abs(abs(exact) - math.pi) < 1e-9:
+        return
+    got = limit_violation('crank', value, lo, hi, 'rad', True)
+    assert (got is None) == inside, (value, exact, got)
