@@ -179,3 +179,54 @@ def test_a_rate_for_a_name_the_command_does_not_give_is_refused():
     ok = engine.command({'Z1': 1.5}, {'Z1': 0.1})
     assert ok.success and ok.velocity.success
     assert ok.velocity.joints['Z2'] == pytest.approx(0.0, abs=1e-12)  # held: rate 0
+
+
+def test_the_rounding_of_rates_near_a_toggle_is_within_the_documented_cond_squared_bound():
+    """core.velocity and TOPICS.md: against the exact mechanism a rate's rounding error is about
+    cond^2 * 2e-17 of its size (the pose near a toggle carries its data's rounding amplified by
+    cond; the docstring once said cond * 1e-16, which an input 1.4e-15 rad before the toggle
+    misses by 8 %, at cond 8e7). Oracle: the rocker angle by circle intersection from the
+    scene's double lengths and the double input, differentiated at 60 digits (mpmath). The
+    bound asserted is ten times the documented size, for every CPU's last bits."""
+    import mpmath as mp
+
+    mech = scenes.load('four_bar_non_grashof')
+    g, a, b, c = (0.30, 0.20, 0.25, 0.22)  # config/four_bar_non_grashof.yaml: l1 l2 l3 l4
+    solver = Solver(mech, method='closed_form', branch='+')
+    assert solver.solve({'crank': 2.0}).links['rocker'] == pytest.approx(
+        math.atan2(*_rocker_xy(g, a, b, c, 2.0)[::-1]), abs=1e-12
+    )  # the premise: the oracle's branch and lengths are the scene's
+    with mp.workdps(60):
+        G, A, B, C = (mp.mpf(v) for v in (g, a, b, c))
+        toggle = mp.acos((G * G + A * A - (B + C) ** 2) / (2 * G * A))
+
+        def rocker(t):
+            pa = A * mp.expj(t)
+            d = abs(G - pa)
+            x = (B * B - C * C + d * d) / (2 * d)
+            u = (G - pa) / d
+            return mp.arg(pa + u * (x + 1j * mp.sqrt(B * B - x * x)) - G)
+
+        checked = 0
+        for before in (1e-3, 1e-6, 1e-9, 1e-11, 1e-13, 3e-15):
+            theta = float(toggle - mp.mpf(before))
+            r = solver.solve({'crank': theta}, commit=False)
+            vel = velocities(solver, r, {'crank': theta}, {'crank': 1.0})
+            if not (r.success and vel.success):
+                continue
+            exact = float(mp.diff(rocker, mp.mpf(theta)))
+            err = abs(vel.links['rocker'] - exact) / abs(exact)
+            assert err <= 10 * (vel.cond**2 * 2e-17 + vel.cond * 1e-16), (before, vel.cond, err)
+            checked += 1
+        assert checked >= 5
+
+
+def _rocker_xy(g, a, b, c, t):
+    """B - O4 of the + branch by circle intersection in floats (the premise check above)."""
+    ax, ay = a * math.cos(t), a * math.sin(t)
+    dx, dy = g - ax, -ay
+    d = math.hypot(dx, dy)
+    x = (b * b - c * c + d * d) / (2 * d)
+    h = math.sqrt(b * b - x * x)
+    ux, uy = dx / d, dy / d
+    return ax + ux * x - uy * h - g, ay + uy * x + ux * h
