@@ -27,6 +27,7 @@ from ..newton.predictor import extrapolate, unit_tangent, value_step
 from ..newton.results import SolveResult
 from ..newton.scalar import DenseKernel, cond_of, solve_from_guess
 from ..plan import branch_geometry_one, rollers_off_drawn_side, run_one
+from ..quantities import AngleSpec
 from ..steps import RollerSide
 from .asked_mode import asked_signs, fold_margin, full_plan_signs, resumed_state
 from .compiled import CompiledSolve, SolveMode, Values
@@ -376,6 +377,21 @@ class CarefulPath:
         return self.walk(vm, rm.x, vb, depth + 1, rm.det_sign)
 
 
+def the_long_way(c: CompiledSolve, start: Values, end: Values) -> Values | None:
+    """The midpoint between two commands with every angle that changes taken the long way
+    round (interpolate's short-way midpoint turned by pi), or None where no angle changes."""
+    mid = interpolate(c, start, end, 0.5)
+    turned = False
+    for k, (s, a, b) in enumerate(zip(c.specs, start, end)):
+        if (
+            isinstance(s, AngleSpec)
+            and abs(math.remainder(float(b) - float(a), 2 * math.pi)) > 1e-9
+        ):
+            mid[k] = float(mid[k]) + math.pi
+            turned = True
+    return mid if turned else None
+
+
 def closed_form_refusal(
     c: CompiledSolve, vals: Values, check_signs: Sequence[int] | None, solver_name: str
 ) -> Result | None:
@@ -454,6 +470,19 @@ def solve_newton(
             path.know(x0, resumed_geometry(c, last))
         r, reason, fixed = path.walk(v0, x0, vals, 0, known)
         iterations = path.iterations
+        around = the_long_way(c, v0, vals) if r is None and effort is Effort.FULL else None
+        if around is not None:
+            # the short way round from the last answer may cross where the mechanism does
+            # not assemble (a non-Grashof crank from -2.2 to 2.0 rad past +-pi): its crank
+            # turns the other way, through the long way's midpoint (each half of it shorter
+            # than a half turn, so the walk's short ways follow it)
+            path = CarefulPath(c, branches, iterations, MAX_HALVINGS)
+            if branches and warm and last is not None:
+                path.know(x0, resumed_geometry(c, last))
+            rm, _, _ = path.walk(v0, x0, around, 0, known)
+            if rm is not None:
+                r, _, fixed = path.walk(around, rm.x, vals, 0, rm.det_sign)
+            iterations = path.iterations
         if r is not None:
             xs = r.x.tolist()
             if branches:
