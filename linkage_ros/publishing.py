@@ -181,8 +181,10 @@ class Outputs:
         self.last_ok = True
         self.smallest_margin: float | None = None
         self._answered_since_tick = False
-        #: the stamp of the last joint_states (ns): the node's own stamps come after it
+        #: the latest stamp of any joint_states (ns), a client's included
         self.stamped_ns = -1
+        #: the latest stamp the node chose itself (ns): a request's now, a republication
+        self.own_ns = -1
         #: the newest state not drawn yet: at start-up the reference pose
         self._marker_state: tuple[Result, Time] | None = (
             None if engine.last is None else (engine.last, self.now())
@@ -281,14 +283,26 @@ class Outputs:
         # (the latest sent: a client's stamp in the past must not bring it back)
         self.stamped_ns = max(self.stamped_ns, stamp_ns(sec, nanosec))
 
+    def own_floor(self, now_ns: int) -> int:
+        """The stamp (ns) a stamp the node chooses at clock time ``now_ns`` must exceed: its
+        own last one, and the last joint_states if that is not later than now (a client's
+        stamp ahead of the clock is its own affair: following it would stamp the node's
+        answers in the future and stop republication until the clock got there, in 2038 for
+        the largest stamp, whose 1 ns more no longer fits the message)."""
+        latest = self.stamped_ns if self.stamped_ns <= now_ns else -1
+        return max(self.own_ns, latest)
+
     def after_last(self, stamp: Time) -> Time:
         """``stamp`` (the clock's now, for a request left unstamped), or 1 ns after the last
-        joint_states if that is not earlier: a paused sim clock would give an answer the
-        stamp of the republished pose before it, and tf keeps the first transform of a stamp
-        (TF_REPEATED_DATA), so robot_state_publisher would show the old pose."""
-        if stamp_ns(stamp.sec, stamp.nanosec) > self.stamped_ns:
+        joint_states if that is not earlier (own_floor): a paused sim clock would give an
+        answer the stamp of the republished pose before it, and tf keeps the first transform
+        of a stamp (TF_REPEATED_DATA), so robot_state_publisher would show the old pose."""
+        now = stamp_ns(stamp.sec, stamp.nanosec)
+        floor = self.own_floor(now)
+        if now > floor:
+            self.own_ns = now
             return stamp
-        after = self.stamped_ns + 1
+        after = self.own_ns = floor + 1
         return Time(sec=after // NSEC_PER_SEC, nanosec=after % NSEC_PER_SEC)
 
     # -- timers -----------------------------------------------------------------------------------
@@ -303,8 +317,10 @@ class Outputs:
         if last.velocity is not None:  # the rates of a past command are not the state's now
             last = Result(True, joints=last.joints)
         now = self.now()
-        if stamp_ns(now.sec, now.nanosec) <= self.stamped_ns:
+        now_ns = stamp_ns(now.sec, now.nanosec)
+        if now_ns <= self.own_floor(now_ns):
             return  # a paused (sim) clock: the state went out at this time already
+        self.own_ns = now_ns
         self._publish_state(last, now.sec, now.nanosec)
         self._answered_since_tick = False
 

@@ -11,6 +11,8 @@ domain.
 
 from __future__ import annotations
 
+import math
+
 from adversary_helpers import (
     OK,
     TIMEOUT,
@@ -130,3 +132,41 @@ def test_an_answer_under_a_paused_sim_clock_comes_after_the_pose_before_it(ros, 
     assert status.level == OK, status.message
     assert ros.spin_until(lambda: len(s.joints) >= 1, TIMEOUT)
     assert stamp_of(s.joints.messages[0]) == (paused[0], paused[1] + 2)
+
+
+def test_a_client_stamp_ahead_of_the_clock_does_not_move_the_nodes_own_stamps(ros, serve):
+    """A command stamped an hour ahead, or at the largest valid stamp, is echoed; the node's own
+    stamps did follow it (1 ns after the last joint_states): a later zero-stamped command was
+    answered an hour in the future, republication stopped until the clock got there, and after
+    the largest stamp the 1 ns more overflowed the message: every zero-stamped request failed
+    with an internal error (an outside review). Now they stay on the node's clock."""
+    s = serve(scene='four_bar', publish_rate=20.0)
+    clock = s.node.get_clock()
+    for ahead in ((clock.now().nanoseconds // 10**9 + 3600, 0), (2**31 - 1, 999_999_999)):
+        status = s.send('command', joint_state(['crank'], [1.2], ahead))  # (republication
+        assert status.level == OK, status.message  # runs: not s.good's one message)
+        assert ros.spin_until(lambda: any(stamp_of(m) == ahead for m in s.joints.messages), TIMEOUT)
+        before = clock.now().nanoseconds
+        status = s.send('command', joint_state(['crank'], [0.9]))
+        assert status.level == OK, status.message
+        want = FourBar.joints(0.9)
+
+        def answered():  # (a republication of the pose before may come first)
+            return [
+                m
+                for m in s.joints.messages
+                if max(abs(math.remainder(a - b, math.tau)) for a, b in zip(m.position, want))
+                < 1e-9
+            ]
+
+        assert ros.spin_until(lambda: bool(answered()), TIMEOUT)
+        answer = answered()[0]
+        got = answer.header.stamp.sec * 10**9 + answer.header.stamp.nanosec
+        assert before <= got <= clock.now().nanoseconds, (ahead, got)  # now, not ahead
+        assert_close_angles(answer.position, FourBar.joints(0.9))
+        # republication goes on, stamped now, holding the zero-stamped answer's pose
+        assert ros.spin_until(lambda: len(s.joints) >= 3, TIMEOUT), 'republication stopped'
+        later = s.joints.messages[-1]
+        assert stamp_of(later) > stamp_of(answer)
+        assert later.header.stamp.sec < ahead[0]
+        assert_close_angles(later.position, FourBar.joints(0.9))
