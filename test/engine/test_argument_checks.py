@@ -232,3 +232,24 @@ def test_a_huge_value_or_frame_is_not_echoed_whole():
     with pytest.raises(ConfigError) as err:
         make_config({'frame_id': huge + ' '})
     assert len(str(err.value)) < 400 + SETTING_ECHO_CHARS
+
+
+def test_an_unknown_name_of_a_target_or_trajectory_is_not_echoed_whole():
+    """TOPICS.md: every value a status quotes from a request is cut to its first ECHO_CHARS
+    characters. ~/command's unknown names were; ~/target's and a trajectory's (resolved by
+    core.model.names) were quoted whole: a 1 MB joint name gave a 1 MB status and a 1 MB
+    /diagnostics last_error every second."""
+    from linkage_ros.core.errors import ECHO_CHARS
+    from linkage_ros.engine import Engine, EngineSettings
+    from linkage_ros.trajectory import solve_trajectory
+
+    engine = Engine(scenes.load('four_bar'), EngineSettings())
+    huge = 'x' * 1_000_000
+    for why in (
+        engine.target({huge: 0.1}).reason,
+        engine.target({'q' * 900: 0.1}, allow_mode_change=True).reason,
+        solve_trajectory(engine, [huge], np.array([[0.3]])).reason,
+        solve_trajectory(engine, ['crank', huge], np.array([[0.3, 0.1]])).reason,
+    ):
+        assert why is not None and 'unknown name' in why
+        assert len(why) < 100 + ECHO_CHARS, len(why)

@@ -11,7 +11,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import Enum
 
-from ..errors import PlanError
+from ..errors import PlanError, echo
 from ..mechanism import Mechanism
 
 
@@ -62,17 +62,17 @@ def resolve_name(mech: Mechanism, name: str) -> Named:
     if kind_text:
         if kind_text not in KNOWN_KINDS:
             raise PlanError(
-                f'unknown kind {kind_text!r} in {name!r}; use one of {list(KNOWN_KINDS)}'
+                f'unknown kind {echo(kind_text)} in {echo(name)}; use one of {list(KNOWN_KINDS)}'
             )
         kind = NameKind(kind_text)
         if not has_kind(mech, kind, bare):
-            raise PlanError(f'{mech.name!r} has no {kind_text} named {bare!r}')
+            raise PlanError(f'{mech.name!r} has no {kind_text} named {echo(bare)}')
         return Named(kind, bare, name)
     for kind in NameKind:
         if has_kind(mech, kind, name):
             return Named(kind, name, name)
     raise PlanError(
-        f'unknown name {name!r}: not an actuator, joint, link or point of {mech.name!r}'
+        f'unknown name {echo(name)}: not an actuator, joint, link or point of {mech.name!r}'
     )
 
 
