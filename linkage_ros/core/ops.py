@@ -66,15 +66,18 @@ def wrap_one(a: float) -> float:
     if _NEG_WRAP_REDUCE_LIMIT <= a <= WRAP_REDUCE_LIMIT:
         k = float(round(a / _TWO_PI))
         r = ((a - k * _TWO_PI_HI) - k * _TWO_PI_MID) - k * _TWO_PI_LO
-        # k rounded off by one at an odd multiple of pi: back into [-pi, pi] (as atan2 returns)
+        # k rounded off by one at an odd multiple of pi: back into (-pi, pi] as floats compare
+        # (math.pi, as callers test it): -math.pi is given as math.pi, the same angle to 2.4e-16
+        # rad (math.pi lies that much below pi, -math.pi above -pi)
         if r > _PI:
             return r - _TWO_PI
-        if r < _NEG_PI:
+        if r <= _NEG_PI:
             return r + _TWO_PI
         return r
     if not math.isfinite(a):  # (not a - a: a numpy inf would warn)
         return math.nan
-    return _atan2(_sin(a), _cos(a))
+    w = _atan2(_sin(a), _cos(a))  # in [-pi, pi]
+    return _PI if w == _NEG_PI else w
 
 
 def _reduce_many(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -105,7 +108,7 @@ def _wrap_many(v: Any) -> Any:
     w = out[wide]
     with np.errstate(invalid='ignore', over='ignore'):
         _, r = _reduce_many(w)
-    r = np.where(r > math.pi, r - 2 * math.pi, np.where(r < -math.pi, r + 2 * math.pi, r))
+    r = np.where(r > math.pi, r - 2 * math.pi, np.where(r <= -math.pi, r + 2 * math.pi, r))
     huge = np.isfinite(w) & (np.abs(w) > WRAP_REDUCE_LIMIT)
     if huge.any():
         r[huge] = [wrap_one(a) for a in w[huge].tolist()]
