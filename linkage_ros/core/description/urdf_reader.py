@@ -79,6 +79,8 @@ def tree_root(links: list[str], joints: list[TreeJoint], source: str) -> str:
                 file=source,
             )
         parent_of[j.child] = j.name
+    if not links:
+        raise DescriptionError('the description has no links', file=source)
     roots = [l for l in links if l not in parent_of]
     if len(roots) != 1:
         what = (

@@ -81,6 +81,13 @@ def test_a_root_element_that_is_no_description():
     refused(TEXT, '<scene>', '<robot>', '<sdf>', args=['<scene/>'], text=True)
 
 
+def test_a_description_with_no_links_says_so():
+    """It was refused as 'no root link (the joints form a cycle)': it has no joints either."""
+    for text in ("<robot name='r'/>", '<robot name="y"></robot>'):
+        err = refused(TEXT, 'no links', args=[text], text=True)
+        assert 'cycle' not in str(err)
+
+
 def test_entity_expansion_is_refused_before_parsing():
     """The billion laughs: ten entities of ten references each, 10**9 'lol's if expanded."""
     entities = '<!ENTITY lol0 "lol">' + ''.join(
