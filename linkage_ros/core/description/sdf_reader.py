@@ -132,6 +132,8 @@ def read_sdf(root: ET.Element, source: str) -> Description:
         uses_world |= 'world' in (joint.parent, joint.child)
         joints.append(joint)
         loop_elements.append((el, joint))
+    if not links:
+        raise DescriptionError(f'model {model.get("name")!r} has no links', file=source)
     all_links = (['world'] if uses_world else []) + links
     tree, closures = _split_tree(all_links, loop_elements, source)
     root_link = 'world' if uses_world else _root(all_links, tree, source)

@@ -83,7 +83,11 @@ def test_a_root_element_that_is_no_description():
 
 def test_a_description_with_no_links_says_so():
     """It was refused as 'no root link (the joints form a cycle)': it has no joints either."""
-    for text in ("<robot name='r'/>", '<robot name="y"></robot>'):
+    for text in (
+        "<robot name='r'/>",
+        '<robot name="y"></robot>',
+        '<sdf version="1.9"><model name="m"/></sdf>',  # (an IndexError)
+    ):
         err = refused(TEXT, 'no links', args=[text], text=True)
         assert 'cycle' not in str(err)
 
