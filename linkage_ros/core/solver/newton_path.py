@@ -213,9 +213,14 @@ def refusal_at(c: CompiledSolve, vals: Values, x0: np.ndarray, walk_reason: str 
             f'near the largest double){walked}'
         )
     if not miss <= max(CLOSURE_LIMIT, 10 * c.tol) * L:
+        # a least-squares search from one start finds a nearest configuration, not every one:
+        # a mechanism Newton places may close in another assembly mode far from it (a triad
+        # just past its drawn circuit's toggle does), so this is no proof that none closes
         return (
-            f'cannot assemble at this input: the nearest configuration misses closing by '
-            f'{miss:.6g} m ({miss / L:.3g} of the length scale){walked}'
+            f'no assembly near the current configuration at this input: the nearest '
+            f'configuration found from it misses closing by {miss:.6g} m ({miss / L:.3g} of the '
+            f'length scale); other assembly modes, if any, are listed by the all-branches '
+            f'search{walked}'
         )
     return (
         'this input assembles, but not from the current configuration on its branch '

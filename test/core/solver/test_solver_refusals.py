@@ -289,6 +289,56 @@ actuators: {cyl: {type: angle, link: lever, pivot: O}}
 }
 
 
+#: a class-III triad (an outside reviewer's): the crank's four-bar-like chain ends in the
+#: triangle B C D held by three links, which Newton places (no dyad plan)
+TRIAD = {
+    'name': 'triad',
+    'points': {
+        'O1': [0, 0],
+        'A': [0.05, 0.08],
+        'O2': [0.5, 0],
+        'O3': [0.25, -0.2],
+        'B': [0.22, 0.2],
+        'C': [0.4, 0.22],
+        'D': [0.3, 0.05],
+    },
+    'links': {
+        'ground': ['O1', 'O2', 'O3'],
+        'crank': ['O1', 'A'],
+        'ab': ['A', 'B'],
+        'o2c': ['O2', 'C'],
+        'o3d': ['O3', 'D'],
+        'tri': ['B', 'C', 'D'],
+    },
+    'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O1'}},
+}
+
+
+@pytest.mark.parametrize('crank, branch', [(0.99, None), (0.99, 'J-'), (1.5, 'J-')])
+def test_a_newton_refusal_does_not_claim_no_assembly_where_another_mode_closes(crank, branch):
+    """Just past the drawn circuit's toggle (0.99835) and in its J- mode, the triad assembles
+    (the all-branches search finds it; each answer closes every link length, checked here),
+    but not from the current configuration: the refusal said "cannot assemble at this input"
+    from a least-squares search of one start. It now says no assembly is near."""
+    mech = Scene.from_dict(TRIAD).mechanism
+    modes = Solver(mech).modes({'crank': crank}).results
+    closing = [r for r in modes if r.success]
+    assert closing, 'the premise: some mode closes'
+    for r in closing:  # each found mode closes every link's lengths (oracle: the drawing's)
+        for link, members in TRIAD['links'].items():
+            if link == 'ground':
+                continue
+            for p, q in zip(members, members[1:]):
+                drawn = math.dist(TRIAD['points'][p], TRIAD['points'][q])
+                assert math.dist(r.points[p], r.points[q]) == pytest.approx(drawn, abs=1e-12)
+    r = Solver(mech, **({} if branch is None else {'branch': branch})).solve({'crank': crank})
+    if r.success:  # reached (a better search than today's): then it closes
+        assert r.residual <= 1e-12
+        return
+    assert 'cannot assemble' not in r.reason, r.reason
+    assert 'no assembly near the current configuration' in r.reason
+
+
 @pytest.mark.parametrize('name', sorted(BROKEN_SCENES))
 def test_scene_errors_name_file_key_and_value(tmp_path, name):
     text, fragments = BROKEN_SCENES[name]
