@@ -85,10 +85,15 @@ class Effort(Enum):
     DIRECT = 'direct'
 
 
+#: how the reasons of a refusal because the mechanism does not close at its input start: the
+#: closed form's proof, and Newton's least-squares search from the current configuration
+NO_ASSEMBLY_REASONS = ('cannot assemble', 'no assembly near the current configuration')
+
+
 def does_not_assemble(result: Result) -> bool:
-    """Whether ``result`` was refused because the mechanism does not close at its input (the
-    reason the solvers give then starts 'cannot assemble'), not on a limit, a name or a mode."""
-    return not result.success and (result.reason or '').startswith('cannot assemble')
+    """Whether ``result`` was refused because the mechanism does not close at its input
+    (NO_ASSEMBLY_REASONS), not on a limit, a name or a mode."""
+    return not result.success and (result.reason or '').startswith(NO_ASSEMBLY_REASONS)
 
 
 #: an answer with cond(J)^2 * residual * n at most this has an exact assembly on its branch next
