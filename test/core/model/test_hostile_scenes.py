@@ -216,6 +216,57 @@ def test_a_cylinder_named_like_a_link_is_refused(tmp_path):
     refused_fast(path, f'cylinders.{link}', 'is the name of a link')
 
 
+CRANK = {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O'}}
+SLIDER_CRANK = {
+    'points': {'O': [0, 0], 'A': [0.1, 0.1], 'B': [0.3, 0]},
+    'links': {'ground': ['O'], 'crank': ['O', 'A'], 'rod': ['A', 'B'], 'blk': ['B']},
+    'actuators': CRANK,
+}
+SLOTTED = {
+    'points': {'O': [0, 0], 'A': [0.0, 0.1], 'O4': [0, -0.3]},
+    'links': {'ground': ['O', 'O4'], 'crank': ['O', 'A'], 'lever': ['O4']},
+    'actuators': CRANK,
+}
+
+
+@pytest.mark.parametrize(
+    ('data', 'key', 'pin'),
+    [
+        (
+            {
+                **SLIDER_CRANK,
+                'sliders': [{'name': 'A', 'guide': 'ground', 'slider': 'blk', 'point': 'B'}],
+            },
+            'sliders.A',
+            "the pin at point 'A' between links 'crank' and 'rod'",
+        ),
+        (
+            {
+                'points': {'O': [0, 0], 'P': [0.4, -0.1], 'Q': [0.6, 0.25]},
+                'links': {'ground': ['O', 'P'], 'boom': ['O', 'Q']},
+                'cylinders': {'O': {'from': 'P', 'to': 'Q'}},
+            },
+            'cylinders.O',
+            "the pin at point 'O' between links 'ground' and 'boom'",
+        ),
+        (
+            {**SLOTTED, 'slots': [{'name': 'O4', 'point': 'A', 'link': 'lever', 'angle': 1.5}]},
+            'slots.O4',
+            "the pin at point 'O4' between links 'ground' and 'lever'",
+        ),
+    ],
+)
+def test_a_prismatic_named_like_a_revolute_joint_is_refused_naming_its_own_key(data, key, pin):
+    with pytest.raises(SceneError) as info:
+        Scene.from_dict(data)
+    name = key.split('.')[1]
+    assert info.value.key == key
+    assert str(info.value) == (
+        f'<scene>: {key}: is also the name of a revolute joint, {pin}; give it another name '
+        f'(got {name!r})'
+    )
+
+
 @pytest.mark.parametrize(('ends', 'link'), [(('O', 'P'), 'ground'), (('O', 'Q'), 'boom')])
 def test_a_cylinder_pinned_twice_on_one_link_is_refused_naming_it(tmp_path, ends, link):
     """Both ends on the ground (or on one moving link): its length cannot change, so it drives
