@@ -170,6 +170,16 @@ def four_bar_to_general(
                 'puts the coupler point beyond the float range',
                 cp.get('distance'),
             )
+        # the general form would refuse it under links.coupler, a key this file does not have
+        for other in ('A', 'B'):
+            if np.array_equal(points[pname], points[other]):
+                ctx.fail(
+                    'four_bar.coupler_point.distance',
+                    f'puts {pname} on {other} (at {points[other].tolist()}): two points of one '
+                    f'rigid link are one point; give another distance or angle, or drop '
+                    f'coupler_point and publish {other} itself (outputs: [{other}])',
+                    cp.get('distance'),
+                )
         coupler.append(pname)
     crank = _crank_actuator(ctx, 'four_bar', fb)
     general = {
