@@ -431,9 +431,13 @@ def _read_outputs(
     else:
         if not isinstance(outputs_raw, list):
             ctx.fail('outputs', 'must be a list of point names', outputs_raw)
+        listed: set[str] = set()
         for p in outputs_raw:
             if not ctx.known(p, points):
                 ctx.fail('outputs', f'unknown point {echo(p)}', p)
+            if p in listed:  # it would be published twice, under one name
+                ctx.fail('outputs', f'lists point {p!r} twice; list each point once', outputs_raw)
+            listed.add(p)
         outputs = tuple(outputs_raw)
 
     return outputs
