@@ -50,8 +50,10 @@ def _reference_input(
     lengths: list[float],
     intervals: Callable[[], list[tuple[float, float]]],
 ) -> _Points:
-    """The reference crank angle: ``input`` if given (it must assemble), else the assembling
-    angle nearest ``start`` (60 degrees above the ground line). ``assemble(theta)`` returns the
+    """The reference crank angle: ``input`` if given (it must assemble), else the first angle
+    that assembles stepping out from ``start`` (60 degrees above the ground line) both ways by
+    about 0.01 rad: inside the reachable range, up to a step short of a toggle, not on it
+    (docs/SCENES.md, "The default input"). ``assemble(theta)`` returns the
     reference points or None; ``intervals()`` lists the (lo, hi) crank angles that assemble
     (exact, from the closure condition)."""
     if 'input' in spec:
