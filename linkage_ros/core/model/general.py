@@ -282,10 +282,56 @@ def _build_general(
             'actuators',
             f'the mechanism has {mech.dof} degree(s) of freedom (Kutzbach '
             f'3(n-1)-2j with n={len(links)} links, j={len(revolutes) + len(prismatics)} '
-            f'joints) but {len(actuators)} actuator(s)',
+            f'joints) but {len(actuators)} actuator(s){_unjoined(mech)}',
             sorted(actuators),
         )
     return mech
+
+
+#: How many links or point pairs a hint of the DOF refusal names (a message stays one line).
+_HINT_NAMES = 5
+
+
+def _listed(items: Sequence[str]) -> str:
+    shown = ', '.join(items[:_HINT_NAMES])
+    return shown + (f' and {len(items) - _HINT_NAMES} more' if len(items) > _HINT_NAMES else '')
+
+
+def _unjoined(mech: Mechanism) -> str:
+    """What likely makes a mechanism's DOF count wrong, for its refusal: links no chain of
+    joints reaches from the ground (each floats with 3 DOF of its own), and points of different
+    links drawn on one spot under two names (two points, so no joint: a pin given twice)."""
+    neighbours: dict[str, set[str]] = {name: set() for name in mech.links}
+    for a, b in [(j.parent, j.child) for j in mech.revolutes] + [
+        (pj.guide, pj.slider) for pj in mech.prismatics.values()
+    ]:
+        neighbours[a].add(b)
+        neighbours[b].add(a)
+    reached, todo = {mech.ground}, [mech.ground]
+    while todo:
+        for other in neighbours[todo.pop()] - reached:
+            reached.add(other)
+            todo.append(other)
+    hints = []
+    floating = [repr(name) for name in mech.links if name not in reached]
+    if floating:
+        which = 'link' if len(floating) == 1 else 'links'
+        hints.append(
+            f'no chain of joints joins {which} {_listed(floating)} to the ground link '
+            f'{mech.ground!r}'
+        )
+    first_at: dict[tuple[float, ...], str] = {}
+    twice = []
+    for p, xy in mech.points.items():
+        q = first_at.setdefault(tuple(float(v) for v in xy), p)
+        if q != p:
+            twice.append(f'{q} and {p}')
+    if twice:
+        hints.append(
+            f'points {_listed(twice)} are drawn on one spot but are two points, so no joint '
+            'joins them: if they are one pin, give it one name'
+        )
+    return ''.join(f'; {h}' for h in hints)
 
 
 def _coinciding(members: Sequence[str], points: Mapping[str, np.ndarray]) -> list[tuple[str, str]]:
