@@ -40,6 +40,8 @@ class SceneError(LinkageError):
         has_value: bool = False,
     ):
         self.file, self.key, self.value = file, key, value
+        # kept apart so a compiled key can be told as the file's (a slot's slider: slots.NAME)
+        self.message, self.has_value = message, has_value
         parts = []
         if file:
             parts.append(str(file))

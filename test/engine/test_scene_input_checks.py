@@ -323,7 +323,7 @@ def test_exponent_resolver_leaves_other_scalars_alone(tmp_path):
     from linkage_ros.core.model.scene import UniqueKeyLoader
 
     data = yaml.load(
-        '{a: 1e3, b: e3, c: 1e, d: 12, e: 1.5, f: E5x, g: -2e3, h: 1_0e2}', Loader=UniqueKeyLoader
+        '{a: 1e3, b: e3, c: 1e, d: 12, e: 1.5, f: E5x, g: -2e3}', Loader=UniqueKeyLoader
     )
     assert data == {
         'a': 1000.0,
@@ -333,9 +333,12 @@ def test_exponent_resolver_leaves_other_scalars_alone(tmp_path):
         'e': 1.5,
         'f': 'E5x',
         'g': -2000.0,
-        'h': 1000.0,
     }
     assert isinstance(data['d'], int)
+    # an underscore is YAML 1.1's digit separator (1_0e2 = 1000): refused as a number that
+    # reads as another value than it shows
+    with pytest.raises(yaml.YAMLError, match="'1_0e2' is a YAML 1.1 number form"):
+        yaml.load('h: 1_0e2', Loader=UniqueKeyLoader)
     # plain safe_load is not changed
     assert yaml.safe_load('a: 1e3') == {'a': '1e3'}
 

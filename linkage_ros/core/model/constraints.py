@@ -41,10 +41,18 @@ def expand_constraints(
     taken = set(links) | {s.get('name') for s in sliders if isinstance(s, Mapping)}
     taken |= set(data.get('cylinders') or {})
 
-    def new_name(key: str, value: object) -> str:
+    def new_name(key: str, value: object, makes_pin_block: bool) -> str:
         name = ctx.name(key, value)
-        if name in taken or f'{name}_pin' in taken:
+        if name in taken:
             ctx.fail(key, 'is already the name of a link, slider, cylinder or constraint', name)
+        # a slot also makes the link NAME_pin: say which name clashes, not only NAME
+        if makes_pin_block and f'{name}_pin' in taken:
+            ctx.fail(
+                key,
+                f"link name '{name}_pin' (made for the slot's pin block) is already used; "
+                'give the slot another name',
+                name,
+            )
         taken.add(name)
         return name
 
@@ -58,7 +66,7 @@ def expand_constraints(
     for i, spec in enumerate(_entries(ctx, data, 'slots')):
         key = f'slots[{i}]'
         ctx.only(key, spec, {'name', 'point', 'link', 'through', 'angle', 'radius'})
-        name = new_name(f'{key}.name', spec.get('name'))
+        name = new_name(f'{key}.name', spec.get('name'), makes_pin_block=True)
         key = f'slots.{name}'
         point, link, through = spec.get('point'), spec.get('link'), spec.get('through')
         if not ctx.known(point, points):
@@ -122,7 +130,7 @@ def expand_constraints(
     for i, spec in enumerate(_entries(ctx, data, 'distances')):
         key = f'distances[{i}]'
         ctx.only(key, spec, {'name', 'between', 'length'})
-        name = new_name(f'{key}.name', spec.get('name'))
+        name = new_name(f'{key}.name', spec.get('name'), makes_pin_block=False)
         key = f'distances.{name}'
         pair = spec.get('between')
         if (

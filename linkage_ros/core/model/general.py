@@ -60,7 +60,13 @@ def build_mechanism(
             expanded['dimensions'] = (
                 {**stated, **own} if isinstance(own, Mapping) else stated if own is None else own
             )
-        mech = build_mechanism(expanded, source, dimensions, ctx.warnings)
+        try:
+            mech = build_mechanism(expanded, source, dimensions, ctx.warnings)
+        except SceneError as exc:
+            slot_error = _as_slot_error(exc, data)
+            if slot_error is exc:
+                raise
+            raise slot_error from None
         mech.rollers = rollers
         return mech
     if isinstance(data, Mapping) and ('dimensions' in data or dimensions):
@@ -150,6 +156,20 @@ def build_mechanism(
     return mech
 
 
+def _as_slot_error(exc: SceneError, data: Mapping[str, Any]) -> SceneError:
+    """An error keyed ``sliders.NAME`` where NAME is a slot (compiled into that slider) keyed
+    as the file has it, ``slots.NAME``; any other error as it is."""
+    slot_names = {spec.get('name') for spec in data.get('slots') or [] if isinstance(spec, Mapping)}
+    if exc.key is None or not exc.key.startswith('sliders.'):
+        return exc
+    name = exc.key.removeprefix('sliders.')
+    if name not in slot_names:
+        return exc
+    return SceneError(
+        exc.message, file=exc.file, key=f'slots.{name}', value=exc.value, has_value=exc.has_value
+    )
+
+
 def _with_dimensions(
     ctx: SceneContext, data: Mapping[str, Any], overrides: Mapping[str, float] | None
 ) -> Mechanism:
@@ -224,7 +244,11 @@ def _build_general(
     actuators: dict[str, Actuator] = {}
     read_cylinders(ctx, data, points, links, prismatics, actuators)
     read_sliders(ctx, data, points, links, prismatics)
-    revolutes = _revolute_joints(ctx, points, links, prismatics)
+    cylinders = data.get('cylinders') or {}
+    prismatic_keys = {
+        name: f'cylinders.{name}' if name in cylinders else f'sliders.{name}' for name in prismatics
+    }
+    revolutes = _revolute_joints(ctx, points, links, prismatic_keys)
     read_actuators(ctx, data, ground, links, prismatics, actuators)
     outputs = _read_outputs(ctx, data, points, ground, links)
     _check_one_point_links(ctx, ground, links, prismatics)
@@ -258,10 +282,56 @@ def _build_general(
             'actuators',
             f'the mechanism has {mech.dof} degree(s) of freedom (Kutzbach '
             f'3(n-1)-2j with n={len(links)} links, j={len(revolutes) + len(prismatics)} '
-            f'joints) but {len(actuators)} actuator(s)',
+            f'joints) but {len(actuators)} actuator(s){_unjoined(mech)}',
             sorted(actuators),
         )
     return mech
+
+
+#: How many links or point pairs a hint of the DOF refusal names (a message stays one line).
+_HINT_NAMES = 5
+
+
+def _listed(items: Sequence[str]) -> str:
+    shown = ', '.join(items[:_HINT_NAMES])
+    return shown + (f' and {len(items) - _HINT_NAMES} more' if len(items) > _HINT_NAMES else '')
+
+
+def _unjoined(mech: Mechanism) -> str:
+    """What likely makes a mechanism's DOF count wrong, for its refusal: links no chain of
+    joints reaches from the ground (each floats with 3 DOF of its own), and points of different
+    links drawn on one spot under two names (two points, so no joint: a pin given twice)."""
+    neighbours: dict[str, set[str]] = {name: set() for name in mech.links}
+    for a, b in [(j.parent, j.child) for j in mech.revolutes] + [
+        (pj.guide, pj.slider) for pj in mech.prismatics.values()
+    ]:
+        neighbours[a].add(b)
+        neighbours[b].add(a)
+    reached, todo = {mech.ground}, [mech.ground]
+    while todo:
+        for other in neighbours[todo.pop()] - reached:
+            reached.add(other)
+            todo.append(other)
+    hints = []
+    floating = [repr(name) for name in mech.links if name not in reached]
+    if floating:
+        which = 'link' if len(floating) == 1 else 'links'
+        hints.append(
+            f'no chain of joints joins {which} {_listed(floating)} to the ground link '
+            f'{mech.ground!r}'
+        )
+    first_at: dict[tuple[float, ...], str] = {}
+    twice = []
+    for p, xy in mech.points.items():
+        q = first_at.setdefault(tuple(float(v) for v in xy), p)
+        if q != p:
+            twice.append(f'{q} and {p}')
+    if twice:
+        hints.append(
+            f'points {_listed(twice)} are drawn on one spot but are two points, so no joint '
+            'joins them: if they are one pin, give it one name'
+        )
+    return ''.join(f'; {h}' for h in hints)
 
 
 def _coinciding(members: Sequence[str], points: Mapping[str, np.ndarray]) -> list[tuple[str, str]]:
@@ -337,12 +407,13 @@ def _revolute_joints(
     ctx: SceneContext,
     points: Mapping[str, np.ndarray],
     links: Mapping[str, Link],
-    prismatics: Mapping[str, PrismaticJoint],
+    prismatic_keys: Mapping[str, str],
 ) -> list[RevoluteJoint]:
-    """A revolute joint wherever links share a point (the first link listed is the parent)."""
+    """A revolute joint wherever links share a point (the first link listed is the parent);
+    ``prismatic_keys``: the prismatic joints' names -> their keys in the file."""
 
     revolutes: list[RevoluteJoint] = []
-    used_names: set[str] = set(prismatics)
+    used_names: set[str] = set(prismatic_keys)
     owners_of: dict[str, list[str]] = {}  # one pass over the links, not one per point
     for n, l in links.items():
         for p in l.points:
@@ -353,6 +424,13 @@ def _revolute_joints(
             ctx.fail(f'points.{pname}', 'is on no link', pname, has_value=False)
         for child in owners[1:]:
             jname = pname if len(owners) == 2 else f'{pname}_{child}'
+            pin = f'the pin at point {pname!r} between links {owners[0]!r} and {child!r}'
+            if jname in prismatic_keys:  # the prismatic was named by the file: name its key
+                ctx.fail(
+                    prismatic_keys[jname],
+                    f'is also the name of a revolute joint, {pin}; give it another name',
+                    jname,
+                )
             if jname in used_names:
                 ctx.fail(
                     f'points.{pname}', f'joint name {jname!r} clashes with another joint', jname
@@ -399,9 +477,13 @@ def _read_outputs(
     else:
         if not isinstance(outputs_raw, list):
             ctx.fail('outputs', 'must be a list of point names', outputs_raw)
+        listed: set[str] = set()
         for p in outputs_raw:
             if not ctx.known(p, points):
                 ctx.fail('outputs', f'unknown point {echo(p)}', p)
+            if p in listed:  # it would be published twice, under one name
+                ctx.fail('outputs', f'lists point {p!r} twice; list each point once', outputs_raw)
+            listed.add(p)
         outputs = tuple(outputs_raw)
 
     return outputs

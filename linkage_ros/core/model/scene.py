@@ -44,7 +44,7 @@ class Scene:
         text = read_text(path)
         try:
             data = yaml.load(text, Loader=UniqueKeyLoader)
-        except _OutOfBounds as exc:
+        except _RefusedScalarOrDepth as exc:
             raise SceneError(str(exc), file=path, key=exc.key) from None
         except yaml.YAMLError as exc:
             mark = getattr(exc, 'problem_mark', None)
@@ -150,9 +150,10 @@ def read_text(path: str, limit: int | None = None, kind: str = 'scene file') -> 
         ) from None
 
 
-class _OutOfBounds(yaml.YAMLError):
+class _RefusedScalarOrDepth(yaml.YAMLError):
     """A scene beyond a structural bound (nesting deeper than MAX_SCENE_DEPTH, raised before
-    the composer recurses; a number longer than MAX_NUMBER_CHARS), with the key it is under."""
+    the composer recurses; a number longer than MAX_NUMBER_CHARS) or a number written in a
+    YAML 1.1 form that reads as another value, with the key it is under."""
 
     def __init__(self, message: str, key: str):
         super().__init__(message)
@@ -168,10 +169,28 @@ def _key_label(index: object) -> str | None:
     return None
 
 
+_INT_TAG = 'tag:yaml.org,2002:int'
+_FLOAT_TAG = 'tag:yaml.org,2002:float'
+#: An int with a leading 0 and more after it: octal (010 = 8), hex (0x1), binary (0b1).
+_PREFIXED_INT = re.compile(r'[-+]?0[0-9a-zA-Z]')
+
+
+def is_yaml11_number_form(tag: str, text: str) -> bool:
+    """Whether a number's text is one of YAML 1.1's forms that read as another value than the
+    digits show (0_05 = 5, 010 = 8, 0x1 = 1, 1:30 = 90); plain ints, floats, exponents and
+    .inf/.nan are not. Only the characters of a number are looked at: it stays cheap."""
+    if tag == _INT_TAG:
+        return '_' in text or ':' in text or _PREFIXED_INT.match(text) is not None
+    if tag == _FLOAT_TAG:
+        return '_' in text or ':' in text
+    return False
+
+
 class UniqueKeyLoader(yaml.SafeLoader):
     """safe_load that refuses a key given twice in one mapping (YAML's last-one-wins would build
-    a different mechanism than the file shows) and reads 1e-3 as a number (YAML 1.2), not as the
-    string YAML 1.1 makes of an exponent without a dot."""
+    a different mechanism than the file shows), reads 1e-3 as a number (YAML 1.2), not as the
+    string YAML 1.1 makes of an exponent without a dot, and refuses YAML 1.1's number forms
+    that read as another value than the digits show (0_05, 010, 0x1, 1:30)."""
 
     def __init__(self, stream: Any):
         super().__init__(stream)
@@ -207,7 +226,7 @@ class UniqueKeyLoader(yaml.SafeLoader):
                 err.key = self._where() or None  # type: ignore[attr-defined]
                 raise err
             if self._depth > MAX_SCENE_DEPTH + 1:  # + 1: the document's top node
-                raise _OutOfBounds(
+                raise _RefusedScalarOrDepth(
                     f'nested deeper than {MAX_SCENE_DEPTH} levels (line '
                     f'{self.peek_event().start_mark.line + 1})',  # type: ignore[no-untyped-call]
                     self._where(),
@@ -218,16 +237,26 @@ class UniqueKeyLoader(yaml.SafeLoader):
                 and len(node.value) > MAX_NUMBER_CHARS
                 and node.tag.endswith((':int', ':float'))
             ):
-                raise _OutOfBounds(
+                raise _RefusedScalarOrDepth(
                     f'a number of {len(node.value)} characters is out of range '
                     f'(at most {MAX_NUMBER_CHARS}; line {node.start_mark.line + 1})',
                     self._where(),
                 )
+            if isinstance(node, yaml.ScalarNode) and is_yaml11_number_form(node.tag, node.value):
+                raise _RefusedScalarOrDepth(self._yaml11_refusal(node), self._where())
             return node
         finally:
             self._depth -= 1
             if label is not None:
                 self._path.pop()
+
+    def _yaml11_refusal(self, node: yaml.ScalarNode) -> str:
+        reads_as = self.yaml_constructors[node.tag](self, node)
+        return (
+            f'{echo(node.value)} is a YAML 1.1 number form (underscores, octal, hex, binary, '
+            f'base 60) that reads as {reads_as!r}: write the number plainly '
+            f'(line {node.start_mark.line + 1})'
+        )
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Hashable, Any]:
         seen: dict[Any, Any] = {}
@@ -256,7 +285,7 @@ class UniqueKeyLoader(yaml.SafeLoader):
 
 # YAML 1.1 floats need a dot and a signed exponent (1.0e+3); also take 1e-3, 1E5, 2.5e3, .5e3.
 UniqueKeyLoader.add_implicit_resolver(
-    'tag:yaml.org,2002:float',
+    _FLOAT_TAG,
     re.compile(r'^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$'),
     list('-+0123456789.'),
 )

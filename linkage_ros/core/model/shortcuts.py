@@ -50,8 +50,10 @@ def _reference_input(
     lengths: list[float],
     intervals: Callable[[], list[tuple[float, float]]],
 ) -> _Points:
-    """The reference crank angle: ``input`` if given (it must assemble), else the assembling
-    angle nearest ``start`` (60 degrees above the ground line). ``assemble(theta)`` returns the
+    """The reference crank angle: ``input`` if given (it must assemble), else the first angle
+    that assembles stepping out from ``start`` (60 degrees above the ground line) both ways by
+    about 0.01 rad: inside the reachable range, up to a step short of a toggle, not on it
+    (docs/SCENES.md, "The default input"). ``assemble(theta)`` returns the
     reference points or None; ``intervals()`` lists the (lo, hi) crank angles that assemble
     (exact, from the closure condition)."""
     if 'input' in spec:
@@ -170,6 +172,16 @@ def four_bar_to_general(
                 'puts the coupler point beyond the float range',
                 cp.get('distance'),
             )
+        # the general form would refuse it under links.coupler, a key this file does not have
+        for other in ('A', 'B'):
+            if np.array_equal(points[pname], points[other]):
+                ctx.fail(
+                    'four_bar.coupler_point.distance',
+                    f'puts {pname} on {other} (at {points[other].tolist()}): two points of one '
+                    f'rigid link are one point; give another distance or angle, or drop '
+                    f'coupler_point and publish {other} itself (outputs: [{other}])',
+                    cp.get('distance'),
+                )
         coupler.append(pname)
     crank = _crank_actuator(ctx, 'four_bar', fb)
     general = {

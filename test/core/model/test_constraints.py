@@ -264,6 +264,30 @@ def test_bad_constraints_are_refused_naming_the_key(change, key, words):
     assert key in str(err.value) and words in str(err.value), str(err.value)
 
 
+def test_a_slot_whose_pin_block_name_is_a_link_names_that_link():
+    data = slotted_lever(1.0, 0.05, 0.0, 1)
+    data['points']['X'] = [0.5, 0.5]
+    data['links']['slot_pin'] = ['O4', 'X']
+    with pytest.raises(SceneError) as err:
+        Scene.from_dict(data)
+    assert str(err.value) == (
+        "<scene>: slots[0].name: link name 'slot_pin' (made for the slot's pin block) is "
+        "already used; give the slot another name (got 'slot')"
+    )
+
+
+def test_a_distance_beside_a_link_named_like_a_pin_block_loads():
+    """A distance makes no pin block: a link NAME_pin beside distance NAME is no clash."""
+    data = {
+        'points': four_bar_points(1.0, 1),
+        'links': {'ground': ['O2', 'O4'], 'crank': ['O2', 'A'], 'tie_pin': ['O4', 'B']},
+        'distances': [{'name': 'tie', 'between': ['A', 'B']}],
+        'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
+    }
+    mech = Scene.from_dict(data).mechanism
+    assert mech.links['tie'].points == ('A', 'B') and 'tie_pin' in mech.links
+
+
 def test_constraints_refused_beside_a_shortcut():
     with pytest.raises(SceneError, match='general-form key'):
         Scene.from_dict(

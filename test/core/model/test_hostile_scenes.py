@@ -8,6 +8,7 @@ RecursionError / ValueError tracebacks, and any size of file was read whole."""
 
 from __future__ import annotations
 
+import math
 import os
 import subprocess
 import sys
@@ -20,6 +21,7 @@ from scenes import CONFIG
 
 from linkage_ros.core.errors import ECHO_CHARS, SceneError
 from linkage_ros.core.model import MAX_NUMBER_CHARS, MAX_SCENE_BYTES, MAX_SCENE_DEPTH, Scene
+from linkage_ros.core.model.scene import UniqueKeyLoader
 
 FOUR_BAR = (CONFIG / 'four_bar.yaml').read_text()
 
@@ -137,6 +139,65 @@ def test_an_enormous_number_is_refused_before_conversion(tmp_path):
     assert proc.returncode == 2 and 'Traceback' not in proc.stderr, proc.stderr[-500:]
 
 
+@pytest.mark.parametrize(
+    ('key', 'written', 'reads_as'),
+    [
+        ('rocker', '0_2', '2'),  # underscores are dropped
+        ('crank', '010', '8'),  # octal
+        ('crank', '-010', '-8'),
+        ('ground', '0x1', '1'),  # hex
+        ('ground', '0b11', '3'),  # binary
+        ('input', '1:30', '90'),  # base 60
+        ('input', '1:30.5', '90.5'),
+        ('rocker', '0.2_5', '0.25'),
+        ('rocker', '2_5e-2', '0.25'),  # the YAML 1.2 exponent form with an underscore
+    ],
+)
+def test_a_yaml11_number_form_is_refused_naming_the_key_and_the_text(
+    tmp_path, key, written, reads_as
+):
+    path = tmp_path / 'yaml11.yaml'
+    old = next(line for line in FOUR_BAR.splitlines() if line.startswith(f'  {key}: '))
+    path.write_text(FOUR_BAR.replace(old, f'  {key}: {written}'))
+    err = refused_fast(path, f'four_bar.{key}', f"'{written}' is a YAML 1.1 number form")
+    assert f'reads as {reads_as}: write the number plainly' in str(err)
+
+
+def test_a_yaml11_number_in_a_point_names_its_index(tmp_path):
+    path = tmp_path / 'point.yaml'
+    path.write_text('points: {O2: [0, 0], A: [0_05, 0.0866]}\n')
+    refused_fast(path, 'points.A[0]', "'0_05' is a YAML 1.1 number form")
+
+
+@pytest.mark.parametrize(
+    ('written', 'value'),
+    [
+        ('0', 0),
+        ('-0', 0),
+        ('10', 10),
+        ('+3', 3),
+        ('0.05', 0.05),
+        ('00.5', 0.5),
+        ('1e-3', 1e-3),
+        ('1.0e+3', 1e3),
+        ('.5e3', 500.0),
+        ('.inf', math.inf),
+        ('-.inf', -math.inf),
+        ('"010"', '010'),  # quoted: a string, refused later as one
+        ('60deg', '60deg'),  # unit strings stay strings
+        ('300mm', '300mm'),
+        ('1:30deg', '1:30deg'),
+    ],
+)
+def test_plain_numbers_and_strings_read_as_written(written, value):
+    read = yaml.load(f'v: {written}\n', Loader=UniqueKeyLoader)['v']
+    assert read == value and type(read) is type(value)
+
+
+def test_nan_reads_as_nan():
+    assert math.isnan(yaml.load('v: .nan\n', Loader=UniqueKeyLoader)['v'])
+
+
 def test_a_long_value_is_echoed_as_a_short_prefix(tmp_path):
     path = tmp_path / 'long.yaml'
     path.write_text(FOUR_BAR.replace('rocker: 0.20', 'rocker: "' + 'x' * 500_000 + '"'))
@@ -153,6 +214,57 @@ def test_a_cylinder_named_like_a_link_is_refused(tmp_path):
     path = tmp_path / 'clash.yaml'
     path.write_text(yaml.safe_dump(data))
     refused_fast(path, f'cylinders.{link}', 'is the name of a link')
+
+
+CRANK = {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O'}}
+SLIDER_CRANK = {
+    'points': {'O': [0, 0], 'A': [0.1, 0.1], 'B': [0.3, 0]},
+    'links': {'ground': ['O'], 'crank': ['O', 'A'], 'rod': ['A', 'B'], 'blk': ['B']},
+    'actuators': CRANK,
+}
+SLOTTED = {
+    'points': {'O': [0, 0], 'A': [0.0, 0.1], 'O4': [0, -0.3]},
+    'links': {'ground': ['O', 'O4'], 'crank': ['O', 'A'], 'lever': ['O4']},
+    'actuators': CRANK,
+}
+
+
+@pytest.mark.parametrize(
+    ('data', 'key', 'pin'),
+    [
+        (
+            {
+                **SLIDER_CRANK,
+                'sliders': [{'name': 'A', 'guide': 'ground', 'slider': 'blk', 'point': 'B'}],
+            },
+            'sliders.A',
+            "the pin at point 'A' between links 'crank' and 'rod'",
+        ),
+        (
+            {
+                'points': {'O': [0, 0], 'P': [0.4, -0.1], 'Q': [0.6, 0.25]},
+                'links': {'ground': ['O', 'P'], 'boom': ['O', 'Q']},
+                'cylinders': {'O': {'from': 'P', 'to': 'Q'}},
+            },
+            'cylinders.O',
+            "the pin at point 'O' between links 'ground' and 'boom'",
+        ),
+        (
+            {**SLOTTED, 'slots': [{'name': 'O4', 'point': 'A', 'link': 'lever', 'angle': 1.5}]},
+            'slots.O4',
+            "the pin at point 'O4' between links 'ground' and 'lever'",
+        ),
+    ],
+)
+def test_a_prismatic_named_like_a_revolute_joint_is_refused_naming_its_own_key(data, key, pin):
+    with pytest.raises(SceneError) as info:
+        Scene.from_dict(data)
+    name = key.split('.')[1]
+    assert info.value.key == key
+    assert str(info.value) == (
+        f'<scene>: {key}: is also the name of a revolute joint, {pin}; give it another name '
+        f'(got {name!r})'
+    )
 
 
 @pytest.mark.parametrize(('ends', 'link'), [(('O', 'P'), 'ground'), (('O', 'Q'), 'boom')])
