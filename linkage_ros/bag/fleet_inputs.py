@@ -28,6 +28,9 @@ FORMATS = ('csv', 'parquet', 'mcap', 'sqlite3', 'png', 'svg')
 #: the file written last for each finished bag (its outputs are complete: see fleet_task)
 MANIFEST_SUFFIX = '.done.json'
 
+#: what a bag's recorded trajectories' and paths' CSV adds to its name
+TRAJECTORIES_SUFFIX = '.trajectories.csv'
+
 #: the fleet summary files in --out-dir
 SUMMARY_NAMES = ('summary.csv', 'summary.json')
 
@@ -48,11 +51,18 @@ class BagTask:
 
     def trajectories(self, out_dir: str) -> Path:
         """The CSV of the recorded trajectories and paths (only with --trajectory/path-topic)."""
-        return Path(out_dir, *PurePosixPath(self.name).parts[:-1], self.leaf + '.trajectories.csv')
+        return Path(out_dir, *PurePosixPath(self.name).parts[:-1], self.leaf + TRAJECTORIES_SUFFIX)
 
     @property
     def leaf(self) -> str:
         return PurePosixPath(self.name).name
+
+    def owned_names(self) -> list[str]:
+        """Every path under --out-dir (POSIX, relative) this bag may write or, with --resume,
+        remove as its own leftover: its output in every format (not only this run's), its
+        trajectories' CSV and its manifest."""
+        names = [f'{self.name}.{fmt}' for fmt in FORMATS]
+        return names + [self.name + TRAJECTORIES_SUFFIX, self.name + MANIFEST_SUFFIX]
 
 
 def _is_bag_folder(p: Path) -> bool:
@@ -112,12 +122,55 @@ def _expand(item: str) -> list[tuple[str, Path | None]]:
     return [(m, base) for m in matches]
 
 
+class _OutputOwners:
+    """The paths under --out-dir the bags found so far own (BagTask.owned_names), to refuse
+    a bag whose outputs would overwrite another's before any work: two bags of one name, but
+    also bag ``x``'s ``x.trajectories.csv`` against bag ``x.trajectories``'s CSV, or bag
+    ``x``'s result bag folder ``x.mcap/`` against bag ``x.mcap/y``'s outputs inside it."""
+
+    def __init__(self) -> None:
+        self.owner: dict[str, BagTask] = {}  # owned path -> its bag
+        self.folder_of: dict[str, BagTask] = {}  # a folder holding an owned path -> its bag
+
+    def claim(self, task: BagTask) -> None:
+        """Record ``task``'s paths; BagError if another bag owns one of them, a folder one of
+        them lies in, or a path inside one of them."""
+        owned = task.owned_names()
+        for path in owned:
+            above = [str(f) for f in PurePosixPath(path).parents if str(f) != '.']
+            outer = next((f for f in above if f in self.owner), None)
+            if path in self.owner:
+                other, clash = self.owner[path], f'two bags would write the same output {path}'
+            elif path in self.folder_of:  # (another's outputs lie in this one)
+                other, clash = self.folder_of[path], f"one bag's outputs would lie in {path}"
+            elif outer is not None:
+                other, clash = self.owner[outer], f"one bag's outputs would lie in {outer}"
+            else:
+                continue
+            if other.name == task.name:
+                raise BagError(
+                    f'two bags would write the same outputs {task.name}.*: {other.source} and '
+                    f'{task.source} (rename one, or give the folder above them both: names '
+                    'are taken from the folder given)'
+                )
+            raise BagError(
+                f'{clash}: {other.source} (named {other.name}) and {task.source} (named '
+                f'{task.name}); a bag named N writes N.<format>, N{TRAJECTORIES_SUFFIX} and '
+                f'N{MANIFEST_SUFFIX} (rename one)'
+            )
+        for path in owned:
+            self.owner[path] = task
+            for f in PurePosixPath(path).parents:
+                if str(f) != '.':
+                    self.folder_of[str(f)] = task
+
+
 def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
     """The bags of the inputs in the order given (each folder's in sorted order), each once;
     of a folder's or a pattern's, none from under the folder ``skip`` (resolved: the run's
     --out-dir, whose result bags are not inputs; a bag named itself is kept, for the caller
-    to refuse); BagError for a missing input, a folder holding no bag, or two bags of the
-    same name."""
+    to refuse); BagError for a missing input, a folder holding no bag, or two bags whose
+    outputs would share a path (_OutputOwners)."""
 
     def kept(found: list[tuple[Path, str]]) -> list[tuple[Path, str]]:
         if skip is None:
@@ -126,7 +179,7 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
 
     tasks: list[BagTask] = []
     seen: dict[str, str] = {}  # resolved source -> name
-    names: dict[str, str] = {}  # name -> source
+    owners = _OutputOwners()
     for item in inputs:
         for path, base in _expand(item):
             p = Path(path)
@@ -156,14 +209,10 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
                 source = str(bag.resolve())
                 if source in seen:
                     continue
-                if name in names:
-                    raise BagError(
-                        f'two bags would write the same outputs {name}.*: {names[name]} and '
-                        f'{source} (rename one, or give the folder above them both: names '
-                        'are taken from the folder given)'
-                    )
-                seen[source], names[name] = name, source
-                tasks.append(BagTask(source, name))
+                task = BagTask(source, name)
+                owners.claim(task)
+                seen[source] = name
+                tasks.append(task)
     if not tasks:
         raise BagError('no bag given')
     return tasks

@@ -24,14 +24,14 @@ import shutil
 import time
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 import numpy as np
 
 from ..heap import set_malloc_thresholds
 from .common import BagError
-from .fleet_inputs import FORMATS, BagTask
+from .fleet_inputs import BagTask
 from .plans import PlanRequest, decoded_plans, path_point, plan_topics, read_plan_requests
 from .progress import Progress
 from .reading import Commands, exc_text, read_commands
@@ -418,8 +418,7 @@ def stale_outputs(task: BagTask, opts: BagOptions) -> list[Path]:
     manifest, and the staging leftovers of a killed run (``.NAME.PID.partial``); BagError for
     a folder where a file output goes, or a file where an output bag (a folder) goes: not the
     tool's, never removed."""
-    finals = [task.output(opts.out_dir, f) for f in FORMATS]
-    finals += [task.trajectories(opts.out_dir), task.manifest(opts.out_dir)]
+    finals = [Path(opts.out_dir, *PurePosixPath(n).parts) for n in task.owned_names()]
     found = [p for p in finals if p.exists() or p.is_symlink()]
     for p in found:
         folder = p.is_dir() and not p.is_symlink()

@@ -1,0 +1,48 @@
+"""Tests of which bags a fleet run takes and what it names their outputs (linkage_ros/bag/
+fleet_inputs.py), for inputs an outside review found mishandled: bags whose outputs would
+overwrite each other, a bag folder given as ``.``, one bag given both as its folder and as its
+storage file. Oracles: the bags' own folder names and message counts (what they were written
+with), and the outputs each bag must own alone."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+from test_fleet import COMMON, run, write_fleet_bag
+
+from linkage_ros import bag
+from linkage_ros.bag.fleet_inputs import find_bags
+
+
+@pytest.fixture(scope='module')
+def one_bag(tmp_path_factory):
+    """An MCAP bag folder ``run`` of 30 commands and one recorded trajectory."""
+    path = tmp_path_factory.mktemp('names') / 'run'
+    write_fleet_bag(path, 'mcap', 30, 0.2, trajs=[[[0.1 * k] for k in range(4)]])
+    return path
+
+
+def test_a_bag_whose_outputs_would_overwrite_anothers_is_refused_before_any_work(
+    one_bag, tmp_path, capsys
+):
+    """Bags x and x.trajectories: x's trajectories went to x.trajectories.csv, which the other
+    bag's command table then replaced (exit 0, both manifests listing it: --resume took x as
+    complete). Only two bags of one name were refused."""
+    rec = tmp_path / 'rec'
+    shutil.copytree(one_bag, rec / 'x')
+    shutil.copytree(one_bag, rec / 'x.trajectories')
+    out = tmp_path / 'out'
+    code, cap = run([rec, *COMMON, '--out-dir', out, '--jobs', 1], capsys)
+    assert code == 2, cap.err
+    assert 'two bags would write the same output x.trajectories.csv' in cap.err, cap.err
+    assert not out.exists()
+    # a bag's result bag folder (x.mcap/) holding another bag's outputs (x.mcap/y.*)
+    shutil.rmtree(rec / 'x.trajectories')
+    shutil.copytree(one_bag, rec / 'x.mcap' / 'y')
+    with pytest.raises(bag.BagError, match=r"one bag's outputs would lie in x\.mcap: "):
+        find_bags([str(rec)])
+    # names that share a beginning only are kept apart
+    shutil.rmtree(rec / 'x.mcap')
+    shutil.copytree(one_bag, rec / 'x_trajectories')
+    assert [t.name for t in find_bags([str(rec)])] == ['x', 'x_trajectories']
