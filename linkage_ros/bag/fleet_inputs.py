@@ -186,7 +186,9 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
             if not p.exists():
                 raise BagError(f'input {path}: no such file or folder')
             # a match of a pattern is named from the pattern's folder (two days' run/ apart)
-            at = Path(p.name) if base is None else p.relative_to(base)
+            # a bag given itself is named after its real folder, also as '.' or '..' (whose
+            # name is '' or '..'), without following a symlink to another name
+            at = Path(Path(os.path.abspath(p)).name) if base is None else p.relative_to(base)
             if _is_bag_folder(p) or _is_storage_file(p):
                 found = [(p, _bag_name(at, p.is_file()))]
                 if base is not None:  # (a pattern's match)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import shutil
 
 import pytest
-from test_fleet import COMMON, run, write_fleet_bag
+from test_fleet import COMMON, run, summary_rows, write_fleet_bag
 
 from linkage_ros import bag
 from linkage_ros.bag.fleet_inputs import find_bags
@@ -46,3 +46,28 @@ def test_a_bag_whose_outputs_would_overwrite_anothers_is_refused_before_any_work
     shutil.rmtree(rec / 'x.mcap')
     shutil.copytree(one_bag, rec / 'x_trajectories')
     assert [t.name for t in find_bags([str(rec)])] == ['x', 'x_trajectories']
+
+
+def test_a_bag_folder_given_as_dot_is_named_after_the_folder(
+    one_bag, tmp_path, capsys, monkeypatch
+):
+    """`cd run && linkage bag . --out-dir ../out` wrote ../out/.csv and .done.json (hidden
+    files) and a summary row with an empty bag name."""
+    monkeypatch.chdir(one_bag)
+    out = tmp_path / 'out'
+    code, cap = run(['.', *COMMON, '--out-dir', out, '--jobs', 1], capsys)
+    assert code == 0, cap.err
+    assert sorted(p.name for p in out.iterdir()) == [
+        'run.csv',
+        'run.done.json',
+        'run.trajectories.csv',
+        'summary.csv',
+        'summary.json',
+    ]
+    rows, _ = summary_rows(out)
+    assert list(rows) == ['run'] and rows['run']['messages'] == str(30 + 1)
+    # and as '..' (from a folder inside it)
+    shutil.copytree(one_bag, tmp_path / 'copy')
+    (tmp_path / 'copy' / 'inner').mkdir()
+    monkeypatch.chdir(tmp_path / 'copy' / 'inner')
+    assert [t.name for t in find_bags(['..'])] == ['copy']
