@@ -73,6 +73,25 @@ def _is_storage_file(p: Path) -> bool:
     return p.is_file() and p.suffix.lower() in STORAGE_SUFFIXES
 
 
+def _storage_files(folder: Path) -> list[Path]:
+    return [f for f in folder.iterdir() if _is_storage_file(f)]
+
+
+def _bag_identity(bag: Path) -> str:
+    """Which bag a found path is (resolved): a bag folder's only storage file is that folder's
+    bag (the same messages, read once when both are given); one file of a split bag is a
+    bag of its own (a part: find_bags refuses it beside its folder)."""
+    resolved = bag.resolve()
+    folder = resolved.parent
+    if resolved.is_file() and _is_bag_folder(folder):
+        try:
+            if len(_storage_files(folder)) == 1:
+                return str(folder)
+        except OSError:  # (an unlistable folder: the file is taken as given)
+            pass
+    return str(resolved)
+
+
 def _bag_name(rel: Path, is_file: bool) -> str:
     parts = list(rel.parts)
     if is_file:
@@ -166,11 +185,13 @@ class _OutputOwners:
 
 
 def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
-    """The bags of the inputs in the order given (each folder's in sorted order), each once;
+    """The bags of the inputs in the order given (each folder's in sorted order), each once
+    (a bag folder and its only storage file are one bag: the first given is kept);
     of a folder's or a pattern's, none from under the folder ``skip`` (resolved: the run's
     --out-dir, whose result bags are not inputs; a bag named itself is kept, for the caller
-    to refuse); BagError for a missing input, a folder holding no bag, or two bags whose
-    outputs would share a path (_OutputOwners)."""
+    to refuse); BagError for a missing input, a folder holding no bag, two bags whose
+    outputs would share a path (_OutputOwners), or a split bag's folder beside one of its
+    storage files."""
 
     def kept(found: list[tuple[Path, str]]) -> list[tuple[Path, str]]:
         if skip is None:
@@ -178,7 +199,7 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
         return [(bag, name) for bag, name in found if skip not in bag.resolve().parents]
 
     tasks: list[BagTask] = []
-    seen: dict[str, str] = {}  # resolved source -> name
+    seen: set[str] = set()  # the bags taken (_bag_identity)
     owners = _OutputOwners()
     for item in inputs:
         for path, base in _expand(item):
@@ -208,13 +229,20 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
                     'file, or a folder holding bags)'
                 )
             for bag, name in found:
-                source = str(bag.resolve())
-                if source in seen:
+                identity = _bag_identity(bag)
+                if identity in seen:
                     continue
-                task = BagTask(source, name)
+                task = BagTask(str(bag.resolve()), name)
                 owners.claim(task)
-                seen[source] = name
+                seen.add(identity)
                 tasks.append(task)
     if not tasks:
         raise BagError('no bag given')
+    for t in tasks:  # (a part of a split bag beside the whole: its messages counted twice)
+        folder = Path(t.source).parent
+        if str(folder) in seen and _bag_identity(Path(t.source)) != str(folder):
+            raise BagError(
+                f'input {t.source} is one storage file of the bag {folder}, also given: give '
+                'the bag folder or its files, not both (their messages would be counted twice)'
+            )
     return tasks

@@ -71,3 +71,24 @@ def test_a_bag_folder_given_as_dot_is_named_after_the_folder(
     (tmp_path / 'copy' / 'inner').mkdir()
     monkeypatch.chdir(tmp_path / 'copy' / 'inner')
     assert [t.name for t in find_bags(['..'])] == ['copy']
+
+
+def test_a_bag_given_as_its_folder_and_its_storage_file_is_analysed_once(one_bag, tmp_path, capsys):
+    """`linkage bag a a/a.mcap` (or 'rec/**/*.mcap' with rec/) analysed the bag twice and
+    summed its messages twice in the totals."""
+    rec = tmp_path / 'rec'
+    shutil.copytree(one_bag, rec / 'a')
+    (storage,) = (rec / 'a').glob('*.mcap')
+    out = tmp_path / 'out'
+    code, cap = run([rec / 'a', storage, *COMMON, '--out-dir', out, '--jobs', 1], capsys)
+    assert code == 0, cap.err
+    rows, doc = summary_rows(out)
+    assert list(rows) == ['a'] and doc['totals']['messages'] == 30 + 1  # (as written)
+    # the other way round, a pattern's match first: the first given names it
+    tasks = find_bags([str(rec / '**' / '*.mcap'), str(rec)])
+    assert [(t.name, t.source) for t in tasks] == [('a/' + storage.stem, str(storage))]
+    # one file of a split bag is a part of it: beside the whole bag it is refused
+    shutil.copy(storage, rec / 'a' / 'part_1.mcap')
+    with pytest.raises(bag.BagError, match='is one storage file of the bag .*also given'):
+        find_bags([str(rec / 'a'), str(rec / 'a' / 'part_1.mcap')])
+    assert len(find_bags([str(rec / '**' / '*.mcap')])) == 2  # (its parts alone: two bags)
