@@ -82,8 +82,9 @@ def pick_refusal(names: Sequence[str], npos: int, wanted: Container[str]) -> str
         return (
             f'JointState has {len(names)} name(s) but {npos} position(s): cannot read {echo(found)}'
         )
-    if len(set(found)) != len(found):
-        return f'JointState names {echo(sorted(set(found)))} more than once'
+    repeated = sorted(n for n, count in collections.Counter(found).items() if count > 1)
+    if repeated:  # (the repeated ones only: a wanted name given once is no fault)
+        return f'JointState names {echo(repeated)} more than once'
     return None
 
 
