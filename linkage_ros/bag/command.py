@@ -364,7 +364,7 @@ def _check_outputs(outs: list[str], plot: str | None):
 
 
 USAGE_ERROR, OK = 2, 0
-#: every request of the bag refused (the outputs are written: they say why)
+#: no request of the bag answered: every one refused, or none read (the outputs are written)
 ALL_REFUSED = 1
 
 
@@ -389,9 +389,9 @@ many bags (--out-dir DIR; docs/FLEET.md):
   writes DIR/<bag path relative to its input folder>.<format> per bag, DIR/summary.csv and
   DIR/summary.json (one row per bag; a damaged bag fails alone, its row says why).
 
-exit status: 0 done (refused commands are rows, not failures); 1 every request refused, or
-every message skipped by --state-completion (the outputs are written; a wrong --scene or
-topic?); 2 unusable input, output or
-options (missing file, not a bag, missing topic, wrong type, truncated or corrupt bag); with
---out-dir: 1 some bag had every request refused, 3 some bags failed (the others are complete).
+exit status: 0 done (refused commands are rows, not failures); 1 every request refused,
+every message skipped by --state-completion, or no message on the topics given (the outputs
+are written; a wrong --scene or topic?); 2 unusable input, output or options (missing file,
+not a bag, missing topic, wrong type, truncated or corrupt bag); with --out-dir: 1 some bag
+had no request answered (as above), 3 some bags failed (the others are complete).
 """

@@ -48,7 +48,7 @@ class BagStatus(StrEnum):
     say)."""
 
     OK = 'ok'  # some command answered
-    REFUSED = 'all refused'  # every command refused (or none to answer): exit status 1
+    REFUSED = 'all refused'  # every request refused, or none read: exit status 1
     FAILED = 'failed'  # the bag could not be analysed: exit status 3
 
 
@@ -210,20 +210,26 @@ def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanReque
 
 
 def unanswered(data: Commands, res: Results, plans: list[PlanRequest]) -> str | None:
-    """Why a bag whose messages were read got no answer at all (its exit status is 1, its
-    fleet row 'all refused'), or None: some message was answered, or none was read."""
+    """Why a bag got no answer at all (its exit status is 1, its fleet row 'all refused'):
+    every request refused, every message skipped by --state-completion, or no message on the
+    topics given; None when some request was answered."""
     if int(np.count_nonzero(res.ok)) + sum(1 for p in plans if p.succeeded):
         return None
     if data.n or plans:
         return REFUSED_HINT
     if data.skipped:
         return SKIPPED_HINT.format(data.skipped)
-    return None
+    return EMPTY_HINT
 
 
 REFUSED_HINT = (
     'every request was refused: is --scene the mechanism that was recorded, and '
     '--command-topic its commands? (the first reasons are in the outputs)'
+)
+#: no message on the topics given (a topic recorded empty, or the wrong one): nothing answered
+EMPTY_HINT = (
+    'nothing to solve: no message on the topics given; is --command-topic the topic the '
+    'commands were recorded on?'
 )
 #: every message skipped by --state-completion: none named the mechanism's inputs
 SKIPPED_HINT = (

@@ -207,7 +207,10 @@ def test_the_summary_shows_each_kind_of_refusal_by_a_real_one(tmp_path, capsys):
         [empty, '--scene', path, '--command-topic', '/cmd', '--out', tmp_path / 'e.csv'],
         capsys,
     )
-    assert code == 0 and 'nothing to solve: no message on the topics given' in cap.out
+    assert 'nothing to solve: no message on the topics given' in cap.out
+    # nothing answered is no success (it exited 0, as if every command had been answered)
+    assert code == 1 and 'is --command-topic the topic' in cap.err, cap.err
+    assert read_csv(tmp_path / 'e.csv') == []  # (the outputs are written, as when all refused)
 
 
 # ---- plot, progress, number text ---------------------------------------------------------------
