@@ -90,8 +90,10 @@ class BagOptions:
 
 @dataclass(frozen=True)
 class BagRow:
-    """A bag's line in the fleet summary. Stamps are bag receive times (ns since the epoch);
-    margin and residual are over the answered commands (None when none was answered)."""
+    """A bag's line in the fleet summary. ``messages`` counts every message read, those
+    --state-completion skipped (no request) too: answered + refused are the requests. Stamps
+    are bag receive times (ns since the epoch); margin and residual are over the answered
+    commands (None when none was answered)."""
 
     bag: str
     source: str
@@ -184,7 +186,7 @@ def load_options_scene(opts: BagOptions) -> Any:
 def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanRequest]) -> BagRow:
     ok = np.asarray(res.ok, bool)
     plans_ok = sum(1 for p in plans if p.succeeded)
-    messages = data.n + len(plans)
+    requests = data.n + len(plans)
     answered = int(np.count_nonzero(ok)) + plans_ok
     margins = res.margin[ok]
     margins = margins[~np.isnan(margins)]
@@ -197,9 +199,9 @@ def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanReque
         bag=task.name,
         source=task.source,
         status=BagStatus.REFUSED if why else BagStatus.OK,
-        messages=messages,
+        messages=requests + data.skipped,  # (read: --state-completion's skipped ones too)
         answered=answered,
-        refused=messages - answered,
+        refused=requests - answered,
         missing=int(sum(data.missing.values())),
         min_margin=float(margins.min()) if margins.size else None,
         max_residual=float(residuals.max()) if residuals.size else None,

@@ -10,7 +10,7 @@ from pathlib import Path
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from scenes import CONFIG
-from test_bag import joint_state, make_input
+from test_bag import joint_state, make_input, write_bag
 from test_fleet import JS, TS, run, summary_rows
 
 SCENE = CONFIG / 'four_bar.yaml'
@@ -37,3 +37,34 @@ def test_a_bag_with_no_command_is_not_ok(tmp_path, capsys):
     assert 'no message on the topics given' in rows['empty']['reason']
     assert rows[good.name]['status'] == 'ok' and rows[good.name]['messages'] == '5'
     assert doc['totals']['all_refused'] == 1
+
+
+def test_messages_counts_every_message_read_with_state_completion(tmp_path, capsys):
+    """summary.csv's messages left out those --state-completion skipped: 25 where 27 were
+    read, and 0 for a bag whose every message was skipped while its reason said 'none of the
+    5 message(s) read'. FLEET.md: messages read; answered + refused are the requests."""
+    crank = [
+        ('/joint_states', 10**9 + k * 10**7, joint_state(['arm', 'crank'], [1.0, 0.1 * k], 1, k))
+        for k in range(25)
+    ]
+    other = [
+        ('/joint_states', 2 * 10**9 + k, joint_state(['wrist'], [0.1], 2, k)) for k in range(5)
+    ]
+    mixed, skipped = tmp_path / 'mixed', tmp_path / 'skipped'
+    write_bag(mixed, 'mcap', crank + other[:2])  # 27 messages, 2 without the crank
+    write_bag(skipped, 'mcap', other)  # 5, none with it
+    out = tmp_path / 'out'
+    code, cap = run([mixed, skipped, '--scene', SCENE, '--command-topic', '/joint_states',
+                     '--state-completion', '--out-dir', out, '--jobs', 1], capsys)  # fmt: skip
+    assert code == 1, cap.out + cap.err  # (the bag with none of the inputs)
+    rows, doc = summary_rows(out)
+    m, s = rows['mixed'], rows['skipped']
+    assert (m['status'], m['messages'], m['answered'], m['refused']) == ('ok', '27', '25', '0')
+    assert (s['status'], s['messages'], s['answered'], s['refused']) == (
+        'all refused',
+        '5',
+        '0',
+        '0',
+    )
+    assert 'none of the 5 message(s) read' in s['reason']
+    assert doc['totals']['messages'] == 27 + 5
