@@ -144,7 +144,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar='PNG',
         default=None,
         help='write coupler-point traces and input/joint curves to this image '
-        '(format from the extension: png, svg, pdf, ...; PNG if none)',
+        '(format from the extension: png, svg, pdf, ...; PNG if none); with or without --out',
     )
     parser.add_argument(
         '--accept-missing',
@@ -202,8 +202,10 @@ def _run(args) -> int:
             f'{len(args.input)} inputs: several bags need --out-dir DIR (--out names the '
             'outputs of one bag)'
         )
-    if not args.out:
-        raise BagError('no output: give --out OUTPUT (one bag) or --out-dir DIR (many)')
+    if not args.out and not args.plot:  # (a plot alone is an output too)
+        raise BagError(
+            'no output: give --out OUTPUT and/or --plot IMAGE (one bag) or --out-dir DIR (many)'
+        )
     source = args.input[0]
     _one_bag(source)
     scene = check_options(args)

@@ -117,6 +117,20 @@ def test_plot_without_extension_writes_the_named_file(tmp_path, scene, capsys):
     assert f'wrote {png} (plot)' in cap.out
 
 
+def test_a_plot_alone_is_an_output(tmp_path, scene, capsys):
+    """`--plot run.png` without --out failed 'no output: give --out ...' though an output (the
+    plot) was asked for. It is written; with no output at all the message names --plot too."""
+    src = _small_bag(tmp_path, n=5)
+    png = tmp_path / 'run.png'
+    common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
+    code, cap = run_bag([*common, '--plot', png], capsys)
+    assert code == 0, cap.err
+    assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and f'wrote {png} (plot)' in cap.out
+    assert not list(tmp_path.glob('*.csv'))  # (nothing else)
+    code, cap = run_bag(common, capsys)
+    assert code == 2 and 'no output: give --out OUTPUT and/or --plot IMAGE' in cap.err
+
+
 def test_csv_time_of_negative_and_unnormalised_stamps(tmp_path, scene, capsys):
     """The 'time' column is sec + nanosec * 1e-9 exactly (as rclpy reads a stamp): a negative
     second was printed as '-5.000000001' for -4.999999999 and a nanosec field >= 1e9 as garbage
