@@ -37,6 +37,7 @@ def test_a_bag_with_no_command_is_not_ok(tmp_path, capsys):
     assert 'no message on the topics given' in rows['empty']['reason']
     assert rows[good.name]['status'] == 'ok' and rows[good.name]['messages'] == '5'
     assert doc['totals']['all_refused'] == 1
+    assert '2 bag(s): 1 ok, 1 with no request answered, 0 failed' in cap.out
 
 
 def test_messages_counts_every_message_read_with_state_completion(tmp_path, capsys):
