@@ -37,6 +37,27 @@ def name_count_error(count: int, max_names: int) -> str | None:
     )
 
 
+def joint_names_error(names: Sequence[str], max_names: int) -> str | None:
+    """Why a JointTrajectory's ``joint_names`` are malformed (none, too many, an empty or a
+    repeated name), or None; in the trajectory's own words (a JointState's are
+    :func:`request_shape_error`'s)."""
+    if len(names) > max_names:
+        return (
+            f'JointTrajectory joint_names has {len(names)} names; the scene has only {max_names} '
+            'names (actuators, joints, links, and points as <point>.x and <point>.y) to give '
+            'values for'
+        )
+    if not names:
+        return 'JointTrajectory joint_names is empty'
+    empty = [i for i, n in enumerate(names) if not n]
+    if empty:
+        return f'JointTrajectory joint_names[{empty[0]}] is an empty string'
+    repeated = sorted(n for n, count in collections.Counter(names).items() if count > 1)
+    if repeated:
+        return f'JointTrajectory joint_names {echo(repeated)} more than once'
+    return None
+
+
 def request_shape_error(
     names: Sequence[str], npos: int, max_names: int | None = None
 ) -> str | None:
@@ -82,8 +103,9 @@ def pick_refusal(names: Sequence[str], npos: int, wanted: Container[str]) -> str
         return (
             f'JointState has {len(names)} name(s) but {npos} position(s): cannot read {echo(found)}'
         )
-    if len(set(found)) != len(found):
-        return f'JointState names {echo(sorted(set(found)))} more than once'
+    repeated = sorted(n for n, count in collections.Counter(found).items() if count > 1)
+    if repeated:  # (the repeated ones only: a wanted name given once is no fault)
+        return f'JointState names {echo(repeated)} more than once'
     return None
 
 

@@ -25,7 +25,7 @@ from .core.solver.result import branch_text
 from .core.velocity import velocities
 from .engine import Engine
 from .point_coordinates import group_point_coordinates
-from .request_checks import max_request_names, rates_error, request_shape_error
+from .request_checks import joint_names_error, max_request_names, rates_error
 from .stamps import frame_error, names_frame_error, stamp_ns
 
 #: the most points one trajectory may have (a 10 s trajectory at 1 kHz)
@@ -230,9 +230,9 @@ def check_shape(
         return _refused('empty trajectory: no points')
     if n > MAX_TRAJECTORY_POINTS:
         return _refused(too_many_points('trajectory', n, 'points'))
-    why = request_shape_error(names, len(names), max_request_names(engine.mech))
+    why = joint_names_error(names, max_request_names(engine.mech))
     if why:
-        return _refused(f'joint_names: {why}')
+        return _refused(why)
     for i, row in enumerate(positions):
         if len(row) != len(names):
             return _refused(f'point {i} has {len(row)} position(s) for {len(names)} joint_names', i)

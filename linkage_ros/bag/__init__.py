@@ -6,6 +6,8 @@
                       [--solver S] [--branch B] [--tol T] [--max-iter N]
                       [--plot out.png] [--no-progress]
 
+(``--plot`` alone, without ``--out``, writes the plot only.)
+
 INPUT is a rosbag2 folder (sqlite3 or MCAP storage) or a single ``.mcap`` / ``.db3`` file, read
 with the pure-Python ``rosbags`` library (no ROS installation needed). The command topic carries
 ``sensor_msgs/msg/JointState`` naming the scene's actuators, exactly like the node's ``~/command``;

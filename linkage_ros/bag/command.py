@@ -144,7 +144,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar='PNG',
         default=None,
         help='write coupler-point traces and input/joint curves to this image '
-        '(format from the extension: png, svg, pdf, ...; PNG if none)',
+        '(format from the extension: png, svg, pdf, ...; PNG if none); with or without --out',
     )
     parser.add_argument(
         '--accept-missing',
@@ -202,8 +202,10 @@ def _run(args) -> int:
             f'{len(args.input)} inputs: several bags need --out-dir DIR (--out names the '
             'outputs of one bag)'
         )
-    if not args.out:
-        raise BagError('no output: give --out OUTPUT (one bag) or --out-dir DIR (many)')
+    if not args.out and not args.plot:  # (a plot alone is an output too)
+        raise BagError(
+            'no output: give --out OUTPUT and/or --plot IMAGE (one bag) or --out-dir DIR (many)'
+        )
     source = args.input[0]
     _one_bag(source)
     scene = check_options(args)
@@ -364,7 +366,7 @@ def _check_outputs(outs: list[str], plot: str | None):
 
 
 USAGE_ERROR, OK = 2, 0
-#: every request of the bag refused (the outputs are written: they say why)
+#: no request of the bag answered: every one refused, or none read (the outputs are written)
 ALL_REFUSED = 1
 
 
@@ -389,9 +391,9 @@ many bags (--out-dir DIR; docs/FLEET.md):
   writes DIR/<bag path relative to its input folder>.<format> per bag, DIR/summary.csv and
   DIR/summary.json (one row per bag; a damaged bag fails alone, its row says why).
 
-exit status: 0 done (refused commands are rows, not failures); 1 every request refused, or
-every message skipped by --state-completion (the outputs are written; a wrong --scene or
-topic?); 2 unusable input, output or
-options (missing file, not a bag, missing topic, wrong type, truncated or corrupt bag); with
---out-dir: 1 some bag had every request refused, 3 some bags failed (the others are complete).
+exit status: 0 done (refused commands are rows, not failures); 1 every request refused,
+every message skipped by --state-completion, or no message on the topics given (the outputs
+are written; a wrong --scene or topic?); 2 unusable input, output or options (missing file,
+not a bag, missing topic, wrong type, truncated or corrupt bag); with --out-dir: 1 some bag
+had no request answered (as above), 3 some bags failed (the others are complete).
 """

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from enum import StrEnum
 
 from ..core.errors import LinkageError
@@ -42,9 +43,15 @@ def output_topics(outputs: list[str], plans: bool) -> list[str]:
     )
 
 
+#: a fully qualified ROS 2 topic name: '/' then tokens of letters, digits and _ (none starting
+#: with a digit) joined by single '/' (rmw's rules: a result bag is replayed into ROS)
+ABSOLUTE_TOPIC = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]*)+')
+
+
 def parse_remaps(items: list[str], topics: list[str]) -> dict[str, str]:
     """--remap FROM:=TO items -> {FROM: TO}; BagError for a malformed item, a FROM that is not
-    one of ``topics``, a TO that is not an absolute topic name or that two topics share."""
+    one of ``topics``, a TO that is not an absolute ROS 2 topic name (ABSOLUTE_TOPIC) or that
+    two topics share."""
     remap: dict[str, str] = {}
     for item in items:
         old, sep, new = item.partition(':=')
@@ -55,8 +62,12 @@ def parse_remaps(items: list[str], topics: list[str]) -> dict[str, str]:
                 f'--remap {item!r}: {old} is not an output topic; the output topics are '
                 + ', '.join(topics)
             )
-        if not new.startswith('/') or any(c.isspace() for c in new) or new.endswith('/'):
-            raise BagError(f'--remap {item!r}: {new!r} is not an absolute topic name (/a/b)')
+        if not ABSOLUTE_TOPIC.fullmatch(new):
+            raise BagError(
+                f"--remap {item!r}: {new!r} is not an absolute topic name ('/' then names of "
+                "letters, digits and _, none starting with a digit, joined by single '/': "
+                '/a/b)'
+            )
         remap[old] = new
     final = [remap.get(t, t) for t in topics]
     if len(set(final)) != len(final):

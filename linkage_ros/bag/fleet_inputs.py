@@ -28,6 +28,9 @@ FORMATS = ('csv', 'parquet', 'mcap', 'sqlite3', 'png', 'svg')
 #: the file written last for each finished bag (its outputs are complete: see fleet_task)
 MANIFEST_SUFFIX = '.done.json'
 
+#: what a bag's recorded trajectories' and paths' CSV adds to its name
+TRAJECTORIES_SUFFIX = '.trajectories.csv'
+
 #: the fleet summary files in --out-dir
 SUMMARY_NAMES = ('summary.csv', 'summary.json')
 
@@ -48,11 +51,18 @@ class BagTask:
 
     def trajectories(self, out_dir: str) -> Path:
         """The CSV of the recorded trajectories and paths (only with --trajectory/path-topic)."""
-        return Path(out_dir, *PurePosixPath(self.name).parts[:-1], self.leaf + '.trajectories.csv')
+        return Path(out_dir, *PurePosixPath(self.name).parts[:-1], self.leaf + TRAJECTORIES_SUFFIX)
 
     @property
     def leaf(self) -> str:
         return PurePosixPath(self.name).name
+
+    def owned_names(self) -> list[str]:
+        """Every path under --out-dir (POSIX, relative) this bag may write or, with --resume,
+        remove as its own leftover: its output in every format (not only this run's), its
+        trajectories' CSV and its manifest."""
+        names = [f'{self.name}.{fmt}' for fmt in FORMATS]
+        return names + [self.name + TRAJECTORIES_SUFFIX, self.name + MANIFEST_SUFFIX]
 
 
 def _is_bag_folder(p: Path) -> bool:
@@ -61,6 +71,25 @@ def _is_bag_folder(p: Path) -> bool:
 
 def _is_storage_file(p: Path) -> bool:
     return p.is_file() and p.suffix.lower() in STORAGE_SUFFIXES
+
+
+def _storage_files(folder: Path) -> list[Path]:
+    return [f for f in folder.iterdir() if _is_storage_file(f)]
+
+
+def _bag_identity(bag: Path) -> str:
+    """Which bag a found path is (resolved): a bag folder's only storage file is that folder's
+    bag (the same messages, read once when both are given); one file of a split bag is a
+    bag of its own (a part: find_bags refuses it beside its folder)."""
+    resolved = bag.resolve()
+    folder = resolved.parent
+    if resolved.is_file() and _is_bag_folder(folder):
+        try:
+            if len(_storage_files(folder)) == 1:
+                return str(folder)
+        except OSError:  # (an unlistable folder: the file is taken as given)
+            pass
+    return str(resolved)
 
 
 def _bag_name(rel: Path, is_file: bool) -> str:
@@ -112,12 +141,57 @@ def _expand(item: str) -> list[tuple[str, Path | None]]:
     return [(m, base) for m in matches]
 
 
+class _OutputOwners:
+    """The paths under --out-dir the bags found so far own (BagTask.owned_names), to refuse
+    a bag whose outputs would overwrite another's before any work: two bags of one name, but
+    also bag ``x``'s ``x.trajectories.csv`` against bag ``x.trajectories``'s CSV, or bag
+    ``x``'s result bag folder ``x.mcap/`` against bag ``x.mcap/y``'s outputs inside it."""
+
+    def __init__(self) -> None:
+        self.owner: dict[str, BagTask] = {}  # owned path -> its bag
+        self.folder_of: dict[str, BagTask] = {}  # a folder holding an owned path -> its bag
+
+    def claim(self, task: BagTask) -> None:
+        """Record ``task``'s paths; BagError if another bag owns one of them, a folder one of
+        them lies in, or a path inside one of them."""
+        owned = task.owned_names()
+        for path in owned:
+            above = [str(f) for f in PurePosixPath(path).parents if str(f) != '.']
+            outer = next((f for f in above if f in self.owner), None)
+            if path in self.owner:
+                other, clash = self.owner[path], f'two bags would write the same output {path}'
+            elif path in self.folder_of:  # (another's outputs lie in this one)
+                other, clash = self.folder_of[path], f"one bag's outputs would lie in {path}"
+            elif outer is not None:
+                other, clash = self.owner[outer], f"one bag's outputs would lie in {outer}"
+            else:
+                continue
+            if other.name == task.name:
+                raise BagError(
+                    f'two bags would write the same outputs {task.name}.*: {other.source} and '
+                    f'{task.source} (rename one, or give the folder above them both: names '
+                    'are taken from the folder given)'
+                )
+            raise BagError(
+                f'{clash}: {other.source} (named {other.name}) and {task.source} (named '
+                f'{task.name}); a bag named N writes N.<format>, N{TRAJECTORIES_SUFFIX} and '
+                f'N{MANIFEST_SUFFIX} (rename one)'
+            )
+        for path in owned:
+            self.owner[path] = task
+            for f in PurePosixPath(path).parents:
+                if str(f) != '.':
+                    self.folder_of[str(f)] = task
+
+
 def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
-    """The bags of the inputs in the order given (each folder's in sorted order), each once;
+    """The bags of the inputs in the order given (each folder's in sorted order), each once
+    (a bag folder and its only storage file are one bag: the first given is kept);
     of a folder's or a pattern's, none from under the folder ``skip`` (resolved: the run's
     --out-dir, whose result bags are not inputs; a bag named itself is kept, for the caller
-    to refuse); BagError for a missing input, a folder holding no bag, or two bags of the
-    same name."""
+    to refuse); BagError for a missing input, a folder holding no bag, two bags whose
+    outputs would share a path (_OutputOwners), or a split bag's folder beside one of its
+    storage files."""
 
     def kept(found: list[tuple[Path, str]]) -> list[tuple[Path, str]]:
         if skip is None:
@@ -125,15 +199,17 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
         return [(bag, name) for bag, name in found if skip not in bag.resolve().parents]
 
     tasks: list[BagTask] = []
-    seen: dict[str, str] = {}  # resolved source -> name
-    names: dict[str, str] = {}  # name -> source
+    seen: set[str] = set()  # the bags taken (_bag_identity)
+    owners = _OutputOwners()
     for item in inputs:
         for path, base in _expand(item):
             p = Path(path)
             if not p.exists():
                 raise BagError(f'input {path}: no such file or folder')
             # a match of a pattern is named from the pattern's folder (two days' run/ apart)
-            at = Path(p.name) if base is None else p.relative_to(base)
+            # a bag given itself is named after its real folder, also as '.' or '..' (whose
+            # name is '' or '..'), without following a symlink to another name
+            at = Path(Path(os.path.abspath(p)).name) if base is None else p.relative_to(base)
             if _is_bag_folder(p) or _is_storage_file(p):
                 found = [(p, _bag_name(at, p.is_file()))]
                 if base is not None:  # (a pattern's match)
@@ -153,17 +229,20 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
                     'file, or a folder holding bags)'
                 )
             for bag, name in found:
-                source = str(bag.resolve())
-                if source in seen:
+                identity = _bag_identity(bag)
+                if identity in seen:
                     continue
-                if name in names:
-                    raise BagError(
-                        f'two bags would write the same outputs {name}.*: {names[name]} and '
-                        f'{source} (rename one, or give the folder above them both: names '
-                        'are taken from the folder given)'
-                    )
-                seen[source], names[name] = name, source
-                tasks.append(BagTask(source, name))
+                task = BagTask(str(bag.resolve()), name)
+                owners.claim(task)
+                seen.add(identity)
+                tasks.append(task)
     if not tasks:
         raise BagError('no bag given')
+    for t in tasks:  # (a part of a split bag beside the whole: its messages counted twice)
+        folder = Path(t.source).parent
+        if str(folder) in seen and _bag_identity(Path(t.source)) != str(folder):
+            raise BagError(
+                f'input {t.source} is one storage file of the bag {folder}, also given: give '
+                'the bag folder or its files, not both (their messages would be counted twice)'
+            )
     return tasks

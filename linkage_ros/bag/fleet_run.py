@@ -9,7 +9,8 @@ and below it each bag being analysed has its own (one line per local worker; not
 cluster, whose workers have no terminal).
 At the end ``summary.csv`` and ``summary.json`` (one row per bag) are written to DIR.
 
-Exit status: 0 every bag analysed; 1 some bag had every request refused (and none failed);
+Exit status: 0 every bag analysed; 1 some bag had no request answered: every one refused,
+or none on the topics given (and none failed);
 2 unusable options or inputs (nothing run); 3 some bags failed (their rows say why; the others
 are complete).
 """

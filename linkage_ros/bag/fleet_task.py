@@ -24,14 +24,14 @@ import shutil
 import time
 from dataclasses import asdict, dataclass, field
 from enum import StrEnum
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 import numpy as np
 
 from ..heap import set_malloc_thresholds
 from .common import BagError
-from .fleet_inputs import FORMATS, BagTask
+from .fleet_inputs import BagTask
 from .plans import PlanRequest, decoded_plans, path_point, plan_topics, read_plan_requests
 from .progress import Progress
 from .reading import Commands, exc_text, read_commands
@@ -48,7 +48,7 @@ class BagStatus(StrEnum):
     say)."""
 
     OK = 'ok'  # some command answered
-    REFUSED = 'all refused'  # every command refused (or none to answer): exit status 1
+    REFUSED = 'all refused'  # every request refused, or none read: exit status 1
     FAILED = 'failed'  # the bag could not be analysed: exit status 3
 
 
@@ -90,8 +90,10 @@ class BagOptions:
 
 @dataclass(frozen=True)
 class BagRow:
-    """A bag's line in the fleet summary. Stamps are bag receive times (ns since the epoch);
-    margin and residual are over the answered commands (None when none was answered)."""
+    """A bag's line in the fleet summary. ``messages`` counts every message read, those
+    --state-completion skipped (no request) too: answered + refused are the requests. Stamps
+    are bag receive times (ns since the epoch); margin and residual are over the answered
+    commands (None when none was answered)."""
 
     bag: str
     source: str
@@ -184,7 +186,7 @@ def load_options_scene(opts: BagOptions) -> Any:
 def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanRequest]) -> BagRow:
     ok = np.asarray(res.ok, bool)
     plans_ok = sum(1 for p in plans if p.succeeded)
-    messages = data.n + len(plans)
+    requests = data.n + len(plans)
     answered = int(np.count_nonzero(ok)) + plans_ok
     margins = res.margin[ok]
     margins = margins[~np.isnan(margins)]
@@ -197,9 +199,9 @@ def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanReque
         bag=task.name,
         source=task.source,
         status=BagStatus.REFUSED if why else BagStatus.OK,
-        messages=messages,
+        messages=requests + data.skipped,  # (read: --state-completion's skipped ones too)
         answered=answered,
-        refused=messages - answered,
+        refused=requests - answered,
         missing=int(sum(data.missing.values())),
         min_margin=float(margins.min()) if margins.size else None,
         max_residual=float(residuals.max()) if residuals.size else None,
@@ -210,20 +212,26 @@ def _row_from(task: BagTask, data: Commands, res: Results, plans: list[PlanReque
 
 
 def unanswered(data: Commands, res: Results, plans: list[PlanRequest]) -> str | None:
-    """Why a bag whose messages were read got no answer at all (its exit status is 1, its
-    fleet row 'all refused'), or None: some message was answered, or none was read."""
+    """Why a bag got no answer at all (its exit status is 1, its fleet row 'all refused'):
+    every request refused, every message skipped by --state-completion, or no message on the
+    topics given; None when some request was answered."""
     if int(np.count_nonzero(res.ok)) + sum(1 for p in plans if p.succeeded):
         return None
     if data.n or plans:
         return REFUSED_HINT
     if data.skipped:
         return SKIPPED_HINT.format(data.skipped)
-    return None
+    return EMPTY_HINT
 
 
 REFUSED_HINT = (
     'every request was refused: is --scene the mechanism that was recorded, and '
     '--command-topic its commands? (the first reasons are in the outputs)'
+)
+#: no message on the topics given (a topic recorded empty, or the wrong one): nothing answered
+EMPTY_HINT = (
+    'nothing to solve: no message on the topics given; is --command-topic the topic the '
+    'commands were recorded on?'
 )
 #: every message skipped by --state-completion: none named the mechanism's inputs
 SKIPPED_HINT = (
@@ -418,8 +426,7 @@ def stale_outputs(task: BagTask, opts: BagOptions) -> list[Path]:
     manifest, and the staging leftovers of a killed run (``.NAME.PID.partial``); BagError for
     a folder where a file output goes, or a file where an output bag (a folder) goes: not the
     tool's, never removed."""
-    finals = [task.output(opts.out_dir, f) for f in FORMATS]
-    finals += [task.trajectories(opts.out_dir), task.manifest(opts.out_dir)]
+    finals = [Path(opts.out_dir, *PurePosixPath(n).parts) for n in task.owned_names()]
     found = [p for p in finals if p.exists() or p.is_symlink()]
     for p in found:
         folder = p.is_dir() and not p.is_symlink()

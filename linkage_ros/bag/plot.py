@@ -76,7 +76,8 @@ def plot_figure(data: Commands, res: Results, mech, max_points: int = 20000):
         angle = isinstance(act, AngleActuator)
         y = res.inputs[a][idx]
         if angle:
-            y = np.arctan2(np.sin(y), np.cos(y))
+            with np.errstate(invalid='ignore'):  # (a refused +-inf command: a gap anyway)
+                y = np.arctan2(np.sin(y), np.cos(y))
         _series(ax2, t, y, ok, angle, lw=1.6, label=f'input {a}')
     for j in mech.joint_names:
         _series(

@@ -6,6 +6,7 @@ from __future__ import annotations
 import math
 import os
 import shutil
+import warnings
 
 import numpy as np
 from rosbags.rosbag2 import Writer
@@ -207,7 +208,10 @@ def test_the_summary_shows_each_kind_of_refusal_by_a_real_one(tmp_path, capsys):
         [empty, '--scene', path, '--command-topic', '/cmd', '--out', tmp_path / 'e.csv'],
         capsys,
     )
-    assert code == 0 and 'nothing to solve: no message on the topics given' in cap.out
+    assert 'nothing to solve: no message on the topics given' in cap.out
+    # nothing answered is no success (it exited 0, as if every command had been answered)
+    assert code == 1 and 'is --command-topic the topic' in cap.err, cap.err
+    assert read_csv(tmp_path / 'e.csv') == []  # (the outputs are written, as when all refused)
 
 
 # ---- plot, progress, number text ---------------------------------------------------------------
@@ -239,6 +243,24 @@ def test_plot_and_progress(tmp_path, scene, capsys, monkeypatch):
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and png.stat().st_size > 10_000
     assert 'solving' in cap.err and '100%' in cap.err and '300/300' in cap.err  # tqdm, on stderr
     assert 'wrote' in cap.out and 'time' in cap.out
+
+
+def test_plot_of_infinite_commands_warns_of_nothing(tmp_path, scene, capsys):
+    """A refused +-inf command leaked numpy's 'invalid value encountered in sin/cos' (the
+    plot wraps each input angle) with --plot and with the fleet's --format png: the row is a
+    gap in the plot, nothing to warn of."""
+    values = [0.5, math.inf, 0.6, -math.inf, math.nan, 0.7]
+    msgs = [('/cmd', 10**9 + i, joint_state(['crank'], [v])) for i, v in enumerate(values)]
+    src = make_input(tmp_path, 'mcap', msgs)
+    common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter('always')
+        code, cap = run_bag([*common, '--out', tmp_path / 'p.csv', '--plot', tmp_path / 'p.png'])
+        assert code == 0 and (tmp_path / 'p.png').stat().st_size > 1000
+        code = bag.main([str(a) for a in [*common, '--out-dir', tmp_path / 'all', '--jobs', 1]]
+                        + ['--format', 'png'])  # fmt: skip
+        assert code == 0 and (tmp_path / 'all' / f'{src.name}.png').stat().st_size > 1000
+    assert [str(w.message) for w in caught if issubclass(w.category, RuntimeWarning)] == []
 
 
 def test_plot_shows_an_accepted_row_between_refused_ones(tmp_path, scene):

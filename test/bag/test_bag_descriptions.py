@@ -165,3 +165,28 @@ def test_a_value_beyond_a_revolute_joints_limits_is_refused_as_the_node_refuses_
         else:
             assert r['reason'] == want.reason, (r['reason'], want.reason)
             assert 'its maximum 0.8' in want.reason or 'its minimum 0' in want.reason
+
+
+GRBDA = FIXTURES / 'grbda_four_bar.urdf'
+
+
+def test_an_infinite_command_on_a_description_is_refused_as_infinite(tmp_path, capsys):
+    """The description's angle wrap turned +-inf into NaN before the finiteness check: the bag
+    refused +inf as 'got nan' and showed nan as the input, where the node says 'got inf'."""
+    values = [1.0, math.inf, -math.inf, math.nan]
+    msgs = [('/cmd', (k + 1) * 10**6, joint_state(['joint1'], [v])) for k, v in enumerate(values)]
+    folder = tmp_path / 'in'
+    write_bag(folder, 'mcap', msgs)
+    out = tmp_path / 'out.csv'
+    args = [folder, '--scene', GRBDA, '--command-topic', '/cmd', '--out', out, '--no-progress']
+    code, cap = run_bag(args, capsys)
+    assert code == 0, cap.err
+    rows = read_csv(out)
+    assert [r['status'] for r in rows] == ['ok', 'error', 'error', 'error']
+    for r, given in zip(rows[1:], ['inf', '-inf', 'nan']):
+        assert r['reason'] == f'joint1: value must be finite (got {given})', r['reason']
+        assert r['input.joint1'] == given
+    # the node's path says the same
+    engine = Engine(load_scene(str(GRBDA)).mechanism, EngineSettings())
+    for v, given in zip(values[1:], ['inf', '-inf', 'nan']):
+        assert engine.command({'joint1': v}).reason == f'joint1: value must be finite (got {given})'

@@ -111,6 +111,26 @@ def test_the_output_bag_has_the_nodes_topic_names_and_remap_renames(tmp_path, ca
         assert not (tmp_path / 'c').exists()
 
 
+def test_remap_refuses_what_ros_refuses_as_a_topic_name(tmp_path, capsys):
+    """'/x//y', '/1abc' and '/x?' were accepted (a result bag ROS cannot replay). Oracle: the
+    ROS 2 topic name rules ('/' then tokens of [A-Za-z0-9_], none starting with a digit,
+    joined by single '/')."""
+    src = make_bag(tmp_path / 'in', [0.1, 0.2])
+    common = [src, '--scene', SCENE, '--command-topic', '/cmd']
+    for bad in ['/x//y', '/1abc', '/x?', '/x/2y', '/', '/x/', '//x', '/x y', '/é', 'x']:
+        code, cap = run(
+            [*common, '--out', tmp_path / 'c', '--remap', f'/joint_states:={bad}'], capsys
+        )
+        assert code == 2 and f'{bad!r} is not an absolute topic name' in cap.err, (bad, cap.err)
+        assert not (tmp_path / 'c').exists()
+    for good in ['/_x', '/a1/b_2/C', '/x__y']:
+        out = tmp_path / good.replace('/', '_')
+        code, cap = run([*common, '--out', out, '--remap', f'/joint_states:={good}'], capsys)
+        assert code == 0, cap.err
+        with Reader(out) as r:
+            assert good in {c.topic for c in r.connections}
+
+
 def test_a_bag_whose_every_command_is_refused_exits_1_with_a_hint(tmp_path, capsys):
     """Recorded for another mechanism (names the scene does not have): not a success."""
     src = make_bag(tmp_path / 'in', [0.1, 0.2, 0.3], names=('boom',))

@@ -23,6 +23,7 @@ from test_bag import (  # noqa: F401
     refused_stderr,
     run_bag,
     wrap,
+    write_bag,
 )
 
 from linkage_ros import bag
@@ -115,6 +116,47 @@ def test_plot_without_extension_writes_the_named_file(tmp_path, scene, capsys):
     assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n'
     assert not (tmp_path / 'trace.png').exists()
     assert f'wrote {png} (plot)' in cap.out
+
+
+def test_a_plot_alone_is_an_output(tmp_path, scene, capsys):
+    """`--plot run.png` without --out failed 'no output: give --out ...' though an output (the
+    plot) was asked for. It is written; with no output at all the message names --plot too."""
+    src = _small_bag(tmp_path, n=5)
+    png = tmp_path / 'run.png'
+    common = [src, '--scene', scene, '--command-topic', '/cmd', '--no-progress']
+    code, cap = run_bag([*common, '--plot', png], capsys)
+    assert code == 0, cap.err
+    assert png.read_bytes()[:8] == b'\x89PNG\r\n\x1a\n' and f'wrote {png} (plot)' in cap.out
+    assert not list(tmp_path.glob('*.csv'))  # (nothing else)
+    code, cap = run_bag(common, capsys)
+    assert code == 2 and 'no output: give --out OUTPUT and/or --plot IMAGE' in cap.err
+
+
+def test_a_trajectory_naming_a_joint_twice_is_refused_in_its_own_words(tmp_path, scene, capsys):
+    """A JointTrajectory with joint_names ['crank', 'crank'] was refused as 'joint_names:
+    JointState names ['crank'] more than once' (a JointState's words for a trajectory)."""
+    m = TS.types
+    point = m['trajectory_msgs/msg/JointTrajectoryPoint'](
+        positions=np.array([0.1, 0.2]),
+        velocities=np.zeros(0),
+        accelerations=np.zeros(0),
+        effort=np.zeros(0),
+        time_from_start=m['builtin_interfaces/msg/Duration'](sec=1, nanosec=0),
+    )
+    stamp = m['builtin_interfaces/msg/Time'](sec=1, nanosec=0)
+    header = m['std_msgs/msg/Header'](stamp=stamp, frame_id='')
+    traj = m['trajectory_msgs/msg/JointTrajectory'](
+        header=header, joint_names=['crank', 'crank'], points=[point]
+    )
+    src = tmp_path / 'in'
+    msgs = [('/cmd', 10**9 + i, joint_state(['crank'], [0.1 * i])) for i in range(3)]
+    write_bag(src, 'mcap', msgs, [('/traj', 'trajectory_msgs/msg/JointTrajectory', traj)])
+    out = tmp_path / 'o.csv'
+    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--trajectory-topic',
+                         '/traj', '--out', out, '--no-progress'], capsys)  # fmt: skip
+    assert code == 0, cap.err
+    (row,) = read_csv(tmp_path / 'o.trajectories.csv')
+    assert row['reason'] == "JointTrajectory joint_names ['crank'] more than once", row
 
 
 def test_csv_time_of_negative_and_unnormalised_stamps(tmp_path, scene, capsys):

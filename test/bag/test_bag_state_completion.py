@@ -131,3 +131,28 @@ def test_a_bag_whose_every_message_is_skipped_is_no_success(tmp_path, capsys):
     assert '--scene' in cap.err
     assert '  /joint_states: 29 (29 skipped)' in cap.out
     assert read_csv(out) == []  # the outputs are written, as for every refused bag
+
+
+def test_a_repeated_input_is_named_alone(tmp_path, capsys):
+    """['Z1', 'Z1', 'Z2'] was refused as "JointState names ['Z1', 'Z2'] more than once": the
+    rule the node and the bag share (request_checks.pick_refusal) listed every input the
+    message carried, not the repeated ones. Oracle: the names each message was written with."""
+    twice = 'JointState names {} more than once'
+    written = [
+        (['Z1', 'Z2', 'Z3'], [1.6, 1.9, 1.5], None),
+        (['Z1', 'Z1', 'Z2'], [1.6, 1.61, 1.9], twice.format("['Z1']")),
+        (['Z1', 'Z2', 'Z1', 'Z3'], [1.6, 1.9, 1.61, 1.5], twice.format("['Z1']")),
+        (['Z3', 'Z3', 'Z1', 'Z1', 'arm'], [1.5] * 5, twice.format("['Z1', 'Z3']")),
+    ]
+    msgs = [
+        ('/joint_states', 10**9 + k * 10**7, joint_state(names, pos, 1 + k, 0))
+        for k, (names, pos, _) in enumerate(written)
+    ]
+    src = make_input(tmp_path, 'mcap', msgs)
+    out = tmp_path / 'o.csv'
+    args = [src, '--scene', CONFIG / 'excavator.yaml', '--command-topic', '/joint_states']
+    code, cap = run_bag([*args, '--state-completion', '--out', out, '--no-progress'], capsys)
+    assert code == 0, cap.err
+    rows = read_csv(out)
+    assert rows[0]['status'] == 'ok', rows[0]['reason']
+    assert [r['reason'] for r in rows[1:]] == [why for _, _, why in written[1:]]

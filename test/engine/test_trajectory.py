@@ -109,7 +109,16 @@ def test_a_bin_path_comes_back_as_throws_that_reproduce_it():
         (['crank'], [[0.1], [0.2]], [[0.0], [math.inf]], [0, 1], 'point 1: velocity', 1),
         # an inverse trajectory refuses a NaN velocity as a forward one does (it was dropped)
         (['rocker'], [[1.9], [1.91]], [[0.0], [math.nan]], [0, 1], 'point 1: velocity', 1),
-        (['crank', 'crank'], [[0.1, 0.1]], (), [0], 'more than once', None),
+        # in the trajectory's words (it said 'joint_names: JointState names ...')
+        (
+            ['crank', 'crank'],
+            [[0.1, 0.1]],
+            (),
+            [0],
+            "JointTrajectory joint_names ['crank'] more",
+            None,
+        ),
+        (['crank', ''], [[0.1, 0.1]], (), [0], 'JointTrajectory joint_names[1] is', None),
         (['wrench'], [[0.1]], (), [0], "point 0: unknown name 'wrench'", 0),
         # a solved trajectory's time_from_start is a Duration: int32 seconds
         (['crank'], [[0.1]], (), [(2**31 - 1) * 10**9 + 4 * 10**9], 'outside what a Duration', 0),

@@ -181,6 +181,10 @@ def test_joint_state_pick_reads_only_the_wanted_names():
         joint_state_pick(JointState(name=['joint1', 'arm'], position=[1.0]), wanted)
     with pytest.raises(CommandError, match='more than once'):
         joint_state_pick(JointState(name=['joint1', 'joint1'], position=[1.0, 2.0]), wanted)
+    # the repeated name alone (every input found was named)
+    with pytest.raises(CommandError, match=r"^JointState names \['joint1'\] more than once$"):
+        repeated = JointState(name=['joint1', 'joint2', 'joint1'], position=[1.0, 2.0, 3.0])
+        joint_state_pick(repeated, wanted)
 
 
 def test_state_completion_keeps_publishing_a_mimic_follower_it_reads_back(ros, procs):

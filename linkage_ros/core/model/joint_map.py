@@ -77,6 +77,17 @@ def wrap(angle: Any) -> Any:
     return math.remainder(angle, 2.0 * math.pi)
 
 
+def wrap_given(angle: Any) -> Any:
+    """``angle`` wrapped (:func:`wrap`) where it is finite; an infinite or NaN value as given
+    (a float, or elementwise for an array): a command of +inf is refused as ``got inf``, and a
+    refused row shows inf, where wrapping made it NaN (or raised, for a float)."""
+    if isinstance(angle, np.ndarray):
+        finite = np.isfinite(angle)
+        with np.errstate(invalid='ignore'):  # (fmod of inf: NaN, replaced by the inf)
+            return np.where(finite, wrap(angle), angle)
+    return wrap(angle) if math.isfinite(angle) else angle
+
+
 @dataclass(frozen=True)
 class Plane:
     """Where the chain's plane lies in its ground link's 3-D frame: a scene point (x, y) is
@@ -213,7 +224,7 @@ class JointMap:
         entry = self.inputs[joint]
         v = entry.scale * (scene_value - entry.offset)  # scale is +-1
         if entry.revolute:
-            v = wrap(v)
+            v = wrap_given(v)
             out = self._output_of.get(joint)
             if out is not None:
                 v = fit_to_limits(v, out)
@@ -373,11 +384,11 @@ class JointMap:
         offset = 0.0 if rates else entry.offset
         if isinstance(value, np.ndarray):
             v = entry.scale * np.asarray(value, np.float64) + offset
-            return np.asarray(wrap(v), np.float64) if entry.revolute and not rates else v
+            return np.asarray(wrap_given(v), np.float64) if entry.revolute and not rates else v
         if isinstance(value, bool) or not isinstance(value, int | float):
             return value
         x = entry.scale * float(value) + offset
-        return wrap(x) if entry.revolute and not rates and math.isfinite(x) else x
+        return wrap_given(x) if entry.revolute and not rates else x
 
     def describe(self) -> dict[str, Any]:
         return {

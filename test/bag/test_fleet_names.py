@@ -1,0 +1,94 @@
+"""Tests of which bags a fleet run takes and what it names their outputs (linkage_ros/bag/
+fleet_inputs.py), for inputs an outside review found mishandled: bags whose outputs would
+overwrite each other, a bag folder given as ``.``, one bag given both as its folder and as its
+storage file. Oracles: the bags' own folder names and message counts (what they were written
+with), and the outputs each bag must own alone."""
+
+from __future__ import annotations
+
+import shutil
+
+import pytest
+from test_fleet import COMMON, run, summary_rows, write_fleet_bag
+
+from linkage_ros import bag
+from linkage_ros.bag.fleet_inputs import find_bags
+
+
+@pytest.fixture(scope='module')
+def one_bag(tmp_path_factory):
+    """An MCAP bag folder ``run`` of 30 commands and one recorded trajectory."""
+    path = tmp_path_factory.mktemp('names') / 'run'
+    write_fleet_bag(path, 'mcap', 30, 0.2, trajs=[[[0.1 * k] for k in range(4)]])
+    return path
+
+
+def test_a_bag_whose_outputs_would_overwrite_anothers_is_refused_before_any_work(
+    one_bag, tmp_path, capsys
+):
+    """Bags x and x.trajectories: x's trajectories went to x.trajectories.csv, which the other
+    bag's command table then replaced (exit 0, both manifests listing it: --resume took x as
+    complete). Only two bags of one name were refused."""
+    rec = tmp_path / 'rec'
+    shutil.copytree(one_bag, rec / 'x')
+    shutil.copytree(one_bag, rec / 'x.trajectories')
+    out = tmp_path / 'out'
+    code, cap = run([rec, *COMMON, '--out-dir', out, '--jobs', 1], capsys)
+    assert code == 2, cap.err
+    assert 'two bags would write the same output x.trajectories.csv' in cap.err, cap.err
+    assert not out.exists()
+    # a bag's result bag folder (x.mcap/) holding another bag's outputs (x.mcap/y.*)
+    shutil.rmtree(rec / 'x.trajectories')
+    shutil.copytree(one_bag, rec / 'x.mcap' / 'y')
+    with pytest.raises(bag.BagError, match=r"one bag's outputs would lie in x\.mcap: "):
+        find_bags([str(rec)])
+    # names that share a beginning only are kept apart
+    shutil.rmtree(rec / 'x.mcap')
+    shutil.copytree(one_bag, rec / 'x_trajectories')
+    assert [t.name for t in find_bags([str(rec)])] == ['x', 'x_trajectories']
+
+
+def test_a_bag_folder_given_as_dot_is_named_after_the_folder(
+    one_bag, tmp_path, capsys, monkeypatch
+):
+    """`cd run && linkage bag . --out-dir ../out` wrote ../out/.csv and .done.json (hidden
+    files) and a summary row with an empty bag name."""
+    monkeypatch.chdir(one_bag)
+    out = tmp_path / 'out'
+    code, cap = run(['.', *COMMON, '--out-dir', out, '--jobs', 1], capsys)
+    assert code == 0, cap.err
+    assert sorted(p.name for p in out.iterdir()) == [
+        'run.csv',
+        'run.done.json',
+        'run.trajectories.csv',
+        'summary.csv',
+        'summary.json',
+    ]
+    rows, _ = summary_rows(out)
+    assert list(rows) == ['run'] and rows['run']['messages'] == str(30 + 1)
+    # and as '..' (from a folder inside it)
+    shutil.copytree(one_bag, tmp_path / 'copy')
+    (tmp_path / 'copy' / 'inner').mkdir()
+    monkeypatch.chdir(tmp_path / 'copy' / 'inner')
+    assert [t.name for t in find_bags(['..'])] == ['copy']
+
+
+def test_a_bag_given_as_its_folder_and_its_storage_file_is_analysed_once(one_bag, tmp_path, capsys):
+    """`linkage bag a a/a.mcap` (or 'rec/**/*.mcap' with rec/) analysed the bag twice and
+    summed its messages twice in the totals."""
+    rec = tmp_path / 'rec'
+    shutil.copytree(one_bag, rec / 'a')
+    (storage,) = (rec / 'a').glob('*.mcap')
+    out = tmp_path / 'out'
+    code, cap = run([rec / 'a', storage, *COMMON, '--out-dir', out, '--jobs', 1], capsys)
+    assert code == 0, cap.err
+    rows, doc = summary_rows(out)
+    assert list(rows) == ['a'] and doc['totals']['messages'] == 30 + 1  # (as written)
+    # the other way round, a pattern's match first: the first given names it
+    tasks = find_bags([str(rec / '**' / '*.mcap'), str(rec)])
+    assert [(t.name, t.source) for t in tasks] == [('a/' + storage.stem, str(storage))]
+    # one file of a split bag is a part of it: beside the whole bag it is refused
+    shutil.copy(storage, rec / 'a' / 'part_1.mcap')
+    with pytest.raises(bag.BagError, match='is one storage file of the bag .*also given'):
+        find_bags([str(rec / 'a'), str(rec / 'a' / 'part_1.mcap')])
+    assert len(find_bags([str(rec / '**' / '*.mcap')])) == 2  # (its parts alone: two bags)
