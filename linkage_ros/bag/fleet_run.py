@@ -366,8 +366,8 @@ def _print_summary(
 ) -> None:
     t = totals(rows)
     lines = [
-        f'linkage bag: {t["bags"]} bag(s): {t["ok"]} ok, {t["all_refused"]} with every '
-        f'request refused, {t["failed"]} failed'
+        f'linkage bag: {t["bags"]} bag(s): {t["ok"]} ok, {t["all_refused"]} with no request '
+        f'answered, {t["failed"]} failed'
         + (f', {t["resumed"]} complete already' if t['resumed'] else ''),
         f'  {t["messages"]:,} message(s): answered {t["answered"]:,}, refused {t["refused"]:,}'
         + (f', missing {t["missing"]:,}' if t['missing'] else ''),
