@@ -131,6 +131,11 @@ class Channels:
         self.diagnostics.publish(msg)
 
 
+#: how far (ns) a client's stamp may lie ahead of the node's clock and still be followed by
+#: the node's own stamps (own_floor): clock skew between machines, not a clock error
+MAX_LEAD_NS = 10 * NSEC_PER_SEC
+
+
 class Outputs:
     """One mechanism's outputs: its ``~/points/<p>`` publishers and timers on the node's
     :class:`Channels`, and the counters /diagnostics reports. :meth:`destroy` ends them (a
@@ -285,11 +290,13 @@ class Outputs:
 
     def own_floor(self, now_ns: int) -> int:
         """The stamp (ns) a stamp the node chooses at clock time ``now_ns`` must exceed: its
-        own last one, and the last joint_states if that is not later than now (a client's
-        stamp ahead of the clock is its own affair: following it would stamp the node's
-        answers in the future and stop republication until the clock got there, in 2038 for
-        the largest stamp, whose 1 ns more no longer fits the message)."""
-        latest = self.stamped_ns if self.stamped_ns <= now_ns else -1
+        own last one, and the last joint_states unless that lies more than MAX_LEAD_NS ahead
+        of the clock. A client's clock a little ahead (skew between machines) is followed, so
+        the newest pose keeps the newest stamp for tf; one far ahead is a clock error of the
+        client's, echoed on its own answers only: following it would stamp the node's answers
+        an hour (or, for the largest stamp, until 2038) ahead and stop republication as long,
+        and 1 ns after the largest stamp no longer fits the message."""
+        latest = self.stamped_ns if self.stamped_ns <= now_ns + MAX_LEAD_NS else -1
         return max(self.own_ns, latest)
 
     def after_last(self, stamp: Time) -> Time:

@@ -170,3 +170,22 @@ def test_a_client_stamp_ahead_of_the_clock_does_not_move_the_nodes_own_stamps(ro
         assert stamp_of(later) > stamp_of(answer)
         assert later.header.stamp.sec < ahead[0]
         assert_close_angles(later.position, FourBar.joints(0.9))
+
+
+def test_a_client_clock_a_little_ahead_is_followed_so_the_newest_pose_is_newest(ros, serve):
+    """Clock skew between machines: a command stamped 2 s ahead, then a zero-stamped one. The
+    zero-stamped answer comes 1 ns after the client's stamp, so the newest pose keeps the newest
+    stamp for tf (stamped now, it was older than the pose before it: an outside adversary, on
+    the first version of the fix above)."""
+    s = serve(scene='four_bar', publish_rate=0.0)
+    now = s.node.get_clock().now().nanoseconds
+    ahead = (now // 10**9 + 2, now % 10**9)
+    s.good('command', joint_state(['crank'], [1.2], ahead))
+    status = s.send('command', joint_state(['crank'], [0.9]))
+    assert status.level == OK, status.message
+    assert ros.spin_until(lambda: len(s.joints) >= 1, TIMEOUT)
+    answer = s.joints.messages[0]
+    assert_close_angles(answer.position, FourBar.joints(0.9))
+    assert stamp_of(answer) == (ahead[0], ahead[1] + 1) or (
+        ahead[1] == 999_999_999 and stamp_of(answer) == (ahead[0] + 1, 0)
+    )
