@@ -66,15 +66,17 @@ class InputJoint:
 
 
 def wrap(angle: Any) -> Any:
-    """``angle`` in [-pi, pi] (a float, or elementwise for a batch's array), exactly as
-    math.remainder gives it: fmod is exact, and moving its result by 2 pi into [-pi, pi] is
-    too (Sterbenz), where shifting by pi first and back rounded (0.05 came back
+    """``angle`` in (-pi, pi] (a float, or elementwise for a batch's array), exactly as
+    math.remainder gives it but -pi given as pi (as ops.wrap_one: both ways agree at odd
+    multiples of pi): fmod is exact, and moving its result by 2 pi into the range is too
+    (Sterbenz), where shifting by pi first and back rounded (0.05 came back
     0.04999999999999982, a bag's inputs unlike the node's)."""
     if isinstance(angle, np.ndarray):
         turn = 2.0 * math.pi
         f = np.fmod(angle, turn)
-        return np.where(f > math.pi, f - turn, np.where(f < -math.pi, f + turn, f))
-    return math.remainder(angle, 2.0 * math.pi)
+        return np.where(f > math.pi, f - turn, np.where(f <= -math.pi, f + turn, f))
+    r = math.remainder(angle, 2.0 * math.pi)
+    return math.pi if r == -math.pi else r
 
 
 def wrap_given(angle: Any) -> Any:

@@ -475,3 +475,21 @@ def test_a_mimic_followers_value_beyond_its_limits_is_quoted_as_given(tmp_path):
         'robotiq_85_right_knuckle_joint = 3.14159265 rad is beyond its maximum 0 by 3.14 rad'
     ), r.reason
     assert engine.command({'robotiq_85_left_knuckle_joint': 0.3}).success
+
+
+def test_a_description_joint_value_at_odd_multiples_of_pi_is_pi_on_both_paths():
+    """ROBOT_DESCRIPTIONS.md: joint values in (-pi, pi]. The description's wrap gave -pi for
+    -pi and 3 pi one float at a time (math.remainder) and +pi for 3 pi in an array (np.fmod):
+    the node (scalar) published -3.141592653589793 where linkage bag (arrays) wrote +pi for
+    the same command (an outside adversary)."""
+    from linkage_ros.core.model.joint_map import wrap
+
+    odd = [math.pi, -math.pi, 3 * math.pi, -3 * math.pi, 5 * math.pi, -101 * math.pi]
+    scalar = [wrap(v) for v in odd]
+    batch = wrap(np.array(odd)).tolist()
+    assert scalar == batch
+    assert all(-math.pi < v <= math.pi for v in scalar), scalar
+    # elsewhere both stay math.remainder's, exactly
+    rng = np.random.default_rng(3)
+    v = rng.uniform(-50, 50, 1000)
+    assert wrap(v).tolist() == [math.remainder(x, 2 * math.pi) for x in v.tolist()]
