@@ -173,6 +173,9 @@ _INT_TAG = 'tag:yaml.org,2002:int'
 _FLOAT_TAG = 'tag:yaml.org,2002:float'
 #: An int with a leading 0 and more after it: octal (010 = 8), hex (0x1), binary (0b1).
 _PREFIXED_INT = re.compile(r'[-+]?0[0-9a-zA-Z]')
+#: Leading zeros and octal digits only: octal that reads as the digits show where it is 0..7
+#: (00, 007), and as another value from 010 on.
+_OCTAL_DIGITS = re.compile(r'[-+]?0[0-7]+')
 
 
 def is_yaml11_number_form(tag: str, text: str) -> bool:
@@ -180,7 +183,11 @@ def is_yaml11_number_form(tag: str, text: str) -> bool:
     digits show (0_05 = 5, 010 = 8, 0x1 = 1, 1:30 = 90); plain ints, floats, exponents and
     .inf/.nan are not. Only the characters of a number are looked at: it stays cheap."""
     if tag == _INT_TAG:
-        return '_' in text or ':' in text or _PREFIXED_INT.match(text) is not None
+        if '_' in text or ':' in text:
+            return True
+        if _OCTAL_DIGITS.fullmatch(text):  # (00, 007 read as they show; 010 is 8)
+            return int(text, 8) != int(text, 10)
+        return _PREFIXED_INT.match(text) is not None
     if tag == _FLOAT_TAG:
         return '_' in text or ':' in text
     return False

@@ -145,6 +145,7 @@ def test_an_enormous_number_is_refused_before_conversion(tmp_path):
         ('rocker', '0_2', '2'),  # underscores are dropped
         ('crank', '010', '8'),  # octal
         ('crank', '-010', '-8'),
+        ('crank', '0017', '15'),
         ('ground', '0x1', '1'),  # hex
         ('ground', '0b11', '3'),  # binary
         ('input', '1:30', '90'),  # base 60
@@ -178,6 +179,9 @@ def test_a_yaml11_number_in_a_point_names_its_index(tmp_path):
         ('+3', 3),
         ('0.05', 0.05),
         ('00.5', 0.5),
+        ('00', 0),  # leading zeros that read as the digits show (octal 00 = 0, 007 = 7)
+        ('007', 7),
+        ('-007', -7),
         ('1e-3', 1e-3),
         ('1.0e+3', 1e3),
         ('.5e3', 500.0),
