@@ -46,6 +46,9 @@ def output_topics(outputs: list[str], plans: bool) -> list[str]:
 #: a fully qualified ROS 2 topic name: '/' then tokens of letters, digits and _ (none starting
 #: with a digit) joined by single '/' (rmw's rules: a result bag is replayed into ROS)
 ABSOLUTE_TOPIC = re.compile(r'(/[A-Za-z_][A-Za-z0-9_]*)+')
+#: the longest topic name rmw takes (255 less 8 for the DDS prefix: rclpy's
+#: validate_full_topic_name)
+MAX_TOPIC_CHARS = 247
 
 
 def parse_remaps(items: list[str], topics: list[str]) -> dict[str, str]:
@@ -67,6 +70,11 @@ def parse_remaps(items: list[str], topics: list[str]) -> dict[str, str]:
                 f"--remap {item!r}: {new!r} is not an absolute topic name ('/' then names of "
                 "letters, digits and _, none starting with a digit, joined by single '/': "
                 '/a/b)'
+            )
+        if len(new) > MAX_TOPIC_CHARS:
+            raise BagError(
+                f'--remap {old}:=...: the new name has {len(new)} characters; a ROS 2 topic '
+                f'name has at most {MAX_TOPIC_CHARS}'
             )
         remap[old] = new
     final = [remap.get(t, t) for t in topics]

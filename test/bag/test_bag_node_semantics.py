@@ -131,6 +131,28 @@ def test_remap_refuses_what_ros_refuses_as_a_topic_name(tmp_path, capsys):
             assert good in {c.topic for c in r.connections}
 
 
+def test_remap_refuses_a_topic_name_longer_than_ros_takes(tmp_path, capsys):
+    """A 251-character name was accepted. Oracle: rclpy's own validate_full_topic_name."""
+    from rclpy.exceptions import InvalidTopicNameException
+    from rclpy.validate_full_topic_name import validate_full_topic_name
+
+    src = make_bag(tmp_path / 'in', [0.1, 0.2])
+    common = [src, '--scene', SCENE, '--command-topic', '/cmd']
+    longest = '/' + 'x' * 246
+    validate_full_topic_name(longest)  # the oracle takes it
+    with pytest.raises(InvalidTopicNameException):
+        validate_full_topic_name(longest + 'x')  # and not one character more
+    code, cap = run(
+        [*common, '--out', tmp_path / 'a', '--remap', f'/joint_states:={longest}'], capsys
+    )
+    assert code == 0, cap.err
+    code, cap = run(
+        [*common, '--out', tmp_path / 'b', '--remap', f'/joint_states:={longest}x'], capsys
+    )
+    assert code == 2 and 'at most 247' in cap.err, cap.err
+    assert not (tmp_path / 'b').exists()
+
+
 def test_a_bag_whose_every_command_is_refused_exits_1_with_a_hint(tmp_path, capsys):
     """Recorded for another mechanism (names the scene does not have): not a success."""
     src = make_bag(tmp_path / 'in', [0.1, 0.2, 0.3], names=('boom',))
