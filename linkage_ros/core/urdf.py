@@ -48,6 +48,7 @@ import numpy as np
 
 from .errors import SceneError, echo
 from .model import AngleActuator, Mechanism, SlideActuator
+from .model.limits import slack
 from .urdf_visuals import MATERIALS, Pose2D, link_visuals
 
 # ---- planar rigid transforms ---------------------------------------------------------------------
@@ -219,7 +220,12 @@ def _revolute_limits(mech: Mechanism, tj: TreeJoint) -> tuple[float, float] | No
             return None
         shift = _wrap(lo) - lo
         lo, hi = lo + shift, hi + shift
-        return (lo, hi) if hi <= math.pi else None
+        if hi > math.pi:
+            return None
+        # widened by the limit rule's slack (model.limits): a command at a limit is answered,
+        # and its joint value, a difference of two link angles, may come out an ulp or two
+        # past the limit (2.0999999999999996 for 2.1): no value the node publishes lies outside
+        return (max(lo - slack(lo), -math.pi), min(hi + slack(hi), math.pi))
     return None
 
 

@@ -192,8 +192,9 @@ def test_urdf_limits_are_the_scene_limits():
     o2 = next(j for j in sr.findall('joint') if j.get('name') == 'O2')
     lim = o2.find('limit')
     assert o2.get('type') == 'revolute'
-    assert float(lim.get('lower')) == pytest.approx(-1.45, abs=1e-12)
-    assert float(lim.get('upper')) == pytest.approx(1.45, abs=1e-12)
+    # widened by the limit rule's slack (model.limits.slack: 1e-12 of the limit, at least 1e-12)
+    assert float(lim.get('lower')) == -1.45 - 1.45e-12
+    assert float(lim.get('upper')) == 1.45 + 1.45e-12
     # four_bar's crank turns fully: continuous, no limit
     fb = ET.fromstring(urdf_document(scenes.load('four_bar')))
     assert next(j for j in fb.findall('joint') if j.get('name') == 'O2').get('type') == (
@@ -296,9 +297,12 @@ def test_a_limited_crank_beside_a_tilted_ground_has_the_joint_limits_it_is_publi
         assert r.success, (v, r.reason)
         msg = result_to_joint_state(r, mech, Time(), mech.frame_id)
         published.append(dict(zip(msg.name, msg.position))['O2'])
-    assert published[0] == pytest.approx(lo, abs=1e-12)
-    assert published[-1] == pytest.approx(hi, abs=1e-12)
-    assert all(lo - 1e-12 <= q <= hi + 1e-12 for q in published)
+    # the limits are the published values at the limits, widened by the limit rule's slack
+    # (1e-12 of the limit) so that a value an ulp past them still lies inside, as the node
+    # answers it; strictly inside, no tolerance
+    assert 0.0 <= published[0] - lo <= 2e-12 * max(1.0, abs(lo))
+    assert 0.0 <= hi - published[-1] <= 2e-12 * max(1.0, abs(hi))
+    assert all(lo <= q <= hi for q in published)
     with pytest.raises(SceneError, match="frame_id 'A' is also the name"):
         urdf_document(scenes.load('four_bar'), frame_id='A')
     with pytest.raises(SceneError, match="frame_id 'point_A' is also the name"):
