@@ -166,6 +166,7 @@ class ResultBag:
         plans: bool = False,
         status_name: str | None = None,
         remap: Mapping[str, str] | None = None,
+        publish_inputs: bool = False,
     ):
         from rosbags.rosbag2 import Writer
         from rosbags.rosbag2.enums import StoragePlugin
@@ -174,6 +175,8 @@ class ResultBag:
         plugin = StoragePlugin.MCAP if (storage or 'mcap') == 'mcap' else StoragePlugin.SQLITE3
         self.ts = ts = get_typestore(Stores.ROS2_JAZZY)
         self.path, self.mech, self.frame_id = path, mech, frame_id
+        #: state completion: joint_states carry the inputs too (the node's publish_inputs)
+        self.publish_inputs = publish_inputs
         self.name = status_name if status_name is not None else f'{NODE_NAME}: {mech.name}'
         self.final = final = Path(path)
         self.stage = stage = final.parent / f'.{final.name}.{os.getpid()}.partial'
@@ -261,7 +264,12 @@ class ResultBag:
 def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Progress, block):
     mech, frame_id = out.mech, out.frame_id
     n = data.n
-    joints = mech.output_joint_names  # a robot description's own names where it has them
+    # a robot description's own names where it has them; under state completion without the
+    # joints the hardware publishes (the node's answers to joint_states_in leave them out)
+    published = mech.output_joint_names
+    omit = data.state_inputs if data.state_inputs is not None and not out.publish_inputs else ()
+    kept = [i for i, j in enumerate(published) if j not in omit]
+    joints = [published[i] for i in kept]
     progress.start('writing', n)
     # stamps: the command's, a zero stamp -> the bag receive time
     zero = data.stamp_zero
@@ -271,7 +279,7 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Prog
     jv_t, jv_pos, jv_vel = _joint_state_rates_template(joints, frame_id)
     pt_t, pt_off = _point_template(frame_id)
     status = _StatusWriter(out.name, mech.name)
-    requests = ['command', 'target']
+    requests = ['command' if data.state_inputs is None else 'joint_states_in', 'target']
     write, c_js, c_pts, c_st = out.writer.write, out.c_js, out.c_pts, out.c_st
     for a in range(0, n, block):
         b = min(n, a + block)
@@ -279,9 +287,10 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Prog
         js = _stamped_rows(js_t, okr, sec, nsec)
         if joints and okr.size:
             scene = {j: res.joints[j][okr] for j in mech.joint_names}
-            vals = np.stack(
-                [np.broadcast_to(v, okr.shape) for v in mech.output_joints(scene)], axis=1
-            ).astype('<f8')
+            cols = mech.output_joints(scene)
+            vals = np.stack([np.broadcast_to(cols[i], okr.shape) for i in kept], axis=1).astype(
+                '<f8'
+            )
             js[:, js_off : js_off + 8 * len(joints)] = vals.view(np.uint8).reshape(okr.size, -1)
         js_rows = _rows_bytes(js)
         rated = np.flatnonzero(res.velocity_ok[okr]) if res.has_rates and joints else okr[:0]
@@ -290,13 +299,13 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Prog
             jv = _stamped_rows(jv_t, vrows, sec, nsec)
             scene = {j: res.joints[j][vrows] for j in mech.joint_names}
             rates = {j: res.joint_rates[j][vrows] for j in mech.joint_names}
-            for off, cols in (
+            for off, every in (
                 (jv_pos, mech.output_joints(scene)),
                 (jv_vel, mech.output_joint_rates(rates)),
             ):
-                vals = np.stack([np.broadcast_to(v, vrows.shape) for v in cols], axis=1).astype(
-                    '<f8'
-                )
+                vals = np.stack(
+                    [np.broadcast_to(every[i], vrows.shape) for i in kept], axis=1
+                ).astype('<f8')
                 jv[:, off : off + 8 * len(joints)] = vals.view(np.uint8).reshape(vrows.size, -1)
             for i, raw in zip(rated.tolist(), _rows_bytes(jv)):
                 js_rows[i] = raw

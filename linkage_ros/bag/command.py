@@ -57,7 +57,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="read --command-topic as the node's joint_states_in reads a hardware JointState "
         "(a robot's recorded /joint_states): each message's values of the mechanism's inputs "
         'command it, its other joints are not read, and a message with none of the inputs is '
-        'skipped (docs/TOPICS.md, State completion)',
+        'skipped (docs/TOPICS.md, State completion). The result bag answers as the node '
+        'answers joint_states_in: joint_states without the inputs (the hardware publishes '
+        "them), statuses with request 'joint_states_in'",
+    )
+    parser.add_argument(
+        '--publish-inputs',
+        action='store_true',
+        help="with --state-completion: the result bag's joint_states carry the inputs too, as "
+        "the node's publish_inputs parameter makes them (every joint of the chain)",
     )
     parser.add_argument(
         '--target-topic',
@@ -264,6 +272,7 @@ def _run_outputs(outs, args, scene, opts) -> RunOutputs:
         opts.frame(scene),
         plans_csvs=[Path(plans_csv_path(p)) for p in csvs],
         remap=dict(opts.remap),
+        publish_inputs=opts.publish_inputs,
         all_or_none=False,  # as before streaming: a finished --out stays when a later one fails
         failed=_write_failed,
     )

@@ -78,6 +78,8 @@ class BagOptions:
     frame_id: str = ''
     #: the command topic read as the node's joint_states_in (--state-completion)
     state_completion: bool = False
+    #: with it, the result bag's joint_states carry the inputs too (--publish-inputs)
+    publish_inputs: bool = False
 
     @property
     def topics(self) -> list[str]:
@@ -258,6 +260,7 @@ def _outputs(task: BagTask, opts: BagOptions, scene: Any) -> RunOutputs:
         opts.frame(scene),
         plans_csvs=[task.trajectories(opts.out_dir)] if tables else [],
         remap=dict(opts.remap),
+        publish_inputs=opts.publish_inputs,
     )
 
 

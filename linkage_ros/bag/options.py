@@ -47,6 +47,11 @@ def check_options(args: argparse.Namespace) -> Any:
         )
     if args.command_topic == args.target_topic:
         raise BagError('--command-topic and --target-topic must be different topics')
+    if args.publish_inputs and not args.state_completion:
+        raise BagError(
+            '--publish-inputs goes with --state-completion (without it joint_states carry '
+            'every joint already)'
+        )
     if not (isinstance(args.tol, float) and math.isfinite(args.tol) and args.tol > 0):
         raise BagError(f'--tol must be a positive number (got {args.tol!r})')
     if args.max_iter < 1:
@@ -88,6 +93,7 @@ def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: 
         max_iter=args.max_iter,
         accept_missing=args.accept_missing,
         state_completion=args.state_completion,
+        publish_inputs=args.publish_inputs,
         formats=tuple(formats),
         out_format=args.out_format or DEFAULT_OUT_FORMAT,
         out_dir=out_dir,

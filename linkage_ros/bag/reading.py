@@ -44,6 +44,10 @@ class Commands:
     frames: list[str] = field(default_factory=list)
     #: messages read but not rows: without the mechanism's inputs (--state-completion)
     skipped: int = 0
+    #: the joints the hardware publishes, which answers leave out as the node's answers to
+    #: joint_states_in do (--state-completion: the inputs, and the <mimic> followers its
+    #: messages name); None: the commands are ~/command's
+    state_inputs: frozenset[str] | None = None
 
     def frame(self, key: int) -> str:
         """The header.frame_id of the rows of ``key``."""

@@ -42,6 +42,8 @@ class RunOutputs:
     frame_id: str
     plans_csvs: Sequence[Path] = ()
     remap: Mapping[str, str] = field(default_factory=dict)
+    #: state completion: the result bag's joint_states carry the inputs too (--publish-inputs)
+    publish_inputs: bool = False
     #: on a failure, also remove the outputs finished already (a fleet's bag: all or none)
     all_or_none: bool = True
     #: turns a write error (OSError) of an output into the caller's error (default: as is)
@@ -59,7 +61,7 @@ class RunOutputs:
                 if out.kind is OutputKind.BAG:
                     self._bags[out.path] = ResultBag(
                         out.path, self.mech, self.frame_id, out.storage, bool(plans),
-                        remap=self.remap,
+                        remap=self.remap, publish_inputs=self.publish_inputs,
                     )  # fmt: skip
             for path in self.plans_csvs if plans else ():
                 out = Output(OutputKind.CSV, path)

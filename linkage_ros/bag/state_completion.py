@@ -105,5 +105,9 @@ def completed_commands(
         vel_start=vel_start,
         frames=frames,
         skipped=data.skipped + n - len(rows),
+        # (the node leaves a follower out from the first message naming it; here from the
+        # start of the recording)
+        state_inputs=frozenset(inputs)
+        | (set(followers) & {n for names in data.keys for n in names}),
     )
     return completed, refused

@@ -156,3 +156,46 @@ def test_a_repeated_input_is_named_alone(tmp_path, capsys):
     rows = read_csv(out)
     assert rows[0]['status'] == 'ok', rows[0]['reason']
     assert [r['reason'] for r in rows[1:]] == [why for _, _, why in written[1:]]
+
+
+def test_the_result_bag_answers_as_the_node_answers_joint_states_in(tmp_path, capsys):
+    """TOPICS.md, State completion: the node's answers to joint_states_in leave the inputs out
+    of joint_states (the hardware publishes them) and their statuses say request
+    joint_states_in; the result bag carried every joint and 'command' (an outside review).
+    --publish-inputs (the node's parameter) puts them back. Oracle: the scene's joint names
+    less its inputs, and the node's own status key."""
+    from test_bag import read_out_bag
+
+    scene = CONFIG / 'excavator.yaml'
+    mech = load_scene(str(scene)).mechanism
+    inputs = set(mech.commanded_input_names)
+    assert inputs <= set(mech.output_joint_names)  # the premise: Z1..Z3 are joints too
+    names = ['boom_light', *sorted(inputs)]
+    msgs = [
+        (
+            '/joint_states',
+            (k + 1) * 10**8,
+            joint_state(names, [1.0, 1.6, 1.9, 1.5 + 0.01 * k], 1 + k),
+        )
+        for k in range(5)
+    ]
+    src = make_input(tmp_path, 'mcap', msgs)
+    common = [src, '--scene', scene, '--command-topic', '/joint_states', '--no-progress']
+    want = {
+        False: [j for j in mech.output_joint_names if j not in inputs],
+        True: list(mech.output_joint_names),
+    }
+    for publish in (False, True):
+        out = tmp_path / f'out_{publish}'
+        extra = ['--publish-inputs'] if publish else []
+        code, cap = run_bag([*common, '--state-completion', *extra, '--out', out], capsys)
+        assert code == 0, cap.err
+        got, _ = read_out_bag(out)
+        joint_states = [m for _, m in got['/joint_states']]
+        assert len(joint_states) == 5
+        assert all(list(m.name) == want[publish] for m in joint_states)
+        statuses = [m for _, m in got['/linkage_node/status']]
+        requests = {kv.value for m in statuses for kv in m.values if kv.key == 'request'}
+        assert requests == {'joint_states_in'}, requests
+    code, cap = run_bag([*common, '--publish-inputs', '--out', tmp_path / 'x'], capsys)
+    assert code == 2 and '--publish-inputs goes with --state-completion' in cap.err
