@@ -34,7 +34,7 @@ from .core.solver import Result
 from .engine import Engine
 from .marker_cdr import MarkerBytes
 from .params import NodeConfig
-from .stamps import NSEC_PER_SEC, stamp_ns
+from .stamps import NSEC_PER_SEC, OwnStamps, stamp_ns
 
 #: /diagnostics period (s): the diagnostic_updater convention
 DIAGNOSTICS_PERIOD_S = 1.0
@@ -131,11 +131,6 @@ class Channels:
         self.diagnostics.publish(msg)
 
 
-#: how far (ns) a client's stamp may lie ahead of the node's clock and still be followed by
-#: the node's own stamps (own_floor): clock skew between machines, not a clock error
-MAX_LEAD_NS = 10 * NSEC_PER_SEC
-
-
 class Outputs:
     """One mechanism's outputs: its ``~/points/<p>`` publishers and timers on the node's
     :class:`Channels`, and the counters /diagnostics reports. :meth:`destroy` ends them (a
@@ -186,10 +181,8 @@ class Outputs:
         self.last_ok = True
         self.smallest_margin: float | None = None
         self._answered_since_tick = False
-        #: the latest stamp of any joint_states (ns), a client's included
-        self.stamped_ns = -1
-        #: the latest stamp the node chose itself (ns): a request's now, a republication
-        self.own_ns = -1
+        #: the stamps the node chooses itself (stamps.OwnStamps)
+        self.stamps = OwnStamps()
         #: the newest state not drawn yet: at start-up the reference pose
         self._marker_state: tuple[Result, Time] | None = (
             None if engine.last is None else (engine.last, self.now())
@@ -285,32 +278,19 @@ class Outputs:
     def _publish_state(self, result: Result, sec: int, nanosec: int) -> None:
         self.pub_joints.publish(self.answers.joint_state(result, sec, nanosec))
         self._answered_since_tick = True
-        # (the latest sent: a client's stamp in the past must not bring it back)
-        self.stamped_ns = max(self.stamped_ns, stamp_ns(sec, nanosec))
-
-    def own_floor(self, now_ns: int) -> int:
-        """The stamp (ns) a stamp the node chooses at clock time ``now_ns`` must exceed: its
-        own last one, and the last joint_states unless that lies more than MAX_LEAD_NS ahead
-        of the clock. A client's clock a little ahead (skew between machines) is followed, so
-        the newest pose keeps the newest stamp for tf; one far ahead is a clock error of the
-        client's, echoed on its own answers only: following it would stamp the node's answers
-        an hour (or, for the largest stamp, until 2038) ahead and stop republication as long,
-        and 1 ns after the largest stamp no longer fits the message."""
-        latest = self.stamped_ns if self.stamped_ns <= now_ns + MAX_LEAD_NS else -1
-        return max(self.own_ns, latest)
+        self.stamps.published(stamp_ns(sec, nanosec))
 
     def after_last(self, stamp: Time) -> Time:
         """``stamp`` (the clock's now, for a request left unstamped), or 1 ns after the last
-        joint_states if that is not earlier (own_floor): a paused sim clock would give an
-        answer the stamp of the republished pose before it, and tf keeps the first transform
-        of a stamp (TF_REPEATED_DATA), so robot_state_publisher would show the old pose."""
+        joint_states if that is not earlier (stamps.OwnStamps): a paused sim clock would give
+        an answer the stamp of the republished pose before it, and tf keeps the first
+        transform of a stamp (TF_REPEATED_DATA), so robot_state_publisher would show the old
+        pose."""
         now = stamp_ns(stamp.sec, stamp.nanosec)
-        floor = self.own_floor(now)
-        if now > floor:
-            self.own_ns = now
+        chosen = self.stamps.choose(now)
+        if chosen == now:
             return stamp
-        after = self.own_ns = floor + 1
-        return Time(sec=after // NSEC_PER_SEC, nanosec=after % NSEC_PER_SEC)
+        return Time(sec=chosen // NSEC_PER_SEC, nanosec=chosen % NSEC_PER_SEC)
 
     # -- timers -----------------------------------------------------------------------------------
     def _republish(self) -> None:
@@ -325,9 +305,9 @@ class Outputs:
             last = Result(True, joints=last.joints)
         now = self.now()
         now_ns = stamp_ns(now.sec, now.nanosec)
-        if now_ns <= self.own_floor(now_ns):
+        if now_ns <= self.stamps.floor(now_ns):
             return  # a paused (sim) clock: the state went out at this time already
-        self.own_ns = now_ns
+        self.stamps.choose(now_ns)
         self._publish_state(last, now.sec, now.nanosec)
         self._answered_since_tick = False
 

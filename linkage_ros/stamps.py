@@ -20,6 +20,47 @@ def stamp_ns(sec: int, nanosec: int) -> int:
     return sec * NSEC_PER_SEC + nanosec
 
 
+#: how far (ns) a client's stamp may lie ahead of the node's clock and still be followed by
+#: the node's own stamps (OwnStamps): clock skew between machines, not a clock error
+MAX_LEAD_NS = 10 * NSEC_PER_SEC
+
+
+class OwnStamps:
+    """The stamps the node chooses itself (a zero-stamped request's answer, a republication):
+    strictly after its own last one and after the last joint_states, unless that lies more
+    than MAX_LEAD_NS ahead of the clock. A client's clock a little ahead (skew between
+    machines) is followed, so the newest pose keeps the newest stamp for tf (which keeps the
+    first transform of a stamp); one far ahead is a clock error of the client's, echoed on its
+    own answers only: following it would stamp the node's answers an hour (or, for the
+    largest stamp, until 2038) ahead and stop republication as long, and 1 ns after the
+    largest stamp no longer fits the message. The node's outputs and linkage bag's result bag
+    keep one each."""
+
+    __slots__ = ('own_ns', 'stamped_ns')
+
+    def __init__(self) -> None:
+        self.stamped_ns = -1  # the latest stamp of any joint_states, a client's included
+        self.own_ns = -1  # the latest stamp chosen here
+
+    def floor(self, now_ns: int) -> int:
+        """The stamp (ns) one chosen at clock time ``now_ns`` must exceed."""
+        latest = self.stamped_ns if self.stamped_ns <= now_ns + MAX_LEAD_NS else -1
+        return max(self.own_ns, latest)
+
+    def choose(self, now_ns: int) -> int:
+        """The stamp (ns) for an answer at clock time ``now_ns``: now, or 1 ns after the
+        floor where now is not later (a paused sim clock, a client's clock a little ahead)."""
+        floor = self.floor(now_ns)
+        self.own_ns = now_ns if now_ns > floor else floor + 1
+        return self.own_ns
+
+    def published(self, ns: int) -> None:
+        """A joint_states went out stamped ``ns`` (a client's stamp in the past does not bring
+        the latest back)."""
+        if ns > self.stamped_ns:
+            self.stamped_ns = ns
+
+
 def stamp_valid(sec: Any, nanosec: Any) -> Any:
     """Can a request stamp (sec, nanosec) be echoed: a ROS time, 0 <= sec, 0 <= nanosec < 1e9?
     Works on ints and on numpy arrays (elementwise); nanosec is unsigned in the message."""

@@ -14,6 +14,7 @@ import numpy as np
 
 from ..answer_cdr import JointStateBytes, PointStampedBytes
 from ..cdr import string_block
+from ..stamps import NSEC_PER_SEC, OwnStamps
 from ..trajectory import TrajectoryAnswer, trajectory_status_values
 from .common import (
     DIAGNOSTIC_STATUS,
@@ -271,10 +272,7 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Prog
     kept = [i for i, j in enumerate(published) if j not in omit]
     joints = [published[i] for i in kept]
     progress.start('writing', n)
-    # stamps: the command's, a zero stamp -> the bag receive time
-    zero = data.stamp_zero
-    sec = np.where(zero, data.log_ns // 10**9, data.sec).astype('<i4')
-    nsec = np.where(zero, data.log_ns % 10**9, data.nanosec).astype('<u4')
+    sec, nsec = answer_stamps(data, res.ok)
     js_t, js_off = _joint_state_template(joints, frame_id)
     jv_t, jv_pos, jv_vel = _joint_state_rates_template(joints, frame_id)
     pt_t, pt_off = _point_template(frame_id)
@@ -330,6 +328,25 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Prog
             write(c_st, t, statuses[i])
         progress.update(b)
     progress.finish()
+
+
+def answer_stamps(data: Commands, ok: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(sec, nanosec) of each row's answers: the command's stamp; a zero one, the stamp the
+    node chooses with the bag receive time as its clock (stamps.OwnStamps: strictly after the
+    joint_states before it, so two answers received in one nanosecond, or after a client's
+    stamp a little ahead, do not repeat a stamp or go back for tf). Rows in bag order; ``ok``
+    says which answers published joint_states."""
+    zero = data.stamp_zero
+    if not zero.any():
+        return data.sec.astype('<i4'), data.nanosec.astype('<u4')
+    ns = data.sec.astype(np.int64) * NSEC_PER_SEC + data.nanosec.astype(np.int64)
+    own = OwnStamps()
+    for i, (is_zero, now, good) in enumerate(zip(zero.tolist(), data.log_ns.tolist(), ok.tolist())):
+        if is_zero:
+            ns[i] = own.choose(now)
+        if good:
+            own.published(int(ns[i]))
+    return (ns // NSEC_PER_SEC).astype('<i4'), (ns % NSEC_PER_SEC).astype('<u4')
 
 
 def write_bag(

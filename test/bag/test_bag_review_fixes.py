@@ -425,3 +425,31 @@ def test_empty_topic_names_are_usage_errors(tmp_path, scene, capsys):
     assert not out_csv.exists()
     code, cap = run_bag([*common, '--command-topic', '/cmd'], capsys)  # and the same run works
     assert code == 0, cap.err
+
+
+def test_zero_stamped_answers_in_the_result_bag_never_repeat_or_go_back(tmp_path, scene, capsys):
+    """TOPICS.md: the stamps the node chooses come strictly after the last joint_states (tf
+    keeps the first transform of a stamp). A command stamped T0 + 1 s received at T0 + 1 ns,
+    then two zero-stamped ones received at T0 + 2 ns: the bag stamped them T0 + 2 ns twice,
+    before the first (an outside review). Oracle: the node's rule written out here, and that
+    the poses' stamps strictly increase."""
+    from test_bag import stamp_ns
+
+    t0 = 1_700_000_000 * 10**9
+    msgs = [
+        ('/cmd', t0 + 1, joint_state(['crank'], [0.3], (t0 + 10**9) // 10**9, 0)),
+        ('/cmd', t0 + 2, joint_state(['crank'], [0.4])),
+        ('/cmd', t0 + 2, joint_state(['crank'], [0.5])),
+        ('/cmd', t0 + 5 * 10**9, joint_state(['crank'], [0.6])),  # the clock past them all
+        ('/cmd', t0 + 6 * 10**9, joint_state(['crank'], [0.7], (t0 + 3600 * 10**9) // 10**9)),
+        ('/cmd', t0 + 7 * 10**9, joint_state(['crank'], [0.8])),  # an hour ahead: not followed
+    ]
+    src = make_input(tmp_path, 'mcap', msgs)
+    out = tmp_path / 'out'
+    code, cap = run_bag([src, '--scene', scene, '--command-topic', '/cmd', '--out', out], capsys)
+    assert code == 0, cap.err
+    got, _ = read_out_bag(out)
+    stamps = [stamp_ns(m) for _, m in got['/joint_states']]
+    want = [t0 + 10**9, t0 + 10**9 + 1, t0 + 10**9 + 2, t0 + 5 * 10**9, t0 + 3600 * 10**9]
+    want.append(t0 + 7 * 10**9)
+    assert stamps == want
