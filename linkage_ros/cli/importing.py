@@ -76,7 +76,7 @@ def scene_text(
 ) -> tuple[str, tuple[str, ...]]:
     """The scene file's text for ``description`` and the notes of its import."""
     from ..core.description import import_description, is_description
-    from ..core.model.joint_map import joint_map_to_dict
+    from ..core.model.joint_map_io import joint_map_to_dict
 
     if not is_description(description):
         raise UsageError(

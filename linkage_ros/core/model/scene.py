@@ -16,7 +16,7 @@ import yaml
 from ..errors import SceneError, echo
 from ..mechanism import Mechanism
 from .general import build_mechanism
-from .joint_map import joint_map_from_dict
+from .joint_map_io import joint_map_from_dict
 
 
 @dataclass

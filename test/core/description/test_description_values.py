@@ -115,7 +115,7 @@ def test_points_are_placed_in_the_ground_links_3d_frame():
     import yaml
 
     from linkage_ros.core.model import Scene
-    from linkage_ros.core.model.joint_map import joint_map_to_dict
+    from linkage_ros.core.model.joint_map_io import joint_map_to_dict
     from linkage_ros.core.solver import Solver
 
     path, closures = FIXTURES['gepetto']
