@@ -288,7 +288,10 @@ class CompiledSolve:
 
 
 def _parse_number(s: Spec, v: Any) -> float:
-    """One angle or slide value of a command as a finite float; ValueError naming the spec."""
+    """One angle or slide value of a command as a finite float; ValueError naming the spec.
+    A 0-d numpy array is its one number (solve_batch takes it as a batch of one)."""
+    if isinstance(v, np.ndarray) and v.ndim == 0:
+        v = v[()]
     if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.floating, np.integer)):
         raise ValueError(f'{s.name}: value must be a number in {s.unit} (got {echo(v)})')
     try:

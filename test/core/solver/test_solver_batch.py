@@ -370,3 +370,16 @@ def test_adopt_and_restore_refuse_what_is_not_a_configuration():
     clean.adopt(r)
     for t in (1.0, 1.2, 1.5):
         assert probed.solve({'crank': t}).points == clean.solve({'crank': t}).points
+
+
+@pytest.mark.parametrize('value', [np.array(1.0), np.array(1), np.float32(1.0), np.array(1.0)[()]])
+def test_solve_takes_a_0d_array_as_solve_batch_does(value):
+    """solve_batch took a 0-d array as a batch of one; solve refused it ('value must be a
+    number in rad (got array(1.))'). Oracle: the same command as a plain float."""
+    mech = scenes.load('four_bar')
+    got = Solver(mech).solve({'crank': value})
+    want = Solver(mech).solve({'crank': float(value)})
+    assert got.success, got.reason
+    assert got.points == want.points and got.joints == want.joints
+    refused = Solver(mech).solve({'crank': np.array([1.0])})  # (not a number: one row of one)
+    assert not refused.success and 'must be a number' in refused.reason
