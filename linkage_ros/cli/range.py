@@ -150,8 +150,8 @@ def _check(args, mech):
         raise UsageError(
             f'--point {args.point!r} is not a point of {mech.name!r} ({", ".join(mech.points)})'
         )
-    if args.samples < 2:
-        raise UsageError('--samples must be at least 2')
+    if args.samples < 3:
+        raise UsageError(f'--samples must be at least 3 (got {args.samples})')
     for option, path in (('--plot', args.plot), ('--curves', args.curves)):
         why = folder_refusal(path) if path else None
         if why:  # before the analysis, as --csv and the bag's outputs: no run lost at its end

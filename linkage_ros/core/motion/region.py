@@ -248,6 +248,10 @@ def reachable_region(
     """
     if point not in mech.points:
         raise ValueError(f'{mech.name!r} has no point {point!r}; points: {sorted(mech.points)}')
+    # (3 at least: the extreme arcs' extent refines an extreme from a sample and its two
+    # neighbours; from 2, the excavator's J came out 4 mm short)
+    if isinstance(samples_per_actuator, bool) or not int(samples_per_actuator) >= 3:
+        raise ValueError(f'samples_per_actuator must be at least 3 (got {samples_per_actuator!r})')
     solver = Solver(mech, outputs=[point], branch='reference')
     acts = list(actuators) if actuators is not None else _moving_actuators(mech, point, solver)
     for a in acts:
@@ -260,9 +264,7 @@ def reachable_region(
         a: tuple(map(float, (limits or {}).get(a) or _actuator_limits(mech, a, 720))) for a in acts
     }
     scale = mech.length_scale
-    # (3 at least: the extreme arcs' extent refines an extreme from a sample and its two
-    # neighbours; from 2, the excavator's J came out 4 mm short)
-    n = max(3, int(samples_per_actuator))
+    n = int(samples_per_actuator)
     if len(acts) >= 3:
         n = max(2, min(n, int(round(30000 ** (1.0 / len(acts))))))
     ne = int(edge_samples) if edge_samples else 4 * (n - 1) + 1

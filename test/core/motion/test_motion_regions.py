@@ -342,3 +342,18 @@ def test_a_concave_hull_region_says_its_area_may_be_too_large(capsys):
     assert main(['excavator', '--point', 'K', '--samples', '21']) == 0
     out = capsys.readouterr().out
     assert 'extreme_arcs' in out and 'an estimate' not in out
+
+
+def test_fewer_than_three_samples_are_refused_as_the_help_says(capsys):
+    """`range --samples` says 'at least 3' (the extreme arcs refine an extreme from a sample
+    and its two neighbours); 2 was taken (the CLI's check said 2) and the core quietly used 3
+    for a region but 2 for a path (a P path's extent 6 % short). Both refuse it now."""
+    from linkage_ros.cli.range import main
+
+    for n in ('2', '1', '0'):
+        assert main(['four_bar', '--point', 'P', '--samples', n]) == 2
+        assert '--samples must be at least 3' in capsys.readouterr().err
+    for n in (2, 0, True):
+        with pytest.raises(ValueError, match='at least 3'):
+            motion.reachable_region(load('four_bar'), 'P', samples_per_actuator=n)
+    assert main(['four_bar', '--point', 'P', '--samples', '3']) == 0
