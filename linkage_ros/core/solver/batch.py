@@ -195,6 +195,8 @@ def solve_batch(
     out.signs = np.zeros((n, len(c.plan.branch_steps)), int)
     for b, sg in enumerate(signs):
         out.signs[:, b] = sg
+    if not every:
+        out.signs[~out.ok] = 0  # (the docstring's 0 in a refused row, as the Newton path's)
     out.residual = _owned_where(out.ok, residual, every)
     out.iterations = np.zeros(n, int)
     out.solver = SolveMode.CLOSED_FORM

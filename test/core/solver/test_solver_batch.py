@@ -383,3 +383,16 @@ def test_solve_takes_a_0d_array_as_solve_batch_does(value):
     assert got.points == want.points and got.joints == want.joints
     refused = Solver(mech).solve({'crank': np.array([1.0])})  # (not a number: one row of one)
     assert not refused.success and 'must be a number' in refused.reason
+
+
+@pytest.mark.parametrize('method', ['closed_form', 'newton'])
+def test_a_refused_rows_signs_are_0_as_documented(method):
+    """BatchResult: signs (n, k), 0 in a refused row. The closed form's kept the fixed branch
+    signs in rows refused for NaN or for not assembling (the Newton path's were 0)."""
+    mech = scenes.load('four_bar_non_grashof')
+    solver = Solver(mech, method=method)
+    cols = {'crank': np.array([0.5, math.nan, 3.0, 1.0])}  # 3.0: past the toggles
+    got = solver.solve_batch(cols)
+    assert got.ok.tolist() == [True, False, False, True]
+    assert got.signs[~got.ok].tolist() == [[0], [0]]
+    assert np.all(got.signs[got.ok] != 0)
