@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
+from .errors import echo
 from .newton.results import SINGULAR_COND
 from .quantities import PointSpec
 
@@ -52,6 +53,13 @@ def velocities(
     missing = [k for k in solver.knowns if k not in rates]
     if missing:
         return Velocities(False, f'no rate given for {missing}')
+    unknown = [k for k in rates if k not in solver.knowns]
+    if unknown:  # (as solve refuses a value for a name it does not take)
+        return Velocities(
+            False,
+            f'a rate for {echo(unknown)}, which this solve does not take: it takes '
+            f'{list(solver.knowns)}',
+        )
     got = solver.configuration_of(result)  # the link poses, read back from the answer
     if got is None:
         return Velocities(False, 'no velocity: not a solved configuration of this mechanism')
@@ -61,7 +69,11 @@ def velocities(
     bad: list[str] = []
     for s in solver.specs:
         r = rates[s.name]
-        parts = [float(r[0]), float(r[1])] if isinstance(s, PointSpec) else [float(r)]
+        try:
+            parts = [float(r[0]), float(r[1])] if isinstance(s, PointSpec) else [float(r)]
+        except (TypeError, ValueError, IndexError, KeyError):
+            shape = 'two numbers (vx, vy)' if isinstance(s, PointSpec) else 'a number'
+            return Velocities(False, f'the rate of {s.name!r} must be {shape} (got {echo(r)})')
         comps += parts
         if not all(map(math.isfinite, parts)):
             bad.append(s.name)

@@ -230,3 +230,22 @@ def _rocker_xy(g, a, b, c, t):
     h = math.sqrt(b * b - x * x)
     ux, uy = dx / d, dy / d
     return ax + ux * x - uy * h - g, ay + uy * x + ux * h
+
+
+@pytest.mark.parametrize(
+    'rates, words',
+    [
+        ({'crank': 'x'}, "the rate of 'crank' must be a number (got 'x')"),
+        ({'crank': None}, "the rate of 'crank' must be a number (got None)"),
+        ({'crank': [2.0]}, "the rate of 'crank' must be a number (got [2.0])"),
+        ({'crank': 2.0, 'typo': 1.0}, "a rate for ['typo'], which this solve does not take"),
+    ],
+)
+def test_a_rate_that_is_no_number_or_for_no_known_is_refused_naming_it(rates, words):
+    """A rate of 'x', None or [2.0] raised float()'s bare ValueError / TypeError; a rate for a
+    name the solve does not take was ignored (solve refuses such a value)."""
+    mech = scenes.load('four_bar')
+    solver = Solver(mech)
+    r = solver.solve({'crank': 1.0})
+    vel = velocities(solver, r, {'crank': 1.0}, rates)
+    assert not vel.success and words in vel.reason, vel.reason
