@@ -26,6 +26,8 @@ from __future__ import annotations
 from collections.abc import Mapping, Sequence
 from typing import Any
 
+import numpy as np
+
 from ..execute import LinkPoses
 from ..model import Mechanism
 from ..newton import LoopSystem
@@ -171,15 +173,26 @@ class Solver:
     def restore(self, snapshot: Any) -> None:
         """Return to a state taken by snapshot() (of this solver or one with the same knowns);
         ValueError, and no change, for anything else."""
-        n = len(self.compiled.specs)
-        if not isinstance(snapshot, (tuple, list)) or not all(
-            isinstance(st, State) and len(st.values) == n for st in snapshot
-        ):
+        if not isinstance(snapshot, (tuple, list)) or not all(map(self._fits, snapshot)):
             raise ValueError(
-                'restore() takes what snapshot() returned, of a solver with the '
-                f'knowns {self.knowns}'
+                'restore() takes what snapshot() returned, of a solver of this mechanism '
+                f'({self.mech.name!r}) with the knowns {self.knowns}'
             )
         self.continuity.history = list(snapshot)[-2:]
+
+    def _fits(self, st: Any) -> bool:
+        """Whether ``st`` can be a State of this solver: its values one per known, its links,
+        points and Newton unknowns this mechanism's (another mechanism's state, with knowns of
+        the same names, made the next solve raise or refuse a reachable command)."""
+        mech = self.mech
+        moving = 3 * (len(mech.links) - 1)
+        return (
+            isinstance(st, State)
+            and len(st.values) == len(self.compiled.specs)
+            and set(st.poses.phi) <= set(mech.links)
+            and set(st.points) <= set(mech.points)
+            and (st.x_all is None or np.shape(st.x_all) == (moving,))
+        )
 
     def reset(self) -> None:
         """Forget the previous configuration (continuity restarts from the reference pose)."""

@@ -396,3 +396,23 @@ def test_a_refused_rows_signs_are_0_as_documented(method):
     assert got.ok.tolist() == [True, False, False, True]
     assert got.signs[~got.ok].tolist() == [[0], [0]]
     assert np.all(got.signs[got.ok] != 0)
+
+
+@pytest.mark.parametrize('method', ['newton', 'closed_form'])
+@pytest.mark.parametrize(
+    'taken, given',
+    [('four_bar', 'quick_return'), ('quick_return', 'four_bar'), ('slider_crank', 'four_bar')],
+)
+def test_restore_refuses_another_mechanisms_snapshot(method, taken, given):
+    """restore() checked only the number of values: a snapshot of another mechanism with a
+    known of the same name ('crank') was taken, and the next Newton solve raised IndexError or
+    AttributeError, or refused a reachable command. ValueError now, and no change."""
+    a, b = Solver(scenes.load(taken), method=method), Solver(scenes.load(given), method=method)
+    assert a.solve({'crank': 1.0}).success and b.solve({'crank': 1.1}).success
+    before = b.snapshot()
+    with pytest.raises(ValueError, match='of a solver of this mechanism'):
+        b.restore(a.snapshot())
+    assert b.snapshot() == before
+    fresh = Solver(scenes.load(given), method=method)
+    fresh.restore(before)  # a snapshot of its own mechanism is taken
+    assert fresh.solve({'crank': 1.2}).points == b.solve({'crank': 1.2}).points
