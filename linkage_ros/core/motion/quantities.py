@@ -41,6 +41,10 @@ _LEVEL = 1e-13
 #: the steps the two grid steps around an extreme are cut into where the rate does not change
 #: sign across them
 _FINER = 16
+#: the fewest samples input_sweep takes (4 degrees a step over a full turn): its extremes are
+#: bracketed between samples, and 2 samples found a non-Grashof rocker's minimum at 2.86 rad
+#: where it is 1.06 (its default is 1440)
+MIN_SAMPLES = 90
 
 
 def transmission_angles(solver: Solver, result: Result) -> dict[str, float]:
@@ -302,9 +306,19 @@ def input_sweep(
     within one step); where it changes sign in none (an extreme at an end of the range, where
     the input toggles) the value is minimised by golden-section search to ``tol`` of the input
     instead (about 1e-8 of the input where the quantity is flat there). ValueError for a
-    mechanism with more than one actuator."""
+    mechanism with more than one actuator, and for ``samples`` (the grid of the circuit) fewer
+    than MIN_SAMPLES."""
     if len(mech.actuators) != 1:
         raise ValueError(f'{mech.name!r} has {len(mech.actuators)} actuators; this needs one')
+    if (
+        isinstance(samples, bool)
+        or not isinstance(samples, int | np.integer)
+        or samples < MIN_SAMPLES
+    ):
+        raise ValueError(
+            f'samples must be an int of at least {MIN_SAMPLES} (got {samples!r}): a coarser '
+            'grid can step over an extreme, which is then not bracketed'
+        )
     (act,) = mech.actuators
     full, pieces = _circuit(mech, act, samples)
     scale = 1.0 if isinstance(mech.actuators[act], AngleActuator) else mech.length_scale

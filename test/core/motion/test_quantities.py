@@ -180,3 +180,19 @@ def test_transmission_angles_at_every_size_of_the_drawing(size):
     assert mu.minimum == pytest.approx(mu_min, abs=1e-12)
     assert mu.maximum == pytest.approx(mu_max, abs=1e-12)
     assert close_angle(mu.input_at_min, 0.0, 1e-6) and close_angle(mu.input_at_max, math.pi, 1e-6)
+
+
+@pytest.mark.parametrize('samples', [2, 0, -5, 89, 2.5, True, None])
+def test_a_grid_too_coarse_to_bracket_the_extremes_is_refused(samples):
+    """input_sweep(samples=2) found the non-Grashof rocker's minimum at 2.86 rad (it is 1.06:
+    pi - acos((c^2 + d^2 - (a + b)^2) / 2cd)); 0 raised a bare IndexError. Refused now under
+    MIN_SAMPLES, and at MIN_SAMPLES the cosine rule's minimum is found."""
+    from linkage_ros.core.motion.quantities import MIN_SAMPLES
+
+    mech = load('four_bar_non_grashof')
+    with pytest.raises(ValueError, match=f'at least {MIN_SAMPLES}'):
+        input_sweep(mech, ['link:rocker'], samples=samples)
+    a, b, c, d = 0.30, 0.20, 0.25, 0.22  # ground, crank, coupler, rocker
+    want = math.pi - math.acos((d * d + a * a - (b + c) ** 2) / (2 * a * d))
+    got = input_sweep(mech, ['link:rocker'], samples=MIN_SAMPLES).outputs['link:rocker']
+    assert got.minimum == pytest.approx(want, abs=1e-12)
