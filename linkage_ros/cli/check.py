@@ -5,33 +5,12 @@ from __future__ import annotations
 import math
 from typing import Any
 
-from ..core.mechanism import SceneForm, actuator_kind
+from ..core.mechanism import actuator_kind
 from ..core.model import AngleActuator
 from .common import OK, dumps, fmt_value, load_scene_file, print_notes
 from .described import InputValues
 
 # ---- check -------------------------------------------------------------------------------------
-
-
-def input_ranges(mech) -> dict[str, tuple[float | None, float | None]]:
-    """{actuator: (min or None, max or None)} from core.motion; until that module exists, the
-    scene's limits and, for four_bar shortcut scenes, the crank's closed-form range."""
-    try:
-        from ..core.motion import input_ranges as ranges
-    except ModuleNotFoundError as exc:
-        if exc.name not in ('linkage_ros.core.motion',):
-            raise
-    else:
-        return ranges(mech)
-    out = {a.name: (a.min, a.max) for a in mech.actuators.values()}
-    sc = mech.shortcut
-    if mech.form is SceneForm.FOUR_BAR and out.get('crank') == (None, None):
-        from ..core.analysis import fourbar_input_range
-
-        r = fourbar_input_range(sc['ground'], sc['crank'], sc['coupler'], sc['rocker'])
-        if r is not None:
-            out['crank'] = (r[0] + sc['ground_angle'], r[1] + sc['ground_angle'])
-    return out
 
 
 def check_report(
@@ -43,7 +22,7 @@ def check_report(
 ) -> dict:
     """The check of a loaded mechanism (JSON-ready). ``notes`` and ``warnings``: the scene's
     own (what loading did; what loads but is likely wrong)."""
-    from ..core.motion import input_limits_lifted
+    from ..core.motion import actuator_ranges, input_limits_lifted
     from ..core.motion.other_circuits import other_circuits
     from ..core.motion.quantities import quantities_report
     from ..core.reference_warnings import reference_pose_warnings
@@ -62,7 +41,8 @@ def check_report(
             'output_fully_rotates': c.output_fully_rotates,
             'rule': c.rule,
         }
-    ranges = input_ranges(mech)
+    full = actuator_ranges(mech)  # (each input's range and full_turn)
+    ranges = {name: (i['min'], i['max']) for name, i in full.items()}
     values = InputValues(mech)  # a robot description's: its joint names and values
     solver = Solver(mech, method=solver_method, branch='reference')
     drawn = solver.reference_values()
@@ -77,6 +57,7 @@ def check_report(
             'max': hi,
             'declared_min': declared[0],  # the scene's own limits (None: none given)
             'declared_max': declared[1],
+            'full_turn': bool(full[name]['full_turn']) if name in full else False,
             # its value in the drawing (the reference pose): a lecture's "present value"
             'drawn': values.value(name, float(drawn[name])) if name in drawn else None,
             # where it assembles apart from the drawing's circuit (another circuit)

@@ -20,8 +20,9 @@ more; ``--plot`` draws the region (of ``--point``, else of the scene's first out
 ``--curves`` an output versus an input with every assembly mode. Angles are radians (degrees in
 parentheses), lengths metres.
 
-JSON: {"scene", "inputs": {name: {"min", "max", "min_source", "max_source", "full_turn",
-"assembly", "reference", "unit"}}, "toggles": {name: [...]}, "region": {point: {"boundary":
+JSON: {"scene" (the file, as linkage check's), "name", "inputs": {name: {"min", "max",
+"min_source", "max_source", "full_turn", "assembly", "drawn" (the reference pose's value, as
+linkage check's), "unit"}}, "toggles": {name: [...]}, "region": {point: {"boundary":
 [[x, y], ...], "area", "extent", "method", "actuators", "limits", "hull_check"}}, "tilt": {...},
 "oscillation": {"input", "links": {link: {"min", "max", "full_turn"[, "without_limits":
 {...}: a limited crank's whole circuit]}}}, "motion": {"actuator",
@@ -209,7 +210,7 @@ def analyse(args, mech) -> tuple[dict, int]:
 
     acts, hold = _check(args, mech)
     report: dict[str, Any] = {
-        'scene': mech.name,
+        'name': mech.name,
         'dof': mech.dof,
         'actuators': list(mech.actuators),
         'inputs': {},
@@ -228,9 +229,9 @@ def analyse(args, mech) -> tuple[dict, int]:
                 'max_source',
                 'full_turn',
                 'assembly',
-                'reference',
             )
         }
+        report['inputs'][name]['drawn'] = info['reference']
         report['toggles'][name] = info['toggles']
     region_point = args.point or (mech.outputs[0] if args.plot and mech.outputs else None)
     if args.plot and region_point is None:
@@ -321,7 +322,7 @@ def analyse(args, mech) -> tuple[dict, int]:
 def _print_human(r: dict, mech) -> None:
     p = print
     p(
-        f'{r["scene"]}: {r["dof"]} DOF, actuators {", ".join(r["actuators"])}'
+        f'{r["name"]}: {r["dof"]} DOF, actuators {", ".join(r["actuators"])}'
         + (' (each range with the others held at the reference pose)' if r['dof'] > 1 else '')
     )
     if r.get('without_limits'):
@@ -429,7 +430,7 @@ def described(report: dict, mech) -> dict:
             i['min_source'], i['max_source'] = i['max_source'], i['min_source']
         if i.get('assembly'):
             i['assembly'] = list(values.interval(act, *i['assembly']))
-        i['reference'] = values.value(act, i['reference'])
+        i['drawn'] = values.value(act, i['drawn'])
         inputs[name(act)] = i
     report['inputs'] = inputs
     report['toggles'] = {name(a): values.values(a, t) for a, t in report['toggles'].items()}
@@ -471,6 +472,7 @@ def run(args) -> int:
 
             mech = limits_lifted(mech, lifted)
         report, status = analyse(args, mech)
+        report = {'scene': _path, **report}  # (the file first, as linkage check's JSON)
         if lifted:
             report['without_limits'] = [values.name(a) for a in lifted]
         report = described(report, mech)

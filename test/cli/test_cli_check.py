@@ -247,3 +247,27 @@ def test_check_names_a_grashof_double_rockers_other_circuit(capsys, tmp_path):
         rc, out, _ = run(capsys, 'check', name, '--json')  # one circuit; or limits that say which
         assert rc == 0
         assert loads(out)['inputs']['crank']['other_circuits'] == [], name
+
+
+@pytest.mark.parametrize('stem', ['four_bar', 'four_bar_non_grashof', 'excavator'])
+def test_check_and_range_name_the_same_things_alike(capsys, stem):
+    """`check --json` gave the scene's file as 'scene' and each input's drawn value as 'drawn';
+    `range --json` gave the scene's name as 'scene' and the drawn value as 'reference', and
+    check's inputs had no 'full_turn' (an outside review). Both now: 'scene' the file, 'name'
+    the scene's name, each input's 'drawn' and 'full_turn' equal."""
+    rc, out, _ = run(capsys, 'check', stem, '--json')  # (the packaged scenes)
+    assert rc == 0
+    check = loads(out)
+    rc, out, _ = run(capsys, 'range', stem, '--json')
+    assert rc == 0
+    rng = loads(out)
+    assert check['scene'] == rng['scene'] and check['name'] == rng['name'] == stem
+    assert set(check['inputs']) == set(rng['inputs'])
+    for name, c in check['inputs'].items():
+        r = rng['inputs'][name]
+        assert c['drawn'] == r['drawn'] and c['full_turn'] == r['full_turn'], name
+        assert (c['min'], c['max']) == (r['min'], r['max']), name
+    # the premise, by the cosine rule: only the Grashof crank-rocker's crank turns fully
+    assert [n for n, c in check['inputs'].items() if c['full_turn']] == (
+        ['crank'] if stem == 'four_bar' else []
+    )

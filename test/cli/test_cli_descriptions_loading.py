@@ -159,7 +159,7 @@ def test_input_ranges_are_in_the_descriptions_values(capsys):
             pytest.approx(lo, abs=1e-12),
             pytest.approx(hi, abs=1e-12),
         )
-        assert r['inputs'][name]['reference'] == pytest.approx(0.0, abs=1e-12)
+        assert r['inputs'][name]['drawn'] == pytest.approx(0.0, abs=1e-12)
 
 
 def test_a_mimic_coupled_description_assembled_elsewhere_is_not_called_open(capsys, tmp_path):
