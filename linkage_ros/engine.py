@@ -346,7 +346,11 @@ class Engine:
         circuit (core.motion.circuit_rule.CircuitKeeper.keep): as it is, the circuit's own
         configuration at that input, or refused."""
         keeper = self._circuit_keeper
-        return result if keeper is None else keeper.keep(before, result, values)
+        if keeper is None:
+            return result
+        branch = self.forward.continuity.branch
+        asked = branch.signs if branch.rule is BranchRule.EXPLICIT else None
+        return keeper.keep(before, result, values, tuple(asked) if asked else None)
 
     def _solve_in_signs(self, signs: tuple[int, ...], values: Mapping[str, Any]) -> Result:
         """A forward solve of ``values`` in branch ``signs`` (a solver per sign combination,

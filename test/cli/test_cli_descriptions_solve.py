@@ -436,3 +436,28 @@ def test_a_prismatic_mimic_follower_is_printed_in_metres(capsys, tmp_path):
     assert rc == 0, err
     (line,) = [ln for ln in out.splitlines() if ln.split()[:1] == ['mslide']]
     assert line.split()[1:] == ['0.300000000', 'm'], line
+
+
+@pytest.mark.parametrize('joint1', [-0.4, -0.2, -2.0])
+def test_an_explicit_branch_is_never_answered_in_another_mode(capsys, tmp_path, joint1):
+    """grbda's four-bar is a parallelogram linkage: at joint1 < 0 its '-' mode is the
+    anti-parallelogram (joint2 = joint3), off the drawing's circuit once a closure file's
+    assemble_at redraws the pose at joint1 = 0.3 (the drawing's circuit is the parallelogram,
+    '+'). `--branch -` came back '+', the parallelogram, with status ok (an outside review):
+    the circuit's configuration in another mode than the one asked. A branch setting fixes
+    the mode: refused now, saying so; '+' is answered, and is the parallelogram (oracle:
+    joint2 = -joint1, joint3 = joint1)."""
+    closures = tmp_path / 'asm.yaml'
+    closures.write_text('assemble_at: {joint1: 0.3}\n')
+    urdf = FIXTURES / 'grbda_four_bar.urdf'
+    common = ['solve', urdf, '--closures', closures, '--set', f'joint1={joint1}', '--json']
+    rc, out, _ = run(capsys, *common, '--branch=-')
+    refused = loads(out)
+    assert rc == 1 and refused['status'] == 'error'
+    assert "in the assembly mode asked ('-') is off the drawing's circuit" in refused['reason']
+    assert "passes there in mode '+'" in refused['reason']
+    rc, out, _ = run(capsys, *common, '--branch=+')
+    got = loads(out)
+    assert rc == 0 and got['branch'] == '+'
+    assert got['joints']['joint2'] == pytest.approx(-joint1, abs=1e-12)
+    assert got['joints']['joint3'] == pytest.approx(joint1, abs=1e-12)

@@ -20,6 +20,7 @@ from typing import Any
 from ..quantities import Shown
 from ..solver import Result
 from ..solver.mode_rule import configuration_distance
+from ..steps import branch_text
 from .circuits import Circuit
 
 #: a forward solve of a command in the given branch signs (not committed)
@@ -37,11 +38,18 @@ class CircuitKeeper:
     solve_in: SolveInSigns
     shown: Shown | None = None
 
-    def keep(self, before: Result | None, result: Result, values: Mapping[str, Any]) -> Result:
+    def keep(
+        self,
+        before: Result | None,
+        result: Result,
+        values: Mapping[str, Any],
+        asked: tuple[int, ...] | None = None,
+    ) -> Result:
         """``result`` (a forward answer to ``values`` from the state ``before``) where it is on
         the circuit, or not known to be off it, or the state is off it already (a target
         allowed to change the mode moved it); else the circuit's configuration at that input
-        nearest ``before``; else the refusal."""
+        nearest ``before``, in the signs ``asked`` where a branch setting fixes them (another
+        mode's would answer a command for a mode it did not ask); else the refusal."""
         if not result.success or self.on_circuit(result) is not False:
             return result
         if before is not None and self.on_circuit(before) is False:
@@ -49,14 +57,36 @@ class CircuitKeeper:
         c = self.circuit
         value = float(result.inputs.get(c.actuator, math.nan))
         found = []
+        elsewhere = []  # the circuit's signs at that input where they are not the asked ones
         for signs in dict.fromkeys(s.signs for s in c.stretches):
+            if asked is not None and signs != asked:
+                if c.holds(signs, value):
+                    elsewhere.append(signs)
+                continue
             if c.holds(signs, value):
                 r = self.solve_in(signs, values)
                 if r.success and self.on_circuit(r):
                     found.append(r)
         if found:
             return min(found, key=lambda r: configuration_distance(before, r))
-        return Result(False, self.refusal(value), inputs=dict(result.inputs), solver=result.solver)
+        why = self.refusal(value) if not elsewhere else self.other_mode(value, asked, elsewhere)
+        return Result(False, why, inputs=dict(result.inputs), solver=result.solver)
+
+    def other_mode(
+        self, value: float, asked: tuple[int, ...] | None, elsewhere: list[tuple[int, ...]]
+    ) -> str:
+        """Why the actuator at ``value`` is refused in the ``asked`` signs where the drawing's
+        circuit passes there in others (``elsewhere``)."""
+        c = self.circuit
+        unit = 'rad' if c.periodic else 'm'
+        shown = self.shown(value) if self.shown is not None else value
+        modes = ', '.join(repr(branch_text(s)) for s in elsewhere)
+        return (
+            f'{c.actuator} = {shown:.6g} {unit} in the assembly mode asked '
+            f"({branch_text(asked or ())!r}) is off the drawing's circuit, which passes there "
+            f'in mode {modes} (that branch setting, or continuous, answers it; the all-branches '
+            'search lists every mode)'
+        )
 
     def refusal(self, value: float) -> str:
         """Why the actuator at ``value`` (the scene's) is refused: only the other loop holds it
