@@ -26,16 +26,21 @@ def close_angle(a, b, tol):
     return abs(math.remainder(a - b, 2 * math.pi)) < tol
 
 
-def test_crank_rocker_against_the_closed_forms():
-    sweep = input_sweep(load('four_bar'), ['link:rocker'])
-    assert sweep.full_turn and classical_outputs(load('four_bar')) == ['link:rocker']
-    # transmission angle extremes: crank along the ground (theta2 = 0 and pi)
+def assert_crank_rocker_transmission(sweep) -> None:
+    """The crank-rocker's transmission angle extremes by the cosine rule, crank along the
+    ground (theta2 = 0 and pi), at any size of the drawing."""
     (mu,) = sweep.transmission.values()
     mu_min = math.acos((L3 * L3 + L4 * L4 - (L1 - L2) ** 2) / (2 * L3 * L4))
     mu_max = math.acos((L3 * L3 + L4 * L4 - (L1 + L2) ** 2) / (2 * L3 * L4))
     assert mu.minimum == pytest.approx(mu_min, abs=1e-12)
     assert mu.maximum == pytest.approx(mu_max, abs=1e-12)
     assert close_angle(mu.input_at_min, 0.0, 1e-6) and close_angle(mu.input_at_max, math.pi, 1e-6)
+
+
+def test_crank_rocker_against_the_closed_forms():
+    sweep = input_sweep(load('four_bar'), ['link:rocker'])
+    assert sweep.full_turn and classical_outputs(load('four_bar')) == ['link:rocker']
+    assert_crank_rocker_transmission(sweep)
     # rocker extremes: crank and coupler in line (extended, folded)
     ext = math.acos((L1 * L1 + (L2 + L3) ** 2 - L4 * L4) / (2 * L1 * (L2 + L3)))
     fold = math.pi + math.acos((L1 * L1 + (L3 - L2) ** 2 - L4 * L4) / (2 * L1 * (L3 - L2)))
@@ -174,12 +179,7 @@ def test_transmission_angles_at_every_size_of_the_drawing(size):
     with warnings.catch_warnings():
         warnings.simplefilter('error')  # no overflow warnings on the way either
         sweep = input_sweep(mech, ['link:rocker'])
-    (mu,) = sweep.transmission.values()
-    mu_min = math.acos((L3 * L3 + L4 * L4 - (L1 - L2) ** 2) / (2 * L3 * L4))
-    mu_max = math.acos((L3 * L3 + L4 * L4 - (L1 + L2) ** 2) / (2 * L3 * L4))
-    assert mu.minimum == pytest.approx(mu_min, abs=1e-12)
-    assert mu.maximum == pytest.approx(mu_max, abs=1e-12)
-    assert close_angle(mu.input_at_min, 0.0, 1e-6) and close_angle(mu.input_at_max, math.pi, 1e-6)
+    assert_crank_rocker_transmission(sweep)
 
 
 @pytest.mark.parametrize('samples', [2, 0, -5, 89, 2.5, True, None])
