@@ -350,7 +350,7 @@ class Engine:
             return result
         branch = self.forward.continuity.branch
         asked = branch.signs if branch.rule is BranchRule.EXPLICIT else None
-        return keeper.keep(before, result, values, tuple(asked) if asked else None)
+        return keeper.keep(before, result, values, asked)
 
     def _solve_in_signs(self, signs: tuple[int, ...], values: Mapping[str, Any]) -> Result:
         """A forward solve of ``values`` in branch ``signs`` (a solver per sign combination,

@@ -84,7 +84,7 @@ def limit_violation(
     if periodic:
         # one limit: the angle as reported, in (-pi, pi] (a command of 4 rad is the angle
         # -2.28 rad, below a minimum of -1 however it is written)
-        v = math.pi if turned == -math.pi else turned
+        v = turned  # (wrap_one: in (-pi, pi], -pi given as pi)
     if lo is not None and v < lo - slack(lo):
         got, limit = _apart(value, lo)
         at = _on_circle(value, v, unit, got) if periodic else f'{got} {unit}'

@@ -59,14 +59,14 @@ class CircuitKeeper:
         found = []
         elsewhere = []  # the circuit's signs at that input where they are not the asked ones
         for signs in dict.fromkeys(s.signs for s in c.stretches):
-            if asked is not None and signs != asked:
-                if c.holds(signs, value):
-                    elsewhere.append(signs)
+            if not c.holds(signs, value):
                 continue
-            if c.holds(signs, value):
-                r = self.solve_in(signs, values)
-                if r.success and self.on_circuit(r):
-                    found.append(r)
+            if asked is not None and signs != asked:
+                elsewhere.append(signs)
+                continue
+            r = self.solve_in(signs, values)
+            if r.success and self.on_circuit(r):
+                found.append(r)
         if found:
             return min(found, key=lambda r: configuration_distance(before, r))
         why = self.refusal(value) if not elsewhere else self.other_mode(value, asked, elsewhere)

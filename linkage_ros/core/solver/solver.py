@@ -185,13 +185,12 @@ class Solver:
         points and Newton unknowns this mechanism's (another mechanism's state, with knowns of
         the same names, made the next solve raise or refuse a reachable command)."""
         mech = self.mech
-        moving = 3 * (len(mech.links) - 1)
         return (
             isinstance(st, State)
             and len(st.values) == len(self.compiled.specs)
             and set(st.poses.phi) <= set(mech.links)
             and set(st.points) <= set(mech.points)
-            and (st.x_all is None or np.shape(st.x_all) == (moving,))
+            and (st.x_all is None or np.shape(st.x_all) == (self.check_system.n,))
         )
 
     def reset(self) -> None:
