@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import collections
 import math
-from collections.abc import Container, Mapping, Sequence
+from collections.abc import Container, Iterable, Mapping, Sequence
 from typing import Any
 
 from .core.errors import CommandError, echo
@@ -37,6 +37,11 @@ def name_count_error(count: int, max_names: int) -> str | None:
     )
 
 
+def repeated_names(names: Iterable[str]) -> list[str]:
+    """The names given more than once, sorted (each once)."""
+    return sorted(n for n, count in collections.Counter(names).items() if count > 1)
+
+
 def joint_names_error(names: Sequence[str], max_names: int) -> str | None:
     """Why a JointTrajectory's ``joint_names`` are malformed (none, too many, an empty or a
     repeated name), or None; in the trajectory's own words (a JointState's are
@@ -52,7 +57,7 @@ def joint_names_error(names: Sequence[str], max_names: int) -> str | None:
     empty = [i for i, n in enumerate(names) if not n]
     if empty:
         return f'JointTrajectory joint_names[{empty[0]}] is an empty string'
-    repeated = sorted(n for n, count in collections.Counter(names).items() if count > 1)
+    repeated = repeated_names(names)
     if repeated:
         return f'JointTrajectory joint_names {echo(repeated)} more than once'
     return None
@@ -85,9 +90,9 @@ def request_shape_error(
     empty = [i for i, n in enumerate(names) if not n]
     if empty:
         return f'JointState name[{empty[0]}] is an empty string'
-    dups = [n for n, count in collections.Counter(names).items() if count > 1]
+    dups = repeated_names(names)
     if dups:
-        return f'JointState names {echo(sorted(set(dups)))} more than once'
+        return f'JointState names {echo(dups)} more than once'
     return None
 
 
@@ -103,7 +108,7 @@ def pick_refusal(names: Sequence[str], npos: int, wanted: Container[str]) -> str
         return (
             f'JointState has {len(names)} name(s) but {npos} position(s): cannot read {echo(found)}'
         )
-    repeated = sorted(n for n, count in collections.Counter(found).items() if count > 1)
+    repeated = repeated_names(found)
     if repeated:  # (the repeated ones only: a wanted name given once is no fault)
         return f'JointState names {echo(repeated)} more than once'
     return None
