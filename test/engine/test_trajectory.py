@@ -35,7 +35,11 @@ def test_a_crank_turn_is_the_oracle_at_every_point_and_leaves_the_state():
         assert abs(math.remainder(r.links['rocker'] - float(want['theta4']), 2 * math.pi)) < 1e-12
         assert r.velocity is not None and r.velocity.success
     assert e.last is before  # a trajectory is a plan: the state is unchanged
-    assert e.command({'crank': 1.0}).links['rocker'] == pytest.approx(1.6895883797486895, abs=1e-12)
+    rocker = e.command({'crank': 1.0}).links['rocker']
+    assert (
+        abs(math.remainder(rocker - float(oracle(*L, 1.0, branch=1)['theta4']), 2 * math.pi))
+        < 1e-12
+    )
 
 
 def test_an_excavator_throw_sweep_equals_one_command_after_another():

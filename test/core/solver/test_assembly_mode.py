@@ -41,7 +41,6 @@ def test_a_target_only_the_other_mode_reaches_is_refused_and_changes_nothing():
     c = e.command({'crank': 1.0})
     assert c.success and c.branch == '+'
     assert close_angle(c.links['rocker'], rocker_oracle(1.0, +1))
-    assert close_angle(c.links['rocker'], 1.6895883797486895, 1e-9)  # the fresh node's answer
 
 
 def test_an_explicit_mode_change_is_allowed_and_reported():
@@ -52,7 +51,6 @@ def test_an_explicit_mode_change_is_allowed_and_reported():
     c = e.command({'crank': 1.0})
     assert c.success and c.branch == '-'
     assert close_angle(c.links['rocker'], rocker_oracle(1.0, -1))
-    assert close_angle(c.links['rocker'], -2.3488338882991395, 1e-9)
 
 
 def test_a_target_with_a_solution_in_the_current_mode_gets_that_one():
