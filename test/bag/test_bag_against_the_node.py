@@ -12,7 +12,6 @@ import numpy as np
 import pytest
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
-from scenes import REPO
 from test_bag import (
     GROUND,
     JS,
@@ -43,8 +42,6 @@ from linkage_ros.core.solver import Solver
 def _node_engine(scene_file, **params):
     """The node's session (linkage_ros.engine.Engine, as the node loads it), in-process, solving
     one command at a time, for a scene file."""
-    if not (REPO / 'linkage_ros' / 'node.py').exists():
-        pytest.skip('linkage_ros/node.py does not exist yet: no node to compare with')
     import linkage_ros.node as node
 
     mech = Scene.from_yaml(scene_file).mechanism
@@ -280,8 +277,6 @@ def test_newton_solver_is_sequential_and_matches_node(tmp_path, scene, capsys):
 
 def test_matches_running_node_over_dds(tmp_path, scene):
     """The bag's answers equal linkage_node's, over DDS, for the same commands (1e-12)."""
-    if not (REPO / 'linkage_ros' / 'node.py').exists():
-        pytest.skip('linkage_ros/node.py does not exist yet: no node to compare with')
     from diagnostic_msgs.msg import DiagnosticStatus
     from ros_harness import NodeProcess, RosHarness, random_domain_id
     from sensor_msgs.msg import JointState

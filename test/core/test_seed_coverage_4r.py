@@ -106,7 +106,11 @@ def test_seed002_forward_and_inverse_kinematics_of_the_4r_chain():
             Q = l1 + l4 * cmath.exp(1j * t4)
             assert circ(r.links['coupler'], math.atan2(Q.imag - P.imag, Q.real - P.real)) <= 1e-10
     inv = Solver(mech, knowns=['rocker'])  # the output link's angle is given
-    lo, hi = 1.633337088591388, 2.6810992285307336  # rocker range (toggles), see test_analysis
+    # the rocker's range: its extremes where crank and coupler are in line, |O2 B| = l3 +- l2
+    # (the cosine rule in O2 O4 B, O4 at (l1, 0))
+    lo, hi = sorted(
+        math.acos((d * d - l1 * l1 - l4 * l4) / (2 * l1 * l4)) for d in (l3 - l2, l3 + l2)
+    )
     for t4 in np.linspace(lo + 1e-3, hi - 1e-3, 25):
         t4 = float(t4)
         Q = l1 + l4 * cmath.exp(1j * t4)

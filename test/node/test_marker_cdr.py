@@ -55,7 +55,9 @@ def test_markers_are_those_conversions_build(scene):
     same_as_conversions(mech, engine, 'world', commands)
 
 
-def test_a_description_is_drawn_in_its_frame():
+def test_a_descriptions_markers_are_those_conversions_build_in_its_frame():
+    """The serialiser against the message converter on a description's 3-D drawing (where each
+    point is placed: point_3d, checked against Pinocchio in test_description_values)."""
     scene = load_scene(
         str(FIXTURES / 'picknik_robotiq_2f_85.expanded.urdf'),
         None,

@@ -6,7 +6,6 @@ and a shipped scene's mechanism by name (skipped where the scene is not shipped)
 import math
 
 import numpy as np
-import pytest
 from scenes import CONFIG
 
 from linkage_ros.core.model import Scene
@@ -45,7 +44,4 @@ def side(a, b, x):
 
 
 def named_scene(name):
-    path = CONFIG / f'{name}.yaml'
-    if not path.exists():
-        pytest.skip(f'{name}.yaml not shipped yet')
-    return Scene.from_yaml(path).mechanism
+    return Scene.from_yaml(CONFIG / f'{name}.yaml').mechanism

@@ -196,10 +196,7 @@ def test_nongrashof_rpr_rocker_oscillation_is_the_seed_common_tangent():
 
 
 def test_shipped_oscillating_rpr_matches_its_documented_range():
-    path = CONFIG / 'inverted_slider_crank_oscillating.yaml'
-    if not path.exists():
-        pytest.skip('scene not shipped yet')
-    mech = Scene.from_yaml(path).mechanism
+    mech = Scene.from_yaml(CONFIG / 'inverted_slider_crank_oscillating.yaml').mechanism
     info = motion.actuator_range(mech, 'crank')
     a = math.acos(0.92)  # cosine rule of the scene's header
     assert info['assembly'] == pytest.approx([a, TWO_PI - a], abs=1e-9)
@@ -209,10 +206,7 @@ def test_shipped_oscillating_rpr_matches_its_documented_range():
 
 
 def test_shipped_peaucellier_folds_where_op_equals_l_minus_s():
-    path = CONFIG / 'peaucellier.yaml'
-    if not path.exists():
-        pytest.skip('scene not shipped yet')
-    mech = Scene.from_yaml(path).mechanism
+    mech = Scene.from_yaml(CONFIG / 'peaucellier.yaml').mechanism
     r, l, s = 0.045, 0.15, 0.10
     # P on the circle (OP, r) through O: |OP| = 2 r cos(theta / 2) = l - s at the fold
     fold = 2 * math.acos((l - s) / (2 * r))
