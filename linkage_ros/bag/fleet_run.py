@@ -4,7 +4,7 @@ Each bag is one task (fleet_task.analyse_bag) with the run's options; the tasks 
 the other (``--jobs 1``), in a local process pool (``--jobs N``, default: the machine's cores)
 or on a Dask distributed cluster (``--scheduler ADDRESS``: dask.distributed's Client, imported
 only then). A bag is solved from its own start in every case, so its outputs are the same
-wherever it ran. One tqdm bar on stderr follows the fleet (bags and commands done, rate, ETA),
+wherever it ran. One tqdm bar on stderr follows the fleet (bags done, messages read, rate, ETA),
 and below it each bag being analysed has its own (one line per local worker; not for a Dask
 cluster, whose workers have no terminal).
 At the end ``summary.csv`` and ``summary.json`` (one row per bag) are written to DIR.
@@ -335,7 +335,7 @@ def run_fleet(args: argparse.Namespace) -> int:
     else:
         where = 'this process'
         results = _serial(todo, opts, enabled)
-    commands = 0
+    read = 0  # messages read (BagRow.messages: --state-completion's skipped ones too)
     with tqdm(
         total=len(todo),
         desc='bags',
@@ -346,10 +346,10 @@ def run_fleet(args: argparse.Namespace) -> int:
     ) as bar:
         for i, row in results:
             rows[i] = row
-            commands += row.messages
+            read += row.messages
             bar.update(1)
-            rate = commands / max(time.perf_counter() - t0, 1e-9)
-            bar.set_postfix_str(f'{commands:,} commands, {rate:,.0f}/s')
+            rate = read / max(time.perf_counter() - t0, 1e-9)
+            bar.set_postfix_str(f'{read:,} messages, {rate:,.0f}/s')
             if row.status is BagStatus.FAILED:
                 bar.write(f'linkage bag: {row.bag}: failed: {row.reason}', file=sys.stderr)
     ordered = [rows[i] for i in range(len(tasks))]
