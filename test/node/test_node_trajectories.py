@@ -57,7 +57,8 @@ def _trajectory(names, rows, dt_ns=10_000_000, velocities=None, stamp=(5, 6)):
 
 def test_crank_turn_trajectory_over_dds(four_bar):
     """~/trajectory of a full crank turn: ~/solved_trajectory has every joint at every point
-    (the 50-digit oracle), time_from_start and stamp kept, velocities when given, one status;
+    (the closed-form oracle; its rates: the oracle's central difference times the crank's
+    rate), time_from_start and stamp kept, one status;
     an unreachable point refuses the whole trajectory naming its index, with nothing solved."""
     four_bar.assert_single_ok(four_bar.request(joint_state(['crank'], [1.0])))
     thetas = [1.0 + 2 * math.pi * k / 36 for k in range(37)]
@@ -68,15 +69,21 @@ def test_crank_turn_trajectory_over_dds(four_bar):
     assert kv['points'] == '37' and kv['request'] == 'trajectory' and kv['velocity'] == 'ok'
     assert list(solved.joint_names) == four_bar.mech.joint_names
     assert stamp_of(solved) == (5, 6) and solved.header.frame_id == four_bar.frame_id
+    assert len(solved.points) == len(thetas)
+    h = 1e-5  # (central difference: truncation ~h^2, rounding ~1e-16 / h; both below 1e-8)
     for k, (t, pt) in enumerate(zip(thetas, solved.points)):
-        want = four_bar.oracle.solve(t)
+        want = four_bar.oracle.solve(t)['joints']
+        ahead, behind = (four_bar.oracle.solve(t + s * h)['joints'] for s in (1, -1))
         got = dict(zip(solved.joint_names, pt.positions))
-        for j in ('O2', 'O4'):
-            assert angle_diff(got[j], want['joints'][j]) < 1e-9, (k, j)
+        rate = dict(zip(solved.joint_names, pt.velocities))
+        assert set(got) == set(rate) == set(want)
+        for j in want:
+            assert angle_diff(got[j], want[j]) < 1e-12, (k, j)
+            slope = math.remainder(ahead[j] - behind[j], 2 * math.pi) / (2 * h)
+            assert abs(rate[j] - 1.5 * slope) < 1e-8, (k, j, rate[j], 1.5 * slope)
         assert (pt.time_from_start.sec, pt.time_from_start.nanosec) == divmod(
             (k + 1) * 10**7, 10**9
         )
-        assert len(pt.velocities) == len(solved.joint_names)
     rocker = [[1.70], [1.75], [1.2], [1.8]]  # the rocker swings from 1.633 to 2.681 rad
     status, solved = _trajectory_request(four_bar, _trajectory(['rocker'], rocker), '~/trajectory')
     assert status.level == DiagnosticStatus.ERROR and status.message.startswith('point 2: ')
@@ -95,7 +102,7 @@ def test_crank_turn_trajectory_over_dds(four_bar):
         assert status.level == DiagnosticStatus.ERROR and why in status.message, status.message
     # the state is the one before the trajectories
     joints = four_bar.assert_single_ok(four_bar.request(joint_state(['crank'], [1.0])))
-    assert angle_diff(joints['O4'], four_bar.oracle.solve(1.0)['joints']['O4']) < 1e-9
+    assert angle_diff(joints['O4'], four_bar.oracle.solve(1.0)['joints']['O4']) < 1e-12
 
 
 def test_throw_sweep_trajectory_over_dds_equals_the_cli(three_dof, capsys):
@@ -123,6 +130,7 @@ def test_throw_sweep_trajectory_over_dds_equals_the_cli(three_dof, capsys):
             args += ['--set', f'{a}={v!r}']
         assert cli_main(args) == 0
         d = json.loads(capsys.readouterr().out)
+        assert len(solved.points) == n
         got = dict(zip(solved.joint_names, solved.points[k].positions))
         for j in mech.joint_names:
             assert abs(math.remainder(got[j] - d['joints'][j], 2 * math.pi)) < 1e-9, (k, j)
@@ -155,6 +163,7 @@ def test_bin_path_over_dds_comes_back_as_throws(three_dof):
     from linkage_ros.engine import Engine, EngineSettings
 
     fwd = Engine(mech, EngineSettings())
+    assert len(solved.points) == len(xy)
     for (x, y), pt in zip(xy, solved.points):
         got = dict(zip(solved.joint_names, pt.positions))
         r = fwd.command({a: got[mech.actuators[a].joint] for a in mech.actuators})
