@@ -480,6 +480,7 @@ def test_a_command_naming_a_joint_link_or_point_is_refused_in_the_nodes_words(tm
     )
     assert code == 0, cap.err
     rows = read_csv(out)
+    assert len(rows) == len(cases)
     for row, (names, values) in zip(rows, cases):
         want = engine.command(dict(zip(names, values)))
         assert row['status'] == ('ok' if want.success else 'error')

@@ -396,20 +396,20 @@ def test_without_scheduler_dask_is_never_imported(fleet, tmp_path):
     assert out.stdout.strip().splitlines()[-1] == '0 []', out.stdout + out.stderr
 
 
-def test_each_bag_shows_its_own_progress_below_the_fleets(fleet, tmp_path, capsys, monkeypatch):
+def test_each_bag_shows_its_own_progress_below_the_fleets(fleet, tmp_path, capfd, monkeypatch):
     """Where stderr is a terminal, the fleet's bar and, one line below it, the bar of the bag
-    being analysed (named by the bag), in this process and in a local pool's workers."""
+    being analysed (named by the bag), in this process and in a local pool's workers (theirs
+    written to the file descriptor they inherit: captured at that level)."""
     root, _ = fleet
     for jobs in ('1', '2'):
         monkeypatch.setattr(sys.stderr, 'isatty', lambda: True, raising=False)
         code = bag.main(
             [str(a) for a in (root / 'day1', *COMMON, '--out-dir', tmp_path / jobs, '--jobs', jobs)]
         )
-        err = capsys.readouterr().err
+        err = capfd.readouterr().err
         assert code == 0
         assert 'bags' in err  # the fleet's bar
-        if jobs == '1':  # a worker process's bars go to the terminal, not to this capture
-            assert 'a: reading' in err and 'b: solving' in err  # named as under --out-dir
+        assert 'a: reading' in err and 'b: solving' in err, err  # named as under --out-dir
 
 
 def test_each_bag_gets_its_plot_with_format_png(fleet, tmp_path, capsys):

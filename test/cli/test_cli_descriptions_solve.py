@@ -237,6 +237,7 @@ def test_sweep_csv_columns_are_the_descriptions_joints(capsys, tmp_path):
         f'input.{a}' for a in ('joint1', 'joint2', 'joint3')
     ] + [f'joint.{j}' for j in names]
     case = CASES['grbda_six_bar']
+    assert len(rows) == 3
     for row, q1 in zip(rows, (0.0, 0.1, 0.2)):
         joints = {j: float(row[f'joint.{j}']) for j in names}
         assert joints['joint1'] == pytest.approx(q1, abs=1e-12)
@@ -247,7 +248,9 @@ def test_sweep_csv_columns_are_the_descriptions_joints(capsys, tmp_path):
         '--set', f'{LEFT_KNUCKLE}=0.1:0.7:4', '--csv', out_csv,
     )  # fmt: skip
     assert rc == 0, err
-    for row in csv.DictReader(out_csv.open()):
+    rows = list(csv.DictReader(out_csv.open()))
+    assert len(rows) == 4
+    for row in rows:
         left = float(row[f'input.{LEFT_KNUCKLE}'])
         assert float(row[f'input.{RIGHT_KNUCKLE}']) == pytest.approx(-left, abs=1e-12)
 

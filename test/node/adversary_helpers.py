@@ -93,7 +93,7 @@ class FourBar:
         return [w(theta2), w(t3 - theta2), w(t4 - t3), w(t4)]  # O2, A, B, O4
 
 
-def assert_close_angles(got, want, tol=1e-9):
+def assert_close_angles(got, want, tol=1e-12):
     assert len(got) == len(want)
     for g, w in zip(got, want):
         assert abs(math.atan2(math.sin(g - w), math.cos(g - w))) < tol, (list(got), want)

@@ -140,8 +140,9 @@ def test_bad_requests_change_nothing_on_a_three_dof_scene(serve):
             cmd({'Z1': 1.5, 'Z2': 1.9, 'Z3': 1.2, 'bucket': 0.0}),
             ['3 degree(s) of freedom', 'give 4 value'],
         ),
-        ('target', cmd({'boom': 3.0, 'stick': 0.0, 'bucket': 0.0}), ['']),  # unreachable
-        ('target_point/L', point_stamped(40.0, 40.0, stamp=stamp_next()), ['']),
+        # unreachable: the boom's angle needs a throw below Z2's limit; L 40 m away
+        ('target', cmd({'boom': 3.0, 'stick': 0.0, 'bucket': 0.0}), ['needs Z2', 'minimum']),
+        ('target_point/L', point_stamped(40.0, 40.0, stamp=stamp_next()), ['out of reach']),
         (
             'target_point/L',
             point_stamped(2.0, 0.5, stamp=stamp_next(), frame_id='map'),

@@ -134,7 +134,7 @@ def test_state_completion_publishes_the_passive_joints_the_hardware_does_not(ros
     assert len(ahead.velocity) == 0  # no velocity given, none published
     for i, name in enumerate(passive):
         slope = wrap(ahead.position[i] - behind.position[i]) / (2 * h)
-        assert answer.velocity[i] == pytest.approx(slope, rel=1e-5, abs=1e-7), name
+        assert answer.velocity[i] == pytest.approx(slope, rel=1e-7, abs=1e-8), name
 
     # a partial set holds the others at their last values (the last message's: behind)
     held = {k: v - h * r for (k, v), r in zip(q.items(), rates)}
