@@ -115,6 +115,11 @@ def cmd_sweep(args) -> int:
         else:
             res = engine.forward_solve(known)
         if table is not None:
+            # a refused row keeps what it was commanded, as linkage bag's table does (a refusal
+            # before any solve, a description's joint beyond its <limit>, echoes no inputs)
+            for nm, v in known.items():
+                if nm in table.inputs:
+                    table.inputs[nm][i] = v
             table.put_result(i, res)
         n_ok += res.success
         n_err += not res.success

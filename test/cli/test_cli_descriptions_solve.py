@@ -255,6 +255,26 @@ def test_sweep_csv_columns_are_the_descriptions_joints(capsys, tmp_path):
         assert float(row[f'input.{RIGHT_KNUCKLE}']) == pytest.approx(-left, abs=1e-12)
 
 
+def test_sweep_rows_refused_beyond_a_limit_keep_their_command(capsys, tmp_path):
+    """A description's joint commanded beyond its <limit> is refused before any solve; its CSV
+    row still has the inputs it was commanded, as linkage bag's has them (angles wrapped as the
+    answers give them, the mimic follower at -1 times the knuckle); they were empty."""
+    out_csv = tmp_path / 'refused.csv'
+    rc, _, err = run(
+        capsys, 'sweep', ROBOTIQ, '--closures', ROBOTIQ_CLOSURES,
+        '--set', f'{LEFT_KNUCKLE}=-6:6.5:2', '--csv', out_csv,
+    )  # fmt: skip
+    assert rc == 0, err
+    rows = list(csv.DictReader(out_csv.open()))
+    assert [r['status'] for r in rows] == ['error', 'error']
+    assert 'below its minimum' in rows[0]['reason'] and 'beyond its maximum' in rows[1]['reason']
+    for row, commanded in zip(rows, (-6.0, 6.5)):
+        left = math.remainder(commanded, 2 * math.pi)
+        assert float(row[f'input.{LEFT_KNUCKLE}']) == pytest.approx(left, abs=1e-15)
+        assert float(row[f'input.{RIGHT_KNUCKLE}']) == pytest.approx(-left, abs=1e-15)
+        assert all(row[k] == '' for k in row if k.startswith('joint.'))
+
+
 def test_a_target_that_breaks_the_grippers_mimic_is_refused_and_one_that_keeps_it_closes(
     capsys,
 ):
