@@ -15,6 +15,7 @@ import yaml
 
 from ..errors import SceneError, echo
 from ..mechanism import Mechanism
+from .checks import TOP_KEYS, SceneContext
 from .general import build_mechanism
 from .joint_map_io import joint_map_from_dict
 
@@ -67,11 +68,17 @@ class Scene:
         return cls(_build(data, source, dimensions, warnings), None, warnings=tuple(warnings))
 
 
+#: the keys of a scene file: the mechanism's (build_mechanism reads them) and joint_coordinates
+SCENE_KEYS = TOP_KEYS | {'joint_coordinates'}
+
+
 def _build(
     data: Any, source: str, dimensions: Mapping[str, float] | None, warnings: list[str]
 ) -> Mechanism:
     """build_mechanism, then the ``joint_coordinates`` key (a robot description's own joint
     names and values, as ``linkage import`` writes them) applied to the mechanism built."""
+    if isinstance(data, Mapping):  # a misspelt key is told every key a scene file may have
+        SceneContext(source).only('', data, SCENE_KEYS)
     if not isinstance(data, Mapping) or 'joint_coordinates' not in data:
         return build_mechanism(data, source, dimensions, warnings)
     rest = {k: v for k, v in data.items() if k != 'joint_coordinates'}

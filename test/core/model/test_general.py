@@ -88,3 +88,20 @@ def test_a_dof_refusal_with_every_link_joined_has_no_hint():
         'actuators': {**CRANK, 'extra': {'type': 'angle', 'link': 'rocker', 'pivot': 'O4'}},
     }
     assert dof_refusal(data).endswith("but 2 actuator(s) (got ['crank', 'extra'])")
+
+
+def test_a_misspelt_top_key_is_told_every_key_a_scene_file_may_have():
+    """The keys an unknown top-level key's message lists are the scene file's, joint_coordinates
+    (what linkage import writes) among them; it was left out, so its misspelling got no hint.
+    Every key listed is one SCENES.md documents."""
+    import ast
+    from pathlib import Path
+
+    fb = {'ground': 0.3, 'crank': 0.1, 'coupler': 0.25, 'rocker': 0.2}
+    with pytest.raises(SceneError, match='joint_cordinates: unknown key') as err:
+        Scene.from_dict({'four_bar': fb, 'joint_cordinates': {}})
+    msg = str(err.value)
+    listed = ast.literal_eval(msg[msg.index('[') : msg.index(']') + 1])
+    assert 'joint_coordinates' in listed
+    doc = (Path(__file__).parents[3] / 'docs' / 'SCENES.md').read_text()
+    assert [k for k in listed if f'`{k}`' not in doc and f'{k}:' not in doc] == []
