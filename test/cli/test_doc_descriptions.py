@@ -82,3 +82,30 @@ def test_every_node_command_of_the_doc_names_real_parameters(command):
         assert name in names, name
         if value.startswith('test/'):
             assert (REPO / value).is_file(), value
+
+
+def test_the_python_sections_solver_and_engine_modes_are_as_it_says():
+    """'From Python': on the GRBDA four-bar at joint1 = 0.5 a Solver of its own answers the
+    anti-parallelogram (joint2 = joint3) and the engine, or branch '-', the parallelogram
+    (joint2 = -joint1, joint3 = joint1): the relations the section quotes, to 1e-12 rad."""
+    from linkage_ros.core.loading import load_scene
+    from linkage_ros.core.solver import Solver
+    from linkage_ros.engine import Engine, EngineSettings
+
+    text = DOC.read_text(encoding='utf-8')
+    assert 'joint2 = joint3 = -1.3074 at' in text and "`Solver(mech, branch='-')`" in text
+    mech = load_scene(str(REPO / 'test/fixtures/robot_descriptions/grbda_four_bar.urdf')).mechanism
+    jc = mech.joint_coordinates
+    known = jc.to_scene({'joint1': 0.5}, command=True)
+
+    def values(joints):
+        return dict(zip(jc.names, jc.positions(joints)))
+
+    own = values(Solver(mech).solve(known).joints)
+    assert abs(own['joint2'] - own['joint3']) < 1e-12 and round(own['joint2'], 4) == -1.3074
+    for joints in (
+        Solver(mech, branch='-').solve(known).joints,
+        Engine(mech, EngineSettings()).command({'joint1': 0.5}).joints,
+    ):
+        got = values(joints)
+        assert abs(got['joint2'] + 0.5) < 1e-12 and abs(got['joint3'] - 0.5) < 1e-12
