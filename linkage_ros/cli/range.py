@@ -365,7 +365,10 @@ def _print_human(r: dict, mech) -> None:
             p(
                 '  boundary: the concave hull of the samples, an estimate: it bridges notches '
                 'narrower than 2.5 sample spacings and fills holes, and its extent is the '
-                "samples'; its area may be off by a few % (measured: excavator L 0.9 %), by "
+                "samples' (with a closed-form plan, and the edges where the mechanism stops "
+                'assembling between two: a dead centre inside the limits); its area may be off '
+                'by a few % (measured: excavator L 0.9 %, a crane whose fold cylinder has its '
+                'dead centre inside its limits 0.8 %), by '
                 'tens of % where the map folds at few samples (--samples brings it closer), '
                 'or by a whole hole'
             )

@@ -12,7 +12,7 @@ import numpy as np
 
 from ..brent import brent_minimum
 from ..model import AngleActuator, Mechanism
-from ..solver import Solver
+from ..solver import SolveMode, Solver
 from .common import point_key, reference_point, reference_scalar
 from .ranges import actuator_range
 
@@ -241,7 +241,9 @@ def reachable_region(
       samples'; measured against a finer grid's union of cell images: the excavator's L 0.9 %
       over, an outside reviewer's folding excavator map (--without-limits) 37 % over at 41
       samples and 3.9 % at 321, a five-bar 1.8 % under, a 2R arm's hole filled in whole);
-    * ``area``, ``cloud`` (sampled points on a grid of the throws), ``arcs`` (each with ``fixed``
+    * ``area``, ``cloud`` (sampled points on a grid of the throws, and, where the plan is
+      closed-form, between two neighbours of which one assembles and the other not, the edge:
+      assembly_edges; a path gets its edges too), ``arcs`` (each with ``fixed``
       = [actuator, 'min'|'max', value], ``sweep`` and ``points``), ``limits``, ``held``;
     * ``hull_check``: ``outside`` (cloud points outside the boundary beyond ``tolerance``),
       ``max_outside``, ``convex_hull_area``, ``convex`` (the region equals its convex hull).
@@ -314,14 +316,27 @@ def reachable_region(
     ok = np.zeros(grid.shape[0], bool)
     P = np.zeros((grid.shape[0], 2))
     ok[perm], P[perm] = ok_s, P_s
-    cloud = P[ok]
+    # where it stops assembling between two samples (a dead centre inside the limits), the
+    # edge itself: the grid's samples stop short of it by up to a step. Closed form only: its
+    # batch rows are independent, where a Newton batch is one path (its bisection would jump
+    # about, move the solver's mode for the solves after it and grind at caps on every miss)
+    closed = solver.mode is SolveMode.CLOSED_FORM
+    _, edges = assembly_edges(grid, ok, n, acts, solve) if closed else (None, np.zeros((0, 2)))
+    cloud = np.concatenate([P[ok], edges])
     out['cloud'] = cloud.tolist()
     arcs = []
     if len(acts) == 1:
         a = acts[0]
         xs = np.linspace(lims[a][0], lims[a][1], ne)
         okp, pp = solve({a: xs})
-        boundary, binputs = pp[okp], {a: xs[okp].tolist()}
+        ends, at_ends = (
+            assembly_edges(xs[:, None], okp, ne, acts, solve)
+            if closed
+            else (np.zeros((0, 1)), np.zeros((0, 2)))
+        )
+        order = np.argsort(np.concatenate([xs[okp], ends[:, 0]]), kind='stable')
+        boundary = np.concatenate([pp[okp], at_ends])[order]
+        binputs = {a: np.concatenate([xs[okp], ends[:, 0]])[order].tolist()}
         method = Boundary.PATH
         area = 0.0
     elif len(acts) == 2:
@@ -373,6 +388,7 @@ def reachable_region(
             hull_area = 0.0
     outside, max_out = 0, 0.0
     if method is Boundary.EXTREME_ARCS:
+        assert boundary is not None  # (two actuators: the arcs joined)
         inside = points_in_polygon(cloud, boundary)
         d = distance_to_polygon(cloud[~inside], boundary) if (~inside).any() else np.zeros(0)
         outside = int(np.sum(d > tolerance))
@@ -410,6 +426,44 @@ def reachable_region(
         },
     )
     return out
+
+
+#: halvings of a grid step that put an edge of where the mechanism assembles (between a sample
+#: that assembles and its neighbour that does not) to 2^-EDGE_BISECTIONS of that step
+EDGE_BISECTIONS = 48
+
+
+def assembly_edges(
+    grid: np.ndarray,
+    ok: np.ndarray,
+    n: int,
+    acts: Sequence[str],
+    solve: Callable[[Mapping[str, np.ndarray]], tuple[np.ndarray, np.ndarray]],
+) -> tuple[np.ndarray, np.ndarray]:
+    """(throws, points) where the mechanism stops assembling between neighbouring samples of a
+    throw grid (``grid`` (n^k, k) in itertools.product order, ``ok`` per sample): along each
+    axis, the others fixed, a sample that assembles beside one that does not brackets an edge
+    (a dead centre inside the limits: the region reaches to it, its samples stop short), found
+    by bisection of the throws, every bracket at once."""
+    k = len(acts)
+    G = grid.reshape((n,) * k + (k,))
+    okg = np.asarray(ok, bool).reshape((n,) * k)
+    lo_parts, hi_parts = [], []
+    for ax in range(k):
+        a_ok, b_ok = np.delete(okg, -1, axis=ax), np.delete(okg, 0, axis=ax)
+        a_x, b_x = np.delete(G, -1, axis=ax), np.delete(G, 0, axis=ax)
+        lo_parts += [a_x[a_ok & ~b_ok], b_x[~a_ok & b_ok]]
+        hi_parts += [b_x[a_ok & ~b_ok], a_x[~a_ok & b_ok]]
+    lo, hi = np.concatenate(lo_parts), np.concatenate(hi_parts)
+    if not lo.shape[0]:
+        return np.zeros((0, k)), np.zeros((0, 2))
+    for _ in range(EDGE_BISECTIONS):
+        mid = 0.5 * (lo + hi)
+        got, _ = solve({a: mid[:, i] for i, a in enumerate(acts)})
+        lo = np.where(got[:, None], mid, lo)
+        hi = np.where(got[:, None], hi, mid)
+    got, pts = solve({a: lo[:, i] for i, a in enumerate(acts)})
+    return lo[got], pts[got]
 
 
 def _grid_spacing(P: np.ndarray, ok: np.ndarray, n: int, k: int) -> float:

@@ -357,3 +357,78 @@ def test_fewer_than_three_samples_are_refused_as_the_help_says(capsys):
         with pytest.raises(ValueError, match='at least 3'):
             motion.reachable_region(load('four_bar'), 'P', samples_per_actuator=n)
     assert main(['four_bar', '--point', 'P', '--samples', '3']) == 0
+
+
+# ---- a dead centre inside the limits ------------------------------------------------------------
+
+#: an arm about O lifted by a cylinder from G (1 m below O) to B on the arm (1 m from O): the
+#: cylinder's dead centre is at |GB| = |GO| + |OB| = 2 m, inside its limits 0.5 .. 2.55 m (no
+#: sample of the path's 161 falls on it)
+ARM = {
+    'name': 'arm',
+    'points': {'O': [0, 0], 'G': [0, -1], 'B': [1, 0], 'T': [2, 0]},
+    'links': {'ground': ['O', 'G'], 'arm': ['O', 'B', 'T']},
+    'cylinders': {'lift': {'from': 'G', 'to': 'B', 'min': 0.5, 'max': 2.55}},
+}
+
+#: a knuckle-boom crane (an outside reviewer's): a boom about O lifted by a cylinder from G1,
+#: a jib about the boom's tip T1 folded by a cylinder from B2 on the boom to J1 on the jib,
+#: whose dead centre (B2, T1, J1 in line: 1.6549569 m) lies inside its limits 1.30 .. 1.95 m
+KNUCKLE_BOOM = {
+    'name': 'knuckle_boom',
+    'points': {
+        'O': [0, 1.2],
+        'G1': [0.35, 0.2],
+        'T1': [2.897777478867, 1.976457135308],
+        'B1': [1.030630587565, 1.21733758853],
+        'B2': [1.757613356418, 1.981533933582],
+        'J1': [3.378543014006, 1.792434038326],
+        'T2': [4.440467742115, 0.137950471822],
+    },
+    'links': {'ground': ['O', 'G1'], 'boom': ['O', 'T1', 'B1', 'B2'], 'jib': ['T1', 'T2', 'J1']},
+    'cylinders': {
+        'lift': {'from': 'G1', 'to': 'B1', 'min': 1.00, 'max': 1.60},
+        'fold': {'from': 'B2', 'to': 'J1', 'min': 1.30, 'max': 1.95},
+    },
+}
+
+
+def test_a_path_reaches_a_dead_centre_inside_the_limits():
+    """The arm's tip T runs up to the top, (0, 2), at the cylinder's dead centre (2 m): the
+    path's samples beyond it do not assemble, and the last that does is 0.00094 m of throw
+    short of it, 0.0037 m below the top; the edge between is found."""
+    r = motion.reachable_region(Scene.from_dict(ARM).mechanism, 'T')
+    assert r['method'] == 'path'
+    k = int(np.argmax([p[1] for p in r['boundary']]))
+    top, throw = r['boundary'][k], r['boundary_inputs']['lift'][k]
+    assert abs(top[1] - 2.0) < 1e-12 and abs(top[0]) < 1e-6, top
+    assert abs(throw - 2.0) < 1e-9
+    assert r['extent'][1][1] == top[1]
+    throws = r['boundary_inputs']['lift']
+    assert throws == sorted(throws)  # the edge in its place along the path
+
+
+def test_a_region_reaches_a_dead_centre_inside_the_limits():
+    """The crane's jib tip T2 over both throw ranges: its highest point is at full lift with the
+    fold cylinder at its dead centre (the jib then lies along B2 -> T1), worked out here by
+    circle intersection and rotation; the region's samples stopped a step short of it (y up to
+    2.785 m against 3.208 m) and now reach it."""
+    mech = Scene.from_dict(KNUCKLE_BOOM).mechanism
+    p = {k: np.array(v, float) for k, v in KNUCKLE_BOOM['points'].items()}
+    ob1 = np.linalg.norm(p['B1'] - p['O'])
+    b1 = circle_meet(p['O'], ob1, p['G1'], 1.60, side(p['O'], p['G1'], p['B1']))
+
+    def turned(v, angle):
+        c, s = math.cos(angle), math.sin(angle)
+        return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1]])
+
+    boom = ang(b1 - p['O']) - ang(p['B1'] - p['O'])
+    t1 = p['O'] + turned(p['T1'] - p['O'], boom)
+    b2 = p['O'] + turned(p['B2'] - p['O'], boom)
+    j1 = t1 + np.linalg.norm(p['J1'] - p['T1']) * (t1 - b2) / np.linalg.norm(t1 - b2)
+    jib = ang(j1 - t1) - ang(p['J1'] - p['T1'])
+    top = t1 + turned(p['T2'] - p['T1'], jib)
+    r = motion.reachable_region(mech, 'T2')
+    assert r['extent'][1][1] == pytest.approx(top[1], abs=1e-9)
+    cloud = np.asarray(r['cloud'])
+    assert np.min(np.hypot(*(cloud - top).T)) < 1e-6  # reached at that configuration
