@@ -1,5 +1,7 @@
-"""The assembly-mode rule for targets: a real mechanism cannot change its assembly mode without
-being taken apart, so an inverse solve (a target) answers in the mechanism's current mode.
+"""The assembly-mode rule for targets: a real mechanism changes its assembly mode only when it is
+taken apart or driven through a toggle position (a cylinder's dead centre inside its limits, a
+dyad folded flat), never by reaching for a target, so an inverse solve (a target) answers in the
+mechanism's current mode.
 
 :class:`ModeKeeper` applies the rule for one mechanism (the engine's targets, and any front end
 that asks): an answer in another mode (or one refused on a limit) is replaced by a solution in
@@ -202,8 +204,9 @@ class ModeKeeper:
             why = (
                 f'the {held_by} keeps the mechanism in mode {self.label(before)}'
                 if held_by
-                else f'the mechanism is in mode {self.label(before)} and cannot change mode '
-                'without being taken apart (ask for the change explicitly to allow it: '
+                else f'the mechanism is in mode {self.label(before)} and a target keeps it '
+                '(a change of mode takes the mechanism driven through a toggle position or '
+                'taken apart: ask for the change explicitly to allow it: '
                 '~/target_any_mode on the node, --any-mode on the command line)'
             )
             circuit = self._changes_circuit(here, result) or self.label(after) == self.label(before)
