@@ -457,7 +457,7 @@ class Engine:
                 return broken
             if result.success:
                 self.record(solver, result)
-            return self._out_of_reach(solver, values, result)
+            return self._out_of_reach(solver, values, result, allow_mode_change)
         answer = self.keeper.target(
             solver,
             values,
@@ -476,7 +476,7 @@ class Engine:
         if answer.commit:
             solver.adopt(answer.result)
             self.record(solver, answer.result)
-        return self._out_of_reach(solver, values, answer.result)
+        return self._out_of_reach(solver, values, answer.result, allow_mode_change)
 
     def _off_circuit_under(self, fixed: Mode | None, last: Result, result: Result) -> Result | None:
         """Under a branch setting (which holds signs, not circuits), a target's answer on
@@ -558,21 +558,27 @@ class Engine:
         signs = (branch.det_sign,) if branch.det_sign is not None else branch.signs or ()
         return signs, [1.0] * len(signs)
 
-    def _out_of_reach(self, solver: Solver, values: Mapping[str, Any], result: Result) -> Result:
-        """A point target that cannot be assembled, said in the user's terms first: where the
-        point stops being reachable on the line toward the target (core.solver.reach), then
-        the solver's own reason (the dyad or loop that does not close, with its miss)."""
+    def _out_of_reach(
+        self, solver: Solver, values: Mapping[str, Any], result: Result, searched: bool
+    ) -> Result:
+        """A target that cannot be assembled, said in the user's terms first: for a point,
+        where it stops being reachable on the line toward the target (core.solver.reach), then
+        the solver's own reason (the dyad or loop that does not close, with its miss); where
+        Newton placed it, that other modes are searched on request (``searched``: they were)."""
         last = self.last
         if last is None or not does_not_assemble(result):
             return result
         edge = reach_edge(solver, values, last)
         if edge is not None:
             result.reason = f'{edge.describe()}; {result.reason}'
-            if solver.mode is not SolveMode.CLOSED_FORM and self.fixed_mode() is None:
-                # (a closed form searched them all; a branch setting allows no other mode)
-                result.reason += (
-                    '; other assembly modes are searched on request (~/target_any_mode, --any-mode)'
-                )
+        if solver.mode is not SolveMode.CLOSED_FORM and self.fixed_mode() is None and not searched:
+            # (a closed form searched them all; a branch setting allows no other mode; a slide
+            # or angle target gets it too: a press's ram beyond its stroke in the current mode
+            # and within it in another was refused without it)
+            result.reason = (
+                f'{result.reason}; other assembly modes are searched on request '
+                '(~/target_any_mode, --any-mode)'
+            )
         return result
 
     def point_hold(self, point: str) -> list[str]:

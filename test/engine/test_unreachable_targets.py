@@ -198,3 +198,64 @@ def test_a_target_of_two_points_out_of_reach_is_refused_not_raised():
     r = engine.target({'P1.x': 3.0, 'P1.y': 0.0, 'P2.x': 2.3, 'P2.y': 0.1})
     assert not r.success
     assert r.reason.startswith('point P1 = (3, 0) m with point:P2 as given is out of reach')
+
+
+#: a Stephenson III press (an outside reviewer's): a crank-rocker whose coupler point C drives a
+#: ram D on a vertical guide through a rod; Newton places the ram for a ram target
+PRESS = {
+    'name': 'stephenson_press',
+    'points': {
+        'O2': [0, 0],
+        'O4': [0.35, 0.05],
+        'A': [0.05, 0.08660254037844],
+        'B': [0.2726040368306, 0.2877180365161],
+        'C': [0.07062501819834, 0.2351778028696],
+        'D': [0.12, -0.2121052296412],
+    },
+    'links': {
+        'ground': ['O2', 'O4'],
+        'crank': ['O2', 'A'],
+        'coupler': ['A', 'B', 'C'],
+        'rocker': ['O4', 'B'],
+        'rod': ['C', 'D'],
+        'ram': ['D'],
+    },
+    'sliders': [
+        {
+            'name': 'ram_slide',
+            'guide': 'ground',
+            'slider': 'ram',
+            'point': 'D',
+            'direction': [0, -1],
+            'origin': [0.12, 0.0],
+        }
+    ],
+    'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
+}
+
+
+def test_a_slide_target_only_another_mode_reaches_says_the_others_are_searched_on_request():
+    """The ram 0.4 m down is beyond its stroke in the drawn mode and within it in another: the
+    refusal says that other modes are searched on request (it said so for point targets only),
+    and the request that allows the change answers it: D at (0.12, -0.4), every link its drawn
+    length. A target no mode reaches, asked that way, does not say it again."""
+    import math
+
+    from linkage_ros.core.model import Scene
+
+    e = Engine(Scene.from_dict(PRESS).mechanism, EngineSettings())
+    r = e.target({'ram_slide': 0.4})
+    assert not r.success
+    assert r.reason.endswith(
+        'other assembly modes are searched on request (~/target_any_mode, --any-mode)'
+    )
+    r = e.target({'ram_slide': 0.4}, allow_mode_change=True)
+    assert r.success and r.mode_change, r.reason
+    p = PRESS['points']
+    assert math.dist(r.points['D'], (0.12, -0.4)) < 1e-12
+    for link, names in PRESS['links'].items():
+        for a, b in zip(names, names[1:]):
+            drawn = math.dist(p[a], p[b])
+            assert abs(math.dist(r.points[a], r.points[b]) - drawn) < 1e-12, (link, a, b)
+    far = e.target({'ram_slide': 0.6}, allow_mode_change=True)
+    assert not far.success and 'searched on request' not in far.reason
