@@ -12,7 +12,7 @@ from __future__ import annotations
 import sys
 from typing import TYPE_CHECKING
 
-from ..core.solver import Result
+from ..core.solver import Result, SolveMode
 from .common import (
     OK,
     REFUSED,
@@ -60,11 +60,15 @@ def _drawn_mode_rule(mech, args, modes: ModeList) -> Callable[[Result], bool]:
 def _note_twin(mech, solver, command, r: Result) -> None:
     """Given one coordinate of a point, a Newton inverse has two solutions in one assembly
     mode, either side of that coordinate's extreme (seed 003's loader: D.x and the bin angle,
-    "D.y will be automatically decided"): where the answer has such a twin, a note on stderr
-    names it (the node answers with the one nearest its last state)."""
+    "D.y will be automatically decided"); a closed-form inverse may have two too, its inverse
+    dyad's two sides (a toggle clamp's arm angle, reached by the handle either side of its
+    dead centre): where the answer has such a twin, a note on stderr names it (the node answers
+    with the one nearest its last state). (Closed form: its modes are listed at once; a Newton
+    inverse's search costs 0.1-0.6 s, paid where a twin is the rule.)"""
     from ..core.quantities import CoordinateSpec
 
-    if not r.success or not any(isinstance(s, CoordinateSpec) for s in solver.specs):
+    coordinate = any(isinstance(s, CoordinateSpec) for s in solver.specs)
+    if not r.success or not (coordinate or solver.mode is SolveMode.CLOSED_FORM):
         return
     far = 1e-6 * mech.length_scale
     for other in solver.modes(command).results:

@@ -432,3 +432,45 @@ def test_the_loader_assignment_on_the_command_line_holds_z1_where_it_is_drawn(ca
     assert held['inputs'] == full['inputs'] and held['points'] == full['points']
     rc, out, _ = run(capsys, 'check', 'front_loader')
     assert f'drawn {drawn["Z2"]:.9g}' in out
+
+
+TOGGLE_CLAMP = """\
+name: toggle_clamp
+points:
+  O1: [0.0, 0.0]
+  O2: [0.05, 0.0]
+  A: [0.02, 0.0]
+  B: {distances: {A: 0.04, O2: 0.025}, side: left}
+  T: [0.15, 0.02]
+links:
+  ground: [O1, O2]
+  handle: [O1, A]
+  link: [A, B]
+  arm: [O2, B, T]
+actuators:
+  handle: {type: angle, link: handle, pivot: O1, toward: A, min: -0.9, max: 0.47}
+"""
+
+
+def test_a_closed_form_target_with_a_twin_in_its_mode_names_the_twin(capsys, tmp_path):
+    """A toggle clamp (an outside reviewer's): its arm at 1.38 rad is reached by the handle
+    either side of its dead centre (O1, A, B in line: the cosine rule in O1 O2 B with |O1 B| =
+    0.06 m), both in the answer's mode and within the handle's limits; the note named the twin
+    for Newton's coordinate targets only. The twin, solved forward, puts the arm at 1.38."""
+    import re
+
+    scene = tmp_path / 'clamp.yaml'
+    scene.write_text(TOGGLE_CLAMP)
+    rc, out, err = run(capsys, 'solve', scene, '--target', 'arm=1.38', '--json')
+    assert rc == 0
+    answer = json.loads(out)
+    (note,) = [ln for ln in err.splitlines() if 'another solution' in ln]
+    assert f'assembly mode {answer["branch"]}' in note
+    twin = float(re.search(r'handle = ([-0-9.e]+)', note).group(1))
+    dead = math.acos((0.06**2 + 0.05**2 - 0.025**2) / (2 * 0.06 * 0.05))
+    assert (
+        sorted([twin, answer['inputs']['handle']])[0] < dead < max(twin, answer['inputs']['handle'])
+    )
+    assert -0.9 <= twin <= 0.47
+    r = Solver(Scene.from_yaml(scene).mechanism, branch=answer['branch']).solve({'handle': twin})
+    assert r.success and r.links['arm'] == pytest.approx(1.38, abs=1e-8)  # (the note's 9 digits)
