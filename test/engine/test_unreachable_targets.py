@@ -259,3 +259,48 @@ def test_a_slide_target_only_another_mode_reaches_says_the_others_are_searched_o
             assert abs(math.dist(r.points[a], r.points[b]) - drawn) < 1e-12, (link, a, b)
     far = e.target({'ram_slide': 0.6}, allow_mode_change=True)
     assert not far.success and 'searched on request' not in far.reason
+
+
+#: a Klann-type leg (an outside reviewer's): the foot G's x, driven by the crank from the
+#: drawing toward larger x, turns back at -0.797 m; it reaches -0.559 m elsewhere on the turn
+KLANN = {
+    'name': 'klann_leg',
+    'points': {
+        'O': [0, 0],
+        'P1': [-0.3, 0.16],
+        'P2': [-0.22, -0.1],
+        'A': [0.06, 0.1039230484541],
+        'B': [-0.2399596285537, 0.0990015407679],
+        'E': [-0.4408457837512, 0.1886940858872],
+        'F': [-0.2890028333463, 0.3997479141215],
+        'G': [-0.7988942981002, -0.1603062885717],
+    },
+    'links': {
+        'ground': ['O', 'P1', 'P2'],
+        'crank': ['O', 'A'],
+        'arm': ['A', 'B', 'E'],
+        'lower_rocker': ['P2', 'B'],
+        'leg': ['E', 'F', 'G'],
+        'upper_rocker': ['P1', 'F'],
+    },
+    'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O'}},
+}
+
+
+def test_a_coordinate_refusal_says_its_edge_is_the_ways_not_the_points_reach():
+    """The foot beyond its reach (G.x = -0.5) is refused with the edge of the straight way from
+    the drawing; that edge is where the way folds, not how far the foot reaches: a target past
+    it (-0.6) is answered, and the range the refusal points to reaches past it too."""
+    from linkage_ros.core import motion
+    from linkage_ros.core.model import Scene
+
+    mech = Scene.from_dict(KLANN).mechanism
+    r = Engine(mech, EngineSettings()).target({'G.x': -0.5})
+    assert not r.success
+    edge = float(re.search(r'up to G\.x = (\S+) m', r.reason).group(1))
+    assert "(that way's edge; the point's whole reach: linkage range --point G)" in r.reason
+    beyond = Engine(mech, EngineSettings()).target({'G.x': -0.6})
+    assert edge < -0.6 and beyond.success, beyond.reason
+    assert abs(beyond.points['G'][0] + 0.6) < 1e-12
+    reach = motion.reachable_region(mech, 'G')['extent'][0][1]
+    assert -0.6 < reach < -0.5

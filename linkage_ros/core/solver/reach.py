@@ -55,7 +55,12 @@ class ReachEdge:
             at = f'({ex:.6g}, {ey:.6g}) m'
         way = 'on the straight way there from the current configuration'
         if not self.others:
-            short = f'{self.short_m:.6g} m short'
+            # (that way's edge, where its march stopped at a fold of the way: the point may
+            # reach further by another, as a Klann leg's foot does, 0.24 m past it)
+            short = (
+                f"{self.short_m:.6g} m short (that way's edge; the point's whole reach: "
+                f'linkage range --point {self.point})'
+            )
             return f'{asked} is out of reach: {way} it is reachable up to {at}, {short}'
         others = ', '.join(self.others)
         # (the other knowns moved too: where the point hardly moves, they are what is out of
