@@ -254,6 +254,13 @@ def _moved(o: dict, whole: dict | None) -> bool:
     return whole is not None and not (same(whole['min'], o['min']) and same(whole['max'], o['max']))
 
 
+def _in_mode(extreme: dict, end: str) -> str:
+    """' in mode S' where the circuit passes more than one assembly mode (an input has a
+    configuration in each: a landing gear's brace past its dead centre), else ''."""
+    mode = extreme.get(f'mode_at_{end}')
+    return f' in mode {mode}' if mode else ''
+
+
 def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
     """The text lines of a quantities_report (``linkage check`` and ``linkage range --motion``);
     ``free``: the report without the input's limits, whose extremes are added where they differ
@@ -268,9 +275,9 @@ def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
         unit = 'rad' if kind == 'link' else 'm'
         line = (
             f'  {bare} ({"angle" if kind == "link" else "slide"})  min {fmt_value(o["min"])} '
-            f'at {act} {fmt_value(o["input_at_min"])}  max {fmt_value(o["max"])} at {act} '
-            f'{fmt_value(o["input_at_max"])}  {"swing" if unit == "rad" else "stroke"} '
-            f'{fmt_value(o["stroke"])} {unit}'
+            f'at {act} {fmt_value(o["input_at_min"])}{_in_mode(o, "min")}  max '
+            f'{fmt_value(o["max"])} at {act} {fmt_value(o["input_at_max"])}{_in_mode(o, "max")}'
+            f'  {"swing" if unit == "rad" else "stroke"} {fmt_value(o["stroke"])} {unit}'
         )
         if o.get('time_ratio') is not None:
             line += f'  time ratio {fmt_value(o["time_ratio"], ".6g")}'
@@ -288,8 +295,9 @@ def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
     for key, t in m['transmission_angle'].items():
         out.append(
             f'  transmission angle {key}  min {fmt_value(t["min"], ".6g")} rad '
-            f'({math.degrees(t["min"]):.3f} deg) at {act} {fmt_value(t["input_at_min"], ".9g")}  '
-            f'max {fmt_value(t["max"], ".6g")} rad ({math.degrees(t["max"]):.3f} deg) at {act} '
-            f'{fmt_value(t["input_at_max"], ".9g")}'
+            f'({math.degrees(t["min"]):.3f} deg) at {act} {fmt_value(t["input_at_min"], ".9g")}'
+            f'{_in_mode(t, "min")}  max {fmt_value(t["max"], ".6g")} rad '
+            f'({math.degrees(t["max"]):.3f} deg) at {act} {fmt_value(t["input_at_max"], ".9g")}'
+            f'{_in_mode(t, "max")}'
         )
     return out

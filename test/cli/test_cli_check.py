@@ -271,3 +271,18 @@ def test_check_and_range_name_the_same_things_alike(capsys, stem):
     assert [n for n, c in check['inputs'].items() if c['full_turn']] == (
         ['crank'] if stem == 'four_bar' else []
     )
+
+
+def test_check_names_the_mode_of_an_extreme_where_the_circuit_passes_two(capsys):
+    """The non-Grashof four-bar's rocker extremes lie in the two modes its circuit passes (each
+    crank value has a configuration in each): the motion lines say which, as the JSON does; a
+    crank-rocker's keep one mode and say none."""
+    rc, out, err = run(capsys, 'check', 'four_bar_non_grashof')
+    assert rc == 0, err
+    (line,) = [ln for ln in out.splitlines() if ln.strip().startswith('rocker (angle)')]
+    assert ' in mode +' in line and ' in mode -' in line
+    data = loads(run(capsys, 'check', 'four_bar_non_grashof', '--json')[1])
+    rocker = data['motion']['outputs']['link:rocker']
+    assert {rocker['mode_at_min'], rocker['mode_at_max']} == {'+', '-'}
+    rc, out, err = run(capsys, 'check', 'four_bar')
+    assert rc == 0 and ' in mode ' not in out

@@ -11,6 +11,7 @@ the margin |sin mu| cannot (it does not tell mu from pi - mu either).
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -76,12 +77,16 @@ def _unit_scale(*vectors: np.ndarray) -> float:
 
 @dataclass
 class Extreme:
-    """The least and greatest value of a quantity over the input's range, and where."""
+    """The least and greatest value of a quantity over the input's range, and where: the input
+    value and, where the circuit passes more than one assembly mode (through a toggle into the
+    dyad's other sign), the mode's branch signs there (an input has a configuration in each)."""
 
     minimum: float
     maximum: float
     input_at_min: float
     input_at_max: float
+    mode_at_min: str = ''
+    mode_at_max: str = ''
 
 
 @dataclass
@@ -278,11 +283,10 @@ def _arc_start(raw: list[np.ndarray], closed: bool) -> float | None:
 
 def _wrapped(e: Extreme) -> Extreme:
     """``e`` with its inputs (crank angles on the circuit, unwrapped) in (-pi, pi]."""
-    return Extreme(
-        e.minimum,
-        e.maximum,
-        math.remainder(e.input_at_min, 2 * math.pi),
-        math.remainder(e.input_at_max, 2 * math.pi),
+    return dataclasses.replace(
+        e,
+        input_at_min=math.remainder(e.input_at_min, 2 * math.pi),
+        input_at_max=math.remainder(e.input_at_max, 2 * math.pi),
     )
 
 
@@ -326,6 +330,8 @@ def input_sweep(
     # circuit passes change points (a change-point four-bar's takes two turns: seed 000)
     # (whole turns: the change points' positions are found to ~1e-8)
     travel = sum(float(p.grid[-1] - p.grid[0]) for p in pieces if p.grid.size)
+    # an input has a configuration in each mode the circuit passes: an extreme names its mode
+    several_modes = len({r.branch for p in pieces for r in p.results}) > 1
     period = 2 * math.pi * (1 if len(pieces) == 1 else max(1, round(travel / (2 * math.pi))))
 
     def refine(
@@ -377,14 +383,16 @@ def input_sweep(
     def extreme(series: list[np.ndarray], f_of: ValueNear, rate_of: RateOf) -> Extreme:
         """The least and greatest of ``series`` (one array per piece), each refined."""
         ends = []
+        modes = []
         for sign in (1.0, -1.0):  # the least, then the greatest: (piece, sample) of the best
             k, i = min(
                 ((k, int(np.argmin(sign * a))) for k, a in enumerate(series) if a.size),
                 key=lambda ki: sign * float(series[ki[0]][ki[1]]),
             )
             ends.append(refine(pieces[k], series[k], f_of, rate_of, i, sign))
+            modes.append(pieces[k].results[i].branch if several_modes else '')
         (x_lo, v_lo), (x_hi, v_hi) = ends
-        return Extreme(v_lo, v_hi, x_lo, x_hi)
+        return Extreme(v_lo, v_hi, x_lo, x_hi, *modes)
 
     out: dict[str, Extreme] = {}
     ratios: dict[str, float] = {}
@@ -411,9 +419,7 @@ def input_sweep(
         ext = extreme(series, f_of, _output_rate(mech, name))
         if angle:  # the swing's start in (-pi, pi]
             shift = ext.minimum - math.remainder(ext.minimum, 2 * math.pi)
-            ext = Extreme(
-                ext.minimum - shift, ext.maximum - shift, ext.input_at_min, ext.input_at_max
-            )
+            ext = dataclasses.replace(ext, minimum=ext.minimum - shift, maximum=ext.maximum - shift)
         out[name] = ext
         still = ext.maximum - ext.minimum <= STILL * (1.0 if angle else mech.length_scale)
         if full and not still:  # over the circuit's period: a turn, or more past change points
@@ -466,13 +472,16 @@ def quantities_report(mech: Mechanism) -> dict[str, Any] | None:
     except ValueError:
         return None
 
-    def ext(e: Extreme) -> dict[str, float]:
-        return {
+    def ext(e: Extreme) -> dict[str, Any]:
+        out: dict[str, Any] = {
             'min': e.minimum,
             'max': e.maximum,
             'input_at_min': e.input_at_min,
             'input_at_max': e.input_at_max,
         }
+        if e.mode_at_min or e.mode_at_max:  # (the circuit passes more than one mode)
+            out.update(mode_at_min=e.mode_at_min, mode_at_max=e.mode_at_max)
+        return out
 
     return {
         'actuator': sweep.actuator,

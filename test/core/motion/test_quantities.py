@@ -196,3 +196,25 @@ def test_a_grid_too_coarse_to_bracket_the_extremes_is_refused(samples):
     want = math.pi - math.acos((d * d + a * a - (b + c) ** 2) / (2 * a * d))
     got = input_sweep(mech, ['link:rocker'], samples=MIN_SAMPLES).outputs['link:rocker']
     assert got.minimum == pytest.approx(want, abs=1e-12)
+
+
+def test_an_extreme_on_a_circuit_through_two_modes_names_the_mode_it_is_in():
+    """The non-Grashof four-bar's crank swings to its toggles and back in the other mode: each
+    crank value has two configurations on the circuit, so an extreme names its mode. The
+    rocker's least and greatest values are the 50-digit four-bar's at their inputs in the modes
+    named (branch +1: '+'), not in the other. A crank-rocker's circuit keeps one mode and names
+    none."""
+    from linkage_ros.core.motion.quantities import quantities_report
+
+    dims = (0.30, 0.20, 0.25, 0.22)  # config/four_bar_non_grashof.yaml: ground crank coupler rocker
+    rocker = quantities_report(load('four_bar_non_grashof'))['outputs']['link:rocker']
+    for end in ('min', 'max'):
+        mode, x, value = rocker[f'mode_at_{end}'], rocker[f'input_at_{end}'], rocker[end]
+        assert mode in ('+', '-')
+        for branch in (1, -1):
+            want = float(oracle(*dims, x, branch=branch)['theta4'])
+            close = abs(math.remainder(want - value, 2 * math.pi)) < 1e-9
+            assert close is (('+' if branch > 0 else '-') == mode), (end, branch, want, value)
+    assert rocker['mode_at_min'] != rocker['mode_at_max']
+    one = quantities_report(load('four_bar'))['outputs']['link:rocker']
+    assert 'mode_at_min' not in one and 'mode_at_max' not in one
