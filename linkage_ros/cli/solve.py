@@ -57,14 +57,16 @@ def _drawn_mode_rule(mech, args, modes: ModeList) -> Callable[[Result], bool]:
     return in_drawn_mode
 
 
-def _note_twin(mech, solver, command, r: Result) -> None:
+def _note_twin(mech, solver, command, r: Result, engine) -> None:
     """Given one coordinate of a point, a Newton inverse has two solutions in one assembly
     mode, either side of that coordinate's extreme (seed 003's loader: D.x and the bin angle,
     "D.y will be automatically decided"); a closed-form inverse may have two too, its inverse
     dyad's two sides (a toggle clamp's arm angle, reached by the handle either side of its
     dead centre): where the answer has such a twin, a note on stderr names it (the node answers
-    with the one nearest its last state). (Closed form: its modes are listed at once; a Newton
-    inverse's search costs 0.1-0.6 s, paid where a twin is the rule.)"""
+    with the one nearest its last state), in the inputs a command takes (a robot description's
+    joint values) and only where the robot can take it (no joint beyond its <limit>, as
+    ``engine`` refuses them). (Closed form: its modes are listed at once; a Newton inverse's
+    search costs 0.1-0.6 s, paid where a twin is the rule.)"""
     from ..core.quantities import CoordinateSpec
 
     coordinate = any(isinstance(s, CoordinateSpec) for s in solver.specs)
@@ -74,14 +76,21 @@ def _note_twin(mech, solver, command, r: Result) -> None:
     for other in solver.modes(command).results:
         if other.branch != r.branch or not other.success:
             continue
+        names, values = mech.output_input_names, mech.output_inputs(other.inputs)
+        given = dict(zip(names, (float(v) for v in values)))
+        jc = mech.joint_coordinates
+        if engine.beyond_passive_limits(other) is not None or (
+            jc is not None and jc.refusal(given) is not None
+        ):
+            continue
         gap = max(
             (abs(other.points[p][k] - r.points[p][k]) for p in r.points for k in (0, 1)),
             default=0.0,
         )
         if gap > far:
-            values = ', '.join(f'{a} = {v:.9g}' for a, v in other.inputs.items())
+            told = ', '.join(f'{a} = {v:.9g}' for a, v in given.items())
             print(
-                f'note: another solution in assembly mode {r.branch or "(one mode)"}: {values}; '
+                f'note: another solution in assembly mode {r.branch or "(one mode)"}: {told}; '
                 '--all-branches lists every solution',
                 file=sys.stderr,
             )
@@ -107,7 +116,7 @@ def cmd_solve(args) -> int:
         # mechanism keeps it
         engine = target_engine(mech, args, single=True)
         results = [engine.solve_target(solver, command, allow_mode_change=args.any_mode)]
-        _note_twin(mech, solver, command, results[0])
+        _note_twin(mech, solver, command, results[0], engine)
     else:  # as the node answers ~/command from its drawing
         results = [forward_engine(mech, args).forward_solve(command)]
     dicts = [request_echo(mech, r.to_dict(mech), given) for r in results]

@@ -11,6 +11,7 @@ poses state (description_helpers.check_drake).
 from __future__ import annotations
 
 import csv
+import json
 import math
 
 import numpy as np
@@ -484,3 +485,39 @@ def test_an_explicit_branch_is_never_answered_in_another_mode(capsys, tmp_path, 
     assert rc == 0 and got['branch'] == '+'
     assert got['joints']['joint2'] == pytest.approx(-joint1, abs=1e-12)
     assert got['joints']['joint3'] == pytest.approx(joint1, abs=1e-12)
+
+
+def test_the_twin_note_speaks_the_descriptions_values_and_its_limits(capsys, tmp_path):
+    """A target with a second solution in its mode names it in a note: in the values a command
+    takes (the description's joints: gepetto's mot2 is offset by pi from the scene's actuator),
+    so that commanding them reaches the target; and only where the robot can take it (the
+    GRBDA four-bar's twin puts joint2 at -0.5 rad: with joint2 limited to [0, 3] there is none
+    to name)."""
+    import re
+
+    g5 = CASES['gepetto_5bar']
+    target = '0.05,-0.8'
+    args = ['solve', g5['path'], '--closures', g5['closures']]
+    rc, out, err = run(
+        capsys, *args, '--target-point', f'{"closedloop1_A__closedloop1_B"}={target}', '--json'
+    )
+    assert rc == 0, err
+    (note,) = [ln for ln in err.splitlines() if 'another solution' in ln]
+    twin = dict(re.findall(r'(\w+) = ([-0-9.e]+)', note.partition(': ')[2].partition(';')[0]))
+    assert set(twin) == {'mot1', 'mot2'}
+    sets = [w for k, v in twin.items() for w in ('--set', f'{k}={v}')]
+    rc, out, err = run(capsys, *args, *sets, '--branch', json.loads(out)['branch'], '--json')
+    assert rc == 0, err
+    got = json.loads(out)['points']['closedloop1_A__closedloop1_B']
+    assert math.dist(got, (0.05, -0.8)) < 1e-8  # (the note's 9 digits)
+
+    grbda = FIXTURES / 'grbda_four_bar.urdf'
+    rc, _, err = run(capsys, 'solve', grbda, '--target', 'joint3=0.5')
+    assert rc == 0 and 'another solution in assembly mode -: joint1 = 0.5;' in err, err
+    text = grbda.read_text()
+    joint2 = text.index('<joint name="joint2"')
+    limit = text.index('lower="-13.14" upper="13.14"', joint2)
+    narrow = tmp_path / 'grbda_joint2_limited.urdf'
+    narrow.write_text(text[:limit] + 'lower="0.0" upper="3.0"' + text[limit + 28 :])
+    rc, out, err = run(capsys, 'solve', narrow, '--target', 'joint3=0.5')
+    assert rc == 0 and 'another solution' not in err, err
