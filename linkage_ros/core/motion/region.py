@@ -457,13 +457,17 @@ def assembly_edges(
     lo, hi = np.concatenate(lo_parts), np.concatenate(hi_parts)
     if not lo.shape[0]:
         return np.zeros((0, k)), np.zeros((0, 2))
+    sample, width = lo.copy(), np.abs(hi - lo)
     for _ in range(EDGE_BISECTIONS):
         mid = 0.5 * (lo + hi)
         got, _ = solve({a: mid[:, i] for i, a in enumerate(acts)})
         lo = np.where(got[:, None], mid, lo)
         hi = np.where(got[:, None], hi, mid)
+    # (an edge on the sample itself, a dead centre on the grid (taken to the tangency band's
+    # hair past it), is that sample: not again)
     got, pts = solve({a: lo[:, i] for i, a in enumerate(acts)})
-    return lo[got], pts[got]
+    keep = got & np.any(np.abs(lo - sample) > 1e-9 * width, axis=1)
+    return lo[keep], pts[keep]
 
 
 def _grid_spacing(P: np.ndarray, ok: np.ndarray, n: int, k: int) -> float:

@@ -432,3 +432,14 @@ def test_a_region_reaches_a_dead_centre_inside_the_limits():
     assert r['extent'][1][1] == pytest.approx(top[1], abs=1e-9)
     cloud = np.asarray(r['cloud'])
     assert np.min(np.hypot(*(cloud - top).T)) < 1e-6  # reached at that configuration
+
+
+def test_a_dead_centre_on_a_sample_is_not_a_second_vertex():
+    """With the arm's limits 0.5 .. 3.5 m and 3 samples (a path of 9), a sample falls on the
+    dead centre (2 m): it is the path's end, once (the edge found beside it is that sample, to
+    the tangency band's hair past it)."""
+    arm = {**ARM, 'cylinders': {'lift': {'from': 'G', 'to': 'B', 'min': 0.5, 'max': 3.5}}}
+    r = motion.reachable_region(Scene.from_dict(arm).mechanism, 'T', samples_per_actuator=3)
+    throws = r['boundary_inputs']['lift']
+    assert throws[-1] == 2.0 and throws.count(2.0) == 1 and len(throws) == len(set(throws))
+    assert len(r['boundary']) == len(throws)
