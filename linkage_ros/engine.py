@@ -577,7 +577,7 @@ class Engine:
             # and within it in another was refused without it)
             result.reason = (
                 f'{result.reason}; other assembly modes are searched on request '
-                '(~/target_any_mode, --any-mode)'
+                '(~/target_any_mode, linkage solve --any-mode)'
             )
         return result
 

@@ -247,7 +247,7 @@ def test_a_slide_target_only_another_mode_reaches_says_the_others_are_searched_o
     r = e.target({'ram_slide': 0.4})
     assert not r.success
     assert r.reason.endswith(
-        'other assembly modes are searched on request (~/target_any_mode, --any-mode)'
+        'other assembly modes are searched on request (~/target_any_mode, linkage solve --any-mode)'
     )
     r = e.target({'ram_slide': 0.4}, allow_mode_change=True)
     assert r.success and r.mode_change, r.reason

@@ -201,15 +201,21 @@ class ModeKeeper:
         if not result.success or after is None:
             return TargetAnswer(result, False)
         if not allow_mode_change:
+            circuit = self._changes_circuit(here, result) or self.label(after) == self.label(before)
+            # (a change of circuit is a loop the actuator does not reach: no motion makes it)
+            change = (
+                'only taking the mechanism apart moves it to another circuit'
+                if circuit
+                else 'only a motion through a toggle position, or taking the mechanism apart, '
+                'changes its mode'
+            )
             why = (
                 f'the {held_by} keeps the mechanism in mode {self.label(before)}'
                 if held_by
                 else f'the mechanism is in mode {self.label(before)} and a target keeps it '
-                '(a change of mode takes the mechanism driven through a toggle position or '
-                'taken apart: ask for the change explicitly to allow it: '
-                '~/target_any_mode on the node, --any-mode on the command line)'
+                f'({change}: ask for the change explicitly to allow it: '
+                '~/target_any_mode on the node, linkage solve --any-mode)'
             )
-            circuit = self._changes_circuit(here, result) or self.label(after) == self.label(before)
             where = (
                 f'another circuit of the mechanism (signs {self.label(after)}, a loop its '
                 'actuator does not reach from the current one)'

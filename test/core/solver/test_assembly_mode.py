@@ -40,7 +40,7 @@ def test_a_target_only_the_other_mode_reaches_is_refused_and_changes_nothing():
     assert 'the mechanism is in mode +' in t.reason
     # (not 'cannot change mode without being taken apart': a cylinder's dead centre inside its
     # limits changes a mode by motion, and an outside reviewer's crane did so)
-    assert 'a change of mode takes the mechanism driven through a toggle position or taken' in (
+    assert 'only a motion through a toggle position, or taking the mechanism apart, changes' in (
         t.reason
     )
     c = e.command({'crank': 1.0})
@@ -269,6 +269,9 @@ def test_the_double_rockers_mirror_loop_is_another_circuit_with_the_same_signs(t
     e = Engine(mech, EngineSettings())
     r = e.target({'rocker': float(mirror['theta4'])})
     assert not r.success and 'reachable only in another circuit' in r.reason, r.reason
+    # (no motion reaches another circuit: a toggle is not named as a way)
+    assert 'only taking the mechanism apart moves it to another circuit' in r.reason
+    assert 'toggle' not in r.reason
     r = e.target({'rocker': float(mirror['theta4'])}, allow_mode_change=True)
     assert r.success and r.mode_change.endswith('(another circuit)')
     assert r.inputs['crank'] == pytest.approx(-0.80, abs=1e-9)
