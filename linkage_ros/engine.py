@@ -110,6 +110,9 @@ class Engine:
             self.forward,
             lambda knowns, branch, method: self.new_solver(knowns, branch, method),
             self.on_circuit,
+            # (a description's passive joints within their <limit>s: another solution in
+            # mode that keeps them is the answer, not a refusal)
+            lambda r: self.beyond_passive_limits(r) is None,
         )
         #: the drawing's assembly mode (what ``branch: reference`` keeps targets in)
         self._reference_mode = self.keeper.mode(ref if ref.success else None)

@@ -521,3 +521,24 @@ def test_the_twin_note_speaks_the_descriptions_values_and_its_limits(capsys, tmp
     narrow.write_text(text[:limit] + 'lower="0.0" upper="3.0"' + text[limit + 28 :])
     rc, out, err = run(capsys, 'solve', narrow, '--target', 'joint3=0.5')
     assert rc == 0 and 'another solution' not in err, err
+
+
+def test_a_target_whose_first_answer_breaks_a_passive_limit_takes_the_one_in_mode_that_keeps_it(
+    capsys, tmp_path
+):
+    """The GRBDA four-bar with joint2 limited to [0, 3] rad: joint3 = -2 is reached in the
+    drawn mode by joint1 = -2 with joint2 = 2 (the parallelogram: joint2 = -joint1, joint3 =
+    joint1), within the limit. The inverse plan's first answer put joint2 at -2, and the target
+    was refused as beyond the limit though that solution in the same mode keeps it (an
+    adversary's find)."""
+    text = (FIXTURES / 'grbda_four_bar.urdf').read_text()
+    joint2 = text.index('<joint name="joint2"')
+    limit = text.index('lower="-13.14" upper="13.14"', joint2)
+    narrow = tmp_path / 'grbda_joint2_limited.urdf'
+    narrow.write_text(text[:limit] + 'lower="0.0" upper="3.0"' + text[limit + 28 :])
+    rc, out, err = run(capsys, 'solve', narrow, '--target', 'joint3=-2', '--json')
+    assert rc == 0, err
+    j = json.loads(out)['joints']
+    assert j['joint3'] == pytest.approx(-2.0, abs=1e-12)
+    assert j['joint1'] == pytest.approx(-2.0, abs=1e-12)
+    assert j['joint2'] == pytest.approx(2.0, abs=1e-12) and 0.0 <= j['joint2'] <= 3.0

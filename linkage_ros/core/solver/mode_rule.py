@@ -108,13 +108,21 @@ class ModeKeeper:
         forward: Solver,
         make: SolverMaker,
         on_circuit: OnCircuit | None = None,
+        takes: Callable[[Result], bool] | None = None,
     ):
         self.mech, self.forward, self.make = mech, forward, make
         self.on_circuit = on_circuit
+        #: whether the robot can take a solved pose (a robot description's passive joints
+        #: within their <limit>s); None: every pose
+        self.takes = takes
         #: (target names, branch signs or 'newton') -> that variant of the names' inverse solver
         self._variants: dict[tuple[frozenset[str], str], Solver] = {}
         #: assembly mode -> forward configurations spread over the actuator ranges in it
         self._starts: dict[tuple[int, ...], list[Result]] = {}
+
+    def _fits(self, r: Result) -> bool:
+        """A solution the rule may answer: solved, and a pose the robot can take (takes)."""
+        return r.success and (self.takes is None or self.takes(r))
 
     def label(self, mode: Mode) -> str:
         """A mode as statuses show it: '+-' (the forward dyads' signs) or 'J+' (reading)."""
@@ -166,7 +174,8 @@ class ModeKeeper:
         after = self.mode(result) if result.success else None
         # a branch setting holds the signs themselves; else a circuit's toggles are no change
         here = None if held_by else last
-        if result.success and not self.changes_mode(before, here, result):
+        in_mode = result.success and not self.changes_mode(before, here, result)
+        if in_mode and self._fits(result):
             if replace and _folded(after) and not _folded(before):
                 # a dyad at its toggle is in every mode, and a fold may be where the inverse
                 # plan lands while the mode has a regular solution (a Peaucellier cell with A
@@ -183,9 +192,14 @@ class ModeKeeper:
         found: list[Result] | None = None  # the multi-start search's solutions, made once
         if alt is None and _worth_a_search(solver, result):
             found = self._search(solver, values)
-            alt = self._nearest([r for r in found if not self.changes_mode(before, here, r)], last)
+            alt = self._nearest(
+                [r for r in found if self._fits(r) and not self.changes_mode(before, here, r)],
+                last,
+            )
         if alt is not None:
             return self._answer(alt, self.mode(alt) or before)
+        if in_mode:  # in mode but a pose the robot cannot take, and no other in mode it can:
+            return TargetAnswer(result, False)  # (the caller refuses it, saying which joint)
         if not result.success and solver.mode is SolveMode.CLOSED_FORM:
             # refused from here, and no solution in mode: does another mode reach it? (the
             # inverse plan's every branch, nearest the last good state first)
@@ -275,7 +289,7 @@ class ModeKeeper:
                 alt.adopt(last)  # Newton starts from the mechanism's state
             r = alt.solve(values, commit=False, effort=Effort.UNEXPLAINED)
             mode = self.mode(r) if r.success else None
-            if not r.success or self.changes_mode(before, here, r):
+            if not self._fits(r) or self.changes_mode(before, here, r):
                 continue
             key = (_folded(mode), configuration_distance(last, r))  # a regular one first
             if best is None or key < best[:2]:
@@ -289,7 +303,7 @@ class ModeKeeper:
     ) -> Result | None:
         """The solution of a closed-form inverse in any mode nearest ``last`` (each branch of
         the inverse plan), or None."""
-        return self._nearest([r for r in solver.solve_all(values) if r.success], last)
+        return self._nearest([r for r in solver.solve_all(values) if self._fits(r)], last)
 
     def _search(self, solver: Solver, values: Mapping[str, Any]) -> list[Result]:
         """The target's solutions within limits a multi-start Newton search finds
@@ -343,7 +357,7 @@ class ModeKeeper:
                     break
                 solver.adopt(start)
                 r = solver.solve(values, commit=False, effort=Effort.UNEXPLAINED)
-                if r.success and not self.changes_mode(before, here, r):
+                if self._fits(r) and not self.changes_mode(before, here, r):
                     found = r
                     break
                 budget -= r.iterations
