@@ -145,6 +145,16 @@ def test_rrp_equals_the_batch_kernel(dyad):
 
 @settings(max_examples=400, deadline=None)
 @given(scales, unit, unit, unit, unit, unit, ulps, st.booleans())
+@example(
+    8.673617379884035e-19,
+    0.7595073388875284,
+    0.0,
+    0.55,
+    0.7345478962337775,
+    0.547854049522734,
+    0,
+    False,
+)
 def test_rpr_equals_the_batch_kernel(s, px, py, xx, xy, e, nudge, up):
     p, x = complex(px, py) * s, complex(xx, xy) * s
     offset = e * s
@@ -158,7 +168,12 @@ def test_rpr_equals_the_batch_kernel(s, px, py, xx, xy, e, nudge, up):
         assert got[4] == _row(want.ok)
         for i, name in ((1, 'along'), (2, 'offset'), (3, 'margin'), (5, 'violation')):
             assert _same(got[i], _row(getattr(want, name))), name
-        for sign in (1, -1):  # atan2: numpy's may be a SIMD one, within 1 ulp of libm's
+        # the direction is beta - atan2(offset, sign along), beta itself an atan2: numpy's may
+        # be a SIMD one, within an ulp of libm's for each of the two (values up to pi), and the
+        # difference rounds once more. (2 ulps of 1.0 was too tight: beta 1.85 and the other
+        # atan2 2.34 rad each an ulp off read 3 ulps of 1.0 apart, hypothesis found.)
+        bound = 2 * (2 * math.ulp(math.pi)) + math.ulp(math.pi)
+        for sign in (1, -1):
             a = rpr_angle(got, sign)
             b = _row(dyads.rpr_direction(BATCH, want, np.array([float(sign)])))
-            assert abs(a - b) <= 2 * math.ulp(max(abs(a), abs(b), 1.0)), (sign, a, b)
+            assert abs(a - b) <= bound, (sign, a, b)
