@@ -132,17 +132,31 @@ def _arc_extreme(arc: Mapping[str, Any], axis: int, sign: float, solve: Solve) -
     return max(best, -f)
 
 
+#: points and polygon edges per block of the point-against-edge tables: each table is at most
+#: POINT_BLOCK x EDGE_BLOCK entries (2 MB of floats), whatever the cloud and the boundary (a
+#: 401 x 401 throw grid against its 6400-vertex arcs took ~15 GB in one table each)
+POINT_BLOCK = 1024
+EDGE_BLOCK = 256
+
+
 def points_in_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
     """Even-odd rule: which of the (n, 2) points lie inside the closed polygon (m, 2)."""
     pts = np.asarray(pts, float).reshape(-1, 2)
     poly = np.asarray(poly, float).reshape(-1, 2)
-    x, y = pts[:, 0][:, None], pts[:, 1][:, None]
-    x1, y1 = poly[:, 0][None, :], poly[:, 1][None, :]
-    x2, y2 = np.roll(poly[:, 0], -1)[None, :], np.roll(poly[:, 1], -1)[None, :]
-    cond = (y1 > y) != (y2 > y)
-    with np.errstate(divide='ignore', invalid='ignore'):
-        xint = x1 + (y - y1) * (x2 - x1) / np.where(y2 != y1, y2 - y1, 1.0)
-    inside: np.ndarray = (np.sum(cond & (x < xint), axis=1) % 2) == 1
+    crossings = np.zeros(pts.shape[0], np.int64)
+    x1a, y1a = poly[:, 0], poly[:, 1]
+    x2a, y2a = np.roll(x1a, -1), np.roll(y1a, -1)
+    for i in range(0, pts.shape[0], POINT_BLOCK):
+        x, y = pts[i : i + POINT_BLOCK, 0][:, None], pts[i : i + POINT_BLOCK, 1][:, None]
+        for k in range(0, poly.shape[0], EDGE_BLOCK):
+            edges = slice(k, k + EDGE_BLOCK)
+            x1, y1 = x1a[edges][None, :], y1a[edges][None, :]
+            x2, y2 = x2a[edges][None, :], y2a[edges][None, :]
+            cond = (y1 > y) != (y2 > y)
+            with np.errstate(divide='ignore', invalid='ignore'):
+                xint = x1 + (y - y1) * (x2 - x1) / np.where(y2 != y1, y2 - y1, 1.0)
+            crossings[i : i + POINT_BLOCK] += np.sum(cond & (x < xint), axis=1)
+    inside: np.ndarray = (crossings % 2) == 1
     return inside
 
 
@@ -154,12 +168,15 @@ def distance_to_polygon(pts: np.ndarray, poly: np.ndarray) -> np.ndarray:
     ab = b - a
     L2 = np.sum(ab * ab, axis=1)
     best = np.full(pts.shape[0], np.inf)
-    for k in range(0, a.shape[0], 256):
-        aa, bb, ll = a[k : k + 256], ab[k : k + 256], L2[k : k + 256]
-        ap = pts[:, None, :] - aa[None, :, :]
-        t = np.clip(np.sum(ap * bb[None], axis=2) / np.where(ll > 0, ll, 1.0)[None], 0.0, 1.0)
-        d = ap - t[..., None] * bb[None]
-        best = np.minimum(best, np.min(np.hypot(d[..., 0], d[..., 1]), axis=1))
+    for i in range(0, pts.shape[0], POINT_BLOCK):
+        block = pts[i : i + POINT_BLOCK]
+        for k in range(0, a.shape[0], EDGE_BLOCK):
+            aa, bb, ll = a[k : k + EDGE_BLOCK], ab[k : k + EDGE_BLOCK], L2[k : k + EDGE_BLOCK]
+            ap = block[:, None, :] - aa[None, :, :]
+            t = np.clip(np.sum(ap * bb[None], axis=2) / np.where(ll > 0, ll, 1.0)[None], 0.0, 1.0)
+            d = ap - t[..., None] * bb[None]
+            near = np.min(np.hypot(d[..., 0], d[..., 1]), axis=1)
+            best[i : i + POINT_BLOCK] = np.minimum(best[i : i + POINT_BLOCK], near)
     return best
 
 
