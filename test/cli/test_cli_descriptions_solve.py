@@ -487,6 +487,17 @@ def test_an_explicit_branch_is_never_answered_in_another_mode(capsys, tmp_path, 
     assert got['joints']['joint3'] == pytest.approx(joint1, abs=1e-12)
 
 
+def _grbda_joint2_limited(tmp_path):
+    """The GRBDA four-bar with joint2's <limit> narrowed to [0, 3] rad (a copy in tmp_path)."""
+    text = (FIXTURES / 'grbda_four_bar.urdf').read_text()
+    joint2 = text.index('<joint name="joint2"')
+    wide = 'lower="-13.14" upper="13.14"'
+    limit = text.index(wide, joint2)
+    narrow = tmp_path / 'grbda_joint2_limited.urdf'
+    narrow.write_text(text[:limit] + 'lower="0.0" upper="3.0"' + text[limit + len(wide) :])
+    return narrow
+
+
 def test_the_twin_note_speaks_the_descriptions_values_and_its_limits(capsys, tmp_path):
     """A target with a second solution in its mode names it in a note: in the values a command
     takes (the description's joints: gepetto's mot2 is offset by pi from the scene's actuator),
@@ -514,12 +525,7 @@ def test_the_twin_note_speaks_the_descriptions_values_and_its_limits(capsys, tmp
     grbda = FIXTURES / 'grbda_four_bar.urdf'
     rc, _, err = run(capsys, 'solve', grbda, '--target', 'joint3=0.5')
     assert rc == 0 and 'another solution in assembly mode -: joint1 = 0.5;' in err, err
-    text = grbda.read_text()
-    joint2 = text.index('<joint name="joint2"')
-    limit = text.index('lower="-13.14" upper="13.14"', joint2)
-    narrow = tmp_path / 'grbda_joint2_limited.urdf'
-    narrow.write_text(text[:limit] + 'lower="0.0" upper="3.0"' + text[limit + 28 :])
-    rc, out, err = run(capsys, 'solve', narrow, '--target', 'joint3=0.5')
+    rc, out, err = run(capsys, 'solve', _grbda_joint2_limited(tmp_path), '--target', 'joint3=0.5')
     assert rc == 0 and 'another solution' not in err, err
 
 
@@ -531,11 +537,7 @@ def test_a_target_whose_first_answer_breaks_a_passive_limit_takes_the_one_in_mod
     joint1), within the limit. The inverse plan's first answer put joint2 at -2, and the target
     was refused as beyond the limit though that solution in the same mode keeps it (an
     adversary's find)."""
-    text = (FIXTURES / 'grbda_four_bar.urdf').read_text()
-    joint2 = text.index('<joint name="joint2"')
-    limit = text.index('lower="-13.14" upper="13.14"', joint2)
-    narrow = tmp_path / 'grbda_joint2_limited.urdf'
-    narrow.write_text(text[:limit] + 'lower="0.0" upper="3.0"' + text[limit + 28 :])
+    narrow = _grbda_joint2_limited(tmp_path)
     rc, out, err = run(capsys, 'solve', narrow, '--target', 'joint3=-2', '--json')
     assert rc == 0, err
     j = json.loads(out)['joints']
