@@ -8,9 +8,12 @@ register template and builds the name-keyed dicts of a PlanRun only when asked. 
 are :mod:`linkage_ros.core.scalar_dyad_steps` (over :mod:`linkage_ros.core.scalar_dyads`).
 
 The arithmetic mirrors the batch executor's, operation for operation (see scalar_dyads); the
-answers agree bit for bit on most commands, but not all: an outside review found a point's last
-bits apart on 12 of 200 random excavator commands and 2 of 200 Scott-Russell ones (C.x -3.5e-18
-against -1.0e-17 m, the link angles equal), a difference not traced yet. Continuity is the
+answers agree bit for bit where numpy's trigonometry rounds as libm's does, and within a few
+ulps where it does not: on an AVX-512 host numpy's arctan2 is a SIMD kernel that differs from
+libm's atan2 in about 8 % of random arguments (its sin, cos and hypot agree there), and an outside review found last bits apart on some excavator
+and Scott-Russell commands (a point's only, where the angle that differed is not an output).
+With libm's atan2 in numpy's place every row of those sweeps is equal bit for bit (traced
+2026-11-28); test_closed_form compares float for float where the two agree. Continuity is the
 one-command rule of the executor: where a dyad is near its singularity (its margin now or in the
 previous answer below CONTINUITY_MARGIN) the branch nearest the prediction is taken, and
 coincident circles (a change point) keep the point where continuity predicts it. A dyad's radius
