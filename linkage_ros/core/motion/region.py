@@ -351,9 +351,10 @@ def reachable_region(
             if closed
             else (np.zeros((0, 1)), np.zeros((0, 2)))
         )
-        order = np.argsort(np.concatenate([xs[okp], ends[:, 0]]), kind='stable')
+        throws = np.concatenate([xs[okp], ends[:, 0]])
+        order = np.argsort(throws, kind='stable')
         boundary = np.concatenate([pp[okp], at_ends])[order]
-        binputs = {a: np.concatenate([xs[okp], ends[:, 0]])[order].tolist()}
+        binputs = {a: throws[order].tolist()}
         method = Boundary.PATH
         area = 0.0
     elif len(acts) == 2:
