@@ -10,10 +10,11 @@ are :mod:`linkage_ros.core.scalar_dyad_steps` (over :mod:`linkage_ros.core.scala
 The arithmetic mirrors the batch executor's, operation for operation (see scalar_dyads); the
 answers agree bit for bit where numpy's trigonometry rounds as libm's does, and within a few
 ulps where it does not: on an AVX-512 host numpy's arctan2 is a SIMD kernel that differs from
-libm's atan2 in about 8 % of random arguments (its sin, cos and hypot agree there), and an outside review found last bits apart on some excavator
-and Scott-Russell commands (a point's only, where the angle that differed is not an output).
-With libm's atan2 in numpy's place every row of those sweeps is equal bit for bit (traced
-2026-11-28); test_closed_form compares float for float where the two agree. Continuity is the
+libm's atan2 in about 8 % of random arguments (its sin, cos and hypot agree there), and an
+outside review found last bits apart on some excavator and Scott-Russell commands (a point's
+only, where the angle that differed is not an output). With libm's atan2 in numpy's place
+every row of those sweeps is equal bit for bit (traced 2026-11-28); test_closed_form compares
+float for float where the two agree. Continuity is the
 one-command rule of the executor: where a dyad is near its singularity (its margin now or in the
 previous answer below CONTINUITY_MARGIN) the branch nearest the prediction is taken, and
 coincident circles (a change point) keep the point where continuity predicts it. A dyad's radius
