@@ -54,3 +54,31 @@ def test_import_writes_whole_or_not_at_all(capsys, tmp_path):
     assert rc == 2 and 'not a robot description' in err
     rc, out, _ = run(capsys, 'import', '--help')
     assert rc == 0 and '--closures FILE' in out and 'joint_coordinates' in out
+
+
+@pytest.mark.parametrize(
+    'edit, named',
+    [
+        (('  actuated:', '  actuatd:'), "joint_coordinates: unknown key(s) ['actuatd']"),
+        (
+            ('    revolute: true', '    revolute: "false"'),
+            "joint_coordinates.outputs[0]: revolute must be true or false (got 'false')",
+        ),
+        (('  outputs:', '  outputz:'), "joint_coordinates: unknown key(s) ['outputz']"),
+    ],
+)
+def test_an_edited_joint_coordinates_names_the_key_it_refuses(capsys, tmp_path, edit, named):
+    """A misspelt key inside an imported scene's joint_coordinates is named (it was told only
+    as "must be a mapping of ..." with the whole mapping echoed), and a revolute flag written as
+    the string 'false' is refused (bool('false') read it as true: a prismatic joint published as
+    revolute)."""
+    scene = tmp_path / 'six.yaml'
+    rc, _, err = run(capsys, 'import', SIX_BAR, '-o', scene)
+    assert rc == 0, err
+    text = scene.read_text()
+    old, new = edit
+    assert f'\n{old}' in text
+    scene.write_text(text.replace(f'\n{old}', f'\n{new}', 1))
+    rc, out, err = run(capsys, 'check', scene)
+    assert rc == 2 and out == ''
+    assert named in err, err

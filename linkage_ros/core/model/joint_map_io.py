@@ -21,6 +21,7 @@ _OUTPUT_KEYS = {
     'constant',
     'mimic',
 }
+_TOP_KEYS = {'actuated', 'outputs', 'inputs', 'plane'}
 _INPUT_KEYS = {
     'name',
     'known',
@@ -83,13 +84,15 @@ def joint_map_from_dict(
     scene's error naming the key. ``scene_joints``: the scene's joints; ``knowns``: its
     actuators and joints (what an input may stand for)."""
     key = 'joint_coordinates'
-    if not isinstance(data, Mapping) or set(map(str, data)) - {
-        'actuated',
-        'outputs',
-        'inputs',
-        'plane',
-    }:
+    if not isinstance(data, Mapping):
         fail(key, 'must be a mapping of actuated, outputs, inputs and plane', data)
+    unknown = sorted(set(map(str, data)) - _TOP_KEYS)
+    if unknown:
+        fail(
+            key,
+            f'unknown key(s) {unknown} (known: actuated, outputs, inputs, plane)',
+            has_value=False,
+        )
     outputs: list[OutputJoint] = []
     seen: set[str] = set()
     for k, item in enumerate(_list(data.get('outputs'), f'{key}.outputs', fail)):
@@ -110,7 +113,7 @@ def joint_map_from_dict(
                     OutputKind.MIMIC,
                     scale=_num(item.get('scale', 1.0), where, fail),
                     offset=_num(item.get('offset', 0.0), where, fail),
-                    revolute=bool(item.get('revolute', True)),
+                    revolute=_flag(item.get('revolute', True), where, fail),
                     leader=item['mimic'],
                 )
             )
@@ -125,7 +128,7 @@ def joint_map_from_dict(
                     joint,
                     _unit(item.get('scale', 1.0), where, fail),
                     _num(item.get('offset', 0.0), where, fail),
-                    bool(item.get('revolute', True)),
+                    _flag(item.get('revolute', True), where, fail),
                     lower=_opt(item.get('lower'), where, fail),
                     upper=_opt(item.get('upper'), where, fail),
                 )
@@ -145,7 +148,7 @@ def joint_map_from_dict(
                 known,
                 _unit(item.get('scale', 1.0), where, fail),
                 _num(item.get('offset', 0.0), where, fail),
-                bool(item.get('revolute', True)),
+                _flag(item.get('revolute', True), where, fail),
                 leader=str(leader),
                 multiplier=_num(item.get('multiplier', 1.0), where, fail),
                 mimic_offset=_num(item.get('mimic_offset', 0.0), where, fail),
@@ -160,8 +163,17 @@ def joint_map_from_dict(
 def _plane(data: Any, key: str, fail: Fail) -> Plane | None:
     if data is None:
         return None
-    if not isinstance(data, Mapping) or set(map(str, data)) != {'e1', 'e2', 'normal', 'depths'}:
+    want = {'e1', 'e2', 'normal', 'depths'}
+    if not isinstance(data, Mapping):
         fail(key, 'must map e1, e2, normal (3 numbers each) and depths ({point: m})', data)
+    missing, unknown = sorted(want - set(map(str, data))), sorted(set(map(str, data)) - want)
+    if missing or unknown:
+        what = [f'missing {missing}'] * bool(missing) + [f'unknown {unknown}'] * bool(unknown)
+        fail(
+            key,
+            'must map e1, e2, normal (3 numbers each) and depths ({point: m}): ' + ', '.join(what),
+            has_value=False,
+        )
     axes: list[tuple[float, float, float]] = []
     for k in ('e1', 'e2', 'normal'):
         v = data[k]
@@ -204,6 +216,14 @@ def _num(value: Any, where: str, fail: Fail) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         fail(where, 'must be a finite number', value)
     return float(value)
+
+
+def _flag(value: Any, where: str, fail: Fail) -> bool:
+    """A yes/no key (``revolute``): true or false as YAML writes them; a string such as
+    'false' is refused (bool() would read it as true)."""
+    if not isinstance(value, bool):
+        fail(where, 'revolute must be true or false', value)
+    return value
 
 
 def _opt(value: Any, where: str, fail: Fail) -> float | None:
