@@ -113,6 +113,10 @@ class Engine:
             # (a description's passive joints within their <limit>s: another solution in
             # mode that keeps them is the answer, not a refusal)
             lambda r: self.beyond_passive_limits(r) is None,
+            # (a circuit that passes no toggle: the other signs are another circuit)
+            lambda: (
+                None if self.reference_circuit is None else self.reference_circuit.crosses_signs
+            ),
         )
         #: the drawing's assembly mode (what ``branch: reference`` keeps targets in)
         self._reference_mode = self.keeper.mode(ref if ref.success else None)

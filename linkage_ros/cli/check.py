@@ -163,6 +163,8 @@ def format_check(r: dict) -> str:
         if klass == 'crank-rocker' and g['output_fully_rotates'] and not g['input_fully_rotates']:
             # seed 000's crank-rocker has its input turning: here the output is the crank
             klass = 'crank-rocker, its output the crank (a rocker-crank)'
+        elif klass == 'triple-rocker':  # (seed 000 names it by what it is not)
+            klass = 'non-Grashof triple-rocker (a non-Grashof double-rocker: no link turns fully)'
         out.append(
             f'grashof    {g["chain"]} {klass}: {g["rule"]}'
             + (f' ({", ".join(turns)})' if turns else '')

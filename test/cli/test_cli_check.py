@@ -88,11 +88,19 @@ def test_check_five_bar_newton_plan_and_slider_crank(capsys, scenes):
             'grashof    4R crank-rocker: s + l = 0.4 < p + q = 0.45 (input fully rotates: '
             'yes, output fully rotates: no)',
         ),
+        (
+            'four_bar_non_grashof',
+            'grashof    4R non-Grashof triple-rocker (a non-Grashof double-rocker: no link turns '
+            'fully): s + l = 0.5 > p + q = 0.47 (input fully rotates: no, output fully rotates: '
+            'no)',
+        ),
     ],
 )
 def test_check_prints_the_chain_class_line(capsys, scene, line):
     """Lecture 003 example 5 'first verifies that this is a non-Grashof 3R-1P linkage':
-    lmin + e = 0.20 + 0.14 > lmax = 0.30 (the scene file's dimensions)."""
+    lmin + e = 0.20 + 0.14 > lmax = 0.30 (the scene file's dimensions). Lecture 000 names the
+    4R chain with s + l > p + q 'non-Grashof ... double-rocker' (the line said only
+    'triple-rocker', a name the lectures never use)."""
     rc, out, _ = run(capsys, 'check', scene)
     assert rc == 0
     assert line in out.splitlines()

@@ -280,16 +280,20 @@ def test_unreachable_target_is_refused(capsys, scenes):
 
 def test_solve_keeps_the_reference_mode_and_any_mode_allows_the_other(capsys):
     """four_bar: B = -1.2 is reached only in the other assembly mode (issue 19): refused by
-    default naming the mode; --any-mode solves it and says the mode changed."""
+    default naming the mode (a crank-rocker's other sign is another circuit: seed 000, 'you
+    can never go from one curve to the other'); --any-mode solves it and says the mode
+    changed."""
     rc, out, _ = run(capsys, 'solve', 'four_bar', '--target', 'B=-1.2', '--json')
     d = loads(out)
-    assert rc == 1 and d['reason'].startswith('target is reachable only in assembly mode -')
+    assert rc == 1 and d['reason'].startswith(
+        'target is reachable only in another circuit of the mechanism (signs -'
+    )
     assert (
         'linkage solve --any-mode' in d['reason']
     )  # the flag that allows it, named (sweep has none)
     rc, out, _ = run(capsys, 'solve', 'four_bar', '--target', 'B=-1.2', '--any-mode', '--json')
     d = loads(out)
-    assert rc == 0 and d['mode_change'] == '+ -> -'
+    assert rc == 0 and d['mode_change'] == '+ -> - (another circuit)'
     assert abs(math.remainder(d['joints']['B'] + 1.2, 2 * math.pi)) < 1e-9
     rc, _, err = run(capsys, 'solve', 'four_bar', '--set', 'crank=1', '--any-mode')
     assert rc == 2 and '--any-mode' in err

@@ -109,9 +109,14 @@ class ModeKeeper:
         make: SolverMaker,
         on_circuit: OnCircuit | None = None,
         takes: Callable[[Result], bool] | None = None,
+        joined_by_motion: Callable[[], bool | None] | None = None,
     ):
         self.mech, self.forward, self.make = mech, forward, make
         self.on_circuit = on_circuit
+        #: whether the actuator's motion takes the mechanism through a toggle into other signs
+        #: (False: every other sign combination is another circuit, as a crank-rocker's
+        #: mirror curve; None: not known), asked only to word a refusal
+        self.joined_by_motion = joined_by_motion
         #: whether the robot can take a solved pose (a robot description's passive joints
         #: within their <limit>s); None: every pose
         self.takes = takes
@@ -136,7 +141,11 @@ class ModeKeeper:
 
     def _changes_circuit(self, here: Result | None, result: Result) -> bool:
         """Whether ``result`` lies on another circuit than ``here``, both known (on_circuit):
-        the change is the loop, whatever the signs say."""
+        the change is the loop, whatever the signs say; or in other signs where no motion
+        passes a toggle (joined_by_motion False: a crank-rocker's two curves)."""
+        joined = self.joined_by_motion
+        if here is not None and joined is not None and joined() is False:
+            return True
         if here is None or self.on_circuit is None:
             return False
         a, b = self.on_circuit(here), self.on_circuit(result)

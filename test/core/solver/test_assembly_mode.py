@@ -36,13 +36,15 @@ def test_a_target_only_the_other_mode_reaches_is_refused_and_changes_nothing():
     assert e.last.branch == '+'
     t = e.target({'B': -1.2})
     assert not t.success
-    assert t.reason.startswith('target is reachable only in assembly mode - of the forward dyads')
-    assert 'the mechanism is in mode +' in t.reason
-    # (not 'cannot change mode without being taken apart': a cylinder's dead centre inside its
-    # limits changes a mode by motion, and an outside reviewer's crane did so)
-    assert 'only a motion through a toggle position, or taking the mechanism apart, changes' in (
-        t.reason
+    # a crank-rocker's other sign is its other curve: 'you can never go from one curve to the
+    # other' (seed 000); the refusal said a motion through a toggle could change its mode
+    assert t.reason.startswith(
+        'target is reachable only in another circuit of the mechanism (signs -, a loop its '
+        'actuator does not reach'
     )
+    assert 'the mechanism is in mode +' in t.reason
+    assert 'only taking the mechanism apart moves it to another circuit' in t.reason
+    assert 'toggle' not in t.reason
     c = e.command({'crank': 1.0})
     assert c.success and c.branch == '+'
     assert close_angle(c.links['rocker'], rocker_oracle(1.0, +1))
@@ -51,7 +53,7 @@ def test_a_target_only_the_other_mode_reaches_is_refused_and_changes_nothing():
 def test_an_explicit_mode_change_is_allowed_and_reported():
     e = engine()
     t = e.target({'B': -1.2}, allow_mode_change=True)
-    assert t.success and t.mode_change == '+ -> -'
+    assert t.success and t.mode_change == '+ -> - (another circuit)'
     assert close_angle(t.joints['B'], -1.2)
     c = e.command({'crank': 1.0})
     assert c.success and c.branch == '-'
@@ -236,7 +238,9 @@ def test_a_non_grashof_four_bar_has_one_mode_through_its_toggles():
     assert {x.branch for x in ans.results} == {'+', '-'}
     # the crank-rocker: its two signs are two circuits
     r = Engine(load('four_bar'), EngineSettings()).target({'B': -1.2})
-    assert not r.success and 'reachable only in assembly mode -' in r.reason
+    assert not r.success and 'reachable only in another circuit of the mechanism (signs -' in (
+        r.reason
+    )
 
 
 def test_a_grashof_double_rocker_loop_holds_both_signs():
@@ -291,3 +295,44 @@ def test_the_cli_sweeps_targets_in_the_drawings_mode_under_branch_reference(caps
     main([*argv, '--branch', 'continuous'])
     assert json.loads(capsys.readouterr().out.splitlines()[0])['status'] == 'ok'
     assert main(['solve', 'four_bar_non_grashof', '--target', 'rocker=4.0']) == 0
+
+
+#: a knuckle-boom crane (an outside reviewer's, as test_motion_regions.py): the fold cylinder's
+#: dead centre (B2, T1, J1 in line: 1.6549569 m) lies inside its limits 1.30 .. 1.95 m
+KNUCKLE_BOOM = {
+    'name': 'knuckle_boom',
+    'points': {
+        'O': [0, 1.2],
+        'G1': [0.35, 0.2],
+        'T1': [2.897777478867, 1.976457135308],
+        'B1': [1.030630587565, 1.21733758853],
+        'B2': [1.757613356418, 1.981533933582],
+        'J1': [3.378543014006, 1.792434038326],
+        'T2': [4.440467742115, 0.137950471822],
+    },
+    'links': {'ground': ['O', 'G1'], 'boom': ['O', 'T1', 'B1', 'B2'], 'jib': ['T1', 'T2', 'J1']},
+    'cylinders': {
+        'lift': {'from': 'G1', 'to': 'B1', 'min': 1.00, 'max': 1.60},
+        'fold': {'from': 'B2', 'to': 'J1', 'min': 1.30, 'max': 1.95},
+    },
+}
+
+
+def test_a_mode_a_cylinder_reaches_through_its_dead_centre_is_worded_so():
+    """Where the actuators' motion passes a toggle inside the limits (the crane's fold cylinder
+    through its dead centre: the jib from ++ to +-), the refusal says a motion through a
+    toggle position changes the mode, not that the mechanism must be taken apart. Oracle: the
+    dead centre's throw, |B2 T1| + |T1 J1| from the drawing, inside the fold's limits."""
+    from linkage_ros.core.model import Scene
+
+    pts = {k: complex(*v) for k, v in KNUCKLE_BOOM['points'].items()}
+    dead_centre = abs(pts['T1'] - pts['B2']) + abs(pts['J1'] - pts['T1'])
+    assert 1.30 < dead_centre < 1.95
+    e = Engine(Scene.from_dict(KNUCKLE_BOOM).mechanism, EngineSettings())
+    assert e.last.branch == '++'
+    r = e.target({'jib': 0.5, 'lift': 1.3})
+    assert not r.success
+    assert r.reason.startswith('target is reachable only in assembly mode +- of the forward dyads')
+    assert 'only a motion through a toggle position, or taking the mechanism apart, changes' in (
+        r.reason
+    )

@@ -166,5 +166,6 @@ def test_a_target_answer_names_the_forward_mode_not_the_inverse_plans_signs():
     assert mode is not None
     assert moved.branch == ''.join('+' if s > 0 else '-' for s in mode[0])
     assert (
-        moved.mode_change == f'{before.branch} -> {moved.branch}' and moved.branch != before.branch
+        moved.mode_change == f'{before.branch} -> {moved.branch} (another circuit)'
+        and moved.branch != before.branch
     )
