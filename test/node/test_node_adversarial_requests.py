@@ -222,13 +222,14 @@ def test_a_request_with_more_names_than_the_scene_has_is_refused_at_once(serve):
 def test_a_target_in_the_other_assembly_mode_is_refused_unless_asked_for(serve):
     """On the node: ~/target B = -1.2 (only the other mode reaches it) is refused and changes
     nothing (crank = 1.0 then gives the fresh node's joints); the same on ~/target_any_mode is
-    answered, its status says mode_change '+ -> -', and commands continue in that mode."""
+    answered, its status says mode_change '+ -> - (another circuit)' (a crank-rocker's other
+    sign is its other curve), and commands continue in that mode."""
     s = serve(scene='four_bar')
     fresh = s.good('command', joint_state(['crank'], [1.0], (91, 0)))
     msg = s.bad(
         'target',
         joint_state(['B'], [-1.2], (92, 0)),
-        ['target is reachable only in assembly mode -', 'the mechanism is in mode +'],
+        ['target is reachable only in another circuit', 'the mechanism is in mode +'],
         ('command', joint_state(['crank'], [1.0], (93, 0))),
     )
     assert 'ask for the change explicitly' in msg and '~/target_any_mode' in msg
@@ -236,7 +237,7 @@ def test_a_target_in_the_other_assembly_mode_is_refused_unless_asked_for(serve):
     status = s.send('target_any_mode', joint_state(['B'], [-1.2], (95, 0)))
     assert status.level == OK, status.message
     kv = {v.key: v.value for v in status.values}
-    assert kv['mode_change'] == '+ -> -' and kv['request'] == 'target_any_mode'
+    assert kv['mode_change'] == '+ -> - (another circuit)' and kv['request'] == 'target_any_mode'
     other = s.good('command', joint_state(['crank'], [1.0], (96, 0)))
     assert not all(math.isclose(a, b, abs_tol=1e-9) for a, b in zip(other, fresh))
     status = s.send('command', joint_state(['crank'], [1.1], (97, 0)))
