@@ -17,7 +17,7 @@ from .core.model import Scene
 from .core.model.dimensions import overrides, parse_assignment
 from .core.solver import METHODS
 from .core.steps import read_branch
-from .core.tolerances import NEWTON_TOL
+from .core.tolerances import NEWTON_TOL, NEWTON_TOL_MAX
 from .core.urdf import PREFIX_RULE, prefix_error
 from .engine import Engine, EngineSettings
 from .resources import scene_path
@@ -111,7 +111,7 @@ PARAMETERS: tuple[ParamSpec, ...] = (
         NEWTON_TOL,
         'Newton tolerance on the loop-closure residual, as a fraction '
         'of the mechanism length scale.',
-        constraints='> 0',
+        constraints='> 0 and <= 1e-3',
     ),
     ParamSpec('max_iterations', 50, 'Newton iteration cap per solve.', constraints='> 0'),
     ParamSpec(
@@ -339,6 +339,8 @@ def make_config(values: Mapping[str, Any]) -> NodeConfig:
         or not tol > 0
     ):
         fail_setting('tolerance', 'must be a finite number > 0', tol)
+    if tol > NEWTON_TOL_MAX:  # (the solver's own check, named as the parameter at start-up)
+        fail_setting('tolerance', f'must be at most {NEWTON_TOL_MAX:g} (default 1e-12)', tol)
     it = v['max_iterations']
     if isinstance(it, bool) or not isinstance(it, int) or it <= 0:
         fail_setting('max_iterations', 'must be an integer > 0', it)

@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from ..cli.common import description_options_error, dimension_overrides, print_notes
+from ..core.tolerances import NEWTON_TOL_MAX
 from .common import DEFAULT_OUT_FORMAT, BagError, output_topics, parse_remaps
 from .plans import path_point
 from .replay import ReplayEngine
@@ -54,6 +55,8 @@ def check_options(args: argparse.Namespace) -> Any:
         )
     if not (isinstance(args.tol, float) and math.isfinite(args.tol) and args.tol > 0):
         raise BagError(f'--tol must be a positive number (got {args.tol!r})')
+    if args.tol > NEWTON_TOL_MAX:  # (the solver's own bound: core.tolerances)
+        raise BagError(f'--tol must be at most {NEWTON_TOL_MAX:g} (got {args.tol!r})')
     if args.max_iter < 1:
         raise BagError(f'--max-iter must be >= 1 (got {args.max_iter})')
     for topic in args.path_topic:

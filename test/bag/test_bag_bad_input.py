@@ -38,6 +38,9 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
     common = ['--scene', scene, '--command-topic', '/cmd', '--out', tmp_path / 'x.csv']
     # missing
     assert 'no such file' in refused_stderr([tmp_path / 'nothing_here', *common], capsys)
+    # a tolerance of the whole length scale answers targets OK far from them: refused
+    err = refused_stderr([good, *common, '--tol', '1'], capsys)
+    assert '--tol must be at most 0.001 (got 1.0)' in err, err
     # a missing .db3 (rosbag2's own name for a split file, run_0.db3, guessed) is missing, not
     # a corrupt database (sqlite3 cannot open it either)
     err = refused_stderr([tmp_path / 'run_0.db3', *common], capsys)

@@ -29,6 +29,7 @@ from linkage_ros.cli import parser as cli_parser
         (['solve', '{four_bar}', '--set', 'crank=1', '--branch', 'sideways'], 'branch'),
         (['solve', '{four_bar}', '--set', 'crank=1', '--branch', '++'], 'branching dyad'),
         (['solve', '{four_bar}', '--set', 'crank=1', '--tol', '-1'], 'tolerance'),
+        (['solve', '{four_bar}', '--set', 'crank=1', '--tol', '1'], 'tolerance 1 is too loose'),
         (['solve', '{four_bar}', '--set', 'crank=1', '--solver', 'magic'], 'invalid choice'),
         (['sweep', '{four_bar}', '--set', 'crank=0:1:0'], 'COUNT must be >= 1'),
         (['sweep', '{four_bar}', '--set', 'crank=0:1:x'], 'not an integer'),

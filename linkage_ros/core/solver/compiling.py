@@ -16,6 +16,7 @@ from ..newton import LoopSystem
 from ..plan import Plan, Spec, reference_poses, spec_for, spec_value_one
 from ..quantities import AngleSpec, PointSpec, ScalarSpec
 from ..steps import Branch, BranchRule, branch_text, sign_combinations
+from ..tolerances import NEWTON_TOL_MAX
 from .compiled import CompiledSolve, SolveMode
 from .continuity import Continuity
 from .one import solve_one
@@ -47,6 +48,12 @@ def compile_solve(
         isinstance(tol, (int, float)) and math.isfinite(tol) and tol > 0
     ):
         raise PlanError(f'tolerance must be a positive number (got {tol!r})')
+    if tol > NEWTON_TOL_MAX:
+        raise PlanError(
+            f'tolerance {tol:g} is too loose: at most {NEWTON_TOL_MAX:g} (a fraction of the '
+            "mechanism's length scale: the loop-closure residual an answer may keep; the "
+            'default is 1e-12)'
+        )
     if isinstance(max_iter, bool) or not (isinstance(max_iter, int) and max_iter > 0):
         raise PlanError(f'max_iter must be a positive integer (got {max_iter!r})')
     for what, names in (('knowns', knowns), ('outputs', outputs)):
