@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import SceneError
 from ..model import Mechanism, Scene
-from ..model.joint_map import JointMap, OutputKind
+from ..model.joint_map import JointMap, OutputKind, spans_a_turn
 from ..model.limits import limit_violation
 from .assembly import CLOSED, assemble_chain, values_text
 from .calibration import calibrate_joint_map
@@ -152,13 +152,7 @@ def import_description(
         )
     for j in chain.joints:
         lim = desc.limits_of(j.joint)
-        if (
-            j.name in acts
-            and j.revolute
-            and lim.lower is not None
-            and lim.upper is not None
-            and lim.upper - lim.lower >= 2 * math.pi
-        ):
+        if j.revolute and spans_a_turn(lim.lower, lim.upper):
             notes.append(
                 f'the limits of {j.name} ({lim.lower:g} .. {lim.upper:g} rad) span a full turn '
                 'or more: it is not limited (limits are in radians)'

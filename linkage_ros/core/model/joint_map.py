@@ -190,13 +190,17 @@ class JointMap:
     def _passive_limits(self) -> tuple[tuple[OutputJoint, tuple[float, float]], ...]:
         """The passive published joints with a <limit>, and the values it allows (the limit
         rule's interval, its slack on each side; a revolute value is already brought into
-        the limits where it fits: fit_to_limits)."""
+        the limits where it fits: fit_to_limits). A revolute joint's limits a full turn or
+        more apart limit nothing (the import notes it, as for an actuated joint's): its angle
+        is in them a whole number of turns away (limits written in degrees, [-150, -90],
+        refused every answer as "beyond" them)."""
         return tuple(
             (o, interval)
             for o in self.outputs
             if o.kind is OutputKind.JOINT
             and o.name not in self.actuated
             and (o.lower is not None or o.upper is not None)
+            and not (o.revolute and spans_a_turn(o.lower, o.upper))
             and (interval := limit_interval(o.lower, o.upper, False)) is not None
         )
 
@@ -399,15 +403,26 @@ class JointMap:
 
 
 def fit_to_limits(v: Any, o: OutputJoint) -> Any:
-    """A wrapped angle moved by 2 pi into the joint's limits where that fits (one value or an
-    array: the same rule; a limit of 0 is a limit)."""
+    """A wrapped angle moved by 2 pi toward the joint's limits where that does not pass them
+    (one value or an array: the same rule; a limit of 0 is a limit). Limits a turn or more
+    apart limit nothing (spans_a_turn): there it is moved only where that lands it in them,
+    not a turn toward limits written in degrees ([-150, -90]: -2.09 rad published -8.38)."""
     lo = -math.inf if o.lower is None else o.lower
     hi = math.inf if o.upper is None else o.upper
+    up, down = v + 2.0 * math.pi, v - 2.0 * math.pi
+    # (the far bound the moved value must not pass: the near one, where limits are a turn wide)
+    up_to, down_to = (lo, hi) if spans_a_turn(o.lower, o.upper) else (-math.inf, math.inf)
     if isinstance(v, np.ndarray):
-        v = np.where((v < lo) & (v + 2.0 * math.pi <= hi), v + 2.0 * math.pi, v)
-        return np.where((v > hi) & (v - 2.0 * math.pi >= lo), v - 2.0 * math.pi, v)
-    if v < lo and v + 2.0 * math.pi <= hi:
-        return v + 2.0 * math.pi
-    if v > hi and v - 2.0 * math.pi >= lo:
-        return v - 2.0 * math.pi
+        v = np.where((v < lo) & (up >= up_to) & (up <= hi), up, v)
+        return np.where((v > hi) & (down >= lo) & (down <= down_to), down, v)
+    if v < lo and up_to <= up <= hi:
+        return up
+    if v > hi and lo <= down <= down_to:
+        return down
     return v
+
+
+def spans_a_turn(lower: float | None, upper: float | None) -> bool:
+    """Whether a revolute joint's limits are a full turn or more apart (they then limit
+    nothing: every angle is within them, a whole number of turns away)."""
+    return lower is not None and upper is not None and upper - lower >= 2.0 * math.pi

@@ -98,3 +98,39 @@ def test_a_target_beyond_it_is_refused(mech):
 def test_a_drawing_beyond_it_is_warned_about(mech):
     (warning,) = [w for w in reference_pose_warnings(Solver(mech)) if 'passive' in w]
     assert 'slide_joint' in warning and 'assemble_at' in warning
+
+
+def rod_joint(q: float) -> float:
+    """The rod's joint value by hand: the rod's angle from the crank's, about -z (both axes
+    -z), wrapped into (-pi, pi]."""
+    ax, ay = 0.1 * math.cos(0.3 - q), 0.1 * math.sin(0.3 - q)
+    rod = math.atan2(0.02 - ay, (0.35 - slide(q)) - ax)
+    return -math.remainder(rod - (0.3 - q), 2 * math.pi)
+
+
+def test_passive_limits_a_turn_wide_limit_nothing_and_are_noted(tmp_path):
+    """A passive revolute's <limit> written in degrees (lower="-150" upper="-90": 60 rad
+    apart) refused every command: the answer's joint value was moved one turn toward the
+    limits and reported 'beyond its <limit> [-150, -90] rad' (an outside integrator's gripper).
+    Limits a turn or more apart limit nothing, as an actuated joint's: answered, the joint
+    value where the mechanism puts it, and the import says so. Oracle: rod_joint by hand."""
+    from linkage_ros.core.description import import_description
+
+    text = SLIDER.replace(
+        '<limit lower="-3" upper="3" effort="1" velocity="1"/>',
+        '<limit lower="-150" upper="-90" effort="1" velocity="1"/>',
+    )
+    assert text != SLIDER
+    path = tmp_path / 'degrees.urdf'
+    path.write_text(text)
+    mech = load_scene(str(path), actuated=['crank_joint']).mechanism
+    engine = Engine(mech, EngineSettings())
+    for q in (0.8, 1.0, 1.5):  # (the slide within its limits: slide(q) > -0.03)
+        assert -0.03 < slide(q) < 0.5
+        r = engine.command({'crank_joint': q})
+        assert r.success, r.reason
+        got = dict(zip(mech.output_joint_names, mech.output_joints(r.joints)))
+        assert got['rod_joint'] == pytest.approx(rod_joint(q), abs=1e-12)
+        assert not -150 <= rod_joint(q) <= -90  # (the old refusal's case)
+    notes = import_description(str(path), actuated=['crank_joint']).notes
+    assert any('limits of rod_joint (-150 .. -90 rad) span a full turn' in n for n in notes)
