@@ -278,8 +278,14 @@ def _assembly_values(
                     key=f'limits.{name}',
                 )
             continue
-        unit = 'rad' if by_name[name].revolute else 'm'
-        why = limit_violation(name, value, lim.lower, lim.upper, unit, by_name[name].revolute)
+        revolute = by_name[name].revolute
+        if revolute and spans_a_turn(lim.lower, lim.upper):
+            continue  # (limits nothing: noted below)
+        unit = 'rad' if revolute else 'm'
+        # as a command is judged (ROBOT_DESCRIPTIONS.md): the value as given, not a turn of it
+        # (assemble_at: {crank: 30} was assembled at 30 - 5 turns without a word, where
+        # --set crank=30 is refused)
+        why = limit_violation(name, value, lim.lower, lim.upper, unit, False)
         if why is None:
             continue
         whose = 'limits in the closure file' if name in desc.limits else '<limit>'

@@ -444,14 +444,15 @@ def test_an_assembly_outside_a_turned_joints_limit_is_said_in_the_descriptions_v
     """joint1 turned by its <origin> rpy (2 rad) and flipped (axis -z), its <limit> [2.5, 5],
     no assemble_at: the description is assembled at joint1 = 0, outside. The refusal quoted the
     scene's values ('joint1 = 2 rad is below its minimum -3'), which the description never
-    shows; now the description's value and limit, and a value to assemble at."""
+    shows; now the description's value and limit, and a value to assemble at. The value is
+    judged as given, as a command is (0 is below 2.5, not a turn of it beyond 5)."""
     bad = edited(
         '<origin xyz="0.0 0.0 0.0"/>\n        <axis xyz="0 0 1"/>\n'
         '        <limit effort="30" velocity="1.0" lower="-13.14" upper="13.14"/>',
         '<origin xyz="0.0 0.0 0.0" rpy="0 0 2.0"/>\n        <axis xyz="0 0 -1"/>\n'
         '        <limit effort="30" velocity="1.0" lower="2.5" upper="5.0"/>',
     )
-    err = refused(TEXT, 'joint1 = 0 rad', 'maximum 5', 'no assemble_at', '<limit>: [2.5, 5]',
+    err = refused(TEXT, 'joint1 = 0 rad', 'minimum 2.5', 'no assemble_at', '<limit>: [2.5, 5]',
                   'assemble_at: {joint1: 3.75}', args=[bad], text=True)  # fmt: skip
     assert '-3' not in str(err) and '= 2 rad' not in str(err), err
 

@@ -493,3 +493,25 @@ def test_a_description_joint_value_at_odd_multiples_of_pi_is_pi_on_both_paths():
     rng = np.random.default_rng(3)
     v = rng.uniform(-50, 50, 1000)
     assert wrap(v).tolist() == [math.remainder(x, 2 * math.pi) for x in v.tolist()]
+
+
+def test_assemble_at_is_judged_as_given_as_a_command_is(tmp_path):
+    """assemble_at: {joint1: 30} on the GRBDA four-bar whose crank is limited: a command of 30
+    rad is refused (ROBOT_DESCRIPTIONS.md: a value beyond the limits is refused even where a
+    turn would bring it within), but the assembly took 30 - 5 turns without a word (an outside
+    integrator's find). Refused now, naming the value and the limit; 30 - 5 turns itself is
+    taken."""
+    text = (D / 'grbda_four_bar.urdf').read_text()
+    lim = '<limit effort="30" velocity="1.0" lower="-13.14" upper="13.14"/>'
+    assert text.count(lim) >= 1
+    path = tmp_path / 'limited.urdf'
+    path.write_text(
+        text.replace(lim, '<limit effort="30" velocity="1.0" lower="-1.5" upper="1.5"/>', 1)
+    )
+    side = tmp_path / 'side.yaml'
+    side.write_text('assemble_at: {joint1: 30}\n')
+    with pytest.raises(Exception, match=r'joint1 = 30 rad is beyond its maximum 1\.5 by 28\.5 rad'):
+        import_description(str(path), str(side))
+    wrapped = 30 - 5 * 2 * math.pi  # -1.416 rad: within [-1.5, 1.5]
+    side.write_text(f'assemble_at: {{joint1: {wrapped!r}}}\n')
+    assert import_description(str(path), str(side)).mechanism is not None
