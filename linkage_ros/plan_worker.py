@@ -62,6 +62,11 @@ from .trajectory import (
     trajectory_status_values,
 )
 
+#: Ctrl-C signals the node's whole process group: the worker ignores it (the node stops it).
+#: Not SIGTERM: multiprocessing ends a daemon child at the node's exit by SIGTERM and then
+#: waits for it without a timeout (a worker that ignored it would hang an exit that did not
+#: stop it first); SIGTERM's default action ends the worker without a traceback
+_GROUP_SIGNALS = {signal.SIGINT}
 #: plans waiting beside the one being solved; one more is dropped for load
 PLAN_QUEUE = 2
 #: the worker's CPU priority where SCHED_IDLE is not available (nice)
@@ -187,7 +192,15 @@ class PlanWorker:
             name='linkage_plans',
             daemon=True,
         )
-        self._proc.start()
+        # born with SIGINT blocked (the mask survives the spawn's exec): Ctrl-C to the node's
+        # process group arriving while the worker imports raised KeyboardInterrupt there, a
+        # traceback on the node's terminal; the worker ignores it from its first instruction
+        # and the node stops it (stop)
+        blocked = signal.pthread_sigmask(signal.SIG_BLOCK, _GROUP_SIGNALS)
+        try:
+            self._proc.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
         # its priority lowered from its first instruction: its start-up (importing numpy and
         # the engine, ~1 s of CPU) must not compete with commands either
         lower_priority(self._proc.pid)
@@ -369,7 +382,9 @@ def serve_plans(jobs: Any, answers: Any, parent: int, commands: CommandClock | N
     """The worker process: solve each job in turn and send its PlanDone on ``answers``, until
     None or the node is gone; paced while ``commands`` says the node is answering requests
     (always, without one)."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the node stops it (Ctrl-C reaches both)
+    for sig in _GROUP_SIGNALS:  # the node stops it (a signal to the group reaches both)
+        signal.signal(sig, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, _GROUP_SIGNALS)  # (one pending is dropped)
     # No automatic collection: in a plan of 10^4 points the collector's passes over the
     # plan's live Results took 10-120 ms each, steps no pacing can split. The worker collects
     # after each plan is answered (its objects freed by then) and when it builds an engine.

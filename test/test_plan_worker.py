@@ -232,8 +232,13 @@ def _alive(pid: int) -> bool:
 def test_a_long_plan_takes_at_most_its_share_of_a_core_while_commands_come():
     """A plan of seconds beside commands (the node's CommandClock stamped every 10 ms, as a
     100 Hz client makes it) is paced (Pacer): the worker's CPU time over the plan (/proc) is at
-    most PLAN_SHARE of the wall-clock time it took, plus the burst and the unpaced steps
-    around it. CPU time never exceeds the time running, so this holds on a busy machine too."""
+    most twice PLAN_SHARE of the wall-clock time it took, plus the burst. CPU time never exceeds
+    the time running, so this holds on a busy machine too. The exact bound (the share plus
+    the burst and one step) is test_plan_pacer.py's, on a fake clock: a real process adds
+    steps no pacing splits (the collector's pass after the answer, 17 ms; job and answer
+    pickling), which took 0.13 s against an allowance of 0.03 in 4 of 6 runs on a slower day
+    of this host (old and new code alike). Unpaced, the plan takes a whole core (0.44 s of CPU
+    in about 0.45 s)."""
     from linkage_ros.plan_cdr import joint_trajectory_bytes
     from linkage_ros.plan_worker import PLAN_SHARE
 
@@ -266,9 +271,8 @@ def test_a_long_plan_takes_at_most_its_share_of_a_core_while_commands_come():
         t1, cpu1 = time.monotonic(), _cpu_s(pid)
         assert done.ok and done.values['points'] == str(n), done.message
         assert cpu0 is not None and cpu1 is not None
-        # 0.03 s: the unpaced steps (the job's and the answer's pickling, the status values);
         # and the time no stamp came for COMMANDS_RECENT_S (the worker ran free then, by design)
-        allowed = PLAN_SHARE * (t1 - t0) + PLAN_BURST_S + 0.03 + sum(unpaced)
+        allowed = 2 * PLAN_SHARE * (t1 - t0) + PLAN_BURST_S + sum(unpaced)
         assert cpu1 - cpu0 <= allowed, (cpu1 - cpu0, t1 - t0, sum(unpaced))
     finally:
         worker.stop()
@@ -312,3 +316,25 @@ def _answers(
         got += worker.collect()
         time.sleep(0.01)
     return got
+
+
+def test_ctrl_c_to_the_process_group_while_the_worker_starts_leaves_it_to_the_node():
+    """Ctrl-C signals the node's whole process group. Arriving while the worker still
+    imported (its first second), SIGINT raised KeyboardInterrupt there: a traceback on the
+    node's terminal (a new user's find; TOPICS.md promises none), and the worker was gone. The
+    worker is born with SIGINT blocked and ignores it: it lives on, answers its plan, and is
+    stopped by the node."""
+    engine = Engine(scenes.load('four_bar'), EngineSettings())
+    worker = PlanWorker()
+    worker.start()
+    try:
+        pid = worker.pid
+        assert pid is not None
+        os.kill(pid, signal.SIGINT)  # (at once: the new interpreter is still starting)
+        assert worker.offer(_job(engine, 7), engine)
+        (done,) = _collected(worker, 1, time.monotonic() + ANSWER_WAIT_S)
+        assert done.stamp.sec == 7 and 'the plan worker exited' not in done.message, done.message
+        assert worker.pid == pid and _alive(pid)
+    finally:
+        worker.stop()
+    assert not _alive(pid)
