@@ -575,7 +575,9 @@ class Engine:
         last = self.last
         if last is None or not does_not_assemble(result):
             return result
-        edge = reach_edge(solver, values, last)
+        # (a joint's or link's value told in the scene's terms: not for a description, whose
+        # joint values are its own)
+        edge = reach_edge(solver, values, last, scalars=self.mech.joint_coordinates is None)
         if edge is not None:
             result.reason = f'{edge.describe()}; {result.reason}'
         if solver.mode is not SolveMode.CLOSED_FORM and self.fixed_mode() is None and not searched:

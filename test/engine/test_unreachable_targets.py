@@ -304,3 +304,38 @@ def test_a_coordinate_refusal_says_its_edge_is_the_ways_not_the_points_reach():
     assert abs(beyond.points['G'][0] + 0.6) < 1e-12
     reach = motion.reachable_region(mech, 'G')['extent'][0][1]
     assert -0.6 < reach < -0.5
+
+
+def test_a_joint_or_slide_target_out_of_reach_is_told_its_edge():
+    """A rocker angle or a slider position beyond what the mechanism reaches was refused in the
+    solver's terms only ('RRR dyad ... does not close; misses by 0.044 m'), where a command
+    gets the reachable range and a point target its edge (a new user's find). Now the edge on
+    the way there: the crank-rocker's rocker stops at its extreme, where crank and coupler
+    lie in line, folded (|O2 B| = coupler - crank: the cosine rule), and the slider-crank's
+    slider at its stroke's ends (|O2 B| = rod -+ crank, on the line of the slide)."""
+    from linkage_ros.core.solver.reach import reach_edge
+
+    # the four-bar: ground 0.3, crank 0.1, coupler 0.25, rocker 0.2 (O2 at 0, O4 at (0.3, 0))
+    d = 0.25 - 0.1  # B at its least distance from O2: the rocker's largest angle
+    cos_o4 = (0.3**2 + 0.2**2 - d**2) / (2 * 0.3 * 0.2)  # the angle O2-O4-B
+    rocker_max = math.pi - math.acos(cos_o4)  # (B above the ground line, as drawn)
+    e = Engine(load('four_bar'), EngineSettings())
+    r = e.target({'rocker': 3.0})
+    assert not r.success
+    assert r.reason.startswith(
+        'rocker = 3 rad is out of reach: on the way there from the current configuration it '
+        f'is reachable up to rocker = {rocker_max:.6g} rad'
+    ), r.reason
+    assert "(that way's edge; its range: linkage check); cannot assemble" in r.reason
+    edge = reach_edge(e.solver_for(['rocker']), {'rocker': 3.0}, e.last)
+    assert edge is not None and edge.unit == 'rad'
+    assert abs(edge.edge[0] - rocker_max) < 1e-9
+    assert abs(edge.short_m - (3.0 - rocker_max)) < 1e-9
+    # the slider-crank: its stroke's near end, found the same way
+    sc = Engine(load('slider_crank'), EngineSettings())
+    r = sc.target({'slider': 0.01})
+    got = float(re.search(r'up to slider = (\S+) m', r.reason).group(1))
+    # crank 0.05, rod 0.18, the line of the slide 0.01 above O2 (config/slider_crank.yaml);
+    # the slide measured from O2's foot on that line
+    near = math.sqrt((0.18 - 0.05) ** 2 - 0.01**2)
+    assert abs(got - near) < 1e-5, (got, near)  # (the refusal's 6 digits)

@@ -44,11 +44,15 @@ class ReachEdge:
     coordinate: str = ''
     others: tuple[str, ...] = ()
     fraction: float = 0.0
+    #: the unit of a one-value known (a coordinate's m; a joint's or link's angle, rad; a
+    #: slide, m): ``short_m`` is in it; '' for a point
+    unit: str = 'm'
 
     def describe(self) -> str:
+        u = self.unit
         if self.coordinate:
             name = self.coordinate
-            asked, at = f'{name} = {self.target[0]:.6g} m', f'{name} = {self.edge[0]:.6g} m'
+            asked, at = f'{name} = {self.target[0]:.6g} {u}', f'{name} = {self.edge[0]:.6g} {u}'
         else:
             (tx, ty), (ex, ey) = self.target, self.edge
             asked = f'point {self.point} = ({tx:.6g}, {ty:.6g}) m'
@@ -57,10 +61,14 @@ class ReachEdge:
         if not self.others:
             # (that way's edge, where its march stopped at a fold of the way: the point may
             # reach further by another, as a Klann leg's foot does, 0.24 m past it)
-            short = (
-                f"{self.short_m:.6g} m short (that way's edge; the point's whole reach: "
-                f'linkage range --point {self.point})'
+            whole = (
+                f"the point's whole reach: linkage range --point {self.point}"
+                if self.point
+                else 'its range: linkage check'
             )
+            if not self.point:  # (an angle the short way round)
+                way = 'on the way there from the current configuration'
+            short = f"{self.short_m:.6g} {u} short (that way's edge; {whole})"
             return f'{asked} is out of reach: {way} it is reachable up to {at}, {short}'
         others = ', '.join(self.others)
         # (the other knowns moved too: where the point hardly moves, they are what is out of
@@ -68,24 +76,28 @@ class ReachEdge:
         return (
             f'{asked} with {others} as given is out of reach: {way}, every known moved '
             f'together, it is reachable {self.fraction:.6g} of the way (up to {at}, '
-            f'{self.short_m:.6g} m short)'
+            f'{self.short_m:.6g} {u} short)'
         )
 
 
-def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> ReachEdge | None:
+def reach_edge(
+    solver: Solver, values: Mapping[str, Any], here: Result, scalars: bool = True
+) -> ReachEdge | None:
     """Where the (first) point target of ``values`` (a command of ``solver``, refused), else its
-    first coordinate known, stops being reachable on the way from ``here`` (the current
-    configuration, a Result of this mechanism) to the target, every known moved together
-    (angles the short way round); None when the solve has neither, gives two points of one
-    link, or ``here`` is not a configuration of the mechanism."""
+    first coordinate known, else (``scalars``) its first joint, link or slide value, stops
+    being reachable on the way from ``here`` (the current configuration, a Result of this
+    mechanism) to the target, every known moved together (angles the short way round); None
+    when the solve has none of them, gives two points of one link, or ``here`` is not a
+    configuration of the mechanism."""
     c = solver.compiled
     k = next((i for i, s in enumerate(c.specs) if isinstance(s, PointSpec)), None)
     if k is None:
         k = next((i for i, s in enumerate(c.specs) if isinstance(s, CoordinateSpec)), None)
+    if k is None and scalars and c.specs:
+        k = 0  # (a rocker's angle, a slide: out of reach where the mechanism turns back)
     if k is None or c.point_pairs:
         return None
     spec = c.specs[k]
-    assert isinstance(spec, PointSpec | CoordinateSpec)
     got = configuration_of(c, here)
     try:
         target = c.parse(values)
@@ -115,7 +127,11 @@ def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> Reach
         lo, hi = 0.0, 1.0
         # a target far beyond the mechanism (1e300 m): march only as far as the point could
         # be at most, or the steps' 2^-40 of the line would be wider than the mechanism
-        far = _extent(c.mech) / max(_span(spec, start[k], target[k]), 1e-300)
+        far = (
+            _extent(c.mech) / max(_span(spec, start[k], target[k]), 1e-300)
+            if spec.unit == 'm'
+            else math.inf  # (an angle's way is at most half a turn)
+        )
         if far < 1.0:
             if reaches(far):
                 lo = far
@@ -143,6 +159,10 @@ def reach_edge(solver: Solver, values: Mapping[str, Any], here: Result) -> Reach
     if isinstance(spec, CoordinateSpec):
         e, t = float(command(lo)[spec.name]), float(target[k])
         return ReachEdge(spec.point, (t,), (e,), abs(t - e), spec.name, others, lo)
+    if not isinstance(spec, PointSpec):  # an angle (the short way round) or a slide
+        e, t = float(command(lo)[spec.name]), float(target[k])
+        short = abs(math.remainder(t - e, 2 * math.pi)) if spec.unit == 'rad' else abs(t - e)
+        return ReachEdge('', (t,), (e,), short, spec.name, others, lo, spec.unit)
     ex, ey = command(lo)[spec.name]
     tx, ty = (float(v) for v in target[k])
     return ReachEdge(spec.point, (tx, ty), (ex, ey), math.hypot(tx - ex, ty - ey), '', others, lo)
