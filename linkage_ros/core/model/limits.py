@@ -58,6 +58,29 @@ def limit_violation(
     name: str, value: float, lo: float | None, hi: float | None, unit: str, periodic: bool
 ) -> str | None:
     """Why ``value`` (rad or m) is outside [lo, hi], or None. ``periodic``: an angle."""
+    why = _limit_violation(name, value, lo, hi, unit, periodic)
+    return None if why is None else why + _unit_hint(value, lo, hi, unit)
+
+
+def _unit_hint(value: float, lo: float | None, hi: float | None, unit: str) -> str:
+    """' (lengths are in m: 1600 mm is 1.6 m)' where ``value`` read in millimetres (an angle's
+    in degrees, beyond a turn) would be within [lo, hi]: the likely mistake, named; else ''."""
+    if not math.isfinite(value):
+        return ''
+    if unit == 'm':
+        meant, what = value / 1000.0, f'lengths are in m: {value:g} mm is {value / 1000.0:g} m'
+    elif unit == 'rad' and abs(value) > 2 * math.pi:
+        meant = math.radians(value)
+        what = f'angles are in rad: {value:g} deg is {meant:.6g} rad'
+    else:
+        return ''
+    inside = (lo is None or meant >= lo) and (hi is None or meant <= hi)
+    return f' ({what})' if inside else ''
+
+
+def _limit_violation(
+    name: str, value: float, lo: float | None, hi: float | None, unit: str, periodic: bool
+) -> str | None:
     if lo is None and hi is None:
         return None
     v = value

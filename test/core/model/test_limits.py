@@ -240,3 +240,22 @@ def test_a_large_angle_is_judged_as_the_solve_turns_it(turns, at, limits):
         return
     got = limit_violation('crank', value, lo, hi, 'rad', True)
     assert (got is None) == inside, (value, exact, got)
+
+
+def test_a_value_beyond_its_limits_that_is_in_them_read_in_mm_or_deg_says_so():
+    """`--set Z1=1600` on the excavator (a cylinder of 1.1 .. 1.8 m) read 'beyond its maximum
+    1.8 by 1.6e+03 m' with no word of the unit, where an angle's --set warns of degrees (a new
+    user's find). The refusal names the likely mistake where the value in mm (an angle's in
+    degrees, beyond a turn) lies within the limits; not where it would not."""
+    from linkage_ros.core.model.limits import limit_violation
+
+    why = limit_violation('Z1', 1600.0, 1.1, 1.8, 'm', False)
+    assert (
+        why
+        == 'Z1 = 1600 m is beyond its maximum 1.8 by 1.6e+03 m (lengths are in m: 1600 mm is 1.6 m)'
+    )
+    assert 'mm' not in limit_violation('Z1', 5.0, 1.1, 1.8, 'm', False)  # 0.005 m: not in them
+    why = limit_violation('crank', 60.0, 0.46, 1.51, 'rad', True)
+    assert why.endswith(f'(angles are in rad: 60 deg is {math.radians(60):.6g} rad)'), why
+    assert 'deg' not in limit_violation('crank', 2.0, 0.46, 1.51, 'rad', True)  # within a turn
+    assert 'deg' not in limit_violation('crank', 170.0, 0.46, 1.51, 'rad', True)  # 2.97 rad
