@@ -144,6 +144,16 @@ def cmd_solve(args) -> int:
         # roots either side of one coordinate's extreme): then it lists solutions
         labels = {d['branch'] for d in dicts}
         each = 'assembly mode' if len(labels) == len(dicts) or labels == {''} else 'solution'
+        # every solution on the drawing's circuit, through its toggles: one assembly mode in
+        # two configurations (seed 002: a non-Grashof four-bar's two solutions 'are not two
+        # distinct assembly modes but two distinct configurations')
+        one_mode = len(dicts) > 1 and all(d.get('drawn_mode') for d in dicts)
+        if one_mode and in_drawn_mode is not None and modes is not None:
+            each = 'configuration'
+            print(
+                f'one assembly mode: {len(dicts)} configurations on the circuit of the drawing, '
+                'which passes its toggles through both branch signs'
+            )
         if modes is not None and not modes.complete:
             print(
                 (

@@ -480,3 +480,28 @@ def test_a_closed_form_target_with_a_twin_in_its_mode_names_the_twin(capsys, tmp
     assert -0.9 <= twin <= 0.47
     r = Solver(Scene.from_yaml(scene).mechanism, branch=answer['branch']).solve({'handle': twin})
     assert r.success and r.links['arm'] == pytest.approx(1.38, abs=1e-8)  # (the note's 9 digits)
+
+
+def test_all_branches_of_one_circuit_are_configurations_of_one_assembly_mode(capsys):
+    """A non-Grashof four-bar's two solutions at a crank angle lie on one circuit through its
+    toggles: seed 002, they 'are not two distinct assembly modes but two distinct
+    configurations'; --all-branches headed them 'assembly mode 1 of 2' (a seed reviewer's
+    find). A crank-rocker's two are two modes (its two curves). Oracle: the 50-digit four-bar
+    in each sign."""
+    from oracles import fourbar
+
+    rc, out, _ = run(capsys, 'solve', 'four_bar_non_grashof', '--set', 'crank=60deg',
+                     '--all-branches')  # fmt: skip
+    assert rc == 0
+    assert out.startswith('one assembly mode: 2 configurations on the circuit of the drawing')
+    assert '--- configuration 1 of 2 (branch +) (as drawn)' in out
+    assert '--- configuration 2 of 2 (branch -) (as drawn)' in out
+    rc, out, _ = run(capsys, 'solve', 'four_bar_non_grashof', '--set', 'crank=60deg',
+                     '--all-branches', '--json')  # fmt: skip
+    got = {d['branch']: d['links']['rocker']['angle'] for d in loads(out)}
+    for sign, label in ((1, '+'), (-1, '-')):
+        want = float(fourbar(0.30, 0.20, 0.25, 0.22, math.radians(60), branch=sign)['theta4'])
+        assert abs(math.remainder(got[label] - want, 2 * math.pi)) < 1e-12, label
+    rc, out, _ = run(capsys, 'solve', 'four_bar', '--set', 'crank=60deg', '--all-branches')
+    assert rc == 0 and 'one assembly mode' not in out
+    assert '--- assembly mode 1 of 2 (branch +) (as drawn)' in out
