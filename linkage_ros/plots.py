@@ -299,12 +299,23 @@ def plot_output_vs_input(
             if asm and asm[1] is not None
             else (act.max if act.max is not None else x0 + mech.length_scale)
         )
-    xs = np.linspace(lo, hi, max(int(samples), 2))
-    step = (hi - lo) / (xs.size - 1)
-    if (in_angle and asm is not None and not info['full_turn']) or (not in_angle and asm):
-        # near a toggle the output moves like the square root of the input: densify the ends
-        fr = np.geomspace(1e-8, 1.0 / max(int(samples) - 1, 1), 12)
-        xs = np.unique(np.concatenate([xs, lo + (hi - lo) * fr, hi - (hi - lo) * fr]))
+    spans = [(lo, hi)]
+    if in_angle and asm is not None and not info['full_turn'] and held is None:
+        # the input's other circuits (a Grashof double-rocker's mirror loop, seed 000's second
+        # curve): drawn beside the drawing's, the gap between them left open
+        from .core.motion.other_circuits import other_circuits
+
+        spans += other_circuits(mech, input)
+    step = (hi - lo) / (max(int(samples), 2) - 1)
+    parts = []
+    for s_lo, s_hi in spans:
+        part = np.linspace(s_lo, s_hi, max(int(round((s_hi - s_lo) / step)) + 1, 2))
+        if (in_angle and asm is not None and not info['full_turn']) or (not in_angle and asm):
+            # near a toggle the output moves like the square root of the input: densify ends
+            fr = np.geomspace(1e-8, 1.0 / max(int(samples) - 1, 1), 12)
+            part = np.concatenate([part, s_lo + (s_hi - s_lo) * fr, s_hi - (s_hi - s_lo) * fr])
+        parts.append(part)
+    xs = np.unique(np.concatenate(parts))
     others = {
         a: (held or {}).get(a, reference_value(mech, a)) for a in mech.actuators if a != input
     }
@@ -321,7 +332,7 @@ def plot_output_vs_input(
             key = r.branch or 'continuous'
             curves.setdefault(key, []).append((float(x), float(get(r))))
     # at a toggle the assembly modes coincide (solve_all reports one): join every branch there
-    for x in (xs[0], xs[-1]):
+    for x in sorted({float(v) for span in spans for v in span}):
         at = {k: [v for xx, v in c if xx == x] for k, c in curves.items()}
         found = [v for vals in at.values() for v in vals]
         if len(curves) > 1 and len(found) == 1:

@@ -255,6 +255,34 @@ def test_plots_write_pngs_with_both_branches(tmp_path):
     assert Path(p).stat().st_size > 5000
 
 
+def test_the_curves_of_a_grashof_double_rocker_show_both_loops(tmp_path):
+    """Seed 000: the Grashof double-rocker's theta4-theta2 plot has two loops, one per
+    assembly mode; the plot drew the drawing's loop only (a seed reviewer's find). Its crank
+    rocks between the toggles where coupler and rocker lie in line (|O4 A| = rocker +- coupler:
+    the cosine rule) on the drawing's side of the ground line and on the mirror side; every
+    point plotted closes the loop (B on both circles)."""
+    from linkage_ros.plots import plot_output_vs_input
+
+    g, c, k, r = 0.3, 0.25, 0.1, 0.22  # ground, crank, coupler, rocker
+    mech = fourbar(g, c, k, r)
+    d = plot_output_vs_input(mech, 'crank', 'rocker', tmp_path / 'loops.png', samples=181)
+    toggles = sorted(
+        math.acos((g * g + c * c - e * e) / (2 * g * c)) for e in (r - k, r + k)
+    )  # the crank angle at which |O4 A| = e
+    for br in d['branches'].values():
+        x = np.array(br['input'])
+        for lo, hi in (toggles, [-toggles[1], -toggles[0]]):
+            inside = x[(x >= lo - 1e-9) & (x <= hi + 1e-9)]
+            assert (
+                inside.size > 50 and abs(inside.min() - lo) < 1e-9 and abs(inside.max() - hi) < 1e-9
+            )
+        assert np.all((np.abs(x) >= toggles[0] - 1e-9) & (np.abs(x) <= toggles[1] + 1e-9))
+        for t2, t4 in zip(br['input'], br['output']):
+            A = c * np.array([math.cos(t2), math.sin(t2)])
+            B = np.array([g, 0]) + r * np.array([math.cos(t4), math.sin(t4)])
+            assert abs(math.dist(A, B) - k) < 1e-12
+
+
 @pytest.mark.parametrize(
     'scene',
     [
