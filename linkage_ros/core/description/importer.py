@@ -187,6 +187,7 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
             f'the closed chain has {dof} degree(s) of freedom ({len(chain.joints)} joints, '
             f'{len(chain.closures)} closure(s)) but {len(acts)} joint(s) are actuated '
             f'({", ".join(acts) or "none"}'
+            + _dof_hints(chain, acts, dof)
             + (
                 (
                     '; a joint without <effort>0</effort> in its limit counts as actuated'
@@ -202,6 +203,50 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
             file=desc.source,
         )
     return tuple(acts)
+
+
+def _dof_hints(chain: Chain, acts: Sequence[str], dof: int) -> str:
+    """What likely makes the count of actuated joints differ from the chain's freedom: a
+    closure stated twice (two joining the same two links: the description's own loop and a
+    closure file's), or, with too few, a loop without an actuated joint whose first joint
+    (nearest the root) follows an actuated one by its <mimic> (a gripper's second knuckle:
+    listed, it stays the follower)."""
+    hints = []
+    seen: dict[frozenset[str], str] = {}
+    for c in chain.closures:
+        pair = frozenset((c.closure.a.link, c.closure.b.link))
+        if pair in seen:
+            hints.append(
+                f'closure {c.name!r} joins {c.closure.a.link} and {c.closure.b.link} as '
+                f'{seen[pair]!r} does: stated twice?'
+            )
+        seen.setdefault(pair, c.name)
+    if dof > len(acts):
+        into = {j.child: j for j in chain.joints}  # (a link's joint from its parent)
+
+        def up(link: str) -> list[str]:  # the joints from a link up to the chain's root
+            out = []
+            while link in into:
+                out.append(into[link].joint.name)
+                link = into[link].parent
+            return out
+
+        order = [j.joint.name for j in chain.joints]  # (parents before children)
+        by_name = {j.joint.name: j.joint for j in chain.joints}
+        for c in chain.closures:
+            loop = sorted(set(up(c.closure.a.link)) ^ set(up(c.closure.b.link)), key=order.index)
+            first = by_name[loop[0]] if loop else None
+            if (
+                first is not None
+                and not set(loop) & set(acts)
+                and first.mimic is not None
+                and first.mimic.joint in acts
+            ):
+                hints.append(
+                    f'loop {c.name!r} has no actuated joint, and its {first.name} follows '
+                    f'{first.mimic.joint} by <mimic>: list it too (it keeps following its leader)'
+                )
+    return ''.join(f'; {h}' for h in hints)
 
 
 def _turning_mimics(jmap: JointMap) -> list[str]:

@@ -496,3 +496,37 @@ def test_a_descriptions_single_limit_end_on_an_actuated_angle_bounds_nothing(tmp
     path.write_text(sdf)
     side_file = str(DRAKE).replace('.sdf', '.closures.yaml')
     assert import_description(str(path), closures=side_file).mechanism is not None
+
+
+def test_a_count_of_actuated_joints_off_the_chains_freedom_says_why(tmp_path):
+    """An outside integrator's two: the Robotiq's closure file with only its motor's joint
+    actuated (the right finger's loop then has none: its knuckle follows the left one by
+    <mimic> and must be listed too), and the GRBDA four-bar's <loop> stated again in a closure
+    file (-1 degrees of freedom). The refusal said 'state the actuated joints' to both; it now
+    names the loop without an actuated joint and its follower, and the closure stated twice."""
+    shipped = (FIXTURES / 'picknik_robotiq_2f_85.closures.yaml').read_text()
+    both = 'actuated: [robotiq_85_left_knuckle_joint, robotiq_85_right_knuckle_joint]'
+    assert both in shipped
+    one = side(
+        tmp_path, 'one.yaml', shipped.replace(both, 'actuated: [robotiq_85_left_knuckle_joint]')
+    )
+    refused(
+        '2 degree(s) of freedom',
+        "loop 'right_tip_pin' has no actuated joint, and its robotiq_85_right_knuckle_joint "
+        'follows robotiq_85_left_knuckle_joint by <mimic>: list it too',
+        args=[str(FIXTURES / 'picknik_robotiq_2f_85.expanded.urdf')],
+        closures=one,
+        seconds=BOUND,
+    )
+    dup = side(
+        tmp_path,
+        'dup.yaml',
+        'closures:\n  - {name: again, type: revolute, a: {link: link2, xyz: [1.0, 0, 0]}, '
+        'b: {link: link3, xyz: [0.5, 0, 0]}}\n',
+    )
+    refused(
+        '-1 degree(s) of freedom',
+        "closure 'again' joins link2 and link3 as 'loop1' does: stated twice?",
+        args=[str(FOUR_BAR)],
+        closures=dup,
+    )
