@@ -185,7 +185,13 @@ def format_check(r: dict) -> str:
                 if declared == (None, None)
                 else f'min {fmt_value(declared[0], ".9g")}  max {fmt_value(declared[1], ".9g")}'
             )
-            rng += f'  [reachable range, computed; declared limits: {said}]'
+            # (no range where the declared ones limit nothing: an angle's a turn or more
+            # apart, as limits in degrees read as radians are; the warning says so)
+            rng += (
+                f'  [reachable range, computed; declared limits: {said}]'
+                if rng != 'unlimited'
+                else f'  [declared limits {said}: a turn or more apart, they limit nothing]'
+            )
         if v.get('drawn') is not None:
             rng += f'  drawn {fmt_value(v["drawn"], ".9g")}'
         out.append(f'  {k:<{w}}  {v["kind"]:<5}  {rng}')

@@ -136,6 +136,17 @@ def test_check_prints_declared_limits_beside_a_tighter_computed_range(capsys, tm
     assert '[reachable range, computed; declared limits: min -3  max 3]' in line, line
     rc, out, _ = run(capsys, 'check', 'four_bar')  # nothing computed: nothing added
     assert 'declared limits' not in out
+    # limits a turn or more apart (degrees read as radians) limit nothing: said so, not
+    # 'reachable range, computed' beside no range (a new user's find)
+    scene.write_text(
+        'name: deg\nslider_crank: {crank: 0.05, rod: 0.18, crank_limits: {min: 0, max: 120}}\n'
+    )
+    rc, out, _ = run(capsys, 'check', scene)
+    (line,) = [ln for ln in out.splitlines() if ln.strip().startswith('crank   angle')]
+    assert (
+        'unlimited  [declared limits min 0  max 120: a turn or more apart, they limit nothing]'
+        in line
+    ), line
 
 
 def test_check_warns_about_a_reference_pose_drawn_at_a_toggle(capsys, tmp_path):
