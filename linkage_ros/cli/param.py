@@ -19,11 +19,12 @@ from __future__ import annotations
 import argparse
 import json
 import re
+import sys
 
 import yaml
 
 from .common import OK, REFUSED, UsageError
-from .ros_graph import DEFAULT_WAIT, plain, ros_session, spin_until
+from .ros_graph import DEFAULT_WAIT, WAIT_TOLD_S, plain, ros_session, spin_until
 
 #: numbers YAML 1.1 reads as strings (an exponent without a dot or a sign: 1e1, 1.0e1, -2E-3)
 _YAML_TEXT_NUMBER = re.compile(r'[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)[eE][+-]?[0-9]+')
@@ -57,8 +58,19 @@ def run(args) -> int:
     node_name = args.node if args.node.startswith('/') else f'/{args.node}'
     with ros_session('linkage_param') as node:
         client = AsyncParameterClient(node, node_name)
-        if not spin_until(node, client.services_are_ready, args.wait):
-            raise UsageError(f'no node {node_name} answered within {args.wait:g} s')
+        ready = spin_until(node, client.services_are_ready, min(WAIT_TOLD_S, args.wait))
+        if not ready and args.wait > WAIT_TOLD_S:
+            # (discovery takes a moment; beyond it, a misspelt name would be silence)
+            print(f'waiting for node {node_name} (up to {args.wait:g} s: --wait)', file=sys.stderr)
+            ready = spin_until(node, client.services_are_ready, args.wait - WAIT_TOLD_S)
+        if not ready:
+            nodes = sorted(
+                f'{ns.rstrip("/")}/{n}' for n, ns in node.get_node_names_and_namespaces()
+            )
+            seen = ', '.join(n for n in nodes if n != '/linkage_param') or 'none'
+            raise UsageError(
+                f'no node {node_name} answered within {args.wait:g} s (nodes seen: {seen})'
+            )
 
         def call(future):
             spin_until(node, future.done, args.wait)

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import sys
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
@@ -16,6 +17,8 @@ from .common import UsageError
 
 #: how long to wait for a topic or node to appear in the graph (s) unless told
 DEFAULT_WAIT = 10.0
+#: after this long (s) without the topic or node, the wait is said on stderr
+WAIT_TOLD_S = 2.0
 
 
 @contextmanager
@@ -58,12 +61,22 @@ def topic_types(node: Any, topics: Sequence[str], wait: float) -> dict[str, str]
     s for all to be in it (a publisher or a subscription: the node's ~/command is there before
     anyone publishes on it); UsageError naming a topic not in the graph, or two types."""
     names = [t if t.startswith('/') else f'/{t}' for t in topics]
-    end = time.monotonic() + wait
+    start = time.monotonic()
+    end, told = start + wait, False
     while True:
         graph = dict(node.get_topic_names_and_types())
         missing = [t for t in names if t not in graph]
         if not missing or time.monotonic() >= end:
             break
+        if not told and time.monotonic() - start >= WAIT_TOLD_S and wait > WAIT_TOLD_S:
+            # (discovery takes a moment; beyond it, a misspelt name would be silence)
+            told = True
+            print(
+                f'waiting for {", ".join(missing)} to appear in the ROS graph (up to '
+                f'{wait:g} s: --wait)',
+                file=sys.stderr,
+                flush=True,
+            )
         time.sleep(0.05)
     if missing:
         seen = ', '.join(sorted(graph)) or 'none'

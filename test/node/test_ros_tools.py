@@ -151,6 +151,12 @@ def test_record_refuses_an_existing_bag_and_a_topic_without_publisher(tmp_path):
     proc = linkage('record', '/nobody_publishes_this', '-o', str(tmp_path / 'b2'), '--wait', '1')
     assert proc.returncode == 2 and '/nobody_publishes_this' in proc.stderr, proc.stderr
     assert not (tmp_path / 'b2').exists()
+    # a wait beyond discovery's moment is said at once (a misspelt name was 10 s of silence)
+    proc = linkage('record', '/nobody_publishes_this', '-o', str(tmp_path / 'b3'), '--wait', '3')
+    first, *_ = proc.stderr.splitlines()
+    assert first == (
+        'waiting for /nobody_publishes_this to appear in the ROS graph (up to 3 s: --wait)'
+    ), proc.stderr
 
 
 def test_echo_prints_the_answer_with_its_level_as_a_number(ros, node, tmp_path):
@@ -165,7 +171,8 @@ def test_echo_prints_the_answer_with_its_level_as_a_number(ros, node, tmp_path):
             echo.kill()
         sink.close()
     assert code == 0, log.read_text()
-    (line,) = log.read_text().splitlines()
+    # (stderr shares the log: a discovery slower than WAIT_TOLD_S is said there first)
+    (line,) = [ln for ln in log.read_text().splitlines() if not ln.startswith('waiting for ')]
     status = json.loads(line)
     assert status['level'] == 0 and status['message'] == 'ok'
     assert {kv['key']: kv['value'] for kv in status['values']}['request'] == 'command'
@@ -187,6 +194,11 @@ def test_param_get_and_set_go_through_the_node_checks(node):
     assert float(linkage('param', 'get', name, 'demo_rate').stdout) == 5.0  # nothing changed
     unknown = linkage('param', 'get', name, 'no_such_parameter')
     assert unknown.returncode == 2 and 'no_such_parameter' in unknown.stderr
+    # a misspelt node: the wait said at once, the nodes seen named
+    nobody = linkage('param', 'get', name + 'x', 'demo_rate', '--wait', '3')
+    assert nobody.returncode == 2
+    assert f'waiting for node {name}x (up to 3 s: --wait)' in nobody.stderr, nobody.stderr
+    assert 'answered within 3 s (nodes seen: ' in nobody.stderr and name in nobody.stderr
     # a misspelt name to set: said as for get (rclpy's words were 'undeclared parameter(s): []')
     typo = linkage('param', 'set', name, 'demo_ratee', '5')
     assert typo.returncode == 2, typo.stdout + typo.stderr
