@@ -418,6 +418,31 @@ class LinkageNode(Node):
             )
 
 
+def remapped_node_name(argv: Sequence[str]) -> str:
+    """The node's name as ``-r __node:=NAME`` (or ``__name``, or ``linkage_node:__node:=``)
+    among the ROS arguments sets it, else NODE_NAME: the name a start-up refusal is logged
+    under, as the node's other lines are (it has no node to ask)."""
+    name, ros, i = NODE_NAME, False, 0
+    while i < len(argv):
+        a = argv[i]
+        if a == '--ros-args':
+            ros = True
+        elif a == '--':
+            ros = False
+        elif ros and a in ('-r', '--remap') and i + 1 < len(argv):
+            rule = argv[i + 1]
+            target, _, value = rule.partition(':=')
+            if (
+                target.split(':')[-1] in ('__node', '__name')
+                and value
+                and (':' not in target or target.split(':')[0] == NODE_NAME)
+            ):
+                name = value
+            i += 1
+        i += 1
+    return name
+
+
 def main(args: Sequence[str] | None = None) -> int:
     """Entry point of ``linkage_node``. Returns the process exit code (0 clean, also on SIGINT
     and SIGTERM; 1 bad configuration)."""
@@ -430,7 +455,15 @@ def main(args: Sequence[str] | None = None) -> int:
             signal_handler_options=SignalHandlerOptions.NO,
         )
     except Exception as exc:  # malformed --ros-args or parameter file: rcl says why
-        print(f'[FATAL] [{NODE_NAME}]: cannot start: {exc}', file=sys.stderr)
+        hint = ''
+        if "Couldn't parse parameter override rule" in str(exc) and 'No value' in str(exc):
+            # (-p branch:=- : YAML reads '-' as nothing; TOPICS.md documents the quoting)
+            hint = (
+                ' (a value YAML reads as nothing, such as -: quote it for the parameter '
+                'parser, -p "branch:=\'-\'")'
+            )
+        name = remapped_node_name(sys.argv if args is None else list(args))
+        print(f'[FATAL] [{name}]: cannot start: {exc}{hint}', file=sys.stderr)
         return 1
     node = None
     executor = None
@@ -443,7 +476,8 @@ def main(args: Sequence[str] | None = None) -> int:
         gc.freeze()
         spin_until_stopped(executor, stop)
     except (ConfigError, SceneError) as exc:
-        rclpy.logging.get_logger(NODE_NAME).fatal(f'cannot start: {exc}')
+        name = remapped_node_name(sys.argv if args is None else list(args))
+        rclpy.logging.get_logger(name).fatal(f'cannot start: {exc}')
         return 1
     except (KeyboardInterrupt, ExternalShutdownException):
         pass

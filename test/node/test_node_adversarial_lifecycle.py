@@ -52,6 +52,39 @@ def test_startup_refuses_parameters_that_used_to_crash_or_busy_loop(tmp_path):
             assert f in fatal, (f, fatal)
 
 
+def test_a_start_up_refusal_is_logged_under_the_remapped_name_with_its_remedy(tmp_path):
+    """Under `-r __node:=arm_linkage` a refused start-up logged as [linkage_node] while every
+    other line says [arm_linkage]; `-p branch:=-` (YAML reads '-' as nothing) ended with rcl's
+    'No value' alone, where TOPICS.md documents the quoting (a new user's finds)."""
+    bad_scene = NodeProcess(
+        tmp_path / 'renamed', DOMAIN_ID, args=['-r', '__node:=arm_linkage', '-p', 'scene:=nosuch']
+    ).start()
+    no_value = NodeProcess(tmp_path / 'dash', DOMAIN_ID, args=['-p', 'branch:=-']).start()
+    try:
+        codes = [p.wait(timeout=60) for p in (bad_scene, no_value)]
+    finally:
+        for p in (bad_scene, no_value):
+            p.stop()
+    assert codes == [1, 1]
+    (fatal,) = [ln for ln in bad_scene.stderr().splitlines() if 'FATAL' in ln]
+    assert '[arm_linkage]: cannot start: parameter' in fatal, fatal
+    (fatal,) = [ln for ln in no_value.stderr().splitlines() if 'FATAL' in ln]
+    assert fatal.startswith(f'[FATAL] [{NODE_NAME}]: cannot start: ') and 'No value' in fatal
+    assert fatal.endswith('quote it for the parameter parser, -p "branch:=\'-\'")'), fatal
+
+
+def test_the_remapped_node_name_is_read_from_the_ros_arguments():
+    from linkage_ros.node import remapped_node_name
+
+    assert remapped_node_name(['x']) == NODE_NAME
+    assert remapped_node_name(['x', '--ros-args', '-r', '__node:=a']) == 'a'
+    assert remapped_node_name(['x', '--ros-args', '--remap', '__name:=b', '-p', 'q:=1']) == 'b'
+    assert remapped_node_name(['x', '--ros-args', '-r', f'{NODE_NAME}:__node:=c']) == 'c'
+    assert remapped_node_name(['x', '--ros-args', '-r', 'other:__node:=d']) == NODE_NAME
+    assert remapped_node_name(['x', '-r', '__node:=e']) == NODE_NAME  # (not a ROS argument)
+    assert remapped_node_name(['x', '--ros-args', '-r', '__ns:=/f']) == NODE_NAME
+
+
 @pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT])
 def test_a_signal_during_a_command_stream_exits_0_every_time(ros, tmp_path, sig):
     """systemd, docker and ros2 launch stop a node with SIGTERM. During a 500 Hz command
