@@ -339,3 +339,18 @@ def test_a_joint_or_slide_target_out_of_reach_is_told_its_edge():
     # the slide measured from O2's foot on that line
     near = math.sqrt((0.18 - 0.05) ** 2 - 0.01**2)
     assert abs(got - near) < 1e-5, (got, near)  # (the refusal's 6 digits)
+
+
+def test_a_point_target_out_of_reach_names_the_knowns_it_keeps():
+    """~/target_point/L with target_point_hold [bucket]: the refusal said 'point L = (9, -0.25)
+    m is out of reach' without the bucket held (a new user's find), where ~/target's
+    [L.x, L.y, bucket] says 'with bucket as given' when the bucket moves on the way. A known
+    the way keeps is named too; the edge is where the march stops either way (the same)."""
+    e = Engine(load('excavator'), EngineSettings(target_point_hold=('bucket',)))
+    held = e.target_point('L', (9.0, -0.25))
+    assert not held.success
+    assert held.reason.startswith(
+        'point L = (9, -0.25) m with bucket as it is now is out of reach: on the straight way'
+    ), held.reason
+    same = e.target({'L.x': 9.0, 'L.y': -0.25, 'bucket': e.last.links['bucket']})
+    assert same.reason == held.reason

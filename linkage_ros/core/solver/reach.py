@@ -47,6 +47,9 @@ class ReachEdge:
     #: the unit of a one-value known (a coordinate's m; a joint's or link's angle, rad; a
     #: slide, m): ``short_m`` is in it; '' for a point
     unit: str = 'm'
+    #: the target's other knowns that stay where they are on the way (a target_point_hold's
+    #: names: the bucket held while the lip is out of reach)
+    kept: tuple[str, ...] = ()
 
     def describe(self) -> str:
         u = self.unit
@@ -58,6 +61,8 @@ class ReachEdge:
             asked = f'point {self.point} = ({tx:.6g}, {ty:.6g}) m'
             at = f'({ex:.6g}, {ey:.6g}) m'
         way = 'on the straight way there from the current configuration'
+        if self.kept and not self.others:
+            asked = f'{asked} with {", ".join(self.kept)} as it is now'
         if not self.others:
             # (that way's edge, where its march stopped at a fold of the way: the point may
             # reach further by another, as a Klann leg's foot does, 0.24 m past it)
@@ -156,16 +161,18 @@ def reach_edge(
         for i, sp in enumerate(c.specs)
         if i != k and _span(sp, start[i], moved[i]) > 1e-12 * max(1.0, _size(moved[i]))
     )
+    kept = tuple(sp.name for i, sp in enumerate(c.specs) if i != k and sp.name not in others)
     if isinstance(spec, CoordinateSpec):
         e, t = float(command(lo)[spec.name]), float(target[k])
-        return ReachEdge(spec.point, (t,), (e,), abs(t - e), spec.name, others, lo)
+        return ReachEdge(spec.point, (t,), (e,), abs(t - e), spec.name, others, lo, kept=kept)
     if not isinstance(spec, PointSpec):  # an angle (the short way round) or a slide
         e, t = float(command(lo)[spec.name]), float(target[k])
         short = abs(math.remainder(t - e, 2 * math.pi)) if spec.unit == 'rad' else abs(t - e)
-        return ReachEdge('', (t,), (e,), short, spec.name, others, lo, spec.unit)
+        return ReachEdge('', (t,), (e,), short, spec.name, others, lo, spec.unit, kept)
     ex, ey = command(lo)[spec.name]
     tx, ty = (float(v) for v in target[k])
-    return ReachEdge(spec.point, (tx, ty), (ex, ey), math.hypot(tx - ex, ty - ey), '', others, lo)
+    short = math.hypot(tx - ex, ty - ey)
+    return ReachEdge(spec.point, (tx, ty), (ex, ey), short, '', others, lo, kept=kept)
 
 
 def _span(spec: Spec, start: Any, target: Any) -> float:
