@@ -97,6 +97,25 @@ def _note_twin(mech, solver, command, r: Result, engine) -> None:
             return
 
 
+def _with_edge(engine, command, r: Result) -> Result:
+    """A forward refusal of several actuators that does not assemble, told where the way
+    there from the drawing stops (every actuator moved together: core.solver.reach), as a
+    target's is; one actuator's gets its reachable range from the engine already. Here, not
+    in the node: marching costs a few ms a refusal, and commands are its control path."""
+    from ..core.solver.result import does_not_assemble
+    from ..core.solver.reach import reach_edge
+
+    mech = engine.mech
+    if len(mech.actuators) < 2 or mech.joint_coordinates is not None or engine.last is None:
+        return r
+    if not does_not_assemble(r):
+        return r
+    edge = reach_edge(engine.forward, command, engine.last)
+    if edge is not None:
+        r.reason = f'{edge.describe()}; {r.reason}'
+    return r
+
+
 def cmd_solve(args) -> int:
     mech, _ = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
     knowns, axes, solver = build_solve(mech, args, allow_range=False)
@@ -118,7 +137,8 @@ def cmd_solve(args) -> int:
         results = [engine.solve_target(solver, command, allow_mode_change=args.any_mode)]
         _note_twin(mech, solver, command, results[0], engine)
     else:  # as the node answers ~/command from its drawing
-        results = [forward_engine(mech, args).forward_solve(command)]
+        engine = forward_engine(mech, args)
+        results = [_with_edge(engine, command, engine.forward_solve(command))]
     dicts = [request_echo(mech, r.to_dict(mech), given) for r in results]
     in_drawn_mode = (
         _drawn_mode_rule(mech, args, modes) if modes is not None and modes.drawn else None

@@ -505,3 +505,35 @@ def test_all_branches_of_one_circuit_are_configurations_of_one_assembly_mode(cap
     rc, out, _ = run(capsys, 'solve', 'four_bar', '--set', 'crank=60deg', '--all-branches')
     assert rc == 0 and 'one assembly mode' not in out
     assert '--- assembly mode 1 of 2 (branch +) (as drawn)' in out
+
+
+FIVE_BAR = """name: fivebar
+points: {O1: [0.0, 0.0], O2: [0.2, 0.0], A: [0.0, 0.15], B: [0.2, 0.15], P: [0.1, 0.3]}
+ground: ground
+links: {ground: [O1, O2], left: [O1, A], right: [O2, B], la: [A, P], rb: [B, P]}
+actuators:
+  q1: {type: angle, link: left, pivot: O1, toward: A}
+  q2: {type: angle, link: right, pivot: O2, toward: B}
+"""
+
+
+def test_a_forward_command_of_two_actuators_out_of_reach_is_told_its_edge(capsys, tmp_path):
+    """A five-bar's two cranks commanded apart beyond its reach: one actuator's refusal gets
+    its reachable range, two got the dyad's miss alone (the last stop's leftover). Now the
+    way there from the drawing, both cranks moved together, up to where it stops: where the
+    two arms' reach is spent, |A B| = |A P| + |P B| (the dyad P folded straight)."""
+    scene = tmp_path / 'fivebar.yaml'
+    scene.write_text(FIVE_BAR)
+    rc, out, _ = run(capsys, 'solve', scene, '--set', 'q1=3.1', '--set', 'q2=0', '--json')
+    d = loads(out)
+    assert rc == 1 and d['status'] == 'error'
+    head = d['reason'].split('; cannot assemble')[0]
+    assert head.startswith('q1 = 3.1 rad with q2 as given is out of reach: on the straight way')
+    frac = float(head.split('reachable ')[1].split(' of the way')[0])
+    q1 = math.pi / 2 + frac * (3.1 - math.pi / 2)  # (both from the drawing: pi/2)
+    q2 = math.pi / 2 + frac * (0.0 - math.pi / 2)
+    a = (0.15 * math.cos(q1), 0.15 * math.sin(q1))
+    b = (0.2 + 0.15 * math.cos(q2), 0.15 * math.sin(q2))
+    reach = 2 * math.hypot(0.1, 0.15)  # |A P| + |P B|
+    assert abs(math.dist(a, b) - reach) < 1e-5  # (the fraction's 6 digits)
+    assert f'up to q1 = {q1:.6g} rad' in head
