@@ -170,3 +170,25 @@ def roller_crank(side: int) -> dict:
         ],
         'actuators': {'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2'}},
     }  # fmt: skip
+
+
+#: a knuckle-boom crane (an outside reviewer's): a boom about O lifted by a cylinder from G1,
+#: a jib about the boom's tip T1 folded by a cylinder from B2 on the boom to J1 on the jib,
+#: whose dead centre (B2, T1, J1 in line: 1.6549569 m) lies inside its limits 1.30 .. 1.95 m
+KNUCKLE_BOOM = {
+    'name': 'knuckle_boom',
+    'points': {
+        'O': [0, 1.2],
+        'G1': [0.35, 0.2],
+        'T1': [2.897777478867, 1.976457135308],
+        'B1': [1.030630587565, 1.21733758853],
+        'B2': [1.757613356418, 1.981533933582],
+        'J1': [3.378543014006, 1.792434038326],
+        'T2': [4.440467742115, 0.137950471822],
+    },
+    'links': {'ground': ['O', 'G1'], 'boom': ['O', 'T1', 'B1', 'B2'], 'jib': ['T1', 'T2', 'J1']},
+    'cylinders': {
+        'lift': {'from': 'G1', 'to': 'B1', 'min': 1.00, 'max': 1.60},
+        'fold': {'from': 'B2', 'to': 'J1', 'min': 1.30, 'max': 1.95},
+    },
+}

@@ -8,6 +8,7 @@ worker exited, the next one its own answer from a new worker.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import time
@@ -40,20 +41,28 @@ def _job(engine: Engine, sec: int) -> PlanJob:
     )
 
 
-@pytest.fixture
-def stopped_worker():
-    """(engine, worker, pid): a four-bar engine and a started worker, stopped (SIGSTOP) so
-    that it holds the plans offered to it unanswered; the worker is ended after the test."""
+@contextlib.contextmanager
+def _signalled_worker(sig: int):
+    """(engine, worker, pid): a four-bar engine and a worker sent ``sig`` as soon as it is
+    started; the worker is ended on leaving."""
     engine = Engine(scenes.load('four_bar'), EngineSettings())
     worker = PlanWorker()
     worker.start()
     try:
         pid = worker.pid
         assert pid is not None
-        os.kill(pid, signal.SIGSTOP)
+        os.kill(pid, sig)
         yield engine, worker, pid
     finally:
         worker.stop()
+
+
+@pytest.fixture
+def stopped_worker():
+    """(engine, worker, pid): a four-bar engine and a started worker, stopped (SIGSTOP) so
+    that it holds the plans offered to it unanswered; the worker is ended after the test."""
+    with _signalled_worker(signal.SIGSTOP) as got:
+        yield got
 
 
 def test_a_plan_held_by_a_worker_that_died_is_answered_when_the_next_arrives_first(
@@ -324,17 +333,10 @@ def test_ctrl_c_to_the_process_group_while_the_worker_starts_leaves_it_to_the_no
     node's terminal (a new user's find; TOPICS.md promises none), and the worker was gone. The
     worker is born with SIGINT blocked and ignores it: it lives on, answers its plan, and is
     stopped by the node."""
-    engine = Engine(scenes.load('four_bar'), EngineSettings())
-    worker = PlanWorker()
-    worker.start()
-    try:
-        pid = worker.pid
-        assert pid is not None
-        os.kill(pid, signal.SIGINT)  # (at once: the new interpreter is still starting)
+    # (the signal at once: the new interpreter is still starting)
+    with _signalled_worker(signal.SIGINT) as (engine, worker, pid):
         assert worker.offer(_job(engine, 7), engine)
         (done,) = _collected(worker, 1, time.monotonic() + ANSWER_WAIT_S)
         assert done.stamp.sec == 7 and 'the plan worker exited' not in done.message, done.message
         assert worker.pid == pid and _alive(pid)
-    finally:
-        worker.stop()
     assert not _alive(pid)

@@ -12,7 +12,7 @@ import random
 import numpy as np
 import pytest
 from oracles import fourbar as oracle
-from scenes import CONFIG, load
+from scenes import CONFIG, KNUCKLE_BOOM, load
 
 from linkage_ros.engine import Engine, EngineSettings
 
@@ -295,27 +295,6 @@ def test_the_cli_sweeps_targets_in_the_drawings_mode_under_branch_reference(caps
     main([*argv, '--branch', 'continuous'])
     assert json.loads(capsys.readouterr().out.splitlines()[0])['status'] == 'ok'
     assert main(['solve', 'four_bar_non_grashof', '--target', 'rocker=4.0']) == 0
-
-
-#: a knuckle-boom crane (an outside reviewer's, as test_motion_regions.py): the fold cylinder's
-#: dead centre (B2, T1, J1 in line: 1.6549569 m) lies inside its limits 1.30 .. 1.95 m
-KNUCKLE_BOOM = {
-    'name': 'knuckle_boom',
-    'points': {
-        'O': [0, 1.2],
-        'G1': [0.35, 0.2],
-        'T1': [2.897777478867, 1.976457135308],
-        'B1': [1.030630587565, 1.21733758853],
-        'B2': [1.757613356418, 1.981533933582],
-        'J1': [3.378543014006, 1.792434038326],
-        'T2': [4.440467742115, 0.137950471822],
-    },
-    'links': {'ground': ['O', 'G1'], 'boom': ['O', 'T1', 'B1', 'B2'], 'jib': ['T1', 'T2', 'J1']},
-    'cylinders': {
-        'lift': {'from': 'G1', 'to': 'B1', 'min': 1.00, 'max': 1.60},
-        'fold': {'from': 'B2', 'to': 'J1', 'min': 1.30, 'max': 1.95},
-    },
-}
 
 
 def test_a_mode_a_cylinder_reaches_through_its_dead_centre_is_worded_so():
