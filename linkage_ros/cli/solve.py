@@ -102,8 +102,8 @@ def _with_edge(engine, command, r: Result) -> Result:
     there from the drawing stops (every actuator moved together: core.solver.reach), as a
     target's is; one actuator's gets its reachable range from the engine already. Here, not
     in the node: marching costs a few ms a refusal, and commands are its control path."""
-    from ..core.solver.result import does_not_assemble
     from ..core.solver.reach import reach_edge
+    from ..core.solver.result import does_not_assemble
 
     mech = engine.mech
     if len(mech.actuators) < 2 or mech.joint_coordinates is not None or engine.last is None:
