@@ -22,6 +22,7 @@ from .core.model.names import NameKind, resolve_name
 from .core.motion.circuit_rule import CircuitKeeper, reachable_text
 from .core.motion.circuits import Circuit
 from .core.motion.circuits import reference_circuit as scan_reference_circuit
+from .core.motion.common import without_limits
 from .core.solver import Result, SolveMode, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
@@ -113,10 +114,9 @@ class Engine:
             # (a description's passive joints within their <limit>s: another solution in
             # mode that keeps them is the answer, not a refusal)
             lambda r: self.beyond_passive_limits(r) is None,
-            # (a circuit that passes no toggle: the other signs are another circuit)
-            lambda: (
-                None if self.reference_circuit is None else self.reference_circuit.crosses_signs
-            ),
+            # (a circuit that passes no toggle, its actuator's limits aside: the other signs
+            # are another circuit)
+            self.joined_by_motion,
         )
         #: the drawing's assembly mode (what ``branch: reference`` keeps targets in)
         self._reference_mode = self.keeper.mode(ref if ref.success else None)
@@ -535,6 +535,20 @@ class Engine:
         """The reference pose's circuit (core.motion.circuits), scanned when first asked."""
         return scan_reference_circuit(self.mech)
 
+    @functools.cached_property
+    def _free_circuit(self) -> Circuit | None:
+        """The reference pose's circuit with the actuator's limits aside."""
+        return scan_reference_circuit(without_limits(self.mech))
+
+    def joined_by_motion(self) -> bool | None:
+        """Whether the actuator's motion passes a toggle into the forward dyads' other signs,
+        its limits aside (a non-Grashof mechanism whose crank limits stop short of its toggles
+        still has one circuit: its other sign is beyond a toggle, not another circuit); None
+        where the circuit is not scanned (several actuators, Newton). Scanned when first
+        asked: only a refusal's wording reads it."""
+        free = self._free_circuit
+        return None if free is None else free.crosses_signs
+
     def on_circuit(self, r: Result) -> bool | None:
         """Whether a configuration lies on the reference pose's circuit, where that circuit
         passes its toggles (a one-actuator mechanism: a non-Grashof four-bar's two dyad signs
@@ -577,7 +591,15 @@ class Engine:
             return result
         # (a joint's or link's value told in the scene's terms: not for a description, whose
         # joint values are its own)
-        edge = reach_edge(solver, values, last, scalars=self.mech.joint_coordinates is None)
+        before = self.mode(last)
+        edge = reach_edge(
+            solver,
+            values,
+            last,
+            scalars=self.mech.joint_coordinates is None,
+            # (the way stops where it would leave the mode: an edge the target rule answers)
+            keeps=None if before is None else lambda r: not self.mode_changes(before, last, r),
+        )
         if edge is not None:
             result.reason = f'{edge.describe()}; {result.reason}'
         if solver.mode is not SolveMode.CLOSED_FORM and self.fixed_mode() is None and not searched:

@@ -419,10 +419,11 @@ class LinkageNode(Node):
 
 
 def remapped_node_name(argv: Sequence[str]) -> str:
-    """The node's name as ``-r __node:=NAME`` (or ``__name``, or ``linkage_node:__node:=``)
-    among the ROS arguments sets it, else NODE_NAME: the name a start-up refusal is logged
-    under, as the node's other lines are (it has no node to ask)."""
-    name, ros, i = NODE_NAME, False, 0
+    """The node's logger name as ``-r __node:=NAME`` (or ``__name``, or
+    ``linkage_node:__node:=``) and ``-r __ns:=/NS`` among the ROS arguments make it (rclpy's
+    ``ns.name``: 'arm.left'), else NODE_NAME: the name a start-up refusal is logged under, as
+    the node's other lines are (it has no node to ask)."""
+    name, ns, ros, i = NODE_NAME, '', False, 0
     while i < len(argv):
         a = argv[i]
         if a == '--ros-args':
@@ -432,15 +433,14 @@ def remapped_node_name(argv: Sequence[str]) -> str:
         elif ros and a in ('-r', '--remap') and i + 1 < len(argv):
             rule = argv[i + 1]
             target, _, value = rule.partition(':=')
-            if (
-                target.split(':')[-1] in ('__node', '__name')
-                and value
-                and (':' not in target or target.split(':')[0] == NODE_NAME)
-            ):
+            mine = ':' not in target or target.split(':')[0] == NODE_NAME
+            if target.split(':')[-1] in ('__node', '__name') and value and mine:
                 name = value
+            elif target.split(':')[-1] == '__ns' and mine:
+                ns = value.strip('/').replace('/', '.')
             i += 1
         i += 1
-    return name
+    return f'{ns}.{name}' if ns else name
 
 
 def main(args: Sequence[str] | None = None) -> int:

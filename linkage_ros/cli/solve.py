@@ -27,7 +27,7 @@ from .common import (
 from .described import beyond_limits, request_echo, scene_command
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
+    from collections.abc import Callable, Sequence
 
     from ..core.solver.modes import ModeList
 
@@ -43,18 +43,31 @@ def roller_legend(modes: ModeList) -> str:
     )
 
 
-def _drawn_mode_rule(mech, args, modes: ModeList) -> Callable[[Result], bool]:
+def _drawn_mode_rule(
+    mech, args, modes: ModeList
+) -> tuple[Callable[[Result], bool], Callable[[Sequence[Result]], str]]:
     """Whether a solution of ``modes`` is in the drawing's assembly mode: on the drawing's
     circuit where that circuit passes its toggles (Engine.on_circuit: a non-Grashof four-bar's
     two signs are one mode; a Grashof double-rocker's mirror loop, in the drawn signs, is
-    another), else in the drawn branch signs."""
+    another), else in the drawn branch signs; and which circuit holds all of several
+    solutions ('the drawing's', 'the other': a four-bar's other loop, its one branching dyad
+    on two circuits; '' where not one or not known)."""
     engine = forward_engine(mech, args)
 
     def in_drawn_mode(r: Result) -> bool:
         on = engine.on_circuit(r)
         return r.branch == modes.drawn if on is None else on
 
-    return in_drawn_mode
+    def one_circuit(rs: Sequence[Result]) -> str:
+        on = {engine.on_circuit(r) for r in rs}
+        if len(rs) < 2 or len(on) != 1:
+            return ''
+        if on == {True}:
+            return "the drawing's"
+        one_dyad = all(len(r.branch) == 1 for r in rs)
+        return 'the other' if on == {False} and one_dyad else ''
+
+    return in_drawn_mode, one_circuit
 
 
 def _note_twin(mech, solver, command, r: Result, engine) -> None:
@@ -140,8 +153,8 @@ def cmd_solve(args) -> int:
         engine = forward_engine(mech, args)
         results = [_with_edge(engine, command, engine.forward_solve(command))]
     dicts = [request_echo(mech, r.to_dict(mech), given) for r in results]
-    in_drawn_mode = (
-        _drawn_mode_rule(mech, args, modes) if modes is not None and modes.drawn else None
+    in_drawn_mode, one_circuit = (
+        _drawn_mode_rule(mech, args, modes) if modes is not None and modes.drawn else (None, None)
     )
     for d, r in zip(dicts, results):
         if r.mode_change:
@@ -167,12 +180,12 @@ def cmd_solve(args) -> int:
         # every solution on the drawing's circuit, through its toggles: one assembly mode in
         # two configurations (seed 002: a non-Grashof four-bar's two solutions 'are not two
         # distinct assembly modes but two distinct configurations')
-        one_mode = len(dicts) > 1 and all(d.get('drawn_mode') for d in dicts)
-        if one_mode and in_drawn_mode is not None and modes is not None:
+        circuit = '' if one_circuit is None else one_circuit(results)
+        if circuit:
             each = 'configuration'
             print(
-                f'one assembly mode: {len(dicts)} configurations on the circuit of the drawing, '
-                'which passes its toggles through both branch signs'
+                f'one assembly mode: {len(dicts)} configurations on {circuit} circuit, which '
+                'passes its toggles through both branch signs'
             )
         if modes is not None and not modes.complete:
             print(

@@ -10,6 +10,7 @@ import math
 
 import pytest
 from cli_helpers import CP, CR, freudenstein_residual, loads, run
+from scenes import CONFIG
 
 from linkage_ros.core.model import Scene
 from linkage_ros.core.solver import Solver
@@ -493,7 +494,7 @@ def test_all_branches_of_one_circuit_are_configurations_of_one_assembly_mode(cap
     rc, out, _ = run(capsys, 'solve', 'four_bar_non_grashof', '--set', 'crank=60deg',
                      '--all-branches')  # fmt: skip
     assert rc == 0
-    assert out.startswith('one assembly mode: 2 configurations on the circuit of the drawing')
+    assert out.startswith("one assembly mode: 2 configurations on the drawing's circuit")
     assert '--- configuration 1 of 2 (branch +) (as drawn)' in out
     assert '--- configuration 2 of 2 (branch -) (as drawn)' in out
     rc, out, _ = run(capsys, 'solve', 'four_bar_non_grashof', '--set', 'crank=60deg',
@@ -505,6 +506,20 @@ def test_all_branches_of_one_circuit_are_configurations_of_one_assembly_mode(cap
     rc, out, _ = run(capsys, 'solve', 'four_bar', '--set', 'crank=60deg', '--all-branches')
     assert rc == 0 and 'one assembly mode' not in out
     assert '--- assembly mode 1 of 2 (branch +) (as drawn)' in out
+
+
+def test_all_branches_on_the_mirror_loop_are_one_assembly_mode_too(capsys, tmp_path):
+    """A Grashof double-rocker without crank limits: at crank -1 rad both solutions lie on
+    the mirror loop (seed 000: each loop one mode of assembly); they were listed as two modes
+    where the drawing's loop's were one (an adversary's find)."""
+    text = (CONFIG / 'four_bar_grashof_double_rocker.yaml').read_text()
+    assert 'crank_limits' in text
+    scene = tmp_path / 'gdr.yaml'
+    scene.write_text('\n'.join(ln for ln in text.splitlines() if 'crank_limits' not in ln) + '\n')
+    rc, out, _ = run(capsys, 'solve', scene, '--set', 'crank=-1', '--all-branches')
+    assert rc == 0
+    assert out.startswith('one assembly mode: 2 configurations on the other circuit'), out
+    assert '--- configuration 2 of 2 (branch -)\n' in out
 
 
 FIVE_BAR = """name: fivebar

@@ -326,7 +326,7 @@ def test_a_joint_or_slide_target_out_of_reach_is_told_its_edge():
         'rocker = 3 rad is out of reach: on the way there from the current configuration it '
         f'is reachable up to rocker = {rocker_max:.6g} rad'
     ), r.reason
-    assert "(that way's edge; its range: linkage check); cannot assemble" in r.reason
+    assert "(that way's edge); cannot assemble" in r.reason  # (no range check does not print)
     edge = reach_edge(e.solver_for(['rocker']), {'rocker': 3.0}, e.last)
     assert edge is not None and edge.unit == 'rad'
     assert abs(edge.edge[0] - rocker_max) < 1e-9
@@ -354,3 +354,34 @@ def test_a_point_target_out_of_reach_names_the_knowns_it_keeps():
     ), held.reason
     same = e.target({'L.x': 9.0, 'L.y': -0.25, 'bucket': e.last.links['bucket']})
     assert same.reason == held.reason
+
+
+def test_a_joint_targets_edge_stays_in_the_mode_the_target_rule_answers():
+    """The non-Grashof inverted slider-crank with crank limits 0.01 rad inside its toggles: the
+    march toward rocker = -1.3 passed the toggle into the other sign and quoted 4.91375 rad,
+    which the same request then refused as another mode (an adversary's find). The way stops
+    where it would leave the mode: at the crank's limit, 5.8704 rad, where the forward
+    solve (another path than the inverse march) puts the rocker."""
+    from linkage_ros.core.solver import Solver
+
+    mech = load('inverted_slider_crank_oscillating')
+    at_limit = Solver(mech).solve({'crank': 5.8704})
+    assert at_limit.success and at_limit.branch == '+'
+    want = at_limit.links['rocker'] % (2 * math.pi)
+    e = Engine(mech, EngineSettings())
+    r = e.target({'rocker': -1.3})
+    got = float(re.search(r'up to rocker = (\S+) rad', r.reason).group(1))
+    assert abs(got - want) < 1e-5, (got, want, r.reason)  # (the refusal's 6 digits)
+    assert e.target({'rocker': got - 1e-3}).success
+
+
+def test_crank_limits_short_of_the_toggles_do_not_make_the_other_sign_another_circuit():
+    """Its other sign lies beyond a toggle the limits keep the crank from (the scene's own
+    comment: one circuit through both signs); the refusal called it another circuit that only
+    taking the mechanism apart reaches (an adversary's find). The crank-rocker's still is."""
+    e = Engine(load('inverted_slider_crank_oscillating'), EngineSettings())
+    r = e.target({'rocker': 4.0})
+    assert not r.success and 'another circuit' not in r.reason, r.reason
+    assert 'only a motion through a toggle position, or taking the mechanism apart' in r.reason
+    r = Engine(load('four_bar'), EngineSettings()).target({'B': -1.2})
+    assert 'reachable only in another circuit' in r.reason

@@ -66,10 +66,14 @@ def test_a_start_up_refusal_is_logged_under_the_remapped_name_with_its_remedy(tm
         for p in (bad_scene, no_value):
             p.stop()
     assert codes == [1, 1]
+    # (the harness remaps the namespace too: rclpy names the logger ns.name)
     (fatal,) = [ln for ln in bad_scene.stderr().splitlines() if 'FATAL' in ln]
-    assert '[arm_linkage]: cannot start: parameter' in fatal, fatal
+    ns = bad_scene.namespace.strip('/')
+    assert f'[{ns}.arm_linkage]: cannot start: parameter' in fatal, fatal
     (fatal,) = [ln for ln in no_value.stderr().splitlines() if 'FATAL' in ln]
-    assert fatal.startswith(f'[FATAL] [{NODE_NAME}]: cannot start: ') and 'No value' in fatal
+    ns = no_value.namespace.strip('/')
+    assert fatal.startswith(f'[FATAL] [{ns}.{NODE_NAME}]: cannot start: '), fatal
+    assert 'No value' in fatal
     assert fatal.endswith('quote it for the parameter parser, -p "branch:=\'-\'")'), fatal
 
 
@@ -82,7 +86,10 @@ def test_the_remapped_node_name_is_read_from_the_ros_arguments():
     assert remapped_node_name(['x', '--ros-args', '-r', f'{NODE_NAME}:__node:=c']) == 'c'
     assert remapped_node_name(['x', '--ros-args', '-r', 'other:__node:=d']) == NODE_NAME
     assert remapped_node_name(['x', '-r', '__node:=e']) == NODE_NAME  # (not a ROS argument)
-    assert remapped_node_name(['x', '--ros-args', '-r', '__ns:=/f']) == NODE_NAME
+    assert remapped_node_name(['x', '--ros-args', '-r', '__ns:=/f']) == f'f.{NODE_NAME}'
+    # (rclpy's logger name: the namespace's parts joined by dots, an adversary's find)
+    argv = ['x', '--ros-args', '-r', '__node:=g', '-r', '__ns:=/a/b']
+    assert remapped_node_name(argv) == 'a.b.g'
 
 
 @pytest.mark.parametrize('sig', [signal.SIGTERM, signal.SIGINT])

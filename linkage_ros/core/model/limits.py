@@ -64,8 +64,15 @@ def limit_violation(
 
 def _unit_hint(value: float, lo: float | None, hi: float | None, unit: str) -> str:
     """' (lengths are in m: 1600 mm is 1.6 m)' where ``value`` read in millimetres (an angle's
-    in degrees, beyond a turn) would be within [lo, hi]: the likely mistake, named; else ''."""
+    in degrees, beyond a turn) would be within [lo, hi] and is far beyond the limits' size (a
+    hundred times their largest magnitude for mm, twenty for degrees: 0.4 m past a stroke of
+    +-0.25 m is no unit mistake, though 0.4 mm is within it, nor 6.3 rad for a [0, 0.8]
+    knuckle): the likely mistake, named; else ''."""
     if not math.isfinite(value):
+        return ''
+    bounds = [abs(v) for v in (lo, hi) if v is not None and math.isfinite(v)]
+    far = 100.0 if unit == 'm' else 20.0
+    if not bounds or abs(value) < far * max(bounds):
         return ''
     if unit == 'm':
         meant, what = value / 1000.0, f'lengths are in m: {value:g} mm is {value / 1000.0:g} m'

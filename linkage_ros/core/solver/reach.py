@@ -11,7 +11,7 @@ reachable up to D.x = 2.475 m, 7.525 m short``.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -66,14 +66,15 @@ class ReachEdge:
         if not self.others:
             # (that way's edge, where its march stopped at a fold of the way: the point may
             # reach further by another, as a Klann leg's foot does, 0.24 m past it)
+            # (a joint's or link's range over the motion: linkage range --curves)
             whole = (
-                f"the point's whole reach: linkage range --point {self.point}"
+                f"; the point's whole reach: linkage range --point {self.point}"
                 if self.point
-                else 'its range: linkage check'
+                else ''
             )
             if not self.point:  # (an angle the short way round)
                 way = 'on the way there from the current configuration'
-            short = f"{self.short_m:.6g} {u} short (that way's edge; {whole})"
+            short = f"{self.short_m:.6g} {u} short (that way's edge{whole})"
             return f'{asked} is out of reach: {way} it is reachable up to {at}, {short}'
         others = ', '.join(self.others)
         # (the other knowns moved too: where the point hardly moves, they are what is out of
@@ -86,14 +87,20 @@ class ReachEdge:
 
 
 def reach_edge(
-    solver: Solver, values: Mapping[str, Any], here: Result, scalars: bool = True
+    solver: Solver,
+    values: Mapping[str, Any],
+    here: Result,
+    scalars: bool = True,
+    keeps: Callable[[Result], bool] | None = None,
 ) -> ReachEdge | None:
     """Where the (first) point target of ``values`` (a command of ``solver``, refused), else its
     first coordinate known, else (``scalars``) its first joint, link or slide value, stops
     being reachable on the way from ``here`` (the current configuration, a Result of this
     mechanism) to the target, every known moved together (angles the short way round); None
     when the solve has none of them, gives two points of one link, or ``here`` is not a
-    configuration of the mechanism."""
+    configuration of the mechanism. ``keeps``: whether a configuration on the way is one the
+    answer may be (its assembly mode kept: the way stops where it leaves it, as at a toggle
+    the inverse plan's continuity passes)."""
     c = solver.compiled
     k = next((i for i, s in enumerate(c.specs) if isinstance(s, PointSpec)), None)
     if k is None:
@@ -123,7 +130,8 @@ def reach_edge(
         # a probe: Newton straight from the last value reached, committed (the march
         # continues from it; the solver's state is restored below). A probe past a fold fails
         # within max_iter iterations, where a walk halving its step grinds ten times as long
-        return solver.solve(command(s), commit=True, effort=Effort.DIRECT).success
+        got = solver.solve(command(s), commit=True, effort=Effort.DIRECT)
+        return got.success and (keeps is None or keeps(got))
 
     snap = solver.snapshot()
     try:

@@ -397,8 +397,7 @@ def test_a_command_beyond_a_revolute_joints_limits_is_refused_as_given(tmp_path,
     engine = Engine(_mech('robotiq'), EngineSettings())
     knuckle = 'robotiq_85_left_knuckle_joint'
     for value, why in (
-        # (6.3 deg would be within: the likely mistake named, as --set warns of it)
-        (6.3, 'is beyond its maximum 0.8 by 5.5 rad (angles are in rad: 6.3 deg is 0.109956 rad)'),
+        (6.3, 'is beyond its maximum 0.8 by 5.5 rad'),  # (no degrees hint: a turn's wrap)
         (-6.0, 'is below its minimum 0 by 6 rad'),
         (0.9, 'is beyond its maximum 0.8 by 0.1 rad'),
     ):

@@ -259,3 +259,8 @@ def test_a_value_beyond_its_limits_that_is_in_them_read_in_mm_or_deg_says_so():
     assert why.endswith(f'(angles are in rad: 60 deg is {math.radians(60):.6g} rad)'), why
     assert 'deg' not in limit_violation('crank', 2.0, 0.46, 1.51, 'rad', True)  # within a turn
     assert 'deg' not in limit_violation('crank', 170.0, 0.46, 1.51, 'rad', True)  # 2.97 rad
+    # an adversary's: 0.4 m past a +-0.25 m stroke is no unit mistake, though 0.4 mm is
+    # within it; nor 6.3 rad for a [0, 0.8] knuckle (a turn's wrap, not 6.3 deg)
+    assert 'mm' not in limit_violation('push', 0.4, -0.25, 0.25, 'm', False)
+    assert 'mm' not in limit_violation('push', -0.3, -0.25, None, 'm', False)
+    assert 'deg' not in limit_violation('knuckle', 6.3, 0.0, 0.8, 'rad', False)
