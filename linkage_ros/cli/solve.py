@@ -177,9 +177,10 @@ def cmd_solve(args) -> int:
         # roots either side of one coordinate's extreme): then it lists solutions
         labels = {d['branch'] for d in dicts}
         each = 'assembly mode' if len(labels) == len(dicts) or labels == {''} else 'solution'
-        # every solution on the drawing's circuit, through its toggles: one assembly mode in
-        # two configurations (seed 002: a non-Grashof four-bar's two solutions 'are not two
-        # distinct assembly modes but two distinct configurations')
+        # every solution on one circuit through its toggles (the drawing's, or a Grashof
+        # double-rocker's other loop): one assembly mode in two configurations (seed 002: a
+        # non-Grashof four-bar's two solutions 'are not two distinct assembly modes but two
+        # distinct configurations')
         circuit = '' if one_circuit is None else one_circuit(results)
         if circuit:
             each = 'configuration'

@@ -44,8 +44,8 @@ class ReachEdge:
     coordinate: str = ''
     others: tuple[str, ...] = ()
     fraction: float = 0.0
-    #: the unit of a one-value known (a coordinate's m; a joint's or link's angle, rad; a
-    #: slide, m): ``short_m`` is in it; '' for a point
+    #: the unit of the known (a point's or coordinate's m; a joint's or link's angle, rad;
+    #: a slide, m): ``short_m`` is in it
     unit: str = 'm'
     #: the target's other knowns that stay where they are on the way (a target_point_hold's
     #: names: the bucket held while the lip is out of reach)
