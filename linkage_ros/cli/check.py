@@ -263,10 +263,12 @@ def _moved(o: dict, whole: dict | None) -> bool:
 
 
 def _in_mode(extreme: dict, end: str) -> str:
-    """' in mode S' where the circuit passes more than one assembly mode (an input has a
-    configuration in each: a landing gear's brace past its dead centre), else ''."""
+    """' on branch S' where the circuit passes more than one sign combination of the forward
+    dyads (an input has a configuration on each: a landing gear's brace past its dead centre;
+    seed 002: a non-Grashof four-bar's two are 'two distinct configurations', one assembly
+    mode), else ''. (JSON: ``mode_at_min`` / ``mode_at_max``.)"""
     mode = extreme.get(f'mode_at_{end}')
-    return f' in mode {mode}' if mode else ''
+    return f' on branch {mode}' if mode else ''
 
 
 def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
