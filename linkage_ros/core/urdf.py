@@ -48,7 +48,7 @@ import numpy as np
 
 from .errors import SceneError, echo
 from .model import AngleActuator, Mechanism, SlideActuator
-from .model.limits import slack
+from .model.limits import slack, spans_a_turn
 from .urdf_visuals import MATERIALS, Pose2D, link_visuals
 
 # ---- planar rigid transforms ---------------------------------------------------------------------
@@ -216,7 +216,7 @@ def _revolute_limits(mech: Mechanism, tj: TreeJoint) -> tuple[float, float] | No
         if act.reference == mech.ground:
             c += mech.links[mech.ground].angle_ref
         lo, hi = (act.min - c, act.max - c) if act.link == rj.child else (c - act.max, c - act.min)
-        if hi - lo >= 2.0 * math.pi:
+        if spans_a_turn(lo, hi):
             return None
         shift = _wrap(lo) - lo
         lo, hi = lo + shift, hi + shift

@@ -13,8 +13,8 @@ import numpy as np
 
 from ..errors import SceneError
 from ..model import Mechanism, Scene
-from ..model.joint_map import JointMap, OutputKind, spans_a_turn
-from ..model.limits import limit_violation
+from ..model.joint_map import JointMap, OutputKind
+from ..model.limits import limit_violation, spans_a_turn
 from .assembly import CLOSED, assemble_chain, values_text
 from .calibration import calibrate_joint_map
 from .chain import Chain, find_chain, rot
@@ -261,7 +261,7 @@ def _turning_mimics(jmap: JointMap) -> list[str]:
         if lead is None or not lead.revolute or (o.revolute and float(o.scale).is_integer()):
             continue
         lo, hi = lead.lower, lead.upper
-        if lo is None or hi is None or hi - lo >= 2 * math.pi:
+        if lo is None or hi is None or spans_a_turn(lo, hi):
             notes.append(
                 f'<mimic> {o.name} = {o.scale:g} * {o.leader} + {o.offset:g}: {o.leader} turns '
                 f'fully and is published wrapped (into (-pi, pi] or its limits), so {o.name} '
@@ -483,7 +483,7 @@ def _scene(
             if (
                 lim.lower is not None
                 and lim.upper is not None
-                and lim.upper - lim.lower < (2 * math.pi)
+                and not spans_a_turn(lim.lower, lim.upper)
             ):  # (one limit alone is refused: _assembly_values)
                 lo, hi = sorted((j.sign * lim.lower + k, j.sign * lim.upper + k))
                 spec.update(min=lo, max=hi)

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import CommandError
 from ..quantities import Shown
-from .limits import limit_interval, limit_violation
+from .limits import limit_interval, limit_violation, spans_a_turn
 
 
 class OutputKind(Enum):
@@ -314,7 +314,7 @@ class JointMap:
             return False
         if out.lower is None or out.upper is None:
             return False
-        return out.upper - out.lower < 2.0 * math.pi
+        return not spans_a_turn(out.lower, out.upper)
 
     def refusal(self, values: Mapping[str, Any]) -> str | None:
         """Why a request (the description's names and values, before :meth:`to_scene`) is
@@ -420,9 +420,3 @@ def fit_to_limits(v: Any, o: OutputJoint) -> Any:
     if v > hi and lo <= down <= down_to:
         return down
     return v
-
-
-def spans_a_turn(lower: float | None, upper: float | None) -> bool:
-    """Whether a revolute joint's limits are a full turn or more apart (they then limit
-    nothing: every angle is within them, a whole number of turns away)."""
-    return lower is not None and upper is not None and upper - lower >= 2.0 * math.pi

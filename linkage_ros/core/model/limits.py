@@ -24,6 +24,12 @@ def slack(limit: float) -> float:
     return LIMIT_SLACK * max(1.0, abs(limit))
 
 
+def spans_a_turn(lower: float | None, upper: float | None) -> bool:
+    """Whether an angle's limits are a full turn or more apart (they then limit nothing:
+    every angle is within them, a whole number of turns away)."""
+    return lower is not None and upper is not None and upper - lower >= 2.0 * math.pi
+
+
 def angle_limit_arc(lo: float | None, hi: float | None) -> tuple[float, float] | None:
     """The angles (rad) :func:`limit_violation` allows, as the arc [a, b] (taken modulo 2 pi:
     an angle v is inside where a + (v - a) mod 2 pi <= b), or None where it allows every angle:
@@ -32,7 +38,7 @@ def angle_limit_arc(lo: float | None, hi: float | None) -> tuple[float, float] |
     if lo is None and hi is None:
         return None
     if lo is not None and hi is not None:
-        return None if hi - lo >= 2 * math.pi else (lo, hi)
+        return None if spans_a_turn(lo, hi) else (lo, hi)
     return (lo, math.pi) if lo is not None else (-math.pi, hi if hi is not None else math.pi)
 
 
