@@ -586,22 +586,9 @@ class Engine:
         where it stops being reachable on the line toward the target (core.solver.reach), then
         the solver's own reason (the dyad or loop that does not close, with its miss); where
         Newton placed it, that other modes are searched on request (``searched``: they were)."""
-        last = self.last
-        if last is None or not does_not_assemble(result):
+        if self.last is None or not does_not_assemble(result):
             return result
-        # (a joint's or link's value told in the scene's terms: not for a description, whose
-        # joint values are its own)
-        before = self.mode(last)
-        edge = reach_edge(
-            solver,
-            values,
-            last,
-            scalars=self.mech.joint_coordinates is None,
-            # (the way stops where it would leave the mode: an edge the target rule answers)
-            keeps=None if before is None else lambda r: not self.mode_changes(before, last, r),
-        )
-        if edge is not None:
-            result.reason = f'{edge.describe()}; {result.reason}'
+        self.way_edge(solver, values, result)
         if solver.mode is not SolveMode.CLOSED_FORM and self.fixed_mode() is None and not searched:
             # (a closed form searched them all; a branch setting allows no other mode; a slide
             # or angle target gets it too: a press's ram beyond its stroke in the current mode
@@ -610,6 +597,30 @@ class Engine:
                 f'{result.reason}; other assembly modes are searched on request '
                 '(~/target_any_mode, linkage solve --any-mode)'
             )
+        return result
+
+    def way_edge(
+        self, solver: Solver, values: Mapping[str, Any], result: Result, keep_mode: bool = True
+    ) -> Result:
+        """``result`` (a refusal of ``values`` by ``solver`` that does not assemble, changed)
+        told first where the way there from the last good state stops (core.solver.reach);
+        with ``keep_mode`` the way stops where it would leave the assembly mode, as the target
+        rule answers."""
+        last = self.last
+        if last is None or not does_not_assemble(result):
+            return result
+        before = self.mode(last) if keep_mode else None
+        edge = reach_edge(
+            solver,
+            values,
+            last,
+            # (a joint's or link's value told in the scene's terms: not for a description,
+            # whose joint values are its own)
+            scalars=self.mech.joint_coordinates is None,
+            keeps=None if before is None else lambda r: not self.mode_changes(before, last, r),
+        )
+        if edge is not None:
+            result.reason = f'{edge.describe()}; {result.reason}'
         return result
 
     def point_hold(self, point: str) -> list[str]:

@@ -110,25 +110,6 @@ def _note_twin(mech, solver, command, r: Result, engine) -> None:
             return
 
 
-def _with_edge(engine, command, r: Result) -> Result:
-    """A forward refusal of several actuators that does not assemble, told where the way
-    there from the drawing stops (every actuator moved together: core.solver.reach), as a
-    target's is; one actuator's gets its reachable range from the engine already. Here, not
-    in the node: marching costs a few ms a refusal, and commands are its control path."""
-    from ..core.solver.reach import reach_edge
-    from ..core.solver.result import does_not_assemble
-
-    mech = engine.mech
-    if len(mech.actuators) < 2 or mech.joint_coordinates is not None or engine.last is None:
-        return r
-    if not does_not_assemble(r):
-        return r
-    edge = reach_edge(engine.forward, command, engine.last)
-    if edge is not None:
-        r.reason = f'{edge.describe()}; {r.reason}'
-    return r
-
-
 def cmd_solve(args) -> int:
     mech, _ = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
     knowns, axes, solver = build_solve(mech, args, allow_range=False)
@@ -151,7 +132,14 @@ def cmd_solve(args) -> int:
         _note_twin(mech, solver, command, results[0], engine)
     else:  # as the node answers ~/command from its drawing
         engine = forward_engine(mech, args)
-        results = [_with_edge(engine, command, engine.forward_solve(command))]
+        r = engine.forward_solve(command)
+        if len(mech.actuators) > 1:
+            # several actuators: told where the way from the drawing stops, every actuator
+            # moved together, as a target's (one actuator's gets its reachable range from
+            # the engine). Here, not in the node: marching costs ms a refusal, and commands
+            # are its control path
+            engine.way_edge(engine.forward, command, r, keep_mode=False)
+        results = [r]
     dicts = [request_echo(mech, r.to_dict(mech), given) for r in results]
     in_drawn_mode, one_circuit = (
         _drawn_mode_rule(mech, args, modes) if modes is not None and modes.drawn else (None, None)

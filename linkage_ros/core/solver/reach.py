@@ -170,13 +170,12 @@ def reach_edge(
         if i != k and _span(sp, start[i], moved[i]) > 1e-12 * max(1.0, _size(moved[i]))
     )
     kept = tuple(sp.name for i, sp in enumerate(c.specs) if i != k and sp.name not in others)
-    if isinstance(spec, CoordinateSpec):
+    if not isinstance(spec, PointSpec):  # one value: a coordinate, an angle or a slide
         e, t = float(command(lo)[spec.name]), float(target[k])
-        return ReachEdge(spec.point, (t,), (e,), abs(t - e), spec.name, others, lo, kept=kept)
-    if not isinstance(spec, PointSpec):  # an angle (the short way round) or a slide
-        e, t = float(command(lo)[spec.name]), float(target[k])
+        # (an angle the short way round; a coordinate names its point)
         short = abs(math.remainder(t - e, 2 * math.pi)) if spec.unit == 'rad' else abs(t - e)
-        return ReachEdge('', (t,), (e,), short, spec.name, others, lo, spec.unit, kept)
+        point = spec.point if isinstance(spec, CoordinateSpec) else ''
+        return ReachEdge(point, (t,), (e,), short, spec.name, others, lo, spec.unit, kept)
     ex, ey = command(lo)[spec.name]
     tx, ty = (float(v) for v in target[k])
     short = math.hypot(tx - ex, ty - ey)
