@@ -262,7 +262,7 @@ def _moved(o: dict, whole: dict | None) -> bool:
     return whole is not None and not (same(whole['min'], o['min']) and same(whole['max'], o['max']))
 
 
-def _in_mode(extreme: dict, end: str) -> str:
+def _on_branch(extreme: dict, end: str) -> str:
     """' on branch S' where the circuit passes more than one sign combination of the forward
     dyads (an input has a configuration on each: a landing gear's brace past its dead centre;
     seed 002: a non-Grashof four-bar's two are 'two distinct configurations', one assembly
@@ -285,8 +285,8 @@ def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
         unit = 'rad' if kind == 'link' else 'm'
         line = (
             f'  {bare} ({"angle" if kind == "link" else "slide"})  min {fmt_value(o["min"])} '
-            f'at {act} {fmt_value(o["input_at_min"])}{_in_mode(o, "min")}  max '
-            f'{fmt_value(o["max"])} at {act} {fmt_value(o["input_at_max"])}{_in_mode(o, "max")}'
+            f'at {act} {fmt_value(o["input_at_min"])}{_on_branch(o, "min")}  max '
+            f'{fmt_value(o["max"])} at {act} {fmt_value(o["input_at_max"])}{_on_branch(o, "max")}'
             f'  {"swing" if unit == "rad" else "stroke"} {fmt_value(o["stroke"])} {unit}'
         )
         if o.get('time_ratio') is not None:
@@ -306,8 +306,8 @@ def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
         out.append(
             f'  transmission angle {key}  min {fmt_value(t["min"], ".6g")} rad '
             f'({math.degrees(t["min"]):.3f} deg) at {act} {fmt_value(t["input_at_min"], ".9g")}'
-            f'{_in_mode(t, "min")}  max {fmt_value(t["max"], ".6g")} rad '
+            f'{_on_branch(t, "min")}  max {fmt_value(t["max"], ".6g")} rad '
             f'({math.degrees(t["max"]):.3f} deg) at {act} {fmt_value(t["input_at_max"], ".9g")}'
-            f'{_in_mode(t, "max")}'
+            f'{_on_branch(t, "max")}'
         )
     return out

@@ -19,12 +19,11 @@ from __future__ import annotations
 import argparse
 import json
 import re
-import sys
 
 import yaml
 
 from .common import OK, REFUSED, UsageError
-from .ros_graph import DEFAULT_WAIT, WAIT_TOLD_S, plain, ros_session, spin_until
+from .ros_graph import DEFAULT_WAIT, WAIT_TOLD_S, plain, ros_session, say_waiting, spin_until
 
 #: numbers YAML 1.1 reads as strings (an exponent without a dot or a sign: 1e1, 1.0e1, -2E-3)
 _YAML_TEXT_NUMBER = re.compile(r'[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)[eE][+-]?[0-9]+')
@@ -60,8 +59,7 @@ def run(args) -> int:
         client = AsyncParameterClient(node, node_name)
         ready = spin_until(node, client.services_are_ready, min(WAIT_TOLD_S, args.wait))
         if not ready and args.wait > WAIT_TOLD_S:
-            # (discovery takes a moment; beyond it, a misspelt name would be silence)
-            print(f'waiting for node {node_name} (up to {args.wait:g} s: --wait)', file=sys.stderr)
+            say_waiting(f'node {node_name}', args.wait)
             ready = spin_until(node, client.services_are_ready, args.wait - WAIT_TOLD_S)
         if not ready:
             nodes = sorted(

@@ -38,6 +38,12 @@ def ros_session(name: str) -> Iterator[Any]:
         rclpy.try_shutdown(context=context)
 
 
+def say_waiting(what: str, wait: float) -> None:
+    """Tell on stderr that the command waits for ``what`` (said once a wait has lasted
+    WAIT_TOLD_S: discovery takes a moment; beyond it, a misspelt name would be silence)."""
+    print(f'waiting for {what} (up to {wait:g} s: --wait)', file=sys.stderr, flush=True)
+
+
 def spin_until(node: Any, done: Callable[[], bool], seconds: float | None) -> bool:
     """Spin ``node`` until ``done()`` or ``seconds`` pass (None: no limit); whether done."""
     from rclpy.executors import SingleThreadedExecutor
@@ -69,14 +75,8 @@ def topic_types(node: Any, topics: Sequence[str], wait: float) -> dict[str, str]
         if not missing or time.monotonic() >= end:
             break
         if not told and time.monotonic() - start >= WAIT_TOLD_S and wait > WAIT_TOLD_S:
-            # (discovery takes a moment; beyond it, a misspelt name would be silence)
             told = True
-            print(
-                f'waiting for {", ".join(missing)} to appear in the ROS graph (up to '
-                f'{wait:g} s: --wait)',
-                file=sys.stderr,
-                flush=True,
-            )
+            say_waiting(f'{", ".join(missing)} to appear in the ROS graph', wait)
         time.sleep(0.05)
     if missing:
         seen = ', '.join(sorted(graph)) or 'none'
