@@ -244,29 +244,29 @@ def test_sweep_csv_columns_are_the_descriptions_joints(capsys, tmp_path):
         assert joints['joint1'] == pytest.approx(q1, abs=1e-12)
         assert max(pinocchio_misses(case, joints)) < 1e-9
     # the Robotiq: the follower is an input column too, at the mimic's value
-    rc, _, err = run(
-        capsys, 'sweep', ROBOTIQ, '--closures', ROBOTIQ_CLOSURES,
-        '--set', f'{LEFT_KNUCKLE}=0.1:0.7:4', '--csv', out_csv,
-    )  # fmt: skip
-    assert rc == 0, err
-    rows = list(csv.DictReader(out_csv.open()))
+    rows = _robotiq_sweep_rows(capsys, out_csv, '0.1:0.7:4')
     assert len(rows) == 4
     for row in rows:
         left = float(row[f'input.{LEFT_KNUCKLE}'])
         assert float(row[f'input.{RIGHT_KNUCKLE}']) == pytest.approx(-left, abs=1e-12)
 
 
+def _robotiq_sweep_rows(capsys, out_csv, span: str) -> list[dict[str, str]]:
+    """The CSV rows of `linkage sweep` over the Robotiq's left knuckle (``span``:
+    START:STOP:COUNT), the sweep exiting 0."""
+    rc, _, err = run(
+        capsys, 'sweep', ROBOTIQ, '--closures', ROBOTIQ_CLOSURES,
+        '--set', f'{LEFT_KNUCKLE}={span}', '--csv', out_csv,
+    )  # fmt: skip
+    assert rc == 0, err
+    return list(csv.DictReader(out_csv.open()))
+
+
 def test_sweep_rows_refused_beyond_a_limit_keep_their_command(capsys, tmp_path):
     """A description's joint commanded beyond its <limit> is refused before any solve; its CSV
     row still has the inputs it was commanded, as linkage bag's has them (angles wrapped as the
     answers give them, the mimic follower at -1 times the knuckle); they were empty."""
-    out_csv = tmp_path / 'refused.csv'
-    rc, _, err = run(
-        capsys, 'sweep', ROBOTIQ, '--closures', ROBOTIQ_CLOSURES,
-        '--set', f'{LEFT_KNUCKLE}=-6:6.5:2', '--csv', out_csv,
-    )  # fmt: skip
-    assert rc == 0, err
-    rows = list(csv.DictReader(out_csv.open()))
+    rows = _robotiq_sweep_rows(capsys, tmp_path / 'refused.csv', '-6:6.5:2')
     assert [r['status'] for r in rows] == ['error', 'error']
     assert 'below its minimum' in rows[0]['reason'] and 'beyond its maximum' in rows[1]['reason']
     for row, commanded in zip(rows, (-6.0, 6.5)):
