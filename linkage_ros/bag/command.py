@@ -11,6 +11,7 @@ from pathlib import Path
 from ..cli.common import (
     UsageError,
     add_scene_argument,
+    say,
 )
 from ..core.errors import LinkageError
 from ..core.tolerances import NEWTON_TOL
@@ -242,10 +243,10 @@ def _run(args) -> int:
         progress.clear()  # an error message starts on a line of its own
     summary_text(data, res, outs, args.plot, t_start, t_read, t_solve, t_end)
     for line in plans_summary(plans):
-        print(line)
+        say(line)
     for kind, path in outs:
         if kind is OutputKind.CSV and plans:
-            print(f'  wrote {plans_csv_path(path)} (csv: the trajectories and paths)')
+            say(f'  wrote {plans_csv_path(path)} (csv: the trajectories and paths)')
     why = unanswered(data, res, plans)
     if why is not None:
         print(f'linkage bag: {why}', file=sys.stderr)
@@ -274,14 +275,7 @@ def _run_outputs(outs, args, scene, opts) -> RunOutputs:
         remap=dict(opts.remap),
         publish_inputs=opts.publish_inputs,
         all_or_none=False,  # as before streaming: a finished --out stays when a later one fails
-        failed=_write_failed,
     )
-
-
-def _write_failed(out: Output, exc: OSError) -> Exception:
-    if out.kind is OutputKind.PLOT:
-        return BagError(f'--plot {out.path}: {exc.strerror or exc}')
-    return BagError(f'output {out.path}: cannot write ({exc.strerror or exc})')
 
 
 def _resolved(path: Path, what: str) -> Path:

@@ -99,8 +99,17 @@ def _bag_name(rel: Path, is_file: bool) -> str:
     return '/'.join(parts)
 
 
-def bags_in(folder: Path) -> list[tuple[Path, str]]:
-    """Every bag under ``folder`` (recursively, sorted, symlinked folders not followed)."""
+def is_result_bag(p: Path) -> bool:
+    """A fleet run's result bag: a bag folder NAME.mcap / NAME.sqlite3 beside the NAME.done.json
+    its run wrote last (fleet_task)."""
+    stem, dot, fmt = p.name.rpartition('.')
+    manifest = p.parent / (stem + MANIFEST_SUFFIX)
+    return bool(dot) and fmt in ('mcap', 'sqlite3') and manifest.is_file()
+
+
+def bags_in(folder: Path, results: list[Path] | None = None) -> list[tuple[Path, str]]:
+    """Every bag under ``folder`` (recursively, sorted, symlinked folders not followed), but an
+    earlier run's result bags (is_result_bag: appended to ``results`` where given)."""
     found: list[tuple[Path, str]] = []
 
     def fail(exc: OSError) -> None:
@@ -111,7 +120,10 @@ def bags_in(folder: Path) -> list[tuple[Path, str]]:
         dirs.sort()
         keep = []
         for d in dirs:
-            if _is_bag_folder(here / d):
+            if _is_bag_folder(here / d) and is_result_bag(here / d):
+                if results is not None:
+                    results.append(here / d)
+            elif _is_bag_folder(here / d):
                 found.append((here / d, _bag_name((here / d).relative_to(folder), False)))
             else:
                 keep.append(d)
@@ -184,12 +196,15 @@ class _OutputOwners:
                     self.folder_of[str(f)] = task
 
 
-def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
+def find_bags(
+    inputs: Sequence[str], skip: Path | None = None, results: list[Path] | None = None
+) -> list[BagTask]:
     """The bags of the inputs in the order given (each folder's in sorted order), each once
     (a bag folder and its only storage file are one bag: the first given is kept);
     of a folder's or a pattern's, none from under the folder ``skip`` (resolved: the run's
     --out-dir, whose result bags are not inputs; a bag named itself is kept, for the caller
-    to refuse); BagError for a missing input, a folder holding no bag, two bags whose
+    to refuse), nor an earlier run's result bag (is_result_bag: appended to ``results``);
+    BagError for a missing input, a folder holding no bag, two bags whose
     outputs would share a path (_OutputOwners), or a split bag's folder beside one of its
     storage files."""
 
@@ -212,10 +227,15 @@ def find_bags(inputs: Sequence[str], skip: Path | None = None) -> list[BagTask]:
             at = Path(Path(os.path.abspath(p)).name) if base is None else p.relative_to(base)
             if _is_bag_folder(p) or _is_storage_file(p):
                 found = [(p, _bag_name(at, p.is_file()))]
-                if base is not None:  # (a pattern's match)
+                if base is not None:  # (a pattern's match: not an earlier run's result bag)
+                    bag = p.parent if p.is_file() and _is_bag_folder(p.parent) else p
+                    if is_result_bag(bag):
+                        if results is not None and bag not in results:
+                            results.append(bag)
+                        continue
                     found = kept(found)
             elif p.is_dir():
-                found = kept(bags_in(p))
+                found = kept(bags_in(p, results))
                 if base is not None:
                     found = [(bag, f'{at.as_posix()}/{name}') for bag, name in found]
                 if not found:

@@ -29,6 +29,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
+from ..cli.common import say
 from .common import BagError
 from .fleet_inputs import FORMATS, SUMMARY_NAMES, BagTask, find_bags
 from .fleet_task import (
@@ -115,7 +116,16 @@ def _prepare(args: argparse.Namespace) -> tuple[BagOptions, list[BagTask]]:
     out_dir = Path(args.out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise BagError(f'--out-dir {out_dir}: is not a folder')
-    tasks = find_bags(args.input, out_dir.resolve())
+    earlier: list[Path] = []
+    tasks = find_bags(args.input, out_dir.resolve(), earlier)
+    if earlier:
+        print(
+            f'note: {len(earlier)} result bag(s) of an earlier run left out ({earlier[0]}'
+            + (', ...' if len(earlier) > 1 else '')
+            + ': a NAME.mcap or NAME.sqlite3 folder beside its NAME.done.json); name one itself '
+            'to analyse it',
+            file=sys.stderr,
+        )
     check_options(args)
     opts = bag_options(args, formats, str(out_dir.resolve()))
     reserved = {str(Path(opts.out_dir, n)) for n in SUMMARY_NAMES}
@@ -322,7 +332,7 @@ def run_fleet(args: argparse.Namespace) -> int:
     todo, done = _plan(tasks, opts, args.resume)
     rows: dict[int, BagRow] = dict(done)
     if done:
-        print(f'linkage bag: {len(done)} bag(s) complete already, skipped (--resume)')
+        say(f'linkage bag: {len(done)} bag(s) complete already, skipped (--resume)')
     jobs = args.jobs if args.jobs is not None else (os.cpu_count() or 1)
     enabled = not args.no_progress and sys.stderr.isatty()
     if args.scheduler:  # the cluster's workers have no terminal: the fleet's bar alone
@@ -353,12 +363,28 @@ def run_fleet(args: argparse.Namespace) -> int:
             if row.status is BagStatus.FAILED:
                 bar.write(f'linkage bag: {row.bag}: failed: {row.reason}', file=sys.stderr)
     ordered = [rows[i] for i in range(len(tasks))]
+    _prune_empty(opts.out_dir, [t for t, r in zip(tasks, ordered) if r.status is BagStatus.FAILED])
     written = write_summary(opts.out_dir, ordered)
     _print_summary(ordered, where, len(todo), time.perf_counter() - t0, written)
     t = totals(ordered)
     if t['failed']:
         return SOME_FAILED
     return SOME_REFUSED if t['all_refused'] else ALL_DONE
+
+
+def _prune_empty(out_dir: str, failed: list[BagTask]) -> None:
+    """The folders under ``out_dir`` made for failed bags' outputs that hold nothing: removed
+    (a failed bag leaves no output: FLEET.md). Once every bag is done, so that no other bag's
+    write races the removal."""
+    top = Path(out_dir)
+    for task in failed:
+        folder = task.output(out_dir, 'csv').parent
+        while folder != top and top in folder.parents:
+            try:
+                folder.rmdir()  # (only an empty one)
+            except OSError:
+                break
+            folder = folder.parent
 
 
 def _print_summary(
@@ -377,4 +403,4 @@ def _print_summary(
         if r.status is not BagStatus.OK and not r.resumed:
             lines.append(f'  {r.bag}: {r.status}: {r.reason}')
     lines += [f'  wrote {p}' for p in written]
-    print('\n'.join(lines))
+    say('\n'.join(lines))

@@ -9,6 +9,7 @@ from collections import Counter
 import numpy as np
 from tqdm import tqdm
 
+from ..cli.common import say
 from .common import OutputKind
 
 # ---- progress and summary ----------------------------------------------------------------------
@@ -123,4 +124,4 @@ def summary_text(data, res, outs, plot, t0, t_read, t_solve, t_end):
         f'write {t_end - t_solve:.2f})'
         + (f', {n / total:,.0f} commands/s' if total > 0 and n else '')
     )
-    print('\n'.join(lines))
+    say('\n'.join(lines))

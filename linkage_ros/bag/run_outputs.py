@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from .bag_out import ResultBag
+from .common import BagError
 from .common import OutputKind as OutputKind  # re-exported: an Output's kind
 from .plans import PlanRequest
 from .plans_out import PlansCsvWriter
@@ -46,8 +47,6 @@ class RunOutputs:
     publish_inputs: bool = False
     #: on a failure, also remove the outputs finished already (a fleet's bag: all or none)
     all_or_none: bool = True
-    #: turns a write error (OSError) of an output into the caller's error (default: as is)
-    failed: Callable[[Output, OSError], Exception] | None = None
     _bags: dict[Path, ResultBag] = field(default_factory=dict)
     _plans_out: list[PlansCsvWriter] = field(default_factory=list)
     _written: list[Path] = field(default_factory=list)
@@ -71,10 +70,11 @@ class RunOutputs:
         return self.add_plan
 
     def _failure(self, exc: BaseException, out: Output | None) -> NoReturn:
-        """Abandon the run; an OSError of ``out`` as the caller wants it said."""
+        """Abandon the run; an OSError of ``out`` said naming it (write_failed: an error such
+        as 'File too large' carries no file name)."""
         self.abort()
-        if isinstance(exc, OSError) and out is not None and self.failed is not None:
-            raise self.failed(out, exc) from None
+        if isinstance(exc, OSError) and out is not None:
+            raise write_failed(out, exc) from None
         raise exc
 
     def add_plan(self, req: PlanRequest) -> None:
@@ -142,3 +142,10 @@ class RunOutputs:
                 else:
                     p.unlink()
         self._written.clear()
+
+
+def write_failed(out: Output, exc: OSError) -> BagError:
+    """A write error of ``out``, naming it (--plot's as the option)."""
+    if out.kind is OutputKind.PLOT:
+        return BagError(f'--plot {out.path}: {exc.strerror or exc}')
+    return BagError(f'output {out.path}: cannot write ({exc.strerror or exc})')

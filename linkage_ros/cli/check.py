@@ -7,7 +7,7 @@ from typing import Any
 
 from ..core.mechanism import actuator_kind
 from ..core.model import AngleActuator
-from .common import OK, dumps, fmt_value, load_scene_file, print_notes
+from .common import OK, dumps, fmt_value, load_scene_file, print_notes, say
 from .described import InputValues
 
 # ---- check -------------------------------------------------------------------------------------
@@ -233,7 +233,7 @@ def cmd_check(args) -> int:
     report = check_report(
         scene.mechanism, str(scene.path), args.solver, scene.notes, scene.warnings
     )
-    print(dumps(report) if args.json else format_check(report))
+    say(dumps(report) if args.json else format_check(report))
     return OK
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -305,6 +306,29 @@ def load_scene_file(
     if why:
         raise UsageError(why)
     return load_scene(str(path), dimension_overrides(dimensions), closures, list(actuated) or None)
+
+
+def stdout_gone() -> None:
+    """The reader of stdout has stopped (`| head`, `| true`): what is still written goes to
+    os.devnull (Python's advice for SIGPIPE: the flush at exit then has nowhere to fail), so
+    the command ends its work and exits with its own status."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # (not a file: replace the object)
+        sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 (lives as long as the process)
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, fd)
+    os.close(devnull)
+
+
+def say(text: str) -> None:
+    """print(text) on stdout: a reader that has stopped ends the printing, not the command
+    (a summary nobody reads changes no outcome)."""
+    try:
+        print(text)
+    except BrokenPipeError:
+        stdout_gone()
 
 
 def print_notes(notes: Sequence[str]) -> None:

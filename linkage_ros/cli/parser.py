@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import errno
 import importlib
-import os
 import sys
 from collections.abc import Sequence
 from typing import Any
@@ -22,6 +21,7 @@ from .common import (
     OneLineErrorParser,
     UsageError,
     add_scene_argument,
+    stdout_gone,
 )
 from .solve import cmd_solve
 from .sweep import cmd_sweep
@@ -315,20 +315,23 @@ def main(argv: Sequence[str] | None = None) -> int:
     prog = f'linkage {args.command}'
     try:
         code = int(args.func(args))
-        sys.stdout.flush()  # (here: a write error is this command's, not the interpreter's exit)
+        try:
+            sys.stdout.flush()  # (here: a write error is this command's, not the interpreter's)
+        except BrokenPipeError:  # `linkage bag ... | true`: the work is done, its status stands
+            stdout_gone()
         return code
     except (UsageError, LinkageError) as exc:
         print(f'{prog}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
-    except BrokenPipeError:  # `linkage sweep ... | head`
-        sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 no second error when Python flushes at exit
+    except BrokenPipeError:  # a stream whose reader stopped (`linkage echo ... | head`): done
+        stdout_gone()
         return OK
     except OSError as exc:
         if exc.errno not in _STDOUT_FULL:
             raise
         # stdout on a full disk (or /dev/full): the files a command writes say so themselves
         print(f'{prog}: error: cannot write standard output: {exc.strerror}', file=sys.stderr)
-        sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 (as above)
+        stdout_gone()
         return USAGE_ERROR
     except KeyboardInterrupt:  # Ctrl-C: the shell's convention, no traceback
         print(f'\n{prog}: interrupted', file=sys.stderr)

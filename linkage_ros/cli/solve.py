@@ -22,6 +22,7 @@ from .common import (
     format_result,
     forward_engine,
     load_mechanism,
+    say,
     target_engine,
 )
 from .described import beyond_limits, request_echo, scene_command
@@ -159,7 +160,7 @@ def cmd_solve(args) -> int:
                     for c in modes.rollers
                 }
     if args.json:
-        print(dumps(dicts if args.all_branches else dicts[0]))
+        say(dumps(dicts if args.all_branches else dicts[0]))
     else:
         # a search may find more than one solution in one mode (a Newton inverse: the two
         # roots either side of one coordinate's extreme): then it lists solutions
@@ -205,7 +206,7 @@ def cmd_solve(args) -> int:
                         f'roller {joint}: {side["side"]} of its face '
                         + ('(as drawn)' if side['side'] == side['drawn_side'] else '(not drawn)')
                     )
-            print(format_result(d, mech))
+            say(format_result(d, mech))
             if d.get('mode_change'):
                 print(f'assembly mode changed: {d["mode_change"]} (--any-mode)')
     return OK if any(r.success for r in results) else REFUSED

@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import csv
 import math
-import os
 import sys
 from pathlib import Path
 
@@ -25,6 +24,7 @@ from .common import (
     fmt_value,
     forward_engine,
     load_mechanism,
+    stdout_gone,
     target_engine,
 )
 from .described import beyond_limits, request_echo, scene_command
@@ -56,7 +56,7 @@ class _Table:
 
     def close(self) -> None:
         self.open = False
-        sys.stdout = open(os.devnull, 'w')  # noqa: SIM115 no second error when Python flushes at exit
+        stdout_gone()
 
 
 def _check_csv_path(path: str) -> None:
