@@ -9,7 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..cli.common import description_options_error, dimension_overrides, print_notes
+from ..cli.common import load_scene_file, print_notes
 from ..core.tolerances import NEWTON_TOL_MAX
 from .common import DEFAULT_OUT_FORMAT, BagError, output_topics, parse_remaps
 from .plans import path_point
@@ -19,16 +19,9 @@ from .replay import ReplayEngine
 def check_options(args: argparse.Namespace) -> Any:
     """The scene, loaded, after every check of the options that needs no bag (notes on
     stderr); BagError / LinkageError / UsageError otherwise."""
-    from ..core.loading import load_scene
-    from ..resources import scene_path
-
-    path = str(scene_path(args.scene))
-    why = description_options_error(path, args.closures, args.actuated)
-    if why:
-        raise BagError(why)
-    scene = load_scene(
-        path, dimension_overrides(args.dimension), args.closures, args.actuated or None
-    )
+    # as every command loads it: a packaged scene's name, a file, a description (an unknown
+    # name said as solve says it, listing the packaged scenes)
+    scene = load_scene_file(args.scene, args.dimension, args.closures, args.actuated)
     print_notes(scene.notes)
     for opt, topic in (
         ('--command-topic', args.command_topic),

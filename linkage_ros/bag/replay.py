@@ -455,9 +455,12 @@ def solve_commands(
 CHUNK_MIN, CHUNK_START, CHUNK_MAX = 256, 8192, 65536
 
 
+#: rows solved one by one from a row the batch cannot vouch for (doubled, up to 4096, while
+#: batches keep breaking at once: jumpy commands)
 SEQUENTIAL_STRETCH = 16
 
-
+#: the fewest commands of one set of names solved as a batch (fewer: one by one, cheaper; the
+#: summary's one-by-one rows count them, README)
 MIN_BATCH = 32
 
 

@@ -130,7 +130,7 @@ def test_bad_bags_exit_2_with_one_clear_message(tmp_path, scene, capsys):
         [good, '--scene', scene, '--command-topic', '/cmd', '--out', exists], capsys
     )
     # a bad scene or branch is a usage error too
-    assert 'scene file not found' in refused_stderr(
+    assert 'not found: not a file and not a packaged scene' in refused_stderr(
         [
             good,
             '--scene',
@@ -347,3 +347,19 @@ def test_csv_numbers_round_trip_exactly():
         '1234567890123',
         str(2**62),
     ]
+
+
+def test_an_unknown_scene_name_is_said_as_every_command_says_it(tmp_path, capsys):
+    """`--scene nosuchscene` said 'nosuchscene: scene file not found' where `linkage solve`
+    says it is neither a file nor a packaged scene and lists the packaged ones (an outside
+    bag analyst); nothing is written."""
+    src = make_input(tmp_path, 'mcap', [('/cmd', 10**9, joint_state(['crank'], [0.1], 1))])
+    out = tmp_path / 'o.csv'
+    code, cap = run_bag(
+        [src, '--scene', 'nosuchscene', '--command-topic', '/cmd', '--out', out], capsys
+    )
+    assert code == 2
+    line = cap.err.strip()
+    assert "scene 'nosuchscene' not found: not a file and not a packaged scene" in line, line
+    assert 'four_bar' in line and 'slider_crank' in line and '\n' not in line
+    assert not out.exists()
