@@ -187,8 +187,9 @@ PARAMETERS: tuple[ParamSpec, ...] = (
     ParamSpec(
         'queue_depth',
         10,
-        'History depth N of every topic the node subscribes and publishes (reliable, keep '
-        'last N, volatile). A stall of the node longer than N / command rate drops '
+        'History depth N of every topic the node subscribes, and of ~/solved_trajectory '
+        '(reliable, keep last N, volatile; joint_states, ~/points/<p> and ~/status: '
+        'output_depth). A stall of the node longer than N / command rate drops '
         'commands: raise it for command streams of several hundred Hz and more.',
         constraints=f'integer, 1 <= queue_depth <= {QUEUE_DEPTH_MAX}',
     ),

@@ -6,7 +6,8 @@
 
 NODE is the node's name with its namespace (`/linkage_node`, `/robot/linkage_node`; a name
 without `/` is in the root namespace). VALUE is read as YAML, as `ros2 param set` reads it:
-`true`, `5`, `5.0`, `[a, b]`, or text. It goes through rclpy's AsyncParameterClient, the
+`true`, `5`, `5.0`, `[a, b]`; anything else YAML reads (a mapping, a date, a list of mixed
+kinds, `-`) is sent as the text itself. It goes through rclpy's AsyncParameterClient, the
 node's own parameter services, so the node's checks apply: a refused value prints the node's
 reason.
 
@@ -88,12 +89,29 @@ def run(args) -> int:
             value = plain(parameter_value_to_python(values[0]))
             print(json.dumps(value) if isinstance(value, list) else value)
             return OK
-        value = yaml.safe_load(args.value)
-        if isinstance(value, str) and _YAML_TEXT_NUMBER.fullmatch(args.value.strip()):
-            value = float(value)  # YAML 1.1 reads 1e1 (no dot) as text: a number is meant
+        value = parameter_value(args.value)
         (result,) = call(client.set_parameters([Parameter(args.name, value=value)])).results
         if not result.successful:
             print(f'linkage param: {node_name} refused {args.name}: {result.reason}')
             return REFUSED
         print(f'{node_name}: {args.name} = {args.value}')
         return OK
+
+
+def parameter_value(text: str) -> bool | int | float | str | list:
+    """VALUE as `ros2 param set` reads it (ros2param's get_parameter_value): YAML's bool, int,
+    float or string, or a list of one kind of them; anything else the text itself (YAML reads
+    `-` as [None], `2026-01-01` as a date: rclpy has no such parameter type, and raised)."""
+    try:
+        value = yaml.safe_load(text)
+    except yaml.YAMLError:
+        return text
+    if isinstance(value, str) and _YAML_TEXT_NUMBER.fullmatch(text.strip()):
+        return float(value)  # YAML 1.1 reads 1e1 (no dot) as text: a number is meant
+    if isinstance(value, bool | int | float | str):
+        return value
+    if isinstance(value, list) and value:
+        for kind in (bool, int, float, str):  # (exact types: a bool is an int, and 1 no float)
+            if all(type(v) is kind for v in value):
+                return value
+    return text

@@ -192,6 +192,13 @@ def test_param_get_and_set_go_through_the_node_checks(node):
     refused = linkage('param', 'set', name, 'demo_rate', '-3')
     assert refused.returncode == 1 and 'demo_rate' in refused.stdout, refused.stdout
     assert float(linkage('param', 'get', name, 'demo_rate').stdout) == 5.0  # nothing changed
+    # what YAML reads as no parameter type (`-`: [None], a date, a mapping, a mixed list) goes
+    # as its text, as `ros2 param set` sends it: the node's refusal, where it was a traceback
+    for text in ('-', '[1, a]', '{a: 1}', '2026-01-01'):
+        odd = linkage('param', 'set', name, 'demo_rate', text)
+        assert odd.returncode == 1 and 'Traceback' not in odd.stderr, odd.stderr
+        assert 'refused demo_rate' in odd.stdout and f"(got '{text}')" in odd.stdout, odd.stdout
+    assert float(linkage('param', 'get', name, 'demo_rate').stdout) == 5.0
     unknown = linkage('param', 'get', name, 'no_such_parameter')
     assert unknown.returncode == 2 and 'no_such_parameter' in unknown.stderr
     # a misspelt node: the wait said at once, the nodes seen named
