@@ -99,6 +99,15 @@ class TrajectoryAnswer:
 # node, rosbags' in the bag tool; only their fields are read) -----------------------------------
 
 
+class PlanPointError(CommandError):
+    """A request's point (or pose) ``index`` is malformed: the status names it (failed_index),
+    as a point that does not solve is named."""
+
+    def __init__(self, index: int, reason: str):
+        super().__init__(reason)
+        self.index = index
+
+
 def too_many_points(what: str, n: int, items: str) -> str:
     """Why a plan of ``n`` points (``items``: points, poses) is refused."""
     return (
@@ -128,12 +137,13 @@ def joint_trajectory_request(
         for what in ('accelerations', 'effort'):
             got = getattr(p, what, ())
             if len(got) and len(got) != len(names):
-                raise CommandError(
+                raise PlanPointError(
+                    i,
                     f'point {i} has {len(got)} {what} for {len(names)} joint_names: give one '
-                    f'per name or none ({what} are not used: kinematics only)'
+                    f'per name or none ({what} are not used: kinematics only)',
                 )
             if len(got) and not all(math.isfinite(float(v)) for v in got):
-                raise CommandError(f'point {i}: {what} are not all finite')
+                raise PlanPointError(i, f'point {i}: {what} are not all finite')
         positions.append(p.positions)
         velocities.append(p.velocities)
         times.append(duration_ns(p.time_from_start))
@@ -156,18 +166,22 @@ def path_request(
     a non-finite coordinate. ``pace`` is called after every pose (the plan worker's Pacer)."""
     if len(msg.poses) > MAX_TRAJECTORY_POINTS:
         raise CommandError(too_many_points('path', len(msg.poses), 'poses'))
-    frames = {msg.header.frame_id} | {p.header.frame_id for p in msg.poses}
-    foreign = sorted(f for f in frames if f and f != frame_id)
-    if foreign:
+    header = msg.header.frame_id
+    if header and header != frame_id:
         raise CommandError(
-            str(frame_error(f'path of {point!r}', foreign[0], frame_id, field='frame_id'))
+            str(frame_error(f'path of {point!r}', header, frame_id, field='frame_id'))
         )
+    for i, pose in enumerate(msg.poses):  # (a pose stamped in a frame of its own: named)
+        f = pose.header.frame_id
+        if f and f != frame_id:
+            why = frame_error(f'path of {point!r}', f, frame_id, field='frame_id')
+            raise PlanPointError(i, f'pose {i}: {why}')
     xy = []
     for i, pose in enumerate(msg.poses):
         p = pose.pose.position
         for axis, v in (('x', p.x), ('y', p.y), ('z', p.z)):
             if not math.isfinite(v):
-                raise CommandError(f'pose {i}: position.{axis} = {v} is not finite')
+                raise PlanPointError(i, f'pose {i}: position.{axis} = {v} is not finite')
         if mech is None:
             xy.append((float(p.x), float(p.y)))
         else:
@@ -178,9 +192,10 @@ def path_request(
     timed = all(b > a for a, b in zip(stamps, stamps[1:]))
     times = [s - stamps[0] for s in stamps] if stamps and timed else [0] * len(stamps)
     if times and times[-1] > DURATION_MAX_NS:  # (they increase: the last is the largest)
-        raise CommandError(
+        raise PlanPointError(
+            len(times) - 1,
             f"pose {len(times) - 1}: its stamp is {times[-1] * 1e-9:.9g} s after pose 0's, "
-            f'beyond what a time_from_start can hold ({_duration_range()})'
+            f'beyond what a time_from_start can hold ({_duration_range()})',
         )
     return xy, times
 
@@ -393,7 +408,7 @@ def answer_trajectory_msg(
     try:
         names, positions, velocities, times = joint_trajectory_request(msg, pace)
     except CommandError as exc:
-        return TrajectoryAnswer(False, str(exc)), []
+        return _refused(str(exc), getattr(exc, 'index', None)), []
     if frame_id is not None:
         foreign = names_frame_error('trajectory', engine.mech, names, msg.header.frame_id, frame_id)
         if foreign:
@@ -414,7 +429,7 @@ def answer_path_msg(
     try:
         xy, times = path_request(msg, point, frame_id, engine.mech, pace)
     except CommandError as exc:
-        return TrajectoryAnswer(False, str(exc)), []
+        return _refused(str(exc), getattr(exc, 'index', None)), []
     targets = path_targets(engine, point, xy, pace)
     if isinstance(targets, str):
         return TrajectoryAnswer(False, targets), times

@@ -173,6 +173,8 @@ def test_a_trajectory_of_point_coordinates_in_another_frame_is_refused():
 
 
 def test_malformed_accelerations_or_effort_are_refused_not_ignored():
+    """... naming the point by failed_index as every point-wise refusal does (TOPICS.md; an
+    outside integrator found only a malformed velocity's and a point that does not solve's)."""
     from builtin_interfaces.msg import Duration
     from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
@@ -181,15 +183,19 @@ def test_malformed_accelerations_or_effort_are_refused_not_ignored():
 
     engine = Engine(load('four_bar'), EngineSettings())
     for field, values, why in (
-        ('accelerations', [0.0, 1.0], 'has 2 accelerations for 1 joint_names'),
-        ('effort', [math.nan], 'effort are not all finite'),
+        ('accelerations', [0.0, 1.0], 'point 2 has 2 accelerations for 1 joint_names'),
+        ('effort', [math.nan], 'point 2: effort are not all finite'),
     ):
-        point = JointTrajectoryPoint(positions=[0.2], time_from_start=Duration(sec=1))
-        setattr(point, field, values)
+        points = [
+            JointTrajectoryPoint(positions=[0.2 + k / 10], time_from_start=Duration(sec=k + 1))
+            for k in range(4)
+        ]
+        setattr(points[2], field, values)
         answer, _ = answer_trajectory_msg(
-            engine, JointTrajectory(joint_names=['crank'], points=[point])
+            engine, JointTrajectory(joint_names=['crank'], points=points)
         )
         assert not answer.success and why in answer.reason, answer.reason
+        assert answer.failed_index == 2
     point = JointTrajectoryPoint(positions=[0.2], time_from_start=Duration(sec=1))
     point.accelerations = [0.5]  # well formed: accepted (not used)
     answer, _ = answer_trajectory_msg(
@@ -217,8 +223,9 @@ def test_a_path_whose_stamps_span_more_than_a_duration_is_refused():
             msg.poses.append(pose)
         return msg
 
-    with pytest.raises(CommandError, match='beyond what a time_from_start can hold'):
+    with pytest.raises(CommandError, match='beyond what a time_from_start can hold') as exc:
         path_request(path([-(2**31), 2**31 - 1]), 'P', '')
+    assert getattr(exc.value, 'index', None) == 1  # the pose named: failed_index
     xy, times = path_request(path([-(2**30), 2**30 - 1]), 'P', '')
     assert times == [0, (2**31 - 1) * 10**9]  # the longest span a Duration holds
 
@@ -270,3 +277,45 @@ def test_point_coordinate_velocities_give_the_throw_rates(names):
     assert v is not None and v.success, v
     assert v.joints['Z1'] == pytest.approx(1.0, abs=1e-6)
     assert v.joints['Z2'] == pytest.approx(0.5, abs=1e-6)
+
+
+def test_a_paths_malformed_pose_is_named_by_failed_index():
+    """A pose that is not finite, or stamped in a frame of its own, was refused with the
+    reason alone (an outside integrator: TOPICS.md's ~/target_path is "answered like a
+    trajectory", whose status names the first failing point by failed_index); a path whose
+    header is in another frame is the whole request's fault: no index."""
+    from geometry_msgs.msg import PoseStamped
+    from nav_msgs.msg import Path
+
+    from linkage_ros.engine import Engine, EngineSettings
+    from linkage_ros.trajectory import answer_path_msg
+
+    mech = load('plagiograph')  # two inputs: D's path is theirs
+    engine = Engine(mech, EngineSettings())
+    assert engine.last is not None  # the drawing, as the node starts
+    x0, y0 = engine.last.points['D']
+
+    def path(n=4):
+        msg = Path()
+        msg.header.frame_id = 'base_link'
+        for k in range(n):
+            pose = PoseStamped()
+            pose.pose.position.x, pose.pose.position.y = x0 + 0.001 * k, y0
+            msg.poses.append(pose)
+        return msg
+
+    good, _ = answer_path_msg(engine, 'D', path(), 'base_link')
+    assert good.success, good.reason
+    bad = path()
+    bad.poses[2].pose.position.z = math.inf
+    answer, _ = answer_path_msg(engine, 'D', bad, 'base_link')
+    assert answer.reason.startswith('pose 2: position.z = inf') and answer.failed_index == 2
+    bad = path()
+    bad.poses[3].header.frame_id = 'map'
+    answer, _ = answer_path_msg(engine, 'D', bad, 'base_link')
+    assert answer.reason.startswith("pose 3: path of 'D' is in frame 'map'"), answer.reason
+    assert answer.failed_index == 3
+    bad = path()
+    bad.header.frame_id = 'map'
+    answer, _ = answer_path_msg(engine, 'D', bad, 'base_link')
+    assert answer.reason.startswith("path of 'D' is in frame 'map'") and answer.failed_index is None
