@@ -183,6 +183,9 @@ class Outputs:
         self._answered_since_tick = False
         #: the stamps the node chooses itself (stamps.OwnStamps)
         self.stamps = OwnStamps()
+        #: the clock (ns) at the last republication tick: a clock that has not moved since is
+        #: paused (a sim clock)
+        self._tick_clock_ns: int | None = None
         #: the newest state not drawn yet: at start-up the reference pose
         self._marker_state: tuple[Result, Time] | None = (
             None if engine.last is None else (engine.last, self.now())
@@ -294,7 +297,13 @@ class Outputs:
 
     # -- timers -----------------------------------------------------------------------------------
     def _republish(self) -> None:
-        """The last good state, stamped now, unless an answer went out this period."""
+        """The last good state, stamped now (OwnStamps: 1 ns after a client's stamp a little
+        ahead of the clock, as an answer is), unless an answer went out this period or the
+        clock is paused at a time the state went out at."""
+        now = self.now()
+        now_ns = stamp_ns(now.sec, now.nanosec)
+        paused = now_ns == self._tick_clock_ns
+        self._tick_clock_ns = now_ns
         if self._answered_since_tick:
             self._answered_since_tick = False
             return
@@ -303,12 +312,12 @@ class Outputs:
             return
         if last.velocity is not None:  # the rates of a past command are not the state's now
             last = Result(True, joints=last.joints)
-        now = self.now()
-        now_ns = stamp_ns(now.sec, now.nanosec)
-        if now_ns <= self.stamps.floor(now_ns):
-            return  # a paused (sim) clock: the state went out at this time already
-        self.stamps.choose(now_ns)
-        self._publish_state(last, now.sec, now.nanosec)
+        if paused and now_ns <= self.stamps.floor(now_ns):
+            # a paused (sim) clock: the state went out at this time already (a clock that runs
+            # behind a client's stamps republishes after them: the client's skew is followed)
+            return
+        chosen = self.stamps.choose(now_ns)
+        self._publish_state(last, chosen // NSEC_PER_SEC, chosen % NSEC_PER_SEC)
         self._answered_since_tick = False
 
     def _draw(self) -> None:

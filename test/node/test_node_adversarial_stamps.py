@@ -189,3 +189,25 @@ def test_a_client_clock_a_little_ahead_is_followed_so_the_newest_pose_is_newest(
     assert stamp_of(answer) == (ahead[0], ahead[1] + 1) or (
         ahead[1] == 999_999_999 and stamp_of(answer) == (ahead[0] + 1, 0)
     )
+
+
+def test_republication_goes_on_while_a_client_clock_a_little_ahead_is_followed(ros, serve):
+    """A command stamped 3 s ahead (skew the node follows): joint_states then went silent for
+    3 s, the republication waiting for the clock to pass the client's stamp (an outside
+    integrator: robot_state_publisher saw a 3 s gap). It goes on at publish_rate, each 1 ns
+    after the last stamp sent, holding the commanded pose."""
+    s = serve(scene='four_bar', publish_rate=20.0)
+    now = s.node.get_clock().now().nanoseconds
+    ahead = (now // 10**9 + 3, now % 10**9)
+    s.good('command', joint_state(['crank'], [1.2], ahead))
+    s.joints.clear()
+    t0 = s.node.get_clock().now().nanoseconds
+    assert ros.spin_until(lambda: len(s.joints) >= 6, 1.5), (
+        f'{len(s.joints)} joint_states in 1.5 s at publish_rate 20'
+    )
+    assert s.node.get_clock().now().nanoseconds - t0 < 3 * 10**9  # (before the clock got there)
+    stamps = [stamp_of(m) for m in s.joints.messages]
+    assert all(b > a for a, b in zip(stamps, stamps[1:])), stamps
+    assert stamps[0] > ahead, (stamps[0], ahead)
+    for m in s.joints.messages:
+        assert_close_angles(m.position, FourBar.joints(1.2))
