@@ -319,18 +319,40 @@ def plot_output_vs_input(
     others = {
         a: (held or {}).get(a, reference_value(mech, a)) for a in mech.actuators if a != input
     }
-    solver = Solver(without_limits(mech), knowns=[input] + list(others), branch='reference')
+    free = without_limits(mech)
+    knowns = [input] + list(others)
+    solver = Solver(free, knowns=knowns, branch='reference')
     curves: dict[str, list[tuple[float, float]]] = {}
-    for x in xs:
-        cmd = {input: float(x), **others}
-        results = (
-            solver.solve_all(cmd) if solver.mode is SolveMode.CLOSED_FORM else [solver.solve(cmd)]
-        )
-        for r in results:
-            if not r.success:
-                continue
-            key = r.branch or 'continuous'
-            curves.setdefault(key, []).append((float(x), float(get(r))))
+    if solver.mode is SolveMode.CLOSED_FORM:
+        for x in xs:
+            for r in solver.solve_all({input: float(x), **others}):
+                if r.success:
+                    key = r.branch or 'continuous'
+                    curves.setdefault(key, []).append((float(x), float(get(r))))
+    else:
+        # Newton places it: each of the loop Jacobian's modes (J+, J-: the two halves of a
+        # circuit between the input's toggles, an outside scene author's Stephenson six-bar),
+        # followed from the drawing's input outward, so that a toggle is approached, never
+        # stepped off (where Newton may take either half)
+        split = int(np.searchsorted(xs, x0))
+        order = list(range(split, len(xs))) + [-1] + list(range(split - 1, -1, -1))
+        for mode in ('J+', 'J-'):
+            try:
+                walker = Solver(free, knowns=knowns, branch=mode)
+            except ValueError:  # (no Jacobian modes to name: the reference's curve alone)
+                walker, mode = solver, ''
+            for i in order:
+                if i < 0:
+                    walker.reset()
+                    continue
+                r = walker.solve({input: float(xs[i]), **others})
+                if r.success and (not mode or r.branch == mode):
+                    key = r.branch or 'continuous'
+                    curves.setdefault(key, []).append((float(xs[i]), float(get(r))))
+            if not mode:
+                break
+        for c in curves.values():
+            c.sort()
     # at a toggle the assembly modes coincide (solve_all reports one): join every branch there
     for x in sorted({float(v) for span in spans for v in span}):
         at = {k: [v for xx, v in c if xx == x] for k, c in curves.items()}
@@ -373,7 +395,12 @@ def plot_output_vs_input(
             )
     ax.set_xlabel(f'{input} ({"deg" if in_angle else "m"})')
     ax.set_ylabel(f'{label} ({unit})')
-    ax.set_title(title or f'{mech.name}: {label} versus {input}, every assembly mode')
+    modes = (
+        'every assembly mode'
+        if solver.mode is SolveMode.CLOSED_FORM
+        else ("the drawing's circuit, each Jacobian mode")
+    )
+    ax.set_title(title or f'{mech.name}: {label} versus {input}, {modes}')
     ax.grid(True, lw=0.3)
     if curves:
         ax.legend(fontsize=8, loc='best')

@@ -192,3 +192,19 @@ KNUCKLE_BOOM = {
         'fold': {'from': 'B2', 'to': 'J1', 'min': 1.30, 'max': 1.95},
     },
 }
+
+
+#: a Stephenson six-bar driven at its output link: Newton places crank, coupler, rocker and
+#: link5 (a hybrid plan); its crank turns fully over the drive's circuit
+STEPHENSON_DRIVEN_AT_ITS_OUTPUT = {
+    'name': 'stephenson',
+    'points': {
+        'O2': [0, 0], 'A': [0.04, 0.06], 'B': [0.25, 0.15], 'O4': [0.28, 0],
+        'C': [0.15, 0.25], 'D': [0.35, 0.30], 'O6': [0.45, 0.10],
+    },
+    'links': {
+        'ground': ['O2', 'O4', 'O6'], 'crank': ['O2', 'A'], 'coupler': ['A', 'B', 'C'],
+        'rocker': ['O4', 'B'], 'link5': ['C', 'D'], 'out': ['O6', 'D'],
+    },
+    'actuators': {'drive': {'type': 'angle', 'link': 'out', 'pivot': 'O6'}},
+}  # fmt: skip

@@ -17,8 +17,9 @@ closer except over a hole); ``--tilt LINK --lip POINT`` the largest rotation of 
 held at its reference position (or ``--hold X,Y``, from the link's angle ``--tilt-from``) within
 the actuator limits; ``--links`` the oscillation range of every moving link of two points or
 more; ``--plot`` draws the region (of ``--point``, else of the scene's first output point) and
-``--curves`` an output versus an input with every assembly mode. Angles are radians (degrees in
-parentheses), lengths metres.
+``--curves`` an output versus an input with every assembly mode (where Newton places the
+mechanism: the drawing's circuit in each loop-Jacobian mode, J+ and J-). Angles are radians
+(degrees in parentheses), lengths metres.
 
 JSON: {"scene" (the file, as linkage check's), "name", "inputs": {name: {"min", "max",
 "min_source", "max_source", "full_turn", "assembly", "drawn" (the reference pose's value, as
@@ -47,7 +48,7 @@ from ..core.errors import LinkageError
 from ..core.model import SlideActuator
 from ..core.units import Quantity, UnitError, degrees_warning, expect, parse_text
 from ..outputs import folder_refusal
-from .common import UsageError, add_scene_argument, load_mechanism
+from .common import UsageError, add_scene_argument, load_mechanism, say
 from .described import InputValues
 
 OK, REFUSED, USAGE_ERROR = 0, 1, 2
@@ -207,6 +208,7 @@ def _tilt_from(args) -> float | None:
 def analyse(args, mech) -> tuple[dict, int]:
     """Run the requested analyses; returns (report dict of plain data, exit status)."""
     from ..core import motion
+    from ..core.motion.quantities import link_swings
 
     acts, hold = _check(args, mech)
     report: dict[str, Any] = {
@@ -276,14 +278,22 @@ def analyse(args, mech) -> tuple[dict, int]:
             for l in (mech.prismatics[a.joint].guide, mech.prismatics[a.joint].slider)
         }
         free = motion.input_limits_lifted(mech, inp)  # (None: the input has no limits)
-        for link in mech.moving_links:
-            if link in cyl or len(mech.links[link].points) < 2:
-                continue
-            osc[link] = _swing(*motion.oscillation_range(mech, link, inp))
-            if free is not None:
-                # the lectures' question ("through what angle can link 4 oscillate") is the
-                # whole circuit, through the toggles the limits keep the input short of
-                osc[link]['without_limits'] = _swing(*motion.oscillation_range(free, link, inp))
+        links = [
+            link
+            for link in mech.moving_links
+            if link not in cyl and len(mech.links[link].points) >= 2
+        ]
+        try:
+            swings = link_swings(mech, links, inp)
+            # the lectures' question ("through what angle can link 4 oscillate") is the whole
+            # circuit, through the toggles the limits keep the input short of
+            lifted = {} if free is None else link_swings(free, links, inp)
+        except ValueError as exc:
+            raise UsageError(f'--links: {exc}') from None
+        for link in links:
+            osc[link] = _swing(*swings[link])
+            if link in lifted:
+                osc[link]['without_limits'] = _swing(*lifted[link])
         report['oscillation'] = {'input': inp, 'links': osc}
     if args.motion:
         from ..core.motion.quantities import quantities_report
@@ -486,7 +496,7 @@ def run(args) -> int:
         print(f'{PROG}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
     if args.json:
-        print(json.dumps(report, indent=2, allow_nan=False, default=float))
+        say(json.dumps(report, indent=2, allow_nan=False, default=float))
     else:
         _print_human(report, mech)
     return status

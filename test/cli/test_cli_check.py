@@ -306,3 +306,25 @@ def test_check_names_the_branch_of_an_extreme_where_the_circuit_passes_two(capsy
     assert {rocker['mode_at_min'], rocker['mode_at_max']} == {'+', '-'}
     rc, out, err = run(capsys, 'check', 'four_bar')
     assert rc == 0 and ' on branch ' not in out
+
+
+def test_range_links_of_a_newton_placed_mechanism(capsys, tmp_path):
+    """`linkage range --links` on a Stephenson six-bar driven at its output (Newton places four
+    links) ended in a traceback ('oscillation_range needs a closed-form plan', an outside scene
+    author). It sweeps the drive's circuit both ways: the crank turns fully, the rocker's max
+    is the four-bar O2-A-B-O4's by the cosine rule (|O2 B| = coupler - crank, B above O2 O4)."""
+    import yaml
+    from scenes import STEPHENSON_DRIVEN_AT_ITS_OUTPUT as scene
+
+    path = tmp_path / 'stephenson.yaml'
+    path.write_text(yaml.safe_dump(scene))
+    rc, out, err = run(capsys, 'range', str(path), '--links', '--json')
+    assert rc == 0, err
+    links = loads(out)['oscillation']['links']
+    assert links['crank']['full_turn'] and not links['rocker']['full_turn']
+    p = scene['points']
+    a, b = math.dist(p['O2'], p['A']), math.dist(p['A'], p['B'])
+    c, d = math.dist(p['O4'], p['B']), p['O4'][0]
+    x = ((b - a) ** 2 - c * c + d * d) / (2 * d)
+    want = math.atan2(math.sqrt((b - a) ** 2 - x * x), x - d)
+    assert abs(links['rocker']['max'] - want) < 1e-9, (links['rocker']['max'], want)

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..model import AngleActuator, Mechanism
 from ..model.names import NameKind, resolve_name
-from ..solver import Result, Solver
+from ..solver import Result, SolveMode, Solver
 from ..solver.result import NEWTON_TOL, branch_text, named_value
 from ..steps import RRRDyad
 from ..velocity import Velocities, velocities
@@ -215,29 +215,92 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
         else:
             raise ValueError(f'{act!r} has no bounded range to sweep')
         branch = branch_text(seg.signs) if seg.signs else 'continuous'
-        solver = Solver(mech, branch=branch)
-        # an end of the piece at its toggle: read at the toggle itself (common.past_toggle)
-        toggle_at = {
-            0: -1.0 if seg.lo_end[0] is EndKind.TOGGLE and grid[0] == seg.lo else 0.0,
-            len(grid) - 1: 1.0 if seg.hi_end[0] is EndKind.TOGGLE and grid[-1] == seg.hi else 0.0,
-        }
-        kept, results = [], []
-        for k, v in enumerate(grid):
-            outward = toggle_at.get(k, 0.0)
-            for past in past_toggle(float(v), outward) if outward else ():
-                if solver.solve({act: past}, commit=False).success:
-                    grid[k] = v = past
-                    break
-            r = solver.solve({act: float(v)})
-            if r.success:
-                kept.append(k)
-                results.append(r)
-            elif 0 < k < len(grid) - 1:  # (an end is a toggle: it may miss by rounding)
-                raise ValueError(f'{act} = {v:.9g} does not assemble: {r.reason}')
-        pieces.append(_Piece(solver, grid[kept], results))
+        piece = _swept(Solver(mech, branch=branch), act, seg, grid.copy())
+        pieces.append(piece)
+        if not seg.signs and not seg.full and piece.results:
+            # Newton places the mechanism (no dyad signs): the continuous sweep from the drawing
+            # follows one half of the circuit between the input's toggles; the half back is the
+            # loop Jacobian's other mode (its determinant changes sign at a toggle: a Stephenson
+            # six-bar driven at its output, whose crank turns fully over the two halves, was
+            # read as swinging over one; an outside scene author)
+            back = _half_back(mech, act, seg, grid, piece)
+            if back is not None:
+                pieces.append(back)
     if not any(p.results for p in pieces):
         raise ValueError(f'{act!r} has no range to sweep')
     return full, pieces
+
+
+def _swept(
+    solver: Solver, act: str, seg: Any, grid: np.ndarray, outward_from: float | None = None
+) -> _Piece:
+    """The piece of ``seg`` (a scan segment) that ``solver`` (its branch) solves over ``grid``
+    (the input's samples, in order; changed where an end is read past a toggle). With
+    ``outward_from`` (an input inside the grid where the solver's start lies) the samples are
+    solved from there up, then from there down (the solver's start again): each toggle is
+    approached, never stepped off, where Newton may take either half of the circuit."""
+    # an end of the piece at its toggle: read at the toggle itself (common.past_toggle)
+    toggle_at = {
+        0: -1.0 if seg.lo_end[0] is EndKind.TOGGLE and grid[0] == seg.lo else 0.0,
+        len(grid) - 1: 1.0 if seg.hi_end[0] is EndKind.TOGGLE and grid[-1] == seg.hi else 0.0,
+    }
+    order = list(range(len(grid)))
+    if outward_from is not None:
+        split = int(np.searchsorted(grid, outward_from))
+        order = order[split:] + [-1] + order[:split][::-1]  # (-1: back to the start)
+    got: dict[int, Result] = {}
+    for k in order:
+        if k < 0:
+            solver.reset()
+            continue
+        v = grid[k]
+        outward = toggle_at.get(k, 0.0)
+        for past in past_toggle(float(v), outward) if outward else ():
+            if solver.solve({act: past}, commit=False).success:
+                grid[k] = v = past
+                break
+        r = solver.solve({act: float(v)})
+        if r.success:
+            got[k] = r
+        elif 0 < k < len(grid) - 1:  # (an end is a toggle: it may miss by rounding)
+            raise ValueError(f'{act} = {v:.9g} does not assemble: {r.reason}')
+    kept = sorted(got)
+    return _Piece(solver, grid[kept], [got[k] for k in kept])
+
+
+#: how close (of the length scale) the half back's ends must come to the first half's, at the
+#: toggles where the two meet, to be the same circuit (another circuit's configuration at those
+#: inputs is a finite distance away; at a toggle read to ~1e-11 of the input the halves meet to
+#: ~sqrt(1e-11))
+_HALVES_MEET = 1e-3
+
+
+def _half_back(
+    mech: Mechanism, act: str, seg: Any, grid: np.ndarray, first: _Piece
+) -> _Piece | None:
+    """The other half of a Newton-placed circuit between its two toggles (``seg``: a segment
+    with no dyad signs, toggles at both ends): swept in the loop Jacobian's other mode than
+    ``first``'s, kept only where it meets ``first`` at both toggles (the same circuit, not
+    another one in that mode); None otherwise."""
+    if not (seg.lo_end[0] is EndKind.TOGGLE and seg.hi_end[0] is EndKind.TOGGLE):
+        return None
+    labels = [r.branch for r in first.results]
+    drawn = max(set(labels), key=labels.count)
+    if drawn not in ('J+', 'J-'):
+        return None
+    try:  # (from the drawing's input: the other mode's start lies there, as start() takes it)
+        other = _swept(
+            Solver(mech, branch='J-' if drawn == 'J+' else 'J+'), act, seg, grid.copy(), seg.seed
+        )
+    except ValueError:  # (that mode's root there lies on no circuit through both toggles)
+        return None
+    if not other.results:
+        return None
+    reach = _HALVES_MEET * mech.length_scale
+    for a, b in ((first.results[0], other.results[0]), (first.results[-1], other.results[-1])):
+        if max(math.dist(a.points[p], b.points[p]) for p in a.points) > reach:
+            return None
+    return other
 
 
 def _arc_start(raw: list[np.ndarray], closed: bool) -> float | None:
@@ -305,7 +368,10 @@ def input_sweep(
     a few ulps, so the dead-centre inputs, swing, stroke and time ratio are exact to about 1e-15
     relative (tested to 1e-12 against the closed forms for ten drawings each; where the closed
     form is ill-conditioned, as a quick-return's time ratio with r/d near 1, to its condition
-    number times a few eps). Where the rate does not change sign between those samples it is
+    number times a few eps; a swing or stroke is max - min, so relative to itself its rounding
+    is about eps * |max| / stroke: 1e-12 for a 1 mm crank's stroke of a slider 10 m out, an
+    outside reviewer's case; where Newton places the mechanism, each value to its tolerance).
+    Where the rate does not change sign between those samples it is
     looked for in sixteen finer steps between them (a lever that flips between its extremes
     within one step); where it changes sign in none (an extreme at an end of the range, where
     the input toggles) the value is minimised by golden-section search to ``tol`` of the input
@@ -492,4 +558,29 @@ def quantities_report(mech: Mechanism) -> dict[str, Any] | None:
         },
         'turns_fully': list(sweep.turns_fully),
         'transmission_angle': {k: ext(e) for k, e in sweep.transmission.items()},
+    }
+
+
+def link_swings(
+    mech: Mechanism, links: list[str], actuator: str
+) -> dict[str, tuple[float | None, float | None]]:
+    """(min, max) of each link's angle (rad; (None, None): it turns fully) over ``actuator``'s
+    circuit, the others held: oscillation.oscillation_range where a closed-form plan places the
+    mechanism; where Newton does, the circuit swept both ways between its toggles
+    (:func:`input_sweep`: one actuator only). ValueError where neither applies."""
+    from .oscillation import oscillation_range
+
+    if Solver(mech).mode is SolveMode.CLOSED_FORM:
+        return {link: oscillation_range(mech, link, actuator) for link in links}
+    if len(mech.actuators) != 1:
+        raise ValueError(
+            f'{mech.name!r} is placed by Newton and has {len(mech.actuators)} actuators: link '
+            'swings are swept for one actuator only'
+        )
+    sweep = input_sweep(mech, [f'link:{link}' for link in links])
+    return {
+        link: (None, None)
+        if f'link:{link}' in sweep.turns_fully
+        else (sweep.outputs[f'link:{link}'].minimum, sweep.outputs[f'link:{link}'].maximum)
+        for link in links
     }

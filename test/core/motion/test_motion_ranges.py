@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 import yaml
 from motion_helpers import TWO_PI, ang, circ, circle_meet, named_scene
-from scenes import CONFIG
+from scenes import CONFIG, STEPHENSON_DRIVEN_AT_ITS_OUTPUT
 from scenes import four_bar as fourbar
 
 from linkage_ros.core import motion
@@ -253,6 +253,47 @@ def test_plots_write_pngs_with_both_branches(tmp_path):
     assert reg['method'] == 'path' and reg['area'] == 0.0
     p = plot_region(mech, reg, tmp_path / 'region.png')
     assert Path(p).stat().st_size > 5000
+
+
+def test_the_curves_of_a_newton_placed_mechanism_draw_both_halves_of_its_circuit(tmp_path):
+    """A Stephenson six-bar driven at its output (Newton places it): the curves drew one
+    Jacobian mode, half the drive's circuit, under the title 'every assembly mode' (an outside
+    scene author). Both modes are drawn now: the crank, the Grashof crank of the four-bar
+    O2-A-B-O4 inside it, turns fully over the two, and each plotted pose closes the loop the
+    drive is in (D, where out puts it, at |C D| from C; C placed by the crank's four-bar:
+    checked with the crank four-bar's own circle intersection)."""
+    from linkage_ros.core.model import Scene
+    from linkage_ros.plots import plot_output_vs_input
+
+    scene = STEPHENSON_DRIVEN_AT_ITS_OUTPUT
+    mech = Scene.from_dict(scene).mechanism
+    d = plot_output_vs_input(mech, 'drive', 'crank', tmp_path / 'c.png', samples=181)
+    assert set(d['branches']) == {'J+', 'J-'}
+    cranks = np.sort(np.mod([v for br in d['branches'].values() for v in br['output']], TWO_PI))
+    gaps = np.diff(np.append(cranks, cranks[0] + TWO_PI))
+    assert gaps.max() < 0.1  # the crank's samples go all the way round
+    P = {k: np.array(v, float) for k, v in scene['points'].items()}
+    a, b, c = (np.linalg.norm(P[q] - P[p]) for p, q in (('O2', 'A'), ('A', 'B'), ('O4', 'B')))
+    cd, out = np.linalg.norm(P['D'] - P['C']), np.linalg.norm(P['D'] - P['O6'])
+    for br in d['branches'].values():
+        for drive, crank in list(zip(br['input'], br['output']))[::20]:
+            A = a * np.array([math.cos(crank), math.sin(crank)])
+            Bs = [circle_meet(A, b, P['O4'], c, sd) for sd in (1, -1)]  # the four-bar's two B
+            D = P['O6'] + out * np.array([math.cos(drive), math.sin(drive)])
+            ab0, ac0 = P['B'] - P['A'], P['C'] - P['A']
+            miss = []
+            for B in Bs:
+                if B is None:
+                    continue
+                rot = math.atan2(*(B - A)[::-1]) - math.atan2(*ab0[::-1])
+                C = A + np.array(
+                    [
+                        ac0[0] * math.cos(rot) - ac0[1] * math.sin(rot),
+                        ac0[0] * math.sin(rot) + ac0[1] * math.cos(rot),
+                    ]
+                )
+                miss.append(abs(np.linalg.norm(D - C) - cd))
+            assert min(miss) < 1e-9, (drive, crank, miss)
 
 
 def test_the_curves_of_a_grashof_double_rocker_show_both_loops(tmp_path):

@@ -9,7 +9,7 @@ import math
 
 import pytest
 from oracles import fourbar as oracle
-from scenes import load
+from scenes import STEPHENSON_DRIVEN_AT_ITS_OUTPUT, load
 
 from linkage_ros.core.motion.quantities import (
     classical_outputs,
@@ -218,3 +218,54 @@ def test_an_extreme_on_a_circuit_through_two_modes_names_the_mode_it_is_in():
     assert rocker['mode_at_min'] != rocker['mode_at_max']
     one = quantities_report(load('four_bar'))['outputs']['link:rocker']
     assert 'mode_at_min' not in one and 'mode_at_max' not in one
+
+
+def test_a_newton_placed_circuit_is_swept_over_both_halves_between_its_toggles():
+    """A Stephenson six-bar driven at its output (Newton places crank, coupler, rocker, link5):
+    `check` read one half of the drive's circuit between its toggles (a continuous sweep from
+    the drawing) and reported the crank swinging 2.77 rad and the rocker's max 0.107 rad short
+    (an outside scene author). Over both halves (the loop Jacobian's two modes) the crank
+    turns fully, and the rocker's extremes are those of the four-bar O2-A-B-O4 inside it, by
+    the cosine rule: |O2 B| = coupler + crank (min) and coupler - crank (max), B on the drawn
+    side of the ground line; the drive there puts D on both of its circles."""
+    from linkage_ros.core.model import Scene
+
+    mech = Scene.from_dict(STEPHENSON_DRIVEN_AT_ITS_OUTPUT).mechanism
+    sweep = input_sweep(mech, ['link:rocker', 'link:crank'])
+    assert sweep.turns_fully == ('link:crank',)
+    P = {k: tuple(map(float, v)) for k, v in STEPHENSON_DRIVEN_AT_ITS_OUTPUT['points'].items()}
+    a, b = math.dist(P['O2'], P['A']), math.dist(P['A'], P['B'])
+    c, d = math.dist(P['O4'], P['B']), P['O4'][0]
+    rock = sweep.outputs['link:rocker']
+    # Newton's answers: within its tolerance (of the length scale) at the rocker's lever c
+    from linkage_ros.core.tolerances import NEWTON_TOL
+
+    bound = 10 * NEWTON_TOL * mech.length_scale / c
+    for reach, got, drive in (
+        (a + b, rock.minimum, rock.input_at_min),  # (B farthest from O2: the rocker lowest)
+        (b - a, rock.maximum, rock.input_at_max),
+    ):
+        x = (reach * reach - c * c + d * d) / (2 * d)
+        bx, by = x, math.sqrt(reach * reach - x * x)
+        assert abs(got - math.atan2(by, bx - d)) < bound, (got, math.atan2(by, bx - d))
+        # the drive there: the crank along (min) or against (max) O2 B, the coupler's C placed
+        # by its pose, D where link5 from C meets out from O6
+        t = math.atan2(by, bx)
+        A = (
+            (a * math.cos(t), a * math.sin(t))
+            if reach == a + b
+            else (-a * math.cos(t), -a * math.sin(t))
+        )
+        phi = math.atan2(by - A[1], bx - A[0]) - math.atan2(
+            P['B'][1] - P['A'][1], P['B'][0] - P['A'][0]
+        )
+        cx0, cy0 = P['C'][0] - P['A'][0], P['C'][1] - P['A'][1]
+        C = (
+            A[0] + cx0 * math.cos(phi) - cy0 * math.sin(phi),
+            A[1] + cx0 * math.sin(phi) + cy0 * math.cos(phi),
+        )
+        D = (
+            P['O6'][0] + math.dist(P['O6'], P['D']) * math.cos(drive),
+            P['O6'][1] + math.dist(P['O6'], P['D']) * math.sin(drive),
+        )
+        assert abs(math.dist(C, D) - math.dist(P['C'], P['D'])) < 1e-9, (drive, math.dist(C, D))
