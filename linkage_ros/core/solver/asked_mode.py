@@ -5,8 +5,13 @@ margin, below which an answer is in either mode."""
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import Any
 
-from ..steps import BranchRule
+from ..ops import SCALAR
+from ..plan.compile import Step
+from ..plan.geometry import step_geometry
+from ..steps import BranchRule, RRRDyad
 from .compiled import CompiledSolve
 from .continuity import Continuity, State
 
@@ -54,6 +59,31 @@ def fold_margin(c: CompiledSolve) -> float:
     (a change point's at tol 1e-12: margin ~2e-6). The closed form's own test of a fold
     passed is execute.CROSSING_MARGIN: its answers are exact to rounding."""
     return 10.0 * math.sqrt(c.tol)
+
+
+def on_fold(
+    c: CompiledSolve, step: Step, margin: float, pts: Mapping[str, complex], rot: Mapping[str, Any]
+) -> bool:
+    """Is a Newton answer on a fold at the branching ``step`` (its ``margin`` read off the
+    answer, ``pts`` and ``rot`` its points and link rotations), where its sign is either: the
+    margin within fold_margin, and the point that close to the line of its two centres (the
+    side step_geometry reads), or the centres one point to Newton's accuracy (fold_margin^2 =
+    100 tol of the scale: two circles of one radius there are one circle, every point of it in
+    either mode, as a Peaucellier cell folded shut puts A on B). Two circles merely nearly
+    concentric (a chain next to a change point, its centres ~1e-8 of the scale apart) have a
+    margin near 0 too, while their two points lie far apart, each in its own mode: an answer
+    in the other was reported in the asked one (an outside reviewer: 0.46 of the scale away)."""
+    fold = fold_margin(c)
+    if margin > fold:
+        return False
+    side, _ = step_geometry(SCALAR, c.full_plan.mech, step, pts, rot)
+    if abs(float(side)) <= fold:
+        return True
+    args = step.args
+    if isinstance(args, RRRDyad):
+        gap = abs(pts[args.centre_a] - pts[args.centre_b])
+        return bool(gap <= fold * fold * c.full_plan.mech.length_scale)
+    return False
 
 
 #: the branch rules that ask for given signs (an answer in another mode is refused)

@@ -29,7 +29,7 @@ from ..newton.scalar import DenseKernel, cond_of, solve_from_guess
 from ..plan import branch_geometry_one, rollers_off_drawn_side, run_one
 from ..quantities import AngleSpec
 from ..steps import RollerSide
-from .asked_mode import asked_signs, fold_margin, full_plan_signs, resumed_state
+from .asked_mode import asked_signs, full_plan_signs, on_fold, resumed_state
 from .compiled import CompiledSolve, SolveMode, Values
 from .continuity import BranchRule, Continuity, State, state_of
 from .crossing import interpolate
@@ -488,6 +488,18 @@ def solve_newton(
             if rm is not None:
                 r, _, fixed = path.walk(around, rm.x, vals, 0, rm.det_sign)
             iterations = path.iterations
+        if r is None and c.full_plan.complete:
+            # the walk stalled where the closed form assembles this input on the branch (next
+            # to a toggle of a chain near a change point, Newton from the last answer may crawl
+            # at a nearly singular J: an outside reviewer's four-bar 1, 1, 1, 1.001): Newton
+            # from the closed form's answer in the branch's signs, as a start without history
+            run = run_one(c.full_plan, vals, check_signs, None)
+            if run.ok:
+                path = CarefulPath(c, branches, iterations, 0)
+                r, _, fixed = path.walk(
+                    vals, c.sub_x(c.check_system.x_from_poses(run.poses)), vals, 0
+                )
+                iterations = path.iterations
         if r is not None:
             xs = r.x.tolist()
             if branches:
@@ -506,7 +518,8 @@ def solve_newton(
         )
     if want is not None:
         if signs_t != want and all(
-            s == w or m <= fold_margin(c) for s, w, m in zip(signs_t, want, margins)
+            s == w or on_fold(c, st, m, pts, poses.rot)
+            for s, w, m, st in zip(signs_t, want, margins, c.full_plan.branch_steps)
         ):
             signs_t = want  # (on a fold: this configuration is in either mode, as Newton has it)
         if signs_t != want and last is not None:
