@@ -219,10 +219,11 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
         pieces.append(piece)
         if not seg.signs and not seg.full and piece.results:
             # Newton places the mechanism (no dyad signs): the continuous sweep from the drawing
-            # follows one half of the circuit between the input's toggles; the half back is the
-            # loop Jacobian's other mode (its determinant changes sign at a toggle: a Stephenson
-            # six-bar driven at its output, whose crank turns fully over the two halves, was
-            # read as swinging over one; an outside scene author)
+            # follows one half of the circuit (between the input's toggles, or a toggle and a
+            # limit); the way back is the loop Jacobian's other mode (its determinant changes
+            # sign at a toggle: a Stephenson six-bar driven at its output, whose crank turns
+            # fully over the two halves, was read as swinging over one, an outside scene
+            # author; a cylinder-driven triad stopped at its cylinder's dead centre)
             back = _half_back(mech, act, seg, grid, piece)
             if back is not None:
                 pieces.append(back)
@@ -278,11 +279,12 @@ _HALVES_MEET = 1e-3
 def _half_back(
     mech: Mechanism, act: str, seg: Any, grid: np.ndarray, first: _Piece
 ) -> _Piece | None:
-    """The other half of a Newton-placed circuit between its two toggles (``seg``: a segment
-    with no dyad signs, toggles at both ends): swept in the loop Jacobian's other mode than
-    ``first``'s, kept only where it meets ``first`` at both toggles (the same circuit, not
-    another one in that mode); None otherwise."""
-    if not (seg.lo_end[0] is EndKind.TOGGLE and seg.hi_end[0] is EndKind.TOGGLE):
+    """The way back of a Newton-placed circuit from its toggles (``seg``: a segment with no dyad
+    signs, a toggle at one end or both, a limit at the other): swept in the loop Jacobian's
+    other mode than ``first``'s, kept only where it meets ``first`` at each toggle (the same
+    circuit, not another one in that mode); None otherwise."""
+    toggles = [k for k, end in ((0, seg.lo_end), (-1, seg.hi_end)) if end[0] is EndKind.TOGGLE]
+    if not toggles:
         return None
     labels = [r.branch for r in first.results]
     drawn = max(set(labels), key=labels.count)
@@ -297,7 +299,10 @@ def _half_back(
     if not other.results:
         return None
     reach = _HALVES_MEET * mech.length_scale
-    for a, b in ((first.results[0], other.results[0]), (first.results[-1], other.results[-1])):
+    for k in toggles:
+        if first.grid[k] != other.grid[k]:  # (an end sample that did not solve: unmatched)
+            return None
+        a, b = first.results[k], other.results[k]
         if max(math.dist(a.points[p], b.points[p]) for p in a.points) > reach:
             return None
     return other

@@ -269,3 +269,58 @@ def test_a_newton_placed_circuit_is_swept_over_both_halves_between_its_toggles()
             P['O6'][1] + math.dist(P['O6'], P['D']) * math.sin(drive),
         )
         assert abs(math.dist(C, D) - math.dist(P['C'], P['D'])) < 1e-9, (drive, math.dist(C, D))
+
+
+def test_a_newton_placed_circuit_goes_back_from_its_cylinders_dead_centre():
+    """A triad driven by a cylinder P-C on its coupler (Newton places it): the cylinder's
+    stroke ends at a limit (1.3 m) and at its dead centre (1.5001 m), and the crank was read
+    stopping at the dead centre (max 1.40137 rad); through it the motion goes back to the
+    limit in the other Jacobian mode (an outside hydraulics engineer: crank 2.32864 at 1.3 m).
+    Oracle: the four-bar O2-A-B-O4 (B on the drawing's side of O4 A) carries C; the crank
+    angles where |P C| = 1.3 are the two roots, found by brentq on the cosine-rule four-bar."""
+    from scipy.optimize import brentq
+
+    from linkage_ros.core.model import Scene
+
+    pts = {
+        'O2': (0.0, 0.0), 'O4': (1.0, 0.0), 'P': (0.5, -0.6), 'A': (0.1, 0.5),
+        'B': (0.9, 0.6), 'C': (0.5, 0.9), 'T': (0.6, 1.3),
+    }  # fmt: skip
+    scene = {
+        'name': 'triad',
+        'points': {k: list(v) for k, v in pts.items()},
+        'links': {
+            'ground': ['O2', 'O4', 'P'],
+            'crank': ['O2', 'A'],
+            'coupler': ['A', 'B', 'C', 'T'],
+            'rocker': ['O4', 'B'],
+        },
+        'cylinders': {'Z': {'from': 'P', 'to': 'C', 'min': 1.3, 'max': 1.7}},
+    }
+    mech = Scene.from_dict(scene).mechanism
+    sweep = input_sweep(mech, ['link:crank'])
+    crank = sweep.outputs['link:crank']
+    a = math.dist(pts['O2'], pts['A'])
+    b, c = math.dist(pts['A'], pts['B']), math.dist(pts['O4'], pts['B'])
+    ab0 = math.atan2(pts['B'][1] - pts['A'][1], pts['B'][0] - pts['A'][0])
+    ac0 = math.atan2(pts['C'][1] - pts['A'][1], pts['C'][0] - pts['A'][0])
+    ac = math.dist(pts['A'], pts['C'])
+
+    def pc(t: float) -> float:
+        ax, ay = a * math.cos(t), a * math.sin(t)
+        dx, dy = 1.0 - ax, -ay
+        d = math.hypot(dx, dy)
+        along = (b * b - c * c + d * d) / (2 * d)
+        h = math.sqrt(b * b - along * along)
+        bx, by = ax + (along * dx - h * dy) / d, ay + (along * dy + h * dx) / d  # left of A O4
+        phi = math.atan2(by - ay, bx - ax) - ab0 + ac0
+        cx, cy = ax + ac * math.cos(phi), ay + ac * math.sin(phi)
+        return math.hypot(cx - pts['P'][0], cy - pts['P'][1]) - 1.3
+
+    # (the four-bar is non-Grashof: its crank reaches acos(-0.73) = 2.39 rad)
+    roots = [brentq(pc, lo, hi, xtol=1e-15) for lo, hi in ((0.1, 0.9), (2.0, 2.38))]
+    assert abs(crank.minimum - roots[0]) < 1e-9 and abs(crank.maximum - roots[1]) < 1e-9, (
+        crank,
+        roots,
+    )
+    assert abs(crank.input_at_min - 1.3) < 1e-12 and abs(crank.input_at_max - 1.3) < 1e-12
