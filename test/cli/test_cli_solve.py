@@ -543,7 +543,8 @@ def test_a_forward_command_of_two_actuators_out_of_reach_is_told_its_edge(capsys
     d = loads(out)
     assert rc == 1 and d['status'] == 'error'
     head = d['reason'].split('; cannot assemble')[0]
-    assert head.startswith('q1 = 3.1 rad with q2 as given is out of reach: on the straight way')
+    # (named by the crank moved furthest: q2, pi/2 of a turn against q1's 1.53 rad)
+    assert head.startswith('q2 = 0 rad with q1 as given is out of reach: on the straight way')
     frac = float(head.split('reachable ')[1].split(' of the way')[0])
     q1 = math.pi / 2 + frac * (3.1 - math.pi / 2)  # (both from the drawing: pi/2)
     q2 = math.pi / 2 + frac * (0.0 - math.pi / 2)
@@ -551,4 +552,32 @@ def test_a_forward_command_of_two_actuators_out_of_reach_is_told_its_edge(capsys
     b = (0.2 + 0.15 * math.cos(q2), 0.15 * math.sin(q2))
     reach = 2 * math.hypot(0.1, 0.15)  # |A P| + |P B|
     assert abs(math.dist(a, b) - reach) < 1e-5  # (the fraction's 6 digits)
-    assert f'up to q1 = {q1:.6g} rad' in head
+    edge = float(head.split('up to q2 = ')[1].split(' rad')[0])
+    assert abs(edge - q2) < 1e-5, (edge, q2)  # (the fraction's 6 digits)
+
+
+CRANE = """name: crane
+points: {O: [0, 2], P: [0.3, 0.8], Q: [1.2, 2.3], R: [1.8, 2.9], U: [3.6, 3.6], K: [4, 3.2],
+         M: [3.9, 3.9], V: [4.3, 3.7], T: [6.5, 1.5]}
+links: {ground: [O, P], main: [O, K, Q, R, U], jib: [K, V, T], la: [U, M], lb: [M, V]}
+cylinders: {lift: {from: P, to: Q, min: 1.5, max: 2.3}, fold: {from: R, to: M, min: 1.9, max: 2.9}}
+outputs: [T]
+"""
+
+
+@pytest.mark.parametrize('lift', [None, '1.8'])
+def test_a_cylinder_past_its_dead_centre_is_named_with_its_edge(capsys, tmp_path, lift):
+    """A knuckle-boom crane's fold cylinder commanded past its dead centre (|R M| can be at
+    most |R U| + |U M|, the link la folded straight), the lift held or moved a little: the
+    refusal named the lift ('lift = 1.74929 m ... 2.22045e-16 m short', an outside hydraulics
+    engineer). It names the known moved furthest, the fold, and its edge: the dead centre."""
+    scene = tmp_path / 'crane.yaml'
+    scene.write_text(CRANE)
+    args = ['--set', 'fold=2.5'] + ([] if lift is None else ['--set', f'lift={lift}'])
+    rc, out, _ = run(capsys, 'solve', scene, *args, '--json')
+    d = loads(out)
+    assert rc == 1 and d['status'] == 'error'
+    head = d['reason'].split('; cannot assemble')[0]
+    assert head.startswith('fold = 2.5 m with lift as '), head
+    dead = math.dist((1.8, 2.9), (3.6, 3.6)) + math.dist((3.6, 3.6), (3.9, 3.9))
+    assert f'up to fold = {dead:.6g} m, {2.5 - dead:.6g} m short' in head, (head, dead)

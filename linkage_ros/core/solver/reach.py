@@ -94,7 +94,9 @@ def reach_edge(
     keeps: Callable[[Result], bool] | None = None,
 ) -> ReachEdge | None:
     """Where the (first) point target of ``values`` (a command of ``solver``, refused), else its
-    first coordinate known, else (``scalars``) its first joint, link or slide value, stops
+    first coordinate known, else (``scalars``) the joint, link or slide value it moves furthest
+    (of a turn, or of the length scale: a crane's fold cylinder commanded past its dead centre
+    with the lift held was named as the lift, 2e-16 m short), stops
     being reachable on the way from ``here`` (the current configuration, a Result of this
     mechanism) to the target, every known moved together (angles the short way round); None
     when the solve has none of them, gives two points of one link, or ``here`` is not a
@@ -105,11 +107,8 @@ def reach_edge(
     k = next((i for i, s in enumerate(c.specs) if isinstance(s, PointSpec)), None)
     if k is None:
         k = next((i for i, s in enumerate(c.specs) if isinstance(s, CoordinateSpec)), None)
-    if k is None and scalars and c.specs:
-        k = 0  # (a rocker's angle, a slide: out of reach where the mechanism turns back)
-    if k is None or c.point_pairs:
+    if k is None and not (scalars and c.specs) or c.point_pairs:
         return None
-    spec = c.specs[k]
     got = configuration_of(c, here)
     try:
         target = c.parse(values)
@@ -118,6 +117,16 @@ def reach_edge(
     if got is None:
         return None
     start = known_values(c, got[1])
+    if k is None:  # (a rocker's angle, a slide: out of reach where the mechanism turns back)
+        ends = interpolate(c, start, target, 1.0)
+        k = max(
+            range(len(c.specs)),
+            key=lambda i: (
+                _span(c.specs[i], start[i], ends[i])
+                / (2 * math.pi if c.specs[i].unit == 'rad' else c.mech.length_scale)
+            ),
+        )
+    spec = c.specs[k]
 
     def command(s: float) -> dict[str, Any]:
         vals = interpolate(c, start, target, s)
