@@ -9,7 +9,10 @@ Input ranges are found with the other actuators held at their reference-pose val
 is a toggle of the assembly, refined to 1e-12 in closed form; where Newton places the scene, the
 last value its solve closes to its tolerance, up to ~1e-10 past the toggle; or the scene's
 limit). ``--point`` adds the region the point reaches while the actuators that move it run over
-their limits (the four extreme arcs for two actuators: area and extent to about 1e-9; else the
+their limits in the drawing's assembly mode (a motion on through a dead centre into another
+mode is not followed there; ``--links`` and ``--motion`` follow the input's circuit through
+its toggles, as the lectures' range of oscillation does)
+(the four extreme arcs for two actuators: area and extent to about 1e-9; else the
 samples' concave hull, an estimate: it bridges notches narrower than 2.5 sample spacings and
 fills holes, and its extent is the samples': measured off by 0.9 % (the excavator's L) to 37 %
 (a folding map at the default --samples 41), a hole filled in whole; more --samples bring it
