@@ -87,6 +87,8 @@ def _note_twin(mech, solver, command, r: Result, engine) -> None:
     if not r.success or not (coordinate or solver.mode is SolveMode.CLOSED_FORM):
         return
     far = 1e-6 * mech.length_scale
+    told: list[str] = []  # every other solution in the answer's mode (a five-bar's target point
+    # has three in one mode: the note named one, an outside scene author)
     for other in solver.modes(command).results:
         if other.branch != r.branch or not other.success:
             continue
@@ -102,13 +104,15 @@ def _note_twin(mech, solver, command, r: Result, engine) -> None:
             default=0.0,
         )
         if gap > far:
-            told = ', '.join(f'{a} = {v:.9g}' for a, v in given.items())
-            print(
-                f'note: another solution in assembly mode {r.branch or "(one mode)"}: {told}; '
-                '--all-branches lists every solution',
-                file=sys.stderr,
-            )
-            return
+            told.append(', '.join(f'{a} = {v:.9g}' for a, v in given.items()))
+    if told:
+        mode = r.branch or '(one mode)'
+        what = 'another solution' if len(told) == 1 else f'{len(told)} other solutions'
+        print(
+            f'note: {what} in assembly mode {mode}: {"; ".join(told)}; '
+            '--all-branches lists every solution',
+            file=sys.stderr,
+        )
 
 
 def cmd_solve(args) -> int:

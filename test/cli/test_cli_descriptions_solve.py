@@ -513,14 +513,18 @@ def test_the_twin_note_speaks_the_descriptions_values_and_its_limits(capsys, tmp
         capsys, *args, '--target-point', f'{"closedloop1_A__closedloop1_B"}={target}', '--json'
     )
     assert rc == 0, err
-    (note,) = [ln for ln in err.splitlines() if 'another solution' in ln]
-    twin = dict(re.findall(r'(\w+) = ([-0-9.e]+)', note.partition(': ')[2].partition(';')[0]))
-    assert set(twin) == {'mot1', 'mot2'}
-    sets = [w for k, v in twin.items() for w in ('--set', f'{k}={v}')]
-    rc, out, err = run(capsys, *args, *sets, '--branch', json.loads(out)['branch'], '--json')
-    assert rc == 0, err
-    got = json.loads(out)['points']['closedloop1_A__closedloop1_B']
-    assert math.dist(got, (0.05, -0.8)) < 1e-8  # (the note's 9 digits)
+    (note,) = [ln for ln in err.splitlines() if 'other solution' in ln]
+    # (each solution the note names: every one in the mode, separated by '; ')
+    listed = note.partition(' in assembly mode ')[2].partition(': ')[2].split('; --all')[0]
+    branch = json.loads(out)['branch']
+    for item in listed.split('; '):
+        twin = dict(re.findall(r'(\w+) = ([-0-9.e]+)', item))
+        assert set(twin) == {'mot1', 'mot2'}
+        sets = [w for k, v in twin.items() for w in ('--set', f'{k}={v}')]
+        rc, out, err = run(capsys, *args, *sets, '--branch', branch, '--json')
+        assert rc == 0, err
+        got = json.loads(out)['points']['closedloop1_A__closedloop1_B']
+        assert math.dist(got, (0.05, -0.8)) < 1e-8  # (the note's 9 digits)
 
     grbda = FIXTURES / 'grbda_four_bar.urdf'
     rc, _, err = run(capsys, 'solve', grbda, '--target', 'joint3=0.5')

@@ -9,6 +9,7 @@ import json
 import math
 
 import pytest
+import yaml
 from cli_helpers import CP, CR, freudenstein_residual, loads, run
 from scenes import CONFIG
 
@@ -581,3 +582,57 @@ def test_a_cylinder_past_its_dead_centre_is_named_with_its_edge(capsys, tmp_path
     assert head.startswith('fold = 2.5 m with lift as '), head
     dead = math.dist((1.8, 2.9), (3.6, 3.6)) + math.dist((3.6, 3.6), (3.9, 3.9))
     assert f'up to fold = {dead:.6g} m, {2.5 - dead:.6g} m short' in head, (head, dead)
+
+
+def test_the_note_names_every_other_solution_in_the_answers_mode(capsys, tmp_path):
+    """A five-bar's point target has four solutions, three in one assembly mode (each arm's
+    two elbows, one combination in the other mode): the note named one of the two others (an
+    outside scene author). Oracle: each arm's angles are where its crank circle meets the
+    circle about C of its coupler's length."""
+    scene = tmp_path / 'fivebar.yaml'
+    pts = {'O1': (0, 0), 'O2': (0.2, 0), 'A': (0.05, 0.1), 'B': (0.22, 0.12), 'C': (0.12, 0.28)}
+    scene.write_text(
+        yaml.safe_dump(
+            {
+                'name': 'fivebar',
+                'points': {k: list(v) for k, v in pts.items()},
+                'links': {
+                    'ground': ['O1', 'O2'],
+                    'c1': ['O1', 'A'],
+                    'c2': ['O2', 'B'],
+                    'l1': ['A', 'C'],
+                    'l2': ['B', 'C'],
+                },
+                'actuators': {
+                    'a1': {'type': 'angle', 'link': 'c1', 'pivot': 'O1'},
+                    'a2': {'type': 'angle', 'link': 'c2', 'pivot': 'O2'},
+                },
+            }
+        )
+    )
+    target = (0.1, 0.25)
+
+    def arm_angles(o, tip):  # the crank angles putting the arm's tip |tip C| from C
+        r1, r2 = math.dist(pts[o], pts[tip]), math.dist(pts[tip], pts['C'])
+        dx, dy = target[0] - pts[o][0], target[1] - pts[o][1]
+        d = math.hypot(dx, dy)
+        along = (r1 * r1 - r2 * r2 + d * d) / (2 * d)
+        h = math.sqrt(r1 * r1 - along * along)
+        base = math.atan2(dy, dx)
+        return [base + s * math.atan2(h, along) for s in (1, -1)]
+
+    a1s, a2s = arm_angles('O1', 'A'), arm_angles('O2', 'B')
+    rc, out, err = run(capsys, 'solve', scene, '--target-point', 'C=0.1,0.25', '--json')
+    assert rc == 0
+    answer = loads(out)['inputs']
+    (note,) = [ln for ln in err.splitlines() if ln.startswith('note: ')]
+    assert note.startswith('note: 2 other solutions in assembly mode +: '), note
+    listed = note.split(': ', 2)[2].split('; --all-branches')[0].split('; ')
+    pairs = {(answer['a1'], answer['a2'])}
+    for item in listed:
+        got = dict(kv.split(' = ') for kv in item.split(', '))
+        pairs.add((float(got['a1']), float(got['a2'])))
+    assert len(pairs) == 3
+    for a1, a2 in pairs:
+        assert min(abs(math.remainder(a1 - w, 2 * math.pi)) for w in a1s) < 1e-8
+        assert min(abs(math.remainder(a2 - w, 2 * math.pi)) for w in a2s) < 1e-8
