@@ -4,6 +4,7 @@ scene, building a solve, output formatting."""
 from __future__ import annotations
 
 import argparse
+import errno
 import json
 import math
 import os
@@ -12,7 +13,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..core.errors import CommandError
+from ..core.errors import CommandError, LinkageError
 from ..core.model import SlideActuator
 from ..core.model.names import point_coordinate
 from ..core.quantities import AngleSpec, PointSpec
@@ -322,13 +323,47 @@ def stdout_gone() -> None:
     os.close(devnull)
 
 
-def say(text: str) -> None:
+def say(text: str = '') -> None:
     """print(text) on stdout: a reader that has stopped ends the printing, not the command
     (a summary nobody reads changes no outcome)."""
     try:
         print(text)
     except BrokenPipeError:
         stdout_gone()
+
+
+#: write errors of a standard output that cannot take more (a full disk, a quota, /dev/full)
+_STDOUT_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO)
+
+
+def run_command(prog: str, func: Any, args: argparse.Namespace) -> int:
+    """``func(args)``'s exit status, as every command (``linkage X`` and ``python -m``'s
+    stand-alone entry points) ends: a usage or linkage error one line on stderr (2), Ctrl-C
+    the shell's 130, stdout's write errors said (a full disk) or, where its reader stopped
+    (`| head`), the command's own status (what it printed through say went to os.devnull)."""
+    try:
+        code = int(func(args))
+        try:
+            sys.stdout.flush()  # (here: a write error is this command's, not the interpreter's)
+        except BrokenPipeError:  # `linkage bag ... | true`: the work is done, its status stands
+            stdout_gone()
+        return code
+    except (UsageError, LinkageError) as exc:
+        print(f'{prog}: error: {exc}', file=sys.stderr)
+        return USAGE_ERROR
+    except BrokenPipeError:  # a stream whose reader stopped (`linkage echo ... | head`): done
+        stdout_gone()
+        return OK
+    except OSError as exc:
+        if exc.errno not in _STDOUT_FULL:
+            raise
+        # stdout on a full disk (or /dev/full): the files a command writes say so themselves
+        print(f'{prog}: error: cannot write standard output: {exc.strerror}', file=sys.stderr)
+        stdout_gone()
+        return USAGE_ERROR
+    except KeyboardInterrupt:  # Ctrl-C: the shell's convention, no traceback
+        print(f'\n{prog}: interrupted', file=sys.stderr)
+        return INTERRUPTED
 
 
 def print_notes(notes: Sequence[str]) -> None:

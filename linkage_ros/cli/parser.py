@@ -3,25 +3,20 @@
 from __future__ import annotations
 
 import argparse
-import errno
 import importlib
 import sys
 from collections.abc import Sequence
 from typing import Any
 
-from ..core.errors import LinkageError
 from ..core.tolerances import NEWTON_TOL
 from ..heap import keep_large_buffers
 from .check import cmd_check
 from .common import (
-    INTERRUPTED,
-    OK,
     USAGE_ERROR,
     KnownAction,
     OneLineErrorParser,
-    UsageError,
     add_scene_argument,
-    stdout_gone,
+    run_command,
 )
 from .solve import cmd_solve
 from .sweep import cmd_sweep
@@ -292,10 +287,6 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
     return parser, broken
 
 
-#: write errors of a standard output that cannot take more (a full disk, a quota, /dev/full)
-_STDOUT_FULL = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO)
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     # batches of 10^4 rows and more (sweep, bag, range, bench) make arrays of 100s of kB, which
@@ -312,30 +303,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # --help (0) or a usage error (2)
         return exc.code if isinstance(exc.code, int) else USAGE_ERROR
-    prog = f'linkage {args.command}'
-    try:
-        code = int(args.func(args))
-        try:
-            sys.stdout.flush()  # (here: a write error is this command's, not the interpreter's)
-        except BrokenPipeError:  # `linkage bag ... | true`: the work is done, its status stands
-            stdout_gone()
-        return code
-    except (UsageError, LinkageError) as exc:
-        print(f'{prog}: error: {exc}', file=sys.stderr)
-        return USAGE_ERROR
-    except BrokenPipeError:  # a stream whose reader stopped (`linkage echo ... | head`): done
-        stdout_gone()
-        return OK
-    except OSError as exc:
-        if exc.errno not in _STDOUT_FULL:
-            raise
-        # stdout on a full disk (or /dev/full): the files a command writes say so themselves
-        print(f'{prog}: error: cannot write standard output: {exc.strerror}', file=sys.stderr)
-        stdout_gone()
-        return USAGE_ERROR
-    except KeyboardInterrupt:  # Ctrl-C: the shell's convention, no traceback
-        print(f'\n{prog}: interrupted', file=sys.stderr)
-        return INTERRUPTED
+    return run_command(f'linkage {args.command}', args.func, args)
 
 
 if __name__ == '__main__':

@@ -333,7 +333,7 @@ def analyse(args, mech) -> tuple[dict, int]:
 
 
 def _print_human(r: dict, mech) -> None:
-    p = print
+    p = say
     p(
         f'{r["name"]}: {r["dof"]} DOF, actuators {", ".join(r["actuators"])}'
         + (' (each range with the others held at the reference pose)' if r['dof'] > 1 else '')

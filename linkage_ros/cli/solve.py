@@ -177,12 +177,12 @@ def cmd_solve(args) -> int:
         circuit = '' if one_circuit is None else one_circuit(results)
         if circuit:
             each = 'configuration'
-            print(
+            say(
                 f'one assembly mode: {len(dicts)} configurations on {circuit} circuit, which '
                 'passes its toggles through both branch signs'
             )
         if modes is not None and not modes.complete:
-            print(
+            say(
                 (
                     f'assembly modes: {len(dicts)} found ({modes.method})'
                     if each == 'assembly mode'
@@ -197,20 +197,20 @@ def cmd_solve(args) -> int:
                 )
             )
         if modes is not None and modes.rollers:
-            print(roller_legend(modes))
+            say(roller_legend(modes))
         for i, d in enumerate(dicts):
             if args.all_branches:
-                print(
+                say(
                     f'--- {each} {i + 1} of {len(dicts)}'
                     + (f' (branch {d["branch"]})' if d['branch'] else '')
                     + (' (as drawn)' if d.get('drawn_mode') else '')
                 )
                 for joint, side in d.get('rollers', {}).items():
-                    print(
+                    say(
                         f'roller {joint}: {side["side"]} of its face '
                         + ('(as drawn)' if side['side'] == side['drawn_side'] else '(not drawn)')
                     )
             say(format_result(d, mech))
             if d.get('mode_change'):
-                print(f'assembly mode changed: {d["mode_change"]} (--any-mode)')
+                say(f'assembly mode changed: {d["mode_change"]} (--any-mode)')
     return OK if any(r.success for r in results) else REFUSED

@@ -8,6 +8,8 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
+from .common import run_command
+
 
 def standalone_main(
     prog: str,
@@ -25,4 +27,4 @@ def standalone_main(
         args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
     except SystemExit as exc:
         return exc.code if isinstance(exc.code, int) else 2
-    return run(args)
+    return run_command(prog, run, args)  # (as `linkage X` ends: its errors, its stdout)

@@ -133,12 +133,13 @@ def cmd_sweep(args) -> int:
         if not out.open and table is None:  # the reader has stopped and no file is asked for
             break
     out.flush()
-    if not out.open and table is None:  # (as a reader that stops early expects: no more words)
-        return OK
     if table is not None:
         _write_csv(args.csv, mech, table)
     total = n_ok + n_err
-    print(f'linkage sweep: {total} command(s), {n_ok} ok, {n_err} error(s)', file=sys.stderr)
+    # (on stderr, and the status of the rows solved, also where the table's reader stopped
+    # early: `--strict | head` exited 0 after an error without a word, an adversary's find)
+    cut = ' before the reader of the table stopped' if not out.open and table is None else ''
+    print(f'linkage sweep: {total} command(s){cut}, {n_ok} ok, {n_err} error(s)', file=sys.stderr)
     return REFUSED if args.strict and n_err else OK
 
 

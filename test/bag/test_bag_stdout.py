@@ -5,17 +5,21 @@ bag analyst found every such run exiting 0, a bag whose every command was refuse
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 
 from test_bag_node_semantics import SCENE, make_bag
 
 
-def _exit_with_stdout_closed(args: list[str]) -> tuple[int, str]:
+def _exit_with_stdout_closed(args: list[str], module: str = 'linkage_ros.cli') -> tuple[int, str]:
+    env = {k: v for k, v in os.environ.items() if k != 'PYTHONUNBUFFERED'}  # (buffered: the
+    # broken pipe comes at the last flush, after the command's work)
     proc = subprocess.Popen(
-        [sys.executable, '-m', 'linkage_ros.cli', *args],
+        [sys.executable, '-m', module, *args],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
+        env=env,
     )
     assert proc.stdout is not None and proc.stderr is not None
     proc.stdout.close()  # as `| true` does, before the command writes a byte
@@ -58,3 +62,15 @@ def test_a_missing_topic_exits_2_with_its_reason_when_stdout_is_closed(tmp_path)
         ]
     )
     assert code == 2 and '/nope' in err, err
+
+
+def test_python_m_linkage_ros_bag_ends_as_linkage_bag_does(tmp_path):
+    """`python -m linkage_ros.bag ... | true` ("the same as linkage bag") exited 120 with
+    'Exception ignored ... BrokenPipeError' after a good run (an adversary's find)."""
+    src = make_bag(tmp_path / 'in', [0.1, 0.2, 0.3])
+    args = [str(src), '--scene', str(SCENE), '--command-topic', '/cmd', '--no-progress']
+    code, err = _exit_with_stdout_closed(
+        [*args, '--out', str(tmp_path / 'o.csv')], module='linkage_ros.bag'
+    )
+    assert code == 0, err
+    assert 'Exception ignored' not in err and 'Traceback' not in err, err
