@@ -329,6 +329,9 @@ def run_fleet(args: argparse.Namespace) -> int:
 
     t0 = time.perf_counter()
     opts, tasks = _prepare(args)
+    # the folders under --out-dir before the run: a failed bag's empty ones are removed only
+    # where the run made them (a folder the user made stays, an adversary's find)
+    existed = {Path(root) for root, _, _ in os.walk(opts.out_dir)}
     todo, done = _plan(tasks, opts, args.resume)
     rows: dict[int, BagRow] = dict(done)
     if done:
@@ -363,7 +366,8 @@ def run_fleet(args: argparse.Namespace) -> int:
             if row.status is BagStatus.FAILED:
                 bar.write(f'linkage bag: {row.bag}: failed: {row.reason}', file=sys.stderr)
     ordered = [rows[i] for i in range(len(tasks))]
-    _prune_empty(opts.out_dir, [t for t, r in zip(tasks, ordered) if r.status is BagStatus.FAILED])
+    failed = [t for t, r in zip(tasks, ordered) if r.status is BagStatus.FAILED]
+    _prune_empty(opts.out_dir, failed, existed)
     written = write_summary(opts.out_dir, ordered)
     _print_summary(ordered, where, len(todo), time.perf_counter() - t0, written)
     t = totals(ordered)
@@ -372,14 +376,14 @@ def run_fleet(args: argparse.Namespace) -> int:
     return SOME_REFUSED if t['all_refused'] else ALL_DONE
 
 
-def _prune_empty(out_dir: str, failed: list[BagTask]) -> None:
-    """The folders under ``out_dir`` made for failed bags' outputs that hold nothing: removed
-    (a failed bag leaves no output: FLEET.md). Once every bag is done, so that no other bag's
-    write races the removal."""
+def _prune_empty(out_dir: str, failed: list[BagTask], existed: set[Path]) -> None:
+    """The folders under ``out_dir`` this run made for failed bags' outputs (not in
+    ``existed``) that hold nothing: removed (a failed bag leaves no output: FLEET.md). Once
+    every bag is done, so that no other bag's write races the removal."""
     top = Path(out_dir)
     for task in failed:
         folder = task.output(out_dir, 'csv').parent
-        while folder != top and top in folder.parents:
+        while folder != top and top in folder.parents and folder not in existed:
             try:
                 folder.rmdir()  # (only an empty one)
             except OSError:

@@ -27,6 +27,9 @@ def test_a_failed_bag_leaves_no_empty_folder(fleet, tmp_path, capsys):  # noqa: 
     shutil.copytree(root / 'day2' / 'damaged', rec / 'site' / 'shared' / 'bad')
     shutil.copytree(root / 'day1' / 'a', rec / 'site' / 'shared' / 'good')
     out = tmp_path / 'out'
+    (out / 'site' / 'mine').mkdir(parents=True)  # folders the user made: they stay, empty
+    (out / 'site' / 'truck7' / 'x').mkdir(parents=True)  # (or not; their own)
+    (out / 'site' / 'truck7' / 'x').rmdir()
     code, cap = run([rec, *COMMON, '--out-dir', out, '--jobs', 1], capsys)
     assert code == 3, cap.err
     rows, _ = summary_rows(out)
@@ -37,10 +40,16 @@ def test_a_failed_bag_leaves_no_empty_folder(fleet, tmp_path, capsys):  # noqa: 
         'summary.csv',
         'summary.json',
         'site',
+        'site/mine',
+        'site/truck7',
         'site/shared',
         'site/shared/good.csv',
         'site/shared/good.done.json',
     }
+    # and the folders a run made for its failed bag alone go
+    out2 = tmp_path / 'out2'
+    code, cap = run([rec, *COMMON, '--out-dir', out2, '--jobs', 1], capsys)
+    assert code == 3 and not (out2 / 'site' / 'truck7').exists(), cap.err
 
 
 def test_a_write_failure_names_the_output(fleet, tmp_path):  # noqa: F811
