@@ -123,33 +123,39 @@ def duration_ns(d: Any) -> int:
 
 def joint_trajectory_request(
     msg: Any, pace: Callable[[], None] | None = None
-) -> tuple[list[str], list[Sequence[float]], list[Sequence[float]], list[int]]:
-    """(joint_names, positions per point, velocities per point, time_from_start ns per point);
+) -> tuple[
+    list[str], list[Sequence[float]], list[Sequence[float]], list[int], PlanPointError | None
+]:
+    """(joint_names, positions per point, velocities per point, time_from_start ns per point,
+    the first point's malformed accelerations or effort: a PlanPointError, or None);
     CommandError for more points than one request may have (checked before any copy).
     ``pace`` is called after every point (the plan worker's Pacer)."""
     if len(msg.points) > MAX_TRAJECTORY_POINTS:
         raise CommandError(too_many_points('trajectory', len(msg.points), 'points'))
     names = list(msg.joint_names)
     positions, velocities, times = [], [], []
+    extra: PlanPointError | None = None
     for i, p in enumerate(msg.points):
         # accelerations and effort are not used (kinematics only), but a malformed one is a
         # broken request, refused as a malformed velocity is rather than ignored without a word
-        for what in ('accelerations', 'effort'):
+        for what in ('accelerations', 'effort') if extra is None else ():
             got = getattr(p, what, ())
             if len(got) and len(got) != len(names):
-                raise PlanPointError(
+                extra = PlanPointError(
                     i,
                     f'point {i} has {len(got)} {what} for {len(names)} joint_names: give one '
                     f'per name or none ({what} are not used: kinematics only)',
                 )
-            if len(got) and not all(math.isfinite(float(v)) for v in got):
-                raise PlanPointError(i, f'point {i}: {what} are not all finite')
+            elif len(got) and not all(math.isfinite(float(v)) for v in got):
+                extra = PlanPointError(i, f'point {i}: {what} are not all finite')
+            if extra is not None:
+                break
         positions.append(p.positions)
         velocities.append(p.velocities)
         times.append(duration_ns(p.time_from_start))
         if pace is not None:
             pace()
-    return names, positions, velocities, times
+    return names, positions, velocities, times, extra
 
 
 def path_request(
@@ -171,13 +177,12 @@ def path_request(
         raise CommandError(
             str(frame_error(f'path of {point!r}', header, frame_id, field='frame_id'))
         )
-    for i, pose in enumerate(msg.poses):  # (a pose stamped in a frame of its own: named)
+    xy = []
+    for i, pose in enumerate(msg.poses):  # (the first failing pose named: failed_index)
         f = pose.header.frame_id
-        if f and f != frame_id:
+        if f and f != frame_id:  # (a pose stamped in a frame of its own)
             why = frame_error(f'path of {point!r}', f, frame_id, field='frame_id')
             raise PlanPointError(i, f'pose {i}: {why}')
-    xy = []
-    for i, pose in enumerate(msg.poses):
         p = pose.pose.position
         for axis, v in (('x', p.x), ('y', p.y), ('z', p.z)):
             if not math.isfinite(v):
@@ -191,10 +196,11 @@ def path_request(
     stamps = [duration_ns(p.header.stamp) for p in msg.poses]
     timed = all(b > a for a, b in zip(stamps, stamps[1:]))
     times = [s - stamps[0] for s in stamps] if stamps and timed else [0] * len(stamps)
-    if times and times[-1] > DURATION_MAX_NS:  # (they increase: the last is the largest)
+    if times and times[-1] > DURATION_MAX_NS:  # (they increase: the first beyond is named)
+        i = next(k for k, t in enumerate(times) if t > DURATION_MAX_NS)
         raise PlanPointError(
-            len(times) - 1,
-            f"pose {len(times) - 1}: its stamp is {times[-1] * 1e-9:.9g} s after pose 0's, "
+            i,
+            f"pose {i}: its stamp is {times[i] * 1e-9:.9g} s after pose 0's, "
             f'beyond what a time_from_start can hold ({_duration_range()})',
         )
     return xy, times
@@ -406,9 +412,15 @@ def answer_trajectory_msg(
     another frame is refused, as a path is. ``pace``:
     as for :func:`solve_trajectory`."""
     try:
-        names, positions, velocities, times = joint_trajectory_request(msg, pace)
+        names, positions, velocities, times, extra = joint_trajectory_request(msg, pace)
     except CommandError as exc:
         return _refused(str(exc), getattr(exc, 'index', None)), []
+    if extra is not None:
+        # the first failing point: a point before it (or the whole request) may fail its shape
+        before = check_shape(engine, names, positions[: extra.index + 1], velocities, times)
+        if before is not None:
+            return before, times
+        return _refused(str(extra), extra.index), times
     if frame_id is not None:
         foreign = names_frame_error('trajectory', engine.mech, names, msg.header.frame_id, frame_id)
         if foreign:

@@ -196,6 +196,15 @@ def test_malformed_accelerations_or_effort_are_refused_not_ignored():
         )
         assert not answer.success and why in answer.reason, answer.reason
         assert answer.failed_index == 2
+    # the first failing point is named, whatever fails there: point 1's positions before point
+    # 2's accelerations (an adversary's find: 2 was named)
+    points = [
+        JointTrajectoryPoint(positions=p, time_from_start=Duration(sec=k + 1))
+        for k, p in enumerate(([0.5], [0.6, 0.7], [0.7]))
+    ]
+    points[2].accelerations = [1.0, 2.0]
+    answer, _ = answer_trajectory_msg(engine, JointTrajectory(joint_names=['crank'], points=points))
+    assert answer.failed_index == 1 and answer.reason.startswith('point 1 has 2 position(s)')
     point = JointTrajectoryPoint(positions=[0.2], time_from_start=Duration(sec=1))
     point.accelerations = [0.5]  # well formed: accepted (not used)
     answer, _ = answer_trajectory_msg(
@@ -226,6 +235,10 @@ def test_a_path_whose_stamps_span_more_than_a_duration_is_refused():
     with pytest.raises(CommandError, match='beyond what a time_from_start can hold') as exc:
         path_request(path([-(2**31), 2**31 - 1]), 'P', '')
     assert getattr(exc.value, 'index', None) == 1  # the pose named: failed_index
+    # the first pose beyond the span, not the last (an adversary's find)
+    with pytest.raises(CommandError, match='pose 1: its stamp') as exc:
+        path_request(path([-(2**31), 2**31 - 1, 2**31 - 1 + 5]), 'P', '')
+    assert getattr(exc.value, 'index', None) == 1
     xy, times = path_request(path([-(2**30), 2**30 - 1]), 'P', '')
     assert times == [0, (2**31 - 1) * 10**9]  # the longest span a Duration holds
 
@@ -315,6 +328,11 @@ def test_a_paths_malformed_pose_is_named_by_failed_index():
     answer, _ = answer_path_msg(engine, 'D', bad, 'base_link')
     assert answer.reason.startswith("pose 3: path of 'D' is in frame 'map'"), answer.reason
     assert answer.failed_index == 3
+    bad = path()  # a pose not finite before one in another frame: the first is named
+    bad.poses[0].pose.position.x = math.nan
+    bad.poses[2].header.frame_id = 'odom'
+    answer, _ = answer_path_msg(engine, 'D', bad, 'base_link')
+    assert answer.failed_index == 0 and answer.reason.startswith('pose 0: position.x = nan')
     bad = path()
     bad.header.frame_id = 'map'
     answer, _ = answer_path_msg(engine, 'D', bad, 'base_link')
