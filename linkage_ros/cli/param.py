@@ -20,10 +20,11 @@ from __future__ import annotations
 import argparse
 import json
 import re
+from typing import Any
 
 import yaml
 
-from .common import OK, REFUSED, UsageError
+from .common import OK, REFUSED, UsageError, say
 from .ros_graph import DEFAULT_WAIT, WAIT_TOLD_S, plain, ros_session, say_waiting, spin_until
 
 #: numbers YAML 1.1 reads as strings (an exponent without a dot or a sign: 1e1, 1.0e1, -2E-3)
@@ -55,6 +56,7 @@ def run(args) -> int:
         raise UsageError(f'param {args.action} needs NAME')
     if (args.action == 'set') != (args.value is not None):
         raise UsageError('VALUE goes with param set only')
+    value = None if args.value is None else parameter_value(args.value)  # (before any wait)
     node_name = args.node if args.node.startswith('/') else f'/{args.node}'
     with ros_session('linkage_param') as node:
         client = AsyncParameterClient(node, node_name)
@@ -79,7 +81,7 @@ def run(args) -> int:
 
         if args.action == 'list':
             for name in sorted(call(client.list_parameters()).result.names):
-                print(name)
+                say(name)
             return OK
         values = call(client.get_parameters([args.name])).values
         if not values or values[0].type == 0:  # none, or PARAMETER_NOT_SET
@@ -87,14 +89,13 @@ def run(args) -> int:
             raise UsageError(f'{node_name} has no parameter {args.name!r}')
         if args.action == 'get':
             value = plain(parameter_value_to_python(values[0]))
-            print(json.dumps(value) if isinstance(value, list) else value)
+            say(json.dumps(value) if isinstance(value, list) else value)
             return OK
-        value = parameter_value(args.value)
         (result,) = call(client.set_parameters([Parameter(args.name, value=value)])).results
         if not result.successful:
-            print(f'linkage param: {node_name} refused {args.name}: {result.reason}')
+            say(f'linkage param: {node_name} refused {args.name}: {result.reason}')
             return REFUSED
-        print(f'{node_name}: {args.name} = {args.value}')
+        say(f'{node_name}: {args.name} = {args.value}')
         return OK
 
 
@@ -109,9 +110,21 @@ def parameter_value(text: str) -> bool | int | float | str | list:
     if isinstance(value, str) and _YAML_TEXT_NUMBER.fullmatch(text.strip()):
         return float(value)  # YAML 1.1 reads 1e1 (no dot) as text: a number is meant
     if isinstance(value, bool | int | float | str):
-        return value
+        return _in_int64(value, text)
     if isinstance(value, list) and value:
         for kind in (bool, int, float, str):  # (exact types: a bool is an int, and 1 no float)
             if all(type(v) is kind for v in value):
-                return value
+                return [_in_int64(v, text) for v in value]
     return text
+
+
+#: a parameter's integers are 64-bit (rcl_interfaces' int64)
+_INT64 = range(-(2**63), 2**63)
+
+
+def _in_int64(value: Any, text: str) -> Any:
+    """``value`` where it is no integer beyond 64 bits (rclpy raised a SystemError there: an
+    adversary's find); UsageError otherwise."""
+    if type(value) is int and value not in _INT64:
+        raise UsageError(f"VALUE {text!r}: {value} is beyond a parameter's 64-bit integers")
+    return value
