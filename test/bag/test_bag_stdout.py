@@ -5,26 +5,15 @@ bag analyst found every such run exiting 0, a bag whose every command was refuse
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 
+from closed_stdout import run_module
 from test_bag_node_semantics import SCENE, make_bag
 
 
 def _exit_with_stdout_closed(args: list[str], module: str = 'linkage_ros.cli') -> tuple[int, str]:
-    env = {k: v for k, v in os.environ.items() if k != 'PYTHONUNBUFFERED'}  # (buffered: the
-    # broken pipe comes at the last flush, after the command's work)
-    proc = subprocess.Popen(
-        [sys.executable, '-m', module, *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        env=env,
-    )
-    assert proc.stdout is not None and proc.stderr is not None
-    proc.stdout.close()  # as `| true` does, before the command writes a byte
-    err = proc.stderr.read().decode()
-    return proc.wait(timeout=300), err
+    return run_module(args, close=True, module=module)  # (buffered: as `| true` takes it)
 
 
 def test_a_refused_bag_exits_1_with_its_hint_when_stdout_is_closed(tmp_path):

@@ -5,32 +5,8 @@ command). Oracle: the same command with stdout read."""
 
 from __future__ import annotations
 
-import os
-import subprocess
-import sys
-
 import pytest
-
-
-def _run(args: list[str], close: bool, unbuffered: bool = False, module: str = 'linkage_ros.cli'):
-    env = dict(os.environ)
-    env.pop('PYTHONUNBUFFERED', None)
-    if unbuffered:  # (every print writes at once: a broken pipe is raised where it prints)
-        env['PYTHONUNBUFFERED'] = '1'
-    proc = subprocess.Popen(
-        [sys.executable, '-m', module, *args],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        env=env,
-    )
-    assert proc.stdout is not None and proc.stderr is not None
-    if close:
-        proc.stdout.close()  # before the command writes a byte
-    else:
-        proc.stdout.read()
-        proc.stdout.close()
-    err = proc.stderr.read().decode()
-    return proc.wait(timeout=300), err
+from closed_stdout import run_module as _run
 
 
 @pytest.mark.parametrize(
