@@ -332,17 +332,17 @@ def plot_output_vs_input(
     else:
         # Newton places it: each of the loop Jacobian's modes (J+, J-: the two halves of a
         # circuit between the input's toggles, an outside scene author's Stephenson six-bar),
-        # followed from the drawing's input outward, so that a toggle is approached, never
-        # stepped off (where Newton may take either half)
-        split = int(np.searchsorted(xs, x0))
-        order = list(range(split, len(xs))) + [-1] + list(range(split - 1, -1, -1))
+        # followed from the drawing's input outward (quantities.outward_order)
+        from .core.motion.quantities import BACK_TO_START, outward_order
+
+        order = outward_order(xs, x0)
         for mode in ('J+', 'J-'):
             try:
                 walker = Solver(free, knowns=knowns, branch=mode)
             except ValueError:  # (no Jacobian modes to name: the reference's curve alone)
                 walker, mode = solver, ''
             for i in order:
-                if i < 0:
+                if i == BACK_TO_START:
                     walker.reset()
                     continue
                 r = walker.solve({input: float(xs[i]), **others})

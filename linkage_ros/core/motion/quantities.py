@@ -232,26 +232,34 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
     return full, pieces
 
 
+#: in an outward_order: where the solver goes back to its start
+BACK_TO_START = -1
+
+
+def outward_order(grid: Any, start: float) -> list[int]:
+    """The indices of ``grid`` (inputs, ascending) from ``start`` up, BACK_TO_START, then from
+    ``start`` down: a continuation from a start inside the grid approaches each end (a toggle)
+    and never steps off one, where Newton may take either half of a circuit."""
+    split = int(np.searchsorted(grid, start))
+    return [*range(split, len(grid)), BACK_TO_START, *range(split - 1, -1, -1)]
+
+
 def _swept(
     solver: Solver, act: str, seg: Any, grid: np.ndarray, outward_from: float | None = None
 ) -> _Piece:
     """The piece of ``seg`` (a scan segment) that ``solver`` (its branch) solves over ``grid``
     (the input's samples, in order; changed where an end is read past a toggle). With
     ``outward_from`` (an input inside the grid where the solver's start lies) the samples are
-    solved from there up, then from there down (the solver's start again): each toggle is
-    approached, never stepped off, where Newton may take either half of the circuit."""
+    solved in its outward_order."""
     # an end of the piece at its toggle: read at the toggle itself (common.past_toggle)
     toggle_at = {
         0: -1.0 if seg.lo_end[0] is EndKind.TOGGLE and grid[0] == seg.lo else 0.0,
         len(grid) - 1: 1.0 if seg.hi_end[0] is EndKind.TOGGLE and grid[-1] == seg.hi else 0.0,
     }
-    order = list(range(len(grid)))
-    if outward_from is not None:
-        split = int(np.searchsorted(grid, outward_from))
-        order = order[split:] + [-1] + order[:split][::-1]  # (-1: back to the start)
+    order = list(range(len(grid))) if outward_from is None else outward_order(grid, outward_from)
     got: dict[int, Result] = {}
     for k in order:
-        if k < 0:
+        if k == BACK_TO_START:
             solver.reset()
             continue
         v = grid[k]
