@@ -136,26 +136,31 @@ def joint_trajectory_request(
     positions, velocities, times = [], [], []
     extra: PlanPointError | None = None
     for i, p in enumerate(msg.points):
-        # accelerations and effort are not used (kinematics only), but a malformed one is a
-        # broken request, refused as a malformed velocity is rather than ignored without a word
-        for what in ('accelerations', 'effort') if extra is None else ():
-            got = getattr(p, what, ())
-            if len(got) and len(got) != len(names):
-                extra = PlanPointError(
-                    i,
-                    f'point {i} has {len(got)} {what} for {len(names)} joint_names: give one '
-                    f'per name or none ({what} are not used: kinematics only)',
-                )
-            elif len(got) and not all(math.isfinite(float(v)) for v in got):
-                extra = PlanPointError(i, f'point {i}: {what} are not all finite')
-            if extra is not None:
-                break
+        if extra is None:
+            extra = _unused_fields_error(p, i, len(names))
         positions.append(p.positions)
         velocities.append(p.velocities)
         times.append(duration_ns(p.time_from_start))
         if pace is not None:
             pace()
     return names, positions, velocities, times, extra
+
+
+def _unused_fields_error(point: Any, i: int, n_names: int) -> PlanPointError | None:
+    """Point ``i``'s malformed accelerations or effort, or None: they are not used
+    (kinematics only), but a malformed one is a broken request, refused as a malformed
+    velocity is rather than ignored without a word."""
+    for what in ('accelerations', 'effort'):
+        got = getattr(point, what, ())
+        if len(got) and len(got) != n_names:
+            return PlanPointError(
+                i,
+                f'point {i} has {len(got)} {what} for {n_names} joint_names: give one '
+                f'per name or none ({what} are not used: kinematics only)',
+            )
+        if len(got) and not all(math.isfinite(float(v)) for v in got):
+            return PlanPointError(i, f'point {i}: {what} are not all finite')
+    return None
 
 
 def path_request(
