@@ -9,7 +9,6 @@ every front end shares are request_checks'.
 
 from __future__ import annotations
 
-import functools
 import time
 from collections import OrderedDict
 from collections.abc import Callable, Mapping, Sequence
@@ -19,17 +18,14 @@ from typing import Any, Protocol
 from .core.errors import CommandError, PlanError, echo
 from .core.model import Mechanism
 from .core.model.names import NameKind, resolve_name
-from .core.motion.circuit_rule import CircuitKeeper, reachable_text
-from .core.motion.circuits import Circuit
-from .core.motion.circuits import reference_circuit as scan_reference_circuit
-from .core.motion.common import without_limits
 from .core.solver import Result, SolveMode, Solver
 from .core.solver.mode_rule import Mode, ModeKeeper
 from .core.solver.reach import reach_edge
 from .core.solver.result import does_not_assemble, named_value
-from .core.steps import BranchRule, branch_text
+from .core.steps import BranchRule
 from .core.tolerances import NEWTON_TOL
 from .core.velocity import velocities
+from .drawing_circuit import DrawingCircuit
 from .point_coordinates import group_point_coordinates
 from .request_checks import rates_error
 from .setting_checks import check_point_hold
@@ -105,25 +101,27 @@ class Engine:
         self._synced[self._forward_key] = self.version
         self._clock = clock
         self._tokens, self._t_tokens = float(SOLVER_CACHE), self._clock()
+        #: the drawing's circuit, forward answers held to it (drawing_circuit)
+        self.circuit = DrawingCircuit(
+            mech, self.forward, lambda r: self.mode(r), lambda signs: self.new_solver(None, signs)
+        )
         #: the target rule: answers keep the assembly mode (core.solver.mode_rule)
         self.keeper = ModeKeeper(
             mech,
             self.forward,
             lambda knowns, branch, method: self.new_solver(knowns, branch, method),
-            self.on_circuit,
+            self.circuit.holds,
             # (a description's passive joints within their <limit>s: another solution in
             # mode that keeps them is the answer, not a refusal)
             lambda r: self.beyond_passive_limits(r) is None,
             # (a circuit that passes no toggle, its actuator's limits aside: the other signs
             # are another circuit)
-            self.joined_by_motion,
+            self.circuit.joined_by_motion,
         )
         #: the drawing's assembly mode (what ``branch: reference`` keeps targets in)
         self._reference_mode = self.keeper.mode(ref if ref.success else None)
-        #: forward solvers per branch sign combination (keep_circuit's)
-        self._sign_solvers: dict[str, Solver] = {}
         # the circuit scan now (about 0.1 s where it passes toggles), not in the first command
-        _ = self.circuit_checked
+        _ = self.circuit.checked
 
     # -- the good state ----------------------------------------------------------------------------
     @property
@@ -285,36 +283,20 @@ class Engine:
             self.record(solver, result)
         return result
 
-    def with_reach(self, result: Result) -> Result:
-        """A forward refusal that does not assemble (``result``, changed) told what the
-        actuator does reach from the drawing, where one actuator moves the mechanism (the
-        range `linkage check` gives)."""
-        if not does_not_assemble(result):
-            return result
-        c = self.reference_circuit
-        if c is not None and not all(s.full for s in c.stretches):
-            coords = self.mech.joint_coordinates
-            shown = None if coords is None else coords.shown(c.actuator)
-            result.reason = (
-                f'{result.reason}; from its drawing the actuator moves it over '
-                f'{reachable_text(c, shown)} (its reachable range)'
-            )
-        return result
-
     def solve_on_circuit(self, solver: Solver, values: Mapping[str, Any]) -> tuple[Result, bool]:
         """The forward ``solver`` (up to date) on ``values``, held to the drawing's circuit
-        (keep_circuit): its answer, committed to it; the circuit's own configuration, adopted
+        (DrawingCircuit.keep): its answer, committed to it; the circuit's own configuration, adopted
         by it (True); or the refusal, the solver as it was. The caller records a success (the
         bag's replay keeps its own history of them)."""
         before, snap = self.last, solver.snapshot()
-        result = self.with_reach(solver.solve(values))
+        result = self.circuit.with_reach(solver.solve(values))
         beyond = self.beyond_passive_limits(result)
         if beyond is not None:
             solver.restore(snap)  # a refused request changes nothing
             return beyond, False
-        if not self.circuit_checked:
+        if not self.circuit.checked:
             return result, False
-        kept = self.keep_circuit(before, result, values)
+        kept = self.circuit.keep(before, result, values)
         if kept is result:
             return result, False
         solver.restore(snap)
@@ -325,48 +307,6 @@ class Engine:
             return beyond, False
         solver.adopt(kept)
         return kept, True
-
-    @functools.cached_property
-    def _circuit_keeper(self) -> CircuitKeeper | None:
-        """The forward half of the mode rule (core.motion.circuit_rule), for a one-actuator
-        mechanism whose drawing's circuit passes its toggles."""
-        c = self.reference_circuit
-        if c is None or not c.crosses_signs or len(c.stretches[0].signs) != 1:
-            # (one branching dyad: a four-bar's or a slider-crank's circuits are its loops. A
-            # scan through an inversor's fold, where two dyads degenerate at once, branches
-            # into sign combinations that are no loop of its own: Peaucellier's took up 60
-            # stretches; there the rule stays the targets' alone)
-            return None
-        coords = self.mech.joint_coordinates
-        shown = None if coords is None else coords.shown(c.actuator)
-        return CircuitKeeper(c, self.on_circuit, self._solve_in_signs, shown)
-
-    @property
-    def circuit_checked(self) -> bool:
-        """Whether forward answers are held to the drawing's circuit (keep_circuit)."""
-        return self._circuit_keeper is not None
-
-    def keep_circuit(
-        self, before: Result | None, result: Result, values: Mapping[str, Any]
-    ) -> Result:
-        """A forward answer to ``values`` from the state ``before`` held to the drawing's
-        circuit (core.motion.circuit_rule.CircuitKeeper.keep): as it is, the circuit's own
-        configuration at that input, or refused."""
-        keeper = self._circuit_keeper
-        if keeper is None:
-            return result
-        branch = self.forward.continuity.branch
-        asked = branch.signs if branch.rule is BranchRule.EXPLICIT else None
-        return keeper.keep(before, result, values, asked)
-
-    def _solve_in_signs(self, signs: tuple[int, ...], values: Mapping[str, Any]) -> Result:
-        """A forward solve of ``values`` in branch ``signs`` (a solver per sign combination,
-        kept), not committed."""
-        text = branch_text(signs)
-        solver = self._sign_solvers.get(text)
-        if solver is None:
-            solver = self._sign_solvers[text] = self.new_solver(None, text)
-        return solver.solve(values, commit=False)
 
     def not_actuators(self, values: Mapping[str, Any]) -> str | None:
         """Why a command naming a joint, link or point (not an actuator) is refused, with the
@@ -487,11 +427,11 @@ class Engine:
 
     def _off_circuit_under(self, fixed: Mode | None, last: Result, result: Result) -> Result | None:
         """Under a branch setting (which holds signs, not circuits), a target's answer on
-        another circuit than the state's, refused as a command there is (keep_circuit): the
+        another circuit than the state's, refused as a command there is (DrawingCircuit.keep): the
         double-rocker's mirror loop has the setting's signs too."""
-        if fixed is None or not result.success or self._circuit_keeper is None:
+        if fixed is None or not result.success or not self.circuit.checked:
             return None
-        if self.on_circuit(last) is not True or self.on_circuit(result) is not False:
+        if self.circuit.holds(last) is not True or self.circuit.holds(result) is not False:
             return None
         return Result(
             False,
@@ -529,38 +469,6 @@ class Engine:
             'the leader)',
             solver=result.solver,
         )
-
-    @functools.cached_property
-    def reference_circuit(self) -> Circuit | None:
-        """The reference pose's circuit (core.motion.circuits), scanned when first asked."""
-        return scan_reference_circuit(self.mech)
-
-    @functools.cached_property
-    def _free_circuit(self) -> Circuit | None:
-        """The reference pose's circuit with the actuator's limits aside."""
-        return scan_reference_circuit(without_limits(self.mech))
-
-    def joined_by_motion(self) -> bool | None:
-        """Whether the actuator's motion passes a toggle into the forward dyads' other signs,
-        its limits aside (a non-Grashof mechanism whose crank limits stop short of its toggles
-        still has one circuit: its other sign is beyond a toggle, not another circuit); None
-        where the circuit is not scanned (several actuators, Newton). Scanned when first
-        asked: only a refusal's wording reads it."""
-        free = self._free_circuit
-        return None if free is None else free.crosses_signs
-
-    def on_circuit(self, r: Result) -> bool | None:
-        """Whether a configuration lies on the reference pose's circuit, where that circuit
-        passes its toggles (a one-actuator mechanism: a non-Grashof four-bar's two dyad signs
-        are one motion; a Grashof double-rocker's mirror loop is another circuit with the same
-        signs); None where not known (no such circuit, or no mode read)."""
-        c = self.reference_circuit
-        if c is None or not c.crosses_signs:
-            return None
-        mode, value = self.mode(r), r.inputs.get(c.actuator)
-        if mode is None or value is None:
-            return None
-        return c.holds(mode[0], float(value))
 
     def mode_changes(self, before: Mode, here: Result | None, result: Result) -> bool:
         """Whether ``result`` is in another assembly mode than ``before`` (that of ``here``):

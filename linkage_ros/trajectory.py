@@ -328,7 +328,11 @@ def solve_trajectory(
             if before is not None and engine.mode_changes(before, here, r):
                 assert after is not None
                 signs, signs_after = branch_text(before[0]), branch_text(after[0])
-                on = (engine.on_circuit(here), engine.on_circuit(r)) if here is not None else ()
+                on = (
+                    (engine.circuit.holds(here), engine.circuit.holds(r))
+                    if here is not None
+                    else ()
+                )
                 change = (
                     f'the mechanism changes circuit (signs {signs} -> {signs_after}, onto a loop '
                     'its actuator does not reach from the other)'

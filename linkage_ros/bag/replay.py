@@ -327,7 +327,7 @@ class ReplayEngine:
                 if continuous
                 else end - pos
             )
-            if take and self.engine.circuit_checked:
+            if take and self.engine.circuit.checked:
                 take = self._on_circuit_prefix(B, cols, take)
             if take and self.mech.joint_coordinates is not None:
                 take = self._within_passive_limits_prefix(B, take)
@@ -361,8 +361,8 @@ class ReplayEngine:
         the state is on it (that row is refused, one by one)."""
         engine = self.engine
         last = engine.last
-        circuit = engine.reference_circuit
-        if circuit is None or (last is not None and engine.on_circuit(last) is False):
+        circuit = engine.circuit.reference
+        if circuit is None or (last is not None and engine.circuit.holds(last) is False):
             return take
         values = np.asarray(cols[circuit.actuator], float)
         ok = np.asarray(B.ok[:take], bool)
@@ -401,7 +401,7 @@ class ReplayEngine:
             if r.success:  # a tangency the batch refused: leave it to Solver
                 take = i
                 break
-            reasons[i] = self.engine.with_reach(r).reason or ''
+            reasons[i] = self.engine.circuit.with_reach(r).reason or ''
             if keyb is not None:
                 cache[keyb] = r.reason
         if not take:

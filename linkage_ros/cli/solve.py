@@ -48,7 +48,7 @@ def _drawn_mode_rule(
     mech, args, modes: ModeList
 ) -> tuple[Callable[[Result], bool], Callable[[Sequence[Result]], str]]:
     """Whether a solution of ``modes`` is in the drawing's assembly mode: on the drawing's
-    circuit where that circuit passes its toggles (Engine.on_circuit: a non-Grashof four-bar's
+    circuit where that circuit passes its toggles (DrawingCircuit.holds: a non-Grashof four-bar's
     two signs are one mode; a Grashof double-rocker's mirror loop, in the drawn signs, is
     another), else in the drawn branch signs; and which circuit holds all of several
     solutions ('the drawing's', 'the other': a four-bar's other loop, its one branching dyad
@@ -56,11 +56,11 @@ def _drawn_mode_rule(
     engine = forward_engine(mech, args)
 
     def in_drawn_mode(r: Result) -> bool:
-        on = engine.on_circuit(r)
+        on = engine.circuit.holds(r)
         return r.branch == modes.drawn if on is None else on
 
     def one_circuit(rs: Sequence[Result]) -> str:
-        on = {engine.on_circuit(r) for r in rs}
+        on = {engine.circuit.holds(r) for r in rs}
         if len(rs) < 2 or len(on) != 1:
             return ''
         if on == {True}:
