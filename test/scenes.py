@@ -208,3 +208,22 @@ STEPHENSON_DRIVEN_AT_ITS_OUTPUT = {
     },
     'actuators': {'drive': {'type': 'angle', 'link': 'out', 'pivot': 'O6'}},
 }  # fmt: skip
+
+
+#: a Stephenson-III six-bar driven at its output rocker (an outside reviewer's): Newton places
+#: the four-bar O2-A-B-O4 and link5; the drive's circuit from the drawing ends at two toggles
+STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT = {
+    'name': 'steph3_outdrive',
+    'points': {
+        'O2': [0.0, 0.0], 'O4': [0.3, 0.0], 'O6': [0.1, 0.45],
+        'A': [0.05000000000000002, 0.08660254037844387],
+        'B': [0.27367945446743275, 0.19826050762284472],
+        'C': [0.13955902658184458, 0.26542977755922814],
+        'D': [-0.07234842787424921, 0.3980767931530158],
+    },
+    'links': {
+        'ground': ['O2', 'O4', 'O6'], 'crank': ['O2', 'A'], 'coupler': ['A', 'B', 'C'],
+        'rocker': ['O4', 'B'], 'link5': ['C', 'D'], 'output': ['O6', 'D'],
+    },
+    'actuators': {'drive': {'type': 'angle', 'link': 'output', 'pivot': 'O6'}},
+}  # fmt: skip

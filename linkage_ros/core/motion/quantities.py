@@ -420,6 +420,11 @@ def input_sweep(
         value), on the piece's branch."""
         grid, exact = piece.grid, piece.solver
         n = len(grid)
+        # every solve below from the sample's own configuration: from wherever the piece's
+        # sweep left the solver, Newton walked back across the circuit (and its toggles) for
+        # each one (0.2 s a solve: a Hart inversor's `linkage check` by Newton took 21 s)
+        exact.reset()
+        exact.adopt(piece.results[i])
         if full and len(pieces) == 1:  # one turn's grid: its neighbours wrap around
             a, b = grid[i] - (grid[1] - grid[0]), grid[i] + (grid[1] - grid[0])
         else:  # (a stretch between change points: past its end the sign is the other curve)

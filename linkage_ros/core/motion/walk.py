@@ -8,8 +8,16 @@ from typing import Any
 
 from ..model import Mechanism
 from ..solver import Result, Solver
+from ..solver.result import Effort
 from .common import ANGLE_TOL, LENGTH_TOL, TWO_PI, without_limits
 from .scan import NOWHERE, Bracket, Component, EndKind
+
+#: how walk_range's bisection solves its probes: it reads where the range ends, not why. Near a
+#: fold (a toggle, a dead centre) the solution's branch is u^2 = distance to the fold, on which
+#: Newton from the accepted side converges to any probe on it: the walk's halvings add nothing
+#: there but their cost where the probe is past the fold (a Stephenson six-bar's `linkage check`
+#: spent 90 % of its 28 s of CPU in them)
+PROBE = Effort.DIRECT
 
 # ---- walks with the solver (Newton / hybrid plans, inverse problems with limits) --------------
 
@@ -23,9 +31,13 @@ def walk_commands(
     step: float,
     extent: float,
     tol: float,
+    probe: Effort = Effort.FULL,
 ) -> tuple[float | None, str | None, Result]:
     """Follow a scalar known from x0 in one direction with warm-started, branch-continuous solves
-    until a solve is refused, then bisect between the last accepted and the first refused value.
+    until a solve is refused, then bisect between the last accepted and the first refused value,
+    each probe solved with ``probe``'s effort (Effort.DIRECT: Newton straight from the last
+    accepted value, for a caller that reads no reason: a probe past a fold fails in one Newton
+    where the continuation walk grinds through its halvings).
 
     Returns (boundary or None, reason or None, result at the boundary); None when ``extent`` is
     covered without a refusal.
@@ -49,7 +61,7 @@ def walk_commands(
                 break
             solver.reset()
             solver.adopt(last)
-            rm = solver.solve(command(mid), commit=False)
+            rm = solver.solve(command(mid), commit=False, effort=probe)
             if rm.success:
                 good, last = mid, rm
             else:
@@ -82,7 +94,7 @@ def walk_range(
         tol = ANGLE_TOL
         ends = []
         for d in (1, -1):
-            b, why, _ = walk_commands(solver, command, start, x0, d, step, TWO_PI, tol)
+            b, _, _ = walk_commands(solver, command, start, x0, d, step, TWO_PI, tol, PROBE)
             ends.append(b)
         if ends[0] is None or ends[1] is None:
             return None
@@ -91,8 +103,8 @@ def walk_range(
     blo, bhi, hard_lo, hard_hi = bracket
     step = step or (bhi - blo) / 360.0
     tol = LENGTH_TOL * mech.length_scale
-    hi, _, _ = walk_commands(solver, command, start, x0, 1, step, bhi - x0, tol)
-    lo, _, _ = walk_commands(solver, command, start, x0, -1, step, x0 - blo, tol)
+    hi, _, _ = walk_commands(solver, command, start, x0, 1, step, bhi - x0, tol, PROBE)
+    lo, _, _ = walk_commands(solver, command, start, x0, -1, step, x0 - blo, tol, PROBE)
     hi_end = (
         (EndKind.TOGGLE, None)
         if hi is not None

@@ -7,9 +7,10 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
 import pytest
 from oracles import fourbar as oracle
-from scenes import STEPHENSON_DRIVEN_AT_ITS_OUTPUT, load
+from scenes import STEPHENSON_DRIVEN_AT_ITS_OUTPUT, STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT, load
 
 from linkage_ros.core.motion.quantities import (
     classical_outputs,
@@ -298,7 +299,9 @@ def test_a_newton_placed_circuit_goes_back_from_its_cylinders_dead_centre():
         'cylinders': {'Z': {'from': 'P', 'to': 'C', 'min': 1.3, 'max': 1.7}},
     }
     mech = Scene.from_dict(scene).mechanism
-    sweep = input_sweep(mech, ['link:crank'])
+    # (every link, as `linkage check` and `range --links` read them: each extreme's search began
+    # where the one before had left the solver)
+    sweep = input_sweep(mech, [f'link:{link}' for link in mech.links if link != 'ground'])
     crank = sweep.outputs['link:crank']
     a = math.dist(pts['O2'], pts['A'])
     b, c = math.dist(pts['A'], pts['B']), math.dist(pts['O4'], pts['B'])
@@ -324,3 +327,72 @@ def test_a_newton_placed_circuit_goes_back_from_its_cylinders_dead_centre():
         roots,
     )
     assert abs(crank.input_at_min - 1.3) < 1e-12 and abs(crank.input_at_max - 1.3) < 1e-12
+
+
+def test_a_newton_placed_links_extremes_at_the_drives_toggles_are_read_there():
+    """A Stephenson-III six-bar driven at its output (Newton places the rest): the crank's
+    extremes over the drive's circuit are where the drive turns back, at its toggles. Each
+    extreme was refined by solves walking from wherever the sweep had left the solver, which
+    failed near the toggle: the crank read 0.452164 at drive 3.54594 where it is 0.4135 at the
+    toggle 3.54624 (an outside scene author, by 50-digit mpmath). Oracle: the drive as a
+    function of the crank, by the four-bar's own circle intersections (B, then D from C on
+    the drawn sides), its extremes refined by a bounded scalar search; the crank there."""
+    from scipy.optimize import minimize_scalar
+
+    from linkage_ros.core.model import Scene
+
+    scene = STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT
+    P = {k: np.array(v, float) for k, v in scene['points'].items()}
+
+    def meet(c1, r1, c2, r2, side):  # the circles' meeting point left (+1) of c1 -> c2
+        d = c2 - c1
+        L = float(np.hypot(*d))
+        x = (r1 * r1 - r2 * r2 + L * L) / (2 * L)
+        h = math.sqrt(max(r1 * r1 - x * x, 0.0))
+        u = d / L
+        return c1 + x * u + side * h * np.array([-u[1], u[0]])
+
+    def left(a, b, x):
+        return 1 if (b - a)[0] * (x - a)[1] - (b - a)[1] * (x - a)[0] > 0 else -1
+
+    a, b, c = (np.linalg.norm(P[q] - P[p]) for p, q in (('O2', 'A'), ('A', 'B'), ('O4', 'B')))
+    cd, out = np.linalg.norm(P['D'] - P['C']), np.linalg.norm(P['D'] - P['O6'])
+    sb, sd = left(P['A'], P['O4'], P['B']), left(P['C'], P['O6'], P['D'])
+    ab0, ac0 = P['B'] - P['A'], P['C'] - P['A']
+    drawn = math.atan2(*(P['D'] - P['O6'])[::-1])
+
+    def drive(t):
+        A = a * np.array([math.cos(t), math.sin(t)])
+        B = meet(A, b, P['O4'], c, sb)
+        rot = math.atan2(*(B - A)[::-1]) - math.atan2(*ab0[::-1])
+        cs, sn = math.cos(rot), math.sin(rot)
+        C = A + np.array([ac0[0] * cs - ac0[1] * sn, ac0[0] * sn + ac0[1] * cs])
+        D = meet(C, cd, P['O6'], out, sd)
+        return drawn + math.remainder(math.atan2(*(D - P['O6'])[::-1]) - drawn, 2 * math.pi)
+
+    mech = Scene.from_dict(scene).mechanism
+    # (every link, as `linkage check` and `range --links` read them: each extreme's search began
+    # where the one before had left the solver)
+    sweep = input_sweep(mech, [f'link:{link}' for link in mech.links if link != 'ground'])
+    crank = sweep.outputs['link:crank']
+    # the toggles the drive's range ends at: the drive's least and greatest near the drawing
+    cranks = np.linspace(0.2, 2.3, 211)  # the drawn crank 1.047 between the two toggles
+    at = {}
+    for sense in (1, -1):
+        k = int(np.argmin([sense * drive(t) for t in cranks]))
+        got = minimize_scalar(
+            lambda t: sense * drive(t),
+            bounds=(cranks[k] - 0.02, cranks[k] + 0.02),
+            method='bounded',
+            options={'xatol': 1e-11},
+        )
+        at[sense] = (got.x, sense * got.fun)
+    (t_lo, d_lo), (t_hi, d_hi) = at[1], at[-1]
+    # the crank is flat in the drive nowhere here: at a toggle it moves as sqrt of the drive's
+    # distance to it, which Newton's tolerance and the toggle's bisection leave at ~1e-11
+    assert abs(crank.minimum - t_hi) < 1e-5, (crank.minimum, t_hi, d_hi)
+    assert abs(crank.maximum - t_lo) < 1e-5, (crank.maximum, t_lo, d_lo)
+    assert (
+        abs(crank.input_at_min - (d_hi - 2 * math.pi)) < 1e-9
+        or abs(crank.input_at_min - d_hi) < 1e-9
+    ), (crank.input_at_min, d_hi)
