@@ -43,6 +43,12 @@ _AT_TOGGLE = 1e-4
 CYLINDER_FLOOR = 1e-12
 #: a dyad margin below this at a crossing found to ~1e-8: a candidate for meeting there
 _NEAR_CROSSING = 1e-3
+#: a dyad margin whose least sample is below this may dip to 0 between samples: a dead zone
+#: narrower than the scan's step (a four-bar 2e-7 of its crank past a change point cannot
+#: pass 2e-3 rad of its crank's turn, which 720 samples stepped over: a numerics reviewer) is
+#: searched for there. Next to a toggle the margin grows as the square root of the distance
+#: (about 0.1 a step of 2 pi / 720 away on the scenes), past a change point linearly
+_DIP_SEARCH = 0.3
 
 
 class EndKind(StrEnum):
@@ -202,6 +208,63 @@ class ScanLine:
             return good
         return good + step * max(near)
 
+    def _dip(self, a: float, b: float, signs: Sequence[int], k: int) -> float | None:
+        """A value in [a, b] where the plan does not assemble, found by zooming in on the
+        least margin of dyad ``k`` (unimodal there: a V past a change point, a cusp at a
+        toggle), or None where the margin stays above 0 down to the scan's tolerance."""
+        while b - a > self.tol:
+            xs = np.linspace(a, b, KARY + 2)
+            info = self.run(xs, signs)[2]
+            fails = np.flatnonzero(~np.asarray(info['ok'], bool))
+            if fails.size:
+                return float(xs[fails[0]])
+            i = int(np.argmin(np.asarray(info['margins'])[:, k]))
+            a, b = float(xs[max(i - 1, 0)]), float(xs[min(i + 1, KARY + 1)])
+        return None
+
+    def dead_zones(self, xs: np.ndarray, ok: np.ndarray, signs: Sequence[int]) -> dict[int, float]:
+        """{i: a value between xs[i] and the next sample (xs[i + 1]; for an angle's turn of
+        samples, the last's next is the first's, a turn on) where the plan does not assemble,
+        given as its offset from xs[i]}, for each pair of assembling samples with such a value
+        between them: the local minima of each dyad's margin below _DIP_SEARCH, searched."""
+        n = len(xs)
+        if n < 3 or not ok.any():
+            return {}
+        m = np.asarray(self.run(xs, signs)[2]['margins'], float)
+        if m.ndim != 2 or m.shape[1] == 0:
+            return {}
+        m = np.where(ok[:, None], m, np.inf)
+        step = xs[1] - xs[0] if self.periodic else None
+        out: dict[int, float] = {}
+        for k in range(m.shape[1]):
+            col = m[:, k]
+            if self.periodic:
+                left, right = np.roll(col, 1), np.roll(col, -1)
+            else:
+                left = np.concatenate([[np.inf], col[:-1]])
+                right = np.concatenate([col[1:], [np.inf]])
+            lows = np.flatnonzero((col < _DIP_SEARCH) & (col <= left) & (col <= right))
+            for s in lows.tolist():
+                if self.periodic:
+                    assert step is not None
+                    a, b = float(xs[s]) - step, float(xs[s]) + step
+                else:
+                    a, b = float(xs[max(s - 1, 0)]), float(xs[min(s + 1, n - 1)])
+                x = self._dip(a, b, signs, k)
+                if x is None:
+                    continue
+                if x > xs[s]:
+                    i, base = s, float(xs[s])
+                elif self.periodic:  # (the sample before the first: the last, a turn back)
+                    assert step is not None
+                    i, base = (s - 1) % n, float(xs[s]) - step
+                elif s > 0:
+                    i, base = s - 1, float(xs[s - 1])
+                else:
+                    continue
+                out.setdefault(i, x - base)
+        return out
+
     # -- components
     def component(self, seed: float, signs: Sequence[int]) -> Component:
         """The interval of assembling values around ``seed`` on one assembly mode:
@@ -217,16 +280,19 @@ class ScanLine:
         xs = seed + (np.arange(n) - c) * dt
         ok = self.ok(xs, signs)
         ok[c] = True  # the seed assembles (it may sit on a toggle)
-        if ok.all():
+        dips = self.dead_zones(xs, ok, signs)
+        if ok.all() and not dips:
             return None
         up = 0
-        while ok[(c + up + 1) % n]:
+        while ok[(c + up + 1) % n] and (c + up) % n not in dips:
             up += 1
         down = 0
-        while ok[(c - down - 1) % n]:
+        while ok[(c - down - 1) % n] and (c - down - 1) % n not in dips:
             down += 1
-        hi, kh = self.refine(seed + up * dt, seed + (up + 1) * dt, signs)
-        lo, kl = self.refine(seed - down * dt, seed - (down + 1) * dt, signs)
+        past_hi = dips.get((c + up) % n, dt)  # (where the motion up fails, from its last sample)
+        past_lo = dt - dips.get((c - down - 1) % n, 0.0)
+        hi, kh = self.refine(seed + up * dt, seed + up * dt + past_hi, signs)
+        lo, kl = self.refine(seed - down * dt, seed - down * dt - past_lo, signs)
         return (
             lo,
             hi,
@@ -260,6 +326,7 @@ class ScanLine:
             )
             c = int(np.searchsorted(xs, min(max(seed, blo), bhi)))
             ok = self.ok(xs, signs)
+            dips = self.dead_zones(xs, ok, signs)
             if not ok[c]:
                 # a seed outside the limits (or on a toggle's wrong side): nearest assembling sample
                 good = np.flatnonzero(ok)
@@ -267,10 +334,10 @@ class ScanLine:
                     return NOWHERE
                 c = int(good[np.argmin(np.abs(good - c))])
             i = c
-            while i + 1 < xs.size and ok[i + 1]:
+            while i + 1 < xs.size and ok[i + 1] and i not in dips:
                 i += 1
             j = c
-            while j - 1 >= 0 and ok[j - 1]:
+            while j - 1 >= 0 and ok[j - 1] and j - 1 not in dips:
                 j -= 1
             soft_hit = (i == xs.size - 1 and not hard_hi) or (j == 0 and not hard_lo)
             if soft_hit and grow < 3:
@@ -287,12 +354,12 @@ class ScanLine:
         if i == xs.size - 1:
             hi, hi_end = float(xs[-1]), (EndKind.LIMIT if hard_hi else EndKind.BRACKET, None)
         else:
-            hi, k = self.refine(float(xs[i]), float(xs[i + 1]), signs)
+            hi, k = self.refine(float(xs[i]), float(xs[i]) + dips.get(i, xs[i + 1] - xs[i]), signs)
             hi_end = (EndKind.TOGGLE, self._toggling(hi, float(xs[i]), signs, k))
         if j == 0:
             lo, lo_end = float(xs[0]), (EndKind.LIMIT if hard_lo else EndKind.BRACKET, None)
         else:
-            lo, k = self.refine(float(xs[j]), float(xs[j - 1]), signs)
+            lo, k = self.refine(float(xs[j]), float(xs[j - 1]) + dips.get(j - 1, 0.0), signs)
             lo_end = (EndKind.TOGGLE, self._toggling(lo, float(xs[j]), signs, k))
         return lo, hi, lo_end, hi_end
 

@@ -453,3 +453,47 @@ def test_a_newton_placed_drives_range_ends_where_its_six_bar_turns_back(monkeypa
     assert abs(r['max'] - ends[1]) < 1e-9, (r['max'], ends[1])
     assert sum(spent) < 12000, sum(spent)
 
+
+@pytest.mark.parametrize('past', [2e-7, 2e-9, 5e-7])
+def test_a_dead_zone_narrower_than_the_scans_step_is_found(past):
+    """A four-bar just past its change point (crank 0.2 + ``past`` against ground 0.5, coupler
+    0.6, rocker 0.3: s + l exceeds p + q by ``past``) cannot pass a band of its crank's turn
+    2e-3 .. 7e-5 rad wide, narrower than the scan's step (2 pi / 720): it was read as turning
+    fully, with one toggle or none and half the rocker's swing (a numerics reviewer). Oracle:
+    the cosine rule, |A - O4| = coupler - rocker at the toggles, and the
+    rocker's extremes where |O2 B| = coupler - crank, on both sides of the ground line."""
+    g, c, b, r = 0.5, 0.2 + past, 0.6, 0.3
+    toggle = crank_range_oracle(g, c, b, r)['folded']
+    mech = fourbar(g, c, b, r, input=-0.4)
+    got = motion.actuator_range(mech, 'crank')
+    assert not got['full_turn']
+    ends = sorted(math.remainder(t, 2 * math.pi) for t in got['toggles'])
+    assert len(ends) == 2, got['toggles']
+    # (the toggle moves as sqrt of the crank's excess there: rounding in the lengths' sums,
+    # ~1e-17, moves it by up to ~1e-9 of itself at 2e-9)
+    assert abs(ends[0] + toggle) < 1e-6 * toggle and abs(ends[1] - toggle) < 1e-6 * toggle, (
+        ends,
+        toggle,
+    )
+    extreme = math.pi - math.acos((g * g + r * r - (b - c) ** 2) / (2 * g * r))
+    from linkage_ros.core.motion.quantities import input_sweep
+
+    rocker = input_sweep(mech, ['link:rocker']).outputs['link:rocker']
+    assert abs(rocker.maximum - extreme) < 1e-9 and abs(rocker.minimum + extreme) < 1e-9
+
+
+def test_an_offset_slider_cranks_narrow_dead_zone_is_found():
+    """An offset slider-crank whose offset exceeds rod - crank by 2e-7 m (crank 0.05, rod
+    0.17, offset 0.1200002) cannot pass the crank angles where the crank pin is
+    further than the rod from the slider's line (5.7e-3 rad about -pi/2): it was read as
+    turning fully with no toggle. Oracle: sin(t) = (offset - rod) / crank at the toggles."""
+    from scenes import slider_crank
+
+    r, rod, e = 0.05, 0.17, 0.1200002
+    mech = slider_crank(r, rod, e, input=1.0)
+    got = motion.actuator_range(mech, 'crank')
+    assert not got['full_turn']
+    low = math.asin((e - rod) / r)
+    ends = sorted(math.remainder(t, 2 * math.pi) for t in got['toggles'])
+    want = sorted([low, math.remainder(math.pi - low, 2 * math.pi)])
+    assert len(ends) == 2 and all(abs(a - w) < 1e-9 for a, w in zip(ends, want)), (ends, want)
