@@ -85,6 +85,16 @@ class DrawingCircuit:
         if not does_not_assemble(result):
             return result
         c = self.reference
+        branch = self.forward.continuity.branch
+        if (
+            c is not None
+            and branch.rule is BranchRule.EXPLICIT
+            and all(s.signs != tuple(branch.signs or ()) for s in c.stretches)
+        ):
+            # (a branch setting that holds signs the drawing's circuit never takes: its range
+            # is not the drawing's; an integrator's landing gear under --branch +- was told
+            # -0.03 m lay inside the -+ circuit's -0.1..0.06 m, where +- reaches -0.0228)
+            return result
         if c is not None and not all(s.full for s in c.stretches):
             result.reason = (
                 f'{result.reason}; from its drawing the actuator moves it over '

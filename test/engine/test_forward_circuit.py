@@ -321,3 +321,56 @@ def test_a_command_that_does_not_close_names_the_reachable_range():
         f'from its drawing the actuator moves it over crank {lo:.6g}..{hi:.6g} rad '
         '(its reachable range)'
     ), r.reason
+
+
+def test_a_branch_setting_off_the_drawings_circuit_is_not_told_the_drawings_range():
+    """A command the branch setting's signs cannot assemble was told the drawing's circuit's
+    range, which held the command (an integrator's landing gear under --branch +-: -0.03 m
+    refused as lying in the -+ circuit's -0.1..0.06 m). A Stephenson-III six-bar driven by its
+    crank within limits, drawn with both dyads +: with the four-bar's B mirrored (-+), its C
+    is too far from O6 for link5 and output to close. Oracle: |C - O6| against link5 + output,
+    C carried by the mirrored coupler (B the four-bar's other circle intersection)."""
+    import copy
+
+    from scenes import STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT
+
+    from linkage_ros.core.model import Scene
+
+    scene = copy.deepcopy(STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT)
+    scene['actuators'] = {
+        'crank': {'type': 'angle', 'link': 'crank', 'pivot': 'O2', 'min': 0.6, 'max': 1.5}
+    }
+    P = {k: np.array(v, float) for k, v in scene['points'].items()}
+
+    def far_side_gap(t: float) -> float:
+        """|C - O6| - (link5 + output) with B on the side of O4 -> A opposite the drawing's."""
+        a, b, c = (np.linalg.norm(P[q] - P[p]) for p, q in (('O2', 'A'), ('A', 'B'), ('O4', 'B')))
+        A = a * np.array([math.cos(t), math.sin(t)])
+        d = A - P['O4']
+        L = float(np.hypot(*d))
+        x = (c * c - b * b + L * L) / (2 * L)
+        u, n = d / L, np.array([-d[1], d[0]]) / L
+        drawn = np.sign(
+            np.dot(P['B'] - P['O4'], np.array([-(P['A'] - P['O4'])[1], (P['A'] - P['O4'])[0]]))
+        )
+        B = P['O4'] + x * u - drawn * math.sqrt(c * c - x * x) * n
+        turn = math.atan2(*(B - A)[::-1]) - math.atan2(*(P['B'] - P['A'])[::-1])
+        ac = P['C'] - P['A']
+        C = A + np.array(
+            [
+                ac[0] * math.cos(turn) - ac[1] * math.sin(turn),
+                ac[0] * math.sin(turn) + ac[1] * math.cos(turn),
+            ]
+        )
+        span = np.linalg.norm(P['D'] - P['C']) + np.linalg.norm(P['D'] - P['O6'])
+        return float(np.linalg.norm(C - P['O6']) - span)
+
+    mech = Scene.from_dict(scene).mechanism
+    drawn = Engine(mech, EngineSettings())
+    mirrored = Engine(mech, EngineSettings(branch='-+'))
+    for t in (0.7, 1.0, 1.4):
+        assert far_side_gap(t) > 0  # the oracle: link5 and output cannot span C - O6
+        r = mirrored.command({'crank': t})
+        assert not r.success and r.reason.startswith('cannot assemble'), r.reason
+        assert 'its reachable range' not in r.reason, r.reason
+        assert drawn.command({'crank': t}).success
