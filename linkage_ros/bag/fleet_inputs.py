@@ -196,6 +196,19 @@ class _OutputOwners:
                     self.folder_of[str(f)] = task
 
 
+def _inside_out_dir(path: str, name: str) -> None:
+    """BagError where a bag's name would put its outputs outside --out-dir: a pattern whose
+    match climbs out of the pattern's folder (``'bags/*/../../x/*.mcap'`` named a bag
+    ``basic/../../x/b``, whose CSV overwrote ``x/b.csv`` beside the input: an adversary)."""
+    parts = PurePosixPath(name).parts
+    if not parts or PurePosixPath(name).is_absolute() or any(q in ('..', '.') for q in parts):
+        raise BagError(
+            f'input {path}: its outputs would be named {name!r} under --out-dir, which leaves '
+            'it (a pattern climbing out of its own folder with ..): give the bag or its folder '
+            'itself, or a pattern without ..'
+        )
+
+
 def find_bags(
     inputs: Sequence[str], skip: Path | None = None, results: list[Path] | None = None
 ) -> list[BagTask]:
@@ -249,6 +262,7 @@ def find_bags(
                     'file, or a folder holding bags)'
                 )
             for bag, name in found:
+                _inside_out_dir(path, name)
                 identity = _bag_identity(bag)
                 if identity in seen:
                     continue

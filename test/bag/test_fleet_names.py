@@ -92,3 +92,29 @@ def test_a_bag_given_as_its_folder_and_its_storage_file_is_analysed_once(one_bag
     with pytest.raises(bag.BagError, match='is one storage file of the bag .*also given'):
         find_bags([str(rec / 'a'), str(rec / 'a' / 'part_1.mcap')])
     assert len(find_bags([str(rec / '**' / '*.mcap')])) == 2  # (its parts alone: two bags)
+
+
+def test_a_pattern_that_climbs_out_of_its_folder_writes_nothing_outside_out_dir(
+    one_bag, tmp_path, capsys, monkeypatch
+):
+    """`'bags/*/../../names/*.mcap'` named its match `run/../../names/b`: its CSV replaced
+    names/b.csv, a file of the user's beside the input, and --out-dir got an empty folder
+    (exit 0; an adversary). Refused before any work, naming the input; every file as it was."""
+    monkeypatch.chdir(tmp_path)
+    shutil.copytree(one_bag, tmp_path / 'bags' / 'run')
+    (tmp_path / 'names').mkdir()
+    storage = next((one_bag).glob('*.mcap'))
+    shutil.copy(storage, tmp_path / 'names' / 'b.mcap')
+    (tmp_path / 'names' / 'b.csv').write_text('mine\n')
+    code, cap = run(['bags/*/../../names/*.mcap', *COMMON, '--out-dir', 'out'], capsys)
+    assert code == 2, cap.err
+    assert "input bags/run/../../names/b.mcap: its outputs would be named 'run/../../names/b'" in (
+        cap.err
+    ), cap.err
+    assert (tmp_path / 'names' / 'b.csv').read_text() == 'mine\n'
+    assert sorted(p.name for p in (tmp_path / 'names').iterdir()) == ['b.csv', 'b.mcap']
+    assert not (tmp_path / 'out').exists()
+    # a pattern whose .. stays within its leading folders names its matches as before
+    code, cap = run(['bags/../names/*.mcap', *COMMON, '--out-dir', 'out2', '--jobs', 1], capsys)
+    assert code == 0, cap.err
+    assert (tmp_path / 'out2' / 'b.csv').is_file()
