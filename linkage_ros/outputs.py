@@ -3,22 +3,33 @@
 A write that fails half-way (a full disk, ``ulimit -f``, an interrupt) must not leave a cut file
 under the target's name that looks like a result: every output is written to a temporary file
 beside the target and renamed into place (atomic on POSIX) only once it is complete; on any
-failure the temporary file is removed and the target is left as it was.
+failure the temporary file is removed and the target is left as it was. A target that is a
+symlink is followed (the file it names is written whole, the link kept); one that is no regular
+file (``/dev/stdout``, a FIFO a reader waits on, ``/dev/null``) is written in place, as a shell's
+redirection writes it: renaming a file onto it replaced the device or the pipe itself.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 
 @contextlib.contextmanager
 def written_whole(path: str | os.PathLike[str]) -> Iterator[Path]:
     """Yield the temporary path to write; on success it replaces ``path``, on an exception
-    (also KeyboardInterrupt) it is removed and the exception goes on."""
-    target = Path(path)
+    (also KeyboardInterrupt) it is removed and the exception goes on. A folder at ``path`` is
+    IsADirectoryError; a device, FIFO or socket is yielded itself (written in place)."""
+    given = Path(path)
+    if given.exists() and not given.is_file():  # (stat follows a symlink)
+        if given.is_dir():
+            raise IsADirectoryError(errno.EISDIR, 'is a folder', str(path))
+        yield given
+        return
+    target = Path(os.path.realpath(given)) if given.is_symlink() else given
     tmp = target.with_name(f'.{target.name}.{os.getpid()}.partial')
     try:
         yield tmp
@@ -32,10 +43,30 @@ def written_whole(path: str | os.PathLike[str]) -> Iterator[Path]:
 def folder_refusal(path: str | os.PathLike[str]) -> str | None:
     """Why the folder of ``path`` cannot take a new file ('folder F does not exist', ... is not
     a folder, ... is not writable), or None: checked before any work, so a run is not lost
-    at its end (the CLI's --csv, the bag tool's outputs)."""
-    parent = Path(path).parent
+    at its end (the CLI's --csv, the bag tool's outputs). A folder at ``path`` itself is
+    refused; a device or FIFO there is written in place (written_whole), its folder aside."""
+    given = Path(path)
+    if given.is_dir():
+        return f'{path} is a folder'
+    if given.exists() and not given.is_file():
+        return None if os.access(given, os.W_OK) else f'{path} is not writable (permission denied)'
+    if given.is_symlink():
+        given = Path(os.path.realpath(given))
+    parent = given.parent
     if not parent.is_dir():
         return f'folder {parent} ' + ('is not a folder' if parent.exists() else 'does not exist')
     if not os.access(parent, os.W_OK | os.X_OK):
         return f'folder {parent} is not writable (permission denied)'
+    return None
+
+
+def input_refusal(
+    path: str | os.PathLike[str], inputs: Iterable[str | os.PathLike[str]]
+) -> str | None:
+    """Why ``path`` cannot be written: it is one of the command's ``inputs`` (the scene file
+    named again by --csv or -o was replaced by the output: an adversary); None otherwise."""
+    for given in inputs:
+        with contextlib.suppress(OSError):
+            if os.path.samefile(path, given):
+                return f'is the input {given} (writing it would replace it)'
     return None

@@ -626,11 +626,16 @@ def format_result(d: dict, mech) -> str:
     return '\n'.join(out)
 
 
-def write_text_output(prog: str, text: str, path: str | None) -> int:
+def write_text_output(prog: str, text: str, path: str | None, inputs: Sequence[str] = ()) -> int:
     """A command's text document to ``path`` (written whole or not at all) or to stdout; the
-    exit status (a file that cannot be written: one line on stderr, USAGE_ERROR)."""
-    from ..outputs import written_whole
+    exit status (a file that cannot be written, or one of the command's ``inputs``: one line
+    on stderr, USAGE_ERROR)."""
+    from ..outputs import input_refusal, written_whole
 
+    why = input_refusal(path, inputs) if path else None
+    if why:
+        print(f'{prog}: error: cannot write {path}: it {why}', file=sys.stderr)
+        return USAGE_ERROR
     try:
         if path:
             with written_whole(path) as tmp:

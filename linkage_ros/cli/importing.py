@@ -135,7 +135,8 @@ def run(args: argparse.Namespace) -> int:
     except (UsageError, LinkageError) as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
-    return write_text_output(PROG, text, args.output)
+    read = [args.description] + ([args.closures] if args.closures else [])
+    return write_text_output(PROG, text, args.output, read)
 
 
 def main(argv: Sequence[str] | None = None) -> int:

@@ -50,7 +50,7 @@ from typing import Any
 from ..core.errors import LinkageError
 from ..core.model import SlideActuator
 from ..core.units import Quantity, UnitError, degrees_warning, expect, parse_text
-from ..outputs import folder_refusal
+from ..outputs import folder_refusal, input_refusal
 from .common import UsageError, add_scene_argument, load_mechanism, say
 from .described import InputValues
 
@@ -158,7 +158,7 @@ def _check(args, mech):
     if args.samples < 3:
         raise UsageError(f'--samples must be at least 3 (got {args.samples})')
     for option, path in (('--plot', args.plot), ('--curves', args.curves)):
-        why = folder_refusal(path) if path else None
+        why = (folder_refusal(path) or input_refusal(path, [args.scene])) if path else None
         if why:  # before the analysis, as --csv and the bag's outputs: no run lost at its end
             raise UsageError(f'{option} {path}: {why}')
     acts = None

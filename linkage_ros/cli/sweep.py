@@ -13,7 +13,7 @@ import numpy as np
 
 from ..core.solver import Result
 from ..core.solver.table import ResultTable
-from ..outputs import folder_refusal, written_whole
+from ..outputs import folder_refusal, input_refusal, written_whole
 from .common import (
     OK,
     REFUSED,
@@ -59,11 +59,12 @@ class _Table:
         stdout_gone()
 
 
-def _check_csv_path(path: str) -> None:
-    """A --csv path whose folder cannot take it is refused before any solve."""
+def _check_csv_path(path: str, scene_file: str) -> None:
+    """A --csv path whose folder cannot take it, or that is the scene file, is refused before
+    any solve."""
     if Path(path).is_dir():
         raise UsageError(f'--csv {path}: is a directory')
-    why = folder_refusal(path)
+    why = folder_refusal(path) or input_refusal(path, [scene_file])
     if why:
         raise UsageError(f'--csv {path}: {why}')
 
@@ -75,10 +76,10 @@ def _cell(v) -> str:
 
 
 def cmd_sweep(args) -> int:
-    mech, _ = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
+    mech, scene_file = load_mechanism(args.scene, args.dimension, args.closures, args.actuated)
     _, axes, solver = build_solve(mech, args, allow_range=True)
     if args.csv:
-        _check_csv_path(args.csv)
+        _check_csv_path(args.csv, scene_file)
     out = _Table()
     names = [n for n, _ in axes]
     outs = [p for p in mech.outputs]

@@ -94,10 +94,10 @@ def run(args: argparse.Namespace) -> int:
             from ..core.urdf import DESCRIPTION_REFUSAL
 
             raise UsageError(f'{args.scene}: {DESCRIPTION_REFUSAL}')
-        mech, _path = load_mechanism(args.scene, args.dimension)
+        mech, scene_file = load_mechanism(args.scene, args.dimension)
         _check_assembles(mech)
         text = urdf_document(mech, prefix=args.prefix, frame_id=args.frame_id)
     except (UsageError, LinkageError) as exc:
         print(f'{PROG}: error: {exc}', file=sys.stderr)
         return USAGE_ERROR
-    return write_text_output(PROG, text, args.output)
+    return write_text_output(PROG, text, args.output, [scene_file])

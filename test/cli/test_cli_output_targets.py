@@ -1,0 +1,67 @@
+"""Where a command's output file goes when the path is not a plain new file (an adversary's
+findings): a FIFO, a symlink, a folder, the command's own input. Each output used to be
+written beside the target and renamed onto it, which replaced a FIFO (its reader got nothing),
+a symlink (the link itself), a device (as root: /dev/full became a CSV) and the scene file a
+`--csv` or `-o` named again; a folder gave a traceback. Oracles: the file types before and
+after, the CSV's own rows (one per grid point), the scene file's bytes."""
+
+from __future__ import annotations
+
+import os
+import stat
+import threading
+from pathlib import Path
+
+from cli_helpers import run
+from scenes import CONFIG
+
+
+def test_a_fifo_is_written_in_place_for_its_reader(tmp_path, capsys):
+    fifo = tmp_path / 'ff'
+    os.mkfifo(fifo)
+    got: list[str] = []
+    reader = threading.Thread(target=lambda: got.append(fifo.read_text()), daemon=True)
+    reader.start()
+    rc, _, err = run(capsys, 'sweep', 'four_bar', '--set', 'crank=0:1:3', '--csv', fifo)
+    reader.join(timeout=60)
+    assert rc == 0, err
+    assert stat.S_ISFIFO(fifo.lstat().st_mode)  # still the pipe
+    assert got, 'the reader got nothing'
+    rows = got[0].splitlines()
+    assert rows[0].startswith('index,status') and len(rows) == 4, got
+
+
+def test_a_symlink_is_followed_and_kept(tmp_path, capsys):
+    link, real = tmp_path / 'link.csv', tmp_path / 'real.csv'
+    link.symlink_to('real.csv')
+    rc, _, err = run(capsys, 'sweep', 'four_bar', '--set', 'crank=0:1:3', '--csv', link)
+    assert rc == 0, err
+    assert link.is_symlink() and os.readlink(link) == 'real.csv'
+    assert len(real.read_text().splitlines()) == 4
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['link.csv', 'real.csv']
+
+
+def test_a_folder_is_refused_before_any_work(tmp_path, capsys):
+    rc, _, err = run(capsys, 'range', 'four_bar', '--point', 'P', '--plot', tmp_path)
+    assert rc == 2 and f'--plot {tmp_path}: {tmp_path} is a folder' in err, err
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_commands_own_scene_file_is_not_replaced(tmp_path, capsys):
+    scene = tmp_path / 's.yaml'
+    scene.write_bytes((CONFIG / 'four_bar.yaml').read_bytes())
+    before = scene.read_bytes()
+    for argv, said in (
+        (['sweep', scene, '--set', 'crank=0:1:2', '--csv', scene], f'--csv {scene}: is the input'),
+        (['urdf', scene, '-o', scene], f'cannot write {scene}: it is the input'),
+        (['range', scene, '--point', 'P', '--plot', scene], f'--plot {scene}: is the input'),
+    ):
+        rc, _, err = run(capsys, *argv)
+        assert rc == 2 and said in err, (argv, err)
+        assert scene.read_bytes() == before
+    # (through another name of the same file too)
+    other = tmp_path / 'other.yaml'
+    other.symlink_to(scene)
+    rc, _, err = run(capsys, 'urdf', scene, '-o', other)
+    assert rc == 2 and 'it is the input' in err, err
+    assert scene.read_bytes() == before and Path(other).is_symlink()
