@@ -22,7 +22,15 @@ import sys
 import yaml
 
 from .common import OK, UsageError
-from .ros_graph import DEFAULT_WAIT, message_class, plain, ros_session, spin_until, subscription_qos
+from .ros_graph import (
+    DEFAULT_WAIT,
+    message_class,
+    plain,
+    ros_session,
+    seconds,
+    spin_until,
+    subscription_qos,
+)
 from .ros_graph import topic_types as graph_topic_types
 
 
@@ -34,7 +42,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument('--count', type=int, metavar='N', help='stop after N messages')
     p.add_argument(
         '--wait',
-        type=float,
+        type=seconds,
         default=DEFAULT_WAIT,
         metavar='S',
         help=f'wait up to S seconds for TOPIC to appear: a publisher or a subscription of it '

@@ -25,7 +25,15 @@ from typing import Any
 import yaml
 
 from .common import OK, REFUSED, UsageError, say
-from .ros_graph import DEFAULT_WAIT, WAIT_TOLD_S, plain, ros_session, say_waiting, spin_until
+from .ros_graph import (
+    DEFAULT_WAIT,
+    WAIT_TOLD_S,
+    plain,
+    ros_session,
+    say_waiting,
+    seconds,
+    spin_until,
+)
 
 #: numbers YAML 1.1 reads as strings (an exponent without a dot or a sign: 1e1, 1.0e1, -2E-3)
 _YAML_TEXT_NUMBER = re.compile(r'[+-]?([0-9]+\.?[0-9]*|\.[0-9]+)[eE][+-]?[0-9]+')
@@ -41,7 +49,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument('value', metavar='VALUE', nargs='?', help='the value to set (YAML)')
     p.add_argument(
         '--wait',
-        type=float,
+        type=seconds,
         default=DEFAULT_WAIT,
         metavar='S',
         help=f'wait up to S seconds for the node (default {DEFAULT_WAIT:g})',

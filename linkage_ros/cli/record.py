@@ -28,7 +28,14 @@ from pathlib import Path
 from typing import Any
 
 from .common import OK, UsageError
-from .ros_graph import DEFAULT_WAIT, message_class, ros_session, spin_until, subscription_qos
+from .ros_graph import (
+    DEFAULT_WAIT,
+    message_class,
+    ros_session,
+    seconds,
+    spin_until,
+    subscription_qos,
+)
 from .ros_graph import topic_types as graph_topic_types
 
 PROG = 'linkage record'
@@ -47,11 +54,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help='storage format (default mcap)',
     )
     p.add_argument(
-        '--duration', type=float, metavar='S', help='stop after S seconds (default: Ctrl-C)'
+        '--duration', type=seconds, metavar='S', help='stop after S seconds (default: Ctrl-C)'
     )
     p.add_argument(
         '--wait',
-        type=float,
+        type=seconds,
         default=DEFAULT_WAIT,
         metavar='S',
         help=f'wait up to S seconds for every topic to be in the graph, published or subscribed '

@@ -5,6 +5,7 @@ subcommands start without it)."""
 
 from __future__ import annotations
 
+import argparse
 import importlib
 import math
 import sys
@@ -17,6 +18,22 @@ from .common import UsageError
 
 #: how long to wait for a topic or node to appear in the graph (s) unless told
 DEFAULT_WAIT = 10.0
+
+
+def seconds(text: str) -> float:
+    """An argparse type for --wait and --duration: a finite number of seconds, 0 or more
+    (nan, inf and -1 were taken: nan and inf waited forever, -1 said 'within -1 s')."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f'expected seconds, got {text!r}') from None
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(
+            f'must be a finite number of seconds, 0 or more (got {text})'
+        )
+    return value
+
+
 #: after this long (s) without the topic or node, the wait is said on stderr
 WAIT_TOLD_S = 2.0
 

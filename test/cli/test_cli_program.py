@@ -125,3 +125,25 @@ def test_a_standard_output_that_cannot_be_written_is_one_error_line(argv):
     assert proc.returncode == 2, proc.stderr
     assert proc.stderr.strip().endswith('cannot write standard output: No space left on device')
     assert 'Traceback' not in proc.stderr and proc.stderr.count('\n') == 1, proc.stderr
+
+
+@pytest.mark.parametrize('value', ['nan', 'inf', '-1', 'soon'])
+@pytest.mark.parametrize(
+    'argv',
+    [
+        ['echo', '/nonexist', '--wait'],
+        ['record', '/x', '-o', 'r', '--wait'],
+        ['record', '/x', '-o', 'r', '--duration'],
+        ['param', 'get', '/n', 'x', '--wait'],
+    ],
+)
+def test_seconds_that_are_no_time_are_usage_errors(argv, value, capsys, tmp_path, monkeypatch):
+    """`echo --wait nan` (or inf) waited forever and `param get --wait -1` said 'within -1 s'
+    (an adversary): a wait or duration is a finite number of seconds, 0 or more."""
+    from cli_helpers import run
+
+    monkeypatch.chdir(tmp_path)
+    rc, _, err = run(capsys, *argv, value)
+    assert rc == 2, err
+    assert f'argument {argv[-1]}: ' in err and value in err, err
+    assert list(tmp_path.iterdir()) == []  # (record wrote nothing)
