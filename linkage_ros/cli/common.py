@@ -340,7 +340,11 @@ def run_command(prog: str, func: Any, args: argparse.Namespace) -> int:
     """``func(args)``'s exit status, as every command (``linkage X`` and ``python -m``'s
     stand-alone entry points) ends: a usage or linkage error one line on stderr (2), Ctrl-C
     the shell's 130, stdout's write errors said (a full disk) or, where its reader stopped
-    (`| head`), the command's own status (what it printed through say went to os.devnull)."""
+    (`| head`), the command's own status (what it printed through say went to os.devnull).
+    A stream closed before the start (`>&-`: Python's sys.stdout is None) is os.devnull too."""
+    for name in ('stdout', 'stderr'):
+        if getattr(sys, name) is None:
+            setattr(sys, name, open(os.devnull, 'w'))  # noqa: SIM115 (lives as long as the process)
     try:
         code = int(func(args))
         try:

@@ -5,6 +5,10 @@ command). Oracle: the same command with stdout read."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import pytest
 from closed_stdout import run_module as _run
 
@@ -53,3 +57,28 @@ def test_a_parameter_integer_beyond_64_bits_is_a_usage_error_before_any_wait():
     code, err = _run(['param', 'set', '/nobody_here', 'queue_depth', '99999999999999999999'], False)
     assert code == 2 and "beyond a parameter's 64-bit integers" in err, err
     assert 'waiting for' not in err and 'Traceback' not in err, err
+
+
+@pytest.mark.parametrize(
+    'args',
+    [
+        ['check', 'four_bar', '--json'],  # 0
+        ['solve', 'four_bar_non_grashof', '--set', 'crank=3.1'],  # does not assemble: 1
+        ['urdf', 'four_bar'],  # 0 (its document to stdout)
+    ],
+)
+def test_a_stdout_closed_before_the_start_is_a_reader_gone(args):
+    """`linkage check four_bar --json >&-` was an AttributeError traceback ('NoneType' has no
+    'write': Python's sys.stdout is None when fd 1 is closed; an adversary), exit 1: the
+    command's own status, as with a reader that stopped."""
+    read, _ = _run(args, close=False)
+    proc = subprocess.run(
+        [sys.executable, '-m', 'linkage_ros.cli', *args],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: os.close(1),
+        timeout=300,
+    )
+    assert proc.returncode == read, proc.stderr
+    assert 'Traceback' not in proc.stderr, proc.stderr
