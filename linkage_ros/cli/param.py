@@ -66,6 +66,7 @@ def run(args) -> int:
         raise UsageError('VALUE goes with param set only')
     value = None if args.value is None else parameter_value(args.value)  # (before any wait)
     node_name = args.node if args.node.startswith('/') else f'/{args.node}'
+    _check_node_name(node_name)
     with ros_session('linkage_param') as node:
         client = AsyncParameterClient(node, node_name)
         ready = spin_until(node, client.services_are_ready, min(WAIT_TOLD_S, args.wait))
@@ -105,6 +106,19 @@ def run(args) -> int:
             return REFUSED
         say(f'{node_name}: {args.name} = {args.value}')
         return OK
+
+
+def _check_node_name(node_name: str) -> None:
+    """UsageError where ``node_name`` cannot name a node's parameter services (`/linkage_node/`,
+    `//n`, `/ünï` were rclpy's InvalidServiceNameException tracebacks: an adversary)."""
+    from rclpy.exceptions import InvalidServiceNameException
+    from rclpy.validate_full_topic_name import validate_full_topic_name
+
+    try:
+        validate_full_topic_name(f'{node_name}/get_parameters', is_service=True)
+    except InvalidServiceNameException as exc:
+        why = str(exc).splitlines()[0].split(': ', 1)[-1].rstrip(':')
+        raise UsageError(f'NODE {node_name!r} is not a node name: {why}') from None
 
 
 def parameter_value(text: str) -> bool | int | float | str | list:

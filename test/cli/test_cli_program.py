@@ -147,3 +147,21 @@ def test_seconds_that_are_no_time_are_usage_errors(argv, value, capsys, tmp_path
     assert rc == 2, err
     assert f'argument {argv[-1]}: ' in err and value in err, err
     assert list(tmp_path.iterdir()) == []  # (record wrote nothing)
+
+
+@pytest.mark.parametrize(
+    ('node', 'why'),
+    [
+        ('/linkage_node/', "must not contain repeated '/'"),
+        ('//linkage_node', "must not contain repeated '/'"),
+        ('/ünï', 'must not contain characters other than'),
+    ],
+)
+def test_a_node_name_that_is_none_is_a_usage_error(node, why, capsys):
+    """`linkage param get /linkage_node/ demo_rate` was rclpy's InvalidServiceNameException
+    traceback, exit 1 (which says 'the node refused the value': an adversary)."""
+    from cli_helpers import run
+
+    rc, _, err = run(capsys, 'param', 'get', node, 'demo_rate', '--wait', '0')
+    assert rc == 2, err
+    assert f'NODE {node!r} is not a node name: ' in err and why in err, err
