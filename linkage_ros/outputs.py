@@ -45,6 +45,9 @@ def folder_refusal(path: str | os.PathLike[str]) -> str | None:
     a folder, ... is not writable), or None: checked before any work, so a run is not lost
     at its end (the CLI's --csv, the bag tool's outputs). A folder at ``path`` itself is
     refused; a device or FIFO there is written in place (written_whole), its folder aside."""
+    too_long = name_refusal(path)
+    if too_long:
+        return too_long
     given = Path(path)
     if given.is_dir():
         return f'{path} is a folder'
@@ -69,4 +72,30 @@ def input_refusal(
         with contextlib.suppress(OSError):
             if os.path.samefile(path, given):
                 return f'is the input {given} (writing it would replace it)'
+    return None
+
+
+#: a file name's longest part where the file system does not say (Linux's NAME_MAX)
+NAME_MAX = 255
+
+
+def name_refusal(path: str | os.PathLike[str]) -> str | None:
+    """Why ``path`` cannot name a file on its file system: a part longer than it takes (a
+    246-character --out gave a 'File name too long' traceback naming the trajectories' CSV
+    beside it, and one long bag name ended a whole fleet: an adversary); None otherwise."""
+    full = Path(os.path.abspath(path))
+    probe = full
+    while not os.path.exists(probe) and probe != probe.parent:  # (os.path: no OSError)
+        probe = probe.parent
+    try:
+        limit = os.pathconf(probe, 'PC_NAME_MAX')
+    except (OSError, ValueError):
+        limit = NAME_MAX
+    for part in full.parts:
+        size = len(os.fsencode(part))
+        if size > limit:
+            return (
+                f'its name {part[:24]}...{part[-12:]} is {size} bytes, beyond the {limit} its '
+                'file system takes'
+            )
     return None

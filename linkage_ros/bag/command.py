@@ -15,7 +15,7 @@ from ..cli.common import (
 )
 from ..core.errors import LinkageError
 from ..core.tolerances import NEWTON_TOL
-from ..outputs import folder_refusal
+from ..outputs import folder_refusal, name_refusal
 from .common import DEFAULT_OUT_FORMAT, BagError
 from .fleet_inputs import bags_in
 from .fleet_run import add_fleet_arguments
@@ -324,6 +324,9 @@ def _check_outputs(outs: list[str], plot: str | None):
     for path in outs:
         p = Path(path)
         what = f'output {path}'
+        too_long = name_refusal(p)  # (first: a path's own checks raise on it)
+        if too_long:
+            raise BagError(f'{what}: {too_long}')
         if p.suffix.lower() == '.csv':
             kind = OutputKind.CSV
             if p.is_dir():
@@ -347,6 +350,11 @@ def _check_outputs(outs: list[str], plot: str | None):
         if kind is not OutputKind.CSV:
             continue
         beside = Path(plans_csv_path(full))
+        too_long = name_refusal(beside)
+        if too_long:
+            raise BagError(
+                f'output {plans_csv_path(p)} (the trajectories and paths of --out {p}): {too_long}'
+            )
         if any(beside == other for _, _, other in checked):
             raise BagError(
                 f'output {plans_csv_path(p)}: is where the trajectories and paths of --out {p} '
@@ -359,6 +367,9 @@ def _check_outputs(outs: list[str], plot: str | None):
             )
     if plot is not None:
         what = f'--plot {plot}'
+        too_long = name_refusal(plot)
+        if too_long:
+            raise BagError(f'{what}: {too_long}')
         full = _check_parent(Path(plot), what)
         if full.is_dir():
             raise BagError(f'{what}: is a directory')

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from ..cli.common import say
+from ..outputs import name_refusal
 from .common import BagError
 from .fleet_inputs import FORMATS, SUMMARY_NAMES, BagTask, find_bags
 from .fleet_task import (
@@ -133,6 +134,10 @@ def _prepare(args: argparse.Namespace) -> tuple[BagOptions, list[BagTask]]:
         for fmt in formats:
             if str(t.output(opts.out_dir, fmt)) in reserved:
                 raise BagError(f'bag {t.source}: its output would overwrite {t.name}.{fmt}')
+        for owned in t.owned_names():
+            too_long = name_refusal(Path(opts.out_dir, owned))
+            if too_long:
+                raise BagError(f'bag {t.source}: its output {owned}: {too_long}')
         if Path(opts.out_dir).resolve() in Path(t.source).parents:
             raise BagError(f'bag {t.source} is inside --out-dir {out_dir}: choose another folder')
     try:

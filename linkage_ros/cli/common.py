@@ -634,11 +634,11 @@ def write_text_output(prog: str, text: str, path: str | None, inputs: Sequence[s
     """A command's text document to ``path`` (written whole or not at all) or to stdout; the
     exit status (a file that cannot be written, or one of the command's ``inputs``: one line
     on stderr, USAGE_ERROR)."""
-    from ..outputs import input_refusal, written_whole
+    from ..outputs import input_refusal, name_refusal, written_whole
 
-    why = input_refusal(path, inputs) if path else None
+    why = (name_refusal(path) or input_refusal(path, inputs)) if path else None
     if why:
-        print(f'{prog}: error: cannot write {path}: it {why}', file=sys.stderr)
+        print(f'{prog}: error: cannot write {path}: {why}', file=sys.stderr)
         return USAGE_ERROR
     try:
         if path:

@@ -7,7 +7,6 @@ from __future__ import annotations
 import csv
 import math
 import sys
-from pathlib import Path
 
 import numpy as np
 
@@ -62,8 +61,6 @@ class _Table:
 def _check_csv_path(path: str, scene_file: str) -> None:
     """A --csv path whose folder cannot take it, or that is the scene file, is refused before
     any solve."""
-    if Path(path).is_dir():
-        raise UsageError(f'--csv {path}: is a directory')
     why = folder_refusal(path) or input_refusal(path, [scene_file])
     if why:
         raise UsageError(f'--csv {path}: {why}')

@@ -118,3 +118,24 @@ def test_a_pattern_that_climbs_out_of_its_folder_writes_nothing_outside_out_dir(
     code, cap = run(['bags/../names/*.mcap', *COMMON, '--out-dir', 'out2', '--jobs', 1], capsys)
     assert code == 0, cap.err
     assert (tmp_path / 'out2' / 'b.csv').is_file()
+
+
+def test_a_bag_whose_output_name_is_too_long_is_refused_before_any_work(one_bag, tmp_path, capsys):
+    """One bag named with 240 characters ended a whole fleet in an OSError traceback (File name
+    too long, at its trajectories' CSV), leaving an empty --out-dir (an adversary); and a
+    246-character --out of one bag named the trajectories' CSV in a traceback. Both are
+    refused before any work, naming the bag or the output and the length."""
+    rec = tmp_path / 'rec'
+    shutil.copytree(one_bag, rec / ('b' * 240))
+    shutil.copytree(one_bag, rec / 'ok')
+    out = tmp_path / 'out'
+    code, cap = run([rec, *COMMON, '--out-dir', out, '--jobs', 1], capsys)
+    assert code == 2, cap.err
+    assert f'bag {rec / ("b" * 240)}: its output {"b" * 240}.trajectories.csv: its name' in cap.err
+    assert 'is 257 bytes, beyond the 255 its file system takes' in cap.err, cap.err
+    assert not out.exists()
+    single = tmp_path / ('a' * 246 + '.csv')
+    code, cap = run([one_bag, *COMMON, '--out', single], capsys)
+    assert code == 2 and 'the trajectories and paths of --out' in cap.err, cap.err
+    assert 'is 263 bytes' in cap.err and 'Traceback' not in cap.err, cap.err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['rec']
