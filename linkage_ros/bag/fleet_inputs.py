@@ -141,16 +141,33 @@ def _expand(item: str) -> list[tuple[str, Path | None]]:
     itself (None) when it names an existing path or has no pattern characters."""
     if os.path.lexists(item) or not glob.has_magic(item):
         return [(item, None)]
-    matches = sorted(glob.glob(item, recursive=True))
-    if not matches:
-        raise BagError(f'input {item}: the pattern matches nothing')
     fixed = []
     for part in Path(item).parts[:-1]:
         if glob.has_magic(part):
             break
         fixed.append(part)
     base = Path(*fixed) if fixed else Path('.')
+    if '**' in Path(item).parts:
+        matches = _any_depth(base, Path(item).parts[len(fixed) :])
+    else:
+        matches = sorted(glob.glob(item))
+    if not matches:
+        raise BagError(f'input {item}: the pattern matches nothing')
     return [(m, base) for m in matches]
+
+
+def _any_depth(base: Path, rest: Sequence[str]) -> list[str]:
+    """The matches of the pattern ``rest`` (holding ``**``) under ``base``, symlinked folders
+    not followed (as a folder input's search): glob.glob's ``**`` follows them, and a link to
+    a folder above (``up -> ..``) made its search endless (an adversary). Names starting
+    with a dot are matched only by a pattern part starting with one, as glob.glob's."""
+    dotted = any(part.startswith('.') for part in rest)
+    found = []
+    for p in base.glob('/'.join(rest)):
+        if not dotted and any(q.startswith('.') for q in p.relative_to(base).parts):
+            continue
+        found.append(str(p) if str(base) != '.' else str(p.relative_to(base)))
+    return sorted(found)
 
 
 class _OutputOwners:

@@ -139,3 +139,17 @@ def test_a_bag_whose_output_name_is_too_long_is_refused_before_any_work(one_bag,
     assert code == 2 and 'the trajectories and paths of --out' in cap.err, cap.err
     assert 'is 263 bytes' in cap.err and 'Traceback' not in cap.err, cap.err
     assert sorted(p.name for p in tmp_path.iterdir()) == ['rec']
+
+
+def test_a_pattern_of_any_depth_does_not_follow_symlinked_folders(one_bag, tmp_path, capsys):
+    """`'L/**/*.mcap'` over a folder holding a link to its parent (`up -> ..`) and one to
+    itself searched without end (glob.glob's ** follows symlinks; an adversary): it finds the
+    one bag, as a folder input's search does, and names it from the pattern's folder."""
+    tree = tmp_path / 'L'
+    shutil.copytree(one_bag, tree / 'a' / 'run')
+    (tree / 'a' / 'up').symlink_to('..')
+    (tree / 'self').symlink_to(tree)
+    (tree / '.hidden').mkdir()
+    shutil.copytree(one_bag, tree / '.hidden' / 'run')
+    assert [t.name for t in find_bags([f'{tree}/**/*.mcap'])] == ['a/run/run']
+    assert [t.name for t in find_bags([f'{tree}/.hidden/**/*.mcap'])] == ['run/run']
