@@ -6,7 +6,7 @@ from __future__ import annotations
 import contextlib
 import struct
 from dataclasses import dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePath
 from typing import Any
 
 import numpy as np
@@ -144,6 +144,12 @@ def open_reader(path: str):
         raise BagError(
             f'input {path}: not a rosbag2 (expected a bag folder, a .mcap or a .db3 file)'
         )
+    twice = _listed_twice(p) if p.is_dir() else None
+    if twice is not None:
+        raise BagError(
+            f'input {path}: its metadata.yaml lists the storage file {twice} more than once (its '
+            'messages would be read, and counted, twice)'
+        )
     try:
         reader = Reader(p)
         reader.open()
@@ -153,6 +159,24 @@ def open_reader(path: str):
             f'corrupt or not a rosbag2'
         ) from None
     return reader
+
+
+def _listed_twice(folder: Path) -> str | None:
+    """A storage file a bag folder's metadata.yaml lists more than once (rosbags reads it once
+    per listing, by its name: `[dup.mcap, ./dup.mcap]` doubled every count, exit 0: an
+    adversary), or None; a metadata.yaml that does not parse is rosbags' to refuse."""
+    import yaml
+
+    try:
+        meta = yaml.safe_load((folder / 'metadata.yaml').read_text())
+        files = meta['rosbag2_bagfile_information']['relative_file_paths']
+    except Exception:  # noqa: BLE001 - any shape rosbags refuses itself, saying why
+        return None
+    if not isinstance(files, list):
+        return None
+    names = [PurePath(str(f)).name for f in files]
+    twice = [n for n in dict.fromkeys(names) if names.count(n) > 1]
+    return twice[0] if twice else None
 
 
 def exc_text(exc: BaseException) -> str:

@@ -189,3 +189,29 @@ def test_names_decode_as_the_node_reads_them(name):
         [raw], np.zeros(1, np.int8), ['/cmd'], np.zeros(1, np.int64)
     )
     assert keys[int(key[0])] == (node_reads,)
+
+
+def test_a_storage_file_listed_twice_is_an_error(tmp_path, scene, capsys):
+    """A metadata.yaml listing its one storage file twice (`[x.db3, ./x.db3]`, every count
+    doubled to match) was read twice by rosbags: 400 rows from 200 commands, exit 0 (an
+    adversary). Refused, naming the file; with the listing fixed the bag reads 200."""
+    import yaml
+
+    folder, db = _sqlite_bag(tmp_path)
+    meta_path = folder / 'metadata.yaml'
+    original = meta_path.read_text()
+    meta = yaml.safe_load(original)
+    info = meta['rosbag2_bagfile_information']
+    info['relative_file_paths'] = [db.name, f'./{db.name}']
+    info['message_count'] *= 2
+    for t in info['topics_with_message_count']:
+        t['message_count'] *= 2
+    meta_path.write_text(yaml.safe_dump(meta))
+    out = tmp_path / 'o.csv'
+    common = [folder, '--scene', scene, '--command-topic', '/cmd', '--out', out, '--no-progress']
+    code, cap = run_bag(common, capsys)
+    assert code == 2 and not out.exists(), cap.err
+    assert f'lists the storage file {db.name} more than once' in cap.err, cap.err
+    meta_path.write_text(original)
+    code, cap = run_bag(common, capsys)
+    assert code == 0 and len(read_csv(out)) == 200, cap.err
