@@ -18,6 +18,7 @@ are complete).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import io
 import json
@@ -29,7 +30,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..cli.common import say
+from ..cli.common import Terminated, say, terminate_raises
 from ..outputs import name_refusal
 from .common import BagError
 from .fleet_inputs import FORMATS, SUMMARY_NAMES, BagTask, find_bags
@@ -42,8 +43,8 @@ from .fleet_task import (
     bag_fingerprint,
     finished_row,
     options_fingerprint,
+    pool_worker_init,
     remove_outputs,
-    set_progress_line,
     stale_outputs,
 )
 
@@ -209,12 +210,12 @@ def _pool(
     ctx = mp.get_context(method)
     # each worker takes a terminal line of its own below the fleet's bar for its bags' bars
     lines = ctx.Value('i', 0)
-    if bars:
-        ex = ProcessPoolExecutor(
-            max_workers=jobs, mp_context=ctx, initializer=set_progress_line, initargs=(lines,)
-        )
-    else:
-        ex = ProcessPoolExecutor(max_workers=jobs, mp_context=ctx)
+    ex = ProcessPoolExecutor(
+        max_workers=jobs,
+        mp_context=ctx,
+        initializer=pool_worker_init,
+        initargs=(lines if bars else None,),
+    )
     # one bag per worker in flight, the next submitted as one ends: on Ctrl-C no bag waits in
     # the pool's queue to be started anyway (all submitted at once, the queue's bags ran to the
     # end before the exit). The first ones now, before the progress bar exists: they fork the
@@ -354,14 +355,17 @@ def run_fleet(args: argparse.Namespace) -> int:
         where = 'this process'
         results = _serial(todo, opts, enabled)
     read = 0  # messages read (BagRow.messages: --state-completion's skipped ones too)
-    with tqdm(
-        total=len(todo),
-        desc='bags',
-        unit='bag',
-        file=sys.stderr,
-        disable=not enabled,
-        dynamic_ncols=True,
-    ) as bar:
+    with (
+        _workers_stopped_on_sigterm(),
+        tqdm(
+            total=len(todo),
+            desc='bags',
+            unit='bag',
+            file=sys.stderr,
+            disable=not enabled,
+            dynamic_ncols=True,
+        ) as bar,
+    ):
         for i, row in results:
             rows[i] = row
             read += row.messages
@@ -379,6 +383,23 @@ def run_fleet(args: argparse.Namespace) -> int:
     if t['failed']:
         return SOME_FAILED
     return SOME_REFUSED if t['all_refused'] else ALL_DONE
+
+
+@contextlib.contextmanager
+def _workers_stopped_on_sigterm() -> Iterator[None]:
+    """A SIGTERM to this process alone (a supervisor's stop, `kill PID`) ends the run as
+    Ctrl-C does, its worker processes stopped first: they had run their bags on and then sat
+    idle, orphaned (an adversary). Their staging files go with the next --resume, as a killed
+    run's do. (The workers keep SIGTERM's default: pool_worker_init.)"""
+    import multiprocessing as mp
+
+    try:
+        with terminate_raises():
+            yield
+    except Terminated:
+        for child in mp.active_children():
+            child.terminate()
+        raise
 
 
 def _prune_empty(out_dir: str, failed: list[BagTask], existed: set[Path]) -> None:

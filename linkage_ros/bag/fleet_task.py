@@ -292,9 +292,16 @@ def _undo_malloc_trim() -> None:
 _PROGRESS_LINE = 0
 
 
-def set_progress_line(counter: Any) -> None:
-    """A local pool worker's initializer: take the next terminal line (1, 2, ...) below the
-    fleet's bar for the bars of the bags it analyses."""
+def pool_worker_init(counter: Any) -> None:
+    """A local pool worker's initializer: SIGTERM's default action (a forked worker inherits
+    the fleet's handler, which would make it an exception its task catches: the fleet stops
+    its workers with it); and where ``counter`` is given, take the next terminal line (1, 2,
+    ...) below the fleet's bar for the bars of the bags it analyses."""
+    import signal
+
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if counter is None:
+        return
     global _PROGRESS_LINE
     with counter.get_lock():
         counter.value += 1
@@ -306,7 +313,7 @@ def analyse_bag(
 ) -> BagRow:
     """Solve one bag and write its outputs and manifest; its summary row (FAILED with the
     reason on any error, its outputs then removed: a bag's outputs are all there or none).
-    ``progress_line`` (default: this process's, set by set_progress_line; 0: none): the
+    ``progress_line`` (default: this process's, set by pool_worker_init; 0: none): the
     terminal line of this bag's progress bar, below the fleet's."""
     from ..core.errors import LinkageError
     from ..outputs import written_whole

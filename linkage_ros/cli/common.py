@@ -4,12 +4,14 @@ scene, building a solve, output formatting."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import errno
 import json
 import math
 import os
+import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +24,12 @@ from ..core.units import Quantity, Reading, UnitError, degrees_warning, expect, 
 
 USAGE_ERROR, REFUSED, OK = 2, 1, 0
 INTERRUPTED = 130  # Ctrl-C, as a shell reports a SIGINT
+TERMINATED = 143  # SIGTERM, as a shell reports it
+
+
+class Terminated(BaseException):
+    """A SIGTERM a command turned into an exception to end its own way (terminate_raises):
+    a fleet stops its worker processes first (a kill of the parent alone left them idle)."""
 
 
 class UsageError(Exception):
@@ -368,6 +376,24 @@ def run_command(prog: str, func: Any, args: argparse.Namespace) -> int:
     except KeyboardInterrupt:  # Ctrl-C: the shell's convention, no traceback
         print(f'\n{prog}: interrupted', file=sys.stderr)
         return INTERRUPTED
+    except Terminated:
+        print(f'{prog}: terminated', file=sys.stderr)
+        return TERMINATED
+
+
+@contextlib.contextmanager
+def terminate_raises() -> Iterator[None]:
+    """Within: a SIGTERM raises Terminated in the main thread (the handler before restored on
+    leaving). Install it after forking workers: a forked child inherits Python's handlers."""
+
+    def raise_terminated(signum: int, frame: Any) -> None:
+        raise Terminated
+
+    before = signal.signal(signal.SIGTERM, raise_terminated)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, before)
 
 
 def print_notes(notes: Sequence[str]) -> None:

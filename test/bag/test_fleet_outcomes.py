@@ -69,3 +69,55 @@ def test_messages_counts_every_message_read_with_state_completion(tmp_path, caps
     )
     assert 'none of the 5 message(s) read' in s['reason']
     assert doc['totals']['messages'] == 27 + 5
+
+
+def test_a_sigterm_to_the_fleet_stops_its_workers_and_resume_finishes(tmp_path):
+    """`kill PID` of a `--jobs 2` fleet (a supervisor stopping the main process alone) left
+    both workers running their bags and then idle for good, orphaned (an adversary). The run
+    ends as Ctrl-C ends it (exit 143, 'terminated'), its workers stopped; --resume finishes
+    it. Oracle: the processes whose command line names this run's --out-dir, read from /proc."""
+    import os
+    import shutil
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    from test_fleet import COMMON, write_fleet_bag
+
+    src = tmp_path / 'bags'
+    write_fleet_bag(src / 'b0', 'mcap', 20000, 0.1)
+    for k in range(1, 6):
+        shutil.copytree(src / 'b0', src / f'b{k}')
+    out = tmp_path / 'out'
+    argv = [sys.executable, '-m', 'linkage_ros.cli', 'bag', str(src), *map(str, COMMON)]
+    argv += ['--out-dir', str(out), '--jobs', '2', '--no-progress']
+
+    def ours() -> list[int]:
+        pids = []
+        for entry in os.listdir('/proc'):
+            if entry.isdigit():
+                try:
+                    cmd = Path(f'/proc/{entry}/cmdline').read_bytes().split(b'\0')
+                except OSError:
+                    continue
+                if str(out).encode() in cmd:
+                    pids.append(int(entry))
+        return pids
+
+    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True, start_new_session=True)
+    deadline = time.monotonic() + 240
+    while not list(out.glob('*.done.json')) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert proc.poll() is None, 'the run ended before it could be stopped'
+    os.kill(proc.pid, signal.SIGTERM)  # the main process alone
+    _, err = proc.communicate(timeout=120)
+    assert proc.returncode == 143 and 'linkage bag: terminated' in err, (proc.returncode, err)
+    for _ in range(100):  # (a stopped worker's exit takes a moment)
+        if not ours():
+            break
+        time.sleep(0.1)
+    assert ours() == []
+    done = subprocess.run(argv + ['--resume'], capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert len(list(out.glob('*.done.json'))) == 6
