@@ -78,7 +78,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         type=int,
         default=41,
         metavar='N',
-        help='region grid samples per actuator (default 41, at least 3)',
+        help='region grid samples per actuator (default 41, at least 3; the grid, samples to the '
+        'power of the actuators, at most 4,000,000)',
     )
     p.add_argument('--tilt', metavar='LINK', help='largest rotation of LINK about --lip held')
     p.add_argument('--lip', metavar='POINT', help='point of the tilted link that is held')
@@ -133,6 +134,10 @@ def _fmt(v, unit=''):
     return s
 
 
+#: the most configurations a --point region's grid solves (about 0.2 kB each while solved)
+MAX_REGION_SAMPLES = 4_000_000
+
+
 def _check(args, mech):
     if (args.tilt is None) != (args.lip is None):
         raise UsageError('--tilt LINK and --lip POINT go together')
@@ -157,6 +162,15 @@ def _check(args, mech):
         )
     if args.samples < 3:
         raise UsageError(f'--samples must be at least 3 (got {args.samples})')
+    if args.point is not None or args.plot:
+        k = len(args.actuators.split(',')) if args.actuators else len(mech.actuators)
+        if args.samples**k > MAX_REGION_SAMPLES:
+            # (--samples 10^8 took 12 GB in a minute before: an adversary)
+            raise UsageError(
+                f'--samples {args.samples}: the region grid over {k} actuator(s) would be '
+                f'{args.samples}^{k} = {args.samples**k:,} configurations, more than '
+                f'{MAX_REGION_SAMPLES:,}'
+            )
     for option, path in (('--plot', args.plot), ('--curves', args.curves)):
         why = (folder_refusal(path) or input_refusal(path, [args.scene])) if path else None
         if why:  # before the analysis, as --csv and the bag's outputs: no run lost at its end

@@ -58,6 +58,11 @@ class _Table:
         stdout_gone()
 
 
+#: the most rows a --csv sweep keeps (about 0.1 kB each in memory, the CSV's table and its
+#: text; --json streams any number)
+MAX_CSV_ROWS = 2_000_000
+
+
 def _check_csv_path(path: str, scene_file: str) -> None:
     """A --csv path whose folder cannot take it, or that is the scene file, is refused before
     any solve."""
@@ -77,6 +82,14 @@ def cmd_sweep(args) -> int:
     _, axes, solver = build_solve(mech, args, allow_range=True)
     if args.csv:
         _check_csv_path(args.csv, scene_file)
+        rows = math.prod(len(vals) for _, vals in axes)
+        if rows > MAX_CSV_ROWS:
+            # (a 10^9-point --csv grew without bound before: an adversary)
+            raise UsageError(
+                f'--csv keeps every answer until its file is written: {rows:,} grid points are '
+                f'more than {MAX_CSV_ROWS:,}; sweep fewer, or take --json (one line per point, '
+                'streamed)'
+            )
     out = _Table()
     names = [n for n, _ in axes]
     outs = [p for p in mech.outputs]
@@ -99,8 +112,7 @@ def cmd_sweep(args) -> int:
     grid = command_grid([vals for _, vals in axes])
     table = None
     if args.csv:
-        grid = list(grid)
-        table = ResultTable.for_mechanism(mech, len(grid))
+        table = ResultTable.for_mechanism(mech, math.prod(len(vals) for _, vals in axes))
     n_ok = n_err = 0
     for i, combo in enumerate(grid):
         command = dict(zip(names, combo))

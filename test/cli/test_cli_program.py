@@ -165,3 +165,19 @@ def test_a_node_name_that_is_none_is_a_usage_error(node, why, capsys):
     rc, _, err = run(capsys, 'param', 'get', node, 'demo_rate', '--wait', '0')
     assert rc == 2, err
     assert f'NODE {node!r} is not a node name: ' in err and why in err, err
+
+
+def test_grids_beyond_what_memory_holds_are_refused_before_any_work(capsys, tmp_path):
+    """`range four_bar --point P --samples 100000000` took 12 GB in a minute and `sweep --set
+    crank=0:1:1000000000 --csv` grew without end (an adversary): refused at once, saying the
+    grid's size and the bound; a --json sweep of any size still streams."""
+    from cli_helpers import run
+
+    rc, _, err = run(capsys, 'range', 'four_bar', '--point', 'P', '--samples', 10**8)
+    assert rc == 2 and '100,000,000 configurations, more than 4,000,000' in err, err
+    rc, _, err = run(capsys, 'range', 'front_loader', '--point', 'D', '--samples', 2001)
+    assert rc == 2 and '2001^2 = 4,004,001 configurations' in err, err
+    csv = tmp_path / 'h.csv'
+    rc, _, err = run(capsys, 'sweep', 'four_bar', '--set', 'crank=0:1:1000000000', '--csv', csv)
+    assert rc == 2 and '1,000,000,000 grid points are more than 2,000,000' in err, err
+    assert not csv.exists()
