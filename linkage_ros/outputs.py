@@ -99,3 +99,15 @@ def name_refusal(path: str | os.PathLike[str]) -> str | None:
                 'file system takes'
             )
     return None
+
+
+#: how a spreadsheet tells a formula from text at a cell's start (OWASP's CSV-injection list)
+FORMULA_STARTS = ('=', '+', '-', '@', '\t', '\r')
+
+
+def text_cell(text: str) -> str:
+    """A CSV text cell (a bag's or topic's name, a reason) as a spreadsheet shows it: one that
+    starts as a formula would (`=cmd|calc`, `@SUM(A1)`, `-2+3`) gets a leading single quote,
+    OWASP's advice (an adversary's bag names and topics reached summary.csv as formulas).
+    Numbers are not text cells; JSON and Parquet keep every text as it is."""
+    return "'" + text if text.startswith(FORMULA_STARTS) else text

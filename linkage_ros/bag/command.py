@@ -330,7 +330,7 @@ def _check_outputs(outs: list[str], plot: str | None):
         if p.suffix.lower() == '.csv':
             kind = OutputKind.CSV
             if p.is_dir():
-                raise BagError(f'{what}: is a directory')
+                raise BagError(f'{what}: is a folder')
         elif p.suffix.lower() in _NOT_A_BAG:
             raise BagError(
                 f'{what}: --out writes a CSV (*.csv) or a rosbag2 folder; '
@@ -362,8 +362,7 @@ def _check_outputs(outs: list[str], plot: str | None):
             )
         if beside.is_dir():
             raise BagError(
-                f'output {plans_csv_path(p)} (the trajectories and paths of --out {p}): is a '
-                'directory'
+                f'output {plans_csv_path(p)} (the trajectories and paths of --out {p}): is a folder'
             )
     if plot is not None:
         what = f'--plot {plot}'
@@ -372,7 +371,7 @@ def _check_outputs(outs: list[str], plot: str | None):
             raise BagError(f'{what}: {too_long}')
         full = _check_parent(Path(plot), what)
         if full.is_dir():
-            raise BagError(f'{what}: is a directory')
+            raise BagError(f'{what}: is a folder')
         if any(full == out for _, _, out in checked):
             raise BagError(f'{what}: is also an --out path')
         plot_format(plot)

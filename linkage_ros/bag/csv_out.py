@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..outputs import written_whole
+from ..outputs import text_cell, written_whole
 from .progress import Progress
 from .reading import Commands
 from .results import Results
@@ -293,7 +293,7 @@ def write_csv(
     n = data.n
     progress.start('csv', n)
     comma = None
-    topics = [_csv_field(t) for t in data.topics]
+    topics = [_csv_field(text_cell(t)) for t in data.topics]
     status_names = ['error', 'ok']
     with written_whole(path) as tmp, open(tmp, 'wb') as fh:
         rates = res.has_rates
@@ -352,7 +352,7 @@ def write_csv(
                 comma,
             ]
             bad = [
-                (i, _csv_field(res.reason[a + i] or '').encode('utf-8'))
+                (i, _csv_field(text_cell(res.reason[a + i] or '')).encode('utf-8'))
                 for i in np.flatnonzero(~res.ok[sl]).tolist()
             ]
             width = max([len(r) for _, r in bad] + [1])

@@ -31,7 +31,7 @@ from pathlib import Path
 from typing import Any
 
 from ..cli.common import Terminated, say, terminate_raises
-from ..outputs import name_refusal
+from ..outputs import name_refusal, text_cell
 from .common import BagError
 from .fleet_inputs import FORMATS, SUMMARY_NAMES, BagTask, find_bags
 from .fleet_task import (
@@ -287,7 +287,7 @@ def _csv_value(v: Any) -> str:
         return 'true' if v else 'false'
     if isinstance(v, float):
         return repr(v)
-    return str(v)
+    return text_cell(str(v))
 
 
 def summary_csv_text(rows: Sequence[BagRow]) -> str:

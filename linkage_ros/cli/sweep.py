@@ -12,7 +12,7 @@ import numpy as np
 
 from ..core.solver import Result
 from ..core.solver.table import ResultTable
-from ..outputs import folder_refusal, input_refusal, written_whole
+from ..outputs import folder_refusal, input_refusal, text_cell, written_whole
 from .common import (
     OK,
     REFUSED,
@@ -180,7 +180,8 @@ def _csv_rows(mech, table: ResultTable) -> list[list]:
     for i in range(n):
         if not table.ok[i]:
             given = [repr(c[i]) if math.isfinite(c[i]) else '' for c in inputs]
-            rows.append([i, 'error', table.reason[i] or 'refused', *given] + [''] * len(joints))
+            reason = text_cell(table.reason[i] or 'refused')
+            rows.append([i, 'error', reason, *given] + [''] * len(joints))
             continue
         rows.append([i, 'ok', ''] + [repr(c[i]) for c in (*inputs, *joints)])
     return rows

@@ -47,7 +47,7 @@ def test_plot_path_is_checked_before_any_work(tmp_path, scene, capsys):
     err = refused_stderr([*common, '--plot', tmp_path / 'run.txt'], capsys)
     assert 'cannot write a .txt image' in err and 'png' in err
     assert not out_csv.exists()  # nothing was written
-    assert 'is a directory' in refused_stderr([*common, '--plot', tmp_path], capsys)
+    assert 'is a folder' in refused_stderr([*common, '--plot', tmp_path], capsys)
     assert 'is also an --out path' in refused_stderr([*common, '--plot', out_csv], capsys)
     assert 'does not exist' in refused_stderr(
         [*common, '--plot', tmp_path / 'no' / 'p.png'], capsys
@@ -70,7 +70,7 @@ def test_an_out_path_where_a_csv_puts_its_trajectories_is_refused_before_any_wor
     beside.mkdir()
     err = refused_stderr([*common, '--out', out_csv], capsys)
     assert 'r.trajectories.csv (the trajectories and paths of --out' in err, err
-    assert 'is a directory' in err and not out_csv.exists()
+    assert 'is a folder' in err and not out_csv.exists()
 
 
 @pytest.mark.parametrize(

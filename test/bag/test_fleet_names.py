@@ -153,3 +153,38 @@ def test_a_pattern_of_any_depth_does_not_follow_symlinked_folders(one_bag, tmp_p
     shutil.copytree(one_bag, tree / '.hidden' / 'run')
     assert [t.name for t in find_bags([f'{tree}/**/*.mcap'])] == ['a/run/run']
     assert [t.name for t in find_bags([f'{tree}/.hidden/**/*.mcap'])] == ['run/run']
+
+
+def test_names_that_a_spreadsheet_reads_as_formulas_are_text_in_the_csvs(tmp_path, capsys):
+    """A bag named `@SUM(A1)` and a command topic `=1+2` reached summary.csv and the bag's
+    CSV as cells a spreadsheet runs as formulas (an adversary). The CSVs quote them as text
+    (a leading '); summary.json keeps the names as they are."""
+    import csv as csvlib
+    import json
+
+    from rosbags.rosbag2 import Writer
+    from rosbags.rosbag2.enums import StoragePlugin
+    from test_bag import joint_state
+    from test_fleet import JS, SCENE, T0, TS
+
+    rec = tmp_path / 'rec'
+    rec.mkdir()
+    with Writer(rec / '@SUM(A1)', version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        c = w.add_connection('=1+2', JS, typestore=TS)
+        for i in range(5):
+            t = T0 + i * 10**7
+            w.write(
+                c, t, TS.serialize_cdr(joint_state(['crank'], [0.1 * i], *divmod(t, 10**9)), JS)
+            )
+    out = tmp_path / 'out'
+    code, cap = run(
+        [rec, '--scene', SCENE, '--command-topic', '=1+2', '--out-dir', out, '--jobs', 1], capsys
+    )
+    assert code == 0, cap.err
+    with open(out / 'summary.csv', newline='') as fh:
+        (row,) = list(csvlib.DictReader(fh))
+    assert row['bag'] == "'@SUM(A1)", row
+    assert json.loads((out / 'summary.json').read_text())['bags'][0]['bag'] == '@SUM(A1)'
+    with open(out / '@SUM(A1).csv', newline='') as fh:
+        rows = list(csvlib.DictReader(fh))
+    assert len(rows) == 5 and {r['topic'] for r in rows} == {"'=1+2"}, rows[0]
