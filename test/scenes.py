@@ -227,3 +227,32 @@ STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT = {
     },
     'actuators': {'drive': {'type': 'angle', 'link': 'output', 'pivot': 'O6'}},
 }  # fmt: skip
+
+
+#: a main landing gear (an outside integrator's, imported from their URDF+ <loop>): a strut
+#: pivoting on the airframe at O, a drag brace of two links (U-K, K-S) with its knee K, and a
+#: retraction cylinder M-R on a slide. A strut-angle target is placed by a hybrid plan: the
+#: knee by a closed-form dyad, the cylinder by Newton
+LANDING_GEAR = {
+    'name': 'landing_gear',
+    'points': {
+        'O': [0.5384141654631727, -0.3], 'U': [1.7384141654631726, -0.1],
+        'M': [-0.061585834536827325, 0.0], 'K': [0.9728933994519491, -0.4694292311195603],
+        'Q': [0.6412118680307896, -0.6539689513009617],
+        'S': [0.6182151838746806, -1.096009922966175],
+        'R': [0.677815915039558, -0.6880298341812208],
+        'Ma': [0.390214639692743, -0.4204104271396111],
+        'Qa': [0.9485935705556712, -1.1891185422703279],
+    },
+    'links': {
+        'airframe': ['O', 'U', 'M'], 'strut': ['O', 'S', 'R'], 'upper_brace': ['U', 'K'],
+        'cylinder': ['M', 'Ma'], 'lower_brace': ['K', 'S'], 'rod': ['Q', 'Qa', 'R'],
+    },
+    'ground': 'airframe',
+    'sliders': [{
+        'name': 'stroke', 'guide': 'cylinder', 'slider': 'rod', 'point': 'Q',
+        'direction': [0.7320809401743009, -0.6812176576054909],
+        'origin': [0.6412118680307896, -0.6539689513009617],
+    }],
+    'actuators': {'stroke': {'type': 'slide', 'joint': 'stroke', 'min': -0.1, 'max': 0.06}},
+}  # fmt: skip

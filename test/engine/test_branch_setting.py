@@ -62,3 +62,58 @@ def test_the_modes_of_a_target_are_the_mechanisms(capsys):
     assert 'branch     -' in capsys.readouterr().out
     assert cli_main(['solve', 'four_bar', '--target', 'rocker=1.9', '--branch', '-']) == 1
     assert "the branch setting '-' keeps the mechanism in mode -" in capsys.readouterr().out
+
+
+def _gear_checks(r, knee_side):
+    """An answer of the landing gear closes every loop at the drawing's lengths, with its
+    brace's knee on ``knee_side`` of the line U -> S (independent of the solver: the points
+    it published, the drawing's distances)."""
+    from scenes import LANDING_GEAR
+
+    P = {k: complex(*v) for k, v in LANDING_GEAR['points'].items()}
+    p = {k: complex(*v) for k, v in r.points.items()}
+    for a, b in (('U', 'K'), ('K', 'S'), ('O', 'S'), ('O', 'R'), ('S', 'R')):
+        assert abs(abs(p[a] - p[b]) - abs(P[a] - P[b])) < 1e-9, (a, b)
+    u, k = p['S'] - p['U'], p['K'] - p['U']
+    assert (1 if (u.conjugate() * k).imag > 0 else -1) == knee_side
+
+
+def test_a_hybrid_target_continues_from_a_state_over_centre():
+    """A landing gear's strut-angle target is placed by a hybrid plan (the brace's knee by a
+    dyad, the cylinder by Newton). That dyad was always placed in the drawing's sign: under
+    branch '++' a trajectory of two strut targets was refused at its second point ('the mode
+    changes from ++ to +-') though each alone is answered in ++, and with the knee moved over
+    centre (a target in another mode, asked for) the next plain target snapped it back without
+    a word (an outside integrator). Oracle: each answer's loops closed at the drawing's lengths
+    and its knee's side, read off the published points."""
+    from scenes import LANDING_GEAR
+
+    from linkage_ros.core.model import Scene
+    from linkage_ros.trajectory import solve_trajectory
+
+    mech = Scene.from_dict(LANDING_GEAR).mechanism
+    held = Engine(mech, EngineSettings(branch='++'))
+    start = held.command({'stroke': 0.0})
+    assert start.success and start.branch == '++'
+    u = complex(*start.points['S']) - complex(*start.points['U'])
+    k = complex(*start.points['K']) - complex(*start.points['U'])
+    side = 1 if (u.conjugate() * k).imag > 0 else -1
+    theta = start.links['strut']
+    targets = [[theta + 0.01], [theta + 0.05]]
+    answer = solve_trajectory(held, ['link:strut'], targets, [], None)
+    assert answer.success, answer.reason
+    for (want,), r in zip(targets, answer.results):
+        assert abs(r.links['strut'] - want) < 1e-12 and r.branch == '++'
+        _gear_checks(r, side)
+    # the default setting: the knee moved over centre on request, then a plain target
+    free = Engine(mech, EngineSettings())
+    assert free.command({'stroke': 0.0}).branch == '+-'
+    over = free.solve_target(
+        free.solver_for(['link:upper_brace']),
+        {'link:upper_brace': start.links['upper_brace']},
+        allow_mode_change=True,
+    )
+    assert over.success and over.branch == '++', over.reason
+    after = free.target({'link:strut': theta + 0.05})
+    assert after.success and after.branch == '++', (after.branch, after.reason)
+    _gear_checks(after, side)

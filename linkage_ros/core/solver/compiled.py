@@ -193,12 +193,15 @@ class CompiledSolve:
         return dyad_reason(plan or self.plan, step, violation, self.mech.length_scale)
 
     # -- placing -------------------------------------------------------------------------------
-    def fixed_poses(self, vals: Values) -> tuple[LinkPoses | None, str | None]:
-        """Hybrid mode: the closed-form part's link poses (and the ground) at ``vals``, or the
-        reason it does not close; (None, None) in the other modes."""
+    def fixed_poses(
+        self, vals: Values, signs: Sequence[int] | None = None
+    ) -> tuple[LinkPoses | None, str | None]:
+        """Hybrid mode: the closed-form part's link poses (and the ground) at ``vals`` in its
+        dyads' ``signs`` (None: the reference pose's), or the reason it does not close; (None,
+        None) in the other modes."""
         if self.mode is not SolveMode.HYBRID:
             return None, None
-        run = run_one(self.full_plan, vals, None, None)
+        run = run_one(self.full_plan, vals, signs, None)
         if not run.ok:
             return None, self.dyad_reason(run.failure, run.violation, self.full_plan)
         keep = LinkPoses()

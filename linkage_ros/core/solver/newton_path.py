@@ -52,10 +52,15 @@ Geometry = tuple[tuple[int, ...], Sequence[float], LinkPoses, dict[str, complex]
 
 
 def newton_at(
-    c: CompiledSolve, vals: Values, x0: np.ndarray, start_sign: int | None = None
+    c: CompiledSolve,
+    vals: Values,
+    x0: np.ndarray,
+    start_sign: int | None = None,
+    closed_signs: Sequence[int] | None = None,
 ) -> tuple[SolveResult | None, str | None, LinkPoses | None]:
-    """Newton (with the closed-form part placed first in hybrid mode) from x0 at vals."""
-    fixed, reason = c.fixed_poses(vals)
+    """Newton (with the closed-form part placed first in hybrid mode, in ``closed_signs``)
+    from x0 at vals."""
+    fixed, reason = c.fixed_poses(vals, closed_signs)
     if reason:
         return None, reason, None
     r = c.system.solve(x0, vals, fixed, tol=c.tol, max_iter=c.max_iter, start_sign=start_sign)
@@ -196,12 +201,18 @@ def jacobian_mode_start(c: CompiledSolve, det_sign: int, x_ref: np.ndarray) -> n
     return x_ref if r is None else r.x
 
 
-def refusal_at(c: CompiledSolve, vals: Values, x0: np.ndarray, walk_reason: str | None) -> str:
+def refusal_at(
+    c: CompiledSolve,
+    vals: Values,
+    x0: np.ndarray,
+    walk_reason: str | None,
+    closed_signs: Sequence[int] | None = None,
+) -> str:
     """Why the input ``vals`` was not reached, with the closure miss at that input: the walk's
     own reason is about the last input part-way to it that it tried (a dyad missing by
     1e-8 m just past the edge of reach, Newton stalling with a small residual there), not
     about the input asked for."""
-    fixed, closed_reason = c.fixed_poses(vals)
+    fixed, closed_reason = c.fixed_poses(vals, closed_signs)
     if closed_reason is not None:
         return closed_reason  # the closed-form part, at the input asked for
     L = c.mech.length_scale
@@ -289,6 +300,19 @@ def roller_side_refusal(c: CompiledSolve, cont: Continuity) -> str | None:
     )
 
 
+def closed_part_signs(c: CompiledSolve, last: State | None) -> tuple[int, ...] | None:
+    """Hybrid mode: the signs of the closed-form part's dyads in the configuration a solve
+    resumes from (None: no history, or another mode: the reference pose's). That part was
+    always placed in the drawing's signs, so a target's hybrid solver could not continue from
+    a configuration with a dyad of it on the other side: a landing gear's inverse solve (its
+    brace's knee placed by a dyad) snapped back over centre at the next target, and under a
+    branch setting a trajectory was refused at its second point (an integrator)."""
+    if c.mode is not SolveMode.HYBRID or last is None or not c.full_plan.branch_steps:
+        return None
+    signs = branch_geometry_one(c.full_plan, last.points, last.poses)[0]
+    return tuple(signs) if all(s in (-1, 1) for s in signs) else None
+
+
 def resumed_geometry(c: CompiledSolve, last: State) -> Geometry:
     """The branch geometry of the configuration a warm solve starts from, the previous answer:
     its points and poses are known, and a Newton answer (x_lu set) also left its dyads' sides
@@ -304,10 +328,18 @@ class CarefulPath:
     iterations it spends. Made only where the fast path declined; its walk recurses on plain
     methods (a recursive closure would be a reference cycle the garbage collector collects)."""
 
-    __slots__ = ('c', 'branches', 'iterations', 'since_progress', 'seen', 'halvings')
+    __slots__ = ('c', 'branches', 'iterations', 'since_progress', 'seen', 'halvings', 'closed')
 
-    def __init__(self, c: CompiledSolve, branches: bool, iterations: int, halvings: int):
+    def __init__(
+        self,
+        c: CompiledSolve,
+        branches: bool,
+        iterations: int,
+        halvings: int,
+        closed_signs: Sequence[int] | None = None,
+    ):
         self.c, self.branches = c, branches
+        self.closed = closed_signs  # hybrid mode: the closed-form part's dyad signs
         self.halvings = halvings  # how deep the walk halves the step
         self.iterations = iterations  # every Newton iteration of the command
         self.since_progress = 0  # iterations since the last substep that succeeded
@@ -335,10 +367,10 @@ class CarefulPath:
         """Newton from the solution xa at va to vb, halving the step where it fails: (answer,
         None, its fixed poses) or (None, why, None)."""
         c = self.c
-        fixed_a = c.fixed_poses(va)[0]
+        fixed_a = c.fixed_poses(va, self.closed)[0]
         if sign_a is None:  # det J sign at the start; 0 where it is singular
             sign_a = c.system.start_sign(xa, va, fixed_a)
-        r, reason, fixed = newton_at(c, vb, xa, sign_a)
+        r, reason, fixed = newton_at(c, vb, xa, sign_a, self.closed)
         jumped = False
         if r is not None:
             self.iterations += r.iterations
@@ -352,7 +384,7 @@ class CarefulPath:
             if sign_a != 0 and near_singular(c, xa, fixed_a, va):
                 # det J may change sign only by passing a singular configuration, and one is
                 # near: step without the sign guard, keep it if no dyad jumped sides
-                r2, _, fixed2 = newton_at(c, vb, xa, 0)  # placed as r was: r2 is not None
+                r2, _, fixed2 = newton_at(c, vb, xa, 0, self.closed)  # (placed as r was)
                 self.iterations += r2.iterations if r2 is not None else 0
                 if r2 is not None and r2.success and not self.jump(xa, fixed_a, r2.x, fixed2):
                     self.since_progress = 0
@@ -432,6 +464,7 @@ def solve_newton(
     branches = bool(c.full_plan.complete and c.full_plan.branch_steps)
     warm = last is not None and last.x_all is not None
     known = last.det_sign if last is not None and warm and last.det_sign != 0 else None
+    closed = closed_part_signs(c, last)
     r: SolveResult | None = None
     xs: list[float] = []  # r.x as floats, read once (set with r on the fast path)
     fixed: LinkPoses | None = None
@@ -470,7 +503,8 @@ def solve_newton(
             return bad, None
     reason: str | None = None
     if r is None:
-        path = CarefulPath(c, branches, iterations, 0 if effort is Effort.DIRECT else MAX_HALVINGS)
+        halvings = 0 if effort is Effort.DIRECT else MAX_HALVINGS
+        path = CarefulPath(c, branches, iterations, halvings, closed)
         if branches and warm and last is not None:
             path.know(x0, resumed_geometry(c, last))
         r, reason, fixed = path.walk(v0, x0, vals, 0, known)
@@ -481,7 +515,7 @@ def solve_newton(
             # not assemble (a non-Grashof crank from -2.2 to 2.0 rad past +-pi): its crank
             # turns the other way, through the long way's midpoint (each half of it shorter
             # than a half turn, so the walk's short ways follow it)
-            path = CarefulPath(c, branches, iterations, MAX_HALVINGS)
+            path = CarefulPath(c, branches, iterations, MAX_HALVINGS, closed)
             if branches and warm and last is not None:
                 path.know(x0, resumed_geometry(c, last))
             rm, _, _ = path.walk(v0, x0, around, 0, known)
@@ -505,7 +539,11 @@ def solve_newton(
             if branches:
                 geo = path.geometry(r.x, fixed)
     if r is None:
-        why = refusal_at(c, vals, x0, reason) if effort is Effort.FULL else _unexplained(reason)
+        why = (
+            refusal_at(c, vals, x0, reason, closed)
+            if effort is Effort.FULL
+            else _unexplained(reason)
+        )
         res = c.fail(why, c.echo(vals), solver_name)
         res.iterations = iterations
         return res, None
