@@ -216,8 +216,12 @@ def value_interval(spec: ScalarSpec) -> tuple[float, float] | None:
     return lo, hi
 
 
+#: how an inverse solve's refusal of an answer beyond an actuator's limits starts
+NEEDS_BEYOND_LIMITS = 'target needs '
+
+
 def needs_beyond_limits(spec: ScalarSpec, value: float) -> str | None:
     """Why an inverse solve's answer is refused where it needs actuator ``spec`` at ``value``
     beyond its limits (the one wording of the scalar and the batch solve), or None."""
     why = limit_violation(spec, value)
-    return None if why is None else f'target needs {why}'
+    return None if why is None else f'{NEEDS_BEYOND_LIMITS}{why}'

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..model import Mechanism
+from ..plan.spec import NEEDS_BEYOND_LIMITS
 from ..quantities import AngleSpec, CoordinateSpec
 from .compiled import SolveMode
 from .modes import newton_modes
@@ -180,6 +181,7 @@ class ModeKeeper:
         holds the mode (a branch setting), named in a refusal instead of how to ask for a
         change."""
         result = solver.solve(values, commit=False)
+        first = result
         after = self.mode(result) if result.success else None
         # a branch setting holds the signs themselves; else a circuit's toggles are no change
         here = None if held_by else last
@@ -245,10 +247,15 @@ class ModeKeeper:
                 if circuit
                 else f'assembly mode {self.label(after)} {self._of_what()}'
             )
-            refusal = Result(
-                False, f'target is reachable only in {where}; {why}', solver=result.solver
-            )
-            return TargetAnswer(refusal, False)
+            said = f'target is reachable only in {where}; {why}'
+            if (first.reason or '').startswith(NEEDS_BEYOND_LIMITS):
+                # the current mode's answer is there, beyond a limit: that first (a loader's
+                # bin hinge needing Z2 1e-6 m past its maximum was told it is reachable only
+                # in another mode: a numerics reviewer)
+                said = f'{first.reason} from the current configuration; within the limits it ' + (
+                    said.removeprefix('target ')
+                )
+            return TargetAnswer(Result(False, said, solver=result.solver), False)
         circuit = self._changes_circuit(here, result) or self.label(before) == self.label(after)
         result.mode_change = f'{self.label(before)} -> {self.label(after)}' + (
             ' (another circuit)' if circuit else ''

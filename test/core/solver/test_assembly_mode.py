@@ -315,3 +315,25 @@ def test_a_mode_a_cylinder_reaches_through_its_dead_centre_is_worded_so():
     assert 'only a motion through a toggle position, or taking the mechanism apart, changes' in (
         r.reason
     )
+
+
+def test_a_target_the_current_mode_reaches_just_past_a_limit_says_the_limit_first():
+    """The loader's bin hinge D where Z1 = 1.9 m and Z2 = 2.08 m + 1e-6 m put it (Z2 just past
+    its maximum) was refused as 'reachable only in assembly mode +++' though the current mode
+    +-+ reaches it there (a numerics reviewer); the limit comes first now, then the mode that
+    reaches it within the limits. Oracle: D of the limit-free loader at those throws, the
+    throw asked for read back from the refusal."""
+    from linkage_ros.core.motion.common import without_limits
+    from linkage_ros.core.solver import Solver
+
+    mech = load('front_loader')
+    free = Solver(without_limits(mech))
+    d = free.solve({'Z1': 1.9, 'Z2': 2.08 + 1e-6}).points['D']
+    e = Engine(mech, EngineSettings())
+    assert e.mode(e.last)[0] == (1, -1, 1)
+    r = e.target_point('D', d)
+    assert not r.success
+    assert r.reason.startswith(
+        'target needs Z2 = 2.080001 m is beyond its maximum 2.08 by 1e-06 m from the current '
+        'configuration; within the limits it is reachable only in assembly mode +++'
+    ), r.reason
