@@ -128,7 +128,13 @@ class ScanLine:
         self.free = without_limits(mech)
         self.scan = scan
         self.held = dict(held)
-        self.solver = Solver(self.free, knowns=[scan] + list(self.held), branch='reference')
+        # (the geometry, whichever solver the scene asks for: the closed form where there is
+        # one; a scene with `solver: newton` read a Hart inversor's and a Scott-Russell's
+        # motion through their toggles by Newton walks that stop at them, the Scott-Russell's
+        # stroke without its limits 0.24 m where its limits alone allow 0.3)
+        self.solver = Solver(
+            self.free, knowns=[scan] + list(self.held), branch='reference', method='auto'
+        )
         self.closed = self.solver.mode is SolveMode.CLOSED_FORM
         self.plan = self.solver.plan
         self.spec = self.solver.specs[0]

@@ -10,7 +10,12 @@ import math
 import numpy as np
 import pytest
 from oracles import fourbar as oracle
-from scenes import STEPHENSON_DRIVEN_AT_ITS_OUTPUT, STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT, load
+from scenes import (
+    CONFIG,
+    STEPHENSON_DRIVEN_AT_ITS_OUTPUT,
+    STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT,
+    load,
+)
 
 from linkage_ros.core.motion.quantities import (
     classical_outputs,
@@ -396,3 +401,29 @@ def test_a_newton_placed_links_extremes_at_the_drives_toggles_are_read_there():
         abs(crank.input_at_min - (d_hi - 2 * math.pi)) < 1e-9
         or abs(crank.input_at_min - d_hi) < 1e-9
     ), (crank.input_at_min, d_hi)
+
+
+@pytest.mark.parametrize('stem', ['scott_russell', 'hart'])
+def test_a_scene_solved_by_newton_reads_its_motion_as_the_closed_form_does(stem, tmp_path):
+    """The motion is geometry, whichever solver a scene asks for: with `solver: newton` the
+    Scott-Russell's slider without the crank's limits was read as stroking 0 .. 0.24 m (less
+    than the 0.3 m its limits alone allow) and the Hart inversor's AD swinging 3.82 rad where
+    it swings 5.32, the scans walking Newton to the first toggle. Oracle: the Scott-Russell's
+    slider is 2 * 0.15 cos(crank) (its AB = AC = O2A = 0.15 m), 0.3 m either way over a turn;
+    the Hart inversor's, read by the closed form (that scene's own solver)."""
+    import yaml
+
+    from linkage_ros.core.model import Scene
+    from linkage_ros.core.motion.common import without_limits
+
+    text = yaml.safe_load((CONFIG / f'{stem}.yaml').read_text())
+    text['solver'] = 'newton'
+    forced = without_limits(Scene.from_dict(text).mechanism)
+    if stem == 'scott_russell':
+        slider = input_sweep(forced, ['joint:slider']).outputs['joint:slider']
+        assert abs(slider.minimum + 0.3) < 1e-12 and abs(slider.maximum - 0.3) < 1e-12
+        return
+    closed = without_limits(load(stem))
+    want = input_sweep(closed, ['link:AD']).outputs['link:AD']
+    got = input_sweep(forced, ['link:AD']).outputs['link:AD']
+    assert abs(got.minimum - want.minimum) < 1e-9 and abs(got.maximum - want.maximum) < 1e-9
