@@ -9,6 +9,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
+from ..execute import CROSSING_MARGIN
 from ..model import AngleActuator, Mechanism
 from ..model.names import NameKind, known_name
 from ..plan import Poses, spec_for, spec_value_at
@@ -21,9 +22,13 @@ LENGTH_TOL = 1e-12
 #: points evaluated per refinement round (a 17-ary search: ~9 rounds from a grid step to 1e-12)
 KARY = 16
 #: a local minimum of a dyad's margin along a scanned input, refined to the input tolerance,
-#: below this is a toggle the circuit touches (a change point): the refined margin of a true
-#: touch is ~sqrt of the input tolerance. Not the assembly-mode threshold (result.SIGN_MARGIN)
-TOUCHED_TOGGLE_MARGIN = 1e-7
+#: below this is a toggle the circuit touches (a change point): the continuous solve's own
+#: crossing threshold (execute.CROSSING_MARGIN: a gap of less than ~1e-12 of the lengths is on
+#: the change point), so a scan and a sweep agree where the motion goes (at 1e-7, a four-bar
+#: 1e-14 inside its Grashof limit was swept across its change point and scanned as never
+#: reaching it: half its rocker's swing, a numerics reviewer). Not the assembly-mode threshold
+#: (result.SIGN_MARGIN)
+TOUCHED_TOGGLE_MARGIN = CROSSING_MARGIN
 #: cap on circuit segments followed through assembly-mode changes
 MAX_SEGMENTS = 64
 #: how far past a toggle found to rounding it is read (multiples of the input's ulp)

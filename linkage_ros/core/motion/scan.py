@@ -27,7 +27,7 @@ from .common import (
     reference_value,
     without_limits,
 )
-from .touches import TOUCH_RESOLUTION, crosses, crossing_root, touch_points
+from .touches import TOUCH_RESOLUTION, crosses, crossing_root, kary_min, touch_points
 
 #: how far inside an assembly edge its toggle's margin is sampled (rad, or of the length scale):
 #: well clear of the tangency clamp (1e-12) and close enough for a parabola in margin^2 to be
@@ -218,15 +218,13 @@ class ScanLine:
         """A value in [a, b] where the plan does not assemble, found by zooming in on the
         least margin of dyad ``k`` (unimodal there: a V past a change point, a cusp at a
         toggle), or None where the margin stays above 0 down to the scan's tolerance."""
-        while b - a > self.tol:
-            xs = np.linspace(a, b, KARY + 2)
+
+        def own(xs: np.ndarray) -> np.ndarray:  # dyad k's margin, NaN where the plan fails
             info = self.run(xs, signs)[2]
-            fails = np.flatnonzero(~np.asarray(info['ok'], bool))
-            if fails.size:
-                return float(xs[fails[0]])
-            i = int(np.argmin(np.asarray(info['margins'])[:, k]))
-            a, b = float(xs[max(i - 1, 0)]), float(xs[min(i + 1, KARY + 1)])
-        return None
+            return np.where(info['ok'], np.asarray(info['margins'])[:, k], np.nan)
+
+        x, at = kary_min(own, a, b, self.tol, failure_ends=True)
+        return x if math.isnan(at) else None
 
     def dead_zones(self, xs: np.ndarray, ok: np.ndarray, signs: Sequence[int]) -> dict[int, float]:
         """{i: a value between xs[i] and the next sample (xs[i + 1]; for an angle's turn of

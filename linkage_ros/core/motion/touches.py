@@ -60,16 +60,25 @@ def golden_min(f: Callable[[float], float], a: float, b: float, tol: float) -> t
     return (c, fc) if fc <= fd else (d, fd)
 
 
-def _kary_min(
-    margins: Callable[[np.ndarray], np.ndarray], a: float, b: float, tol: float
+def kary_min(
+    margins: Callable[[np.ndarray], np.ndarray],
+    a: float,
+    b: float,
+    tol: float,
+    failure_ends: bool = False,
 ) -> tuple[float, float]:
     """The minimum of a unimodal margin on [a, b] (NaN counted as 1: the plan fails there),
     _KARY points a round: one plan run evaluates them all (a run of one point costs about as
-    much as one of sixteen: golden_min's point-by-point rounds took seconds per scan)."""
+    much as one of sixteen: golden_min's point-by-point rounds took seconds per scan). With
+    ``failure_ends`` the first value where the plan fails ends the search: (it, NaN) (a dead
+    zone in the dip: scan.ScanLine.dead_zones)."""
     best_x, best_f = a, math.inf
     for _ in range(100):
         xs = np.linspace(a, b, _KARY + 2)
-        fs = np.nan_to_num(margins(xs), nan=1.0)
+        raw = margins(xs)
+        if failure_ends and np.isnan(raw).any():
+            return float(xs[int(np.flatnonzero(np.isnan(raw))[0])]), math.nan
+        fs = np.nan_to_num(raw, nan=1.0)
         i = int(np.argmin(fs))
         if fs[i] < best_f:
             best_x, best_f = float(xs[i]), float(fs[i])
@@ -116,7 +125,7 @@ def touch_points(
     dips = np.flatnonzero((inner < DIP_MARGIN) & (inner <= m[:-2]) & (inner <= m[2:])) + 1
     out = []
     for i in dips:
-        x, fx = _kary_min(margins, xs[i - 1], xs[i + 1], tol)
+        x, fx = kary_min(margins, xs[i - 1], xs[i + 1], tol)
         if fx < TOUCHED_TOGGLE_MARGIN:
             out.append(_flat_centre(margins, xs[i - 1], x, xs[i + 1], fx))
     return out

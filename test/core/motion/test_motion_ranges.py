@@ -497,3 +497,24 @@ def test_an_offset_slider_cranks_narrow_dead_zone_is_found():
     ends = sorted(math.remainder(t, 2 * math.pi) for t in got['toggles'])
     want = sorted([low, math.remainder(math.pi - low, 2 * math.pi)])
     assert len(ends) == 2 and all(abs(a - w) < 1e-9 for a, w in zip(ends, want)), (ends, want)
+
+
+@pytest.mark.parametrize(('short', 'crosses'), [(1e-14, True), (2e-10, False)])
+def test_a_scan_crosses_a_change_point_where_a_sweep_does(short, crosses):
+    """A crank-rocker 1e-14 inside its Grashof limit (crank 0.2 - 1e-14 against 0.5, 0.6, 0.3):
+    `check` calls it a change point and a sweep crosses into the other sign there (a gap under
+    ~1e-12 of the lengths is on it: docs/SCENES.md), but the scan took it as never reaching it,
+    reading half its rocker's swing (a numerics reviewer). 2e-10 inside, neither crosses.
+    Oracle: the rocker's extremes where |O2 B| = coupler - crank (cosine rule), on both sides
+    of the ground line where the motion crosses, on the drawn side alone where it does not."""
+    from linkage_ros.core.motion.quantities import input_sweep
+
+    g, c, b, r = 0.5, 0.2 - short, 0.6, 0.3
+    mech = fourbar(g, c, b, r, input=-0.4)
+    extreme = math.pi - math.acos((g * g + r * r - (b - c) ** 2) / (2 * g * r))
+    rocker = input_sweep(mech, ['link:rocker']).outputs['link:rocker']
+    assert abs(rocker.maximum - extreme) < 1e-9
+    if crosses:
+        assert abs(rocker.minimum + extreme) < 1e-9, rocker.minimum
+    else:
+        assert rocker.minimum > 0, rocker.minimum  # (the drawn side of the ground line)
