@@ -437,3 +437,62 @@ def trig_is_libm(angles) -> bool:
         float(s) == math.sin(x) and float(c) == math.cos(x) and float(t) == math.atan2(x, y)
         for s, c, t, x, y in zip(np.sin(a), np.cos(a), np.arctan2(a, b), a.tolist(), b.tolist())
     )
+
+
+# ---- a Stephenson six-bar driven at its output link ------------------------------------------
+def _circles_meet(c1, r1, c2, r2, side: int):
+    """Where circles (c1, r1) and (c2, r2) meet, left (+1) or right (-1) of c1 -> c2."""
+    import numpy as np
+
+    d = c2 - c1
+    L = float(np.hypot(*d))
+    x = (r1 * r1 - r2 * r2 + L * L) / (2 * L)
+    h = math.sqrt(max(r1 * r1 - x * x, 0.0))
+    u = d / L
+    return c1 + x * u + side * h * np.array([-u[1], u[0]])
+
+
+def _left_of(a, b, x) -> int:
+    return 1 if (b - a)[0] * (x - a)[1] - (b - a)[1] * (x - a)[0] > 0 else -1
+
+
+def stephenson_drive(points: dict):
+    """The drive angle (rad, at O6, unwrapped about the drawing's) of a Stephenson six-bar
+    drawn with ``points`` (O2, A, B, O4 its four-bar; C on the coupler A-B-C; D where link5
+    C-D meets the output O6-D) as a function of the crank O2-A's angle: B and D each on its
+    drawn side, by circle intersections written here."""
+    import numpy as np
+
+    P = {k: np.array(v, float) for k, v in points.items()}
+    a, b, c = (np.linalg.norm(P[q] - P[p]) for p, q in (('O2', 'A'), ('A', 'B'), ('O4', 'B')))
+    cd, out = np.linalg.norm(P['D'] - P['C']), np.linalg.norm(P['D'] - P['O6'])
+    sb, sd = _left_of(P['A'], P['O4'], P['B']), _left_of(P['C'], P['O6'], P['D'])
+    ab0, ac0 = P['B'] - P['A'], P['C'] - P['A']
+    drawn = math.atan2(*(P['D'] - P['O6'])[::-1])
+
+    def drive(t: float) -> float:
+        A = P['O2'] + a * np.array([math.cos(t), math.sin(t)])
+        B = _circles_meet(A, b, P['O4'], c, sb)
+        rot = math.atan2(*(B - A)[::-1]) - math.atan2(*ab0[::-1])
+        cs, sn = math.cos(rot), math.sin(rot)
+        C = A + np.array([ac0[0] * cs - ac0[1] * sn, ac0[0] * sn + ac0[1] * cs])
+        D = _circles_meet(C, cd, P['O6'], out, sd)
+        return drawn + math.remainder(math.atan2(*(D - P['O6'])[::-1]) - drawn, 2 * math.pi)
+
+    return drive
+
+
+def extreme_near_samples(f, grid, sense: int, width: float, xatol: float = 1e-11):
+    """(x, f(x)) at the least (``sense`` 1) or greatest (-1) of ``f``: its best sample on
+    ``grid`` refined by a bounded scalar search within ``width`` of it (f flat there: the
+    value's error is the search's squared)."""
+    from scipy.optimize import minimize_scalar
+
+    k = min(range(len(grid)), key=lambda i: sense * f(grid[i]))
+    got = minimize_scalar(
+        lambda t: sense * f(t),
+        bounds=(grid[k] - width, grid[k] + width),
+        method='bounded',
+        options={'xatol': xatol},
+    )
+    return float(got.x), sense * float(got.fun)

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 import yaml
-from motion_helpers import TWO_PI, ang, circ, circle_meet, named_scene, side
+from motion_helpers import TWO_PI, ang, circ, circle_meet, named_scene
 from scenes import CONFIG, STEPHENSON_DRIVEN_AT_ITS_OUTPUT
 from scenes import four_bar as fourbar
 
@@ -404,40 +404,12 @@ def test_a_newton_placed_drives_range_ends_where_its_six_bar_turns_back(monkeypa
     where the range ends, not why): by the continuation walk with its halvings, past the fold,
     they took 33468 Newton iterations here (`linkage check` of the scene 28 s of CPU); bounded
     well above the 4013 they take now."""
-    from scipy.optimize import minimize_scalar
+    from oracles import extreme_near_samples, stephenson_drive
 
     scene = STEPHENSON_DRIVEN_AT_ITS_OUTPUT
-    P = {k: np.array(v, float) for k, v in scene['points'].items()}
-    a, b, c = (np.linalg.norm(P[q] - P[p]) for p, q in (('O2', 'A'), ('A', 'B'), ('O4', 'B')))
-    cd, out = np.linalg.norm(P['D'] - P['C']), np.linalg.norm(P['D'] - P['O6'])
-    ab0, ac0 = P['B'] - P['A'], P['C'] - P['A']
-    drawn_b, drawn_d = side(P['A'], P['O4'], P['B']), side(P['C'], P['O6'], P['D'])
-    drawn = math.atan2(*(P['D'] - P['O6'])[::-1])
-
-    def drive(crank):
-        A = a * np.array([math.cos(crank), math.sin(crank)])
-        B = circle_meet(A, b, P['O4'], c, drawn_b)
-        rot = math.atan2(*(B - A)[::-1]) - math.atan2(*ab0[::-1])
-        C = A + np.array(
-            [
-                ac0[0] * math.cos(rot) - ac0[1] * math.sin(rot),
-                ac0[0] * math.sin(rot) + ac0[1] * math.cos(rot),
-            ]
-        )
-        D = circle_meet(C, cd, P['O6'], out, drawn_d)
-        return drawn + math.remainder(math.atan2(*(D - P['O6'])[::-1]) - drawn, TWO_PI)
-
+    drive = stephenson_drive(scene['points'])
     cranks = np.linspace(0, TWO_PI, 721)
-    ends = []
-    for sense in (1, -1):  # (min, then max)
-        k = int(np.argmin([sense * drive(t) for t in cranks]))
-        got = minimize_scalar(
-            lambda t: sense * drive(t),
-            bounds=(cranks[k] - 0.01, cranks[k] + 0.01),
-            method='bounded',
-            options={'xatol': 1e-10},
-        )
-        ends.append(sense * got.fun)
+    ends = [extreme_near_samples(drive, cranks, sense, 0.01)[1] for sense in (1, -1)]
     spent = []
     solve = Solver.solve
 

@@ -342,39 +342,12 @@ def test_a_newton_placed_links_extremes_at_the_drives_toggles_are_read_there():
     toggle 3.54624 (an outside scene author, by 50-digit mpmath). Oracle: the drive as a
     function of the crank, by the four-bar's own circle intersections (B, then D from C on
     the drawn sides), its extremes refined by a bounded scalar search; the crank there."""
-    from scipy.optimize import minimize_scalar
+    from oracles import extreme_near_samples, stephenson_drive
 
     from linkage_ros.core.model import Scene
 
     scene = STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT
-    P = {k: np.array(v, float) for k, v in scene['points'].items()}
-
-    def meet(c1, r1, c2, r2, side):  # the circles' meeting point left (+1) of c1 -> c2
-        d = c2 - c1
-        L = float(np.hypot(*d))
-        x = (r1 * r1 - r2 * r2 + L * L) / (2 * L)
-        h = math.sqrt(max(r1 * r1 - x * x, 0.0))
-        u = d / L
-        return c1 + x * u + side * h * np.array([-u[1], u[0]])
-
-    def left(a, b, x):
-        return 1 if (b - a)[0] * (x - a)[1] - (b - a)[1] * (x - a)[0] > 0 else -1
-
-    a, b, c = (np.linalg.norm(P[q] - P[p]) for p, q in (('O2', 'A'), ('A', 'B'), ('O4', 'B')))
-    cd, out = np.linalg.norm(P['D'] - P['C']), np.linalg.norm(P['D'] - P['O6'])
-    sb, sd = left(P['A'], P['O4'], P['B']), left(P['C'], P['O6'], P['D'])
-    ab0, ac0 = P['B'] - P['A'], P['C'] - P['A']
-    drawn = math.atan2(*(P['D'] - P['O6'])[::-1])
-
-    def drive(t):
-        A = a * np.array([math.cos(t), math.sin(t)])
-        B = meet(A, b, P['O4'], c, sb)
-        rot = math.atan2(*(B - A)[::-1]) - math.atan2(*ab0[::-1])
-        cs, sn = math.cos(rot), math.sin(rot)
-        C = A + np.array([ac0[0] * cs - ac0[1] * sn, ac0[0] * sn + ac0[1] * cs])
-        D = meet(C, cd, P['O6'], out, sd)
-        return drawn + math.remainder(math.atan2(*(D - P['O6'])[::-1]) - drawn, 2 * math.pi)
-
+    drive = stephenson_drive(scene['points'])
     mech = Scene.from_dict(scene).mechanism
     # (every link, as `linkage check` and `range --links` read them: each extreme's search began
     # where the one before had left the solver)
@@ -382,17 +355,9 @@ def test_a_newton_placed_links_extremes_at_the_drives_toggles_are_read_there():
     crank = sweep.outputs['link:crank']
     # the toggles the drive's range ends at: the drive's least and greatest near the drawing
     cranks = np.linspace(0.2, 2.3, 211)  # the drawn crank 1.047 between the two toggles
-    at = {}
-    for sense in (1, -1):
-        k = int(np.argmin([sense * drive(t) for t in cranks]))
-        got = minimize_scalar(
-            lambda t: sense * drive(t),
-            bounds=(cranks[k] - 0.02, cranks[k] + 0.02),
-            method='bounded',
-            options={'xatol': 1e-11},
-        )
-        at[sense] = (got.x, sense * got.fun)
-    (t_lo, d_lo), (t_hi, d_hi) = at[1], at[-1]
+    (t_lo, d_lo), (t_hi, d_hi) = (
+        extreme_near_samples(drive, cranks, sense, 0.02) for sense in (1, -1)
+    )
     # the crank is flat in the drive nowhere here: at a toggle it moves as sqrt of the drive's
     # distance to it, which Newton's tolerance and the toggle's bisection leave at ~1e-11
     assert abs(crank.minimum - t_hi) < 1e-5, (crank.minimum, t_hi, d_hi)
