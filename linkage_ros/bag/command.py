@@ -11,6 +11,7 @@ from pathlib import Path
 from ..cli.common import (
     UsageError,
     add_scene_argument,
+    file_name,
     say,
 )
 from ..core.errors import LinkageError
@@ -109,6 +110,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         '--out',
         action='append',
+        type=file_name,
         default=[],
         metavar='OUTPUT',
         help='one bag: *.csv for a table, else a new rosbag2 folder; may be given twice',
@@ -150,6 +152,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--plot',
+        type=file_name,
         metavar='PNG',
         default=None,
         help='write coupler-point traces and input/joint curves to this image '

@@ -30,7 +30,7 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..cli.common import Terminated, say, terminate_raises
+from ..cli.common import Terminated, file_name, say, terminate_raises
 from ..outputs import name_refusal, text_cell
 from .common import BagError
 from .fleet_inputs import FORMATS, SUMMARY_NAMES, BagTask, find_bags
@@ -56,6 +56,7 @@ def add_fleet_arguments(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group('many bags (docs/FLEET.md)')
     g.add_argument(
         '--out-dir',
+        type=file_name,
         metavar='DIR',
         default=None,
         help='analyse every bag of the inputs; outputs go to DIR/<bag path relative to its '

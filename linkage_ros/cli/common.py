@@ -656,6 +656,14 @@ def format_result(d: dict, mech) -> str:
     return '\n'.join(out)
 
 
+def file_name(text: str) -> str:
+    """An argparse type for an output path: not empty (`--csv ''` was silently no file,
+    `--out ''` 'exists already', `--out-dir ''` the current folder: an adversary)."""
+    if not text:
+        raise argparse.ArgumentTypeError('needs a file or folder name (got an empty one)')
+    return text
+
+
 def write_text_output(prog: str, text: str, path: str | None, inputs: Sequence[str] = ()) -> int:
     """A command's text document to ``path`` (written whole or not at all) or to stdout; the
     exit status (a file that cannot be written, or one of the command's ``inputs``: one line

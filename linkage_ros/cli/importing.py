@@ -36,6 +36,7 @@ from .common import (
     add_description_arguments,
     dimension_argument,
     dimension_overrides,
+    file_name,
     print_notes,
     write_text_output,
 )
@@ -65,7 +66,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="a dimension stated in the scene, used exactly (m): LINK.P-Q in the scene's names "
         '(repeatable; see docs/SCENES.md)',
     )
-    p.add_argument('-o', '--output', metavar='FILE', help='write here (default: stdout)')
+    p.add_argument(
+        '-o', '--output', type=file_name, metavar='FILE', help='write here (default: stdout)'
+    )
 
 
 def scene_text(

@@ -16,6 +16,7 @@ from .common import (
     KnownAction,
     OneLineErrorParser,
     add_scene_argument,
+    file_name,
     run_command,
 )
 from .solve import cmd_solve
@@ -252,6 +253,7 @@ def build_parser() -> tuple[argparse.ArgumentParser, dict[str, str]]:
     p.add_argument('--strict', action='store_true', help='exit 1 if any line is an error')
     p.add_argument(
         '--csv',
+        type=file_name,
         metavar='FILE',
         help='also write the trajectory as CSV: index, status, reason, input.<actuator>... and '
         'joint.<joint>... (full precision; a refused row has its inputs, angles wrapped as answers '

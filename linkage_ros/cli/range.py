@@ -51,7 +51,7 @@ from ..core.errors import LinkageError
 from ..core.model import SlideActuator
 from ..core.units import Quantity, UnitError, degrees_warning, expect, parse_text
 from ..outputs import folder_refusal, input_refusal
-from .common import UsageError, add_scene_argument, load_mechanism, say
+from .common import UsageError, add_scene_argument, file_name, load_mechanism, say
 from .described import InputValues
 
 OK, REFUSED, USAGE_ERROR = 0, 1, 2
@@ -103,9 +103,12 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         'actuator, or --input); a one-point slider block turns with its guide and a '
         "cylinder's barrel and rod with their pins, so they are not listed",
     )
-    p.add_argument('--plot', metavar='PNG', help='draw the reachable region to this PNG')
+    p.add_argument(
+        '--plot', type=file_name, metavar='PNG', help='draw the reachable region to this PNG'
+    )
     p.add_argument(
         '--curves',
+        type=file_name,
         metavar='PNG',
         help='draw --output versus --input, every assembly mode, to this PNG',
     )

@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .common import OK, UsageError
+from .common import OK, UsageError, file_name
 from .ros_graph import (
     DEFAULT_WAIT,
     message_class,
@@ -46,7 +46,14 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.epilog = (__doc__ or '').split('\n', 2)[2].rstrip() + '\n'
     p.formatter_class = argparse.RawDescriptionHelpFormatter
     p.add_argument('topics', metavar='TOPIC', nargs='+', help='topics to record')
-    p.add_argument('-o', '--output', metavar='BAG', required=True, help='the bag folder to write')
+    p.add_argument(
+        '-o',
+        '--output',
+        type=file_name,
+        metavar='BAG',
+        required=True,
+        help='the bag folder to write',
+    )
     p.add_argument(
         '--storage',
         choices=('mcap', 'sqlite3'),

@@ -32,6 +32,7 @@ from .common import (
     USAGE_ERROR,
     UsageError,
     add_scene_argument,
+    file_name,
     load_mechanism,
     write_text_output,
 )
@@ -66,7 +67,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
         help="prepended to every joint and frame name except the root (the node's prefix)",
     )
     p.add_argument('--frame-id', default=None, help="root frame (default: the scene's frame_id)")
-    p.add_argument('-o', '--output', metavar='FILE', help='write here (default: stdout)')
+    p.add_argument(
+        '-o', '--output', type=file_name, metavar='FILE', help='write here (default: stdout)'
+    )
 
 
 def _check_assembles(mech) -> None:

@@ -181,3 +181,24 @@ def test_grids_beyond_what_memory_holds_are_refused_before_any_work(capsys, tmp_
     rc, _, err = run(capsys, 'sweep', 'four_bar', '--set', 'crank=0:1:1000000000', '--csv', csv)
     assert rc == 2 and '1,000,000,000 grid points are more than 2,000,000' in err, err
     assert not csv.exists()
+
+
+@pytest.mark.parametrize(
+    'argv',
+    [
+        ['sweep', 'four_bar', '--set', 'crank=0:1:3', '--csv'],
+        ['urdf', 'four_bar', '-o'],
+        ['range', 'four_bar', '--point', 'P', '--plot'],
+        ['bag', 'nobag', '--scene', 'four_bar', '--command-topic', '/cmd', '--out'],
+        ['bag', 'nobag', '--scene', 'four_bar', '--command-topic', '/cmd', '--out-dir'],
+    ],
+)
+def test_an_empty_output_name_is_a_usage_error(argv, capsys, tmp_path, monkeypatch):
+    """`--csv ''` wrote no file and said nothing, `--out ''` 'exists already', `--out-dir ''`
+    was the current folder (an adversary): an output needs a name."""
+    from cli_helpers import run
+
+    monkeypatch.chdir(tmp_path)
+    rc, out, err = run(capsys, *argv, '')
+    assert rc == 2 and f'argument {argv[-1]}' in err and 'got an empty one' in err, err
+    assert list(tmp_path.iterdir()) == []
