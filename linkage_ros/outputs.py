@@ -14,6 +14,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import os
+import shutil
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -24,20 +25,47 @@ def written_whole(path: str | os.PathLike[str]) -> Iterator[Path]:
     (also KeyboardInterrupt) it is removed and the exception goes on. A folder at ``path`` is
     IsADirectoryError; a device, FIFO or socket is yielded itself (written in place)."""
     given = Path(path)
+    loop = _link_loop(given)
+    if loop:
+        raise OSError(errno.ELOOP, loop, str(path))
     if given.exists() and not given.is_file():  # (stat follows a symlink)
         if given.is_dir():
             raise IsADirectoryError(errno.EISDIR, 'is a folder', str(path))
         yield given
         return
     target = Path(os.path.realpath(given)) if given.is_symlink() else given
-    tmp = target.with_name(f'.{target.name}.{os.getpid()}.partial')
+    tmp = target.with_name(staging_name(target.name))
     try:
         yield tmp
+        if target.exists():  # (the file replaced keeps its permissions: a 600 file stays so)
+            shutil.copymode(target, tmp)
         os.replace(tmp, target)
     except BaseException:
         with contextlib.suppress(OSError):
             tmp.unlink()
         raise
+
+
+def staging_name(name: str) -> str:
+    """The hidden name a file is written under beside its target until it is whole."""
+    return f'.{name}.{os.getpid()}.partial'
+
+
+#: what staging_name adds to a name at most (a pid has at most 7 digits: pid_max 4194304)
+STAGING_EXTRA = len(staging_name('')) - len(str(os.getpid())) + 7
+
+
+def _link_loop(path: Path) -> str | None:
+    """'is a symlink loop' where ``path`` is one (a shell's redirection reports ELOOP; replacing
+    the link with a file hid it: an adversary), else None."""
+    if not path.is_symlink():
+        return None
+    try:
+        os.stat(path)
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            return 'is a symlink loop'
+    return None
 
 
 def folder_refusal(path: str | os.PathLike[str]) -> str | None:
@@ -49,6 +77,9 @@ def folder_refusal(path: str | os.PathLike[str]) -> str | None:
     if too_long:
         return too_long
     given = Path(path)
+    loop = _link_loop(given)
+    if loop:
+        return f'{path} {loop}'
     if given.is_dir():
         return f'{path} is a folder'
     if given.exists() and not given.is_file():
@@ -91,12 +122,15 @@ def name_refusal(path: str | os.PathLike[str]) -> str | None:
         limit = os.pathconf(probe, 'PC_NAME_MAX')
     except (OSError, ValueError):
         limit = NAME_MAX
-    for part in full.parts:
+    for k, part in enumerate(full.parts):
         size = len(os.fsencode(part))
-        if size > limit:
+        # (the last part is written under its staging name first: that one must fit too)
+        room = limit - STAGING_EXTRA if k == len(full.parts) - 1 else limit
+        if size > room:
             return (
-                f'its name {part[:24]}...{part[-12:]} is {size} bytes, beyond the {limit} its '
-                'file system takes'
+                f'its name {part[:24]}...{part[-12:]} is {size} bytes, beyond the {room} its '
+                f'file system takes'
+                + (' with the staging name written first' if room < limit else '')
             )
     return None
 

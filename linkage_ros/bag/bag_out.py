@@ -14,6 +14,7 @@ import numpy as np
 
 from ..answer_cdr import JointStateBytes, PointStampedBytes
 from ..cdr import string_block
+from ..outputs import staging_name
 from ..stamps import NSEC_PER_SEC, OwnStamps
 from ..trajectory import TrajectoryAnswer, trajectory_status_values
 from .common import (
@@ -180,7 +181,7 @@ class ResultBag:
         self.publish_inputs = publish_inputs
         self.name = status_name if status_name is not None else f'{NODE_NAME}: {mech.name}'
         self.final = final = Path(path)
-        self.stage = stage = final.parent / f'.{final.name}.{os.getpid()}.partial'
+        self.stage = stage = final.parent / staging_name(final.name)
         self.writer: Any = None
         try:
             stage.mkdir()

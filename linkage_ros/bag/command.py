@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from ..cli.common import (
     UsageError,
@@ -16,7 +18,7 @@ from ..cli.common import (
 )
 from ..core.errors import LinkageError
 from ..core.tolerances import NEWTON_TOL
-from ..outputs import folder_refusal, name_refusal
+from ..outputs import folder_refusal, input_refusal, name_refusal
 from .common import DEFAULT_OUT_FORMAT, BagError
 from .fleet_inputs import bags_in
 from .fleet_run import add_fleet_arguments
@@ -222,7 +224,7 @@ def _run(args) -> int:
     _one_bag(source)
     scene = check_options(args)
     mech = scene.mechanism
-    outs = _check_outputs(args.out, args.plot)
+    outs = _check_outputs(args.out, args.plot, _input_files(source, scene.path))
     progress = Progress(enabled=not args.no_progress and sys.stderr.isatty())
 
     try:
@@ -322,8 +324,23 @@ _NOT_A_BAG = {
 }
 
 
-def _check_outputs(outs: list[str], plot: str | None):
+def _input_files(source: str, scene: Any) -> list[Path]:
+    """The files a bag run reads: the bag's (a folder's every file, metadata.yaml and its
+    storage) and the scene's."""
+    p = Path(source)
+    files = [Path(str(scene))] if scene is not None else []
+    with contextlib.suppress(OSError):
+        files += [f for f in p.iterdir() if f.is_file()] if p.is_dir() else [p]
+    return files
+
+
+def _check_outputs(outs: list[str], plot: str | None, inputs: Sequence[Path] = ()):
     checked = []
+    for path in [*outs, *([plot] if plot is not None else [])]:
+        # (an output through a symlink to the recording or the scene replaced it: an adversary)
+        why = input_refusal(path, inputs)
+        if why:
+            raise BagError(f'output {path}: {why}')
     for path in outs:
         p = Path(path)
         what = f'output {path}'

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import glob
 import os
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
@@ -162,6 +163,8 @@ def _any_depth(base: Path, rest: Sequence[str]) -> list[str]:
     a folder above (``up -> ..``) made its search endless (an adversary). Names starting
     with a dot are matched only by a pattern part starting with one, as glob.glob's."""
     dotted = any(part.startswith('.') for part in rest)
+    # ('r1**' is 'r1*' as glob.glob reads it; pathlib takes ** only as a whole part)
+    rest = [part if part == '**' else re.sub(r'\*\*+', '*', part) for part in rest]
     found = []
     for p in base.glob('/'.join(rest)):
         if not dotted and any(q.startswith('.') for q in p.relative_to(base).parts):

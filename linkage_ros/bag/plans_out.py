@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
+from ..outputs import staging_name
 from .plans import PlanRequest, plans_csv_path  # noqa: F401 - where the file goes
 
 
@@ -24,7 +25,7 @@ class PlansCsvWriter:
     def __init__(self, path: str | os.PathLike[str], mech: Any):
         self.path = Path(path)
         self.mech = mech
-        self.tmp = self.path.with_name(f'.{self.path.name}.{os.getpid()}.partial')
+        self.tmp = self.path.with_name(staging_name(self.path.name))
         self.count = 0
         self._fh: TextIO | None = open(self.tmp, 'w', newline='')  # noqa: SIM115 - closed in close()
         self._w = csv.writer(self._fh)

@@ -4,6 +4,7 @@ the node's message-shape check."""
 from __future__ import annotations
 
 import contextlib
+import os
 import struct
 from dataclasses import dataclass, field
 from pathlib import Path, PurePath
@@ -176,7 +177,18 @@ def _listed_twice(folder: Path) -> str | None:
         return None
     names = [PurePath(str(f)).name for f in files]
     twice = [n for n in dict.fromkeys(names) if names.count(n) > 1]
-    return twice[0] if twice else None
+    if twice:
+        return twice[0]
+    seen: dict[tuple[int, int], str] = {}  # (two names of one file: a hard link)
+    for name in names:
+        try:
+            st = os.stat(folder / name)
+        except OSError:
+            continue
+        other = seen.setdefault((st.st_dev, st.st_ino), name)
+        if other != name:
+            return f'{other} (as {name} too)'
+    return None
 
 
 def exc_text(exc: BaseException) -> str:

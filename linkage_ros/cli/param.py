@@ -114,6 +114,8 @@ def _check_node_name(node_name: str) -> None:
     from rclpy.exceptions import InvalidServiceNameException
     from rclpy.validate_full_topic_name import validate_full_topic_name
 
+    if len(node_name) > 1 and node_name.endswith('/'):
+        raise UsageError(f"NODE {node_name!r} is not a node name: it ends with '/'")
     try:
         validate_full_topic_name(f'{node_name}/get_parameters', is_service=True)
     except InvalidServiceNameException as exc:

@@ -141,7 +141,7 @@ def _fmt(v, unit=''):
 MAX_REGION_SAMPLES = 4_000_000
 
 
-def _check(args, mech):
+def _check(args, mech, scene_file: str):
     if (args.tilt is None) != (args.lip is None):
         raise UsageError('--tilt LINK and --lip POINT go together')
     if (args.hold or args.tilt_from) and args.tilt is None:
@@ -175,7 +175,8 @@ def _check(args, mech):
                 f'{MAX_REGION_SAMPLES:,}'
             )
     for option, path in (('--plot', args.plot), ('--curves', args.curves)):
-        why = (folder_refusal(path) or input_refusal(path, [args.scene])) if path else None
+        # (the scene file as loaded: a packaged scene's name is no path to compare)
+        why = (folder_refusal(path) or input_refusal(path, [scene_file])) if path else None
         if why:  # before the analysis, as --csv and the bag's outputs: no run lost at its end
             raise UsageError(f'{option} {path}: {why}')
     acts = None
@@ -225,12 +226,12 @@ def _tilt_from(args) -> float | None:
     return reading.value
 
 
-def analyse(args, mech) -> tuple[dict, int]:
+def analyse(args, mech, scene_file: str) -> tuple[dict, int]:
     """Run the requested analyses; returns (report dict of plain data, exit status)."""
     from ..core import motion
     from ..core.motion.quantities import link_swings
 
-    acts, hold = _check(args, mech)
+    acts, hold = _check(args, mech, scene_file)
     report: dict[str, Any] = {
         'name': mech.name,
         'dof': mech.dof,
@@ -504,7 +505,7 @@ def run(args) -> int:
             from ..core.motion import limits_lifted
 
             mech = limits_lifted(mech, lifted)
-        report, status = analyse(args, mech)
+        report, status = analyse(args, mech, _path)
         report = {'scene': _path, **report}  # (the file first, as linkage check's JSON)
         if lifted:
             report['without_limits'] = [values.name(a) for a in lifted]

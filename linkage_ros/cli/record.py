@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from ..outputs import staging_name
 from .common import OK, UsageError, file_name
 from .ros_graph import (
     DEFAULT_WAIT,
@@ -101,7 +102,7 @@ def run(args) -> int:
             if kind not in store.types:
                 raise UsageError(f'{topic}: type {kind} is not in the ROS 2 Jazzy type store')
             message_class(kind)  # installed: a subscription can be made
-        stage = final.parent / f'.{final.name}.{os.getpid()}.partial'
+        stage = final.parent / staging_name(final.name)
         try:
             stage.mkdir()
         except OSError as exc:

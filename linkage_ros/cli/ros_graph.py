@@ -31,7 +31,7 @@ def seconds(text: str) -> float:
         raise argparse.ArgumentTypeError(
             f'must be a finite number of seconds, 0 or more (got {text})'
         )
-    return value
+    return value + 0.0  # (-0 is 0)
 
 
 #: after this long (s) without the topic or node, the wait is said on stderr

@@ -7,6 +7,7 @@ from __future__ import annotations
 import csv
 import math
 import sys
+from typing import Any
 
 import numpy as np
 
@@ -63,6 +64,12 @@ class _Table:
 MAX_CSV_ROWS = 2_000_000
 
 
+def _count(values: Any) -> int:
+    """How many values an axis holds (a count beyond sys.maxsize too, where len() raises
+    OverflowError: `crank=0:1:99999999999999999999999 --csv` was a traceback)."""
+    return int(getattr(values, 'n', None) or len(values))
+
+
 def _check_csv_path(path: str, scene_file: str) -> None:
     """A --csv path whose folder cannot take it, or that is the scene file, is refused before
     any solve."""
@@ -82,7 +89,7 @@ def cmd_sweep(args) -> int:
     _, axes, solver = build_solve(mech, args, allow_range=True)
     if args.csv:
         _check_csv_path(args.csv, scene_file)
-        rows = math.prod(len(vals) for _, vals in axes)
+        rows = math.prod(_count(vals) for _, vals in axes)
         if rows > MAX_CSV_ROWS:
             # (a 10^9-point --csv grew without bound before: an adversary)
             raise UsageError(
@@ -112,7 +119,7 @@ def cmd_sweep(args) -> int:
     grid = command_grid([vals for _, vals in axes])
     table = None
     if args.csv:
-        table = ResultTable.for_mechanism(mech, math.prod(len(vals) for _, vals in axes))
+        table = ResultTable.for_mechanism(mech, math.prod(_count(vals) for _, vals in axes))
     n_ok = n_err = 0
     for i, combo in enumerate(grid):
         command = dict(zip(names, combo))

@@ -215,3 +215,28 @@ def test_a_storage_file_listed_twice_is_an_error(tmp_path, scene, capsys):
     meta_path.write_text(original)
     code, cap = run_bag(common, capsys)
     assert code == 0 and len(read_csv(out)) == 200, cap.err
+
+
+def test_a_storage_file_listed_under_two_names_of_one_file_is_an_error(tmp_path, scene, capsys):
+    """The same file twice under two names (a hard link) passed the name check: 400 rows from
+    200 commands (an adversary). Refused, naming both."""
+    import os
+
+    import yaml
+
+    folder, db = _sqlite_bag(tmp_path)
+    twin = folder / f'twin{db.suffix}'
+    os.link(db, twin)
+    meta_path = folder / 'metadata.yaml'
+    meta = yaml.safe_load(meta_path.read_text())
+    info = meta['rosbag2_bagfile_information']
+    info['relative_file_paths'] = [db.name, twin.name]
+    info['message_count'] *= 2
+    for t in info['topics_with_message_count']:
+        t['message_count'] *= 2
+    meta_path.write_text(yaml.safe_dump(meta))
+    out = tmp_path / 'o.csv'
+    common = [folder, '--scene', scene, '--command-topic', '/cmd', '--out', out, '--no-progress']
+    code, cap = run_bag(common, capsys)
+    assert code == 2 and not out.exists(), cap.err
+    assert f'{db.name} (as {twin.name} too) more than once' in cap.err, cap.err

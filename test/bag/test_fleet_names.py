@@ -124,20 +124,20 @@ def test_a_bag_whose_output_name_is_too_long_is_refused_before_any_work(one_bag,
     """One bag named with 240 characters ended a whole fleet in an OSError traceback (File name
     too long, at its trajectories' CSV), leaving an empty --out-dir (an adversary); and a
     246-character --out of one bag named the trajectories' CSV in a traceback. Both are
-    refused before any work, naming the bag or the output and the length."""
+    refused before any work, naming the bag or the output and the length (with the staging
+    name each output is written under first)."""
     rec = tmp_path / 'rec'
     shutil.copytree(one_bag, rec / ('b' * 240))
     shutil.copytree(one_bag, rec / 'ok')
     out = tmp_path / 'out'
     code, cap = run([rec, *COMMON, '--out-dir', out, '--jobs', 1], capsys)
     assert code == 2, cap.err
-    assert f'bag {rec / ("b" * 240)}: its output {"b" * 240}.trajectories.csv: its name' in cap.err
-    assert 'is 257 bytes, beyond the 255 its file system takes' in cap.err, cap.err
+    assert f'bag {rec / ("b" * 240)}: its output {"b" * 240}.csv: its name' in cap.err, cap.err
+    assert 'is 244 bytes, beyond the 238 its file system takes' in cap.err, cap.err
     assert not out.exists()
     single = tmp_path / ('a' * 246 + '.csv')
     code, cap = run([one_bag, *COMMON, '--out', single], capsys)
-    assert code == 2 and 'the trajectories and paths of --out' in cap.err, cap.err
-    assert 'is 263 bytes' in cap.err and 'Traceback' not in cap.err, cap.err
+    assert code == 2 and 'is 250 bytes' in cap.err and 'Traceback' not in cap.err, cap.err
     assert sorted(p.name for p in tmp_path.iterdir()) == ['rec']
 
 
@@ -188,3 +188,23 @@ def test_names_that_a_spreadsheet_reads_as_formulas_are_text_in_the_csvs(tmp_pat
     with open(out / '@SUM(A1).csv', newline='') as fh:
         rows = list(csvlib.DictReader(fh))
     assert len(rows) == 5 and {r['topic'] for r in rows} == {"'=1+2"}, rows[0]
+
+
+def test_an_output_through_a_symlink_to_the_recording_is_refused(one_bag, tmp_path, capsys):
+    """`--out out.csv` where out.csv links to the bag's own storage file replaced the
+    recording with the CSV, exit 0 (an adversary): refused, naming the input."""
+    rec = tmp_path / 'run'
+    shutil.copytree(one_bag, rec)
+    storage = next(rec.glob('*.mcap'))
+    before = storage.read_bytes()
+    (tmp_path / 'out.csv').symlink_to(storage)
+    code, cap = run([rec, *COMMON, '--out', tmp_path / 'out.csv'], capsys)
+    assert code == 2 and f'is the input {storage}' in cap.err, cap.err
+    assert storage.read_bytes() == before
+
+
+def test_a_pattern_part_with_a_double_star_inside_it_matches_as_glob_did(one_bag, tmp_path):
+    """`'tree/**/r1**/*.mcap'` was pathlib's ValueError ('**' can only be an entire path
+    component): a part holding ** is read as glob.glob reads it, as *."""
+    shutil.copytree(one_bag, tmp_path / 'tree' / 'a' / 'r1')
+    assert [t.name for t in find_bags([f'{tmp_path}/tree/**/r1**/*.mcap'])] == ['a/r1/run']
