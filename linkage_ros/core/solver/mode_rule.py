@@ -387,7 +387,9 @@ class ModeKeeper:
         grid of forward solves, made once per mode), nearest ``last`` first."""
         starts = self._starts.get(signs)
         if starts is None:
-            fwd = self.make(None, branch_text(signs), None)
+            # (the mode as a branch setting names it: 'J+' where Newton places the mechanism;
+            # '+' was refused as a sign for a dyad there is not: an adversary's six-bar)
+            fwd = self.make(None, mode_label(self.forward.compiled, signs), None)
             levels = 3 if len(fwd.actuator_specs) <= 4 else 2
             axes = []
             for spec in fwd.actuator_specs:  # a forward solve: its knowns are the actuators

@@ -337,3 +337,26 @@ def test_a_target_the_current_mode_reaches_just_past_a_limit_says_the_limit_firs
         'target needs Z2 = 2.080001 m is beyond its maximum 2.08 by 1e-06 m from the current '
         'configuration; within the limits it is reachable only in assembly mode +++'
     ), r.reason
+
+
+def test_a_newton_placed_mechanisms_mode_search_names_its_mode_as_a_setting_does():
+    """A Stephenson-III six-bar driven at its output (Newton places it, its modes J+ / J-):
+    `--target coupler=0.3` was refused with 'branch '+' has 1 sign(s) but this solve has no
+    branching dyad' (the mode search built its forward solver with the mode's sign as a dyad
+    sign: an adversary). It is refused as out of reach, with the way's edge; a coupler angle
+    inside its swing is answered, every loop closed at the drawing's lengths."""
+    from scenes import STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT as scene
+
+    from linkage_ros.core.model import Scene
+
+    e = Engine(Scene.from_dict(scene).mechanism, EngineSettings())
+    r = e.target({'coupler': 0.3})
+    assert not r.success and r.reason.startswith('coupler = 0.3 rad is out of reach'), r.reason
+    assert 'branching dyad' not in r.reason
+    ok = e.target({'coupler': 0.45})
+    assert ok.success and abs(ok.links['coupler'] - 0.45) < 1e-12, ok.reason
+    P = {k: complex(*v) for k, v in scene['points'].items()}
+    p = {k: complex(*v) for k, v in ok.points.items()}
+    for a, b in (('O2', 'A'), ('A', 'B'), ('O4', 'B'), ('A', 'C'), ('B', 'C'), ('C', 'D')):
+        assert abs(abs(p[a] - p[b]) - abs(P[a] - P[b])) < 1e-9, (a, b)
+    assert abs(abs(p['O6'] - p['D']) - abs(P['O6'] - P['D'])) < 1e-9
