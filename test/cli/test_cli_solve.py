@@ -636,3 +636,14 @@ def test_the_note_names_every_other_solution_in_the_answers_mode(capsys, tmp_pat
     for a1, a2 in pairs:
         assert min(abs(math.remainder(a1 - w, 2 * math.pi)) for w in a1s) < 1e-8
         assert min(abs(math.remainder(a2 - w, 2 * math.pi)) for w in a2s) < 1e-8
+
+
+def test_a_point_target_on_a_one_dof_path_names_its_coordinates(capsys):
+    """`--target-point P=x,y` on a one-DOF four-bar was refused as 'the knowns give 2
+    value(s)' alone (an outside scene author tried it for a foot point first): it names the
+    coordinate targets that fit, and one of them solves."""
+    rc, _, err = run(capsys, 'solve', 'four_bar', '--target-point', 'P=0.1,0.2')
+    assert rc == 2 and 'give 2 value(s) (a point gives its x and y: one of them alone is' in err
+    assert 'P.x or P.y' in err, err
+    rc, out, err = run(capsys, 'solve', 'four_bar', '--target', 'P.x=0.1', '--json')
+    assert rc == 0 and abs(loads(out)['points']['P'][0] - 0.1) < 1e-12, err

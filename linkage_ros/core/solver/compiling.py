@@ -76,10 +76,19 @@ def compile_solve(
     specs = [spec_for(mech, n) for n in plan_knowns]
     n_values = sum(s.size for s in specs)
     if n_values != mech.dof:
+        whole = [s.name for s in specs if isinstance(s, PointSpec)]
         raise PlanError(
             f'{mech.name!r} has {mech.dof} degree(s) of freedom but the knowns '
             f'{known_names} give {n_values} value(s)'
             + (' (two points of one link give 3: its pose)' if pairs else '')
+            + (
+                # (a point on a one-DOF path is reached by one of its coordinates: an outside
+                # scene author tried the foot's x, y first)
+                f' (a point gives its x and y: one of them alone is a known too, '
+                f'{whole[0].removeprefix("point:")}.x or {whole[0].removeprefix("point:")}.y)'
+                if whole and n_values > mech.dof and not pairs
+                else ''
+            )
         )
     wanted_links, wanted_points = _wanted(mech, outputs)
     plan = Plan(mech, specs, wanted_links, wanted_points)
