@@ -191,28 +191,35 @@ def test_names_decode_as_the_node_reads_them(name):
     assert keys[int(key[0])] == (node_reads,)
 
 
-def test_a_storage_file_listed_twice_is_an_error(tmp_path, scene, capsys):
-    """A metadata.yaml listing its one storage file twice (`[x.db3, ./x.db3]`, every count
-    doubled to match) was read twice by rosbags: 400 rows from 200 commands, exit 0 (an
-    adversary). Refused, naming the file; with the listing fixed the bag reads 200."""
+def _listed_twice(folder, names) -> str:
+    """Rewrite ``folder``'s metadata.yaml to list ``names`` as its storage files, every count
+    doubled to match (a lie about one file read twice); returns the text it had."""
     import yaml
 
-    folder, db = _sqlite_bag(tmp_path)
     meta_path = folder / 'metadata.yaml'
     original = meta_path.read_text()
     meta = yaml.safe_load(original)
     info = meta['rosbag2_bagfile_information']
-    info['relative_file_paths'] = [db.name, f'./{db.name}']
+    info['relative_file_paths'] = list(names)
     info['message_count'] *= 2
     for t in info['topics_with_message_count']:
         t['message_count'] *= 2
     meta_path.write_text(yaml.safe_dump(meta))
+    return original
+
+
+def test_a_storage_file_listed_twice_is_an_error(tmp_path, scene, capsys):
+    """A metadata.yaml listing its one storage file twice (`[x.db3, ./x.db3]`, every count
+    doubled to match) was read twice by rosbags: 400 rows from 200 commands, exit 0 (an
+    adversary). Refused, naming the file; with the listing fixed the bag reads 200."""
+    folder, db = _sqlite_bag(tmp_path)
+    original = _listed_twice(folder, [db.name, f'./{db.name}'])
     out = tmp_path / 'o.csv'
     common = [folder, '--scene', scene, '--command-topic', '/cmd', '--out', out, '--no-progress']
     code, cap = run_bag(common, capsys)
     assert code == 2 and not out.exists(), cap.err
     assert f'lists the storage file {db.name} more than once' in cap.err, cap.err
-    meta_path.write_text(original)
+    (folder / 'metadata.yaml').write_text(original)
     code, cap = run_bag(common, capsys)
     assert code == 0 and len(read_csv(out)) == 200, cap.err
 
@@ -222,19 +229,10 @@ def test_a_storage_file_listed_under_two_names_of_one_file_is_an_error(tmp_path,
     200 commands (an adversary). Refused, naming both."""
     import os
 
-    import yaml
-
     folder, db = _sqlite_bag(tmp_path)
     twin = folder / f'twin{db.suffix}'
     os.link(db, twin)
-    meta_path = folder / 'metadata.yaml'
-    meta = yaml.safe_load(meta_path.read_text())
-    info = meta['rosbag2_bagfile_information']
-    info['relative_file_paths'] = [db.name, twin.name]
-    info['message_count'] *= 2
-    for t in info['topics_with_message_count']:
-        t['message_count'] *= 2
-    meta_path.write_text(yaml.safe_dump(meta))
+    _listed_twice(folder, [db.name, twin.name])
     out = tmp_path / 'o.csv'
     common = [folder, '--scene', scene, '--command-topic', '/cmd', '--out', out, '--no-progress']
     code, cap = run_bag(common, capsys)
