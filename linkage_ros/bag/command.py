@@ -10,12 +10,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..cli.common import (
-    UsageError,
-    add_scene_argument,
-    file_name,
-    say,
-)
+from ..cli.common import UsageError, add_scene_argument, file_name
+from ..cli.process import say
 from ..core.errors import LinkageError
 from ..core.tolerances import NEWTON_TOL
 from ..outputs import folder_refusal, input_refusal, name_refusal

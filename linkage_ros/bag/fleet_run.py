@@ -30,7 +30,8 @@ from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
-from ..cli.common import Terminated, file_name, say, terminate_raises
+from ..cli.common import file_name
+from ..cli.process import Terminated, say, terminate_raises
 from ..outputs import name_refusal, text_cell
 from .common import BagError
 from .fleet_inputs import FORMATS, SUMMARY_NAMES, BagTask, find_bags

@@ -9,7 +9,7 @@ from collections import Counter
 import numpy as np
 from tqdm import tqdm
 
-from ..cli.common import say
+from ..cli.process import say
 from .common import OutputKind
 
 # ---- progress and summary ----------------------------------------------------------------------

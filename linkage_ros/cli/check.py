@@ -7,8 +7,9 @@ from typing import Any
 
 from ..core.mechanism import actuator_kind
 from ..core.model import AngleActuator
-from .common import OK, dumps, fmt_value, load_scene_file, print_notes, say
+from .common import OK, dumps, fmt_value, load_scene_file, print_notes
 from .described import InputValues
+from .process import say
 
 # ---- check -------------------------------------------------------------------------------------
 

@@ -24,7 +24,8 @@ from typing import Any
 
 import yaml
 
-from .common import OK, REFUSED, UsageError, say
+from .common import OK, REFUSED, UsageError
+from .process import say
 from .ros_graph import (
     DEFAULT_WAIT,
     WAIT_TOLD_S,

@@ -11,14 +11,8 @@ from typing import Any
 from ..core.tolerances import NEWTON_TOL
 from ..heap import keep_large_buffers
 from .check import cmd_check
-from .common import (
-    USAGE_ERROR,
-    KnownAction,
-    OneLineErrorParser,
-    add_scene_argument,
-    file_name,
-    run_command,
-)
+from .common import USAGE_ERROR, KnownAction, OneLineErrorParser, add_scene_argument, file_name
+from .process import run_command
 from .solve import cmd_solve
 from .sweep import cmd_sweep
 

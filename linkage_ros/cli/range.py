@@ -51,8 +51,9 @@ from ..core.errors import LinkageError
 from ..core.model import SlideActuator
 from ..core.units import Quantity, UnitError, degrees_warning, expect, parse_text
 from ..outputs import folder_refusal, input_refusal
-from .common import UsageError, add_scene_argument, file_name, load_mechanism, say
+from .common import UsageError, add_scene_argument, file_name, load_mechanism
 from .described import InputValues
+from .process import say
 
 OK, REFUSED, USAGE_ERROR = 0, 1, 2
 PROG = 'linkage range'

@@ -22,10 +22,10 @@ from .common import (
     format_result,
     forward_engine,
     load_mechanism,
-    say,
     target_engine,
 )
 from .described import beyond_limits, request_echo, scene_command
+from .process import say
 
 if TYPE_CHECKING:
     from collections.abc import Callable, Sequence

@@ -8,7 +8,7 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
-from .common import run_command
+from .process import run_command
 
 
 def standalone_main(

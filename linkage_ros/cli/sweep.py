@@ -24,10 +24,10 @@ from .common import (
     fmt_value,
     forward_engine,
     load_mechanism,
-    stdout_gone,
     target_engine,
 )
 from .described import beyond_limits, request_echo, scene_command
+from .process import stdout_gone
 
 # ---- sweep -------------------------------------------------------------------------------------
 

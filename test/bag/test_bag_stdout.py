@@ -1,5 +1,5 @@
 """`linkage bag` whose reader of stdout stops early (`| head`, `| true`): the exit status and
-the hints on stderr are the run's own (linkage_ros/cli/parser.py, cli/common.say). An outside
+the hints on stderr are the run's own (linkage_ros/cli/parser.py, cli/process.say). An outside
 bag analyst found every such run exiting 0, a bag whose every command was refused too: under
 `set -o pipefail` a wrong --scene passed as good. Oracle: the same run with stdout read."""
 

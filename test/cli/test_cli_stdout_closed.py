@@ -1,5 +1,5 @@
 """A command whose reader of stdout stops early (`| head -1`, `| true`) exits with its own
-status (linkage_ros/cli/parser.py, cli/common.say): a refused solve exited 0 when its output
+status (linkage_ros/cli/parser.py, cli/process.say): a refused solve exited 0 when its output
 went unread (an outside reviewer, on `linkage bag`; the rule is the parser's, for every
 command). Oracle: the same command with stdout read."""
 
@@ -41,7 +41,7 @@ def test_the_status_is_the_commands_own_whether_stdout_is_read_or_not(args, unbu
 def test_a_stand_alone_entry_point_ends_as_linkage_does(unbuffered):
     """`python -m linkage_ros.cli.range SCENE | true` ended in a traceback (unbuffered) or
     'Exception ignored ... BrokenPipeError' and status 120: the stand-alone entry points run
-    their command as `linkage X` does (cli/common.run_command)."""
+    their command as `linkage X` does (cli/process.run_command)."""
     from scenes import CONFIG
 
     args = [str(CONFIG / 'four_bar.yaml')]
