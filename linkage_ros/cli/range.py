@@ -186,6 +186,9 @@ def _check(args, mech, scene_file: str):
         bad = [a for a in acts if a not in mech.actuators]
         if bad:
             raise UsageError(f'--actuators: {bad} not actuator(s) of {mech.name!r}')
+        twice = sorted({a for a in acts if acts.count(a) > 1})
+        if twice:
+            raise UsageError(f'--actuators: {", ".join(twice)} named more than once')
         if args.point is None and not args.plot:
             raise UsageError('--actuators needs --point (or --plot)')
     hold = None

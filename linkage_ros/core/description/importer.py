@@ -157,6 +157,16 @@ def import_description(
                 f'the limits of {j.name} ({lim.lower:g} .. {lim.upper:g} rad) span a full turn '
                 'or more: it is not limited (limits are in radians)'
             )
+    renamed = [
+        f'{"link" if kind == "link" else "point of"} {raw!r}: {name}'
+        for (kind, raw), name in names.renamed.items()
+        if kind in ('link', 'point')
+    ]
+    if renamed:  # (joint values keep the description's names; links and points are the scene's)
+        notes.append(
+            'scene names are letters, digits and _, and these changed (name them so in '
+            'targets and read them so in answers): ' + ', '.join(renamed)
+        )
     mimics = [j.name for j in chain.joints if j.joint.mimic is not None and j.name not in acts]
     if mimics:
         notes.append(f'<mimic> of {", ".join(mimics)} superseded: the closures give their values')
@@ -378,7 +388,9 @@ def _scene(
 ) -> tuple[dict[str, Any], SceneNames]:
     desc = chain.description
     poses = chain.poses(q)
-    names = SceneNames()
+    names = SceneNames(
+        [*chain.bodies, *(j.name for j in chain.joints)] + [c.name for c in chain.closures]
+    )
     link_name = {b: names('link', b) for b in chain.bodies}
     points: dict[str, list[float]] = {}
     members: dict[str, list[str]] = {b: [] for b in chain.bodies}

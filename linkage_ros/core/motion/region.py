@@ -305,6 +305,9 @@ def reachable_region(
     for a in acts:
         if a not in mech.actuators:
             raise ValueError(f'{a!r} is not an actuator of {mech.name!r}')
+    twice = sorted({a for a in acts if acts.count(a) > 1})
+    if twice:  # (one throw on two axes: its "region" would be the diagonal's curve as an area)
+        raise ValueError(f'actuator(s) named more than once: {", ".join(twice)}')
     held_vals = {
         a: (held or {}).get(a, reference_scalar(mech, a)) for a in mech.actuators if a not in acts
     }
@@ -337,6 +340,7 @@ def reachable_region(
             boundary=[list(map(float, p))],
             boundary_inputs={},
             area=0.0,
+            extent=[[float(p[0]), float(p[0])], [float(p[1]), float(p[1])]],
             cloud=[list(map(float, p))],
             arcs=[],
             method=Boundary.POINT.value,
