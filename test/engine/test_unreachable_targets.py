@@ -54,9 +54,9 @@ def counted(monkeypatch):
         finally:
             inside.pop()
 
-    def count_solve(self, values, commit=True, effort=Effort.FULL):
+    def count_solve(self, values, commit=True, effort=Effort.FULL, **kw):
         counts[effort] += 1
-        r = solve(self, values, commit, effort)
+        r = solve(self, values, commit, effort, **kw)
         if inside and not r.success:
             counts['restart_iterations'] += r.iterations
         return r

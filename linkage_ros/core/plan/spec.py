@@ -4,7 +4,7 @@ value off solved poses."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Any
@@ -220,8 +220,11 @@ def value_interval(spec: ScalarSpec) -> tuple[float, float] | None:
 NEEDS_BEYOND_LIMITS = 'target needs '
 
 
-def needs_beyond_limits(spec: ScalarSpec, value: float) -> str | None:
-    """Why an inverse solve's answer is refused where it needs actuator ``spec`` at ``value``
-    beyond its limits (the one wording of the scalar and the batch solve), or None."""
-    why = limit_violation(spec, value)
-    return None if why is None else f'{NEEDS_BEYOND_LIMITS}{why}'
+def needs_beyond_limits(needs: Iterable[tuple[ScalarSpec, float]]) -> str | None:
+    """Why an inverse solve's answer is refused where it needs actuators beyond their limits
+    (``needs``: each actuator's spec and the value the answer gives it), every one that is
+    named (an operator who moves the boom back within its limit must not be refused again for
+    the bucket), or None: the one wording of the scalar and the batch solve and the target
+    rule."""
+    whys = [why for spec, value in needs if (why := limit_violation(spec, value)) is not None]
+    return f'{NEEDS_BEYOND_LIMITS}{"; and ".join(whys)}' if whys else None

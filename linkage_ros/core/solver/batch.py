@@ -239,15 +239,16 @@ def _fill(
         if s.name in c.mech.actuators:  # a copy: out.values holds the column
             out.inputs[s.name] = a.copy() if every else np.where(ok, a, np.where(finite, a, 0.0))
     if c.inverse:
-        for s in c.actuator_specs:
-            if s.name in out.inputs and s.bounded:
-                a = out.inputs[s.name]
-                for i in np.flatnonzero(ok & _limit_suspects(s, a)).tolist():
-                    why = needs_beyond_limits(s, float(a[i]))
-                    if why:
-                        ok[i] = False
-                        out.reason[i] = why
-                        every = False
+        bounded = [s for s in c.actuator_specs if s.name in out.inputs and s.bounded]
+        suspects = np.zeros(ok.shape, bool)
+        for s in bounded:
+            suspects |= _limit_suspects(s, out.inputs[s.name])
+        for i in np.flatnonzero(ok & suspects).tolist():
+            why = needs_beyond_limits((s, float(out.inputs[s.name][i])) for s in bounded)
+            if why:
+                ok[i] = False
+                out.reason[i] = why
+                every = False
     out.ok = ok
     return every
 

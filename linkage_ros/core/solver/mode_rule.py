@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ..model import Mechanism
-from ..plan.spec import NEEDS_BEYOND_LIMITS
+from ..plan.spec import NEEDS_BEYOND_LIMITS, needs_beyond_limits
 from ..quantities import AngleSpec, CoordinateSpec
 from .compiled import SolveMode
 from .modes import newton_modes
@@ -224,7 +224,8 @@ class ModeKeeper:
             if other is not None:
                 result, after = other, self.mode(other)
         if not result.success or after is None:
-            return TargetAnswer(result, False)
+            blocked = self._limits_stop(solver, values, before, last, here, first)
+            return TargetAnswer(result if blocked is None else blocked, False)
         if not allow_mode_change:
             circuit = self._changes_circuit(here, result) or self.label(after) == self.label(before)
             # (a change of circuit is a loop the actuator does not reach: no motion makes it)
@@ -262,6 +263,41 @@ class ModeKeeper:
         )
         return self._answer(result, after)
 
+    def _limits_stop(
+        self,
+        solver: Solver,
+        values: Mapping[str, Any],
+        before: Mode,
+        last: Result | None,
+        here: Result | None,
+        first: Result,
+    ) -> Result | None:
+        """A target refused as not assembling from here, whose answer in the current mode
+        exists beyond the actuators' limits: refused naming every limit it needs passed, not as
+        a dyad that does not close (the inverse plan's signs at the target are not the current
+        ones, so its direct solve does not close, while the way there stops at a limit: a
+        loader's bucket-tip target needing both cylinders beyond their limits, an engineer);
+        None otherwise."""
+        if not does_not_assemble(first) or not any(s.bounded for s in solver.actuator_specs):
+            return None
+        free = self.in_mode(solver, values, before, last, here, within_limits=False)
+        why = (
+            None
+            if free is None
+            else needs_beyond_limits(
+                (s, v) for s in solver.actuator_specs if (v := free.inputs.get(s.name)) is not None
+            )
+        )
+        if why is None:
+            return None
+        return Result(
+            False,
+            f'{why} (its answer in the current assembly mode {self.label(before)}, without the '
+            'limits)',
+            solver=first.solver,
+            targets=first.targets,
+        )
+
     def _answer(self, result: Result, mode: Mode) -> TargetAnswer:
         """A target's answer, its ``branch`` the mechanism's mode (the forward dyads' signs or
         the Jacobian's sign), as a command's status shows it, not the inverse plan's signs."""
@@ -283,6 +319,7 @@ class ModeKeeper:
         before: Mode,
         last: Result | None,
         here: Result | None,
+        within_limits: bool = True,
     ) -> Result | None:
         """The solution of the target in assembly mode ``before`` within limits nearest
         ``last``: every branch of the inverse plan's dyads is tried (a closed-form plan has no
@@ -291,7 +328,8 @@ class ModeKeeper:
         the actuator ranges in that mode (a Newton root depends on its start; RESTART_BUDGET
         bounds the failed ones). None if none is found. ``here``: the configuration whose
         circuit counts as the mode (changes_mode; None: the signs alone, as a branch setting
-        holds them)."""
+        holds them). ``within_limits`` False: the solution whatever the actuators' limits,
+        from the current configuration only (no restarts)."""
         k = solver.branch_count
         if k > MAX_BRANCHES:
             return None
@@ -303,16 +341,20 @@ class ModeKeeper:
         for alt in alternatives:
             if alt.mode is not SolveMode.CLOSED_FORM and last is not None:
                 alt.adopt(last)  # Newton starts from the mechanism's state
-            r = alt.solve(values, commit=False, effort=Effort.UNEXPLAINED)
+            r = alt.solve(
+                values, commit=False, effort=Effort.UNEXPLAINED, within_limits=within_limits
+            )
             mode = self.mode(r) if r.success else None
             if not self._fits(r) or self.changes_mode(before, here, r):
                 continue
             key = (_folded(mode), configuration_distance(last, r))  # a regular one first
             if best is None or key < best[:2]:
                 best = (*key, r)
-        if best is not None or closed:
+        if best is not None or closed or not within_limits:
+            # (without the limits only from the current configuration: that search names the
+            # limits of a refusal, and the restarts' budget is the target's own)
             return None if best is None else best[2]
-        return self.multi_start(self._newton_for(solver), values, before, last, here)
+        return self.multi_start(self._newton_for(solver), values, before, last, here, within_limits)
 
     def _other_mode(
         self, solver: Solver, values: Mapping[str, Any], last: Result | None
@@ -359,6 +401,7 @@ class ModeKeeper:
         before: Mode,
         last: Result | None,
         here: Result | None,
+        within_limits: bool = True,
     ) -> Result | None:
         """A Newton (or hybrid) inverse solve converges to the root nearest its start, which
         may lie in another mode or beyond a limit while the target has a solution in the
@@ -372,7 +415,9 @@ class ModeKeeper:
                 if budget <= 0:
                     break
                 solver.adopt(start)
-                r = solver.solve(values, commit=False, effort=Effort.UNEXPLAINED)
+                r = solver.solve(
+                    values, commit=False, effort=Effort.UNEXPLAINED, within_limits=within_limits
+                )
                 if self._fits(r) and not self.changes_mode(before, here, r):
                     found = r
                     break

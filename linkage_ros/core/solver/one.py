@@ -21,14 +21,17 @@ def solve_one(
     values: Mapping[str, Any],
     commit: bool = True,
     effort: Effort = Effort.FULL,
+    within_limits: bool = True,
 ) -> Result:
     """Solve one command. On success (and commit) the answer becomes the new 'previous
-    configuration' of ``cont``; on failure nothing changes (``effort``: Solver.solve's)."""
+    configuration' of ``cont``; on failure nothing changes (``effort``: Solver.solve's).
+    ``within_limits`` False: the limits are not checked (the target rule asks where a target
+    refused as not assembling would be without them, to name the limits that stop it)."""
     try:
         vals = c.parse(values)
     except ValueError as exc:
         return Result(False, str(exc), solver=c.mode)
-    bad = c.limit_refusal(vals) if c.limited else None
+    bad = c.limit_refusal(vals) if c.limited and within_limits else None
     if bad:
         return c.fail(bad, _given(c, vals, values))
     if c.mode is _CLOSED_FORM:
@@ -43,13 +46,12 @@ def solve_one(
     residual = res.residual if res.residual is not None else 0.0
     if not residual <= c.closure_limit:
         return c.fail(c.closure_reason(residual), _given(c, vals, values), res.solver)
-    if c.inverse:
-        for s in c.actuator_specs:
-            v = res.inputs.get(s.name)
-            if v is not None:
-                why = needs_beyond_limits(s, v)
-                if why:
-                    return c.fail(why, given, solver=res.solver)
+    if c.inverse and within_limits:
+        why = needs_beyond_limits(
+            (s, v) for s in c.actuator_specs if (v := res.inputs.get(s.name)) is not None
+        )
+        if why:
+            return c.fail(why, given, solver=res.solver)
     if commit and state is not None:
         cont.commit(state)
     return res

@@ -207,16 +207,21 @@ class Solver:
         return limit_violation(spec, value)
 
     def solve(
-        self, values: Mapping[str, Any], commit: bool = True, effort: Effort = Effort.FULL
+        self,
+        values: Mapping[str, Any],
+        commit: bool = True,
+        effort: Effort = Effort.FULL,
+        within_limits: bool = True,
     ) -> Result:
         """Solve one command. On success (and commit) the answer becomes the new 'previous
         configuration' for continuity; on failure nothing changes. ``effort``: less than FULL
-        for a caller that reads only whether it succeeded (result.Effort)."""
-        if self._lean is not None:  # (None from it: the general path answers)
+        for a caller that reads only whether it succeeded (result.Effort); ``within_limits``
+        False: the limits are not checked (to say which ones stop a target)."""
+        if self._lean is not None and within_limits:  # (None from it: the general path)
             res = self._lean.command(self.continuity, values, commit)
             if res is not None:
                 return res
-        return solve_one(self.compiled, self.continuity, values, commit, effort)
+        return solve_one(self.compiled, self.continuity, values, commit, effort, within_limits)
 
     def solve_batch(
         self, columns: Mapping[str, Any], start: BatchResult | None = None

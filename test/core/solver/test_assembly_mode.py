@@ -339,6 +339,49 @@ def test_a_target_the_current_mode_reaches_just_past_a_limit_says_the_limit_firs
     ), r.reason
 
 
+def test_a_target_whose_way_stops_at_a_limit_names_every_limit_it_needs():
+    """The loader's bucket tip T where Z1 = 2.35 m (max 2.3) and Z2 = 1.45 m (min 1.53) put it
+    in the current mode was refused as 'cannot assemble: RRR dyad E ... misses by 0.0708 m'
+    (the inverse plan's direct solve in the current signs), with the way's edge where Z2 met
+    its limit; `--all-branches` alike (a hydraulics engineer). Both limits are named now, with
+    the throws the target needs. Oracle: T of the limit-free loader at those throws."""
+    from linkage_ros.core.motion.common import without_limits
+    from linkage_ros.core.solver import Solver
+
+    mech = load('front_loader')
+    t = Solver(without_limits(mech)).solve({'Z1': 2.35, 'Z2': 1.45}).points['T']
+    e = Engine(mech, EngineSettings())
+    assert e.mode(e.last)[0] == (1, -1, 1)
+    r = e.target_point('T', t)
+    assert not r.success
+    assert r.reason == (
+        'target needs Z1 = 2.35 m is beyond its maximum 2.3 by 0.05 m; and Z2 = 1.45 m is below '
+        'its minimum 1.53 by 0.08 m (its answer in the current assembly mode +-+, without the '
+        'limits)'
+    ), r.reason
+
+
+def test_an_answer_beyond_two_limits_names_both_in_the_scalar_and_the_batch_solve():
+    """An inverse answer needing two cylinders past their limits named the first only (an
+    operator who brings the boom back is refused again for the bucket: a hydraulics
+    engineer); the batch's row gives the same words (one rule). Oracle: the throws the
+    target was made from, read back from the refusal."""
+    from linkage_ros.core.motion.common import without_limits
+    from linkage_ros.core.solver import Solver
+
+    mech = load('front_loader')
+    d = Solver(without_limits(mech)).solve({'Z1': 2.32, 'Z2': 2.09}).points['D']
+    inv = Solver(mech, knowns=['point:D'])
+    r = inv.solve({'point:D': d})
+    assert not r.success
+    assert r.reason == (
+        'target needs Z1 = 2.32 m is beyond its maximum 2.3 by 0.02 m; and Z2 = 2.09 m is '
+        'beyond its maximum 2.08 by 0.01 m'
+    ), r.reason
+    batch = inv.solve_batch({'point:D': [d]})
+    assert not batch.ok[0] and batch.reason[0] == r.reason
+
+
 def test_a_newton_placed_mechanisms_mode_search_names_its_mode_as_a_setting_does():
     """A Stephenson-III six-bar driven at its output (Newton places it, its modes J+ / J-):
     `--target coupler=0.3` was refused with 'branch '+' has 1 sign(s) but this solve has no
