@@ -214,10 +214,16 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
             continue  # a stretch past a change point outside the limits
         else:
             raise ValueError(f'{act!r} has no bounded range to sweep')
+        if seg.start is not None:  # a traced stretch: in its loop-Jacobian mode, from the
+            # trace's own configuration on it (the mode recurs on other stretches: from the
+            # drawing, a solve in it may land on another)
+            solver = Solver(mech, branch=seg.start.branch)
+            pieces.append(_swept(solver, act, seg, grid.copy(), seg.seed, seg.start))
+            continue
         branch = branch_text(seg.signs) if seg.signs else 'continuous'
         piece = _swept(Solver(mech, branch=branch), act, seg, grid.copy())
         pieces.append(piece)
-        if not seg.signs and not seg.full and piece.results:
+        if not seg.signs and not seg.full and piece.results:  # (an untraced walk's stretch)
             # Newton places the mechanism (no dyad signs): the continuous sweep from the drawing
             # follows one half of the circuit (between the input's toggles, or a toggle and a
             # limit); the way back is the loop Jacobian's other mode (its determinant changes
@@ -245,12 +251,18 @@ def outward_order(grid: Any, start: float) -> list[int]:
 
 
 def _swept(
-    solver: Solver, act: str, seg: Any, grid: np.ndarray, outward_from: float | None = None
+    solver: Solver,
+    act: str,
+    seg: Any,
+    grid: np.ndarray,
+    outward_from: float | None = None,
+    start: Result | None = None,
 ) -> _Piece:
     """The piece of ``seg`` (a scan segment) that ``solver`` (its branch) solves over ``grid``
     (the input's samples, in order; changed where an end is read past a toggle). With
     ``outward_from`` (an input inside the grid where the solver's start lies) the samples are
-    solved in its outward_order."""
+    solved in its outward_order, from ``start`` (a configuration there) where given, else from
+    the solver's own start."""
     # an end of the piece at its toggle: read at the toggle itself (common.past_toggle)
     toggle_at = {
         0: -1.0 if seg.lo_end[0] is EndKind.TOGGLE and grid[0] == seg.lo else 0.0,
@@ -258,9 +270,13 @@ def _swept(
     }
     order = list(range(len(grid))) if outward_from is None else outward_order(grid, outward_from)
     got: dict[int, Result] = {}
+    if start is not None:
+        solver.adopt(start)
     for k in order:
         if k == BACK_TO_START:
             solver.reset()
+            if start is not None:
+                solver.adopt(start)
             continue
         v = grid[k]
         outward = toggle_at.get(k, 0.0)

@@ -26,6 +26,7 @@ from .scan import (
     turns_fully,
 )
 from .touches import TOUCH_RESOLUTION, touch_points
+from .trace import trace_circuit
 from .walk import walk_range
 
 # ---- actuator ranges --------------------------------------------------------------------------
@@ -43,29 +44,34 @@ def scan_circuit(
     if line.closed:
         limits = angle_limit_arc(act.min, act.max) if periodic else (act.min, act.max)
         return line, x0, line.circuit(x0, limits), bracket
-    comp = walk_range(mech, name, held, x0, periodic, bracket)
-    if comp is NOWHERE:
-        return None, x0, [], bracket
-    if comp is None:
+    traced = trace_circuit(mech, name, held, x0, bracket)
+    if traced is not None and traced.full:
+        return None, x0, [_full_turn(x0)], bracket
+    if traced is not None:  # every monotone stretch of the whole circuit, its ends toggles
+        # (or the bracket): a walk in the known stops at the first toggle each way
         return (
             None,
             x0,
             [
-                Segment(
-                    (),
-                    x0 - math.pi,
-                    x0 + math.pi,
-                    (EndKind.FULL, None),
-                    (EndKind.FULL, None),
-                    x0,
-                    None,
-                    full=True,
-                )
+                Segment((), s.lo, s.hi, s.lo_end, s.hi_end, s.seed, start=s.start)
+                for s in traced.stretches
             ],
             bracket,
         )
+    comp = walk_range(mech, name, held, x0, periodic, bracket)
+    if comp is NOWHERE:
+        return None, x0, [], bracket
+    if comp is None:
+        return None, x0, [_full_turn(x0)], bracket
     lo, hi, le, he = comp
     return None, x0, [Segment((), lo, hi, le, he, x0)], bracket
+
+
+def _full_turn(x0: float) -> Segment:
+    """The segment of an angle that turns fully (a turn about ``x0``)."""
+    return Segment(
+        (), x0 - math.pi, x0 + math.pi, (EndKind.FULL, None), (EndKind.FULL, None), x0, None, True
+    )
 
 
 def actuator_range(

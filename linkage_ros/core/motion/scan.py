@@ -16,7 +16,7 @@ from ..model import Mechanism, SlideActuator
 from ..model.limits import limit_violation
 from ..plan import Poses
 from ..quantities import AngleSpec, PointSpec
-from ..solver import SolveMode, Solver
+from ..solver import Result, SolveMode, Solver
 from .common import (
     ANGLE_TOL,
     KARY,
@@ -102,6 +102,9 @@ class Segment:
     seed: float
     parent: int | None = None
     full: bool = False
+    #: a traced (Newton-placed) stretch: its configuration at ``seed``, where its sweep starts
+    #: (its loop-Jacobian mode in ``start.branch``: the same mode recurs on other stretches)
+    start: Result | None = None
 
 
 def turns_fully(segs: Sequence[Segment]) -> bool:

@@ -335,13 +335,16 @@ def test_a_newton_placed_circuit_goes_back_from_its_cylinders_dead_centre():
 
 
 def test_a_newton_placed_links_extremes_at_the_drives_toggles_are_read_there():
-    """A Stephenson-III six-bar driven at its output (Newton places the rest): the crank's
+    """A Stephenson-III six-bar driven at its output (Newton places the rest): the output's
     extremes over the drive's circuit are where the drive turns back, at its toggles. Each
     extreme was refined by solves walking from wherever the sweep had left the solver, which
-    failed near the toggle: the crank read 0.452164 at drive 3.54594 where it is 0.4135 at the
-    toggle 3.54624 (an outside scene author, by 50-digit mpmath). Oracle: the drive as a
-    function of the crank, by the four-bar's own circle intersections (B, then D from C on
-    the drawn sides), its extremes refined by a bounded scalar search; the crank there."""
+    failed near the toggle (the crank read 0.452164 at drive 3.54594 where it is 0.4135 at the
+    toggle 3.54624: an outside scene author, by 50-digit mpmath). The circuit was then read as
+    the stretch between the two toggles next to the drawing, the crank swinging between them;
+    it has four, and the crank turns fully (test_traced_circuits). Oracle: the drive as a
+    function of the crank, by the four-bar's own circle intersections (B, then D from C on the
+    drawn sides), its least and greatest over the crank's turn refined by a bounded scalar
+    search."""
     from oracles import extreme_near_samples, stephenson_drive
 
     from linkage_ros.core.model import Scene
@@ -352,20 +355,19 @@ def test_a_newton_placed_links_extremes_at_the_drives_toggles_are_read_there():
     # (every link, as `linkage check` and `range --links` read them: each extreme's search began
     # where the one before had left the solver)
     sweep = input_sweep(mech, [f'link:{link}' for link in mech.links if link != 'ground'])
-    crank = sweep.outputs['link:crank']
-    # the toggles the drive's range ends at: the drive's least and greatest near the drawing
-    cranks = np.linspace(0.2, 2.3, 211)  # the drawn crank 1.047 between the two toggles
+    assert sweep.turns_fully == ('link:crank',)
+    output = sweep.outputs['link:output']
+    cranks = np.linspace(-math.pi, math.pi, 721)
     (t_lo, d_lo), (t_hi, d_hi) = (
         extreme_near_samples(drive, cranks, sense, 0.02) for sense in (1, -1)
     )
-    # the crank is flat in the drive nowhere here: at a toggle it moves as sqrt of the drive's
-    # distance to it, which Newton's tolerance and the toggle's bisection leave at ~1e-11
-    assert abs(crank.minimum - t_hi) < 1e-5, (crank.minimum, t_hi, d_hi)
-    assert abs(crank.maximum - t_lo) < 1e-5, (crank.maximum, t_lo, d_lo)
-    assert (
-        abs(crank.input_at_min - (d_hi - 2 * math.pi)) < 1e-9
-        or abs(crank.input_at_min - d_hi) < 1e-9
-    ), (crank.input_at_min, d_hi)
+    # the output's angle is the drive's (its offset 0): its extremes are the drive's, at them
+    for value, at, want in (
+        (output.minimum, output.input_at_min, d_lo),
+        (output.maximum, output.input_at_max, d_hi),
+    ):
+        assert abs(math.remainder(value - want, 2 * math.pi)) < 1e-9, (value, want)
+        assert abs(math.remainder(at - want, 2 * math.pi)) < 1e-9, (at, want)
 
 
 @pytest.mark.parametrize('stem', ['scott_russell', 'hart'])

@@ -1,0 +1,169 @@
+"""The whole circuit of a Newton-placed mechanism (core.motion.trace): a Stephenson-III six-bar
+driven at its output, whose inner four-bar's crank turns fully while the drive swings back and
+forth. The drive's range was read as the stretch between the two turning points next to the
+drawing (a walk stops at the first toggle each way, and the way back was assumed to be the
+only other stretch): 3.1126..3.5462 rad with two toggles, the crank swinging 1.71 rad, where
+the drive spans 3.1126..3.7526 with four toggles and the crank turns fully.
+
+Oracles: the drive as a function of the crank by circle intersections (oracles.stephenson_drive;
+the four-bar's crank turns fully and neither dyad toggles on these drawings, so the crank's
+turn is the whole circuit), its turning points refined by a bounded scalar search; the rocker's
+angle by the cosine rule in triangle O4-A-B, written here."""
+
+from __future__ import annotations
+
+import copy
+import math
+
+import numpy as np
+import pytest
+from oracles import stephenson_drive
+from scenes import STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT
+from scipy.optimize import minimize_scalar
+
+from linkage_ros.core.model import Scene
+from linkage_ros.core.motion.quantities import input_sweep
+from linkage_ros.core.motion.ranges import actuator_range
+
+#: the turning points: the tracer's root of d(drive)/d(arclength) to ~1e-14 of a step and the
+#: oracle's bounded search to 1e-12 of the crank put each drive value to rounding (the drive is
+#: quadratic in either there); 1e-10 rad leaves room for the drawing's lengths, read from its
+#: points, to differ by rounding between the two
+AT_TURN = 1e-10
+#: the rocker's extremes: each inside a stretch, the package's refined by Brent on the rate
+#: between samples, the value to Newton's closure (1e-12 of the length scale) and flat there
+AT_EXTREME = 1e-9
+
+
+def _drawing(o6: list[float] | None = None, d: list[float] | None = None) -> dict:
+    """The scene with O6 and D moved (link5 and the output redrawn: their lengths are read
+    off the points), or as it is."""
+    scene = copy.deepcopy(STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT)
+    if o6 is not None and d is not None:
+        scene['points']['O6'], scene['points']['D'] = o6, d
+    return scene
+
+
+#: (drawing, how many turning points its drive has over the crank's turn)
+DRAWINGS = {
+    'four_toggles': (_drawing(), 4),
+    'two_toggles': (_drawing([0.1, 0.45], [-0.15, 0.2]), 2),
+}
+
+
+def _least_dyad_margin(points: dict) -> float:
+    """The least margin (m) of the six-bar's two dyads over the crank's turn: |A - O4| within
+    (|AB - O4B|, AB + O4B) and |C - O6| within (|CD - O6D|, CD + O6D). Above 0, the crank turns
+    fully with each dyad on its drawn side: the oracle's crank turn is the whole circuit."""
+    P = {k: np.array(v, float) for k, v in points.items()}
+    a, b, c = (np.linalg.norm(P[q] - P[p]) for p, q in (('O2', 'A'), ('A', 'B'), ('O4', 'B')))
+    cd, out = np.linalg.norm(P['D'] - P['C']), np.linalg.norm(P['D'] - P['O6'])
+    ab0, ac0 = P['B'] - P['A'], P['C'] - P['A']
+    u, v = P['O4'] - P['A'], P['B'] - P['A']
+    side = math.copysign(1.0, u[0] * v[1] - u[1] * v[0])
+    least = math.inf
+    for t in np.linspace(-math.pi, math.pi, 721):
+        A = P['O2'] + a * np.array([math.cos(t), math.sin(t)])
+        e = P['O4'] - A
+        L = float(np.hypot(*e))
+        least = min(least, L - abs(b - c), b + c - L)
+        x = (b * b - c * c + L * L) / (2 * L)
+        B = A + x * e / L + side * math.sqrt(max(b * b - x * x, 0.0)) * np.array([-e[1], e[0]]) / L
+        turn = math.atan2(*(B - A)[::-1]) - math.atan2(*ab0[::-1])
+        C = A + np.array(
+            [
+                ac0[0] * math.cos(turn) - ac0[1] * math.sin(turn),
+                ac0[0] * math.sin(turn) + ac0[1] * math.cos(turn),
+            ]
+        )
+        L = float(np.linalg.norm(C - P['O6']))
+        least = min(least, L - abs(cd - out), cd + out - L)
+    return least
+
+
+def _turning_points(points: dict) -> list[float]:
+    """The drive's values (rad, unwrapped about the drawing's) where it turns back over the
+    crank's full turn: each sign change of its step on a 3600-sample grid refined by a bounded
+    search."""
+    drive = stephenson_drive(points)
+    grid = np.linspace(-math.pi, math.pi, 3601)[:-1]
+    values = [drive(t) for t in grid]
+    out = []
+    for i, t in enumerate(grid):
+        before, here, after = values[i - 1], values[i], values[(i + 1) % len(grid)]
+        if (here - before) * (after - here) < 0:
+            sense = 1.0 if here < before else -1.0
+            got = minimize_scalar(
+                lambda c: sense * drive(c),
+                bounds=(t - 0.01, t + 0.01),
+                method='bounded',
+                options={'xatol': 1e-12},
+            )
+            out.append(sense * float(got.fun))
+    return out
+
+
+def _rocker(points: dict):
+    """The rocker O4-B's angle (rad) as a function of the crank's: the cosine rule in triangle
+    O4-A-B, B on its drawn side of O4 -> A."""
+    P = {k: np.array(v, float) for k, v in points.items()}
+    a = float(np.linalg.norm(P['A'] - P['O2']))
+    b = float(np.linalg.norm(P['B'] - P['A']))
+    c = float(np.linalg.norm(P['B'] - P['O4']))
+    u, v = P['A'] - P['O4'], P['B'] - P['O4']
+    side = math.copysign(1.0, u[0] * v[1] - u[1] * v[0])
+
+    def rocker(t: float) -> float:
+        e = P['O2'] + a * np.array([math.cos(t), math.sin(t)]) - P['O4']
+        reach = math.hypot(e[0], e[1])
+        at_o4 = math.acos((c * c + reach * reach - b * b) / (2 * c * reach))
+        return math.atan2(e[1], e[0]) + side * at_o4
+
+    return rocker
+
+
+def _same_angle(a: float, b: float, tol: float) -> bool:
+    return abs(math.remainder(a - b, 2 * math.pi)) < tol
+
+
+@pytest.mark.parametrize('key', list(DRAWINGS))
+def test_the_drives_range_and_toggles_cover_the_whole_circuit(key):
+    scene, count = DRAWINGS[key]
+    mech = Scene.from_dict(scene).mechanism
+    assert _least_dyad_margin(scene['points']) > 0.01  # (the oracle's own premise)
+    turns = _turning_points(scene['points'])
+    assert len(turns) == count  # (the oracle's own count: the drawing is what it says)
+    got = actuator_range(mech, 'drive')
+    assert not got['full_turn']
+    assert got['min_source'] == 'toggle' and got['max_source'] == 'toggle'
+    assert _same_angle(got['min'], min(turns), AT_TURN), (got['min'], min(turns))
+    assert _same_angle(got['max'], max(turns), AT_TURN), (got['max'], max(turns))
+    assert abs((got['max'] - got['min']) - (max(turns) - min(turns))) < AT_TURN
+    toggles = got['toggles']
+    assert len(toggles) == count, toggles
+    for want in turns:
+        assert any(_same_angle(t, want, AT_TURN) for t in toggles), (want, toggles)
+
+
+@pytest.mark.parametrize('key', list(DRAWINGS))
+def test_the_crank_turns_fully_and_the_rocker_swings_over_the_whole_circuit(key):
+    scene, _ = DRAWINGS[key]
+    mech = Scene.from_dict(scene).mechanism
+    sweep = input_sweep(mech, ['link:crank', 'link:rocker'])
+    assert not sweep.full_turn  # (the drive swings)
+    assert sweep.turns_fully == ('link:crank',)
+    rocker = _rocker(scene['points'])
+    cranks = np.linspace(-math.pi, math.pi, 3601)
+    values = np.unwrap([rocker(t) for t in cranks])
+    got = sweep.outputs['link:rocker']
+    for sense, want in ((1.0, got.minimum), (-1.0, got.maximum)):
+        k = int(np.argmin(sense * values))
+        best = minimize_scalar(
+            lambda t: sense * rocker(t),
+            bounds=(cranks[k] - 0.01, cranks[k] + 0.01),
+            method='bounded',
+            options={'xatol': 1e-12},
+        )
+        assert _same_angle(want, sense * float(best.fun), AT_EXTREME), (sense, want, best.fun)
+    swing = float(values.max() - values.min())
+    assert abs((got.maximum - got.minimum) - swing) < 1e-6  # (the grid's samples: within 1e-6)
