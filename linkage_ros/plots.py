@@ -254,6 +254,61 @@ def _angle_window(values: np.ndarray) -> float:
     return float(v[(k + 1) % v.size] - 0.5 * min(gaps[k], 0.2))
 
 
+def _traced_curves(
+    free,
+    input: str,
+    others: dict,
+    knowns: list,
+    xs,
+    lo: float,
+    in_angle: bool,
+    get,
+    samples: int,
+    curves: dict,
+) -> bool:
+    """The curves of a Newton-placed circuit from its trace (ranges.scan_circuit): each
+    monotone stretch between the input's toggles swept in its loop-Jacobian mode from the
+    trace's own configuration on it outward (the mode recurs on other stretches: a
+    Stephenson-III six-bar driven at its output has four, two in each mode, and from the
+    drawing a sweep in a mode found one of them). A mode's second stretch is keyed '<mode>
+    #2'. False, adding nothing, where the circuit was not traced."""
+    from .core.motion.quantities import BACK_TO_START, outward_order
+    from .core.motion.ranges import scan_circuit
+    from .core.solver import Solver
+
+    _, _, segs, _ = scan_circuit(free, input, others, max(int(samples), 16))
+    stretches = [(s, s.start) for s in segs if s.start is not None]
+    if not stretches:
+        return False
+    # the sweep's grid is in the assembly's turn (actuator_range's); the trace's unwrapped
+    shift = lo - min(s.lo for s, _ in stretches) if in_angle else 0.0
+    ends = np.geomspace(1e-8, 1.0 / max(int(samples) - 1, 1), 12)
+    seen: dict[str, int] = {}
+    for s, start in stretches:
+        a, b = s.lo + shift, s.hi + shift
+        grid = np.unique(
+            np.concatenate(
+                [xs[(xs >= a) & (xs <= b)], [a, b], a + (b - a) * ends, b - (b - a) * ends]
+            )
+        )
+        mode = start.branch
+        seen[mode] = seen.get(mode, 0) + 1
+        key = mode if seen[mode] == 1 else f'{mode} #{seen[mode]}'
+        walker = Solver(free, knowns=knowns, branch=mode)
+        walker.adopt(start)
+        for i in outward_order(grid, s.seed + shift):
+            if i == BACK_TO_START:
+                walker.reset()
+                walker.adopt(start)
+                continue
+            r = walker.solve({input: float(grid[i]), **others})
+            if r.success and r.branch == mode:
+                curves.setdefault(key, []).append((float(grid[i]), float(get(r))))
+    for c in curves.values():
+        c.sort()
+    return True
+
+
 def plot_output_vs_input(
     mech,
     input: str,
@@ -329,10 +384,12 @@ def plot_output_vs_input(
                 if r.success:
                     key = r.branch or 'continuous'
                     curves.setdefault(key, []).append((float(x), float(get(r))))
+    elif _traced_curves(free, input, others, knowns, xs, lo, in_angle, get, samples, curves):
+        pass  # (Newton places it: every stretch of the traced circuit, _traced_curves)
     else:
-        # Newton places it: each of the loop Jacobian's modes (J+, J-: the two halves of a
-        # circuit between the input's toggles, an outside scene author's Stephenson six-bar),
-        # followed from the drawing's input outward (quantities.outward_order)
+        # Newton places it, untraced: each of the loop Jacobian's modes (J+, J-: the two halves
+        # of a circuit between the input's toggles, an outside scene author's Stephenson
+        # six-bar), followed from the drawing's input outward (quantities.outward_order)
         from .core.motion.quantities import BACK_TO_START, outward_order
 
         order = outward_order(xs, x0)

@@ -167,3 +167,23 @@ def test_the_crank_turns_fully_and_the_rocker_swings_over_the_whole_circuit(key)
         assert _same_angle(want, sense * float(best.fun), AT_EXTREME), (sense, want, best.fun)
     swing = float(values.max() - values.min())
     assert abs((got.maximum - got.minimum) - swing) < 1e-6  # (the grid's samples: within 1e-6)
+
+
+def test_the_curves_draw_every_stretch_of_the_circuit(tmp_path):
+    """`range --curves` swept each loop-Jacobian mode from the drawing: one stretch per mode,
+    half of this circuit's four. Every stretch is drawn now: the drive's samples reach both
+    ends of its range and the crank's go all the way round."""
+    from linkage_ros.plots import plot_output_vs_input
+
+    scene, _ = DRAWINGS['four_toggles']
+    mech = Scene.from_dict(scene).mechanism
+    turns = _turning_points(scene['points'])
+    d = plot_output_vs_input(mech, 'drive', 'crank', tmp_path / 'c.png', samples=181)
+    assert len(d['branches']) == 4, sorted(d['branches'])
+    drives = [v for br in d['branches'].values() for v in br['input']]
+    assert _same_angle(min(drives), min(turns), AT_TURN)
+    assert _same_angle(max(drives), max(turns), AT_TURN)
+    cranks = np.sort(
+        np.mod([v for br in d['branches'].values() for v in br['output']], 2 * math.pi)
+    )
+    assert np.diff(np.append(cranks, cranks[0] + 2 * math.pi)).max() < 0.2
