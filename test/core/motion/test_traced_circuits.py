@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 from oracles import stephenson_drive
 from scenes import STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT
-from scipy.optimize import minimize_scalar
+from scipy.optimize import brentq, minimize_scalar
 
 from linkage_ros.core.model import Scene
 from linkage_ros.core.motion.quantities import input_sweep
@@ -187,3 +187,79 @@ def test_the_curves_draw_every_stretch_of_the_circuit(tmp_path):
         np.mod([v for br in d['branches'].values() for v in br['output']], 2 * math.pi)
     )
     assert np.diff(np.append(cranks, cranks[0] + 2 * math.pi)).max() < 0.2
+
+
+def test_a_circuit_where_the_crank_rocks_too():
+    """O6 and D moved so that link5 and the output lie in line twice on the crank's turn (|C -
+    O6| reaches CD + O6D): the crank rocks between those two dead points, and the circuit runs
+    one way with D on one side of C -> O6 and back with it on the other. The drive's range was
+    read as -2.5948..-2.0502 (two toggles); it is -2.5948..0.16147, with four. Oracle: the
+    crank's dead points by a root of |C - O6| - (CD + O6D) (C by the four-bar's circle
+    intersection), the drive on each side of C -> O6 between them, its turning points refined
+    by a bounded search."""
+    scene = _drawing([0.0, 0.5], [-0.0723, 0.398])
+    P = {k: np.array(v, float) for k, v in scene['points'].items()}
+    a, b, c = (np.linalg.norm(P[q] - P[p]) for p, q in (('O2', 'A'), ('A', 'B'), ('O4', 'B')))
+    cd, out = np.linalg.norm(P['D'] - P['C']), np.linalg.norm(P['D'] - P['O6'])
+    u, v = P['O4'] - P['A'], P['B'] - P['A']
+    side = math.copysign(1.0, u[0] * v[1] - u[1] * v[0])
+    ab0, ac0 = P['B'] - P['A'], P['C'] - P['A']
+
+    def meet(p, r1, q, r2, sd):  # the point at r1 from p and r2 from q, sd: left of p -> q
+        e = q - p
+        L = float(np.hypot(*e))
+        x = (r1 * r1 - r2 * r2 + L * L) / (2 * L)
+        return (
+            p + x * e / L + sd * math.sqrt(max(r1 * r1 - x * x, 0.0)) * np.array([-e[1], e[0]]) / L
+        )
+
+    def c_of(t):
+        A = P['O2'] + a * np.array([math.cos(t), math.sin(t)])
+        B = meet(A, b, P['O4'], c, side)
+        turn = math.atan2(*(B - A)[::-1]) - math.atan2(*ab0[::-1])
+        cs, sn = math.cos(turn), math.sin(turn)
+        return A + np.array([ac0[0] * cs - ac0[1] * sn, ac0[0] * sn + ac0[1] * cs])
+
+    def gap(t):  # below 0 where link5 and the output close
+        return float(np.linalg.norm(c_of(t) - P['O6'])) - (cd + out)
+
+    def drive(t, sd):
+        D = meet(c_of(t), cd, P['O6'], out, sd)
+        return math.atan2(*(D - P['O6'])[::-1])
+
+    grid = np.linspace(-math.pi, math.pi, 7201)
+    gaps = np.array([gap(t) for t in grid])
+    roots = [
+        brentq(gap, grid[i], grid[i + 1], xtol=1e-15)
+        for i in np.flatnonzero(gaps[:-1] * gaps[1:] < 0)
+    ]
+    assert len(roots) == 2  # the crank's two dead points; it closes between them (gap < 0)
+    lo_t = max(r for r in roots if gap(r - 1e-3) > 0)  # (the stretch the drawing's crank is on)
+    hi_t = [r for r in roots if r != lo_t][0] + 2 * math.pi * (lo_t > roots[0])
+    assert lo_t < 1.0471975511965976 < hi_t  # the drawn crank
+    turns = []
+    inner = np.linspace(lo_t, hi_t, 8001)[1:-1]
+    step = inner[1] - inner[0]
+    for sd in (1, -1):
+        values = np.unwrap([drive(t, sd) for t in inner])
+        for i in range(1, len(inner) - 1):
+            if (values[i] - values[i - 1]) * (values[i + 1] - values[i]) < 0:
+                sense = 1.0 if values[i] < values[i - 1] else -1.0
+                got = minimize_scalar(
+                    lambda t: sense * math.remainder(drive(t, sd) - values[i], 2 * math.pi),
+                    bounds=(inner[i] - step, inner[i] + step),
+                    method='bounded',
+                    options={'xatol': 1e-12},
+                )
+                turns.append(values[i] + sense * float(got.fun))
+    assert len(turns) == 4, turns
+    mech = Scene.from_dict(scene).mechanism
+    got = actuator_range(mech, 'drive')
+    assert _same_angle(got['min'], min(turns), AT_TURN), (got['min'], min(turns))
+    assert _same_angle(got['max'], max(turns), AT_TURN), (got['max'], max(turns))
+    assert len(got['toggles']) == 4
+    for want in turns:
+        assert any(_same_angle(t, want, AT_TURN) for t in got['toggles']), (want, got['toggles'])
+    crank = input_sweep(mech, ['link:crank']).outputs['link:crank']
+    # (at a dead point the crank moves as the square root of the drive's distance: read to 1e-9)
+    assert _same_angle(crank.minimum, lo_t, 1e-9) and _same_angle(crank.maximum, hi_t, 1e-9)
