@@ -263,3 +263,68 @@ def test_a_circuit_where_the_crank_rocks_too():
     crank = input_sweep(mech, ['link:crank']).outputs['link:crank']
     # (at a dead point the crank moves as the square root of the drive's distance: read to 1e-9)
     assert _same_angle(crank.minimum, lo_t, 1e-9) and _same_angle(crank.maximum, hi_t, 1e-9)
+
+
+def test_a_cylinder_driven_triad_without_limits_has_six_toggles():
+    """A non-Grashof four-bar O2-A-B-O4 driven by a cylinder P-C on its coupler (Newton
+    places it), without limits: its crank rocks between the four-bar's own dead points and the
+    cylinder's length turns back six times over the circuit. main read 0.8196..1.5001 m with
+    two toggles; it spans 0.39339..1.50014 m. Oracle: C carried by the four-bar (B by its
+    circle intersection, on each side of A -> O4 where the four-bar closes), |P C|'s local
+    extremes over the crank refined by a bounded search."""
+    pts = {
+        'O2': (0.0, 0.0), 'O4': (1.0, 0.0), 'P': (0.5, -0.6), 'A': (0.1, 0.5),
+        'B': (0.9, 0.6), 'C': (0.5, 0.9), 'T': (0.6, 1.3),
+    }  # fmt: skip
+    scene = {
+        'name': 'triad',
+        'points': {k: list(v) for k, v in pts.items()},
+        'links': {
+            'ground': ['O2', 'O4', 'P'],
+            'crank': ['O2', 'A'],
+            'coupler': ['A', 'B', 'C', 'T'],
+            'rocker': ['O4', 'B'],
+        },
+        'cylinders': {'Z': {'from': 'P', 'to': 'C'}},
+    }
+    P = {k: np.array(v, float) for k, v in pts.items()}
+    a = float(np.linalg.norm(P['A'] - P['O2']))
+    b, c = float(np.linalg.norm(P['B'] - P['A'])), float(np.linalg.norm(P['B'] - P['O4']))
+    ab0, ac0 = P['B'] - P['A'], P['C'] - P['A']
+
+    def length(t: float, sd: float) -> float:  # |P C|, nan where the four-bar does not close
+        A = P['O2'] + a * np.array([math.cos(t), math.sin(t)])
+        e = P['O4'] - A
+        L = float(np.hypot(*e))
+        x = (b * b - c * c + L * L) / (2 * L)
+        if b * b - x * x < 0:
+            return math.nan
+        B = A + x * e / L + sd * math.sqrt(b * b - x * x) * np.array([-e[1], e[0]]) / L
+        turn = math.atan2(*(B - A)[::-1]) - math.atan2(*ab0[::-1])
+        cs, sn = math.cos(turn), math.sin(turn)
+        C = A + np.array([ac0[0] * cs - ac0[1] * sn, ac0[0] * sn + ac0[1] * cs])
+        return float(np.linalg.norm(C - P['P']))
+
+    grid = np.linspace(-math.pi, math.pi, 20001)
+    step = grid[1] - grid[0]
+    turns = []
+    for sd in (1.0, -1.0):
+        values = np.array([length(t, sd) for t in grid])
+        for i in range(1, len(grid) - 1):
+            before, here, after = values[i - 1 : i + 2]
+            if np.isfinite([before, here, after]).all() and (here - before) * (after - here) < 0:
+                sense = 1.0 if here < before else -1.0
+                got = minimize_scalar(
+                    lambda t: sense * length(t, sd),
+                    bounds=(grid[i] - step, grid[i] + step),
+                    method='bounded',
+                    options={'xatol': 1e-12},
+                )
+                turns.append(sense * float(got.fun))
+    assert len(turns) == 6, turns
+    got = actuator_range(Scene.from_dict(scene).mechanism, 'Z')
+    assert got['min_source'] == 'toggle' and got['max_source'] == 'toggle'
+    assert abs(got['min'] - min(turns)) < AT_TURN and abs(got['max'] - max(turns)) < AT_TURN
+    assert len(got['toggles']) == 6, got['toggles']
+    for want in turns:
+        assert min(abs(t - want) for t in got['toggles']) < AT_TURN, (want, got['toggles'])
