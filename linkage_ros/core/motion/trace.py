@@ -131,7 +131,6 @@ class _Curve:
             Fu[self.row] = -1.0
         else:  # (linear in the value: a central difference is exact to rounding)
             h = 1e-6
-            x = z[: self.n] * self.step
             Fp = self.system.evaluate_scaled(x, self.values(float(z[-1]) + h), None, False)[0]
             Fm = self.system.evaluate_scaled(x, self.values(float(z[-1]) - h), None, False)[0]
             Fu = (Fp - Fm) / (2 * h)
@@ -216,6 +215,8 @@ def _follow(
         new = CurvePoint(z, t)
         longest = max(longest, float(np.linalg.norm(z - p.z)))
         start = curve.gap(pts[0].z, z)
+        # (the closure test waits until the trace has been three steps from its start: the
+        # first steps pass next to it)
         away = away or float(np.linalg.norm(start)) > 3 * longest
         if away and _passes(curve, p, new, pts[0]):
             return pts, 'closed'
