@@ -10,7 +10,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..cli.common import UsageError, add_scene_argument, file_name
+from ..cli.common import OnceAction, UsageError, add_scene_argument, branch_value, file_name
 from ..cli.process import say
 from ..core.errors import LinkageError
 from ..core.tolerances import NEWTON_TOL
@@ -47,6 +47,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scene_argument(parser, flag=True)
     parser.add_argument(
         '--command-topic',
+        action=OnceAction,
         required=True,
         metavar='TOPIC',
         help='sensor_msgs/msg/JointState commands naming the actuators',
@@ -69,6 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--target-topic',
+        action=OnceAction,
         metavar='TOPIC',
         default=None,
         help='sensor_msgs/msg/JointState targets naming joints, links or '
@@ -92,6 +94,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--frame-id',
+        action=OnceAction,
         default='',
         metavar='FRAME',
         help="as the node's frame_id parameter in the run recorded (default: the scene's): "
@@ -136,6 +139,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--branch',
+        type=branch_value,
         default='continuous',
         help="continuous (default, like the node), reference, or signs like '+-'",
     )

@@ -11,7 +11,15 @@ from typing import Any
 from ..core.tolerances import NEWTON_TOL
 from ..heap import keep_large_buffers
 from .check import cmd_check
-from .common import USAGE_ERROR, KnownAction, OneLineErrorParser, add_scene_argument, file_name
+from .common import (
+    USAGE_ERROR,
+    KnownAction,
+    OneLineErrorParser,
+    add_scene_argument,
+    branch_value,
+    file_name,
+    signs_as_values,
+)
 from .process import run_command
 from .solve import cmd_solve
 from .sweep import cmd_sweep
@@ -152,6 +160,7 @@ def _add_solve_options(p, default_branch: str, ranges: bool):
     s = p.add_argument_group('solver')
     s.add_argument(
         '--branch',
+        type=branch_value,
         default=default_branch,
         help="assembly mode: 'continuous', 'reference', one sign per branching "
         "dyad such as '+-', or for a scene Newton places 'J+' / 'J-' (the sign of its loop "
@@ -296,7 +305,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         )
         return USAGE_ERROR
     try:
-        args = parser.parse_args(argv)
+        args = parser.parse_args(signs_as_values(argv))
     except SystemExit as exc:  # --help (0) or a usage error (2)
         return exc.code if isinstance(exc.code, int) else USAGE_ERROR
     return run_command(f'linkage {args.command}', args.func, args)
