@@ -8,9 +8,10 @@ import json
 import os
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from ..cli.common import UsageError
-from ..outputs import written_whole
+from ..outputs import folder_refusal, input_refusal, written_whole
 from .collect import CASES, collect
 from .fleet import render_fleet
 from .report import met_text, render_markdown, save_plot, write_report
@@ -82,7 +83,43 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def _outputs_refusal(args: argparse.Namespace) -> None:
+    """The output files refused before any measurement (a run is minutes long: a --json to a
+    folder that does not exist lost a whole run at its end, a new user): UsageError."""
+    for option, path in (('--json', args.json), ('--plot', args.plot), ('--write', args.write)):
+        if path is None:
+            continue
+        why = folder_refusal(path) or (
+            input_refusal(path, [args.render]) if getattr(args, 'render', None) else None
+        )
+        if why:
+            raise UsageError(f'{option} {path}: {why}')
+
+
+def _dump(path: str) -> dict[str, Any]:
+    """An earlier run's --json dump (UsageError naming what is wrong with it)."""
+    try:
+        report = json.loads(Path(path).read_text(encoding='utf-8'))
+    except OSError as exc:
+        raise UsageError(f'--render {path}: cannot be read ({exc.strerror or exc})') from None
+    except UnicodeDecodeError:
+        raise UsageError(f'--render {path}: not JSON (not UTF-8 text)') from None
+    except ValueError as exc:
+        raise UsageError(f'--render {path}: not JSON ({exc})') from None
+    missing = (
+        [k for k in ('machine', 'targets', 'settings', 'seconds') if k not in report]
+        if (isinstance(report, dict))
+        else ['a JSON object']
+    )
+    if missing:
+        raise UsageError(
+            f'--render {path}: not a linkage bench --json dump (it lacks {", ".join(missing)})'
+        )
+    return report
+
+
 def run(args) -> int:
+    _outputs_refusal(args)
     sizes = QUICK if args.quick else FULL
     scenes = [s.strip() for s in (args.scenes or ','.join(SCENES)).split(',') if s.strip()]
     if args.scenes is not None:
@@ -90,7 +127,7 @@ def run(args) -> int:
     if args.fleet_only:
         return _fleet_only(args, sizes)
     if args.render:
-        report = json.loads(Path(args.render).read_text())
+        report = _dump(args.render)
         command = report.get('command', 'linkage bench')
     else:
         cases = [c.strip() for c in args.cases.split(',') if c.strip()]

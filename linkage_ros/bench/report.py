@@ -452,7 +452,6 @@ def save_plot(report: dict, path: Path) -> None:
         bbox_to_anchor=(1.01, 0.0),
     )
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
     with written_whole(path) as tmp:
         fig.savefig(tmp, dpi=120, format=path.suffix[1:] or 'png')
     plt.close(fig)

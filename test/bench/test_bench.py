@@ -496,3 +496,27 @@ def test_batched_newton_ratio_reads_the_pairs_and_falls_back_for_old_dumps():
     assert batch_vs_scipy({'batch_us': 20.0, 'batch_vs_scipy': 17.5}, sp)[0] == 17.5
     ratio, against = batch_vs_scipy({'batch_us': 20.0}, sp)
     assert ratio == 20.0 and against == '400 us'
+
+
+@pytest.mark.parametrize(
+    ('argv', 'said'),
+    [
+        (['--json', '{tmp}/no/x.json'], '--json {tmp}/no/x.json: folder {tmp}/no does not exist'),
+        (['--plot', '{tmp}/no/p.png'], '--plot {tmp}/no/p.png: folder {tmp}/no does not exist'),
+        (['--render', '{tmp}/none.json'], '--render {tmp}/none.json: cannot be read'),
+        (['--render', '{tmp}/bad.txt'], '--render {tmp}/bad.txt: not JSON'),
+        (['--render', '{tmp}/empty.json'], 'not a linkage bench --json dump (it lacks machine'),
+    ],
+)
+def test_bench_outputs_and_dumps_are_refused_before_any_work(capsys, tmp_path, argv, said):
+    """A --json or --plot to a folder that does not exist lost a whole run at its end (a
+    traceback) or was made, and a --render of a missing, non-JSON or foreign file was a
+    traceback (a new user): refused first, in one line, exit 2, nothing written."""
+    (tmp_path / 'bad.txt').write_text('x')
+    (tmp_path / 'empty.json').write_text('{}')
+    argv = [a.format(tmp=tmp_path) for a in argv]
+    rc = cli_main(['bench', '--quick', '--no-node', '--no-fleet', '--cases', 'tradeoff', *argv])
+    err = capsys.readouterr().err
+    assert rc == 2 and said.format(tmp=tmp_path) in err, err
+    assert not (tmp_path / 'no').exists()
+    assert 'Traceback' not in err and err.count('\n') == 1
