@@ -213,20 +213,24 @@ class AnswerBytes:
         self.point_writer = PointStampedBytes(frame_id)
         self.status_writer = StatusBytes(status_name, mech.name)
 
-    def _published(self, joints: Mapping[str, float], rates: bool) -> list[float]:
+    def _published(
+        self, joints: Mapping[str, float], rates: bool, inputs: Mapping[str, float] | None = None
+    ) -> list[float]:
         if self._scene_joints is not None:
             values = [joints[j] for j in self._scene_joints]
         elif rates:
             values = self.mech.output_joint_rates(joints)
         else:
-            values = self.mech.output_joints(joints)
+            values = self.mech.output_joints(joints, inputs)
         return values if self._keep is None else [values[i] for i in self._keep]
 
     def joint_state(self, result: Result, sec: int, nanosec: int) -> bytes:
         """Every published joint's position, and velocity when the result carries rates."""
         vel = result.velocity
         rates = self._published(vel.joints, True) if vel is not None and vel.success else ()
-        return self.joint_writer.write(sec, nanosec, self._published(result.joints, False), rates)
+        return self.joint_writer.write(
+            sec, nanosec, self._published(result.joints, False, result.inputs), rates
+        )
 
     def point(self, result: Result, name: str, sec: int, nanosec: int) -> bytes:
         """Point ``name`` of a successful result (z = 0 for a scene file; a description's

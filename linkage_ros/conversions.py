@@ -161,7 +161,7 @@ def result_to_joint_state(
     ``prefix`` is prepended to each published name (the node's ``prefix`` parameter).
     """
     names = mech.output_joint_names
-    positions = [float(v) for v in mech.output_joints(result.joints)]
+    positions = [float(v) for v in mech.output_joints(result.joints, result.inputs)]
     vel = result.velocity
     rates = (
         [float(v) for v in mech.output_joint_rates(vel.joints)]

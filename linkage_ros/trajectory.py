@@ -63,7 +63,7 @@ class TrajectoryAnswer:
         out = []
         for r, t in zip(self.results, times_ns):
             sec, nanosec = divmod(int(t), 1_000_000_000)
-            positions = [float(v) for v in mech.output_joints(r.joints)]
+            positions = [float(v) for v in mech.output_joints(r.joints, r.inputs)]
             vel = r.velocity
             velocities = (
                 [float(v) for v in mech.output_joint_rates(vel.joints)]

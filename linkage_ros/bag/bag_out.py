@@ -286,7 +286,7 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Prog
         js = _stamped_rows(js_t, okr, sec, nsec)
         if joints and okr.size:
             scene = {j: res.joints[j][okr] for j in mech.joint_names}
-            cols = mech.output_joints(scene)
+            cols = mech.output_joints(scene, {x: res.inputs[x][okr] for x in mech.actuators})
             vals = np.stack([np.broadcast_to(cols[i], okr.shape) for i in kept], axis=1).astype(
                 '<f8'
             )
@@ -299,7 +299,10 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Prog
             scene = {j: res.joints[j][vrows] for j in mech.joint_names}
             rates = {j: res.joint_rates[j][vrows] for j in mech.joint_names}
             for off, every in (
-                (jv_pos, mech.output_joints(scene)),
+                (
+                    jv_pos,
+                    mech.output_joints(scene, {x: res.inputs[x][vrows] for x in mech.actuators}),
+                ),
                 (jv_vel, mech.output_joint_rates(rates)),
             ):
                 vals = np.stack(

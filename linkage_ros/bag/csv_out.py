@@ -323,7 +323,7 @@ def write_csv(
                     text[absent] = 0
                 cols += [text, comma]
             scene = {j: res.joints[j][sl] for j in mech.joint_names}
-            for values in mech.output_joints(scene):
+            for values in mech.output_joints(scene, {x: res.inputs[x][sl] for x in mech.actuators}):
                 cols += [
                     format_floats(np.broadcast_to(np.asarray(values, np.float64), (m,))),
                     comma,

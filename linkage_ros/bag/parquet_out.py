@@ -111,7 +111,8 @@ def write_parquet(
                 absent = ~(ok | res.input_given[nm][sl])  # a refused request without it
                 cols.append(_float(np.broadcast_to(values, (b - a,)), absent))
             scene = {j: res.joints[j][sl] for j in mech.joint_names}
-            cols += [_float(np.broadcast_to(v, (b - a,))) for v in mech.output_joints(scene)]
+            given = {x: res.inputs[x][sl] for x in mech.actuators}
+            cols += [_float(np.broadcast_to(v, (b - a,))) for v in mech.output_joints(scene, given)]
             if rates:
                 vel = mech.output_joint_rates({j: res.joint_rates[j][sl] for j in scene})
                 cols += [_float(np.broadcast_to(v, (b - a,))) for v in vel]

@@ -47,7 +47,9 @@ class PlansCsvWriter:
             return
         output_joints = self.mech.output_joints
         self._w.writerows(
-            base + ['ok', '', '', i, t] + [repr(float(v)) for v in output_joints(r.joints)]
+            base
+            + ['ok', '', '', i, t]
+            + [repr(float(v)) for v in output_joints(r.joints, r.inputs)]
             for i, (r, t) in enumerate(zip(ans.results, req.times_ns))
         )
 

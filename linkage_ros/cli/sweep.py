@@ -182,7 +182,7 @@ def _csv_rows(mech, table: ResultTable) -> list[list]:
         return [np.broadcast_to(np.asarray(v, float), (n,)).tolist() for v in values]
 
     inputs = listed(mech.output_inputs(table.inputs))
-    joints = listed(mech.output_joints(table.joints))
+    joints = listed(mech.output_joints(table.joints, table.inputs))
     rows = []
     for i in range(n):
         if not table.ok[i]:

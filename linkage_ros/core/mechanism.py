@@ -131,7 +131,9 @@ class JointCoordinates(Protocol):
     @property
     def commanded(self) -> tuple[str, ...]: ...
 
-    def positions(self, joints: Mapping[str, Any]) -> list[Any]: ...
+    def positions(
+        self, joints: Mapping[str, Any], inputs: Mapping[str, Any] | None = None
+    ) -> list[Any]: ...
 
     def velocities(self, joints: Mapping[str, Any]) -> list[Any]: ...
 
@@ -208,13 +210,16 @@ class Mechanism:
         jc = self.joint_coordinates
         return list(jc.names) if jc is not None else self.joint_names
 
-    def output_joints(self, joints: Mapping[str, Any]) -> list[Any]:
+    def output_joints(
+        self, joints: Mapping[str, Any], inputs: Mapping[str, Any] | None = None
+    ) -> list[Any]:
         """The published joints' values (rad, m) from a result's scene joint values (floats,
-        or a batch's arrays)."""
+        or a batch's arrays); ``inputs``, its actuator values: a description's actuated joint
+        whose limits span turns is published at the command's turn."""
         jc = self.joint_coordinates
         if jc is None:
             return [joints[j] for j in self.joint_names]
-        return jc.positions(joints)
+        return jc.positions(joints, inputs)
 
     def output_joint_rates(self, joints: Mapping[str, Any]) -> list[Any]:
         """The published joints' rates (rad/s, m/s) from a result's scene joint rates."""

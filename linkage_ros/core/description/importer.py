@@ -14,7 +14,7 @@ import numpy as np
 from ..errors import SceneError
 from ..model import Mechanism, Scene
 from ..model.joint_map import JointMap, OutputKind
-from ..model.limits import limit_violation, spans_a_turn
+from ..model.limits import limit_violation, spans_a_turn, written_in_degrees
 from .assembly import CLOSED, assemble_chain, values_text
 from .calibration import calibrate_joint_map
 from .chain import Chain, find_chain, rot
@@ -152,10 +152,11 @@ def import_description(
         )
     for j in chain.joints:
         lim = desc.limits_of(j.joint)
-        if j.revolute and spans_a_turn(lim.lower, lim.upper):
+        if j.revolute and written_in_degrees(lim.lower, lim.upper):
             notes.append(
                 f'the limits of {j.name} ({lim.lower:g} .. {lim.upper:g} rad) span a full turn '
-                'or more: it is not limited (limits are in radians)'
+                'or more and reach beyond two turns: read as degrees, it is not limited '
+                '(limits are in radians)'
             )
     renamed = [
         f'{"link" if kind == "link" else "point of"} {raw!r}: {name}'
@@ -334,7 +335,7 @@ def _assembly_values(
                 )
             continue
         revolute = by_name[name].revolute
-        if revolute and spans_a_turn(lim.lower, lim.upper):
+        if revolute and written_in_degrees(lim.lower, lim.upper):
             continue  # (limits nothing: noted below)
         unit = 'rad' if revolute else 'm'
         # as a command is judged (ROBOT_DESCRIPTIONS.md): the value as given, not a turn of it

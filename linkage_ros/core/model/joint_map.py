@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import CommandError
 from ..quantities import Shown
-from .limits import limit_interval, limit_violation, spans_a_turn
+from .limits import limit_interval, limit_violation, slack, spans_a_turn, written_in_degrees
 
 
 class OutputKind(Enum):
@@ -144,15 +144,25 @@ class JointMap:
         return (x, y) if self.plane is None else self.plane.plane_xy(x, y, z)
 
     # -- out: a solved result -> the description's joint values --------------------------------
-    def positions(self, joints: Mapping[str, Any]) -> list[Any]:
+    def positions(
+        self, joints: Mapping[str, Any], inputs: Mapping[str, Any] | None = None
+    ) -> list[Any]:
         """Every published joint's value from a result's scene joint values (floats, or a
-        batch's arrays)."""
+        batch's arrays); with its ``inputs`` (the scene's actuator values), an actuated joint
+        whose limits span turns at its command's own turn (actuated_value)."""
         out: dict[str, Any] = {}
         for o in self.outputs:
             if o.kind is OutputKind.CONSTANT:
                 v = o.offset
             elif o.kind is OutputKind.MIMIC:
                 v = o.scale * out[o.leader] + o.offset
+            elif (
+                inputs is not None
+                and o.name in self.inputs
+                and self._multi_turn(o.name)
+                and self.inputs[o.name].scene_name in inputs
+            ):
+                v = self.actuated_value(o.name, inputs[self.inputs[o.name].scene_name])
             else:
                 v = o.scale * joints[o.scene_joint] + o.offset
                 if o.revolute:
@@ -200,7 +210,7 @@ class JointMap:
             if o.kind is OutputKind.JOINT
             and o.name not in self.actuated
             and (o.lower is not None or o.upper is not None)
-            and not (o.revolute and spans_a_turn(o.lower, o.upper))
+            and not (o.revolute and written_in_degrees(o.lower, o.upper))
             and (interval := limit_interval(o.lower, o.upper, False)) is not None
         )
 
@@ -227,12 +237,26 @@ class JointMap:
         float or an array): scale * (scene - offset), an angle wrapped and moved by 2 pi into
         the joint's limits where that fits."""
         entry = self.inputs[joint]
-        v = entry.scale * (scene_value - entry.offset)  # scale is +-1
-        if entry.revolute:
-            v = wrap_given(v)
-            out = self._output_of.get(joint)
-            if out is not None:
-                v = fit_to_limits(v, out)
+        given = entry.scale * (scene_value - entry.offset)  # scale is +-1
+        if not entry.revolute:
+            return given
+        v = wrap_given(given)
+        out = self._output_of.get(joint)
+        if out is not None:
+            v = fit_to_limits(v, out)
+        if out is not None and self._multi_turn(joint):
+            # a command's own turn where it is within the limits (to_scene leaves it unwrapped)
+            assert out.lower is not None and out.upper is not None  # (_multi_turn)
+            within = (given >= out.lower - slack(out.lower)) & (
+                given <= out.upper + slack(out.upper)
+            )
+            v = (
+                np.where(within, given, v)
+                if isinstance(given, np.ndarray)
+                else given
+                if within
+                else v
+            )
         return v
 
     @functools.cached_property
@@ -285,12 +309,14 @@ class JointMap:
             if entry is None:
                 out[name] = value
                 continue
-            out[entry.scene_name] = self._convert(entry, value, rates)
+            out[entry.scene_name] = self._convert(entry, value, rates, self._multi_turn(name))
             follower = self._followers.get(name)
             if follower is not None:
                 v = np.asarray(value, np.float64) if isinstance(value, np.ndarray) else float(value)
                 q = follower.multiplier * v + (0.0 if rates else follower.mimic_offset)
-                out[follower.scene_name] = self._convert(follower, q, rates)
+                out[follower.scene_name] = self._convert(
+                    follower, q, rates, self._multi_turn(follower.name)
+                )
         return out
 
     def beyond_limit(self, name: str, value: Any) -> str | None:
@@ -306,15 +332,23 @@ class JointMap:
         return limit_violation(name, float(value), out.lower, out.upper, 'rad', False)
 
     def _bounded(self, name: str) -> bool:
-        """Whether ``name`` is a revolute input joint with both limit ends less than a turn
-        apart (one end bounds no angle: an arc needs two; limits a turn or more apart are no
-        limit: docs/ROBOT_DESCRIPTIONS.md)."""
+        """Whether ``name`` is a revolute input joint with both limit ends, not written in
+        degrees (one end bounds no angle: an arc needs two; limits that read as degrees are no
+        limit: docs/ROBOT_DESCRIPTIONS.md). Limits a turn or more apart bound it as given: a
+        wrist's [-4, 4] rad refuses 4.5 (it was taken as 4.5 - 2 pi)."""
         entry, out = self.inputs.get(name), self._output_of.get(name)
         if entry is None or out is None or not entry.revolute:
             return False
         if out.lower is None or out.upper is None:
             return False
-        return not spans_a_turn(out.lower, out.upper)
+        return not written_in_degrees(out.lower, out.upper)
+
+    def _multi_turn(self, name: str) -> bool:
+        """Whether ``name`` is a revolute input joint whose limits (a turn or more apart, in
+        radians) bound it as given: its value is kept as given, not wrapped (3.5 within
+        [-4, 4] was published -2.78)."""
+        out = self._output_of.get(name)
+        return self._bounded(name) and out is not None and spans_a_turn(out.lower, out.upper)
 
     def refusal(self, values: Mapping[str, Any]) -> str | None:
         """Why a request (the description's names and values, before :meth:`to_scene`) is
@@ -383,17 +417,19 @@ class JointMap:
         return entry
 
     @staticmethod
-    def _convert(entry: InputJoint, value: Any, rates: bool) -> Any:
-        """scale * value + offset (a rate: scale * value), an angle wrapped; a float or an
-        array of them; anything else unchanged (the engine's checks name a bad value)."""
+    def _convert(entry: InputJoint, value: Any, rates: bool, as_given: bool = False) -> Any:
+        """scale * value + offset (a rate: scale * value), an angle wrapped unless
+        ``as_given`` (a joint whose limits span turns: its turn is kept); a float or an array
+        of them; anything else unchanged (the engine's checks name a bad value)."""
         offset = 0.0 if rates else entry.offset
+        wrapped = entry.revolute and not rates and not as_given
         if isinstance(value, np.ndarray):
             v = entry.scale * np.asarray(value, np.float64) + offset
-            return np.asarray(wrap_given(v), np.float64) if entry.revolute and not rates else v
+            return np.asarray(wrap_given(v), np.float64) if wrapped else v
         if isinstance(value, bool) or not isinstance(value, int | float):
             return value
         x = entry.scale * float(value) + offset
-        return wrap_given(x) if entry.revolute and not rates else x
+        return wrap_given(x) if wrapped else x
 
     def describe(self) -> dict[str, Any]:
         return {

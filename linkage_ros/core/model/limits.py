@@ -30,6 +30,21 @@ def spans_a_turn(lower: float | None, upper: float | None) -> bool:
     return lower is not None and upper is not None and upper - lower >= 2.0 * math.pi
 
 
+#: a robot description's revolute limits further from 0 than this (rad) and a turn or more
+#: apart read as written in degrees (URDF's are radians: [-150, -90] meant degrees), and limit
+#: nothing; nearer, they are the joint's range of several turns (a UR-style +-2 pi, a wrist's
+#: +-4 rad), within which a value is judged and published as given
+DEGREES_LIKE_RAD = 4.0 * math.pi
+
+
+def written_in_degrees(lower: float | None, upper: float | None) -> bool:
+    """Whether a description's revolute limits a turn or more apart read as degrees (an end
+    beyond DEGREES_LIKE_RAD): they then limit nothing (the import notes it)."""
+    return spans_a_turn(lower, upper) and max(abs(lower or 0.0), abs(upper or 0.0)) > (
+        DEGREES_LIKE_RAD
+    )
+
+
 def angle_limit_arc(lo: float | None, hi: float | None) -> tuple[float, float] | None:
     """The angles (rad) :func:`limit_violation` allows, as the arc [a, b] (taken modulo 2 pi:
     an angle v is inside where a + (v - a) mod 2 pi <= b), or None where it allows every angle:

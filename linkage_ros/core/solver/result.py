@@ -182,7 +182,9 @@ def _described(mech: Mechanism | None, result: Result) -> dict[str, Any]:
         return {}
     return {
         'inputs': dict(zip(mech.output_input_names, mech.output_inputs(result.inputs))),
-        'joints': dict(zip(mech.output_joint_names, mech.output_joints(result.joints))),
+        'joints': dict(
+            zip(mech.output_joint_names, mech.output_joints(result.joints, result.inputs))
+        ),
     }
 
 

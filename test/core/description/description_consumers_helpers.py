@@ -87,7 +87,9 @@ class PinocchioRobot:
 def described(mech, result) -> dict[str, float]:
     """The description's joint values of a solved result."""
     assert result.success, result.reason
-    return dict(zip(mech.output_joint_names, map(float, mech.output_joints(result.joints))))
+    return dict(
+        zip(mech.output_joint_names, map(float, mech.output_joints(result.joints, result.inputs)))
+    )
 
 
 def pin_miss(robot: PinocchioRobot, values, pins) -> float:
