@@ -52,6 +52,16 @@ def read_urdf(root: ET.Element, source: str) -> Description:
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise DescriptionError(f'joint {twice[0]!r} is defined twice', file=source)
+    for j in joints:  # (a follower of no joint was dropped from joint_states without a word)
+        if j.mimic is not None and (j.mimic.joint == j.name or j.mimic.joint not in names):
+            raise DescriptionError(
+                'its <mimic> follows itself'
+                if j.mimic.joint == j.name
+                else '<mimic> names an unknown joint',
+                file=source,
+                key=f'joint {j.name!r}',
+                value=j.mimic.joint,
+            )
     closures = [_loop(el, source, set(links)) for el in root.findall('loop')]
     closures += [_constraint(el, source, set(links)) for el in root.findall('constraint')]
     root_link = tree_root(links, joints, source)

@@ -165,6 +165,18 @@ def test_a_loop_naming_an_unknown_link():
     refused(TEXT, "loop 'loop1'", 'nowhere', args=[bad], text=True)
 
 
+@pytest.mark.parametrize(
+    ('leader', 'said'), [('nosuch', '<mimic> names an unknown joint'), ('joint3', 'follows itself')]
+)
+def test_a_mimic_of_no_joint_is_refused(leader, said):
+    """A <mimic> of a joint the description lacks, or of itself, was accepted without a word
+    and its follower left out of joint_states (an integrator)."""
+    bad = edited(
+        '<child link="link3"/>', f'<child link="link3"/><mimic joint="{leader}" multiplier="2"/>'
+    )
+    refused(TEXT, "joint 'joint3'", said, leader, args=[bad], text=True)
+
+
 def test_a_constraint_naming_an_unknown_link():
     constraint = edited(
         four_bar_text()[four_bar_text().index('    <loop') : four_bar_text().index('</robot>')],
