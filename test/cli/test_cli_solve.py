@@ -584,6 +584,34 @@ def test_a_cylinder_past_its_dead_centre_is_named_with_its_edge(capsys, tmp_path
     assert f'up to fold = {dead:.6g} m, {2.5 - dead:.6g} m short' in head, (head, dead)
 
 
+def test_of_two_cylinders_the_one_out_of_reach_alone_is_named(capsys, tmp_path):
+    """C1 and C2 both commanded, C2 past its dead centre whatever C1 (Q and N on one link:
+    |Q R| is at most |Q N| + |N R|): the refusal named C1, the known moved furthest ('C1 = 2.5
+    m with C2 as given is out of reach ... up to C1 = 2.43871 m', a hydraulics engineer). The
+    one that fails moved alone is named now, with its edge: the dead centre."""
+    scene = tmp_path / 'crane2.yaml'
+    scene.write_text(
+        'name: crane2\n'
+        'points: {O: [0, 3.0], F: [0.3, 1.5], Bm: [1.2, 3.6], K: [5.0, 4.5], Q: [2.5, 4.4],\n'
+        '         N: [4.4, 4.9], R: [4.7, 5.4], W: [5.3, 4.9], Tip: [7.5, 2.0]}\n'
+        'links: {ground: [O, F], main: [O, K, Bm, Q, N], jib: [K, W, Tip], rocker: [N, R],\n'
+        '        knuckle: [R, W]}\n'
+        'cylinders: {C1: {from: F, to: Bm, min: 1.8, max: 3.2},\n'
+        '            C2: {from: Q, to: R, min: 1.9, max: 3.1}}\n'
+    )
+    dead = math.dist((2.5, 4.4), (4.4, 4.9)) + math.dist((4.4, 4.9), (4.7, 5.4))
+    assert 2.5 < dead < 2.6
+    rc, out, _ = run(capsys, 'solve', scene, '--set', 'C1=2.5', '--set', 'C2=2.6', '--json')
+    d = loads(out)
+    assert rc == 1 and d['status'] == 'error'
+    head = d['reason'].split('; cannot assemble')[0]
+    assert head == (
+        'C2 = 2.6 m with C1 as it is now is out of reach: on the way there from the current '
+        f'configuration it is reachable up to C2 = {dead:.6g} m, {2.6 - dead:.6g} m short (that '
+        "way's edge)"
+    ), head
+
+
 def test_the_note_names_every_other_solution_in_the_answers_mode(capsys, tmp_path):
     """A five-bar's point target has four solutions, three in one assembly mode (each arm's
     two elbows, one combination in the other mode): the note named one of the two others (an

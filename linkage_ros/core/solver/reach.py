@@ -19,6 +19,7 @@ import numpy as np
 
 from ..plan import Spec
 from ..quantities import CoordinateSpec, PointSpec
+from .compiled import Values
 from .crossing import interpolate
 from .reading import configuration_of, known_values
 from .result import Effort, Result
@@ -117,6 +118,13 @@ def reach_edge(
     if got is None:
         return None
     start = known_values(c, got[1])
+    if k is None:
+        # a known out of reach with the others where they are now is what the refusal names,
+        # moved alone (a crane's jib cylinder past its dead centre, whatever the lift, was
+        # named as the lift moved with it, "0.06 m short": a hydraulics engineer)
+        alone = _alone_out_of_reach(solver, c, start, target)
+        if alone is not None:
+            k, target = alone, [target[i] if i == alone else start[i] for i in range(len(start))]
     if k is None:  # (a rocker's angle, a slide: out of reach where the mechanism turns back)
         ends = interpolate(c, start, target, 1.0)
         k = max(
@@ -189,6 +197,33 @@ def reach_edge(
     tx, ty = (float(v) for v in target[k])
     short = math.hypot(tx - ex, ty - ey)
     return ReachEdge(spec.point, (tx, ty), (ex, ey), short, '', others, lo, kept=kept)
+
+
+def _alone_out_of_reach(solver: Solver, c: Any, start: Values, target: Values) -> int | None:
+    """The one known of several moved that, moved alone to its target (the others where they
+    are in ``start``), is not reached from the solver's configuration, where the others alone
+    are; None otherwise (one known moved, or none or several fail alone). Each is a full
+    continuation walk from the current configuration (the solver's state is kept)."""
+    ends = interpolate(c, start, target, 1.0)
+    moved = [
+        i
+        for i, sp in enumerate(c.specs)
+        if _span(sp, start[i], ends[i]) > 1e-12 * max(1.0, _size(ends[i]))
+    ]
+    if len(moved) < 2:
+        return None
+    failing = []
+    snap = solver.snapshot()
+    try:
+        for i in moved:
+            vals = [target[j] if j == i else start[j] for j in range(len(start))]
+            command = {sp.name: float(v) for sp, v in zip(c.specs, vals)}
+            if not solver.solve(command, commit=False).success:
+                failing.append(i)
+            solver.restore(snap)
+    finally:
+        solver.restore(snap)
+    return failing[0] if len(failing) == 1 else None
 
 
 def _span(spec: Spec, start: Any, target: Any) -> float:
