@@ -2,6 +2,7 @@
 
     linkage bag INPUT --scene SCENE [--closures FILE] [--actuated NAME ...]
                       --command-topic TOPIC [--target-topic TOPIC]
+                      [--target-any-mode-topic TOPIC]
                       --out OUTPUT [--out OUTPUT2] [--out-format mcap|sqlite3]
                       [--solver S] [--branch B] [--tol T] [--max-iter N]
                       [--plot out.png] [--no-progress]
@@ -12,10 +13,12 @@ INPUT is a rosbag2 folder (sqlite3 or MCAP storage) or a single ``.mcap`` / ``.d
 with the pure-Python ``rosbags`` library (no ROS installation needed). The command topic carries
 ``sensor_msgs/msg/JointState`` naming the scene's actuators, exactly like the node's ``~/command``;
 the optional target topic carries ``JointState`` naming joints, links or actuators, exactly like
-the node's ``~/target`` (inverse kinematics). Both topics are merged in bag time order and solved
-in that order with the node's semantics (linkage_ros.engine.Engine): the reference pose is the
-first good state, continuity (default branch ``continuous``) carries on from the last good
-state, a refused request changes nothing, and a target solver adopts the last good state.
+the node's ``~/target`` (inverse kinematics), and the optional any-mode topic like the node's
+``~/target_any_mode`` (a target that may change the assembly mode). The topics are merged in
+bag time order and solved in that order with the node's semantics (linkage_ros.engine.Engine):
+the reference pose is the first good state, continuity (default branch ``continuous``) carries
+on from the last good state, a refused request changes nothing, and a target solver adopts the
+last good state.
 
 Outputs (``--out`` may be given twice):
 

@@ -135,12 +135,21 @@ class _StatusWriter:
         """ok_parts' pieces with the 'velocity' key-value before the request (one more
         key-value: the count in the head goes up by one)."""
         head, mid, tail, _ = parts
-        count_at = len(head) - len(self.blk('residual')) - 4
-        count = struct.unpack_from('<I', head, count_at)[0] + 1
-        head = head[:count_at] + struct.pack('<I', count) + head[count_at + 4 :]
         k = self.blk
         end = (k('held') + k(held) if held else b'') + k('velocity') + string_block(note)
-        return head, mid, tail, end + k('request') + k(request)
+        return self._one_more(head), mid, tail, end + k('request') + k(request)
+
+    def with_mode_change(self, parts: tuple[bytes, ...], change: str):
+        """ok_parts' pieces with the 'mode_change' key-value after cond (request_checks'
+        order: before held, velocity and request), one more key-value in the count."""
+        head, mid, tail, end = parts
+        return self._one_more(head), mid, tail, self.blk('mode_change') + self.blk(change) + end
+
+    def _one_more(self, head: bytes) -> bytes:
+        """An OK status's head with its key-value count one up."""
+        count_at = len(head) - len(self.blk('residual')) - 4
+        count = struct.unpack_from('<I', head, count_at)[0] + 1
+        return head[:count_at] + struct.pack('<I', count) + head[count_at + 4 :]
 
     def error(self, reason: str, request: str) -> bytes:
         return b''.join(
@@ -278,7 +287,10 @@ def _write_commands(out: ResultBag, data: Commands, res: Results, progress: Prog
     jv_t, jv_pos, jv_vel = _joint_state_rates_template(joints, frame_id)
     pt_t, pt_off = _point_template(frame_id)
     status = _StatusWriter(out.name, mech.name)
-    requests = ['command' if data.state_inputs is None else 'joint_states_in', 'target']
+    requests = list(data.requests)
+    if data.state_inputs is not None:  # (its commands are joint_states_in's)
+        requests[0] = 'joint_states_in'
+
     write, c_js, c_pts, c_st = out.writer.write, out.c_js, out.c_pts, out.c_st
     for a in range(0, n, block):
         b = min(n, a + block)
@@ -410,6 +422,9 @@ def _status_rows(status: _StatusWriter, res: Results, topic, requests, a, b, okr
             note = notes[j]
             if note is not None:
                 parts = status.with_velocity(parts, hnames[hcode[j]], req, note)
+            change = res.mode_change.get(int(okr[j])) if res.mode_change else None
+            if change:
+                parts = status.with_mode_change(parts, change)
             head, mid, tail, end = parts
             if hc[j]:
                 out.append(b''.join([head, res_blk[j], mid, mar_blk[j], tail, cond_blk[c], end]))

@@ -77,6 +77,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "actuators (the node's ~/target: inverse kinematics)",
     )
     parser.add_argument(
+        '--target-any-mode-topic',
+        action=OnceAction,
+        metavar='TOPIC',
+        default=None,
+        help="sensor_msgs/msg/JointState targets that may change the assembly mode (the node's "
+        '~/target_any_mode), answered as the node answers them',
+    )
+    parser.add_argument(
         '--trajectory-topic',
         action='append',
         default=[],

@@ -80,10 +80,25 @@ class BagOptions:
     state_completion: bool = False
     #: with it, the result bag's joint_states carry the inputs too (--publish-inputs)
     publish_inputs: bool = False
+    #: the node's ~/target_any_mode (--target-any-mode-topic): targets that may change the mode
+    any_mode_topic: str | None = None
 
     @property
     def topics(self) -> list[str]:
-        return [self.command_topic] + ([self.target_topic] if self.target_topic else [])
+        return [t for t, _ in self._read]
+
+    @property
+    def requests(self) -> tuple[str, ...]:
+        """What each of :attr:`topics` carries, as the node's status names the request."""
+        return tuple(r for _, r in self._read)
+
+    @property
+    def _read(self) -> list[tuple[str, str]]:
+        return [(self.command_topic, 'command')] + [
+            (t, r)
+            for t, r in ((self.target_topic, 'target'), (self.any_mode_topic, 'target_any_mode'))
+            if t
+        ]
 
     def frame(self, scene: Any) -> str:
         """The frame the recorded node worked in: --frame-id, else the scene's."""
@@ -139,7 +154,9 @@ def replay_input(
     the time reading ended (perf_counter) is appended to ``marks``. The recorded plans are
     placed first and decoded one at a time when answered; with ``outputs`` each answered plan
     goes to them at once and keeps only its outcome (one plan in memory at a time)."""
-    data = read_commands(source, opts.topics, progress, accept_missing=opts.accept_missing)
+    data = read_commands(
+        source, opts.topics, progress, accept_missing=opts.accept_missing, requests=opts.requests
+    )
     refused: dict[int, str] = {}
     if opts.state_completion:  # as joint_states_in: the inputs of each hardware message
         inputs = list(mech.commanded_input_names)

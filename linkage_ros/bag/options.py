@@ -23,16 +23,21 @@ def check_options(args: argparse.Namespace) -> Any:
     # name said as solve says it, listing the packaged scenes)
     scene = load_scene_file(args.scene, args.dimension, args.closures, args.actuated)
     print_notes(scene.notes)
-    for opt, topic in (
+    given = (
         ('--command-topic', args.command_topic),
         ('--target-topic', args.target_topic),
-    ):
+        ('--target-any-mode-topic', args.target_any_mode_topic),
+    )
+    for opt, topic in given:
         if topic is not None and not topic.strip():
             raise BagError(
                 f'{opt}: empty topic name (leave the option out for no such topic)'
-                if opt == '--target-topic'
+                if opt != '--command-topic'
                 else f'{opt}: empty topic name'
             )
+    for (opt_a, a), (opt_b, b) in ((given[0], given[2]), (given[1], given[2])):
+        if a is not None and a == b:
+            raise BagError(f'{opt_a} and {opt_b} must be different topics')
     frame = args.frame_id
     if any(c.isspace() for c in frame) or frame.startswith('/'):
         raise BagError(
@@ -80,6 +85,7 @@ def bag_options(args: argparse.Namespace, formats: Sequence[str] = (), out_dir: 
         actuated=tuple(args.actuated),
         command_topic=args.command_topic,
         target_topic=args.target_topic,
+        any_mode_topic=args.target_any_mode_topic,
         trajectory_topics=tuple(args.trajectory_topic),
         path_topics=tuple(args.path_topic),
         hold=tuple(args.target_point_hold),

@@ -24,7 +24,7 @@ class Commands:
     """The recorded commands in bag time order (n rows)."""
 
     source: str
-    topics: list[str]  # index 0: command topic, 1: target topic
+    topics: list[str]  # index 0: command topic, then the targets' (requests: what each is)
     topic: np.ndarray  # (n,) int8, index into topics
     log_ns: np.ndarray  # (n,) int64 bag receive time
     sec: np.ndarray  # (n,) int64 header stamp
@@ -49,6 +49,9 @@ class Commands:
     #: joint_states_in do (--state-completion: the inputs, and the <mimic> followers its
     #: messages name); None: the commands are ~/command's
     state_inputs: frozenset[str] | None = None
+    #: the request each topic carries (as the node's status names it): 'command', 'target' or
+    #: 'target_any_mode' (a target that may change the assembly mode)
+    requests: tuple[str, ...] = ('command', 'target')
 
     def frame(self, key: int) -> str:
         """The header.frame_id of the rows of ``key``."""
@@ -205,6 +208,7 @@ def read_commands(
     topics: list[str],
     progress: Progress | None = None,
     accept_missing: bool = False,
+    requests: tuple[str, ...] = ('command', 'target'),
 ) -> Commands:
     """Read the JointState messages of ``topics`` from a bag, in bag time order, decoded.
 
@@ -286,6 +290,7 @@ def read_commands(
         vel_values,
         vel_start,
         frames,
+        requests=tuple(requests)[: len(topics)],
     )
 
 

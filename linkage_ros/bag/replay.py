@@ -160,7 +160,7 @@ class ReplayEngine:
         if why:  # conversions.joint_state_to_command
             self._refuse_all(a, b, why)
             return
-        if int(data.topic[a]) == 1 and self.frame_id:  # node_requests.on_target: no tf
+        if int(data.topic[a]) != 0 and self.frame_id:  # node_requests.on_target: no tf
             why = names_frame_error('target', self.mech, names, data.frame(k), self.frame_id)
             if why:
                 self._refuse_all(a, b, why)
@@ -210,7 +210,9 @@ class ReplayEngine:
             for i, why in rates.refusals().items():
                 refused.setdefault(i, why)
         if not refused:
-            self._answer_run(columns, int(data.topic[a]), a, b, rates)
+            self._answer_run(
+                columns, int(data.topic[a]), a, b, rates, data.requests[int(data.topic[a])]
+            )
             return
         for i, why in refused.items():
             self.res.reason[a + i] = why
@@ -223,13 +225,17 @@ class ReplayEngine:
                 a + i0,
                 a + i1,
                 None if rates is None else rates.rows(i0, i1),
+                data.requests[int(data.topic[a])],
             )
 
-    def _answer_run(self, columns, topic: int, a: int, b: int, rates: RunRates | None) -> None:
+    def _answer_run(
+        self, columns, topic: int, a: int, b: int, rates: RunRates | None, request: str
+    ) -> None:
         """Rows a..b-1 (``columns``, and a command's ``rates``, indexed from a) in the
-        scene's names: the engine's solver for them, then in a batch or one by one."""
+        scene's names: the engine's solver for them, then in a batch or one by one.
+        ``request``: what the topic carries (Commands.requests)."""
         names = list(columns)
-        if topic == 1:  # Engine.target: <point>.x, <point>.y make a point
+        if topic != 0:  # Engine.target: <point>.x, <point>.y make a point
             try:
                 columns = group_point_coordinates(self.engine.mech, columns)
             except CommandError as exc:
@@ -252,21 +258,24 @@ class ReplayEngine:
             r = S.solve(command_row(columns, 0), commit=False)
             self._refuse_all(a, b, r.reason)
             return
-        if topic == 1:  # targets: the engine's assembly-mode rule, one by one
-            self._targets(ctx, columns, a, b)
+        if topic != 0:  # targets: the engine's assembly-mode rule, one by one
+            self._targets(ctx, columns, a, b, request == 'target_any_mode')
         elif S.mode is SolveMode.CLOSED_FORM and b - a >= MIN_BATCH:
             self._vectorised(ctx, columns, a, b, rates)
         else:
             self._sequential(ctx, columns, a, b, 0, b - a, rates)
 
-    def _targets(self, ctx: SolverContext, columns, a, b):
-        """Target rows as the node answers ~/target: Engine.solve_target (a solution in the
-        current assembly mode, else refused), which commits a success by adoption."""
+    def _targets(self, ctx: SolverContext, columns, a, b, any_mode: bool = False):
+        """Target rows as the node answers ~/target (``any_mode``: ~/target_any_mode):
+        Engine.solve_target (a solution in the current assembly mode, else refused, or in
+        another where ``any_mode`` allows it), which commits a success by adoption."""
         ctx.sync()
         S = ctx.solver
         for i in range(b - a):
-            r = self.engine.solve_target(S, command_row(columns, i))
+            r = self.engine.solve_target(S, command_row(columns, i), allow_mode_change=any_mode)
             self.res.put_result(a + i, r)
+            if r.success and r.mode_change:
+                self.res.mode_change[a + i] = r.mode_change
             if r.success:
                 ctx.hist = [HistoryEntry(EntryKind.ADOPT, result=r, signs=_adopted_signs(S))]
                 ctx.synced = True

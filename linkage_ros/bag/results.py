@@ -25,6 +25,9 @@ class Results(ResultTable):
     #: the status's 'velocity' value of each solved command that gave velocities, by row
     #: ('ok (cond C)' or why there is none: request_checks.status_values' words); empty: no rates
     velocity_note: dict[int, str] = field(default_factory=dict)
+    #: the status's 'mode_change' of each target answered in another assembly mode, by row
+    #: (a ~/target_any_mode: '+ -> -')
+    mode_change: dict[int, str] = field(default_factory=dict)
     #: joint rates (rad/s, m/s; NaN where none) and the rows that have them: allocated by the
     #: first command with velocities (a bag without any costs nothing more)
     joint_rates: dict[str, np.ndarray] = field(default_factory=dict)
