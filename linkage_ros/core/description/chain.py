@@ -160,7 +160,8 @@ class Chain:
         (each closure residual is scaled by it: computed once, not per evaluation)."""
         pts = [p for j in self.joints for p in (j.parent_point, j.child_point)]
         pts += list(self.zero_planar.values())
-        span = max((float(np.linalg.norm(p - q)) for p in pts for q in pts[:8]), default=0.0)
+        # (math.dist: no overflow of the squares, a pin at 1e300 m is a finite distance)
+        span = max((math.dist(p, q) for p in pts for q in pts[:8]), default=0.0)
         return span if span > 0 else 1.0
 
 

@@ -381,6 +381,23 @@ def _inside(lower: float | None, upper: float | None) -> float:
     return upper - 0.1 * max(1.0, abs(upper))
 
 
+def _all_finite(points: Mapping[str, list[float]], names: SceneNames, source: str) -> None:
+    """Refuses a description whose assembled pins (or link axes) are beyond the float range,
+    naming the joint, closure or link they come from (an <origin> of 1e300 m was refused
+    naming the scene's internal point world_axis)."""
+    for p, xy in points.items():
+        if all(math.isfinite(v) for v in xy):
+            continue
+        raw = next((r for (kind, r), n in names.of.items() if n == p), p)
+        what = raw.removesuffix('_axis') if p.endswith('_axis') else raw
+        kind = 'link' if p.endswith('_axis') else 'joint or closure'
+        raise DescriptionError(
+            f'{kind} {what!r} is placed beyond the float range (at {xy}): an <origin> or a '
+            'chain of them too large for a planar chain',
+            file=source,
+        )
+
+
 def _scene(
     chain: Chain,
     acts: Sequence[str],
@@ -507,6 +524,7 @@ def _scene(
             if lim.upper is not None:
                 spec['max'] = lim.upper
         actuators[names('point', a)] = spec
+    _all_finite(points, names, desc.source)
     scene: dict[str, Any] = {
         'name': names('scene', desc.name),
         'frame_id': chain.ground,

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import codecs
 import dataclasses
 import os
 import re
@@ -147,7 +148,7 @@ def read_text(path: str, limit: int | None = None, kind: str = 'scene file') -> 
         raise SceneError(f'larger than {limit} bytes, the limit for {what}', file=path)
     raw = b''.join(chunks)
     try:
-        return raw.decode('utf-8')
+        return raw.decode(_xml_encoding(raw))
     except UnicodeDecodeError as exc:
         line = raw.count(b'\n', 0, exc.start) + 1
         bad = raw[exc.start : exc.start + 1]
@@ -155,6 +156,27 @@ def read_text(path: str, limit: int | None = None, kind: str = 'scene file') -> 
             f'not UTF-8 text (byte {bad!r} on line {line} cannot be decoded); save it as UTF-8',
             file=path,
         ) from None
+
+
+#: an XML declaration's encoding (a legal XML file in ISO-8859-1, as older CAD exporters write
+#: descriptions, was refused as not UTF-8: an integrator)
+_XML_ENCODING = re.compile(
+    rb'\A(?:\xef\xbb\xbf)?<\?xml[^>]*?encoding\s*=\s*["\']([A-Za-z0-9._-]+)["\']'
+)
+
+
+def _xml_encoding(raw: bytes) -> str:
+    """The codec of a file's text: its XML declaration's encoding where it names one Python
+    knows that reads ASCII as ASCII (the declaration itself must read back), else UTF-8."""
+    m = _XML_ENCODING.match(raw)
+    if m is None:
+        return 'utf-8'
+    name = m.group(1).decode('ascii')
+    try:
+        ok = codecs.lookup(name).decode(b'<?xml')[0] == '<?xml'
+    except (LookupError, UnicodeDecodeError):
+        ok = False
+    return name if ok else 'utf-8'
 
 
 class _RefusedScalarOrDepth(yaml.YAMLError):

@@ -177,6 +177,19 @@ def test_a_mimic_of_no_joint_is_refused(leader, said):
     refused(TEXT, "joint 'joint3'", said, leader, args=[bad], text=True)
 
 
+def test_an_origin_near_the_float_range_is_refused_naming_no_internal_point(recwarn):
+    """A joint's <origin> of 1e300 m was refused naming the scene's internal point world_axis
+    (an overflow of its length scale), with numpy's overflow warning on stderr (an
+    integrator): the loop cannot close, and the refusal says so."""
+    bad = edited(
+        '<child link="link3"/>\n        <origin xyz="1.0 0.0 0.0"/>',
+        '<child link="link3"/>\n        <origin xyz="1e300 0.0 0.0"/>',
+    )
+    err = refused(TEXT, 'cannot assemble', 'misses closing', args=[bad], text=True)
+    assert '_axis' not in str(err)
+    assert not [w for w in recwarn if 'overflow' in str(w.message)]
+
+
 def test_a_constraint_naming_an_unknown_link():
     constraint = edited(
         four_bar_text()[four_bar_text().index('    <loop') : four_bar_text().index('</robot>')],
