@@ -93,6 +93,15 @@ def _unit_hint(value: float, lo: float | None, hi: float | None, unit: str) -> s
         return ''
     bounds = [abs(v) for v in (lo, hi) if v is not None and math.isfinite(v)]
     far = 100.0 if unit == 'm' else 20.0
+    if unit == 'm' and bounds and far * abs(value) < max(bounds):
+        # the other way round: limits written in mm without their unit (min: 2020 for a
+        # cylinder of 2.02 m) that hold the value once read so
+        ends = [None if v is None else v / 1000.0 for v in (lo, hi)]
+        if (ends[0] is None or value >= ends[0]) and (ends[1] is None or value <= ends[1]):
+            shown = ' .. '.join('' if v is None else f'{v:g}' for v in (lo, hi))
+            as_mm = ' .. '.join('' if v is None else f'{v:g}' for v in ends)
+            return f' (lengths are in m: limits {shown} read in mm are {as_mm} m)'
+        return ''
     if not bounds or abs(value) < far * max(bounds):
         return ''
     if unit == 'm':

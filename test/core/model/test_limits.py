@@ -264,3 +264,14 @@ def test_a_value_beyond_its_limits_that_is_in_them_read_in_mm_or_deg_says_so():
     assert 'mm' not in limit_violation('push', 0.4, -0.25, 0.25, 'm', False)
     assert 'mm' not in limit_violation('push', -0.3, -0.25, None, 'm', False)
     assert 'deg' not in limit_violation('knuckle', 6.3, 0.0, 0.8, 'rad', False)
+
+
+def test_limits_written_in_mm_that_hold_the_value_read_so_say_so():
+    """A scene's cylinder limits written as bare millimetres (min: 2020, max: 3300 for a
+    cylinder drawn 2.88 m long) were refused at load as 'below its minimum 2020 by 2.02e+03 m'
+    with no word of the unit (a hydraulics engineer); the hint names the limits read in mm where
+    they hold the value, and nothing where they would not."""
+    why = limit_violation('Z1', 2.8828345, 2020.0, 3300.0, 'm', False)
+    assert why.endswith('(lengths are in m: limits 2020 .. 3300 read in mm are 2.02 .. 3.3 m)')
+    assert 'mm' not in limit_violation('Z1', 3.5, 2020.0, 3300.0, 'm', False)  # 3500 mm: beyond
+    assert 'mm' not in limit_violation('Z1', 1.0, 2.0, 3.0, 'm', False)  # no unit mistake
