@@ -502,6 +502,7 @@ def solve_newton(
         if bad is not None:
             return bad, None
     reason: str | None = None
+    whole: SolveResult | None = None  # a root over every moving link (check_system's)
     if r is None:
         halvings = 0 if effort is Effort.DIRECT else MAX_HALVINGS
         path = CarefulPath(c, branches, iterations, halvings, closed)
@@ -534,7 +535,28 @@ def solve_newton(
                     vals, c.sub_x(c.check_system.x_from_poses(run.poses)), vals, 0
                 )
                 iterations = path.iterations
-        if r is not None:
+        want_det = cont.branch.det_sign
+        if (
+            r is None
+            and effort is Effort.FULL
+            and not c.inverse
+            and not c.full_plan.complete
+            and cont.branch.rule is BranchRule.JACOBIAN
+            and want_det is not None
+        ):
+            # a mode a branch setting names reaches this input on another stretch of the
+            # circuit than the walk's, past a toggle of the input (a Stephenson-III six-bar
+            # driven at its output: J+ at drive 3.65 lies beyond the drawing's turning point,
+            # and --branch J+ was refused where --all-branches lists it): its root nearest
+            # where the mechanism is
+            near = last.x_all if last is not None and last.x_all is not None else None
+            alt = jacobian_mode_root(
+                c, want_det, vals, c.check_system.reference_x() if near is None else near
+            )
+            if alt is not None:  # (over every moving link: read as the mode check reads it)
+                r, whole = alt, alt
+                iterations += alt.iterations
+        if r is not None and whole is None:
             xs = r.x.tolist()
             if branches:
                 geo = path.geometry(r.x, fixed)
@@ -547,7 +569,13 @@ def solve_newton(
         res = c.fail(why, c.echo(vals), solver_name)
         res.iterations = iterations
         return res, None
-    if geo is not None:
+    signs_t: tuple[int, ...]
+    margins: Sequence[float]
+    if whole is not None:
+        xs = whole.x.tolist()
+        poses, pts = c.check_system.configuration(whole.x)
+        signs_t, margins = (), ()
+    elif geo is not None:
         signs_t, margins, poses, pts = geo
     else:
         poses, pts = c.system.configuration(xs, fixed)

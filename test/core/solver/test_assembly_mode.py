@@ -382,6 +382,32 @@ def test_an_answer_beyond_two_limits_names_both_in_the_scalar_and_the_batch_solv
     assert not batch.ok[0] and batch.reason[0] == r.reason
 
 
+@pytest.mark.parametrize('drive', [3.65, 3.74, 3.2])
+def test_each_jacobian_mode_is_answered_wherever_the_circuit_has_it(drive):
+    """A Stephenson-III six-bar driven at its output has both loop-Jacobian modes at drive
+    3.65 rad (its circuit passes four toggles of the drive), but `--branch J+` there was refused
+    ('no assembly near the current configuration': the walk from the drawing stops at the
+    drawing's toggle, 3.5462) while --all-branches listed it (a legged-linkage designer).
+    Oracle: the drive as a function of the crank by circle intersections (test/oracles.py):
+    each answer's crank gives the drive asked for, and the two modes' cranks differ."""
+    from oracles import stephenson_drive
+    from scenes import STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT as scene
+
+    from linkage_ros.core.model import Scene
+    from linkage_ros.core.solver import Solver
+
+    mech = Scene.from_dict(scene).mechanism
+    drive_of = stephenson_drive(scene['points'])
+    cranks = []
+    for mode in ('J+', 'J-'):
+        r = Solver(mech, branch=mode).solve({'drive': drive})
+        assert r.success and r.branch == mode, (mode, r.reason)
+        crank = r.links['crank']
+        assert abs(math.remainder(drive_of(crank) - drive, 2 * math.pi)) < 1e-9, (mode, crank)
+        cranks.append(crank)
+    assert abs(math.remainder(cranks[0] - cranks[1], 2 * math.pi)) > 0.1
+
+
 def test_a_newton_placed_mechanisms_mode_search_names_its_mode_as_a_setting_does():
     """A Stephenson-III six-bar driven at its output (Newton places it, its modes J+ / J-):
     `--target coupler=0.3` was refused with 'branch '+' has 1 sign(s) but this solve has no
