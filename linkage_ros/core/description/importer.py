@@ -195,7 +195,12 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
     dof = len(chain.joints) - 2 * len(chain.closures)
     if dof != len(acts):
         raise DescriptionError(
-            f'the closed chain has {dof} degree(s) of freedom ({len(chain.joints)} joints, '
+            (
+                'the closed chain is over-constrained: it has '
+                if dof < 0
+                else 'the closed chain has '
+            )
+            + f'{dof} degree(s) of freedom ({len(chain.joints)} joints, '
             f'{len(chain.closures)} closure(s)) but {len(acts)} joint(s) are actuated '
             f'({", ".join(acts) or "none"}'
             + _dof_hints(chain, acts, dof)
@@ -205,12 +210,17 @@ def _actuated(chain: Chain) -> tuple[str, ...]:
                     if desc.format is DescriptionFormat.SDF
                     else '; a joint without an independent mark counts as actuated'
                 )
-                if desc.actuated is None
+                if desc.actuated is None and dof >= 0
                 else ''
             )
-            + '); state the actuated joints: actuated: [..] in a '
-            'closure file, or --actuated / the actuated parameter '
-            f'(chain joints: {", ".join(j.name for j in chain.joints)})',
+            + (
+                '); state the actuated joints: actuated: [..] in a '
+                'closure file, or --actuated / the actuated parameter '
+                f'(chain joints: {", ".join(j.name for j in chain.joints)})'
+                if dof >= 0
+                else '); more closures than its joints can close: check the links each '
+                'closure joins'
+            ),
             file=desc.source,
         )
     return tuple(acts)
@@ -232,6 +242,9 @@ def _dof_hints(chain: Chain, acts: Sequence[str], dof: int) -> str:
                 f'{seen[pair]!r} does: stated twice?'
             )
         seen.setdefault(pair, c.name)
+    if dof < 0:  # (a closure between links one joint already joins, or a frame end on the
+        # link it was not meant for: each pin takes 2 freedoms, each joint gives 1)
+        hints += [f'closure {c.name!r} joins links {c.a} and {c.b}' for c in chain.closures]
     if dof > len(acts):
         into = {j.child: j for j in chain.joints}  # (a link's joint from its parent)
 

@@ -190,6 +190,25 @@ def test_an_origin_near_the_float_range_is_refused_naming_no_internal_point(recw
     assert not [w for w in recwarn if 'overflow' in str(w.message)]
 
 
+def test_an_over_constrained_chain_names_what_its_closures_join(tmp_path):
+    """A closure file whose pin joins two links the chain already closes gave 'the closed
+    chain has -1 degree(s) of freedom ... state the actuated joints', pointing at the actuated
+    joints where the closures are the mistake (an integrator)."""
+    extra = side(
+        tmp_path,
+        'extra.yaml',
+        'closures:\n  - {name: extra, type: revolute, a: {frame: joint2}, b: {frame: joint3}}\n',
+    )
+    err = refused(
+        'the closed chain is over-constrained: it has -1 degree(s) of freedom',
+        "closure 'loop1' joins links link2 and link3",
+        "closure 'extra' joins links",
+        'more closures than its joints can close',
+        args=[str(FOUR_BAR), extra],
+    )
+    assert 'state the actuated joints' not in str(err)
+
+
 def test_a_constraint_naming_an_unknown_link():
     constraint = edited(
         four_bar_text()[four_bar_text().index('    <loop') : four_bar_text().index('</robot>')],
