@@ -229,6 +229,25 @@ STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT = {
 }  # fmt: skip
 
 
+#: a triad driven by a cylinder P-C on its coupler (Newton places it: no closed-form dyad for
+#: the cylinder's length), without limits
+CYLINDER_DRIVEN_TRIAD_POINTS = {
+    'O2': (0.0, 0.0), 'O4': (1.0, 0.0), 'P': (0.5, -0.6), 'A': (0.1, 0.5),
+    'B': (0.9, 0.6), 'C': (0.5, 0.9), 'T': (0.6, 1.3),
+}  # fmt: skip
+CYLINDER_DRIVEN_TRIAD = {
+    'name': 'triad',
+    'points': {k: list(v) for k, v in CYLINDER_DRIVEN_TRIAD_POINTS.items()},
+    'links': {
+        'ground': ['O2', 'O4', 'P'],
+        'crank': ['O2', 'A'],
+        'coupler': ['A', 'B', 'C', 'T'],
+        'rocker': ['O4', 'B'],
+    },
+    'cylinders': {'Z': {'from': 'P', 'to': 'C'}},
+}
+
+
 #: a main landing gear (an outside integrator's, imported from their URDF+ <loop>): a strut
 #: pivoting on the airframe at O, a drag brace of two links (U-K, K-S) with its knee K, and a
 #: retraction cylinder M-R on a slide. A strut-angle target is placed by a hybrid plan: the

@@ -5,6 +5,7 @@ written here) and against a dense sweep of the 50-digit four-bar oracle."""
 
 from __future__ import annotations
 
+import copy
 import math
 
 import numpy as np
@@ -12,6 +13,8 @@ import pytest
 from oracles import fourbar as oracle
 from scenes import (
     CONFIG,
+    CYLINDER_DRIVEN_TRIAD,
+    CYLINDER_DRIVEN_TRIAD_POINTS,
     STEPHENSON_DRIVEN_AT_ITS_OUTPUT,
     STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT,
     load,
@@ -288,21 +291,9 @@ def test_a_newton_placed_circuit_goes_back_from_its_cylinders_dead_centre():
 
     from linkage_ros.core.model import Scene
 
-    pts = {
-        'O2': (0.0, 0.0), 'O4': (1.0, 0.0), 'P': (0.5, -0.6), 'A': (0.1, 0.5),
-        'B': (0.9, 0.6), 'C': (0.5, 0.9), 'T': (0.6, 1.3),
-    }  # fmt: skip
-    scene = {
-        'name': 'triad',
-        'points': {k: list(v) for k, v in pts.items()},
-        'links': {
-            'ground': ['O2', 'O4', 'P'],
-            'crank': ['O2', 'A'],
-            'coupler': ['A', 'B', 'C', 'T'],
-            'rocker': ['O4', 'B'],
-        },
-        'cylinders': {'Z': {'from': 'P', 'to': 'C', 'min': 1.3, 'max': 1.7}},
-    }
+    pts = CYLINDER_DRIVEN_TRIAD_POINTS
+    scene = copy.deepcopy(CYLINDER_DRIVEN_TRIAD)
+    scene['cylinders']['Z'].update(min=1.3, max=1.7)
     mech = Scene.from_dict(scene).mechanism
     # (every link, as `linkage check` and `range --links` read them: each extreme's search began
     # where the one before had left the solver)

@@ -18,7 +18,11 @@ import math
 import numpy as np
 import pytest
 from oracles import stephenson_drive
-from scenes import STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT
+from scenes import (
+    CYLINDER_DRIVEN_TRIAD,
+    CYLINDER_DRIVEN_TRIAD_POINTS,
+    STEPHENSON_III_DRIVEN_AT_ITS_OUTPUT,
+)
 from scipy.optimize import brentq, minimize_scalar
 
 from linkage_ros.core.model import Scene
@@ -272,21 +276,8 @@ def test_a_cylinder_driven_triad_without_limits_has_six_toggles():
     two toggles; it spans 0.39339..1.50014 m. Oracle: C carried by the four-bar (B by its
     circle intersection, on each side of A -> O4 where the four-bar closes), |P C|'s local
     extremes over the crank refined by a bounded search."""
-    pts = {
-        'O2': (0.0, 0.0), 'O4': (1.0, 0.0), 'P': (0.5, -0.6), 'A': (0.1, 0.5),
-        'B': (0.9, 0.6), 'C': (0.5, 0.9), 'T': (0.6, 1.3),
-    }  # fmt: skip
-    scene = {
-        'name': 'triad',
-        'points': {k: list(v) for k, v in pts.items()},
-        'links': {
-            'ground': ['O2', 'O4', 'P'],
-            'crank': ['O2', 'A'],
-            'coupler': ['A', 'B', 'C', 'T'],
-            'rocker': ['O4', 'B'],
-        },
-        'cylinders': {'Z': {'from': 'P', 'to': 'C'}},
-    }
+    pts = CYLINDER_DRIVEN_TRIAD_POINTS
+    scene = CYLINDER_DRIVEN_TRIAD
     P = {k: np.array(v, float) for k, v in pts.items()}
     a = float(np.linalg.norm(P['A'] - P['O2']))
     b, c = float(np.linalg.norm(P['B'] - P['A'])), float(np.linalg.norm(P['B'] - P['O4']))
