@@ -53,7 +53,7 @@ def scan_circuit(
             None,
             x0,
             [
-                Segment((), s.lo, s.hi, s.lo_end, s.hi_end, s.seed, start=s.start)
+                Segment((), s.lo, s.hi, s.lo_end, s.hi_end, s.seed, start=s.start, drawn=s.drawn)
                 for s in traced.stretches
             ],
             bracket,

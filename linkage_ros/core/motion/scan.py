@@ -105,6 +105,8 @@ class Segment:
     #: a traced (Newton-placed) stretch: its configuration at ``seed``, where its sweep starts
     #: (its loop-Jacobian mode in ``start.branch``: the same mode recurs on other stretches)
     start: Result | None = None
+    #: a traced stretch the drawing lies on
+    drawn: bool = False
 
 
 def turns_fully(segs: Sequence[Segment]) -> bool:

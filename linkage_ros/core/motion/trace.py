@@ -80,6 +80,9 @@ class TracedStretch:
     hi_end: End
     seed: float
     start: Result
+    #: the stretch the drawing lies on (where the mechanism starts: the others are reached
+    #: from it through their shared turning points)
+    drawn: bool = False
 
 
 @dataclass(frozen=True)
@@ -347,14 +350,14 @@ def trace_circuit(
             return None
         pts = [CurvePoint(p.z, -p.t) for p in reversed(back[1:])] + ahead
         closed = False
-    return _circuit_of(curve, pts, closed, bracket)
+    return _circuit_of(curve, pts, closed, bracket, 0 if closed else len(back) - 1)
 
 
 def _circuit_of(
-    curve: _Curve, pts: list[CurvePoint], closed: bool, bracket: Bracket | None
+    curve: _Curve, pts: list[CurvePoint], closed: bool, bracket: Bracket | None, drawn: int
 ) -> TracedCircuit | None:
     """The turning points and monotone stretches of a traced curve (``closed``: its last point
-    is followed by its first)."""
+    is followed by its first; ``drawn``: the index of the drawing's point)."""
     n = len(pts)
     seq = list(pts)
     turn_of_circuit = 0.0
@@ -413,6 +416,8 @@ def _circuit_of(
                 ends[hi] if ua != ub else end(zb, ub),
                 float(seed.z[-1]) * unit,
                 _seed_result(curve, seed.z),
+                # (a closed curve's drawing is its first point, and again a circuit on)
+                i + 1 <= drawn <= j or (closed and i + 1 <= drawn + n <= j),
             )
         )
     turn_values = tuple(float(z[-1]) * unit for _, z in turns)

@@ -173,6 +173,58 @@ def test_the_crank_turns_fully_and_the_rocker_swings_over_the_whole_circuit(key)
     assert abs((got.maximum - got.minimum) - swing) < 1e-6  # (the grid's samples: within 1e-6)
 
 
+def test_limits_that_split_the_circuit_keep_the_drawings_part():
+    """Drive limits 3.2 .. 3.6 rad cut the four-toggle circuit into two parts joined only at
+    its outer toggles (3.1126 and 3.7526, both outside them): the part the drawing is on is
+    what the mechanism reaches, where the crank was read swinging 255 deg over both (an
+    adversary). Oracle: the crank interval about the drawing's crank where the drive (by
+    circle intersections) stays within the limits, its ends where the drive meets a limit
+    (brentq), and the rocker's extremes over it (cosine rule, a bounded search)."""
+    scene = _drawing()
+    scene['actuators']['drive'].update(min=3.2, max=3.6)
+    mech = Scene.from_dict(scene).mechanism
+    sweep = input_sweep(mech, ['link:crank', 'link:rocker'])
+    drive = stephenson_drive(scene['points'])
+    P = scene['points']
+    t0 = math.atan2(P['A'][1] - P['O2'][1], P['A'][0] - P['O2'][0])
+
+    def inside(t: float) -> float:  # > 0 within the limits (the drive taken mod 2 pi)
+        d = math.remainder(drive(t) - 3.4, 2 * math.pi)
+        return 0.2 - abs(d)
+
+    ends = []
+    for step in (0.001, -0.001):  # from the drawing's crank each way to where a limit stops it
+        t = t0
+        while inside(t + step) > 0:
+            t += step
+        ends.append(brentq(inside, t, t + step, xtol=1e-14))
+    lo, hi = min(ends), max(ends)
+    crank = sweep.outputs['link:crank']
+    assert 'link:crank' not in sweep.turns_fully
+    assert _same_angle(crank.minimum, lo, 1e-9) and _same_angle(crank.maximum, hi, 1e-9)
+    raw = _rocker(P)
+    ref = raw(t0)
+
+    def rocker(t: float) -> float:  # (on the drawing's turn: the cosine rule's atan2 wraps)
+        return ref + math.remainder(raw(t) - ref, 2 * math.pi)
+
+    ts = np.linspace(lo, hi, 2001)
+    values = [rocker(t) for t in ts]
+    got = sweep.outputs['link:rocker']
+    for sense, want in ((1.0, got.minimum), (-1.0, got.maximum)):
+        k = int(np.argmin([sense * v for v in values]))
+        best = minimize_scalar(
+            lambda t: sense * rocker(t),
+            bounds=(max(lo, ts[k] - 0.01), min(hi, ts[k] + 0.01)),
+            method='bounded',
+            options={'xatol': 1e-12},
+        )
+        # (at an end of the interval, a limit: the value there, which a bounded search only
+        # approaches)
+        extreme = min(float(best.fun), sense * rocker(lo), sense * rocker(hi))
+        assert _same_angle(want, sense * extreme, AT_EXTREME), (sense, want, extreme)
+
+
 def test_the_curves_draw_every_stretch_of_the_circuit(tmp_path):
     """`range --curves` swept each loop-Jacobian mode from the drawing: one stretch per mode,
     half of this circuit's four. Every stretch is drawn now: the drive's samples reach both
