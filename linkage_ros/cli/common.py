@@ -26,7 +26,13 @@ class UsageError(Exception):
 
 
 class OneLineErrorParser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line on stderr (exit 2)."""
+    """argparse, but a usage error is one line on stderr (exit 2), and an option that takes one
+    value is refused given twice (OnceAction: argparse keeps the last silently)."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        super().__init__(*args, **kwargs)
+        self.register('action', None, OnceAction)
+        self.register('action', 'store', OnceAction)
 
     def error(self, message):
         self.exit(USAGE_ERROR, f'{self.prog}: error: {message} (see {self.prog} --help)\n')

@@ -8,6 +8,7 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
+from .common import OneLineErrorParser, signs_as_values
 from .process import run_command
 
 
@@ -19,12 +20,10 @@ def standalone_main(
 ) -> int:
     """Run one subcommand module on its own (``python -m linkage_ros.bag ...``): its parser,
     then run(args); argparse's usage errors become exit status 2 instead of SystemExit."""
-    parser = argparse.ArgumentParser(
-        prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter
-    )
+    parser = OneLineErrorParser(prog=prog, formatter_class=argparse.RawDescriptionHelpFormatter)
     add_arguments(parser)
     try:
-        args = parser.parse_args(list(sys.argv[1:] if argv is None else argv))
+        args = parser.parse_args(signs_as_values(list(sys.argv[1:] if argv is None else argv)))
     except SystemExit as exc:
         return exc.code if isinstance(exc.code, int) else 2
     return run_command(prog, run, args)  # (as `linkage X` ends: its errors, its stdout)

@@ -33,3 +33,20 @@ def test_a_single_valued_bag_option_given_twice_is_refused(capsys, tmp_path):
                      str(tmp_path / 'x.csv'))  # fmt: skip
     assert rc == 2
     assert '--target-topic given more than once (it takes one value)' in err
+
+
+@pytest.mark.parametrize(
+    'argv',
+    [
+        ['solve', 'four_bar', '--set', 'crank=1', '--branch', '+', '--branch', '-'],
+        ['solve', 'four_bar', '--set', 'crank=1', '--tol', '1e-9', '--tol', '1e-6'],
+        ['range', 'four_bar', '--samples', '50', '--samples', '60'],
+    ],
+)
+def test_any_single_valued_option_given_twice_is_refused(capsys, argv):
+    """Every option that takes one value (--scene, --branch, --solver, --tol, --out-dir ...)
+    kept its last value silently given twice (an adversary: two --out-dir wrote the second
+    only); one rule for every command's parser now."""
+    rc, out, err = run(capsys, *argv)
+    assert rc == 2 and out == ''
+    assert 'given more than once (it takes one value)' in err
