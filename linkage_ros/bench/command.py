@@ -115,6 +115,12 @@ def _dump(path: str) -> dict[str, Any]:
         raise UsageError(
             f'--render {path}: not a linkage bench --json dump (it lacks {", ".join(missing)})'
         )
+    try:  # (what a run writes, read through: a part of one fails here, before any output)
+        render_markdown(report, str(report.get('command', '')), None)
+    except (KeyError, TypeError, ValueError, AttributeError, IndexError) as exc:
+        raise UsageError(
+            f'--render {path}: not a whole linkage bench --json dump ({type(exc).__name__}: {exc})'
+        ) from None
     return report
 
 

@@ -506,6 +506,7 @@ def test_batched_newton_ratio_reads_the_pairs_and_falls_back_for_old_dumps():
         (['--render', '{tmp}/none.json'], '--render {tmp}/none.json: cannot be read'),
         (['--render', '{tmp}/bad.txt'], '--render {tmp}/bad.txt: not JSON'),
         (['--render', '{tmp}/empty.json'], 'not a linkage bench --json dump (it lacks machine'),
+        (['--render', '{tmp}/part.json'], 'not a whole linkage bench --json dump (KeyError'),
     ],
 )
 def test_bench_outputs_and_dumps_are_refused_before_any_work(capsys, tmp_path, argv, said):
@@ -514,6 +515,9 @@ def test_bench_outputs_and_dumps_are_refused_before_any_work(capsys, tmp_path, a
     traceback (a new user): refused first, in one line, exit 2, nothing written."""
     (tmp_path / 'bad.txt').write_text('x')
     (tmp_path / 'empty.json').write_text('{}')
+    (tmp_path / 'part.json').write_text(
+        '{"machine": {}, "targets": {}, "settings": {}, "seconds": 1}'
+    )
     argv = [a.format(tmp=tmp_path) for a in argv]
     rc = cli_main(['bench', '--quick', '--no-node', '--no-fleet', '--cases', 'tradeoff', *argv])
     err = capsys.readouterr().err
