@@ -122,6 +122,8 @@ def described_motion(m: dict | None, values: InputValues) -> dict | None:
     if not m or values.jm is None:
         return m
     act = m['actuator']
+    if 'unavailable' in m:
+        return {**m, 'actuator': values.name(act)}
     for section in ('outputs', 'transmission_angle'):
         for e in m[section].values():
             for key in ('input_at_min', 'input_at_max'):
@@ -244,10 +246,10 @@ def through_toggles(motion: dict | None, free: Any) -> dict | None:
     None."""
     from ..core.motion.quantities import quantities_report
 
-    if motion is None or free is None:
+    if motion is None or free is None or 'unavailable' in motion:
         return None
     whole = quantities_report(free)
-    if whole is None:
+    if whole is None or 'unavailable' in whole:
         return None
     moved = any(_moved(o, whole['outputs'].get(name)) for name, o in motion['outputs'].items())
     return whole if moved else None
@@ -280,6 +282,8 @@ def format_motion(m: dict | None, free: dict | None = None) -> list[str]:
         return []
     out = []
     act = m['actuator']
+    if 'unavailable' in m:
+        return [f'motion     {act}: not computed ({m["unavailable"]})']
     out.append(f'motion     {act} over {"a full turn" if m["full_turn"] else "its range"}')
     for name, o in m['outputs'].items():
         kind, _, bare = name.partition(':')

@@ -328,3 +328,24 @@ def test_range_links_of_a_newton_placed_mechanism(capsys, tmp_path):
     x = ((b - a) ** 2 - c * c + d * d) / (2 * d)
     want = math.atan2(math.sqrt((b - a) ** 2 - x * x), x - d)
     assert abs(links['rocker']['max'] - want) < 1e-9, (links['rocker']['max'], want)
+
+
+def test_a_motion_that_cannot_be_swept_says_why(capsys, monkeypatch):
+    """Where the input's sweep fails (a Newton-placed circuit the scan cannot follow), check
+    and range --motion left the motion section out without a word (an adversary): they say it
+    was not computed, and why; the JSON carries the reason."""
+    from linkage_ros.core.motion import quantities
+
+    def fails(*a, **k):
+        raise ValueError("'drive' = -2.7316 does not assemble")
+
+    monkeypatch.setattr(quantities, 'input_sweep', fails)
+    rc, out, _ = run(capsys, 'check', 'four_bar')
+    assert rc == 0
+    assert "motion     crank: not computed ('drive' = -2.7316 does not assemble)" in out
+    rc, out, _ = run(capsys, 'range', 'four_bar', '--motion', '--json')
+    assert rc == 0
+    assert loads(out)['motion'] == {
+        'actuator': 'crank',
+        'unavailable': "'drive' = -2.7316 does not assemble",
+    }

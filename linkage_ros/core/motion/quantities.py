@@ -615,13 +615,15 @@ def classical_outputs(mech: Mechanism) -> list[str]:
 
 def quantities_report(mech: Mechanism) -> dict[str, Any] | None:
     """:func:`input_sweep` of :func:`classical_outputs` as plain data (None where it does not
-    apply: not 1-DOF, or no range to sweep)."""
+    apply: not 1-DOF); where the sweep cannot be made, {'actuator', 'unavailable': why} (the
+    motion section was left out without a word: a six-bar whose circuit passes a change point
+    Newton cannot follow, an adversary)."""
     if len(mech.actuators) != 1:
         return None
     try:
         sweep = input_sweep(mech, classical_outputs(mech))
-    except ValueError:
-        return None
+    except ValueError as exc:
+        return {'actuator': next(iter(mech.actuators)), 'unavailable': str(exc)}
 
     def ext(e: Extreme) -> dict[str, Any]:
         out: dict[str, Any] = {
