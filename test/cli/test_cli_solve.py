@@ -535,26 +535,29 @@ actuators:
 
 def test_a_forward_command_of_two_actuators_out_of_reach_is_told_its_edge(capsys, tmp_path):
     """A five-bar's two cranks commanded apart beyond its reach: one actuator's refusal gets
-    its reachable range, two got the dyad's miss alone (the last stop's leftover). Now the
-    way there from the drawing, both cranks moved together, up to where it stops: where the
-    two arms' reach is spent, |A B| = |A P| + |P B| (the dyad P folded straight)."""
+    its reachable range, two got the dyad's miss alone (the last stop's leftover). Each crank
+    moved alone is out of reach here: the first is named with its edge, where its arm's reach
+    is spent with the other crank where it is, |A B| = |A P| + |P B| (the dyad P folded
+    straight), and the other is said too."""
     scene = tmp_path / 'fivebar.yaml'
     scene.write_text(FIVE_BAR)
     rc, out, _ = run(capsys, 'solve', scene, '--set', 'q1=3.1', '--set', 'q2=0', '--json')
     d = loads(out)
     assert rc == 1 and d['status'] == 'error'
     head = d['reason'].split('; cannot assemble')[0]
-    # (named by the crank moved furthest: q2, pi/2 of a turn against q1's 1.53 rad)
-    assert head.startswith('q2 = 0 rad with q1 as given is out of reach: on the straight way')
-    frac = float(head.split('reachable ')[1].split(' of the way')[0])
-    q1 = math.pi / 2 + frac * (3.1 - math.pi / 2)  # (both from the drawing: pi/2)
-    q2 = math.pi / 2 + frac * (0.0 - math.pi / 2)
-    a = (0.15 * math.cos(q1), 0.15 * math.sin(q1))
-    b = (0.2 + 0.15 * math.cos(q2), 0.15 * math.sin(q2))
+    assert head.startswith('q1 = 3.1 rad with q2 as it is now is out of reach: on the way'), head
+    assert head.endswith('; q2 moved alone (the others where they are) out of reach too'), head
     reach = 2 * math.hypot(0.1, 0.15)  # |A P| + |P B|
-    assert abs(math.dist(a, b) - reach) < 1e-5  # (the fraction's 6 digits)
-    edge = float(head.split('up to q2 = ')[1].split(' rad')[0])
-    assert abs(edge - q2) < 1e-5, (edge, q2)  # (the fraction's 6 digits)
+    b = (0.2 + 0.15 * math.cos(math.pi / 2), 0.15 * math.sin(math.pi / 2))  # q2 as drawn
+
+    def apart(q1: float) -> float:
+        return math.dist((0.15 * math.cos(q1), 0.15 * math.sin(q1)), b) - reach
+
+    from scipy.optimize import brentq
+
+    edge_q1 = brentq(apart, math.pi / 2, 3.1, xtol=1e-14)
+    edge = float(head.split('up to q1 = ')[1].split(' rad')[0])
+    assert abs(edge - edge_q1) < 1e-5, (edge, edge_q1)  # (the edge's 6 digits)
 
 
 CRANE = """name: crane
@@ -610,6 +613,32 @@ def test_of_two_cylinders_the_one_out_of_reach_alone_is_named(capsys, tmp_path):
         f'configuration it is reachable up to C2 = {dead:.6g} m, {2.6 - dead:.6g} m short (that '
         "way's edge)"
     ), head
+
+
+def test_of_two_cylinders_each_out_of_reach_alone_both_are_said(capsys, tmp_path):
+    """The loader with both cylinders' limits widened to 0.5 .. 4 m, Z1 = Z2 = 1 m: each alone
+    is out of reach, and the refusal named Z2 (moved furthest) where its own detail blamed Z1's
+    dyad (an adversary). The first is named with its edge, the other said too. Oracle: Z1's
+    least length, |O4 O2| - |O4 A| (A turning about the boom's pivot O4)."""
+    import yaml
+
+    from linkage_ros.resources import scene_path
+
+    data = yaml.safe_load(scene_path('front_loader').read_text())
+    for z in ('Z1', 'Z2'):
+        data['cylinders'][z].update(min=0.5, max=4.0)
+    scene = tmp_path / 'loader.yaml'
+    scene.write_text(yaml.safe_dump(data))
+    P = data['points']
+    least = abs(math.dist(P['O4'], P['O2']) - math.dist(P['O4'], P['A']))
+    rc, out, _ = run(capsys, 'solve', scene, '--set', 'Z1=1.0', '--set', 'Z2=1.0', '--json')
+    reason = loads(out)['reason']
+    assert rc == 1
+    assert reason.startswith(
+        'Z1 = 1 m with Z2 as it is now is out of reach: on the way there from the current '
+        f'configuration it is reachable up to Z1 = {least:.6g} m, {least - 1.0:.6g} m short'
+    ), (reason, least)
+    assert '; Z2 moved alone (the others where they are) out of reach too;' in reason
 
 
 def test_the_note_names_every_other_solution_in_the_answers_mode(capsys, tmp_path):

@@ -51,6 +51,8 @@ class ReachEdge:
     #: the target's other knowns that stay where they are on the way (a target_point_hold's
     #: names: the bucket held while the lip is out of reach)
     kept: tuple[str, ...] = ()
+    #: other knowns of the command that are out of reach moved alone too
+    also: tuple[str, ...] = ()
 
     def describe(self) -> str:
         u = self.unit
@@ -76,7 +78,12 @@ class ReachEdge:
             if not self.point:  # (an angle the short way round)
                 way = 'on the way there from the current configuration'
             short = f"{self.short_m:.6g} {u} short (that way's edge{whole})"
-            return f'{asked} is out of reach: {way} it is reachable up to {at}, {short}'
+            too = (
+                f'; {", ".join(self.also)} moved alone (the others where they are) out of reach too'
+                if self.also
+                else ''
+            )
+            return f'{asked} is out of reach: {way} it is reachable up to {at}, {short}{too}'
         others = ', '.join(self.others)
         # (the other knowns moved too: where the point hardly moves, they are what is out of
         # reach, and the point's edge would read as its own value "1e-15 m short")
@@ -118,13 +125,16 @@ def reach_edge(
     if got is None:
         return None
     start = known_values(c, got[1])
+    also: tuple[str, ...] = ()
     if k is None:
         # a known out of reach with the others where they are now is what the refusal names,
         # moved alone (a crane's jib cylinder past its dead centre, whatever the lift, was
         # named as the lift moved with it, "0.06 m short": a hydraulics engineer)
-        alone = _alone_out_of_reach(solver, c, start, target)
-        if alone is not None:
-            k, target = alone, [target[i] if i == alone else start[i] for i in range(len(start))]
+        failing = _alone_out_of_reach(solver, c, start, target)
+        if failing:
+            k = failing[0]
+            also = tuple(c.specs[i].name for i in failing[1:])
+            target = [target[i] if i == k else start[i] for i in range(len(start))]
     if k is None:  # (a rocker's angle, a slide: out of reach where the mechanism turns back)
         ends = interpolate(c, start, target, 1.0)
         k = max(
@@ -192,18 +202,18 @@ def reach_edge(
         # (an angle the short way round; a coordinate names its point)
         short = abs(math.remainder(t - e, 2 * math.pi)) if spec.unit == 'rad' else abs(t - e)
         point = spec.point if isinstance(spec, CoordinateSpec) else ''
-        return ReachEdge(point, (t,), (e,), short, spec.name, others, lo, spec.unit, kept)
+        return ReachEdge(point, (t,), (e,), short, spec.name, others, lo, spec.unit, kept, also)
     ex, ey = command(lo)[spec.name]
     tx, ty = (float(v) for v in target[k])
     short = math.hypot(tx - ex, ty - ey)
     return ReachEdge(spec.point, (tx, ty), (ex, ey), short, '', others, lo, kept=kept)
 
 
-def _alone_out_of_reach(solver: Solver, c: Any, start: Values, target: Values) -> int | None:
-    """The one known of several moved that, moved alone to its target (the others where they
-    are in ``start``), is not reached from the solver's configuration, where the others alone
-    are; None otherwise (one known moved, or none or several fail alone). Each is a full
-    continuation walk from the current configuration (the solver's state is kept)."""
+def _alone_out_of_reach(solver: Solver, c: Any, start: Values, target: Values) -> list[int]:
+    """The knowns of several moved that, each moved alone to its target (the others where
+    they are in ``start``), are not reached from the solver's configuration (in spec order;
+    [] where one known moved or none fails alone). Each is a full continuation walk from the
+    current configuration (the solver's state is kept)."""
     ends = interpolate(c, start, target, 1.0)
     moved = [
         i
@@ -211,7 +221,7 @@ def _alone_out_of_reach(solver: Solver, c: Any, start: Values, target: Values) -
         if _span(sp, start[i], ends[i]) > 1e-12 * max(1.0, _size(ends[i]))
     ]
     if len(moved) < 2:
-        return None
+        return []
     failing = []
     snap = solver.snapshot()
     try:
@@ -223,7 +233,7 @@ def _alone_out_of_reach(solver: Solver, c: Any, start: Values, target: Values) -
             solver.restore(snap)
     finally:
         solver.restore(snap)
-    return failing[0] if len(failing) == 1 else None
+    return failing
 
 
 def _span(spec: Spec, start: Any, target: Any) -> float:
