@@ -25,7 +25,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..model import AngleActuator, Mechanism
 from ..solver import Result, Solver
@@ -251,6 +250,8 @@ def _turning_point(curve: _Curve, a: CurvePoint, b: CurvePoint) -> np.ndarray | 
     the root in lam of t_u at a + lam (b - a) corrected onto the curve across the chord. At a
     turning point u is quadratic in arclength, so a root to ~1e-13 of the step puts u there to
     rounding."""
+    from scipy.optimize import brentq  # (~0.4 s to import: only where a trace runs)
+
     chord = curve.gap(a.z, b.z)
     found: dict[float, np.ndarray] = {}
 
