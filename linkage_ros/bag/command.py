@@ -10,7 +10,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from ..cli.common import OnceAction, UsageError, add_scene_argument, branch_value, file_name
+from ..cli.arguments import branch_value
+from ..cli.common import UsageError, add_scene_argument, file_name
 from ..cli.process import say
 from ..core.errors import LinkageError
 from ..core.tolerances import NEWTON_TOL
@@ -47,7 +48,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scene_argument(parser, flag=True)
     parser.add_argument(
         '--command-topic',
-        action=OnceAction,
         required=True,
         metavar='TOPIC',
         help='sensor_msgs/msg/JointState commands naming the actuators',
@@ -70,7 +70,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--target-topic',
-        action=OnceAction,
         metavar='TOPIC',
         default=None,
         help='sensor_msgs/msg/JointState targets naming joints, links or '
@@ -78,7 +77,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--target-any-mode-topic',
-        action=OnceAction,
         metavar='TOPIC',
         default=None,
         help="sensor_msgs/msg/JointState targets that may change the assembly mode (the node's "
@@ -102,7 +100,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         '--frame-id',
-        action=OnceAction,
         default='',
         metavar='FRAME',
         help="as the node's frame_id parameter in the run recorded (default: the scene's): "

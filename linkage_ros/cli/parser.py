@@ -10,16 +10,9 @@ from typing import Any
 
 from ..core.tolerances import NEWTON_TOL
 from ..heap import keep_large_buffers
+from .arguments import branch_value, signs_as_values
 from .check import cmd_check
-from .common import (
-    USAGE_ERROR,
-    KnownAction,
-    OneLineErrorParser,
-    add_scene_argument,
-    branch_value,
-    file_name,
-    signs_as_values,
-)
+from .common import USAGE_ERROR, KnownAction, OneLineErrorParser, add_scene_argument, file_name
 from .process import run_command
 from .solve import cmd_solve
 from .sweep import cmd_sweep

@@ -8,7 +8,8 @@ import argparse
 import sys
 from collections.abc import Callable, Sequence
 
-from .common import OneLineErrorParser, signs_as_values
+from .arguments import signs_as_values
+from .common import OneLineErrorParser
 from .process import run_command
 
 

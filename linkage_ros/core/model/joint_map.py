@@ -158,7 +158,6 @@ class JointMap:
                 v = o.scale * out[o.leader] + o.offset
             elif (
                 inputs is not None
-                and o.name in self.inputs
                 and self._multi_turn(o.name)
                 and self.inputs[o.name].scene_name in inputs
             ):
@@ -347,8 +346,19 @@ class JointMap:
         """Whether ``name`` is a revolute input joint whose limits (a turn or more apart, in
         radians) bound it as given: its value is kept as given, not wrapped (3.5 within
         [-4, 4] was published -2.78)."""
-        out = self._output_of.get(name)
-        return self._bounded(name) and out is not None and spans_a_turn(out.lower, out.upper)
+        return name in self._multi_turn_names
+
+    @functools.cached_property
+    def _multi_turn_names(self) -> frozenset[str]:
+        """The input joints :meth:`_multi_turn` names, found once (every answer's positions
+        and every request's values ask)."""
+        return frozenset(
+            name
+            for name in self.inputs
+            if self._bounded(name)
+            and (out := self._output_of.get(name)) is not None
+            and spans_a_turn(out.lower, out.upper)
+        )
 
     def refusal(self, values: Mapping[str, Any]) -> str | None:
         """Why a request (the description's names and values, before :meth:`to_scene`) is

@@ -29,6 +29,7 @@ from .common import past_toggle
 from .ranges import input_ranges, scan_circuit
 from .scan import EndKind, held_reference, turns_fully
 from .touches import golden_min
+from .trace import reachable_stretches
 
 #: an output whose swing (rad) or stroke (of the length scale) is no more than this does not
 #: move (it rounds): it has no time ratio
@@ -196,7 +197,7 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
     bounds = None if rlo is None or rhi is None else (rlo, rhi)
     full = periodic and turns_fully(segs) and bounds is None
     if bounds is not None and any(s.start is not None for s in segs):
-        segs = _reachable_stretches(segs, x0, bounds, periodic)
+        segs = reachable_stretches(segs, x0, bounds, periodic)
     pieces = []
     for seg in segs:
         lo, hi = seg.lo, seg.hi
@@ -238,55 +239,6 @@ def _circuit(mech: Mechanism, act: str, samples: int) -> tuple[bool, list[_Piece
     if not any(p.results for p in pieces):
         raise ValueError(f'{act!r} has no range to sweep')
     return full, pieces
-
-
-def _reachable_stretches(
-    segs: list[Any], x0: float, bounds: tuple[float, float], periodic: bool
-) -> list[Any]:
-    """The traced stretches (scan.Segment, in trace order) the mechanism reaches from the
-    drawing's within ``bounds`` (the input's limits): from the drawn stretch on, each neighbour
-    whose shared turning point lies within them (an angle's limits taken on the turn of the
-    drawing). A circuit split by the limits into two stretches the drawing's does not join
-    was read whole (a Stephenson-III six-bar with drive limits 3.2 .. 3.6 rad swung its crank
-    255 deg where it reaches 123: an adversary)."""
-    drawn = next((k for k, s in enumerate(segs) if s.drawn), None)
-    if drawn is None:
-        return segs
-    lo, hi = bounds
-    if periodic:
-        turn = 2 * math.pi * round((x0 - 0.5 * (lo + hi)) / (2 * math.pi))
-        lo, hi = lo + turn, hi + turn
-    n = len(segs)
-    keep = {drawn}
-    for step in (1, -1):
-        k = drawn
-        while True:
-            nxt = (k + step) % n
-            if nxt in keep or (k + step) not in range(n) and not _cyclic(segs):
-                break
-            shared = _shared_turn(segs[k], segs[nxt])
-            if shared is None or not lo <= shared <= hi:
-                break
-            keep.add(nxt)
-            k = nxt
-    return [s for k, s in enumerate(segs) if k in keep]
-
-
-def _cyclic(segs: list[Any]) -> bool:
-    """Whether traced stretches close a circuit (every end a toggle: no bracket or limit)."""
-    return all(e[0] is EndKind.TOGGLE for s in segs for e in (s.lo_end, s.hi_end))
-
-
-def _shared_turn(a: Any, b: Any) -> float | None:
-    """The turning point (a toggle end) two neighbouring stretches share, as ``a`` has it."""
-    for v, e in ((a.lo, a.lo_end), (a.hi, a.hi_end)):
-        if e[0] is EndKind.TOGGLE and any(
-            math.isclose(v, w, rel_tol=0.0, abs_tol=1e-9 * max(1.0, abs(v)))
-            for w, f in ((b.lo, b.lo_end), (b.hi, b.hi_end))
-            if f[0] is EndKind.TOGGLE
-        ):
-            return float(v)
-    return None
 
 
 #: in an outward_order: where the solver goes back to its start

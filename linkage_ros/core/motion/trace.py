@@ -20,7 +20,7 @@ and slides in length scales, so one step size means the same at every scale.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -30,7 +30,7 @@ from ..model import AngleActuator, Mechanism
 from ..solver import Result, Solver
 from ..solver.reading import configuration_of
 from .common import without_limits
-from .scan import Bracket, End, EndKind
+from .scan import Bracket, End, EndKind, Segment
 
 #: the first step and the largest step along the curve (scale-free arclength): a circuit of a
 #: mechanism spans a few units, so a few hundred steps trace it
@@ -430,3 +430,52 @@ def _shifted(p: CurvePoint, turn: float) -> CurvePoint:
     z = p.z.copy()
     z[-1] += turn
     return CurvePoint(z, p.t)
+
+
+def reachable_stretches(
+    segs: Sequence[Segment], x0: float, bounds: tuple[float, float], periodic: bool
+) -> list[Segment]:
+    """The traced stretches (scan_circuit's segments, in trace order) the mechanism reaches from the
+    drawing's within ``bounds`` (the input's limits): from the drawn stretch on, each neighbour
+    whose shared turning point lies within them (an angle's limits taken on the turn of the
+    drawing). A circuit split by the limits into two stretches the drawing's does not join
+    was read whole (a Stephenson-III six-bar with drive limits 3.2 .. 3.6 rad swung its crank
+    255 deg where it reaches 123: an adversary)."""
+    drawn = next((k for k, s in enumerate(segs) if s.drawn), None)
+    if drawn is None:
+        return list(segs)
+    lo, hi = bounds
+    if periodic:
+        turn = 2 * math.pi * round((x0 - 0.5 * (lo + hi)) / (2 * math.pi))
+        lo, hi = lo + turn, hi + turn
+    n = len(segs)
+    keep = {drawn}
+    for step in (1, -1):
+        k = drawn
+        while True:
+            nxt = (k + step) % n
+            if nxt in keep or (k + step) not in range(n) and not _cyclic(segs):
+                break
+            shared = _shared_turn(segs[k], segs[nxt])
+            if shared is None or not lo <= shared <= hi:
+                break
+            keep.add(nxt)
+            k = nxt
+    return [s for k, s in enumerate(segs) if k in keep]
+
+
+def _cyclic(segs: Sequence[Segment]) -> bool:
+    """Whether traced stretches close a circuit (every end a toggle: no bracket or limit)."""
+    return all(e[0] is EndKind.TOGGLE for s in segs for e in (s.lo_end, s.hi_end))
+
+
+def _shared_turn(a: Segment, b: Segment) -> float | None:
+    """The turning point (a toggle end) two neighbouring stretches share, as ``a`` has it."""
+    for v, e in ((a.lo, a.lo_end), (a.hi, a.hi_end)):
+        if e[0] is EndKind.TOGGLE and any(
+            math.isclose(v, w, rel_tol=0.0, abs_tol=1e-9 * max(1.0, abs(v)))
+            for w, f in ((b.lo, b.lo_end), (b.hi, b.hi_end))
+            if f[0] is EndKind.TOGGLE
+        ):
+            return float(v)
+    return None

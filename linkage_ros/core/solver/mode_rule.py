@@ -354,7 +354,7 @@ class ModeKeeper:
             # (without the limits only from the current configuration: that search names the
             # limits of a refusal, and the restarts' budget is the target's own)
             return None if best is None else best[2]
-        return self.multi_start(self._newton_for(solver), values, before, last, here, within_limits)
+        return self.multi_start(self._newton_for(solver), values, before, last, here)
 
     def _other_mode(
         self, solver: Solver, values: Mapping[str, Any], last: Result | None
@@ -401,7 +401,6 @@ class ModeKeeper:
         before: Mode,
         last: Result | None,
         here: Result | None,
-        within_limits: bool = True,
     ) -> Result | None:
         """A Newton (or hybrid) inverse solve converges to the root nearest its start, which
         may lie in another mode or beyond a limit while the target has a solution in the
@@ -415,9 +414,7 @@ class ModeKeeper:
                 if budget <= 0:
                     break
                 solver.adopt(start)
-                r = solver.solve(
-                    values, commit=False, effort=Effort.UNEXPLAINED, within_limits=within_limits
-                )
+                r = solver.solve(values, commit=False, effort=Effort.UNEXPLAINED)
                 if self._fits(r) and not self.changes_mode(before, here, r):
                     found = r
                     break
